@@ -1,0 +1,1 @@
+"""Machine descriptions, one TOML file per machine (data; shipped as mountid.derivations)."""

@@ -1,0 +1,1 @@
+"""Generated modules, one per description in derivations/ (see `make generate`)."""

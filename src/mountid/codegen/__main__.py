@@ -1,0 +1,63 @@
+"""``python -m mountid.codegen [--check] [NAME ...]``: regenerate generated/ from derivations/.
+
+Without --check, writes generated/<name>.py for every description (or the named ones) and removes
+generated modules whose description is gone. With --check, writes nothing and exits 1 listing every
+file that differs from a fresh generation (the golden test CI runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from mountid.codegen.numpy_module import render
+from mountid.description import load
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _render(path: Path) -> tuple[str, str]:
+    return path.stem, render(load(path))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m mountid.codegen", description=__doc__.splitlines()[0])
+    parser.add_argument("names", nargs="*", help="descriptions to generate (default: all)")
+    parser.add_argument(
+        "--check", action="store_true", help="compare with the checked-in files, write nothing"
+    )
+    parser.add_argument(
+        "--root", type=Path, default=ROOT, help="project root holding derivations/ and generated/"
+    )
+    args = parser.parse_args(argv)
+    sources = sorted((args.root / "derivations").glob("*.toml"))
+    if args.names:
+        sources = [s for s in sources if s.stem in args.names]
+    out_dir = args.root / "generated"
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        rendered = dict(pool.map(_render, sources))
+    expected = {f"{name}.py": text for name, text in rendered.items()}
+    if not args.names:
+        expected["__init__.py"] = (
+            '"""Generated modules, one per description in derivations/ (see `make generate`)."""\n'
+        )
+    stale = [] if args.names else [p.name for p in out_dir.glob("*.py") if p.name not in expected]
+    differ = [n for n, t in expected.items() if not (out_dir / n).exists() or (out_dir / n).read_text() != t]
+    if args.check:
+        for name in differ + stale:
+            print(f"generated/{name} differs from a fresh generation: run `make generate`", file=sys.stderr)
+        return 1 if differ or stale else 0
+    out_dir.mkdir(exist_ok=True)
+    for name in differ:
+        (out_dir / name).write_text(expected[name])
+        print(f"wrote generated/{name}")
+    for name in stale:
+        (out_dir / name).unlink()
+        print(f"removed generated/{name} (no description)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,237 @@
+"""Build the numpy module of one description: function bodies from sympy, laid out by a jinja2 template.
+
+Every formula in the output comes from :mod:`mountid.symbolic`; this module only arranges them
+(argument lists, cse, array assembly) and hands them to ``templates/numpy_module.py.jinja``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+
+import jinja2
+import sympy as sp
+
+from mountid.codegen.printing import code, describe, eliminate
+from mountid.description import COORDINATES, Description
+from mountid.symbolic.blocks import ModalStructure
+from mountid.symbolic.inverse import InverseDerivation, InverseSet
+from mountid.symbolic.model import SymbolicModel
+
+TEMPLATE = "numpy_module.py.jinja"
+SYMPY_VERSION = "1.14.0"
+"""The sympy release generation is pinned to (cse output and printing change between releases)."""
+
+
+@dataclass
+class Function:
+    """One generated function: signature, docstring, body lines and return expression."""
+
+    name: str
+    args: tuple[str, ...]
+    doc: str
+    body: list[str] = field(default_factory=list)
+    returns: str = ""
+
+
+def _matrix_function(
+    name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str
+) -> Function:
+    args = model.parameters_of(matrix)
+    entries = {(i, j): matrix[i, j] for i in range(6) for j in range(i, 6) if matrix[i, j] != 0}
+    cse = eliminate(list(entries.values()))
+    formula = "\n".join(
+        f"        [{COORDINATES[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items()
+    )
+    doc = (
+        f"{what} [{unit_note}], shape (..., 6, 6), coordinates {', '.join(COORDINATES)}.\n\n"
+        f"    Non-zero entries of the upper triangle (the matrix is symmetric):\n\n{formula}\n"
+    )
+    fn = Function(name, args, doc)
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    pairs = ", ".join(f"({i}, {j}): {out}" for (i, j), out in zip(entries, cse.outputs, strict=True))
+    fn.body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+    fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
+    return fn
+
+
+def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
+    blocks = structure.blocks
+    matrices = (model.M, model.C)
+    args = model.parameters_of(*matrices)
+    labels = structure.labels
+    doc_lines = []
+    if structure.closed_form:
+        exprs, names = [], []
+        for k, b in enumerate(blocks):
+            if b.size == 1:
+                exprs.append(b.eigenvalue_exprs()[0])
+                names.append(f"_lam{k}_1")
+            else:
+                t = b.stable_terms
+                exprs += [t["s11"], t["s22"], t["s12"], t["det_ratio"]]
+                names += [f"_s11_{k}", f"_s22_{k}", f"_s12_{k}", f"_det_{k}"]
+        cse = eliminate(exprs)
+        body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+        body += [f"{n} = {out}" for n, out in zip(names, cse.outputs, strict=True)]
+        for k, b in enumerate(blocks):
+            coords = ", ".join(b.coordinates)
+            if b.size == 2:
+                body += [
+                    f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
+                    f"_lam{k}_2 = 0.5 * (_s11_{k} + _s22_{k})"
+                    f" + numpy.sqrt((0.5 * (_s11_{k} - _s22_{k}))**2 + _s12_{k}**2)",
+                    f"_lam{k}_1 = _det_{k} / _lam{k}_2",
+                ]
+                lo, hi = b.eigenvalue_exprs()
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
+            else:
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
+        outs = [f"_lam{m.block}_{m.rank}" for m in structure.modes]
+        body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+        body.append(
+            "return numpy.stack(["
+            + ", ".join(f"numpy.broadcast_to({o}, _shape)" for o in outs)
+            + "], axis=-1)"
+        )
+        method = (
+            "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
+            "    mountid.symbolic.blocks: no difference of nearly equal numbers)"
+        )
+    else:
+        margs = model.parameters_of(model.M)
+        cargs = model.parameters_of(model.C)
+        body = [
+            f"_M = mass_matrix({', '.join(margs)})",
+            f"_C = stiffness_matrix({', '.join(cargs)})",
+            "_M, _C = numpy.broadcast_arrays(_M, _C)",
+            "_out = numpy.empty(_M.shape[:-1])",
+        ]
+        for k, b in enumerate(blocks):
+            pos = [i for i, m in enumerate(structure.modes) if m.block == k]
+            ranks = [structure.modes[i].rank - 1 for i in pos]
+            body.append(f"_lam = _runtime.block_eigen(_M, _C, {b.index!r})[0]")
+            body.append(f"_out[..., {pos!r}] = _lam[..., {ranks!r}]")
+            doc_lines.append(f"        block {{{', '.join(b.coordinates)}}}: numeric (size {b.size})")
+        body.append("return _out")
+        method = "Numeric generalised eigen-solve per symmetry block (no closed form for blocks above 2x2)"
+    doc = (
+        f"Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., {len(labels)}), modes\n"
+        f"    {', '.join(labels)}.\n\n    {method}:\n\n" + "\n".join(doc_lines) + "\n"
+    )
+    fn = Function("squared_frequencies", args, doc, body[:-1], body[-1].removeprefix("return "))
+    return fn
+
+
+def _inverse_function(
+    s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
+):
+    d = model.description
+    omegas = tuple(f"omega_{label}" for label in s.labels)
+    args = tuple(a for a in fwd_args if a not in d.unknown) + omegas
+    body = [f"_lam_{label} = numpy.asarray(omega_{label}, dtype=float) ** 2" for label in s.labels]
+    lam_subs = {sp.Symbol(f"lambda_{lab}", positive=True): sp.Symbol(f"_lam_{lab}") for lab in s.labels}
+    coeff_exprs = [c.subs(lam_subs) for f in s.factors for c in f.all_coeffs()]
+    cse = eliminate(coeff_exprs)
+    body += [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    outs = iter(cse.outputs)
+    root_calls = []
+    for f in s.factors:
+        cs = [next(outs) for _ in f.all_coeffs()]
+        root_calls.append(f"_runtime.polynomial_roots({', '.join(cs)})")
+    body.append(f"{s.last} = numpy.concatenate([{', '.join(root_calls)}])")
+    if s.back_substitution:
+        back = eliminate([e.subs(lam_subs) for _, e in s.back_substitution], start=len(cse.lines))
+        body += [f"{lhs} = {rhs}" for lhs, rhs in back.lines]
+        for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
+            body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
+    unknowns = d.unknown
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    body.append(f"_predicted = squared_frequencies({', '.join(fwd_args)})")
+    body.append(
+        f"_ok = _runtime.admissible(({', '.join(unknowns)},), _predicted, {mode_index!r}, "
+        f"({', '.join(f'_lam_{lab}' for lab in s.labels)},))"
+    )
+    rets = ", ".join(f'"{u}": {u}' for u in unknowns)
+    poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
+    back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
+    given = ", ".join(f"omega_{lab}" for lab in s.labels)
+    doc = (
+        f"Unknowns {', '.join(unknowns)} from the natural frequencies {given} [rad/s].\n\n"
+        f"    Returns InverseRoots(parameters, admissible): each unknown as an array of shape\n"
+        f"    ({s.n_roots}, ...) [SI units], one row per root, and a boolean mask of the admissible ones.\n\n"
+        f"    Derivation (lambda = omega^2): {s.last} is a root of\n\n{poly_text}\n"
+        + (f"\n    and then\n\n{back_text}\n" if back_text else "")
+        + "\n    Root choice: a root is admissible when every unknown is positive and finite and each given\n"
+        "    frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given\n"
+        "    frequency on the other mode of its block is rejected. All admissible roots are returned; where\n"
+        "    several remain (both roots of a block given), the data alone cannot choose between them and\n"
+        "    the choice is physical (the paper keeps c_z > c_xy for its isolators).\n"
+    )
+    fn = Function(f"identify_{s.name}", args, doc, body, f"_runtime.InverseRoots({{{rets}}}, _ok)")
+    return fn
+
+
+def module_context(description: Description, template: str = TEMPLATE) -> dict:
+    """Everything the template needs for one description."""
+    model = SymbolicModel(description)
+    structure = ModalStructure(model)
+    functions = [
+        _matrix_function("mass_matrix", model.M, model, "Mass matrix M", "kg, kg m, kg m^2"),
+        _matrix_function("stiffness_matrix", model.C, model, "Stiffness matrix C", "N/m, N/rad, N m/rad"),
+        _matrix_function("damping_matrix", model.B, model, "Damping matrix B", "N s/m, N s/rad, N m s/rad"),
+    ]
+    eigen = _eigen_function(structure, model)
+    functions.append(eigen)
+    fwd_args = eigen.args
+    inverse_sets = (
+        InverseDerivation(structure).all_sets()
+        if structure.closed_form or all(b.charpoly is not None for b in structure.blocks)
+        else []
+    )
+    functions += [_inverse_function(s, structure, model, fwd_args) for s in inverse_sets if s.identifiable]
+    params = {
+        n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
+        for n, p in description.parameters.items()
+    }
+    return {
+        "template": template,
+        "sympy_version": sp.__version__,
+        "description": description,
+        "parameters": params,
+        "coordinates": COORDINATES,
+        "labels": structure.labels,
+        "unique_labels": structure.unique_labels,
+        "representative": {m.label: m.representative for m in structure.modes},
+        "blocks": tuple(b.index for b in structure.blocks),
+        "mode_block": tuple(m.block for m in structure.modes),
+        "mode_rank": tuple(m.rank for m in structure.modes),
+        "forward_args": fwd_args,
+        "functions": functions,
+        "inverses": [(s.labels, f"identify_{s.name}", s.n_roots) for s in inverse_sets if s.identifiable],
+        "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
+        "inverse_enumerated": bool(inverse_sets),
+        "code": code,
+    }
+
+
+def _environment() -> jinja2.Environment:
+    folder = resources.files("mountid.templates")
+    return jinja2.Environment(
+        loader=jinja2.FunctionLoader(lambda name: (folder / name).read_text(encoding="utf-8")),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+
+
+def render(description: Description, template: str = TEMPLATE) -> str:
+    """The source of the generated module for a description."""
+    if sp.__version__ != SYMPY_VERSION:
+        raise RuntimeError(
+            f"generation is pinned to sympy {SYMPY_VERSION} (found {sp.__version__}): "
+            "other releases change cse output; install the pinned version"
+        )
+    return _environment().get_template(template).render(**module_context(description, template))

@@ -1,0 +1,19 @@
+"""The one error type the user sees: a bad input, named, with the reason."""
+
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """Bad input from a user: names the offending parameter or entry and says why.
+
+    The command line prints ``str(error)`` as one line on stderr and exits with code 2.
+    """
+
+    def __init__(self, parameter: str, reason: str) -> None:
+        self.parameter = parameter
+        self.reason = reason
+        super().__init__(f"{parameter}: {reason}")
+
+
+class DescriptionError(InputError):
+    """A machine description that is malformed or contradicts its declared symmetry."""

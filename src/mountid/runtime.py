@@ -1,0 +1,195 @@
+"""Numerics shared by the generated modules: numpy only, no machine-specific formulas.
+
+Everything that depends on a machine (matrix entries, characteristic-polynomial coefficients, back-
+substitutions) is generated from sympy; this module holds the generic numerical steps applied to them:
+stable polynomial roots, generalised symmetric eigen-solves of small blocks, mode-shape normalisation and
+the admissibility filter of inverse roots. All functions broadcast over leading batch dimensions.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+ADMISSIBILITY_RTOL = 1e-6
+"""A root is admissible when each given squared frequency is reproduced by its labelled mode to this
+relative tolerance. Correct roots reproduce it to rounding error (~1e-13); a root that puts the given
+frequency on the other mode of its block misses it by the gap between the modes."""
+
+
+class InverseRoots(NamedTuple):
+    """Every root of an inverse solution, admissible or not.
+
+    ``parameters`` maps each unknown to an array of shape (n_roots, *batch) [SI units];
+    ``admissible`` is a boolean array of the same shape (positive, finite, and the given frequencies land on
+    their labelled modes). Inadmissible entries hold whatever the algebra gave (possibly NaN).
+    """
+
+    parameters: dict[str, NDArray[np.float64]]
+    admissible: NDArray[np.bool_]
+
+
+def as_arrays(*args: ArrayLike) -> list[NDArray[np.float64]]:
+    """Inputs as float arrays (no copies for float arrays)."""
+    return [np.asarray(a, dtype=float) for a in args]
+
+
+def linear_root(a1: ArrayLike, a0: ArrayLike) -> NDArray[np.float64]:
+    """Root of a1 t + a0 = 0, shape (1, *batch)."""
+    a1, a0 = np.broadcast_arrays(*as_arrays(a1, a0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (-a0 / a1)[np.newaxis]
+
+
+def quadratic_roots(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
+    """Both real roots of a t^2 + b t + c = 0 without cancellation, ascending, shape (2, *batch).
+
+    q = -(b + sign(b) sqrt(b^2 - 4ac)) / 2, roots q/a and c/q: no difference of nearly equal numbers.
+    A discriminant that is negative only by rounding (|disc| < 1e-12 b^2) is taken as zero (double root);
+    a clearly negative one gives NaN (no real root). a = 0 degrades to the linear root and a NaN.
+    """
+    a, b, c = np.broadcast_arrays(*as_arrays(a, b, c))
+    disc = b * b - 4.0 * a * c
+    disc = np.where((disc < 0) & (disc > -1e-12 * b * b), 0.0, disc)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
+        r1 = np.where(a != 0, q / a, np.nan)
+        r2 = np.where(q != 0, c / q, np.where(a != 0, 0.0, np.nan))
+        r2 = np.where(a == 0, -c / b, r2)
+        one_missing = np.isnan(r1) | np.isnan(r2)
+        lo = np.where(np.isnan(r1), r2, np.where(np.isnan(r2), r1, np.fmin(r1, r2)))
+        hi = np.where(one_missing, np.nan, np.fmax(r1, r2))
+    return np.stack([lo, hi])
+
+
+def polynomial_roots(*coefficients: ArrayLike) -> NDArray[np.float64]:
+    """Real roots of a polynomial (coefficients highest degree first), shape (degree, *batch).
+
+    Degree 1 and 2 use :func:`linear_root` and :func:`quadratic_roots`; higher degrees the eigenvalues of the
+    batched companion matrix. Complex roots (imaginary part above 1e-9 of the modulus) become NaN.
+    """
+    deg = len(coefficients) - 1
+    if deg == 1:
+        return linear_root(*coefficients)
+    if deg == 2:
+        return quadratic_roots(*coefficients)
+    coeffs = np.broadcast_arrays(*as_arrays(*coefficients))
+    batch = coeffs[0].shape
+    lead = coeffs[0]
+    comp = np.zeros((*batch, deg, deg))
+    for j in range(deg):
+        comp[..., 0, j] = -coeffs[j + 1] / lead
+    comp[..., np.arange(1, deg), np.arange(deg - 1)] = 1.0
+    roots = np.linalg.eigvals(comp)
+    real = np.where(np.abs(roots.imag) <= 1e-9 * np.abs(roots), roots.real, np.nan)
+    return np.moveaxis(np.sort(real, axis=-1), -1, 0)
+
+
+def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:
+    """A (*shape, n, n) symmetric matrix from its upper-triangle non-zero entries."""
+    out = np.zeros((*shape, n, n))
+    for (i, j), value in entries.items():
+        out[..., i, j] = value
+        out[..., j, i] = value
+    return out
+
+
+def block_eigen(
+    mass: NDArray, stiffness: NDArray, index: tuple[int, ...]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues (ascending) and mass-normalised eigenvectors of one block of (C, M), numerically.
+
+    Solves C_b u = lambda M_b u through the Cholesky factor of M_b and numpy's symmetric eigen-solver.
+    Returns (lam (..., n), vectors (..., n, n)) with vectors as columns.
+    """
+    idx = np.asarray(index)
+    mb = mass[..., idx[:, None], idx[None, :]]
+    cb = stiffness[..., idx[:, None], idx[None, :]]
+    chol = np.linalg.cholesky(mb)
+    inv = np.linalg.inv(chol)
+    sym = inv @ cb @ np.swapaxes(inv, -1, -2)
+    lam, vec = np.linalg.eigh(sym)
+    return lam, np.swapaxes(inv, -1, -2) @ vec
+
+
+def modal_matrix(
+    mass: NDArray,
+    stiffness: NDArray,
+    lam: NDArray,
+    blocks: tuple[tuple[int, ...], ...],
+    mode_block: tuple[int, ...],
+    mode_rank: tuple[int, ...],
+) -> NDArray[np.float64]:
+    """Mass-normalised modal matrix (Phi^T M Phi = I), columns in mode order, shape (..., n, n_modes).
+
+    For a block of size 1 the shape is 1/sqrt(M_ii). For size 2 the null vector of (C_b - lambda M_b) is
+    taken from whichever row gives the larger vector (the other row may suffer cancellation when the
+    coupling is weak). Larger blocks use :func:`block_eigen`. Sign convention: the entry with the largest
+    mass-weighted magnitude is positive.
+    """
+    mass, stiffness, lam = np.broadcast_arrays(*as_arrays(mass, stiffness[..., :, :], lam[..., None, :]))
+    lam = lam[..., 0, :]
+    n = mass.shape[-1]
+    phi = np.zeros((*mass.shape[:-2], n, len(mode_block)))
+    numeric: dict[int, NDArray] = {}
+    for k, (b, rank) in enumerate(zip(mode_block, mode_rank, strict=True)):
+        idx = blocks[b]
+        if len(idx) == 1:
+            i = idx[0]
+            phi[..., i, k] = 1.0 / np.sqrt(mass[..., i, i])
+            continue
+        if len(idx) == 2:
+            i, j = idx
+            lk = lam[..., k]
+            a11 = stiffness[..., i, i] - lk * mass[..., i, i]
+            a12 = stiffness[..., i, j] - lk * mass[..., i, j]
+            a22 = stiffness[..., j, j] - lk * mass[..., j, j]
+            u_row1 = np.stack([-a12, a11], axis=-1)
+            u_row2 = np.stack([a22, -a12], axis=-1)
+            use1 = np.hypot(a12, a11) > np.hypot(a22, a12)
+            u = np.where(use1[..., None], u_row1, u_row2)
+            mb = mass[..., np.array(idx)[:, None], np.array(idx)[None, :]]
+            norm = np.sqrt(np.einsum("...i,...ij,...j->...", u, mb, u))
+            u = u / norm[..., None]
+            phi[..., i, k], phi[..., j, k] = u[..., 0], u[..., 1]
+            continue
+        if b not in numeric:
+            numeric[b] = block_eigen(mass, stiffness, idx)[1]
+        phi[..., np.array(idx), k] = numeric[b][..., :, rank - 1]
+    weight = phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None]
+    pick = np.take_along_axis(phi, np.argmax(np.abs(weight), axis=-2)[..., None, :], axis=-2)
+    return phi * np.where(pick < 0, -1.0, 1.0)
+
+
+def kinetic_energy_distribution(mass: NDArray, phi: NDArray) -> NDArray[np.float64]:
+    """Share of each mode's kinetic energy per coordinate, shape (..., n_coordinates, n_modes).
+
+    share[i, k] = phi_ik (M phi_k)_i / (phi_k^T M phi_k); each column sums to 1. With a diagonal mass matrix
+    every share lies in [0, 1]; an off-diagonal M (centre of mass away from the origin) can make a share
+    negative, since the kinetic energy is then not a sum over coordinates.
+    """
+    m_phi = mass @ phi
+    per = phi * m_phi
+    return per / np.sum(per, axis=-2, keepdims=True)
+
+
+def admissible(
+    unknowns: tuple[NDArray, ...],
+    predicted: NDArray,
+    mode_index: tuple[int, ...],
+    given: tuple[NDArray, ...],
+    rtol: float = ADMISSIBILITY_RTOL,
+) -> NDArray[np.bool_]:
+    """Admissible inverse roots: unknowns positive and finite, given frequencies on their labelled modes.
+
+    ``predicted`` holds the squared frequencies the forward map gives for each root, shape (n_roots, ..., n).
+    """
+    ok = np.ones(np.broadcast_shapes(*(u.shape for u in unknowns)), dtype=bool)
+    for u in unknowns:
+        ok &= np.isfinite(u) & (u > 0)
+    with np.errstate(invalid="ignore"):
+        for k, lam in zip(mode_index, given, strict=True):
+            ok &= np.abs(predicted[..., k] - lam) <= rtol * np.abs(lam)
+    return ok

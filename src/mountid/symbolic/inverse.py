@@ -1,0 +1,217 @@
+"""Measured frequencies back to unknown stiffnesses: which sets determine them, and how to solve them.
+
+For every set of distinct natural frequencies as large as the number of unknowns:
+
+1. Equations. The frequencies of one block are roots of its characteristic polynomial p(lambda). When all
+   roots of a block are given, the equations are Vieta's relations (sums and products of the roots against
+   the coefficients of p); otherwise p(lambda_k) = 0 for each given root. Both are polynomial in the unknowns.
+2. Identifiability. The rank of the Jacobian of the equations with respect to the unknowns at a generic point
+   (random rationals, exact arithmetic, roots to 30 digits): full rank means the set determines the unknowns
+   locally; a rank deficit is reported with the reason, never skipped silently.
+3. Solution. Directed elimination triangularises the system (see InverseDerivation._solve): unknowns that
+   occur linearly are solved for and substituted, in the form with the fewest subtractions, leaving one
+   polynomial in the last unknown, factored over the parameters. (A lexicographic Groebner basis does the
+   same on small systems but takes minutes once a dozen parameters and trigonometric terms enter.) Roots of
+   the univariate factors are taken numerically stably at run time (degree <= 2 in closed form, else
+   companion-matrix eigenvalues).
+
+Roots are then filtered at run time (admissibility): every unknown positive and finite, and every given
+frequency reproduced by the mode it is labelled as.
+"""
+
+from __future__ import annotations
+
+import itertools
+import random
+from dataclasses import dataclass
+
+import sympy as sp
+
+from mountid.symbolic.blocks import LAMBDA, ModalStructure
+
+
+@dataclass(frozen=True)
+class InverseSet:
+    """One set of given frequencies and, if it determines the unknowns, how to solve it."""
+
+    labels: tuple[str, ...]
+    identifiable: bool
+    reason: str
+    """Why the set is not identifiable, or an empty string."""
+    lambdas: tuple[sp.Symbol, ...] = ()
+    equations: tuple[sp.Expr, ...] = ()
+    last: str = ""
+    """The unknown solved from the univariate polynomial."""
+    factors: tuple[sp.Poly, ...] = ()
+    """Univariate factors (in ``last``) whose roots are the candidates; coefficients in knowns and lambdas."""
+    back_substitution: tuple[tuple[str, sp.Expr], ...] = ()
+    """(unknown, expression in knowns, lambdas and later unknowns), in the order to evaluate."""
+
+    @property
+    def name(self) -> str:
+        return "_".join(self.labels)
+
+    @property
+    def n_roots(self) -> int:
+        return sum(f.degree() for f in self.factors)
+
+
+def _cancellation_score(expr: sp.Expr) -> tuple[int, int]:
+    """Prefer back-substitutions without subtraction (all symbols are positive): fewest negative terms
+    in numerator and denominator, then fewest operations."""
+    num, den = sp.fraction(sp.factor(expr))
+    negatives = 0
+    for part in (num, den):
+        for factor in sp.Mul.make_args(part):
+            terms = sp.Add.make_args(sp.expand(factor))
+            if len(terms) > 1:
+                negatives += sum(1 for t in terms if t.could_extract_minus_sign())
+    return negatives, sp.count_ops(expr)
+
+
+def lambda_symbol(label: str) -> sp.Symbol:
+    """Symbol of a squared natural frequency omega_label^2 [rad^2/s^2]."""
+    return sp.Symbol(f"lambda_{label}", positive=True)
+
+
+class InverseDerivation:
+    """Enumerate and solve every inverse set of a modal structure."""
+
+    def __init__(self, structure: ModalStructure, seed: int = 20261122) -> None:
+        self.structure = structure
+        self.model = structure.model
+        self.unknowns = tuple(self.model.symbols[n] for n in self.model.description.unknown)
+        self._point = self._generic_point(seed)
+
+    def _generic_point(self, seed: int) -> dict[sp.Symbol, sp.Rational]:
+        rng = random.Random(seed)
+        return {s: sp.Rational(rng.randint(50, 200), 97) for s in self.model.symbols.values()}
+
+    def equations(self, labels: tuple[str, ...]) -> tuple[list[sp.Expr], list[sp.Symbol]] | None:
+        """Polynomial equations tying the given squared frequencies to the unknowns (None: too large)."""
+        groups: dict[int, list[str]] = {}
+        for label in labels:
+            twin = self.structure.twin[self.structure.mode(label).block]
+            groups.setdefault(twin, []).append(label)
+        eqs, lams = [], []
+        for k, group in groups.items():
+            poly = self.structure.blocks[k].charpoly
+            if poly is None:
+                return None
+            coeffs = poly.all_coeffs()  # highest degree first
+            ls = [lambda_symbol(lab) for lab in group]
+            lams += ls
+            if len(group) == poly.degree():
+                for j in range(1, len(ls) + 1):
+                    e_j = sum(sp.Mul(*c) for c in itertools.combinations(ls, j))
+                    eqs.append(sp.expand(coeffs[0] * e_j - (-1) ** j * coeffs[j]))
+            else:
+                eqs += [sp.expand(poly.as_expr().subs(LAMBDA, lam)) for lam in ls]
+        return eqs, lams
+
+    def _rank(self, eqs: list[sp.Expr], labels: tuple[str, ...]) -> int:
+        """Rank of d(equations)/d(unknowns) at the generic point, lambdas at their true values."""
+        subs = dict(self._point)
+        for label in labels:
+            mode = self.structure.mode(label)
+            block = self.structure.blocks[mode.block]
+            p = sp.Poly(block.charpoly.as_expr().subs(self._point), LAMBDA)
+            roots = sorted(sp.re(r) for r in p.nroots(n=40))
+            subs[lambda_symbol(label)] = roots[mode.rank - 1]
+        jac = sp.Matrix([[sp.diff(e, u) for u in self.unknowns] for e in eqs]).subs(subs).evalf(40)
+        import mpmath
+
+        with mpmath.workdps(40):
+            sv = mpmath.svd_r(mpmath.matrix(jac.tolist()), compute_uv=False)
+            svs = sorted((abs(s) for s in sv), reverse=True)
+            return sum(1 for s in svs if s > svs[0] * mpmath.mpf(10) ** -25)
+
+    def derive(self, labels: tuple[str, ...]) -> InverseSet:
+        got = self.equations(labels)
+        if got is None:
+            return InverseSet(labels, False, "a block is too large for a symbolic characteristic polynomial")
+        eqs, lams = got
+        n = len(self.unknowns)
+        rank = self._rank(eqs, labels)
+        if rank < n:
+            names = ", ".join(self.model.description.unknown)
+            return InverseSet(
+                labels,
+                False,
+                f"these frequencies fix only {rank} independent combination(s) of the {n} unknowns ({names})",
+            )
+        # Transcendental known quantities (sin(alpha), ...) become plain symbols for the algebra:
+        # elimination and factoring over a coefficient field with trigonometric functions are very slow.
+        atoms = sorted(
+            {a for e in eqs for a in e.atoms(sp.Function) if not (a.free_symbols & set(self.unknowns))},
+            key=sp.default_sort_key,
+        )
+        hide = {a: sp.Symbol(f"_atom{i}", real=True) for i, a in enumerate(atoms)}
+        reveal = {v: k for k, v in hide.items()}
+        eqs_algebraic = [e.subs(hide) for e in eqs]
+        result = self._solve(labels, eqs_algebraic, lams)
+        if not result.identifiable:
+            return result
+        return InverseSet(
+            labels,
+            True,
+            "",
+            result.lambdas,
+            tuple(eqs),
+            result.last,
+            tuple(sp.Poly(f.as_expr().subs(reveal), f.gens) for f in result.factors),
+            tuple((u, e.subs(reveal)) for u, e in result.back_substitution),
+        )
+
+    def _solve(self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol]) -> InverseSet:
+        """Triangularise the polynomial system by directed elimination.
+
+        While more than one unknown remains, pick an equation linear in some unknown, solve it for that
+        unknown (among all such choices the one with the fewest subtractions, see _cancellation_score) and
+        substitute into the other equations (numerators only). The last equation is a polynomial in the last
+        unknown; it is factored over the parameters. Clearing denominators may add factors whose roots are
+        not solutions (e.g. an unknown = 0): the run-time admissibility check removes them.
+        """
+        unknowns = list(self.unknowns)
+        system = [sp.expand(e) for e in eqs]
+        steps: list[tuple[sp.Symbol, sp.Expr]] = []
+        while len(unknowns) > 1:
+            options = []
+            for k, e in enumerate(system):
+                for u in unknowns:
+                    poly = sp.Poly(e, u)
+                    if poly.degree() == 1:
+                        a1, a0 = poly.all_coeffs()
+                        sol = sp.factor(-a0 / a1)
+                        options.append((_cancellation_score(sol), unknowns.index(u), k, u, sol))
+            if not options:
+                return InverseSet(
+                    labels, False, "no equation is linear in a remaining unknown (not generated)"
+                )
+            _, _, k, u, sol = min(options, key=lambda o: (o[0], -o[1], o[2]))
+            steps.append((u, sol))
+            unknowns.remove(u)
+            rest = [system[j] for j in range(len(system)) if j != k]
+            system = []
+            for e in rest:
+                num = sp.expand(sp.numer(sp.together(e.subs(u, sol))))
+                if num != 0:
+                    system.append(num)
+        last = unknowns[0]
+        candidates = [e for e in system if e.has(last)]
+        if not candidates:
+            return InverseSet(labels, False, f"the equations leave {last} free (not generated)")
+        univariate = min(candidates, key=lambda e: (sp.degree(e, last), sp.count_ops(e)))
+        factors = []
+        _, flist = sp.factor_list(univariate, last)
+        for factor, _mult in flist:
+            poly = sp.Poly(factor, last)
+            if poly.degree() == 0 or poly.as_expr() == last:
+                continue
+            factors.append(poly)
+        back = [(str(u), sol) for u, sol in reversed(steps)]
+        return InverseSet(labels, True, "", tuple(lams), tuple(eqs), str(last), tuple(factors), tuple(back))
+
+    def all_sets(self) -> list[InverseSet]:
+        n = len(self.unknowns)
+        return [self.derive(c) for c in itertools.combinations(self.structure.unique_labels, n)]

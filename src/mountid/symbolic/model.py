@@ -1,0 +1,219 @@
+"""From a description to energies and to the mass, stiffness and damping matrices.
+
+The body is rigid; q = [x, y, z, psi, theta, phi] are the translations of the coordinate origin and small
+rotations about x, y, z. An isolator at position r (from the origin) moves by u = t + w x r with
+t = [x, y, z] and w = [psi, theta, phi]; with its stiffness tensor K and damping tensor B (global axes)
+
+    T = 1/2 m |t' + w' x r_c|^2 + 1/2 w'^T J_c w'           (kinetic energy, r_c the centre of mass)
+    P = 1/2 sum_i u_i^T K_i u_i                              (potential energy)
+    D = 1/2 sum_i u_i'^T B_i u_i'                            (Rayleigh dissipation function)
+
+and M, C, B are their Hessians (paper Eqs. 3-6): nothing here is typed in matrix form.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from functools import cached_property
+
+import sympy as sp
+from sympy.parsing.sympy_parser import parse_expr, standard_transformations
+
+from mountid.description import COORDINATES, MIRROR_PLANES, Description, IsolatorGroup
+from mountid.errors import DescriptionError
+
+_ALLOWED_FUNCTIONS = {"sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "pi": sp.pi}
+
+
+@dataclass(frozen=True)
+class Isolator:
+    """One physical isolator after mirroring: position [m], stiffness and damping tensors in global axes."""
+
+    group: str
+    position: sp.Matrix
+    stiffness: sp.Matrix
+    damping: sp.Matrix
+
+
+def _reflection(planes: tuple[str, ...]) -> sp.Matrix:
+    diag = [1, 1, 1]
+    for plane in planes:
+        diag[MIRROR_PLANES[plane]] = -1
+    return sp.diag(*diag)
+
+
+def _rotation(angles: tuple[sp.Expr, sp.Expr, sp.Expr]) -> sp.Matrix:
+    """Local isolator axes to global: R = Rz(az) Ry(ay) Rx(ax)."""
+    ax, ay, az = angles
+    rx = sp.Matrix([[1, 0, 0], [0, sp.cos(ax), -sp.sin(ax)], [0, sp.sin(ax), sp.cos(ax)]])
+    ry = sp.Matrix([[sp.cos(ay), 0, sp.sin(ay)], [0, 1, 0], [-sp.sin(ay), 0, sp.cos(ay)]])
+    rz = sp.Matrix([[sp.cos(az), -sp.sin(az), 0], [sp.sin(az), sp.cos(az), 0], [0, 0, 1]])
+    return rz * ry * rx
+
+
+class SymbolicModel:
+    """The symbolic meaning of a description: symbols, isolators, energies and matrices."""
+
+    def __init__(self, description: Description) -> None:
+        self.description = description
+        self.symbols: dict[str, sp.Symbol] = {
+            name: sp.Symbol(name, positive=True) if p.positive else sp.Symbol(name, real=True)
+            for name, p in description.parameters.items()
+        }
+        self.q = sp.Matrix(sp.symbols(" ".join(COORDINATES), real=True))
+        self.qdot = sp.Matrix(sp.symbols(" ".join(c + "_dot" for c in COORDINATES), real=True))
+        self._check_symmetry()
+
+    # -- expressions -------------------------------------------------------------------------------
+    def expr(self, text: str, entry: str) -> sp.Expr:
+        """Parse one expression of the description; only declared parameters and sqrt/sin/cos/tan/pi."""
+        local = dict(self.symbols)
+        try:
+            value = parse_expr(
+                text,
+                local_dict=local,
+                global_dict={
+                    "Integer": sp.Integer,
+                    "Float": sp.Float,
+                    "Rational": sp.Rational,
+                    "Symbol": sp.Symbol,
+                    **_ALLOWED_FUNCTIONS,
+                },
+                transformations=standard_transformations,
+            )
+        except Exception as exc:  # sympy raises many types for a malformed string
+            raise DescriptionError(entry, f"cannot read expression {text!r} ({type(exc).__name__})") from None
+        if not isinstance(value, sp.Expr):
+            raise DescriptionError(entry, f"{text!r} is not an expression")
+        undeclared = sorted(str(s) for s in value.free_symbols if s not in self.symbols.values())
+        if undeclared:
+            raise DescriptionError(entry, f"uses undeclared name(s) {undeclared}")
+        # decimal literals become exact rationals, so solving stays over the rationals
+        return sp.nsimplify(value, rational=True)
+
+    def _triple(self, texts: tuple[str, str, str], entry: str) -> sp.Matrix:
+        return sp.Matrix([self.expr(t, f"{entry}[{i}]") for i, t in enumerate(texts)])
+
+    @cached_property
+    def mass(self) -> sp.Expr:
+        return self.expr(self.description.mass, "body.mass")
+
+    @cached_property
+    def inertia(self) -> sp.Matrix:
+        """Inertia tensor about the centre of mass [kg m^2]; products enter as -J_ij."""
+        d = self.description
+        jx, jy, jz = self._triple(d.inertia, "body.inertia")
+        jyz, jxz, jxy = self._triple(d.products_of_inertia, "body.products_of_inertia")
+        return sp.Matrix([[jx, -jxy, -jxz], [-jxy, jy, -jyz], [-jxz, -jyz, jz]])
+
+    @cached_property
+    def centre_of_mass(self) -> sp.Matrix:
+        return self._triple(self.description.centre_of_mass, "body.centre_of_mass")
+
+    def _group_tensors(self, group: IsolatorGroup) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+        entry = f"isolators.{group.name}"
+        point = self._triple(group.point, f"{entry}.point")
+        k_local = sp.diag(*self._triple(group.stiffness, f"{entry}.stiffness"))
+        b_local = sp.diag(*self._triple(group.damping, f"{entry}.damping")) if group.damping else sp.zeros(3)
+        if group.inclination:
+            rot = _rotation(tuple(self._triple(group.inclination, f"{entry}.inclination")))
+            k_local, b_local = rot * k_local * rot.T, rot * b_local * rot.T
+        return point, k_local, b_local
+
+    @cached_property
+    def isolators(self) -> tuple[Isolator, ...]:
+        """Every isolator: each group's representative mirrored across the declared planes.
+
+        A point on a mirror plane is its own image there, so a group has 4, 2 or 1 isolators.
+        The stiffness tensor of an image is S K S for the reflection S.
+        """
+        out = []
+        planes = self.description.symmetry
+        for group in self.description.isolators:
+            point, k, b = self._group_tensors(group)
+            seen: list[sp.Matrix] = []
+            for n in range(len(planes) + 1):
+                for subset in itertools.combinations(planes, n):
+                    s = _reflection(subset)
+                    image = s * point
+                    if any(sp.simplify(image - p) == sp.zeros(3, 1) for p in seen):
+                        continue
+                    seen.append(image)
+                    out.append(Isolator(group.name, image, s * k * s, s * b * s))
+        return tuple(out)
+
+    # -- symmetry validation -------------------------------------------------------------------------
+    def _check_symmetry(self) -> None:
+        """Reject entries that contradict the declared mirror planes, naming the entry."""
+        d = self.description
+        for plane in d.symmetry:
+            axis = MIRROR_PLANES[plane]
+            if self.centre_of_mass[axis] != 0:
+                raise DescriptionError(
+                    f"body.centre_of_mass[{axis}]",
+                    f"is {self.centre_of_mass[axis]}, but mirror plane {plane} needs it to be 0",
+                )
+            s = _reflection((plane,))
+            bad = (s * self.inertia * s - self.inertia).applyfunc(sp.simplify)
+            if bad != sp.zeros(3):
+                raise DescriptionError(
+                    "body.products_of_inertia",
+                    f"products of inertia coupling the {'xy'[axis]} axis contradict mirror plane {plane}",
+                )
+            for group in d.isolators:
+                point, k, b = self._group_tensors(group)
+                if point[axis] == 0:
+                    for name, tensor in (("stiffness", k), ("damping", b)):
+                        if (s * tensor * s - tensor).applyfunc(sp.simplify) != sp.zeros(3):
+                            raise DescriptionError(
+                                f"isolators.{group.name}.inclination",
+                                f"tilts an isolator that sits on mirror plane {plane} so that its {name} "
+                                "is not mirror-symmetric there",
+                            )
+
+    # -- energies and matrices -------------------------------------------------------------------------
+    @cached_property
+    def kinetic_energy(self) -> sp.Expr:
+        t_dot, w_dot = self.qdot[:3, 0], self.qdot[3:, 0]
+        v_c = t_dot + w_dot.cross(self.centre_of_mass)
+        return sp.expand((self.mass * v_c.dot(v_c) + (w_dot.T * self.inertia * w_dot)[0]) / 2)
+
+    def _isolator_form(self, velocities: bool, tensor: str) -> sp.Expr:
+        vec = self.qdot if velocities else self.q
+        t, w = vec[:3, 0], vec[3:, 0]
+        total = sp.Integer(0)
+        for iso in self.isolators:
+            u = t + w.cross(iso.position)
+            total += (u.T * getattr(iso, tensor) * u)[0] / 2
+        return sp.expand(total)
+
+    @cached_property
+    def potential_energy(self) -> sp.Expr:
+        return self._isolator_form(velocities=False, tensor="stiffness")
+
+    @cached_property
+    def dissipation_function(self) -> sp.Expr:
+        return self._isolator_form(velocities=True, tensor="damping")
+
+    @cached_property
+    def M(self) -> sp.Matrix:
+        """Mass matrix, m_ij = d^2 T / dq_i' dq_j' (Eq. 5)."""
+        return sp.hessian(self.kinetic_energy, list(self.qdot)).applyfunc(sp.factor_terms)
+
+    @cached_property
+    def C(self) -> sp.Matrix:
+        """Stiffness matrix, c_ij = d^2 P / dq_i dq_j (Eq. 6)."""
+        return sp.hessian(self.potential_energy, list(self.q)).applyfunc(sp.factor_terms)
+
+    @cached_property
+    def B(self) -> sp.Matrix:
+        """Damping matrix, b_ij = d^2 D / dq_i' dq_j' (Eq. 27's B)."""
+        return sp.hessian(self.dissipation_function, list(self.qdot)).applyfunc(sp.factor_terms)
+
+    def parameters_of(self, *exprs: sp.Expr | sp.Matrix) -> tuple[str, ...]:
+        """Names of the parameters an expression depends on, in the description's order."""
+        free: set[sp.Symbol] = set()
+        for e in exprs:
+            free |= e.free_symbols
+        return tuple(n for n, s in self.symbols.items() if s in free)
