@@ -149,7 +149,7 @@ class ModalStructure:
                 ModeSpec(b.coordinates[r], b.coordinates, r + 1) for b in self.blocks for r in range(b.size)
             )
             specs = tuple(sorted(specs, key=lambda s: COORDINATES.index(s.label)))
-        claimed = set()
+        claimed: dict[tuple[int, int], int] = {}
         for i, spec in enumerate(specs):
             if spec.block not in by_coords:
                 raise DescriptionError(
@@ -160,9 +160,10 @@ class ModalStructure:
             key = (by_coords[spec.block], spec.rank)
             if key in claimed:
                 raise DescriptionError(
-                    f"modes[{i}]", f"block {list(spec.block)} rank {spec.rank} is labelled twice"
+                    f"modes[{i}]",
+                    f"block {list(spec.block)} rank {spec.rank} is already labelled by modes[{claimed[key]}]",
                 )
-            claimed.add(key)
+            claimed[key] = i
         total = sum(b.size for b in self.blocks)
         if len(claimed) != total:
             raise DescriptionError("modes", f"{total} modes need labels, {len(claimed)} are given")
