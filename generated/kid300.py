@@ -109,6 +109,18 @@ def damping_matrix(L_xy, L_z, b_xy, b_z):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*b_z, (3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp0*_tmp2})
 
 
+def stiffness_gradient(L_xy, L_z, c_xy, c_z):
+    """Derivatives dC/d(c_xy, c_z) of the stiffness matrix, shape (..., 2, 6, 6).
+    """
+    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3})], axis=-3)
+
+
 def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     """Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., 6), modes
     x, y, z, psi, theta, phi.
@@ -157,13 +169,13 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_xy is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_xy*(-8*J_xy*lambda_x - 8*lambda_x*m*L_z**2 + 4*lambda_z*m*L_xy**2) + 2*J_xy*m*lambda_x**2 - lambda_x*lambda_z*L_xy**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
-        c_z = lambda_z*m/4
+        c_xy = lambda_x*m*(J_xy*lambda_x - 2*c_z*L_xy**2)/(4*(J_xy*lambda_x - 2*c_z*L_xy**2 + lambda_x*m*L_z**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -172,14 +184,19 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _tmp0 = 8*_lam_x
-    _tmp1 = L_xy**2
-    c_xy = numpy.concatenate([_runtime.polynomial_roots(-J_xy*_tmp0 - L_z**2*_tmp0*m + 4*_lam_z*_tmp1*m, 2*J_xy*_lam_x**2*m - _lam_x*_lam_z*_tmp1*m**2)])
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_xy.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 2), (_lam_x, _lam_z,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_x*m
+        _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
+        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 2), (_lam_x, _lam_z,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 2), (_lam_x, _lam_z,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -204,83 +221,24 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = J_xy*_lam_psi
-    _tmp1 = 4*m
-    c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-    c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 3), (_lam_x, _lam_psi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _tmp0 = J_xy*_lam_psi
+        _tmp1 = 4*m
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 3), (_lam_x, _lam_psi,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 3), (_lam_x, _lam_psi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
 def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     """Unknowns c_xy, c_z from the natural frequencies omega_x, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_z is a root of
-
-        c_z*(-2*J_z*lambda_phi*L_xy**2 + 2*lambda_x*m*L_xy**4) + J_xy*J_z*lambda_phi*lambda_x - J_xy*m*L_xy**2*lambda_x**2 + J_z*lambda_phi*lambda_x*m*L_z**2 = 0
-
-    and then
-
-        c_xy = J_z*lambda_phi/(4*L_xy**2)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
-    """
-    m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = L_xy**2
-    _tmp1 = J_z*_lam_phi
-    c_z = numpy.concatenate([_runtime.polynomial_roots(2*L_xy**4*_lam_x*m - 2*_tmp0*_tmp1, -J_xy*_lam_x**2*_tmp0*m + J_xy*_lam_x*_tmp1 + L_z**2*_lam_x*_tmp1*m)])
-    c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 5), (_lam_x, _lam_phi,))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
-
-
-def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
-    """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_psi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_xy is a root of
-
-        c_xy*(-8*J_xy*lambda_psi - 8*lambda_psi*m*L_z**2 + 4*lambda_z*m*L_xy**2) + 2*J_xy*m*lambda_psi**2 - lambda_psi*lambda_z*L_xy**2*m**2 = 0
-
-    and then
-
-        c_z = lambda_z*m/4
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
-    """
-    m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = 8*_lam_psi
-    _tmp1 = L_xy**2
-    c_xy = numpy.concatenate([_runtime.polynomial_roots(-J_xy*_tmp0 - L_z**2*_tmp0*m + 4*_lam_z*_tmp1*m, 2*J_xy*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_xy.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 3), (_lam_z, _lam_psi,))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
-
-
-def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
-    """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
@@ -291,7 +249,7 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
 
     and then
 
-        c_z = lambda_z*m/4
+        c_z = lambda_x*(-4*J_xy*c_xy + J_xy*lambda_x*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_x*m))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -299,25 +257,68 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_xy.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 5), (_lam_z, _lam_phi,))
+    m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
+        _tmp0 = 4*c_xy
+        c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 5), (_lam_x, _lam_phi,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 5), (_lam_x, _lam_phi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
-def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
-    """Unknowns c_xy, c_z from the natural frequencies omega_psi, omega_phi [rad/s].
+def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
+    """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_psi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_z is a root of
 
-        c_z*(-2*J_z*lambda_phi*L_xy**2 + 2*lambda_psi*m*L_xy**4) + J_xy*J_z*lambda_phi*lambda_psi - J_xy*m*L_xy**2*lambda_psi**2 + J_z*lambda_phi*lambda_psi*m*L_z**2 = 0
+        4*c_z - lambda_z*m = 0
+
+    and then
+
+        c_xy = lambda_psi*m*(J_xy*lambda_psi - 2*c_z*L_xy**2)/(4*(J_xy*lambda_psi - 2*c_z*L_xy**2 + lambda_psi*m*L_z**2))
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    """
+    m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_psi*m
+        _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
+        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 3), (_lam_z, _lam_psi,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 3), (_lam_z, _lam_psi,))
+    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
+    """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_z is a root of
+
+        4*c_z - lambda_z*m = 0
 
     and then
 
@@ -329,15 +330,54 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
+    m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 5), (_lam_z, _lam_phi,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 5), (_lam_z, _lam_phi,))
+    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
+    """Unknowns c_xy, c_z from the natural frequencies omega_psi, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_xy is a root of
+
+        -J_z*lambda_phi + 4*c_xy*L_xy**2 = 0
+
+    and then
+
+        c_z = lambda_psi*(-4*J_xy*c_xy + J_xy*lambda_psi*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_psi*m))
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = L_xy**2
-    _tmp1 = J_z*_lam_phi
-    c_z = numpy.concatenate([_runtime.polynomial_roots(2*L_xy**4*_lam_psi*m - 2*_tmp0*_tmp1, -J_xy*_lam_psi**2*_tmp0*m + J_xy*_lam_psi*_tmp1 + L_z**2*_lam_psi*_tmp1*m)])
-    c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _ok = _runtime.admissible((c_xy, c_z,), _predicted, (3, 5), (_lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
+        _tmp0 = 4*c_xy
+        c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
+        def _forward(c_xy, c_z):
+            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (3, 5), (_lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (3, 5), (_lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 

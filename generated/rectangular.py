@@ -115,6 +115,18 @@ def damping_matrix(a, b, h, b_x, b_y, b_z):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): 4*b_z, (3, 3): 4*_tmp2*b_z + 4*_tmp3*b_y, (4, 4): 4*_tmp3*b_x + 4*_tmp4*b_z, (5, 5): 4*_tmp2*b_x + 4*_tmp4*b_y})
 
 
+def stiffness_gradient(a, b, h, c_x, c_y, c_z):
+    """Derivatives dC/d(c_x, c_y, c_z) of the stiffness matrix, shape (..., 3, 6, 6).
+    """
+    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3})], axis=-3)
+
+
 def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     """Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., 6), modes
     x, y, z, psi, theta, phi.
@@ -165,14 +177,14 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_x - 4*lambda_x*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_x**2 - lambda_x*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
-        c_y = lambda_y*m*(-J_x*lambda_y + lambda_z*m*b**2)/(4*(-J_x*lambda_y + lambda_z*m*b**2 - lambda_y*m*h**2))
-        c_z = lambda_z*m/4
+        c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
+        c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -181,18 +193,23 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _tmp0 = 4*_lam_x
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_x**2*m - _lam_x*_lam_z*_tmp1*m**2)])
-    _tmp2 = _lam_y*m
-    _tmp3 = J_x*_lam_y - _lam_z*b**2*m
-    c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_x - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_y - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -202,13 +219,13 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_y is a root of
 
-        c_x*(-8*m*J_y**2*b**4*lambda_x**3 - 8*J_y*b**4*h**2*lambda_x**3*m**2 - 8*lambda_psi*lambda_x*lambda_y*m*J_x**2*a**4 - 8*J_x*lambda_psi*lambda_x*lambda_y*a**4*h**2*m**2 + 4*J_x*lambda_psi*a**2*b**2*h**2*lambda_x**2*m**2 + 4*J_x*lambda_y*a**2*b**2*h**2*lambda_x**2*m**2 + 8*J_x*J_y*lambda_psi*m*a**2*b**2*lambda_x**2 + 8*J_x*J_y*lambda_y*m*a**2*b**2*lambda_x**2) + c_x**2*(16*J_y**2*b**4*lambda_x**2 + 16*lambda_psi*lambda_y*J_x**2*a**4 + 16*b**4*h**4*lambda_x**2*m**2 + 32*J_y*m*b**4*h**2*lambda_x**2 - 16*J_x*J_y*lambda_psi*lambda_x*a**2*b**2 - 16*J_x*J_y*lambda_x*lambda_y*a**2*b**2 + 16*J_x*lambda_psi*lambda_y*m*a**4*h**2 - 16*J_x*lambda_psi*lambda_x*m*a**2*b**2*h**2 - 16*J_x*lambda_x*lambda_y*m*a**2*b**2*h**2) + J_y**2*b**4*lambda_x**4*m**2 + lambda_psi*lambda_y*J_x**2*a**4*lambda_x**2*m**2 + J_x*lambda_psi*lambda_y*a**4*h**2*lambda_x**2*m**3 - J_x*J_y*lambda_psi*a**2*b**2*lambda_x**3*m**2 - J_x*J_y*lambda_y*a**2*b**2*lambda_x**3*m**2 = 0
+        c_y*(-4*J_x*lambda_psi*m - 4*J_x*lambda_y*m) + c_y**2*(16*J_x + 16*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
 
     and then
 
-        c_y = -J_x*lambda_psi*lambda_y*m*a**2*(-4*c_x + lambda_x*m)/(4*b**2*lambda_x*(4*J_y*c_x - J_y*lambda_x*m + 4*c_x*m*h**2))
+        c_x = lambda_x*m*(-4*J_y*c_y*lambda_x*b**2 + J_x*lambda_psi*lambda_y*m*a**2)/(4*(-4*J_y*c_y*lambda_x*b**2 + J_x*lambda_psi*lambda_y*m*a**2 - 4*c_y*lambda_x*m*b**2*h**2))
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -218,46 +235,26 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = 16*_lam_psi
-    _tmp1 = _lam_y*a**4
-    _tmp2 = J_x**2*_tmp1
-    _tmp3 = b**4
-    _tmp4 = J_y**2*_tmp3
-    _tmp5 = _lam_x**2
-    _tmp6 = 16*_tmp5
-    _tmp7 = J_x*_tmp0
-    _tmp8 = a**2
-    _tmp9 = b**2
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = J_y*_tmp10
-    _tmp12 = _lam_x*_tmp11
-    _tmp13 = J_x*_lam_y
-    _tmp14 = 16*_tmp13
-    _tmp15 = h**2
-    _tmp16 = _tmp1*_tmp15
-    _tmp17 = _tmp7*m
-    _tmp18 = J_y*_tmp15
-    _tmp19 = m**2
-    _tmp20 = _tmp19*_tmp3
-    _tmp21 = _tmp10*_tmp15
-    _tmp22 = _lam_x*m
-    _tmp23 = _lam_x**3
-    _tmp24 = 8*_tmp23
-    _tmp25 = _lam_psi*_tmp2
-    _tmp26 = J_x*_lam_psi
-    _tmp27 = _tmp16*_tmp26
-    _tmp28 = _tmp19*_tmp23
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-_lam_x*_tmp17*_tmp21 + _tmp0*_tmp2 - _tmp12*_tmp14 - _tmp12*_tmp7 - _tmp14*_tmp21*_tmp22 + _tmp16*_tmp17 + 32*_tmp18*_tmp3*_tmp5*m + _tmp20*_tmp6*h**4 + _tmp4*_tmp6, 8*J_x*J_y*_lam_psi*_tmp5*_tmp8*_tmp9*m + 8*J_x*J_y*_lam_y*_tmp5*_tmp8*_tmp9*m + 4*J_x*_lam_psi*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 + 4*J_x*_lam_y*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 - 8*_lam_x*_tmp19*_tmp27 - _tmp18*_tmp20*_tmp24 - 8*_tmp22*_tmp25 - _tmp24*_tmp4*m, _lam_x**4*_tmp19*_tmp4 - _tmp11*_tmp13*_tmp28 - _tmp11*_tmp26*_tmp28 + _tmp19*_tmp25*_tmp5 + _tmp27*_tmp5*m**3)])
-    _tmp29 = 4*c_x
-    _tmp30 = _lam_x*m
-    _tmp31 = J_x*_lam_psi*_lam_y*m/b**2
-    c_y = numpy.broadcast_to(-0.25*_tmp31*a**2*(-_tmp29 + _tmp30)/(_lam_x*(J_y*_tmp29 - J_y*_tmp30 + _tmp29*h**2*m)), c_x.shape)
-    c_z = numpy.broadcast_to((0.0625)*_tmp31/c_y, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 4*m
+        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = 4*_lam_x*_tmp2*c_y
+        _tmp4 = J_y*_tmp3
+        _tmp5 = a**2
+        _tmp6 = J_x*_lam_psi*_lam_y*m
+        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -267,13 +264,13 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_y is a root of
+    Derivation (lambda = omega^2): c_x is a root of
 
-        c_y*(-8*m*J_x**2*a**4*lambda_y**3 - 8*J_x*a**4*h**2*lambda_y**3*m**2 - 8*lambda_theta*lambda_x*lambda_y*m*J_y**2*b**4 - 8*J_y*lambda_theta*lambda_x*lambda_y*b**4*h**2*m**2 + 4*J_y*lambda_theta*a**2*b**2*h**2*lambda_y**2*m**2 + 4*J_y*lambda_x*a**2*b**2*h**2*lambda_y**2*m**2 + 8*J_x*J_y*lambda_theta*m*a**2*b**2*lambda_y**2 + 8*J_x*J_y*lambda_x*m*a**2*b**2*lambda_y**2) + c_y**2*(16*J_x**2*a**4*lambda_y**2 + 16*lambda_theta*lambda_x*J_y**2*b**4 + 16*a**4*h**4*lambda_y**2*m**2 + 32*J_x*m*a**4*h**2*lambda_y**2 - 16*J_x*J_y*lambda_theta*lambda_y*a**2*b**2 - 16*J_x*J_y*lambda_x*lambda_y*a**2*b**2 + 16*J_y*lambda_theta*lambda_x*m*b**4*h**2 - 16*J_y*lambda_theta*lambda_y*m*a**2*b**2*h**2 - 16*J_y*lambda_x*lambda_y*m*a**2*b**2*h**2) + J_x**2*a**4*lambda_y**4*m**2 + lambda_theta*lambda_x*J_y**2*b**4*lambda_y**2*m**2 + J_y*lambda_theta*lambda_x*b**4*h**2*lambda_y**2*m**3 - J_x*J_y*lambda_theta*a**2*b**2*lambda_y**3*m**2 - J_x*J_y*lambda_x*a**2*b**2*lambda_y**3*m**2 = 0
+        c_x*(-4*J_y*lambda_theta*m - 4*J_y*lambda_x*m) + c_x**2*(16*J_y + 16*m*h**2) + J_y*lambda_theta*lambda_x*m**2 = 0
 
     and then
 
-        c_x = -J_y*lambda_theta*lambda_x*m*b**2*(-4*c_y + lambda_y*m)/(4*a**2*lambda_y*(4*J_x*c_y - J_x*lambda_y*m + 4*c_y*m*h**2))
+        c_y = lambda_y*m*(4*J_x*c_x*lambda_y*a**2 - J_y*lambda_theta*lambda_x*m*b**2)/(4*(4*J_x*c_x*lambda_y*a**2 - J_y*lambda_theta*lambda_x*m*b**2 + 4*c_x*lambda_y*m*a**2*h**2))
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -283,46 +280,25 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = 16*_lam_theta
-    _tmp1 = _lam_x*b**4
-    _tmp2 = J_y**2*_tmp1
-    _tmp3 = a**4
-    _tmp4 = J_x**2*_tmp3
-    _tmp5 = _lam_y**2
-    _tmp6 = 16*_tmp5
-    _tmp7 = J_y*_tmp0
-    _tmp8 = a**2
-    _tmp9 = b**2
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = J_x*_tmp10
-    _tmp12 = _lam_y*_tmp11
-    _tmp13 = J_y*_lam_x
-    _tmp14 = 16*_tmp13
-    _tmp15 = h**2
-    _tmp16 = _tmp1*_tmp15
-    _tmp17 = _tmp7*m
-    _tmp18 = J_x*_tmp15
-    _tmp19 = m**2
-    _tmp20 = _tmp19*_tmp3
-    _tmp21 = _tmp10*_tmp15
-    _tmp22 = _lam_y*m
-    _tmp23 = _lam_y**3
-    _tmp24 = 8*_tmp23
-    _tmp25 = _lam_theta*_tmp2
-    _tmp26 = J_y*_lam_theta
-    _tmp27 = _tmp16*_tmp26
-    _tmp28 = _tmp19*_tmp23
-    c_y = numpy.concatenate([_runtime.polynomial_roots(-_lam_y*_tmp17*_tmp21 + _tmp0*_tmp2 - _tmp12*_tmp14 - _tmp12*_tmp7 - _tmp14*_tmp21*_tmp22 + _tmp16*_tmp17 + 32*_tmp18*_tmp3*_tmp5*m + _tmp20*_tmp6*h**4 + _tmp4*_tmp6, 8*J_x*J_y*_lam_theta*_tmp5*_tmp8*_tmp9*m + 8*J_x*J_y*_lam_x*_tmp5*_tmp8*_tmp9*m + 4*J_y*_lam_theta*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 + 4*J_y*_lam_x*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 - 8*_lam_y*_tmp19*_tmp27 - _tmp18*_tmp20*_tmp24 - 8*_tmp22*_tmp25 - _tmp24*_tmp4*m, _lam_y**4*_tmp19*_tmp4 - _tmp11*_tmp13*_tmp28 - _tmp11*_tmp26*_tmp28 + _tmp19*_tmp25*_tmp5 + _tmp27*_tmp5*m**3)])
-    _tmp29 = 4*c_y
-    _tmp30 = _lam_y*m
-    _tmp31 = J_y*_lam_theta*_lam_x*m/a**2
-    c_x = numpy.broadcast_to(-0.25*_tmp31*b**2*(-_tmp29 + _tmp30)/(_lam_y*(J_x*_tmp29 - J_x*_tmp30 + _tmp29*h**2*m)), c_y.shape)
-    c_z = numpy.broadcast_to((0.0625)*_tmp31/c_x, c_y.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**2
+        _tmp3 = 4*_lam_y*_tmp2*c_x
+        _tmp4 = J_y*_lam_theta*_lam_x*m
+        _tmp5 = J_x*_tmp3 - _tmp4*b**2
+        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -348,38 +324,43 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**4
-    _tmp1 = 16*_lam_x
-    _tmp2 = _lam_y*a**2
-    _tmp3 = J_x*_tmp2
-    _tmp4 = b**2
-    _tmp5 = 16*_tmp4
-    _tmp6 = h**2
-    _tmp7 = _tmp6*m
-    _tmp8 = _tmp2*_tmp7
-    _tmp9 = J_z*_lam_phi
-    _tmp10 = 4*_tmp9
-    _tmp11 = _lam_y**2
-    _tmp12 = a**4
-    _tmp13 = _lam_x**2
-    _tmp14 = 4*m
-    _tmp15 = J_y*_tmp4
-    _tmp16 = m**2
-    _tmp17 = _lam_x*_tmp16
-    _tmp18 = _tmp17*_tmp2*_tmp6
-    _tmp19 = _tmp9*m
-    _tmp20 = _tmp13*_tmp15
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-    _tmp21 = 4*c_x
-    _tmp22 = _lam_x*m
-    _tmp23 = (0.25)/a**2
-    c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-    c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = b**4
+        _tmp1 = 16*_lam_x
+        _tmp2 = _lam_y*a**2
+        _tmp3 = J_x*_tmp2
+        _tmp4 = b**2
+        _tmp5 = 16*_tmp4
+        _tmp6 = h**2
+        _tmp7 = _tmp6*m
+        _tmp8 = _tmp2*_tmp7
+        _tmp9 = J_z*_lam_phi
+        _tmp10 = 4*_tmp9
+        _tmp11 = _lam_y**2
+        _tmp12 = a**4
+        _tmp13 = _lam_x**2
+        _tmp14 = 4*m
+        _tmp15 = J_y*_tmp4
+        _tmp16 = m**2
+        _tmp17 = _lam_x*_tmp16
+        _tmp18 = _tmp17*_tmp2*_tmp6
+        _tmp19 = _tmp9*m
+        _tmp20 = _tmp13*_tmp15
+        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
+        _tmp21 = 4*c_x
+        _tmp22 = _lam_x*m
+        _tmp23 = (0.25)/a**2
+        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
+        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -389,14 +370,14 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_x - 4*lambda_x*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_x**2 - lambda_x*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
-        c_y = lambda_psi*m*(-J_x*lambda_psi + lambda_z*m*b**2)/(4*(-J_x*lambda_psi + lambda_z*m*b**2 - lambda_psi*m*h**2))
-        c_z = lambda_z*m/4
+        c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
+        c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -405,18 +386,23 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = 4*_lam_x
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_x**2*m - _lam_x*_lam_z*_tmp1*m**2)])
-    _tmp2 = _lam_psi*m
-    _tmp3 = J_x*_lam_psi - _lam_z*b**2*m
-    c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_x - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -426,14 +412,14 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_x - 4*lambda_x*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_x**2 - lambda_x*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
+        c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-        c_z = lambda_z*m/4
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -442,16 +428,22 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = 4*_lam_x
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_x**2*m - _lam_x*_lam_z*_tmp1*m**2)])
-    c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_x*m
+        _tmp1 = a**2
+        _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -461,13 +453,13 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_y is a root of
+    Derivation (lambda = omega^2): c_x is a root of
 
-        c_y*(-8*m*J_x**2*a**4*lambda_psi**3 - 8*J_x*a**4*h**2*lambda_psi**3*m**2 - 8*lambda_psi*lambda_theta*lambda_x*m*J_y**2*b**4 - 8*J_y*lambda_psi*lambda_theta*lambda_x*b**4*h**2*m**2 + 4*J_y*lambda_theta*a**2*b**2*h**2*lambda_psi**2*m**2 + 4*J_y*lambda_x*a**2*b**2*h**2*lambda_psi**2*m**2 + 8*J_x*J_y*lambda_theta*m*a**2*b**2*lambda_psi**2 + 8*J_x*J_y*lambda_x*m*a**2*b**2*lambda_psi**2) + c_y**2*(16*J_x**2*a**4*lambda_psi**2 + 16*lambda_theta*lambda_x*J_y**2*b**4 + 16*a**4*h**4*lambda_psi**2*m**2 + 32*J_x*m*a**4*h**2*lambda_psi**2 - 16*J_x*J_y*lambda_psi*lambda_theta*a**2*b**2 - 16*J_x*J_y*lambda_psi*lambda_x*a**2*b**2 + 16*J_y*lambda_theta*lambda_x*m*b**4*h**2 - 16*J_y*lambda_psi*lambda_theta*m*a**2*b**2*h**2 - 16*J_y*lambda_psi*lambda_x*m*a**2*b**2*h**2) + J_x**2*a**4*lambda_psi**4*m**2 + lambda_theta*lambda_x*J_y**2*b**4*lambda_psi**2*m**2 + J_y*lambda_theta*lambda_x*b**4*h**2*lambda_psi**2*m**3 - J_x*J_y*lambda_theta*a**2*b**2*lambda_psi**3*m**2 - J_x*J_y*lambda_x*a**2*b**2*lambda_psi**3*m**2 = 0
+        c_x*(-4*J_y*lambda_theta*m - 4*J_y*lambda_x*m) + c_x**2*(16*J_y + 16*m*h**2) + J_y*lambda_theta*lambda_x*m**2 = 0
 
     and then
 
-        c_x = -J_y*lambda_theta*lambda_x*m*b**2*(-4*c_y + lambda_psi*m)/(4*a**2*lambda_psi*(4*J_x*c_y - J_x*lambda_psi*m + 4*c_y*m*h**2))
+        c_y = lambda_psi*m*(4*J_x*c_x*lambda_psi*a**2 - J_y*lambda_theta*lambda_x*m*b**2)/(4*(4*J_x*c_x*lambda_psi*a**2 - J_y*lambda_theta*lambda_x*m*b**2 + 4*c_x*lambda_psi*m*a**2*h**2))
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -477,46 +469,25 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = 16*_lam_theta
-    _tmp1 = _lam_x*b**4
-    _tmp2 = J_y**2*_tmp1
-    _tmp3 = a**4
-    _tmp4 = J_x**2*_tmp3
-    _tmp5 = _lam_psi**2
-    _tmp6 = 16*_tmp5
-    _tmp7 = J_y*_tmp0
-    _tmp8 = a**2
-    _tmp9 = b**2
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = J_x*_tmp10
-    _tmp12 = _lam_psi*_tmp11
-    _tmp13 = J_y*_lam_x
-    _tmp14 = 16*_tmp13
-    _tmp15 = h**2
-    _tmp16 = _tmp1*_tmp15
-    _tmp17 = _tmp7*m
-    _tmp18 = J_x*_tmp15
-    _tmp19 = m**2
-    _tmp20 = _tmp19*_tmp3
-    _tmp21 = _tmp10*_tmp15
-    _tmp22 = _lam_psi*m
-    _tmp23 = _lam_psi**3
-    _tmp24 = 8*_tmp23
-    _tmp25 = _lam_theta*_tmp2
-    _tmp26 = J_y*_lam_theta
-    _tmp27 = _tmp16*_tmp26
-    _tmp28 = _tmp19*_tmp23
-    c_y = numpy.concatenate([_runtime.polynomial_roots(-_lam_psi*_tmp17*_tmp21 + _tmp0*_tmp2 - _tmp12*_tmp14 - _tmp12*_tmp7 - _tmp14*_tmp21*_tmp22 + _tmp16*_tmp17 + 32*_tmp18*_tmp3*_tmp5*m + _tmp20*_tmp6*h**4 + _tmp4*_tmp6, 8*J_x*J_y*_lam_theta*_tmp5*_tmp8*_tmp9*m + 8*J_x*J_y*_lam_x*_tmp5*_tmp8*_tmp9*m + 4*J_y*_lam_theta*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 + 4*J_y*_lam_x*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 - 8*_lam_psi*_tmp19*_tmp27 - _tmp18*_tmp20*_tmp24 - 8*_tmp22*_tmp25 - _tmp24*_tmp4*m, _lam_psi**4*_tmp19*_tmp4 - _tmp11*_tmp13*_tmp28 - _tmp11*_tmp26*_tmp28 + _tmp19*_tmp25*_tmp5 + _tmp27*_tmp5*m**3)])
-    _tmp29 = 4*c_y
-    _tmp30 = _lam_psi*m
-    _tmp31 = J_y*_lam_theta*_lam_x*m/a**2
-    c_x = numpy.broadcast_to(-0.25*_tmp31*b**2*(-_tmp29 + _tmp30)/(_lam_psi*(J_x*_tmp29 - J_x*_tmp30 + _tmp29*h**2*m)), c_y.shape)
-    c_z = numpy.broadcast_to((0.0625)*_tmp31/c_x, c_y.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**2
+        _tmp3 = 4*_lam_psi*_tmp2*c_x
+        _tmp4 = J_y*_lam_theta*_lam_x*m
+        _tmp5 = J_x*_tmp3 - _tmp4*b**2
+        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -542,38 +513,43 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**4
-    _tmp1 = 16*_lam_x
-    _tmp2 = _lam_psi*a**2
-    _tmp3 = J_x*_tmp2
-    _tmp4 = b**2
-    _tmp5 = 16*_tmp4
-    _tmp6 = h**2
-    _tmp7 = _tmp6*m
-    _tmp8 = _tmp2*_tmp7
-    _tmp9 = J_z*_lam_phi
-    _tmp10 = 4*_tmp9
-    _tmp11 = _lam_psi**2
-    _tmp12 = a**4
-    _tmp13 = _lam_x**2
-    _tmp14 = 4*m
-    _tmp15 = J_y*_tmp4
-    _tmp16 = m**2
-    _tmp17 = _lam_x*_tmp16
-    _tmp18 = _tmp17*_tmp2*_tmp6
-    _tmp19 = _tmp9*m
-    _tmp20 = _tmp13*_tmp15
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-    _tmp21 = 4*c_x
-    _tmp22 = _lam_x*m
-    _tmp23 = (0.25)/a**2
-    c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-    c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = b**4
+        _tmp1 = 16*_lam_x
+        _tmp2 = _lam_psi*a**2
+        _tmp3 = J_x*_tmp2
+        _tmp4 = b**2
+        _tmp5 = 16*_tmp4
+        _tmp6 = h**2
+        _tmp7 = _tmp6*m
+        _tmp8 = _tmp2*_tmp7
+        _tmp9 = J_z*_lam_phi
+        _tmp10 = 4*_tmp9
+        _tmp11 = _lam_psi**2
+        _tmp12 = a**4
+        _tmp13 = _lam_x**2
+        _tmp14 = 4*m
+        _tmp15 = J_y*_tmp4
+        _tmp16 = m**2
+        _tmp17 = _lam_x*_tmp16
+        _tmp18 = _tmp17*_tmp2*_tmp6
+        _tmp19 = _tmp9*m
+        _tmp20 = _tmp13*_tmp15
+        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
+        _tmp21 = 4*c_x
+        _tmp22 = _lam_x*m
+        _tmp23 = (0.25)/a**2
+        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
+        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -599,17 +575,22 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = J_y*_lam_theta
-    _tmp1 = 4*m
-    c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-    _tmp2 = a**(-2.0)
-    c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-    c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**(-2.0)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -619,14 +600,14 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_theta - 4*lambda_theta*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_theta**2 - lambda_theta*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
-        c_y = lambda_y*m*(-J_x*lambda_y + lambda_z*m*b**2)/(4*(-J_x*lambda_y + lambda_z*m*b**2 - lambda_y*m*h**2))
-        c_z = lambda_z*m/4
+        c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
+        c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -635,18 +616,23 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = 4*_lam_theta
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_theta**2*m - _lam_theta*_lam_z*_tmp1*m**2)])
-    _tmp2 = _lam_y*m
-    _tmp3 = J_x*_lam_y - _lam_z*b**2*m
-    c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_y - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -656,14 +642,14 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_x*lambda_y*b**2 + 4*lambda_z*m*b**4 - 4*lambda_y*m*b**2*h**2) + J_x*J_z*lambda_phi*lambda_y - J_x*m*a**2*lambda_y**2 + J_z*lambda_phi*lambda_y*m*h**2 + lambda_y*lambda_z*a**2*b**2*m**2 - J_z*lambda_phi*lambda_z*m*b**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
+        c_x = -(J_x*J_z*lambda_phi*lambda_y - J_x*m*a**2*lambda_y**2 - 4*J_z*c_z*lambda_phi*b**2 + J_z*lambda_phi*lambda_y*m*h**2 + 4*c_z*lambda_y*m*a**2*b**2)/(4*b**2*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-        c_z = lambda_z*m/4
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -672,20 +658,26 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = J_x*_lam_y
-    _tmp1 = b**2
-    _tmp2 = 4*_tmp1
-    _tmp3 = _lam_y*h**2*m
-    _tmp4 = J_z*_lam_phi
-    _tmp5 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(4*_lam_z*b**4*m - _tmp0*_tmp2 - _tmp2*_tmp3, -J_x*_lam_y**2*_tmp5*m + _lam_y*_lam_z*_tmp1*_tmp5*m**2 - _lam_z*_tmp1*_tmp4*m + _tmp0*_tmp4 + _tmp3*_tmp4)])
-    c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = b**2
+        _tmp1 = J_x*_lam_y
+        _tmp2 = _lam_y*m
+        _tmp3 = _tmp2*h**2
+        _tmp4 = J_z*_lam_phi
+        _tmp5 = 4*_tmp0*c_z
+        _tmp6 = a**2
+        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -695,13 +687,13 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_y is a root of
 
-        c_x*(-8*m*J_y**2*b**4*lambda_theta**3 - 8*J_y*b**4*h**2*lambda_theta**3*m**2 - 8*lambda_psi*lambda_theta*lambda_y*m*J_x**2*a**4 - 8*J_x*lambda_psi*lambda_theta*lambda_y*a**4*h**2*m**2 + 4*J_x*lambda_psi*a**2*b**2*h**2*lambda_theta**2*m**2 + 4*J_x*lambda_y*a**2*b**2*h**2*lambda_theta**2*m**2 + 8*J_x*J_y*lambda_psi*m*a**2*b**2*lambda_theta**2 + 8*J_x*J_y*lambda_y*m*a**2*b**2*lambda_theta**2) + c_x**2*(16*J_y**2*b**4*lambda_theta**2 + 16*lambda_psi*lambda_y*J_x**2*a**4 + 16*b**4*h**4*lambda_theta**2*m**2 + 32*J_y*m*b**4*h**2*lambda_theta**2 - 16*J_x*J_y*lambda_psi*lambda_theta*a**2*b**2 - 16*J_x*J_y*lambda_theta*lambda_y*a**2*b**2 + 16*J_x*lambda_psi*lambda_y*m*a**4*h**2 - 16*J_x*lambda_psi*lambda_theta*m*a**2*b**2*h**2 - 16*J_x*lambda_theta*lambda_y*m*a**2*b**2*h**2) + J_y**2*b**4*lambda_theta**4*m**2 + lambda_psi*lambda_y*J_x**2*a**4*lambda_theta**2*m**2 + J_x*lambda_psi*lambda_y*a**4*h**2*lambda_theta**2*m**3 - J_x*J_y*lambda_psi*a**2*b**2*lambda_theta**3*m**2 - J_x*J_y*lambda_y*a**2*b**2*lambda_theta**3*m**2 = 0
+        c_y*(-4*J_x*lambda_psi*m - 4*J_x*lambda_y*m) + c_y**2*(16*J_x + 16*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
 
     and then
 
-        c_y = -J_x*lambda_psi*lambda_y*m*a**2*(-4*c_x + lambda_theta*m)/(4*b**2*lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2))
+        c_x = lambda_theta*m*(-4*J_y*c_y*lambda_theta*b**2 + J_x*lambda_psi*lambda_y*m*a**2)/(4*(-4*J_y*c_y*lambda_theta*b**2 + J_x*lambda_psi*lambda_y*m*a**2 - 4*c_y*lambda_theta*m*b**2*h**2))
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -711,46 +703,26 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = 16*_lam_psi
-    _tmp1 = _lam_y*a**4
-    _tmp2 = J_x**2*_tmp1
-    _tmp3 = b**4
-    _tmp4 = J_y**2*_tmp3
-    _tmp5 = _lam_theta**2
-    _tmp6 = 16*_tmp5
-    _tmp7 = J_x*_tmp0
-    _tmp8 = a**2
-    _tmp9 = b**2
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = J_y*_tmp10
-    _tmp12 = _lam_theta*_tmp11
-    _tmp13 = J_x*_lam_y
-    _tmp14 = 16*_tmp13
-    _tmp15 = h**2
-    _tmp16 = _tmp1*_tmp15
-    _tmp17 = _tmp7*m
-    _tmp18 = J_y*_tmp15
-    _tmp19 = m**2
-    _tmp20 = _tmp19*_tmp3
-    _tmp21 = _tmp10*_tmp15
-    _tmp22 = _lam_theta*m
-    _tmp23 = _lam_theta**3
-    _tmp24 = 8*_tmp23
-    _tmp25 = _lam_psi*_tmp2
-    _tmp26 = J_x*_lam_psi
-    _tmp27 = _tmp16*_tmp26
-    _tmp28 = _tmp19*_tmp23
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-_lam_theta*_tmp17*_tmp21 + _tmp0*_tmp2 - _tmp12*_tmp14 - _tmp12*_tmp7 - _tmp14*_tmp21*_tmp22 + _tmp16*_tmp17 + 32*_tmp18*_tmp3*_tmp5*m + _tmp20*_tmp6*h**4 + _tmp4*_tmp6, 8*J_x*J_y*_lam_psi*_tmp5*_tmp8*_tmp9*m + 8*J_x*J_y*_lam_y*_tmp5*_tmp8*_tmp9*m + 4*J_x*_lam_psi*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 + 4*J_x*_lam_y*_tmp15*_tmp19*_tmp5*_tmp8*_tmp9 - 8*_lam_theta*_tmp19*_tmp27 - _tmp18*_tmp20*_tmp24 - 8*_tmp22*_tmp25 - _tmp24*_tmp4*m, _lam_theta**4*_tmp19*_tmp4 - _tmp11*_tmp13*_tmp28 - _tmp11*_tmp26*_tmp28 + _tmp19*_tmp25*_tmp5 + _tmp27*_tmp5*m**3)])
-    _tmp29 = 4*c_x
-    _tmp30 = _lam_theta*m
-    _tmp31 = J_x*_lam_psi*_lam_y*m/b**2
-    c_y = numpy.broadcast_to(-0.25*_tmp31*a**2*(-_tmp29 + _tmp30)/(_lam_theta*(J_y*_tmp29 - J_y*_tmp30 + _tmp29*h**2*m)), c_x.shape)
-    c_z = numpy.broadcast_to((0.0625)*_tmp31/c_y, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 4*m
+        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = 4*_lam_theta*_tmp2*c_y
+        _tmp4 = J_y*_tmp3
+        _tmp5 = a**2
+        _tmp6 = J_x*_lam_psi*_lam_y*m
+        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -760,13 +732,13 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_y is a root of
 
-        c_x*(-8*J_x*J_z*lambda_phi*b**2 - 8*J_z*lambda_phi*m*b**2*h**2 + 4*J_x*lambda_psi*m*a**2*b**2 + 4*J_x*lambda_y*m*a**2*b**2) + c_x**2*(16*J_x*b**4 + 16*m*b**4*h**2) + J_x*J_z**2*lambda_phi**2 + m*J_z**2*h**2*lambda_phi**2 + J_x*lambda_psi*lambda_y*a**4*m**2 - J_x*J_z*lambda_phi*lambda_psi*m*a**2 - J_x*J_z*lambda_phi*lambda_y*m*a**2 = 0
+        c_y*(-4*J_x*lambda_psi*m - 4*J_x*lambda_y*m) + c_y**2*(16*J_x + 16*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
 
     and then
 
-        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
+        c_x = -(-J_z*lambda_phi + 4*c_y*a**2)/(4*b**2)
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -776,24 +748,22 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = 16*b**4
-    _tmp1 = h**2*m
-    _tmp2 = b**2
-    _tmp3 = J_z*_lam_phi
-    _tmp4 = 8*_tmp3
-    _tmp5 = a**2
-    _tmp6 = J_z**2*_lam_phi**2
-    _tmp7 = J_x*_lam_psi
-    _tmp8 = _tmp3*_tmp5*m
-    c_x = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 + _tmp0*_tmp1, 4*J_x*_lam_psi*_tmp2*_tmp5*m + 4*J_x*_lam_y*_tmp2*_tmp5*m - J_x*_tmp2*_tmp4 - _tmp1*_tmp2*_tmp4, -J_x*_lam_y*_tmp8 + J_x*_tmp6 + _lam_y*_tmp7*a**4*m**2 + _tmp1*_tmp6 - _tmp7*_tmp8)])
-    _tmp9 = b**2
-    c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp9*c_x)/a**2, c_x.shape)
-    c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(_tmp9*c_y), c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 4*m
+        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**(-2.0)
+        c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -819,38 +789,43 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**4
-    _tmp1 = 16*_lam_theta
-    _tmp2 = _lam_y*a**2
-    _tmp3 = J_x*_tmp2
-    _tmp4 = b**2
-    _tmp5 = 16*_tmp4
-    _tmp6 = h**2
-    _tmp7 = _tmp6*m
-    _tmp8 = _tmp2*_tmp7
-    _tmp9 = J_z*_lam_phi
-    _tmp10 = 4*_tmp9
-    _tmp11 = _lam_y**2
-    _tmp12 = a**4
-    _tmp13 = _lam_theta**2
-    _tmp14 = 4*m
-    _tmp15 = J_y*_tmp4
-    _tmp16 = m**2
-    _tmp17 = _lam_theta*_tmp16
-    _tmp18 = _tmp17*_tmp2*_tmp6
-    _tmp19 = _tmp9*m
-    _tmp20 = _tmp13*_tmp15
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-    _tmp21 = 4*c_x
-    _tmp22 = _lam_theta*m
-    _tmp23 = (0.25)/a**2
-    c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-    c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = b**4
+        _tmp1 = 16*_lam_theta
+        _tmp2 = _lam_y*a**2
+        _tmp3 = J_x*_tmp2
+        _tmp4 = b**2
+        _tmp5 = 16*_tmp4
+        _tmp6 = h**2
+        _tmp7 = _tmp6*m
+        _tmp8 = _tmp2*_tmp7
+        _tmp9 = J_z*_lam_phi
+        _tmp10 = 4*_tmp9
+        _tmp11 = _lam_y**2
+        _tmp12 = a**4
+        _tmp13 = _lam_theta**2
+        _tmp14 = 4*m
+        _tmp15 = J_y*_tmp4
+        _tmp16 = m**2
+        _tmp17 = _lam_theta*_tmp16
+        _tmp18 = _tmp17*_tmp2*_tmp6
+        _tmp19 = _tmp9*m
+        _tmp20 = _tmp13*_tmp15
+        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
+        _tmp21 = 4*c_x
+        _tmp22 = _lam_theta*m
+        _tmp23 = (0.25)/a**2
+        c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
+        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -860,14 +835,14 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_theta - 4*lambda_theta*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_theta**2 - lambda_theta*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
-        c_y = lambda_psi*m*(-J_x*lambda_psi + lambda_z*m*b**2)/(4*(-J_x*lambda_psi + lambda_z*m*b**2 - lambda_psi*m*h**2))
-        c_z = lambda_z*m/4
+        c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
+        c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -876,18 +851,23 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = 4*_lam_theta
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_theta**2*m - _lam_theta*_lam_z*_tmp1*m**2)])
-    _tmp2 = _lam_psi*m
-    _tmp3 = J_x*_lam_psi - _lam_z*b**2*m
-    c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -897,14 +877,14 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_x*lambda_psi*b**2 + 4*lambda_z*m*b**4 - 4*lambda_psi*m*b**2*h**2) + J_x*J_z*lambda_phi*lambda_psi - J_x*m*a**2*lambda_psi**2 + J_z*lambda_phi*lambda_psi*m*h**2 + lambda_psi*lambda_z*a**2*b**2*m**2 - J_z*lambda_phi*lambda_z*m*b**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
+        c_x = -(J_x*J_z*lambda_phi*lambda_psi - J_x*m*a**2*lambda_psi**2 - 4*J_z*c_z*lambda_phi*b**2 + J_z*lambda_phi*lambda_psi*m*h**2 + 4*c_z*lambda_psi*m*a**2*b**2)/(4*b**2*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-        c_z = lambda_z*m/4
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -913,20 +893,26 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = J_x*_lam_psi
-    _tmp1 = b**2
-    _tmp2 = 4*_tmp1
-    _tmp3 = _lam_psi*h**2*m
-    _tmp4 = J_z*_lam_phi
-    _tmp5 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(4*_lam_z*b**4*m - _tmp0*_tmp2 - _tmp2*_tmp3, -J_x*_lam_psi**2*_tmp5*m + _lam_psi*_lam_z*_tmp1*_tmp5*m**2 - _lam_z*_tmp1*_tmp4*m + _tmp0*_tmp4 + _tmp3*_tmp4)])
-    c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = b**2
+        _tmp1 = J_x*_lam_psi
+        _tmp2 = _lam_psi*m
+        _tmp3 = _tmp2*h**2
+        _tmp4 = J_z*_lam_phi
+        _tmp5 = 4*_tmp0*c_z
+        _tmp6 = a**2
+        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -936,14 +922,14 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_x is a root of
+    Derivation (lambda = omega^2): c_z is a root of
 
-        c_x*(-4*J_y*lambda_theta - 4*lambda_theta*m*h**2 + 4*lambda_z*m*a**2) + J_y*m*lambda_theta**2 - lambda_theta*lambda_z*a**2*m**2 = 0
+        4*c_z - lambda_z*m = 0
 
     and then
 
+        c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-        c_z = lambda_z*m/4
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -952,16 +938,22 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = 4*_lam_theta
-    _tmp1 = a**2
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0 + 4*_lam_z*_tmp1*m - _tmp0*h**2*m, J_y*_lam_theta**2*m - _lam_theta*_lam_z*_tmp1*m**2)])
-    c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    c_z = numpy.broadcast_to((0.25)*_lam_z*m, c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_theta*m
+        _tmp1 = a**2
+        _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -987,38 +979,43 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**4
-    _tmp1 = 16*_lam_theta
-    _tmp2 = _lam_psi*a**2
-    _tmp3 = J_x*_tmp2
-    _tmp4 = b**2
-    _tmp5 = 16*_tmp4
-    _tmp6 = h**2
-    _tmp7 = _tmp6*m
-    _tmp8 = _tmp2*_tmp7
-    _tmp9 = J_z*_lam_phi
-    _tmp10 = 4*_tmp9
-    _tmp11 = _lam_psi**2
-    _tmp12 = a**4
-    _tmp13 = _lam_theta**2
-    _tmp14 = 4*m
-    _tmp15 = J_y*_tmp4
-    _tmp16 = m**2
-    _tmp17 = _lam_theta*_tmp16
-    _tmp18 = _tmp17*_tmp2*_tmp6
-    _tmp19 = _tmp9*m
-    _tmp20 = _tmp13*_tmp15
-    c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-    _tmp21 = 4*c_x
-    _tmp22 = _lam_theta*m
-    _tmp23 = (0.25)/a**2
-    c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-    c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = b**4
+        _tmp1 = 16*_lam_theta
+        _tmp2 = _lam_psi*a**2
+        _tmp3 = J_x*_tmp2
+        _tmp4 = b**2
+        _tmp5 = 16*_tmp4
+        _tmp6 = h**2
+        _tmp7 = _tmp6*m
+        _tmp8 = _tmp2*_tmp7
+        _tmp9 = J_z*_lam_phi
+        _tmp10 = 4*_tmp9
+        _tmp11 = _lam_psi**2
+        _tmp12 = a**4
+        _tmp13 = _lam_theta**2
+        _tmp14 = 4*m
+        _tmp15 = J_y*_tmp4
+        _tmp16 = m**2
+        _tmp17 = _lam_theta*_tmp16
+        _tmp18 = _tmp17*_tmp2*_tmp6
+        _tmp19 = _tmp9*m
+        _tmp20 = _tmp13*_tmp15
+        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
+        _tmp21 = 4*c_x
+        _tmp22 = _lam_theta*m
+        _tmp23 = (0.25)/a**2
+        c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
+        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        def _forward(c_x, c_y, c_z):
+            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 

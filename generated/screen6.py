@@ -142,6 +142,27 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*b_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*b_m, (3, 3): 2*_tmp11*_tmp12 + 2*_tmp12*b_m + 6*_tmp14 + 4*_tmp15*_tmp4, (4, 4): 2*_tmp10*_tmp17 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp14*_tmp8 + 2*_tmp14 - 2*_tmp16*_tmp7 + 2*_tmp16*b_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp17*_tmp2})
 
 
+def stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
+    """Derivatives dC/d(c_h, c_v, c_m) of the stiffness matrix, shape (..., 3, 6, 6).
+    """
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11})], axis=-3)
+
+
 def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     """Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., 6), modes
     x, y, z, psi, theta, phi.
@@ -208,13 +229,13 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-36*J_y*lambda_x*J_x**2*lambda_y**2*sin(alpha)**2 - 36*lambda_x*h**6*lambda_y**2*m**3*sin(alpha)**2 + 12*m*J_x**2*a**2*lambda_y**3*cos(alpha)**2 + 24*m*J_x**2*a**2*lambda_y**3*cos(alpha)**4 + 24*m*J_x**2*a**2*lambda_y**3*sin(alpha)**4 - 72*J_x*lambda_x*h**4*lambda_y**2*m**2*sin(alpha)**2 - 36*J_y*lambda_x*b**4*lambda_z**2*m**2*sin(alpha)**2 - 36*J_y*lambda_x*h**4*lambda_y**2*m**2*sin(alpha)**2 - 36*lambda_x*m*J_x**2*a**2*lambda_y**2*cos(alpha)**2 - 36*lambda_x*m*J_x**2*h**2*lambda_y**2*sin(alpha)**2 - 36*lambda_x*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 - 36*lambda_x*a**2*h**4*lambda_y**2*m**3*cos(alpha)**2 - 36*lambda_x*b**4*h**2*lambda_z**2*m**3*sin(alpha)**2 + 12*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**2 + 12*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 + 24*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**4 + 24*J_x*a**2*h**2*lambda_y**3*m**2*sin(alpha)**4 + 24*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**4 + 24*lambda_y*a**2*b**4*lambda_z**2*m**3*sin(alpha)**4 + 48*m*J_x**2*a**2*lambda_y**3*cos(alpha)**2*sin(alpha)**2 - 72*J_x*J_y*lambda_x*m*h**2*lambda_y**2*sin(alpha)**2 - 72*J_x*lambda_x*a**2*h**2*lambda_y**2*m**2*cos(alpha)**2 - 72*a*lambda_x*h**5*lambda_y**2*m**3*cos(alpha)*sin(alpha) - 48*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**4 - 48*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*sin(alpha)**4 - 24*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**2 - 24*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**4 - 24*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*sin(alpha)**4 - 12*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 48*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**2*sin(alpha)**2 + 48*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*lambda_x*lambda_y*lambda_z*b**2*h**4*m**3*sin(alpha)**2 - 144*J_x*a*lambda_x*h**3*lambda_y**2*m**2*cos(alpha)*sin(alpha) - 96*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**2*sin(alpha)**2 - 72*a*h*lambda_x*m*J_x**2*lambda_y**2*cos(alpha)*sin(alpha) - 72*a*h*lambda_x*b**4*lambda_z**2*m**3*cos(alpha)*sin(alpha) - 48*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*J_x*J_y*lambda_x*lambda_y*lambda_z*m*b**2*sin(alpha)**2 + 72*J_x*lambda_x*lambda_y*lambda_z*a**2*b**2*m**2*cos(alpha)**2 + 72*J_x*lambda_x*lambda_y*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*J_y*lambda_x*lambda_y*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*lambda_x*lambda_y*lambda_z*a**2*b**2*h**2*m**3*cos(alpha)**2 + 144*a*lambda_x*lambda_y*lambda_z*b**2*h**3*m**3*cos(alpha)*sin(alpha) + 144*J_x*a*h*lambda_x*lambda_y*lambda_z*b**2*m**2*cos(alpha)*sin(alpha)) - 3*J_x*lambda_x*h**4*lambda_y**3*m**3 - 3*J_y*lambda_x*m*J_x**2*lambda_y**3 - 3*lambda_x*J_x**2*h**2*lambda_y**3*m**2 + 2*J_x**2*a**2*lambda_y**4*m**2*sin(alpha)**2 + 9*J_y*m*J_x**2*lambda_x**2*lambda_y**2 + 9*J_y*b**4*lambda_x**2*lambda_z**2*m**3 + 9*J_y*h**4*lambda_x**2*lambda_y**2*m**3 - 6*J_x*lambda_x*h**4*lambda_y**3*m**3*cos(alpha)**2 - 6*J_y*lambda_x*m*J_x**2*lambda_y**3*cos(alpha)**2 - 6*lambda_x*J_x**2*a**2*lambda_y**3*m**2*sin(alpha)**2 - 6*lambda_x*J_x**2*h**2*lambda_y**3*m**2*cos(alpha)**2 - 3*J_x*J_y*lambda_x*h**2*lambda_y**3*m**2 - 3*J_y*lambda_x*lambda_y*b**4*lambda_z**2*m**3 - 3*lambda_x*lambda_y*b**4*h**2*lambda_z**2*m**4 + 2*a**2*b**4*lambda_y**2*lambda_z**2*m**4*sin(alpha)**2 + 3*lambda_x*lambda_z*b**2*h**4*lambda_y**2*m**4 + 18*J_x*J_y*h**2*lambda_x**2*lambda_y**2*m**2 - 18*J_x*J_y*lambda_y*lambda_z*b**2*lambda_x**2*m**2 - 18*J_y*lambda_y*lambda_z*b**2*h**2*lambda_x**2*m**3 - 6*J_x*J_y*lambda_x*h**2*lambda_y**3*m**2*cos(alpha)**2 - 6*J_x*lambda_x*a**2*h**2*lambda_y**3*m**3*sin(alpha)**2 - 6*J_y*lambda_x*lambda_y*b**4*lambda_z**2*m**3*cos(alpha)**2 - 6*lambda_x*lambda_y*a**2*b**4*lambda_z**2*m**4*sin(alpha)**2 - 6*lambda_x*lambda_y*b**4*h**2*lambda_z**2*m**4*cos(alpha)**2 - 4*J_x*lambda_z*a**2*b**2*lambda_y**3*m**3*sin(alpha)**2 + 3*J_y*lambda_x*lambda_z*b**2*h**2*lambda_y**2*m**3 + 6*J_x*J_y*lambda_x*lambda_z*b**2*lambda_y**2*m**2 + 6*J_x*lambda_x*lambda_z*b**2*h**2*lambda_y**2*m**3 + 6*lambda_x*lambda_z*b**2*h**4*lambda_y**2*m**4*cos(alpha)**2 + 6*J_y*lambda_x*lambda_z*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 6*lambda_x*lambda_z*a**2*b**2*h**2*lambda_y**2*m**4*sin(alpha)**2 + 12*J_x*J_y*lambda_x*lambda_z*b**2*lambda_y**2*m**2*cos(alpha)**2 + 12*J_x*a*lambda_x*h**3*lambda_y**3*m**3*cos(alpha)*sin(alpha) + 12*J_x*lambda_x*lambda_z*a**2*b**2*lambda_y**2*m**3*sin(alpha)**2 + 12*J_x*lambda_x*lambda_z*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 12*a*h*lambda_x*J_x**2*lambda_y**3*m**2*cos(alpha)*sin(alpha) - 12*a*lambda_x*lambda_z*b**2*h**3*lambda_y**2*m**4*cos(alpha)*sin(alpha) + 12*a*h*lambda_x*lambda_y*b**4*lambda_z**2*m**4*cos(alpha)*sin(alpha) - 24*J_x*a*h*lambda_x*lambda_z*b**2*lambda_y**2*m**3*cos(alpha)*sin(alpha) = 0
+        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_h = lambda_y*m*(-J_x*lambda_y + lambda_z*m*b**2)/(6*(-J_x*lambda_y + lambda_z*m*b**2 - lambda_y*m*h**2))
+        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -224,84 +245,39 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _tmp0 = J_x**2
-    _tmp1 = _lam_x*_tmp0
-    _tmp2 = _lam_y**2
-    _tmp3 = J_y*_tmp2
-    _tmp4 = numpy.sin(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 36*_tmp5
-    _tmp7 = _tmp3*_tmp6
-    _tmp8 = b**2
-    _tmp9 = _lam_y**3
-    _tmp10 = a**2
-    _tmp11 = _tmp4**4
-    _tmp12 = numpy.cos(alpha)
-    _tmp13 = _tmp12**2
-    _tmp14 = _tmp12**4
-    _tmp15 = m**3
-    _tmp16 = _lam_x*_tmp15
-    _tmp17 = _tmp2*_tmp6
-    _tmp18 = h**2
-    _tmp19 = J_x*_tmp18
-    _tmp20 = _tmp2*m
-    _tmp21 = _tmp12*_tmp4*a
-    _tmp22 = 72*_tmp21
-    _tmp23 = _tmp22*h
-    _tmp24 = h**4
-    _tmp25 = J_x*_tmp24
-    _tmp26 = m**2
-    _tmp27 = _tmp26*_tmp5
-    _tmp28 = _lam_x*_tmp2
-    _tmp29 = 72*_tmp28
-    _tmp30 = _tmp1*_tmp10
-    _tmp31 = 36*_tmp13
-    _tmp32 = _tmp1*_tmp18
-    _tmp33 = _lam_x*_tmp26
-    _tmp34 = _lam_z**2
-    _tmp35 = b**4
-    _tmp36 = _tmp34*_tmp35
-    _tmp37 = J_y*_tmp36
-    _tmp38 = _tmp16*_tmp2
-    _tmp39 = J_x*_tmp26
-    _tmp40 = h**3
-    _tmp41 = _tmp21*_tmp40
-    _tmp42 = _tmp16*_tmp36
-    _tmp43 = _tmp10*_tmp2
-    _tmp44 = 48*_tmp39
-    _tmp45 = _lam_z*_tmp8
-    _tmp46 = _tmp43*_tmp45
-    _tmp47 = _tmp11*_tmp46
-    _tmp48 = _tmp13*_tmp46
-    _tmp49 = _tmp14*_tmp46
-    _tmp50 = _tmp15*_tmp18
-    _tmp51 = 24*_tmp50
-    _tmp52 = _tmp46*_tmp50
-    _tmp53 = 3*J_y
-    _tmp54 = _tmp1*_tmp9*m
-    _tmp55 = 3*_tmp9
-    _tmp56 = _tmp16*_tmp25
-    _tmp57 = _lam_x**2
-    _tmp58 = J_y*_tmp19*_tmp33
-    _tmp59 = _tmp26*_tmp32
-    _tmp60 = 6*_tmp13
-    _tmp61 = 18*J_y*_lam_y*_tmp45*_tmp57
-    _tmp62 = m**4
-    _tmp63 = _lam_y*_tmp36
-    _tmp64 = _lam_x*_tmp18*_tmp63
-    _tmp65 = _tmp60*_tmp9
-    _tmp66 = _tmp5*_tmp9
-    _tmp67 = J_x*_tmp45
-    c_v = numpy.concatenate([_runtime.polynomial_roots(72*J_x*J_y*_lam_x*_lam_y*_lam_z*_tmp5*_tmp8*m + 72*J_x*_lam_x*_lam_y*_lam_z*_tmp10*_tmp13*_tmp26*_tmp8 + 144*J_x*_lam_x*_lam_y*_lam_z*_tmp12*_tmp26*_tmp4*_tmp8*a*h + 72*J_x*_lam_x*_lam_y*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 24*J_x*_tmp10*_tmp11*_tmp18*_tmp26*_tmp9 + 48*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp5*_tmp9 + 12*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp9 + 24*J_x*_tmp10*_tmp14*_tmp18*_tmp26*_tmp9 - 96*J_x*_tmp27*_tmp48 + 72*J_y*_lam_x*_lam_y*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 72*_lam_x*_lam_y*_lam_z*_tmp10*_tmp13*_tmp15*_tmp18*_tmp8 + 144*_lam_x*_lam_y*_lam_z*_tmp12*_tmp15*_tmp4*_tmp40*_tmp8*a + 72*_lam_x*_lam_y*_lam_z*_tmp15*_tmp24*_tmp5*_tmp8 - 72*_lam_x*_tmp19*_tmp3*_tmp5*m + 24*_lam_y*_tmp10*_tmp11*_tmp15*_tmp34*_tmp35 + 48*_lam_y*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35*_tmp5 + 12*_lam_y*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35 + 24*_lam_y*_tmp10*_tmp14*_tmp15*_tmp34*_tmp35 + 24*_tmp0*_tmp10*_tmp11*_tmp9*m + 48*_tmp0*_tmp10*_tmp13*_tmp5*_tmp9*m + 12*_tmp0*_tmp10*_tmp13*_tmp9*m + 24*_tmp0*_tmp10*_tmp14*_tmp9*m - _tmp1*_tmp20*_tmp23 - _tmp1*_tmp7 - _tmp10*_tmp13*_tmp19*_tmp26*_tmp29 - _tmp10*_tmp31*_tmp42 - 48*_tmp13*_tmp5*_tmp52 - 12*_tmp13*_tmp52 - _tmp16*_tmp17*h**6 - _tmp16*_tmp24*_tmp31*_tmp43 - _tmp17*_tmp32*m - _tmp18*_tmp42*_tmp6 - _tmp20*_tmp30*_tmp31 - _tmp22*_tmp38*h**5 - _tmp23*_tmp42 - _tmp24*_tmp33*_tmp7 - _tmp25*_tmp27*_tmp29 - 144*_tmp28*_tmp39*_tmp41 - _tmp33*_tmp37*_tmp6 - 24*_tmp39*_tmp48 - _tmp44*_tmp47 - _tmp44*_tmp49 - _tmp47*_tmp51 - _tmp49*_tmp51, 12*J_x*J_y*_lam_x*_lam_z*_tmp13*_tmp2*_tmp26*_tmp8 + 6*J_x*J_y*_lam_x*_lam_z*_tmp2*_tmp26*_tmp8 + 18*J_x*J_y*_tmp18*_tmp2*_tmp26*_tmp57 + 12*J_x*_lam_x*_lam_z*_tmp10*_tmp15*_tmp2*_tmp5*_tmp8 + 12*J_x*_lam_x*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 6*J_x*_lam_x*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 12*J_x*_lam_x*_tmp12*_tmp15*_tmp4*_tmp40*_tmp9*a + 6*J_y*_lam_x*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 3*J_y*_lam_x*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 9*J_y*_tmp0*_tmp2*_tmp57*m + 9*J_y*_tmp15*_tmp2*_tmp24*_tmp57 + 9*J_y*_tmp15*_tmp34*_tmp35*_tmp57 - J_y*_tmp54*_tmp60 + 12*_lam_x*_lam_y*_tmp12*_tmp34*_tmp35*_tmp4*_tmp62*a*h + 6*_lam_x*_lam_z*_tmp10*_tmp18*_tmp2*_tmp5*_tmp62*_tmp8 + 6*_lam_x*_lam_z*_tmp13*_tmp2*_tmp24*_tmp62*_tmp8 + 3*_lam_x*_lam_z*_tmp2*_tmp24*_tmp62*_tmp8 + 12*_lam_x*_tmp0*_tmp12*_tmp26*_tmp4*_tmp9*a*h - 6*_lam_x*_tmp10*_tmp5*_tmp62*_tmp63 + 2*_lam_y**4*_tmp0*_tmp10*_tmp26*_tmp5 - _lam_y*_tmp16*_tmp37*_tmp60 - _lam_y*_tmp42*_tmp53 - 4*_tmp10*_tmp15*_tmp66*_tmp67 - 6*_tmp10*_tmp16*_tmp19*_tmp66 + 2*_tmp10*_tmp2*_tmp34*_tmp35*_tmp5*_tmp62 - 24*_tmp21*_tmp38*_tmp67*h - 6*_tmp27*_tmp30*_tmp9 - 12*_tmp28*_tmp41*_tmp45*_tmp62 - _tmp39*_tmp61 - _tmp50*_tmp61 - _tmp53*_tmp54 - _tmp55*_tmp56 - _tmp55*_tmp58 - _tmp55*_tmp59 - _tmp56*_tmp65 - _tmp58*_tmp65 - _tmp59*_tmp65 - _tmp60*_tmp62*_tmp64 - 3*_tmp62*_tmp64)])
-    _tmp68 = _lam_y*m
-    _tmp69 = J_x*_lam_y - _lam_z*b**2*m
-    c_h = numpy.broadcast_to(-0.16666666666666666*_tmp68*_tmp69/(-_tmp68*h**2 - _tmp69), c_v.shape)
-    c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _tmp0 = 6*_lam_y
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_x
+        _tmp4 = h**2
+        _tmp5 = _lam_x*m
+        _tmp6 = _tmp4*_tmp5
+        _tmp7 = numpy.cos(alpha)
+        _tmp8 = _tmp7**2
+        _tmp9 = 4*_tmp8*c_h
+        _tmp10 = numpy.sin(alpha)
+        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
+        _tmp12 = a**2
+        _tmp13 = _tmp10**2
+        _tmp14 = 8*_tmp13
+        _tmp15 = _tmp12*c_h
+        _tmp16 = 4*_tmp15
+        _tmp17 = _lam_x*_tmp13
+        _tmp18 = _tmp17*m
+        _tmp19 = _tmp12*_tmp8
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -327,36 +303,41 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = J_x*_lam_psi
-    _tmp1 = 6*m
-    c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-    _tmp2 = 2*c_h
-    _tmp3 = J_y*_lam_x
-    _tmp4 = h**2
-    _tmp5 = _lam_x*m
-    _tmp6 = numpy.cos(alpha)
-    _tmp7 = _tmp6**2
-    _tmp8 = _tmp7*c_h
-    _tmp9 = numpy.sin(alpha)
-    _tmp10 = _tmp5*_tmp6*_tmp9*a*h
-    _tmp11 = a**2
-    _tmp12 = _tmp9**2
-    _tmp13 = _tmp12*c_h**2
-    _tmp14 = _tmp11*c_h
-    _tmp15 = 4*_tmp14
-    _tmp16 = _lam_x*_tmp12
-    _tmp17 = _tmp16*m
-    _tmp18 = _tmp5*_tmp7
-    _tmp19 = _tmp14*_tmp7
-    _tmp20 = b**2
-    _tmp21 = 24*_tmp20
-    c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-    c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 6*m
+        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_x
+        _tmp4 = h**2
+        _tmp5 = _lam_x*m
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = _tmp7*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = _tmp12*c_h**2
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_x*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        _tmp20 = b**2
+        _tmp21 = 24*_tmp20
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -382,86 +363,91 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = a**2
-    _tmp1 = J_y*_tmp0
-    _tmp2 = numpy.cos(alpha)
-    _tmp3 = _tmp2**2
-    _tmp4 = 4*_tmp3
-    _tmp5 = _tmp2**4
-    _tmp6 = 16*_tmp1
-    _tmp7 = _tmp2**6
-    _tmp8 = numpy.sin(alpha)
-    _tmp9 = a**4
-    _tmp10 = 16*m
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = h**2
-    _tmp13 = _tmp0*_tmp12
-    _tmp14 = _tmp13*m
-    _tmp15 = _tmp10*_tmp13
-    _tmp16 = a**3*h
-    _tmp17 = _tmp16*_tmp2**3
-    _tmp18 = 32*m
-    _tmp19 = _tmp16*_tmp18
-    _tmp20 = _tmp8**3
-    _tmp21 = _tmp8**2
-    _tmp22 = _tmp3*_tmp6
-    _tmp23 = _tmp21*_tmp5
-    _tmp24 = 32*_tmp23
-    _tmp25 = _tmp8**4
-    _tmp26 = _tmp25*_tmp3
-    _tmp27 = _tmp21*_tmp3
-    _tmp28 = _lam_theta*m
-    _tmp29 = 4*_tmp1
-    _tmp30 = _tmp28*_tmp29
-    _tmp31 = _tmp1*_tmp3
-    _tmp32 = 2*_tmp31
-    _tmp33 = _lam_x*m
-    _tmp34 = _tmp29*_tmp33
-    _tmp35 = _lam_x*_tmp21
-    _tmp36 = _lam_theta*m**2
-    _tmp37 = _lam_x*_tmp36
-    c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
-    _tmp38 = b**2
-    _tmp39 = 6*c_h
-    _tmp40 = _lam_y*m
-    _tmp41 = c_h**2
-    _tmp42 = a**2
-    _tmp43 = J_x*_tmp42
-    _tmp44 = _tmp41*_tmp43
-    _tmp45 = _lam_y*_tmp44
-    _tmp46 = numpy.sin(alpha)
-    _tmp47 = _tmp46**4
-    _tmp48 = 24*_tmp47
-    _tmp49 = numpy.cos(alpha)
-    _tmp50 = _tmp49**2
-    _tmp51 = _lam_y*_tmp50
-    _tmp52 = _tmp49**4
-    _tmp53 = 24*_tmp52
-    _tmp54 = J_y*_lam_theta*_lam_x
-    _tmp55 = _tmp54*m
-    _tmp56 = _tmp46**6
-    _tmp57 = c_h**3
-    _tmp58 = _tmp38*_tmp42
-    _tmp59 = _tmp57*_tmp58
-    _tmp60 = _lam_y**2*_tmp43*c_h*m
-    _tmp61 = 4*_tmp60
-    _tmp62 = _tmp40*_tmp41
-    _tmp63 = _tmp58*_tmp62
-    _tmp64 = _tmp42*_tmp62*h**2
-    _tmp65 = _tmp46**2
-    _tmp66 = _tmp50*_tmp65
-    _tmp67 = 48*_tmp66
-    _tmp68 = _tmp42*_tmp65
-    _tmp69 = _tmp38*_tmp52
-    _tmp70 = _tmp47*_tmp50
-    _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
-    c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
-    c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = a**2
+        _tmp1 = J_y*_tmp0
+        _tmp2 = numpy.cos(alpha)
+        _tmp3 = _tmp2**2
+        _tmp4 = 4*_tmp3
+        _tmp5 = _tmp2**4
+        _tmp6 = 16*_tmp1
+        _tmp7 = _tmp2**6
+        _tmp8 = numpy.sin(alpha)
+        _tmp9 = a**4
+        _tmp10 = 16*m
+        _tmp11 = _tmp10*_tmp9
+        _tmp12 = h**2
+        _tmp13 = _tmp0*_tmp12
+        _tmp14 = _tmp13*m
+        _tmp15 = _tmp10*_tmp13
+        _tmp16 = a**3*h
+        _tmp17 = _tmp16*_tmp2**3
+        _tmp18 = 32*m
+        _tmp19 = _tmp16*_tmp18
+        _tmp20 = _tmp8**3
+        _tmp21 = _tmp8**2
+        _tmp22 = _tmp3*_tmp6
+        _tmp23 = _tmp21*_tmp5
+        _tmp24 = 32*_tmp23
+        _tmp25 = _tmp8**4
+        _tmp26 = _tmp25*_tmp3
+        _tmp27 = _tmp21*_tmp3
+        _tmp28 = _lam_theta*m
+        _tmp29 = 4*_tmp1
+        _tmp30 = _tmp28*_tmp29
+        _tmp31 = _tmp1*_tmp3
+        _tmp32 = 2*_tmp31
+        _tmp33 = _lam_x*m
+        _tmp34 = _tmp29*_tmp33
+        _tmp35 = _lam_x*_tmp21
+        _tmp36 = _lam_theta*m**2
+        _tmp37 = _lam_x*_tmp36
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp38 = b**2
+        _tmp39 = 6*c_h
+        _tmp40 = _lam_y*m
+        _tmp41 = c_h**2
+        _tmp42 = a**2
+        _tmp43 = J_x*_tmp42
+        _tmp44 = _tmp41*_tmp43
+        _tmp45 = _lam_y*_tmp44
+        _tmp46 = numpy.sin(alpha)
+        _tmp47 = _tmp46**4
+        _tmp48 = 24*_tmp47
+        _tmp49 = numpy.cos(alpha)
+        _tmp50 = _tmp49**2
+        _tmp51 = _lam_y*_tmp50
+        _tmp52 = _tmp49**4
+        _tmp53 = 24*_tmp52
+        _tmp54 = J_y*_lam_theta*_lam_x
+        _tmp55 = _tmp54*m
+        _tmp56 = _tmp46**6
+        _tmp57 = c_h**3
+        _tmp58 = _tmp38*_tmp42
+        _tmp59 = _tmp57*_tmp58
+        _tmp60 = _lam_y**2*_tmp43*c_h*m
+        _tmp61 = 4*_tmp60
+        _tmp62 = _tmp40*_tmp41
+        _tmp63 = _tmp58*_tmp62
+        _tmp64 = _tmp42*_tmp62*h**2
+        _tmp65 = _tmp46**2
+        _tmp66 = _tmp50*_tmp65
+        _tmp67 = 48*_tmp66
+        _tmp68 = _tmp42*_tmp65
+        _tmp69 = _tmp38*_tmp52
+        _tmp70 = _tmp47*_tmp50
+        _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
+        c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -471,14 +457,14 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_x*a**4*sin(alpha)**2 + 16*lambda_x*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_x*m*a**4*b**2*sin(alpha)**4 - 8*lambda_x*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_x*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**6 + 16*lambda_x*m*a**4*b**2*cos(alpha)**2 + 16*lambda_x*m*a**4*h**2*sin(alpha)**2 + 32*lambda_x*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_x*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_x*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_x*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_x*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_x*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_x*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_x*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_x*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_x*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_x*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_x*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_x**2 - 4*J_y*m*a**4*lambda_x**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_x*b**2 - 4*J_y*m*a**2*b**2*lambda_x**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_x*a**2 + J_z*lambda_phi*lambda_x*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_x**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_x*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_x*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_x*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_x*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = -(-96*b**6*c_v**2*sin(alpha)**6 - J_x*m*b**4*lambda_y**2 - 6*J_z**2*b**2*lambda_phi**2*sin(alpha)**2 - 4*J_x*m*a**4*lambda_y**2 + 48*b**6*c_v**2*cos(alpha)**2*sin(alpha)**2 + 96*b**6*c_v**2*cos(alpha)**4*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*b**4*cos(alpha)**4 - 12*J_x*c_v*lambda_y*b**4*sin(alpha)**2 - 12*J_z*c_v*lambda_phi*b**4*cos(alpha)**2 - 8*c_v*lambda_y*m*b**6*sin(alpha)**4 - 4*J_x*m*a**2*b**2*lambda_y**2 - 4*J_x*m*b**4*lambda_y**2*cos(alpha)**2 - 4*J_x*m*b**4*lambda_y**2*cos(alpha)**4 + 3*J_x*J_z*lambda_phi*lambda_y*b**2 + 4*c_v*lambda_y*m*b**6*cos(alpha)**2 + 6*J_x*J_z*lambda_phi*lambda_y*a**2 + 16*c_v*lambda_y*m*b**6*cos(alpha)**4 + 16*c_v*lambda_y*m*b**6*cos(alpha)**6 + 48*J_z*c_v*lambda_phi*b**4*sin(alpha)**4 + 96*a**2*b**4*c_v**2*cos(alpha)**2*sin(alpha)**2 - 24*J_x*c_v*lambda_y*a**2*b**2*sin(alpha)**2 - 24*J_x*c_v*lambda_y*b**4*cos(alpha)**2*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*a**2*b**2*cos(alpha)**2 - 16*c_v*lambda_y*m*a**2*b**4*sin(alpha)**4 - 16*c_v*lambda_y*m*b**6*cos(alpha)**2*sin(alpha)**4 - 12*c_v*lambda_y*m*b**4*h**2*sin(alpha)**2 - 8*J_x*m*a**2*b**2*lambda_y**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_y*m*b**4*sin(alpha)**2 + 3*J_z*lambda_phi*lambda_y*m*b**2*h**2 + 6*J_x*J_z*lambda_phi*lambda_y*b**2*cos(alpha)**2 + 6*J_z*lambda_phi*lambda_y*m*a**2*h**2 + 16*c_v*lambda_y*m*a**2*b**4*cos(alpha)**2 + 16*c_v*lambda_y*m*a**4*b**2*cos(alpha)**2 + 32*c_v*lambda_y*m*a**2*b**4*cos(alpha)**4 - 24*c_v*lambda_y*m*a**2*b**2*h**2*sin(alpha)**2 - 24*c_v*lambda_y*m*b**4*h**2*cos(alpha)**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_y*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_y*m*b**4*cos(alpha)**2*sin(alpha)**2 + 6*J_z*lambda_phi*lambda_y*m*b**2*h**2*cos(alpha)**2)/(2*b**2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2)*(-3*J_z*lambda_phi + lambda_y*m*b**2 + 2*lambda_y*m*a**2 + 12*c_v*b**2*sin(alpha)**2 + 2*lambda_y*m*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -487,130 +473,67 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_x
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_x*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_x*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_x*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_x*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_x**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_x*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = b**2
-    _tmp80 = J_z*_lam_phi
-    _tmp81 = _lam_y*m
-    _tmp82 = _tmp79*_tmp81
-    _tmp83 = a**2
-    _tmp84 = 2*_tmp83
-    _tmp85 = numpy.sin(alpha)
-    _tmp86 = _tmp85**2
-    _tmp87 = _tmp79*_tmp86
-    _tmp88 = 12*c_v
-    _tmp89 = numpy.cos(alpha)
-    _tmp90 = _tmp89**2
-    _tmp91 = _tmp79*_tmp90
-    _tmp92 = 2*_tmp91
-    _tmp93 = b**4
-    _tmp94 = J_x*_tmp93
-    _tmp95 = _lam_y**2*m
-    _tmp96 = _tmp94*_tmp95
-    _tmp97 = a**4
-    _tmp98 = J_x*_tmp95
-    _tmp99 = 4*_tmp98
-    _tmp100 = b**6
-    _tmp101 = c_v**2
-    _tmp102 = _lam_y*_tmp94
-    _tmp103 = _tmp86*_tmp88
-    _tmp104 = _tmp85**4
-    _tmp105 = _tmp80*_tmp93
-    _tmp106 = _tmp89**4
-    _tmp107 = _tmp104*c_v
-    _tmp108 = _tmp100*_tmp107*_tmp81
-    _tmp109 = h**2
-    _tmp110 = 4*_tmp96
-    _tmp111 = 24*c_v
-    _tmp112 = _tmp111*_tmp83
-    _tmp113 = _tmp109*_tmp81*_tmp93
-    _tmp114 = _tmp111*_tmp86*_tmp90
-    _tmp115 = (0.5)/(_tmp79 + _tmp84 + _tmp92)
-    c_m = numpy.broadcast_to(-_tmp115*(6*J_x*J_z*_lam_phi*_lam_y*_tmp79*_tmp90 + 3*J_x*J_z*_lam_phi*_lam_y*_tmp79 + 6*J_x*J_z*_lam_phi*_lam_y*_tmp83 - J_x*_lam_y*_tmp112*_tmp87 - 6*J_z**2*_lam_phi**2*_tmp87 + 6*J_z*_lam_phi*_lam_y*_tmp109*_tmp79*_tmp90*m + 3*J_z*_lam_phi*_lam_y*_tmp109*_tmp79*m + 6*J_z*_lam_phi*_lam_y*_tmp109*_tmp83*m + 4*J_z*_lam_phi*_lam_y*_tmp79*_tmp83*_tmp86*m + 4*J_z*_lam_phi*_lam_y*_tmp86*_tmp90*_tmp93*m + 2*J_z*_lam_phi*_lam_y*_tmp86*_tmp93*m + 48*J_z*_lam_phi*_tmp104*_tmp93*c_v + 16*_lam_y*_tmp100*_tmp106*c_v*m + 16*_lam_y*_tmp100*_tmp89**6*c_v*m + 4*_lam_y*_tmp100*_tmp90*c_v*m + 32*_lam_y*_tmp106*_tmp83*_tmp93*c_v*m + 16*_lam_y*_tmp79*_tmp90*_tmp97*c_v*m + 16*_lam_y*_tmp83*_tmp90*_tmp93*c_v*m + 96*_tmp100*_tmp101*_tmp106*_tmp86 - 96*_tmp100*_tmp101*_tmp85**6 + 48*_tmp100*_tmp101*_tmp86*_tmp90 + 96*_tmp101*_tmp83*_tmp86*_tmp90*_tmp93 - _tmp102*_tmp103 - _tmp102*_tmp114 - _tmp103*_tmp113 - 24*_tmp105*_tmp106*c_v - _tmp105*_tmp88*_tmp90 - _tmp106*_tmp110 - 16*_tmp107*_tmp81*_tmp83*_tmp93 - 16*_tmp108*_tmp90 - 8*_tmp108 - _tmp109*_tmp112*_tmp82*_tmp86 - _tmp110*_tmp90 - _tmp111*_tmp80*_tmp83*_tmp91 - _tmp113*_tmp114 - _tmp79*_tmp83*_tmp99 - 8*_tmp83*_tmp91*_tmp98 - _tmp96 - _tmp97*_tmp99)/(_tmp79*(-3*_tmp80 + _tmp81*_tmp84 + _tmp81*_tmp92 + _tmp82 + _tmp87*_tmp88)), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp115*(4*_tmp79*_tmp86*c_v - _tmp80), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_x*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_x*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = 6*c_h
+        _tmp33 = _lam_y*m
+        _tmp34 = numpy.sin(alpha)
+        _tmp35 = _tmp34**2
+        _tmp36 = numpy.cos(alpha)
+        _tmp37 = _tmp36**2
+        _tmp38 = J_z*_lam_phi
+        _tmp39 = a**2
+        _tmp40 = c_h**2
+        _tmp41 = 24*_tmp40
+        _tmp42 = b**2
+        _tmp43 = _tmp34**4
+        _tmp44 = _tmp36**4
+        _tmp45 = _tmp42*c_h
+        _tmp46 = 4*_tmp45
+        _tmp47 = 1/(_tmp35*_tmp42)
+        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -620,13 +543,13 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-36*J_y*lambda_x*J_x**2*lambda_psi**2*sin(alpha)**2 - 36*lambda_x*h**6*lambda_psi**2*m**3*sin(alpha)**2 + 12*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**2 + 24*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**4 + 24*m*J_x**2*a**2*lambda_psi**3*sin(alpha)**4 - 72*J_x*lambda_x*h**4*lambda_psi**2*m**2*sin(alpha)**2 - 36*J_y*lambda_x*b**4*lambda_z**2*m**2*sin(alpha)**2 - 36*J_y*lambda_x*h**4*lambda_psi**2*m**2*sin(alpha)**2 - 36*lambda_x*m*J_x**2*a**2*lambda_psi**2*cos(alpha)**2 - 36*lambda_x*m*J_x**2*h**2*lambda_psi**2*sin(alpha)**2 - 36*lambda_x*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 - 36*lambda_x*a**2*h**4*lambda_psi**2*m**3*cos(alpha)**2 - 36*lambda_x*b**4*h**2*lambda_z**2*m**3*sin(alpha)**2 + 12*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**2 + 12*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 + 24*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**4 + 24*J_x*a**2*h**2*lambda_psi**3*m**2*sin(alpha)**4 + 24*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**4 + 24*lambda_psi*a**2*b**4*lambda_z**2*m**3*sin(alpha)**4 + 48*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**2*sin(alpha)**2 - 72*J_x*J_y*lambda_x*m*h**2*lambda_psi**2*sin(alpha)**2 - 72*J_x*lambda_x*a**2*h**2*lambda_psi**2*m**2*cos(alpha)**2 - 72*a*lambda_x*h**5*lambda_psi**2*m**3*cos(alpha)*sin(alpha) - 48*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**4 - 48*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*sin(alpha)**4 - 24*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**2 - 24*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**4 - 24*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*sin(alpha)**4 - 12*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 48*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**2*sin(alpha)**2 + 48*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*lambda_psi*lambda_x*lambda_z*b**2*h**4*m**3*sin(alpha)**2 - 144*J_x*a*lambda_x*h**3*lambda_psi**2*m**2*cos(alpha)*sin(alpha) - 96*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**2*sin(alpha)**2 - 72*a*h*lambda_x*m*J_x**2*lambda_psi**2*cos(alpha)*sin(alpha) - 72*a*h*lambda_x*b**4*lambda_z**2*m**3*cos(alpha)*sin(alpha) - 48*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*J_x*J_y*lambda_psi*lambda_x*lambda_z*m*b**2*sin(alpha)**2 + 72*J_x*lambda_psi*lambda_x*lambda_z*a**2*b**2*m**2*cos(alpha)**2 + 72*J_x*lambda_psi*lambda_x*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*J_y*lambda_psi*lambda_x*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*lambda_psi*lambda_x*lambda_z*a**2*b**2*h**2*m**3*cos(alpha)**2 + 144*a*lambda_psi*lambda_x*lambda_z*b**2*h**3*m**3*cos(alpha)*sin(alpha) + 144*J_x*a*h*lambda_psi*lambda_x*lambda_z*b**2*m**2*cos(alpha)*sin(alpha)) - 3*J_x*lambda_x*h**4*lambda_psi**3*m**3 - 3*J_y*lambda_x*m*J_x**2*lambda_psi**3 - 3*lambda_x*J_x**2*h**2*lambda_psi**3*m**2 + 2*J_x**2*a**2*lambda_psi**4*m**2*sin(alpha)**2 + 9*J_y*m*J_x**2*lambda_psi**2*lambda_x**2 + 9*J_y*b**4*lambda_x**2*lambda_z**2*m**3 + 9*J_y*h**4*lambda_psi**2*lambda_x**2*m**3 - 6*J_x*lambda_x*h**4*lambda_psi**3*m**3*cos(alpha)**2 - 6*J_y*lambda_x*m*J_x**2*lambda_psi**3*cos(alpha)**2 - 6*lambda_x*J_x**2*a**2*lambda_psi**3*m**2*sin(alpha)**2 - 6*lambda_x*J_x**2*h**2*lambda_psi**3*m**2*cos(alpha)**2 - 3*J_x*J_y*lambda_x*h**2*lambda_psi**3*m**2 - 3*J_y*lambda_psi*lambda_x*b**4*lambda_z**2*m**3 - 3*lambda_psi*lambda_x*b**4*h**2*lambda_z**2*m**4 + 2*a**2*b**4*lambda_psi**2*lambda_z**2*m**4*sin(alpha)**2 + 3*lambda_x*lambda_z*b**2*h**4*lambda_psi**2*m**4 + 18*J_x*J_y*h**2*lambda_psi**2*lambda_x**2*m**2 - 18*J_x*J_y*lambda_psi*lambda_z*b**2*lambda_x**2*m**2 - 18*J_y*lambda_psi*lambda_z*b**2*h**2*lambda_x**2*m**3 - 6*J_x*J_y*lambda_x*h**2*lambda_psi**3*m**2*cos(alpha)**2 - 6*J_x*lambda_x*a**2*h**2*lambda_psi**3*m**3*sin(alpha)**2 - 6*J_y*lambda_psi*lambda_x*b**4*lambda_z**2*m**3*cos(alpha)**2 - 6*lambda_psi*lambda_x*a**2*b**4*lambda_z**2*m**4*sin(alpha)**2 - 6*lambda_psi*lambda_x*b**4*h**2*lambda_z**2*m**4*cos(alpha)**2 - 4*J_x*lambda_z*a**2*b**2*lambda_psi**3*m**3*sin(alpha)**2 + 3*J_y*lambda_x*lambda_z*b**2*h**2*lambda_psi**2*m**3 + 6*J_x*J_y*lambda_x*lambda_z*b**2*lambda_psi**2*m**2 + 6*J_x*lambda_x*lambda_z*b**2*h**2*lambda_psi**2*m**3 + 6*lambda_x*lambda_z*b**2*h**4*lambda_psi**2*m**4*cos(alpha)**2 + 6*J_y*lambda_x*lambda_z*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 6*lambda_x*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**4*sin(alpha)**2 + 12*J_x*J_y*lambda_x*lambda_z*b**2*lambda_psi**2*m**2*cos(alpha)**2 + 12*J_x*a*lambda_x*h**3*lambda_psi**3*m**3*cos(alpha)*sin(alpha) + 12*J_x*lambda_x*lambda_z*a**2*b**2*lambda_psi**2*m**3*sin(alpha)**2 + 12*J_x*lambda_x*lambda_z*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 12*a*h*lambda_x*J_x**2*lambda_psi**3*m**2*cos(alpha)*sin(alpha) - 12*a*lambda_x*lambda_z*b**2*h**3*lambda_psi**2*m**4*cos(alpha)*sin(alpha) + 12*a*h*lambda_psi*lambda_x*b**4*lambda_z**2*m**4*cos(alpha)*sin(alpha) - 24*J_x*a*h*lambda_x*lambda_z*b**2*lambda_psi**2*m**3*cos(alpha)*sin(alpha) = 0
+        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_h = lambda_psi*m*(-J_x*lambda_psi + lambda_z*m*b**2)/(6*(-J_x*lambda_psi + lambda_z*m*b**2 - lambda_psi*m*h**2))
+        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -636,84 +559,39 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _tmp0 = J_x**2
-    _tmp1 = _lam_x*_tmp0
-    _tmp2 = _lam_psi**2
-    _tmp3 = J_y*_tmp2
-    _tmp4 = numpy.sin(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 36*_tmp5
-    _tmp7 = _tmp3*_tmp6
-    _tmp8 = b**2
-    _tmp9 = _lam_psi**3
-    _tmp10 = a**2
-    _tmp11 = _tmp4**4
-    _tmp12 = numpy.cos(alpha)
-    _tmp13 = _tmp12**2
-    _tmp14 = _tmp12**4
-    _tmp15 = m**3
-    _tmp16 = _lam_x*_tmp15
-    _tmp17 = _tmp2*_tmp6
-    _tmp18 = h**2
-    _tmp19 = J_x*_tmp18
-    _tmp20 = _tmp2*m
-    _tmp21 = _tmp12*_tmp4*a
-    _tmp22 = 72*_tmp21
-    _tmp23 = _tmp22*h
-    _tmp24 = h**4
-    _tmp25 = J_x*_tmp24
-    _tmp26 = m**2
-    _tmp27 = _tmp26*_tmp5
-    _tmp28 = _lam_x*_tmp2
-    _tmp29 = 72*_tmp28
-    _tmp30 = _tmp1*_tmp10
-    _tmp31 = 36*_tmp13
-    _tmp32 = _tmp1*_tmp18
-    _tmp33 = _lam_x*_tmp26
-    _tmp34 = _lam_z**2
-    _tmp35 = b**4
-    _tmp36 = _tmp34*_tmp35
-    _tmp37 = J_y*_tmp36
-    _tmp38 = _tmp16*_tmp2
-    _tmp39 = J_x*_tmp26
-    _tmp40 = h**3
-    _tmp41 = _tmp21*_tmp40
-    _tmp42 = _tmp16*_tmp36
-    _tmp43 = _tmp10*_tmp2
-    _tmp44 = 48*_tmp39
-    _tmp45 = _lam_z*_tmp8
-    _tmp46 = _tmp43*_tmp45
-    _tmp47 = _tmp11*_tmp46
-    _tmp48 = _tmp13*_tmp46
-    _tmp49 = _tmp14*_tmp46
-    _tmp50 = _tmp15*_tmp18
-    _tmp51 = 24*_tmp50
-    _tmp52 = _tmp46*_tmp50
-    _tmp53 = 3*J_y
-    _tmp54 = _tmp1*_tmp9*m
-    _tmp55 = 3*_tmp9
-    _tmp56 = _tmp16*_tmp25
-    _tmp57 = _lam_x**2
-    _tmp58 = J_y*_tmp19*_tmp33
-    _tmp59 = _tmp26*_tmp32
-    _tmp60 = 6*_tmp13
-    _tmp61 = 18*J_y*_lam_psi*_tmp45*_tmp57
-    _tmp62 = m**4
-    _tmp63 = _lam_psi*_tmp36
-    _tmp64 = _lam_x*_tmp18*_tmp63
-    _tmp65 = _tmp60*_tmp9
-    _tmp66 = _tmp5*_tmp9
-    _tmp67 = J_x*_tmp45
-    c_v = numpy.concatenate([_runtime.polynomial_roots(72*J_x*J_y*_lam_psi*_lam_x*_lam_z*_tmp5*_tmp8*m + 72*J_x*_lam_psi*_lam_x*_lam_z*_tmp10*_tmp13*_tmp26*_tmp8 + 144*J_x*_lam_psi*_lam_x*_lam_z*_tmp12*_tmp26*_tmp4*_tmp8*a*h + 72*J_x*_lam_psi*_lam_x*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 24*J_x*_tmp10*_tmp11*_tmp18*_tmp26*_tmp9 + 48*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp5*_tmp9 + 12*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp9 + 24*J_x*_tmp10*_tmp14*_tmp18*_tmp26*_tmp9 - 96*J_x*_tmp27*_tmp48 + 72*J_y*_lam_psi*_lam_x*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 72*_lam_psi*_lam_x*_lam_z*_tmp10*_tmp13*_tmp15*_tmp18*_tmp8 + 144*_lam_psi*_lam_x*_lam_z*_tmp12*_tmp15*_tmp4*_tmp40*_tmp8*a + 72*_lam_psi*_lam_x*_lam_z*_tmp15*_tmp24*_tmp5*_tmp8 + 24*_lam_psi*_tmp10*_tmp11*_tmp15*_tmp34*_tmp35 + 48*_lam_psi*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35*_tmp5 + 12*_lam_psi*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35 + 24*_lam_psi*_tmp10*_tmp14*_tmp15*_tmp34*_tmp35 - 72*_lam_x*_tmp19*_tmp3*_tmp5*m + 24*_tmp0*_tmp10*_tmp11*_tmp9*m + 48*_tmp0*_tmp10*_tmp13*_tmp5*_tmp9*m + 12*_tmp0*_tmp10*_tmp13*_tmp9*m + 24*_tmp0*_tmp10*_tmp14*_tmp9*m - _tmp1*_tmp20*_tmp23 - _tmp1*_tmp7 - _tmp10*_tmp13*_tmp19*_tmp26*_tmp29 - _tmp10*_tmp31*_tmp42 - 48*_tmp13*_tmp5*_tmp52 - 12*_tmp13*_tmp52 - _tmp16*_tmp17*h**6 - _tmp16*_tmp24*_tmp31*_tmp43 - _tmp17*_tmp32*m - _tmp18*_tmp42*_tmp6 - _tmp20*_tmp30*_tmp31 - _tmp22*_tmp38*h**5 - _tmp23*_tmp42 - _tmp24*_tmp33*_tmp7 - _tmp25*_tmp27*_tmp29 - 144*_tmp28*_tmp39*_tmp41 - _tmp33*_tmp37*_tmp6 - 24*_tmp39*_tmp48 - _tmp44*_tmp47 - _tmp44*_tmp49 - _tmp47*_tmp51 - _tmp49*_tmp51, 12*J_x*J_y*_lam_x*_lam_z*_tmp13*_tmp2*_tmp26*_tmp8 + 6*J_x*J_y*_lam_x*_lam_z*_tmp2*_tmp26*_tmp8 + 18*J_x*J_y*_tmp18*_tmp2*_tmp26*_tmp57 + 12*J_x*_lam_x*_lam_z*_tmp10*_tmp15*_tmp2*_tmp5*_tmp8 + 12*J_x*_lam_x*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 6*J_x*_lam_x*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 12*J_x*_lam_x*_tmp12*_tmp15*_tmp4*_tmp40*_tmp9*a + 6*J_y*_lam_x*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 3*J_y*_lam_x*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 9*J_y*_tmp0*_tmp2*_tmp57*m + 9*J_y*_tmp15*_tmp2*_tmp24*_tmp57 + 9*J_y*_tmp15*_tmp34*_tmp35*_tmp57 - J_y*_tmp54*_tmp60 + 2*_lam_psi**4*_tmp0*_tmp10*_tmp26*_tmp5 + 12*_lam_psi*_lam_x*_tmp12*_tmp34*_tmp35*_tmp4*_tmp62*a*h - _lam_psi*_tmp16*_tmp37*_tmp60 - _lam_psi*_tmp42*_tmp53 + 6*_lam_x*_lam_z*_tmp10*_tmp18*_tmp2*_tmp5*_tmp62*_tmp8 + 6*_lam_x*_lam_z*_tmp13*_tmp2*_tmp24*_tmp62*_tmp8 + 3*_lam_x*_lam_z*_tmp2*_tmp24*_tmp62*_tmp8 + 12*_lam_x*_tmp0*_tmp12*_tmp26*_tmp4*_tmp9*a*h - 6*_lam_x*_tmp10*_tmp5*_tmp62*_tmp63 - 4*_tmp10*_tmp15*_tmp66*_tmp67 - 6*_tmp10*_tmp16*_tmp19*_tmp66 + 2*_tmp10*_tmp2*_tmp34*_tmp35*_tmp5*_tmp62 - 24*_tmp21*_tmp38*_tmp67*h - 6*_tmp27*_tmp30*_tmp9 - 12*_tmp28*_tmp41*_tmp45*_tmp62 - _tmp39*_tmp61 - _tmp50*_tmp61 - _tmp53*_tmp54 - _tmp55*_tmp56 - _tmp55*_tmp58 - _tmp55*_tmp59 - _tmp56*_tmp65 - _tmp58*_tmp65 - _tmp59*_tmp65 - _tmp60*_tmp62*_tmp64 - 3*_tmp62*_tmp64)])
-    _tmp68 = _lam_psi*m
-    _tmp69 = J_x*_lam_psi - _lam_z*b**2*m
-    c_h = numpy.broadcast_to(-0.16666666666666666*_tmp68*_tmp69/(-_tmp68*h**2 - _tmp69), c_v.shape)
-    c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _tmp0 = 6*_lam_psi
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_x
+        _tmp4 = h**2
+        _tmp5 = _lam_x*m
+        _tmp6 = _tmp4*_tmp5
+        _tmp7 = numpy.cos(alpha)
+        _tmp8 = _tmp7**2
+        _tmp9 = 4*_tmp8*c_h
+        _tmp10 = numpy.sin(alpha)
+        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
+        _tmp12 = a**2
+        _tmp13 = _tmp10**2
+        _tmp14 = 8*_tmp13
+        _tmp15 = _tmp12*c_h
+        _tmp16 = 4*_tmp15
+        _tmp17 = _lam_x*_tmp13
+        _tmp18 = _tmp17*m
+        _tmp19 = _tmp12*_tmp8
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -729,8 +607,8 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
 
     and then
 
-        c_m = (-16*a**2*c_h**2*sin(alpha)**6 - 32*a**2*c_h**2*cos(alpha)**2*sin(alpha)**4 - 16*a**2*c_h**2*cos(alpha)**4*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m*cos(alpha)**2 + 2*c_h*lambda_z*m*a**2*cos(alpha)**2 + 4*c_h*lambda_z*m*a**2*cos(alpha)**4 + 4*c_h*lambda_z*m*a**2*sin(alpha)**4 + 8*c_h*lambda_z*m*a**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -739,64 +617,62 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = a**2
-    _tmp1 = J_y*_tmp0
-    _tmp2 = numpy.cos(alpha)
-    _tmp3 = _tmp2**2
-    _tmp4 = 4*_tmp3
-    _tmp5 = _tmp2**4
-    _tmp6 = 16*_tmp1
-    _tmp7 = _tmp2**6
-    _tmp8 = numpy.sin(alpha)
-    _tmp9 = a**4
-    _tmp10 = 16*m
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = h**2
-    _tmp13 = _tmp0*_tmp12
-    _tmp14 = _tmp13*m
-    _tmp15 = _tmp10*_tmp13
-    _tmp16 = a**3*h
-    _tmp17 = _tmp16*_tmp2**3
-    _tmp18 = 32*m
-    _tmp19 = _tmp16*_tmp18
-    _tmp20 = _tmp8**3
-    _tmp21 = _tmp8**2
-    _tmp22 = _tmp3*_tmp6
-    _tmp23 = _tmp21*_tmp5
-    _tmp24 = 32*_tmp23
-    _tmp25 = _tmp8**4
-    _tmp26 = _tmp25*_tmp3
-    _tmp27 = _tmp21*_tmp3
-    _tmp28 = _lam_theta*m
-    _tmp29 = 4*_tmp1
-    _tmp30 = _tmp28*_tmp29
-    _tmp31 = _tmp1*_tmp3
-    _tmp32 = 2*_tmp31
-    _tmp33 = _lam_x*m
-    _tmp34 = _tmp29*_tmp33
-    _tmp35 = _lam_x*_tmp21
-    _tmp36 = _lam_theta*m**2
-    _tmp37 = _lam_x*_tmp36
-    c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
-    _tmp38 = numpy.cos(alpha)
-    _tmp39 = _tmp38**2
-    _tmp40 = J_y*_lam_theta*_lam_x*m
-    _tmp41 = numpy.sin(alpha)
-    _tmp42 = a**2
-    _tmp43 = c_h**2
-    _tmp44 = _tmp42*_tmp43
-    _tmp45 = 16*_tmp44
-    _tmp46 = _tmp41**4
-    _tmp47 = _tmp38**4
-    _tmp48 = _tmp41**2
-    _tmp49 = 1/(_tmp42*c_h*(4*_tmp39*_tmp48 + _tmp39 + 2*_tmp46 + 2*_tmp47))
-    c_m = numpy.broadcast_to((0.25)*_tmp49*(8*_lam_z*_tmp39*_tmp42*_tmp48*c_h*m + 2*_lam_z*_tmp39*_tmp42*c_h*m + 4*_lam_z*_tmp42*_tmp46*c_h*m + 4*_lam_z*_tmp42*_tmp47*c_h*m - _tmp39*_tmp40 - 32*_tmp39*_tmp44*_tmp46 - _tmp41**6*_tmp45 - _tmp45*_tmp47*_tmp48), c_h.shape)
-    c_v = numpy.broadcast_to(-0.125*_tmp49*(-_tmp40 + 8*_tmp42*_tmp43*_tmp48), c_h.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = a**2
+        _tmp1 = J_y*_tmp0
+        _tmp2 = numpy.cos(alpha)
+        _tmp3 = _tmp2**2
+        _tmp4 = 4*_tmp3
+        _tmp5 = _tmp2**4
+        _tmp6 = 16*_tmp1
+        _tmp7 = _tmp2**6
+        _tmp8 = numpy.sin(alpha)
+        _tmp9 = a**4
+        _tmp10 = 16*m
+        _tmp11 = _tmp10*_tmp9
+        _tmp12 = h**2
+        _tmp13 = _tmp0*_tmp12
+        _tmp14 = _tmp13*m
+        _tmp15 = _tmp10*_tmp13
+        _tmp16 = a**3*h
+        _tmp17 = _tmp16*_tmp2**3
+        _tmp18 = 32*m
+        _tmp19 = _tmp16*_tmp18
+        _tmp20 = _tmp8**3
+        _tmp21 = _tmp8**2
+        _tmp22 = _tmp3*_tmp6
+        _tmp23 = _tmp21*_tmp5
+        _tmp24 = 32*_tmp23
+        _tmp25 = _tmp8**4
+        _tmp26 = _tmp25*_tmp3
+        _tmp27 = _tmp21*_tmp3
+        _tmp28 = _lam_theta*m
+        _tmp29 = 4*_tmp1
+        _tmp30 = _tmp28*_tmp29
+        _tmp31 = _tmp1*_tmp3
+        _tmp32 = 2*_tmp31
+        _tmp33 = _lam_x*m
+        _tmp34 = _tmp29*_tmp33
+        _tmp35 = _lam_x*_tmp21
+        _tmp36 = _lam_theta*m**2
+        _tmp37 = _lam_x*_tmp36
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp38 = a**2
+        _tmp39 = numpy.sin(alpha)
+        _tmp40 = _tmp39**2
+        _tmp41 = numpy.cos(alpha)
+        _tmp42 = _tmp41**2
+        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*_tmp40*c_h - 2*_tmp42*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -806,14 +682,14 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_x*a**4*sin(alpha)**2 + 16*lambda_x*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_x*m*a**4*b**2*sin(alpha)**4 - 8*lambda_x*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_x*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**6 + 16*lambda_x*m*a**4*b**2*cos(alpha)**2 + 16*lambda_x*m*a**4*h**2*sin(alpha)**2 + 32*lambda_x*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_x*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_x*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_x*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_x*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_x*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_x*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_x*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_x*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_x*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_x*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_x*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_x**2 - 4*J_y*m*a**4*lambda_x**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_x*b**2 - 4*J_y*m*a**2*b**2*lambda_x**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_x*a**2 + J_z*lambda_phi*lambda_x*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_x**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_x*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_x*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_x*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_x*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = (lambda_z*m*b**2 - 8*c_v*a**2*cos(alpha)**2 - 8*c_v*b**2*cos(alpha)**4 - 4*c_v*b**2*cos(alpha)**2 - 2*J_z*lambda_phi*sin(alpha)**2 + 2*lambda_z*m*a**2 + 8*c_v*b**2*sin(alpha)**4 + 2*lambda_z*m*b**2*cos(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -822,103 +698,56 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_x
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_x*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_x*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_x*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_x*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_x**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_x*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = a**2
-    _tmp80 = b**2
-    _tmp81 = numpy.sin(alpha)
-    _tmp82 = _tmp81**2
-    _tmp83 = J_z*_lam_phi
-    _tmp84 = numpy.cos(alpha)
-    _tmp85 = _tmp84**2
-    _tmp86 = 8*c_v
-    _tmp87 = _tmp80*_tmp85
-    _tmp88 = (0.5)/(2*_tmp79 + _tmp80 + 2*_tmp87)
-    c_m = numpy.broadcast_to(_tmp88*(2*_lam_z*_tmp79*m + 2*_lam_z*_tmp80*_tmp85*m + _lam_z*_tmp80*m - _tmp79*_tmp85*_tmp86 + 8*_tmp80*_tmp81**4*c_v - _tmp80*_tmp84**4*_tmp86 - 2*_tmp82*_tmp83 - 4*_tmp87*c_v), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp88*(4*_tmp80*_tmp82*c_v - _tmp83), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_x*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_x*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)**2
+        _tmp34 = 4*c_h
+        _tmp35 = 2*c_h
+        _tmp36 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -944,86 +773,91 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = a**2
-    _tmp1 = J_y*_tmp0
-    _tmp2 = numpy.cos(alpha)
-    _tmp3 = _tmp2**2
-    _tmp4 = 4*_tmp3
-    _tmp5 = _tmp2**4
-    _tmp6 = 16*_tmp1
-    _tmp7 = _tmp2**6
-    _tmp8 = numpy.sin(alpha)
-    _tmp9 = a**4
-    _tmp10 = 16*m
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = h**2
-    _tmp13 = _tmp0*_tmp12
-    _tmp14 = _tmp13*m
-    _tmp15 = _tmp10*_tmp13
-    _tmp16 = a**3*h
-    _tmp17 = _tmp16*_tmp2**3
-    _tmp18 = 32*m
-    _tmp19 = _tmp16*_tmp18
-    _tmp20 = _tmp8**3
-    _tmp21 = _tmp8**2
-    _tmp22 = _tmp3*_tmp6
-    _tmp23 = _tmp21*_tmp5
-    _tmp24 = 32*_tmp23
-    _tmp25 = _tmp8**4
-    _tmp26 = _tmp25*_tmp3
-    _tmp27 = _tmp21*_tmp3
-    _tmp28 = _lam_theta*m
-    _tmp29 = 4*_tmp1
-    _tmp30 = _tmp28*_tmp29
-    _tmp31 = _tmp1*_tmp3
-    _tmp32 = 2*_tmp31
-    _tmp33 = _lam_x*m
-    _tmp34 = _tmp29*_tmp33
-    _tmp35 = _lam_x*_tmp21
-    _tmp36 = _lam_theta*m**2
-    _tmp37 = _lam_x*_tmp36
-    c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
-    _tmp38 = b**2
-    _tmp39 = 6*c_h
-    _tmp40 = _lam_psi*m
-    _tmp41 = c_h**2
-    _tmp42 = a**2
-    _tmp43 = J_x*_tmp42
-    _tmp44 = _tmp41*_tmp43
-    _tmp45 = _lam_psi*_tmp44
-    _tmp46 = numpy.sin(alpha)
-    _tmp47 = _tmp46**4
-    _tmp48 = 24*_tmp47
-    _tmp49 = numpy.cos(alpha)
-    _tmp50 = _tmp49**2
-    _tmp51 = _lam_psi*_tmp50
-    _tmp52 = _tmp49**4
-    _tmp53 = 24*_tmp52
-    _tmp54 = J_y*_lam_theta*_lam_x
-    _tmp55 = _tmp54*m
-    _tmp56 = _tmp46**6
-    _tmp57 = c_h**3
-    _tmp58 = _tmp38*_tmp42
-    _tmp59 = _tmp57*_tmp58
-    _tmp60 = _lam_psi**2*_tmp43*c_h*m
-    _tmp61 = 4*_tmp60
-    _tmp62 = _tmp40*_tmp41
-    _tmp63 = _tmp58*_tmp62
-    _tmp64 = _tmp42*_tmp62*h**2
-    _tmp65 = _tmp46**2
-    _tmp66 = _tmp50*_tmp65
-    _tmp67 = 48*_tmp66
-    _tmp68 = _tmp42*_tmp65
-    _tmp69 = _tmp38*_tmp52
-    _tmp70 = _tmp47*_tmp50
-    _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
-    c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
-    c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = a**2
+        _tmp1 = J_y*_tmp0
+        _tmp2 = numpy.cos(alpha)
+        _tmp3 = _tmp2**2
+        _tmp4 = 4*_tmp3
+        _tmp5 = _tmp2**4
+        _tmp6 = 16*_tmp1
+        _tmp7 = _tmp2**6
+        _tmp8 = numpy.sin(alpha)
+        _tmp9 = a**4
+        _tmp10 = 16*m
+        _tmp11 = _tmp10*_tmp9
+        _tmp12 = h**2
+        _tmp13 = _tmp0*_tmp12
+        _tmp14 = _tmp13*m
+        _tmp15 = _tmp10*_tmp13
+        _tmp16 = a**3*h
+        _tmp17 = _tmp16*_tmp2**3
+        _tmp18 = 32*m
+        _tmp19 = _tmp16*_tmp18
+        _tmp20 = _tmp8**3
+        _tmp21 = _tmp8**2
+        _tmp22 = _tmp3*_tmp6
+        _tmp23 = _tmp21*_tmp5
+        _tmp24 = 32*_tmp23
+        _tmp25 = _tmp8**4
+        _tmp26 = _tmp25*_tmp3
+        _tmp27 = _tmp21*_tmp3
+        _tmp28 = _lam_theta*m
+        _tmp29 = 4*_tmp1
+        _tmp30 = _tmp28*_tmp29
+        _tmp31 = _tmp1*_tmp3
+        _tmp32 = 2*_tmp31
+        _tmp33 = _lam_x*m
+        _tmp34 = _tmp29*_tmp33
+        _tmp35 = _lam_x*_tmp21
+        _tmp36 = _lam_theta*m**2
+        _tmp37 = _lam_x*_tmp36
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp38 = b**2
+        _tmp39 = 6*c_h
+        _tmp40 = _lam_psi*m
+        _tmp41 = c_h**2
+        _tmp42 = a**2
+        _tmp43 = J_x*_tmp42
+        _tmp44 = _tmp41*_tmp43
+        _tmp45 = _lam_psi*_tmp44
+        _tmp46 = numpy.sin(alpha)
+        _tmp47 = _tmp46**4
+        _tmp48 = 24*_tmp47
+        _tmp49 = numpy.cos(alpha)
+        _tmp50 = _tmp49**2
+        _tmp51 = _lam_psi*_tmp50
+        _tmp52 = _tmp49**4
+        _tmp53 = 24*_tmp52
+        _tmp54 = J_y*_lam_theta*_lam_x
+        _tmp55 = _tmp54*m
+        _tmp56 = _tmp46**6
+        _tmp57 = c_h**3
+        _tmp58 = _tmp38*_tmp42
+        _tmp59 = _tmp57*_tmp58
+        _tmp60 = _lam_psi**2*_tmp43*c_h*m
+        _tmp61 = 4*_tmp60
+        _tmp62 = _tmp40*_tmp41
+        _tmp63 = _tmp58*_tmp62
+        _tmp64 = _tmp42*_tmp62*h**2
+        _tmp65 = _tmp46**2
+        _tmp66 = _tmp50*_tmp65
+        _tmp67 = 48*_tmp66
+        _tmp68 = _tmp42*_tmp65
+        _tmp69 = _tmp38*_tmp52
+        _tmp70 = _tmp47*_tmp50
+        _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
+        c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1033,14 +867,14 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_x*a**4*sin(alpha)**2 + 16*lambda_x*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_x*m*a**4*b**2*sin(alpha)**4 - 8*lambda_x*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_x*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**4 + 16*lambda_x*m*a**2*b**4*cos(alpha)**6 + 16*lambda_x*m*a**4*b**2*cos(alpha)**2 + 16*lambda_x*m*a**4*h**2*sin(alpha)**2 + 32*lambda_x*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_x*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_x*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_x*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_x*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_x*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_x*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_x*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_x*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_x*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_x*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_x*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_x*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_x**2 - 4*J_y*m*a**4*lambda_x**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_x*b**2 - 4*J_y*m*a**2*b**2*lambda_x**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_x**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_x*a**2 + J_z*lambda_phi*lambda_x*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_x**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_x*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_x*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_x*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_x*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_x*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_x*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = -(-96*b**6*c_v**2*sin(alpha)**6 - J_x*m*b**4*lambda_psi**2 - 6*J_z**2*b**2*lambda_phi**2*sin(alpha)**2 - 4*J_x*m*a**4*lambda_psi**2 + 48*b**6*c_v**2*cos(alpha)**2*sin(alpha)**2 + 96*b**6*c_v**2*cos(alpha)**4*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*b**4*cos(alpha)**4 - 12*J_x*c_v*lambda_psi*b**4*sin(alpha)**2 - 12*J_z*c_v*lambda_phi*b**4*cos(alpha)**2 - 8*c_v*lambda_psi*m*b**6*sin(alpha)**4 - 4*J_x*m*a**2*b**2*lambda_psi**2 - 4*J_x*m*b**4*lambda_psi**2*cos(alpha)**2 - 4*J_x*m*b**4*lambda_psi**2*cos(alpha)**4 + 3*J_x*J_z*lambda_phi*lambda_psi*b**2 + 4*c_v*lambda_psi*m*b**6*cos(alpha)**2 + 6*J_x*J_z*lambda_phi*lambda_psi*a**2 + 16*c_v*lambda_psi*m*b**6*cos(alpha)**4 + 16*c_v*lambda_psi*m*b**6*cos(alpha)**6 + 48*J_z*c_v*lambda_phi*b**4*sin(alpha)**4 + 96*a**2*b**4*c_v**2*cos(alpha)**2*sin(alpha)**2 - 24*J_x*c_v*lambda_psi*a**2*b**2*sin(alpha)**2 - 24*J_x*c_v*lambda_psi*b**4*cos(alpha)**2*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*a**2*b**2*cos(alpha)**2 - 16*c_v*lambda_psi*m*a**2*b**4*sin(alpha)**4 - 16*c_v*lambda_psi*m*b**6*cos(alpha)**2*sin(alpha)**4 - 12*c_v*lambda_psi*m*b**4*h**2*sin(alpha)**2 - 8*J_x*m*a**2*b**2*lambda_psi**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_psi*m*b**4*sin(alpha)**2 + 3*J_z*lambda_phi*lambda_psi*m*b**2*h**2 + 6*J_x*J_z*lambda_phi*lambda_psi*b**2*cos(alpha)**2 + 6*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 16*c_v*lambda_psi*m*a**2*b**4*cos(alpha)**2 + 16*c_v*lambda_psi*m*a**4*b**2*cos(alpha)**2 + 32*c_v*lambda_psi*m*a**2*b**4*cos(alpha)**4 - 24*c_v*lambda_psi*m*a**2*b**2*h**2*sin(alpha)**2 - 24*c_v*lambda_psi*m*b**4*h**2*cos(alpha)**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_psi*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_psi*m*b**4*cos(alpha)**2*sin(alpha)**2 + 6*J_z*lambda_phi*lambda_psi*m*b**2*h**2*cos(alpha)**2)/(2*b**2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2)*(-3*J_z*lambda_phi + lambda_psi*m*b**2 + 2*lambda_psi*m*a**2 + 12*c_v*b**2*sin(alpha)**2 + 2*lambda_psi*m*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1049,130 +883,67 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
-    _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_x
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_x*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_x*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_x*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_x*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_x**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_x*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = b**2
-    _tmp80 = J_z*_lam_phi
-    _tmp81 = _lam_psi*m
-    _tmp82 = _tmp79*_tmp81
-    _tmp83 = a**2
-    _tmp84 = 2*_tmp83
-    _tmp85 = numpy.sin(alpha)
-    _tmp86 = _tmp85**2
-    _tmp87 = _tmp79*_tmp86
-    _tmp88 = 12*c_v
-    _tmp89 = numpy.cos(alpha)
-    _tmp90 = _tmp89**2
-    _tmp91 = _tmp79*_tmp90
-    _tmp92 = 2*_tmp91
-    _tmp93 = b**4
-    _tmp94 = J_x*_tmp93
-    _tmp95 = _lam_psi**2*m
-    _tmp96 = _tmp94*_tmp95
-    _tmp97 = a**4
-    _tmp98 = J_x*_tmp95
-    _tmp99 = 4*_tmp98
-    _tmp100 = b**6
-    _tmp101 = c_v**2
-    _tmp102 = _lam_psi*_tmp94
-    _tmp103 = _tmp86*_tmp88
-    _tmp104 = _tmp85**4
-    _tmp105 = _tmp80*_tmp93
-    _tmp106 = _tmp89**4
-    _tmp107 = _tmp104*c_v
-    _tmp108 = _tmp100*_tmp107*_tmp81
-    _tmp109 = h**2
-    _tmp110 = 4*_tmp96
-    _tmp111 = 24*c_v
-    _tmp112 = _tmp111*_tmp83
-    _tmp113 = _tmp109*_tmp81*_tmp93
-    _tmp114 = _tmp111*_tmp86*_tmp90
-    _tmp115 = (0.5)/(_tmp79 + _tmp84 + _tmp92)
-    c_m = numpy.broadcast_to(-_tmp115*(6*J_x*J_z*_lam_phi*_lam_psi*_tmp79*_tmp90 + 3*J_x*J_z*_lam_phi*_lam_psi*_tmp79 + 6*J_x*J_z*_lam_phi*_lam_psi*_tmp83 - J_x*_lam_psi*_tmp112*_tmp87 - 6*J_z**2*_lam_phi**2*_tmp87 + 6*J_z*_lam_phi*_lam_psi*_tmp109*_tmp79*_tmp90*m + 3*J_z*_lam_phi*_lam_psi*_tmp109*_tmp79*m + 6*J_z*_lam_phi*_lam_psi*_tmp109*_tmp83*m + 4*J_z*_lam_phi*_lam_psi*_tmp79*_tmp83*_tmp86*m + 4*J_z*_lam_phi*_lam_psi*_tmp86*_tmp90*_tmp93*m + 2*J_z*_lam_phi*_lam_psi*_tmp86*_tmp93*m + 48*J_z*_lam_phi*_tmp104*_tmp93*c_v + 16*_lam_psi*_tmp100*_tmp106*c_v*m + 16*_lam_psi*_tmp100*_tmp89**6*c_v*m + 4*_lam_psi*_tmp100*_tmp90*c_v*m + 32*_lam_psi*_tmp106*_tmp83*_tmp93*c_v*m + 16*_lam_psi*_tmp79*_tmp90*_tmp97*c_v*m + 16*_lam_psi*_tmp83*_tmp90*_tmp93*c_v*m + 96*_tmp100*_tmp101*_tmp106*_tmp86 - 96*_tmp100*_tmp101*_tmp85**6 + 48*_tmp100*_tmp101*_tmp86*_tmp90 + 96*_tmp101*_tmp83*_tmp86*_tmp90*_tmp93 - _tmp102*_tmp103 - _tmp102*_tmp114 - _tmp103*_tmp113 - 24*_tmp105*_tmp106*c_v - _tmp105*_tmp88*_tmp90 - _tmp106*_tmp110 - 16*_tmp107*_tmp81*_tmp83*_tmp93 - 16*_tmp108*_tmp90 - 8*_tmp108 - _tmp109*_tmp112*_tmp82*_tmp86 - _tmp110*_tmp90 - _tmp111*_tmp80*_tmp83*_tmp91 - _tmp113*_tmp114 - _tmp79*_tmp83*_tmp99 - 8*_tmp83*_tmp91*_tmp98 - _tmp96 - _tmp97*_tmp99)/(_tmp79*(-3*_tmp80 + _tmp81*_tmp84 + _tmp81*_tmp92 + _tmp82 + _tmp87*_tmp88)), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp115*(4*_tmp79*_tmp86*c_v - _tmp80), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_x*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_x*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = 6*c_h
+        _tmp33 = _lam_psi*m
+        _tmp34 = numpy.sin(alpha)
+        _tmp35 = _tmp34**2
+        _tmp36 = numpy.cos(alpha)
+        _tmp37 = _tmp36**2
+        _tmp38 = J_z*_lam_phi
+        _tmp39 = a**2
+        _tmp40 = c_h**2
+        _tmp41 = 24*_tmp40
+        _tmp42 = b**2
+        _tmp43 = _tmp34**4
+        _tmp44 = _tmp36**4
+        _tmp45 = _tmp42*c_h
+        _tmp46 = 4*_tmp45
+        _tmp47 = 1/(_tmp35*_tmp42)
+        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1182,13 +953,13 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-36*J_y*lambda_theta*J_x**2*lambda_y**2*sin(alpha)**2 - 36*lambda_theta*h**6*lambda_y**2*m**3*sin(alpha)**2 + 12*m*J_x**2*a**2*lambda_y**3*cos(alpha)**2 + 24*m*J_x**2*a**2*lambda_y**3*cos(alpha)**4 + 24*m*J_x**2*a**2*lambda_y**3*sin(alpha)**4 - 72*J_x*lambda_theta*h**4*lambda_y**2*m**2*sin(alpha)**2 - 36*J_y*lambda_theta*b**4*lambda_z**2*m**2*sin(alpha)**2 - 36*J_y*lambda_theta*h**4*lambda_y**2*m**2*sin(alpha)**2 - 36*lambda_theta*m*J_x**2*a**2*lambda_y**2*cos(alpha)**2 - 36*lambda_theta*m*J_x**2*h**2*lambda_y**2*sin(alpha)**2 - 36*lambda_theta*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 - 36*lambda_theta*a**2*h**4*lambda_y**2*m**3*cos(alpha)**2 - 36*lambda_theta*b**4*h**2*lambda_z**2*m**3*sin(alpha)**2 + 12*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**2 + 12*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 + 24*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**4 + 24*J_x*a**2*h**2*lambda_y**3*m**2*sin(alpha)**4 + 24*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**4 + 24*lambda_y*a**2*b**4*lambda_z**2*m**3*sin(alpha)**4 + 48*m*J_x**2*a**2*lambda_y**3*cos(alpha)**2*sin(alpha)**2 - 72*J_x*J_y*lambda_theta*m*h**2*lambda_y**2*sin(alpha)**2 - 72*J_x*lambda_theta*a**2*h**2*lambda_y**2*m**2*cos(alpha)**2 - 72*a*lambda_theta*h**5*lambda_y**2*m**3*cos(alpha)*sin(alpha) - 48*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**4 - 48*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*sin(alpha)**4 - 24*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**2 - 24*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**4 - 24*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*sin(alpha)**4 - 12*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 48*J_x*a**2*h**2*lambda_y**3*m**2*cos(alpha)**2*sin(alpha)**2 + 48*lambda_y*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*lambda_theta*lambda_y*lambda_z*b**2*h**4*m**3*sin(alpha)**2 - 144*J_x*a*lambda_theta*h**3*lambda_y**2*m**2*cos(alpha)*sin(alpha) - 96*J_x*lambda_z*a**2*b**2*lambda_y**2*m**2*cos(alpha)**2*sin(alpha)**2 - 72*a*h*lambda_theta*m*J_x**2*lambda_y**2*cos(alpha)*sin(alpha) - 72*a*h*lambda_theta*b**4*lambda_z**2*m**3*cos(alpha)*sin(alpha) - 48*lambda_z*a**2*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*J_x*J_y*lambda_theta*lambda_y*lambda_z*m*b**2*sin(alpha)**2 + 72*J_x*lambda_theta*lambda_y*lambda_z*a**2*b**2*m**2*cos(alpha)**2 + 72*J_x*lambda_theta*lambda_y*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*J_y*lambda_theta*lambda_y*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*lambda_theta*lambda_y*lambda_z*a**2*b**2*h**2*m**3*cos(alpha)**2 + 144*a*lambda_theta*lambda_y*lambda_z*b**2*h**3*m**3*cos(alpha)*sin(alpha) + 144*J_x*a*h*lambda_theta*lambda_y*lambda_z*b**2*m**2*cos(alpha)*sin(alpha)) - 3*J_x*lambda_theta*h**4*lambda_y**3*m**3 - 3*J_y*lambda_theta*m*J_x**2*lambda_y**3 - 3*lambda_theta*J_x**2*h**2*lambda_y**3*m**2 + 2*J_x**2*a**2*lambda_y**4*m**2*sin(alpha)**2 + 9*J_y*m*J_x**2*lambda_theta**2*lambda_y**2 + 9*J_y*b**4*lambda_theta**2*lambda_z**2*m**3 + 9*J_y*h**4*lambda_theta**2*lambda_y**2*m**3 - 6*J_x*lambda_theta*h**4*lambda_y**3*m**3*cos(alpha)**2 - 6*J_y*lambda_theta*m*J_x**2*lambda_y**3*cos(alpha)**2 - 6*lambda_theta*J_x**2*a**2*lambda_y**3*m**2*sin(alpha)**2 - 6*lambda_theta*J_x**2*h**2*lambda_y**3*m**2*cos(alpha)**2 - 3*J_x*J_y*lambda_theta*h**2*lambda_y**3*m**2 - 3*J_y*lambda_theta*lambda_y*b**4*lambda_z**2*m**3 - 3*lambda_theta*lambda_y*b**4*h**2*lambda_z**2*m**4 + 2*a**2*b**4*lambda_y**2*lambda_z**2*m**4*sin(alpha)**2 + 3*lambda_theta*lambda_z*b**2*h**4*lambda_y**2*m**4 + 18*J_x*J_y*h**2*lambda_theta**2*lambda_y**2*m**2 - 18*J_x*J_y*lambda_y*lambda_z*b**2*lambda_theta**2*m**2 - 18*J_y*lambda_y*lambda_z*b**2*h**2*lambda_theta**2*m**3 - 6*J_x*J_y*lambda_theta*h**2*lambda_y**3*m**2*cos(alpha)**2 - 6*J_x*lambda_theta*a**2*h**2*lambda_y**3*m**3*sin(alpha)**2 - 6*J_y*lambda_theta*lambda_y*b**4*lambda_z**2*m**3*cos(alpha)**2 - 6*lambda_theta*lambda_y*a**2*b**4*lambda_z**2*m**4*sin(alpha)**2 - 6*lambda_theta*lambda_y*b**4*h**2*lambda_z**2*m**4*cos(alpha)**2 - 4*J_x*lambda_z*a**2*b**2*lambda_y**3*m**3*sin(alpha)**2 + 3*J_y*lambda_theta*lambda_z*b**2*h**2*lambda_y**2*m**3 + 6*J_x*J_y*lambda_theta*lambda_z*b**2*lambda_y**2*m**2 + 6*J_x*lambda_theta*lambda_z*b**2*h**2*lambda_y**2*m**3 + 6*lambda_theta*lambda_z*b**2*h**4*lambda_y**2*m**4*cos(alpha)**2 + 6*J_y*lambda_theta*lambda_z*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 6*lambda_theta*lambda_z*a**2*b**2*h**2*lambda_y**2*m**4*sin(alpha)**2 + 12*J_x*J_y*lambda_theta*lambda_z*b**2*lambda_y**2*m**2*cos(alpha)**2 + 12*J_x*a*lambda_theta*h**3*lambda_y**3*m**3*cos(alpha)*sin(alpha) + 12*J_x*lambda_theta*lambda_z*a**2*b**2*lambda_y**2*m**3*sin(alpha)**2 + 12*J_x*lambda_theta*lambda_z*b**2*h**2*lambda_y**2*m**3*cos(alpha)**2 + 12*a*h*lambda_theta*J_x**2*lambda_y**3*m**2*cos(alpha)*sin(alpha) - 12*a*lambda_theta*lambda_z*b**2*h**3*lambda_y**2*m**4*cos(alpha)*sin(alpha) + 12*a*h*lambda_theta*lambda_y*b**4*lambda_z**2*m**4*cos(alpha)*sin(alpha) - 24*J_x*a*h*lambda_theta*lambda_z*b**2*lambda_y**2*m**3*cos(alpha)*sin(alpha) = 0
+        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_h = lambda_y*m*(-J_x*lambda_y + lambda_z*m*b**2)/(6*(-J_x*lambda_y + lambda_z*m*b**2 - lambda_y*m*h**2))
+        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -1198,84 +969,39 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = J_x**2
-    _tmp1 = _lam_theta*_tmp0
-    _tmp2 = _lam_y**2
-    _tmp3 = J_y*_tmp2
-    _tmp4 = numpy.sin(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 36*_tmp5
-    _tmp7 = _tmp3*_tmp6
-    _tmp8 = b**2
-    _tmp9 = _lam_y**3
-    _tmp10 = a**2
-    _tmp11 = _tmp4**4
-    _tmp12 = numpy.cos(alpha)
-    _tmp13 = _tmp12**2
-    _tmp14 = _tmp12**4
-    _tmp15 = m**3
-    _tmp16 = _lam_theta*_tmp15
-    _tmp17 = _tmp2*_tmp6
-    _tmp18 = h**2
-    _tmp19 = J_x*_tmp18
-    _tmp20 = _tmp2*m
-    _tmp21 = _tmp12*_tmp4*a
-    _tmp22 = 72*_tmp21
-    _tmp23 = _tmp22*h
-    _tmp24 = h**4
-    _tmp25 = J_x*_tmp24
-    _tmp26 = m**2
-    _tmp27 = _tmp26*_tmp5
-    _tmp28 = _lam_theta*_tmp2
-    _tmp29 = 72*_tmp28
-    _tmp30 = _tmp1*_tmp10
-    _tmp31 = 36*_tmp13
-    _tmp32 = _tmp1*_tmp18
-    _tmp33 = _lam_theta*_tmp26
-    _tmp34 = _lam_z**2
-    _tmp35 = b**4
-    _tmp36 = _tmp34*_tmp35
-    _tmp37 = J_y*_tmp36
-    _tmp38 = _tmp16*_tmp2
-    _tmp39 = J_x*_tmp26
-    _tmp40 = h**3
-    _tmp41 = _tmp21*_tmp40
-    _tmp42 = _tmp16*_tmp36
-    _tmp43 = _tmp10*_tmp2
-    _tmp44 = 48*_tmp39
-    _tmp45 = _lam_z*_tmp8
-    _tmp46 = _tmp43*_tmp45
-    _tmp47 = _tmp11*_tmp46
-    _tmp48 = _tmp13*_tmp46
-    _tmp49 = _tmp14*_tmp46
-    _tmp50 = _tmp15*_tmp18
-    _tmp51 = 24*_tmp50
-    _tmp52 = _tmp46*_tmp50
-    _tmp53 = 3*J_y
-    _tmp54 = _tmp1*_tmp9*m
-    _tmp55 = 3*_tmp9
-    _tmp56 = _tmp16*_tmp25
-    _tmp57 = _lam_theta**2
-    _tmp58 = J_y*_tmp19*_tmp33
-    _tmp59 = _tmp26*_tmp32
-    _tmp60 = 6*_tmp13
-    _tmp61 = 18*J_y*_lam_y*_tmp45*_tmp57
-    _tmp62 = m**4
-    _tmp63 = _lam_y*_tmp36
-    _tmp64 = _lam_theta*_tmp18*_tmp63
-    _tmp65 = _tmp60*_tmp9
-    _tmp66 = _tmp5*_tmp9
-    _tmp67 = J_x*_tmp45
-    c_v = numpy.concatenate([_runtime.polynomial_roots(72*J_x*J_y*_lam_theta*_lam_y*_lam_z*_tmp5*_tmp8*m + 72*J_x*_lam_theta*_lam_y*_lam_z*_tmp10*_tmp13*_tmp26*_tmp8 + 144*J_x*_lam_theta*_lam_y*_lam_z*_tmp12*_tmp26*_tmp4*_tmp8*a*h + 72*J_x*_lam_theta*_lam_y*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 24*J_x*_tmp10*_tmp11*_tmp18*_tmp26*_tmp9 + 48*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp5*_tmp9 + 12*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp9 + 24*J_x*_tmp10*_tmp14*_tmp18*_tmp26*_tmp9 - 96*J_x*_tmp27*_tmp48 + 72*J_y*_lam_theta*_lam_y*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 72*_lam_theta*_lam_y*_lam_z*_tmp10*_tmp13*_tmp15*_tmp18*_tmp8 + 144*_lam_theta*_lam_y*_lam_z*_tmp12*_tmp15*_tmp4*_tmp40*_tmp8*a + 72*_lam_theta*_lam_y*_lam_z*_tmp15*_tmp24*_tmp5*_tmp8 - 72*_lam_theta*_tmp19*_tmp3*_tmp5*m + 24*_lam_y*_tmp10*_tmp11*_tmp15*_tmp34*_tmp35 + 48*_lam_y*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35*_tmp5 + 12*_lam_y*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35 + 24*_lam_y*_tmp10*_tmp14*_tmp15*_tmp34*_tmp35 + 24*_tmp0*_tmp10*_tmp11*_tmp9*m + 48*_tmp0*_tmp10*_tmp13*_tmp5*_tmp9*m + 12*_tmp0*_tmp10*_tmp13*_tmp9*m + 24*_tmp0*_tmp10*_tmp14*_tmp9*m - _tmp1*_tmp20*_tmp23 - _tmp1*_tmp7 - _tmp10*_tmp13*_tmp19*_tmp26*_tmp29 - _tmp10*_tmp31*_tmp42 - 48*_tmp13*_tmp5*_tmp52 - 12*_tmp13*_tmp52 - _tmp16*_tmp17*h**6 - _tmp16*_tmp24*_tmp31*_tmp43 - _tmp17*_tmp32*m - _tmp18*_tmp42*_tmp6 - _tmp20*_tmp30*_tmp31 - _tmp22*_tmp38*h**5 - _tmp23*_tmp42 - _tmp24*_tmp33*_tmp7 - _tmp25*_tmp27*_tmp29 - 144*_tmp28*_tmp39*_tmp41 - _tmp33*_tmp37*_tmp6 - 24*_tmp39*_tmp48 - _tmp44*_tmp47 - _tmp44*_tmp49 - _tmp47*_tmp51 - _tmp49*_tmp51, 12*J_x*J_y*_lam_theta*_lam_z*_tmp13*_tmp2*_tmp26*_tmp8 + 6*J_x*J_y*_lam_theta*_lam_z*_tmp2*_tmp26*_tmp8 + 18*J_x*J_y*_tmp18*_tmp2*_tmp26*_tmp57 + 12*J_x*_lam_theta*_lam_z*_tmp10*_tmp15*_tmp2*_tmp5*_tmp8 + 12*J_x*_lam_theta*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 6*J_x*_lam_theta*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 12*J_x*_lam_theta*_tmp12*_tmp15*_tmp4*_tmp40*_tmp9*a + 6*J_y*_lam_theta*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 3*J_y*_lam_theta*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 9*J_y*_tmp0*_tmp2*_tmp57*m + 9*J_y*_tmp15*_tmp2*_tmp24*_tmp57 + 9*J_y*_tmp15*_tmp34*_tmp35*_tmp57 - J_y*_tmp54*_tmp60 + 12*_lam_theta*_lam_y*_tmp12*_tmp34*_tmp35*_tmp4*_tmp62*a*h + 6*_lam_theta*_lam_z*_tmp10*_tmp18*_tmp2*_tmp5*_tmp62*_tmp8 + 6*_lam_theta*_lam_z*_tmp13*_tmp2*_tmp24*_tmp62*_tmp8 + 3*_lam_theta*_lam_z*_tmp2*_tmp24*_tmp62*_tmp8 + 12*_lam_theta*_tmp0*_tmp12*_tmp26*_tmp4*_tmp9*a*h - 6*_lam_theta*_tmp10*_tmp5*_tmp62*_tmp63 + 2*_lam_y**4*_tmp0*_tmp10*_tmp26*_tmp5 - _lam_y*_tmp16*_tmp37*_tmp60 - _lam_y*_tmp42*_tmp53 - 4*_tmp10*_tmp15*_tmp66*_tmp67 - 6*_tmp10*_tmp16*_tmp19*_tmp66 + 2*_tmp10*_tmp2*_tmp34*_tmp35*_tmp5*_tmp62 - 24*_tmp21*_tmp38*_tmp67*h - 6*_tmp27*_tmp30*_tmp9 - 12*_tmp28*_tmp41*_tmp45*_tmp62 - _tmp39*_tmp61 - _tmp50*_tmp61 - _tmp53*_tmp54 - _tmp55*_tmp56 - _tmp55*_tmp58 - _tmp55*_tmp59 - _tmp56*_tmp65 - _tmp58*_tmp65 - _tmp59*_tmp65 - _tmp60*_tmp62*_tmp64 - 3*_tmp62*_tmp64)])
-    _tmp68 = _lam_y*m
-    _tmp69 = J_x*_lam_y - _lam_z*b**2*m
-    c_h = numpy.broadcast_to(-0.16666666666666666*_tmp68*_tmp69/(-_tmp68*h**2 - _tmp69), c_v.shape)
-    c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = 6*_lam_y
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_theta
+        _tmp4 = h**2
+        _tmp5 = _lam_theta*m
+        _tmp6 = _tmp4*_tmp5
+        _tmp7 = numpy.cos(alpha)
+        _tmp8 = _tmp7**2
+        _tmp9 = 4*_tmp8*c_h
+        _tmp10 = numpy.sin(alpha)
+        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
+        _tmp12 = a**2
+        _tmp13 = _tmp10**2
+        _tmp14 = 8*_tmp13
+        _tmp15 = _tmp12*c_h
+        _tmp16 = 4*_tmp15
+        _tmp17 = _lam_theta*_tmp13
+        _tmp18 = _tmp17*m
+        _tmp19 = _tmp12*_tmp8
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1285,14 +1011,14 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-12*J_x*lambda_y*b**2*sin(alpha)**2 + 12*lambda_z*m*b**4*sin(alpha)**2 - 12*lambda_y*m*b**2*h**2*sin(alpha)**2) + lambda_y*lambda_z*b**4*m**2 - J_x*m*b**2*lambda_y**2 - 2*J_x*m*a**2*lambda_y**2 + 3*J_x*J_z*lambda_phi*lambda_y - 3*J_z*lambda_phi*lambda_z*m*b**2 - 2*J_x*m*b**2*lambda_y**2*cos(alpha)**2 + 2*lambda_y*lambda_z*a**2*b**2*m**2 + 2*lambda_y*lambda_z*b**4*m**2*cos(alpha)**2 + 3*J_z*lambda_phi*lambda_y*m*h**2 = 0
+        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_m = (lambda_z*m*b**2 - 8*c_v*a**2*cos(alpha)**2 - 8*c_v*b**2*cos(alpha)**4 - 4*c_v*b**2*cos(alpha)**2 - 2*J_z*lambda_phi*sin(alpha)**2 + 2*lambda_z*m*a**2 + 8*c_v*b**2*sin(alpha)**4 + 2*lambda_z*m*b**2*cos(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1301,39 +1027,26 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**2
-    _tmp1 = J_x*_tmp0
-    _tmp2 = numpy.sin(alpha)**2
-    _tmp3 = 12*_lam_y*_tmp2
-    _tmp4 = b**4
-    _tmp5 = h**2
-    _tmp6 = _tmp0*m
-    _tmp7 = 3*J_z*_lam_phi
-    _tmp8 = _lam_y*_tmp7
-    _tmp9 = _lam_y*m**2
-    _tmp10 = _lam_z*_tmp4*_tmp9
-    _tmp11 = _lam_y**2*m
-    _tmp12 = 2*a**2
-    _tmp13 = _tmp1*_tmp11
-    _tmp14 = 2*numpy.cos(alpha)**2
-    c_v = numpy.concatenate([_runtime.polynomial_roots(12*_lam_z*_tmp2*_tmp4*m - _tmp1*_tmp3 - _tmp3*_tmp5*_tmp6, -J_x*_tmp11*_tmp12 + J_x*_tmp8 + _lam_z*_tmp0*_tmp12*_tmp9 - _lam_z*_tmp6*_tmp7 + _tmp10*_tmp14 + _tmp10 - _tmp13*_tmp14 - _tmp13 + _tmp5*_tmp8*m)])
-    _tmp15 = a**2
-    _tmp16 = b**2
-    _tmp17 = numpy.sin(alpha)
-    _tmp18 = _tmp17**2
-    _tmp19 = J_z*_lam_phi
-    _tmp20 = numpy.cos(alpha)
-    _tmp21 = _tmp20**2
-    _tmp22 = 8*c_v
-    _tmp23 = _tmp16*_tmp21
-    _tmp24 = (0.5)/(2*_tmp15 + _tmp16 + 2*_tmp23)
-    c_m = numpy.broadcast_to(_tmp24*(2*_lam_z*_tmp15*m + 2*_lam_z*_tmp16*_tmp21*m + _lam_z*_tmp16*m - _tmp15*_tmp21*_tmp22 + 8*_tmp16*_tmp17**4*c_v - _tmp16*_tmp20**4*_tmp22 - 2*_tmp18*_tmp19 - 4*_tmp23*c_v), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp24*(4*_tmp16*_tmp18*c_v - _tmp19), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = 6*_lam_y
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        _tmp2 = b**2
+        _tmp3 = numpy.sin(alpha)**2
+        _tmp4 = 4*c_h
+        _tmp5 = 2*c_h
+        _tmp6 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1359,36 +1072,41 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = J_x*_lam_psi
-    _tmp1 = 6*m
-    c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-    _tmp2 = 2*c_h
-    _tmp3 = J_y*_lam_theta
-    _tmp4 = h**2
-    _tmp5 = _lam_theta*m
-    _tmp6 = numpy.cos(alpha)
-    _tmp7 = _tmp6**2
-    _tmp8 = _tmp7*c_h
-    _tmp9 = numpy.sin(alpha)
-    _tmp10 = _tmp5*_tmp6*_tmp9*a*h
-    _tmp11 = a**2
-    _tmp12 = _tmp9**2
-    _tmp13 = _tmp12*c_h**2
-    _tmp14 = _tmp11*c_h
-    _tmp15 = 4*_tmp14
-    _tmp16 = _lam_theta*_tmp12
-    _tmp17 = _tmp16*m
-    _tmp18 = _tmp5*_tmp7
-    _tmp19 = _tmp14*_tmp7
-    _tmp20 = b**2
-    _tmp21 = 24*_tmp20
-    c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-    c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 6*m
+        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_theta
+        _tmp4 = h**2
+        _tmp5 = _lam_theta*m
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = _tmp7*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = _tmp12*c_h**2
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_theta*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        _tmp20 = b**2
+        _tmp21 = 24*_tmp20
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1398,14 +1116,14 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-72*J_x*J_z*lambda_phi*b**2*sin(alpha)**2 + 12*J_x*lambda_psi*m*b**4*sin(alpha)**2 + 12*J_x*lambda_y*m*b**4*sin(alpha)**2 - 72*J_z*lambda_phi*m*b**2*h**2*sin(alpha)**2 + 24*J_x*lambda_psi*m*a**2*b**2*sin(alpha)**2 + 24*J_x*lambda_psi*m*b**4*cos(alpha)**2*sin(alpha)**2 + 24*J_x*lambda_y*m*a**2*b**2*sin(alpha)**2 + 24*J_x*lambda_y*m*b**4*cos(alpha)**2*sin(alpha)**2) + c_v**2*(144*J_x*b**4*sin(alpha)**4 + 144*m*b**4*h**2*sin(alpha)**4) + 9*J_x*J_z**2*lambda_phi**2 + 9*m*J_z**2*h**2*lambda_phi**2 + J_x*lambda_psi*lambda_y*b**4*m**2 + 4*J_x*lambda_psi*lambda_y*a**4*m**2 - 6*J_x*J_z*lambda_phi*lambda_psi*m*a**2 - 6*J_x*J_z*lambda_phi*lambda_y*m*a**2 - 3*J_x*J_z*lambda_phi*lambda_psi*m*b**2 - 3*J_x*J_z*lambda_phi*lambda_y*m*b**2 + 4*J_x*lambda_psi*lambda_y*a**2*b**2*m**2 + 4*J_x*lambda_psi*lambda_y*b**4*m**2*cos(alpha)**2 + 4*J_x*lambda_psi*lambda_y*b**4*m**2*cos(alpha)**4 - 6*J_x*J_z*lambda_phi*lambda_psi*m*b**2*cos(alpha)**2 - 6*J_x*J_z*lambda_phi*lambda_y*m*b**2*cos(alpha)**2 + 8*J_x*lambda_psi*lambda_y*a**2*b**2*m**2*cos(alpha)**2 = 0
+        c_h*(-6*J_x*lambda_psi*m - 6*J_x*lambda_y*m) + c_h**2*(36*J_x + 36*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
 
     and then
 
-        c_m = -(3*J_x*J_z*lambda_phi - J_x*lambda_psi*m*b**2 - J_x*lambda_y*m*b**2 - 12*J_x*c_v*b**2*sin(alpha)**2 - 8*c_v*m*b**4*sin(alpha)**4 - 2*J_x*lambda_psi*m*a**2 - 2*J_x*lambda_y*m*a**2 + 3*J_z*lambda_phi*m*h**2 + 4*c_v*m*b**4*cos(alpha)**2 + 8*c_v*m*b**4*cos(alpha)**4 - 12*c_v*m*b**2*h**2*sin(alpha)**2 - 2*J_x*lambda_psi*m*b**2*cos(alpha)**2 - 2*J_x*lambda_y*m*b**2*cos(alpha)**2 + 2*J_z*lambda_phi*m*b**2*sin(alpha)**2 + 8*c_v*m*a**2*b**2*cos(alpha)**2)/(2*b**2*m*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1414,66 +1132,26 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**4
-    _tmp1 = J_x*_tmp0
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = 144*_tmp2**4
-    _tmp4 = h**2*m
-    _tmp5 = _tmp2**2
-    _tmp6 = b**2
-    _tmp7 = J_x*_tmp6
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = J_z*_lam_phi
-    _tmp10 = 72*_tmp9
-    _tmp11 = _lam_psi*_tmp1
-    _tmp12 = _tmp5*m
-    _tmp13 = 12*_tmp12
-    _tmp14 = _lam_y*_tmp1
-    _tmp15 = a**2
-    _tmp16 = _tmp15*m
-    _tmp17 = 24*_tmp16*_tmp8
-    _tmp18 = numpy.cos(alpha)
-    _tmp19 = _tmp18**2
-    _tmp20 = 24*_tmp12*_tmp19
-    _tmp21 = 9*J_z**2*_lam_phi**2
-    _tmp22 = _lam_y*m**2
-    _tmp23 = _tmp11*_tmp22
-    _tmp24 = J_x*_lam_psi
-    _tmp25 = 6*_tmp9
-    _tmp26 = _tmp16*_tmp25
-    _tmp27 = _lam_psi*_tmp7
-    _tmp28 = _tmp27*m
-    _tmp29 = 3*_tmp9
-    _tmp30 = _lam_y*_tmp7*m
-    _tmp31 = 4*_tmp22
-    _tmp32 = _tmp15*_tmp27
-    _tmp33 = _tmp19*_tmp25
-    _tmp34 = 4*_tmp23
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp0*_tmp3*_tmp4 + _tmp1*_tmp3, _lam_psi*_tmp17 + _lam_y*_tmp17 - _tmp10*_tmp4*_tmp5*_tmp6 - _tmp10*_tmp8 + _tmp11*_tmp13 + _tmp11*_tmp20 + _tmp13*_tmp14 + _tmp14*_tmp20, -J_x*_lam_y*_tmp26 + J_x*_tmp21 + _tmp18**4*_tmp34 + 8*_tmp19*_tmp22*_tmp32 + _tmp19*_tmp34 + _tmp21*_tmp4 + _tmp23 - _tmp24*_tmp26 + _tmp24*_tmp31*a**4 - _tmp28*_tmp29 - _tmp28*_tmp33 - _tmp29*_tmp30 - _tmp30*_tmp33 + _tmp31*_tmp32)])
-    _tmp35 = b**2
-    _tmp36 = J_x*_tmp35
-    _tmp37 = _tmp36*m
-    _tmp38 = a**2
-    _tmp39 = 2*_tmp38
-    _tmp40 = J_x*m
-    _tmp41 = _tmp39*_tmp40
-    _tmp42 = h**2
-    _tmp43 = numpy.sin(alpha)
-    _tmp44 = _tmp43**2
-    _tmp45 = _tmp44*c_v
-    _tmp46 = b**4
-    _tmp47 = numpy.cos(alpha)
-    _tmp48 = _tmp47**2
-    _tmp49 = 2*_tmp35*_tmp48
-    _tmp50 = _tmp40*_tmp49
-    _tmp51 = (0.5)/(_tmp35 + _tmp39 + _tmp49)
-    c_m = numpy.broadcast_to(-_tmp51*(3*J_x*J_z*_lam_phi + 2*J_z*_lam_phi*_tmp35*_tmp44*m + 3*J_z*_lam_phi*_tmp42*m - _lam_psi*_tmp37 - _lam_psi*_tmp41 - _lam_psi*_tmp50 - _lam_y*_tmp37 - _lam_y*_tmp41 - _lam_y*_tmp50 + 8*_tmp35*_tmp38*_tmp48*c_v*m - 12*_tmp35*_tmp42*_tmp45*m - 12*_tmp36*_tmp45 - 8*_tmp43**4*_tmp46*c_v*m + 8*_tmp46*_tmp47**4*c_v*m + 4*_tmp46*_tmp48*c_v*m)/(_tmp35*m), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp51*(-J_z*_lam_phi + 4*_tmp35*_tmp44*c_v), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 6*m
+        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = _tmp2**(-1.0)
+        _tmp4 = numpy.sin(alpha)**2
+        _tmp5 = _tmp2*c_h
+        _tmp6 = _tmp5*numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1483,14 +1161,14 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_theta*a**4*sin(alpha)**2 + 16*lambda_theta*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_theta*m*a**4*b**2*sin(alpha)**4 - 8*lambda_theta*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_theta*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**6 + 16*lambda_theta*m*a**4*b**2*cos(alpha)**2 + 16*lambda_theta*m*a**4*h**2*sin(alpha)**2 + 32*lambda_theta*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_theta*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_theta*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_theta*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_theta*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_theta*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_theta*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_theta*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_theta*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_theta*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_theta*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_theta*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_theta**2 - 4*J_y*m*a**4*lambda_theta**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_theta*b**2 - 4*J_y*m*a**2*b**2*lambda_theta**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_theta*a**2 + J_z*lambda_phi*lambda_theta*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_theta**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_theta*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_theta*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_theta*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_theta*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = -(-96*b**6*c_v**2*sin(alpha)**6 - J_x*m*b**4*lambda_y**2 - 6*J_z**2*b**2*lambda_phi**2*sin(alpha)**2 - 4*J_x*m*a**4*lambda_y**2 + 48*b**6*c_v**2*cos(alpha)**2*sin(alpha)**2 + 96*b**6*c_v**2*cos(alpha)**4*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*b**4*cos(alpha)**4 - 12*J_x*c_v*lambda_y*b**4*sin(alpha)**2 - 12*J_z*c_v*lambda_phi*b**4*cos(alpha)**2 - 8*c_v*lambda_y*m*b**6*sin(alpha)**4 - 4*J_x*m*a**2*b**2*lambda_y**2 - 4*J_x*m*b**4*lambda_y**2*cos(alpha)**2 - 4*J_x*m*b**4*lambda_y**2*cos(alpha)**4 + 3*J_x*J_z*lambda_phi*lambda_y*b**2 + 4*c_v*lambda_y*m*b**6*cos(alpha)**2 + 6*J_x*J_z*lambda_phi*lambda_y*a**2 + 16*c_v*lambda_y*m*b**6*cos(alpha)**4 + 16*c_v*lambda_y*m*b**6*cos(alpha)**6 + 48*J_z*c_v*lambda_phi*b**4*sin(alpha)**4 + 96*a**2*b**4*c_v**2*cos(alpha)**2*sin(alpha)**2 - 24*J_x*c_v*lambda_y*a**2*b**2*sin(alpha)**2 - 24*J_x*c_v*lambda_y*b**4*cos(alpha)**2*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*a**2*b**2*cos(alpha)**2 - 16*c_v*lambda_y*m*a**2*b**4*sin(alpha)**4 - 16*c_v*lambda_y*m*b**6*cos(alpha)**2*sin(alpha)**4 - 12*c_v*lambda_y*m*b**4*h**2*sin(alpha)**2 - 8*J_x*m*a**2*b**2*lambda_y**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_y*m*b**4*sin(alpha)**2 + 3*J_z*lambda_phi*lambda_y*m*b**2*h**2 + 6*J_x*J_z*lambda_phi*lambda_y*b**2*cos(alpha)**2 + 6*J_z*lambda_phi*lambda_y*m*a**2*h**2 + 16*c_v*lambda_y*m*a**2*b**4*cos(alpha)**2 + 16*c_v*lambda_y*m*a**4*b**2*cos(alpha)**2 + 32*c_v*lambda_y*m*a**2*b**4*cos(alpha)**4 - 24*c_v*lambda_y*m*a**2*b**2*h**2*sin(alpha)**2 - 24*c_v*lambda_y*m*b**4*h**2*cos(alpha)**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_y*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_y*m*b**4*cos(alpha)**2*sin(alpha)**2 + 6*J_z*lambda_phi*lambda_y*m*b**2*h**2*cos(alpha)**2)/(2*b**2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2)*(-3*J_z*lambda_phi + lambda_y*m*b**2 + 2*lambda_y*m*a**2 + 12*c_v*b**2*sin(alpha)**2 + 2*lambda_y*m*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1499,130 +1177,67 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
-    _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_theta
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_theta*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_theta*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_theta*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_theta*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_theta**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_theta*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = b**2
-    _tmp80 = J_z*_lam_phi
-    _tmp81 = _lam_y*m
-    _tmp82 = _tmp79*_tmp81
-    _tmp83 = a**2
-    _tmp84 = 2*_tmp83
-    _tmp85 = numpy.sin(alpha)
-    _tmp86 = _tmp85**2
-    _tmp87 = _tmp79*_tmp86
-    _tmp88 = 12*c_v
-    _tmp89 = numpy.cos(alpha)
-    _tmp90 = _tmp89**2
-    _tmp91 = _tmp79*_tmp90
-    _tmp92 = 2*_tmp91
-    _tmp93 = b**4
-    _tmp94 = J_x*_tmp93
-    _tmp95 = _lam_y**2*m
-    _tmp96 = _tmp94*_tmp95
-    _tmp97 = a**4
-    _tmp98 = J_x*_tmp95
-    _tmp99 = 4*_tmp98
-    _tmp100 = b**6
-    _tmp101 = c_v**2
-    _tmp102 = _lam_y*_tmp94
-    _tmp103 = _tmp86*_tmp88
-    _tmp104 = _tmp85**4
-    _tmp105 = _tmp80*_tmp93
-    _tmp106 = _tmp89**4
-    _tmp107 = _tmp104*c_v
-    _tmp108 = _tmp100*_tmp107*_tmp81
-    _tmp109 = h**2
-    _tmp110 = 4*_tmp96
-    _tmp111 = 24*c_v
-    _tmp112 = _tmp111*_tmp83
-    _tmp113 = _tmp109*_tmp81*_tmp93
-    _tmp114 = _tmp111*_tmp86*_tmp90
-    _tmp115 = (0.5)/(_tmp79 + _tmp84 + _tmp92)
-    c_m = numpy.broadcast_to(-_tmp115*(6*J_x*J_z*_lam_phi*_lam_y*_tmp79*_tmp90 + 3*J_x*J_z*_lam_phi*_lam_y*_tmp79 + 6*J_x*J_z*_lam_phi*_lam_y*_tmp83 - J_x*_lam_y*_tmp112*_tmp87 - 6*J_z**2*_lam_phi**2*_tmp87 + 6*J_z*_lam_phi*_lam_y*_tmp109*_tmp79*_tmp90*m + 3*J_z*_lam_phi*_lam_y*_tmp109*_tmp79*m + 6*J_z*_lam_phi*_lam_y*_tmp109*_tmp83*m + 4*J_z*_lam_phi*_lam_y*_tmp79*_tmp83*_tmp86*m + 4*J_z*_lam_phi*_lam_y*_tmp86*_tmp90*_tmp93*m + 2*J_z*_lam_phi*_lam_y*_tmp86*_tmp93*m + 48*J_z*_lam_phi*_tmp104*_tmp93*c_v + 16*_lam_y*_tmp100*_tmp106*c_v*m + 16*_lam_y*_tmp100*_tmp89**6*c_v*m + 4*_lam_y*_tmp100*_tmp90*c_v*m + 32*_lam_y*_tmp106*_tmp83*_tmp93*c_v*m + 16*_lam_y*_tmp79*_tmp90*_tmp97*c_v*m + 16*_lam_y*_tmp83*_tmp90*_tmp93*c_v*m + 96*_tmp100*_tmp101*_tmp106*_tmp86 - 96*_tmp100*_tmp101*_tmp85**6 + 48*_tmp100*_tmp101*_tmp86*_tmp90 + 96*_tmp101*_tmp83*_tmp86*_tmp90*_tmp93 - _tmp102*_tmp103 - _tmp102*_tmp114 - _tmp103*_tmp113 - 24*_tmp105*_tmp106*c_v - _tmp105*_tmp88*_tmp90 - _tmp106*_tmp110 - 16*_tmp107*_tmp81*_tmp83*_tmp93 - 16*_tmp108*_tmp90 - 8*_tmp108 - _tmp109*_tmp112*_tmp82*_tmp86 - _tmp110*_tmp90 - _tmp111*_tmp80*_tmp83*_tmp91 - _tmp113*_tmp114 - _tmp79*_tmp83*_tmp99 - 8*_tmp83*_tmp91*_tmp98 - _tmp96 - _tmp97*_tmp99)/(_tmp79*(-3*_tmp80 + _tmp81*_tmp84 + _tmp81*_tmp92 + _tmp82 + _tmp87*_tmp88)), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp115*(4*_tmp79*_tmp86*c_v - _tmp80), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_theta*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_theta*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = 6*c_h
+        _tmp33 = _lam_y*m
+        _tmp34 = numpy.sin(alpha)
+        _tmp35 = _tmp34**2
+        _tmp36 = numpy.cos(alpha)
+        _tmp37 = _tmp36**2
+        _tmp38 = J_z*_lam_phi
+        _tmp39 = a**2
+        _tmp40 = c_h**2
+        _tmp41 = 24*_tmp40
+        _tmp42 = b**2
+        _tmp43 = _tmp34**4
+        _tmp44 = _tmp36**4
+        _tmp45 = _tmp42*c_h
+        _tmp46 = 4*_tmp45
+        _tmp47 = 1/(_tmp35*_tmp42)
+        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1632,13 +1247,13 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-36*J_y*lambda_theta*J_x**2*lambda_psi**2*sin(alpha)**2 - 36*lambda_theta*h**6*lambda_psi**2*m**3*sin(alpha)**2 + 12*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**2 + 24*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**4 + 24*m*J_x**2*a**2*lambda_psi**3*sin(alpha)**4 - 72*J_x*lambda_theta*h**4*lambda_psi**2*m**2*sin(alpha)**2 - 36*J_y*lambda_theta*b**4*lambda_z**2*m**2*sin(alpha)**2 - 36*J_y*lambda_theta*h**4*lambda_psi**2*m**2*sin(alpha)**2 - 36*lambda_theta*m*J_x**2*a**2*lambda_psi**2*cos(alpha)**2 - 36*lambda_theta*m*J_x**2*h**2*lambda_psi**2*sin(alpha)**2 - 36*lambda_theta*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 - 36*lambda_theta*a**2*h**4*lambda_psi**2*m**3*cos(alpha)**2 - 36*lambda_theta*b**4*h**2*lambda_z**2*m**3*sin(alpha)**2 + 12*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**2 + 12*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2 + 24*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**4 + 24*J_x*a**2*h**2*lambda_psi**3*m**2*sin(alpha)**4 + 24*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**4 + 24*lambda_psi*a**2*b**4*lambda_z**2*m**3*sin(alpha)**4 + 48*m*J_x**2*a**2*lambda_psi**3*cos(alpha)**2*sin(alpha)**2 - 72*J_x*J_y*lambda_theta*m*h**2*lambda_psi**2*sin(alpha)**2 - 72*J_x*lambda_theta*a**2*h**2*lambda_psi**2*m**2*cos(alpha)**2 - 72*a*lambda_theta*h**5*lambda_psi**2*m**3*cos(alpha)*sin(alpha) - 48*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**4 - 48*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*sin(alpha)**4 - 24*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**2 - 24*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**4 - 24*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*sin(alpha)**4 - 12*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 48*J_x*a**2*h**2*lambda_psi**3*m**2*cos(alpha)**2*sin(alpha)**2 + 48*lambda_psi*a**2*b**4*lambda_z**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*lambda_psi*lambda_theta*lambda_z*b**2*h**4*m**3*sin(alpha)**2 - 144*J_x*a*lambda_theta*h**3*lambda_psi**2*m**2*cos(alpha)*sin(alpha) - 96*J_x*lambda_z*a**2*b**2*lambda_psi**2*m**2*cos(alpha)**2*sin(alpha)**2 - 72*a*h*lambda_theta*m*J_x**2*lambda_psi**2*cos(alpha)*sin(alpha) - 72*a*h*lambda_theta*b**4*lambda_z**2*m**3*cos(alpha)*sin(alpha) - 48*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2*sin(alpha)**2 + 72*J_x*J_y*lambda_psi*lambda_theta*lambda_z*m*b**2*sin(alpha)**2 + 72*J_x*lambda_psi*lambda_theta*lambda_z*a**2*b**2*m**2*cos(alpha)**2 + 72*J_x*lambda_psi*lambda_theta*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*J_y*lambda_psi*lambda_theta*lambda_z*b**2*h**2*m**2*sin(alpha)**2 + 72*lambda_psi*lambda_theta*lambda_z*a**2*b**2*h**2*m**3*cos(alpha)**2 + 144*a*lambda_psi*lambda_theta*lambda_z*b**2*h**3*m**3*cos(alpha)*sin(alpha) + 144*J_x*a*h*lambda_psi*lambda_theta*lambda_z*b**2*m**2*cos(alpha)*sin(alpha)) - 3*J_x*lambda_theta*h**4*lambda_psi**3*m**3 - 3*J_y*lambda_theta*m*J_x**2*lambda_psi**3 - 3*lambda_theta*J_x**2*h**2*lambda_psi**3*m**2 + 2*J_x**2*a**2*lambda_psi**4*m**2*sin(alpha)**2 + 9*J_y*m*J_x**2*lambda_psi**2*lambda_theta**2 + 9*J_y*b**4*lambda_theta**2*lambda_z**2*m**3 + 9*J_y*h**4*lambda_psi**2*lambda_theta**2*m**3 - 6*J_x*lambda_theta*h**4*lambda_psi**3*m**3*cos(alpha)**2 - 6*J_y*lambda_theta*m*J_x**2*lambda_psi**3*cos(alpha)**2 - 6*lambda_theta*J_x**2*a**2*lambda_psi**3*m**2*sin(alpha)**2 - 6*lambda_theta*J_x**2*h**2*lambda_psi**3*m**2*cos(alpha)**2 - 3*J_x*J_y*lambda_theta*h**2*lambda_psi**3*m**2 - 3*J_y*lambda_psi*lambda_theta*b**4*lambda_z**2*m**3 - 3*lambda_psi*lambda_theta*b**4*h**2*lambda_z**2*m**4 + 2*a**2*b**4*lambda_psi**2*lambda_z**2*m**4*sin(alpha)**2 + 3*lambda_theta*lambda_z*b**2*h**4*lambda_psi**2*m**4 + 18*J_x*J_y*h**2*lambda_psi**2*lambda_theta**2*m**2 - 18*J_x*J_y*lambda_psi*lambda_z*b**2*lambda_theta**2*m**2 - 18*J_y*lambda_psi*lambda_z*b**2*h**2*lambda_theta**2*m**3 - 6*J_x*J_y*lambda_theta*h**2*lambda_psi**3*m**2*cos(alpha)**2 - 6*J_x*lambda_theta*a**2*h**2*lambda_psi**3*m**3*sin(alpha)**2 - 6*J_y*lambda_psi*lambda_theta*b**4*lambda_z**2*m**3*cos(alpha)**2 - 6*lambda_psi*lambda_theta*a**2*b**4*lambda_z**2*m**4*sin(alpha)**2 - 6*lambda_psi*lambda_theta*b**4*h**2*lambda_z**2*m**4*cos(alpha)**2 - 4*J_x*lambda_z*a**2*b**2*lambda_psi**3*m**3*sin(alpha)**2 + 3*J_y*lambda_theta*lambda_z*b**2*h**2*lambda_psi**2*m**3 + 6*J_x*J_y*lambda_theta*lambda_z*b**2*lambda_psi**2*m**2 + 6*J_x*lambda_theta*lambda_z*b**2*h**2*lambda_psi**2*m**3 + 6*lambda_theta*lambda_z*b**2*h**4*lambda_psi**2*m**4*cos(alpha)**2 + 6*J_y*lambda_theta*lambda_z*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 6*lambda_theta*lambda_z*a**2*b**2*h**2*lambda_psi**2*m**4*sin(alpha)**2 + 12*J_x*J_y*lambda_theta*lambda_z*b**2*lambda_psi**2*m**2*cos(alpha)**2 + 12*J_x*a*lambda_theta*h**3*lambda_psi**3*m**3*cos(alpha)*sin(alpha) + 12*J_x*lambda_theta*lambda_z*a**2*b**2*lambda_psi**2*m**3*sin(alpha)**2 + 12*J_x*lambda_theta*lambda_z*b**2*h**2*lambda_psi**2*m**3*cos(alpha)**2 + 12*a*h*lambda_theta*J_x**2*lambda_psi**3*m**2*cos(alpha)*sin(alpha) - 12*a*lambda_theta*lambda_z*b**2*h**3*lambda_psi**2*m**4*cos(alpha)*sin(alpha) + 12*a*h*lambda_psi*lambda_theta*b**4*lambda_z**2*m**4*cos(alpha)*sin(alpha) - 24*J_x*a*h*lambda_theta*lambda_z*b**2*lambda_psi**2*m**3*cos(alpha)*sin(alpha) = 0
+        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_h = lambda_psi*m*(-J_x*lambda_psi + lambda_z*m*b**2)/(6*(-J_x*lambda_psi + lambda_z*m*b**2 - lambda_psi*m*h**2))
+        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
@@ -1648,84 +1263,39 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _tmp0 = J_x**2
-    _tmp1 = _lam_theta*_tmp0
-    _tmp2 = _lam_psi**2
-    _tmp3 = J_y*_tmp2
-    _tmp4 = numpy.sin(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 36*_tmp5
-    _tmp7 = _tmp3*_tmp6
-    _tmp8 = b**2
-    _tmp9 = _lam_psi**3
-    _tmp10 = a**2
-    _tmp11 = _tmp4**4
-    _tmp12 = numpy.cos(alpha)
-    _tmp13 = _tmp12**2
-    _tmp14 = _tmp12**4
-    _tmp15 = m**3
-    _tmp16 = _lam_theta*_tmp15
-    _tmp17 = _tmp2*_tmp6
-    _tmp18 = h**2
-    _tmp19 = J_x*_tmp18
-    _tmp20 = _tmp2*m
-    _tmp21 = _tmp12*_tmp4*a
-    _tmp22 = 72*_tmp21
-    _tmp23 = _tmp22*h
-    _tmp24 = h**4
-    _tmp25 = J_x*_tmp24
-    _tmp26 = m**2
-    _tmp27 = _tmp26*_tmp5
-    _tmp28 = _lam_theta*_tmp2
-    _tmp29 = 72*_tmp28
-    _tmp30 = _tmp1*_tmp10
-    _tmp31 = 36*_tmp13
-    _tmp32 = _tmp1*_tmp18
-    _tmp33 = _lam_theta*_tmp26
-    _tmp34 = _lam_z**2
-    _tmp35 = b**4
-    _tmp36 = _tmp34*_tmp35
-    _tmp37 = J_y*_tmp36
-    _tmp38 = _tmp16*_tmp2
-    _tmp39 = J_x*_tmp26
-    _tmp40 = h**3
-    _tmp41 = _tmp21*_tmp40
-    _tmp42 = _tmp16*_tmp36
-    _tmp43 = _tmp10*_tmp2
-    _tmp44 = 48*_tmp39
-    _tmp45 = _lam_z*_tmp8
-    _tmp46 = _tmp43*_tmp45
-    _tmp47 = _tmp11*_tmp46
-    _tmp48 = _tmp13*_tmp46
-    _tmp49 = _tmp14*_tmp46
-    _tmp50 = _tmp15*_tmp18
-    _tmp51 = 24*_tmp50
-    _tmp52 = _tmp46*_tmp50
-    _tmp53 = 3*J_y
-    _tmp54 = _tmp1*_tmp9*m
-    _tmp55 = 3*_tmp9
-    _tmp56 = _tmp16*_tmp25
-    _tmp57 = _lam_theta**2
-    _tmp58 = J_y*_tmp19*_tmp33
-    _tmp59 = _tmp26*_tmp32
-    _tmp60 = 6*_tmp13
-    _tmp61 = 18*J_y*_lam_psi*_tmp45*_tmp57
-    _tmp62 = m**4
-    _tmp63 = _lam_psi*_tmp36
-    _tmp64 = _lam_theta*_tmp18*_tmp63
-    _tmp65 = _tmp60*_tmp9
-    _tmp66 = _tmp5*_tmp9
-    _tmp67 = J_x*_tmp45
-    c_v = numpy.concatenate([_runtime.polynomial_roots(72*J_x*J_y*_lam_psi*_lam_theta*_lam_z*_tmp5*_tmp8*m + 72*J_x*_lam_psi*_lam_theta*_lam_z*_tmp10*_tmp13*_tmp26*_tmp8 + 144*J_x*_lam_psi*_lam_theta*_lam_z*_tmp12*_tmp26*_tmp4*_tmp8*a*h + 72*J_x*_lam_psi*_lam_theta*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 24*J_x*_tmp10*_tmp11*_tmp18*_tmp26*_tmp9 + 48*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp5*_tmp9 + 12*J_x*_tmp10*_tmp13*_tmp18*_tmp26*_tmp9 + 24*J_x*_tmp10*_tmp14*_tmp18*_tmp26*_tmp9 - 96*J_x*_tmp27*_tmp48 + 72*J_y*_lam_psi*_lam_theta*_lam_z*_tmp18*_tmp26*_tmp5*_tmp8 + 72*_lam_psi*_lam_theta*_lam_z*_tmp10*_tmp13*_tmp15*_tmp18*_tmp8 + 144*_lam_psi*_lam_theta*_lam_z*_tmp12*_tmp15*_tmp4*_tmp40*_tmp8*a + 72*_lam_psi*_lam_theta*_lam_z*_tmp15*_tmp24*_tmp5*_tmp8 + 24*_lam_psi*_tmp10*_tmp11*_tmp15*_tmp34*_tmp35 + 48*_lam_psi*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35*_tmp5 + 12*_lam_psi*_tmp10*_tmp13*_tmp15*_tmp34*_tmp35 + 24*_lam_psi*_tmp10*_tmp14*_tmp15*_tmp34*_tmp35 - 72*_lam_theta*_tmp19*_tmp3*_tmp5*m + 24*_tmp0*_tmp10*_tmp11*_tmp9*m + 48*_tmp0*_tmp10*_tmp13*_tmp5*_tmp9*m + 12*_tmp0*_tmp10*_tmp13*_tmp9*m + 24*_tmp0*_tmp10*_tmp14*_tmp9*m - _tmp1*_tmp20*_tmp23 - _tmp1*_tmp7 - _tmp10*_tmp13*_tmp19*_tmp26*_tmp29 - _tmp10*_tmp31*_tmp42 - 48*_tmp13*_tmp5*_tmp52 - 12*_tmp13*_tmp52 - _tmp16*_tmp17*h**6 - _tmp16*_tmp24*_tmp31*_tmp43 - _tmp17*_tmp32*m - _tmp18*_tmp42*_tmp6 - _tmp20*_tmp30*_tmp31 - _tmp22*_tmp38*h**5 - _tmp23*_tmp42 - _tmp24*_tmp33*_tmp7 - _tmp25*_tmp27*_tmp29 - 144*_tmp28*_tmp39*_tmp41 - _tmp33*_tmp37*_tmp6 - 24*_tmp39*_tmp48 - _tmp44*_tmp47 - _tmp44*_tmp49 - _tmp47*_tmp51 - _tmp49*_tmp51, 12*J_x*J_y*_lam_theta*_lam_z*_tmp13*_tmp2*_tmp26*_tmp8 + 6*J_x*J_y*_lam_theta*_lam_z*_tmp2*_tmp26*_tmp8 + 18*J_x*J_y*_tmp18*_tmp2*_tmp26*_tmp57 + 12*J_x*_lam_theta*_lam_z*_tmp10*_tmp15*_tmp2*_tmp5*_tmp8 + 12*J_x*_lam_theta*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 6*J_x*_lam_theta*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 12*J_x*_lam_theta*_tmp12*_tmp15*_tmp4*_tmp40*_tmp9*a + 6*J_y*_lam_theta*_lam_z*_tmp13*_tmp15*_tmp18*_tmp2*_tmp8 + 3*J_y*_lam_theta*_lam_z*_tmp15*_tmp18*_tmp2*_tmp8 + 9*J_y*_tmp0*_tmp2*_tmp57*m + 9*J_y*_tmp15*_tmp2*_tmp24*_tmp57 + 9*J_y*_tmp15*_tmp34*_tmp35*_tmp57 - J_y*_tmp54*_tmp60 + 2*_lam_psi**4*_tmp0*_tmp10*_tmp26*_tmp5 + 12*_lam_psi*_lam_theta*_tmp12*_tmp34*_tmp35*_tmp4*_tmp62*a*h - _lam_psi*_tmp16*_tmp37*_tmp60 - _lam_psi*_tmp42*_tmp53 + 6*_lam_theta*_lam_z*_tmp10*_tmp18*_tmp2*_tmp5*_tmp62*_tmp8 + 6*_lam_theta*_lam_z*_tmp13*_tmp2*_tmp24*_tmp62*_tmp8 + 3*_lam_theta*_lam_z*_tmp2*_tmp24*_tmp62*_tmp8 + 12*_lam_theta*_tmp0*_tmp12*_tmp26*_tmp4*_tmp9*a*h - 6*_lam_theta*_tmp10*_tmp5*_tmp62*_tmp63 - 4*_tmp10*_tmp15*_tmp66*_tmp67 - 6*_tmp10*_tmp16*_tmp19*_tmp66 + 2*_tmp10*_tmp2*_tmp34*_tmp35*_tmp5*_tmp62 - 24*_tmp21*_tmp38*_tmp67*h - 6*_tmp27*_tmp30*_tmp9 - 12*_tmp28*_tmp41*_tmp45*_tmp62 - _tmp39*_tmp61 - _tmp50*_tmp61 - _tmp53*_tmp54 - _tmp55*_tmp56 - _tmp55*_tmp58 - _tmp55*_tmp59 - _tmp56*_tmp65 - _tmp58*_tmp65 - _tmp59*_tmp65 - _tmp60*_tmp62*_tmp64 - 3*_tmp62*_tmp64)])
-    _tmp68 = _lam_psi*m
-    _tmp69 = J_x*_lam_psi - _lam_z*b**2*m
-    c_h = numpy.broadcast_to(-0.16666666666666666*_tmp68*_tmp69/(-_tmp68*h**2 - _tmp69), c_v.shape)
-    c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _tmp0 = 6*_lam_psi
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        _tmp2 = 2*c_h
+        _tmp3 = J_y*_lam_theta
+        _tmp4 = h**2
+        _tmp5 = _lam_theta*m
+        _tmp6 = _tmp4*_tmp5
+        _tmp7 = numpy.cos(alpha)
+        _tmp8 = _tmp7**2
+        _tmp9 = 4*_tmp8*c_h
+        _tmp10 = numpy.sin(alpha)
+        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
+        _tmp12 = a**2
+        _tmp13 = _tmp10**2
+        _tmp14 = 8*_tmp13
+        _tmp15 = _tmp12*c_h
+        _tmp16 = 4*_tmp15
+        _tmp17 = _lam_theta*_tmp13
+        _tmp18 = _tmp17*m
+        _tmp19 = _tmp12*_tmp8
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1735,14 +1305,14 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-12*J_x*lambda_psi*b**2*sin(alpha)**2 + 12*lambda_z*m*b**4*sin(alpha)**2 - 12*lambda_psi*m*b**2*h**2*sin(alpha)**2) + lambda_psi*lambda_z*b**4*m**2 - J_x*m*b**2*lambda_psi**2 - 2*J_x*m*a**2*lambda_psi**2 + 3*J_x*J_z*lambda_phi*lambda_psi - 3*J_z*lambda_phi*lambda_z*m*b**2 - 2*J_x*m*b**2*lambda_psi**2*cos(alpha)**2 + 2*lambda_psi*lambda_z*a**2*b**2*m**2 + 2*lambda_psi*lambda_z*b**4*m**2*cos(alpha)**2 + 3*J_z*lambda_phi*lambda_psi*m*h**2 = 0
+        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_m = (lambda_z*m*b**2 - 8*c_v*a**2*cos(alpha)**2 - 8*c_v*b**2*cos(alpha)**4 - 4*c_v*b**2*cos(alpha)**2 - 2*J_z*lambda_phi*sin(alpha)**2 + 2*lambda_z*m*a**2 + 8*c_v*b**2*sin(alpha)**4 + 2*lambda_z*m*b**2*cos(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1751,39 +1321,26 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = b**2
-    _tmp1 = J_x*_tmp0
-    _tmp2 = numpy.sin(alpha)**2
-    _tmp3 = 12*_lam_psi*_tmp2
-    _tmp4 = b**4
-    _tmp5 = h**2
-    _tmp6 = _tmp0*m
-    _tmp7 = 3*J_z*_lam_phi
-    _tmp8 = _lam_psi*_tmp7
-    _tmp9 = _lam_psi*m**2
-    _tmp10 = _lam_z*_tmp4*_tmp9
-    _tmp11 = _lam_psi**2*m
-    _tmp12 = 2*a**2
-    _tmp13 = _tmp1*_tmp11
-    _tmp14 = 2*numpy.cos(alpha)**2
-    c_v = numpy.concatenate([_runtime.polynomial_roots(12*_lam_z*_tmp2*_tmp4*m - _tmp1*_tmp3 - _tmp3*_tmp5*_tmp6, -J_x*_tmp11*_tmp12 + J_x*_tmp8 + _lam_z*_tmp0*_tmp12*_tmp9 - _lam_z*_tmp6*_tmp7 + _tmp10*_tmp14 + _tmp10 - _tmp13*_tmp14 - _tmp13 + _tmp5*_tmp8*m)])
-    _tmp15 = a**2
-    _tmp16 = b**2
-    _tmp17 = numpy.sin(alpha)
-    _tmp18 = _tmp17**2
-    _tmp19 = J_z*_lam_phi
-    _tmp20 = numpy.cos(alpha)
-    _tmp21 = _tmp20**2
-    _tmp22 = 8*c_v
-    _tmp23 = _tmp16*_tmp21
-    _tmp24 = (0.5)/(2*_tmp15 + _tmp16 + 2*_tmp23)
-    c_m = numpy.broadcast_to(_tmp24*(2*_lam_z*_tmp15*m + 2*_lam_z*_tmp16*_tmp21*m + _lam_z*_tmp16*m - _tmp15*_tmp21*_tmp22 + 8*_tmp16*_tmp17**4*c_v - _tmp16*_tmp20**4*_tmp22 - 2*_tmp18*_tmp19 - 4*_tmp23*c_v), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp24*(4*_tmp16*_tmp18*c_v - _tmp19), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = 6*_lam_psi
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        _tmp2 = b**2
+        _tmp3 = numpy.sin(alpha)**2
+        _tmp4 = 4*c_h
+        _tmp5 = 2*c_h
+        _tmp6 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1793,14 +1350,14 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_theta*a**4*sin(alpha)**2 + 16*lambda_theta*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_theta*m*a**4*b**2*sin(alpha)**4 - 8*lambda_theta*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_theta*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**6 + 16*lambda_theta*m*a**4*b**2*cos(alpha)**2 + 16*lambda_theta*m*a**4*h**2*sin(alpha)**2 + 32*lambda_theta*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_theta*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_theta*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_theta*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_theta*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_theta*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_theta*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_theta*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_theta*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_theta*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_theta*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_theta*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_theta**2 - 4*J_y*m*a**4*lambda_theta**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_theta*b**2 - 4*J_y*m*a**2*b**2*lambda_theta**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_theta*a**2 + J_z*lambda_phi*lambda_theta*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_theta**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_theta*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_theta*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_theta*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_theta*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = (lambda_z*m*b**2 - 8*c_v*a**2*cos(alpha)**2 - 8*c_v*b**2*cos(alpha)**4 - 4*c_v*b**2*cos(alpha)**2 - 2*J_z*lambda_phi*sin(alpha)**2 + 2*lambda_z*m*a**2 + 8*c_v*b**2*sin(alpha)**4 + 2*lambda_z*m*b**2*cos(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1809,103 +1366,56 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
-    _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_theta
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_theta*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_theta*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_theta*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_theta*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_theta**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_theta*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = a**2
-    _tmp80 = b**2
-    _tmp81 = numpy.sin(alpha)
-    _tmp82 = _tmp81**2
-    _tmp83 = J_z*_lam_phi
-    _tmp84 = numpy.cos(alpha)
-    _tmp85 = _tmp84**2
-    _tmp86 = 8*c_v
-    _tmp87 = _tmp80*_tmp85
-    _tmp88 = (0.5)/(2*_tmp79 + _tmp80 + 2*_tmp87)
-    c_m = numpy.broadcast_to(_tmp88*(2*_lam_z*_tmp79*m + 2*_lam_z*_tmp80*_tmp85*m + _lam_z*_tmp80*m - _tmp79*_tmp85*_tmp86 + 8*_tmp80*_tmp81**4*c_v - _tmp80*_tmp84**4*_tmp86 - 2*_tmp82*_tmp83 - 4*_tmp87*c_v), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp88*(4*_tmp80*_tmp82*c_v - _tmp83), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_theta*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_theta*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)**2
+        _tmp34 = 4*c_h
+        _tmp35 = 2*c_h
+        _tmp36 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1915,14 +1425,14 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
-    Derivation (lambda = omega^2): c_v is a root of
+    Derivation (lambda = omega^2): c_h is a root of
 
-        c_v*(-16*J_z*lambda_phi*a**4*cos(alpha)**4 - 16*J_z*lambda_phi*a**4*sin(alpha)**4 - 8*J_z*lambda_phi*a**4*cos(alpha)**2 + 16*J_y*lambda_theta*a**4*sin(alpha)**2 + 16*lambda_theta*m*a**6*cos(alpha)**2 - 32*J_z*lambda_phi*a**4*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**4 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**6 - 16*lambda_theta*m*a**4*b**2*sin(alpha)**4 - 8*lambda_theta*m*a**2*b**4*sin(alpha)**4 - 4*J_z*lambda_phi*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**4*cos(alpha)**2 + 8*J_y*lambda_theta*a**2*b**2*sin(alpha)**2 + 8*J_z*lambda_phi*a**2*b**2*sin(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**4 + 16*lambda_theta*m*a**2*b**4*cos(alpha)**6 + 16*lambda_theta*m*a**4*b**2*cos(alpha)**2 + 16*lambda_theta*m*a**4*h**2*sin(alpha)**2 + 32*lambda_theta*m*a**4*b**2*cos(alpha)**4 - 32*J_z*lambda_phi*a**2*b**2*cos(alpha)**4*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 16*J_z*lambda_phi*a**2*b**2*cos(alpha)**2*sin(alpha)**4 - 16*lambda_theta*m*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 8*lambda_theta*m*a**2*b**2*h**2*sin(alpha)**2 + 16*J_y*lambda_theta*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 32*h*lambda_theta*m*a**5*cos(alpha)*sin(alpha) + 8*a*h*lambda_theta*m*b**4*cos(alpha)*sin(alpha) + 16*a*h*lambda_theta*m*b**4*sin(alpha)**3*cos(alpha) + 16*lambda_theta*m*a**2*b**2*h**2*cos(alpha)**2*sin(alpha)**2 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha)**3 + 32*a*h*lambda_theta*m*b**4*cos(alpha)**3*sin(alpha) + 32*a*h*lambda_theta*m*b**4*cos(alpha)**5*sin(alpha) + 32*h*lambda_theta*m*a**3*b**2*sin(alpha)**3*cos(alpha) + 32*h*lambda_theta*m*a**3*b**2*cos(alpha)*sin(alpha) + 64*h*lambda_theta*m*a**3*b**2*cos(alpha)**3*sin(alpha)) + c_v**2*(64*a**4*b**2*sin(alpha)**6 + 16*a**2*b**4*cos(alpha)**2*sin(alpha)**2 + 32*a**4*b**2*cos(alpha)**2*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**4 + 64*a**2*b**4*cos(alpha)**2*sin(alpha)**6 + 64*a**2*b**4*cos(alpha)**4*sin(alpha)**2 + 64*a**2*b**4*cos(alpha)**6*sin(alpha)**2 + 64*a**4*b**2*cos(alpha)**4*sin(alpha)**2 + 128*a**2*b**4*cos(alpha)**4*sin(alpha)**4 + 128*a**4*b**2*cos(alpha)**2*sin(alpha)**4) - J_y*m*b**4*lambda_theta**2 - 4*J_y*m*a**4*lambda_theta**2 - 2*J_z**2*a**2*lambda_phi**2*sin(alpha)**2 + J_y*J_z*lambda_phi*lambda_theta*b**2 - 4*J_y*m*a**2*b**2*lambda_theta**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**2 - 4*J_y*m*b**4*lambda_theta**2*cos(alpha)**4 + 2*J_y*J_z*lambda_phi*lambda_theta*a**2 + J_z*lambda_phi*lambda_theta*m*b**2*h**2 - 8*J_y*m*a**2*b**2*lambda_theta**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*h**2 + 4*J_y*J_z*lambda_phi*lambda_theta*a**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2*cos(alpha)**4 + 4*J_z*lambda_phi*lambda_theta*m*a**4*sin(alpha)**2 + 2*J_z*lambda_phi*lambda_theta*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*a**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2*cos(alpha)**4 - 8*J_z*h*lambda_phi*lambda_theta*m*a**3*cos(alpha)*sin(alpha) + 4*J_z*lambda_phi*lambda_theta*m*a**2*b**2*cos(alpha)**2*sin(alpha)**2 - 8*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 4*J_z*a*h*lambda_phi*lambda_theta*m*b**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = -(-96*b**6*c_v**2*sin(alpha)**6 - J_x*m*b**4*lambda_psi**2 - 6*J_z**2*b**2*lambda_phi**2*sin(alpha)**2 - 4*J_x*m*a**4*lambda_psi**2 + 48*b**6*c_v**2*cos(alpha)**2*sin(alpha)**2 + 96*b**6*c_v**2*cos(alpha)**4*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*b**4*cos(alpha)**4 - 12*J_x*c_v*lambda_psi*b**4*sin(alpha)**2 - 12*J_z*c_v*lambda_phi*b**4*cos(alpha)**2 - 8*c_v*lambda_psi*m*b**6*sin(alpha)**4 - 4*J_x*m*a**2*b**2*lambda_psi**2 - 4*J_x*m*b**4*lambda_psi**2*cos(alpha)**2 - 4*J_x*m*b**4*lambda_psi**2*cos(alpha)**4 + 3*J_x*J_z*lambda_phi*lambda_psi*b**2 + 4*c_v*lambda_psi*m*b**6*cos(alpha)**2 + 6*J_x*J_z*lambda_phi*lambda_psi*a**2 + 16*c_v*lambda_psi*m*b**6*cos(alpha)**4 + 16*c_v*lambda_psi*m*b**6*cos(alpha)**6 + 48*J_z*c_v*lambda_phi*b**4*sin(alpha)**4 + 96*a**2*b**4*c_v**2*cos(alpha)**2*sin(alpha)**2 - 24*J_x*c_v*lambda_psi*a**2*b**2*sin(alpha)**2 - 24*J_x*c_v*lambda_psi*b**4*cos(alpha)**2*sin(alpha)**2 - 24*J_z*c_v*lambda_phi*a**2*b**2*cos(alpha)**2 - 16*c_v*lambda_psi*m*a**2*b**4*sin(alpha)**4 - 16*c_v*lambda_psi*m*b**6*cos(alpha)**2*sin(alpha)**4 - 12*c_v*lambda_psi*m*b**4*h**2*sin(alpha)**2 - 8*J_x*m*a**2*b**2*lambda_psi**2*cos(alpha)**2 + 2*J_z*lambda_phi*lambda_psi*m*b**4*sin(alpha)**2 + 3*J_z*lambda_phi*lambda_psi*m*b**2*h**2 + 6*J_x*J_z*lambda_phi*lambda_psi*b**2*cos(alpha)**2 + 6*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 16*c_v*lambda_psi*m*a**2*b**4*cos(alpha)**2 + 16*c_v*lambda_psi*m*a**4*b**2*cos(alpha)**2 + 32*c_v*lambda_psi*m*a**2*b**4*cos(alpha)**4 - 24*c_v*lambda_psi*m*a**2*b**2*h**2*sin(alpha)**2 - 24*c_v*lambda_psi*m*b**4*h**2*cos(alpha)**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_psi*m*a**2*b**2*sin(alpha)**2 + 4*J_z*lambda_phi*lambda_psi*m*b**4*cos(alpha)**2*sin(alpha)**2 + 6*J_z*lambda_phi*lambda_psi*m*b**2*h**2*cos(alpha)**2)/(2*b**2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2)*(-3*J_z*lambda_phi + lambda_psi*m*b**2 + 2*lambda_psi*m*a**2 + 12*c_v*b**2*sin(alpha)**2 + 2*lambda_psi*m*b**2*cos(alpha)**2))
-        c_h = -(-J_z*lambda_phi + 4*c_v*b**2*sin(alpha)**2)/(2*(b**2 + 2*a**2 + 2*b**2*cos(alpha)**2))
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-6): a root that puts a given
@@ -1931,130 +1441,67 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
-    _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-    _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-    _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
-    _tmp0 = a**4
-    _tmp1 = b**2
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = 64*_tmp3**6
-    _tmp5 = b**4
-    _tmp6 = a**2
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = numpy.cos(alpha)
-    _tmp9 = _tmp8**2
-    _tmp10 = _tmp3**2
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = 16*_tmp11
-    _tmp13 = _tmp8**4
-    _tmp14 = _tmp13*_tmp7
-    _tmp15 = 64*_tmp10
-    _tmp16 = _tmp8**6
-    _tmp17 = _tmp3**4
-    _tmp18 = _tmp7*_tmp9
-    _tmp19 = 128*_tmp17
-    _tmp20 = 32*_tmp11
-    _tmp21 = _tmp13*_tmp2
-    _tmp22 = _tmp2*_tmp9
-    _tmp23 = 16*_tmp0
-    _tmp24 = J_y*_lam_theta
-    _tmp25 = _tmp10*_tmp24
-    _tmp26 = J_z*_lam_phi
-    _tmp27 = _tmp17*_tmp26
-    _tmp28 = _tmp0*_tmp26
-    _tmp29 = 8*_tmp9
-    _tmp30 = _tmp13*_tmp26
-    _tmp31 = _lam_theta*_tmp9
-    _tmp32 = 16*m
-    _tmp33 = _lam_theta*m
-    _tmp34 = 32*_tmp33
-    _tmp35 = _tmp8*h
-    _tmp36 = _tmp3*_tmp35
-    _tmp37 = _tmp34*_tmp36
-    _tmp38 = _tmp5*m
-    _tmp39 = _lam_theta*_tmp38
-    _tmp40 = _tmp39*a
-    _tmp41 = 8*_tmp36
-    _tmp42 = _tmp1*_tmp6
-    _tmp43 = 8*_tmp42
-    _tmp44 = 4*_tmp9
-    _tmp45 = _tmp1*_tmp26
-    _tmp46 = _tmp45*_tmp6
-    _tmp47 = 16*_tmp6
-    _tmp48 = _tmp1*_tmp30
-    _tmp49 = _tmp16*_tmp47
-    _tmp50 = _lam_theta*_tmp17
-    _tmp51 = _tmp38*_tmp6
-    _tmp52 = 4*_tmp31
-    _tmp53 = h**2
-    _tmp54 = _tmp33*_tmp53
-    _tmp55 = _tmp10*_tmp54
-    _tmp56 = _tmp8**3
-    _tmp57 = 32*h
-    _tmp58 = _tmp56*_tmp57
-    _tmp59 = _tmp3*_tmp40
-    _tmp60 = _tmp3**3
-    _tmp61 = _tmp40*_tmp60
-    _tmp62 = a**3
-    _tmp63 = _tmp1*_tmp62
-    _tmp64 = _tmp3*_tmp33*_tmp56*h
-    _tmp65 = _tmp12*_tmp42
-    _tmp66 = _tmp24*_tmp45
-    _tmp67 = 2*_tmp6
-    _tmp68 = _tmp26*_tmp67
-    _tmp69 = J_y*_lam_theta**2
-    _tmp70 = _tmp69*m
-    _tmp71 = 4*_tmp70
-    _tmp72 = _tmp38*_tmp69
-    _tmp73 = _tmp26*_tmp6
-    _tmp74 = 4*_tmp48
-    _tmp75 = 4*_tmp33
-    _tmp76 = _tmp10*_tmp67
-    _tmp77 = _tmp45*a
-    _tmp78 = _tmp52*_tmp53*m
-    c_v = numpy.concatenate([_runtime.polynomial_roots(_tmp12*_tmp7 + _tmp14*_tmp15 + _tmp14*_tmp19 + _tmp15*_tmp16*_tmp7 + _tmp15*_tmp21 + 64*_tmp17*_tmp18 + _tmp18*_tmp4 + _tmp19*_tmp22 + _tmp2*_tmp20 + _tmp2*_tmp4, _lam_theta*_tmp22*_tmp32 - _tmp1*_tmp27*_tmp47*_tmp9 - 32*_tmp10*_tmp48*_tmp6 - _tmp12*_tmp46 + _tmp13*_tmp39*_tmp47 - _tmp17*_tmp31*_tmp38*_tmp47 - _tmp2*_tmp32*_tmp50 - _tmp20*_tmp28 + _tmp21*_tmp34 + _tmp23*_tmp25 - _tmp23*_tmp27 - _tmp23*_tmp30 + _tmp23*_tmp55 + _tmp24*_tmp65 + _tmp25*_tmp43 + _tmp27*_tmp43 - _tmp28*_tmp29 + _tmp31*_tmp32*a**6 + _tmp34*_tmp35*_tmp60*_tmp63 + 16*_tmp35*_tmp61 + _tmp37*_tmp63 + _tmp37*a**5 + _tmp39*_tmp49 + _tmp40*_tmp41 + _tmp43*_tmp55 - _tmp44*_tmp46 - _tmp45*_tmp49 - _tmp47*_tmp48 - 8*_tmp50*_tmp51 + _tmp51*_tmp52 + _tmp54*_tmp65 + _tmp57*_tmp59*_tmp8**5 + _tmp58*_tmp59 + _tmp58*_tmp61 + 64*_tmp63*_tmp64, -J_z**2*_lam_phi**2*_tmp76 - _tmp0*_tmp71 + _tmp10*_tmp28*_tmp75 + _tmp11*_tmp46*_tmp75 - 4*_tmp13*_tmp72 + _tmp24*_tmp44*_tmp73 + _tmp24*_tmp68 + _tmp24*_tmp74 - _tmp26*_tmp33*_tmp41*_tmp62 - _tmp29*_tmp42*_tmp70 + _tmp33*_tmp45*_tmp76 - _tmp36*_tmp75*_tmp77 - _tmp42*_tmp71 + _tmp44*_tmp66 - _tmp44*_tmp72 + _tmp45*_tmp54 + _tmp45*_tmp78 + _tmp54*_tmp68 + _tmp54*_tmp74 - 8*_tmp64*_tmp77 + _tmp66 - _tmp72 + _tmp73*_tmp78)])
-    _tmp79 = b**2
-    _tmp80 = J_z*_lam_phi
-    _tmp81 = _lam_psi*m
-    _tmp82 = _tmp79*_tmp81
-    _tmp83 = a**2
-    _tmp84 = 2*_tmp83
-    _tmp85 = numpy.sin(alpha)
-    _tmp86 = _tmp85**2
-    _tmp87 = _tmp79*_tmp86
-    _tmp88 = 12*c_v
-    _tmp89 = numpy.cos(alpha)
-    _tmp90 = _tmp89**2
-    _tmp91 = _tmp79*_tmp90
-    _tmp92 = 2*_tmp91
-    _tmp93 = b**4
-    _tmp94 = J_x*_tmp93
-    _tmp95 = _lam_psi**2*m
-    _tmp96 = _tmp94*_tmp95
-    _tmp97 = a**4
-    _tmp98 = J_x*_tmp95
-    _tmp99 = 4*_tmp98
-    _tmp100 = b**6
-    _tmp101 = c_v**2
-    _tmp102 = _lam_psi*_tmp94
-    _tmp103 = _tmp86*_tmp88
-    _tmp104 = _tmp85**4
-    _tmp105 = _tmp80*_tmp93
-    _tmp106 = _tmp89**4
-    _tmp107 = _tmp104*c_v
-    _tmp108 = _tmp100*_tmp107*_tmp81
-    _tmp109 = h**2
-    _tmp110 = 4*_tmp96
-    _tmp111 = 24*c_v
-    _tmp112 = _tmp111*_tmp83
-    _tmp113 = _tmp109*_tmp81*_tmp93
-    _tmp114 = _tmp111*_tmp86*_tmp90
-    _tmp115 = (0.5)/(_tmp79 + _tmp84 + _tmp92)
-    c_m = numpy.broadcast_to(-_tmp115*(6*J_x*J_z*_lam_phi*_lam_psi*_tmp79*_tmp90 + 3*J_x*J_z*_lam_phi*_lam_psi*_tmp79 + 6*J_x*J_z*_lam_phi*_lam_psi*_tmp83 - J_x*_lam_psi*_tmp112*_tmp87 - 6*J_z**2*_lam_phi**2*_tmp87 + 6*J_z*_lam_phi*_lam_psi*_tmp109*_tmp79*_tmp90*m + 3*J_z*_lam_phi*_lam_psi*_tmp109*_tmp79*m + 6*J_z*_lam_phi*_lam_psi*_tmp109*_tmp83*m + 4*J_z*_lam_phi*_lam_psi*_tmp79*_tmp83*_tmp86*m + 4*J_z*_lam_phi*_lam_psi*_tmp86*_tmp90*_tmp93*m + 2*J_z*_lam_phi*_lam_psi*_tmp86*_tmp93*m + 48*J_z*_lam_phi*_tmp104*_tmp93*c_v + 16*_lam_psi*_tmp100*_tmp106*c_v*m + 16*_lam_psi*_tmp100*_tmp89**6*c_v*m + 4*_lam_psi*_tmp100*_tmp90*c_v*m + 32*_lam_psi*_tmp106*_tmp83*_tmp93*c_v*m + 16*_lam_psi*_tmp79*_tmp90*_tmp97*c_v*m + 16*_lam_psi*_tmp83*_tmp90*_tmp93*c_v*m + 96*_tmp100*_tmp101*_tmp106*_tmp86 - 96*_tmp100*_tmp101*_tmp85**6 + 48*_tmp100*_tmp101*_tmp86*_tmp90 + 96*_tmp101*_tmp83*_tmp86*_tmp90*_tmp93 - _tmp102*_tmp103 - _tmp102*_tmp114 - _tmp103*_tmp113 - 24*_tmp105*_tmp106*c_v - _tmp105*_tmp88*_tmp90 - _tmp106*_tmp110 - 16*_tmp107*_tmp81*_tmp83*_tmp93 - 16*_tmp108*_tmp90 - 8*_tmp108 - _tmp109*_tmp112*_tmp82*_tmp86 - _tmp110*_tmp90 - _tmp111*_tmp80*_tmp83*_tmp91 - _tmp113*_tmp114 - _tmp79*_tmp83*_tmp99 - 8*_tmp83*_tmp91*_tmp98 - _tmp96 - _tmp97*_tmp99)/(_tmp79*(-3*_tmp80 + _tmp81*_tmp84 + _tmp81*_tmp92 + _tmp82 + _tmp87*_tmp88)), c_v.shape)
-    c_h = numpy.broadcast_to(-_tmp115*(4*_tmp79*_tmp86*c_v - _tmp80), c_v.shape)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _tmp0 = numpy.sin(alpha)
+        _tmp1 = _tmp0**4
+        _tmp2 = a**4
+        _tmp3 = 16*_tmp2
+        _tmp4 = numpy.cos(alpha)
+        _tmp5 = _tmp4**2
+        _tmp6 = _tmp2*_tmp5
+        _tmp7 = _tmp4**4
+        _tmp8 = a**2
+        _tmp9 = b**2
+        _tmp10 = _tmp8*_tmp9
+        _tmp11 = _tmp10*_tmp5
+        _tmp12 = 16*_tmp10
+        _tmp13 = _tmp0**2
+        _tmp14 = 32*_tmp13
+        _tmp15 = 16*_tmp11
+        _tmp16 = _tmp10*_tmp7
+        _tmp17 = 4*_tmp8
+        _tmp18 = J_y*_tmp13
+        _tmp19 = _lam_theta*_tmp18
+        _tmp20 = J_z*_lam_phi
+        _tmp21 = _tmp17*_tmp20
+        _tmp22 = 2*_tmp20
+        _tmp23 = _tmp5*_tmp8
+        _tmp24 = _lam_theta*m
+        _tmp25 = 4*_tmp24
+        _tmp26 = _tmp0*_tmp4*h
+        _tmp27 = 8*_tmp24
+        _tmp28 = _tmp9*a
+        _tmp29 = _tmp13*_tmp24*h**2
+        _tmp30 = _tmp20*_tmp23
+        _tmp31 = _tmp27*_tmp28*h
+        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp32 = 6*c_h
+        _tmp33 = _lam_psi*m
+        _tmp34 = numpy.sin(alpha)
+        _tmp35 = _tmp34**2
+        _tmp36 = numpy.cos(alpha)
+        _tmp37 = _tmp36**2
+        _tmp38 = J_z*_lam_phi
+        _tmp39 = a**2
+        _tmp40 = c_h**2
+        _tmp41 = 24*_tmp40
+        _tmp42 = b**2
+        _tmp43 = _tmp34**4
+        _tmp44 = _tmp36**4
+        _tmp45 = _tmp42*c_h
+        _tmp46 = 4*_tmp45
+        _tmp47 = 1/(_tmp35*_tmp42)
+        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        def _forward(c_h, c_v, c_m):
+            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 

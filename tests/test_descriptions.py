@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import tomllib
-
 import pytest
+import tomllib
 
 from mountid.description import parse, shipped_descriptions
 from mountid.errors import DescriptionError
@@ -31,9 +30,15 @@ def test_shipped_descriptions_build():
     ("edit", "entry"),
     [
         (lambda d: d["body"].__setitem__("centre_of_mass", ["0.01", 0, 0]), "body.centre_of_mass[0]"),
-        (lambda d: d["body"].__setitem__("products_of_inertia", [0, 0, "J_z/10"]), "body.products_of_inertia"),
-        (lambda d: d["isolators"][0].__setitem__("point", [0, "L_xy", "-L_z"]) or
-         d["isolators"][0].__setitem__("inclination", [0, "pi/12", 0]), "isolators.corner.inclination"),
+        (
+            lambda d: d["body"].__setitem__("products_of_inertia", [0, 0, "J_z/10"]),
+            "body.products_of_inertia",
+        ),
+        (
+            lambda d: d["isolators"][0].__setitem__("point", [0, "L_xy", "-L_z"])
+            or d["isolators"][0].__setitem__("inclination", [0, "pi/12", 0]),
+            "isolators.corner.inclination",
+        ),
         (lambda d: d["parameters"]["m"].__setitem__("value", -3.0), "parameters.m.value"),
         (lambda d: d["isolators"][0].__setitem__("point", ["L_q", 0, 0]), "isolators.corner.point[0]"),
         (lambda d: d["modes"][0].__setitem__("block", ["x", "psi"]), "modes[0].block"),

@@ -26,7 +26,7 @@ def block_reference(mod, p):
     """Per-mode eigenvalues from scipy.linalg.eigh on each block, and eigh's absolute accuracy per block."""
     M, C = matrices(mod, p)
     lam, scale = np.empty(len(mod.MODES)), np.empty(len(mod.MODES))
-    for k, label in enumerate(mod.MODES):
+    for k in range(len(mod.MODES)):
         idx = list(mod.BLOCKS[mod.MODE_BLOCK[k]])
         w = scipy.linalg.eigh(C[np.ix_(idx, idx)], M[np.ix_(idx, idx)], eigvals_only=True)
         lam[k], scale[k] = w[mod.MODE_RANK[k] - 1], np.max(np.abs(w))
@@ -72,7 +72,9 @@ def test_vectorised_calls_broadcast_like_scalar_calls():
     assert lam.shape == (3, 4, 6)
     for i in range(3):
         for j in range(4):
-            np.testing.assert_array_equal(lam[i, j], mod.squared_frequencies(838.6, 61.44, 51.52, 0.486, 0.3, c_xy[i, j], 4.7e5))
+            np.testing.assert_array_equal(
+                lam[i, j], mod.squared_frequencies(838.6, 61.44, 51.52, 0.486, 0.3, c_xy[i, j], 4.7e5)
+            )
 
 
 class HighPrecision:
@@ -115,7 +117,15 @@ def test_frequencies_match_50_digit_symbolic_closed_form(name, data):
 )
 def test_badly_conditioned_cases_keep_full_relative_accuracy(case):
     mod = generated("kid300")
-    p = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "c_xy": 7.44e4, "c_z": 4.72e5} | case
+    p = {
+        "m": 838.6,
+        "J_xy": 61.44,
+        "J_z": 51.52,
+        "L_xy": 0.486,
+        "L_z": 0.3,
+        "c_xy": 7.44e4,
+        "c_z": 4.72e5,
+    } | case
     hp = HighPrecision("kid300")
     exact = [float(v) for v in hp([p[a] for a in mod.FORWARD_ARGUMENTS])]
     lam = mod.squared_frequencies(**p)

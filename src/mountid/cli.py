@@ -142,7 +142,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     machine_command("frequencies", "natural frequencies for given parameters").set_defaults(func=cmd_frequencies)
     p = machine_command("identify", "unknown stiffnesses from measured natural frequencies")
-    p.add_argument("--measured", nargs="+", action="extend", metavar="LABEL=RAD_S", help="measured natural frequencies [rad/s]")
+    p.add_argument(
+        "--measured",
+        nargs="+",
+        action="extend",
+        metavar="LABEL=RAD_S",
+        help="measured natural frequencies [rad/s]",
+    )
     p.set_defaults(func=cmd_identify)
     machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
     machine_command("describe", "parameters, modes and inverse sets of a machine").set_defaults(func=cmd_describe)

@@ -63,8 +63,9 @@ class Machine:
         if path.suffix == ".toml" and path.is_file():
             return cls(_module_from_description(path))
         raise InputError(
-            "machine", f"unknown machine {machine!r}: not a shipped one ({', '.join(shipped_machines())}) "
-            "nor a description file (.toml)"
+            "machine",
+            f"unknown machine {machine!r}: not a shipped one ({', '.join(shipped_machines())}) "
+            "nor a description file (.toml)",
         )
 
     # -- inputs -----------------------------------------------------------------------------------
@@ -110,7 +111,9 @@ class Machine:
                 raise InputError(label, f"a natural frequency must be positive and finite, got {omega}")
             r = rep[label]
             if r in chosen:
-                raise InputError(label, f"repeats the frequency of {chosen[r][0]} (equal by symmetry); give one of them")
+                raise InputError(
+                    label, f"repeats the frequency of {chosen[r][0]} (equal by symmetry); give one of them"
+                )
             chosen[r] = (label, omega)
         for unknown in self.unknown:
             if unknown in known:
@@ -124,7 +127,10 @@ class Machine:
                 f"give {n} of {', '.join(self.unique_modes)}",
             )
         if key in self.module.UNIDENTIFIABLE:
-            raise InputError("measured", f"{', '.join(key)} cannot identify the unknowns: {self.module.UNIDENTIFIABLE[key]}")
+            raise InputError(
+                "measured",
+                f"{', '.join(key)} cannot identify the unknowns: {self.module.UNIDENTIFIABLE[key]}",
+            )
         if key not in self.module.INVERSES:
             raise InputError("measured", f"no inverse solution was generated for {', '.join(key)}")
         fn = self.module.INVERSES[key]

@@ -36,7 +36,9 @@ def print_reproduction() -> None:
     print("Identification from the measured w1 (x) = 17.71 rad/s and w4 (psi) = 64.10 rad/s:")
     for s in sols:
         tag = "<- c_z > c_xy, the paper's choice" if s is best else "   (c_z < c_xy: rejected, as in the paper)"
-        print(f"  root: c_xy = {s.parameters['c_xy'] / 1e3:8.2f} kN/m, c_z = {s.parameters['c_z'] / 1e3:8.2f} kN/m {tag}")
+        print(
+            f"  root: c_xy = {s.parameters['c_xy'] / 1e3:8.2f} kN/m, c_z = {s.parameters['c_z'] / 1e3:8.2f} kN/m {tag}"
+        )
     print()
     print(f"  {'':22s}{'paper':>10s}{'mountid':>10s}{'measured':>10s}")
     rows = [
@@ -55,6 +57,8 @@ def print_reproduction() -> None:
         found = kid.identify(TABLE_1, {lab: MEASURED[lab] for lab in pair})
         for s in found:
             others = ", ".join(f"{lab} {s.frequencies[lab]:.2f}" for lab in MEASURED if lab not in pair)
-            print(f"  {', '.join(pair):12s}{s.parameters['c_xy'] / 1e3:13.2f}{s.parameters['c_z'] / 1e3:12.2f}   {others}")
+            print(
+                f"  {', '.join(pair):12s}{s.parameters['c_xy'] / 1e3:13.2f}{s.parameters['c_z'] / 1e3:12.2f}   {others}"
+            )
     print("\nThe pairings disagree by a few percent: the four measurements are not all consistent with the")
     print("two-parameter model (the paper's w3 gap, 47.46 predicted vs 46.60 measured).")

@@ -25,12 +25,8 @@ def _render(path: Path) -> tuple[str, str]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m mountid.codegen", description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help="descriptions to generate (default: all)")
-    parser.add_argument(
-        "--check", action="store_true", help="compare with the checked-in files, write nothing"
-    )
-    parser.add_argument(
-        "--root", type=Path, default=ROOT, help="project root holding derivations/ and generated/"
-    )
+    parser.add_argument("--check", action="store_true", help="compare with the checked-in files, write nothing")
+    parser.add_argument("--root", type=Path, default=ROOT, help="project root holding derivations/ and generated/")
     args = parser.parse_args(argv)
     sources = sorted((args.root / "derivations").glob("*.toml"))
     if args.names:

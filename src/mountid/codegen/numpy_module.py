@@ -34,9 +34,7 @@ class Function:
     returns: str = ""
 
 
-def _matrix_function(
-    name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str
-) -> Function:
+def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str) -> Function:
     args = model.parameters_of(matrix)
     entries = {(i, j): matrix[i, j] for i in range(6) for j in range(i, 6) if matrix[i, j] != 0}
     cse = eliminate(list(entries.values()))
@@ -52,6 +50,32 @@ def _matrix_function(
     pairs = ", ".join(f"({i}, {j}): {out}" for (i, j), out in zip(entries, cse.outputs, strict=True))
     fn.body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
     fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
+    return fn
+
+
+def _gradient_function(model: SymbolicModel) -> Function:
+    """dC/d(unknown) for each unknown: the matrices of the eigenvalue derivatives phi^T dC phi."""
+    args = model.parameters_of(model.C)
+    unknowns = model.description.unknown
+    mats = [model.C.diff(model.symbols[u]) for u in unknowns]
+    entries = [
+        ((k, i, j), mat[i, j]) for k, mat in enumerate(mats) for i in range(6) for j in range(i, 6) if mat[i, j] != 0
+    ]
+    cse = eliminate([e for _, e in entries])
+    fn = Function(
+        "stiffness_gradient",
+        args,
+        f"Derivatives dC/d({', '.join(unknowns)}) of the stiffness matrix, shape (..., {len(unknowns)}, 6, 6).\n",
+    )
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+    per = []
+    for k in range(len(unknowns)):
+        pairs = ", ".join(
+            f"({i}, {j}): {out}" for ((kk, i, j), _), out in zip(entries, cse.outputs, strict=True) if kk == k
+        )
+        per.append(f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})")
+    fn.returns = f"numpy.stack([{', '.join(per)}], axis=-3)"
     return fn
 
 
@@ -90,9 +114,7 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
         outs = [f"_lam{m.block}_{m.rank}" for m in structure.modes]
         body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
         body.append(
-            "return numpy.stack(["
-            + ", ".join(f"numpy.broadcast_to({o}, _shape)" for o in outs)
-            + "], axis=-1)"
+            "return numpy.stack([" + ", ".join(f"numpy.broadcast_to({o}, _shape)" for o in outs) + "], axis=-1)"
         )
         method = (
             "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
@@ -123,9 +145,7 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
     return fn
 
 
-def _inverse_function(
-    s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
-):
+def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
     d = model.description
     omegas = tuple(f"omega_{label}" for label in s.labels)
     args = tuple(a for a in fwd_args if a not in d.unknown) + omegas
@@ -146,12 +166,28 @@ def _inverse_function(
         for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
             body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
     unknowns = d.unknown
+    # Newton polish on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
+    # the elimination formulas can lose digits where a mode sits near an uncoupled frequency.
+    knowns = [a for a in fwd_args if a not in unknowns]
+    body.append(f"def _forward({', '.join(unknowns)}):")
+    body.append(f"    _args = ({', '.join(fwd_args)})")
+    body.append(
+        f"    return squared_frequencies(*_args), modal_matrix(*_args), "
+        f"stiffness_gradient({', '.join(model.parameters_of(model.C))})"
+    )
+    del knowns
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    body.append(
+        f"({', '.join(unknowns)},) = _runtime.eigen_newton(({', '.join(unknowns)},), _forward, {mode_index!r}, "
+        f"({', '.join(f'_lam_{lab}' for lab in s.labels)},))"
+    )
     body.append(f"_predicted = squared_frequencies({', '.join(fwd_args)})")
     body.append(
         f"_ok = _runtime.admissible(({', '.join(unknowns)},), _predicted, {mode_index!r}, "
         f"({', '.join(f'_lam_{lab}' for lab in s.labels)},))"
     )
+    # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
+    body = ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body]
     rets = ", ".join(f'"{u}": {u}' for u in unknowns)
     poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
     back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
@@ -181,6 +217,7 @@ def module_context(description: Description, template: str = TEMPLATE) -> dict:
         _matrix_function("stiffness_matrix", model.C, model, "Stiffness matrix C", "N/m, N/rad, N m/rad"),
         _matrix_function("damping_matrix", model.B, model, "Damping matrix B", "N s/m, N s/rad, N m s/rad"),
     ]
+    functions.append(_gradient_function(model))
     eigen = _eigen_function(structure, model)
     functions.append(eigen)
     fwd_args = eigen.args

@@ -109,9 +109,7 @@ class ModalStructure:
 
     def _find_blocks(self) -> tuple[Block, ...]:
         n = len(COORDINATES)
-        coupled = [
-            [i == j or self.model.M[i, j] != 0 or self.model.C[i, j] != 0 for j in range(n)] for i in range(n)
-        ]
+        coupled = [[i == j or self.model.M[i, j] != 0 or self.model.C[i, j] != 0 for j in range(n)] for i in range(n)]
         seen: set[int] = set()
         blocks = []
         for start in range(n):
@@ -145,9 +143,7 @@ class ModalStructure:
         specs = self.model.description.modes
         by_coords = {b.coordinates: k for k, b in enumerate(self.blocks)}
         if specs is None:  # default: within a block, rank r is labelled by the block's r-th coordinate
-            specs = tuple(
-                ModeSpec(b.coordinates[r], b.coordinates, r + 1) for b in self.blocks for r in range(b.size)
-            )
+            specs = tuple(ModeSpec(b.coordinates[r], b.coordinates, r + 1) for b in self.blocks for r in range(b.size))
             specs = tuple(sorted(specs, key=lambda s: COORDINATES.index(s.label)))
         claimed: dict[tuple[int, int], int] = {}
         for i, spec in enumerate(specs):

@@ -56,17 +56,19 @@ class InverseSet:
         return sum(f.degree() for f in self.factors)
 
 
-def _cancellation_score(expr: sp.Expr) -> tuple[int, int]:
-    """Prefer back-substitutions without subtraction (all symbols are positive): fewest negative terms
-    in numerator and denominator, then fewest operations."""
+def _cancellation_score(expr: sp.Expr) -> tuple[int, int, int]:
+    """Prefer back-substitutions that cannot divide by zero and have no subtraction: first the number of
+    denominator factors not provably positive (sin(alpha) vanishes at alpha = 0), then the negative terms
+    in numerator and denominator (all physical symbols are positive), then the operation count."""
     num, den = sp.fraction(sp.factor(expr))
+    risky = sum(1 for f in sp.Mul.make_args(den) if not f.is_positive)
     negatives = 0
     for part in (num, den):
         for factor in sp.Mul.make_args(part):
             terms = sp.Add.make_args(sp.expand(factor))
             if len(terms) > 1:
                 negatives += sum(1 for t in terms if t.could_extract_minus_sign())
-    return negatives, sp.count_ops(expr)
+    return risky, negatives, sp.count_ops(expr)
 
 
 def lambda_symbol(label: str) -> sp.Symbol:
@@ -172,6 +174,31 @@ class InverseDerivation:
         unknown; it is factored over the parameters. Clearing denominators may add factors whose roots are
         not solutions (e.g. an unknown = 0): the run-time admissibility check removes them.
         """
+        # The last unknown comes from the smallest square subsystem (as many equations as unknowns in
+        # them, e.g. both roots of one block): its polynomial then separates that subsystem's solutions.
+        # An unknown outside it may take (nearly) the same value in several solutions: a near-double root.
+        best = None
+        for size in range(1, len(eqs) + 1):
+            for subset in itertools.combinations(eqs, size):
+                inside = set().union(*(e.free_symbols for e in subset)) & set(self.unknowns)
+                if len(inside) == size:
+                    for keep in sorted(inside, key=str):
+                        result = self._eliminate(labels, eqs, lams, keep)
+                        if result.identifiable:
+                            score = (
+                                max(f.degree() for f in result.factors),
+                                sum(map(sp.count_ops, [f.as_expr() for f in result.factors])),
+                            )
+                            if best is None or score < best[0]:
+                                best = (score, result)
+            if best is not None:
+                return best[1]
+        return InverseSet(labels, False, "no triangular form found (not generated)")
+
+    def _eliminate(
+        self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol], keep: sp.Symbol
+    ) -> InverseSet:
+        """Eliminate every unknown but ``keep`` (see _solve)."""
         unknowns = list(self.unknowns)
         system = [sp.expand(e) for e in eqs]
         steps: list[tuple[sp.Symbol, sp.Expr]] = []
@@ -179,15 +206,15 @@ class InverseDerivation:
             options = []
             for k, e in enumerate(system):
                 for u in unknowns:
+                    if u == keep:
+                        continue
                     poly = sp.Poly(e, u)
                     if poly.degree() == 1:
                         a1, a0 = poly.all_coeffs()
                         sol = sp.factor(-a0 / a1)
                         options.append((_cancellation_score(sol), unknowns.index(u), k, u, sol))
             if not options:
-                return InverseSet(
-                    labels, False, "no equation is linear in a remaining unknown (not generated)"
-                )
+                return InverseSet(labels, False, "no equation is linear in a remaining unknown (not generated)")
             _, _, k, u, sol = min(options, key=lambda o: (o[0], -o[1], o[2]))
             steps.append((u, sol))
             unknowns.remove(u)

@@ -1,0 +1,92 @@
+"""``make bench``: speed targets as ratios against baselines measured in the same run.
+
+- generated forward map vs numpy.linalg.eigvalsh on the same 10^6 symmetric 6x6 problems (target >= 30x)
+- every kid300 inverse vs a per-set scipy.optimize.least_squares solve (target >= 1000x)
+- `make generate` wall time for all descriptions (target < 60 s) and `mountid identify` cold start
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.optimize
+
+from mountid.generated import kid300 as mod
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def timed(fn, repeat: int = 3) -> float:
+    best = np.inf
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def forward(n: int = 1_000_000) -> None:
+    rng = np.random.default_rng(0)
+    p = {a: mod.PARAMETERS[a]["value"] * rng.uniform(0.5, 2.0, n) for a in mod.FORWARD_ARGUMENTS}
+    m_args = ("m", "J_xy", "J_z")
+    c_args = ("L_xy", "L_z", "c_xy", "c_z")
+    M, C = mod.mass_matrix(*(p[a] for a in m_args)), mod.stiffness_matrix(*(p[a] for a in c_args))
+    d = 1 / np.sqrt(np.diagonal(M, axis1=-2, axis2=-1))
+    S = C * d[:, :, None] * d[:, None, :]  # symmetric standard form, built outside the timing
+    t_gen = timed(lambda: mod.squared_frequencies(**p))
+    t_eig = timed(lambda: np.linalg.eigvalsh(S), repeat=1)
+    print(
+        f"forward, {n:.0e} parameter sets: generated {t_gen:.3f} s, eigvalsh {t_eig:.3f} s, "
+        f"ratio {t_eig / t_gen:.0f}x (target >= 30x)"
+    )
+
+
+def inverse(n_vec: int = 100_000, n_scipy: int = 50) -> None:
+    rng = np.random.default_rng(1)
+    knowns = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
+    truth = {u: mod.PARAMETERS[u]["value"] * rng.uniform(0.5, 2.0, n_vec) for u in mod.UNKNOWN}
+    omega = mod.frequencies(**knowns, **truth)
+    for key, fn in mod.INVERSES.items():
+        idx = [mod.MODES.index(k) for k in key]
+        args = {f"omega_{k}": omega[:, i] for k, i in zip(key, idx, strict=True)}
+        t_gen = timed(lambda fn=fn, args=args: fn(**knowns, **args)) / n_vec
+
+        def one(i, idx=idx):
+            target = omega[i, idx]
+
+            def res(logc):
+                c = dict(zip(mod.UNKNOWN, np.exp(logc), strict=True))
+                return mod.frequencies(**knowns, **c)[idx] / target - 1
+
+            start = np.log([mod.PARAMETERS[u]["value"] for u in mod.UNKNOWN])
+            scipy.optimize.least_squares(res, start, xtol=1e-12, ftol=1e-12)
+
+        t_sci = timed(lambda one=one: [one(i) for i in range(n_scipy)], repeat=1) / n_scipy
+        print(
+            f"inverse {', '.join(key):10s}: generated {t_gen * 1e6:7.3f} us/set, scipy {t_sci * 1e3:6.2f} ms/set, "
+            f"ratio {t_sci / t_gen:8.0f}x (target >= 1000x)"
+        )
+
+
+def generation_and_cold_start() -> None:
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "mountid.codegen", "--check"], check=False, capture_output=True)
+    print(f"generation of all descriptions: {time.perf_counter() - t:.1f} s (target < 60 s)")
+    code = (
+        "import sys, time; t = time.perf_counter(); from mountid.cli import main; "
+        "main(['identify', 'kid300', '--measured', 'x=17.71', 'psi=64.1', '--json']); "
+        "print('sympy imported' if 'sympy' in sys.modules else 'no sympy', file=sys.stderr)"
+    )
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    print(f"mountid identify cold start: {time.perf_counter() - t:.2f} s, {r.stderr.strip()}")
+
+
+if __name__ == "__main__":
+    forward()
+    inverse()
+    generation_and_cold_start()

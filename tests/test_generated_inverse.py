@@ -1,0 +1,141 @@
+"""Inverse solutions: hypothesis round trips through the forward map, and a scipy.optimize cross-check."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.optimize
+from conftest import MACHINES, generated, parameters
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+SETS = [(name, key) for name in MACHINES for key in generated(name).INVERSES]
+
+CONDITION_LIMIT = 1e5
+"""Round trips must hold to rtol 1e-9 where the inverse problem itself is not ill-conditioned: a relative
+condition number kappa (relative change of the unknowns per relative change of the frequencies) above
+1e5 turns rounding of the forward map alone (1e-16) into errors near 1e-11 * kappa; those cases are left
+to test_near_degenerate_cases_degrade_with_the_condition_number."""
+
+
+def relative_condition(mod, key, p):
+    """1 / smallest singular value of d ln(omega_given) / d ln(unknowns), by central differences."""
+    idx = [mod.MODES.index(k) for k in key]
+    jac = np.empty((len(key), len(mod.UNKNOWN)))
+    for j, u in enumerate(mod.UNKNOWN):
+        hi, lo = dict(p), dict(p)
+        hi[u], lo[u] = p[u] * (1 + 1e-6), p[u] * (1 - 1e-6)
+        jac[:, j] = (np.log(mod.frequencies(**hi)[idx]) - np.log(mod.frequencies(**lo)[idx])) / 2e-6
+    s = np.linalg.svd(jac, compute_uv=False)
+    return np.inf if s[-1] == 0 else 1.0 / s[-1]
+
+
+def invert(mod, key, p):
+    omega = mod.frequencies(**p)
+    knowns = {a: p[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
+    given_ = {f"omega_{k}": omega[mod.MODES.index(k)] for k in key}
+    return mod.INVERSES[key](**knowns, **given_)
+
+
+@pytest.mark.parametrize(("name", "key"), SETS, ids=[f"{n}:{'_'.join(k)}" for n, k in SETS])
+@settings(max_examples=40, deadline=None)
+@given(data=st.data())
+def test_round_trip_recovers_the_unknowns(name, key, data):
+    mod = generated(name)
+    p = data.draw(parameters(mod))
+    kappa = relative_condition(mod, key, p)
+    assume(kappa < CONDITION_LIMIT)
+    # known defect, pinned by test_upright_screen_isolators_defect: the chosen elimination degenerates
+    # when the inclination is exactly zero
+    assume(not (name == "screen6" and abs(p["alpha"]) < 1e-3))
+    roots = invert(mod, key, p)
+    truth = np.array([p[u] for u in mod.UNKNOWN])
+    found = np.array([roots.parameters[u] for u in mod.UNKNOWN])  # (n_unknowns, n_roots)
+    err = np.max(np.abs(found - truth[:, None]) / truth[:, None], axis=0)
+    k = int(np.nanargmin(err))
+    assert err[k] <= 1e-9, f"closest root off by {err[k]:.2e} (kappa {kappa:.1e})"
+    assert roots.admissible[k], "the true parameters must be an admissible root"
+    # every admissible root reproduces the given frequencies (that is what admissible means)
+    assert roots.admissible.sum() <= mod.INVERSE_ROOTS[key]
+
+
+def test_near_degenerate_cases_degrade_with_the_condition_number():
+    """Where both roots of (x, psi) nearly coincide the inverse loses digits like sqrt(eps): detect, not hide."""
+    mod = generated("kid300")
+    p = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "c_xy": 7.44e4, "c_z": 4.72e5}
+    kappa = relative_condition(mod, ("x", "psi"), p)
+    roots = invert(mod, ("x", "psi"), p)
+    err = min(abs(roots.parameters["c_z"][i] - p["c_z"]) / p["c_z"] for i in range(2))
+    assert err <= 1e-13 * max(kappa, 1.0) * 100
+
+
+def test_wrong_labelling_is_inadmissible():
+    """Frequencies swapped between the modes of a block have no admissible root."""
+    mod = generated("kid300")
+    knowns = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    roots = mod.identify_x_psi(**knowns, omega_x=64.10, omega_psi=17.71)
+    assert not roots.admissible.any()
+    # a single frequency of a block given with the other unknown fixed: lands on the wrong mode
+    roots = mod.identify_x_z(**knowns, omega_x=60.0, omega_z=47.46)
+    assert not roots.admissible.any()
+
+
+def test_vectorised_inverse_matches_scalar_calls():
+    mod = generated("kid300")
+    knowns = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    w1 = np.linspace(15, 20, 7)
+    roots = mod.identify_x_psi(**knowns, omega_x=w1, omega_psi=64.1)
+    assert roots.parameters["c_z"].shape == (2, 7)
+    for i, w in enumerate(w1):
+        single = mod.identify_x_psi(**knowns, omega_x=w, omega_psi=64.1)
+        np.testing.assert_array_equal(single.parameters["c_z"], roots.parameters["c_z"][:, i])
+
+
+@pytest.mark.parametrize("name", MACHINES)
+def test_inverse_agrees_with_a_direct_scipy_solve(name):
+    """Independent numerics: scipy.optimize.least_squares on the forward map from a perturbed start."""
+    mod = generated(name)
+    rng = np.random.default_rng(7)
+    p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
+    knowns = {a: v for a, v in p.items() if a not in mod.UNKNOWN}
+    truth = np.array([p[u] for u in mod.UNKNOWN])
+    for key, fn in mod.INVERSES.items():
+        idx = [mod.MODES.index(k) for k in key]
+        target = mod.frequencies(**p)[idx]
+
+        def residual(logc, idx=idx, target=target):
+            c = dict(zip(mod.UNKNOWN, np.exp(logc), strict=True))
+            return mod.frequencies(**knowns, **c)[idx] / target - 1
+
+        start = np.log(truth * rng.uniform(0.7, 1.4, size=truth.size))
+        sol = scipy.optimize.least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        if np.max(np.abs(sol.fun)) > 1e-12:
+            continue  # converged elsewhere; the closed form is checked by the round trips
+        roots = fn(**knowns, **{f"omega_{k}": w for k, w in zip(key, target, strict=True)})
+        found = np.array([roots.parameters[u] for u in mod.UNKNOWN])
+        scipy_c = np.exp(sol.x)
+        match = np.max(np.abs(found - scipy_c[:, None]) / scipy_c[:, None], axis=0)
+        assert np.min(match[roots.admissible]) < 1e-7, key
+
+
+@pytest.mark.xfail(
+    strict=True, reason="open defect: elimination for screen6 divides by a term that vanishes at alpha = 0"
+)
+def test_upright_screen_isolators_defect():
+    mod = generated("screen6")
+    p = {
+        "m": 10.0,
+        "J_x": 1.0,
+        "J_y": 1.0,
+        "J_z": 1.0,
+        "a": 1.0,
+        "b": 1.0,
+        "h": 1.0,
+        "alpha": 0.0,
+        "c_h": 1e3,
+        "c_v": 1e3,
+        "c_m": 1e3,
+    }
+    assert relative_condition(mod, ("x", "y", "phi"), p) < 100  # the problem itself is well-conditioned
+    roots = invert(mod, ("x", "y", "phi"), p)
+    assert roots.admissible.any()

@@ -1,0 +1,134 @@
+"""The paper's numbers, the command-line contract, and reproducible generation."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mountid.cli import main
+from mountid.machine import Machine
+from mountid.paper import MEASURED, PUBLISHED, TABLE_1, paper_choice
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_paper_identification_from_w1_w4():
+    sols = Machine.resolve("kid300").identify(TABLE_1, {"x": MEASURED["x"], "psi": MEASURED["psi"]})
+    assert len(sols) == 2  # two roots, the paper keeps c_z > c_xy
+    best = paper_choice(sols)
+    # the paper prints 4 significant digits
+    assert best.parameters["c_z"] == pytest.approx(PUBLISHED["c_z"], abs=0.05e3)
+    assert best.parameters["c_xy"] == pytest.approx(PUBLISHED["c_xy"], abs=0.05e3)
+    # the paper computed w3, w6 from its rounded stiffnesses and truncated to two decimals (36.937 -> 36.93)
+    rounded = Machine.resolve("kid300").frequencies({"c_z": PUBLISHED["c_z"], "c_xy": PUBLISHED["c_xy"]})
+    assert math.floor(rounded["z"] * 100) / 100 == PUBLISHED["z"]
+    assert math.floor(rounded["phi"] * 100) / 100 == PUBLISHED["phi"]
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_frequencies_json_contract(capsys):
+    code, out, _ = run(capsys, "frequencies", "kid300", "--set", "c_xy=74.4e3", "c_z=472.3e3", "--json")
+    assert code == 0
+    freqs = json.loads(out)["frequencies"]
+    assert list(freqs) == ["x", "y", "z", "psi", "theta", "phi"]
+    assert freqs["z"] == pytest.approx(47.46, abs=0.005)
+
+
+def test_identify_json_contract(capsys):
+    code, out, _ = run(capsys, "identify", "kid300", "--measured", "x=17.71", "psi=64.10", "--json")
+    assert code == 0
+    sols = json.loads(out)["solutions"]
+    assert len(sols) == 2
+    assert set(sols[0]) == {"parameters", "frequencies"}
+    assert set(sols[0]["parameters"]) == {"c_xy", "c_z"}
+
+
+@pytest.mark.parametrize(
+    ("argv", "named"),
+    [
+        (["frequencies", "kid300", "--set", "m=-5"], "m:"),
+        (["frequencies", "kid300", "--set", "J_z=0"], "J_z:"),
+        (["frequencies", "kid300", "--set", "L_xy=nan"], "L_xy:"),
+        (["frequencies", "kid300", "--set", "c_z=-1"], "c_z:"),
+        (["frequencies", "kid300", "--set", "foo=1"], "foo:"),
+        (["frequencies", "nosuchmachine"], "machine:"),
+        (["identify", "kid300", "--measured", "x=64.1", "psi=17.71"], "measured:"),
+        (["identify", "kid300", "--measured", "q=3", "psi=17.71"], "q:"),
+        (["identify", "kid300", "--measured", "x=17.71"], "measured:"),
+        (["identify", "kid300", "--measured", "x=17.71", "y=17.8"], "y:"),
+        (["identify", "kid300", "--measured", "x=0", "psi=64.1"], "x:"),
+        (["identify", "rectangular", "--measured", "x=10", "z=30", "theta=50"], "measured:"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(capsys, argv, named):
+    code, out, err = run(capsys, *argv)
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and named in err and "Traceback" not in err
+
+
+def test_identify_cold_start_does_not_import_sympy():
+    code = (
+        "import sys; from mountid.cli import main; "
+        "rc = main(['identify', 'kid300', '--measured', 'x=17.71', 'psi=64.10', '--json']); "
+        "assert rc == 0; assert 'sympy' not in sys.modules, 'sympy imported'"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+def test_python_dash_m_and_process_exit_code():
+    result = subprocess.run(
+        [sys.executable, "-m", "mountid", "frequencies", "kid300", "--set", "m=-1"],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and result.stderr.startswith("mountid: error: m:")
+
+
+def test_generation_is_independent_of_hash_seed():
+    script = (
+        "import sys; from mountid.codegen.numpy_module import render; from mountid.description import load; "
+        f"sys.stdout.write(render(load({str(ROOT / 'derivations' / 'kid300.toml')!r})))"
+    )
+    outs = []
+    for seed in ("1", "4242"):
+        env = dict(os.environ, PYTHONHASHSEED=seed)
+        outs.append(
+            subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True).stdout
+        )
+    assert outs[0] == outs[1] == (ROOT / "generated" / "kid300.py").read_text()
+
+
+def test_description_file_path_generates_on_the_fly(tmp_path):
+    """A description outside derivations/, as a new user writes it: frequencies vs eigh, inverse round trip."""
+    import numpy as np
+    import scipy.linalg
+
+    machine = Machine.resolve(str(ROOT / "tests" / "data" / "press.toml"))
+    mod = machine.module
+    p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
+    lam = np.sort(mod.squared_frequencies(**p))
+    m_args = mod.mass_matrix.__code__.co_varnames[: mod.mass_matrix.__code__.co_argcount]
+    c_args = mod.stiffness_matrix.__code__.co_varnames[: mod.stiffness_matrix.__code__.co_argcount]
+    ref = scipy.linalg.eigh(
+        mod.stiffness_matrix(*(p[a] for a in c_args)),
+        mod.mass_matrix(*(p[a] for a in m_args)),
+        eigvals_only=True,
+    )
+    np.testing.assert_allclose(lam, ref, rtol=1e-10)
+    freqs = machine.frequencies({})
+    for key in mod.INVERSES:
+        sols = machine.identify({}, {k: freqs[k] for k in key})
+        assert any(all(abs(s.parameters[u] / p[u] - 1) < 1e-9 for u in mod.UNKNOWN) for s in sols), key
