@@ -32,9 +32,8 @@ def timed(fn, repeat: int = 3) -> float:
 def forward(n: int = 1_000_000) -> None:
     rng = np.random.default_rng(0)
     p = {a: mod.PARAMETERS[a]["value"] * rng.uniform(0.5, 2.0, n) for a in mod.FORWARD_ARGUMENTS}
-    m_args = ("m", "J_xy", "J_z")
-    c_args = ("L_xy", "L_z", "c_xy", "c_z")
-    M, C = mod.mass_matrix(*(p[a] for a in m_args)), mod.stiffness_matrix(*(p[a] for a in c_args))
+    M = mod.mass_matrix(*(p[a] for a in mod.ARGUMENTS["mass_matrix"]))
+    C = mod.stiffness_matrix(*(p[a] for a in mod.ARGUMENTS["stiffness_matrix"]))
     d = 1 / np.sqrt(np.diagonal(M, axis1=-2, axis2=-1))
     S = C * d[:, :, None] * d[:, None, :]  # symmetric standard form, built outside the timing
     t_gen = timed(lambda: mod.squared_frequencies(**p))

@@ -44,6 +44,20 @@ MODE_RANK = (1, 1, 1, 2, 2, 1)
 """Each mode is the root of rank MODE_RANK (1 = lowest) of block MODE_BLOCK."""
 FORWARD_ARGUMENTS = ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z")
 """Arguments of squared_frequencies(), frequencies(), modal_matrix() and kinetic_energy_distribution()."""
+ARGUMENTS = {
+    "mass_matrix": ("m", "J_xy", "J_z"),
+    "stiffness_matrix": ("L_xy", "L_z", "c_xy", "c_z"),
+    "damping_matrix": ("L_xy", "L_z", "b_xy", "b_z"),
+    "stiffness_gradient": ("L_xy", "L_z"),
+    "squared_frequencies": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z"),
+    "identify_x_z": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_z"),
+    "identify_x_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_psi"),
+    "identify_x_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_phi"),
+    "identify_z_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_psi"),
+    "identify_z_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_phi"),
+    "identify_psi_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_psi", "omega_phi"),
+}
+"""Argument names of every generated function, by function name."""
 
 
 def mass_matrix(m, J_xy, J_z):
@@ -109,15 +123,15 @@ def damping_matrix(L_xy, L_z, b_xy, b_z):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*b_z, (3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp0*_tmp2})
 
 
-def stiffness_gradient(L_xy, L_z, c_xy, c_z):
+def stiffness_gradient(L_xy, L_z):
     """Derivatives dC/d(c_xy, c_z) of the stiffness matrix, shape (..., 2, 6, 6).
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z = _runtime.as_arrays(L_xy, L_z)
     _tmp0 = 4*L_z
     _tmp1 = 4*L_z**2
     _tmp2 = L_xy**2
     _tmp3 = 2*_tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3})], axis=-3)
 
 
@@ -191,9 +205,12 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
         _tmp0 = _lam_x*m
         _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
         c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 2), (_lam_x, _lam_z,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 2), (_lam_x, _lam_z,))
@@ -228,9 +245,12 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
         _tmp1 = 4*m
         c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
         c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 3), (_lam_x, _lam_psi,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 3), (_lam_x, _lam_psi,))
@@ -264,9 +284,12 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 5), (_lam_x, _lam_phi,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 5), (_lam_x, _lam_phi,))
@@ -301,9 +324,12 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
         _tmp0 = _lam_psi*m
         _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
         c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 3), (_lam_z, _lam_psi,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 3), (_lam_z, _lam_psi,))
@@ -336,9 +362,12 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
         _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 5), (_lam_z, _lam_phi,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 5), (_lam_z, _lam_phi,))
@@ -372,9 +401,12 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
+        _M = mass_matrix(m, J_xy, J_z)
+        _dC = stiffness_gradient(L_xy, L_z)
         def _forward(c_xy, c_z):
-            _args = (m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(L_xy, L_z, c_xy, c_z)
+            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (3, 5), (_lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
         _ok = _runtime.admissible((c_xy, c_z,), _predicted, (3, 5), (_lam_psi, _lam_phi,))

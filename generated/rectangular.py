@@ -48,6 +48,32 @@ MODE_RANK = (1, 1, 1, 2, 2, 1)
 """Each mode is the root of rank MODE_RANK (1 = lowest) of block MODE_BLOCK."""
 FORWARD_ARGUMENTS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z")
 """Arguments of squared_frequencies(), frequencies(), modal_matrix() and kinetic_energy_distribution()."""
+ARGUMENTS = {
+    "mass_matrix": ("m", "J_x", "J_y", "J_z"),
+    "stiffness_matrix": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "damping_matrix": ("a", "b", "h", "b_x", "b_y", "b_z"),
+    "stiffness_gradient": ("a", "b", "h"),
+    "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z"),
+    "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_z"),
+    "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_psi"),
+    "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_theta"),
+    "identify_x_y_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_phi"),
+    "identify_x_z_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_z", "omega_psi"),
+    "identify_x_z_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_z", "omega_phi"),
+    "identify_x_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_psi", "omega_theta"),
+    "identify_x_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_psi", "omega_phi"),
+    "identify_x_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_theta", "omega_phi"),
+    "identify_y_z_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_y", "omega_z", "omega_theta"),
+    "identify_y_z_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_y", "omega_z", "omega_phi"),
+    "identify_y_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_y", "omega_psi", "omega_theta"),
+    "identify_y_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_y", "omega_psi", "omega_phi"),
+    "identify_y_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_y", "omega_theta", "omega_phi"),
+    "identify_z_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_psi", "omega_theta"),
+    "identify_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_psi", "omega_phi"),
+    "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_theta", "omega_phi"),
+    "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_psi", "omega_theta", "omega_phi"),
+}
+"""Argument names of every generated function, by function name."""
 
 
 def mass_matrix(m, J_x, J_y, J_z):
@@ -115,15 +141,15 @@ def damping_matrix(a, b, h, b_x, b_y, b_z):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): 4*b_z, (3, 3): 4*_tmp2*b_z + 4*_tmp3*b_y, (4, 4): 4*_tmp3*b_x + 4*_tmp4*b_z, (5, 5): 4*_tmp2*b_x + 4*_tmp4*b_y})
 
 
-def stiffness_gradient(a, b, h, c_x, c_y, c_z):
+def stiffness_gradient(a, b, h):
     """Derivatives dC/d(c_x, c_y, c_z) of the stiffness matrix, shape (..., 3, 6, 6).
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h = _runtime.as_arrays(a, b, h)
     _tmp0 = 4*h
     _tmp1 = 4*h**2
     _tmp2 = 4*b**2
     _tmp3 = 4*a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3})], axis=-3)
 
 
@@ -204,9 +230,12 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
@@ -249,9 +278,12 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
         _tmp6 = J_x*_lam_psi*_lam_y*m
         c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
@@ -293,9 +325,12 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
         _tmp5 = J_x*_tmp3 - _tmp4*b**2
         c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
@@ -355,9 +390,12 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
@@ -397,9 +435,12 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
@@ -438,9 +479,12 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
         _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
         c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
@@ -482,9 +526,12 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
         _tmp5 = J_x*_tmp3 - _tmp4*b**2
         c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
@@ -544,9 +591,12 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
@@ -585,9 +635,12 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
         _tmp2 = a**(-2.0)
         c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
@@ -627,9 +680,12 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
@@ -672,9 +728,12 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
@@ -717,9 +776,12 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
         _tmp6 = J_x*_lam_psi*_lam_y*m
         c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
@@ -758,9 +820,12 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
         _tmp2 = b**(-2.0)
         c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
@@ -820,9 +885,12 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
@@ -862,9 +930,12 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
@@ -907,9 +978,12 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
@@ -948,9 +1022,12 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
         _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
         c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
@@ -1010,9 +1087,12 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h)
         def _forward(c_x, c_y, c_z):
-            _args = (m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, c_x, c_y, c_z)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
         _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))

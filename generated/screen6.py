@@ -49,6 +49,32 @@ MODE_RANK = (1, 1, 1, 2, 2, 1)
 """Each mode is the root of rank MODE_RANK (1 = lowest) of block MODE_BLOCK."""
 FORWARD_ARGUMENTS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m")
 """Arguments of squared_frequencies(), frequencies(), modal_matrix() and kinetic_energy_distribution()."""
+ARGUMENTS = {
+    "mass_matrix": ("m", "J_x", "J_y", "J_z"),
+    "stiffness_matrix": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "damping_matrix": ("a", "b", "h", "alpha", "b_h", "b_v", "b_m"),
+    "stiffness_gradient": ("a", "b", "h", "alpha"),
+    "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_z"),
+    "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_psi"),
+    "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_theta"),
+    "identify_x_y_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_phi"),
+    "identify_x_z_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_z", "omega_psi"),
+    "identify_x_z_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_z", "omega_theta"),
+    "identify_x_z_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_z", "omega_phi"),
+    "identify_x_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_psi", "omega_theta"),
+    "identify_x_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_psi", "omega_phi"),
+    "identify_y_z_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_y", "omega_z", "omega_theta"),
+    "identify_y_z_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_y", "omega_z", "omega_phi"),
+    "identify_y_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_y", "omega_psi", "omega_theta"),
+    "identify_y_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_y", "omega_psi", "omega_phi"),
+    "identify_y_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_y", "omega_theta", "omega_phi"),
+    "identify_z_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_psi", "omega_theta"),
+    "identify_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_psi", "omega_phi"),
+    "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_theta", "omega_phi"),
+    "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_psi", "omega_theta", "omega_phi"),
+}
+"""Argument names of every generated function, by function name."""
 
 
 def mass_matrix(m, J_x, J_y, J_z):
@@ -142,10 +168,10 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
     return _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*b_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*b_m, (3, 3): 2*_tmp11*_tmp12 + 2*_tmp12*b_m + 6*_tmp14 + 4*_tmp15*_tmp4, (4, 4): 2*_tmp10*_tmp17 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp14*_tmp8 + 2*_tmp14 - 2*_tmp16*_tmp7 + 2*_tmp16*b_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp17*_tmp2})
 
 
-def stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
+def stiffness_gradient(a, b, h, alpha):
     """Derivatives dC/d(c_h, c_v, c_m) of the stiffness matrix, shape (..., 3, 6, 6).
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha = _runtime.as_arrays(a, b, h, alpha)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4*_tmp0**2
     _tmp2 = numpy.sin(alpha)
@@ -159,7 +185,7 @@ def stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
     _tmp10 = a**2
     _tmp11 = 2*_tmp7
     _tmp12 = _tmp1*_tmp7
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11})], axis=-3)
 
 
@@ -272,9 +298,12 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
@@ -332,9 +361,12 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
@@ -442,9 +474,12 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
@@ -528,9 +563,12 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
@@ -586,9 +624,12 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
@@ -667,9 +708,12 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
         _tmp42 = _tmp41**2
         c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*_tmp40*c_h - 2*_tmp42*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
@@ -742,9 +786,12 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
@@ -852,9 +899,12 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
@@ -938,9 +988,12 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
@@ -996,9 +1049,12 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
@@ -1041,9 +1097,12 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
         _tmp6 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
@@ -1101,9 +1160,12 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
@@ -1146,9 +1208,12 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
         _tmp6 = _tmp5*numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
@@ -1232,9 +1297,12 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
@@ -1290,9 +1358,12 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
@@ -1335,9 +1406,12 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
         _tmp6 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
@@ -1410,9 +1484,12 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
@@ -1496,9 +1573,12 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _M = mass_matrix(m, J_x, J_y, J_z)
+        _dC = stiffness_gradient(a, b, h, alpha)
         def _forward(c_h, c_v, c_m):
-            _args = (m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            return squared_frequencies(*_args), modal_matrix(*_args), stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m)
+            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+            return _lam, _phi, _dC
         (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
         _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
         _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))

@@ -15,6 +15,11 @@ def generated(name: str):
     return importlib.import_module(f"mountid.generated.{name}")
 
 
+def call(module, function: str, values: dict):
+    """Call a generated function with its arguments picked by name from ``values`` (module.ARGUMENTS)."""
+    return getattr(module, function)(*(values[a] for a in module.ARGUMENTS[function]))
+
+
 def log_uniform(lo: float, hi: float) -> st.SearchStrategy[float]:
     """Floats spread evenly over decades between lo and hi."""
     return st.floats(np.log10(lo), np.log10(hi)).map(lambda e: float(10.0**e))

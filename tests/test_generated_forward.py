@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 import sympy as sp
-from conftest import MACHINES, generated, parameters
+from conftest import MACHINES, call, generated, parameters
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -17,9 +17,7 @@ from mountid.symbolic.model import SymbolicModel
 
 
 def matrices(mod, p):
-    m_args = mod.mass_matrix.__code__.co_varnames[: mod.mass_matrix.__code__.co_argcount]
-    c_args = mod.stiffness_matrix.__code__.co_varnames[: mod.stiffness_matrix.__code__.co_argcount]
-    return mod.mass_matrix(*(p[a] for a in m_args)), mod.stiffness_matrix(*(p[a] for a in c_args))
+    return call(mod, "mass_matrix", p), call(mod, "stiffness_matrix", p)
 
 
 def block_reference(mod, p):

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import call
 
 from mountid.cli import main
 from mountid.machine import Machine
@@ -120,13 +121,7 @@ def test_description_file_path_generates_on_the_fly(tmp_path):
     mod = machine.module
     p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
     lam = np.sort(mod.squared_frequencies(**p))
-    m_args = mod.mass_matrix.__code__.co_varnames[: mod.mass_matrix.__code__.co_argcount]
-    c_args = mod.stiffness_matrix.__code__.co_varnames[: mod.stiffness_matrix.__code__.co_argcount]
-    ref = scipy.linalg.eigh(
-        mod.stiffness_matrix(*(p[a] for a in c_args)),
-        mod.mass_matrix(*(p[a] for a in m_args)),
-        eigvals_only=True,
-    )
+    ref = scipy.linalg.eigh(call(mod, "stiffness_matrix", p), call(mod, "mass_matrix", p), eigvals_only=True)
     np.testing.assert_allclose(lam, ref, rtol=1e-10)
     freqs = machine.frequencies({})
     for key in mod.INVERSES:

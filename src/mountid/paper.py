@@ -6,7 +6,7 @@ printed beside them is computed by the generated module ``mountid.generated.kid3
 
 from __future__ import annotations
 
-from mountid.machine import Machine
+from mountid.machine import Machine, Solution
 
 TABLE_1 = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
 """Table 1: mass [kg], moments of inertia [kg m^2], distances [m]."""
@@ -18,7 +18,7 @@ PUBLISHED = {"c_z": 472.3e3, "c_xy": 74.4e3, "z": 47.46, "phi": 36.93}
 """The paper's results from (w1, w4): stiffness per isolator [N/m] and predicted frequencies [rad/s]."""
 
 
-def paper_choice(solutions: list) -> object:
+def paper_choice(solutions: list[Solution]) -> Solution:
     """The paper's root choice for (w1, w4): the isolators are stiffer vertically, c_z > c_xy."""
     chosen = [s for s in solutions if s.parameters["c_z"] > s.parameters["c_xy"]]
     if len(chosen) != 1:

@@ -6,6 +6,7 @@ Every formula in the output comes from :mod:`mountid.symbolic`; this module only
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from importlib import resources
 
@@ -34,6 +35,11 @@ class Function:
     returns: str = ""
 
 
+def _shape_line(args: tuple[str, ...]) -> str:
+    """The generated line computing the broadcast batch shape of a function's arguments."""
+    return f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})"
+
+
 def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str) -> Function:
     args = model.parameters_of(matrix)
     entries = {(i, j): matrix[i, j] for i in range(6) for j in range(i, 6) if matrix[i, j] != 0}
@@ -48,16 +54,25 @@ def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: s
     fn = Function(name, args, doc)
     fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
     pairs = ", ".join(f"({i}, {j}): {out}" for (i, j), out in zip(entries, cse.outputs, strict=True))
-    fn.body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+    fn.body.append(_shape_line(args))
     fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
     return fn
 
 
+def _stiffness_gradient(model: SymbolicModel) -> list[sp.Matrix]:
+    return [model.C.diff(model.symbols[u]) for u in model.description.unknown]
+
+
+def gradient_arguments(model: SymbolicModel) -> tuple[str, ...]:
+    """Arguments of the generated stiffness_gradient(): the parameters dC/d(unknowns) depends on."""
+    return model.parameters_of(*_stiffness_gradient(model))
+
+
 def _gradient_function(model: SymbolicModel) -> Function:
     """dC/d(unknown) for each unknown: the matrices of the eigenvalue derivatives phi^T dC phi."""
-    args = model.parameters_of(model.C)
+    args = gradient_arguments(model)
     unknowns = model.description.unknown
-    mats = [model.C.diff(model.symbols[u]) for u in unknowns]
+    mats = _stiffness_gradient(model)
     entries = [
         ((k, i, j), mat[i, j]) for k, mat in enumerate(mats) for i in range(6) for j in range(i, 6) if mat[i, j] != 0
     ]
@@ -68,7 +83,7 @@ def _gradient_function(model: SymbolicModel) -> Function:
         f"Derivatives dC/d({', '.join(unknowns)}) of the stiffness matrix, shape (..., {len(unknowns)}, 6, 6).\n",
     )
     fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    fn.body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+    fn.body.append(_shape_line(args))
     per = []
     for k in range(len(unknowns)):
         pairs = ", ".join(
@@ -112,7 +127,7 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
             else:
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
         outs = [f"_lam{m.block}_{m.rank}" for m in structure.modes]
-        body.append(f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})")
+        body.append(_shape_line(args))
         body.append(
             "return numpy.stack([" + ", ".join(f"numpy.broadcast_to({o}, _shape)" for o in outs) + "], axis=-1)"
         )
@@ -167,15 +182,22 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
             body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
     unknowns = d.unknown
     # Newton polish on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
-    # the elimination formulas can lose digits where a mode sits near an uncoupled frequency.
-    knowns = [a for a in fwd_args if a not in unknowns]
+    # the elimination formulas can lose digits where a mode sits near an uncoupled frequency. M, and dC/dtheta
+    # when C is linear in the unknowns, do not change during the iteration and are formed once.
+    m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
+    g_args = gradient_arguments(model)
+    gradient_call = f"stiffness_gradient({', '.join(g_args)})"
+    constant_gradient = not set(g_args) & set(unknowns)
+    body.append(f"_M = mass_matrix({', '.join(m_args)})")
+    if constant_gradient:
+        body.append(f"_dC = {gradient_call}")
     body.append(f"def _forward({', '.join(unknowns)}):")
-    body.append(f"    _args = ({', '.join(fwd_args)})")
+    body.append(f"    _lam = squared_frequencies({', '.join(fwd_args)})")
     body.append(
-        f"    return squared_frequencies(*_args), modal_matrix(*_args), "
-        f"stiffness_gradient({', '.join(model.parameters_of(model.C))})"
+        f"    _phi = _runtime.modal_matrix(_M, stiffness_matrix({', '.join(c_args)}), _lam, "
+        "BLOCKS, MODE_BLOCK, MODE_RANK)"
     )
-    del knowns
+    body.append(f"    return _lam, _phi, {'_dC' if constant_gradient else gradient_call}")
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
     body.append(
         f"({', '.join(unknowns)},) = _runtime.eigen_newton(({', '.join(unknowns)},), _forward, {mode_index!r}, "
@@ -254,7 +276,7 @@ def module_context(description: Description, template: str = TEMPLATE) -> dict:
 
 def _environment() -> jinja2.Environment:
     folder = resources.files("mountid.templates")
-    return jinja2.Environment(
+    env = jinja2.Environment(
         loader=jinja2.FunctionLoader(lambda name: (folder / name).read_text(encoding="utf-8")),
         undefined=jinja2.StrictUndefined,
         keep_trailing_newline=True,
@@ -262,6 +284,14 @@ def _environment() -> jinja2.Environment:
         lstrip_blocks=True,
         autoescape=False,
     )
+    env.filters["pytuple"] = _pytuple
+    return env
+
+
+def _pytuple(items) -> str:
+    """A Python tuple literal of strings with double quotes, as ruff formats it: ("a", "b") or ("a",)."""
+    quoted = [json.dumps(str(i)) for i in items]
+    return f"({quoted[0]},)" if len(quoted) == 1 else f"({', '.join(quoted)})"  # () when empty
 
 
 def render(description: Description, template: str = TEMPLATE) -> str:

@@ -177,20 +177,22 @@ class InverseDerivation:
         # The last unknown comes from the smallest square subsystem (as many equations as unknowns in
         # them, e.g. both roots of one block): its polynomial then separates that subsystem's solutions.
         # An unknown outside it may take (nearly) the same value in several solutions: a near-double root.
-        best = None
         for size in range(1, len(eqs) + 1):
+            keeps: list[sp.Symbol] = []  # each candidate once, in order of first appearance
             for subset in itertools.combinations(eqs, size):
                 inside = set().union(*(e.free_symbols for e in subset)) & set(self.unknowns)
                 if len(inside) == size:
-                    for keep in sorted(inside, key=str):
-                        result = self._eliminate(labels, eqs, lams, keep)
-                        if result.identifiable:
-                            score = (
-                                max(f.degree() for f in result.factors),
-                                sum(map(sp.count_ops, [f.as_expr() for f in result.factors])),
-                            )
-                            if best is None or score < best[0]:
-                                best = (score, result)
+                    keeps += [k for k in sorted(inside, key=str) if k not in keeps]
+            best = None
+            for keep in keeps:
+                result = self._eliminate(labels, eqs, lams, keep)
+                if result.identifiable:
+                    score = (
+                        max(f.degree() for f in result.factors),
+                        sum(map(sp.count_ops, [f.as_expr() for f in result.factors])),
+                    )
+                    if best is None or score < best[0]:
+                        best = (score, result)
             if best is not None:
                 return best[1]
         return InverseSet(labels, False, "no triangular form found (not generated)")
