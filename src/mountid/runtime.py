@@ -13,10 +13,15 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-ADMISSIBILITY_RTOL = 1e-6
+ADMISSIBILITY_RTOL = 1e-9
 """A root is admissible when each given squared frequency is reproduced by its labelled mode to this
-relative tolerance. Correct roots reproduce it to rounding error (~1e-13); a root that puts the given
-frequency on the other mode of its block misses it by the gap between the modes."""
+relative tolerance. Roots polished by eigen_newton reproduce it to rounding error (~1e-15) whatever the
+conditioning, since the residual is measured on the frequencies; a root that puts the given frequency on
+the other mode of its block misses it by the gap between the modes, and a root that did not converge
+within the step limit misses it by more than this."""
+
+DUPLICATE_RTOL = 1e-9
+"""Two admissible roots closer than this (relative, in every unknown) are one solution reached twice."""
 
 
 class InverseRoots(NamedTuple):
@@ -222,6 +227,7 @@ def admissible(
     """Admissible inverse roots: unknowns positive and finite, given frequencies on their labelled modes.
 
     ``predicted`` holds the squared frequencies the forward map gives for each root, shape (n_roots, ..., n).
+    Each solution is reported once: a root equal to an earlier admissible one is not admissible.
     """
     ok = np.ones(np.broadcast_shapes(*(u.shape for u in unknowns)), dtype=bool)
     for u in unknowns:
@@ -229,4 +235,10 @@ def admissible(
     with np.errstate(invalid="ignore"):
         for k, lam in zip(mode_index, given, strict=True):
             ok &= np.abs(predicted[..., k] - lam) <= rtol * np.abs(lam)
+        # a root that repeats an earlier admissible one (two candidates polished onto one solution) is dropped
+        x = np.stack(np.broadcast_arrays(*unknowns), axis=-1)  # (n_roots, ..., n_unknowns)
+        for i in range(1, x.shape[0]):
+            for j in range(i):
+                same = np.all(np.abs(x[i] - x[j]) <= DUPLICATE_RTOL * np.abs(x[j]), axis=-1)
+                ok[i] &= ~(same & ok[j])
     return ok
