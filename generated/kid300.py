@@ -192,7 +192,7 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
         c_xy = lambda_x*m*(J_xy*lambda_x - 2*c_z*L_xy**2)/(4*(J_xy*lambda_x - 2*c_z*L_xy**2 + lambda_x*m*L_z**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -232,7 +232,7 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
         c_z = J_xy*lambda_psi*lambda_x*m/(8*L_xy**2*c_xy)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -272,7 +272,7 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
         c_z = lambda_x*(-4*J_xy*c_xy + J_xy*lambda_x*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_x*m))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -311,7 +311,7 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
         c_xy = lambda_psi*m*(J_xy*lambda_psi - 2*c_z*L_xy**2)/(4*(J_xy*lambda_psi - 2*c_z*L_xy**2 + lambda_psi*m*L_z**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -351,7 +351,7 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
         c_xy = J_z*lambda_phi/(4*L_xy**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -389,7 +389,7 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
         c_z = lambda_psi*(-4*J_xy*c_xy + J_xy*lambda_psi*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_psi*m))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).

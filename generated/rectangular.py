@@ -213,7 +213,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
         c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -258,7 +258,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -306,7 +306,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -353,7 +353,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -418,7 +418,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
         c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -463,7 +463,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -507,7 +507,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -554,7 +554,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -619,7 +619,7 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -663,7 +663,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
         c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -708,7 +708,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -756,7 +756,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -804,7 +804,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -848,7 +848,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -913,7 +913,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
         c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -958,7 +958,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1006,7 +1006,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1050,7 +1050,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).

@@ -265,7 +265,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -326,7 +326,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -389,7 +389,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -502,7 +502,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -591,7 +591,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -652,7 +652,7 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -736,7 +736,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -814,7 +814,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -927,7 +927,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1016,7 +1016,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1077,7 +1077,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1125,7 +1125,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1188,7 +1188,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1236,7 +1236,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1325,7 +1325,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1386,7 +1386,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1434,7 +1434,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).
@@ -1512,7 +1512,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
     the choice is physical (the paper keeps c_z > c_xy for its isolators).

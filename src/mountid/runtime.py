@@ -13,12 +13,12 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-ADMISSIBILITY_RTOL = 1e-9
+ADMISSIBILITY_RTOL = 1e-11
 """A root is admissible when each given squared frequency is reproduced by its labelled mode to this
 relative tolerance. Roots polished by eigen_newton reproduce it to rounding error (~1e-15) whatever the
-conditioning, since the residual is measured on the frequencies; a root that puts the given frequency on
-the other mode of its block misses it by the gap between the modes, and a root that did not converge
-within the step limit misses it by more than this."""
+conditioning, since the residual is measured on the frequencies (a backward error); a root that puts the
+given frequency on the other mode of its block misses it by the gap between the modes, and a root that
+did not converge within the step limit misses it by more than this."""
 
 DUPLICATE_RTOL = 1e-9
 """Two admissible roots closer than this (relative, in every unknown) are one solution reached twice."""
@@ -97,15 +97,16 @@ def eigen_newton(
     forward,
     mode_index: tuple[int, ...],
     given: tuple[NDArray, ...],
-    max_steps: int = 10,
+    max_steps: int = 40,
 ) -> tuple[NDArray[np.float64], ...]:
     """Newton steps on lambda_k(theta) = given_k with dlambda_k/dtheta_j = phi_k^T (dC/dtheta_j) phi_k.
 
-    ``forward(*unknowns)`` returns (squared frequencies (..., n_modes), mass-normalised modal matrix
-    (..., 6, n_modes), dC/dtheta (..., n_unknowns, 6, 6)). The residuals use the stable forward map, so the
-    polished roots are as accurate as the inverse problem allows. Entries whose step is not finite keep
-    their value (admissibility decides about them afterwards). Stops when every step is below 1e-15 of
-    the value (quadratic convergence: typically 2-4 steps from the closed-form roots).
+        ``forward(*unknowns)`` returns (squared frequencies (..., n_modes), mass-normalised modal matrix
+        (..., 6, n_modes), dC/dtheta (..., n_unknowns, 6, 6)). The residuals use the stable forward map, so the
+        polished roots are as accurate as the inverse problem allows. Entries whose step is not finite keep
+        their value (admissibility decides about them afterwards). Stops when every step is below 1e-15 of
+        the value (quadratic convergence: typically 2-4 steps from the closed-form roots; a candidate far from
+    any solution may need many more, and the loop ends as soon as every entry has converged).
     """
     n = len(unknowns)
     idx = list(mode_index)

@@ -221,7 +221,7 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
         f"    Derivation (lambda = omega^2): {s.last} is a root of\n\n{poly_text}\n"
         + (f"\n    and then\n\n{back_text}\n" if back_text else "")
         + "\n    Root choice: a root is admissible when every unknown is positive and finite and each given\n"
-        "    frequency is reproduced by the mode it is labelled as (rel. 1e-9): a root that puts a given\n"
+        "    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given\n"
         "    frequency on the other mode of its block is rejected. All admissible roots are returned; where\n"
         "    several remain (both roots of a block given), the data alone cannot choose between them and\n"
         "    the choice is physical (the paper keeps c_z > c_xy for its isolators).\n"
