@@ -20,6 +20,11 @@ conditioning, since the residual is measured on the frequencies (a backward erro
 given frequency on the other mode of its block misses it by the gap between the modes, and a root that
 did not converge within the step limit misses it by more than this."""
 
+NEWTON_RESIDUAL_RTOL = 1e-14
+"""eigen_newton leaves an entry alone once its squared frequencies match the given ones to this relative
+size (a few tens of eps: the rounding of the forward map). A rule on the step size would not do: near a
+double root the steps keep bouncing at kappa * eps however converged the root is."""
+
 DUPLICATE_RTOL = 1e-9
 """Two admissible roots closer than this (relative, in every unknown) are one solution reached twice."""
 
@@ -101,12 +106,12 @@ def eigen_newton(
 ) -> tuple[NDArray[np.float64], ...]:
     """Newton steps on lambda_k(theta) = given_k with dlambda_k/dtheta_j = phi_k^T (dC/dtheta_j) phi_k.
 
-        ``forward(*unknowns)`` returns (squared frequencies (..., n_modes), mass-normalised modal matrix
-        (..., 6, n_modes), dC/dtheta (..., n_unknowns, 6, 6)). The residuals use the stable forward map, so the
-        polished roots are as accurate as the inverse problem allows. Entries whose step is not finite keep
-        their value (admissibility decides about them afterwards). Stops when every step is below 1e-15 of
-        the value (quadratic convergence: typically 2-4 steps from the closed-form roots; a candidate far from
-    any solution may need many more, and the loop ends as soon as every entry has converged).
+    ``forward(*unknowns)`` returns (squared frequencies (..., n_modes), mass-normalised modal matrix
+    (..., 6, n_modes), dC/dtheta (..., n_unknowns, 6, 6)). The residuals use the stable forward map, so the
+    polished roots are as accurate as the inverse problem allows. Entries whose step is not finite keep
+    their value (admissibility decides about them afterwards). An entry is done once its residual is at
+    rounding level (NEWTON_RESIDUAL_RTOL); the loop ends when every entry is done, typically after 2-4
+    steps from the closed-form roots, or after ``max_steps``.
     """
     n = len(unknowns)
     idx = list(mode_index)
@@ -116,17 +121,17 @@ def eigen_newton(
         with np.errstate(all="ignore"):
             lam, phi, dc = forward(*(x[..., i] for i in range(n)))
             f = lam[..., idx] - lam_given
+            todo = np.any(np.abs(f) > NEWTON_RESIDUAL_RTOL * np.abs(lam_given), axis=-1)
             vec = phi[..., :, idx]  # (..., 6, n)
             jac = np.einsum("...ak,...jab,...bk->...kj", vec, dc, vec)
-            good = np.all(np.isfinite(jac), axis=(-1, -2)) & np.all(np.isfinite(f), axis=-1)
+            good = np.all(np.isfinite(jac), axis=(-1, -2)) & np.all(np.isfinite(f), axis=-1) & todo
             good &= np.abs(np.linalg.det(np.where(good[..., None, None], jac, np.eye(n)))) > 0
+            if not np.any(good):
+                break
             safe = np.where(good[..., None, None], jac, np.eye(n))
             step = np.linalg.solve(safe, np.where(good[..., None], f, 0.0)[..., None])[..., 0]
             new = x - step
-        take = good[..., None] & np.isfinite(new)
-        x = np.where(take, new, x)
-        if not np.any(take & (np.abs(step) > 1e-15 * np.abs(x))):
-            break
+        x = np.where(good[..., None] & np.isfinite(new), new, x)
     return tuple(x[..., i] for i in range(n))
 
 
