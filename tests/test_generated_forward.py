@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mountid.description import load, shipped_descriptions
+from mountid.paper import TABLE_1
 from mountid.symbolic.blocks import ModalStructure
 from mountid.symbolic.model import SymbolicModel
 
@@ -66,13 +67,11 @@ def test_vectorised_calls_broadcast_like_scalar_calls():
     mod = generated("kid300")
     rng = np.random.default_rng(1)
     c_xy = rng.uniform(1e4, 1e6, size=(3, 4))
-    lam = mod.squared_frequencies(838.6, 61.44, 51.52, 0.486, 0.3, c_xy, 4.7e5)
+    lam = mod.squared_frequencies(**TABLE_1, c_xy=c_xy, c_z=4.7e5)
     assert lam.shape == (3, 4, 6)
     for i in range(3):
         for j in range(4):
-            np.testing.assert_array_equal(
-                lam[i, j], mod.squared_frequencies(838.6, 61.44, 51.52, 0.486, 0.3, c_xy[i, j], 4.7e5)
-            )
+            np.testing.assert_array_equal(lam[i, j], mod.squared_frequencies(**TABLE_1, c_xy=c_xy[i, j], c_z=4.7e5))
 
 
 class HighPrecision:
@@ -115,15 +114,7 @@ def test_frequencies_match_50_digit_symbolic_closed_form(name, data):
 )
 def test_badly_conditioned_cases_keep_full_relative_accuracy(case):
     mod = generated("kid300")
-    p = {
-        "m": 838.6,
-        "J_xy": 61.44,
-        "J_z": 51.52,
-        "L_xy": 0.486,
-        "L_z": 0.3,
-        "c_xy": 7.44e4,
-        "c_z": 4.72e5,
-    } | case
+    p = TABLE_1 | {"c_xy": 7.44e4, "c_z": 4.72e5} | case
     hp = HighPrecision("kid300")
     exact = [float(v) for v in hp([p[a] for a in mod.FORWARD_ARGUMENTS])]
     lam = mod.squared_frequencies(**p)
@@ -133,7 +124,7 @@ def test_badly_conditioned_cases_keep_full_relative_accuracy(case):
 def test_the_textbook_form_would_fail_where_the_generated_form_holds():
     """The check above can fail: the paper's k1 - k2 form loses the lower root when the modes are far apart."""
     mod = generated("kid300")
-    p = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "c_xy": 1.0, "c_z": 1e10}
+    p = TABLE_1 | {"c_xy": 1.0, "c_z": 1e10}
     hp = HighPrecision("kid300")
     values = [p[a] for a in mod.FORWARD_ARGUMENTS]
     exact = float(hp(values)[0])

@@ -9,6 +9,8 @@ from conftest import MACHINES, generated, parameters
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from mountid.paper import TABLE_1
+
 SETS = [(name, key) for name in MACHINES for key in generated(name).INVERSES]
 
 CONDITION_LIMIT = 1e5
@@ -69,7 +71,7 @@ def test_near_degenerate_cases_degrade_with_the_condition_number():
     """Near a double root of (x, psi) the inverse loses digits in proportion to the problem's condition number,
     not more: error <= 1e-15 kappa with kappa ~ 3e4 one part in 1e4 away from the double root."""
     mod = generated("kid300")
-    base = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "c_z": 4.72e5}
+    base = TABLE_1 | {"c_z": 4.72e5}
 
     def truth_index(ratio):  # which of the two ascending roots is the truth
         p = dict(base, c_xy=ratio * base["c_z"])
@@ -91,7 +93,7 @@ def test_near_degenerate_cases_degrade_with_the_condition_number():
 def test_wrong_labelling_is_inadmissible():
     """Frequencies swapped between the modes of a block have no admissible root."""
     mod = generated("kid300")
-    knowns = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    knowns = dict(TABLE_1)
     roots = mod.identify_x_psi(**knowns, omega_x=64.10, omega_psi=17.71)
     assert not roots.admissible.any()
     # a single frequency of a block given with the other unknown fixed: lands on the wrong mode
@@ -101,7 +103,7 @@ def test_wrong_labelling_is_inadmissible():
 
 def test_vectorised_inverse_matches_scalar_calls():
     mod = generated("kid300")
-    knowns = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    knowns = dict(TABLE_1)
     w1 = np.linspace(15, 20, 7)
     roots = mod.identify_x_psi(**knowns, omega_x=w1, omega_psi=64.1)
     assert roots.parameters["c_z"].shape == (2, 7)

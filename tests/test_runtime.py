@@ -6,6 +6,7 @@ import numpy as np
 
 from mountid import runtime
 from mountid.generated import kid300
+from mountid.paper import TABLE_1
 
 
 def test_quadratic_roots_are_stable_and_ascending():
@@ -18,7 +19,7 @@ def test_quadratic_roots_are_stable_and_ascending():
 
 def test_newton_stops_once_converged():
     """The stopping rule must hold at rounding level: from the exact solution, one step confirms it."""
-    knowns = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    knowns = dict(TABLE_1)
     rng = np.random.default_rng(3)
     c_xy, c_z = rng.uniform(3e4, 3e5, 1000), rng.uniform(1e5, 1e6, 1000)
     lam = kid300.squared_frequencies(**knowns, c_xy=c_xy, c_z=c_z)
