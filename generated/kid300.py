@@ -177,6 +177,23 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
 
 
+def _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, mode_index, given):
+    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
+    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+    """
+    _M = mass_matrix(m, J_xy, J_z)
+    _dC = stiffness_gradient(L_xy, L_z)
+
+    def _forward(c_xy, c_z):
+        _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+        _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+        return _lam, _phi, _dC
+
+    (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, mode_index, given)
+    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    return (c_xy, c_z,), _runtime.admissible((c_xy, c_z,), _predicted, mode_index, given)
+
+
 def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     """Unknowns c_xy, c_z from the natural frequencies omega_x, omega_z [rad/s].
 
@@ -205,15 +222,7 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
         _tmp0 = _lam_x*m
         _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
         c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 2), (_lam_x, _lam_z,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 2), (_lam_x, _lam_z,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 2), (_lam_x, _lam_z,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -245,15 +254,7 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
         _tmp1 = 4*m
         c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
         c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 3), (_lam_x, _lam_psi,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 3), (_lam_x, _lam_psi,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 3), (_lam_x, _lam_psi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -284,15 +285,7 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (0, 5), (_lam_x, _lam_phi,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (0, 5), (_lam_x, _lam_phi,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 5), (_lam_x, _lam_phi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -324,15 +317,7 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
         _tmp0 = _lam_psi*m
         _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
         c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 3), (_lam_z, _lam_psi,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 3), (_lam_z, _lam_psi,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (2, 3), (_lam_z, _lam_psi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -362,15 +347,7 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
         _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (2, 5), (_lam_z, _lam_phi,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (2, 5), (_lam_z, _lam_phi,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (2, 5), (_lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
@@ -401,15 +378,7 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
-        _M = mass_matrix(m, J_xy, J_z)
-        _dC = stiffness_gradient(L_xy, L_z)
-        def _forward(c_xy, c_z):
-            _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, (3, 5), (_lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _ok = _runtime.admissible((c_xy, c_z,), _predicted, (3, 5), (_lam_psi, _lam_phi,))
+        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (3, 5), (_lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 

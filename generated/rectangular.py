@@ -197,6 +197,23 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
 
 
+def _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, mode_index, given):
+    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
+    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+    """
+    _M = mass_matrix(m, J_x, J_y, J_z)
+    _dC = stiffness_gradient(a, b, h)
+
+    def _forward(c_x, c_y, c_z):
+        _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+        _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+        return _lam, _phi, _dC
+
+    (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, mode_index, given)
+    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    return (c_x, c_y, c_z,), _runtime.admissible((c_x, c_y, c_z,), _predicted, mode_index, given)
+
+
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_y, omega_z [rad/s].
 
@@ -230,15 +247,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -278,15 +287,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
         _tmp6 = J_x*_lam_psi*_lam_y*m
         c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -325,15 +326,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
         _tmp5 = J_x*_tmp3 - _tmp4*b**2
         c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -390,15 +383,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -435,15 +420,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -479,15 +456,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
         _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
         c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -526,15 +495,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
         _tmp5 = J_x*_tmp3 - _tmp4*b**2
         c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -591,15 +552,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -635,15 +588,7 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
         _tmp2 = a**(-2.0)
         c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
         c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -680,15 +625,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -728,15 +665,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -776,15 +705,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
         _tmp6 = J_x*_lam_psi*_lam_y*m
         c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -820,15 +741,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
         _tmp2 = b**(-2.0)
         c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
         c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -885,15 +798,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -930,15 +835,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
         c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -978,15 +875,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -1022,15 +911,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
         _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
         c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
         c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
@@ -1087,15 +968,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h)
-        def _forward(c_x, c_y, c_z):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _ok = _runtime.admissible((c_x, c_y, c_z,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 

@@ -249,6 +249,23 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
 
 
+def _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, mode_index, given):
+    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
+    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+    """
+    _M = mass_matrix(m, J_x, J_y, J_z)
+    _dC = stiffness_gradient(a, b, h, alpha)
+
+    def _forward(c_h, c_v, c_m):
+        _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+        _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+        return _lam, _phi, _dC
+
+    (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, mode_index, given)
+    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    return (c_h, c_v, c_m,), _runtime.admissible((c_h, c_v, c_m,), _predicted, mode_index, given)
+
+
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_z [rad/s].
 
@@ -298,15 +315,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -361,15 +370,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -474,15 +475,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -563,15 +556,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -624,15 +609,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -708,15 +685,7 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
         _tmp42 = _tmp41**2
         c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*_tmp40*c_h - 2*_tmp42*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -786,15 +755,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -899,15 +860,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -988,15 +941,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1049,15 +994,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1097,15 +1034,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
         _tmp6 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1160,15 +1089,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1208,15 +1129,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
         _tmp6 = _tmp5*numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1297,15 +1210,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1358,15 +1263,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1406,15 +1303,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
         _tmp6 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1484,15 +1373,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
@@ -1573,15 +1454,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        _M = mass_matrix(m, J_x, J_y, J_z)
-        _dC = stiffness_gradient(a, b, h, alpha)
-        def _forward(c_h, c_v, c_m):
-            _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-            _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-            return _lam, _phi, _dC
-        (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
-        _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _ok = _runtime.admissible((c_h, c_v, c_m,), _predicted, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 

@@ -33,6 +33,8 @@ class Function:
     doc: str
     body: list[str] = field(default_factory=list)
     returns: str = ""
+    convert: bool = True
+    """Whether the arguments are converted to float arrays on entry (public functions)."""
 
 
 def _shape_line(args: tuple[str, ...]) -> str:
@@ -92,6 +94,46 @@ def _gradient_function(model: SymbolicModel) -> Function:
         per.append(f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})")
     fn.returns = f"numpy.stack([{', '.join(per)}], axis=-3)"
     return fn
+
+
+def _finish_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
+    """The common tail of every inverse: Newton polish on the frequencies, then the admissibility filter.
+
+    The polish works on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
+    the elimination formulas can lose digits where a mode sits near an uncoupled frequency. M, and dC/dtheta
+    when C is linear in the unknowns, do not change during the iteration and are formed once.
+    """
+    unknowns = model.description.unknown
+    m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
+    g_args = gradient_arguments(model)
+    gradient_call = f"stiffness_gradient({', '.join(g_args)})"
+    constant_gradient = not set(g_args) & set(unknowns)
+    body = [f"_M = mass_matrix({', '.join(m_args)})"]
+    if constant_gradient:
+        body.append(f"_dC = {gradient_call}")
+    body += [
+        "",
+        f"def _forward({', '.join(unknowns)}):",
+        f"    _lam = squared_frequencies({', '.join(fwd_args)})",
+        f"    _phi = _runtime.modal_matrix(_M, stiffness_matrix({', '.join(c_args)}), _lam, "
+        "BLOCKS, MODE_BLOCK, MODE_RANK)",
+        f"    return _lam, _phi, {'_dC' if constant_gradient else gradient_call}",
+        "",
+        f"({', '.join(unknowns)},) = _runtime.eigen_newton(({', '.join(unknowns)},), _forward, mode_index, given)",
+        f"_predicted = squared_frequencies({', '.join(fwd_args)})",
+    ]
+    doc = (
+        "Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes\n"
+        "    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).\n"
+    )
+    return Function(
+        "_finish",
+        (*fwd_args, "mode_index", "given"),
+        doc,
+        body,
+        f"({', '.join(unknowns)},), _runtime.admissible(({', '.join(unknowns)},), _predicted, mode_index, given)",
+        convert=False,
+    )
 
 
 def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
@@ -181,33 +223,9 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
         for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
             body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
     unknowns = d.unknown
-    # Newton polish on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
-    # the elimination formulas can lose digits where a mode sits near an uncoupled frequency. M, and dC/dtheta
-    # when C is linear in the unknowns, do not change during the iteration and are formed once.
-    m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
-    g_args = gradient_arguments(model)
-    gradient_call = f"stiffness_gradient({', '.join(g_args)})"
-    constant_gradient = not set(g_args) & set(unknowns)
-    body.append(f"_M = mass_matrix({', '.join(m_args)})")
-    if constant_gradient:
-        body.append(f"_dC = {gradient_call}")
-    body.append(f"def _forward({', '.join(unknowns)}):")
-    body.append(f"    _lam = squared_frequencies({', '.join(fwd_args)})")
-    body.append(
-        f"    _phi = _runtime.modal_matrix(_M, stiffness_matrix({', '.join(c_args)}), _lam, "
-        "BLOCKS, MODE_BLOCK, MODE_RANK)"
-    )
-    body.append(f"    return _lam, _phi, {'_dC' if constant_gradient else gradient_call}")
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
-    body.append(
-        f"({', '.join(unknowns)},) = _runtime.eigen_newton(({', '.join(unknowns)},), _forward, {mode_index!r}, "
-        f"({', '.join(f'_lam_{lab}' for lab in s.labels)},))"
-    )
-    body.append(f"_predicted = squared_frequencies({', '.join(fwd_args)})")
-    body.append(
-        f"_ok = _runtime.admissible(({', '.join(unknowns)},), _predicted, {mode_index!r}, "
-        f"({', '.join(f'_lam_{lab}' for lab in s.labels)},))"
-    )
+    given = f"({', '.join(f'_lam_{lab}' for lab in s.labels)},)"
+    body.append(f"({', '.join(unknowns)},), _ok = _finish({', '.join(fwd_args)}, {mode_index!r}, {given})")
     # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
     body = ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body]
     rets = ", ".join(f'"{u}": {u}' for u in unknowns)
@@ -248,7 +266,9 @@ def module_context(description: Description, template: str = TEMPLATE) -> dict:
         if structure.closed_form or all(b.charpoly is not None for b in structure.blocks)
         else []
     )
-    functions += [_inverse_function(s, structure, model, fwd_args) for s in inverse_sets if s.identifiable]
+    inverses = [_inverse_function(s, structure, model, fwd_args) for s in inverse_sets if s.identifiable]
+    if inverses:
+        functions += [_finish_function(model, fwd_args), *inverses]
     params = {
         n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
         for n, p in description.parameters.items()
