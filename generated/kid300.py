@@ -216,8 +216,8 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_x*m
         _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
@@ -248,8 +248,8 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_psi = omega_psi ** 2
         _tmp0 = J_xy*_lam_psi
         _tmp1 = 4*m
         c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
@@ -280,8 +280,8 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_phi = omega_phi ** 2
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
@@ -311,8 +311,8 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_psi*m
         _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
@@ -343,8 +343,8 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_phi = omega_phi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
         (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (2, 5), (_lam_z, _lam_phi,))
@@ -373,8 +373,8 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
         _tmp0 = 4*c_xy
         c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)

@@ -237,9 +237,9 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = h**2*m
         _tmp1 = J_y*_lam_x - 4*a**2*c_z
@@ -274,9 +274,9 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -314,9 +314,9 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
@@ -353,9 +353,9 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_x
         _tmp2 = _lam_y*a**2
@@ -410,9 +410,9 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = h**2*m
         _tmp1 = J_y*_lam_x - 4*a**2*c_z
@@ -447,9 +447,9 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
+        _lam_phi = omega_phi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_x*m
         _tmp1 = a**2
@@ -483,9 +483,9 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
@@ -522,9 +522,9 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_x
         _tmp2 = _lam_psi*a**2
@@ -579,9 +579,9 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
@@ -615,9 +615,9 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
+        _lam_theta = omega_theta ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = h**2*m
         _tmp1 = J_y*_lam_theta - 4*a**2*c_z
@@ -652,9 +652,9 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
+        _lam_phi = omega_phi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = b**2
         _tmp1 = J_x*_lam_y
@@ -692,9 +692,9 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -732,9 +732,9 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -768,9 +768,9 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_theta
         _tmp2 = _lam_y*a**2
@@ -825,9 +825,9 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = h**2*m
         _tmp1 = J_y*_lam_theta - 4*a**2*c_z
@@ -862,9 +862,9 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = b**2
         _tmp1 = J_x*_lam_psi
@@ -902,9 +902,9 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_theta*m
         _tmp1 = a**2
@@ -938,9 +938,9 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     """
     m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_theta
         _tmp2 = _lam_psi*a**2

@@ -289,9 +289,9 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
@@ -342,9 +342,9 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -397,9 +397,9 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -502,9 +502,9 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_y = omega_y ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -583,9 +583,9 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
@@ -636,9 +636,9 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -712,9 +712,9 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_z = omega_z ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -782,9 +782,9 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -887,9 +887,9 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = numpy.asarray(omega_x, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_x = omega_x ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -968,9 +968,9 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
@@ -1021,9 +1021,9 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_z = omega_z ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
@@ -1061,9 +1061,9 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -1116,9 +1116,9 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -1156,9 +1156,9 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = numpy.asarray(omega_y, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_y = omega_y ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -1237,9 +1237,9 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
@@ -1290,9 +1290,9 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
@@ -1330,9 +1330,9 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = numpy.asarray(omega_z, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_z = omega_z ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -1400,9 +1400,9 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = numpy.asarray(omega_psi, dtype=float) ** 2
-        _lam_theta = numpy.asarray(omega_theta, dtype=float) ** 2
-        _lam_phi = numpy.asarray(omega_phi, dtype=float) ** 2
+        _lam_psi = omega_psi ** 2
+        _lam_theta = omega_theta ** 2
+        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4

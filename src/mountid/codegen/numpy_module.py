@@ -206,7 +206,7 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
     d = model.description
     omegas = tuple(f"omega_{label}" for label in s.labels)
     args = tuple(a for a in fwd_args if a not in d.unknown) + omegas
-    body = [f"_lam_{label} = numpy.asarray(omega_{label}, dtype=float) ** 2" for label in s.labels]
+    body = [f"_lam_{label} = omega_{label} ** 2" for label in s.labels]
     lam_subs = {sp.Symbol(f"lambda_{lab}", positive=True): sp.Symbol(f"_lam_{lab}") for lab in s.labels}
     coeff_exprs = [c.subs(lam_subs) for f in s.factors for c in f.all_coeffs()]
     cse = eliminate(coeff_exprs)
