@@ -274,7 +274,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -294,7 +294,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         _lam_z = omega_z ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
         _tmp2 = 2*c_h
         _tmp3 = J_y*_lam_x
         _tmp4 = h**2
@@ -568,7 +568,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -588,7 +588,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _lam_psi = omega_psi ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
         _tmp2 = 2*c_h
         _tmp3 = J_y*_lam_x
         _tmp4 = h**2
@@ -953,7 +953,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -973,7 +973,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
         _tmp2 = 2*c_h
         _tmp3 = J_y*_lam_theta
         _tmp4 = h**2
@@ -1006,7 +1006,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_y - 6*lambda_y*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_y**2 - lambda_y*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -1026,7 +1026,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
         _lam_phi = omega_phi ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_y**2*m - _lam_y*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
         _tmp2 = b**2
         _tmp3 = numpy.sin(alpha)**2
         _tmp4 = 4*c_h
@@ -1222,7 +1222,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -1242,7 +1242,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
         _tmp2 = 2*c_h
         _tmp3 = J_y*_lam_theta
         _tmp4 = h**2
@@ -1275,7 +1275,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_psi - 6*lambda_psi*m*h**2 + 6*lambda_z*m*b**2) + J_x*m*lambda_psi**2 - lambda_psi*lambda_z*b**2*m**2 = 0
+        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
@@ -1295,7 +1295,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
         _lam_phi = omega_phi ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(-J_x*_tmp0 + 6*_lam_z*_tmp1*m - _tmp0*h**2*m, J_x*_lam_psi**2*m - _lam_psi*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
         _tmp2 = b**2
         _tmp3 = numpy.sin(alpha)**2
         _tmp4 = 4*c_h

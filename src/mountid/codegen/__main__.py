@@ -10,16 +10,47 @@ from __future__ import annotations
 import argparse
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from functools import cache
 from pathlib import Path
 
 from mountid.codegen.numpy_module import render
 from mountid.description import load
+from mountid.symbolic.blocks import ModalStructure
+from mountid.symbolic.inverse import InverseDerivation, InverseSet
+from mountid.symbolic.model import SymbolicModel
 
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def _render(path: Path) -> tuple[str, str]:
-    return path.stem, render(load(path))
+@cache
+def _derivation(path: Path) -> InverseDerivation:
+    """One InverseDerivation per description and worker process."""
+    return InverseDerivation(ModalStructure(SymbolicModel(load(path))))
+
+
+def _candidates(path: Path) -> list[tuple[str, ...]]:
+    return _derivation(path).candidates()
+
+
+def _derive(path: Path, labels: tuple[str, ...]) -> InverseSet:
+    return _derivation(path).derive(labels)
+
+
+def _render(path: Path, sets: list[InverseSet]) -> str:
+    return render(load(path), inverse_sets=sets)
+
+
+def generate(sources: list[Path], workers: int = 2) -> dict[str, str]:
+    """Module source per description name. The inverse sets (most of the work) are derived one per task
+    over ``workers`` processes; each result is independent of the process it came from."""
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        candidates = list(pool.map(_candidates, sources))
+        tasks = [
+            [pool.submit(_derive, path, labels) for labels in sets]
+            for path, sets in zip(sources, candidates, strict=True)
+        ]
+        sets = [[t.result() for t in row] for row in tasks]
+        return {p.stem: text for p, text in zip(sources, pool.map(_render, sources, sets), strict=True)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,8 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.names:
         sources = [s for s in sources if s.stem in args.names]
     out_dir = args.root / "generated"
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        rendered = dict(pool.map(_render, sources))
+    rendered = generate(sources)
     expected = {f"{name}.py": text for name, text in rendered.items()}
     if not args.names:
         expected["__init__.py"] = (

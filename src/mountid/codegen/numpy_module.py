@@ -248,8 +248,11 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
     return fn
 
 
-def module_context(description: Description, template: str = TEMPLATE) -> dict:
-    """Everything the template needs for one description."""
+def module_context(
+    description: Description, template: str = TEMPLATE, inverse_sets: list[InverseSet] | None = None
+) -> dict:
+    """Everything the template needs for one description. ``inverse_sets``: the derived inverse sets when
+    already at hand (derived here otherwise)."""
     model = SymbolicModel(description)
     structure = ModalStructure(model)
     functions = [
@@ -261,11 +264,8 @@ def module_context(description: Description, template: str = TEMPLATE) -> dict:
     eigen = _eigen_function(structure, model)
     functions.append(eigen)
     fwd_args = eigen.args
-    inverse_sets = (
-        InverseDerivation(structure).all_sets()
-        if structure.closed_form or all(b.charpoly is not None for b in structure.blocks)
-        else []
-    )
+    if inverse_sets is None:
+        inverse_sets = InverseDerivation(structure).all_sets()
     inverses = [_inverse_function(s, structure, model, fwd_args) for s in inverse_sets if s.identifiable]
     if inverses:
         functions += [_finish_function(model, fwd_args), *inverses]
@@ -314,11 +314,11 @@ def _pytuple(items) -> str:
     return f"({quoted[0]},)" if len(quoted) == 1 else f"({', '.join(quoted)})"  # () when empty
 
 
-def render(description: Description, template: str = TEMPLATE) -> str:
-    """The source of the generated module for a description."""
+def render(description: Description, template: str = TEMPLATE, inverse_sets: list[InverseSet] | None = None) -> str:
+    """The source of the generated module for a description (``inverse_sets`` as in module_context)."""
     if sp.__version__ != SYMPY_VERSION:
         raise RuntimeError(
             f"generation is pinned to sympy {SYMPY_VERSION} (found {sp.__version__}): "
             "other releases change cse output; install the pinned version"
         )
-    return _environment().get_template(template).render(**module_context(description, template))
+    return _environment().get_template(template).render(**module_context(description, template, inverse_sets))

@@ -60,7 +60,7 @@ def _cancellation_score(expr: sp.Expr) -> tuple[int, int, int]:
     """Prefer back-substitutions that cannot divide by zero and have no subtraction: first the number of
     denominator factors not provably positive (sin(alpha) vanishes at alpha = 0), then the negative terms
     in numerator and denominator (all physical symbols are positive), then the operation count."""
-    num, den = sp.fraction(sp.factor(expr))
+    num, den = sp.fraction(expr)  # expr comes factored from _eliminate
     risky = sum(1 for f in sp.Mul.make_args(den) if not f.is_positive)
     negatives = 0
     for part in (num, den):
@@ -69,6 +69,45 @@ def _cancellation_score(expr: sp.Expr) -> tuple[int, int, int]:
             if len(terms) > 1:
                 negatives += sum(1 for t in terms if t.could_extract_minus_sign())
     return risky, negatives, sp.count_ops(expr)
+
+
+def _factors_in(poly: sp.Poly) -> list[sp.Poly]:
+    """The factors of ``poly`` that depend on its variable, without the root 0 and without the content.
+
+    The content (the gcd of the coefficients, a polynomial in the parameters, e.g. sin(alpha)) would make
+    the generated root 0/0 where it vanishes; it is divided out. A primitive part of degree 1 is its own
+    factor (factoring a long linear polynomial over the parameters costs seconds and returns it unchanged);
+    higher degrees are factored over the parameters, except a quadratic whose discriminant is not a square
+    at a rational point: it cannot be a square polynomial, so the primitive quadratic is irreducible (Gauss's
+    lemma) and the costly multivariate factoring is skipped.
+    """
+    x = poly.gen
+    low = min(m[0] for m in poly.monoms())
+    if low:
+        poly = sp.Poly(sp.cancel(poly.as_expr() / x**low), x)
+    _, prim = poly.primitive()
+    if prim.LC().could_extract_minus_sign():  # the sign factor_list would choose
+        prim = -prim
+    if prim.degree() <= 1:
+        return [prim] if prim.degree() == 1 else []
+    if prim.degree() == 2 and _irreducible_quadratic(prim):
+        return [prim]
+    _, flist = sp.factor_list(prim.as_expr(), x)
+    return [sp.Poly(f, x) for f, _mult in flist if sp.Poly(f, x).degree() > 0 and f != x]
+
+
+def _irreducible_quadratic(poly: sp.Poly) -> bool:
+    """Whether a primitive quadratic is certainly irreducible over the parameters: its discriminant is not a
+    rational square at a fixed pseudo-random rational point (a square polynomial would be one everywhere)."""
+    rng = random.Random(7)
+    symbols = sorted(set().union(*(c.free_symbols for c in poly.all_coeffs())), key=str)
+    point = {s: sp.Rational(rng.randint(101, 997), rng.randint(101, 997)) for s in symbols}
+    a, b, c = (sp.Rational(coef.xreplace(point)) for coef in poly.all_coeffs())
+    disc = b * b - 4 * a * c
+    if disc < 0:
+        return True
+    p, q = sp.fraction(disc)
+    return not (sp.sqrt(p).is_Integer and sp.sqrt(q).is_Integer)
 
 
 def lambda_symbol(label: str) -> sp.Symbol:
@@ -231,16 +270,17 @@ class InverseDerivation:
         if not candidates:
             return InverseSet(labels, False, f"the equations leave {last} free (not generated)")
         univariate = min(candidates, key=lambda e: (sp.degree(e, last), sp.count_ops(e)))
-        factors = []
-        _, flist = sp.factor_list(univariate, last)
-        for factor, _mult in flist:
-            poly = sp.Poly(factor, last)
-            if poly.degree() == 0 or poly.as_expr() == last:
-                continue
-            factors.append(poly)
+        factors = _factors_in(sp.Poly(univariate, last))
         back = [(str(u), sol) for u, sol in reversed(steps)]
         return InverseSet(labels, True, "", tuple(lams), tuple(eqs), str(last), tuple(factors), tuple(back))
 
+    def candidates(self) -> list[tuple[str, ...]]:
+        """Every set of distinct frequencies as large as the number of unknowns (empty when the blocks are
+        too large for symbolic characteristic polynomials)."""
+        if not (self.structure.closed_form or all(b.charpoly is not None for b in self.structure.blocks)):
+            return []
+        return list(itertools.combinations(self.structure.unique_labels, len(self.unknowns)))
+
     def all_sets(self) -> list[InverseSet]:
-        n = len(self.unknowns)
-        return [self.derive(c) for c in itertools.combinations(self.structure.unique_labels, n)]
+        """derive() of every candidate set, in order (python -m mountid.codegen spreads them over processes)."""
+        return [self.derive(c) for c in self.candidates()]
