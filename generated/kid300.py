@@ -143,55 +143,60 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     mountid.symbolic.blocks: no difference of nearly equal numbers):
 
         block {x, theta}: lambda = -sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m  and  sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m
-        block {y, psi}: lambda = -sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m  and  sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m
+        block {y, psi}: the roots of block {x, theta}
         block {z}: lambda = 4*c_z/m
         block {phi}: lambda = 4*c_xy*L_xy**2/J_z
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
     _tmp0 = m**(-1.0)
     _tmp1 = 4*c_xy
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = J_xy**(-1.0)
-    _tmp4 = L_xy**2
-    _tmp5 = _tmp4*c_z
-    _tmp6 = _tmp3*(L_z**2*_tmp1 + 2*_tmp5)
-    _tmp7 = L_z*_tmp1/(numpy.sqrt(J_xy)*numpy.sqrt(m))
-    _tmp8 = 8*_tmp0*_tmp3*_tmp5*c_xy
-    _s11_0 = _tmp2
-    _s22_0 = _tmp6
-    _s12_0 = -_tmp7
-    _det_0 = _tmp8
-    _s11_1 = _tmp2
-    _s22_1 = _tmp6
-    _s12_1 = _tmp7
-    _det_1 = _tmp8
+    _tmp2 = J_xy**(-1.0)
+    _tmp3 = L_xy**2
+    _tmp4 = _tmp3*c_z
+    _tmp5 = L_z**2
+    _tmp6 = _tmp0*_tmp2
+    _s11_0 = _tmp0*_tmp1
+    _s22_0 = _tmp2*(_tmp1*_tmp5 + 2*_tmp4)
+    _s12sq_0 = 16*_tmp5*_tmp6*c_xy**2
+    _det_0 = 8*_tmp4*_tmp6*c_xy
     _lam2_1 = 4*_tmp0*c_z
-    _lam3_1 = _tmp1*_tmp4/J_z
+    _lam3_1 = _tmp1*_tmp3/J_z
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12_0**2)
+    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
     _lam0_1 = _det_0 / _lam0_2
-    # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12_1**2)
-    _lam1_1 = _det_1 / _lam1_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
+    _out = numpy.empty((6, *_shape))
+    _out[0] = _lam0_1
+    _out[1] = _lam0_1
+    _out[2] = _lam2_1
+    _out[3] = _lam0_2
+    _out[4] = _lam0_2
+    _out[5] = _lam3_1
+    return numpy.moveaxis(_out, 0, -1)
 
 
-def _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, mode_index, given):
-    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
-    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+def _model(_known, _unknowns, _modes):
+    """Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:
+    ``_known`` = (m, J_xy, J_z, L_xy, L_z) of shape (N,), ``_unknowns`` of shape (N, 2).
     """
-    _M = mass_matrix(m, J_xy, J_z)
-    _dC = stiffness_gradient(L_xy, L_z)
+    m, J_xy, J_z, L_xy, L_z = _known
+    c_xy, c_z = _unknowns.T
+    _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    if not _modes:
+        return _lam, None, None
+    _phi = _runtime.modal_matrix(mass_matrix(m, J_xy, J_z), stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    return _lam, _phi, stiffness_gradient(L_xy, L_z)
 
-    def _forward(c_xy, c_z):
-        _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-        _phi = _runtime.modal_matrix(_M, stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-        return _lam, _phi, _dC
 
-    (c_xy, c_z,) = _runtime.eigen_newton((c_xy, c_z,), _forward, mode_index, given)
-    _predicted = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    return (c_xy, c_z,), _runtime.admissible((c_xy, c_z,), _predicted, mode_index, given)
+def _roots_x_z(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_z):
+    """Candidate roots of identify_x_z() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_x*m
+        _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
+        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+    return (c_xy, c_z,)
 
 
 def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
@@ -212,18 +217,24 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
-        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 2), (_lam_x, _lam_z,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_z, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_z ** 2,), (0, 2))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def _roots_x_psi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_psi):
+    """Candidate roots of identify_x_psi() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_xy*_lam_psi
+        _tmp1 = 4*m
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
+    return (c_xy, c_z,)
 
 
 def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
@@ -244,18 +255,23 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_psi = omega_psi ** 2
-        _tmp0 = J_xy*_lam_psi
-        _tmp1 = 4*m
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 3), (_lam_x, _lam_psi,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_psi ** 2,), (0, 3))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def _roots_x_phi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_phi):
+    """Candidate roots of identify_x_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
+        _tmp0 = 4*c_xy
+        c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
+    return (c_xy, c_z,)
 
 
 def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
@@ -276,17 +292,24 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_phi = omega_phi ** 2
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
-        _tmp0 = 4*c_xy
-        c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (0, 5), (_lam_x, _lam_phi,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_phi ** 2,), (0, 5))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def _roots_z_psi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_psi):
+    """Candidate roots of identify_z_psi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_psi*m
+        _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
+        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
+    return (c_xy, c_z,)
 
 
 def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
@@ -307,18 +330,22 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_psi*m
-        _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
-        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (2, 3), (_lam_z, _lam_psi,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_psi ** 2,), (2, 3))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def _roots_z_phi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_phi):
+    """Candidate roots of identify_z_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
+    return (c_xy, c_z,)
 
 
 def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
@@ -339,16 +366,23 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_phi = omega_phi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (2, 5), (_lam_z, _lam_phi,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_z_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_phi ** 2,), (2, 5))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+
+
+def _roots_psi_phi(m, J_xy, J_z, L_xy, L_z, _lam_psi, _lam_phi):
+    """Candidate roots of identify_psi_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
+        _tmp0 = 4*c_xy
+        c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
+    return (c_xy, c_z,)
 
 
 def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
@@ -369,16 +403,12 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
-        _tmp0 = 4*c_xy
-        c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
-        (c_xy, c_z,), _ok = _finish(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, (3, 5), (_lam_psi, _lam_phi,))
+    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_psi_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_psi ** 2, omega_phi ** 2,), (3, 5))
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 

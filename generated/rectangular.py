@@ -172,46 +172,64 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     _tmp3 = a**2
     _tmp4 = 4*c_z
     _tmp5 = h**2
-    _tmp6 = h/numpy.sqrt(m)
-    _tmp7 = 16*_tmp0*c_z
-    _tmp8 = 4*c_y
-    _tmp9 = J_x**(-1.0)
-    _tmp10 = b**2
+    _tmp6 = 16*_tmp0
+    _tmp7 = _tmp5*_tmp6
+    _tmp8 = _tmp6*c_z
+    _tmp9 = 4*c_y
+    _tmp10 = J_x**(-1.0)
+    _tmp11 = b**2
     _s11_0 = _tmp0*_tmp1
     _s22_0 = _tmp2*(_tmp1*_tmp5 + _tmp3*_tmp4)
-    _s12_0 = -_tmp1*_tmp6/numpy.sqrt(J_y)
-    _det_0 = _tmp2*_tmp3*_tmp7*c_x
-    _s11_1 = _tmp0*_tmp8
-    _s22_1 = _tmp9*(_tmp10*_tmp4 + _tmp5*_tmp8)
-    _s12_1 = _tmp6*_tmp8/numpy.sqrt(J_x)
-    _det_1 = _tmp10*_tmp7*_tmp9*c_y
+    _s12sq_0 = _tmp2*_tmp7*c_x**2
+    _det_0 = _tmp2*_tmp3*_tmp8*c_x
+    _s11_1 = _tmp0*_tmp9
+    _s22_1 = _tmp10*(_tmp11*_tmp4 + _tmp5*_tmp9)
+    _s12sq_1 = _tmp10*_tmp7*c_y**2
+    _det_1 = _tmp10*_tmp11*_tmp8*c_y
     _lam2_1 = _tmp0*_tmp4
-    _lam3_1 = (_tmp1*_tmp10 + _tmp3*_tmp8)/J_z
+    _lam3_1 = (_tmp1*_tmp11 + _tmp3*_tmp9)/J_z
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12_0**2)
+    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
     _lam0_1 = _det_0 / _lam0_2
     # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12_1**2)
+    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12sq_1)
     _lam1_1 = _det_1 / _lam1_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
-    return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
+    _out = numpy.empty((6, *_shape))
+    _out[0] = _lam0_1
+    _out[1] = _lam1_1
+    _out[2] = _lam2_1
+    _out[3] = _lam1_2
+    _out[4] = _lam0_2
+    _out[5] = _lam3_1
+    return numpy.moveaxis(_out, 0, -1)
 
 
-def _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, mode_index, given):
-    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
-    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+def _model(_known, _unknowns, _modes):
+    """Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:
+    ``_known`` = (m, J_x, J_y, J_z, a, b, h) of shape (N,), ``_unknowns`` of shape (N, 3).
     """
-    _M = mass_matrix(m, J_x, J_y, J_z)
-    _dC = stiffness_gradient(a, b, h)
+    m, J_x, J_y, J_z, a, b, h = _known
+    c_x, c_y, c_z = _unknowns.T
+    _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    if not _modes:
+        return _lam, None, None
+    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    return _lam, _phi, stiffness_gradient(a, b, h)
 
-    def _forward(c_x, c_y, c_z):
-        _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-        _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-        return _lam, _phi, _dC
 
-    (c_x, c_y, c_z,) = _runtime.eigen_newton((c_x, c_y, c_z,), _forward, mode_index, given)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    return (c_x, c_y, c_z,), _runtime.admissible((c_x, c_y, c_z,), _predicted, mode_index, given)
+def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_z):
+    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_x - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_y - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
@@ -233,22 +251,30 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
-        _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        _tmp2 = (0.25)*m
-        _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
+    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 4*m
+        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = 4*_lam_x*_tmp2*c_y
+        _tmp4 = J_y*_tmp3
+        _tmp5 = a**2
+        _tmp6 = J_x*_lam_psi*_lam_y*m
+        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
@@ -270,25 +296,29 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 4*m
-        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**2
-        _tmp3 = 4*_lam_x*_tmp2*c_y
-        _tmp4 = J_y*_tmp3
-        _tmp5 = a**2
-        _tmp6 = J_x*_lam_psi*_lam_y*m
-        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
+    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**2
+        _tmp3 = 4*_lam_y*_tmp2*c_x
+        _tmp4 = J_y*_lam_theta*_lam_x*m
+        _tmp5 = J_x*_tmp3 - _tmp4*b**2
+        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta):
@@ -310,24 +340,47 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_theta = omega_theta ** 2
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**2
-        _tmp3 = 4*_lam_y*_tmp2*c_x
-        _tmp4 = J_y*_lam_theta*_lam_x*m
-        _tmp5 = J_x*_tmp3 - _tmp4*b**2
-        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
+    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = b**4
+        _tmp1 = 16*_lam_x
+        _tmp2 = _lam_y*a**2
+        _tmp3 = J_x*_tmp2
+        _tmp4 = b**2
+        _tmp5 = 16*_tmp4
+        _tmp6 = h**2
+        _tmp7 = _tmp6*m
+        _tmp8 = _tmp2*_tmp7
+        _tmp9 = J_z*_lam_phi
+        _tmp10 = 4*_tmp9
+        _tmp11 = _lam_y**2
+        _tmp12 = a**4
+        _tmp13 = _lam_x**2
+        _tmp14 = 4*m
+        _tmp15 = J_y*_tmp4
+        _tmp16 = m**2
+        _tmp17 = _lam_x*_tmp16
+        _tmp18 = _tmp17*_tmp2*_tmp6
+        _tmp19 = _tmp9*m
+        _tmp20 = _tmp13*_tmp15
+        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
+        _tmp21 = 4*c_x
+        _tmp22 = _lam_x*m
+        _tmp23 = (0.25)/a**2
+        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
+        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
@@ -349,42 +402,27 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = b**4
-        _tmp1 = 16*_lam_x
-        _tmp2 = _lam_y*a**2
-        _tmp3 = J_x*_tmp2
-        _tmp4 = b**2
-        _tmp5 = 16*_tmp4
-        _tmp6 = h**2
-        _tmp7 = _tmp6*m
-        _tmp8 = _tmp2*_tmp7
-        _tmp9 = J_z*_lam_phi
-        _tmp10 = 4*_tmp9
-        _tmp11 = _lam_y**2
-        _tmp12 = a**4
-        _tmp13 = _lam_x**2
-        _tmp14 = 4*m
-        _tmp15 = J_y*_tmp4
-        _tmp16 = m**2
-        _tmp17 = _lam_x*_tmp16
-        _tmp18 = _tmp17*_tmp2*_tmp6
-        _tmp19 = _tmp9*m
-        _tmp20 = _tmp13*_tmp15
-        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-        _tmp21 = 4*c_x
-        _tmp22 = _lam_x*m
-        _tmp23 = (0.25)/a**2
-        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
+    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_x - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
@@ -406,22 +444,26 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
-        _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        _tmp2 = (0.25)*m
-        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
+    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_x*m
+        _tmp1 = a**2
+        _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
@@ -443,21 +485,29 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        _lam_phi = omega_phi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = a**2
-        _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
+    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**2
+        _tmp3 = 4*_lam_psi*_tmp2*c_x
+        _tmp4 = J_y*_lam_theta*_lam_x*m
+        _tmp5 = J_x*_tmp3 - _tmp4*b**2
+        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta):
@@ -479,52 +529,19 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**2
-        _tmp3 = 4*_lam_psi*_tmp2*c_x
-        _tmp4 = J_y*_lam_theta*_lam_x*m
-        _tmp5 = J_x*_tmp3 - _tmp4*b**2
-        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
-def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi):
-    """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_x is a root of
-
-        c_x*(4*J_x*m*a**4*lambda_psi**2 + 4*J_y*m*b**4*lambda_x**2 - 4*J_x*J_z*lambda_phi*lambda_psi*a**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2 - 8*lambda_psi*lambda_x*a**2*b**2*h**2*m**2 - 4*J_x*lambda_psi*lambda_x*m*a**2*b**2 - 4*J_y*lambda_psi*lambda_x*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_x*b**4 - 16*lambda_x*m*b**4*h**2 + 16*J_x*lambda_psi*a**2*b**2 + 16*lambda_psi*m*a**2*b**2*h**2) - J_x*lambda_x*a**4*lambda_psi**2*m**2 + J_y*lambda_psi*a**2*b**2*lambda_x**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_x**2 + J_x*J_z*lambda_phi*lambda_psi*lambda_x*m*a**2 + J_z*lambda_phi*lambda_psi*lambda_x*a**2*h**2*m**2 = 0
-
-    and then
-
-        c_z = -lambda_x*(4*J_y*c_x - J_y*lambda_x*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_x*m))
-        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
+    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_x
         _tmp2 = _lam_psi*a**2
@@ -552,8 +569,48 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
+    return (c_x, c_y, c_z,)
+
+
+def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi):
+    """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_x is a root of
+
+        c_x*(4*J_x*m*a**4*lambda_psi**2 + 4*J_y*m*b**4*lambda_x**2 - 4*J_x*J_z*lambda_phi*lambda_psi*a**2 + 4*J_y*J_z*lambda_phi*lambda_x*b**2 - 8*lambda_psi*lambda_x*a**2*b**2*h**2*m**2 - 4*J_x*lambda_psi*lambda_x*m*a**2*b**2 - 4*J_y*lambda_psi*lambda_x*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_x*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_x*b**4 - 16*lambda_x*m*b**4*h**2 + 16*J_x*lambda_psi*a**2*b**2 + 16*lambda_psi*m*a**2*b**2*h**2) - J_x*lambda_x*a**4*lambda_psi**2*m**2 + J_y*lambda_psi*a**2*b**2*lambda_x**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_x**2 + J_x*J_z*lambda_phi*lambda_psi*lambda_x*m*a**2 + J_z*lambda_phi*lambda_psi*lambda_x*a**2*h**2*m**2 = 0
+
+    and then
+
+        c_z = -lambda_x*(4*J_y*c_x - J_y*lambda_x*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_x*m))
+        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
+    """Candidate roots of identify_x_theta_phi() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_y*_lam_theta
+        _tmp1 = 4*m
+        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp2 = a**(-2.0)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi):
@@ -575,21 +632,27 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**(-2.0)
-        c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (0, 4, 5), (_lam_x, _lam_theta, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 4, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
+    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_y - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta):
@@ -611,22 +674,30 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
-        _lam_theta = omega_theta ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
-        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        _tmp2 = (0.25)*m
-        _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
+    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = b**2
+        _tmp1 = J_x*_lam_y
+        _tmp2 = _lam_y*m
+        _tmp3 = _tmp2*h**2
+        _tmp4 = J_z*_lam_phi
+        _tmp5 = 4*_tmp0*c_z
+        _tmp6 = a**2
+        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
@@ -648,25 +719,30 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
-        _lam_phi = omega_phi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = b**2
-        _tmp1 = J_x*_lam_y
-        _tmp2 = _lam_y*m
-        _tmp3 = _tmp2*h**2
-        _tmp4 = J_z*_lam_phi
-        _tmp5 = 4*_tmp0*c_z
-        _tmp6 = a**2
-        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
+    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 4*m
+        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = 4*_lam_theta*_tmp2*c_y
+        _tmp4 = J_y*_tmp3
+        _tmp5 = a**2
+        _tmp6 = J_x*_lam_psi*_lam_y*m
+        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta):
@@ -688,25 +764,26 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta)
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4))
+    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
+    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**2
-        _tmp3 = 4*_lam_theta*_tmp2*c_y
-        _tmp4 = J_y*_tmp3
-        _tmp5 = a**2
-        _tmp6 = J_x*_lam_psi*_lam_y*m
-        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+        _tmp2 = b**(-2.0)
+        c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi):
@@ -728,49 +805,19 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 4*m
-        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**(-2.0)
-        c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
-def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi):
-    """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_x is a root of
-
-        c_x*(4*J_x*m*a**4*lambda_y**2 + 4*J_y*m*b**4*lambda_theta**2 - 4*J_x*J_z*lambda_phi*lambda_y*a**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2 - 8*lambda_theta*lambda_y*a**2*b**2*h**2*m**2 - 4*J_x*lambda_theta*lambda_y*m*a**2*b**2 - 4*J_y*lambda_theta*lambda_y*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_y*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_theta*b**4 - 16*lambda_theta*m*b**4*h**2 + 16*J_x*lambda_y*a**2*b**2 + 16*lambda_y*m*a**2*b**2*h**2) - J_x*lambda_theta*a**4*lambda_y**2*m**2 + J_y*lambda_y*a**2*b**2*lambda_theta**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_theta**2 + J_x*J_z*lambda_phi*lambda_theta*lambda_y*m*a**2 + J_z*lambda_phi*lambda_theta*lambda_y*a**2*h**2*m**2 = 0
-
-    and then
-
-        c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
-        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
+    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_theta
         _tmp2 = _lam_y*a**2
@@ -798,8 +845,49 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
+    return (c_x, c_y, c_z,)
+
+
+def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi):
+    """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_x is a root of
+
+        c_x*(4*J_x*m*a**4*lambda_y**2 + 4*J_y*m*b**4*lambda_theta**2 - 4*J_x*J_z*lambda_phi*lambda_y*a**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2 - 8*lambda_theta*lambda_y*a**2*b**2*h**2*m**2 - 4*J_x*lambda_theta*lambda_y*m*a**2*b**2 - 4*J_y*lambda_theta*lambda_y*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_y*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_theta*b**4 - 16*lambda_theta*m*b**4*h**2 + 16*J_x*lambda_y*a**2*b**2 + 16*lambda_y*m*a**2*b**2*h**2) - J_x*lambda_theta*a**4*lambda_y**2*m**2 + J_y*lambda_y*a**2*b**2*lambda_theta**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_theta**2 + J_x*J_z*lambda_phi*lambda_theta*lambda_y*m*a**2 + J_z*lambda_phi*lambda_theta*lambda_y*a**2*h**2*m**2 = 0
+
+    and then
+
+        c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
+        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
+    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = h**2*m
+        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
+        _tmp2 = (0.25)*m
+        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
+        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta):
@@ -821,22 +909,30 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
-        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        _tmp2 = (0.25)*m
-        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
+    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = b**2
+        _tmp1 = J_x*_lam_psi
+        _tmp2 = _lam_psi*m
+        _tmp3 = _tmp2*h**2
+        _tmp4 = J_z*_lam_phi
+        _tmp5 = 4*_tmp0*c_z
+        _tmp6 = a**2
+        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi):
@@ -858,25 +954,26 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = b**2
-        _tmp1 = J_x*_lam_psi
-        _tmp2 = _lam_psi*m
-        _tmp3 = _tmp2*h**2
-        _tmp4 = J_z*_lam_phi
-        _tmp5 = 4*_tmp0*c_z
-        _tmp6 = a**2
-        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+
+
+def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
+    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        _tmp0 = _lam_theta*m
+        _tmp1 = a**2
+        _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+    return (c_x, c_y, c_z,)
 
 
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi):
@@ -898,49 +995,19 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_theta*m
-        _tmp1 = a**2
-        _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 
-def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi):
-    """Unknowns c_x, c_y, c_z from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_x is a root of
-
-        c_x*(4*J_x*m*a**4*lambda_psi**2 + 4*J_y*m*b**4*lambda_theta**2 - 4*J_x*J_z*lambda_phi*lambda_psi*a**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2 - 8*lambda_psi*lambda_theta*a**2*b**2*h**2*m**2 - 4*J_x*lambda_psi*lambda_theta*m*a**2*b**2 - 4*J_y*lambda_psi*lambda_theta*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_theta*b**4 - 16*lambda_theta*m*b**4*h**2 + 16*J_x*lambda_psi*a**2*b**2 + 16*lambda_psi*m*a**2*b**2*h**2) - J_x*lambda_theta*a**4*lambda_psi**2*m**2 + J_y*lambda_psi*a**2*b**2*lambda_theta**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_theta**2 + J_x*J_z*lambda_phi*lambda_psi*lambda_theta*m*a**2 + J_z*lambda_phi*lambda_psi*lambda_theta*a**2*h**2*m**2 = 0
-
-    and then
-
-        c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
-        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_phi):
+    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = b**4
         _tmp1 = 16*_lam_theta
         _tmp2 = _lam_psi*a**2
@@ -968,7 +1035,34 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
         _tmp23 = (0.25)/a**2
         c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
         c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        (c_x, c_y, c_z,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+    return (c_x, c_y, c_z,)
+
+
+def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi):
+    """Unknowns c_x, c_y, c_z from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_x is a root of
+
+        c_x*(4*J_x*m*a**4*lambda_psi**2 + 4*J_y*m*b**4*lambda_theta**2 - 4*J_x*J_z*lambda_phi*lambda_psi*a**2 + 4*J_y*J_z*lambda_phi*lambda_theta*b**2 - 8*lambda_psi*lambda_theta*a**2*b**2*h**2*m**2 - 4*J_x*lambda_psi*lambda_theta*m*a**2*b**2 - 4*J_y*lambda_psi*lambda_theta*m*a**2*b**2 - 4*J_z*lambda_phi*lambda_psi*m*a**2*h**2 + 4*J_z*lambda_phi*lambda_theta*m*b**2*h**2) + c_x**2*(-16*J_y*lambda_theta*b**4 - 16*lambda_theta*m*b**4*h**2 + 16*J_x*lambda_psi*a**2*b**2 + 16*lambda_psi*m*a**2*b**2*h**2) - J_x*lambda_theta*a**4*lambda_psi**2*m**2 + J_y*lambda_psi*a**2*b**2*lambda_theta**2*m**2 - J_y*J_z*lambda_phi*m*b**2*lambda_theta**2 + J_x*J_z*lambda_phi*lambda_psi*lambda_theta*m*a**2 + J_z*lambda_phi*lambda_psi*lambda_theta*a**2*h**2*m**2 = 0
+
+    and then
+
+        c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
+        c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
+    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5))
     return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
 
 

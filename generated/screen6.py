@@ -214,84 +214,79 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     _tmp9 = _tmp8*c_v
     _tmp10 = J_y**(-1.0)
     _tmp11 = h**2
-    _tmp12 = _tmp2*_tmp6*a
-    _tmp13 = 8*h
-    _tmp14 = _tmp12*c_v
-    _tmp15 = a**2
-    _tmp16 = _tmp7*c_h
-    _tmp17 = 4*_tmp16
-    _tmp18 = _tmp3*c_v
-    _tmp19 = 4*_tmp18
-    _tmp20 = 1/numpy.sqrt(m)
-    _tmp21 = 2*c_v
-    _tmp22 = _tmp0*c_h
-    _tmp23 = 6*c_h
-    _tmp24 = J_x**(-1.0)
-    _tmp25 = b**2
-    _tmp26 = 2*c_m
+    _tmp12 = 8*c_h
+    _tmp13 = _tmp6*a*h
+    _tmp14 = _tmp13*_tmp2
+    _tmp15 = _tmp14*c_v
+    _tmp16 = a**2
+    _tmp17 = _tmp7*c_h
+    _tmp18 = 4*_tmp17
+    _tmp19 = _tmp3*c_v
+    _tmp20 = 4*_tmp19
+    _tmp21 = c_h**2
+    _tmp22 = _tmp11*_tmp21
+    _tmp23 = 16*_tmp11
+    _tmp24 = 16*_tmp21
+    _tmp25 = 16*_tmp22
+    _tmp26 = _tmp2**4
+    _tmp27 = _tmp6**4
+    _tmp28 = c_v**2
+    _tmp29 = 32*_tmp13*_tmp2**3
+    _tmp30 = c_h*c_v
+    _tmp31 = 32*_tmp2*_tmp6**3*a*h
+    _tmp32 = 32*_tmp17*_tmp19
+    _tmp33 = _tmp16*_tmp3*_tmp7
+    _tmp34 = _tmp0*_tmp10
+    _tmp35 = 2*c_v
+    _tmp36 = 6*c_h
+    _tmp37 = J_x**(-1.0)
+    _tmp38 = b**2
+    _tmp39 = 2*c_m
+    _tmp40 = _tmp0*_tmp37
     _s11_0 = _tmp0*(_tmp1 + _tmp5 + _tmp9)
-    _s22_0 = _tmp10*(_tmp1*_tmp11 + _tmp11*_tmp5 + _tmp11*_tmp9 - _tmp12*_tmp13*c_h + _tmp13*_tmp14 + _tmp15*_tmp17 + _tmp15*_tmp19)
-    _s12_0 = _tmp20*(-_tmp1*h - 4*_tmp14 + 4*_tmp2*_tmp6*a*c_h - _tmp5*h - _tmp9*h)/numpy.sqrt(J_y)
-    _det_0 = 8*_tmp10*_tmp15*_tmp22*(_tmp16 + _tmp18*_tmp8 + _tmp18 + _tmp2**4*_tmp21 + _tmp21*_tmp6**4)
-    _s11_1 = _tmp0*_tmp23
-    _s22_1 = _tmp24*(_tmp11*_tmp23 + _tmp17*_tmp25 + _tmp19*_tmp25 + _tmp25*_tmp26)
-    _s12_1 = _tmp20*_tmp23*h/numpy.sqrt(J_x)
-    _det_1 = 12*_tmp22*_tmp24*_tmp25*(_tmp1*_tmp7 + 2*_tmp18 + c_m)
-    _lam2_1 = _tmp0*(_tmp17 + _tmp19 + _tmp26)
-    _lam3_1 = (_tmp1*_tmp25 + _tmp15*_tmp4 + _tmp25*_tmp5 + _tmp25*_tmp9)/J_z
+    _s22_0 = _tmp10*(_tmp1*_tmp11 + _tmp11*_tmp5 + _tmp11*_tmp9 - _tmp12*_tmp14 + 8*_tmp15 + _tmp16*_tmp18 + _tmp16*_tmp20)
+    _s12sq_0 = _tmp34*(_tmp11*_tmp32 - _tmp14*_tmp24 + 16*_tmp15*c_h - _tmp16*_tmp32 + _tmp17*_tmp23*c_v - _tmp21*_tmp29 + 4*_tmp22 + _tmp23*_tmp27*_tmp28 + _tmp24*_tmp33 + _tmp25*_tmp26 + _tmp25*_tmp3 + _tmp28*_tmp31 + 16*_tmp28*_tmp33 + _tmp29*_tmp30 - _tmp30*_tmp31)
+    _det_0 = _tmp12*_tmp16*_tmp34*(_tmp17 + _tmp19*_tmp8 + _tmp19 + _tmp26*_tmp35 + _tmp27*_tmp35)
+    _s11_1 = _tmp0*_tmp36
+    _s22_1 = _tmp37*(_tmp11*_tmp36 + _tmp18*_tmp38 + _tmp20*_tmp38 + _tmp38*_tmp39)
+    _s12sq_1 = 36*_tmp22*_tmp40
+    _det_1 = 12*_tmp38*_tmp40*c_h*(_tmp1*_tmp7 + 2*_tmp19 + c_m)
+    _lam2_1 = _tmp0*(_tmp18 + _tmp20 + _tmp39)
+    _lam3_1 = (_tmp1*_tmp38 + _tmp16*_tmp4 + _tmp38*_tmp5 + _tmp38*_tmp9)/J_z
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12_0**2)
+    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
     _lam0_1 = _det_0 / _lam0_2
     # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12_1**2)
+    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12sq_1)
     _lam1_1 = _det_1 / _lam1_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
-    return numpy.stack([numpy.broadcast_to(_lam0_1, _shape), numpy.broadcast_to(_lam1_1, _shape), numpy.broadcast_to(_lam2_1, _shape), numpy.broadcast_to(_lam1_2, _shape), numpy.broadcast_to(_lam0_2, _shape), numpy.broadcast_to(_lam3_1, _shape)], axis=-1)
+    _out = numpy.empty((6, *_shape))
+    _out[0] = _lam0_1
+    _out[1] = _lam1_1
+    _out[2] = _lam2_1
+    _out[3] = _lam1_2
+    _out[4] = _lam0_2
+    _out[5] = _lam3_1
+    return numpy.moveaxis(_out, 0, -1)
 
 
-def _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, mode_index, given):
-    """Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes
-    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).
+def _model(_known, _unknowns, _modes):
+    """Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:
+    ``_known`` = (m, J_x, J_y, J_z, a, b, h, alpha) of shape (N,), ``_unknowns`` of shape (N, 3).
     """
-    _M = mass_matrix(m, J_x, J_y, J_z)
-    _dC = stiffness_gradient(a, b, h, alpha)
-
-    def _forward(c_h, c_v, c_m):
-        _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-        _phi = _runtime.modal_matrix(_M, stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
-        return _lam, _phi, _dC
-
-    (c_h, c_v, c_m,) = _runtime.eigen_newton((c_h, c_v, c_m,), _forward, mode_index, given)
-    _predicted = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    return (c_h, c_v, c_m,), _runtime.admissible((c_h, c_v, c_m,), _predicted, mode_index, given)
+    m, J_x, J_y, J_z, a, b, h, alpha = _known
+    c_h, c_v, c_m = _unknowns.T
+    _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    if not _modes:
+        return _lam, None, None
+    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    return _lam, _phi, stiffness_gradient(a, b, h, alpha)
 
 
-def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_z [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_h is a root of
-
-        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
-
-    and then
-
-        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
-        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_z):
+    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
@@ -315,36 +310,41 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 2), (_lam_x, _lam_y, _lam_z,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_psi [rad/s].
+def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_z [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-6*J_x*lambda_psi*m - 6*J_x*lambda_y*m) + c_h**2*(36*J_x + 36*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
+        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
 
     and then
 
         c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
-        c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
+    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -370,36 +370,41 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 3), (_lam_x, _lam_y, _lam_psi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_theta [rad/s].
+def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_psi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-6*J_x*lambda_psi*m - 6*J_x*lambda_y*m) + c_h**2*(36*J_x + 36*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
 
     and then
 
-        c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_y*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_y*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2 + 12*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_y*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*lambda_y*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_y*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
-        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
+        c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_theta):
+    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -475,36 +480,41 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 4), (_lam_x, _lam_y, _lam_theta,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_phi [rad/s].
+def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_theta [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
-        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_y*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_y*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2 + 12*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_y*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*lambda_y*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_y*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
+    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_y = omega_y ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -556,36 +566,41 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 1, 5), (_lam_x, _lam_y, _lam_phi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_psi [rad/s].
+def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
-        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
+    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
@@ -609,36 +624,41 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 3), (_lam_x, _lam_z, _lam_psi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_theta [rad/s].
+def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_psi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
+        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
 
     and then
 
-        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_theta):
+    """Candidate roots of identify_x_z_theta() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -685,36 +705,41 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
         _tmp42 = _tmp41**2
         c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*_tmp40*c_h - 2*_tmp42*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 4), (_lam_x, _lam_z, _lam_theta,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_phi [rad/s].
+def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_theta [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_theta ** 2,), (0, 2, 4))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
+    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_z = omega_z ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -755,36 +780,41 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 2, 5), (_lam_x, _lam_z, _lam_phi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_theta [rad/s].
+def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_psi*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2 + 12*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_psi*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_psi*lambda_theta*lambda_x*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_psi*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
-        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_theta):
+    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = a**2
         _tmp1 = J_y*_tmp0
         _tmp2 = numpy.cos(alpha)
@@ -860,36 +890,41 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
         _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
         c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
         c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 3, 4), (_lam_x, _lam_psi, _lam_theta,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
+def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_theta [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
+        c_h*(-4*J_y*lambda_theta*m*a**2*cos(alpha)**4 - 4*J_y*lambda_theta*m*a**2*sin(alpha)**4 - 4*J_y*lambda_x*m*a**2*cos(alpha)**4 - 4*J_y*lambda_x*m*a**2*sin(alpha)**4 - 2*J_y*lambda_theta*m*a**2*cos(alpha)**2 - 2*J_y*lambda_x*m*a**2*cos(alpha)**2 - 8*J_y*lambda_theta*m*a**2*cos(alpha)**2*sin(alpha)**2 - 8*J_y*lambda_x*m*a**2*cos(alpha)**2*sin(alpha)**2) + c_h**2*(4*J_y*a**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**4 + 16*J_y*a**2*cos(alpha)**6 + 16*m*a**4*sin(alpha)**6 + 4*m*a**2*h**2*cos(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**2 + 16*J_y*a**2*cos(alpha)**2*sin(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**4 + 16*m*a**2*h**2*cos(alpha)**6 + 16*m*a**4*cos(alpha)**4*sin(alpha)**2 + 32*J_y*a**2*cos(alpha)**4*sin(alpha)**2 + 32*m*a**4*cos(alpha)**2*sin(alpha)**4 - 64*h*m*a**3*cos(alpha)**3*sin(alpha)**3 - 32*h*m*a**3*cos(alpha)**5*sin(alpha) - 32*h*m*a**3*sin(alpha)**5*cos(alpha) - 16*h*m*a**3*cos(alpha)**3*sin(alpha) - 16*h*m*a**3*sin(alpha)**3*cos(alpha) + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**2 + 16*m*a**2*h**2*cos(alpha)**2*sin(alpha)**4 + 32*m*a**2*h**2*cos(alpha)**4*sin(alpha)**2) + lambda_theta*lambda_x*m*J_y**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*a**2*m**2*cos(alpha)**2 + J_y*lambda_theta*lambda_x*h**2*m**2*sin(alpha)**2 + 2*J_y*a*h*lambda_theta*lambda_x*m**2*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
-        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_psi*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2 + 12*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_psi*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_psi*lambda_theta*lambda_x*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_psi*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
+        c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
+    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_x = omega_x ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -941,36 +976,41 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (0, 3, 5), (_lam_x, _lam_psi, _lam_phi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_z, omega_theta [rad/s].
+def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
+        c_h*(-4*J_y*lambda_x*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_x*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_x*m*a**2*b**2*cos(alpha)**4 - 4*lambda_x*m*a**2*h**2*sin(alpha)**2 - 2*lambda_x*m*a**2*b**2*cos(alpha)**2 + 4*lambda_x*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_x*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_x*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_x*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_x*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_x*sin(alpha)**2 - J_y*m*b**2*lambda_x**2*sin(alpha)**2 + J_z*lambda_phi*lambda_x*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_x*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_x*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
-        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_theta):
+    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_y
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
@@ -994,8 +1034,52 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 2, 4), (_lam_y, _lam_z, _lam_theta,))
+    return (c_h, c_v, c_m,)
+
+
+def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_z, omega_theta [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_h is a root of
+
+        c_h*(6*J_x*lambda_y - 6*lambda_z*m*b**2 + 6*lambda_y*m*h**2) - J_x*m*lambda_y**2 + lambda_y*lambda_z*b**2*m**2 = 0
+
+    and then
+
+        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
+    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = 6*_lam_y
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
+        _tmp2 = b**2
+        _tmp3 = numpy.sin(alpha)**2
+        _tmp4 = 4*c_h
+        _tmp5 = 2*c_h
+        _tmp6 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+    return (c_h, c_v, c_m,)
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi):
@@ -1017,53 +1101,19 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_z = omega_z ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = 6*_lam_y
-        _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
-        _tmp2 = b**2
-        _tmp3 = numpy.sin(alpha)**2
-        _tmp4 = 4*c_h
-        _tmp5 = 2*c_h
-        _tmp6 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 2, 5), (_lam_y, _lam_z, _lam_phi,))
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
-def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_psi, omega_theta [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_h is a root of
-
-        c_h*(-6*J_x*lambda_psi*m - 6*J_x*lambda_y*m) + c_h**2*(36*J_x + 36*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
-
-    and then
-
-        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
-        c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_theta):
+    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = J_x*_lam_psi
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
@@ -1089,8 +1139,52 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
         _tmp21 = 24*_tmp20
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 3, 4), (_lam_y, _lam_psi, _lam_theta,))
+    return (c_h, c_v, c_m,)
+
+
+def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_psi, omega_theta [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_h is a root of
+
+        c_h*(-6*J_x*lambda_psi*m - 6*J_x*lambda_y*m) + c_h**2*(36*J_x + 36*m*h**2) + J_x*lambda_psi*lambda_y*m**2 = 0
+
+    and then
+
+        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
+        c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_phi):
+    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = J_x*_lam_psi
+        _tmp1 = 6*m
+        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp2 = b**2
+        _tmp3 = _tmp2**(-1.0)
+        _tmp4 = numpy.sin(alpha)**2
+        _tmp5 = _tmp2*c_h
+        _tmp6 = _tmp5*numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
+    return (c_h, c_v, c_m,)
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi):
@@ -1112,53 +1206,19 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 6*m
-        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**2
-        _tmp3 = _tmp2**(-1.0)
-        _tmp4 = numpy.sin(alpha)**2
-        _tmp5 = _tmp2*c_h
-        _tmp6 = _tmp5*numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
-        c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 3, 5), (_lam_y, _lam_psi, _lam_phi,))
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
-def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_h is a root of
-
-        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
-
-    and then
-
-        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
-        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
+    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_y = omega_y ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -1210,36 +1270,41 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (1, 4, 5), (_lam_y, _lam_theta, _lam_phi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_psi, omega_theta [rad/s].
+def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
 
     Derivation (lambda = omega^2): c_h is a root of
 
-        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
+        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
 
     and then
 
-        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
-        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_theta):
+    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
         _tmp0 = 6*_lam_psi
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
@@ -1263,8 +1328,52 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         _tmp19 = _tmp12*_tmp8
         c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 3, 4), (_lam_z, _lam_psi, _lam_theta,))
+    return (c_h, c_v, c_m,)
+
+
+def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_psi, omega_theta [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_h is a root of
+
+        c_h*(6*J_x*lambda_psi - 6*lambda_z*m*b**2 + 6*lambda_psi*m*h**2) - J_x*m*lambda_psi**2 + lambda_psi*lambda_z*b**2*m**2 = 0
+
+    and then
+
+        c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_phi):
+    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...).
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        _tmp0 = 6*_lam_psi
+        _tmp1 = b**2
+        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
+        _tmp2 = b**2
+        _tmp3 = numpy.sin(alpha)**2
+        _tmp4 = 4*c_h
+        _tmp5 = 2*c_h
+        _tmp6 = numpy.cos(alpha)**2
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+    return (c_h, c_v, c_m,)
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi):
@@ -1286,53 +1395,19 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi)
-    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_psi = omega_psi ** 2
-        _lam_phi = omega_phi ** 2
-        _tmp0 = 6*_lam_psi
-        _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
-        _tmp2 = b**2
-        _tmp3 = numpy.sin(alpha)**2
-        _tmp4 = 4*c_h
-        _tmp5 = 2*c_h
-        _tmp6 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 3, 5), (_lam_z, _lam_psi, _lam_phi,))
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
-def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_theta, omega_phi [rad/s].
-
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
-
-    Derivation (lambda = omega^2): c_h is a root of
-
-        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
-
-    and then
-
-        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
-        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
-
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
+    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (2, ...).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_z = omega_z ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -1373,12 +1448,11 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
         _tmp36 = numpy.cos(alpha)**2
         c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
         c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (2, 4, 5), (_lam_z, _lam_theta, _lam_phi,))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return (c_h, c_v, c_m,)
 
 
-def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi):
-    """Unknowns c_h, c_v, c_m from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
+def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_theta, omega_phi [rad/s].
 
     Returns InverseRoots(parameters, admissible): each unknown as an array of shape
     (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
@@ -1389,20 +1463,26 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
 
     and then
 
-        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+        c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
     Root choice: a root is admissible when every unknown is positive and finite and each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
     frequency on the other mode of its block is rejected. All admissible roots are returned; where
     several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators).
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5))
+    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+
+
+def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
+    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...).
+    """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _lam_psi = omega_psi ** 2
-        _lam_theta = omega_theta ** 2
-        _lam_phi = omega_phi ** 2
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
@@ -1454,7 +1534,34 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
         _tmp47 = 1/(_tmp35*_tmp42)
         c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
         c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
-        (c_h, c_v, c_m,), _ok = _finish(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, (3, 4, 5), (_lam_psi, _lam_theta, _lam_phi,))
+    return (c_h, c_v, c_m,)
+
+
+def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi):
+    """Unknowns c_h, c_v, c_m from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
+
+    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
+    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+
+    Derivation (lambda = omega^2): c_h is a root of
+
+        c_h*(-4*J_y*lambda_theta*a**2*sin(alpha)**2 - 4*J_z*lambda_phi*a**2*cos(alpha)**4 - 4*J_z*lambda_phi*a**2*sin(alpha)**4 - 4*lambda_theta*m*a**4*cos(alpha)**2 - 2*J_z*lambda_phi*a**2*cos(alpha)**2 - 8*J_z*lambda_phi*a**2*cos(alpha)**2*sin(alpha)**2 - 4*lambda_theta*m*a**2*b**2*cos(alpha)**4 - 4*lambda_theta*m*a**2*h**2*sin(alpha)**2 - 2*lambda_theta*m*a**2*b**2*cos(alpha)**2 + 4*lambda_theta*m*a**2*b**2*sin(alpha)**4 - 8*h*lambda_theta*m*a**3*cos(alpha)*sin(alpha) - 8*a*h*lambda_theta*m*b**2*cos(alpha)**3*sin(alpha) - 8*a*h*lambda_theta*m*b**2*sin(alpha)**3*cos(alpha) - 4*a*h*lambda_theta*m*b**2*cos(alpha)*sin(alpha)) + c_h**2*(8*a**4*cos(alpha)**2 + 16*a**4*cos(alpha)**4 + 16*a**4*sin(alpha)**4 + 4*a**2*b**2*cos(alpha)**2 + 16*a**2*b**2*cos(alpha)**4 + 16*a**2*b**2*cos(alpha)**6 + 32*a**4*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**2 + 16*a**2*b**2*cos(alpha)**2*sin(alpha)**4 + 32*a**2*b**2*cos(alpha)**4*sin(alpha)**2) + J_y*J_z*lambda_phi*lambda_theta*sin(alpha)**2 - J_y*m*b**2*lambda_theta**2*sin(alpha)**2 + J_z*lambda_phi*lambda_theta*m*a**2*cos(alpha)**2 + J_z*lambda_phi*lambda_theta*m*h**2*sin(alpha)**2 + 2*J_z*a*h*lambda_phi*lambda_theta*m*cos(alpha)*sin(alpha) = 0
+
+    and then
+
+        c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
+        c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
+
+    Root choice: a root is admissible when every unknown is positive and finite and each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
+    frequency on the other mode of its block is rejected. All admissible roots are returned; where
+    several remain (both roots of a block given), the data alone cannot choose between them and
+    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
+    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
+    at the given one (mountid.runtime.solve_inverse).
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
+    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5))
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 

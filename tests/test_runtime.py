@@ -17,30 +17,35 @@ def test_quadratic_roots_are_stable_and_ascending():
     np.testing.assert_array_equal(runtime.quadratic_roots(0.0, 2.0, -4.0)[0], 2.0)  # degenerates to linear
 
 
-def test_newton_stops_once_converged():
-    """The stopping rule must hold at rounding level: from the exact solution, one step confirms it."""
+def test_newton_evaluates_only_rows_not_yet_converged():
+    """The stopping rule must hold at rounding level: from the exact solution, one forward evaluation of
+    the squared frequencies confirms every row and no modal matrix is formed; rows that need steps are the
+    only ones evaluated again."""
     knowns = dict(TABLE_1)
     rng = np.random.default_rng(3)
-    c_xy, c_z = rng.uniform(3e4, 3e5, 1000), rng.uniform(1e5, 1e6, 1000)
-    lam = kid300.squared_frequencies(**knowns, c_xy=c_xy, c_z=c_z)
-    M = kid300.mass_matrix(knowns["m"], knowns["J_xy"], knowns["J_z"])
-    dC = kid300.stiffness_gradient(knowns["L_xy"], knowns["L_z"])
-    calls = []
+    n = 1000
+    c = np.column_stack([rng.uniform(3e4, 3e5, n), rng.uniform(1e5, 1e6, n)])
+    known = tuple(np.full(n, knowns[a]) for a in ("m", "J_xy", "J_z", "L_xy", "L_z"))
+    lam = kid300.squared_frequencies(*known, c[:, 0], c[:, 1])
+    given = lam[:, [0, 3]]
+    rows = []
 
-    def forward(cxy, cz):
-        calls.append(1)
-        lam_ = kid300.squared_frequencies(**knowns, c_xy=cxy, c_z=cz)
-        C = kid300.stiffness_matrix(knowns["L_xy"], knowns["L_z"], cxy, cz)
-        return lam_, runtime.modal_matrix(M, C, lam_, kid300.BLOCKS, kid300.MODE_BLOCK, kid300.MODE_RANK), dC
+    def model(known_, unknowns, modes):
+        rows.append((len(unknowns), modes))
+        return kid300._model(known_, unknowns, modes)
 
-    out = runtime.eigen_newton((c_xy, c_z), forward, (0, 3), (lam[:, 0], lam[:, 3]))
-    assert len(calls) <= 2
-    np.testing.assert_allclose(out[0], c_xy, rtol=1e-13)
+    x, lam_out = runtime.eigen_newton(model, known, c, (0, 3), given)
+    assert rows == [(n, False)]
+    np.testing.assert_array_equal(x, c)
+    np.testing.assert_array_equal(lam_out, lam)
     # from 1 % off, quadratic convergence needs only a handful of steps, away from the double root of the
     # (x, psi) pair at c_xy / c_z of about 0.72 where the Jacobian is nearly singular and Newton is linear
-    away = np.abs(c_xy / c_z - 0.72) > 0.2
-    calls.clear()
-    out = runtime.eigen_newton((c_xy[away] * 1.01, c_z[away] * 0.99), forward, (0, 3), (lam[away, 0], lam[away, 3]))
-    assert len(calls) <= 6
-    np.testing.assert_allclose(out[0], c_xy[away], rtol=1e-12)
-    np.testing.assert_allclose(out[1], c_z[away], rtol=1e-12)
+    away = np.abs(c[:, 0] / c[:, 1] - 0.72) > 0.2
+    start = c.copy()
+    start[away] *= [1.01, 0.99]
+    rows.clear()
+    x, lam_out = runtime.eigen_newton(model, known, start, (0, 3), given)
+    assert rows[0] == (n, False)
+    assert all(r[0] <= away.sum() for r in rows[1:]) and len(rows) <= 6
+    np.testing.assert_allclose(x[away], c[away], rtol=1e-12)
+    np.testing.assert_allclose(lam_out[:, [0, 3]], given, rtol=1e-13)

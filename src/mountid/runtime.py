@@ -97,42 +97,112 @@ def polynomial_roots(*coefficients: ArrayLike) -> NDArray[np.float64]:
     return np.moveaxis(np.sort(real, axis=-1), -1, 0)
 
 
+NEARBY_STEP = 1e-4
+"""Relative size (absolute for entries below 1) of the shift of the known parameters used when the
+closed form is degenerate at the given point (see solve_inverse)."""
+
+
 def eigen_newton(
-    unknowns: tuple[NDArray, ...],
-    forward,
+    model,
+    known: tuple[NDArray, ...],
+    unknowns: NDArray,
     mode_index: tuple[int, ...],
-    given: tuple[NDArray, ...],
+    given: NDArray,
     max_steps: int = 40,
-) -> tuple[NDArray[np.float64], ...]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Newton steps on lambda_k(theta) = given_k with dlambda_k/dtheta_j = phi_k^T (dC/dtheta_j) phi_k.
 
-    ``forward(*unknowns)`` returns (squared frequencies (..., n_modes), mass-normalised modal matrix
-    (..., 6, n_modes), dC/dtheta (..., n_unknowns, 6, 6)). The residuals use the stable forward map, so the
-    polished roots are as accurate as the inverse problem allows. Entries whose step is not finite keep
-    their value (admissibility decides about them afterwards). An entry is done once its residual is at
-    rounding level (NEWTON_RESIDUAL_RTOL); the loop ends when every entry is done, typically after 2-4
-    steps from the closed-form roots, or after ``max_steps``.
+    Flat batches: ``known`` holds arrays of shape (N,), ``unknowns`` is (N, n_unknowns), ``given`` the
+    given squared frequencies (N, n_given). ``model(known, unknowns, modes)`` returns (squared frequencies
+    (N', n_modes), and when ``modes`` the mass-normalised modal matrix (N', 6, n_modes) and dC/dtheta
+    (N', n_unknowns, 6, 6)) for the rows it is given. The residuals use the stable forward map, so the
+    polished roots are as accurate as the inverse problem allows. A row is done once its residual is at
+    rounding level (NEWTON_RESIDUAL_RTOL), or when its step is not finite (admissibility judges it then);
+    only rows not yet done are evaluated again, so closed-form roots that are already converged cost one
+    forward evaluation. Returns (unknowns, squared frequencies at them).
     """
-    n = len(unknowns)
     idx = list(mode_index)
-    x = np.stack(np.broadcast_arrays(*unknowns), axis=-1)
-    lam_given = np.stack(np.broadcast_arrays(*given), axis=-1)
-    for _ in range(max_steps):
-        with np.errstate(all="ignore"):
-            lam, phi, dc = forward(*(x[..., i] for i in range(n)))
-            f = lam[..., idx] - lam_given
-            todo = np.any(np.abs(f) > NEWTON_RESIDUAL_RTOL * np.abs(lam_given), axis=-1)
-            vec = phi[..., :, idx]  # (..., 6, n)
-            jac = np.einsum("...ak,...jab,...bk->...kj", vec, dc, vec)
-            good = np.all(np.isfinite(jac), axis=(-1, -2)) & np.all(np.isfinite(f), axis=-1) & todo
-            good &= np.abs(np.linalg.det(np.where(good[..., None, None], jac, np.eye(n)))) > 0
-            if not np.any(good):
+    x = np.array(unknowns, dtype=float)
+    with np.errstate(all="ignore"):
+        lam_all = model(known, x, False)[0]
+
+        def pending(lam, rows):
+            f = lam[:, idx] - given[rows]
+            return np.any(np.abs(f) > NEWTON_RESIDUAL_RTOL * np.abs(given[rows]), axis=-1) & np.all(
+                np.isfinite(f), axis=-1
+            )
+
+        active = np.flatnonzero(pending(lam_all, slice(None)) & np.all(np.isfinite(x), axis=-1))
+        # each pass evaluates the rows still active at their current point, so every row's lam_all
+        # belongs to its final x when the loop ends
+        for step_count in range(max_steps + 1):
+            if not active.size:
                 break
-            safe = np.where(good[..., None, None], jac, np.eye(n))
-            step = np.linalg.solve(safe, np.where(good[..., None], f, 0.0)[..., None])[..., 0]
-            new = x - step
-        x = np.where(good[..., None] & np.isfinite(new), new, x)
-    return tuple(x[..., i] for i in range(n))
+            sub = tuple(k[active] for k in known)
+            lam, phi, dc = model(sub, x[active], True)
+            lam_all[active] = lam
+            go = pending(lam, active)
+            if step_count == max_steps or not np.any(go):
+                break
+            active, lam, phi, dc = active[go], lam[go], phi[go], dc[go]
+            f = lam[:, idx] - given[active]
+            vec = phi[:, :, idx]  # (N', 6, n)
+            jac = np.einsum("iak,ijab,ibk->ikj", vec, dc, vec)
+            ok = np.all(np.isfinite(jac), axis=(-1, -2))
+            safe = np.where(ok[:, None, None], jac, np.eye(jac.shape[-1]))
+            ok &= np.abs(np.linalg.det(safe)) > 0
+            safe = np.where(ok[:, None, None], safe, np.eye(jac.shape[-1]))
+            new = x[active] - np.linalg.solve(safe, np.where(ok[:, None], f, 0.0)[..., None])[..., 0]
+            ok &= np.all(np.isfinite(new), axis=-1)
+            active = active[ok]
+            x[active] = new[ok]
+    return x, lam_all
+
+
+def solve_inverse(
+    roots,
+    model,
+    known: tuple[NDArray, ...],
+    given: tuple[NDArray, ...],
+    mode_index: tuple[int, ...],
+) -> tuple[tuple[NDArray[np.float64], ...], NDArray[np.bool_]]:
+    """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility.
+
+    ``roots(*known, *given)`` is the generated closed form: a tuple with one array per unknown, shape
+    (n_roots, *batch). ``model`` is as in :func:`eigen_newton`. Where no candidate is admissible the closed
+    form may be degenerate at this very point (a denominator that vanishes there, e.g. sin(alpha) at
+    alpha = 0, while the problem itself is fine): the candidates are then taken at a nearby point (known
+    parameters shifted by NEARBY_STEP, relative, absolute below 1) and polished by Newton at the true point.
+    Returns (unknowns, admissible), each unknown of shape (n_roots, *batch).
+    """
+    batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *given)))
+    known = tuple(np.broadcast_to(k, batch).ravel() for k in known)
+    lam_given = np.stack([np.broadcast_to(g, batch).ravel() for g in given], axis=-1)
+    unknowns, ok = _polish(roots, model, known, known, lam_given, mode_index)
+    missed = np.flatnonzero(~np.any(ok, axis=0))
+    if missed.size:
+        sub = tuple(k[missed] for k in known)
+        nearby = tuple(k + NEARBY_STEP * (1 + 0.1 * i) * np.maximum(np.abs(k), 1.0) for i, k in enumerate(sub))
+        again, ok_again = _polish(roots, model, nearby, sub, lam_given[missed], mode_index)
+        unknowns[:, :, missed] = again
+        ok[:, missed] = ok_again
+    n_roots = ok.shape[0]
+    shaped = tuple(u.reshape(n_roots, *batch) for u in unknowns)
+    return shaped, ok.reshape(n_roots, *batch)
+
+
+def _polish(roots, model, at, known, lam_given, mode_index):
+    """Candidates from the closed form evaluated at ``at``, polished and judged at ``known`` (flat, (B,)).
+    Returns (unknowns (n_unknowns, n_roots, B), admissible (n_roots, B))."""
+    with np.errstate(all="ignore"):
+        cand = np.stack(np.broadcast_arrays(*roots(*at, *lam_given.T)))  # (n_unknowns, n_roots, B)
+    n_unknowns, n_roots, n_batch = cand.shape
+    rows = tuple(np.tile(k, n_roots) for k in known)
+    x, lam = eigen_newton(model, rows, cand.reshape(n_unknowns, -1).T, mode_index, np.tile(lam_given, (n_roots, 1)))
+    x = x.T.reshape(n_unknowns, n_roots, n_batch)
+    predicted = lam.reshape(n_roots, n_batch, -1)
+    given = tuple(lam_given.T)
+    return x, admissible(tuple(x), predicted, mode_index, given)
 
 
 def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:

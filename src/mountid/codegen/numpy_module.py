@@ -96,42 +96,35 @@ def _gradient_function(model: SymbolicModel) -> Function:
     return fn
 
 
-def _finish_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
-    """The common tail of every inverse: Newton polish on the frequencies, then the admissibility filter.
+def _model_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
+    """The forward model the Newton polish of every inverse works on (runtime.eigen_newton).
 
     The polish works on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
-    the elimination formulas can lose digits where a mode sits near an uncoupled frequency. M, and dC/dtheta
-    when C is linear in the unknowns, do not change during the iteration and are formed once.
+    the elimination formulas can lose digits where a mode sits near an uncoupled frequency.
     """
-    unknowns = model.description.unknown
+    d = model.description
+    known = tuple(a for a in fwd_args if a not in d.unknown)
     m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
-    g_args = gradient_arguments(model)
-    gradient_call = f"stiffness_gradient({', '.join(g_args)})"
-    constant_gradient = not set(g_args) & set(unknowns)
-    body = [f"_M = mass_matrix({', '.join(m_args)})"]
-    if constant_gradient:
-        body.append(f"_dC = {gradient_call}")
-    body += [
-        "",
-        f"def _forward({', '.join(unknowns)}):",
-        f"    _lam = squared_frequencies({', '.join(fwd_args)})",
-        f"    _phi = _runtime.modal_matrix(_M, stiffness_matrix({', '.join(c_args)}), _lam, "
-        "BLOCKS, MODE_BLOCK, MODE_RANK)",
-        f"    return _lam, _phi, {'_dC' if constant_gradient else gradient_call}",
-        "",
-        f"({', '.join(unknowns)},) = _runtime.eigen_newton(({', '.join(unknowns)},), _forward, mode_index, given)",
-        f"_predicted = squared_frequencies({', '.join(fwd_args)})",
+    body = [
+        f"{', '.join(known)}{',' if len(known) == 1 else ''} = _known",
+        f"{', '.join(d.unknown)}{',' if len(d.unknown) == 1 else ''} = _unknowns.T",
+        f"_lam = squared_frequencies({', '.join(fwd_args)})",
+        "if not _modes:",
+        "    return _lam, None, None",
+        f"_phi = _runtime.modal_matrix(mass_matrix({', '.join(m_args)}), stiffness_matrix({', '.join(c_args)}), "
+        "_lam, BLOCKS, MODE_BLOCK, MODE_RANK)",
     ]
+    g_args = gradient_arguments(model)
     doc = (
-        "Polish candidate roots by Newton steps on the given squared frequencies ``given`` of the modes\n"
-        "    ``mode_index``, then mark the admissible ones. Returns (unknowns, admissible).\n"
+        "Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:\n"
+        f"    ``_known`` = ({', '.join(known)}) of shape (N,), ``_unknowns`` of shape (N, {len(d.unknown)}).\n"
     )
     return Function(
-        "_finish",
-        (*fwd_args, "mode_index", "given"),
+        "_model",
+        ("_known", "_unknowns", "_modes"),
         doc,
         body,
-        f"({', '.join(unknowns)},), _runtime.admissible(({', '.join(unknowns)},), _predicted, mode_index, given)",
+        f"_lam, _phi, stiffness_gradient({', '.join(g_args)})",
         convert=False,
     )
 
@@ -144,35 +137,44 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
     doc_lines = []
     if structure.closed_form:
         exprs, names = [], []
+        twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
         for k, b in enumerate(blocks):
+            if twin[k] != k:
+                continue
             if b.size == 1:
                 exprs.append(b.eigenvalue_exprs()[0])
                 names.append(f"_lam{k}_1")
             else:
                 t = b.stable_terms
-                exprs += [t["s11"], t["s22"], t["s12"], t["det_ratio"]]
-                names += [f"_s11_{k}", f"_s22_{k}", f"_s12_{k}", f"_det_{k}"]
+                exprs += [t["s11"], t["s22"], t["s12_squared"], t["det_ratio"]]
+                names += [f"_s11_{k}", f"_s22_{k}", f"_s12sq_{k}", f"_det_{k}"]
         cse = eliminate(exprs)
         body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
         body += [f"{n} = {out}" for n, out in zip(names, cse.outputs, strict=True)]
         for k, b in enumerate(blocks):
             coords = ", ".join(b.coordinates)
-            if b.size == 2:
+            if twin[k] != k:
+                doc_lines.append(
+                    f"        block {{{coords}}}: the roots of block {{{', '.join(blocks[twin[k]].coordinates)}}}"
+                )
+            elif b.size == 2:
                 body += [
                     f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
                     f"_lam{k}_2 = 0.5 * (_s11_{k} + _s22_{k})"
-                    f" + numpy.sqrt((0.5 * (_s11_{k} - _s22_{k}))**2 + _s12_{k}**2)",
+                    f" + numpy.sqrt((0.5 * (_s11_{k} - _s22_{k}))**2 + _s12sq_{k})",
                     f"_lam{k}_1 = _det_{k} / _lam{k}_2",
                 ]
                 lo, hi = b.eigenvalue_exprs()
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
             else:
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
-        outs = [f"_lam{m.block}_{m.rank}" for m in structure.modes]
+        outs = [f"_lam{twin[m.block]}_{m.rank}" for m in structure.modes]
         body.append(_shape_line(args))
-        body.append(
-            "return numpy.stack([" + ", ".join(f"numpy.broadcast_to({o}, _shape)" for o in outs) + "], axis=-1)"
-        )
+        # filled row by row (contiguous writes; a strided column per mode costs 5x more), returned as a view
+        # with the modes on the last axis
+        body.append(f"_out = numpy.empty(({len(outs)}, *_shape))")
+        body += [f"_out[{i}] = {o}" for i, o in enumerate(outs)]
+        body.append("return numpy.moveaxis(_out, 0, -1)")
         method = (
             "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
             "    mountid.symbolic.blocks: no difference of nearly equal numbers)"
@@ -223,11 +225,22 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
         for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
             body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
     unknowns = d.unknown
-    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
-    given = f"({', '.join(f'_lam_{lab}' for lab in s.labels)},)"
-    body.append(f"({', '.join(unknowns)},), _ok = _finish({', '.join(fwd_args)}, {mode_index!r}, {given})")
     # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
-    body = ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body]
+    candidates = Function(
+        f"_roots_{s.name}",
+        args[: -len(omegas)] + tuple(f"_lam_{lab}" for lab in s.labels),
+        f"Candidate roots of identify_{s.name}() in closed form, each unknown of shape ({s.n_roots}, ...).\n",
+        ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):']
+        + [f"    {b}" for b in body[len(s.labels) :]],
+        f"({', '.join(unknowns)},)",
+        convert=False,
+    )
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    known = args[: -len(omegas)]
+    body = [
+        f"({', '.join(unknowns)},), _ok = _runtime.solve_inverse(_roots_{s.name}, _model, "
+        f"({', '.join(known)},), ({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r})"
+    ]
     rets = ", ".join(f'"{u}": {u}' for u in unknowns)
     poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
     back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
@@ -242,10 +255,12 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
         "    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given\n"
         "    frequency on the other mode of its block is rejected. All admissible roots are returned; where\n"
         "    several remain (both roots of a block given), the data alone cannot choose between them and\n"
-        "    the choice is physical (the paper keeps c_z > c_xy for its isolators).\n"
+        "    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form\n"
+        "    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished\n"
+        "    at the given one (mountid.runtime.solve_inverse).\n"
     )
     fn = Function(f"identify_{s.name}", args, doc, body, f"_runtime.InverseRoots({{{rets}}}, _ok)")
-    return fn
+    return [candidates, fn]
 
 
 def module_context(
@@ -266,9 +281,9 @@ def module_context(
     fwd_args = eigen.args
     if inverse_sets is None:
         inverse_sets = InverseDerivation(structure).all_sets()
-    inverses = [_inverse_function(s, structure, model, fwd_args) for s in inverse_sets if s.identifiable]
+    inverses = [f for s in inverse_sets if s.identifiable for f in _inverse_function(s, structure, model, fwd_args)]
     if inverses:
-        functions += [_finish_function(model, fwd_args), *inverses]
+        functions += [_model_function(model, fwd_args), *inverses]
     params = {
         n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
         for n, p in description.parameters.items()

@@ -66,13 +66,20 @@ class Block:
 
     @cached_property
     def stable_terms(self) -> dict[str, sp.Expr]:
-        """For a 2x2 block: s11, s22, s12 of S = L^-1 C L^-T and det C / det M (see module docstring)."""
+        """For a 2x2 block: s11, s22, s12 of S = L^-1 C L^-T, s12^2 (what the eigenvalues need, free of the
+        square roots of the Cholesky factor where M_b is diagonal) and det C / det M (see module docstring)."""
         assert self.size == 2
         chol = self.M.cholesky(hermitian=False)
         inv = chol.inv()
         s = (inv * self.C * inv.T).applyfunc(sp.cancel)
         ratio = sp.factor(sp.cancel(sp.expand(self.C.det()) / sp.expand(self.M.det())))
-        return {"s11": s[0, 0], "s22": s[1, 1], "s12": s[0, 1], "det_ratio": ratio}
+        return {
+            "s11": s[0, 0],
+            "s22": s[1, 1],
+            "s12": s[0, 1],
+            "s12_squared": sp.cancel(s[0, 1] ** 2),
+            "det_ratio": ratio,
+        }
 
     def eigenvalue_exprs(self) -> list[sp.Expr]:
         """Closed-form eigenvalues, ascending, for blocks of size 1 and 2 (the textbook form, for checks)."""
