@@ -49,6 +49,7 @@ ARGUMENTS = {
     "stiffness_matrix": ("L_xy", "L_z", "c_xy", "c_z"),
     "damping_matrix": ("L_xy", "L_z", "b_xy", "b_z"),
     "stiffness_gradient": ("L_xy", "L_z"),
+    "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z"),
     "identify_x_z": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_z"),
     "identify_x_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_psi"),
@@ -133,6 +134,38 @@ def stiffness_gradient(L_xy, L_z):
     _tmp3 = 2*_tmp2
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3})], axis=-3)
+
+
+def point_jacobian(r_x, r_y, r_z):
+    """Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate
+    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads
+    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.
+
+    Non-zero entries:
+
+        [x, x] = 1
+        [x, theta] = r_z
+        [x, phi] = -r_y
+        [y, y] = 1
+        [y, psi] = -r_z
+        [y, phi] = r_x
+        [z, z] = 1
+        [z, psi] = r_y
+        [z, theta] = -r_x
+    """
+    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
+    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    _out = numpy.zeros((*_shape, 3, 6))
+    _out[..., 0, 0] = 1
+    _out[..., 0, 4] = r_z
+    _out[..., 0, 5] = -r_y
+    _out[..., 1, 1] = 1
+    _out[..., 1, 3] = -r_z
+    _out[..., 1, 5] = r_x
+    _out[..., 2, 2] = 1
+    _out[..., 2, 3] = r_y
+    _out[..., 2, 4] = -r_x
+    return _out
 
 
 def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):

@@ -53,6 +53,7 @@ ARGUMENTS = {
     "stiffness_matrix": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "damping_matrix": ("a", "b", "h", "b_x", "b_y", "b_z"),
     "stiffness_gradient": ("a", "b", "h"),
+    "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_psi"),
@@ -151,6 +152,38 @@ def stiffness_gradient(a, b, h):
     _tmp3 = 4*a**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3})], axis=-3)
+
+
+def point_jacobian(r_x, r_y, r_z):
+    """Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate
+    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads
+    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.
+
+    Non-zero entries:
+
+        [x, x] = 1
+        [x, theta] = r_z
+        [x, phi] = -r_y
+        [y, y] = 1
+        [y, psi] = -r_z
+        [y, phi] = r_x
+        [z, z] = 1
+        [z, psi] = r_y
+        [z, theta] = -r_x
+    """
+    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
+    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    _out = numpy.zeros((*_shape, 3, 6))
+    _out[..., 0, 0] = 1
+    _out[..., 0, 4] = r_z
+    _out[..., 0, 5] = -r_y
+    _out[..., 1, 1] = 1
+    _out[..., 1, 3] = -r_z
+    _out[..., 1, 5] = r_x
+    _out[..., 2, 2] = 1
+    _out[..., 2, 3] = r_y
+    _out[..., 2, 4] = -r_x
+    return _out
 
 
 def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):

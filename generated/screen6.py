@@ -54,6 +54,7 @@ ARGUMENTS = {
     "stiffness_matrix": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "damping_matrix": ("a", "b", "h", "alpha", "b_h", "b_v", "b_m"),
     "stiffness_gradient": ("a", "b", "h", "alpha"),
+    "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_psi"),
@@ -187,6 +188,38 @@ def stiffness_gradient(a, b, h, alpha):
     _tmp12 = _tmp1*_tmp7
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11})], axis=-3)
+
+
+def point_jacobian(r_x, r_y, r_z):
+    """Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate
+    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads
+    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.
+
+    Non-zero entries:
+
+        [x, x] = 1
+        [x, theta] = r_z
+        [x, phi] = -r_y
+        [y, y] = 1
+        [y, psi] = -r_z
+        [y, phi] = r_x
+        [z, z] = 1
+        [z, psi] = r_y
+        [z, theta] = -r_x
+    """
+    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
+    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    _out = numpy.zeros((*_shape, 3, 6))
+    _out[..., 0, 0] = 1
+    _out[..., 0, 4] = r_z
+    _out[..., 0, 5] = -r_y
+    _out[..., 1, 1] = 1
+    _out[..., 1, 3] = -r_z
+    _out[..., 1, 5] = r_x
+    _out[..., 2, 2] = 1
+    _out[..., 2, 3] = r_y
+    _out[..., 2, 4] = -r_x
+    return _out
 
 
 def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):

@@ -61,6 +61,25 @@ def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: s
     return fn
 
 
+def _point_function(model: SymbolicModel) -> Function:
+    """du/dq at body points: sensors read it, forces act through its transpose."""
+    jac = model.point_jacobian
+    args = tuple(str(s) for s in model.POINT)
+    entries = {(i, j): jac[i, j] for i in range(3) for j in range(6) if jac[i, j] != 0}
+    formula = "\n".join(f"        [{'xyz'[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items())
+    doc = (
+        "Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate\n"
+        "    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads\n"
+        "    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.\n\n"
+        f"    Non-zero entries:\n\n{formula}\n"
+    )
+    fn = Function("point_jacobian", args, doc)
+    fn.body = [_shape_line(args), "_out = numpy.zeros((*_shape, 3, 6))"]
+    fn.body += [f"_out[..., {i}, {j}] = {code(e)}" for (i, j), e in entries.items()]
+    fn.returns = "_out"
+    return fn
+
+
 def _stiffness_gradient(model: SymbolicModel) -> list[sp.Matrix]:
     return [model.C.diff(model.symbols[u]) for u in model.description.unknown]
 
@@ -276,6 +295,7 @@ def module_context(
         _matrix_function("damping_matrix", model.B, model, "Damping matrix B", "N s/m, N s/rad, N m s/rad"),
     ]
     functions.append(_gradient_function(model))
+    functions.append(_point_function(model))
     eigen = _eigen_function(structure, model)
     functions.append(eigen)
     fwd_args = eigen.args

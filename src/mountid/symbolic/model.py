@@ -179,14 +179,28 @@ class SymbolicModel:
         v_c = t_dot + w_dot.cross(self.centre_of_mass)
         return sp.expand((self.mass * v_c.dot(v_c) + (w_dot.T * self.inertia * w_dot)[0]) / 2)
 
+    @staticmethod
+    def point_motion(vec: sp.Matrix, position: sp.Matrix) -> sp.Matrix:
+        """Motion of the body point at ``position`` [m] for generalised coordinates (or velocities) ``vec``:
+        u = t + w x r (small rotations)."""
+        return vec[:3, 0] + vec[3:, 0].cross(position)
+
     def _isolator_form(self, velocities: bool, tensor: str) -> sp.Expr:
         vec = self.qdot if velocities else self.q
-        t, w = vec[:3, 0], vec[3:, 0]
         total = sp.Integer(0)
         for iso in self.isolators:
-            u = t + w.cross(iso.position)
+            u = self.point_motion(vec, iso.position)
             total += (u.T * getattr(iso, tensor) * u)[0] / 2
         return sp.expand(total)
+
+    POINT = sp.symbols("r_x r_y r_z", real=True)
+    """Coordinates [m] of a general body point (arguments of the generated point_jacobian)."""
+
+    @cached_property
+    def point_jacobian(self) -> sp.Matrix:
+        """du/dq (3 x 6) at the general point POINT: what a sensor there measures along a direction d is
+        d^T du/dq q, and a force F there acts on the coordinates as (du/dq)^T F (virtual work)."""
+        return self.point_motion(self.q, sp.Matrix(self.POINT)).jacobian(self.q)
 
     @cached_property
     def potential_energy(self) -> sp.Expr:

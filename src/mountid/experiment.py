@@ -1,0 +1,180 @@
+"""From an impact record to labelled modal data, isolator stiffnesses and damping (paper Sec. 4, any machine).
+
+1. Poles of the free decay (mountid.modal.free_decay_poles).
+2. Labels: each pole's channel shape against the channel shapes the model predicts for its modes at the
+   nominal parameters (MAC); modes equal by symmetry share their distinct-frequency label.
+3. Stiffnesses: every generated inverse over the measured distinct frequencies gives starting points; a
+   weighted least-squares fit over all measured frequencies (weights from their spread) gives the unknowns
+   and their standard deviations from the Jacobian of the generated forward map.
+4. Damping: modal damping of a lightly damped mode is 2 zeta_k omega_k = phi_k^T B phi_k (first order), and
+   B is linear in the isolator damping parameters: a linear least-squares fit over the measured ratios.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.optimize
+
+from mountid import modal
+from mountid.errors import InputError
+from mountid.machine import Machine
+from mountid.records import Record
+
+
+@dataclass(frozen=True)
+class MeasuredMode:
+    """A labelled mode from a record: natural frequency [rad/s] and damping ratio, with their spread."""
+
+    label: str
+    frequency: float
+    frequency_std: float
+    damping_ratio: float
+    damping_std: float
+    mac: float
+    """MAC of the measured channel shape against the model's shape of the mode it is labelled as."""
+
+
+@dataclass
+class Identification:
+    """Result of identify_from_record: modal data, unknowns with standard deviations, damping."""
+
+    modes: dict[str, MeasuredMode]
+    parameters: dict[str, float]
+    parameter_std: dict[str, float]
+    damping: dict[str, float] = field(default_factory=dict)
+    frequencies: dict[str, float] = field(default_factory=dict)
+    """Every mode's natural frequency [rad/s] with the identified parameters."""
+    unlabelled: list[modal.Pole] = field(default_factory=list)
+
+
+def channel_rows(machine: Machine, record: Record) -> np.ndarray:
+    """d^T du/dq of every channel, shape (n_channels, 6); channels must carry point and direction."""
+    rows = []
+    for c in record.channels:
+        if not (np.all(np.isfinite(c.point)) and np.all(np.isfinite(c.direction))):
+            raise InputError(c.name, "channel has no point and direction: needed to label modes")
+        d = np.asarray(c.direction) / np.linalg.norm(c.direction)
+        rows.append(d @ machine.module.point_jacobian(*c.point))
+    return np.array(rows)
+
+
+def label_poles(
+    machine: Machine, record: Record, poles: list[modal.Pole], nominal: dict[str, float]
+) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]]:
+    """Distinct-frequency label of each pole by MAC against the model's channel shapes at ``nominal``."""
+    mod = machine.module
+    args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
+    phi = mod.modal_matrix(**args)  # (6, n_modes)
+    predicted = channel_rows(machine, record) @ phi
+    best: dict[str, tuple[modal.Pole, float]] = {}
+    rest = []
+    for pole in poles:
+        macs = [modal.mac(pole.shape, predicted[:, k]) for k in range(predicted.shape[1])]
+        k = int(np.argmax(macs))
+        label = mod.REPRESENTATIVE[mod.MODES[k]]
+        if label in best and best[label][1] >= macs[k]:
+            rest.append(pole)
+            continue
+        if label in best:
+            rest.append(best[label][0])
+        best[label] = (pole, macs[k])
+    return best, rest
+
+
+def fit_stiffness(
+    machine: Machine, known: dict[str, float], measured: dict[str, tuple[float, float]]
+) -> tuple[dict[str, float], dict[str, float]]:
+    """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
+
+    Starting points: every admissible root of every generated inverse over a subset of the measured
+    labels. The fit minimises sum ((omega_model - omega)/std)^2 in log-parameters; the returned standard
+    deviations come from (J^T W J)^-1, scaled by the reduced chi^2 when there are more frequencies than
+    unknowns. Returns (parameters, standard deviations)."""
+    mod = machine.module
+    unknown = machine.unknown
+    labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
+    if len(labels) < len(unknown):
+        raise InputError("measured", f"{len(labels)} distinct frequencies found for {len(unknown)} unknowns")
+    knowns = machine.values(known, tuple(a for a in mod.FORWARD_ARGUMENTS if a not in unknown))
+    idx = [mod.MODES.index(lab) for lab in labels]
+    omega = np.array([measured[lab][0] for lab in labels])
+    std = np.array([max(measured[lab][1], 1e-6 * measured[lab][0]) for lab in labels])
+
+    def residual(logp):
+        p = dict(zip(unknown, np.exp(logp), strict=True))
+        return (mod.frequencies(**knowns, **p)[idx] - omega) / std
+
+    starts = []
+    for key in itertools.combinations(labels, len(unknown)):
+        if key in mod.INVERSES:
+            roots = mod.INVERSES[key](**knowns, **{f"omega_{lab}": measured[lab][0] for lab in key})
+            for i in np.flatnonzero(roots.admissible):
+                starts.append(np.log([roots.parameters[u][i] for u in unknown]))
+    if not starts:
+        raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
+    fits = [scipy.optimize.least_squares(residual, s, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts]
+    best = min(fits, key=lambda f: f.cost)
+    jac = best.jac  # d residual / d log p
+    dof = len(labels) - len(unknown)
+    scale = 2 * best.cost / dof if dof > 0 else 1.0
+    cov = np.linalg.pinv(jac.T @ jac) * scale
+    values = np.exp(best.x)
+    params = dict(zip(unknown, map(float, values), strict=True))
+    stds = {u: float(values[i] * math.sqrt(max(cov[i, i], 0.0))) for i, u in enumerate(unknown)}
+    return params, stds
+
+
+def fit_damping(
+    machine: Machine, parameters: dict[str, float], modes: dict[str, MeasuredMode], names: tuple[str, ...]
+) -> dict[str, float]:
+    """Damping parameters ``names`` from measured damping ratios: 2 zeta_k omega_k = phi_k^T B phi_k, B
+    linear in the damping parameters (first order in damping, mass-normalised undamped shapes)."""
+    mod = machine.module
+    args = machine.values(parameters, mod.FORWARD_ARGUMENTS)
+    phi = mod.modal_matrix(**args)
+    lam = mod.squared_frequencies(**args)
+    b_args = mod.ARGUMENTS["damping_matrix"]
+    fixed = machine.values(parameters, tuple(a for a in b_args if a not in names))
+    rows, rhs = [], []
+    for label, mode in modes.items():
+        k = mod.MODES.index(label)
+        row = []
+        for name in names:
+            unit = {**fixed, **{n: (1.0 if n == name else 0.0) for n in names}}
+            row.append(phi[:, k] @ mod.damping_matrix(*(unit[a] for a in b_args)) @ phi[:, k])
+        rows.append(row)
+        rhs.append(2 * mode.damping_ratio * math.sqrt(lam[k]))
+    if len(rows) < len(names):
+        raise InputError("damping", f"{len(rows)} damping ratios for {len(names)} damping parameters")
+    sol = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+    return dict(zip(names, map(float, sol), strict=True))
+
+
+def identify_from_record(
+    machine: Machine,
+    record: Record,
+    known: dict[str, float],
+    start: float,
+    nominal: dict[str, float] | None = None,
+) -> Identification:
+    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes -> unknown stiffnesses
+    and damping parameters. ``nominal`` values of the unknowns (default: the description's) only serve to
+    label the modes."""
+    mod = machine.module
+    guess = {**known, **(nominal or {})}
+    top = float(np.max(mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))))
+    poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+    labelled, rest = label_poles(machine, record, poles, guess)
+    modes = {
+        label: MeasuredMode(label, p.frequency, p.frequency_std, p.damping_ratio, p.damping_std, m)
+        for label, (p, m) in labelled.items()
+    }
+    params, stds = fit_stiffness(machine, known, {k: (m.frequency, m.frequency_std) for k, m in modes.items()})
+    damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
+    damping = fit_damping(machine, {**known, **params}, modes, damping_names)
+    freqs = machine.frequencies({**known, **params})
+    return Identification(modes, params, stds, damping, freqs, rest)

@@ -1,0 +1,242 @@
+"""The virtual test rig: the experiment of paper Sec. 4 on any generated machine, with a known truth.
+
+M q'' + B q' + C q = Q(t) (Eq. 27) with M, B, C from the generated module. Excitations are forces at body
+points (a hammer's finite pulse, optionally a double hit; a rotating unbalance, Eqs. 29-30 in general form)
+acting on q through the generated point_jacobian (virtual work); sensors read the acceleration of a body
+point along a direction, with noise, bias, an anti-alias filter and optional clipping.
+
+Two independent solutions of the same equations, which tests hold against each other:
+
+- :meth:`Rig.frf` / :meth:`Rig.steady_state`: the complex frequency response (C - w^2 M + i w B)^-1, for
+  harmonic forcing in closed form;
+- :meth:`Rig.simulate`: time integration in the complex modal coordinates of the first-order form, exact
+  for forces that are linear between the internal samples (first-order hold), run by scipy.signal.lfilter.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+from numpy.typing import NDArray
+
+from mountid.errors import InputError
+from mountid.machine import Machine
+from mountid.records import Channel, Record
+
+
+def _unit(direction: Sequence[float], name: str) -> NDArray[np.float64]:
+    d = np.asarray(direction, dtype=float)
+    norm = np.linalg.norm(d)
+    if d.shape != (3,) or not np.isfinite(norm) or norm == 0:
+        raise InputError(name, f"must be a non-zero 3-vector, got {list(np.ravel(d))}")
+    return d / norm
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """An accelerometer channel: body point [m] (from the coordinate origin), measuring direction, and
+    its imperfections: white noise std [m/s^2] relative to the channel's clean RMS, constant bias [m/s^2],
+    clipping level [m/s^2] (None: no clipping)."""
+
+    name: str
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    noise: float = 0.0
+    bias: float = 0.0
+    clip: float | None = None
+
+
+@dataclass(frozen=True)
+class Hammer:
+    """An impact: a half-sine force pulse of ``peak`` [N] lasting ``duration`` [s] from ``time`` [s], at a
+    body point along a direction; ``second_hit`` = (delay [s], relative size) adds a double hit."""
+
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    peak: float = 2000.0
+    duration: float = 0.004
+    time: float = 0.05
+    second_hit: tuple[float, float] | None = None
+
+    def force(self, t: NDArray) -> NDArray[np.float64]:
+        """Force magnitude [N] at times t [s]."""
+        hits = [(self.time, 1.0)] + ([(self.time + self.second_hit[0], self.second_hit[1])] if self.second_hit else [])
+        out = np.zeros_like(t, dtype=float)
+        for start, size in hits:
+            s = (t - start) / self.duration
+            out += np.where((s >= 0) & (s <= 1), size * self.peak * np.sin(np.pi * np.clip(s, 0, 1)), 0.0)
+        return out
+
+
+@dataclass(frozen=True)
+class Unbalance:
+    """A rotating unbalance: mass ``mass`` [kg] at eccentricity ``eccentricity`` [m] turning at ``speed``
+    [rad/s] about an axis through ``point`` [m] along ``axis`` (default vertical). The force
+    m_v e w^2 rotates in the plane normal to the axis; for the vertical axis it is Eqs. (29)-(30):
+    F_x = m_v e w^2 sin(w t), F_y = m_v e w^2 cos(w t)."""
+
+    mass: float
+    eccentricity: float
+    speed: float
+    point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+    def plane(self) -> tuple[NDArray, NDArray]:
+        """Unit vectors (e_s, e_c) of the force plane: F = F0 (e_s sin wt + e_c cos wt)."""
+        a = _unit(self.axis, "unbalance.axis")
+        e_s = np.cross([0.0, 1.0, 0.0], a) if abs(a[1]) < 0.9 else np.cross(a, [0.0, 0.0, 1.0])
+        e_s /= np.linalg.norm(e_s)
+        return e_s, np.cross(a, e_s)
+
+    @property
+    def amplitude(self) -> float:
+        """Force amplitude m_v e w^2 [N]."""
+        return self.mass * self.eccentricity * self.speed**2
+
+
+@dataclass
+class Rig:
+    """A machine on its isolators with every parameter fixed: the truth a simulated experiment is made of."""
+
+    machine: Machine
+    parameters: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        mod: types.ModuleType = self.machine.module
+        args = mod.ARGUMENTS
+        names = sorted({a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in args[f]})
+        values = self.machine.values(self.parameters, tuple(names))
+        self.values = values
+        self.M = mod.mass_matrix(*(values[a] for a in args["mass_matrix"]))
+        self.C = mod.stiffness_matrix(*(values[a] for a in args["stiffness_matrix"]))
+        self.B = mod.damping_matrix(*(values[a] for a in args["damping_matrix"]))
+        n = self.M.shape[0]
+        minv = np.linalg.inv(self.M)
+        self.A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ self.C, -minv @ self.B]])
+        self.poles, self.V = scipy.linalg.eig(self.A)
+        self.V_inv = np.linalg.inv(self.V)
+        self._minv = minv
+
+    @classmethod
+    def of(cls, machine: str | Machine, parameters: dict[str, float] | None = None) -> Rig:
+        return cls(machine if isinstance(machine, Machine) else Machine.resolve(machine), dict(parameters or {}))
+
+    # -- kinematics ---------------------------------------------------------------------------------
+    def sensor_row(self, point: Sequence[float], direction: Sequence[float], name: str = "sensor") -> NDArray:
+        """d^T du/dq: what a sensor at ``point`` along ``direction`` reads per unit of each coordinate."""
+        return _unit(direction, f"{name}.direction") @ self.machine.module.point_jacobian(*np.asarray(point, float))
+
+    def force_column(self, point: Sequence[float], direction: Sequence[float], name: str = "force") -> NDArray:
+        """(du/dq)^T d: the generalised force [N, N m] of a unit force at ``point`` along ``direction``."""
+        return self.sensor_row(point, direction, name)
+
+    # -- frequency domain ---------------------------------------------------------------------------
+    def frf(self, omega: NDArray) -> NDArray[np.complex128]:
+        """Receptance H(w) = (C - w^2 M + i w B)^-1, shape (len(omega), 6, 6) [m/N, rad/N m, ...]."""
+        w = np.asarray(omega, dtype=float)[:, None, None]
+        return np.linalg.inv(self.C - w**2 * self.M + 1j * w * self.B)
+
+    def steady_state(self, unbalance: Unbalance, t: NDArray) -> tuple[NDArray, NDArray]:
+        """Steady-state (q, q'') at times t under a rotating unbalance, in closed form from the FRF."""
+        e_s, e_c = unbalance.plane()
+        col_s = self.force_column(unbalance.point, e_s)
+        col_c = self.force_column(unbalance.point, e_c)
+        w = unbalance.speed
+        h = self.frf(np.array([w]))[0]
+        # F0 (e_s sin wt + e_c cos wt) = Re(F0 (e_c - i e_s) e^{iwt})
+        amp = h @ (unbalance.amplitude * (col_c - 1j * col_s))
+        phase = np.exp(1j * w * np.asarray(t, dtype=float))[:, None]
+        q = np.real(amp[None, :] * phase)
+        return q, -(w**2) * q
+
+    def unbalance_force(self, unbalance: Unbalance, t: NDArray) -> NDArray[np.float64]:
+        """Generalised force of the unbalance at times t, shape (len(t), 6)."""
+        e_s, e_c = unbalance.plane()
+        w = unbalance.speed
+        f = unbalance.amplitude * (np.sin(w * t)[:, None] * e_s + np.cos(w * t)[:, None] * e_c)
+        jac = self.machine.module.point_jacobian(*np.asarray(unbalance.point, float))
+        return f @ jac
+
+    # -- time domain --------------------------------------------------------------------------------
+    def respond(self, t: NDArray, force: NDArray, x0: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray]:
+        """(q, q', q'') at the uniformly spaced times t for the generalised force (len(t), 6), linear
+        between samples, from the state x0 = [q; q'] at t[0] (rest by default).
+
+        Each complex mode z' = p z + g(t) is advanced exactly for piecewise-linear g:
+        z[k+1] = e^{ph} z[k] + a0 g[k] + a1 g[k+1], a1 = (e^{ph} - 1 - ph) / (p^2 h), a0 = (e^{ph} - 1)/p - a1.
+        """
+        t = np.asarray(t, dtype=float)
+        h = t[1] - t[0]
+        n = self.M.shape[0]
+        u = np.zeros((len(t), 2 * n))
+        u[:, n:] = force @ self._minv.T
+        g = u @ self.V_inv.T  # (len(t), 2n)
+        p = self.poles
+        em1 = np.expm1(p * h)
+        a1 = (em1 - p * h) / (p**2 * h)
+        a0 = em1 / p - a1
+        z0 = self.V_inv @ (np.zeros(2 * n) if x0 is None else np.asarray(x0, dtype=float))
+        z = np.empty((len(t), 2 * n), dtype=complex)
+        z[0] = z0
+        for k in range(2 * n):
+            b, a = [a1[k], a0[k]], [1.0, -(em1[k] + 1.0)]
+            # lfilter's y[j] = a1 g[j] + a0 g[j-1] + e^{ph} y[j-1], started from y[-1] = z0, x[-1] = g[0]
+            zi = scipy.signal.lfiltic(b, a, [z0[k]], [g[0, k]])
+            z[1:, k] = scipy.signal.lfilter(b, a, g[1:, k], zi=zi)[0]
+        x = np.real(z @ self.V.T)
+        q, qd = x[:, :n], x[:, n:]
+        qdd = (force - qd @ self.B.T - q @ self.C.T) @ self._minv.T
+        return q, qd, qdd
+
+    def simulate(
+        self,
+        sensors: Sequence[Sensor],
+        duration: float,
+        rate: float,
+        hammers: Sequence[Hammer] = (),
+        unbalances: Sequence[Unbalance] = (),
+        oversample: int = 8,
+        anti_alias: bool = True,
+        seed: int | None = 0,
+    ) -> Record:
+        """A record of the sensors' accelerations [m/s^2] sampled at ``rate`` [Hz] for ``duration`` [s].
+
+        The response is computed at ``oversample`` x the rate (so that a hammer pulse of a few ms is well
+        resolved), passed through an 8th-order Butterworth anti-alias filter at 0.4 x rate (the analog
+        filter of a real acquisition), and decimated; then noise, bias and clipping are applied per sensor.
+        """
+        if not duration > 0:
+            raise InputError("duration", f"must be positive, got {duration}")
+        if not rate > 0:
+            raise InputError("rate", f"must be positive, got {rate}")
+        n_out = int(round(duration * rate))
+        fine_rate = rate * oversample
+        t = np.arange(n_out * oversample) / fine_rate
+        force = np.zeros((len(t), self.M.shape[0]))
+        for hammer in hammers:
+            force += np.outer(hammer.force(t), self.force_column(hammer.point, hammer.direction, "hammer"))
+        for unbalance in unbalances:
+            force += self.unbalance_force(unbalance, t)
+        _, _, qdd = self.respond(t, force)
+        rows = np.array([self.sensor_row(s.point, s.direction, s.name) for s in sensors])
+        clean = qdd @ rows.T  # (len(t), n_sensors)
+        if anti_alias and oversample > 1:
+            sos = scipy.signal.butter(8, 0.4 * rate, fs=fine_rate, output="sos")
+            clean = scipy.signal.sosfilt(sos, clean, axis=0)
+        clean = clean[::oversample]
+        rng = np.random.default_rng(seed)
+        data = np.empty_like(clean)
+        channels = []
+        for j, s in enumerate(sensors):
+            rms = np.sqrt(np.mean(clean[:, j] ** 2))
+            y = clean[:, j] + s.bias + s.noise * rms * rng.standard_normal(len(clean))
+            if s.clip is not None:
+                y = np.clip(y, -s.clip, s.clip)
+            data[:, j] = y
+            channels.append(Channel(s.name, tuple(map(float, s.point)), tuple(map(float, _unit(s.direction, s.name)))))
+        return Record(np.arange(n_out) / rate, data, tuple(channels))

@@ -1,0 +1,55 @@
+"""Records: CSV write and read back, and the input errors that keep a wrong frequency from being silent."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mountid.errors import InputError
+from mountid.records import Channel, Record, read_csv, write_csv
+
+
+def _record(n: int = 100) -> Record:
+    rng = np.random.default_rng(0)
+    t = np.arange(n) / 500.0
+    channels = (Channel("A_x", (0.3, 0.0, 0.1), (1.0, 0.0, 0.0)), Channel("B_y", (0.3, 0.0, 0.312), (0.0, 1.0, 0.0)))
+    return Record(t, rng.standard_normal((n, 2)), channels)
+
+
+def test_csv_round_trip_is_exact(tmp_path):
+    rec = _record()
+    write_csv(rec, tmp_path / "r.csv")
+    back = read_csv(tmp_path / "r.csv")
+    assert back.channels == rec.channels
+    np.testing.assert_array_equal(back.time, rec.time)
+    np.testing.assert_array_equal(back.data, rec.data)
+
+
+def test_plain_csv_reads_without_metadata(tmp_path):
+    (tmp_path / "p.csv").write_text("time,a\n" + "\n".join(f"{i / 100},{np.sin(i)}" for i in range(50)) + "\n")
+    rec = read_csv(tmp_path / "p.csv")
+    assert rec.names == ("a",) and np.isnan(rec.channels[0].point[0])
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t, d: (t, np.where(np.arange(len(t))[:, None] == 40, np.nan, d)), "^A_x: NaN or infinite sample"),
+        (lambda t, d: (np.concatenate([t[:50], t[50:] + 0.1]), d), "^time: a gap at t = 0.098"),
+        (
+            lambda t, d: (np.where(np.arange(len(t)) == 50, t - 0.0006, t), d),
+            "^time: non-uniform sampling at t = 0.098",
+        ),
+        (lambda t, d: (t[:10], d[:10]), "^time: a record needs at least 16 samples"),
+    ],
+)
+def test_bad_records_are_rejected_by_name(edit, message):
+    rec = _record()
+    t, d = edit(rec.time, rec.data)
+    with pytest.raises(InputError, match=message):
+        Record(t, d, rec.channels)
+
+
+def test_missing_channel_is_named():
+    with pytest.raises(InputError, match="^C_z: no such channel"):
+        _record().channel("C_z")
