@@ -53,3 +53,16 @@ def test_bad_records_are_rejected_by_name(edit, message):
 def test_missing_channel_is_named():
     with pytest.raises(InputError, match="^C_z: no such channel"):
         _record().channel("C_z")
+
+
+def test_uff58_round_trip(tmp_path):
+    """Double-precision ASCII dataset 58 keeps 12 significant digits (%20.11e) and every channel's metadata."""
+    from mountid.uff import read_uff, write_uff
+
+    rec = _record()
+    rec = Record(rec.time, rec.data, (*rec.channels[:1], Channel("C", (0.1, -0.2, 0.3), (0.6, 0.8, 0.0))))
+    write_uff(rec, tmp_path / "r.uff")
+    back = read_uff(tmp_path / "r.uff")
+    assert back.channels == rec.channels
+    np.testing.assert_allclose(back.time, rec.time, rtol=1e-11, atol=1e-15)
+    np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)

@@ -62,6 +62,42 @@ def channel_rows(machine: Machine, record: Record) -> np.ndarray:
     return np.array(rows)
 
 
+def generalised_accelerations(machine: Machine, record: Record) -> tuple[np.ndarray, dict[str, float]]:
+    """Rigid-body accelerations q''(t) (n, 6) [m/s^2, rad/s^2] by least squares over all channels (>= 6 with
+    independent rows), and each channel's leave-one-out residual: the RMS of the channel minus its prediction
+    from the rigid-body fit to all other channels, relative to the channel's RMS. A channel that does not fit
+    a rigid body (misplaced, misaligned or mislabelled sensor) stands out; the plain least-squares residual
+    would spread its misfit over the other channels."""
+    rows = channel_rows(machine, record)
+    if len(rows) < 6 or np.linalg.matrix_rank(rows) < 6:
+        raise InputError(
+            "channels",
+            f"{len(rows)} channels with rank {np.linalg.matrix_rank(rows)}: six independent directions needed "
+            "(use paper_generalised() for the paper's three-channel layout)",
+        )
+    qdd = np.linalg.lstsq(rows, record.data.T, rcond=None)[0].T
+    residual = {}
+    for j, c in enumerate(record.channels):
+        others = np.arange(len(rows)) != j
+        if np.linalg.matrix_rank(rows[others]) < 6:
+            residual[c.name] = float("nan")  # the channel is needed to fix a coordinate: no check possible
+            continue
+        fit = np.linalg.lstsq(rows[others], record.data[:, others].T, rcond=None)[0]
+        miss = record.data[:, j] - rows[j] @ fit
+        residual[c.name] = float(np.sqrt(np.mean(miss**2) / np.mean(record.data[:, j] ** 2)))
+    return qdd, residual
+
+
+def paper_generalised(record: Record, a_x: str, a_y: str, b_y: str, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's three-channel case (Eqs. 23-24): x'' = s_Ax and the rotation about x from two y-channels
+    ``spacing`` [m] apart vertically (B above A). With right-handed rotations a point above the axis moves
+    by -psi dz along y, so psi'' = (s_Ay - s_By) / L; Eq. (24) prints the opposite sign, which changes no
+    frequency. Returns (x'', psi'')."""
+    if not spacing > 0:
+        raise InputError("spacing", f"must be positive, got {spacing}")
+    return record.channel(a_x), (record.channel(a_y) - record.channel(b_y)) / spacing
+
+
 def label_poles(
     machine: Machine, record: Record, poles: list[modal.Pole], nominal: dict[str, float]
 ) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]]:

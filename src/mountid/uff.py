@@ -1,0 +1,124 @@
+"""Records in the Universal File Format, dataset 58 (function at nodal DOF), read and written by pyuff.
+
+One dataset 58 per channel: a time response (function type 1), real, evenly spaced abscissa. The channel
+name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
+its quantity and unit ID line 5. The response node is the channel number; the response direction the
+axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too:
+channels without the ID-line-4 metadata get NaN points and directions (processing that needs them says so).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pyuff
+
+from mountid.errors import InputError
+from mountid.records import Channel, Record
+
+_TAG = "mountid point="
+
+
+def _axis(direction: tuple[float, float, float]) -> int:
+    d = np.asarray(direction, dtype=float)
+    if not np.all(np.isfinite(d)):
+        return 0
+    k = int(np.argmax(np.abs(d)))
+    return int(np.sign(d[k])) * (k + 1) if np.isclose(abs(d[k]), 1.0) and np.sum(np.abs(d)) <= 1 + 1e-12 else 0
+
+
+def write_uff(record: Record, path: str | Path) -> None:
+    """Write every channel as a dataset 58 (double precision ASCII) to a new file."""
+    path = Path(path)
+    if path.exists():
+        path.unlink()  # pyuff appends to an existing file
+    uff = pyuff.UFF(str(path))
+    dt = float(record.time[1] - record.time[0])
+    sets = []
+    for k, c in enumerate(record.channels):
+        meta = f"{_TAG}{','.join(repr(float(v)) for v in c.point)} dir={','.join(repr(float(v)) for v in c.direction)}"
+        sets.append(
+            pyuff.prepare_58(
+                binary=0,
+                id1=c.name,
+                id2="time response",
+                id3="",
+                id4=meta,
+                id5=f"{c.quantity} [{c.unit}]",
+                func_type=1,
+                rsp_node=k + 1,
+                rsp_dir=_axis(c.direction),
+                ref_node=0,
+                ref_dir=0,
+                ord_data_type=4,
+                num_pts=len(record.time),
+                abscissa_spacing=1,
+                abscissa_min=float(record.time[0]),
+                abscissa_inc=dt,
+                abscissa_spec_data_type=17,  # time
+                ordinate_spec_data_type=12 if c.quantity == "acceleration" else 0,  # 12: acceleration
+                ver_num=0,
+                load_case_id=0,
+                rsp_ent_name=c.name[:10],
+                ref_ent_name="NONE",
+                z_axis_value=0.0,
+                **{
+                    f"{axis}_{what}_unit_exp": 0
+                    for axis in ("abscissa", "ordinate", "orddenom", "z_axis")
+                    for what in ("len", "force", "temp")
+                },
+                abscissa_axis_units_lab="s",
+                ordinate_axis_units_lab=c.unit,
+                orddenom_spec_data_type=0,
+                orddenom_axis_units_lab="",
+                z_axis_spec_data_type=0,
+                z_axis_axis_units_lab="",
+                data=np.asarray(record.data[:, k], dtype=float),
+                x=np.asarray(record.time, dtype=float),
+            )
+        )
+    uff.write_sets(sets, mode="add")
+
+
+def _triple(text: str) -> tuple[float, float, float]:
+    values = tuple(float(v) for v in text.split(","))
+    if len(values) != 3:
+        raise ValueError(f"expected 3 values, got {len(values)}")
+    return values  # type: ignore[return-value]
+
+
+def read_uff(path: str | Path) -> Record:
+    """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("record", f"no such file: {path}")
+    uff = pyuff.UFF(str(path))
+    types = list(uff.get_set_types())
+    found = [i for i, t in enumerate(types) if int(t) == 58]
+    if not found:
+        raise InputError("record", f"{path.name} holds no dataset 58")
+    sets = [uff.read_sets(i) for i in found]
+    time = np.asarray(sets[0]["x"], dtype=float)
+    columns, channels = [], []
+    for n, s in enumerate(sets):
+        name = str(s.get("id1", "")).strip() or f"node{s.get('rsp_node', n)}:{s.get('rsp_dir', 0)}"
+        x = np.asarray(s["x"], dtype=float)
+        if len(x) != len(time) or not np.allclose(x, time, rtol=0, atol=1e-9 * max(1.0, abs(time[-1]))):
+            raise InputError(name, "sampling differs from the first channel's (one record needs one time base)")
+        point = direction = (math.nan,) * 3
+        meta = str(s.get("id4", "")).strip()
+        if meta.startswith(_TAG):
+            try:
+                p_text, d_text = meta.removeprefix(_TAG).split(" dir=")
+                point, direction = _triple(p_text), _triple(d_text)
+            except ValueError as err:
+                raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
+        quantity, unit = "acceleration", "m/s^2"
+        label = str(s.get("id5", "")).strip()
+        if label.endswith("]") and " [" in label:
+            quantity, unit = label[:-1].split(" [", 1)
+        columns.append(np.real(np.asarray(s["data"])).astype(float))
+        channels.append(Channel(name, point, direction, quantity, unit))
+    return Record(time, np.column_stack(columns), tuple(channels))
