@@ -52,6 +52,7 @@ def test_rig_records_give_back_the_truth(duration, f_tol, zeta_tol, c_tol, seed)
     w_true, zeta_true = _truth(rig)
     assert sorted(result.modes) == sorted(rig.machine.unique_modes)  # every distinct frequency, once
     assert not result.unlabelled
+    assert not result.warnings
     for label, mode in result.modes.items():
         k = rig.machine.modes.index(label)
         w_model = rig.machine.module.frequencies(

@@ -124,9 +124,139 @@ def cmd_describe(args: argparse.Namespace) -> None:
 
 
 def cmd_demo(args: argparse.Namespace) -> None:
-    from mountid.paper import print_reproduction
+    from mountid.paper import print_reproduction, run_simulated_experiment
 
     print_reproduction()
+    run_simulated_experiment(figures=args.figures)
+
+
+def _triple(text: str, option: str) -> tuple[float, float, float]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(option, f"expected three numbers x,y,z, got {text!r}") from None
+    if len(values) != 3 or not all(map(math.isfinite, values)):
+        raise InputError(option, f"expected three finite numbers x,y,z, got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def _read_record(path: str):
+    from mountid.records import read_csv
+    from mountid.uff import read_uff
+
+    return read_uff(path) if path.lower().endswith((".uff", ".unv")) else read_csv(path)
+
+
+def cmd_simulate(args: argparse.Namespace) -> None:
+    from mountid.records import write_csv
+    from mountid.rig import Hammer, Rig, Sensor, Unbalance
+    from mountid.uff import write_uff
+
+    rig = Rig.of(args.machine, _pairs(args.set, "--set"))
+    sensors = []
+    for item in args.sensor or ():
+        name, sep, rest = item.partition("=")
+        point, sep2, direction = rest.partition(":")
+        if not sep or not sep2:
+            raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
+        sensors.append(Sensor(name, _triple(point, "--sensor"), _triple(direction, "--sensor"), noise=args.noise))
+    if not sensors:
+        from mountid.paper import paper_sensors
+
+        sensors = paper_sensors(args.noise)
+    if args.noise < 0:
+        raise InputError("--noise", f"must be >= 0, got {args.noise}")
+    hammers = (
+        []
+        if args.speed
+        else [
+            Hammer(
+                _triple(args.hit_point, "--hit-point"),
+                _triple(args.hit_direction, "--hit-direction"),
+                peak=args.hit_peak,
+            )
+        ]
+    )
+    unbalances = [Unbalance(args.unbalance_mass, args.eccentricity, w) for w in args.speed or ()]
+    record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
+    (write_uff if args.out.lower().endswith((".uff", ".unv")) else write_csv)(record, args.out)
+    print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
+
+
+def _identification_json(machine: Machine, result) -> dict:
+    return {
+        "machine": machine.name,
+        "modes": {
+            k: {
+                "frequency": m.frequency,
+                "frequency_std": m.frequency_std,
+                "damping_ratio": m.damping_ratio,
+                "damping_std": m.damping_std,
+                "mac": m.mac,
+            }
+            for k, m in result.modes.items()
+        },
+        "parameters": result.parameters,
+        "parameter_std": result.parameter_std,
+        "damping": result.damping,
+        "frequencies": result.frequencies,
+        "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in result.unlabelled],
+        "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in result.warnings],
+    }
+
+
+def cmd_identify_record(args: argparse.Namespace) -> None:
+    from mountid.experiment import identify_from_record
+
+    machine = Machine.resolve(args.machine)
+    record = _read_record(args.record)
+    result = identify_from_record(machine, record, _pairs(args.set, "--set"), start=args.start)
+    if args.figures:
+        from mountid import figures
+
+        labels = {k: m.frequency for k, m in result.modes.items()}
+        first = record.names[0]
+        figures.spectrum_figure(record, first, args.start, [], labels, f"{args.figures}/spectrum.png")
+        figures.mode_shapes_figure(
+            machine, {**_pairs(args.set, "--set"), **result.parameters}, (0.5, 0.5, 0.4), f"{args.figures}/modes.png"
+        )
+    if args.json:
+        _print_json(_identification_json(machine, result))
+        return
+    print(f"{machine.name}: {len(result.modes)} modes from {args.record}")
+    for w in result.warnings:
+        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for k, m in result.modes.items():
+        print(
+            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
+            f"  zeta {m.damping_ratio:.4f}  MAC {m.mac:.2f}"
+        )
+    for name, value in result.parameters.items():
+        print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
+    for name, value in result.damping.items():
+        print(f"  {name} = {value:.6g} {machine.parameters[name]['unit']}")
+
+
+def cmd_forced(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from mountid.rig import Rig, Unbalance
+
+    rig = Rig.of(args.machine, _pairs(args.set, "--set"))
+    rows = {}
+    for w in args.speed:
+        if not w > 0:
+            raise InputError("--speed", f"must be positive, got {w}")
+        unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
+        t = np.linspace(0, 2 * np.pi / w, 64, endpoint=False)
+        q, _ = rig.steady_state(unb, t)
+        rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, np.max(np.abs(q), axis=0)), strict=True))
+    if args.json:
+        _print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows})
+        return
+    print(f"{rig.machine.name}: steady-state amplitude under the rotating unbalance [m, rad]")
+    for w, amp in rows.items():
+        print(f"  {w:>8s} rad/s  " + "  ".join(f"{c} {a:.3e}" for c, a in amp.items()))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -152,7 +282,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_identify)
     machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
     machine_command("describe", "parameters, modes and inverse sets of a machine").set_defaults(func=cmd_describe)
-    sub.add_parser("demo", help="reproduce the reference paper's numbers").set_defaults(func=cmd_demo)
+    p = sub.add_parser("demo", help="reproduce the reference paper's numbers and its simulated experiment")
+    p.add_argument("--figures", default="out/figures", help="folder for the figures (default out/figures)")
+    p.set_defaults(func=cmd_demo)
+
+    def add_unbalance(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
+        p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
+
+    p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv or .uff)")
+    p.add_argument("--out", required=True, help="record file to write (.csv, or .uff/.unv for UFF dataset 58)")
+    p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
+    p.add_argument("--rate", type=float, default=2000.0, help="sampling rate [Hz]")
+    p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--sensor",
+        nargs="+",
+        action="extend",
+        metavar="NAME=x,y,z:dx,dy,dz",
+        help="accelerometer channels (default: the paper's layout plus A_z and C_x)",
+    )
+    p.add_argument("--hit-point", default="0.35,0.25,0.3", help="impact point x,y,z [m]")
+    p.add_argument("--hit-direction", default="1,0.8,-0.6", help="impact direction")
+    p.add_argument("--hit-peak", type=float, default=3000.0, help="peak impact force [N]")
+    p.add_argument("--speed", nargs="+", type=float, help="rotating-unbalance speeds [rad/s] instead of a hit")
+    add_unbalance(p)
+    p.set_defaults(func=cmd_simulate)
+    p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
+    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
+    p.set_defaults(func=cmd_identify_record)
+    p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
+    p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
+    add_unbalance(p)
+    p.set_defaults(func=cmd_forced)
     return parser
 
 

@@ -49,6 +49,7 @@ class Identification:
     frequencies: dict[str, float] = field(default_factory=dict)
     """Every mode's natural frequency [rad/s] with the identified parameters."""
     unlabelled: list[modal.Pole] = field(default_factory=list)
+    warnings: list[modal.QualityWarning] = field(default_factory=list)
 
 
 def channel_rows(machine: Machine, record: Record) -> np.ndarray:
@@ -202,9 +203,13 @@ def identify_from_record(
     label the modes."""
     mod = machine.module
     guess = {**known, **(nominal or {})}
-    top = float(np.max(mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))))
+    nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
+    warnings = modal.hammer_test_quality(record, float(np.min(nominal_omega)), start)
+    top = float(np.max(nominal_omega))
     poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     labelled, rest = label_poles(machine, record, poles, guess)
+    if not labelled:
+        raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
     modes = {
         label: MeasuredMode(label, p.frequency, p.frequency_std, p.damping_ratio, p.damping_std, m)
         for label, (p, m) in labelled.items()
@@ -213,4 +218,4 @@ def identify_from_record(
     damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
     damping = fit_damping(machine, {**known, **params}, modes, damping_names)
     freqs = machine.frequencies({**known, **params})
-    return Identification(modes, params, stds, damping, freqs, rest)
+    return Identification(modes, params, stds, damping, freqs, rest, warnings)

@@ -153,7 +153,9 @@ def decay_envelope(signal: NDArray, dt: float, frequency: float, bandwidth: floa
     sos = scipy.signal.butter(2, [f * (1 - bandwidth), f * (1 + bandwidth)], btype="band", fs=fs, output="sos")
     y = scipy.signal.sosfiltfilt(sos, signal)
     peaks, _ = scipy.signal.find_peaks(y, distance=max(1, int(0.7 * fs / f)))
-    peaks = peaks[(peaks > 2 * fs / f) & (y[peaks] > 0)]  # skip the filter's start-up
+    # the zero-phase filter rings in and out at both ends for a few of its time constants 1/(bandwidth w)
+    edge = int(3 * fs / (bandwidth * frequency)) + int(2 * fs / f)
+    peaks = peaks[(peaks > edge) & (peaks < len(y) - edge) & (y[peaks] > 0)]
     if len(peaks) < 3:
         raise InputError("record", f"fewer than 3 decaying peaks near {frequency:g} rad/s")
     top = y[peaks]
@@ -161,3 +163,66 @@ def decay_envelope(signal: NDArray, dt: float, frequency: float, bandwidth: floa
     t = peaks[keep] * dt
     slope, intercept = np.polyfit(t, np.log(top[keep]), 1)
     return float(np.exp(intercept)), float(-slope)
+
+
+def spectrum(signal: NDArray, dt: float, pad: int = 4) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Amplitude spectrum with a Hann window, zero-padded ``pad`` times: (omega [rad/s], |X|)."""
+    n = len(signal)
+    window = np.hanning(n)
+    x = np.fft.rfft((signal - np.mean(signal)) * window, n=pad * n)
+    return 2 * np.pi * np.fft.rfftfreq(pad * n, dt), np.abs(x) * 2 / np.sum(window)
+
+
+def spectrum_peaks(omega: NDArray, amplitude: NDArray, count: int, min_omega: float = 0.0) -> NDArray[np.float64]:
+    """The ``count`` highest spectral peaks above ``min_omega`` [rad/s], each refined below the bin by a
+    parabola through the log amplitudes of the peak bin and its neighbours (exact for a Gaussian peak;
+    good to a few hundredths of a bin for a Hann-windowed damped sine). Ascending frequency."""
+    log_a = np.log(np.maximum(amplitude, 1e-300))
+    peaks, props = scipy.signal.find_peaks(amplitude, height=0)
+    peaks = peaks[(omega[peaks] >= min_omega) & (peaks > 0) & (peaks < len(omega) - 1)]
+    peaks = peaks[np.argsort(amplitude[peaks])[::-1][:count]]
+    a, b, c = log_a[peaks - 1], log_a[peaks], log_a[peaks + 1]
+    shift = 0.5 * (a - c) / (a - 2 * b + c)
+    return np.sort(omega[peaks] + shift * (omega[1] - omega[0]))
+
+
+@dataclass(frozen=True)
+class QualityWarning:
+    """A named problem of an impact record that can bias modal estimates: kind is one of "clipping",
+    "double_hit", "too_short"."""
+
+    kind: str
+    channel: str
+    message: str
+
+
+def hammer_test_quality(record: Record, lowest_frequency: float, start: float = 0.0) -> list[QualityWarning]:
+    """Checks of an impact record before it is trusted.
+
+    - clipping: a channel's extreme value held on 3 or more samples (a flat top: the sensor or the
+      acquisition saturated);
+    - double_hit: the high-frequency burst of an impact (energy of the first difference, which the slow
+      modes barely carry) recurs after the first one, above 20 % of its peak, later than 5 ms;
+    - too_short: fewer than 10 periods of ``lowest_frequency`` [rad/s] after ``start`` [s].
+    """
+    out = []
+    for j, c in enumerate(record.channels):
+        y = record.data[:, j]
+        top = np.max(np.abs(y))
+        if top > 0 and np.count_nonzero(np.abs(np.abs(y) - top) <= 1e-9 * top) >= 3:
+            out.append(QualityWarning("clipping", c.name, f"held at {top:g} {c.unit} on several samples: clipped"))
+    burst = np.sum(np.diff(record.data, axis=0) ** 2, axis=1)
+    smooth = np.convolve(burst, np.ones(5) / 5, mode="same")
+    peaks, _ = scipy.signal.find_peaks(smooth, height=0.2 * smooth.max(), distance=max(1, int(0.005 * record.rate)))
+    if len(peaks) > 1:
+        gap = (peaks[1] - peaks[0]) / record.rate
+        out.append(QualityWarning("double_hit", "all", f"a second impact {gap * 1e3:.1f} ms after the first"))
+    length = record.time[-1] - max(start, record.time[0])
+    periods = length * lowest_frequency / (2 * np.pi)
+    if periods < 10:
+        out.append(
+            QualityWarning(
+                "too_short", "all", f"{length:g} s holds {periods:.1f} periods of {lowest_frequency:g} rad/s (< 10)"
+            )
+        )
+    return out

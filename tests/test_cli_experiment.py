@@ -1,0 +1,76 @@
+"""Command line of the experiment: simulate -> record file -> identify-record, forced response, demo."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mountid.cli import main
+from mountid.paper import UNBALANCE
+from mountid.rig import Rig, Unbalance
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("suffix", ["csv", "uff"])
+def test_simulate_then_identify_record(capsys, tmp_path, suffix):
+    path = tmp_path / f"hit.{suffix}"
+    code, out, _ = run(capsys, "simulate", "kid300", "--out", str(path), "--seed", "3")
+    assert code == 0 and "5 channels" in out
+    code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--json", "--figures", str(tmp_path / "f"))
+    assert code == 0
+    result = json.loads(out)
+    assert sorted(result["modes"]) == ["phi", "psi", "x", "z"]
+    assert result["parameters"]["c_xy"] == pytest.approx(74.4e3, rel=5e-3)
+    assert result["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
+    assert result["warnings"] == []
+    assert (tmp_path / "f" / "modes.png").stat().st_size > 0
+
+
+def test_forced_response_json(capsys):
+    code, out, _ = run(capsys, "forced", "kid300", "--speed", "113", "157", "--json")
+    assert code == 0
+    amp = json.loads(out)["amplitudes"]
+    rig = Rig.of("kid300")
+    q, _ = rig.steady_state(
+        Unbalance(UNBALANCE["mass"], UNBALANCE["eccentricity"], 157.0), [0.0, 0.25 * 2 * 3.141592653589793 / 157]
+    )
+    assert amp["157"]["x"] == pytest.approx(max(abs(q[:, 0])), rel=1e-2)  # 64 samples per period
+
+
+@pytest.mark.parametrize(
+    ("argv", "start"),
+    [
+        (["identify-record", "kid300", "missing.csv"], "mountid: error: record: no such file"),
+        (["simulate", "kid300", "--out", "x.csv", "--hit-point", "1,2"], "mountid: error: --hit-point:"),
+        (["simulate", "kid300", "--out", "x.csv", "--duration", "0"], "mountid: error: duration:"),
+        (["forced", "kid300", "--speed", "-3"], "mountid: error: --speed: must be positive"),
+        (
+            ["forced", "kid300", "--speed", "100", "--set", "c_z=-1"],
+            "mountid: error: c_z: a stiffness must be positive",
+        ),
+    ],
+)
+def test_bad_experiment_input_is_one_line_exit_2(capsys, tmp_path, monkeypatch, argv, start):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and out == ""
+    assert err.startswith(start) and err.count("\n") == 1
+
+
+def test_demo_runs_the_simulated_experiment(capsys, tmp_path):
+    code, out, _ = run(capsys, "demo", "--figures", str(tmp_path))
+    assert code == 0
+    assert "Simulated experiment" in out and "c_xy" in out
+    assert {p.name for p in tmp_path.iterdir()} == {
+        "record.png",
+        "spectrum.png",
+        "decay.png",
+        "unbalance.png",
+        "modes.png",
+    }
