@@ -99,27 +99,42 @@ def paper_generalised(record: Record, a_x: str, a_y: str, b_y: str, spacing: flo
     return record.channel(a_x), (record.channel(a_y) - record.channel(b_y)) / spacing
 
 
+LABEL_FREQUENCY_WEIGHT = 0.5
+"""Weight of |ln(omega_pole / omega_model)| against 1 - MAC in the labelling cost: shapes decide where the
+channels tell the modes apart, the nominal frequencies where they cannot (the paper's three channels see
+the y translation and the torsion phi alike)."""
+
+
 def label_poles(
     machine: Machine, record: Record, poles: list[modal.Pole], nominal: dict[str, float]
 ) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]]:
-    """Distinct-frequency label of each pole by MAC against the model's channel shapes at ``nominal``."""
+    """Distinct-frequency label of each pole: a one-to-one assignment of poles to the model's modes at the
+    ``nominal`` parameters minimising (1 - MAC of the channel shapes) + LABEL_FREQUENCY_WEIGHT
+    |ln(omega ratio)| in total (scipy's linear_sum_assignment). Modes the channels cannot see are left
+    out; of two poles on modes equal by symmetry the better one keeps the label. Returns
+    ({label: (pole, MAC)}, poles left unlabelled)."""
     mod = machine.module
     args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)  # (6, n_modes)
-    predicted = channel_rows(machine, record) @ phi
-    best: dict[str, tuple[modal.Pole, float]] = {}
-    rest = []
-    for pole in poles:
-        macs = [modal.mac(pole.shape, predicted[:, k]) for k in range(predicted.shape[1])]
-        k = int(np.argmax(macs))
-        label = mod.REPRESENTATIVE[mod.MODES[k]]
-        if label in best and best[label][1] >= macs[k]:
-            rest.append(pole)
+    omega = mod.frequencies(**args)
+    predicted = channel_rows(machine, record) @ phi  # what each channel reads in each mode
+    norms = np.linalg.norm(predicted, axis=0)
+    visible = np.flatnonzero(norms > 1e-6 * norms.max())
+    macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
+    ratio = np.abs(np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :]))
+    cost = (1.0 - macs) + LABEL_FREQUENCY_WEIGHT * ratio
+    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    best: dict[str, tuple[modal.Pole, float, float]] = {}
+    rest = [p for i, p in enumerate(poles) if i not in set(rows)]
+    for i, j in zip(rows, cols, strict=True):
+        label = mod.REPRESENTATIVE[mod.MODES[visible[j]]]
+        if label in best and best[label][2] <= cost[i, j]:
+            rest.append(poles[i])
             continue
         if label in best:
             rest.append(best[label][0])
-        best[label] = (pole, macs[k])
-    return best, rest
+        best[label] = (poles[i], float(macs[i, j]), float(cost[i, j]))
+    return {k: (p, m) for k, (p, m, _) in best.items()}, sorted(rest, key=lambda p: p.frequency)
 
 
 def fit_stiffness(
@@ -204,9 +219,10 @@ def identify_from_record(
     mod = machine.module
     guess = {**known, **(nominal or {})}
     nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
-    warnings = modal.hammer_test_quality(record, float(np.min(nominal_omega)), start)
     top = float(np.max(nominal_omega))
     poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+    lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
+    warnings = modal.hammer_test_quality(record, lowest, start)
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
         raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
