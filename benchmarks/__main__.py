@@ -3,6 +3,8 @@
 - generated forward map vs numpy.linalg.eigvalsh on the same 10^6 symmetric 6x6 problems (target >= 30x)
 - every kid300 inverse vs a per-set scipy.optimize.least_squares solve (target >= 1000x)
 - `make generate` wall time for all descriptions (target < 60 s) and `mountid identify` cold start
+- records (benchmarks/experiment.py): simulation and file-to-stiffness times, accuracy per mode against
+  sdypy-EMA's LSCF on the same records
 """
 
 from __future__ import annotations
@@ -86,6 +88,10 @@ def generation_and_cold_start() -> None:
 
 
 if __name__ == "__main__":
+    from benchmarks import experiment
+
     forward()
     inverse()
     generation_and_cold_start()
+    experiment.speed()
+    experiment.accuracy()
