@@ -24,9 +24,8 @@ class Pole:
     """One damped mode found in a record.
 
     frequency: undamped natural frequency |p| [rad/s]; damping_ratio: -Re(p)/|p| [-]; shape: complex
-    amplitude per channel at the start of the analysed segment [channel unit]; *_std: spread over the
-    model orders and pencil sizes the estimate was repeated with (a stability measure, not a confidence
-    interval).
+    amplitude per channel at the start of the analysed segment [channel unit]; *_std: standard deviation
+    the measurement noise causes (Cramer-Rao bound of the least-squares fit, see refine_poles).
     """
 
     frequency: float
@@ -44,15 +43,16 @@ class Pole:
 def decimated(record: Record, start: float, max_frequency: float, points_per_period: float = 8.0):
     """Free-decay samples from ``start`` [s], low-pass filtered (zero phase) and decimated so that the
     highest frequency of interest ``max_frequency`` [rad/s] has about ``points_per_period`` samples.
-    Returns (time step [s], samples (n, n_channels))."""
+
+    The record is cut at ``start`` before filtering (the impact stays out), and the samples within half
+    the decimation filter's length (20 x factor taps) of either end are dropped: there the zero-padded
+    filter rings. Returns (time step [s], samples (n, n_channels))."""
     rate = record.rate
     factor = max(1, int(rate / (points_per_period * max_frequency / (2 * np.pi))))
-    data = record.data - np.mean(record.data[record.time >= start], axis=0)  # sensor bias
+    data = record.data[record.time >= start]
     if factor > 1:
-        data = scipy.signal.decimate(data, factor, ftype="fir", axis=0, zero_phase=True)
-    time = record.time[::factor][: len(data)]
-    keep = time >= start
-    return factor / rate, data[keep]
+        data = scipy.signal.decimate(data, factor, ftype="fir", axis=0, zero_phase=True)[10:-10]
+    return factor / rate, data
 
 
 def matrix_pencil(samples: NDArray, dt: float, order: int, pencil: int | None = None) -> NDArray[np.complex128]:
@@ -76,10 +76,15 @@ def matrix_pencil(samples: NDArray, dt: float, order: int, pencil: int | None = 
 
 
 def amplitudes(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.complex128]:
-    """Complex amplitude of every pole in every channel by linear least squares, shape (n_poles, n_channels)."""
-    t = np.arange(len(samples)) * dt
-    basis = np.exp(np.outer(t, poles))
-    return np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    """Complex amplitude of every pole in every channel by linear least squares, shape (n_poles, n_channels).
+    A constant per channel (sensor bias) is fitted alongside and left out of the result."""
+    return np.linalg.lstsq(_basis(len(samples), dt, poles), samples.astype(complex), rcond=None)[0][:-1]
+
+
+def _basis(n: int, dt: float, poles: NDArray) -> NDArray[np.complex128]:
+    """exp(p t) for every pole, and a constant column (sensor bias), shape (n, n_poles + 1)."""
+    t = np.arange(n) * dt
+    return np.column_stack([np.exp(np.outer(t, poles)), np.ones(n)])
 
 
 def free_decay_poles(
@@ -95,8 +100,9 @@ def free_decay_poles(
 
     The pencil is solved with 2 n_modes + extra poles (the extra ones take up noise) for each entry of
     ``extra_orders`` and for two pencil sizes; a pole is kept when it recurs in every run (within 1 % in
-    frequency), and reported with the mean and spread over the runs. Poles that carry less than 1e-3 of
-    the strongest pole's amplitude are dropped as noise.
+    frequency; poles that carry less than 1e-3 of the strongest pole's amplitude are dropped as noise).
+    The kept poles, averaged over the runs, start a joint least-squares refinement of all of them on all
+    channels (refine_poles), which also gives their standard deviations.
     """
     if max_frequency <= 0:
         raise InputError("max_frequency", f"must be positive, got {max_frequency}")
@@ -132,10 +138,60 @@ def free_decay_poles(
         poles.append((np.mean(w), np.mean(zeta), np.std(w, ddof=1), np.std(zeta, ddof=1)))
     if not poles:
         return []
-    mean_poles = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
-    shapes = amplitudes(samples, dt, np.concatenate([mean_poles, mean_poles.conj()]))[: len(poles)]
-    out = [Pole(w, z, shapes[i], sw, sz) for i, (w, z, sw, sz) in enumerate(poles)]
+    start = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
+    refined, cov = refine_poles(samples, dt, start)
+    shapes = amplitudes(samples, dt, np.concatenate([refined, refined.conj()]))
+    out = []
+    k = len(refined)
+    for i, p in enumerate(refined):
+        w, sig, om = abs(p), p.real, p.imag
+        c2 = cov[np.ix_([i, k + i], [i, k + i])]
+        g_w = np.array([sig, om]) / w
+        g_z = np.array([-(om**2), sig * om]) / w**3  # zeta = -sigma / |p|
+        std_w, std_z = np.sqrt(max(g_w @ c2 @ g_w, 0.0)), np.sqrt(max(g_z @ c2 @ g_z, 0.0))
+        out.append(Pole(float(w), float(-sig / w), shapes[i], float(std_w), float(std_z)))
     return sorted(out, key=lambda p: p.frequency)
+
+
+def _gauss_newton_terms(samples: NDArray, dt: float, poles: NDArray):
+    """Normal equations of the damped-exponential fit in the poles (sigma_k, omega_k), with the amplitudes
+    and a constant per channel projected out (variable projection, Kaufman's Jacobian) and each channel
+    weighted by its residual variance. Returns (J^T W J, J^T W r)."""
+    t = np.arange(len(samples)) * dt
+    basis = _basis(len(samples), dt, np.concatenate([poles, poles.conj()]))
+    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    resid = np.real(samples - basis @ coef)
+    var = np.maximum(np.mean(resid**2, axis=0), 1e-300)
+    q, _ = np.linalg.qr(basis)
+    k = len(poles)
+    info, grad = np.zeros((2 * k, 2 * k)), np.zeros(2 * k)
+    for c in range(samples.shape[1]):
+        # d y_c / d(sigma_k, omega_k) for y_c = sum 2 Re(a_kc exp(p_k t)), p_k = sigma_k + i omega_k
+        d = t[:, None] * np.exp(np.outer(t, poles)) * coef[:k, c][None, :]
+        jac = np.concatenate([2 * d.real, -2 * d.imag], axis=1)
+        jac = jac - np.real(q @ (q.conj().T @ jac))
+        info += jac.T @ jac / var[c]
+        grad += jac.T @ resid[:, c] / var[c]
+    return info, grad
+
+
+def refine_poles(samples: NDArray, dt: float, poles: NDArray, max_steps: int = 10) -> tuple[NDArray, NDArray]:
+    """Least-squares (maximum-likelihood for white noise) poles from the pencil's estimates: Gauss-Newton
+    on the variable-projection problem until the step is below 1e-9 of |p|. Returns (poles, covariance of
+    (sigma_1..k, omega_1..k)): the inverse of J^T W J, the Cramer-Rao bound of the noise."""
+    p = np.array(poles, dtype=complex)
+    k = len(p)
+    for _ in range(max_steps):
+        info, grad = _gauss_newton_terms(samples, dt, p)
+        step = np.linalg.lstsq(info, grad, rcond=None)[0]
+        candidate = p + step[:k] + 1j * step[k:]
+        if not np.all(np.isfinite(candidate)) or np.any(candidate.real >= 0):
+            break  # keep the last physical estimate
+        p = candidate
+        if np.all(np.abs(step[:k] + 1j * step[k:]) <= 1e-9 * np.abs(p)):
+            break
+    info, _ = _gauss_newton_terms(samples, dt, p)
+    return p, np.linalg.pinv(info)
 
 
 def mac(a: NDArray, b: NDArray) -> float:
