@@ -122,14 +122,14 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     )
     for w in result.warnings:
         print(f"  warning ({w.kind}, {w.channel}): {w.message}")
-    print(f"  {'mode':6s}{'found [rad/s]':>15s}{'+-':>8s}{'model [rad/s]':>15s}{'zeta':>8s}{'MAC':>6s}")
+    print(f"  {'mode':6s}{'found [rad/s]':>15s}{'+-':>9s}{'model [rad/s]':>15s}{'zeta':>8s}{'MAC':>6s}")
     for label in rig.machine.unique_modes:
         m = result.modes.get(label)
         if m is None:
             print(f"  {label:6s}{'not found':>15s}")
             continue
         print(
-            f"  {label:6s}{m.frequency:15.3f}{m.frequency_std:8.3f}{true_w[label]:15.3f}"
+            f"  {label:6s}{m.frequency:15.3f}{m.frequency_std:9.1e}{true_w[label]:15.3f}"
             f"{m.damping_ratio:8.4f}{m.mac:6.2f}"
         )
     for name, value in {**result.parameters, **result.damping}.items():
