@@ -74,3 +74,18 @@ def test_demo_runs_the_simulated_experiment(capsys, tmp_path):
         "unbalance.png",
         "modes.png",
     }
+
+
+def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path):
+    path = tmp_path / "hit.csv"
+    assert run(capsys, "simulate", "kid300", "--out", str(path), "--seed", "4")[0] == 0
+    code, out, _ = run(capsys, "process", "kid300", str(path), "--json")
+    assert code == 0
+    modes = json.loads(out)["modes"]
+    assert sorted(modes) == ["phi", "psi", "x", "z"]
+    assert modes["x"]["frequency"] == pytest.approx(17.71, rel=2e-3) and modes["x"]["frequency_std"] > 0
+    code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "psi", "--json")
+    assert code == 0
+    assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
+    code, _, err = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "theta")
+    assert code == 2 and err.startswith("mountid: error: use: theta not found in the record")

@@ -143,3 +143,18 @@ def test_reported_uncertainty_matches_the_scatter():
         rms = np.sqrt(np.mean(np.square(rows), axis=0))
         assert len(rows) == 8
         assert np.all((rms > 0.4) & (rms < 2.5)), (w, rms)
+
+
+def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
+    """(x, psi) has two admissible roots (paper Sec. 5); the record's other modes pick the true one, and
+    without other modes the choice is an error that names both."""
+    from mountid.errors import InputError
+    from mountid.experiment import fit_stiffness
+
+    rig = Rig.of("kid300")
+    w = rig.machine.frequencies(rig.values)
+    exact = {lab: (w[lab], 1e-6 * w[lab]) for lab in ("x", "psi")}
+    params, _ = fit_stiffness(rig.machine, TABLE_1, exact, {"z": (w["z"], 1e-3), "phi": (w["phi"], 1e-3)})
+    assert params["c_z"] == pytest.approx(rig.values["c_z"], rel=1e-9)
+    with pytest.raises(InputError, match="^measured: 2 solutions fit equally .*c_xy = 341"):
+        fit_stiffness(rig.machine, TABLE_1, exact)

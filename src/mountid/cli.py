@@ -183,25 +183,24 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
 
 
-def _identification_json(machine: Machine, result) -> dict:
+def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:
+    """The JSON of labelled modal data (process, identify-record)."""
+    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac")
     return {
         "machine": machine.name,
-        "modes": {
-            k: {
-                "frequency": m.frequency,
-                "frequency_std": m.frequency_std,
-                "damping_ratio": m.damping_ratio,
-                "damping_std": m.damping_std,
-                "mac": m.mac,
-            }
-            for k, m in result.modes.items()
-        },
+        "modes": {k: {f: getattr(m, f) for f in fields} for k, m in modes.items()},
+        "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in unlabelled],
+        "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in warnings],
+    }
+
+
+def _identification_json(machine: Machine, result) -> dict:
+    return {
+        **_modal_json(machine, result.modes, result.unlabelled, result.warnings),
         "parameters": result.parameters,
         "parameter_std": result.parameter_std,
         "damping": result.damping,
         "frequencies": result.frequencies,
-        "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in result.unlabelled],
-        "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in result.warnings],
     }
 
 
@@ -210,7 +209,8 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
 
     machine = Machine.resolve(args.machine)
     record = _read_record(args.record)
-    result = identify_from_record(machine, record, _pairs(args.set, "--set"), start=args.start)
+    use = tuple(args.use) if args.use else None
+    result = identify_from_record(machine, record, _pairs(args.set, "--set"), start=args.start, use=use)
     if args.figures:
         from mountid import figures
 
@@ -235,6 +235,21 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
         print(f"  {name} = {value:.6g} {machine.parameters[name]['unit']}")
+
+
+def cmd_process(args: argparse.Namespace) -> None:
+    from mountid.experiment import modal_data
+
+    machine = Machine.resolve(args.machine)
+    modes, rest, warnings = modal_data(machine, _read_record(args.record), _pairs(args.set, "--set"), args.start)
+    out = _modal_json(machine, modes, rest, warnings)
+    if args.json:
+        _print_json(out)
+        return
+    for w in warnings:
+        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for k, m in modes.items():
+        print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
 
 
 def cmd_forced(args: argparse.Namespace) -> None:
@@ -313,7 +328,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
     p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
+    p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
     p.set_defaults(func=cmd_identify_record)
+    p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
+    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.set_defaults(func=cmd_process)
     p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
     p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
     add_unbalance(p)

@@ -138,14 +138,19 @@ def label_poles(
 
 
 def fit_stiffness(
-    machine: Machine, known: dict[str, float], measured: dict[str, tuple[float, float]]
+    machine: Machine,
+    known: dict[str, float],
+    measured: dict[str, tuple[float, float]],
+    others: dict[str, tuple[float, float]] | None = None,
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
 
     Starting points: every admissible root of every generated inverse over a subset of the measured
     labels. The fit minimises sum ((omega_model - omega)/std)^2 in log-parameters; the returned standard
     deviations come from (J^T W J)^-1, scaled by the reduced chi^2 when there are more frequencies than
-    unknowns. Returns (parameters, standard deviations)."""
+    unknowns. When several distinct solutions fit equally well (an exactly determined set with two admissible
+    roots, as the paper's (w1, w4)), the one that best predicts the ``others`` (measured modes left out of
+    the fit) is taken; without others that is an error naming the choices. Returns (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
@@ -168,8 +173,34 @@ def fit_stiffness(
                 starts.append(np.log([roots.parameters[u][i] for u in unknown]))
     if not starts:
         raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
-    fits = [scipy.optimize.least_squares(residual, s, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts]
-    best = min(fits, key=lambda f: f.cost)
+    fits = sorted(
+        (scipy.optimize.least_squares(residual, s, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts),
+        key=lambda f: f.cost,
+    )
+    tied = [fits[0]]
+    for f in fits[1:]:
+        if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all(
+            [np.max(np.abs(f.x - t.x)) > 1e-6 for t in tied]
+        ):
+            tied.append(f)
+    best = tied[0]
+    if len(tied) > 1:
+        if not others:
+            choices = "; ".join(
+                ", ".join(f"{u} = {v:.6g}" for u, v in zip(unknown, np.exp(f.x), strict=True)) for f in tied
+            )
+            raise InputError("measured", f"{len(tied)} solutions fit equally ({choices}): measure another mode")
+        o_idx = [mod.MODES.index(lab) for lab in others]
+        o_w = np.array([w for w, _ in others.values()])
+
+        def miss(f):
+            return float(
+                np.sum(
+                    np.log(mod.frequencies(**knowns, **dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2
+                )
+            )
+
+        best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
     dof = len(labels) - len(unknown)
     scale = 2 * best.cost / dof if dof > 0 else 1.0
@@ -206,16 +237,12 @@ def fit_damping(
     return dict(zip(names, map(float, sol), strict=True))
 
 
-def identify_from_record(
-    machine: Machine,
-    record: Record,
-    known: dict[str, float],
-    start: float,
-    nominal: dict[str, float] | None = None,
-) -> Identification:
-    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes -> unknown stiffnesses
-    and damping parameters. ``nominal`` values of the unknowns (default: the description's) only serve to
-    label the modes."""
+def modal_data(
+    machine: Machine, record: Record, known: dict[str, float], start: float, nominal: dict[str, float] | None = None
+) -> tuple[dict[str, MeasuredMode], list[modal.Pole], list[modal.QualityWarning]]:
+    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes, the poles left
+    unlabelled, and the record's quality warnings. ``nominal`` values of the unknowns (default: the
+    description's) only serve to label the modes."""
     mod = machine.module
     guess = {**known, **(nominal or {})}
     nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
@@ -230,7 +257,31 @@ def identify_from_record(
         label: MeasuredMode(label, p.frequency, p.frequency_std, p.damping_ratio, p.damping_std, m)
         for label, (p, m) in labelled.items()
     }
-    params, stds = fit_stiffness(machine, known, {k: (m.frequency, m.frequency_std) for k, m in modes.items()})
+    return modes, rest, warnings
+
+
+def identify_from_record(
+    machine: Machine,
+    record: Record,
+    known: dict[str, float],
+    start: float,
+    nominal: dict[str, float] | None = None,
+    use: tuple[str, ...] | None = None,
+) -> Identification:
+    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes (modal_data) -> unknown
+    stiffnesses from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the
+    paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios."""
+    modes, rest, warnings = modal_data(machine, record, known, start, nominal)
+    chosen = modes
+    if use is not None:
+        missing = [lab for lab in use if lab not in modes]
+        if missing:
+            raise InputError("use", f"{', '.join(missing)} not found in the record (found: {', '.join(modes)})")
+        chosen = {lab: modes[lab] for lab in use}
+    pairs = {k: (m.frequency, m.frequency_std) for k, m in modes.items()}
+    params, stds = fit_stiffness(
+        machine, known, {k: pairs[k] for k in chosen}, {k: v for k, v in pairs.items() if k not in chosen}
+    )
     damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
     damping = fit_damping(machine, {**known, **params}, modes, damping_names)
     freqs = machine.frequencies({**known, **params})
