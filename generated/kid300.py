@@ -181,30 +181,16 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
         block {phi}: lambda = 4*c_xy*L_xy**2/J_z
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _tmp0 = m**(-1.0)
-    _tmp1 = 4*c_xy
-    _tmp2 = J_xy**(-1.0)
-    _tmp3 = L_xy**2
-    _tmp4 = _tmp3*c_z
-    _tmp5 = L_z**2
-    _tmp6 = _tmp0*_tmp2
-    _s11_0 = _tmp0*_tmp1
-    _s22_0 = _tmp2*(_tmp1*_tmp5 + 2*_tmp4)
-    _s12sq_0 = 16*_tmp5*_tmp6*c_xy**2
-    _det_0 = 8*_tmp4*_tmp6*c_xy
-    _lam2_1 = 4*_tmp0*c_z
-    _lam3_1 = _tmp1*_tmp3/J_z
-    # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
-    _lam0_1 = _det_0 / _lam0_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
     _out = numpy.empty((6, *_shape))
-    _out[0] = _lam0_1
-    _out[1] = _lam0_1
-    _out[2] = _lam2_1
-    _out[3] = _lam0_2
-    _out[4] = _lam0_2
-    _out[5] = _lam3_1
+    _v = {'m': m, 'J_xy': J_xy, 'J_z': J_z, 'L_xy': L_xy, 'L_z': L_z, 'c_xy': c_xy, 'c_z': c_z}
+    # block {x, theta}: upper root from a sum of squares, lower from the root product
+    _runtime.fused('0.5*((4*c_xy/m) + ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)) + sqrt((0.5*((4*c_xy/m) - ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)))**2 + (16*L_z**2*c_xy**2/(J_xy*m)))', _v, _out[3, ...])
+    _runtime.fused('(8*L_xy**2*c_xy*c_z/(J_xy*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[0, ...])
+    _runtime.fused('4*c_z/m', _v, _out[2, ...])
+    _runtime.fused('4*L_xy**2*c_xy/J_z', _v, _out[5, ...])
+    _out[1] = _out[0]
+    _out[4] = _out[3]
     return numpy.moveaxis(_out, 0, -1)
 
 

@@ -199,42 +199,17 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
         block {phi}: lambda = (4*c_x*b**2 + 4*c_y*a**2)/J_z
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _tmp0 = m**(-1.0)
-    _tmp1 = 4*c_x
-    _tmp2 = J_y**(-1.0)
-    _tmp3 = a**2
-    _tmp4 = 4*c_z
-    _tmp5 = h**2
-    _tmp6 = 16*_tmp0
-    _tmp7 = _tmp5*_tmp6
-    _tmp8 = _tmp6*c_z
-    _tmp9 = 4*c_y
-    _tmp10 = J_x**(-1.0)
-    _tmp11 = b**2
-    _s11_0 = _tmp0*_tmp1
-    _s22_0 = _tmp2*(_tmp1*_tmp5 + _tmp3*_tmp4)
-    _s12sq_0 = _tmp2*_tmp7*c_x**2
-    _det_0 = _tmp2*_tmp3*_tmp8*c_x
-    _s11_1 = _tmp0*_tmp9
-    _s22_1 = _tmp10*(_tmp11*_tmp4 + _tmp5*_tmp9)
-    _s12sq_1 = _tmp10*_tmp7*c_y**2
-    _det_1 = _tmp10*_tmp11*_tmp8*c_y
-    _lam2_1 = _tmp0*_tmp4
-    _lam3_1 = (_tmp1*_tmp11 + _tmp3*_tmp9)/J_z
-    # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
-    _lam0_1 = _det_0 / _lam0_2
-    # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12sq_1)
-    _lam1_1 = _det_1 / _lam1_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
     _out = numpy.empty((6, *_shape))
-    _out[0] = _lam0_1
-    _out[1] = _lam1_1
-    _out[2] = _lam2_1
-    _out[3] = _lam1_2
-    _out[4] = _lam0_2
-    _out[5] = _lam3_1
+    _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a': a, 'b': b, 'h': h, 'c_x': c_x, 'c_y': c_y, 'c_z': c_z}
+    # block {x, theta}: upper root from a sum of squares, lower from the root product
+    _runtime.fused('0.5*((4*c_x/m) + ((4*a**2*c_z + 4*c_x*h**2)/J_y)) + sqrt((0.5*((4*c_x/m) - ((4*a**2*c_z + 4*c_x*h**2)/J_y)))**2 + (16*c_x**2*h**2/(J_y*m)))', _v, _out[4, ...])
+    _runtime.fused('(16*a**2*c_x*c_z/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
+    # block {y, psi}: upper root from a sum of squares, lower from the root product
+    _runtime.fused('0.5*((4*c_y/m) + ((4*b**2*c_z + 4*c_y*h**2)/J_x)) + sqrt((0.5*((4*c_y/m) - ((4*b**2*c_z + 4*c_y*h**2)/J_x)))**2 + (16*c_y**2*h**2/(J_x*m)))', _v, _out[3, ...])
+    _runtime.fused('(16*b**2*c_y*c_z/(J_x*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[1, ...])
+    _runtime.fused('4*c_z/m', _v, _out[2, ...])
+    _runtime.fused('(4*a**2*c_y + 4*b**2*c_x)/J_z', _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
 
 

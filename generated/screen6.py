@@ -235,71 +235,17 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
         block {phi}: lambda = (2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2)/J_z
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _tmp0 = m**(-1.0)
-    _tmp1 = 2*c_h
-    _tmp2 = numpy.cos(alpha)
-    _tmp3 = _tmp2**2
-    _tmp4 = 4*c_h
-    _tmp5 = _tmp3*_tmp4
-    _tmp6 = numpy.sin(alpha)
-    _tmp7 = _tmp6**2
-    _tmp8 = 4*_tmp7
-    _tmp9 = _tmp8*c_v
-    _tmp10 = J_y**(-1.0)
-    _tmp11 = h**2
-    _tmp12 = 8*c_h
-    _tmp13 = _tmp6*a*h
-    _tmp14 = _tmp13*_tmp2
-    _tmp15 = _tmp14*c_v
-    _tmp16 = a**2
-    _tmp17 = _tmp7*c_h
-    _tmp18 = 4*_tmp17
-    _tmp19 = _tmp3*c_v
-    _tmp20 = 4*_tmp19
-    _tmp21 = c_h**2
-    _tmp22 = _tmp11*_tmp21
-    _tmp23 = 16*_tmp11
-    _tmp24 = 16*_tmp21
-    _tmp25 = 16*_tmp22
-    _tmp26 = _tmp2**4
-    _tmp27 = _tmp6**4
-    _tmp28 = c_v**2
-    _tmp29 = 32*_tmp13*_tmp2**3
-    _tmp30 = c_h*c_v
-    _tmp31 = 32*_tmp2*_tmp6**3*a*h
-    _tmp32 = 32*_tmp17*_tmp19
-    _tmp33 = _tmp16*_tmp3*_tmp7
-    _tmp34 = _tmp0*_tmp10
-    _tmp35 = 2*c_v
-    _tmp36 = 6*c_h
-    _tmp37 = J_x**(-1.0)
-    _tmp38 = b**2
-    _tmp39 = 2*c_m
-    _tmp40 = _tmp0*_tmp37
-    _s11_0 = _tmp0*(_tmp1 + _tmp5 + _tmp9)
-    _s22_0 = _tmp10*(_tmp1*_tmp11 + _tmp11*_tmp5 + _tmp11*_tmp9 - _tmp12*_tmp14 + 8*_tmp15 + _tmp16*_tmp18 + _tmp16*_tmp20)
-    _s12sq_0 = _tmp34*(_tmp11*_tmp32 - _tmp14*_tmp24 + 16*_tmp15*c_h - _tmp16*_tmp32 + _tmp17*_tmp23*c_v - _tmp21*_tmp29 + 4*_tmp22 + _tmp23*_tmp27*_tmp28 + _tmp24*_tmp33 + _tmp25*_tmp26 + _tmp25*_tmp3 + _tmp28*_tmp31 + 16*_tmp28*_tmp33 + _tmp29*_tmp30 - _tmp30*_tmp31)
-    _det_0 = _tmp12*_tmp16*_tmp34*(_tmp17 + _tmp19*_tmp8 + _tmp19 + _tmp26*_tmp35 + _tmp27*_tmp35)
-    _s11_1 = _tmp0*_tmp36
-    _s22_1 = _tmp37*(_tmp11*_tmp36 + _tmp18*_tmp38 + _tmp20*_tmp38 + _tmp38*_tmp39)
-    _s12sq_1 = 36*_tmp22*_tmp40
-    _det_1 = 12*_tmp38*_tmp40*c_h*(_tmp1*_tmp7 + 2*_tmp19 + c_m)
-    _lam2_1 = _tmp0*(_tmp18 + _tmp20 + _tmp39)
-    _lam3_1 = (_tmp1*_tmp38 + _tmp16*_tmp4 + _tmp38*_tmp5 + _tmp38*_tmp9)/J_z
-    # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _lam0_2 = 0.5 * (_s11_0 + _s22_0) + numpy.sqrt((0.5 * (_s11_0 - _s22_0))**2 + _s12sq_0)
-    _lam0_1 = _det_0 / _lam0_2
-    # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _lam1_2 = 0.5 * (_s11_1 + _s22_1) + numpy.sqrt((0.5 * (_s11_1 - _s22_1))**2 + _s12sq_1)
-    _lam1_1 = _det_1 / _lam1_2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
     _out = numpy.empty((6, *_shape))
-    _out[0] = _lam0_1
-    _out[1] = _lam1_1
-    _out[2] = _lam2_1
-    _out[3] = _lam1_2
-    _out[4] = _lam0_2
-    _out[5] = _lam3_1
+    _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a': a, 'b': b, 'h': h, 'alpha': alpha, 'c_h': c_h, 'c_v': c_v, 'c_m': c_m}
+    # block {x, theta}: upper root from a sum of squares, lower from the root product
+    _runtime.fused('0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) + ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)) + sqrt((0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) - ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)))**2 + ((16*a**2*c_h**2*sin(alpha)**2*cos(alpha)**2 - 32*a**2*c_h*c_v*sin(alpha)**2*cos(alpha)**2 + 16*a**2*c_v**2*sin(alpha)**2*cos(alpha)**2 - 32*a*c_h**2*h*sin(alpha)*cos(alpha)**3 - 16*a*c_h**2*h*sin(alpha)*cos(alpha) - 32*a*c_h*c_v*h*sin(alpha)**3*cos(alpha) + 32*a*c_h*c_v*h*sin(alpha)*cos(alpha)**3 + 16*a*c_h*c_v*h*sin(alpha)*cos(alpha) + 32*a*c_v**2*h*sin(alpha)**3*cos(alpha) + 16*c_h**2*h**2*cos(alpha)**4 + 16*c_h**2*h**2*cos(alpha)**2 + 4*c_h**2*h**2 + 32*c_h*c_v*h**2*sin(alpha)**2*cos(alpha)**2 + 16*c_h*c_v*h**2*sin(alpha)**2 + 16*c_v**2*h**2*sin(alpha)**4)/(J_y*m)))', _v, _out[4, ...])
+    _runtime.fused('(8*a**2*c_h*(c_h*sin(alpha)**2 + 2*c_v*sin(alpha)**4 + 4*c_v*sin(alpha)**2*cos(alpha)**2 + 2*c_v*cos(alpha)**4 + c_v*cos(alpha)**2)/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
+    # block {y, psi}: upper root from a sum of squares, lower from the root product
+    _runtime.fused('0.5*((6*c_h/m) + ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)) + sqrt((0.5*((6*c_h/m) - ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)))**2 + (36*c_h**2*h**2/(J_x*m)))', _v, _out[3, ...])
+    _runtime.fused('(12*b**2*c_h*(2*c_h*sin(alpha)**2 + c_m + 2*c_v*cos(alpha)**2)/(J_x*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[1, ...])
+    _runtime.fused('(4*c_h*sin(alpha)**2 + 2*c_m + 4*c_v*cos(alpha)**2)/m', _v, _out[2, ...])
+    _runtime.fused('(4*a**2*c_h + 4*b**2*c_h*cos(alpha)**2 + 2*b**2*c_h + 4*b**2*c_v*sin(alpha)**2)/J_z', _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
 
 

@@ -49,3 +49,18 @@ def test_newton_evaluates_only_rows_not_yet_converged():
     assert all(r[0] <= away.sum() for r in rows[1:]) and len(rows) <= 6
     np.testing.assert_allclose(x[away], c[away], rtol=1e-12)
     np.testing.assert_allclose(lam_out[:, [0, 3]], given, rtol=1e-13)
+
+
+def test_fused_expressions_agree_between_numexpr_and_numpy_paths():
+    """Large batches go through numexpr, small ones through numpy: the same formula to rounding level."""
+    rng = np.random.default_rng(7)
+    n = runtime.FUSED_MIN_SIZE + 5
+    p = {a: kid300.PARAMETERS[a]["value"] * rng.uniform(0.1, 10.0, n) for a in kid300.FORWARD_ARGUMENTS}
+    batch = kid300.squared_frequencies(**p)  # numexpr
+    pieces = np.concatenate(
+        [kid300.squared_frequencies(**{a: v[i : i + 1000] for a, v in p.items()}) for i in range(0, n, 1000)]
+    )  # numpy
+    np.testing.assert_allclose(batch, pieces, rtol=4e-15, atol=0)
+    scalar = kid300.squared_frequencies(**{a: float(v[0]) for a, v in p.items()})
+    assert scalar.shape == (6,)
+    np.testing.assert_allclose(scalar, batch[0], rtol=4e-15)

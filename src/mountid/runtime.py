@@ -8,8 +8,10 @@ the admissibility filter of inverse roots. All functions broadcast over leading 
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
+import numexpr
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -39,6 +41,30 @@ class InverseRoots(NamedTuple):
 
     parameters: dict[str, NDArray[np.float64]]
     admissible: NDArray[np.bool_]
+
+
+FUSED_MIN_SIZE = 4096
+"""Batches from this size on are evaluated by numexpr; smaller ones by numpy, whose per-call overhead is
+lower (numexpr parses and checks each call)."""
+
+_NUMPY_FUNCTIONS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log}
+
+
+@functools.cache
+def _compiled(expression: str):
+    return compile(expression, "<generated expression>", "eval")
+
+
+def fused(expression: str, variables: dict, out: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Evaluate a generated elementwise expression into ``out``, the variables broadcast to out's shape.
+
+    Large batches go through numexpr in one cache-blocked pass (a chain of numpy operations on them is bound
+    by memory traffic and the first touch of every temporary); numexpr splits them over its threads
+    (NUMEXPR_NUM_THREADS, numexpr.set_num_threads). Small ones use numpy (same formula, same operations)."""
+    if out.size >= FUSED_MIN_SIZE:
+        return numexpr.evaluate(expression, local_dict=variables, out=out, casting="unsafe")
+    out[...] = eval(_compiled(expression), {"__builtins__": {}, **_NUMPY_FUNCTIONS}, variables)
+    return out
 
 
 def as_arrays(*args: ArrayLike) -> list[NDArray[np.float64]]:

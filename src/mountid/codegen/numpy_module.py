@@ -13,7 +13,7 @@ from importlib import resources
 import jinja2
 import sympy as sp
 
-from mountid.codegen.printing import code, describe, eliminate
+from mountid.codegen.printing import code, describe, eliminate, fused
 from mountid.description import COORDINATES, Description
 from mountid.symbolic.blocks import ModalStructure
 from mountid.symbolic.inverse import InverseDerivation, InverseSet
@@ -155,44 +155,40 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
     labels = structure.labels
     doc_lines = []
     if structure.closed_form:
-        exprs, names = [], []
+        # each distinct eigenvalue is one fused numexpr pass (a chain of numpy operations on large batches
+        # is bound by memory traffic and by the first touch of every temporary): written into its row of
+        # _out (a view, 0-d for scalar input, hence [i, ...]), returned with the modes on the last axis
         twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
-        for k, b in enumerate(blocks):
-            if twin[k] != k:
-                continue
-            if b.size == 1:
-                exprs.append(b.eigenvalue_exprs()[0])
-                names.append(f"_lam{k}_1")
-            else:
-                t = b.stable_terms
-                exprs += [t["s11"], t["s22"], t["s12_squared"], t["det_ratio"]]
-                names += [f"_s11_{k}", f"_s22_{k}", f"_s12sq_{k}", f"_det_{k}"]
-        cse = eliminate(exprs)
-        body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-        body += [f"{n} = {out}" for n, out in zip(names, cse.outputs, strict=True)]
+        variables = ", ".join(f"{a!r}: {a}" for a in map(str, args))
+        body = [_shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))", f"_v = {{{variables}}}"]
+        rows: dict[str, int] = {}
         for k, b in enumerate(blocks):
             coords = ", ".join(b.coordinates)
             if twin[k] != k:
                 doc_lines.append(
                     f"        block {{{coords}}}: the roots of block {{{', '.join(blocks[twin[k]].coordinates)}}}"
                 )
-            elif b.size == 2:
+                continue
+            first = {m.rank: i for i, m in reversed(list(enumerate(structure.modes))) if twin[m.block] == k}
+            if b.size == 2:
+                t = {n: f"({fused(e)})" for n, e in b.stable_terms.items()}
+                upper = f"0.5*({t['s11']} + {t['s22']}) + sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})"
+                lower = t["det_ratio"] + " / _upper"
                 body += [
                     f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
-                    f"_lam{k}_2 = 0.5 * (_s11_{k} + _s22_{k})"
-                    f" + numpy.sqrt((0.5 * (_s11_{k} - _s22_{k}))**2 + _s12sq_{k})",
-                    f"_lam{k}_1 = _det_{k} / _lam{k}_2",
+                    f"_runtime.fused({upper!r}, _v, _out[{first[2]}, ...])",
+                    f"_runtime.fused({lower!r}, {{**_v, '_upper': _out[{first[2]}, ...]}}, _out[{first[1]}, ...])",
                 ]
                 lo, hi = b.eigenvalue_exprs()
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
             else:
+                body.append(f"_runtime.fused({fused(b.eigenvalue_exprs()[0])!r}, _v, _out[{first[1]}, ...])")
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
-        outs = [f"_lam{twin[m.block]}_{m.rank}" for m in structure.modes]
-        body.append(_shape_line(args))
-        # filled row by row (contiguous writes; a strided column per mode costs 5x more), returned as a view
-        # with the modes on the last axis
-        body.append(f"_out = numpy.empty(({len(outs)}, *_shape))")
-        body += [f"_out[{i}] = {o}" for i, o in enumerate(outs)]
+            rows.update({(k, r): i for r, i in first.items()})
+        for i, m in enumerate(structure.modes):
+            source = rows[(twin[m.block], m.rank)]
+            if source != i:
+                body.append(f"_out[{i}] = _out[{source}]")
         body.append("return numpy.moveaxis(_out, 0, -1)")
         method = (
             "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"

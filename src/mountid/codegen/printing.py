@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import sympy as sp
+from sympy.printing.lambdarepr import NumExprPrinter
 from sympy.printing.numpy import NumPyPrinter
 
 
@@ -25,6 +26,24 @@ class _Printer(NumPyPrinter):
 
 
 _PRINTER = _Printer()
+
+
+class _FusedPrinter(NumExprPrinter):
+    """Plain numexpr expression strings: numbers as float literals (numexpr knows no math.pi)."""
+
+    def _print_Rational(self, expr: sp.Rational) -> str:
+        return str(int(expr.p)) if expr.q == 1 else repr(float(expr))
+
+    def _print_Pi(self, expr: sp.Expr) -> str:
+        return repr(float(expr))
+
+
+_FUSED = _FusedPrinter()
+
+
+def fused(expr: sp.Expr) -> str:
+    """One expression as a numexpr string (evaluated in one cache-blocked pass by runtime.fused)."""
+    return _FUSED._print(expr)
 
 
 def code(expr: sp.Expr) -> str:
