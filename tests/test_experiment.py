@@ -158,3 +158,20 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
     assert params["c_z"] == pytest.approx(rig.values["c_z"], rel=1e-9)
     with pytest.raises(InputError, match="^measured: 2 solutions fit equally .*c_xy = 341"):
         fit_stiffness(rig.machine, TABLE_1, exact)
+
+
+def test_mode_shapes_in_the_coordinates_match_the_model():
+    """Twelve channels fix all six coordinates: the measured shape of each distinct mode lies (MAC > 0.99)
+    in the span of the model's shapes of the modes sharing its frequency (x with y, psi with theta)."""
+    from mountid.experiment import modal_data
+
+    rig = Rig.of("kid300")
+    record = rig.simulate(SENSORS, 4.0, 2000.0, hammers=[HIT], seed=6)
+    modes, _, _ = modal_data(rig.machine, record, TABLE_1, 0.06)
+    mod = rig.machine.module
+    phi = mod.modal_matrix(**rig.machine.values(rig.values, mod.FORWARD_ARGUMENTS))
+    for label, m in modes.items():
+        assert m.shape is not None and max(np.abs(m.shape)) == pytest.approx(1.0)
+        span = phi[:, [i for i, lab in enumerate(mod.MODES) if mod.REPRESENTATIVE[lab] == label]]
+        projected = span @ np.linalg.lstsq(span, np.array(m.shape), rcond=None)[0]
+        assert modal.mac(projected, np.array(m.shape)) > 0.99, label

@@ -185,7 +185,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
 
 def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:
     """The JSON of labelled modal data (process, identify-record)."""
-    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac")
+    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac", "shape")
     return {
         "machine": machine.name,
         "modes": {k: {f: getattr(m, f) for f in fields} for k, m in modes.items()},

@@ -36,6 +36,9 @@ class MeasuredMode:
     damping_std: float
     mac: float
     """MAC of the measured channel shape against the model's shape of the mode it is labelled as."""
+    shape: tuple[float, ...] | None = None
+    """Mode shape in the coordinates q (rigid-body fit of the channel amplitudes, phase removed, largest
+    entry 1), when the channels fix all six coordinates; None otherwise."""
 
 
 @dataclass
@@ -253,11 +256,30 @@ def modal_data(
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
         raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
+    rows = channel_rows(machine, record)
+    full = np.linalg.matrix_rank(rows) == rows.shape[1]
     modes = {
-        label: MeasuredMode(label, p.frequency, p.frequency_std, p.damping_ratio, p.damping_std, m)
+        label: MeasuredMode(
+            label,
+            p.frequency,
+            p.frequency_std,
+            p.damping_ratio,
+            p.damping_std,
+            m,
+            coordinate_shape(rows, p.shape) if full else None,
+        )
         for label, (p, m) in labelled.items()
     }
     return modes, rest, warnings
+
+
+def coordinate_shape(rows: np.ndarray, channel_shape: np.ndarray) -> tuple[float, ...]:
+    """Real mode shape in q from complex channel amplitudes: least squares through the channel rows, the
+    common phase removed (rotated so that the largest entry is real and positive), scaled to 1."""
+    q = np.linalg.lstsq(rows, channel_shape, rcond=None)[0]
+    k = int(np.argmax(np.abs(q)))
+    q = q * np.exp(-1j * np.angle(q[k])) / np.abs(q[k])
+    return tuple(float(v) for v in q.real)
 
 
 def identify_from_record(
