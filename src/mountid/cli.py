@@ -252,6 +252,69 @@ def cmd_process(args: argparse.Namespace) -> None:
         print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
 
 
+def cmd_diagnose(args: argparse.Namespace) -> None:
+    from mountid.campaign import load
+    from mountid.gap import diagnose_where
+
+    campaign = load(args.campaign)
+    report = diagnose_where(campaign)
+    residuals = [
+        {
+            "mode": r.label,
+            "measured": r.measured,
+            "predicted": r.predicted,
+            "residual": r.residual,
+            "uncertainty": r.uncertainty,
+            "z": r.z,
+            "significant": r.significant,
+            "held_out": r.held_out,
+        }
+        for r in report.residuals
+    ]
+    localisation = [
+        {
+            "matrix": loc.matrix,
+            "entries": [list(e) for e in loc.entries],
+            "change": loc.change,
+            "unit": loc.unit,
+            "explained": loc.explained,
+            "text": loc.describe(),
+        }
+        for loc in report.localisation
+    ]
+    if args.json:
+        _print_json(
+            {
+                "campaign": campaign.name,
+                "machine": campaign.machine.name,
+                "parameters": report.parameters,
+                "parameter_std": report.parameter_std,
+                "residuals": residuals,
+                "sensitivities": report.sensitivities,
+                "localisation": localisation,
+                "broken_symmetry": report.broken_symmetry,
+                "candidates": [],
+                "verdict": report.verdict,
+                "notes": [*report.notes, "candidate effects (which effect, how far the gap shrinks): not built yet"],
+            }
+        )
+        return
+    print(f"{campaign.name or args.campaign} ({campaign.machine.name})")
+    print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
+    print(f"  {'mode':6s}{'measured':>10s}{'predicted':>11s}{'gap':>9s}{'sigma':>8s}{'z':>7s}  use")
+    for r in report.residuals:
+        z = "" if r.z is None else f"{r.z:+7.2f}"
+        sig = "" if r.uncertainty is None else f"{r.uncertainty:8.3g}"
+        flag = " *" if r.significant else ""
+        use = "held out" if r.held_out else "fitted"
+        print(f"  {r.label:6s}{r.measured:10.3f}{r.predicted:11.3f}{r.residual:+9.3f}{sig:>8s}{z:>7s}  {use}{flag}")
+    for loc in report.localisation[:3]:
+        print(f"  matrix level: {loc.describe()}")
+    for note in report.notes:
+        print(f"  note: {note}")
+    print(f"verdict: {report.verdict}")
+
+
 def cmd_forced(args: argparse.Namespace) -> None:
     import numpy as np
 
@@ -334,6 +397,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
     p.set_defaults(func=cmd_process)
+    p = sub.add_parser("diagnose", help="where the model misses a campaign's measurements (JSON campaign file)")
+    p.add_argument("campaign", help="campaign file (see mountid/schemas/campaign.schema.json)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_diagnose)
     p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
     p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
     add_unbalance(p)

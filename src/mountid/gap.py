@@ -1,0 +1,245 @@
+"""Where the model misses the measurements: residuals against uncertainty, held-out predictions,
+sensitivities, localisation at matrix level, broken symmetry (the first half of the gap diagnosis).
+
+All numbers come from the generated module of the campaign's machine: the nominal identification is
+mountid.experiment.fit_stiffness, the frequencies and mode shapes the generated forward map.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mountid.campaign import Campaign
+from mountid.experiment import fit_stiffness
+
+SIGNIFICANCE = 2.0
+"""A residual is significant beyond this many standard deviations of the measurement."""
+DEFAULT_WEIGHT = 1e-3
+"""Relative standard deviation used as the fit's weight for frequencies given without uncertainty
+(their significance is then not judged)."""
+
+
+@dataclass(frozen=True)
+class Residual:
+    """measured - predicted [rad/s] for one mode; z = residual / uncertainty (None without uncertainty)."""
+
+    label: str
+    measured: float
+    predicted: float
+    uncertainty: float | None
+    held_out: bool
+
+    @property
+    def residual(self) -> float:
+        return self.measured - self.predicted
+
+    @property
+    def z(self) -> float | None:
+        return None if self.uncertainty is None else self.residual / self.uncertainty
+
+    @property
+    def significant(self) -> bool | None:
+        return None if self.z is None else abs(self.z) > SIGNIFICANCE
+
+
+@dataclass(frozen=True)
+class Localisation:
+    """The change of one group of matrix entries (tied by symmetry) that best removes the residuals:
+    ``change`` in the entries' unit, ``explained`` the share of the weighted squared residual it removes."""
+
+    matrix: str
+    entries: tuple[tuple[str, str], ...]
+    change: float
+    unit: str
+    explained: float
+
+    def describe(self) -> str:
+        names = ", ".join(f"{self.matrix}[{i},{j}]" for i, j in self.entries)
+        word = "short by" if self.change > 0 else "too large by"
+        return f"{names} {word} about {abs(self.change):.3g} {self.unit} (explains {self.explained:.0%})"
+
+
+@dataclass
+class GapReport:
+    parameters: dict[str, float]
+    parameter_std: dict[str, float]
+    residuals: list[Residual]
+    sensitivities: dict[str, dict[str, float]]
+    """d ln(omega_mode) / d ln(parameter) for every measured mode and forward parameter."""
+    localisation: list[Localisation]
+    broken_symmetry: list[str]
+    verdict: str
+    notes: list[str] = field(default_factory=list)
+
+
+_UNITS = {"C": ("N/m", "N", "N m/rad"), "M": ("kg", "kg m", "kg m^2")}
+
+
+def _unit(matrix: str, i: int, j: int) -> str:
+    rot = (i >= 3) + (j >= 3)
+    return _UNITS[matrix][rot]
+
+
+def _fit_data(campaign: Campaign, labels) -> dict[str, tuple[float, float]]:
+    """Distinct-frequency data for fit_stiffness: twins (x and y) averaged, weights from uncertainty."""
+    rep = campaign.machine.module.REPRESENTATIVE
+    groups: dict[str, list] = {}
+    for label in labels:
+        groups.setdefault(rep[label], []).append(campaign.modes[label])
+    out = {}
+    for r, items in groups.items():
+        w = float(np.mean([m.frequency for m in items]))
+        stds = [m.uncertainty if m.uncertainty else DEFAULT_WEIGHT * m.frequency for m in items]
+        out[r] = (w, float(np.sqrt(np.sum(np.square(stds)))) / len(items))
+    return out
+
+
+def _predict(campaign: Campaign, params: dict[str, float]) -> dict[str, float]:
+    return campaign.machine.frequencies({**campaign.known, **params})
+
+
+def sensitivities(campaign: Campaign, params: dict[str, float]) -> dict[str, dict[str, float]]:
+    """d ln omega / d ln p by central differences (relative step 1e-6) of the generated forward map."""
+    machine = campaign.machine
+    mod = machine.module
+    base = machine.values({**campaign.known, **params}, mod.FORWARD_ARGUMENTS)
+    out: dict[str, dict[str, float]] = {label: {} for label in campaign.modes}
+    for name in mod.FORWARD_ARGUMENTS:
+        up, down = dict(base), dict(base)
+        up[name] *= 1 + 1e-6
+        down[name] *= 1 - 1e-6
+        d = (np.log(mod.frequencies(**up)) - np.log(mod.frequencies(**down))) / (np.log1p(1e-6) - np.log1p(-1e-6))
+        for label in campaign.modes:
+            out[label][name] = float(d[mod.MODES.index(label)])
+    return out
+
+
+def localise(campaign: Campaign, params: dict[str, float], residuals: list[Residual]) -> list[Localisation]:
+    """Rank single groups of M and C entries by how much of the residual one change of them removes.
+
+    To first order d(lambda_k) = phi_k^T dC phi_k - lambda_k phi_k^T dM phi_k (mass-normalised phi). For a
+    group of entries changed together (an entry and its mirror in the twin block, e.g. C[psi,psi] with
+    C[theta,theta]) the change is fitted by weighted linear least squares to the residuals in lambda
+    together with new steps of the unknowns (columns phi_k^T dC/dtheta phi_k): the nominal fit has already
+    bent the unknowns towards the unmodelled effect, and a change judged alone would land where that fit
+    pushed the residual, not where it comes from.
+    """
+    machine = campaign.machine
+    mod = machine.module
+    args = machine.values({**campaign.known, **params}, mod.FORWARD_ARGUMENTS)
+    phi = mod.modal_matrix(**args)
+    lam = mod.squared_frequencies(**args)
+    rows = [mod.MODES.index(r.label) for r in residuals]
+    d_lam = np.array([r.measured**2 - r.predicted**2 for r in residuals])
+    sigma = np.array([2 * r.measured * (r.uncertainty or DEFAULT_WEIGHT * r.measured) for r in residuals])
+    before = float(np.sum((d_lam / sigma) ** 2))
+    if before < 1e-12 * len(residuals):  # nothing to localise (the fit reproduces every measurement)
+        return []
+    grads = mod.stiffness_gradient(*(args[a] for a in mod.ARGUMENTS["stiffness_gradient"]))
+    unknown_cols = np.array([[phi[:, k] @ grad @ phi[:, k] for grad in grads] for k in rows]).reshape(len(rows), -1)
+    coords = mod.COORDINATES
+    twin_of = {}
+    blocks = mod.BLOCKS
+    for a, b in itertools.combinations(range(len(blocks)), 2):
+        lab_a = {mod.REPRESENTATIVE[m] for m, blk in zip(mod.MODES, mod.MODE_BLOCK, strict=True) if blk == a}
+        lab_b = {mod.REPRESENTATIVE[m] for m, blk in zip(mod.MODES, mod.MODE_BLOCK, strict=True) if blk == b}
+        if lab_a == lab_b and len(blocks[a]) == len(blocks[b]):
+            for p, q in zip(blocks[a], blocks[b], strict=True):
+                twin_of[p], twin_of[q] = q, p
+    out, seen = [], set()
+    for block in blocks:
+        for i, j in itertools.combinations_with_replacement(block, 2):
+            group = [(i, j)]
+            if i in twin_of and j in twin_of:
+                group.append(tuple(sorted((twin_of[i], twin_of[j]))))
+            key = frozenset(group)
+            if key in seen:
+                continue
+            seen.add(key)
+            for matrix in ("C", "M"):
+                g = np.zeros(len(rows))
+                for a, b in set(group):
+                    factor = 1.0 if a == b else 2.0
+                    g += factor * phi[a, rows] * phi[b, rows] * (1.0 if matrix == "C" else -lam[rows])
+                if not np.any(g):
+                    continue
+                design = np.column_stack([g, unknown_cols]) / sigma[:, None]
+                coef = np.linalg.lstsq(design, d_lam / sigma, rcond=None)[0]
+                delta = float(coef[0])
+                after = float(np.sum((d_lam / sigma - design @ coef) ** 2))
+                names = tuple((coords[a], coords[b]) for a, b in group)
+                out.append(Localisation(matrix, names, delta, _unit(matrix, i, j), 1 - after / before))
+    return sorted(out, key=lambda loc: -loc.explained)
+
+
+def diagnose_where(campaign: Campaign) -> GapReport:
+    """Nominal identification and where the model misses the campaign's measurements."""
+    machine = campaign.machine
+    rep = machine.module.REPRESENTATIVE
+    labels = list(campaign.modes)
+    fitted = list(campaign.fit) if campaign.fit else labels
+    held_out = [lab for lab in labels if lab not in fitted]
+    params, stds = fit_stiffness(
+        machine, campaign.known, _fit_data(campaign, fitted), _fit_data(campaign, held_out) or None
+    )
+    predicted = _predict(campaign, params)
+    residuals = []
+    for label in labels:
+        m = campaign.modes[label]
+        if campaign.fit is not None:
+            held = label not in campaign.fit
+            residuals.append(Residual(label, m.frequency, predicted[label], m.uncertainty, held))
+    if campaign.fit is None:
+        # leave-one-out: each distinct frequency predicted by the fit to all the others
+        for label in labels:
+            m = campaign.modes[label]
+            others = [lab for lab in labels if rep[lab] != rep[label]]
+            residuals.append(Residual(label, m.frequency, predicted[label], m.uncertainty, False))
+            if len({rep[lab] for lab in others}) >= len(machine.unknown):
+                p_loo, _ = fit_stiffness(
+                    machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label])
+                )
+                residuals.append(Residual(label, m.frequency, _predict(campaign, p_loo)[label], m.uncertainty, True))
+    broken = []
+    for a, b in itertools.combinations(labels, 2):
+        if rep[a] == rep[b]:
+            ma, mb = campaign.modes[a], campaign.modes[b]
+            diff = ma.frequency - mb.frequency
+            if ma.uncertainty and mb.uncertainty:
+                z = diff / math.hypot(ma.uncertainty, mb.uncertainty)
+                if abs(z) > SIGNIFICANCE:
+                    broken.append(
+                        f"{a} and {b} are equal by the model's symmetry but differ by {diff:+.4g} rad/s "
+                        f"({z:+.1f} sigma): broken symmetry"
+                    )
+            elif diff != 0:
+                broken.append(f"{a} and {b} differ by {diff:+.4g} rad/s (equal by symmetry; no uncertainty given)")
+    # localised on the nominal fit's residuals: every measured mode (fitted and held out) when the campaign
+    # names the fitted ones, the fit to all modes under leave-one-out
+    loc = localise(campaign, params, [r for r in residuals if campaign.fit is not None or not r.held_out])
+    judged = [r for r in residuals if r.significant is not None]
+    notes = []
+    if len(judged) < len(residuals):
+        notes.append("some frequencies have no uncertainty: their gaps are listed, their significance not judged")
+    tied = [x for x in loc if loc and x.explained >= loc[0].explained - 0.01]
+    if len(tied) > 1:
+        notes.append(
+            f"{len(tied)} single changes of matrix entries remove the gap equally well "
+            f"({'; '.join(x.describe() for x in tied[:4])}{'; ...' if len(tied) > 4 else ''}): "
+            "these measurements cannot tell them apart"
+        )
+    significant = sorted({r.label for r in residuals if r.significant})
+    if broken:
+        verdict = "broken symmetry: " + "; ".join(broken)
+    elif significant:
+        where = loc[0].describe() if loc else "no single matrix entry explains it"
+        verdict = f"significant gap in {', '.join(significant)}; at matrix level: {where}"
+    elif judged and len(judged) == len(residuals):
+        verdict = "no significant gap: the model reproduces every measurement within its uncertainty"
+    else:
+        verdict = "significance not judged (uncertainties missing); largest gaps listed"
+    return GapReport(params, stds, residuals, sensitivities(campaign, params), loc, broken, verdict, notes)
