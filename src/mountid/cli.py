@@ -216,7 +216,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
 
         labels = {k: m.frequency for k, m in result.modes.items()}
         first = record.names[0]
-        figures.spectrum_figure(record, first, args.start, [], labels, f"{args.figures}/spectrum.png")
+        figures.spectrum_figure(record, first, args.start, labels, f"{args.figures}/spectrum.png")
         figures.mode_shapes_figure(
             machine, {**_pairs(args.set, "--set"), **result.parameters}, (0.5, 0.5, 0.4), f"{args.figures}/modes.png"
         )

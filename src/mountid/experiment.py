@@ -128,7 +128,8 @@ def label_poles(
     cost = (1.0 - macs) + LABEL_FREQUENCY_WEIGHT * ratio
     rows, cols = scipy.optimize.linear_sum_assignment(cost)
     best: dict[str, tuple[modal.Pole, float, float]] = {}
-    rest = [p for i, p in enumerate(poles) if i not in set(rows)]
+    assigned = set(rows)
+    rest = [p for i, p in enumerate(poles) if i not in assigned]
     for i, j in zip(rows, cols, strict=True):
         label = mod.REPRESENTATIVE[mod.MODES[visible[j]]]
         if label in best and best[label][2] <= cost[i, j]:
@@ -150,10 +151,11 @@ def fit_stiffness(
 
     Starting points: every admissible root of every generated inverse over a subset of the measured
     labels. The fit minimises sum ((omega_model - omega)/std)^2 in log-parameters; the returned standard
-    deviations come from (J^T W J)^-1, scaled by the reduced chi^2 when there are more frequencies than
-    unknowns. When several distinct solutions fit equally well (an exactly determined set with two admissible
-    roots, as the paper's (w1, w4)), the one that best predicts the ``others`` (measured modes left out of
-    the fit) is taken; without others that is an error naming the choices. Returns (parameters, stds)."""
+    deviations come from (J^T W J)^-1, scaled up by the reduced chi^2 when that exceeds 1 (more frequencies
+    than unknowns, scattering more than their stated std). When several distinct solutions fit equally well
+    (an exactly determined set with two admissible roots, as the paper's (w1, w4)), the one that best
+    predicts the ``others`` (measured modes left out of the fit) is taken; without others that is an error
+    naming the choices. Returns (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
@@ -206,7 +208,7 @@ def fit_stiffness(
         best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
     dof = len(labels) - len(unknown)
-    scale = 2 * best.cost / dof if dof > 0 else 1.0
+    scale = max(1.0, 2 * best.cost / dof) if dof > 0 else 1.0  # inflate when the data scatter more than stated
     cov = np.linalg.pinv(jac.T @ jac) * scale
     values = np.exp(best.x)
     params = dict(zip(unknown, map(float, values), strict=True))

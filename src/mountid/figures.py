@@ -48,14 +48,12 @@ def record_figure(record: Record, channel: str, low: float, high: float, path: s
     return _save(fig, path)
 
 
-def spectrum_figure(
-    record: Record, channel: str, start: float, poles: list[modal.Pole], labels: dict[str, float], path: str | Path
-) -> Path:
+def spectrum_figure(record: Record, channel: str, start: float, labels: dict[str, float], path: str | Path) -> Path:
     """Paper Fig. 4 b): Hann-windowed amplitude spectrum of the free decay, the matrix-pencil frequencies
     (lines, labelled) and the raw FFT bin size for comparison."""
     keep = record.time >= start
     omega, amp = modal.spectrum(record.channel(channel)[keep], 1 / record.rate)
-    top = 1.6 * max([p.frequency for p in poles] + list(labels.values()) or [omega[-1] / 4])
+    top = 1.6 * max(list(labels.values()) or [omega[-1] / 4])
     sel = omega <= top
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.semilogy(omega[sel], amp[sel], lw=0.8)
