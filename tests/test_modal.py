@@ -27,13 +27,14 @@ def test_mac_is_scale_and_phase_invariant():
     assert modal.mac(a, np.array([2.0, -1.0, 0.0])) == pytest.approx(0.0, abs=1e-15)
 
 
-def test_quality_checks_name_clipping_double_hits_and_short_records():
+def test_quality_checks_name_clipping_double_hits_short_records_and_an_early_start():
     rig = Rig.of("kid300")
     sensors = [Sensor("a", (0.4, 0.0, 0.1), (1, 0, 0), noise=0.01), Sensor("b", (0.4, 0.0, 0.1), (0, 0, 1), clip=0.05)]
     good = rig.simulate(sensors[:1], 4.0, 2000.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))])
-    assert modal.hammer_test_quality(good, 17.7) == []
+    assert modal.hammer_test_quality(good, 17.7, start=0.07) == []
+    assert [w.kind for w in modal.hammer_test_quality(good, 17.7, start=0.0)] == ["impact_in_segment"]
     bad = rig.simulate(
         sensors, 0.5, 2000.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6), peak=5000.0, second_hit=(0.08, 0.6))]
     )
-    kinds = {(w.kind, w.channel) for w in modal.hammer_test_quality(bad, 17.7)}
+    kinds = {(w.kind, w.channel) for w in modal.hammer_test_quality(bad, 17.7, start=0.07)}
     assert kinds == {("clipping", "b"), ("double_hit", "all"), ("too_short", "all")}

@@ -185,8 +185,12 @@ def refine_poles(samples: NDArray, dt: float, poles: NDArray, max_steps: int = 1
         info, grad = _gauss_newton_terms(samples, dt, p)
         step = np.linalg.lstsq(info, grad, rcond=None)[0]
         candidate = p + step[:k] + 1j * step[k:]
-        if not np.all(np.isfinite(candidate)) or np.any(candidate.real >= 0):
-            break  # keep the last physical estimate
+        if (
+            not np.all(np.isfinite(candidate))
+            or np.any(candidate.real >= 0)
+            or np.any(np.abs(candidate - p) > 0.05 * np.abs(p))
+        ):
+            break  # keep the last physical estimate: a long step means the linearisation does not hold
         p = candidate
         if np.all(np.abs(step[:k] + 1j * step[k:]) <= 1e-9 * np.abs(p)):
             break
@@ -260,6 +264,8 @@ def hammer_test_quality(record: Record, lowest_frequency: float, start: float = 
       acquisition saturated);
     - double_hit: the high-frequency burst of an impact (energy of the first difference, which the slow
       modes barely carry) recurs after the first one, above 20 % of its peak, later than 5 ms;
+    - impact_in_segment: the impact burst lies after ``start``: the analysed "free decay" still holds the
+      forced response (pass a start after the hit);
     - too_short: fewer than 5 periods of ``lowest_frequency`` [rad/s] after ``start`` [s] (the pencil
       needs a few periods of every mode; the paper's 4 s record holds 11 of its 17.71 rad/s).
     """
@@ -272,6 +278,14 @@ def hammer_test_quality(record: Record, lowest_frequency: float, start: float = 
     burst = np.sum(np.diff(record.data, axis=0) ** 2, axis=1)
     smooth = np.convolve(burst, np.ones(5) / 5, mode="same")
     peaks, _ = scipy.signal.find_peaks(smooth, height=0.2 * smooth.max(), distance=max(1, int(0.005 * record.rate)))
+    if len(peaks) and record.time[peaks[0]] >= start - 0.005:
+        out.append(
+            QualityWarning(
+                "impact_in_segment",
+                "all",
+                f"the impact at t = {record.time[peaks[0]]:.3f} s lies in the analysed segment (from {start:g} s)",
+            )
+        )
     if len(peaks) > 1:
         gap = (peaks[1] - peaks[0]) / record.rate
         out.append(QualityWarning("double_hit", "all", f"a second impact {gap * 1e3:.1f} ms after the first"))
