@@ -175,3 +175,20 @@ def test_mode_shapes_in_the_coordinates_match_the_model():
         span = phi[:, [i for i, lab in enumerate(mod.MODES) if mod.REPRESENTATIVE[lab] == label]]
         projected = span @ np.linalg.lstsq(span, np.array(m.shape), rcond=None)[0]
         assert modal.mac(projected, np.array(m.shape)) > 0.99, label
+
+
+def test_damping_and_stiffness_std_describe_the_scatter_over_seeds():
+    """The propagated standard deviations of c_xy, c_z, b_xy, b_z must match their scatter over records with
+    different noise (RMS of error/std in [0.3, 3] over 6 seeds; an order-of-magnitude error fails)."""
+    rig = Rig.of("kid300")
+    z = {n: [] for n in ("c_xy", "c_z", "b_xy", "b_z")}
+    for seed in range(6):
+        record = rig.simulate(SENSORS, 4.0, 2000.0, hammers=[HIT], seed=200 + seed)
+        r = identify_from_record(rig.machine, record, TABLE_1, start=0.06)
+        for n in ("c_xy", "c_z"):
+            z[n].append((r.parameters[n] - rig.values[n]) / r.parameter_std[n])
+        for n in ("b_xy", "b_z"):
+            z[n].append((r.damping[n] - rig.values[n]) / r.damping_std[n])
+    for n, values in z.items():
+        rms = float(np.sqrt(np.mean(np.square(values))))
+        assert 0.3 < rms < 3.0, (n, rms, values)

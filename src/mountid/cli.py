@@ -200,6 +200,7 @@ def _identification_json(machine: Machine, result) -> dict:
         "parameters": result.parameters,
         "parameter_std": result.parameter_std,
         "damping": result.damping,
+        "damping_std": result.damping_std,
         "frequencies": result.frequencies,
     }
 
@@ -234,7 +235,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
-        print(f"  {name} = {value:.6g} {machine.parameters[name]['unit']}")
+        print(f"  {name} = {value:.6g} +- {result.damping_std[name]:.2g} {machine.parameters[name]['unit']}")
 
 
 def cmd_process(args: argparse.Namespace) -> None:

@@ -49,6 +49,7 @@ class Identification:
     parameters: dict[str, float]
     parameter_std: dict[str, float]
     damping: dict[str, float] = field(default_factory=dict)
+    damping_std: dict[str, float] = field(default_factory=dict)
     frequencies: dict[str, float] = field(default_factory=dict)
     """Every mode's natural frequency [rad/s] with the identified parameters."""
     unlabelled: list[modal.Pole] = field(default_factory=list)
@@ -141,11 +142,31 @@ def label_poles(
     return {k: (p, m) for k, (p, m, _) in best.items()}, sorted(rest, key=lambda p: p.frequency)
 
 
+def damped_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
+    """|p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a free decay shows), in mode order: the
+    state-space poles, each mode taking the pole nearest its undamped frequency (damping is light)."""
+    mod = machine.module
+    args = mod.ARGUMENTS
+    m = mod.mass_matrix(*(values[a] for a in args["mass_matrix"]))
+    c = mod.stiffness_matrix(*(values[a] for a in args["stiffness_matrix"]))
+    b = mod.damping_matrix(*(values[a] for a in args["damping_matrix"]))
+    n = m.shape[0]
+    minv = np.linalg.inv(m)
+    poles = np.linalg.eigvals(np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ c, -minv @ b]]))
+    magnitude = np.sort(np.abs(poles[poles.imag > 0]))
+    undamped = mod.frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
+    order = np.argsort(undamped)
+    out = np.empty(len(undamped))
+    out[order] = magnitude if len(magnitude) == len(undamped) else undamped[order]
+    return out
+
+
 def fit_stiffness(
     machine: Machine,
     known: dict[str, float],
     measured: dict[str, tuple[float, float]],
     others: dict[str, tuple[float, float]] | None = None,
+    damping: dict[str, float] | None = None,
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
 
@@ -155,7 +176,9 @@ def fit_stiffness(
     than unknowns, scattering more than their stated std). When several distinct solutions fit equally well
     (an exactly determined set with two admissible roots, as the paper's (w1, w4)), the one that best
     predicts the ``others`` (measured modes left out of the fit) is taken; without others that is an error
-    naming the choices. Returns (parameters, stds)."""
+    naming the choices. With ``damping`` (values of the damping parameters) the model frequencies are the
+    damped |p| (damped_frequencies), which a free decay measures; without, the undamped ones. Returns
+    (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
@@ -166,9 +189,13 @@ def fit_stiffness(
     omega = np.array([measured[lab][0] for lab in labels])
     std = np.array([max(measured[lab][1], 1e-6 * measured[lab][0]) for lab in labels])
 
+    def model(p: dict[str, float]) -> np.ndarray:
+        if damping is None:
+            return mod.frequencies(**knowns, **p)
+        return damped_frequencies(machine, machine.values({**known, **damping, **p}, tuple(machine.parameters)))
+
     def residual(logp):
-        p = dict(zip(unknown, np.exp(logp), strict=True))
-        return (mod.frequencies(**knowns, **p)[idx] - omega) / std
+        return (model(dict(zip(unknown, np.exp(logp), strict=True)))[idx] - omega) / std
 
     starts = []
     for key in itertools.combinations(labels, len(unknown)):
@@ -199,11 +226,7 @@ def fit_stiffness(
         o_w = np.array([w for w, _ in others.values()])
 
         def miss(f):
-            return float(
-                np.sum(
-                    np.log(mod.frequencies(**knowns, **dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2
-                )
-            )
+            return float(np.sum(np.log(model(dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2))
 
         best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
@@ -218,16 +241,18 @@ def fit_stiffness(
 
 def fit_damping(
     machine: Machine, parameters: dict[str, float], modes: dict[str, MeasuredMode], names: tuple[str, ...]
-) -> dict[str, float]:
+) -> tuple[dict[str, float], dict[str, float]]:
     """Damping parameters ``names`` from measured damping ratios: 2 zeta_k omega_k = phi_k^T B phi_k, B
-    linear in the damping parameters (first order in damping, mass-normalised undamped shapes)."""
+    linear in the damping parameters (first order in damping, mass-normalised undamped shapes), by
+    weighted linear least squares (weights from the damping ratios' std). Returns (values, std), the std
+    from the weighted normal equations, scaled up by the reduced chi^2 where it exceeds 1."""
     mod = machine.module
     args = machine.values(parameters, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)
     lam = mod.squared_frequencies(**args)
     b_args = mod.ARGUMENTS["damping_matrix"]
     fixed = machine.values(parameters, tuple(a for a in b_args if a not in names))
-    rows, rhs = [], []
+    rows, rhs, sigma = [], [], []
     for label, mode in modes.items():
         k = mod.MODES.index(label)
         row = []
@@ -236,10 +261,17 @@ def fit_damping(
             row.append(phi[:, k] @ mod.damping_matrix(*(unit[a] for a in b_args)) @ phi[:, k])
         rows.append(row)
         rhs.append(2 * mode.damping_ratio * math.sqrt(lam[k]))
+        sigma.append(2 * max(mode.damping_std, 1e-6 * mode.damping_ratio) * math.sqrt(lam[k]))
     if len(rows) < len(names):
         raise InputError("damping", f"{len(rows)} damping ratios for {len(names)} damping parameters")
-    sol = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
-    return dict(zip(names, map(float, sol), strict=True))
+    w = 1.0 / np.array(sigma)
+    design, target = np.array(rows) * w[:, None], np.array(rhs) * w
+    sol = np.linalg.lstsq(design, target, rcond=None)[0]
+    dof = len(rows) - len(names)
+    chi2 = float(np.sum((design @ sol - target) ** 2))
+    cov = np.linalg.pinv(design.T @ design) * (max(1.0, chi2 / dof) if dof > 0 else 1.0)
+    values = dict(zip(names, map(float, sol), strict=True))
+    return values, {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
 
 
 def modal_data(
@@ -303,10 +335,13 @@ def identify_from_record(
             raise InputError("use", f"{', '.join(missing)} not found in the record (found: {', '.join(modes)})")
         chosen = {lab: modes[lab] for lab in use}
     pairs = {k: (m.frequency, m.frequency_std) for k, m in modes.items()}
-    params, stds = fit_stiffness(
-        machine, known, {k: pairs[k] for k in chosen}, {k: v for k, v in pairs.items() if k not in chosen}
-    )
+    fitted, others = {k: pairs[k] for k in chosen}, {k: v for k, v in pairs.items() if k not in chosen}
     damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
-    damping = fit_damping(machine, {**known, **params}, modes, damping_names)
+    # the record shows damped poles: undamped fit first, then damping, then the stiffness refitted to the
+    # damped model's |p| (the shift is second order in damping: one more round changes nothing measurable)
+    params, stds = fit_stiffness(machine, known, fitted, others)
+    damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
+    params, stds = fit_stiffness(machine, known, fitted, others, damping)
+    damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
     freqs = machine.frequencies({**known, **params})
-    return Identification(modes, params, stds, damping, freqs, rest, warnings)
+    return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings)
