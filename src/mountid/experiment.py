@@ -286,7 +286,7 @@ def modal_data(
     top = float(np.max(nominal_omega))
     poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    warnings = modal.hammer_test_quality(record, lowest, start)
+    warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top)
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
         raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
