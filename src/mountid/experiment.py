@@ -23,6 +23,7 @@ from mountid import modal
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.records import Record
+from mountid.rig import matrices, sensor_row, state_matrix
 
 
 @dataclass(frozen=True)
@@ -62,8 +63,7 @@ def channel_rows(machine: Machine, record: Record) -> np.ndarray:
     for c in record.channels:
         if not (np.all(np.isfinite(c.point)) and np.all(np.isfinite(c.direction))):
             raise InputError(c.name, "channel has no point and direction: needed to label modes")
-        d = np.asarray(c.direction) / np.linalg.norm(c.direction)
-        rows.append(d @ machine.module.point_jacobian(*c.point))
+        rows.append(sensor_row(machine.module, c.point, c.direction, c.name))
     return np.array(rows)
 
 
@@ -146,13 +146,7 @@ def damped_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray
     """|p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a free decay shows), in mode order: the
     state-space poles, each mode taking the pole nearest its undamped frequency (damping is light)."""
     mod = machine.module
-    args = mod.ARGUMENTS
-    m = mod.mass_matrix(*(values[a] for a in args["mass_matrix"]))
-    c = mod.stiffness_matrix(*(values[a] for a in args["stiffness_matrix"]))
-    b = mod.damping_matrix(*(values[a] for a in args["damping_matrix"]))
-    n = m.shape[0]
-    minv = np.linalg.inv(m)
-    poles = np.linalg.eigvals(np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ c, -minv @ b]]))
+    poles = np.linalg.eigvals(state_matrix(*matrices(mod, values)))
     magnitude = np.sort(np.abs(poles[poles.imag > 0]))
     undamped = mod.frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
     order = np.argsort(undamped)

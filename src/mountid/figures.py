@@ -13,7 +13,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-import scipy.signal
 
 from mountid import modal
 from mountid.machine import Machine
@@ -29,12 +28,6 @@ def _save(fig, path: str | Path) -> Path:
     return path
 
 
-def band_passed(signal: np.ndarray, rate: float, low: float, high: float) -> np.ndarray:
-    """Zero-phase 4th-order Butterworth band-pass between low and high [rad/s]."""
-    sos = scipy.signal.butter(4, [low / (2 * np.pi), high / (2 * np.pi)], btype="band", fs=rate, output="sos")
-    return scipy.signal.sosfiltfilt(sos, signal)
-
-
 def record_figure(record: Record, channel: str, low: float, high: float, path: str | Path) -> Path:
     """Paper Fig. 4 a): one channel as recorded and band-passed to [low, high] rad/s."""
     y = record.channel(channel)
@@ -42,7 +35,7 @@ def record_figure(record: Record, channel: str, low: float, high: float, path: s
     ax[0].plot(record.time, y, lw=0.6)
     ax[0].set_ylabel(f"{channel} [{record.channels[record.names.index(channel)].unit}]")
     ax[0].set_title("record")
-    ax[1].plot(record.time, band_passed(y, record.rate, low, high), lw=0.6, color="C1")
+    ax[1].plot(record.time, modal.band_pass(y, 1 / record.rate, low, high), lw=0.6, color="C1")
     ax[1].set_title(f"band-passed {low:g}-{high:g} rad/s")
     ax[1].set_xlabel("t [s]")
     return _save(fig, path)
@@ -70,11 +63,12 @@ def spectrum_figure(record: Record, channel: str, start: float, labels: dict[str
 def decay_figure(
     record: Record, channel: str, start: float, omega: float, path: str | Path
 ) -> tuple[Path, float, float]:
-    """Paper Fig. 5: one mode band-passed, its peaks and the fitted A0 exp(-n t) (Eq. 25).
+    """Paper Fig. 5: one mode band-passed as the fit does it, and the fitted A0 exp(-n t) (Eq. 25).
     Returns (path, A0, n)."""
     keep = record.time >= start
     t = record.time[keep] - record.time[keep][0]
-    y = band_passed(record.channel(channel)[keep], record.rate, 0.8 * omega, 1.2 * omega)
+    bw = modal.DECAY_BANDWIDTH
+    y = modal.band_pass(record.channel(channel)[keep], 1 / record.rate, (1 - bw) * omega, (1 + bw) * omega)
     a0, n = modal.decay_envelope(record.channel(channel)[keep], 1 / record.rate, omega)
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(t, y, lw=0.6, label=f"band-passed at {omega:.2f} rad/s")

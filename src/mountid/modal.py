@@ -205,14 +205,26 @@ def mac(a: NDArray, b: NDArray) -> float:
     return float(np.abs(np.vdot(a, b)) ** 2 / norm) if norm > 0 else 0.0
 
 
-def decay_envelope(signal: NDArray, dt: float, frequency: float, bandwidth: float = 0.2) -> tuple[float, float]:
+def band_pass(signal: NDArray, dt: float, low: float, high: float, order: int = 2) -> NDArray[np.float64]:
+    """Zero-phase Butterworth band-pass of ``signal`` (sampled at step dt [s]) between low and high [rad/s]."""
+    band = [low / (2 * np.pi), high / (2 * np.pi)]
+    sos = scipy.signal.butter(order, band, btype="band", fs=1.0 / dt, output="sos")
+    return scipy.signal.sosfiltfilt(sos, signal, axis=0)
+
+
+DECAY_BANDWIDTH = 0.2
+"""Relative half-width of the band-pass around the mode in the decay-envelope fit."""
+
+
+def decay_envelope(
+    signal: NDArray, dt: float, frequency: float, bandwidth: float = DECAY_BANDWIDTH
+) -> tuple[float, float]:
     """The paper's damping method (Eq. 25): band-pass one mode (``frequency`` [rad/s], relative
     ``bandwidth``), take the positive peaks of the decay and fit A0 exp(-n t) to them by least squares
     on log(amplitude). Returns (A0 [signal unit], n [1/s]); the damping ratio is n / frequency."""
     fs = 1.0 / dt
     f = frequency / (2 * np.pi)
-    sos = scipy.signal.butter(2, [f * (1 - bandwidth), f * (1 + bandwidth)], btype="band", fs=fs, output="sos")
-    y = scipy.signal.sosfiltfilt(sos, signal)
+    y = band_pass(signal, dt, frequency * (1 - bandwidth), frequency * (1 + bandwidth))
     peaks, _ = scipy.signal.find_peaks(y, distance=max(1, int(0.7 * fs / f)))
     # the zero-phase filter rings in and out at both ends for a few of its time constants 1/(bandwidth w)
     edge = int(3 * fs / (bandwidth * frequency)) + int(2 * fs / f)

@@ -37,6 +37,26 @@ def _unit(direction: Sequence[float], name: str) -> NDArray[np.float64]:
     return d / norm
 
 
+def matrices(module: types.ModuleType, values: dict[str, float]) -> tuple[NDArray, NDArray, NDArray]:
+    """M, C, B of a generated module at parameter ``values`` (every argument of the three functions)."""
+    args = module.ARGUMENTS
+    return tuple(
+        getattr(module, f)(*(values[a] for a in args[f])) for f in ("mass_matrix", "stiffness_matrix", "damping_matrix")
+    )
+
+
+def state_matrix(mass: NDArray, stiffness: NDArray, damping: NDArray) -> NDArray[np.float64]:
+    """First-order form x' = A x of M q'' + B q' + C q = 0 with x = [q; q']."""
+    n = mass.shape[0]
+    minv = np.linalg.inv(mass)
+    return np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ stiffness, -minv @ damping]])
+
+
+def sensor_row(module: types.ModuleType, point: Sequence[float], direction: Sequence[float], name: str) -> NDArray:
+    """d^T du/dq: what a sensor at ``point`` [m] along ``direction`` reads per unit of each coordinate."""
+    return _unit(direction, f"{name}.direction") @ module.point_jacobian(*np.asarray(point, float))
+
+
 @dataclass(frozen=True)
 class Sensor:
     """An accelerometer channel: body point [m] (from the coordinate origin), measuring direction, and
@@ -110,17 +130,12 @@ class Rig:
         mod: types.ModuleType = self.machine.module
         args = mod.ARGUMENTS
         names = sorted({a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in args[f]})
-        values = self.machine.values(self.parameters, tuple(names))
-        self.values = values
-        self.M = mod.mass_matrix(*(values[a] for a in args["mass_matrix"]))
-        self.C = mod.stiffness_matrix(*(values[a] for a in args["stiffness_matrix"]))
-        self.B = mod.damping_matrix(*(values[a] for a in args["damping_matrix"]))
-        n = self.M.shape[0]
-        minv = np.linalg.inv(self.M)
-        self.A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ self.C, -minv @ self.B]])
+        self.values = self.machine.values(self.parameters, tuple(names))
+        self.M, self.C, self.B = matrices(mod, self.values)
+        self.A = state_matrix(self.M, self.C, self.B)
         self.poles, self.V = scipy.linalg.eig(self.A)
         self.V_inv = np.linalg.inv(self.V)
-        self._minv = minv
+        self._minv = np.linalg.inv(self.M)
 
     @classmethod
     def of(cls, machine: str | Machine, parameters: dict[str, float] | None = None) -> Rig:
@@ -129,7 +144,7 @@ class Rig:
     # -- kinematics ---------------------------------------------------------------------------------
     def sensor_row(self, point: Sequence[float], direction: Sequence[float], name: str = "sensor") -> NDArray:
         """d^T du/dq: what a sensor at ``point`` along ``direction`` reads per unit of each coordinate."""
-        return _unit(direction, f"{name}.direction") @ self.machine.module.point_jacobian(*np.asarray(point, float))
+        return sensor_row(self.machine.module, point, direction, name)
 
     def force_column(self, point: Sequence[float], direction: Sequence[float], name: str = "force") -> NDArray:
         """(du/dq)^T d: the generalised force [N, N m] of a unit force at ``point`` along ``direction``."""

@@ -1,9 +1,10 @@
-"""Numerics shared by the generated modules: numpy only, no machine-specific formulas.
+"""Numerics shared by the generated modules (numpy; numexpr for large batches), no machine-specific formulas.
 
 Everything that depends on a machine (matrix entries, characteristic-polynomial coefficients, back-
 substitutions) is generated from sympy; this module holds the generic numerical steps applied to them:
-stable polynomial roots, generalised symmetric eigen-solves of small blocks, mode-shape normalisation and
-the admissibility filter of inverse roots. All functions broadcast over leading batch dimensions.
+fused evaluation of generated expressions, stable polynomial roots, generalised symmetric eigen-solves of
+small blocks, mode-shape normalisation, the Newton polish and the admissibility filter of inverse roots.
+All functions broadcast over leading batch dimensions.
 """
 
 from __future__ import annotations

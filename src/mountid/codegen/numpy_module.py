@@ -161,7 +161,7 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
         twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
         variables = ", ".join(f"{a!r}: {a}" for a in map(str, args))
         body = [_shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))", f"_v = {{{variables}}}"]
-        rows: dict[str, int] = {}
+        rows: dict[tuple[int, int], int] = {}  # (block, rank) -> row of _out holding that root
         for k, b in enumerate(blocks):
             coords = ", ".join(b.coordinates)
             if twin[k] != k:
