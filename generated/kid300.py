@@ -57,6 +57,15 @@ ARGUMENTS = {
     "identify_z_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_psi"),
     "identify_z_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_phi"),
     "identify_psi_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_psi", "omega_phi"),
+    "effect_com_offset": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
+    "effect_cog_height": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dz_com"),
+    "effect_rotational_stiffness": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
+    "effect_foundation": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
+    "effect_added_mass": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
+    "effect_drive_belt": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
+    "effect_gravity_preload": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "h_preload"),
+    "isolator_stiffness": ("L_xy", "L_z", "c_xy", "c_z"),
+    "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
 """Argument names of every generated function, by function name."""
 
@@ -431,6 +440,456 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
 
 
+def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
+    """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [x, phi] = -dy_com*m
+          [y, y] = m
+          [y, phi] = dx_com*m
+          [z, z] = m
+          [z, psi] = dy_com*m
+          [z, theta] = -dx_com*m
+          [psi, psi] = J_xy + m*dy_com**2
+          [psi, theta] = -dx_com*dy_com*m
+          [theta, theta] = J_xy + m*dx_com**2
+          [phi, phi] = J_z + m*dx_com**2 + m*dy_com**2
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [phi, phi] = 4*c_xy*L_xy**2
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
+    _tmp0 = dy_com*m
+    _tmp1 = dx_com*m
+    _tmp2 = dy_com**2*m
+    _tmp3 = dx_com**2*m
+    _tmp4 = 4*c_xy
+    _tmp5 = L_z*_tmp4
+    _tmp6 = L_xy**2
+    _tmp7 = 2*L_z**2
+    _tmp8 = 2*_tmp6*c_z + 2*_tmp7*c_xy
+    _tmp9 = 4*b_xy
+    _tmp10 = L_z*_tmp9
+    _tmp11 = 2*_tmp6*b_z + 2*_tmp7*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 5): -_tmp0, (1, 1): m, (1, 5): _tmp1, (2, 2): m, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): J_xy + _tmp2, (3, 4): -_tmp0*dx_com, (4, 4): J_xy + _tmp3, (5, 5): J_z + _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp4, (0, 4): -_tmp5, (1, 1): _tmp4, (1, 3): _tmp5, (2, 2): 4*c_z, (3, 3): _tmp8, (4, 4): _tmp8, (5, 5): _tmp4*_tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp9, (0, 4): -_tmp10, (1, 1): _tmp9, (1, 3): _tmp10, (2, 2): 4*b_z, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp6*_tmp9}))
+
+
+def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
+    """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [x, theta] = dz_com*m
+          [y, y] = m
+          [y, psi] = -dz_com*m
+          [z, z] = m
+          [psi, psi] = J_xy + m*dz_com**2
+          [theta, theta] = J_xy + m*dz_com**2
+          [phi, phi] = J_z
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [phi, phi] = 4*c_xy*L_xy**2
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
+    _tmp0 = dz_com*m
+    _tmp1 = J_xy + dz_com**2*m
+    _tmp2 = 4*c_xy
+    _tmp3 = L_z*_tmp2
+    _tmp4 = L_xy**2
+    _tmp5 = 2*L_z**2
+    _tmp6 = 2*_tmp4*c_z + 2*_tmp5*c_xy
+    _tmp7 = 4*b_xy
+    _tmp8 = L_z*_tmp7
+    _tmp9 = 2*_tmp4*b_z + 2*_tmp5*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dz_com))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 4): _tmp0, (1, 1): m, (1, 3): -_tmp0, (2, 2): m, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp2, (0, 4): -_tmp3, (1, 1): _tmp2, (1, 3): _tmp3, (2, 2): 4*c_z, (3, 3): _tmp6, (4, 4): _tmp6, (5, 5): _tmp2*_tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp7, (0, 4): -_tmp8, (1, 1): _tmp7, (1, 3): _tmp8, (2, 2): 4*b_z, (3, 3): _tmp9, (4, 4): _tmp9, (5, 5): _tmp4*_tmp7}))
+
+
+def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
+    """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_xy
+          [theta, theta] = J_xy
+          [phi, phi] = J_z
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*(2*k_bend + c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = 2*(2*k_bend + c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [phi, phi] = 4*(k_torsion + c_xy*L_xy**2)
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
+    _tmp0 = 4*c_xy
+    _tmp1 = L_z*_tmp0
+    _tmp2 = L_xy**2
+    _tmp3 = 2*L_z**2
+    _tmp4 = 2*_tmp2*c_z + 2*_tmp3*c_xy + 4*k_bend
+    _tmp5 = 4*b_xy
+    _tmp6 = L_z*_tmp5
+    _tmp7 = 2*_tmp2*b_z + 2*_tmp3*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): _tmp4, (4, 4): _tmp4, (5, 5): 4*_tmp2*c_xy + 4*k_torsion}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp6, (1, 1): _tmp5, (1, 3): _tmp6, (2, 2): 4*b_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp2*_tmp5}))
+
+
+def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+    each of shape (..., 7, 7), coordinates x, y, z, psi, theta, phi, z_found; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_xy
+          [theta, theta] = J_xy
+          [phi, phi] = J_z
+          [z_found, z_found] = m_found
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [z, z_found] = -4*c_z
+          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [phi, phi] = 4*c_xy*L_xy**2
+          [z_found, z_found] = k_found + 4*c_z
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [z, z_found] = -4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+          [z_found, z_found] = 4*b_z
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found)
+    _tmp0 = 4*c_xy
+    _tmp1 = L_z*_tmp0
+    _tmp2 = 4*c_z
+    _tmp3 = L_xy**2
+    _tmp4 = 2*L_z**2
+    _tmp5 = 2*_tmp3*c_z + 2*_tmp4*c_xy
+    _tmp6 = 4*b_xy
+    _tmp7 = L_z*_tmp6
+    _tmp8 = 4*b_z
+    _tmp9 = 2*_tmp3*b_z + 2*_tmp4*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
+    return (_runtime.stack_matrix(_shape, 7, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): _tmp2, (2, 6): -_tmp2, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): _tmp0*_tmp3, (6, 6): _tmp2 + k_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp6, (0, 4): -_tmp7, (1, 1): _tmp6, (1, 3): _tmp7, (2, 2): _tmp8, (2, 6): -_tmp8, (3, 3): _tmp9, (4, 4): _tmp9, (5, 5): _tmp3*_tmp6, (6, 6): _tmp8}))
+
+
+def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
+    """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m_added + m
+          [x, theta] = h_added*m_added
+          [y, y] = m_added + m
+          [y, psi] = -h_added*m_added
+          [z, z] = m_added + m
+          [psi, psi] = J_xy + m_added*h_added**2
+          [theta, theta] = J_xy + m_added*h_added**2
+          [phi, phi] = J_z
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [phi, phi] = 4*c_xy*L_xy**2
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added)
+    _tmp0 = m + m_added
+    _tmp1 = h_added*m_added
+    _tmp2 = J_xy + h_added**2*m_added
+    _tmp3 = 4*c_xy
+    _tmp4 = L_z*_tmp3
+    _tmp5 = L_xy**2
+    _tmp6 = 2*L_z**2
+    _tmp7 = 2*_tmp5*c_z + 2*_tmp6*c_xy
+    _tmp8 = 4*b_xy
+    _tmp9 = L_z*_tmp8
+    _tmp10 = 2*_tmp5*b_z + 2*_tmp6*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): _tmp1, (1, 1): _tmp0, (1, 3): -_tmp1, (2, 2): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp3, (0, 4): -_tmp4, (1, 1): _tmp3, (1, 3): _tmp4, (2, 2): 4*c_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp3*_tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp8, (0, 4): -_tmp9, (1, 1): _tmp8, (1, 3): _tmp9, (2, 2): 4*b_z, (3, 3): _tmp10, (4, 4): _tmp10, (5, 5): _tmp5*_tmp8}))
+
+
+def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
+    """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_xy
+          [theta, theta] = J_xy
+          [phi, phi] = J_z
+        C:
+          [x, x] = k_belt + 4*c_xy
+          [x, theta] = h_belt*k_belt - 4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, theta] = k_belt*h_belt**2 + 2*c_z*L_xy**2 + 4*c_xy*L_z**2
+          [phi, phi] = 4*c_xy*L_xy**2
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
+    _tmp0 = 4*c_xy
+    _tmp1 = L_z*_tmp0
+    _tmp2 = L_xy**2
+    _tmp3 = _tmp2*c_z
+    _tmp4 = L_z**2
+    _tmp5 = 2*_tmp4
+    _tmp6 = 4*b_xy
+    _tmp7 = L_z*_tmp6
+    _tmp8 = 2*_tmp2*b_z + 2*_tmp5*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0 + k_belt, (0, 4): -_tmp1 + h_belt*k_belt, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): 2*_tmp3 + 2*_tmp5*c_xy, (4, 4): _tmp0*_tmp4 + 2*_tmp3 + h_belt**2*k_belt, (5, 5): _tmp0*_tmp2}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 4): -_tmp7, (1, 1): _tmp6, (1, 3): _tmp7, (2, 2): 4*b_z, (3, 3): _tmp8, (4, 4): _tmp8, (5, 5): _tmp2*_tmp6}))
+
+
+def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
+    """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_xy
+          [theta, theta] = J_xy
+          [phi, phi] = J_z
+        C:
+          [x, x] = 4*c_xy
+          [x, theta] = -4*L_z*c_xy
+          [y, y] = 4*c_xy
+          [y, psi] = 4*L_z*c_xy
+          [z, z] = 4*c_z
+          [psi, psi] = 2*c_z*L_xy**2 + 4*c_xy*L_z**2 - 196133*h_preload*m/20000
+          [theta, theta] = 2*c_z*L_xy**2 + 4*c_xy*L_z**2 - 196133*h_preload*m/20000
+          [phi, phi] = 4*c_xy*L_xy**2
+        B:
+          [x, x] = 4*b_xy
+          [x, theta] = -4*L_z*b_xy
+          [y, y] = 4*b_xy
+          [y, psi] = 4*L_z*b_xy
+          [z, z] = 4*b_z
+          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [phi, phi] = 4*b_xy*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
+    _tmp0 = 4*c_xy
+    _tmp1 = L_z*_tmp0
+    _tmp2 = L_xy**2
+    _tmp3 = L_z**2
+    _tmp4 = _tmp0*_tmp3 + 2*_tmp2*c_z - 9.80665*h_preload*m
+    _tmp5 = 4*b_xy
+    _tmp6 = L_z*_tmp5
+    _tmp7 = 2*_tmp2*b_z + 4*_tmp3*b_xy
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): _tmp4, (4, 4): _tmp4, (5, 5): _tmp0*_tmp2}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp6, (1, 1): _tmp5, (1, 3): _tmp6, (2, 2): 4*b_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp2*_tmp5}))
+
+
+def isolator_stiffness(L_xy, L_z, c_xy, c_z):
+    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6), isolators in the order of
+    ISOLATORS; their sum is stiffness_matrix().
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = -L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+        corner[-x+y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = -L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = -L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+        corner[+x-y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+        corner[-x-y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = -L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+    """
+    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    _tmp0 = L_z*c_xy
+    _tmp1 = -_tmp0
+    _tmp2 = numpy.sqrt(2)*L_xy
+    _tmp3 = (0.5)*_tmp2
+    _tmp4 = _tmp3*c_xy
+    _tmp5 = -_tmp4
+    _tmp6 = (0.5)*c_z
+    _tmp7 = _tmp2*_tmp6
+    _tmp8 = -_tmp7
+    _tmp9 = L_xy**2
+    _tmp10 = _tmp6*_tmp9
+    _tmp11 = L_z**2*c_xy + _tmp10
+    _tmp12 = -_tmp10
+    _tmp13 = _tmp0*_tmp3
+    _tmp14 = _tmp9*c_xy
+    _tmp15 = -_tmp13
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14})], axis=-3)
+
+
+def effect_scales(m, L_xy, L_z, c_xy, c_z):
+    """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
+
+        length = sqrt(L_xy**2 + L_z**2)
+        mass = m
+        stiffness = c_z/3 + 2*c_xy/3
+        vertical = 4*c_z
+        horizontal = 4*c_xy
+        rotational = (L_xy**2 + L_z**2)*(c_z/3 + 2*c_xy/3)
+        one = 1
+    """
+    m, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, L_xy, L_z, c_xy, c_z)
+    _tmp0 = L_xy**2 + L_z**2
+    _tmp1 = (0.6666666666666666)*c_xy + (0.3333333333333333)*c_z
+    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp1, "vertical": 4*c_z, "horizontal": 4*c_xy, "rotational": _tmp0*_tmp1, "one": 1}
+
+
 def frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     """Natural frequencies omega [rad/s], shape (..., 6), modes x, y, z, psi, theta, phi."""
     return numpy.sqrt(squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z))
@@ -477,3 +936,15 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
+ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]")
+"""Every isolator after mirroring: group name and the signs of its mirror image (order of isolator_stiffness())."""
+EFFECT_COORDINATES = {
+    "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
+    "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
+    "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
+    "foundation": ("x", "y", "z", "psi", "theta", "phi", "z_found"),
+    "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
+    "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
+    "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
+}
+"""Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""

@@ -74,6 +74,15 @@ ARGUMENTS = {
     "identify_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_psi", "omega_phi"),
     "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_theta", "omega_phi"),
     "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_psi", "omega_theta", "omega_phi"),
+    "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
+    "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
+    "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
+    "effect_foundation": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_found", "k_found"),
+    "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "h_added"),
+    "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
+    "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
+    "isolator_stiffness": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
 """Argument names of every generated function, by function name."""
 
@@ -1544,6 +1553,674 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
 
 
+def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
+    """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [x, phi] = -dy_com*m
+          [y, y] = m
+          [y, phi] = dx_com*m
+          [z, z] = m
+          [z, psi] = dy_com*m
+          [z, theta] = -dx_com*m
+          [psi, psi] = J_x + m*dy_com**2
+          [psi, theta] = -dx_com*dy_com*m
+          [theta, theta] = J_y + m*dx_com**2
+          [phi, phi] = J_z + m*dx_com**2 + m*dy_com**2
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
+    _tmp0 = dy_com*m
+    _tmp1 = dx_com*m
+    _tmp2 = dy_com**2*m
+    _tmp3 = dx_com**2*m
+    _tmp4 = numpy.cos(alpha)
+    _tmp5 = _tmp4**2
+    _tmp6 = 2*c_h
+    _tmp7 = numpy.sin(alpha)
+    _tmp8 = _tmp7**2
+    _tmp9 = 2*c_v
+    _tmp10 = _tmp8*_tmp9
+    _tmp11 = c_h*h
+    _tmp12 = 2*_tmp5
+    _tmp13 = _tmp4*_tmp7*a
+    _tmp14 = _tmp6*_tmp8
+    _tmp15 = _tmp5*_tmp9
+    _tmp16 = b**2
+    _tmp17 = h**2
+    _tmp18 = _tmp17*c_h
+    _tmp19 = _tmp16*c_h
+    _tmp20 = 2*_tmp8
+    _tmp21 = 4*_tmp13
+    _tmp22 = _tmp21*h
+    _tmp23 = a**2
+    _tmp24 = 2*b_h
+    _tmp25 = 2*b_v
+    _tmp26 = _tmp25*_tmp8
+    _tmp27 = b_h*h
+    _tmp28 = _tmp24*_tmp8
+    _tmp29 = _tmp25*_tmp5
+    _tmp30 = _tmp17*b_h
+    _tmp31 = _tmp16*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dx_com), numpy.shape(dy_com))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 5): -_tmp0, (1, 1): m, (1, 5): _tmp1, (2, 2): m, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): J_x + _tmp2, (3, 4): -_tmp0*dx_com, (4, 4): J_y + _tmp3, (5, 5): J_z + _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp10 + 2*_tmp5*_tmp6 + 2*c_h, (0, 4): -2*_tmp10*h - 2*_tmp11*_tmp12 - 2*_tmp11 - 2*_tmp13*_tmp9 + 4*_tmp4*_tmp7*a*c_h, (1, 1): 6*c_h, (1, 3): 6*_tmp11, (2, 2): 2*_tmp14 + 2*_tmp15 + 2*c_m, (3, 3): 2*_tmp15*_tmp16 + 2*_tmp16*c_m + 6*_tmp18 + 2*_tmp19*_tmp20, (4, 4): 2*_tmp10*_tmp17 - 2*_tmp11*_tmp21 + 2*_tmp12*_tmp18 + 2*_tmp14*_tmp23 + 2*_tmp15*_tmp23 + 2*_tmp18 + 2*_tmp22*c_v, (5, 5): 2*_tmp10*_tmp16 + 2*_tmp12*_tmp19 + 2*_tmp19 + 2*_tmp23*_tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp24*_tmp5 + 2*_tmp26 + 2*b_h, (0, 4): -2*_tmp12*_tmp27 - 2*_tmp13*_tmp25 - 2*_tmp26*h - 2*_tmp27 + 4*_tmp4*_tmp7*a*b_h, (1, 1): 6*b_h, (1, 3): 6*_tmp27, (2, 2): 2*_tmp28 + 2*_tmp29 + 2*b_m, (3, 3): 2*_tmp16*_tmp29 + 2*_tmp16*b_m + 2*_tmp20*_tmp31 + 6*_tmp30, (4, 4): 2*_tmp12*_tmp30 + 2*_tmp17*_tmp26 - 2*_tmp21*_tmp27 + 2*_tmp22*b_v + 2*_tmp23*_tmp28 + 2*_tmp23*_tmp29 + 2*_tmp30, (5, 5): 2*_tmp12*_tmp31 + 2*_tmp16*_tmp26 + 2*_tmp23*_tmp24 + 2*_tmp31}))
+
+
+def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
+    """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [x, theta] = dz_com*m
+          [y, y] = m
+          [y, psi] = -dz_com*m
+          [z, z] = m
+          [psi, psi] = J_x + m*dz_com**2
+          [theta, theta] = J_y + m*dz_com**2
+          [phi, phi] = J_z
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
+    _tmp0 = dz_com*m
+    _tmp1 = dz_com**2*m
+    _tmp2 = numpy.cos(alpha)
+    _tmp3 = _tmp2**2
+    _tmp4 = 2*c_h
+    _tmp5 = numpy.sin(alpha)
+    _tmp6 = _tmp5**2
+    _tmp7 = 2*c_v
+    _tmp8 = _tmp6*_tmp7
+    _tmp9 = c_h*h
+    _tmp10 = 2*_tmp3
+    _tmp11 = _tmp2*_tmp5*a
+    _tmp12 = _tmp4*_tmp6
+    _tmp13 = _tmp3*_tmp7
+    _tmp14 = b**2
+    _tmp15 = h**2
+    _tmp16 = _tmp15*c_h
+    _tmp17 = _tmp14*c_h
+    _tmp18 = 2*_tmp6
+    _tmp19 = 4*_tmp11
+    _tmp20 = _tmp19*h
+    _tmp21 = a**2
+    _tmp22 = 2*b_h
+    _tmp23 = 2*b_v
+    _tmp24 = _tmp23*_tmp6
+    _tmp25 = b_h*h
+    _tmp26 = _tmp22*_tmp6
+    _tmp27 = _tmp23*_tmp3
+    _tmp28 = _tmp15*b_h
+    _tmp29 = _tmp14*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 4): _tmp0, (1, 1): m, (1, 3): -_tmp0, (2, 2): m, (3, 3): J_x + _tmp1, (4, 4): J_y + _tmp1, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp3*_tmp4 + 2*_tmp8 + 2*c_h, (0, 4): -2*_tmp10*_tmp9 - 2*_tmp11*_tmp7 + 4*_tmp2*_tmp5*a*c_h - 2*_tmp8*h - 2*_tmp9, (1, 1): 6*c_h, (1, 3): 6*_tmp9, (2, 2): 2*_tmp12 + 2*_tmp13 + 2*c_m, (3, 3): 2*_tmp13*_tmp14 + 2*_tmp14*c_m + 6*_tmp16 + 2*_tmp17*_tmp18, (4, 4): 2*_tmp10*_tmp16 + 2*_tmp12*_tmp21 + 2*_tmp13*_tmp21 + 2*_tmp15*_tmp8 + 2*_tmp16 - 2*_tmp19*_tmp9 + 2*_tmp20*c_v, (5, 5): 2*_tmp10*_tmp17 + 2*_tmp14*_tmp8 + 2*_tmp17 + 2*_tmp21*_tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp22*_tmp3 + 2*_tmp24 + 2*b_h, (0, 4): -2*_tmp10*_tmp25 - 2*_tmp11*_tmp23 + 4*_tmp2*_tmp5*a*b_h - 2*_tmp24*h - 2*_tmp25, (1, 1): 6*b_h, (1, 3): 6*_tmp25, (2, 2): 2*_tmp26 + 2*_tmp27 + 2*b_m, (3, 3): 2*_tmp14*_tmp27 + 2*_tmp14*b_m + 2*_tmp18*_tmp29 + 6*_tmp28, (4, 4): 2*_tmp10*_tmp28 + 2*_tmp15*_tmp24 - 2*_tmp19*_tmp25 + 2*_tmp20*b_v + 2*_tmp21*_tmp26 + 2*_tmp21*_tmp27 + 2*_tmp28, (5, 5): 2*_tmp10*_tmp29 + 2*_tmp14*_tmp24 + 2*_tmp21*_tmp22 + 2*_tmp29}))
+
+
+def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
+    """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_x
+          [theta, theta] = J_y
+          [phi, phi] = J_z
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(3*k_bend + c_m*b**2 - 2*k_bend*sin(alpha)**2 + 2*k_torsion*sin(alpha)**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(3*k_bend + c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(k_torsion + 2*k_bend + c_h*b**2 - 2*k_bend*cos(alpha)**2 + 2*k_torsion*cos(alpha)**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = 2*c_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = 2*c_v
+    _tmp6 = _tmp4*_tmp5
+    _tmp7 = c_h*h
+    _tmp8 = 2*_tmp1
+    _tmp9 = _tmp0*_tmp3*a
+    _tmp10 = _tmp2*_tmp4
+    _tmp11 = _tmp1*_tmp5
+    _tmp12 = 3*k_bend
+    _tmp13 = b**2
+    _tmp14 = h**2
+    _tmp15 = _tmp14*c_h
+    _tmp16 = 2*k_bend
+    _tmp17 = 2*k_torsion
+    _tmp18 = _tmp13*c_h
+    _tmp19 = 2*_tmp4
+    _tmp20 = 4*_tmp9
+    _tmp21 = _tmp20*h
+    _tmp22 = a**2
+    _tmp23 = 2*b_h
+    _tmp24 = 2*b_v
+    _tmp25 = _tmp24*_tmp4
+    _tmp26 = b_h*h
+    _tmp27 = _tmp23*_tmp4
+    _tmp28 = _tmp1*_tmp24
+    _tmp29 = _tmp14*b_h
+    _tmp30 = _tmp13*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*c_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*c_m, (3, 3): 2*_tmp11*_tmp13 + 2*_tmp12 + 2*_tmp13*c_m + 6*_tmp15 - 2*_tmp16*_tmp4 + 2*_tmp17*_tmp4 + 2*_tmp18*_tmp19, (4, 4): 2*_tmp10*_tmp22 + 2*_tmp11*_tmp22 + 2*_tmp12 + 2*_tmp14*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 - 2*_tmp20*_tmp7 + 2*_tmp21*c_v, (5, 5): -2*_tmp1*_tmp16 + 2*_tmp1*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp16 + 2*_tmp18*_tmp8 + 2*_tmp18 + 2*_tmp2*_tmp22 + 2*k_torsion}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp23 + 2*_tmp25 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp24*_tmp9 - 2*_tmp25*h - 2*_tmp26*_tmp8 - 2*_tmp26, (1, 1): 6*b_h, (1, 3): 6*_tmp26, (2, 2): 2*_tmp27 + 2*_tmp28 + 2*b_m, (3, 3): 2*_tmp13*_tmp28 + 2*_tmp13*b_m + 2*_tmp19*_tmp30 + 6*_tmp29, (4, 4): 2*_tmp14*_tmp25 - 2*_tmp20*_tmp26 + 2*_tmp21*b_v + 2*_tmp22*_tmp27 + 2*_tmp22*_tmp28 + 2*_tmp29*_tmp8 + 2*_tmp29, (5, 5): 2*_tmp13*_tmp25 + 2*_tmp22*_tmp23 + 2*_tmp30*_tmp8 + 2*_tmp30}))
+
+
+def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+    each of shape (..., 7, 7), coordinates x, y, z, psi, theta, phi, z_found; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_x
+          [theta, theta] = J_y
+          [phi, phi] = J_z
+          [z_found, z_found] = m_found
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [z, z_found] = -2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+          [z_found, z_found] = k_found + 2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [z, z_found] = -2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [z_found, z_found] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = 2*c_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = 2*c_v
+    _tmp6 = _tmp4*_tmp5
+    _tmp7 = c_h*h
+    _tmp8 = 2*_tmp1
+    _tmp9 = _tmp0*_tmp3*a
+    _tmp10 = _tmp2*_tmp4
+    _tmp11 = _tmp1*_tmp5
+    _tmp12 = 2*_tmp10 + 2*_tmp11 + 2*c_m
+    _tmp13 = b**2
+    _tmp14 = h**2
+    _tmp15 = _tmp14*c_h
+    _tmp16 = _tmp13*c_h
+    _tmp17 = 2*_tmp4
+    _tmp18 = 4*_tmp9
+    _tmp19 = 4*c_v
+    _tmp20 = a**2
+    _tmp21 = 2*b_h
+    _tmp22 = 2*b_v
+    _tmp23 = _tmp22*_tmp4
+    _tmp24 = b_h*h
+    _tmp25 = _tmp21*_tmp4
+    _tmp26 = _tmp1*_tmp22
+    _tmp27 = 2*_tmp25 + 2*_tmp26 + 2*b_m
+    _tmp28 = _tmp14*b_h
+    _tmp29 = _tmp13*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_found), numpy.shape(k_found))
+    return (_runtime.stack_matrix(_shape, 7, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*c_h, (1, 3): 6*_tmp7, (2, 2): _tmp12, (2, 6): -_tmp12, (3, 3): 2*_tmp11*_tmp13 + 2*_tmp13*c_m + 6*_tmp15 + 2*_tmp16*_tmp17, (4, 4): 2*_tmp10*_tmp20 + 2*_tmp11*_tmp20 + 2*_tmp14*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 - 2*_tmp18*_tmp7 + 2*_tmp19*_tmp9*h, (5, 5): 2*_tmp13*_tmp6 + 2*_tmp16*_tmp8 + 2*_tmp16 + 2*_tmp2*_tmp20, (6, 6): _tmp1*_tmp19 + 4*_tmp4*c_h + 2*c_m + k_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): 2*_tmp1*_tmp21 + 2*_tmp23 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp22*_tmp9 - 2*_tmp23*h - 2*_tmp24*_tmp8 - 2*_tmp24, (1, 1): 6*b_h, (1, 3): 6*_tmp24, (2, 2): _tmp27, (2, 6): -_tmp27, (3, 3): 2*_tmp13*_tmp26 + 2*_tmp13*b_m + 2*_tmp17*_tmp29 + 6*_tmp28, (4, 4): 2*_tmp14*_tmp23 - 2*_tmp18*_tmp24 + 2*_tmp18*b_v*h + 2*_tmp20*_tmp25 + 2*_tmp20*_tmp26 + 2*_tmp28*_tmp8 + 2*_tmp28, (5, 5): 2*_tmp13*_tmp23 + 2*_tmp20*_tmp21 + 2*_tmp29*_tmp8 + 2*_tmp29, (6, 6): _tmp27}))
+
+
+def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
+    """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m_added + m
+          [x, theta] = h_added*m_added
+          [y, y] = m_added + m
+          [y, psi] = -h_added*m_added
+          [z, z] = m_added + m
+          [psi, psi] = J_x + m_added*h_added**2
+          [theta, theta] = J_y + m_added*h_added**2
+          [phi, phi] = J_z
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added)
+    _tmp0 = m + m_added
+    _tmp1 = h_added*m_added
+    _tmp2 = h_added**2*m_added
+    _tmp3 = numpy.cos(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = 2*c_h
+    _tmp6 = numpy.sin(alpha)
+    _tmp7 = _tmp6**2
+    _tmp8 = 2*c_v
+    _tmp9 = _tmp7*_tmp8
+    _tmp10 = c_h*h
+    _tmp11 = 2*_tmp4
+    _tmp12 = _tmp3*_tmp6*a
+    _tmp13 = _tmp5*_tmp7
+    _tmp14 = _tmp4*_tmp8
+    _tmp15 = b**2
+    _tmp16 = h**2
+    _tmp17 = _tmp16*c_h
+    _tmp18 = _tmp15*c_h
+    _tmp19 = 2*_tmp7
+    _tmp20 = 4*_tmp12
+    _tmp21 = _tmp20*h
+    _tmp22 = a**2
+    _tmp23 = 2*b_h
+    _tmp24 = 2*b_v
+    _tmp25 = _tmp24*_tmp7
+    _tmp26 = b_h*h
+    _tmp27 = _tmp23*_tmp7
+    _tmp28 = _tmp24*_tmp4
+    _tmp29 = _tmp16*b_h
+    _tmp30 = _tmp15*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_added), numpy.shape(h_added))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): _tmp1, (1, 1): _tmp0, (1, 3): -_tmp1, (2, 2): _tmp0, (3, 3): J_x + _tmp2, (4, 4): J_y + _tmp2, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp4*_tmp5 + 2*_tmp9 + 2*c_h, (0, 4): -2*_tmp10*_tmp11 - 2*_tmp10 - 2*_tmp12*_tmp8 + 4*_tmp3*_tmp6*a*c_h - 2*_tmp9*h, (1, 1): 6*c_h, (1, 3): 6*_tmp10, (2, 2): 2*_tmp13 + 2*_tmp14 + 2*c_m, (3, 3): 2*_tmp14*_tmp15 + 2*_tmp15*c_m + 6*_tmp17 + 2*_tmp18*_tmp19, (4, 4): -2*_tmp10*_tmp20 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp22 + 2*_tmp14*_tmp22 + 2*_tmp16*_tmp9 + 2*_tmp17 + 2*_tmp21*c_v, (5, 5): 2*_tmp11*_tmp18 + 2*_tmp15*_tmp9 + 2*_tmp18 + 2*_tmp22*_tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp23*_tmp4 + 2*_tmp25 + 2*b_h, (0, 4): -2*_tmp11*_tmp26 - 2*_tmp12*_tmp24 - 2*_tmp25*h - 2*_tmp26 + 4*_tmp3*_tmp6*a*b_h, (1, 1): 6*b_h, (1, 3): 6*_tmp26, (2, 2): 2*_tmp27 + 2*_tmp28 + 2*b_m, (3, 3): 2*_tmp15*_tmp28 + 2*_tmp15*b_m + 2*_tmp19*_tmp30 + 6*_tmp29, (4, 4): 2*_tmp11*_tmp29 + 2*_tmp16*_tmp25 - 2*_tmp20*_tmp26 + 2*_tmp21*b_v + 2*_tmp22*_tmp27 + 2*_tmp22*_tmp28 + 2*_tmp29, (5, 5): 2*_tmp11*_tmp30 + 2*_tmp15*_tmp25 + 2*_tmp22*_tmp23 + 2*_tmp30}))
+
+
+def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
+    """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_x
+          [theta, theta] = J_y
+          [phi, phi] = J_z
+        C:
+          [x, x] = k_belt + 2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2
+          [x, theta] = h_belt*k_belt - 2*c_h*h - 4*c_h*h*cos(alpha)**2 - 4*c_v*h*sin(alpha)**2 - 4*a*c_v*cos(alpha)*sin(alpha) + 4*a*c_h*cos(alpha)*sin(alpha)
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [theta, theta] = k_belt*h_belt**2 + 2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
+    _tmp0 = 2*c_h
+    _tmp1 = numpy.cos(alpha)
+    _tmp2 = _tmp1**2
+    _tmp3 = 4*c_h
+    _tmp4 = _tmp2*_tmp3
+    _tmp5 = numpy.sin(alpha)
+    _tmp6 = _tmp5**2
+    _tmp7 = 4*c_v
+    _tmp8 = _tmp6*_tmp7
+    _tmp9 = _tmp1*_tmp5*a
+    _tmp10 = 6*c_h
+    _tmp11 = _tmp0*_tmp6
+    _tmp12 = 2*_tmp2
+    _tmp13 = _tmp12*c_v
+    _tmp14 = b**2
+    _tmp15 = h**2
+    _tmp16 = 8*_tmp9*h
+    _tmp17 = a**2
+    _tmp18 = 2*_tmp6
+    _tmp19 = _tmp18*b_v
+    _tmp20 = b_h*h
+    _tmp21 = _tmp9*b_v
+    _tmp22 = _tmp18*b_h
+    _tmp23 = _tmp12*b_v
+    _tmp24 = _tmp15*b_h
+    _tmp25 = _tmp14*b_h
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_belt), numpy.shape(h_belt))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0 + _tmp4 + _tmp8 + k_belt, (0, 4): -_tmp0*h + 4*_tmp1*_tmp5*a*c_h - _tmp4*h - _tmp7*_tmp9 - _tmp8*h + h_belt*k_belt, (1, 1): _tmp10, (1, 3): _tmp10*h, (2, 2): 2*_tmp11 + 2*_tmp13 + 2*c_m, (3, 3): 2*_tmp11*_tmp14 + 2*_tmp13*_tmp14 + 2*_tmp14*c_m + 6*_tmp15*c_h, (4, 4): _tmp0*_tmp15 + _tmp15*_tmp4 + _tmp15*_tmp8 - _tmp16*c_h + _tmp16*c_v + _tmp17*_tmp2*_tmp7 + _tmp17*_tmp3*_tmp6 + h_belt**2*k_belt, (5, 5): 2*_tmp0*_tmp14*_tmp2 + 2*_tmp0*_tmp17 + 2*_tmp14*_tmp18*c_v + 2*_tmp14*c_h}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp12*b_h + 2*_tmp19 + 2*b_h, (0, 4): 4*_tmp1*_tmp5*a*b_h - 2*_tmp12*_tmp20 - 2*_tmp19*h - 2*_tmp20 - 4*_tmp21, (1, 1): 6*b_h, (1, 3): 6*_tmp20, (2, 2): 2*_tmp22 + 2*_tmp23 + 2*b_m, (3, 3): 2*_tmp14*_tmp23 + 2*_tmp14*b_m + 2*_tmp18*_tmp25 + 6*_tmp24, (4, 4): 2*_tmp12*_tmp24 + 2*_tmp15*_tmp19 + 2*_tmp17*_tmp22 + 2*_tmp17*_tmp23 - 8*_tmp20*_tmp9 + 8*_tmp21*h + 2*_tmp24, (5, 5): 2*_tmp12*_tmp25 + 2*_tmp14*_tmp19 + 4*_tmp17*b_h + 2*_tmp25}))
+
+
+def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
+    """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+
+    Non-zero upper-triangle entries:
+
+        M:
+          [x, x] = m
+          [y, y] = m
+          [z, z] = m
+          [psi, psi] = J_x
+          [theta, theta] = J_y
+          [phi, phi] = J_z
+        C:
+          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*c_h
+          [y, psi] = 6*c_h*h
+          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+          [psi, psi] = 2*c_m*b**2 + 6*c_h*h**2 - 196133*h_preload*m/20000 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2
+          [theta, theta] = 2*c_h*h**2 - 196133*h_preload*m/20000 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+        B:
+          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [y, y] = 6*b_h
+          [y, psi] = 6*b_h*h
+          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = 2*c_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = 2*c_v
+    _tmp6 = _tmp4*_tmp5
+    _tmp7 = c_h*h
+    _tmp8 = 2*_tmp1
+    _tmp9 = _tmp0*_tmp3*a
+    _tmp10 = 6*c_h
+    _tmp11 = -9.80665*h_preload*m
+    _tmp12 = b**2
+    _tmp13 = 2*_tmp12
+    _tmp14 = h**2
+    _tmp15 = _tmp12*c_h
+    _tmp16 = 4*_tmp4
+    _tmp17 = 4*_tmp1
+    _tmp18 = _tmp17*c_v
+    _tmp19 = 8*_tmp9
+    _tmp20 = a**2
+    _tmp21 = 2*b_h
+    _tmp22 = 2*b_v
+    _tmp23 = _tmp22*_tmp4
+    _tmp24 = b_h*h
+    _tmp25 = _tmp21*_tmp4
+    _tmp26 = _tmp1*_tmp22
+    _tmp27 = _tmp14*b_h
+    _tmp28 = _tmp12*b_h
+    _tmp29 = _tmp13*b_v
+    _tmp30 = 4*_tmp9
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
+    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): _tmp10, (1, 3): 6*_tmp7, (2, 2): 2*_tmp1*_tmp5 + 2*_tmp2*_tmp4 + 2*c_m, (3, 3): _tmp10*_tmp14 + _tmp11 + _tmp12*_tmp18 + _tmp13*c_m + _tmp15*_tmp16, (4, 4): _tmp11 + _tmp14*_tmp16*c_v + _tmp14*_tmp17*c_h + _tmp14*_tmp2 + _tmp16*_tmp20*c_h + _tmp18*_tmp20 - _tmp19*_tmp7 + _tmp19*c_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp2*_tmp20}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp21 + 2*_tmp23 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp22*_tmp9 - 2*_tmp23*h - 2*_tmp24*_tmp8 - 2*_tmp24, (1, 1): 6*b_h, (1, 3): 6*_tmp24, (2, 2): 2*_tmp25 + 2*_tmp26 + 2*b_m, (3, 3): 2*_tmp1*_tmp29 + 2*_tmp12*b_m + 6*_tmp27 + 4*_tmp28*_tmp4, (4, 4): 2*_tmp14*_tmp23 + 2*_tmp20*_tmp25 + 2*_tmp20*_tmp26 - 2*_tmp24*_tmp30 + 2*_tmp27*_tmp8 + 2*_tmp27 + 2*_tmp30*b_v*h, (5, 5): 2*_tmp20*_tmp21 + 2*_tmp28*_tmp8 + 2*_tmp28 + 2*_tmp29*_tmp4}))
+
+
+def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
+    """Stiffness matrix of each isolator alone, shape (..., 6, 6, 6), isolators in the order of
+    ISOLATORS; their sum is stiffness_matrix().
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[-x+y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = -a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[+x-y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[-x-y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = -a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        middle[+x+y]:
+          [x, x] = c_h
+          [x, theta] = -c_h*h
+          [x, phi] = -b*c_h
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [z, z] = c_m
+          [z, psi] = b*c_m
+          [psi, psi] = c_h*h**2 + c_m*b**2
+          [theta, theta] = c_h*h**2
+          [theta, phi] = b*c_h*h
+          [phi, phi] = c_h*b**2
+        middle[+x-y]:
+          [x, x] = c_h
+          [x, theta] = -c_h*h
+          [x, phi] = b*c_h
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [z, z] = c_m
+          [z, psi] = -b*c_m
+          [psi, psi] = c_h*h**2 + c_m*b**2
+          [theta, theta] = c_h*h**2
+          [theta, phi] = -b*c_h*h
+          [phi, phi] = c_h*b**2
+    """
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1*c_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = _tmp4*c_v
+    _tmp6 = _tmp2 + _tmp5
+    _tmp7 = c_h - c_v
+    _tmp8 = _tmp0*_tmp3
+    _tmp9 = -_tmp7*_tmp8
+    _tmp10 = _tmp9*b
+    _tmp11 = _tmp8*c_v
+    _tmp12 = _tmp11*a
+    _tmp13 = -_tmp0*_tmp3*a*c_h + _tmp12 + _tmp2*h + _tmp5*h
+    _tmp14 = -_tmp13
+    _tmp15 = _tmp6*b
+    _tmp16 = -_tmp15
+    _tmp17 = c_h*h
+    _tmp18 = a*c_h
+    _tmp19 = _tmp4*c_h
+    _tmp20 = _tmp1*c_v
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = _tmp21*b
+    _tmp23 = -_tmp0*_tmp3*c_h*h + _tmp11*h + _tmp18*_tmp4 + _tmp20*a
+    _tmp24 = -_tmp23
+    _tmp25 = _tmp7*_tmp8
+    _tmp26 = _tmp25*b
+    _tmp27 = h**2
+    _tmp28 = _tmp27*c_h
+    _tmp29 = b**2
+    _tmp30 = _tmp19*_tmp29 + _tmp20*_tmp29 + _tmp28
+    _tmp31 = _tmp24*b
+    _tmp32 = _tmp17*a
+    _tmp33 = _tmp29*c_h
+    _tmp34 = -_tmp11*_tmp29 + _tmp32 + _tmp33*_tmp8
+    _tmp35 = a**2
+    _tmp36 = 2*_tmp12*h + _tmp19*_tmp35 + _tmp2*_tmp27 + _tmp20*_tmp35 + _tmp27*_tmp5 - 2*_tmp32*_tmp8
+    _tmp37 = _tmp13*b
+    _tmp38 = _tmp2*_tmp29 + _tmp29*_tmp5 + _tmp35*c_h
+    _tmp39 = -_tmp18
+    _tmp40 = _tmp23*b
+    _tmp41 = -_tmp34
+    _tmp42 = -_tmp22
+    _tmp43 = _tmp14*b
+    _tmp44 = -_tmp17
+    _tmp45 = b*c_h
+    _tmp46 = b*c_m
+    _tmp47 = _tmp28 + _tmp29*c_m
+    _tmp48 = _tmp17*b
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp24, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp23, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp24, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp23, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): -_tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): _tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): _tmp48, (5, 5): _tmp33}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): _tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): -_tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): -_tmp48, (5, 5): _tmp33})], axis=-3)
+
+
+def effect_scales(m, a, b, h, alpha, c_h, c_v, c_m):
+    """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
+
+        length = sqrt(b**2 + h**2 + 2*a**2/3)
+        mass = m
+        stiffness = c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9
+        vertical = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+        horizontal = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+        rotational = (b**2 + h**2 + 2*a**2/3)*(c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9)
+        one = 1
+    """
+    m, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = (0.6666666666666666)*a**2 + b**2 + h**2
+    _tmp1 = numpy.sin(alpha)**2
+    _tmp2 = (0.2222222222222222)*c_h
+    _tmp3 = numpy.cos(alpha)**2
+    _tmp4 = (0.2222222222222222)*c_v
+    _tmp5 = _tmp1*_tmp2 + _tmp1*_tmp4 + _tmp2*_tmp3 + _tmp3*_tmp4 + (0.4444444444444444)*c_h + (0.1111111111111111)*c_m
+    _tmp6 = 2*c_h
+    _tmp7 = 2*c_v
+    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp5, "vertical": 2*_tmp1*_tmp6 + 2*_tmp3*_tmp7 + 2*c_m, "horizontal": 2*_tmp1*_tmp7 + 2*_tmp3*_tmp6 + 2*c_h, "rotational": _tmp0*_tmp5, "one": 1}
+
+
 def frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     """Natural frequencies omega [rad/s], shape (..., 6), modes x, y, z, psi, theta, phi."""
     return numpy.sqrt(squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m))
@@ -1616,3 +2293,15 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
+ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]", "middle[+x+y]", "middle[+x-y]")
+"""Every isolator after mirroring: group name and the signs of its mirror image (order of isolator_stiffness())."""
+EFFECT_COORDINATES = {
+    "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
+    "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
+    "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
+    "foundation": ("x", "y", "z", "psi", "theta", "phi", "z_found"),
+    "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
+    "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
+    "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
+}
+"""Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""

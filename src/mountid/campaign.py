@@ -38,6 +38,9 @@ class MeasuredData:
     uncertainty: float | None = None
     damping_ratio: float | None = None
     shape: tuple[float, ...] | None = None
+    shape_uncertainty: float | None = None
+    """Standard deviation per component of the shape scaled to unit length (rotations times the machine's
+    length scale; see mountid.candidates)."""
 
 
 @dataclass
@@ -84,7 +87,10 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             entry.get("uncertainty"),
             entry.get("damping_ratio"),
             tuple(map(float, entry["shape"])) if "shape" in entry else None,
+            entry.get("shape_uncertainty"),
         )
+        if modes[label].shape is not None and not any(modes[label].shape):
+            raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import tomllib
 
+from mountid.effects import EFFECT_PARAMETERS
 from mountid.errors import DescriptionError
 
 COORDINATES: tuple[str, ...] = ("x", "y", "z", "psi", "theta", "phi")
@@ -130,6 +131,8 @@ def _parameter(name: str, spec: object) -> Parameter:
     entry = f"parameters.{name}"
     if not name.isidentifier() or name in COORDINATES:
         raise _fail(entry, "a parameter name must be an identifier and not a coordinate name")
+    if name in EFFECT_PARAMETERS:
+        raise _fail(entry, "is reserved for a parameter of a candidate effect (mountid.effects)")
     if not isinstance(spec, dict):
         raise _fail(entry, "expected a table {kind = ..., role = ..., value = ...}")
     extra = set(spec) - {"kind", "role", "value", "description"}

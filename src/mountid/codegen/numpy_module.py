@@ -16,6 +16,8 @@ import sympy as sp
 from mountid.codegen.printing import code, describe, eliminate, fused
 from mountid.description import COORDINATES, Description
 from mountid.symbolic.blocks import ModalStructure
+from mountid.effects import EFFECTS
+from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
 from mountid.symbolic.inverse import InverseDerivation, InverseSet
 from mountid.symbolic.model import SymbolicModel
 
@@ -59,6 +61,82 @@ def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: s
     fn.body.append(_shape_line(args))
     fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
     return fn
+
+
+def _matrices_function(
+    name: str, matrices: dict[str, sp.Matrix], coordinates: tuple[str, ...], args: tuple[str, ...], doc: str
+) -> Function:
+    """A function returning several symmetric matrices (one cse over all of them) as a tuple."""
+    n = len(coordinates)
+    entries = [(k, i, j, mat[i, j]) for k, mat in enumerate(matrices.values()) for i in range(n) for j in range(i, n)]
+    entries = [e for e in entries if e[3] != 0]
+    cse = eliminate([e[3] for e in entries])
+    lines = []
+    for k, label in enumerate(matrices):
+        lines.append(f"        {label}:")
+        lines += [
+            f"          [{coordinates[i]}, {coordinates[j]}] = {describe(e)}" for kk, i, j, e in entries if kk == k
+        ]
+    fn = Function(name, args, doc + "\n    Non-zero upper-triangle entries:\n\n" + "\n".join(lines) + "\n")
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.body.append(_shape_line(args))
+    outs = []
+    for k in range(len(matrices)):
+        pairs = ", ".join(
+            f"({i}, {j}): {out}" for (kk, i, j, _), out in zip(entries, cse.outputs, strict=True) if kk == k
+        )
+        outs.append(f"_runtime.stack_matrix(_shape, {n}, {{{pairs}}})")
+    fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
+    return fn
+
+
+def _effect_functions(model: SymbolicModel) -> tuple[list[Function], dict[str, tuple[str, ...]], tuple[str, ...]]:
+    """Extended matrices of every generated effect, the isolators' own stiffness matrices, the scales.
+
+    Returns the functions, the coordinates of each effect's extended model, and the isolator names.
+    """
+    functions = []
+    coords = {}
+    for name in GENERATED_EFFECTS:
+        ext = ExtendedModel(model, EFFECTS[name])
+        coords[name] = ext.coordinates
+        doc = (
+            f"M, C, B of the model extended by the candidate effect {name} ({EFFECTS[name].title}),\n"
+            f"    each of shape (..., {len(ext.coordinates)}, {len(ext.coordinates)}), coordinates "
+            f"{', '.join(ext.coordinates)}; derived from the extended energies (mountid.symbolic.effects).\n"
+        )
+        functions.append(
+            _matrices_function(
+                f"effect_{name}", {"M": ext.M, "C": ext.C, "B": ext.B}, ext.coordinates, ext.arguments(), doc
+            )
+        )
+    per = isolator_stiffness(model)
+    names = tuple(iso.name for iso in model.isolators)
+    args = model.parameters_of(*per)
+    fn = _matrices_function(
+        "isolator_stiffness",
+        dict(zip(names, per, strict=True)),
+        COORDINATES,
+        args,
+        f"Stiffness matrix of each isolator alone, shape (..., {len(per)}, 6, 6), isolators in the order of\n"
+        "    ISOLATORS; their sum is stiffness_matrix().\n",
+    )
+    fn.returns = f"numpy.stack([{fn.returns[1:-1]}], axis=-3)" if len(per) > 1 else f"{fn.returns}[..., None, :, :]"
+    functions.append(fn)
+    sc = scales(model)
+    args = model.parameters_of(*sc.values())
+    cse = eliminate(list(sc.values()))
+    fn = Function(
+        "effect_scales",
+        args,
+        "Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:\n\n"
+        + "\n".join(f"        {k} = {describe(v)}" for k, v in sc.items())
+        + "\n",
+    )
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.returns = "{" + ", ".join(f'"{k}": {out}' for k, out in zip(sc, cse.outputs, strict=True)) + "}"
+    functions.append(fn)
+    return functions, coords, names
 
 
 def _point_function(model: SymbolicModel) -> Function:
@@ -300,6 +378,8 @@ def module_context(
     inverses = [f for s in inverse_sets if s.identifiable for f in _inverse_function(s, structure, model, fwd_args)]
     if inverses:
         functions += [_model_function(model, fwd_args), *inverses]
+    effect_functions, effect_coordinates, isolator_names = _effect_functions(model)
+    functions += effect_functions
     params = {
         n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
         for n, p in description.parameters.items()
@@ -321,6 +401,8 @@ def module_context(
         "inverses": [(s.labels, f"identify_{s.name}", s.n_roots) for s in inverse_sets if s.identifiable],
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
+        "effect_coordinates": effect_coordinates,
+        "isolators": isolator_names,
         "code": code,
     }
 

@@ -34,6 +34,24 @@ class Isolator:
     position: sp.Matrix
     stiffness: sp.Matrix
     damping: sp.Matrix
+    axis: sp.Matrix
+    """Unit vector of the isolator's own axis (local z) in global axes (sign irrelevant)."""
+    mirror: tuple[int, int, int] = (1, 1, 1)
+    """Signs of the reflection that made this isolator from its group's representative."""
+
+    @property
+    def name(self) -> str:
+        """Group name and the signs of the mirror image, e.g. ``corner[+x-y]``."""
+        signs = "".join(("+" if s > 0 else "-") + a for s, a in zip(self.mirror, "xy", strict=False))
+        return f"{self.group}[{signs}]"
+
+
+def rigid_body_kinetic_energy(mass: sp.Expr, inertia: sp.Matrix, centre: sp.Matrix, qdot: sp.Matrix) -> sp.Expr:
+    """T = 1/2 m |t' + w' x r_c|^2 + 1/2 w'^T J_c w' of a rigid body with centre of mass at ``centre`` [m] and
+    inertia tensor ``inertia`` about it, moving with the body coordinates' velocities ``qdot``."""
+    t_dot, w_dot = qdot[:3, 0], qdot[3:, 0]
+    v_c = t_dot + w_dot.cross(centre)
+    return sp.expand((mass * v_c.dot(v_c) + (w_dot.T * inertia * w_dot)[0]) / 2)
 
 
 def _reflection(planes: tuple[str, ...]) -> sp.Matrix:
@@ -112,14 +130,20 @@ class SymbolicModel:
         return self._triple(self.description.centre_of_mass, "body.centre_of_mass")
 
     def _group_tensors(self, group: IsolatorGroup) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+        point, k, b, _ = self._group_geometry(group)
+        return point, k, b
+
+    def _group_geometry(self, group: IsolatorGroup) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix, sp.Matrix]:
+        """Point, stiffness and damping tensors in global axes, and the isolator axis (local z)."""
         entry = f"isolators.{group.name}"
         point = self._triple(group.point, f"{entry}.point")
         k_local = sp.diag(*self._triple(group.stiffness, f"{entry}.stiffness"))
         b_local = sp.diag(*self._triple(group.damping, f"{entry}.damping")) if group.damping else sp.zeros(3)
+        axis = sp.Matrix([0, 0, 1])
         if group.inclination:
             rot = _rotation(tuple(self._triple(group.inclination, f"{entry}.inclination")))
-            k_local, b_local = rot * k_local * rot.T, rot * b_local * rot.T
-        return point, k_local, b_local
+            k_local, b_local, axis = rot * k_local * rot.T, rot * b_local * rot.T, rot[:, 2]
+        return point, k_local, b_local, axis
 
     @cached_property
     def isolators(self) -> tuple[Isolator, ...]:
@@ -131,7 +155,7 @@ class SymbolicModel:
         out = []
         planes = self.description.symmetry
         for group in self.description.isolators:
-            point, k, b = self._group_tensors(group)
+            point, k, b, axis = self._group_geometry(group)
             seen: list[sp.Matrix] = []
             for n in range(len(planes) + 1):
                 for subset in itertools.combinations(planes, n):
@@ -140,7 +164,8 @@ class SymbolicModel:
                     if any(sp.simplify(image - p) == sp.zeros(3, 1) for p in seen):
                         continue
                     seen.append(image)
-                    out.append(Isolator(group.name, image, s * k * s, s * b * s))
+                    signs = (int(s[0, 0]), int(s[1, 1]), 1)
+                    out.append(Isolator(group.name, image, s * k * s, s * b * s, s * axis, signs))
         return tuple(out)
 
     # -- symmetry validation -------------------------------------------------------------------------
@@ -175,9 +200,7 @@ class SymbolicModel:
     # -- energies and matrices -------------------------------------------------------------------------
     @cached_property
     def kinetic_energy(self) -> sp.Expr:
-        t_dot, w_dot = self.qdot[:3, 0], self.qdot[3:, 0]
-        v_c = t_dot + w_dot.cross(self.centre_of_mass)
-        return sp.expand((self.mass * v_c.dot(v_c) + (w_dot.T * self.inertia * w_dot)[0]) / 2)
+        return rigid_body_kinetic_energy(self.mass, self.inertia, self.centre_of_mass, self.qdot)
 
     @staticmethod
     def point_motion(vec: sp.Matrix, position: sp.Matrix) -> sp.Matrix:

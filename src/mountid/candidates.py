@@ -1,0 +1,548 @@
+"""Fit the candidate effects of :mod:`mountid.effects` to a campaign and rank them.
+
+Every candidate (and the nominal model, ``"none"``) is fitted together with the machine's unknowns by
+weighted least squares to every measured frequency and mode shape. The data vector, in units of each
+measurement's standard deviation:
+
+- frequencies: (measured - model) / sigma_omega;
+- mode shapes: rotations scaled by the machine's length scale (so that components compare as motion
+  of a point at the isolators), normalised to unit length; the residual is the part of the measured shape
+  outside the model's mode (or the span of a model cluster of equal frequencies, where the model leaves
+  the combination free), divided by the shape's standard deviation per component.
+
+Ranking is by AICc (chi^2 + 2k + 2k(k+1)/(n-k-1)); fitted values outside the plausible range of the
+effect rank after every plausible candidate. Candidates within ``TIE`` of the best AICc are a tie. The
+held-out error of each candidate is its leave-one-mode-out prediction error (linearised for all
+candidates, by refitting for the nominal and the candidates in the tie).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+import scipy.stats
+
+from mountid.campaign import Campaign
+from mountid.effects import CATALOGUE, Effect
+
+DEFAULT_FREQUENCY_STD = 1e-3
+"""Relative standard deviation of a frequency given without uncertainty."""
+DEFAULT_SHAPE_STD = 0.02
+"""Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
+GAP_P_VALUE = 1e-3
+"""The nominal model has a significant gap when its chi^2 exceeds the 1 - GAP_P_VALUE quantile."""
+TIE = 4.0
+"""Candidates within this AICc of the best cannot be told apart by the data."""
+_DEGENERATE = 1e-6
+"""Model modes closer than this in relative frequency form a cluster whose combination is free."""
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Frequencies [rad/s] and scaled unit shapes (6,) or cluster bases (6, c) per mode label."""
+
+    frequencies: np.ndarray
+    shapes: list[np.ndarray]
+
+
+@dataclass
+class CandidateFit:
+    """One fitted candidate: effect (``none`` for the nominal model), fitted values with standard deviations."""
+
+    effect: str
+    variant: str
+    parameters: dict[str, float]
+    std: dict[str, float]
+    chi2: float
+    n_data: int
+    n_parameters: int
+    aicc: float
+    plausible: bool
+    implausible_reason: str
+    residuals: np.ndarray
+    """Weighted residuals per data row (frequencies first, in mode order, then shape components)."""
+    frequency_gap: dict[str, float]
+    """measured - fitted model frequency [rad/s] per measured mode."""
+    held_out_gap: dict[str, float] = field(default_factory=dict)
+    """measured - prediction of the fit without that mode [rad/s] (leave one mode out)."""
+    held_out_exact: bool = False
+    applicable: bool = True
+    note: str = ""
+
+    @property
+    def held_out_rms(self) -> float:
+        """RMS of the held-out frequency errors in units of their standard deviation (set by the ranking)."""
+        return self._held_out_rms
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect,
+            "variant": self.variant,
+            "parameters": self.parameters,
+            "parameter_std": self.std,
+            "chi2": self.chi2,
+            "n_data": self.n_data,
+            "n_parameters": self.n_parameters,
+            "aicc": self.aicc if math.isfinite(self.aicc) else None,
+            "plausible": self.plausible,
+            "implausible_reason": self.implausible_reason,
+            "gap_after": self.frequency_gap,
+            "held_out_gap": self.held_out_gap,
+            "held_out_exact": self.held_out_exact,
+            "applicable": self.applicable,
+            "note": self.note,
+        }
+
+
+class CandidateModel:
+    """The campaign's machine, optionally with one candidate effect, as a function of a flat parameter
+    vector: log of each unknown, then each effect parameter (log for strictly positive ranges, else in
+    units of its scale)."""
+
+    def __init__(self, campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> None:
+        self.campaign = campaign
+        self.effect = effect
+        self.isolator = isolator
+        machine = campaign.machine
+        self.mod = mod = machine.module
+        self.labels = tuple(campaign.modes)
+        self.unknown = machine.unknown
+        everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in machine.unknown))
+        self.known = everything
+        start = machine.values({}, machine.unknown)
+        self.start_unknowns = start
+        nominal = {**everything, **start}
+        self.scales = {
+            k: float(v) for k, v in mod.effect_scales(**_pick(nominal, mod.ARGUMENTS["effect_scales"])).items()
+        }
+        self.length = self.scales["length"]
+        self.effect_parameters = effect.parameters if effect else ()
+        self.log_scaled = tuple(p.plausible[0] > 0 for p in self.effect_parameters)
+        measured = [campaign.modes[lab].frequency for lab in self.labels]
+        self.omega_ref = float(np.exp(np.mean(np.log(measured))))
+        # reference shapes for labelling: the generated (block-pure) modal matrix at the nominal values
+        fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
+        self.reference = _scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
+        self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd))
+
+    # -- parameter vector ---------------------------------------------------------------------------
+    def start(self) -> list[np.ndarray]:
+        """Starting vectors: the effect's start values, and the middle of its plausible range."""
+        base = [math.log(self.start_unknowns[u]) for u in self.unknown]
+        starts = []
+        for which in ("start", "middle"):
+            vec = list(base)
+            for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+                v = p.start if which == "start" else 0.5 * (p.plausible[0] + p.plausible[1])
+                vec.append(math.log(v) if log else v)
+            starts.append(np.array(vec))
+        return starts if self.effect_parameters else starts[:1]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Search box: unknowns free (log), effect parameters within their plausible range widened by its
+        width on each side (log ranges by a factor 10)."""
+        lo = [-np.inf] * len(self.unknown)
+        hi = [np.inf] * len(self.unknown)
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            a, b = p.plausible
+            if log:
+                lo.append(math.log(a / 10))
+                hi.append(math.log(b * 10))
+            else:
+                lo.append(a - (b - a))
+                hi.append(b + (b - a))
+        return np.array(lo), np.array(hi)
+
+    def physical(self, theta: np.ndarray) -> dict[str, float]:
+        """Unknowns [SI] and effect parameters [their units] from the flat vector."""
+        n = len(self.unknown)
+        out = {u: float(np.exp(theta[i])) for i, u in enumerate(self.unknown)}
+        for k, (p, log) in enumerate(zip(self.effect_parameters, self.log_scaled, strict=True)):
+            v = theta[n + k]
+            out[p.name] = float((np.exp(v) if log else v) * self.scales[p.scale])
+        return out
+
+    def jacobian_to_physical(self, theta: np.ndarray) -> np.ndarray:
+        """d(physical)/d(theta), diagonal."""
+        phys = self.physical(theta)
+        d = [phys[u] for u in self.unknown]
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            d.append(phys[p.name] if log else self.scales[p.scale])
+        return np.array(d)
+
+    # -- the model -------------------------------------------------------------------------------------
+    def _matrices(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        mod = self.mod
+        e = self.effect
+        if e is not None and e.how == "generated":
+            fn = getattr(mod, f"effect_{e.name}")
+            m, c, b = fn(**_pick(values, mod.ARGUMENTS[fn.__name__]))
+            return m, c, b
+        m = mod.mass_matrix(**_pick(values, mod.ARGUMENTS["mass_matrix"]))
+        c = mod.stiffness_matrix(**_pick(values, mod.ARGUMENTS["stiffness_matrix"]))
+        if e is not None and e.how == "isolator":
+            per = mod.isolator_stiffness(**_pick(values, mod.ARGUMENTS["isolator_stiffness"]))
+            c = c + values["scatter"] * per[self.isolator]
+        b = mod.damping_matrix(**_pick(values, mod.ARGUMENTS["damping_matrix"])) if e and e.how == "damping" else None
+        return m, c, b
+
+    def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
+        """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
+        values = {**self.known, **self.physical(theta)}
+        m, c, b = self._matrices(values)
+        lam, vec = scipy.linalg.eigh(c, m)
+        body = _scaled_unit(vec[:6, :], self.length)
+        order = label_modes(lam, body, self.reference_lambda, self.reference)
+        omega = np.sqrt(np.abs(lam))
+        e = self.effect
+        if e is not None and e.how == "frequency":
+            alpha = values["alpha_rubber"]
+            # omega^2 = (omega/omega_ref)^alpha lambda  =>  omega = (lambda omega_ref^-alpha)^(1/(2-alpha))
+            omega = np.exp((np.log(np.abs(lam)) - alpha * math.log(self.omega_ref)) / (2 - alpha))
+        elif e is not None and e.how == "damping":
+            omega = _damped_frequencies(m, c, values["damping_scale"] * b, lam)
+        elif e is not None and e.how == "sensor":
+            body = _scaled_unit(
+                sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
+            )
+        labels = labels or self.labels
+        freqs, shapes = [], []
+        for label in labels:
+            j = order[self.mod.MODES.index(label)]
+            freqs.append(omega[j])
+            cluster = np.flatnonzero(np.abs(lam - lam[j]) <= _DEGENERATE * abs(lam[j]))
+            shapes.append(body[:, j] if len(cluster) == 1 else body[:, cluster])
+        return Prediction(np.array(freqs), shapes)
+
+
+def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
+    return {n: values[n] for n in names}
+
+
+def _scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
+    """Rotations times the length scale, each column normalised to unit length."""
+    out = np.array(shapes, dtype=float)
+    out[3:6] *= length
+    return out / np.linalg.norm(out, axis=0)
+
+
+def label_modes(lam: np.ndarray, body: np.ndarray, reference_lambda: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Index of the model mode for each reference mode: one-to-one, by MAC with the reference shapes
+    (scaled unit columns) and, to break ties between modes of equal shape, closeness in frequency."""
+    mac = (reference.T @ body) ** 2
+    distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
+    rows, cols = scipy.optimize.linear_sum_assignment(-mac + 0.05 * distance)
+    out = np.empty(len(reference_lambda), dtype=int)
+    out[rows] = cols
+    return out
+
+
+def _damped_frequencies(m: np.ndarray, c: np.ndarray, b: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """|Im p| of M p^2 + B p + C = 0, in the order of the undamped eigenvalues ``lam``."""
+    n = len(m)
+    minv = np.linalg.inv(m)
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ c, -minv @ b]])
+    poles = np.linalg.eigvals(a)
+    damped = np.sort(np.abs(poles.imag[poles.imag > 0]))
+    if len(damped) < n:  # overdamped modes: no oscillation, keep the undamped value
+        damped = np.concatenate([damped, np.zeros(n - len(damped))])
+    out = np.empty(n)
+    out[np.argsort(lam, kind="stable")] = damped[:n] if len(damped) == n else np.sort(damped)[:n]
+    return out
+
+
+def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:
+    """Shapes as read by a sensor frame turned by ``yaw`` [rad] about z whose reference point is ``dz`` [m]
+    above the origin: translations of that point (the generated point_jacobian) and rotations, both in the
+    turned frame (6 x 6)."""
+    jac = np.asarray(mod.point_jacobian(0.0, 0.0, dz))
+    cz, sz = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # global -> turned frame
+    out = np.zeros((6, 6))
+    out[:3] = rot @ jac
+    out[3:, 3:] = rot
+    return out
+
+
+class Data:
+    """The campaign's measurements as weighted data rows (see the module docstring)."""
+
+    def __init__(self, campaign: Campaign, length: float) -> None:
+        self.labels = tuple(campaign.modes)
+        modes = [campaign.modes[lab] for lab in self.labels]
+        self.omega = np.array([m.frequency for m in modes])
+        self.sigma = np.array([m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency for m in modes])
+        self.shape_labels = tuple(lab for lab, m in zip(self.labels, modes, strict=True) if m.shape is not None)
+        self.shapes = [
+            _scaled_unit(np.array(campaign.modes[lab].shape, dtype=float)[:, None], length)[:, 0]
+            for lab in self.shape_labels
+        ]
+        self.shape_sigma = [campaign.modes[lab].shape_uncertainty or DEFAULT_SHAPE_STD for lab in self.shape_labels]
+        self.n = len(self.labels) + 5 * len(self.shape_labels)
+        """Data count: one per frequency, five per shape (six components less the free scale)."""
+
+    def residuals(self, pred: Prediction) -> np.ndarray:
+        rows = [(self.omega - pred.frequencies) / self.sigma]
+        for lab, s, sig in zip(self.shape_labels, self.shapes, self.shape_sigma, strict=True):
+            basis = pred.shapes[self.labels.index(lab)]
+            basis = basis[:, None] if basis.ndim == 1 else basis
+            q, _ = np.linalg.qr(basis)
+            r = s - q @ (q.T @ s)
+            rows.append(r / sig)
+        return np.concatenate(rows)
+
+    def rows_of(self, label: str) -> np.ndarray:
+        """Row indices of one mode's data (its frequency and, if measured, its shape components)."""
+        idx = [self.labels.index(label)]
+        if label in self.shape_labels:
+            k = self.shape_labels.index(label)
+            first = len(self.labels) + 6 * k
+            idx += list(range(first, first + 6))
+        return np.array(idx)
+
+
+# -- fitting -----------------------------------------------------------------------------------------------
+_FAILED = 1e6
+"""Residual assigned to every row where the model cannot be evaluated (singular matrices)."""
+
+
+def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
+    def fun(theta: np.ndarray) -> np.ndarray:
+        try:
+            r = data.residuals(model.predict(theta))
+        except (np.linalg.LinAlgError, ValueError):
+            r = np.full(len(data.labels) + 6 * len(data.shape_labels), _FAILED)
+        return r if rows is None else r[rows]
+
+    return fun
+
+
+def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None):
+    lo, hi = model.bounds()
+    fun = _residual_function(model, data, rows)
+    best = None
+    for x0 in starts:
+        x0 = np.clip(x0, lo + 1e-9 * (1 + np.abs(lo)), hi - 1e-9 * (1 + np.abs(hi)))
+        res = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=300)
+        if best is None or res.cost < best.cost:
+            best = res
+    return best
+
+
+def _applicable(model: CandidateModel, data: Data) -> str:
+    """Why a candidate cannot act on this campaign ('' when it can)."""
+    e = model.effect
+    if e is None:
+        return ""
+    if e.how == "sensor" and not data.shape_labels:
+        return "no mode shapes measured: a sensor error leaves the frequencies exactly unchanged"
+    if e.how == "damping":
+        _, _, b = model._matrices({**model.known, **model.physical(model.start()[0]), "damping_scale": 1.0})
+        if not np.any(b):
+            return "the description has no damping: nothing to scale"
+    return ""
+
+
+def fit_candidate(campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> CandidateFit:
+    """Fit one candidate (None: the nominal model) with the unknowns to every measured mode."""
+    model = CandidateModel(campaign, effect, isolator)
+    data = Data(campaign, model.length)
+    name = effect.name if effect else "none"
+    variant = campaign.machine.module.ISOLATORS[isolator] if isolator is not None else ""
+    why = _applicable(model, data)
+    k = len(model.start()[0])
+    if why:
+        return CandidateFit(
+            name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", np.zeros(0), {}, applicable=False, note=why
+        )
+    res = _least_squares(model, data, model.start())
+    theta = res.x
+    chi2 = float(2 * res.cost)
+    jac = res.jac
+    dof = data.n - k
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    cov = np.linalg.pinv(jac.T @ jac) * scale
+    d = model.jacobian_to_physical(theta)
+    phys = model.physical(theta)
+    std = {n: float(abs(d[i]) * math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(phys)}
+    reasons = []
+    for p in model.effect_parameters:
+        lo, hi = (v * model.scales[p.scale] for v in p.plausible)
+        v, s = phys[p.name], std[p.name]
+        if not lo - s <= v <= hi + s:
+            reasons.append(f"{p.name} = {v:.3g} {p.unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
+    aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
+    pred = model.predict(theta)
+    gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
+    fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), res.fun, gap)
+    fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
+    fit._model, fit._theta = model, theta  # for exact leave-one-out and separation (not serialised)
+    return fit
+
+
+def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[str, float]:
+    """measured - prediction without the mode [rad/s], to first order: (I - H_gg)^-1 r_g for the mode's rows g
+    of the weighted hat matrix H = J (J^T J)^-1 J^T (nan where the mode alone determines a parameter)."""
+    inv = np.linalg.pinv(jac.T @ jac)
+    out = {}
+    for i, lab in enumerate(data.labels):
+        g = data.rows_of(lab)
+        h = jac[g] @ inv @ jac[g].T
+        a = np.eye(len(g)) - h
+        if np.linalg.cond(a) > 1e10:
+            out[lab] = math.nan
+            continue
+        out[lab] = float(np.linalg.solve(a, r[g])[0] * data.sigma[i])
+    return out
+
+
+def exact_leave_one_out(fit: CandidateFit) -> None:
+    """Refit without each mode in turn (frequency and shape) and store its held-out error [rad/s]."""
+    model, theta = fit._model, fit._theta
+    data = Data(model.campaign, model.length)
+    out = {}
+    for i, lab in enumerate(data.labels):
+        keep = np.setdiff1d(np.arange(len(data.labels) + 6 * len(data.shape_labels)), data.rows_of(lab))
+        if len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1:
+            out[lab] = math.nan
+            continue
+        res = _least_squares(model, data, [theta], rows=keep)
+        out[lab] = float(data.omega[i] - model.predict(res.x).frequencies[i])
+    fit.held_out_gap = out
+    fit.held_out_exact = True
+
+
+def held_out_rms(fit: CandidateFit, campaign: Campaign) -> float:
+    """RMS of the held-out errors in units of each frequency's standard deviation (nan modes skipped)."""
+    z = []
+    for lab, e in fit.held_out_gap.items():
+        m = campaign.modes[lab]
+        if math.isfinite(e):
+            z.append(e / (m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency))
+    return float(np.sqrt(np.mean(np.square(z)))) if z else math.nan
+
+
+@dataclass
+class EffectsReport:
+    """Every candidate fitted and ranked, and what the data say about them."""
+
+    nominal: CandidateFit
+    ranked: list[CandidateFit]
+    p_value: float
+    """Probability of the nominal chi^2 or more if the nominal model were right."""
+    significant: bool
+    tie: list[str]
+    separation: list[str]
+    verdict: str
+    confident: bool
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def best(self) -> CandidateFit | None:
+        return self.ranked[0] if self.ranked and self.ranked[0].applicable else None
+
+
+def fit_all(campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE) -> tuple[CandidateFit, list[CandidateFit]]:
+    """The nominal fit and the best fit of each candidate effect (isolator_scatter: its best isolator; the
+    others within TIE in chi^2 are named in its note, mirror images that frequencies alone cannot tell)."""
+    nominal = fit_candidate(campaign, None)
+    fits = []
+    for effect in effects:
+        if effect.how == "isolator":
+            variants = [fit_candidate(campaign, effect, i) for i in range(len(campaign.machine.module.ISOLATORS))]
+            variants.sort(key=lambda f: f.chi2)
+            best = variants[0]
+            alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + TIE]
+            if alike:
+                best.note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
+            fits.append(best)
+        else:
+            fits.append(fit_candidate(campaign, effect))
+    return nominal, fits
+
+
+def _rank_key(f: CandidateFit) -> tuple:
+    return (not f.applicable, not f.plausible, f.aicc if math.isfinite(f.aicc) else math.inf, f.chi2)
+
+
+def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) -> EffectsReport:
+    """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it."""
+    n, k = nominal.n_data, nominal.n_parameters
+    p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
+    significant = bool(p_value < GAP_P_VALUE)
+    ranked = sorted(fits, key=_rank_key)
+    notes = []
+    if n - k - 2 <= 0:
+        notes.append(
+            f"{n} data for {k} unknowns: too few to fit any candidate effect with a degree of freedom to spare; "
+            "measure more modes (both members of each twin pair) or mode shapes"
+        )
+    best = (
+        ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
+    )
+    tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
+    for f in [nominal] + tie:
+        exact_leave_one_out(f)
+    for f in [nominal] + fits:
+        f._held_out_rms = held_out_rms(f, campaign)
+    separation = [separate(campaign, best, other) for other in tie[1:]] if best else []
+    confident = False
+    if math.isnan(p_value):
+        verdict = "cannot judge: no more data than unknowns"
+    elif not significant:
+        verdict = (
+            f"no significant gap: the nominal model fits every measurement within its uncertainty "
+            f"(chi^2 = {nominal.chi2:.3g} for {n - k} degrees of freedom, p = {p_value:.2g})"
+        )
+    elif best is None:
+        verdict = "significant gap, but no candidate effect can be fitted with plausible values"
+    elif best.aicc > nominal.aicc - TIE:
+        verdict = "significant gap, but no candidate effect explains it better than the nominal model"
+    else:
+        p_after = float(scipy.stats.chi2.sf(best.chi2, best.n_data - best.n_parameters))
+        names = ", ".join(f.effect for f in tie)
+        if p_after < GAP_P_VALUE:
+            verdict = f"significant gap; {best.effect} explains part of it (the rest remains significant)"
+        elif len(tie) > 1:
+            verdict = f"significant gap; explained equally well by {names} (a tie)"
+        else:
+            verdict = f"significant gap, explained by {best.effect}" + (f" at {best.variant}" if best.variant else "")
+            confident = True
+    return EffectsReport(
+        nominal, ranked, p_value, significant, [f.effect for f in tie], separation, verdict, confident, notes
+    )
+
+
+def diagnose_effects(campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE) -> EffectsReport:
+    """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis)."""
+    nominal, fits = fit_all(campaign, effects)
+    return rank(campaign, nominal, fits)
+
+
+def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
+    """The single modal measurement (a frequency or a mode shape of any mode) on which the fitted
+    candidates a and b differ most, in units of the campaign's typical uncertainty."""
+    mod = campaign.machine.module
+    labels = tuple(mod.MODES)
+    pa = a._model.predict(a._theta, labels)
+    pb = b._model.predict(b._theta, labels)
+    measured = list(campaign.modes.values())
+    rel = float(np.median([(m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency) / m.frequency for m in measured]))
+    shape_sigma = float(np.median([m.shape_uncertainty or DEFAULT_SHAPE_STD for m in measured]))
+    best = (0.0, "")
+    for i, lab in enumerate(labels):
+        z = abs(pa.frequencies[i] - pb.frequencies[i]) / (rel * pa.frequencies[i])
+        if z > best[0]:
+            best = (z, f"the frequency of {lab}")
+        sa, sb = pa.shapes[i], pb.shapes[i]
+        if sa.ndim == 1 and sb.ndim == 1:
+            z = math.sqrt(max(0.0, 1 - float(sa @ sb) ** 2)) / shape_sigma
+            if z > best[0]:
+                best = (z, f"the mode shape of {lab}")
+    if best[0] < 1:
+        return f"{a.effect} vs {b.effect}: no single modal measurement separates them by 1 sigma"
+    return f"{a.effect} vs {b.effect}: measure {best[1]} (they differ there by {best[0]:.1f} sigma)"

@@ -1,0 +1,166 @@
+"""The catalogue of candidate unmodelled effects: names, parameters, units and plausible ranges.
+
+This module holds what an effect *is* (no sympy, no numerics). How each one changes the model:
+
+- ``generated``: the effect adds or changes energy terms; :mod:`mountid.symbolic.effects` derives the
+  extended M, C, B from the energies and the engine emits them as ``effect_<name>()`` in every generated
+  machine module.
+- ``isolator``: one isolator's stiffness scaled by (1 + s); the per-isolator stiffness matrices are generated
+  (``isolator_stiffness()``, Hessians of each isolator's potential energy).
+- ``frequency``: rubber stiffness rising with frequency, c(omega) = c (omega/omega_ref)^alpha: every isolator
+  stiffness enters C linearly, so each mode solves omega^2 = (omega/omega_ref)^alpha lambda_k(C, M).
+- ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B).
+- ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in
+  height; the generated ``point_jacobian`` maps the motion to that point.
+
+Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
+the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
+mean isolator stiffness per direction [N/m], ``vertical`` and ``horizontal`` the total translational
+stiffness C[z,z] and C[x,x] [N/m], ``rotational`` stiffness * length^2 [N m/rad], ``one`` 1.
+The documentation of every effect (cause, signature on the modes, typical size) is docs/effects.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+STANDARD_GRAVITY = 9.80665
+"""g [m/s^2] (the gravity_preload potential is derived with this value)."""
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    """One physical parameter of an effect, its unit and plausible range (``plausible`` times ``scale``)."""
+
+    name: str
+    unit: str
+    scale: str
+    plausible: tuple[float, float]
+    start: float
+    """Where the fit starts (a multiple of ``scale``): the effect is nil there, or small."""
+    description: str
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A candidate effect: how it enters the model (see the module docstring) and its parameters."""
+
+    name: str
+    how: str
+    title: str
+    parameters: tuple[EffectParameter, ...]
+    signature: str
+    """One line: what the effect does to the six modes."""
+
+
+def _p(name: str, unit: str, scale: str, lo: float, hi: float, start: float, text: str) -> EffectParameter:
+    return EffectParameter(name, unit, scale, (lo, hi), start, text)
+
+
+CATALOGUE: tuple[Effect, ...] = (
+    Effect(
+        "com_offset",
+        "generated",
+        "horizontal centre-of-mass offset",
+        (
+            _p("dx_com", "m", "length", -0.15, 0.15, 0.0, "centre of mass ahead of the isolator pattern's centre (x)"),
+            _p("dy_com", "m", "length", -0.15, 0.15, 0.0, "centre of mass beside the isolator pattern's centre (y)"),
+        ),
+        "couples z with rocking and the horizontal modes with yaw; frequencies move in second order, "
+        "mode shapes in first order",
+    ),
+    Effect(
+        "cog_height",
+        "generated",
+        "centre-of-mass height error",
+        (_p("dz_com", "m", "length", -0.3, 0.3, 0.0, "centre of mass higher than described"),),
+        "changes the coupling of translation and rocking: the lower (x, y) and upper (psi, theta) coupled "
+        "modes move apart or together; z and phi stay",
+    ),
+    Effect(
+        "isolator_scatter",
+        "isolator",
+        "one isolator stiffer or softer than the others",
+        (_p("scatter", "1", "one", -0.5, 1.0, 0.0, "relative stiffness change of one isolator (all directions)"),),
+        "splits the twin modes (x/y, psi/theta) and couples modes across the symmetry planes; which isolator "
+        "shows only in the mode shapes",
+    ),
+    Effect(
+        "rotational_stiffness",
+        "generated",
+        "isolator bending and torsion stiffness",
+        (
+            _p("k_bend", "N m/rad", "rotational", 0.0, 0.1, 0.0, "bending stiffness of one isolator"),
+            _p("k_torsion", "N m/rad", "rotational", 0.0, 0.1, 0.0, "torsion stiffness of one isolator"),
+        ),
+        "raises the rocking modes (bending) and the yaw mode phi (torsion); z untouched",
+    ),
+    Effect(
+        "frequency_dependent",
+        "frequency",
+        "viscoelastic rubber: stiffness rising with frequency",
+        (_p("alpha_rubber", "1", "one", 0.0, 0.25, 0.0, "exponent of c(omega) = c (omega/omega_ref)^alpha"),),
+        "stretches the spectrum: high modes higher and low modes lower than a constant stiffness allows "
+        "(ratios of frequencies compressed by 1/(1 - alpha/2)); shapes unchanged",
+    ),
+    Effect(
+        "foundation",
+        "generated",
+        "compliant support under the isolators",
+        (
+            _p("m_found", "kg", "mass", 0.05, 10.0, 0.5, "participating mass of the support under the isolators"),
+            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "vertical stiffness of the support"),
+        ),
+        "lowers z (the machine bounces on a second spring) and adds a foundation mode; rocking and "
+        "horizontal modes barely move",
+    ),
+    Effect(
+        "added_mass",
+        "generated",
+        "an unmodelled attached mass (drive, motor)",
+        (
+            _p("m_added", "kg", "mass", 0.0, 0.3, 0.0, "attached mass"),
+            _p("h_added", "m", "length", -2.0, 2.0, 0.0, "its height above the centre of mass, on the vertical axis"),
+        ),
+        "lowers every translational mode by the mass ratio and the rocking modes by m h^2; phi untouched",
+    ),
+    Effect(
+        "drive_belt",
+        "generated",
+        "a belt or coupling stiffness acting along x",
+        (
+            _p("k_belt", "N/m", "horizontal", 0.0, 0.5, 0.0, "stiffness of the belt along x"),
+            _p("h_belt", "m", "length", -2.0, 2.0, 0.0, "height of the belt's line above the centre of mass"),
+        ),
+        "raises the x-theta modes only: the x/y and psi/theta twins split",
+    ),
+    Effect(
+        "gravity_preload",
+        "generated",
+        "rocking geometric stiffness of the preloaded isolators",
+        (_p("h_preload", "m", "length", 0.0, 3.0, 0.0, "depth below the centre of mass where the preload acts"),),
+        "lowers the rocking stiffness by m g h: psi/theta (and x/y through coupling) drop; z and phi stay",
+    ),
+    Effect(
+        "damping",
+        "damping",
+        "measured damped frequencies vs undamped model",
+        (_p("damping_scale", "1", "one", 0.0, 5.0, 0.0, "factor on the described damping matrix B"),),
+        "each mode lower by about zeta^2/2 of its own damping ratio; shapes nearly unchanged",
+    ),
+    Effect(
+        "sensor_error",
+        "sensor",
+        "sensor frame turned or placed off in height",
+        (
+            _p("sensor_yaw", "rad", "one", -0.1, 0.1, 0.0, "yaw of the sensor frame about z"),
+            _p("sensor_dz", "m", "length", -0.5, 0.5, 0.0, "height error of the point the shapes refer to"),
+        ),
+        "mode shapes rotated in x-y and tilted by rocking; frequencies exactly unchanged",
+    ),
+)
+"""Every candidate effect, in the order reports list them."""
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in CATALOGUE}
+EFFECT_PARAMETERS: tuple[str, ...] = tuple(p.name for e in CATALOGUE for p in e.parameters)
+"""Every effect parameter name (reserved: a description may not use them)."""
