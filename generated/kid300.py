@@ -442,155 +442,78 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
 
 def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, phi] = -dy_com*m
-          [y, y] = m
           [y, phi] = dx_com*m
-          [z, z] = m
           [z, psi] = dy_com*m
           [z, theta] = -dx_com*m
-          [psi, psi] = J_xy + m*dy_com**2
+          [psi, psi] = m*dy_com**2
           [psi, theta] = -dx_com*dy_com*m
-          [theta, theta] = J_xy + m*dx_com**2
-          [phi, phi] = J_z + m*dx_com**2 + m*dy_com**2
+          [theta, theta] = m*dx_com**2
+          [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
-          [x, x] = 4*c_xy
-          [x, theta] = -4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [phi, phi] = 4*c_xy*L_xy**2
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
     _tmp0 = dy_com*m
     _tmp1 = dx_com*m
-    _tmp2 = dy_com**2*m
-    _tmp3 = dx_com**2*m
-    _tmp4 = 4*c_xy
-    _tmp5 = L_z*_tmp4
-    _tmp6 = L_xy**2
-    _tmp7 = 2*L_z**2
-    _tmp8 = 2*_tmp6*c_z + 2*_tmp7*c_xy
-    _tmp9 = 4*b_xy
-    _tmp10 = L_z*_tmp9
-    _tmp11 = 2*_tmp6*b_z + 2*_tmp7*b_xy
+    _tmp2 = dy_com**2
+    _tmp3 = dx_com**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 5): -_tmp0, (1, 1): m, (1, 5): _tmp1, (2, 2): m, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): J_xy + _tmp2, (3, 4): -_tmp0*dx_com, (4, 4): J_xy + _tmp3, (5, 5): J_z + _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp4, (0, 4): -_tmp5, (1, 1): _tmp4, (1, 3): _tmp5, (2, 2): 4*c_z, (3, 3): _tmp8, (4, 4): _tmp8, (5, 5): _tmp4*_tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp9, (0, 4): -_tmp10, (1, 1): _tmp9, (1, 3): _tmp10, (2, 2): 4*b_z, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp6*_tmp9}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, theta] = dz_com*m
-          [y, y] = m
           [y, psi] = -dz_com*m
-          [z, z] = m
-          [psi, psi] = J_xy + m*dz_com**2
-          [theta, theta] = J_xy + m*dz_com**2
-          [phi, phi] = J_z
+          [psi, psi] = m*dz_com**2
+          [theta, theta] = m*dz_com**2
         C:
-          [x, x] = 4*c_xy
-          [x, theta] = -4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [phi, phi] = 4*c_xy*L_xy**2
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
     _tmp0 = dz_com*m
-    _tmp1 = J_xy + dz_com**2*m
-    _tmp2 = 4*c_xy
-    _tmp3 = L_z*_tmp2
-    _tmp4 = L_xy**2
-    _tmp5 = 2*L_z**2
-    _tmp6 = 2*_tmp4*c_z + 2*_tmp5*c_xy
-    _tmp7 = 4*b_xy
-    _tmp8 = L_z*_tmp7
-    _tmp9 = 2*_tmp4*b_z + 2*_tmp5*b_xy
+    _tmp1 = dz_com**2*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dz_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 4): _tmp0, (1, 1): m, (1, 3): -_tmp0, (2, 2): m, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp2, (0, 4): -_tmp3, (1, 1): _tmp2, (1, 3): _tmp3, (2, 2): 4*c_z, (3, 3): _tmp6, (4, 4): _tmp6, (5, 5): _tmp2*_tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp7, (0, 4): -_tmp8, (1, 1): _tmp7, (1, 3): _tmp8, (2, 2): 4*b_z, (3, 3): _tmp9, (4, 4): _tmp9, (5, 5): _tmp4*_tmp7}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_xy
-          [theta, theta] = J_xy
-          [phi, phi] = J_z
         C:
-          [x, x] = 4*c_xy
-          [x, theta] = -4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*(2*k_bend + c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [theta, theta] = 2*(2*k_bend + c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [phi, phi] = 4*(k_torsion + c_xy*L_xy**2)
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
+          [psi, psi] = 4*k_bend
+          [theta, theta] = 4*k_bend
+          [phi, phi] = 4*k_torsion
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
-    _tmp0 = 4*c_xy
-    _tmp1 = L_z*_tmp0
-    _tmp2 = L_xy**2
-    _tmp3 = 2*L_z**2
-    _tmp4 = 2*_tmp2*c_z + 2*_tmp3*c_xy + 4*k_bend
-    _tmp5 = 4*b_xy
-    _tmp6 = L_z*_tmp5
-    _tmp7 = 2*_tmp2*b_z + 2*_tmp3*b_xy
+    _tmp0 = 4*k_bend
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): _tmp4, (4, 4): _tmp4, (5, 5): 4*_tmp2*c_xy + 4*k_torsion}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp6, (1, 1): _tmp5, (1, 3): _tmp6, (2, 2): 4*b_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp2*_tmp5}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
-    each of shape (..., 7, 7), coordinates x, y, z, psi, theta, phi, z_found; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
+    extended energies (mountid.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -601,184 +524,152 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [psi, psi] = J_xy
           [theta, theta] = J_xy
           [phi, phi] = J_z
+          [x_found, x_found] = m_found
+          [y_found, y_found] = m_found
           [z_found, z_found] = m_found
+          [psi_found, psi_found] = m_found*(L_xy**2 + L_z**2)
+          [theta_found, theta_found] = m_found*(L_xy**2 + L_z**2)
+          [phi_found, phi_found] = m_found*(L_xy**2 + L_z**2)
         C:
           [x, x] = 4*c_xy
           [x, theta] = -4*L_z*c_xy
+          [x, x_found] = -4*c_xy
           [y, y] = 4*c_xy
           [y, psi] = 4*L_z*c_xy
+          [y, y_found] = -4*c_xy
           [z, z] = 4*c_z
           [z, z_found] = -4*c_z
           [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [psi, y_found] = -4*L_z*c_xy
+          [psi, psi_found] = -2*c_z*L_xy**2
           [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
+          [theta, x_found] = 4*L_z*c_xy
+          [theta, theta_found] = -2*c_z*L_xy**2
           [phi, phi] = 4*c_xy*L_xy**2
+          [phi, phi_found] = -4*c_xy*L_xy**2
+          [x_found, x_found] = k_found + 4*c_xy
+          [y_found, y_found] = k_found + 4*c_xy
           [z_found, z_found] = k_found + 4*c_z
+          [psi_found, psi_found] = k_found*L_xy**2 + k_found*L_z**2 + 2*c_z*L_xy**2
+          [theta_found, theta_found] = k_found*L_xy**2 + k_found*L_z**2 + 2*c_z*L_xy**2
+          [phi_found, phi_found] = k_found*L_xy**2 + k_found*L_z**2 + 4*c_xy*L_xy**2
         B:
           [x, x] = 4*b_xy
           [x, theta] = -4*L_z*b_xy
+          [x, x_found] = -4*b_xy
           [y, y] = 4*b_xy
           [y, psi] = 4*L_z*b_xy
+          [y, y_found] = -4*b_xy
           [z, z] = 4*b_z
           [z, z_found] = -4*b_z
           [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [psi, y_found] = -4*L_z*b_xy
+          [psi, psi_found] = -2*b_z*L_xy**2
           [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
+          [theta, x_found] = 4*L_z*b_xy
+          [theta, theta_found] = -2*b_z*L_xy**2
           [phi, phi] = 4*b_xy*L_xy**2
+          [phi, phi_found] = -4*b_xy*L_xy**2
+          [x_found, x_found] = 4*b_xy
+          [y_found, y_found] = 4*b_xy
           [z_found, z_found] = 4*b_z
+          [psi_found, psi_found] = 2*b_z*L_xy**2
+          [theta_found, theta_found] = 2*b_z*L_xy**2
+          [phi_found, phi_found] = 4*b_xy*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found)
-    _tmp0 = 4*c_xy
-    _tmp1 = L_z*_tmp0
-    _tmp2 = 4*c_z
-    _tmp3 = L_xy**2
-    _tmp4 = 2*L_z**2
-    _tmp5 = 2*_tmp3*c_z + 2*_tmp4*c_xy
-    _tmp6 = 4*b_xy
-    _tmp7 = L_z*_tmp6
-    _tmp8 = 4*b_z
-    _tmp9 = 2*_tmp3*b_z + 2*_tmp4*b_xy
+    _tmp0 = L_xy**2
+    _tmp1 = L_z**2
+    _tmp2 = m_found*(_tmp0 + _tmp1)
+    _tmp3 = 4*c_xy
+    _tmp4 = L_z*_tmp3
+    _tmp5 = -_tmp4
+    _tmp6 = -_tmp3
+    _tmp7 = 4*c_z
+    _tmp8 = _tmp0*c_z
+    _tmp9 = 2*_tmp1
+    _tmp10 = 2*_tmp8 + 2*_tmp9*c_xy
+    _tmp11 = 2*_tmp8
+    _tmp12 = -_tmp11
+    _tmp13 = _tmp0*_tmp3
+    _tmp14 = _tmp3 + k_found
+    _tmp15 = _tmp0*k_found + _tmp1*k_found
+    _tmp16 = _tmp11 + _tmp15
+    _tmp17 = 4*b_xy
+    _tmp18 = L_z*_tmp17
+    _tmp19 = -_tmp18
+    _tmp20 = -_tmp17
+    _tmp21 = 4*b_z
+    _tmp22 = _tmp0*b_z
+    _tmp23 = 2*_tmp22 + 2*_tmp9*b_xy
+    _tmp24 = 2*_tmp22
+    _tmp25 = -_tmp24
+    _tmp26 = _tmp0*_tmp17
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 7, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): _tmp2, (2, 6): -_tmp2, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): _tmp0*_tmp3, (6, 6): _tmp2 + k_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp6, (0, 4): -_tmp7, (1, 1): _tmp6, (1, 3): _tmp7, (2, 2): _tmp8, (2, 6): -_tmp8, (3, 3): _tmp9, (4, 4): _tmp9, (5, 5): _tmp3*_tmp6, (6, 6): _tmp8}))
+    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp2, (10, 10): _tmp2, (11, 11): _tmp2}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): _tmp5, (0, 6): _tmp6, (1, 1): _tmp3, (1, 3): _tmp4, (1, 7): _tmp6, (2, 2): _tmp7, (2, 8): -_tmp7, (3, 3): _tmp10, (3, 7): _tmp5, (3, 9): _tmp12, (4, 4): _tmp10, (4, 6): _tmp4, (4, 10): _tmp12, (5, 5): _tmp13, (5, 11): -_tmp13, (6, 6): _tmp14, (7, 7): _tmp14, (8, 8): _tmp7 + k_found, (9, 9): _tmp16, (10, 10): _tmp16, (11, 11): _tmp13 + _tmp15}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp17, (0, 4): _tmp19, (0, 6): _tmp20, (1, 1): _tmp17, (1, 3): _tmp18, (1, 7): _tmp20, (2, 2): _tmp21, (2, 8): -_tmp21, (3, 3): _tmp23, (3, 7): _tmp19, (3, 9): _tmp25, (4, 4): _tmp23, (4, 6): _tmp18, (4, 10): _tmp25, (5, 5): _tmp26, (5, 11): -_tmp26, (6, 6): _tmp17, (7, 7): _tmp17, (8, 8): _tmp21, (9, 9): _tmp24, (10, 10): _tmp24, (11, 11): _tmp26}))
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m_added + m
+          [x, x] = m_added
           [x, theta] = h_added*m_added
-          [y, y] = m_added + m
+          [y, y] = m_added
           [y, psi] = -h_added*m_added
-          [z, z] = m_added + m
-          [psi, psi] = J_xy + m_added*h_added**2
-          [theta, theta] = J_xy + m_added*h_added**2
-          [phi, phi] = J_z
+          [z, z] = m_added
+          [psi, psi] = m_added*h_added**2
+          [theta, theta] = m_added*h_added**2
         C:
-          [x, x] = 4*c_xy
-          [x, theta] = -4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [phi, phi] = 4*c_xy*L_xy**2
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added)
-    _tmp0 = m + m_added
-    _tmp1 = h_added*m_added
-    _tmp2 = J_xy + h_added**2*m_added
-    _tmp3 = 4*c_xy
-    _tmp4 = L_z*_tmp3
-    _tmp5 = L_xy**2
-    _tmp6 = 2*L_z**2
-    _tmp7 = 2*_tmp5*c_z + 2*_tmp6*c_xy
-    _tmp8 = 4*b_xy
-    _tmp9 = L_z*_tmp8
-    _tmp10 = 2*_tmp5*b_z + 2*_tmp6*b_xy
+    _tmp0 = h_added*m_added
+    _tmp1 = h_added**2*m_added
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): _tmp1, (1, 1): _tmp0, (1, 3): -_tmp1, (2, 2): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp3, (0, 4): -_tmp4, (1, 1): _tmp3, (1, 3): _tmp4, (2, 2): 4*c_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp3*_tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp8, (0, 4): -_tmp9, (1, 1): _tmp8, (1, 3): _tmp9, (2, 2): 4*b_z, (3, 3): _tmp10, (4, 4): _tmp10, (5, 5): _tmp5*_tmp8}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_xy
-          [theta, theta] = J_xy
-          [phi, phi] = J_z
         C:
-          [x, x] = k_belt + 4*c_xy
-          [x, theta] = h_belt*k_belt - 4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
-          [theta, theta] = k_belt*h_belt**2 + 2*c_z*L_xy**2 + 4*c_xy*L_z**2
-          [phi, phi] = 4*c_xy*L_xy**2
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
+          [x, x] = k_belt
+          [x, theta] = h_belt*k_belt
+          [theta, theta] = k_belt*h_belt**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
-    _tmp0 = 4*c_xy
-    _tmp1 = L_z*_tmp0
-    _tmp2 = L_xy**2
-    _tmp3 = _tmp2*c_z
-    _tmp4 = L_z**2
-    _tmp5 = 2*_tmp4
-    _tmp6 = 4*b_xy
-    _tmp7 = L_z*_tmp6
-    _tmp8 = 2*_tmp2*b_z + 2*_tmp5*b_xy
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0 + k_belt, (0, 4): -_tmp1 + h_belt*k_belt, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): 2*_tmp3 + 2*_tmp5*c_xy, (4, 4): _tmp0*_tmp4 + 2*_tmp3 + h_belt**2*k_belt, (5, 5): _tmp0*_tmp2}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 4): -_tmp7, (1, 1): _tmp6, (1, 3): _tmp7, (2, 2): 4*b_z, (3, 3): _tmp8, (4, 4): _tmp8, (5, 5): _tmp2*_tmp6}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_xy
-          [theta, theta] = J_xy
-          [phi, phi] = J_z
         C:
-          [x, x] = 4*c_xy
-          [x, theta] = -4*L_z*c_xy
-          [y, y] = 4*c_xy
-          [y, psi] = 4*L_z*c_xy
-          [z, z] = 4*c_z
-          [psi, psi] = 2*c_z*L_xy**2 + 4*c_xy*L_z**2 - 196133*h_preload*m/20000
-          [theta, theta] = 2*c_z*L_xy**2 + 4*c_xy*L_z**2 - 196133*h_preload*m/20000
-          [phi, phi] = 4*c_xy*L_xy**2
-        B:
-          [x, x] = 4*b_xy
-          [x, theta] = -4*L_z*b_xy
-          [y, y] = 4*b_xy
-          [y, psi] = 4*L_z*b_xy
-          [z, z] = 4*b_z
-          [psi, psi] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
-          [phi, phi] = 4*b_xy*L_xy**2
+          [psi, psi] = -196133*h_preload*m/20000
+          [theta, theta] = -196133*h_preload*m/20000
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
-    _tmp0 = 4*c_xy
-    _tmp1 = L_z*_tmp0
-    _tmp2 = L_xy**2
-    _tmp3 = L_z**2
-    _tmp4 = _tmp0*_tmp3 + 2*_tmp2*c_z - 9.80665*h_preload*m
-    _tmp5 = 4*b_xy
-    _tmp6 = L_z*_tmp5
-    _tmp7 = 2*_tmp2*b_z + 4*_tmp3*b_xy
+    _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): _tmp4, (4, 4): _tmp4, (5, 5): _tmp0*_tmp2}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp6, (1, 1): _tmp5, (1, 3): _tmp6, (2, 2): 4*b_z, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp2*_tmp5}))
+    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
@@ -942,7 +833,7 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "z_found"),
+    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

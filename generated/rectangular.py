@@ -1085,152 +1085,78 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, phi] = -dy_com*m
-          [y, y] = m
           [y, phi] = dx_com*m
-          [z, z] = m
           [z, psi] = dy_com*m
           [z, theta] = -dx_com*m
-          [psi, psi] = J_x + m*dy_com**2
+          [psi, psi] = m*dy_com**2
           [psi, theta] = -dx_com*dy_com*m
-          [theta, theta] = J_y + m*dx_com**2
-          [phi, phi] = J_z + m*dx_com**2 + m*dy_com**2
+          [theta, theta] = m*dx_com**2
+          [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
-          [x, x] = 4*c_x
-          [x, theta] = -4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*(c_y*h**2 + c_z*b**2)
-          [theta, theta] = 4*(c_x*h**2 + c_z*a**2)
-          [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
     _tmp0 = dy_com*m
     _tmp1 = dx_com*m
-    _tmp2 = dy_com**2*m
-    _tmp3 = dx_com**2*m
-    _tmp4 = 4*c_x
-    _tmp5 = 4*c_y
-    _tmp6 = b**2
-    _tmp7 = h**2
-    _tmp8 = a**2
-    _tmp9 = 4*b_x
-    _tmp10 = 4*b_y
+    _tmp2 = dy_com**2
+    _tmp3 = dx_com**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 5): -_tmp0, (1, 1): m, (1, 5): _tmp1, (2, 2): m, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): J_x + _tmp2, (3, 4): -_tmp0*dx_com, (4, 4): J_y + _tmp3, (5, 5): J_z + _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp4, (0, 4): -_tmp4*h, (1, 1): _tmp5, (1, 3): _tmp5*h, (2, 2): 4*c_z, (3, 3): 4*_tmp6*c_z + 4*_tmp7*c_y, (4, 4): 4*_tmp7*c_x + 4*_tmp8*c_z, (5, 5): 4*_tmp6*c_x + 4*_tmp8*c_y}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp9, (0, 4): -_tmp9*h, (1, 1): _tmp10, (1, 3): _tmp10*h, (2, 2): 4*b_z, (3, 3): 4*_tmp6*b_z + 4*_tmp7*b_y, (4, 4): 4*_tmp7*b_x + 4*_tmp8*b_z, (5, 5): 4*_tmp6*b_x + 4*_tmp8*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, theta] = dz_com*m
-          [y, y] = m
           [y, psi] = -dz_com*m
-          [z, z] = m
-          [psi, psi] = J_x + m*dz_com**2
-          [theta, theta] = J_y + m*dz_com**2
-          [phi, phi] = J_z
+          [psi, psi] = m*dz_com**2
+          [theta, theta] = m*dz_com**2
         C:
-          [x, x] = 4*c_x
-          [x, theta] = -4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*(c_y*h**2 + c_z*b**2)
-          [theta, theta] = 4*(c_x*h**2 + c_z*a**2)
-          [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
     _tmp0 = dz_com*m
     _tmp1 = dz_com**2*m
-    _tmp2 = 4*c_x
-    _tmp3 = 4*c_y
-    _tmp4 = b**2
-    _tmp5 = h**2
-    _tmp6 = a**2
-    _tmp7 = 4*b_x
-    _tmp8 = 4*b_y
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dz_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 4): _tmp0, (1, 1): m, (1, 3): -_tmp0, (2, 2): m, (3, 3): J_x + _tmp1, (4, 4): J_y + _tmp1, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp2, (0, 4): -_tmp2*h, (1, 1): _tmp3, (1, 3): _tmp3*h, (2, 2): 4*c_z, (3, 3): 4*_tmp4*c_z + 4*_tmp5*c_y, (4, 4): 4*_tmp5*c_x + 4*_tmp6*c_z, (5, 5): 4*_tmp4*c_x + 4*_tmp6*c_y}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp7, (0, 4): -_tmp7*h, (1, 1): _tmp8, (1, 3): _tmp8*h, (2, 2): 4*b_z, (3, 3): 4*_tmp4*b_z + 4*_tmp5*b_y, (4, 4): 4*_tmp5*b_x + 4*_tmp6*b_z, (5, 5): 4*_tmp4*b_x + 4*_tmp6*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = 4*c_x
-          [x, theta] = -4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*(k_bend + c_y*h**2 + c_z*b**2)
-          [theta, theta] = 4*(k_bend + c_x*h**2 + c_z*a**2)
-          [phi, phi] = 4*(k_torsion + c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
+          [psi, psi] = 4*k_bend
+          [theta, theta] = 4*k_bend
+          [phi, phi] = 4*k_torsion
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
-    _tmp0 = 4*c_x
-    _tmp1 = 4*c_y
-    _tmp2 = b**2
-    _tmp3 = h**2
-    _tmp4 = a**2
-    _tmp5 = 4*b_x
-    _tmp6 = 4*b_y
+    _tmp0 = 4*k_bend
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): 4*c_z, (3, 3): 4*_tmp2*c_z + 4*_tmp3*c_y + 4*k_bend, (4, 4): 4*_tmp3*c_x + 4*_tmp4*c_z + 4*k_bend, (5, 5): 4*_tmp2*c_x + 4*_tmp4*c_y + 4*k_torsion}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp5*h, (1, 1): _tmp6, (1, 3): _tmp6*h, (2, 2): 4*b_z, (3, 3): 4*_tmp2*b_z + 4*_tmp3*b_y, (4, 4): 4*_tmp3*b_x + 4*_tmp4*b_z, (5, 5): 4*_tmp2*b_x + 4*_tmp4*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
-    each of shape (..., 7, 7), coordinates x, y, z, psi, theta, phi, z_found; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
+    extended energies (mountid.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -1241,182 +1167,146 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [psi, psi] = J_x
           [theta, theta] = J_y
           [phi, phi] = J_z
+          [x_found, x_found] = m_found
+          [y_found, y_found] = m_found
           [z_found, z_found] = m_found
+          [psi_found, psi_found] = m_found*(a**2 + b**2 + h**2)
+          [theta_found, theta_found] = m_found*(a**2 + b**2 + h**2)
+          [phi_found, phi_found] = m_found*(a**2 + b**2 + h**2)
         C:
           [x, x] = 4*c_x
           [x, theta] = -4*c_x*h
+          [x, x_found] = -4*c_x
           [y, y] = 4*c_y
           [y, psi] = 4*c_y*h
+          [y, y_found] = -4*c_y
           [z, z] = 4*c_z
           [z, z_found] = -4*c_z
           [psi, psi] = 4*(c_y*h**2 + c_z*b**2)
+          [psi, y_found] = -4*c_y*h
+          [psi, psi_found] = -4*c_z*b**2
           [theta, theta] = 4*(c_x*h**2 + c_z*a**2)
+          [theta, x_found] = 4*c_x*h
+          [theta, theta_found] = -4*c_z*a**2
           [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
+          [phi, phi_found] = -4*(c_x*b**2 + c_y*a**2)
+          [x_found, x_found] = k_found + 4*c_x
+          [y_found, y_found] = k_found + 4*c_y
           [z_found, z_found] = k_found + 4*c_z
+          [psi_found, psi_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_z*b**2
+          [theta_found, theta_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_z*a**2
+          [phi_found, phi_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_x*b**2 + 4*c_y*a**2
         B:
           [x, x] = 4*b_x
           [x, theta] = -4*b_x*h
+          [x, x_found] = -4*b_x
           [y, y] = 4*b_y
           [y, psi] = 4*b_y*h
+          [y, y_found] = -4*b_y
           [z, z] = 4*b_z
           [z, z_found] = -4*b_z
           [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
+          [psi, y_found] = -4*b_y*h
+          [psi, psi_found] = -4*b_z*b**2
           [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
+          [theta, x_found] = 4*b_x*h
+          [theta, theta_found] = -4*b_z*a**2
           [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
+          [phi, phi_found] = -4*(b_x*b**2 + b_y*a**2)
+          [x_found, x_found] = 4*b_x
+          [y_found, y_found] = 4*b_y
           [z_found, z_found] = 4*b_z
+          [psi_found, psi_found] = 4*b_z*b**2
+          [theta_found, theta_found] = 4*b_z*a**2
+          [phi_found, phi_found] = 4*(b_x*b**2 + b_y*a**2)
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found)
-    _tmp0 = 4*c_x
-    _tmp1 = 4*c_y
-    _tmp2 = 4*c_z
-    _tmp3 = b**2
-    _tmp4 = h**2
-    _tmp5 = a**2
-    _tmp6 = 4*b_x
-    _tmp7 = 4*b_y
-    _tmp8 = 4*b_z
+    _tmp0 = a**2
+    _tmp1 = b**2
+    _tmp2 = h**2
+    _tmp3 = m_found*(_tmp0 + _tmp1 + _tmp2)
+    _tmp4 = 4*c_x
+    _tmp5 = _tmp4*h
+    _tmp6 = 4*c_y
+    _tmp7 = _tmp6*h
+    _tmp8 = 4*c_z
+    _tmp9 = _tmp1*_tmp8
+    _tmp10 = _tmp0*_tmp8
+    _tmp11 = 4*_tmp0*c_y + 4*_tmp1*c_x
+    _tmp12 = _tmp0*k_found + _tmp1*k_found + _tmp2*k_found
+    _tmp13 = 4*b_x
+    _tmp14 = _tmp13*h
+    _tmp15 = 4*b_y
+    _tmp16 = _tmp15*h
+    _tmp17 = 4*b_z
+    _tmp18 = _tmp1*_tmp17
+    _tmp19 = _tmp0*_tmp17
+    _tmp20 = 4*_tmp0*b_y + 4*_tmp1*b_x
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 7, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): _tmp2, (2, 6): -_tmp2, (3, 3): 4*_tmp3*c_z + 4*_tmp4*c_y, (4, 4): 4*_tmp4*c_x + 4*_tmp5*c_z, (5, 5): 4*_tmp3*c_x + 4*_tmp5*c_y, (6, 6): _tmp2 + k_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): _tmp6, (0, 4): -_tmp6*h, (1, 1): _tmp7, (1, 3): _tmp7*h, (2, 2): _tmp8, (2, 6): -_tmp8, (3, 3): 4*_tmp3*b_z + 4*_tmp4*b_y, (4, 4): 4*_tmp4*b_x + 4*_tmp5*b_z, (5, 5): 4*_tmp3*b_x + 4*_tmp5*b_y, (6, 6): _tmp8}))
+    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp4, (0, 4): -_tmp5, (0, 6): -_tmp4, (1, 1): _tmp6, (1, 3): _tmp7, (1, 7): -_tmp6, (2, 2): _tmp8, (2, 8): -_tmp8, (3, 3): 4*_tmp1*c_z + 4*_tmp2*c_y, (3, 7): -_tmp7, (3, 9): -_tmp9, (4, 4): 4*_tmp0*c_z + 4*_tmp2*c_x, (4, 6): _tmp5, (4, 10): -_tmp10, (5, 5): _tmp11, (5, 11): -_tmp11, (6, 6): _tmp4 + k_found, (7, 7): _tmp6 + k_found, (8, 8): _tmp8 + k_found, (9, 9): _tmp12 + _tmp9, (10, 10): _tmp10 + _tmp12, (11, 11): _tmp0*_tmp6 + _tmp1*_tmp4 + _tmp12}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp13, (0, 4): -_tmp14, (0, 6): -_tmp13, (1, 1): _tmp15, (1, 3): _tmp16, (1, 7): -_tmp15, (2, 2): _tmp17, (2, 8): -_tmp17, (3, 3): 4*_tmp1*b_z + 4*_tmp2*b_y, (3, 7): -_tmp16, (3, 9): -_tmp18, (4, 4): 4*_tmp0*b_z + 4*_tmp2*b_x, (4, 6): _tmp14, (4, 10): -_tmp19, (5, 5): _tmp20, (5, 11): -_tmp20, (6, 6): _tmp13, (7, 7): _tmp15, (8, 8): _tmp17, (9, 9): _tmp18, (10, 10): _tmp19, (11, 11): _tmp20}))
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m_added + m
+          [x, x] = m_added
           [x, theta] = h_added*m_added
-          [y, y] = m_added + m
+          [y, y] = m_added
           [y, psi] = -h_added*m_added
-          [z, z] = m_added + m
-          [psi, psi] = J_x + m_added*h_added**2
-          [theta, theta] = J_y + m_added*h_added**2
-          [phi, phi] = J_z
+          [z, z] = m_added
+          [psi, psi] = m_added*h_added**2
+          [theta, theta] = m_added*h_added**2
         C:
-          [x, x] = 4*c_x
-          [x, theta] = -4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*(c_y*h**2 + c_z*b**2)
-          [theta, theta] = 4*(c_x*h**2 + c_z*a**2)
-          [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added)
-    _tmp0 = m + m_added
-    _tmp1 = h_added*m_added
-    _tmp2 = h_added**2*m_added
-    _tmp3 = 4*c_x
-    _tmp4 = 4*c_y
-    _tmp5 = b**2
-    _tmp6 = h**2
-    _tmp7 = a**2
-    _tmp8 = 4*b_x
-    _tmp9 = 4*b_y
+    _tmp0 = h_added*m_added
+    _tmp1 = h_added**2*m_added
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): _tmp1, (1, 1): _tmp0, (1, 3): -_tmp1, (2, 2): _tmp0, (3, 3): J_x + _tmp2, (4, 4): J_y + _tmp2, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp3, (0, 4): -_tmp3*h, (1, 1): _tmp4, (1, 3): _tmp4*h, (2, 2): 4*c_z, (3, 3): 4*_tmp5*c_z + 4*_tmp6*c_y, (4, 4): 4*_tmp6*c_x + 4*_tmp7*c_z, (5, 5): 4*_tmp5*c_x + 4*_tmp7*c_y}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp8, (0, 4): -_tmp8*h, (1, 1): _tmp9, (1, 3): _tmp9*h, (2, 2): 4*b_z, (3, 3): 4*_tmp5*b_z + 4*_tmp6*b_y, (4, 4): 4*_tmp6*b_x + 4*_tmp7*b_z, (5, 5): 4*_tmp5*b_x + 4*_tmp7*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = k_belt + 4*c_x
-          [x, theta] = h_belt*k_belt - 4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*(c_y*h**2 + c_z*b**2)
-          [theta, theta] = k_belt*h_belt**2 + 4*c_x*h**2 + 4*c_z*a**2
-          [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
+          [x, x] = k_belt
+          [x, theta] = h_belt*k_belt
+          [theta, theta] = k_belt*h_belt**2
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
-    _tmp0 = 4*c_x
-    _tmp1 = 4*c_y
-    _tmp2 = 4*c_z
-    _tmp3 = b**2
-    _tmp4 = h**2
-    _tmp5 = a**2
-    _tmp6 = 4*b_x
-    _tmp7 = 4*b_y
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0 + k_belt, (0, 4): -_tmp0*h + h_belt*k_belt, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): _tmp2, (3, 3): 4*_tmp3*c_z + 4*_tmp4*c_y, (4, 4): _tmp0*_tmp4 + _tmp2*_tmp5 + h_belt**2*k_belt, (5, 5): 4*_tmp3*c_x + 4*_tmp5*c_y}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 4): -_tmp6*h, (1, 1): _tmp7, (1, 3): _tmp7*h, (2, 2): 4*b_z, (3, 3): 4*_tmp3*b_z + 4*_tmp4*b_y, (4, 4): 4*_tmp4*b_x + 4*_tmp5*b_z, (5, 5): 4*_tmp3*b_x + 4*_tmp5*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = 4*c_x
-          [x, theta] = -4*c_x*h
-          [y, y] = 4*c_y
-          [y, psi] = 4*c_y*h
-          [z, z] = 4*c_z
-          [psi, psi] = 4*c_y*h**2 + 4*c_z*b**2 - 196133*h_preload*m/20000
-          [theta, theta] = 4*c_x*h**2 + 4*c_z*a**2 - 196133*h_preload*m/20000
-          [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
-        B:
-          [x, x] = 4*b_x
-          [x, theta] = -4*b_x*h
-          [y, y] = 4*b_y
-          [y, psi] = 4*b_y*h
-          [z, z] = 4*b_z
-          [psi, psi] = 4*(b_y*h**2 + b_z*b**2)
-          [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
-          [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
+          [psi, psi] = -196133*h_preload*m/20000
+          [theta, theta] = -196133*h_preload*m/20000
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
-    _tmp0 = 4*c_x
-    _tmp1 = 4*c_y
-    _tmp2 = 4*c_z
-    _tmp3 = -9.80665*h_preload*m
-    _tmp4 = b**2
-    _tmp5 = h**2
-    _tmp6 = a**2
-    _tmp7 = 4*b_x
-    _tmp8 = 4*b_y
+    _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(h_preload))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): _tmp2, (3, 3): _tmp1*_tmp5 + _tmp2*_tmp4 + _tmp3, (4, 4): _tmp0*_tmp5 + _tmp2*_tmp6 + _tmp3, (5, 5): 4*_tmp4*c_x + 4*_tmp6*c_y}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp7, (0, 4): -_tmp7*h, (1, 1): _tmp8, (1, 3): _tmp8*h, (2, 2): 4*b_z, (3, 3): 4*_tmp4*b_z + 4*_tmp5*b_y, (4, 4): 4*_tmp5*b_x + 4*_tmp6*b_z, (5, 5): 4*_tmp4*b_x + 4*_tmp6*b_y}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
@@ -1613,7 +1503,7 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "z_found"),
+    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

@@ -1555,218 +1555,81 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, phi] = -dy_com*m
-          [y, y] = m
           [y, phi] = dx_com*m
-          [z, z] = m
           [z, psi] = dy_com*m
           [z, theta] = -dx_com*m
-          [psi, psi] = J_x + m*dy_com**2
+          [psi, psi] = m*dy_com**2
           [psi, theta] = -dx_com*dy_com*m
-          [theta, theta] = J_y + m*dx_com**2
-          [phi, phi] = J_z + m*dx_com**2 + m*dy_com**2
+          [theta, theta] = m*dx_com**2
+          [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
-          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
     _tmp0 = dy_com*m
     _tmp1 = dx_com*m
-    _tmp2 = dy_com**2*m
-    _tmp3 = dx_com**2*m
-    _tmp4 = numpy.cos(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 2*c_h
-    _tmp7 = numpy.sin(alpha)
-    _tmp8 = _tmp7**2
-    _tmp9 = 2*c_v
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = c_h*h
-    _tmp12 = 2*_tmp5
-    _tmp13 = _tmp4*_tmp7*a
-    _tmp14 = _tmp6*_tmp8
-    _tmp15 = _tmp5*_tmp9
-    _tmp16 = b**2
-    _tmp17 = h**2
-    _tmp18 = _tmp17*c_h
-    _tmp19 = _tmp16*c_h
-    _tmp20 = 2*_tmp8
-    _tmp21 = 4*_tmp13
-    _tmp22 = _tmp21*h
-    _tmp23 = a**2
-    _tmp24 = 2*b_h
-    _tmp25 = 2*b_v
-    _tmp26 = _tmp25*_tmp8
-    _tmp27 = b_h*h
-    _tmp28 = _tmp24*_tmp8
-    _tmp29 = _tmp25*_tmp5
-    _tmp30 = _tmp17*b_h
-    _tmp31 = _tmp16*b_h
+    _tmp2 = dy_com**2
+    _tmp3 = dx_com**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 5): -_tmp0, (1, 1): m, (1, 5): _tmp1, (2, 2): m, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): J_x + _tmp2, (3, 4): -_tmp0*dx_com, (4, 4): J_y + _tmp3, (5, 5): J_z + _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp10 + 2*_tmp5*_tmp6 + 2*c_h, (0, 4): -2*_tmp10*h - 2*_tmp11*_tmp12 - 2*_tmp11 - 2*_tmp13*_tmp9 + 4*_tmp4*_tmp7*a*c_h, (1, 1): 6*c_h, (1, 3): 6*_tmp11, (2, 2): 2*_tmp14 + 2*_tmp15 + 2*c_m, (3, 3): 2*_tmp15*_tmp16 + 2*_tmp16*c_m + 6*_tmp18 + 2*_tmp19*_tmp20, (4, 4): 2*_tmp10*_tmp17 - 2*_tmp11*_tmp21 + 2*_tmp12*_tmp18 + 2*_tmp14*_tmp23 + 2*_tmp15*_tmp23 + 2*_tmp18 + 2*_tmp22*c_v, (5, 5): 2*_tmp10*_tmp16 + 2*_tmp12*_tmp19 + 2*_tmp19 + 2*_tmp23*_tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp24*_tmp5 + 2*_tmp26 + 2*b_h, (0, 4): -2*_tmp12*_tmp27 - 2*_tmp13*_tmp25 - 2*_tmp26*h - 2*_tmp27 + 4*_tmp4*_tmp7*a*b_h, (1, 1): 6*b_h, (1, 3): 6*_tmp27, (2, 2): 2*_tmp28 + 2*_tmp29 + 2*b_m, (3, 3): 2*_tmp16*_tmp29 + 2*_tmp16*b_m + 2*_tmp20*_tmp31 + 6*_tmp30, (4, 4): 2*_tmp12*_tmp30 + 2*_tmp17*_tmp26 - 2*_tmp21*_tmp27 + 2*_tmp22*b_v + 2*_tmp23*_tmp28 + 2*_tmp23*_tmp29 + 2*_tmp30, (5, 5): 2*_tmp12*_tmp31 + 2*_tmp16*_tmp26 + 2*_tmp23*_tmp24 + 2*_tmp31}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
           [x, theta] = dz_com*m
-          [y, y] = m
           [y, psi] = -dz_com*m
-          [z, z] = m
-          [psi, psi] = J_x + m*dz_com**2
-          [theta, theta] = J_y + m*dz_com**2
-          [phi, phi] = J_z
+          [psi, psi] = m*dz_com**2
+          [theta, theta] = m*dz_com**2
         C:
-          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
     _tmp0 = dz_com*m
     _tmp1 = dz_com**2*m
-    _tmp2 = numpy.cos(alpha)
-    _tmp3 = _tmp2**2
-    _tmp4 = 2*c_h
-    _tmp5 = numpy.sin(alpha)
-    _tmp6 = _tmp5**2
-    _tmp7 = 2*c_v
-    _tmp8 = _tmp6*_tmp7
-    _tmp9 = c_h*h
-    _tmp10 = 2*_tmp3
-    _tmp11 = _tmp2*_tmp5*a
-    _tmp12 = _tmp4*_tmp6
-    _tmp13 = _tmp3*_tmp7
-    _tmp14 = b**2
-    _tmp15 = h**2
-    _tmp16 = _tmp15*c_h
-    _tmp17 = _tmp14*c_h
-    _tmp18 = 2*_tmp6
-    _tmp19 = 4*_tmp11
-    _tmp20 = _tmp19*h
-    _tmp21 = a**2
-    _tmp22 = 2*b_h
-    _tmp23 = 2*b_v
-    _tmp24 = _tmp23*_tmp6
-    _tmp25 = b_h*h
-    _tmp26 = _tmp22*_tmp6
-    _tmp27 = _tmp23*_tmp3
-    _tmp28 = _tmp15*b_h
-    _tmp29 = _tmp14*b_h
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (0, 4): _tmp0, (1, 1): m, (1, 3): -_tmp0, (2, 2): m, (3, 3): J_x + _tmp1, (4, 4): J_y + _tmp1, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp3*_tmp4 + 2*_tmp8 + 2*c_h, (0, 4): -2*_tmp10*_tmp9 - 2*_tmp11*_tmp7 + 4*_tmp2*_tmp5*a*c_h - 2*_tmp8*h - 2*_tmp9, (1, 1): 6*c_h, (1, 3): 6*_tmp9, (2, 2): 2*_tmp12 + 2*_tmp13 + 2*c_m, (3, 3): 2*_tmp13*_tmp14 + 2*_tmp14*c_m + 6*_tmp16 + 2*_tmp17*_tmp18, (4, 4): 2*_tmp10*_tmp16 + 2*_tmp12*_tmp21 + 2*_tmp13*_tmp21 + 2*_tmp15*_tmp8 + 2*_tmp16 - 2*_tmp19*_tmp9 + 2*_tmp20*c_v, (5, 5): 2*_tmp10*_tmp17 + 2*_tmp14*_tmp8 + 2*_tmp17 + 2*_tmp21*_tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp22*_tmp3 + 2*_tmp24 + 2*b_h, (0, 4): -2*_tmp10*_tmp25 - 2*_tmp11*_tmp23 + 4*_tmp2*_tmp5*a*b_h - 2*_tmp24*h - 2*_tmp25, (1, 1): 6*b_h, (1, 3): 6*_tmp25, (2, 2): 2*_tmp26 + 2*_tmp27 + 2*b_m, (3, 3): 2*_tmp14*_tmp27 + 2*_tmp14*b_m + 2*_tmp18*_tmp29 + 6*_tmp28, (4, 4): 2*_tmp10*_tmp28 + 2*_tmp15*_tmp24 - 2*_tmp19*_tmp25 + 2*_tmp20*b_v + 2*_tmp21*_tmp26 + 2*_tmp21*_tmp27 + 2*_tmp28, (5, 5): 2*_tmp10*_tmp29 + 2*_tmp14*_tmp24 + 2*_tmp21*_tmp22 + 2*_tmp29}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*(3*k_bend + c_m*b**2 - 2*k_bend*sin(alpha)**2 + 2*k_torsion*sin(alpha)**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(3*k_bend + c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(k_torsion + 2*k_bend + c_h*b**2 - 2*k_bend*cos(alpha)**2 + 2*k_torsion*cos(alpha)**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [psi, psi] = 2*(3*k_bend - 2*k_bend*sin(alpha)**2 + 2*k_torsion*sin(alpha)**2)
+          [theta, theta] = 6*k_bend
+          [phi, phi] = 2*(k_torsion + 2*k_bend - 2*k_bend*cos(alpha)**2 + 2*k_torsion*cos(alpha)**2)
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
-    _tmp0 = numpy.cos(alpha)
-    _tmp1 = _tmp0**2
-    _tmp2 = 2*c_h
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = _tmp3**2
-    _tmp5 = 2*c_v
-    _tmp6 = _tmp4*_tmp5
-    _tmp7 = c_h*h
-    _tmp8 = 2*_tmp1
-    _tmp9 = _tmp0*_tmp3*a
-    _tmp10 = _tmp2*_tmp4
-    _tmp11 = _tmp1*_tmp5
-    _tmp12 = 3*k_bend
-    _tmp13 = b**2
-    _tmp14 = h**2
-    _tmp15 = _tmp14*c_h
-    _tmp16 = 2*k_bend
-    _tmp17 = 2*k_torsion
-    _tmp18 = _tmp13*c_h
-    _tmp19 = 2*_tmp4
-    _tmp20 = 4*_tmp9
-    _tmp21 = _tmp20*h
-    _tmp22 = a**2
-    _tmp23 = 2*b_h
-    _tmp24 = 2*b_v
-    _tmp25 = _tmp24*_tmp4
-    _tmp26 = b_h*h
-    _tmp27 = _tmp23*_tmp4
-    _tmp28 = _tmp1*_tmp24
-    _tmp29 = _tmp14*b_h
-    _tmp30 = _tmp13*b_h
+    _tmp0 = numpy.sin(alpha)**2
+    _tmp1 = 2*k_bend
+    _tmp2 = 2*k_torsion
+    _tmp3 = numpy.cos(alpha)**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*c_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*c_m, (3, 3): 2*_tmp11*_tmp13 + 2*_tmp12 + 2*_tmp13*c_m + 6*_tmp15 - 2*_tmp16*_tmp4 + 2*_tmp17*_tmp4 + 2*_tmp18*_tmp19, (4, 4): 2*_tmp10*_tmp22 + 2*_tmp11*_tmp22 + 2*_tmp12 + 2*_tmp14*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 - 2*_tmp20*_tmp7 + 2*_tmp21*c_v, (5, 5): -2*_tmp1*_tmp16 + 2*_tmp1*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp16 + 2*_tmp18*_tmp8 + 2*_tmp18 + 2*_tmp2*_tmp22 + 2*k_torsion}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp23 + 2*_tmp25 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp24*_tmp9 - 2*_tmp25*h - 2*_tmp26*_tmp8 - 2*_tmp26, (1, 1): 6*b_h, (1, 3): 6*_tmp26, (2, 2): 2*_tmp27 + 2*_tmp28 + 2*b_m, (3, 3): 2*_tmp13*_tmp28 + 2*_tmp13*b_m + 2*_tmp19*_tmp30 + 6*_tmp29, (4, 4): 2*_tmp14*_tmp25 - 2*_tmp20*_tmp26 + 2*_tmp21*b_v + 2*_tmp22*_tmp27 + 2*_tmp22*_tmp28 + 2*_tmp29*_tmp8 + 2*_tmp29, (5, 5): 2*_tmp13*_tmp25 + 2*_tmp22*_tmp23 + 2*_tmp30*_tmp8 + 2*_tmp30}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): -2*_tmp0*_tmp1 + 2*_tmp0*_tmp2 + 6*k_bend, (4, 4): 6*k_bend, (5, 5): -2*_tmp1*_tmp3 + 2*_tmp1 + 2*_tmp2*_tmp3 + 2*k_torsion}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
-    each of shape (..., 7, 7), coordinates x, y, z, psi, theta, phi, z_found; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
+    extended energies (mountid.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -1777,264 +1640,192 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [psi, psi] = J_x
           [theta, theta] = J_y
           [phi, phi] = J_z
+          [x_found, x_found] = m_found
+          [y_found, y_found] = m_found
           [z_found, z_found] = m_found
+          [psi_found, psi_found] = m_found*(b**2 + h**2 + 2*a**2/3)
+          [theta_found, theta_found] = m_found*(b**2 + h**2 + 2*a**2/3)
+          [phi_found, phi_found] = m_found*(b**2 + h**2 + 2*a**2/3)
         C:
           [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
           [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
+          [x, x_found] = -2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+          [x, theta_found] = 4*a*(c_v - c_h)*cos(alpha)*sin(alpha)
           [y, y] = 6*c_h
           [y, psi] = 6*c_h*h
+          [y, y_found] = -6*c_h
           [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
           [z, z_found] = -2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
           [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
+          [psi, y_found] = -6*c_h*h
+          [psi, psi_found] = -2*b**2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
           [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
+          [theta, x_found] = 2*(c_h*h + 2*c_h*h*cos(alpha)**2 + 2*c_v*h*sin(alpha)**2 - 2*a*c_h*cos(alpha)*sin(alpha) + 2*a*c_v*cos(alpha)*sin(alpha))
+          [theta, theta_found] = 4*a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
           [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+          [phi, phi_found] = -2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = k_found + 2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2
+          [x_found, theta_found] = 4*a*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [y_found, y_found] = k_found + 6*c_h
           [z_found, z_found] = k_found + 2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2
+          [psi_found, psi_found] = k_found*b**2 + k_found*h**2 + 2*c_m*b**2 + 2*k_found*a**2/3 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2
+          [theta_found, theta_found] = k_found*b**2 + k_found*h**2 + 2*k_found*a**2/3 + 4*c_h*a**2*sin(alpha)**2 + 4*c_v*a**2*cos(alpha)**2
+          [phi_found, phi_found] = k_found*b**2 + k_found*h**2 + 2*c_h*b**2 + 4*c_h*a**2 + 2*k_found*a**2/3 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2
         B:
           [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
           [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
+          [x, x_found] = -2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x, theta_found] = 4*a*(b_v - b_h)*cos(alpha)*sin(alpha)
           [y, y] = 6*b_h
           [y, psi] = 6*b_h*h
+          [y, y_found] = -6*b_h
           [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
           [z, z_found] = -2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
           [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
+          [psi, y_found] = -6*b_h*h
+          [psi, psi_found] = -2*b**2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
           [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
+          [theta, x_found] = 2*(b_h*h + 2*b_h*h*cos(alpha)**2 + 2*b_v*h*sin(alpha)**2 - 2*a*b_h*cos(alpha)*sin(alpha) + 2*a*b_v*cos(alpha)*sin(alpha))
+          [theta, theta_found] = 4*a*(-a*b_h*sin(alpha)**2 - a*b_v*cos(alpha)**2 + b_h*h*cos(alpha)*sin(alpha) - b_v*h*cos(alpha)*sin(alpha))
           [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [phi, phi_found] = -2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
+          [x_found, theta_found] = 4*a*(b_h - b_v)*cos(alpha)*sin(alpha)
+          [y_found, y_found] = 6*b_h
           [z_found, z_found] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [psi_found, psi_found] = 2*b**2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
+          [theta_found, theta_found] = 4*a**2*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
+          [phi_found, phi_found] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found)
-    _tmp0 = numpy.cos(alpha)
-    _tmp1 = _tmp0**2
-    _tmp2 = 2*c_h
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = _tmp3**2
-    _tmp5 = 2*c_v
-    _tmp6 = _tmp4*_tmp5
-    _tmp7 = c_h*h
-    _tmp8 = 2*_tmp1
-    _tmp9 = _tmp0*_tmp3*a
-    _tmp10 = _tmp2*_tmp4
-    _tmp11 = _tmp1*_tmp5
-    _tmp12 = 2*_tmp10 + 2*_tmp11 + 2*c_m
-    _tmp13 = b**2
-    _tmp14 = h**2
-    _tmp15 = _tmp14*c_h
-    _tmp16 = _tmp13*c_h
-    _tmp17 = 2*_tmp4
-    _tmp18 = 4*_tmp9
-    _tmp19 = 4*c_v
-    _tmp20 = a**2
-    _tmp21 = 2*b_h
-    _tmp22 = 2*b_v
-    _tmp23 = _tmp22*_tmp4
-    _tmp24 = b_h*h
-    _tmp25 = _tmp21*_tmp4
-    _tmp26 = _tmp1*_tmp22
-    _tmp27 = 2*_tmp25 + 2*_tmp26 + 2*b_m
-    _tmp28 = _tmp14*b_h
-    _tmp29 = _tmp13*b_h
+    _tmp0 = b**2
+    _tmp1 = h**2
+    _tmp2 = a**2
+    _tmp3 = (0.6666666666666666)*_tmp2
+    _tmp4 = m_found*(_tmp0 + _tmp1 + _tmp3)
+    _tmp5 = numpy.cos(alpha)
+    _tmp6 = _tmp5**2
+    _tmp7 = 2*c_h
+    _tmp8 = numpy.sin(alpha)
+    _tmp9 = _tmp8**2
+    _tmp10 = 2*c_v
+    _tmp11 = _tmp10*_tmp9
+    _tmp12 = 2*_tmp11 + 2*_tmp6*_tmp7 + 2*c_h
+    _tmp13 = c_h*h
+    _tmp14 = 2*_tmp6
+    _tmp15 = _tmp5*_tmp8
+    _tmp16 = _tmp15*a
+    _tmp17 = _tmp10*_tmp16 + _tmp11*h + _tmp13*_tmp14 + _tmp13 - 2*_tmp5*_tmp8*a*c_h
+    _tmp18 = c_h - c_v
+    _tmp19 = 4*a
+    _tmp20 = _tmp15*_tmp19
+    _tmp21 = 6*c_h
+    _tmp22 = 6*_tmp13
+    _tmp23 = _tmp7*_tmp9
+    _tmp24 = _tmp10*_tmp6
+    _tmp25 = _tmp23 + _tmp24 + c_m
+    _tmp26 = 2*_tmp25
+    _tmp27 = _tmp0*c_m
+    _tmp28 = _tmp1*c_h
+    _tmp29 = _tmp0*c_h
+    _tmp30 = 2*_tmp29
+    _tmp31 = 2*_tmp0
+    _tmp32 = _tmp15*h
+    _tmp33 = _tmp32*c_v
+    _tmp34 = _tmp9*c_h
+    _tmp35 = _tmp6*c_v
+    _tmp36 = 2*_tmp0*_tmp11 + 2*_tmp2*_tmp7 + 2*_tmp29 + 2*_tmp30*_tmp6
+    _tmp37 = 4*c_h
+    _tmp38 = 4*_tmp9
+    _tmp39 = _tmp38*c_v
+    _tmp40 = 4*_tmp34
+    _tmp41 = 4*_tmp35
+    _tmp42 = _tmp0*k_found + _tmp1*k_found + _tmp3*k_found
+    _tmp43 = 2*b_h
+    _tmp44 = 2*_tmp9
+    _tmp45 = _tmp44*b_v
+    _tmp46 = 2*_tmp43*_tmp6 + 2*_tmp45 + 2*b_h
+    _tmp47 = b_h*h
+    _tmp48 = _tmp14*_tmp47 + 2*_tmp16*b_v + _tmp45*h + _tmp47 - 2*_tmp5*_tmp8*a*b_h
+    _tmp49 = b_h - b_v
+    _tmp50 = 6*b_h
+    _tmp51 = 6*_tmp47
+    _tmp52 = _tmp9*b_h
+    _tmp53 = 2*_tmp52
+    _tmp54 = _tmp6*b_v
+    _tmp55 = 2*_tmp54
+    _tmp56 = _tmp53 + _tmp55 + b_m
+    _tmp57 = 2*_tmp56
+    _tmp58 = _tmp1*b_h
+    _tmp59 = _tmp0*b_h
+    _tmp60 = _tmp31*_tmp56
+    _tmp61 = _tmp32*b_v
+    _tmp62 = 2*_tmp14*_tmp59 + 2*_tmp2*_tmp43 + 2*_tmp31*_tmp9*b_v + 2*_tmp59
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 7, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*c_h, (1, 3): 6*_tmp7, (2, 2): _tmp12, (2, 6): -_tmp12, (3, 3): 2*_tmp11*_tmp13 + 2*_tmp13*c_m + 6*_tmp15 + 2*_tmp16*_tmp17, (4, 4): 2*_tmp10*_tmp20 + 2*_tmp11*_tmp20 + 2*_tmp14*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 - 2*_tmp18*_tmp7 + 2*_tmp19*_tmp9*h, (5, 5): 2*_tmp13*_tmp6 + 2*_tmp16*_tmp8 + 2*_tmp16 + 2*_tmp2*_tmp20, (6, 6): _tmp1*_tmp19 + 4*_tmp4*c_h + 2*c_m + k_found}), _runtime.stack_matrix(_shape, 7, {(0, 0): 2*_tmp1*_tmp21 + 2*_tmp23 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp22*_tmp9 - 2*_tmp23*h - 2*_tmp24*_tmp8 - 2*_tmp24, (1, 1): 6*b_h, (1, 3): 6*_tmp24, (2, 2): _tmp27, (2, 6): -_tmp27, (3, 3): 2*_tmp13*_tmp26 + 2*_tmp13*b_m + 2*_tmp17*_tmp29 + 6*_tmp28, (4, 4): 2*_tmp14*_tmp23 - 2*_tmp18*_tmp24 + 2*_tmp18*b_v*h + 2*_tmp20*_tmp25 + 2*_tmp20*_tmp26 + 2*_tmp28*_tmp8 + 2*_tmp28, (5, 5): 2*_tmp13*_tmp23 + 2*_tmp20*_tmp21 + 2*_tmp29*_tmp8 + 2*_tmp29, (6, 6): _tmp27}))
+    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp4, (10, 10): _tmp4, (11, 11): _tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -2*_tmp17, (0, 6): -_tmp12, (0, 10): -_tmp18*_tmp20, (1, 1): _tmp21, (1, 3): _tmp22, (1, 7): -_tmp21, (2, 2): _tmp26, (2, 8): -_tmp26, (3, 3): 2*_tmp0*_tmp24 + 2*_tmp27 + 6*_tmp28 + 2*_tmp30*_tmp9, (3, 7): -_tmp22, (3, 9): -_tmp25*_tmp31, (4, 4): 2*_tmp1*_tmp11 - 2*_tmp13*_tmp15*_tmp19 + 2*_tmp14*_tmp28 + 2*_tmp19*_tmp33 + 2*_tmp2*_tmp23 + 2*_tmp2*_tmp24 + 2*_tmp28, (4, 6): 2*_tmp17, (4, 10): _tmp19*(-_tmp33 - _tmp34*a - _tmp35*a + _tmp5*_tmp8*c_h*h), (5, 5): _tmp36, (5, 11): -_tmp36, (6, 6): _tmp37*_tmp6 + _tmp39 + _tmp7 + k_found, (6, 10): _tmp18*_tmp20, (7, 7): _tmp21 + k_found, (8, 8): _tmp40 + _tmp41 + 2*c_m + k_found, (9, 9): _tmp0*_tmp41 + 2*_tmp27 + _tmp29*_tmp38 + _tmp42, (10, 10): _tmp2*_tmp40 + _tmp2*_tmp41 + _tmp42, (11, 11): _tmp0*_tmp39 + _tmp2*_tmp37 + 4*_tmp29*_tmp6 + _tmp30 + _tmp42}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp46, (0, 4): -2*_tmp48, (0, 6): -_tmp46, (0, 10): -_tmp20*_tmp49, (1, 1): _tmp50, (1, 3): _tmp51, (1, 7): -_tmp50, (2, 2): _tmp57, (2, 8): -_tmp57, (3, 3): 2*_tmp0*b_m + 2*_tmp31*_tmp54 + 2*_tmp44*_tmp59 + 6*_tmp58, (3, 7): -_tmp51, (3, 9): -_tmp60, (4, 4): 2*_tmp1*_tmp45 + 2*_tmp14*_tmp58 - 2*_tmp15*_tmp19*_tmp47 + 2*_tmp19*_tmp61 + 2*_tmp2*_tmp53 + 2*_tmp2*_tmp55 + 2*_tmp58, (4, 6): 2*_tmp48, (4, 10): _tmp19*(_tmp5*_tmp8*b_h*h - _tmp52*a - _tmp54*a - _tmp61), (5, 5): _tmp62, (5, 11): -_tmp62, (6, 6): _tmp46, (6, 10): _tmp20*_tmp49, (7, 7): _tmp50, (8, 8): _tmp57, (9, 9): _tmp60, (10, 10): 4*_tmp2*(_tmp52 + _tmp54), (11, 11): _tmp62}))
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m_added + m
+          [x, x] = m_added
           [x, theta] = h_added*m_added
-          [y, y] = m_added + m
+          [y, y] = m_added
           [y, psi] = -h_added*m_added
-          [z, z] = m_added + m
-          [psi, psi] = J_x + m_added*h_added**2
-          [theta, theta] = J_y + m_added*h_added**2
-          [phi, phi] = J_z
+          [z, z] = m_added
+          [psi, psi] = m_added*h_added**2
+          [theta, theta] = m_added*h_added**2
         C:
-          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added)
-    _tmp0 = m + m_added
-    _tmp1 = h_added*m_added
-    _tmp2 = h_added**2*m_added
-    _tmp3 = numpy.cos(alpha)
-    _tmp4 = _tmp3**2
-    _tmp5 = 2*c_h
-    _tmp6 = numpy.sin(alpha)
-    _tmp7 = _tmp6**2
-    _tmp8 = 2*c_v
-    _tmp9 = _tmp7*_tmp8
-    _tmp10 = c_h*h
-    _tmp11 = 2*_tmp4
-    _tmp12 = _tmp3*_tmp6*a
-    _tmp13 = _tmp5*_tmp7
-    _tmp14 = _tmp4*_tmp8
-    _tmp15 = b**2
-    _tmp16 = h**2
-    _tmp17 = _tmp16*c_h
-    _tmp18 = _tmp15*c_h
-    _tmp19 = 2*_tmp7
-    _tmp20 = 4*_tmp12
-    _tmp21 = _tmp20*h
-    _tmp22 = a**2
-    _tmp23 = 2*b_h
-    _tmp24 = 2*b_v
-    _tmp25 = _tmp24*_tmp7
-    _tmp26 = b_h*h
-    _tmp27 = _tmp23*_tmp7
-    _tmp28 = _tmp24*_tmp4
-    _tmp29 = _tmp16*b_h
-    _tmp30 = _tmp15*b_h
+    _tmp0 = h_added*m_added
+    _tmp1 = h_added**2*m_added
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_added), numpy.shape(h_added))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): _tmp1, (1, 1): _tmp0, (1, 3): -_tmp1, (2, 2): _tmp0, (3, 3): J_x + _tmp2, (4, 4): J_y + _tmp2, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp4*_tmp5 + 2*_tmp9 + 2*c_h, (0, 4): -2*_tmp10*_tmp11 - 2*_tmp10 - 2*_tmp12*_tmp8 + 4*_tmp3*_tmp6*a*c_h - 2*_tmp9*h, (1, 1): 6*c_h, (1, 3): 6*_tmp10, (2, 2): 2*_tmp13 + 2*_tmp14 + 2*c_m, (3, 3): 2*_tmp14*_tmp15 + 2*_tmp15*c_m + 6*_tmp17 + 2*_tmp18*_tmp19, (4, 4): -2*_tmp10*_tmp20 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp22 + 2*_tmp14*_tmp22 + 2*_tmp16*_tmp9 + 2*_tmp17 + 2*_tmp21*c_v, (5, 5): 2*_tmp11*_tmp18 + 2*_tmp15*_tmp9 + 2*_tmp18 + 2*_tmp22*_tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp23*_tmp4 + 2*_tmp25 + 2*b_h, (0, 4): -2*_tmp11*_tmp26 - 2*_tmp12*_tmp24 - 2*_tmp25*h - 2*_tmp26 + 4*_tmp3*_tmp6*a*b_h, (1, 1): 6*b_h, (1, 3): 6*_tmp26, (2, 2): 2*_tmp27 + 2*_tmp28 + 2*b_m, (3, 3): 2*_tmp15*_tmp28 + 2*_tmp15*b_m + 2*_tmp19*_tmp30 + 6*_tmp29, (4, 4): 2*_tmp11*_tmp29 + 2*_tmp16*_tmp25 - 2*_tmp20*_tmp26 + 2*_tmp21*b_v + 2*_tmp22*_tmp27 + 2*_tmp22*_tmp28 + 2*_tmp29, (5, 5): 2*_tmp11*_tmp30 + 2*_tmp15*_tmp25 + 2*_tmp22*_tmp23 + 2*_tmp30}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = k_belt + 2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2
-          [x, theta] = h_belt*k_belt - 2*c_h*h - 4*c_h*h*cos(alpha)**2 - 4*c_v*h*sin(alpha)**2 - 4*a*c_v*cos(alpha)*sin(alpha) + 4*a*c_h*cos(alpha)*sin(alpha)
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*(c_m*b**2 + 3*c_h*h**2 + 2*c_h*b**2*sin(alpha)**2 + 2*c_v*b**2*cos(alpha)**2)
-          [theta, theta] = k_belt*h_belt**2 + 2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha)
-          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [x, x] = k_belt
+          [x, theta] = h_belt*k_belt
+          [theta, theta] = k_belt*h_belt**2
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
-    _tmp0 = 2*c_h
-    _tmp1 = numpy.cos(alpha)
-    _tmp2 = _tmp1**2
-    _tmp3 = 4*c_h
-    _tmp4 = _tmp2*_tmp3
-    _tmp5 = numpy.sin(alpha)
-    _tmp6 = _tmp5**2
-    _tmp7 = 4*c_v
-    _tmp8 = _tmp6*_tmp7
-    _tmp9 = _tmp1*_tmp5*a
-    _tmp10 = 6*c_h
-    _tmp11 = _tmp0*_tmp6
-    _tmp12 = 2*_tmp2
-    _tmp13 = _tmp12*c_v
-    _tmp14 = b**2
-    _tmp15 = h**2
-    _tmp16 = 8*_tmp9*h
-    _tmp17 = a**2
-    _tmp18 = 2*_tmp6
-    _tmp19 = _tmp18*b_v
-    _tmp20 = b_h*h
-    _tmp21 = _tmp9*b_v
-    _tmp22 = _tmp18*b_h
-    _tmp23 = _tmp12*b_v
-    _tmp24 = _tmp15*b_h
-    _tmp25 = _tmp14*b_h
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0 + _tmp4 + _tmp8 + k_belt, (0, 4): -_tmp0*h + 4*_tmp1*_tmp5*a*c_h - _tmp4*h - _tmp7*_tmp9 - _tmp8*h + h_belt*k_belt, (1, 1): _tmp10, (1, 3): _tmp10*h, (2, 2): 2*_tmp11 + 2*_tmp13 + 2*c_m, (3, 3): 2*_tmp11*_tmp14 + 2*_tmp13*_tmp14 + 2*_tmp14*c_m + 6*_tmp15*c_h, (4, 4): _tmp0*_tmp15 + _tmp15*_tmp4 + _tmp15*_tmp8 - _tmp16*c_h + _tmp16*c_v + _tmp17*_tmp2*_tmp7 + _tmp17*_tmp3*_tmp6 + h_belt**2*k_belt, (5, 5): 2*_tmp0*_tmp14*_tmp2 + 2*_tmp0*_tmp17 + 2*_tmp14*_tmp18*c_v + 2*_tmp14*c_h}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp12*b_h + 2*_tmp19 + 2*b_h, (0, 4): 4*_tmp1*_tmp5*a*b_h - 2*_tmp12*_tmp20 - 2*_tmp19*h - 2*_tmp20 - 4*_tmp21, (1, 1): 6*b_h, (1, 3): 6*_tmp20, (2, 2): 2*_tmp22 + 2*_tmp23 + 2*b_m, (3, 3): 2*_tmp14*_tmp23 + 2*_tmp14*b_m + 2*_tmp18*_tmp25 + 6*_tmp24, (4, 4): 2*_tmp12*_tmp24 + 2*_tmp15*_tmp19 + 2*_tmp17*_tmp22 + 2*_tmp17*_tmp23 - 8*_tmp20*_tmp9 + 8*_tmp21*h + 2*_tmp24, (5, 5): 2*_tmp12*_tmp25 + 2*_tmp14*_tmp19 + 4*_tmp17*b_h + 2*_tmp25}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
-    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the extended energies (mountid.symbolic.effects).
+    each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
+    extended energies (mountid.symbolic.effects).
+    The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
 
         M:
-          [x, x] = m
-          [y, y] = m
-          [z, z] = m
-          [psi, psi] = J_x
-          [theta, theta] = J_y
-          [phi, phi] = J_z
         C:
-          [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-          [x, theta] = 2*(-c_h*h - 2*c_h*h*cos(alpha)**2 - 2*c_v*h*sin(alpha)**2 - 2*a*c_v*cos(alpha)*sin(alpha) + 2*a*c_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*c_h
-          [y, psi] = 6*c_h*h
-          [z, z] = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [psi, psi] = 2*c_m*b**2 + 6*c_h*h**2 - 196133*h_preload*m/20000 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2
-          [theta, theta] = 2*c_h*h**2 - 196133*h_preload*m/20000 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha)
-          [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-        B:
-          [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
-          [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
-          [y, y] = 6*b_h
-          [y, psi] = 6*b_h*h
-          [z, z] = 2*(b_m + 2*b_h*sin(alpha)**2 + 2*b_v*cos(alpha)**2)
-          [psi, psi] = 2*(b_m*b**2 + 3*b_h*h**2 + 2*b_h*b**2*sin(alpha)**2 + 2*b_v*b**2*cos(alpha)**2)
-          [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
-          [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
+          [psi, psi] = -196133*h_preload*m/20000
+          [theta, theta] = -196133*h_preload*m/20000
     """
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
-    _tmp0 = numpy.cos(alpha)
-    _tmp1 = _tmp0**2
-    _tmp2 = 2*c_h
-    _tmp3 = numpy.sin(alpha)
-    _tmp4 = _tmp3**2
-    _tmp5 = 2*c_v
-    _tmp6 = _tmp4*_tmp5
-    _tmp7 = c_h*h
-    _tmp8 = 2*_tmp1
-    _tmp9 = _tmp0*_tmp3*a
-    _tmp10 = 6*c_h
-    _tmp11 = -9.80665*h_preload*m
-    _tmp12 = b**2
-    _tmp13 = 2*_tmp12
-    _tmp14 = h**2
-    _tmp15 = _tmp12*c_h
-    _tmp16 = 4*_tmp4
-    _tmp17 = 4*_tmp1
-    _tmp18 = _tmp17*c_v
-    _tmp19 = 8*_tmp9
-    _tmp20 = a**2
-    _tmp21 = 2*b_h
-    _tmp22 = 2*b_v
-    _tmp23 = _tmp22*_tmp4
-    _tmp24 = b_h*h
-    _tmp25 = _tmp21*_tmp4
-    _tmp26 = _tmp1*_tmp22
-    _tmp27 = _tmp14*b_h
-    _tmp28 = _tmp12*b_h
-    _tmp29 = _tmp13*b_v
-    _tmp30 = 4*_tmp9
+    _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
-    return (_runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): _tmp10, (1, 3): 6*_tmp7, (2, 2): 2*_tmp1*_tmp5 + 2*_tmp2*_tmp4 + 2*c_m, (3, 3): _tmp10*_tmp14 + _tmp11 + _tmp12*_tmp18 + _tmp13*c_m + _tmp15*_tmp16, (4, 4): _tmp11 + _tmp14*_tmp16*c_v + _tmp14*_tmp17*c_h + _tmp14*_tmp2 + _tmp16*_tmp20*c_h + _tmp18*_tmp20 - _tmp19*_tmp7 + _tmp19*c_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp2*_tmp20}), _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp21 + 2*_tmp23 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp22*_tmp9 - 2*_tmp23*h - 2*_tmp24*_tmp8 - 2*_tmp24, (1, 1): 6*b_h, (1, 3): 6*_tmp24, (2, 2): 2*_tmp25 + 2*_tmp26 + 2*b_m, (3, 3): 2*_tmp1*_tmp29 + 2*_tmp12*b_m + 6*_tmp27 + 4*_tmp28*_tmp4, (4, 4): 2*_tmp14*_tmp23 + 2*_tmp20*_tmp25 + 2*_tmp20*_tmp26 - 2*_tmp24*_tmp30 + 2*_tmp27*_tmp8 + 2*_tmp27 + 2*_tmp30*b_v*h, (5, 5): 2*_tmp20*_tmp21 + 2*_tmp28*_tmp8 + 2*_tmp28 + 2*_tmp29*_tmp4}))
+    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
@@ -2299,7 +2090,7 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "z_found"),
+    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

@@ -72,11 +72,11 @@ class CandidateFit:
     held_out_exact: bool = False
     applicable: bool = True
     note: str = ""
-
-    @property
-    def held_out_rms(self) -> float:
-        """RMS of the held-out frequency errors in units of their standard deviation (set by the ranking)."""
-        return self._held_out_rms
+    held_out_rms: float = math.nan
+    """RMS of the held-out frequency errors in units of their standard deviation (set by the ranking)."""
+    model: CandidateModel | None = field(default=None, repr=False, compare=False)
+    theta: np.ndarray | None = field(default=None, repr=False, compare=False)
+    """The fitted model and its flat parameter vector (for leave-one-out refits and separation)."""
 
     def to_json(self) -> dict:
         return {
@@ -95,6 +95,7 @@ class CandidateFit:
             "held_out_exact": self.held_out_exact,
             "applicable": self.applicable,
             "note": self.note,
+            "held_out_rms_sigma": self.held_out_rms if math.isfinite(self.held_out_rms) else None,
         }
 
 
@@ -124,10 +125,17 @@ class CandidateModel:
         self.log_scaled = tuple(p.plausible[0] > 0 for p in self.effect_parameters)
         measured = [campaign.modes[lab].frequency for lab in self.labels]
         self.omega_ref = float(np.exp(np.mean(np.log(measured))))
-        # reference shapes for labelling: the generated (block-pure) modal matrix at the nominal values
+        # modes are paired with labels by shape and frequency: the measured ones where measured, else the
+        # generated (block-pure) modal matrix and frequencies at the nominal values
         fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
         self.reference = _scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
-        self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd))
+        self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
+        for i, label in enumerate(mod.MODES):
+            m = campaign.modes.get(label)
+            if m is not None:
+                self.reference_lambda[i] = m.frequency**2
+                if m.shape is not None:
+                    self.reference[:, i] = _scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:
@@ -153,7 +161,7 @@ class CandidateModel:
                 lo.append(math.log(a / 10))
                 hi.append(math.log(b * 10))
             else:
-                lo.append(a - (b - a))
+                lo.append(a - (b - a) if p.floor is None else p.floor)
                 hi.append(b + (b - a))
         return np.array(lo), np.array(hi)
 
@@ -210,13 +218,11 @@ class CandidateModel:
                 sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
             )
         labels = labels or self.labels
-        freqs, shapes = [], []
-        for label in labels:
-            j = order[self.mod.MODES.index(label)]
-            freqs.append(omega[j])
-            cluster = np.flatnonzero(np.abs(lam - lam[j]) <= _DEGENERATE * abs(lam[j]))
-            shapes.append(body[:, j] if len(cluster) == 1 else body[:, cluster])
-        return Prediction(np.array(freqs), shapes)
+        index = order[[self.mod.MODES.index(label) for label in labels]]
+        near = np.abs(lam[index, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[index, None])
+        counts = near.sum(axis=1)
+        shapes = [body[:, j] if c == 1 else body[:, row] for j, c, row in zip(index, counts, near, strict=True)]
+        return Prediction(omega[index], shapes)
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
@@ -268,6 +274,19 @@ def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:
     return out
 
 
+def _off_span(s: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """The part of s outside the span of a unit vector (or of the columns of a matrix)."""
+    if basis.ndim == 1:
+        return s - basis * (basis @ s)
+    if basis.shape[1] == 2:  # Gram-Schmidt: a model pair of equal frequencies
+        a, b = basis[:, 0], basis[:, 1]
+        b = b - a * (a @ b)
+        b = b / np.linalg.norm(b)
+        return s - a * (a @ s) - b * (b @ s)
+    q, _ = np.linalg.qr(basis)
+    return s - q @ (q.T @ s)
+
+
 class Data:
     """The campaign's measurements as weighted data rows (see the module docstring)."""
 
@@ -288,11 +307,7 @@ class Data:
     def residuals(self, pred: Prediction) -> np.ndarray:
         rows = [(self.omega - pred.frequencies) / self.sigma]
         for lab, s, sig in zip(self.shape_labels, self.shapes, self.shape_sigma, strict=True):
-            basis = pred.shapes[self.labels.index(lab)]
-            basis = basis[:, None] if basis.ndim == 1 else basis
-            q, _ = np.linalg.qr(basis)
-            r = s - q @ (q.T @ s)
-            rows.append(r / sig)
+            rows.append(_off_span(s, pred.shapes[self.labels.index(lab)]) / sig)
         return np.concatenate(rows)
 
     def rows_of(self, label: str) -> np.ndarray:
@@ -325,11 +340,17 @@ def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], 
     lo, hi = model.bounds()
     fun = _residual_function(model, data, rows)
     best = None
+    finite = np.isfinite(lo)
+    inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
+    inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
     for x0 in starts:
-        x0 = np.clip(x0, lo + 1e-9 * (1 + np.abs(lo)), hi - 1e-9 * (1 + np.abs(hi)))
-        res = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=300)
+        x0 = np.clip(x0, inner_lo, inner_hi)
+        res = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=100)
         if best is None or res.cost < best.cost:
             best = res
+        n = len(res.fun)
+        if 2 * best.cost <= n + 3 * math.sqrt(2 * n):  # fits to noise level: no need for the other start
+            break
     return best
 
 
@@ -380,7 +401,7 @@ def fit_candidate(campaign: Campaign, effect: Effect | None, isolator: int | Non
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
     fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), res.fun, gap)
     fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
-    fit._model, fit._theta = model, theta  # for exact leave-one-out and separation (not serialised)
+    fit.model, fit.theta = model, theta
     return fit
 
 
@@ -402,7 +423,7 @@ def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[st
 
 def exact_leave_one_out(fit: CandidateFit) -> None:
     """Refit without each mode in turn (frequency and shape) and store its held-out error [rad/s]."""
-    model, theta = fit._model, fit._theta
+    model, theta = fit.model, fit.theta
     data = Data(model.campaign, model.length)
     out = {}
     for i, lab in enumerate(data.labels):
@@ -485,10 +506,10 @@ def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) ->
         ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
     )
     tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
-    for f in [nominal] + tie:
+    for f in [nominal, *tie]:
         exact_leave_one_out(f)
-    for f in [nominal] + fits:
-        f._held_out_rms = held_out_rms(f, campaign)
+    for f in [nominal, *fits]:
+        f.held_out_rms = held_out_rms(f, campaign)
     separation = [separate(campaign, best, other) for other in tie[1:]] if best else []
     confident = False
     if math.isnan(p_value):
@@ -528,8 +549,8 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
     candidates a and b differ most, in units of the campaign's typical uncertainty."""
     mod = campaign.machine.module
     labels = tuple(mod.MODES)
-    pa = a._model.predict(a._theta, labels)
-    pb = b._model.predict(b._theta, labels)
+    pa = a.model.predict(a.theta, labels)
+    pb = b.model.predict(b.theta, labels)
     measured = list(campaign.modes.values())
     rel = float(np.median([(m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency) / m.frequency for m in measured]))
     shape_sigma = float(np.median([m.shape_uncertainty or DEFAULT_SHAPE_STD for m in measured]))

@@ -39,6 +39,8 @@ class EffectParameter:
     start: float
     """Where the fit starts (a multiple of ``scale``): the effect is nil there, or small."""
     description: str
+    floor: float | None = None
+    """Hard lower bound of the search (a multiple of ``scale``) where the sign carries no meaning."""
 
 
 @dataclass(frozen=True)
@@ -108,11 +110,19 @@ CATALOGUE: tuple[Effect, ...] = (
         "generated",
         "compliant support under the isolators",
         (
-            _p("m_found", "kg", "mass", 0.05, 10.0, 0.5, "participating mass of the support under the isolators"),
-            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "vertical stiffness of the support"),
+            _p(
+                "m_found",
+                "kg",
+                "mass",
+                0.05,
+                10.0,
+                0.5,
+                "mass of the support slab (radius of gyration: the length scale)",
+            ),
+            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "stiffness of the support (k length^2 in rotation)"),
         ),
-        "lowers z (the machine bounces on a second spring) and adds a foundation mode; rocking and "
-        "horizontal modes barely move",
+        "a rigid slab (six coordinates) on an isotropic support between isolators and ground: every mode "
+        "drops, most those whose isolators are stiffest relative to the support (z, rocking); six slab modes",
     ),
     Effect(
         "added_mass",
@@ -145,7 +155,11 @@ CATALOGUE: tuple[Effect, ...] = (
         "damping",
         "damping",
         "measured damped frequencies vs undamped model",
-        (_p("damping_scale", "1", "one", 0.0, 5.0, 0.0, "factor on the described damping matrix B"),),
+        (
+            EffectParameter(
+                "damping_scale", "1", "one", (0.0, 5.0), 1.0, "factor on the described damping matrix B", floor=0.0
+            ),
+        ),
         "each mode lower by about zeta^2/2 of its own damping ratio; shapes nearly unchanged",
     ),
     Effect(

@@ -13,7 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from functools import cache
 from pathlib import Path
 
-from mountid.codegen.numpy_module import render
+from mountid.codegen.numpy_module import EffectFunctions, effect_functions, render
 from mountid.description import load
 from mountid.symbolic.blocks import ModalStructure
 from mountid.symbolic.inverse import InverseDerivation, InverseSet
@@ -36,21 +36,28 @@ def _derive(path: Path, labels: tuple[str, ...]) -> InverseSet:
     return _derivation(path).derive(labels)
 
 
-def _render(path: Path, sets: list[InverseSet]) -> str:
-    return render(load(path), inverse_sets=sets)
+def _effects(path: Path) -> EffectFunctions:
+    return effect_functions(SymbolicModel(load(path)))
+
+
+def _render(path: Path, sets: list[InverseSet], effects: EffectFunctions) -> str:
+    return render(load(path), inverse_sets=sets, effects=effects)
 
 
 def generate(sources: list[Path], workers: int = 2) -> dict[str, str]:
     """Module source per description name. The inverse sets (most of the work) are derived one per task
-    over ``workers`` processes; each result is independent of the process it came from."""
+    over ``workers`` processes, the candidate-effect functions one task per description alongside; each
+    result is independent of the process it came from."""
     with ProcessPoolExecutor(max_workers=workers) as pool:
+        effects = [pool.submit(_effects, path) for path in sources]
         candidates = list(pool.map(_candidates, sources))
         tasks = [
             [pool.submit(_derive, path, labels) for labels in sets]
             for path, sets in zip(sources, candidates, strict=True)
         ]
         sets = [[t.result() for t in row] for row in tasks]
-        return {p.stem: text for p, text in zip(sources, pool.map(_render, sources, sets), strict=True)}
+        done = [e.result() for e in effects]
+        return {p.stem: text for p, text in zip(sources, pool.map(_render, sources, sets, done), strict=True)}
 
 
 def main(argv: list[str] | None = None) -> int:

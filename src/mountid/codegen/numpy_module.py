@@ -15,8 +15,8 @@ import sympy as sp
 
 from mountid.codegen.printing import code, describe, eliminate, fused
 from mountid.description import COORDINATES, Description
-from mountid.symbolic.blocks import ModalStructure
 from mountid.effects import EFFECTS
+from mountid.symbolic.blocks import ModalStructure
 from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
 from mountid.symbolic.inverse import InverseDerivation, InverseSet
 from mountid.symbolic.model import SymbolicModel
@@ -64,9 +64,15 @@ def _matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: s
 
 
 def _matrices_function(
-    name: str, matrices: dict[str, sp.Matrix], coordinates: tuple[str, ...], args: tuple[str, ...], doc: str
+    name: str,
+    matrices: dict[str, sp.Matrix],
+    coordinates: tuple[str, ...],
+    args: tuple[str, ...],
+    doc: str,
+    base: dict[str, str] | None = None,
 ) -> Function:
-    """A function returning several symmetric matrices (one cse over all of them) as a tuple."""
+    """A function returning several symmetric matrices (one cse over all of them) as a tuple; ``base``: per
+    matrix, code of a matrix the entries are added to, and further outputs (label -> code) after them."""
     n = len(coordinates)
     entries = [(k, i, j, mat[i, j]) for k, mat in enumerate(matrices.values()) for i in range(n) for j in range(i, n)]
     entries = [e for e in entries if e[3] != 0]
@@ -86,30 +92,58 @@ def _matrices_function(
             f"({i}, {j}): {out}" for (kk, i, j, _), out in zip(entries, cse.outputs, strict=True) if kk == k
         )
         outs.append(f"_runtime.stack_matrix(_shape, {n}, {{{pairs}}})")
+    if base:
+        outs = [f"{base[label]} + {out}" for label, out in zip(matrices, outs, strict=True)]
+        outs += [code for label, code in base.items() if label not in matrices]
     fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
     return fn
 
 
-def _effect_functions(model: SymbolicModel) -> tuple[list[Function], dict[str, tuple[str, ...]], tuple[str, ...]]:
+EffectFunctions = tuple[list[Function], dict[str, tuple[str, ...]], tuple[str, ...]]
+
+
+def effect_functions(model: SymbolicModel) -> EffectFunctions:
     """Extended matrices of every generated effect, the isolators' own stiffness matrices, the scales.
 
     Returns the functions, the coordinates of each effect's extended model, and the isolator names.
     """
     functions = []
     coords = {}
+    nominal_args = {
+        "M": model.parameters_of(model.M),
+        "C": model.parameters_of(model.C),
+        "B": model.parameters_of(model.B),
+    }
     for name in GENERATED_EFFECTS:
         ext = ExtendedModel(model, EFFECTS[name])
         coords[name] = ext.coordinates
+        n = len(ext.coordinates)
         doc = (
             f"M, C, B of the model extended by the candidate effect {name} ({EFFECTS[name].title}),\n"
-            f"    each of shape (..., {len(ext.coordinates)}, {len(ext.coordinates)}), coordinates "
-            f"{', '.join(ext.coordinates)}; derived from the extended energies (mountid.symbolic.effects).\n"
+            f"    each of shape (..., {n}, {n}), coordinates {', '.join(ext.coordinates)}; derived from the\n"
+            "    extended energies (mountid.symbolic.effects).\n"
         )
-        functions.append(
-            _matrices_function(
+        if n > 6:
+            fn = _matrices_function(
                 f"effect_{name}", {"M": ext.M, "C": ext.C, "B": ext.B}, ext.coordinates, ext.arguments(), doc
             )
-        )
+        else:
+            added = {"M": ext.added_M, "C": ext.added_C}
+            own = model.parameters_of(model.M, model.C, model.B)
+            extra = tuple(p.name for p in EFFECTS[name].parameters)
+            calls = {
+                k: f"{fn_name}({', '.join(nominal_args[k])})"
+                for k, fn_name in (("M", "mass_matrix"), ("C", "stiffness_matrix"), ("B", "damping_matrix"))
+            }
+            fn = _matrices_function(
+                f"effect_{name}",
+                added,
+                ext.coordinates,
+                own + extra,
+                doc + "    The nominal matrices plus the Hessians of the added energies (B is the nominal one):\n",
+                base=calls,
+            )
+        functions.append(fn)
     per = isolator_stiffness(model)
     names = tuple(iso.name for iso in model.isolators)
     args = model.parameters_of(*per)
@@ -357,10 +391,13 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
 
 
 def module_context(
-    description: Description, template: str = TEMPLATE, inverse_sets: list[InverseSet] | None = None
+    description: Description,
+    template: str = TEMPLATE,
+    inverse_sets: list[InverseSet] | None = None,
+    effects: EffectFunctions | None = None,
 ) -> dict:
-    """Everything the template needs for one description. ``inverse_sets``: the derived inverse sets when
-    already at hand (derived here otherwise)."""
+    """Everything the template needs for one description. ``inverse_sets`` and ``effects``: the derived
+    inverse sets and candidate-effect functions when already at hand (derived here otherwise)."""
     model = SymbolicModel(description)
     structure = ModalStructure(model)
     functions = [
@@ -378,8 +415,8 @@ def module_context(
     inverses = [f for s in inverse_sets if s.identifiable for f in _inverse_function(s, structure, model, fwd_args)]
     if inverses:
         functions += [_model_function(model, fwd_args), *inverses]
-    effect_functions, effect_coordinates, isolator_names = _effect_functions(model)
-    functions += effect_functions
+    extra, effect_coordinates, isolator_names = effects or effect_functions(model)
+    functions += extra
     params = {
         n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
         for n, p in description.parameters.items()
@@ -427,11 +464,17 @@ def _pytuple(items) -> str:
     return f"({quoted[0]},)" if len(quoted) == 1 else f"({', '.join(quoted)})"  # () when empty
 
 
-def render(description: Description, template: str = TEMPLATE, inverse_sets: list[InverseSet] | None = None) -> str:
-    """The source of the generated module for a description (``inverse_sets`` as in module_context)."""
+def render(
+    description: Description,
+    template: str = TEMPLATE,
+    inverse_sets: list[InverseSet] | None = None,
+    effects: EffectFunctions | None = None,
+) -> str:
+    """The source of the generated module for a description (``inverse_sets``, ``effects`` as in
+    module_context)."""
     if sp.__version__ != SYMPY_VERSION:
         raise RuntimeError(
             f"generation is pinned to sympy {SYMPY_VERSION} (found {sp.__version__}): "
             "other releases change cse output; install the pinned version"
         )
-    return _environment().get_template(template).render(**module_context(description, template, inverse_sets))
+    return _environment().get_template(template).render(**module_context(description, template, inverse_sets, effects))

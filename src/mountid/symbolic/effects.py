@@ -8,7 +8,7 @@ the nominal model; an extra coordinate (the foundation's vertical motion) extend
 
 from __future__ import annotations
 
-from functools import cached_property
+from functools import cache, cached_property
 
 import sympy as sp
 
@@ -38,44 +38,44 @@ class ExtendedModel:
         self.model = model
         self.effect = effect
         self.symbols = {p.name: sp.Symbol(p.name, real=True) for p in effect.parameters}
-        extra = ("z_found",) if effect.name == "foundation" else ()
+        extra = tuple(f"{c}_found" for c in COORDINATES) if effect.name == "foundation" else ()
         self.coordinates: tuple[str, ...] = COORDINATES + extra
         self.q = sp.Matrix([*model.q, *(sp.Symbol(c, real=True) for c in extra)])
         self.qdot = sp.Matrix([*model.qdot, *(sp.Symbol(c + "_dot", real=True) for c in extra)])
 
     # -- energies ----------------------------------------------------------------------------------
-    def _isolators(self, vec: sp.Matrix, tensor: str) -> sp.Expr:
-        """Isolator energy 1/2 sum d^T K d of the deformation d = u(r_i) - (support motion)."""
-        support = sp.Matrix([0, 0, vec[6]]) if len(vec) > 6 else sp.zeros(3, 1)
-        total = sp.Integer(0)
-        for iso in self.model.isolators:
-            d = SymbolicModel.point_motion(vec[:6, 0], iso.position) - support
-            total += (d.T * getattr(iso, tensor) * d)[0] / 2
-        return total
+    @cached_property
+    def slab_centre(self) -> sp.Matrix:
+        """Centre of the foundation slab: the mean of the isolator points [m]."""
+        points = [iso.position for iso in self.model.isolators]
+        return sum(points, sp.zeros(3, 1)) / len(points)
 
     @cached_property
-    def kinetic_energy(self) -> sp.Expr:
+    def added_kinetic_energy(self) -> sp.Expr:
+        """T of the extended model minus the nominal T."""
         m, s = self.model, self.symbols
-        centre = m.centre_of_mass
         name = self.effect.name
         body = self.qdot[:6, 0]
-        if name == "com_offset":
-            centre = centre + sp.Matrix([s["dx_com"], s["dy_com"], 0])
-        elif name == "cog_height":
-            centre = centre + sp.Matrix([0, 0, s["dz_com"]])
-        t = rigid_body_kinetic_energy(m.mass, m.inertia, centre, body)
-        if name == "added_mass":
-            t += rigid_body_kinetic_energy(s["m_added"], sp.zeros(3), sp.Matrix([0, 0, s["h_added"]]), body)
+        t = sp.Integer(0)
+        if name in ("com_offset", "cog_height"):
+            shift = sp.Matrix([s["dx_com"], s["dy_com"], 0]) if name == "com_offset" else sp.Matrix([0, 0, s["dz_com"]])
+            t = rigid_body_kinetic_energy(m.mass, m.inertia, m.centre_of_mass + shift, body) - m.kinetic_energy
+        elif name == "added_mass":
+            t = rigid_body_kinetic_energy(s["m_added"], sp.zeros(3), sp.Matrix([0, 0, s["h_added"]]), body)
         elif name == "foundation":
-            t += s["m_found"] * self.qdot[6] ** 2 / 2
+            # a rigid slab of mass m_found with radius of gyration equal to the machine's length scale
+            inertia = s["m_found"] * scales(m)["length"] ** 2 * sp.eye(3)
+            t = rigid_body_kinetic_energy(s["m_found"], inertia, sp.zeros(3, 1), self.qdot[6:, 0])
         return sp.expand(t)
 
     @cached_property
-    def potential_energy(self) -> sp.Expr:
+    def added_potential_energy(self) -> sp.Expr:
+        """P of the extended model minus the nominal P (for the foundation: minus the isolators' P, which
+        the foundation changes; see isolator_energies)."""
         m, s = self.model, self.symbols
         name = self.effect.name
-        p = self._isolators(self.q, "stiffness")
         w = self.q[3:6, 0]
+        p = sp.Integer(0)
         if name == "rotational_stiffness":
             # per isolator: bending about the axes across it, torsion about its own axis a
             for iso in m.isolators:
@@ -83,7 +83,9 @@ class ExtendedModel:
                 tensor = s["k_bend"] * (sp.eye(3) - a * a.T) + s["k_torsion"] * a * a.T
                 p += (w.T * tensor * w)[0] / 2
         elif name == "foundation":
-            p += s["k_found"] * self.q[6] ** 2 / 2
+            # the slab on an isotropic support: k_found in translation, k_found length^2 in rotation
+            t_f, w_f = self.q[6:9, 0], self.q[9:12, 0]
+            p += s["k_found"] * ((t_f.T * t_f)[0] + scales(m)["length"] ** 2 * (w_f.T * w_f)[0]) / 2
         elif name == "drive_belt":
             stretch = SymbolicModel.point_motion(self.q[:6, 0], sp.Matrix([0, 0, s["h_belt"]]))[0]
             p += s["k_belt"] * stretch**2 / 2
@@ -96,22 +98,45 @@ class ExtendedModel:
             p += m.mass * g * second_order_motion(w, m.centre_of_mass)[2]
         return sp.expand(p)
 
-    @cached_property
-    def dissipation_function(self) -> sp.Expr:
-        return sp.expand(self._isolators(self.qdot, "damping"))
-
     # -- matrices ------------------------------------------------------------------------------------
+    # The Hessian is linear: the extended matrix is the nominal one (Hessian of the nominal energy) plus the
+    # Hessian of the added energy. The foundation changes the isolators' energies themselves (they deform
+    # between body and slab), so there the isolator energies are differentiated afresh in all 12 coordinates.
+    def _matrix(self, added: sp.Expr, nominal: sp.Matrix, variables: sp.Matrix, tensor: str | None) -> sp.Matrix:
+        if len(variables) > 6:
+            full = sp.zeros(len(variables))
+            if tensor is not None:
+                for iso in self.model.isolators:
+                    full += isolator_hessian(iso.position, getattr(iso, tensor), iso.position - self.slab_centre)
+                full = full.applyfunc(sp.expand)
+            elif nominal is not None:
+                full[:6, :6] = nominal
+            return (full + sp.hessian(added, list(variables))).applyfunc(sp.factor_terms)
+        if added == 0:
+            return nominal
+        return (nominal + sp.hessian(added, list(variables))).applyfunc(sp.factor_terms)
+
+    @cached_property
+    def added_M(self) -> sp.Matrix:
+        """Hessian of the added kinetic energy (extensions without extra coordinates)."""
+        return sp.hessian(self.added_kinetic_energy, list(self.qdot)).applyfunc(sp.factor_terms)
+
+    @cached_property
+    def added_C(self) -> sp.Matrix:
+        """Hessian of the added potential energy (extensions without extra coordinates)."""
+        return sp.hessian(self.added_potential_energy, list(self.q)).applyfunc(sp.factor_terms)
+
     @cached_property
     def M(self) -> sp.Matrix:
-        return sp.hessian(self.kinetic_energy, list(self.qdot)).applyfunc(sp.factor_terms)
+        return self._matrix(self.added_kinetic_energy, self.model.M, self.qdot, None)
 
     @cached_property
     def C(self) -> sp.Matrix:
-        return sp.hessian(self.potential_energy, list(self.q)).applyfunc(sp.factor_terms)
+        return self._matrix(self.added_potential_energy, self.model.C, self.q, "stiffness")
 
     @cached_property
     def B(self) -> sp.Matrix:
-        return sp.hessian(self.dissipation_function, list(self.qdot)).applyfunc(sp.factor_terms)
+        return self._matrix(sp.Integer(0), self.model.B, self.qdot, "damping")
 
     def arguments(self) -> tuple[str, ...]:
         """Description parameters, then effect parameters, that M, C and B depend on."""
@@ -122,14 +147,38 @@ class ExtendedModel:
         return own + tuple(n for n, sym in self.symbols.items() if sym in free)
 
 
+_POINT = sp.Matrix(sp.symbols("_r_x _r_y _r_z", real=True))
+_SLAB_POINT = sp.Matrix(sp.symbols("_s_x _s_y _s_z", real=True))
+_TENSOR = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"_k{min(i, j)}{max(i, j)}", real=True))
+
+
+@cache
+def _generic_isolator_hessian(slab: bool) -> sp.Matrix:
+    """Hessian of the energy 1/2 d^T K d of one isolator with symbolic point, tensor (and slab point):
+    d = u_body(r) (- u_slab(s)). Differentiated once with symbols; each isolator then substitutes its own
+    expressions, which is far cheaper than differentiating energies full of its trigonometric entries."""
+    q = sp.Matrix(sp.symbols(" ".join(f"_q{i}" for i in range(12 if slab else 6)), real=True))
+    d = SymbolicModel.point_motion(q[:6, 0], _POINT)
+    if slab:
+        d -= SymbolicModel.point_motion(q[6:, 0], _SLAB_POINT)
+    energy = sp.expand((d.T * _TENSOR * d)[0] / 2)
+    return sp.hessian(energy, list(q))
+
+
+def isolator_hessian(position: sp.Matrix, tensor: sp.Matrix, slab_position: sp.Matrix | None = None) -> sp.Matrix:
+    """The Hessian of one isolator's energy in the body coordinates (and the slab's, when on a slab)."""
+    generic = _generic_isolator_hessian(slab_position is not None)
+    subs = {_POINT[i]: position[i] for i in range(3)}
+    subs |= {_TENSOR[i, j]: tensor[i, j] for i in range(3) for j in range(i, 3)}
+    if slab_position is not None:
+        subs |= {_SLAB_POINT[i]: slab_position[i] for i in range(3)}
+    return generic.xreplace(subs)
+
+
 def isolator_stiffness(model: SymbolicModel) -> list[sp.Matrix]:
     """The stiffness matrix of each isolator alone (Hessian of its potential energy): C is their sum."""
-    out = []
-    for iso in model.isolators:
-        u = SymbolicModel.point_motion(model.q, iso.position)
-        energy = sp.expand((u.T * iso.stiffness * u)[0] / 2)
-        out.append(sp.hessian(energy, list(model.q)).applyfunc(sp.factor_terms))
-    return out
+    tidy = lambda e: sp.factor_terms(sp.expand(e))  # noqa: E731
+    return [isolator_hessian(iso.position, iso.stiffness).applyfunc(tidy) for iso in model.isolators]
 
 
 def scales(model: SymbolicModel) -> dict[str, sp.Expr]:
