@@ -547,12 +547,12 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [theta, theta_found] = -2*c_z*L_xy**2
           [phi, phi] = 4*c_xy*L_xy**2
           [phi, phi_found] = -4*c_xy*L_xy**2
-          [x_found, x_found] = k_found + 4*c_xy
-          [y_found, y_found] = k_found + 4*c_xy
+          [x_found, x_found] = k_found/2 + 4*c_xy
+          [y_found, y_found] = k_found/2 + 4*c_xy
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = k_found*L_xy**2 + k_found*L_z**2 + 2*c_z*L_xy**2
-          [theta_found, theta_found] = k_found*L_xy**2 + k_found*L_z**2 + 2*c_z*L_xy**2
-          [phi_found, phi_found] = k_found*L_xy**2 + k_found*L_z**2 + 4*c_xy*L_xy**2
+          [psi_found, psi_found] = L_xy**2*(k_found/2 + 2*c_z)
+          [theta_found, theta_found] = L_xy**2*(k_found/2 + 2*c_z)
+          [phi_found, phi_found] = L_xy**2*(k_found/2 + 4*c_xy)
         B:
           [x, x] = 4*b_xy
           [x, theta] = -4*L_z*b_xy
@@ -589,24 +589,23 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
     _tmp8 = _tmp0*c_z
     _tmp9 = 2*_tmp1
     _tmp10 = 2*_tmp8 + 2*_tmp9*c_xy
-    _tmp11 = 2*_tmp8
-    _tmp12 = -_tmp11
-    _tmp13 = _tmp0*_tmp3
-    _tmp14 = _tmp3 + k_found
-    _tmp15 = _tmp0*k_found + _tmp1*k_found
-    _tmp16 = _tmp11 + _tmp15
-    _tmp17 = 4*b_xy
-    _tmp18 = L_z*_tmp17
-    _tmp19 = -_tmp18
-    _tmp20 = -_tmp17
-    _tmp21 = 4*b_z
-    _tmp22 = _tmp0*b_z
-    _tmp23 = 2*_tmp22 + 2*_tmp9*b_xy
-    _tmp24 = 2*_tmp22
-    _tmp25 = -_tmp24
-    _tmp26 = _tmp0*_tmp17
+    _tmp11 = -2*_tmp8
+    _tmp12 = _tmp0*_tmp3
+    _tmp13 = (0.5)*k_found
+    _tmp14 = _tmp13 + _tmp3
+    _tmp15 = _tmp0*(_tmp13 + 2*c_z)
+    _tmp16 = 4*b_xy
+    _tmp17 = L_z*_tmp16
+    _tmp18 = -_tmp17
+    _tmp19 = -_tmp16
+    _tmp20 = 4*b_z
+    _tmp21 = _tmp0*b_z
+    _tmp22 = 2*_tmp21 + 2*_tmp9*b_xy
+    _tmp23 = 2*_tmp21
+    _tmp24 = -_tmp23
+    _tmp25 = _tmp0*_tmp16
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp2, (10, 10): _tmp2, (11, 11): _tmp2}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): _tmp5, (0, 6): _tmp6, (1, 1): _tmp3, (1, 3): _tmp4, (1, 7): _tmp6, (2, 2): _tmp7, (2, 8): -_tmp7, (3, 3): _tmp10, (3, 7): _tmp5, (3, 9): _tmp12, (4, 4): _tmp10, (4, 6): _tmp4, (4, 10): _tmp12, (5, 5): _tmp13, (5, 11): -_tmp13, (6, 6): _tmp14, (7, 7): _tmp14, (8, 8): _tmp7 + k_found, (9, 9): _tmp16, (10, 10): _tmp16, (11, 11): _tmp13 + _tmp15}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp17, (0, 4): _tmp19, (0, 6): _tmp20, (1, 1): _tmp17, (1, 3): _tmp18, (1, 7): _tmp20, (2, 2): _tmp21, (2, 8): -_tmp21, (3, 3): _tmp23, (3, 7): _tmp19, (3, 9): _tmp25, (4, 4): _tmp23, (4, 6): _tmp18, (4, 10): _tmp25, (5, 5): _tmp26, (5, 11): -_tmp26, (6, 6): _tmp17, (7, 7): _tmp17, (8, 8): _tmp21, (9, 9): _tmp24, (10, 10): _tmp24, (11, 11): _tmp26}))
+    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp2, (10, 10): _tmp2, (11, 11): _tmp2}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): _tmp5, (0, 6): _tmp6, (1, 1): _tmp3, (1, 3): _tmp4, (1, 7): _tmp6, (2, 2): _tmp7, (2, 8): -_tmp7, (3, 3): _tmp10, (3, 7): _tmp5, (3, 9): _tmp11, (4, 4): _tmp10, (4, 6): _tmp4, (4, 10): _tmp11, (5, 5): _tmp12, (5, 11): -_tmp12, (6, 6): _tmp14, (7, 7): _tmp14, (8, 8): _tmp7 + k_found, (9, 9): _tmp15, (10, 10): _tmp15, (11, 11): _tmp0*_tmp14}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp16, (0, 4): _tmp18, (0, 6): _tmp19, (1, 1): _tmp16, (1, 3): _tmp17, (1, 7): _tmp19, (2, 2): _tmp20, (2, 8): -_tmp20, (3, 3): _tmp22, (3, 7): _tmp18, (3, 9): _tmp24, (4, 4): _tmp22, (4, 6): _tmp17, (4, 10): _tmp24, (5, 5): _tmp25, (5, 11): -_tmp25, (6, 6): _tmp16, (7, 7): _tmp16, (8, 8): _tmp20, (9, 9): _tmp23, (10, 10): _tmp23, (11, 11): _tmp25}))
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):

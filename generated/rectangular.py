@@ -1190,12 +1190,12 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta, theta_found] = -4*c_z*a**2
           [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
           [phi, phi_found] = -4*(c_x*b**2 + c_y*a**2)
-          [x_found, x_found] = k_found + 4*c_x
-          [y_found, y_found] = k_found + 4*c_y
+          [x_found, x_found] = k_found/2 + 4*c_x
+          [y_found, y_found] = k_found/2 + 4*c_y
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_z*b**2
-          [theta_found, theta_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_z*a**2
-          [phi_found, phi_found] = k_found*a**2 + k_found*b**2 + k_found*h**2 + 4*c_x*b**2 + 4*c_y*a**2
+          [psi_found, psi_found] = b**2*(k_found + 4*c_z)
+          [theta_found, theta_found] = a**2*(k_found + 4*c_z)
+          [phi_found, phi_found] = k_found*a**2/2 + k_found*b**2/2 + 4*c_x*b**2 + 4*c_y*a**2
         B:
           [x, x] = 4*b_x
           [x, theta] = -4*b_x*h
@@ -1230,20 +1230,19 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
     _tmp6 = 4*c_y
     _tmp7 = _tmp6*h
     _tmp8 = 4*c_z
-    _tmp9 = _tmp1*_tmp8
-    _tmp10 = _tmp0*_tmp8
-    _tmp11 = 4*_tmp0*c_y + 4*_tmp1*c_x
-    _tmp12 = _tmp0*k_found + _tmp1*k_found + _tmp2*k_found
-    _tmp13 = 4*b_x
-    _tmp14 = _tmp13*h
-    _tmp15 = 4*b_y
-    _tmp16 = _tmp15*h
-    _tmp17 = 4*b_z
-    _tmp18 = _tmp1*_tmp17
-    _tmp19 = _tmp0*_tmp17
-    _tmp20 = 4*_tmp0*b_y + 4*_tmp1*b_x
+    _tmp9 = 4*_tmp0*c_y + 4*_tmp1*c_x
+    _tmp10 = (0.5)*k_found
+    _tmp11 = _tmp8 + k_found
+    _tmp12 = 4*b_x
+    _tmp13 = _tmp12*h
+    _tmp14 = 4*b_y
+    _tmp15 = _tmp14*h
+    _tmp16 = 4*b_z
+    _tmp17 = _tmp1*_tmp16
+    _tmp18 = _tmp0*_tmp16
+    _tmp19 = 4*_tmp0*b_y + 4*_tmp1*b_x
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp4, (0, 4): -_tmp5, (0, 6): -_tmp4, (1, 1): _tmp6, (1, 3): _tmp7, (1, 7): -_tmp6, (2, 2): _tmp8, (2, 8): -_tmp8, (3, 3): 4*_tmp1*c_z + 4*_tmp2*c_y, (3, 7): -_tmp7, (3, 9): -_tmp9, (4, 4): 4*_tmp0*c_z + 4*_tmp2*c_x, (4, 6): _tmp5, (4, 10): -_tmp10, (5, 5): _tmp11, (5, 11): -_tmp11, (6, 6): _tmp4 + k_found, (7, 7): _tmp6 + k_found, (8, 8): _tmp8 + k_found, (9, 9): _tmp12 + _tmp9, (10, 10): _tmp10 + _tmp12, (11, 11): _tmp0*_tmp6 + _tmp1*_tmp4 + _tmp12}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp13, (0, 4): -_tmp14, (0, 6): -_tmp13, (1, 1): _tmp15, (1, 3): _tmp16, (1, 7): -_tmp15, (2, 2): _tmp17, (2, 8): -_tmp17, (3, 3): 4*_tmp1*b_z + 4*_tmp2*b_y, (3, 7): -_tmp16, (3, 9): -_tmp18, (4, 4): 4*_tmp0*b_z + 4*_tmp2*b_x, (4, 6): _tmp14, (4, 10): -_tmp19, (5, 5): _tmp20, (5, 11): -_tmp20, (6, 6): _tmp13, (7, 7): _tmp15, (8, 8): _tmp17, (9, 9): _tmp18, (10, 10): _tmp19, (11, 11): _tmp20}))
+    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp4, (0, 4): -_tmp5, (0, 6): -_tmp4, (1, 1): _tmp6, (1, 3): _tmp7, (1, 7): -_tmp6, (2, 2): _tmp8, (2, 8): -_tmp8, (3, 3): 4*_tmp1*c_z + 4*_tmp2*c_y, (3, 7): -_tmp7, (3, 9): -_tmp1*_tmp8, (4, 4): 4*_tmp0*c_z + 4*_tmp2*c_x, (4, 6): _tmp5, (4, 10): -_tmp0*_tmp8, (5, 5): _tmp9, (5, 11): -_tmp9, (6, 6): _tmp10 + _tmp4, (7, 7): _tmp10 + _tmp6, (8, 8): _tmp11, (9, 9): _tmp1*_tmp11, (10, 10): _tmp0*_tmp11, (11, 11): _tmp0*_tmp10 + _tmp0*_tmp6 + _tmp1*_tmp10 + _tmp1*_tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -_tmp13, (0, 6): -_tmp12, (1, 1): _tmp14, (1, 3): _tmp15, (1, 7): -_tmp14, (2, 2): _tmp16, (2, 8): -_tmp16, (3, 3): 4*_tmp1*b_z + 4*_tmp2*b_y, (3, 7): -_tmp15, (3, 9): -_tmp17, (4, 4): 4*_tmp0*b_z + 4*_tmp2*b_x, (4, 6): _tmp13, (4, 10): -_tmp18, (5, 5): _tmp19, (5, 11): -_tmp19, (6, 6): _tmp12, (7, 7): _tmp14, (8, 8): _tmp16, (9, 9): _tmp17, (10, 10): _tmp18, (11, 11): _tmp19}))
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):

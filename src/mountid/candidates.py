@@ -35,10 +35,13 @@ DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
 GAP_P_VALUE = 1e-3
 """The nominal model has a significant gap when its chi^2 exceeds the 1 - GAP_P_VALUE quantile."""
-TIE = 4.0
-"""Candidates within this AICc of the best cannot be told apart by the data."""
+TIE = 7.0
+"""Candidates within this AICc of the best cannot be told apart by the data (Burnham and Anderson's rule
+of thumb: up to 7 above the best a model keeps some support)."""
 _DEGENERATE = 1e-6
-"""Model modes closer than this in relative frequency form a cluster whose combination is free."""
+"""Model modes closer than this in relative frequency form a cluster whose combination is free; so do modes
+closer than the measurement resolves (one standard deviation of the measured frequency): a shape measured
+there may be any combination of them."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,9 @@ class CandidateFit:
     note: str = ""
     held_out_rms: float = math.nan
     """RMS of the held-out frequency errors in units of their standard deviation (set by the ranking)."""
+    held_out_median: float = math.nan
+    """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
+    whose omission leaves a parameter poorly determined (set by the ranking)."""
     model: CandidateModel | None = field(default=None, repr=False, compare=False)
     theta: np.ndarray | None = field(default=None, repr=False, compare=False)
     """The fitted model and its flat parameter vector (for leave-one-out refits and separation)."""
@@ -96,6 +102,7 @@ class CandidateFit:
             "applicable": self.applicable,
             "note": self.note,
             "held_out_rms_sigma": self.held_out_rms if math.isfinite(self.held_out_rms) else None,
+            "held_out_median_sigma": self.held_out_median if math.isfinite(self.held_out_median) else None,
         }
 
 
@@ -130,9 +137,11 @@ class CandidateModel:
         fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
         self.reference = _scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
         self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
+        self.resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
         for i, label in enumerate(mod.MODES):
             m = campaign.modes.get(label)
             if m is not None:
+                self.resolution[i] = (m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency) / m.frequency
                 self.reference_lambda[i] = m.frequency**2
                 if m.shape is not None:
                     self.reference[:, i] = _scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
@@ -204,13 +213,12 @@ class CandidateModel:
         m, c, b = self._matrices(values)
         lam, vec = scipy.linalg.eigh(c, m)
         body = _scaled_unit(vec[:6, :], self.length)
-        order = label_modes(lam, body, self.reference_lambda, self.reference)
+        share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
+        order = label_modes(lam, body, self.reference_lambda, self.reference, share)
         omega = np.sqrt(np.abs(lam))
         e = self.effect
         if e is not None and e.how == "frequency":
-            alpha = values["alpha_rubber"]
-            # omega^2 = (omega/omega_ref)^alpha lambda  =>  omega = (lambda omega_ref^-alpha)^(1/(2-alpha))
-            omega = np.exp((np.log(np.abs(lam)) - alpha * math.log(self.omega_ref)) / (2 - alpha))
+            omega = _stiffening(np.abs(lam), values["rubber_strength"], values["rubber_corner"] * self.omega_ref)
         elif e is not None and e.how == "damping":
             omega = _damped_frequencies(m, c, values["damping_scale"] * b, lam)
         elif e is not None and e.how == "sensor":
@@ -219,7 +227,8 @@ class CandidateModel:
             )
         labels = labels or self.labels
         index = order[[self.mod.MODES.index(label) for label in labels]]
-        near = np.abs(lam[index, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[index, None])
+        tol = np.maximum(_DEGENERATE, 2 * self.resolution[[self.mod.MODES.index(label) for label in labels]])
+        near = np.abs(lam[index, None] - lam[None, :]) <= tol[:, None] * np.abs(lam[index, None])
         counts = near.sum(axis=1)
         shapes = [body[:, j] if c == 1 else body[:, row] for j, c, row in zip(index, counts, near, strict=True)]
         return Prediction(omega[index], shapes)
@@ -236,15 +245,38 @@ def _scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
     return out / np.linalg.norm(out, axis=0)
 
 
-def label_modes(lam: np.ndarray, body: np.ndarray, reference_lambda: np.ndarray, reference: np.ndarray) -> np.ndarray:
+def label_modes(
+    lam: np.ndarray,
+    body: np.ndarray,
+    reference_lambda: np.ndarray,
+    reference: np.ndarray,
+    participation: np.ndarray | None = None,
+) -> np.ndarray:
     """Index of the model mode for each reference mode: one-to-one, by MAC with the reference shapes
-    (scaled unit columns) and, to break ties between modes of equal shape, closeness in frequency."""
+    (scaled unit columns) times the share of the mode's kinetic energy in the body (``participation``, for
+    models with more coordinates than the body's: a foundation mode is not a machine mode however its small
+    body motion looks) and, to break ties between modes of equal shape, closeness in frequency."""
     mac = (reference.T @ body) ** 2
+    if participation is not None:
+        mac = mac * participation[None, :]
     distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
     rows, cols = scipy.optimize.linear_sum_assignment(-mac + 0.05 * distance)
     out = np.empty(len(reference_lambda), dtype=int)
     out[rows] = cols
     return out
+
+
+def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
+    """omega solving omega^2 = g(omega) lam, g = 1 + beta x^2 / (1 + x^2), x = omega / corner, for each
+    eigenvalue lam of the static stiffness (fixed point: g varies slowly, |d g / d omega^2| lam < beta)."""
+    omega = np.sqrt(lam)
+    for _ in range(60):
+        x2 = (omega / corner) ** 2
+        new = np.sqrt(lam * (1 + beta * x2 / (1 + x2)))
+        if np.all(np.abs(new - omega) <= 1e-13 * new):
+            return new
+        omega = new
+    return omega
 
 
 def _damped_frequencies(m: np.ndarray, c: np.ndarray, b: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -325,13 +357,30 @@ _FAILED = 1e6
 """Residual assigned to every row where the model cannot be evaluated (singular matrices)."""
 
 
+PRIOR_WEIGHT = 0.1
+"""Weight of the weak prior rows PRIOR_WEIGHT (theta - start) / (plausible width) of the effect parameters:
+at most 0.01 in chi^2 inside the plausible range, but it holds a parameter the data do not determine (a
+sensor yaw on a machine symmetric under rotation by 90 degrees) at its start instead of letting it drift,
+and makes its standard deviation large instead of zero."""
+
+
 def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
+    start = model.start()[0]
+    n = len(model.unknown)
+    width = np.array(
+        [
+            math.log(p.plausible[1] / p.plausible[0]) if log else p.plausible[1] - p.plausible[0]
+            for p, log in zip(model.effect_parameters, model.log_scaled, strict=True)
+        ]
+    )
+
     def fun(theta: np.ndarray) -> np.ndarray:
         try:
             r = data.residuals(model.predict(theta))
         except (np.linalg.LinAlgError, ValueError):
             r = np.full(len(data.labels) + 6 * len(data.shape_labels), _FAILED)
-        return r if rows is None else r[rows]
+        prior = PRIOR_WEIGHT * (theta[n:] - start[n:]) / width
+        return np.concatenate([r if rows is None else r[rows], prior])
 
     return fun
 
@@ -382,7 +431,8 @@ def fit_candidate(campaign: Campaign, effect: Effect | None, isolator: int | Non
         )
     res = _least_squares(model, data, model.start())
     theta = res.x
-    chi2 = float(2 * res.cost)
+    n_rows = len(data.labels) + 6 * len(data.shape_labels)
+    chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
     jac = res.jac
     dof = data.n - k
     scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
@@ -437,14 +487,14 @@ def exact_leave_one_out(fit: CandidateFit) -> None:
     fit.held_out_exact = True
 
 
-def held_out_rms(fit: CandidateFit, campaign: Campaign) -> float:
-    """RMS of the held-out errors in units of each frequency's standard deviation (nan modes skipped)."""
+def held_out_z(fit: CandidateFit, campaign: Campaign) -> np.ndarray:
+    """Held-out errors in units of each frequency's standard deviation (modes without one skipped)."""
     z = []
     for lab, e in fit.held_out_gap.items():
         m = campaign.modes[lab]
         if math.isfinite(e):
             z.append(e / (m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency))
-    return float(np.sqrt(np.mean(np.square(z)))) if z else math.nan
+    return np.array(z)
 
 
 @dataclass
@@ -509,7 +559,10 @@ def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) ->
     for f in [nominal, *tie]:
         exact_leave_one_out(f)
     for f in [nominal, *fits]:
-        f.held_out_rms = held_out_rms(f, campaign)
+        z = held_out_z(f, campaign)
+        if len(z):
+            f.held_out_rms = float(np.sqrt(np.mean(z**2)))
+            f.held_out_median = float(np.median(np.abs(z)))
     separation = [separate(campaign, best, other) for other in tie[1:]] if best else []
     confident = False
     if math.isnan(p_value):

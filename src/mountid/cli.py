@@ -11,6 +11,7 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from mountid.errors import InputError
 from mountid.machine import Machine
@@ -255,10 +256,17 @@ def cmd_process(args: argparse.Namespace) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> None:
     from mountid.campaign import load
-    from mountid.gap import diagnose_where
+    from mountid.gap import diagnose
 
     campaign = load(args.campaign)
-    report = diagnose_where(campaign)
+    diagnosis = diagnose(campaign)
+    report, effects = diagnosis.where, diagnosis.effects
+    figure = None
+    if not args.no_figure:
+        from mountid.figures import diagnosis_figure
+
+        figure = args.figure or f"{Path(args.campaign).stem}-diagnosis.png"
+        diagnosis_figure(diagnosis, figure, title=campaign.name or Path(args.campaign).stem)
     residuals = [
         {
             "mode": r.label,
@@ -294,9 +302,22 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
                 "sensitivities": report.sensitivities,
                 "localisation": localisation,
                 "broken_symmetry": report.broken_symmetry,
-                "candidates": [],
-                "verdict": report.verdict,
-                "notes": [*report.notes, "candidate effects (which effect, how far the gap shrinks): not built yet"],
+                "isolator_force_residual": [
+                    {"isolator": f.isolator, "stiffness_change": f.change, "std": f.std} for f in diagnosis.isolators
+                ],
+                "modal_force_residual": diagnosis.force_residual,
+                "nominal": effects.nominal.to_json(),
+                "candidates": [f.to_json() for f in effects.ranked],
+                "gap": diagnosis.gap_table(),
+                "p_value": effects.p_value,
+                "significant": effects.significant,
+                "tie": effects.tie,
+                "separation": effects.separation,
+                "confident": effects.confident,
+                "verdict": diagnosis.verdict,
+                "where_verdict": report.verdict,
+                "notes": [*report.notes, *effects.notes],
+                "figure": figure,
             }
         )
         return
@@ -311,9 +332,54 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
         print(f"  {r.label:6s}{r.measured:10.3f}{r.predicted:11.3f}{r.residual:+9.3f}{sig:>8s}{z:>7s}  {use}{flag}")
     for loc in report.localisation[:3]:
         print(f"  matrix level: {loc.describe()}")
-    for note in report.notes:
+    if diagnosis.isolators:
+        print("modal force residual of the measured shapes, as a stiffness change per isolator:")
+        print("  " + ", ".join(f"{f.isolator} {f.change:+.1%} +- {f.std:.1%}" for f in diagnosis.isolators))
+    _print_candidates(effects)
+    gaps = diagnosis.gap_table()
+    if "after" in gaps:
+        before, after = gaps["before"], gaps["after"]
+        print(f"gap [rad/s] before (nominal) -> after ({after['effect']}), fitted | held out:")
+        for label in before["fitted"]:
+            b, a = before["fitted"][label], after["fitted"][label]
+            hb, ha = before["held_out"].get(label, float("nan")), after["held_out"].get(label, float("nan"))
+            print(f"  {label:6s}{b:+9.4f} -> {a:+9.4f} | {hb:+9.4f} -> {ha:+9.4f}")
+        print(
+            f"  {'RMS':6s}{before['rms_fitted']:9.4f} -> {after['rms_fitted']:9.4f} | "
+            f"{before['rms_held_out'] or float('nan'):9.4f} -> {after['rms_held_out'] or float('nan'):9.4f}"
+        )
+    for line in effects.separation:
+        print(f"  to separate the tie: {line}")
+    for note in [*report.notes, *effects.notes]:
         print(f"  note: {note}")
-    print(f"verdict: {report.verdict}")
+    if figure:
+        print(f"figure: {figure}")
+    print(f"verdict: {diagnosis.verdict}")
+
+
+def _print_candidates(effects) -> None:
+    ranked = [f for f in effects.ranked if f.applicable]
+    finite = [f.aicc for f in ranked if f.aicc != float("inf")]
+    best = min(finite) if finite else None
+    n = effects.nominal
+    print(
+        f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}, "
+        f"AICc = {n.aicc:.4g}):"
+    )
+    print(f"  {'effect':22s}{'dAICc':>8s}{'chi^2':>9s}{'held-out':>9s}  parameters (+- std)")
+    for f in ranked:
+        d = f"{f.aicc - best:8.1f}" if best is not None and f.aicc != float("inf") else f"{'-':>8s}"
+        ho = f"{f.held_out_rms:8.2f}s" if f.held_out_rms == f.held_out_rms else f"{'-':>9s}"
+        params = ", ".join(
+            f"{k} = {v:.4g} +- {f.std[k]:.2g}" for k, v in f.parameters.items() if k not in effects.nominal.parameters
+        )
+        mark = " [tie]" if f.effect in effects.tie else ""
+        mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
+        where = f" at {f.variant}" if f.variant else ""
+        print(f"  {f.effect:22s}{d}{f.chi2:9.4g}{ho}  {params}{where}{mark}")
+    for f in effects.ranked:
+        if not f.applicable:
+            print(f"  {f.effect:22s} not applicable: {f.note}")
 
 
 def cmd_forced(args: argparse.Namespace) -> None:
@@ -398,9 +464,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
     p.set_defaults(func=cmd_process)
-    p = sub.add_parser("diagnose", help="where the model misses a campaign's measurements (JSON campaign file)")
+    p = sub.add_parser(
+        "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"
+    )
     p.add_argument("campaign", help="campaign file (see mountid/schemas/campaign.schema.json)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--figure", help="figure file to write (default: <campaign name>-diagnosis.png here)")
+    p.add_argument("--no-figure", action="store_true", help="write no figure")
     p.set_defaults(func=cmd_diagnose)
     p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
     p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")

@@ -7,8 +7,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
   machine module.
 - ``isolator``: one isolator's stiffness scaled by (1 + s); the per-isolator stiffness matrices are generated
   (``isolator_stiffness()``, Hessians of each isolator's potential energy).
-- ``frequency``: rubber stiffness rising with frequency, c(omega) = c (omega/omega_ref)^alpha: every isolator
-  stiffness enters C linearly, so each mode solves omega^2 = (omega/omega_ref)^alpha lambda_k(C, M).
+- ``frequency``: rubber stiffness rising with frequency as a standard linear solid, c(omega) = c g(omega),
+  g = 1 + beta x^2 / (1 + x^2), x = omega / omega_c (c is then the static stiffness): every isolator
+  stiffness enters C linearly, so each mode solves omega^2 = g(omega) lambda_k(C, M).
 - ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B).
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in
   height; the generated ``point_jacobian`` maps the motion to that point.
@@ -101,9 +102,19 @@ CATALOGUE: tuple[Effect, ...] = (
         "frequency_dependent",
         "frequency",
         "viscoelastic rubber: stiffness rising with frequency",
-        (_p("alpha_rubber", "1", "one", 0.0, 0.25, 0.0, "exponent of c(omega) = c (omega/omega_ref)^alpha"),),
-        "stretches the spectrum: high modes higher and low modes lower than a constant stiffness allows "
-        "(ratios of frequencies compressed by 1/(1 - alpha/2)); shapes unchanged",
+        (
+            _p("rubber_strength", "1", "one", 0.0, 1.0, 0.1, "stiffening from static to high frequency, beta"),
+            EffectParameter(
+                "rubber_corner",
+                "1",
+                "one",
+                (0.1, 10.0),
+                1.0,
+                "corner frequency of the stiffening over the geometric mean of the measured frequencies",
+            ),
+        ),
+        "every isolator stiffness times g(w) = 1 + beta x^2/(1 + x^2), x = w/w_c (a standard linear solid): "
+        "the spectrum stretches, high modes rise more than low ones; shapes unchanged",
     ),
     Effect(
         "foundation",
@@ -119,10 +130,11 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.5,
                 "mass of the support slab (radius of gyration: the length scale)",
             ),
-            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "stiffness of the support (k length^2 in rotation)"),
+            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "vertical stiffness of the support (all feet)"),
         ),
-        "a rigid slab (six coordinates) on an isotropic support between isolators and ground: every mode "
-        "drops, most those whose isolators are stiffest relative to the support (z, rocking); six slab modes",
+        "a rigid slab (six coordinates) between isolators and ground, on a foot under each isolator (vertical "
+        "k_found/n, horizontal half that, as for a block on soil): every mode drops, most those whose "
+        "isolators are stiffest relative to the support (z, rocking); six slab modes",
     ),
     Effect(
         "added_mass",

@@ -121,3 +121,56 @@ def mode_shapes_figure(
             if k == 0:
                 ax.set_ylabel(name)
     return _save(fig, path)
+
+
+def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
+    """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
+    fitted and held out. Right: the candidates ranked by AICc above the best (tie shaded, implausible
+    hatched), with the nominal model for reference."""
+    effects = diagnosis.effects
+    nominal, best = effects.nominal, effects.best
+    labels = list(nominal.frequency_gap)
+    sigma = np.array(
+        [m.uncertainty or 1e-3 * m.frequency for m in (diagnosis.campaign.modes[label] for label in labels)]
+    )
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1.1, 1]})
+    x = np.arange(len(labels))
+    series = [
+        ("before, fitted", nominal.frequency_gap, "#999999"),
+        ("before, held out", nominal.held_out_gap, "#cccccc"),
+    ]
+    if best is not None:
+        series += [
+            (f"{best.effect}, fitted", best.frequency_gap, "#1f77b4"),
+            (f"{best.effect}, held out", best.held_out_gap, "#9ecae1"),
+        ]
+    width = 0.8 / len(series)
+    for k, (name, gap, colour) in enumerate(series):
+        z = np.array([gap.get(label, np.nan) for label in labels]) / sigma
+        left.bar(x + (k - (len(series) - 1) / 2) * width, z, width, label=name, color=colour)
+    left.axhspan(-2, 2, color="#2ca02c", alpha=0.08, label="within 2 sigma")
+    left.axhline(0, color="black", lw=0.6)
+    left.set_xticks(x, labels)
+    left.set_ylabel("measured - model [sigma]")
+    left.set_title("gap per mode")
+    left.legend(fontsize=7)
+    ranked = [f for f in effects.ranked if f.applicable and np.isfinite(f.aicc)]
+    if ranked and np.isfinite(nominal.aicc):
+        base = min(f.aicc for f in ranked)
+        names = [*(f.effect for f in ranked), "none (nominal)"]
+        values = [*(f.aicc - base for f in ranked), nominal.aicc - base]
+        colours = ["#1f77b4" if f.effect in effects.tie else "#aaaaaa" for f in ranked] + ["#d62728"]
+        hatches = ["" if f.plausible else "//" for f in ranked] + [""]
+        y = np.arange(len(names))[::-1]
+        bars = right.barh(y, np.maximum(values, 1e-2), color=colours)
+        for bar, hatch in zip(bars, hatches, strict=True):
+            bar.set_hatch(hatch)
+        right.set_yticks(y, names, fontsize=8)
+        right.set_xscale("symlog", linthresh=10)
+        right.set_xlabel("AICc - best AICc (tie shaded blue, implausible hatched)")
+    else:
+        right.text(0.5, 0.5, "too few data to rank candidate effects", ha="center", va="center")
+        right.set_axis_off()
+    right.set_title("candidate effects")
+    fig.suptitle(f"{title}: {diagnosis.verdict}" if title else diagnosis.verdict, fontsize=8)
+    return _save(fig, path)

@@ -1,5 +1,6 @@
-"""Where the model misses the measurements: residuals against uncertainty, held-out predictions,
-sensitivities, localisation at matrix level, broken symmetry (the first half of the gap diagnosis).
+"""The gap diagnosis. Where the model misses the measurements: residuals against uncertainty, held-out
+predictions, sensitivities, localisation at matrix level, broken symmetry, the modal force residual per
+isolator. Which effect: :mod:`mountid.candidates`. :func:`diagnose` does both.
 
 All numbers come from the generated module of the campaign's machine: the nominal identification is
 mountid.experiment.fit_stiffness, the frequencies and mode shapes the generated forward map.
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mountid.campaign import Campaign
+from mountid.candidates import EffectsReport, diagnose_effects
 from mountid.experiment import fit_stiffness
 
 SIGNIFICANCE = 2.0
@@ -243,3 +245,97 @@ def diagnose_where(campaign: Campaign) -> GapReport:
     else:
         verdict = "significance not judged (uncertainties missing); largest gaps listed"
     return GapReport(params, stds, residuals, sensitivities(campaign, params), loc, broken, verdict, notes)
+
+
+@dataclass(frozen=True)
+class IsolatorForce:
+    """The modal force residual (C - w^2 M) phi of the measured shapes, attributed to one isolator: the
+    relative stiffness change of that isolator that best cancels it (all measured modes together)."""
+
+    isolator: str
+    change: float
+    std: float
+
+
+def isolator_forces(campaign: Campaign, params: dict[str, float]) -> tuple[list[IsolatorForce], dict[str, float]]:
+    """Per isolator, the stiffness change delta_i that makes sum_i delta_i C_i phi_k cancel the modal force
+    residual r_k = (C - w_k^2 M) phi_k of every measured shape phi_k (mass-normalised, measured w_k), by
+    linear least squares; and per mode |r_k| / |C phi_k|. Empty without measured shapes."""
+    machine = campaign.machine
+    mod = machine.module
+    values = machine.values({**campaign.known, **params}, tuple(mod.PARAMETERS))
+    pick = {name: {a: values[a] for a in mod.ARGUMENTS[name]} for name in ("mass_matrix", "stiffness_matrix")}
+    m = np.asarray(mod.mass_matrix(**pick["mass_matrix"]))
+    c = np.asarray(mod.stiffness_matrix(**pick["stiffness_matrix"]))
+    per = np.asarray(mod.isolator_stiffness(**{a: values[a] for a in mod.ARGUMENTS["isolator_stiffness"]}))
+    rows, rhs, relative = [], [], {}
+    for label, data in campaign.modes.items():
+        if data.shape is None:
+            continue
+        phi = np.array(data.shape, dtype=float)
+        phi /= math.sqrt(phi @ m @ phi)
+        r = (c - data.frequency**2 * m) @ phi
+        relative[label] = float(np.linalg.norm(r) / np.linalg.norm(c @ phi))
+        rows.append(np.stack([k @ phi for k in per], axis=1))
+        rhs.append(-r)
+    if not rows:
+        return [], {}
+    a, b = np.vstack(rows), np.concatenate(rhs)
+    delta, *_ = np.linalg.lstsq(a, b, rcond=None)
+    dof = max(len(b) - len(delta), 1)
+    s2 = float(np.sum((b - a @ delta) ** 2)) / dof
+    cov = s2 * np.linalg.pinv(a.T @ a)
+    out = [
+        IsolatorForce(name, float(d), float(math.sqrt(max(cov[i, i], 0.0))))
+        for i, (name, d) in enumerate(zip(mod.ISOLATORS, delta, strict=True))
+    ]
+    return out, relative
+
+
+@dataclass
+class Diagnosis:
+    """The whole gap diagnosis of a campaign: where (nominal residuals), which effect, how far it shrinks."""
+
+    campaign: Campaign
+    where: GapReport
+    effects: EffectsReport
+    isolators: list[IsolatorForce]
+    force_residual: dict[str, float]
+    """|(C - w^2 M) phi| / |C phi| per measured shape, at the nominal fit."""
+
+    @property
+    def verdict(self) -> str:
+        if self.where.broken_symmetry and not self.effects.significant:
+            return self.where.verdict
+        return self.effects.verdict
+
+    def gap_table(self) -> dict[str, dict]:
+        """Per mode and in total: measured - model [rad/s] before (nominal) and after (best candidate), on
+        the fit to all modes and held out (leave that mode out)."""
+        nominal, best = self.effects.nominal, self.effects.best
+        out: dict[str, dict] = {}
+        for which, fit in (("before", nominal), ("after", best)):
+            if fit is None:
+                continue
+            fitted, held = fit.frequency_gap, fit.held_out_gap
+            out[which] = {
+                "effect": fit.effect,
+                "fitted": fitted,
+                "held_out": held,
+                "rms_fitted": _rms(fitted.values()),
+                "rms_held_out": _rms(held.values()),
+            }
+        return out
+
+
+def _rms(values) -> float | None:
+    v = [x for x in values if math.isfinite(x)]
+    return float(np.sqrt(np.mean(np.square(v)))) if v else None
+
+
+def diagnose(campaign: Campaign) -> Diagnosis:
+    """Where the model misses the campaign, which candidate effect explains it, and how far the gap shrinks."""
+    where = diagnose_where(campaign)
+    effects = diagnose_effects(campaign)
+    forces, relative = isolator_forces(campaign, where.parameters)
+    return Diagnosis(campaign, where, effects, forces, relative)

@@ -83,9 +83,12 @@ class ExtendedModel:
                 tensor = s["k_bend"] * (sp.eye(3) - a * a.T) + s["k_torsion"] * a * a.T
                 p += (w.T * tensor * w)[0] / 2
         elif name == "foundation":
-            # the slab on an isotropic support: k_found in translation, k_found length^2 in rotation
-            t_f, w_f = self.q[6:9, 0], self.q[9:12, 0]
-            p += s["k_found"] * ((t_f.T * t_f)[0] + scales(m)["length"] ** 2 * (w_f.T * w_f)[0]) / 2
+            # the slab on a foot under each isolator: vertical k_found/n, horizontal half that
+            n = len(m.isolators)
+            foot = sp.diag(1, 1, 2) * s["k_found"] / (2 * n)
+            for iso in m.isolators:
+                u = SymbolicModel.point_motion(self.q[6:, 0], iso.position - self.slab_centre)
+                p += (u.T * foot * u)[0] / 2
         elif name == "drive_belt":
             stretch = SymbolicModel.point_motion(self.q[:6, 0], sp.Matrix([0, 0, s["h_belt"]]))[0]
             p += s["k_belt"] * stretch**2 / 2
