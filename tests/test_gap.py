@@ -9,6 +9,7 @@ import pytest
 
 from mountid.campaign import load, parse
 from mountid.cli import main
+from mountid.effects import CATALOGUE
 from mountid.errors import InputError
 from mountid.gap import diagnose_where
 from mountid.machine import Machine
@@ -85,14 +86,22 @@ def test_bad_campaigns_are_rejected_by_entry(edit, start):
     assert str(err.value).startswith(start)
 
 
-def test_paper_worked_example_on_the_command_line(capsys):
-    code = main(["diagnose", str(ROOT / "examples" / "kid300-paper.json"), "--json"])
+def test_paper_worked_example_on_the_command_line(capsys, tmp_path):
+    figure = tmp_path / "paper.png"
+    code = main(["diagnose", str(ROOT / "examples" / "kid300-paper.json"), "--json", "--figure", str(figure)])
     out = json.loads(capsys.readouterr().out)
-    assert code == 0
+    assert code == 0 and figure.stat().st_size > 10_000
     z = next(r for r in out["residuals"] if r["mode"] == "z")
     assert z["held_out"] and z["residual"] == pytest.approx(46.60 - 47.466, abs=2e-3)
     assert out["parameters"]["c_z"] == pytest.approx(472.3e3, rel=1e-3)  # the paper's root, chosen by z and phi
     assert out["verdict"].startswith("no significant gap")  # 0.87 rad/s is 1.9 sigma of a raw 4 s FFT peak
+    # four frequencies, two unknowns: every candidate is listed, none can be ranked, and the report says why
+    names = {c["effect"] for c in out["candidates"]}
+    assert names == {e.name for e in CATALOGUE}
+    assert all(c["aicc"] is None for c in out["candidates"])
+    assert any("too few to fit any candidate" in n for n in out["notes"])
+    sensor = next(c for c in out["candidates"] if c["effect"] == "sensor_error")
+    assert not sensor["applicable"] and "no mode shapes" in sensor["note"]
 
 
 def test_campaign_file_errors_are_one_line(capsys, tmp_path):

@@ -4,7 +4,8 @@ The truth is the KID-300 assembled here in numpy, independently of the engine (r
 Jacobians typed from u = t + w x r), with one injected effect built the way it is in the machine rather than
 the way the candidate library parameterises it:
 
-- ``foundation``: a 6-dof slab (mass and inertia) on its own springs, the isolators between body and slab;
+- ``foundation``: a 6-dof slab (2 m x 2 m x 0.3 m, its own mass and inertia) on pads under the isolator
+  feet at its underside, the isolators between body and slab;
 - ``frequency_dependent``: rubber as a fractional Kelvin-Voigt solid (storage stiffness
   k (1 + a (w tau)^r cos(r pi / 2))), each mode solved as a nonlinear eigenproblem;
 - ``added_mass``: a motor as a rigid body with its own inertia;
@@ -129,10 +130,10 @@ class _Kid300:
             rel = np.hstack([_jac(r), -_jac(r - slab_origin)])
             c += rel.T @ k @ rel
             b += rel.T @ d @ rel
-        kz = s["k"] / 4
+        kz = s["k"] / 4  # a pad under each isolator foot, in the slab's underside (0.15 m below its centre)
         ground = np.diag([0.5 * kz, 0.5 * kz, kz])
-        for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):
-            j = np.hstack([np.zeros((3, 6)), _jac(np.array([sx * half, sy * half, -0.15]))])
+        for r in self.points:
+            j = np.hstack([np.zeros((3, 6)), _jac(r - slab_origin - np.array([0.0, 0.0, 0.15]))])
             c += j.T @ ground @ j
         return m, c, b
 
@@ -156,7 +157,7 @@ def _sample(rng: np.random.Generator, effect: str, v: dict[str, float]) -> dict[
     if effect == "frequency_dependent":
         return {"a": logu(0.03, 0.3), "r": rng.uniform(0.2, 0.6), "tau": 1 / 40.0}
     if effect == "foundation":
-        return {"m": logu(0.3, 3) * v["m"], "k": logu(3, 30) * 4 * 472.3e3}
+        return {"m": logu(0.5, 5) * v["m"], "k": logu(10, 100) * 4 * 472.3e3}
     if effect == "added_mass":
         return {"m": logu(0.02, 0.15) * v["m"], "h": rng.uniform(-0.5, 0.5)}
     if effect == "drive_belt":

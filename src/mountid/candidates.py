@@ -39,17 +39,20 @@ TIE = 7.0
 """Candidates within this AICc of the best cannot be told apart by the data (Burnham and Anderson's rule
 of thumb: up to 7 above the best a model keeps some support)."""
 _DEGENERATE = 1e-6
-"""Model modes closer than this in relative frequency form a cluster whose combination is free; so do modes
-closer than the measurement resolves (one standard deviation of the measured frequency): a shape measured
-there may be any combination of them."""
+"""Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
+the measurement barely separates (a few standard deviations of the measured frequency) are compared with
+the measured shape through their common span, blended smoothly into the single mode as they move apart."""
 
 
 @dataclass(frozen=True)
 class Prediction:
-    """Frequencies [rad/s] and scaled unit shapes (6,) or cluster bases (6, c) per mode label."""
+    """Frequencies [rad/s], scaled unit shapes (6,) per mode label, and for each label the basis (6, c)
+    of the modes the measurement cannot separate from it with the weight of that basis (see
+    :meth:`Data.residuals`)."""
 
     frequencies: np.ndarray
     shapes: list[np.ndarray]
+    clusters: list[tuple[np.ndarray, float] | None]
 
 
 @dataclass
@@ -148,16 +151,28 @@ class CandidateModel:
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:
-        """Starting vectors: the effect's start values, and the middle of its plausible range."""
+        """Starting vectors: the effect's start values; for a two-parameter effect with a signed parameter
+        (a height, an offset) also that parameter at half its plausible bound on either side (the fit has
+        a local minimum on the wrong side); last the middle of the plausible range."""
         base = [math.log(self.start_unknowns[u]) for u in self.unknown]
-        starts = []
-        for which in ("start", "middle"):
-            vec = list(base)
-            for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
-                v = p.start if which == "start" else 0.5 * (p.plausible[0] + p.plausible[1])
-                vec.append(math.log(v) if log else v)
-            starts.append(np.array(vec))
-        return starts if self.effect_parameters else starts[:1]
+        params = self.effect_parameters
+
+        def vector(values) -> np.ndarray:
+            out = list(base)
+            for v, log in zip(values, self.log_scaled, strict=True):
+                out.append(math.log(v) if log else v)
+            return np.array(out)
+
+        first = [p.start for p in params]
+        starts = [vector(first)]
+        if len(params) == 2:
+            for i, p in enumerate(params):
+                if p.plausible[0] < 0 < p.plausible[1]:
+                    for bound in p.plausible:
+                        starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(first)]))
+        if params:
+            starts.append(vector([0.5 * (p.plausible[0] + p.plausible[1]) for p in params]))
+        return starts
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Search box: unknowns free (log), effect parameters within their plausible range widened by its
@@ -182,6 +197,14 @@ class CandidateModel:
             v = theta[n + k]
             out[p.name] = float((np.exp(v) if log else v) * self.scales[p.scale])
         return out
+
+    def vector(self, physical: dict[str, float]) -> np.ndarray:
+        """The flat vector of physical values (inverse of :meth:`physical`)."""
+        out = [math.log(physical[u]) for u in self.unknown]
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            v = physical[p.name] / self.scales[p.scale]
+            out.append(math.log(v) if log else v)
+        return np.array(out)
 
     def jacobian_to_physical(self, theta: np.ndarray) -> np.ndarray:
         """d(physical)/d(theta), diagonal."""
@@ -227,11 +250,22 @@ class CandidateModel:
             )
         labels = labels or self.labels
         index = order[[self.mod.MODES.index(label) for label in labels]]
-        tol = np.maximum(_DEGENERATE, 2 * self.resolution[[self.mod.MODES.index(label) for label in labels]])
-        near = np.abs(lam[index, None] - lam[None, :]) <= tol[:, None] * np.abs(lam[index, None])
-        counts = near.sum(axis=1)
-        shapes = [body[:, j] if c == 1 else body[:, row] for j, c, row in zip(index, counts, near, strict=True)]
-        return Prediction(omega[index], shapes)
+        # closeness of every model mode to each labelled one, in units of the measurement's resolution of
+        # that frequency (relative); within a few units the measured shape may be any mix of them
+        resolution = self.resolution[[self.mod.MODES.index(label) for label in labels]]
+        gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * resolution[:, None])
+        weight = np.exp(-(gap**2))
+        shapes, clusters = [], []
+        for k, j in enumerate(index):
+            shapes.append(body[:, j])
+            near = np.flatnonzero(weight[k] > 1e-3)
+            exact = np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j])
+            if len(near) == 1:
+                clusters.append(None)
+            else:
+                w = float(np.min(weight[k, near]))  # the weakest partner sets how far the mix is allowed
+                clusters.append((body[:, near], 1.0 if np.all(exact) else w))
+        return Prediction(omega[index], shapes, clusters)
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
@@ -257,6 +291,12 @@ def label_modes(
     models with more coordinates than the body's: a foundation mode is not a machine mode however its small
     body motion looks) and, to break ties between modes of equal shape, closeness in frequency."""
     mac = (reference.T @ body) ** 2
+    # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
+    # projection on their common span
+    near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[None, :])
+    for j in np.flatnonzero(near.sum(axis=0) > 1):
+        q, _ = np.linalg.qr(body[:, near[:, j]])
+        mac[:, j] = np.sum((reference.T @ q) ** 2, axis=1)
     if participation is not None:
         mac = mac * participation[None, :]
     distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
@@ -267,16 +307,14 @@ def label_modes(
 
 
 def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
-    """omega solving omega^2 = g(omega) lam, g = 1 + beta x^2 / (1 + x^2), x = omega / corner, for each
-    eigenvalue lam of the static stiffness (fixed point: g varies slowly, |d g / d omega^2| lam < beta)."""
-    omega = np.sqrt(lam)
-    for _ in range(60):
-        x2 = (omega / corner) ** 2
-        new = np.sqrt(lam * (1 + beta * x2 / (1 + x2)))
-        if np.all(np.abs(new - omega) <= 1e-13 * new):
-            return new
-        omega = new
-    return omega
+    """omega solving omega^2 = g(omega) lam, g = 1 + beta y / (y + c), y = omega^2, c = corner^2, for each
+    eigenvalue lam of the static stiffness. Multiplied out, y^2 + b y - lam c = 0 with b = c - lam (1 + beta):
+    one positive root (the product of the roots is -lam c), taken in the form without cancellation."""
+    c = corner**2
+    b = c - lam * (1 + beta)
+    root = np.sqrt(b * b + 4 * lam * c)
+    y = np.where(b > 0, 2 * lam * c / (b + root), (root - b) / 2)
+    return np.sqrt(y)
 
 
 def _damped_frequencies(m: np.ndarray, c: np.ndarray, b: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -339,7 +377,13 @@ class Data:
     def residuals(self, pred: Prediction) -> np.ndarray:
         rows = [(self.omega - pred.frequencies) / self.sigma]
         for lab, s, sig in zip(self.shape_labels, self.shapes, self.shape_sigma, strict=True):
-            rows.append(_off_span(s, pred.shapes[self.labels.index(lab)]) / sig)
+            i = self.labels.index(lab)
+            own = _off_span(s, pred.shapes[i])
+            cluster = pred.clusters[i]
+            if cluster is not None:  # blended, so that the residual is continuous as modes split
+                basis, w = cluster
+                own = w * _off_span(s, basis) + (1 - w) * own
+            rows.append(own / sig)
         return np.concatenate(rows)
 
     def rows_of(self, label: str) -> np.ndarray:
@@ -392,14 +436,16 @@ def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], 
     finite = np.isfinite(lo)
     inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
     inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
-    for x0 in starts:
+    for i, x0 in enumerate(starts):
+        n = len(best.fun) if best is not None else 0
+        if i == len(starts) - 1 and i > 0 and 2 * best.cost <= n + 3 * math.sqrt(2 * n):
+            break  # fits to noise level: the middle of the range is not needed
         x0 = np.clip(x0, inner_lo, inner_hi)
-        res = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=100)
+        res = scipy.optimize.least_squares(
+            fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=100 if i == 0 else 40
+        )
         if best is None or res.cost < best.cost:
             best = res
-        n = len(res.fun)
-        if 2 * best.cost <= n + 3 * math.sqrt(2 * n):  # fits to noise level: no need for the other start
-            break
     return best
 
 
@@ -612,8 +658,9 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
         z = abs(pa.frequencies[i] - pb.frequencies[i]) / (rel * pa.frequencies[i])
         if z > best[0]:
             best = (z, f"the frequency of {lab}")
-        sa, sb = pa.shapes[i], pb.shapes[i]
-        if sa.ndim == 1 and sb.ndim == 1:
+        twins = [c is not None and c[1] == 1.0 for c in (pa.clusters[i], pb.clusters[i])]
+        if not any(twins):  # the shape of one of two equal modes is any mix of them: nothing to compare
+            sa, sb = pa.shapes[i], pb.shapes[i]
             z = math.sqrt(max(0.0, 1 - float(sa @ sb) ** 2)) / shape_sigma
             if z > best[0]:
                 best = (z, f"the mode shape of {lab}")

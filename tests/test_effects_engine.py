@@ -1,0 +1,149 @@
+"""Candidate effects in the engine: the generated effect_<name>() matrices against the sympy expressions at
+high precision (mpmath), against an independent numpy assembly, and their limits."""
+
+from __future__ import annotations
+
+import math
+
+import mpmath
+import numpy as np
+import pytest
+import sympy as sp
+from conftest import MACHINES, call, generated
+
+from mountid.blind import _body_mass, _jac
+from mountid.description import load
+from mountid.effects import CATALOGUE, EFFECT_PARAMETERS, EFFECTS, STANDARD_GRAVITY
+from mountid.errors import DescriptionError
+from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel
+from mountid.symbolic.model import SymbolicModel
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+EFFECT_VALUES = {
+    "dx_com": 0.03,
+    "dy_com": -0.02,
+    "dz_com": 0.05,
+    "k_bend": 2.0e3,
+    "k_torsion": 1.5e3,
+    "m_found": 400.0,
+    "k_found": 8.0e6,
+    "m_added": 60.0,
+    "h_added": 0.4,
+    "k_belt": 3.0e4,
+    "h_belt": 0.2,
+    "h_preload": 0.35,
+}
+
+
+def _values(mod) -> dict[str, float]:
+    return {**{n: p["value"] for n, p in mod.PARAMETERS.items()}, **EFFECT_VALUES}
+
+
+def test_catalogue_names_are_the_issues_and_every_effect_has_one_or_two_parameters():
+    assert [e.name for e in CATALOGUE] == [
+        "com_offset",
+        "cog_height",
+        "isolator_scatter",
+        "rotational_stiffness",
+        "frequency_dependent",
+        "foundation",
+        "added_mass",
+        "drive_belt",
+        "gravity_preload",
+        "damping",
+        "sensor_error",
+    ]
+    assert all(1 <= len(e.parameters) <= 2 for e in CATALOGUE)
+    assert all(p.plausible[0] < p.plausible[1] for e in CATALOGUE for p in e.parameters)
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+@pytest.mark.parametrize("effect", GENERATED_EFFECTS)
+def test_generated_effect_matrices_match_sympy_at_high_precision(machine, effect):
+    mod = generated(machine)
+    ext = ExtendedModel(SymbolicModel(load(ROOT / "derivations" / f"{machine}.toml")), EFFECTS[effect])
+    values = _values(mod)
+    numeric = call(mod, f"effect_{effect}", values)
+    subs = {**{s: values[n] for n, s in ext.model.symbols.items()}, **{s: values[n] for n, s in ext.symbols.items()}}
+    with mpmath.workdps(30):
+        for name, got in zip("MCB", numeric, strict=True):
+            exact = np.array(sp.Matrix(getattr(ext, name)).evalf(30, subs=subs).tolist(), dtype=float)
+            scale = np.max(np.abs(exact))
+            assert np.max(np.abs(got - exact)) <= 1e-13 * scale, name
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolator_stiffness_sums_to_the_stiffness_matrix(machine):
+    mod = generated(machine)
+    values = _values(mod)
+    per = call(mod, "isolator_stiffness", values)
+    assert per.shape == (len(mod.ISOLATORS), 6, 6)
+    total = call(mod, "stiffness_matrix", values)
+    assert np.allclose(per.sum(axis=0), total, rtol=1e-13, atol=1e-9 * np.max(np.abs(total)))
+
+
+def test_kid300_effects_match_an_independent_numpy_assembly():
+    """Built from u = t + w x r in numpy (the blind harness's truth code), not from the engine."""
+    mod = generated("kid300")
+    v = _values(mod)
+    m0 = mod.mass_matrix(v["m"], v["J_xy"], v["J_z"])
+    c0 = mod.stiffness_matrix(v["L_xy"], v["L_z"], v["c_xy"], v["c_z"])
+    inertia = np.diag([v["J_xy"], v["J_xy"], v["J_z"]])
+
+    def effect(name):
+        return call(mod, f"effect_{name}", v)
+
+    m, _, _ = effect("com_offset")
+    assert np.allclose(m, _body_mass(v["m"], inertia, np.array([v["dx_com"], v["dy_com"], 0.0])), rtol=1e-13)
+    m, _, _ = effect("added_mass")
+    assert np.allclose(m, m0 + _body_mass(v["m_added"], np.zeros((3, 3)), np.array([0, 0, v["h_added"]])))
+    _, c, _ = effect("drive_belt")
+    row = np.array([1.0, 0, 0]) @ _jac(np.array([0, 0, v["h_belt"]]))
+    assert np.allclose(c, c0 + v["k_belt"] * np.outer(row, row), rtol=1e-13)
+    _, c, _ = effect("gravity_preload")
+    expected = c0.copy()
+    expected[3, 3] -= v["m"] * STANDARD_GRAVITY * v["h_preload"]
+    expected[4, 4] -= v["m"] * STANDARD_GRAVITY * v["h_preload"]
+    assert np.allclose(c, expected, rtol=1e-13)
+    _, c, _ = effect("rotational_stiffness")
+    expected = c0.copy()
+    expected[3:, 3:] += 4 * np.diag([v["k_bend"], v["k_bend"], v["k_torsion"]])
+    assert np.allclose(c, expected, rtol=1e-13)
+    m, c, b = effect("foundation")
+    assert m.shape == c.shape == b.shape == (12, 12)
+    # the body block of C is the nominal one; the support adds k_found to the slab's vertical motion
+    assert np.allclose(c[:6, :6], c0, rtol=1e-13)
+    assert np.isclose(c[8, 8] - c0[2, 2], v["k_found"], rtol=1e-13)
+    assert np.isclose(c[6, 6] - c0[0, 0], v["k_found"] / 2, rtol=1e-13)
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_effects_vanish_at_their_neutral_values(machine):
+    mod = generated(machine)
+    v = {**_values(mod), **{p: 0.0 for p in EFFECT_PARAMETERS}}
+    nominal = (call(mod, "mass_matrix", v), call(mod, "stiffness_matrix", v), call(mod, "damping_matrix", v))
+    for name in GENERATED_EFFECTS:
+        if name == "foundation":
+            continue
+        for got, want in zip(call(mod, f"effect_{name}", v), nominal, strict=True):
+            assert np.array_equal(got, want), name
+
+
+def test_a_rigid_heavy_foundation_leaves_the_machine_frequencies():
+    mod = generated("kid300")
+    v = {**_values(mod), "k_found": 1e13, "m_found": 1e4}
+    m, c, _ = call(mod, "effect_foundation", v)
+    lam = np.sort(np.linalg.eigvals(np.linalg.solve(m, c)).real)[:6]
+    nominal = mod.frequencies(*(v[a] for a in mod.FORWARD_ARGUMENTS))
+    assert np.allclose(np.sqrt(lam), np.sort(nominal), rtol=1e-6)
+
+
+def test_a_description_may_not_use_an_effect_parameter_name():
+    text = (ROOT / "derivations" / "kid300.toml").read_text().replace("L_z ", "h_belt ").replace("L_z", "h_belt")
+    import tomllib
+
+    from mountid.description import parse
+
+    with pytest.raises(DescriptionError, match="parameters.h_belt: is reserved"):
+        parse(tomllib.loads(text))
+    assert math.isfinite(STANDARD_GRAVITY)
