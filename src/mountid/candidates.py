@@ -46,8 +46,8 @@ the measured shape through their common span, blended smoothly into the single m
 
 @dataclass(frozen=True)
 class Prediction:
-    """Frequencies [rad/s], scaled unit shapes (6,) per mode label, and for each label the basis (6, c)
-    of the modes the measurement cannot separate from it with the weight of that basis (see
+    """Frequencies [rad/s], scaled unit shapes (6,) per mode label, and for each label an orthonormal basis
+    (6, c) of the modes the measurement cannot separate from it with the weight of that basis (see
     :meth:`Data.residuals`)."""
 
     frequencies: np.ndarray
@@ -140,6 +140,7 @@ class CandidateModel:
         fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
         self.reference = _scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
         self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
+        self._rows = [mod.MODES.index(label) for label in self.labels]
         self.resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
         for i, label in enumerate(mod.MODES):
             m = campaign.modes.get(label)
@@ -248,23 +249,25 @@ class CandidateModel:
             body = _scaled_unit(
                 sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
             )
-        labels = labels or self.labels
-        index = order[[self.mod.MODES.index(label) for label in labels]]
+        rows = self._rows if labels is None else [self.mod.MODES.index(label) for label in labels]
+        index = order[rows]
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
         # that frequency (relative); within a few units the measured shape may be any mix of them
-        resolution = self.resolution[[self.mod.MODES.index(label) for label in labels]]
-        gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * resolution[:, None])
+        gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
         weight = np.exp(-(gap**2))
-        shapes, clusters = [], []
-        for k, j in enumerate(index):
-            shapes.append(body[:, j])
-            near = np.flatnonzero(weight[k] > 1e-3)
-            exact = np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j])
-            if len(near) == 1:
-                clusters.append(None)
-            else:
-                w = float(np.min(weight[k, near]))  # the weakest partner sets how far the mix is allowed
-                clusters.append((body[:, near], 1.0 if np.all(exact) else w))
+        partners = weight > 1e-3
+        shapes = list(body[:, index].T)
+        clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
+        spans: dict[bytes, np.ndarray] = {}
+        for k in np.flatnonzero(partners.sum(axis=1) > 1):
+            j = index[k]
+            key = partners[k].tobytes()
+            if key not in spans:
+                spans[key] = _orthonormal(body[:, partners[k]])
+            near = np.flatnonzero(partners[k])
+            exact = np.all(np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j]))
+            # the weakest partner sets how far the mix is allowed
+            clusters[k] = (spans[key], 1.0 if exact else float(np.min(weight[k, near])))
         return Prediction(omega[index], shapes, clusters)
 
 
@@ -294,9 +297,13 @@ def label_modes(
     # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
     # projection on their common span
     near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[None, :])
+    done: dict[bytes, np.ndarray] = {}
     for j in np.flatnonzero(near.sum(axis=0) > 1):
-        q, _ = np.linalg.qr(body[:, near[:, j]])
-        mac[:, j] = np.sum((reference.T @ q) ** 2, axis=1)
+        key = near[:, j].tobytes()
+        if key not in done:
+            q = _orthonormal(body[:, near[:, j]])
+            done[key] = np.sum((reference.T @ q) ** 2, axis=1)
+        mac[:, j] = done[key]
     if participation is not None:
         mac = mac * participation[None, :]
     distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
@@ -344,17 +351,21 @@ def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:
     return out
 
 
-def _off_span(s: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """The part of s outside the span of a unit vector (or of the columns of a matrix)."""
-    if basis.ndim == 1:
-        return s - basis * (basis @ s)
-    if basis.shape[1] == 2:  # Gram-Schmidt: a model pair of equal frequencies
+def _orthonormal(basis: np.ndarray) -> np.ndarray:
+    """Orthonormal columns spanning the (unit) columns of ``basis``: Gram-Schmidt for the common pair of
+    twins, QR otherwise."""
+    if basis.shape[1] == 2:
         a, b = basis[:, 0], basis[:, 1]
         b = b - a * (a @ b)
-        b = b / np.linalg.norm(b)
-        return s - a * (a @ s) - b * (b @ s)
-    q, _ = np.linalg.qr(basis)
-    return s - q @ (q.T @ s)
+        return np.column_stack([a, b / np.linalg.norm(b)])
+    return np.linalg.qr(basis)[0]
+
+
+def _off_span(s: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """The part of s outside the span of a unit vector (or of orthonormal columns)."""
+    if basis.ndim == 1:
+        return s - basis * (basis @ s)
+    return s - basis @ (basis.T @ s)
 
 
 class Data:
@@ -442,7 +453,7 @@ def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], 
             break  # fits to noise level: the middle of the range is not needed
         x0 = np.clip(x0, inner_lo, inner_hi)
         res = scipy.optimize.least_squares(
-            fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=100 if i == 0 else 40
+            fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-7, xtol=1e-7, max_nfev=100 if i == 0 else 30
         )
         if best is None or res.cost < best.cost:
             best = res
@@ -463,8 +474,11 @@ def _applicable(model: CandidateModel, data: Data) -> str:
     return ""
 
 
-def fit_candidate(campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> CandidateFit:
-    """Fit one candidate (None: the nominal model) with the unknowns to every measured mode."""
+def fit_candidate(
+    campaign: Campaign, effect: Effect | None, isolator: int | None = None, start: np.ndarray | None = None
+) -> CandidateFit:
+    """Fit one candidate (None: the nominal model) with the unknowns to every measured mode (``start``: a
+    single starting vector, e.g. the fit of the same candidate to nearby data, instead of the default ones)."""
     model = CandidateModel(campaign, effect, isolator)
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
@@ -475,7 +489,7 @@ def fit_candidate(campaign: Campaign, effect: Effect | None, isolator: int | Non
         return CandidateFit(
             name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", np.zeros(0), {}, applicable=False, note=why
         )
-    res = _least_squares(model, data, model.start())
+    res = _least_squares(model, data, model.start() if start is None else [start])
     theta = res.x
     n_rows = len(data.labels) + 6 * len(data.shape_labels)
     chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
@@ -563,14 +577,25 @@ class EffectsReport:
         return self.ranked[0] if self.ranked and self.ranked[0].applicable else None
 
 
-def fit_all(campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE) -> tuple[CandidateFit, list[CandidateFit]]:
+def fit_all(
+    campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE, warm: EffectsReport | None = None
+) -> tuple[CandidateFit, list[CandidateFit]]:
     """The nominal fit and the best fit of each candidate effect (isolator_scatter: its best isolator; the
-    others within TIE in chi^2 are named in its note, mirror images that frequencies alone cannot tell)."""
-    nominal = fit_candidate(campaign, None)
+    others within TIE in chi^2 are named in its note, mirror images that frequencies alone cannot tell).
+    ``warm``: a report on nearby data whose fits start these (one start each; scatter keeps its isolator)."""
+    previous = {f.effect: f for f in (warm.ranked if warm else []) if f.theta is not None}
+    nominal = fit_candidate(campaign, None, start=warm.nominal.theta if warm else None)
     fits = []
     for effect in effects:
+        before = previous.get(effect.name)
         if effect.how == "isolator":
-            variants = [fit_candidate(campaign, effect, i) for i in range(len(campaign.machine.module.ISOLATORS))]
+            isolators = campaign.machine.module.ISOLATORS
+            if before is not None:
+                fits.append(fit_candidate(campaign, effect, isolators.index(before.variant), before.theta))
+                continue
+            # the first isolator from the default starts; the others (often mirror images) start from it
+            variants = [fit_candidate(campaign, effect, 0)]
+            variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(isolators))]
             variants.sort(key=lambda f: f.chi2)
             best = variants[0]
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + TIE]
@@ -578,7 +603,7 @@ def fit_all(campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE) -> tupl
                 best.note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
             fits.append(best)
         else:
-            fits.append(fit_candidate(campaign, effect))
+            fits.append(fit_candidate(campaign, effect, start=before.theta if before else None))
     return nominal, fits
 
 
@@ -637,9 +662,12 @@ def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) ->
     )
 
 
-def diagnose_effects(campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE) -> EffectsReport:
-    """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis)."""
-    nominal, fits = fit_all(campaign, effects)
+def diagnose_effects(
+    campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE, warm: EffectsReport | None = None
+) -> EffectsReport:
+    """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
+    ``warm`` as in :func:`fit_all`)."""
+    nominal, fits = fit_all(campaign, effects, warm)
     return rank(campaign, nominal, fits)
 
 
