@@ -5,6 +5,8 @@
 - `make generate` wall time for all descriptions (target < 60 s) and `mountid identify` cold start
 - records (benchmarks/experiment.py): simulation and file-to-stiffness times, accuracy per mode against
   sdypy-EMA's LSCF on the same records
+- gap diagnosis (benchmarks/diagnosis.py): one diagnosis with every candidate (target < 5 s) and the blind
+  validation over 200 synthetic campaigns with its accuracy targets (< 10 minutes on 2 cores)
 """
 
 from __future__ import annotations
@@ -93,10 +95,12 @@ def generation_and_cold_start() -> None:
 
 
 if __name__ == "__main__":
-    from benchmarks import experiment
+    from benchmarks import diagnosis, experiment
 
     forward()
     inverse()
     generation_and_cold_start()
     experiment.speed()
     experiment.accuracy()
+    diagnosis.speed()
+    diagnosis.validation()

@@ -20,7 +20,8 @@ def speed() -> None:
         diagnose(campaign.parse(blind.make_case(seed, effect)[0]))
     per = (time.perf_counter() - t) / 3
     print(
-        f"diagnosis with all {len(blind.EFFECT_NAMES) - 1} candidates, six modes with shapes: {per:.2f} s (target < 5 s)"
+        f"diagnosis with all {len(blind.EFFECT_NAMES) - 1} candidates, six modes with shapes: "
+        f"{per:.2f} s (target < 5 s)"
     )
 
 

@@ -125,10 +125,23 @@ def cmd_describe(args: argparse.Namespace) -> None:
 
 
 def cmd_demo(args: argparse.Namespace) -> None:
+    from importlib import resources
+
+    from mountid.campaign import load
+    from mountid.figures import diagnosis_figure
+    from mountid.gap import diagnose
     from mountid.paper import print_reproduction, run_simulated_experiment
 
     print_reproduction()
     run_simulated_experiment(figures=args.figures)
+    for name in ("kid300-paper", "kid300-blind-belt"):
+        path = resources.files("mountid.examples").joinpath(f"{name}.json")
+        campaign = load(str(path))
+        diagnosis = diagnose(campaign)
+        figure = f"{args.figures}/{name}-diagnosis.png"
+        diagnosis_figure(diagnosis, figure, title=campaign.name)
+        print(f"\n$ mountid diagnose examples/{name}.json")
+        print_diagnosis(diagnosis, campaign.name, figure)
 
 
 def _triple(text: str, option: str) -> tuple[float, float, float]:
@@ -321,7 +334,13 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
             }
         )
         return
-    print(f"{campaign.name or args.campaign} ({campaign.machine.name})")
+    print_diagnosis(diagnosis, campaign.name or args.campaign, figure)
+
+
+def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
+    """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
+    report, effects, campaign = diagnosis.where, diagnosis.effects, diagnosis.campaign
+    print(f"{title} ({campaign.machine.name})")
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     print(f"  {'mode':6s}{'measured':>10s}{'predicted':>11s}{'gap':>9s}{'sigma':>8s}{'z':>7s}  use")
     for r in report.residuals:

@@ -162,9 +162,10 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
         colours = ["#1f77b4" if f.effect in effects.tie else "#aaaaaa" for f in ranked] + ["#d62728"]
         hatches = ["" if f.plausible else "//" for f in ranked] + [""]
         y = np.arange(len(names))[::-1]
-        bars = right.barh(y, np.maximum(values, 1e-2), color=colours)
-        for bar, hatch in zip(bars, hatches, strict=True):
+        bars = right.barh(y, np.maximum(values, 0.5), color=colours)  # the best (0) stays visible
+        for bar, hatch, value in zip(bars, hatches, values, strict=True):
             bar.set_hatch(hatch)
+            right.text(max(value, 0.5), bar.get_y() + bar.get_height() / 2, f" {value:.3g}", va="center", fontsize=7)
         right.set_yticks(y, names, fontsize=8)
         right.set_xscale("symlog", linthresh=10)
         right.set_xlabel("AICc - best AICc (tie shaded blue, implausible hatched)")

@@ -1,0 +1,62 @@
+"""The blind validation harness, small: one case per effect and one without, the benchmark's targets.
+
+``make bench`` runs the same over 200 cases (benchmarks/diagnosis.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mountid import blind, campaign
+from mountid.candidates import diagnose_effects
+
+
+@pytest.fixture(scope="module")
+def results() -> list[blind.CaseResult]:
+    return blind.run(24, workers=2, first_seed=1000)
+
+
+def test_blind_targets_on_a_small_run(results):
+    score = blind.score(results)
+    print(score.text())
+    assert score.n == 24 and score.n_none == 2
+    assert score.n_identifiable >= 8  # enough cases for the top-1 figure to mean something
+    assert score.top1_identifiable >= 0.8
+    assert score.truth_in_tie >= 0.95
+    assert score.median_reduction >= 0.7
+    assert score.confident_on_none == 0
+
+
+def test_the_diagnosis_is_not_told_the_truth():
+    """The campaign carries measurements only; two cases that differ only in the hidden effect's seed
+    produce different data, and the same seed reproduces the same campaign byte for byte."""
+    a, truth = blind.make_case(7, "drive_belt")
+    b, _ = blind.make_case(7, "drive_belt")
+    assert a == b and "drive_belt" not in str(a) and truth.effect == "drive_belt"
+    assert set(a) == {"name", "machine", "known", "modes"}
+
+
+def test_noise_is_at_the_stated_uncertainty():
+    z = []
+    for seed in range(40):
+        noisy, _ = blind.make_case(seed, "none")
+        clean, _ = blind.make_case(seed, "none", noise=False)
+        for label, m in noisy["modes"].items():
+            z.append((m["frequency"] - clean["modes"][label]["frequency"]) / m["uncertainty"])
+    assert 0.8 < np.std(z) < 1.2
+
+
+def test_score_counts_a_confident_verdict_on_a_case_without_an_effect():
+    fake = [
+        blind.CaseResult("none", ("cog_height",), ("cog_height",), True, True, False, float("nan")),
+        blind.CaseResult("cog_height", ("cog_height",), ("cog_height",), True, True, True, 0.9),
+    ]
+    score = blind.score(fake)
+    assert score.confident_on_none == 1 and not score.targets_met
+    assert score.top1_identifiable == 1.0 and score.truth_in_tie == 1.0
+
+
+def test_a_foundation_truth_built_apart_from_the_engine_is_diagnosed():
+    data, truth = blind.make_case(18, "foundation")
+    report = diagnose_effects(campaign.parse(data))
+    assert report.significant and "foundation" in report.tie
