@@ -18,6 +18,7 @@ candidates, by refitting for the nominal and the candidates in the tie).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -166,11 +167,19 @@ class CandidateModel:
 
         first = [p.start for p in params]
         starts = [vector(first)]
-        if len(params) == 2:
+        self.mandatory_starts = 1
+        """Starts that always run (the sign starts); the others only while the fit is above noise level."""
+        if params and all(self.log_scaled):  # wide positive ranges (foundation): a grid over the decades
+            grid = [
+                [p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.25, 0.5, 0.75)] for p in params
+            ]
+            starts += [vector(point) for point in itertools.product(*grid)]
+        elif len(params) == 2:
             for i, p in enumerate(params):
                 if p.plausible[0] < 0 < p.plausible[1]:
                     for bound in p.plausible:
                         starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(first)]))
+            self.mandatory_starts = len(starts)
         if params:
             starts.append(vector([0.5 * (p.plausible[0] + p.plausible[1]) for p in params]))
         return starts
@@ -279,7 +288,8 @@ def _scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
     """Rotations times the length scale, each column normalised to unit length."""
     out = np.array(shapes, dtype=float)
     out[3:6] *= length
-    return out / np.linalg.norm(out, axis=0)
+    norm = np.linalg.norm(out, axis=0)
+    return out / np.where(norm > 0, norm, 1.0)  # a foundation mode may leave the body at rest
 
 
 def label_modes(
@@ -440,7 +450,9 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
     return fun
 
 
-def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None):
+def _least_squares(
+    model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None, mandatory: int = 1
+):
     lo, hi = model.bounds()
     fun = _residual_function(model, data, rows)
     best = None
@@ -449,8 +461,8 @@ def _least_squares(model: CandidateModel, data: Data, starts: list[np.ndarray], 
     inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
     for i, x0 in enumerate(starts):
         n = len(best.fun) if best is not None else 0
-        if i == len(starts) - 1 and i > 0 and 2 * best.cost <= n + 3 * math.sqrt(2 * n):
-            break  # fits to noise level: the middle of the range is not needed
+        if i >= mandatory and 2 * best.cost <= n + 3 * math.sqrt(2 * n):
+            break  # fits to noise level: the remaining starts are not needed
         x0 = np.clip(x0, inner_lo, inner_hi)
         res = scipy.optimize.least_squares(
             fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-7, xtol=1e-7, max_nfev=100 if i == 0 else 30
@@ -489,7 +501,10 @@ def fit_candidate(
         return CandidateFit(
             name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", np.zeros(0), {}, applicable=False, note=why
         )
-    res = _least_squares(model, data, model.start() if start is None else [start])
+    if start is None:
+        res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
+    else:
+        res = _least_squares(model, data, [start])
     theta = res.x
     n_rows = len(data.labels) + 6 * len(data.shape_labels)
     chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
@@ -574,7 +589,9 @@ class EffectsReport:
 
     @property
     def best(self) -> CandidateFit | None:
-        return self.ranked[0] if self.ranked and self.ranked[0].applicable else None
+        """The first-ranked candidate, when the data rank candidates at all (a finite AICc)."""
+        first = self.ranked[0] if self.ranked else None
+        return first if first is not None and first.applicable and math.isfinite(first.aicc) else None
 
 
 def fit_all(
