@@ -109,3 +109,25 @@ def test_campaign_file_errors_are_one_line(capsys, tmp_path):
     assert main(["diagnose", str(tmp_path / "c.json")]) == 2
     assert capsys.readouterr().err.startswith("mountid: error: campaign: c.json is not JSON")
     assert load(ROOT / "examples" / "kid300-paper.json").fit == ("x", "psi")
+
+
+def test_blind_belt_example_on_the_command_line(capsys, tmp_path):
+    """The README's second worked example: a drive belt hidden in a campaign with six modes and shapes."""
+    figure = tmp_path / "belt.png"
+    code = main(["diagnose", str(ROOT / "examples" / "kid300-blind-belt.json"), "--json", "--figure", str(figure)])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and figure.is_file()
+    first = out["candidates"][0]
+    assert first["effect"] == "drive_belt" and out["confident"]
+    assert first["parameters"]["k_belt"] == pytest.approx(11846.7, rel=0.1)  # the hidden truth (mountid.blind)
+    assert out["verdict"] == "significant gap, explained by drive_belt"
+    gap = out["gap"]
+    assert gap["after"]["rms_fitted"] < 0.05 * gap["before"]["rms_fitted"]
+    assert len(out["isolator_force_residual"]) == 4
+
+
+def test_diagnose_text_names_the_candidates_and_the_verdict(capsys, tmp_path):
+    main(["diagnose", str(ROOT / "examples" / "kid300-blind-belt.json"), "--no-figure"])
+    text = capsys.readouterr().out
+    assert "drive_belt" in text and "gap [rad/s] before (nominal) -> after (drive_belt)" in text
+    assert text.rstrip().endswith("verdict: significant gap, explained by drive_belt")

@@ -367,8 +367,10 @@ def _orthonormal(basis: np.ndarray) -> np.ndarray:
     if basis.shape[1] == 2:
         a, b = basis[:, 0], basis[:, 1]
         b = b - a * (a @ b)
-        return np.column_stack([a, b / np.linalg.norm(b)])
-    return np.linalg.qr(basis)[0]
+        norm = np.linalg.norm(b)
+        return np.column_stack([a, b / norm]) if norm > 1e-12 else a[:, None]  # parallel: one direction
+    q, r = np.linalg.qr(basis)
+    return q[:, np.abs(np.diag(r)) > 1e-12]
 
 
 def _off_span(s: np.ndarray, basis: np.ndarray) -> np.ndarray:
