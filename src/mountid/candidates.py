@@ -170,9 +170,7 @@ class CandidateModel:
         self.mandatory_starts = 1
         """Starts that always run (the sign starts); the others only while the fit is above noise level."""
         if params and all(self.log_scaled):  # wide positive ranges (foundation): a grid over the decades
-            grid = [
-                [p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.25, 0.5, 0.75)] for p in params
-            ]
+            grid = [[p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)] for p in params]
             starts += [vector(point) for point in itertools.product(*grid)]
         elif len(params) == 2:
             for i, p in enumerate(params):
@@ -630,8 +628,11 @@ def _rank_key(f: CandidateFit) -> tuple:
     return (not f.applicable, not f.plausible, f.aicc if math.isfinite(f.aicc) else math.inf, f.chi2)
 
 
-def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) -> EffectsReport:
-    """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it."""
+def rank(
+    campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], exact_held_out: bool = True
+) -> EffectsReport:
+    """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it
+    (``exact_held_out``: refit without each mode for the nominal model and the tie; else linearised only)."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
     significant = bool(p_value < GAP_P_VALUE)
@@ -646,7 +647,7 @@ def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) ->
         ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
     )
     tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
-    for f in [nominal, *tie]:
+    for f in [nominal, *tie] if exact_held_out else []:
         exact_leave_one_out(f)
     for f in [nominal, *fits]:
         z = held_out_z(f, campaign)
@@ -682,12 +683,15 @@ def rank(campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit]) ->
 
 
 def diagnose_effects(
-    campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE, warm: EffectsReport | None = None
+    campaign: Campaign,
+    effects: tuple[Effect, ...] = CATALOGUE,
+    warm: EffectsReport | None = None,
+    exact_held_out: bool = True,
 ) -> EffectsReport:
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
-    ``warm`` as in :func:`fit_all`)."""
+    ``warm`` as in :func:`fit_all`, ``exact_held_out`` as in :func:`rank`)."""
     nominal, fits = fit_all(campaign, effects, warm)
-    return rank(campaign, nominal, fits)
+    return rank(campaign, nominal, fits, exact_held_out)
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
