@@ -73,12 +73,17 @@ def test_demo_runs_the_simulated_experiment(capsys, tmp_path):
     code, out, _ = run(capsys, "demo", "--figures", str(tmp_path))
     assert code == 0
     assert "Simulated experiment" in out and "c_xy" in out
+    # the README's diagnosis examples run too
+    assert "$ mountid diagnose examples/kid300-paper.json" in out
+    assert "verdict: significant gap, explained by drive_belt" in out
     assert {p.name for p in tmp_path.iterdir()} == {
         "record.png",
         "spectrum.png",
         "decay.png",
         "unbalance.png",
         "modes.png",
+        "kid300-paper-diagnosis.png",
+        "kid300-blind-belt-diagnosis.png",
     }
 
 

@@ -173,10 +173,13 @@ class CandidateModel:
             grid = [[p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)] for p in params]
             starts += [vector(point) for point in itertools.product(*grid)]
         elif len(params) == 2:
+            # the other parameter at the middle of its range: at its start (often 0, no effect) the signed
+            # one has no gradient and slides to whichever side the unknowns prefer
+            middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
             for i, p in enumerate(params):
                 if p.plausible[0] < 0 < p.plausible[1]:
                     for bound in p.plausible:
-                        starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(first)]))
+                        starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
             self.mandatory_starts = len(starts)
         if params:
             starts.append(vector([0.5 * (p.plausible[0] + p.plausible[1]) for p in params]))
@@ -647,7 +650,9 @@ def rank(
         ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
     )
     tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
-    for f in [nominal, *tie] if exact_held_out else []:
+    # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
+    # the tie (the others keep their linearised ones)
+    for f in [nominal, *(tie[:3] if significant else [])] if exact_held_out else []:
         exact_leave_one_out(f)
     for f in [nominal, *fits]:
         z = held_out_z(f, campaign)

@@ -41,8 +41,20 @@ def _pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
     return out
 
 
+def _finite(obj: object) -> object:
+    """NaN and infinities (a quantity that does not exist, e.g. a held-out error where leaving the mode out
+    leaves a parameter undetermined) as null: JSON has no NaN."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 def _print_json(obj: object) -> None:
-    print(json.dumps(obj, indent=2, allow_nan=False))
+    print(json.dumps(_finite(obj), indent=2, allow_nan=False))
 
 
 def cmd_frequencies(args: argparse.Namespace) -> None:

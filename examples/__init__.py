@@ -1,0 +1,1 @@
+"""Example campaign files (JSON), shipped as mountid.examples for `mountid demo`."""
