@@ -1,11 +1,13 @@
 """Figures of an experiment (matplotlib, written to files; nothing else in mountid imports this module).
 
 The paper's Figs. 4-6 and the mode shapes: record and band-passed record, spectrum with the picked peaks,
-the decay fit of Eq. (25), response under the rotating unbalance, and each mode drawn on the machine.
+the decay fit of Eq. (25), response under the rotating unbalance, and each mode drawn on the machine; and
+the gap diagnosis (residuals before and after, candidate effects ranked).
 """
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -173,5 +175,6 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
         right.text(0.5, 0.5, "too few data to rank candidate effects", ha="center", va="center")
         right.set_axis_off()
     right.set_title("candidate effects")
-    fig.suptitle(f"{title}: {diagnosis.verdict}" if title else diagnosis.verdict, fontsize=8)
+    heading = f"{title}: {diagnosis.verdict}" if title else diagnosis.verdict
+    fig.suptitle(textwrap.fill(heading, 150), fontsize=8)
     return _save(fig, path)
