@@ -153,9 +153,11 @@ class CandidateModel:
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:
-        """Starting vectors: the effect's start values; for a two-parameter effect with a signed parameter
-        (a height, an offset) also that parameter at half its plausible bound on either side (the fit has
-        a local minimum on the wrong side); last the middle of the plausible range."""
+        """Starting vectors: the effect's start values; for wide positive ranges (the foundation) a 2 x 2
+        grid over their decades; for a two-parameter effect with a signed parameter (a height, an offset)
+        that parameter at half its plausible bound on either side (the fit has a local minimum on the wrong
+        side); last the middle of the plausible range. Sets ``mandatory_starts``: the first starts, which
+        always run (the others run only while the fit stays above noise level)."""
         base = [math.log(self.start_unknowns[u]) for u in self.unknown]
         params = self.effect_parameters
 
@@ -168,7 +170,6 @@ class CandidateModel:
         first = [p.start for p in params]
         starts = [vector(first)]
         self.mandatory_starts = 1
-        """Starts that always run (the sign starts); the others only while the fit is above noise level."""
         if params and all(self.log_scaled):  # wide positive ranges (foundation): a grid over the decades
             grid = [[p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)] for p in params]
             starts += [vector(point) for point in itertools.product(*grid)]
@@ -527,7 +528,9 @@ def fit_candidate(
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
-    fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), res.fun, gap)
+    fit = CandidateFit(
+        name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), res.fun[:n_rows], gap
+    )
     fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
     fit.model, fit.theta = model, theta
     return fit
@@ -635,7 +638,9 @@ def rank(
     campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], exact_held_out: bool = True
 ) -> EffectsReport:
     """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it
-    (``exact_held_out``: refit without each mode for the nominal model and the tie; else linearised only)."""
+    (``exact_held_out``: refit without each mode for the nominal model and, with a significant gap, the
+    first three of the tie; else linearised only). The tie and what separates it are reported only when
+    there is a significant gap to explain."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
     significant = bool(p_value < GAP_P_VALUE)
@@ -659,7 +664,7 @@ def rank(
         if len(z):
             f.held_out_rms = float(np.sqrt(np.mean(z**2)))
             f.held_out_median = float(np.median(np.abs(z)))
-    separation = [separate(campaign, best, other) for other in tie[1:]] if best else []
+    separation = [separate(campaign, best, other) for other in tie[1:]] if best and significant else []
     confident = False
     if math.isnan(p_value):
         verdict = "cannot judge: no more data than unknowns"
@@ -682,9 +687,8 @@ def rank(
         else:
             verdict = f"significant gap, explained by {best.effect}" + (f" at {best.variant}" if best.variant else "")
             confident = True
-    return EffectsReport(
-        nominal, ranked, p_value, significant, [f.effect for f in tie], separation, verdict, confident, notes
-    )
+    tie_names = [f.effect for f in tie] if significant else []
+    return EffectsReport(nominal, ranked, p_value, significant, tie_names, separation, verdict, confident, notes)
 
 
 def diagnose_effects(
