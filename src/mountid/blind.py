@@ -32,9 +32,10 @@ import numpy as np
 import scipy.linalg
 
 from mountid import campaign as campaign_module
-from mountid.candidates import TIE, diagnose_effects, label_modes
+from mountid.candidates import TIE, diagnose_effects, label_modes, scaled_unit
 from mountid.effects import CATALOGUE, STANDARD_GRAVITY
 from mountid.machine import Machine
+from mountid.rig import state_matrix
 
 EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE))
 FREQUENCY_STD = 3e-4
@@ -79,6 +80,8 @@ class _Kid300:
         a = v["L_xy"] / math.sqrt(2)
         self.points = [np.array([sx * a, sy * a, -v["L_z"]]) for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))]
         self.inertia = np.diag([v["J_xy"], v["J_xy"], v["J_z"]])
+        scales = machine.module.effect_scales(**{a: v[a] for a in machine.module.ARGUMENTS["effect_scales"]})
+        self.length = float(scales["length"])  # [m], the rotations' factor in scaled unit shapes
 
     def matrices(self, t: Truth, rng_isolator: int = 0):
         v = self.v
@@ -179,13 +182,8 @@ def _modes(kid: _Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.nda
     lam, vec = scipy.linalg.eigh(c, m)
     nominal = {**kid.v, "c_xy": t.c_xy, "c_z": t.c_z}
     fwd = {a: nominal[a] for a in mod.FORWARD_ARGUMENTS}
-    length = math.sqrt(kid.v["L_xy"] ** 2 + kid.v["L_z"] ** 2)
-    ref = np.asarray(mod.modal_matrix(**fwd)).copy()
-    ref[3:] *= length
-    ref /= np.linalg.norm(ref, axis=0)
-    body = vec[:6].copy()
-    body[3:] *= length
-    body /= np.linalg.norm(body, axis=0)
+    ref = scaled_unit(mod.modal_matrix(**fwd), kid.length)
+    body = scaled_unit(vec[:6], kid.length)
     share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6])
     order = label_modes(lam, body, np.asarray(mod.squared_frequencies(**fwd)), ref, share)
     omega = np.sqrt(lam[order])
@@ -202,9 +200,7 @@ def _modes(kid: _Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.nda
                 w = w_new
             omega[i] = w_new
     elif t.effect == "damping":
-        n = len(m)
-        a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
-        poles = np.linalg.eigvals(a)
+        poles = np.linalg.eigvals(state_matrix(m, c, b))
         damped = np.sort(np.abs(poles.imag[poles.imag > 0]))
         omega = damped[np.argsort(np.argsort(lam[order]))]
     elif t.effect == "sensor_error":
@@ -234,15 +230,11 @@ def make_case(seed: int, effect: str, noise: bool = True) -> tuple[dict, Truth]:
     omega, shapes = _modes(kid, machine, t)
     noise_rng = np.random.default_rng(seed + 1_000_003)
     modes = {}
-    length = math.sqrt(kid.v["L_xy"] ** 2 + kid.v["L_z"] ** 2)
+    unit = scaled_unit(shapes, kid.length)
     for i, label in enumerate(machine.modes):
         w = omega[i] * (1 + (FREQUENCY_STD * noise_rng.standard_normal() if noise else 0.0))
-        s = shapes[:, i].copy()
-        s[3:] *= length
-        s /= np.linalg.norm(s)
-        if noise:
-            s = s + SHAPE_STD * noise_rng.standard_normal(6)
-        s[3:] /= length
+        s = unit[:, i] + (SHAPE_STD * noise_rng.standard_normal(6) if noise else 0.0)
+        s[3:] /= kid.length
         modes[label] = {
             "frequency": float(w),
             "uncertainty": float(FREQUENCY_STD * omega[i]),

@@ -30,6 +30,12 @@ def schema() -> dict:
     return json.loads(resources.files("mountid.schemas").joinpath("campaign.schema.json").read_text("utf-8"))
 
 
+DEFAULT_FREQUENCY_STD = 1e-3
+"""Relative standard deviation taken for a frequency given without uncertainty."""
+DEFAULT_SHAPE_STD = 0.02
+"""Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
+
+
 @dataclass(frozen=True)
 class MeasuredData:
     """One measured mode: frequency [rad/s] with optional standard deviation, damping ratio, shape in q."""
@@ -41,6 +47,16 @@ class MeasuredData:
     shape_uncertainty: float | None = None
     """Standard deviation per component of the shape scaled to unit length (rotations times the machine's
     length scale; see mountid.candidates)."""
+
+    @property
+    def frequency_std(self) -> float:
+        """The frequency's standard deviation [rad/s]: the given one, else DEFAULT_FREQUENCY_STD relative."""
+        return self.uncertainty or DEFAULT_FREQUENCY_STD * self.frequency
+
+    @property
+    def shape_std(self) -> float:
+        """The shape's standard deviation per unit-shape component: the given one, else DEFAULT_SHAPE_STD."""
+        return self.shape_uncertainty or DEFAULT_SHAPE_STD
 
 
 @dataclass

@@ -13,7 +13,7 @@ measurement's standard deviation:
 Ranking is by AICc (chi^2 + 2k + 2k(k+1)/(n-k-1)); fitted values outside the plausible range of the
 effect rank after every plausible candidate. Candidates within ``TIE`` of the best AICc are a tie. The
 held-out error of each candidate is its leave-one-mode-out prediction error (linearised for all
-candidates, by refitting for the nominal and the candidates in the tie).
+candidates; refitted for the nominal model and, when there is a gap to explain, the first three of the tie).
 """
 
 from __future__ import annotations
@@ -27,13 +27,10 @@ import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
-from mountid.campaign import Campaign
+from mountid.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.effects import CATALOGUE, Effect
+from mountid.rig import state_matrix
 
-DEFAULT_FREQUENCY_STD = 1e-3
-"""Relative standard deviation of a frequency given without uncertainty."""
-DEFAULT_SHAPE_STD = 0.02
-"""Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
 GAP_P_VALUE = 1e-3
 """The nominal model has a significant gap when its chi^2 exceeds the 1 - GAP_P_VALUE quantile."""
 TIE = 7.0
@@ -70,8 +67,6 @@ class CandidateFit:
     aicc: float
     plausible: bool
     implausible_reason: str
-    residuals: np.ndarray
-    """Weighted residuals per data row (frequencies first, in mode order, then shape components)."""
     frequency_gap: dict[str, float]
     """measured - fitted model frequency [rad/s] per measured mode."""
     held_out_gap: dict[str, float] = field(default_factory=dict)
@@ -139,17 +134,17 @@ class CandidateModel:
         # modes are paired with labels by shape and frequency: the measured ones where measured, else the
         # generated (block-pure) modal matrix and frequencies at the nominal values
         fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
-        self.reference = _scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
+        self.reference = scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
         self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
         self._rows = [mod.MODES.index(label) for label in self.labels]
         self.resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
         for i, label in enumerate(mod.MODES):
             m = campaign.modes.get(label)
             if m is not None:
-                self.resolution[i] = (m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency) / m.frequency
+                self.resolution[i] = m.frequency_std / m.frequency
                 self.reference_lambda[i] = m.frequency**2
                 if m.shape is not None:
-                    self.reference[:, i] = _scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
+                    self.reference[:, i] = scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:
@@ -247,7 +242,7 @@ class CandidateModel:
         values = {**self.known, **self.physical(theta)}
         m, c, b = self._matrices(values)
         lam, vec = scipy.linalg.eigh(c, m)
-        body = _scaled_unit(vec[:6, :], self.length)
+        body = scaled_unit(vec[:6, :], self.length)
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         order = label_modes(lam, body, self.reference_lambda, self.reference, share)
         omega = np.sqrt(np.abs(lam))
@@ -257,7 +252,7 @@ class CandidateModel:
         elif e is not None and e.how == "damping":
             omega = _damped_frequencies(m, c, values["damping_scale"] * b, lam)
         elif e is not None and e.how == "sensor":
-            body = _scaled_unit(
+            body = scaled_unit(
                 sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
             )
         rows = self._rows if labels is None else [self.mod.MODES.index(label) for label in labels]
@@ -286,7 +281,7 @@ def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
     return {n: values[n] for n in names}
 
 
-def _scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
+def scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
     """Rotations times the length scale, each column normalised to unit length."""
     out = np.array(shapes, dtype=float)
     out[3:6] *= length
@@ -339,14 +334,12 @@ def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
 def _damped_frequencies(m: np.ndarray, c: np.ndarray, b: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """|Im p| of M p^2 + B p + C = 0, in the order of the undamped eigenvalues ``lam``."""
     n = len(m)
-    minv = np.linalg.inv(m)
-    a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ c, -minv @ b]])
-    poles = np.linalg.eigvals(a)
+    poles = np.linalg.eigvals(state_matrix(m, c, b))
     damped = np.sort(np.abs(poles.imag[poles.imag > 0]))
-    if len(damped) < n:  # overdamped modes: no oscillation, keep the undamped value
+    if len(damped) < n:  # overdamped modes do not oscillate: frequency 0, given to the highest modes
         damped = np.concatenate([damped, np.zeros(n - len(damped))])
     out = np.empty(n)
-    out[np.argsort(lam, kind="stable")] = damped[:n] if len(damped) == n else np.sort(damped)[:n]
+    out[np.argsort(lam, kind="stable")] = damped
     return out
 
 
@@ -389,13 +382,13 @@ class Data:
         self.labels = tuple(campaign.modes)
         modes = [campaign.modes[lab] for lab in self.labels]
         self.omega = np.array([m.frequency for m in modes])
-        self.sigma = np.array([m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency for m in modes])
+        self.sigma = np.array([m.frequency_std for m in modes])
         self.shape_labels = tuple(lab for lab, m in zip(self.labels, modes, strict=True) if m.shape is not None)
         self.shapes = [
-            _scaled_unit(np.array(campaign.modes[lab].shape, dtype=float)[:, None], length)[:, 0]
+            scaled_unit(np.array(campaign.modes[lab].shape, dtype=float)[:, None], length)[:, 0]
             for lab in self.shape_labels
         ]
-        self.shape_sigma = [campaign.modes[lab].shape_uncertainty or DEFAULT_SHAPE_STD for lab in self.shape_labels]
+        self.shape_sigma = [campaign.modes[lab].shape_std for lab in self.shape_labels]
         self.n = len(self.labels) + 5 * len(self.shape_labels)
         """Data count: one per frequency, five per shape (six components less the free scale)."""
 
@@ -503,7 +496,7 @@ def fit_candidate(
     k = len(model.start()[0])
     if why:
         return CandidateFit(
-            name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", np.zeros(0), {}, applicable=False, note=why
+            name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", {}, applicable=False, note=why
         )
     if start is None:
         res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
@@ -528,9 +521,7 @@ def fit_candidate(
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
-    fit = CandidateFit(
-        name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), res.fun[:n_rows], gap
-    )
+    fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), gap)
     fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
     fit.model, fit.theta = model, theta
     return fit
@@ -574,7 +565,7 @@ def held_out_z(fit: CandidateFit, campaign: Campaign) -> np.ndarray:
     for lab, e in fit.held_out_gap.items():
         m = campaign.modes[lab]
         if math.isfinite(e):
-            z.append(e / (m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency))
+            z.append(e / m.frequency_std)
     return np.array(z)
 
 
@@ -711,8 +702,8 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
     pa = a.model.predict(a.theta, labels)
     pb = b.model.predict(b.theta, labels)
     measured = list(campaign.modes.values())
-    rel = float(np.median([(m.uncertainty or DEFAULT_FREQUENCY_STD * m.frequency) / m.frequency for m in measured]))
-    shape_sigma = float(np.median([m.shape_uncertainty or DEFAULT_SHAPE_STD for m in measured]))
+    rel = float(np.median([m.frequency_std / m.frequency for m in measured]))
+    shape_sigma = float(np.median([m.shape_std for m in measured]))
     best = (0.0, "")
     for i, lab in enumerate(labels):
         z = abs(pa.frequencies[i] - pb.frequencies[i]) / (rel * pa.frequencies[i])

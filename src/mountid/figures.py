@@ -132,9 +132,7 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     effects = diagnosis.effects
     nominal, best = effects.nominal, effects.best
     labels = list(nominal.frequency_gap)
-    sigma = np.array(
-        [m.uncertainty or 1e-3 * m.frequency for m in (diagnosis.campaign.modes[label] for label in labels)]
-    )
+    sigma = np.array([diagnosis.campaign.modes[label].frequency_std for label in labels])
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1.1, 1]})
     x = np.arange(len(labels))
     series = [

@@ -14,15 +14,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mountid.campaign import Campaign
+from mountid.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.candidates import EffectsReport, diagnose_effects
 from mountid.experiment import fit_stiffness
 
 SIGNIFICANCE = 2.0
 """A residual is significant beyond this many standard deviations of the measurement."""
-DEFAULT_WEIGHT = 1e-3
-"""Relative standard deviation used as the fit's weight for frequencies given without uncertainty
-(their significance is then not judged)."""
 
 
 @dataclass(frozen=True)
@@ -95,7 +92,7 @@ def _fit_data(campaign: Campaign, labels) -> dict[str, tuple[float, float]]:
     out = {}
     for r, items in groups.items():
         w = float(np.mean([m.frequency for m in items]))
-        stds = [m.uncertainty if m.uncertainty else DEFAULT_WEIGHT * m.frequency for m in items]
+        stds = [m.frequency_std for m in items]
         out[r] = (w, float(np.sqrt(np.sum(np.square(stds)))) / len(items))
     return out
 
@@ -137,7 +134,7 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     lam = mod.squared_frequencies(**args)
     rows = [mod.MODES.index(r.label) for r in residuals]
     d_lam = np.array([r.measured**2 - r.predicted**2 for r in residuals])
-    sigma = np.array([2 * r.measured * (r.uncertainty or DEFAULT_WEIGHT * r.measured) for r in residuals])
+    sigma = np.array([2 * r.measured * (r.uncertainty or DEFAULT_FREQUENCY_STD * r.measured) for r in residuals])
     before = float(np.sum((d_lam / sigma) ** 2))
     if before < 1e-12 * len(residuals):  # nothing to localise (the fit reproduces every measurement)
         return []
