@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import budget
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
@@ -109,7 +110,7 @@ def test_modal_force_residual_points_at_the_stiffer_isolator():
 
 
 @settings(
-    max_examples=10,
+    max_examples=budget(10),
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],
     phases=[Phase.explicit, Phase.reuse, Phase.generate],  # a fit per example: no slow shrinking

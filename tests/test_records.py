@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import budget
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -70,7 +71,7 @@ def test_uff58_round_trip(tmp_path):
     np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=budget(30), deadline=None)
 @given(
     n=st.integers(16, 200),
     rate=st.floats(10.0, 1e5),
