@@ -40,6 +40,18 @@ _PARITY = {
 }
 
 
+def square(expr: sp.Expr) -> sp.Expr:
+    """expr^2 with the square kept a square: (N / D)^2 as N^2 / cancel(D^2), N unexpanded.
+
+    A signed coupling term N (terms of both signs, e.g. c_h h - c_v a sin(alpha) cos(alpha)) expanded inside
+    its square is a sum of large terms of both signs whose rounding can leave a small negative number where
+    N vanishes (a decoupled crossing); kept as N**2 it is never negative. D^2 loses the square roots of the
+    Cholesky factor.
+    """
+    num, den = sp.fraction(sp.together(expr))
+    return sp.Pow(num, 2) / sp.cancel(den**2)
+
+
 @dataclass(frozen=True)
 class Block:
     """One symmetry block: its coordinate indices into q and its sub-matrices."""
@@ -77,7 +89,7 @@ class Block:
             "s11": s[0, 0],
             "s22": s[1, 1],
             "s12": s[0, 1],
-            "s12_squared": sp.cancel(s[0, 1] ** 2),
+            "s12_squared": square(s[0, 1]),
             "det_ratio": ratio,
         }
 
