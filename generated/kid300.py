@@ -230,8 +230,11 @@ def _roots_x_z(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_z):
 def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     """Unknowns c_xy, c_z from the natural frequencies omega_x, omega_z [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -241,17 +244,15 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
 
         c_xy = lambda_x*m*(J_xy*lambda_x - 2*c_z*L_xy**2)/(4*(J_xy*lambda_x - 2*c_z*L_xy**2 + lambda_x*m*L_z**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_z, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_z ** 2,), (0, 2))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_z, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_z ** 2,), (0, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
 
 
 def _roots_x_psi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_psi):
@@ -268,8 +269,11 @@ def _roots_x_psi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_psi):
 def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     """Unknowns c_xy, c_z from the natural frequencies omega_x, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_xy is a root of
 
@@ -279,17 +283,15 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
 
         c_z = J_xy*lambda_psi*lambda_x*m/(8*L_xy**2*c_xy)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_psi ** 2,), (0, 3))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_psi ** 2,), (0, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(74400.0, 472300.0))
 
 
 def _roots_x_phi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_phi):
@@ -305,8 +307,11 @@ def _roots_x_phi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_phi):
 def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     """Unknowns c_xy, c_z from the natural frequencies omega_x, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_xy is a root of
 
@@ -316,17 +321,15 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
 
         c_z = lambda_x*(-4*J_xy*c_xy + J_xy*lambda_x*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_x*m))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_x_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_phi ** 2,), (0, 5))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_phi ** 2,), (0, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
 
 
 def _roots_z_psi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_psi):
@@ -343,8 +346,11 @@ def _roots_z_psi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_psi):
 def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -354,17 +360,15 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
 
         c_xy = lambda_psi*m*(J_xy*lambda_psi - 2*c_z*L_xy**2)/(4*(J_xy*lambda_psi - 2*c_z*L_xy**2 + lambda_psi*m*L_z**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_psi ** 2,), (2, 3))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_z_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_psi ** 2,), (2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
 
 
 def _roots_z_phi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_phi):
@@ -379,8 +383,11 @@ def _roots_z_phi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_phi):
 def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     """Unknowns c_xy, c_z from the natural frequencies omega_z, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -390,17 +397,15 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
 
         c_xy = J_z*lambda_phi/(4*L_xy**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_z_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_phi ** 2,), (2, 5))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_z_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_phi ** 2,), (2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
 
 
 def _roots_psi_phi(m, J_xy, J_z, L_xy, L_z, _lam_psi, _lam_phi):
@@ -416,8 +421,11 @@ def _roots_psi_phi(m, J_xy, J_z, L_xy, L_z, _lam_psi, _lam_phi):
 def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     """Unknowns c_xy, c_z from the natural frequencies omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_xy is a root of
 
@@ -427,17 +435,15 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
 
         c_z = lambda_psi*(-4*J_xy*c_xy + J_xy*lambda_psi*m - 4*c_xy*m*L_z**2)/(2*L_xy**2*(-4*c_xy + lambda_psi*m))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
-    (c_xy, c_z,), _ok = _runtime.solve_inverse(_roots_psi_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_psi ** 2, omega_phi ** 2,), (3, 5))
-    return _runtime.InverseRoots({"c_xy": c_xy, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_psi_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_psi ** 2, omega_phi ** 2,), (3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
 
 
 def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
@@ -824,6 +830,10 @@ INVERSE_ROOTS = {
 UNIDENTIFIABLE = {
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+SPECIAL_POINTS = ("L_z",)
+"""Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
+unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse
+solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
 ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]")

@@ -252,8 +252,11 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_z):
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_y, omega_z [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -264,17 +267,15 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
         c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
         c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
@@ -297,8 +298,11 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_y, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_y is a root of
 
@@ -309,17 +313,15 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
         c_x = lambda_x*m*(-4*J_y*c_y*lambda_x*b**2 + J_x*lambda_psi*lambda_y*m*a**2)/(4*(-4*J_y*c_y*lambda_x*b**2 + J_x*lambda_psi*lambda_y*m*a**2 - 4*c_y*lambda_x*m*b**2*h**2))
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
@@ -341,8 +343,11 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_y, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -353,17 +358,15 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
         c_y = lambda_y*m*(4*J_x*c_x*lambda_y*a**2 - J_y*lambda_theta*lambda_x*m*b**2)/(4*(4*J_x*c_x*lambda_y*a**2 - J_y*lambda_theta*lambda_x*m*b**2 + 4*c_x*lambda_y*m*a**2*h**2))
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
@@ -403,8 +406,11 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_y, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -415,17 +421,15 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
         c_z = -lambda_x*(4*J_y*c_x - J_y*lambda_x*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_x*m))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
@@ -445,8 +449,11 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_z, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -457,17 +464,15 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
         c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
         c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
@@ -486,8 +491,11 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_z, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -498,17 +506,15 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
         c_x = lambda_x*m*(-J_y*lambda_x + 4*c_z*a**2)/(4*(-J_y*lambda_x + 4*c_z*a**2 - lambda_x*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
@@ -530,8 +536,11 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -542,17 +551,15 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
         c_y = lambda_psi*m*(4*J_x*c_x*lambda_psi*a**2 - J_y*lambda_theta*lambda_x*m*b**2)/(4*(4*J_x*c_x*lambda_psi*a**2 - J_y*lambda_theta*lambda_x*m*b**2 + 4*c_x*lambda_psi*m*a**2*h**2))
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
@@ -592,8 +599,11 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -604,17 +614,15 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
         c_z = -lambda_x*(4*J_y*c_x - J_y*lambda_x*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_x*m))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
@@ -633,8 +641,11 @@ def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
 def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_x, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -645,17 +656,15 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
         c_z = J_y*lambda_theta*lambda_x*m/(16*a**2*c_x)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_x_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 4, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_x_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
@@ -675,8 +684,11 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_z, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -687,17 +699,15 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
         c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
         c_y = lambda_y*m*(-J_x*lambda_y + 4*c_z*b**2)/(4*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
@@ -720,8 +730,11 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_z, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -732,17 +745,15 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
         c_x = -(J_x*J_z*lambda_phi*lambda_y - J_x*m*a**2*lambda_y**2 - 4*J_z*c_z*lambda_phi*b**2 + J_z*lambda_phi*lambda_y*m*h**2 + 4*c_z*lambda_y*m*a**2*b**2)/(4*b**2*(-J_x*lambda_y + 4*c_z*b**2 - lambda_y*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
@@ -765,8 +776,11 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_y is a root of
 
@@ -777,17 +791,15 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
         c_x = lambda_theta*m*(-4*J_y*c_y*lambda_theta*b**2 + J_x*lambda_psi*lambda_y*m*a**2)/(4*(-4*J_y*c_y*lambda_theta*b**2 + J_x*lambda_psi*lambda_y*m*a**2 - 4*c_y*lambda_theta*m*b**2*h**2))
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
@@ -806,8 +818,11 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_y is a root of
 
@@ -818,17 +833,15 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
         c_x = -(-J_z*lambda_phi + 4*c_y*a**2)/(4*b**2)
         c_z = J_x*lambda_psi*lambda_y*m/(16*b**2*c_y)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
@@ -868,8 +881,11 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -880,17 +896,15 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
         c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
@@ -910,8 +924,11 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_z, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -922,17 +939,15 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
         c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
         c_y = lambda_psi*m*(-J_x*lambda_psi + 4*c_z*b**2)/(4*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
@@ -955,8 +970,11 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_z, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -967,17 +985,15 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
         c_x = -(J_x*J_z*lambda_phi*lambda_psi - J_x*m*a**2*lambda_psi**2 - 4*J_z*c_z*lambda_phi*b**2 + J_z*lambda_phi*lambda_psi*m*h**2 + 4*c_z*lambda_psi*m*a**2*b**2)/(4*b**2*(-J_x*lambda_psi + 4*c_z*b**2 - lambda_psi*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
@@ -996,8 +1012,11 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_z, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_z is a root of
 
@@ -1008,17 +1027,15 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
         c_x = lambda_theta*m*(-J_y*lambda_theta + 4*c_z*a**2)/(4*(-J_y*lambda_theta + 4*c_z*a**2 - lambda_theta*m*h**2))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
 
 
 def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_phi):
@@ -1058,8 +1075,11 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_p
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_z from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_x is a root of
 
@@ -1070,17 +1090,15 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
         c_z = -lambda_theta*(4*J_y*c_x - J_y*lambda_theta*m + 4*c_x*m*h**2)/(4*a**2*(-4*c_x + lambda_theta*m))
         c_y = -(-J_z*lambda_phi + 4*c_x*b**2)/(4*a**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
-    (c_x, c_y, c_z,), _ok = _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5))
-    return _runtime.InverseRoots({"c_x": c_x, "c_y": c_y, "c_z": c_z}, _ok)
+    return _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
@@ -1490,10 +1508,14 @@ INVERSE_ROOTS = {
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
 UNIDENTIFIABLE = {
-    ("x", "z", "theta"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z)",
-    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z)",
+    ("x", "z", "theta"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
+    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+SPECIAL_POINTS = ("h",)
+"""Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
+unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse
+solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
 ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]")

@@ -248,7 +248,7 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     _out = numpy.empty((6, *_shape))
     _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a': a, 'b': b, 'h': h, 'alpha': alpha, 'c_h': c_h, 'c_v': c_v, 'c_m': c_m}
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) + ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)) + sqrt((0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) - ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)))**2 + ((16*a**2*c_h**2*sin(alpha)**2*cos(alpha)**2 - 32*a**2*c_h*c_v*sin(alpha)**2*cos(alpha)**2 + 16*a**2*c_v**2*sin(alpha)**2*cos(alpha)**2 - 32*a*c_h**2*h*sin(alpha)*cos(alpha)**3 - 16*a*c_h**2*h*sin(alpha)*cos(alpha) - 32*a*c_h*c_v*h*sin(alpha)**3*cos(alpha) + 32*a*c_h*c_v*h*sin(alpha)*cos(alpha)**3 + 16*a*c_h*c_v*h*sin(alpha)*cos(alpha) + 32*a*c_v**2*h*sin(alpha)**3*cos(alpha) + 16*c_h**2*h**2*cos(alpha)**4 + 16*c_h**2*h**2*cos(alpha)**2 + 4*c_h**2*h**2 + 32*c_h*c_v*h**2*sin(alpha)**2*cos(alpha)**2 + 16*c_h*c_v*h**2*sin(alpha)**2 + 16*c_v**2*h**2*sin(alpha)**4)/(J_y*m)))', _v, _out[4, ...])
+    _runtime.fused('0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) + ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)) + sqrt((0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) - ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)))**2 + ((4*a*c_h*sin(alpha)*cos(alpha) - 4*a*c_v*sin(alpha)*cos(alpha) - 4*c_h*h*cos(alpha)**2 - 2*c_h*h - 4*c_v*h*sin(alpha)**2)**2/(J_y*m)))', _v, _out[4, ...])
     _runtime.fused('(8*a**2*c_h*(c_h*sin(alpha)**2 + 2*c_v*sin(alpha)**4 + 4*c_v*sin(alpha)**2*cos(alpha)**2 + 2*c_v*cos(alpha)**4 + c_v*cos(alpha)**2)/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
     # block {y, psi}: upper root from a sum of squares, lower from the root product
     _runtime.fused('0.5*((6*c_h/m) + ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)) + sqrt((0.5*((6*c_h/m) - ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)))**2 + (36*c_h**2*h**2/(J_x*m)))', _v, _out[3, ...])
@@ -304,8 +304,11 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_z):
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_z [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -316,17 +319,15 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
         c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
@@ -364,8 +365,11 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -376,17 +380,15 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_theta):
@@ -474,8 +476,11 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_thet
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -486,17 +491,15 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
         c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_y*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_y*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_y**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2 + 12*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_y*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_y*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_theta*lambda_x*lambda_y*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_y**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_y*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_y*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_y*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
@@ -557,11 +560,41 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
     return (c_h, c_v, c_m,)
 
 
+def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
+    """Candidate roots of identify_x_y_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = b**2
+        _tmp1 = 6*c_h
+        _tmp2 = -_tmp1
+        _tmp3 = _lam_y*m
+        _tmp4 = c_h**2
+        _tmp5 = 36*_tmp4
+        _tmp6 = a**2
+        _tmp7 = J_x*_tmp6
+        _tmp8 = _lam_x*m
+        _tmp9 = J_y*_tmp1
+        _tmp10 = _tmp0*_tmp9
+        _tmp11 = _lam_y**2
+        _tmp12 = _lam_x**2
+        _tmp13 = m**2
+        _tmp14 = h**2
+        _tmp15 = 1/(_tmp6*(_tmp2 + _tmp8))
+        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_x*_lam_y*_tmp6*c_h*m + 6*J_x*_tmp11*_tmp6*c_h*m + 36*J_y*_lam_x*_tmp0*_tmp4 + J_y*_lam_y*_tmp0*_tmp12*_tmp13 - _lam_x*_lam_y*_tmp0*_tmp1*_tmp13*_tmp14 + 6*_lam_x*_lam_y*_tmp13*_tmp14*_tmp6*c_h + 36*_lam_x*_tmp0*_tmp14*_tmp4*m - _lam_x*_tmp11*_tmp13*_tmp7 - _lam_y*_tmp10*_tmp8 - _lam_y*_tmp5*_tmp7 - _tmp10*_tmp12*m - _tmp14*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_x*_tmp15*(-J_y*_tmp8 + _tmp1*_tmp14*m + _tmp9), c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_y, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -572,17 +605,24 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
         c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_m = -(-36*J_x*lambda_y*a**2*c_h**2 + 36*J_y*lambda_x*b**2*c_h**2 + J_y*lambda_y*b**2*lambda_x**2*m**2 - J_x*lambda_x*a**2*lambda_y**2*m**2 - 36*lambda_y*m*a**2*c_h**2*h**2 - 6*J_y*c_h*m*b**2*lambda_x**2 + 6*J_x*c_h*m*a**2*lambda_y**2 + 36*lambda_x*m*b**2*c_h**2*h**2 - 6*J_y*c_h*lambda_x*lambda_y*m*b**2 - 6*c_h*lambda_x*lambda_y*b**2*h**2*m**2 + 6*J_x*c_h*lambda_x*lambda_y*m*a**2 + 6*c_h*lambda_x*lambda_y*a**2*h**2*m**2)/(2*a**2*b**2*(-6*c_h + lambda_x*m)*(-6*c_h + lambda_y*m))
+        c_v = -lambda_x*(6*J_y*c_h - J_y*lambda_x*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_x*m))
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_y_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
@@ -618,8 +658,11 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_psi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -630,17 +673,15 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         c_v = -(-J_y*m*lambda_x**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_x + 2*c_h*lambda_x*m*h**2 + 4*J_y*c_h*lambda_x*cos(alpha)**2 + 4*c_h*lambda_x*m*a**2*sin(alpha)**2 + 4*c_h*lambda_x*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_x*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_x*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_x*m*a**2*cos(alpha)**2 + lambda_x*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_x*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_theta):
@@ -699,8 +740,11 @@ def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_thet
 def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -711,17 +755,15 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_theta ** 2,), (0, 2, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_theta ** 2,), (0, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
@@ -771,11 +813,27 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
     return (c_h, c_v, c_m,)
 
 
+def _roots_x_z_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
+    """Candidate roots of identify_x_z_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = 6*c_h
+        _tmp1 = _lam_x*m
+        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp0 - J_y*_tmp1 + _tmp0*h**2*m)/(a**2*(-_tmp0 + _tmp1)), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_v, c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_z, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -786,17 +844,24 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_v = -lambda_x*(6*J_y*c_h - J_y*lambda_x*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_x*m))
+        c_m = -2*c_v + lambda_z*m/2
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_z_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_theta):
@@ -884,8 +949,11 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -896,17 +964,15 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
         c_m = -(-96*a**2*b**2*c_h**3*sin(alpha)**6 - 192*a**2*b**2*c_h**3*cos(alpha)**2*sin(alpha)**4 - 96*a**2*b**2*c_h**3*cos(alpha)**4*sin(alpha)**2 + 12*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2 + 24*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**4 + 24*J_x*lambda_psi*a**2*c_h**2*sin(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**4 - 4*J_x*c_h*m*a**2*lambda_psi**2*sin(alpha)**4 - 2*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2 + 12*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*sin(alpha)**6 + 24*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**4 + 24*lambda_psi*m*a**2*c_h**2*h**2*sin(alpha)**4 + 48*J_x*lambda_psi*a**2*c_h**2*cos(alpha)**2*sin(alpha)**2 + J_y*lambda_psi*lambda_theta*lambda_x*b**2*m**2*cos(alpha)**2 - 8*J_x*c_h*m*a**2*lambda_psi**2*cos(alpha)**2*sin(alpha)**2 - 6*J_y*c_h*lambda_theta*lambda_x*m*b**2*cos(alpha)**2 + 16*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**4*sin(alpha)**2 + 32*lambda_psi*m*a**2*b**2*c_h**2*cos(alpha)**2*sin(alpha)**4 + 48*lambda_psi*m*a**2*c_h**2*h**2*cos(alpha)**2*sin(alpha)**2)/(4*a**2*b**2*c_h*(-6*c_h + lambda_psi*m)*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
         c_v = -(8*a**2*c_h**2*sin(alpha)**2 - J_y*lambda_theta*lambda_x*m)/(8*a**2*c_h*(cos(alpha)**2 + 2*cos(alpha)**4 + 2*sin(alpha)**4 + 4*cos(alpha)**2*sin(alpha)**2))
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
@@ -967,11 +1033,41 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_ph
     return (c_h, c_v, c_m,)
 
 
+def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
+    """Candidate roots of identify_x_psi_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = b**2
+        _tmp1 = 6*c_h
+        _tmp2 = -_tmp1
+        _tmp3 = _lam_psi*m
+        _tmp4 = c_h**2
+        _tmp5 = 36*_tmp4
+        _tmp6 = a**2
+        _tmp7 = J_x*_tmp6
+        _tmp8 = J_y*_tmp1
+        _tmp9 = _tmp0*_tmp8
+        _tmp10 = _lam_psi**2
+        _tmp11 = _lam_x**2
+        _tmp12 = m**2
+        _tmp13 = h**2
+        _tmp14 = _lam_x*m
+        _tmp15 = 1/(_tmp6*(_tmp14 + _tmp2))
+        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_psi*_lam_x*_tmp6*c_h*m + 6*J_x*_tmp10*_tmp6*c_h*m + J_y*_lam_psi*_tmp0*_tmp11*_tmp12 + 36*J_y*_lam_x*_tmp0*_tmp4 - _lam_psi*_lam_x*_tmp0*_tmp1*_tmp12*_tmp13 + 6*_lam_psi*_lam_x*_tmp12*_tmp13*_tmp6*c_h - _lam_psi*_tmp5*_tmp7 + 36*_lam_x*_tmp0*_tmp13*_tmp4*m - _lam_x*_tmp10*_tmp12*_tmp7 - _lam_x*_tmp3*_tmp9 - _tmp11*_tmp9*m - _tmp13*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_x*_tmp15*(-J_y*_tmp14 + _tmp1*_tmp13*m + _tmp8), c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_x, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -982,17 +1078,24 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
         c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_m = -(-36*J_x*lambda_psi*a**2*c_h**2 + 36*J_y*lambda_x*b**2*c_h**2 + J_y*lambda_psi*b**2*lambda_x**2*m**2 - J_x*lambda_x*a**2*lambda_psi**2*m**2 - 36*lambda_psi*m*a**2*c_h**2*h**2 - 6*J_y*c_h*m*b**2*lambda_x**2 + 6*J_x*c_h*m*a**2*lambda_psi**2 + 36*lambda_x*m*b**2*c_h**2*h**2 - 6*J_y*c_h*lambda_psi*lambda_x*m*b**2 - 6*c_h*lambda_psi*lambda_x*b**2*h**2*m**2 + 6*J_x*c_h*lambda_psi*lambda_x*m*a**2 + 6*c_h*lambda_psi*lambda_x*a**2*h**2*m**2)/(2*a**2*b**2*(-6*c_h + lambda_psi*m)*(-6*c_h + lambda_x*m))
+        c_v = -lambda_x*(6*J_y*c_h - J_y*lambda_x*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_x*m))
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_psi_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_theta):
@@ -1028,8 +1131,11 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_thet
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_z, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1040,17 +1146,15 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
         c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
@@ -1073,8 +1177,11 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_z, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1085,17 +1192,15 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_theta):
@@ -1133,8 +1238,11 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1145,17 +1253,15 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
         c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_phi):
@@ -1178,8 +1284,11 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_ph
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1190,17 +1299,15 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
         c_m = -(24*b**2*c_h**2*sin(alpha)**2 - J_x*lambda_psi*lambda_y*m + 24*c_h*c_v*b**2*cos(alpha)**2)/(12*b**2*c_h)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
@@ -1261,11 +1368,41 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _la
     return (c_h, c_v, c_m,)
 
 
+def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
+    """Candidate roots of identify_y_theta_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = b**2
+        _tmp1 = 6*c_h
+        _tmp2 = -_tmp1
+        _tmp3 = _lam_y*m
+        _tmp4 = c_h**2
+        _tmp5 = 36*_tmp4
+        _tmp6 = a**2
+        _tmp7 = J_x*_tmp6
+        _tmp8 = _lam_theta*m
+        _tmp9 = J_y*_tmp1
+        _tmp10 = _tmp0*_tmp9
+        _tmp11 = _lam_y**2
+        _tmp12 = _lam_theta**2
+        _tmp13 = m**2
+        _tmp14 = h**2
+        _tmp15 = 1/(_tmp6*(_tmp2 + _tmp8))
+        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_theta*_lam_y*_tmp6*c_h*m + 6*J_x*_tmp11*_tmp6*c_h*m + 36*J_y*_lam_theta*_tmp0*_tmp4 + J_y*_lam_y*_tmp0*_tmp12*_tmp13 - _lam_theta*_lam_y*_tmp0*_tmp1*_tmp13*_tmp14 + 6*_lam_theta*_lam_y*_tmp13*_tmp14*_tmp6*c_h + 36*_lam_theta*_tmp0*_tmp14*_tmp4*m - _lam_theta*_tmp11*_tmp13*_tmp7 - _lam_y*_tmp10*_tmp8 - _lam_y*_tmp5*_tmp7 - _tmp10*_tmp12*m - _tmp14*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_theta*_tmp15*(-J_y*_tmp8 + _tmp1*_tmp14*m + _tmp9), c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_y, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1276,17 +1413,24 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
         c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_y**2*sin(alpha)**2 - 6*J_x*c_h*lambda_y*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_y*m*cos(alpha)**2 - 6*c_h*lambda_y*m*h**2*sin(alpha)**2 - 4*c_h*lambda_y*m*b**2*sin(alpha)**4 + 2*c_h*lambda_y*m*b**2*cos(alpha)**2 + 4*c_h*lambda_y*m*a**2*cos(alpha)**2 + 4*c_h*lambda_y*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_y*m)*sin(alpha)**2)
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_m = -(-36*J_x*lambda_y*a**2*c_h**2 + 36*J_y*lambda_theta*b**2*c_h**2 + J_y*lambda_y*b**2*lambda_theta**2*m**2 - J_x*lambda_theta*a**2*lambda_y**2*m**2 - 36*lambda_y*m*a**2*c_h**2*h**2 - 6*J_y*c_h*m*b**2*lambda_theta**2 + 6*J_x*c_h*m*a**2*lambda_y**2 + 36*lambda_theta*m*b**2*c_h**2*h**2 - 6*J_y*c_h*lambda_theta*lambda_y*m*b**2 - 6*c_h*lambda_theta*lambda_y*b**2*h**2*m**2 + 6*J_x*c_h*lambda_theta*lambda_y*m*a**2 + 6*c_h*lambda_theta*lambda_y*a**2*h**2*m**2)/(2*a**2*b**2*(-6*c_h + lambda_theta*m)*(-6*c_h + lambda_y*m))
+        c_v = -lambda_theta*(6*J_y*c_h - J_y*lambda_theta*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_theta*m))
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_y_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_theta):
@@ -1322,8 +1466,11 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_psi, omega_theta [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1334,17 +1481,15 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
         c_v = -(-J_y*m*lambda_theta**2 - 8*a**2*c_h**2*sin(alpha)**2 + 2*J_y*c_h*lambda_theta + 2*c_h*lambda_theta*m*h**2 + 4*J_y*c_h*lambda_theta*cos(alpha)**2 + 4*c_h*lambda_theta*m*a**2*sin(alpha)**2 + 4*c_h*lambda_theta*m*h**2*cos(alpha)**2 - 8*a*c_h*h*lambda_theta*m*cos(alpha)*sin(alpha))/(4*(J_y*lambda_theta*sin(alpha)**2 - 4*c_h*a**2*cos(alpha)**4 - 4*c_h*a**2*sin(alpha)**4 - 2*c_h*a**2*cos(alpha)**2 + lambda_theta*m*a**2*cos(alpha)**2 + lambda_theta*m*h**2*sin(alpha)**2 - 8*c_h*a**2*cos(alpha)**2*sin(alpha)**2 + 2*a*h*lambda_theta*m*cos(alpha)*sin(alpha)))
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_phi):
@@ -1367,8 +1512,11 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_ph
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_psi, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (1, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (1, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1379,17 +1527,15 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
@@ -1439,11 +1585,27 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _la
     return (c_h, c_v, c_m,)
 
 
+def _roots_z_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
+    """Candidate roots of identify_z_theta_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = 6*c_h
+        _tmp1 = _lam_theta*m
+        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp0 - J_y*_tmp1 + _tmp0*h**2*m)/(a**2*(-_tmp0 + _tmp1)), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_v, c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_z, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1454,17 +1616,24 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
         c_m = lambda_z*m/2 - 2*c_h*sin(alpha)**2 - 2*c_v*cos(alpha)**2
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_v = -lambda_theta*(6*J_y*c_h - J_y*lambda_theta*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_theta*m))
+        c_m = -2*c_v + lambda_z*m/2
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_z_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
@@ -1525,11 +1694,41 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta,
     return (c_h, c_v, c_m,)
 
 
+def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
+    """Candidate roots of identify_psi_theta_phi() where alpha = 0 (the general closed form is 0/0
+    there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
+    """
+    with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        _tmp0 = b**2
+        _tmp1 = 6*c_h
+        _tmp2 = -_tmp1
+        _tmp3 = _lam_psi*m
+        _tmp4 = c_h**2
+        _tmp5 = 36*_tmp4
+        _tmp6 = a**2
+        _tmp7 = J_x*_tmp6
+        _tmp8 = J_y*_tmp1
+        _tmp9 = _tmp0*_tmp8
+        _tmp10 = _lam_psi**2
+        _tmp11 = _lam_theta**2
+        _tmp12 = m**2
+        _tmp13 = h**2
+        _tmp14 = _lam_theta*m
+        _tmp15 = 1/(_tmp6*(_tmp14 + _tmp2))
+        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_psi*_lam_theta*_tmp6*c_h*m + 6*J_x*_tmp10*_tmp6*c_h*m + J_y*_lam_psi*_tmp0*_tmp11*_tmp12 + 36*J_y*_lam_theta*_tmp0*_tmp4 - _lam_psi*_lam_theta*_tmp0*_tmp1*_tmp12*_tmp13 + 6*_lam_psi*_lam_theta*_tmp12*_tmp13*_tmp6*c_h - _lam_psi*_tmp5*_tmp7 + 36*_lam_theta*_tmp0*_tmp13*_tmp4*m - _lam_theta*_tmp10*_tmp12*_tmp7 - _lam_theta*_tmp3*_tmp9 - _tmp11*_tmp9*m - _tmp13*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_theta*_tmp15*(-J_y*_tmp14 + _tmp1*_tmp13*m + _tmp8), c_h.shape)
+    return (c_h, c_v, c_m,)
+
+
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi):
     """Unknowns c_h, c_v, c_m from the natural frequencies omega_psi, omega_theta, omega_phi [rad/s].
 
-    Returns InverseRoots(parameters, admissible): each unknown as an array of shape
-    (2, ...) [SI units], one row per root, and a boolean mask of the admissible ones.
+    Returns InverseRoots (mountid.runtime): each unknown as an array of shape (2, ...) [SI
+    units], one row per root, the mask of the admissible ones, each root's relative condition number
+    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from
+    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown
+    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).
 
     Derivation (lambda = omega^2): c_h is a root of
 
@@ -1540,17 +1739,24 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
         c_m = (-24*a**2*c_h**2*cos(alpha)**2 - 24*b**2*c_h**2*cos(alpha)**4 - 12*b**2*c_h**2*cos(alpha)**2 + 24*b**2*c_h**2*sin(alpha)**4 + J_x*m*lambda_psi**2*sin(alpha)**2 - 6*J_x*c_h*lambda_psi*sin(alpha)**2 + 6*J_z*c_h*lambda_phi*cos(alpha)**2 - J_z*lambda_phi*lambda_psi*m*cos(alpha)**2 - 6*c_h*lambda_psi*m*h**2*sin(alpha)**2 - 4*c_h*lambda_psi*m*b**2*sin(alpha)**4 + 2*c_h*lambda_psi*m*b**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*a**2*cos(alpha)**2 + 4*c_h*lambda_psi*m*b**2*cos(alpha)**4)/(2*b**2*(-6*c_h + lambda_psi*m)*sin(alpha)**2)
         c_v = -(-J_z*lambda_phi + 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2)/(4*b**2*sin(alpha)**2)
 
-    Root choice: a root is admissible when every unknown is positive and finite and each given
-    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given
-    frequency on the other mode of its block is rejected. All admissible roots are returned; where
-    several remain (both roots of a block given), the data alone cannot choose between them and
-    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form
-    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished
-    at the given one (mountid.runtime.solve_inverse).
+    Where alpha = 0 the closed form above is 0/0; there c_h is a root of
+
+        c_h*(4*a**2 + 6*b**2) - J_z*lambda_phi = 0
+
+    and then
+
+        c_m = -(-36*J_x*lambda_psi*a**2*c_h**2 + 36*J_y*lambda_theta*b**2*c_h**2 + J_y*lambda_psi*b**2*lambda_theta**2*m**2 - J_x*lambda_theta*a**2*lambda_psi**2*m**2 - 36*lambda_psi*m*a**2*c_h**2*h**2 - 6*J_y*c_h*m*b**2*lambda_theta**2 + 6*J_x*c_h*m*a**2*lambda_psi**2 + 36*lambda_theta*m*b**2*c_h**2*h**2 - 6*J_y*c_h*lambda_psi*lambda_theta*m*b**2 - 6*c_h*lambda_psi*lambda_theta*b**2*h**2*m**2 + 6*J_x*c_h*lambda_psi*lambda_theta*m*a**2 + 6*c_h*lambda_psi*lambda_theta*a**2*h**2*m**2)/(2*a**2*b**2*(-6*c_h + lambda_psi*m)*(-6*c_h + lambda_theta*m))
+        c_v = -lambda_theta*(6*J_y*c_h - J_y*lambda_theta*m + 6*c_h*m*h**2)/(4*a**2*(-6*c_h + lambda_theta*m))
+
+    Root choice: a root is admissible when every unknown is positive and finite, each given
+    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
+    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
+    is rejected. All admissible roots are returned; where several remain (both roots of a block
+    given), the data alone cannot choose between them and the choice is physical (the paper keeps
+    c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
-    (c_h, c_v, c_m,), _ok = _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5))
-    return _runtime.InverseRoots({"c_h": c_h, "c_v": c_v, "c_m": c_m}, _ok)
+    return _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_psi_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
@@ -2074,10 +2280,14 @@ INVERSE_ROOTS = {
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
 UNIDENTIFIABLE = {
-    ("x", "theta", "phi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m)",
-    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m)",
+    ("x", "theta", "phi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
+    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+SPECIAL_POINTS = ("h", "alpha")
+"""Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
+unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse
+solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
 ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]", "middle[+x+y]", "middle[+x-y]")

@@ -32,16 +32,60 @@ DUPLICATE_RTOL = 1e-9
 """Two admissible roots closer than this (relative, in every unknown) are one solution reached twice."""
 
 
-class InverseRoots(NamedTuple):
-    """Every root of an inverse solution, admissible or not.
+RANK_RTOL = 1e-10
+"""A root leaves unknowns undetermined when the smallest singular value of d ln(omega) / d ln(unknowns) is
+below this (relative condition number above 1e10): the rounding of the forward map alone then moves the
+unknowns by 1e-6 relative, and any measured frequency by far more. Exactly rank-deficient points (a coupling
+that vanishes, e.g. isolators in the plane of the centre of mass) give 1e-16 or less."""
 
-    ``parameters`` maps each unknown to an array of shape (n_roots, *batch) [SI units];
-    ``admissible`` is a boolean array of the same shape (positive, finite, and the given frequencies land on
-    their labelled modes). Inadmissible entries hold whatever the algebra gave (possibly NaN).
+
+class InverseRoots(NamedTuple):
+    """Every root of an inverse solution, admissible or not, with its conditioning.
+
+    ``parameters`` maps each unknown to an array of shape (n_roots, *batch) [SI units]; ``admissible`` (same
+    shape) marks the roots that are positive, finite, put the given frequencies on their labelled modes and
+    are determined by them (full rank). ``condition``: the relative condition number of each root,
+    1 / sigma_min(d ln omega / d ln unknowns) (relative change of the unknowns per relative change of the
+    frequencies; inf where undetermined, NaN where the root failed). ``jacobian``: d omega_given /
+    d unknowns [rad/s per SI unit], shape (n_roots, *batch, n_given, n_unknowns). ``rank_deficient``: the
+    roots that reproduce the given frequencies but leave unknowns undetermined (never admissible; see
+    :meth:`undetermined`). Inadmissible entries hold whatever the algebra gave (possibly NaN).
     """
 
     parameters: dict[str, NDArray[np.float64]]
     admissible: NDArray[np.bool_]
+    condition: NDArray[np.float64]
+    jacobian: NDArray[np.float64]
+    rank_deficient: NDArray[np.bool_]
+
+    def std(self, frequency_std: ArrayLike) -> dict[str, NDArray[np.float64]]:
+        """Standard deviation of each unknown [SI] at each root, from the standard deviations of the given
+        frequencies [rad/s] (independent; broadcast against (*batch, n_given)), to first order:
+        cov = J^-1 diag(sigma^2) J^-T. Infinite where the root is rank-deficient, NaN where it failed."""
+        sigma = np.broadcast_to(np.asarray(frequency_std, dtype=float), self.jacobian.shape[:-1])
+        with np.errstate(all="ignore"):
+            finite = np.all(np.isfinite(self.jacobian), axis=(-1, -2)) & ~self.rank_deficient
+            safe = np.where(finite[..., None, None], self.jacobian, np.eye(*self.jacobian.shape[-2:]))
+            inv = np.linalg.pinv(safe)  # (..., n_unknowns, n_given)
+            var = np.einsum("...ik,...k->...i", inv**2, sigma**2)
+            out = np.where(finite[..., None], np.sqrt(var), np.where(self.rank_deficient[..., None], np.inf, np.nan))
+        return {u: out[..., j] for j, u in enumerate(self.parameters)}
+
+    def undetermined(self, index: tuple[int, ...] | int) -> tuple[str, ...]:
+        """The unknowns a root leaves undetermined (``index`` into (n_roots, *batch)): those with a component
+        in the null space of d ln omega / d ln unknowns; empty for a determined root."""
+        if not self.rank_deficient[index]:
+            return ()
+        jac = self.jacobian[index]
+        x = np.array([self.parameters[u][index] for u in self.parameters])
+        if not np.all(np.isfinite(jac)):  # a mode shape at a double root of its block: all of them
+            return tuple(self.parameters)
+        rel = jac * np.abs(x)[None, :]
+        rel = rel / np.maximum(np.abs(rel).max(axis=1, keepdims=True), np.finfo(float).tiny)
+        _, sv, vt = np.linalg.svd(rel)
+        null = [vt[i] for i in range(len(x)) if i >= len(sv) or sv[i] <= RANK_RTOL * sv[0]]
+        names = tuple(u for j, u in enumerate(self.parameters) if any(abs(v[j]) > 0.1 for v in null))
+        return names or tuple(self.parameters)  # a kink (two modes of a block coincide): all of them
 
 
 FUSED_MIN_SIZE = 4096
@@ -124,11 +168,6 @@ def polynomial_roots(*coefficients: ArrayLike) -> NDArray[np.float64]:
     return np.moveaxis(np.sort(real, axis=-1), -1, 0)
 
 
-NEARBY_STEP = 1e-4
-"""Relative size (absolute for entries below 1) of the shift of the known parameters used when the
-closed form is degenerate at the given point (see solve_inverse)."""
-
-
 def eigen_newton(
     model,
     known: tuple[NDArray, ...],
@@ -172,18 +211,28 @@ def eigen_newton(
             if step_count == max_steps or not np.any(go):
                 break
             active, lam, phi, dc = active[go], lam[go], phi[go], dc[go]
-            f = lam[:, idx] - given[active]
-            vec = phi[:, :, idx]  # (N', 6, n)
-            jac = np.einsum("iak,ijab,ibk->ikj", vec, dc, vec)
-            ok = np.all(np.isfinite(jac), axis=(-1, -2))
-            safe = np.where(ok[:, None, None], jac, np.eye(jac.shape[-1]))
-            ok &= np.abs(np.linalg.det(safe)) > 0
-            safe = np.where(ok[:, None, None], safe, np.eye(jac.shape[-1]))
-            new = x[active] - np.linalg.solve(safe, np.where(ok[:, None], f, 0.0)[..., None])[..., 0]
+            g = given[active]
+            f = (lam[:, idx] - g) / g
+            # least-squares step in relative terms (rows / lambda, columns * |unknown|): the minimum-norm
+            # step of the pseudo-inverse also converges where the frequencies leave an unknown undetermined
+            scale = np.where(x[active] != 0, np.abs(x[active]), 1.0)
+            jac = eigen_jacobian(phi, dc, idx) * scale[:, None, :] / g[:, :, None]
+            ok = np.all(np.isfinite(jac), axis=(-1, -2)) & np.any(jac != 0, axis=(-1, -2))
+            safe = np.where(ok[:, None, None], jac, np.eye(*jac.shape[-2:]))
+            step = (np.linalg.pinv(safe, rcond=1e-13) @ np.where(ok[:, None], f, 0.0)[..., None])[..., 0]
+            new = x[active] - scale * step
             ok &= np.all(np.isfinite(new), axis=-1)
             active = active[ok]
             x[active] = new[ok]
     return x, lam_all
+
+
+def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int, ...]) -> NDArray[np.float64]:
+    """d lambda_k / d theta_j = phi_k^T (dC/d theta_j) phi_k for mass-normalised modes (M independent of the
+    unknown stiffnesses), shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns,
+    6, 6)."""
+    vec = phi[:, :, list(mode_index)]
+    return np.einsum("iak,ijab,ibk->ikj", vec, dc, vec)
 
 
 def solve_inverse(
@@ -192,44 +241,115 @@ def solve_inverse(
     known: tuple[NDArray, ...],
     given: tuple[NDArray, ...],
     mode_index: tuple[int, ...],
-) -> tuple[tuple[NDArray[np.float64], ...], NDArray[np.bool_]]:
-    """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility.
+    unknowns: tuple[str, ...],
+    mode_block: tuple[int, ...],
+    special: tuple = (),
+    n_roots: int | None = None,
+    start: tuple[float, ...] | None = None,
+) -> InverseRoots:
+    """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility, conditioning.
 
     ``roots(*known, *given)`` is the generated closed form: a tuple with one array per unknown, shape
-    (n_roots, *batch). ``model`` is as in :func:`eigen_newton`. Where no candidate is admissible the closed
-    form may be degenerate at this very point (a denominator that vanishes there, e.g. sin(alpha) at
-    alpha = 0, while the problem itself is fine): the candidates are then taken at a nearby point (known
-    parameters shifted by NEARBY_STEP, relative, absolute below 1) and polished by Newton at the true point.
-    Returns (unknowns, admissible), each unknown of shape (n_roots, *batch).
+    (n_roots, *batch). ``model`` is as in :func:`eigen_newton`. Rows where no candidate is admissible
+    (the closed form can be 0/0 at a legitimate point, e.g. sin(alpha) = 0 for upright isolators) take, in
+    turn, the candidates of each engine-derived specialised solution in ``special`` ((index of the known
+    parameter that is 0 there, its closed form), ...) and then the single start ``start`` (the description's
+    nominal unknowns), each polished by Newton at the row's own parameters. ``n_roots``: root slots per row
+    (at least the general closed form's). Every root found gets its Jacobian and relative condition number;
+    a root that reproduces the frequencies at a rank-deficient point is marked, never admissible, and so
+    is one where a given mode coincides with the other mode of its block (``mode_block``: each mode's
+    block): the frequencies are not differentiable there, and such a root is the edge of a continuum of
+    solutions of a decoupled block, not a determined one.
     """
     batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *given)))
-    known = tuple(np.broadcast_to(k, batch).ravel() for k in known)
+    flat = tuple(np.broadcast_to(k, batch).ravel() for k in known)
     lam_given = np.stack([np.broadcast_to(g, batch).ravel() for g in given], axis=-1)
-    unknowns, ok = _polish(roots, model, known, known, lam_given, mode_index)
-    missed = np.flatnonzero(~np.any(ok, axis=0))
-    if missed.size:
-        sub = tuple(k[missed] for k in known)
-        nearby = tuple(k + NEARBY_STEP * (1 + 0.1 * i) * np.maximum(np.abs(k), 1.0) for i, k in enumerate(sub))
-        again, ok_again = _polish(roots, model, nearby, sub, lam_given[missed], mode_index)
-        unknowns[:, :, missed] = again
-        ok[:, missed] = ok_again
-    n_roots = ok.shape[0]
-    shaped = tuple(u.reshape(n_roots, *batch) for u in unknowns)
-    return shaped, ok.reshape(n_roots, *batch)
+    n_batch, n_unknowns, n_given = lam_given.shape[0], len(unknowns), len(given)
+    cand = _candidates(roots, flat, lam_given, n_unknowns)
+    slots = max(n_roots or 0, cand.shape[1])
+    x = np.full((n_unknowns, slots, n_batch), np.nan)
+    x[:, : cand.shape[1]] = cand
+    lam = np.full((slots, n_batch, max(mode_index) + 1), np.nan)  # replaced by the polish (empty batches keep it)
+    if n_batch:
+        x, lam = _polish(model, flat, x, lam_given, mode_index)
+        fallbacks = [
+            (lambda rows, r=r: _candidates(r, tuple(k[rows] for k in flat), lam_given[rows], n_unknowns))
+            for _, r in special
+        ]
+        if start is not None:
+            fallbacks.append(
+                lambda rows: np.broadcast_to(np.array(start, float)[:, None, None], (n_unknowns, 1, rows.size))
+            )
+        broken = np.any(~np.isfinite(cand), axis=(0, 1))  # a 0/0 in some slot of the closed form
+        for more in fallbacks:
+            found = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
+            missed = np.flatnonzero(~np.any(found, axis=0) | broken)
+            if not missed.size:
+                break
+            extra = more(missed)
+            sub = tuple(f[missed] for f in flat)
+            xs, lams = _polish(model, sub, extra, lam_given[missed], mode_index)
+            for r, row in enumerate(missed):  # into the slots that hold no solution yet (rare rows)
+                free = np.flatnonzero(~found[:, row])[: xs.shape[1]]
+                x[:, free, row], lam[free, row] = xs[:, : free.size, r], lams[: free.size, r]
+    reproduced = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
+    jac, cond = _conditioning(model, flat, x, mode_index, mode_block, n_given)
+    with np.errstate(invalid="ignore"):
+        deficient = reproduced & (cond * RANK_RTOL >= 1)
+        ok = reproduced & (cond * RANK_RTOL < 1)
+    params = {u: x[j].reshape(slots, *batch) for j, u in enumerate(unknowns)}
+    return InverseRoots(
+        params,
+        ok.reshape(slots, *batch),
+        cond.reshape(slots, *batch),
+        jac.reshape(slots, *batch, n_given, n_unknowns),
+        deficient.reshape(slots, *batch),
+    )
 
 
-def _polish(roots, model, at, known, lam_given, mode_index):
-    """Candidates from the closed form evaluated at ``at``, polished and judged at ``known`` (flat, (B,)).
-    Returns (unknowns (n_unknowns, n_roots, B), admissible (n_roots, B))."""
+def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:
+    """A closed form's candidate roots at flat rows, shape (n_unknowns, n_roots, B)."""
     with np.errstate(all="ignore"):
-        cand = np.stack(np.broadcast_arrays(*roots(*at, *lam_given.T)))  # (n_unknowns, n_roots, B)
+        cand = np.stack(np.broadcast_arrays(*roots(*known, *lam_given.T)))
+    return cand.reshape(n_unknowns, -1, lam_given.shape[0])
+
+
+def _polish(model, known, cand, lam_given, mode_index):
+    """Candidates (n_unknowns, n_roots, B) polished by Newton at the flat rows ``known`` ((B,) each).
+    Returns (unknowns (n_unknowns, n_roots, B), squared frequencies (n_roots, B, n_modes))."""
     n_unknowns, n_roots, n_batch = cand.shape
     rows = tuple(np.tile(k, n_roots) for k in known)
     x, lam = eigen_newton(model, rows, cand.reshape(n_unknowns, -1).T, mode_index, np.tile(lam_given, (n_roots, 1)))
-    x = x.T.reshape(n_unknowns, n_roots, n_batch)
-    predicted = lam.reshape(n_roots, n_batch, -1)
-    given = tuple(lam_given.T)
-    return x, admissible(tuple(x), predicted, mode_index, given)
+    return x.T.reshape(n_unknowns, n_roots, n_batch), lam.reshape(n_roots, n_batch, -1)
+
+
+def _conditioning(model, known, x, mode_index, mode_block, n_given):
+    """d omega_given / d unknowns (n_roots, B, n_given, n_unknowns) and the relative condition number
+    1 / sigma_min(d ln omega / d ln unknowns) (n_roots, B) at every finite root (NaN elsewhere; inf at a
+    rank-deficient root and where a given mode coincides with another mode of its block)."""
+    n_unknowns, n_roots, n_batch = x.shape
+    jac = np.full((n_roots * n_batch, n_given, n_unknowns), np.nan)
+    cond = np.full(n_roots * n_batch, np.nan)
+    flat = x.reshape(n_unknowns, -1).T
+    good = np.flatnonzero(np.all(np.isfinite(flat) & (flat > 0), axis=-1))
+    if good.size:
+        rows = tuple(np.tile(k, n_roots)[good] for k in known)
+        with np.errstate(all="ignore"):
+            lam, phi, dc = model(rows, flat[good], True)
+            omega = np.sqrt(lam[:, list(mode_index)])
+            d_omega = eigen_jacobian(phi, dc, mode_index) / (2.0 * omega[:, :, None])
+            rel = d_omega * flat[good][:, None, :] / omega[:, :, None]
+            ok = np.all(np.isfinite(rel), axis=(-1, -2))
+            sv = np.full((good.size, min(n_given, n_unknowns)), np.nan)
+            sv[ok] = np.linalg.svd(rel[ok], compute_uv=False)
+            smallest = sv[:, -1]
+            for k in mode_index:
+                for j, b in enumerate(mode_block):
+                    if j != k and b == mode_block[k]:
+                        smallest = np.where(np.abs(lam[:, j] - lam[:, k]) <= 1e-9 * lam[:, k], 0.0, smallest)
+            cond[good] = np.where(smallest > 0, 1.0 / smallest, np.inf)
+        jac[good] = d_omega
+    return jac.reshape(n_roots, n_batch, n_given, n_unknowns), cond.reshape(n_roots, n_batch)
 
 
 def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:

@@ -331,15 +331,13 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
     return fn
 
 
-def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
-    d = model.description
-    omegas = tuple(f"omega_{label}" for label in s.labels)
-    args = tuple(a for a in fwd_args if a not in d.unknown) + omegas
-    body = [f"_lam_{label} = omega_{label} ** 2" for label in s.labels]
+def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: tuple[str, ...], doc: str) -> Function:
+    """The closed-form candidate roots of one inverse solution: roots of the univariate factors, then the
+    back-substitutions, each unknown of shape (n_roots, ...)."""
     lam_subs = {sp.Symbol(f"lambda_{lab}", positive=True): sp.Symbol(f"_lam_{lab}") for lab in s.labels}
     coeff_exprs = [c.subs(lam_subs) for f in s.factors for c in f.all_coeffs()]
     cse = eliminate(coeff_exprs)
-    body += [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
     outs = iter(cse.outputs)
     root_calls = []
     for f in s.factors:
@@ -351,43 +349,84 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
         body += [f"{lhs} = {rhs}" for lhs, rhs in back.lines]
         for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
             body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
-    unknowns = d.unknown
     # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
-    candidates = Function(
-        f"_roots_{s.name}",
-        args[: -len(omegas)] + tuple(f"_lam_{lab}" for lab in s.labels),
-        f"Candidate roots of identify_{s.name}() in closed form, each unknown of shape ({s.n_roots}, ...).\n",
-        ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):']
-        + [f"    {b}" for b in body[len(s.labels) :]],
+    return Function(
+        name,
+        known + tuple(f"_lam_{lab}" for lab in s.labels),
+        doc,
+        ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body],
         f"({', '.join(unknowns)},)",
         convert=False,
     )
-    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
-    known = args[: -len(omegas)]
-    body = [
-        f"({', '.join(unknowns)},), _ok = _runtime.solve_inverse(_roots_{s.name}, _model, "
-        f"({', '.join(known)},), ({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r})"
+
+
+def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
+    d = model.description
+    omegas = tuple(f"omega_{label}" for label in s.labels)
+    known = tuple(a for a in fwd_args if a not in d.unknown)
+    unknowns = d.unknown
+    candidates = [
+        _roots_function(
+            s,
+            f"_roots_{s.name}",
+            known,
+            unknowns,
+            f"Candidate roots of identify_{s.name}() in closed form, each unknown of shape ({s.n_roots}, ...).\n",
+        )
     ]
-    rets = ", ".join(f'"{u}": {u}' for u in unknowns)
+    for param, special in s.special:
+        candidates.append(
+            _roots_function(
+                special,
+                f"_roots_{s.name}__{param}_0",
+                known,
+                unknowns,
+                f"Candidate roots of identify_{s.name}() where {param} = 0 (the general closed form is 0/0\n"
+                f"    there), each unknown of shape ({special.n_roots}, ...); solved by the engine with {param} = 0.\n",
+            )
+        )
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    n_roots = max(s.n_roots, *(sp_.n_roots for _, sp_ in s.special)) if s.special else s.n_roots
+    specials = "".join(f"({known.index(param)}, _roots_{s.name}__{param}_0), " for param, _ in s.special)
+    start = tuple(d.parameters[u].value for u in unknowns)
+    call = (
+        f"_runtime.solve_inverse(_roots_{s.name}, _model, ({', '.join(known)},), "
+        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, "
+        f"special=({specials}), n_roots={n_roots}, start={None if None in start else start!r})"
+    )
     poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
     back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
     given = ", ".join(f"omega_{lab}" for lab in s.labels)
+    special_text = "".join(
+        f"\n    Where {param} = 0 the closed form above is 0/0; there {sp_.last} is a root of\n\n"
+        + "\n".join(f"        {describe(f.as_expr())} = 0" for f in sp_.factors)
+        + "\n"
+        + (
+            "\n    and then\n\n" + "\n".join(f"        {u} = {describe(e)}" for u, e in sp_.back_substitution) + "\n"
+            if sp_.back_substitution
+            else ""
+        )
+        for param, sp_ in s.special
+    )
     doc = (
         f"Unknowns {', '.join(unknowns)} from the natural frequencies {given} [rad/s].\n\n"
-        f"    Returns InverseRoots(parameters, admissible): each unknown as an array of shape\n"
-        f"    ({s.n_roots}, ...) [SI units], one row per root, and a boolean mask of the admissible ones.\n\n"
+        f"    Returns InverseRoots (mountid.runtime): each unknown as an array of shape ({n_roots}, ...) [SI\n"
+        "    units], one row per root, the mask of the admissible ones, each root's relative condition number\n"
+        "    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from\n"
+        "    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown\n"
+        "    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).\n\n"
         f"    Derivation (lambda = omega^2): {s.last} is a root of\n\n{poly_text}\n"
         + (f"\n    and then\n\n{back_text}\n" if back_text else "")
-        + "\n    Root choice: a root is admissible when every unknown is positive and finite and each given\n"
-        "    frequency is reproduced by the mode it is labelled as (rel. 1e-11): a root that puts a given\n"
-        "    frequency on the other mode of its block is rejected. All admissible roots are returned; where\n"
-        "    several remain (both roots of a block given), the data alone cannot choose between them and\n"
-        "    the choice is physical (the paper keeps c_z > c_xy for its isolators). Where the closed form\n"
-        "    is degenerate at the given point (0/0), the candidates come from a nearby point and are polished\n"
-        "    at the given one (mountid.runtime.solve_inverse).\n"
+        + special_text
+        + "\n    Root choice: a root is admissible when every unknown is positive and finite, each given\n"
+        "    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine\n"
+        "    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block\n"
+        "    is rejected. All admissible roots are returned; where several remain (both roots of a block\n"
+        "    given), the data alone cannot choose between them and the choice is physical (the paper keeps\n"
+        "    c_z > c_xy for its isolators).\n"
     )
-    fn = Function(f"identify_{s.name}", args, doc, body, f"_runtime.InverseRoots({{{rets}}}, _ok)")
-    return [candidates, fn]
+    fn = Function(f"identify_{s.name}", known + omegas, doc, [], call)
+    return [*candidates, fn]
 
 
 def module_context(
@@ -410,8 +449,9 @@ def module_context(
     eigen = _eigen_function(structure, model)
     functions.append(eigen)
     fwd_args = eigen.args
+    derivation = InverseDerivation(structure)
     if inverse_sets is None:
-        inverse_sets = InverseDerivation(structure).all_sets()
+        inverse_sets = derivation.all_sets()
     inverses = [f for s in inverse_sets if s.identifiable for f in _inverse_function(s, structure, model, fwd_args)]
     if inverses:
         functions += [_model_function(model, fwd_args), *inverses]
@@ -438,6 +478,7 @@ def module_context(
         "inverses": [(s.labels, f"identify_{s.name}", s.n_roots) for s in inverse_sets if s.identifiable],
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
+        "special_points": derivation.special_points(),
         "effect_coordinates": effect_coordinates,
         "isolators": isolator_names,
         "code": code,

@@ -17,10 +17,21 @@ For every set of distinct natural frequencies as large as the number of unknowns
 
 Roots are then filtered at run time (admissibility): every unknown positive and finite, and every given
 frequency reproduced by the mode it is labelled as.
+
+4. Special points. A legitimate design can sit where the general solution breaks: isolators in the plane of
+   the centre of mass (a height = 0) or upright (an inclination = 0). For every identifiable set and every
+   such point (each known height of an isolator point and each inclination angle set to 0) the engine asks
+   again: if the set determines the unknowns there (at the generic point) but the general solution divides
+   by zero there (a leading coefficient or a back-substitution denominator vanishes identically), the set is
+   solved again with the point substituted and the specialised solution is generated beside the general
+   one. Whether a set determines the unknowns at a special point can depend on which root of a block is
+   the lower one, so the run time checks the rank at every root it finds (mountid.runtime.solve_inverse)
+   and names what is left undetermined.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import random
 from dataclasses import dataclass
@@ -46,6 +57,8 @@ class InverseSet:
     """Univariate factors (in ``last``) whose roots are the candidates; coefficients in knowns and lambdas."""
     back_substitution: tuple[tuple[str, sp.Expr], ...] = ()
     """(unknown, expression in knowns, lambdas and later unknowns), in the order to evaluate."""
+    special: tuple[tuple[str, InverseSet], ...] = ()
+    """(known parameter set to 0, the solution specialised there) where the general solution is 0/0."""
 
     @property
     def name(self) -> str:
@@ -150,36 +163,81 @@ class InverseDerivation:
                 eqs += [sp.expand(poly.as_expr().subs(LAMBDA, lam)) for lam in ls]
         return eqs, lams
 
-    def _rank(self, eqs: list[sp.Expr], labels: tuple[str, ...]) -> int:
-        """Rank of d(equations)/d(unknowns) at the generic point, lambdas at their true values."""
-        subs = dict(self._point)
+    def _rank(
+        self, eqs: list[sp.Expr], labels: tuple[str, ...], special: dict | None = None
+    ) -> tuple[int, tuple[str, ...]]:
+        """Rank of d(equations)/d(unknowns) at the generic point (with ``special`` substituted), lambdas at
+        their true values there, and the unknowns that a rank deficit leaves undetermined (those with a
+        component in the null space)."""
+        point = {**self._point, **(special or {})}
+        subs = dict(point)
         for label in labels:
             mode = self.structure.mode(label)
             block = self.structure.blocks[mode.block]
-            p = sp.Poly(block.charpoly.as_expr().subs(self._point), LAMBDA)
+            p = sp.Poly(block.charpoly.as_expr().subs(point), LAMBDA)
             roots = sorted(sp.re(r) for r in p.nroots(n=40))
             subs[lambda_symbol(label)] = roots[mode.rank - 1]
         jac = sp.Matrix([[sp.diff(e, u) for u in self.unknowns] for e in eqs]).subs(subs).evalf(40)
         import mpmath
 
         with mpmath.workdps(40):
-            sv = mpmath.svd_r(mpmath.matrix(jac.tolist()), compute_uv=False)
-            svs = sorted((abs(s) for s in sv), reverse=True)
-            return sum(1 for s in svs if s > svs[0] * mpmath.mpf(10) ** -25)
+            _, sv, vt = mpmath.svd_r(mpmath.matrix(jac.tolist()))
+            svs = [abs(sv[i]) for i in range(len(sv))]
+            tol = max(svs) * mpmath.mpf(10) ** -25
+            rank = sum(1 for v in svs if v > tol)
+            free = set()
+            n = len(self.unknowns)
+            for i in range(n):  # rows of V^T beyond the rank (and for zero singular values) span the null space
+                if i >= len(svs) or svs[i] <= tol:
+                    free |= {j for j in range(n) if abs(vt[i, j]) > mpmath.mpf(10) ** -20}
+        names = tuple(str(u) for j, u in enumerate(self.unknowns) if j in free)
+        return rank, names
 
-    def derive(self, labels: tuple[str, ...]) -> InverseSet:
+    def special_points(self) -> tuple[str, ...]:
+        """Known parameters whose value 0 is a legitimate design that the general solution may not cover:
+        the heights of isolator points (isolators in the plane of the centre of mass) and the inclination
+        angles (upright isolators)."""
+        d = self.model.description
+        texts = [g.point[2] for g in d.isolators] + [a for g in d.isolators for a in (g.inclination or ())]
+        free: set[sp.Symbol] = set()
+        for k, text in enumerate(texts):
+            free |= self.model.expr(text, f"isolators[{k}]").free_symbols
+        return tuple(
+            n for n in d.known if self.model.symbols[n] in free and d.parameters[n].kind in ("length", "angle")
+        )
+
+    def _vanishes(self, expr: sp.Expr, special: dict) -> bool:
+        """Whether ``expr`` (in parameters and lambdas) is identically zero once ``special`` is substituted:
+        exact evaluation at a pseudo-random rational point (a non-zero polynomial vanishes there by chance
+        with probability zero)."""
+        rng = random.Random(11)
+        e = expr.subs(special)
+        point = {s: sp.Rational(rng.randint(50, 200), 97) for s in e.free_symbols}
+        return sp.simplify(e.subs(point)) == 0
+
+    def _breaks_at(self, result: InverseSet, special: dict) -> bool:
+        """Whether the general solution divides by zero at ``special``."""
+        exprs = [f.LC() for f in result.factors] + [sp.fraction(sp.together(e))[1] for _, e in result.back_substitution]
+        return any(self._vanishes(e, special) for e in exprs)
+
+    def derive(self, labels: tuple[str, ...], at: dict | None = None, special_points: bool = True) -> InverseSet:
+        """The inverse solution of one set of labels; ``at``: known parameters substituted (a special point);
+        ``special_points``: also examine the special points (see the module docstring)."""
         got = self.equations(labels)
         if got is None:
             return InverseSet(labels, False, "a block is too large for a symbolic characteristic polynomial")
         eqs, lams = got
+        if at:
+            eqs = [sp.expand(e.subs(at)) for e in eqs]
         n = len(self.unknowns)
-        rank = self._rank(eqs, labels)
+        rank, free = self._rank(eqs, labels, at)
         if rank < n:
             names = ", ".join(self.model.description.unknown)
             return InverseSet(
                 labels,
                 False,
-                f"these frequencies fix only {rank} independent combination(s) of the {n} unknowns ({names})",
+                f"these frequencies fix only {rank} independent combination(s) of the {n} unknowns ({names}); "
+                f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined",
             )
         # Transcendental known quantities (sin(alpha), ...) become plain symbols for the algebra:
         # elimination and factoring over a coefficient field with trigonometric functions are very slow.
@@ -193,7 +251,7 @@ class InverseDerivation:
         result = self._solve(labels, eqs_algebraic, lams)
         if not result.identifiable:
             return result
-        return InverseSet(
+        general = InverseSet(
             labels,
             True,
             "",
@@ -203,6 +261,16 @@ class InverseDerivation:
             tuple(sp.Poly(f.as_expr().subs(reveal), f.gens) for f in result.factors),
             tuple((u, e.subs(reveal)) for u, e in result.back_substitution),
         )
+        if not special_points:
+            return general
+        special = []
+        for name in self.special_points():
+            at = {self.model.symbols[name]: sp.Integer(0)}
+            if self._breaks_at(general, at):
+                solved = self.derive(labels, at, special_points=False)
+                if solved.identifiable:
+                    special.append((name, solved))
+        return dataclasses.replace(general, special=tuple(special))
 
     def _solve(self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol]) -> InverseSet:
         """Triangularise the polynomial system by directed elimination.
