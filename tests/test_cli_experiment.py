@@ -54,7 +54,7 @@ def test_forced_response_json(capsys):
     [
         (["identify-record", "kid300", "missing.csv"], "mountid: error: record: no such file"),
         (["simulate", "kid300", "--out", "x.csv", "--hit-point", "1,2"], "mountid: error: --hit-point:"),
-        (["simulate", "kid300", "--out", "x.csv", "--duration", "0"], "mountid: error: duration:"),
+        (["simulate", "kid300", "--out", "x.csv", "--duration", "0"], "mountid: error: --duration: must be positive"),
         (["forced", "kid300", "--speed", "-3"], "mountid: error: --speed: must be positive"),
         (
             ["forced", "kid300", "--speed", "100", "--set", "c_z=-1"],

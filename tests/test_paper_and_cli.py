@@ -51,7 +51,8 @@ def test_identify_json_contract(capsys):
     assert code == 0
     sols = json.loads(out)["solutions"]
     assert len(sols) == 2
-    assert set(sols[0]) == {"parameters", "frequencies"}
+    assert set(sols[0]) == {"parameters", "frequencies", "condition"}
+    assert 1 <= sols[0]["condition"] < 10
     assert set(sols[0]["parameters"]) == {"c_xy", "c_z"}
 
 

@@ -130,6 +130,10 @@ def load(path: str | Path) -> Campaign:
         raise InputError("campaign", f"no such file: {path}")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as err:
+        raise InputError(
+            "campaign", f"{path.name} is not UTF-8 text (byte {err.start}): save it as UTF-8 JSON"
+        ) from None
     except json.JSONDecodeError as err:
         raise InputError("campaign", f"{path.name} is not JSON: {err.msg} at line {err.lineno}") from None
     return parse(data, path.parent)

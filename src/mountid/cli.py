@@ -57,15 +57,46 @@ def _print_json(obj: object) -> None:
     print(json.dumps(_finite(obj), indent=2, allow_nan=False))
 
 
+def _defaults_note(machine: Machine, defaults: dict[str, float]) -> None:
+    """The text note naming the parameters that took the description's nominal value."""
+    if defaults:
+        values = ", ".join(f"{n} = {v:g} {machine.parameters[n]['unit']}" for n, v in defaults.items())
+        print(f"note: not given, the description's nominal values are used: {values}")
+
+
+def _finite_number(value: float, option: str, minimum: float = 0.0, strict: bool = True) -> float:
+    """A command-line number that must be finite and above (``strict``) or at least ``minimum``."""
+    if not math.isfinite(value) or value < minimum or (strict and value == minimum):
+        bound = "positive" if strict and minimum == 0 else f"{'>' if strict else '>='} {minimum:g}"
+        raise InputError(option, f"must be {bound} and finite, got {value}")
+    return value
+
+
 def cmd_frequencies(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
-    freqs = machine.frequencies(_pairs(args.set, "--set"))
+    given = _pairs(args.set, "--set")
+    freqs = machine.frequencies(given)
+    defaults = machine.defaults(given, machine.module.FORWARD_ARGUMENTS)
     if args.json:
-        _print_json({"machine": machine.name, "unit": "rad/s", "frequencies": freqs})
+        _print_json({"machine": machine.name, "unit": "rad/s", "frequencies": freqs, "defaults": defaults})
         return
     print(f"{machine.name}: natural frequencies")
     for label, w in freqs.items():
         print(f"  {label:>8s}  {w:12.6g} rad/s  {w / (2 * math.pi):10.5g} Hz")
+    _defaults_note(machine, defaults)
+
+
+MAX_SAMPLES = 10_000_000
+"""Most samples per channel a simulated record may hold (80 MB per channel in memory)."""
+
+
+def _writable(path: str, option: str) -> None:
+    """Refuse a file path whose folder is a file (or under one): the write would fail after the work."""
+    for parent in Path(path).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(option, f"{str(parent)!r} is a file, not a folder")
+            return
 
 
 def cmd_identify(args: argparse.Namespace) -> None:
@@ -73,30 +104,52 @@ def cmd_identify(args: argparse.Namespace) -> None:
     measured = _pairs(args.measured, "--measured")
     if not measured:
         raise InputError("--measured", "give the measured frequencies as label=rad/s")
-    solutions = machine.identify(_pairs(args.set, "--set"), measured)
+    given = _pairs(args.set, "--set")
+    std = _pairs(args.std, "--std") if args.std else None
+    solutions = machine.identify(given, measured, std)
+    defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
     if args.json:
         _print_json(
             {
                 "machine": machine.name,
                 "measured": measured,
-                "solutions": [{"parameters": s.parameters, "frequencies": s.frequencies} for s in solutions],
+                "solutions": [
+                    {
+                        "parameters": s.parameters,
+                        "frequencies": s.frequencies,
+                        "condition": s.condition,
+                        **({"parameter_std": s.std} if s.std is not None else {}),
+                    }
+                    for s in solutions
+                ],
+                "defaults": defaults,
             }
         )
         return
     print(f"{machine.name}: {len(solutions)} admissible solution(s) for {measured}")
     for k, s in enumerate(solutions, 1):
-        params = ", ".join(f"{n} = {v:.6g} {machine.parameters[n]['unit']}" for n, v in s.parameters.items())
+        params = ", ".join(
+            f"{n} = {v:.6g}"
+            + (f" +- {s.std[n]:.2g}" if s.std is not None else "")
+            + f" {machine.parameters[n]['unit']}"
+            for n, v in s.parameters.items()
+        )
         print(f"  [{k}] {params}")
         print("      frequencies: " + ", ".join(f"{lab} {w:.5g}" for lab, w in s.frequencies.items()) + " rad/s")
+        print(f"      relative condition number {s.condition:.3g} (relative change of the unknowns per relative change")
+        print("      of the measured frequencies)")
+    _defaults_note(machine, defaults)
 
 
 def cmd_modes(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     m = machine.module
-    values = machine.values(_pairs(args.set, "--set"), m.FORWARD_ARGUMENTS)
-    phi = m.modal_matrix(**values)
-    energy = m.kinetic_energy_distribution(**values)
-    freqs = m.frequencies(**values)
+    given = _pairs(args.set, "--set")
+    values = machine.values(given, m.FORWARD_ARGUMENTS)
+    freqs = machine.evaluate("frequencies", values)
+    phi = machine.evaluate("modal_matrix", values)
+    energy = machine.evaluate("kinetic_energy_distribution", values)
+    defaults = machine.defaults(given, m.FORWARD_ARGUMENTS)
     if args.json:
         _print_json(
             {
@@ -106,6 +159,7 @@ def cmd_modes(args: argparse.Namespace) -> None:
                 "frequencies": dict(zip(m.MODES, map(float, freqs), strict=True)),
                 "modal_matrix": phi.tolist(),
                 "kinetic_energy_distribution": energy.tolist(),
+                "defaults": defaults,
             }
         )
         return
@@ -118,6 +172,7 @@ def cmd_modes(args: argparse.Namespace) -> None:
     print(f"{'':>8s}{head}")
     for i, c in enumerate(m.COORDINATES):
         print(f"{c:>8s}" + "".join(f"{100 * v:9.1f}" for v in energy[i]))
+    _defaults_note(machine, defaults)
 
 
 def cmd_describe(args: argparse.Namespace) -> None:
@@ -178,6 +233,23 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     from mountid.rig import Hammer, Rig, Sensor, Unbalance
     from mountid.uff import write_uff
 
+    out = Path(args.out)
+    if not out.parent.is_dir():
+        raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
+    _finite_number(args.duration, "--duration")
+    _finite_number(args.rate, "--rate")
+    _finite_number(args.noise, "--noise", strict=False)
+    _finite_number(args.hit_peak, "--hit-peak", strict=False)
+    if args.duration * args.rate > MAX_SAMPLES:
+        raise InputError(
+            "--duration",
+            f"{args.duration:g} s at {args.rate:g} Hz is {args.duration * args.rate:.3g} samples per channel; "
+            f"at most {MAX_SAMPLES:.0e}",
+        )
+    for w in args.speed or ():
+        _finite_number(w, "--speed")
+    _finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
+    _finite_number(args.eccentricity, "--eccentricity", strict=False)
     rig = Rig.of(args.machine, _pairs(args.set, "--set"))
     sensors = []
     for item in args.sensor or ():
@@ -291,6 +363,7 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
         from mountid.figures import diagnosis_figure
 
         figure = args.figure or f"{Path(args.campaign).stem}-diagnosis.png"
+        _writable(figure, "--figure")
         diagnosis_figure(diagnosis, figure, title=campaign.name or Path(args.campaign).stem)
     residuals = [
         {
@@ -421,15 +494,24 @@ def cmd_forced(args: argparse.Namespace) -> None:
 
     from mountid.rig import Rig, Unbalance
 
+    for w in args.speed:
+        _finite_number(w, "--speed")
+    _finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
+    _finite_number(args.eccentricity, "--eccentricity", strict=False)
     rig = Rig.of(args.machine, _pairs(args.set, "--set"))
     rows = {}
     for w in args.speed:
-        if not w > 0:
-            raise InputError("--speed", f"must be positive, got {w}")
         unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
         t = np.linspace(0, 2 * np.pi / w, 64, endpoint=False)
-        q, _ = rig.steady_state(unb, t)
-        rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, np.max(np.abs(q), axis=0)), strict=True))
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            try:
+                q, _ = rig.steady_state(unb, t)
+                amplitude = np.max(np.abs(q), axis=0)
+            except (FloatingPointError, OverflowError):
+                amplitude = np.array([np.inf])
+        if not np.all(np.isfinite(amplitude)):
+            raise InputError("--speed", f"{w:g} rad/s puts the response out of the range of double precision")
+        rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
     if args.json:
         _print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows})
         return
@@ -457,6 +539,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="extend",
         metavar="LABEL=RAD_S",
         help="measured natural frequencies [rad/s]",
+    )
+    p.add_argument(
+        "--std",
+        nargs="+",
+        action="extend",
+        metavar="LABEL=RAD_S",
+        help="standard deviation of each measured frequency [rad/s]: the unknowns' standard deviations",
     )
     p.set_defaults(func=cmd_identify)
     machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
@@ -519,6 +608,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.func(args)
     except InputError as exc:
         print(f"mountid: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file that cannot be read or written: named, one line
+        print(f"mountid: error: {exc.filename or 'file'}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     return 0
 

@@ -20,10 +20,14 @@ from mountid.errors import InputError
 
 @dataclass(frozen=True)
 class Solution:
-    """One admissible root of an identification: unknowns [SI] and every natural frequency [rad/s]."""
+    """One admissible root of an identification: unknowns [SI], every natural frequency [rad/s], the
+    relative condition number (relative change of the unknowns per relative change of the given
+    frequencies) and, when frequency standard deviations were given, each unknown's standard deviation [SI]."""
 
     parameters: dict[str, float]
     frequencies: dict[str, float]
+    condition: float = float("nan")
+    std: dict[str, float] | None = None
 
 
 def shipped_machines() -> list[str]:
@@ -69,8 +73,15 @@ class Machine:
         )
 
     # -- inputs -----------------------------------------------------------------------------------
+    def defaults(self, given: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
+        """The ``names`` not in ``given`` that take the description's nominal value, with that value."""
+        return {n: float(self.parameters[n]["value"]) for n in names if n not in given and n in self.parameters}
+
     def values(self, given: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
-        """Values of ``names``: given ones checked, missing ones from the description's nominal values."""
+        """Values of ``names``: given ones checked, missing ones from the description's nominal values.
+
+        A length may be 0 (isolators in the plane of the centre of mass are a legitimate design); the other
+        physical kinds must be positive."""
         for name in given:
             if name not in self.parameters:
                 raise InputError(name, f"not a parameter of {self.name} (parameters: {', '.join(self.parameters)})")
@@ -85,14 +96,46 @@ class Machine:
                 raise InputError(name, "missing: no value given and the description has no nominal value")
             if not math.isfinite(value):
                 raise InputError(name, f"must be a finite number, got {value}")
-            if spec["kind"] in POSITIVE_KINDS and value <= 0:
+            if spec["kind"] == "length" and value < 0:
+                raise InputError(name, f"a length must not be negative, got {value:g} {spec['unit']}")
+            if spec["kind"] in POSITIVE_KINDS and spec["kind"] != "length" and value <= 0:
                 raise InputError(name, f"a {spec['kind']} must be positive, got {value:g} {spec['unit']}")
             out[name] = value
         return out
 
+    def evaluate(self, function: str, values: dict[str, float]) -> np.ndarray:
+        """A generated function of the forward arguments (frequencies, modal_matrix, ...) at checked values.
+
+        Overflow, underflow to zero and invalid operations are input errors that name the parameter furthest
+        (in decades) from its nominal value, never NaN, inf or a wrong 0 in the output.
+        """
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            try:
+                out = np.asarray(getattr(self.module, function)(**values), dtype=float)
+            except (FloatingPointError, OverflowError, np.linalg.LinAlgError) as exc:
+                raise self._range_error(values, str(exc)) from None
+        if not np.all(np.isfinite(out)) or (function == "frequencies" and np.any(out <= 0)):
+            raise self._range_error(values, "the result is not finite and positive in double precision")
+        return out
+
+    def _range_error(self, values: dict[str, float], why: str) -> InputError:
+        def decades(name: str) -> float:
+            nominal = self.parameters[name]["value"]
+            v = abs(values[name])
+            if not nominal or v == 0:
+                return 0.0
+            return abs(math.log10(v / abs(nominal)))
+
+        worst = max(values, key=decades)
+        return InputError(
+            worst,
+            f"{values[worst]:g} {self.parameters[worst]['unit']} puts the model out of the range of double "
+            f"precision ({why}); the nominal value is {self.parameters[worst]['value']:g}",
+        )
+
     def _forward(self, params: dict[str, float]) -> dict[str, float]:
         args = self.values(params, self.module.FORWARD_ARGUMENTS)
-        omega = self.module.frequencies(**args)
+        omega = self.evaluate("frequencies", args)
         return {label: float(w) for label, w in zip(self.modes, omega, strict=True)}
 
     # -- the two directions -------------------------------------------------------------------------
@@ -100,8 +143,13 @@ class Machine:
         """Natural frequency of every mode [rad/s] for the given (or nominal) parameters."""
         return self._forward(params)
 
-    def identify(self, known: dict[str, float], measured: dict[str, float]) -> list[Solution]:
-        """Every admissible set of unknowns reproducing the measured frequencies [rad/s]."""
+    def identify(
+        self, known: dict[str, float], measured: dict[str, float], std: dict[str, float] | None = None
+    ) -> list[Solution]:
+        """Every admissible set of unknowns reproducing the measured frequencies [rad/s], each with its
+        relative condition number and, with ``std`` (standard deviation [rad/s] of every measured
+        frequency), the standard deviation of each unknown. Frequencies that leave an unknown undetermined
+        at this point (e.g. a coupling that vanishes) are an input error naming it."""
         rep = self.module.REPRESENTATIVE
         chosen: dict[str, tuple[str, float]] = {}
         for label, omega in measured.items():
@@ -133,15 +181,42 @@ class Machine:
             )
         if key not in self.module.INVERSES:
             raise InputError("measured", f"no inverse solution was generated for {', '.join(key)}")
+        sigma = None
+        if std is not None:
+            for label in std:
+                if label not in measured:
+                    raise InputError(label, "a standard deviation is given for a frequency that is not measured")
+                if not (math.isfinite(std[label]) and std[label] > 0):
+                    raise InputError(label, f"a standard deviation must be positive and finite, got {std[label]}")
+            missing = [chosen[k][0] for k in key if chosen[k][0] not in std]
+            if missing:
+                raise InputError(missing[0], "no standard deviation given (give one for every measured frequency)")
+            sigma = np.array([std[chosen[k][0]] for k in key])
         fn = self.module.INVERSES[key]
         knowns = self.values(known, tuple(a for a in self.module.FORWARD_ARGUMENTS if a not in self.unknown))
         omegas = {f"omega_{label}": chosen[label][1] for label in key}
-        roots = fn(**knowns, **omegas)
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            try:
+                roots = fn(**knowns, **omegas)
+            except FloatingPointError as exc:
+                raise self._range_error({**knowns}, str(exc)) from None
+        stds = roots.std(sigma) if sigma is not None else None
         solutions = []
         for i in np.flatnonzero(roots.admissible):
             params = {u: float(roots.parameters[u][i]) for u in self.unknown}
-            solutions.append(Solution(params, self._forward({**knowns, **params})))
+            spread = {u: float(stds[u][i]) for u in self.unknown} if stds is not None else None
+            solutions.append(Solution(params, self._forward({**knowns, **params}), float(roots.condition[i]), spread))
         if not solutions:
+            deficient = np.flatnonzero(roots.rank_deficient)
+            if deficient.size:
+                free = roots.undetermined(int(deficient[0]))
+                where = [f"{p} = 0" for p in getattr(self.module, "SPECIAL_POINTS", ()) if knowns.get(p) == 0]
+                raise InputError(
+                    "measured",
+                    f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined by {', '.join(key)}"
+                    + (f" when {' and '.join(where)}" if where else " at these parameters")
+                    + " (the frequencies are reproduced, but the Jacobian is rank-deficient): measure another mode",
+                )
             raise InputError("measured", self._explain_no_root(key, {k: v[1] for k, v in chosen.items()}))
         return solutions
 

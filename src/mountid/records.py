@@ -118,7 +118,11 @@ def read_csv(path: str | Path) -> Record:
     meta: dict[str, Channel] = {}
     header: list[str] | None = None
     rows: list[list[float]] = []
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError("record", f"{path.name} is not UTF-8 text (byte {err.start}): not a CSV record") from None
+    for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
         if line.startswith("#"):

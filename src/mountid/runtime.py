@@ -311,6 +311,8 @@ def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:
     """A closed form's candidate roots at flat rows, shape (n_unknowns, n_roots, B)."""
     with np.errstate(all="ignore"):
         cand = np.stack(np.broadcast_arrays(*roots(*known, *lam_given.T)))
+    if cand.ndim == 3 and cand.shape[2] == lam_given.shape[0]:
+        return cand
     return cand.reshape(n_unknowns, -1, lam_given.shape[0])
 
 

@@ -1,0 +1,116 @@
+"""The command-line contract on the bad inputs a new user tried: one line naming the parameter and the
+reason, exit code 2, no traceback and no RuntimeWarning (pytest turns warnings into errors here); and the
+notes a user needs: nominal values taken from the description, conditioning, undetermined unknowns."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mountid.cli import main
+from mountid.generated import kid300
+from mountid.paper import TABLE_1
+
+PAPER = "examples/kid300-paper.json"
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def files(tmp_path):
+    """Bad files: binary and UTF-16 campaigns, a binary CSV, a text file named .uff, a plain file."""
+    (tmp_path / "binary.json").write_bytes(b"\x00\x01\x02\xff")
+    text = Path(PAPER).read_text(encoding="utf-8")
+    (tmp_path / "utf16.json").write_bytes(text.encode("utf-16"))
+    (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xff\xfe")
+    (tmp_path / "text.uff").write_text("hello\n")
+    (tmp_path / "afile").write_text("")
+    return tmp_path
+
+
+CASES = [
+    (["diagnose", "{d}/binary.json", "--no-figure"], "campaign:"),
+    (["diagnose", "{d}/utf16.json", "--no-figure"], "campaign:"),
+    (["identify-record", "kid300", "{d}/binary.csv"], "record:"),
+    (["identify-record", "kid300", "{d}/text.uff"], "record:"),
+    (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
+    (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
+    (["forced", "kid300", "--speed", "1e308"], "--speed:"),
+    (["forced", "kid300", "--speed", "inf"], "--speed:"),
+    (["forced", "kid300", "--speed", "100", "--unbalance-mass", "nan"], "--unbalance-mass:"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e9"], "--duration:"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--rate", "-5"], "--rate:"),
+    (["frequencies", "kid300", "--set", "c_xy=1e308"], "c_xy:"),
+    (["frequencies", "kid300", "--set", "c_xy=1e200"], "c_xy:"),  # was x = 0 with exit 0
+    (["frequencies", "kid300", "--set", "J_xy=1e-300"], "J_xy:"),
+    (["modes", "kid300", "--set", "c_z=1e300"], "c_z:"),
+    (["frequencies", "kid300", "--set", "L_z=-0.1"], "L_z:"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4"], "psi:"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4", "psi=-1"], "psi:"),
+]
+
+
+@pytest.mark.parametrize(("argv", "named"), CASES, ids=[" ".join(a[:3]) for a, _ in CASES])
+def test_bad_input_is_one_line_exit_2(capsys, files, argv, named):
+    code, out, err = run(capsys, *(a.format(d=files) for a in argv))
+    assert code == 2, (out, err)
+    assert err.count("\n") == 1 and err.startswith(f"mountid: error: {named}") and "Traceback" not in err
+
+
+def test_length_zero_is_a_design_and_an_undetermined_unknown_is_named(capsys):
+    """L_z = 0 (isolators in the plane of the centre of mass): x and phi then depend on c_xy alone."""
+    omega = kid300.frequencies(**(TABLE_1 | {"L_z": 0.0, "c_xy": 74.4e3, "c_z": 472.3e3}))
+    x, phi = float(omega[kid300.MODES.index("x")]), float(omega[kid300.MODES.index("phi")])
+    code, _, err = run(capsys, "identify", "kid300", "--measured", f"x={x!r}", f"phi={phi!r}", "--set", "L_z=0")
+    assert code == 2
+    assert err == "mountid: error: measured: c_z is not determined by x, phi when L_z = 0 " + (
+        "(the frequencies are reproduced, but the Jacobian is rank-deficient): measure another mode\n"
+    )
+    code, out, _ = run(capsys, "frequencies", "kid300", "--set", "L_z=0", "--json")
+    assert code == 0 and np.isclose(json.loads(out)["frequencies"]["x"], x)
+
+
+def test_nominal_values_are_named_when_used(capsys):
+    code, out, _ = run(capsys, "frequencies", "kid300", "--set", "c_xy=74.4e3", "c_z=472.3e3", "m=838.6")
+    assert code == 0
+    assert out.splitlines()[-1].startswith("note: not given, the description's nominal values are used: J_xy = 61.44")
+    assert "m = " not in out.splitlines()[-1]
+    code, out, _ = run(capsys, "frequencies", "kid300", "--set", "J_z=51.52", "--json")
+    defaults = json.loads(out)["defaults"]
+    assert "J_z" not in defaults and defaults["c_xy"] == 74.4e3
+    full = {**TABLE_1, "c_xy": 74.4e3, "c_z": 472.3e3}
+    code, out, _ = run(capsys, "frequencies", "kid300", "--set", *(f"{k}={v}" for k, v in full.items()), "--json")
+    assert json.loads(out)["defaults"] == {}
+
+
+def test_identify_reports_conditioning_and_standard_deviations(capsys):
+    """The paper's w1, w4 with 0.45 rad/s each: the unknowns' std from J^-1 agree with a Monte Carlo."""
+    code, out, _ = run(
+        capsys, "identify", "kid300", "--measured", "x=17.71", "psi=64.10", "--std", "x=0.45", "psi=0.45", "--json"
+    )
+    assert code == 0
+    sols = json.loads(out)["solutions"]
+    rng = np.random.default_rng(3)
+    w1 = 17.71 + 0.45 * rng.standard_normal(4000)
+    w4 = 64.10 + 0.45 * rng.standard_normal(4000)
+    roots = kid300.identify_x_psi(**TABLE_1, omega_x=w1, omega_psi=w4)
+    for k, sol in enumerate(sols):
+        assert sol["condition"] > 1
+        for u in ("c_xy", "c_z"):
+            sample = roots.parameters[u][k][roots.admissible[k]]
+            assert sol["parameter_std"][u] == pytest.approx(np.std(sample), rel=0.1)
+
+
+def test_empty_batches_give_empty_arrays():
+    empty = np.array([])
+    roots = kid300.identify_x_psi(**TABLE_1, omega_x=empty, omega_psi=empty)
+    assert roots.parameters["c_xy"].shape == (2, 0) and roots.admissible.shape == (2, 0)
+    assert roots.jacobian.shape == (2, 0, 2, 2)
+    assert kid300.frequencies(**TABLE_1, c_xy=empty, c_z=empty).shape == (0, 6)
