@@ -830,6 +830,12 @@ INVERSE_ROOTS = {
 UNIDENTIFIABLE = {
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+TWIN_COORDINATES = (
+    ("x", "y", 1),
+    ("theta", "psi", -1),
+)
+"""Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
 SPECIAL_POINTS = ("L_z",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

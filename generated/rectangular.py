@@ -1512,6 +1512,9 @@ UNIDENTIFIABLE = {
     ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+TWIN_COORDINATES = ()
+"""Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
 SPECIAL_POINTS = ("h",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

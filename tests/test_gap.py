@@ -131,3 +131,46 @@ def test_diagnose_text_names_the_candidates_and_the_verdict(capsys, tmp_path):
     text = capsys.readouterr().out
     assert "drive_belt" in text and "gap [rad/s] before (nominal) -> after (drive_belt)" in text
     assert text.rstrip().endswith("verdict: significant gap, explained by drive_belt")
+
+
+def test_twin_map_carries_the_sign_of_each_coupling_entry():
+    """The engine's twin map: kid300 C[y, psi] = -C[x, theta] (u_x = x + theta r_z, u_y = y - psi r_z)."""
+    mod = Machine.resolve("kid300").module
+    assert set(mod.TWIN_COORDINATES) == {("x", "y", 1), ("theta", "psi", -1)}
+    C = mod.stiffness_matrix(c_xy=74.4e3, c_z=472.3e3, L_xy=0.486, L_z=0.3)
+    x, y, psi, theta = (mod.COORDINATES.index(c) for c in ("x", "y", "psi", "theta"))
+    assert C[y, psi] == -C[x, theta] != 0
+
+
+def test_localise_finds_a_symmetric_change_of_a_coupled_twin_entry():
+    """A coupling changed the way the symmetry allows (C[x, theta] by +d, C[y, psi] by -d) is found with its
+    size and explains the whole gap; changing both by +d (the old, sign-blind pairing) would break the x/y
+    symmetry and could not explain it."""
+    import numpy as np
+    import scipy.linalg
+
+    from mountid.gap import Residual, localise
+
+    campaign = load("examples/kid300-paper.json")
+    mod = campaign.machine.module
+    params = {"c_xy": 74.4e3, "c_z": 472.3e3}
+    values = campaign.machine.values({**campaign.known, **params}, mod.FORWARD_ARGUMENTS)
+    M = mod.mass_matrix(*(values[a] for a in mod.ARGUMENTS["mass_matrix"]))
+    C = mod.stiffness_matrix(*(values[a] for a in mod.ARGUMENTS["stiffness_matrix"]))
+    x, y, psi, theta = (mod.COORDINATES.index(c) for c in ("x", "y", "psi", "theta"))
+    d = 0.002 * abs(C[x, theta])  # small: localise works to first order
+    changed = C.copy()
+    changed[x, theta] = changed[theta, x] = C[x, theta] + d
+    changed[y, psi] = changed[psi, y] = C[y, psi] - d
+    lam_nominal = mod.squared_frequencies(**values)
+    residuals = []
+    for k, label in enumerate(mod.MODES):
+        idx = list(mod.BLOCKS[mod.MODE_BLOCK[k]])
+        lam = scipy.linalg.eigh(changed[np.ix_(idx, idx)], M[np.ix_(idx, idx)], eigvals_only=True)
+        residuals.append(
+            Residual(label, float(np.sqrt(lam[mod.MODE_RANK[k] - 1])), float(np.sqrt(lam_nominal[k])), 1e-3, False)
+        )
+    best = localise(campaign, params, residuals)[0]
+    assert best.matrix == "C" and best.entries == (("x", "theta"), ("y", "psi"))
+    assert best.change == pytest.approx(d, rel=0.02)
+    assert best.explained > 0.999

@@ -141,36 +141,34 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     grads = mod.stiffness_gradient(*(args[a] for a in mod.ARGUMENTS["stiffness_gradient"]))
     unknown_cols = np.array([[phi[:, k] @ grad @ phi[:, k] for grad in grads] for k in rows]).reshape(len(rows), -1)
     coords = mod.COORDINATES
-    twin_of = {}
-    blocks = mod.BLOCKS
-    for a, b in itertools.combinations(range(len(blocks)), 2):
-        lab_a = {mod.REPRESENTATIVE[m] for m, blk in zip(mod.MODES, mod.MODE_BLOCK, strict=True) if blk == a}
-        lab_b = {mod.REPRESENTATIVE[m] for m, blk in zip(mod.MODES, mod.MODE_BLOCK, strict=True) if blk == b}
-        if lab_a == lab_b and len(blocks[a]) == len(blocks[b]):
-            for p, q in zip(blocks[a], blocks[b], strict=True):
-                twin_of[p], twin_of[q] = q, p
+    # the engine's twin map: coordinate -> (image, sign), both ways; an entry's image changes by s_i s_j
+    twin_of: dict[int, tuple[int, int]] = {}
+    for a, b, sign in mod.TWIN_COORDINATES:
+        i, j = coords.index(a), coords.index(b)
+        twin_of[i], twin_of[j] = (j, sign), (i, sign)
     out, seen = [], set()
-    for block in blocks:
+    for block in mod.BLOCKS:
         for i, j in itertools.combinations_with_replacement(block, 2):
-            group = [(i, j)]
+            group = {(i, j): 1.0}
             if i in twin_of and j in twin_of:
-                group.append(tuple(sorted((twin_of[i], twin_of[j]))))
+                (ti, si), (tj, sj) = twin_of[i], twin_of[j]
+                group[tuple(sorted((ti, tj)))] = float(si * sj)
             key = frozenset(group)
             if key in seen:
                 continue
             seen.add(key)
             for matrix in ("C", "M"):
                 g = np.zeros(len(rows))
-                for a, b in set(group):
+                for (a, b), sign in group.items():
                     factor = 1.0 if a == b else 2.0
-                    g += factor * phi[a, rows] * phi[b, rows] * (1.0 if matrix == "C" else -lam[rows])
+                    g += sign * factor * phi[a, rows] * phi[b, rows] * (1.0 if matrix == "C" else -lam[rows])
                 if not np.any(g):
                     continue
                 design = np.column_stack([g, unknown_cols]) / sigma[:, None]
                 coef = np.linalg.lstsq(design, d_lam / sigma, rcond=None)[0]
                 delta = float(coef[0])
                 after = float(np.sum((d_lam / sigma - design @ coef) ** 2))
-                names = tuple((coords[a], coords[b]) for a, b in group)
+                names = tuple((coords[a], coords[b]) for a, b in group)  # the entry first, then its image
                 out.append(Localisation(matrix, names, delta, _unit(matrix, i, j), 1 - after / before))
     return sorted(out, key=lambda loc: -loc.explained)
 

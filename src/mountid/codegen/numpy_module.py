@@ -479,6 +479,7 @@ def module_context(
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
         "special_points": derivation.special_points(),
+        "twin_coordinates": structure.twin_map(),
         "effect_coordinates": effect_coordinates,
         "isolators": isolator_names,
         "code": code,

@@ -206,6 +206,47 @@ class ModalStructure:
         pa, pb = a.charpoly.all_coeffs(), b.charpoly.all_coeffs()
         return all(sp.cancel(x * pb[0] - y * pa[0]) == 0 for x, y in zip(pa, pb, strict=True))
 
+    def twin_map(self) -> tuple[tuple[str, str, int], ...]:
+        """Coordinates exchanged by the symmetry that makes two blocks twins (same characteristic polynomial):
+        (coordinate of the first block, its image in the twin block, sign) such that, with s the signs,
+        M[image_i, image_j] = s_i s_j M[i, j] and the same for C (e.g. kid300: x -> y with +1, theta -> psi
+        with -1, so C[y, psi] = -C[x, theta]). Found by trying every coordinate permutation and sign pattern
+        against the derived matrices at two pseudo-random rational points."""
+        import itertools
+        import random
+
+        rng = random.Random(5)
+        symbols = list(self.model.symbols.values())
+        points = [{sym: sp.Rational(rng.randint(50, 200), 97) for sym in symbols} for _ in range(2)]
+        out: list[tuple[str, str, int]] = []
+        for k, first in enumerate(self.twin):
+            if first == k:
+                continue
+            a, b = self.blocks[first], self.blocks[k]
+            found = None
+            for perm in itertools.permutations(range(b.size)):
+                for signs in itertools.product((1, -1), repeat=a.size):
+                    if signs[0] != 1:  # an overall sign changes nothing: fix the first
+                        continue
+                    if all(
+                        (mb[perm[i], perm[j]] - signs[i] * signs[j] * ma[i, j]).xreplace(pt) == 0
+                        for ma, mb in ((a.M, b.M), (a.C, b.C))
+                        for pt in points
+                        for i in range(a.size)
+                        for j in range(i, a.size)
+                    ):
+                        found = (perm, signs)
+                        break
+                if found:
+                    break
+            if found is None:
+                raise DescriptionError(
+                    "symmetry", f"blocks {a.coordinates} and {b.coordinates} share their spectrum but no map"
+                )
+            perm, signs = found
+            out += [(a.coordinates[i], b.coordinates[perm[i]], signs[i]) for i in range(a.size)]
+        return tuple(out)
+
     @property
     def labels(self) -> tuple[str, ...]:
         return tuple(m.label for m in self.modes)
