@@ -827,6 +827,9 @@ INVERSE_ROOTS = {
     ("psi", "phi"): 1,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
+NUMERIC_INVERSES = {
+}
+"""Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""

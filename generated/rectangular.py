@@ -240,12 +240,12 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_z):
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
+        _tmp0 = _lam_x*m
         _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        _tmp2 = (0.25)*m
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_y*m
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -285,13 +285,11 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**2
-        _tmp3 = 4*_lam_x*_tmp2*c_y
-        _tmp4 = J_y*_tmp3
-        _tmp5 = a**2
-        _tmp6 = J_x*_lam_psi*_lam_y*m
-        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        _tmp2 = 4*_lam_x*b**2*c_y
+        _tmp3 = J_y*_tmp2
+        _tmp4 = a**2
+        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp3)/(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp2*h**2*m - _tmp3), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -331,12 +329,10 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**2
-        _tmp3 = 4*_lam_y*_tmp2*c_x
-        _tmp4 = J_y*_lam_theta*_lam_x*m
-        _tmp5 = J_x*_tmp3 - _tmp4*b**2
-        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        _tmp2 = 4*_lam_y*a**2*c_x
+        _tmp3 = J_x*_tmp2 - J_y*_lam_theta*_lam_x*b**2*m
+        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp3*m/(_tmp2*h**2*m + _tmp3), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -397,9 +393,8 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
         c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
         _tmp21 = 4*c_x
         _tmp22 = _lam_x*m
-        _tmp23 = (0.25)/a**2
-        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -437,12 +432,12 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
+        _tmp0 = _lam_x*m
         _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        _tmp2 = (0.25)*m
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_psi*m
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_x*_tmp1*_tmp2/(-_lam_x*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -481,10 +476,9 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_x*m
-        _tmp1 = a**2
-        _tmp2 = J_y*_lam_x - 4*_tmp1*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        _tmp1 = J_y*_lam_x - 4*a**2*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -524,12 +518,10 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**2
-        _tmp3 = 4*_lam_psi*_tmp2*c_x
-        _tmp4 = J_y*_lam_theta*_lam_x*m
-        _tmp5 = J_x*_tmp3 - _tmp4*b**2
-        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp5*m/(_tmp3*h**2*m + _tmp5), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp4/(_tmp2*c_x), c_x.shape)
+        _tmp2 = 4*_lam_psi*a**2*c_x
+        _tmp3 = J_x*_tmp2 - J_y*_lam_theta*_lam_x*b**2*m
+        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp3*m/(_tmp2*h**2*m + _tmp3), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -590,9 +582,8 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
         c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
         _tmp21 = 4*c_x
         _tmp22 = _lam_x*m
-        _tmp23 = (0.25)/a**2
-        c_z = numpy.broadcast_to(-_lam_x*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -632,9 +623,8 @@ def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
         _tmp0 = J_y*_lam_theta
         _tmp1 = 4*m
         c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = a**(-2.0)
-        c_y = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*_tmp2*m/c_x, c_x.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -672,12 +662,12 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
+        _tmp0 = _lam_theta*m
         _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        _tmp2 = (0.25)*m
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_y*m
         _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_y*_tmp2*_tmp3/(-_lam_y*_tmp0 - _tmp3), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -723,7 +713,7 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
         _tmp5 = 4*_tmp0*c_z
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -763,13 +753,11 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**2
-        _tmp3 = 4*_lam_theta*_tmp2*c_y
-        _tmp4 = J_y*_tmp3
-        _tmp5 = a**2
-        _tmp6 = J_x*_lam_psi*_lam_y*m
-        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(-_tmp4 + _tmp5*_tmp6)/(J_x*_lam_psi*_lam_y*_tmp5*m - _tmp3*h**2*m - _tmp4), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*_tmp6/(_tmp2*c_y), c_y.shape)
+        _tmp2 = 4*_lam_theta*b**2*c_y
+        _tmp3 = J_y*_tmp2
+        _tmp4 = a**2
+        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp3)/(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp2*h**2*m - _tmp3), c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -809,9 +797,8 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
         _tmp0 = J_x*_lam_psi
         _tmp1 = 4*m
         c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = b**(-2.0)
-        c_x = numpy.broadcast_to(-0.25*_tmp2*(-J_z*_lam_phi + 4*a**2*c_y), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*_tmp2*m/c_y, c_y.shape)
+        c_x = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*a**2*c_y)/b**2, c_y.shape)
+        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -872,9 +859,8 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
         c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
         _tmp21 = 4*c_x
         _tmp22 = _lam_theta*m
-        _tmp23 = (0.25)/a**2
-        c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -912,12 +898,12 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = h**2*m
+        _tmp0 = _lam_theta*m
         _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        _tmp2 = (0.25)*m
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_psi*m
         _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_x = numpy.broadcast_to(-_lam_theta*_tmp1*_tmp2/(-_lam_theta*_tmp0 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-_lam_psi*_tmp2*_tmp3/(-_lam_psi*_tmp0 - _tmp3), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -963,7 +949,7 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
         _tmp5 = 4*_tmp0*c_z
         _tmp6 = a**2
         c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(4*_tmp0*c_x - _tmp4)/_tmp6, c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -1002,10 +988,9 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
         _tmp0 = _lam_theta*m
-        _tmp1 = a**2
-        _tmp2 = J_y*_lam_theta - 4*_tmp1*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp2/(-_tmp0*h**2 - _tmp2), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/_tmp1, c_z.shape)
+        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
+        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -1066,9 +1051,8 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_p
         c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
         _tmp21 = 4*c_x
         _tmp22 = _lam_theta*m
-        _tmp23 = (0.25)/a**2
-        c_z = numpy.broadcast_to(-_lam_theta*_tmp23*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(-_tmp21 + _tmp22), c_x.shape)
-        c_y = numpy.broadcast_to(-_tmp23*(-J_z*_lam_phi + 4*b**2*c_x), c_x.shape)
+        c_z = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
+        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
     return (c_x, c_y, c_z,)
 
 
@@ -1507,6 +1491,9 @@ INVERSE_ROOTS = {
     ("psi", "theta", "phi"): 2,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
+NUMERIC_INVERSES = {
+}
+"""Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {
     ("x", "z", "theta"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
     ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",

@@ -282,22 +282,22 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_z):
         _tmp3 = J_y*_lam_x
         _tmp4 = h**2
         _tmp5 = _lam_x*m
-        _tmp6 = _tmp4*_tmp5
-        _tmp7 = numpy.cos(alpha)
-        _tmp8 = _tmp7**2
-        _tmp9 = 4*_tmp8*c_h
-        _tmp10 = numpy.sin(alpha)
-        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
-        _tmp12 = a**2
-        _tmp13 = _tmp10**2
-        _tmp14 = 8*_tmp13
-        _tmp15 = _tmp12*c_h
-        _tmp16 = 4*_tmp15
-        _tmp17 = _lam_x*_tmp13
-        _tmp18 = _tmp17*m
-        _tmp19 = _tmp12*_tmp8
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = 4*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = 8*_tmp12
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_x*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -343,22 +343,22 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
         _tmp5 = _lam_x*m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = _tmp7*c_h
+        _tmp8 = 4*c_h
         _tmp9 = numpy.sin(alpha)
         _tmp10 = _tmp5*_tmp6*_tmp9*a*h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = _tmp12*c_h**2
+        _tmp13 = 8*_tmp12
         _tmp14 = _tmp11*c_h
         _tmp15 = 4*_tmp14
         _tmp16 = _lam_x*_tmp12
         _tmp17 = _tmp16*m
         _tmp18 = _tmp5*_tmp7
         _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         _tmp20 = b**2
         _tmp21 = 24*_tmp20
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp21*c_h**2*numpy.sin(alpha)**2 + _tmp21*c_h*c_v*numpy.cos(alpha)**2)/(_tmp20*c_h), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -434,42 +434,45 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_thet
         _tmp36 = _lam_theta*m**2
         _tmp37 = _lam_x*_tmp36
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
-        _tmp38 = b**2
-        _tmp39 = 6*c_h
-        _tmp40 = _lam_y*m
-        _tmp41 = c_h**2
-        _tmp42 = a**2
-        _tmp43 = J_x*_tmp42
-        _tmp44 = _tmp41*_tmp43
-        _tmp45 = _lam_y*_tmp44
-        _tmp46 = numpy.sin(alpha)
-        _tmp47 = _tmp46**4
-        _tmp48 = 24*_tmp47
-        _tmp49 = numpy.cos(alpha)
-        _tmp50 = _tmp49**2
-        _tmp51 = _lam_y*_tmp50
-        _tmp52 = _tmp49**4
-        _tmp53 = 24*_tmp52
-        _tmp54 = J_y*_lam_theta*_lam_x
-        _tmp55 = _tmp54*m
-        _tmp56 = _tmp46**6
-        _tmp57 = c_h**3
-        _tmp58 = _tmp38*_tmp42
-        _tmp59 = _tmp57*_tmp58
-        _tmp60 = _lam_y**2*_tmp43*c_h*m
-        _tmp61 = 4*_tmp60
-        _tmp62 = _tmp40*_tmp41
-        _tmp63 = _tmp58*_tmp62
-        _tmp64 = _tmp42*_tmp62*h**2
-        _tmp65 = _tmp46**2
-        _tmp66 = _tmp50*_tmp65
-        _tmp67 = 48*_tmp66
-        _tmp68 = _tmp42*_tmp65
-        _tmp69 = _tmp38*_tmp52
-        _tmp70 = _tmp47*_tmp50
-        _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
-        c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        _tmp38 = a**2
+        _tmp39 = b**2
+        _tmp40 = 6*c_h
+        _tmp41 = _lam_y*m
+        _tmp42 = numpy.cos(alpha)
+        _tmp43 = _tmp42**2
+        _tmp44 = numpy.sin(alpha)
+        _tmp45 = _tmp44**4
+        _tmp46 = _tmp42**4
+        _tmp47 = _tmp44**2
+        _tmp48 = _tmp43*_tmp47
+        _tmp49 = c_h**2
+        _tmp50 = J_x*_tmp38
+        _tmp51 = _tmp49*_tmp50
+        _tmp52 = _lam_y*_tmp51
+        _tmp53 = 24*_tmp45
+        _tmp54 = _lam_y*_tmp43
+        _tmp55 = 24*_tmp46
+        _tmp56 = J_y*_lam_theta*_lam_x*_tmp39
+        _tmp57 = _tmp44**6
+        _tmp58 = _tmp38*_tmp39
+        _tmp59 = _tmp58*c_h**3
+        _tmp60 = 96*_tmp59
+        _tmp61 = _lam_y**2*_tmp50*c_h*m
+        _tmp62 = 4*_tmp61
+        _tmp63 = _tmp41*_tmp49
+        _tmp64 = _tmp58*_tmp63
+        _tmp65 = 16*_tmp64
+        _tmp66 = _tmp38*_tmp63*h**2
+        _tmp67 = 48*_tmp48
+        _tmp68 = _tmp46*_tmp47
+        _tmp69 = _tmp43*_tmp45
+        c_m = numpy.broadcast_to(-0.25*(-_tmp40*_tmp43*_tmp56*m - 2*_tmp43*_tmp61 + 12*_tmp43*_tmp66 - _tmp45*_tmp62 - _tmp46*_tmp62 - 8*_tmp48*_tmp61 + 12*_tmp51*_tmp54 + _tmp52*_tmp53 + _tmp52*_tmp55 + _tmp52*_tmp67 + _tmp53*_tmp66 + _tmp54*_tmp56*m**2 + _tmp55*_tmp66 - _tmp57*_tmp60 + _tmp57*_tmp65 - 192*_tmp59*_tmp69 - _tmp60*_tmp68 + 32*_tmp64*_tmp69 + _tmp65*_tmp68 + _tmp66*_tmp67)/(_tmp38*_tmp39*c_h*(-_tmp40 + _tmp41)*(_tmp43 + 2*_tmp45 + 2*_tmp46 + 4*_tmp48)), c_h.shape)
+        _tmp70 = a**2
+        _tmp71 = numpy.sin(alpha)
+        _tmp72 = _tmp71**2
+        _tmp73 = numpy.cos(alpha)
+        _tmp74 = _tmp73**2
+        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp70*_tmp72*c_h**2)/(_tmp70*c_h*(2*_tmp71**4 + 4*_tmp72*_tmp74 + 2*_tmp73**4 + _tmp74)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -539,24 +542,22 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
         _tmp30 = _tmp20*_tmp23
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
-        _tmp32 = 6*c_h
-        _tmp33 = _lam_y*m
-        _tmp34 = numpy.sin(alpha)
-        _tmp35 = _tmp34**2
-        _tmp36 = numpy.cos(alpha)
-        _tmp37 = _tmp36**2
-        _tmp38 = J_z*_lam_phi
-        _tmp39 = a**2
-        _tmp40 = c_h**2
-        _tmp41 = 24*_tmp40
-        _tmp42 = b**2
-        _tmp43 = _tmp34**4
-        _tmp44 = _tmp36**4
-        _tmp45 = _tmp42*c_h
-        _tmp46 = 4*_tmp45
-        _tmp47 = 1/(_tmp35*_tmp42)
-        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)
+        _tmp34 = _tmp33**2
+        _tmp35 = 6*c_h
+        _tmp36 = _lam_y*m
+        _tmp37 = numpy.cos(alpha)
+        _tmp38 = _tmp37**2
+        _tmp39 = c_h**2
+        _tmp40 = 24*_tmp39
+        _tmp41 = a**2
+        _tmp42 = _tmp33**4
+        _tmp43 = _tmp37**4
+        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_y**2*_tmp34*m - J_x*_lam_y*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_y*_tmp32*_tmp38*c_h*m + 4*_lam_y*_tmp32*_tmp43*c_h*m + 4*_lam_y*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        _tmp44 = b**2
+        _tmp45 = _tmp44*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -566,24 +567,24 @@ def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _l
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = b**2
-        _tmp1 = 6*c_h
-        _tmp2 = -_tmp1
-        _tmp3 = _lam_y*m
-        _tmp4 = c_h**2
-        _tmp5 = 36*_tmp4
-        _tmp6 = a**2
-        _tmp7 = J_x*_tmp6
-        _tmp8 = _lam_x*m
+        _tmp0 = a**2
+        _tmp1 = b**2
+        _tmp2 = 6*c_h
+        _tmp3 = -_tmp2
+        _tmp4 = _lam_x*m
+        _tmp5 = _lam_y*m
+        _tmp6 = c_h**2
+        _tmp7 = 36*_tmp6
+        _tmp8 = J_x*_tmp0
         _tmp9 = J_y*_tmp1
-        _tmp10 = _tmp0*_tmp9
-        _tmp11 = _lam_y**2
-        _tmp12 = _lam_x**2
-        _tmp13 = m**2
-        _tmp14 = h**2
-        _tmp15 = 1/(_tmp6*(_tmp2 + _tmp8))
-        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_x*_lam_y*_tmp6*c_h*m + 6*J_x*_tmp11*_tmp6*c_h*m + 36*J_y*_lam_x*_tmp0*_tmp4 + J_y*_lam_y*_tmp0*_tmp12*_tmp13 - _lam_x*_lam_y*_tmp0*_tmp1*_tmp13*_tmp14 + 6*_lam_x*_lam_y*_tmp13*_tmp14*_tmp6*c_h + 36*_lam_x*_tmp0*_tmp14*_tmp4*m - _lam_x*_tmp11*_tmp13*_tmp7 - _lam_y*_tmp10*_tmp8 - _lam_y*_tmp5*_tmp7 - _tmp10*_tmp12*m - _tmp14*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_lam_x*_tmp15*(-J_y*_tmp8 + _tmp1*_tmp14*m + _tmp9), c_h.shape)
+        _tmp10 = _lam_y**2
+        _tmp11 = _lam_x**2
+        _tmp12 = m**2
+        _tmp13 = h**2
+        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_x*_lam_y*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp10*c_h*m + 36*J_y*_lam_x*_tmp1*_tmp6 + J_y*_lam_y*_tmp1*_tmp11*_tmp12 + 6*_lam_x*_lam_y*_tmp0*_tmp12*_tmp13*c_h - _lam_x*_lam_y*_tmp1*_tmp12*_tmp13*_tmp2 + 36*_lam_x*_tmp1*_tmp13*_tmp6*m - _lam_x*_tmp10*_tmp12*_tmp8 - _lam_y*_tmp2*_tmp4*_tmp9 - _lam_y*_tmp7*_tmp8 - _tmp0*_tmp13*_tmp5*_tmp7 - _tmp11*_tmp2*_tmp9*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_tmp3 + _tmp5)), c_h.shape)
+        _tmp14 = 6*c_h
+        _tmp15 = _lam_x*m
+        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp14 - J_y*_tmp15 + _tmp14*h**2*m)/(a**2*(-_tmp14 + _tmp15)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -636,22 +637,22 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
         _tmp3 = J_y*_lam_x
         _tmp4 = h**2
         _tmp5 = _lam_x*m
-        _tmp6 = _tmp4*_tmp5
-        _tmp7 = numpy.cos(alpha)
-        _tmp8 = _tmp7**2
-        _tmp9 = 4*_tmp8*c_h
-        _tmp10 = numpy.sin(alpha)
-        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
-        _tmp12 = a**2
-        _tmp13 = _tmp10**2
-        _tmp14 = 8*_tmp13
-        _tmp15 = _tmp12*c_h
-        _tmp16 = 4*_tmp15
-        _tmp17 = _lam_x*_tmp13
-        _tmp18 = _tmp17*m
-        _tmp19 = _tmp12*_tmp8
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = 4*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = 8*_tmp12
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_x*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -733,7 +734,7 @@ def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_thet
         _tmp41 = numpy.cos(alpha)
         _tmp42 = _tmp41**2
         c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*_tmp40*c_h - 2*_tmp42*c_v, c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -804,12 +805,9 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
         _tmp32 = b**2
-        _tmp33 = numpy.sin(alpha)**2
-        _tmp34 = 4*c_h
-        _tmp35 = 2*c_h
-        _tmp36 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        _tmp33 = _tmp32*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp33*numpy.cos(alpha)**2 + 2*_tmp33 + 4*a**2*c_h)/(_tmp32*numpy.sin(alpha)**2), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -907,42 +905,45 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_
         _tmp36 = _lam_theta*m**2
         _tmp37 = _lam_x*_tmp36
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
-        _tmp38 = b**2
-        _tmp39 = 6*c_h
-        _tmp40 = _lam_psi*m
-        _tmp41 = c_h**2
-        _tmp42 = a**2
-        _tmp43 = J_x*_tmp42
-        _tmp44 = _tmp41*_tmp43
-        _tmp45 = _lam_psi*_tmp44
-        _tmp46 = numpy.sin(alpha)
-        _tmp47 = _tmp46**4
-        _tmp48 = 24*_tmp47
-        _tmp49 = numpy.cos(alpha)
-        _tmp50 = _tmp49**2
-        _tmp51 = _lam_psi*_tmp50
-        _tmp52 = _tmp49**4
-        _tmp53 = 24*_tmp52
-        _tmp54 = J_y*_lam_theta*_lam_x
-        _tmp55 = _tmp54*m
-        _tmp56 = _tmp46**6
-        _tmp57 = c_h**3
-        _tmp58 = _tmp38*_tmp42
-        _tmp59 = _tmp57*_tmp58
-        _tmp60 = _lam_psi**2*_tmp43*c_h*m
-        _tmp61 = 4*_tmp60
-        _tmp62 = _tmp40*_tmp41
-        _tmp63 = _tmp58*_tmp62
-        _tmp64 = _tmp42*_tmp62*h**2
-        _tmp65 = _tmp46**2
-        _tmp66 = _tmp50*_tmp65
-        _tmp67 = 48*_tmp66
-        _tmp68 = _tmp42*_tmp65
-        _tmp69 = _tmp38*_tmp52
-        _tmp70 = _tmp47*_tmp50
-        _tmp71 = 1/(_tmp42*c_h*(2*_tmp47 + _tmp50 + 2*_tmp52 + 4*_tmp66))
-        c_m = numpy.broadcast_to(-0.25*_tmp71*(-_tmp38*_tmp39*_tmp50*_tmp55 + _tmp38*_tmp51*_tmp54*m**2 + 16*_tmp40*_tmp41*_tmp68*_tmp69 + 12*_tmp44*_tmp51 + _tmp45*_tmp48 + _tmp45*_tmp53 + _tmp45*_tmp67 - _tmp47*_tmp61 + _tmp48*_tmp64 - 2*_tmp50*_tmp60 + 12*_tmp50*_tmp64 - _tmp52*_tmp61 + _tmp53*_tmp64 - 96*_tmp56*_tmp59 + 16*_tmp56*_tmp63 - 96*_tmp57*_tmp68*_tmp69 - 192*_tmp59*_tmp70 - 8*_tmp60*_tmp66 + 32*_tmp63*_tmp70 + _tmp64*_tmp67)/(_tmp38*(-_tmp39 + _tmp40)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.125*_tmp71*(8*_tmp41*_tmp42*_tmp65 - _tmp55), c_h.shape)
+        _tmp38 = a**2
+        _tmp39 = b**2
+        _tmp40 = 6*c_h
+        _tmp41 = _lam_psi*m
+        _tmp42 = numpy.cos(alpha)
+        _tmp43 = _tmp42**2
+        _tmp44 = numpy.sin(alpha)
+        _tmp45 = _tmp44**4
+        _tmp46 = _tmp42**4
+        _tmp47 = _tmp44**2
+        _tmp48 = _tmp43*_tmp47
+        _tmp49 = c_h**2
+        _tmp50 = J_x*_tmp38
+        _tmp51 = _tmp49*_tmp50
+        _tmp52 = _lam_psi*_tmp51
+        _tmp53 = 24*_tmp45
+        _tmp54 = _lam_psi*_tmp43
+        _tmp55 = 24*_tmp46
+        _tmp56 = J_y*_lam_theta*_lam_x*_tmp39
+        _tmp57 = _tmp44**6
+        _tmp58 = _tmp38*_tmp39
+        _tmp59 = _tmp58*c_h**3
+        _tmp60 = 96*_tmp59
+        _tmp61 = _lam_psi**2*_tmp50*c_h*m
+        _tmp62 = 4*_tmp61
+        _tmp63 = _tmp41*_tmp49
+        _tmp64 = _tmp58*_tmp63
+        _tmp65 = 16*_tmp64
+        _tmp66 = _tmp38*_tmp63*h**2
+        _tmp67 = 48*_tmp48
+        _tmp68 = _tmp46*_tmp47
+        _tmp69 = _tmp43*_tmp45
+        c_m = numpy.broadcast_to(-0.25*(-_tmp40*_tmp43*_tmp56*m - 2*_tmp43*_tmp61 + 12*_tmp43*_tmp66 - _tmp45*_tmp62 - _tmp46*_tmp62 - 8*_tmp48*_tmp61 + 12*_tmp51*_tmp54 + _tmp52*_tmp53 + _tmp52*_tmp55 + _tmp52*_tmp67 + _tmp53*_tmp66 + _tmp54*_tmp56*m**2 + _tmp55*_tmp66 - _tmp57*_tmp60 + _tmp57*_tmp65 - 192*_tmp59*_tmp69 - _tmp60*_tmp68 + 32*_tmp64*_tmp69 + _tmp65*_tmp68 + _tmp66*_tmp67)/(_tmp38*_tmp39*c_h*(-_tmp40 + _tmp41)*(_tmp43 + 2*_tmp45 + 2*_tmp46 + 4*_tmp48)), c_h.shape)
+        _tmp70 = a**2
+        _tmp71 = numpy.sin(alpha)
+        _tmp72 = _tmp71**2
+        _tmp73 = numpy.cos(alpha)
+        _tmp74 = _tmp73**2
+        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp70*_tmp72*c_h**2)/(_tmp70*c_h*(2*_tmp71**4 + 4*_tmp72*_tmp74 + 2*_tmp73**4 + _tmp74)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1012,24 +1013,22 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_ph
         _tmp30 = _tmp20*_tmp23
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
-        _tmp32 = 6*c_h
-        _tmp33 = _lam_psi*m
-        _tmp34 = numpy.sin(alpha)
-        _tmp35 = _tmp34**2
-        _tmp36 = numpy.cos(alpha)
-        _tmp37 = _tmp36**2
-        _tmp38 = J_z*_lam_phi
-        _tmp39 = a**2
-        _tmp40 = c_h**2
-        _tmp41 = 24*_tmp40
-        _tmp42 = b**2
-        _tmp43 = _tmp34**4
-        _tmp44 = _tmp36**4
-        _tmp45 = _tmp42*c_h
-        _tmp46 = 4*_tmp45
-        _tmp47 = 1/(_tmp35*_tmp42)
-        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)
+        _tmp34 = _tmp33**2
+        _tmp35 = 6*c_h
+        _tmp36 = _lam_psi*m
+        _tmp37 = numpy.cos(alpha)
+        _tmp38 = _tmp37**2
+        _tmp39 = c_h**2
+        _tmp40 = 24*_tmp39
+        _tmp41 = a**2
+        _tmp42 = _tmp33**4
+        _tmp43 = _tmp37**4
+        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_psi**2*_tmp34*m - J_x*_lam_psi*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_psi*_tmp32*_tmp38*c_h*m + 4*_lam_psi*_tmp32*_tmp43*c_h*m + 4*_lam_psi*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        _tmp44 = b**2
+        _tmp45 = _tmp44*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1039,24 +1038,23 @@ def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = b**2
-        _tmp1 = 6*c_h
-        _tmp2 = -_tmp1
-        _tmp3 = _lam_psi*m
-        _tmp4 = c_h**2
-        _tmp5 = 36*_tmp4
-        _tmp6 = a**2
-        _tmp7 = J_x*_tmp6
+        _tmp0 = a**2
+        _tmp1 = b**2
+        _tmp2 = 6*c_h
+        _tmp3 = -_tmp2
+        _tmp4 = _lam_psi*m
+        _tmp5 = c_h**2
+        _tmp6 = 36*_tmp5
+        _tmp7 = J_x*_tmp0
         _tmp8 = J_y*_tmp1
-        _tmp9 = _tmp0*_tmp8
-        _tmp10 = _lam_psi**2
-        _tmp11 = _lam_x**2
-        _tmp12 = m**2
-        _tmp13 = h**2
+        _tmp9 = _lam_psi**2
+        _tmp10 = _lam_x**2
+        _tmp11 = m**2
+        _tmp12 = h**2
+        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_psi*_lam_x*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp9*c_h*m + J_y*_lam_psi*_tmp1*_tmp10*_tmp11 + 36*J_y*_lam_x*_tmp1*_tmp5 + 6*_lam_psi*_lam_x*_tmp0*_tmp11*_tmp12*c_h - _lam_psi*_lam_x*_tmp1*_tmp11*_tmp12*_tmp2 - _lam_psi*_tmp6*_tmp7 + 36*_lam_x*_tmp1*_tmp12*_tmp5*m - _lam_x*_tmp11*_tmp7*_tmp9 - _lam_x*_tmp2*_tmp4*_tmp8 - _tmp0*_tmp12*_tmp4*_tmp6 - _tmp10*_tmp2*_tmp8*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_lam_x*m + _tmp3)), c_h.shape)
+        _tmp13 = 6*c_h
         _tmp14 = _lam_x*m
-        _tmp15 = 1/(_tmp6*(_tmp14 + _tmp2))
-        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_psi*_lam_x*_tmp6*c_h*m + 6*J_x*_tmp10*_tmp6*c_h*m + J_y*_lam_psi*_tmp0*_tmp11*_tmp12 + 36*J_y*_lam_x*_tmp0*_tmp4 - _lam_psi*_lam_x*_tmp0*_tmp1*_tmp12*_tmp13 + 6*_lam_psi*_lam_x*_tmp12*_tmp13*_tmp6*c_h - _lam_psi*_tmp5*_tmp7 + 36*_lam_x*_tmp0*_tmp13*_tmp4*m - _lam_x*_tmp10*_tmp12*_tmp7 - _lam_x*_tmp3*_tmp9 - _tmp11*_tmp9*m - _tmp13*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_lam_x*_tmp15*(-J_y*_tmp14 + _tmp1*_tmp13*m + _tmp8), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp13 - J_y*_tmp14 + _tmp13*h**2*m)/(a**2*(-_tmp13 + _tmp14)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1109,22 +1107,22 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_thet
         _tmp3 = J_y*_lam_theta
         _tmp4 = h**2
         _tmp5 = _lam_theta*m
-        _tmp6 = _tmp4*_tmp5
-        _tmp7 = numpy.cos(alpha)
-        _tmp8 = _tmp7**2
-        _tmp9 = 4*_tmp8*c_h
-        _tmp10 = numpy.sin(alpha)
-        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
-        _tmp12 = a**2
-        _tmp13 = _tmp10**2
-        _tmp14 = 8*_tmp13
-        _tmp15 = _tmp12*c_h
-        _tmp16 = 4*_tmp15
-        _tmp17 = _lam_theta*_tmp13
-        _tmp18 = _tmp17*m
-        _tmp19 = _tmp12*_tmp8
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = 4*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = 8*_tmp12
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_theta*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1165,12 +1163,9 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
         _tmp2 = b**2
-        _tmp3 = numpy.sin(alpha)**2
-        _tmp4 = 4*c_h
-        _tmp5 = 2*c_h
-        _tmp6 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        _tmp3 = _tmp2*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1216,22 +1211,22 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_
         _tmp5 = _lam_theta*m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = _tmp7*c_h
+        _tmp8 = 4*c_h
         _tmp9 = numpy.sin(alpha)
         _tmp10 = _tmp5*_tmp6*_tmp9*a*h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = _tmp12*c_h**2
+        _tmp13 = 8*_tmp12
         _tmp14 = _tmp11*c_h
         _tmp15 = 4*_tmp14
         _tmp16 = _lam_theta*_tmp12
         _tmp17 = _tmp16*m
         _tmp18 = _tmp5*_tmp7
         _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
         _tmp20 = b**2
         _tmp21 = 24*_tmp20
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - 8*_tmp11*_tmp13 + _tmp15*_tmp17 + 4*_tmp18*_tmp4*c_h + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + 4*_tmp3*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - 8*_tmp12*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp13*_tmp21 + _tmp21*_tmp8*c_v)/(_tmp20*c_h), c_h.shape)
+        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp21*c_h**2*numpy.sin(alpha)**2 + _tmp21*c_h*c_v*numpy.cos(alpha)**2)/(_tmp20*c_h), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1272,12 +1267,11 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_ph
         _tmp1 = 6*m
         c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
         _tmp2 = b**2
-        _tmp3 = _tmp2**(-1.0)
-        _tmp4 = numpy.sin(alpha)**2
-        _tmp5 = _tmp2*c_h
-        _tmp6 = _tmp5*numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*_tmp3*(-J_z*_lam_phi + 2*_tmp5 + 4*_tmp6 + 4*a**2*c_h)/_tmp4, c_h.shape)
-        c_m = numpy.broadcast_to(-0.08333333333333333*_tmp3*(-J_x*_lam_psi*_lam_y*m + 24*_tmp2*_tmp4*c_h**2 + 24*_tmp6*c_v)/c_h, c_h.shape)
+        _tmp3 = _tmp2*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
+        _tmp4 = b**2
+        _tmp5 = 24*_tmp4
+        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp5*c_h**2*numpy.sin(alpha)**2 + _tmp5*c_h*c_v*numpy.cos(alpha)**2)/(_tmp4*c_h), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1347,24 +1341,22 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _la
         _tmp30 = _tmp20*_tmp23
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
-        _tmp32 = 6*c_h
-        _tmp33 = _lam_y*m
-        _tmp34 = numpy.sin(alpha)
-        _tmp35 = _tmp34**2
-        _tmp36 = numpy.cos(alpha)
-        _tmp37 = _tmp36**2
-        _tmp38 = J_z*_lam_phi
-        _tmp39 = a**2
-        _tmp40 = c_h**2
-        _tmp41 = 24*_tmp40
-        _tmp42 = b**2
-        _tmp43 = _tmp34**4
-        _tmp44 = _tmp36**4
-        _tmp45 = _tmp42*c_h
-        _tmp46 = 4*_tmp45
-        _tmp47 = 1/(_tmp35*_tmp42)
-        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_y**2*_tmp35*m - J_x*_lam_y*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_y*_tmp37*_tmp39*c_h*m + 2*_lam_y*_tmp37*_tmp42*c_h*m + 4*_lam_y*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)
+        _tmp34 = _tmp33**2
+        _tmp35 = 6*c_h
+        _tmp36 = _lam_y*m
+        _tmp37 = numpy.cos(alpha)
+        _tmp38 = _tmp37**2
+        _tmp39 = c_h**2
+        _tmp40 = 24*_tmp39
+        _tmp41 = a**2
+        _tmp42 = _tmp33**4
+        _tmp43 = _tmp37**4
+        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_y**2*_tmp34*m - J_x*_lam_y*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_y*_tmp32*_tmp38*c_h*m + 4*_lam_y*_tmp32*_tmp43*c_h*m + 4*_lam_y*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        _tmp44 = b**2
+        _tmp45 = _tmp44*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1374,24 +1366,24 @@ def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_t
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = b**2
-        _tmp1 = 6*c_h
-        _tmp2 = -_tmp1
-        _tmp3 = _lam_y*m
-        _tmp4 = c_h**2
-        _tmp5 = 36*_tmp4
-        _tmp6 = a**2
-        _tmp7 = J_x*_tmp6
-        _tmp8 = _lam_theta*m
+        _tmp0 = a**2
+        _tmp1 = b**2
+        _tmp2 = 6*c_h
+        _tmp3 = -_tmp2
+        _tmp4 = _lam_theta*m
+        _tmp5 = _lam_y*m
+        _tmp6 = c_h**2
+        _tmp7 = 36*_tmp6
+        _tmp8 = J_x*_tmp0
         _tmp9 = J_y*_tmp1
-        _tmp10 = _tmp0*_tmp9
-        _tmp11 = _lam_y**2
-        _tmp12 = _lam_theta**2
-        _tmp13 = m**2
-        _tmp14 = h**2
-        _tmp15 = 1/(_tmp6*(_tmp2 + _tmp8))
-        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_theta*_lam_y*_tmp6*c_h*m + 6*J_x*_tmp11*_tmp6*c_h*m + 36*J_y*_lam_theta*_tmp0*_tmp4 + J_y*_lam_y*_tmp0*_tmp12*_tmp13 - _lam_theta*_lam_y*_tmp0*_tmp1*_tmp13*_tmp14 + 6*_lam_theta*_lam_y*_tmp13*_tmp14*_tmp6*c_h + 36*_lam_theta*_tmp0*_tmp14*_tmp4*m - _lam_theta*_tmp11*_tmp13*_tmp7 - _lam_y*_tmp10*_tmp8 - _lam_y*_tmp5*_tmp7 - _tmp10*_tmp12*m - _tmp14*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_lam_theta*_tmp15*(-J_y*_tmp8 + _tmp1*_tmp14*m + _tmp9), c_h.shape)
+        _tmp10 = _lam_y**2
+        _tmp11 = _lam_theta**2
+        _tmp12 = m**2
+        _tmp13 = h**2
+        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_theta*_lam_y*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp10*c_h*m + 36*J_y*_lam_theta*_tmp1*_tmp6 + J_y*_lam_y*_tmp1*_tmp11*_tmp12 + 6*_lam_theta*_lam_y*_tmp0*_tmp12*_tmp13*c_h - _lam_theta*_lam_y*_tmp1*_tmp12*_tmp13*_tmp2 + 36*_lam_theta*_tmp1*_tmp13*_tmp6*m - _lam_theta*_tmp10*_tmp12*_tmp8 - _lam_y*_tmp2*_tmp4*_tmp9 - _lam_y*_tmp7*_tmp8 - _tmp0*_tmp13*_tmp5*_tmp7 - _tmp11*_tmp2*_tmp9*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_tmp3 + _tmp5)), c_h.shape)
+        _tmp14 = 6*c_h
+        _tmp15 = _lam_theta*m
+        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp14 - J_y*_tmp15 + _tmp14*h**2*m)/(a**2*(-_tmp14 + _tmp15)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1444,22 +1436,22 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_
         _tmp3 = J_y*_lam_theta
         _tmp4 = h**2
         _tmp5 = _lam_theta*m
-        _tmp6 = _tmp4*_tmp5
-        _tmp7 = numpy.cos(alpha)
-        _tmp8 = _tmp7**2
-        _tmp9 = 4*_tmp8*c_h
-        _tmp10 = numpy.sin(alpha)
-        _tmp11 = _tmp10*_tmp5*_tmp7*a*h
-        _tmp12 = a**2
-        _tmp13 = _tmp10**2
-        _tmp14 = 8*_tmp13
-        _tmp15 = _tmp12*c_h
-        _tmp16 = 4*_tmp15
-        _tmp17 = _lam_theta*_tmp13
-        _tmp18 = _tmp17*m
-        _tmp19 = _tmp12*_tmp8
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp11*c_h - _tmp12*_tmp14*c_h**2 + _tmp16*_tmp18 + _tmp2*_tmp3 + _tmp2*_tmp6 + _tmp3*_tmp9 + _tmp6*_tmp9)/(J_y*_tmp17 - _tmp10**4*_tmp16 + 2*_tmp11 - _tmp14*_tmp15*_tmp8 - _tmp16*_tmp7**4 + _tmp18*_tmp4 - _tmp19*_tmp2 + _tmp19*_tmp5), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp13*_tmp2 - 2*_tmp8*c_v, c_h.shape)
+        _tmp6 = numpy.cos(alpha)
+        _tmp7 = _tmp6**2
+        _tmp8 = 4*c_h
+        _tmp9 = numpy.sin(alpha)
+        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp11 = a**2
+        _tmp12 = _tmp9**2
+        _tmp13 = 8*_tmp12
+        _tmp14 = _tmp11*c_h
+        _tmp15 = 4*_tmp14
+        _tmp16 = _lam_theta*_tmp12
+        _tmp17 = _tmp16*m
+        _tmp18 = _tmp5*_tmp7
+        _tmp19 = _tmp14*_tmp7
+        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1500,12 +1492,9 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_ph
         _tmp1 = b**2
         c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
         _tmp2 = b**2
-        _tmp3 = numpy.sin(alpha)**2
-        _tmp4 = 4*c_h
-        _tmp5 = 2*c_h
-        _tmp6 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp2*_tmp4*_tmp6 + _tmp2*_tmp5 + _tmp4*a**2)/(_tmp2*_tmp3), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp3*_tmp5 - 2*_tmp6*c_v, c_h.shape)
+        _tmp3 = _tmp2*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1576,12 +1565,9 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _la
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
         _tmp32 = b**2
-        _tmp33 = numpy.sin(alpha)**2
-        _tmp34 = 4*c_h
-        _tmp35 = 2*c_h
-        _tmp36 = numpy.cos(alpha)**2
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + _tmp32*_tmp34*_tmp36 + _tmp32*_tmp35 + _tmp34*a**2)/(_tmp32*_tmp33), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - _tmp33*_tmp35 - 2*_tmp36*c_v, c_h.shape)
+        _tmp33 = _tmp32*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp33*numpy.cos(alpha)**2 + 2*_tmp33 + 4*a**2*c_h)/(_tmp32*numpy.sin(alpha)**2), c_h.shape)
+        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1673,24 +1659,22 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta,
         _tmp30 = _tmp20*_tmp23
         _tmp31 = _tmp27*_tmp28*h
         c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
-        _tmp32 = 6*c_h
-        _tmp33 = _lam_psi*m
-        _tmp34 = numpy.sin(alpha)
-        _tmp35 = _tmp34**2
-        _tmp36 = numpy.cos(alpha)
-        _tmp37 = _tmp36**2
-        _tmp38 = J_z*_lam_phi
-        _tmp39 = a**2
-        _tmp40 = c_h**2
-        _tmp41 = 24*_tmp40
-        _tmp42 = b**2
-        _tmp43 = _tmp34**4
-        _tmp44 = _tmp36**4
-        _tmp45 = _tmp42*c_h
-        _tmp46 = 4*_tmp45
-        _tmp47 = 1/(_tmp35*_tmp42)
-        c_m = numpy.broadcast_to((0.5)*_tmp47*(J_x*_lam_psi**2*_tmp35*m - J_x*_lam_psi*_tmp32*_tmp35 + 6*J_z*_lam_phi*_tmp37*c_h + 4*_lam_psi*_tmp37*_tmp39*c_h*m + 2*_lam_psi*_tmp37*_tmp42*c_h*m + 4*_lam_psi*_tmp42*_tmp44*c_h*m - _tmp32*_tmp33*_tmp35*h**2 - _tmp33*_tmp37*_tmp38 - _tmp33*_tmp43*_tmp46 - _tmp37*_tmp39*_tmp41 - 12*_tmp37*_tmp40*_tmp42 + 24*_tmp40*_tmp42*_tmp43 - _tmp41*_tmp42*_tmp44)/(-_tmp32 + _tmp33), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_tmp47*(_tmp37*_tmp46 - _tmp38 + 4*_tmp39*c_h + 2*_tmp45), c_h.shape)
+        _tmp32 = b**2
+        _tmp33 = numpy.sin(alpha)
+        _tmp34 = _tmp33**2
+        _tmp35 = 6*c_h
+        _tmp36 = _lam_psi*m
+        _tmp37 = numpy.cos(alpha)
+        _tmp38 = _tmp37**2
+        _tmp39 = c_h**2
+        _tmp40 = 24*_tmp39
+        _tmp41 = a**2
+        _tmp42 = _tmp33**4
+        _tmp43 = _tmp37**4
+        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_psi**2*_tmp34*m - J_x*_lam_psi*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_psi*_tmp32*_tmp38*c_h*m + 4*_lam_psi*_tmp32*_tmp43*c_h*m + 4*_lam_psi*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        _tmp44 = b**2
+        _tmp45 = _tmp44*c_h
+        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -1700,24 +1684,23 @@ def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _l
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = b**2
-        _tmp1 = 6*c_h
-        _tmp2 = -_tmp1
-        _tmp3 = _lam_psi*m
-        _tmp4 = c_h**2
-        _tmp5 = 36*_tmp4
-        _tmp6 = a**2
-        _tmp7 = J_x*_tmp6
+        _tmp0 = a**2
+        _tmp1 = b**2
+        _tmp2 = 6*c_h
+        _tmp3 = -_tmp2
+        _tmp4 = _lam_psi*m
+        _tmp5 = c_h**2
+        _tmp6 = 36*_tmp5
+        _tmp7 = J_x*_tmp0
         _tmp8 = J_y*_tmp1
-        _tmp9 = _tmp0*_tmp8
-        _tmp10 = _lam_psi**2
-        _tmp11 = _lam_theta**2
-        _tmp12 = m**2
-        _tmp13 = h**2
+        _tmp9 = _lam_psi**2
+        _tmp10 = _lam_theta**2
+        _tmp11 = m**2
+        _tmp12 = h**2
+        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_psi*_lam_theta*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp9*c_h*m + J_y*_lam_psi*_tmp1*_tmp10*_tmp11 + 36*J_y*_lam_theta*_tmp1*_tmp5 + 6*_lam_psi*_lam_theta*_tmp0*_tmp11*_tmp12*c_h - _lam_psi*_lam_theta*_tmp1*_tmp11*_tmp12*_tmp2 - _lam_psi*_tmp6*_tmp7 + 36*_lam_theta*_tmp1*_tmp12*_tmp5*m - _lam_theta*_tmp11*_tmp7*_tmp9 - _lam_theta*_tmp2*_tmp4*_tmp8 - _tmp0*_tmp12*_tmp4*_tmp6 - _tmp10*_tmp2*_tmp8*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_lam_theta*m + _tmp3)), c_h.shape)
+        _tmp13 = 6*c_h
         _tmp14 = _lam_theta*m
-        _tmp15 = 1/(_tmp6*(_tmp14 + _tmp2))
-        c_m = numpy.broadcast_to(-0.5*_tmp15*(6*J_x*_lam_psi*_lam_theta*_tmp6*c_h*m + 6*J_x*_tmp10*_tmp6*c_h*m + J_y*_lam_psi*_tmp0*_tmp11*_tmp12 + 36*J_y*_lam_theta*_tmp0*_tmp4 - _lam_psi*_lam_theta*_tmp0*_tmp1*_tmp12*_tmp13 + 6*_lam_psi*_lam_theta*_tmp12*_tmp13*_tmp6*c_h - _lam_psi*_tmp5*_tmp7 + 36*_lam_theta*_tmp0*_tmp13*_tmp4*m - _lam_theta*_tmp10*_tmp12*_tmp7 - _lam_theta*_tmp3*_tmp9 - _tmp11*_tmp9*m - _tmp13*_tmp3*_tmp5*_tmp6)/(_tmp0*(_tmp2 + _tmp3)), c_h.shape)
-        c_v = numpy.broadcast_to(-0.25*_lam_theta*_tmp15*(-J_y*_tmp14 + _tmp1*_tmp13*m + _tmp8), c_h.shape)
+        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp13 - J_y*_tmp14 + _tmp13*h**2*m)/(a**2*(-_tmp13 + _tmp14)), c_h.shape)
     return (c_h, c_v, c_m,)
 
 
@@ -2279,6 +2262,9 @@ INVERSE_ROOTS = {
     ("psi", "theta", "phi"): 2,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
+NUMERIC_INVERSES = {
+}
+"""Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {
     ("x", "theta", "phi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
     ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",

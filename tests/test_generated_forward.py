@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 import sympy as sp
-from conftest import MACHINES, budget, call, generated, parameters
+from conftest import CLOSED_FORM_MACHINES, MACHINES, budget, call, generated, parameters
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -89,7 +89,7 @@ class HighPrecision:
             return [self.fn(*(mpmath.mpf(v) for v in values))[k] for k in range(len(self.exprs))]
 
 
-@pytest.mark.parametrize("name", MACHINES)
+@pytest.mark.parametrize("name", CLOSED_FORM_MACHINES)
 @settings(max_examples=budget(40), deadline=None)
 @given(data=st.data())
 def test_frequencies_match_50_digit_symbolic_closed_form(name, data):

@@ -128,3 +128,26 @@ def test_description_file_path_generates_on_the_fly(tmp_path):
     for key in mod.INVERSES:
         sols = machine.identify({}, {k: freqs[k] for k in key})
         assert any(all(abs(s.parameters[u] / p[u] - 1) < 1e-9 for u in mod.UNKNOWN) for s in sols), key
+
+
+def test_a_description_file_is_generated_once_and_cached_by_content(tmp_path):
+    """The second use of the same description file imports no sympy; a changed file is generated anew."""
+    desc = tmp_path / "press.toml"
+    desc.write_text((ROOT / "tests" / "data" / "press.toml").read_text())
+    script = (
+        "import sys; from mountid.machine import Machine; "
+        f"Machine.resolve({str(desc)!r}).frequencies({{}}); print('sympy' in sys.modules)"
+    )
+    env = {**os.environ, "MOUNTID_CACHE": str(tmp_path / "cache")}
+
+    def run() -> str:
+        return subprocess.run(
+            [sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True
+        ).stdout
+
+    assert run().strip() == "True"  # first use: generated
+    assert run().strip() == "False"  # second use: from the cache
+    assert len(list((tmp_path / "cache").glob("press-*.py"))) == 1
+    desc.write_text(desc.read_text().replace("5200.0", "5300.0"))
+    assert run().strip() == "True"
+    assert len(list((tmp_path / "cache").glob("press-*.py"))) == 2

@@ -6,8 +6,10 @@ Importing this module does not import sympy; only resolving a description *file*
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import math
+import os
 import types
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,11 +38,50 @@ def shipped_machines() -> list[str]:
     return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
 
 
-def _module_from_description(path: Path) -> types.ModuleType:
-    from mountid.codegen.numpy_module import render  # sympy: only for descriptions not generated yet
-    from mountid.description import load
+def cache_folder() -> Path:
+    """Where modules generated from description files are kept: $MOUNTID_CACHE, else
+    $XDG_CACHE_HOME/mountid, else ~/.cache/mountid."""
+    if os.environ.get("MOUNTID_CACHE"):
+        return Path(os.environ["MOUNTID_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mountid"
 
-    source = render(load(path))
+
+def _engine_fingerprint() -> str:
+    """Hash of everything a generated module depends on besides its description: the engine, the code
+    generator, the templates (a change to any of them makes every cached module stale)."""
+    import mountid
+
+    root = Path(mountid.__file__).parent
+    digest = hashlib.sha256()
+    files = sorted(
+        [*root.glob("symbolic/*.py"), *root.glob("codegen/*.py"), root / "description.py", root / "effects.py"]
+    )
+    templates = Path(importlib.import_module("mountid.templates").__file__).parent
+    for f in [*files, *sorted(templates.glob("*.jinja"))]:
+        digest.update(f.name.encode() + f.read_bytes())
+    return digest.hexdigest()
+
+
+def _module_from_description(path: Path) -> types.ModuleType:
+    """The generated module of a description file, generated once and cached by content (the description's
+    bytes and the engine's fingerprint): a second use of the same file costs no sympy."""
+    key = hashlib.sha256(path.read_bytes() + _engine_fingerprint().encode()).hexdigest()[:24]
+    cached = cache_folder() / f"{path.stem}-{key}.py"
+    if cached.is_file():
+        source = cached.read_text(encoding="utf-8")
+    else:
+        from mountid.codegen.numpy_module import render  # sympy: only for descriptions not generated yet
+        from mountid.description import load
+
+        source = render(load(path))
+        try:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(source, encoding="utf-8")
+            tmp.replace(cached)  # atomic: a concurrent reader sees the whole file or none
+        except OSError:
+            pass  # a read-only cache folder only costs the next run a new generation
     module = types.ModuleType(f"mountid_generated_{path.stem}")
     module.__file__ = str(path)
     exec(compile(source, f"<generated from {path}>", "exec"), module.__dict__)
@@ -207,9 +248,8 @@ class Machine:
             spread = {u: float(stds[u][i]) for u in self.unknown} if stds is not None else None
             solutions.append(Solution(params, self._forward({**knowns, **params}), float(roots.condition[i]), spread))
         if not solutions:
-            deficient = np.flatnonzero(roots.rank_deficient)
-            if deficient.size:
-                free = roots.undetermined(int(deficient[0]))
+            free = roots.most_specific_undetermined()
+            if free:
                 where = [f"{p} = 0" for p in getattr(self.module, "SPECIAL_POINTS", ()) if knowns.get(p) == 0]
                 raise InputError(
                     "measured",

@@ -10,6 +10,7 @@ All functions broadcast over leading batch dimensions.
 from __future__ import annotations
 
 import functools
+import itertools
 from typing import NamedTuple
 
 import numexpr
@@ -70,6 +71,12 @@ class InverseRoots(NamedTuple):
             var = np.einsum("...ik,...k->...i", inv**2, sigma**2)
             out = np.where(finite[..., None], np.sqrt(var), np.where(self.rank_deficient[..., None], np.inf, np.nan))
         return {u: out[..., j] for j, u in enumerate(self.parameters)}
+
+    def most_specific_undetermined(self) -> tuple[str, ...]:
+        """Of the rank-deficient roots (scalar batch), the shortest list of undetermined unknowns; empty when
+        no root is rank-deficient."""
+        names = [self.undetermined(int(i)) for i in np.flatnonzero(self.rank_deficient)]
+        return min(names, key=len) if names else ()
 
     def undetermined(self, index: tuple[int, ...] | int) -> tuple[str, ...]:
         """The unknowns a root leaves undetermined (``index`` into (n_roots, *batch)): those with a component
@@ -168,6 +175,10 @@ def polynomial_roots(*coefficients: ArrayLike) -> NDArray[np.float64]:
     return np.moveaxis(np.sort(real, axis=-1), -1, 0)
 
 
+MAX_RELATIVE_STEP = 0.5
+"""Largest relative change of an unknown in one Newton step (eigen_newton's trust region)."""
+
+
 def eigen_newton(
     model,
     known: tuple[NDArray, ...],
@@ -220,6 +231,10 @@ def eigen_newton(
             ok = np.all(np.isfinite(jac), axis=(-1, -2)) & np.any(jac != 0, axis=(-1, -2))
             safe = np.where(ok[:, None, None], jac, np.eye(*jac.shape[-2:]))
             step = (np.linalg.pinv(safe, rcond=1e-13) @ np.where(ok[:, None], f, 0.0)[..., None])[..., 0]
+            # trust region: no unknown moves by more than MAX_RELATIVE_STEP of itself in one step (a full
+            # step from a distant start overshoots into another basin; a polish takes tiny steps anyway)
+            largest = np.max(np.abs(step), axis=-1, keepdims=True)
+            step = step * np.minimum(1.0, MAX_RELATIVE_STEP / np.where(largest > 0, largest, 1.0))
             new = x[active] - scale * step
             ok &= np.all(np.isfinite(new), axis=-1)
             active = active[ok]
@@ -305,6 +320,27 @@ def solve_inverse(
         jac.reshape(slots, *batch, n_given, n_unknowns),
         deficient.reshape(slots, *batch),
     )
+
+
+def start_grid(start: tuple[float, ...], factors: tuple[float, ...], model, mode_index: tuple[int, ...]):
+    """A 'closed form' for a numeric inverse: candidate roots for solve_inverse to polish, each unknown of
+    shape (len(factors)**n, B) for flat rows.
+
+    The unknowns are stiffnesses and M does not depend on them, so every squared frequency is homogeneous of
+    degree 1 in them: the nominal ``start`` is first scaled, per row, by the geometric mean of given /
+    predicted squared frequencies (which fixes the overall level exactly), then multiplied by every
+    combination of ``factors`` (which spreads the ratios between the unknowns)."""
+    grid = np.array(list(itertools.product(factors, repeat=len(start)))) * np.array(start)  # (n_roots, n)
+
+    def roots(*args):
+        known, lam = args[: -len(mode_index)], np.stack(args[-len(mode_index) :], axis=-1)
+        rows = lam.shape[0]
+        with np.errstate(all="ignore"):
+            at_start = model(known, np.broadcast_to(np.array(start, float), (rows, len(start))), False)[0]
+            level = np.exp(np.mean(np.log(lam / at_start[:, list(mode_index)]), axis=-1))  # (B,)
+        return tuple(grid[:, j, None] * level[None, :] for j in range(len(start)))
+
+    return roots
 
 
 def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:

@@ -16,6 +16,7 @@ import sympy as sp
 from mountid.codegen.printing import code, describe, eliminate, fused
 from mountid.description import COORDINATES, Description
 from mountid.effects import EFFECTS
+from mountid.errors import DescriptionError
 from mountid.symbolic.blocks import ModalStructure
 from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
 from mountid.symbolic.inverse import InverseDerivation, InverseSet
@@ -344,11 +345,14 @@ def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: 
         cs = [next(outs) for _ in f.all_coeffs()]
         root_calls.append(f"_runtime.polynomial_roots({', '.join(cs)})")
     body.append(f"{s.last} = numpy.concatenate([{', '.join(root_calls)}])")
-    if s.back_substitution:
-        back = eliminate([e.subs(lam_subs) for _, e in s.back_substitution], start=len(cse.lines))
+    # one cse per back-substitution, in order: each may use the unknowns assigned before it, so a joint cse
+    # could hoist a subexpression above the assignment of an unknown it contains
+    start = len(cse.lines)
+    for u, e in s.back_substitution:
+        back = eliminate([e.subs(lam_subs)], start=start)
         body += [f"{lhs} = {rhs}" for lhs, rhs in back.lines]
-        for (u, _), out in zip(s.back_substitution, back.outputs, strict=True):
-            body.append(f"{u} = numpy.broadcast_to({out}, {s.last}.shape)")
+        body.append(f"{u} = numpy.broadcast_to({back.outputs[0]}, {s.last}.shape)")
+        start += len(back.lines)
     # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
     return Function(
         name,
@@ -360,7 +364,45 @@ def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: 
     )
 
 
+START_FACTORS = (0.1, 1.0, 10.0)
+"""Starts of a numeric inverse: every combination of the (level-matched) nominal unknowns times these
+factors (runtime.start_grid)."""
+
+
+def _numeric_inverse_function(
+    s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
+) -> Function:
+    """identify_<set> for a set the frequencies determine but with no closed form of manageable size:
+    Newton (runtime.eigen_newton) from a grid of starts around the nominal unknowns, then the same
+    admissibility, deduplication and conditioning as a closed-form inverse."""
+    d = model.description
+    omegas = tuple(f"omega_{label}" for label in s.labels)
+    known = tuple(a for a in fwd_args if a not in d.unknown)
+    start = tuple(d.parameters[u].value for u in d.unknown)
+    for u, v in zip(d.unknown, start, strict=True):
+        if v is None:
+            raise DescriptionError(f"parameters.{u}.value", f"needed as the start of the numeric inverse {s.name}")
+    n_roots = len(START_FACTORS) ** len(d.unknown)
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    call = (
+        f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {START_FACTORS!r}, _model, {mode_index!r}), _model, "
+        f"({', '.join(known)},), "
+        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, n_roots={n_roots})"
+    )
+    doc = (
+        f"Unknowns {', '.join(d.unknown)} from the natural frequencies {', '.join(omegas)} [rad/s], numerically.\n\n"
+        f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
+        "    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given\n"
+        f"    frequencies, times every combination of {START_FACTORS} ({n_roots} starts). A root outside all\n"
+        "    their basins (unknowns in ratios far from the nominal ones) is missed.\n"
+        "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
+    )
+    return Function(f"identify_{s.name}", known + omegas, doc, [], call)
+
+
 def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
+    if s.numeric:
+        return [_numeric_inverse_function(s, structure, model, fwd_args)]
     d = model.description
     omegas = tuple(f"omega_{label}" for label in s.labels)
     known = tuple(a for a in fwd_args if a not in d.unknown)
@@ -475,7 +517,12 @@ def module_context(
         "mode_rank": tuple(m.rank for m in structure.modes),
         "forward_args": fwd_args,
         "functions": functions,
-        "inverses": [(s.labels, f"identify_{s.name}", s.n_roots) for s in inverse_sets if s.identifiable],
+        "inverses": [
+            (s.labels, f"identify_{s.name}", len(START_FACTORS) ** len(description.unknown) if s.numeric else s.n_roots)
+            for s in inverse_sets
+            if s.identifiable
+        ],
+        "numeric_inverses": [(s.labels, s.reason) for s in inverse_sets if s.numeric],
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
         "special_points": derivation.special_points(),

@@ -59,6 +59,9 @@ class InverseSet:
     """(unknown, expression in knowns, lambdas and later unknowns), in the order to evaluate."""
     special: tuple[tuple[str, InverseSet], ...] = ()
     """(known parameter set to 0, the solution specialised there) where the general solution is 0/0."""
+    numeric: bool = False
+    """The set determines the unknowns (full rank) but has no closed form of manageable size (``reason``
+    says why): it is solved numerically at run time, by Newton from a grid of starts."""
 
     @property
     def name(self) -> str:
@@ -123,6 +126,23 @@ def _irreducible_quadratic(poly: sp.Poly) -> bool:
     return not (sp.sqrt(p).is_Integer and sp.sqrt(q).is_Integer)
 
 
+MAX_TERMS = 400
+"""Largest polynomial (in terms) the elimination carries on with; beyond it a set is solved numerically.
+A size bound, not a time limit, so generation stays byte-for-byte reproducible on any machine."""
+
+MAX_SUBSTITUTION = 20_000
+"""Largest estimated size (terms of an equation times the terms of the substituted solution to the power of
+its degree) of one substitution before it is expanded."""
+
+
+FACTOR_TERMS = 60
+"""Largest equation whose linear solution is factored when choosing the next elimination step."""
+
+
+def _terms(expr: sp.Expr) -> int:
+    return len(sp.Add.make_args(expr))
+
+
 def lambda_symbol(label: str) -> sp.Symbol:
     """Symbol of a squared natural frequency omega_label^2 [rad^2/s^2]."""
     return sp.Symbol(f"lambda_{label}", positive=True)
@@ -136,6 +156,7 @@ class InverseDerivation:
         self.model = structure.model
         self.unknowns = tuple(self.model.symbols[n] for n in self.model.description.unknown)
         self._point = self._generic_point(seed)
+        self._linear: dict[tuple[sp.Expr, sp.Symbol], tuple | None] = {}
 
     def _generic_point(self, seed: int) -> dict[sp.Symbol, sp.Rational]:
         rng = random.Random(seed)
@@ -239,6 +260,12 @@ class InverseDerivation:
                 f"these frequencies fix only {rank} independent combination(s) of the {n} unknowns ({names}); "
                 f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined",
             )
+        if any(self.structure.blocks[self.structure.mode(lab).block].size > 2 for lab in labels):
+            # the roots of a cubic block come out of a companion matrix either way: Newton on the forward
+            # map is as good, and eliminating through cubic characteristic polynomials costs seconds per set
+            return InverseSet(
+                labels, True, "a 3x3 block, no closed form generated (solved numerically)", tuple(lams), numeric=True
+            )
         # Transcendental known quantities (sin(alpha), ...) become plain symbols for the algebra:
         # elimination and factoring over a coefficient field with trigonometric functions are very slow.
         atoms = sorted(
@@ -249,7 +276,7 @@ class InverseDerivation:
         reveal = {v: k for k, v in hide.items()}
         eqs_algebraic = [e.subs(hide) for e in eqs]
         result = self._solve(labels, eqs_algebraic, lams)
-        if not result.identifiable:
+        if not result.identifiable or result.numeric:
             return result
         general = InverseSet(
             labels,
@@ -302,7 +329,9 @@ class InverseDerivation:
                         best = (score, result)
             if best is not None:
                 return best[1]
-        return InverseSet(labels, False, "no triangular form found (not generated)")
+        return InverseSet(
+            labels, True, "no closed form of manageable size (solved numerically)", tuple(lams), numeric=True
+        )
 
     def _eliminate(
         self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol], keep: sp.Symbol
@@ -317,11 +346,10 @@ class InverseDerivation:
                 for u in unknowns:
                     if u == keep:
                         continue
-                    poly = sp.Poly(e, u)
-                    if poly.degree() == 1:
-                        a1, a0 = poly.all_coeffs()
-                        sol = sp.factor(-a0 / a1)
-                        options.append((_cancellation_score(sol), unknowns.index(u), k, u, sol))
+                    linear = self._linear_solution(e, u)
+                    if linear is not None:
+                        score, sol = linear
+                        options.append((score, unknowns.index(u), k, u, sol))
             if not options:
                 return InverseSet(labels, False, "no equation is linear in a remaining unknown (not generated)")
             _, _, k, u, sol = min(options, key=lambda o: (o[0], -o[1], o[2]))
@@ -329,8 +357,14 @@ class InverseDerivation:
             unknowns.remove(u)
             rest = [system[j] for j in range(len(system)) if j != k]
             system = []
+            num_sol, den_sol = sp.fraction(sol)
+            width = _terms(sp.expand(num_sol)) + _terms(sp.expand(den_sol))
             for e in rest:
+                if _terms(e) * width ** sp.Poly(e, u).degree() > MAX_SUBSTITUTION:
+                    return InverseSet(labels, False, f"eliminating {u} would swell past {MAX_SUBSTITUTION} terms")
                 num = sp.expand(sp.numer(sp.together(e.subs(u, sol))))
+                if _terms(num) > MAX_TERMS:
+                    return InverseSet(labels, False, f"eliminating {u} leaves an equation of {_terms(num)} terms")
                 if num != 0:
                     system.append(num)
         last = unknowns[0]
@@ -341,6 +375,26 @@ class InverseDerivation:
         factors = _factors_in(sp.Poly(univariate, last))
         back = [(str(u), sol) for u, sol in reversed(steps)]
         return InverseSet(labels, True, "", tuple(lams), tuple(eqs), str(last), tuple(factors), tuple(back))
+
+    def _linear_solution(self, e: sp.Expr, u: sp.Symbol) -> tuple[tuple[int, int, int], sp.Expr] | None:
+        """(score, factored solution) of an equation linear in ``u``, None otherwise; memoised, since every
+        choice of the last unknown in _solve starts from the same system."""
+        key = (e, u)
+        if key not in self._linear:
+            by_power: dict[int, list[sp.Expr]] = {}
+            for term in sp.Add.make_args(e):  # e is expanded: each term is a monomial times coefficients
+                power = term.as_powers_dict().get(u, 0)
+                by_power.setdefault(int(power), []).append(term)
+            if set(by_power) in ({1}, {0, 1}):
+                a1 = sp.Add(*by_power[1]) / u
+                a0 = sp.Add(*by_power.get(0, []))
+                # factoring finds the form with the fewest subtractions; on a large equation it costs seconds
+                # and the set is on its way to the size limit anyway
+                sol = sp.factor(-a0 / a1) if _terms(e) <= FACTOR_TERMS else -a0 / a1
+                self._linear[key] = (_cancellation_score(sol), sol)
+            else:
+                self._linear[key] = None
+        return self._linear[key]
 
     def candidates(self) -> list[tuple[str, ...]]:
         """Every set of distinct frequencies as large as the number of unknowns (empty when the blocks are
