@@ -57,6 +57,7 @@ ARGUMENTS = {
     "stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v"),
     "identify_x_y_z_psi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_psi"),
     "identify_x_y_z_theta": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_theta"),
     "identify_x_y_z_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_phi"),
@@ -254,6 +255,317 @@ def squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c
     _runtime.fused('(4*c_v1*cos(gamma)**2 + 4*c_v2 + 4*c_y*sin(gamma)**2)/m', _v, _out[2, ...])
     _runtime.fused('(4*a1**2*c_v1*sin(gamma)**2 + 4*a1**2*c_y*cos(gamma)**2 + 4*a2**2*c_y + 8*b**2*c_x)/J_z', _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
+
+
+def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v):
+    """Derivatives of M, C, B with respect to every parameter they depend on, shape
+    (..., 15, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),
+    differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dB/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dB/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dB/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dB/dJ_z:
+        dM/da1:
+        dC/da1:
+          [theta, theta] = 8*a1*c_v1*cos(gamma)**2 + 8*a1*c_y*sin(gamma)**2
+          [phi, phi] = 8*a1*c_v1*sin(gamma)**2 + 8*a1*c_y*cos(gamma)**2
+        dB/da1:
+          [theta, theta] = 8*a1*b_h*sin(gamma)**2 + 8*a1*b_v*cos(gamma)**2
+          [phi, phi] = 8*a1*b_h*cos(gamma)**2 + 8*a1*b_v*sin(gamma)**2
+        dM/da2:
+        dC/da2:
+          [theta, theta] = 8*a2*c_v2
+          [phi, phi] = 8*a2*c_y
+        dB/da2:
+          [theta, theta] = 8*a2*b_v
+          [phi, phi] = 8*a2*b_h
+        dM/db:
+        dC/db:
+          [y, psi] = -4*c_v1*cos(gamma)*sin(gamma) + 4*c_y*cos(gamma)*sin(gamma)
+          [psi, psi] = 8*b*c_v2 + 8*b*c_v1*cos(gamma)**2 + 8*b*c_y*sin(gamma)**2 - 8*c_v1*h*cos(gamma)*sin(gamma) + 8*c_y*h*cos(gamma)*sin(gamma)
+          [phi, phi] = 16*b*c_x
+        dB/db:
+          [y, psi] = -4*b_v*cos(gamma)*sin(gamma) + 4*b_h*cos(gamma)*sin(gamma)
+          [psi, psi] = 8*b*b_v + 8*b*b_h*sin(gamma)**2 + 8*b*b_v*cos(gamma)**2 - 8*b_v*h*cos(gamma)*sin(gamma) + 8*b_h*h*cos(gamma)*sin(gamma)
+          [phi, phi] = 16*b*b_h
+        dM/dh:
+        dC/dh:
+          [x, theta] = -8*c_x
+          [y, psi] = 4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2
+          [psi, psi] = 8*c_y*h + 8*c_v1*h*sin(gamma)**2 + 8*c_y*h*cos(gamma)**2 - 8*b*c_v1*cos(gamma)*sin(gamma) + 8*b*c_y*cos(gamma)*sin(gamma)
+          [theta, theta] = 16*c_x*h
+        dB/dh:
+          [x, theta] = -8*b_h
+          [y, psi] = 4*b_h + 4*b_h*cos(gamma)**2 + 4*b_v*sin(gamma)**2
+          [psi, psi] = 8*b_h*h + 8*b_h*h*cos(gamma)**2 + 8*b_v*h*sin(gamma)**2 - 8*b*b_v*cos(gamma)*sin(gamma) + 8*b*b_h*cos(gamma)*sin(gamma)
+          [theta, theta] = 16*b_h*h
+        dM/dgamma:
+        dC/dgamma:
+          [y, y] = -8*c_y*cos(gamma)*sin(gamma) + 8*c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = -4*b*c_v1*cos(gamma)**2 - 4*b*c_y*sin(gamma)**2 + 4*b*c_v1*sin(gamma)**2 + 4*b*c_y*cos(gamma)**2 - 8*c_y*h*cos(gamma)*sin(gamma) + 8*c_v1*h*cos(gamma)*sin(gamma)
+          [z, z] = -8*c_v1*cos(gamma)*sin(gamma) + 8*c_y*cos(gamma)*sin(gamma)
+          [psi, psi] = -8*b*c_v1*h*cos(gamma)**2 - 8*b*c_y*h*sin(gamma)**2 - 8*c_v1*b**2*cos(gamma)*sin(gamma) - 8*c_y*h**2*cos(gamma)*sin(gamma) + 8*b*c_v1*h*sin(gamma)**2 + 8*b*c_y*h*cos(gamma)**2 + 8*c_v1*h**2*cos(gamma)*sin(gamma) + 8*c_y*b**2*cos(gamma)*sin(gamma)
+          [theta, theta] = -8*c_v1*a1**2*cos(gamma)*sin(gamma) + 8*c_y*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = -8*c_y*a1**2*cos(gamma)*sin(gamma) + 8*c_v1*a1**2*cos(gamma)*sin(gamma)
+        dB/dgamma:
+          [y, y] = -8*b_h*cos(gamma)*sin(gamma) + 8*b_v*cos(gamma)*sin(gamma)
+          [y, psi] = -4*b*b_h*sin(gamma)**2 - 4*b*b_v*cos(gamma)**2 + 4*b*b_h*cos(gamma)**2 + 4*b*b_v*sin(gamma)**2 - 8*b_h*h*cos(gamma)*sin(gamma) + 8*b_v*h*cos(gamma)*sin(gamma)
+          [z, z] = -8*b_v*cos(gamma)*sin(gamma) + 8*b_h*cos(gamma)*sin(gamma)
+          [psi, psi] = -8*b*b_h*h*sin(gamma)**2 - 8*b*b_v*h*cos(gamma)**2 - 8*b_h*h**2*cos(gamma)*sin(gamma) - 8*b_v*b**2*cos(gamma)*sin(gamma) + 8*b*b_h*h*cos(gamma)**2 + 8*b*b_v*h*sin(gamma)**2 + 8*b_h*b**2*cos(gamma)*sin(gamma) + 8*b_v*h**2*cos(gamma)*sin(gamma)
+          [theta, theta] = -8*b_v*a1**2*cos(gamma)*sin(gamma) + 8*b_h*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = -8*b_h*a1**2*cos(gamma)*sin(gamma) + 8*b_v*a1**2*cos(gamma)*sin(gamma)
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v)
+    _tmp0 = 8*a1
+    _tmp1 = numpy.cos(gamma)
+    _tmp2 = _tmp1**2
+    _tmp3 = _tmp2*c_v1
+    _tmp4 = numpy.sin(gamma)
+    _tmp5 = _tmp4**2
+    _tmp6 = _tmp0*_tmp5
+    _tmp7 = _tmp0*_tmp2
+    _tmp8 = 8*b_h
+    _tmp9 = _tmp8*a1
+    _tmp10 = 8*a2
+    _tmp11 = _tmp1*_tmp4
+    _tmp12 = 4*_tmp11
+    _tmp13 = 8*b
+    _tmp14 = _tmp13*c_y
+    _tmp15 = 8*h
+    _tmp16 = _tmp11*_tmp15
+    _tmp17 = _tmp16*c_v1
+    _tmp18 = _tmp15*c_y
+    _tmp19 = _tmp11*_tmp18
+    _tmp20 = 16*b
+    _tmp21 = 4*b_h
+    _tmp22 = _tmp13*b_v
+    _tmp23 = _tmp5*b
+    _tmp24 = _tmp8*h
+    _tmp25 = _tmp11*_tmp24 - _tmp16*b_v
+    _tmp26 = 4*c_y
+    _tmp27 = 4*_tmp5
+    _tmp28 = _tmp27*c_v1
+    _tmp29 = _tmp2*_tmp26
+    _tmp30 = _tmp15*_tmp5
+    _tmp31 = _tmp11*c_v1
+    _tmp32 = 16*h
+    _tmp33 = _tmp2*_tmp24
+    _tmp34 = _tmp11*_tmp8
+    _tmp35 = 8*_tmp11
+    _tmp36 = _tmp35*c_v1
+    _tmp37 = -_tmp35*c_y + _tmp36
+    _tmp38 = 4*_tmp2
+    _tmp39 = _tmp38*b
+    _tmp40 = _tmp15*b
+    _tmp41 = b**2
+    _tmp42 = 8*_tmp41
+    _tmp43 = h**2
+    _tmp44 = 8*_tmp43
+    _tmp45 = a1**2
+    _tmp46 = -8*_tmp1*_tmp4*_tmp45*c_y + _tmp36*_tmp45
+    _tmp47 = -8*_tmp1*_tmp4*b_v + _tmp34
+    _tmp48 = _tmp11*b_v
+    _tmp49 = _tmp34*_tmp45 - _tmp35*_tmp45*b_v
+    _tmp50 = -_tmp15
+    _tmp51 = _tmp38 + 4
+    _tmp52 = _tmp12*b
+    _tmp53 = _tmp38*h + _tmp52 + 4*h
+    _tmp54 = _tmp16*b
+    _tmp55 = _tmp27*_tmp41 + _tmp38*_tmp43 + 4*_tmp43 + _tmp54
+    _tmp56 = _tmp27*_tmp45
+    _tmp57 = 4*a2**2
+    _tmp58 = _tmp38*_tmp45
+    _tmp59 = _tmp57 + _tmp58
+    _tmp60 = 4*_tmp5*h - _tmp52
+    _tmp61 = _tmp27*_tmp43 + _tmp38*_tmp41 - _tmp54
+    _tmp62 = 4*_tmp41
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*_tmp3 + _tmp6*c_y, (5, 5): _tmp6*c_v1 + _tmp7*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp5*_tmp9 + _tmp7*b_v, (5, 5): _tmp2*_tmp9 + _tmp6*b_v}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10*c_v2, (5, 5): _tmp10*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10*b_v, (5, 5): _tmp8*a2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 3): 4*_tmp1*_tmp4*c_y - _tmp12*c_v1, (3, 3): _tmp13*_tmp3 + _tmp13*c_v2 + _tmp14*_tmp5 - _tmp17 + _tmp19, (5, 5): _tmp20*c_x}), _runtime.stack_matrix(_shape, 6, {(1, 3): _tmp11*_tmp21 - _tmp12*b_v, (3, 3): _tmp2*_tmp22 + _tmp22 + _tmp23*_tmp8 + _tmp25, (5, 5): _tmp20*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -8*c_x, (1, 3): _tmp26 + _tmp28 + _tmp29, (3, 3): _tmp11*_tmp14 - _tmp13*_tmp31 + _tmp18*_tmp2 + _tmp18 + _tmp30*c_v1, (4, 4): _tmp32*c_x}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp8, (1, 3): _tmp2*_tmp21 + _tmp21 + _tmp27*b_v, (3, 3): -_tmp11*_tmp22 + _tmp24 + _tmp30*b_v + _tmp33 + _tmp34*b, (4, 4): _tmp32*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp37, (1, 3): _tmp17 - _tmp19 - _tmp23*_tmp26 + _tmp28*b + _tmp29*b - _tmp39*c_v1, (2, 2): -_tmp37, (3, 3): 8*_tmp1*_tmp4*_tmp41*c_y + 8*_tmp1*_tmp4*_tmp43*c_v1 - _tmp11*_tmp44*c_y - _tmp18*_tmp23 + 8*_tmp2*b*c_y*h - _tmp3*_tmp40 - _tmp31*_tmp42 + 8*_tmp5*b*c_v1*h, (4, 4): -_tmp46, (5, 5): _tmp46}), _runtime.stack_matrix(_shape, 6, {(1, 1): -_tmp47, (1, 3): 4*_tmp2*b*b_h - _tmp21*_tmp23 - _tmp25 - _tmp39*b_v + 4*_tmp5*b*b_v, (2, 2): _tmp47, (3, 3): _tmp15*_tmp23*b_v - _tmp2*_tmp40*b_v - _tmp23*_tmp24 + _tmp33*b + _tmp34*_tmp41 - _tmp34*_tmp43 - _tmp42*_tmp48 + _tmp44*_tmp48, (4, 4): _tmp49, (5, 5): -_tmp49}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (4, 4): _tmp44, (5, 5): _tmp42}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp56, (5, 5): _tmp59}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp38, (3, 3): _tmp61, (4, 4): _tmp58, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp62, (4, 4): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp44 + _tmp56, (5, 5): _tmp42 + _tmp59}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp51, (3, 3): _tmp61 + _tmp62, (4, 4): _tmp59, (5, 5): _tmp56})], axis=-3).reshape(*_shape, 15, 3, 6, 6)
+
+
+def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
+    """dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dM/da1:
+        dC/da1:
+          [theta, theta] = 8*a1*c_v1*cos(gamma)**2 + 8*a1*c_y*sin(gamma)**2
+          [phi, phi] = 8*a1*c_v1*sin(gamma)**2 + 8*a1*c_y*cos(gamma)**2
+        dM/da2:
+        dC/da2:
+          [theta, theta] = 8*a2*c_v2
+          [phi, phi] = 8*a2*c_y
+        dM/db:
+        dC/db:
+          [y, psi] = -4*c_v1*cos(gamma)*sin(gamma) + 4*c_y*cos(gamma)*sin(gamma)
+          [psi, psi] = 8*b*c_v2 + 8*b*c_v1*cos(gamma)**2 + 8*b*c_y*sin(gamma)**2 - 8*c_v1*h*cos(gamma)*sin(gamma) + 8*c_y*h*cos(gamma)*sin(gamma)
+          [phi, phi] = 16*b*c_x
+        dM/dh:
+        dC/dh:
+          [x, theta] = -8*c_x
+          [y, psi] = 4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2
+          [psi, psi] = 8*c_y*h + 8*c_v1*h*sin(gamma)**2 + 8*c_y*h*cos(gamma)**2 - 8*b*c_v1*cos(gamma)*sin(gamma) + 8*b*c_y*cos(gamma)*sin(gamma)
+          [theta, theta] = 16*c_x*h
+        dM/dgamma:
+        dC/dgamma:
+          [y, y] = -8*c_y*cos(gamma)*sin(gamma) + 8*c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = -4*b*c_v1*cos(gamma)**2 - 4*b*c_y*sin(gamma)**2 + 4*b*c_v1*sin(gamma)**2 + 4*b*c_y*cos(gamma)**2 - 8*c_y*h*cos(gamma)*sin(gamma) + 8*c_v1*h*cos(gamma)*sin(gamma)
+          [z, z] = -8*c_v1*cos(gamma)*sin(gamma) + 8*c_y*cos(gamma)*sin(gamma)
+          [psi, psi] = -8*b*c_v1*h*cos(gamma)**2 - 8*b*c_y*h*sin(gamma)**2 - 8*c_v1*b**2*cos(gamma)*sin(gamma) - 8*c_y*h**2*cos(gamma)*sin(gamma) + 8*b*c_v1*h*sin(gamma)**2 + 8*b*c_y*h*cos(gamma)**2 + 8*c_v1*h**2*cos(gamma)*sin(gamma) + 8*c_y*b**2*cos(gamma)*sin(gamma)
+          [theta, theta] = -8*c_v1*a1**2*cos(gamma)*sin(gamma) + 8*c_y*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = -8*c_y*a1**2*cos(gamma)*sin(gamma) + 8*c_v1*a1**2*cos(gamma)*sin(gamma)
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _tmp0 = 8*a1
+    _tmp1 = numpy.cos(gamma)
+    _tmp2 = _tmp1**2
+    _tmp3 = _tmp2*c_v1
+    _tmp4 = numpy.sin(gamma)
+    _tmp5 = _tmp4**2
+    _tmp6 = _tmp0*_tmp5
+    _tmp7 = 8*a2
+    _tmp8 = _tmp1*_tmp4
+    _tmp9 = _tmp8*c_v1
+    _tmp10 = 8*b
+    _tmp11 = _tmp10*c_y
+    _tmp12 = 8*h
+    _tmp13 = _tmp12*_tmp9
+    _tmp14 = _tmp12*c_y
+    _tmp15 = _tmp14*_tmp8
+    _tmp16 = 16*c_x
+    _tmp17 = 4*c_y
+    _tmp18 = 4*_tmp5
+    _tmp19 = _tmp18*c_v1
+    _tmp20 = _tmp17*_tmp2
+    _tmp21 = 8*_tmp9
+    _tmp22 = _tmp8*c_y
+    _tmp23 = _tmp21 - 8*_tmp22
+    _tmp24 = 4*_tmp2
+    _tmp25 = _tmp5*b
+    _tmp26 = b**2
+    _tmp27 = 8*_tmp26
+    _tmp28 = h**2
+    _tmp29 = 8*_tmp28
+    _tmp30 = a1**2
+    _tmp31 = -8*_tmp1*_tmp30*_tmp4*c_y + _tmp21*_tmp30
+    _tmp32 = _tmp8*b
+    _tmp33 = 4*_tmp32
+    _tmp34 = _tmp12*_tmp32
+    _tmp35 = _tmp18*_tmp30
+    _tmp36 = 4*a2**2
+    _tmp37 = _tmp24*_tmp30
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*_tmp3 + _tmp6*c_y, (5, 5): _tmp0*_tmp2*c_y + _tmp6*c_v1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp7*c_v2, (5, 5): _tmp7*c_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 3): 4*_tmp1*_tmp4*c_y - 4*_tmp9, (3, 3): _tmp10*_tmp3 + _tmp10*c_v2 + _tmp11*_tmp5 - _tmp13 + _tmp15, (5, 5): _tmp16*b}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -8*c_x, (1, 3): _tmp17 + _tmp19 + _tmp20, (3, 3): -_tmp10*_tmp9 + _tmp11*_tmp8 + _tmp12*_tmp5*c_v1 + _tmp14*_tmp2 + _tmp14, (4, 4): _tmp16*h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp23, (1, 3): _tmp13 - _tmp15 - _tmp17*_tmp25 + _tmp19*b + _tmp20*b - _tmp24*b*c_v1, (2, 2): -_tmp23, (3, 3): 8*_tmp1*_tmp26*_tmp4*c_y + 8*_tmp1*_tmp28*_tmp4*c_v1 - _tmp12*_tmp3*b - _tmp14*_tmp25 + 8*_tmp2*b*c_y*h - _tmp22*_tmp29 - _tmp27*_tmp9 + 8*_tmp5*b*c_v1*h, (4, 4): -_tmp31, (5, 5): _tmp31}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp12, (4, 4): _tmp29, (5, 5): _tmp27}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp24 + 4, (1, 3): _tmp24*h + _tmp33 + 4*h, (2, 2): _tmp18, (3, 3): _tmp18*_tmp26 + _tmp24*_tmp28 + 4*_tmp28 + _tmp34, (4, 4): _tmp35, (5, 5): _tmp36 + _tmp37}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp18, (1, 3): -_tmp33 + 4*_tmp5*h, (2, 2): _tmp24, (3, 3): _tmp18*_tmp28 + _tmp24*_tmp26 - _tmp34, (4, 4): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp26, (4, 4): _tmp36})], axis=-3).reshape(*_shape, 13, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -1353,6 +1665,20 @@ def modal_matrix(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     return _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
 
 
+def squared_frequency_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
+    """d lambda_k / d p [rad^2/s^2 per SI unit] for every p in FORWARD_ARGUMENTS, shape (..., 13, 6):
+    lambda_k' = phi_k^T (C' - lambda_k M') phi_k with mass-normalised modes and M', C' differentiated by sympy
+    (mountid.runtime.eigenvalue_derivatives). Modes repeated by symmetry stay in their own blocks, so the
+    formula holds for them too.
+    """
+    _lam = squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _M = mass_matrix(m, J_x, J_y, J_z)
+    _C = stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _phi = _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _d = _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    return _runtime.eigenvalue_derivatives(_d[..., 0, :, :], _d[..., 1, :, :], _phi, _lam)
+
+
 def kinetic_energy_distribution(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     """Share of each mode's kinetic energy per coordinate, shape (..., 6, 6); columns sum to 1."""
     _phi = modal_matrix(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
@@ -1415,6 +1741,8 @@ UNIDENTIFIABLE = {
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v")
+"""Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h", "gamma")
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

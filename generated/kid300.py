@@ -51,6 +51,7 @@ ARGUMENTS = {
     "stiffness_gradient": ("L_xy", "L_z"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z"),
+    "matrix_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z"),
     "identify_x_z": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_z"),
     "identify_x_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_psi"),
     "identify_x_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_phi"),
@@ -201,6 +202,157 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     _out[1] = _out[0]
     _out[4] = _out[3]
     return numpy.moveaxis(_out, 0, -1)
+
+
+def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
+    """Derivatives of M, C, B with respect to every parameter they depend on, shape
+    (..., 9, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),
+    differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dB/dm:
+        dM/dJ_xy:
+          [psi, psi] = 1
+          [theta, theta] = 1
+        dC/dJ_xy:
+        dB/dJ_xy:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dB/dJ_z:
+        dM/dL_xy:
+        dC/dL_xy:
+          [psi, psi] = 4*L_xy*c_z
+          [theta, theta] = 4*L_xy*c_z
+          [phi, phi] = 8*L_xy*c_xy
+        dB/dL_xy:
+          [psi, psi] = 4*L_xy*b_z
+          [theta, theta] = 4*L_xy*b_z
+          [phi, phi] = 8*L_xy*b_xy
+        dM/dL_z:
+        dC/dL_z:
+          [x, theta] = -4*c_xy
+          [y, psi] = 4*c_xy
+          [psi, psi] = 8*L_z*c_xy
+          [theta, theta] = 8*L_z*c_xy
+        dB/dL_z:
+          [x, theta] = -4*b_xy
+          [y, psi] = 4*b_xy
+          [psi, psi] = 8*L_z*b_xy
+          [theta, theta] = 8*L_z*b_xy
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
+    _tmp0 = 4*L_xy
+    _tmp1 = _tmp0*c_z
+    _tmp2 = 8*L_xy
+    _tmp3 = _tmp0*b_z
+    _tmp4 = 4*c_xy
+    _tmp5 = 8*L_z
+    _tmp6 = _tmp5*c_xy
+    _tmp7 = 4*b_xy
+    _tmp8 = _tmp5*b_xy
+    _tmp9 = 4*L_z
+    _tmp10 = -_tmp9
+    _tmp11 = 4*L_z**2
+    _tmp12 = L_xy**2
+    _tmp13 = 4*_tmp12
+    _tmp14 = 2*_tmp12
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2*c_xy}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp2*b_xy}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14})], axis=-3).reshape(*_shape, 9, 3, 6, 6)
+
+
+def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
+    """dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dM/dJ_xy:
+          [psi, psi] = 1
+          [theta, theta] = 1
+        dC/dJ_xy:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dM/dL_xy:
+        dC/dL_xy:
+          [psi, psi] = 4*L_xy*c_z
+          [theta, theta] = 4*L_xy*c_z
+          [phi, phi] = 8*L_xy*c_xy
+        dM/dL_z:
+        dC/dL_z:
+          [x, theta] = -4*c_xy
+          [y, psi] = 4*c_xy
+          [psi, psi] = 8*L_z*c_xy
+          [theta, theta] = 8*L_z*c_xy
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    _tmp0 = 4*L_xy*c_z
+    _tmp1 = 8*c_xy
+    _tmp2 = 4*c_xy
+    _tmp3 = L_z*_tmp1
+    _tmp4 = 4*L_z
+    _tmp5 = 4*L_z**2
+    _tmp6 = L_xy**2
+    _tmp7 = 2*_tmp6
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): L_xy*_tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp2, (1, 3): _tmp2, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp4, (1, 1): 4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): 4*_tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp7, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 7, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -803,6 +955,20 @@ def modal_matrix(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     return _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
 
 
+def squared_frequency_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
+    """d lambda_k / d p [rad^2/s^2 per SI unit] for every p in FORWARD_ARGUMENTS, shape (..., 7, 6):
+    lambda_k' = phi_k^T (C' - lambda_k M') phi_k with mass-normalised modes and M', C' differentiated by sympy
+    (mountid.runtime.eigenvalue_derivatives). Modes repeated by symmetry stay in their own blocks, so the
+    formula holds for them too.
+    """
+    _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    _M = mass_matrix(m, J_xy, J_z)
+    _C = stiffness_matrix(L_xy, L_z, c_xy, c_z)
+    _phi = _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _d = _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    return _runtime.eigenvalue_derivatives(_d[..., 0, :, :], _d[..., 1, :, :], _phi, _lam)
+
+
 def kinetic_energy_distribution(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     """Share of each mode's kinetic energy per coordinate, shape (..., 6, 6); columns sum to 1."""
     _phi = modal_matrix(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
@@ -839,6 +1005,8 @@ TWIN_COORDINATES = (
 )
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+DERIVATIVE_PARAMETERS = ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z")
+"""Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("L_z",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

@@ -55,6 +55,7 @@ ARGUMENTS = {
     "stiffness_gradient": ("a", "b", "h"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z"),
+    "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_psi"),
     "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_theta"),
@@ -220,6 +221,173 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     _runtime.fused('4*c_z/m', _v, _out[2, ...])
     _runtime.fused('(4*a**2*c_y + 4*b**2*c_x)/J_z', _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
+
+
+def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
+    """Derivatives of M, C, B with respect to every parameter they depend on, shape
+    (..., 13, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),
+    differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dB/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dB/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dB/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dB/dJ_z:
+        dM/da:
+        dC/da:
+          [theta, theta] = 8*a*c_z
+          [phi, phi] = 8*a*c_y
+        dB/da:
+          [theta, theta] = 8*a*b_z
+          [phi, phi] = 8*a*b_y
+        dM/db:
+        dC/db:
+          [psi, psi] = 8*b*c_z
+          [phi, phi] = 8*b*c_x
+        dB/db:
+          [psi, psi] = 8*b*b_z
+          [phi, phi] = 8*b*b_x
+        dM/dh:
+        dC/dh:
+          [x, theta] = -4*c_x
+          [y, psi] = 4*c_y
+          [psi, psi] = 8*c_y*h
+          [theta, theta] = 8*c_x*h
+        dB/dh:
+          [x, theta] = -4*b_x
+          [y, psi] = 4*b_y
+          [psi, psi] = 8*b_y*h
+          [theta, theta] = 8*b_x*h
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z)
+    _tmp0 = 8*a
+    _tmp1 = 8*b
+    _tmp2 = 8*h
+    _tmp3 = 4*h
+    _tmp4 = -_tmp3
+    _tmp5 = 4*h**2
+    _tmp6 = 4*b**2
+    _tmp7 = 4*a**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*c_z, (5, 5): _tmp0*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*b_z, (5, 5): _tmp0*b_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*c_z, (5, 5): _tmp1*c_x}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*b_z, (5, 5): _tmp1*b_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*c_x, (1, 3): 4*c_y, (3, 3): _tmp2*c_y, (4, 4): _tmp2*c_x}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*b_x, (1, 3): 4*b_y, (3, 3): _tmp2*b_y, (4, 4): _tmp2*b_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 13, 3, 6, 6)
+
+
+def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
+    """dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dM/da:
+        dC/da:
+          [theta, theta] = 8*a*c_z
+          [phi, phi] = 8*a*c_y
+        dM/db:
+        dC/db:
+          [psi, psi] = 8*b*c_z
+          [phi, phi] = 8*b*c_x
+        dM/dh:
+        dC/dh:
+          [x, theta] = -4*c_x
+          [y, psi] = 4*c_y
+          [psi, psi] = 8*c_y*h
+          [theta, theta] = 8*c_x*h
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    _tmp0 = 8*a
+    _tmp1 = 8*b
+    _tmp2 = 8*h
+    _tmp3 = 4*h
+    _tmp4 = 4*h**2
+    _tmp5 = 4*b**2
+    _tmp6 = 4*a**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*c_z, (5, 5): _tmp0*c_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*c_z, (5, 5): _tmp1*c_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*c_x, (1, 3): 4*c_y, (3, 3): _tmp2*c_y, (4, 4): _tmp2*c_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp3, (4, 4): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp4, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp6})], axis=-3).reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -1443,6 +1611,20 @@ def modal_matrix(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     return _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
 
 
+def squared_frequency_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
+    """d lambda_k / d p [rad^2/s^2 per SI unit] for every p in FORWARD_ARGUMENTS, shape (..., 10, 6):
+    lambda_k' = phi_k^T (C' - lambda_k M') phi_k with mass-normalised modes and M', C' differentiated by sympy
+    (mountid.runtime.eigenvalue_derivatives). Modes repeated by symmetry stay in their own blocks, so the
+    formula holds for them too.
+    """
+    _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    _M = mass_matrix(m, J_x, J_y, J_z)
+    _C = stiffness_matrix(a, b, h, c_x, c_y, c_z)
+    _phi = _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _d = _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    return _runtime.eigenvalue_derivatives(_d[..., 0, :, :], _d[..., 1, :, :], _phi, _lam)
+
+
 def kinetic_energy_distribution(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     """Share of each mode's kinetic energy per coordinate, shape (..., 6, 6); columns sum to 1."""
     _phi = modal_matrix(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
@@ -1502,6 +1684,8 @@ UNIDENTIFIABLE = {
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z")
+"""Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

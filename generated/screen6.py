@@ -56,6 +56,7 @@ ARGUMENTS = {
     "stiffness_gradient": ("a", "b", "h", "alpha"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_psi"),
     "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_theta"),
@@ -256,6 +257,295 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     _runtime.fused('(4*c_h*sin(alpha)**2 + 2*c_m + 4*c_v*cos(alpha)**2)/m', _v, _out[2, ...])
     _runtime.fused('(4*a**2*c_h + 4*b**2*c_h*cos(alpha)**2 + 2*b**2*c_h + 4*b**2*c_v*sin(alpha)**2)/J_z', _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
+
+
+def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m):
+    """Derivatives of M, C, B with respect to every parameter they depend on, shape
+    (..., 14, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),
+    differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dB/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dB/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dB/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dB/dJ_z:
+        dM/da:
+        dC/da:
+          [x, theta] = -4*c_v*cos(alpha)*sin(alpha) + 4*c_h*cos(alpha)*sin(alpha)
+          [theta, theta] = 8*a*c_h*sin(alpha)**2 + 8*a*c_v*cos(alpha)**2 - 8*c_h*h*cos(alpha)*sin(alpha) + 8*c_v*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 8*a*c_h
+        dB/da:
+          [x, theta] = -4*b_v*cos(alpha)*sin(alpha) + 4*b_h*cos(alpha)*sin(alpha)
+          [theta, theta] = 8*a*b_h*sin(alpha)**2 + 8*a*b_v*cos(alpha)**2 - 8*b_h*h*cos(alpha)*sin(alpha) + 8*b_v*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 8*a*b_h
+        dM/db:
+        dC/db:
+          [psi, psi] = 4*b*c_m + 8*b*c_h*sin(alpha)**2 + 8*b*c_v*cos(alpha)**2
+          [phi, phi] = 4*b*c_h + 8*b*c_h*cos(alpha)**2 + 8*b*c_v*sin(alpha)**2
+        dB/db:
+          [psi, psi] = 4*b*b_m + 8*b*b_h*sin(alpha)**2 + 8*b*b_v*cos(alpha)**2
+          [phi, phi] = 4*b*b_h + 8*b*b_h*cos(alpha)**2 + 8*b*b_v*sin(alpha)**2
+        dM/dh:
+        dC/dh:
+          [x, theta] = -2*c_h - 4*c_h*cos(alpha)**2 - 4*c_v*sin(alpha)**2
+          [y, psi] = 6*c_h
+          [psi, psi] = 12*c_h*h
+          [theta, theta] = 4*c_h*h + 8*c_h*h*cos(alpha)**2 + 8*c_v*h*sin(alpha)**2 - 8*a*c_h*cos(alpha)*sin(alpha) + 8*a*c_v*cos(alpha)*sin(alpha)
+        dB/dh:
+          [x, theta] = -2*b_h - 4*b_h*cos(alpha)**2 - 4*b_v*sin(alpha)**2
+          [y, psi] = 6*b_h
+          [psi, psi] = 12*b_h*h
+          [theta, theta] = 4*b_h*h + 8*b_h*h*cos(alpha)**2 + 8*b_v*h*sin(alpha)**2 - 8*a*b_h*cos(alpha)*sin(alpha) + 8*a*b_v*cos(alpha)*sin(alpha)
+        dM/dalpha:
+        dC/dalpha:
+          [x, x] = -8*c_h*cos(alpha)*sin(alpha) + 8*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -4*a*c_h*sin(alpha)**2 - 4*a*c_v*cos(alpha)**2 + 4*a*c_h*cos(alpha)**2 + 4*a*c_v*sin(alpha)**2 - 8*c_v*h*cos(alpha)*sin(alpha) + 8*c_h*h*cos(alpha)*sin(alpha)
+          [z, z] = -8*c_v*cos(alpha)*sin(alpha) + 8*c_h*cos(alpha)*sin(alpha)
+          [psi, psi] = -8*c_v*b**2*cos(alpha)*sin(alpha) + 8*c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = -8*a*c_h*h*cos(alpha)**2 - 8*a*c_v*h*sin(alpha)**2 - 8*c_h*h**2*cos(alpha)*sin(alpha) - 8*c_v*a**2*cos(alpha)*sin(alpha) + 8*a*c_h*h*sin(alpha)**2 + 8*a*c_v*h*cos(alpha)**2 + 8*c_h*a**2*cos(alpha)*sin(alpha) + 8*c_v*h**2*cos(alpha)*sin(alpha)
+          [phi, phi] = -8*c_h*b**2*cos(alpha)*sin(alpha) + 8*c_v*b**2*cos(alpha)*sin(alpha)
+        dB/dalpha:
+          [x, x] = -8*b_h*cos(alpha)*sin(alpha) + 8*b_v*cos(alpha)*sin(alpha)
+          [x, theta] = -4*a*b_h*sin(alpha)**2 - 4*a*b_v*cos(alpha)**2 + 4*a*b_h*cos(alpha)**2 + 4*a*b_v*sin(alpha)**2 - 8*b_v*h*cos(alpha)*sin(alpha) + 8*b_h*h*cos(alpha)*sin(alpha)
+          [z, z] = -8*b_v*cos(alpha)*sin(alpha) + 8*b_h*cos(alpha)*sin(alpha)
+          [psi, psi] = -8*b_v*b**2*cos(alpha)*sin(alpha) + 8*b_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = -8*a*b_h*h*cos(alpha)**2 - 8*a*b_v*h*sin(alpha)**2 - 8*b_h*h**2*cos(alpha)*sin(alpha) - 8*b_v*a**2*cos(alpha)*sin(alpha) + 8*a*b_h*h*sin(alpha)**2 + 8*a*b_v*h*cos(alpha)**2 + 8*b_h*a**2*cos(alpha)*sin(alpha) + 8*b_v*h**2*cos(alpha)*sin(alpha)
+          [phi, phi] = -8*b_h*b**2*cos(alpha)*sin(alpha) + 8*b_v*b**2*cos(alpha)*sin(alpha)
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = numpy.sin(alpha)
+    _tmp2 = _tmp0*_tmp1
+    _tmp3 = 4*_tmp2
+    _tmp4 = _tmp1**2
+    _tmp5 = 8*a
+    _tmp6 = _tmp5*c_h
+    _tmp7 = _tmp4*_tmp6
+    _tmp8 = _tmp0**2
+    _tmp9 = _tmp5*_tmp8
+    _tmp10 = _tmp9*c_v
+    _tmp11 = c_h*h
+    _tmp12 = 8*_tmp2
+    _tmp13 = 8*c_v
+    _tmp14 = _tmp13*_tmp2
+    _tmp15 = -_tmp11*_tmp12 + _tmp14*h
+    _tmp16 = _tmp5*b_h
+    _tmp17 = _tmp16*_tmp4
+    _tmp18 = _tmp9*b_v
+    _tmp19 = b_h*h
+    _tmp20 = 8*b_v
+    _tmp21 = _tmp2*_tmp20
+    _tmp22 = -_tmp12*_tmp19 + _tmp21*h
+    _tmp23 = 4*b
+    _tmp24 = 8*b
+    _tmp25 = _tmp24*c_h
+    _tmp26 = _tmp24*c_v
+    _tmp27 = _tmp24*b_h
+    _tmp28 = _tmp24*b_v
+    _tmp29 = 4*_tmp8
+    _tmp30 = 4*_tmp4
+    _tmp31 = 8*_tmp8
+    _tmp32 = _tmp4*h
+    _tmp33 = _tmp2*_tmp5
+    _tmp34 = _tmp12*c_h
+    _tmp35 = -8*_tmp0*_tmp1*c_v + _tmp34
+    _tmp36 = _tmp30*a
+    _tmp37 = _tmp29*a
+    _tmp38 = b**2
+    _tmp39 = -_tmp14*_tmp38 + _tmp34*_tmp38
+    _tmp40 = _tmp8*h
+    _tmp41 = _tmp32*_tmp5
+    _tmp42 = a**2
+    _tmp43 = h**2
+    _tmp44 = _tmp12*b_h
+    _tmp45 = -8*_tmp0*_tmp1*b_v + _tmp44
+    _tmp46 = -_tmp21*_tmp38 + _tmp38*_tmp44
+    _tmp47 = _tmp29 + 2
+    _tmp48 = _tmp3*a
+    _tmp49 = -_tmp29*h + _tmp48 - 2*h
+    _tmp50 = 6*h
+    _tmp51 = _tmp30*_tmp38
+    _tmp52 = 6*_tmp43 + _tmp51
+    _tmp53 = _tmp33*h
+    _tmp54 = _tmp29*_tmp43 + _tmp30*_tmp42 + 2*_tmp43 - _tmp53
+    _tmp55 = 2*_tmp38
+    _tmp56 = _tmp29*_tmp38
+    _tmp57 = 4*_tmp42 + _tmp55 + _tmp56
+    _tmp58 = -_tmp30*h - _tmp48
+    _tmp59 = _tmp29*_tmp42 + _tmp30*_tmp43 + _tmp53
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*c_h - _tmp3*c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*b_h - _tmp3*b_v, (4, 4): _tmp17 + _tmp18 + _tmp22, (5, 5): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp23*c_m + _tmp25*_tmp4 + _tmp26*_tmp8, (5, 5): _tmp23*c_h + _tmp25*_tmp8 + _tmp26*_tmp4}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp23*b_m + _tmp27*_tmp4 + _tmp28*_tmp8, (5, 5): _tmp23*b_h + _tmp27*_tmp8 + _tmp28*_tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp29*c_h - _tmp30*c_v - 2*c_h, (1, 3): 6*c_h, (3, 3): 12*_tmp11, (4, 4): _tmp11*_tmp31 + 4*_tmp11 + _tmp13*_tmp32 - _tmp2*_tmp6 + _tmp33*c_v}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp29*b_h - _tmp30*b_v - 2*b_h, (1, 3): 6*b_h, (3, 3): 12*_tmp19, (4, 4): -_tmp16*_tmp2 + _tmp19*_tmp31 + 4*_tmp19 + _tmp20*_tmp32 + _tmp33*b_v}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp35, (0, 4): -_tmp15 - _tmp36*c_h - _tmp37*c_v + 4*_tmp4*a*c_v + 4*_tmp8*a*c_h, (2, 2): _tmp35, (3, 3): _tmp39, (4, 4): _tmp10*h - _tmp14*_tmp42 + _tmp14*_tmp43 + _tmp34*_tmp42 - _tmp34*_tmp43 - _tmp40*_tmp6 - _tmp41*c_v + _tmp7*h, (5, 5): -_tmp39}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp45, (0, 4): -_tmp22 - _tmp36*b_h - _tmp37*b_v + 4*_tmp4*a*b_v + 4*_tmp8*a*b_h, (2, 2): _tmp45, (3, 3): _tmp46, (4, 4): -_tmp16*_tmp40 + _tmp17*h + _tmp18*h - _tmp21*_tmp42 + _tmp21*_tmp43 - _tmp41*b_v + _tmp42*_tmp44 - _tmp43*_tmp44, (5, 5): -_tmp46}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp47, (0, 4): _tmp49, (1, 1): 6, (1, 3): _tmp50, (2, 2): _tmp30, (3, 3): _tmp52, (4, 4): _tmp54, (5, 5): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp47, (0, 4): _tmp49, (1, 1): 6, (1, 3): _tmp50, (2, 2): _tmp30, (3, 3): _tmp52, (4, 4): _tmp54, (5, 5): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55})], axis=-3).reshape(*_shape, 14, 3, 6, 6)
+
+
+def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
+    """dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [z, z] = 1
+        dC/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dM/da:
+        dC/da:
+          [x, theta] = -4*c_v*cos(alpha)*sin(alpha) + 4*c_h*cos(alpha)*sin(alpha)
+          [theta, theta] = 8*a*c_h*sin(alpha)**2 + 8*a*c_v*cos(alpha)**2 - 8*c_h*h*cos(alpha)*sin(alpha) + 8*c_v*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 8*a*c_h
+        dM/db:
+        dC/db:
+          [psi, psi] = 4*b*c_m + 8*b*c_h*sin(alpha)**2 + 8*b*c_v*cos(alpha)**2
+          [phi, phi] = 4*b*c_h + 8*b*c_h*cos(alpha)**2 + 8*b*c_v*sin(alpha)**2
+        dM/dh:
+        dC/dh:
+          [x, theta] = -2*c_h - 4*c_h*cos(alpha)**2 - 4*c_v*sin(alpha)**2
+          [y, psi] = 6*c_h
+          [psi, psi] = 12*c_h*h
+          [theta, theta] = 4*c_h*h + 8*c_h*h*cos(alpha)**2 + 8*c_v*h*sin(alpha)**2 - 8*a*c_h*cos(alpha)*sin(alpha) + 8*a*c_v*cos(alpha)*sin(alpha)
+        dM/dalpha:
+        dC/dalpha:
+          [x, x] = -8*c_h*cos(alpha)*sin(alpha) + 8*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -4*a*c_h*sin(alpha)**2 - 4*a*c_v*cos(alpha)**2 + 4*a*c_h*cos(alpha)**2 + 4*a*c_v*sin(alpha)**2 - 8*c_v*h*cos(alpha)*sin(alpha) + 8*c_h*h*cos(alpha)*sin(alpha)
+          [z, z] = -8*c_v*cos(alpha)*sin(alpha) + 8*c_h*cos(alpha)*sin(alpha)
+          [psi, psi] = -8*c_v*b**2*cos(alpha)*sin(alpha) + 8*c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = -8*a*c_h*h*cos(alpha)**2 - 8*a*c_v*h*sin(alpha)**2 - 8*c_h*h**2*cos(alpha)*sin(alpha) - 8*c_v*a**2*cos(alpha)*sin(alpha) + 8*a*c_h*h*sin(alpha)**2 + 8*a*c_v*h*cos(alpha)**2 + 8*c_h*a**2*cos(alpha)*sin(alpha) + 8*c_v*h**2*cos(alpha)*sin(alpha)
+          [phi, phi] = -8*c_h*b**2*cos(alpha)*sin(alpha) + 8*c_v*b**2*cos(alpha)*sin(alpha)
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = numpy.sin(alpha)
+    _tmp2 = _tmp0*_tmp1
+    _tmp3 = 4*_tmp2
+    _tmp4 = _tmp1**2
+    _tmp5 = 8*a
+    _tmp6 = _tmp5*c_h
+    _tmp7 = _tmp4*_tmp6
+    _tmp8 = _tmp0**2
+    _tmp9 = _tmp8*c_v
+    _tmp10 = _tmp5*_tmp9
+    _tmp11 = c_h*h
+    _tmp12 = 8*_tmp11
+    _tmp13 = 8*h
+    _tmp14 = _tmp2*c_v
+    _tmp15 = -_tmp12*_tmp2 + _tmp13*_tmp14
+    _tmp16 = 4*b
+    _tmp17 = 8*b
+    _tmp18 = _tmp17*c_h
+    _tmp19 = _tmp4*c_v
+    _tmp20 = 4*_tmp8
+    _tmp21 = 4*_tmp4
+    _tmp22 = 8*_tmp2
+    _tmp23 = _tmp22*c_h
+    _tmp24 = -8*_tmp0*_tmp1*c_v + _tmp23
+    _tmp25 = b**2
+    _tmp26 = _tmp22*c_v
+    _tmp27 = _tmp23*_tmp25 - _tmp25*_tmp26
+    _tmp28 = _tmp5*h
+    _tmp29 = a**2
+    _tmp30 = h**2
+    _tmp31 = _tmp3*a
+    _tmp32 = _tmp21*_tmp25
+    _tmp33 = _tmp2*_tmp28
+    _tmp34 = 2*_tmp25
+    _tmp35 = _tmp20*_tmp25
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*c_h - _tmp3*c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp16*c_m + _tmp17*_tmp9 + _tmp18*_tmp4, (5, 5): _tmp16*c_h + _tmp17*_tmp19 + _tmp18*_tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp20*c_h - _tmp21*c_v - 2*c_h, (1, 3): 6*c_h, (3, 3): 12*_tmp11, (4, 4): 4*_tmp11 + _tmp12*_tmp8 + _tmp13*_tmp19 + _tmp14*_tmp5 - _tmp2*_tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp24, (0, 4): -_tmp15 - _tmp20*a*c_v - _tmp21*a*c_h + 4*_tmp4*a*c_v + 4*_tmp8*a*c_h, (2, 2): _tmp24, (3, 3): _tmp27, (4, 4): _tmp10*h - _tmp19*_tmp28 + _tmp23*_tmp29 - _tmp23*_tmp30 - _tmp26*_tmp29 + _tmp26*_tmp30 - _tmp6*_tmp8*h + _tmp7*h, (5, 5): -_tmp27}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp20 + 2, (0, 4): -_tmp20*h + _tmp31 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp21, (3, 3): 6*_tmp30 + _tmp32, (4, 4): _tmp20*_tmp30 + _tmp21*_tmp29 + 2*_tmp30 - _tmp33, (5, 5): 4*_tmp29 + _tmp34 + _tmp35}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp21, (0, 4): -_tmp21*h - _tmp31, (2, 2): _tmp20, (3, 3): _tmp35, (4, 4): _tmp20*_tmp29 + _tmp21*_tmp30 + _tmp33, (5, 5): _tmp32}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp34})], axis=-3).reshape(*_shape, 11, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -2214,6 +2504,20 @@ def modal_matrix(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     return _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
 
 
+def squared_frequency_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
+    """d lambda_k / d p [rad^2/s^2 per SI unit] for every p in FORWARD_ARGUMENTS, shape (..., 11, 6):
+    lambda_k' = phi_k^T (C' - lambda_k M') phi_k with mass-normalised modes and M', C' differentiated by sympy
+    (mountid.runtime.eigenvalue_derivatives). Modes repeated by symmetry stay in their own blocks, so the
+    formula holds for them too.
+    """
+    _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    _M = mass_matrix(m, J_x, J_y, J_z)
+    _C = stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
+    _phi = _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _d = _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    return _runtime.eigenvalue_derivatives(_d[..., 0, :, :], _d[..., 1, :, :], _phi, _lam)
+
+
 def kinetic_energy_distribution(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     """Share of each mode's kinetic energy per coordinate, shape (..., 6, 6); columns sum to 1."""
     _phi = modal_matrix(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
@@ -2273,6 +2577,8 @@ UNIDENTIFIABLE = {
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m")
+"""Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h", "alpha")
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

@@ -54,6 +54,7 @@ ARGUMENTS = {
     "stiffness_gradient": ("a", "b", "h"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z"),
+    "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z"),
     "identify_x_y": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_y"),
     "identify_x_z": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_z"),
     "identify_x_psi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_psi"),
@@ -214,6 +215,193 @@ def squared_frequencies(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
     _lam = _runtime.block_eigen(_M, _C, (1, 3, 5))[0]
     _out[..., [1, 3, 5]] = _lam[..., [0, 1, 2]]
     return _out
+
+
+def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
+    """Derivatives of M, C, B with respect to every parameter they depend on, shape
+    (..., 12, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),
+    differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [y, phi] = e
+          [z, z] = 1
+          [z, theta] = -e
+          [theta, theta] = e**2
+          [phi, phi] = e**2
+        dC/dm:
+        dB/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dB/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dB/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dB/dJ_z:
+        dM/de:
+          [y, phi] = m
+          [z, theta] = -m
+          [theta, theta] = 2*e*m
+          [phi, phi] = 2*e*m
+        dC/de:
+        dB/de:
+        dM/da:
+        dC/da:
+          [theta, theta] = 8*a*c_z
+          [phi, phi] = 8*a*c_h
+        dB/da:
+          [theta, theta] = 8*a*b_z
+          [phi, phi] = 8*a*b_h
+        dM/db:
+        dC/db:
+          [psi, psi] = 8*b*c_z
+          [phi, phi] = 8*b*c_h
+        dB/db:
+          [psi, psi] = 8*b*b_z
+          [phi, phi] = 8*b*b_h
+        dM/dh:
+        dC/dh:
+          [x, theta] = -4*c_h
+          [y, psi] = 4*c_h
+          [psi, psi] = 8*c_h*h
+          [theta, theta] = 8*c_h*h
+        dB/dh:
+          [x, theta] = -4*b_h
+          [y, psi] = 4*b_h
+          [psi, psi] = 8*b_h*h
+          [theta, theta] = 8*b_h*h
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z)
+    _tmp0 = e**2
+    _tmp1 = 2*e*m
+    _tmp2 = 8*a
+    _tmp3 = 8*b
+    _tmp4 = 4*c_h
+    _tmp5 = 8*h
+    _tmp6 = _tmp5*c_h
+    _tmp7 = 4*b_h
+    _tmp8 = _tmp5*b_h
+    _tmp9 = 4*h
+    _tmp10 = -_tmp9
+    _tmp11 = 4*h**2
+    _tmp12 = 4*a**2
+    _tmp13 = 4*b**2
+    _tmp14 = _tmp12 + _tmp13
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*c_z, (5, 5): _tmp2*c_h}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*b_z, (5, 5): _tmp2*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*c_z, (5, 5): _tmp3*c_h}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*b_z, (5, 5): _tmp3*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12})], axis=-3).reshape(*_shape, 12, 3, 6, 6)
+
+
+def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
+    """dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).
+
+    Non-zero upper-triangle entries:
+
+        dM/dm:
+          [x, x] = 1
+          [y, y] = 1
+          [y, phi] = e
+          [z, z] = 1
+          [z, theta] = -e
+          [theta, theta] = e**2
+          [phi, phi] = e**2
+        dC/dm:
+        dM/dJ_x:
+          [psi, psi] = 1
+        dC/dJ_x:
+        dM/dJ_y:
+          [theta, theta] = 1
+        dC/dJ_y:
+        dM/dJ_z:
+          [phi, phi] = 1
+        dC/dJ_z:
+        dM/de:
+          [y, phi] = m
+          [z, theta] = -m
+          [theta, theta] = 2*e*m
+          [phi, phi] = 2*e*m
+        dC/de:
+        dM/da:
+        dC/da:
+          [theta, theta] = 8*a*c_z
+          [phi, phi] = 8*a*c_h
+        dM/db:
+        dC/db:
+          [psi, psi] = 8*b*c_z
+          [phi, phi] = 8*b*c_h
+        dM/dh:
+        dC/dh:
+          [x, theta] = -4*c_h
+          [y, psi] = 4*c_h
+          [psi, psi] = 8*c_h*h
+          [theta, theta] = 8*c_h*h
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
+    _tmp0 = e**2
+    _tmp1 = 2*e*m
+    _tmp2 = 8*a
+    _tmp3 = 8*b
+    _tmp4 = 4*c_h
+    _tmp5 = 8*c_h*h
+    _tmp6 = 4*h
+    _tmp7 = 4*h**2
+    _tmp8 = 4*a**2
+    _tmp9 = 4*b**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*c_z, (5, 5): _tmp2*c_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*c_z, (5, 5): _tmp3*c_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp6, (1, 1): 4, (1, 3): _tmp6, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp8 + _tmp9}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp9, (4, 4): _tmp8})], axis=-3).reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -791,6 +979,20 @@ def modal_matrix(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
     return _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
 
 
+def squared_frequency_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
+    """d lambda_k / d p [rad^2/s^2 per SI unit] for every p in FORWARD_ARGUMENTS, shape (..., 10, 6):
+    lambda_k' = phi_k^T (C' - lambda_k M') phi_k with mass-normalised modes and M', C' differentiated by sympy
+    (mountid.runtime.eigenvalue_derivatives). Modes repeated by symmetry stay in their own blocks, so the
+    formula holds for them too.
+    """
+    _lam = squared_frequencies(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
+    _M = mass_matrix(m, J_x, J_y, J_z, e)
+    _C = stiffness_matrix(a, b, h, c_h, c_z)
+    _phi = _runtime.modal_matrix(_M, _C, _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _d = _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
+    return _runtime.eigenvalue_derivatives(_d[..., 0, :, :], _d[..., 1, :, :], _phi, _lam)
+
+
 def kinetic_energy_distribution(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
     """Share of each mode's kinetic energy per coordinate, shape (..., 6, 6); columns sum to 1."""
     _phi = modal_matrix(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
@@ -857,6 +1059,8 @@ UNIDENTIFIABLE = {
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z")
+"""Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

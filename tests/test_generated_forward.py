@@ -157,3 +157,52 @@ def test_the_textbook_form_would_fail_where_the_generated_form_holds():
     naive = float(hp.naive(*values)[0])
     assert abs(naive - exact) > 1e-7 * exact  # about 1.5e-6 here
     assert abs(mod.squared_frequencies(**p)[0] - exact) <= 1e-14 * exact
+
+
+@pytest.mark.parametrize("name", MACHINES)
+def test_matrix_derivatives_match_sympy_at_30_digits(name):
+    """matrix_derivatives() against sympy's own derivative of M, C, B evaluated with 30 digits."""
+    mod = generated(name)
+    model = SymbolicModel(load(shipped_descriptions()[name]))
+    values = {a: mod.PARAMETERS[a]["value"] for a in mod.ARGUMENTS["matrix_derivatives"]}
+    got = call(mod, "matrix_derivatives", values)
+    subs = {model.symbols[a]: sp.Float(v, 30) for a, v in values.items()}
+    for k, p in enumerate(mod.DERIVATIVE_PARAMETERS):
+        for m, matrix in enumerate((model.M, model.C, model.B)):
+            exact = np.array(matrix.diff(model.symbols[p]).subs(subs).evalf(30).tolist(), dtype=float)
+            np.testing.assert_allclose(got[k, m], exact, rtol=1e-13, atol=1e-13 * max(1.0, np.abs(exact).max()))
+
+
+@pytest.mark.parametrize("name", CLOSED_FORM_MACHINES)
+@settings(max_examples=budget(3))
+@given(data=st.data())
+def test_squared_frequency_derivatives_match_a_50_digit_derivative(name, data):
+    """d lambda / d p against mpmath's derivative of the symbolic closed form at 50 digits."""
+    mod = generated(name)
+    hp = HighPrecision(name)
+    p = data.draw(parameters(mod))
+    values = [p[a] for a in mod.FORWARD_ARGUMENTS]
+    got = mod.squared_frequency_derivatives(**p)
+    lam = mod.squared_frequencies(**p)
+    for j in range(len(values)):
+        for k in range(len(mod.MODES)):
+
+            def f(t, j=j, k=k):
+                return hp.fn(*[t if i == j else mpmath.mpf(v) for i, v in enumerate(values)])[k]
+
+            with mpmath.workdps(50):
+                exact = float(mpmath.diff(f, mpmath.mpf(values[j])))
+            # relative to the size of lambda_k / p_j (a derivative can vanish by symmetry; an angle can be 0)
+            scale = abs(lam[k]) / max(abs(values[j]), 1e-3)
+            assert abs(got[j, k] - exact) <= 1e-8 * scale + 1e-9 * abs(exact), (j, k, got[j, k], exact)
+
+
+def test_squared_frequency_derivatives_of_3x3_blocks_match_eigh_differences():
+    mod = generated("skid1plane")
+    p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
+    got = mod.squared_frequency_derivatives(**p)
+    for j, a in enumerate(mod.FORWARD_ARGUMENTS):
+        h = 1e-5 * p[a]
+        hi, lo = dict(p, **{a: p[a] + h}), dict(p, **{a: p[a] - h})
+        fd = (block_reference(mod, hi)[0] - block_reference(mod, lo)[0]) / (2 * h)  # per mode, in mode order
+        np.testing.assert_allclose(got[j], fd, rtol=1e-6, atol=1e-9 * np.abs(fd).max())

@@ -191,6 +191,17 @@ def fit_stiffness(
     def residual(logp):
         return (model(dict(zip(unknown, np.exp(logp), strict=True)))[idx] - omega) / std
 
+    columns = [mod.FORWARD_ARGUMENTS.index(u) for u in unknown]
+
+    def jacobian(logp):
+        """d residual / d log p from the generated analytic derivatives (undamped model):
+        d omega / d p = (d lambda / d p) / (2 omega)."""
+        p = np.exp(logp)
+        values = {**knowns, **dict(zip(unknown, p, strict=True))}
+        d_lam = mod.squared_frequency_derivatives(**values)[columns][:, idx]  # (n_unknown, n_labels)
+        w = mod.frequencies(**values)[idx]
+        return (d_lam / (2 * w)).T * p[None, :] / std[:, None]
+
     starts = []
     for key in itertools.combinations(labels, len(unknown)):
         if key in mod.INVERSES:
@@ -200,7 +211,12 @@ def fit_stiffness(
     if not starts:
         raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
     fits = sorted(
-        (scipy.optimize.least_squares(residual, s, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts),
+        (
+            scipy.optimize.least_squares(
+                residual, s, jac=jacobian if damping is None else "2-point", x_scale=1.0, xtol=1e-14, ftol=1e-14
+            )
+            for s in starts
+        ),
         key=lambda f: f.cost,
     )
     tied = [fits[0]]

@@ -228,6 +228,43 @@ def _gradient_function(model: SymbolicModel) -> Function:
     return fn
 
 
+def _derivative_function(
+    name: str, model: SymbolicModel, parameters: tuple[str, ...], matrices: dict[str, sp.Matrix], doc: str
+) -> Function:
+    """Derivatives of ``matrices`` with respect to each of ``parameters``, differentiated by sympy, stacked
+    as (..., n_parameters, n_matrices, 6, 6)."""
+    derivs = {f"d{k}/d{p}": mat.diff(model.symbols[p]) for p in parameters for k, mat in matrices.items()}
+    args = model.parameters_of(*matrices.values())
+    fn = _matrices_function(name, derivs, COORDINATES, args, doc)
+    inner = fn.returns[1:-1] if len(derivs) > 1 else fn.returns
+    fn.returns = f"numpy.stack([{inner}], axis=-3).reshape(*_shape, {len(parameters)}, {len(matrices)}, 6, 6)"
+    return fn
+
+
+def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> list[Function]:
+    """matrix_derivatives() (M, C, B with respect to every parameter they depend on) and the private
+    _mc_derivatives() (M, C with respect to the forward arguments) that squared_frequency_derivatives() uses."""
+    every = model.parameters_of(model.M, model.C, model.B)
+    return [
+        _derivative_function(
+            "matrix_derivatives",
+            model,
+            every,
+            {"M": model.M, "C": model.C, "B": model.B},
+            "Derivatives of M, C, B with respect to every parameter they depend on, shape\n"
+            f"    (..., {len(every)}, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),\n"
+            "    differentiated by sympy.\n",
+        ),
+        _derivative_function(
+            "_mc_derivatives",
+            model,
+            fwd_args,
+            {"M": model.M, "C": model.C},
+            "dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).\n",
+        ),
+    ]
+
+
 def _model_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
     """The forward model the Newton polish of every inverse works on (runtime.eigen_newton).
 
@@ -491,6 +528,7 @@ def module_context(
     eigen = _eigen_function(structure, model)
     functions.append(eigen)
     fwd_args = eigen.args
+    functions += derivative_functions(model, fwd_args)
     derivation = InverseDerivation(structure)
     if inverse_sets is None:
         inverse_sets = derivation.all_sets()
@@ -526,6 +564,7 @@ def module_context(
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
         "special_points": derivation.special_points(),
+        "derivative_parameters": model.parameters_of(model.M, model.C, model.B),
         "twin_coordinates": structure.twin_map(),
         "effect_coordinates": effect_coordinates,
         "isolators": isolator_names,
