@@ -185,8 +185,14 @@ def cmd_describe(args: argparse.Namespace) -> None:
         print(f"  {n:>8s}  {p['role']:8s} {p['kind']:22s} {value:16s} {p['description']}")
     print(f"modes: {', '.join(m.MODES)}; distinct frequencies: {', '.join(m.UNIQUE_MODES)}")
     print(f"inverse sets for the unknowns {', '.join(m.UNKNOWN)}:")
+    numeric = getattr(m, "NUMERIC_INVERSES", {})
     for key, n in m.INVERSE_ROOTS.items():
-        print(f"  {', '.join(key):24s} solvable, {n} candidate root(s)")
+        if key in numeric:
+            print(f"  {', '.join(key):24s} solvable numerically ({n} Newton starts): {numeric[key]}")
+        else:
+            print(f"  {', '.join(key):24s} solvable, {n} candidate root(s)")
+    if getattr(m, "SPECIAL_POINTS", ()):
+        print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
     for key, reason in m.UNIDENTIFIABLE.items():
         print(f"  {', '.join(key):24s} NOT identifiable: {reason}")
 
