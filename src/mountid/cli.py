@@ -72,6 +72,14 @@ def _finite_number(value: float, option: str, minimum: float = 0.0, strict: bool
     return value
 
 
+def _check_unbalance(args: argparse.Namespace) -> None:
+    """The rotating-unbalance options of simulate and forced: speeds positive, mass and eccentricity >= 0."""
+    for w in args.speed or ():
+        _finite_number(w, "--speed")
+    _finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
+    _finite_number(args.eccentricity, "--eccentricity", strict=False)
+
+
 def cmd_frequencies(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     given = _pairs(args.set, "--set")
@@ -252,10 +260,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             f"{args.duration:g} s at {args.rate:g} Hz is {args.duration * args.rate:.3g} samples per channel; "
             f"at most {MAX_SAMPLES:.0e}",
         )
-    for w in args.speed or ():
-        _finite_number(w, "--speed")
-    _finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
-    _finite_number(args.eccentricity, "--eccentricity", strict=False)
+    _check_unbalance(args)
     rig = Rig.of(args.machine, _pairs(args.set, "--set"))
     sensors = []
     for item in args.sensor or ():
@@ -268,8 +273,6 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         from mountid.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
-    if args.noise < 0:
-        raise InputError("--noise", f"must be >= 0, got {args.noise}")
     hammers = (
         []
         if args.speed
@@ -500,10 +503,7 @@ def cmd_forced(args: argparse.Namespace) -> None:
 
     from mountid.rig import Rig, Unbalance
 
-    for w in args.speed:
-        _finite_number(w, "--speed")
-    _finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
-    _finite_number(args.eccentricity, "--eccentricity", strict=False)
+    _check_unbalance(args)
     rig = Rig.of(args.machine, _pairs(args.set, "--set"))
     rows = {}
     for w in args.speed:

@@ -240,7 +240,7 @@ class Machine:
             try:
                 roots = fn(**knowns, **omegas)
             except FloatingPointError as exc:
-                raise self._range_error({**knowns}, str(exc)) from None
+                raise self._range_error(knowns, str(exc)) from None
         stds = roots.std(sigma) if sigma is not None else None
         solutions = []
         for i in np.flatnonzero(roots.admissible):

@@ -18,6 +18,8 @@ terms that would cancel numerically).
 
 from __future__ import annotations
 
+import itertools
+import random
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -212,9 +214,6 @@ class ModalStructure:
         M[image_i, image_j] = s_i s_j M[i, j] and the same for C (e.g. kid300: x -> y with +1, theta -> psi
         with -1, so C[y, psi] = -C[x, theta]). Found by trying every coordinate permutation and sign pattern
         against the derived matrices at two pseudo-random rational points."""
-        import itertools
-        import random
-
         rng = random.Random(5)
         symbols = list(self.model.symbols.values())
         points = [{sym: sp.Rational(rng.randint(50, 200), 97) for sym in symbols} for _ in range(2)]
