@@ -6,6 +6,7 @@ Importing this module does not import sympy; only resolving a description *file*
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import math
@@ -144,17 +145,24 @@ class Machine:
             out[name] = value
         return out
 
+    @contextlib.contextmanager
+    def _floating_point_errors(self, values: dict[str, float]):
+        """Floating-point overflow, division by zero and invalid operations inside as an InputError naming
+        the parameter furthest from its nominal value (underflow to zero is caught on the results)."""
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            try:
+                yield
+            except (FloatingPointError, OverflowError, np.linalg.LinAlgError) as exc:
+                raise self._range_error(values, str(exc)) from None
+
     def evaluate(self, function: str, values: dict[str, float]) -> np.ndarray:
         """A generated function of the forward arguments (frequencies, modal_matrix, ...) at checked values.
 
         Overflow, underflow to zero and invalid operations are input errors that name the parameter furthest
         (in decades) from its nominal value, never NaN, inf or a wrong 0 in the output.
         """
-        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
-            try:
-                out = np.asarray(getattr(self.module, function)(**values), dtype=float)
-            except (FloatingPointError, OverflowError, np.linalg.LinAlgError) as exc:
-                raise self._range_error(values, str(exc)) from None
+        with self._floating_point_errors(values):
+            out = np.asarray(getattr(self.module, function)(**values), dtype=float)
         if not np.all(np.isfinite(out)) or (function == "frequencies" and np.any(out <= 0)):
             raise self._range_error(values, "the result is not finite and positive in double precision")
         return out
@@ -236,11 +244,8 @@ class Machine:
         fn = self.module.INVERSES[key]
         knowns = self.values(known, tuple(a for a in self.module.FORWARD_ARGUMENTS if a not in self.unknown))
         omegas = {f"omega_{label}": chosen[label][1] for label in key}
-        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
-            try:
-                roots = fn(**knowns, **omegas)
-            except FloatingPointError as exc:
-                raise self._range_error(knowns, str(exc)) from None
+        with self._floating_point_errors(knowns):
+            roots = fn(**knowns, **omegas)
         stds = roots.std(sigma) if sigma is not None else None
         solutions = []
         for i in np.flatnonzero(roots.admissible):

@@ -242,21 +242,22 @@ def eigen_newton(
     return x, lam_all
 
 
-def eigenvalue_derivatives(d_mass: NDArray, d_stiffness: NDArray, phi: NDArray, lam: NDArray) -> NDArray[np.float64]:
+def eigenvalue_derivatives(
+    d_mass: NDArray | None, d_stiffness: NDArray, phi: NDArray, lam: NDArray | None
+) -> NDArray[np.float64]:
     """d lambda_k / d p = phi_k^T (dC/dp - lambda_k dM/dp) phi_k for mass-normalised modes (distinct within
     their block), from dM/dp, dC/dp (..., n_p, 6, 6), phi (..., 6, n_modes) and lam (..., n_modes); shape
-    (..., n_p, n_modes)."""
+    (..., n_p, n_modes). ``d_mass`` None: M does not depend on the parameters (``lam`` is then unused)."""
     dc = np.einsum("...ak,...pab,...bk->...pk", phi, d_stiffness, phi)
-    dm = np.einsum("...ak,...pab,...bk->...pk", phi, d_mass, phi)
-    return dc - lam[..., None, :] * dm
+    if d_mass is None:
+        return dc
+    return dc - lam[..., None, :] * np.einsum("...ak,...pab,...bk->...pk", phi, d_mass, phi)
 
 
 def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int, ...]) -> NDArray[np.float64]:
-    """d lambda_k / d theta_j = phi_k^T (dC/d theta_j) phi_k for mass-normalised modes (M independent of the
-    unknown stiffnesses), shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns,
-    6, 6)."""
-    vec = phi[:, :, list(mode_index)]
-    return np.einsum("iak,ijab,ibk->ikj", vec, dc, vec)
+    """d lambda_k / d theta_j for the given modes and the unknown stiffnesses (M does not depend on them),
+    shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns, 6, 6)."""
+    return np.swapaxes(eigenvalue_derivatives(None, dc, phi[:, :, list(mode_index)], None), -1, -2)
 
 
 def solve_inverse(

@@ -406,6 +406,13 @@ START_FACTORS = (0.1, 1.0, 10.0)
 factors (runtime.start_grid)."""
 
 
+def root_slots(s: InverseSet, n_unknowns: int) -> int:
+    """Candidate roots per row of an inverse: the start grid of a numeric one, else the closed forms' most."""
+    if s.numeric:
+        return len(START_FACTORS) ** n_unknowns
+    return max((s.n_roots, *(special.n_roots for _, special in s.special)))
+
+
 def _numeric_inverse_function(
     s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
 ) -> Function:
@@ -419,7 +426,7 @@ def _numeric_inverse_function(
     for u, v in zip(d.unknown, start, strict=True):
         if v is None:
             raise DescriptionError(f"parameters.{u}.value", f"needed as the start of the numeric inverse {s.name}")
-    n_roots = len(START_FACTORS) ** len(d.unknown)
+    n_roots = root_slots(s, len(d.unknown))
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
     call = (
         f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {START_FACTORS!r}, _model, {mode_index!r}), _model, "
@@ -465,7 +472,7 @@ def _inverse_function(s: InverseSet, structure: ModalStructure, model: SymbolicM
             )
         )
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
-    n_roots = max(s.n_roots, *(sp_.n_roots for _, sp_ in s.special)) if s.special else s.n_roots
+    n_roots = root_slots(s, len(unknowns))
     specials = "".join(f"({known.index(param)}, _roots_{s.name}__{param}_0), " for param, _ in s.special)
     start = tuple(d.parameters[u].value for u in unknowns)
     call = (
@@ -556,14 +563,14 @@ def module_context(
         "forward_args": fwd_args,
         "functions": functions,
         "inverses": [
-            (s.labels, f"identify_{s.name}", len(START_FACTORS) ** len(description.unknown) if s.numeric else s.n_roots)
+            (s.labels, f"identify_{s.name}", root_slots(s, len(description.unknown)))
             for s in inverse_sets
             if s.identifiable
         ],
         "numeric_inverses": [(s.labels, s.reason) for s in inverse_sets if s.numeric],
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
         "inverse_enumerated": bool(inverse_sets),
-        "special_points": derivation.special_points(),
+        "special_points": derivation.special_points,
         "derivative_parameters": model.parameters_of(model.M, model.C, model.B),
         "twin_coordinates": structure.twin_map(),
         "effect_coordinates": effect_coordinates,

@@ -19,7 +19,6 @@ terms that would cancel numerically).
 from __future__ import annotations
 
 import itertools
-import random
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -27,7 +26,7 @@ import sympy as sp
 
 from mountid.description import COORDINATES, MIRROR_PLANES, ModeSpec
 from mountid.errors import DescriptionError
-from mountid.symbolic.model import SymbolicModel
+from mountid.symbolic.model import SymbolicModel, rational_point
 
 LAMBDA = sp.Symbol("lambda", positive=True)
 """Eigenvalue symbol: squared natural frequency [rad^2/s^2]."""
@@ -214,9 +213,7 @@ class ModalStructure:
         M[image_i, image_j] = s_i s_j M[i, j] and the same for C (e.g. kid300: x -> y with +1, theta -> psi
         with -1, so C[y, psi] = -C[x, theta]). Found by trying every coordinate permutation and sign pattern
         against the derived matrices at two pseudo-random rational points."""
-        rng = random.Random(5)
-        symbols = list(self.model.symbols.values())
-        points = [{sym: sp.Rational(rng.randint(50, 200), 97) for sym in symbols} for _ in range(2)]
+        points = [rational_point(self.model.symbols.values(), seed) for seed in (5, 6)]
         out: list[tuple[str, str, int]] = []
         for k, first in enumerate(self.twin):
             if first == k:

@@ -32,6 +32,7 @@ frequency reproduced by the mode it is labelled as.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import random
 from dataclasses import dataclass
@@ -39,6 +40,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from mountid.symbolic.blocks import LAMBDA, ModalStructure
+from mountid.symbolic.model import rational_point
 
 
 @dataclass(frozen=True)
@@ -159,8 +161,7 @@ class InverseDerivation:
         self._linear: dict[tuple[sp.Expr, sp.Symbol], tuple | None] = {}
 
     def _generic_point(self, seed: int) -> dict[sp.Symbol, sp.Rational]:
-        rng = random.Random(seed)
-        return {s: sp.Rational(rng.randint(50, 200), 97) for s in self.model.symbols.values()}
+        return rational_point(self.model.symbols.values(), seed)
 
     def equations(self, labels: tuple[str, ...]) -> tuple[list[sp.Expr], list[sp.Symbol]] | None:
         """Polynomial equations tying the given squared frequencies to the unknowns (None: too large)."""
@@ -214,6 +215,7 @@ class InverseDerivation:
         names = tuple(str(u) for j, u in enumerate(self.unknowns) if j in free)
         return rank, names
 
+    @functools.cached_property
     def special_points(self) -> tuple[str, ...]:
         """Known parameters whose value 0 is a legitimate design that the general solution may not cover:
         the heights of isolator points (isolators in the plane of the centre of mass) and the inclination
@@ -231,10 +233,8 @@ class InverseDerivation:
         """Whether ``expr`` (in parameters and lambdas) is identically zero once ``special`` is substituted:
         exact evaluation at a pseudo-random rational point (a non-zero polynomial vanishes there by chance
         with probability zero)."""
-        rng = random.Random(11)
         e = expr.subs(special)
-        point = {s: sp.Rational(rng.randint(50, 200), 97) for s in e.free_symbols}
-        return sp.simplify(e.subs(point)) == 0
+        return sp.simplify(e.subs(rational_point(sorted(e.free_symbols, key=str), 11))) == 0
 
     def _breaks_at(self, result: InverseSet, special: dict) -> bool:
         """Whether the general solution divides by zero at ``special``."""
@@ -291,7 +291,7 @@ class InverseDerivation:
         if not special_points:
             return general
         special = []
-        for name in self.special_points():
+        for name in self.special_points:
             at = {self.model.symbols[name]: sp.Integer(0)}
             if self._breaks_at(general, at):
                 solved = self.derive(labels, at, special_points=False)

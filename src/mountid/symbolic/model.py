@@ -14,6 +14,8 @@ and M, C, B are their Hessians (paper Eqs. 3-6): nothing here is typed in matrix
 from __future__ import annotations
 
 import itertools
+import random
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -44,6 +46,14 @@ class Isolator:
         """Group name and the signs of the mirror image, e.g. ``corner[+x-y]``."""
         signs = "".join(("+" if s > 0 else "-") + a for s, a in zip(self.mirror, "xy", strict=False))
         return f"{self.group}[{signs}]"
+
+
+def rational_point(symbols: Iterable[sp.Symbol], seed: int) -> dict[sp.Symbol, sp.Rational]:
+    """A pseudo-random rational point (values in [50, 200]/97), reproducible from ``seed`` and the order of
+    ``symbols``: where the engine decides a property exactly (rank, an identically vanishing expression, a
+    symmetry map) at a generic point instead of symbolically."""
+    rng = random.Random(seed)
+    return {s: sp.Rational(rng.randint(50, 200), 97) for s in symbols}
 
 
 def rigid_body_kinetic_energy(mass: sp.Expr, inertia: sp.Matrix, centre: sp.Matrix, qdot: sp.Matrix) -> sp.Expr:
