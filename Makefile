@@ -34,10 +34,10 @@ format: $(STAMP)
 	$(VENV)/bin/ruff check --fix src tests benchmarks
 
 generate: $(STAMP)
-	$(PY) -m mountid.codegen
+	$(PY) -m mountid.engine.codegen
 
 check-generated: $(STAMP)
-	$(PY) -m mountid.codegen --check
+	$(PY) -m mountid.engine.codegen --check
 
 bench: $(STAMP)
 	$(PY) -m benchmarks

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import time
 
-from mountid import blind, campaign
-from mountid.gap import diagnose
+from mountid.diagnosis import campaign
+from mountid.diagnosis.gap import diagnose
+from mountid.validation import blind
 
 
 def speed() -> None:

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import scipy.signal
 
-from mountid.experiment import identify_from_record
-from mountid.paper import TABLE_1, paper_hit, paper_sensors
-from mountid.records import read_csv, write_csv
-from mountid.rig import Hammer, Rig, Sensor
+from mountid.identification.from_records import identify_from_record
+from mountid.measurement.records import read_csv, write_csv
+from mountid.measurement.rig import Hammer, Rig, Sensor
+from mountid.validation.paper import TABLE_1, paper_hit, paper_sensors
 
 POINTS = [(0.5, 0.0, 0.1), (0.0, 0.5, 0.1), (-0.5, 0.0, -0.2), (0.0, -0.5, 0.3)]
 SENSORS = [

@@ -235,7 +235,7 @@ def squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c
     x, y, z, psi, theta, phi.
 
     Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of
-    mountid.symbolic.blocks: no difference of nearly equal numbers):
+    mountid.engine.symbolic.blocks: no difference of nearly equal numbers):
 
         block {x, theta}: lambda = -sqrt((4*c_x/m - (4*c_v2*a2**2 + 8*c_x*h**2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2)/(2*J_y))**2 + 64*c_x**2*h**2/(J_y*m)) + (4*c_v2*a2**2 + 8*c_x*h**2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2)/(2*J_y) + 4*c_x/m  and  sqrt((4*c_x/m - (4*c_v2*a2**2 + 8*c_x*h**2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2)/(2*J_y))**2 + 64*c_x**2*h**2/(J_y*m)) + (4*c_v2*a2**2 + 8*c_x*h**2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2)/(2*J_y) + 4*c_x/m
         block {y, psi}: lambda = -sqrt(((4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2)/(2*m) - (4*c_v2*b**2 + 4*c_y*h**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*b**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 - 8*b*c_v1*h*cos(gamma)*sin(gamma) + 8*b*c_y*h*cos(gamma)*sin(gamma))/(2*J_x))**2 + (4*c_y*h + 4*c_v1*h*sin(gamma)**2 + 4*c_y*h*cos(gamma)**2 - 4*b*c_v1*cos(gamma)*sin(gamma) + 4*b*c_y*cos(gamma)*sin(gamma))**2/(J_x*m)) + (4*c_v2*b**2 + 4*c_y*h**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*b**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 - 8*b*c_v1*h*cos(gamma)*sin(gamma) + 8*b*c_y*h*cos(gamma)*sin(gamma))/(2*J_x) + (4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2)/(2*m)  and  sqrt(((4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2)/(2*m) - (4*c_v2*b**2 + 4*c_y*h**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*b**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 - 8*b*c_v1*h*cos(gamma)*sin(gamma) + 8*b*c_y*h*cos(gamma)*sin(gamma))/(2*J_x))**2 + (4*c_y*h + 4*c_v1*h*sin(gamma)**2 + 4*c_y*h*cos(gamma)**2 - 4*b*c_v1*cos(gamma)*sin(gamma) + 4*b*c_y*cos(gamma)*sin(gamma))**2/(J_x*m)) + (4*c_v2*b**2 + 4*c_y*h**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*b**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 - 8*b*c_v1*h*cos(gamma)*sin(gamma) + 8*b*c_y*h*cos(gamma)*sin(gamma))/(2*J_x) + (4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2)/(2*m)
@@ -1150,7 +1150,7 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
 def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1178,7 +1178,7 @@ def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1200,7 +1200,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1221,7 +1221,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y,
 def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -1354,7 +1354,7 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1379,7 +1379,7 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1398,7 +1398,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1740,7 +1740,7 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
-M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h", "gamma")

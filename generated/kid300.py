@@ -183,7 +183,7 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     x, y, z, psi, theta, phi.
 
     Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of
-    mountid.symbolic.blocks: no difference of nearly equal numbers):
+    mountid.engine.symbolic.blocks: no difference of nearly equal numbers):
 
         block {x, theta}: lambda = -sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m  and  sqrt((2*c_xy/m - (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy))**2 + 16*L_z**2*c_xy**2/(J_xy*m)) + (2*c_z*L_xy**2 + 4*c_xy*L_z**2)/(2*J_xy) + 2*c_xy/m
         block {y, psi}: the roots of block {x, theta}
@@ -601,7 +601,7 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
 def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -629,7 +629,7 @@ def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -651,7 +651,7 @@ def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -671,7 +671,7 @@ def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k
 def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -769,7 +769,7 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -794,7 +794,7 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -813,7 +813,7 @@ def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_b
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1004,7 +1004,7 @@ TWIN_COORDINATES = (
     ("theta", "psi", -1),
 )
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
-M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("L_z",)

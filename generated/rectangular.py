@@ -201,7 +201,7 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     x, y, z, psi, theta, phi.
 
     Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of
-    mountid.symbolic.blocks: no difference of nearly equal numbers):
+    mountid.engine.symbolic.blocks: no difference of nearly equal numbers):
 
         block {x, theta}: lambda = -sqrt((2*c_x/m - (4*c_x*h**2 + 4*c_z*a**2)/(2*J_y))**2 + 16*c_x**2*h**2/(J_y*m)) + (4*c_x*h**2 + 4*c_z*a**2)/(2*J_y) + 2*c_x/m  and  sqrt((2*c_x/m - (4*c_x*h**2 + 4*c_z*a**2)/(2*J_y))**2 + 16*c_x**2*h**2/(J_y*m)) + (4*c_x*h**2 + 4*c_z*a**2)/(2*J_y) + 2*c_x/m
         block {y, psi}: lambda = -sqrt((2*c_y/m - (4*c_y*h**2 + 4*c_z*b**2)/(2*J_x))**2 + 16*c_y**2*h**2/(J_x*m)) + (4*c_y*h**2 + 4*c_z*b**2)/(2*J_x) + 2*c_y/m  and  sqrt((2*c_y/m - (4*c_y*h**2 + 4*c_z*b**2)/(2*J_x))**2 + 16*c_y**2*h**2/(J_x*m)) + (4*c_y*h**2 + 4*c_z*b**2)/(2*J_x) + 2*c_y/m
@@ -1256,7 +1256,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1284,7 +1284,7 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1306,7 +1306,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1326,7 +1326,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -1418,7 +1418,7 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1443,7 +1443,7 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1462,7 +1462,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1683,7 +1683,7 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
-M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h",)

@@ -237,7 +237,7 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     x, y, z, psi, theta, phi.
 
     Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of
-    mountid.symbolic.blocks: no difference of nearly equal numbers):
+    mountid.engine.symbolic.blocks: no difference of nearly equal numbers):
 
         block {x, theta}: lambda = -sqrt(((2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2)/(2*m) - (2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha))/(2*J_y))**2 + (-2*c_h*h - 4*c_h*h*cos(alpha)**2 - 4*c_v*h*sin(alpha)**2 - 4*a*c_v*cos(alpha)*sin(alpha) + 4*a*c_h*cos(alpha)*sin(alpha))**2/(J_y*m)) + (2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha))/(2*J_y) + (2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2)/(2*m)  and  sqrt(((2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2)/(2*m) - (2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha))/(2*J_y))**2 + (-2*c_h*h - 4*c_h*h*cos(alpha)**2 - 4*c_v*h*sin(alpha)**2 - 4*a*c_v*cos(alpha)*sin(alpha) + 4*a*c_h*cos(alpha)*sin(alpha))**2/(J_y*m)) + (2*c_h*h**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_h*h**2*cos(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 4*c_v*h**2*sin(alpha)**2 - 8*a*c_h*h*cos(alpha)*sin(alpha) + 8*a*c_v*h*cos(alpha)*sin(alpha))/(2*J_y) + (2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2)/(2*m)
         block {y, psi}: lambda = -sqrt((3*c_h/m - (2*c_m*b**2 + 6*c_h*h**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2)/(2*J_x))**2 + 36*c_h**2*h**2/(J_x*m)) + (2*c_m*b**2 + 6*c_h*h**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2)/(2*J_x) + 3*c_h/m  and  sqrt((3*c_h/m - (2*c_m*b**2 + 6*c_h*h**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2)/(2*J_x))**2 + 36*c_h**2*h**2/(J_x*m)) + (2*c_m*b**2 + 6*c_h*h**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2)/(2*J_x) + 3*c_h/m
@@ -2035,7 +2035,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2063,7 +2063,7 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2085,7 +2085,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2108,7 +2108,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m,
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -2243,7 +2243,7 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2268,7 +2268,7 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2287,7 +2287,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -2576,7 +2576,7 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
-M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h", "alpha")

@@ -615,7 +615,7 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
 def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
     """M, C, B of the model extended by the candidate effect com_offset (horizontal centre-of-mass offset),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -643,7 +643,7 @@ def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, 
 def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -666,7 +666,7 @@ def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
 def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -686,7 +686,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
 def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
     """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
 
     Non-zero upper-triangle entries:
 
@@ -787,7 +787,7 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -812,7 +812,7 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -831,7 +831,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, 
 def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
-    extended energies (mountid.symbolic.effects).
+    extended energies (mountid.engine.symbolic.effects).
     The nominal matrices plus the Hessians of the added energies (B is the nominal one):
 
     Non-zero upper-triangle entries:
@@ -1058,7 +1058,7 @@ UNIDENTIFIABLE = {
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
-M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.symbolic.blocks)."""
+M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h",)

@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mountid import blind, campaign
-from mountid.candidates import diagnose_effects
+from mountid.diagnosis import campaign
+from mountid.diagnosis.candidates import diagnose_effects
+from mountid.validation import blind
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,12 @@ from conftest import budget
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from mountid.campaign import parse
-from mountid.candidates import CandidateModel, diagnose_effects, fit_candidate
+from mountid.diagnosis.campaign import parse
+from mountid.diagnosis.candidates import CandidateModel, diagnose_effects, fit_candidate
+from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS
-from mountid.gap import isolator_forces
 from mountid.machine import Machine
-from mountid.paper import TABLE_1
+from mountid.validation.paper import TABLE_1
 
 KNOWN = {**TABLE_1, "b_xy": 337.2, "b_z": 1039.0}
 UNKNOWN = {"c_xy": 74.4e3, "c_z": 472.3e3}

@@ -12,7 +12,7 @@ import pytest
 
 from mountid.cli import main
 from mountid.generated import kid300
-from mountid.paper import TABLE_1
+from mountid.validation.paper import TABLE_1
 
 PAPER = "examples/kid300-paper.json"
 

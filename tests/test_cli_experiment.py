@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mountid.cli import main
-from mountid.paper import UNBALANCE
-from mountid.rig import Rig, Unbalance
+from mountid.measurement.rig import Rig, Unbalance
+from mountid.validation.paper import UNBALANCE
 
 
 def run(capsys, *argv):

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 import tomllib
 
-from mountid.description import parse, shipped_descriptions
+from mountid.engine.description import parse, shipped_descriptions
+from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
-from mountid.symbolic.blocks import ModalStructure
-from mountid.symbolic.model import SymbolicModel
 
 
 def kid300_data() -> dict:

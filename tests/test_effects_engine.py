@@ -12,12 +12,12 @@ import sympy as sp
 import tomllib
 from conftest import MACHINES, call, generated
 
-from mountid.blind import _body_mass, _jac
-from mountid.description import load, parse
 from mountid.effects import CATALOGUE, EFFECT_PARAMETERS, EFFECTS, STANDARD_GRAVITY
+from mountid.engine.description import load, parse
+from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel
+from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
-from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel
-from mountid.symbolic.model import SymbolicModel
+from mountid.validation.blind import _body_mass, _jac
 
 ROOT = Path(__file__).resolve().parents[1]
 EFFECT_VALUES = {

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import sympy as sp
 
-from mountid.description import load, shipped_descriptions
-from mountid.symbolic.blocks import LAMBDA, ModalStructure
-from mountid.symbolic.inverse import InverseDerivation
-from mountid.symbolic.model import SymbolicModel
+from mountid.engine.description import load, shipped_descriptions
+from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
+from mountid.engine.symbolic.inverse import InverseDerivation
+from mountid.engine.symbolic.model import SymbolicModel
 
 
 def kid300():

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mountid import modal
-from mountid.experiment import identify_from_record
-from mountid.paper import TABLE_1
-from mountid.rig import Hammer, Rig, Sensor
+from mountid.identification.from_records import identify_from_record
+from mountid.measurement import modal
+from mountid.measurement.rig import Hammer, Rig, Sensor
+from mountid.validation.paper import TABLE_1
 
 POINTS = [(0.5, 0.0, 0.1), (0.0, 0.5, 0.1), (-0.5, 0.0, -0.2), (0.0, -0.5, 0.3)]
 SENSORS = [
@@ -77,8 +77,8 @@ def test_generalised_accelerations_and_a_misaligned_sensor():
     """Twelve channels fit a rigid body to the noise level; a sensor turned by 20 degrees stands out."""
     from dataclasses import replace
 
-    from mountid.experiment import generalised_accelerations
-    from mountid.records import Channel, Record
+    from mountid.identification.from_records import generalised_accelerations
+    from mountid.measurement.records import Channel, Record
 
     rig = Rig.of("kid300")
     turned = [replace(s, noise=0.001) for s in SENSORS]
@@ -96,7 +96,7 @@ def test_generalised_accelerations_and_a_misaligned_sensor():
 
 
 def test_paper_three_channel_case_matches_the_rigid_body():
-    from mountid.experiment import paper_generalised
+    from mountid.identification.from_records import paper_generalised
 
     rig = Rig.of("kid300")
     a, b = (0.5, 0.0, 0.1), (0.5, 0.0, 0.312)  # B is L = 0.212 m above A (paper Fig. 3)
@@ -114,7 +114,7 @@ def test_paper_three_channel_case_matches_the_rigid_body():
 def test_the_paper_three_channels_give_x_psi_phi_and_the_stiffness():
     """A_x, A_y, B_y only: the vertical mode is invisible, y and phi look alike in the channels and are told
     apart by the nominal frequencies (labelling cost); three frequencies still fix c_xy and c_z."""
-    from mountid.paper import paper_hit, paper_sensors
+    from mountid.validation.paper import paper_hit, paper_sensors
 
     rig = Rig.of("kid300")
     record = rig.simulate(paper_sensors()[:3], 4.0, 2000.0, hammers=[paper_hit()], seed=5)
@@ -149,7 +149,7 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
     """(x, psi) has two admissible roots (paper Sec. 5); the record's other modes pick the true one, and
     without other modes the choice is an error that names both."""
     from mountid.errors import InputError
-    from mountid.experiment import fit_stiffness
+    from mountid.identification.from_records import fit_stiffness
 
     rig = Rig.of("kid300")
     w = rig.machine.frequencies(rig.values)
@@ -163,7 +163,7 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
 def test_mode_shapes_in_the_coordinates_match_the_model():
     """Twelve channels fix all six coordinates: the measured shape of each distinct mode lies (MAC > 0.99)
     in the span of the model's shapes of the modes sharing its frequency (x with y, psi with theta)."""
-    from mountid.experiment import modal_data
+    from mountid.identification.from_records import modal_data
 
     rig = Rig.of("kid300")
     record = rig.simulate(SENSORS, 4.0, 2000.0, hammers=[HIT], seed=6)

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from mountid.campaign import load, parse
 from mountid.cli import main
+from mountid.diagnosis.campaign import load, parse
+from mountid.diagnosis.gap import diagnose_where
 from mountid.effects import CATALOGUE
 from mountid.errors import InputError
-from mountid.gap import diagnose_where
 from mountid.machine import Machine
-from mountid.paper import TABLE_1
+from mountid.validation.paper import TABLE_1
 
 ROOT = Path(__file__).resolve().parents[1]
 TRUTH = {"c_xy": 74.4e3, "c_z": 472.3e3}
@@ -119,7 +119,7 @@ def test_blind_belt_example_on_the_command_line(capsys, tmp_path):
     assert code == 0 and figure.is_file()
     first = out["candidates"][0]
     assert first["effect"] == "drive_belt" and out["confident"]
-    assert first["parameters"]["k_belt"] == pytest.approx(11846.7, rel=0.1)  # the hidden truth (mountid.blind)
+    assert first["parameters"]["k_belt"] == pytest.approx(11846.7, rel=0.1)  # hidden truth (validation.blind)
     assert out["verdict"] == "significant gap, explained by drive_belt"
     gap = out["gap"]
     assert gap["after"]["rms_fitted"] < 0.05 * gap["before"]["rms_fitted"]
@@ -149,7 +149,7 @@ def test_localise_finds_a_symmetric_change_of_a_coupled_twin_entry():
     import numpy as np
     import scipy.linalg
 
-    from mountid.gap import Residual, localise
+    from mountid.diagnosis.gap import Residual, localise
 
     campaign = load("examples/kid300-paper.json")
     mod = campaign.machine.module

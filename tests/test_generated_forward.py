@@ -11,10 +11,10 @@ from conftest import CLOSED_FORM_MACHINES, MACHINES, budget, call, generated, pa
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mountid.description import load, shipped_descriptions
-from mountid.paper import TABLE_1
-from mountid.symbolic.blocks import ModalStructure
-from mountid.symbolic.model import SymbolicModel
+from mountid.engine.description import load, shipped_descriptions
+from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.model import SymbolicModel
+from mountid.validation.paper import TABLE_1
 
 
 def matrices(mod, p):

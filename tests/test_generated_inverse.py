@@ -10,7 +10,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from mountid import runtime
-from mountid.paper import TABLE_1
+from mountid.validation.paper import TABLE_1
 
 CONDITION_LIMIT = 1e5
 """Round trips must hold to rtol 1e-9 where the inverse problem itself is not ill-conditioned: a relative

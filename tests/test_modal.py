@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mountid import modal
-from mountid.rig import Hammer, Rig, Sensor
+from mountid.measurement import modal
+from mountid.measurement.rig import Hammer, Rig, Sensor
 
 
 def test_spectrum_peak_is_refined_below_the_bin():

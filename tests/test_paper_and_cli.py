@@ -14,7 +14,7 @@ from conftest import call
 
 from mountid.cli import main
 from mountid.machine import Machine
-from mountid.paper import MEASURED, PUBLISHED, TABLE_1, paper_choice
+from mountid.validation.paper import MEASURED, PUBLISHED, TABLE_1, paper_choice
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -101,7 +101,8 @@ def test_python_dash_m_and_process_exit_code():
 
 def test_generation_is_independent_of_hash_seed():
     script = (
-        "import sys; from mountid.codegen.numpy_module import render; from mountid.description import load; "
+        "import sys; from mountid.engine.codegen.numpy_module import render; "
+        "from mountid.engine.description import load; "
         f"sys.stdout.write(render(load({str(ROOT / 'derivations' / 'kid300.toml')!r})))"
     )
     outs = []

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mountid.errors import InputError
-from mountid.records import Channel, Record, read_csv, write_csv
+from mountid.measurement.records import Channel, Record, read_csv, write_csv
 
 
 def _record(n: int = 100) -> Record:
@@ -60,7 +60,7 @@ def test_missing_channel_is_named():
 
 def test_uff58_round_trip(tmp_path):
     """Double-precision ASCII dataset 58 keeps 12 significant digits (%20.11e) and every channel's metadata."""
-    from mountid.uff import read_uff, write_uff
+    from mountid.measurement.uff import read_uff, write_uff
 
     rec = _record()
     rec = Record(rec.time, rec.data, (*rec.channels[:1], Channel("C", (0.1, -0.2, 0.3), (0.6, 0.8, 0.0))))

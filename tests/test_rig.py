@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mountid.errors import InputError
-from mountid.rig import Hammer, Rig, Sensor, Unbalance
+from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
 
 UNBALANCE = Unbalance(mass=43.1, eccentricity=0.03, speed=113.0, point=(0.05, -0.02, 0.1))  # paper Sec. 5
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from mountid import runtime
 from mountid.generated import kid300
-from mountid.paper import TABLE_1
+from mountid.validation.paper import TABLE_1
 
 
 def test_quadratic_roots_are_stable_and_ascending():

@@ -208,10 +208,10 @@ def cmd_describe(args: argparse.Namespace) -> None:
 def cmd_demo(args: argparse.Namespace) -> None:
     from importlib import resources
 
-    from mountid.campaign import load
-    from mountid.figures import diagnosis_figure
-    from mountid.gap import diagnose
-    from mountid.paper import print_reproduction, run_simulated_experiment
+    from mountid.diagnosis.campaign import load
+    from mountid.diagnosis.gap import diagnose
+    from mountid.report.figures import diagnosis_figure
+    from mountid.validation.paper import print_reproduction, run_simulated_experiment
 
     print_reproduction()
     run_simulated_experiment(figures=args.figures)
@@ -236,16 +236,16 @@ def _triple(text: str, option: str) -> tuple[float, float, float]:
 
 
 def _read_record(path: str):
-    from mountid.records import read_csv
-    from mountid.uff import read_uff
+    from mountid.measurement.records import read_csv
+    from mountid.measurement.uff import read_uff
 
     return read_uff(path) if path.lower().endswith((".uff", ".unv")) else read_csv(path)
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from mountid.records import write_csv
-    from mountid.rig import Hammer, Rig, Sensor, Unbalance
-    from mountid.uff import write_uff
+    from mountid.measurement.records import write_csv
+    from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
+    from mountid.measurement.uff import write_uff
 
     out = Path(args.out)
     if not out.parent.is_dir():
@@ -270,7 +270,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
         sensors.append(Sensor(name, _triple(point, "--sensor"), _triple(direction, "--sensor"), noise=args.noise))
     if not sensors:
-        from mountid.paper import paper_sensors
+        from mountid.validation.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
     hammers = (
@@ -313,14 +313,14 @@ def _identification_json(machine: Machine, result) -> dict:
 
 
 def cmd_identify_record(args: argparse.Namespace) -> None:
-    from mountid.experiment import identify_from_record
+    from mountid.identification.from_records import identify_from_record
 
     machine = Machine.resolve(args.machine)
     record = _read_record(args.record)
     use = tuple(args.use) if args.use else None
     result = identify_from_record(machine, record, _pairs(args.set, "--set"), start=args.start, use=use)
     if args.figures:
-        from mountid import figures
+        from mountid.report import figures
 
         labels = {k: m.frequency for k, m in result.modes.items()}
         first = record.names[0]
@@ -346,7 +346,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
 
 
 def cmd_process(args: argparse.Namespace) -> None:
-    from mountid.experiment import modal_data
+    from mountid.identification.from_records import modal_data
 
     machine = Machine.resolve(args.machine)
     modes, rest, warnings = modal_data(machine, _read_record(args.record), _pairs(args.set, "--set"), args.start)
@@ -361,15 +361,15 @@ def cmd_process(args: argparse.Namespace) -> None:
 
 
 def cmd_diagnose(args: argparse.Namespace) -> None:
-    from mountid.campaign import load
-    from mountid.gap import diagnose
+    from mountid.diagnosis.campaign import load
+    from mountid.diagnosis.gap import diagnose
 
     campaign = load(args.campaign)
     diagnosis = diagnose(campaign)
     report, effects = diagnosis.where, diagnosis.effects
     figure = None
     if not args.no_figure:
-        from mountid.figures import diagnosis_figure
+        from mountid.report.figures import diagnosis_figure
 
         figure = args.figure or f"{Path(args.campaign).stem}-diagnosis.png"
         _writable(figure, "--figure")
@@ -501,7 +501,7 @@ def _print_candidates(effects) -> None:
 def cmd_forced(args: argparse.Namespace) -> None:
     import numpy as np
 
-    from mountid.rig import Rig, Unbalance
+    from mountid.measurement.rig import Rig, Unbalance
 
     _check_unbalance(args)
     rig = Rig.of(args.machine, _pairs(args.set, "--set"))

@@ -2,7 +2,7 @@
 
 This module holds what an effect *is* (no sympy, no numerics). How each one changes the model:
 
-- ``generated``: the effect adds or changes energy terms; :mod:`mountid.symbolic.effects` derives the
+- ``generated``: the effect adds or changes energy terms; :mod:`mountid.engine.symbolic.effects` derives the
   extended M, C, B from the energies and the engine emits them as ``effect_<name>()`` in every generated
   machine module.
 - ``isolator``: one isolator's stiffness scaled by (1 + s); the per-isolator stiffness matrices are generated

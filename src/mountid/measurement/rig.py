@@ -25,36 +25,8 @@ import scipy.signal
 from numpy.typing import NDArray
 
 from mountid.errors import InputError
-from mountid.machine import Machine
-from mountid.records import Channel, Record
-
-
-def _unit(direction: Sequence[float], name: str) -> NDArray[np.float64]:
-    d = np.asarray(direction, dtype=float)
-    norm = np.linalg.norm(d)
-    if d.shape != (3,) or not np.isfinite(norm) or norm == 0:
-        raise InputError(name, f"must be a non-zero 3-vector, got {list(np.ravel(d))}")
-    return d / norm
-
-
-def matrices(module: types.ModuleType, values: dict[str, float]) -> tuple[NDArray, NDArray, NDArray]:
-    """M, C, B of a generated module at parameter ``values`` (every argument of the three functions)."""
-    args = module.ARGUMENTS
-    return tuple(
-        getattr(module, f)(*(values[a] for a in args[f])) for f in ("mass_matrix", "stiffness_matrix", "damping_matrix")
-    )
-
-
-def state_matrix(mass: NDArray, stiffness: NDArray, damping: NDArray) -> NDArray[np.float64]:
-    """First-order form x' = A x of M q'' + B q' + C q = 0 with x = [q; q']."""
-    n = mass.shape[0]
-    minv = np.linalg.inv(mass)
-    return np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ stiffness, -minv @ damping]])
-
-
-def sensor_row(module: types.ModuleType, point: Sequence[float], direction: Sequence[float], name: str) -> NDArray:
-    """d^T du/dq: what a sensor at ``point`` [m] along ``direction`` reads per unit of each coordinate."""
-    return _unit(direction, f"{name}.direction") @ module.point_jacobian(*np.asarray(point, float))
+from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
+from mountid.measurement.records import Channel, Record
 
 
 @dataclass(frozen=True)
@@ -108,7 +80,7 @@ class Unbalance:
 
     def plane(self) -> tuple[NDArray, NDArray]:
         """Unit vectors (e_s, e_c) of the force plane: F = F0 (e_s sin wt + e_c cos wt)."""
-        a = _unit(self.axis, "unbalance.axis")
+        a = unit_vector(self.axis, "unbalance.axis")
         e_s = np.cross([0.0, 1.0, 0.0], a) if abs(a[1]) < 0.9 else np.cross(a, [0.0, 0.0, 1.0])
         e_s /= np.linalg.norm(e_s)
         return e_s, np.cross(a, e_s)
@@ -253,5 +225,7 @@ class Rig:
             if s.clip is not None:
                 y = np.clip(y, -s.clip, s.clip)
             data[:, j] = y
-            channels.append(Channel(s.name, tuple(map(float, s.point)), tuple(map(float, _unit(s.direction, s.name)))))
+            channels.append(
+                Channel(s.name, tuple(map(float, s.point)), tuple(map(float, unit_vector(s.direction, s.name))))
+            )
         return Record(np.arange(n_out) / rate, data, tuple(channels))

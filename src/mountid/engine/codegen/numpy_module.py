@@ -1,6 +1,6 @@
 """Build the numpy module of one description: function bodies from sympy, laid out by a jinja2 template.
 
-Every formula in the output comes from :mod:`mountid.symbolic`; this module only arranges them
+Every formula in the output comes from :mod:`mountid.engine.symbolic`; this module only arranges them
 (argument lists, cse, array assembly) and hands them to ``templates/numpy_module.py.jinja``.
 """
 
@@ -13,14 +13,15 @@ from importlib import resources
 import jinja2
 import sympy as sp
 
-from mountid.codegen.printing import code, describe, eliminate, fused
-from mountid.description import COORDINATES, Description
 from mountid.effects import EFFECTS
+from mountid.engine.codegen.printing import code, describe, eliminate, fused
+from mountid.engine.description import Description
+from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
+from mountid.engine.symbolic.inverse import InverseDerivation, InverseSet
+from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
-from mountid.symbolic.blocks import ModalStructure
-from mountid.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
-from mountid.symbolic.inverse import InverseDerivation, InverseSet
-from mountid.symbolic.model import SymbolicModel
+from mountid.nomenclature import COORDINATES
 
 TEMPLATE = "numpy_module.py.jinja"
 SYMPY_VERSION = "1.14.0"
@@ -122,7 +123,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
         doc = (
             f"M, C, B of the model extended by the candidate effect {name} ({EFFECTS[name].title}),\n"
             f"    each of shape (..., {n}, {n}), coordinates {', '.join(ext.coordinates)}; derived from the\n"
-            "    extended energies (mountid.symbolic.effects).\n"
+            "    extended energies (mountid.engine.symbolic.effects).\n"
         )
         if n > 6:
             fn = _matrices_function(
@@ -342,7 +343,7 @@ def _eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function
         body.append("return numpy.moveaxis(_out, 0, -1)")
         method = (
             "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
-            "    mountid.symbolic.blocks: no difference of nearly equal numbers)"
+            "    mountid.engine.symbolic.blocks: no difference of nearly equal numbers)"
         )
     else:
         margs = model.parameters_of(model.M)

@@ -46,7 +46,7 @@ class MeasuredData:
     shape: tuple[float, ...] | None = None
     shape_uncertainty: float | None = None
     """Standard deviation per component of the shape scaled to unit length (rotations times the machine's
-    length scale; see mountid.candidates)."""
+    length scale; see mountid.diagnosis.candidates)."""
 
     @property
     def frequency_std(self) -> float:

@@ -1,4 +1,4 @@
-"""``python -m mountid.codegen [--check] [NAME ...]``: regenerate generated/ from derivations/.
+"""``python -m mountid.engine.codegen [--check] [NAME ...]``: regenerate generated/ from derivations/.
 
 Without --check, writes generated/<name>.py for every description (or the named ones) and removes
 generated modules whose description is gone. With --check, writes nothing and exits 1 listing every
@@ -13,13 +13,13 @@ from concurrent.futures import ProcessPoolExecutor
 from functools import cache
 from pathlib import Path
 
-from mountid.codegen.numpy_module import EffectFunctions, effect_functions, render
-from mountid.description import load
-from mountid.symbolic.blocks import ModalStructure
-from mountid.symbolic.inverse import InverseDerivation, InverseSet
-from mountid.symbolic.model import SymbolicModel
+from mountid.engine.codegen.numpy_module import EffectFunctions, effect_functions, render
+from mountid.engine.description import load
+from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.inverse import InverseDerivation, InverseSet
+from mountid.engine.symbolic.model import SymbolicModel
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[4]  # src/mountid/engine/codegen/__main__.py -> the project root
 
 
 @cache
@@ -61,7 +61,7 @@ def generate(sources: list[Path], workers: int = 2) -> dict[str, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m mountid.codegen", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m mountid.engine.codegen", description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help="descriptions to generate (default: all)")
     parser.add_argument("--check", action="store_true", help="compare with the checked-in files, write nothing")
     parser.add_argument("--root", type=Path, default=ROOT, help="project root holding derivations/ and generated/")

@@ -16,7 +16,7 @@ import scipy.signal
 from numpy.typing import NDArray
 
 from mountid.errors import InputError
-from mountid.records import Record
+from mountid.measurement.records import Record
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Machine descriptions: the TOML files in ``derivations/`` that a researcher writes.
 
 This module reads and checks the structure of a description without sympy; the symbolic meaning
-(expressions, energies, symmetry checks on the expressions) lives in :mod:`mountid.symbolic.model`.
+(expressions, energies, symmetry checks on the expressions) lives in :mod:`mountid.engine.symbolic.model`.
 The format is documented in ``docs/descriptions.md``.
 """
 
@@ -16,27 +16,10 @@ import tomllib
 
 from mountid.effects import EFFECT_PARAMETERS
 from mountid.errors import DescriptionError
-
-COORDINATES: tuple[str, ...] = ("x", "y", "z", "psi", "theta", "phi")
-"""Generalised coordinates: translations of the body origin [m] and small rotations about x, y, z [rad]."""
+from mountid.nomenclature import COORDINATES, KINDS, POSITIVE_KINDS
 
 MIRROR_PLANES: dict[str, int] = {"yz": 0, "xz": 1}
 """Vertical mirror planes and the axis each one reverses (``yz``: x -> -x, ``xz``: y -> -y)."""
-
-KINDS: dict[str, str] = {
-    "mass": "kg",
-    "inertia": "kg m^2",
-    "length": "m",
-    "stiffness": "N/m",
-    "rotational_stiffness": "N m/rad",
-    "damping": "N s/m",
-    "angle": "rad",
-    "ratio": "1",
-}
-"""Parameter kinds and their SI units."""
-
-POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotational_stiffness", "damping"})
-"""Kinds whose values must be strictly positive."""
 
 ROLES = ("known", "unknown")
 

@@ -2,7 +2,7 @@
 :mod:`mountid.effects`), the per-isolator stiffness matrices, and the machine scales.
 
 Each extension writes kinetic energy T, potential energy P and dissipation D of the extended system with
-sympy and takes M, C, B as their Hessians, exactly as :class:`~mountid.symbolic.model.SymbolicModel` does for
+sympy and takes M, C, B as their Hessians, exactly as :class:`~mountid.engine.symbolic.model.SymbolicModel` does for
 the nominal model; an extra coordinate (the foundation's vertical motion) extends q.
 """
 
@@ -12,10 +12,10 @@ from functools import cache, cached_property
 
 import sympy as sp
 
-from mountid.description import COORDINATES
 from mountid.effects import EFFECTS, STANDARD_GRAVITY, Effect
+from mountid.engine.symbolic.model import SymbolicModel, rigid_body_kinetic_energy
 from mountid.errors import DescriptionError
-from mountid.symbolic.model import SymbolicModel, rigid_body_kinetic_energy
+from mountid.nomenclature import COORDINATES
 
 GENERATED_EFFECTS: tuple[str, ...] = tuple(name for name, e in EFFECTS.items() if e.how == "generated")
 

@@ -24,9 +24,10 @@ from functools import cached_property
 
 import sympy as sp
 
-from mountid.description import COORDINATES, MIRROR_PLANES, ModeSpec
+from mountid.engine.description import MIRROR_PLANES, ModeSpec
+from mountid.engine.symbolic.model import SymbolicModel, rational_point
 from mountid.errors import DescriptionError
-from mountid.symbolic.model import SymbolicModel, rational_point
+from mountid.nomenclature import COORDINATES
 
 LAMBDA = sp.Symbol("lambda", positive=True)
 """Eigenvalue symbol: squared natural frequency [rad^2/s^2]."""

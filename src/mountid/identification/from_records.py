@@ -1,6 +1,6 @@
 """From an impact record to labelled modal data, isolator stiffnesses and damping (paper Sec. 4, any machine).
 
-1. Poles of the free decay (mountid.modal.free_decay_poles).
+1. Poles of the free decay (mountid.measurement.modal.free_decay_poles).
 2. Labels: each pole's channel shape against the channel shapes the model predicts for its modes at the
    nominal parameters (MAC); modes equal by symmetry share their distinct-frequency label.
 3. Stiffnesses: every generated inverse over the measured distinct frequencies gives starting points; a
@@ -19,11 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
-from mountid import modal
 from mountid.errors import InputError
-from mountid.machine import Machine
-from mountid.records import Record
-from mountid.rig import matrices, sensor_row, state_matrix
+from mountid.machine import Machine, call, damped_poles, matrices, sensor_row
+from mountid.measurement import modal
+from mountid.measurement.records import Record
 
 
 @dataclass(frozen=True)
@@ -146,13 +145,9 @@ def damped_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray
     """|p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a free decay shows), in mode order: the
     state-space poles, each mode taking the pole nearest its undamped frequency (damping is light)."""
     mod = machine.module
-    poles = np.linalg.eigvals(state_matrix(*matrices(mod, values)))
-    magnitude = np.sort(np.abs(poles[poles.imag > 0]))
-    undamped = mod.frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
-    order = np.argsort(undamped)
-    out = np.empty(len(undamped))
-    out[order] = magnitude if len(magnitude) == len(undamped) else undamped[order]
-    return out
+    undamped = np.asarray(mod.frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS}))
+    poles = damped_poles(*matrices(mod, values), undamped**2)
+    return np.where(poles != 0, np.abs(poles), undamped)
 
 
 def fit_stiffness(
@@ -260,15 +255,14 @@ def fit_damping(
     args = machine.values(parameters, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)
     lam = mod.squared_frequencies(**args)
-    b_args = mod.ARGUMENTS["damping_matrix"]
-    fixed = machine.values(parameters, tuple(a for a in b_args if a not in names))
+    fixed = machine.values(parameters, tuple(a for a in mod.ARGUMENTS["damping_matrix"] if a not in names))
     rows, rhs, sigma = [], [], []
     for label, mode in modes.items():
         k = mod.MODES.index(label)
         row = []
         for name in names:
             unit = {**fixed, **{n: (1.0 if n == name else 0.0) for n in names}}
-            row.append(phi[:, k] @ mod.damping_matrix(*(unit[a] for a in b_args)) @ phi[:, k])
+            row.append(phi[:, k] @ call(mod, "damping_matrix", unit) @ phi[:, k])
         rows.append(row)
         rhs.append(2 * mode.damping_ratio * math.sqrt(lam[k]))
         sigma.append(2 * max(mode.damping_std, 1e-6 * mode.damping_ratio) * math.sqrt(lam[k]))

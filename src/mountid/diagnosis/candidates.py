@@ -27,9 +27,9 @@ import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
-from mountid.campaign import DEFAULT_FREQUENCY_STD, Campaign
+from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.effects import CATALOGUE, Effect
-from mountid.rig import state_matrix
+from mountid.machine import call, damped_poles
 
 GAP_P_VALUE = 1e-3
 """The nominal model has a significant gap when its chi^2 exceeds the 1 - GAP_P_VALUE quantile."""
@@ -123,9 +123,7 @@ class CandidateModel:
         start = machine.values({}, machine.unknown)
         self.start_unknowns = start
         nominal = {**everything, **start}
-        self.scales = {
-            k: float(v) for k, v in mod.effect_scales(**_pick(nominal, mod.ARGUMENTS["effect_scales"])).items()
-        }
+        self.scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
         self.length = self.scales["length"]
         self.effect_parameters = effect.parameters if effect else ()
         self.log_scaled = tuple(p.plausible[0] > 0 for p in self.effect_parameters)
@@ -226,15 +224,14 @@ class CandidateModel:
         mod = self.mod
         e = self.effect
         if e is not None and e.how == "generated":
-            fn = getattr(mod, f"effect_{e.name}")
-            m, c, b = fn(**_pick(values, mod.ARGUMENTS[fn.__name__]))
+            m, c, b = call(mod, f"effect_{e.name}", values)
             return m, c, b
-        m = mod.mass_matrix(**_pick(values, mod.ARGUMENTS["mass_matrix"]))
-        c = mod.stiffness_matrix(**_pick(values, mod.ARGUMENTS["stiffness_matrix"]))
+        m = call(mod, "mass_matrix", values)
+        c = call(mod, "stiffness_matrix", values)
         if e is not None and e.how == "isolator":
-            per = mod.isolator_stiffness(**_pick(values, mod.ARGUMENTS["isolator_stiffness"]))
+            per = call(mod, "isolator_stiffness", values)
             c = c + values["scatter"] * per[self.isolator]
-        b = mod.damping_matrix(**_pick(values, mod.ARGUMENTS["damping_matrix"])) if e and e.how == "damping" else None
+        b = call(mod, "damping_matrix", values) if e and e.how == "damping" else None
         return m, c, b
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
@@ -250,7 +247,7 @@ class CandidateModel:
         if e is not None and e.how == "frequency":
             omega = _stiffening(np.abs(lam), values["rubber_strength"], values["rubber_corner"] * self.omega_ref)
         elif e is not None and e.how == "damping":
-            omega = _damped_frequencies(m, c, values["damping_scale"] * b, lam)
+            omega = damped_poles(m, c, values["damping_scale"] * b, lam).imag
         elif e is not None and e.how == "sensor":
             body = scaled_unit(
                 sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
@@ -329,18 +326,6 @@ def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
     root = np.sqrt(b * b + 4 * lam * c)
     y = np.where(b > 0, 2 * lam * c / (b + root), (root - b) / 2)
     return np.sqrt(y)
-
-
-def _damped_frequencies(m: np.ndarray, c: np.ndarray, b: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """|Im p| of M p^2 + B p + C = 0, in the order of the undamped eigenvalues ``lam``."""
-    n = len(m)
-    poles = np.linalg.eigvals(state_matrix(m, c, b))
-    damped = np.sort(np.abs(poles.imag[poles.imag > 0]))
-    if len(damped) < n:  # overdamped modes do not oscillate: frequency 0, given to the highest modes
-        damped = np.concatenate([damped, np.zeros(n - len(damped))])
-    out = np.empty(n)
-    out[np.argsort(lam, kind="stable")] = damped
-    return out
 
 
 def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:

@@ -1,24 +1,22 @@
 """A machine as the user sees it: a generated module plus input checking, by name or description path.
 
 Importing this module does not import sympy; only resolving a description *file* that is not shipped
-(which has to be generated first) does.
+(which has to be generated first) does (:mod:`mountid.machine.modules`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import importlib
 import math
-import os
-import types
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from mountid.description import POSITIVE_KINDS
 from mountid.errors import InputError
+from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
+from mountid.nomenclature import POSITIVE_KINDS
 
 
 @dataclass(frozen=True)
@@ -33,66 +31,10 @@ class Solution:
     std: dict[str, float] | None = None
 
 
-def shipped_machines() -> list[str]:
-    """Names of the generated modules shipped with the package."""
-    folder = Path(importlib.import_module("mountid.generated").__file__).parent
-    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
-
-
-def cache_folder() -> Path:
-    """Where modules generated from description files are kept: $MOUNTID_CACHE, else
-    $XDG_CACHE_HOME/mountid, else ~/.cache/mountid."""
-    if os.environ.get("MOUNTID_CACHE"):
-        return Path(os.environ["MOUNTID_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mountid"
-
-
-def _engine_fingerprint() -> str:
-    """Hash of everything a generated module depends on besides its description: the engine, the code
-    generator, the templates (a change to any of them makes every cached module stale)."""
-    import mountid
-
-    root = Path(mountid.__file__).parent
-    digest = hashlib.sha256()
-    files = sorted(
-        [*root.glob("symbolic/*.py"), *root.glob("codegen/*.py"), root / "description.py", root / "effects.py"]
-    )
-    templates = Path(importlib.import_module("mountid.templates").__file__).parent
-    for f in [*files, *sorted(templates.glob("*.jinja"))]:
-        digest.update(f.name.encode() + f.read_bytes())
-    return digest.hexdigest()
-
-
-def _module_from_description(path: Path) -> types.ModuleType:
-    """The generated module of a description file, generated once and cached by content (the description's
-    bytes and the engine's fingerprint): a second use of the same file costs no sympy."""
-    key = hashlib.sha256(path.read_bytes() + _engine_fingerprint().encode()).hexdigest()[:24]
-    cached = cache_folder() / f"{path.stem}-{key}.py"
-    if cached.is_file():
-        source = cached.read_text(encoding="utf-8")
-    else:
-        from mountid.codegen.numpy_module import render  # sympy: only for descriptions not generated yet
-        from mountid.description import load
-
-        source = render(load(path))
-        try:
-            cached.parent.mkdir(parents=True, exist_ok=True)
-            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(source, encoding="utf-8")
-            tmp.replace(cached)  # atomic: a concurrent reader sees the whole file or none
-        except OSError:
-            pass  # a read-only cache folder only costs the next run a new generation
-    module = types.ModuleType(f"mountid_generated_{path.stem}")
-    module.__file__ = str(path)
-    exec(compile(source, f"<generated from {path}>", "exec"), module.__dict__)
-    return module
-
-
 class Machine:
     """Checked access to one generated module."""
 
-    def __init__(self, module: types.ModuleType) -> None:
+    def __init__(self, module: GeneratedModule) -> None:
         self.module = module
         self.name: str = module.DESCRIPTION
         self.parameters: dict[str, dict] = module.PARAMETERS
@@ -107,7 +49,7 @@ class Machine:
             return cls(importlib.import_module(f"mountid.generated.{machine}"))
         path = Path(machine)
         if path.suffix == ".toml" and path.is_file():
-            return cls(_module_from_description(path))
+            return cls(module_from_description(path))
         raise InputError(
             "machine",
             f"unknown machine {machine!r}: not a shipped one ({', '.join(shipped_machines())}) "

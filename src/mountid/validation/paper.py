@@ -85,7 +85,7 @@ TRUE_DAMPING = {"b_xy": 337.2, "b_z": 1039.0}
 
 def paper_sensors(noise: float = 0.01):
     """The paper's accelerometers plus A_z and C_x (see above), with white noise of ``noise`` x RMS."""
-    from mountid.rig import Sensor
+    from mountid.measurement.rig import Sensor
 
     return [
         Sensor("A_x", POINT_A, (1, 0, 0), noise=noise),
@@ -98,7 +98,7 @@ def paper_sensors(noise: float = 0.01):
 
 def paper_hit():
     """One oblique impact off the symmetry planes: it excites every mode (the paper hit along x)."""
-    from mountid.rig import Hammer
+    from mountid.measurement.rig import Hammer
 
     return Hammer(point=(0.35, 0.25, 0.3), direction=(1.0, 0.8, -0.6), peak=3000.0)
 
@@ -108,8 +108,8 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     record -> modal data -> c_xy, c_z, damping -> predicted frequencies; the unbalance check of Fig. 6.
     Prints a table and, unless ``figures`` is None, writes the figures there. Returns the numbers."""
 
-    from mountid.experiment import damped_frequencies, identify_from_record
-    from mountid.rig import Rig, Unbalance
+    from mountid.identification.from_records import damped_frequencies, identify_from_record
+    from mountid.measurement.rig import Rig, Unbalance
 
     truth = {**PUBLISHED_STIFFNESS, **TRUE_DAMPING}
     rig = Rig.of("kid300", {**TABLE_1, **truth})
@@ -141,7 +141,7 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     out = {"modes": {k: m.frequency for k, m in result.modes.items()}, **result.parameters, **result.damping}
     if figures is None:
         return out
-    from mountid import figures as fig
+    from mountid.report import figures as fig
 
     folder = Path(figures)
     w1 = result.modes["x"].frequency if "x" in result.modes else true_w["x"]

@@ -1,9 +1,9 @@
 """The gap diagnosis. Where the model misses the measurements: residuals against uncertainty, held-out
 predictions, sensitivities, localisation at matrix level, broken symmetry, the modal force residual per
-isolator. Which effect: :mod:`mountid.candidates`. :func:`diagnose` does both.
+isolator. Which effect: :mod:`mountid.diagnosis.candidates`. :func:`diagnose` does both.
 
 All numbers come from the generated module of the campaign's machine: the nominal identification is
-mountid.experiment.fit_stiffness, the frequencies and mode shapes the generated forward map.
+mountid.identification.from_records.fit_stiffness, the frequencies and mode shapes the generated forward map.
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mountid.campaign import DEFAULT_FREQUENCY_STD, Campaign
-from mountid.candidates import EffectsReport, diagnose_effects
-from mountid.experiment import fit_stiffness
+from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
+from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
+from mountid.identification.from_records import fit_stiffness
+from mountid.machine import call
 
 SIGNIFICANCE = 2.0
 """A residual is significant beyond this many standard deviations of the measurement."""
@@ -138,7 +139,7 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     before = float(np.sum((d_lam / sigma) ** 2))
     if before < 1e-12 * len(residuals):  # nothing to localise (the fit reproduces every measurement)
         return []
-    grads = mod.stiffness_gradient(*(args[a] for a in mod.ARGUMENTS["stiffness_gradient"]))
+    grads = call(mod, "stiffness_gradient", args)
     unknown_cols = np.array([[phi[:, k] @ grad @ phi[:, k] for grad in grads] for k in rows]).reshape(len(rows), -1)
     coords = mod.COORDINATES
     # the engine's twin map: coordinate -> (image, sign), both ways; an entry's image changes by s_i s_j
@@ -259,10 +260,9 @@ def isolator_forces(campaign: Campaign, params: dict[str, float]) -> tuple[list[
     machine = campaign.machine
     mod = machine.module
     values = machine.values({**campaign.known, **params}, tuple(mod.PARAMETERS))
-    pick = {name: {a: values[a] for a in mod.ARGUMENTS[name]} for name in ("mass_matrix", "stiffness_matrix")}
-    m = np.asarray(mod.mass_matrix(**pick["mass_matrix"]))
-    c = np.asarray(mod.stiffness_matrix(**pick["stiffness_matrix"]))
-    per = np.asarray(mod.isolator_stiffness(**{a: values[a] for a in mod.ARGUMENTS["isolator_stiffness"]}))
+    m = np.asarray(call(mod, "mass_matrix", values))
+    c = np.asarray(call(mod, "stiffness_matrix", values))
+    per = np.asarray(call(mod, "isolator_stiffness", values))
     rows, rhs, relative = [], [], {}
     for label, data in campaign.modes.items():
         if data.shape is None:

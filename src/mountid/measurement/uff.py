@@ -16,7 +16,7 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError
-from mountid.records import Channel, Record
+from mountid.measurement.records import Channel, Record
 
 _TAG = "mountid point="
 

@@ -16,9 +16,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from mountid import modal
 from mountid.machine import Machine
-from mountid.records import Record
+from mountid.measurement import modal
+from mountid.measurement.records import Record
 
 
 def _save(fig, path: str | Path) -> Path:

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from mountid.symbolic.blocks import LAMBDA, ModalStructure
-from mountid.symbolic.model import rational_point
+from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
+from mountid.engine.symbolic.model import rational_point
 
 
 @dataclass(frozen=True)
@@ -404,5 +404,5 @@ class InverseDerivation:
         return list(itertools.combinations(self.structure.unique_labels, len(self.unknowns)))
 
     def all_sets(self) -> list[InverseSet]:
-        """derive() of every candidate set, in order (python -m mountid.codegen spreads them over processes)."""
+        """derive() of every candidate set, in order (python -m mountid.engine.codegen spreads them over processes)."""
         return [self.derive(c) for c in self.candidates()]

@@ -22,8 +22,9 @@ from functools import cached_property
 import sympy as sp
 from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
-from mountid.description import COORDINATES, MIRROR_PLANES, Description, IsolatorGroup
+from mountid.engine.description import MIRROR_PLANES, Description, IsolatorGroup
 from mountid.errors import DescriptionError
+from mountid.nomenclature import COORDINATES
 
 _ALLOWED_FUNCTIONS = {"sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "pi": sp.pi}
 

@@ -31,11 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from mountid import campaign as campaign_module
-from mountid.candidates import TIE, diagnose_effects, label_modes, scaled_unit
+from mountid.diagnosis import campaign as campaign_module
+from mountid.diagnosis.candidates import TIE, diagnose_effects, label_modes, scaled_unit
 from mountid.effects import CATALOGUE, STANDARD_GRAVITY
-from mountid.machine import Machine
-from mountid.rig import state_matrix
+from mountid.machine import Machine, call, damped_poles
 
 EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE))
 FREQUENCY_STD = 3e-4
@@ -80,7 +79,7 @@ class _Kid300:
         a = v["L_xy"] / math.sqrt(2)
         self.points = [np.array([sx * a, sy * a, -v["L_z"]]) for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))]
         self.inertia = np.diag([v["J_xy"], v["J_xy"], v["J_z"]])
-        scales = machine.module.effect_scales(**{a: v[a] for a in machine.module.ARGUMENTS["effect_scales"]})
+        scales = call(machine.module, "effect_scales", v)
         self.length = float(scales["length"])  # [m], the rotations' factor in scaled unit shapes
 
     def matrices(self, t: Truth, rng_isolator: int = 0):
@@ -200,9 +199,7 @@ def _modes(kid: _Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.nda
                 w = w_new
             omega[i] = w_new
     elif t.effect == "damping":
-        poles = np.linalg.eigvals(state_matrix(m, c, b))
-        damped = np.sort(np.abs(poles.imag[poles.imag > 0]))
-        omega = damped[np.argsort(np.argsort(lam[order]))]
+        omega = damped_poles(m, c, b, lam)[order].imag
     elif t.effect == "sensor_error":
         shapes = _through_sensors(kid, shapes, t.size["yaw"], t.size["dz"])
     return omega, shapes

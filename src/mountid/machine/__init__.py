@@ -1,0 +1,25 @@
+"""The user's view of a generated module: checked inputs, the two directions (frequencies and
+identification), matrices, the first-order form and sensor rows, calling generated functions by name.
+
+Depends on the runtime and the generated modules only (numpy); the engine is imported lazily, and only to
+generate a description file that is not cached yet.
+"""
+
+from mountid.machine.dynamics import call, damped_poles, matrices, sensor_row, state_matrix, unit_vector
+from mountid.machine.model import Machine, Solution
+from mountid.machine.modules import GeneratedModule, cache_folder, module_from_description, shipped_machines
+
+__all__ = [
+    "GeneratedModule",
+    "Machine",
+    "Solution",
+    "cache_folder",
+    "call",
+    "damped_poles",
+    "matrices",
+    "module_from_description",
+    "sensor_row",
+    "shipped_machines",
+    "state_matrix",
+    "unit_vector",
+]

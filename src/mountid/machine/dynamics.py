@@ -1,0 +1,68 @@
+"""The dynamics of a generated module as the rest of the library uses it: calling a generated function by
+parameter name, M, C, B, the first-order form, damped poles and sensor rows.
+
+Units: M [kg, kg m, kg m^2], C [N/m, N, N m/rad], B [N s/m, N s, N m s/rad] (docs/architecture.md,
+"Nomenclature"); poles and frequencies [rad/s].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mountid.errors import InputError
+from mountid.machine.modules import GeneratedModule
+
+
+def call(module: GeneratedModule, function: str, values: Mapping[str, float]) -> Any:
+    """The generated ``function`` of ``module`` evaluated with its arguments (``module.ARGUMENTS``) taken
+    by name from ``values`` (which may hold more)."""
+    return getattr(module, function)(**{a: values[a] for a in module.ARGUMENTS[function]})
+
+
+def matrices(module: GeneratedModule, values: Mapping[str, float]) -> tuple[NDArray, NDArray, NDArray]:
+    """M, C, B of a generated module at parameter ``values`` (every argument of the three functions)."""
+    return tuple(np.asarray(call(module, f, values)) for f in ("mass_matrix", "stiffness_matrix", "damping_matrix"))
+
+
+def state_matrix(mass: NDArray, stiffness: NDArray, damping: NDArray) -> NDArray[np.float64]:
+    """First-order form x' = A x of M q'' + B q' + C q = 0 with x = [q; q']."""
+    n = mass.shape[0]
+    minv = np.linalg.inv(mass)
+    return np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ stiffness, -minv @ damping]])
+
+
+def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray) -> NDArray[np.complex128]:
+    """The pole p (Im p > 0) of each mode of M p^2 + B p + C = 0 [rad/s], in the order of the undamped
+    eigenvalues ``lam`` [rad^2/s^2]: the k-th lowest damped frequency goes to the mode with the k-th lowest
+    lam (damping does not reorder the modes of a lightly damped mount). A mode that does not oscillate
+    (overdamped) has p = 0; those are given to the highest modes.
+
+    The damped frequency a spectrum shows is ``p.imag`` (omega_d); the natural frequency a pole fit of a
+    free decay reports is ``abs(p)`` (omega_n, with zeta = -p.real / abs(p))."""
+    n = len(mass)
+    poles = np.linalg.eigvals(state_matrix(mass, stiffness, damping))
+    upper = poles[poles.imag > 0]
+    upper = upper[np.argsort(upper.imag, kind="stable")]
+    if len(upper) < n:
+        upper = np.concatenate([upper, np.zeros(n - len(upper), dtype=complex)])
+    out = np.empty(n, dtype=complex)
+    out[np.argsort(lam, kind="stable")] = upper[:n]
+    return out
+
+
+def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:
+    """``direction`` normalised; an InputError naming ``name`` when it is not a non-zero finite 3-vector."""
+    d = np.asarray(direction, dtype=float)
+    norm = np.linalg.norm(d)
+    if d.shape != (3,) or not np.isfinite(norm) or norm == 0:
+        raise InputError(name, f"must be a non-zero 3-vector, got {list(np.ravel(d))}")
+    return d / norm
+
+
+def sensor_row(module: GeneratedModule, point: Sequence[float], direction: Sequence[float], name: str) -> NDArray:
+    """d^T du/dq: what a sensor at ``point`` [m] along ``direction`` reads per unit of each coordinate."""
+    return unit_vector(direction, f"{name}.direction") @ module.point_jacobian(*np.asarray(point, float))

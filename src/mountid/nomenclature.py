@@ -1,0 +1,28 @@
+"""One name per quantity, shared by every layer (no numerics, no sympy).
+
+The paper's letters stay: M is the mass matrix [kg, kg m, kg m^2], C the stiffness matrix [N/m, N, N m/rad]
+and B the damping matrix [N s/m, N s, N m s/rad] of M q'' + B q' + C q = Q. Angular frequencies omega are in
+rad/s throughout (hertz only where a figure or a record says so); a squared frequency is lambda = omega^2.
+A standard deviation is always ``std`` (of a frequency [rad/s], of a parameter [its unit]); a relative
+standard deviation is ``relative_std``. The full table is docs/architecture.md, "Nomenclature".
+"""
+
+from __future__ import annotations
+
+COORDINATES: tuple[str, ...] = ("x", "y", "z", "psi", "theta", "phi")
+"""Generalised coordinates: translations of the body origin [m] and small rotations about x, y, z [rad]."""
+
+KINDS: dict[str, str] = {
+    "mass": "kg",
+    "inertia": "kg m^2",
+    "length": "m",
+    "stiffness": "N/m",
+    "rotational_stiffness": "N m/rad",
+    "damping": "N s/m",
+    "angle": "rad",
+    "ratio": "1",
+}
+"""Parameter kinds and their SI units."""
+
+POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotational_stiffness", "damping"})
+"""Kinds whose values must be strictly positive (a length may be 0 where the description allows it)."""
