@@ -12,7 +12,9 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from mountid.diagnosis.campaign import parse
-from mountid.diagnosis.candidates import CandidateModel, diagnose_effects, fit_candidate
+from mountid.diagnosis.candidate_model import CandidateModel
+from mountid.diagnosis.candidates import diagnose_effects
+from mountid.diagnosis.fitting import fit_candidate
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS
 from mountid.machine import Machine

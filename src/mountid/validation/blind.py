@@ -32,7 +32,8 @@ import numpy as np
 import scipy.linalg
 
 from mountid.diagnosis import campaign as campaign_module
-from mountid.diagnosis.candidates import TIE, diagnose_effects, label_modes, scaled_unit
+from mountid.diagnosis.candidate_model import label_modes, scaled_unit
+from mountid.diagnosis.candidates import TIE, diagnose_effects
 from mountid.effects import CATALOGUE, STANDARD_GRAVITY
 from mountid.machine import Machine, call, damped_poles
 

@@ -1,21 +1,16 @@
-"""Numerics shared by the generated modules (numpy; numexpr for large batches), no machine-specific formulas.
-
-Everything that depends on a machine (matrix entries, characteristic-polynomial coefficients, back-
-substitutions) is generated from sympy; this module holds the generic numerical steps applied to them:
-fused evaluation of generated expressions, stable polynomial roots, generalised symmetric eigen-solves of
-small blocks, mode-shape normalisation, the Newton polish and the admissibility filter of inverse roots.
-All functions broadcast over leading batch dimensions.
-"""
+"""Inverse solutions at run time: the Newton polish of candidate roots, numeric inverses from a start
+grid, conditioning and rank checks, and the admissibility filter (numpy). The closed-form candidates come
+from the generated modules; nothing here is machine-specific."""
 
 from __future__ import annotations
 
-import functools
 import itertools
 from typing import NamedTuple
 
-import numexpr
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from mountid.runtime.eigen import eigen_jacobian
 
 ADMISSIBILITY_RTOL = 1e-11
 """A root is admissible when each given squared frequency is reproduced by its labelled mode to this
@@ -95,86 +90,6 @@ class InverseRoots(NamedTuple):
         return names or tuple(self.parameters)  # a kink (two modes of a block coincide): all of them
 
 
-FUSED_MIN_SIZE = 4096
-"""Batches from this size on are evaluated by numexpr; smaller ones by numpy, whose per-call overhead is
-lower (numexpr parses and checks each call)."""
-
-_NUMPY_FUNCTIONS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log}
-
-
-@functools.cache
-def _compiled(expression: str):
-    return compile(expression, "<generated expression>", "eval")
-
-
-def fused(expression: str, variables: dict, out: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Evaluate a generated elementwise expression into ``out``, the variables broadcast to out's shape.
-
-    Large batches go through numexpr in one cache-blocked pass (a chain of numpy operations on them is bound
-    by memory traffic and the first touch of every temporary); numexpr splits them over its threads
-    (NUMEXPR_NUM_THREADS, numexpr.set_num_threads). Small ones use numpy (same formula, same operations)."""
-    if out.size >= FUSED_MIN_SIZE:
-        return numexpr.evaluate(expression, local_dict=variables, out=out, casting="unsafe")
-    out[...] = eval(_compiled(expression), {"__builtins__": {}, **_NUMPY_FUNCTIONS}, variables)
-    return out
-
-
-def as_arrays(*args: ArrayLike) -> list[NDArray[np.float64]]:
-    """Inputs as float arrays (no copies for float arrays)."""
-    return [np.asarray(a, dtype=float) for a in args]
-
-
-def linear_root(a1: ArrayLike, a0: ArrayLike) -> NDArray[np.float64]:
-    """Root of a1 t + a0 = 0, shape (1, *batch)."""
-    a1, a0 = np.broadcast_arrays(*as_arrays(a1, a0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (-a0 / a1)[np.newaxis]
-
-
-def quadratic_roots(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
-    """Both real roots of a t^2 + b t + c = 0 without cancellation, ascending, shape (2, *batch).
-
-    q = -(b + sign(b) sqrt(b^2 - 4ac)) / 2, roots q/a and c/q: no difference of nearly equal numbers.
-    A discriminant that is negative only by rounding (|disc| < 1e-12 b^2) is taken as zero (double root);
-    a clearly negative one gives NaN (no real root). a = 0 degrades to the linear root and a NaN.
-    """
-    a, b, c = np.broadcast_arrays(*as_arrays(a, b, c))
-    disc = b * b - 4.0 * a * c
-    disc = np.where((disc < 0) & (disc > -1e-12 * b * b), 0.0, disc)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
-        r1 = np.where(a != 0, q / a, np.nan)
-        r2 = np.where(q != 0, c / q, np.where(a != 0, 0.0, np.nan))
-        r2 = np.where(a == 0, -c / b, r2)
-        one_missing = np.isnan(r1) | np.isnan(r2)
-        lo = np.where(np.isnan(r1), r2, np.where(np.isnan(r2), r1, np.fmin(r1, r2)))
-        hi = np.where(one_missing, np.nan, np.fmax(r1, r2))
-    return np.stack([lo, hi])
-
-
-def polynomial_roots(*coefficients: ArrayLike) -> NDArray[np.float64]:
-    """Real roots of a polynomial (coefficients highest degree first), shape (degree, *batch).
-
-    Degree 1 and 2 use :func:`linear_root` and :func:`quadratic_roots`; higher degrees the eigenvalues of the
-    batched companion matrix. Complex roots (imaginary part above 1e-9 of the modulus) become NaN.
-    """
-    deg = len(coefficients) - 1
-    if deg == 1:
-        return linear_root(*coefficients)
-    if deg == 2:
-        return quadratic_roots(*coefficients)
-    coeffs = np.broadcast_arrays(*as_arrays(*coefficients))
-    batch = coeffs[0].shape
-    lead = coeffs[0]
-    comp = np.zeros((*batch, deg, deg))
-    for j in range(deg):
-        comp[..., 0, j] = -coeffs[j + 1] / lead
-    comp[..., np.arange(1, deg), np.arange(deg - 1)] = 1.0
-    roots = np.linalg.eigvals(comp)
-    real = np.where(np.abs(roots.imag) <= 1e-9 * np.abs(roots), roots.real, np.nan)
-    return np.moveaxis(np.sort(real, axis=-1), -1, 0)
-
-
 MAX_RELATIVE_STEP = 0.5
 """Largest relative change of an unknown in one Newton step (eigen_newton's trust region)."""
 
@@ -240,24 +155,6 @@ def eigen_newton(
             active = active[ok]
             x[active] = new[ok]
     return x, lam_all
-
-
-def eigenvalue_derivatives(
-    d_mass: NDArray | None, d_stiffness: NDArray, phi: NDArray, lam: NDArray | None
-) -> NDArray[np.float64]:
-    """d lambda_k / d p = phi_k^T (dC/dp - lambda_k dM/dp) phi_k for mass-normalised modes (distinct within
-    their block), from dM/dp, dC/dp (..., n_p, 6, 6), phi (..., 6, n_modes) and lam (..., n_modes); shape
-    (..., n_p, n_modes). ``d_mass`` None: M does not depend on the parameters (``lam`` is then unused)."""
-    dc = np.einsum("...ak,...pab,...bk->...pk", phi, d_stiffness, phi)
-    if d_mass is None:
-        return dc
-    return dc - lam[..., None, :] * np.einsum("...ak,...pab,...bk->...pk", phi, d_mass, phi)
-
-
-def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int, ...]) -> NDArray[np.float64]:
-    """d lambda_k / d theta_j for the given modes and the unknown stiffnesses (M does not depend on them),
-    shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns, 6, 6)."""
-    return np.swapaxes(eigenvalue_derivatives(None, dc, phi[:, :, list(mode_index)], None), -1, -2)
 
 
 def solve_inverse(
@@ -398,94 +295,6 @@ def _conditioning(model, known, x, mode_index, mode_block, n_given):
             cond[good] = np.where(smallest > 0, 1.0 / smallest, np.inf)
         jac[good] = d_omega
     return jac.reshape(n_roots, n_batch, n_given, n_unknowns), cond.reshape(n_roots, n_batch)
-
-
-def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:
-    """A (*shape, n, n) symmetric matrix from its upper-triangle non-zero entries."""
-    out = np.zeros((*shape, n, n))
-    for (i, j), value in entries.items():
-        out[..., i, j] = value
-        out[..., j, i] = value
-    return out
-
-
-def block_eigen(
-    mass: NDArray, stiffness: NDArray, index: tuple[int, ...]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Eigenvalues (ascending) and mass-normalised eigenvectors of one block of (C, M), numerically.
-
-    Solves C_b u = lambda M_b u through the Cholesky factor of M_b and numpy's symmetric eigen-solver.
-    Returns (lam (..., n), vectors (..., n, n)) with vectors as columns.
-    """
-    idx = np.asarray(index)
-    mb = mass[..., idx[:, None], idx[None, :]]
-    cb = stiffness[..., idx[:, None], idx[None, :]]
-    chol = np.linalg.cholesky(mb)
-    inv = np.linalg.inv(chol)
-    sym = inv @ cb @ np.swapaxes(inv, -1, -2)
-    lam, vec = np.linalg.eigh(sym)
-    return lam, np.swapaxes(inv, -1, -2) @ vec
-
-
-def modal_matrix(
-    mass: NDArray,
-    stiffness: NDArray,
-    lam: NDArray,
-    blocks: tuple[tuple[int, ...], ...],
-    mode_block: tuple[int, ...],
-    mode_rank: tuple[int, ...],
-) -> NDArray[np.float64]:
-    """Mass-normalised modal matrix (Phi^T M Phi = I), columns in mode order, shape (..., n, n_modes).
-
-    For a block of size 1 the shape is 1/sqrt(M_ii). For size 2 the null vector of (C_b - lambda M_b) is
-    taken from whichever row gives the larger vector (the other row may suffer cancellation when the
-    coupling is weak). Larger blocks use :func:`block_eigen`. Sign convention: the entry with the largest
-    mass-weighted magnitude is positive.
-    """
-    mass, stiffness, lam = np.broadcast_arrays(*as_arrays(mass, stiffness[..., :, :], lam[..., None, :]))
-    lam = lam[..., 0, :]
-    n = mass.shape[-1]
-    phi = np.zeros((*mass.shape[:-2], n, len(mode_block)))
-    numeric: dict[int, NDArray] = {}
-    for k, (b, rank) in enumerate(zip(mode_block, mode_rank, strict=True)):
-        idx = blocks[b]
-        if len(idx) == 1:
-            i = idx[0]
-            phi[..., i, k] = 1.0 / np.sqrt(mass[..., i, i])
-            continue
-        if len(idx) == 2:
-            i, j = idx
-            lk = lam[..., k]
-            a11 = stiffness[..., i, i] - lk * mass[..., i, i]
-            a12 = stiffness[..., i, j] - lk * mass[..., i, j]
-            a22 = stiffness[..., j, j] - lk * mass[..., j, j]
-            u_row1 = np.stack([-a12, a11], axis=-1)
-            u_row2 = np.stack([a22, -a12], axis=-1)
-            use1 = np.hypot(a12, a11) > np.hypot(a22, a12)
-            u = np.where(use1[..., None], u_row1, u_row2)
-            mb = mass[..., np.array(idx)[:, None], np.array(idx)[None, :]]
-            norm = np.sqrt(np.einsum("...i,...ij,...j->...", u, mb, u))
-            u = u / norm[..., None]
-            phi[..., i, k], phi[..., j, k] = u[..., 0], u[..., 1]
-            continue
-        if b not in numeric:
-            numeric[b] = block_eigen(mass, stiffness, idx)[1]
-        phi[..., np.array(idx), k] = numeric[b][..., :, rank - 1]
-    weight = phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None]
-    pick = np.take_along_axis(phi, np.argmax(np.abs(weight), axis=-2)[..., None, :], axis=-2)
-    return phi * np.where(pick < 0, -1.0, 1.0)
-
-
-def kinetic_energy_distribution(mass: NDArray, phi: NDArray) -> NDArray[np.float64]:
-    """Share of each mode's kinetic energy per coordinate, shape (..., n_coordinates, n_modes).
-
-    share[i, k] = phi_ik (M phi_k)_i / (phi_k^T M phi_k); each column sums to 1. With a diagonal mass matrix
-    every share lies in [0, 1]; an off-diagonal M (centre of mass away from the origin) can make a share
-    negative, since the kinetic energy is then not a sum over coordinates.
-    """
-    m_phi = mass @ phi
-    per = phi * m_phi
-    return per / np.sum(per, axis=-2, keepdims=True)
 
 
 def admissible(

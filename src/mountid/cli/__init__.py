@@ -1,0 +1,134 @@
+"""The ``mountid`` command (also ``python -m mountid``).
+
+Contract (other tools rely on it): SI units; ``--json`` output as documented in the README; bad input gives
+one line ``mountid: error: <parameter>: <reason>`` on stderr and exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from mountid.cli.arguments import Parser
+from mountid.cli.diagnose_command import cmd_diagnose
+from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
+from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_process, cmd_simulate
+from mountid.errors import InputError
+
+EXTRAS = {
+    "sympy": "generate",
+    "jinja2": "generate",
+    "matplotlib": "figures",
+    "pyuff": "records",
+    "jsonschema": "campaigns",
+}
+"""Optional dependencies and the extra that installs each (pyproject.toml)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="mountid", description="Rigid machines on rubber isolators: dynamics and identification.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+
+    def machine_command(name: str, help_: str) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help_)
+        p.add_argument("machine", help="a shipped machine name (e.g. kid300) or a description .toml file")
+        p.add_argument("--set", nargs="+", action="extend", metavar="NAME=VALUE", help="parameter values [SI]")
+        p.add_argument("--json", action="store_true", help="machine-readable output")
+        return p
+
+    machine_command("frequencies", "natural frequencies for given parameters").set_defaults(func=cmd_frequencies)
+    p = machine_command("identify", "unknown stiffnesses from measured natural frequencies")
+    p.add_argument(
+        "--measured",
+        nargs="+",
+        action="extend",
+        metavar="LABEL=RAD_S",
+        help="measured natural frequencies [rad/s]",
+    )
+    p.add_argument(
+        "--std",
+        nargs="+",
+        action="extend",
+        metavar="LABEL=RAD_S",
+        help="standard deviation of each measured frequency [rad/s]: the unknowns' standard deviations",
+    )
+    p.set_defaults(func=cmd_identify)
+    machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
+    machine_command("describe", "parameters, modes and inverse sets of a machine").set_defaults(func=cmd_describe)
+    p = sub.add_parser("demo", help="reproduce the reference paper's numbers and its simulated experiment")
+    p.add_argument("--figures", default="out/figures", help="folder for the figures (default out/figures)")
+    p.set_defaults(func=cmd_demo)
+
+    def add_unbalance(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
+        p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
+
+    p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv or .uff)")
+    p.add_argument("--out", required=True, help="record file to write (.csv, or .uff/.unv for UFF dataset 58)")
+    p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
+    p.add_argument("--rate", type=float, default=2000.0, help="sampling rate [Hz]")
+    p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--sensor",
+        nargs="+",
+        action="extend",
+        metavar="NAME=x,y,z:dx,dy,dz",
+        help="accelerometer channels (default: the paper's layout plus A_z and C_x)",
+    )
+    p.add_argument("--hit-point", default="0.35,0.25,0.3", help="impact point x,y,z [m]")
+    p.add_argument("--hit-direction", default="1,0.8,-0.6", help="impact direction")
+    p.add_argument("--hit-peak", type=float, default=3000.0, help="peak impact force [N]")
+    p.add_argument("--speed", nargs="+", type=float, help="rotating-unbalance speeds [rad/s] instead of a hit")
+    add_unbalance(p)
+    p.set_defaults(func=cmd_simulate)
+    p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
+    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
+    p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
+    p.set_defaults(func=cmd_identify_record)
+    p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
+    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.set_defaults(func=cmd_process)
+    p = sub.add_parser(
+        "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"
+    )
+    p.add_argument("campaign", help="campaign file (see mountid/schemas/campaign.schema.json)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--figure", help="figure file to write (default: <campaign name>-diagnosis.png here)")
+    p.add_argument("--no-figure", action="store_true", help="write no figure")
+    p.set_defaults(func=cmd_diagnose)
+    p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
+    p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
+    add_unbalance(p)
+    p.set_defaults(func=cmd_forced)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        args.func(args)
+    except InputError as exc:
+        print(f"mountid: error: {exc}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as exc:  # an optional dependency (extra) that is not installed
+        top = (exc.name or "").split(".")[0]
+        if top not in EXTRAS:
+            raise
+        print(
+            f"mountid: error: {top}: not installed; this command needs it: pip install 'mountid[{EXTRAS[top]}]'",
+            file=sys.stderr,
+        )
+        return 2
+    except OSError as exc:  # a file that cannot be read or written: named, one line
+        print(f"mountid: error: {exc.filename or 'file'}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

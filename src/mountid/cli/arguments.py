@@ -1,0 +1,94 @@
+"""Parsing and checking command-line values, shared by the commands: every bad value is an InputError
+naming the option (one line, exit code 2)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from mountid.errors import InputError
+from mountid.machine import Machine
+from mountid.report.jsonable import dumps
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse would print the usage too)
+        raise InputError("arguments", message)
+
+
+def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(option, f"expected name=value, got {item!r}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(name, f"not a number: {text!r}") from None
+        if math.isnan(value):
+            raise InputError(name, "is NaN")
+        if name in out:
+            raise InputError(name, "given twice")
+        out[name] = value
+    return out
+
+
+def print_json(obj: object) -> None:
+    print(dumps(obj))
+
+
+def defaults_note(machine: Machine, defaults: dict[str, float]) -> None:
+    """The text note naming the parameters that took the description's nominal value."""
+    if defaults:
+        values = ", ".join(f"{n} = {v:g} {machine.parameters[n]['unit']}" for n, v in defaults.items())
+        print(f"note: not given, the description's nominal values are used: {values}")
+
+
+def finite_number(value: float, option: str, minimum: float = 0.0, strict: bool = True) -> float:
+    """A command-line number that must be finite and above (``strict``) or at least ``minimum``."""
+    if not math.isfinite(value) or value < minimum or (strict and value == minimum):
+        bound = "positive" if strict and minimum == 0 else f"{'>' if strict else '>='} {minimum:g}"
+        raise InputError(option, f"must be {bound} and finite, got {value}")
+    return value
+
+
+def check_unbalance(args: argparse.Namespace) -> None:
+    """The rotating-unbalance options of simulate and forced: speeds positive, mass and eccentricity >= 0."""
+    for w in args.speed or ():
+        finite_number(w, "--speed")
+    finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
+    finite_number(args.eccentricity, "--eccentricity", strict=False)
+
+
+MAX_SAMPLES = 10_000_000
+"""Most samples per channel a simulated record may hold (80 MB per channel in memory)."""
+
+
+def writable(path: str, option: str) -> None:
+    """Refuse a file path whose folder is a file (or under one): the write would fail after the work."""
+    for parent in Path(path).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(option, f"{str(parent)!r} is a file, not a folder")
+            return
+
+
+def triple(text: str, option: str) -> tuple[float, float, float]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(option, f"expected three numbers x,y,z, got {text!r}") from None
+    if len(values) != 3 or not all(map(math.isfinite, values)):
+        raise InputError(option, f"expected three finite numbers x,y,z, got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def read_record(path: str):
+    from mountid.measurement.records import read_csv
+    from mountid.measurement.uff import read_uff
+
+    return read_uff(path) if path.lower().endswith((".uff", ".unv")) else read_csv(path)

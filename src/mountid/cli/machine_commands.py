@@ -1,0 +1,143 @@
+"""Commands on a machine model: frequencies, identify, modes, describe, demo."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from mountid.cli.arguments import defaults_note, pairs, print_json
+from mountid.errors import InputError
+from mountid.machine import Machine
+from mountid.report.text import print_diagnosis
+
+
+def cmd_frequencies(args: argparse.Namespace) -> None:
+    machine = Machine.resolve(args.machine)
+    given = pairs(args.set, "--set")
+    freqs = machine.frequencies(given)
+    defaults = machine.defaults(given, machine.module.FORWARD_ARGUMENTS)
+    if args.json:
+        print_json({"machine": machine.name, "unit": "rad/s", "frequencies": freqs, "defaults": defaults})
+        return
+    print(f"{machine.name}: natural frequencies")
+    for label, w in freqs.items():
+        print(f"  {label:>8s}  {w:12.6g} rad/s  {w / (2 * math.pi):10.5g} Hz")
+    defaults_note(machine, defaults)
+
+
+def cmd_identify(args: argparse.Namespace) -> None:
+    machine = Machine.resolve(args.machine)
+    measured = pairs(args.measured, "--measured")
+    if not measured:
+        raise InputError("--measured", "give the measured frequencies as label=rad/s")
+    given = pairs(args.set, "--set")
+    std = pairs(args.std, "--std") if args.std else None
+    solutions = machine.identify(given, measured, std)
+    defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
+    if args.json:
+        print_json(
+            {
+                "machine": machine.name,
+                "measured": measured,
+                "solutions": [
+                    {
+                        "parameters": s.parameters,
+                        "frequencies": s.frequencies,
+                        "condition": s.condition,
+                        **({"parameter_std": s.std} if s.std is not None else {}),
+                    }
+                    for s in solutions
+                ],
+                "defaults": defaults,
+            }
+        )
+        return
+    print(f"{machine.name}: {len(solutions)} admissible solution(s) for {measured}")
+    for k, s in enumerate(solutions, 1):
+        params = ", ".join(
+            f"{n} = {v:.6g}"
+            + (f" +- {s.std[n]:.2g}" if s.std is not None else "")
+            + f" {machine.parameters[n]['unit']}"
+            for n, v in s.parameters.items()
+        )
+        print(f"  [{k}] {params}")
+        print("      frequencies: " + ", ".join(f"{lab} {w:.5g}" for lab, w in s.frequencies.items()) + " rad/s")
+        print(f"      relative condition number {s.condition:.3g} (relative change of the unknowns per relative change")
+        print("      of the measured frequencies)")
+    defaults_note(machine, defaults)
+
+
+def cmd_modes(args: argparse.Namespace) -> None:
+    machine = Machine.resolve(args.machine)
+    m = machine.module
+    given = pairs(args.set, "--set")
+    values = machine.values(given, m.FORWARD_ARGUMENTS)
+    freqs = machine.evaluate("frequencies", values)
+    phi = machine.evaluate("modal_matrix", values)
+    energy = machine.evaluate("kinetic_energy_distribution", values)
+    defaults = machine.defaults(given, m.FORWARD_ARGUMENTS)
+    if args.json:
+        print_json(
+            {
+                "machine": machine.name,
+                "modes": list(m.MODES),
+                "coordinates": list(m.COORDINATES),
+                "frequencies": dict(zip(m.MODES, map(float, freqs), strict=True)),
+                "modal_matrix": phi.tolist(),
+                "kinetic_energy_distribution": energy.tolist(),
+                "defaults": defaults,
+            }
+        )
+        return
+    head = "".join(f"{lab:>9s}" for lab in m.MODES)
+    print(f"{machine.name}: mass-normalised modal matrix (rows: coordinates, columns: modes)")
+    print(f"{'':>8s}{head}\n{'rad/s':>8s}" + "".join(f"{w:9.3f}" for w in freqs))
+    for i, c in enumerate(m.COORDINATES):
+        print(f"{c:>8s}" + "".join(f"{v:9.4f}" for v in phi[i]))
+    print("\nkinetic-energy distribution (share of each mode's kinetic energy per coordinate, %)")
+    print(f"{'':>8s}{head}")
+    for i, c in enumerate(m.COORDINATES):
+        print(f"{c:>8s}" + "".join(f"{100 * v:9.1f}" for v in energy[i]))
+    defaults_note(machine, defaults)
+
+
+def cmd_describe(args: argparse.Namespace) -> None:
+    machine = Machine.resolve(args.machine)
+    m = machine.module
+    print(f"{machine.name}: {m.TITLE}")
+    print("parameters:")
+    for n, p in m.PARAMETERS.items():
+        value = "" if p["value"] is None else f"{p['value']:g} {p['unit']}"
+        print(f"  {n:>8s}  {p['role']:8s} {p['kind']:22s} {value:16s} {p['description']}")
+    print(f"modes: {', '.join(m.MODES)}; distinct frequencies: {', '.join(m.UNIQUE_MODES)}")
+    print(f"inverse sets for the unknowns {', '.join(m.UNKNOWN)}:")
+    numeric = getattr(m, "NUMERIC_INVERSES", {})
+    for key, n in m.INVERSE_ROOTS.items():
+        if key in numeric:
+            print(f"  {', '.join(key):24s} solvable numerically ({n} Newton starts): {numeric[key]}")
+        else:
+            print(f"  {', '.join(key):24s} solvable, {n} candidate root(s)")
+    if getattr(m, "SPECIAL_POINTS", ()):
+        print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
+    for key, reason in m.UNIDENTIFIABLE.items():
+        print(f"  {', '.join(key):24s} NOT identifiable: {reason}")
+
+
+def cmd_demo(args: argparse.Namespace) -> None:
+    from importlib import resources
+
+    from mountid.diagnosis.campaign import load
+    from mountid.diagnosis.gap import diagnose
+    from mountid.report.figures import diagnosis_figure
+    from mountid.validation.paper import print_reproduction, run_simulated_experiment
+
+    print_reproduction()
+    run_simulated_experiment(figures=args.figures)
+    for name in ("kid300-paper", "kid300-blind-belt"):
+        path = resources.files("mountid.examples").joinpath(f"{name}.json")
+        campaign = load(str(path))
+        diagnosis = diagnose(campaign)
+        figure = f"{args.figures}/{name}-diagnosis.png"
+        diagnosis_figure(diagnosis, figure, title=campaign.name)
+        print(f"\n$ mountid diagnose examples/{name}.json")
+        print_diagnosis(diagnosis, campaign.name, figure)

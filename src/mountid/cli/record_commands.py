@@ -1,0 +1,164 @@
+"""Commands on records: simulate, process, identify-record, forced."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mountid.cli.arguments import (
+    MAX_SAMPLES,
+    check_unbalance,
+    finite_number,
+    pairs,
+    print_json,
+    read_record,
+    triple,
+)
+from mountid.errors import InputError
+from mountid.machine import Machine
+
+
+def cmd_simulate(args: argparse.Namespace) -> None:
+    from mountid.measurement.records import write_csv
+    from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
+    from mountid.measurement.uff import write_uff
+
+    out = Path(args.out)
+    if not out.parent.is_dir():
+        raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
+    finite_number(args.duration, "--duration")
+    finite_number(args.rate, "--rate")
+    finite_number(args.noise, "--noise", strict=False)
+    finite_number(args.hit_peak, "--hit-peak", strict=False)
+    if args.duration * args.rate > MAX_SAMPLES:
+        raise InputError(
+            "--duration",
+            f"{args.duration:g} s at {args.rate:g} Hz is {args.duration * args.rate:.3g} samples per channel; "
+            f"at most {MAX_SAMPLES:.0e}",
+        )
+    check_unbalance(args)
+    rig = Rig.of(args.machine, pairs(args.set, "--set"))
+    sensors = []
+    for item in args.sensor or ():
+        name, sep, rest = item.partition("=")
+        point, sep2, direction = rest.partition(":")
+        if not sep or not sep2:
+            raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
+        sensors.append(Sensor(name, triple(point, "--sensor"), triple(direction, "--sensor"), noise=args.noise))
+    if not sensors:
+        from mountid.validation.paper import paper_sensors
+
+        sensors = paper_sensors(args.noise)
+    hammers = (
+        []
+        if args.speed
+        else [
+            Hammer(
+                triple(args.hit_point, "--hit-point"),
+                triple(args.hit_direction, "--hit-direction"),
+                peak=args.hit_peak,
+            )
+        ]
+    )
+    unbalances = [Unbalance(args.unbalance_mass, args.eccentricity, w) for w in args.speed or ()]
+    record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
+    (write_uff if args.out.lower().endswith((".uff", ".unv")) else write_csv)(record, args.out)
+    print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
+
+
+def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:
+    """The JSON of labelled modal data (process, identify-record)."""
+    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac", "shape")
+    return {
+        "machine": machine.name,
+        "modes": {k: {f: getattr(m, f) for f in fields} for k, m in modes.items()},
+        "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in unlabelled],
+        "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in warnings],
+    }
+
+
+def _identification_json(machine: Machine, result) -> dict:
+    return {
+        **_modal_json(machine, result.modes, result.unlabelled, result.warnings),
+        "parameters": result.parameters,
+        "parameter_std": result.parameter_std,
+        "damping": result.damping,
+        "damping_std": result.damping_std,
+        "frequencies": result.frequencies,
+    }
+
+
+def cmd_identify_record(args: argparse.Namespace) -> None:
+    from mountid.identification.from_records import identify_from_record
+
+    machine = Machine.resolve(args.machine)
+    record = read_record(args.record)
+    use = tuple(args.use) if args.use else None
+    result = identify_from_record(machine, record, pairs(args.set, "--set"), start=args.start, use=use)
+    if args.figures:
+        from mountid.report import figures
+
+        labels = {k: m.frequency for k, m in result.modes.items()}
+        first = record.names[0]
+        figures.spectrum_figure(record, first, args.start, labels, f"{args.figures}/spectrum.png")
+        figures.mode_shapes_figure(
+            machine, {**pairs(args.set, "--set"), **result.parameters}, (0.5, 0.5, 0.4), f"{args.figures}/modes.png"
+        )
+    if args.json:
+        print_json(_identification_json(machine, result))
+        return
+    print(f"{machine.name}: {len(result.modes)} modes from {args.record}")
+    for w in result.warnings:
+        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for k, m in result.modes.items():
+        print(
+            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
+            f"  zeta {m.damping_ratio:.4f}  MAC {m.mac:.2f}"
+        )
+    for name, value in result.parameters.items():
+        print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
+    for name, value in result.damping.items():
+        print(f"  {name} = {value:.6g} +- {result.damping_std[name]:.2g} {machine.parameters[name]['unit']}")
+
+
+def cmd_process(args: argparse.Namespace) -> None:
+    from mountid.identification.from_records import modal_data
+
+    machine = Machine.resolve(args.machine)
+    modes, rest, warnings = modal_data(machine, read_record(args.record), pairs(args.set, "--set"), args.start)
+    out = _modal_json(machine, modes, rest, warnings)
+    if args.json:
+        print_json(out)
+        return
+    for w in warnings:
+        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for k, m in modes.items():
+        print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
+
+
+def cmd_forced(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from mountid.measurement.rig import Rig, Unbalance
+
+    check_unbalance(args)
+    rig = Rig.of(args.machine, pairs(args.set, "--set"))
+    rows = {}
+    for w in args.speed:
+        unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
+        t = np.linspace(0, 2 * np.pi / w, 64, endpoint=False)
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            try:
+                q, _ = rig.steady_state(unb, t)
+                amplitude = np.max(np.abs(q), axis=0)
+            except (FloatingPointError, OverflowError):
+                amplitude = np.array([np.inf])
+        if not np.all(np.isfinite(amplitude)):
+            raise InputError("--speed", f"{w:g} rad/s puts the response out of the range of double precision")
+        rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
+    if args.json:
+        print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows})
+        return
+    print(f"{rig.machine.name}: steady-state amplitude under the rotating unbalance [m, rad]")
+    for w, amp in rows.items():
+        print(f"  {w:>8s} rad/s  " + "  ".join(f"{c} {a:.3e}" for c, a in amp.items()))

@@ -1,0 +1,289 @@
+"""A campaign's machine with one candidate effect as a function of a flat parameter vector: matrices,
+modes labelled by shape and frequency, predicted frequencies and scaled shapes (mountid.diagnosis.candidates
+fits them)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+import scipy.stats
+
+from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
+from mountid.effects import Effect
+from mountid.machine import call, damped_poles
+
+_DEGENERATE = 1e-6
+"""Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
+the measurement barely separates (a few standard deviations of the measured frequency) are compared with
+the measured shape through their common span, blended smoothly into the single mode as they move apart."""
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Frequencies [rad/s], scaled unit shapes (6,) per mode label, and for each label an orthonormal basis
+    (6, c) of the modes the measurement cannot separate from it with the weight of that basis (see
+    :meth:`Data.residuals`)."""
+
+    frequencies: np.ndarray
+    shapes: list[np.ndarray]
+    clusters: list[tuple[np.ndarray, float] | None]
+
+
+class CandidateModel:
+    """The campaign's machine, optionally with one candidate effect, as a function of a flat parameter
+    vector: log of each unknown, then each effect parameter (log for strictly positive ranges, else in
+    units of its scale)."""
+
+    def __init__(self, campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> None:
+        self.campaign = campaign
+        self.effect = effect
+        self.isolator = isolator
+        machine = campaign.machine
+        self.mod = mod = machine.module
+        self.labels = tuple(campaign.modes)
+        self.unknown = machine.unknown
+        everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in machine.unknown))
+        self.known = everything
+        start = machine.values({}, machine.unknown)
+        self.start_unknowns = start
+        nominal = {**everything, **start}
+        self.scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
+        self.length = self.scales["length"]
+        self.effect_parameters = effect.parameters if effect else ()
+        self.log_scaled = tuple(p.plausible[0] > 0 for p in self.effect_parameters)
+        measured = [campaign.modes[lab].frequency for lab in self.labels]
+        self.omega_ref = float(np.exp(np.mean(np.log(measured))))
+        # modes are paired with labels by shape and frequency: the measured ones where measured, else the
+        # generated (block-pure) modal matrix and frequencies at the nominal values
+        fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
+        self.reference = scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
+        self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
+        self._rows = [mod.MODES.index(label) for label in self.labels]
+        self.resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
+        for i, label in enumerate(mod.MODES):
+            m = campaign.modes.get(label)
+            if m is not None:
+                self.resolution[i] = m.frequency_std / m.frequency
+                self.reference_lambda[i] = m.frequency**2
+                if m.shape is not None:
+                    self.reference[:, i] = scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
+
+    # -- parameter vector ---------------------------------------------------------------------------
+    def start(self) -> list[np.ndarray]:
+        """Starting vectors: the effect's start values; for wide positive ranges (the foundation) a 2 x 2
+        grid over their decades; for a two-parameter effect with a signed parameter (a height, an offset)
+        that parameter at half its plausible bound on either side (the fit has a local minimum on the wrong
+        side); last the middle of the plausible range. Sets ``mandatory_starts``: the first starts, which
+        always run (the others run only while the fit stays above noise level)."""
+        base = [math.log(self.start_unknowns[u]) for u in self.unknown]
+        params = self.effect_parameters
+
+        def vector(values) -> np.ndarray:
+            out = list(base)
+            for v, log in zip(values, self.log_scaled, strict=True):
+                out.append(math.log(v) if log else v)
+            return np.array(out)
+
+        first = [p.start for p in params]
+        starts = [vector(first)]
+        self.mandatory_starts = 1
+        if params and all(self.log_scaled):  # wide positive ranges (foundation): a grid over the decades
+            grid = [[p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)] for p in params]
+            starts += [vector(point) for point in itertools.product(*grid)]
+        elif len(params) == 2:
+            # the other parameter at the middle of its range: at its start (often 0, no effect) the signed
+            # one has no gradient and slides to whichever side the unknowns prefer
+            middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
+            for i, p in enumerate(params):
+                if p.plausible[0] < 0 < p.plausible[1]:
+                    for bound in p.plausible:
+                        starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
+            self.mandatory_starts = len(starts)
+        if params:
+            starts.append(vector([0.5 * (p.plausible[0] + p.plausible[1]) for p in params]))
+        return starts
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Search box: unknowns free (log), effect parameters within their plausible range widened by its
+        width on each side (log ranges by a factor 10)."""
+        lo = [-np.inf] * len(self.unknown)
+        hi = [np.inf] * len(self.unknown)
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            a, b = p.plausible
+            if log:
+                lo.append(math.log(a / 10))
+                hi.append(math.log(b * 10))
+            else:
+                lo.append(a - (b - a) if p.floor is None else p.floor)
+                hi.append(b + (b - a))
+        return np.array(lo), np.array(hi)
+
+    def physical(self, theta: np.ndarray) -> dict[str, float]:
+        """Unknowns [SI] and effect parameters [their units] from the flat vector."""
+        n = len(self.unknown)
+        out = {u: float(np.exp(theta[i])) for i, u in enumerate(self.unknown)}
+        for k, (p, log) in enumerate(zip(self.effect_parameters, self.log_scaled, strict=True)):
+            v = theta[n + k]
+            out[p.name] = float((np.exp(v) if log else v) * self.scales[p.scale])
+        return out
+
+    def vector(self, physical: dict[str, float]) -> np.ndarray:
+        """The flat vector of physical values (inverse of :meth:`physical`)."""
+        out = [math.log(physical[u]) for u in self.unknown]
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            v = physical[p.name] / self.scales[p.scale]
+            out.append(math.log(v) if log else v)
+        return np.array(out)
+
+    def jacobian_to_physical(self, theta: np.ndarray) -> np.ndarray:
+        """d(physical)/d(theta), diagonal."""
+        phys = self.physical(theta)
+        d = [phys[u] for u in self.unknown]
+        for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
+            d.append(phys[p.name] if log else self.scales[p.scale])
+        return np.array(d)
+
+    # -- the model -------------------------------------------------------------------------------------
+    def _matrices(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        mod = self.mod
+        e = self.effect
+        if e is not None and e.how == "generated":
+            m, c, b = call(mod, f"effect_{e.name}", values)
+            return m, c, b
+        m = call(mod, "mass_matrix", values)
+        c = call(mod, "stiffness_matrix", values)
+        if e is not None and e.how == "isolator":
+            per = call(mod, "isolator_stiffness", values)
+            c = c + values["scatter"] * per[self.isolator]
+        b = call(mod, "damping_matrix", values) if e and e.how == "damping" else None
+        return m, c, b
+
+    def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
+        """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
+        values = {**self.known, **self.physical(theta)}
+        m, c, b = self._matrices(values)
+        lam, vec = scipy.linalg.eigh(c, m)
+        body = scaled_unit(vec[:6, :], self.length)
+        share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
+        order = label_modes(lam, body, self.reference_lambda, self.reference, share)
+        omega = np.sqrt(np.abs(lam))
+        e = self.effect
+        if e is not None and e.how == "frequency":
+            omega = _stiffening(np.abs(lam), values["rubber_strength"], values["rubber_corner"] * self.omega_ref)
+        elif e is not None and e.how == "damping":
+            omega = damped_poles(m, c, values["damping_scale"] * b, lam).imag
+        elif e is not None and e.how == "sensor":
+            body = scaled_unit(
+                sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
+            )
+        rows = self._rows if labels is None else [self.mod.MODES.index(label) for label in labels]
+        index = order[rows]
+        # closeness of every model mode to each labelled one, in units of the measurement's resolution of
+        # that frequency (relative); within a few units the measured shape may be any mix of them
+        gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
+        weight = np.exp(-(gap**2))
+        partners = weight > 1e-3
+        shapes = list(body[:, index].T)
+        clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
+        spans: dict[bytes, np.ndarray] = {}
+        for k in np.flatnonzero(partners.sum(axis=1) > 1):
+            j = index[k]
+            key = partners[k].tobytes()
+            if key not in spans:
+                spans[key] = _orthonormal(body[:, partners[k]])
+            near = np.flatnonzero(partners[k])
+            exact = np.all(np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j]))
+            # the weakest partner sets how far the mix is allowed
+            clusters[k] = (spans[key], 1.0 if exact else float(np.min(weight[k, near])))
+        return Prediction(omega[index], shapes, clusters)
+
+
+def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
+    return {n: values[n] for n in names}
+
+
+def scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
+    """Rotations times the length scale, each column normalised to unit length."""
+    out = np.array(shapes, dtype=float)
+    out[3:6] *= length
+    norm = np.linalg.norm(out, axis=0)
+    return out / np.where(norm > 0, norm, 1.0)  # a foundation mode may leave the body at rest
+
+
+def label_modes(
+    lam: np.ndarray,
+    body: np.ndarray,
+    reference_lambda: np.ndarray,
+    reference: np.ndarray,
+    participation: np.ndarray | None = None,
+) -> np.ndarray:
+    """Index of the model mode for each reference mode: one-to-one, by MAC with the reference shapes
+    (scaled unit columns) times the share of the mode's kinetic energy in the body (``participation``, for
+    models with more coordinates than the body's: a foundation mode is not a machine mode however its small
+    body motion looks) and, to break ties between modes of equal shape, closeness in frequency."""
+    mac = (reference.T @ body) ** 2
+    # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
+    # projection on their common span
+    near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[None, :])
+    done: dict[bytes, np.ndarray] = {}
+    for j in np.flatnonzero(near.sum(axis=0) > 1):
+        key = near[:, j].tobytes()
+        if key not in done:
+            q = _orthonormal(body[:, near[:, j]])
+            done[key] = np.sum((reference.T @ q) ** 2, axis=1)
+        mac[:, j] = done[key]
+    if participation is not None:
+        mac = mac * participation[None, :]
+    distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
+    rows, cols = scipy.optimize.linear_sum_assignment(-mac + 0.05 * distance)
+    out = np.empty(len(reference_lambda), dtype=int)
+    out[rows] = cols
+    return out
+
+
+def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
+    """omega solving omega^2 = g(omega) lam, g = 1 + beta y / (y + c), y = omega^2, c = corner^2, for each
+    eigenvalue lam of the static stiffness. Multiplied out, y^2 + b y - lam c = 0 with b = c - lam (1 + beta):
+    one positive root (the product of the roots is -lam c), taken in the form without cancellation."""
+    c = corner**2
+    b = c - lam * (1 + beta)
+    root = np.sqrt(b * b + 4 * lam * c)
+    y = np.where(b > 0, 2 * lam * c / (b + root), (root - b) / 2)
+    return np.sqrt(y)
+
+
+def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:
+    """Shapes as read by a sensor frame turned by ``yaw`` [rad] about z whose reference point is ``dz`` [m]
+    above the origin: translations of that point (the generated point_jacobian) and rotations, both in the
+    turned frame (6 x 6)."""
+    jac = np.asarray(mod.point_jacobian(0.0, 0.0, dz))
+    cz, sz = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # global -> turned frame
+    out = np.zeros((6, 6))
+    out[:3] = rot @ jac
+    out[3:, 3:] = rot
+    return out
+
+
+def _orthonormal(basis: np.ndarray) -> np.ndarray:
+    """Orthonormal columns spanning the (unit) columns of ``basis``: Gram-Schmidt for the common pair of
+    twins, QR otherwise."""
+    if basis.shape[1] == 2:
+        a, b = basis[:, 0], basis[:, 1]
+        b = b - a * (a @ b)
+        norm = np.linalg.norm(b)
+        return np.column_stack([a, b / norm]) if norm > 1e-12 else a[:, None]  # parallel: one direction
+    q, r = np.linalg.qr(basis)
+    return q[:, np.abs(np.diag(r)) > 1e-12]
+
+
+def off_span(s: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """The part of s outside the span of a unit vector (or of orthonormal columns)."""
+    if basis.ndim == 1:
+        return s - basis * (basis @ s)
+    return s - basis @ (basis.T @ s)

@@ -1,0 +1,262 @@
+"""Weighted least-squares fit of one candidate (with the machine's unknowns) to a campaign, its covariance
+and its leave-one-mode-out held-out errors."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+import scipy.stats
+
+from mountid.diagnosis.campaign import Campaign
+from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
+from mountid.effects import Effect
+
+
+@dataclass
+class CandidateFit:
+    """One fitted candidate: effect (``none`` for the nominal model), fitted values with standard deviations."""
+
+    effect: str
+    variant: str
+    parameters: dict[str, float]
+    std: dict[str, float]
+    chi2: float
+    n_data: int
+    n_parameters: int
+    aicc: float
+    plausible: bool
+    implausible_reason: str
+    frequency_gap: dict[str, float]
+    """measured - fitted model frequency [rad/s] per measured mode."""
+    held_out_gap: dict[str, float] = field(default_factory=dict)
+    """measured - prediction of the fit without that mode [rad/s] (leave one mode out)."""
+    held_out_exact: bool = False
+    applicable: bool = True
+    note: str = ""
+    held_out_rms: float = math.nan
+    """RMS of the held-out frequency errors in units of their standard deviation (set by the ranking)."""
+    held_out_median: float = math.nan
+    """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
+    whose omission leaves a parameter poorly determined (set by the ranking)."""
+    model: CandidateModel | None = field(default=None, repr=False, compare=False)
+    theta: np.ndarray | None = field(default=None, repr=False, compare=False)
+    """The fitted model and its flat parameter vector (for leave-one-out refits and separation)."""
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect,
+            "variant": self.variant,
+            "parameters": self.parameters,
+            "parameter_std": self.std,
+            "chi2": self.chi2,
+            "n_data": self.n_data,
+            "n_parameters": self.n_parameters,
+            "aicc": self.aicc if math.isfinite(self.aicc) else None,
+            "plausible": self.plausible,
+            "implausible_reason": self.implausible_reason,
+            "gap_after": self.frequency_gap,
+            "held_out_gap": self.held_out_gap,
+            "held_out_exact": self.held_out_exact,
+            "applicable": self.applicable,
+            "note": self.note,
+            "held_out_rms_sigma": self.held_out_rms if math.isfinite(self.held_out_rms) else None,
+            "held_out_median_sigma": self.held_out_median if math.isfinite(self.held_out_median) else None,
+        }
+
+
+class Data:
+    """The campaign's measurements as weighted data rows (see the module docstring)."""
+
+    def __init__(self, campaign: Campaign, length: float) -> None:
+        self.labels = tuple(campaign.modes)
+        modes = [campaign.modes[lab] for lab in self.labels]
+        self.omega = np.array([m.frequency for m in modes])
+        self.sigma = np.array([m.frequency_std for m in modes])
+        self.shape_labels = tuple(lab for lab, m in zip(self.labels, modes, strict=True) if m.shape is not None)
+        self.shapes = [
+            scaled_unit(np.array(campaign.modes[lab].shape, dtype=float)[:, None], length)[:, 0]
+            for lab in self.shape_labels
+        ]
+        self.shape_sigma = [campaign.modes[lab].shape_std for lab in self.shape_labels]
+        self.n = len(self.labels) + 5 * len(self.shape_labels)
+        """Data count: one per frequency, five per shape (six components less the free scale)."""
+
+    def residuals(self, pred: Prediction) -> np.ndarray:
+        rows = [(self.omega - pred.frequencies) / self.sigma]
+        for lab, s, sig in zip(self.shape_labels, self.shapes, self.shape_sigma, strict=True):
+            i = self.labels.index(lab)
+            own = off_span(s, pred.shapes[i])
+            cluster = pred.clusters[i]
+            if cluster is not None:  # blended, so that the residual is continuous as modes split
+                basis, w = cluster
+                own = w * off_span(s, basis) + (1 - w) * own
+            rows.append(own / sig)
+        return np.concatenate(rows)
+
+    def rows_of(self, label: str) -> np.ndarray:
+        """Row indices of one mode's data (its frequency and, if measured, its shape components)."""
+        idx = [self.labels.index(label)]
+        if label in self.shape_labels:
+            k = self.shape_labels.index(label)
+            first = len(self.labels) + 6 * k
+            idx += list(range(first, first + 6))
+        return np.array(idx)
+
+
+# -- fitting -----------------------------------------------------------------------------------------------
+_FAILED = 1e6
+"""Residual assigned to every row where the model cannot be evaluated (singular matrices)."""
+
+
+PRIOR_WEIGHT = 0.1
+"""Weight of the weak prior rows PRIOR_WEIGHT (theta - start) / (plausible width) of the effect parameters:
+at most 0.01 in chi^2 inside the plausible range, but it holds a parameter the data do not determine (a
+sensor yaw on a machine symmetric under rotation by 90 degrees) at its start instead of letting it drift,
+and makes its standard deviation large instead of zero."""
+
+
+def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
+    start = model.start()[0]
+    n = len(model.unknown)
+    width = np.array(
+        [
+            math.log(p.plausible[1] / p.plausible[0]) if log else p.plausible[1] - p.plausible[0]
+            for p, log in zip(model.effect_parameters, model.log_scaled, strict=True)
+        ]
+    )
+
+    def fun(theta: np.ndarray) -> np.ndarray:
+        try:
+            r = data.residuals(model.predict(theta))
+        except (np.linalg.LinAlgError, ValueError):
+            r = np.full(len(data.labels) + 6 * len(data.shape_labels), _FAILED)
+        prior = PRIOR_WEIGHT * (theta[n:] - start[n:]) / width
+        return np.concatenate([r if rows is None else r[rows], prior])
+
+    return fun
+
+
+def _least_squares(
+    model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None, mandatory: int = 1
+):
+    lo, hi = model.bounds()
+    fun = _residual_function(model, data, rows)
+    best = None
+    finite = np.isfinite(lo)
+    inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
+    inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
+    for i, x0 in enumerate(starts):
+        n = len(best.fun) if best is not None else 0
+        if i >= mandatory and 2 * best.cost <= n + 3 * math.sqrt(2 * n):
+            break  # fits to noise level: the remaining starts are not needed
+        x0 = np.clip(x0, inner_lo, inner_hi)
+        res = scipy.optimize.least_squares(
+            fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-7, xtol=1e-7, max_nfev=100 if i == 0 else 30
+        )
+        if best is None or res.cost < best.cost:
+            best = res
+    return best
+
+
+def _applicable(model: CandidateModel, data: Data) -> str:
+    """Why a candidate cannot act on this campaign ('' when it can)."""
+    e = model.effect
+    if e is None:
+        return ""
+    if e.how == "sensor" and not data.shape_labels:
+        return "no mode shapes measured: a sensor error leaves the frequencies exactly unchanged"
+    if e.how == "damping":
+        _, _, b = model._matrices({**model.known, **model.physical(model.start()[0]), "damping_scale": 1.0})
+        if not np.any(b):
+            return "the description has no damping: nothing to scale"
+    return ""
+
+
+def fit_candidate(
+    campaign: Campaign, effect: Effect | None, isolator: int | None = None, start: np.ndarray | None = None
+) -> CandidateFit:
+    """Fit one candidate (None: the nominal model) with the unknowns to every measured mode (``start``: a
+    single starting vector, e.g. the fit of the same candidate to nearby data, instead of the default ones)."""
+    model = CandidateModel(campaign, effect, isolator)
+    data = Data(campaign, model.length)
+    name = effect.name if effect else "none"
+    variant = campaign.machine.module.ISOLATORS[isolator] if isolator is not None else ""
+    why = _applicable(model, data)
+    k = len(model.start()[0])
+    if why:
+        return CandidateFit(
+            name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", {}, applicable=False, note=why
+        )
+    if start is None:
+        res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
+    else:
+        res = _least_squares(model, data, [start])
+    theta = res.x
+    n_rows = len(data.labels) + 6 * len(data.shape_labels)
+    chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
+    jac = res.jac
+    dof = data.n - k
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    cov = np.linalg.pinv(jac.T @ jac) * scale
+    d = model.jacobian_to_physical(theta)
+    phys = model.physical(theta)
+    std = {n: float(abs(d[i]) * math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(phys)}
+    reasons = []
+    for p in model.effect_parameters:
+        lo, hi = (v * model.scales[p.scale] for v in p.plausible)
+        v, s = phys[p.name], std[p.name]
+        if not lo - s <= v <= hi + s:
+            reasons.append(f"{p.name} = {v:.3g} {p.unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
+    aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
+    pred = model.predict(theta)
+    gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
+    fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), gap)
+    fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
+    fit.model, fit.theta = model, theta
+    return fit
+
+
+def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[str, float]:
+    """measured - prediction without the mode [rad/s], to first order: (I - H_gg)^-1 r_g for the mode's rows g
+    of the weighted hat matrix H = J (J^T J)^-1 J^T (nan where the mode alone determines a parameter)."""
+    inv = np.linalg.pinv(jac.T @ jac)
+    out = {}
+    for i, lab in enumerate(data.labels):
+        g = data.rows_of(lab)
+        h = jac[g] @ inv @ jac[g].T
+        a = np.eye(len(g)) - h
+        if np.linalg.cond(a) > 1e10:
+            out[lab] = math.nan
+            continue
+        out[lab] = float(np.linalg.solve(a, r[g])[0] * data.sigma[i])
+    return out
+
+
+def exact_leave_one_out(fit: CandidateFit) -> None:
+    """Refit without each mode in turn (frequency and shape) and store its held-out error [rad/s]."""
+    model, theta = fit.model, fit.theta
+    data = Data(model.campaign, model.length)
+    out = {}
+    for i, lab in enumerate(data.labels):
+        keep = np.setdiff1d(np.arange(len(data.labels) + 6 * len(data.shape_labels)), data.rows_of(lab))
+        if len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1:
+            out[lab] = math.nan
+            continue
+        res = _least_squares(model, data, [theta], rows=keep)
+        out[lab] = float(data.omega[i] - model.predict(res.x).frequencies[i])
+    fit.held_out_gap = out
+    fit.held_out_exact = True
+
+
+def held_out_z(fit: CandidateFit, campaign: Campaign) -> np.ndarray:
+    """Held-out errors in units of each frequency's standard deviation (modes without one skipped)."""
+    z = []
+    for lab, e in fit.held_out_gap.items():
+        m = campaign.modes[lab]
+        if math.isfinite(e):
+            z.append(e / m.frequency_std)
+    return np.array(z)

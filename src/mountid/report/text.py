@@ -1,0 +1,70 @@
+"""Readable text summaries for the command line and the demo."""
+
+from __future__ import annotations
+
+
+def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
+    """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
+    report, effects, campaign = diagnosis.where, diagnosis.effects, diagnosis.campaign
+    print(f"{title} ({campaign.machine.name})")
+    print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
+    print(f"  {'mode':6s}{'measured':>10s}{'predicted':>11s}{'gap':>9s}{'sigma':>8s}{'z':>7s}  use")
+    for r in report.residuals:
+        z = "" if r.z is None else f"{r.z:+7.2f}"
+        sig = "" if r.uncertainty is None else f"{r.uncertainty:8.3g}"
+        flag = " *" if r.significant else ""
+        use = "held out" if r.held_out else "fitted"
+        print(f"  {r.label:6s}{r.measured:10.3f}{r.predicted:11.3f}{r.residual:+9.3f}{sig:>8s}{z:>7s}  {use}{flag}")
+    for loc in report.localisation[:3]:
+        print(f"  matrix level: {loc.describe()}")
+    if diagnosis.isolators:
+        print("modal force residual of the measured shapes, as a stiffness change per isolator:")
+        print("  " + ", ".join(f"{f.isolator} {f.change:+.1%} +- {f.std:.1%}" for f in diagnosis.isolators))
+    _print_candidates(effects)
+    gaps = diagnosis.gap_table()
+    if "after" in gaps:
+        before, after = gaps["before"], gaps["after"]
+        print(f"gap [rad/s] before (nominal) -> after ({after['effect']}), fitted | held out:")
+        for label in before["fitted"]:
+            b, a = before["fitted"][label], after["fitted"][label]
+            hb, ha = before["held_out"].get(label, float("nan")), after["held_out"].get(label, float("nan"))
+            print(f"  {label:6s}{b:+9.4f} -> {a:+9.4f} | {hb:+9.4f} -> {ha:+9.4f}")
+        print(
+            f"  {'RMS':6s}{before['rms_fitted']:9.4f} -> {after['rms_fitted']:9.4f} | "
+            f"{before['rms_held_out'] or float('nan'):9.4f} -> {after['rms_held_out'] or float('nan'):9.4f}"
+        )
+    for line in effects.separation:
+        print(f"  to separate the tie: {line}")
+    for note in [*report.notes, *effects.notes]:
+        print(f"  note: {note}")
+    if figure:
+        print(f"figure: {figure}")
+    print(f"verdict: {diagnosis.verdict}")
+
+
+def _print_candidates(effects) -> None:
+    ranked = [f for f in effects.ranked if f.applicable]
+    finite = [f.aicc for f in ranked if f.aicc != float("inf")]
+    best = min(finite) if finite else None
+    n = effects.nominal
+    if n.held_out_rms == n.held_out_rms:
+        print(f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma")
+    print(
+        f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}, "
+        f"AICc = {n.aicc:.4g})" + (":" if best is not None else "; too few data to rank them, listed by chi^2:")
+    )
+    print(f"  {'effect':22s}{'dAICc':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
+    print(f"  {'':22s}{'':>8s}{'':>9s}{'RMS | median':>17s}  (held-out errors in sigma)")
+    for f in ranked:
+        d = f"{f.aicc - best:8.1f}" if best is not None and f.aicc != float("inf") else f"{'-':>8s}"
+        ho = f"{f.held_out_rms:8.3g} | {f.held_out_median:5.3g}" if f.held_out_rms == f.held_out_rms else f"{'-':>16s}"
+        params = ", ".join(
+            f"{k} = {v:.4g} +- {f.std[k]:.2g}" for k, v in f.parameters.items() if k not in effects.nominal.parameters
+        )
+        mark = " [tie]" if f.effect in effects.tie else ""
+        mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
+        where = f" at {f.variant}" if f.variant else ""
+        print(f"  {f.effect:22s}{d} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
+    for f in effects.ranked:
+        if not f.applicable:
+            print(f"  {f.effect:22s} not applicable: {f.note}")

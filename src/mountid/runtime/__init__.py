@@ -1,0 +1,56 @@
+"""Numerics shared by the generated modules (numpy; numexpr, when installed, for large batches), no
+machine-specific formulas.
+
+Everything that depends on a machine (matrix entries, characteristic-polynomial coefficients, back-
+substitutions) is generated from sympy; this module holds the generic numerical steps applied to them:
+fused evaluation of generated expressions, stable polynomial roots, generalised symmetric eigen-solves of
+small blocks, mode-shape normalisation, the Newton polish and the admissibility filter of inverse roots.
+All functions broadcast over leading batch dimensions.
+"""
+
+from mountid.runtime.eigen import (
+    block_eigen,
+    eigen_jacobian,
+    eigenvalue_derivatives,
+    kinetic_energy_distribution,
+    modal_matrix,
+    stack_matrix,
+)
+from mountid.runtime.evaluation import FUSED_MIN_SIZE, as_arrays, fused, linear_root, polynomial_roots, quadratic_roots
+from mountid.runtime.inverse import (
+    ADMISSIBILITY_RTOL,
+    DUPLICATE_RTOL,
+    MAX_RELATIVE_STEP,
+    NEWTON_RESIDUAL_RTOL,
+    RANK_RTOL,
+    InverseRoots,
+    admissible,
+    eigen_newton,
+    solve_inverse,
+    start_grid,
+)
+
+__all__ = [
+    "ADMISSIBILITY_RTOL",
+    "DUPLICATE_RTOL",
+    "FUSED_MIN_SIZE",
+    "MAX_RELATIVE_STEP",
+    "NEWTON_RESIDUAL_RTOL",
+    "RANK_RTOL",
+    "InverseRoots",
+    "admissible",
+    "as_arrays",
+    "block_eigen",
+    "eigen_jacobian",
+    "eigen_newton",
+    "eigenvalue_derivatives",
+    "fused",
+    "kinetic_energy_distribution",
+    "linear_root",
+    "modal_matrix",
+    "polynomial_roots",
+    "quadratic_roots",
+    "solve_inverse",
+    "stack_matrix",
+    "start_grid",
+]

@@ -1,0 +1,115 @@
+"""Generalised symmetric eigen-solves of small blocks, mode shapes and eigenvalue derivatives (numpy).
+All functions broadcast over leading batch dimensions."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mountid.runtime.evaluation import as_arrays
+
+
+def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:
+    """A (*shape, n, n) symmetric matrix from its upper-triangle non-zero entries."""
+    out = np.zeros((*shape, n, n))
+    for (i, j), value in entries.items():
+        out[..., i, j] = value
+        out[..., j, i] = value
+    return out
+
+
+def block_eigen(
+    mass: NDArray, stiffness: NDArray, index: tuple[int, ...]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues (ascending) and mass-normalised eigenvectors of one block of (C, M), numerically.
+
+    Solves C_b u = lambda M_b u through the Cholesky factor of M_b and numpy's symmetric eigen-solver.
+    Returns (lam (..., n), vectors (..., n, n)) with vectors as columns.
+    """
+    idx = np.asarray(index)
+    mb = mass[..., idx[:, None], idx[None, :]]
+    cb = stiffness[..., idx[:, None], idx[None, :]]
+    chol = np.linalg.cholesky(mb)
+    inv = np.linalg.inv(chol)
+    sym = inv @ cb @ np.swapaxes(inv, -1, -2)
+    lam, vec = np.linalg.eigh(sym)
+    return lam, np.swapaxes(inv, -1, -2) @ vec
+
+
+def modal_matrix(
+    mass: NDArray,
+    stiffness: NDArray,
+    lam: NDArray,
+    blocks: tuple[tuple[int, ...], ...],
+    mode_block: tuple[int, ...],
+    mode_rank: tuple[int, ...],
+) -> NDArray[np.float64]:
+    """Mass-normalised modal matrix (Phi^T M Phi = I), columns in mode order, shape (..., n, n_modes).
+
+    For a block of size 1 the shape is 1/sqrt(M_ii). For size 2 the null vector of (C_b - lambda M_b) is
+    taken from whichever row gives the larger vector (the other row may suffer cancellation when the
+    coupling is weak). Larger blocks use :func:`block_eigen`. Sign convention: the entry with the largest
+    mass-weighted magnitude is positive.
+    """
+    mass, stiffness, lam = np.broadcast_arrays(*as_arrays(mass, stiffness[..., :, :], lam[..., None, :]))
+    lam = lam[..., 0, :]
+    n = mass.shape[-1]
+    phi = np.zeros((*mass.shape[:-2], n, len(mode_block)))
+    numeric: dict[int, NDArray] = {}
+    for k, (b, rank) in enumerate(zip(mode_block, mode_rank, strict=True)):
+        idx = blocks[b]
+        if len(idx) == 1:
+            i = idx[0]
+            phi[..., i, k] = 1.0 / np.sqrt(mass[..., i, i])
+            continue
+        if len(idx) == 2:
+            i, j = idx
+            lk = lam[..., k]
+            a11 = stiffness[..., i, i] - lk * mass[..., i, i]
+            a12 = stiffness[..., i, j] - lk * mass[..., i, j]
+            a22 = stiffness[..., j, j] - lk * mass[..., j, j]
+            u_row1 = np.stack([-a12, a11], axis=-1)
+            u_row2 = np.stack([a22, -a12], axis=-1)
+            use1 = np.hypot(a12, a11) > np.hypot(a22, a12)
+            u = np.where(use1[..., None], u_row1, u_row2)
+            mb = mass[..., np.array(idx)[:, None], np.array(idx)[None, :]]
+            norm = np.sqrt(np.einsum("...i,...ij,...j->...", u, mb, u))
+            u = u / norm[..., None]
+            phi[..., i, k], phi[..., j, k] = u[..., 0], u[..., 1]
+            continue
+        if b not in numeric:
+            numeric[b] = block_eigen(mass, stiffness, idx)[1]
+        phi[..., np.array(idx), k] = numeric[b][..., :, rank - 1]
+    weight = phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None]
+    pick = np.take_along_axis(phi, np.argmax(np.abs(weight), axis=-2)[..., None, :], axis=-2)
+    return phi * np.where(pick < 0, -1.0, 1.0)
+
+
+def kinetic_energy_distribution(mass: NDArray, phi: NDArray) -> NDArray[np.float64]:
+    """Share of each mode's kinetic energy per coordinate, shape (..., n_coordinates, n_modes).
+
+    share[i, k] = phi_ik (M phi_k)_i / (phi_k^T M phi_k); each column sums to 1. With a diagonal mass matrix
+    every share lies in [0, 1]; an off-diagonal M (centre of mass away from the origin) can make a share
+    negative, since the kinetic energy is then not a sum over coordinates.
+    """
+    m_phi = mass @ phi
+    per = phi * m_phi
+    return per / np.sum(per, axis=-2, keepdims=True)
+
+
+def eigenvalue_derivatives(
+    d_mass: NDArray | None, d_stiffness: NDArray, phi: NDArray, lam: NDArray | None
+) -> NDArray[np.float64]:
+    """d lambda_k / d p = phi_k^T (dC/dp - lambda_k dM/dp) phi_k for mass-normalised modes (distinct within
+    their block), from dM/dp, dC/dp (..., n_p, 6, 6), phi (..., 6, n_modes) and lam (..., n_modes); shape
+    (..., n_p, n_modes). ``d_mass`` None: M does not depend on the parameters (``lam`` is then unused)."""
+    dc = np.einsum("...ak,...pab,...bk->...pk", phi, d_stiffness, phi)
+    if d_mass is None:
+        return dc
+    return dc - lam[..., None, :] * np.einsum("...ak,...pab,...bk->...pk", phi, d_mass, phi)
+
+
+def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int, ...]) -> NDArray[np.float64]:
+    """d lambda_k / d theta_j for the given modes and the unknown stiffnesses (M does not depend on them),
+    shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns, 6, 6)."""
+    return np.swapaxes(eigenvalue_derivatives(None, dc, phi[:, :, list(mode_index)], None), -1, -2)
