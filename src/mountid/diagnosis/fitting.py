@@ -14,6 +14,7 @@ import scipy.stats
 from mountid.diagnosis.campaign import Campaign
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
 from mountid.effects import Effect
+from mountid.identification.statistics import covariance, standard_deviations
 
 
 @dataclass
@@ -200,11 +201,10 @@ def fit_candidate(
     chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
     jac = res.jac
     dof = data.n - k
-    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    cov = np.linalg.pinv(jac.T @ jac) * scale
+    spread = standard_deviations(covariance(jac, chi2, dof))
     d = model.jacobian_to_physical(theta)
     phys = model.physical(theta)
-    std = {n: float(abs(d[i]) * math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(phys)}
+    std = {n: float(abs(d[i]) * spread[i]) for i, n in enumerate(phys)}
     reasons = []
     for p in model.effect_parameters:
         lo, hi = (v * model.scales[p.scale] for v in p.plausible)

@@ -17,6 +17,7 @@ import numpy as np
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
 from mountid.identification.from_records import fit_stiffness
+from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import call
 
 SIGNIFICANCE = 2.0
@@ -277,11 +278,10 @@ def isolator_forces(campaign: Campaign, params: dict[str, float]) -> tuple[list[
         return [], {}
     a, b = np.vstack(rows), np.concatenate(rhs)
     delta, *_ = np.linalg.lstsq(a, b, rcond=None)
-    dof = max(len(b) - len(delta), 1)
-    s2 = float(np.sum((b - a @ delta) ** 2)) / dof
-    cov = s2 * np.linalg.pinv(a.T @ a)
+    chi2 = float(np.sum((b - a @ delta) ** 2))
+    spread = standard_deviations(covariance(a, chi2, len(b) - len(delta), stated_std=False))
     out = [
-        IsolatorForce(name, float(d), float(math.sqrt(max(cov[i, i], 0.0))))
+        IsolatorForce(name, float(d), float(spread[i]))
         for i, (name, d) in enumerate(zip(mod.ISOLATORS, delta, strict=True))
     ]
     return out, relative

@@ -20,6 +20,7 @@ import numpy as np
 import scipy.optimize
 
 from mountid.errors import InputError
+from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call, damped_poles, matrices, sensor_row
 from mountid.measurement import modal
 from mountid.measurement.records import Record
@@ -236,11 +237,10 @@ def fit_stiffness(
         best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
     dof = len(labels) - len(unknown)
-    scale = max(1.0, 2 * best.cost / dof) if dof > 0 else 1.0  # inflate when the data scatter more than stated
-    cov = np.linalg.pinv(jac.T @ jac) * scale
+    spread = standard_deviations(covariance(jac, 2 * best.cost, dof))  # least_squares' cost is chi^2 / 2
     values = np.exp(best.x)
     params = dict(zip(unknown, map(float, values), strict=True))
-    stds = {u: float(values[i] * math.sqrt(max(cov[i, i], 0.0))) for i, u in enumerate(unknown)}
+    stds = {u: float(values[i] * spread[i]) for i, u in enumerate(unknown)}
     return params, stds
 
 
@@ -273,9 +273,9 @@ def fit_damping(
     sol = np.linalg.lstsq(design, target, rcond=None)[0]
     dof = len(rows) - len(names)
     chi2 = float(np.sum((design @ sol - target) ** 2))
-    cov = np.linalg.pinv(design.T @ design) * (max(1.0, chi2 / dof) if dof > 0 else 1.0)
+    spread = standard_deviations(covariance(design, chi2, dof))
     values = dict(zip(names, map(float, sol), strict=True))
-    return values, {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
+    return values, {n: float(spread[i]) for i, n in enumerate(names)}
 
 
 def modal_data(
