@@ -29,6 +29,10 @@ STANDARD_GRAVITY = 9.80665
 """g [m/s^2] (the gravity_preload potential is derived with this value)."""
 
 
+EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor")
+"""How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
+
+
 @dataclass(frozen=True)
 class EffectParameter:
     """One physical parameter of an effect, its unit and plausible range (``plausible`` times ``scale``)."""
@@ -49,11 +53,16 @@ class Effect:
     """A candidate effect: how it enters the model (see the module docstring) and its parameters."""
 
     name: str
-    how: str
+    kind: str
+    """How the effect enters the model: generated, isolator, frequency, damping or sensor (module docstring)."""
     title: str
     parameters: tuple[EffectParameter, ...]
     signature: str
     """One line: what the effect does to the six modes."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in EFFECT_KINDS:
+            raise ValueError(f"effect {self.name}: kind {self.kind!r} is not one of {EFFECT_KINDS}")
 
 
 def _p(name: str, unit: str, scale: str, lo: float, hi: float, start: float, text: str) -> EffectParameter:

@@ -14,8 +14,9 @@ import scipy.optimize
 import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
+from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect
-from mountid.machine import call, damped_poles
+from mountid.machine import call
 
 _DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
@@ -42,6 +43,7 @@ class CandidateModel:
     def __init__(self, campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> None:
         self.campaign = campaign
         self.effect = effect
+        self.strategy = strategy(effect)
         self.isolator = isolator
         machine = campaign.machine
         self.mod = mod = machine.module
@@ -150,37 +152,18 @@ class CandidateModel:
 
     # -- the model -------------------------------------------------------------------------------------
     def _matrices(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        mod = self.mod
-        e = self.effect
-        if e is not None and e.how == "generated":
-            m, c, b = call(mod, f"effect_{e.name}", values)
-            return m, c, b
-        m = call(mod, "mass_matrix", values)
-        c = call(mod, "stiffness_matrix", values)
-        if e is not None and e.how == "isolator":
-            per = call(mod, "isolator_stiffness", values)
-            c = c + values["scatter"] * per[self.isolator]
-        b = call(mod, "damping_matrix", values) if e and e.how == "damping" else None
-        return m, c, b
+        return self.strategy.matrices(self, values)
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
         values = {**self.known, **self.physical(theta)}
         m, c, b = self._matrices(values)
         lam, vec = scipy.linalg.eigh(c, m)
-        body = scaled_unit(vec[:6, :], self.length)
+        body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         order = label_modes(lam, body, self.reference_lambda, self.reference, share)
-        omega = np.sqrt(np.abs(lam))
-        e = self.effect
-        if e is not None and e.how == "frequency":
-            omega = _stiffening(np.abs(lam), values["rubber_strength"], values["rubber_corner"] * self.omega_ref)
-        elif e is not None and e.how == "damping":
-            omega = damped_poles(m, c, values["damping_scale"] * b, lam).imag
-        elif e is not None and e.how == "sensor":
-            body = scaled_unit(
-                sensor_transform(self.mod, values["sensor_yaw"], values["sensor_dz"]) @ vec[:6, :], self.length
-            )
+        omega = self.strategy.frequencies(self, values, (m, c, b), lam)
+        body = scaled_unit(self.strategy.shapes(self, values, vec), self.length)  # as the sensors read it
         rows = self._rows if labels is None else [self.mod.MODES.index(label) for label in labels]
         index = order[rows]
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
@@ -243,30 +226,6 @@ def label_modes(
     rows, cols = scipy.optimize.linear_sum_assignment(-mac + 0.05 * distance)
     out = np.empty(len(reference_lambda), dtype=int)
     out[rows] = cols
-    return out
-
-
-def _stiffening(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:
-    """omega solving omega^2 = g(omega) lam, g = 1 + beta y / (y + c), y = omega^2, c = corner^2, for each
-    eigenvalue lam of the static stiffness. Multiplied out, y^2 + b y - lam c = 0 with b = c - lam (1 + beta):
-    one positive root (the product of the roots is -lam c), taken in the form without cancellation."""
-    c = corner**2
-    b = c - lam * (1 + beta)
-    root = np.sqrt(b * b + 4 * lam * c)
-    y = np.where(b > 0, 2 * lam * c / (b + root), (root - b) / 2)
-    return np.sqrt(y)
-
-
-def sensor_transform(mod, yaw: float, dz: float) -> np.ndarray:
-    """Shapes as read by a sensor frame turned by ``yaw`` [rad] about z whose reference point is ``dz`` [m]
-    above the origin: translations of that point (the generated point_jacobian) and rotations, both in the
-    turned frame (6 x 6)."""
-    jac = np.asarray(mod.point_jacobian(0.0, 0.0, dz))
-    cz, sz = math.cos(yaw), math.sin(yaw)
-    rot = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # global -> turned frame
-    out = np.zeros((6, 6))
-    out[:3] = rot @ jac
-    out[3:, 3:] = rot
     return out
 
 

@@ -28,6 +28,7 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
 from mountid.diagnosis.fitting import CandidateFit, exact_leave_one_out, fit_candidate, held_out_z
+from mountid.diagnosis.strategies import strategy
 from mountid.effects import CATALOGUE, Effect
 
 GAP_P_VALUE = 1e-3
@@ -70,7 +71,7 @@ def fit_all(
     fits = []
     for effect in effects:
         before = previous.get(effect.name)
-        if effect.how == "isolator":
+        if strategy(effect).per_isolator:
             isolators = campaign.machine.module.ISOLATORS
             if before is not None:
                 fits.append(fit_candidate(campaign, effect, isolators.index(before.variant), before.theta))

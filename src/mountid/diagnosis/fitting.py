@@ -165,16 +165,7 @@ def _least_squares(
 
 def _applicable(model: CandidateModel, data: Data) -> str:
     """Why a candidate cannot act on this campaign ('' when it can)."""
-    e = model.effect
-    if e is None:
-        return ""
-    if e.how == "sensor" and not data.shape_labels:
-        return "no mode shapes measured: a sensor error leaves the frequencies exactly unchanged"
-    if e.how == "damping":
-        _, _, b = model._matrices({**model.known, **model.physical(model.start()[0]), "damping_scale": 1.0})
-        if not np.any(b):
-            return "the description has no damping: nothing to scale"
-    return ""
+    return model.strategy.inapplicable(model, bool(data.shape_labels))
 
 
 def fit_candidate(

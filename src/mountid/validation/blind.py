@@ -172,7 +172,9 @@ def _sample(rng: np.random.Generator, effect: str, v: dict[str, float]) -> dict[
         return {"eta": logu(1.5, 5.0)}
     if effect == "sensor_error":
         return {"yaw": sign * logu(0.01, 0.08), "dz": rng.uniform(-0.15, 0.15)}
-    return {}
+    if effect == "none":
+        return {}
+    raise ValueError(f"no blind truth for the effect {effect!r}: add its size here and its physics to _Kid300")
 
 
 def _modes(kid: _Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:

@@ -8,6 +8,8 @@ the nominal model; an extra coordinate (the foundation's vertical motion) extend
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from functools import cache, cached_property
 
 import sympy as sp
@@ -17,7 +19,93 @@ from mountid.engine.symbolic.model import SymbolicModel, rigid_body_kinetic_ener
 from mountid.errors import DescriptionError
 from mountid.nomenclature import COORDINATES
 
-GENERATED_EFFECTS: tuple[str, ...] = tuple(name for name, e in EFFECTS.items() if e.how == "generated")
+GENERATED_EFFECTS: tuple[str, ...] = tuple(name for name, e in EFFECTS.items() if e.kind == "generated")
+
+
+@dataclass(frozen=True)
+class EnergyExtension:
+    """What one ``generated`` effect adds to the energies of a description: T and P terms as functions of
+    the extended model (its ``model``, effect ``symbols``, ``q`` and ``qdot``), and whether it adds a slab
+    with six coordinates of its own under the isolators."""
+
+    kinetic: Callable[[ExtendedModel], sp.Expr] | None = None
+    potential: Callable[[ExtendedModel], sp.Expr] | None = None
+    slab: bool = False
+
+
+def _shifted_centre(shift: Callable[[dict[str, sp.Symbol]], sp.Matrix]) -> Callable[[ExtendedModel], sp.Expr]:
+    """T of the body with its centre of mass moved by ``shift``, minus the nominal T."""
+
+    def kinetic(x: ExtendedModel) -> sp.Expr:
+        m = x.model
+        centre = m.centre_of_mass + shift(x.symbols)
+        return rigid_body_kinetic_energy(m.mass, m.inertia, centre, x.qdot[:6, 0]) - m.kinetic_energy
+
+    return kinetic
+
+
+def _added_mass(x: ExtendedModel) -> sp.Expr:
+    s = x.symbols
+    return rigid_body_kinetic_energy(s["m_added"], sp.zeros(3), sp.Matrix([0, 0, s["h_added"]]), x.qdot[:6, 0])
+
+
+def _rotational_stiffness(x: ExtendedModel) -> sp.Expr:
+    """Per isolator: bending about the axes across it, torsion about its own axis a."""
+    s, w = x.symbols, x.q[3:6, 0]
+    p = sp.Integer(0)
+    for iso in x.model.isolators:
+        a = iso.axis
+        tensor = s["k_bend"] * (sp.eye(3) - a * a.T) + s["k_torsion"] * a * a.T
+        p += (w.T * tensor * w)[0] / 2
+    return p
+
+
+def _slab_kinetic(x: ExtendedModel) -> sp.Expr:
+    """A rigid slab of mass m_found with radius of gyration equal to the machine's length scale."""
+    s = x.symbols
+    inertia = s["m_found"] * scales(x.model)["length"] ** 2 * sp.eye(3)
+    return rigid_body_kinetic_energy(s["m_found"], inertia, sp.zeros(3, 1), x.qdot[6:, 0])
+
+
+def _slab_on_feet(x: ExtendedModel) -> sp.Expr:
+    """The slab on a foot under each isolator: vertical k_found/n, horizontal half that."""
+    m = x.model
+    foot = sp.diag(1, 1, 2) * x.symbols["k_found"] / (2 * len(m.isolators))
+    p = sp.Integer(0)
+    for iso in m.isolators:
+        u = SymbolicModel.point_motion(x.q[6:, 0], iso.position - x.slab_centre)
+        p += (u.T * foot * u)[0] / 2
+    return p
+
+
+def _drive_belt(x: ExtendedModel) -> sp.Expr:
+    s = x.symbols
+    stretch = SymbolicModel.point_motion(x.q[:6, 0], sp.Matrix([0, 0, s["h_belt"]]))[0]
+    return s["k_belt"] * stretch**2 / 2
+
+
+def _gravity_preload(x: ExtendedModel) -> sp.Expr:
+    """The isolators carry the weight m g upwards at depth h_preload below the centre of mass; the weight
+    acts down at the centre of mass: -F . u2 for each force, u2 the second-order point motion."""
+    m, w = x.model, x.q[3:6, 0]
+    g = sp.nsimplify(STANDARD_GRAVITY)
+    preload_point = m.centre_of_mass - sp.Matrix([0, 0, x.symbols["h_preload"]])
+    return (
+        -m.mass * g * second_order_motion(w, preload_point)[2]
+        + m.mass * g * second_order_motion(w, m.centre_of_mass)[2]
+    )
+
+
+ENERGIES: dict[str, EnergyExtension] = {
+    "com_offset": EnergyExtension(kinetic=_shifted_centre(lambda s: sp.Matrix([s["dx_com"], s["dy_com"], 0]))),
+    "cog_height": EnergyExtension(kinetic=_shifted_centre(lambda s: sp.Matrix([0, 0, s["dz_com"]]))),
+    "rotational_stiffness": EnergyExtension(potential=_rotational_stiffness),
+    "foundation": EnergyExtension(kinetic=_slab_kinetic, potential=_slab_on_feet, slab=True),
+    "added_mass": EnergyExtension(kinetic=_added_mass),
+    "drive_belt": EnergyExtension(potential=_drive_belt),
+    "gravity_preload": EnergyExtension(potential=_gravity_preload),
+}
+"""The energy extension of every ``generated`` effect of the registry (mountid.effects), by name."""
 
 
 def second_order_motion(w: sp.Matrix, position: sp.Matrix) -> sp.Matrix:
@@ -30,15 +118,15 @@ class ExtendedModel:
     """The nominal model of a description with one candidate effect added to its energies."""
 
     def __init__(self, model: SymbolicModel, effect: Effect) -> None:
-        if effect.how != "generated":
-            raise ValueError(f"{effect.name} is not an energy extension (how = {effect.how})")
+        if effect.kind != "generated":
+            raise ValueError(f"{effect.name} is not an energy extension (kind = {effect.kind})")
         clash = [p.name for p in effect.parameters if p.name in model.symbols]
         if clash:
             raise DescriptionError(f"parameters.{clash[0]}", f"is reserved for the candidate effect {effect.name}")
         self.model = model
         self.effect = effect
         self.symbols = {p.name: sp.Symbol(p.name, real=True) for p in effect.parameters}
-        extra = tuple(f"{c}_found" for c in COORDINATES) if effect.name == "foundation" else ()
+        extra = tuple(f"{c}_found" for c in COORDINATES) if ENERGIES[effect.name].slab else ()
         self.coordinates: tuple[str, ...] = COORDINATES + extra
         self.q = sp.Matrix([*model.q, *(sp.Symbol(c, real=True) for c in extra)])
         self.qdot = sp.Matrix([*model.qdot, *(sp.Symbol(c + "_dot", real=True) for c in extra)])
@@ -52,54 +140,16 @@ class ExtendedModel:
 
     @cached_property
     def added_kinetic_energy(self) -> sp.Expr:
-        """T of the extended model minus the nominal T."""
-        m, s = self.model, self.symbols
-        name = self.effect.name
-        body = self.qdot[:6, 0]
-        t = sp.Integer(0)
-        if name in ("com_offset", "cog_height"):
-            shift = sp.Matrix([s["dx_com"], s["dy_com"], 0]) if name == "com_offset" else sp.Matrix([0, 0, s["dz_com"]])
-            t = rigid_body_kinetic_energy(m.mass, m.inertia, m.centre_of_mass + shift, body) - m.kinetic_energy
-        elif name == "added_mass":
-            t = rigid_body_kinetic_energy(s["m_added"], sp.zeros(3), sp.Matrix([0, 0, s["h_added"]]), body)
-        elif name == "foundation":
-            # a rigid slab of mass m_found with radius of gyration equal to the machine's length scale
-            inertia = s["m_found"] * scales(m)["length"] ** 2 * sp.eye(3)
-            t = rigid_body_kinetic_energy(s["m_found"], inertia, sp.zeros(3, 1), self.qdot[6:, 0])
-        return sp.expand(t)
+        """T of the extended model minus the nominal T (the effect's registered kinetic energy)."""
+        term = ENERGIES[self.effect.name].kinetic
+        return sp.expand(term(self)) if term else sp.Integer(0)
 
     @cached_property
     def added_potential_energy(self) -> sp.Expr:
         """P of the extended model minus the nominal P (for the foundation: minus the isolators' P, which
-        the foundation changes; see isolator_energies)."""
-        m, s = self.model, self.symbols
-        name = self.effect.name
-        w = self.q[3:6, 0]
-        p = sp.Integer(0)
-        if name == "rotational_stiffness":
-            # per isolator: bending about the axes across it, torsion about its own axis a
-            for iso in m.isolators:
-                a = iso.axis
-                tensor = s["k_bend"] * (sp.eye(3) - a * a.T) + s["k_torsion"] * a * a.T
-                p += (w.T * tensor * w)[0] / 2
-        elif name == "foundation":
-            # the slab on a foot under each isolator: vertical k_found/n, horizontal half that
-            n = len(m.isolators)
-            foot = sp.diag(1, 1, 2) * s["k_found"] / (2 * n)
-            for iso in m.isolators:
-                u = SymbolicModel.point_motion(self.q[6:, 0], iso.position - self.slab_centre)
-                p += (u.T * foot * u)[0] / 2
-        elif name == "drive_belt":
-            stretch = SymbolicModel.point_motion(self.q[:6, 0], sp.Matrix([0, 0, s["h_belt"]]))[0]
-            p += s["k_belt"] * stretch**2 / 2
-        elif name == "gravity_preload":
-            # the isolators carry the weight m g upwards at depth h_preload below the centre of mass; the
-            # weight acts down at the centre of mass: -F . u2 for each force, second-order point motion u2
-            g = sp.nsimplify(STANDARD_GRAVITY)
-            preload_point = m.centre_of_mass - sp.Matrix([0, 0, s["h_preload"]])
-            p -= m.mass * g * second_order_motion(w, preload_point)[2]
-            p += m.mass * g * second_order_motion(w, m.centre_of_mass)[2]
-        return sp.expand(p)
+        the foundation changes; see isolator_hessian)."""
+        term = ENERGIES[self.effect.name].potential
+        return sp.expand(term(self)) if term else sp.Integer(0)
 
     # -- matrices ------------------------------------------------------------------------------------
     # The Hessian is linear: the extended matrix is the nominal one (Hessian of the nominal energy) plus the
