@@ -15,7 +15,6 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
 
     campaign = load(args.campaign)
     diagnosis = diagnose(campaign)
-    report, effects = diagnosis.where, diagnosis.effects
     figure = None
     if not args.no_figure:
         from mountid.report.figures import diagnosis_figure
@@ -23,58 +22,7 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
         figure = args.figure or f"{Path(args.campaign).stem}-diagnosis.png"
         writable(figure, "--figure")
         diagnosis_figure(diagnosis, figure, title=campaign.name or Path(args.campaign).stem)
-    residuals = [
-        {
-            "mode": r.label,
-            "measured": r.measured,
-            "predicted": r.predicted,
-            "residual": r.residual,
-            "uncertainty": r.uncertainty,
-            "z": r.z,
-            "significant": r.significant,
-            "held_out": r.held_out,
-        }
-        for r in report.residuals
-    ]
-    localisation = [
-        {
-            "matrix": loc.matrix,
-            "entries": [list(e) for e in loc.entries],
-            "change": loc.change,
-            "unit": loc.unit,
-            "explained": loc.explained,
-            "text": loc.describe(),
-        }
-        for loc in report.localisation
-    ]
     if args.json:
-        print_json(
-            {
-                "campaign": campaign.name,
-                "machine": campaign.machine.name,
-                "parameters": report.parameters,
-                "parameter_std": report.parameter_std,
-                "residuals": residuals,
-                "sensitivities": report.sensitivities,
-                "localisation": localisation,
-                "broken_symmetry": report.broken_symmetry,
-                "isolator_force_residual": [
-                    {"isolator": f.isolator, "stiffness_change": f.change, "std": f.std} for f in diagnosis.isolators
-                ],
-                "modal_force_residual": diagnosis.force_residual,
-                "nominal": effects.nominal.to_json(),
-                "candidates": [f.to_json() for f in effects.ranked],
-                "gap": diagnosis.gap_table(),
-                "p_value": effects.p_value,
-                "significant": effects.significant,
-                "tie": effects.tie,
-                "separation": effects.separation,
-                "confident": effects.confident,
-                "verdict": diagnosis.verdict,
-                "where_verdict": report.verdict,
-                "notes": [*report.notes, *effects.notes],
-                "figure": figure,
-            }
-        )
+        print_json({**diagnosis.to_dict(), "figure": figure})
         return
     print_diagnosis(diagnosis, campaign.name or args.campaign, figure)

@@ -59,7 +59,7 @@ class MeasuredData:
         return self.shape_uncertainty or DEFAULT_SHAPE_STD
 
 
-@dataclass
+@dataclass(frozen=True)
 class Campaign:
     """A validated campaign (see the module docstring)."""
 

@@ -19,7 +19,7 @@ candidates; refitted for the nominal model and, when there is a gap to explain, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -38,7 +38,7 @@ TIE = 7.0
 of thumb: up to 7 above the best a model keeps some support)."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class EffectsReport:
     """Every candidate fitted and ranked, and what the data say about them."""
 
@@ -66,7 +66,7 @@ def fit_all(
     """The nominal fit and the best fit of each candidate effect (isolator_scatter: its best isolator; the
     others within TIE in chi^2 are named in its note, mirror images that frequencies alone cannot tell).
     ``warm``: a report on nearby data whose fits start these (one start each; scatter keeps its isolator)."""
-    previous = {f.effect: f for f in (warm.ranked if warm else []) if f.theta is not None}
+    previous = {f.effect: f for f in (warm.ranked if warm else []) if f.state is not None}
     nominal = fit_candidate(campaign, None, start=warm.nominal.theta if warm else None)
     fits = []
     for effect in effects:
@@ -83,7 +83,8 @@ def fit_all(
             best = variants[0]
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + TIE]
             if alike:
-                best.note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
+                note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
+                best = replace(best, note=note)
             fits.append(best)
         else:
             fits.append(fit_candidate(campaign, effect, start=before.theta if before else None))
@@ -117,13 +118,19 @@ def rank(
     tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
     # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
     # the tie (the others keep their linearised ones)
-    for f in [nominal, *(tie[:3] if significant else [])] if exact_held_out else []:
-        exact_leave_one_out(f)
-    for f in [nominal, *fits]:
+    refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
+
+    def finished(f: CandidateFit) -> CandidateFit:
+        if id(f) in refit:
+            f = exact_leave_one_out(f)
         z = held_out_z(f, campaign)
         if len(z):
-            f.held_out_rms = float(np.sqrt(np.mean(z**2)))
-            f.held_out_median = float(np.median(np.abs(z)))
+            f = replace(f, held_out_rms=float(np.sqrt(np.mean(z**2))), held_out_median=float(np.median(np.abs(z))))
+        return f
+
+    done = {id(f): finished(f) for f in [nominal, *fits]}
+    nominal, ranked, tie = done[id(nominal)], [done[id(f)] for f in ranked], [done[id(f)] for f in tie]
+    best = done[id(best)] if best is not None else None
     separation = [separate(campaign, best, other) for other in tie[1:]] if best and significant else []
     confident = False
     if math.isnan(p_value):
@@ -168,8 +175,8 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
     candidates a and b differ most, in units of the campaign's typical uncertainty."""
     mod = campaign.machine.module
     labels = tuple(mod.MODES)
-    pa = a.model.predict(a.theta, labels)
-    pb = b.model.predict(b.theta, labels)
+    pa = a.state.model.predict(a.state.theta, labels)
+    pb = b.state.model.predict(b.state.theta, labels)
     measured = list(campaign.modes.values())
     rel = float(np.median([m.frequency_std / m.frequency for m in measured]))
     shape_sigma = float(np.median([m.shape_std for m in measured]))

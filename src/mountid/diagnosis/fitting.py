@@ -4,7 +4,7 @@ and its leave-one-mode-out held-out errors."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -17,7 +17,16 @@ from mountid.effects import Effect
 from mountid.identification.statistics import covariance, standard_deviations
 
 
-@dataclass
+@dataclass(frozen=True)
+class FitState:
+    """What a fit leaves behind for later refits (leave-one-out, separation, warm starts): the candidate
+    model and the fitted flat parameter vector. Not part of the result's value."""
+
+    model: CandidateModel
+    theta: np.ndarray
+
+
+@dataclass(frozen=True)
 class CandidateFit:
     """One fitted candidate: effect (``none`` for the nominal model), fitted values with standard deviations."""
 
@@ -43,11 +52,16 @@ class CandidateFit:
     held_out_median: float = math.nan
     """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
     whose omission leaves a parameter poorly determined (set by the ranking)."""
-    model: CandidateModel | None = field(default=None, repr=False, compare=False)
-    theta: np.ndarray | None = field(default=None, repr=False, compare=False)
-    """The fitted model and its flat parameter vector (for leave-one-out refits and separation)."""
+    state: FitState | None = field(default=None, repr=False, compare=False)
+    """The fit's state (None when the candidate is not applicable)."""
 
-    def to_json(self) -> dict:
+    @property
+    def theta(self) -> np.ndarray | None:
+        """The fitted flat parameter vector (a warm start for nearby data)."""
+        return None if self.state is None else self.state.theta
+
+    def to_dict(self) -> dict:
+        """The result as plain data (non-finite numbers stay; mountid.report.jsonable turns them to null)."""
         return {
             "effect": self.effect,
             "variant": self.variant,
@@ -56,7 +70,7 @@ class CandidateFit:
             "chi2": self.chi2,
             "n_data": self.n_data,
             "n_parameters": self.n_parameters,
-            "aicc": self.aicc if math.isfinite(self.aicc) else None,
+            "aicc": self.aicc,
             "plausible": self.plausible,
             "implausible_reason": self.implausible_reason,
             "gap_after": self.frequency_gap,
@@ -64,8 +78,8 @@ class CandidateFit:
             "held_out_exact": self.held_out_exact,
             "applicable": self.applicable,
             "note": self.note,
-            "held_out_rms_sigma": self.held_out_rms if math.isfinite(self.held_out_rms) else None,
-            "held_out_median_sigma": self.held_out_median if math.isfinite(self.held_out_median) else None,
+            "held_out_rms_sigma": self.held_out_rms,
+            "held_out_median_sigma": self.held_out_median,
         }
 
 
@@ -205,10 +219,22 @@ def fit_candidate(
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
-    fit = CandidateFit(name, variant, phys, std, chi2, data.n, k, aicc, not reasons, "; ".join(reasons), gap)
-    fit.held_out_gap = _linear_leave_one_out(data, res.fun, jac)
-    fit.model, fit.theta = model, theta
-    return fit
+    held_out = _linear_leave_one_out(data, res.fun, jac)
+    return CandidateFit(
+        name,
+        variant,
+        phys,
+        std,
+        chi2,
+        data.n,
+        k,
+        aicc,
+        not reasons,
+        "; ".join(reasons),
+        gap,
+        held_out_gap=held_out,
+        state=FitState(model, theta),
+    )
 
 
 def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[str, float]:
@@ -227,9 +253,9 @@ def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[st
     return out
 
 
-def exact_leave_one_out(fit: CandidateFit) -> None:
-    """Refit without each mode in turn (frequency and shape) and store its held-out error [rad/s]."""
-    model, theta = fit.model, fit.theta
+def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
+    """The fit with its held-out errors [rad/s] refitted without each mode in turn (frequency and shape)."""
+    model, theta = fit.state.model, fit.state.theta
     data = Data(model.campaign, model.length)
     out = {}
     for i, lab in enumerate(data.labels):
@@ -239,8 +265,7 @@ def exact_leave_one_out(fit: CandidateFit) -> None:
             continue
         res = _least_squares(model, data, [theta], rows=keep)
         out[lab] = float(data.omega[i] - model.predict(res.x).frequencies[i])
-    fit.held_out_gap = out
-    fit.held_out_exact = True
+    return replace(fit, held_out_gap=out, held_out_exact=True)
 
 
 def held_out_z(fit: CandidateFit, campaign: Campaign) -> np.ndarray:

@@ -46,6 +46,18 @@ class Residual:
     def significant(self) -> bool | None:
         return None if self.z is None else abs(self.z) > SIGNIFICANCE
 
+    def to_dict(self) -> dict:
+        return {
+            "mode": self.label,
+            "measured": self.measured,
+            "predicted": self.predicted,
+            "residual": self.residual,
+            "uncertainty": self.uncertainty,
+            "z": self.z,
+            "significant": self.significant,
+            "held_out": self.held_out,
+        }
+
 
 @dataclass(frozen=True)
 class Localisation:
@@ -63,8 +75,18 @@ class Localisation:
         word = "short by" if self.change > 0 else "too large by"
         return f"{names} {word} about {abs(self.change):.3g} {self.unit} (explains {self.explained:.0%})"
 
+    def to_dict(self) -> dict:
+        return {
+            "matrix": self.matrix,
+            "entries": [list(e) for e in self.entries],
+            "change": self.change,
+            "unit": self.unit,
+            "explained": self.explained,
+            "text": self.describe(),
+        }
 
-@dataclass
+
+@dataclass(frozen=True)
 class GapReport:
     parameters: dict[str, float]
     parameter_std: dict[str, float]
@@ -253,6 +275,9 @@ class IsolatorForce:
     change: float
     std: float
 
+    def to_dict(self) -> dict:
+        return {"isolator": self.isolator, "stiffness_change": self.change, "std": self.std}
+
 
 def isolator_forces(campaign: Campaign, params: dict[str, float]) -> tuple[list[IsolatorForce], dict[str, float]]:
     """Per isolator, the stiffness change delta_i that makes sum_i delta_i C_i phi_k cancel the modal force
@@ -287,7 +312,7 @@ def isolator_forces(campaign: Campaign, params: dict[str, float]) -> tuple[list[
     return out, relative
 
 
-@dataclass
+@dataclass(frozen=True)
 class Diagnosis:
     """The whole gap diagnosis of a campaign: where (nominal residuals), which effect, how far it shrinks."""
 
@@ -303,6 +328,34 @@ class Diagnosis:
         if self.where.broken_symmetry and not self.effects.significant:
             return self.where.verdict
         return self.effects.verdict
+
+    def to_dict(self) -> dict:
+        """The diagnosis as plain data (the JSON of ``mountid diagnose --json`` without the figure; non-finite
+        numbers stay, mountid.report.jsonable turns them to null)."""
+        report, effects, campaign = self.where, self.effects, self.campaign
+        return {
+            "campaign": campaign.name,
+            "machine": campaign.machine.name,
+            "parameters": report.parameters,
+            "parameter_std": report.parameter_std,
+            "residuals": [r.to_dict() for r in report.residuals],
+            "sensitivities": report.sensitivities,
+            "localisation": [loc.to_dict() for loc in report.localisation],
+            "broken_symmetry": report.broken_symmetry,
+            "isolator_force_residual": [f.to_dict() for f in self.isolators],
+            "modal_force_residual": self.force_residual,
+            "nominal": effects.nominal.to_dict(),
+            "candidates": [f.to_dict() for f in effects.ranked],
+            "gap": self.gap_table(),
+            "p_value": effects.p_value,
+            "significant": effects.significant,
+            "tie": effects.tie,
+            "separation": effects.separation,
+            "confident": effects.confident,
+            "verdict": self.verdict,
+            "where_verdict": report.verdict,
+            "notes": [*report.notes, *effects.notes],
+        }
 
     def gap_table(self) -> dict[str, dict]:
         """Per mode and in total: measured - model [rad/s] before (nominal) and after (best candidate), on

@@ -42,7 +42,7 @@ class MeasuredMode:
     entry 1), when the channels fix all six coordinates; None otherwise."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class Identification:
     """Result of identify_from_record: modal data, unknowns with standard deviations, damping."""
 
