@@ -13,7 +13,8 @@ from concurrent.futures import ProcessPoolExecutor
 from functools import cache
 from pathlib import Path
 
-from mountid.engine.codegen.numpy_module import EffectFunctions, effect_functions, render
+from mountid.engine.codegen.functions import EffectFunctions, effect_functions
+from mountid.engine.codegen.numpy_module import render
 from mountid.engine.description import load
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseDerivation, InverseSet

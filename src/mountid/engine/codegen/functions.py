@@ -1,0 +1,286 @@
+"""The generated functions of a machine module described as data (name, arguments, body from sympy,
+docstring): the matrices, point Jacobian, gradients and derivatives, the candidate-effect matrices and the
+forward model the numeric inverses use. numpy_module lays them out with the template."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from mountid.effects import EFFECTS
+from mountid.engine.codegen.printing import code, describe, eliminate
+from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
+from mountid.engine.symbolic.model import SymbolicModel
+from mountid.nomenclature import COORDINATES
+
+
+@dataclass
+class Function:
+    """One generated function: signature, docstring, body lines and return expression."""
+
+    name: str
+    args: tuple[str, ...]
+    doc: str
+    body: list[str] = field(default_factory=list)
+    returns: str = ""
+    convert: bool = True
+    """Whether the arguments are converted to float arrays on entry (public functions)."""
+
+
+def shape_line(args: tuple[str, ...]) -> str:
+    """The generated line computing the broadcast batch shape of a function's arguments."""
+    return f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})"
+
+
+def matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str) -> Function:
+    args = model.parameters_of(matrix)
+    entries = {(i, j): matrix[i, j] for i in range(6) for j in range(i, 6) if matrix[i, j] != 0}
+    cse = eliminate(list(entries.values()))
+    formula = "\n".join(
+        f"        [{COORDINATES[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items()
+    )
+    doc = (
+        f"{what} [{unit_note}], shape (..., 6, 6), coordinates {', '.join(COORDINATES)}.\n\n"
+        f"    Non-zero entries of the upper triangle (the matrix is symmetric):\n\n{formula}\n"
+    )
+    fn = Function(name, args, doc)
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    pairs = ", ".join(f"({i}, {j}): {out}" for (i, j), out in zip(entries, cse.outputs, strict=True))
+    fn.body.append(shape_line(args))
+    fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
+    return fn
+
+
+def _matrices_function(
+    name: str,
+    matrices: dict[str, sp.Matrix],
+    coordinates: tuple[str, ...],
+    args: tuple[str, ...],
+    doc: str,
+    base: dict[str, str] | None = None,
+) -> Function:
+    """A function returning several symmetric matrices (one cse over all of them) as a tuple; ``base``: per
+    matrix, code of a matrix the entries are added to, and further outputs (label -> code) after them."""
+    n = len(coordinates)
+    entries = [(k, i, j, mat[i, j]) for k, mat in enumerate(matrices.values()) for i in range(n) for j in range(i, n)]
+    entries = [e for e in entries if e[3] != 0]
+    cse = eliminate([e[3] for e in entries])
+    lines = []
+    for k, label in enumerate(matrices):
+        lines.append(f"        {label}:")
+        lines += [
+            f"          [{coordinates[i]}, {coordinates[j]}] = {describe(e)}" for kk, i, j, e in entries if kk == k
+        ]
+    fn = Function(name, args, doc + "\n    Non-zero upper-triangle entries:\n\n" + "\n".join(lines) + "\n")
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.body.append(shape_line(args))
+    outs = []
+    for k in range(len(matrices)):
+        pairs = ", ".join(
+            f"({i}, {j}): {out}" for (kk, i, j, _), out in zip(entries, cse.outputs, strict=True) if kk == k
+        )
+        outs.append(f"_runtime.stack_matrix(_shape, {n}, {{{pairs}}})")
+    if base:
+        outs = [f"{base[label]} + {out}" for label, out in zip(matrices, outs, strict=True)]
+        outs += [code for label, code in base.items() if label not in matrices]
+    fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
+    return fn
+
+
+EffectFunctions = tuple[list[Function], dict[str, tuple[str, ...]], tuple[str, ...]]
+
+
+def effect_functions(model: SymbolicModel) -> EffectFunctions:
+    """Extended matrices of every generated effect, the isolators' own stiffness matrices, the scales.
+
+    Returns the functions, the coordinates of each effect's extended model, and the isolator names.
+    """
+    functions = []
+    coords = {}
+    nominal_args = {
+        "M": model.parameters_of(model.M),
+        "C": model.parameters_of(model.C),
+        "B": model.parameters_of(model.B),
+    }
+    for name in GENERATED_EFFECTS:
+        ext = ExtendedModel(model, EFFECTS[name])
+        coords[name] = ext.coordinates
+        n = len(ext.coordinates)
+        doc = (
+            f"M, C, B of the model extended by the candidate effect {name} ({EFFECTS[name].title}),\n"
+            f"    each of shape (..., {n}, {n}), coordinates {', '.join(ext.coordinates)}; derived from the\n"
+            "    extended energies (mountid.engine.symbolic.effects).\n"
+        )
+        if n > 6:
+            fn = _matrices_function(
+                f"effect_{name}", {"M": ext.M, "C": ext.C, "B": ext.B}, ext.coordinates, ext.arguments(), doc
+            )
+        else:
+            added = {"M": ext.added_M, "C": ext.added_C}
+            own = model.parameters_of(model.M, model.C, model.B)
+            extra = tuple(p.name for p in EFFECTS[name].parameters)
+            calls = {
+                k: f"{fn_name}({', '.join(nominal_args[k])})"
+                for k, fn_name in (("M", "mass_matrix"), ("C", "stiffness_matrix"), ("B", "damping_matrix"))
+            }
+            fn = _matrices_function(
+                f"effect_{name}",
+                added,
+                ext.coordinates,
+                own + extra,
+                doc + "    The nominal matrices plus the Hessians of the added energies (B is the nominal one):\n",
+                base=calls,
+            )
+        functions.append(fn)
+    per = isolator_stiffness(model)
+    names = tuple(iso.name for iso in model.isolators)
+    args = model.parameters_of(*per)
+    fn = _matrices_function(
+        "isolator_stiffness",
+        dict(zip(names, per, strict=True)),
+        COORDINATES,
+        args,
+        f"Stiffness matrix of each isolator alone, shape (..., {len(per)}, 6, 6), isolators in the order of\n"
+        "    ISOLATORS; their sum is stiffness_matrix().\n",
+    )
+    fn.returns = f"numpy.stack([{fn.returns[1:-1]}], axis=-3)" if len(per) > 1 else f"{fn.returns}[..., None, :, :]"
+    functions.append(fn)
+    sc = scales(model)
+    args = model.parameters_of(*sc.values())
+    cse = eliminate(list(sc.values()))
+    fn = Function(
+        "effect_scales",
+        args,
+        "Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:\n\n"
+        + "\n".join(f"        {k} = {describe(v)}" for k, v in sc.items())
+        + "\n",
+    )
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.returns = "{" + ", ".join(f'"{k}": {out}' for k, out in zip(sc, cse.outputs, strict=True)) + "}"
+    functions.append(fn)
+    return functions, coords, names
+
+
+def point_function(model: SymbolicModel) -> Function:
+    """du/dq at body points: sensors read it, forces act through its transpose."""
+    jac = model.point_jacobian
+    args = tuple(str(s) for s in model.POINT)
+    entries = {(i, j): jac[i, j] for i in range(3) for j in range(6) if jac[i, j] != 0}
+    formula = "\n".join(f"        [{'xyz'[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items())
+    doc = (
+        "Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate\n"
+        "    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads\n"
+        "    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.\n\n"
+        f"    Non-zero entries:\n\n{formula}\n"
+    )
+    fn = Function("point_jacobian", args, doc)
+    fn.body = [shape_line(args), "_out = numpy.zeros((*_shape, 3, 6))"]
+    fn.body += [f"_out[..., {i}, {j}] = {code(e)}" for (i, j), e in entries.items()]
+    fn.returns = "_out"
+    return fn
+
+
+def _stiffness_gradient(model: SymbolicModel) -> list[sp.Matrix]:
+    return [model.C.diff(model.symbols[u]) for u in model.description.unknown]
+
+
+def gradient_arguments(model: SymbolicModel) -> tuple[str, ...]:
+    """Arguments of the generated stiffness_gradient(): the parameters dC/d(unknowns) depends on."""
+    return model.parameters_of(*_stiffness_gradient(model))
+
+
+def gradient_function(model: SymbolicModel) -> Function:
+    """dC/d(unknown) for each unknown: the matrices of the eigenvalue derivatives phi^T dC phi."""
+    args = gradient_arguments(model)
+    unknowns = model.description.unknown
+    mats = _stiffness_gradient(model)
+    entries = [
+        ((k, i, j), mat[i, j]) for k, mat in enumerate(mats) for i in range(6) for j in range(i, 6) if mat[i, j] != 0
+    ]
+    cse = eliminate([e for _, e in entries])
+    fn = Function(
+        "stiffness_gradient",
+        args,
+        f"Derivatives dC/d({', '.join(unknowns)}) of the stiffness matrix, shape (..., {len(unknowns)}, 6, 6).\n",
+    )
+    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    fn.body.append(shape_line(args))
+    per = []
+    for k in range(len(unknowns)):
+        pairs = ", ".join(
+            f"({i}, {j}): {out}" for ((kk, i, j), _), out in zip(entries, cse.outputs, strict=True) if kk == k
+        )
+        per.append(f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})")
+    fn.returns = f"numpy.stack([{', '.join(per)}], axis=-3)"
+    return fn
+
+
+def _derivative_function(
+    name: str, model: SymbolicModel, parameters: tuple[str, ...], matrices: dict[str, sp.Matrix], doc: str
+) -> Function:
+    """Derivatives of ``matrices`` with respect to each of ``parameters``, differentiated by sympy, stacked
+    as (..., n_parameters, n_matrices, 6, 6)."""
+    derivs = {f"d{k}/d{p}": mat.diff(model.symbols[p]) for p in parameters for k, mat in matrices.items()}
+    args = model.parameters_of(*matrices.values())
+    fn = _matrices_function(name, derivs, COORDINATES, args, doc)
+    inner = fn.returns[1:-1] if len(derivs) > 1 else fn.returns
+    fn.returns = f"numpy.stack([{inner}], axis=-3).reshape(*_shape, {len(parameters)}, {len(matrices)}, 6, 6)"
+    return fn
+
+
+def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> list[Function]:
+    """matrix_derivatives() (M, C, B with respect to every parameter they depend on) and the private
+    _mc_derivatives() (M, C with respect to the forward arguments) that squared_frequency_derivatives() uses."""
+    every = model.parameters_of(model.M, model.C, model.B)
+    return [
+        _derivative_function(
+            "matrix_derivatives",
+            model,
+            every,
+            {"M": model.M, "C": model.C, "B": model.B},
+            "Derivatives of M, C, B with respect to every parameter they depend on, shape\n"
+            f"    (..., {len(every)}, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),\n"
+            "    differentiated by sympy.\n",
+        ),
+        _derivative_function(
+            "_mc_derivatives",
+            model,
+            fwd_args,
+            {"M": model.M, "C": model.C},
+            "dM/dp and dC/dp for p in FORWARD_ARGUMENTS, shape (..., n, 2, 6, 6).\n",
+        ),
+    ]
+
+
+def model_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
+    """The forward model the Newton polish of every inverse works on (runtime.eigen_newton).
+
+    The polish works on the frequencies themselves (stable forward map, dlambda/dtheta = phi^T dC/dtheta phi):
+    the elimination formulas can lose digits where a mode sits near an uncoupled frequency.
+    """
+    d = model.description
+    known = tuple(a for a in fwd_args if a not in d.unknown)
+    m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
+    body = [
+        f"{', '.join(known)}{',' if len(known) == 1 else ''} = _known",
+        f"{', '.join(d.unknown)}{',' if len(d.unknown) == 1 else ''} = _unknowns.T",
+        f"_lam = squared_frequencies({', '.join(fwd_args)})",
+        "if not _modes:",
+        "    return _lam, None, None",
+        f"_phi = _runtime.modal_matrix(mass_matrix({', '.join(m_args)}), stiffness_matrix({', '.join(c_args)}), "
+        "_lam, BLOCKS, MODE_BLOCK, MODE_RANK)",
+    ]
+    g_args = gradient_arguments(model)
+    doc = (
+        "Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:\n"
+        f"    ``_known`` = ({', '.join(known)}) of shape (N,), ``_unknowns`` of shape (N, {len(d.unknown)}).\n"
+    )
+    return Function(
+        "_model",
+        ("_known", "_unknowns", "_modes"),
+        doc,
+        body,
+        f"_lam, _phi, stiffness_gradient({', '.join(g_args)})",
+        convert=False,
+    )

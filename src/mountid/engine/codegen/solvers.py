@@ -1,0 +1,231 @@
+"""The generated solvers of a machine module: the eigen-solve of every symmetry block (closed form for
+2 x 2, numeric otherwise) and the inverse solutions (closed-form roots with back-substitution, specialised
+forms at special points, numeric inverses from a start grid)."""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from mountid.engine.codegen.functions import Function, shape_line
+from mountid.engine.codegen.printing import describe, eliminate, fused
+from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.inverse import InverseSet
+from mountid.engine.symbolic.model import SymbolicModel
+from mountid.errors import DescriptionError
+
+
+def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
+    blocks = structure.blocks
+    matrices = (model.M, model.C)
+    args = model.parameters_of(*matrices)
+    labels = structure.labels
+    doc_lines = []
+    if structure.closed_form:
+        # each distinct eigenvalue is one fused numexpr pass (a chain of numpy operations on large batches
+        # is bound by memory traffic and by the first touch of every temporary): written into its row of
+        # _out (a view, 0-d for scalar input, hence [i, ...]), returned with the modes on the last axis
+        twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
+        variables = ", ".join(f"{a!r}: {a}" for a in map(str, args))
+        body = [shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))", f"_v = {{{variables}}}"]
+        rows: dict[tuple[int, int], int] = {}  # (block, rank) -> row of _out holding that root
+        for k, b in enumerate(blocks):
+            coords = ", ".join(b.coordinates)
+            if twin[k] != k:
+                doc_lines.append(
+                    f"        block {{{coords}}}: the roots of block {{{', '.join(blocks[twin[k]].coordinates)}}}"
+                )
+                continue
+            first = {m.rank: i for i, m in reversed(list(enumerate(structure.modes))) if twin[m.block] == k}
+            if b.size == 2:
+                t = {n: f"({fused(e)})" for n, e in b.stable_terms.items()}
+                upper = f"0.5*({t['s11']} + {t['s22']}) + sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})"
+                lower = t["det_ratio"] + " / _upper"
+                body += [
+                    f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
+                    f"_runtime.fused({upper!r}, _v, _out[{first[2]}, ...])",
+                    f"_runtime.fused({lower!r}, {{**_v, '_upper': _out[{first[2]}, ...]}}, _out[{first[1]}, ...])",
+                ]
+                lo, hi = b.eigenvalue_exprs()
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
+            else:
+                body.append(f"_runtime.fused({fused(b.eigenvalue_exprs()[0])!r}, _v, _out[{first[1]}, ...])")
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
+            rows.update({(k, r): i for r, i in first.items()})
+        for i, m in enumerate(structure.modes):
+            source = rows[(twin[m.block], m.rank)]
+            if source != i:
+                body.append(f"_out[{i}] = _out[{source}]")
+        body.append("return numpy.moveaxis(_out, 0, -1)")
+        method = (
+            "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
+            "    mountid.engine.symbolic.blocks: no difference of nearly equal numbers)"
+        )
+    else:
+        margs = model.parameters_of(model.M)
+        cargs = model.parameters_of(model.C)
+        body = [
+            f"_M = mass_matrix({', '.join(margs)})",
+            f"_C = stiffness_matrix({', '.join(cargs)})",
+            "_M, _C = numpy.broadcast_arrays(_M, _C)",
+            "_out = numpy.empty(_M.shape[:-1])",
+        ]
+        for k, b in enumerate(blocks):
+            pos = [i for i, m in enumerate(structure.modes) if m.block == k]
+            ranks = [structure.modes[i].rank - 1 for i in pos]
+            body.append(f"_lam = _runtime.block_eigen(_M, _C, {b.index!r})[0]")
+            body.append(f"_out[..., {pos!r}] = _lam[..., {ranks!r}]")
+            doc_lines.append(f"        block {{{', '.join(b.coordinates)}}}: numeric (size {b.size})")
+        body.append("return _out")
+        method = "Numeric generalised eigen-solve per symmetry block (no closed form for blocks above 2x2)"
+    doc = (
+        f"Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., {len(labels)}), modes\n"
+        f"    {', '.join(labels)}.\n\n    {method}:\n\n" + "\n".join(doc_lines) + "\n"
+    )
+    fn = Function("squared_frequencies", args, doc, body[:-1], body[-1].removeprefix("return "))
+    return fn
+
+
+def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: tuple[str, ...], doc: str) -> Function:
+    """The closed-form candidate roots of one inverse solution: roots of the univariate factors, then the
+    back-substitutions, each unknown of shape (n_roots, ...)."""
+    lam_subs = {sp.Symbol(f"lambda_{lab}", positive=True): sp.Symbol(f"_lam_{lab}") for lab in s.labels}
+    coeff_exprs = [c.subs(lam_subs) for f in s.factors for c in f.all_coeffs()]
+    cse = eliminate(coeff_exprs)
+    body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
+    outs = iter(cse.outputs)
+    root_calls = []
+    for f in s.factors:
+        cs = [next(outs) for _ in f.all_coeffs()]
+        root_calls.append(f"_runtime.polynomial_roots({', '.join(cs)})")
+    body.append(f"{s.last} = numpy.concatenate([{', '.join(root_calls)}])")
+    # one cse per back-substitution, in order: each may use the unknowns assigned before it, so a joint cse
+    # could hoist a subexpression above the assignment of an unknown it contains
+    start = len(cse.lines)
+    for u, e in s.back_substitution:
+        back = eliminate([e.subs(lam_subs)], start=start)
+        body += [f"{lhs} = {rhs}" for lhs, rhs in back.lines]
+        body.append(f"{u} = numpy.broadcast_to({back.outputs[0]}, {s.last}.shape)")
+        start += len(back.lines)
+    # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
+    return Function(
+        name,
+        known + tuple(f"_lam_{lab}" for lab in s.labels),
+        doc,
+        ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body],
+        f"({', '.join(unknowns)},)",
+        convert=False,
+    )
+
+
+START_FACTORS = (0.1, 1.0, 10.0)
+"""Starts of a numeric inverse: every combination of the (level-matched) nominal unknowns times these
+factors (runtime.start_grid)."""
+
+
+def root_slots(s: InverseSet, n_unknowns: int) -> int:
+    """Candidate roots per row of an inverse: the start grid of a numeric one, else the closed forms' most."""
+    if s.numeric:
+        return len(START_FACTORS) ** n_unknowns
+    return max((s.n_roots, *(special.n_roots for _, special in s.special)))
+
+
+def _numeric_inverse_function(
+    s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
+) -> Function:
+    """identify_<set> for a set the frequencies determine but with no closed form of manageable size:
+    Newton (runtime.eigen_newton) from a grid of starts around the nominal unknowns, then the same
+    admissibility, deduplication and conditioning as a closed-form inverse."""
+    d = model.description
+    omegas = tuple(f"omega_{label}" for label in s.labels)
+    known = tuple(a for a in fwd_args if a not in d.unknown)
+    start = tuple(d.parameters[u].value for u in d.unknown)
+    for u, v in zip(d.unknown, start, strict=True):
+        if v is None:
+            raise DescriptionError(f"parameters.{u}.value", f"needed as the start of the numeric inverse {s.name}")
+    n_roots = root_slots(s, len(d.unknown))
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    call = (
+        f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {START_FACTORS!r}, _model, {mode_index!r}), _model, "
+        f"({', '.join(known)},), "
+        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, n_roots={n_roots})"
+    )
+    doc = (
+        f"Unknowns {', '.join(d.unknown)} from the natural frequencies {', '.join(omegas)} [rad/s], numerically.\n\n"
+        f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
+        "    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given\n"
+        f"    frequencies, times every combination of {START_FACTORS} ({n_roots} starts). A root outside all\n"
+        "    their basins (unknowns in ratios far from the nominal ones) is missed.\n"
+        "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
+    )
+    return Function(f"identify_{s.name}", known + omegas, doc, [], call)
+
+
+def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
+    if s.numeric:
+        return [_numeric_inverse_function(s, structure, model, fwd_args)]
+    d = model.description
+    omegas = tuple(f"omega_{label}" for label in s.labels)
+    known = tuple(a for a in fwd_args if a not in d.unknown)
+    unknowns = d.unknown
+    candidates = [
+        _roots_function(
+            s,
+            f"_roots_{s.name}",
+            known,
+            unknowns,
+            f"Candidate roots of identify_{s.name}() in closed form, each unknown of shape ({s.n_roots}, ...).\n",
+        )
+    ]
+    for param, special in s.special:
+        candidates.append(
+            _roots_function(
+                special,
+                f"_roots_{s.name}__{param}_0",
+                known,
+                unknowns,
+                f"Candidate roots of identify_{s.name}() where {param} = 0 (the general closed form is 0/0\n"
+                f"    there), each unknown of shape ({special.n_roots}, ...); solved by the engine with {param} = 0.\n",
+            )
+        )
+    mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    n_roots = root_slots(s, len(unknowns))
+    specials = "".join(f"({known.index(param)}, _roots_{s.name}__{param}_0), " for param, _ in s.special)
+    start = tuple(d.parameters[u].value for u in unknowns)
+    call = (
+        f"_runtime.solve_inverse(_roots_{s.name}, _model, ({', '.join(known)},), "
+        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, "
+        f"special=({specials}), n_roots={n_roots}, start={None if None in start else start!r})"
+    )
+    poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
+    back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
+    given = ", ".join(f"omega_{lab}" for lab in s.labels)
+    special_text = "".join(
+        f"\n    Where {param} = 0 the closed form above is 0/0; there {sp_.last} is a root of\n\n"
+        + "\n".join(f"        {describe(f.as_expr())} = 0" for f in sp_.factors)
+        + "\n"
+        + (
+            "\n    and then\n\n" + "\n".join(f"        {u} = {describe(e)}" for u, e in sp_.back_substitution) + "\n"
+            if sp_.back_substitution
+            else ""
+        )
+        for param, sp_ in s.special
+    )
+    doc = (
+        f"Unknowns {', '.join(unknowns)} from the natural frequencies {given} [rad/s].\n\n"
+        f"    Returns InverseRoots (mountid.runtime): each unknown as an array of shape ({n_roots}, ...) [SI\n"
+        "    units], one row per root, the mask of the admissible ones, each root's relative condition number\n"
+        "    and Jacobian d(omega)/d(unknowns) (InverseRoots.std() gives the unknowns' standard deviations from\n"
+        "    the frequencies'), and the mask of roots that reproduce the frequencies but leave an unknown\n"
+        "    undetermined (a rank-deficient point; InverseRoots.undetermined() names it).\n\n"
+        f"    Derivation (lambda = omega^2): {s.last} is a root of\n\n{poly_text}\n"
+        + (f"\n    and then\n\n{back_text}\n" if back_text else "")
+        + special_text
+        + "\n    Root choice: a root is admissible when every unknown is positive and finite, each given\n"
+        "    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine\n"
+        "    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block\n"
+        "    is rejected. All admissible roots are returned; where several remain (both roots of a block\n"
+        "    given), the data alone cannot choose between them and the choice is physical (the paper keeps\n"
+        "    c_z > c_xy for its isolators).\n"
+    )
+    fn = Function(f"identify_{s.name}", known + omegas, doc, [], call)
+    return [*candidates, fn]
