@@ -23,6 +23,7 @@ import jsonschema
 
 from mountid.errors import InputError
 from mountid.machine import Machine
+from mountid.measurement.modes import MeasuredMode
 
 
 def schema() -> dict:
@@ -37,35 +38,12 @@ DEFAULT_SHAPE_STD = 0.02
 
 
 @dataclass(frozen=True)
-class MeasuredData:
-    """One measured mode: frequency [rad/s] with optional standard deviation, damping ratio, shape in q."""
-
-    frequency: float
-    uncertainty: float | None = None
-    damping_ratio: float | None = None
-    shape: tuple[float, ...] | None = None
-    shape_uncertainty: float | None = None
-    """Standard deviation per component of the shape scaled to unit length (rotations times the machine's
-    length scale; see mountid.diagnosis.candidates)."""
-
-    @property
-    def frequency_std(self) -> float:
-        """The frequency's standard deviation [rad/s]: the given one, else DEFAULT_FREQUENCY_STD relative."""
-        return self.uncertainty or DEFAULT_FREQUENCY_STD * self.frequency
-
-    @property
-    def shape_std(self) -> float:
-        """The shape's standard deviation per unit-shape component: the given one, else DEFAULT_SHAPE_STD."""
-        return self.shape_uncertainty or DEFAULT_SHAPE_STD
-
-
-@dataclass(frozen=True)
 class Campaign:
     """A validated campaign (see the module docstring)."""
 
     machine: Machine
     known: dict[str, float]
-    modes: dict[str, MeasuredData]
+    modes: dict[str, MeasuredMode]
     fit: tuple[str, ...] | None = None
     """Labels fitted; None: leave-one-out over all."""
     name: str = ""
@@ -98,12 +76,15 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     for label, entry in data["modes"].items():
         if label not in machine.modes:
             raise InputError(f"modes.{label}", f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})")
-        modes[label] = MeasuredData(
-            float(entry["frequency"]),
-            entry.get("uncertainty"),
-            entry.get("damping_ratio"),
-            tuple(map(float, entry["shape"])) if "shape" in entry else None,
-            entry.get("shape_uncertainty"),
+        frequency, std = float(entry["frequency"]), entry.get("uncertainty")
+        modes[label] = MeasuredMode(
+            label,
+            frequency,
+            float(std) if std is not None else DEFAULT_FREQUENCY_STD * frequency,
+            frequency_std_stated=std is not None,
+            damping_ratio=entry.get("damping_ratio"),
+            shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
+            shape_std=float(entry.get("shape_uncertainty") or DEFAULT_SHAPE_STD),
         )
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")

@@ -213,25 +213,27 @@ def diagnose_where(campaign: Campaign) -> GapReport:
         m = campaign.modes[label]
         if campaign.fit is not None:
             held = label not in campaign.fit
-            residuals.append(Residual(label, m.frequency, predicted[label], m.uncertainty, held))
+            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, held))
     if campaign.fit is None:
         # leave-one-out: each distinct frequency predicted by the fit to all the others
         for label in labels:
             m = campaign.modes[label]
             others = [lab for lab in labels if rep[lab] != rep[label]]
-            residuals.append(Residual(label, m.frequency, predicted[label], m.uncertainty, False))
+            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False))
             if len({rep[lab] for lab in others}) >= len(machine.unknown):
                 p_loo, _ = fit_stiffness(
                     machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label])
                 )
-                residuals.append(Residual(label, m.frequency, _predict(campaign, p_loo)[label], m.uncertainty, True))
+                residuals.append(
+                    Residual(label, m.frequency, _predict(campaign, p_loo)[label], m.stated_frequency_std, True)
+                )
     broken = []
     for a, b in itertools.combinations(labels, 2):
         if rep[a] == rep[b]:
             ma, mb = campaign.modes[a], campaign.modes[b]
             diff = ma.frequency - mb.frequency
-            if ma.uncertainty and mb.uncertainty:
-                z = diff / math.hypot(ma.uncertainty, mb.uncertainty)
+            if ma.stated_frequency_std and mb.stated_frequency_std:
+                z = diff / math.hypot(ma.stated_frequency_std, mb.stated_frequency_std)
                 if abs(z) > SIGNIFICANCE:
                     broken.append(
                         f"{a} and {b} are equal by the model's symmetry but differ by {diff:+.4g} rad/s "

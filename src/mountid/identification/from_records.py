@@ -23,23 +23,8 @@ from mountid.errors import InputError
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call, damped_poles, matrices, sensor_row
 from mountid.measurement import modal
+from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Record
-
-
-@dataclass(frozen=True)
-class MeasuredMode:
-    """A labelled mode from a record: natural frequency [rad/s] and damping ratio, with their spread."""
-
-    label: str
-    frequency: float
-    frequency_std: float
-    damping_ratio: float
-    damping_std: float
-    mac: float
-    """MAC of the measured channel shape against the model's shape of the mode it is labelled as."""
-    shape: tuple[float, ...] | None = None
-    """Mode shape in the coordinates q (rigid-body fit of the channel amplitudes, phase removed, largest
-    entry 1), when the channels fix all six coordinates; None otherwise."""
 
 
 @dataclass(frozen=True)
@@ -301,10 +286,10 @@ def modal_data(
             label,
             p.frequency,
             p.frequency_std,
-            p.damping_ratio,
-            p.damping_std,
-            m,
-            coordinate_shape(rows, p.shape) if full else None,
+            damping_ratio=p.damping_ratio,
+            damping_std=p.damping_std,
+            shape=coordinate_shape(rows, p.shape) if full else None,
+            mac=m,
         )
         for label, (p, m) in labelled.items()
     }

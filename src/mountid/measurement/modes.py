@@ -1,0 +1,33 @@
+"""One measured mode, whether it comes from a record (mountid.identification) or a campaign file
+(mountid.diagnosis): the one measured-mode type of the package."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class MeasuredMode:
+    """A labelled measured mode.
+
+    ``frequency`` [rad/s] and its standard deviation ``frequency_std`` [rad/s]; ``frequency_std_stated``
+    says whether the measurement gave it (False: a default the reader of a campaign filled in).
+    ``damping_ratio`` [1] and ``damping_std``; ``shape`` in the coordinates q (rotations in rad) with
+    ``shape_std`` the standard deviation per component of the shape scaled to unit length (rotations times
+    the machine's length scale); ``mac`` the MAC of the channel shape against the model's mode it is
+    labelled as (records only). Quantities the measurement does not give are None."""
+
+    label: str
+    frequency: float
+    frequency_std: float
+    frequency_std_stated: bool = True
+    damping_ratio: float | None = None
+    damping_std: float | None = None
+    shape: tuple[float, ...] | None = None
+    shape_std: float | None = None
+    mac: float | None = None
+
+    @property
+    def stated_frequency_std(self) -> float | None:
+        """The frequency's standard deviation as the measurement stated it [rad/s], else None."""
+        return self.frequency_std if self.frequency_std_stated else None
