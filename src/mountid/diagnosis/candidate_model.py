@@ -16,6 +16,7 @@ import scipy.stats
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect
+from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call
 
 _DEGENERATE = 1e-6
@@ -204,6 +205,7 @@ def label_modes(
     reference_lambda: np.ndarray,
     reference: np.ndarray,
     participation: np.ndarray | None = None,
+    settings: LabellingSettings = LABELLING,
 ) -> np.ndarray:
     """Index of the model mode for each reference mode: one-to-one, by MAC with the reference shapes
     (scaled unit columns) times the share of the mode's kinetic energy in the body (``participation``, for
@@ -222,8 +224,8 @@ def label_modes(
         mac[:, j] = done[key]
     if participation is not None:
         mac = mac * participation[None, :]
-    distance = np.abs(np.log(np.abs(lam)[None, :] / reference_lambda[:, None]))
-    rows, cols = scipy.optimize.linear_sum_assignment(-mac + 0.05 * distance)
+    log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None]) / 2  # ln(omega / omega_reference)
+    rows, cols, _ = assign(mac, log_ratio, settings.model_frequency_weight)
     out = np.empty(len(reference_lambda), dtype=int)
     out[rows] = cols
     return out

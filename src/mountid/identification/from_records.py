@@ -20,6 +20,7 @@ import numpy as np
 import scipy.optimize
 
 from mountid.errors import InputError
+from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call, damped_poles, matrices, sensor_row
 from mountid.measurement import modal
@@ -88,18 +89,16 @@ def paper_generalised(record: Record, a_x: str, a_y: str, b_y: str, spacing: flo
     return record.channel(a_x), (record.channel(a_y) - record.channel(b_y)) / spacing
 
 
-LABEL_FREQUENCY_WEIGHT = 0.5
-"""Weight of |ln(omega_pole / omega_model)| against 1 - MAC in the labelling cost: shapes decide where the
-channels tell the modes apart, the nominal frequencies where they cannot (the paper's three channels see
-the y translation and the torsion phi alike)."""
-
-
 def label_poles(
-    machine: Machine, record: Record, poles: list[modal.Pole], nominal: dict[str, float]
+    machine: Machine,
+    record: Record,
+    poles: list[modal.Pole],
+    nominal: dict[str, float],
+    settings: LabellingSettings = LABELLING,
 ) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]]:
     """Distinct-frequency label of each pole: a one-to-one assignment of poles to the model's modes at the
-    ``nominal`` parameters minimising (1 - MAC of the channel shapes) + LABEL_FREQUENCY_WEIGHT
-    |ln(omega ratio)| in total (scipy's linear_sum_assignment). Modes the channels cannot see are left
+    ``nominal`` parameters by :func:`mountid.identification.labelling.assign` (MAC of the channel shapes,
+    ``settings.record_frequency_weight``). Modes the channels cannot see are left
     out; of two poles on modes equal by symmetry the better one keeps the label. Returns
     ({label: (pole, MAC)}, poles left unlabelled)."""
     mod = machine.module
@@ -110,9 +109,8 @@ def label_poles(
     norms = np.linalg.norm(predicted, axis=0)
     visible = np.flatnonzero(norms > 1e-6 * norms.max())
     macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
-    ratio = np.abs(np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :]))
-    cost = (1.0 - macs) + LABEL_FREQUENCY_WEIGHT * ratio
-    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    ratio = np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :])
+    rows, cols, cost = assign(macs, ratio, settings.record_frequency_weight)
     best: dict[str, tuple[modal.Pole, float, float]] = {}
     assigned = set(rows)
     rest = [p for i, p in enumerate(poles) if i not in assigned]

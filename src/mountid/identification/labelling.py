@@ -1,0 +1,40 @@
+"""Which measured (or reference) mode is which model mode: the one labeller of the package.
+
+Both the records chain (poles of a free decay against the nominal model's modes, through the channels) and
+the diagnosis (a candidate model's modes against the measured or nominal ones) pair modes one-to-one by
+minimising, in total, (1 - MAC) + w |ln(omega / omega_reference)| with scipy's linear_sum_assignment. Only
+the MAC (what the shapes are compared in) and the weight w differ; the weights are settings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class LabellingSettings:
+    """Weights of the frequency distance |ln(omega ratio)| against 1 - MAC in the labelling cost."""
+
+    record_frequency_weight: float = 0.5
+    """Poles of a record: shapes decide where the channels tell the modes apart, the nominal frequencies
+    where they cannot (the paper's three channels see the y translation and the torsion phi alike)."""
+    model_frequency_weight: float = 0.1
+    """A candidate model's modes (full shapes in q): the shapes decide; frequency breaks ties between modes
+    of equal shape."""
+
+
+LABELLING = LabellingSettings()
+"""The default settings."""
+
+
+def assign(mac: NDArray, log_ratio: NDArray, frequency_weight: float) -> tuple[NDArray, NDArray, NDArray]:
+    """One-to-one pairing (rows, cols) of reference rows with candidate columns minimising the total of the
+    cost (1 - mac) + frequency_weight |log_ratio| (both arrays n_rows x n_cols; log_ratio = ln(omega /
+    omega_ref)); returns rows, cols and the cost matrix."""
+    cost = (1.0 - np.asarray(mac)) + frequency_weight * np.abs(np.asarray(log_ratio))
+    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    return rows, cols, cost
