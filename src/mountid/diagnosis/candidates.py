@@ -11,7 +11,7 @@ measurement's standard deviation:
   the combination free), divided by the shape's standard deviation per component.
 
 Ranking is by AICc (chi^2 + 2k + 2k(k+1)/(n-k-1)); fitted values outside the plausible range of the
-effect rank after every plausible candidate. Candidates within ``TIE`` of the best AICc are a tie. The
+effect rank after every plausible candidate. Candidates within ``settings.tie`` of the best AICc are a tie. The
 held-out error of each candidate is its leave-one-mode-out prediction error (linearised for all
 candidates; refitted for the nominal model and, when there is a gap to explain, the first three of the tie).
 """
@@ -28,14 +28,9 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
 from mountid.diagnosis.fitting import CandidateFit, exact_leave_one_out, fit_candidate, held_out_z
+from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.diagnosis.strategies import strategy
 from mountid.effects import CATALOGUE, Effect
-
-GAP_P_VALUE = 1e-3
-"""The nominal model has a significant gap when its chi^2 exceeds the 1 - GAP_P_VALUE quantile."""
-TIE = 7.0
-"""Candidates within this AICc of the best cannot be told apart by the data (Burnham and Anderson's rule
-of thumb: up to 7 above the best a model keeps some support)."""
 
 
 @dataclass(frozen=True)
@@ -61,10 +56,13 @@ class EffectsReport:
 
 
 def fit_all(
-    campaign: Campaign, effects: tuple[Effect, ...] = CATALOGUE, warm: EffectsReport | None = None
+    campaign: Campaign,
+    effects: tuple[Effect, ...] = CATALOGUE,
+    warm: EffectsReport | None = None,
+    settings: DiagnosisSettings = DIAGNOSIS,
 ) -> tuple[CandidateFit, list[CandidateFit]]:
     """The nominal fit and the best fit of each candidate effect (isolator_scatter: its best isolator; the
-    others within TIE in chi^2 are named in its note, mirror images that frequencies alone cannot tell).
+    others within settings.tie in chi^2 are named in its note, mirror images that frequencies alone cannot tell).
     ``warm``: a report on nearby data whose fits start these (one start each; scatter keeps its isolator)."""
     previous = {f.effect: f for f in (warm.ranked if warm else []) if f.state is not None}
     nominal = fit_candidate(campaign, None, start=warm.nominal.theta if warm else None)
@@ -81,7 +79,7 @@ def fit_all(
             variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(isolators))]
             variants.sort(key=lambda f: f.chi2)
             best = variants[0]
-            alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + TIE]
+            alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
             if alike:
                 note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
                 best = replace(best, note=note)
@@ -96,7 +94,11 @@ def _rank_key(f: CandidateFit) -> tuple:
 
 
 def rank(
-    campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], exact_held_out: bool = True
+    campaign: Campaign,
+    nominal: CandidateFit,
+    fits: list[CandidateFit],
+    exact_held_out: bool = True,
+    settings: DiagnosisSettings = DIAGNOSIS,
 ) -> EffectsReport:
     """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it
     (``exact_held_out``: refit without each mode for the nominal model and, with a significant gap, the
@@ -104,7 +106,7 @@ def rank(
     there is a significant gap to explain."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
-    significant = bool(p_value < GAP_P_VALUE)
+    significant = bool(p_value < settings.gap_p_value)
     ranked = sorted(fits, key=_rank_key)
     notes = []
     if n - k - 2 <= 0:
@@ -115,7 +117,7 @@ def rank(
     best = (
         ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
     )
-    tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + TIE]
+    tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + settings.tie]
     # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
     # the tie (the others keep their linearised ones)
     refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
@@ -142,12 +144,12 @@ def rank(
         )
     elif best is None:
         verdict = "significant gap, but no candidate effect can be fitted with plausible values"
-    elif best.aicc > nominal.aicc - TIE:
+    elif best.aicc > nominal.aicc - settings.tie:
         verdict = "significant gap, but no candidate effect explains it better than the nominal model"
     else:
         p_after = float(scipy.stats.chi2.sf(best.chi2, best.n_data - best.n_parameters))
         names = ", ".join(f.effect for f in tie)
-        if p_after < GAP_P_VALUE:
+        if p_after < settings.gap_p_value:
             verdict = f"significant gap; {best.effect} explains part of it (the rest remains significant)"
         elif len(tie) > 1:
             verdict = f"significant gap; explained equally well by {names} (a tie)"
@@ -163,11 +165,12 @@ def diagnose_effects(
     effects: tuple[Effect, ...] = CATALOGUE,
     warm: EffectsReport | None = None,
     exact_held_out: bool = True,
+    settings: DiagnosisSettings = DIAGNOSIS,
 ) -> EffectsReport:
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
     ``warm`` as in :func:`fit_all`, ``exact_held_out`` as in :func:`rank`)."""
-    nominal, fits = fit_all(campaign, effects, warm)
-    return rank(campaign, nominal, fits, exact_held_out)
+    nominal, fits = fit_all(campaign, effects, warm, settings)
+    return rank(campaign, nominal, fits, exact_held_out, settings)
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:

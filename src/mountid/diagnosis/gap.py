@@ -16,12 +16,10 @@ import numpy as np
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
+from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.identification.from_records import fit_stiffness
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import call
-
-SIGNIFICANCE = 2.0
-"""A residual is significant beyond this many standard deviations of the measurement."""
 
 
 @dataclass(frozen=True)
@@ -33,6 +31,8 @@ class Residual:
     predicted: float
     uncertainty: float | None
     held_out: bool
+    threshold: float = DIAGNOSIS.significance
+    """Significant beyond this many standard deviations (DiagnosisSettings.significance)."""
 
     @property
     def residual(self) -> float:
@@ -44,7 +44,7 @@ class Residual:
 
     @property
     def significant(self) -> bool | None:
-        return None if self.z is None else abs(self.z) > SIGNIFICANCE
+        return None if self.z is None else abs(self.z) > self.threshold
 
     def to_dict(self) -> dict:
         return {
@@ -197,8 +197,9 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     return sorted(out, key=lambda loc: -loc.explained)
 
 
-def diagnose_where(campaign: Campaign) -> GapReport:
+def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> GapReport:
     """Nominal identification and where the model misses the campaign's measurements."""
+    threshold = settings.significance
     machine = campaign.machine
     rep = machine.module.REPRESENTATIVE
     labels = list(campaign.modes)
@@ -213,19 +214,21 @@ def diagnose_where(campaign: Campaign) -> GapReport:
         m = campaign.modes[label]
         if campaign.fit is not None:
             held = label not in campaign.fit
-            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, held))
+            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, held, threshold))
     if campaign.fit is None:
         # leave-one-out: each distinct frequency predicted by the fit to all the others
         for label in labels:
             m = campaign.modes[label]
             others = [lab for lab in labels if rep[lab] != rep[label]]
-            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False))
+            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False, threshold))
             if len({rep[lab] for lab in others}) >= len(machine.unknown):
                 p_loo, _ = fit_stiffness(
                     machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label])
                 )
                 residuals.append(
-                    Residual(label, m.frequency, _predict(campaign, p_loo)[label], m.stated_frequency_std, True)
+                    Residual(
+                        label, m.frequency, _predict(campaign, p_loo)[label], m.stated_frequency_std, True, threshold
+                    )
                 )
     broken = []
     for a, b in itertools.combinations(labels, 2):
@@ -234,7 +237,7 @@ def diagnose_where(campaign: Campaign) -> GapReport:
             diff = ma.frequency - mb.frequency
             if ma.stated_frequency_std and mb.stated_frequency_std:
                 z = diff / math.hypot(ma.stated_frequency_std, mb.stated_frequency_std)
-                if abs(z) > SIGNIFICANCE:
+                if abs(z) > threshold:
                     broken.append(
                         f"{a} and {b} are equal by the model's symmetry but differ by {diff:+.4g} rad/s "
                         f"({z:+.1f} sigma): broken symmetry"
@@ -383,9 +386,10 @@ def _rms(values) -> float | None:
     return float(np.sqrt(np.mean(np.square(v)))) if v else None
 
 
-def diagnose(campaign: Campaign) -> Diagnosis:
-    """Where the model misses the campaign, which candidate effect explains it, and how far the gap shrinks."""
-    where = diagnose_where(campaign)
-    effects = diagnose_effects(campaign)
+def diagnose(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> Diagnosis:
+    """Where the model misses the campaign, which candidate effect explains it, and how far the gap shrinks
+    (``settings``: the decision thresholds)."""
+    where = diagnose_where(campaign, settings)
+    effects = diagnose_effects(campaign, settings=settings)
     forces, relative = isolator_forces(campaign, where.parameters)
     return Diagnosis(campaign, where, effects, forces, relative)

@@ -33,7 +33,8 @@ import scipy.linalg
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.candidate_model import label_modes, scaled_unit
-from mountid.diagnosis.candidates import TIE, diagnose_effects
+from mountid.diagnosis.candidates import diagnose_effects
+from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, STANDARD_GRAVITY
 from mountid.machine import Machine, call, damped_poles
 
@@ -273,7 +274,7 @@ def run_case(seed: int, effect: str) -> CaseResult:
         identifiable = bool(
             ideal.significant
             and truth is not None
-            and all(f.aicc > truth.aicc + TIE for name, f in fits.items() if name != effect)
+            and all(f.aicc > truth.aicc + DIAGNOSIS.tie for name, f in fits.items() if name != effect)
         )
     reduction = math.nan
     if report.significant and report.best is not None:
