@@ -224,8 +224,8 @@ def label_modes(
         mac[:, j] = done[key]
     if participation is not None:
         mac = mac * participation[None, :]
-    log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None]) / 2  # ln(omega / omega_reference)
-    rows, cols, _ = assign(mac, log_ratio, settings.model_frequency_weight)
+    log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None])  # ln(lambda / lambda_reference)
+    rows, cols, _ = assign(-mac, log_ratio, settings.model_frequency_weight)
     out = np.empty(len(reference_lambda), dtype=int)
     out[rows] = cols
     return out

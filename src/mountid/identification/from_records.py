@@ -110,7 +110,7 @@ def label_poles(
     visible = np.flatnonzero(norms > 1e-6 * norms.max())
     macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
     ratio = np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :])
-    rows, cols, cost = assign(macs, ratio, settings.record_frequency_weight)
+    rows, cols, cost = assign(1.0 - macs, ratio, settings.record_frequency_weight)
     best: dict[str, tuple[modal.Pole, float, float]] = {}
     assigned = set(rows)
     rest = [p for i, p in enumerate(poles) if i not in assigned]
