@@ -125,9 +125,10 @@ def label_poles(
     return {k: (p, m) for k, (p, m, _) in best.items()}, sorted(rest, key=lambda p: p.frequency)
 
 
-def damped_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
-    """|p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a free decay shows), in mode order: the
-    state-space poles, each mode taking the pole nearest its undamped frequency (damping is light)."""
+def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
+    """omega_n = |p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a pole fit of a free decay
+    reports), in mode order (:func:`mountid.machine.damped_poles`); a mode that does not oscillate keeps its
+    undamped frequency."""
     mod = machine.module
     undamped = np.asarray(mod.frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS}))
     poles = damped_poles(*matrices(mod, values), undamped**2)
@@ -150,7 +151,7 @@ def fit_stiffness(
     (an exactly determined set with two admissible roots, as the paper's (w1, w4)), the one that best
     predicts the ``others`` (measured modes left out of the fit) is taken; without others that is an error
     naming the choices. With ``damping`` (values of the damping parameters) the model frequencies are the
-    damped |p| (damped_frequencies), which a free decay measures; without, the undamped ones. Returns
+    damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones. Returns
     (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
@@ -165,7 +166,7 @@ def fit_stiffness(
     def model(p: dict[str, float]) -> np.ndarray:
         if damping is None:
             return mod.frequencies(**knowns, **p)
-        return damped_frequencies(machine, machine.values({**known, **damping, **p}, tuple(machine.parameters)))
+        return pole_frequencies(machine, machine.values({**known, **damping, **p}, tuple(machine.parameters)))
 
     def residual(logp):
         return (model(dict(zip(unknown, np.exp(logp), strict=True)))[idx] - omega) / std

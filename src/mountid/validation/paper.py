@@ -108,7 +108,7 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     record -> modal data -> c_xy, c_z, damping -> predicted frequencies; the unbalance check of Fig. 6.
     Prints a table and, unless ``figures`` is None, writes the figures there. Returns the numbers."""
 
-    from mountid.identification.from_records import damped_frequencies, identify_from_record
+    from mountid.identification.from_records import identify_from_record, pole_frequencies
     from mountid.measurement.rig import Rig, Unbalance
 
     truth = {**PUBLISHED_STIFFNESS, **TRUE_DAMPING}
@@ -116,7 +116,7 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     record = rig.simulate(paper_sensors(), duration, 2000.0, hammers=[paper_hit()], seed=seed)
     start = paper_hit().time + paper_hit().duration + 0.01
     result = identify_from_record(rig.machine, record, TABLE_1, start=start)
-    damped = damped_frequencies(rig.machine, rig.values)  # what the record shows: the truth's |p|
+    damped = pole_frequencies(rig.machine, rig.values)  # what the record shows: the truth's |p|
     true_w = dict(zip(rig.machine.modes, map(float, damped), strict=True))
     print(
         f"\nSimulated experiment (virtual rig, truth c_xy = 74.4 kN/m, c_z = 472.3 kN/m, b_xy = 337.2, "
