@@ -152,13 +152,10 @@ class CandidateModel:
         return np.array(d)
 
     # -- the model -------------------------------------------------------------------------------------
-    def _matrices(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        return self.strategy.matrices(self, values)
-
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
         values = {**self.known, **self.physical(theta)}
-        m, c, b = self._matrices(values)
+        m, c, b = self.strategy.matrices(self, values)
         lam, vec = scipy.linalg.eigh(c, m)
         body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None

@@ -177,11 +177,6 @@ def _least_squares(
     return best
 
 
-def _applicable(model: CandidateModel, data: Data) -> str:
-    """Why a candidate cannot act on this campaign ('' when it can)."""
-    return model.strategy.inapplicable(model, bool(data.shape_labels))
-
-
 def fit_candidate(
     campaign: Campaign, effect: Effect | None, isolator: int | None = None, start: np.ndarray | None = None
 ) -> CandidateFit:
@@ -191,7 +186,7 @@ def fit_candidate(
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
     variant = campaign.machine.module.ISOLATORS[isolator] if isolator is not None else ""
-    why = _applicable(model, data)
+    why = model.strategy.inapplicable(model, bool(data.shape_labels))
     k = len(model.start()[0])
     if why:
         return CandidateFit(
