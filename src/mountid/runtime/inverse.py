@@ -317,8 +317,7 @@ def admissible(
             ok &= np.abs(predicted[..., k] - lam) <= rtol * np.abs(lam)
         # a root that repeats an earlier admissible one (two candidates polished onto one solution) is dropped
         x = np.stack(np.broadcast_arrays(*unknowns), axis=-1)  # (n_roots, ..., n_unknowns)
-        for i in range(1, x.shape[0]):
-            for j in range(i):
-                same = np.all(np.abs(x[i] - x[j]) <= DUPLICATE_RTOL * np.abs(x[j]), axis=-1)
-                ok[i] &= ~(same & ok[j])
+        for i in range(1, x.shape[0]):  # ok[:i] is final here: compare with every earlier root at once
+            same = np.all(np.abs(x[i] - x[:i]) <= DUPLICATE_RTOL * np.abs(x[:i]), axis=-1)
+            ok[i] &= ~np.any(same & ok[:i], axis=0)
     return ok

@@ -8,6 +8,7 @@ import sympy as sp
 
 from mountid.engine.codegen.functions import Function, shape_line
 from mountid.engine.codegen.printing import describe, eliminate, fused
+from mountid.engine.settings import EngineSettings
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseSet
 from mountid.engine.symbolic.model import SymbolicModel
@@ -117,15 +118,21 @@ def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: 
     )
 
 
-START_FACTORS = (0.1, 1.0, 10.0)
-"""Starts of a numeric inverse: every combination of the (level-matched) nominal unknowns times these
-factors (runtime.start_grid)."""
+def start_factors(n_unknowns: int, max_starts: int) -> tuple[float, ...]:
+    """Factors on the (level-matched) nominal unknowns whose every combination starts a numeric inverse
+    (runtime.start_grid): 10^(-1 .. 1) in the most equal steps (an odd count, so 1 is one of them) that
+    keep the grid within ``max_starts`` (EngineSettings). Three per decade pair missed genuine roots of
+    2-unknown problems (skid1plane z, phi has three exact solutions; 0.1, 1, 10 found two of them)."""
+    count = 3
+    while (count + 2) ** n_unknowns <= max_starts and count < 9:
+        count += 2
+    return tuple(round(10 ** (2 * i / (count - 1) - 1), 12) for i in range(count))
 
 
-def root_slots(s: InverseSet, n_unknowns: int) -> int:
+def root_slots(s: InverseSet, n_unknowns: int, settings: EngineSettings) -> int:
     """Candidate roots per row of an inverse: the start grid of a numeric one, else the closed forms' most."""
     if s.numeric:
-        return len(START_FACTORS) ** n_unknowns
+        return len(start_factors(n_unknowns, settings.max_starts)) ** n_unknowns
     return max((s.n_roots, *(special.n_roots for _, special in s.special)))
 
 
@@ -142,10 +149,11 @@ def _numeric_inverse_function(
     for u, v in zip(d.unknown, start, strict=True):
         if v is None:
             raise DescriptionError(f"parameters.{u}.value", f"needed as the start of the numeric inverse {s.name}")
-    n_roots = root_slots(s, len(d.unknown))
+    n_roots = root_slots(s, len(d.unknown), structure.settings)
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
+    factors = start_factors(len(d.unknown), structure.settings.max_starts)
     call = (
-        f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {START_FACTORS!r}, _model, {mode_index!r}), _model, "
+        f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {factors!r}, _model, {mode_index!r}), _model, "
         f"({', '.join(known)},), "
         f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, n_roots={n_roots})"
     )
@@ -153,8 +161,9 @@ def _numeric_inverse_function(
         f"Unknowns {', '.join(d.unknown)} from the natural frequencies {', '.join(omegas)} [rad/s], numerically.\n\n"
         f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
         "    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given\n"
-        f"    frequencies, times every combination of {START_FACTORS} ({n_roots} starts). A root outside all\n"
-        "    their basins (unknowns in ratios far from the nominal ones) is missed.\n"
+        f"    frequencies, times every combination of {len(factors)} factors from 0.1 to 10 in equal ratios\n"
+        f"    ({n_roots} starts). A root outside all their basins (unknowns in ratios far from the nominal ones)\n"
+        "    is missed.\n"
         "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
     )
     return Function(f"identify_{s.name}", known + omegas, doc, [], call)
@@ -188,7 +197,7 @@ def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicM
             )
         )
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
-    n_roots = root_slots(s, len(unknowns))
+    n_roots = root_slots(s, len(unknowns), structure.settings)
     specials = "".join(f"({known.index(param)}, _roots_{s.name}__{param}_0), " for param, _ in s.special)
     start = tuple(d.parameters[u].value for u in unknowns)
     call = (

@@ -25,15 +25,14 @@ from functools import cached_property
 import sympy as sp
 
 from mountid.engine.description import MIRROR_PLANES, ModeSpec
+from mountid.engine.settings import ENGINE, EngineSettings
+from mountid.engine.symbolic.factoring import factor
 from mountid.engine.symbolic.model import SymbolicModel, rational_point
 from mountid.errors import DescriptionError
 from mountid.nomenclature import COORDINATES
 
 LAMBDA = sp.Symbol("lambda", positive=True)
 """Eigenvalue symbol: squared natural frequency [rad^2/s^2]."""
-
-MAX_SYMBOLIC_BLOCK = 3
-"""Largest block whose characteristic polynomial is formed symbolically (used by the inverse solutions)."""
 
 # Sign of each coordinate under the reflection of each mirror plane (rotations are pseudo-vectors).
 _PARITY = {
@@ -61,6 +60,8 @@ class Block:
     index: tuple[int, ...]
     M: sp.Matrix
     C: sp.Matrix
+    symbolic_limit: int
+    """Largest size whose characteristic polynomial is expanded (EngineSettings.max_symbolic_block)."""
 
     @property
     def coordinates(self) -> tuple[str, ...]:
@@ -73,7 +74,7 @@ class Block:
     @cached_property
     def charpoly(self) -> sp.Poly | None:
         """det(C_b - lambda M_b) as a polynomial in lambda, or None for a block too large to expand."""
-        if self.size > MAX_SYMBOLIC_BLOCK:
+        if self.size > self.symbolic_limit:
             return None
         det = (self.C - LAMBDA * self.M).det(method="berkowitz")
         return sp.Poly(sp.expand(det), LAMBDA)
@@ -86,7 +87,7 @@ class Block:
         chol = self.M.cholesky(hermitian=False)
         inv = chol.inv()
         s = (inv * self.C * inv.T).applyfunc(sp.cancel)
-        ratio = sp.factor(sp.cancel(sp.expand(self.C.det()) / sp.expand(self.M.det())))
+        ratio = factor(sp.cancel(sp.expand(self.C.det()) / sp.expand(self.M.det())))
         return {
             "s11": s[0, 0],
             "s22": s[1, 1],
@@ -120,8 +121,9 @@ class Mode:
 class ModalStructure:
     """Blocks, labelled modes and repeated frequencies of a symbolic model."""
 
-    def __init__(self, model: SymbolicModel) -> None:
+    def __init__(self, model: SymbolicModel, settings: EngineSettings = ENGINE) -> None:
         self.model = model
+        self.settings = settings
         self.blocks = self._find_blocks()
         self._check_parity()
         self.twin: list[int] = []
@@ -145,7 +147,14 @@ class ModalStructure:
                 stack.extend(j for j in range(n) if coupled[i][j] and j not in component)
             seen |= component
             idx = tuple(sorted(component))
-            blocks.append(Block(idx, self.model.M.extract(idx, idx), self.model.C.extract(idx, idx)))
+            blocks.append(
+                Block(
+                    idx,
+                    self.model.M.extract(idx, idx),
+                    self.model.C.extract(idx, idx),
+                    self.settings.max_symbolic_block,
+                )
+            )
         return tuple(blocks)
 
     def _check_parity(self) -> None:

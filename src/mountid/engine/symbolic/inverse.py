@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
+from mountid.engine.symbolic.factoring import factor, factor_list
 from mountid.engine.symbolic.model import rational_point
 
 
@@ -82,8 +83,8 @@ def _cancellation_score(expr: sp.Expr) -> tuple[int, int, int]:
     risky = sum(1 for f in sp.Mul.make_args(den) if not f.is_positive)
     negatives = 0
     for part in (num, den):
-        for factor in sp.Mul.make_args(part):
-            terms = sp.Add.make_args(sp.expand(factor))
+        for piece in sp.Mul.make_args(part):
+            terms = sp.Add.make_args(sp.expand(piece))
             if len(terms) > 1:
                 negatives += sum(1 for t in terms if t.could_extract_minus_sign())
     return risky, negatives, sp.count_ops(expr)
@@ -110,7 +111,7 @@ def _factors_in(poly: sp.Poly) -> list[sp.Poly]:
         return [prim] if prim.degree() == 1 else []
     if prim.degree() == 2 and _irreducible_quadratic(prim):
         return [prim]
-    _, flist = sp.factor_list(prim.as_expr(), x)
+    _, flist = factor_list(prim.as_expr(), x)
     return [sp.Poly(f, x) for f, _mult in flist if sp.Poly(f, x).degree() > 0 and f != x]
 
 
@@ -128,19 +129,6 @@ def _irreducible_quadratic(poly: sp.Poly) -> bool:
     return not (sp.sqrt(p).is_Integer and sp.sqrt(q).is_Integer)
 
 
-MAX_TERMS = 400
-"""Largest polynomial (in terms) the elimination carries on with; beyond it a set is solved numerically.
-A size bound, not a time limit, so generation stays byte-for-byte reproducible on any machine."""
-
-MAX_SUBSTITUTION = 20_000
-"""Largest estimated size (terms of an equation times the terms of the substituted solution to the power of
-its degree) of one substitution before it is expanded."""
-
-
-FACTOR_TERMS = 60
-"""Largest equation whose linear solution is factored when choosing the next elimination step."""
-
-
 def _terms(expr: sp.Expr) -> int:
     return len(sp.Add.make_args(expr))
 
@@ -155,6 +143,7 @@ class InverseDerivation:
 
     def __init__(self, structure: ModalStructure, seed: int = 20261122) -> None:
         self.structure = structure
+        self.settings = structure.settings
         self.model = structure.model
         self.unknowns = tuple(self.model.symbols[n] for n in self.model.description.unknown)
         self._point = self._generic_point(seed)
@@ -360,10 +349,12 @@ class InverseDerivation:
             num_sol, den_sol = sp.fraction(sol)
             width = _terms(sp.expand(num_sol)) + _terms(sp.expand(den_sol))
             for e in rest:
-                if _terms(e) * width ** sp.Poly(e, u).degree() > MAX_SUBSTITUTION:
-                    return InverseSet(labels, False, f"eliminating {u} would swell past {MAX_SUBSTITUTION} terms")
+                if _terms(e) * width ** sp.Poly(e, u).degree() > self.settings.max_substitution:
+                    return InverseSet(
+                        labels, False, f"eliminating {u} would swell past {self.settings.max_substitution} terms"
+                    )
                 num = sp.expand(sp.numer(sp.together(e.subs(u, sol))))
-                if _terms(num) > MAX_TERMS:
+                if _terms(num) > self.settings.max_terms:
                     return InverseSet(labels, False, f"eliminating {u} leaves an equation of {_terms(num)} terms")
                 if num != 0:
                     system.append(num)
@@ -390,7 +381,7 @@ class InverseDerivation:
                 a0 = sp.Add(*by_power.get(0, []))
                 # factoring finds the form with the fewest subtractions; on a large equation it costs seconds
                 # and the set is on its way to the size limit anyway
-                sol = sp.factor(-a0 / a1) if _terms(e) <= FACTOR_TERMS else -a0 / a1
+                sol = factor(-a0 / a1) if _terms(e) <= self.settings.factor_terms else -a0 / a1
                 self._linear[key] = (_cancellation_score(sol), sol)
             else:
                 self._linear[key] = None

@@ -1,0 +1,31 @@
+"""The size limits of the engine as one settings object, passed explicitly from generation down to the
+blocks, the inverse derivation and the code generator (defaults as shipped). They are size bounds, not time
+limits, so generation stays byte-for-byte reproducible on any machine; a change of any of them changes
+what is generated (the cache of description files keys on the engine's source, where the defaults live)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class EngineSettings:
+    """Size limits of the symbolic engine and of the code it generates."""
+
+    max_symbolic_block: int = 3
+    """Largest symmetry block whose characteristic polynomial is expanded symbolically (larger blocks are
+    solved numerically at run time and have no symbolic inverse)."""
+    max_terms: int = 400
+    """Largest polynomial (in terms) the elimination carries on with; beyond it a set is solved numerically."""
+    max_substitution: int = 20_000
+    """Largest estimated size (terms of an equation times the terms of the substituted solution to the power
+    of its degree) of one substitution before it is expanded."""
+    factor_terms: int = 60
+    """Largest equation whose linear solution is factored when choosing the next elimination step."""
+    max_starts: int = 729
+    """At most this many starts of a numeric inverse (every combination of the start factors), but at least
+    three factors per unknown."""
+
+
+ENGINE = EngineSettings()
+"""The default settings."""
