@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.measurement.records import Record
+from mountid.measurement.settings import RECORDS, RecordSettings
 
 
 @dataclass(frozen=True)
@@ -212,12 +213,8 @@ def band_pass(signal: NDArray, dt: float, low: float, high: float, order: int = 
     return scipy.signal.sosfiltfilt(sos, signal, axis=0)
 
 
-DECAY_BANDWIDTH = 0.2
-"""Relative half-width of the band-pass around the mode in the decay-envelope fit."""
-
-
 def decay_envelope(
-    signal: NDArray, dt: float, frequency: float, bandwidth: float = DECAY_BANDWIDTH
+    signal: NDArray, dt: float, frequency: float, bandwidth: float = RECORDS.decay_bandwidth
 ) -> tuple[float, float]:
     """The paper's damping method (Eq. 25): band-pass one mode (``frequency`` [rad/s], relative
     ``bandwidth``), take the positive peaks of the decay and fit A0 exp(-n t) to them by least squares
@@ -269,41 +266,42 @@ class QualityWarning:
     message: str
 
 
-LOW_RATE_FACTOR = 5.0
-"""A record sampled below this many times the highest frequency of interest (in Hz) gets a low_rate
-warning: the anti-alias filter's edge and the few samples per period degrade the pencil (on a 50 Hz kid300
-record the torsion pole came out labelled as the vertical mode)."""
-
-
 def hammer_test_quality(
-    record: Record, lowest_frequency: float, start: float = 0.0, highest_frequency: float | None = None
+    record: Record,
+    lowest_frequency: float,
+    start: float = 0.0,
+    highest_frequency: float | None = None,
+    settings: RecordSettings = RECORDS,
 ) -> list[QualityWarning]:
-    """Checks of an impact record before it is trusted.
+    """Checks of an impact record before it is trusted (thresholds: ``settings``).
 
-    - clipping: a channel's extreme value held on 3 or more samples (a flat top: the sensor or the
+    - clipping: a channel's extreme value held on ``clip_samples`` or more samples (a flat top: the sensor or the
       acquisition saturated);
     - double_hit: the high-frequency burst of an impact (energy of the first difference, which the slow
-      modes barely carry) recurs after the first one, above 20 % of its peak, later than 5 ms;
+      modes barely carry) recurs after the first one, above ``double_hit_height`` of its peak, later than
+      ``double_hit_spacing``;
     - impact_in_segment: the impact burst lies after ``start``: the analysed "free decay" still holds the
       forced response (pass a start after the hit);
-    - too_short: fewer than 5 periods of ``lowest_frequency`` [rad/s] after ``start`` [s] (the pencil
+    - too_short: fewer than ``min_periods`` periods of ``lowest_frequency`` [rad/s] after ``start`` [s] (the pencil
       needs a few periods of every mode; the paper's 4 s record holds 11 of its 17.71 rad/s);
-    - low_rate: sampled below LOW_RATE_FACTOR x ``highest_frequency`` [rad/s] / (2 pi), when given (the
+    - low_rate: sampled below ``low_rate_factor`` x ``highest_frequency`` [rad/s] / (2 pi), when given (the
       burst-based checks above are then not made: the modes' own oscillation fills the first difference).
     """
     out = []
     for j, c in enumerate(record.channels):
         y = record.data[:, j]
         top = np.max(np.abs(y))
-        if top > 0 and np.count_nonzero(np.abs(np.abs(y) - top) <= 1e-9 * top) >= 3:
+        if top > 0 and np.count_nonzero(np.abs(np.abs(y) - top) <= 1e-9 * top) >= settings.clip_samples:
             out.append(QualityWarning("clipping", c.name, f"held at {top:g} {c.unit} on several samples: clipped"))
-    low_rate = highest_frequency is not None and record.rate < LOW_RATE_FACTOR * highest_frequency / (2 * np.pi)
+    low_rate = highest_frequency is not None and record.rate < settings.low_rate_factor * highest_frequency / (
+        2 * np.pi
+    )
     if low_rate:
         out.append(
             QualityWarning(
                 "low_rate",
                 "all",
-                f"{record.rate:g} Hz is below {LOW_RATE_FACTOR:g} x the highest mode of interest "
+                f"{record.rate:g} Hz is below {settings.low_rate_factor:g} x the highest mode of interest "
                 f"({highest_frequency / (2 * np.pi):.3g} Hz)",
             )
         )
@@ -311,8 +309,12 @@ def hammer_test_quality(
         # the impact bursts (energy of the first difference) stand out only where the modes are well sampled
         burst = np.sum(np.diff(record.data, axis=0) ** 2, axis=1)
         smooth = np.convolve(burst, np.ones(5) / 5, mode="same")
-        peaks, _ = scipy.signal.find_peaks(smooth, height=0.2 * smooth.max(), distance=max(1, int(0.005 * record.rate)))
-        if len(peaks) and record.time[peaks[0]] >= start - 0.005:
+        peaks, _ = scipy.signal.find_peaks(
+            smooth,
+            height=settings.double_hit_height * smooth.max(),
+            distance=max(1, int(settings.double_hit_spacing * record.rate)),
+        )
+        if len(peaks) and record.time[peaks[0]] >= start - settings.double_hit_spacing:
             out.append(
                 QualityWarning(
                     "impact_in_segment",
@@ -325,10 +327,12 @@ def hammer_test_quality(
             out.append(QualityWarning("double_hit", "all", f"a second impact {gap * 1e3:.1f} ms after the first"))
     length = record.time[-1] - max(start, record.time[0])
     periods = length * lowest_frequency / (2 * np.pi)
-    if periods < 5:
+    if periods < settings.min_periods:
         out.append(
             QualityWarning(
-                "too_short", "all", f"{length:g} s holds {periods:.1f} periods of {lowest_frequency:g} rad/s (< 5)"
+                "too_short",
+                "all",
+                f"{length:g} s holds {periods:.1f} periods of {lowest_frequency:g} rad/s (< {settings.min_periods:g})",
             )
         )
     return out

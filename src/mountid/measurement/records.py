@@ -24,10 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mountid.errors import InputError
+from mountid.measurement.settings import RECORDS, RecordSettings
 
 FORMAT_LINE = "# mountid record 1"
-SAMPLING_RTOL = 1e-6
-"""Sample spacing may vary by this much (relative) before a record counts as non-uniformly sampled."""
 
 
 @dataclass(frozen=True)
@@ -73,8 +72,9 @@ class Record:
         return Record(self.time, self.data[:, cols], tuple(self.channels[c] for c in cols))
 
 
-def validate(time: NDArray, data: NDArray, names: tuple[str, ...]) -> None:
-    """Reject what would silently give a wrong frequency: NaN, too few samples, non-uniform sampling."""
+def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: RecordSettings = RECORDS) -> None:
+    """Reject what would silently give a wrong frequency: NaN, too few samples, non-uniform sampling (beyond
+    ``settings.sampling_rtol``). A Record validates itself with the default settings."""
     if data.ndim != 2 or data.shape != (len(time), len(names)):
         raise InputError("data", f"shape {data.shape} does not match {len(time)} samples x {len(names)} channels")
     if len(set(names)) != len(names):
@@ -92,7 +92,7 @@ def validate(time: NDArray, data: NDArray, names: tuple[str, ...]) -> None:
     step = np.median(dt)
     if not step > 0:
         raise InputError("time", "must increase")
-    off = np.abs(dt - step) > SAMPLING_RTOL * step
+    off = np.abs(dt - step) > settings.sampling_rtol * step
     if np.any(off):
         k = int(np.flatnonzero(off)[0])
         kind = "a gap" if dt[k] > step else "non-uniform sampling"

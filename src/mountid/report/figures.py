@@ -19,6 +19,7 @@ import numpy as np
 from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.records import Record
+from mountid.measurement.settings import RECORDS, RecordSettings
 
 
 def _save(fig, path: str | Path) -> Path:
@@ -63,15 +64,20 @@ def spectrum_figure(record: Record, channel: str, start: float, labels: dict[str
 
 
 def decay_figure(
-    record: Record, channel: str, start: float, omega: float, path: str | Path
+    record: Record,
+    channel: str,
+    start: float,
+    omega: float,
+    path: str | Path,
+    settings: RecordSettings = RECORDS,
 ) -> tuple[Path, float, float]:
-    """Paper Fig. 5: one mode band-passed as the fit does it, and the fitted A0 exp(-n t) (Eq. 25).
-    Returns (path, A0, n)."""
+    """Paper Fig. 5: one mode band-passed as the fit does it (``settings.decay_bandwidth``), and the fitted
+    A0 exp(-n t) (Eq. 25). Returns (path, A0, n)."""
     keep = record.time >= start
     t = record.time[keep] - record.time[keep][0]
-    bw = modal.DECAY_BANDWIDTH
+    bw = settings.decay_bandwidth
     y = modal.band_pass(record.channel(channel)[keep], 1 / record.rate, (1 - bw) * omega, (1 + bw) * omega)
-    a0, n = modal.decay_envelope(record.channel(channel)[keep], 1 / record.rate, omega)
+    a0, n = modal.decay_envelope(record.channel(channel)[keep], 1 / record.rate, omega, bw)
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(t, y, lw=0.6, label=f"band-passed at {omega:.2f} rad/s")
     ax.plot(t, a0 * np.exp(-n * t), color="C3", label=f"A0 exp(-n t): A0 = {a0:.3g}, n = {n:.3f} 1/s")

@@ -1,0 +1,31 @@
+"""The thresholds of the records chain as one settings object, passed explicitly (defaults as shipped)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class RecordSettings:
+    """Thresholds of record validation, quality checks and the decay fit."""
+
+    sampling_rtol: float = 1e-6
+    """A time step differing from the median step by more than this (relative) is non-uniform sampling."""
+    decay_bandwidth: float = 0.2
+    """Relative half-width of the band-pass around the mode in the decay-envelope fit."""
+    low_rate_factor: float = 5.0
+    """A record sampled below this many times the highest frequency of interest (in Hz) gets a low_rate
+    warning: the anti-alias filter's edge and the few samples per period degrade the pencil (on a 50 Hz
+    kid300 record the torsion pole came out labelled as the vertical mode)."""
+    clip_samples: int = 3
+    """A channel's extreme value held on this many samples or more is clipping (a flat top)."""
+    double_hit_height: float = 0.2
+    """A second impact burst above this fraction of the first is a double hit."""
+    double_hit_spacing: float = 0.005
+    """Impact bursts closer than this [s] are one impact."""
+    min_periods: float = 5.0
+    """A record holding fewer periods of the lowest mode after the start is too short for the pencil."""
+
+
+RECORDS = RecordSettings()
+"""The default settings."""
