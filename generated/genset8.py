@@ -74,13 +74,21 @@ ARGUMENTS = {
     "identify_y_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_y", "omega_psi", "omega_theta", "omega_phi"),
     "identify_z_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_z", "omega_psi", "omega_theta", "omega_phi"),
     "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dx_com", "dy_com"),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dz_com"),
+    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dz_com"),
     "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_bend", "k_torsion"),
     "effect_foundation": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_found", "k_found"),
+    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_found", "k_found"),
     "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "h_added"),
+    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "h_added"),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
     "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
+    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
     "isolator_stiffness": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
 """Argument names of every generated function, by function name."""
@@ -711,12 +719,13 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 1, 2, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (0, 1, 2, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 2, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (0, 1, 2, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi):
@@ -724,12 +733,13 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 1, 2, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (0, 1, 2, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 2, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (0, 1, 2, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta):
@@ -737,12 +747,13 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 1, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 1, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 1, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi):
@@ -750,12 +761,13 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 1, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 1, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 1, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi):
@@ -763,12 +775,13 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 1, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 1, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 1, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta):
@@ -776,12 +789,13 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 2, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 2, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 2, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 2, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi):
@@ -789,12 +803,13 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 2, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 2, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 2, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 2, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def _roots_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_x, _lam_z, _lam_theta, _lam_phi):
@@ -855,12 +870,13 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (0, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def _roots_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_y, _lam_z, _lam_psi, _lam_theta):
@@ -1113,12 +1129,13 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (1, 2, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 2, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (1, 2, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 2, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi):
@@ -1126,12 +1143,13 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (1, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (1, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi):
@@ -1139,12 +1157,13 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (81 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
+    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 1.0, 10.0), _model, (2, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (2, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com):
@@ -1175,6 +1194,85 @@ def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
 
 
+def effect_com_offset_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com):
+    """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/ddx_com:
+          [y, phi] = m
+          [z, theta] = -m
+          [psi, theta] = -dy_com*m
+          [theta, theta] = 2*dx_com*m
+          [phi, phi] = 2*dx_com*m
+        dC/ddx_com:
+        dB/ddx_com:
+        dM/ddy_com:
+          [x, phi] = -m
+          [z, psi] = m
+          [psi, psi] = 2*dy_com*m
+          [psi, theta] = -dx_com*m
+          [phi, phi] = 2*dy_com*m
+        dC/ddy_com:
+        dB/ddy_com:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp3*_tmp5*b
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5**2
+    _tmp9 = 4*_tmp8
+    _tmp10 = _tmp0*_tmp6
+    _tmp11 = a1**2
+    _tmp12 = _tmp11*_tmp9
+    _tmp13 = 4*a2**2
+    _tmp14 = _tmp11*_tmp4
+    _tmp15 = -m
+    _tmp16 = dy_com*m
+    _tmp17 = dx_com*m
+    _tmp18 = 2*_tmp17
+    _tmp19 = 2*_tmp16
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dx_com), numpy.shape(dy_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp15, (3, 4): -_tmp16, (4, 4): _tmp18, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp15, (2, 3): m, (3, 3): _tmp19, (3, 4): -_tmp17, (5, 5): _tmp19}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+
+
 def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1197,6 +1295,72 @@ def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
 
 
+def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
+    """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/ddz_com:
+          [x, theta] = m
+          [y, psi] = -m
+          [psi, psi] = 2*dz_com*m
+          [theta, theta] = 2*dz_com*m
+        dC/ddz_com:
+        dB/ddz_com:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp3*_tmp5*b
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5**2
+    _tmp9 = 4*_tmp8
+    _tmp10 = _tmp0*_tmp6
+    _tmp11 = a1**2
+    _tmp12 = _tmp11*_tmp9
+    _tmp13 = 4*a2**2
+    _tmp14 = _tmp11*_tmp4
+    _tmp15 = 2*dz_com*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dz_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1216,6 +1380,76 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y,
     _tmp1 = numpy.cos(gamma)**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_bend), numpy.shape(k_torsion))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(3, 3): 8*k_bend, (4, 4): -4*_tmp0*k_bend + 4*_tmp0*k_torsion + 8*k_bend, (5, 5): -4*_tmp1*k_bend + 4*_tmp1*k_torsion + 4*k_bend + 4*k_torsion}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+
+
+def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion):
+    """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/dk_bend:
+        dC/dk_bend:
+          [psi, psi] = 8
+          [theta, theta] = 8 - 4*sin(gamma)**2
+          [phi, phi] = 4 - 4*cos(gamma)**2
+        dB/dk_bend:
+        dM/dk_torsion:
+        dC/dk_torsion:
+          [theta, theta] = 4*sin(gamma)**2
+          [phi, phi] = 4 + 4*cos(gamma)**2
+        dB/dk_torsion:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = _tmp4 + 4
+    _tmp6 = numpy.sin(gamma)
+    _tmp7 = _tmp3*_tmp6*b
+    _tmp8 = 4*_tmp7
+    _tmp9 = _tmp6**2
+    _tmp10 = 4*_tmp9
+    _tmp11 = _tmp0*_tmp7
+    _tmp12 = a1**2
+    _tmp13 = _tmp10*_tmp12
+    _tmp14 = 4*a2**2
+    _tmp15 = _tmp12*_tmp4
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp5, (1, 3): _tmp4*h + _tmp8 + 4*h, (2, 2): _tmp10, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10*_tmp2 + _tmp11, (4, 4): _tmp13, (5, 5): _tmp14 + _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp10, (1, 3): -_tmp8 + 4*_tmp9*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp10 - _tmp11 + _tmp2*_tmp4, (4, 4): _tmp15, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp10, (5, 5): 4 - _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
@@ -1351,6 +1585,136 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
     return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp6, (10, 10): _tmp6, (11, 11): _tmp6}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp7, (0, 4): -_tmp8, (0, 6): -_tmp7, (1, 1): _tmp15, (1, 3): 4*_tmp20, (1, 7): -_tmp15, (1, 9): _tmp21*_tmp23, (2, 2): _tmp26, (2, 8): -_tmp26, (3, 3): 4*_tmp0*_tmp24 + 4*_tmp0*_tmp25 + 4*_tmp0*c_v2 + 4*_tmp1*_tmp11 + 4*_tmp1*_tmp14 + 4*_tmp1*c_y + 4*_tmp16*_tmp27 - 8*_tmp19*h, (3, 7): -4*_tmp20, (3, 9): _tmp22*(_tmp12*_tmp9*c_v1*h - _tmp16*_tmp17 - _tmp24*b - _tmp25*b - b*c_v2), (4, 4): 4*_tmp1*_tmp28 + 4*_tmp32, (4, 6): _tmp8, (4, 10): -4*_tmp32, (5, 5): _tmp36, (5, 11): -_tmp36, (6, 6): _tmp37 + _tmp7, (7, 7): 4*_tmp11 + 4*_tmp14 + _tmp37 + 4*c_y, (7, 9): -_tmp21*_tmp23, (8, 8): _tmp38, (9, 9): _tmp0*_tmp38, (10, 10): 4*_tmp29 + _tmp3*k_found + 4*_tmp30 + 4*_tmp31 + _tmp5*k_found, (11, 11): _tmp0*_tmp37 + _tmp0*_tmp7 + _tmp2*_tmp39 + 4*_tmp33 + 4*_tmp34 + 4*_tmp35 + _tmp39*_tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp40, (0, 4): -_tmp41, (0, 6): -_tmp40, (1, 1): _tmp44, (1, 3): 4*_tmp47, (1, 7): -_tmp44, (1, 9): -_tmp23*_tmp48, (2, 2): _tmp52, (2, 8): -_tmp52, (3, 3): 4*_tmp0*_tmp49 + 4*_tmp0*_tmp50 + 4*_tmp0*b_v + 4*_tmp1*_tmp42 + 4*_tmp1*_tmp43 - 8*_tmp17*_tmp46*h + 4*_tmp27*_tmp45 + 4*_tmp53, (3, 7): -4*_tmp47, (3, 9): _tmp22*(_tmp12*_tmp9*b_v*h - _tmp17*_tmp45 - _tmp46 - _tmp49*b - _tmp50*b), (4, 4): 8*_tmp53 + 4*_tmp54, (4, 6): _tmp41, (4, 10): -_tmp55, (5, 5): _tmp56, (5, 11): -_tmp56, (6, 6): _tmp40, (7, 7): _tmp44, (7, 9): _tmp23*_tmp48, (8, 8): _tmp52, (9, 9): 4*_tmp0*_tmp51, (10, 10): _tmp55, (11, 11): _tmp56}))
 
 
+def effect_foundation_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
+    """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
+    shape (..., 6, 3, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [x, x_found] = -8
+          [theta, theta] = 8*h**2
+          [theta, x_found] = 8*h
+          [phi, phi] = 8*b**2
+          [phi, phi_found] = -8*b**2
+          [x_found, x_found] = 8
+          [phi_found, phi_found] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [y, y_found] = -4 - 4*cos(gamma)**2
+          [y, psi_found] = -4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [z, z_found] = -4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [psi, y_found] = -4*h - 4*h*cos(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [psi, psi_found] = 4*b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [theta, theta_found] = -4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi_found] = -4*a2**2 - 4*a1**2*cos(gamma)**2
+          [y_found, y_found] = 4 + 4*cos(gamma)**2
+          [y_found, psi_found] = 4*b*cos(gamma)*sin(gamma)
+          [z_found, z_found] = 4*sin(gamma)**2
+          [psi_found, psi_found] = 4*b**2*sin(gamma)**2
+          [theta_found, theta_found] = 4*a1**2*sin(gamma)**2
+          [phi_found, phi_found] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [y, y_found] = -4*sin(gamma)**2
+          [y, psi_found] = 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [z, z_found] = -4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [psi, y_found] = -4*h*sin(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [psi, psi_found] = 4*b*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [theta, theta_found] = -4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+          [phi, phi_found] = -4*a1**2*sin(gamma)**2
+          [y_found, y_found] = 4*sin(gamma)**2
+          [y_found, psi_found] = -4*b*cos(gamma)*sin(gamma)
+          [z_found, z_found] = 4*cos(gamma)**2
+          [psi_found, psi_found] = 4*b**2*cos(gamma)**2
+          [theta_found, theta_found] = 4*a1**2*cos(gamma)**2
+          [phi_found, phi_found] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 4*b**2
+          [psi, psi_found] = -4*b**2
+          [theta, theta] = 4*a2**2
+          [theta, theta_found] = -4*a2**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 4*b**2
+          [theta_found, theta_found] = 4*a2**2
+        dB/dc_v2:
+        dM/dm_found:
+          [x_found, x_found] = 1
+          [y_found, y_found] = 1
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2 + h**2 + a1**2/2 + a2**2/2
+          [theta_found, theta_found] = b**2 + h**2 + a1**2/2 + a2**2/2
+          [phi_found, phi_found] = b**2 + h**2 + a1**2/2 + a2**2/2
+        dC/dm_found:
+        dB/dm_found:
+        dM/dk_found:
+        dC/dk_found:
+          [x_found, x_found] = 1/2
+          [y_found, y_found] = 1/2
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2
+          [theta_found, theta_found] = a1**2/2 + a2**2/2
+          [phi_found, phi_found] = b**2/2 + a1**2/4 + a2**2/4
+        dB/dk_found:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = 8*_tmp2
+    _tmp4 = numpy.cos(gamma)
+    _tmp5 = _tmp4**2
+    _tmp6 = 4*_tmp5
+    _tmp7 = _tmp6 + 4
+    _tmp8 = numpy.sin(gamma)
+    _tmp9 = _tmp4*_tmp8
+    _tmp10 = 4*b
+    _tmp11 = _tmp10*_tmp9
+    _tmp12 = _tmp11 + _tmp6*h + 4*h
+    _tmp13 = -_tmp11
+    _tmp14 = _tmp8**2
+    _tmp15 = 4*_tmp14
+    _tmp16 = -_tmp15
+    _tmp17 = _tmp0*_tmp9*b
+    _tmp18 = _tmp15*_tmp2
+    _tmp19 = _tmp9*h
+    _tmp20 = a1**2
+    _tmp21 = _tmp15*_tmp20
+    _tmp22 = -_tmp21
+    _tmp23 = a2**2
+    _tmp24 = 4*_tmp23
+    _tmp25 = _tmp20*_tmp6
+    _tmp26 = _tmp24 + _tmp25
+    _tmp27 = _tmp11 - 4*_tmp14*h
+    _tmp28 = _tmp2*_tmp6
+    _tmp29 = 4*_tmp2
+    _tmp30 = (0.5)*_tmp20 + (0.5)*_tmp23
+    _tmp31 = _tmp1 + _tmp2 + _tmp30
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_found), numpy.shape(k_found))
+    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 8, (0, 4): -_tmp0, (0, 6): -8, (4, 4): 8*_tmp1, (4, 6): _tmp0, (5, 5): _tmp3, (5, 11): -_tmp3, (6, 6): 8, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): _tmp7, (1, 3): _tmp12, (1, 7): -_tmp7, (1, 9): _tmp13, (2, 2): _tmp15, (2, 8): _tmp16, (3, 3): _tmp1*_tmp6 + 4*_tmp1 + _tmp17 + _tmp18, (3, 7): -_tmp12, (3, 9): _tmp10*(-_tmp14*b - _tmp19), (4, 4): _tmp21, (4, 10): _tmp22, (5, 5): _tmp26, (5, 11): -_tmp26, (7, 7): _tmp7, (7, 9): _tmp11, (8, 8): _tmp15, (9, 9): _tmp18, (10, 10): _tmp21, (11, 11): _tmp26}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): _tmp15, (1, 3): -_tmp27, (1, 7): _tmp16, (1, 9): _tmp11, (2, 2): _tmp6, (2, 8): -_tmp6, (3, 3): _tmp1*_tmp15 - _tmp17 + _tmp28, (3, 7): _tmp27, (3, 9): _tmp10*(_tmp19 - _tmp5*b), (4, 4): _tmp25, (4, 10): -_tmp25, (5, 5): _tmp21, (5, 11): _tmp22, (7, 7): _tmp15, (7, 9): _tmp13, (8, 8): _tmp6, (9, 9): _tmp28, (10, 10): _tmp25, (11, 11): _tmp21}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp29, (3, 9): -_tmp29, (4, 4): _tmp24, (4, 10): -_tmp24, (8, 8): 4, (9, 9): _tmp29, (10, 10): _tmp24}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp31, (10, 10): _tmp31, (11, 11): _tmp31}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp2, (10, 10): _tmp30, (11, 11): (0.5)*_tmp2 + (0.25)*_tmp20 + (0.25)*_tmp23}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 6, 3, 12, 12)
+
+
 def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1376,6 +1740,83 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
 
 
+def effect_added_mass_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
+    """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/dm_added:
+          [x, x] = 1
+          [x, theta] = h_added
+          [y, y] = 1
+          [y, psi] = -h_added
+          [z, z] = 1
+          [psi, psi] = h_added**2
+          [theta, theta] = h_added**2
+        dC/dm_added:
+        dB/dm_added:
+        dM/dh_added:
+          [x, theta] = m_added
+          [y, psi] = -m_added
+          [psi, psi] = 2*h_added*m_added
+          [theta, theta] = 2*h_added*m_added
+        dC/dh_added:
+        dB/dh_added:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp3*_tmp5*b
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5**2
+    _tmp9 = 4*_tmp8
+    _tmp10 = _tmp0*_tmp6
+    _tmp11 = a1**2
+    _tmp12 = _tmp11*_tmp9
+    _tmp13 = 4*a2**2
+    _tmp14 = _tmp11*_tmp4
+    _tmp15 = h_added**2
+    _tmp16 = 2*h_added*m_added
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_added), numpy.shape(h_added))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp16, (4, 4): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+
+
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1395,6 +1836,75 @@ def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
 
 
+def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
+    """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/dk_belt:
+        dC/dk_belt:
+          [x, x] = 1
+          [x, theta] = h_belt
+          [theta, theta] = h_belt**2
+        dB/dk_belt:
+        dM/dh_belt:
+        dC/dh_belt:
+          [x, theta] = k_belt
+          [theta, theta] = 2*h_belt*k_belt
+        dB/dh_belt:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp3*_tmp5*b
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5**2
+    _tmp9 = 4*_tmp8
+    _tmp10 = _tmp0*_tmp6
+    _tmp11 = a1**2
+    _tmp12 = _tmp11*_tmp9
+    _tmp13 = 4*a2**2
+    _tmp14 = _tmp11*_tmp4
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_belt), numpy.shape(h_belt))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+
+
 def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1412,6 +1922,70 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1
     _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(h_preload))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+
+
+def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
+    """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/dh_preload:
+        dC/dh_preload:
+          [psi, psi] = -196133*m/20000
+          [theta, theta] = -196133*m/20000
+        dB/dh_preload:
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload)
+    _tmp0 = 8*h
+    _tmp1 = h**2
+    _tmp2 = b**2
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = 4*_tmp3**2
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp3*_tmp5*b
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5**2
+    _tmp9 = 4*_tmp8
+    _tmp10 = _tmp0*_tmp6
+    _tmp11 = a1**2
+    _tmp12 = _tmp11*_tmp9
+    _tmp13 = 4*a2**2
+    _tmp14 = _tmp11*_tmp4
+    _tmp15 = -9.80665*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(h_preload))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -1627,6 +2201,315 @@ def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): _tmp10, (1, 2): _tmp13, (1, 3): _tmp16, (1, 4): _tmp18, (1, 5): _tmp19, (2, 2): _tmp22, (2, 3): _tmp25, (2, 4): _tmp27, (2, 5): _tmp28, (3, 3): _tmp31, (3, 4): _tmp33, (3, 5): _tmp34, (4, 4): _tmp37, (4, 5): _tmp39, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): _tmp10, (1, 2): _tmp13, (1, 3): _tmp16, (1, 4): _tmp28, (1, 5): _tmp42, (2, 2): _tmp22, (2, 3): _tmp25, (2, 4): _tmp26, (2, 5): _tmp18, (3, 3): _tmp31, (3, 4): _tmp43, (3, 5): _tmp44, (4, 4): _tmp37, (4, 5): _tmp39, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): _tmp10, (1, 2): _tmp17, (1, 3): _tmp16, (1, 4): _tmp28, (1, 5): _tmp19, (2, 2): _tmp22, (2, 3): _tmp32, (2, 4): _tmp27, (2, 5): _tmp18, (3, 3): _tmp31, (3, 4): _tmp43, (3, 5): _tmp34, (4, 4): _tmp37, (4, 5): _tmp45, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): _tmp10, (1, 2): _tmp17, (1, 3): _tmp16, (1, 4): _tmp18, (1, 5): _tmp42, (2, 2): _tmp22, (2, 3): _tmp32, (2, 4): _tmp26, (2, 5): _tmp28, (3, 3): _tmp31, (3, 4): _tmp33, (3, 5): _tmp44, (4, 4): _tmp37, (4, 5): _tmp45, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp46, (2, 2): c_v2, (2, 3): _tmp47, (2, 4): _tmp49, (3, 3): _tmp50, (3, 4): _tmp52, (3, 5): _tmp53, (4, 4): _tmp55, (4, 5): _tmp38, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp57, (2, 2): c_v2, (2, 3): _tmp47, (2, 4): _tmp48, (3, 3): _tmp50, (3, 4): _tmp51, (3, 5): _tmp58, (4, 4): _tmp55, (4, 5): _tmp38, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp46, (2, 2): c_v2, (2, 3): _tmp59, (2, 4): _tmp49, (3, 3): _tmp50, (3, 4): _tmp51, (3, 5): _tmp53, (4, 4): _tmp55, (4, 5): _tmp60, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp57, (2, 2): c_v2, (2, 3): _tmp59, (2, 4): _tmp48, (3, 3): _tmp50, (3, 4): _tmp52, (3, 5): _tmp58, (4, 4): _tmp55, (4, 5): _tmp60, (5, 5): _tmp56})], axis=-3)
 
 
+def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
+    """Derivatives of isolator_stiffness() with respect to the unknowns c_x, c_y, c_v1, c_v2, shape
+    (..., 4, 8, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dinner[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dinner[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dinner[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dinner[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        douter[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        douter[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        douter[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        douter[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dinner[+x+y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+        dinner[-x+y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+        dinner[+x-y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+        dinner[-x-y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+        douter[+x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [phi, phi] = a2**2
+        douter[-x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [phi, phi] = a2**2
+        douter[+x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [phi, phi] = a2**2
+        douter[-x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [phi, phi] = a2**2
+        dinner[+x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[+x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        douter[+x+y]/dc_v1:
+        douter[-x+y]/dc_v1:
+        douter[+x-y]/dc_v1:
+        douter[-x-y]/dc_v1:
+        dinner[+x+y]/dc_v2:
+        dinner[-x+y]/dc_v2:
+        dinner[+x-y]/dc_v2:
+        dinner[-x-y]/dc_v2:
+        douter[+x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+        douter[-x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[+x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[-x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+    """
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = b*h
+    _tmp4 = b**2
+    _tmp5 = -_tmp3
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = _tmp6**2
+    _tmp8 = numpy.sin(gamma)
+    _tmp9 = _tmp6*_tmp8
+    _tmp10 = _tmp9*b
+    _tmp11 = _tmp10 + _tmp7*h
+    _tmp12 = _tmp9*a1
+    _tmp13 = -_tmp12
+    _tmp14 = _tmp7*a1
+    _tmp15 = _tmp8**2
+    _tmp16 = _tmp9*h
+    _tmp17 = _tmp15*b + _tmp16
+    _tmp18 = _tmp15*a1
+    _tmp19 = -_tmp18
+    _tmp20 = 2*_tmp3*_tmp9
+    _tmp21 = _tmp15*_tmp4 + _tmp2*_tmp7 + _tmp20
+    _tmp22 = -_tmp17
+    _tmp23 = _tmp22*a1
+    _tmp24 = _tmp11*a1
+    _tmp25 = a1**2
+    _tmp26 = _tmp15*_tmp25
+    _tmp27 = _tmp25*_tmp9
+    _tmp28 = -_tmp27
+    _tmp29 = _tmp25*_tmp7
+    _tmp30 = -_tmp14
+    _tmp31 = _tmp17*a1
+    _tmp32 = -_tmp11*a1
+    _tmp33 = -_tmp9
+    _tmp34 = a2*h
+    _tmp35 = a2**2
+    _tmp36 = -a2
+    _tmp37 = -_tmp34
+    _tmp38 = _tmp10 - _tmp15*h
+    _tmp39 = -_tmp38
+    _tmp40 = -_tmp16 + _tmp7*b
+    _tmp41 = _tmp15*_tmp2 - _tmp20 + _tmp4*_tmp7
+    _tmp42 = -_tmp40
+    _tmp43 = _tmp42*a1
+    _tmp44 = _tmp39*a1
+    _tmp45 = _tmp40*a1
+    _tmp46 = _tmp38*a1
+    _tmp47 = a2*b
+    _tmp48 = -_tmp47
+    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp9, (1, 3): _tmp11, (1, 4): _tmp13, (1, 5): _tmp14, (2, 2): _tmp15, (2, 3): _tmp17, (2, 4): _tmp19, (2, 5): _tmp12, (3, 3): _tmp21, (3, 4): _tmp23, (3, 5): _tmp24, (4, 4): _tmp26, (4, 5): _tmp28, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp9, (1, 3): _tmp11, (1, 4): _tmp12, (1, 5): _tmp30, (2, 2): _tmp15, (2, 3): _tmp17, (2, 4): _tmp18, (2, 5): _tmp13, (3, 3): _tmp21, (3, 4): _tmp31, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp28, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp33, (1, 3): _tmp11, (1, 4): _tmp12, (1, 5): _tmp14, (2, 2): _tmp15, (2, 3): _tmp22, (2, 4): _tmp19, (2, 5): _tmp13, (3, 3): _tmp21, (3, 4): _tmp31, (3, 5): _tmp24, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp33, (1, 3): _tmp11, (1, 4): _tmp13, (1, 5): _tmp30, (2, 2): _tmp15, (2, 3): _tmp22, (2, 4): _tmp18, (2, 5): _tmp12, (3, 3): _tmp21, (3, 4): _tmp23, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp33, (1, 3): _tmp39, (1, 4): _tmp12, (1, 5): _tmp18, (2, 2): _tmp7, (2, 3): _tmp40, (2, 4): _tmp30, (2, 5): _tmp13, (3, 3): _tmp41, (3, 4): _tmp43, (3, 5): _tmp44, (4, 4): _tmp29, (4, 5): _tmp27, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp33, (1, 3): _tmp39, (1, 4): _tmp13, (1, 5): _tmp19, (2, 2): _tmp7, (2, 3): _tmp40, (2, 4): _tmp14, (2, 5): _tmp12, (3, 3): _tmp41, (3, 4): _tmp45, (3, 5): _tmp46, (4, 4): _tmp29, (4, 5): _tmp27, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp9, (1, 3): _tmp39, (1, 4): _tmp13, (1, 5): _tmp18, (2, 2): _tmp7, (2, 3): _tmp42, (2, 4): _tmp30, (2, 5): _tmp12, (3, 3): _tmp41, (3, 4): _tmp45, (3, 5): _tmp44, (4, 4): _tmp29, (4, 5): _tmp28, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp9, (1, 3): _tmp39, (1, 4): _tmp12, (1, 5): _tmp19, (2, 2): _tmp7, (2, 3): _tmp42, (2, 4): _tmp14, (2, 5): _tmp13, (3, 3): _tmp41, (3, 4): _tmp43, (3, 5): _tmp46, (4, 4): _tmp29, (4, 5): _tmp28, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35})], axis=-3).reshape(*_shape, 4, 8, 6, 6)
+
+
 def effect_scales(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
@@ -1705,20 +2588,20 @@ INVERSES = {
 """Inverse solution per set of given distinct frequencies (labels in UNIQUE_MODES order)."""
 INVERSE_ROOTS = {
     ("x", "y", "z", "psi"): 2,
-    ("x", "y", "z", "theta"): 81,
-    ("x", "y", "z", "phi"): 81,
-    ("x", "y", "psi", "theta"): 81,
-    ("x", "y", "psi", "phi"): 81,
-    ("x", "y", "theta", "phi"): 81,
-    ("x", "z", "psi", "theta"): 81,
-    ("x", "z", "psi", "phi"): 81,
+    ("x", "y", "z", "theta"): 625,
+    ("x", "y", "z", "phi"): 625,
+    ("x", "y", "psi", "theta"): 625,
+    ("x", "y", "psi", "phi"): 625,
+    ("x", "y", "theta", "phi"): 625,
+    ("x", "z", "psi", "theta"): 625,
+    ("x", "z", "psi", "phi"): 625,
     ("x", "z", "theta", "phi"): 2,
-    ("x", "psi", "theta", "phi"): 81,
+    ("x", "psi", "theta", "phi"): 625,
     ("y", "z", "psi", "theta"): 2,
     ("y", "z", "psi", "phi"): 2,
-    ("y", "z", "theta", "phi"): 81,
-    ("y", "psi", "theta", "phi"): 81,
-    ("z", "psi", "theta", "phi"): 81,
+    ("y", "z", "theta", "phi"): 625,
+    ("y", "psi", "theta", "phi"): 625,
+    ("z", "psi", "theta", "phi"): 625,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
 NUMERIC_INVERSES = {
@@ -1761,3 +2644,14 @@ EFFECT_COORDINATES = {
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
+EFFECT_DERIVATIVE_PARAMETERS = {
+    "com_offset": ("c_x", "c_y", "c_v1", "c_v2", "dx_com", "dy_com"),
+    "cog_height": ("c_x", "c_y", "c_v1", "c_v2", "dz_com"),
+    "rotational_stiffness": ("c_x", "c_y", "c_v1", "c_v2", "k_bend", "k_torsion"),
+    "foundation": ("c_x", "c_y", "c_v1", "c_v2", "m_found", "k_found"),
+    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "m_added", "h_added"),
+    "drive_belt": ("c_x", "c_y", "c_v1", "c_v2", "k_belt", "h_belt"),
+    "gravity_preload": ("c_x", "c_y", "c_v1", "c_v2", "h_preload"),
+}
+"""Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
+matrices depend on, then the effect's parameters."""

@@ -59,13 +59,21 @@ ARGUMENTS = {
     "identify_z_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_phi"),
     "identify_psi_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_psi", "omega_phi"),
     "effect_com_offset": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
     "effect_cog_height": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dz_com"),
+    "effect_cog_height_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dz_com"),
     "effect_rotational_stiffness": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
     "effect_foundation": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
+    "effect_foundation_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
     "effect_added_mass": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
+    "effect_added_mass_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
     "effect_drive_belt": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
     "effect_gravity_preload": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "h_preload"),
+    "effect_gravity_preload_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "h_preload"),
     "isolator_stiffness": ("L_xy", "L_z", "c_xy", "c_z"),
+    "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -626,6 +634,59 @@ def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
+def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
+    """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/ddx_com:
+          [y, phi] = m
+          [z, theta] = -m
+          [psi, theta] = -dy_com*m
+          [theta, theta] = 2*dx_com*m
+          [phi, phi] = 2*dx_com*m
+        dC/ddx_com:
+        dB/ddx_com:
+        dM/ddy_com:
+          [x, phi] = -m
+          [z, psi] = m
+          [psi, psi] = 2*dy_com*m
+          [psi, theta] = -dx_com*m
+          [phi, phi] = 2*dy_com*m
+        dC/ddy_com:
+        dB/ddy_com:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _tmp4 = -m
+    _tmp5 = dy_com*m
+    _tmp6 = dx_com*m
+    _tmp7 = 2*_tmp6
+    _tmp8 = 2*_tmp5
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -648,6 +709,46 @@ def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
+def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
+    """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
+    shape (..., 3, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/ddz_com:
+          [x, theta] = m
+          [y, psi] = -m
+          [psi, psi] = 2*dz_com*m
+          [theta, theta] = 2*dz_com*m
+        dC/ddz_com:
+        dB/ddz_com:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _tmp4 = 2*dz_com*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dz_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+
+
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -666,6 +767,47 @@ def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k
     _tmp0 = 4*k_bend
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(L_xy, L_z, b_xy, b_z))
+
+
+def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
+    """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/dk_bend:
+        dC/dk_bend:
+          [psi, psi] = 4
+          [theta, theta] = 4
+        dB/dk_bend:
+        dM/dk_torsion:
+        dC/dk_torsion:
+          [phi, phi] = 4
+        dB/dk_torsion:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
@@ -766,6 +908,76 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
     return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp2, (10, 10): _tmp2, (11, 11): _tmp2}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): _tmp5, (0, 6): _tmp6, (1, 1): _tmp3, (1, 3): _tmp4, (1, 7): _tmp6, (2, 2): _tmp7, (2, 8): -_tmp7, (3, 3): _tmp10, (3, 7): _tmp5, (3, 9): _tmp11, (4, 4): _tmp10, (4, 6): _tmp4, (4, 10): _tmp11, (5, 5): _tmp12, (5, 11): -_tmp12, (6, 6): _tmp14, (7, 7): _tmp14, (8, 8): _tmp7 + k_found, (9, 9): _tmp15, (10, 10): _tmp15, (11, 11): _tmp0*_tmp14}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp16, (0, 4): _tmp18, (0, 6): _tmp19, (1, 1): _tmp16, (1, 3): _tmp17, (1, 7): _tmp19, (2, 2): _tmp20, (2, 8): -_tmp20, (3, 3): _tmp22, (3, 7): _tmp18, (3, 9): _tmp24, (4, 4): _tmp22, (4, 6): _tmp17, (4, 10): _tmp24, (5, 5): _tmp25, (5, 11): -_tmp25, (6, 6): _tmp16, (7, 7): _tmp16, (8, 8): _tmp20, (9, 9): _tmp23, (10, 10): _tmp23, (11, 11): _tmp25}))
 
 
+def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
+    """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
+    shape (..., 4, 3, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [x, x_found] = -4
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [y, y_found] = -4
+          [psi, psi] = 4*L_z**2
+          [psi, y_found] = -4*L_z
+          [theta, theta] = 4*L_z**2
+          [theta, x_found] = 4*L_z
+          [phi, phi] = 4*L_xy**2
+          [phi, phi_found] = -4*L_xy**2
+          [x_found, x_found] = 4
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 2*L_xy**2
+          [psi, psi_found] = -2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+          [theta, theta_found] = -2*L_xy**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 2*L_xy**2
+          [theta_found, theta_found] = 2*L_xy**2
+        dB/dc_z:
+        dM/dm_found:
+          [x_found, x_found] = 1
+          [y_found, y_found] = 1
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = L_xy**2 + L_z**2
+          [theta_found, theta_found] = L_xy**2 + L_z**2
+          [phi_found, phi_found] = L_xy**2 + L_z**2
+        dC/dm_found:
+        dB/dm_found:
+        dM/dk_found:
+        dC/dk_found:
+          [x_found, x_found] = 1/2
+          [y_found, y_found] = 1/2
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+          [phi_found, phi_found] = L_xy**2/2
+        dB/dk_found:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found)
+    _tmp0 = 4*L_z
+    _tmp1 = -_tmp0
+    _tmp2 = L_z**2
+    _tmp3 = 4*_tmp2
+    _tmp4 = L_xy**2
+    _tmp5 = 4*_tmp4
+    _tmp6 = 2*_tmp4
+    _tmp7 = -_tmp6
+    _tmp8 = _tmp2 + _tmp4
+    _tmp9 = (0.5)*_tmp4
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
+    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp5, (5, 11): -_tmp5, (6, 6): 4, (7, 7): 4, (11, 11): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp6, (3, 9): _tmp7, (4, 4): _tmp6, (4, 10): _tmp7, (8, 8): 4, (9, 9): _tmp6, (10, 10): _tmp6}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp8, (10, 10): _tmp8, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 4, 3, 12, 12)
+
+
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -791,6 +1003,57 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
+def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
+    """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/dm_added:
+          [x, x] = 1
+          [x, theta] = h_added
+          [y, y] = 1
+          [y, psi] = -h_added
+          [z, z] = 1
+          [psi, psi] = h_added**2
+          [theta, theta] = h_added**2
+        dC/dm_added:
+        dB/dm_added:
+        dM/dh_added:
+          [x, theta] = m_added
+          [y, psi] = -m_added
+          [psi, psi] = 2*h_added*m_added
+          [theta, theta] = 2*h_added*m_added
+        dC/dh_added:
+        dB/dh_added:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _tmp4 = h_added**2
+    _tmp5 = 2*h_added*m_added
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -810,6 +1073,49 @@ def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_b
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(L_xy, L_z, b_xy, b_z))
 
 
+def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
+    """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/dk_belt:
+        dC/dk_belt:
+          [x, x] = 1
+          [x, theta] = h_belt
+          [theta, theta] = h_belt**2
+        dB/dk_belt:
+        dM/dh_belt:
+        dC/dh_belt:
+          [x, theta] = k_belt
+          [theta, theta] = 2*h_belt*k_belt
+        dB/dh_belt:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -827,6 +1133,44 @@ def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_prel
     _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
     return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(L_xy, L_z, b_xy, b_z))
+
+
+def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
+    """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
+    shape (..., 3, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/dh_preload:
+        dC/dh_preload:
+          [psi, psi] = -196133*m/20000
+          [theta, theta] = -196133*m/20000
+        dB/dh_preload:
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
+    _tmp0 = 4*L_z
+    _tmp1 = 4*L_z**2
+    _tmp2 = L_xy**2
+    _tmp3 = 2*_tmp2
+    _tmp4 = -9.80665*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
@@ -919,6 +1263,103 @@ def isolator_stiffness(L_xy, L_z, c_xy, c_z):
     _tmp15 = -_tmp13
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14})], axis=-3)
+
+
+def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
+    """Derivatives of isolator_stiffness() with respect to the unknowns c_xy, c_z, shape
+    (..., 2, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[-x+y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[+x-y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[-x-y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+    """
+    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    _tmp0 = -L_z
+    _tmp1 = (0.5)*numpy.sqrt(2)*L_xy
+    _tmp2 = -_tmp1
+    _tmp3 = L_z**2
+    _tmp4 = L_z*_tmp1
+    _tmp5 = L_xy**2
+    _tmp6 = -_tmp4
+    _tmp7 = (0.5)*_tmp5
+    _tmp8 = -_tmp7
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp2, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp1, (3, 3): _tmp3, (3, 5): _tmp4, (4, 4): _tmp3, (4, 5): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp2, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp2, (3, 3): _tmp3, (3, 5): _tmp6, (4, 4): _tmp3, (4, 5): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp1, (3, 3): _tmp3, (3, 5): _tmp4, (4, 4): _tmp3, (4, 5): _tmp6, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp2, (3, 3): _tmp3, (3, 5): _tmp6, (4, 4): _tmp3, (4, 5): _tmp6, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 2, 4, 6, 6)
 
 
 def effect_scales(m, L_xy, L_z, c_xy, c_z):
@@ -1025,3 +1466,14 @@ EFFECT_COORDINATES = {
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
+EFFECT_DERIVATIVE_PARAMETERS = {
+    "com_offset": ("c_xy", "c_z", "dx_com", "dy_com"),
+    "cog_height": ("c_xy", "c_z", "dz_com"),
+    "rotational_stiffness": ("c_xy", "c_z", "k_bend", "k_torsion"),
+    "foundation": ("c_xy", "c_z", "m_found", "k_found"),
+    "added_mass": ("c_xy", "c_z", "m_added", "h_added"),
+    "drive_belt": ("c_xy", "c_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_xy", "c_z", "h_preload"),
+}
+"""Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
+matrices depend on, then the effect's parameters."""

@@ -75,13 +75,21 @@ ARGUMENTS = {
     "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_theta", "omega_phi"),
     "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_psi", "omega_theta", "omega_phi"),
     "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dx_com", "dy_com"),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dz_com"),
+    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dz_com"),
     "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_bend", "k_torsion"),
     "effect_foundation": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_found", "k_found"),
+    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_found", "k_found"),
     "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "h_added"),
+    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "h_added"),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
     "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
+    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
     "isolator_stiffness": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -1281,6 +1289,63 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
+def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
+    """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/ddx_com:
+          [y, phi] = m
+          [z, theta] = -m
+          [psi, theta] = -dy_com*m
+          [theta, theta] = 2*dx_com*m
+          [phi, phi] = 2*dx_com*m
+        dC/ddx_com:
+        dB/ddx_com:
+        dM/ddy_com:
+          [x, phi] = -m
+          [z, psi] = m
+          [psi, psi] = 2*dy_com*m
+          [psi, theta] = -dx_com*m
+          [phi, phi] = 2*dy_com*m
+        dC/ddy_com:
+        dB/ddy_com:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _tmp4 = -m
+    _tmp5 = dy_com*m
+    _tmp6 = dx_com*m
+    _tmp7 = 2*_tmp6
+    _tmp8 = 2*_tmp5
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1303,6 +1368,50 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
+def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
+    """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/ddz_com:
+          [x, theta] = m
+          [y, psi] = -m
+          [psi, psi] = 2*dz_com*m
+          [theta, theta] = 2*dz_com*m
+        dC/ddz_com:
+        dB/ddz_com:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _tmp4 = 2*dz_com*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dz_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1321,6 +1430,51 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b
     _tmp0 = 4*k_bend
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(a, b, h, b_x, b_y, b_z))
+
+
+def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
+    """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dk_bend:
+        dC/dk_bend:
+          [psi, psi] = 4
+          [theta, theta] = 4
+        dB/dk_bend:
+        dM/dk_torsion:
+        dC/dk_torsion:
+          [phi, phi] = 4
+        dB/dk_torsion:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
@@ -1415,6 +1569,83 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
     return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp4, (0, 4): -_tmp5, (0, 6): -_tmp4, (1, 1): _tmp6, (1, 3): _tmp7, (1, 7): -_tmp6, (2, 2): _tmp8, (2, 8): -_tmp8, (3, 3): 4*_tmp1*c_z + 4*_tmp2*c_y, (3, 7): -_tmp7, (3, 9): -_tmp1*_tmp8, (4, 4): 4*_tmp0*c_z + 4*_tmp2*c_x, (4, 6): _tmp5, (4, 10): -_tmp0*_tmp8, (5, 5): _tmp9, (5, 11): -_tmp9, (6, 6): _tmp10 + _tmp4, (7, 7): _tmp10 + _tmp6, (8, 8): _tmp11, (9, 9): _tmp1*_tmp11, (10, 10): _tmp0*_tmp11, (11, 11): _tmp0*_tmp10 + _tmp0*_tmp6 + _tmp1*_tmp10 + _tmp1*_tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -_tmp13, (0, 6): -_tmp12, (1, 1): _tmp14, (1, 3): _tmp15, (1, 7): -_tmp14, (2, 2): _tmp16, (2, 8): -_tmp16, (3, 3): 4*_tmp1*b_z + 4*_tmp2*b_y, (3, 7): -_tmp15, (3, 9): -_tmp17, (4, 4): 4*_tmp0*b_z + 4*_tmp2*b_x, (4, 6): _tmp13, (4, 10): -_tmp18, (5, 5): _tmp19, (5, 11): -_tmp19, (6, 6): _tmp12, (7, 7): _tmp14, (8, 8): _tmp16, (9, 9): _tmp17, (10, 10): _tmp18, (11, 11): _tmp19}))
 
 
+def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
+    """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
+    shape (..., 5, 3, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [x, x_found] = -4
+          [theta, theta] = 4*h**2
+          [theta, x_found] = 4*h
+          [phi, phi] = 4*b**2
+          [phi, phi_found] = -4*b**2
+          [x_found, x_found] = 4
+          [phi_found, phi_found] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [y, y_found] = -4
+          [psi, psi] = 4*h**2
+          [psi, y_found] = -4*h
+          [phi, phi] = 4*a**2
+          [phi, phi_found] = -4*a**2
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 4*b**2
+          [psi, psi_found] = -4*b**2
+          [theta, theta] = 4*a**2
+          [theta, theta_found] = -4*a**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 4*b**2
+          [theta_found, theta_found] = 4*a**2
+        dB/dc_z:
+        dM/dm_found:
+          [x_found, x_found] = 1
+          [y_found, y_found] = 1
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = a**2 + b**2 + h**2
+          [theta_found, theta_found] = a**2 + b**2 + h**2
+          [phi_found, phi_found] = a**2 + b**2 + h**2
+        dC/dm_found:
+        dB/dm_found:
+        dM/dk_found:
+        dC/dk_found:
+          [x_found, x_found] = 1/2
+          [y_found, y_found] = 1/2
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2
+          [theta_found, theta_found] = a**2
+          [phi_found, phi_found] = a**2/2 + b**2/2
+        dB/dk_found:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found)
+    _tmp0 = 4*h
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 4*_tmp2
+    _tmp4 = b**2
+    _tmp5 = 4*_tmp4
+    _tmp6 = -_tmp5
+    _tmp7 = a**2
+    _tmp8 = 4*_tmp7
+    _tmp9 = -_tmp8
+    _tmp10 = _tmp2 + _tmp4 + _tmp7
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
+    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp5, (5, 11): _tmp6, (6, 6): 4, (11, 11): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (5, 5): _tmp8, (5, 11): _tmp9, (7, 7): 4, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp5, (3, 9): _tmp6, (4, 4): _tmp8, (4, 10): _tmp9, (8, 8): 4, (9, 9): _tmp5, (10, 10): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp10, (10, 10): _tmp10, (11, 11): _tmp10}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp4, (10, 10): _tmp7, (11, 11): (0.5)*_tmp4 + (0.5)*_tmp7}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 5, 3, 12, 12)
+
+
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1440,6 +1671,61 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
+def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
+    """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dm_added:
+          [x, x] = 1
+          [x, theta] = h_added
+          [y, y] = 1
+          [y, psi] = -h_added
+          [z, z] = 1
+          [psi, psi] = h_added**2
+          [theta, theta] = h_added**2
+        dC/dm_added:
+        dB/dm_added:
+        dM/dh_added:
+          [x, theta] = m_added
+          [y, psi] = -m_added
+          [psi, psi] = 2*h_added*m_added
+          [theta, theta] = 2*h_added*m_added
+        dC/dh_added:
+        dB/dh_added:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _tmp4 = h_added**2
+    _tmp5 = 2*h_added*m_added
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1459,6 +1745,53 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, b_x, b_y, b_z))
 
 
+def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
+    """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dk_belt:
+        dC/dk_belt:
+          [x, x] = 1
+          [x, theta] = h_belt
+          [theta, theta] = h_belt**2
+        dB/dk_belt:
+        dM/dh_belt:
+        dC/dh_belt:
+          [x, theta] = k_belt
+          [theta, theta] = 2*h_belt*k_belt
+        dB/dh_belt:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -1476,6 +1809,48 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b
     _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(h_preload))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, b_x, b_y, b_z))
+
+
+def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
+    """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dh_preload:
+        dC/dh_preload:
+          [psi, psi] = -196133*m/20000
+          [theta, theta] = -196133*m/20000
+        dB/dh_preload:
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*b**2
+    _tmp3 = 4*a**2
+    _tmp4 = -9.80665*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(h_preload))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
@@ -1575,6 +1950,114 @@ def isolator_stiffness(a, b, h, c_x, c_y, c_z):
     _tmp22 = -_tmp17
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp6, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp13, (3, 5): _tmp14, (4, 4): _tmp16, (4, 5): _tmp17, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp19, (2, 2): c_z, (2, 3): _tmp6, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp20, (4, 4): _tmp16, (4, 5): _tmp17, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp21, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp16, (4, 5): _tmp22, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp19, (2, 2): c_z, (2, 3): _tmp21, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp13, (3, 5): _tmp20, (4, 4): _tmp16, (4, 5): _tmp22, (5, 5): _tmp18})], axis=-3)
+
+
+def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
+    """Derivatives of isolator_stiffness() with respect to the unknowns c_x, c_y, c_z, shape
+    (..., 3, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dcorner[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dcorner[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[+x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [phi, phi] = a**2
+        dcorner[-x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [phi, phi] = a**2
+        dcorner[+x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [phi, phi] = a**2
+        dcorner[-x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [phi, phi] = a**2
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = b*h
+    _tmp4 = b**2
+    _tmp5 = -_tmp3
+    _tmp6 = a*h
+    _tmp7 = a**2
+    _tmp8 = -a
+    _tmp9 = -_tmp6
+    _tmp10 = a*b
+    _tmp11 = -_tmp10
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 3, 4, 6, 6)
 
 
 def effect_scales(m, a, b, h, c_x, c_y, c_z):
@@ -1704,3 +2187,14 @@ EFFECT_COORDINATES = {
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
+EFFECT_DERIVATIVE_PARAMETERS = {
+    "com_offset": ("c_x", "c_y", "c_z", "dx_com", "dy_com"),
+    "cog_height": ("c_x", "c_y", "c_z", "dz_com"),
+    "rotational_stiffness": ("c_x", "c_y", "c_z", "k_bend", "k_torsion"),
+    "foundation": ("c_x", "c_y", "c_z", "m_found", "k_found"),
+    "added_mass": ("c_x", "c_y", "c_z", "m_added", "h_added"),
+    "drive_belt": ("c_x", "c_y", "c_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_x", "c_y", "c_z", "h_preload"),
+}
+"""Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
+matrices depend on, then the effect's parameters."""

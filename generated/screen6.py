@@ -76,13 +76,21 @@ ARGUMENTS = {
     "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_theta", "omega_phi"),
     "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_psi", "omega_theta", "omega_phi"),
     "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
+    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
     "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
     "effect_foundation": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_found", "k_found"),
+    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_found", "k_found"),
     "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "h_added"),
+    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "h_added"),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
     "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
+    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
     "isolator_stiffness": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "isolator_stiffness_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
 """Argument names of every generated function, by function name."""
@@ -2060,6 +2068,77 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
+def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
+    """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/ddx_com:
+          [y, phi] = m
+          [z, theta] = -m
+          [psi, theta] = -dy_com*m
+          [theta, theta] = 2*dx_com*m
+          [phi, phi] = 2*dx_com*m
+        dC/ddx_com:
+        dB/ddx_com:
+        dM/ddy_com:
+          [x, phi] = -m
+          [z, psi] = m
+          [psi, psi] = 2*dy_com*m
+          [psi, theta] = -dx_com*m
+          [phi, phi] = 2*dy_com*m
+        dC/ddy_com:
+        dB/ddy_com:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _tmp13 = -m
+    _tmp14 = dy_com*m
+    _tmp15 = dx_com*m
+    _tmp16 = 2*_tmp15
+    _tmp17 = 2*_tmp14
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dx_com), numpy.shape(dy_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp13, (3, 4): -_tmp14, (4, 4): _tmp16, (5, 5): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp13, (2, 3): m, (3, 3): _tmp17, (3, 4): -_tmp15, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -2080,6 +2159,64 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     _tmp1 = dz_com**2*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+
+
+def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
+    """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/ddz_com:
+          [x, theta] = m
+          [y, psi] = -m
+          [psi, psi] = 2*dz_com*m
+          [theta, theta] = 2*dz_com*m
+        dC/ddz_com:
+        dB/ddz_com:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _tmp13 = 2*dz_com*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
@@ -2103,6 +2240,68 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m,
     _tmp3 = numpy.cos(alpha)**2
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): -2*_tmp0*_tmp1 + 2*_tmp0*_tmp2 + 6*k_bend, (4, 4): 6*k_bend, (5, 5): -2*_tmp1*_tmp3 + 2*_tmp1 + 2*_tmp2*_tmp3 + 2*k_torsion}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+
+
+def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
+    """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/dk_bend:
+        dC/dk_bend:
+          [psi, psi] = 6 - 4*sin(alpha)**2
+          [theta, theta] = 6
+          [phi, phi] = 4 - 4*cos(alpha)**2
+        dB/dk_bend:
+        dM/dk_torsion:
+        dC/dk_torsion:
+          [psi, psi] = 4*sin(alpha)**2
+          [phi, phi] = 2 + 4*cos(alpha)**2
+        dB/dk_torsion:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0*_tmp3*a
+    _tmp5 = 4*_tmp4
+    _tmp6 = 4*_tmp3**2
+    _tmp7 = h**2
+    _tmp8 = b**2
+    _tmp9 = _tmp6*_tmp8
+    _tmp10 = 8*_tmp4*h
+    _tmp11 = a**2
+    _tmp12 = 2*_tmp8
+    _tmp13 = _tmp1*_tmp8
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp2, (0, 4): -_tmp1*h + _tmp5 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp6, (3, 3): 6*_tmp7 + _tmp9, (4, 4): _tmp1*_tmp7 - _tmp10 + _tmp11*_tmp6 + 2*_tmp7, (5, 5): 4*_tmp11 + _tmp12 + _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 4): -_tmp5 - _tmp6*h, (2, 2): _tmp1, (3, 3): _tmp13, (4, 4): _tmp1*_tmp11 + _tmp10 + _tmp6*_tmp7, (5, 5): _tmp9}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp6, (4, 4): 6, (5, 5): 4 - _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
@@ -2240,6 +2439,123 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp11, (0, 4): -2*_tmp16, (0, 6): -_tmp11, (0, 10): -_tmp17*_tmp19, (1, 1): _tmp20, (1, 3): _tmp21, (1, 7): -_tmp20, (2, 2): _tmp26, (2, 8): -_tmp26, (3, 3): 2*_tmp0*_tmp23 + 2*_tmp0*c_m + 6*_tmp27 + 2*_tmp29*_tmp8, (3, 7): -_tmp21, (3, 9): -_tmp25*_tmp30, (4, 4): 2*_tmp1*_tmp10 - 2*_tmp12*_tmp14*_tmp18 + 2*_tmp13*_tmp27 + 2*_tmp18*_tmp32 + 2*_tmp2*_tmp22 + 2*_tmp2*_tmp23 + 2*_tmp27, (4, 6): 2*_tmp16, (4, 10): _tmp18*(-_tmp32 - _tmp33*a - _tmp34*a + _tmp4*_tmp7*c_h*h), (5, 5): _tmp35, (5, 11): -_tmp35, (6, 6): _tmp36 + _tmp37*_tmp5 + _tmp38 + _tmp6, (6, 10): _tmp17*_tmp19, (7, 7): _tmp20 + _tmp36, (8, 8): _tmp39, (9, 9): _tmp0*_tmp39, (10, 10): _tmp41*(_tmp24 + _tmp40), (11, 11): _tmp0*_tmp36 + _tmp0*_tmp38 + _tmp2*_tmp37 + _tmp2*_tmp40 + 4*_tmp28*_tmp5 + _tmp29}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp44, (0, 4): -2*_tmp46, (0, 6): -_tmp44, (0, 10): -_tmp19*_tmp47, (1, 1): _tmp48, (1, 3): _tmp49, (1, 7): -_tmp48, (2, 2): _tmp53, (2, 8): -_tmp53, (3, 3): 2*_tmp0*b_m + 2*_tmp30*_tmp51 + 2*_tmp42*_tmp55 + 6*_tmp54, (3, 7): -_tmp49, (3, 9): -_tmp56, (4, 4): 2*_tmp1*_tmp43 + 2*_tmp13*_tmp54 - 2*_tmp14*_tmp18*_tmp45 + 2*_tmp18*_tmp57 + 2*_tmp41*_tmp50 + 2*_tmp41*_tmp51 + 2*_tmp54, (4, 6): 2*_tmp46, (4, 10): _tmp18*(_tmp4*_tmp7*b_h*h - _tmp50*a - _tmp51*a - _tmp57), (5, 5): _tmp58, (5, 11): -_tmp58, (6, 6): _tmp44, (6, 10): _tmp19*_tmp47, (7, 7): _tmp48, (8, 8): _tmp53, (9, 9): _tmp56, (10, 10): 4*_tmp2*(_tmp50 + _tmp51), (11, 11): _tmp58}))
 
 
+def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
+    """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
+    shape (..., 5, 3, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [x, x_found] = -2 - 4*cos(alpha)**2
+          [x, theta_found] = -4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [y, y_found] = -6
+          [z, z] = 4*sin(alpha)**2
+          [z, z_found] = -4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [psi, y_found] = -6*h
+          [psi, psi_found] = -4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [theta, x_found] = 2*h + 4*h*cos(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [theta, theta_found] = 4*a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+          [phi, phi_found] = -4*a**2 - 2*b**2 - 4*b**2*cos(alpha)**2
+          [x_found, x_found] = 2 + 4*cos(alpha)**2
+          [x_found, theta_found] = 4*a*cos(alpha)*sin(alpha)
+          [y_found, y_found] = 6
+          [z_found, z_found] = 4*sin(alpha)**2
+          [psi_found, psi_found] = 4*b**2*sin(alpha)**2
+          [theta_found, theta_found] = 4*a**2*sin(alpha)**2
+          [phi_found, phi_found] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [x, x_found] = -4*sin(alpha)**2
+          [x, theta_found] = 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [z, z_found] = -4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [psi, psi_found] = -4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [theta, x_found] = 4*h*sin(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [theta, theta_found] = 4*a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [phi, phi] = 4*b**2*sin(alpha)**2
+          [phi, phi_found] = -4*b**2*sin(alpha)**2
+          [x_found, x_found] = 4*sin(alpha)**2
+          [x_found, theta_found] = -4*a*cos(alpha)*sin(alpha)
+          [z_found, z_found] = 4*cos(alpha)**2
+          [psi_found, psi_found] = 4*b**2*cos(alpha)**2
+          [theta_found, theta_found] = 4*a**2*cos(alpha)**2
+          [phi_found, phi_found] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [z, z_found] = -2
+          [psi, psi] = 2*b**2
+          [psi, psi_found] = -2*b**2
+          [z_found, z_found] = 2
+          [psi_found, psi_found] = 2*b**2
+        dB/dc_m:
+        dM/dm_found:
+          [x_found, x_found] = 1
+          [y_found, y_found] = 1
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2 + h**2 + 2*a**2/3
+          [theta_found, theta_found] = b**2 + h**2 + 2*a**2/3
+          [phi_found, phi_found] = b**2 + h**2 + 2*a**2/3
+        dC/dm_found:
+        dB/dm_found:
+        dM/dk_found:
+        dC/dk_found:
+          [x_found, x_found] = 1/2
+          [y_found, y_found] = 1/2
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2
+          [theta_found, theta_found] = 2*a**2/3
+          [phi_found, phi_found] = b**2/2 + a**2/3
+        dB/dk_found:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = 4*_tmp1
+    _tmp3 = _tmp2 + 2
+    _tmp4 = numpy.sin(alpha)
+    _tmp5 = _tmp0*_tmp4
+    _tmp6 = 4*a
+    _tmp7 = _tmp5*_tmp6
+    _tmp8 = -_tmp7
+    _tmp9 = _tmp2*h + _tmp8 + 2*h
+    _tmp10 = 6*h
+    _tmp11 = _tmp4**2
+    _tmp12 = 4*_tmp11
+    _tmp13 = -_tmp12
+    _tmp14 = h**2
+    _tmp15 = b**2
+    _tmp16 = _tmp12*_tmp15
+    _tmp17 = -_tmp16
+    _tmp18 = _tmp5*h
+    _tmp19 = 8*_tmp18*a
+    _tmp20 = a**2
+    _tmp21 = _tmp12*_tmp20
+    _tmp22 = 2*_tmp15
+    _tmp23 = _tmp15*_tmp2
+    _tmp24 = 4*_tmp20 + _tmp22 + _tmp23
+    _tmp25 = _tmp12*h + _tmp7
+    _tmp26 = _tmp2*_tmp20
+    _tmp27 = (0.6666666666666666)*_tmp20
+    _tmp28 = _tmp14 + _tmp15 + _tmp27
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_found), numpy.shape(k_found))
+    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): -_tmp9, (0, 6): -_tmp3, (0, 10): _tmp8, (1, 1): 6, (1, 3): _tmp10, (1, 7): -6, (2, 2): _tmp12, (2, 8): _tmp13, (3, 3): 6*_tmp14 + _tmp16, (3, 7): -_tmp10, (3, 9): _tmp17, (4, 4): _tmp14*_tmp2 + 2*_tmp14 - _tmp19 + _tmp21, (4, 6): _tmp9, (4, 10): _tmp6*(-_tmp11*a + _tmp18), (5, 5): _tmp24, (5, 11): -_tmp24, (6, 6): _tmp3, (6, 10): _tmp7, (7, 7): 6, (8, 8): _tmp12, (9, 9): _tmp16, (10, 10): _tmp21, (11, 11): _tmp24}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -_tmp25, (0, 6): _tmp13, (0, 10): _tmp7, (2, 2): _tmp2, (2, 8): -_tmp2, (3, 3): _tmp23, (3, 9): -_tmp23, (4, 4): _tmp12*_tmp14 + _tmp19 + _tmp26, (4, 6): _tmp25, (4, 10): _tmp6*(-_tmp1*a - _tmp18), (5, 5): _tmp16, (5, 11): _tmp17, (6, 6): _tmp12, (6, 10): _tmp8, (8, 8): _tmp2, (9, 9): _tmp23, (10, 10): _tmp26, (11, 11): _tmp16}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp22, (3, 9): -_tmp22, (8, 8): 2, (9, 9): _tmp22}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp28, (10, 10): _tmp28, (11, 11): _tmp28}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp15, (10, 10): _tmp27, (11, 11): (0.5)*_tmp15 + (0.3333333333333333)*_tmp20}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 5, 3, 12, 12)
+
+
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -2265,6 +2581,75 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
+def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
+    """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/dm_added:
+          [x, x] = 1
+          [x, theta] = h_added
+          [y, y] = 1
+          [y, psi] = -h_added
+          [z, z] = 1
+          [psi, psi] = h_added**2
+          [theta, theta] = h_added**2
+        dC/dm_added:
+        dB/dm_added:
+        dM/dh_added:
+          [x, theta] = m_added
+          [y, psi] = -m_added
+          [psi, psi] = 2*h_added*m_added
+          [theta, theta] = 2*h_added*m_added
+        dC/dh_added:
+        dB/dh_added:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _tmp13 = h_added**2
+    _tmp14 = 2*h_added*m_added
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_added), numpy.shape(h_added))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp14, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -2284,6 +2669,67 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
 
 
+def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
+    """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/dk_belt:
+        dC/dk_belt:
+          [x, x] = 1
+          [x, theta] = h_belt
+          [theta, theta] = h_belt**2
+        dB/dk_belt:
+        dM/dh_belt:
+        dC/dh_belt:
+          [x, theta] = k_belt
+          [theta, theta] = 2*h_belt*k_belt
+        dB/dh_belt:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_belt), numpy.shape(h_belt))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+
+
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -2301,6 +2747,62 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h,
     _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
     return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+
+
+def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
+    """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/dh_preload:
+        dC/dh_preload:
+          [psi, psi] = -196133*m/20000
+          [theta, theta] = -196133*m/20000
+        dB/dh_preload:
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4*_tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2*a
+    _tmp4 = 4*_tmp3
+    _tmp5 = 4*_tmp2**2
+    _tmp6 = h**2
+    _tmp7 = b**2
+    _tmp8 = _tmp5*_tmp7
+    _tmp9 = 8*_tmp3*h
+    _tmp10 = a**2
+    _tmp11 = 2*_tmp7
+    _tmp12 = _tmp1*_tmp7
+    _tmp13 = -9.80665*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
@@ -2464,6 +2966,240 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp24, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp23, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp24, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp23, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): -_tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): _tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): _tmp48, (5, 5): _tmp33}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): _tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): -_tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): -_tmp48, (5, 5): _tmp33})], axis=-3)
 
 
+def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
+    """Derivatives of isolator_stiffness() with respect to the unknowns c_h, c_v, c_m, shape
+    (..., 3, 6, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x+y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[+x-y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x-y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dmiddle[+x+y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [psi, psi] = h**2
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dmiddle[+x-y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [psi, psi] = h**2
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[+x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[+x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dmiddle[+x+y]/dc_v:
+        dmiddle[+x-y]/dc_v:
+        dcorner[+x+y]/dc_m:
+        dcorner[-x+y]/dc_m:
+        dcorner[+x-y]/dc_m:
+        dcorner[-x-y]/dc_m:
+        dmiddle[+x+y]/dc_m:
+          [z, z] = 1
+          [z, psi] = b
+          [psi, psi] = b**2
+        dmiddle[+x-y]/dc_m:
+          [z, z] = 1
+          [z, psi] = -b
+          [psi, psi] = b**2
+    """
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0*_tmp2
+    _tmp4 = -_tmp3
+    _tmp5 = _tmp3*b
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp3*a
+    _tmp8 = -_tmp1*h + _tmp7
+    _tmp9 = _tmp1*b
+    _tmp10 = -_tmp9
+    _tmp11 = _tmp2**2
+    _tmp12 = _tmp11*b
+    _tmp13 = _tmp3*h
+    _tmp14 = _tmp11*a - _tmp13
+    _tmp15 = -_tmp14
+    _tmp16 = h**2
+    _tmp17 = b**2
+    _tmp18 = _tmp11*_tmp17
+    _tmp19 = _tmp16 + _tmp18
+    _tmp20 = _tmp15*b
+    _tmp21 = a*h
+    _tmp22 = _tmp17*_tmp3
+    _tmp23 = _tmp21 + _tmp22
+    _tmp24 = a**2
+    _tmp25 = 2*_tmp21*_tmp3
+    _tmp26 = _tmp1*_tmp16 + _tmp11*_tmp24 - _tmp25
+    _tmp27 = -_tmp8*b
+    _tmp28 = _tmp1*_tmp17
+    _tmp29 = _tmp24 + _tmp28
+    _tmp30 = -a
+    _tmp31 = _tmp14*b
+    _tmp32 = -_tmp23
+    _tmp33 = -_tmp12
+    _tmp34 = _tmp8*b
+    _tmp35 = -h
+    _tmp36 = -b
+    _tmp37 = b*h
+    _tmp38 = _tmp11*h + _tmp7
+    _tmp39 = -_tmp38
+    _tmp40 = _tmp1*a + _tmp13
+    _tmp41 = -_tmp40
+    _tmp42 = _tmp41*b
+    _tmp43 = -_tmp22
+    _tmp44 = _tmp1*_tmp24 + _tmp11*_tmp16 + _tmp25
+    _tmp45 = _tmp38*b
+    _tmp46 = _tmp40*b
+    _tmp47 = _tmp39*b
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp4, (0, 3): _tmp6, (0, 4): _tmp8, (0, 5): _tmp10, (1, 1): 1, (1, 3): h, (1, 5): a, (2, 2): _tmp11, (2, 3): _tmp12, (2, 4): _tmp15, (2, 5): _tmp5, (3, 3): _tmp19, (3, 4): _tmp20, (3, 5): _tmp23, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp3, (0, 3): _tmp5, (0, 4): _tmp8, (0, 5): _tmp10, (1, 1): 1, (1, 3): h, (1, 5): _tmp30, (2, 2): _tmp11, (2, 3): _tmp12, (2, 4): _tmp14, (2, 5): _tmp6, (3, 3): _tmp19, (3, 4): _tmp31, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp4, (0, 3): _tmp5, (0, 4): _tmp8, (0, 5): _tmp9, (1, 1): 1, (1, 3): h, (1, 5): a, (2, 2): _tmp11, (2, 3): _tmp33, (2, 4): _tmp15, (2, 5): _tmp6, (3, 3): _tmp19, (3, 4): _tmp31, (3, 5): _tmp23, (4, 4): _tmp26, (4, 5): _tmp34, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp3, (0, 3): _tmp6, (0, 4): _tmp8, (0, 5): _tmp9, (1, 1): 1, (1, 3): h, (1, 5): _tmp30, (2, 2): _tmp11, (2, 3): _tmp33, (2, 4): _tmp14, (2, 5): _tmp5, (3, 3): _tmp19, (3, 4): _tmp20, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp34, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp35, (0, 5): _tmp36, (1, 1): 1, (1, 3): h, (3, 3): _tmp16, (4, 4): _tmp16, (4, 5): _tmp37, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp35, (0, 5): b, (1, 1): 1, (1, 3): h, (3, 3): _tmp16, (4, 4): _tmp16, (4, 5): -_tmp37, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp3, (0, 3): _tmp5, (0, 4): _tmp39, (0, 5): _tmp33, (2, 2): _tmp1, (2, 3): _tmp9, (2, 4): _tmp41, (2, 5): _tmp6, (3, 3): _tmp28, (3, 4): _tmp42, (3, 5): _tmp43, (4, 4): _tmp44, (4, 5): _tmp45, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp4, (0, 3): _tmp6, (0, 4): _tmp39, (0, 5): _tmp33, (2, 2): _tmp1, (2, 3): _tmp9, (2, 4): _tmp40, (2, 5): _tmp5, (3, 3): _tmp28, (3, 4): _tmp46, (3, 5): _tmp22, (4, 4): _tmp44, (4, 5): _tmp45, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp3, (0, 3): _tmp6, (0, 4): _tmp39, (0, 5): _tmp12, (2, 2): _tmp1, (2, 3): _tmp10, (2, 4): _tmp41, (2, 5): _tmp5, (3, 3): _tmp28, (3, 4): _tmp46, (3, 5): _tmp43, (4, 4): _tmp44, (4, 5): _tmp47, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp4, (0, 3): _tmp5, (0, 4): _tmp39, (0, 5): _tmp12, (2, 2): _tmp1, (2, 3): _tmp10, (2, 4): _tmp40, (2, 5): _tmp6, (3, 3): _tmp28, (3, 4): _tmp42, (3, 5): _tmp22, (4, 4): _tmp44, (4, 5): _tmp47, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp17}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp36, (3, 3): _tmp17})], axis=-3).reshape(*_shape, 3, 6, 6, 6)
+
+
 def effect_scales(m, a, b, h, alpha, c_h, c_v, c_m):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
@@ -2597,3 +3333,14 @@ EFFECT_COORDINATES = {
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
+EFFECT_DERIVATIVE_PARAMETERS = {
+    "com_offset": ("c_h", "c_v", "c_m", "dx_com", "dy_com"),
+    "cog_height": ("c_h", "c_v", "c_m", "dz_com"),
+    "rotational_stiffness": ("c_h", "c_v", "c_m", "k_bend", "k_torsion"),
+    "foundation": ("c_h", "c_v", "c_m", "m_found", "k_found"),
+    "added_mass": ("c_h", "c_v", "c_m", "m_added", "h_added"),
+    "drive_belt": ("c_h", "c_v", "c_m", "k_belt", "h_belt"),
+    "gravity_preload": ("c_h", "c_v", "c_m", "h_preload"),
+}
+"""Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
+matrices depend on, then the effect's parameters."""

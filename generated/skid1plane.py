@@ -71,13 +71,21 @@ ARGUMENTS = {
     "identify_psi_phi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_psi", "omega_phi"),
     "identify_theta_phi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_theta", "omega_phi"),
     "effect_com_offset": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dz_com"),
+    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dz_com"),
     "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
     "effect_foundation": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_found", "k_found"),
+    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_found", "k_found"),
     "effect_added_mass": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_added", "h_added"),
+    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_added", "h_added"),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
     "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "h_preload"),
+    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "h_preload"),
     "isolator_stiffness": ("a", "b", "h", "c_h", "c_z"),
+    "isolator_stiffness_gradient": ("a", "b", "h", "c_h", "c_z"),
     "effect_scales": ("m", "e", "a", "b", "h", "c_h", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -422,12 +430,13 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (0, 1)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_y ** 2,), (0, 1), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 1)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_y ** 2,), (0, 1), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
@@ -435,12 +444,13 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (0, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_z ** 2,), (0, 2), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_z ** 2,), (0, 2), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
@@ -448,12 +458,13 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (0, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_psi ** 2,), (0, 3), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_psi ** 2,), (0, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
@@ -461,12 +472,13 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (0, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_theta ** 2,), (0, 4), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_theta ** 2,), (0, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
@@ -474,12 +486,13 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (0, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_phi ** 2,), (0, 5), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_phi ** 2,), (0, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
@@ -487,12 +500,13 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (1, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_z ** 2,), (1, 2), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_z ** 2,), (1, 2), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
@@ -500,12 +514,13 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (1, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_psi ** 2,), (1, 3), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_psi ** 2,), (1, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
@@ -513,12 +528,13 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (1, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_theta ** 2,), (1, 4), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_theta ** 2,), (1, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
@@ -526,12 +542,13 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (1, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_phi ** 2,), (1, 5), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_phi ** 2,), (1, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
@@ -539,12 +556,13 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (2, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_psi ** 2,), (2, 3), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_psi ** 2,), (2, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
@@ -552,12 +570,13 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (2, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_theta ** 2,), (2, 4), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_theta ** 2,), (2, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
@@ -565,12 +584,13 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (2, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_phi ** 2,), (2, 5), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_phi ** 2,), (2, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
@@ -578,12 +598,13 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (3, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_theta ** 2,), (3, 4), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (3, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_theta ** 2,), (3, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
@@ -591,12 +612,13 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (3, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_phi ** 2,), (3, 5), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (3, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_phi ** 2,), (3, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
@@ -604,12 +626,13 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
 
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of (0.1, 1.0, 10.0) (9 starts). A root outside all
-    their basins (unknowns in ratios far from the nominal ones) is missed.
+    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
+    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
+    is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 1.0, 10.0), _model, (4, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_theta ** 2, omega_phi ** 2,), (4, 5), UNKNOWN, MODE_BLOCK, n_roots=9)
+    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (4, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_theta ** 2, omega_phi ** 2,), (4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
 
 
 def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
@@ -640,6 +663,58 @@ def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, 
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*(dx_com + e), (4, 4): _tmp1*(_tmp3 + dx_com), (5, 5): m*(_tmp2 + _tmp3*dx_com + dx_com**2)}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
 
 
+def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
+    """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/ddx_com:
+          [y, phi] = m
+          [z, theta] = -m
+          [psi, theta] = -dy_com*m
+          [theta, theta] = dx_com*m + m*(dx_com + 2*e)
+          [phi, phi] = m*(2*dx_com + 2*e)
+        dC/ddx_com:
+        dB/ddx_com:
+        dM/ddy_com:
+          [x, phi] = -m
+          [z, psi] = m
+          [psi, psi] = 2*dy_com*m
+          [psi, theta] = -m*(dx_com + e)
+          [phi, phi] = 2*dy_com*m
+        dC/ddy_com:
+        dB/ddy_com:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _tmp4 = -m
+    _tmp5 = dy_com*m
+    _tmp6 = 2*e
+    _tmp7 = 2*_tmp5
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): dx_com*m + m*(_tmp6 + dx_com), (5, 5): m*(_tmp6 + 2*dx_com)}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp7, (3, 4): -m*(dx_com + e), (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
     """M, C, B of the model extended by the candidate effect cog_height (centre-of-mass height error),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -663,6 +738,47 @@ def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (3, 5): -_tmp0*e, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
 
 
+def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
+    """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
+    shape (..., 3, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/ddz_com:
+          [x, theta] = m
+          [y, psi] = -m
+          [psi, psi] = 2*dz_com*m
+          [psi, phi] = -e*m
+          [theta, theta] = 2*dz_com*m
+        dC/ddz_com:
+        dB/ddz_com:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _tmp4 = 2*dz_com*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dz_com))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (3, 5): -e*m, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+
+
 def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -681,6 +797,47 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
     _tmp0 = 4*k_bend
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(a, b, h, b_h, b_z))
+
+
+def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
+    """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dk_bend:
+        dC/dk_bend:
+          [psi, psi] = 4
+          [theta, theta] = 4
+        dB/dk_bend:
+        dM/dk_torsion:
+        dC/dk_torsion:
+          [phi, phi] = 4
+        dB/dk_torsion:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
@@ -784,6 +941,76 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
     return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (1, 5): _tmp0, (2, 2): m, (2, 4): -_tmp0, (3, 3): J_x, (4, 4): J_y + _tmp2, (5, 5): J_z + _tmp2, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp7, (10, 10): _tmp7, (11, 11): _tmp7}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp8, (0, 4): _tmp10, (0, 6): _tmp11, (1, 1): _tmp8, (1, 3): _tmp9, (1, 7): _tmp11, (2, 2): _tmp12, (2, 8): -_tmp12, (3, 3): 4*_tmp13 + 4*_tmp5*c_z, (3, 7): _tmp10, (3, 9): -_tmp12*_tmp5, (4, 4): 4*_tmp13 + 4*_tmp4*c_z, (4, 6): _tmp9, (4, 10): -_tmp12*_tmp4, (5, 5): _tmp14, (5, 11): -_tmp14, (6, 6): _tmp16, (7, 7): _tmp16, (8, 8): _tmp17, (9, 9): _tmp17*_tmp5, (10, 10): _tmp17*_tmp4, (11, 11): _tmp15*_tmp4 + _tmp15*_tmp5 + _tmp4*_tmp8 + _tmp5*_tmp8}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp18, (0, 4): _tmp20, (0, 6): _tmp21, (1, 1): _tmp18, (1, 3): _tmp19, (1, 7): _tmp21, (2, 2): _tmp22, (2, 8): -_tmp22, (3, 3): 4*_tmp23 + 4*_tmp5*b_z, (3, 7): _tmp20, (3, 9): -_tmp24, (4, 4): 4*_tmp23 + 4*_tmp4*b_z, (4, 6): _tmp19, (4, 10): -_tmp25, (5, 5): _tmp26, (5, 11): -_tmp26, (6, 6): _tmp18, (7, 7): _tmp18, (8, 8): _tmp22, (9, 9): _tmp24, (10, 10): _tmp25, (11, 11): _tmp26}))
 
 
+def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
+    """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
+    shape (..., 4, 3, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [x, x_found] = -4
+          [y, y] = 4
+          [y, psi] = 4*h
+          [y, y_found] = -4
+          [psi, psi] = 4*h**2
+          [psi, y_found] = -4*h
+          [theta, theta] = 4*h**2
+          [theta, x_found] = 4*h
+          [phi, phi] = 4*a**2 + 4*b**2
+          [phi, phi_found] = -4*a**2 - 4*b**2
+          [x_found, x_found] = 4
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 4*b**2
+          [psi, psi_found] = -4*b**2
+          [theta, theta] = 4*a**2
+          [theta, theta_found] = -4*a**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 4*b**2
+          [theta_found, theta_found] = 4*a**2
+        dB/dc_z:
+        dM/dm_found:
+          [x_found, x_found] = 1
+          [y_found, y_found] = 1
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = a**2 + b**2 + e**2 + h**2
+          [theta_found, theta_found] = a**2 + b**2 + e**2 + h**2
+          [phi_found, phi_found] = a**2 + b**2 + e**2 + h**2
+        dC/dm_found:
+        dB/dm_found:
+        dM/dk_found:
+        dC/dk_found:
+          [x_found, x_found] = 1/2
+          [y_found, y_found] = 1/2
+          [z_found, z_found] = 1
+          [psi_found, psi_found] = b**2
+          [theta_found, theta_found] = a**2
+          [phi_found, phi_found] = a**2/2 + b**2/2
+        dB/dk_found:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found)
+    _tmp0 = 4*h
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 4*_tmp2
+    _tmp4 = a**2
+    _tmp5 = 4*_tmp4
+    _tmp6 = b**2
+    _tmp7 = 4*_tmp6
+    _tmp8 = _tmp5 + _tmp7
+    _tmp9 = _tmp2 + _tmp4 + _tmp6 + e**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
+    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp8, (5, 11): -_tmp8, (6, 6): 4, (7, 7): 4, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp7, (3, 9): -_tmp7, (4, 4): _tmp5, (4, 10): -_tmp5, (8, 8): 4, (9, 9): _tmp7, (10, 10): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp6, (10, 10): _tmp4, (11, 11): (0.5)*_tmp4 + (0.5)*_tmp6}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 4, 3, 12, 12)
+
+
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -809,6 +1036,57 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
 
 
+def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
+    """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dm_added:
+          [x, x] = 1
+          [x, theta] = h_added
+          [y, y] = 1
+          [y, psi] = -h_added
+          [z, z] = 1
+          [psi, psi] = h_added**2
+          [theta, theta] = h_added**2
+        dC/dm_added:
+        dB/dm_added:
+        dM/dh_added:
+          [x, theta] = m_added
+          [y, psi] = -m_added
+          [psi, psi] = 2*h_added*m_added
+          [theta, theta] = 2*h_added*m_added
+        dC/dh_added:
+        dB/dh_added:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _tmp4 = h_added**2
+    _tmp5 = 2*h_added*m_added
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
     """M, C, B of the model extended by the candidate effect drive_belt (a belt or coupling stiffness acting along x),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -828,6 +1106,49 @@ def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, 
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, b_h, b_z))
 
 
+def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
+    """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
+    shape (..., 4, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dk_belt:
+        dC/dk_belt:
+          [x, x] = 1
+          [x, theta] = h_belt
+          [theta, theta] = h_belt**2
+        dB/dk_belt:
+        dM/dh_belt:
+        dC/dh_belt:
+          [x, theta] = k_belt
+          [theta, theta] = 2*h_belt*k_belt
+        dB/dh_belt:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+
+
 def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
     """M, C, B of the model extended by the candidate effect gravity_preload (rocking geometric stiffness of the preloaded isolators),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -845,6 +1166,44 @@ def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_p
     _tmp0 = -9.80665*h_preload*m
     _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(h_preload))
     return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, b_h, b_z))
+
+
+def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
+    """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
+    shape (..., 3, 3, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/dh_preload:
+        dC/dh_preload:
+          [psi, psi] = -196133*m/20000
+          [theta, theta] = -196133*m/20000
+        dB/dh_preload:
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload)
+    _tmp0 = 4*h
+    _tmp1 = 4*h**2
+    _tmp2 = 4*a**2
+    _tmp3 = 4*b**2
+    _tmp4 = -9.80665*m
+    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(h_preload))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_h, c_z):
@@ -945,6 +1304,107 @@ def isolator_stiffness(a, b, h, c_h, c_z):
     return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp5, (2, 4): _tmp7, (3, 3): _tmp10, (3, 4): _tmp12, (3, 5): _tmp13, (4, 4): _tmp15, (4, 5): _tmp16, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp18, (2, 4): _tmp7, (3, 3): _tmp10, (3, 4): _tmp11, (3, 5): _tmp13, (4, 4): _tmp15, (4, 5): _tmp19, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp20, (2, 2): c_z, (2, 3): _tmp5, (2, 4): _tmp6, (3, 3): _tmp10, (3, 4): _tmp11, (3, 5): _tmp21, (4, 4): _tmp15, (4, 5): _tmp16, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp20, (2, 2): c_z, (2, 3): _tmp18, (2, 4): _tmp6, (3, 3): _tmp10, (3, 4): _tmp12, (3, 5): _tmp21, (4, 4): _tmp15, (4, 5): _tmp19, (5, 5): _tmp17})], axis=-3)
 
 
+def isolator_stiffness_gradient(a, b, h, c_h, c_z):
+    """Derivatives of isolator_stiffness() with respect to the unknowns c_h, c_z, shape
+    (..., 2, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dend[+x+y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a**2 + b**2
+        dend[+x-y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a**2 + b**2
+        dother_end[+x+y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a**2 + b**2
+        dother_end[+x-y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a**2 + b**2
+        dend[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dend[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = a*h
+    _tmp4 = b*h
+    _tmp5 = a**2
+    _tmp6 = b**2
+    _tmp7 = _tmp5 + _tmp6
+    _tmp8 = -_tmp4
+    _tmp9 = -a
+    _tmp10 = -_tmp3
+    _tmp11 = a*b
+    _tmp12 = -_tmp11
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp3, (4, 4): _tmp2, (4, 5): _tmp4, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp3, (4, 4): _tmp2, (4, 5): _tmp8, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): h, (1, 5): _tmp9, (3, 3): _tmp2, (3, 5): _tmp10, (4, 4): _tmp2, (4, 5): _tmp4, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (1, 1): 1, (1, 3): h, (1, 5): _tmp9, (3, 3): _tmp2, (3, 5): _tmp10, (4, 4): _tmp2, (4, 5): _tmp8, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5})], axis=-3).reshape(*_shape, 2, 4, 6, 6)
+
+
 def effect_scales(m, e, a, b, h, c_h, c_z):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
@@ -1018,21 +1478,21 @@ INVERSES = {
 }
 """Inverse solution per set of given distinct frequencies (labels in UNIQUE_MODES order)."""
 INVERSE_ROOTS = {
-    ("x", "y"): 9,
-    ("x", "z"): 9,
-    ("x", "psi"): 9,
-    ("x", "theta"): 9,
-    ("x", "phi"): 9,
-    ("y", "z"): 9,
-    ("y", "psi"): 9,
-    ("y", "theta"): 9,
-    ("y", "phi"): 9,
-    ("z", "psi"): 9,
-    ("z", "theta"): 9,
-    ("z", "phi"): 9,
-    ("psi", "theta"): 9,
-    ("psi", "phi"): 9,
-    ("theta", "phi"): 9,
+    ("x", "y"): 81,
+    ("x", "z"): 81,
+    ("x", "psi"): 81,
+    ("x", "theta"): 81,
+    ("x", "phi"): 81,
+    ("y", "z"): 81,
+    ("y", "psi"): 81,
+    ("y", "theta"): 81,
+    ("y", "phi"): 81,
+    ("z", "psi"): 81,
+    ("z", "theta"): 81,
+    ("z", "phi"): 81,
+    ("psi", "theta"): 81,
+    ("psi", "phi"): 81,
+    ("theta", "phi"): 81,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
 NUMERIC_INVERSES = {
@@ -1079,3 +1539,14 @@ EFFECT_COORDINATES = {
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
+EFFECT_DERIVATIVE_PARAMETERS = {
+    "com_offset": ("c_h", "c_z", "dx_com", "dy_com"),
+    "cog_height": ("c_h", "c_z", "dz_com"),
+    "rotational_stiffness": ("c_h", "c_z", "k_bend", "k_torsion"),
+    "foundation": ("c_h", "c_z", "m_found", "k_found"),
+    "added_mass": ("c_h", "c_z", "m_added", "h_added"),
+    "drive_belt": ("c_h", "c_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_h", "c_z", "h_preload"),
+}
+"""Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
+matrices depend on, then the effect's parameters."""

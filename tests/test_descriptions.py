@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
+import scipy.linalg
 import tomllib
 
 from mountid.engine.description import parse, shipped_descriptions
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
+from mountid.machine import module_from_description
 
 
 def kid300_data() -> dict:
@@ -63,3 +68,28 @@ def test_less_symmetric_description_gets_numeric_blocks():
     structure = build(data)
     assert sorted(b.coordinates for b in structure.blocks) == [("x", "z", "theta"), ("y", "psi", "phi")]
     assert not structure.closed_form
+
+
+@pytest.mark.slow
+def test_sixteen_mounts_in_four_groups_with_six_unknowns():
+    """The engine issue's scale limit (tests/data/plant16.toml: sixteen mounts in four groups off the planes,
+    two groups inclined, J_x != J_y, c_x != c_y, six unknowns), generated from its file as a researcher
+    would (into this run's cache): frequencies as a direct eigen-solve gives them, and the six frequencies
+    give back the six stiffnesses. Its generation time is in `make bench`."""
+    mod = module_from_description(Path(__file__).parent / "data" / "plant16.toml")
+    assert len(mod.ISOLATORS) == 16 and len(mod.UNKNOWN) == 6
+    nominal = {n: p["value"] for n, p in mod.PARAMETERS.items()}
+    rng = np.random.default_rng(16)
+    for _ in range(5):
+        values = {n: v * 10 ** rng.uniform(-0.3, 0.3) for n, v in nominal.items()}
+        lam = mod.squared_frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
+        m = mod.mass_matrix(**{a: values[a] for a in mod.ARGUMENTS["mass_matrix"]})
+        c = mod.stiffness_matrix(**{a: values[a] for a in mod.ARGUMENTS["stiffness_matrix"]})
+        np.testing.assert_allclose(np.sort(lam), scipy.linalg.eigh(c, m, eigvals_only=True), rtol=1e-10)
+        (key,) = mod.INVERSES
+        known = {a: values[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
+        omega = np.sqrt(lam)
+        roots = mod.INVERSES[key](**known, **{f"omega_{k}": omega[mod.MODES.index(k)] for k in key})
+        found = np.array([roots.parameters[u][roots.admissible] for u in mod.UNKNOWN])
+        truth = np.array([values[u] for u in mod.UNKNOWN])
+        assert np.min(np.max(np.abs(found / truth[:, None] - 1), axis=0)) <= 1e-9

@@ -143,3 +143,40 @@ def test_a_description_may_not_use_an_effect_parameter_name():
     text = (ROOT / "derivations" / "kid300.toml").read_text().replace("L_z ", "h_belt ").replace("L_z", "h_belt")
     with pytest.raises(DescriptionError, match="parameters.h_belt: is reserved"):
         parse(tomllib.loads(text))
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+@pytest.mark.parametrize("effect", GENERATED_EFFECTS)
+def test_generated_effect_derivatives_match_sympy_at_high_precision(machine, effect):
+    """effect_<name>_derivatives() against sympy's derivative of the extended M, C, B at 30 digits."""
+    mod = generated(machine)
+    ext = ExtendedModel(SymbolicModel(load(ROOT / "derivations" / f"{machine}.toml")), EFFECTS[effect])
+    values = _values(mod)
+    numeric = call(mod, f"effect_{effect}_derivatives", values)
+    names = mod.EFFECT_DERIVATIVE_PARAMETERS[effect]
+    assert names[-len(ext.symbols) :] == tuple(ext.symbols)
+    assert set(names[: -len(ext.symbols)]) <= set(mod.UNKNOWN)
+    symbols = {**ext.model.symbols, **ext.symbols}
+    subs = {s: values[n] for n, s in symbols.items()}
+    with mpmath.workdps(30):
+        for k, p in enumerate(names):
+            for i, name in enumerate("MCB"):
+                exact = np.array(getattr(ext, name).diff(symbols[p]).evalf(30, subs=subs).tolist(), dtype=float)
+                scale = max(np.max(np.abs(exact)), np.max(np.abs(numeric[k, i])), 1e-300)
+                assert np.max(np.abs(numeric[k, i] - exact)) <= 1e-13 * scale, (p, name)
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolator_stiffness_gradient_matches_a_central_difference(machine):
+    """Each isolator's stiffness is linear in the unknown stiffnesses: the central difference is exact up
+    to rounding."""
+    mod = generated(machine)
+    values = _values(mod)
+    grad = call(mod, "isolator_stiffness_gradient", values)
+    assert grad.shape == (len(mod.UNKNOWN), len(mod.ISOLATORS), 6, 6)
+    for k, u in enumerate(mod.UNKNOWN):
+        h = 1e-3 * values[u]
+        up = call(mod, "isolator_stiffness", {**values, u: values[u] + h})
+        down = call(mod, "isolator_stiffness", {**values, u: values[u] - h})
+        numeric = (up - down) / (2 * h)
+        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * np.max(np.abs(numeric))), u

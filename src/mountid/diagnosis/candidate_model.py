@@ -126,6 +126,11 @@ class CandidateModel:
                 hi.append(b + (b - a))
         return np.array(lo), np.array(hi)
 
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the entries of the flat vector: the unknowns, then the effect parameters."""
+        return tuple(self.unknown) + tuple(p.name for p in self.effect_parameters)
+
     def physical(self, theta: np.ndarray) -> dict[str, float]:
         """Unknowns [SI] and effect parameters [their units] from the flat vector."""
         n = len(self.unknown)
@@ -152,23 +157,30 @@ class CandidateModel:
         return np.array(d)
 
     # -- the model -------------------------------------------------------------------------------------
-    def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
-        """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
+    def evaluate(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Evaluation:
+        """Every intermediate of :meth:`predict` (the analytic Jacobian of a fit differentiates them)."""
         values = {**self.known, **self.physical(theta)}
-        m, c, b = self.strategy.matrices(self, values)
+        mats = self.strategy.matrices(self, values)
+        m, c, _ = mats
         lam, vec = scipy.linalg.eigh(c, m)
         body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         order = label_modes(lam, body, self.reference_lambda, self.reference, share)
-        omega = self.strategy.frequencies(self, values, (m, c, b), lam)
-        body = scaled_unit(self.strategy.shapes(self, values, vec), self.length)  # as the sensors read it
-        rows = self._rows if labels is None else [self.mod.MODES.index(label) for label in labels]
+        omega = self.strategy.frequencies(self, values, mats, lam)
+        shapes = self.strategy.shapes(self, values, vec)  # the body motion as the sensors read it
+        rows = np.array(self._rows if labels is None else [self.mod.MODES.index(label) for label in labels])
         index = order[rows]
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
-        weight = np.exp(-(gap**2))
-        partners = weight > 1e-3
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, rows, gap, np.exp(-(gap**2)))
+
+    def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
+        """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
+        e = self.evaluate(theta, labels)
+        lam, index, weight = e.lam, e.index, e.weight
+        body = scaled_unit(e.shapes, self.length)
+        partners = weight > PARTNER_WEIGHT
         shapes = list(body[:, index].T)
         clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
         spans: dict[bytes, np.ndarray] = {}
@@ -178,10 +190,39 @@ class CandidateModel:
             if key not in spans:
                 spans[key] = _orthonormal(body[:, partners[k]])
             near = np.flatnonzero(partners[k])
-            exact = np.all(np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j]))
             # the weakest partner sets how far the mix is allowed
-            clusters[k] = (spans[key], 1.0 if exact else float(np.min(weight[k, near])))
-        return Prediction(omega[index], shapes, clusters)
+            clusters[k] = (spans[key], 1.0 if exact_twins(lam, j, near) else float(np.min(weight[k, near])))
+        return Prediction(e.omega[index], shapes, clusters)
+
+
+PARTNER_WEIGHT = 1e-3
+"""A model mode whose closeness weight to a labelled mode exceeds this is a partner: the measured shape is
+compared with the span of the partners (see :meth:`CandidateModel.predict`)."""
+
+
+def exact_twins(lam: np.ndarray, j: int, near: np.ndarray) -> bool:
+    """Whether the modes ``near`` all have the eigenvalue of mode ``j`` (twins; relative :data:`_DEGENERATE`)."""
+    return bool(np.all(np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j])))
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The candidate model at one parameter vector: parameter ``values``, matrices ``mats`` (M, C, B), the
+    eigenvalues ``lam`` and M-normalised eigenvectors ``vec`` of (C, M), the model frequencies ``omega``
+    [rad/s] and body ``shapes`` (6, n) of every mode, the model mode ``index`` of each labelled mode (rows
+    ``rows`` of MODES), and the closeness ``gap`` (in units of the measured resolution) and ``weight`` of
+    every model mode to each labelled one."""
+
+    values: dict[str, float]
+    mats: tuple
+    lam: np.ndarray
+    vec: np.ndarray
+    omega: np.ndarray
+    shapes: np.ndarray
+    index: np.ndarray
+    rows: np.ndarray
+    gap: np.ndarray
+    weight: np.ndarray
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:

@@ -13,6 +13,7 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
+from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect
 from mountid.identification.statistics import covariance, standard_deviations
 
@@ -144,22 +145,52 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
         ]
     )
 
+    n_rows = len(data.labels) + 6 * len(data.shape_labels)
+
     def fun(theta: np.ndarray) -> np.ndarray:
         try:
             r = data.residuals(model.predict(theta))
         except (np.linalg.LinAlgError, ValueError):
-            r = np.full(len(data.labels) + 6 * len(data.shape_labels), _FAILED)
+            r = np.full(n_rows, _FAILED)
         prior = PRIOR_WEIGHT * (theta[n:] - start[n:]) / width
         return np.concatenate([r if rows is None else r[rows], prior])
 
-    return fun
+    prior_rows = np.zeros((len(width), len(start)))
+    prior_rows[:, n:] = np.diag(PRIOR_WEIGHT / width)
+
+    def jac(theta: np.ndarray) -> np.ndarray:
+        """Analytic (mountid.diagnosis.jacobian); forward differences where it is undefined (twins split)."""
+        try:
+            j = jacobian(model, data, theta)
+        except (np.linalg.LinAlgError, ValueError):
+            return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
+        if j is None:
+            return forward_differences(fun, theta, *model.bounds())
+        return np.concatenate([j if rows is None else j[rows], prior_rows])
+
+    return fun, jac
+
+
+def forward_differences(fun, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """d fun / d theta by forward differences with scipy's 2-point step (sqrt(eps) max(1, |theta|)),
+    stepping backwards where the forward step would leave the bounds."""
+    f0 = fun(theta)
+    out = np.empty((len(f0), len(theta)))
+    for i, x in enumerate(theta):
+        h = math.sqrt(np.finfo(float).eps) * max(1.0, abs(x))
+        if x + h > hi[i]:
+            h = -h
+        step = theta.copy()
+        step[i] = x + h
+        out[:, i] = (fun(step) - f0) / (step[i] - x)
+    return out
 
 
 def _least_squares(
     model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None, mandatory: int = 1
 ):
     lo, hi = model.bounds()
-    fun = _residual_function(model, data, rows)
+    fun, jac = _residual_function(model, data, rows)
     best = None
     finite = np.isfinite(lo)
     inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
@@ -170,7 +201,15 @@ def _least_squares(
             break  # fits to noise level: the remaining starts are not needed
         x0 = np.clip(x0, inner_lo, inner_hi)
         res = scipy.optimize.least_squares(
-            fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-7, xtol=1e-7, max_nfev=100 if i == 0 else 30
+            fun,
+            x0,
+            jac=jac,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale="jac",
+            ftol=1e-7,
+            xtol=1e-7,
+            max_nfev=100 if i == 0 else 30,
         )
         if best is None or res.cost < best.cost:
             best = res

@@ -22,10 +22,11 @@ import scipy.optimize
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.statistics import covariance, standard_deviations
-from mountid.machine import Machine, call, damped_poles, matrices, sensor_row
+from mountid.machine import Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
 from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Record
+from mountid.measurement.settings import RECORDS, RecordSettings
 
 
 @dataclass(frozen=True)
@@ -135,6 +136,24 @@ def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
     return np.where(poles != 0, np.abs(poles), undamped)
 
 
+def pole_frequency_derivatives(machine: Machine, values: dict[str, float], names: tuple[str, ...]) -> np.ndarray:
+    """d omega_n / dq [rad/s per unit of q] of :func:`pole_frequencies` for the parameters ``names``, shape
+    (n_names, n_modes): d|p| = Re(conj(p) dp) / |p| with dp from the generated matrix derivatives
+    (:func:`mountid.machine.damped_pole_derivatives`); a mode that does not oscillate keeps the undamped
+    derivative d lambda / (2 omega)."""
+    mod = machine.module
+    fwd = {a: values[a] for a in mod.FORWARD_ARGUMENTS}
+    lam = np.asarray(mod.squared_frequencies(**fwd))
+    d = np.asarray(call(mod, "matrix_derivatives", values))
+    rows = [mod.DERIVATIVE_PARAMETERS.index(n) for n in names]
+    poles, d_p = damped_pole_derivatives(*matrices(mod, values), lam, d[rows, 0], d[rows, 1], d[rows, 2])
+    fwd_rows = [mod.FORWARD_ARGUMENTS.index(n) for n in names]
+    undamped = np.asarray(mod.squared_frequency_derivatives(**fwd))[fwd_rows] / (2 * np.sqrt(lam))
+    magnitude = np.abs(poles)
+    damped = (np.conj(poles) * d_p).real / np.where(magnitude > 0, magnitude, 1.0)
+    return np.where(poles != 0, damped, undamped)
+
+
 def fit_stiffness(
     machine: Machine,
     known: dict[str, float],
@@ -174,13 +193,17 @@ def fit_stiffness(
     columns = [mod.FORWARD_ARGUMENTS.index(u) for u in unknown]
 
     def jacobian(logp):
-        """d residual / d log p from the generated analytic derivatives (undamped model):
-        d omega / d p = (d lambda / d p) / (2 omega)."""
+        """d residual / d log p from the generated analytic derivatives: d omega / d p = (d lambda / d p) /
+        (2 omega) for the undamped model, d|p| through the damped poles (pole_frequency_derivatives)."""
         p = np.exp(logp)
         values = {**knowns, **dict(zip(unknown, p, strict=True))}
-        d_lam = mod.squared_frequency_derivatives(**values)[columns][:, idx]  # (n_unknown, n_labels)
-        w = mod.frequencies(**values)[idx]
-        return (d_lam / (2 * w)).T * p[None, :] / std[:, None]
+        if damping is None:
+            d_lam = mod.squared_frequency_derivatives(**values)[columns][:, idx]  # (n_unknown, n_labels)
+            d_omega = d_lam / (2 * mod.frequencies(**values)[idx])
+        else:
+            full = machine.values({**known, **damping, **values}, tuple(machine.parameters))
+            d_omega = pole_frequency_derivatives(machine, full, unknown)[:, idx]
+        return d_omega.T * p[None, :] / std[:, None]
 
     starts = []
     for key in itertools.combinations(labels, len(unknown)):
@@ -191,12 +214,7 @@ def fit_stiffness(
     if not starts:
         raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
     fits = sorted(
-        (
-            scipy.optimize.least_squares(
-                residual, s, jac=jacobian if damping is None else "2-point", x_scale=1.0, xtol=1e-14, ftol=1e-14
-            )
-            for s in starts
-        ),
+        (scipy.optimize.least_squares(residual, s, jac=jacobian, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts),
         key=lambda f: f.cost,
     )
     tied = [fits[0]]
@@ -263,18 +281,23 @@ def fit_damping(
 
 
 def modal_data(
-    machine: Machine, record: Record, known: dict[str, float], start: float, nominal: dict[str, float] | None = None
+    machine: Machine,
+    record: Record,
+    known: dict[str, float],
+    start: float,
+    nominal: dict[str, float] | None = None,
+    settings: RecordSettings = RECORDS,
 ) -> tuple[dict[str, MeasuredMode], list[modal.Pole], list[modal.QualityWarning]]:
     """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes, the poles left
     unlabelled, and the record's quality warnings. ``nominal`` values of the unknowns (default: the
-    description's) only serve to label the modes."""
+    description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
     guess = {**known, **(nominal or {})}
     nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
     top = float(np.max(nominal_omega))
     poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top)
+    warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top, settings=settings)
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
         raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
@@ -311,11 +334,12 @@ def identify_from_record(
     start: float,
     nominal: dict[str, float] | None = None,
     use: tuple[str, ...] | None = None,
+    settings: RecordSettings = RECORDS,
 ) -> Identification:
     """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes (modal_data) -> unknown
     stiffnesses from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the
     paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios."""
-    modes, rest, warnings = modal_data(machine, record, known, start, nominal)
+    modes, rest, warnings = modal_data(machine, record, known, start, nominal, settings)
     chosen = modes
     if use is not None:
         missing = [lab for lab in use if lab not in modes]

@@ -5,7 +5,16 @@ Depends on the runtime and the generated modules only (numpy); the engine is imp
 generate a description file that is not cached yet.
 """
 
-from mountid.machine.dynamics import call, damped_poles, matrices, sensor_row, state_matrix, unit_vector
+from mountid.machine.dynamics import (
+    call,
+    damped_modes,
+    damped_pole_derivatives,
+    damped_poles,
+    matrices,
+    sensor_row,
+    state_matrix,
+    unit_vector,
+)
 from mountid.machine.model import Machine, Solution
 from mountid.machine.modules import GeneratedModule, cache_folder, module_from_description, shipped_machines
 
@@ -15,6 +24,8 @@ __all__ = [
     "Solution",
     "cache_folder",
     "call",
+    "damped_modes",
+    "damped_pole_derivatives",
     "damped_poles",
     "matrices",
     "module_from_description",

@@ -43,15 +43,52 @@ def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArr
 
     The damped frequency a spectrum shows is ``p.imag`` (omega_d); the natural frequency a pole fit of a
     free decay reports is ``abs(p)`` (omega_n, with zeta = -p.real / abs(p))."""
+    return damped_modes(mass, stiffness, damping, lam)[0]
+
+
+def damped_modes(
+    mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """The poles of :func:`damped_poles` and their mode shapes x (columns, (n, n); zero for a mode that
+    does not oscillate): (M p^2 + B p + C) x = 0."""
     n = len(mass)
-    poles = np.linalg.eigvals(state_matrix(mass, stiffness, damping))
-    upper = poles[poles.imag > 0]
-    upper = upper[np.argsort(upper.imag, kind="stable")]
-    if len(upper) < n:
-        upper = np.concatenate([upper, np.zeros(n - len(upper), dtype=complex)])
-    out = np.empty(n, dtype=complex)
-    out[np.argsort(lam, kind="stable")] = upper[:n]
-    return out
+    poles, vectors = np.linalg.eig(state_matrix(mass, stiffness, damping))
+    upper = np.flatnonzero(poles.imag > 0)
+    upper = upper[np.argsort(poles[upper].imag, kind="stable")][:n]
+    out = np.zeros(n, dtype=complex)
+    shapes = np.zeros((n, n), dtype=complex)
+    slots = np.argsort(lam, kind="stable")[: len(upper)]
+    out[slots] = poles[upper]
+    shapes[:, slots] = vectors[:n, upper]
+    return out, shapes
+
+
+def damped_pole_derivatives(
+    mass: NDArray,
+    stiffness: NDArray,
+    damping: NDArray,
+    lam: NDArray,
+    d_mass: NDArray,
+    d_stiffness: NDArray,
+    d_damping: NDArray,
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """The poles of :func:`damped_poles` and their derivatives dp/dq [rad/s per unit of q] for parameters q
+    with d(M, C, B)/dq given as (n_q, n, n) arrays. For symmetric M, B, C the left and right eigenvectors
+    of the quadratic problem coincide (unconjugated), so
+
+        dp = -x^T (p^2 M' + p B' + C') x / x^T (2 p M + B) x;
+
+    shape (n_q, n); zero for a mode that does not oscillate."""
+    poles, x = damped_modes(mass, stiffness, damping, lam)
+    p = poles[None, :]
+    top = (
+        p**2 * np.einsum("ak,qab,bk->qk", x, d_mass, x)
+        + p * np.einsum("ak,qab,bk->qk", x, d_damping, x)
+        + np.einsum("ak,qab,bk->qk", x, d_stiffness, x)
+    )
+    bottom = 2 * poles * np.einsum("ak,ab,bk->k", x, mass, x) + np.einsum("ak,ab,bk->k", x, damping, x)
+    oscillates = poles != 0
+    return poles, np.where(oscillates[None, :], -top / np.where(oscillates, bottom, 1.0)[None, :], 0.0)
 
 
 def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:

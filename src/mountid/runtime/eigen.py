@@ -113,3 +113,26 @@ def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int,
     """d lambda_k / d theta_j for the given modes and the unknown stiffnesses (M does not depend on them),
     shape (N, n_modes_given, n_unknowns) from phi (N, 6, n_modes), dc (N, n_unknowns, 6, 6)."""
     return np.swapaxes(eigenvalue_derivatives(None, dc, phi[:, :, list(mode_index)], None), -1, -2)
+
+
+def eigenvector_derivatives(
+    d_mass: NDArray, d_stiffness: NDArray, phi: NDArray, lam: NDArray, degenerate_rtol: float = 1e-6
+) -> NDArray[np.float64]:
+    """d phi_k / d p of the mass-normalised modes of (C, M) by modal expansion (Fox and Kapoor):
+
+        phi_k' = sum_{j != k} phi_j phi_j^T (C' - lambda_k M') phi_k / (lambda_k - lambda_j)
+                 - phi_k (phi_k^T M' phi_k) / 2,
+
+    exact when ``phi`` (n, n) holds every mode. Modes within ``degenerate_rtol`` (relative) of mode k are
+    left out of its sum: within a degenerate subspace the eigenvectors are not differentiable (any rotation
+    of them is a basis), and only the motion of the subspace itself is defined. From dM/dp, dC/dp
+    (n_p, n, n), phi (n, n), lam (n,); shape (n_p, n, n): [p, :, k] = d phi_k / d p."""
+    forcing = np.einsum("aj,pab,bk->pjk", phi, d_stiffness, phi) - lam[None, None, :] * np.einsum(
+        "aj,pab,bk->pjk", phi, d_mass, phi
+    )
+    gap = lam[None, :] - lam[:, None]  # [j, k] = lambda_k - lambda_j
+    near = np.abs(gap) <= degenerate_rtol * np.abs(lam)[None, :]
+    coefficient = np.where(near[None], 0.0, forcing / np.where(near, 1.0, gap)[None])
+    own = np.einsum("ak,pab,bk->pk", phi, d_mass, phi)
+    coefficient[:, np.arange(len(lam)), np.arange(len(lam))] = -0.5 * own
+    return np.einsum("aj,pjk->pak", phi, coefficient)

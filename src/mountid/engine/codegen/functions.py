@@ -88,16 +88,23 @@ def _matrices_function(
     return fn
 
 
-EffectFunctions = tuple[list[Function], dict[str, tuple[str, ...]], tuple[str, ...]]
+@dataclass(frozen=True)
+class EffectFunctions:
+    """The candidate-effect part of a generated module: its functions, the coordinates of each effect's
+    extended model, the parameters of each effect_<name>_derivatives(), and the isolator names."""
+
+    functions: list[Function]
+    coordinates: dict[str, tuple[str, ...]]
+    derivative_parameters: dict[str, tuple[str, ...]]
+    isolators: tuple[str, ...]
 
 
 def effect_functions(model: SymbolicModel) -> EffectFunctions:
-    """Extended matrices of every generated effect, the isolators' own stiffness matrices, the scales.
-
-    Returns the functions, the coordinates of each effect's extended model, and the isolator names.
-    """
+    """Extended matrices of every generated effect and their derivatives, the isolators' own stiffness
+    matrices and their gradient, the scales."""
     functions = []
     coords = {}
+    derivative_parameters = {}
     nominal_args = {
         "M": model.parameters_of(model.M),
         "C": model.parameters_of(model.C),
@@ -106,6 +113,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     for name in GENERATED_EFFECTS:
         ext = ExtendedModel(model, EFFECTS[name])
         coords[name] = ext.coordinates
+        derivative_parameters[name] = effect_derivative_parameters(model, ext)
         n = len(ext.coordinates)
         doc = (
             f"M, C, B of the model extended by the candidate effect {name} ({EFFECTS[name].title}),\n"
@@ -133,6 +141,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
                 base=calls,
             )
         functions.append(fn)
+        functions.append(_effect_derivative_function(model, ext))
     per = isolator_stiffness(model)
     names = tuple(iso.name for iso in model.isolators)
     args = model.parameters_of(*per)
@@ -146,6 +155,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     )
     fn.returns = f"numpy.stack([{fn.returns[1:-1]}], axis=-3)" if len(per) > 1 else f"{fn.returns}[..., None, :, :]"
     functions.append(fn)
+    functions.append(_isolator_gradient_function(model, dict(zip(names, per, strict=True))))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
     cse = eliminate(list(sc.values()))
@@ -159,7 +169,55 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
     fn.returns = "{" + ", ".join(f'"{k}": {out}' for k, out in zip(sc, cse.outputs, strict=True)) + "}"
     functions.append(fn)
-    return functions, coords, names
+    return EffectFunctions(functions, coords, derivative_parameters, names)
+
+
+def effect_derivative_parameters(model: SymbolicModel, ext: ExtendedModel) -> tuple[str, ...]:
+    """What a candidate fit varies, in the order of effect_<name>_derivatives(): the unknowns the extended
+    matrices depend on, then the effect's parameters."""
+    args = ext.arguments()
+    return tuple(u for u in model.description.unknown if u in args) + tuple(ext.symbols)
+
+
+def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Function:
+    """d(M, C, B)/dp of one extended model for p in effect_derivative_parameters(), differentiated by sympy:
+    the Jacobian of a candidate fit (mountid.diagnosis) without finite differences."""
+    name = ext.effect.name
+    params = effect_derivative_parameters(model, ext)
+    symbols = {**model.symbols, **ext.symbols}
+    n = len(ext.coordinates)
+    if n > 6:
+        mats = {"M": ext.M, "C": ext.C, "B": ext.B}
+    else:  # the nominal matrices plus the Hessians of the added energies (as effect_<name>() is emitted)
+        mats = {"M": model.M + ext.added_M, "C": model.C + ext.added_C, "B": model.B}
+    derivs = {f"d{k}/d{p}": mat.diff(symbols[p]) for p in params for k, mat in mats.items()}
+    doc = (
+        f"Derivatives of the M, C, B of effect_{name}() with respect to EFFECT_DERIVATIVE_PARAMETERS[{name!r}],\n"
+        f"    shape (..., {len(params)}, 3, {n}, {n}), differentiated by sympy.\n"
+    )
+    fn = _matrices_function(f"effect_{name}_derivatives", derivs, ext.coordinates, ext.arguments(), doc)
+    fn.returns = _stacked(fn.returns, len(derivs), (len(params), 3, n, n))
+    return fn
+
+
+def _isolator_gradient_function(model: SymbolicModel, per: dict[str, sp.Matrix]) -> Function:
+    """d(isolator_stiffness())/d(unknown) for each unknown: the Jacobian of an isolator-scatter fit."""
+    unknowns = model.description.unknown
+    derivs = {f"d{iso}/d{u}": mat.diff(model.symbols[u]) for u in unknowns for iso, mat in per.items()}
+    doc = (
+        f"Derivatives of isolator_stiffness() with respect to the unknowns {', '.join(unknowns)}, shape\n"
+        f"    (..., {len(unknowns)}, {len(per)}, 6, 6), differentiated by sympy.\n"
+    )
+    fn = _matrices_function("isolator_stiffness_gradient", derivs, COORDINATES, model.parameters_of(*per.values()), doc)
+    fn.returns = _stacked(fn.returns, len(derivs), (len(unknowns), len(per), 6, 6))
+    return fn
+
+
+def _stacked(returns: str, count: int, shape: tuple[int, ...]) -> str:
+    """The return expression of _matrices_function (a tuple of ``count`` matrices) stacked and reshaped to
+    (*_shape, *shape)."""
+    inner = returns[1:-1] if count > 1 else returns
+    return f"numpy.stack([{inner}], axis=-3).reshape(*_shape, {', '.join(map(str, shape))})"
 
 
 def point_function(model: SymbolicModel) -> Function:
@@ -224,8 +282,7 @@ def _derivative_function(
     derivs = {f"d{k}/d{p}": mat.diff(model.symbols[p]) for p in parameters for k, mat in matrices.items()}
     args = model.parameters_of(*matrices.values())
     fn = _matrices_function(name, derivs, COORDINATES, args, doc)
-    inner = fn.returns[1:-1] if len(derivs) > 1 else fn.returns
-    fn.returns = f"numpy.stack([{inner}], axis=-3).reshape(*_shape, {len(parameters)}, {len(matrices)}, 6, 6)"
+    fn.returns = _stacked(fn.returns, len(derivs), (len(parameters), len(matrices), 6, 6))
     return fn
 
 

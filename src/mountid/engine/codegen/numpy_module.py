@@ -24,6 +24,7 @@ from mountid.engine.codegen.functions import (
 from mountid.engine.codegen.printing import code
 from mountid.engine.codegen.solvers import eigen_function, inverse_functions, root_slots
 from mountid.engine.description import Description
+from mountid.engine.settings import ENGINE, EngineSettings
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseDerivation, InverseSet
 from mountid.engine.symbolic.model import SymbolicModel
@@ -39,11 +40,13 @@ def module_context(
     template: str = TEMPLATE,
     inverse_sets: list[InverseSet] | None = None,
     effects: EffectFunctions | None = None,
+    settings: EngineSettings = ENGINE,
 ) -> dict:
     """Everything the template needs for one description. ``inverse_sets`` and ``effects``: the derived
-    inverse sets and candidate-effect functions when already at hand (derived here otherwise)."""
+    inverse sets and candidate-effect functions when already at hand (derived here otherwise); ``settings``:
+    the engine's size limits (those the inverse sets were derived with)."""
     model = SymbolicModel(description)
-    structure = ModalStructure(model)
+    structure = ModalStructure(model, settings)
     functions = [
         matrix_function("mass_matrix", model.M, model, "Mass matrix M", "kg, kg m, kg m^2"),
         matrix_function("stiffness_matrix", model.C, model, "Stiffness matrix C", "N/m, N/rad, N m/rad"),
@@ -61,8 +64,8 @@ def module_context(
     inverses = [f for s in inverse_sets if s.identifiable for f in inverse_functions(s, structure, model, fwd_args)]
     if inverses:
         functions += [model_function(model, fwd_args), *inverses]
-    extra, effect_coordinates, isolator_names = effects or effect_functions(model)
-    functions += extra
+    effects = effects or effect_functions(model)
+    functions += effects.functions
     params = {
         n: {"kind": p.kind, "unit": p.unit, "role": p.role, "value": p.value, "description": p.description}
         for n, p in description.parameters.items()
@@ -82,7 +85,7 @@ def module_context(
         "forward_args": fwd_args,
         "functions": functions,
         "inverses": [
-            (s.labels, f"identify_{s.name}", root_slots(s, len(description.unknown)))
+            (s.labels, f"identify_{s.name}", root_slots(s, len(description.unknown), settings))
             for s in inverse_sets
             if s.identifiable
         ],
@@ -92,8 +95,9 @@ def module_context(
         "special_points": derivation.special_points,
         "derivative_parameters": model.parameters_of(model.M, model.C, model.B),
         "twin_coordinates": structure.twin_map(),
-        "effect_coordinates": effect_coordinates,
-        "isolators": isolator_names,
+        "effect_coordinates": effects.coordinates,
+        "effect_derivative_parameters": effects.derivative_parameters,
+        "isolators": effects.isolators,
         "code": code,
     }
 
@@ -123,6 +127,7 @@ def render(
     template: str = TEMPLATE,
     inverse_sets: list[InverseSet] | None = None,
     effects: EffectFunctions | None = None,
+    settings: EngineSettings = ENGINE,
 ) -> str:
     """The source of the generated module for a description (``inverse_sets``, ``effects`` as in
     module_context)."""
@@ -131,4 +136,8 @@ def render(
             f"generation is pinned to sympy {SYMPY_VERSION} (found {sp.__version__}): "
             "other releases change cse output; install the pinned version"
         )
-    return _environment().get_template(template).render(**module_context(description, template, inverse_sets, effects))
+    return (
+        _environment()
+        .get_template(template)
+        .render(**module_context(description, template, inverse_sets, effects, settings))
+    )

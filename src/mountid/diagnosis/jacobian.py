@@ -1,0 +1,149 @@
+"""The analytic Jacobian of a candidate fit's residuals (:class:`mountid.diagnosis.fitting.Data`) with respect
+to its flat parameter vector, from the engine's generated matrix derivatives and first-order eigen-
+perturbation, in place of finite differences.
+
+Chain, for each fit parameter q (an unknown or an effect parameter):
+
+1. d(M, C, B)/dq from the generated derivatives (the candidate's strategy, mountid.diagnosis.strategies);
+2. d lambda_k = phi_k^T (C' - lambda_k M') phi_k and d phi_k by modal expansion (mountid.runtime);
+3. the model frequencies and body shapes through the strategy (stiffening, damped poles, sensor frame);
+4. each shape residual: the part of the measured shape off the model shape, or off the span of the modes
+   the measurement cannot separate from it, blended by their closeness weight (Data.residuals).
+
+The labelling of modes is held fixed (it is piecewise constant). Where the model has exactly equal
+frequencies (twins) and a parameter splits them, the frequencies are not differentiable: :func:`jacobian`
+returns None and the fit takes finite differences at that point.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mountid.diagnosis.candidate_model import PARTNER_WEIGHT, CandidateModel, Evaluation, exact_twins, scaled_unit
+from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives
+
+if TYPE_CHECKING:
+    from mountid.diagnosis.fitting import Data
+
+_SPLIT_RTOL = 1e-8
+"""A parameter keeps twins together when its perturbation of their common subspace is a multiple of the
+identity within this (relative to its largest entry)."""
+
+_DEGENERATE_RTOL = 1e-6
+"""Modes closer than this in relative eigenvalue are one subspace for the eigenvector derivatives (as
+:data:`mountid.diagnosis.candidate_model._DEGENERATE`)."""
+
+
+def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray | None:
+    """d(weighted residual rows)/d(theta), shape (n_rows, n_theta) in the row order of
+    :meth:`Data.residuals`, or None at a point where the frequencies are not differentiable (twins split)."""
+    e = model.evaluate(theta)
+    names = model.parameter_names
+    scale = model.jacobian_to_physical(theta)  # d(physical)/d(theta), diagonal
+    d_mats = _matrix_derivatives(model, e, names)
+    m, c, _ = e.mats
+    d_m = np.array([d[0] for d in d_mats])
+    d_c = np.array([d[1] for d in d_mats])
+    d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
+    if not _twins_kept(e, d_m, d_c):
+        return None
+    d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, _DEGENERATE_RTOL)
+    d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
+    d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
+
+    rows = [-(d_omega[:, e.index] / data.sigma[None, :]).T]
+    body, d_body = _unit_shapes(e.shapes, d_shapes, model.length)
+    labels = model.labels
+    for lab, s, sig in zip(data.shape_labels, data.shapes, data.shape_sigma, strict=True):
+        k = labels.index(lab)
+        j = e.index[k]
+        own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
+        partners = np.flatnonzero(e.weight[k] > PARTNER_WEIGHT)
+        if len(partners) > 1:
+            basis = body[:, partners]
+            if np.linalg.matrix_rank(basis, tol=1e-12) < len(partners):
+                return None  # parallel partners: the span drops a direction (candidate_model._orthonormal)
+            d_span = _off_span_derivative(s, basis, d_body[:, :, partners])
+            if exact_twins(e.lam, j, partners):
+                own = d_span
+            else:
+                w, d_w = _blend_weight(e, k, partners, d_lam)
+                off_own = s - body[:, j] * (body[:, j] @ s)
+                q, _ = np.linalg.qr(basis)
+                off_span = s - q @ (q.T @ s)
+                own = w * d_span + (1 - w) * own + np.outer(d_w, off_span - off_own)
+        rows.append(own.T / sig)
+    return np.concatenate(rows) * scale[None, :]
+
+
+def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, ...]) -> list:
+    """d(M, C, B)/dq for every fit parameter in order (zero matrices for one that does not enter them)."""
+    given = model.strategy.derivatives(model, e.values)
+    n = len(e.lam)
+    zero = np.zeros((n, n))
+    return [given.get(q, (zero, zero, None)) for q in names]
+
+
+def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:
+    """Whether every parameter moves each set of exactly equal eigenvalues together (its perturbation of
+    their subspace, phi^T (C' - lambda M') phi, a multiple of the identity)."""
+    lam = e.lam
+    near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE_RTOL * np.abs(lam)[None, :]
+    seen: set[bytes] = set()
+    for j in np.flatnonzero(near.sum(axis=0) > 1):
+        key = near[:, j].tobytes()
+        if key in seen:
+            continue
+        seen.add(key)
+        v = e.vec[:, near[:, j]]
+        g = np.einsum("ak,qab,bl->qkl", v, d_c, v) - lam[j] * np.einsum("ak,qab,bl->qkl", v, d_m, v)
+        mean = np.trace(g, axis1=1, axis2=2) / v.shape[1]
+        off = g - mean[:, None, None] * np.eye(v.shape[1])[None]
+        size = np.max(np.abs(g), axis=(1, 2))
+        if np.any(np.max(np.abs(off), axis=(1, 2)) > _SPLIT_RTOL * np.maximum(size, np.finfo(float).tiny)):
+            return False
+    return True
+
+
+def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """scaled_unit of the shapes (6, n) and its derivative (n_q, 6, n): rotations times the length scale,
+    each column of unit length, du = (I - u u^T) dv / |v|."""
+    v = np.array(shapes, dtype=float)
+    v[3:6] *= length
+    d_v = np.array(d_shapes, dtype=float)
+    d_v[:, 3:6] *= length
+    norm = np.linalg.norm(v, axis=0)
+    norm = np.where(norm > 0, norm, 1.0)
+    u = scaled_unit(shapes, length)
+    d_u = d_v / norm[None, None, :]
+    d_u -= u[None] * np.einsum("ak,qak->qk", u, d_u)[:, None, :]
+    return u, d_u
+
+
+def _off_direction_derivative(s: np.ndarray, u: np.ndarray, d_u: np.ndarray) -> np.ndarray:
+    """d/dq of s - u (u . s), shape (n_q, 6), from du/dq (n_q, 6)."""
+    return -(d_u * (u @ s) + np.outer(d_u @ s, u))
+
+
+def _off_span_derivative(s: np.ndarray, basis: np.ndarray, d_basis: np.ndarray) -> np.ndarray:
+    """d/dq of (I - P) s, P the orthogonal projector onto the columns U of ``basis`` (6, c), from dU/dq
+    (n_q, 6, c): dP = (I - P) dU U^+ + (U^+)^T dU^T (I - P)."""
+    pinv = np.linalg.pinv(basis)
+    rest = np.eye(len(s)) - basis @ pinv
+    d_p = np.einsum("ab,qbc,cd->qad", rest, d_basis, pinv)
+    d_p += np.swapaxes(d_p, 1, 2)
+    return -np.einsum("qab,b->qa", d_p, s)
+
+
+def _blend_weight(e: Evaluation, k: int, partners: np.ndarray, d_lam: np.ndarray) -> tuple[float, np.ndarray]:
+    """The blend weight of labelled mode k (the smallest closeness weight exp(-gap^2) over its partners) and
+    its derivative (n_q,) through gap = |lam_j - lam_l| / (2 |lam_j| resolution)."""
+    j = e.index[k]
+    ell = partners[np.argmin(e.weight[k, partners])]
+    w, gap = float(e.weight[k, ell]), float(e.gap[k, ell])
+    lam_j, lam_l = e.lam[j], e.lam[ell]
+    d_diff = np.sign(lam_j - lam_l) * (d_lam[:, j] - d_lam[:, ell])
+    d_gap = gap * (d_diff / abs(lam_j - lam_l) - np.sign(lam_j) * d_lam[:, j] / abs(lam_j))
+    return w, -2 * gap * w * d_gap
