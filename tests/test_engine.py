@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import importlib
+import types
+
+import numpy as np
+import pytest
 import sympy as sp
 
+from mountid.engine.codegen.numpy_module import render
 from mountid.engine.description import load, shipped_descriptions
+from mountid.engine.settings import ENGINE
 from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
 from mountid.engine.symbolic.inverse import InverseDerivation
 from mountid.engine.symbolic.model import SymbolicModel
@@ -81,3 +88,25 @@ def test_six_isolators_two_groups_mirror_counts():
     model = SymbolicModel(load(shipped_descriptions()["screen6"]))
     groups = [iso.group for iso in model.isolators]
     assert groups.count("corner") == 4 and groups.count("middle") == 2
+
+
+@pytest.mark.parametrize("name", ["kid300", "rectangular"])
+def test_plain_numpy_eigenvalues_match_the_fused_shipped_module(name):
+    """The default code form (EngineSettings.fused = False) prints the same stable closed forms as numpy
+    code: no numexpr string in the module, the same frequencies as the shipped (fused) module."""
+    source = render(load(shipped_descriptions()[name]), settings=ENGINE)
+    assert "_runtime.fused(" not in source
+    plain = types.ModuleType(f"plain_{name}")
+    exec(compile(source, f"<plain {name}>", "exec"), plain.__dict__)
+    shipped = importlib.import_module(f"mountid.generated.{name}")
+    rng = np.random.default_rng(5)
+    values = {
+        a: shipped.PARAMETERS[a]["value"] * 10 ** rng.uniform(-1, 1, 5000)
+        if shipped.PARAMETERS[a]["kind"] != "angle"
+        else rng.uniform(-0.5, 0.5, 5000)
+        for a in shipped.FORWARD_ARGUMENTS
+    }
+    got, want = plain.squared_frequencies(**values), shipped.squared_frequencies(**values)
+    np.testing.assert_allclose(got, want, rtol=1e-13)
+    one = {a: v[0] for a, v in values.items()}
+    np.testing.assert_allclose(plain.squared_frequencies(**one), want[0], rtol=1e-13)

@@ -102,8 +102,8 @@ def test_python_dash_m_and_process_exit_code():
 def test_generation_is_independent_of_hash_seed():
     script = (
         "import sys; from mountid.engine.codegen.numpy_module import render; "
-        "from mountid.engine.description import load; "
-        f"sys.stdout.write(render(load({str(ROOT / 'derivations' / 'kid300.toml')!r})))"
+        "from mountid.engine.description import load; from mountid.engine.settings import SHIPPED; "
+        f"sys.stdout.write(render(load({str(ROOT / 'derivations' / 'kid300.toml')!r}), settings=SHIPPED))"
     )
     outs = []
     for seed in ("1", "4242"):

@@ -44,6 +44,7 @@ class CandidateModel:
     def __init__(self, campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> None:
         self.campaign = campaign
         self.effect = effect
+        self._last: tuple[tuple, Evaluation] | None = None
         self.strategy = strategy(effect)
         self.isolator = isolator
         machine = campaign.machine
@@ -158,7 +159,16 @@ class CandidateModel:
 
     # -- the model -------------------------------------------------------------------------------------
     def evaluate(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Evaluation:
-        """Every intermediate of :meth:`predict` (the analytic Jacobian of a fit differentiates them)."""
+        """Every intermediate of :meth:`predict` (the analytic Jacobian of a fit differentiates them). The last
+        evaluation is kept: a least-squares step asks for the residuals and then the Jacobian at one point."""
+        key = (np.asarray(theta, dtype=float).tobytes(), labels)
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        out = self._evaluate(theta, labels)
+        self._last = (key, out)
+        return out
+
+    def _evaluate(self, theta: np.ndarray, labels: tuple[str, ...] | None) -> Evaluation:
         values = {**self.known, **self.physical(theta)}
         mats = self.strategy.matrices(self, values)
         m, c, _ = mats

@@ -1,7 +1,8 @@
-"""The size limits of the engine as one settings object, passed explicitly from generation down to the
-blocks, the inverse derivation and the code generator (defaults as shipped). They are size bounds, not time
-limits, so generation stays byte-for-byte reproducible on any machine; a change of any of them changes
-what is generated (the cache of description files keys on the engine's source, where the defaults live)."""
+"""The size limits of the engine and the form of the code it emits, as one settings object passed
+explicitly from generation down to the blocks, the inverse derivation and the code generator. The limits are
+size bounds, not time limits, so generation stays byte-for-byte reproducible on any machine; a change of any
+field changes what is generated (the cache of description files keys on the engine's source, where the
+defaults live)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class EngineSettings:
-    """Size limits of the symbolic engine and of the code it generates."""
+    """Size limits of the symbolic engine, and the form of the code it generates."""
 
     max_symbolic_block: int = 3
     """Largest symmetry block whose characteristic polynomial is expanded symbolically (larger blocks are
@@ -25,7 +26,15 @@ class EngineSettings:
     max_starts: int = 729
     """At most this many starts of a numeric inverse (every combination of the start factors), but at least
     three factors per unknown."""
+    fused: bool = False
+    """Evaluate each closed-form eigenvalue as one fused numexpr pass (runtime.fused; numpy evaluates the same
+    string where numexpr is missing or the batch is small) instead of plain numpy code. The shipped modules
+    are generated fused (`make generate`): on 10^6 parameter sets a chain of numpy temporaries is bound by
+    memory traffic."""
 
 
 ENGINE = EngineSettings()
-"""The default settings."""
+"""The default settings (plain numpy code): a description generated from its file at run time."""
+
+SHIPPED = EngineSettings(fused=True)
+"""The settings of the shipped modules in generated/ (`make generate`)."""

@@ -16,7 +16,7 @@ from pathlib import Path
 from mountid.engine.codegen.functions import EffectFunctions, effect_functions
 from mountid.engine.codegen.numpy_module import render
 from mountid.engine.description import load
-from mountid.engine.settings import ENGINE
+from mountid.engine.settings import SHIPPED
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseDerivation, InverseSet
 from mountid.engine.symbolic.model import SymbolicModel
@@ -26,8 +26,8 @@ ROOT = Path(__file__).resolve().parents[4]  # src/mountid/engine/codegen/__main_
 
 @cache
 def _derivation(path: Path) -> InverseDerivation:
-    """One InverseDerivation per description and worker process (the shipped settings, ENGINE)."""
-    return InverseDerivation(ModalStructure(SymbolicModel(load(path)), ENGINE))
+    """One InverseDerivation per description and worker process (the settings of the shipped modules)."""
+    return InverseDerivation(ModalStructure(SymbolicModel(load(path)), SHIPPED))
 
 
 def _candidates(path: Path) -> list[tuple[str, ...]]:
@@ -43,7 +43,7 @@ def _effects(path: Path) -> EffectFunctions:
 
 
 def _render(path: Path, sets: list[InverseSet], effects: EffectFunctions) -> str:
-    return render(load(path), inverse_sets=sets, effects=effects, settings=ENGINE)
+    return render(load(path), inverse_sets=sets, effects=effects, settings=SHIPPED)
 
 
 def generate(sources: list[Path], workers: int = 2) -> dict[str, str]:

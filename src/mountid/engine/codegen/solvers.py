@@ -7,7 +7,7 @@ from __future__ import annotations
 import sympy as sp
 
 from mountid.engine.codegen.functions import Function, shape_line
-from mountid.engine.codegen.printing import describe, eliminate, fused
+from mountid.engine.codegen.printing import code, describe, eliminate, fused
 from mountid.engine.settings import EngineSettings
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseSet
@@ -16,18 +16,24 @@ from mountid.errors import DescriptionError
 
 
 def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
+    """squared_frequencies(): closed form per block where every block is 2x2 or smaller (one fused numexpr pass
+    per distinct eigenvalue with ``structure.settings.fused``, plain numpy code otherwise), else a numeric
+    eigen-solve per block."""
     blocks = structure.blocks
     matrices = (model.M, model.C)
     args = model.parameters_of(*matrices)
     labels = structure.labels
     doc_lines = []
     if structure.closed_form:
-        # each distinct eigenvalue is one fused numexpr pass (a chain of numpy operations on large batches
-        # is bound by memory traffic and by the first touch of every temporary): written into its row of
-        # _out (a view, 0-d for scalar input, hence [i, ...]), returned with the modes on the last axis
+        # each distinct eigenvalue is written into its row of _out (a view, 0-d for scalar input, hence
+        # [i, ...]), returned with the modes on the last axis; fused: one numexpr pass each (a chain of numpy
+        # operations on large batches is bound by memory traffic and by the first touch of every temporary)
+        fuse = structure.settings.fused
         twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
         variables = ", ".join(f"{a!r}: {a}" for a in map(str, args))
-        body = [shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))", f"_v = {{{variables}}}"]
+        body = [shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))"]
+        if fuse:
+            body.append(f"_v = {{{variables}}}")
         rows: dict[tuple[int, int], int] = {}  # (block, rank) -> row of _out holding that root
         for k, b in enumerate(blocks):
             coords = ", ".join(b.coordinates)
@@ -37,7 +43,17 @@ def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
                 )
                 continue
             first = {m.rank: i for i, m in reversed(list(enumerate(structure.modes))) if twin[m.block] == k}
-            if b.size == 2:
+            if b.size == 2 and not fuse:
+                t = {n: f"({code(e)})" for n, e in b.stable_terms.items()}
+                body += [
+                    f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
+                    f"_out[{first[2]}, ...] = 0.5*({t['s11']} + {t['s22']}) + "
+                    f"numpy.sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})",
+                    f"_out[{first[1]}, ...] = {t['det_ratio']} / _out[{first[2]}, ...]",
+                ]
+                lo, hi = b.eigenvalue_exprs()
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
+            elif b.size == 2:
                 t = {n: f"({fused(e)})" for n, e in b.stable_terms.items()}
                 upper = f"0.5*({t['s11']} + {t['s22']}) + sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})"
                 lower = t["det_ratio"] + " / _upper"
@@ -48,6 +64,9 @@ def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
                 ]
                 lo, hi = b.eigenvalue_exprs()
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
+            elif not fuse:
+                body.append(f"_out[{first[1]}, ...] = {code(b.eigenvalue_exprs()[0])}")
+                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
             else:
                 body.append(f"_runtime.fused({fused(b.eigenvalue_exprs()[0])!r}, _v, _out[{first[1]}, ...])")
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
