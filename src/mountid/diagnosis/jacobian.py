@@ -83,7 +83,7 @@ def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, 
     given = model.strategy.derivatives(model, e.values)
     n = len(e.lam)
     zero = np.zeros((n, n))
-    return [given.get(q, (zero, zero, None)) for q in names]
+    return [given.get(q, (zero, zero, zero)) for q in names]
 
 
 def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:

@@ -59,9 +59,12 @@ def _matrices_function(
     args: tuple[str, ...],
     doc: str,
     base: dict[str, str] | None = None,
+    stacked: tuple[int, ...] | None = None,
 ) -> Function:
     """A function returning several symmetric matrices (one cse over all of them) as a tuple; ``base``: per
-    matrix, code of a matrix the entries are added to, and further outputs (label -> code) after them."""
+    matrix, code of a matrix the entries are added to, and further outputs (label -> code) after them;
+    ``stacked``: instead, the matrices stacked on a new axis -3 and reshaped to (*batch, *stacked) (() for
+    the stack alone)."""
     n = len(coordinates)
     entries = [(k, i, j, mat[i, j]) for k, mat in enumerate(matrices.values()) for i in range(n) for j in range(i, n)]
     entries = [e for e in entries if e[3] != 0]
@@ -84,7 +87,12 @@ def _matrices_function(
     if base:
         outs = [f"{base[label]} + {out}" for label, out in zip(matrices, outs, strict=True)]
         outs += [code for label, code in base.items() if label not in matrices]
-    fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
+    if stacked is None:
+        fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
+    elif stacked == ():
+        fn.returns = f"numpy.stack([{', '.join(outs)}], axis=-3)" if len(outs) > 1 else f"{outs[0]}[..., None, :, :]"
+    else:
+        fn.returns = f"numpy.stack([{', '.join(outs)}], axis=-3).reshape(*_shape, {', '.join(map(str, stacked))})"
     return fn
 
 
@@ -152,8 +160,8 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
         args,
         f"Stiffness matrix of each isolator alone, shape (..., {len(per)}, 6, 6), isolators in the order of\n"
         "    ISOLATORS; their sum is stiffness_matrix().\n",
+        stacked=(),
     )
-    fn.returns = f"numpy.stack([{fn.returns[1:-1]}], axis=-3)" if len(per) > 1 else f"{fn.returns}[..., None, :, :]"
     functions.append(fn)
     functions.append(_isolator_gradient_function(model, dict(zip(names, per, strict=True))))
     sc = scales(model)
@@ -195,9 +203,9 @@ def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Fun
         f"Derivatives of the M, C, B of effect_{name}() with respect to EFFECT_DERIVATIVE_PARAMETERS[{name!r}],\n"
         f"    shape (..., {len(params)}, 3, {n}, {n}), differentiated by sympy.\n"
     )
-    fn = _matrices_function(f"effect_{name}_derivatives", derivs, ext.coordinates, ext.arguments(), doc)
-    fn.returns = _stacked(fn.returns, len(derivs), (len(params), 3, n, n))
-    return fn
+    return _matrices_function(
+        f"effect_{name}_derivatives", derivs, ext.coordinates, ext.arguments(), doc, stacked=(len(params), 3, n, n)
+    )
 
 
 def _isolator_gradient_function(model: SymbolicModel, per: dict[str, sp.Matrix]) -> Function:
@@ -208,16 +216,9 @@ def _isolator_gradient_function(model: SymbolicModel, per: dict[str, sp.Matrix])
         f"Derivatives of isolator_stiffness() with respect to the unknowns {', '.join(unknowns)}, shape\n"
         f"    (..., {len(unknowns)}, {len(per)}, 6, 6), differentiated by sympy.\n"
     )
-    fn = _matrices_function("isolator_stiffness_gradient", derivs, COORDINATES, model.parameters_of(*per.values()), doc)
-    fn.returns = _stacked(fn.returns, len(derivs), (len(unknowns), len(per), 6, 6))
-    return fn
-
-
-def _stacked(returns: str, count: int, shape: tuple[int, ...]) -> str:
-    """The return expression of _matrices_function (a tuple of ``count`` matrices) stacked and reshaped to
-    (*_shape, *shape)."""
-    inner = returns[1:-1] if count > 1 else returns
-    return f"numpy.stack([{inner}], axis=-3).reshape(*_shape, {', '.join(map(str, shape))})"
+    args = model.parameters_of(*per.values())
+    shape = (len(unknowns), len(per), 6, 6)
+    return _matrices_function("isolator_stiffness_gradient", derivs, COORDINATES, args, doc, stacked=shape)
 
 
 def point_function(model: SymbolicModel) -> Function:
@@ -281,9 +282,7 @@ def _derivative_function(
     as (..., n_parameters, n_matrices, 6, 6)."""
     derivs = {f"d{k}/d{p}": mat.diff(model.symbols[p]) for p in parameters for k, mat in matrices.items()}
     args = model.parameters_of(*matrices.values())
-    fn = _matrices_function(name, derivs, COORDINATES, args, doc)
-    fn.returns = _stacked(fn.returns, len(derivs), (len(parameters), len(matrices), 6, 6))
-    return fn
+    return _matrices_function(name, derivs, COORDINATES, args, doc, stacked=(len(parameters), len(matrices), 6, 6))
 
 
 def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> list[Function]:

@@ -84,6 +84,7 @@ def module_context(
         "mode_rank": tuple(m.rank for m in structure.modes),
         "forward_args": fwd_args,
         "functions": functions,
+        "arguments": {fn.name: fn.args for fn in functions},
         "inverses": [
             (s.labels, f"identify_{s.name}", root_slots(s, len(description.unknown), settings))
             for s in inverse_sets
