@@ -20,20 +20,104 @@ SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {
     "m": {"kind": "mass", "unit": "kg", "role": "known", "value": 3200.0, "description": "mass of the set"},
-    "J_x": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 650.0, "description": "moment of inertia about x"},
-    "J_y": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 2300.0, "description": "moment of inertia about y"},
-    "J_z": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 2500.0, "description": "moment of inertia about z"},
-    "a1": {"kind": "length", "unit": "m", "role": "known", "value": 0.55, "description": "half the spacing of the inner mounts along x"},
-    "a2": {"kind": "length", "unit": "m", "role": "known", "value": 1.45, "description": "half the spacing of the outer mounts along x"},
-    "b": {"kind": "length", "unit": "m", "role": "known", "value": 0.45, "description": "half the spacing of all mounts along y"},
-    "h": {"kind": "length", "unit": "m", "role": "known", "value": 0.5, "description": "height of the centre of mass above the mounts"},
-    "gamma": {"kind": "angle", "unit": "rad", "role": "known", "value": 0.35, "description": "chevron angle of the inner mounts about x"},
-    "c_x": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 220000.0, "description": "stiffness of a mount along its local x"},
-    "c_y": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 160000.0, "description": "stiffness of a mount along its local y"},
-    "c_v1": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 800000.0, "description": "axial stiffness of an inner mount"},
-    "c_v2": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 600000.0, "description": "axial stiffness of an outer mount"},
-    "b_h": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 900.0, "description": "shear damping of every mount"},
-    "b_v": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 2800.0, "description": "axial damping of every mount"},
+    "J_x": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 650.0,
+        "description": "moment of inertia about x",
+    },
+    "J_y": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 2300.0,
+        "description": "moment of inertia about y",
+    },
+    "J_z": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 2500.0,
+        "description": "moment of inertia about z",
+    },
+    "a1": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.55,
+        "description": "half the spacing of the inner mounts along x",
+    },
+    "a2": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 1.45,
+        "description": "half the spacing of the outer mounts along x",
+    },
+    "b": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.45,
+        "description": "half the spacing of all mounts along y",
+    },
+    "h": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.5,
+        "description": "height of the centre of mass above the mounts",
+    },
+    "gamma": {
+        "kind": "angle",
+        "unit": "rad",
+        "role": "known",
+        "value": 0.35,
+        "description": "chevron angle of the inner mounts about x",
+    },
+    "c_x": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 220000.0,
+        "description": "stiffness of a mount along its local x",
+    },
+    "c_y": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 160000.0,
+        "description": "stiffness of a mount along its local y",
+    },
+    "c_v1": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 800000.0,
+        "description": "axial stiffness of an inner mount",
+    },
+    "c_v2": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 600000.0,
+        "description": "axial stiffness of an outer mount",
+    },
+    "b_h": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 900.0,
+        "description": "shear damping of every mount",
+    },
+    "b_v": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 2800.0,
+        "description": "axial damping of every mount",
+    },
 }
 KNOWN = ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "b_h", "b_v")
 UNKNOWN = ("c_x", "c_y", "c_v1", "c_v2")
@@ -57,36 +141,510 @@ ARGUMENTS = {
     "stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
-    "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v"),
-    "identify_x_y_z_psi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_psi"),
-    "identify_x_y_z_theta": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_theta"),
-    "identify_x_y_z_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_z", "omega_phi"),
-    "identify_x_y_psi_theta": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_psi", "omega_theta"),
-    "identify_x_y_psi_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_psi", "omega_phi"),
-    "identify_x_y_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_y", "omega_theta", "omega_phi"),
-    "identify_x_z_psi_theta": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_z", "omega_psi", "omega_theta"),
-    "identify_x_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_z", "omega_psi", "omega_phi"),
-    "identify_x_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_z", "omega_theta", "omega_phi"),
-    "identify_x_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_x", "omega_psi", "omega_theta", "omega_phi"),
-    "identify_y_z_psi_theta": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_y", "omega_z", "omega_psi", "omega_theta"),
-    "identify_y_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_y", "omega_z", "omega_psi", "omega_phi"),
-    "identify_y_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_y", "omega_z", "omega_theta", "omega_phi"),
-    "identify_y_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_y", "omega_psi", "omega_theta", "omega_phi"),
-    "identify_z_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "omega_z", "omega_psi", "omega_theta", "omega_phi"),
-    "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dx_com", "dy_com"),
-    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dx_com", "dy_com"),
-    "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dz_com"),
-    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dz_com"),
-    "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_bend", "k_torsion"),
-    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_bend", "k_torsion"),
-    "effect_foundation": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_found", "k_found"),
-    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_found", "k_found"),
-    "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "h_added"),
-    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "h_added"),
-    "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
-    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
-    "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
-    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
+    "matrix_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+    ),
+    "identify_x_y_z_psi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "omega_psi",
+    ),
+    "identify_x_y_z_theta": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "omega_theta",
+    ),
+    "identify_x_y_z_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_z",
+        "omega_phi",
+    ),
+    "identify_x_y_psi_theta": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_psi",
+        "omega_theta",
+    ),
+    "identify_x_y_psi_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_psi",
+        "omega_phi",
+    ),
+    "identify_x_y_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_y",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "identify_x_z_psi_theta": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_z",
+        "omega_psi",
+        "omega_theta",
+    ),
+    "identify_x_z_psi_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_z",
+        "omega_psi",
+        "omega_phi",
+    ),
+    "identify_x_z_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_z",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "identify_x_psi_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_x",
+        "omega_psi",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "identify_y_z_psi_theta": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_y",
+        "omega_z",
+        "omega_psi",
+        "omega_theta",
+    ),
+    "identify_y_z_psi_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_y",
+        "omega_z",
+        "omega_psi",
+        "omega_phi",
+    ),
+    "identify_y_z_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_y",
+        "omega_z",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "identify_y_psi_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_y",
+        "omega_psi",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "identify_z_psi_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "omega_z",
+        "omega_psi",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "effect_com_offset": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "dx_com",
+        "dy_com",
+    ),
+    "effect_com_offset_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "dx_com",
+        "dy_com",
+    ),
+    "effect_cog_height": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "dz_com",
+    ),
+    "effect_cog_height_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "dz_com",
+    ),
+    "effect_rotational_stiffness": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_rotational_stiffness_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_foundation": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_found",
+        "k_found",
+    ),
+    "effect_foundation_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_found",
+        "k_found",
+    ),
+    "effect_added_mass": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_added",
+        "h_added",
+    ),
+    "effect_added_mass_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_added",
+        "h_added",
+    ),
+    "effect_drive_belt": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_drive_belt_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_gravity_preload": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "h_preload",
+    ),
+    "effect_gravity_preload_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "h_preload",
+    ),
     "isolator_stiffness": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
@@ -126,25 +684,55 @@ def stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
         [phi, phi] = 4*(c_y*a2**2 + 2*c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
     """
     a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
-    _tmp0 = 8*c_x
+    _tmp0 = 8 * c_x
     _tmp1 = numpy.sin(gamma)
     _tmp2 = _tmp1**2
-    _tmp3 = _tmp2*c_v1
+    _tmp3 = _tmp2 * c_v1
     _tmp4 = numpy.cos(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = _tmp5*c_y
-    _tmp7 = c_y*h
-    _tmp8 = _tmp1*_tmp4*b
-    _tmp9 = _tmp8*c_v1
-    _tmp10 = _tmp5*c_v1
-    _tmp11 = _tmp2*c_y
+    _tmp6 = _tmp5 * c_y
+    _tmp7 = c_y * h
+    _tmp8 = _tmp1 * _tmp4 * b
+    _tmp9 = _tmp8 * c_v1
+    _tmp10 = _tmp5 * c_v1
+    _tmp11 = _tmp2 * c_y
     _tmp12 = b**2
     _tmp13 = h**2
     _tmp14 = a2**2
-    _tmp15 = 2*c_x
+    _tmp15 = 2 * c_x
     _tmp16 = a1**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): 4*_tmp3 + 4*_tmp6 + 4*c_y, (1, 3): 4*_tmp3*h + 4*_tmp6*h + 4*_tmp7 + 4*_tmp8*c_y - 4*_tmp9, (2, 2): 4*_tmp10 + 4*_tmp11 + 4*c_v2, (3, 3): 4*_tmp10*_tmp12 + 4*_tmp11*_tmp12 + 4*_tmp12*c_v2 + 4*_tmp13*_tmp3 + 4*_tmp13*_tmp6 + 4*_tmp13*c_y + 8*_tmp7*_tmp8 - 8*_tmp9*h, (4, 4): 4*_tmp10*_tmp16 + 4*_tmp11*_tmp16 + 4*_tmp13*_tmp15 + 4*_tmp14*c_v2, (5, 5): 4*_tmp12*_tmp15 + 4*_tmp14*c_y + 4*_tmp16*_tmp3 + 4*_tmp16*_tmp6})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp0 * h,
+            (1, 1): 4 * _tmp3 + 4 * _tmp6 + 4 * c_y,
+            (1, 3): 4 * _tmp3 * h + 4 * _tmp6 * h + 4 * _tmp7 + 4 * _tmp8 * c_y - 4 * _tmp9,
+            (2, 2): 4 * _tmp10 + 4 * _tmp11 + 4 * c_v2,
+            (3, 3): 4 * _tmp10 * _tmp12
+            + 4 * _tmp11 * _tmp12
+            + 4 * _tmp12 * c_v2
+            + 4 * _tmp13 * _tmp3
+            + 4 * _tmp13 * _tmp6
+            + 4 * _tmp13 * c_y
+            + 8 * _tmp7 * _tmp8
+            - 8 * _tmp9 * h,
+            (4, 4): 4 * _tmp10 * _tmp16 + 4 * _tmp11 * _tmp16 + 4 * _tmp13 * _tmp15 + 4 * _tmp14 * c_v2,
+            (5, 5): 4 * _tmp12 * _tmp15 + 4 * _tmp14 * c_y + 4 * _tmp16 * _tmp3 + 4 * _tmp16 * _tmp6,
+        },
+    )
 
 
 def damping_matrix(a1, a2, b, h, gamma, b_h, b_v):
@@ -162,48 +750,107 @@ def damping_matrix(a1, a2, b, h, gamma, b_h, b_v):
         [phi, phi] = 4*(b_h*a2**2 + 2*b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2)
     """
     a1, a2, b, h, gamma, b_h, b_v = _runtime.as_arrays(a1, a2, b, h, gamma, b_h, b_v)
-    _tmp0 = 8*b_h
+    _tmp0 = 8 * b_h
     _tmp1 = numpy.cos(gamma)
     _tmp2 = _tmp1**2
-    _tmp3 = _tmp2*b_h
+    _tmp3 = _tmp2 * b_h
     _tmp4 = numpy.sin(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = _tmp5*b_v
-    _tmp7 = b_h*h
-    _tmp8 = _tmp1*_tmp4*b
-    _tmp9 = _tmp8*b_v
-    _tmp10 = _tmp5*b_h
-    _tmp11 = _tmp2*b_v
+    _tmp6 = _tmp5 * b_v
+    _tmp7 = b_h * h
+    _tmp8 = _tmp1 * _tmp4 * b
+    _tmp9 = _tmp8 * b_v
+    _tmp10 = _tmp5 * b_h
+    _tmp11 = _tmp2 * b_v
     _tmp12 = b**2
     _tmp13 = h**2
-    _tmp14 = _tmp13*b_h
+    _tmp14 = _tmp13 * b_h
     _tmp15 = a2**2
     _tmp16 = a1**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(b_h), numpy.shape(b_v))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): 4*_tmp3 + 4*_tmp6 + 4*b_h, (1, 3): 4*_tmp3*h + 4*_tmp6*h + 4*_tmp7 + 4*_tmp8*b_h - 4*_tmp9, (2, 2): 4*_tmp10 + 4*_tmp11 + 4*b_v, (3, 3): 4*_tmp10*_tmp12 + 4*_tmp11*_tmp12 + 4*_tmp12*b_v + 4*_tmp13*_tmp3 + 4*_tmp13*_tmp6 + 4*_tmp14 + 8*_tmp7*_tmp8 - 8*_tmp9*h, (4, 4): 4*_tmp10*_tmp16 + 4*_tmp11*_tmp16 + 8*_tmp14 + 4*_tmp15*b_v, (5, 5): 8*_tmp12*b_h + 4*_tmp15*b_h + 4*_tmp16*_tmp3 + 4*_tmp16*_tmp6})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp0 * h,
+            (1, 1): 4 * _tmp3 + 4 * _tmp6 + 4 * b_h,
+            (1, 3): 4 * _tmp3 * h + 4 * _tmp6 * h + 4 * _tmp7 + 4 * _tmp8 * b_h - 4 * _tmp9,
+            (2, 2): 4 * _tmp10 + 4 * _tmp11 + 4 * b_v,
+            (3, 3): 4 * _tmp10 * _tmp12
+            + 4 * _tmp11 * _tmp12
+            + 4 * _tmp12 * b_v
+            + 4 * _tmp13 * _tmp3
+            + 4 * _tmp13 * _tmp6
+            + 4 * _tmp14
+            + 8 * _tmp7 * _tmp8
+            - 8 * _tmp9 * h,
+            (4, 4): 4 * _tmp10 * _tmp16 + 4 * _tmp11 * _tmp16 + 8 * _tmp14 + 4 * _tmp15 * b_v,
+            (5, 5): 8 * _tmp12 * b_h + 4 * _tmp15 * b_h + 4 * _tmp16 * _tmp3 + 4 * _tmp16 * _tmp6,
+        },
+    )
 
 
 def stiffness_gradient(a1, a2, b, h, gamma):
-    """Derivatives dC/d(c_x, c_y, c_v1, c_v2) of the stiffness matrix, shape (..., 4, 6, 6).
-    """
+    """Derivatives dC/d(c_x, c_y, c_v1, c_v2) of the stiffness matrix, shape (..., 4, 6, 6)."""
     a1, a2, b, h, gamma = _runtime.as_arrays(a1, a2, b, h, gamma)
-    _tmp0 = 8*h
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13})], axis=-3)
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma)
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+        ],
+        axis=-3,
+    )
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -250,18 +897,66 @@ def squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c
         block {z}: lambda = (4*c_v2 + 4*c_v1*cos(gamma)**2 + 4*c_y*sin(gamma)**2)/m
         block {phi}: lambda = (4*c_y*a2**2 + 8*c_x*b**2 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2)/J_z
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
     _out = numpy.empty((6, *_shape))
-    _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a1': a1, 'a2': a2, 'b': b, 'h': h, 'gamma': gamma, 'c_x': c_x, 'c_y': c_y, 'c_v1': c_v1, 'c_v2': c_v2}
+    _v = {
+        "m": m,
+        "J_x": J_x,
+        "J_y": J_y,
+        "J_z": J_z,
+        "a1": a1,
+        "a2": a2,
+        "b": b,
+        "h": h,
+        "gamma": gamma,
+        "c_x": c_x,
+        "c_y": c_y,
+        "c_v1": c_v1,
+        "c_v2": c_v2,
+    }
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*((8*c_x/m) + ((4*a1**2*c_v1*cos(gamma)**2 + 4*a1**2*c_y*sin(gamma)**2 + 4*a2**2*c_v2 + 8*c_x*h**2)/J_y)) + sqrt((0.5*((8*c_x/m) - ((4*a1**2*c_v1*cos(gamma)**2 + 4*a1**2*c_y*sin(gamma)**2 + 4*a2**2*c_v2 + 8*c_x*h**2)/J_y)))**2 + (64*c_x**2*h**2/(J_y*m)))', _v, _out[4, ...])
-    _runtime.fused('(32*c_x*(a1**2*c_v1*cos(gamma)**2 + a1**2*c_y*sin(gamma)**2 + a2**2*c_v2)/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
+    _runtime.fused(
+        "0.5*((8*c_x/m) + ((4*a1**2*c_v1*cos(gamma)**2 + 4*a1**2*c_y*sin(gamma)**2 + 4*a2**2*c_v2 + 8*c_x*h**2)/J_y)) + sqrt((0.5*((8*c_x/m) - ((4*a1**2*c_v1*cos(gamma)**2 + 4*a1**2*c_y*sin(gamma)**2 + 4*a2**2*c_v2 + 8*c_x*h**2)/J_y)))**2 + (64*c_x**2*h**2/(J_y*m)))",
+        _v,
+        _out[4, ...],
+    )
+    _runtime.fused(
+        "(32*c_x*(a1**2*c_v1*cos(gamma)**2 + a1**2*c_y*sin(gamma)**2 + a2**2*c_v2)/(J_y*m)) / _upper",
+        {**_v, "_upper": _out[4, ...]},
+        _out[0, ...],
+    )
     # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*(((4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2 + 4*c_y)/m) + ((4*b**2*c_v1*cos(gamma)**2 + 4*b**2*c_v2 + 4*b**2*c_y*sin(gamma)**2 - 8*b*c_v1*h*sin(gamma)*cos(gamma) + 8*b*c_y*h*sin(gamma)*cos(gamma) + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 + 4*c_y*h**2)/J_x)) + sqrt((0.5*(((4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2 + 4*c_y)/m) - ((4*b**2*c_v1*cos(gamma)**2 + 4*b**2*c_v2 + 4*b**2*c_y*sin(gamma)**2 - 8*b*c_v1*h*sin(gamma)*cos(gamma) + 8*b*c_y*h*sin(gamma)*cos(gamma) + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 + 4*c_y*h**2)/J_x)))**2 + ((-4*b*c_v1*sin(gamma)*cos(gamma) + 4*b*c_y*sin(gamma)*cos(gamma) + 4*c_v1*h*sin(gamma)**2 + 4*c_y*h*cos(gamma)**2 + 4*c_y*h)**2/(J_x*m)))', _v, _out[3, ...])
-    _runtime.fused('(16*b**2*(c_v1*c_v2*sin(gamma)**2 + c_v1*c_y*sin(gamma)**4 + 2*c_v1*c_y*sin(gamma)**2*cos(gamma)**2 + c_v1*c_y*cos(gamma)**4 + c_v1*c_y*cos(gamma)**2 + c_v2*c_y*cos(gamma)**2 + c_v2*c_y + c_y**2*sin(gamma)**2)/(J_x*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[1, ...])
-    _runtime.fused('(4*c_v1*cos(gamma)**2 + 4*c_v2 + 4*c_y*sin(gamma)**2)/m', _v, _out[2, ...])
-    _runtime.fused('(4*a1**2*c_v1*sin(gamma)**2 + 4*a1**2*c_y*cos(gamma)**2 + 4*a2**2*c_y + 8*b**2*c_x)/J_z', _v, _out[5, ...])
+    _runtime.fused(
+        "0.5*(((4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2 + 4*c_y)/m) + ((4*b**2*c_v1*cos(gamma)**2 + 4*b**2*c_v2 + 4*b**2*c_y*sin(gamma)**2 - 8*b*c_v1*h*sin(gamma)*cos(gamma) + 8*b*c_y*h*sin(gamma)*cos(gamma) + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 + 4*c_y*h**2)/J_x)) + sqrt((0.5*(((4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2 + 4*c_y)/m) - ((4*b**2*c_v1*cos(gamma)**2 + 4*b**2*c_v2 + 4*b**2*c_y*sin(gamma)**2 - 8*b*c_v1*h*sin(gamma)*cos(gamma) + 8*b*c_y*h*sin(gamma)*cos(gamma) + 4*c_v1*h**2*sin(gamma)**2 + 4*c_y*h**2*cos(gamma)**2 + 4*c_y*h**2)/J_x)))**2 + ((-4*b*c_v1*sin(gamma)*cos(gamma) + 4*b*c_y*sin(gamma)*cos(gamma) + 4*c_v1*h*sin(gamma)**2 + 4*c_y*h*cos(gamma)**2 + 4*c_y*h)**2/(J_x*m)))",
+        _v,
+        _out[3, ...],
+    )
+    _runtime.fused(
+        "(16*b**2*(c_v1*c_v2*sin(gamma)**2 + c_v1*c_y*sin(gamma)**4 + 2*c_v1*c_y*sin(gamma)**2*cos(gamma)**2 + c_v1*c_y*cos(gamma)**4 + c_v1*c_y*cos(gamma)**2 + c_v2*c_y*cos(gamma)**2 + c_v2*c_y + c_y**2*sin(gamma)**2)/(J_x*m)) / _upper",
+        {**_v, "_upper": _out[3, ...]},
+        _out[1, ...],
+    )
+    _runtime.fused("(4*c_v1*cos(gamma)**2 + 4*c_v2 + 4*c_y*sin(gamma)**2)/m", _v, _out[2, ...])
+    _runtime.fused(
+        "(4*a1**2*c_v1*sin(gamma)**2 + 4*a1**2*c_y*cos(gamma)**2 + 4*a2**2*c_y + 8*b**2*c_x)/J_z", _v, _out[5, ...]
+    )
     return numpy.moveaxis(_out, 0, -1)
 
 
@@ -391,72 +1086,243 @@ def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_
           [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
           [phi, phi] = 4*a1**2*sin(gamma)**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v)
-    _tmp0 = 8*a1
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v
+    )
+    _tmp0 = 8 * a1
     _tmp1 = numpy.cos(gamma)
     _tmp2 = _tmp1**2
-    _tmp3 = _tmp2*c_v1
+    _tmp3 = _tmp2 * c_v1
     _tmp4 = numpy.sin(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = _tmp0*_tmp5
-    _tmp7 = _tmp0*_tmp2
-    _tmp8 = 8*b_h
-    _tmp9 = _tmp8*a1
-    _tmp10 = 8*a2
-    _tmp11 = _tmp1*_tmp4
-    _tmp12 = 4*_tmp11
-    _tmp13 = 8*b
-    _tmp14 = _tmp13*c_y
-    _tmp15 = 8*h
-    _tmp16 = _tmp11*_tmp15
-    _tmp17 = _tmp16*c_v1
-    _tmp18 = _tmp15*c_y
-    _tmp19 = _tmp11*_tmp18
-    _tmp20 = 16*b
-    _tmp21 = 4*b_h
-    _tmp22 = _tmp13*b_v
-    _tmp23 = _tmp5*b
-    _tmp24 = _tmp8*h
-    _tmp25 = _tmp11*_tmp24 - _tmp16*b_v
-    _tmp26 = 4*c_y
-    _tmp27 = 4*_tmp5
-    _tmp28 = _tmp27*c_v1
-    _tmp29 = _tmp2*_tmp26
-    _tmp30 = _tmp15*_tmp5
-    _tmp31 = _tmp11*c_v1
-    _tmp32 = 16*h
-    _tmp33 = _tmp2*_tmp24
-    _tmp34 = _tmp11*_tmp8
-    _tmp35 = 8*_tmp11
-    _tmp36 = _tmp35*c_v1
-    _tmp37 = -_tmp35*c_y + _tmp36
-    _tmp38 = 4*_tmp2
-    _tmp39 = _tmp38*b
-    _tmp40 = _tmp15*b
+    _tmp6 = _tmp0 * _tmp5
+    _tmp7 = _tmp0 * _tmp2
+    _tmp8 = 8 * b_h
+    _tmp9 = _tmp8 * a1
+    _tmp10 = 8 * a2
+    _tmp11 = _tmp1 * _tmp4
+    _tmp12 = 4 * _tmp11
+    _tmp13 = 8 * b
+    _tmp14 = _tmp13 * c_y
+    _tmp15 = 8 * h
+    _tmp16 = _tmp11 * _tmp15
+    _tmp17 = _tmp16 * c_v1
+    _tmp18 = _tmp15 * c_y
+    _tmp19 = _tmp11 * _tmp18
+    _tmp20 = 16 * b
+    _tmp21 = 4 * b_h
+    _tmp22 = _tmp13 * b_v
+    _tmp23 = _tmp5 * b
+    _tmp24 = _tmp8 * h
+    _tmp25 = _tmp11 * _tmp24 - _tmp16 * b_v
+    _tmp26 = 4 * c_y
+    _tmp27 = 4 * _tmp5
+    _tmp28 = _tmp27 * c_v1
+    _tmp29 = _tmp2 * _tmp26
+    _tmp30 = _tmp15 * _tmp5
+    _tmp31 = _tmp11 * c_v1
+    _tmp32 = 16 * h
+    _tmp33 = _tmp2 * _tmp24
+    _tmp34 = _tmp11 * _tmp8
+    _tmp35 = 8 * _tmp11
+    _tmp36 = _tmp35 * c_v1
+    _tmp37 = -_tmp35 * c_y + _tmp36
+    _tmp38 = 4 * _tmp2
+    _tmp39 = _tmp38 * b
+    _tmp40 = _tmp15 * b
     _tmp41 = b**2
-    _tmp42 = 8*_tmp41
+    _tmp42 = 8 * _tmp41
     _tmp43 = h**2
-    _tmp44 = 8*_tmp43
+    _tmp44 = 8 * _tmp43
     _tmp45 = a1**2
-    _tmp46 = -8*_tmp1*_tmp4*_tmp45*c_y + _tmp36*_tmp45
-    _tmp47 = -8*_tmp1*_tmp4*b_v + _tmp34
-    _tmp48 = _tmp11*b_v
-    _tmp49 = _tmp34*_tmp45 - _tmp35*_tmp45*b_v
+    _tmp46 = -8 * _tmp1 * _tmp4 * _tmp45 * c_y + _tmp36 * _tmp45
+    _tmp47 = -8 * _tmp1 * _tmp4 * b_v + _tmp34
+    _tmp48 = _tmp11 * b_v
+    _tmp49 = _tmp34 * _tmp45 - _tmp35 * _tmp45 * b_v
     _tmp50 = -_tmp15
     _tmp51 = _tmp38 + 4
-    _tmp52 = _tmp12*b
-    _tmp53 = _tmp38*h + _tmp52 + 4*h
-    _tmp54 = _tmp16*b
-    _tmp55 = _tmp27*_tmp41 + _tmp38*_tmp43 + 4*_tmp43 + _tmp54
-    _tmp56 = _tmp27*_tmp45
-    _tmp57 = 4*a2**2
-    _tmp58 = _tmp38*_tmp45
+    _tmp52 = _tmp12 * b
+    _tmp53 = _tmp38 * h + _tmp52 + 4 * h
+    _tmp54 = _tmp16 * b
+    _tmp55 = _tmp27 * _tmp41 + _tmp38 * _tmp43 + 4 * _tmp43 + _tmp54
+    _tmp56 = _tmp27 * _tmp45
+    _tmp57 = 4 * a2**2
+    _tmp58 = _tmp38 * _tmp45
     _tmp59 = _tmp57 + _tmp58
-    _tmp60 = 4*_tmp5*h - _tmp52
-    _tmp61 = _tmp27*_tmp43 + _tmp38*_tmp41 - _tmp54
-    _tmp62 = 4*_tmp41
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*_tmp3 + _tmp6*c_y, (5, 5): _tmp6*c_v1 + _tmp7*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp5*_tmp9 + _tmp7*b_v, (5, 5): _tmp2*_tmp9 + _tmp6*b_v}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10*c_v2, (5, 5): _tmp10*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10*b_v, (5, 5): _tmp8*a2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 3): 4*_tmp1*_tmp4*c_y - _tmp12*c_v1, (3, 3): _tmp13*_tmp3 + _tmp13*c_v2 + _tmp14*_tmp5 - _tmp17 + _tmp19, (5, 5): _tmp20*c_x}), _runtime.stack_matrix(_shape, 6, {(1, 3): _tmp11*_tmp21 - _tmp12*b_v, (3, 3): _tmp2*_tmp22 + _tmp22 + _tmp23*_tmp8 + _tmp25, (5, 5): _tmp20*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -8*c_x, (1, 3): _tmp26 + _tmp28 + _tmp29, (3, 3): _tmp11*_tmp14 - _tmp13*_tmp31 + _tmp18*_tmp2 + _tmp18 + _tmp30*c_v1, (4, 4): _tmp32*c_x}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp8, (1, 3): _tmp2*_tmp21 + _tmp21 + _tmp27*b_v, (3, 3): -_tmp11*_tmp22 + _tmp24 + _tmp30*b_v + _tmp33 + _tmp34*b, (4, 4): _tmp32*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp37, (1, 3): _tmp17 - _tmp19 - _tmp23*_tmp26 + _tmp28*b + _tmp29*b - _tmp39*c_v1, (2, 2): -_tmp37, (3, 3): 8*_tmp1*_tmp4*_tmp41*c_y + 8*_tmp1*_tmp4*_tmp43*c_v1 - _tmp11*_tmp44*c_y - _tmp18*_tmp23 + 8*_tmp2*b*c_y*h - _tmp3*_tmp40 - _tmp31*_tmp42 + 8*_tmp5*b*c_v1*h, (4, 4): -_tmp46, (5, 5): _tmp46}), _runtime.stack_matrix(_shape, 6, {(1, 1): -_tmp47, (1, 3): 4*_tmp2*b*b_h - _tmp21*_tmp23 - _tmp25 - _tmp39*b_v + 4*_tmp5*b*b_v, (2, 2): _tmp47, (3, 3): _tmp15*_tmp23*b_v - _tmp2*_tmp40*b_v - _tmp23*_tmp24 + _tmp33*b + _tmp34*_tmp41 - _tmp34*_tmp43 - _tmp42*_tmp48 + _tmp44*_tmp48, (4, 4): _tmp49, (5, 5): -_tmp49}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (4, 4): _tmp44, (5, 5): _tmp42}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp56, (5, 5): _tmp59}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp38, (3, 3): _tmp61, (4, 4): _tmp58, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp62, (4, 4): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp44 + _tmp56, (5, 5): _tmp42 + _tmp59}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp51, (3, 3): _tmp61 + _tmp62, (4, 4): _tmp59, (5, 5): _tmp56})], axis=-3).reshape(*_shape, 15, 3, 6, 6)
+    _tmp60 = 4 * _tmp5 * h - _tmp52
+    _tmp61 = _tmp27 * _tmp43 + _tmp38 * _tmp41 - _tmp54
+    _tmp62 = 4 * _tmp41
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * _tmp3 + _tmp6 * c_y, (5, 5): _tmp6 * c_v1 + _tmp7 * c_y}),
+            _runtime.stack_matrix(
+                _shape, 6, {(4, 4): _tmp5 * _tmp9 + _tmp7 * b_v, (5, 5): _tmp2 * _tmp9 + _tmp6 * b_v}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10 * c_v2, (5, 5): _tmp10 * c_y}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10 * b_v, (5, 5): _tmp8 * a2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 3): 4 * _tmp1 * _tmp4 * c_y - _tmp12 * c_v1,
+                    (3, 3): _tmp13 * _tmp3 + _tmp13 * c_v2 + _tmp14 * _tmp5 - _tmp17 + _tmp19,
+                    (5, 5): _tmp20 * c_x,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 3): _tmp11 * _tmp21 - _tmp12 * b_v,
+                    (3, 3): _tmp2 * _tmp22 + _tmp22 + _tmp23 * _tmp8 + _tmp25,
+                    (5, 5): _tmp20 * b_h,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -8 * c_x,
+                    (1, 3): _tmp26 + _tmp28 + _tmp29,
+                    (3, 3): _tmp11 * _tmp14 - _tmp13 * _tmp31 + _tmp18 * _tmp2 + _tmp18 + _tmp30 * c_v1,
+                    (4, 4): _tmp32 * c_x,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -_tmp8,
+                    (1, 3): _tmp2 * _tmp21 + _tmp21 + _tmp27 * b_v,
+                    (3, 3): -_tmp11 * _tmp22 + _tmp24 + _tmp30 * b_v + _tmp33 + _tmp34 * b,
+                    (4, 4): _tmp32 * b_h,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp37,
+                    (1, 3): _tmp17 - _tmp19 - _tmp23 * _tmp26 + _tmp28 * b + _tmp29 * b - _tmp39 * c_v1,
+                    (2, 2): -_tmp37,
+                    (3, 3): 8 * _tmp1 * _tmp4 * _tmp41 * c_y
+                    + 8 * _tmp1 * _tmp4 * _tmp43 * c_v1
+                    - _tmp11 * _tmp44 * c_y
+                    - _tmp18 * _tmp23
+                    + 8 * _tmp2 * b * c_y * h
+                    - _tmp3 * _tmp40
+                    - _tmp31 * _tmp42
+                    + 8 * _tmp5 * b * c_v1 * h,
+                    (4, 4): -_tmp46,
+                    (5, 5): _tmp46,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): -_tmp47,
+                    (1, 3): 4 * _tmp2 * b * b_h - _tmp21 * _tmp23 - _tmp25 - _tmp39 * b_v + 4 * _tmp5 * b * b_v,
+                    (2, 2): _tmp47,
+                    (3, 3): _tmp15 * _tmp23 * b_v
+                    - _tmp2 * _tmp40 * b_v
+                    - _tmp23 * _tmp24
+                    + _tmp33 * b
+                    + _tmp34 * _tmp41
+                    - _tmp34 * _tmp43
+                    - _tmp42 * _tmp48
+                    + _tmp44 * _tmp48,
+                    (4, 4): _tmp49,
+                    (5, 5): -_tmp49,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (4, 4): _tmp44, (5, 5): _tmp42}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp56, (5, 5): _tmp59},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp38, (3, 3): _tmp61, (4, 4): _tmp58, (5, 5): _tmp56},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp62, (4, 4): _tmp57}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 8,
+                    (0, 4): _tmp50,
+                    (1, 1): _tmp51,
+                    (1, 3): _tmp53,
+                    (2, 2): _tmp27,
+                    (3, 3): _tmp55,
+                    (4, 4): _tmp44 + _tmp56,
+                    (5, 5): _tmp42 + _tmp59,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp27,
+                    (1, 3): _tmp60,
+                    (2, 2): _tmp51,
+                    (3, 3): _tmp61 + _tmp62,
+                    (4, 4): _tmp59,
+                    (5, 5): _tmp56,
+                },
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 15, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -533,47 +1399,152 @@ def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
-    _tmp0 = 8*a1
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2
+    )
+    _tmp0 = 8 * a1
     _tmp1 = numpy.cos(gamma)
     _tmp2 = _tmp1**2
-    _tmp3 = _tmp2*c_v1
+    _tmp3 = _tmp2 * c_v1
     _tmp4 = numpy.sin(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = _tmp0*_tmp5
-    _tmp7 = 8*a2
-    _tmp8 = _tmp1*_tmp4
-    _tmp9 = _tmp8*c_v1
-    _tmp10 = 8*b
-    _tmp11 = _tmp10*c_y
-    _tmp12 = 8*h
-    _tmp13 = _tmp12*_tmp9
-    _tmp14 = _tmp12*c_y
-    _tmp15 = _tmp14*_tmp8
-    _tmp16 = 16*c_x
-    _tmp17 = 4*c_y
-    _tmp18 = 4*_tmp5
-    _tmp19 = _tmp18*c_v1
-    _tmp20 = _tmp17*_tmp2
-    _tmp21 = 8*_tmp9
-    _tmp22 = _tmp8*c_y
-    _tmp23 = _tmp21 - 8*_tmp22
-    _tmp24 = 4*_tmp2
-    _tmp25 = _tmp5*b
+    _tmp6 = _tmp0 * _tmp5
+    _tmp7 = 8 * a2
+    _tmp8 = _tmp1 * _tmp4
+    _tmp9 = _tmp8 * c_v1
+    _tmp10 = 8 * b
+    _tmp11 = _tmp10 * c_y
+    _tmp12 = 8 * h
+    _tmp13 = _tmp12 * _tmp9
+    _tmp14 = _tmp12 * c_y
+    _tmp15 = _tmp14 * _tmp8
+    _tmp16 = 16 * c_x
+    _tmp17 = 4 * c_y
+    _tmp18 = 4 * _tmp5
+    _tmp19 = _tmp18 * c_v1
+    _tmp20 = _tmp17 * _tmp2
+    _tmp21 = 8 * _tmp9
+    _tmp22 = _tmp8 * c_y
+    _tmp23 = _tmp21 - 8 * _tmp22
+    _tmp24 = 4 * _tmp2
+    _tmp25 = _tmp5 * b
     _tmp26 = b**2
-    _tmp27 = 8*_tmp26
+    _tmp27 = 8 * _tmp26
     _tmp28 = h**2
-    _tmp29 = 8*_tmp28
+    _tmp29 = 8 * _tmp28
     _tmp30 = a1**2
-    _tmp31 = -8*_tmp1*_tmp30*_tmp4*c_y + _tmp21*_tmp30
-    _tmp32 = _tmp8*b
-    _tmp33 = 4*_tmp32
-    _tmp34 = _tmp12*_tmp32
-    _tmp35 = _tmp18*_tmp30
-    _tmp36 = 4*a2**2
-    _tmp37 = _tmp24*_tmp30
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*_tmp3 + _tmp6*c_y, (5, 5): _tmp0*_tmp2*c_y + _tmp6*c_v1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp7*c_v2, (5, 5): _tmp7*c_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 3): 4*_tmp1*_tmp4*c_y - 4*_tmp9, (3, 3): _tmp10*_tmp3 + _tmp10*c_v2 + _tmp11*_tmp5 - _tmp13 + _tmp15, (5, 5): _tmp16*b}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -8*c_x, (1, 3): _tmp17 + _tmp19 + _tmp20, (3, 3): -_tmp10*_tmp9 + _tmp11*_tmp8 + _tmp12*_tmp5*c_v1 + _tmp14*_tmp2 + _tmp14, (4, 4): _tmp16*h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp23, (1, 3): _tmp13 - _tmp15 - _tmp17*_tmp25 + _tmp19*b + _tmp20*b - _tmp24*b*c_v1, (2, 2): -_tmp23, (3, 3): 8*_tmp1*_tmp26*_tmp4*c_y + 8*_tmp1*_tmp28*_tmp4*c_v1 - _tmp12*_tmp3*b - _tmp14*_tmp25 + 8*_tmp2*b*c_y*h - _tmp22*_tmp29 - _tmp27*_tmp9 + 8*_tmp5*b*c_v1*h, (4, 4): -_tmp31, (5, 5): _tmp31}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp12, (4, 4): _tmp29, (5, 5): _tmp27}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp24 + 4, (1, 3): _tmp24*h + _tmp33 + 4*h, (2, 2): _tmp18, (3, 3): _tmp18*_tmp26 + _tmp24*_tmp28 + 4*_tmp28 + _tmp34, (4, 4): _tmp35, (5, 5): _tmp36 + _tmp37}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp18, (1, 3): -_tmp33 + 4*_tmp5*h, (2, 2): _tmp24, (3, 3): _tmp18*_tmp28 + _tmp24*_tmp26 - _tmp34, (4, 4): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp26, (4, 4): _tmp36})], axis=-3).reshape(*_shape, 13, 2, 6, 6)
+    _tmp31 = -8 * _tmp1 * _tmp30 * _tmp4 * c_y + _tmp21 * _tmp30
+    _tmp32 = _tmp8 * b
+    _tmp33 = 4 * _tmp32
+    _tmp34 = _tmp12 * _tmp32
+    _tmp35 = _tmp18 * _tmp30
+    _tmp36 = 4 * a2**2
+    _tmp37 = _tmp24 * _tmp30
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(4, 4): _tmp0 * _tmp3 + _tmp6 * c_y, (5, 5): _tmp0 * _tmp2 * c_y + _tmp6 * c_v1}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp7 * c_v2, (5, 5): _tmp7 * c_y}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 3): 4 * _tmp1 * _tmp4 * c_y - 4 * _tmp9,
+                    (3, 3): _tmp10 * _tmp3 + _tmp10 * c_v2 + _tmp11 * _tmp5 - _tmp13 + _tmp15,
+                    (5, 5): _tmp16 * b,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -8 * c_x,
+                    (1, 3): _tmp17 + _tmp19 + _tmp20,
+                    (3, 3): -_tmp10 * _tmp9 + _tmp11 * _tmp8 + _tmp12 * _tmp5 * c_v1 + _tmp14 * _tmp2 + _tmp14,
+                    (4, 4): _tmp16 * h,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp23,
+                    (1, 3): _tmp13 - _tmp15 - _tmp17 * _tmp25 + _tmp19 * b + _tmp20 * b - _tmp24 * b * c_v1,
+                    (2, 2): -_tmp23,
+                    (3, 3): 8 * _tmp1 * _tmp26 * _tmp4 * c_y
+                    + 8 * _tmp1 * _tmp28 * _tmp4 * c_v1
+                    - _tmp12 * _tmp3 * b
+                    - _tmp14 * _tmp25
+                    + 8 * _tmp2 * b * c_y * h
+                    - _tmp22 * _tmp29
+                    - _tmp27 * _tmp9
+                    + 8 * _tmp5 * b * c_v1 * h,
+                    (4, 4): -_tmp31,
+                    (5, 5): _tmp31,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp12, (4, 4): _tmp29, (5, 5): _tmp27}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp24 + 4,
+                    (1, 3): _tmp24 * h + _tmp33 + 4 * h,
+                    (2, 2): _tmp18,
+                    (3, 3): _tmp18 * _tmp26 + _tmp24 * _tmp28 + 4 * _tmp28 + _tmp34,
+                    (4, 4): _tmp35,
+                    (5, 5): _tmp36 + _tmp37,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp18,
+                    (1, 3): -_tmp33 + 4 * _tmp5 * h,
+                    (2, 2): _tmp24,
+                    (3, 3): _tmp18 * _tmp28 + _tmp24 * _tmp26 - _tmp34,
+                    (4, 4): _tmp37,
+                    (5, 5): _tmp35,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp26, (4, 4): _tmp36}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 13, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -585,103 +1556,205 @@ def _model(_known, _unknowns, _modes):
     _lam = squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     if not _modes:
         return _lam, None, None
-    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _phi = _runtime.modal_matrix(
+        mass_matrix(m, J_x, J_y, J_z),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2),
+        _lam,
+        BLOCKS,
+        MODE_BLOCK,
+        MODE_RANK,
+    )
     return _lam, _phi, stiffness_gradient(a1, a2, b, h, gamma)
 
 
 def _roots_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_x, _lam_y, _lam_z, _lam_psi):
-    """Candidate roots of identify_x_y_z_psi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_z_psi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.cos(gamma)
         _tmp1 = _tmp0**2
         _tmp2 = J_x**2
         _tmp3 = b**2
-        _tmp4 = _tmp2*_tmp3
-        _tmp5 = 16*_tmp4
-        _tmp6 = _tmp1*_tmp5
+        _tmp4 = _tmp2 * _tmp3
+        _tmp5 = 16 * _tmp4
+        _tmp6 = _tmp1 * _tmp5
         _tmp7 = _tmp0**4
-        _tmp8 = 32*_tmp4
-        _tmp9 = _tmp7*_tmp8
+        _tmp8 = 32 * _tmp4
+        _tmp9 = _tmp7 * _tmp8
         _tmp10 = _tmp0**6
-        _tmp11 = _tmp1*m
+        _tmp11 = _tmp1 * m
         _tmp12 = h**2
-        _tmp13 = _tmp12*_tmp3
-        _tmp14 = J_x*_tmp13
-        _tmp15 = 32*_tmp14
-        _tmp16 = _tmp11*_tmp15
-        _tmp17 = _tmp7*m
-        _tmp18 = 64*_tmp14
-        _tmp19 = _tmp17*_tmp18
+        _tmp13 = _tmp12 * _tmp3
+        _tmp14 = J_x * _tmp13
+        _tmp15 = 32 * _tmp14
+        _tmp16 = _tmp11 * _tmp15
+        _tmp17 = _tmp7 * m
+        _tmp18 = 64 * _tmp14
+        _tmp19 = _tmp17 * _tmp18
         _tmp20 = m**2
-        _tmp21 = _tmp1*_tmp20
+        _tmp21 = _tmp1 * _tmp20
         _tmp22 = h**4
-        _tmp23 = _tmp22*_tmp3
-        _tmp24 = 16*_tmp23
-        _tmp25 = _tmp21*_tmp24
-        _tmp26 = 32*_tmp23
-        _tmp27 = _tmp20*_tmp7
-        _tmp28 = _tmp26*_tmp27
+        _tmp23 = _tmp22 * _tmp3
+        _tmp24 = 16 * _tmp23
+        _tmp25 = _tmp21 * _tmp24
+        _tmp26 = 32 * _tmp23
+        _tmp27 = _tmp20 * _tmp7
+        _tmp28 = _tmp26 * _tmp27
         _tmp29 = numpy.sin(gamma)
         _tmp30 = _tmp29**2
-        _tmp31 = _tmp1*_tmp30
+        _tmp31 = _tmp1 * _tmp30
         _tmp32 = _tmp29**4
-        _tmp33 = _tmp31*m
-        _tmp34 = _tmp21*_tmp30
+        _tmp33 = _tmp31 * m
+        _tmp34 = _tmp21 * _tmp30
         _tmp35 = b**4
-        _tmp36 = _lam_psi*m
-        _tmp37 = 8*_tmp4
-        _tmp38 = _tmp36*_tmp37
-        _tmp39 = _lam_y*_tmp37
+        _tmp36 = _lam_psi * m
+        _tmp37 = 8 * _tmp4
+        _tmp38 = _tmp36 * _tmp37
+        _tmp39 = _lam_y * _tmp37
         _tmp40 = b**3
         _tmp41 = m**3
-        _tmp42 = 8*_lam_z*_tmp12*_tmp35*_tmp41
+        _tmp42 = 8 * _lam_z * _tmp12 * _tmp35 * _tmp41
         _tmp43 = h**3
-        _tmp44 = 8*_tmp14
-        _tmp45 = _lam_psi*_tmp44
-        _tmp46 = _lam_y*_tmp44
+        _tmp44 = 8 * _tmp14
+        _tmp45 = _lam_psi * _tmp44
+        _tmp46 = _lam_y * _tmp44
         _tmp47 = _tmp0**3
         _tmp48 = _tmp29**3
-        _tmp49 = _lam_y*_tmp30
+        _tmp49 = _lam_y * _tmp30
         _tmp50 = _lam_z**2
-        _tmp51 = _tmp50*m**4
-        _tmp52 = J_x*_tmp41
-        _tmp53 = _lam_psi*_tmp52
-        _tmp54 = _tmp30*_tmp35
-        _tmp55 = _tmp1*_tmp53
-        _tmp56 = 2*_lam_z
-        _tmp57 = _tmp35*_tmp56
-        _tmp58 = _lam_y*_tmp52
-        _tmp59 = _tmp0*h
-        _tmp60 = _tmp29*_tmp59
-        _tmp61 = 4*_lam_y
-        _tmp62 = _tmp61*b
-        _tmp63 = _tmp29*_tmp40*_tmp56*_tmp59
-        _tmp64 = _lam_psi*_tmp20
-        _tmp65 = _tmp2*_tmp64
-        _tmp66 = _tmp21*_tmp4
-        _tmp67 = _lam_z*_tmp30
-        _tmp68 = _lam_z*_tmp49
-        c_y = numpy.concatenate([_runtime.polynomial_roots(_tmp10*_tmp15*m + _tmp10*_tmp20*_tmp24 + _tmp10*_tmp5 + _tmp16*_tmp32 + _tmp16 + _tmp18*_tmp33 + _tmp19*_tmp30 + _tmp19 + _tmp25*_tmp32 + _tmp25 + _tmp26*_tmp34 + _tmp28*_tmp30 + _tmp28 + _tmp30*_tmp9 + _tmp31*_tmp8 + _tmp32*_tmp6 + _tmp6 + _tmp9, 8*J_x*_lam_z*_tmp0*_tmp20*_tmp29*_tmp40*h + 8*J_x*_lam_z*_tmp0*_tmp20*_tmp40*_tmp48*h + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp30*_tmp35 + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp35 + 8*J_x*_lam_z*_tmp20*_tmp29*_tmp40*_tmp47*h + 8*J_x*_lam_z*_tmp20*_tmp35*_tmp7 + 8*_lam_z*_tmp0*_tmp29*_tmp40*_tmp41*_tmp43 + 8*_lam_z*_tmp0*_tmp40*_tmp41*_tmp43*_tmp48 + 8*_lam_z*_tmp29*_tmp40*_tmp41*_tmp43*_tmp47 - _tmp1*_tmp38 - _tmp1*_tmp42 - _tmp11*_tmp39 - _tmp17*_tmp39 - _tmp21*_tmp44*_tmp49 - _tmp21*_tmp45 - _tmp21*_tmp46 - _tmp27*_tmp45 - _tmp27*_tmp46 - _tmp31*_tmp38 - _tmp31*_tmp42 - _tmp33*_tmp39 - _tmp34*_tmp45 - _tmp38*_tmp7 - _tmp42*_tmp7, J_x**3*_tmp36*_tmp49 + _lam_psi**2*_tmp66 + 2*_lam_psi*_lam_y*_tmp66 + _lam_y**2*_tmp66 - _tmp0*_tmp29*_tmp43*_tmp53*_tmp62 + _tmp1*_tmp51*b**6 - _tmp1*_tmp57*_tmp58 + 2*_tmp12*_tmp49*_tmp65 + _tmp12*_tmp51*_tmp54 - _tmp13*_tmp52*_tmp68 - _tmp13*_tmp53*_tmp67 + _tmp13*_tmp55*_tmp61 - _tmp20*_tmp4*_tmp68 + _tmp22*_tmp49*_tmp53 - _tmp4*_tmp64*_tmp67 + _tmp50*_tmp52*_tmp54 - 2*_tmp51*_tmp60*b**5 + _tmp53*_tmp63 - _tmp55*_tmp57 + _tmp58*_tmp63 - _tmp60*_tmp62*_tmp65)])
+        _tmp51 = _tmp50 * m**4
+        _tmp52 = J_x * _tmp41
+        _tmp53 = _lam_psi * _tmp52
+        _tmp54 = _tmp30 * _tmp35
+        _tmp55 = _tmp1 * _tmp53
+        _tmp56 = 2 * _lam_z
+        _tmp57 = _tmp35 * _tmp56
+        _tmp58 = _lam_y * _tmp52
+        _tmp59 = _tmp0 * h
+        _tmp60 = _tmp29 * _tmp59
+        _tmp61 = 4 * _lam_y
+        _tmp62 = _tmp61 * b
+        _tmp63 = _tmp29 * _tmp40 * _tmp56 * _tmp59
+        _tmp64 = _lam_psi * _tmp20
+        _tmp65 = _tmp2 * _tmp64
+        _tmp66 = _tmp21 * _tmp4
+        _tmp67 = _lam_z * _tmp30
+        _tmp68 = _lam_z * _tmp49
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp10 * _tmp15 * m
+                    + _tmp10 * _tmp20 * _tmp24
+                    + _tmp10 * _tmp5
+                    + _tmp16 * _tmp32
+                    + _tmp16
+                    + _tmp18 * _tmp33
+                    + _tmp19 * _tmp30
+                    + _tmp19
+                    + _tmp25 * _tmp32
+                    + _tmp25
+                    + _tmp26 * _tmp34
+                    + _tmp28 * _tmp30
+                    + _tmp28
+                    + _tmp30 * _tmp9
+                    + _tmp31 * _tmp8
+                    + _tmp32 * _tmp6
+                    + _tmp6
+                    + _tmp9,
+                    8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp29 * _tmp40 * h
+                    + 8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp40 * _tmp48 * h
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp30 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp29 * _tmp40 * _tmp47 * h
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp35 * _tmp7
+                    + 8 * _lam_z * _tmp0 * _tmp29 * _tmp40 * _tmp41 * _tmp43
+                    + 8 * _lam_z * _tmp0 * _tmp40 * _tmp41 * _tmp43 * _tmp48
+                    + 8 * _lam_z * _tmp29 * _tmp40 * _tmp41 * _tmp43 * _tmp47
+                    - _tmp1 * _tmp38
+                    - _tmp1 * _tmp42
+                    - _tmp11 * _tmp39
+                    - _tmp17 * _tmp39
+                    - _tmp21 * _tmp44 * _tmp49
+                    - _tmp21 * _tmp45
+                    - _tmp21 * _tmp46
+                    - _tmp27 * _tmp45
+                    - _tmp27 * _tmp46
+                    - _tmp31 * _tmp38
+                    - _tmp31 * _tmp42
+                    - _tmp33 * _tmp39
+                    - _tmp34 * _tmp45
+                    - _tmp38 * _tmp7
+                    - _tmp42 * _tmp7,
+                    J_x**3 * _tmp36 * _tmp49
+                    + _lam_psi**2 * _tmp66
+                    + 2 * _lam_psi * _lam_y * _tmp66
+                    + _lam_y**2 * _tmp66
+                    - _tmp0 * _tmp29 * _tmp43 * _tmp53 * _tmp62
+                    + _tmp1 * _tmp51 * b**6
+                    - _tmp1 * _tmp57 * _tmp58
+                    + 2 * _tmp12 * _tmp49 * _tmp65
+                    + _tmp12 * _tmp51 * _tmp54
+                    - _tmp13 * _tmp52 * _tmp68
+                    - _tmp13 * _tmp53 * _tmp67
+                    + _tmp13 * _tmp55 * _tmp61
+                    - _tmp20 * _tmp4 * _tmp68
+                    + _tmp22 * _tmp49 * _tmp53
+                    - _tmp4 * _tmp64 * _tmp67
+                    + _tmp50 * _tmp52 * _tmp54
+                    - 2 * _tmp51 * _tmp60 * b**5
+                    + _tmp53 * _tmp63
+                    - _tmp55 * _tmp57
+                    + _tmp58 * _tmp63
+                    - _tmp60 * _tmp62 * _tmp65,
+                )
+            ]
+        )
         _tmp69 = numpy.sin(gamma)
-        _tmp70 = h**2*m
+        _tmp70 = h**2 * m
         _tmp71 = numpy.cos(gamma)
-        _tmp72 = 4*c_y
-        _tmp73 = J_x*_tmp72
-        _tmp74 = J_x*m
-        _tmp75 = _tmp70*_tmp72
+        _tmp72 = 4 * c_y
+        _tmp73 = J_x * _tmp72
+        _tmp74 = J_x * m
+        _tmp75 = _tmp70 * _tmp72
         _tmp76 = _tmp71**2
-        c_v1 = numpy.broadcast_to((0.25)*(-_lam_psi*_tmp74 - _lam_y*_tmp74 + _lam_z*b**2*m**2 + 8*_tmp69*_tmp71*b*c_y*h*m + _tmp73*_tmp76 + _tmp73 + _tmp75*_tmp76 + _tmp75)/(_tmp69*(-J_x*_tmp69 - _tmp69*_tmp70 + 2*_tmp71*b*h*m)), c_y.shape)
-        _tmp77 = _lam_x*m
+        c_v1 = numpy.broadcast_to(
+            (0.25)
+            * (
+                -_lam_psi * _tmp74
+                - _lam_y * _tmp74
+                + _lam_z * b**2 * m**2
+                + 8 * _tmp69 * _tmp71 * b * c_y * h * m
+                + _tmp73 * _tmp76
+                + _tmp73
+                + _tmp75 * _tmp76
+                + _tmp75
+            )
+            / (_tmp69 * (-J_x * _tmp69 - _tmp69 * _tmp70 + 2 * _tmp71 * b * h * m)),
+            c_y.shape,
+        )
+        _tmp77 = _lam_x * m
         _tmp78 = a2**2
         _tmp79 = a1**2
-        _tmp80 = numpy.cos(gamma)**2
-        _tmp81 = numpy.sin(gamma)**2
-        _tmp82 = 4*_tmp78
-        _tmp83 = J_y*_lam_x - _lam_z*_tmp78*m - 4*_tmp79*_tmp80*c_v1 - 4*_tmp79*_tmp81*c_y + _tmp80*_tmp82*c_v1 + _tmp81*_tmp82*c_y
-        c_x = numpy.broadcast_to(-0.125*_tmp77*_tmp83/(-_tmp77*h**2 - _tmp83), c_y.shape)
-        c_v2 = numpy.broadcast_to((0.25)*_lam_z*m - c_v1*numpy.cos(gamma)**2 - c_y*numpy.sin(gamma)**2, c_y.shape)
-    return (c_x, c_y, c_v1, c_v2,)
+        _tmp80 = numpy.cos(gamma) ** 2
+        _tmp81 = numpy.sin(gamma) ** 2
+        _tmp82 = 4 * _tmp78
+        _tmp83 = (
+            J_y * _lam_x
+            - _lam_z * _tmp78 * m
+            - 4 * _tmp79 * _tmp80 * c_v1
+            - 4 * _tmp79 * _tmp81 * c_y
+            + _tmp80 * _tmp82 * c_v1
+            + _tmp81 * _tmp82 * c_y
+        )
+        c_x = numpy.broadcast_to(-0.125 * _tmp77 * _tmp83 / (-_tmp77 * h**2 - _tmp83), c_y.shape)
+        c_v2 = numpy.broadcast_to(
+            (0.25) * _lam_z * m - c_v1 * numpy.cos(gamma) ** 2 - c_y * numpy.sin(gamma) ** 2, c_y.shape
+        )
+    return (
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+    )
 
 
 def identify_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi):
@@ -710,8 +1783,36 @@ def identify_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi)
-    return _runtime.solve_inverse(_roots_x_y_z_psi, _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_psi ** 2,), (0, 1, 2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(220000.0, 160000.0, 800000.0, 600000.0))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_z_psi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_z**2,
+            omega_psi**2,
+        ),
+        (0, 1, 2, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(220000.0, 160000.0, 800000.0, 600000.0),
+    )
 
 
 def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta):
@@ -724,8 +1825,39 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 2, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (0, 1, 2, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 1, 2, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_z**2,
+            omega_theta**2,
+        ),
+        (0, 1, 2, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi):
@@ -738,8 +1870,39 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 2, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (0, 1, 2, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 1, 2, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (0, 1, 2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta):
@@ -752,8 +1915,39 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 1, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 1, 3, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (0, 1, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi):
@@ -766,8 +1960,39 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 1, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 1, 3, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (0, 1, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi):
@@ -780,8 +2005,39 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 1, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 1, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 1, 4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (0, 1, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta):
@@ -794,8 +2050,39 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 2, 3, 4)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 2, 3, 4), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 2, 3, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (0, 2, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi):
@@ -808,31 +2095,93 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 2, 3, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 2, 3, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 2, 3, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (0, 2, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def _roots_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_x, _lam_z, _lam_theta, _lam_phi):
-    """Candidate roots of identify_x_z_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_z_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 8*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(64*J_y + 64*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
+        _tmp0 = J_y * _lam_theta
+        _tmp1 = 8 * m
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    64 * J_y + 64 * h**2 * m, -J_y * _lam_x * _tmp1 - _tmp0 * _tmp1, _lam_x * _tmp0 * m**2
+                )
+            ]
+        )
         _tmp2 = a1**2
         _tmp3 = numpy.cos(gamma)
         _tmp4 = a2**2
         _tmp5 = _tmp3**2
         _tmp6 = numpy.sin(gamma)
-        _tmp7 = J_y*_lam_theta*_lam_x*m
+        _tmp7 = J_y * _lam_theta * _lam_x * m
         _tmp8 = _tmp6**2
         _tmp9 = b**2
         _tmp10 = c_x**2
-        c_v1 = numpy.broadcast_to((0.03125)*(8*J_z*_lam_phi*_tmp2*_tmp8*c_x - 8*J_z*_lam_phi*_tmp4*_tmp8*c_x + 8*_lam_z*_tmp2*_tmp4*_tmp5*c_x*m + 8*_lam_z*a2**4*c_x*m - 64*_tmp10*_tmp2*_tmp8*_tmp9 + 64*_tmp10*_tmp4*_tmp8*_tmp9 - _tmp2*_tmp5*_tmp7 - _tmp4*_tmp7)/(c_x*(a1 - a2)*(a1 + a2)*(-_tmp2*_tmp3**4 + _tmp2*_tmp6**4 - _tmp4*_tmp5)), c_x.shape)
+        c_v1 = numpy.broadcast_to(
+            (0.03125)
+            * (
+                8 * J_z * _lam_phi * _tmp2 * _tmp8 * c_x
+                - 8 * J_z * _lam_phi * _tmp4 * _tmp8 * c_x
+                + 8 * _lam_z * _tmp2 * _tmp4 * _tmp5 * c_x * m
+                + 8 * _lam_z * a2**4 * c_x * m
+                - 64 * _tmp10 * _tmp2 * _tmp8 * _tmp9
+                + 64 * _tmp10 * _tmp4 * _tmp8 * _tmp9
+                - _tmp2 * _tmp5 * _tmp7
+                - _tmp4 * _tmp7
+            )
+            / (c_x * (a1 - a2) * (a1 + a2) * (-_tmp2 * _tmp3**4 + _tmp2 * _tmp6**4 - _tmp4 * _tmp5)),
+            c_x.shape,
+        )
         _tmp11 = a1**2
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp11*c_v1*numpy.sin(gamma)**2 + 8*b**2*c_x)/(_tmp11*numpy.cos(gamma)**2 + a2**2), c_x.shape)
-        c_v2 = numpy.broadcast_to((0.25)*_lam_z*m - c_v1*numpy.cos(gamma)**2 - c_y*numpy.sin(gamma)**2, c_x.shape)
-    return (c_x, c_y, c_v1, c_v2,)
+        c_y = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp11 * c_v1 * numpy.sin(gamma) ** 2 + 8 * b**2 * c_x)
+            / (_tmp11 * numpy.cos(gamma) ** 2 + a2**2),
+            c_x.shape,
+        )
+        c_v2 = numpy.broadcast_to(
+            (0.25) * _lam_z * m - c_v1 * numpy.cos(gamma) ** 2 - c_y * numpy.sin(gamma) ** 2, c_x.shape
+        )
+    return (
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+    )
 
 
 def identify_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi):
@@ -861,8 +2210,36 @@ def identify_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_x_z_theta_phi, _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 2, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(220000.0, 160000.0, 800000.0, 600000.0))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (0, 2, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(220000.0, 160000.0, 800000.0, 600000.0),
+    )
 
 
 def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi):
@@ -875,103 +2252,229 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (0, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (0, 3, 4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (0, 3, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def _roots_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_y, _lam_z, _lam_psi, _lam_theta):
-    """Candidate roots of identify_y_z_psi_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_z_psi_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.cos(gamma)
         _tmp1 = _tmp0**2
         _tmp2 = J_x**2
         _tmp3 = b**2
-        _tmp4 = _tmp2*_tmp3
-        _tmp5 = 16*_tmp4
-        _tmp6 = _tmp1*_tmp5
+        _tmp4 = _tmp2 * _tmp3
+        _tmp5 = 16 * _tmp4
+        _tmp6 = _tmp1 * _tmp5
         _tmp7 = _tmp0**4
-        _tmp8 = 32*_tmp4
-        _tmp9 = _tmp7*_tmp8
+        _tmp8 = 32 * _tmp4
+        _tmp9 = _tmp7 * _tmp8
         _tmp10 = _tmp0**6
-        _tmp11 = _tmp1*m
+        _tmp11 = _tmp1 * m
         _tmp12 = h**2
-        _tmp13 = _tmp12*_tmp3
-        _tmp14 = J_x*_tmp13
-        _tmp15 = 32*_tmp14
-        _tmp16 = _tmp11*_tmp15
-        _tmp17 = _tmp7*m
-        _tmp18 = 64*_tmp14
-        _tmp19 = _tmp17*_tmp18
+        _tmp13 = _tmp12 * _tmp3
+        _tmp14 = J_x * _tmp13
+        _tmp15 = 32 * _tmp14
+        _tmp16 = _tmp11 * _tmp15
+        _tmp17 = _tmp7 * m
+        _tmp18 = 64 * _tmp14
+        _tmp19 = _tmp17 * _tmp18
         _tmp20 = m**2
-        _tmp21 = _tmp1*_tmp20
+        _tmp21 = _tmp1 * _tmp20
         _tmp22 = h**4
-        _tmp23 = _tmp22*_tmp3
-        _tmp24 = 16*_tmp23
-        _tmp25 = _tmp21*_tmp24
-        _tmp26 = 32*_tmp23
-        _tmp27 = _tmp20*_tmp7
-        _tmp28 = _tmp26*_tmp27
+        _tmp23 = _tmp22 * _tmp3
+        _tmp24 = 16 * _tmp23
+        _tmp25 = _tmp21 * _tmp24
+        _tmp26 = 32 * _tmp23
+        _tmp27 = _tmp20 * _tmp7
+        _tmp28 = _tmp26 * _tmp27
         _tmp29 = numpy.sin(gamma)
         _tmp30 = _tmp29**2
-        _tmp31 = _tmp1*_tmp30
+        _tmp31 = _tmp1 * _tmp30
         _tmp32 = _tmp29**4
-        _tmp33 = _tmp31*m
-        _tmp34 = _tmp21*_tmp30
+        _tmp33 = _tmp31 * m
+        _tmp34 = _tmp21 * _tmp30
         _tmp35 = b**4
-        _tmp36 = _lam_psi*m
-        _tmp37 = 8*_tmp4
-        _tmp38 = _tmp36*_tmp37
-        _tmp39 = _lam_y*_tmp37
+        _tmp36 = _lam_psi * m
+        _tmp37 = 8 * _tmp4
+        _tmp38 = _tmp36 * _tmp37
+        _tmp39 = _lam_y * _tmp37
         _tmp40 = b**3
         _tmp41 = m**3
-        _tmp42 = 8*_lam_z*_tmp12*_tmp35*_tmp41
+        _tmp42 = 8 * _lam_z * _tmp12 * _tmp35 * _tmp41
         _tmp43 = h**3
-        _tmp44 = 8*_tmp14
-        _tmp45 = _lam_psi*_tmp44
-        _tmp46 = _lam_y*_tmp44
+        _tmp44 = 8 * _tmp14
+        _tmp45 = _lam_psi * _tmp44
+        _tmp46 = _lam_y * _tmp44
         _tmp47 = _tmp0**3
         _tmp48 = _tmp29**3
-        _tmp49 = _lam_y*_tmp30
+        _tmp49 = _lam_y * _tmp30
         _tmp50 = _lam_z**2
-        _tmp51 = _tmp50*m**4
-        _tmp52 = J_x*_tmp41
-        _tmp53 = _lam_psi*_tmp52
-        _tmp54 = _tmp30*_tmp35
-        _tmp55 = _tmp1*_tmp53
-        _tmp56 = 2*_lam_z
-        _tmp57 = _tmp35*_tmp56
-        _tmp58 = _lam_y*_tmp52
-        _tmp59 = _tmp0*h
-        _tmp60 = _tmp29*_tmp59
-        _tmp61 = 4*_lam_y
-        _tmp62 = _tmp61*b
-        _tmp63 = _tmp29*_tmp40*_tmp56*_tmp59
-        _tmp64 = _lam_psi*_tmp20
-        _tmp65 = _tmp2*_tmp64
-        _tmp66 = _tmp21*_tmp4
-        _tmp67 = _lam_z*_tmp30
-        _tmp68 = _lam_z*_tmp49
-        c_y = numpy.concatenate([_runtime.polynomial_roots(_tmp10*_tmp15*m + _tmp10*_tmp20*_tmp24 + _tmp10*_tmp5 + _tmp16*_tmp32 + _tmp16 + _tmp18*_tmp33 + _tmp19*_tmp30 + _tmp19 + _tmp25*_tmp32 + _tmp25 + _tmp26*_tmp34 + _tmp28*_tmp30 + _tmp28 + _tmp30*_tmp9 + _tmp31*_tmp8 + _tmp32*_tmp6 + _tmp6 + _tmp9, 8*J_x*_lam_z*_tmp0*_tmp20*_tmp29*_tmp40*h + 8*J_x*_lam_z*_tmp0*_tmp20*_tmp40*_tmp48*h + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp30*_tmp35 + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp35 + 8*J_x*_lam_z*_tmp20*_tmp29*_tmp40*_tmp47*h + 8*J_x*_lam_z*_tmp20*_tmp35*_tmp7 + 8*_lam_z*_tmp0*_tmp29*_tmp40*_tmp41*_tmp43 + 8*_lam_z*_tmp0*_tmp40*_tmp41*_tmp43*_tmp48 + 8*_lam_z*_tmp29*_tmp40*_tmp41*_tmp43*_tmp47 - _tmp1*_tmp38 - _tmp1*_tmp42 - _tmp11*_tmp39 - _tmp17*_tmp39 - _tmp21*_tmp44*_tmp49 - _tmp21*_tmp45 - _tmp21*_tmp46 - _tmp27*_tmp45 - _tmp27*_tmp46 - _tmp31*_tmp38 - _tmp31*_tmp42 - _tmp33*_tmp39 - _tmp34*_tmp45 - _tmp38*_tmp7 - _tmp42*_tmp7, J_x**3*_tmp36*_tmp49 + _lam_psi**2*_tmp66 + 2*_lam_psi*_lam_y*_tmp66 + _lam_y**2*_tmp66 - _tmp0*_tmp29*_tmp43*_tmp53*_tmp62 + _tmp1*_tmp51*b**6 - _tmp1*_tmp57*_tmp58 + 2*_tmp12*_tmp49*_tmp65 + _tmp12*_tmp51*_tmp54 - _tmp13*_tmp52*_tmp68 - _tmp13*_tmp53*_tmp67 + _tmp13*_tmp55*_tmp61 - _tmp20*_tmp4*_tmp68 + _tmp22*_tmp49*_tmp53 - _tmp4*_tmp64*_tmp67 + _tmp50*_tmp52*_tmp54 - 2*_tmp51*_tmp60*b**5 + _tmp53*_tmp63 - _tmp55*_tmp57 + _tmp58*_tmp63 - _tmp60*_tmp62*_tmp65)])
+        _tmp51 = _tmp50 * m**4
+        _tmp52 = J_x * _tmp41
+        _tmp53 = _lam_psi * _tmp52
+        _tmp54 = _tmp30 * _tmp35
+        _tmp55 = _tmp1 * _tmp53
+        _tmp56 = 2 * _lam_z
+        _tmp57 = _tmp35 * _tmp56
+        _tmp58 = _lam_y * _tmp52
+        _tmp59 = _tmp0 * h
+        _tmp60 = _tmp29 * _tmp59
+        _tmp61 = 4 * _lam_y
+        _tmp62 = _tmp61 * b
+        _tmp63 = _tmp29 * _tmp40 * _tmp56 * _tmp59
+        _tmp64 = _lam_psi * _tmp20
+        _tmp65 = _tmp2 * _tmp64
+        _tmp66 = _tmp21 * _tmp4
+        _tmp67 = _lam_z * _tmp30
+        _tmp68 = _lam_z * _tmp49
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp10 * _tmp15 * m
+                    + _tmp10 * _tmp20 * _tmp24
+                    + _tmp10 * _tmp5
+                    + _tmp16 * _tmp32
+                    + _tmp16
+                    + _tmp18 * _tmp33
+                    + _tmp19 * _tmp30
+                    + _tmp19
+                    + _tmp25 * _tmp32
+                    + _tmp25
+                    + _tmp26 * _tmp34
+                    + _tmp28 * _tmp30
+                    + _tmp28
+                    + _tmp30 * _tmp9
+                    + _tmp31 * _tmp8
+                    + _tmp32 * _tmp6
+                    + _tmp6
+                    + _tmp9,
+                    8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp29 * _tmp40 * h
+                    + 8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp40 * _tmp48 * h
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp30 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp29 * _tmp40 * _tmp47 * h
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp35 * _tmp7
+                    + 8 * _lam_z * _tmp0 * _tmp29 * _tmp40 * _tmp41 * _tmp43
+                    + 8 * _lam_z * _tmp0 * _tmp40 * _tmp41 * _tmp43 * _tmp48
+                    + 8 * _lam_z * _tmp29 * _tmp40 * _tmp41 * _tmp43 * _tmp47
+                    - _tmp1 * _tmp38
+                    - _tmp1 * _tmp42
+                    - _tmp11 * _tmp39
+                    - _tmp17 * _tmp39
+                    - _tmp21 * _tmp44 * _tmp49
+                    - _tmp21 * _tmp45
+                    - _tmp21 * _tmp46
+                    - _tmp27 * _tmp45
+                    - _tmp27 * _tmp46
+                    - _tmp31 * _tmp38
+                    - _tmp31 * _tmp42
+                    - _tmp33 * _tmp39
+                    - _tmp34 * _tmp45
+                    - _tmp38 * _tmp7
+                    - _tmp42 * _tmp7,
+                    J_x**3 * _tmp36 * _tmp49
+                    + _lam_psi**2 * _tmp66
+                    + 2 * _lam_psi * _lam_y * _tmp66
+                    + _lam_y**2 * _tmp66
+                    - _tmp0 * _tmp29 * _tmp43 * _tmp53 * _tmp62
+                    + _tmp1 * _tmp51 * b**6
+                    - _tmp1 * _tmp57 * _tmp58
+                    + 2 * _tmp12 * _tmp49 * _tmp65
+                    + _tmp12 * _tmp51 * _tmp54
+                    - _tmp13 * _tmp52 * _tmp68
+                    - _tmp13 * _tmp53 * _tmp67
+                    + _tmp13 * _tmp55 * _tmp61
+                    - _tmp20 * _tmp4 * _tmp68
+                    + _tmp22 * _tmp49 * _tmp53
+                    - _tmp4 * _tmp64 * _tmp67
+                    + _tmp50 * _tmp52 * _tmp54
+                    - 2 * _tmp51 * _tmp60 * b**5
+                    + _tmp53 * _tmp63
+                    - _tmp55 * _tmp57
+                    + _tmp58 * _tmp63
+                    - _tmp60 * _tmp62 * _tmp65,
+                )
+            ]
+        )
         _tmp69 = numpy.sin(gamma)
-        _tmp70 = h**2*m
+        _tmp70 = h**2 * m
         _tmp71 = numpy.cos(gamma)
-        _tmp72 = 4*c_y
-        _tmp73 = J_x*_tmp72
-        _tmp74 = J_x*m
-        _tmp75 = _tmp70*_tmp72
+        _tmp72 = 4 * c_y
+        _tmp73 = J_x * _tmp72
+        _tmp74 = J_x * m
+        _tmp75 = _tmp70 * _tmp72
         _tmp76 = _tmp71**2
-        c_v1 = numpy.broadcast_to((0.25)*(-_lam_psi*_tmp74 - _lam_y*_tmp74 + _lam_z*b**2*m**2 + 8*_tmp69*_tmp71*b*c_y*h*m + _tmp73*_tmp76 + _tmp73 + _tmp75*_tmp76 + _tmp75)/(_tmp69*(-J_x*_tmp69 - _tmp69*_tmp70 + 2*_tmp71*b*h*m)), c_y.shape)
-        _tmp77 = _lam_theta*m
+        c_v1 = numpy.broadcast_to(
+            (0.25)
+            * (
+                -_lam_psi * _tmp74
+                - _lam_y * _tmp74
+                + _lam_z * b**2 * m**2
+                + 8 * _tmp69 * _tmp71 * b * c_y * h * m
+                + _tmp73 * _tmp76
+                + _tmp73
+                + _tmp75 * _tmp76
+                + _tmp75
+            )
+            / (_tmp69 * (-J_x * _tmp69 - _tmp69 * _tmp70 + 2 * _tmp71 * b * h * m)),
+            c_y.shape,
+        )
+        _tmp77 = _lam_theta * m
         _tmp78 = a2**2
         _tmp79 = a1**2
-        _tmp80 = numpy.cos(gamma)**2
-        _tmp81 = numpy.sin(gamma)**2
-        _tmp82 = 4*_tmp78
-        _tmp83 = J_y*_lam_theta - _lam_z*_tmp78*m - 4*_tmp79*_tmp80*c_v1 - 4*_tmp79*_tmp81*c_y + _tmp80*_tmp82*c_v1 + _tmp81*_tmp82*c_y
-        c_x = numpy.broadcast_to(-0.125*_tmp77*_tmp83/(-_tmp77*h**2 - _tmp83), c_y.shape)
-        c_v2 = numpy.broadcast_to((0.25)*_lam_z*m - c_v1*numpy.cos(gamma)**2 - c_y*numpy.sin(gamma)**2, c_y.shape)
-    return (c_x, c_y, c_v1, c_v2,)
+        _tmp80 = numpy.cos(gamma) ** 2
+        _tmp81 = numpy.sin(gamma) ** 2
+        _tmp82 = 4 * _tmp78
+        _tmp83 = (
+            J_y * _lam_theta
+            - _lam_z * _tmp78 * m
+            - 4 * _tmp79 * _tmp80 * c_v1
+            - 4 * _tmp79 * _tmp81 * c_y
+            + _tmp80 * _tmp82 * c_v1
+            + _tmp81 * _tmp82 * c_y
+        )
+        c_x = numpy.broadcast_to(-0.125 * _tmp77 * _tmp83 / (-_tmp77 * h**2 - _tmp83), c_y.shape)
+        c_v2 = numpy.broadcast_to(
+            (0.25) * _lam_z * m - c_v1 * numpy.cos(gamma) ** 2 - c_y * numpy.sin(gamma) ** 2, c_y.shape
+        )
+    return (
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+    )
 
 
 def identify_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta):
@@ -1000,98 +2503,224 @@ def identify_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_y_z_psi_theta, _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 2, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(220000.0, 160000.0, 800000.0, 600000.0))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (1, 2, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(220000.0, 160000.0, 800000.0, 600000.0),
+    )
 
 
 def _roots_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, _lam_y, _lam_z, _lam_psi, _lam_phi):
-    """Candidate roots of identify_y_z_psi_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_z_psi_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.cos(gamma)
         _tmp1 = _tmp0**2
         _tmp2 = J_x**2
         _tmp3 = b**2
-        _tmp4 = _tmp2*_tmp3
-        _tmp5 = 16*_tmp4
-        _tmp6 = _tmp1*_tmp5
+        _tmp4 = _tmp2 * _tmp3
+        _tmp5 = 16 * _tmp4
+        _tmp6 = _tmp1 * _tmp5
         _tmp7 = _tmp0**4
-        _tmp8 = 32*_tmp4
-        _tmp9 = _tmp7*_tmp8
+        _tmp8 = 32 * _tmp4
+        _tmp9 = _tmp7 * _tmp8
         _tmp10 = _tmp0**6
-        _tmp11 = _tmp1*m
+        _tmp11 = _tmp1 * m
         _tmp12 = h**2
-        _tmp13 = _tmp12*_tmp3
-        _tmp14 = J_x*_tmp13
-        _tmp15 = 32*_tmp14
-        _tmp16 = _tmp11*_tmp15
-        _tmp17 = _tmp7*m
-        _tmp18 = 64*_tmp14
-        _tmp19 = _tmp17*_tmp18
+        _tmp13 = _tmp12 * _tmp3
+        _tmp14 = J_x * _tmp13
+        _tmp15 = 32 * _tmp14
+        _tmp16 = _tmp11 * _tmp15
+        _tmp17 = _tmp7 * m
+        _tmp18 = 64 * _tmp14
+        _tmp19 = _tmp17 * _tmp18
         _tmp20 = m**2
-        _tmp21 = _tmp1*_tmp20
+        _tmp21 = _tmp1 * _tmp20
         _tmp22 = h**4
-        _tmp23 = _tmp22*_tmp3
-        _tmp24 = 16*_tmp23
-        _tmp25 = _tmp21*_tmp24
-        _tmp26 = 32*_tmp23
-        _tmp27 = _tmp20*_tmp7
-        _tmp28 = _tmp26*_tmp27
+        _tmp23 = _tmp22 * _tmp3
+        _tmp24 = 16 * _tmp23
+        _tmp25 = _tmp21 * _tmp24
+        _tmp26 = 32 * _tmp23
+        _tmp27 = _tmp20 * _tmp7
+        _tmp28 = _tmp26 * _tmp27
         _tmp29 = numpy.sin(gamma)
         _tmp30 = _tmp29**2
-        _tmp31 = _tmp1*_tmp30
+        _tmp31 = _tmp1 * _tmp30
         _tmp32 = _tmp29**4
-        _tmp33 = _tmp31*m
-        _tmp34 = _tmp21*_tmp30
+        _tmp33 = _tmp31 * m
+        _tmp34 = _tmp21 * _tmp30
         _tmp35 = b**4
-        _tmp36 = _lam_psi*m
-        _tmp37 = 8*_tmp4
-        _tmp38 = _tmp36*_tmp37
-        _tmp39 = _lam_y*_tmp37
+        _tmp36 = _lam_psi * m
+        _tmp37 = 8 * _tmp4
+        _tmp38 = _tmp36 * _tmp37
+        _tmp39 = _lam_y * _tmp37
         _tmp40 = b**3
         _tmp41 = m**3
-        _tmp42 = 8*_lam_z*_tmp12*_tmp35*_tmp41
+        _tmp42 = 8 * _lam_z * _tmp12 * _tmp35 * _tmp41
         _tmp43 = h**3
-        _tmp44 = 8*_tmp14
-        _tmp45 = _lam_psi*_tmp44
-        _tmp46 = _lam_y*_tmp44
+        _tmp44 = 8 * _tmp14
+        _tmp45 = _lam_psi * _tmp44
+        _tmp46 = _lam_y * _tmp44
         _tmp47 = _tmp0**3
         _tmp48 = _tmp29**3
-        _tmp49 = _lam_y*_tmp30
+        _tmp49 = _lam_y * _tmp30
         _tmp50 = _lam_z**2
-        _tmp51 = _tmp50*m**4
-        _tmp52 = J_x*_tmp41
-        _tmp53 = _lam_psi*_tmp52
-        _tmp54 = _tmp30*_tmp35
-        _tmp55 = _tmp1*_tmp53
-        _tmp56 = 2*_lam_z
-        _tmp57 = _tmp35*_tmp56
-        _tmp58 = _lam_y*_tmp52
-        _tmp59 = _tmp0*h
-        _tmp60 = _tmp29*_tmp59
-        _tmp61 = 4*_lam_y
-        _tmp62 = _tmp61*b
-        _tmp63 = _tmp29*_tmp40*_tmp56*_tmp59
-        _tmp64 = _lam_psi*_tmp20
-        _tmp65 = _tmp2*_tmp64
-        _tmp66 = _tmp21*_tmp4
-        _tmp67 = _lam_z*_tmp30
-        _tmp68 = _lam_z*_tmp49
-        c_y = numpy.concatenate([_runtime.polynomial_roots(_tmp10*_tmp15*m + _tmp10*_tmp20*_tmp24 + _tmp10*_tmp5 + _tmp16*_tmp32 + _tmp16 + _tmp18*_tmp33 + _tmp19*_tmp30 + _tmp19 + _tmp25*_tmp32 + _tmp25 + _tmp26*_tmp34 + _tmp28*_tmp30 + _tmp28 + _tmp30*_tmp9 + _tmp31*_tmp8 + _tmp32*_tmp6 + _tmp6 + _tmp9, 8*J_x*_lam_z*_tmp0*_tmp20*_tmp29*_tmp40*h + 8*J_x*_lam_z*_tmp0*_tmp20*_tmp40*_tmp48*h + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp30*_tmp35 + 8*J_x*_lam_z*_tmp1*_tmp20*_tmp35 + 8*J_x*_lam_z*_tmp20*_tmp29*_tmp40*_tmp47*h + 8*J_x*_lam_z*_tmp20*_tmp35*_tmp7 + 8*_lam_z*_tmp0*_tmp29*_tmp40*_tmp41*_tmp43 + 8*_lam_z*_tmp0*_tmp40*_tmp41*_tmp43*_tmp48 + 8*_lam_z*_tmp29*_tmp40*_tmp41*_tmp43*_tmp47 - _tmp1*_tmp38 - _tmp1*_tmp42 - _tmp11*_tmp39 - _tmp17*_tmp39 - _tmp21*_tmp44*_tmp49 - _tmp21*_tmp45 - _tmp21*_tmp46 - _tmp27*_tmp45 - _tmp27*_tmp46 - _tmp31*_tmp38 - _tmp31*_tmp42 - _tmp33*_tmp39 - _tmp34*_tmp45 - _tmp38*_tmp7 - _tmp42*_tmp7, J_x**3*_tmp36*_tmp49 + _lam_psi**2*_tmp66 + 2*_lam_psi*_lam_y*_tmp66 + _lam_y**2*_tmp66 - _tmp0*_tmp29*_tmp43*_tmp53*_tmp62 + _tmp1*_tmp51*b**6 - _tmp1*_tmp57*_tmp58 + 2*_tmp12*_tmp49*_tmp65 + _tmp12*_tmp51*_tmp54 - _tmp13*_tmp52*_tmp68 - _tmp13*_tmp53*_tmp67 + _tmp13*_tmp55*_tmp61 - _tmp20*_tmp4*_tmp68 + _tmp22*_tmp49*_tmp53 - _tmp4*_tmp64*_tmp67 + _tmp50*_tmp52*_tmp54 - 2*_tmp51*_tmp60*b**5 + _tmp53*_tmp63 - _tmp55*_tmp57 + _tmp58*_tmp63 - _tmp60*_tmp62*_tmp65)])
+        _tmp51 = _tmp50 * m**4
+        _tmp52 = J_x * _tmp41
+        _tmp53 = _lam_psi * _tmp52
+        _tmp54 = _tmp30 * _tmp35
+        _tmp55 = _tmp1 * _tmp53
+        _tmp56 = 2 * _lam_z
+        _tmp57 = _tmp35 * _tmp56
+        _tmp58 = _lam_y * _tmp52
+        _tmp59 = _tmp0 * h
+        _tmp60 = _tmp29 * _tmp59
+        _tmp61 = 4 * _lam_y
+        _tmp62 = _tmp61 * b
+        _tmp63 = _tmp29 * _tmp40 * _tmp56 * _tmp59
+        _tmp64 = _lam_psi * _tmp20
+        _tmp65 = _tmp2 * _tmp64
+        _tmp66 = _tmp21 * _tmp4
+        _tmp67 = _lam_z * _tmp30
+        _tmp68 = _lam_z * _tmp49
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp10 * _tmp15 * m
+                    + _tmp10 * _tmp20 * _tmp24
+                    + _tmp10 * _tmp5
+                    + _tmp16 * _tmp32
+                    + _tmp16
+                    + _tmp18 * _tmp33
+                    + _tmp19 * _tmp30
+                    + _tmp19
+                    + _tmp25 * _tmp32
+                    + _tmp25
+                    + _tmp26 * _tmp34
+                    + _tmp28 * _tmp30
+                    + _tmp28
+                    + _tmp30 * _tmp9
+                    + _tmp31 * _tmp8
+                    + _tmp32 * _tmp6
+                    + _tmp6
+                    + _tmp9,
+                    8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp29 * _tmp40 * h
+                    + 8 * J_x * _lam_z * _tmp0 * _tmp20 * _tmp40 * _tmp48 * h
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp30 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp1 * _tmp20 * _tmp35
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp29 * _tmp40 * _tmp47 * h
+                    + 8 * J_x * _lam_z * _tmp20 * _tmp35 * _tmp7
+                    + 8 * _lam_z * _tmp0 * _tmp29 * _tmp40 * _tmp41 * _tmp43
+                    + 8 * _lam_z * _tmp0 * _tmp40 * _tmp41 * _tmp43 * _tmp48
+                    + 8 * _lam_z * _tmp29 * _tmp40 * _tmp41 * _tmp43 * _tmp47
+                    - _tmp1 * _tmp38
+                    - _tmp1 * _tmp42
+                    - _tmp11 * _tmp39
+                    - _tmp17 * _tmp39
+                    - _tmp21 * _tmp44 * _tmp49
+                    - _tmp21 * _tmp45
+                    - _tmp21 * _tmp46
+                    - _tmp27 * _tmp45
+                    - _tmp27 * _tmp46
+                    - _tmp31 * _tmp38
+                    - _tmp31 * _tmp42
+                    - _tmp33 * _tmp39
+                    - _tmp34 * _tmp45
+                    - _tmp38 * _tmp7
+                    - _tmp42 * _tmp7,
+                    J_x**3 * _tmp36 * _tmp49
+                    + _lam_psi**2 * _tmp66
+                    + 2 * _lam_psi * _lam_y * _tmp66
+                    + _lam_y**2 * _tmp66
+                    - _tmp0 * _tmp29 * _tmp43 * _tmp53 * _tmp62
+                    + _tmp1 * _tmp51 * b**6
+                    - _tmp1 * _tmp57 * _tmp58
+                    + 2 * _tmp12 * _tmp49 * _tmp65
+                    + _tmp12 * _tmp51 * _tmp54
+                    - _tmp13 * _tmp52 * _tmp68
+                    - _tmp13 * _tmp53 * _tmp67
+                    + _tmp13 * _tmp55 * _tmp61
+                    - _tmp20 * _tmp4 * _tmp68
+                    + _tmp22 * _tmp49 * _tmp53
+                    - _tmp4 * _tmp64 * _tmp67
+                    + _tmp50 * _tmp52 * _tmp54
+                    - 2 * _tmp51 * _tmp60 * b**5
+                    + _tmp53 * _tmp63
+                    - _tmp55 * _tmp57
+                    + _tmp58 * _tmp63
+                    - _tmp60 * _tmp62 * _tmp65,
+                )
+            ]
+        )
         _tmp69 = numpy.sin(gamma)
-        _tmp70 = h**2*m
+        _tmp70 = h**2 * m
         _tmp71 = numpy.cos(gamma)
-        _tmp72 = 4*c_y
-        _tmp73 = J_x*_tmp72
-        _tmp74 = J_x*m
-        _tmp75 = _tmp70*_tmp72
+        _tmp72 = 4 * c_y
+        _tmp73 = J_x * _tmp72
+        _tmp74 = J_x * m
+        _tmp75 = _tmp70 * _tmp72
         _tmp76 = _tmp71**2
-        c_v1 = numpy.broadcast_to((0.25)*(-_lam_psi*_tmp74 - _lam_y*_tmp74 + _lam_z*b**2*m**2 + 8*_tmp69*_tmp71*b*c_y*h*m + _tmp73*_tmp76 + _tmp73 + _tmp75*_tmp76 + _tmp75)/(_tmp69*(-J_x*_tmp69 - _tmp69*_tmp70 + 2*_tmp71*b*h*m)), c_y.shape)
-        _tmp77 = 4*c_y
+        c_v1 = numpy.broadcast_to(
+            (0.25)
+            * (
+                -_lam_psi * _tmp74
+                - _lam_y * _tmp74
+                + _lam_z * b**2 * m**2
+                + 8 * _tmp69 * _tmp71 * b * c_y * h * m
+                + _tmp73 * _tmp76
+                + _tmp73
+                + _tmp75 * _tmp76
+                + _tmp75
+            )
+            / (_tmp69 * (-J_x * _tmp69 - _tmp69 * _tmp70 + 2 * _tmp71 * b * h * m)),
+            c_y.shape,
+        )
+        _tmp77 = 4 * c_y
         _tmp78 = a1**2
-        c_x = numpy.broadcast_to(-0.125*(-J_z*_lam_phi + _tmp77*_tmp78*numpy.cos(gamma)**2 + _tmp77*a2**2 + 4*_tmp78*c_v1*numpy.sin(gamma)**2)/b**2, c_y.shape)
-        c_v2 = numpy.broadcast_to((0.25)*_lam_z*m - c_v1*numpy.cos(gamma)**2 - c_y*numpy.sin(gamma)**2, c_y.shape)
-    return (c_x, c_y, c_v1, c_v2,)
+        c_x = numpy.broadcast_to(
+            -0.125
+            * (
+                -J_z * _lam_phi
+                + _tmp77 * _tmp78 * numpy.cos(gamma) ** 2
+                + _tmp77 * a2**2
+                + 4 * _tmp78 * c_v1 * numpy.sin(gamma) ** 2
+            )
+            / b**2,
+            c_y.shape,
+        )
+        c_v2 = numpy.broadcast_to(
+            (0.25) * _lam_z * m - c_v1 * numpy.cos(gamma) ** 2 - c_y * numpy.sin(gamma) ** 2, c_y.shape
+        )
+    return (
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+    )
 
 
 def identify_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi):
@@ -1120,8 +2749,36 @@ def identify_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_y_z_psi_phi, _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 2, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(220000.0, 160000.0, 800000.0, 600000.0))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (1, 2, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(220000.0, 160000.0, 800000.0, 600000.0),
+    )
 
 
 def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi):
@@ -1134,8 +2791,39 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (1, 2, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 2, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (1, 2, 4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (1, 2, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi):
@@ -1148,8 +2836,39 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (1, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (1, 3, 4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (1, 3, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi):
@@ -1162,8 +2881,39 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((220000.0, 160000.0, 800000.0, 600000.0), (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0), _model, (2, 3, 4, 5)), _model, (m, J_x, J_y, J_z, a1, a2, b, h, gamma,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 3, 4, 5), UNKNOWN, MODE_BLOCK, n_roots=625)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (220000.0, 160000.0, 800000.0, 600000.0),
+            (0.1, 0.316227766017, 1.0, 3.162277660168, 10.0),
+            _model,
+            (2, 3, 4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a1,
+            a2,
+            b,
+            h,
+            gamma,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (2, 3, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=625,
+    )
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com):
@@ -1185,16 +2935,56 @@ def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com)
-    _tmp0 = dy_com*m
-    _tmp1 = dx_com*m
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
+    )
+    _tmp0 = dy_com * m
+    _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 5): -_tmp0,
+                (1, 5): _tmp1,
+                (2, 3): _tmp0,
+                (2, 4): -_tmp1,
+                (3, 3): _tmp2 * m,
+                (3, 4): -_tmp0 * dx_com,
+                (4, 4): _tmp3 * m,
+                (5, 5): m * (_tmp2 + _tmp3),
+            },
+        ),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
-def effect_com_offset_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com):
+def effect_com_offset_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
+):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
     shape (..., 6, 3, 6, 6), differentiated by sympy.
 
@@ -1248,29 +3038,97 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
     _tmp15 = -m
-    _tmp16 = dy_com*m
-    _tmp17 = dx_com*m
-    _tmp18 = 2*_tmp17
-    _tmp19 = 2*_tmp16
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dx_com), numpy.shape(dy_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp15, (3, 4): -_tmp16, (4, 4): _tmp18, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp15, (2, 3): m, (3, 3): _tmp19, (3, 4): -_tmp17, (5, 5): _tmp19}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+    _tmp16 = dy_com * m
+    _tmp17 = dx_com * m
+    _tmp18 = 2 * _tmp17
+    _tmp19 = 2 * _tmp16
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 5): m, (2, 4): _tmp15, (3, 4): -_tmp16, (4, 4): _tmp18, (5, 5): _tmp18}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 5): _tmp15, (2, 3): m, (3, 3): _tmp19, (3, 4): -_tmp17, (5, 5): _tmp19}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
@@ -1288,11 +3146,35 @@ def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com)
-    _tmp0 = dz_com*m
-    _tmp1 = dz_com**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dz_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com
+    )
+    _tmp0 = dz_com * m
+    _tmp1 = dz_com**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(dz_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
@@ -1340,28 +3222,90 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
-    _tmp15 = 2*dz_com*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(dz_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
+    _tmp15 = 2 * dz_com * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(dz_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp15, (4, 4): _tmp15}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
-def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion):
+def effect_rotational_stiffness(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
+):
     """M, C, B of the model extended by the candidate effect rotational_stiffness (isolator bending and torsion stiffness),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -1375,14 +3319,49 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y,
           [theta, theta] = 4*(2*k_bend + k_torsion*sin(gamma)**2 - k_bend*sin(gamma)**2)
           [phi, phi] = 4*(k_bend + k_torsion + k_torsion*cos(gamma)**2 - k_bend*cos(gamma)**2)
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion)
-    _tmp0 = numpy.sin(gamma)**2
-    _tmp1 = numpy.cos(gamma)**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(3, 3): 8*k_bend, (4, 4): -4*_tmp0*k_bend + 4*_tmp0*k_torsion + 8*k_bend, (5, 5): -4*_tmp1*k_bend + 4*_tmp1*k_torsion + 4*k_bend + 4*k_torsion}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
+    )
+    _tmp0 = numpy.sin(gamma) ** 2
+    _tmp1 = numpy.cos(gamma) ** 2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (3, 3): 8 * k_bend,
+                (4, 4): -4 * _tmp0 * k_bend + 4 * _tmp0 * k_torsion + 8 * k_bend,
+                (5, 5): -4 * _tmp1 * k_bend + 4 * _tmp1 * k_torsion + 4 * k_bend + 4 * k_torsion,
+            },
+        ),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
-def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion):
+def effect_rotational_stiffness_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
+):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
     shape (..., 6, 3, 6, 6), differentiated by sympy.
 
@@ -1431,25 +3410,89 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamm
           [phi, phi] = 4 + 4*cos(gamma)**2
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = _tmp4 + 4
     _tmp6 = numpy.sin(gamma)
-    _tmp7 = _tmp3*_tmp6*b
-    _tmp8 = 4*_tmp7
+    _tmp7 = _tmp3 * _tmp6 * b
+    _tmp8 = 4 * _tmp7
     _tmp9 = _tmp6**2
-    _tmp10 = 4*_tmp9
-    _tmp11 = _tmp0*_tmp7
+    _tmp10 = 4 * _tmp9
+    _tmp11 = _tmp0 * _tmp7
     _tmp12 = a1**2
-    _tmp13 = _tmp10*_tmp12
-    _tmp14 = 4*a2**2
-    _tmp15 = _tmp12*_tmp4
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp5, (1, 3): _tmp4*h + _tmp8 + 4*h, (2, 2): _tmp10, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10*_tmp2 + _tmp11, (4, 4): _tmp13, (5, 5): _tmp14 + _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp10, (1, 3): -_tmp8 + 4*_tmp9*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp10 - _tmp11 + _tmp2*_tmp4, (4, 4): _tmp15, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp10, (5, 5): 4 - _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+    _tmp13 = _tmp10 * _tmp12
+    _tmp14 = 4 * a2**2
+    _tmp15 = _tmp12 * _tmp4
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp5,
+                    (1, 3): _tmp4 * h + _tmp8 + 4 * h,
+                    (2, 2): _tmp10,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 * _tmp2 + _tmp11,
+                    (4, 4): _tmp13,
+                    (5, 5): _tmp14 + _tmp15,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp10,
+                    (1, 3): -_tmp8 + 4 * _tmp9 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp10 - _tmp11 + _tmp2 * _tmp4,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp13,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp14}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp10, (5, 5): 4 - _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
@@ -1523,69 +3566,190 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta_found, theta_found] = 4*(b_v*a2**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2)
           [phi_found, phi_found] = 4*(b_h*a2**2 + 2*b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2)
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found)
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+    )
     _tmp0 = b**2
     _tmp1 = h**2
     _tmp2 = a1**2
-    _tmp3 = (0.5)*_tmp2
+    _tmp3 = (0.5) * _tmp2
     _tmp4 = a2**2
-    _tmp5 = (0.5)*_tmp4
-    _tmp6 = m_found*(_tmp0 + _tmp1 + _tmp3 + _tmp5)
-    _tmp7 = 8*c_x
-    _tmp8 = _tmp7*h
+    _tmp5 = (0.5) * _tmp4
+    _tmp6 = m_found * (_tmp0 + _tmp1 + _tmp3 + _tmp5)
+    _tmp7 = 8 * c_x
+    _tmp8 = _tmp7 * h
     _tmp9 = numpy.sin(gamma)
     _tmp10 = _tmp9**2
-    _tmp11 = _tmp10*c_v1
+    _tmp11 = _tmp10 * c_v1
     _tmp12 = numpy.cos(gamma)
     _tmp13 = _tmp12**2
-    _tmp14 = _tmp13*c_y
-    _tmp15 = 4*_tmp11 + 4*_tmp14 + 4*c_y
-    _tmp16 = c_y*h
-    _tmp17 = _tmp12*_tmp9
-    _tmp18 = _tmp17*b
-    _tmp19 = _tmp18*c_v1
-    _tmp20 = _tmp11*h + _tmp14*h + _tmp16 + _tmp18*c_y - _tmp19
+    _tmp14 = _tmp13 * c_y
+    _tmp15 = 4 * _tmp11 + 4 * _tmp14 + 4 * c_y
+    _tmp16 = c_y * h
+    _tmp17 = _tmp12 * _tmp9
+    _tmp18 = _tmp17 * b
+    _tmp19 = _tmp18 * c_v1
+    _tmp20 = _tmp11 * h + _tmp14 * h + _tmp16 + _tmp18 * c_y - _tmp19
     _tmp21 = c_v1 - c_y
-    _tmp22 = 4*b
-    _tmp23 = _tmp17*_tmp22
-    _tmp24 = _tmp13*c_v1
-    _tmp25 = _tmp10*c_y
-    _tmp26 = 4*_tmp24 + 4*_tmp25 + 4*c_v2
-    _tmp27 = 2*_tmp18
-    _tmp28 = 2*c_x
-    _tmp29 = _tmp4*c_v2
-    _tmp30 = _tmp2*_tmp24
-    _tmp31 = _tmp2*_tmp25
+    _tmp22 = 4 * b
+    _tmp23 = _tmp17 * _tmp22
+    _tmp24 = _tmp13 * c_v1
+    _tmp25 = _tmp10 * c_y
+    _tmp26 = 4 * _tmp24 + 4 * _tmp25 + 4 * c_v2
+    _tmp27 = 2 * _tmp18
+    _tmp28 = 2 * c_x
+    _tmp29 = _tmp4 * c_v2
+    _tmp30 = _tmp2 * _tmp24
+    _tmp31 = _tmp2 * _tmp25
     _tmp32 = _tmp29 + _tmp30 + _tmp31
-    _tmp33 = _tmp4*c_y
-    _tmp34 = _tmp11*_tmp2
-    _tmp35 = _tmp14*_tmp2
-    _tmp36 = 4*_tmp0*_tmp28 + 4*_tmp33 + 4*_tmp34 + 4*_tmp35
-    _tmp37 = (0.5)*k_found
-    _tmp38 = 4*_tmp24 + 4*_tmp25 + 4*c_v2 + k_found
-    _tmp39 = (0.25)*k_found
-    _tmp40 = 8*b_h
-    _tmp41 = _tmp40*h
-    _tmp42 = _tmp13*b_h
-    _tmp43 = _tmp10*b_v
-    _tmp44 = 4*_tmp42 + 4*_tmp43 + 4*b_h
-    _tmp45 = b_h*h
-    _tmp46 = b*b_v
-    _tmp47 = -_tmp17*_tmp46 + _tmp18*b_h + _tmp42*h + _tmp43*h + _tmp45
+    _tmp33 = _tmp4 * c_y
+    _tmp34 = _tmp11 * _tmp2
+    _tmp35 = _tmp14 * _tmp2
+    _tmp36 = 4 * _tmp0 * _tmp28 + 4 * _tmp33 + 4 * _tmp34 + 4 * _tmp35
+    _tmp37 = (0.5) * k_found
+    _tmp38 = 4 * _tmp24 + 4 * _tmp25 + 4 * c_v2 + k_found
+    _tmp39 = (0.25) * k_found
+    _tmp40 = 8 * b_h
+    _tmp41 = _tmp40 * h
+    _tmp42 = _tmp13 * b_h
+    _tmp43 = _tmp10 * b_v
+    _tmp44 = 4 * _tmp42 + 4 * _tmp43 + 4 * b_h
+    _tmp45 = b_h * h
+    _tmp46 = b * b_v
+    _tmp47 = -_tmp17 * _tmp46 + _tmp18 * b_h + _tmp42 * h + _tmp43 * h + _tmp45
     _tmp48 = b_h - b_v
-    _tmp49 = _tmp10*b_h
-    _tmp50 = _tmp13*b_v
+    _tmp49 = _tmp10 * b_h
+    _tmp50 = _tmp13 * b_v
     _tmp51 = _tmp49 + _tmp50 + b_v
-    _tmp52 = 4*_tmp51
-    _tmp53 = _tmp1*b_h
-    _tmp54 = _tmp2*_tmp49 + _tmp2*_tmp50 + _tmp4*b_v
-    _tmp55 = 4*_tmp54
-    _tmp56 = 8*_tmp0*b_h + 4*_tmp2*_tmp42 + 4*_tmp2*_tmp43 + 4*_tmp4*b_h
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp6, (10, 10): _tmp6, (11, 11): _tmp6}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp7, (0, 4): -_tmp8, (0, 6): -_tmp7, (1, 1): _tmp15, (1, 3): 4*_tmp20, (1, 7): -_tmp15, (1, 9): _tmp21*_tmp23, (2, 2): _tmp26, (2, 8): -_tmp26, (3, 3): 4*_tmp0*_tmp24 + 4*_tmp0*_tmp25 + 4*_tmp0*c_v2 + 4*_tmp1*_tmp11 + 4*_tmp1*_tmp14 + 4*_tmp1*c_y + 4*_tmp16*_tmp27 - 8*_tmp19*h, (3, 7): -4*_tmp20, (3, 9): _tmp22*(_tmp12*_tmp9*c_v1*h - _tmp16*_tmp17 - _tmp24*b - _tmp25*b - b*c_v2), (4, 4): 4*_tmp1*_tmp28 + 4*_tmp32, (4, 6): _tmp8, (4, 10): -4*_tmp32, (5, 5): _tmp36, (5, 11): -_tmp36, (6, 6): _tmp37 + _tmp7, (7, 7): 4*_tmp11 + 4*_tmp14 + _tmp37 + 4*c_y, (7, 9): -_tmp21*_tmp23, (8, 8): _tmp38, (9, 9): _tmp0*_tmp38, (10, 10): 4*_tmp29 + _tmp3*k_found + 4*_tmp30 + 4*_tmp31 + _tmp5*k_found, (11, 11): _tmp0*_tmp37 + _tmp0*_tmp7 + _tmp2*_tmp39 + 4*_tmp33 + 4*_tmp34 + 4*_tmp35 + _tmp39*_tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp40, (0, 4): -_tmp41, (0, 6): -_tmp40, (1, 1): _tmp44, (1, 3): 4*_tmp47, (1, 7): -_tmp44, (1, 9): -_tmp23*_tmp48, (2, 2): _tmp52, (2, 8): -_tmp52, (3, 3): 4*_tmp0*_tmp49 + 4*_tmp0*_tmp50 + 4*_tmp0*b_v + 4*_tmp1*_tmp42 + 4*_tmp1*_tmp43 - 8*_tmp17*_tmp46*h + 4*_tmp27*_tmp45 + 4*_tmp53, (3, 7): -4*_tmp47, (3, 9): _tmp22*(_tmp12*_tmp9*b_v*h - _tmp17*_tmp45 - _tmp46 - _tmp49*b - _tmp50*b), (4, 4): 8*_tmp53 + 4*_tmp54, (4, 6): _tmp41, (4, 10): -_tmp55, (5, 5): _tmp56, (5, 11): -_tmp56, (6, 6): _tmp40, (7, 7): _tmp44, (7, 9): _tmp23*_tmp48, (8, 8): _tmp52, (9, 9): 4*_tmp0*_tmp51, (10, 10): _tmp55, (11, 11): _tmp56}))
+    _tmp52 = 4 * _tmp51
+    _tmp53 = _tmp1 * b_h
+    _tmp54 = _tmp2 * _tmp49 + _tmp2 * _tmp50 + _tmp4 * b_v
+    _tmp55 = 4 * _tmp54
+    _tmp56 = 8 * _tmp0 * b_h + 4 * _tmp2 * _tmp42 + 4 * _tmp2 * _tmp43 + 4 * _tmp4 * b_h
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return (
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): m,
+                (1, 1): m,
+                (2, 2): m,
+                (3, 3): J_x,
+                (4, 4): J_y,
+                (5, 5): J_z,
+                (6, 6): m_found,
+                (7, 7): m_found,
+                (8, 8): m_found,
+                (9, 9): _tmp6,
+                (10, 10): _tmp6,
+                (11, 11): _tmp6,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp7,
+                (0, 4): -_tmp8,
+                (0, 6): -_tmp7,
+                (1, 1): _tmp15,
+                (1, 3): 4 * _tmp20,
+                (1, 7): -_tmp15,
+                (1, 9): _tmp21 * _tmp23,
+                (2, 2): _tmp26,
+                (2, 8): -_tmp26,
+                (3, 3): 4 * _tmp0 * _tmp24
+                + 4 * _tmp0 * _tmp25
+                + 4 * _tmp0 * c_v2
+                + 4 * _tmp1 * _tmp11
+                + 4 * _tmp1 * _tmp14
+                + 4 * _tmp1 * c_y
+                + 4 * _tmp16 * _tmp27
+                - 8 * _tmp19 * h,
+                (3, 7): -4 * _tmp20,
+                (3, 9): _tmp22 * (_tmp12 * _tmp9 * c_v1 * h - _tmp16 * _tmp17 - _tmp24 * b - _tmp25 * b - b * c_v2),
+                (4, 4): 4 * _tmp1 * _tmp28 + 4 * _tmp32,
+                (4, 6): _tmp8,
+                (4, 10): -4 * _tmp32,
+                (5, 5): _tmp36,
+                (5, 11): -_tmp36,
+                (6, 6): _tmp37 + _tmp7,
+                (7, 7): 4 * _tmp11 + 4 * _tmp14 + _tmp37 + 4 * c_y,
+                (7, 9): -_tmp21 * _tmp23,
+                (8, 8): _tmp38,
+                (9, 9): _tmp0 * _tmp38,
+                (10, 10): 4 * _tmp29 + _tmp3 * k_found + 4 * _tmp30 + 4 * _tmp31 + _tmp5 * k_found,
+                (11, 11): _tmp0 * _tmp37
+                + _tmp0 * _tmp7
+                + _tmp2 * _tmp39
+                + 4 * _tmp33
+                + 4 * _tmp34
+                + 4 * _tmp35
+                + _tmp39 * _tmp4,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp40,
+                (0, 4): -_tmp41,
+                (0, 6): -_tmp40,
+                (1, 1): _tmp44,
+                (1, 3): 4 * _tmp47,
+                (1, 7): -_tmp44,
+                (1, 9): -_tmp23 * _tmp48,
+                (2, 2): _tmp52,
+                (2, 8): -_tmp52,
+                (3, 3): 4 * _tmp0 * _tmp49
+                + 4 * _tmp0 * _tmp50
+                + 4 * _tmp0 * b_v
+                + 4 * _tmp1 * _tmp42
+                + 4 * _tmp1 * _tmp43
+                - 8 * _tmp17 * _tmp46 * h
+                + 4 * _tmp27 * _tmp45
+                + 4 * _tmp53,
+                (3, 7): -4 * _tmp47,
+                (3, 9): _tmp22 * (_tmp12 * _tmp9 * b_v * h - _tmp17 * _tmp45 - _tmp46 - _tmp49 * b - _tmp50 * b),
+                (4, 4): 8 * _tmp53 + 4 * _tmp54,
+                (4, 6): _tmp41,
+                (4, 10): -_tmp55,
+                (5, 5): _tmp56,
+                (5, 11): -_tmp56,
+                (6, 6): _tmp40,
+                (7, 7): _tmp44,
+                (7, 9): _tmp23 * _tmp48,
+                (8, 8): _tmp52,
+                (9, 9): 4 * _tmp0 * _tmp51,
+                (10, 10): _tmp55,
+                (11, 11): _tmp56,
+            },
+        ),
+    )
 
 
-def effect_foundation_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
+def effect_foundation_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
     shape (..., 6, 3, 12, 12), differentiated by sympy.
 
@@ -1678,41 +3842,172 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
           [phi_found, phi_found] = b**2/2 + a1**2/4 + a2**2/4
         dB/dk_found:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
-    _tmp3 = 8*_tmp2
+    _tmp3 = 8 * _tmp2
     _tmp4 = numpy.cos(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = 4*_tmp5
+    _tmp6 = 4 * _tmp5
     _tmp7 = _tmp6 + 4
     _tmp8 = numpy.sin(gamma)
-    _tmp9 = _tmp4*_tmp8
-    _tmp10 = 4*b
-    _tmp11 = _tmp10*_tmp9
-    _tmp12 = _tmp11 + _tmp6*h + 4*h
+    _tmp9 = _tmp4 * _tmp8
+    _tmp10 = 4 * b
+    _tmp11 = _tmp10 * _tmp9
+    _tmp12 = _tmp11 + _tmp6 * h + 4 * h
     _tmp13 = -_tmp11
     _tmp14 = _tmp8**2
-    _tmp15 = 4*_tmp14
+    _tmp15 = 4 * _tmp14
     _tmp16 = -_tmp15
-    _tmp17 = _tmp0*_tmp9*b
-    _tmp18 = _tmp15*_tmp2
-    _tmp19 = _tmp9*h
+    _tmp17 = _tmp0 * _tmp9 * b
+    _tmp18 = _tmp15 * _tmp2
+    _tmp19 = _tmp9 * h
     _tmp20 = a1**2
-    _tmp21 = _tmp15*_tmp20
+    _tmp21 = _tmp15 * _tmp20
     _tmp22 = -_tmp21
     _tmp23 = a2**2
-    _tmp24 = 4*_tmp23
-    _tmp25 = _tmp20*_tmp6
+    _tmp24 = 4 * _tmp23
+    _tmp25 = _tmp20 * _tmp6
     _tmp26 = _tmp24 + _tmp25
-    _tmp27 = _tmp11 - 4*_tmp14*h
-    _tmp28 = _tmp2*_tmp6
-    _tmp29 = 4*_tmp2
-    _tmp30 = (0.5)*_tmp20 + (0.5)*_tmp23
+    _tmp27 = _tmp11 - 4 * _tmp14 * h
+    _tmp28 = _tmp2 * _tmp6
+    _tmp29 = 4 * _tmp2
+    _tmp30 = (0.5) * _tmp20 + (0.5) * _tmp23
     _tmp31 = _tmp1 + _tmp2 + _tmp30
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_found), numpy.shape(k_found))
-    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 8, (0, 4): -_tmp0, (0, 6): -8, (4, 4): 8*_tmp1, (4, 6): _tmp0, (5, 5): _tmp3, (5, 11): -_tmp3, (6, 6): 8, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): _tmp7, (1, 3): _tmp12, (1, 7): -_tmp7, (1, 9): _tmp13, (2, 2): _tmp15, (2, 8): _tmp16, (3, 3): _tmp1*_tmp6 + 4*_tmp1 + _tmp17 + _tmp18, (3, 7): -_tmp12, (3, 9): _tmp10*(-_tmp14*b - _tmp19), (4, 4): _tmp21, (4, 10): _tmp22, (5, 5): _tmp26, (5, 11): -_tmp26, (7, 7): _tmp7, (7, 9): _tmp11, (8, 8): _tmp15, (9, 9): _tmp18, (10, 10): _tmp21, (11, 11): _tmp26}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): _tmp15, (1, 3): -_tmp27, (1, 7): _tmp16, (1, 9): _tmp11, (2, 2): _tmp6, (2, 8): -_tmp6, (3, 3): _tmp1*_tmp15 - _tmp17 + _tmp28, (3, 7): _tmp27, (3, 9): _tmp10*(_tmp19 - _tmp5*b), (4, 4): _tmp25, (4, 10): -_tmp25, (5, 5): _tmp21, (5, 11): _tmp22, (7, 7): _tmp15, (7, 9): _tmp13, (8, 8): _tmp6, (9, 9): _tmp28, (10, 10): _tmp25, (11, 11): _tmp21}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp29, (3, 9): -_tmp29, (4, 4): _tmp24, (4, 10): -_tmp24, (8, 8): 4, (9, 9): _tmp29, (10, 10): _tmp24}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp31, (10, 10): _tmp31, (11, 11): _tmp31}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp2, (10, 10): _tmp30, (11, 11): (0.5)*_tmp2 + (0.25)*_tmp20 + (0.25)*_tmp23}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 6, 3, 12, 12)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 8,
+                    (0, 4): -_tmp0,
+                    (0, 6): -8,
+                    (4, 4): 8 * _tmp1,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp3,
+                    (5, 11): -_tmp3,
+                    (6, 6): 8,
+                    (11, 11): _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): _tmp7,
+                    (1, 3): _tmp12,
+                    (1, 7): -_tmp7,
+                    (1, 9): _tmp13,
+                    (2, 2): _tmp15,
+                    (2, 8): _tmp16,
+                    (3, 3): _tmp1 * _tmp6 + 4 * _tmp1 + _tmp17 + _tmp18,
+                    (3, 7): -_tmp12,
+                    (3, 9): _tmp10 * (-_tmp14 * b - _tmp19),
+                    (4, 4): _tmp21,
+                    (4, 10): _tmp22,
+                    (5, 5): _tmp26,
+                    (5, 11): -_tmp26,
+                    (7, 7): _tmp7,
+                    (7, 9): _tmp11,
+                    (8, 8): _tmp15,
+                    (9, 9): _tmp18,
+                    (10, 10): _tmp21,
+                    (11, 11): _tmp26,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): _tmp15,
+                    (1, 3): -_tmp27,
+                    (1, 7): _tmp16,
+                    (1, 9): _tmp11,
+                    (2, 2): _tmp6,
+                    (2, 8): -_tmp6,
+                    (3, 3): _tmp1 * _tmp15 - _tmp17 + _tmp28,
+                    (3, 7): _tmp27,
+                    (3, 9): _tmp10 * (_tmp19 - _tmp5 * b),
+                    (4, 4): _tmp25,
+                    (4, 10): -_tmp25,
+                    (5, 5): _tmp21,
+                    (5, 11): _tmp22,
+                    (7, 7): _tmp15,
+                    (7, 9): _tmp13,
+                    (8, 8): _tmp6,
+                    (9, 9): _tmp28,
+                    (10, 10): _tmp25,
+                    (11, 11): _tmp21,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp29,
+                    (3, 9): -_tmp29,
+                    (4, 4): _tmp24,
+                    (4, 10): -_tmp24,
+                    (8, 8): 4,
+                    (9, 9): _tmp29,
+                    (10, 10): _tmp24,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp31, (10, 10): _tmp31, (11, 11): _tmp31}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): 0.5,
+                    (7, 7): 0.5,
+                    (8, 8): 1,
+                    (9, 9): _tmp2,
+                    (10, 10): _tmp30,
+                    (11, 11): (0.5) * _tmp2 + (0.25) * _tmp20 + (0.25) * _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 6, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
@@ -1733,14 +4028,53 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta, theta] = m_added*h_added**2
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added)
-    _tmp0 = h_added*m_added
-    _tmp1 = h_added**2*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_added), numpy.shape(h_added))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+    )
+    _tmp0 = h_added * m_added
+    _tmp1 = h_added**2 * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 0): m_added,
+                (0, 4): _tmp0,
+                (1, 1): m_added,
+                (1, 3): -_tmp0,
+                (2, 2): m_added,
+                (3, 3): _tmp1,
+                (4, 4): _tmp1,
+            },
+        ),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
-def effect_added_mass_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
+def effect_added_mass_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
     shape (..., 6, 3, 6, 6), differentiated by sympy.
 
@@ -1795,26 +4129,94 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         dC/dh_added:
         dB/dh_added:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
     _tmp15 = h_added**2
-    _tmp16 = 2*h_added*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(m_added), numpy.shape(h_added))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp16, (4, 4): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+    _tmp16 = 2 * h_added * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp15, (4, 4): _tmp15},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp16, (4, 4): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
@@ -1831,12 +4233,39 @@ def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+        + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt * k_belt, (4, 4): h_belt**2 * k_belt}),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
-def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
+def effect_drive_belt_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
+):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
     shape (..., 6, 3, 6, 6), differentiated by sympy.
 
@@ -1885,24 +4314,88 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(k_belt), numpy.shape(h_belt))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 6, 3, 6, 6)
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
@@ -1918,13 +4411,39 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload)
-    _tmp0 = -9.80665*h_preload*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(h_preload))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a1, a2, b, h, gamma, b_h, b_v))
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
+    )
+    _tmp0 = -9.80665 * h_preload * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(h_preload),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+        + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
+        damping_matrix(a1, a2, b, h, gamma, b_h, b_v),
+    )
 
 
-def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
+def effect_gravity_preload_derivatives(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
+):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
     shape (..., 5, 3, 6, 6), differentiated by sympy.
 
@@ -1967,25 +4486,85 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload)
-    _tmp0 = 8*h
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
+    )
+    _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
     _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4*_tmp3**2
+    _tmp4 = 4 * _tmp3**2
     _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3*_tmp5*b
-    _tmp7 = 4*_tmp6
+    _tmp6 = _tmp3 * _tmp5 * b
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5**2
-    _tmp9 = 4*_tmp8
-    _tmp10 = _tmp0*_tmp6
+    _tmp9 = 4 * _tmp8
+    _tmp10 = _tmp0 * _tmp6
     _tmp11 = a1**2
-    _tmp12 = _tmp11*_tmp9
-    _tmp13 = 4*a2**2
-    _tmp14 = _tmp11*_tmp4
-    _tmp15 = -9.80665*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(h_preload))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8*_tmp1, (5, 5): 8*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp4 + 4, (1, 3): _tmp4*h + _tmp7 + 4*h, (2, 2): _tmp9, (3, 3): _tmp1*_tmp4 + 4*_tmp1 + _tmp10 + _tmp2*_tmp9, (4, 4): _tmp12, (5, 5): _tmp13 + _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp9, (1, 3): -_tmp7 + 4*_tmp8*h, (2, 2): _tmp4, (3, 3): _tmp1*_tmp9 - _tmp10 + _tmp2*_tmp4, (4, 4): _tmp14, (5, 5): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4*_tmp2, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp15, (4, 4): _tmp15}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp12 = _tmp11 * _tmp9
+    _tmp13 = 4 * a2**2
+    _tmp14 = _tmp11 * _tmp4
+    _tmp15 = -9.80665 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(h_preload),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp4 + 4,
+                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
+                    (2, 2): _tmp9,
+                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
+                    (4, 4): _tmp12,
+                    (5, 5): _tmp13 + _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp9,
+                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
+                    (2, 2): _tmp4,
+                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
+                    (4, 4): _tmp14,
+                    (5, 5): _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp15, (4, 4): _tmp15}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -2136,69 +4715,263 @@ def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
           [phi, phi] = c_x*b**2 + c_y*a2**2
     """
     a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
-    _tmp0 = c_x*h
+    _tmp0 = c_x * h
     _tmp1 = -_tmp0
-    _tmp2 = b*c_x
+    _tmp2 = b * c_x
     _tmp3 = -_tmp2
     _tmp4 = numpy.sin(gamma)
     _tmp5 = _tmp4**2
-    _tmp6 = _tmp5*c_v1
+    _tmp6 = _tmp5 * c_v1
     _tmp7 = numpy.cos(gamma)
     _tmp8 = _tmp7**2
-    _tmp9 = _tmp8*c_y
+    _tmp9 = _tmp8 * c_y
     _tmp10 = _tmp6 + _tmp9
     _tmp11 = c_v1 - c_y
-    _tmp12 = _tmp4*_tmp7
-    _tmp13 = -_tmp11*_tmp12
-    _tmp14 = _tmp12*b
-    _tmp15 = _tmp14*c_v1
-    _tmp16 = _tmp14*c_y - _tmp15 + _tmp6*h + _tmp9*h
-    _tmp17 = _tmp11*_tmp12
-    _tmp18 = _tmp17*a1
-    _tmp19 = _tmp10*a1
-    _tmp20 = _tmp8*c_v1
-    _tmp21 = _tmp5*c_y
+    _tmp12 = _tmp4 * _tmp7
+    _tmp13 = -_tmp11 * _tmp12
+    _tmp14 = _tmp12 * b
+    _tmp15 = _tmp14 * c_v1
+    _tmp16 = _tmp14 * c_y - _tmp15 + _tmp6 * h + _tmp9 * h
+    _tmp17 = _tmp11 * _tmp12
+    _tmp18 = _tmp17 * a1
+    _tmp19 = _tmp10 * a1
+    _tmp20 = _tmp8 * c_v1
+    _tmp21 = _tmp5 * c_y
     _tmp22 = _tmp20 + _tmp21
-    _tmp23 = c_y*h
-    _tmp24 = _tmp12*c_v1
-    _tmp25 = _tmp12*_tmp23 + _tmp20*b + _tmp21*b - _tmp24*h
-    _tmp26 = _tmp22*a1
+    _tmp23 = c_y * h
+    _tmp24 = _tmp12 * c_v1
+    _tmp25 = _tmp12 * _tmp23 + _tmp20 * b + _tmp21 * b - _tmp24 * h
+    _tmp26 = _tmp22 * a1
     _tmp27 = -_tmp26
-    _tmp28 = _tmp13*a1
+    _tmp28 = _tmp13 * a1
     _tmp29 = b**2
     _tmp30 = h**2
-    _tmp31 = 2*_tmp14*_tmp23 - 2*_tmp15*h + _tmp20*_tmp29 + _tmp21*_tmp29 + _tmp30*_tmp6 + _tmp30*_tmp9
+    _tmp31 = 2 * _tmp14 * _tmp23 - 2 * _tmp15 * h + _tmp20 * _tmp29 + _tmp21 * _tmp29 + _tmp30 * _tmp6 + _tmp30 * _tmp9
     _tmp32 = -_tmp25
-    _tmp33 = _tmp32*a1
-    _tmp34 = _tmp16*a1
-    _tmp35 = _tmp30*c_x
+    _tmp33 = _tmp32 * a1
+    _tmp34 = _tmp16 * a1
+    _tmp35 = _tmp30 * c_x
     _tmp36 = a1**2
-    _tmp37 = _tmp20*_tmp36 + _tmp21*_tmp36 + _tmp35
-    _tmp38 = _tmp0*b
-    _tmp39 = -_tmp12*_tmp36*c_y + _tmp24*_tmp36 + _tmp38
-    _tmp40 = _tmp29*c_x
-    _tmp41 = _tmp36*_tmp6 + _tmp36*_tmp9 + _tmp40
+    _tmp37 = _tmp20 * _tmp36 + _tmp21 * _tmp36 + _tmp35
+    _tmp38 = _tmp0 * b
+    _tmp39 = -_tmp12 * _tmp36 * c_y + _tmp24 * _tmp36 + _tmp38
+    _tmp40 = _tmp29 * c_x
+    _tmp41 = _tmp36 * _tmp6 + _tmp36 * _tmp9 + _tmp40
     _tmp42 = -_tmp19
-    _tmp43 = _tmp25*a1
-    _tmp44 = -_tmp16*a1
+    _tmp43 = _tmp25 * a1
+    _tmp44 = -_tmp16 * a1
     _tmp45 = -_tmp39
-    _tmp46 = a2*c_y
-    _tmp47 = b*c_v2
-    _tmp48 = a2*c_v2
+    _tmp46 = a2 * c_y
+    _tmp47 = b * c_v2
+    _tmp48 = a2 * c_v2
     _tmp49 = -_tmp48
-    _tmp50 = _tmp29*c_v2 + _tmp30*c_y
-    _tmp51 = _tmp47*a2
+    _tmp50 = _tmp29 * c_v2 + _tmp30 * c_y
+    _tmp51 = _tmp47 * a2
     _tmp52 = -_tmp51
-    _tmp53 = _tmp23*a2
+    _tmp53 = _tmp23 * a2
     _tmp54 = a2**2
-    _tmp55 = _tmp35 + _tmp54*c_v2
-    _tmp56 = _tmp40 + _tmp54*c_y
+    _tmp55 = _tmp35 + _tmp54 * c_v2
+    _tmp56 = _tmp40 + _tmp54 * c_y
     _tmp57 = -_tmp46
     _tmp58 = -_tmp53
     _tmp59 = -_tmp47
     _tmp60 = -_tmp38
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): _tmp10, (1, 2): _tmp13, (1, 3): _tmp16, (1, 4): _tmp18, (1, 5): _tmp19, (2, 2): _tmp22, (2, 3): _tmp25, (2, 4): _tmp27, (2, 5): _tmp28, (3, 3): _tmp31, (3, 4): _tmp33, (3, 5): _tmp34, (4, 4): _tmp37, (4, 5): _tmp39, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): _tmp10, (1, 2): _tmp13, (1, 3): _tmp16, (1, 4): _tmp28, (1, 5): _tmp42, (2, 2): _tmp22, (2, 3): _tmp25, (2, 4): _tmp26, (2, 5): _tmp18, (3, 3): _tmp31, (3, 4): _tmp43, (3, 5): _tmp44, (4, 4): _tmp37, (4, 5): _tmp39, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): _tmp10, (1, 2): _tmp17, (1, 3): _tmp16, (1, 4): _tmp28, (1, 5): _tmp19, (2, 2): _tmp22, (2, 3): _tmp32, (2, 4): _tmp27, (2, 5): _tmp18, (3, 3): _tmp31, (3, 4): _tmp43, (3, 5): _tmp34, (4, 4): _tmp37, (4, 5): _tmp45, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): _tmp10, (1, 2): _tmp17, (1, 3): _tmp16, (1, 4): _tmp18, (1, 5): _tmp42, (2, 2): _tmp22, (2, 3): _tmp32, (2, 4): _tmp26, (2, 5): _tmp28, (3, 3): _tmp31, (3, 4): _tmp33, (3, 5): _tmp44, (4, 4): _tmp37, (4, 5): _tmp45, (5, 5): _tmp41}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp46, (2, 2): c_v2, (2, 3): _tmp47, (2, 4): _tmp49, (3, 3): _tmp50, (3, 4): _tmp52, (3, 5): _tmp53, (4, 4): _tmp55, (4, 5): _tmp38, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp57, (2, 2): c_v2, (2, 3): _tmp47, (2, 4): _tmp48, (3, 3): _tmp50, (3, 4): _tmp51, (3, 5): _tmp58, (4, 4): _tmp55, (4, 5): _tmp38, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp46, (2, 2): c_v2, (2, 3): _tmp59, (2, 4): _tmp49, (3, 3): _tmp50, (3, 4): _tmp51, (3, 5): _tmp53, (4, 4): _tmp55, (4, 5): _tmp60, (5, 5): _tmp56}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp23, (1, 5): _tmp57, (2, 2): c_v2, (2, 3): _tmp59, (2, 4): _tmp48, (3, 3): _tmp50, (3, 4): _tmp52, (3, 5): _tmp58, (4, 4): _tmp55, (4, 5): _tmp60, (5, 5): _tmp56})], axis=-3)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): _tmp10,
+                    (1, 2): _tmp13,
+                    (1, 3): _tmp16,
+                    (1, 4): _tmp18,
+                    (1, 5): _tmp19,
+                    (2, 2): _tmp22,
+                    (2, 3): _tmp25,
+                    (2, 4): _tmp27,
+                    (2, 5): _tmp28,
+                    (3, 3): _tmp31,
+                    (3, 4): _tmp33,
+                    (3, 5): _tmp34,
+                    (4, 4): _tmp37,
+                    (4, 5): _tmp39,
+                    (5, 5): _tmp41,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): _tmp10,
+                    (1, 2): _tmp13,
+                    (1, 3): _tmp16,
+                    (1, 4): _tmp28,
+                    (1, 5): _tmp42,
+                    (2, 2): _tmp22,
+                    (2, 3): _tmp25,
+                    (2, 4): _tmp26,
+                    (2, 5): _tmp18,
+                    (3, 3): _tmp31,
+                    (3, 4): _tmp43,
+                    (3, 5): _tmp44,
+                    (4, 4): _tmp37,
+                    (4, 5): _tmp39,
+                    (5, 5): _tmp41,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): _tmp10,
+                    (1, 2): _tmp17,
+                    (1, 3): _tmp16,
+                    (1, 4): _tmp28,
+                    (1, 5): _tmp19,
+                    (2, 2): _tmp22,
+                    (2, 3): _tmp32,
+                    (2, 4): _tmp27,
+                    (2, 5): _tmp18,
+                    (3, 3): _tmp31,
+                    (3, 4): _tmp43,
+                    (3, 5): _tmp34,
+                    (4, 4): _tmp37,
+                    (4, 5): _tmp45,
+                    (5, 5): _tmp41,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): _tmp10,
+                    (1, 2): _tmp17,
+                    (1, 3): _tmp16,
+                    (1, 4): _tmp18,
+                    (1, 5): _tmp42,
+                    (2, 2): _tmp22,
+                    (2, 3): _tmp32,
+                    (2, 4): _tmp26,
+                    (2, 5): _tmp28,
+                    (3, 3): _tmp31,
+                    (3, 4): _tmp33,
+                    (3, 5): _tmp44,
+                    (4, 4): _tmp37,
+                    (4, 5): _tmp45,
+                    (5, 5): _tmp41,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_y,
+                    (1, 3): _tmp23,
+                    (1, 5): _tmp46,
+                    (2, 2): c_v2,
+                    (2, 3): _tmp47,
+                    (2, 4): _tmp49,
+                    (3, 3): _tmp50,
+                    (3, 4): _tmp52,
+                    (3, 5): _tmp53,
+                    (4, 4): _tmp55,
+                    (4, 5): _tmp38,
+                    (5, 5): _tmp56,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_y,
+                    (1, 3): _tmp23,
+                    (1, 5): _tmp57,
+                    (2, 2): c_v2,
+                    (2, 3): _tmp47,
+                    (2, 4): _tmp48,
+                    (3, 3): _tmp50,
+                    (3, 4): _tmp51,
+                    (3, 5): _tmp58,
+                    (4, 4): _tmp55,
+                    (4, 5): _tmp38,
+                    (5, 5): _tmp56,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_y,
+                    (1, 3): _tmp23,
+                    (1, 5): _tmp46,
+                    (2, 2): c_v2,
+                    (2, 3): _tmp59,
+                    (2, 4): _tmp49,
+                    (3, 3): _tmp50,
+                    (3, 4): _tmp51,
+                    (3, 5): _tmp53,
+                    (4, 4): _tmp55,
+                    (4, 5): _tmp60,
+                    (5, 5): _tmp56,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_y,
+                    (1, 3): _tmp23,
+                    (1, 5): _tmp57,
+                    (2, 2): c_v2,
+                    (2, 3): _tmp59,
+                    (2, 4): _tmp48,
+                    (3, 3): _tmp50,
+                    (3, 4): _tmp52,
+                    (3, 5): _tmp58,
+                    (4, 4): _tmp55,
+                    (4, 5): _tmp60,
+                    (5, 5): _tmp56,
+                },
+            ),
+        ],
+        axis=-3,
+    )
 
 
 def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -2460,75 +5233,329 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
-    _tmp3 = b*h
+    _tmp3 = b * h
     _tmp4 = b**2
     _tmp5 = -_tmp3
     _tmp6 = numpy.cos(gamma)
     _tmp7 = _tmp6**2
     _tmp8 = numpy.sin(gamma)
-    _tmp9 = _tmp6*_tmp8
-    _tmp10 = _tmp9*b
-    _tmp11 = _tmp10 + _tmp7*h
-    _tmp12 = _tmp9*a1
+    _tmp9 = _tmp6 * _tmp8
+    _tmp10 = _tmp9 * b
+    _tmp11 = _tmp10 + _tmp7 * h
+    _tmp12 = _tmp9 * a1
     _tmp13 = -_tmp12
-    _tmp14 = _tmp7*a1
+    _tmp14 = _tmp7 * a1
     _tmp15 = _tmp8**2
-    _tmp16 = _tmp9*h
-    _tmp17 = _tmp15*b + _tmp16
-    _tmp18 = _tmp15*a1
+    _tmp16 = _tmp9 * h
+    _tmp17 = _tmp15 * b + _tmp16
+    _tmp18 = _tmp15 * a1
     _tmp19 = -_tmp18
-    _tmp20 = 2*_tmp3*_tmp9
-    _tmp21 = _tmp15*_tmp4 + _tmp2*_tmp7 + _tmp20
+    _tmp20 = 2 * _tmp3 * _tmp9
+    _tmp21 = _tmp15 * _tmp4 + _tmp2 * _tmp7 + _tmp20
     _tmp22 = -_tmp17
-    _tmp23 = _tmp22*a1
-    _tmp24 = _tmp11*a1
+    _tmp23 = _tmp22 * a1
+    _tmp24 = _tmp11 * a1
     _tmp25 = a1**2
-    _tmp26 = _tmp15*_tmp25
-    _tmp27 = _tmp25*_tmp9
+    _tmp26 = _tmp15 * _tmp25
+    _tmp27 = _tmp25 * _tmp9
     _tmp28 = -_tmp27
-    _tmp29 = _tmp25*_tmp7
+    _tmp29 = _tmp25 * _tmp7
     _tmp30 = -_tmp14
-    _tmp31 = _tmp17*a1
-    _tmp32 = -_tmp11*a1
+    _tmp31 = _tmp17 * a1
+    _tmp32 = -_tmp11 * a1
     _tmp33 = -_tmp9
-    _tmp34 = a2*h
+    _tmp34 = a2 * h
     _tmp35 = a2**2
     _tmp36 = -a2
     _tmp37 = -_tmp34
-    _tmp38 = _tmp10 - _tmp15*h
+    _tmp38 = _tmp10 - _tmp15 * h
     _tmp39 = -_tmp38
-    _tmp40 = -_tmp16 + _tmp7*b
-    _tmp41 = _tmp15*_tmp2 - _tmp20 + _tmp4*_tmp7
+    _tmp40 = -_tmp16 + _tmp7 * b
+    _tmp41 = _tmp15 * _tmp2 - _tmp20 + _tmp4 * _tmp7
     _tmp42 = -_tmp40
-    _tmp43 = _tmp42*a1
-    _tmp44 = _tmp39*a1
-    _tmp45 = _tmp40*a1
-    _tmp46 = _tmp38*a1
-    _tmp47 = a2*b
+    _tmp43 = _tmp42 * a1
+    _tmp44 = _tmp39 * a1
+    _tmp45 = _tmp40 * a1
+    _tmp46 = _tmp38 * a1
+    _tmp47 = a2 * b
     _tmp48 = -_tmp47
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_v1), numpy.shape(c_v2))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp9, (1, 3): _tmp11, (1, 4): _tmp13, (1, 5): _tmp14, (2, 2): _tmp15, (2, 3): _tmp17, (2, 4): _tmp19, (2, 5): _tmp12, (3, 3): _tmp21, (3, 4): _tmp23, (3, 5): _tmp24, (4, 4): _tmp26, (4, 5): _tmp28, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp9, (1, 3): _tmp11, (1, 4): _tmp12, (1, 5): _tmp30, (2, 2): _tmp15, (2, 3): _tmp17, (2, 4): _tmp18, (2, 5): _tmp13, (3, 3): _tmp21, (3, 4): _tmp31, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp28, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp33, (1, 3): _tmp11, (1, 4): _tmp12, (1, 5): _tmp14, (2, 2): _tmp15, (2, 3): _tmp22, (2, 4): _tmp19, (2, 5): _tmp13, (3, 3): _tmp21, (3, 4): _tmp31, (3, 5): _tmp24, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp7, (1, 2): _tmp33, (1, 3): _tmp11, (1, 4): _tmp13, (1, 5): _tmp30, (2, 2): _tmp15, (2, 3): _tmp22, (2, 4): _tmp18, (2, 5): _tmp12, (3, 3): _tmp21, (3, 4): _tmp23, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp33, (1, 3): _tmp39, (1, 4): _tmp12, (1, 5): _tmp18, (2, 2): _tmp7, (2, 3): _tmp40, (2, 4): _tmp30, (2, 5): _tmp13, (3, 3): _tmp41, (3, 4): _tmp43, (3, 5): _tmp44, (4, 4): _tmp29, (4, 5): _tmp27, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp33, (1, 3): _tmp39, (1, 4): _tmp13, (1, 5): _tmp19, (2, 2): _tmp7, (2, 3): _tmp40, (2, 4): _tmp14, (2, 5): _tmp12, (3, 3): _tmp41, (3, 4): _tmp45, (3, 5): _tmp46, (4, 4): _tmp29, (4, 5): _tmp27, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp9, (1, 3): _tmp39, (1, 4): _tmp13, (1, 5): _tmp18, (2, 2): _tmp7, (2, 3): _tmp42, (2, 4): _tmp30, (2, 5): _tmp12, (3, 3): _tmp41, (3, 4): _tmp45, (3, 5): _tmp44, (4, 4): _tmp29, (4, 5): _tmp28, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {(1, 1): _tmp15, (1, 2): _tmp9, (1, 3): _tmp39, (1, 4): _tmp12, (1, 5): _tmp19, (2, 2): _tmp7, (2, 3): _tmp42, (2, 4): _tmp14, (2, 5): _tmp13, (3, 3): _tmp41, (3, 4): _tmp43, (3, 5): _tmp46, (4, 4): _tmp29, (4, 5): _tmp28, (5, 5): _tmp26}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35})], axis=-3).reshape(*_shape, 4, 8, 6, 6)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp7,
+                    (1, 2): _tmp9,
+                    (1, 3): _tmp11,
+                    (1, 4): _tmp13,
+                    (1, 5): _tmp14,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp17,
+                    (2, 4): _tmp19,
+                    (2, 5): _tmp12,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp28,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp7,
+                    (1, 2): _tmp9,
+                    (1, 3): _tmp11,
+                    (1, 4): _tmp12,
+                    (1, 5): _tmp30,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp17,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp13,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp32,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp28,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp7,
+                    (1, 2): _tmp33,
+                    (1, 3): _tmp11,
+                    (1, 4): _tmp12,
+                    (1, 5): _tmp14,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp19,
+                    (2, 5): _tmp13,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp7,
+                    (1, 2): _tmp33,
+                    (1, 3): _tmp11,
+                    (1, 4): _tmp13,
+                    (1, 5): _tmp30,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp12,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp32,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp15,
+                    (1, 2): _tmp33,
+                    (1, 3): _tmp39,
+                    (1, 4): _tmp12,
+                    (1, 5): _tmp18,
+                    (2, 2): _tmp7,
+                    (2, 3): _tmp40,
+                    (2, 4): _tmp30,
+                    (2, 5): _tmp13,
+                    (3, 3): _tmp41,
+                    (3, 4): _tmp43,
+                    (3, 5): _tmp44,
+                    (4, 4): _tmp29,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp26,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp15,
+                    (1, 2): _tmp33,
+                    (1, 3): _tmp39,
+                    (1, 4): _tmp13,
+                    (1, 5): _tmp19,
+                    (2, 2): _tmp7,
+                    (2, 3): _tmp40,
+                    (2, 4): _tmp14,
+                    (2, 5): _tmp12,
+                    (3, 3): _tmp41,
+                    (3, 4): _tmp45,
+                    (3, 5): _tmp46,
+                    (4, 4): _tmp29,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp26,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp15,
+                    (1, 2): _tmp9,
+                    (1, 3): _tmp39,
+                    (1, 4): _tmp13,
+                    (1, 5): _tmp18,
+                    (2, 2): _tmp7,
+                    (2, 3): _tmp42,
+                    (2, 4): _tmp30,
+                    (2, 5): _tmp12,
+                    (3, 3): _tmp41,
+                    (3, 4): _tmp45,
+                    (3, 5): _tmp44,
+                    (4, 4): _tmp29,
+                    (4, 5): _tmp28,
+                    (5, 5): _tmp26,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp15,
+                    (1, 2): _tmp9,
+                    (1, 3): _tmp39,
+                    (1, 4): _tmp12,
+                    (1, 5): _tmp19,
+                    (2, 2): _tmp7,
+                    (2, 3): _tmp42,
+                    (2, 4): _tmp14,
+                    (2, 5): _tmp13,
+                    (3, 3): _tmp41,
+                    (3, 4): _tmp43,
+                    (3, 5): _tmp46,
+                    (4, 4): _tmp29,
+                    (4, 5): _tmp28,
+                    (5, 5): _tmp26,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 8, 6, 6)
 
 
 def effect_scales(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
-        length = sqrt(b**2 + h**2 + a1**2/2 + a2**2/2)
-        mass = m
-        stiffness = c_x/3 + c_v2/6 + c_y/6 + c_v1*cos(gamma)**2/6 + c_v1*sin(gamma)**2/6 + c_y*cos(gamma)**2/6 + c_y*sin(gamma)**2/6
-        vertical = 4*(c_v2 + c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
-        horizontal = 8*c_x
-        rotational = (b**2 + h**2 + a1**2/2 + a2**2/2)*(c_x/3 + c_v2/6 + c_y/6 + c_v1*cos(gamma)**2/6 + c_v1*sin(gamma)**2/6 + c_y*cos(gamma)**2/6 + c_y*sin(gamma)**2/6)
-        one = 1
+    length = sqrt(b**2 + h**2 + a1**2/2 + a2**2/2)
+    mass = m
+    stiffness = c_x/3 + c_v2/6 + c_y/6 + c_v1*cos(gamma)**2/6 + c_v1*sin(gamma)**2/6 + c_y*cos(gamma)**2/6 + c_y*sin(gamma)**2/6
+    vertical = 4*(c_v2 + c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+    horizontal = 8*c_x
+    rotational = (b**2 + h**2 + a1**2/2 + a2**2/2)*(c_x/3 + c_v2/6 + c_y/6 + c_v1*cos(gamma)**2/6 + c_v1*sin(gamma)**2/6 + c_y*cos(gamma)**2/6 + c_y*sin(gamma)**2/6)
+    one = 1
     """
     m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
-    _tmp0 = (0.5)*a1**2 + (0.5)*a2**2 + b**2 + h**2
-    _tmp1 = (0.16666666666666666)*c_y
-    _tmp2 = numpy.sin(gamma)**2
-    _tmp3 = numpy.cos(gamma)**2
-    _tmp4 = _tmp3*c_v1
-    _tmp5 = _tmp1*_tmp2 + _tmp1*_tmp3 + _tmp1 + (0.16666666666666666)*_tmp2*c_v1 + (0.16666666666666666)*_tmp4 + (0.16666666666666666)*c_v2 + (0.3333333333333333)*c_x
-    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp5, "vertical": 4*_tmp2*c_y + 4*_tmp4 + 4*c_v2, "horizontal": 8*c_x, "rotational": _tmp0*_tmp5, "one": 1}
+    _tmp0 = (0.5) * a1**2 + (0.5) * a2**2 + b**2 + h**2
+    _tmp1 = (0.16666666666666666) * c_y
+    _tmp2 = numpy.sin(gamma) ** 2
+    _tmp3 = numpy.cos(gamma) ** 2
+    _tmp4 = _tmp3 * c_v1
+    _tmp5 = (
+        _tmp1 * _tmp2
+        + _tmp1 * _tmp3
+        + _tmp1
+        + (0.16666666666666666) * _tmp2 * c_v1
+        + (0.16666666666666666) * _tmp4
+        + (0.16666666666666666) * c_v2
+        + (0.3333333333333333) * c_x
+    )
+    return {
+        "length": numpy.sqrt(_tmp0),
+        "mass": m,
+        "stiffness": _tmp5,
+        "vertical": 4 * _tmp2 * c_y + 4 * _tmp4 + 4 * c_v2,
+        "horizontal": 8 * c_x,
+        "rotational": _tmp0 * _tmp5,
+        "one": 1,
+    }
 
 
 def frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -2618,13 +5645,28 @@ NUMERIC_INVERSES = {
     ("z", "psi", "theta", "phi"): "no closed form of manageable size (solved numerically)",
 }
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
-UNIDENTIFIABLE = {
-}
+UNIDENTIFIABLE = {}
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
-DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v")
+DERIVATIVE_PARAMETERS = (
+    "m",
+    "J_x",
+    "J_y",
+    "J_z",
+    "a1",
+    "a2",
+    "b",
+    "h",
+    "gamma",
+    "c_x",
+    "c_y",
+    "c_v1",
+    "c_v2",
+    "b_h",
+    "b_v",
+)
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
 SPECIAL_POINTS = ("h", "gamma")
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
@@ -2632,13 +5674,35 @@ unknowns (isolators in the plane of the centre of mass, upright isolators); the 
 solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
-ISOLATORS = ("inner[+x+y]", "inner[-x+y]", "inner[+x-y]", "inner[-x-y]", "outer[+x+y]", "outer[-x+y]", "outer[+x-y]", "outer[-x-y]")
+ISOLATORS = (
+    "inner[+x+y]",
+    "inner[-x+y]",
+    "inner[+x-y]",
+    "inner[-x-y]",
+    "outer[+x+y]",
+    "outer[-x+y]",
+    "outer[+x-y]",
+    "outer[-x-y]",
+)
 """Every isolator after mirroring: group name and the signs of its mirror image (order of isolator_stiffness())."""
 EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
+    "foundation": (
+        "x",
+        "y",
+        "z",
+        "psi",
+        "theta",
+        "phi",
+        "x_found",
+        "y_found",
+        "z_found",
+        "psi_found",
+        "theta_found",
+        "phi_found",
+    ),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

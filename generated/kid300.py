@@ -20,14 +20,62 @@ SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {
     "m": {"kind": "mass", "unit": "kg", "role": "known", "value": 838.6, "description": "mass of the vibrating parts"},
-    "J_xy": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 61.44, "description": "moment of inertia about x and about y (J_x = J_y)"},
-    "J_z": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 51.52, "description": "moment of inertia about z"},
-    "L_xy": {"kind": "length", "unit": "m", "role": "known", "value": 0.486, "description": "horizontal distance of each isolator from the vertical axis"},
-    "L_z": {"kind": "length", "unit": "m", "role": "known", "value": 0.3, "description": "height of the centre of mass above the isolator attachment points"},
-    "c_xy": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 74400.0, "description": "horizontal stiffness of one isolator (c_x = c_y)"},
-    "c_z": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 472300.0, "description": "vertical stiffness of one isolator"},
-    "b_xy": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 337.2, "description": "horizontal viscous damping of one isolator"},
-    "b_z": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 1039.0, "description": "vertical viscous damping of one isolator"},
+    "J_xy": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 61.44,
+        "description": "moment of inertia about x and about y (J_x = J_y)",
+    },
+    "J_z": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 51.52,
+        "description": "moment of inertia about z",
+    },
+    "L_xy": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.486,
+        "description": "horizontal distance of each isolator from the vertical axis",
+    },
+    "L_z": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.3,
+        "description": "height of the centre of mass above the isolator attachment points",
+    },
+    "c_xy": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 74400.0,
+        "description": "horizontal stiffness of one isolator (c_x = c_y)",
+    },
+    "c_z": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 472300.0,
+        "description": "vertical stiffness of one isolator",
+    },
+    "b_xy": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 337.2,
+        "description": "horizontal viscous damping of one isolator",
+    },
+    "b_z": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 1039.0,
+        "description": "vertical viscous damping of one isolator",
+    },
 }
 KNOWN = ("m", "J_xy", "J_z", "L_xy", "L_z", "b_xy", "b_z")
 UNKNOWN = ("c_xy", "c_z")
@@ -59,19 +107,102 @@ ARGUMENTS = {
     "identify_z_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_z", "omega_phi"),
     "identify_psi_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_psi", "omega_phi"),
     "effect_com_offset": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
-    "effect_com_offset_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "dx_com",
+        "dy_com",
+    ),
     "effect_cog_height": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dz_com"),
     "effect_cog_height_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "dz_com"),
-    "effect_rotational_stiffness": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
-    "effect_rotational_stiffness_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
+    "effect_rotational_stiffness": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_rotational_stiffness_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
     "effect_foundation": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
-    "effect_foundation_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
+    "effect_foundation_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "m_found",
+        "k_found",
+    ),
     "effect_added_mass": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
-    "effect_added_mass_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
+    "effect_added_mass_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "m_added",
+        "h_added",
+    ),
     "effect_drive_belt": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
-    "effect_drive_belt_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "k_belt",
+        "h_belt",
+    ),
     "effect_gravity_preload": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "h_preload"),
-    "effect_gravity_preload_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "h_preload"),
+    "effect_gravity_preload_derivatives": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "h_preload",
+    ),
     "isolator_stiffness": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
@@ -111,12 +242,25 @@ def stiffness_matrix(L_xy, L_z, c_xy, c_z):
         [phi, phi] = 4*c_xy*L_xy**2
     """
     L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
-    _tmp0 = 4*c_xy
-    _tmp1 = L_z*_tmp0
+    _tmp0 = 4 * c_xy
+    _tmp1 = L_z * _tmp0
     _tmp2 = L_xy**2
-    _tmp3 = 4*L_z**2*c_xy + 2*_tmp2*c_z
+    _tmp3 = 4 * L_z**2 * c_xy + 2 * _tmp2 * c_z
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp0*_tmp2})
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp1,
+            (1, 1): _tmp0,
+            (1, 3): _tmp1,
+            (2, 2): 4 * c_z,
+            (3, 3): _tmp3,
+            (4, 4): _tmp3,
+            (5, 5): _tmp0 * _tmp2,
+        },
+    )
 
 
 def damping_matrix(L_xy, L_z, b_xy, b_z):
@@ -134,24 +278,46 @@ def damping_matrix(L_xy, L_z, b_xy, b_z):
         [phi, phi] = 4*b_xy*L_xy**2
     """
     L_xy, L_z, b_xy, b_z = _runtime.as_arrays(L_xy, L_z, b_xy, b_z)
-    _tmp0 = 4*b_xy
-    _tmp1 = L_z*_tmp0
+    _tmp0 = 4 * b_xy
+    _tmp1 = L_z * _tmp0
     _tmp2 = L_xy**2
-    _tmp3 = 4*L_z**2*b_xy + 2*_tmp2*b_z
+    _tmp3 = 4 * L_z**2 * b_xy + 2 * _tmp2 * b_z
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(b_xy), numpy.shape(b_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*b_z, (3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp0*_tmp2})
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp1,
+            (1, 1): _tmp0,
+            (1, 3): _tmp1,
+            (2, 2): 4 * b_z,
+            (3, 3): _tmp3,
+            (4, 4): _tmp3,
+            (5, 5): _tmp0 * _tmp2,
+        },
+    )
 
 
 def stiffness_gradient(L_xy, L_z):
-    """Derivatives dC/d(c_xy, c_z) of the stiffness matrix, shape (..., 2, 6, 6).
-    """
+    """Derivatives dC/d(c_xy, c_z) of the stiffness matrix, shape (..., 2, 6, 6)."""
     L_xy, L_z = _runtime.as_arrays(L_xy, L_z)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
+    _tmp3 = 2 * _tmp2
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+        ],
+        axis=-3,
+    )
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -199,14 +365,26 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
         block {phi}: lambda = 4*c_xy*L_xy**2/J_z
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+    )
     _out = numpy.empty((6, *_shape))
-    _v = {'m': m, 'J_xy': J_xy, 'J_z': J_z, 'L_xy': L_xy, 'L_z': L_z, 'c_xy': c_xy, 'c_z': c_z}
+    _v = {"m": m, "J_xy": J_xy, "J_z": J_z, "L_xy": L_xy, "L_z": L_z, "c_xy": c_xy, "c_z": c_z}
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*((4*c_xy/m) + ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)) + sqrt((0.5*((4*c_xy/m) - ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)))**2 + (16*L_z**2*c_xy**2/(J_xy*m)))', _v, _out[3, ...])
-    _runtime.fused('(8*L_xy**2*c_xy*c_z/(J_xy*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[0, ...])
-    _runtime.fused('4*c_z/m', _v, _out[2, ...])
-    _runtime.fused('4*L_xy**2*c_xy/J_z', _v, _out[5, ...])
+    _runtime.fused(
+        "0.5*((4*c_xy/m) + ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)) + sqrt((0.5*((4*c_xy/m) - ((2*L_xy**2*c_z + 4*L_z**2*c_xy)/J_xy)))**2 + (16*L_z**2*c_xy**2/(J_xy*m)))",
+        _v,
+        _out[3, ...],
+    )
+    _runtime.fused("(8*L_xy**2*c_xy*c_z/(J_xy*m)) / _upper", {**_v, "_upper": _out[3, ...]}, _out[0, ...])
+    _runtime.fused("4*c_z/m", _v, _out[2, ...])
+    _runtime.fused("4*L_xy**2*c_xy/J_z", _v, _out[5, ...])
     _out[1] = _out[0]
     _out[4] = _out[3]
     return numpy.moveaxis(_out, 0, -1)
@@ -288,23 +466,72 @@ def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
           [theta, theta] = 2*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
-    _tmp0 = 4*L_xy
-    _tmp1 = _tmp0*c_z
-    _tmp2 = 8*L_xy
-    _tmp3 = _tmp0*b_z
-    _tmp4 = 4*c_xy
-    _tmp5 = 8*L_z
-    _tmp6 = _tmp5*c_xy
-    _tmp7 = 4*b_xy
-    _tmp8 = _tmp5*b_xy
-    _tmp9 = 4*L_z
+    _tmp0 = 4 * L_xy
+    _tmp1 = _tmp0 * c_z
+    _tmp2 = 8 * L_xy
+    _tmp3 = _tmp0 * b_z
+    _tmp4 = 4 * c_xy
+    _tmp5 = 8 * L_z
+    _tmp6 = _tmp5 * c_xy
+    _tmp7 = 4 * b_xy
+    _tmp8 = _tmp5 * b_xy
+    _tmp9 = 4 * L_z
     _tmp10 = -_tmp9
-    _tmp11 = 4*L_z**2
+    _tmp11 = 4 * L_z**2
     _tmp12 = L_xy**2
-    _tmp13 = 4*_tmp12
-    _tmp14 = 2*_tmp12
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2*c_xy}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp2*b_xy}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14})], axis=-3).reshape(*_shape, 9, 3, 6, 6)
+    _tmp13 = 4 * _tmp12
+    _tmp14 = 2 * _tmp12
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 * c_xy}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp2 * b_xy}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 9, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
@@ -351,16 +578,46 @@ def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
           [theta, theta] = 2*L_xy**2
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _tmp0 = 4*L_xy*c_z
-    _tmp1 = 8*c_xy
-    _tmp2 = 4*c_xy
-    _tmp3 = L_z*_tmp1
-    _tmp4 = 4*L_z
-    _tmp5 = 4*L_z**2
+    _tmp0 = 4 * L_xy * c_z
+    _tmp1 = 8 * c_xy
+    _tmp2 = 4 * c_xy
+    _tmp3 = L_z * _tmp1
+    _tmp4 = 4 * L_z
+    _tmp5 = 4 * L_z**2
     _tmp6 = L_xy**2
-    _tmp7 = 2*_tmp6
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): L_xy*_tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp2, (1, 3): _tmp2, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp4, (1, 1): 4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): 4*_tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp7, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 7, 2, 6, 6)
+    _tmp7 = 2 * _tmp6
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): L_xy * _tmp1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp2, (1, 3): _tmp2, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp4, (1, 1): 4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): 4 * _tmp6},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp7, (4, 4): _tmp7}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 7, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -372,19 +629,23 @@ def _model(_known, _unknowns, _modes):
     _lam = squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
     if not _modes:
         return _lam, None, None
-    _phi = _runtime.modal_matrix(mass_matrix(m, J_xy, J_z), stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _phi = _runtime.modal_matrix(
+        mass_matrix(m, J_xy, J_z), stiffness_matrix(L_xy, L_z, c_xy, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK
+    )
     return _lam, _phi, stiffness_gradient(L_xy, L_z)
 
 
 def _roots_x_z(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_z):
-    """Candidate roots of identify_x_z() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_z() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = J_xy*_lam_x - 2*L_xy**2*c_z
-        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-    return (c_xy, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_x * m
+        _tmp1 = J_xy * _lam_x - 2 * L_xy**2 * c_z
+        c_xy = numpy.broadcast_to((0.25) * _tmp0 * _tmp1 / (L_z**2 * _tmp0 + _tmp1), c_z.shape)
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
@@ -412,18 +673,46 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
-    return _runtime.solve_inverse(_roots_x_z, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_z ** 2,), (0, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_x_z,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+        ),
+        (0, 2),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(74400.0, 472300.0),
+    )
 
 
 def _roots_x_psi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_psi):
-    """Candidate roots of identify_x_psi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_psi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_xy*_lam_psi
-        _tmp1 = 4*m
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(16*J_xy + 16*L_z**2*m, -J_xy*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        c_z = numpy.broadcast_to((0.125)*J_xy*_lam_psi*_lam_x*m/(L_xy**2*c_xy), c_xy.shape)
-    return (c_xy, c_z,)
+        _tmp0 = J_xy * _lam_psi
+        _tmp1 = 4 * m
+        c_xy = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_xy + 16 * L_z**2 * m, -J_xy * _lam_x * _tmp1 - _tmp0 * _tmp1, _lam_x * _tmp0 * m**2
+                )
+            ]
+        )
+        c_z = numpy.broadcast_to((0.125) * J_xy * _lam_psi * _lam_x * m / (L_xy**2 * c_xy), c_xy.shape)
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
@@ -451,17 +740,42 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
-    return _runtime.solve_inverse(_roots_x_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_psi ** 2,), (0, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_x_psi,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+        ),
+        (0, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(74400.0, 472300.0),
+    )
 
 
 def _roots_x_phi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_phi):
-    """Candidate roots of identify_x_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
-        _tmp0 = 4*c_xy
-        c_z = numpy.broadcast_to((0.5)*_lam_x*(J_xy*_lam_x*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_x*m - _tmp0)), c_xy.shape)
-    return (c_xy, c_z,)
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4 * L_xy**2, -J_z * _lam_phi)])
+        _tmp0 = 4 * c_xy
+        c_z = numpy.broadcast_to(
+            (0.5) * _lam_x * (J_xy * _lam_x * m - J_xy * _tmp0 - L_z**2 * _tmp0 * m) / (L_xy**2 * (_lam_x * m - _tmp0)),
+            c_xy.shape,
+        )
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
@@ -489,18 +803,40 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
-    return _runtime.solve_inverse(_roots_x_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_x ** 2, omega_phi ** 2,), (0, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_x_phi,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_x**2,
+            omega_phi**2,
+        ),
+        (0, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(74400.0, 472300.0),
+    )
 
 
 def _roots_z_psi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_psi):
-    """Candidate roots of identify_z_psi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_psi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_psi*m
-        _tmp1 = J_xy*_lam_psi - 2*L_xy**2*c_z
-        c_xy = numpy.broadcast_to((0.25)*_tmp0*_tmp1/(L_z**2*_tmp0 + _tmp1), c_z.shape)
-    return (c_xy, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_psi * m
+        _tmp1 = J_xy * _lam_psi - 2 * L_xy**2 * c_z
+        c_xy = numpy.broadcast_to((0.25) * _tmp0 * _tmp1 / (L_z**2 * _tmp0 + _tmp1), c_z.shape)
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
@@ -528,16 +864,38 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
-    return _runtime.solve_inverse(_roots_z_psi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_psi ** 2,), (2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_z_psi,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+        ),
+        (2, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(74400.0, 472300.0),
+    )
 
 
 def _roots_z_phi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_phi):
-    """Candidate roots of identify_z_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        c_xy = numpy.broadcast_to((0.25)*J_z*_lam_phi/L_xy**2, c_z.shape)
-    return (c_xy, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        c_xy = numpy.broadcast_to((0.25) * J_z * _lam_phi / L_xy**2, c_z.shape)
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
@@ -565,17 +923,45 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
-    return _runtime.solve_inverse(_roots_z_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_z ** 2, omega_phi ** 2,), (2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_z_phi,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(74400.0, 472300.0),
+    )
 
 
 def _roots_psi_phi(m, J_xy, J_z, L_xy, L_z, _lam_psi, _lam_phi):
-    """Candidate roots of identify_psi_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_psi_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_xy = numpy.concatenate([_runtime.polynomial_roots(4*L_xy**2, -J_z*_lam_phi)])
-        _tmp0 = 4*c_xy
-        c_z = numpy.broadcast_to((0.5)*_lam_psi*(J_xy*_lam_psi*m - J_xy*_tmp0 - L_z**2*_tmp0*m)/(L_xy**2*(_lam_psi*m - _tmp0)), c_xy.shape)
-    return (c_xy, c_z,)
+        c_xy = numpy.concatenate([_runtime.polynomial_roots(4 * L_xy**2, -J_z * _lam_phi)])
+        _tmp0 = 4 * c_xy
+        c_z = numpy.broadcast_to(
+            (0.5)
+            * _lam_psi
+            * (J_xy * _lam_psi * m - J_xy * _tmp0 - L_z**2 * _tmp0 * m)
+            / (L_xy**2 * (_lam_psi * m - _tmp0)),
+            c_xy.shape,
+        )
+    return (
+        c_xy,
+        c_z,
+    )
 
 
 def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
@@ -603,7 +989,27 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_psi_phi, _model, (m, J_xy, J_z, L_xy, L_z,), (omega_psi ** 2, omega_phi ** 2,), (3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(74400.0, 472300.0))
+    return _runtime.solve_inverse(
+        _roots_psi_phi,
+        _model,
+        (
+            m,
+            J_xy,
+            J_z,
+            L_xy,
+            L_z,
+        ),
+        (
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(74400.0, 472300.0),
+    )
 
 
 def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
@@ -625,13 +1031,45 @@ def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
-    _tmp0 = dy_com*m
-    _tmp1 = dx_com*m
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com
+    )
+    _tmp0 = dy_com * m
+    _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 5): -_tmp0,
+                (1, 5): _tmp1,
+                (2, 3): _tmp0,
+                (2, 4): -_tmp1,
+                (3, 3): _tmp2 * m,
+                (3, 4): -_tmp0 * dx_com,
+                (4, 4): _tmp3 * m,
+                (5, 5): m * (_tmp2 + _tmp3),
+            },
+        ),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
@@ -673,18 +1111,52 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
+    _tmp3 = 2 * _tmp2
     _tmp4 = -m
-    _tmp5 = dy_com*m
-    _tmp6 = dx_com*m
-    _tmp7 = 2*_tmp6
-    _tmp8 = 2*_tmp5
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp5 = dy_com * m
+    _tmp6 = dx_com * m
+    _tmp7 = 2 * _tmp6
+    _tmp8 = 2 * _tmp5
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
@@ -702,11 +1174,29 @@ def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
-    _tmp0 = dz_com*m
-    _tmp1 = dz_com**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dz_com))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com
+    )
+    _tmp0 = dz_com * m
+    _tmp1 = dz_com**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
@@ -739,14 +1229,44 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
-    _tmp4 = 2*dz_com*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(dz_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+    _tmp3 = 2 * _tmp2
+    _tmp4 = 2 * dz_com * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
@@ -763,10 +1283,29 @@ def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
-    _tmp0 = 4*k_bend
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * k_bend
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4 * k_torsion}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
@@ -801,13 +1340,47 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp3 = 2 * _tmp2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
@@ -877,35 +1450,124 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [theta_found, theta_found] = 2*b_z*L_xy**2
           [phi_found, phi_found] = 4*b_xy*L_xy**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found)
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found
+    )
     _tmp0 = L_xy**2
     _tmp1 = L_z**2
-    _tmp2 = m_found*(_tmp0 + _tmp1)
-    _tmp3 = 4*c_xy
-    _tmp4 = L_z*_tmp3
+    _tmp2 = m_found * (_tmp0 + _tmp1)
+    _tmp3 = 4 * c_xy
+    _tmp4 = L_z * _tmp3
     _tmp5 = -_tmp4
     _tmp6 = -_tmp3
-    _tmp7 = 4*c_z
-    _tmp8 = _tmp0*c_z
-    _tmp9 = 2*_tmp1
-    _tmp10 = 2*_tmp8 + 2*_tmp9*c_xy
-    _tmp11 = -2*_tmp8
-    _tmp12 = _tmp0*_tmp3
-    _tmp13 = (0.5)*k_found
+    _tmp7 = 4 * c_z
+    _tmp8 = _tmp0 * c_z
+    _tmp9 = 2 * _tmp1
+    _tmp10 = 2 * _tmp8 + 2 * _tmp9 * c_xy
+    _tmp11 = -2 * _tmp8
+    _tmp12 = _tmp0 * _tmp3
+    _tmp13 = (0.5) * k_found
     _tmp14 = _tmp13 + _tmp3
-    _tmp15 = _tmp0*(_tmp13 + 2*c_z)
-    _tmp16 = 4*b_xy
-    _tmp17 = L_z*_tmp16
+    _tmp15 = _tmp0 * (_tmp13 + 2 * c_z)
+    _tmp16 = 4 * b_xy
+    _tmp17 = L_z * _tmp16
     _tmp18 = -_tmp17
     _tmp19 = -_tmp16
-    _tmp20 = 4*b_z
-    _tmp21 = _tmp0*b_z
-    _tmp22 = 2*_tmp21 + 2*_tmp9*b_xy
-    _tmp23 = 2*_tmp21
+    _tmp20 = 4 * b_z
+    _tmp21 = _tmp0 * b_z
+    _tmp22 = 2 * _tmp21 + 2 * _tmp9 * b_xy
+    _tmp23 = 2 * _tmp21
     _tmp24 = -_tmp23
-    _tmp25 = _tmp0*_tmp16
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp2, (10, 10): _tmp2, (11, 11): _tmp2}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): _tmp5, (0, 6): _tmp6, (1, 1): _tmp3, (1, 3): _tmp4, (1, 7): _tmp6, (2, 2): _tmp7, (2, 8): -_tmp7, (3, 3): _tmp10, (3, 7): _tmp5, (3, 9): _tmp11, (4, 4): _tmp10, (4, 6): _tmp4, (4, 10): _tmp11, (5, 5): _tmp12, (5, 11): -_tmp12, (6, 6): _tmp14, (7, 7): _tmp14, (8, 8): _tmp7 + k_found, (9, 9): _tmp15, (10, 10): _tmp15, (11, 11): _tmp0*_tmp14}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp16, (0, 4): _tmp18, (0, 6): _tmp19, (1, 1): _tmp16, (1, 3): _tmp17, (1, 7): _tmp19, (2, 2): _tmp20, (2, 8): -_tmp20, (3, 3): _tmp22, (3, 7): _tmp18, (3, 9): _tmp24, (4, 4): _tmp22, (4, 6): _tmp17, (4, 10): _tmp24, (5, 5): _tmp25, (5, 11): -_tmp25, (6, 6): _tmp16, (7, 7): _tmp16, (8, 8): _tmp20, (9, 9): _tmp23, (10, 10): _tmp23, (11, 11): _tmp25}))
+    _tmp25 = _tmp0 * _tmp16
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return (
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): m,
+                (1, 1): m,
+                (2, 2): m,
+                (3, 3): J_xy,
+                (4, 4): J_xy,
+                (5, 5): J_z,
+                (6, 6): m_found,
+                (7, 7): m_found,
+                (8, 8): m_found,
+                (9, 9): _tmp2,
+                (10, 10): _tmp2,
+                (11, 11): _tmp2,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp3,
+                (0, 4): _tmp5,
+                (0, 6): _tmp6,
+                (1, 1): _tmp3,
+                (1, 3): _tmp4,
+                (1, 7): _tmp6,
+                (2, 2): _tmp7,
+                (2, 8): -_tmp7,
+                (3, 3): _tmp10,
+                (3, 7): _tmp5,
+                (3, 9): _tmp11,
+                (4, 4): _tmp10,
+                (4, 6): _tmp4,
+                (4, 10): _tmp11,
+                (5, 5): _tmp12,
+                (5, 11): -_tmp12,
+                (6, 6): _tmp14,
+                (7, 7): _tmp14,
+                (8, 8): _tmp7 + k_found,
+                (9, 9): _tmp15,
+                (10, 10): _tmp15,
+                (11, 11): _tmp0 * _tmp14,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp16,
+                (0, 4): _tmp18,
+                (0, 6): _tmp19,
+                (1, 1): _tmp16,
+                (1, 3): _tmp17,
+                (1, 7): _tmp19,
+                (2, 2): _tmp20,
+                (2, 8): -_tmp20,
+                (3, 3): _tmp22,
+                (3, 7): _tmp18,
+                (3, 9): _tmp24,
+                (4, 4): _tmp22,
+                (4, 6): _tmp17,
+                (4, 10): _tmp24,
+                (5, 5): _tmp25,
+                (5, 11): -_tmp25,
+                (6, 6): _tmp16,
+                (7, 7): _tmp16,
+                (8, 8): _tmp20,
+                (9, 9): _tmp23,
+                (10, 10): _tmp23,
+                (11, 11): _tmp25,
+            },
+        ),
+    )
 
 
 def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
@@ -963,19 +1625,87 @@ def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [phi_found, phi_found] = L_xy**2/2
         dB/dk_found:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found)
-    _tmp0 = 4*L_z
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found
+    )
+    _tmp0 = 4 * L_z
     _tmp1 = -_tmp0
     _tmp2 = L_z**2
-    _tmp3 = 4*_tmp2
+    _tmp3 = 4 * _tmp2
     _tmp4 = L_xy**2
-    _tmp5 = 4*_tmp4
-    _tmp6 = 2*_tmp4
+    _tmp5 = 4 * _tmp4
+    _tmp6 = 2 * _tmp4
     _tmp7 = -_tmp6
     _tmp8 = _tmp2 + _tmp4
-    _tmp9 = (0.5)*_tmp4
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp5, (5, 11): -_tmp5, (6, 6): 4, (7, 7): 4, (11, 11): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp6, (3, 9): _tmp7, (4, 4): _tmp6, (4, 10): _tmp7, (8, 8): 4, (9, 9): _tmp6, (10, 10): _tmp6}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp8, (10, 10): _tmp8, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 4, 3, 12, 12)
+    _tmp9 = (0.5) * _tmp4
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp5,
+                    (5, 11): -_tmp5,
+                    (6, 6): 4,
+                    (7, 7): 4,
+                    (11, 11): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp6,
+                    (3, 9): _tmp7,
+                    (4, 4): _tmp6,
+                    (4, 10): _tmp7,
+                    (8, 8): 4,
+                    (9, 9): _tmp6,
+                    (10, 10): _tmp6,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp8, (10, 10): _tmp8, (11, 11): _tmp8}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 12, 12)
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
@@ -996,11 +1726,42 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
           [theta, theta] = m_added*h_added**2
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added)
-    _tmp0 = h_added*m_added
-    _tmp1 = h_added**2*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added
+    )
+    _tmp0 = h_added * m_added
+    _tmp1 = h_added**2 * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 0): m_added,
+                (0, 4): _tmp0,
+                (1, 1): m_added,
+                (1, 3): -_tmp0,
+                (2, 2): m_added,
+                (3, 3): _tmp1,
+                (4, 4): _tmp1,
+            },
+        ),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
@@ -1043,15 +1804,53 @@ def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dC/dh_added:
         dB/dh_added:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
+    _tmp3 = 2 * _tmp2
     _tmp4 = h_added**2
-    _tmp5 = 2*h_added*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp5 = 2 * h_added * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
@@ -1068,9 +1867,28 @@ def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_b
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt * k_belt, (4, 4): h_belt**2 * k_belt}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
@@ -1107,13 +1925,47 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp3 = 2 * _tmp2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
@@ -1129,10 +1981,27 @@ def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_prel
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
-    _tmp0 = -9.80665*h_preload*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
-    return (mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(L_xy, L_z, b_xy, b_z))
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload
+    )
+    _tmp0 = -9.80665 * h_preload * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return (
+        mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
+        damping_matrix(L_xy, L_z, b_xy, b_z),
+    )
 
 
 def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
@@ -1163,14 +2032,44 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
-    _tmp0 = 4*L_z
-    _tmp1 = 4*L_z**2
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload
+    )
+    _tmp0 = 4 * L_z
+    _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
-    _tmp3 = 2*_tmp2
-    _tmp4 = -9.80665*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z), numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z), numpy.shape(b_xy), numpy.shape(b_z), numpy.shape(h_preload))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4*_tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+    _tmp3 = 2 * _tmp2
+    _tmp4 = -9.80665 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_xy),
+        numpy.shape(J_z),
+        numpy.shape(L_xy),
+        numpy.shape(L_z),
+        numpy.shape(c_xy),
+        numpy.shape(c_z),
+        numpy.shape(b_xy),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 3, 6, 6)
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
@@ -1245,24 +2144,112 @@ def isolator_stiffness(L_xy, L_z, c_xy, c_z):
           [phi, phi] = c_xy*L_xy**2
     """
     L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
-    _tmp0 = L_z*c_xy
+    _tmp0 = L_z * c_xy
     _tmp1 = -_tmp0
-    _tmp2 = numpy.sqrt(2)*L_xy
-    _tmp3 = (0.5)*_tmp2
-    _tmp4 = _tmp3*c_xy
+    _tmp2 = numpy.sqrt(2) * L_xy
+    _tmp3 = (0.5) * _tmp2
+    _tmp4 = _tmp3 * c_xy
     _tmp5 = -_tmp4
-    _tmp6 = (0.5)*c_z
-    _tmp7 = _tmp2*_tmp6
+    _tmp6 = (0.5) * c_z
+    _tmp7 = _tmp2 * _tmp6
     _tmp8 = -_tmp7
     _tmp9 = L_xy**2
-    _tmp10 = _tmp6*_tmp9
-    _tmp11 = L_z**2*c_xy + _tmp10
+    _tmp10 = _tmp6 * _tmp9
+    _tmp11 = L_z**2 * c_xy + _tmp10
     _tmp12 = -_tmp10
-    _tmp13 = _tmp0*_tmp3
-    _tmp14 = _tmp9*c_xy
+    _tmp13 = _tmp0 * _tmp3
+    _tmp14 = _tmp9 * c_xy
     _tmp15 = -_tmp13
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp5, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp13, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp10, (3, 5): _tmp13, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_xy, (0, 4): _tmp1, (0, 5): _tmp4, (1, 1): c_xy, (1, 3): _tmp0, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp8, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp15, (4, 4): _tmp11, (4, 5): _tmp15, (5, 5): _tmp14})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_xy,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp5,
+                    (1, 1): c_xy,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp4,
+                    (2, 2): c_z,
+                    (2, 3): _tmp7,
+                    (2, 4): _tmp8,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp13,
+                    (4, 4): _tmp11,
+                    (4, 5): _tmp13,
+                    (5, 5): _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_xy,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp5,
+                    (1, 1): c_xy,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp5,
+                    (2, 2): c_z,
+                    (2, 3): _tmp7,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp10,
+                    (3, 5): _tmp15,
+                    (4, 4): _tmp11,
+                    (4, 5): _tmp13,
+                    (5, 5): _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_xy,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp4,
+                    (1, 1): c_xy,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp4,
+                    (2, 2): c_z,
+                    (2, 3): _tmp8,
+                    (2, 4): _tmp8,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp10,
+                    (3, 5): _tmp13,
+                    (4, 4): _tmp11,
+                    (4, 5): _tmp15,
+                    (5, 5): _tmp14,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_xy,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp4,
+                    (1, 1): c_xy,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp5,
+                    (2, 2): c_z,
+                    (2, 3): _tmp8,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp15,
+                    (4, 4): _tmp11,
+                    (4, 5): _tmp15,
+                    (5, 5): _tmp14,
+                },
+            ),
+        ],
+        axis=-3,
+    )
 
 
 def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
@@ -1350,33 +2337,125 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
     """
     L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
     _tmp0 = -L_z
-    _tmp1 = (0.5)*numpy.sqrt(2)*L_xy
+    _tmp1 = (0.5) * numpy.sqrt(2) * L_xy
     _tmp2 = -_tmp1
     _tmp3 = L_z**2
-    _tmp4 = L_z*_tmp1
+    _tmp4 = L_z * _tmp1
     _tmp5 = L_xy**2
     _tmp6 = -_tmp4
-    _tmp7 = (0.5)*_tmp5
+    _tmp7 = (0.5) * _tmp5
     _tmp8 = -_tmp7
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp2, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp1, (3, 3): _tmp3, (3, 5): _tmp4, (4, 4): _tmp3, (4, 5): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp2, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp2, (3, 3): _tmp3, (3, 5): _tmp6, (4, 4): _tmp3, (4, 5): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp1, (3, 3): _tmp3, (3, 5): _tmp4, (4, 4): _tmp3, (4, 5): _tmp6, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): L_z, (1, 5): _tmp2, (3, 3): _tmp3, (3, 5): _tmp6, (4, 4): _tmp3, (4, 5): _tmp6, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 2, 4, 6, 6)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp2,
+                    (1, 1): 1,
+                    (1, 3): L_z,
+                    (1, 5): _tmp1,
+                    (3, 3): _tmp3,
+                    (3, 5): _tmp4,
+                    (4, 4): _tmp3,
+                    (4, 5): _tmp4,
+                    (5, 5): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp2,
+                    (1, 1): 1,
+                    (1, 3): L_z,
+                    (1, 5): _tmp2,
+                    (3, 3): _tmp3,
+                    (3, 5): _tmp6,
+                    (4, 4): _tmp3,
+                    (4, 5): _tmp4,
+                    (5, 5): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp1,
+                    (1, 1): 1,
+                    (1, 3): L_z,
+                    (1, 5): _tmp1,
+                    (3, 3): _tmp3,
+                    (3, 5): _tmp4,
+                    (4, 4): _tmp3,
+                    (4, 5): _tmp6,
+                    (5, 5): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp1,
+                    (1, 1): 1,
+                    (1, 3): L_z,
+                    (1, 5): _tmp2,
+                    (3, 3): _tmp3,
+                    (3, 5): _tmp6,
+                    (4, 4): _tmp3,
+                    (4, 5): _tmp6,
+                    (5, 5): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 2, 4, 6, 6)
 
 
 def effect_scales(m, L_xy, L_z, c_xy, c_z):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
-        length = sqrt(L_xy**2 + L_z**2)
-        mass = m
-        stiffness = c_z/3 + 2*c_xy/3
-        vertical = 4*c_z
-        horizontal = 4*c_xy
-        rotational = (L_xy**2 + L_z**2)*(c_z/3 + 2*c_xy/3)
-        one = 1
+    length = sqrt(L_xy**2 + L_z**2)
+    mass = m
+    stiffness = c_z/3 + 2*c_xy/3
+    vertical = 4*c_z
+    horizontal = 4*c_xy
+    rotational = (L_xy**2 + L_z**2)*(c_z/3 + 2*c_xy/3)
+    one = 1
     """
     m, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, L_xy, L_z, c_xy, c_z)
     _tmp0 = L_xy**2 + L_z**2
-    _tmp1 = (0.6666666666666666)*c_xy + (0.3333333333333333)*c_z
-    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp1, "vertical": 4*c_z, "horizontal": 4*c_xy, "rotational": _tmp0*_tmp1, "one": 1}
+    _tmp1 = (0.6666666666666666) * c_xy + (0.3333333333333333) * c_z
+    return {
+        "length": numpy.sqrt(_tmp0),
+        "mass": m,
+        "stiffness": _tmp1,
+        "vertical": 4 * c_z,
+        "horizontal": 4 * c_xy,
+        "rotational": _tmp0 * _tmp1,
+        "one": 1,
+    }
 
 
 def frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
@@ -1434,11 +2513,9 @@ INVERSE_ROOTS = {
     ("psi", "phi"): 1,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
-NUMERIC_INVERSES = {
-}
+NUMERIC_INVERSES = {}
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
-UNIDENTIFIABLE = {
-}
+UNIDENTIFIABLE = {}
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = (
     ("x", "y", 1),
@@ -1460,7 +2537,20 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
+    "foundation": (
+        "x",
+        "y",
+        "z",
+        "psi",
+        "theta",
+        "phi",
+        "x_found",
+        "y_found",
+        "z_found",
+        "psi_found",
+        "theta_found",
+        "phi_found",
+    ),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

@@ -20,18 +20,90 @@ SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {
     "m": {"kind": "mass", "unit": "kg", "role": "known", "value": 1200.0, "description": "mass of the machine"},
-    "J_x": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 210.0, "description": "moment of inertia about x"},
-    "J_y": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 380.0, "description": "moment of inertia about y"},
-    "J_z": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 450.0, "description": "moment of inertia about z"},
-    "a": {"kind": "length", "unit": "m", "role": "known", "value": 0.8, "description": "half the isolator spacing along x"},
-    "b": {"kind": "length", "unit": "m", "role": "known", "value": 0.5, "description": "half the isolator spacing along y"},
-    "h": {"kind": "length", "unit": "m", "role": "known", "value": 0.35, "description": "height of the centre of mass above the isolators"},
-    "c_x": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 200000.0, "description": "stiffness of one isolator along x"},
-    "c_y": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 140000.0, "description": "stiffness of one isolator along y"},
-    "c_z": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 900000.0, "description": "vertical stiffness of one isolator"},
-    "b_x": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 800.0, "description": "damping of one isolator along x"},
-    "b_y": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 700.0, "description": "damping of one isolator along y"},
-    "b_z": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 2500.0, "description": "vertical damping of one isolator"},
+    "J_x": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 210.0,
+        "description": "moment of inertia about x",
+    },
+    "J_y": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 380.0,
+        "description": "moment of inertia about y",
+    },
+    "J_z": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 450.0,
+        "description": "moment of inertia about z",
+    },
+    "a": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.8,
+        "description": "half the isolator spacing along x",
+    },
+    "b": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.5,
+        "description": "half the isolator spacing along y",
+    },
+    "h": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.35,
+        "description": "height of the centre of mass above the isolators",
+    },
+    "c_x": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 200000.0,
+        "description": "stiffness of one isolator along x",
+    },
+    "c_y": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 140000.0,
+        "description": "stiffness of one isolator along y",
+    },
+    "c_z": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 900000.0,
+        "description": "vertical stiffness of one isolator",
+    },
+    "b_x": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 800.0,
+        "description": "damping of one isolator along x",
+    },
+    "b_y": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 700.0,
+        "description": "damping of one isolator along y",
+    },
+    "b_z": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 2500.0,
+        "description": "vertical damping of one isolator",
+    },
 }
 KNOWN = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "b_x", "b_y", "b_z")
 UNKNOWN = ("c_x", "c_y", "c_z")
@@ -74,20 +146,225 @@ ARGUMENTS = {
     "identify_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_psi", "omega_phi"),
     "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_z", "omega_theta", "omega_phi"),
     "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_psi", "omega_theta", "omega_phi"),
-    "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dx_com", "dy_com"),
-    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "dx_com",
+        "dy_com",
+    ),
+    "effect_com_offset_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "dx_com",
+        "dy_com",
+    ),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dz_com"),
-    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dz_com"),
-    "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_bend", "k_torsion"),
-    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_bend", "k_torsion"),
-    "effect_foundation": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_found", "k_found"),
-    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_found", "k_found"),
-    "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "h_added"),
-    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "h_added"),
-    "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
-    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
-    "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
-    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
+    "effect_cog_height_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "dz_com",
+    ),
+    "effect_rotational_stiffness": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_rotational_stiffness_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_foundation": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_found",
+        "k_found",
+    ),
+    "effect_foundation_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_found",
+        "k_found",
+    ),
+    "effect_added_mass": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_added",
+        "h_added",
+    ),
+    "effect_added_mass_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_added",
+        "h_added",
+    ),
+    "effect_drive_belt": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_drive_belt_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_gravity_preload": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "h_preload",
+    ),
+    "effect_gravity_preload_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "h_preload",
+    ),
     "isolator_stiffness": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
@@ -127,13 +404,28 @@ def stiffness_matrix(a, b, h, c_x, c_y, c_z):
         [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
     """
     a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
-    _tmp0 = 4*c_x
-    _tmp1 = 4*c_y
+    _tmp0 = 4 * c_x
+    _tmp1 = 4 * c_y
     _tmp2 = b**2
     _tmp3 = h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): 4*c_z, (3, 3): 4*_tmp2*c_z + 4*_tmp3*c_y, (4, 4): 4*_tmp3*c_x + 4*_tmp4*c_z, (5, 5): 4*_tmp2*c_x + 4*_tmp4*c_y})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp0 * h,
+            (1, 1): _tmp1,
+            (1, 3): _tmp1 * h,
+            (2, 2): 4 * c_z,
+            (3, 3): 4 * _tmp2 * c_z + 4 * _tmp3 * c_y,
+            (4, 4): 4 * _tmp3 * c_x + 4 * _tmp4 * c_z,
+            (5, 5): 4 * _tmp2 * c_x + 4 * _tmp4 * c_y,
+        },
+    )
 
 
 def damping_matrix(a, b, h, b_x, b_y, b_z):
@@ -151,25 +443,46 @@ def damping_matrix(a, b, h, b_x, b_y, b_z):
         [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
     """
     a, b, h, b_x, b_y, b_z = _runtime.as_arrays(a, b, h, b_x, b_y, b_z)
-    _tmp0 = 4*b_x
-    _tmp1 = 4*b_y
+    _tmp0 = 4 * b_x
+    _tmp1 = 4 * b_y
     _tmp2 = b**2
     _tmp3 = h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp0*h, (1, 1): _tmp1, (1, 3): _tmp1*h, (2, 2): 4*b_z, (3, 3): 4*_tmp2*b_z + 4*_tmp3*b_y, (4, 4): 4*_tmp3*b_x + 4*_tmp4*b_z, (5, 5): 4*_tmp2*b_x + 4*_tmp4*b_y})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z)
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp0 * h,
+            (1, 1): _tmp1,
+            (1, 3): _tmp1 * h,
+            (2, 2): 4 * b_z,
+            (3, 3): 4 * _tmp2 * b_z + 4 * _tmp3 * b_y,
+            (4, 4): 4 * _tmp3 * b_x + 4 * _tmp4 * b_z,
+            (5, 5): 4 * _tmp2 * b_x + 4 * _tmp4 * b_y,
+        },
+    )
 
 
 def stiffness_gradient(a, b, h):
-    """Derivatives dC/d(c_x, c_y, c_z) of the stiffness matrix, shape (..., 3, 6, 6).
-    """
+    """Derivatives dC/d(c_x, c_y, c_z) of the stiffness matrix, shape (..., 3, 6, 6)."""
     a, b, h = _runtime.as_arrays(a, b, h)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+        ],
+        axis=-3,
+    )
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -217,17 +530,36 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
         block {phi}: lambda = (4*c_x*b**2 + 4*c_y*a**2)/J_z
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+    )
     _out = numpy.empty((6, *_shape))
-    _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a': a, 'b': b, 'h': h, 'c_x': c_x, 'c_y': c_y, 'c_z': c_z}
+    _v = {"m": m, "J_x": J_x, "J_y": J_y, "J_z": J_z, "a": a, "b": b, "h": h, "c_x": c_x, "c_y": c_y, "c_z": c_z}
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*((4*c_x/m) + ((4*a**2*c_z + 4*c_x*h**2)/J_y)) + sqrt((0.5*((4*c_x/m) - ((4*a**2*c_z + 4*c_x*h**2)/J_y)))**2 + (16*c_x**2*h**2/(J_y*m)))', _v, _out[4, ...])
-    _runtime.fused('(16*a**2*c_x*c_z/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
+    _runtime.fused(
+        "0.5*((4*c_x/m) + ((4*a**2*c_z + 4*c_x*h**2)/J_y)) + sqrt((0.5*((4*c_x/m) - ((4*a**2*c_z + 4*c_x*h**2)/J_y)))**2 + (16*c_x**2*h**2/(J_y*m)))",
+        _v,
+        _out[4, ...],
+    )
+    _runtime.fused("(16*a**2*c_x*c_z/(J_y*m)) / _upper", {**_v, "_upper": _out[4, ...]}, _out[0, ...])
     # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*((4*c_y/m) + ((4*b**2*c_z + 4*c_y*h**2)/J_x)) + sqrt((0.5*((4*c_y/m) - ((4*b**2*c_z + 4*c_y*h**2)/J_x)))**2 + (16*c_y**2*h**2/(J_x*m)))', _v, _out[3, ...])
-    _runtime.fused('(16*b**2*c_y*c_z/(J_x*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[1, ...])
-    _runtime.fused('4*c_z/m', _v, _out[2, ...])
-    _runtime.fused('(4*a**2*c_y + 4*b**2*c_x)/J_z', _v, _out[5, ...])
+    _runtime.fused(
+        "0.5*((4*c_y/m) + ((4*b**2*c_z + 4*c_y*h**2)/J_x)) + sqrt((0.5*((4*c_y/m) - ((4*b**2*c_z + 4*c_y*h**2)/J_x)))**2 + (16*c_y**2*h**2/(J_x*m)))",
+        _v,
+        _out[3, ...],
+    )
+    _runtime.fused("(16*b**2*c_y*c_z/(J_x*m)) / _upper", {**_v, "_upper": _out[3, ...]}, _out[1, ...])
+    _runtime.fused("4*c_z/m", _v, _out[2, ...])
+    _runtime.fused("(4*a**2*c_y + 4*b**2*c_x)/J_z", _v, _out[5, ...])
     return numpy.moveaxis(_out, 0, -1)
 
 
@@ -322,17 +654,80 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z)
-    _tmp0 = 8*a
-    _tmp1 = 8*b
-    _tmp2 = 8*h
-    _tmp3 = 4*h
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z
+    )
+    _tmp0 = 8 * a
+    _tmp1 = 8 * b
+    _tmp2 = 8 * h
+    _tmp3 = 4 * h
     _tmp4 = -_tmp3
-    _tmp5 = 4*h**2
-    _tmp6 = 4*b**2
-    _tmp7 = 4*a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*c_z, (5, 5): _tmp0*c_y}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*b_z, (5, 5): _tmp0*b_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*c_z, (5, 5): _tmp1*c_x}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*b_z, (5, 5): _tmp1*b_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*c_x, (1, 3): 4*c_y, (3, 3): _tmp2*c_y, (4, 4): _tmp2*c_x}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*b_x, (1, 3): 4*b_y, (3, 3): _tmp2*b_y, (4, 4): _tmp2*b_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 13, 3, 6, 6)
+    _tmp5 = 4 * h**2
+    _tmp6 = 4 * b**2
+    _tmp7 = 4 * a**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * c_z, (5, 5): _tmp0 * c_y}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * b_z, (5, 5): _tmp0 * b_y}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * c_z, (5, 5): _tmp1 * c_x}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * b_z, (5, 5): _tmp1 * b_x}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): -4 * c_x, (1, 3): 4 * c_y, (3, 3): _tmp2 * c_y, (4, 4): _tmp2 * c_x}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): -4 * b_x, (1, 3): 4 * b_y, (3, 3): _tmp2 * b_y, (4, 4): _tmp2 * b_x}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 13, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
@@ -387,15 +782,52 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
           [theta, theta] = 4*a**2
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _tmp0 = 8*a
-    _tmp1 = 8*b
-    _tmp2 = 8*h
-    _tmp3 = 4*h
-    _tmp4 = 4*h**2
-    _tmp5 = 4*b**2
-    _tmp6 = 4*a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0*c_z, (5, 5): _tmp0*c_y}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1*c_z, (5, 5): _tmp1*c_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -4*c_x, (1, 3): 4*c_y, (3, 3): _tmp2*c_y, (4, 4): _tmp2*c_x}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp3, (4, 4): _tmp4, (5, 5): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp4, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp6})], axis=-3).reshape(*_shape, 10, 2, 6, 6)
+    _tmp0 = 8 * a
+    _tmp1 = 8 * b
+    _tmp2 = 8 * h
+    _tmp3 = 4 * h
+    _tmp4 = 4 * h**2
+    _tmp5 = 4 * b**2
+    _tmp6 = 4 * a**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * c_z, (5, 5): _tmp0 * c_y}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * c_z, (5, 5): _tmp1 * c_x}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): -4 * c_x, (1, 3): 4 * c_y, (3, 3): _tmp2 * c_y, (4, 4): _tmp2 * c_x}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp3, (4, 4): _tmp4, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp4, (5, 5): _tmp6}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp6}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -407,22 +839,27 @@ def _model(_known, _unknowns, _modes):
     _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
     if not _modes:
         return _lam, None, None
-    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _phi = _runtime.modal_matrix(
+        mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a, b, h, c_x, c_y, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK
+    )
     return _lam, _phi, stiffness_gradient(a, b, h)
 
 
 def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_z):
-    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        _tmp2 = _lam_y*m
-        _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_x * m
+        _tmp1 = J_y * _lam_x - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_y * m
+        _tmp3 = J_x * _lam_y - 4 * b**2 * c_z
+        c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
@@ -450,23 +887,64 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z)
-    return _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_z,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_z**2,
+        ),
+        (0, 1, 2),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
-    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 4*m
-        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = 4*_lam_x*b**2*c_y
-        _tmp3 = J_y*_tmp2
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 4 * m
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_x + 16 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 4 * _lam_x * b**2 * c_y
+        _tmp3 = J_y * _tmp2
         _tmp4 = a**2
-        c_x = numpy.broadcast_to((0.25)*_lam_x*m*(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp3)/(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp2*h**2*m - _tmp3), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
-    return (c_x, c_y, c_z,)
+        c_x = numpy.broadcast_to(
+            (0.25)
+            * _lam_x
+            * m
+            * (J_x * _lam_psi * _lam_y * _tmp4 * m - _tmp3)
+            / (J_x * _lam_psi * _lam_y * _tmp4 * m - _tmp2 * h**2 * m - _tmp3),
+            c_y.shape,
+        )
+        c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
@@ -494,22 +972,56 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi)
-    return _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_psi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_psi**2,
+        ),
+        (0, 1, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
-    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = 4*_lam_y*a**2*c_x
-        _tmp3 = J_x*_tmp2 - J_y*_lam_theta*_lam_x*b**2*m
-        c_y = numpy.broadcast_to((0.25)*_lam_y*_tmp3*m/(_tmp2*h**2*m + _tmp3), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp0 = J_y * _lam_theta
+        _tmp1 = 4 * m
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_y + 16 * h**2 * m, -J_y * _lam_x * _tmp1 - _tmp0 * _tmp1, _lam_x * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 4 * _lam_y * a**2 * c_x
+        _tmp3 = J_x * _tmp2 - J_y * _lam_theta * _lam_x * b**2 * m
+        c_y = numpy.broadcast_to((0.25) * _lam_y * _tmp3 * m / (_tmp2 * h**2 * m + _tmp3), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta):
@@ -537,41 +1049,91 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
-    return _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_theta**2,
+        ),
+        (0, 1, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
-    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = b**4
-        _tmp1 = 16*_lam_x
-        _tmp2 = _lam_y*a**2
-        _tmp3 = J_x*_tmp2
+        _tmp1 = 16 * _lam_x
+        _tmp2 = _lam_y * a**2
+        _tmp3 = J_x * _tmp2
         _tmp4 = b**2
-        _tmp5 = 16*_tmp4
+        _tmp5 = 16 * _tmp4
         _tmp6 = h**2
-        _tmp7 = _tmp6*m
-        _tmp8 = _tmp2*_tmp7
-        _tmp9 = J_z*_lam_phi
-        _tmp10 = 4*_tmp9
+        _tmp7 = _tmp6 * m
+        _tmp8 = _tmp2 * _tmp7
+        _tmp9 = J_z * _lam_phi
+        _tmp10 = 4 * _tmp9
         _tmp11 = _lam_y**2
         _tmp12 = a**4
         _tmp13 = _lam_x**2
-        _tmp14 = 4*m
-        _tmp15 = J_y*_tmp4
+        _tmp14 = 4 * m
+        _tmp15 = J_y * _tmp4
         _tmp16 = m**2
-        _tmp17 = _lam_x*_tmp16
-        _tmp18 = _tmp17*_tmp2*_tmp6
-        _tmp19 = _tmp9*m
-        _tmp20 = _tmp13*_tmp15
-        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-        _tmp21 = 4*c_x
-        _tmp22 = _lam_x*m
-        c_z = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp17 = _lam_x * _tmp16
+        _tmp18 = _tmp17 * _tmp2 * _tmp6
+        _tmp19 = _tmp9 * m
+        _tmp20 = _tmp13 * _tmp15
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    -J_y * _tmp0 * _tmp1 - _tmp0 * _tmp1 * _tmp7 + _tmp3 * _tmp5 + _tmp5 * _tmp8,
+                    4 * J_x * _tmp11 * _tmp12 * m
+                    + 4 * J_y * J_z * _lam_phi * _lam_x * _tmp4
+                    + 4 * J_y * _tmp0 * _tmp13 * m
+                    + 4 * J_z * _lam_phi * _lam_x * _tmp4 * _tmp6 * m
+                    - _lam_x * _tmp14 * _tmp15 * _tmp2
+                    - _lam_x * _tmp14 * _tmp3 * _tmp4
+                    - _tmp10 * _tmp3
+                    - _tmp10 * _tmp8
+                    - 8 * _tmp18 * _tmp4,
+                    -J_x * _tmp11 * _tmp12 * _tmp17
+                    + _lam_x * _tmp19 * _tmp3
+                    + _tmp16 * _tmp2 * _tmp20
+                    + _tmp18 * _tmp9
+                    - _tmp19 * _tmp20,
+                )
+            ]
+        )
+        _tmp21 = 4 * c_x
+        _tmp22 = _lam_x * m
+        c_z = numpy.broadcast_to(
+            -0.25 * _lam_x * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)), c_x.shape
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
@@ -599,22 +1161,50 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi)
-    return _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_phi**2,
+        ),
+        (0, 1, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
-    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        _tmp2 = _lam_psi*m
-        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_x * m
+        _tmp1 = J_y * _lam_x - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_psi * m
+        _tmp3 = J_x * _lam_psi - 4 * b**2 * c_z
+        c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
@@ -642,20 +1232,48 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi)
-    return _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_psi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_psi**2,
+        ),
+        (0, 2, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
-    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_x*m
-        _tmp1 = J_y*_lam_x - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_x * m
+        _tmp1 = J_y * _lam_x - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
@@ -683,22 +1301,56 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi)
-    return _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (0, 2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
-    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        _tmp2 = 4*_lam_psi*a**2*c_x
-        _tmp3 = J_x*_tmp2 - J_y*_lam_theta*_lam_x*b**2*m
-        c_y = numpy.broadcast_to((0.25)*_lam_psi*_tmp3*m/(_tmp2*h**2*m + _tmp3), c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp0 = J_y * _lam_theta
+        _tmp1 = 4 * m
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_y + 16 * h**2 * m, -J_y * _lam_x * _tmp1 - _tmp0 * _tmp1, _lam_x * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 4 * _lam_psi * a**2 * c_x
+        _tmp3 = J_x * _tmp2 - J_y * _lam_theta * _lam_x * b**2 * m
+        c_y = numpy.broadcast_to((0.25) * _lam_psi * _tmp3 * m / (_tmp2 * h**2 * m + _tmp3), c_x.shape)
+        c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta):
@@ -726,41 +1378,91 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_x_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (0, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
-    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = b**4
-        _tmp1 = 16*_lam_x
-        _tmp2 = _lam_psi*a**2
-        _tmp3 = J_x*_tmp2
+        _tmp1 = 16 * _lam_x
+        _tmp2 = _lam_psi * a**2
+        _tmp3 = J_x * _tmp2
         _tmp4 = b**2
-        _tmp5 = 16*_tmp4
+        _tmp5 = 16 * _tmp4
         _tmp6 = h**2
-        _tmp7 = _tmp6*m
-        _tmp8 = _tmp2*_tmp7
-        _tmp9 = J_z*_lam_phi
-        _tmp10 = 4*_tmp9
+        _tmp7 = _tmp6 * m
+        _tmp8 = _tmp2 * _tmp7
+        _tmp9 = J_z * _lam_phi
+        _tmp10 = 4 * _tmp9
         _tmp11 = _lam_psi**2
         _tmp12 = a**4
         _tmp13 = _lam_x**2
-        _tmp14 = 4*m
-        _tmp15 = J_y*_tmp4
+        _tmp14 = 4 * m
+        _tmp15 = J_y * _tmp4
         _tmp16 = m**2
-        _tmp17 = _lam_x*_tmp16
-        _tmp18 = _tmp17*_tmp2*_tmp6
-        _tmp19 = _tmp9*m
-        _tmp20 = _tmp13*_tmp15
-        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_x*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_x*_tmp4*_tmp6*m - _lam_x*_tmp14*_tmp15*_tmp2 - _lam_x*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_x*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-        _tmp21 = 4*c_x
-        _tmp22 = _lam_x*m
-        c_z = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp17 = _lam_x * _tmp16
+        _tmp18 = _tmp17 * _tmp2 * _tmp6
+        _tmp19 = _tmp9 * m
+        _tmp20 = _tmp13 * _tmp15
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    -J_y * _tmp0 * _tmp1 - _tmp0 * _tmp1 * _tmp7 + _tmp3 * _tmp5 + _tmp5 * _tmp8,
+                    4 * J_x * _tmp11 * _tmp12 * m
+                    + 4 * J_y * J_z * _lam_phi * _lam_x * _tmp4
+                    + 4 * J_y * _tmp0 * _tmp13 * m
+                    + 4 * J_z * _lam_phi * _lam_x * _tmp4 * _tmp6 * m
+                    - _lam_x * _tmp14 * _tmp15 * _tmp2
+                    - _lam_x * _tmp14 * _tmp3 * _tmp4
+                    - _tmp10 * _tmp3
+                    - _tmp10 * _tmp8
+                    - 8 * _tmp18 * _tmp4,
+                    -J_x * _tmp11 * _tmp12 * _tmp17
+                    + _lam_x * _tmp19 * _tmp3
+                    + _tmp16 * _tmp2 * _tmp20
+                    + _tmp18 * _tmp9
+                    - _tmp19 * _tmp20,
+                )
+            ]
+        )
+        _tmp21 = 4 * c_x
+        _tmp22 = _lam_x * m
+        c_z = numpy.broadcast_to(
+            -0.25 * _lam_x * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)), c_x.shape
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi):
@@ -788,20 +1490,54 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (0, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
-    """Candidate roots of identify_x_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_y*_lam_theta
-        _tmp1 = 4*m
-        c_x = numpy.concatenate([_runtime.polynomial_roots(16*J_y + 16*h**2*m, -J_y*_lam_x*_tmp1 - _tmp0*_tmp1, _lam_x*_tmp0*m**2)])
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_y*_lam_theta*_lam_x*m/(a**2*c_x), c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp0 = J_y * _lam_theta
+        _tmp1 = 4 * m
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_y + 16 * h**2 * m, -J_y * _lam_x * _tmp1 - _tmp0 * _tmp1, _lam_x * _tmp0 * m**2
+                )
+            ]
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
+        c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi):
@@ -829,22 +1565,50 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_x_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_x ** 2, omega_theta ** 2, omega_phi ** 2,), (0, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (0, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
-    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_theta*m
-        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        _tmp2 = _lam_y*m
-        _tmp3 = J_x*_lam_y - 4*b**2*c_z
-        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_theta * m
+        _tmp1 = J_y * _lam_theta - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_y * m
+        _tmp3 = J_x * _lam_y - 4 * b**2 * c_z
+        c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta):
@@ -872,25 +1636,58 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
-    return _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_theta**2,
+        ),
+        (1, 2, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
-    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
         _tmp0 = b**2
-        _tmp1 = J_x*_lam_y
-        _tmp2 = _lam_y*m
-        _tmp3 = _tmp2*h**2
-        _tmp4 = J_z*_lam_phi
-        _tmp5 = 4*_tmp0*c_z
+        _tmp1 = J_x * _lam_y
+        _tmp2 = _lam_y * m
+        _tmp3 = _tmp2 * h**2
+        _tmp4 = J_z * _lam_phi
+        _tmp5 = 4 * _tmp0 * c_z
         _tmp6 = a**2
-        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_y**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_x = numpy.broadcast_to(
+            -0.25
+            * (-J_x * _lam_y**2 * _tmp6 * m + _tmp1 * _tmp4 + _tmp2 * _tmp5 * _tmp6 + _tmp3 * _tmp4 - _tmp4 * _tmp5)
+            / (_tmp0 * (4 * _tmp0 * c_z - _tmp1 - _tmp3)),
+            c_z.shape,
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
@@ -918,23 +1715,64 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi)
-    return _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (1, 2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
-    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 4*m
-        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = 4*_lam_theta*b**2*c_y
-        _tmp3 = J_y*_tmp2
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 4 * m
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_x + 16 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 4 * _lam_theta * b**2 * c_y
+        _tmp3 = J_y * _tmp2
         _tmp4 = a**2
-        c_x = numpy.broadcast_to((0.25)*_lam_theta*m*(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp3)/(J_x*_lam_psi*_lam_y*_tmp4*m - _tmp2*h**2*m - _tmp3), c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
-    return (c_x, c_y, c_z,)
+        c_x = numpy.broadcast_to(
+            (0.25)
+            * _lam_theta
+            * m
+            * (J_x * _lam_psi * _lam_y * _tmp4 * m - _tmp3)
+            / (J_x * _lam_psi * _lam_y * _tmp4 * m - _tmp2 * h**2 * m - _tmp3),
+            c_y.shape,
+        )
+        c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta):
@@ -962,20 +1800,54 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_y_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (1, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
-    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 4*m
-        c_y = numpy.concatenate([_runtime.polynomial_roots(16*J_x + 16*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        c_x = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*a**2*c_y)/b**2, c_y.shape)
-        c_z = numpy.broadcast_to((0.0625)*J_x*_lam_psi*_lam_y*m/(b**2*c_y), c_y.shape)
-    return (c_x, c_y, c_z,)
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 4 * m
+        c_y = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    16 * J_x + 16 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
+        c_x = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * a**2 * c_y) / b**2, c_y.shape)
+        c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi):
@@ -1003,41 +1875,92 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (1, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
-    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = b**4
-        _tmp1 = 16*_lam_theta
-        _tmp2 = _lam_y*a**2
-        _tmp3 = J_x*_tmp2
+        _tmp1 = 16 * _lam_theta
+        _tmp2 = _lam_y * a**2
+        _tmp3 = J_x * _tmp2
         _tmp4 = b**2
-        _tmp5 = 16*_tmp4
+        _tmp5 = 16 * _tmp4
         _tmp6 = h**2
-        _tmp7 = _tmp6*m
-        _tmp8 = _tmp2*_tmp7
-        _tmp9 = J_z*_lam_phi
-        _tmp10 = 4*_tmp9
+        _tmp7 = _tmp6 * m
+        _tmp8 = _tmp2 * _tmp7
+        _tmp9 = J_z * _lam_phi
+        _tmp10 = 4 * _tmp9
         _tmp11 = _lam_y**2
         _tmp12 = a**4
         _tmp13 = _lam_theta**2
-        _tmp14 = 4*m
-        _tmp15 = J_y*_tmp4
+        _tmp14 = 4 * m
+        _tmp15 = J_y * _tmp4
         _tmp16 = m**2
-        _tmp17 = _lam_theta*_tmp16
-        _tmp18 = _tmp17*_tmp2*_tmp6
-        _tmp19 = _tmp9*m
-        _tmp20 = _tmp13*_tmp15
-        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-        _tmp21 = 4*c_x
-        _tmp22 = _lam_theta*m
-        c_z = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp17 = _lam_theta * _tmp16
+        _tmp18 = _tmp17 * _tmp2 * _tmp6
+        _tmp19 = _tmp9 * m
+        _tmp20 = _tmp13 * _tmp15
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    -J_y * _tmp0 * _tmp1 - _tmp0 * _tmp1 * _tmp7 + _tmp3 * _tmp5 + _tmp5 * _tmp8,
+                    4 * J_x * _tmp11 * _tmp12 * m
+                    + 4 * J_y * J_z * _lam_phi * _lam_theta * _tmp4
+                    + 4 * J_y * _tmp0 * _tmp13 * m
+                    + 4 * J_z * _lam_phi * _lam_theta * _tmp4 * _tmp6 * m
+                    - _lam_theta * _tmp14 * _tmp15 * _tmp2
+                    - _lam_theta * _tmp14 * _tmp3 * _tmp4
+                    - _tmp10 * _tmp3
+                    - _tmp10 * _tmp8
+                    - 8 * _tmp18 * _tmp4,
+                    -J_x * _tmp11 * _tmp12 * _tmp17
+                    + _lam_theta * _tmp19 * _tmp3
+                    + _tmp16 * _tmp2 * _tmp20
+                    + _tmp18 * _tmp9
+                    - _tmp19 * _tmp20,
+                )
+            ]
+        )
+        _tmp21 = 4 * c_x
+        _tmp22 = _lam_theta * m
+        c_z = numpy.broadcast_to(
+            -0.25 * _lam_theta * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)),
+            c_x.shape,
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi):
@@ -1065,22 +1988,50 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (1, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
-    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_theta*m
-        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        _tmp2 = _lam_psi*m
-        _tmp3 = J_x*_lam_psi - 4*b**2*c_z
-        c_y = numpy.broadcast_to(-0.25*_tmp2*_tmp3/(-_tmp2*h**2 - _tmp3), c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_theta * m
+        _tmp1 = J_y * _lam_theta - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        _tmp2 = _lam_psi * m
+        _tmp3 = J_x * _lam_psi - 4 * b**2 * c_z
+        c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta):
@@ -1108,25 +2059,58 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_z_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (2, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
-    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
         _tmp0 = b**2
-        _tmp1 = J_x*_lam_psi
-        _tmp2 = _lam_psi*m
-        _tmp3 = _tmp2*h**2
-        _tmp4 = J_z*_lam_phi
-        _tmp5 = 4*_tmp0*c_z
+        _tmp1 = J_x * _lam_psi
+        _tmp2 = _lam_psi * m
+        _tmp3 = _tmp2 * h**2
+        _tmp4 = J_z * _lam_phi
+        _tmp5 = 4 * _tmp0 * c_z
         _tmp6 = a**2
-        c_x = numpy.broadcast_to(-0.25*(-J_x*_lam_psi**2*_tmp6*m + _tmp1*_tmp4 + _tmp2*_tmp5*_tmp6 + _tmp3*_tmp4 - _tmp4*_tmp5)/(_tmp0*(4*_tmp0*c_z - _tmp1 - _tmp3)), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_x = numpy.broadcast_to(
+            -0.25
+            * (-J_x * _lam_psi**2 * _tmp6 * m + _tmp1 * _tmp4 + _tmp2 * _tmp5 * _tmp6 + _tmp3 * _tmp4 - _tmp4 * _tmp5)
+            / (_tmp0 * (4 * _tmp0 * c_z - _tmp1 - _tmp3)),
+            c_z.shape,
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi):
@@ -1154,20 +2138,48 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_z_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (2, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
-    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z*m)])
-        _tmp0 = _lam_theta*m
-        _tmp1 = J_y*_lam_theta - 4*a**2*c_z
-        c_x = numpy.broadcast_to(-0.25*_tmp0*_tmp1/(-_tmp0*h**2 - _tmp1), c_z.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_z.shape)
-    return (c_x, c_y, c_z,)
+        c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
+        _tmp0 = _lam_theta * m
+        _tmp1 = J_y * _lam_theta - 4 * a**2 * c_z
+        c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi):
@@ -1195,41 +2207,92 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_z_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (2, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_phi):
-    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = b**4
-        _tmp1 = 16*_lam_theta
-        _tmp2 = _lam_psi*a**2
-        _tmp3 = J_x*_tmp2
+        _tmp1 = 16 * _lam_theta
+        _tmp2 = _lam_psi * a**2
+        _tmp3 = J_x * _tmp2
         _tmp4 = b**2
-        _tmp5 = 16*_tmp4
+        _tmp5 = 16 * _tmp4
         _tmp6 = h**2
-        _tmp7 = _tmp6*m
-        _tmp8 = _tmp2*_tmp7
-        _tmp9 = J_z*_lam_phi
-        _tmp10 = 4*_tmp9
+        _tmp7 = _tmp6 * m
+        _tmp8 = _tmp2 * _tmp7
+        _tmp9 = J_z * _lam_phi
+        _tmp10 = 4 * _tmp9
         _tmp11 = _lam_psi**2
         _tmp12 = a**4
         _tmp13 = _lam_theta**2
-        _tmp14 = 4*m
-        _tmp15 = J_y*_tmp4
+        _tmp14 = 4 * m
+        _tmp15 = J_y * _tmp4
         _tmp16 = m**2
-        _tmp17 = _lam_theta*_tmp16
-        _tmp18 = _tmp17*_tmp2*_tmp6
-        _tmp19 = _tmp9*m
-        _tmp20 = _tmp13*_tmp15
-        c_x = numpy.concatenate([_runtime.polynomial_roots(-J_y*_tmp0*_tmp1 - _tmp0*_tmp1*_tmp7 + _tmp3*_tmp5 + _tmp5*_tmp8, 4*J_x*_tmp11*_tmp12*m + 4*J_y*J_z*_lam_phi*_lam_theta*_tmp4 + 4*J_y*_tmp0*_tmp13*m + 4*J_z*_lam_phi*_lam_theta*_tmp4*_tmp6*m - _lam_theta*_tmp14*_tmp15*_tmp2 - _lam_theta*_tmp14*_tmp3*_tmp4 - _tmp10*_tmp3 - _tmp10*_tmp8 - 8*_tmp18*_tmp4, -J_x*_tmp11*_tmp12*_tmp17 + _lam_theta*_tmp19*_tmp3 + _tmp16*_tmp2*_tmp20 + _tmp18*_tmp9 - _tmp19*_tmp20)])
-        _tmp21 = 4*c_x
-        _tmp22 = _lam_theta*m
-        c_z = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp21 - J_y*_tmp22 + _tmp21*h**2*m)/(a**2*(-_tmp21 + _tmp22)), c_x.shape)
-        c_y = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*b**2*c_x)/a**2, c_x.shape)
-    return (c_x, c_y, c_z,)
+        _tmp17 = _lam_theta * _tmp16
+        _tmp18 = _tmp17 * _tmp2 * _tmp6
+        _tmp19 = _tmp9 * m
+        _tmp20 = _tmp13 * _tmp15
+        c_x = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    -J_y * _tmp0 * _tmp1 - _tmp0 * _tmp1 * _tmp7 + _tmp3 * _tmp5 + _tmp5 * _tmp8,
+                    4 * J_x * _tmp11 * _tmp12 * m
+                    + 4 * J_y * J_z * _lam_phi * _lam_theta * _tmp4
+                    + 4 * J_y * _tmp0 * _tmp13 * m
+                    + 4 * J_z * _lam_phi * _lam_theta * _tmp4 * _tmp6 * m
+                    - _lam_theta * _tmp14 * _tmp15 * _tmp2
+                    - _lam_theta * _tmp14 * _tmp3 * _tmp4
+                    - _tmp10 * _tmp3
+                    - _tmp10 * _tmp8
+                    - 8 * _tmp18 * _tmp4,
+                    -J_x * _tmp11 * _tmp12 * _tmp17
+                    + _lam_theta * _tmp19 * _tmp3
+                    + _tmp16 * _tmp2 * _tmp20
+                    + _tmp18 * _tmp9
+                    - _tmp19 * _tmp20,
+                )
+            ]
+        )
+        _tmp21 = 4 * c_x
+        _tmp22 = _lam_theta * m
+        c_z = numpy.broadcast_to(
+            -0.25 * _lam_theta * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)),
+            c_x.shape,
+        )
+        c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
+    return (
+        c_x,
+        c_y,
+        c_z,
+    )
 
 
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi):
@@ -1257,8 +2320,33 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(200000.0, 140000.0, 900000.0))
+    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_psi_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_psi**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (3, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(200000.0, 140000.0, 900000.0),
+    )
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
@@ -1280,13 +2368,49 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
-    _tmp0 = dy_com*m
-    _tmp1 = dx_com*m
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com
+    )
+    _tmp0 = dy_com * m
+    _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 5): -_tmp0,
+                (1, 5): _tmp1,
+                (2, 3): _tmp0,
+                (2, 4): -_tmp1,
+                (3, 3): _tmp2 * m,
+                (3, 4): -_tmp0 * dx_com,
+                (4, 4): _tmp3 * m,
+                (5, 5): m * (_tmp2 + _tmp3),
+            },
+        ),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
@@ -1332,18 +2456,55 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
     _tmp4 = -m
-    _tmp5 = dy_com*m
-    _tmp6 = dx_com*m
-    _tmp7 = 2*_tmp6
-    _tmp8 = 2*_tmp5
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp5 = dy_com * m
+    _tmp6 = dx_com * m
+    _tmp7 = 2 * _tmp6
+    _tmp8 = 2 * _tmp5
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
@@ -1361,11 +2522,33 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
-    _tmp0 = dz_com*m
-    _tmp1 = dz_com**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dz_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com
+    )
+    _tmp0 = dz_com * m
+    _tmp1 = dz_com**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
@@ -1402,14 +2585,47 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
-    _tmp4 = 2*dz_com*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(dz_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 2 * dz_com * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
@@ -1426,10 +2642,33 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
-    _tmp0 = 4*k_bend
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * k_bend
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4 * k_torsion}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
@@ -1468,13 +2707,50 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
@@ -1544,29 +2820,122 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta_found, theta_found] = 4*b_z*a**2
           [phi_found, phi_found] = 4*(b_x*b**2 + b_y*a**2)
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found
+    )
     _tmp0 = a**2
     _tmp1 = b**2
     _tmp2 = h**2
-    _tmp3 = m_found*(_tmp0 + _tmp1 + _tmp2)
-    _tmp4 = 4*c_x
-    _tmp5 = _tmp4*h
-    _tmp6 = 4*c_y
-    _tmp7 = _tmp6*h
-    _tmp8 = 4*c_z
-    _tmp9 = 4*_tmp0*c_y + 4*_tmp1*c_x
-    _tmp10 = (0.5)*k_found
+    _tmp3 = m_found * (_tmp0 + _tmp1 + _tmp2)
+    _tmp4 = 4 * c_x
+    _tmp5 = _tmp4 * h
+    _tmp6 = 4 * c_y
+    _tmp7 = _tmp6 * h
+    _tmp8 = 4 * c_z
+    _tmp9 = 4 * _tmp0 * c_y + 4 * _tmp1 * c_x
+    _tmp10 = (0.5) * k_found
     _tmp11 = _tmp8 + k_found
-    _tmp12 = 4*b_x
-    _tmp13 = _tmp12*h
-    _tmp14 = 4*b_y
-    _tmp15 = _tmp14*h
-    _tmp16 = 4*b_z
-    _tmp17 = _tmp1*_tmp16
-    _tmp18 = _tmp0*_tmp16
-    _tmp19 = 4*_tmp0*b_y + 4*_tmp1*b_x
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp4, (0, 4): -_tmp5, (0, 6): -_tmp4, (1, 1): _tmp6, (1, 3): _tmp7, (1, 7): -_tmp6, (2, 2): _tmp8, (2, 8): -_tmp8, (3, 3): 4*_tmp1*c_z + 4*_tmp2*c_y, (3, 7): -_tmp7, (3, 9): -_tmp1*_tmp8, (4, 4): 4*_tmp0*c_z + 4*_tmp2*c_x, (4, 6): _tmp5, (4, 10): -_tmp0*_tmp8, (5, 5): _tmp9, (5, 11): -_tmp9, (6, 6): _tmp10 + _tmp4, (7, 7): _tmp10 + _tmp6, (8, 8): _tmp11, (9, 9): _tmp1*_tmp11, (10, 10): _tmp0*_tmp11, (11, 11): _tmp0*_tmp10 + _tmp0*_tmp6 + _tmp1*_tmp10 + _tmp1*_tmp4}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -_tmp13, (0, 6): -_tmp12, (1, 1): _tmp14, (1, 3): _tmp15, (1, 7): -_tmp14, (2, 2): _tmp16, (2, 8): -_tmp16, (3, 3): 4*_tmp1*b_z + 4*_tmp2*b_y, (3, 7): -_tmp15, (3, 9): -_tmp17, (4, 4): 4*_tmp0*b_z + 4*_tmp2*b_x, (4, 6): _tmp13, (4, 10): -_tmp18, (5, 5): _tmp19, (5, 11): -_tmp19, (6, 6): _tmp12, (7, 7): _tmp14, (8, 8): _tmp16, (9, 9): _tmp17, (10, 10): _tmp18, (11, 11): _tmp19}))
+    _tmp12 = 4 * b_x
+    _tmp13 = _tmp12 * h
+    _tmp14 = 4 * b_y
+    _tmp15 = _tmp14 * h
+    _tmp16 = 4 * b_z
+    _tmp17 = _tmp1 * _tmp16
+    _tmp18 = _tmp0 * _tmp16
+    _tmp19 = 4 * _tmp0 * b_y + 4 * _tmp1 * b_x
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return (
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): m,
+                (1, 1): m,
+                (2, 2): m,
+                (3, 3): J_x,
+                (4, 4): J_y,
+                (5, 5): J_z,
+                (6, 6): m_found,
+                (7, 7): m_found,
+                (8, 8): m_found,
+                (9, 9): _tmp3,
+                (10, 10): _tmp3,
+                (11, 11): _tmp3,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp4,
+                (0, 4): -_tmp5,
+                (0, 6): -_tmp4,
+                (1, 1): _tmp6,
+                (1, 3): _tmp7,
+                (1, 7): -_tmp6,
+                (2, 2): _tmp8,
+                (2, 8): -_tmp8,
+                (3, 3): 4 * _tmp1 * c_z + 4 * _tmp2 * c_y,
+                (3, 7): -_tmp7,
+                (3, 9): -_tmp1 * _tmp8,
+                (4, 4): 4 * _tmp0 * c_z + 4 * _tmp2 * c_x,
+                (4, 6): _tmp5,
+                (4, 10): -_tmp0 * _tmp8,
+                (5, 5): _tmp9,
+                (5, 11): -_tmp9,
+                (6, 6): _tmp10 + _tmp4,
+                (7, 7): _tmp10 + _tmp6,
+                (8, 8): _tmp11,
+                (9, 9): _tmp1 * _tmp11,
+                (10, 10): _tmp0 * _tmp11,
+                (11, 11): _tmp0 * _tmp10 + _tmp0 * _tmp6 + _tmp1 * _tmp10 + _tmp1 * _tmp4,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp12,
+                (0, 4): -_tmp13,
+                (0, 6): -_tmp12,
+                (1, 1): _tmp14,
+                (1, 3): _tmp15,
+                (1, 7): -_tmp14,
+                (2, 2): _tmp16,
+                (2, 8): -_tmp16,
+                (3, 3): 4 * _tmp1 * b_z + 4 * _tmp2 * b_y,
+                (3, 7): -_tmp15,
+                (3, 9): -_tmp17,
+                (4, 4): 4 * _tmp0 * b_z + 4 * _tmp2 * b_x,
+                (4, 6): _tmp13,
+                (4, 10): -_tmp18,
+                (5, 5): _tmp19,
+                (5, 11): -_tmp19,
+                (6, 6): _tmp12,
+                (7, 7): _tmp14,
+                (8, 8): _tmp16,
+                (9, 9): _tmp17,
+                (10, 10): _tmp18,
+                (11, 11): _tmp19,
+            },
+        ),
+    )
 
 
 def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
@@ -1630,20 +2999,112 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [phi_found, phi_found] = a**2/2 + b**2/2
         dB/dk_found:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found)
-    _tmp0 = 4*h
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found
+    )
+    _tmp0 = 4 * h
     _tmp1 = -_tmp0
     _tmp2 = h**2
-    _tmp3 = 4*_tmp2
+    _tmp3 = 4 * _tmp2
     _tmp4 = b**2
-    _tmp5 = 4*_tmp4
+    _tmp5 = 4 * _tmp4
     _tmp6 = -_tmp5
     _tmp7 = a**2
-    _tmp8 = 4*_tmp7
+    _tmp8 = 4 * _tmp7
     _tmp9 = -_tmp8
     _tmp10 = _tmp2 + _tmp4 + _tmp7
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp5, (5, 11): _tmp6, (6, 6): 4, (11, 11): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (5, 5): _tmp8, (5, 11): _tmp9, (7, 7): 4, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp5, (3, 9): _tmp6, (4, 4): _tmp8, (4, 10): _tmp9, (8, 8): 4, (9, 9): _tmp5, (10, 10): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp10, (10, 10): _tmp10, (11, 11): _tmp10}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp4, (10, 10): _tmp7, (11, 11): (0.5)*_tmp4 + (0.5)*_tmp7}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 5, 3, 12, 12)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp5,
+                    (5, 11): _tmp6,
+                    (6, 6): 4,
+                    (11, 11): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (5, 5): _tmp8,
+                    (5, 11): _tmp9,
+                    (7, 7): 4,
+                    (11, 11): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp5,
+                    (3, 9): _tmp6,
+                    (4, 4): _tmp8,
+                    (4, 10): _tmp9,
+                    (8, 8): 4,
+                    (9, 9): _tmp5,
+                    (10, 10): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp10, (10, 10): _tmp10, (11, 11): _tmp10}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): 0.5,
+                    (7, 7): 0.5,
+                    (8, 8): 1,
+                    (9, 9): _tmp4,
+                    (10, 10): _tmp7,
+                    (11, 11): (0.5) * _tmp4 + (0.5) * _tmp7,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
@@ -1664,11 +3125,46 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta, theta] = m_added*h_added**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added)
-    _tmp0 = h_added*m_added
-    _tmp1 = h_added**2*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added
+    )
+    _tmp0 = h_added * m_added
+    _tmp1 = h_added**2 * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 0): m_added,
+                (0, 4): _tmp0,
+                (1, 1): m_added,
+                (1, 3): -_tmp0,
+                (2, 2): m_added,
+                (3, 3): _tmp1,
+                (4, 4): _tmp1,
+            },
+        ),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
@@ -1715,15 +3211,56 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dC/dh_added:
         dB/dh_added:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
     _tmp4 = h_added**2
-    _tmp5 = 2*h_added*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp5 = 2 * h_added * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -1740,9 +3277,32 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt * k_belt, (4, 4): h_belt**2 * k_belt}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -1783,13 +3343,50 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
@@ -1805,10 +3402,31 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
-    _tmp0 = -9.80665*h_preload*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(h_preload))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, b_x, b_y, b_z))
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload
+    )
+    _tmp0 = -9.80665 * h_preload * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
+        damping_matrix(a, b, h, b_x, b_y, b_z),
+    )
 
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
@@ -1843,14 +3461,47 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*b**2
-    _tmp3 = 4*a**2
-    _tmp4 = -9.80665*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z), numpy.shape(h_preload))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * b**2
+    _tmp3 = 4 * a**2
+    _tmp4 = -9.80665 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_z),
+        numpy.shape(b_x),
+        numpy.shape(b_y),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
@@ -1925,31 +3576,121 @@ def isolator_stiffness(a, b, h, c_x, c_y, c_z):
           [phi, phi] = c_x*b**2 + c_y*a**2
     """
     a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
-    _tmp0 = c_x*h
+    _tmp0 = c_x * h
     _tmp1 = -_tmp0
-    _tmp2 = b*c_x
+    _tmp2 = b * c_x
     _tmp3 = -_tmp2
-    _tmp4 = c_y*h
-    _tmp5 = a*c_y
-    _tmp6 = b*c_z
-    _tmp7 = a*c_z
+    _tmp4 = c_y * h
+    _tmp5 = a * c_y
+    _tmp6 = b * c_z
+    _tmp7 = a * c_z
     _tmp8 = -_tmp7
     _tmp9 = b**2
     _tmp10 = h**2
-    _tmp11 = _tmp10*c_y + _tmp9*c_z
-    _tmp12 = _tmp6*a
+    _tmp11 = _tmp10 * c_y + _tmp9 * c_z
+    _tmp12 = _tmp6 * a
     _tmp13 = -_tmp12
-    _tmp14 = _tmp4*a
+    _tmp14 = _tmp4 * a
     _tmp15 = a**2
-    _tmp16 = _tmp10*c_x + _tmp15*c_z
-    _tmp17 = _tmp0*b
-    _tmp18 = _tmp15*c_y + _tmp9*c_x
+    _tmp16 = _tmp10 * c_x + _tmp15 * c_z
+    _tmp17 = _tmp0 * b
+    _tmp18 = _tmp15 * c_y + _tmp9 * c_x
     _tmp19 = -_tmp5
     _tmp20 = -_tmp14
     _tmp21 = -_tmp6
     _tmp22 = -_tmp17
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp6, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp13, (3, 5): _tmp14, (4, 4): _tmp16, (4, 5): _tmp17, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp19, (2, 2): c_z, (2, 3): _tmp6, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp20, (4, 4): _tmp16, (4, 5): _tmp17, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp5, (2, 2): c_z, (2, 3): _tmp21, (2, 4): _tmp8, (3, 3): _tmp11, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp16, (4, 5): _tmp22, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_x, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_y, (1, 3): _tmp4, (1, 5): _tmp19, (2, 2): c_z, (2, 3): _tmp21, (2, 4): _tmp7, (3, 3): _tmp11, (3, 4): _tmp13, (3, 5): _tmp20, (4, 4): _tmp16, (4, 5): _tmp22, (5, 5): _tmp18})], axis=-3)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_y,
+                    (1, 3): _tmp4,
+                    (1, 5): _tmp5,
+                    (2, 2): c_z,
+                    (2, 3): _tmp6,
+                    (2, 4): _tmp8,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp13,
+                    (3, 5): _tmp14,
+                    (4, 4): _tmp16,
+                    (4, 5): _tmp17,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_y,
+                    (1, 3): _tmp4,
+                    (1, 5): _tmp19,
+                    (2, 2): c_z,
+                    (2, 3): _tmp6,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp20,
+                    (4, 4): _tmp16,
+                    (4, 5): _tmp17,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_y,
+                    (1, 3): _tmp4,
+                    (1, 5): _tmp5,
+                    (2, 2): c_z,
+                    (2, 3): _tmp21,
+                    (2, 4): _tmp8,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp14,
+                    (4, 4): _tmp16,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_x,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_y,
+                    (1, 3): _tmp4,
+                    (1, 5): _tmp19,
+                    (2, 2): c_z,
+                    (2, 3): _tmp21,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp11,
+                    (3, 4): _tmp13,
+                    (3, 5): _tmp20,
+                    (4, 4): _tmp16,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp18,
+                },
+            ),
+        ],
+        axis=-3,
+    )
 
 
 def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
@@ -2047,34 +3788,84 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
-    _tmp3 = b*h
+    _tmp3 = b * h
     _tmp4 = b**2
     _tmp5 = -_tmp3
-    _tmp6 = a*h
+    _tmp6 = a * h
     _tmp7 = a**2
     _tmp8 = -a
     _tmp9 = -_tmp6
-    _tmp10 = a*b
+    _tmp10 = a * b
     _tmp11 = -_tmp10
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7})], axis=-3).reshape(*_shape, 3, 4, 6, 6)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 4, 6, 6)
 
 
 def effect_scales(m, a, b, h, c_x, c_y, c_z):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
-        length = sqrt(a**2 + b**2 + h**2)
-        mass = m
-        stiffness = c_x/3 + c_y/3 + c_z/3
-        vertical = 4*c_z
-        horizontal = 4*c_x
-        rotational = (a**2 + b**2 + h**2)*(c_x/3 + c_y/3 + c_z/3)
-        one = 1
+    length = sqrt(a**2 + b**2 + h**2)
+    mass = m
+    stiffness = c_x/3 + c_y/3 + c_z/3
+    vertical = 4*c_z
+    horizontal = 4*c_x
+    rotational = (a**2 + b**2 + h**2)*(c_x/3 + c_y/3 + c_z/3)
+    one = 1
     """
     m, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, a, b, h, c_x, c_y, c_z)
     _tmp0 = a**2 + b**2 + h**2
-    _tmp1 = (0.3333333333333333)*c_x + (0.3333333333333333)*c_y + (0.3333333333333333)*c_z
-    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp1, "vertical": 4*c_z, "horizontal": 4*c_x, "rotational": _tmp0*_tmp1, "one": 1}
+    _tmp1 = (0.3333333333333333) * c_x + (0.3333333333333333) * c_y + (0.3333333333333333) * c_z
+    return {
+        "length": numpy.sqrt(_tmp0),
+        "mass": m,
+        "stiffness": _tmp1,
+        "vertical": 4 * c_z,
+        "horizontal": 4 * c_x,
+        "rotational": _tmp0 * _tmp1,
+        "one": 1,
+    }
 
 
 def frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
@@ -2156,12 +3947,19 @@ INVERSE_ROOTS = {
     ("psi", "theta", "phi"): 2,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
-NUMERIC_INVERSES = {
-}
+NUMERIC_INVERSES = {}
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {
-    ("x", "z", "theta"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
-    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
+    (
+        "x",
+        "z",
+        "theta",
+    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
+    (
+        "y",
+        "z",
+        "psi",
+    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
@@ -2181,7 +3979,20 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
+    "foundation": (
+        "x",
+        "y",
+        "z",
+        "psi",
+        "theta",
+        "phi",
+        "x_found",
+        "y_found",
+        "z_found",
+        "psi_found",
+        "theta_found",
+        "phi_found",
+    ),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

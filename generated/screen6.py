@@ -20,19 +20,97 @@ SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {
     "m": {"kind": "mass", "unit": "kg", "role": "known", "value": 2400.0, "description": "mass of the screen"},
-    "J_x": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 520.0, "description": "moment of inertia about x"},
-    "J_y": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 1900.0, "description": "moment of inertia about y"},
-    "J_z": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 2100.0, "description": "moment of inertia about z"},
-    "a": {"kind": "length", "unit": "m", "role": "known", "value": 1.4, "description": "half the spacing of the corner isolators along x"},
-    "b": {"kind": "length", "unit": "m", "role": "known", "value": 0.6, "description": "half the spacing of all isolators along y"},
-    "h": {"kind": "length", "unit": "m", "role": "known", "value": 0.45, "description": "height of the centre of mass above the isolators"},
-    "alpha": {"kind": "angle", "unit": "rad", "role": "known", "value": 0.2618, "description": "inclination of the corner isolators about y (15 degrees)"},
-    "c_h": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 150000.0, "description": "horizontal (shear) stiffness of every isolator"},
-    "c_v": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 600000.0, "description": "axial stiffness of a corner isolator"},
-    "c_m": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 400000.0, "description": "vertical stiffness of a middle isolator"},
-    "b_h": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 900.0, "description": "horizontal damping of every isolator"},
-    "b_v": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 3000.0, "description": "axial damping of a corner isolator"},
-    "b_m": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 2000.0, "description": "vertical damping of a middle isolator"},
+    "J_x": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 520.0,
+        "description": "moment of inertia about x",
+    },
+    "J_y": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 1900.0,
+        "description": "moment of inertia about y",
+    },
+    "J_z": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 2100.0,
+        "description": "moment of inertia about z",
+    },
+    "a": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 1.4,
+        "description": "half the spacing of the corner isolators along x",
+    },
+    "b": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.6,
+        "description": "half the spacing of all isolators along y",
+    },
+    "h": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.45,
+        "description": "height of the centre of mass above the isolators",
+    },
+    "alpha": {
+        "kind": "angle",
+        "unit": "rad",
+        "role": "known",
+        "value": 0.2618,
+        "description": "inclination of the corner isolators about y (15 degrees)",
+    },
+    "c_h": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 150000.0,
+        "description": "horizontal (shear) stiffness of every isolator",
+    },
+    "c_v": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 600000.0,
+        "description": "axial stiffness of a corner isolator",
+    },
+    "c_m": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 400000.0,
+        "description": "vertical stiffness of a middle isolator",
+    },
+    "b_h": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 900.0,
+        "description": "horizontal damping of every isolator",
+    },
+    "b_v": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 3000.0,
+        "description": "axial damping of a corner isolator",
+    },
+    "b_m": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 2000.0,
+        "description": "vertical damping of a middle isolator",
+    },
 }
 KNOWN = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "b_h", "b_v", "b_m")
 UNKNOWN = ("c_h", "c_v", "c_m")
@@ -74,21 +152,267 @@ ARGUMENTS = {
     "identify_z_psi_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_psi", "omega_theta"),
     "identify_z_psi_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_psi", "omega_phi"),
     "identify_z_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_z", "omega_theta", "omega_phi"),
-    "identify_psi_theta_phi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_psi", "omega_theta", "omega_phi"),
-    "effect_com_offset": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
-    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
-    "effect_cog_height": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
-    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
-    "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
-    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
-    "effect_foundation": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_found", "k_found"),
-    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_found", "k_found"),
-    "effect_added_mass": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "h_added"),
-    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "h_added"),
-    "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
-    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
-    "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
-    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
+    "identify_psi_theta_phi": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "omega_psi",
+        "omega_theta",
+        "omega_phi",
+    ),
+    "effect_com_offset": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "dx_com",
+        "dy_com",
+    ),
+    "effect_com_offset_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "dx_com",
+        "dy_com",
+    ),
+    "effect_cog_height": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "dz_com",
+    ),
+    "effect_cog_height_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "dz_com",
+    ),
+    "effect_rotational_stiffness": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_rotational_stiffness_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_foundation": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "m_found",
+        "k_found",
+    ),
+    "effect_foundation_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "m_found",
+        "k_found",
+    ),
+    "effect_added_mass": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "m_added",
+        "h_added",
+    ),
+    "effect_added_mass_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "m_added",
+        "h_added",
+    ),
+    "effect_drive_belt": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_drive_belt_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "k_belt",
+        "h_belt",
+    ),
+    "effect_gravity_preload": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "h_preload",
+    ),
+    "effect_gravity_preload_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "h_preload",
+    ),
     "isolator_stiffness": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_stiffness_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
@@ -130,24 +454,51 @@ def stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m):
     a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
-    _tmp2 = 2*c_h
+    _tmp2 = 2 * c_h
     _tmp3 = numpy.sin(alpha)
     _tmp4 = _tmp3**2
-    _tmp5 = 2*c_v
-    _tmp6 = _tmp4*_tmp5
-    _tmp7 = c_h*h
-    _tmp8 = 2*_tmp1
-    _tmp9 = _tmp0*_tmp3*a
-    _tmp10 = _tmp2*_tmp4
-    _tmp11 = _tmp1*_tmp5
+    _tmp5 = 2 * c_v
+    _tmp6 = _tmp4 * _tmp5
+    _tmp7 = c_h * h
+    _tmp8 = 2 * _tmp1
+    _tmp9 = _tmp0 * _tmp3 * a
+    _tmp10 = _tmp2 * _tmp4
+    _tmp11 = _tmp1 * _tmp5
     _tmp12 = b**2
     _tmp13 = h**2
-    _tmp14 = _tmp13*c_h
-    _tmp15 = _tmp12*c_h
-    _tmp16 = 4*_tmp9
+    _tmp14 = _tmp13 * c_h
+    _tmp15 = _tmp12 * c_h
+    _tmp16 = 4 * _tmp9
     _tmp17 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*c_h, (0, 4): 4*_tmp0*_tmp3*a*c_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*c_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*c_m, (3, 3): 2*_tmp11*_tmp12 + 2*_tmp12*c_m + 6*_tmp14 + 4*_tmp15*_tmp4, (4, 4): 2*_tmp10*_tmp17 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp14*_tmp8 + 2*_tmp14 - 2*_tmp16*_tmp7 + 2*_tmp16*c_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp17*_tmp2})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): 2 * _tmp1 * _tmp2 + 2 * _tmp6 + 2 * c_h,
+            (0, 4): 4 * _tmp0 * _tmp3 * a * c_h - 2 * _tmp5 * _tmp9 - 2 * _tmp6 * h - 2 * _tmp7 * _tmp8 - 2 * _tmp7,
+            (1, 1): 6 * c_h,
+            (1, 3): 6 * _tmp7,
+            (2, 2): 2 * _tmp10 + 2 * _tmp11 + 2 * c_m,
+            (3, 3): 2 * _tmp11 * _tmp12 + 2 * _tmp12 * c_m + 6 * _tmp14 + 4 * _tmp15 * _tmp4,
+            (4, 4): 2 * _tmp10 * _tmp17
+            + 2 * _tmp11 * _tmp17
+            + 2 * _tmp13 * _tmp6
+            + 2 * _tmp14 * _tmp8
+            + 2 * _tmp14
+            - 2 * _tmp16 * _tmp7
+            + 2 * _tmp16 * c_v * h,
+            (5, 5): 2 * _tmp12 * _tmp6 + 2 * _tmp15 * _tmp8 + 2 * _tmp15 + 2 * _tmp17 * _tmp2,
+        },
+    )
 
 
 def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
@@ -167,45 +518,102 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
     a, b, h, alpha, b_h, b_v, b_m = _runtime.as_arrays(a, b, h, alpha, b_h, b_v, b_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
-    _tmp2 = 2*b_h
+    _tmp2 = 2 * b_h
     _tmp3 = numpy.sin(alpha)
     _tmp4 = _tmp3**2
-    _tmp5 = 2*b_v
-    _tmp6 = _tmp4*_tmp5
-    _tmp7 = b_h*h
-    _tmp8 = 2*_tmp1
-    _tmp9 = _tmp0*_tmp3*a
-    _tmp10 = _tmp2*_tmp4
-    _tmp11 = _tmp1*_tmp5
+    _tmp5 = 2 * b_v
+    _tmp6 = _tmp4 * _tmp5
+    _tmp7 = b_h * h
+    _tmp8 = 2 * _tmp1
+    _tmp9 = _tmp0 * _tmp3 * a
+    _tmp10 = _tmp2 * _tmp4
+    _tmp11 = _tmp1 * _tmp5
     _tmp12 = b**2
     _tmp13 = h**2
-    _tmp14 = _tmp13*b_h
-    _tmp15 = _tmp12*b_h
-    _tmp16 = 4*_tmp9
+    _tmp14 = _tmp13 * b_h
+    _tmp15 = _tmp12 * b_h
+    _tmp16 = 4 * _tmp9
     _tmp17 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): 2*_tmp1*_tmp2 + 2*_tmp6 + 2*b_h, (0, 4): 4*_tmp0*_tmp3*a*b_h - 2*_tmp5*_tmp9 - 2*_tmp6*h - 2*_tmp7*_tmp8 - 2*_tmp7, (1, 1): 6*b_h, (1, 3): 6*_tmp7, (2, 2): 2*_tmp10 + 2*_tmp11 + 2*b_m, (3, 3): 2*_tmp11*_tmp12 + 2*_tmp12*b_m + 6*_tmp14 + 4*_tmp15*_tmp4, (4, 4): 2*_tmp10*_tmp17 + 2*_tmp11*_tmp17 + 2*_tmp13*_tmp6 + 2*_tmp14*_tmp8 + 2*_tmp14 - 2*_tmp16*_tmp7 + 2*_tmp16*b_v*h, (5, 5): 2*_tmp12*_tmp6 + 2*_tmp15*_tmp8 + 2*_tmp15 + 2*_tmp17*_tmp2})
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): 2 * _tmp1 * _tmp2 + 2 * _tmp6 + 2 * b_h,
+            (0, 4): 4 * _tmp0 * _tmp3 * a * b_h - 2 * _tmp5 * _tmp9 - 2 * _tmp6 * h - 2 * _tmp7 * _tmp8 - 2 * _tmp7,
+            (1, 1): 6 * b_h,
+            (1, 3): 6 * _tmp7,
+            (2, 2): 2 * _tmp10 + 2 * _tmp11 + 2 * b_m,
+            (3, 3): 2 * _tmp11 * _tmp12 + 2 * _tmp12 * b_m + 6 * _tmp14 + 4 * _tmp15 * _tmp4,
+            (4, 4): 2 * _tmp10 * _tmp17
+            + 2 * _tmp11 * _tmp17
+            + 2 * _tmp13 * _tmp6
+            + 2 * _tmp14 * _tmp8
+            + 2 * _tmp14
+            - 2 * _tmp16 * _tmp7
+            + 2 * _tmp16 * b_v * h,
+            (5, 5): 2 * _tmp12 * _tmp6 + 2 * _tmp15 * _tmp8 + 2 * _tmp15 + 2 * _tmp17 * _tmp2,
+        },
+    )
 
 
 def stiffness_gradient(a, b, h, alpha):
-    """Derivatives dC/d(c_h, c_v, c_m) of the stiffness matrix, shape (..., 3, 6, 6).
-    """
+    """Derivatives dC/d(c_h, c_v, c_m) of the stiffness matrix, shape (..., 3, 6, 6)."""
     a, b, h, alpha = _runtime.as_arrays(a, b, h, alpha)
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+        ],
+        axis=-3,
+    )
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -252,18 +660,62 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
         block {z}: lambda = (2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2)/m
         block {phi}: lambda = (2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2)/J_z
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
     _out = numpy.empty((6, *_shape))
-    _v = {'m': m, 'J_x': J_x, 'J_y': J_y, 'J_z': J_z, 'a': a, 'b': b, 'h': h, 'alpha': alpha, 'c_h': c_h, 'c_v': c_v, 'c_m': c_m}
+    _v = {
+        "m": m,
+        "J_x": J_x,
+        "J_y": J_y,
+        "J_z": J_z,
+        "a": a,
+        "b": b,
+        "h": h,
+        "alpha": alpha,
+        "c_h": c_h,
+        "c_v": c_v,
+        "c_m": c_m,
+    }
     # block {x, theta}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) + ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)) + sqrt((0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) - ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)))**2 + ((4*a*c_h*sin(alpha)*cos(alpha) - 4*a*c_v*sin(alpha)*cos(alpha) - 4*c_h*h*cos(alpha)**2 - 2*c_h*h - 4*c_v*h*sin(alpha)**2)**2/(J_y*m)))', _v, _out[4, ...])
-    _runtime.fused('(8*a**2*c_h*(c_h*sin(alpha)**2 + 2*c_v*sin(alpha)**4 + 4*c_v*sin(alpha)**2*cos(alpha)**2 + 2*c_v*cos(alpha)**4 + c_v*cos(alpha)**2)/(J_y*m)) / _upper', {**_v, '_upper': _out[4, ...]}, _out[0, ...])
+    _runtime.fused(
+        "0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) + ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)) + sqrt((0.5*(((4*c_h*cos(alpha)**2 + 2*c_h + 4*c_v*sin(alpha)**2)/m) - ((4*a**2*c_h*sin(alpha)**2 + 4*a**2*c_v*cos(alpha)**2 - 8*a*c_h*h*sin(alpha)*cos(alpha) + 8*a*c_v*h*sin(alpha)*cos(alpha) + 4*c_h*h**2*cos(alpha)**2 + 2*c_h*h**2 + 4*c_v*h**2*sin(alpha)**2)/J_y)))**2 + ((4*a*c_h*sin(alpha)*cos(alpha) - 4*a*c_v*sin(alpha)*cos(alpha) - 4*c_h*h*cos(alpha)**2 - 2*c_h*h - 4*c_v*h*sin(alpha)**2)**2/(J_y*m)))",
+        _v,
+        _out[4, ...],
+    )
+    _runtime.fused(
+        "(8*a**2*c_h*(c_h*sin(alpha)**2 + 2*c_v*sin(alpha)**4 + 4*c_v*sin(alpha)**2*cos(alpha)**2 + 2*c_v*cos(alpha)**4 + c_v*cos(alpha)**2)/(J_y*m)) / _upper",
+        {**_v, "_upper": _out[4, ...]},
+        _out[0, ...],
+    )
     # block {y, psi}: upper root from a sum of squares, lower from the root product
-    _runtime.fused('0.5*((6*c_h/m) + ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)) + sqrt((0.5*((6*c_h/m) - ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)))**2 + (36*c_h**2*h**2/(J_x*m)))', _v, _out[3, ...])
-    _runtime.fused('(12*b**2*c_h*(2*c_h*sin(alpha)**2 + c_m + 2*c_v*cos(alpha)**2)/(J_x*m)) / _upper', {**_v, '_upper': _out[3, ...]}, _out[1, ...])
-    _runtime.fused('(4*c_h*sin(alpha)**2 + 2*c_m + 4*c_v*cos(alpha)**2)/m', _v, _out[2, ...])
-    _runtime.fused('(4*a**2*c_h + 4*b**2*c_h*cos(alpha)**2 + 2*b**2*c_h + 4*b**2*c_v*sin(alpha)**2)/J_z', _v, _out[5, ...])
+    _runtime.fused(
+        "0.5*((6*c_h/m) + ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)) + sqrt((0.5*((6*c_h/m) - ((4*b**2*c_h*sin(alpha)**2 + 2*b**2*c_m + 4*b**2*c_v*cos(alpha)**2 + 6*c_h*h**2)/J_x)))**2 + (36*c_h**2*h**2/(J_x*m)))",
+        _v,
+        _out[3, ...],
+    )
+    _runtime.fused(
+        "(12*b**2*c_h*(2*c_h*sin(alpha)**2 + c_m + 2*c_v*cos(alpha)**2)/(J_x*m)) / _upper",
+        {**_v, "_upper": _out[3, ...]},
+        _out[1, ...],
+    )
+    _runtime.fused("(4*c_h*sin(alpha)**2 + 2*c_m + 4*c_v*cos(alpha)**2)/m", _v, _out[2, ...])
+    _runtime.fused(
+        "(4*a**2*c_h + 4*b**2*c_h*cos(alpha)**2 + 2*b**2*c_h + 4*b**2*c_v*sin(alpha)**2)/J_z", _v, _out[5, ...]
+    )
     return numpy.moveaxis(_out, 0, -1)
 
 
@@ -385,69 +837,238 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v
           [z, z] = 2
           [psi, psi] = 2*b**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m
+    )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = numpy.sin(alpha)
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = 4*_tmp2
+    _tmp2 = _tmp0 * _tmp1
+    _tmp3 = 4 * _tmp2
     _tmp4 = _tmp1**2
-    _tmp5 = 8*a
-    _tmp6 = _tmp5*c_h
-    _tmp7 = _tmp4*_tmp6
+    _tmp5 = 8 * a
+    _tmp6 = _tmp5 * c_h
+    _tmp7 = _tmp4 * _tmp6
     _tmp8 = _tmp0**2
-    _tmp9 = _tmp5*_tmp8
-    _tmp10 = _tmp9*c_v
-    _tmp11 = c_h*h
-    _tmp12 = 8*_tmp2
-    _tmp13 = 8*c_v
-    _tmp14 = _tmp13*_tmp2
-    _tmp15 = -_tmp11*_tmp12 + _tmp14*h
-    _tmp16 = _tmp5*b_h
-    _tmp17 = _tmp16*_tmp4
-    _tmp18 = _tmp9*b_v
-    _tmp19 = b_h*h
-    _tmp20 = 8*b_v
-    _tmp21 = _tmp2*_tmp20
-    _tmp22 = -_tmp12*_tmp19 + _tmp21*h
-    _tmp23 = 4*b
-    _tmp24 = 8*b
-    _tmp25 = _tmp24*c_h
-    _tmp26 = _tmp24*c_v
-    _tmp27 = _tmp24*b_h
-    _tmp28 = _tmp24*b_v
-    _tmp29 = 4*_tmp8
-    _tmp30 = 4*_tmp4
-    _tmp31 = 8*_tmp8
-    _tmp32 = _tmp4*h
-    _tmp33 = _tmp2*_tmp5
-    _tmp34 = _tmp12*c_h
-    _tmp35 = -8*_tmp0*_tmp1*c_v + _tmp34
-    _tmp36 = _tmp30*a
-    _tmp37 = _tmp29*a
+    _tmp9 = _tmp5 * _tmp8
+    _tmp10 = _tmp9 * c_v
+    _tmp11 = c_h * h
+    _tmp12 = 8 * _tmp2
+    _tmp13 = 8 * c_v
+    _tmp14 = _tmp13 * _tmp2
+    _tmp15 = -_tmp11 * _tmp12 + _tmp14 * h
+    _tmp16 = _tmp5 * b_h
+    _tmp17 = _tmp16 * _tmp4
+    _tmp18 = _tmp9 * b_v
+    _tmp19 = b_h * h
+    _tmp20 = 8 * b_v
+    _tmp21 = _tmp2 * _tmp20
+    _tmp22 = -_tmp12 * _tmp19 + _tmp21 * h
+    _tmp23 = 4 * b
+    _tmp24 = 8 * b
+    _tmp25 = _tmp24 * c_h
+    _tmp26 = _tmp24 * c_v
+    _tmp27 = _tmp24 * b_h
+    _tmp28 = _tmp24 * b_v
+    _tmp29 = 4 * _tmp8
+    _tmp30 = 4 * _tmp4
+    _tmp31 = 8 * _tmp8
+    _tmp32 = _tmp4 * h
+    _tmp33 = _tmp2 * _tmp5
+    _tmp34 = _tmp12 * c_h
+    _tmp35 = -8 * _tmp0 * _tmp1 * c_v + _tmp34
+    _tmp36 = _tmp30 * a
+    _tmp37 = _tmp29 * a
     _tmp38 = b**2
-    _tmp39 = -_tmp14*_tmp38 + _tmp34*_tmp38
-    _tmp40 = _tmp8*h
-    _tmp41 = _tmp32*_tmp5
+    _tmp39 = -_tmp14 * _tmp38 + _tmp34 * _tmp38
+    _tmp40 = _tmp8 * h
+    _tmp41 = _tmp32 * _tmp5
     _tmp42 = a**2
     _tmp43 = h**2
-    _tmp44 = _tmp12*b_h
-    _tmp45 = -8*_tmp0*_tmp1*b_v + _tmp44
-    _tmp46 = -_tmp21*_tmp38 + _tmp38*_tmp44
+    _tmp44 = _tmp12 * b_h
+    _tmp45 = -8 * _tmp0 * _tmp1 * b_v + _tmp44
+    _tmp46 = -_tmp21 * _tmp38 + _tmp38 * _tmp44
     _tmp47 = _tmp29 + 2
-    _tmp48 = _tmp3*a
-    _tmp49 = -_tmp29*h + _tmp48 - 2*h
-    _tmp50 = 6*h
-    _tmp51 = _tmp30*_tmp38
-    _tmp52 = 6*_tmp43 + _tmp51
-    _tmp53 = _tmp33*h
-    _tmp54 = _tmp29*_tmp43 + _tmp30*_tmp42 + 2*_tmp43 - _tmp53
-    _tmp55 = 2*_tmp38
-    _tmp56 = _tmp29*_tmp38
-    _tmp57 = 4*_tmp42 + _tmp55 + _tmp56
-    _tmp58 = -_tmp30*h - _tmp48
-    _tmp59 = _tmp29*_tmp42 + _tmp30*_tmp43 + _tmp53
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*c_h - _tmp3*c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*b_h - _tmp3*b_v, (4, 4): _tmp17 + _tmp18 + _tmp22, (5, 5): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp23*c_m + _tmp25*_tmp4 + _tmp26*_tmp8, (5, 5): _tmp23*c_h + _tmp25*_tmp8 + _tmp26*_tmp4}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp23*b_m + _tmp27*_tmp4 + _tmp28*_tmp8, (5, 5): _tmp23*b_h + _tmp27*_tmp8 + _tmp28*_tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp29*c_h - _tmp30*c_v - 2*c_h, (1, 3): 6*c_h, (3, 3): 12*_tmp11, (4, 4): _tmp11*_tmp31 + 4*_tmp11 + _tmp13*_tmp32 - _tmp2*_tmp6 + _tmp33*c_v}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp29*b_h - _tmp30*b_v - 2*b_h, (1, 3): 6*b_h, (3, 3): 12*_tmp19, (4, 4): -_tmp16*_tmp2 + _tmp19*_tmp31 + 4*_tmp19 + _tmp20*_tmp32 + _tmp33*b_v}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp35, (0, 4): -_tmp15 - _tmp36*c_h - _tmp37*c_v + 4*_tmp4*a*c_v + 4*_tmp8*a*c_h, (2, 2): _tmp35, (3, 3): _tmp39, (4, 4): _tmp10*h - _tmp14*_tmp42 + _tmp14*_tmp43 + _tmp34*_tmp42 - _tmp34*_tmp43 - _tmp40*_tmp6 - _tmp41*c_v + _tmp7*h, (5, 5): -_tmp39}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp45, (0, 4): -_tmp22 - _tmp36*b_h - _tmp37*b_v + 4*_tmp4*a*b_v + 4*_tmp8*a*b_h, (2, 2): _tmp45, (3, 3): _tmp46, (4, 4): -_tmp16*_tmp40 + _tmp17*h + _tmp18*h - _tmp21*_tmp42 + _tmp21*_tmp43 - _tmp41*b_v + _tmp42*_tmp44 - _tmp43*_tmp44, (5, 5): -_tmp46}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp47, (0, 4): _tmp49, (1, 1): 6, (1, 3): _tmp50, (2, 2): _tmp30, (3, 3): _tmp52, (4, 4): _tmp54, (5, 5): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp47, (0, 4): _tmp49, (1, 1): 6, (1, 3): _tmp50, (2, 2): _tmp30, (3, 3): _tmp52, (4, 4): _tmp54, (5, 5): _tmp57}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55})], axis=-3).reshape(*_shape, 14, 3, 6, 6)
+    _tmp48 = _tmp3 * a
+    _tmp49 = -_tmp29 * h + _tmp48 - 2 * h
+    _tmp50 = 6 * h
+    _tmp51 = _tmp30 * _tmp38
+    _tmp52 = 6 * _tmp43 + _tmp51
+    _tmp53 = _tmp33 * h
+    _tmp54 = _tmp29 * _tmp43 + _tmp30 * _tmp42 + 2 * _tmp43 - _tmp53
+    _tmp55 = 2 * _tmp38
+    _tmp56 = _tmp29 * _tmp38
+    _tmp57 = 4 * _tmp42 + _tmp55 + _tmp56
+    _tmp58 = -_tmp30 * h - _tmp48
+    _tmp59 = _tmp29 * _tmp42 + _tmp30 * _tmp43 + _tmp53
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): _tmp3 * c_h - _tmp3 * c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): _tmp3 * b_h - _tmp3 * b_v, (4, 4): _tmp17 + _tmp18 + _tmp22, (5, 5): _tmp16}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (3, 3): _tmp23 * c_m + _tmp25 * _tmp4 + _tmp26 * _tmp8,
+                    (5, 5): _tmp23 * c_h + _tmp25 * _tmp8 + _tmp26 * _tmp4,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (3, 3): _tmp23 * b_m + _tmp27 * _tmp4 + _tmp28 * _tmp8,
+                    (5, 5): _tmp23 * b_h + _tmp27 * _tmp8 + _tmp28 * _tmp4,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -_tmp29 * c_h - _tmp30 * c_v - 2 * c_h,
+                    (1, 3): 6 * c_h,
+                    (3, 3): 12 * _tmp11,
+                    (4, 4): _tmp11 * _tmp31 + 4 * _tmp11 + _tmp13 * _tmp32 - _tmp2 * _tmp6 + _tmp33 * c_v,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -_tmp29 * b_h - _tmp30 * b_v - 2 * b_h,
+                    (1, 3): 6 * b_h,
+                    (3, 3): 12 * _tmp19,
+                    (4, 4): -_tmp16 * _tmp2 + _tmp19 * _tmp31 + 4 * _tmp19 + _tmp20 * _tmp32 + _tmp33 * b_v,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): -_tmp35,
+                    (0, 4): -_tmp15 - _tmp36 * c_h - _tmp37 * c_v + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h,
+                    (2, 2): _tmp35,
+                    (3, 3): _tmp39,
+                    (4, 4): _tmp10 * h
+                    - _tmp14 * _tmp42
+                    + _tmp14 * _tmp43
+                    + _tmp34 * _tmp42
+                    - _tmp34 * _tmp43
+                    - _tmp40 * _tmp6
+                    - _tmp41 * c_v
+                    + _tmp7 * h,
+                    (5, 5): -_tmp39,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): -_tmp45,
+                    (0, 4): -_tmp22 - _tmp36 * b_h - _tmp37 * b_v + 4 * _tmp4 * a * b_v + 4 * _tmp8 * a * b_h,
+                    (2, 2): _tmp45,
+                    (3, 3): _tmp46,
+                    (4, 4): -_tmp16 * _tmp40
+                    + _tmp17 * h
+                    + _tmp18 * h
+                    - _tmp21 * _tmp42
+                    + _tmp21 * _tmp43
+                    - _tmp41 * b_v
+                    + _tmp42 * _tmp44
+                    - _tmp43 * _tmp44,
+                    (5, 5): -_tmp46,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp47,
+                    (0, 4): _tmp49,
+                    (1, 1): 6,
+                    (1, 3): _tmp50,
+                    (2, 2): _tmp30,
+                    (3, 3): _tmp52,
+                    (4, 4): _tmp54,
+                    (5, 5): _tmp57,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp47,
+                    (0, 4): _tmp49,
+                    (1, 1): 6,
+                    (1, 3): _tmp50,
+                    (2, 2): _tmp30,
+                    (3, 3): _tmp52,
+                    (4, 4): _tmp54,
+                    (5, 5): _tmp57,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 14, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
@@ -515,45 +1136,145 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
           [z, z] = 2
           [psi, psi] = 2*b**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m
+    )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = numpy.sin(alpha)
-    _tmp2 = _tmp0*_tmp1
-    _tmp3 = 4*_tmp2
+    _tmp2 = _tmp0 * _tmp1
+    _tmp3 = 4 * _tmp2
     _tmp4 = _tmp1**2
-    _tmp5 = 8*a
-    _tmp6 = _tmp5*c_h
-    _tmp7 = _tmp4*_tmp6
+    _tmp5 = 8 * a
+    _tmp6 = _tmp5 * c_h
+    _tmp7 = _tmp4 * _tmp6
     _tmp8 = _tmp0**2
-    _tmp9 = _tmp8*c_v
-    _tmp10 = _tmp5*_tmp9
-    _tmp11 = c_h*h
-    _tmp12 = 8*_tmp11
-    _tmp13 = 8*h
-    _tmp14 = _tmp2*c_v
-    _tmp15 = -_tmp12*_tmp2 + _tmp13*_tmp14
-    _tmp16 = 4*b
-    _tmp17 = 8*b
-    _tmp18 = _tmp17*c_h
-    _tmp19 = _tmp4*c_v
-    _tmp20 = 4*_tmp8
-    _tmp21 = 4*_tmp4
-    _tmp22 = 8*_tmp2
-    _tmp23 = _tmp22*c_h
-    _tmp24 = -8*_tmp0*_tmp1*c_v + _tmp23
+    _tmp9 = _tmp8 * c_v
+    _tmp10 = _tmp5 * _tmp9
+    _tmp11 = c_h * h
+    _tmp12 = 8 * _tmp11
+    _tmp13 = 8 * h
+    _tmp14 = _tmp2 * c_v
+    _tmp15 = -_tmp12 * _tmp2 + _tmp13 * _tmp14
+    _tmp16 = 4 * b
+    _tmp17 = 8 * b
+    _tmp18 = _tmp17 * c_h
+    _tmp19 = _tmp4 * c_v
+    _tmp20 = 4 * _tmp8
+    _tmp21 = 4 * _tmp4
+    _tmp22 = 8 * _tmp2
+    _tmp23 = _tmp22 * c_h
+    _tmp24 = -8 * _tmp0 * _tmp1 * c_v + _tmp23
     _tmp25 = b**2
-    _tmp26 = _tmp22*c_v
-    _tmp27 = _tmp23*_tmp25 - _tmp25*_tmp26
-    _tmp28 = _tmp5*h
+    _tmp26 = _tmp22 * c_v
+    _tmp27 = _tmp23 * _tmp25 - _tmp25 * _tmp26
+    _tmp28 = _tmp5 * h
     _tmp29 = a**2
     _tmp30 = h**2
-    _tmp31 = _tmp3*a
-    _tmp32 = _tmp21*_tmp25
-    _tmp33 = _tmp2*_tmp28
-    _tmp34 = 2*_tmp25
-    _tmp35 = _tmp20*_tmp25
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp3*c_h - _tmp3*c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp16*c_m + _tmp17*_tmp9 + _tmp18*_tmp4, (5, 5): _tmp16*c_h + _tmp17*_tmp19 + _tmp18*_tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp20*c_h - _tmp21*c_v - 2*c_h, (1, 3): 6*c_h, (3, 3): 12*_tmp11, (4, 4): 4*_tmp11 + _tmp12*_tmp8 + _tmp13*_tmp19 + _tmp14*_tmp5 - _tmp2*_tmp6}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): -_tmp24, (0, 4): -_tmp15 - _tmp20*a*c_v - _tmp21*a*c_h + 4*_tmp4*a*c_v + 4*_tmp8*a*c_h, (2, 2): _tmp24, (3, 3): _tmp27, (4, 4): _tmp10*h - _tmp19*_tmp28 + _tmp23*_tmp29 - _tmp23*_tmp30 - _tmp26*_tmp29 + _tmp26*_tmp30 - _tmp6*_tmp8*h + _tmp7*h, (5, 5): -_tmp27}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp20 + 2, (0, 4): -_tmp20*h + _tmp31 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp21, (3, 3): 6*_tmp30 + _tmp32, (4, 4): _tmp20*_tmp30 + _tmp21*_tmp29 + 2*_tmp30 - _tmp33, (5, 5): 4*_tmp29 + _tmp34 + _tmp35}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp21, (0, 4): -_tmp21*h - _tmp31, (2, 2): _tmp20, (3, 3): _tmp35, (4, 4): _tmp20*_tmp29 + _tmp21*_tmp30 + _tmp33, (5, 5): _tmp32}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp34})], axis=-3).reshape(*_shape, 11, 2, 6, 6)
+    _tmp31 = _tmp3 * a
+    _tmp32 = _tmp21 * _tmp25
+    _tmp33 = _tmp2 * _tmp28
+    _tmp34 = 2 * _tmp25
+    _tmp35 = _tmp20 * _tmp25
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 4): _tmp3 * c_h - _tmp3 * c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (3, 3): _tmp16 * c_m + _tmp17 * _tmp9 + _tmp18 * _tmp4,
+                    (5, 5): _tmp16 * c_h + _tmp17 * _tmp19 + _tmp18 * _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 4): -_tmp20 * c_h - _tmp21 * c_v - 2 * c_h,
+                    (1, 3): 6 * c_h,
+                    (3, 3): 12 * _tmp11,
+                    (4, 4): 4 * _tmp11 + _tmp12 * _tmp8 + _tmp13 * _tmp19 + _tmp14 * _tmp5 - _tmp2 * _tmp6,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): -_tmp24,
+                    (0, 4): -_tmp15 - _tmp20 * a * c_v - _tmp21 * a * c_h + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h,
+                    (2, 2): _tmp24,
+                    (3, 3): _tmp27,
+                    (4, 4): _tmp10 * h
+                    - _tmp19 * _tmp28
+                    + _tmp23 * _tmp29
+                    - _tmp23 * _tmp30
+                    - _tmp26 * _tmp29
+                    + _tmp26 * _tmp30
+                    - _tmp6 * _tmp8 * h
+                    + _tmp7 * h,
+                    (5, 5): -_tmp27,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp20 + 2,
+                    (0, 4): -_tmp20 * h + _tmp31 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp21,
+                    (3, 3): 6 * _tmp30 + _tmp32,
+                    (4, 4): _tmp20 * _tmp30 + _tmp21 * _tmp29 + 2 * _tmp30 - _tmp33,
+                    (5, 5): 4 * _tmp29 + _tmp34 + _tmp35,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp21,
+                    (0, 4): -_tmp21 * h - _tmp31,
+                    (2, 2): _tmp20,
+                    (3, 3): _tmp35,
+                    (4, 4): _tmp20 * _tmp29 + _tmp21 * _tmp30 + _tmp33,
+                    (5, 5): _tmp32,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp34}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 11, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -565,38 +1286,80 @@ def _model(_known, _unknowns, _modes):
     _lam = squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
     if not _modes:
         return _lam, None, None
-    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _phi = _runtime.modal_matrix(
+        mass_matrix(m, J_x, J_y, J_z),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m),
+        _lam,
+        BLOCKS,
+        MODE_BLOCK,
+        MODE_RANK,
+    )
     return _lam, _phi, stiffness_gradient(a, b, h, alpha)
 
 
 def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_z):
-    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_y_z() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_y
+        _tmp0 = 6 * _lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_x
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_y**2 * m + _lam_y * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_x
         _tmp4 = h**2
-        _tmp5 = _lam_x*m
+        _tmp5 = _lam_x * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_x*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_x * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_x**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
@@ -624,40 +1387,107 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z)
-    return _runtime.solve_inverse(_roots_x_y_z, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_z ** 2,), (0, 1, 2), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_z,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_z**2,
+        ),
+        (0, 1, 2),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
-    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_psi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 6*m
-        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_x
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 6 * m
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    36 * J_x + 36 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_x
         _tmp4 = h**2
-        _tmp5 = _lam_x*m
+        _tmp5 = _lam_x * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_x*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_x * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_x**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
         _tmp20 = b**2
-        _tmp21 = 24*_tmp20
-        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp21*c_h**2*numpy.sin(alpha)**2 + _tmp21*c_h*c_v*numpy.cos(alpha)**2)/(_tmp20*c_h), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp21 = 24 * _tmp20
+        c_m = numpy.broadcast_to(
+            -0.08333333333333333
+            * (
+                -J_x * _lam_psi * _lam_y * m
+                + _tmp21 * c_h**2 * numpy.sin(alpha) ** 2
+                + _tmp21 * c_h * c_v * numpy.cos(alpha) ** 2
+            )
+            / (_tmp20 * c_h),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi):
@@ -685,93 +1515,190 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi)
-    return _runtime.solve_inverse(_roots_x_y_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_psi ** 2,), (0, 1, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_psi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_psi**2,
+        ),
+        (0, 1, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_theta):
-    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = a**2
-        _tmp1 = J_y*_tmp0
+        _tmp1 = J_y * _tmp0
         _tmp2 = numpy.cos(alpha)
         _tmp3 = _tmp2**2
-        _tmp4 = 4*_tmp3
+        _tmp4 = 4 * _tmp3
         _tmp5 = _tmp2**4
-        _tmp6 = 16*_tmp1
+        _tmp6 = 16 * _tmp1
         _tmp7 = _tmp2**6
         _tmp8 = numpy.sin(alpha)
         _tmp9 = a**4
-        _tmp10 = 16*m
-        _tmp11 = _tmp10*_tmp9
+        _tmp10 = 16 * m
+        _tmp11 = _tmp10 * _tmp9
         _tmp12 = h**2
-        _tmp13 = _tmp0*_tmp12
-        _tmp14 = _tmp13*m
-        _tmp15 = _tmp10*_tmp13
-        _tmp16 = a**3*h
-        _tmp17 = _tmp16*_tmp2**3
-        _tmp18 = 32*m
-        _tmp19 = _tmp16*_tmp18
+        _tmp13 = _tmp0 * _tmp12
+        _tmp14 = _tmp13 * m
+        _tmp15 = _tmp10 * _tmp13
+        _tmp16 = a**3 * h
+        _tmp17 = _tmp16 * _tmp2**3
+        _tmp18 = 32 * m
+        _tmp19 = _tmp16 * _tmp18
         _tmp20 = _tmp8**3
         _tmp21 = _tmp8**2
-        _tmp22 = _tmp3*_tmp6
-        _tmp23 = _tmp21*_tmp5
-        _tmp24 = 32*_tmp23
+        _tmp22 = _tmp3 * _tmp6
+        _tmp23 = _tmp21 * _tmp5
+        _tmp24 = 32 * _tmp23
         _tmp25 = _tmp8**4
-        _tmp26 = _tmp25*_tmp3
-        _tmp27 = _tmp21*_tmp3
-        _tmp28 = _lam_theta*m
-        _tmp29 = 4*_tmp1
-        _tmp30 = _tmp28*_tmp29
-        _tmp31 = _tmp1*_tmp3
-        _tmp32 = 2*_tmp31
-        _tmp33 = _lam_x*m
-        _tmp34 = _tmp29*_tmp33
-        _tmp35 = _lam_x*_tmp21
-        _tmp36 = _lam_theta*m**2
-        _tmp37 = _lam_x*_tmp36
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp26 = _tmp25 * _tmp3
+        _tmp27 = _tmp21 * _tmp3
+        _tmp28 = _lam_theta * m
+        _tmp29 = 4 * _tmp1
+        _tmp30 = _tmp28 * _tmp29
+        _tmp31 = _tmp1 * _tmp3
+        _tmp32 = 2 * _tmp31
+        _tmp33 = _lam_x * m
+        _tmp34 = _tmp29 * _tmp33
+        _tmp35 = _lam_x * _tmp21
+        _tmp36 = _lam_theta * m**2
+        _tmp37 = _lam_x * _tmp36
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp24
+                    + _tmp1 * _tmp4
+                    - _tmp10 * _tmp16 * _tmp2 * _tmp20
+                    - _tmp10 * _tmp17 * _tmp8
+                    + _tmp11 * _tmp23
+                    + _tmp11 * _tmp8**6
+                    + _tmp14 * _tmp24
+                    + _tmp14 * _tmp4
+                    + _tmp15 * _tmp26
+                    + _tmp15 * _tmp27
+                    + _tmp15 * _tmp5
+                    + _tmp15 * _tmp7
+                    - 64 * _tmp17 * _tmp20 * m
+                    + _tmp18 * _tmp26 * _tmp9
+                    - _tmp19 * _tmp2**5 * _tmp8
+                    - _tmp19 * _tmp2 * _tmp8**5
+                    + _tmp21 * _tmp22
+                    + _tmp22 * _tmp25
+                    + _tmp5 * _tmp6
+                    + _tmp6 * _tmp7,
+                    -8 * _tmp1 * _tmp27 * _tmp28
+                    - _tmp25 * _tmp30
+                    - _tmp25 * _tmp34
+                    - _tmp28 * _tmp32
+                    - _tmp30 * _tmp5
+                    - 8 * _tmp31 * _tmp35 * m
+                    - _tmp32 * _tmp33
+                    - _tmp34 * _tmp5,
+                    J_y**2 * _tmp28 * _tmp35
+                    + J_y * _tmp12 * _tmp35 * _tmp36
+                    + 2 * J_y * _tmp2 * _tmp37 * _tmp8 * a * h
+                    + _tmp31 * _tmp37,
+                )
+            ]
+        )
         _tmp38 = a**2
         _tmp39 = b**2
-        _tmp40 = 6*c_h
-        _tmp41 = _lam_y*m
+        _tmp40 = 6 * c_h
+        _tmp41 = _lam_y * m
         _tmp42 = numpy.cos(alpha)
         _tmp43 = _tmp42**2
         _tmp44 = numpy.sin(alpha)
         _tmp45 = _tmp44**4
         _tmp46 = _tmp42**4
         _tmp47 = _tmp44**2
-        _tmp48 = _tmp43*_tmp47
+        _tmp48 = _tmp43 * _tmp47
         _tmp49 = c_h**2
-        _tmp50 = J_x*_tmp38
-        _tmp51 = _tmp49*_tmp50
-        _tmp52 = _lam_y*_tmp51
-        _tmp53 = 24*_tmp45
-        _tmp54 = _lam_y*_tmp43
-        _tmp55 = 24*_tmp46
-        _tmp56 = J_y*_lam_theta*_lam_x*_tmp39
+        _tmp50 = J_x * _tmp38
+        _tmp51 = _tmp49 * _tmp50
+        _tmp52 = _lam_y * _tmp51
+        _tmp53 = 24 * _tmp45
+        _tmp54 = _lam_y * _tmp43
+        _tmp55 = 24 * _tmp46
+        _tmp56 = J_y * _lam_theta * _lam_x * _tmp39
         _tmp57 = _tmp44**6
-        _tmp58 = _tmp38*_tmp39
-        _tmp59 = _tmp58*c_h**3
-        _tmp60 = 96*_tmp59
-        _tmp61 = _lam_y**2*_tmp50*c_h*m
-        _tmp62 = 4*_tmp61
-        _tmp63 = _tmp41*_tmp49
-        _tmp64 = _tmp58*_tmp63
-        _tmp65 = 16*_tmp64
-        _tmp66 = _tmp38*_tmp63*h**2
-        _tmp67 = 48*_tmp48
-        _tmp68 = _tmp46*_tmp47
-        _tmp69 = _tmp43*_tmp45
-        c_m = numpy.broadcast_to(-0.25*(-_tmp40*_tmp43*_tmp56*m - 2*_tmp43*_tmp61 + 12*_tmp43*_tmp66 - _tmp45*_tmp62 - _tmp46*_tmp62 - 8*_tmp48*_tmp61 + 12*_tmp51*_tmp54 + _tmp52*_tmp53 + _tmp52*_tmp55 + _tmp52*_tmp67 + _tmp53*_tmp66 + _tmp54*_tmp56*m**2 + _tmp55*_tmp66 - _tmp57*_tmp60 + _tmp57*_tmp65 - 192*_tmp59*_tmp69 - _tmp60*_tmp68 + 32*_tmp64*_tmp69 + _tmp65*_tmp68 + _tmp66*_tmp67)/(_tmp38*_tmp39*c_h*(-_tmp40 + _tmp41)*(_tmp43 + 2*_tmp45 + 2*_tmp46 + 4*_tmp48)), c_h.shape)
+        _tmp58 = _tmp38 * _tmp39
+        _tmp59 = _tmp58 * c_h**3
+        _tmp60 = 96 * _tmp59
+        _tmp61 = _lam_y**2 * _tmp50 * c_h * m
+        _tmp62 = 4 * _tmp61
+        _tmp63 = _tmp41 * _tmp49
+        _tmp64 = _tmp58 * _tmp63
+        _tmp65 = 16 * _tmp64
+        _tmp66 = _tmp38 * _tmp63 * h**2
+        _tmp67 = 48 * _tmp48
+        _tmp68 = _tmp46 * _tmp47
+        _tmp69 = _tmp43 * _tmp45
+        c_m = numpy.broadcast_to(
+            -0.25
+            * (
+                -_tmp40 * _tmp43 * _tmp56 * m
+                - 2 * _tmp43 * _tmp61
+                + 12 * _tmp43 * _tmp66
+                - _tmp45 * _tmp62
+                - _tmp46 * _tmp62
+                - 8 * _tmp48 * _tmp61
+                + 12 * _tmp51 * _tmp54
+                + _tmp52 * _tmp53
+                + _tmp52 * _tmp55
+                + _tmp52 * _tmp67
+                + _tmp53 * _tmp66
+                + _tmp54 * _tmp56 * m**2
+                + _tmp55 * _tmp66
+                - _tmp57 * _tmp60
+                + _tmp57 * _tmp65
+                - 192 * _tmp59 * _tmp69
+                - _tmp60 * _tmp68
+                + 32 * _tmp64 * _tmp69
+                + _tmp65 * _tmp68
+                + _tmp66 * _tmp67
+            )
+            / (_tmp38 * _tmp39 * c_h * (-_tmp40 + _tmp41) * (_tmp43 + 2 * _tmp45 + 2 * _tmp46 + 4 * _tmp48)),
+            c_h.shape,
+        )
         _tmp70 = a**2
         _tmp71 = numpy.sin(alpha)
         _tmp72 = _tmp71**2
         _tmp73 = numpy.cos(alpha)
         _tmp74 = _tmp73**2
-        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp70*_tmp72*c_h**2)/(_tmp70*c_h*(2*_tmp71**4 + 4*_tmp72*_tmp74 + 2*_tmp73**4 + _tmp74)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_v = numpy.broadcast_to(
+            -0.125
+            * (-J_y * _lam_theta * _lam_x * m + 8 * _tmp70 * _tmp72 * c_h**2)
+            / (_tmp70 * c_h * (2 * _tmp71**4 + 4 * _tmp72 * _tmp74 + 2 * _tmp73**4 + _tmp74)),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta):
@@ -799,64 +1726,151 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta)
-    return _runtime.solve_inverse(_roots_x_y_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_theta ** 2,), (0, 1, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_theta**2,
+        ),
+        (0, 1, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
-    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_y_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_x*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_x*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_x * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_x * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_x * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_x**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
         _tmp33 = numpy.sin(alpha)
         _tmp34 = _tmp33**2
-        _tmp35 = 6*c_h
-        _tmp36 = _lam_y*m
+        _tmp35 = 6 * c_h
+        _tmp36 = _lam_y * m
         _tmp37 = numpy.cos(alpha)
         _tmp38 = _tmp37**2
         _tmp39 = c_h**2
-        _tmp40 = 24*_tmp39
+        _tmp40 = 24 * _tmp39
         _tmp41 = a**2
         _tmp42 = _tmp33**4
         _tmp43 = _tmp37**4
-        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_y**2*_tmp34*m - J_x*_lam_y*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_y*_tmp32*_tmp38*c_h*m + 4*_lam_y*_tmp32*_tmp43*c_h*m + 4*_lam_y*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        c_m = numpy.broadcast_to(
+            (0.5)
+            * (
+                J_x * _lam_y**2 * _tmp34 * m
+                - J_x * _lam_y * _tmp34 * _tmp35
+                - J_z * _lam_phi * _tmp36 * _tmp38
+                + 6 * J_z * _lam_phi * _tmp38 * c_h
+                + 2 * _lam_y * _tmp32 * _tmp38 * c_h * m
+                + 4 * _lam_y * _tmp32 * _tmp43 * c_h * m
+                + 4 * _lam_y * _tmp38 * _tmp41 * c_h * m
+                - 4 * _tmp32 * _tmp36 * _tmp42 * c_h
+                - 12 * _tmp32 * _tmp38 * _tmp39
+                + 24 * _tmp32 * _tmp39 * _tmp42
+                - _tmp32 * _tmp40 * _tmp43
+                - _tmp34 * _tmp35 * _tmp36 * h**2
+                - _tmp38 * _tmp40 * _tmp41
+            )
+            / (_tmp32 * _tmp34 * (-_tmp35 + _tmp36)),
+            c_h.shape,
+        )
         _tmp44 = b**2
-        _tmp45 = _tmp44*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp45 = _tmp44 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp45 * numpy.cos(alpha) ** 2 + 2 * _tmp45 + 4 * a**2 * c_h)
+            / (_tmp44 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
@@ -864,26 +1878,50 @@ def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _l
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
         _tmp0 = a**2
         _tmp1 = b**2
-        _tmp2 = 6*c_h
+        _tmp2 = 6 * c_h
         _tmp3 = -_tmp2
-        _tmp4 = _lam_x*m
-        _tmp5 = _lam_y*m
+        _tmp4 = _lam_x * m
+        _tmp5 = _lam_y * m
         _tmp6 = c_h**2
-        _tmp7 = 36*_tmp6
-        _tmp8 = J_x*_tmp0
-        _tmp9 = J_y*_tmp1
+        _tmp7 = 36 * _tmp6
+        _tmp8 = J_x * _tmp0
+        _tmp9 = J_y * _tmp1
         _tmp10 = _lam_y**2
         _tmp11 = _lam_x**2
         _tmp12 = m**2
         _tmp13 = h**2
-        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_x*_lam_y*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp10*c_h*m + 36*J_y*_lam_x*_tmp1*_tmp6 + J_y*_lam_y*_tmp1*_tmp11*_tmp12 + 6*_lam_x*_lam_y*_tmp0*_tmp12*_tmp13*c_h - _lam_x*_lam_y*_tmp1*_tmp12*_tmp13*_tmp2 + 36*_lam_x*_tmp1*_tmp13*_tmp6*m - _lam_x*_tmp10*_tmp12*_tmp8 - _lam_y*_tmp2*_tmp4*_tmp9 - _lam_y*_tmp7*_tmp8 - _tmp0*_tmp13*_tmp5*_tmp7 - _tmp11*_tmp2*_tmp9*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_tmp3 + _tmp5)), c_h.shape)
-        _tmp14 = 6*c_h
-        _tmp15 = _lam_x*m
-        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp14 - J_y*_tmp15 + _tmp14*h**2*m)/(a**2*(-_tmp14 + _tmp15)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_m = numpy.broadcast_to(
+            -0.5
+            * (
+                6 * J_x * _lam_x * _lam_y * _tmp0 * c_h * m
+                + 6 * J_x * _tmp0 * _tmp10 * c_h * m
+                + 36 * J_y * _lam_x * _tmp1 * _tmp6
+                + J_y * _lam_y * _tmp1 * _tmp11 * _tmp12
+                + 6 * _lam_x * _lam_y * _tmp0 * _tmp12 * _tmp13 * c_h
+                - _lam_x * _lam_y * _tmp1 * _tmp12 * _tmp13 * _tmp2
+                + 36 * _lam_x * _tmp1 * _tmp13 * _tmp6 * m
+                - _lam_x * _tmp10 * _tmp12 * _tmp8
+                - _lam_y * _tmp2 * _tmp4 * _tmp9
+                - _lam_y * _tmp7 * _tmp8
+                - _tmp0 * _tmp13 * _tmp5 * _tmp7
+                - _tmp11 * _tmp2 * _tmp9 * m
+            )
+            / (_tmp0 * _tmp1 * (_tmp3 + _tmp4) * (_tmp3 + _tmp5)),
+            c_h.shape,
+        )
+        _tmp14 = 6 * c_h
+        _tmp15 = _lam_x * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_x * (J_y * _tmp14 - J_y * _tmp15 + _tmp14 * h**2 * m) / (a**2 * (-_tmp14 + _tmp15)), c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi):
@@ -920,38 +1958,99 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi)
-    return _runtime.solve_inverse(_roots_x_y_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_y ** 2, omega_phi ** 2,), (0, 1, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_y_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_y_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+            omega_phi**2,
+        ),
+        (0, 1, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_x_y_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
-    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_x_z_psi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_psi
+        _tmp0 = 6 * _lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_x
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_psi**2 * m + _lam_psi * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_x
         _tmp4 = h**2
-        _tmp5 = _lam_x*m
+        _tmp5 = _lam_x * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_x*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_x**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_x * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_x**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi):
@@ -979,61 +2078,134 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi)
-    return _runtime.solve_inverse(_roots_x_z_psi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_psi ** 2,), (0, 2, 3), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_psi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_psi**2,
+        ),
+        (0, 2, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_theta):
-    """Candidate roots of identify_x_z_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_z_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = a**2
-        _tmp1 = J_y*_tmp0
+        _tmp1 = J_y * _tmp0
         _tmp2 = numpy.cos(alpha)
         _tmp3 = _tmp2**2
-        _tmp4 = 4*_tmp3
+        _tmp4 = 4 * _tmp3
         _tmp5 = _tmp2**4
-        _tmp6 = 16*_tmp1
+        _tmp6 = 16 * _tmp1
         _tmp7 = _tmp2**6
         _tmp8 = numpy.sin(alpha)
         _tmp9 = a**4
-        _tmp10 = 16*m
-        _tmp11 = _tmp10*_tmp9
+        _tmp10 = 16 * m
+        _tmp11 = _tmp10 * _tmp9
         _tmp12 = h**2
-        _tmp13 = _tmp0*_tmp12
-        _tmp14 = _tmp13*m
-        _tmp15 = _tmp10*_tmp13
-        _tmp16 = a**3*h
-        _tmp17 = _tmp16*_tmp2**3
-        _tmp18 = 32*m
-        _tmp19 = _tmp16*_tmp18
+        _tmp13 = _tmp0 * _tmp12
+        _tmp14 = _tmp13 * m
+        _tmp15 = _tmp10 * _tmp13
+        _tmp16 = a**3 * h
+        _tmp17 = _tmp16 * _tmp2**3
+        _tmp18 = 32 * m
+        _tmp19 = _tmp16 * _tmp18
         _tmp20 = _tmp8**3
         _tmp21 = _tmp8**2
-        _tmp22 = _tmp3*_tmp6
-        _tmp23 = _tmp21*_tmp5
-        _tmp24 = 32*_tmp23
+        _tmp22 = _tmp3 * _tmp6
+        _tmp23 = _tmp21 * _tmp5
+        _tmp24 = 32 * _tmp23
         _tmp25 = _tmp8**4
-        _tmp26 = _tmp25*_tmp3
-        _tmp27 = _tmp21*_tmp3
-        _tmp28 = _lam_theta*m
-        _tmp29 = 4*_tmp1
-        _tmp30 = _tmp28*_tmp29
-        _tmp31 = _tmp1*_tmp3
-        _tmp32 = 2*_tmp31
-        _tmp33 = _lam_x*m
-        _tmp34 = _tmp29*_tmp33
-        _tmp35 = _lam_x*_tmp21
-        _tmp36 = _lam_theta*m**2
-        _tmp37 = _lam_x*_tmp36
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp26 = _tmp25 * _tmp3
+        _tmp27 = _tmp21 * _tmp3
+        _tmp28 = _lam_theta * m
+        _tmp29 = 4 * _tmp1
+        _tmp30 = _tmp28 * _tmp29
+        _tmp31 = _tmp1 * _tmp3
+        _tmp32 = 2 * _tmp31
+        _tmp33 = _lam_x * m
+        _tmp34 = _tmp29 * _tmp33
+        _tmp35 = _lam_x * _tmp21
+        _tmp36 = _lam_theta * m**2
+        _tmp37 = _lam_x * _tmp36
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp24
+                    + _tmp1 * _tmp4
+                    - _tmp10 * _tmp16 * _tmp2 * _tmp20
+                    - _tmp10 * _tmp17 * _tmp8
+                    + _tmp11 * _tmp23
+                    + _tmp11 * _tmp8**6
+                    + _tmp14 * _tmp24
+                    + _tmp14 * _tmp4
+                    + _tmp15 * _tmp26
+                    + _tmp15 * _tmp27
+                    + _tmp15 * _tmp5
+                    + _tmp15 * _tmp7
+                    - 64 * _tmp17 * _tmp20 * m
+                    + _tmp18 * _tmp26 * _tmp9
+                    - _tmp19 * _tmp2**5 * _tmp8
+                    - _tmp19 * _tmp2 * _tmp8**5
+                    + _tmp21 * _tmp22
+                    + _tmp22 * _tmp25
+                    + _tmp5 * _tmp6
+                    + _tmp6 * _tmp7,
+                    -8 * _tmp1 * _tmp27 * _tmp28
+                    - _tmp25 * _tmp30
+                    - _tmp25 * _tmp34
+                    - _tmp28 * _tmp32
+                    - _tmp30 * _tmp5
+                    - 8 * _tmp31 * _tmp35 * m
+                    - _tmp32 * _tmp33
+                    - _tmp34 * _tmp5,
+                    J_y**2 * _tmp28 * _tmp35
+                    + J_y * _tmp12 * _tmp35 * _tmp36
+                    + 2 * J_y * _tmp2 * _tmp37 * _tmp8 * a * h
+                    + _tmp31 * _tmp37,
+                )
+            ]
+        )
         _tmp38 = a**2
         _tmp39 = numpy.sin(alpha)
         _tmp40 = _tmp39**2
         _tmp41 = numpy.cos(alpha)
         _tmp42 = _tmp41**2
-        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp38*_tmp40*c_h**2)/(_tmp38*c_h*(2*_tmp39**4 + 4*_tmp40*_tmp42 + 2*_tmp41**4 + _tmp42)), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_v = numpy.broadcast_to(
+            -0.125
+            * (-J_y * _lam_theta * _lam_x * m + 8 * _tmp38 * _tmp40 * c_h**2)
+            / (_tmp38 * c_h * (2 * _tmp39**4 + 4 * _tmp40 * _tmp42 + 2 * _tmp41**4 + _tmp42)),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta):
@@ -1061,52 +2233,122 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta)
-    return _runtime.solve_inverse(_roots_x_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_theta ** 2,), (0, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_theta**2,
+        ),
+        (0, 2, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
-    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_z_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_x*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_x*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_x * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_x * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_x * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_x**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
-        _tmp33 = _tmp32*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp33*numpy.cos(alpha)**2 + 2*_tmp33 + 4*a**2*c_h)/(_tmp32*numpy.sin(alpha)**2), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp33 = _tmp32 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp33 * numpy.cos(alpha) ** 2 + 2 * _tmp33 + 4 * a**2 * c_h)
+            / (_tmp32 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_x_z_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
@@ -1114,12 +2356,18 @@ def _roots_x_z_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _l
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = 6*c_h
-        _tmp1 = _lam_x*m
-        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp0 - J_y*_tmp1 + _tmp0*h**2*m)/(a**2*(-_tmp0 + _tmp1)), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_v, c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
+        _tmp0 = 6 * c_h
+        _tmp1 = _lam_x * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_x * (J_y * _tmp0 - J_y * _tmp1 + _tmp0 * h**2 * m) / (a**2 * (-_tmp0 + _tmp1)), c_h.shape
+        )
+        c_m = numpy.broadcast_to((0.5) * _lam_z * m - 2 * c_v, c_h.shape)
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi):
@@ -1156,93 +2404,190 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi)
-    return _runtime.solve_inverse(_roots_x_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_z ** 2, omega_phi ** 2,), (0, 2, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_z_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_z_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (0, 2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_x_z_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_theta):
-    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_psi_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = a**2
-        _tmp1 = J_y*_tmp0
+        _tmp1 = J_y * _tmp0
         _tmp2 = numpy.cos(alpha)
         _tmp3 = _tmp2**2
-        _tmp4 = 4*_tmp3
+        _tmp4 = 4 * _tmp3
         _tmp5 = _tmp2**4
-        _tmp6 = 16*_tmp1
+        _tmp6 = 16 * _tmp1
         _tmp7 = _tmp2**6
         _tmp8 = numpy.sin(alpha)
         _tmp9 = a**4
-        _tmp10 = 16*m
-        _tmp11 = _tmp10*_tmp9
+        _tmp10 = 16 * m
+        _tmp11 = _tmp10 * _tmp9
         _tmp12 = h**2
-        _tmp13 = _tmp0*_tmp12
-        _tmp14 = _tmp13*m
-        _tmp15 = _tmp10*_tmp13
-        _tmp16 = a**3*h
-        _tmp17 = _tmp16*_tmp2**3
-        _tmp18 = 32*m
-        _tmp19 = _tmp16*_tmp18
+        _tmp13 = _tmp0 * _tmp12
+        _tmp14 = _tmp13 * m
+        _tmp15 = _tmp10 * _tmp13
+        _tmp16 = a**3 * h
+        _tmp17 = _tmp16 * _tmp2**3
+        _tmp18 = 32 * m
+        _tmp19 = _tmp16 * _tmp18
         _tmp20 = _tmp8**3
         _tmp21 = _tmp8**2
-        _tmp22 = _tmp3*_tmp6
-        _tmp23 = _tmp21*_tmp5
-        _tmp24 = 32*_tmp23
+        _tmp22 = _tmp3 * _tmp6
+        _tmp23 = _tmp21 * _tmp5
+        _tmp24 = 32 * _tmp23
         _tmp25 = _tmp8**4
-        _tmp26 = _tmp25*_tmp3
-        _tmp27 = _tmp21*_tmp3
-        _tmp28 = _lam_theta*m
-        _tmp29 = 4*_tmp1
-        _tmp30 = _tmp28*_tmp29
-        _tmp31 = _tmp1*_tmp3
-        _tmp32 = 2*_tmp31
-        _tmp33 = _lam_x*m
-        _tmp34 = _tmp29*_tmp33
-        _tmp35 = _lam_x*_tmp21
-        _tmp36 = _lam_theta*m**2
-        _tmp37 = _lam_x*_tmp36
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp24 + _tmp1*_tmp4 - _tmp10*_tmp16*_tmp2*_tmp20 - _tmp10*_tmp17*_tmp8 + _tmp11*_tmp23 + _tmp11*_tmp8**6 + _tmp14*_tmp24 + _tmp14*_tmp4 + _tmp15*_tmp26 + _tmp15*_tmp27 + _tmp15*_tmp5 + _tmp15*_tmp7 - 64*_tmp17*_tmp20*m + _tmp18*_tmp26*_tmp9 - _tmp19*_tmp2**5*_tmp8 - _tmp19*_tmp2*_tmp8**5 + _tmp21*_tmp22 + _tmp22*_tmp25 + _tmp5*_tmp6 + _tmp6*_tmp7, -8*_tmp1*_tmp27*_tmp28 - _tmp25*_tmp30 - _tmp25*_tmp34 - _tmp28*_tmp32 - _tmp30*_tmp5 - 8*_tmp31*_tmp35*m - _tmp32*_tmp33 - _tmp34*_tmp5, J_y**2*_tmp28*_tmp35 + J_y*_tmp12*_tmp35*_tmp36 + 2*J_y*_tmp2*_tmp37*_tmp8*a*h + _tmp31*_tmp37)])
+        _tmp26 = _tmp25 * _tmp3
+        _tmp27 = _tmp21 * _tmp3
+        _tmp28 = _lam_theta * m
+        _tmp29 = 4 * _tmp1
+        _tmp30 = _tmp28 * _tmp29
+        _tmp31 = _tmp1 * _tmp3
+        _tmp32 = 2 * _tmp31
+        _tmp33 = _lam_x * m
+        _tmp34 = _tmp29 * _tmp33
+        _tmp35 = _lam_x * _tmp21
+        _tmp36 = _lam_theta * m**2
+        _tmp37 = _lam_x * _tmp36
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp24
+                    + _tmp1 * _tmp4
+                    - _tmp10 * _tmp16 * _tmp2 * _tmp20
+                    - _tmp10 * _tmp17 * _tmp8
+                    + _tmp11 * _tmp23
+                    + _tmp11 * _tmp8**6
+                    + _tmp14 * _tmp24
+                    + _tmp14 * _tmp4
+                    + _tmp15 * _tmp26
+                    + _tmp15 * _tmp27
+                    + _tmp15 * _tmp5
+                    + _tmp15 * _tmp7
+                    - 64 * _tmp17 * _tmp20 * m
+                    + _tmp18 * _tmp26 * _tmp9
+                    - _tmp19 * _tmp2**5 * _tmp8
+                    - _tmp19 * _tmp2 * _tmp8**5
+                    + _tmp21 * _tmp22
+                    + _tmp22 * _tmp25
+                    + _tmp5 * _tmp6
+                    + _tmp6 * _tmp7,
+                    -8 * _tmp1 * _tmp27 * _tmp28
+                    - _tmp25 * _tmp30
+                    - _tmp25 * _tmp34
+                    - _tmp28 * _tmp32
+                    - _tmp30 * _tmp5
+                    - 8 * _tmp31 * _tmp35 * m
+                    - _tmp32 * _tmp33
+                    - _tmp34 * _tmp5,
+                    J_y**2 * _tmp28 * _tmp35
+                    + J_y * _tmp12 * _tmp35 * _tmp36
+                    + 2 * J_y * _tmp2 * _tmp37 * _tmp8 * a * h
+                    + _tmp31 * _tmp37,
+                )
+            ]
+        )
         _tmp38 = a**2
         _tmp39 = b**2
-        _tmp40 = 6*c_h
-        _tmp41 = _lam_psi*m
+        _tmp40 = 6 * c_h
+        _tmp41 = _lam_psi * m
         _tmp42 = numpy.cos(alpha)
         _tmp43 = _tmp42**2
         _tmp44 = numpy.sin(alpha)
         _tmp45 = _tmp44**4
         _tmp46 = _tmp42**4
         _tmp47 = _tmp44**2
-        _tmp48 = _tmp43*_tmp47
+        _tmp48 = _tmp43 * _tmp47
         _tmp49 = c_h**2
-        _tmp50 = J_x*_tmp38
-        _tmp51 = _tmp49*_tmp50
-        _tmp52 = _lam_psi*_tmp51
-        _tmp53 = 24*_tmp45
-        _tmp54 = _lam_psi*_tmp43
-        _tmp55 = 24*_tmp46
-        _tmp56 = J_y*_lam_theta*_lam_x*_tmp39
+        _tmp50 = J_x * _tmp38
+        _tmp51 = _tmp49 * _tmp50
+        _tmp52 = _lam_psi * _tmp51
+        _tmp53 = 24 * _tmp45
+        _tmp54 = _lam_psi * _tmp43
+        _tmp55 = 24 * _tmp46
+        _tmp56 = J_y * _lam_theta * _lam_x * _tmp39
         _tmp57 = _tmp44**6
-        _tmp58 = _tmp38*_tmp39
-        _tmp59 = _tmp58*c_h**3
-        _tmp60 = 96*_tmp59
-        _tmp61 = _lam_psi**2*_tmp50*c_h*m
-        _tmp62 = 4*_tmp61
-        _tmp63 = _tmp41*_tmp49
-        _tmp64 = _tmp58*_tmp63
-        _tmp65 = 16*_tmp64
-        _tmp66 = _tmp38*_tmp63*h**2
-        _tmp67 = 48*_tmp48
-        _tmp68 = _tmp46*_tmp47
-        _tmp69 = _tmp43*_tmp45
-        c_m = numpy.broadcast_to(-0.25*(-_tmp40*_tmp43*_tmp56*m - 2*_tmp43*_tmp61 + 12*_tmp43*_tmp66 - _tmp45*_tmp62 - _tmp46*_tmp62 - 8*_tmp48*_tmp61 + 12*_tmp51*_tmp54 + _tmp52*_tmp53 + _tmp52*_tmp55 + _tmp52*_tmp67 + _tmp53*_tmp66 + _tmp54*_tmp56*m**2 + _tmp55*_tmp66 - _tmp57*_tmp60 + _tmp57*_tmp65 - 192*_tmp59*_tmp69 - _tmp60*_tmp68 + 32*_tmp64*_tmp69 + _tmp65*_tmp68 + _tmp66*_tmp67)/(_tmp38*_tmp39*c_h*(-_tmp40 + _tmp41)*(_tmp43 + 2*_tmp45 + 2*_tmp46 + 4*_tmp48)), c_h.shape)
+        _tmp58 = _tmp38 * _tmp39
+        _tmp59 = _tmp58 * c_h**3
+        _tmp60 = 96 * _tmp59
+        _tmp61 = _lam_psi**2 * _tmp50 * c_h * m
+        _tmp62 = 4 * _tmp61
+        _tmp63 = _tmp41 * _tmp49
+        _tmp64 = _tmp58 * _tmp63
+        _tmp65 = 16 * _tmp64
+        _tmp66 = _tmp38 * _tmp63 * h**2
+        _tmp67 = 48 * _tmp48
+        _tmp68 = _tmp46 * _tmp47
+        _tmp69 = _tmp43 * _tmp45
+        c_m = numpy.broadcast_to(
+            -0.25
+            * (
+                -_tmp40 * _tmp43 * _tmp56 * m
+                - 2 * _tmp43 * _tmp61
+                + 12 * _tmp43 * _tmp66
+                - _tmp45 * _tmp62
+                - _tmp46 * _tmp62
+                - 8 * _tmp48 * _tmp61
+                + 12 * _tmp51 * _tmp54
+                + _tmp52 * _tmp53
+                + _tmp52 * _tmp55
+                + _tmp52 * _tmp67
+                + _tmp53 * _tmp66
+                + _tmp54 * _tmp56 * m**2
+                + _tmp55 * _tmp66
+                - _tmp57 * _tmp60
+                + _tmp57 * _tmp65
+                - 192 * _tmp59 * _tmp69
+                - _tmp60 * _tmp68
+                + 32 * _tmp64 * _tmp69
+                + _tmp65 * _tmp68
+                + _tmp66 * _tmp67
+            )
+            / (_tmp38 * _tmp39 * c_h * (-_tmp40 + _tmp41) * (_tmp43 + 2 * _tmp45 + 2 * _tmp46 + 4 * _tmp48)),
+            c_h.shape,
+        )
         _tmp70 = a**2
         _tmp71 = numpy.sin(alpha)
         _tmp72 = _tmp71**2
         _tmp73 = numpy.cos(alpha)
         _tmp74 = _tmp73**2
-        c_v = numpy.broadcast_to(-0.125*(-J_y*_lam_theta*_lam_x*m + 8*_tmp70*_tmp72*c_h**2)/(_tmp70*c_h*(2*_tmp71**4 + 4*_tmp72*_tmp74 + 2*_tmp73**4 + _tmp74)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_v = numpy.broadcast_to(
+            -0.125
+            * (-J_y * _lam_theta * _lam_x * m + 8 * _tmp70 * _tmp72 * c_h**2)
+            / (_tmp70 * c_h * (2 * _tmp71**4 + 4 * _tmp72 * _tmp74 + 2 * _tmp73**4 + _tmp74)),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta):
@@ -1270,64 +2615,151 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_x_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_theta ** 2,), (0, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_x_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (0, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
-    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_x_psi_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_x*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_x*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_x*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_x**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_x * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_x * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_x * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_x**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
         _tmp33 = numpy.sin(alpha)
         _tmp34 = _tmp33**2
-        _tmp35 = 6*c_h
-        _tmp36 = _lam_psi*m
+        _tmp35 = 6 * c_h
+        _tmp36 = _lam_psi * m
         _tmp37 = numpy.cos(alpha)
         _tmp38 = _tmp37**2
         _tmp39 = c_h**2
-        _tmp40 = 24*_tmp39
+        _tmp40 = 24 * _tmp39
         _tmp41 = a**2
         _tmp42 = _tmp33**4
         _tmp43 = _tmp37**4
-        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_psi**2*_tmp34*m - J_x*_lam_psi*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_psi*_tmp32*_tmp38*c_h*m + 4*_lam_psi*_tmp32*_tmp43*c_h*m + 4*_lam_psi*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        c_m = numpy.broadcast_to(
+            (0.5)
+            * (
+                J_x * _lam_psi**2 * _tmp34 * m
+                - J_x * _lam_psi * _tmp34 * _tmp35
+                - J_z * _lam_phi * _tmp36 * _tmp38
+                + 6 * J_z * _lam_phi * _tmp38 * c_h
+                + 2 * _lam_psi * _tmp32 * _tmp38 * c_h * m
+                + 4 * _lam_psi * _tmp32 * _tmp43 * c_h * m
+                + 4 * _lam_psi * _tmp38 * _tmp41 * c_h * m
+                - 4 * _tmp32 * _tmp36 * _tmp42 * c_h
+                - 12 * _tmp32 * _tmp38 * _tmp39
+                + 24 * _tmp32 * _tmp39 * _tmp42
+                - _tmp32 * _tmp40 * _tmp43
+                - _tmp34 * _tmp35 * _tmp36 * h**2
+                - _tmp38 * _tmp40 * _tmp41
+            )
+            / (_tmp32 * _tmp34 * (-_tmp35 + _tmp36)),
+            c_h.shape,
+        )
         _tmp44 = b**2
-        _tmp45 = _tmp44*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp45 = _tmp44 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp45 * numpy.cos(alpha) ** 2 + 2 * _tmp45 + 4 * a**2 * c_h)
+            / (_tmp44 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
@@ -1335,25 +2767,49 @@ def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
         _tmp0 = a**2
         _tmp1 = b**2
-        _tmp2 = 6*c_h
+        _tmp2 = 6 * c_h
         _tmp3 = -_tmp2
-        _tmp4 = _lam_psi*m
+        _tmp4 = _lam_psi * m
         _tmp5 = c_h**2
-        _tmp6 = 36*_tmp5
-        _tmp7 = J_x*_tmp0
-        _tmp8 = J_y*_tmp1
+        _tmp6 = 36 * _tmp5
+        _tmp7 = J_x * _tmp0
+        _tmp8 = J_y * _tmp1
         _tmp9 = _lam_psi**2
         _tmp10 = _lam_x**2
         _tmp11 = m**2
         _tmp12 = h**2
-        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_psi*_lam_x*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp9*c_h*m + J_y*_lam_psi*_tmp1*_tmp10*_tmp11 + 36*J_y*_lam_x*_tmp1*_tmp5 + 6*_lam_psi*_lam_x*_tmp0*_tmp11*_tmp12*c_h - _lam_psi*_lam_x*_tmp1*_tmp11*_tmp12*_tmp2 - _lam_psi*_tmp6*_tmp7 + 36*_lam_x*_tmp1*_tmp12*_tmp5*m - _lam_x*_tmp11*_tmp7*_tmp9 - _lam_x*_tmp2*_tmp4*_tmp8 - _tmp0*_tmp12*_tmp4*_tmp6 - _tmp10*_tmp2*_tmp8*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_lam_x*m + _tmp3)), c_h.shape)
-        _tmp13 = 6*c_h
-        _tmp14 = _lam_x*m
-        c_v = numpy.broadcast_to(-0.25*_lam_x*(J_y*_tmp13 - J_y*_tmp14 + _tmp13*h**2*m)/(a**2*(-_tmp13 + _tmp14)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_m = numpy.broadcast_to(
+            -0.5
+            * (
+                6 * J_x * _lam_psi * _lam_x * _tmp0 * c_h * m
+                + 6 * J_x * _tmp0 * _tmp9 * c_h * m
+                + J_y * _lam_psi * _tmp1 * _tmp10 * _tmp11
+                + 36 * J_y * _lam_x * _tmp1 * _tmp5
+                + 6 * _lam_psi * _lam_x * _tmp0 * _tmp11 * _tmp12 * c_h
+                - _lam_psi * _lam_x * _tmp1 * _tmp11 * _tmp12 * _tmp2
+                - _lam_psi * _tmp6 * _tmp7
+                + 36 * _lam_x * _tmp1 * _tmp12 * _tmp5 * m
+                - _lam_x * _tmp11 * _tmp7 * _tmp9
+                - _lam_x * _tmp2 * _tmp4 * _tmp8
+                - _tmp0 * _tmp12 * _tmp4 * _tmp6
+                - _tmp10 * _tmp2 * _tmp8 * m
+            )
+            / (_tmp0 * _tmp1 * (_tmp3 + _tmp4) * (_lam_x * m + _tmp3)),
+            c_h.shape,
+        )
+        _tmp13 = 6 * c_h
+        _tmp14 = _lam_x * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_x * (J_y * _tmp13 - J_y * _tmp14 + _tmp13 * h**2 * m) / (a**2 * (-_tmp13 + _tmp14)), c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi):
@@ -1390,38 +2846,99 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_x_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_x ** 2, omega_psi ** 2, omega_phi ** 2,), (0, 3, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_x_psi_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_x_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (0, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_x_psi_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_theta):
-    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_y_z_theta() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_y
+        _tmp0 = 6 * _lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_theta
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_y**2 * m + _lam_y * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_theta
         _tmp4 = h**2
-        _tmp5 = _lam_theta*m
+        _tmp5 = _lam_theta * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_theta*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_theta * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_theta**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta):
@@ -1449,22 +2966,65 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta)
-    return _runtime.solve_inverse(_roots_y_z_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_theta ** 2,), (1, 2, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_theta**2,
+        ),
+        (1, 2, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
-    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_y_z_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_y
+        _tmp0 = 6 * _lam_y
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_y**2*m + _lam_y*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_y**2 * m + _lam_y * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
         _tmp2 = b**2
-        _tmp3 = _tmp2*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp3 = _tmp2 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp3 * numpy.cos(alpha) ** 2 + 2 * _tmp3 + 4 * a**2 * c_h)
+            / (_tmp2 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi):
@@ -1492,40 +3052,107 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi)
-    return _runtime.solve_inverse(_roots_y_z_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_z ** 2, omega_phi ** 2,), (1, 2, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_z_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (1, 2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_theta):
-    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_psi_theta() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 6*m
-        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_theta
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 6 * m
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    36 * J_x + 36 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_theta
         _tmp4 = h**2
-        _tmp5 = _lam_theta*m
+        _tmp5 = _lam_theta * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_theta*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_theta * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_theta**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
         _tmp20 = b**2
-        _tmp21 = 24*_tmp20
-        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp21*c_h**2*numpy.sin(alpha)**2 + _tmp21*c_h*c_v*numpy.cos(alpha)**2)/(_tmp20*c_h), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp21 = 24 * _tmp20
+        c_m = numpy.broadcast_to(
+            -0.08333333333333333
+            * (
+                -J_x * _lam_psi * _lam_y * m
+                + _tmp21 * c_h**2 * numpy.sin(alpha) ** 2
+                + _tmp21 * c_h * c_v * numpy.cos(alpha) ** 2
+            )
+            / (_tmp20 * c_h),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta):
@@ -1553,24 +3180,73 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_y_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_theta ** 2,), (1, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_y_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (1, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_phi):
-    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_psi_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = J_x*_lam_psi
-        _tmp1 = 6*m
-        c_h = numpy.concatenate([_runtime.polynomial_roots(36*J_x + 36*h**2*m, -J_x*_lam_y*_tmp1 - _tmp0*_tmp1, _lam_y*_tmp0*m**2)])
+        _tmp0 = J_x * _lam_psi
+        _tmp1 = 6 * m
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    36 * J_x + 36 * h**2 * m, -J_x * _lam_y * _tmp1 - _tmp0 * _tmp1, _lam_y * _tmp0 * m**2
+                )
+            ]
+        )
         _tmp2 = b**2
-        _tmp3 = _tmp2*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
+        _tmp3 = _tmp2 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp3 * numpy.cos(alpha) ** 2 + 2 * _tmp3 + 4 * a**2 * c_h)
+            / (_tmp2 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
         _tmp4 = b**2
-        _tmp5 = 24*_tmp4
-        c_m = numpy.broadcast_to(-0.08333333333333333*(-J_x*_lam_psi*_lam_y*m + _tmp5*c_h**2*numpy.sin(alpha)**2 + _tmp5*c_h*c_v*numpy.cos(alpha)**2)/(_tmp4*c_h), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp5 = 24 * _tmp4
+        c_m = numpy.broadcast_to(
+            -0.08333333333333333
+            * (
+                -J_x * _lam_psi * _lam_y * m
+                + _tmp5 * c_h**2 * numpy.sin(alpha) ** 2
+                + _tmp5 * c_h * c_v * numpy.cos(alpha) ** 2
+            )
+            / (_tmp4 * c_h),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi):
@@ -1598,64 +3274,151 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_y_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_psi ** 2, omega_phi ** 2,), (1, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (1, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
-    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_y_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_theta*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_theta*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_theta * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_theta * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_theta * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_theta**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
         _tmp33 = numpy.sin(alpha)
         _tmp34 = _tmp33**2
-        _tmp35 = 6*c_h
-        _tmp36 = _lam_y*m
+        _tmp35 = 6 * c_h
+        _tmp36 = _lam_y * m
         _tmp37 = numpy.cos(alpha)
         _tmp38 = _tmp37**2
         _tmp39 = c_h**2
-        _tmp40 = 24*_tmp39
+        _tmp40 = 24 * _tmp39
         _tmp41 = a**2
         _tmp42 = _tmp33**4
         _tmp43 = _tmp37**4
-        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_y**2*_tmp34*m - J_x*_lam_y*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_y*_tmp32*_tmp38*c_h*m + 4*_lam_y*_tmp32*_tmp43*c_h*m + 4*_lam_y*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        c_m = numpy.broadcast_to(
+            (0.5)
+            * (
+                J_x * _lam_y**2 * _tmp34 * m
+                - J_x * _lam_y * _tmp34 * _tmp35
+                - J_z * _lam_phi * _tmp36 * _tmp38
+                + 6 * J_z * _lam_phi * _tmp38 * c_h
+                + 2 * _lam_y * _tmp32 * _tmp38 * c_h * m
+                + 4 * _lam_y * _tmp32 * _tmp43 * c_h * m
+                + 4 * _lam_y * _tmp38 * _tmp41 * c_h * m
+                - 4 * _tmp32 * _tmp36 * _tmp42 * c_h
+                - 12 * _tmp32 * _tmp38 * _tmp39
+                + 24 * _tmp32 * _tmp39 * _tmp42
+                - _tmp32 * _tmp40 * _tmp43
+                - _tmp34 * _tmp35 * _tmp36 * h**2
+                - _tmp38 * _tmp40 * _tmp41
+            )
+            / (_tmp32 * _tmp34 * (-_tmp35 + _tmp36)),
+            c_h.shape,
+        )
         _tmp44 = b**2
-        _tmp45 = _tmp44*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp45 = _tmp44 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp45 * numpy.cos(alpha) ** 2 + 2 * _tmp45 + 4 * a**2 * c_h)
+            / (_tmp44 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
@@ -1663,26 +3426,51 @@ def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_t
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
         _tmp0 = a**2
         _tmp1 = b**2
-        _tmp2 = 6*c_h
+        _tmp2 = 6 * c_h
         _tmp3 = -_tmp2
-        _tmp4 = _lam_theta*m
-        _tmp5 = _lam_y*m
+        _tmp4 = _lam_theta * m
+        _tmp5 = _lam_y * m
         _tmp6 = c_h**2
-        _tmp7 = 36*_tmp6
-        _tmp8 = J_x*_tmp0
-        _tmp9 = J_y*_tmp1
+        _tmp7 = 36 * _tmp6
+        _tmp8 = J_x * _tmp0
+        _tmp9 = J_y * _tmp1
         _tmp10 = _lam_y**2
         _tmp11 = _lam_theta**2
         _tmp12 = m**2
         _tmp13 = h**2
-        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_theta*_lam_y*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp10*c_h*m + 36*J_y*_lam_theta*_tmp1*_tmp6 + J_y*_lam_y*_tmp1*_tmp11*_tmp12 + 6*_lam_theta*_lam_y*_tmp0*_tmp12*_tmp13*c_h - _lam_theta*_lam_y*_tmp1*_tmp12*_tmp13*_tmp2 + 36*_lam_theta*_tmp1*_tmp13*_tmp6*m - _lam_theta*_tmp10*_tmp12*_tmp8 - _lam_y*_tmp2*_tmp4*_tmp9 - _lam_y*_tmp7*_tmp8 - _tmp0*_tmp13*_tmp5*_tmp7 - _tmp11*_tmp2*_tmp9*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_tmp3 + _tmp5)), c_h.shape)
-        _tmp14 = 6*c_h
-        _tmp15 = _lam_theta*m
-        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp14 - J_y*_tmp15 + _tmp14*h**2*m)/(a**2*(-_tmp14 + _tmp15)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_m = numpy.broadcast_to(
+            -0.5
+            * (
+                6 * J_x * _lam_theta * _lam_y * _tmp0 * c_h * m
+                + 6 * J_x * _tmp0 * _tmp10 * c_h * m
+                + 36 * J_y * _lam_theta * _tmp1 * _tmp6
+                + J_y * _lam_y * _tmp1 * _tmp11 * _tmp12
+                + 6 * _lam_theta * _lam_y * _tmp0 * _tmp12 * _tmp13 * c_h
+                - _lam_theta * _lam_y * _tmp1 * _tmp12 * _tmp13 * _tmp2
+                + 36 * _lam_theta * _tmp1 * _tmp13 * _tmp6 * m
+                - _lam_theta * _tmp10 * _tmp12 * _tmp8
+                - _lam_y * _tmp2 * _tmp4 * _tmp9
+                - _lam_y * _tmp7 * _tmp8
+                - _tmp0 * _tmp13 * _tmp5 * _tmp7
+                - _tmp11 * _tmp2 * _tmp9 * m
+            )
+            / (_tmp0 * _tmp1 * (_tmp3 + _tmp4) * (_tmp3 + _tmp5)),
+            c_h.shape,
+        )
+        _tmp14 = 6 * c_h
+        _tmp15 = _lam_theta * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_theta * (J_y * _tmp14 - J_y * _tmp15 + _tmp14 * h**2 * m) / (a**2 * (-_tmp14 + _tmp15)),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi):
@@ -1719,38 +3507,99 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_y_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_y ** 2, omega_theta ** 2, omega_phi ** 2,), (1, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_y_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_y_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_y**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (1, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_y_theta_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_theta):
-    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_psi_theta() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_psi
+        _tmp0 = 6 * _lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
-        _tmp2 = 2*c_h
-        _tmp3 = J_y*_lam_theta
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_psi**2 * m + _lam_psi * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
+        _tmp2 = 2 * c_h
+        _tmp3 = J_y * _lam_theta
         _tmp4 = h**2
-        _tmp5 = _lam_theta*m
+        _tmp5 = _lam_theta * m
         _tmp6 = numpy.cos(alpha)
         _tmp7 = _tmp6**2
-        _tmp8 = 4*c_h
+        _tmp8 = 4 * c_h
         _tmp9 = numpy.sin(alpha)
-        _tmp10 = _tmp5*_tmp6*_tmp9*a*h
+        _tmp10 = _tmp5 * _tmp6 * _tmp9 * a * h
         _tmp11 = a**2
         _tmp12 = _tmp9**2
-        _tmp13 = 8*_tmp12
-        _tmp14 = _tmp11*c_h
-        _tmp15 = 4*_tmp14
-        _tmp16 = _lam_theta*_tmp12
-        _tmp17 = _tmp16*m
-        _tmp18 = _tmp5*_tmp7
-        _tmp19 = _tmp14*_tmp7
-        c_v = numpy.broadcast_to(-0.25*(-J_y*_lam_theta**2*m - 8*_tmp10*c_h - _tmp11*_tmp13*c_h**2 + _tmp15*_tmp17 + _tmp18*_tmp4*_tmp8 + _tmp2*_tmp3 + _tmp2*_tmp4*_tmp5 + _tmp3*_tmp7*_tmp8)/(J_y*_tmp16 + 2*_tmp10 + _tmp11*_tmp18 - _tmp13*_tmp19 - _tmp15*_tmp6**4 - _tmp15*_tmp9**4 + _tmp17*_tmp4 - 2*_tmp19), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp13 = 8 * _tmp12
+        _tmp14 = _tmp11 * c_h
+        _tmp15 = 4 * _tmp14
+        _tmp16 = _lam_theta * _tmp12
+        _tmp17 = _tmp16 * m
+        _tmp18 = _tmp5 * _tmp7
+        _tmp19 = _tmp14 * _tmp7
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (
+                -J_y * _lam_theta**2 * m
+                - 8 * _tmp10 * c_h
+                - _tmp11 * _tmp13 * c_h**2
+                + _tmp15 * _tmp17
+                + _tmp18 * _tmp4 * _tmp8
+                + _tmp2 * _tmp3
+                + _tmp2 * _tmp4 * _tmp5
+                + _tmp3 * _tmp7 * _tmp8
+            )
+            / (
+                J_y * _tmp16
+                + 2 * _tmp10
+                + _tmp11 * _tmp18
+                - _tmp13 * _tmp19
+                - _tmp15 * _tmp6**4
+                - _tmp15 * _tmp9**4
+                + _tmp17 * _tmp4
+                - 2 * _tmp19
+            ),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta):
@@ -1778,22 +3627,65 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_roots_z_psi_theta, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_theta ** 2,), (2, 3, 4), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _roots_z_psi_theta,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (2, 3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_phi):
-    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...).
-    """
+    """Candidate roots of identify_z_psi_phi() in closed form, each unknown of shape (1, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        _tmp0 = 6*_lam_psi
+        _tmp0 = 6 * _lam_psi
         _tmp1 = b**2
-        c_h = numpy.concatenate([_runtime.polynomial_roots(J_x*_tmp0 - 6*_lam_z*_tmp1*m + _tmp0*h**2*m, -J_x*_lam_psi**2*m + _lam_psi*_lam_z*_tmp1*m**2)])
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    J_x * _tmp0 - 6 * _lam_z * _tmp1 * m + _tmp0 * h**2 * m,
+                    -J_x * _lam_psi**2 * m + _lam_psi * _lam_z * _tmp1 * m**2,
+                )
+            ]
+        )
         _tmp2 = b**2
-        _tmp3 = _tmp2*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp3*numpy.cos(alpha)**2 + 2*_tmp3 + 4*a**2*c_h)/(_tmp2*numpy.sin(alpha)**2), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp3 = _tmp2 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp3 * numpy.cos(alpha) ** 2 + 2 * _tmp3 + 4 * a**2 * c_h)
+            / (_tmp2 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi):
@@ -1821,52 +3713,122 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_roots_z_psi_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_psi ** 2, omega_phi ** 2,), (2, 3, 5), UNKNOWN, MODE_BLOCK, special=(), n_roots=1, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_z_psi_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (2, 3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=(),
+        n_roots=1,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
-    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_z_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_theta*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_theta*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_theta * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_theta * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_theta * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_theta**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
-        _tmp33 = _tmp32*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp33*numpy.cos(alpha)**2 + 2*_tmp33 + 4*a**2*c_h)/(_tmp32*numpy.sin(alpha)**2), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_h*numpy.sin(alpha)**2 - 2*c_v*numpy.cos(alpha)**2, c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp33 = _tmp32 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp33 * numpy.cos(alpha) ** 2 + 2 * _tmp33 + 4 * a**2 * c_h)
+            / (_tmp32 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+        c_m = numpy.broadcast_to(
+            (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_z_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
@@ -1874,12 +3836,18 @@ def _roots_z_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_t
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
-        _tmp0 = 6*c_h
-        _tmp1 = _lam_theta*m
-        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp0 - J_y*_tmp1 + _tmp0*h**2*m)/(a**2*(-_tmp0 + _tmp1)), c_h.shape)
-        c_m = numpy.broadcast_to((0.5)*_lam_z*m - 2*c_v, c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
+        _tmp0 = 6 * c_h
+        _tmp1 = _lam_theta * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_theta * (J_y * _tmp0 - J_y * _tmp1 + _tmp0 * h**2 * m) / (a**2 * (-_tmp0 + _tmp1)), c_h.shape
+        )
+        c_m = numpy.broadcast_to((0.5) * _lam_z * m - 2 * c_v, c_h.shape)
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi):
@@ -1916,64 +3884,151 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_z_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_z ** 2, omega_theta ** 2, omega_phi ** 2,), (2, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_z_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_z_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_z**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (2, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_z_theta_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
-    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...).
-    """
+    """Candidate roots of identify_psi_theta_phi() in closed form, each unknown of shape (2, ...)."""
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         _tmp0 = numpy.sin(alpha)
         _tmp1 = _tmp0**4
         _tmp2 = a**4
-        _tmp3 = 16*_tmp2
+        _tmp3 = 16 * _tmp2
         _tmp4 = numpy.cos(alpha)
         _tmp5 = _tmp4**2
-        _tmp6 = _tmp2*_tmp5
+        _tmp6 = _tmp2 * _tmp5
         _tmp7 = _tmp4**4
         _tmp8 = a**2
         _tmp9 = b**2
-        _tmp10 = _tmp8*_tmp9
-        _tmp11 = _tmp10*_tmp5
-        _tmp12 = 16*_tmp10
+        _tmp10 = _tmp8 * _tmp9
+        _tmp11 = _tmp10 * _tmp5
+        _tmp12 = 16 * _tmp10
         _tmp13 = _tmp0**2
-        _tmp14 = 32*_tmp13
-        _tmp15 = 16*_tmp11
-        _tmp16 = _tmp10*_tmp7
-        _tmp17 = 4*_tmp8
-        _tmp18 = J_y*_tmp13
-        _tmp19 = _lam_theta*_tmp18
-        _tmp20 = J_z*_lam_phi
-        _tmp21 = _tmp17*_tmp20
-        _tmp22 = 2*_tmp20
-        _tmp23 = _tmp5*_tmp8
-        _tmp24 = _lam_theta*m
-        _tmp25 = 4*_tmp24
-        _tmp26 = _tmp0*_tmp4*h
-        _tmp27 = 8*_tmp24
-        _tmp28 = _tmp9*a
-        _tmp29 = _tmp13*_tmp24*h**2
-        _tmp30 = _tmp20*_tmp23
-        _tmp31 = _tmp27*_tmp28*h
-        c_h = numpy.concatenate([_runtime.polynomial_roots(_tmp1*_tmp15 + _tmp1*_tmp3 + 4*_tmp11 + _tmp12*_tmp4**6 + _tmp12*_tmp7 + _tmp13*_tmp15 + _tmp14*_tmp16 + _tmp14*_tmp6 + _tmp3*_tmp7 + 8*_tmp6, 4*_lam_theta*_tmp1*_tmp8*_tmp9*m - _tmp0**3*_tmp31*_tmp4 - _tmp0*_tmp31*_tmp4**3 - _tmp1*_tmp21 - 2*_tmp11*_tmp24 - 8*_tmp13*_tmp30 - _tmp16*_tmp25 - _tmp17*_tmp19 - _tmp17*_tmp29 - _tmp21*_tmp7 - _tmp22*_tmp23 - _tmp25*_tmp26*_tmp28 - _tmp25*_tmp6 - _tmp26*_tmp27*a**3, -_lam_theta**2*_tmp18*_tmp9*m + _tmp19*_tmp20 + _tmp20*_tmp29 + _tmp22*_tmp24*_tmp26*a + _tmp24*_tmp30)])
+        _tmp14 = 32 * _tmp13
+        _tmp15 = 16 * _tmp11
+        _tmp16 = _tmp10 * _tmp7
+        _tmp17 = 4 * _tmp8
+        _tmp18 = J_y * _tmp13
+        _tmp19 = _lam_theta * _tmp18
+        _tmp20 = J_z * _lam_phi
+        _tmp21 = _tmp17 * _tmp20
+        _tmp22 = 2 * _tmp20
+        _tmp23 = _tmp5 * _tmp8
+        _tmp24 = _lam_theta * m
+        _tmp25 = 4 * _tmp24
+        _tmp26 = _tmp0 * _tmp4 * h
+        _tmp27 = 8 * _tmp24
+        _tmp28 = _tmp9 * a
+        _tmp29 = _tmp13 * _tmp24 * h**2
+        _tmp30 = _tmp20 * _tmp23
+        _tmp31 = _tmp27 * _tmp28 * h
+        c_h = numpy.concatenate(
+            [
+                _runtime.polynomial_roots(
+                    _tmp1 * _tmp15
+                    + _tmp1 * _tmp3
+                    + 4 * _tmp11
+                    + _tmp12 * _tmp4**6
+                    + _tmp12 * _tmp7
+                    + _tmp13 * _tmp15
+                    + _tmp14 * _tmp16
+                    + _tmp14 * _tmp6
+                    + _tmp3 * _tmp7
+                    + 8 * _tmp6,
+                    4 * _lam_theta * _tmp1 * _tmp8 * _tmp9 * m
+                    - _tmp0**3 * _tmp31 * _tmp4
+                    - _tmp0 * _tmp31 * _tmp4**3
+                    - _tmp1 * _tmp21
+                    - 2 * _tmp11 * _tmp24
+                    - 8 * _tmp13 * _tmp30
+                    - _tmp16 * _tmp25
+                    - _tmp17 * _tmp19
+                    - _tmp17 * _tmp29
+                    - _tmp21 * _tmp7
+                    - _tmp22 * _tmp23
+                    - _tmp25 * _tmp26 * _tmp28
+                    - _tmp25 * _tmp6
+                    - _tmp26 * _tmp27 * a**3,
+                    -(_lam_theta**2) * _tmp18 * _tmp9 * m
+                    + _tmp19 * _tmp20
+                    + _tmp20 * _tmp29
+                    + _tmp22 * _tmp24 * _tmp26 * a
+                    + _tmp24 * _tmp30,
+                )
+            ]
+        )
         _tmp32 = b**2
         _tmp33 = numpy.sin(alpha)
         _tmp34 = _tmp33**2
-        _tmp35 = 6*c_h
-        _tmp36 = _lam_psi*m
+        _tmp35 = 6 * c_h
+        _tmp36 = _lam_psi * m
         _tmp37 = numpy.cos(alpha)
         _tmp38 = _tmp37**2
         _tmp39 = c_h**2
-        _tmp40 = 24*_tmp39
+        _tmp40 = 24 * _tmp39
         _tmp41 = a**2
         _tmp42 = _tmp33**4
         _tmp43 = _tmp37**4
-        c_m = numpy.broadcast_to((0.5)*(J_x*_lam_psi**2*_tmp34*m - J_x*_lam_psi*_tmp34*_tmp35 - J_z*_lam_phi*_tmp36*_tmp38 + 6*J_z*_lam_phi*_tmp38*c_h + 2*_lam_psi*_tmp32*_tmp38*c_h*m + 4*_lam_psi*_tmp32*_tmp43*c_h*m + 4*_lam_psi*_tmp38*_tmp41*c_h*m - 4*_tmp32*_tmp36*_tmp42*c_h - 12*_tmp32*_tmp38*_tmp39 + 24*_tmp32*_tmp39*_tmp42 - _tmp32*_tmp40*_tmp43 - _tmp34*_tmp35*_tmp36*h**2 - _tmp38*_tmp40*_tmp41)/(_tmp32*_tmp34*(-_tmp35 + _tmp36)), c_h.shape)
+        c_m = numpy.broadcast_to(
+            (0.5)
+            * (
+                J_x * _lam_psi**2 * _tmp34 * m
+                - J_x * _lam_psi * _tmp34 * _tmp35
+                - J_z * _lam_phi * _tmp36 * _tmp38
+                + 6 * J_z * _lam_phi * _tmp38 * c_h
+                + 2 * _lam_psi * _tmp32 * _tmp38 * c_h * m
+                + 4 * _lam_psi * _tmp32 * _tmp43 * c_h * m
+                + 4 * _lam_psi * _tmp38 * _tmp41 * c_h * m
+                - 4 * _tmp32 * _tmp36 * _tmp42 * c_h
+                - 12 * _tmp32 * _tmp38 * _tmp39
+                + 24 * _tmp32 * _tmp39 * _tmp42
+                - _tmp32 * _tmp40 * _tmp43
+                - _tmp34 * _tmp35 * _tmp36 * h**2
+                - _tmp38 * _tmp40 * _tmp41
+            )
+            / (_tmp32 * _tmp34 * (-_tmp35 + _tmp36)),
+            c_h.shape,
+        )
         _tmp44 = b**2
-        _tmp45 = _tmp44*c_h
-        c_v = numpy.broadcast_to(-0.25*(-J_z*_lam_phi + 4*_tmp45*numpy.cos(alpha)**2 + 2*_tmp45 + 4*a**2*c_h)/(_tmp44*numpy.sin(alpha)**2), c_h.shape)
-    return (c_h, c_v, c_m,)
+        _tmp45 = _tmp44 * c_h
+        c_v = numpy.broadcast_to(
+            -0.25
+            * (-J_z * _lam_phi + 4 * _tmp45 * numpy.cos(alpha) ** 2 + 2 * _tmp45 + 4 * a**2 * c_h)
+            / (_tmp44 * numpy.sin(alpha) ** 2),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
@@ -1981,25 +4036,50 @@ def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _l
     there), each unknown of shape (1, ...); solved by the engine with alpha = 0.
     """
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c_h = numpy.concatenate([_runtime.polynomial_roots(4*a**2 + 6*b**2, -J_z*_lam_phi)])
+        c_h = numpy.concatenate([_runtime.polynomial_roots(4 * a**2 + 6 * b**2, -J_z * _lam_phi)])
         _tmp0 = a**2
         _tmp1 = b**2
-        _tmp2 = 6*c_h
+        _tmp2 = 6 * c_h
         _tmp3 = -_tmp2
-        _tmp4 = _lam_psi*m
+        _tmp4 = _lam_psi * m
         _tmp5 = c_h**2
-        _tmp6 = 36*_tmp5
-        _tmp7 = J_x*_tmp0
-        _tmp8 = J_y*_tmp1
+        _tmp6 = 36 * _tmp5
+        _tmp7 = J_x * _tmp0
+        _tmp8 = J_y * _tmp1
         _tmp9 = _lam_psi**2
         _tmp10 = _lam_theta**2
         _tmp11 = m**2
         _tmp12 = h**2
-        c_m = numpy.broadcast_to(-0.5*(6*J_x*_lam_psi*_lam_theta*_tmp0*c_h*m + 6*J_x*_tmp0*_tmp9*c_h*m + J_y*_lam_psi*_tmp1*_tmp10*_tmp11 + 36*J_y*_lam_theta*_tmp1*_tmp5 + 6*_lam_psi*_lam_theta*_tmp0*_tmp11*_tmp12*c_h - _lam_psi*_lam_theta*_tmp1*_tmp11*_tmp12*_tmp2 - _lam_psi*_tmp6*_tmp7 + 36*_lam_theta*_tmp1*_tmp12*_tmp5*m - _lam_theta*_tmp11*_tmp7*_tmp9 - _lam_theta*_tmp2*_tmp4*_tmp8 - _tmp0*_tmp12*_tmp4*_tmp6 - _tmp10*_tmp2*_tmp8*m)/(_tmp0*_tmp1*(_tmp3 + _tmp4)*(_lam_theta*m + _tmp3)), c_h.shape)
-        _tmp13 = 6*c_h
-        _tmp14 = _lam_theta*m
-        c_v = numpy.broadcast_to(-0.25*_lam_theta*(J_y*_tmp13 - J_y*_tmp14 + _tmp13*h**2*m)/(a**2*(-_tmp13 + _tmp14)), c_h.shape)
-    return (c_h, c_v, c_m,)
+        c_m = numpy.broadcast_to(
+            -0.5
+            * (
+                6 * J_x * _lam_psi * _lam_theta * _tmp0 * c_h * m
+                + 6 * J_x * _tmp0 * _tmp9 * c_h * m
+                + J_y * _lam_psi * _tmp1 * _tmp10 * _tmp11
+                + 36 * J_y * _lam_theta * _tmp1 * _tmp5
+                + 6 * _lam_psi * _lam_theta * _tmp0 * _tmp11 * _tmp12 * c_h
+                - _lam_psi * _lam_theta * _tmp1 * _tmp11 * _tmp12 * _tmp2
+                - _lam_psi * _tmp6 * _tmp7
+                + 36 * _lam_theta * _tmp1 * _tmp12 * _tmp5 * m
+                - _lam_theta * _tmp11 * _tmp7 * _tmp9
+                - _lam_theta * _tmp2 * _tmp4 * _tmp8
+                - _tmp0 * _tmp12 * _tmp4 * _tmp6
+                - _tmp10 * _tmp2 * _tmp8 * m
+            )
+            / (_tmp0 * _tmp1 * (_tmp3 + _tmp4) * (_lam_theta * m + _tmp3)),
+            c_h.shape,
+        )
+        _tmp13 = 6 * c_h
+        _tmp14 = _lam_theta * m
+        c_v = numpy.broadcast_to(
+            -0.25 * _lam_theta * (J_y * _tmp13 - J_y * _tmp14 + _tmp13 * h**2 * m) / (a**2 * (-_tmp13 + _tmp14)),
+            c_h.shape,
+        )
+    return (
+        c_h,
+        c_v,
+        c_m,
+    )
 
 
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi):
@@ -2036,8 +4116,34 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_roots_psi_theta_phi, _model, (m, J_x, J_y, J_z, a, b, h, alpha,), (omega_psi ** 2, omega_theta ** 2, omega_phi ** 2,), (3, 4, 5), UNKNOWN, MODE_BLOCK, special=((7, _roots_psi_theta_phi__alpha_0), ), n_roots=2, start=(150000.0, 600000.0, 400000.0))
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _roots_psi_theta_phi,
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            alpha,
+        ),
+        (
+            omega_psi**2,
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (3, 4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        special=((7, _roots_psi_theta_phi__alpha_0),),
+        n_roots=2,
+        start=(150000.0, 600000.0, 400000.0),
+    )
 
 
 def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
@@ -2059,13 +4165,50 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
-    _tmp0 = dy_com*m
-    _tmp1 = dx_com*m
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com
+    )
+    _tmp0 = dy_com * m
+    _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*dx_com, (4, 4): _tmp3*m, (5, 5): m*(_tmp2 + _tmp3)}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 5): -_tmp0,
+                (1, 5): _tmp1,
+                (2, 3): _tmp0,
+                (2, 4): -_tmp1,
+                (3, 3): _tmp2 * m,
+                (3, 4): -_tmp0 * dx_com,
+                (4, 4): _tmp3 * m,
+                (5, 5): m * (_tmp2 + _tmp3),
+            },
+        ),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
@@ -2116,27 +4259,93 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
     _tmp13 = -m
-    _tmp14 = dy_com*m
-    _tmp15 = dx_com*m
-    _tmp16 = 2*_tmp15
-    _tmp17 = 2*_tmp14
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dx_com), numpy.shape(dy_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp13, (3, 4): -_tmp14, (4, 4): _tmp16, (5, 5): _tmp16}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp13, (2, 3): m, (3, 3): _tmp17, (3, 4): -_tmp15, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp14 = dy_com * m
+    _tmp15 = dx_com * m
+    _tmp16 = 2 * _tmp15
+    _tmp17 = 2 * _tmp14
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 5): m, (2, 4): _tmp13, (3, 4): -_tmp14, (4, 4): _tmp16, (5, 5): _tmp16}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 5): _tmp13, (2, 3): m, (3, 3): _tmp17, (3, 4): -_tmp15, (5, 5): _tmp17}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
@@ -2154,11 +4363,34 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
-    _tmp0 = dz_com*m
-    _tmp1 = dz_com**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com
+    )
+    _tmp0 = dz_com * m
+    _tmp1 = dz_com**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(dz_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
@@ -2200,23 +4432,81 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
-    _tmp13 = 2*dz_com*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(dz_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
+    _tmp13 = 2 * dz_com * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(dz_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp13, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
@@ -2233,16 +4523,50 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m,
           [theta, theta] = 6*k_bend
           [phi, phi] = 2*(k_torsion + 2*k_bend - 2*k_bend*cos(alpha)**2 + 2*k_torsion*cos(alpha)**2)
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
-    _tmp0 = numpy.sin(alpha)**2
-    _tmp1 = 2*k_bend
-    _tmp2 = 2*k_torsion
-    _tmp3 = numpy.cos(alpha)**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): -2*_tmp0*_tmp1 + 2*_tmp0*_tmp2 + 6*k_bend, (4, 4): 6*k_bend, (5, 5): -2*_tmp1*_tmp3 + 2*_tmp1 + 2*_tmp2*_tmp3 + 2*k_torsion}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
+    )
+    _tmp0 = numpy.sin(alpha) ** 2
+    _tmp1 = 2 * k_bend
+    _tmp2 = 2 * k_torsion
+    _tmp3 = numpy.cos(alpha) ** 2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (3, 3): -2 * _tmp0 * _tmp1 + 2 * _tmp0 * _tmp2 + 6 * k_bend,
+                (4, 4): 6 * k_bend,
+                (5, 5): -2 * _tmp1 * _tmp3 + 2 * _tmp1 + 2 * _tmp2 * _tmp3 + 2 * k_torsion,
+            },
+        ),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
-def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
+def effect_rotational_stiffness_derivatives(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
+):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
     shape (..., 5, 3, 6, 6), differentiated by sympy.
 
@@ -2285,23 +4609,85 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_
           [phi, phi] = 2 + 4*cos(alpha)**2
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = _tmp1 + 2
     _tmp3 = numpy.sin(alpha)
-    _tmp4 = _tmp0*_tmp3*a
-    _tmp5 = 4*_tmp4
-    _tmp6 = 4*_tmp3**2
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = 4 * _tmp3**2
     _tmp7 = h**2
     _tmp8 = b**2
-    _tmp9 = _tmp6*_tmp8
-    _tmp10 = 8*_tmp4*h
+    _tmp9 = _tmp6 * _tmp8
+    _tmp10 = 8 * _tmp4 * h
     _tmp11 = a**2
-    _tmp12 = 2*_tmp8
-    _tmp13 = _tmp1*_tmp8
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp2, (0, 4): -_tmp1*h + _tmp5 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp6, (3, 3): 6*_tmp7 + _tmp9, (4, 4): _tmp1*_tmp7 - _tmp10 + _tmp11*_tmp6 + 2*_tmp7, (5, 5): 4*_tmp11 + _tmp12 + _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 4): -_tmp5 - _tmp6*h, (2, 2): _tmp1, (3, 3): _tmp13, (4, 4): _tmp1*_tmp11 + _tmp10 + _tmp6*_tmp7, (5, 5): _tmp9}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp6, (4, 4): 6, (5, 5): 4 - _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (5, 5): _tmp2}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp12 = 2 * _tmp8
+    _tmp13 = _tmp1 * _tmp8
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp2,
+                    (0, 4): -_tmp1 * h + _tmp5 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp6,
+                    (3, 3): 6 * _tmp7 + _tmp9,
+                    (4, 4): _tmp1 * _tmp7 - _tmp10 + _tmp11 * _tmp6 + 2 * _tmp7,
+                    (5, 5): 4 * _tmp11 + _tmp12 + _tmp13,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp6,
+                    (0, 4): -_tmp5 - _tmp6 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp13,
+                    (4, 4): _tmp1 * _tmp11 + _tmp10 + _tmp6 * _tmp7,
+                    (5, 5): _tmp9,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp12}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp6, (4, 4): 6, (5, 5): 4 - _tmp1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
@@ -2375,68 +4761,183 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta_found, theta_found] = 4*a**2*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
           [phi_found, phi_found] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found
+    )
     _tmp0 = b**2
     _tmp1 = h**2
     _tmp2 = a**2
-    _tmp3 = m_found*(_tmp0 + _tmp1 + (0.6666666666666666)*_tmp2)
+    _tmp3 = m_found * (_tmp0 + _tmp1 + (0.6666666666666666) * _tmp2)
     _tmp4 = numpy.cos(alpha)
     _tmp5 = _tmp4**2
-    _tmp6 = 2*c_h
+    _tmp6 = 2 * c_h
     _tmp7 = numpy.sin(alpha)
     _tmp8 = _tmp7**2
-    _tmp9 = 2*c_v
-    _tmp10 = _tmp8*_tmp9
-    _tmp11 = 2*_tmp10 + 2*_tmp5*_tmp6 + 2*c_h
-    _tmp12 = c_h*h
-    _tmp13 = 2*_tmp5
-    _tmp14 = _tmp4*_tmp7
-    _tmp15 = _tmp14*a
-    _tmp16 = _tmp10*h + _tmp12*_tmp13 + _tmp12 + _tmp15*_tmp9 - 2*_tmp4*_tmp7*a*c_h
+    _tmp9 = 2 * c_v
+    _tmp10 = _tmp8 * _tmp9
+    _tmp11 = 2 * _tmp10 + 2 * _tmp5 * _tmp6 + 2 * c_h
+    _tmp12 = c_h * h
+    _tmp13 = 2 * _tmp5
+    _tmp14 = _tmp4 * _tmp7
+    _tmp15 = _tmp14 * a
+    _tmp16 = _tmp10 * h + _tmp12 * _tmp13 + _tmp12 + _tmp15 * _tmp9 - 2 * _tmp4 * _tmp7 * a * c_h
     _tmp17 = c_h - c_v
-    _tmp18 = 4*a
-    _tmp19 = _tmp14*_tmp18
-    _tmp20 = 6*c_h
-    _tmp21 = 6*_tmp12
-    _tmp22 = _tmp6*_tmp8
-    _tmp23 = _tmp5*_tmp9
+    _tmp18 = 4 * a
+    _tmp19 = _tmp14 * _tmp18
+    _tmp20 = 6 * c_h
+    _tmp21 = 6 * _tmp12
+    _tmp22 = _tmp6 * _tmp8
+    _tmp23 = _tmp5 * _tmp9
     _tmp24 = _tmp22 + _tmp23
     _tmp25 = _tmp24 + c_m
-    _tmp26 = 2*_tmp25
-    _tmp27 = _tmp1*c_h
-    _tmp28 = _tmp0*c_h
-    _tmp29 = 2*_tmp28
-    _tmp30 = 2*_tmp0
-    _tmp31 = _tmp14*h
-    _tmp32 = _tmp31*c_v
-    _tmp33 = _tmp8*c_h
-    _tmp34 = _tmp5*c_v
-    _tmp35 = 2*_tmp0*_tmp10 + 2*_tmp2*_tmp6 + 2*_tmp28 + 2*_tmp29*_tmp5
-    _tmp36 = (0.5)*k_found
-    _tmp37 = 4*c_h
-    _tmp38 = 4*_tmp8*c_v
-    _tmp39 = 4*_tmp33 + 4*_tmp34 + 2*c_m + k_found
-    _tmp40 = (0.3333333333333333)*k_found
-    _tmp41 = 2*_tmp2
-    _tmp42 = 2*_tmp8
-    _tmp43 = _tmp42*b_v
-    _tmp44 = 2*_tmp13*b_h + 2*_tmp43 + 2*b_h
-    _tmp45 = b_h*h
-    _tmp46 = _tmp13*_tmp45 + 2*_tmp15*b_v - 2*_tmp4*_tmp7*a*b_h + _tmp43*h + _tmp45
+    _tmp26 = 2 * _tmp25
+    _tmp27 = _tmp1 * c_h
+    _tmp28 = _tmp0 * c_h
+    _tmp29 = 2 * _tmp28
+    _tmp30 = 2 * _tmp0
+    _tmp31 = _tmp14 * h
+    _tmp32 = _tmp31 * c_v
+    _tmp33 = _tmp8 * c_h
+    _tmp34 = _tmp5 * c_v
+    _tmp35 = 2 * _tmp0 * _tmp10 + 2 * _tmp2 * _tmp6 + 2 * _tmp28 + 2 * _tmp29 * _tmp5
+    _tmp36 = (0.5) * k_found
+    _tmp37 = 4 * c_h
+    _tmp38 = 4 * _tmp8 * c_v
+    _tmp39 = 4 * _tmp33 + 4 * _tmp34 + 2 * c_m + k_found
+    _tmp40 = (0.3333333333333333) * k_found
+    _tmp41 = 2 * _tmp2
+    _tmp42 = 2 * _tmp8
+    _tmp43 = _tmp42 * b_v
+    _tmp44 = 2 * _tmp13 * b_h + 2 * _tmp43 + 2 * b_h
+    _tmp45 = b_h * h
+    _tmp46 = _tmp13 * _tmp45 + 2 * _tmp15 * b_v - 2 * _tmp4 * _tmp7 * a * b_h + _tmp43 * h + _tmp45
     _tmp47 = b_h - b_v
-    _tmp48 = 6*b_h
-    _tmp49 = 6*_tmp45
-    _tmp50 = _tmp8*b_h
-    _tmp51 = _tmp5*b_v
-    _tmp52 = 2*_tmp50 + 2*_tmp51 + b_m
-    _tmp53 = 2*_tmp52
-    _tmp54 = _tmp1*b_h
-    _tmp55 = _tmp0*b_h
-    _tmp56 = _tmp30*_tmp52
-    _tmp57 = _tmp31*b_v
-    _tmp58 = 2*_tmp13*_tmp55 + 2*_tmp30*_tmp8*b_v + 2*_tmp41*b_h + 2*_tmp55
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp3, (10, 10): _tmp3, (11, 11): _tmp3}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp11, (0, 4): -2*_tmp16, (0, 6): -_tmp11, (0, 10): -_tmp17*_tmp19, (1, 1): _tmp20, (1, 3): _tmp21, (1, 7): -_tmp20, (2, 2): _tmp26, (2, 8): -_tmp26, (3, 3): 2*_tmp0*_tmp23 + 2*_tmp0*c_m + 6*_tmp27 + 2*_tmp29*_tmp8, (3, 7): -_tmp21, (3, 9): -_tmp25*_tmp30, (4, 4): 2*_tmp1*_tmp10 - 2*_tmp12*_tmp14*_tmp18 + 2*_tmp13*_tmp27 + 2*_tmp18*_tmp32 + 2*_tmp2*_tmp22 + 2*_tmp2*_tmp23 + 2*_tmp27, (4, 6): 2*_tmp16, (4, 10): _tmp18*(-_tmp32 - _tmp33*a - _tmp34*a + _tmp4*_tmp7*c_h*h), (5, 5): _tmp35, (5, 11): -_tmp35, (6, 6): _tmp36 + _tmp37*_tmp5 + _tmp38 + _tmp6, (6, 10): _tmp17*_tmp19, (7, 7): _tmp20 + _tmp36, (8, 8): _tmp39, (9, 9): _tmp0*_tmp39, (10, 10): _tmp41*(_tmp24 + _tmp40), (11, 11): _tmp0*_tmp36 + _tmp0*_tmp38 + _tmp2*_tmp37 + _tmp2*_tmp40 + 4*_tmp28*_tmp5 + _tmp29}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp44, (0, 4): -2*_tmp46, (0, 6): -_tmp44, (0, 10): -_tmp19*_tmp47, (1, 1): _tmp48, (1, 3): _tmp49, (1, 7): -_tmp48, (2, 2): _tmp53, (2, 8): -_tmp53, (3, 3): 2*_tmp0*b_m + 2*_tmp30*_tmp51 + 2*_tmp42*_tmp55 + 6*_tmp54, (3, 7): -_tmp49, (3, 9): -_tmp56, (4, 4): 2*_tmp1*_tmp43 + 2*_tmp13*_tmp54 - 2*_tmp14*_tmp18*_tmp45 + 2*_tmp18*_tmp57 + 2*_tmp41*_tmp50 + 2*_tmp41*_tmp51 + 2*_tmp54, (4, 6): 2*_tmp46, (4, 10): _tmp18*(_tmp4*_tmp7*b_h*h - _tmp50*a - _tmp51*a - _tmp57), (5, 5): _tmp58, (5, 11): -_tmp58, (6, 6): _tmp44, (6, 10): _tmp19*_tmp47, (7, 7): _tmp48, (8, 8): _tmp53, (9, 9): _tmp56, (10, 10): 4*_tmp2*(_tmp50 + _tmp51), (11, 11): _tmp58}))
+    _tmp48 = 6 * b_h
+    _tmp49 = 6 * _tmp45
+    _tmp50 = _tmp8 * b_h
+    _tmp51 = _tmp5 * b_v
+    _tmp52 = 2 * _tmp50 + 2 * _tmp51 + b_m
+    _tmp53 = 2 * _tmp52
+    _tmp54 = _tmp1 * b_h
+    _tmp55 = _tmp0 * b_h
+    _tmp56 = _tmp30 * _tmp52
+    _tmp57 = _tmp31 * b_v
+    _tmp58 = 2 * _tmp13 * _tmp55 + 2 * _tmp30 * _tmp8 * b_v + 2 * _tmp41 * b_h + 2 * _tmp55
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return (
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): m,
+                (1, 1): m,
+                (2, 2): m,
+                (3, 3): J_x,
+                (4, 4): J_y,
+                (5, 5): J_z,
+                (6, 6): m_found,
+                (7, 7): m_found,
+                (8, 8): m_found,
+                (9, 9): _tmp3,
+                (10, 10): _tmp3,
+                (11, 11): _tmp3,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp11,
+                (0, 4): -2 * _tmp16,
+                (0, 6): -_tmp11,
+                (0, 10): -_tmp17 * _tmp19,
+                (1, 1): _tmp20,
+                (1, 3): _tmp21,
+                (1, 7): -_tmp20,
+                (2, 2): _tmp26,
+                (2, 8): -_tmp26,
+                (3, 3): 2 * _tmp0 * _tmp23 + 2 * _tmp0 * c_m + 6 * _tmp27 + 2 * _tmp29 * _tmp8,
+                (3, 7): -_tmp21,
+                (3, 9): -_tmp25 * _tmp30,
+                (4, 4): 2 * _tmp1 * _tmp10
+                - 2 * _tmp12 * _tmp14 * _tmp18
+                + 2 * _tmp13 * _tmp27
+                + 2 * _tmp18 * _tmp32
+                + 2 * _tmp2 * _tmp22
+                + 2 * _tmp2 * _tmp23
+                + 2 * _tmp27,
+                (4, 6): 2 * _tmp16,
+                (4, 10): _tmp18 * (-_tmp32 - _tmp33 * a - _tmp34 * a + _tmp4 * _tmp7 * c_h * h),
+                (5, 5): _tmp35,
+                (5, 11): -_tmp35,
+                (6, 6): _tmp36 + _tmp37 * _tmp5 + _tmp38 + _tmp6,
+                (6, 10): _tmp17 * _tmp19,
+                (7, 7): _tmp20 + _tmp36,
+                (8, 8): _tmp39,
+                (9, 9): _tmp0 * _tmp39,
+                (10, 10): _tmp41 * (_tmp24 + _tmp40),
+                (11, 11): _tmp0 * _tmp36
+                + _tmp0 * _tmp38
+                + _tmp2 * _tmp37
+                + _tmp2 * _tmp40
+                + 4 * _tmp28 * _tmp5
+                + _tmp29,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp44,
+                (0, 4): -2 * _tmp46,
+                (0, 6): -_tmp44,
+                (0, 10): -_tmp19 * _tmp47,
+                (1, 1): _tmp48,
+                (1, 3): _tmp49,
+                (1, 7): -_tmp48,
+                (2, 2): _tmp53,
+                (2, 8): -_tmp53,
+                (3, 3): 2 * _tmp0 * b_m + 2 * _tmp30 * _tmp51 + 2 * _tmp42 * _tmp55 + 6 * _tmp54,
+                (3, 7): -_tmp49,
+                (3, 9): -_tmp56,
+                (4, 4): 2 * _tmp1 * _tmp43
+                + 2 * _tmp13 * _tmp54
+                - 2 * _tmp14 * _tmp18 * _tmp45
+                + 2 * _tmp18 * _tmp57
+                + 2 * _tmp41 * _tmp50
+                + 2 * _tmp41 * _tmp51
+                + 2 * _tmp54,
+                (4, 6): 2 * _tmp46,
+                (4, 10): _tmp18 * (_tmp4 * _tmp7 * b_h * h - _tmp50 * a - _tmp51 * a - _tmp57),
+                (5, 5): _tmp58,
+                (5, 11): -_tmp58,
+                (6, 6): _tmp44,
+                (6, 10): _tmp19 * _tmp47,
+                (7, 7): _tmp48,
+                (8, 8): _tmp53,
+                (9, 9): _tmp56,
+                (10, 10): 4 * _tmp2 * (_tmp50 + _tmp51),
+                (11, 11): _tmp58,
+            },
+        ),
+    )
 
 
 def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
@@ -2522,38 +5023,144 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [phi_found, phi_found] = b**2/2 + a**2/3
         dB/dk_found:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found
+    )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
-    _tmp2 = 4*_tmp1
+    _tmp2 = 4 * _tmp1
     _tmp3 = _tmp2 + 2
     _tmp4 = numpy.sin(alpha)
-    _tmp5 = _tmp0*_tmp4
-    _tmp6 = 4*a
-    _tmp7 = _tmp5*_tmp6
+    _tmp5 = _tmp0 * _tmp4
+    _tmp6 = 4 * a
+    _tmp7 = _tmp5 * _tmp6
     _tmp8 = -_tmp7
-    _tmp9 = _tmp2*h + _tmp8 + 2*h
-    _tmp10 = 6*h
+    _tmp9 = _tmp2 * h + _tmp8 + 2 * h
+    _tmp10 = 6 * h
     _tmp11 = _tmp4**2
-    _tmp12 = 4*_tmp11
+    _tmp12 = 4 * _tmp11
     _tmp13 = -_tmp12
     _tmp14 = h**2
     _tmp15 = b**2
-    _tmp16 = _tmp12*_tmp15
+    _tmp16 = _tmp12 * _tmp15
     _tmp17 = -_tmp16
-    _tmp18 = _tmp5*h
-    _tmp19 = 8*_tmp18*a
+    _tmp18 = _tmp5 * h
+    _tmp19 = 8 * _tmp18 * a
     _tmp20 = a**2
-    _tmp21 = _tmp12*_tmp20
-    _tmp22 = 2*_tmp15
-    _tmp23 = _tmp15*_tmp2
-    _tmp24 = 4*_tmp20 + _tmp22 + _tmp23
-    _tmp25 = _tmp12*h + _tmp7
-    _tmp26 = _tmp2*_tmp20
-    _tmp27 = (0.6666666666666666)*_tmp20
+    _tmp21 = _tmp12 * _tmp20
+    _tmp22 = 2 * _tmp15
+    _tmp23 = _tmp15 * _tmp2
+    _tmp24 = 4 * _tmp20 + _tmp22 + _tmp23
+    _tmp25 = _tmp12 * h + _tmp7
+    _tmp26 = _tmp2 * _tmp20
+    _tmp27 = (0.6666666666666666) * _tmp20
     _tmp28 = _tmp14 + _tmp15 + _tmp27
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_found), numpy.shape(k_found))
-    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp3, (0, 4): -_tmp9, (0, 6): -_tmp3, (0, 10): _tmp8, (1, 1): 6, (1, 3): _tmp10, (1, 7): -6, (2, 2): _tmp12, (2, 8): _tmp13, (3, 3): 6*_tmp14 + _tmp16, (3, 7): -_tmp10, (3, 9): _tmp17, (4, 4): _tmp14*_tmp2 + 2*_tmp14 - _tmp19 + _tmp21, (4, 6): _tmp9, (4, 10): _tmp6*(-_tmp11*a + _tmp18), (5, 5): _tmp24, (5, 11): -_tmp24, (6, 6): _tmp3, (6, 10): _tmp7, (7, 7): 6, (8, 8): _tmp12, (9, 9): _tmp16, (10, 10): _tmp21, (11, 11): _tmp24}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp12, (0, 4): -_tmp25, (0, 6): _tmp13, (0, 10): _tmp7, (2, 2): _tmp2, (2, 8): -_tmp2, (3, 3): _tmp23, (3, 9): -_tmp23, (4, 4): _tmp12*_tmp14 + _tmp19 + _tmp26, (4, 6): _tmp25, (4, 10): _tmp6*(-_tmp1*a - _tmp18), (5, 5): _tmp16, (5, 11): _tmp17, (6, 6): _tmp12, (6, 10): _tmp8, (8, 8): _tmp2, (9, 9): _tmp23, (10, 10): _tmp26, (11, 11): _tmp16}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp22, (3, 9): -_tmp22, (8, 8): 2, (9, 9): _tmp22}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp28, (10, 10): _tmp28, (11, 11): _tmp28}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp15, (10, 10): _tmp27, (11, 11): (0.5)*_tmp15 + (0.3333333333333333)*_tmp20}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 5, 3, 12, 12)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): _tmp3,
+                    (0, 4): -_tmp9,
+                    (0, 6): -_tmp3,
+                    (0, 10): _tmp8,
+                    (1, 1): 6,
+                    (1, 3): _tmp10,
+                    (1, 7): -6,
+                    (2, 2): _tmp12,
+                    (2, 8): _tmp13,
+                    (3, 3): 6 * _tmp14 + _tmp16,
+                    (3, 7): -_tmp10,
+                    (3, 9): _tmp17,
+                    (4, 4): _tmp14 * _tmp2 + 2 * _tmp14 - _tmp19 + _tmp21,
+                    (4, 6): _tmp9,
+                    (4, 10): _tmp6 * (-_tmp11 * a + _tmp18),
+                    (5, 5): _tmp24,
+                    (5, 11): -_tmp24,
+                    (6, 6): _tmp3,
+                    (6, 10): _tmp7,
+                    (7, 7): 6,
+                    (8, 8): _tmp12,
+                    (9, 9): _tmp16,
+                    (10, 10): _tmp21,
+                    (11, 11): _tmp24,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): _tmp12,
+                    (0, 4): -_tmp25,
+                    (0, 6): _tmp13,
+                    (0, 10): _tmp7,
+                    (2, 2): _tmp2,
+                    (2, 8): -_tmp2,
+                    (3, 3): _tmp23,
+                    (3, 9): -_tmp23,
+                    (4, 4): _tmp12 * _tmp14 + _tmp19 + _tmp26,
+                    (4, 6): _tmp25,
+                    (4, 10): _tmp6 * (-_tmp1 * a - _tmp18),
+                    (5, 5): _tmp16,
+                    (5, 11): _tmp17,
+                    (6, 6): _tmp12,
+                    (6, 10): _tmp8,
+                    (8, 8): _tmp2,
+                    (9, 9): _tmp23,
+                    (10, 10): _tmp26,
+                    (11, 11): _tmp16,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp22, (3, 9): -_tmp22, (8, 8): 2, (9, 9): _tmp22}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp28, (10, 10): _tmp28, (11, 11): _tmp28}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): 0.5,
+                    (7, 7): 0.5,
+                    (8, 8): 1,
+                    (9, 9): _tmp15,
+                    (10, 10): _tmp27,
+                    (11, 11): (0.5) * _tmp15 + (0.3333333333333333) * _tmp20,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
@@ -2574,11 +5181,47 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta, theta] = m_added*h_added**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added)
-    _tmp0 = h_added*m_added
-    _tmp1 = h_added**2*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_added), numpy.shape(h_added))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added
+    )
+    _tmp0 = h_added * m_added
+    _tmp1 = h_added**2 * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 0): m_added,
+                (0, 4): _tmp0,
+                (1, 1): m_added,
+                (1, 3): -_tmp0,
+                (2, 2): m_added,
+                (3, 3): _tmp1,
+                (4, 4): _tmp1,
+            },
+        ),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
 def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
@@ -2630,24 +5273,90 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dC/dh_added:
         dB/dh_added:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
     _tmp13 = h_added**2
-    _tmp14 = 2*h_added*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(m_added), numpy.shape(h_added))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp14, (4, 4): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp14 = 2 * h_added * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp13, (4, 4): _tmp13},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp14, (4, 4): _tmp14}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
@@ -2664,9 +5373,33 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
+        + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt * k_belt, (4, 4): h_belt**2 * k_belt}),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
@@ -2712,22 +5445,84 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(k_belt), numpy.shape(h_belt))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 5, 3, 6, 6)
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
@@ -2743,10 +5538,33 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h,
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
-    _tmp0 = -9.80665*h_preload*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
-    return (mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, alpha, b_h, b_v, b_m))
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload
+    )
+    _tmp0 = -9.80665 * h_preload * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(h_preload),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
+        + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
+        damping_matrix(a, b, h, alpha, b_h, b_v, b_m),
+    )
 
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
@@ -2786,23 +5604,81 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload
+    )
     _tmp0 = numpy.cos(alpha)
-    _tmp1 = 4*_tmp0**2
+    _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2*a
-    _tmp4 = 4*_tmp3
-    _tmp5 = 4*_tmp2**2
+    _tmp3 = _tmp0 * _tmp2 * a
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 4 * _tmp2**2
     _tmp6 = h**2
     _tmp7 = b**2
-    _tmp8 = _tmp5*_tmp7
-    _tmp9 = 8*_tmp3*h
+    _tmp8 = _tmp5 * _tmp7
+    _tmp9 = 8 * _tmp3 * h
     _tmp10 = a**2
-    _tmp11 = 2*_tmp7
-    _tmp12 = _tmp1*_tmp7
-    _tmp13 = -9.80665*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m), numpy.shape(b_h), numpy.shape(b_v), numpy.shape(b_m), numpy.shape(h_preload))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1 + 2, (0, 4): -_tmp1*h + _tmp4 - 2*h, (1, 1): 6, (1, 3): 6*h, (2, 2): _tmp5, (3, 3): 6*_tmp6 + _tmp8, (4, 4): _tmp1*_tmp6 + _tmp10*_tmp5 + 2*_tmp6 - _tmp9, (5, 5): 4*_tmp10 + _tmp11 + _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp5, (0, 4): -_tmp4 - _tmp5*h, (2, 2): _tmp1, (3, 3): _tmp12, (4, 4): _tmp1*_tmp10 + _tmp5*_tmp6 + _tmp9, (5, 5): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp13, (4, 4): _tmp13}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp11 = 2 * _tmp7
+    _tmp12 = _tmp1 * _tmp7
+    _tmp13 = -9.80665 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+        numpy.shape(b_h),
+        numpy.shape(b_v),
+        numpy.shape(b_m),
+        numpy.shape(h_preload),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1 + 2,
+                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (1, 1): 6,
+                    (1, 3): 6 * h,
+                    (2, 2): _tmp5,
+                    (3, 3): 6 * _tmp6 + _tmp8,
+                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
+                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp5,
+                    (0, 4): -_tmp4 - _tmp5 * h,
+                    (2, 2): _tmp1,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
+                    (5, 5): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp13, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
@@ -2915,55 +5791,197 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
     a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
-    _tmp2 = _tmp1*c_h
+    _tmp2 = _tmp1 * c_h
     _tmp3 = numpy.sin(alpha)
     _tmp4 = _tmp3**2
-    _tmp5 = _tmp4*c_v
+    _tmp5 = _tmp4 * c_v
     _tmp6 = _tmp2 + _tmp5
     _tmp7 = c_h - c_v
-    _tmp8 = _tmp0*_tmp3
-    _tmp9 = -_tmp7*_tmp8
-    _tmp10 = _tmp9*b
-    _tmp11 = _tmp8*c_v
-    _tmp12 = _tmp11*a
-    _tmp13 = -_tmp0*_tmp3*a*c_h + _tmp12 + _tmp2*h + _tmp5*h
+    _tmp8 = _tmp0 * _tmp3
+    _tmp9 = -_tmp7 * _tmp8
+    _tmp10 = _tmp9 * b
+    _tmp11 = _tmp8 * c_v
+    _tmp12 = _tmp11 * a
+    _tmp13 = -_tmp0 * _tmp3 * a * c_h + _tmp12 + _tmp2 * h + _tmp5 * h
     _tmp14 = -_tmp13
-    _tmp15 = _tmp6*b
+    _tmp15 = _tmp6 * b
     _tmp16 = -_tmp15
-    _tmp17 = c_h*h
-    _tmp18 = a*c_h
-    _tmp19 = _tmp4*c_h
-    _tmp20 = _tmp1*c_v
+    _tmp17 = c_h * h
+    _tmp18 = a * c_h
+    _tmp19 = _tmp4 * c_h
+    _tmp20 = _tmp1 * c_v
     _tmp21 = _tmp19 + _tmp20
-    _tmp22 = _tmp21*b
-    _tmp23 = -_tmp0*_tmp3*c_h*h + _tmp11*h + _tmp18*_tmp4 + _tmp20*a
+    _tmp22 = _tmp21 * b
+    _tmp23 = -_tmp0 * _tmp3 * c_h * h + _tmp11 * h + _tmp18 * _tmp4 + _tmp20 * a
     _tmp24 = -_tmp23
-    _tmp25 = _tmp7*_tmp8
-    _tmp26 = _tmp25*b
+    _tmp25 = _tmp7 * _tmp8
+    _tmp26 = _tmp25 * b
     _tmp27 = h**2
-    _tmp28 = _tmp27*c_h
+    _tmp28 = _tmp27 * c_h
     _tmp29 = b**2
-    _tmp30 = _tmp19*_tmp29 + _tmp20*_tmp29 + _tmp28
-    _tmp31 = _tmp24*b
-    _tmp32 = _tmp17*a
-    _tmp33 = _tmp29*c_h
-    _tmp34 = -_tmp11*_tmp29 + _tmp32 + _tmp33*_tmp8
+    _tmp30 = _tmp19 * _tmp29 + _tmp20 * _tmp29 + _tmp28
+    _tmp31 = _tmp24 * b
+    _tmp32 = _tmp17 * a
+    _tmp33 = _tmp29 * c_h
+    _tmp34 = -_tmp11 * _tmp29 + _tmp32 + _tmp33 * _tmp8
     _tmp35 = a**2
-    _tmp36 = 2*_tmp12*h + _tmp19*_tmp35 + _tmp2*_tmp27 + _tmp20*_tmp35 + _tmp27*_tmp5 - 2*_tmp32*_tmp8
-    _tmp37 = _tmp13*b
-    _tmp38 = _tmp2*_tmp29 + _tmp29*_tmp5 + _tmp35*c_h
+    _tmp36 = 2 * _tmp12 * h + _tmp19 * _tmp35 + _tmp2 * _tmp27 + _tmp20 * _tmp35 + _tmp27 * _tmp5 - 2 * _tmp32 * _tmp8
+    _tmp37 = _tmp13 * b
+    _tmp38 = _tmp2 * _tmp29 + _tmp29 * _tmp5 + _tmp35 * c_h
     _tmp39 = -_tmp18
-    _tmp40 = _tmp23*b
+    _tmp40 = _tmp23 * b
     _tmp41 = -_tmp34
     _tmp42 = -_tmp22
-    _tmp43 = _tmp14*b
+    _tmp43 = _tmp14 * b
     _tmp44 = -_tmp17
-    _tmp45 = b*c_h
-    _tmp46 = b*c_m
-    _tmp47 = _tmp28 + _tmp29*c_m
-    _tmp48 = _tmp17*b
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp24, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp16, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp22, (2, 4): _tmp23, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp37, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp9, (0, 3): _tmp26, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp18, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp24, (2, 5): _tmp10, (3, 3): _tmp30, (3, 4): _tmp40, (3, 5): _tmp34, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp6, (0, 2): _tmp25, (0, 3): _tmp10, (0, 4): _tmp14, (0, 5): _tmp15, (1, 1): c_h, (1, 3): _tmp17, (1, 5): _tmp39, (2, 2): _tmp21, (2, 3): _tmp42, (2, 4): _tmp23, (2, 5): _tmp26, (3, 3): _tmp30, (3, 4): _tmp31, (3, 5): _tmp41, (4, 4): _tmp36, (4, 5): _tmp43, (5, 5): _tmp38}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): -_tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): _tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): _tmp48, (5, 5): _tmp33}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp44, (0, 5): _tmp45, (1, 1): c_h, (1, 3): _tmp17, (2, 2): c_m, (2, 3): -_tmp46, (3, 3): _tmp47, (4, 4): _tmp28, (4, 5): -_tmp48, (5, 5): _tmp33})], axis=-3)
+    _tmp45 = b * c_h
+    _tmp46 = b * c_m
+    _tmp47 = _tmp28 + _tmp29 * c_m
+    _tmp48 = _tmp17 * b
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp6,
+                    (0, 2): _tmp9,
+                    (0, 3): _tmp10,
+                    (0, 4): _tmp14,
+                    (0, 5): _tmp16,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (1, 5): _tmp18,
+                    (2, 2): _tmp21,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp24,
+                    (2, 5): _tmp26,
+                    (3, 3): _tmp30,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp34,
+                    (4, 4): _tmp36,
+                    (4, 5): _tmp37,
+                    (5, 5): _tmp38,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp6,
+                    (0, 2): _tmp25,
+                    (0, 3): _tmp26,
+                    (0, 4): _tmp14,
+                    (0, 5): _tmp16,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (1, 5): _tmp39,
+                    (2, 2): _tmp21,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp23,
+                    (2, 5): _tmp10,
+                    (3, 3): _tmp30,
+                    (3, 4): _tmp40,
+                    (3, 5): _tmp41,
+                    (4, 4): _tmp36,
+                    (4, 5): _tmp37,
+                    (5, 5): _tmp38,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp6,
+                    (0, 2): _tmp9,
+                    (0, 3): _tmp26,
+                    (0, 4): _tmp14,
+                    (0, 5): _tmp15,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (1, 5): _tmp18,
+                    (2, 2): _tmp21,
+                    (2, 3): _tmp42,
+                    (2, 4): _tmp24,
+                    (2, 5): _tmp10,
+                    (3, 3): _tmp30,
+                    (3, 4): _tmp40,
+                    (3, 5): _tmp34,
+                    (4, 4): _tmp36,
+                    (4, 5): _tmp43,
+                    (5, 5): _tmp38,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp6,
+                    (0, 2): _tmp25,
+                    (0, 3): _tmp10,
+                    (0, 4): _tmp14,
+                    (0, 5): _tmp15,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (1, 5): _tmp39,
+                    (2, 2): _tmp21,
+                    (2, 3): _tmp42,
+                    (2, 4): _tmp23,
+                    (2, 5): _tmp26,
+                    (3, 3): _tmp30,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp41,
+                    (4, 4): _tmp36,
+                    (4, 5): _tmp43,
+                    (5, 5): _tmp38,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp44,
+                    (0, 5): -_tmp45,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (2, 2): c_m,
+                    (2, 3): _tmp46,
+                    (3, 3): _tmp47,
+                    (4, 4): _tmp28,
+                    (4, 5): _tmp48,
+                    (5, 5): _tmp33,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp44,
+                    (0, 5): _tmp45,
+                    (1, 1): c_h,
+                    (1, 3): _tmp17,
+                    (2, 2): c_m,
+                    (2, 3): -_tmp46,
+                    (3, 3): _tmp47,
+                    (4, 4): _tmp28,
+                    (4, 5): -_tmp48,
+                    (5, 5): _tmp33,
+                },
+            ),
+        ],
+        axis=-3,
+    )
 
 
 def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
@@ -3151,76 +6169,321 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0*_tmp2
+    _tmp3 = _tmp0 * _tmp2
     _tmp4 = -_tmp3
-    _tmp5 = _tmp3*b
+    _tmp5 = _tmp3 * b
     _tmp6 = -_tmp5
-    _tmp7 = _tmp3*a
-    _tmp8 = -_tmp1*h + _tmp7
-    _tmp9 = _tmp1*b
+    _tmp7 = _tmp3 * a
+    _tmp8 = -_tmp1 * h + _tmp7
+    _tmp9 = _tmp1 * b
     _tmp10 = -_tmp9
     _tmp11 = _tmp2**2
-    _tmp12 = _tmp11*b
-    _tmp13 = _tmp3*h
-    _tmp14 = _tmp11*a - _tmp13
+    _tmp12 = _tmp11 * b
+    _tmp13 = _tmp3 * h
+    _tmp14 = _tmp11 * a - _tmp13
     _tmp15 = -_tmp14
     _tmp16 = h**2
     _tmp17 = b**2
-    _tmp18 = _tmp11*_tmp17
+    _tmp18 = _tmp11 * _tmp17
     _tmp19 = _tmp16 + _tmp18
-    _tmp20 = _tmp15*b
-    _tmp21 = a*h
-    _tmp22 = _tmp17*_tmp3
+    _tmp20 = _tmp15 * b
+    _tmp21 = a * h
+    _tmp22 = _tmp17 * _tmp3
     _tmp23 = _tmp21 + _tmp22
     _tmp24 = a**2
-    _tmp25 = 2*_tmp21*_tmp3
-    _tmp26 = _tmp1*_tmp16 + _tmp11*_tmp24 - _tmp25
-    _tmp27 = -_tmp8*b
-    _tmp28 = _tmp1*_tmp17
+    _tmp25 = 2 * _tmp21 * _tmp3
+    _tmp26 = _tmp1 * _tmp16 + _tmp11 * _tmp24 - _tmp25
+    _tmp27 = -_tmp8 * b
+    _tmp28 = _tmp1 * _tmp17
     _tmp29 = _tmp24 + _tmp28
     _tmp30 = -a
-    _tmp31 = _tmp14*b
+    _tmp31 = _tmp14 * b
     _tmp32 = -_tmp23
     _tmp33 = -_tmp12
-    _tmp34 = _tmp8*b
+    _tmp34 = _tmp8 * b
     _tmp35 = -h
     _tmp36 = -b
-    _tmp37 = b*h
-    _tmp38 = _tmp11*h + _tmp7
+    _tmp37 = b * h
+    _tmp38 = _tmp11 * h + _tmp7
     _tmp39 = -_tmp38
-    _tmp40 = _tmp1*a + _tmp13
+    _tmp40 = _tmp1 * a + _tmp13
     _tmp41 = -_tmp40
-    _tmp42 = _tmp41*b
+    _tmp42 = _tmp41 * b
     _tmp43 = -_tmp22
-    _tmp44 = _tmp1*_tmp24 + _tmp11*_tmp16 + _tmp25
-    _tmp45 = _tmp38*b
-    _tmp46 = _tmp40*b
-    _tmp47 = _tmp39*b
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_h), numpy.shape(c_v), numpy.shape(c_m))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp4, (0, 3): _tmp6, (0, 4): _tmp8, (0, 5): _tmp10, (1, 1): 1, (1, 3): h, (1, 5): a, (2, 2): _tmp11, (2, 3): _tmp12, (2, 4): _tmp15, (2, 5): _tmp5, (3, 3): _tmp19, (3, 4): _tmp20, (3, 5): _tmp23, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp3, (0, 3): _tmp5, (0, 4): _tmp8, (0, 5): _tmp10, (1, 1): 1, (1, 3): h, (1, 5): _tmp30, (2, 2): _tmp11, (2, 3): _tmp12, (2, 4): _tmp14, (2, 5): _tmp6, (3, 3): _tmp19, (3, 4): _tmp31, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp27, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp4, (0, 3): _tmp5, (0, 4): _tmp8, (0, 5): _tmp9, (1, 1): 1, (1, 3): h, (1, 5): a, (2, 2): _tmp11, (2, 3): _tmp33, (2, 4): _tmp15, (2, 5): _tmp6, (3, 3): _tmp19, (3, 4): _tmp31, (3, 5): _tmp23, (4, 4): _tmp26, (4, 5): _tmp34, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp1, (0, 2): _tmp3, (0, 3): _tmp6, (0, 4): _tmp8, (0, 5): _tmp9, (1, 1): 1, (1, 3): h, (1, 5): _tmp30, (2, 2): _tmp11, (2, 3): _tmp33, (2, 4): _tmp14, (2, 5): _tmp5, (3, 3): _tmp19, (3, 4): _tmp20, (3, 5): _tmp32, (4, 4): _tmp26, (4, 5): _tmp34, (5, 5): _tmp29}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp35, (0, 5): _tmp36, (1, 1): 1, (1, 3): h, (3, 3): _tmp16, (4, 4): _tmp16, (4, 5): _tmp37, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp35, (0, 5): b, (1, 1): 1, (1, 3): h, (3, 3): _tmp16, (4, 4): _tmp16, (4, 5): -_tmp37, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp3, (0, 3): _tmp5, (0, 4): _tmp39, (0, 5): _tmp33, (2, 2): _tmp1, (2, 3): _tmp9, (2, 4): _tmp41, (2, 5): _tmp6, (3, 3): _tmp28, (3, 4): _tmp42, (3, 5): _tmp43, (4, 4): _tmp44, (4, 5): _tmp45, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp4, (0, 3): _tmp6, (0, 4): _tmp39, (0, 5): _tmp33, (2, 2): _tmp1, (2, 3): _tmp9, (2, 4): _tmp40, (2, 5): _tmp5, (3, 3): _tmp28, (3, 4): _tmp46, (3, 5): _tmp22, (4, 4): _tmp44, (4, 5): _tmp45, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp3, (0, 3): _tmp6, (0, 4): _tmp39, (0, 5): _tmp12, (2, 2): _tmp1, (2, 3): _tmp10, (2, 4): _tmp41, (2, 5): _tmp5, (3, 3): _tmp28, (3, 4): _tmp46, (3, 5): _tmp43, (4, 4): _tmp44, (4, 5): _tmp47, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp11, (0, 2): _tmp4, (0, 3): _tmp5, (0, 4): _tmp39, (0, 5): _tmp12, (2, 2): _tmp1, (2, 3): _tmp10, (2, 4): _tmp40, (2, 5): _tmp6, (3, 3): _tmp28, (3, 4): _tmp42, (3, 5): _tmp22, (4, 4): _tmp44, (4, 5): _tmp47, (5, 5): _tmp18}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp17}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp36, (3, 3): _tmp17})], axis=-3).reshape(*_shape, 3, 6, 6, 6)
+    _tmp44 = _tmp1 * _tmp24 + _tmp11 * _tmp16 + _tmp25
+    _tmp45 = _tmp38 * b
+    _tmp46 = _tmp40 * b
+    _tmp47 = _tmp39 * b
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp4,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp8,
+                    (0, 5): _tmp10,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): a,
+                    (2, 2): _tmp11,
+                    (2, 3): _tmp12,
+                    (2, 4): _tmp15,
+                    (2, 5): _tmp5,
+                    (3, 3): _tmp19,
+                    (3, 4): _tmp20,
+                    (3, 5): _tmp23,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp5,
+                    (0, 4): _tmp8,
+                    (0, 5): _tmp10,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): _tmp30,
+                    (2, 2): _tmp11,
+                    (2, 3): _tmp12,
+                    (2, 4): _tmp14,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp19,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp32,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp4,
+                    (0, 3): _tmp5,
+                    (0, 4): _tmp8,
+                    (0, 5): _tmp9,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): a,
+                    (2, 2): _tmp11,
+                    (2, 3): _tmp33,
+                    (2, 4): _tmp15,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp19,
+                    (3, 4): _tmp31,
+                    (3, 5): _tmp23,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp34,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp8,
+                    (0, 5): _tmp9,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): _tmp30,
+                    (2, 2): _tmp11,
+                    (2, 3): _tmp33,
+                    (2, 4): _tmp14,
+                    (2, 5): _tmp5,
+                    (3, 3): _tmp19,
+                    (3, 4): _tmp20,
+                    (3, 5): _tmp32,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp34,
+                    (5, 5): _tmp29,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp35,
+                    (0, 5): _tmp36,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp16,
+                    (4, 5): _tmp37,
+                    (5, 5): _tmp17,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp35,
+                    (0, 5): b,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp16,
+                    (4, 5): -_tmp37,
+                    (5, 5): _tmp17,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp11,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp5,
+                    (0, 4): _tmp39,
+                    (0, 5): _tmp33,
+                    (2, 2): _tmp1,
+                    (2, 3): _tmp9,
+                    (2, 4): _tmp41,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp28,
+                    (3, 4): _tmp42,
+                    (3, 5): _tmp43,
+                    (4, 4): _tmp44,
+                    (4, 5): _tmp45,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp11,
+                    (0, 2): _tmp4,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp39,
+                    (0, 5): _tmp33,
+                    (2, 2): _tmp1,
+                    (2, 3): _tmp9,
+                    (2, 4): _tmp40,
+                    (2, 5): _tmp5,
+                    (3, 3): _tmp28,
+                    (3, 4): _tmp46,
+                    (3, 5): _tmp22,
+                    (4, 4): _tmp44,
+                    (4, 5): _tmp45,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp11,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp39,
+                    (0, 5): _tmp12,
+                    (2, 2): _tmp1,
+                    (2, 3): _tmp10,
+                    (2, 4): _tmp41,
+                    (2, 5): _tmp5,
+                    (3, 3): _tmp28,
+                    (3, 4): _tmp46,
+                    (3, 5): _tmp43,
+                    (4, 4): _tmp44,
+                    (4, 5): _tmp47,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp11,
+                    (0, 2): _tmp4,
+                    (0, 3): _tmp5,
+                    (0, 4): _tmp39,
+                    (0, 5): _tmp12,
+                    (2, 2): _tmp1,
+                    (2, 3): _tmp10,
+                    (2, 4): _tmp40,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp28,
+                    (3, 4): _tmp42,
+                    (3, 5): _tmp22,
+                    (4, 4): _tmp44,
+                    (4, 5): _tmp47,
+                    (5, 5): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp17}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp36, (3, 3): _tmp17}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 6, 6, 6)
 
 
 def effect_scales(m, a, b, h, alpha, c_h, c_v, c_m):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
-        length = sqrt(b**2 + h**2 + 2*a**2/3)
-        mass = m
-        stiffness = c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9
-        vertical = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-        horizontal = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
-        rotational = (b**2 + h**2 + 2*a**2/3)*(c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9)
-        one = 1
+    length = sqrt(b**2 + h**2 + 2*a**2/3)
+    mass = m
+    stiffness = c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9
+    vertical = 2*(c_m + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
+    horizontal = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
+    rotational = (b**2 + h**2 + 2*a**2/3)*(c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9)
+    one = 1
     """
     m, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, a, b, h, alpha, c_h, c_v, c_m)
-    _tmp0 = (0.6666666666666666)*a**2 + b**2 + h**2
-    _tmp1 = numpy.sin(alpha)**2
-    _tmp2 = (0.2222222222222222)*c_h
-    _tmp3 = numpy.cos(alpha)**2
-    _tmp4 = (0.2222222222222222)*c_v
-    _tmp5 = _tmp1*_tmp2 + _tmp1*_tmp4 + _tmp2*_tmp3 + _tmp3*_tmp4 + (0.4444444444444444)*c_h + (0.1111111111111111)*c_m
-    _tmp6 = 2*c_h
-    _tmp7 = 2*c_v
-    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp5, "vertical": 2*_tmp1*_tmp6 + 2*_tmp3*_tmp7 + 2*c_m, "horizontal": 2*_tmp1*_tmp7 + 2*_tmp3*_tmp6 + 2*c_h, "rotational": _tmp0*_tmp5, "one": 1}
+    _tmp0 = (0.6666666666666666) * a**2 + b**2 + h**2
+    _tmp1 = numpy.sin(alpha) ** 2
+    _tmp2 = (0.2222222222222222) * c_h
+    _tmp3 = numpy.cos(alpha) ** 2
+    _tmp4 = (0.2222222222222222) * c_v
+    _tmp5 = (
+        _tmp1 * _tmp2
+        + _tmp1 * _tmp4
+        + _tmp2 * _tmp3
+        + _tmp3 * _tmp4
+        + (0.4444444444444444) * c_h
+        + (0.1111111111111111) * c_m
+    )
+    _tmp6 = 2 * c_h
+    _tmp7 = 2 * c_v
+    return {
+        "length": numpy.sqrt(_tmp0),
+        "mass": m,
+        "stiffness": _tmp5,
+        "vertical": 2 * _tmp1 * _tmp6 + 2 * _tmp3 * _tmp7 + 2 * c_m,
+        "horizontal": 2 * _tmp1 * _tmp7 + 2 * _tmp3 * _tmp6 + 2 * c_h,
+        "rotational": _tmp0 * _tmp5,
+        "one": 1,
+    }
 
 
 def frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
@@ -3302,12 +6565,19 @@ INVERSE_ROOTS = {
     ("psi", "theta", "phi"): 2,
 }
 """Number of candidate roots of each inverse solution (before admissibility)."""
-NUMERIC_INVERSES = {
-}
+NUMERIC_INVERSES = {}
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {
-    ("x", "theta", "phi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
-    ("y", "z", "psi"): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",
+    (
+        "x",
+        "theta",
+        "phi",
+    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
+    (
+        "y",
+        "z",
+        "psi",
+    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
@@ -3327,7 +6597,20 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
+    "foundation": (
+        "x",
+        "y",
+        "z",
+        "psi",
+        "theta",
+        "phi",
+        "x_found",
+        "y_found",
+        "z_found",
+        "psi_found",
+        "theta_found",
+        "phi_found",
+    ),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

@@ -20,17 +20,83 @@ SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {
     "m": {"kind": "mass", "unit": "kg", "role": "known", "value": 1500.0, "description": "mass of the skid"},
-    "J_x": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 260.0, "description": "moment of inertia about x (through the centre of mass)"},
-    "J_y": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 610.0, "description": "moment of inertia about y (through the centre of mass)"},
-    "J_z": {"kind": "inertia", "unit": "kg m^2", "role": "known", "value": 720.0, "description": "moment of inertia about z (through the centre of mass)"},
-    "e": {"kind": "length", "unit": "m", "role": "known", "value": 0.18, "description": "offset of the centre of mass along x from the middle of the isolators"},
-    "a": {"kind": "length", "unit": "m", "role": "known", "value": 0.9, "description": "half the isolator spacing along x"},
-    "b": {"kind": "length", "unit": "m", "role": "known", "value": 0.55, "description": "half the isolator spacing along y"},
-    "h": {"kind": "length", "unit": "m", "role": "known", "value": 0.4, "description": "height of the centre of mass above the isolators"},
-    "c_h": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 180000.0, "description": "horizontal stiffness of one isolator (c_x = c_y)"},
-    "c_z": {"kind": "stiffness", "unit": "N/m", "role": "unknown", "value": 750000.0, "description": "vertical stiffness of one isolator"},
-    "b_h": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 700.0, "description": "horizontal damping of one isolator"},
-    "b_z": {"kind": "damping", "unit": "N s/m", "role": "known", "value": 2200.0, "description": "vertical damping of one isolator"},
+    "J_x": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 260.0,
+        "description": "moment of inertia about x (through the centre of mass)",
+    },
+    "J_y": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 610.0,
+        "description": "moment of inertia about y (through the centre of mass)",
+    },
+    "J_z": {
+        "kind": "inertia",
+        "unit": "kg m^2",
+        "role": "known",
+        "value": 720.0,
+        "description": "moment of inertia about z (through the centre of mass)",
+    },
+    "e": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.18,
+        "description": "offset of the centre of mass along x from the middle of the isolators",
+    },
+    "a": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.9,
+        "description": "half the isolator spacing along x",
+    },
+    "b": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.55,
+        "description": "half the isolator spacing along y",
+    },
+    "h": {
+        "kind": "length",
+        "unit": "m",
+        "role": "known",
+        "value": 0.4,
+        "description": "height of the centre of mass above the isolators",
+    },
+    "c_h": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 180000.0,
+        "description": "horizontal stiffness of one isolator (c_x = c_y)",
+    },
+    "c_z": {
+        "kind": "stiffness",
+        "unit": "N/m",
+        "role": "unknown",
+        "value": 750000.0,
+        "description": "vertical stiffness of one isolator",
+    },
+    "b_h": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 700.0,
+        "description": "horizontal damping of one isolator",
+    },
+    "b_z": {
+        "kind": "damping",
+        "unit": "N s/m",
+        "role": "known",
+        "value": 2200.0,
+        "description": "vertical damping of one isolator",
+    },
 }
 KNOWN = ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "b_h", "b_z")
 UNKNOWN = ("c_h", "c_z")
@@ -71,19 +137,167 @@ ARGUMENTS = {
     "identify_psi_phi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_psi", "omega_phi"),
     "identify_theta_phi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_theta", "omega_phi"),
     "effect_com_offset": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
-    "effect_com_offset_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
+    "effect_com_offset_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "dx_com",
+        "dy_com",
+    ),
     "effect_cog_height": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dz_com"),
-    "effect_cog_height_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "dz_com"),
-    "effect_rotational_stiffness": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
-    "effect_rotational_stiffness_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
-    "effect_foundation": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_found", "k_found"),
-    "effect_foundation_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_found", "k_found"),
-    "effect_added_mass": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_added", "h_added"),
-    "effect_added_mass_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "m_added", "h_added"),
+    "effect_cog_height_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "dz_com",
+    ),
+    "effect_rotational_stiffness": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_rotational_stiffness_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "k_bend",
+        "k_torsion",
+    ),
+    "effect_foundation": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "m_found",
+        "k_found",
+    ),
+    "effect_foundation_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "m_found",
+        "k_found",
+    ),
+    "effect_added_mass": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "m_added",
+        "h_added",
+    ),
+    "effect_added_mass_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "m_added",
+        "h_added",
+    ),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
-    "effect_drive_belt_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
+    "effect_drive_belt_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "k_belt",
+        "h_belt",
+    ),
     "effect_gravity_preload": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "h_preload"),
-    "effect_gravity_preload_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "h_preload"),
+    "effect_gravity_preload_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "e",
+        "a",
+        "b",
+        "h",
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "h_preload",
+    ),
     "isolator_stiffness": ("a", "b", "h", "c_h", "c_z"),
     "isolator_stiffness_gradient": ("a", "b", "h", "c_h", "c_z"),
     "effect_scales": ("m", "e", "a", "b", "h", "c_h", "c_z"),
@@ -106,10 +320,25 @@ def mass_matrix(m, J_x, J_y, J_z, e):
         [phi, phi] = J_z + m*e**2
     """
     m, J_x, J_y, J_z, e = _runtime.as_arrays(m, J_x, J_y, J_z, e)
-    _tmp0 = e*m
-    _tmp1 = e**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (1, 5): _tmp0, (2, 2): m, (2, 4): -_tmp0, (3, 3): J_x, (4, 4): J_y + _tmp1, (5, 5): J_z + _tmp1})
+    _tmp0 = e * m
+    _tmp1 = e**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e)
+    )
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): m,
+            (1, 1): m,
+            (1, 5): _tmp0,
+            (2, 2): m,
+            (2, 4): -_tmp0,
+            (3, 3): J_x,
+            (4, 4): J_y + _tmp1,
+            (5, 5): J_z + _tmp1,
+        },
+    )
 
 
 def stiffness_matrix(a, b, h, c_h, c_z):
@@ -127,13 +356,26 @@ def stiffness_matrix(a, b, h, c_h, c_z):
         [phi, phi] = 4*c_h*(a**2 + b**2)
     """
     a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
-    _tmp0 = 4*c_h
-    _tmp1 = _tmp0*h
+    _tmp0 = 4 * c_h
+    _tmp1 = _tmp0 * h
     _tmp2 = b**2
-    _tmp3 = c_h*h**2
+    _tmp3 = c_h * h**2
     _tmp4 = a**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*c_z, (3, 3): 4*_tmp2*c_z + 4*_tmp3, (4, 4): 4*_tmp3 + 4*_tmp4*c_z, (5, 5): _tmp0*(_tmp2 + _tmp4)})
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp1,
+            (1, 1): _tmp0,
+            (1, 3): _tmp1,
+            (2, 2): 4 * c_z,
+            (3, 3): 4 * _tmp2 * c_z + 4 * _tmp3,
+            (4, 4): 4 * _tmp3 + 4 * _tmp4 * c_z,
+            (5, 5): _tmp0 * (_tmp2 + _tmp4),
+        },
+    )
 
 
 def damping_matrix(a, b, h, b_h, b_z):
@@ -151,25 +393,55 @@ def damping_matrix(a, b, h, b_h, b_z):
         [phi, phi] = 4*b_h*(a**2 + b**2)
     """
     a, b, h, b_h, b_z = _runtime.as_arrays(a, b, h, b_h, b_z)
-    _tmp0 = 4*b_h
-    _tmp1 = _tmp0*h
+    _tmp0 = 4 * b_h
+    _tmp1 = _tmp0 * h
     _tmp2 = b**2
-    _tmp3 = b_h*h**2
+    _tmp3 = b_h * h**2
     _tmp4 = a**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(b_h), numpy.shape(b_z))
-    return _runtime.stack_matrix(_shape, 6, {(0, 0): _tmp0, (0, 4): -_tmp1, (1, 1): _tmp0, (1, 3): _tmp1, (2, 2): 4*b_z, (3, 3): 4*_tmp2*b_z + 4*_tmp3, (4, 4): 4*_tmp3 + 4*_tmp4*b_z, (5, 5): _tmp0*(_tmp2 + _tmp4)})
+    return _runtime.stack_matrix(
+        _shape,
+        6,
+        {
+            (0, 0): _tmp0,
+            (0, 4): -_tmp1,
+            (1, 1): _tmp0,
+            (1, 3): _tmp1,
+            (2, 2): 4 * b_z,
+            (3, 3): 4 * _tmp2 * b_z + 4 * _tmp3,
+            (4, 4): 4 * _tmp3 + 4 * _tmp4 * b_z,
+            (5, 5): _tmp0 * (_tmp2 + _tmp4),
+        },
+    )
 
 
 def stiffness_gradient(a, b, h):
-    """Derivatives dC/d(c_h, c_z) of the stiffness matrix, shape (..., 2, 6, 6).
-    """
+    """Derivatives dC/d(c_h, c_z) of the stiffness matrix, shape (..., 2, 6, 6)."""
     a, b, h = _runtime.as_arrays(a, b, h)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+        ],
+        axis=-3,
+    )
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -319,24 +591,89 @@ def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
+    )
     _tmp0 = e**2
-    _tmp1 = 2*e*m
-    _tmp2 = 8*a
-    _tmp3 = 8*b
-    _tmp4 = 4*c_h
-    _tmp5 = 8*h
-    _tmp6 = _tmp5*c_h
-    _tmp7 = 4*b_h
-    _tmp8 = _tmp5*b_h
-    _tmp9 = 4*h
+    _tmp1 = 2 * e * m
+    _tmp2 = 8 * a
+    _tmp3 = 8 * b
+    _tmp4 = 4 * c_h
+    _tmp5 = 8 * h
+    _tmp6 = _tmp5 * c_h
+    _tmp7 = 4 * b_h
+    _tmp8 = _tmp5 * b_h
+    _tmp9 = 4 * h
     _tmp10 = -_tmp9
-    _tmp11 = 4*h**2
-    _tmp12 = 4*a**2
-    _tmp13 = 4*b**2
+    _tmp11 = 4 * h**2
+    _tmp12 = 4 * a**2
+    _tmp13 = 4 * b**2
     _tmp14 = _tmp12 + _tmp13
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*c_z, (5, 5): _tmp2*c_h}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*b_z, (5, 5): _tmp2*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*c_z, (5, 5): _tmp3*c_h}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*b_z, (5, 5): _tmp3*b_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12})], axis=-3).reshape(*_shape, 12, 3, 6, 6)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * c_z, (5, 5): _tmp2 * c_h}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * b_z, (5, 5): _tmp2 * b_h}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * c_z, (5, 5): _tmp3 * c_h}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * b_z, (5, 5): _tmp3 * b_h}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 12, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
@@ -399,17 +736,66 @@ def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
     """
     m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
     _tmp0 = e**2
-    _tmp1 = 2*e*m
-    _tmp2 = 8*a
-    _tmp3 = 8*b
-    _tmp4 = 4*c_h
-    _tmp5 = 8*c_h*h
-    _tmp6 = 4*h
-    _tmp7 = 4*h**2
-    _tmp8 = 4*a**2
-    _tmp9 = 4*b**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2*c_z, (5, 5): _tmp2*c_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3*c_z, (5, 5): _tmp3*c_h}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp6, (1, 1): 4, (1, 3): _tmp6, (3, 3): _tmp7, (4, 4): _tmp7, (5, 5): _tmp8 + _tmp9}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp9, (4, 4): _tmp8})], axis=-3).reshape(*_shape, 10, 2, 6, 6)
+    _tmp1 = 2 * e * m
+    _tmp2 = 8 * a
+    _tmp3 = 8 * b
+    _tmp4 = 4 * c_h
+    _tmp5 = 8 * c_h * h
+    _tmp6 = 4 * h
+    _tmp7 = 4 * h**2
+    _tmp8 = 4 * a**2
+    _tmp9 = 4 * b**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * c_z, (5, 5): _tmp2 * c_h}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * c_z, (5, 5): _tmp3 * c_h}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp6,
+                    (1, 1): 4,
+                    (1, 3): _tmp6,
+                    (3, 3): _tmp7,
+                    (4, 4): _tmp7,
+                    (5, 5): _tmp8 + _tmp9,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp9, (4, 4): _tmp8}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -421,7 +807,9 @@ def _model(_known, _unknowns, _modes):
     _lam = squared_frequencies(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
     if not _modes:
         return _lam, None, None
-    _phi = _runtime.modal_matrix(mass_matrix(m, J_x, J_y, J_z, e), stiffness_matrix(a, b, h, c_h, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK)
+    _phi = _runtime.modal_matrix(
+        mass_matrix(m, J_x, J_y, J_z, e), stiffness_matrix(a, b, h, c_h, c_z), _lam, BLOCKS, MODE_BLOCK, MODE_RANK
+    )
     return _lam, _phi, stiffness_gradient(a, b, h)
 
 
@@ -436,7 +824,43 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 1)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_y ** 2,), (0, 1), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (0, 1),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_y**2,
+        ),
+        (0, 1),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
@@ -450,7 +874,43 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_z ** 2,), (0, 2), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (0, 2),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_z**2,
+        ),
+        (0, 2),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
@@ -463,8 +923,46 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_psi ** 2,), (0, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (0, 3),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_psi**2,
+        ),
+        (0, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
@@ -477,8 +975,46 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_theta ** 2,), (0, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (0, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_theta**2,
+        ),
+        (0, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
@@ -491,8 +1027,46 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (0, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_x ** 2, omega_phi ** 2,), (0, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (0, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_x**2,
+            omega_phi**2,
+        ),
+        (0, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
@@ -506,7 +1080,43 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 2)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_z ** 2,), (1, 2), UNKNOWN, MODE_BLOCK, n_roots=81)
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (1, 2),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_z**2,
+        ),
+        (1, 2),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
@@ -519,8 +1129,46 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_psi ** 2,), (1, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (1, 3),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_psi**2,
+        ),
+        (1, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
@@ -533,8 +1181,46 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_theta ** 2,), (1, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (1, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_theta**2,
+        ),
+        (1, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
@@ -547,8 +1233,46 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (1, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_y ** 2, omega_phi ** 2,), (1, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (1, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_y**2,
+            omega_phi**2,
+        ),
+        (1, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
@@ -561,8 +1285,46 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 3)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_psi ** 2,), (2, 3), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (2, 3),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_psi**2,
+        ),
+        (2, 3),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
@@ -575,8 +1337,46 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_theta ** 2,), (2, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (2, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_theta**2,
+        ),
+        (2, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
@@ -589,8 +1389,46 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (2, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_z ** 2, omega_phi ** 2,), (2, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (2, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_z**2,
+            omega_phi**2,
+        ),
+        (2, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
@@ -603,8 +1441,46 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (3, 4)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_theta ** 2,), (3, 4), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (3, 4),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_psi**2,
+            omega_theta**2,
+        ),
+        (3, 4),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
@@ -617,8 +1493,46 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (3, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_psi ** 2, omega_phi ** 2,), (3, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (3, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_psi**2,
+            omega_phi**2,
+        ),
+        (3, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
@@ -631,8 +1545,46 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi)
-    return _runtime.solve_inverse(_runtime.start_grid((180000.0, 750000.0), (0.1, 0.177827941004, 0.316227766017, 0.56234132519, 1.0, 1.778279410039, 3.162277660168, 5.623413251903, 10.0), _model, (4, 5)), _model, (m, J_x, J_y, J_z, e, a, b, h,), (omega_theta ** 2, omega_phi ** 2,), (4, 5), UNKNOWN, MODE_BLOCK, n_roots=81)
+    m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi
+    )
+    return _runtime.solve_inverse(
+        _runtime.start_grid(
+            (180000.0, 750000.0),
+            (
+                0.1,
+                0.177827941004,
+                0.316227766017,
+                0.56234132519,
+                1.0,
+                1.778279410039,
+                3.162277660168,
+                5.623413251903,
+                10.0,
+            ),
+            _model,
+            (4, 5),
+        ),
+        _model,
+        (
+            m,
+            J_x,
+            J_y,
+            J_z,
+            e,
+            a,
+            b,
+            h,
+        ),
+        (
+            omega_theta**2,
+            omega_phi**2,
+        ),
+        (4, 5),
+        UNKNOWN,
+        MODE_BLOCK,
+        n_roots=81,
+    )
 
 
 def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
@@ -654,13 +1606,48 @@ def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, 
           [phi, phi] = m*(dx_com**2 + dy_com**2 + 2*dx_com*e)
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com)
-    _tmp0 = dy_com*m
-    _tmp1 = dx_com*m
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com
+    )
+    _tmp0 = dy_com * m
+    _tmp1 = dx_com * m
     _tmp2 = dy_com**2
-    _tmp3 = 2*e
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 5): -_tmp0, (1, 5): _tmp1, (2, 3): _tmp0, (2, 4): -_tmp1, (3, 3): _tmp2*m, (3, 4): -_tmp0*(dx_com + e), (4, 4): _tmp1*(_tmp3 + dx_com), (5, 5): m*(_tmp2 + _tmp3*dx_com + dx_com**2)}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
+    _tmp3 = 2 * e
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 5): -_tmp0,
+                (1, 5): _tmp1,
+                (2, 3): _tmp0,
+                (2, 4): -_tmp1,
+                (3, 3): _tmp2 * m,
+                (3, 4): -_tmp0 * (dx_com + e),
+                (4, 4): _tmp1 * (_tmp3 + dx_com),
+                (5, 5): m * (_tmp2 + _tmp3 * dx_com + dx_com**2),
+            },
+        ),
+        stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
@@ -702,17 +1689,74 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
     _tmp4 = -m
-    _tmp5 = dy_com*m
-    _tmp6 = 2*e
-    _tmp7 = 2*_tmp5
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dx_com), numpy.shape(dy_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): dx_com*m + m*(_tmp6 + dx_com), (5, 5): m*(_tmp6 + 2*dx_com)}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp7, (3, 4): -m*(dx_com + e), (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp5 = dy_com * m
+    _tmp6 = 2 * e
+    _tmp7 = 2 * _tmp5
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(dx_com),
+        numpy.shape(dy_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 5): m,
+                    (2, 4): _tmp4,
+                    (3, 4): -_tmp5,
+                    (4, 4): dx_com * m + m * (_tmp6 + dx_com),
+                    (5, 5): m * (_tmp6 + 2 * dx_com),
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp7, (3, 4): -m * (dx_com + e), (5, 5): _tmp7}
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
@@ -731,11 +1775,34 @@ def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com)
-    _tmp0 = dz_com*m
-    _tmp1 = dz_com**2*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dz_com))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (3, 5): -_tmp0*e, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com
+    )
+    _tmp0 = dz_com * m
+    _tmp1 = dz_com**2 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e)
+        + _runtime.stack_matrix(
+            _shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (3, 5): -_tmp0 * e, (4, 4): _tmp1}
+        ),
+        stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
@@ -769,14 +1836,55 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
-    _tmp4 = 2*dz_com*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(dz_com))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (3, 5): -e*m, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 2 * dz_com * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(dz_com),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (3, 5): -e * m, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
@@ -793,10 +1901,32 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion)
-    _tmp0 = 4*k_bend
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4*k_torsion}), damping_matrix(a, b, h, b_h, b_z))
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * k_bend
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_h, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): 4 * k_torsion}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
@@ -831,13 +1961,58 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_bend), numpy.shape(k_torsion))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(5, 5): 4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(k_bend),
+        numpy.shape(k_torsion),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
@@ -909,36 +2084,130 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
           [theta_found, theta_found] = 4*b_z*a**2
           [phi_found, phi_found] = 4*b_h*(a**2 + b**2)
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found)
-    _tmp0 = e*m
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found
+    )
+    _tmp0 = e * m
     _tmp1 = e**2
-    _tmp2 = _tmp1*m
+    _tmp2 = _tmp1 * m
     _tmp3 = h**2
     _tmp4 = a**2
     _tmp5 = b**2
     _tmp6 = _tmp4 + _tmp5
-    _tmp7 = m_found*(_tmp1 + _tmp3 + _tmp6)
-    _tmp8 = 4*c_h
-    _tmp9 = _tmp8*h
+    _tmp7 = m_found * (_tmp1 + _tmp3 + _tmp6)
+    _tmp8 = 4 * c_h
+    _tmp9 = _tmp8 * h
     _tmp10 = -_tmp9
     _tmp11 = -_tmp8
-    _tmp12 = 4*c_z
-    _tmp13 = _tmp3*c_h
-    _tmp14 = _tmp6*_tmp8
-    _tmp15 = (0.5)*k_found
+    _tmp12 = 4 * c_z
+    _tmp13 = _tmp3 * c_h
+    _tmp14 = _tmp6 * _tmp8
+    _tmp15 = (0.5) * k_found
     _tmp16 = _tmp15 + _tmp8
     _tmp17 = _tmp12 + k_found
-    _tmp18 = 4*b_h
-    _tmp19 = _tmp18*h
+    _tmp18 = 4 * b_h
+    _tmp19 = _tmp18 * h
     _tmp20 = -_tmp19
     _tmp21 = -_tmp18
-    _tmp22 = 4*b_z
-    _tmp23 = _tmp3*b_h
-    _tmp24 = _tmp22*_tmp5
-    _tmp25 = _tmp22*_tmp4
-    _tmp26 = _tmp18*_tmp6
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return (_runtime.stack_matrix(_shape, 12, {(0, 0): m, (1, 1): m, (1, 5): _tmp0, (2, 2): m, (2, 4): -_tmp0, (3, 3): J_x, (4, 4): J_y + _tmp2, (5, 5): J_z + _tmp2, (6, 6): m_found, (7, 7): m_found, (8, 8): m_found, (9, 9): _tmp7, (10, 10): _tmp7, (11, 11): _tmp7}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp8, (0, 4): _tmp10, (0, 6): _tmp11, (1, 1): _tmp8, (1, 3): _tmp9, (1, 7): _tmp11, (2, 2): _tmp12, (2, 8): -_tmp12, (3, 3): 4*_tmp13 + 4*_tmp5*c_z, (3, 7): _tmp10, (3, 9): -_tmp12*_tmp5, (4, 4): 4*_tmp13 + 4*_tmp4*c_z, (4, 6): _tmp9, (4, 10): -_tmp12*_tmp4, (5, 5): _tmp14, (5, 11): -_tmp14, (6, 6): _tmp16, (7, 7): _tmp16, (8, 8): _tmp17, (9, 9): _tmp17*_tmp5, (10, 10): _tmp17*_tmp4, (11, 11): _tmp15*_tmp4 + _tmp15*_tmp5 + _tmp4*_tmp8 + _tmp5*_tmp8}), _runtime.stack_matrix(_shape, 12, {(0, 0): _tmp18, (0, 4): _tmp20, (0, 6): _tmp21, (1, 1): _tmp18, (1, 3): _tmp19, (1, 7): _tmp21, (2, 2): _tmp22, (2, 8): -_tmp22, (3, 3): 4*_tmp23 + 4*_tmp5*b_z, (3, 7): _tmp20, (3, 9): -_tmp24, (4, 4): 4*_tmp23 + 4*_tmp4*b_z, (4, 6): _tmp19, (4, 10): -_tmp25, (5, 5): _tmp26, (5, 11): -_tmp26, (6, 6): _tmp18, (7, 7): _tmp18, (8, 8): _tmp22, (9, 9): _tmp24, (10, 10): _tmp25, (11, 11): _tmp26}))
+    _tmp22 = 4 * b_z
+    _tmp23 = _tmp3 * b_h
+    _tmp24 = _tmp22 * _tmp5
+    _tmp25 = _tmp22 * _tmp4
+    _tmp26 = _tmp18 * _tmp6
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return (
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): m,
+                (1, 1): m,
+                (1, 5): _tmp0,
+                (2, 2): m,
+                (2, 4): -_tmp0,
+                (3, 3): J_x,
+                (4, 4): J_y + _tmp2,
+                (5, 5): J_z + _tmp2,
+                (6, 6): m_found,
+                (7, 7): m_found,
+                (8, 8): m_found,
+                (9, 9): _tmp7,
+                (10, 10): _tmp7,
+                (11, 11): _tmp7,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp8,
+                (0, 4): _tmp10,
+                (0, 6): _tmp11,
+                (1, 1): _tmp8,
+                (1, 3): _tmp9,
+                (1, 7): _tmp11,
+                (2, 2): _tmp12,
+                (2, 8): -_tmp12,
+                (3, 3): 4 * _tmp13 + 4 * _tmp5 * c_z,
+                (3, 7): _tmp10,
+                (3, 9): -_tmp12 * _tmp5,
+                (4, 4): 4 * _tmp13 + 4 * _tmp4 * c_z,
+                (4, 6): _tmp9,
+                (4, 10): -_tmp12 * _tmp4,
+                (5, 5): _tmp14,
+                (5, 11): -_tmp14,
+                (6, 6): _tmp16,
+                (7, 7): _tmp16,
+                (8, 8): _tmp17,
+                (9, 9): _tmp17 * _tmp5,
+                (10, 10): _tmp17 * _tmp4,
+                (11, 11): _tmp15 * _tmp4 + _tmp15 * _tmp5 + _tmp4 * _tmp8 + _tmp5 * _tmp8,
+            },
+        ),
+        _runtime.stack_matrix(
+            _shape,
+            12,
+            {
+                (0, 0): _tmp18,
+                (0, 4): _tmp20,
+                (0, 6): _tmp21,
+                (1, 1): _tmp18,
+                (1, 3): _tmp19,
+                (1, 7): _tmp21,
+                (2, 2): _tmp22,
+                (2, 8): -_tmp22,
+                (3, 3): 4 * _tmp23 + 4 * _tmp5 * b_z,
+                (3, 7): _tmp20,
+                (3, 9): -_tmp24,
+                (4, 4): 4 * _tmp23 + 4 * _tmp4 * b_z,
+                (4, 6): _tmp19,
+                (4, 10): -_tmp25,
+                (5, 5): _tmp26,
+                (5, 11): -_tmp26,
+                (6, 6): _tmp18,
+                (7, 7): _tmp18,
+                (8, 8): _tmp22,
+                (9, 9): _tmp24,
+                (10, 10): _tmp25,
+                (11, 11): _tmp26,
+            },
+        ),
+    )
 
 
 def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
@@ -996,19 +2265,99 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [phi_found, phi_found] = a**2/2 + b**2/2
         dB/dk_found:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found)
-    _tmp0 = 4*h
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found
+    )
+    _tmp0 = 4 * h
     _tmp1 = -_tmp0
     _tmp2 = h**2
-    _tmp3 = 4*_tmp2
+    _tmp3 = 4 * _tmp2
     _tmp4 = a**2
-    _tmp5 = 4*_tmp4
+    _tmp5 = 4 * _tmp4
     _tmp6 = b**2
-    _tmp7 = 4*_tmp6
+    _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5 + _tmp7
     _tmp9 = _tmp2 + _tmp4 + _tmp6 + e**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_found), numpy.shape(k_found))
-    return numpy.stack([_runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(0, 0): 4, (0, 4): _tmp1, (0, 6): -4, (1, 1): 4, (1, 3): _tmp0, (1, 7): -4, (3, 3): _tmp3, (3, 7): _tmp1, (4, 4): _tmp3, (4, 6): _tmp0, (5, 5): _tmp8, (5, 11): -_tmp8, (6, 6): 4, (7, 7): 4, (11, 11): _tmp8}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(2, 2): 4, (2, 8): -4, (3, 3): _tmp7, (3, 9): -_tmp7, (4, 4): _tmp5, (4, 10): -_tmp5, (8, 8): 4, (9, 9): _tmp7, (10, 10): _tmp5}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {}), _runtime.stack_matrix(_shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp6, (10, 10): _tmp4, (11, 11): (0.5)*_tmp4 + (0.5)*_tmp6}), _runtime.stack_matrix(_shape, 12, {})], axis=-3).reshape(*_shape, 4, 3, 12, 12)
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(m_found),
+        numpy.shape(k_found),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp8,
+                    (5, 11): -_tmp8,
+                    (6, 6): 4,
+                    (7, 7): 4,
+                    (11, 11): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp7,
+                    (3, 9): -_tmp7,
+                    (4, 4): _tmp5,
+                    (4, 10): -_tmp5,
+                    (8, 8): 4,
+                    (9, 9): _tmp7,
+                    (10, 10): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): 0.5,
+                    (7, 7): 0.5,
+                    (8, 8): 1,
+                    (9, 9): _tmp6,
+                    (10, 10): _tmp4,
+                    (11, 11): (0.5) * _tmp4 + (0.5) * _tmp6,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
@@ -1029,11 +2378,45 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
           [theta, theta] = m_added*h_added**2
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added)
-    _tmp0 = h_added*m_added
-    _tmp1 = h_added**2*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {(0, 0): m_added, (0, 4): _tmp0, (1, 1): m_added, (1, 3): -_tmp0, (2, 2): m_added, (3, 3): _tmp1, (4, 4): _tmp1}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}), damping_matrix(a, b, h, b_h, b_z))
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added
+    )
+    _tmp0 = h_added * m_added
+    _tmp1 = h_added**2 * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e)
+        + _runtime.stack_matrix(
+            _shape,
+            6,
+            {
+                (0, 0): m_added,
+                (0, 4): _tmp0,
+                (1, 1): m_added,
+                (1, 3): -_tmp0,
+                (2, 2): m_added,
+                (3, 3): _tmp1,
+                (4, 4): _tmp1,
+            },
+        ),
+        stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
@@ -1076,15 +2459,64 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dC/dh_added:
         dB/dh_added:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
     _tmp4 = h_added**2
-    _tmp5 = 2*h_added*m_added
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(m_added), numpy.shape(h_added))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    _tmp5 = 2 * h_added * m_added
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(m_added),
+        numpy.shape(h_added),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -1101,9 +2533,31 @@ def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, 
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt*k_belt, (4, 4): h_belt**2*k_belt}), damping_matrix(a, b, h, b_h, b_z))
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt
+    )
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_h, c_z)
+        + _runtime.stack_matrix(_shape, 6, {(0, 0): k_belt, (0, 4): h_belt * k_belt, (4, 4): h_belt**2 * k_belt}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -1140,13 +2594,58 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(k_belt), numpy.shape(h_belt))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2*h_belt*k_belt}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 4, 3, 6, 6)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(k_belt),
+        numpy.shape(h_belt),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
@@ -1162,10 +2661,30 @@ def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_p
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload)
-    _tmp0 = -9.80665*h_preload*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(h_preload))
-    return (mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}), stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}), damping_matrix(a, b, h, b_h, b_z))
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload
+    )
+    _tmp0 = -9.80665 * h_preload * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return (
+        mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
+        stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
+        damping_matrix(a, b, h, b_h, b_z),
+    )
 
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
@@ -1196,14 +2715,55 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload)
-    _tmp0 = 4*h
-    _tmp1 = 4*h**2
-    _tmp2 = 4*a**2
-    _tmp3 = 4*b**2
-    _tmp4 = -9.80665*m
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e), numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z), numpy.shape(b_h), numpy.shape(b_z), numpy.shape(h_preload))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 + _tmp3}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {}), _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}), _runtime.stack_matrix(_shape, 6, {})], axis=-3).reshape(*_shape, 3, 3, 6, 6)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload
+    )
+    _tmp0 = 4 * h
+    _tmp1 = 4 * h**2
+    _tmp2 = 4 * a**2
+    _tmp3 = 4 * b**2
+    _tmp4 = -9.80665 * m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(m),
+        numpy.shape(J_x),
+        numpy.shape(J_y),
+        numpy.shape(J_z),
+        numpy.shape(e),
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(c_h),
+        numpy.shape(c_z),
+        numpy.shape(b_h),
+        numpy.shape(b_z),
+        numpy.shape(h_preload),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 4,
+                    (0, 4): -_tmp0,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (3, 3): _tmp1,
+                    (4, 4): _tmp1,
+                    (5, 5): _tmp2 + _tmp3,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_h, c_z):
@@ -1278,30 +2838,118 @@ def isolator_stiffness(a, b, h, c_h, c_z):
           [phi, phi] = c_h*(a**2 + b**2)
     """
     a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
-    _tmp0 = c_h*h
+    _tmp0 = c_h * h
     _tmp1 = -_tmp0
-    _tmp2 = b*c_h
+    _tmp2 = b * c_h
     _tmp3 = -_tmp2
-    _tmp4 = a*c_h
-    _tmp5 = b*c_z
-    _tmp6 = a*c_z
+    _tmp4 = a * c_h
+    _tmp5 = b * c_z
+    _tmp6 = a * c_z
     _tmp7 = -_tmp6
     _tmp8 = b**2
-    _tmp9 = c_h*h**2
-    _tmp10 = _tmp8*c_z + _tmp9
-    _tmp11 = _tmp5*a
+    _tmp9 = c_h * h**2
+    _tmp10 = _tmp8 * c_z + _tmp9
+    _tmp11 = _tmp5 * a
     _tmp12 = -_tmp11
-    _tmp13 = _tmp0*a
+    _tmp13 = _tmp0 * a
     _tmp14 = a**2
-    _tmp15 = _tmp14*c_z + _tmp9
-    _tmp16 = _tmp0*b
-    _tmp17 = c_h*(_tmp14 + _tmp8)
+    _tmp15 = _tmp14 * c_z + _tmp9
+    _tmp16 = _tmp0 * b
+    _tmp17 = c_h * (_tmp14 + _tmp8)
     _tmp18 = -_tmp5
     _tmp19 = -_tmp16
     _tmp20 = -_tmp4
     _tmp21 = -_tmp13
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp5, (2, 4): _tmp7, (3, 3): _tmp10, (3, 4): _tmp12, (3, 5): _tmp13, (4, 4): _tmp15, (4, 5): _tmp16, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp4, (2, 2): c_z, (2, 3): _tmp18, (2, 4): _tmp7, (3, 3): _tmp10, (3, 4): _tmp11, (3, 5): _tmp13, (4, 4): _tmp15, (4, 5): _tmp19, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp3, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp20, (2, 2): c_z, (2, 3): _tmp5, (2, 4): _tmp6, (3, 3): _tmp10, (3, 4): _tmp11, (3, 5): _tmp21, (4, 4): _tmp15, (4, 5): _tmp16, (5, 5): _tmp17}), _runtime.stack_matrix(_shape, 6, {(0, 0): c_h, (0, 4): _tmp1, (0, 5): _tmp2, (1, 1): c_h, (1, 3): _tmp0, (1, 5): _tmp20, (2, 2): c_z, (2, 3): _tmp18, (2, 4): _tmp6, (3, 3): _tmp10, (3, 4): _tmp12, (3, 5): _tmp21, (4, 4): _tmp15, (4, 5): _tmp19, (5, 5): _tmp17})], axis=-3)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_h,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp4,
+                    (2, 2): c_z,
+                    (2, 3): _tmp5,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp10,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp13,
+                    (4, 4): _tmp15,
+                    (4, 5): _tmp16,
+                    (5, 5): _tmp17,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_h,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp4,
+                    (2, 2): c_z,
+                    (2, 3): _tmp18,
+                    (2, 4): _tmp7,
+                    (3, 3): _tmp10,
+                    (3, 4): _tmp11,
+                    (3, 5): _tmp13,
+                    (4, 4): _tmp15,
+                    (4, 5): _tmp19,
+                    (5, 5): _tmp17,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp3,
+                    (1, 1): c_h,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp20,
+                    (2, 2): c_z,
+                    (2, 3): _tmp5,
+                    (2, 4): _tmp6,
+                    (3, 3): _tmp10,
+                    (3, 4): _tmp11,
+                    (3, 5): _tmp21,
+                    (4, 4): _tmp15,
+                    (4, 5): _tmp16,
+                    (5, 5): _tmp17,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): c_h,
+                    (0, 4): _tmp1,
+                    (0, 5): _tmp2,
+                    (1, 1): c_h,
+                    (1, 3): _tmp0,
+                    (1, 5): _tmp20,
+                    (2, 2): c_z,
+                    (2, 3): _tmp18,
+                    (2, 4): _tmp6,
+                    (3, 3): _tmp10,
+                    (3, 4): _tmp12,
+                    (3, 5): _tmp21,
+                    (4, 4): _tmp15,
+                    (4, 5): _tmp19,
+                    (5, 5): _tmp17,
+                },
+            ),
+        ],
+        axis=-3,
+    )
 
 
 def isolator_stiffness_gradient(a, b, h, c_h, c_z):
@@ -1391,35 +3039,127 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
-    _tmp3 = a*h
-    _tmp4 = b*h
+    _tmp3 = a * h
+    _tmp4 = b * h
     _tmp5 = a**2
     _tmp6 = b**2
     _tmp7 = _tmp5 + _tmp6
     _tmp8 = -_tmp4
     _tmp9 = -a
     _tmp10 = -_tmp3
-    _tmp11 = a*b
+    _tmp11 = a * b
     _tmp12 = -_tmp11
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return numpy.stack([_runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp3, (4, 4): _tmp2, (4, 5): _tmp4, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp3, (4, 4): _tmp2, (4, 5): _tmp8, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (1, 1): 1, (1, 3): h, (1, 5): _tmp9, (3, 3): _tmp2, (3, 5): _tmp10, (4, 4): _tmp2, (4, 5): _tmp4, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (1, 1): 1, (1, 3): h, (1, 5): _tmp9, (3, 3): _tmp2, (3, 5): _tmp10, (4, 4): _tmp2, (4, 5): _tmp8, (5, 5): _tmp7}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}), _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5})], axis=-3).reshape(*_shape, 2, 4, 6, 6)
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp1,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): a,
+                    (3, 3): _tmp2,
+                    (3, 5): _tmp3,
+                    (4, 4): _tmp2,
+                    (4, 5): _tmp4,
+                    (5, 5): _tmp7,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): b,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): a,
+                    (3, 3): _tmp2,
+                    (3, 5): _tmp3,
+                    (4, 4): _tmp2,
+                    (4, 5): _tmp8,
+                    (5, 5): _tmp7,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): _tmp1,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): _tmp9,
+                    (3, 3): _tmp2,
+                    (3, 5): _tmp10,
+                    (4, 4): _tmp2,
+                    (4, 5): _tmp4,
+                    (5, 5): _tmp7,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): 1,
+                    (0, 4): _tmp0,
+                    (0, 5): b,
+                    (1, 1): 1,
+                    (1, 3): h,
+                    (1, 5): _tmp9,
+                    (3, 3): _tmp2,
+                    (3, 5): _tmp10,
+                    (4, 4): _tmp2,
+                    (4, 5): _tmp8,
+                    (5, 5): _tmp7,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 2, 4, 6, 6)
 
 
 def effect_scales(m, e, a, b, h, c_h, c_z):
     """Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:
 
-        length = sqrt(b**2 + h**2 + (a - e)**2/2 + (-a - e)**2/2)
-        mass = m
-        stiffness = c_z/3 + 2*c_h/3
-        vertical = 4*c_z
-        horizontal = 4*c_h
-        rotational = (c_z/3 + 2*c_h/3)*(b**2 + h**2 + (a - e)**2/2 + (-a - e)**2/2)
-        one = 1
+    length = sqrt(b**2 + h**2 + (a - e)**2/2 + (-a - e)**2/2)
+    mass = m
+    stiffness = c_z/3 + 2*c_h/3
+    vertical = 4*c_z
+    horizontal = 4*c_h
+    rotational = (c_z/3 + 2*c_h/3)*(b**2 + h**2 + (a - e)**2/2 + (-a - e)**2/2)
+    one = 1
     """
     m, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, e, a, b, h, c_h, c_z)
-    _tmp0 = b**2 + h**2 + (0.5)*(-a - e)**2 + (0.5)*(a - e)**2
-    _tmp1 = (0.6666666666666666)*c_h + (0.3333333333333333)*c_z
-    return {"length": numpy.sqrt(_tmp0), "mass": m, "stiffness": _tmp1, "vertical": 4*c_z, "horizontal": 4*c_h, "rotational": _tmp0*_tmp1, "one": 1}
+    _tmp0 = b**2 + h**2 + (0.5) * (-a - e) ** 2 + (0.5) * (a - e) ** 2
+    _tmp1 = (0.6666666666666666) * c_h + (0.3333333333333333) * c_z
+    return {
+        "length": numpy.sqrt(_tmp0),
+        "mass": m,
+        "stiffness": _tmp1,
+        "vertical": 4 * c_z,
+        "horizontal": 4 * c_h,
+        "rotational": _tmp0 * _tmp1,
+        "one": 1,
+    }
 
 
 def frequencies(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
@@ -1513,8 +3253,7 @@ NUMERIC_INVERSES = {
     ("theta", "phi"): "a 3x3 block, no closed form generated (solved numerically)",
 }
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
-UNIDENTIFIABLE = {
-}
+UNIDENTIFIABLE = {}
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
@@ -1533,7 +3272,20 @@ EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
     "cog_height": ("x", "y", "z", "psi", "theta", "phi"),
     "rotational_stiffness": ("x", "y", "z", "psi", "theta", "phi"),
-    "foundation": ("x", "y", "z", "psi", "theta", "phi", "x_found", "y_found", "z_found", "psi_found", "theta_found", "phi_found"),
+    "foundation": (
+        "x",
+        "y",
+        "z",
+        "psi",
+        "theta",
+        "phi",
+        "x_found",
+        "y_found",
+        "z_found",
+        "psi_found",
+        "theta_found",
+        "phi_found",
+    ),
     "added_mass": ("x", "y", "z", "psi", "theta", "phi"),
     "drive_belt": ("x", "y", "z", "psi", "theta", "phi"),
     "gravity_preload": ("x", "y", "z", "psi", "theta", "phi"),

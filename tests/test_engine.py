@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import importlib
+import sys
 import types
 
 import numpy as np
 import pytest
 import sympy as sp
 
+from mountid.engine.codegen import formatting
 from mountid.engine.codegen.numpy_module import render
 from mountid.engine.description import load, shipped_descriptions
 from mountid.engine.settings import ENGINE
@@ -110,3 +112,16 @@ def test_plain_numpy_eigenvalues_match_the_fused_shipped_module(name):
     np.testing.assert_allclose(got, want, rtol=1e-13)
     one = {a: v[0] for a, v in values.items()}
     np.testing.assert_allclose(plain.squared_frequencies(**one), want[0], rtol=1e-13)
+
+
+def test_generation_without_ruff_names_the_extra(monkeypatch):
+    """The formatter missing is an extra missing: ModuleNotFoundError naming ruff, which the command line
+    turns into one line naming the `generate` extra."""
+    monkeypatch.setattr(formatting, "_COMMAND", (sys.executable, "-m", "mountid_no_such_formatter"))
+    formatting._check_version.cache_clear()
+    try:
+        with pytest.raises(ModuleNotFoundError) as info:
+            formatting.format_source("x = 1\n")
+        assert info.value.name == "ruff"
+    finally:
+        formatting._check_version.cache_clear()

@@ -19,6 +19,7 @@ from mountid.errors import InputError
 EXTRAS = {
     "sympy": "generate",
     "jinja2": "generate",
+    "ruff": "generate",
     "matplotlib": "figures",
     "pyuff": "records",
     "jsonschema": "campaigns",

@@ -12,6 +12,7 @@ from importlib import resources
 import jinja2
 import sympy as sp
 
+from mountid.engine.codegen.formatting import format_source
 from mountid.engine.codegen.functions import (
     EffectFunctions,
     derivative_functions,
@@ -131,14 +132,11 @@ def render(
     settings: EngineSettings = ENGINE,
 ) -> str:
     """The source of the generated module for a description (``inverse_sets``, ``effects`` as in
-    module_context)."""
+    module_context), laid out by the template and formatted by ruff (engine.codegen.formatting)."""
     if sp.__version__ != SYMPY_VERSION:
         raise RuntimeError(
             f"generation is pinned to sympy {SYMPY_VERSION} (found {sp.__version__}): "
             "other releases change cse output; install the pinned version"
         )
-    return (
-        _environment()
-        .get_template(template)
-        .render(**module_context(description, template, inverse_sets, effects, settings))
-    )
+    context = module_context(description, template, inverse_sets, effects, settings)
+    return format_source(_environment().get_template(template).render(**context))
