@@ -183,7 +183,7 @@ class CandidateModel:
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
-        return Evaluation(values, mats, lam, vec, omega, shapes, index, rows, gap, np.exp(-(gap**2)))
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)))
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
@@ -219,9 +219,9 @@ def exact_twins(lam: np.ndarray, j: int, near: np.ndarray) -> bool:
 class Evaluation:
     """The candidate model at one parameter vector: parameter ``values``, matrices ``mats`` (M, C, B), the
     eigenvalues ``lam`` and M-normalised eigenvectors ``vec`` of (C, M), the model frequencies ``omega``
-    [rad/s] and body ``shapes`` (6, n) of every mode, the model mode ``index`` of each labelled mode (rows
-    ``rows`` of MODES), and the closeness ``gap`` (in units of the measured resolution) and ``weight`` of
-    every model mode to each labelled one."""
+    [rad/s] and body ``shapes`` (6, n) of every mode, the model mode ``index`` of each labelled mode, and the
+    closeness ``gap`` (in units of the measured resolution) and ``weight`` of every model mode to each
+    labelled one."""
 
     values: dict[str, float]
     mats: tuple
@@ -230,7 +230,6 @@ class Evaluation:
     omega: np.ndarray
     shapes: np.ndarray
     index: np.ndarray
-    rows: np.ndarray
     gap: np.ndarray
     weight: np.ndarray
 

@@ -165,20 +165,20 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
         except (np.linalg.LinAlgError, ValueError):
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:
-            return forward_differences(fun, theta, *model.bounds())
+            return forward_differences(fun, theta, model.bounds()[1])
         return np.concatenate([j if rows is None else j[rows], prior_rows])
 
     return fun, jac
 
 
-def forward_differences(fun, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def forward_differences(fun, theta: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """d fun / d theta by forward differences with scipy's 2-point step (sqrt(eps) max(1, |theta|)),
-    stepping backwards where the forward step would leave the bounds."""
+    stepping backwards where the forward step would pass the ``upper`` bounds."""
     f0 = fun(theta)
     out = np.empty((len(f0), len(theta)))
     for i, x in enumerate(theta):
         h = math.sqrt(np.finfo(float).eps) * max(1.0, abs(x))
-        if x + h > hi[i]:
+        if x + h > upper[i]:
             h = -h
         step = theta.copy()
         step[i] = x + h
