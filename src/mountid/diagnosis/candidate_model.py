@@ -19,7 +19,7 @@ from mountid.effects import Effect
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call
 
-_DEGENERATE = 1e-6
+DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
 the measurement barely separates (a few standard deviations of the measured frequency) are compared with
 the measured shape through their common span, blended smoothly into the single mode as they move apart."""
@@ -211,8 +211,8 @@ compared with the span of the partners (see :meth:`CandidateModel.predict`)."""
 
 
 def exact_twins(lam: np.ndarray, j: int, near: np.ndarray) -> bool:
-    """Whether the modes ``near`` all have the eigenvalue of mode ``j`` (twins; relative :data:`_DEGENERATE`)."""
-    return bool(np.all(np.abs(lam[near] - lam[j]) <= _DEGENERATE * abs(lam[j])))
+    """Whether the modes ``near`` all have the eigenvalue of mode ``j`` (twins; relative :data:`DEGENERATE`)."""
+    return bool(np.all(np.abs(lam[near] - lam[j]) <= DEGENERATE * abs(lam[j])))
 
 
 @dataclass(frozen=True)
@@ -261,14 +261,8 @@ def label_modes(
     mac = (reference.T @ body) ** 2
     # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
     # projection on their common span
-    near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE * np.abs(lam[None, :])
-    done: dict[bytes, np.ndarray] = {}
-    for j in np.flatnonzero(near.sum(axis=0) > 1):
-        key = near[:, j].tobytes()
-        if key not in done:
-            q = _orthonormal(body[:, near[:, j]])
-            done[key] = np.sum((reference.T @ q) ** 2, axis=1)
-        mac[:, j] = done[key]
+    for group, members in twin_groups(lam):
+        mac[:, members] = np.sum((reference.T @ _orthonormal(body[:, group])) ** 2, axis=1)[:, None]
     if participation is not None:
         mac = mac * participation[None, :]
     log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None])  # ln(lambda / lambda_reference)
@@ -276,6 +270,16 @@ def label_modes(
     out = np.empty(len(reference_lambda), dtype=int)
     out[rows] = cols
     return out
+
+
+def twin_groups(lam: np.ndarray) -> list[tuple[np.ndarray, list[int]]]:
+    """The sets of modes with equal eigenvalues (within DEGENERATE of mode j's, relative): (boolean mask of
+    the set, the modes j whose set it is), for every set of two or more."""
+    near = np.abs(lam[:, None] - lam[None, :]) <= DEGENERATE * np.abs(lam[None, :])
+    groups: dict[bytes, tuple[np.ndarray, list[int]]] = {}
+    for j in np.flatnonzero(near.sum(axis=0) > 1):
+        groups.setdefault(near[:, j].tobytes(), (near[:, j], []))[1].append(int(j))
+    return list(groups.values())
 
 
 def _orthonormal(basis: np.ndarray) -> np.ndarray:

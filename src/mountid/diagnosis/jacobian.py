@@ -21,7 +21,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mountid.diagnosis.candidate_model import PARTNER_WEIGHT, CandidateModel, Evaluation, exact_twins, scaled_unit
+from mountid.diagnosis.candidate_model import (
+    DEGENERATE,
+    PARTNER_WEIGHT,
+    CandidateModel,
+    Evaluation,
+    exact_twins,
+    off_span,
+    twin_groups,
+)
 from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives
 
 if TYPE_CHECKING:
@@ -31,10 +39,6 @@ _SPLIT_RTOL = 1e-8
 """A parameter keeps twins together when its perturbation of their common subspace is a multiple of the
 identity within this (relative to its largest entry)."""
 
-_DEGENERATE_RTOL = 1e-6
-"""Modes closer than this in relative eigenvalue are one subspace for the eigenvector derivatives (as
-:data:`mountid.diagnosis.candidate_model._DEGENERATE`)."""
-
 
 def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray | None:
     """d(weighted residual rows)/d(theta), shape (n_rows, n_theta) in the row order of
@@ -43,13 +47,12 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta)  # d(physical)/d(theta), diagonal
     d_mats = _matrix_derivatives(model, e, names)
-    m, c, _ = e.mats
     d_m = np.array([d[0] for d in d_mats])
     d_c = np.array([d[1] for d in d_mats])
     d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
     if not _twins_kept(e, d_m, d_c):
         return None
-    d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, _DEGENERATE_RTOL)
+    d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
 
@@ -70,10 +73,8 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
                 own = d_span
             else:
                 w, d_w = _blend_weight(e, k, partners, d_lam)
-                off_own = s - body[:, j] * (body[:, j] @ s)
-                q, _ = np.linalg.qr(basis)
-                off_span = s - q @ (q.T @ s)
-                own = w * d_span + (1 - w) * own + np.outer(d_w, off_span - off_own)
+                span = np.linalg.qr(basis)[0]
+                own = w * d_span + (1 - w) * own + np.outer(d_w, off_span(s, span) - off_span(s, body[:, j]))
         rows.append(own.T / sig)
     return np.concatenate(rows) * scale[None, :]
 
@@ -89,16 +90,10 @@ def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, 
 def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:
     """Whether every parameter moves each set of exactly equal eigenvalues together (its perturbation of
     their subspace, phi^T (C' - lambda M') phi, a multiple of the identity)."""
-    lam = e.lam
-    near = np.abs(lam[:, None] - lam[None, :]) <= _DEGENERATE_RTOL * np.abs(lam)[None, :]
-    seen: set[bytes] = set()
-    for j in np.flatnonzero(near.sum(axis=0) > 1):
-        key = near[:, j].tobytes()
-        if key in seen:
-            continue
-        seen.add(key)
-        v = e.vec[:, near[:, j]]
-        g = np.einsum("ak,qab,bl->qkl", v, d_c, v) - lam[j] * np.einsum("ak,qab,bl->qkl", v, d_m, v)
+    for group, members in twin_groups(e.lam):
+        v = e.vec[:, group]
+        lam = e.lam[members[0]]
+        g = np.einsum("ak,qab,bl->qkl", v, d_c, v) - lam * np.einsum("ak,qab,bl->qkl", v, d_m, v)
         mean = np.trace(g, axis1=1, axis2=2) / v.shape[1]
         off = g - mean[:, None, None] * np.eye(v.shape[1])[None]
         size = np.max(np.abs(g), axis=(1, 2))
@@ -115,8 +110,8 @@ def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tup
     d_v = np.array(d_shapes, dtype=float)
     d_v[:, 3:6] *= length
     norm = np.linalg.norm(v, axis=0)
-    norm = np.where(norm > 0, norm, 1.0)
-    u = scaled_unit(shapes, length)
+    norm = np.where(norm > 0, norm, 1.0)  # as scaled_unit: a mode may leave the body at rest
+    u = v / norm
     d_u = d_v / norm[None, None, :]
     d_u -= u[None] * np.einsum("ak,qak->qk", u, d_u)[:, None, :]
     return u, d_u
