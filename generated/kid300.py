@@ -642,10 +642,7 @@ def _roots_x_z(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_z):
         _tmp0 = _lam_x * m
         _tmp1 = J_xy * _lam_x - 2 * L_xy**2 * c_z
         c_xy = numpy.broadcast_to((0.25) * _tmp0 * _tmp1 / (L_z**2 * _tmp0 + _tmp1), c_z.shape)
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
@@ -676,17 +673,8 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     return _runtime.solve_inverse(
         _roots_x_z,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_x**2, omega_z**2),
         (0, 2),
         UNKNOWN,
         MODE_BLOCK,
@@ -709,10 +697,7 @@ def _roots_x_psi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_psi):
             ]
         )
         c_z = numpy.broadcast_to((0.125) * J_xy * _lam_psi * _lam_x * m / (L_xy**2 * c_xy), c_xy.shape)
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
@@ -743,17 +728,8 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     return _runtime.solve_inverse(
         _roots_x_psi,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_x**2,
-            omega_psi**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_x**2, omega_psi**2),
         (0, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -772,10 +748,7 @@ def _roots_x_phi(m, J_xy, J_z, L_xy, L_z, _lam_x, _lam_phi):
             (0.5) * _lam_x * (J_xy * _lam_x * m - J_xy * _tmp0 - L_z**2 * _tmp0 * m) / (L_xy**2 * (_lam_x * m - _tmp0)),
             c_xy.shape,
         )
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
@@ -806,17 +779,8 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     return _runtime.solve_inverse(
         _roots_x_phi,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_x**2,
-            omega_phi**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_x**2, omega_phi**2),
         (0, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -833,10 +797,7 @@ def _roots_z_psi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_psi):
         _tmp0 = _lam_psi * m
         _tmp1 = J_xy * _lam_psi - 2 * L_xy**2 * c_z
         c_xy = numpy.broadcast_to((0.25) * _tmp0 * _tmp1 / (L_z**2 * _tmp0 + _tmp1), c_z.shape)
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
@@ -867,17 +828,8 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     return _runtime.solve_inverse(
         _roots_z_psi,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_z**2,
-            omega_psi**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_z**2, omega_psi**2),
         (2, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -892,10 +844,7 @@ def _roots_z_phi(m, J_xy, J_z, L_xy, L_z, _lam_z, _lam_phi):
     with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):
         c_z = numpy.concatenate([_runtime.polynomial_roots(4, -_lam_z * m)])
         c_xy = numpy.broadcast_to((0.25) * J_z * _lam_phi / L_xy**2, c_z.shape)
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
@@ -926,17 +875,8 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     return _runtime.solve_inverse(
         _roots_z_phi,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_z**2,
-            omega_phi**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_z**2, omega_phi**2),
         (2, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -958,10 +898,7 @@ def _roots_psi_phi(m, J_xy, J_z, L_xy, L_z, _lam_psi, _lam_phi):
             / (L_xy**2 * (_lam_psi * m - _tmp0)),
             c_xy.shape,
         )
-    return (
-        c_xy,
-        c_z,
-    )
+    return (c_xy, c_z)
 
 
 def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
@@ -992,17 +929,8 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     return _runtime.solve_inverse(
         _roots_psi_phi,
         _model,
-        (
-            m,
-            J_xy,
-            J_z,
-            L_xy,
-            L_z,
-        ),
-        (
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_xy, J_z, L_xy, L_z),
+        (omega_psi**2, omega_phi**2),
         (3, 5),
         UNKNOWN,
         MODE_BLOCK,

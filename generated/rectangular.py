@@ -855,11 +855,7 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_z):
         _tmp2 = _lam_y * m
         _tmp3 = J_x * _lam_y - 4 * b**2 * c_z
         c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
@@ -893,20 +889,8 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     return _runtime.solve_inverse(
         _roots_x_y_z,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_z**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_y**2, omega_z**2),
         (0, 1, 2),
         UNKNOWN,
         MODE_BLOCK,
@@ -940,11 +924,7 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_psi):
             c_y.shape,
         )
         c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
@@ -978,20 +958,8 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     return _runtime.solve_inverse(
         _roots_x_y_psi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_psi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_y**2, omega_psi**2),
         (0, 1, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -1017,11 +985,7 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_theta):
         _tmp3 = J_x * _tmp2 - J_y * _lam_theta * _lam_x * b**2 * m
         c_y = numpy.broadcast_to((0.25) * _lam_y * _tmp3 * m / (_tmp2 * h**2 * m + _tmp3), c_x.shape)
         c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta):
@@ -1055,20 +1019,8 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     return _runtime.solve_inverse(
         _roots_x_y_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_y**2, omega_theta**2),
         (0, 1, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -1129,11 +1081,7 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_y, _lam_phi):
             -0.25 * _lam_x * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)), c_x.shape
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
@@ -1167,20 +1115,8 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     return _runtime.solve_inverse(
         _roots_x_y_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_y**2, omega_phi**2),
         (0, 1, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1200,11 +1136,7 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_psi):
         _tmp2 = _lam_psi * m
         _tmp3 = J_x * _lam_psi - 4 * b**2 * c_z
         c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
@@ -1238,20 +1170,8 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     return _runtime.solve_inverse(
         _roots_x_z_psi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-            omega_psi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_z**2, omega_psi**2),
         (0, 2, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -1269,11 +1189,7 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_z, _lam_phi):
         _tmp1 = J_y * _lam_x - 4 * a**2 * c_z
         c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
@@ -1307,20 +1223,8 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     return _runtime.solve_inverse(
         _roots_x_z_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_z**2, omega_phi**2),
         (0, 2, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1346,11 +1250,7 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_theta):
         _tmp3 = J_x * _tmp2 - J_y * _lam_theta * _lam_x * b**2 * m
         c_y = numpy.broadcast_to((0.25) * _lam_psi * _tmp3 * m / (_tmp2 * h**2 * m + _tmp3), c_x.shape)
         c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta):
@@ -1384,20 +1284,8 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     return _runtime.solve_inverse(
         _roots_x_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_psi**2, omega_theta**2),
         (0, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -1458,11 +1346,7 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_psi, _lam_phi):
             -0.25 * _lam_x * (J_y * _tmp21 - J_y * _tmp22 + _tmp21 * h**2 * m) / (a**2 * (-_tmp21 + _tmp22)), c_x.shape
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi):
@@ -1496,20 +1380,8 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     return _runtime.solve_inverse(
         _roots_x_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_psi**2, omega_phi**2),
         (0, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1533,11 +1405,7 @@ def _roots_x_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_x, _lam_theta, _lam_phi):
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
         c_z = numpy.broadcast_to((0.0625) * J_y * _lam_theta * _lam_x * m / (a**2 * c_x), c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi):
@@ -1571,20 +1439,8 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     return _runtime.solve_inverse(
         _roots_x_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_x**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_x**2, omega_theta**2, omega_phi**2),
         (0, 4, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1604,11 +1460,7 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_theta):
         _tmp2 = _lam_y * m
         _tmp3 = J_x * _lam_y - 4 * b**2 * c_z
         c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta):
@@ -1642,20 +1494,8 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     return _runtime.solve_inverse(
         _roots_y_z_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_y**2,
-            omega_z**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_y**2, omega_z**2, omega_theta**2),
         (1, 2, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -1683,11 +1523,7 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_z, _lam_phi):
             c_z.shape,
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
@@ -1721,20 +1557,8 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     return _runtime.solve_inverse(
         _roots_y_z_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_y**2,
-            omega_z**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_y**2, omega_z**2, omega_phi**2),
         (1, 2, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1768,11 +1592,7 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_theta):
             c_y.shape,
         )
         c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta):
@@ -1806,20 +1626,8 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     return _runtime.solve_inverse(
         _roots_y_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_y**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_y**2, omega_psi**2, omega_theta**2),
         (1, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -1843,11 +1651,7 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_psi, _lam_phi):
         )
         c_x = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * a**2 * c_y) / b**2, c_y.shape)
         c_z = numpy.broadcast_to((0.0625) * J_x * _lam_psi * _lam_y * m / (b**2 * c_y), c_y.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi):
@@ -1881,20 +1685,8 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     return _runtime.solve_inverse(
         _roots_y_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_y**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_y**2, omega_psi**2, omega_phi**2),
         (1, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -1956,11 +1748,7 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_y, _lam_theta, _lam_phi):
             c_x.shape,
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi):
@@ -1994,20 +1782,8 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     return _runtime.solve_inverse(
         _roots_y_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_y**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_y**2, omega_theta**2, omega_phi**2),
         (1, 4, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2027,11 +1803,7 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_theta):
         _tmp2 = _lam_psi * m
         _tmp3 = J_x * _lam_psi - 4 * b**2 * c_z
         c_y = numpy.broadcast_to(-0.25 * _tmp2 * _tmp3 / (-_tmp2 * h**2 - _tmp3), c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta):
@@ -2065,20 +1837,8 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     return _runtime.solve_inverse(
         _roots_z_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_z**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_z**2, omega_psi**2, omega_theta**2),
         (2, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -2106,11 +1866,7 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_psi, _lam_phi):
             c_z.shape,
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi):
@@ -2144,20 +1900,8 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     return _runtime.solve_inverse(
         _roots_z_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_z**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_z**2, omega_psi**2, omega_phi**2),
         (2, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2175,11 +1919,7 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_z, _lam_theta, _lam_phi):
         _tmp1 = J_y * _lam_theta - 4 * a**2 * c_z
         c_x = numpy.broadcast_to(-0.25 * _tmp0 * _tmp1 / (-_tmp0 * h**2 - _tmp1), c_z.shape)
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_z.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi):
@@ -2213,20 +1953,8 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     return _runtime.solve_inverse(
         _roots_z_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_z**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_z**2, omega_theta**2, omega_phi**2),
         (2, 4, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2288,11 +2016,7 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, _lam_psi, _lam_theta, _lam_p
             c_x.shape,
         )
         c_y = numpy.broadcast_to(-0.25 * (-J_z * _lam_phi + 4 * b**2 * c_x) / a**2, c_x.shape)
-    return (
-        c_x,
-        c_y,
-        c_z,
-    )
+    return (c_x, c_y, c_z)
 
 
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi):
@@ -2326,20 +2050,8 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     return _runtime.solve_inverse(
         _roots_psi_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-        ),
-        (
-            omega_psi**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h),
+        (omega_psi**2, omega_theta**2, omega_phi**2),
         (3, 4, 5),
         UNKNOWN,
         MODE_BLOCK,

@@ -1355,11 +1355,7 @@ def _roots_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_z):
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
@@ -1393,21 +1389,8 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     return _runtime.solve_inverse(
         _roots_x_y_z,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_z**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_y**2, omega_z**2),
         (0, 1, 2),
         UNKNOWN,
         MODE_BLOCK,
@@ -1483,11 +1466,7 @@ def _roots_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_psi):
             / (_tmp20 * c_h),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi):
@@ -1521,21 +1500,8 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     return _runtime.solve_inverse(
         _roots_x_y_psi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_psi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_y**2, omega_psi**2),
         (0, 1, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -1694,11 +1660,7 @@ def _roots_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_thet
             / (_tmp70 * c_h * (2 * _tmp71**4 + 4 * _tmp72 * _tmp74 + 2 * _tmp73**4 + _tmp74)),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta):
@@ -1732,21 +1694,8 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     return _runtime.solve_inverse(
         _roots_x_y_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_y**2, omega_theta**2),
         (0, 1, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -1866,11 +1815,7 @@ def _roots_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
             / (_tmp44 * numpy.sin(alpha) ** 2),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _lam_phi):
@@ -1917,11 +1862,7 @@ def _roots_x_y_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_y, _l
         c_v = numpy.broadcast_to(
             -0.25 * _lam_x * (J_y * _tmp14 - J_y * _tmp15 + _tmp14 * h**2 * m) / (a**2 * (-_tmp14 + _tmp15)), c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi):
@@ -1964,21 +1905,8 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     return _runtime.solve_inverse(
         _roots_x_y_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_y**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_y**2, omega_phi**2),
         (0, 1, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2046,11 +1974,7 @@ def _roots_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_psi):
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi):
@@ -2084,21 +2008,8 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     return _runtime.solve_inverse(
         _roots_x_z_psi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-            omega_psi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_z**2, omega_psi**2),
         (0, 2, 3),
         UNKNOWN,
         MODE_BLOCK,
@@ -2201,11 +2112,7 @@ def _roots_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_thet
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta):
@@ -2239,21 +2146,8 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     return _runtime.solve_inverse(
         _roots_x_z_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_z**2, omega_theta**2),
         (0, 2, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -2344,11 +2238,7 @@ def _roots_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_x_z_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _lam_phi):
@@ -2363,11 +2253,7 @@ def _roots_x_z_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_z, _l
             -0.25 * _lam_x * (J_y * _tmp0 - J_y * _tmp1 + _tmp0 * h**2 * m) / (a**2 * (-_tmp0 + _tmp1)), c_h.shape
         )
         c_m = numpy.broadcast_to((0.5) * _lam_z * m - 2 * c_v, c_h.shape)
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi):
@@ -2410,21 +2296,8 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     return _runtime.solve_inverse(
         _roots_x_z_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_z**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_z**2, omega_phi**2),
         (0, 2, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2583,11 +2456,7 @@ def _roots_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_
             / (_tmp70 * c_h * (2 * _tmp71**4 + 4 * _tmp72 * _tmp74 + 2 * _tmp73**4 + _tmp74)),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta):
@@ -2621,21 +2490,8 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     return _runtime.solve_inverse(
         _roots_x_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_psi**2, omega_theta**2),
         (0, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -2755,11 +2611,7 @@ def _roots_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_ph
             / (_tmp44 * numpy.sin(alpha) ** 2),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi, _lam_phi):
@@ -2805,11 +2657,7 @@ def _roots_x_psi_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_x, _lam_psi
         c_v = numpy.broadcast_to(
             -0.25 * _lam_x * (J_y * _tmp13 - J_y * _tmp14 + _tmp13 * h**2 * m) / (a**2 * (-_tmp13 + _tmp14)), c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi):
@@ -2852,21 +2700,8 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     return _runtime.solve_inverse(
         _roots_x_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_x**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_x**2, omega_psi**2, omega_phi**2),
         (0, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -2934,11 +2769,7 @@ def _roots_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_thet
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta):
@@ -2972,21 +2803,8 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     return _runtime.solve_inverse(
         _roots_y_z_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_y**2,
-            omega_z**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_y**2, omega_z**2, omega_theta**2),
         (1, 2, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -3020,11 +2838,7 @@ def _roots_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_z, _lam_phi):
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi):
@@ -3058,21 +2872,8 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     return _runtime.solve_inverse(
         _roots_y_z_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_y**2,
-            omega_z**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_y**2, omega_z**2, omega_phi**2),
         (1, 2, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -3148,11 +2949,7 @@ def _roots_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_
             / (_tmp20 * c_h),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta):
@@ -3186,21 +2983,8 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     return _runtime.solve_inverse(
         _roots_y_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_y**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_y**2, omega_psi**2, omega_theta**2),
         (1, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -3242,11 +3026,7 @@ def _roots_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_psi, _lam_ph
             / (_tmp4 * c_h),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi):
@@ -3280,21 +3060,8 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     return _runtime.solve_inverse(
         _roots_y_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_y**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_y**2, omega_psi**2, omega_phi**2),
         (1, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -3414,11 +3181,7 @@ def _roots_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _la
             / (_tmp44 * numpy.sin(alpha) ** 2),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_theta, _lam_phi):
@@ -3466,11 +3229,7 @@ def _roots_y_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_y, _lam_t
             -0.25 * _lam_theta * (J_y * _tmp14 - J_y * _tmp15 + _tmp14 * h**2 * m) / (a**2 * (-_tmp14 + _tmp15)),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi):
@@ -3513,21 +3272,8 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     return _runtime.solve_inverse(
         _roots_y_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_y**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_y**2, omega_theta**2, omega_phi**2),
         (1, 4, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -3595,11 +3341,7 @@ def _roots_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta):
@@ -3633,21 +3375,8 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     return _runtime.solve_inverse(
         _roots_z_psi_theta,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_z**2,
-            omega_psi**2,
-            omega_theta**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_z**2, omega_psi**2, omega_theta**2),
         (2, 3, 4),
         UNKNOWN,
         MODE_BLOCK,
@@ -3681,11 +3410,7 @@ def _roots_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_psi, _lam_ph
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi):
@@ -3719,21 +3444,8 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     return _runtime.solve_inverse(
         _roots_z_psi_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_z**2,
-            omega_psi**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_z**2, omega_psi**2, omega_phi**2),
         (2, 3, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -3824,11 +3536,7 @@ def _roots_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _la
         c_m = numpy.broadcast_to(
             (0.5) * _lam_z * m - 2 * c_h * numpy.sin(alpha) ** 2 - 2 * c_v * numpy.cos(alpha) ** 2, c_h.shape
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_z_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_theta, _lam_phi):
@@ -3843,11 +3551,7 @@ def _roots_z_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_z, _lam_t
             -0.25 * _lam_theta * (J_y * _tmp0 - J_y * _tmp1 + _tmp0 * h**2 * m) / (a**2 * (-_tmp0 + _tmp1)), c_h.shape
         )
         c_m = numpy.broadcast_to((0.5) * _lam_z * m - 2 * c_v, c_h.shape)
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi):
@@ -3890,21 +3594,8 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     return _runtime.solve_inverse(
         _roots_z_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_z**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_z**2, omega_theta**2, omega_phi**2),
         (2, 4, 5),
         UNKNOWN,
         MODE_BLOCK,
@@ -4024,11 +3715,7 @@ def _roots_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta,
             / (_tmp44 * numpy.sin(alpha) ** 2),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _lam_theta, _lam_phi):
@@ -4075,11 +3762,7 @@ def _roots_psi_theta_phi__alpha_0(m, J_x, J_y, J_z, a, b, h, alpha, _lam_psi, _l
             -0.25 * _lam_theta * (J_y * _tmp13 - J_y * _tmp14 + _tmp13 * h**2 * m) / (a**2 * (-_tmp13 + _tmp14)),
             c_h.shape,
         )
-    return (
-        c_h,
-        c_v,
-        c_m,
-    )
+    return (c_h, c_v, c_m)
 
 
 def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi):
@@ -4122,21 +3805,8 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     return _runtime.solve_inverse(
         _roots_psi_theta_phi,
         _model,
-        (
-            m,
-            J_x,
-            J_y,
-            J_z,
-            a,
-            b,
-            h,
-            alpha,
-        ),
-        (
-            omega_psi**2,
-            omega_theta**2,
-            omega_phi**2,
-        ),
+        (m, J_x, J_y, J_z, a, b, h, alpha),
+        (omega_psi**2, omega_theta**2, omega_phi**2),
         (3, 4, 5),
         UNKNOWN,
         MODE_BLOCK,

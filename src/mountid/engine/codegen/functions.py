@@ -4,52 +4,24 @@ forward model the numeric inverses use. numpy_module lays them out with the temp
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy as sp
 
 from mountid.effects import EFFECTS
-from mountid.engine.codegen.printing import code, describe, eliminate
+from mountid.engine.codegen.layouts import Call, Filled, ForwardModel, Function, Mapping, Matrices, SymmetricMatrix
+from mountid.engine.codegen.printing import describe, print_function
 from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.nomenclature import COORDINATES
 
 
-@dataclass
-class Function:
-    """One generated function: signature, docstring, body lines and return expression."""
-
-    name: str
-    args: tuple[str, ...]
-    doc: str
-    body: list[str] = field(default_factory=list)
-    returns: str = ""
-    convert: bool = True
-    """Whether the arguments are converted to float arrays on entry (public functions)."""
-
-
-def shape_line(args: tuple[str, ...]) -> str:
-    """The generated line computing the broadcast batch shape of a function's arguments."""
-    return f"_shape = numpy.broadcast_shapes({', '.join(f'numpy.shape({a})' for a in args)})"
-
-
-def matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str) -> Function:
-    args = model.parameters_of(matrix)
-    entries = {(i, j): matrix[i, j] for i in range(6) for j in range(i, 6) if matrix[i, j] != 0}
-    cse = eliminate(list(entries.values()))
-    formula = "\n".join(
-        f"        [{COORDINATES[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items()
-    )
-    doc = (
-        f"{what} [{unit_note}], shape (..., 6, 6), coordinates {', '.join(COORDINATES)}.\n\n"
-        f"    Non-zero entries of the upper triangle (the matrix is symmetric):\n\n{formula}\n"
-    )
-    fn = Function(name, args, doc)
-    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    pairs = ", ".join(f"({i}, {j}): {out}" for (i, j), out in zip(entries, cse.outputs, strict=True))
-    fn.body.append(shape_line(args))
-    fn.returns = f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})"
-    return fn
+def _entry_lines(matrix: sp.Matrix, coordinates: tuple[str, ...], indent: str) -> list[str]:
+    """Docstring lines ``[row, column] = entry`` of a symmetric matrix's non-zero upper triangle."""
+    return [
+        f"{indent}[{coordinates[i]}, {coordinates[j]}] = {describe(e)}"
+        for i, j, e in SymmetricMatrix.of(matrix).entries
+    ]
 
 
 def _matrices_function(
@@ -58,47 +30,33 @@ def _matrices_function(
     coordinates: tuple[str, ...],
     args: tuple[str, ...],
     doc: str,
-    base: dict[str, str] | None = None,
+    bases: tuple[Call, ...] = (),
     stacked: tuple[int, ...] | None = None,
 ) -> Function:
-    """A function returning several symmetric matrices (one cse over all of them) as a tuple; ``base``: per
-    matrix, code of a matrix the entries are added to, and further outputs (label -> code) after them;
-    ``stacked``: instead, the matrices stacked on a new axis -3 and reshaped to (*batch, *stacked) (() for
-    the stack alone)."""
-    n = len(coordinates)
-    entries = [(k, i, j, mat[i, j]) for k, mat in enumerate(matrices.values()) for i in range(n) for j in range(i, n)]
-    entries = [e for e in entries if e[3] != 0]
-    cse = eliminate([e[3] for e in entries])
+    """A function returning several symmetric matrices (one cse over all of them), as laid out by
+    layouts.Matrices (``bases``, ``stacked`` as there), its docstring listing their entries."""
     lines = []
-    for k, label in enumerate(matrices):
-        lines.append(f"        {label}:")
-        lines += [
-            f"          [{coordinates[i]}, {coordinates[j]}] = {describe(e)}" for kk, i, j, e in entries if kk == k
-        ]
-    fn = Function(name, args, doc + "\n    Non-zero upper-triangle entries:\n\n" + "\n".join(lines) + "\n")
-    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    fn.body.append(shape_line(args))
-    outs = []
-    for k in range(len(matrices)):
-        pairs = ", ".join(
-            f"({i}, {j}): {out}" for (kk, i, j, _), out in zip(entries, cse.outputs, strict=True) if kk == k
-        )
-        outs.append(f"_runtime.stack_matrix(_shape, {n}, {{{pairs}}})")
-    if base:
-        outs = [f"{base[label]} + {out}" for label, out in zip(matrices, outs, strict=True)]
-        outs += [code for label, code in base.items() if label not in matrices]
-    if stacked is None:
-        fn.returns = f"({', '.join(outs)})" if len(outs) > 1 else outs[0]
-    elif stacked == ():
-        fn.returns = f"numpy.stack([{', '.join(outs)}], axis=-3)" if len(outs) > 1 else f"{outs[0]}[..., None, :, :]"
-    else:
-        fn.returns = f"numpy.stack([{', '.join(outs)}], axis=-3).reshape(*_shape, {', '.join(map(str, stacked))})"
-    return fn
+    for label, mat in matrices.items():
+        lines += [f"        {label}:", *_entry_lines(mat, coordinates, "          ")]
+    doc += "\n    Non-zero upper-triangle entries:\n\n" + "\n".join(lines) + "\n"
+    layout = Matrices(tuple(SymmetricMatrix.of(m) for m in matrices.values()), bases, stacked)
+    return print_function(Function(name, args, doc, layout))
+
+
+def matrix_function(name: str, matrix: sp.Matrix, model: SymbolicModel, what: str, unit_note: str) -> Function:
+    """One symmetric 6 x 6 matrix of the model (M, C or B)."""
+    formula = "\n".join(_entry_lines(matrix, COORDINATES, "        "))
+    doc = (
+        f"{what} [{unit_note}], shape (..., 6, 6), coordinates {', '.join(COORDINATES)}.\n\n"
+        f"    Non-zero entries of the upper triangle (the matrix is symmetric):\n\n{formula}\n"
+    )
+    layout = Matrices((SymmetricMatrix.of(matrix),))
+    return print_function(Function(name, model.parameters_of(matrix), doc, layout))
 
 
 @dataclass(frozen=True)
 class EffectFunctions:
-    """The candidate-effect part of a generated module: its functions, the coordinates of each effect's
+    """The candidate-effect part of a generated module: its functions (printed), the coordinates of each effect's
     extended model, the parameters of each effect_<name>_derivatives(), and the isolator names."""
 
     functions: list[Function]
@@ -113,11 +71,11 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     functions = []
     coords = {}
     derivative_parameters = {}
-    nominal_args = {
-        "M": model.parameters_of(model.M),
-        "C": model.parameters_of(model.C),
-        "B": model.parameters_of(model.B),
-    }
+    nominal = (
+        Call("mass_matrix", model.parameters_of(model.M)),
+        Call("stiffness_matrix", model.parameters_of(model.C)),
+        Call("damping_matrix", model.parameters_of(model.B)),
+    )
     for name in GENERATED_EFFECTS:
         ext = ExtendedModel(model, EFFECTS[name])
         coords[name] = ext.coordinates
@@ -136,17 +94,13 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
             added = {"M": ext.added_M, "C": ext.added_C}
             own = model.parameters_of(model.M, model.C, model.B)
             extra = tuple(p.name for p in EFFECTS[name].parameters)
-            calls = {
-                k: f"{fn_name}({', '.join(nominal_args[k])})"
-                for k, fn_name in (("M", "mass_matrix"), ("C", "stiffness_matrix"), ("B", "damping_matrix"))
-            }
             fn = _matrices_function(
                 f"effect_{name}",
                 added,
                 ext.coordinates,
                 own + extra,
                 doc + "    The nominal matrices plus the Hessians of the added energies (B is the nominal one):\n",
-                base=calls,
+                bases=nominal,
             )
         functions.append(fn)
         functions.append(_effect_derivative_function(model, ext))
@@ -166,17 +120,12 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     functions.append(_isolator_gradient_function(model, dict(zip(names, per, strict=True))))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
-    cse = eliminate(list(sc.values()))
-    fn = Function(
-        "effect_scales",
-        args,
+    doc = (
         "Machine scales for the plausible ranges of the candidate effects (mountid.effects), as a dict:\n\n"
         + "\n".join(f"        {k} = {describe(v)}" for k, v in sc.items())
-        + "\n",
+        + "\n"
     )
-    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    fn.returns = "{" + ", ".join(f'"{k}": {out}' for k, out in zip(sc, cse.outputs, strict=True)) + "}"
-    functions.append(fn)
+    functions.append(print_function(Function("effect_scales", args, doc, Mapping(tuple(sc.items())))))
     return EffectFunctions(functions, coords, derivative_parameters, names)
 
 
@@ -225,19 +174,15 @@ def point_function(model: SymbolicModel) -> Function:
     """du/dq at body points: sensors read it, forces act through its transpose."""
     jac = model.point_jacobian
     args = tuple(str(s) for s in model.POINT)
-    entries = {(i, j): jac[i, j] for i in range(3) for j in range(6) if jac[i, j] != 0}
-    formula = "\n".join(f"        [{'xyz'[i]}, {COORDINATES[j]}] = {describe(e)}" for (i, j), e in entries.items())
+    entries = tuple((i, j, jac[i, j]) for i in range(3) for j in range(6) if jac[i, j] != 0)
+    formula = "\n".join(f"        [{'xyz'[i]}, {COORDINATES[j]}] = {describe(e)}" for i, j, e in entries)
     doc = (
         "Jacobian du/dq of the displacement u [m] of the body point (r_x, r_y, r_z) [m] (from the coordinate\n"
         "    origin) with respect to q, shape (..., 3, 6). A sensor there along the unit direction d reads\n"
         "    d^T (du/dq) q; a force F there acts on the coordinates as (du/dq)^T F.\n\n"
         f"    Non-zero entries:\n\n{formula}\n"
     )
-    fn = Function("point_jacobian", args, doc)
-    fn.body = [shape_line(args), "_out = numpy.zeros((*_shape, 3, 6))"]
-    fn.body += [f"_out[..., {i}, {j}] = {code(e)}" for (i, j), e in entries.items()]
-    fn.returns = "_out"
-    return fn
+    return print_function(Function("point_jacobian", args, doc, Filled((3, 6), entries), cse=False))
 
 
 def _stiffness_gradient(model: SymbolicModel) -> list[sp.Matrix]:
@@ -253,26 +198,9 @@ def gradient_function(model: SymbolicModel) -> Function:
     """dC/d(unknown) for each unknown: the matrices of the eigenvalue derivatives phi^T dC phi."""
     args = gradient_arguments(model)
     unknowns = model.description.unknown
-    mats = _stiffness_gradient(model)
-    entries = [
-        ((k, i, j), mat[i, j]) for k, mat in enumerate(mats) for i in range(6) for j in range(i, 6) if mat[i, j] != 0
-    ]
-    cse = eliminate([e for _, e in entries])
-    fn = Function(
-        "stiffness_gradient",
-        args,
-        f"Derivatives dC/d({', '.join(unknowns)}) of the stiffness matrix, shape (..., {len(unknowns)}, 6, 6).\n",
-    )
-    fn.body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    fn.body.append(shape_line(args))
-    per = []
-    for k in range(len(unknowns)):
-        pairs = ", ".join(
-            f"({i}, {j}): {out}" for ((kk, i, j), _), out in zip(entries, cse.outputs, strict=True) if kk == k
-        )
-        per.append(f"_runtime.stack_matrix(_shape, 6, {{{pairs}}})")
-    fn.returns = f"numpy.stack([{', '.join(per)}], axis=-3)"
-    return fn
+    layout = Matrices(tuple(SymmetricMatrix.of(m) for m in _stiffness_gradient(model)), stacked=())
+    doc = f"Derivatives dC/d({', '.join(unknowns)}) of the stiffness matrix, shape (..., {len(unknowns)}, 6, 6).\n"
+    return print_function(Function("stiffness_gradient", args, doc, layout))
 
 
 def _derivative_function(
@@ -317,26 +245,16 @@ def model_function(model: SymbolicModel, fwd_args: tuple[str, ...]) -> Function:
     """
     d = model.description
     known = tuple(a for a in fwd_args if a not in d.unknown)
-    m_args, c_args = model.parameters_of(model.M), model.parameters_of(model.C)
-    body = [
-        f"{', '.join(known)}{',' if len(known) == 1 else ''} = _known",
-        f"{', '.join(d.unknown)}{',' if len(d.unknown) == 1 else ''} = _unknowns.T",
-        f"_lam = squared_frequencies({', '.join(fwd_args)})",
-        "if not _modes:",
-        "    return _lam, None, None",
-        f"_phi = _runtime.modal_matrix(mass_matrix({', '.join(m_args)}), stiffness_matrix({', '.join(c_args)}), "
-        "_lam, BLOCKS, MODE_BLOCK, MODE_RANK)",
-    ]
-    g_args = gradient_arguments(model)
+    layout = ForwardModel(
+        known,
+        d.unknown,
+        Call("squared_frequencies", fwd_args),
+        Call("mass_matrix", model.parameters_of(model.M)),
+        Call("stiffness_matrix", model.parameters_of(model.C)),
+        Call("stiffness_gradient", gradient_arguments(model)),
+    )
     doc = (
         "Squared frequencies, and with ``_modes`` the modal matrix and dC/d(unknowns), at flat parameters:\n"
         f"    ``_known`` = ({', '.join(known)}) of shape (N,), ``_unknowns`` of shape (N, {len(d.unknown)}).\n"
     )
-    return Function(
-        "_model",
-        ("_known", "_unknowns", "_modes"),
-        doc,
-        body,
-        f"_lam, _phi, stiffness_gradient({', '.join(g_args)})",
-        convert=False,
-    )
+    return Function("_model", ("_known", "_unknowns", "_modes"), doc, layout, convert=False)

@@ -1,7 +1,9 @@
-"""Build the numpy module of one description: function bodies from sympy, laid out by a jinja2 template.
+"""Build the numpy module of one description: the functions as data (functions, solvers: layouts with sympy
+leaves, printed in one pass), laid out by ``templates/numpy_module.py.jinja`` and its macros in
+``templates/numpy_layouts.jinja``, formatted by ruff.
 
-Every formula in the output comes from :mod:`mountid.engine.symbolic`; this module only arranges them
-(argument lists, cse, array assembly) and hands them to ``templates/numpy_module.py.jinja``.
+Every formula in the output comes from :mod:`mountid.engine.symbolic`; this module only gathers the functions
+and the module's constants for the template.
 """
 
 from __future__ import annotations
@@ -22,7 +24,6 @@ from mountid.engine.codegen.functions import (
     model_function,
     point_function,
 )
-from mountid.engine.codegen.printing import code
 from mountid.engine.codegen.solvers import eigen_function, inverse_functions, root_slots
 from mountid.engine.description import Description
 from mountid.engine.settings import ENGINE, EngineSettings
@@ -100,7 +101,6 @@ def module_context(
         "effect_coordinates": effects.coordinates,
         "effect_derivative_parameters": effects.derivative_parameters,
         "isolators": effects.isolators,
-        "code": code,
     }
 
 
@@ -115,6 +115,7 @@ def _environment() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters["pytuple"] = _pytuple
+    env.filters["pyrepr"] = repr
     return env
 
 

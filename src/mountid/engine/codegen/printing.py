@@ -6,12 +6,15 @@ Temporaries are named ``_tmp0``, ``_tmp1``, ... in the order cse produces them; 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.lambdarepr import NumExprPrinter
 from sympy.printing.numpy import NumPyPrinter
+
+from mountid.engine.codegen.layouts import Function, Step
 
 
 class _Printer(NumPyPrinter):
@@ -75,3 +78,42 @@ def eliminate(exprs: Sequence[sp.Expr], prefix: str = "_tmp", start: int = 0) ->
 def describe(expr: sp.Expr) -> str:
     """Compact one-line text of an expression for docstrings."""
     return sp.sstr(expr, order="none")
+
+
+def _map_leaves(obj, leaf: Callable, step: Callable):
+    """``obj`` with every sympy leaf replaced by ``leaf(expr)`` and every Step by ``step(s)``, walking
+    dataclasses (field order) and tuples; anything else is kept."""
+    if isinstance(obj, sp.Basic):
+        return leaf(obj)
+    if isinstance(obj, Step):
+        return step(obj)
+    if dataclasses.is_dataclass(obj):
+        fields = {f.name: _map_leaves(getattr(obj, f.name), leaf, step) for f in dataclasses.fields(obj)}
+        return dataclasses.replace(obj, **fields)
+    if isinstance(obj, tuple):
+        return tuple(_map_leaves(o, leaf, step) for o in obj)
+    return obj
+
+
+def print_function(fn: Function) -> Function:
+    """``fn`` printed in one pass: its layout's sympy leaves as source text, by one cse over all of them
+    (``fn.cse``, temporaries ``_tmp0..n`` into ``fn.temporaries``) or each alone, with the numpy or the numexpr
+    printer (``fn.printer``); each Step after them with its own cse, numbered on."""
+    leaves: list[sp.Expr] = []
+    _map_leaves(fn.layout, leaves.append, lambda s: s)
+    printer = {"numpy": code, "numexpr": fused}[fn.printer]
+    if fn.cse:
+        done = eliminate(leaves)
+        temporaries, texts = done.lines, iter(done.outputs)
+    else:
+        temporaries, texts = (), iter([printer(e) for e in leaves])
+    count = len(temporaries)
+
+    def step(s: Step) -> Step:
+        nonlocal count
+        done = eliminate([s.value], start=count)
+        count += len(done.lines)
+        return Step(s.unknown, done.outputs[0], done.lines)
+
+    layout = _map_leaves(fn.layout, lambda _: next(texts), step)
+    return dataclasses.replace(fn, layout=layout, temporaries=temporaries)

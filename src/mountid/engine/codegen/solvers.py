@@ -6,8 +6,19 @@ from __future__ import annotations
 
 import sympy as sp
 
-from mountid.engine.codegen.functions import Function, shape_line
-from mountid.engine.codegen.printing import code, describe, eliminate, fused
+from mountid.engine.codegen.layouts import (
+    Call,
+    ClosedFormEigen,
+    Function,
+    Inverse,
+    NumericBlock,
+    NumericEigen,
+    PairBlock,
+    Roots,
+    SingleBlock,
+    Step,
+)
+from mountid.engine.codegen.printing import describe, print_function
 from mountid.engine.settings import EngineSettings
 from mountid.engine.symbolic.blocks import ModalStructure
 from mountid.engine.symbolic.inverse import InverseSet
@@ -20,21 +31,16 @@ def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
     per distinct eigenvalue with ``structure.settings.fused``, plain numpy code otherwise), else a numeric
     eigen-solve per block."""
     blocks = structure.blocks
-    matrices = (model.M, model.C)
-    args = model.parameters_of(*matrices)
+    args = model.parameters_of(model.M, model.C)
     labels = structure.labels
     doc_lines = []
     if structure.closed_form:
-        # each distinct eigenvalue is written into its row of _out (a view, 0-d for scalar input, hence
-        # [i, ...]), returned with the modes on the last axis; fused: one numexpr pass each (a chain of numpy
-        # operations on large batches is bound by memory traffic and by the first touch of every temporary)
-        fuse = structure.settings.fused
+        # each distinct eigenvalue is written into its row of (modes, *batch), returned with the modes on the
+        # last axis; fused: one numexpr pass each (a chain of numpy operations on large batches is bound by
+        # memory traffic and by the first touch of every temporary)
         twin = structure.twin  # a block with a twin's characteristic polynomial reuses its roots
-        variables = ", ".join(f"{a!r}: {a}" for a in map(str, args))
-        body = [shape_line(args), f"_out = numpy.empty(({len(structure.modes)}, *_shape))"]
-        if fuse:
-            body.append(f"_v = {{{variables}}}")
-        rows: dict[tuple[int, int], int] = {}  # (block, rank) -> row of _out holding that root
+        laid_out: list[PairBlock | SingleBlock] = []
+        rows: dict[tuple[int, int], int] = {}  # (block, rank) -> row holding that root
         for k, b in enumerate(blocks):
             coords = ", ".join(b.coordinates)
             if twin[k] != k:
@@ -43,98 +49,61 @@ def eigen_function(structure: ModalStructure, model: SymbolicModel) -> Function:
                 )
                 continue
             first = {m.rank: i for i, m in reversed(list(enumerate(structure.modes))) if twin[m.block] == k}
-            if b.size == 2 and not fuse:
-                t = {n: f"({code(e)})" for n, e in b.stable_terms.items()}
-                body += [
-                    f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
-                    f"_out[{first[2]}, ...] = 0.5*({t['s11']} + {t['s22']}) + "
-                    f"numpy.sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})",
-                    f"_out[{first[1]}, ...] = {t['det_ratio']} / _out[{first[2]}, ...]",
-                ]
+            if b.size == 2:
+                t = b.stable_terms
+                laid_out.append(
+                    PairBlock(b.coordinates, first[2], first[1], t["s11"], t["s22"], t["s12_squared"], t["det_ratio"])
+                )
                 lo, hi = b.eigenvalue_exprs()
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
-            elif b.size == 2:
-                t = {n: f"({fused(e)})" for n, e in b.stable_terms.items()}
-                upper = f"0.5*({t['s11']} + {t['s22']}) + sqrt((0.5*({t['s11']} - {t['s22']}))**2 + {t['s12_squared']})"
-                lower = t["det_ratio"] + " / _upper"
-                body += [
-                    f"# block {{{coords}}}: upper root from a sum of squares, lower from the root product",
-                    f"_runtime.fused({upper!r}, _v, _out[{first[2]}, ...])",
-                    f"_runtime.fused({lower!r}, {{**_v, '_upper': _out[{first[2]}, ...]}}, _out[{first[1]}, ...])",
-                ]
-                lo, hi = b.eigenvalue_exprs()
-                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(lo)}  and  {describe(hi)}")
-            elif not fuse:
-                body.append(f"_out[{first[1]}, ...] = {code(b.eigenvalue_exprs()[0])}")
-                doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
             else:
-                body.append(f"_runtime.fused({fused(b.eigenvalue_exprs()[0])!r}, _v, _out[{first[1]}, ...])")
+                laid_out.append(SingleBlock(b.coordinates, first[1], b.eigenvalue_exprs()[0]))
                 doc_lines.append(f"        block {{{coords}}}: lambda = {describe(b.eigenvalue_exprs()[0])}")
             rows.update({(k, r): i for r, i in first.items()})
-        for i, m in enumerate(structure.modes):
-            source = rows[(twin[m.block], m.rank)]
-            if source != i:
-                body.append(f"_out[{i}] = _out[{source}]")
-        body.append("return numpy.moveaxis(_out, 0, -1)")
+        copies = tuple(
+            (i, rows[(twin[m.block], m.rank)])
+            for i, m in enumerate(structure.modes)
+            if rows[(twin[m.block], m.rank)] != i
+        )
+        fused = structure.settings.fused
+        layout = ClosedFormEigen(len(structure.modes), tuple(laid_out), copies, fused)
         method = (
             "Closed form per symmetry block (textbook form below; evaluated in the stable arrangement of\n"
             "    mountid.engine.symbolic.blocks: no difference of nearly equal numbers)"
         )
+        printer = "numexpr" if fused else "numpy"
     else:
-        margs = model.parameters_of(model.M)
-        cargs = model.parameters_of(model.C)
-        body = [
-            f"_M = mass_matrix({', '.join(margs)})",
-            f"_C = stiffness_matrix({', '.join(cargs)})",
-            "_M, _C = numpy.broadcast_arrays(_M, _C)",
-            "_out = numpy.empty(_M.shape[:-1])",
-        ]
+        numeric = []
         for k, b in enumerate(blocks):
-            pos = [i for i, m in enumerate(structure.modes) if m.block == k]
-            ranks = [structure.modes[i].rank - 1 for i in pos]
-            body.append(f"_lam = _runtime.block_eigen(_M, _C, {b.index!r})[0]")
-            body.append(f"_out[..., {pos!r}] = _lam[..., {ranks!r}]")
+            pos = tuple(i for i, m in enumerate(structure.modes) if m.block == k)
+            numeric.append(NumericBlock(b.index, pos, tuple(structure.modes[i].rank - 1 for i in pos)))
             doc_lines.append(f"        block {{{', '.join(b.coordinates)}}}: numeric (size {b.size})")
-        body.append("return _out")
+        layout = NumericEigen(
+            Call("mass_matrix", model.parameters_of(model.M)),
+            Call("stiffness_matrix", model.parameters_of(model.C)),
+            tuple(numeric),
+        )
         method = "Numeric generalised eigen-solve per symmetry block (no closed form for blocks above 2x2)"
+        printer = "numpy"
     doc = (
         f"Squared natural frequencies lambda = omega^2 [rad^2/s^2], shape (..., {len(labels)}), modes\n"
         f"    {', '.join(labels)}.\n\n    {method}:\n\n" + "\n".join(doc_lines) + "\n"
     )
-    fn = Function("squared_frequencies", args, doc, body[:-1], body[-1].removeprefix("return "))
-    return fn
+    return print_function(Function("squared_frequencies", args, doc, layout, cse=False, printer=printer))
 
 
 def _roots_function(s: InverseSet, name: str, known: tuple[str, ...], unknowns: tuple[str, ...], doc: str) -> Function:
-    """The closed-form candidate roots of one inverse solution: roots of the univariate factors, then the
-    back-substitutions, each unknown of shape (n_roots, ...)."""
+    """The closed-form candidate roots of one inverse solution: roots of the univariate factors (their
+    coefficients from one cse), then the back-substitutions, each unknown of shape (n_roots, ...)."""
     lam_subs = {sp.Symbol(f"lambda_{lab}", positive=True): sp.Symbol(f"_lam_{lab}") for lab in s.labels}
-    coeff_exprs = [c.subs(lam_subs) for f in s.factors for c in f.all_coeffs()]
-    cse = eliminate(coeff_exprs)
-    body = [f"{lhs} = {rhs}" for lhs, rhs in cse.lines]
-    outs = iter(cse.outputs)
-    root_calls = []
-    for f in s.factors:
-        cs = [next(outs) for _ in f.all_coeffs()]
-        root_calls.append(f"_runtime.polynomial_roots({', '.join(cs)})")
-    body.append(f"{s.last} = numpy.concatenate([{', '.join(root_calls)}])")
-    # one cse per back-substitution, in order: each may use the unknowns assigned before it, so a joint cse
-    # could hoist a subexpression above the assignment of an unknown it contains
-    start = len(cse.lines)
-    for u, e in s.back_substitution:
-        back = eliminate([e.subs(lam_subs)], start=start)
-        body += [f"{lhs} = {rhs}" for lhs, rhs in back.lines]
-        body.append(f"{u} = numpy.broadcast_to({back.outputs[0]}, {s.last}.shape)")
-        start += len(back.lines)
-    # degenerate inputs give divisions by zero in roots that admissibility then rejects: no warnings
-    return Function(
-        name,
-        known + tuple(f"_lam_{lab}" for lab in s.labels),
-        doc,
-        ['with numpy.errstate(divide="ignore", invalid="ignore", over="ignore"):'] + [f"    {b}" for b in body],
-        f"({', '.join(unknowns)},)",
-        convert=False,
+    layout = Roots(
+        tuple(tuple(c.subs(lam_subs) for c in f.all_coeffs()) for f in s.factors),
+        s.last,
+        tuple(Step(u, e.subs(lam_subs)) for u, e in s.back_substitution),
+        unknowns,
     )
+    args = known + tuple(f"_lam_{lab}" for lab in s.labels)
+    return print_function(Function(name, args, doc, layout, convert=False))
 
 
 def start_factors(n_unknowns: int, max_starts: int) -> tuple[float, ...]:
@@ -171,11 +140,7 @@ def _numeric_inverse_function(
     n_roots = root_slots(s, len(d.unknown), structure.settings)
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
     factors = start_factors(len(d.unknown), structure.settings.max_starts)
-    call = (
-        f"_runtime.solve_inverse(_runtime.start_grid({start!r}, {factors!r}, _model, {mode_index!r}), _model, "
-        f"({', '.join(known)},), "
-        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, n_roots={n_roots})"
-    )
+    layout = Inverse(None, known, omegas, mode_index, n_roots, start, factors=factors)
     doc = (
         f"Unknowns {', '.join(d.unknown)} from the natural frequencies {', '.join(omegas)} [rad/s], numerically.\n\n"
         f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
@@ -185,7 +150,7 @@ def _numeric_inverse_function(
         "    is missed.\n"
         "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
     )
-    return Function(f"identify_{s.name}", known + omegas, doc, [], call)
+    return Function(f"identify_{s.name}", known + omegas, doc, layout)
 
 
 def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
@@ -217,13 +182,9 @@ def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicM
         )
     mode_index = tuple(structure.labels.index(lab) for lab in s.labels)
     n_roots = root_slots(s, len(unknowns), structure.settings)
-    specials = "".join(f"({known.index(param)}, _roots_{s.name}__{param}_0), " for param, _ in s.special)
+    special = tuple((known.index(param), f"_roots_{s.name}__{param}_0") for param, _ in s.special)
     start = tuple(d.parameters[u].value for u in unknowns)
-    call = (
-        f"_runtime.solve_inverse(_roots_{s.name}, _model, ({', '.join(known)},), "
-        f"({', '.join(f'{o} ** 2' for o in omegas)},), {mode_index!r}, UNKNOWN, MODE_BLOCK, "
-        f"special=({specials}), n_roots={n_roots}, start={None if None in start else start!r})"
-    )
+    layout = Inverse(f"_roots_{s.name}", known, omegas, mode_index, n_roots, None if None in start else start, special)
     poly_text = "\n".join(f"        {describe(f.as_expr())} = 0" for f in s.factors)
     back_text = "\n".join(f"        {u} = {describe(e)}" for u, e in s.back_substitution)
     given = ", ".join(f"omega_{lab}" for lab in s.labels)
@@ -255,5 +216,4 @@ def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicM
         "    given), the data alone cannot choose between them and the choice is physical (the paper keeps\n"
         "    c_z > c_xy for its isolators).\n"
     )
-    fn = Function(f"identify_{s.name}", known + omegas, doc, [], call)
-    return [*candidates, fn]
+    return [*candidates, Function(f"identify_{s.name}", known + omegas, doc, layout)]
