@@ -34,7 +34,7 @@ def speed() -> None:
     finally:
         fitting.jacobian = analytic
     print(
-        f"diagnosis with all {len(blind.EFFECT_NAMES) - 1} candidates, six modes with shapes: "
+        f"diagnosis with all {len(blind.CATALOGUE)} candidates, six modes with shapes: "
         f"{per:.2f} s with analytic derivatives, {before:.2f} s with finite differences "
         f"({before / per:.1f}x; target < 5 s)"
     )

@@ -135,3 +135,27 @@ def test_drive_belt_round_trip(k, h, c_xy, c_z):
     assert fit.parameters["k_belt"] == pytest.approx(k, rel=1e-4)
     assert fit.parameters["h_belt"] == pytest.approx(h, abs=1e-4 * (1 + abs(h)))
     assert math.isfinite(fit.aicc)
+
+
+def test_laplace_evidence_matches_the_integral_over_a_uniform_prior():
+    """A linear model with two parameters well inside their uniform prior box: the Laplace evidence is the
+    integral of exp(-chi^2/2) / (W1 W2) over the box (to the box's Gaussian tails)."""
+    import scipy.integrate
+
+    from mountid.diagnosis.fitting import log_evidence
+
+    jac = np.array([[3.0, 0.5], [1.0, 2.0], [0.2, -1.5]])
+    widths = np.array([40.0, 60.0])  # the posterior (sigma about 0.3) well inside: the Laplace regime
+    chi2_min = 2.5
+    a = jac.T @ jac
+
+    def integrand(y, x):
+        d = np.array([x, y])
+        return math.exp(-0.5 * (chi2_min + d @ a @ d)) / (widths[0] * widths[1])
+
+    exact, _ = scipy.integrate.dblquad(integrand, -2.0, 2.0, -3.0, 3.0, epsabs=1e-14)
+    assert log_evidence(jac, chi2_min, widths) == pytest.approx(math.log(exact), abs=2e-3)
+    # a parameter the data do not determine costs only the ratio of a uniform's normalisation to a Gaussian's
+    free = np.hstack([jac, np.zeros((3, 1))])
+    cost = log_evidence(free, chi2_min, np.array([40.0, 60.0, 100.0])) - log_evidence(jac, chi2_min, widths)
+    assert cost == pytest.approx(0.5 * math.log(2 * math.pi / 12), rel=1e-9)

@@ -17,7 +17,7 @@ from mountid.engine.description import load, parse
 from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
-from mountid.validation.blind import _body_mass, _jac
+from mountid.validation.blind_truth import _body_mass, _jac
 
 ROOT = Path(__file__).resolve().parents[1]
 EFFECT_VALUES = {

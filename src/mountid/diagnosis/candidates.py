@@ -10,8 +10,10 @@ measurement's standard deviation:
   outside the model's mode (or the span of a model cluster of equal frequencies, where the model leaves
   the combination free), divided by the shape's standard deviation per component.
 
-Ranking is by AICc (chi^2 + 2k + 2k(k+1)/(n-k-1)); fitted values outside the plausible range of the
-effect rank after every plausible candidate. Candidates within ``settings.tie`` of the best AICc are a tie. The
+Ranking is by posterior probability: each candidate's evidence by the Laplace approximation with a uniform
+prior over the effect's plausible range (fitting.log_evidence), equal prior probabilities for the nominal model
+and each effect. Fitted values outside the plausible range (outside the prior) get probability 0. The tie is
+the credible set (the best candidates up to ``settings.credible`` of the probability). The
 held-out error of each candidate is its leave-one-mode-out prediction error (linearised for all
 candidates; refitted for the nominal model and, when there is a gap to explain, the first three of the tie).
 """
@@ -24,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+import scipy.special
 import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
@@ -46,13 +49,15 @@ class EffectsReport:
     separation: list[str]
     verdict: str
     confident: bool
+    kind: str
+    """The verdict's kind: "confident", "tie", "not explained", "no significant gap" or "cannot judge"."""
     notes: list[str] = field(default_factory=list)
 
     @property
     def best(self) -> CandidateFit | None:
-        """The first-ranked candidate, when the data rank candidates at all (a finite AICc)."""
+        """The first-ranked candidate, when the data rank candidates at all (a positive probability)."""
         first = self.ranked[0] if self.ranked else None
-        return first if first is not None and first.applicable and math.isfinite(first.aicc) else None
+        return first if first is not None and first.probability > 0 else None
 
 
 def fit_all(
@@ -71,14 +76,17 @@ def fit_all(
         before = previous.get(effect.name)
         if strategy(effect).per_isolator:
             isolators = campaign.machine.module.ISOLATORS
-            if before is not None:
-                fits.append(fit_candidate(campaign, effect, isolators.index(before.variant), before.theta))
+            if before is not None:  # the isolator of the nearby fit only: 1/N of the mean over isolators
+                fit = fit_candidate(campaign, effect, isolators.index(before.variant), before.theta)
+                fits.append(replace(fit, log_evidence=fit.log_evidence - math.log(len(isolators))))
                 continue
             # the first isolator from the default starts; the others (often mirror images) start from it
             variants = [fit_candidate(campaign, effect, 0)]
             variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(isolators))]
             variants.sort(key=lambda f: f.chi2)
-            best = variants[0]
+            # one candidate whose isolator is unknown: its evidence is the mean over the isolators
+            evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) - math.log(len(variants)))
+            best = replace(variants[0], log_evidence=evidence)
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
             if alike:
                 note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
@@ -90,7 +98,47 @@ def fit_all(
 
 
 def _rank_key(f: CandidateFit) -> tuple:
-    return (not f.applicable, not f.plausible, f.aicc if math.isfinite(f.aicc) else math.inf, f.chi2)
+    evidence = f.log_evidence if math.isfinite(f.log_evidence) else -math.inf
+    return (not f.applicable, not f.plausible, -evidence, f.chi2)
+
+
+def _probabilities(nominal: CandidateFit, fits: list[CandidateFit]) -> dict[int, float]:
+    """Posterior probability of every candidate (by id) with equal prior probabilities for the nominal model
+    and each effect; 0 for candidates not applicable, implausible (outside their prior) or unfitted."""
+    pool = [nominal, *(f for f in fits if f.applicable and f.plausible and math.isfinite(f.log_evidence))]
+    logs = np.array([f.log_evidence for f in pool])
+    weights = np.exp(logs - logs.max()) if np.isfinite(logs.max()) else np.ones(len(pool))
+    out = {id(f): 0.0 for f in fits}
+    out.update({id(f): float(w / weights.sum()) for f, w in zip(pool, weights, strict=True)})
+    return out
+
+
+def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """Whether a candidate explains the gap: it fits every measurement within its uncertainty (chi^2 test at
+    settings.fit_p_value) and predicts the modes held out (leave one mode out) within settings.held_out_limit
+    sigma in the median (the median forgives the one mode whose omission leaves a parameter undetermined)."""
+    if not fits_within_uncertainty(f, settings):
+        return False
+    return math.isfinite(f.held_out_median) and f.held_out_median <= settings.held_out_limit
+
+
+def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """Whether the data do not reject a candidate: chi^2 below its 1 - settings.fit_p_value quantile."""
+    if not (f.applicable and f.plausible) or f.n_data <= f.n_parameters:
+        return False
+    return bool(scipy.stats.chi2.sf(f.chi2, f.n_data - f.n_parameters) >= settings.fit_p_value)
+
+
+def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
+    """How much of the gap each of the (up to three) best candidates explains."""
+    parts = []
+    for f in fits[:3]:
+        share = 1 - f.chi2 / nominal.chi2 if nominal.chi2 > 0 else math.nan
+        parts.append(
+            f"{f.effect}{' at ' + f.variant if f.variant else ''} removes {share:.0%} of the chi^2, held-out "
+            f"median {nominal.held_out_median:.1f} -> {f.held_out_median:.1f} sigma"
+        )
+    return "; ".join(parts)
 
 
 def rank(
@@ -100,13 +148,19 @@ def rank(
     exact_held_out: bool = True,
     settings: DiagnosisSettings = DIAGNOSIS,
 ) -> EffectsReport:
-    """Rank fitted candidates, judge the nominal gap, find the tie and what would separate it
-    (``exact_held_out``: refit without each mode for the nominal model and, with a significant gap, the
-    first three of the tie; else linearised only). The tie and what separates it are reported only when
-    there is a significant gap to explain."""
+    """Rank fitted candidates by posterior probability (Laplace evidence, fitting.log_evidence), judge the
+    nominal gap, find the tie (the credible set) and what would separate it (``exact_held_out``: refit
+    without each mode for the nominal model and, with a significant gap, the first three of the tie; else
+    linearised only). The verdict is confident only when the best candidate explains the gap (fits, and
+    predicts the held-out modes: :func:`explains`), has probability settings.confidence or more, and the data
+    reject every other candidate (:func:`fits_within_uncertainty`); when no candidate explains it, the verdict
+    says so and names the closest."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
     significant = bool(p_value < settings.gap_p_value)
+    probability = _probabilities(nominal, fits)
+    nominal = replace(nominal, probability=probability[id(nominal)])
+    fits = [replace(f, probability=probability[id(f)]) for f in fits]
     ranked = sorted(fits, key=_rank_key)
     notes = []
     if n - k - 2 <= 0:
@@ -114,10 +168,14 @@ def rank(
             f"{n} data for {k} unknowns: too few to fit any candidate effect with a degree of freedom to spare; "
             "measure more modes (both members of each twin pair) or mode shapes"
         )
-    best = (
-        ranked[0] if ranked and ranked[0].applicable and ranked[0].plausible and math.isfinite(ranked[0].aicc) else None
-    )
-    tie = [f for f in ranked if best and f.applicable and f.plausible and f.aicc <= best.aicc + settings.tie]
+    candidates = [f for f in ranked if f.probability > 0]
+    best = candidates[0] if candidates else None
+    tie, total = [], nominal.probability
+    for f in candidates:
+        if total >= settings.credible and tie:
+            break
+        tie.append(f)
+        total += f.probability
     # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
     # the tie (the others keep their linearised ones)
     refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
@@ -136,28 +194,36 @@ def rank(
     separation = [separate(campaign, best, other) for other in tie[1:]] if best and significant else []
     confident = False
     if math.isnan(p_value):
-        verdict = "cannot judge: no more data than unknowns"
+        kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
+        kind = "no significant gap"
         verdict = (
             f"no significant gap: the nominal model fits every measurement within its uncertainty "
             f"(chi^2 = {nominal.chi2:.3g} for {n - k} degrees of freedom, p = {p_value:.2g})"
         )
-    elif best is None:
-        verdict = "significant gap, but no candidate effect can be fitted with plausible values"
-    elif best.aicc > nominal.aicc - settings.tie:
-        verdict = "significant gap, but no candidate effect explains it better than the nominal model"
+    elif (
+        best is not None
+        and explains(best, settings)
+        and best.probability >= settings.confidence
+        and not any(fits_within_uncertainty(f, settings) for f in candidates[1:])
+    ):
+        kind = "confident"
+        verdict = (
+            f"significant gap, explained by {best.effect}"
+            + (f" at {best.variant}" if best.variant else "")
+            + f" (probability {best.probability:.2f})"
+        )
+        confident = True
+    elif any(explains(f, settings) for f in tie):
+        kind = "tie"
+        names = ", ".join(f"{f.effect} ({f.probability:.2f})" for f in tie)
+        verdict = f"significant gap; explained equally well by {names} (a tie)"
     else:
-        p_after = float(scipy.stats.chi2.sf(best.chi2, best.n_data - best.n_parameters))
-        names = ", ".join(f.effect for f in tie)
-        if p_after < settings.gap_p_value:
-            verdict = f"significant gap; {best.effect} explains part of it (the rest remains significant)"
-        elif len(tie) > 1:
-            verdict = f"significant gap; explained equally well by {names} (a tie)"
-        else:
-            verdict = f"significant gap, explained by {best.effect}" + (f" at {best.variant}" if best.variant else "")
-            confident = True
+        kind = "not explained"
+        closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
+        verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
     tie_names = [f.effect for f in tie] if significant else []
-    return EffectsReport(nominal, ranked, p_value, significant, tie_names, separation, verdict, confident, notes)
+    return EffectsReport(nominal, ranked, p_value, significant, tie_names, separation, verdict, confident, kind, notes)
 
 
 def diagnose_effects(

@@ -53,6 +53,10 @@ class CandidateFit:
     held_out_median: float = math.nan
     """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
     whose omission leaves a parameter poorly determined (set by the ranking)."""
+    log_evidence: float = -math.inf
+    """Laplace approximation of log p(data | candidate) (see :func:`log_evidence`; -inf when not applicable)."""
+    probability: float = math.nan
+    """Posterior probability of the candidate among those ranked (set by the ranking)."""
     state: FitState | None = field(default=None, repr=False, compare=False)
     """The fit's state (None when the candidate is not applicable)."""
 
@@ -81,6 +85,8 @@ class CandidateFit:
             "note": self.note,
             "held_out_rms_sigma": self.held_out_rms,
             "held_out_median_sigma": self.held_out_median,
+            "log_evidence": self.log_evidence,
+            "probability": self.probability,
         }
 
 
@@ -135,15 +141,46 @@ sensor yaw on a machine symmetric under rotation by 90 degrees) at its start ins
 and makes its standard deviation large instead of zero."""
 
 
-def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
-    start = model.start()[0]
-    n = len(model.unknown)
-    width = np.array(
-        [
+UNKNOWN_PRIOR_WIDTH = math.log(100.0)
+"""Width in log units of the (log-uniform) prior on each unknown stiffness: a factor 100. The same in every
+candidate, so it cancels from their evidence ratios wherever the data determine the unknowns."""
+
+
+def prior_widths(model: CandidateModel) -> np.ndarray:
+    """Width of the uniform prior of every fitted parameter in the units of the flat vector: the unknowns
+    UNKNOWN_PRIOR_WIDTH, the effect parameters their plausible range (log-uniform where it is positive)."""
+    return np.array(
+        [UNKNOWN_PRIOR_WIDTH] * len(model.unknown)
+        + [
             math.log(p.plausible[1] / p.plausible[0]) if log else p.plausible[1] - p.plausible[0]
             for p, log in zip(model.effect_parameters, model.log_scaled, strict=True)
         ]
     )
+
+
+def log_evidence(jac: np.ndarray, chi2: float, widths: np.ndarray) -> float:
+    """Laplace approximation of the log marginal likelihood of a fitted candidate, up to a constant common to
+    all candidates of one campaign:
+
+        log Z = -chi^2/2 - sum log W_i + (k/2) log 2 pi - (1/2) log det A,   A = J^T J + diag(12 / W_i^2),
+
+    J the whitened residual Jacobian at the fit (data rows only), W_i the prior widths (prior_widths). The
+    uniform prior enters A as the Gaussian of equal variance (W^2/12), so that a parameter the data do not
+    determine costs nothing (its Occam factor tends to sqrt(2 pi / 12)) and a determined one costs
+    log(W / (sqrt(2 pi) sigma)): the penalty grows with the prior range the data rule out, not with a fixed
+    count per parameter as AICc's (which outweighs small data sets: 30 per parameter at n = 6)."""
+    a = jac.T @ jac + np.diag(12.0 / widths**2)
+    sign, logdet = np.linalg.slogdet(a)
+    if sign <= 0 or not math.isfinite(chi2):
+        return -math.inf
+    k = len(widths)
+    return float(-0.5 * chi2 - np.sum(np.log(widths)) + 0.5 * k * math.log(2 * math.pi) - 0.5 * logdet)
+
+
+def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
+    start = model.start()[0]
+    n = len(model.unknown)
+    width = prior_widths(model)[n:]
 
     n_rows = len(data.labels) + 6 * len(data.shape_labels)
 
@@ -251,6 +288,7 @@ def fit_candidate(
         if not lo - s <= v <= hi + s:
             reasons.append(f"{p.name} = {v:.3g} {p.unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
+    evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model))
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
     held_out = _linear_leave_one_out(data, res.fun, jac)
@@ -267,6 +305,7 @@ def fit_candidate(
         "; ".join(reasons),
         gap,
         held_out_gap=held_out,
+        log_evidence=evidence,
         state=FitState(model, theta),
     )
 

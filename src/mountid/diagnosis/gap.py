@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
@@ -197,6 +198,32 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     return sorted(out, key=lambda loc: -loc.explained)
 
 
+def _broken_symmetry(campaign: Campaign, labels: list[str], rep: dict[str, str], threshold: float) -> list[str]:
+    """Pairs of modes equal by the model's symmetry whose measured frequencies differ significantly. Several
+    pairs are tested at once, so the level of one test at ``threshold`` sigma (two-sided) holds for the family
+    by Holm's step-down correction: the smallest p-value against level/m, the next against level/(m - 1), ..."""
+    level = 2 * scipy.stats.norm.sf(threshold)
+    tested, out = [], []
+    for a, b in itertools.combinations(labels, 2):
+        if rep[a] != rep[b]:
+            continue
+        ma, mb = campaign.modes[a], campaign.modes[b]
+        diff = ma.frequency - mb.frequency
+        if ma.stated_frequency_std and mb.stated_frequency_std:
+            tested.append((a, b, diff, diff / math.hypot(ma.stated_frequency_std, mb.stated_frequency_std)))
+        elif diff != 0:
+            out.append(f"{a} and {b} differ by {diff:+.4g} rad/s (equal by symmetry; no uncertainty given)")
+    tested.sort(key=lambda t: -abs(t[3]))
+    for i, (a, b, diff, z) in enumerate(tested):
+        if 2 * scipy.stats.norm.sf(abs(z)) > level / (len(tested) - i):
+            break
+        out.append(
+            f"{a} and {b} are equal by the model's symmetry but differ by {diff:+.4g} rad/s ({z:+.1f} sigma, "
+            f"significant among {len(tested)} pairs): broken symmetry"
+        )
+    return out
+
+
 def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> GapReport:
     """Nominal identification and where the model misses the campaign's measurements."""
     threshold = settings.significance
@@ -230,20 +257,7 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
                         label, m.frequency, _predict(campaign, p_loo)[label], m.stated_frequency_std, True, threshold
                     )
                 )
-    broken = []
-    for a, b in itertools.combinations(labels, 2):
-        if rep[a] == rep[b]:
-            ma, mb = campaign.modes[a], campaign.modes[b]
-            diff = ma.frequency - mb.frequency
-            if ma.stated_frequency_std and mb.stated_frequency_std:
-                z = diff / math.hypot(ma.stated_frequency_std, mb.stated_frequency_std)
-                if abs(z) > threshold:
-                    broken.append(
-                        f"{a} and {b} are equal by the model's symmetry but differ by {diff:+.4g} rad/s "
-                        f"({z:+.1f} sigma): broken symmetry"
-                    )
-            elif diff != 0:
-                broken.append(f"{a} and {b} differ by {diff:+.4g} rad/s (equal by symmetry; no uncertainty given)")
+    broken = _broken_symmetry(campaign, labels, rep, threshold)
     # localised on the nominal fit's residuals: every measured mode (fitted and held out) when the campaign
     # names the fitted ones, the fit to all modes under leave-one-out
     loc = localise(campaign, params, [r for r in residuals if campaign.fit is not None or not r.held_out])
@@ -332,6 +346,8 @@ class Diagnosis:
     def verdict(self) -> str:
         if self.where.broken_symmetry and not self.effects.significant:
             return self.where.verdict
+        if self.effects.kind == "not explained" and self.where.localisation:
+            return f"{self.effects.verdict}; lead: {self.where.localisation[0].describe()}"
         return self.effects.verdict
 
     def to_dict(self) -> dict:
@@ -357,6 +373,7 @@ class Diagnosis:
             "tie": effects.tie,
             "separation": effects.separation,
             "confident": effects.confident,
+            "kind": effects.kind,
             "verdict": self.verdict,
             "where_verdict": report.verdict,
             "notes": [*report.notes, *effects.notes],

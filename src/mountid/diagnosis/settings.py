@@ -12,8 +12,19 @@ class DiagnosisSettings:
     gap_p_value: float = 1e-3
     """The nominal model has a significant gap when its chi^2 exceeds the 1 - gap_p_value quantile."""
     tie: float = 7.0
-    """Candidates within this AICc of the best cannot be told apart by the data (Burnham and Anderson's rule
-    of thumb: up to 7 above the best a model keeps some support)."""
+    """Isolators whose scatter fits within this chi^2 of the best one's cannot be told apart by the data (they
+    are named in the candidate's note)."""
+    credible: float = 0.95
+    """The reported tie is the smallest set of the best-ranked candidates whose posterior probabilities add
+    up to this."""
+    confidence: float = 0.95
+    """A verdict is confident only when the best candidate has at least this posterior probability (and fits
+    and predicts, see fit_p_value and held_out_limit)."""
+    fit_p_value: float = 0.01
+    """A candidate fits within its uncertainty when its chi^2 is below the 1 - fit_p_value quantile."""
+    held_out_limit: float = 3.0
+    """A candidate predicts the modes it was not fitted to when the median |held-out error| is within this
+    many standard deviations (leave one mode out)."""
     significance: float = 2.0
     """A single residual (or a twin pair's difference) is flagged beyond this many standard deviations."""
 

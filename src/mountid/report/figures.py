@@ -160,21 +160,21 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     left.set_ylabel("measured - model [sigma]")
     left.set_title("gap per mode")
     left.legend(fontsize=7)
-    ranked = [f for f in effects.ranked if f.applicable and np.isfinite(f.aicc)]
-    if ranked and np.isfinite(nominal.aicc):
-        base = min(f.aicc for f in ranked)
+    ranked = [f for f in effects.ranked if f.applicable]
+    if ranked:
         names = [*(f.effect for f in ranked), "none (nominal)"]
-        values = [*(f.aicc - base for f in ranked), nominal.aicc - base]
+        values = [*(f.probability for f in ranked), nominal.probability]
         colours = ["#1f77b4" if f.effect in effects.tie else "#aaaaaa" for f in ranked] + ["#d62728"]
         hatches = ["" if f.plausible else "//" for f in ranked] + [""]
         y = np.arange(len(names))[::-1]
-        bars = right.barh(y, np.maximum(values, 0.5), color=colours)  # the best (0) stays visible
+        bars = right.barh(y, np.maximum(values, 1e-6), color=colours)  # zero stays visible on the log axis
         for bar, hatch, value in zip(bars, hatches, values, strict=True):
             bar.set_hatch(hatch)
-            right.text(max(value, 0.5), bar.get_y() + bar.get_height() / 2, f" {value:.3g}", va="center", fontsize=7)
+            right.text(max(value, 1e-6), bar.get_y() + bar.get_height() / 2, f" {value:.2g}", va="center", fontsize=7)
         right.set_yticks(y, names, fontsize=8)
-        right.set_xscale("symlog", linthresh=10)
-        right.set_xlabel("AICc - best AICc (tie shaded blue, implausible hatched)")
+        right.set_xscale("log")
+        right.set_xlim(1e-6, 2)
+        right.set_xlabel("posterior probability (tie shaded blue, implausible hatched)")
     else:
         right.text(0.5, 0.5, "too few data to rank candidate effects", ha="center", va="center")
         right.set_axis_off()

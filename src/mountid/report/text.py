@@ -44,19 +44,16 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
 
 def _print_candidates(effects) -> None:
     ranked = [f for f in effects.ranked if f.applicable]
-    finite = [f.aicc for f in ranked if f.aicc != float("inf")]
-    best = min(finite) if finite else None
     n = effects.nominal
     if n.held_out_rms == n.held_out_rms:
         print(f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma")
     print(
         f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}, "
-        f"AICc = {n.aicc:.4g})" + (":" if best is not None else "; too few data to rank them, listed by chi^2:")
+        f"probability {n.probability:.3g}), by posterior probability:"
     )
-    print(f"  {'effect':22s}{'dAICc':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
+    print(f"  {'effect':22s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
     print(f"  {'':22s}{'':>8s}{'':>9s}{'RMS | median':>17s}  (held-out errors in sigma)")
     for f in ranked:
-        d = f"{f.aicc - best:8.1f}" if best is not None and f.aicc != float("inf") else f"{'-':>8s}"
         ho = f"{f.held_out_rms:8.3g} | {f.held_out_median:5.3g}" if f.held_out_rms == f.held_out_rms else f"{'-':>16s}"
         params = ", ".join(
             f"{k} = {v:.4g} +- {f.std[k]:.2g}" for k, v in f.parameters.items() if k not in effects.nominal.parameters
@@ -64,7 +61,7 @@ def _print_candidates(effects) -> None:
         mark = " [tie]" if f.effect in effects.tie else ""
         mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
         where = f" at {f.variant}" if f.variant else ""
-        print(f"  {f.effect:22s}{d} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
+        print(f"  {f.effect:22s}{f.probability:8.3f} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
     for f in effects.ranked:
         if not f.applicable:
             print(f"  {f.effect:22s} not applicable: {f.note}")
