@@ -98,8 +98,7 @@ def fit_all(
 
 
 def _rank_key(f: CandidateFit) -> tuple:
-    evidence = f.log_evidence if math.isfinite(f.log_evidence) else -math.inf
-    return (not f.applicable, not f.plausible, -evidence, f.chi2)
+    return (not f.applicable, not f.plausible, -f.log_evidence, f.chi2)  # log_evidence is finite or -inf
 
 
 def _probabilities(nominal: CandidateFit, fits: list[CandidateFit]) -> dict[int, float]:

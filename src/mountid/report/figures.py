@@ -133,7 +133,7 @@ def mode_shapes_figure(
 
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
-    fitted and held out. Right: the candidates ranked by AICc above the best (tie shaded, implausible
+    fitted and held out. Right: the candidates by posterior probability (tie shaded, implausible
     hatched), with the nominal model for reference."""
     effects = diagnosis.effects
     nominal, best = effects.nominal, effects.best
