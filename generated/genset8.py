@@ -513,6 +513,9 @@ ARGUMENTS = {
         "b_v",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_foundation_derivatives": (
         "m",
@@ -532,6 +535,9 @@ ARGUMENTS = {
         "b_v",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_added_mass": (
         "m",
@@ -550,7 +556,10 @@ ARGUMENTS = {
         "b_h",
         "b_v",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -569,7 +578,10 @@ ARGUMENTS = {
         "b_h",
         "b_v",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_drive_belt": (
         "m",
@@ -3250,8 +3262,29 @@ def effect_rotational_stiffness_derivatives(
     ).reshape(*_shape, 6, 3, 6, 6)
 
 
-def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found):
-    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+def effect_foundation(
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a1,
+    a2,
+    b,
+    h,
+    gamma,
+    c_x,
+    c_y,
+    c_v1,
+    c_v2,
+    b_h,
+    b_v,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_depth,
+):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
     extended energies (mountid.engine.symbolic.effects).
 
@@ -3265,10 +3298,12 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta, theta] = J_y
           [phi, phi] = J_z
           [x_found, x_found] = m_found
+          [x_found, theta_found] = -found_depth*m_found
           [y_found, y_found] = m_found
+          [y_found, psi_found] = found_depth*m_found
           [z_found, z_found] = m_found
-          [psi_found, psi_found] = m_found*(b**2 + h**2 + a1**2/2 + a2**2/2)
-          [theta_found, theta_found] = m_found*(b**2 + h**2 + a1**2/2 + a2**2/2)
+          [psi_found, psi_found] = m_found*(found_depth**2 + b**2 + h**2 + a1**2/2 + a2**2/2)
+          [theta_found, theta_found] = m_found*(found_depth**2 + b**2 + h**2 + a1**2/2 + a2**2/2)
           [phi_found, phi_found] = m_found*(b**2 + h**2 + a1**2/2 + a2**2/2)
         C:
           [x, x] = 8*c_x
@@ -3288,13 +3323,14 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta, theta_found] = -4*(c_v2*a2**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2)
           [phi, phi] = 4*(c_y*a2**2 + 2*c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
           [phi, phi_found] = -4*(c_y*a2**2 + 2*c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
-          [x_found, x_found] = k_found/2 + 8*c_x
-          [y_found, y_found] = k_found/2 + 4*c_y + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2
-          [y_found, psi_found] = 4*b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [x_found, x_found] = 8*c_x + found_shear*k_found
+          [x_found, theta_found] = -found_depth*found_shear*k_found
+          [y_found, y_found] = 4*c_y + found_shear*k_found + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2
+          [y_found, psi_found] = found_depth*found_shear*k_found - 4*b*c_v1*cos(gamma)*sin(gamma) + 4*b*c_y*cos(gamma)*sin(gamma)
           [z_found, z_found] = k_found + 4*c_v2 + 4*c_v1*cos(gamma)**2 + 4*c_y*sin(gamma)**2
-          [psi_found, psi_found] = b**2*(k_found + 4*c_v2 + 4*c_v1*cos(gamma)**2 + 4*c_y*sin(gamma)**2)
-          [theta_found, theta_found] = k_found*a1**2/2 + k_found*a2**2/2 + 4*c_v2*a2**2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2
-          [phi_found, phi_found] = k_found*b**2/2 + 4*c_y*a2**2 + 8*c_x*b**2 + k_found*a1**2/4 + k_found*a2**2/4 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2
+          [psi_found, psi_found] = 4*c_v2*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_y*b**2*sin(gamma)**2
+          [theta_found, theta_found] = 4*c_v2*a2**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a1**2/2 + k_found*found_spread**2*a2**2/2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2
+          [phi_found, phi_found] = 4*c_y*a2**2 + 8*c_x*b**2 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2 + found_shear*k_found*found_spread**2*b**2 + found_shear*k_found*found_spread**2*a1**2/2 + found_shear*k_found*found_spread**2*a2**2/2
         B:
           [x, x] = 8*b_h
           [x, theta] = -8*b_h*h
@@ -3321,66 +3357,115 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta_found, theta_found] = 4*(b_v*a2**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2)
           [phi_found, phi_found] = 4*(b_h*a2**2 + 2*b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2)
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
-    _tmp0 = b**2
-    _tmp1 = h**2
-    _tmp2 = a1**2
-    _tmp3 = (0.5) * _tmp2
-    _tmp4 = a2**2
+    _tmp0 = found_depth * m_found
+    _tmp1 = found_depth**2
+    _tmp2 = b**2
+    _tmp3 = h**2
+    _tmp4 = a1**2
     _tmp5 = (0.5) * _tmp4
-    _tmp6 = m_found * (_tmp0 + _tmp1 + _tmp3 + _tmp5)
-    _tmp7 = 8 * c_x
-    _tmp8 = _tmp7 * h
-    _tmp9 = numpy.sin(gamma)
-    _tmp10 = _tmp9**2
-    _tmp11 = _tmp10 * c_v1
-    _tmp12 = numpy.cos(gamma)
+    _tmp6 = a2**2
+    _tmp7 = (0.5) * _tmp6
+    _tmp8 = _tmp2 + _tmp3 + _tmp5 + _tmp7
+    _tmp9 = m_found * (_tmp1 + _tmp8)
+    _tmp10 = 8 * c_x
+    _tmp11 = _tmp10 * h
+    _tmp12 = numpy.sin(gamma)
     _tmp13 = _tmp12**2
-    _tmp14 = _tmp13 * c_y
-    _tmp15 = 4 * _tmp11 + 4 * _tmp14 + 4 * c_y
-    _tmp16 = c_y * h
-    _tmp17 = _tmp12 * _tmp9
-    _tmp18 = _tmp17 * b
-    _tmp19 = _tmp18 * c_v1
-    _tmp20 = _tmp11 * h + _tmp14 * h + _tmp16 + _tmp18 * c_y - _tmp19
-    _tmp21 = c_v1 - c_y
-    _tmp22 = 4 * b
-    _tmp23 = _tmp17 * _tmp22
-    _tmp24 = _tmp13 * c_v1
-    _tmp25 = _tmp10 * c_y
-    _tmp26 = 4 * _tmp24 + 4 * _tmp25 + 4 * c_v2
-    _tmp27 = 2 * _tmp18
-    _tmp28 = 2 * c_x
-    _tmp29 = _tmp4 * c_v2
-    _tmp30 = _tmp2 * _tmp24
-    _tmp31 = _tmp2 * _tmp25
-    _tmp32 = _tmp29 + _tmp30 + _tmp31
-    _tmp33 = _tmp4 * c_y
-    _tmp34 = _tmp11 * _tmp2
-    _tmp35 = _tmp14 * _tmp2
-    _tmp36 = 4 * _tmp0 * _tmp28 + 4 * _tmp33 + 4 * _tmp34 + 4 * _tmp35
-    _tmp37 = (0.5) * k_found
-    _tmp38 = 4 * _tmp24 + 4 * _tmp25 + 4 * c_v2 + k_found
-    _tmp39 = (0.25) * k_found
-    _tmp40 = 8 * b_h
-    _tmp41 = _tmp40 * h
-    _tmp42 = _tmp13 * b_h
-    _tmp43 = _tmp10 * b_v
-    _tmp44 = 4 * _tmp42 + 4 * _tmp43 + 4 * b_h
-    _tmp45 = b_h * h
-    _tmp46 = b * b_v
-    _tmp47 = -_tmp17 * _tmp46 + _tmp18 * b_h + _tmp42 * h + _tmp43 * h + _tmp45
-    _tmp48 = b_h - b_v
-    _tmp49 = _tmp10 * b_h
-    _tmp50 = _tmp13 * b_v
-    _tmp51 = _tmp49 + _tmp50 + b_v
-    _tmp52 = 4 * _tmp51
-    _tmp53 = _tmp1 * b_h
-    _tmp54 = _tmp2 * _tmp49 + _tmp2 * _tmp50 + _tmp4 * b_v
-    _tmp55 = 4 * _tmp54
-    _tmp56 = 8 * _tmp0 * b_h + 4 * _tmp2 * _tmp42 + 4 * _tmp2 * _tmp43 + 4 * _tmp4 * b_h
+    _tmp14 = _tmp13 * c_v1
+    _tmp15 = numpy.cos(gamma)
+    _tmp16 = _tmp15**2
+    _tmp17 = _tmp16 * c_y
+    _tmp18 = 4 * _tmp14 + 4 * _tmp17 + 4 * c_y
+    _tmp19 = c_y * h
+    _tmp20 = _tmp12 * _tmp15
+    _tmp21 = _tmp20 * b
+    _tmp22 = _tmp21 * c_v1
+    _tmp23 = _tmp14 * h + _tmp17 * h + _tmp19 + _tmp21 * c_y - _tmp22
+    _tmp24 = 4 * b
+    _tmp25 = _tmp20 * _tmp24
+    _tmp26 = _tmp16 * c_v1
+    _tmp27 = _tmp13 * c_y
+    _tmp28 = 4 * _tmp26 + 4 * _tmp27 + 4 * c_v2
+    _tmp29 = _tmp2 * c_v2
+    _tmp30 = _tmp2 * _tmp26
+    _tmp31 = _tmp2 * _tmp27
+    _tmp32 = 2 * _tmp21
+    _tmp33 = 2 * c_x
+    _tmp34 = _tmp6 * c_v2
+    _tmp35 = _tmp26 * _tmp4
+    _tmp36 = _tmp27 * _tmp4
+    _tmp37 = _tmp34 + _tmp35 + _tmp36
+    _tmp38 = _tmp6 * c_y
+    _tmp39 = _tmp14 * _tmp4
+    _tmp40 = _tmp17 * _tmp4
+    _tmp41 = 4 * _tmp2 * _tmp33 + 4 * _tmp38 + 4 * _tmp39 + 4 * _tmp40
+    _tmp42 = found_shear * k_found
+    _tmp43 = _tmp42 * found_depth
+    _tmp44 = 4 * c_y
+    _tmp45 = _tmp1 * _tmp42
+    _tmp46 = found_spread**2
+    _tmp47 = _tmp46 * k_found
+    _tmp48 = _tmp42 * _tmp46
+    _tmp49 = 8 * b_h
+    _tmp50 = _tmp49 * h
+    _tmp51 = _tmp16 * b_h
+    _tmp52 = _tmp13 * b_v
+    _tmp53 = 4 * _tmp51 + 4 * _tmp52 + 4 * b_h
+    _tmp54 = b_h * h
+    _tmp55 = b * b_v
+    _tmp56 = -_tmp20 * _tmp55 + _tmp21 * b_h + _tmp51 * h + _tmp52 * h + _tmp54
+    _tmp57 = b_h - b_v
+    _tmp58 = _tmp13 * b_h
+    _tmp59 = _tmp16 * b_v
+    _tmp60 = _tmp58 + _tmp59 + b_v
+    _tmp61 = 4 * _tmp60
+    _tmp62 = _tmp3 * b_h
+    _tmp63 = _tmp4 * _tmp58 + _tmp4 * _tmp59 + _tmp6 * b_v
+    _tmp64 = 4 * _tmp63
+    _tmp65 = 8 * _tmp2 * b_h + 4 * _tmp4 * _tmp51 + 4 * _tmp4 * _tmp52 + 4 * _tmp6 * b_h
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3399,6 +3484,9 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
         numpy.shape(b_v),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return (
         _runtime.stack_matrix(
@@ -3412,101 +3500,123 @@ def effect_foundation(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
                 (4, 4): J_y,
                 (5, 5): J_z,
                 (6, 6): m_found,
+                (6, 10): -_tmp0,
                 (7, 7): m_found,
+                (7, 9): _tmp0,
                 (8, 8): m_found,
-                (9, 9): _tmp6,
-                (10, 10): _tmp6,
-                (11, 11): _tmp6,
+                (9, 9): _tmp9,
+                (10, 10): _tmp9,
+                (11, 11): _tmp8 * m_found,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp7,
-                (0, 4): -_tmp8,
-                (0, 6): -_tmp7,
-                (1, 1): _tmp15,
-                (1, 3): 4 * _tmp20,
-                (1, 7): -_tmp15,
-                (1, 9): _tmp21 * _tmp23,
-                (2, 2): _tmp26,
-                (2, 8): -_tmp26,
-                (3, 3): 4 * _tmp0 * _tmp24
-                + 4 * _tmp0 * _tmp25
-                + 4 * _tmp0 * c_v2
-                + 4 * _tmp1 * _tmp11
-                + 4 * _tmp1 * _tmp14
-                + 4 * _tmp1 * c_y
-                + 4 * _tmp16 * _tmp27
-                - 8 * _tmp19 * h,
-                (3, 7): -4 * _tmp20,
-                (3, 9): _tmp22 * (_tmp12 * _tmp9 * c_v1 * h - _tmp16 * _tmp17 - _tmp24 * b - _tmp25 * b - b * c_v2),
-                (4, 4): 4 * _tmp1 * _tmp28 + 4 * _tmp32,
-                (4, 6): _tmp8,
-                (4, 10): -4 * _tmp32,
-                (5, 5): _tmp36,
-                (5, 11): -_tmp36,
-                (6, 6): _tmp37 + _tmp7,
-                (7, 7): 4 * _tmp11 + 4 * _tmp14 + _tmp37 + 4 * c_y,
-                (7, 9): -_tmp21 * _tmp23,
-                (8, 8): _tmp38,
-                (9, 9): _tmp0 * _tmp38,
-                (10, 10): 4 * _tmp29 + _tmp3 * k_found + 4 * _tmp30 + 4 * _tmp31 + _tmp5 * k_found,
-                (11, 11): _tmp0 * _tmp37
-                + _tmp0 * _tmp7
-                + _tmp2 * _tmp39
-                + 4 * _tmp33
-                + 4 * _tmp34
-                + 4 * _tmp35
-                + _tmp39 * _tmp4,
+                (0, 0): _tmp10,
+                (0, 4): -_tmp11,
+                (0, 6): -_tmp10,
+                (1, 1): _tmp18,
+                (1, 3): 4 * _tmp23,
+                (1, 7): -_tmp18,
+                (1, 9): _tmp25 * (c_v1 - c_y),
+                (2, 2): _tmp28,
+                (2, 8): -_tmp28,
+                (3, 3): 4 * _tmp14 * _tmp3
+                + 4 * _tmp17 * _tmp3
+                + 4 * _tmp19 * _tmp32
+                - 8 * _tmp22 * h
+                + 4 * _tmp29
+                + 4 * _tmp3 * c_y
+                + 4 * _tmp30
+                + 4 * _tmp31,
+                (3, 7): -4 * _tmp23,
+                (3, 9): _tmp24 * (_tmp12 * _tmp15 * c_v1 * h - _tmp19 * _tmp20 - _tmp26 * b - _tmp27 * b - b * c_v2),
+                (4, 4): 4 * _tmp3 * _tmp33 + 4 * _tmp37,
+                (4, 6): _tmp11,
+                (4, 10): -4 * _tmp37,
+                (5, 5): _tmp41,
+                (5, 11): -_tmp41,
+                (6, 6): _tmp10 + _tmp42,
+                (6, 10): -_tmp43,
+                (7, 7): 4 * _tmp14 + 4 * _tmp17 + _tmp42 + _tmp44,
+                (7, 9): _tmp21 * _tmp44 - _tmp25 * c_v1 + _tmp43,
+                (8, 8): 4 * _tmp26 + 4 * _tmp27 + 4 * c_v2 + k_found,
+                (9, 9): _tmp2 * _tmp47 + 4 * _tmp29 + 4 * _tmp30 + 4 * _tmp31 + _tmp45,
+                (10, 10): 4 * _tmp34 + 4 * _tmp35 + 4 * _tmp36 + _tmp45 + _tmp47 * _tmp5 + _tmp47 * _tmp7,
+                (11, 11): _tmp10 * _tmp2
+                + _tmp2 * _tmp48
+                + 4 * _tmp38
+                + 4 * _tmp39
+                + 4 * _tmp40
+                + _tmp48 * _tmp5
+                + _tmp48 * _tmp7,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp40,
-                (0, 4): -_tmp41,
-                (0, 6): -_tmp40,
-                (1, 1): _tmp44,
-                (1, 3): 4 * _tmp47,
-                (1, 7): -_tmp44,
-                (1, 9): -_tmp23 * _tmp48,
-                (2, 2): _tmp52,
-                (2, 8): -_tmp52,
-                (3, 3): 4 * _tmp0 * _tmp49
-                + 4 * _tmp0 * _tmp50
-                + 4 * _tmp0 * b_v
-                + 4 * _tmp1 * _tmp42
-                + 4 * _tmp1 * _tmp43
-                - 8 * _tmp17 * _tmp46 * h
-                + 4 * _tmp27 * _tmp45
-                + 4 * _tmp53,
-                (3, 7): -4 * _tmp47,
-                (3, 9): _tmp22 * (_tmp12 * _tmp9 * b_v * h - _tmp17 * _tmp45 - _tmp46 - _tmp49 * b - _tmp50 * b),
-                (4, 4): 8 * _tmp53 + 4 * _tmp54,
-                (4, 6): _tmp41,
-                (4, 10): -_tmp55,
-                (5, 5): _tmp56,
-                (5, 11): -_tmp56,
-                (6, 6): _tmp40,
-                (7, 7): _tmp44,
-                (7, 9): _tmp23 * _tmp48,
-                (8, 8): _tmp52,
-                (9, 9): 4 * _tmp0 * _tmp51,
-                (10, 10): _tmp55,
-                (11, 11): _tmp56,
+                (0, 0): _tmp49,
+                (0, 4): -_tmp50,
+                (0, 6): -_tmp49,
+                (1, 1): _tmp53,
+                (1, 3): 4 * _tmp56,
+                (1, 7): -_tmp53,
+                (1, 9): -_tmp25 * _tmp57,
+                (2, 2): _tmp61,
+                (2, 8): -_tmp61,
+                (3, 3): 4 * _tmp2 * _tmp58
+                + 4 * _tmp2 * _tmp59
+                + 4 * _tmp2 * b_v
+                - 8 * _tmp20 * _tmp55 * h
+                + 4 * _tmp3 * _tmp51
+                + 4 * _tmp3 * _tmp52
+                + 4 * _tmp32 * _tmp54
+                + 4 * _tmp62,
+                (3, 7): -4 * _tmp56,
+                (3, 9): _tmp24 * (_tmp12 * _tmp15 * b_v * h - _tmp20 * _tmp54 - _tmp55 - _tmp58 * b - _tmp59 * b),
+                (4, 4): 8 * _tmp62 + 4 * _tmp63,
+                (4, 6): _tmp50,
+                (4, 10): -_tmp64,
+                (5, 5): _tmp65,
+                (5, 11): -_tmp65,
+                (6, 6): _tmp49,
+                (7, 7): _tmp53,
+                (7, 9): _tmp25 * _tmp57,
+                (8, 8): _tmp61,
+                (9, 9): 4 * _tmp2 * _tmp60,
+                (10, 10): _tmp64,
+                (11, 11): _tmp65,
             },
         ),
     )
 
 
 def effect_foundation_derivatives(
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a1,
+    a2,
+    b,
+    h,
+    gamma,
+    c_x,
+    c_y,
+    c_v1,
+    c_v2,
+    b_h,
+    b_v,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 6, 3, 12, 12), differentiated by sympy.
+    shape (..., 9, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3580,25 +3690,96 @@ def effect_foundation_derivatives(
         dB/dc_v2:
         dM/dm_found:
           [x_found, x_found] = 1
+          [x_found, theta_found] = -found_depth
           [y_found, y_found] = 1
+          [y_found, psi_found] = found_depth
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2 + h**2 + a1**2/2 + a2**2/2
-          [theta_found, theta_found] = b**2 + h**2 + a1**2/2 + a2**2/2
+          [psi_found, psi_found] = found_depth**2 + b**2 + h**2 + a1**2/2 + a2**2/2
+          [theta_found, theta_found] = found_depth**2 + b**2 + h**2 + a1**2/2 + a2**2/2
           [phi_found, phi_found] = b**2 + h**2 + a1**2/2 + a2**2/2
         dC/dm_found:
         dB/dm_found:
         dM/dk_found:
         dC/dk_found:
-          [x_found, x_found] = 1/2
-          [y_found, y_found] = 1/2
+          [x_found, x_found] = found_shear
+          [x_found, theta_found] = -found_depth*found_shear
+          [y_found, y_found] = found_shear
+          [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2
-          [theta_found, theta_found] = a1**2/2 + a2**2/2
-          [phi_found, phi_found] = b**2/2 + a1**2/4 + a2**2/4
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a1**2/2 + found_spread**2*a2**2/2
+          [phi_found, phi_found] = found_shear*found_spread**2*b**2 + found_shear*found_spread**2*a1**2/2 + found_shear*found_spread**2*a2**2/2
         dB/dk_found:
+        dM/dfound_shear:
+        dC/dfound_shear:
+          [x_found, x_found] = k_found
+          [x_found, theta_found] = -found_depth*k_found
+          [y_found, y_found] = k_found
+          [y_found, psi_found] = found_depth*k_found
+          [psi_found, psi_found] = k_found*found_depth**2
+          [theta_found, theta_found] = k_found*found_depth**2
+          [phi_found, phi_found] = k_found*found_spread**2*b**2 + k_found*found_spread**2*a1**2/2 + k_found*found_spread**2*a2**2/2
+        dB/dfound_shear:
+        dM/dfound_spread:
+        dC/dfound_spread:
+          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [theta_found, theta_found] = found_spread*k_found*a1**2 + found_spread*k_found*a2**2
+          [phi_found, phi_found] = found_shear*found_spread*k_found*a1**2 + found_shear*found_spread*k_found*a2**2 + 2*found_shear*found_spread*k_found*b**2
+        dB/dfound_spread:
+        dM/dfound_depth:
+          [x_found, theta_found] = -m_found
+          [y_found, psi_found] = m_found
+          [psi_found, psi_found] = 2*found_depth*m_found
+          [theta_found, theta_found] = 2*found_depth*m_found
+        dC/dfound_depth:
+          [x_found, theta_found] = -found_shear*k_found
+          [y_found, psi_found] = found_shear*k_found
+          [psi_found, psi_found] = 2*found_depth*found_shear*k_found
+          [theta_found, theta_found] = 2*found_depth*found_shear*k_found
+        dB/dfound_depth:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
     _tmp0 = 8 * h
     _tmp1 = h**2
@@ -3630,8 +3811,25 @@ def effect_foundation_derivatives(
     _tmp27 = _tmp11 - 4 * _tmp14 * h
     _tmp28 = _tmp2 * _tmp6
     _tmp29 = 4 * _tmp2
-    _tmp30 = (0.5) * _tmp20 + (0.5) * _tmp23
-    _tmp31 = _tmp1 + _tmp2 + _tmp30
+    _tmp30 = found_depth**2
+    _tmp31 = (0.5) * _tmp20
+    _tmp32 = (0.5) * _tmp23
+    _tmp33 = _tmp1 + _tmp2 + _tmp31 + _tmp32
+    _tmp34 = _tmp30 + _tmp33
+    _tmp35 = found_depth * found_shear
+    _tmp36 = _tmp30 * found_shear
+    _tmp37 = found_spread**2
+    _tmp38 = _tmp2 * _tmp37
+    _tmp39 = _tmp31 * _tmp37
+    _tmp40 = _tmp32 * _tmp37
+    _tmp41 = found_depth * k_found
+    _tmp42 = _tmp30 * k_found
+    _tmp43 = found_spread * k_found
+    _tmp44 = 2 * _tmp2
+    _tmp45 = found_shear * k_found
+    _tmp46 = _tmp45 * found_spread
+    _tmp47 = 2 * found_depth * m_found
+    _tmp48 = 2 * _tmp35 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3650,6 +3848,9 @@ def effect_foundation_derivatives(
         numpy.shape(b_v),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return numpy.stack(
         [
@@ -3742,7 +3943,18 @@ def effect_foundation_derivatives(
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp31, (10, 10): _tmp31, (11, 11): _tmp31}
+                _shape,
+                12,
+                {
+                    (6, 6): 1,
+                    (6, 10): -found_depth,
+                    (7, 7): 1,
+                    (7, 9): found_depth,
+                    (8, 8): 1,
+                    (9, 9): _tmp34,
+                    (10, 10): _tmp34,
+                    (11, 11): _tmp33,
+                },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3751,21 +3963,54 @@ def effect_foundation_derivatives(
                 _shape,
                 12,
                 {
-                    (6, 6): 0.5,
-                    (7, 7): 0.5,
+                    (6, 6): found_shear,
+                    (6, 10): -_tmp35,
+                    (7, 7): found_shear,
+                    (7, 9): _tmp35,
                     (8, 8): 1,
-                    (9, 9): _tmp2,
-                    (10, 10): _tmp30,
-                    (11, 11): (0.5) * _tmp2 + (0.25) * _tmp20 + (0.25) * _tmp23,
+                    (9, 9): _tmp36 + _tmp38,
+                    (10, 10): _tmp36 + _tmp39 + _tmp40,
+                    (11, 11): _tmp38 * found_shear + _tmp39 * found_shear + _tmp40 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): k_found,
+                    (6, 10): -_tmp41,
+                    (7, 7): k_found,
+                    (7, 9): _tmp41,
+                    (9, 9): _tmp42,
+                    (10, 10): _tmp42,
+                    (11, 11): _tmp38 * k_found + _tmp39 * k_found + _tmp40 * k_found,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (9, 9): _tmp43 * _tmp44,
+                    (10, 10): _tmp20 * _tmp43 + _tmp23 * _tmp43,
+                    (11, 11): _tmp20 * _tmp46 + _tmp23 * _tmp46 + _tmp44 * _tmp46,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp47, (10, 10): _tmp47}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp45, (7, 9): _tmp45, (9, 9): _tmp48, (10, 10): _tmp48}),
+            _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 6, 3, 12, 12)
+    ).reshape(*_shape, 9, 3, 12, 12)
 
 
-def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added):
+def effect_added_mass(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, x_added, y_added, h_added, g_added
+):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -3776,18 +4021,71 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
         M:
           [x, x] = m_added
           [x, theta] = h_added*m_added
+          [x, phi] = -m_added*y_added
           [y, y] = m_added
           [y, psi] = -h_added*m_added
+          [y, phi] = m_added*x_added
           [z, z] = m_added
-          [psi, psi] = m_added*h_added**2
-          [theta, theta] = m_added*h_added**2
+          [z, psi] = m_added*y_added
+          [z, theta] = -m_added*x_added
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, theta] = -m_added*x_added*y_added
+          [psi, phi] = -h_added*m_added*x_added
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, phi] = -h_added*m_added*y_added
+          [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
     )
     _tmp0 = h_added * m_added
-    _tmp1 = h_added**2 * m_added
+    _tmp1 = m_added * y_added
+    _tmp2 = m_added * x_added
+    _tmp3 = y_added**2
+    _tmp4 = g_added**2
+    _tmp5 = _tmp4 + h_added**2
+    _tmp6 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3805,7 +4103,10 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
         numpy.shape(b_h),
         numpy.shape(b_v),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -3815,11 +4116,19 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
             {
                 (0, 0): m_added,
                 (0, 4): _tmp0,
+                (0, 5): -_tmp1,
                 (1, 1): m_added,
                 (1, 3): -_tmp0,
+                (1, 5): _tmp2,
                 (2, 2): m_added,
-                (3, 3): _tmp1,
-                (4, 4): _tmp1,
+                (2, 3): _tmp1,
+                (2, 4): -_tmp2,
+                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 4): -_tmp1 * x_added,
+                (3, 5): -_tmp0 * x_added,
+                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 5): -_tmp0 * y_added,
+                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
             },
         ),
         stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}),
@@ -3828,10 +4137,10 @@ def effect_added_mass(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 
 
 def effect_added_mass_derivatives(
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 6, 3, 6, 6), differentiated by sympy.
+    shape (..., 9, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3869,23 +4178,97 @@ def effect_added_mass_derivatives(
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
+          [x, phi] = -y_added
           [y, y] = 1
           [y, psi] = -h_added
+          [y, phi] = x_added
           [z, z] = 1
-          [psi, psi] = h_added**2
-          [theta, theta] = h_added**2
+          [z, psi] = y_added
+          [z, theta] = -x_added
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, theta] = -x_added*y_added
+          [psi, phi] = -h_added*x_added
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, phi] = -h_added*y_added
+          [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
         dB/dm_added:
+        dM/dx_added:
+          [y, phi] = m_added
+          [z, theta] = -m_added
+          [psi, theta] = -m_added*y_added
+          [psi, phi] = -h_added*m_added
+          [theta, theta] = 2*m_added*x_added
+          [phi, phi] = 2*m_added*x_added
+        dC/dx_added:
+        dB/dx_added:
+        dM/dy_added:
+          [x, phi] = -m_added
+          [z, psi] = m_added
+          [psi, psi] = 2*m_added*y_added
+          [psi, theta] = -m_added*x_added
+          [theta, phi] = -h_added*m_added
+          [phi, phi] = 2*m_added*y_added
+        dC/dy_added:
+        dB/dy_added:
         dM/dh_added:
           [x, theta] = m_added
           [y, psi] = -m_added
           [psi, psi] = 2*h_added*m_added
+          [psi, phi] = -m_added*x_added
           [theta, theta] = 2*h_added*m_added
+          [theta, phi] = -m_added*y_added
         dC/dh_added:
         dB/dh_added:
+        dM/dg_added:
+          [psi, psi] = 2*g_added*m_added
+          [theta, theta] = 2*g_added*m_added
+          [phi, phi] = 2*g_added*m_added
+        dC/dg_added:
+        dB/dg_added:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, h_added
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
     )
     _tmp0 = 8 * h
     _tmp1 = h**2
@@ -3902,8 +4285,21 @@ def effect_added_mass_derivatives(
     _tmp12 = _tmp11 * _tmp9
     _tmp13 = 4 * a2**2
     _tmp14 = _tmp11 * _tmp4
-    _tmp15 = h_added**2
-    _tmp16 = 2 * h_added * m_added
+    _tmp15 = y_added**2
+    _tmp16 = g_added**2
+    _tmp17 = _tmp16 + h_added**2
+    _tmp18 = x_added**2
+    _tmp19 = -m_added
+    _tmp20 = m_added * y_added
+    _tmp21 = -_tmp20
+    _tmp22 = h_added * m_added
+    _tmp23 = -_tmp22
+    _tmp24 = m_added * x_added
+    _tmp25 = 2 * _tmp24
+    _tmp26 = 2 * _tmp20
+    _tmp27 = -_tmp24
+    _tmp28 = 2 * _tmp22
+    _tmp29 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3921,7 +4317,10 @@ def effect_added_mass_derivatives(
         numpy.shape(b_h),
         numpy.shape(b_v),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return numpy.stack(
         [
@@ -3962,16 +4361,53 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp15, (4, 4): _tmp15},
+                {
+                    (0, 0): 1,
+                    (0, 4): h_added,
+                    (0, 5): -y_added,
+                    (1, 1): 1,
+                    (1, 3): -h_added,
+                    (1, 5): x_added,
+                    (2, 2): 1,
+                    (2, 3): y_added,
+                    (2, 4): -x_added,
+                    (3, 3): _tmp15 + _tmp17,
+                    (3, 4): -x_added * y_added,
+                    (3, 5): -h_added * x_added,
+                    (4, 4): _tmp17 + _tmp18,
+                    (4, 5): -h_added * y_added,
+                    (5, 5): _tmp15 + _tmp16 + _tmp18,
+                },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp16, (4, 4): _tmp16}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 5): m_added, (2, 4): _tmp19, (3, 4): _tmp21, (3, 5): _tmp23, (4, 4): _tmp25, (5, 5): _tmp25},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 5): _tmp19, (2, 3): m_added, (3, 3): _tmp26, (3, 4): _tmp27, (4, 5): _tmp23, (5, 5): _tmp26},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 4): m_added, (1, 3): _tmp19, (3, 3): _tmp28, (3, 5): _tmp27, (4, 4): _tmp28, (4, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp29, (4, 4): _tmp29, (5, 5): _tmp29}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    ).reshape(*_shape, 9, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
@@ -5467,8 +5903,8 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_x", "c_y", "c_v1", "c_v2", "dx_com", "dy_com"),
     "cog_height": ("c_x", "c_y", "c_v1", "c_v2", "dz_com"),
     "rotational_stiffness": ("c_x", "c_y", "c_v1", "c_v2", "k_bend", "k_torsion"),
-    "foundation": ("c_x", "c_y", "c_v1", "c_v2", "m_found", "k_found"),
-    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "m_added", "h_added"),
+    "foundation": ("c_x", "c_y", "c_v1", "c_v2", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_x", "c_y", "c_v1", "c_v2", "k_belt", "h_belt"),
     "gravity_preload": ("c_x", "c_y", "c_v1", "c_v2", "h_preload"),
 }

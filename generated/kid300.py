@@ -148,7 +148,22 @@ ARGUMENTS = {
         "k_bend",
         "k_torsion",
     ),
-    "effect_foundation": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found"),
+    "effect_foundation": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
+    ),
     "effect_foundation_derivatives": (
         "m",
         "J_xy",
@@ -161,8 +176,26 @@ ARGUMENTS = {
         "b_z",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
-    "effect_added_mass": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "m_added", "h_added"),
+    "effect_added_mass": (
+        "m",
+        "J_xy",
+        "J_z",
+        "L_xy",
+        "L_z",
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+    ),
     "effect_added_mass_derivatives": (
         "m",
         "J_xy",
@@ -174,7 +207,10 @@ ARGUMENTS = {
         "b_xy",
         "b_z",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_drive_belt": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
     "effect_drive_belt_derivatives": (
@@ -1311,8 +1347,10 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
     ).reshape(*_shape, 4, 3, 6, 6)
 
 
-def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
-    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+def effect_foundation(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
     extended energies (mountid.engine.symbolic.effects).
 
@@ -1326,10 +1364,12 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [theta, theta] = J_xy
           [phi, phi] = J_z
           [x_found, x_found] = m_found
+          [x_found, theta_found] = -found_depth*m_found
           [y_found, y_found] = m_found
+          [y_found, psi_found] = found_depth*m_found
           [z_found, z_found] = m_found
-          [psi_found, psi_found] = m_found*(L_xy**2 + L_z**2)
-          [theta_found, theta_found] = m_found*(L_xy**2 + L_z**2)
+          [psi_found, psi_found] = m_found*(found_depth**2 + L_xy**2 + L_z**2)
+          [theta_found, theta_found] = m_found*(found_depth**2 + L_xy**2 + L_z**2)
           [phi_found, phi_found] = m_found*(L_xy**2 + L_z**2)
         C:
           [x, x] = 4*c_xy
@@ -1348,12 +1388,14 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [theta, theta_found] = -2*c_z*L_xy**2
           [phi, phi] = 4*c_xy*L_xy**2
           [phi, phi_found] = -4*c_xy*L_xy**2
-          [x_found, x_found] = k_found/2 + 4*c_xy
-          [y_found, y_found] = k_found/2 + 4*c_xy
+          [x_found, x_found] = 4*c_xy + found_shear*k_found
+          [x_found, theta_found] = -found_depth*found_shear*k_found
+          [y_found, y_found] = 4*c_xy + found_shear*k_found
+          [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = L_xy**2*(k_found/2 + 2*c_z)
-          [theta_found, theta_found] = L_xy**2*(k_found/2 + 2*c_z)
-          [phi_found, phi_found] = L_xy**2*(k_found/2 + 4*c_xy)
+          [psi_found, psi_found] = 2*c_z*L_xy**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*L_xy**2/2
+          [theta_found, theta_found] = 2*c_z*L_xy**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*L_xy**2/2
+          [phi_found, phi_found] = L_xy**2*(4*c_xy + found_shear*k_found*found_spread**2)
         B:
           [x, x] = 4*b_xy
           [x, theta] = -4*L_z*b_xy
@@ -1378,35 +1420,43 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
           [theta_found, theta_found] = 2*b_z*L_xy**2
           [phi_found, phi_found] = 4*b_xy*L_xy**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
+        _runtime.as_arrays(
+            m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+        )
     )
-    _tmp0 = L_xy**2
-    _tmp1 = L_z**2
-    _tmp2 = m_found * (_tmp0 + _tmp1)
-    _tmp3 = 4 * c_xy
-    _tmp4 = L_z * _tmp3
-    _tmp5 = -_tmp4
-    _tmp6 = -_tmp3
-    _tmp7 = 4 * c_z
-    _tmp8 = _tmp0 * c_z
-    _tmp9 = 2 * _tmp1
-    _tmp10 = 2 * _tmp8 + 2 * _tmp9 * c_xy
-    _tmp11 = -2 * _tmp8
-    _tmp12 = _tmp0 * _tmp3
-    _tmp13 = (0.5) * k_found
-    _tmp14 = _tmp13 + _tmp3
-    _tmp15 = _tmp0 * (_tmp13 + 2 * c_z)
-    _tmp16 = 4 * b_xy
-    _tmp17 = L_z * _tmp16
-    _tmp18 = -_tmp17
-    _tmp19 = -_tmp16
-    _tmp20 = 4 * b_z
-    _tmp21 = _tmp0 * b_z
-    _tmp22 = 2 * _tmp21 + 2 * _tmp9 * b_xy
-    _tmp23 = 2 * _tmp21
+    _tmp0 = found_depth * m_found
+    _tmp1 = found_depth**2
+    _tmp2 = L_xy**2
+    _tmp3 = L_z**2
+    _tmp4 = _tmp2 + _tmp3
+    _tmp5 = m_found * (_tmp1 + _tmp4)
+    _tmp6 = 4 * c_xy
+    _tmp7 = L_z * _tmp6
+    _tmp8 = -_tmp7
+    _tmp9 = -_tmp6
+    _tmp10 = 4 * c_z
+    _tmp11 = _tmp2 * c_z
+    _tmp12 = 2 * _tmp3
+    _tmp13 = 2 * _tmp11 + 2 * _tmp12 * c_xy
+    _tmp14 = 2 * _tmp11
+    _tmp15 = -_tmp14
+    _tmp16 = _tmp2 * _tmp6
+    _tmp17 = found_shear * k_found
+    _tmp18 = _tmp17 + _tmp6
+    _tmp19 = _tmp17 * found_depth
+    _tmp20 = found_spread**2
+    _tmp21 = _tmp1 * _tmp17 + _tmp14 + (0.5) * _tmp2 * _tmp20 * k_found
+    _tmp22 = 4 * b_xy
+    _tmp23 = L_z * _tmp22
     _tmp24 = -_tmp23
-    _tmp25 = _tmp0 * _tmp16
+    _tmp25 = -_tmp22
+    _tmp26 = 4 * b_z
+    _tmp27 = _tmp2 * b_z
+    _tmp28 = 2 * _tmp12 * b_xy + 2 * _tmp27
+    _tmp29 = 2 * _tmp27
+    _tmp30 = -_tmp29
+    _tmp31 = _tmp2 * _tmp22
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1419,6 +1469,9 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return (
         _runtime.stack_matrix(
@@ -1432,75 +1485,81 @@ def effect_foundation(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_
                 (4, 4): J_xy,
                 (5, 5): J_z,
                 (6, 6): m_found,
+                (6, 10): -_tmp0,
                 (7, 7): m_found,
+                (7, 9): _tmp0,
                 (8, 8): m_found,
-                (9, 9): _tmp2,
-                (10, 10): _tmp2,
-                (11, 11): _tmp2,
+                (9, 9): _tmp5,
+                (10, 10): _tmp5,
+                (11, 11): _tmp4 * m_found,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp3,
-                (0, 4): _tmp5,
-                (0, 6): _tmp6,
-                (1, 1): _tmp3,
-                (1, 3): _tmp4,
-                (1, 7): _tmp6,
-                (2, 2): _tmp7,
-                (2, 8): -_tmp7,
-                (3, 3): _tmp10,
-                (3, 7): _tmp5,
-                (3, 9): _tmp11,
-                (4, 4): _tmp10,
-                (4, 6): _tmp4,
-                (4, 10): _tmp11,
-                (5, 5): _tmp12,
-                (5, 11): -_tmp12,
-                (6, 6): _tmp14,
-                (7, 7): _tmp14,
-                (8, 8): _tmp7 + k_found,
-                (9, 9): _tmp15,
-                (10, 10): _tmp15,
-                (11, 11): _tmp0 * _tmp14,
+                (0, 0): _tmp6,
+                (0, 4): _tmp8,
+                (0, 6): _tmp9,
+                (1, 1): _tmp6,
+                (1, 3): _tmp7,
+                (1, 7): _tmp9,
+                (2, 2): _tmp10,
+                (2, 8): -_tmp10,
+                (3, 3): _tmp13,
+                (3, 7): _tmp8,
+                (3, 9): _tmp15,
+                (4, 4): _tmp13,
+                (4, 6): _tmp7,
+                (4, 10): _tmp15,
+                (5, 5): _tmp16,
+                (5, 11): -_tmp16,
+                (6, 6): _tmp18,
+                (6, 10): -_tmp19,
+                (7, 7): _tmp18,
+                (7, 9): _tmp19,
+                (8, 8): _tmp10 + k_found,
+                (9, 9): _tmp21,
+                (10, 10): _tmp21,
+                (11, 11): _tmp2 * (_tmp17 * _tmp20 + _tmp6),
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp16,
-                (0, 4): _tmp18,
-                (0, 6): _tmp19,
-                (1, 1): _tmp16,
-                (1, 3): _tmp17,
-                (1, 7): _tmp19,
-                (2, 2): _tmp20,
-                (2, 8): -_tmp20,
-                (3, 3): _tmp22,
-                (3, 7): _tmp18,
-                (3, 9): _tmp24,
-                (4, 4): _tmp22,
-                (4, 6): _tmp17,
-                (4, 10): _tmp24,
-                (5, 5): _tmp25,
-                (5, 11): -_tmp25,
-                (6, 6): _tmp16,
-                (7, 7): _tmp16,
-                (8, 8): _tmp20,
-                (9, 9): _tmp23,
-                (10, 10): _tmp23,
-                (11, 11): _tmp25,
+                (0, 0): _tmp22,
+                (0, 4): _tmp24,
+                (0, 6): _tmp25,
+                (1, 1): _tmp22,
+                (1, 3): _tmp23,
+                (1, 7): _tmp25,
+                (2, 2): _tmp26,
+                (2, 8): -_tmp26,
+                (3, 3): _tmp28,
+                (3, 7): _tmp24,
+                (3, 9): _tmp30,
+                (4, 4): _tmp28,
+                (4, 6): _tmp23,
+                (4, 10): _tmp30,
+                (5, 5): _tmp31,
+                (5, 11): -_tmp31,
+                (6, 6): _tmp22,
+                (7, 7): _tmp22,
+                (8, 8): _tmp26,
+                (9, 9): _tmp29,
+                (10, 10): _tmp29,
+                (11, 11): _tmp31,
             },
         ),
     )
 
 
-def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found):
+def effect_foundation_derivatives(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 4, 3, 12, 12), differentiated by sympy.
+    shape (..., 7, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1536,25 +1595,58 @@ def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dB/dc_z:
         dM/dm_found:
           [x_found, x_found] = 1
+          [x_found, theta_found] = -found_depth
           [y_found, y_found] = 1
+          [y_found, psi_found] = found_depth
           [z_found, z_found] = 1
-          [psi_found, psi_found] = L_xy**2 + L_z**2
-          [theta_found, theta_found] = L_xy**2 + L_z**2
+          [psi_found, psi_found] = found_depth**2 + L_xy**2 + L_z**2
+          [theta_found, theta_found] = found_depth**2 + L_xy**2 + L_z**2
           [phi_found, phi_found] = L_xy**2 + L_z**2
         dC/dm_found:
         dB/dm_found:
         dM/dk_found:
         dC/dk_found:
-          [x_found, x_found] = 1/2
-          [y_found, y_found] = 1/2
+          [x_found, x_found] = found_shear
+          [x_found, theta_found] = -found_depth*found_shear
+          [y_found, y_found] = found_shear
+          [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = L_xy**2/2
-          [theta_found, theta_found] = L_xy**2/2
-          [phi_found, phi_found] = L_xy**2/2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*L_xy**2/2
+          [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*L_xy**2/2
+          [phi_found, phi_found] = found_shear*found_spread**2*L_xy**2
         dB/dk_found:
+        dM/dfound_shear:
+        dC/dfound_shear:
+          [x_found, x_found] = k_found
+          [x_found, theta_found] = -found_depth*k_found
+          [y_found, y_found] = k_found
+          [y_found, psi_found] = found_depth*k_found
+          [psi_found, psi_found] = k_found*found_depth**2
+          [theta_found, theta_found] = k_found*found_depth**2
+          [phi_found, phi_found] = k_found*found_spread**2*L_xy**2
+        dB/dfound_shear:
+        dM/dfound_spread:
+        dC/dfound_spread:
+          [psi_found, psi_found] = found_spread*k_found*L_xy**2
+          [theta_found, theta_found] = found_spread*k_found*L_xy**2
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*L_xy**2
+        dB/dfound_spread:
+        dM/dfound_depth:
+          [x_found, theta_found] = -m_found
+          [y_found, psi_found] = m_found
+          [psi_found, psi_found] = 2*found_depth*m_found
+          [theta_found, theta_found] = 2*found_depth*m_found
+        dC/dfound_depth:
+          [x_found, theta_found] = -found_shear*k_found
+          [y_found, psi_found] = found_shear*k_found
+          [psi_found, psi_found] = 2*found_depth*found_shear*k_found
+          [theta_found, theta_found] = 2*found_depth*found_shear*k_found
+        dB/dfound_depth:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
+        _runtime.as_arrays(
+            m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+        )
     )
     _tmp0 = 4 * L_z
     _tmp1 = -_tmp0
@@ -1564,8 +1656,18 @@ def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
     _tmp5 = 4 * _tmp4
     _tmp6 = 2 * _tmp4
     _tmp7 = -_tmp6
-    _tmp8 = _tmp2 + _tmp4
-    _tmp9 = (0.5) * _tmp4
+    _tmp8 = found_depth**2
+    _tmp9 = _tmp2 + _tmp4
+    _tmp10 = _tmp8 + _tmp9
+    _tmp11 = found_depth * found_shear
+    _tmp12 = _tmp4 * found_spread**2
+    _tmp13 = (0.5) * _tmp12 + _tmp8 * found_shear
+    _tmp14 = found_depth * k_found
+    _tmp15 = _tmp8 * k_found
+    _tmp16 = _tmp4 * found_spread * k_found
+    _tmp17 = found_shear * k_found
+    _tmp18 = 2 * found_depth * m_found
+    _tmp19 = 2 * _tmp11 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1578,6 +1680,9 @@ def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return numpy.stack(
         [
@@ -1622,21 +1727,66 @@ def effect_foundation_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp8, (10, 10): _tmp8, (11, 11): _tmp8}
+                _shape,
+                12,
+                {
+                    (6, 6): 1,
+                    (6, 10): -found_depth,
+                    (7, 7): 1,
+                    (7, 9): found_depth,
+                    (8, 8): 1,
+                    (9, 9): _tmp10,
+                    (10, 10): _tmp10,
+                    (11, 11): _tmp9,
+                },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 0.5, (7, 7): 0.5, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}
+                _shape,
+                12,
+                {
+                    (6, 6): found_shear,
+                    (6, 10): -_tmp11,
+                    (7, 7): found_shear,
+                    (7, 9): _tmp11,
+                    (8, 8): 1,
+                    (9, 9): _tmp13,
+                    (10, 10): _tmp13,
+                    (11, 11): _tmp12 * found_shear,
+                },
             ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): k_found,
+                    (6, 10): -_tmp14,
+                    (7, 7): k_found,
+                    (7, 9): _tmp14,
+                    (9, 9): _tmp15,
+                    (10, 10): _tmp15,
+                    (11, 11): _tmp12 * k_found,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(9, 9): _tmp16, (10, 10): _tmp16, (11, 11): _tmp17 * _tmp6 * found_spread}
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp18, (10, 10): _tmp18}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp17, (7, 9): _tmp17, (9, 9): _tmp19, (10, 10): _tmp19}),
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 12, 12)
+    ).reshape(*_shape, 7, 3, 12, 12)
 
 
-def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
+def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -1647,18 +1797,31 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
         M:
           [x, x] = m_added
           [x, theta] = h_added*m_added
+          [x, phi] = -m_added*y_added
           [y, y] = m_added
           [y, psi] = -h_added*m_added
+          [y, phi] = m_added*x_added
           [z, z] = m_added
-          [psi, psi] = m_added*h_added**2
-          [theta, theta] = m_added*h_added**2
+          [z, psi] = m_added*y_added
+          [z, theta] = -m_added*x_added
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, theta] = -m_added*x_added*y_added
+          [psi, phi] = -h_added*m_added*x_added
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, phi] = -h_added*m_added*y_added
+          [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = h_added * m_added
-    _tmp1 = h_added**2 * m_added
+    _tmp1 = m_added * y_added
+    _tmp2 = m_added * x_added
+    _tmp3 = y_added**2
+    _tmp4 = g_added**2
+    _tmp5 = _tmp4 + h_added**2
+    _tmp6 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1670,7 +1833,10 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
         numpy.shape(b_xy),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return (
         mass_matrix(m, J_xy, J_z)
@@ -1680,11 +1846,19 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
             {
                 (0, 0): m_added,
                 (0, 4): _tmp0,
+                (0, 5): -_tmp1,
                 (1, 1): m_added,
                 (1, 3): -_tmp0,
+                (1, 5): _tmp2,
                 (2, 2): m_added,
-                (3, 3): _tmp1,
-                (4, 4): _tmp1,
+                (2, 3): _tmp1,
+                (2, 4): -_tmp2,
+                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 4): -_tmp1 * x_added,
+                (3, 5): -_tmp0 * x_added,
+                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 5): -_tmp0 * y_added,
+                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
             },
         ),
         stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -1692,9 +1866,11 @@ def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_
     )
 
 
-def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added):
+def effect_added_mass_derivatives(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added
+):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1717,30 +1893,77 @@ def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
+          [x, phi] = -y_added
           [y, y] = 1
           [y, psi] = -h_added
+          [y, phi] = x_added
           [z, z] = 1
-          [psi, psi] = h_added**2
-          [theta, theta] = h_added**2
+          [z, psi] = y_added
+          [z, theta] = -x_added
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, theta] = -x_added*y_added
+          [psi, phi] = -h_added*x_added
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, phi] = -h_added*y_added
+          [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
         dB/dm_added:
+        dM/dx_added:
+          [y, phi] = m_added
+          [z, theta] = -m_added
+          [psi, theta] = -m_added*y_added
+          [psi, phi] = -h_added*m_added
+          [theta, theta] = 2*m_added*x_added
+          [phi, phi] = 2*m_added*x_added
+        dC/dx_added:
+        dB/dx_added:
+        dM/dy_added:
+          [x, phi] = -m_added
+          [z, psi] = m_added
+          [psi, psi] = 2*m_added*y_added
+          [psi, theta] = -m_added*x_added
+          [theta, phi] = -h_added*m_added
+          [phi, phi] = 2*m_added*y_added
+        dC/dy_added:
+        dB/dy_added:
         dM/dh_added:
           [x, theta] = m_added
           [y, psi] = -m_added
           [psi, psi] = 2*h_added*m_added
+          [psi, phi] = -m_added*x_added
           [theta, theta] = 2*h_added*m_added
+          [theta, phi] = -m_added*y_added
         dC/dh_added:
         dB/dh_added:
+        dM/dg_added:
+          [psi, psi] = 2*g_added*m_added
+          [theta, theta] = 2*g_added*m_added
+          [phi, phi] = 2*g_added*m_added
+        dC/dg_added:
+        dB/dg_added:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, h_added
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = 4 * L_z
     _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
     _tmp3 = 2 * _tmp2
-    _tmp4 = h_added**2
-    _tmp5 = 2 * h_added * m_added
+    _tmp4 = y_added**2
+    _tmp5 = g_added**2
+    _tmp6 = _tmp5 + h_added**2
+    _tmp7 = x_added**2
+    _tmp8 = -m_added
+    _tmp9 = m_added * y_added
+    _tmp10 = -_tmp9
+    _tmp11 = h_added * m_added
+    _tmp12 = -_tmp11
+    _tmp13 = m_added * x_added
+    _tmp14 = 2 * _tmp13
+    _tmp15 = 2 * _tmp9
+    _tmp16 = -_tmp13
+    _tmp17 = 2 * _tmp11
+    _tmp18 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1752,7 +1975,10 @@ def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         numpy.shape(b_xy),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return numpy.stack(
         [
@@ -1769,16 +1995,53 @@ def effect_added_mass_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+                {
+                    (0, 0): 1,
+                    (0, 4): h_added,
+                    (0, 5): -y_added,
+                    (1, 1): 1,
+                    (1, 3): -h_added,
+                    (1, 5): x_added,
+                    (2, 2): 1,
+                    (2, 3): y_added,
+                    (2, 4): -x_added,
+                    (3, 3): _tmp4 + _tmp6,
+                    (3, 4): -x_added * y_added,
+                    (3, 5): -h_added * x_added,
+                    (4, 4): _tmp6 + _tmp7,
+                    (4, 5): -h_added * y_added,
+                    (5, 5): _tmp4 + _tmp5 + _tmp7,
+                },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 5): m_added, (2, 4): _tmp8, (3, 4): _tmp10, (3, 5): _tmp12, (4, 4): _tmp14, (5, 5): _tmp14},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 5): _tmp8, (2, 3): m_added, (3, 3): _tmp15, (3, 4): _tmp16, (4, 5): _tmp12, (5, 5): _tmp15},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 4): m_added, (1, 3): _tmp8, (3, 3): _tmp17, (3, 5): _tmp16, (4, 4): _tmp17, (4, 5): _tmp10},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp18, (4, 4): _tmp18, (5, 5): _tmp18}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
@@ -2488,8 +2751,8 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_xy", "c_z", "dx_com", "dy_com"),
     "cog_height": ("c_xy", "c_z", "dz_com"),
     "rotational_stiffness": ("c_xy", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_xy", "c_z", "m_found", "k_found"),
-    "added_mass": ("c_xy", "c_z", "m_added", "h_added"),
+    "foundation": ("c_xy", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_xy", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_xy", "c_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_xy", "c_z", "h_preload"),
 }

@@ -247,6 +247,9 @@ ARGUMENTS = {
         "b_z",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_foundation_derivatives": (
         "m",
@@ -264,6 +267,9 @@ ARGUMENTS = {
         "b_z",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_added_mass": (
         "m",
@@ -280,7 +286,10 @@ ARGUMENTS = {
         "b_y",
         "b_z",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -297,7 +306,10 @@ ARGUMENTS = {
         "b_y",
         "b_z",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_drive_belt": (
         "m",
@@ -2465,8 +2477,10 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
     ).reshape(*_shape, 5, 3, 6, 6)
 
 
-def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
-    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+def effect_foundation(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
     extended energies (mountid.engine.symbolic.effects).
 
@@ -2480,10 +2494,12 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta, theta] = J_y
           [phi, phi] = J_z
           [x_found, x_found] = m_found
+          [x_found, theta_found] = -found_depth*m_found
           [y_found, y_found] = m_found
+          [y_found, psi_found] = found_depth*m_found
           [z_found, z_found] = m_found
-          [psi_found, psi_found] = m_found*(a**2 + b**2 + h**2)
-          [theta_found, theta_found] = m_found*(a**2 + b**2 + h**2)
+          [psi_found, psi_found] = m_found*(found_depth**2 + a**2 + b**2 + h**2)
+          [theta_found, theta_found] = m_found*(found_depth**2 + a**2 + b**2 + h**2)
           [phi_found, phi_found] = m_found*(a**2 + b**2 + h**2)
         C:
           [x, x] = 4*c_x
@@ -2502,12 +2518,14 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta, theta_found] = -4*c_z*a**2
           [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
           [phi, phi_found] = -4*(c_x*b**2 + c_y*a**2)
-          [x_found, x_found] = k_found/2 + 4*c_x
-          [y_found, y_found] = k_found/2 + 4*c_y
+          [x_found, x_found] = 4*c_x + found_shear*k_found
+          [x_found, theta_found] = -found_depth*found_shear*k_found
+          [y_found, y_found] = 4*c_y + found_shear*k_found
+          [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = b**2*(k_found + 4*c_z)
-          [theta_found, theta_found] = a**2*(k_found + 4*c_z)
-          [phi_found, phi_found] = k_found*a**2/2 + k_found*b**2/2 + 4*c_x*b**2 + 4*c_y*a**2
+          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2
+          [theta_found, theta_found] = 4*c_z*a**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a**2
+          [phi_found, phi_found] = 4*c_x*b**2 + 4*c_y*a**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_spread**2*b**2
         B:
           [x, x] = 4*b_x
           [x, theta] = -4*b_x*h
@@ -2532,29 +2550,74 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
           [theta_found, theta_found] = 4*b_z*a**2
           [phi_found, phi_found] = 4*(b_x*b**2 + b_y*a**2)
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
-    _tmp0 = a**2
-    _tmp1 = b**2
-    _tmp2 = h**2
-    _tmp3 = m_found * (_tmp0 + _tmp1 + _tmp2)
-    _tmp4 = 4 * c_x
-    _tmp5 = _tmp4 * h
-    _tmp6 = 4 * c_y
-    _tmp7 = _tmp6 * h
-    _tmp8 = 4 * c_z
-    _tmp9 = 4 * _tmp0 * c_y + 4 * _tmp1 * c_x
-    _tmp10 = (0.5) * k_found
-    _tmp11 = _tmp8 + k_found
-    _tmp12 = 4 * b_x
-    _tmp13 = _tmp12 * h
-    _tmp14 = 4 * b_y
-    _tmp15 = _tmp14 * h
-    _tmp16 = 4 * b_z
-    _tmp17 = _tmp1 * _tmp16
-    _tmp18 = _tmp0 * _tmp16
-    _tmp19 = 4 * _tmp0 * b_y + 4 * _tmp1 * b_x
+    _tmp0 = found_depth * m_found
+    _tmp1 = found_depth**2
+    _tmp2 = a**2
+    _tmp3 = b**2
+    _tmp4 = h**2
+    _tmp5 = _tmp2 + _tmp3 + _tmp4
+    _tmp6 = m_found * (_tmp1 + _tmp5)
+    _tmp7 = 4 * c_x
+    _tmp8 = _tmp7 * h
+    _tmp9 = 4 * c_y
+    _tmp10 = _tmp9 * h
+    _tmp11 = 4 * c_z
+    _tmp12 = _tmp11 * _tmp3
+    _tmp13 = _tmp11 * _tmp2
+    _tmp14 = 4 * _tmp2 * c_y + 4 * _tmp3 * c_x
+    _tmp15 = found_shear * k_found
+    _tmp16 = _tmp15 * found_depth
+    _tmp17 = _tmp1 * _tmp15
+    _tmp18 = found_spread**2
+    _tmp19 = _tmp18 * k_found
+    _tmp20 = _tmp15 * _tmp18
+    _tmp21 = 4 * b_x
+    _tmp22 = _tmp21 * h
+    _tmp23 = 4 * b_y
+    _tmp24 = _tmp23 * h
+    _tmp25 = 4 * b_z
+    _tmp26 = _tmp25 * _tmp3
+    _tmp27 = _tmp2 * _tmp25
+    _tmp28 = 4 * _tmp2 * b_y + 4 * _tmp3 * b_x
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2571,6 +2634,9 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return (
         _runtime.stack_matrix(
@@ -2584,75 +2650,81 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
                 (4, 4): J_y,
                 (5, 5): J_z,
                 (6, 6): m_found,
+                (6, 10): -_tmp0,
                 (7, 7): m_found,
+                (7, 9): _tmp0,
                 (8, 8): m_found,
-                (9, 9): _tmp3,
-                (10, 10): _tmp3,
-                (11, 11): _tmp3,
+                (9, 9): _tmp6,
+                (10, 10): _tmp6,
+                (11, 11): _tmp5 * m_found,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp4,
-                (0, 4): -_tmp5,
-                (0, 6): -_tmp4,
-                (1, 1): _tmp6,
-                (1, 3): _tmp7,
-                (1, 7): -_tmp6,
-                (2, 2): _tmp8,
-                (2, 8): -_tmp8,
-                (3, 3): 4 * _tmp1 * c_z + 4 * _tmp2 * c_y,
-                (3, 7): -_tmp7,
-                (3, 9): -_tmp1 * _tmp8,
-                (4, 4): 4 * _tmp0 * c_z + 4 * _tmp2 * c_x,
-                (4, 6): _tmp5,
-                (4, 10): -_tmp0 * _tmp8,
-                (5, 5): _tmp9,
-                (5, 11): -_tmp9,
-                (6, 6): _tmp10 + _tmp4,
-                (7, 7): _tmp10 + _tmp6,
-                (8, 8): _tmp11,
-                (9, 9): _tmp1 * _tmp11,
-                (10, 10): _tmp0 * _tmp11,
-                (11, 11): _tmp0 * _tmp10 + _tmp0 * _tmp6 + _tmp1 * _tmp10 + _tmp1 * _tmp4,
+                (0, 0): _tmp7,
+                (0, 4): -_tmp8,
+                (0, 6): -_tmp7,
+                (1, 1): _tmp9,
+                (1, 3): _tmp10,
+                (1, 7): -_tmp9,
+                (2, 2): _tmp11,
+                (2, 8): -_tmp11,
+                (3, 3): 4 * _tmp3 * c_z + 4 * _tmp4 * c_y,
+                (3, 7): -_tmp10,
+                (3, 9): -_tmp12,
+                (4, 4): 4 * _tmp2 * c_z + 4 * _tmp4 * c_x,
+                (4, 6): _tmp8,
+                (4, 10): -_tmp13,
+                (5, 5): _tmp14,
+                (5, 11): -_tmp14,
+                (6, 6): _tmp15 + _tmp7,
+                (6, 10): -_tmp16,
+                (7, 7): _tmp15 + _tmp9,
+                (7, 9): _tmp16,
+                (8, 8): _tmp11 + k_found,
+                (9, 9): _tmp12 + _tmp17 + _tmp19 * _tmp3,
+                (10, 10): _tmp13 + _tmp17 + _tmp19 * _tmp2,
+                (11, 11): _tmp2 * _tmp20 + _tmp2 * _tmp9 + _tmp20 * _tmp3 + _tmp3 * _tmp7,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp12,
-                (0, 4): -_tmp13,
-                (0, 6): -_tmp12,
-                (1, 1): _tmp14,
-                (1, 3): _tmp15,
-                (1, 7): -_tmp14,
-                (2, 2): _tmp16,
-                (2, 8): -_tmp16,
-                (3, 3): 4 * _tmp1 * b_z + 4 * _tmp2 * b_y,
-                (3, 7): -_tmp15,
-                (3, 9): -_tmp17,
-                (4, 4): 4 * _tmp0 * b_z + 4 * _tmp2 * b_x,
-                (4, 6): _tmp13,
-                (4, 10): -_tmp18,
-                (5, 5): _tmp19,
-                (5, 11): -_tmp19,
-                (6, 6): _tmp12,
-                (7, 7): _tmp14,
-                (8, 8): _tmp16,
-                (9, 9): _tmp17,
-                (10, 10): _tmp18,
-                (11, 11): _tmp19,
+                (0, 0): _tmp21,
+                (0, 4): -_tmp22,
+                (0, 6): -_tmp21,
+                (1, 1): _tmp23,
+                (1, 3): _tmp24,
+                (1, 7): -_tmp23,
+                (2, 2): _tmp25,
+                (2, 8): -_tmp25,
+                (3, 3): 4 * _tmp3 * b_z + 4 * _tmp4 * b_y,
+                (3, 7): -_tmp24,
+                (3, 9): -_tmp26,
+                (4, 4): 4 * _tmp2 * b_z + 4 * _tmp4 * b_x,
+                (4, 6): _tmp22,
+                (4, 10): -_tmp27,
+                (5, 5): _tmp28,
+                (5, 11): -_tmp28,
+                (6, 6): _tmp21,
+                (7, 7): _tmp23,
+                (8, 8): _tmp25,
+                (9, 9): _tmp26,
+                (10, 10): _tmp27,
+                (11, 11): _tmp28,
             },
         ),
     )
 
 
-def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found):
+def effect_foundation_derivatives(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 5, 3, 12, 12), differentiated by sympy.
+    shape (..., 8, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2694,25 +2766,92 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dB/dc_z:
         dM/dm_found:
           [x_found, x_found] = 1
+          [x_found, theta_found] = -found_depth
           [y_found, y_found] = 1
+          [y_found, psi_found] = found_depth
           [z_found, z_found] = 1
-          [psi_found, psi_found] = a**2 + b**2 + h**2
-          [theta_found, theta_found] = a**2 + b**2 + h**2
+          [psi_found, psi_found] = found_depth**2 + a**2 + b**2 + h**2
+          [theta_found, theta_found] = found_depth**2 + a**2 + b**2 + h**2
           [phi_found, phi_found] = a**2 + b**2 + h**2
         dC/dm_found:
         dB/dm_found:
         dM/dk_found:
         dC/dk_found:
-          [x_found, x_found] = 1/2
-          [y_found, y_found] = 1/2
+          [x_found, x_found] = found_shear
+          [x_found, theta_found] = -found_depth*found_shear
+          [y_found, y_found] = found_shear
+          [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2
-          [theta_found, theta_found] = a**2
-          [phi_found, phi_found] = a**2/2 + b**2/2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a**2
+          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_spread**2*b**2
         dB/dk_found:
+        dM/dfound_shear:
+        dC/dfound_shear:
+          [x_found, x_found] = k_found
+          [x_found, theta_found] = -found_depth*k_found
+          [y_found, y_found] = k_found
+          [y_found, psi_found] = found_depth*k_found
+          [psi_found, psi_found] = k_found*found_depth**2
+          [theta_found, theta_found] = k_found*found_depth**2
+          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_spread**2*b**2
+        dB/dfound_shear:
+        dM/dfound_spread:
+        dC/dfound_spread:
+          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [theta_found, theta_found] = 2*found_spread*k_found*a**2
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*b**2
+        dB/dfound_spread:
+        dM/dfound_depth:
+          [x_found, theta_found] = -m_found
+          [y_found, psi_found] = m_found
+          [psi_found, psi_found] = 2*found_depth*m_found
+          [theta_found, theta_found] = 2*found_depth*m_found
+        dC/dfound_depth:
+          [x_found, theta_found] = -found_shear*k_found
+          [y_found, psi_found] = found_shear*k_found
+          [psi_found, psi_found] = 2*found_depth*found_shear*k_found
+          [theta_found, theta_found] = 2*found_depth*found_shear*k_found
+        dB/dfound_depth:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
     _tmp0 = 4 * h
     _tmp1 = -_tmp0
@@ -2724,7 +2863,22 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     _tmp7 = a**2
     _tmp8 = 4 * _tmp7
     _tmp9 = -_tmp8
-    _tmp10 = _tmp2 + _tmp4 + _tmp7
+    _tmp10 = found_depth**2
+    _tmp11 = _tmp2 + _tmp4 + _tmp7
+    _tmp12 = _tmp10 + _tmp11
+    _tmp13 = found_depth * found_shear
+    _tmp14 = _tmp10 * found_shear
+    _tmp15 = found_spread**2
+    _tmp16 = _tmp15 * _tmp4
+    _tmp17 = _tmp15 * _tmp7
+    _tmp18 = found_depth * k_found
+    _tmp19 = _tmp10 * k_found
+    _tmp20 = 2 * k_found
+    _tmp21 = _tmp20 * found_spread
+    _tmp22 = found_shear * k_found
+    _tmp23 = 2 * _tmp22 * found_spread
+    _tmp24 = 2 * found_depth * m_found
+    _tmp25 = _tmp13 * _tmp20
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2741,6 +2895,9 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return numpy.stack(
         [
@@ -2796,7 +2953,18 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp10, (10, 10): _tmp10, (11, 11): _tmp10}
+                _shape,
+                12,
+                {
+                    (6, 6): 1,
+                    (6, 10): -found_depth,
+                    (7, 7): 1,
+                    (7, 9): found_depth,
+                    (8, 8): 1,
+                    (9, 9): _tmp12,
+                    (10, 10): _tmp12,
+                    (11, 11): _tmp11,
+                },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -2805,21 +2973,50 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
                 _shape,
                 12,
                 {
-                    (6, 6): 0.5,
-                    (7, 7): 0.5,
+                    (6, 6): found_shear,
+                    (6, 10): -_tmp13,
+                    (7, 7): found_shear,
+                    (7, 9): _tmp13,
                     (8, 8): 1,
-                    (9, 9): _tmp4,
-                    (10, 10): _tmp7,
-                    (11, 11): (0.5) * _tmp4 + (0.5) * _tmp7,
+                    (9, 9): _tmp14 + _tmp16,
+                    (10, 10): _tmp14 + _tmp17,
+                    (11, 11): _tmp16 * found_shear + _tmp17 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): k_found,
+                    (6, 10): -_tmp18,
+                    (7, 7): k_found,
+                    (7, 9): _tmp18,
+                    (9, 9): _tmp19,
+                    (10, 10): _tmp19,
+                    (11, 11): _tmp16 * k_found + _tmp17 * k_found,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {(9, 9): _tmp21 * _tmp4, (10, 10): _tmp21 * _tmp7, (11, 11): _tmp23 * _tmp4 + _tmp23 * _tmp7},
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp24, (10, 10): _tmp24}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp22, (7, 9): _tmp22, (9, 9): _tmp25, (10, 10): _tmp25}),
+            _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 12, 12)
+    ).reshape(*_shape, 8, 3, 12, 12)
 
 
-def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
+def effect_added_mass(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -2830,18 +3027,33 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
         M:
           [x, x] = m_added
           [x, theta] = h_added*m_added
+          [x, phi] = -m_added*y_added
           [y, y] = m_added
           [y, psi] = -h_added*m_added
+          [y, phi] = m_added*x_added
           [z, z] = m_added
-          [psi, psi] = m_added*h_added**2
-          [theta, theta] = m_added*h_added**2
+          [z, psi] = m_added*y_added
+          [z, theta] = -m_added*x_added
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, theta] = -m_added*x_added*y_added
+          [psi, phi] = -h_added*m_added*x_added
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, phi] = -h_added*m_added*y_added
+          [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+        )
     )
     _tmp0 = h_added * m_added
-    _tmp1 = h_added**2 * m_added
+    _tmp1 = m_added * y_added
+    _tmp2 = m_added * x_added
+    _tmp3 = y_added**2
+    _tmp4 = g_added**2
+    _tmp5 = _tmp4 + h_added**2
+    _tmp6 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2857,7 +3069,10 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
         numpy.shape(b_y),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -2867,11 +3082,19 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
             {
                 (0, 0): m_added,
                 (0, 4): _tmp0,
+                (0, 5): -_tmp1,
                 (1, 1): m_added,
                 (1, 3): -_tmp0,
+                (1, 5): _tmp2,
                 (2, 2): m_added,
-                (3, 3): _tmp1,
-                (4, 4): _tmp1,
+                (2, 3): _tmp1,
+                (2, 4): -_tmp2,
+                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 4): -_tmp1 * x_added,
+                (3, 5): -_tmp0 * x_added,
+                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 5): -_tmp0 * y_added,
+                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
             },
         ),
         stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -2879,9 +3102,11 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m
     )
 
 
-def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added):
+def effect_added_mass_derivatives(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2908,30 +3133,79 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
+          [x, phi] = -y_added
           [y, y] = 1
           [y, psi] = -h_added
+          [y, phi] = x_added
           [z, z] = 1
-          [psi, psi] = h_added**2
-          [theta, theta] = h_added**2
+          [z, psi] = y_added
+          [z, theta] = -x_added
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, theta] = -x_added*y_added
+          [psi, phi] = -h_added*x_added
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, phi] = -h_added*y_added
+          [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
         dB/dm_added:
+        dM/dx_added:
+          [y, phi] = m_added
+          [z, theta] = -m_added
+          [psi, theta] = -m_added*y_added
+          [psi, phi] = -h_added*m_added
+          [theta, theta] = 2*m_added*x_added
+          [phi, phi] = 2*m_added*x_added
+        dC/dx_added:
+        dB/dx_added:
+        dM/dy_added:
+          [x, phi] = -m_added
+          [z, psi] = m_added
+          [psi, psi] = 2*m_added*y_added
+          [psi, theta] = -m_added*x_added
+          [theta, phi] = -h_added*m_added
+          [phi, phi] = 2*m_added*y_added
+        dC/dy_added:
+        dB/dy_added:
         dM/dh_added:
           [x, theta] = m_added
           [y, psi] = -m_added
           [psi, psi] = 2*h_added*m_added
+          [psi, phi] = -m_added*x_added
           [theta, theta] = 2*h_added*m_added
+          [theta, phi] = -m_added*y_added
         dC/dh_added:
         dB/dh_added:
+        dM/dg_added:
+          [psi, psi] = 2*g_added*m_added
+          [theta, theta] = 2*g_added*m_added
+          [phi, phi] = 2*g_added*m_added
+        dC/dg_added:
+        dB/dg_added:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, h_added
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+        )
     )
     _tmp0 = 4 * h
     _tmp1 = 4 * h**2
     _tmp2 = 4 * b**2
     _tmp3 = 4 * a**2
-    _tmp4 = h_added**2
-    _tmp5 = 2 * h_added * m_added
+    _tmp4 = y_added**2
+    _tmp5 = g_added**2
+    _tmp6 = _tmp5 + h_added**2
+    _tmp7 = x_added**2
+    _tmp8 = -m_added
+    _tmp9 = m_added * y_added
+    _tmp10 = -_tmp9
+    _tmp11 = h_added * m_added
+    _tmp12 = -_tmp11
+    _tmp13 = m_added * x_added
+    _tmp14 = 2 * _tmp13
+    _tmp15 = 2 * _tmp9
+    _tmp16 = -_tmp13
+    _tmp17 = 2 * _tmp11
+    _tmp18 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2947,7 +3221,10 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         numpy.shape(b_y),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return numpy.stack(
         [
@@ -2963,16 +3240,53 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+                {
+                    (0, 0): 1,
+                    (0, 4): h_added,
+                    (0, 5): -y_added,
+                    (1, 1): 1,
+                    (1, 3): -h_added,
+                    (1, 5): x_added,
+                    (2, 2): 1,
+                    (2, 3): y_added,
+                    (2, 4): -x_added,
+                    (3, 3): _tmp4 + _tmp6,
+                    (3, 4): -x_added * y_added,
+                    (3, 5): -h_added * x_added,
+                    (4, 4): _tmp6 + _tmp7,
+                    (4, 5): -h_added * y_added,
+                    (5, 5): _tmp4 + _tmp5 + _tmp7,
+                },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 5): m_added, (2, 4): _tmp8, (3, 4): _tmp10, (3, 5): _tmp12, (4, 4): _tmp14, (5, 5): _tmp14},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 5): _tmp8, (2, 3): m_added, (3, 3): _tmp15, (3, 4): _tmp16, (4, 5): _tmp12, (5, 5): _tmp15},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 4): m_added, (1, 3): _tmp8, (3, 3): _tmp17, (3, 5): _tmp16, (4, 4): _tmp17, (4, 5): _tmp10},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp18, (4, 4): _tmp18, (5, 5): _tmp18}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -3714,8 +4028,8 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_x", "c_y", "c_z", "dx_com", "dy_com"),
     "cog_height": ("c_x", "c_y", "c_z", "dz_com"),
     "rotational_stiffness": ("c_x", "c_y", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_x", "c_y", "c_z", "m_found", "k_found"),
-    "added_mass": ("c_x", "c_y", "c_z", "m_added", "h_added"),
+    "foundation": ("c_x", "c_y", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_x", "c_y", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_x", "c_y", "c_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_x", "c_y", "c_z", "h_preload"),
 }

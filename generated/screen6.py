@@ -288,6 +288,9 @@ ARGUMENTS = {
         "b_m",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_foundation_derivatives": (
         "m",
@@ -306,6 +309,9 @@ ARGUMENTS = {
         "b_m",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_added_mass": (
         "m",
@@ -323,7 +329,10 @@ ARGUMENTS = {
         "b_v",
         "b_m",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -341,7 +350,10 @@ ARGUMENTS = {
         "b_v",
         "b_m",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_drive_belt": (
         "m",
@@ -4360,8 +4372,28 @@ def effect_rotational_stiffness_derivatives(
     ).reshape(*_shape, 5, 3, 6, 6)
 
 
-def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
-    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+def effect_foundation(
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a,
+    b,
+    h,
+    alpha,
+    c_h,
+    c_v,
+    c_m,
+    b_h,
+    b_v,
+    b_m,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_depth,
+):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
     extended energies (mountid.engine.symbolic.effects).
 
@@ -4375,10 +4407,12 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta, theta] = J_y
           [phi, phi] = J_z
           [x_found, x_found] = m_found
+          [x_found, theta_found] = -found_depth*m_found
           [y_found, y_found] = m_found
+          [y_found, psi_found] = found_depth*m_found
           [z_found, z_found] = m_found
-          [psi_found, psi_found] = m_found*(b**2 + h**2 + 2*a**2/3)
-          [theta_found, theta_found] = m_found*(b**2 + h**2 + 2*a**2/3)
+          [psi_found, psi_found] = m_found*(found_depth**2 + b**2 + h**2 + 2*a**2/3)
+          [theta_found, theta_found] = m_found*(found_depth**2 + b**2 + h**2 + 2*a**2/3)
           [phi_found, phi_found] = m_found*(b**2 + h**2 + 2*a**2/3)
         C:
           [x, x] = 2*(c_h + 2*c_h*cos(alpha)**2 + 2*c_v*sin(alpha)**2)
@@ -4398,13 +4432,14 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta, theta_found] = 4*a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
           [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
           [phi, phi_found] = -2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
-          [x_found, x_found] = k_found/2 + 2*c_h + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2
-          [x_found, theta_found] = 4*a*(c_h - c_v)*cos(alpha)*sin(alpha)
-          [y_found, y_found] = k_found/2 + 6*c_h
+          [x_found, x_found] = 2*c_h + found_shear*k_found + 4*c_h*cos(alpha)**2 + 4*c_v*sin(alpha)**2
+          [x_found, theta_found] = -found_depth*found_shear*k_found - 4*a*c_v*cos(alpha)*sin(alpha) + 4*a*c_h*cos(alpha)*sin(alpha)
+          [y_found, y_found] = 6*c_h + found_shear*k_found
+          [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2
-          [psi_found, psi_found] = b**2*(k_found + 2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2)
-          [theta_found, theta_found] = 2*a**2*(k_found/3 + 2*c_h*sin(alpha)**2 + 2*c_v*cos(alpha)**2)
-          [phi_found, phi_found] = k_found*b**2/2 + 2*c_h*b**2 + 4*c_h*a**2 + k_found*a**2/3 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2
+          [psi_found, psi_found] = 2*c_m*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2
+          [theta_found, theta_found] = found_shear*k_found*found_depth**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 2*k_found*found_spread**2*a**2/3
+          [phi_found, phi_found] = 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2 + found_shear*k_found*found_spread**2*b**2 + 2*found_shear*k_found*found_spread**2*a**2/3
         B:
           [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
           [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
@@ -4431,68 +4466,117 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta_found, theta_found] = 4*a**2*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
           [phi_found, phi_found] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
-    _tmp0 = b**2
-    _tmp1 = h**2
-    _tmp2 = a**2
-    _tmp3 = m_found * (_tmp0 + _tmp1 + (0.6666666666666666) * _tmp2)
-    _tmp4 = numpy.cos(alpha)
-    _tmp5 = _tmp4**2
-    _tmp6 = 2 * c_h
-    _tmp7 = numpy.sin(alpha)
-    _tmp8 = _tmp7**2
-    _tmp9 = 2 * c_v
-    _tmp10 = _tmp8 * _tmp9
-    _tmp11 = 2 * _tmp10 + 2 * _tmp5 * _tmp6 + 2 * c_h
-    _tmp12 = c_h * h
-    _tmp13 = 2 * _tmp5
-    _tmp14 = _tmp4 * _tmp7
-    _tmp15 = _tmp14 * a
-    _tmp16 = _tmp10 * h + _tmp12 * _tmp13 + _tmp12 + _tmp15 * _tmp9 - 2 * _tmp4 * _tmp7 * a * c_h
-    _tmp17 = c_h - c_v
-    _tmp18 = 4 * a
-    _tmp19 = _tmp14 * _tmp18
-    _tmp20 = 6 * c_h
-    _tmp21 = 6 * _tmp12
-    _tmp22 = _tmp6 * _tmp8
-    _tmp23 = _tmp5 * _tmp9
-    _tmp24 = _tmp22 + _tmp23
-    _tmp25 = _tmp24 + c_m
-    _tmp26 = 2 * _tmp25
-    _tmp27 = _tmp1 * c_h
-    _tmp28 = _tmp0 * c_h
-    _tmp29 = 2 * _tmp28
-    _tmp30 = 2 * _tmp0
-    _tmp31 = _tmp14 * h
-    _tmp32 = _tmp31 * c_v
-    _tmp33 = _tmp8 * c_h
-    _tmp34 = _tmp5 * c_v
-    _tmp35 = 2 * _tmp0 * _tmp10 + 2 * _tmp2 * _tmp6 + 2 * _tmp28 + 2 * _tmp29 * _tmp5
-    _tmp36 = (0.5) * k_found
-    _tmp37 = 4 * c_h
-    _tmp38 = 4 * _tmp8 * c_v
-    _tmp39 = 4 * _tmp33 + 4 * _tmp34 + 2 * c_m + k_found
-    _tmp40 = (0.3333333333333333) * k_found
-    _tmp41 = 2 * _tmp2
-    _tmp42 = 2 * _tmp8
-    _tmp43 = _tmp42 * b_v
-    _tmp44 = 2 * _tmp13 * b_h + 2 * _tmp43 + 2 * b_h
-    _tmp45 = b_h * h
-    _tmp46 = _tmp13 * _tmp45 + 2 * _tmp15 * b_v - 2 * _tmp4 * _tmp7 * a * b_h + _tmp43 * h + _tmp45
-    _tmp47 = b_h - b_v
-    _tmp48 = 6 * b_h
-    _tmp49 = 6 * _tmp45
-    _tmp50 = _tmp8 * b_h
-    _tmp51 = _tmp5 * b_v
-    _tmp52 = 2 * _tmp50 + 2 * _tmp51 + b_m
-    _tmp53 = 2 * _tmp52
-    _tmp54 = _tmp1 * b_h
-    _tmp55 = _tmp0 * b_h
-    _tmp56 = _tmp30 * _tmp52
-    _tmp57 = _tmp31 * b_v
-    _tmp58 = 2 * _tmp13 * _tmp55 + 2 * _tmp30 * _tmp8 * b_v + 2 * _tmp41 * b_h + 2 * _tmp55
+    _tmp0 = found_depth * m_found
+    _tmp1 = found_depth**2
+    _tmp2 = b**2
+    _tmp3 = h**2
+    _tmp4 = a**2
+    _tmp5 = (0.6666666666666666) * _tmp4
+    _tmp6 = _tmp2 + _tmp3 + _tmp5
+    _tmp7 = m_found * (_tmp1 + _tmp6)
+    _tmp8 = numpy.cos(alpha)
+    _tmp9 = _tmp8**2
+    _tmp10 = 2 * c_h
+    _tmp11 = numpy.sin(alpha)
+    _tmp12 = _tmp11**2
+    _tmp13 = 2 * c_v
+    _tmp14 = _tmp12 * _tmp13
+    _tmp15 = 2 * _tmp10 * _tmp9 + 2 * _tmp14 + 2 * c_h
+    _tmp16 = c_h * h
+    _tmp17 = 2 * _tmp9
+    _tmp18 = _tmp11 * _tmp8
+    _tmp19 = _tmp18 * a
+    _tmp20 = -2 * _tmp11 * _tmp8 * a * c_h + _tmp13 * _tmp19 + _tmp14 * h + _tmp16 * _tmp17 + _tmp16
+    _tmp21 = 4 * a
+    _tmp22 = _tmp18 * _tmp21
+    _tmp23 = 6 * c_h
+    _tmp24 = 6 * _tmp16
+    _tmp25 = _tmp10 * _tmp12
+    _tmp26 = _tmp13 * _tmp9
+    _tmp27 = _tmp25 + _tmp26 + c_m
+    _tmp28 = 2 * _tmp27
+    _tmp29 = _tmp2 * c_m
+    _tmp30 = _tmp3 * c_h
+    _tmp31 = _tmp2 * c_h
+    _tmp32 = 2 * _tmp31
+    _tmp33 = 2 * _tmp2
+    _tmp34 = _tmp18 * h
+    _tmp35 = _tmp34 * c_v
+    _tmp36 = _tmp12 * c_h
+    _tmp37 = _tmp9 * c_v
+    _tmp38 = 2 * _tmp10 * _tmp4 + 2 * _tmp14 * _tmp2 + 2 * _tmp31 + 2 * _tmp32 * _tmp9
+    _tmp39 = found_shear * k_found
+    _tmp40 = 4 * c_h
+    _tmp41 = 4 * _tmp12
+    _tmp42 = _tmp41 * c_v
+    _tmp43 = _tmp39 * found_depth
+    _tmp44 = 4 * _tmp36
+    _tmp45 = 4 * _tmp37
+    _tmp46 = _tmp1 * _tmp39
+    _tmp47 = found_spread**2
+    _tmp48 = _tmp47 * k_found
+    _tmp49 = _tmp39 * _tmp47
+    _tmp50 = 2 * b_h
+    _tmp51 = 2 * _tmp12
+    _tmp52 = _tmp51 * b_v
+    _tmp53 = 2 * _tmp50 * _tmp9 + 2 * _tmp52 + 2 * b_h
+    _tmp54 = b_h * h
+    _tmp55 = -2 * _tmp11 * _tmp8 * a * b_h + _tmp17 * _tmp54 + 2 * _tmp19 * b_v + _tmp52 * h + _tmp54
+    _tmp56 = b_h - b_v
+    _tmp57 = 6 * b_h
+    _tmp58 = 6 * _tmp54
+    _tmp59 = _tmp12 * b_h
+    _tmp60 = 2 * _tmp59
+    _tmp61 = _tmp9 * b_v
+    _tmp62 = 2 * _tmp61
+    _tmp63 = _tmp60 + _tmp62 + b_m
+    _tmp64 = 2 * _tmp63
+    _tmp65 = _tmp3 * b_h
+    _tmp66 = _tmp2 * b_h
+    _tmp67 = _tmp33 * _tmp63
+    _tmp68 = _tmp34 * b_v
+    _tmp69 = 2 * _tmp12 * _tmp33 * b_v + 2 * _tmp17 * _tmp66 + 2 * _tmp4 * _tmp50 + 2 * _tmp66
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4510,6 +4594,9 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
         numpy.shape(b_m),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return (
         _runtime.stack_matrix(
@@ -4523,96 +4610,119 @@ def effect_foundation(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
                 (4, 4): J_y,
                 (5, 5): J_z,
                 (6, 6): m_found,
+                (6, 10): -_tmp0,
                 (7, 7): m_found,
+                (7, 9): _tmp0,
                 (8, 8): m_found,
-                (9, 9): _tmp3,
-                (10, 10): _tmp3,
-                (11, 11): _tmp3,
+                (9, 9): _tmp7,
+                (10, 10): _tmp7,
+                (11, 11): _tmp6 * m_found,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp11,
-                (0, 4): -2 * _tmp16,
-                (0, 6): -_tmp11,
-                (0, 10): -_tmp17 * _tmp19,
-                (1, 1): _tmp20,
-                (1, 3): _tmp21,
-                (1, 7): -_tmp20,
-                (2, 2): _tmp26,
-                (2, 8): -_tmp26,
-                (3, 3): 2 * _tmp0 * _tmp23 + 2 * _tmp0 * c_m + 6 * _tmp27 + 2 * _tmp29 * _tmp8,
-                (3, 7): -_tmp21,
-                (3, 9): -_tmp25 * _tmp30,
-                (4, 4): 2 * _tmp1 * _tmp10
-                - 2 * _tmp12 * _tmp14 * _tmp18
-                + 2 * _tmp13 * _tmp27
-                + 2 * _tmp18 * _tmp32
-                + 2 * _tmp2 * _tmp22
-                + 2 * _tmp2 * _tmp23
-                + 2 * _tmp27,
-                (4, 6): 2 * _tmp16,
-                (4, 10): _tmp18 * (-_tmp32 - _tmp33 * a - _tmp34 * a + _tmp4 * _tmp7 * c_h * h),
-                (5, 5): _tmp35,
-                (5, 11): -_tmp35,
-                (6, 6): _tmp36 + _tmp37 * _tmp5 + _tmp38 + _tmp6,
-                (6, 10): _tmp17 * _tmp19,
-                (7, 7): _tmp20 + _tmp36,
-                (8, 8): _tmp39,
-                (9, 9): _tmp0 * _tmp39,
-                (10, 10): _tmp41 * (_tmp24 + _tmp40),
-                (11, 11): _tmp0 * _tmp36
-                + _tmp0 * _tmp38
-                + _tmp2 * _tmp37
-                + _tmp2 * _tmp40
-                + 4 * _tmp28 * _tmp5
-                + _tmp29,
+                (0, 0): _tmp15,
+                (0, 4): -2 * _tmp20,
+                (0, 6): -_tmp15,
+                (0, 10): _tmp22 * (-c_h + c_v),
+                (1, 1): _tmp23,
+                (1, 3): _tmp24,
+                (1, 7): -_tmp23,
+                (2, 2): _tmp28,
+                (2, 8): -_tmp28,
+                (3, 3): 2 * _tmp12 * _tmp32 + 2 * _tmp2 * _tmp26 + 2 * _tmp29 + 6 * _tmp30,
+                (3, 7): -_tmp24,
+                (3, 9): -_tmp27 * _tmp33,
+                (4, 4): 2 * _tmp14 * _tmp3
+                - 2 * _tmp16 * _tmp18 * _tmp21
+                + 2 * _tmp17 * _tmp30
+                + 2 * _tmp21 * _tmp35
+                + 2 * _tmp25 * _tmp4
+                + 2 * _tmp26 * _tmp4
+                + 2 * _tmp30,
+                (4, 6): 2 * _tmp20,
+                (4, 10): _tmp21 * (_tmp11 * _tmp8 * c_h * h - _tmp35 - _tmp36 * a - _tmp37 * a),
+                (5, 5): _tmp38,
+                (5, 11): -_tmp38,
+                (6, 6): _tmp10 + _tmp39 + _tmp40 * _tmp9 + _tmp42,
+                (6, 10): 4 * _tmp11 * _tmp8 * a * c_h - _tmp22 * c_v - _tmp43,
+                (7, 7): _tmp23 + _tmp39,
+                (7, 9): _tmp43,
+                (8, 8): _tmp44 + _tmp45 + 2 * c_m + k_found,
+                (9, 9): _tmp2 * _tmp45 + _tmp2 * _tmp48 + 2 * _tmp29 + _tmp31 * _tmp41 + _tmp46,
+                (10, 10): _tmp4 * _tmp44 + _tmp4 * _tmp45 + _tmp46 + _tmp48 * _tmp5,
+                (11, 11): _tmp2 * _tmp42
+                + _tmp2 * _tmp49
+                + 4 * _tmp31 * _tmp9
+                + _tmp32
+                + _tmp4 * _tmp40
+                + _tmp49 * _tmp5,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp44,
-                (0, 4): -2 * _tmp46,
-                (0, 6): -_tmp44,
-                (0, 10): -_tmp19 * _tmp47,
-                (1, 1): _tmp48,
-                (1, 3): _tmp49,
-                (1, 7): -_tmp48,
-                (2, 2): _tmp53,
-                (2, 8): -_tmp53,
-                (3, 3): 2 * _tmp0 * b_m + 2 * _tmp30 * _tmp51 + 2 * _tmp42 * _tmp55 + 6 * _tmp54,
-                (3, 7): -_tmp49,
-                (3, 9): -_tmp56,
-                (4, 4): 2 * _tmp1 * _tmp43
-                + 2 * _tmp13 * _tmp54
-                - 2 * _tmp14 * _tmp18 * _tmp45
-                + 2 * _tmp18 * _tmp57
-                + 2 * _tmp41 * _tmp50
-                + 2 * _tmp41 * _tmp51
-                + 2 * _tmp54,
-                (4, 6): 2 * _tmp46,
-                (4, 10): _tmp18 * (_tmp4 * _tmp7 * b_h * h - _tmp50 * a - _tmp51 * a - _tmp57),
-                (5, 5): _tmp58,
-                (5, 11): -_tmp58,
-                (6, 6): _tmp44,
-                (6, 10): _tmp19 * _tmp47,
-                (7, 7): _tmp48,
-                (8, 8): _tmp53,
-                (9, 9): _tmp56,
-                (10, 10): 4 * _tmp2 * (_tmp50 + _tmp51),
-                (11, 11): _tmp58,
+                (0, 0): _tmp53,
+                (0, 4): -2 * _tmp55,
+                (0, 6): -_tmp53,
+                (0, 10): -_tmp22 * _tmp56,
+                (1, 1): _tmp57,
+                (1, 3): _tmp58,
+                (1, 7): -_tmp57,
+                (2, 2): _tmp64,
+                (2, 8): -_tmp64,
+                (3, 3): 2 * _tmp2 * b_m + 2 * _tmp33 * _tmp61 + 2 * _tmp51 * _tmp66 + 6 * _tmp65,
+                (3, 7): -_tmp58,
+                (3, 9): -_tmp67,
+                (4, 4): 2 * _tmp17 * _tmp65
+                - 2 * _tmp18 * _tmp21 * _tmp54
+                + 2 * _tmp21 * _tmp68
+                + 2 * _tmp3 * _tmp52
+                + 2 * _tmp4 * _tmp60
+                + 2 * _tmp4 * _tmp62
+                + 2 * _tmp65,
+                (4, 6): 2 * _tmp55,
+                (4, 10): _tmp21 * (_tmp11 * _tmp8 * b_h * h - _tmp59 * a - _tmp61 * a - _tmp68),
+                (5, 5): _tmp69,
+                (5, 11): -_tmp69,
+                (6, 6): _tmp53,
+                (6, 10): _tmp22 * _tmp56,
+                (7, 7): _tmp57,
+                (8, 8): _tmp64,
+                (9, 9): _tmp67,
+                (10, 10): 4 * _tmp4 * (_tmp59 + _tmp61),
+                (11, 11): _tmp69,
             },
         ),
     )
 
 
-def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found):
+def effect_foundation_derivatives(
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a,
+    b,
+    h,
+    alpha,
+    c_h,
+    c_v,
+    c_m,
+    b_h,
+    b_v,
+    b_m,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_depth,
+):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 5, 3, 12, 12), differentiated by sympy.
+    shape (..., 8, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4676,25 +4786,94 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dB/dc_m:
         dM/dm_found:
           [x_found, x_found] = 1
+          [x_found, theta_found] = -found_depth
           [y_found, y_found] = 1
+          [y_found, psi_found] = found_depth
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2 + h**2 + 2*a**2/3
-          [theta_found, theta_found] = b**2 + h**2 + 2*a**2/3
+          [psi_found, psi_found] = found_depth**2 + b**2 + h**2 + 2*a**2/3
+          [theta_found, theta_found] = found_depth**2 + b**2 + h**2 + 2*a**2/3
           [phi_found, phi_found] = b**2 + h**2 + 2*a**2/3
         dC/dm_found:
         dB/dm_found:
         dM/dk_found:
         dC/dk_found:
-          [x_found, x_found] = 1/2
-          [y_found, y_found] = 1/2
+          [x_found, x_found] = found_shear
+          [x_found, theta_found] = -found_depth*found_shear
+          [y_found, y_found] = found_shear
+          [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2
-          [theta_found, theta_found] = 2*a**2/3
-          [phi_found, phi_found] = b**2/2 + a**2/3
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [theta_found, theta_found] = found_shear*found_depth**2 + 2*found_spread**2*a**2/3
+          [phi_found, phi_found] = found_shear*found_spread**2*b**2 + 2*found_shear*found_spread**2*a**2/3
         dB/dk_found:
+        dM/dfound_shear:
+        dC/dfound_shear:
+          [x_found, x_found] = k_found
+          [x_found, theta_found] = -found_depth*k_found
+          [y_found, y_found] = k_found
+          [y_found, psi_found] = found_depth*k_found
+          [psi_found, psi_found] = k_found*found_depth**2
+          [theta_found, theta_found] = k_found*found_depth**2
+          [phi_found, phi_found] = k_found*found_spread**2*b**2 + 2*k_found*found_spread**2*a**2/3
+        dB/dfound_shear:
+        dM/dfound_spread:
+        dC/dfound_spread:
+          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [theta_found, theta_found] = 4*found_spread*k_found*a**2/3
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*b**2 + 4*found_shear*found_spread*k_found*a**2/3
+        dB/dfound_spread:
+        dM/dfound_depth:
+          [x_found, theta_found] = -m_found
+          [y_found, psi_found] = m_found
+          [psi_found, psi_found] = 2*found_depth*m_found
+          [theta_found, theta_found] = 2*found_depth*m_found
+        dC/dfound_depth:
+          [x_found, theta_found] = -found_shear*k_found
+          [y_found, psi_found] = found_shear*k_found
+          [psi_found, psi_found] = 2*found_depth*found_shear*k_found
+          [theta_found, theta_found] = 2*found_depth*found_shear*k_found
+        dB/dfound_depth:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_found, k_found
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_depth,
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
@@ -4723,8 +4902,23 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     _tmp24 = 4 * _tmp20 + _tmp22 + _tmp23
     _tmp25 = _tmp12 * h + _tmp7
     _tmp26 = _tmp2 * _tmp20
-    _tmp27 = (0.6666666666666666) * _tmp20
-    _tmp28 = _tmp14 + _tmp15 + _tmp27
+    _tmp27 = found_depth**2
+    _tmp28 = (0.6666666666666666) * _tmp20
+    _tmp29 = _tmp14 + _tmp15 + _tmp28
+    _tmp30 = _tmp27 + _tmp29
+    _tmp31 = found_depth * found_shear
+    _tmp32 = _tmp27 * found_shear
+    _tmp33 = found_spread**2
+    _tmp34 = _tmp15 * _tmp33
+    _tmp35 = _tmp28 * _tmp33
+    _tmp36 = found_depth * k_found
+    _tmp37 = _tmp27 * k_found
+    _tmp38 = found_spread * k_found
+    _tmp39 = (1.3333333333333333) * _tmp20
+    _tmp40 = found_shear * k_found
+    _tmp41 = _tmp40 * found_spread
+    _tmp42 = 2 * found_depth * m_found
+    _tmp43 = 2 * _tmp31 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4742,6 +4936,9 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         numpy.shape(b_m),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return numpy.stack(
         [
@@ -4810,7 +5007,18 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp28, (10, 10): _tmp28, (11, 11): _tmp28}
+                _shape,
+                12,
+                {
+                    (6, 6): 1,
+                    (6, 10): -found_depth,
+                    (7, 7): 1,
+                    (7, 9): found_depth,
+                    (8, 8): 1,
+                    (9, 9): _tmp30,
+                    (10, 10): _tmp30,
+                    (11, 11): _tmp29,
+                },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -4819,21 +5027,50 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
                 _shape,
                 12,
                 {
-                    (6, 6): 0.5,
-                    (7, 7): 0.5,
+                    (6, 6): found_shear,
+                    (6, 10): -_tmp31,
+                    (7, 7): found_shear,
+                    (7, 9): _tmp31,
                     (8, 8): 1,
-                    (9, 9): _tmp15,
-                    (10, 10): _tmp27,
-                    (11, 11): (0.5) * _tmp15 + (0.3333333333333333) * _tmp20,
+                    (9, 9): _tmp32 + _tmp34,
+                    (10, 10): _tmp32 + _tmp35,
+                    (11, 11): _tmp34 * found_shear + _tmp35 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): k_found,
+                    (6, 10): -_tmp36,
+                    (7, 7): k_found,
+                    (7, 9): _tmp36,
+                    (9, 9): _tmp37,
+                    (10, 10): _tmp37,
+                    (11, 11): _tmp34 * k_found + _tmp35 * k_found,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {(9, 9): _tmp22 * _tmp38, (10, 10): _tmp38 * _tmp39, (11, 11): _tmp22 * _tmp41 + _tmp39 * _tmp41},
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp42, (10, 10): _tmp42}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp40, (7, 9): _tmp40, (9, 9): _tmp43, (10, 10): _tmp43}),
+            _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 12, 12)
+    ).reshape(*_shape, 8, 3, 12, 12)
 
 
-def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
+def effect_added_mass(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added
+):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -4844,18 +5081,33 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
         M:
           [x, x] = m_added
           [x, theta] = h_added*m_added
+          [x, phi] = -m_added*y_added
           [y, y] = m_added
           [y, psi] = -h_added*m_added
+          [y, phi] = m_added*x_added
           [z, z] = m_added
-          [psi, psi] = m_added*h_added**2
-          [theta, theta] = m_added*h_added**2
+          [z, psi] = m_added*y_added
+          [z, theta] = -m_added*x_added
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, theta] = -m_added*x_added*y_added
+          [psi, phi] = -h_added*m_added*x_added
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, phi] = -h_added*m_added*y_added
+          [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added
+        )
     )
     _tmp0 = h_added * m_added
-    _tmp1 = h_added**2 * m_added
+    _tmp1 = m_added * y_added
+    _tmp2 = m_added * x_added
+    _tmp3 = y_added**2
+    _tmp4 = g_added**2
+    _tmp5 = _tmp4 + h_added**2
+    _tmp6 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4872,7 +5124,10 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
         numpy.shape(b_v),
         numpy.shape(b_m),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -4882,11 +5137,19 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
             {
                 (0, 0): m_added,
                 (0, 4): _tmp0,
+                (0, 5): -_tmp1,
                 (1, 1): m_added,
                 (1, 3): -_tmp0,
+                (1, 5): _tmp2,
                 (2, 2): m_added,
-                (3, 3): _tmp1,
-                (4, 4): _tmp1,
+                (2, 3): _tmp1,
+                (2, 4): -_tmp2,
+                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 4): -_tmp1 * x_added,
+                (3, 5): -_tmp0 * x_added,
+                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 5): -_tmp0 * y_added,
+                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
             },
         ),
         stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m) + _runtime.stack_matrix(_shape, 6, {}),
@@ -4894,9 +5157,11 @@ def effect_added_mass(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
     )
 
 
-def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added):
+def effect_added_mass_derivatives(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added
+):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4928,23 +5193,59 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
+          [x, phi] = -y_added
           [y, y] = 1
           [y, psi] = -h_added
+          [y, phi] = x_added
           [z, z] = 1
-          [psi, psi] = h_added**2
-          [theta, theta] = h_added**2
+          [z, psi] = y_added
+          [z, theta] = -x_added
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, theta] = -x_added*y_added
+          [psi, phi] = -h_added*x_added
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, phi] = -h_added*y_added
+          [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
         dB/dm_added:
+        dM/dx_added:
+          [y, phi] = m_added
+          [z, theta] = -m_added
+          [psi, theta] = -m_added*y_added
+          [psi, phi] = -h_added*m_added
+          [theta, theta] = 2*m_added*x_added
+          [phi, phi] = 2*m_added*x_added
+        dC/dx_added:
+        dB/dx_added:
+        dM/dy_added:
+          [x, phi] = -m_added
+          [z, psi] = m_added
+          [psi, psi] = 2*m_added*y_added
+          [psi, theta] = -m_added*x_added
+          [theta, phi] = -h_added*m_added
+          [phi, phi] = 2*m_added*y_added
+        dC/dy_added:
+        dB/dy_added:
         dM/dh_added:
           [x, theta] = m_added
           [y, psi] = -m_added
           [psi, psi] = 2*h_added*m_added
+          [psi, phi] = -m_added*x_added
           [theta, theta] = 2*h_added*m_added
+          [theta, phi] = -m_added*y_added
         dC/dh_added:
         dB/dh_added:
+        dM/dg_added:
+          [psi, psi] = 2*g_added*m_added
+          [theta, theta] = 2*g_added*m_added
+          [phi, phi] = 2*g_added*m_added
+        dC/dg_added:
+        dB/dg_added:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, h_added
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added
+        )
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
@@ -4959,8 +5260,21 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     _tmp10 = a**2
     _tmp11 = 2 * _tmp7
     _tmp12 = _tmp1 * _tmp7
-    _tmp13 = h_added**2
-    _tmp14 = 2 * h_added * m_added
+    _tmp13 = y_added**2
+    _tmp14 = g_added**2
+    _tmp15 = _tmp14 + h_added**2
+    _tmp16 = x_added**2
+    _tmp17 = -m_added
+    _tmp18 = m_added * y_added
+    _tmp19 = -_tmp18
+    _tmp20 = h_added * m_added
+    _tmp21 = -_tmp20
+    _tmp22 = m_added * x_added
+    _tmp23 = 2 * _tmp22
+    _tmp24 = 2 * _tmp18
+    _tmp25 = -_tmp22
+    _tmp26 = 2 * _tmp20
+    _tmp27 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4977,7 +5291,10 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         numpy.shape(b_v),
         numpy.shape(b_m),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return numpy.stack(
         [
@@ -5017,16 +5334,53 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp13, (4, 4): _tmp13},
+                {
+                    (0, 0): 1,
+                    (0, 4): h_added,
+                    (0, 5): -y_added,
+                    (1, 1): 1,
+                    (1, 3): -h_added,
+                    (1, 5): x_added,
+                    (2, 2): 1,
+                    (2, 3): y_added,
+                    (2, 4): -x_added,
+                    (3, 3): _tmp13 + _tmp15,
+                    (3, 4): -x_added * y_added,
+                    (3, 5): -h_added * x_added,
+                    (4, 4): _tmp15 + _tmp16,
+                    (4, 5): -h_added * y_added,
+                    (5, 5): _tmp13 + _tmp14 + _tmp16,
+                },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp14, (4, 4): _tmp14}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 5): m_added, (2, 4): _tmp17, (3, 4): _tmp19, (3, 5): _tmp21, (4, 4): _tmp23, (5, 5): _tmp23},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 5): _tmp17, (2, 3): m_added, (3, 3): _tmp24, (3, 4): _tmp25, (4, 5): _tmp21, (5, 5): _tmp24},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 4): m_added, (1, 3): _tmp17, (3, 3): _tmp26, (3, 5): _tmp25, (4, 4): _tmp26, (4, 5): _tmp19},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp27, (4, 4): _tmp27, (5, 5): _tmp27}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
@@ -6290,8 +6644,8 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_h", "c_v", "c_m", "dx_com", "dy_com"),
     "cog_height": ("c_h", "c_v", "c_m", "dz_com"),
     "rotational_stiffness": ("c_h", "c_v", "c_m", "k_bend", "k_torsion"),
-    "foundation": ("c_h", "c_v", "c_m", "m_found", "k_found"),
-    "added_mass": ("c_h", "c_v", "c_m", "m_added", "h_added"),
+    "foundation": ("c_h", "c_v", "c_m", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_h", "c_v", "c_m", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_h", "c_v", "c_m", "k_belt", "h_belt"),
     "gravity_preload": ("c_h", "c_v", "c_m", "h_preload"),
 }

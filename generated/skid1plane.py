@@ -216,6 +216,9 @@ ARGUMENTS = {
         "b_z",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_foundation_derivatives": (
         "m",
@@ -232,6 +235,9 @@ ARGUMENTS = {
         "b_z",
         "m_found",
         "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
     ),
     "effect_added_mass": (
         "m",
@@ -247,7 +253,10 @@ ARGUMENTS = {
         "b_h",
         "b_z",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -263,7 +272,10 @@ ARGUMENTS = {
         "b_h",
         "b_z",
         "m_added",
+        "x_added",
+        "y_added",
         "h_added",
+        "g_added",
     ),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
     "effect_drive_belt_derivatives": (
@@ -1835,8 +1847,10 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
     ).reshape(*_shape, 4, 3, 6, 6)
 
 
-def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
-    """M, C, B of the model extended by the candidate effect foundation (compliant support under the isolators),
+def effect_foundation(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
+    """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
     extended energies (mountid.engine.symbolic.effects).
 
@@ -1852,10 +1866,12 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
           [theta, theta] = J_y + m*e**2
           [phi, phi] = J_z + m*e**2
           [x_found, x_found] = m_found
+          [x_found, theta_found] = -found_depth*m_found
           [y_found, y_found] = m_found
+          [y_found, psi_found] = found_depth*m_found
           [z_found, z_found] = m_found
-          [psi_found, psi_found] = m_found*(a**2 + b**2 + e**2 + h**2)
-          [theta_found, theta_found] = m_found*(a**2 + b**2 + e**2 + h**2)
+          [psi_found, psi_found] = m_found*(found_depth**2 + a**2 + b**2 + e**2 + h**2)
+          [theta_found, theta_found] = m_found*(found_depth**2 + a**2 + b**2 + e**2 + h**2)
           [phi_found, phi_found] = m_found*(a**2 + b**2 + e**2 + h**2)
         C:
           [x, x] = 4*c_h
@@ -1874,12 +1890,14 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
           [theta, theta_found] = -4*c_z*a**2
           [phi, phi] = 4*c_h*(a**2 + b**2)
           [phi, phi_found] = -4*c_h*(a**2 + b**2)
-          [x_found, x_found] = k_found/2 + 4*c_h
-          [y_found, y_found] = k_found/2 + 4*c_h
+          [x_found, x_found] = 4*c_h + found_shear*k_found
+          [x_found, theta_found] = -found_depth*found_shear*k_found
+          [y_found, y_found] = 4*c_h + found_shear*k_found
+          [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = b**2*(k_found + 4*c_z)
-          [theta_found, theta_found] = a**2*(k_found + 4*c_z)
-          [phi_found, phi_found] = k_found*a**2/2 + k_found*b**2/2 + 4*c_h*a**2 + 4*c_h*b**2
+          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2
+          [theta_found, theta_found] = 4*c_z*a**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a**2
+          [phi_found, phi_found] = 4*c_h*a**2 + 4*c_h*b**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_spread**2*b**2
         B:
           [x, x] = 4*b_h
           [x, theta] = -4*b_h*h
@@ -1904,36 +1922,47 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
           [theta_found, theta_found] = 4*b_z*a**2
           [phi_found, phi_found] = 4*b_h*(a**2 + b**2)
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+        )
     )
     _tmp0 = e * m
     _tmp1 = e**2
     _tmp2 = _tmp1 * m
-    _tmp3 = h**2
-    _tmp4 = a**2
-    _tmp5 = b**2
-    _tmp6 = _tmp4 + _tmp5
-    _tmp7 = m_found * (_tmp1 + _tmp3 + _tmp6)
-    _tmp8 = 4 * c_h
-    _tmp9 = _tmp8 * h
-    _tmp10 = -_tmp9
-    _tmp11 = -_tmp8
-    _tmp12 = 4 * c_z
-    _tmp13 = _tmp3 * c_h
-    _tmp14 = _tmp6 * _tmp8
-    _tmp15 = (0.5) * k_found
-    _tmp16 = _tmp15 + _tmp8
-    _tmp17 = _tmp12 + k_found
-    _tmp18 = 4 * b_h
-    _tmp19 = _tmp18 * h
-    _tmp20 = -_tmp19
-    _tmp21 = -_tmp18
-    _tmp22 = 4 * b_z
-    _tmp23 = _tmp3 * b_h
-    _tmp24 = _tmp22 * _tmp5
-    _tmp25 = _tmp22 * _tmp4
-    _tmp26 = _tmp18 * _tmp6
+    _tmp3 = found_depth * m_found
+    _tmp4 = found_depth**2
+    _tmp5 = h**2
+    _tmp6 = a**2
+    _tmp7 = b**2
+    _tmp8 = _tmp6 + _tmp7
+    _tmp9 = _tmp1 + _tmp5 + _tmp8
+    _tmp10 = m_found * (_tmp4 + _tmp9)
+    _tmp11 = 4 * c_h
+    _tmp12 = _tmp11 * h
+    _tmp13 = -_tmp12
+    _tmp14 = -_tmp11
+    _tmp15 = 4 * c_z
+    _tmp16 = _tmp5 * c_h
+    _tmp17 = _tmp15 * _tmp7
+    _tmp18 = _tmp15 * _tmp6
+    _tmp19 = _tmp11 * _tmp8
+    _tmp20 = found_shear * k_found
+    _tmp21 = _tmp11 + _tmp20
+    _tmp22 = _tmp20 * found_depth
+    _tmp23 = _tmp20 * _tmp4
+    _tmp24 = found_spread**2
+    _tmp25 = _tmp24 * k_found
+    _tmp26 = _tmp20 * _tmp24
+    _tmp27 = 4 * b_h
+    _tmp28 = _tmp27 * h
+    _tmp29 = -_tmp28
+    _tmp30 = -_tmp27
+    _tmp31 = 4 * b_z
+    _tmp32 = _tmp5 * b_h
+    _tmp33 = _tmp31 * _tmp7
+    _tmp34 = _tmp31 * _tmp6
+    _tmp35 = _tmp27 * _tmp8
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -1949,6 +1978,9 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return (
         _runtime.stack_matrix(
@@ -1964,75 +1996,81 @@ def effect_foundation(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found,
                 (4, 4): J_y + _tmp2,
                 (5, 5): J_z + _tmp2,
                 (6, 6): m_found,
+                (6, 10): -_tmp3,
                 (7, 7): m_found,
+                (7, 9): _tmp3,
                 (8, 8): m_found,
-                (9, 9): _tmp7,
-                (10, 10): _tmp7,
-                (11, 11): _tmp7,
+                (9, 9): _tmp10,
+                (10, 10): _tmp10,
+                (11, 11): _tmp9 * m_found,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp8,
-                (0, 4): _tmp10,
-                (0, 6): _tmp11,
-                (1, 1): _tmp8,
-                (1, 3): _tmp9,
-                (1, 7): _tmp11,
-                (2, 2): _tmp12,
-                (2, 8): -_tmp12,
-                (3, 3): 4 * _tmp13 + 4 * _tmp5 * c_z,
-                (3, 7): _tmp10,
-                (3, 9): -_tmp12 * _tmp5,
-                (4, 4): 4 * _tmp13 + 4 * _tmp4 * c_z,
-                (4, 6): _tmp9,
-                (4, 10): -_tmp12 * _tmp4,
-                (5, 5): _tmp14,
-                (5, 11): -_tmp14,
-                (6, 6): _tmp16,
-                (7, 7): _tmp16,
-                (8, 8): _tmp17,
-                (9, 9): _tmp17 * _tmp5,
-                (10, 10): _tmp17 * _tmp4,
-                (11, 11): _tmp15 * _tmp4 + _tmp15 * _tmp5 + _tmp4 * _tmp8 + _tmp5 * _tmp8,
+                (0, 0): _tmp11,
+                (0, 4): _tmp13,
+                (0, 6): _tmp14,
+                (1, 1): _tmp11,
+                (1, 3): _tmp12,
+                (1, 7): _tmp14,
+                (2, 2): _tmp15,
+                (2, 8): -_tmp15,
+                (3, 3): 4 * _tmp16 + 4 * _tmp7 * c_z,
+                (3, 7): _tmp13,
+                (3, 9): -_tmp17,
+                (4, 4): 4 * _tmp16 + 4 * _tmp6 * c_z,
+                (4, 6): _tmp12,
+                (4, 10): -_tmp18,
+                (5, 5): _tmp19,
+                (5, 11): -_tmp19,
+                (6, 6): _tmp21,
+                (6, 10): -_tmp22,
+                (7, 7): _tmp21,
+                (7, 9): _tmp22,
+                (8, 8): _tmp15 + k_found,
+                (9, 9): _tmp17 + _tmp23 + _tmp25 * _tmp7,
+                (10, 10): _tmp18 + _tmp23 + _tmp25 * _tmp6,
+                (11, 11): _tmp11 * _tmp6 + _tmp11 * _tmp7 + _tmp26 * _tmp6 + _tmp26 * _tmp7,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp18,
-                (0, 4): _tmp20,
-                (0, 6): _tmp21,
-                (1, 1): _tmp18,
-                (1, 3): _tmp19,
-                (1, 7): _tmp21,
-                (2, 2): _tmp22,
-                (2, 8): -_tmp22,
-                (3, 3): 4 * _tmp23 + 4 * _tmp5 * b_z,
-                (3, 7): _tmp20,
-                (3, 9): -_tmp24,
-                (4, 4): 4 * _tmp23 + 4 * _tmp4 * b_z,
-                (4, 6): _tmp19,
-                (4, 10): -_tmp25,
-                (5, 5): _tmp26,
-                (5, 11): -_tmp26,
-                (6, 6): _tmp18,
-                (7, 7): _tmp18,
-                (8, 8): _tmp22,
-                (9, 9): _tmp24,
-                (10, 10): _tmp25,
-                (11, 11): _tmp26,
+                (0, 0): _tmp27,
+                (0, 4): _tmp29,
+                (0, 6): _tmp30,
+                (1, 1): _tmp27,
+                (1, 3): _tmp28,
+                (1, 7): _tmp30,
+                (2, 2): _tmp31,
+                (2, 8): -_tmp31,
+                (3, 3): 4 * _tmp32 + 4 * _tmp7 * b_z,
+                (3, 7): _tmp29,
+                (3, 9): -_tmp33,
+                (4, 4): 4 * _tmp32 + 4 * _tmp6 * b_z,
+                (4, 6): _tmp28,
+                (4, 10): -_tmp34,
+                (5, 5): _tmp35,
+                (5, 11): -_tmp35,
+                (6, 6): _tmp27,
+                (7, 7): _tmp27,
+                (8, 8): _tmp31,
+                (9, 9): _tmp33,
+                (10, 10): _tmp34,
+                (11, 11): _tmp35,
             },
         ),
     )
 
 
-def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found):
+def effect_foundation_derivatives(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 4, 3, 12, 12), differentiated by sympy.
+    shape (..., 7, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2068,25 +2106,58 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dB/dc_z:
         dM/dm_found:
           [x_found, x_found] = 1
+          [x_found, theta_found] = -found_depth
           [y_found, y_found] = 1
+          [y_found, psi_found] = found_depth
           [z_found, z_found] = 1
-          [psi_found, psi_found] = a**2 + b**2 + e**2 + h**2
-          [theta_found, theta_found] = a**2 + b**2 + e**2 + h**2
+          [psi_found, psi_found] = found_depth**2 + a**2 + b**2 + e**2 + h**2
+          [theta_found, theta_found] = found_depth**2 + a**2 + b**2 + e**2 + h**2
           [phi_found, phi_found] = a**2 + b**2 + e**2 + h**2
         dC/dm_found:
         dB/dm_found:
         dM/dk_found:
         dC/dk_found:
-          [x_found, x_found] = 1/2
-          [y_found, y_found] = 1/2
+          [x_found, x_found] = found_shear
+          [x_found, theta_found] = -found_depth*found_shear
+          [y_found, y_found] = found_shear
+          [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = b**2
-          [theta_found, theta_found] = a**2
-          [phi_found, phi_found] = a**2/2 + b**2/2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a**2
+          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_spread**2*b**2
         dB/dk_found:
+        dM/dfound_shear:
+        dC/dfound_shear:
+          [x_found, x_found] = k_found
+          [x_found, theta_found] = -found_depth*k_found
+          [y_found, y_found] = k_found
+          [y_found, psi_found] = found_depth*k_found
+          [psi_found, psi_found] = k_found*found_depth**2
+          [theta_found, theta_found] = k_found*found_depth**2
+          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_spread**2*b**2
+        dB/dfound_shear:
+        dM/dfound_spread:
+        dC/dfound_spread:
+          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [theta_found, theta_found] = 2*found_spread*k_found*a**2
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*b**2
+        dB/dfound_spread:
+        dM/dfound_depth:
+          [x_found, theta_found] = -m_found
+          [y_found, psi_found] = m_found
+          [psi_found, psi_found] = 2*found_depth*m_found
+          [theta_found, theta_found] = 2*found_depth*m_found
+        dC/dfound_depth:
+          [x_found, theta_found] = -found_shear*k_found
+          [y_found, psi_found] = found_shear*k_found
+          [psi_found, psi_found] = 2*found_depth*found_shear*k_found
+          [theta_found, theta_found] = 2*found_depth*found_shear*k_found
+        dB/dfound_depth:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+        )
     )
     _tmp0 = 4 * h
     _tmp1 = -_tmp0
@@ -2097,7 +2168,22 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
     _tmp6 = b**2
     _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5 + _tmp7
-    _tmp9 = _tmp2 + _tmp4 + _tmp6 + e**2
+    _tmp9 = found_depth**2
+    _tmp10 = _tmp2 + _tmp4 + _tmp6 + e**2
+    _tmp11 = _tmp10 + _tmp9
+    _tmp12 = found_depth * found_shear
+    _tmp13 = _tmp9 * found_shear
+    _tmp14 = found_spread**2
+    _tmp15 = _tmp14 * _tmp6
+    _tmp16 = _tmp14 * _tmp4
+    _tmp17 = found_depth * k_found
+    _tmp18 = _tmp9 * k_found
+    _tmp19 = 2 * k_found
+    _tmp20 = _tmp19 * found_spread
+    _tmp21 = found_shear * k_found
+    _tmp22 = 2 * _tmp21 * found_spread
+    _tmp23 = 2 * found_depth * m_found
+    _tmp24 = _tmp12 * _tmp19
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2113,6 +2199,9 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         numpy.shape(b_z),
         numpy.shape(m_found),
         numpy.shape(k_found),
+        numpy.shape(found_shear),
+        numpy.shape(found_spread),
+        numpy.shape(found_depth),
     )
     return numpy.stack(
         [
@@ -2157,7 +2246,18 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(6, 6): 1, (7, 7): 1, (8, 8): 1, (9, 9): _tmp9, (10, 10): _tmp9, (11, 11): _tmp9}
+                _shape,
+                12,
+                {
+                    (6, 6): 1,
+                    (6, 10): -found_depth,
+                    (7, 7): 1,
+                    (7, 9): found_depth,
+                    (8, 8): 1,
+                    (9, 9): _tmp11,
+                    (10, 10): _tmp11,
+                    (11, 11): _tmp10,
+                },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -2166,21 +2266,48 @@ def effect_foundation_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
                 _shape,
                 12,
                 {
-                    (6, 6): 0.5,
-                    (7, 7): 0.5,
+                    (6, 6): found_shear,
+                    (6, 10): -_tmp12,
+                    (7, 7): found_shear,
+                    (7, 9): _tmp12,
                     (8, 8): 1,
-                    (9, 9): _tmp6,
-                    (10, 10): _tmp4,
-                    (11, 11): (0.5) * _tmp4 + (0.5) * _tmp6,
+                    (9, 9): _tmp13 + _tmp15,
+                    (10, 10): _tmp13 + _tmp16,
+                    (11, 11): _tmp15 * found_shear + _tmp16 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (6, 6): k_found,
+                    (6, 10): -_tmp17,
+                    (7, 7): k_found,
+                    (7, 9): _tmp17,
+                    (9, 9): _tmp18,
+                    (10, 10): _tmp18,
+                    (11, 11): _tmp15 * k_found + _tmp16 * k_found,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {(9, 9): _tmp20 * _tmp6, (10, 10): _tmp20 * _tmp4, (11, 11): _tmp22 * _tmp4 + _tmp22 * _tmp6},
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp23, (10, 10): _tmp23}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp21, (7, 9): _tmp21, (9, 9): _tmp24, (10, 10): _tmp24}),
+            _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 12, 12)
+    ).reshape(*_shape, 7, 3, 12, 12)
 
 
-def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
+def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -2191,18 +2318,32 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
         M:
           [x, x] = m_added
           [x, theta] = h_added*m_added
+          [x, phi] = -m_added*y_added
           [y, y] = m_added
           [y, psi] = -h_added*m_added
+          [y, phi] = m_added*(x_added + e)
           [z, z] = m_added
-          [psi, psi] = m_added*h_added**2
-          [theta, theta] = m_added*h_added**2
+          [z, psi] = m_added*y_added
+          [z, theta] = -m_added*(x_added + e)
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, theta] = -m_added*y_added*(x_added + e)
+          [psi, phi] = -h_added*m_added*(x_added + e)
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2 + e**2 + 2*x_added*e)
+          [theta, phi] = -h_added*m_added*y_added
+          [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2 + e**2 + 2*x_added*e)
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = h_added * m_added
-    _tmp1 = h_added**2 * m_added
+    _tmp1 = m_added * y_added
+    _tmp2 = e + x_added
+    _tmp3 = _tmp2 * m_added
+    _tmp4 = y_added**2
+    _tmp5 = g_added**2
+    _tmp6 = _tmp5 + h_added**2
+    _tmp7 = e**2 + 2 * e * x_added + x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2217,7 +2358,10 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
         numpy.shape(b_h),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z, e)
@@ -2227,11 +2371,19 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
             {
                 (0, 0): m_added,
                 (0, 4): _tmp0,
+                (0, 5): -_tmp1,
                 (1, 1): m_added,
                 (1, 3): -_tmp0,
+                (1, 5): _tmp3,
                 (2, 2): m_added,
-                (3, 3): _tmp1,
-                (4, 4): _tmp1,
+                (2, 3): _tmp1,
+                (2, 4): -_tmp3,
+                (3, 3): m_added * (_tmp4 + _tmp6),
+                (3, 4): -_tmp1 * _tmp2,
+                (3, 5): -_tmp0 * _tmp2,
+                (4, 4): m_added * (_tmp6 + _tmp7),
+                (4, 5): -_tmp0 * y_added,
+                (5, 5): m_added * (_tmp4 + _tmp5 + _tmp7),
             },
         ),
         stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -2239,9 +2391,11 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
     )
 
 
-def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added):
+def effect_added_mass_derivatives(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
+):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2264,30 +2418,78 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
+          [x, phi] = -y_added
           [y, y] = 1
           [y, psi] = -h_added
+          [y, phi] = x_added + e
           [z, z] = 1
-          [psi, psi] = h_added**2
-          [theta, theta] = h_added**2
+          [z, psi] = y_added
+          [z, theta] = -x_added - e
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, theta] = -y_added*(x_added + e)
+          [psi, phi] = -h_added*(x_added + e)
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2 + e**2 + 2*x_added*e
+          [theta, phi] = -h_added*y_added
+          [phi, phi] = g_added**2 + x_added**2 + y_added**2 + e**2 + 2*x_added*e
         dC/dm_added:
         dB/dm_added:
+        dM/dx_added:
+          [y, phi] = m_added
+          [z, theta] = -m_added
+          [psi, theta] = -m_added*y_added
+          [psi, phi] = -h_added*m_added
+          [theta, theta] = m_added*(2*x_added + 2*e)
+          [phi, phi] = m_added*(2*x_added + 2*e)
+        dC/dx_added:
+        dB/dx_added:
+        dM/dy_added:
+          [x, phi] = -m_added
+          [z, psi] = m_added
+          [psi, psi] = 2*m_added*y_added
+          [psi, theta] = -m_added*(x_added + e)
+          [theta, phi] = -h_added*m_added
+          [phi, phi] = 2*m_added*y_added
+        dC/dy_added:
+        dB/dy_added:
         dM/dh_added:
           [x, theta] = m_added
           [y, psi] = -m_added
           [psi, psi] = 2*h_added*m_added
+          [psi, phi] = -m_added*(x_added + e)
           [theta, theta] = 2*h_added*m_added
+          [theta, phi] = -m_added*y_added
         dC/dh_added:
         dB/dh_added:
+        dM/dg_added:
+          [psi, psi] = 2*g_added*m_added
+          [theta, theta] = 2*g_added*m_added
+          [phi, phi] = 2*g_added*m_added
+        dC/dg_added:
+        dB/dg_added:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, h_added
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = 4 * h
     _tmp1 = 4 * h**2
     _tmp2 = 4 * a**2
     _tmp3 = 4 * b**2
-    _tmp4 = h_added**2
-    _tmp5 = 2 * h_added * m_added
+    _tmp4 = e + x_added
+    _tmp5 = y_added**2
+    _tmp6 = g_added**2
+    _tmp7 = _tmp6 + h_added**2
+    _tmp8 = 2 * x_added
+    _tmp9 = _tmp8 * e + e**2 + x_added**2
+    _tmp10 = -m_added
+    _tmp11 = m_added * y_added
+    _tmp12 = -_tmp11
+    _tmp13 = h_added * m_added
+    _tmp14 = -_tmp13
+    _tmp15 = m_added * (_tmp8 + 2 * e)
+    _tmp16 = 2 * _tmp11
+    _tmp17 = -_tmp4 * m_added
+    _tmp18 = 2 * _tmp13
+    _tmp19 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2302,7 +2504,10 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         numpy.shape(b_h),
         numpy.shape(b_z),
         numpy.shape(m_added),
+        numpy.shape(x_added),
+        numpy.shape(y_added),
         numpy.shape(h_added),
+        numpy.shape(g_added),
     )
     return numpy.stack(
         [
@@ -2327,16 +2532,53 @@ def effect_added_mass_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 1, (0, 4): h_added, (1, 1): 1, (1, 3): -h_added, (2, 2): 1, (3, 3): _tmp4, (4, 4): _tmp4},
+                {
+                    (0, 0): 1,
+                    (0, 4): h_added,
+                    (0, 5): -y_added,
+                    (1, 1): 1,
+                    (1, 3): -h_added,
+                    (1, 5): _tmp4,
+                    (2, 2): 1,
+                    (2, 3): y_added,
+                    (2, 4): -_tmp4,
+                    (3, 3): _tmp5 + _tmp7,
+                    (3, 4): -_tmp4 * y_added,
+                    (3, 5): -_tmp4 * h_added,
+                    (4, 4): _tmp7 + _tmp9,
+                    (4, 5): -h_added * y_added,
+                    (5, 5): _tmp5 + _tmp6 + _tmp9,
+                },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m_added, (1, 3): -m_added, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 5): m_added, (2, 4): _tmp10, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp15, (5, 5): _tmp15},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 5): _tmp10, (2, 3): m_added, (3, 3): _tmp16, (3, 4): _tmp17, (4, 5): _tmp14, (5, 5): _tmp16},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 4): m_added, (1, 3): _tmp10, (3, 3): _tmp18, (3, 5): _tmp17, (4, 4): _tmp18, (4, 5): _tmp12},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp19, (4, 4): _tmp19, (5, 5): _tmp19}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -3115,8 +3357,8 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_h", "c_z", "dx_com", "dy_com"),
     "cog_height": ("c_h", "c_z", "dz_com"),
     "rotational_stiffness": ("c_h", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_h", "c_z", "m_found", "k_found"),
-    "added_mass": ("c_h", "c_z", "m_added", "h_added"),
+    "foundation": ("c_h", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_h", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_h", "c_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_h", "c_z", "h_preload"),
 }

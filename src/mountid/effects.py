@@ -46,6 +46,10 @@ class EffectParameter:
     description: str
     floor: float | None = None
     """Hard lower bound of the search (a multiple of ``scale``) where the sign carries no meaning."""
+    both_sides: bool = True
+    """For a signed parameter: the fit also starts on either side of zero (it has a local minimum on the
+    wrong side, as a height does). False where the machine's symmetry or the mode shapes decide the sign
+    from any start (a horizontal position)."""
 
 
 @dataclass(frozen=True)
@@ -65,8 +69,10 @@ class Effect:
             raise ValueError(f"effect {self.name}: kind {self.kind!r} is not one of {EFFECT_KINDS}")
 
 
-def _p(name: str, unit: str, scale: str, lo: float, hi: float, start: float, text: str) -> EffectParameter:
-    return EffectParameter(name, unit, scale, (lo, hi), start, text)
+def _p(
+    name: str, unit: str, scale: str, lo: float, hi: float, start: float, text: str, both_sides: bool = True
+) -> EffectParameter:
+    return EffectParameter(name, unit, scale, (lo, hi), start, text, both_sides=both_sides)
 
 
 CATALOGUE: tuple[Effect, ...] = (
@@ -128,7 +134,7 @@ CATALOGUE: tuple[Effect, ...] = (
     Effect(
         "foundation",
         "generated",
-        "compliant support under the isolators",
+        "compliant support below the isolators (pads under the feet or a frame on ground springs)",
         (
             _p(
                 "m_found",
@@ -137,13 +143,35 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.05,
                 10.0,
                 0.5,
-                "mass of the support slab (radius of gyration: the length scale)",
+                "mass of the support (radius of gyration: the length scale)",
             ),
-            _p("k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "vertical stiffness of the support (all feet)"),
+            _p(
+                "k_found", "N/m", "vertical", 0.5, 100.0, 20.0, "vertical stiffness of the support (all ground springs)"
+            ),
+            _p("found_shear", "1", "one", 0.1, 2.0, 0.5, "horizontal over vertical stiffness of each ground spring"),
+            _p(
+                "found_spread",
+                "1",
+                "one",
+                0.5,
+                4.0,
+                1.0,
+                "horizontal distance of the ground springs from the axis over that of the isolator feet",
+            ),
+            _p(
+                "found_depth",
+                "m",
+                "length",
+                0.0,
+                2.0,
+                0.0,
+                "depth of the support's centre of mass and its ground springs below the isolator feet",
+            ),
         ),
-        "a rigid slab (six coordinates) between isolators and ground, on a foot under each isolator (vertical "
-        "k_found/n, horizontal half that, as for a block on soil): every mode drops, most those whose "
-        "isolators are stiffest relative to the support (z, rocking); six slab modes",
+        "a rigid support (six coordinates) between isolators and ground, on a ground spring below each isolator "
+        "(vertical k_found/n, horizontal found_shear times that), found_spread times as far from the axis and "
+        "found_depth below the feet: every mode drops, most those whose isolators are stiffest relative to the "
+        "support (z, rocking); six support modes",
     ),
     Effect(
         "added_mass",
@@ -151,9 +179,21 @@ CATALOGUE: tuple[Effect, ...] = (
         "an unmodelled attached mass (drive, motor)",
         (
             _p("m_added", "kg", "mass", 0.0, 0.3, 0.0, "attached mass"),
-            _p("h_added", "m", "length", -2.0, 2.0, 0.0, "its height above the centre of mass, on the vertical axis"),
+            _p("x_added", "m", "length", -1.5, 1.5, 0.0, "its position ahead of the centre of mass (x)", False),
+            _p("y_added", "m", "length", -1.5, 1.5, 0.0, "its position beside the centre of mass (y)", False),
+            _p("h_added", "m", "length", -2.0, 2.0, 0.0, "its height above the centre of mass"),
+            _p(
+                "g_added",
+                "m",
+                "length",
+                0.0,
+                0.5,
+                0.0,
+                "its radius of gyration about its own centre (a body, not a point)",
+            ),
         ),
-        "lowers every translational mode by the mass ratio and the rocking modes by m h^2; phi untouched",
+        "lowers every translational mode by the mass ratio and the rocking modes by m h^2, yaw by m (x^2 + y^2); "
+        "off the axis it couples z with rocking and x, y with yaw",
     ),
     Effect(
         "drive_belt",

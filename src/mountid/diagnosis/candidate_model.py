@@ -79,11 +79,14 @@ class CandidateModel:
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:
-        """Starting vectors: the effect's start values; for wide positive ranges (the foundation) a 2 x 2
-        grid over their decades; for a two-parameter effect with a signed parameter (a height, an offset)
-        that parameter at half its plausible bound on either side (the fit has a local minimum on the wrong
-        side); last the middle of the plausible range. Sets ``mandatory_starts``: the first starts, which
-        always run (the others run only while the fit stays above noise level)."""
+        """Starting vectors: the effect's start values; where an effect has positive parameters with wide
+        ranges (a factor 100 or more: the support's mass and stiffness) a 2 x 2 grid over their decades, the
+        others at their start; for an effect of two or more parameters with signed ones (a height, an offset)
+        each signed parameter (EffectParameter.both_sides) at half its plausible bound on either side, the
+        others at the middle of their range (at its start, often 0, the effect vanishes, the signed one has no
+        gradient and slides to whichever side the unknowns prefer); last the middle of the plausible range. Sets
+        ``mandatory_starts``: the first starts, which always run (the others run only while the fit stays
+        above noise level)."""
         base = [math.log(self.start_unknowns[u]) for u in self.unknown]
         params = self.effect_parameters
 
@@ -96,15 +99,23 @@ class CandidateModel:
         first = [p.start for p in params]
         starts = [vector(first)]
         self.mandatory_starts = 1
-        if params and all(self.log_scaled):  # wide positive ranges (foundation): a grid over the decades
-            grid = [[p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)] for p in params]
+        wide = [
+            i
+            for i, (p, log) in enumerate(zip(params, self.log_scaled, strict=True))
+            if log and p.plausible[1] >= 100 * p.plausible[0]
+        ]
+        if wide:
+            grid = [
+                [p.plausible[0] * (p.plausible[1] / p.plausible[0]) ** f for f in (0.3, 0.7)]
+                if i in wide
+                else [p.start]
+                for i, p in enumerate(params)
+            ]
             starts += [vector(point) for point in itertools.product(*grid)]
-        elif len(params) == 2:
-            # the other parameter at the middle of its range: at its start (often 0, no effect) the signed
-            # one has no gradient and slides to whichever side the unknowns prefer
+        elif len(params) >= 2:
             middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
             for i, p in enumerate(params):
-                if p.plausible[0] < 0 < p.plausible[1]:
+                if p.plausible[0] < 0 < p.plausible[1] and p.both_sides:
                     for bound in p.plausible:
                         starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
             self.mandatory_starts = len(starts)

@@ -114,9 +114,11 @@ def _probabilities(nominal: CandidateFit, fits: list[CandidateFit]) -> dict[int,
 
 def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     """Whether a candidate explains the gap: it fits every measurement within its uncertainty (chi^2 test at
-    settings.fit_p_value) and predicts the modes held out (leave one mode out) within settings.held_out_limit
-    sigma in the median (the median forgives the one mode whose omission leaves a parameter undetermined)."""
-    if not fits_within_uncertainty(f, settings):
+    settings.fit_p_value) with every effect parameter inside its plausible range (a support of a few kg under
+    an 800 kg machine mimics other effects; a flexible candidate fits much at values no machine has), and
+    predicts the modes held out (leave one mode out) within settings.held_out_limit sigma in the median (the
+    median forgives the one mode whose omission leaves a parameter undetermined)."""
+    if not fits_within_uncertainty(f, settings) or f.outside_range:
         return False
     return math.isfinite(f.held_out_median) and f.held_out_median <= settings.held_out_limit
 

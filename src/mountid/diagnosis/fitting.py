@@ -57,6 +57,9 @@ class CandidateFit:
     """Laplace approximation of log p(data | candidate) (see :func:`log_evidence`; -inf when not applicable)."""
     probability: float = math.nan
     """Posterior probability of the candidate among those ranked (set by the ranking)."""
+    outside_range: tuple[str, ...] = ()
+    """Effect parameters whose fitted value lies outside the plausible range beyond RANGE_TOLERANCE
+    (``plausible`` allows a standard deviation beyond it; a confident verdict allows none: candidates.explains)."""
     state: FitState | None = field(default=None, repr=False, compare=False)
     """The fit's state (None when the candidate is not applicable)."""
 
@@ -223,8 +226,28 @@ def forward_differences(fun, theta: np.ndarray, upper: np.ndarray) -> np.ndarray
     return out
 
 
+RANGE_TOLERANCE = 0.1
+"""A fitted effect parameter is outside its plausible range (CandidateFit.outside_range) when it lies beyond
+it by more than its standard deviation or this share of the range's width, whichever is smaller: a truth
+at the edge of a range (a support right under the feet) stays inside, a support of a few kg under an
+800 kg machine does not."""
+
+POLISH = 10.0
+"""A fit whose best start ran out of evaluations is carried on when its chi^2 is within POLISH times the
+noise level (mean plus three standard deviations of chi^2)."""
+
+LEAVE_ONE_OUT_STEPS = 12
+"""Evaluations allowed to a leave-one-mode-out refit: it starts at the full fit, a few Gauss-Newton steps
+away from its own minimum (its tolerance is looser than a fit's: a held-out error is judged in sigma)."""
+
+
 def _least_squares(
-    model: CandidateModel, data: Data, starts: list[np.ndarray], rows: np.ndarray | None = None, mandatory: int = 1
+    model: CandidateModel,
+    data: Data,
+    starts: list[np.ndarray],
+    rows: np.ndarray | None = None,
+    mandatory: int = 1,
+    refit: bool = False,
 ):
     lo, hi = model.bounds()
     fun, jac = _residual_function(model, data, rows)
@@ -232,25 +255,36 @@ def _least_squares(
     finite = np.isfinite(lo)
     inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
     inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
+    n = len(fun(starts[0]))
+    noise = n + 3 * math.sqrt(2 * n)
+    # chi^2 at noise level: mean plus three standard deviations
     for i, x0 in enumerate(starts):
-        n = len(best.fun) if best is not None else 0
-        if i >= mandatory and 2 * best.cost <= n + 3 * math.sqrt(2 * n):
+        if i >= mandatory and 2 * best.cost <= noise:
             break  # fits to noise level: the remaining starts are not needed
-        x0 = np.clip(x0, inner_lo, inner_hi)
-        res = scipy.optimize.least_squares(
-            fun,
-            x0,
-            jac=jac,
-            bounds=(lo, hi),
-            method="trf",
-            x_scale="jac",
-            ftol=1e-7,
-            xtol=1e-7,
-            max_nfev=100 if i == 0 else 30,
-        )
+        res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 100 if len(starts) == 1 else 30)
         if best is None or res.cost < best.cost:
             best = res
+    if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:
+        # the best start ran out of evaluations near noise level: carry it on (a candidate far from the data
+        # keeps its rough minimum, its probability is nil either way)
+        polished = _solve(fun, jac, best.x, lo, hi, refit, 100)
+        if polished.cost <= best.cost:
+            best = polished
     return best
+
+
+def _solve(fun, jac, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, refit: bool, max_nfev: int):
+    return scipy.optimize.least_squares(
+        fun,
+        x0,
+        jac=jac,
+        bounds=(lo, hi),
+        method="trf",
+        x_scale="jac",
+        ftol=1e-5 if refit else 1e-7,
+        xtol=1e-5 if refit else 1e-7,
+        max_nfev=LEAVE_ONE_OUT_STEPS if refit else max_nfev,
+    )
 
 
 def fit_candidate(
@@ -281,10 +315,16 @@ def fit_candidate(
     d = model.jacobian_to_physical(theta)
     phys = model.physical(theta)
     std = {n: float(abs(d[i]) * spread[i]) for i, n in enumerate(phys)}
-    reasons = []
-    for p in model.effect_parameters:
+    reasons, outside = [], []
+    for j, (p, log) in enumerate(zip(model.effect_parameters, model.log_scaled, strict=True), len(model.unknown)):
         lo, hi = (v * model.scales[p.scale] for v in p.plausible)
         v, s = phys[p.name], std[p.name]
+        # outside by more than its standard deviation or RANGE_TOLERANCE of the range (in the fit's own
+        # units: log for positive ranges), whichever is smaller
+        a, b = (math.log(x) for x in p.plausible) if log else p.plausible
+        slack = min(spread[j], RANGE_TOLERANCE * (b - a))
+        if not a - slack <= theta[j] <= b + slack:
+            outside.append(p.name)
         if not lo - s <= v <= hi + s:
             reasons.append(f"{p.name} = {v:.3g} {p.unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
@@ -306,6 +346,7 @@ def fit_candidate(
         gap,
         held_out_gap=held_out,
         log_evidence=evidence,
+        outside_range=tuple(outside),
         state=FitState(model, theta),
     )
 
@@ -336,7 +377,7 @@ def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
         if len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1:
             out[lab] = math.nan
             continue
-        res = _least_squares(model, data, [theta], rows=keep)
+        res = _least_squares(model, data, [theta], rows=keep, refit=True)
         out[lab] = float(data.omega[i] - model.predict(res.x).frequencies[i])
     return replace(fit, held_out_gap=out, held_out_exact=True)
 

@@ -14,16 +14,21 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``sensor_error``: four triaxial sensors in a measurement frame turned in yaw against the machine's axes
   and placed off in height, the shapes recovered by least squares with the assumed geometry;
 - ``damping``: damped frequencies |Im p| of non-proportionally damped isolators;
-- ``cog_height``, ``isolator_scatter``, ``rotational_stiffness``, ``gravity_preload`` by the same physics.
+- ``cog_height``, ``isolator_scatter``, ``rotational_stiffness``, ``gravity_preload`` by the same physics;
+- ``support_frame`` (the catalogue's ``foundation``): a steel frame (2.6 m x 2.6 m x 0.25 m, its own mass
+  and inertia) below the isolators, standing on four ground springs on the x and y axes (not under the
+  isolator feet, which sit on the diagonals), softer horizontally than vertically, the springs below the
+  frame's centre of mass;
+- ``offaxis_mass`` (the catalogue's ``added_mass``): a motor with its own inertia bolted on off the vertical
+  axis (radius 0.2-0.6 m, any direction and height).
 
-Outside the catalogue (OUT_OF_CATALOGUE: no candidate represents them; an honest diagnosis ends "not
+Outside the catalogue (REPRESENTED_BY None: no candidate represents them; an honest diagnosis ends "not
 explained" or in a tie, never confident):
 
-- ``support_frame``: a steel frame (2.6 m x 2.6 m x 0.25 m, its own mass and inertia) below the isolators,
-  standing on four ground springs on the x and y axes (not under the isolator feet, which sit on the
-  diagonals), softer horizontally than vertically;
-- ``offaxis_mass``: a motor bolted on off the vertical axis (radius 0.2-0.6 m, any direction and height);
-- ``isolator_scatter+cog_height``: two effects at once.
+- ``isolator_scatter+cog_height``: two effects at once;
+- ``nonlinear_isolator``: hardening rubber, stiffness k (1 + gamma (d / d_ref)^2) in each direction with the
+  deformation amplitude d of that direction in the mode being measured (equivalent linearisation): each
+  mode sees its own isolator stiffness, which no linear model reproduces.
 """
 
 from __future__ import annotations
@@ -38,8 +43,22 @@ from mountid.diagnosis.candidate_model import label_modes, scaled_unit
 from mountid.effects import STANDARD_GRAVITY
 from mountid.machine import Machine, call, damped_poles
 
-OUT_OF_CATALOGUE: tuple[str, ...] = ("support_frame", "offaxis_mass", "isolator_scatter+cog_height")
+REPRESENTED_BY: dict[str, str | None] = {
+    "support_frame": "foundation",
+    "offaxis_mass": "added_mass",
+    "isolator_scatter+cog_height": None,
+    "nonlinear_isolator": None,
+}
+"""The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
+named after a catalogue effect is represented by it, whatever the differences of its physics."""
+
+OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
 """Truths no candidate of the catalogue represents."""
+
+
+def represented_by(truth: str) -> str | None:
+    """The catalogue effect that represents the truth ``truth`` (None: none does; 'none' for no effect)."""
+    return REPRESENTED_BY.get(truth, truth)
 
 
 def _skew(r: np.ndarray) -> np.ndarray:
@@ -205,6 +224,8 @@ def sample(rng: np.random.Generator, effect: str, v: dict[str, float]) -> dict[s
         return {"yaw": sign * logu(0.01, 0.08), "dz": rng.uniform(-0.15, 0.15)}
     if effect == "support_frame":
         return {"m": logu(0.3, 2) * v["m"], "k": logu(3, 30) * 4 * 472.3e3, "horizontal": rng.uniform(0.2, 0.6)}
+    if effect == "nonlinear_isolator":
+        return {"gamma": logu(0.02, 0.2)}
     if effect == "offaxis_mass":
         return {
             "m": logu(0.03, 0.15) * v["m"],
@@ -251,7 +272,33 @@ def true_modes(kid: Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.
         omega = damped_poles(m, c, b, lam)[order].imag
     elif "sensor_error" in parts:
         shapes = _through_sensors(kid, shapes, t.size["yaw"], t.size["dz"])
+    elif "nonlinear_isolator" in parts:
+        omega, shapes = _hardened(kid, t, m, shapes)
     return omega, shapes
+
+
+def _hardened(kid: Kid300, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each mode of hardening isolators by equivalent linearisation: every isolator direction stiffer by
+    1 + gamma (d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the isolators
+    and directions (each mode excited to the same largest deformation); iterated to a fixed point."""
+    gamma = t.size["gamma"]
+    nominal = np.array([t.c_xy, t.c_xy, t.c_z])
+    omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
+    for i in range(shapes.shape[1]):
+        phi = shapes[:, i]
+        for _ in range(50):
+            d = np.array([_jac(r) @ phi for r in kid.points])
+            factor = 1 + gamma * (np.abs(d) / np.abs(d).max()) ** 2
+            c = sum(_jac(r).T @ np.diag(nominal * f) @ _jac(r) for r, f in zip(kid.points, factor, strict=True))
+            lam, vec = scipy.linalg.eigh(c, m)
+            j = int(np.argmax(np.abs(vec.T @ m @ phi)))
+            step = vec[:, j] * np.sign(vec[:, j] @ m @ phi)
+            done = np.allclose(step, phi / math.sqrt(phi @ m @ phi), rtol=0, atol=1e-12)
+            phi = step
+            if done:
+                break
+        omega[i], out[:, i] = math.sqrt(lam[j]), phi
+    return omega, out
 
 
 def _through_sensors(kid: Kid300, shapes: np.ndarray, yaw: float, dz: float) -> np.ndarray:

@@ -46,7 +46,9 @@ def _shifted_centre(shift: Callable[[dict[str, sp.Symbol]], sp.Matrix]) -> Calla
 
 def _added_mass(x: ExtendedModel) -> sp.Expr:
     s = x.symbols
-    return rigid_body_kinetic_energy(s["m_added"], sp.zeros(3), sp.Matrix([0, 0, s["h_added"]]), x.qdot[:6, 0])
+    where = sp.Matrix([s["x_added"], s["y_added"], s["h_added"]])
+    own = s["m_added"] * s["g_added"] ** 2 * sp.eye(3)
+    return rigid_body_kinetic_energy(s["m_added"], own, x.model.centre_of_mass + where, x.qdot[:6, 0])
 
 
 def _rotational_stiffness(x: ExtendedModel) -> sp.Expr:
@@ -61,20 +63,25 @@ def _rotational_stiffness(x: ExtendedModel) -> sp.Expr:
 
 
 def _slab_kinetic(x: ExtendedModel) -> sp.Expr:
-    """A rigid slab of mass m_found with radius of gyration equal to the machine's length scale."""
+    """A rigid support of mass m_found with radius of gyration equal to the machine's length scale, its
+    centre of mass found_depth below the isolator feet (the support's coordinates refer to the feet's centre)."""
     s = x.symbols
     inertia = s["m_found"] * scales(x.model)["length"] ** 2 * sp.eye(3)
-    return rigid_body_kinetic_energy(s["m_found"], inertia, sp.zeros(3, 1), x.qdot[6:, 0])
+    centre = sp.Matrix([0, 0, -s["found_depth"]])
+    return rigid_body_kinetic_energy(s["m_found"], inertia, centre, x.qdot[6:, 0])
 
 
-def _slab_on_feet(x: ExtendedModel) -> sp.Expr:
-    """The slab on a foot under each isolator: vertical k_found/n, horizontal half that."""
-    m = x.model
-    foot = sp.diag(1, 1, 2) * x.symbols["k_found"] / (2 * len(m.isolators))
+def _slab_on_ground(x: ExtendedModel) -> sp.Expr:
+    """The support on a ground spring below each isolator: vertical k_found/n, horizontal found_shear times
+    that, found_spread times as far from the vertical axis as the isolator's foot and found_depth below it."""
+    m, s = x.model, x.symbols
+    spring = sp.diag(s["found_shear"], s["found_shear"], 1) * s["k_found"] / len(m.isolators)
     p = sp.Integer(0)
     for iso in m.isolators:
-        u = SymbolicModel.point_motion(x.q[6:, 0], iso.position - x.slab_centre)
-        p += (u.T * foot * u)[0] / 2
+        foot = iso.position - x.slab_centre
+        ground = sp.Matrix([s["found_spread"] * foot[0], s["found_spread"] * foot[1], foot[2] - s["found_depth"]])
+        u = SymbolicModel.point_motion(x.q[6:, 0], ground)
+        p += (u.T * spring * u)[0] / 2
     return p
 
 
@@ -100,7 +107,7 @@ ENERGIES: dict[str, EnergyExtension] = {
     "com_offset": EnergyExtension(kinetic=_shifted_centre(lambda s: sp.Matrix([s["dx_com"], s["dy_com"], 0]))),
     "cog_height": EnergyExtension(kinetic=_shifted_centre(lambda s: sp.Matrix([0, 0, s["dz_com"]]))),
     "rotational_stiffness": EnergyExtension(potential=_rotational_stiffness),
-    "foundation": EnergyExtension(kinetic=_slab_kinetic, potential=_slab_on_feet, slab=True),
+    "foundation": EnergyExtension(kinetic=_slab_kinetic, potential=_slab_on_ground, slab=True),
     "added_mass": EnergyExtension(kinetic=_added_mass),
     "drive_belt": EnergyExtension(potential=_drive_belt),
     "gravity_preload": EnergyExtension(potential=_gravity_preload),
