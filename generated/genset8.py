@@ -659,6 +659,7 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "isolator_points": ("a1", "a2", "b", "h"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
 """Argument names of every generated function, by function name."""
@@ -5710,6 +5711,49 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
         ],
         axis=-3,
     ).reshape(*_shape, 4, 8, 6, 6)
+
+
+def isolator_points(a1, a2, b, h):
+    """Point of each isolator [m] from the coordinate origin, shape (..., 3, 8), isolators in the
+    order of ISOLATORS:
+
+        inner[+x+y]: (a1, b, -h)
+        inner[-x+y]: (-a1, b, -h)
+        inner[+x-y]: (a1, -b, -h)
+        inner[-x-y]: (-a1, -b, -h)
+        outer[+x+y]: (a2, b, -h)
+        outer[-x+y]: (-a2, b, -h)
+        outer[+x-y]: (a2, -b, -h)
+        outer[-x-y]: (-a2, -b, -h)
+    """
+    a1, a2, b, h = _runtime.as_arrays(a1, a2, b, h)
+    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h))
+    _out = numpy.zeros((*_shape, 3, 8))
+    _out[..., 0, 0] = a1
+    _out[..., 1, 0] = b
+    _out[..., 2, 0] = -h
+    _out[..., 0, 1] = -a1
+    _out[..., 1, 1] = b
+    _out[..., 2, 1] = -h
+    _out[..., 0, 2] = a1
+    _out[..., 1, 2] = -b
+    _out[..., 2, 2] = -h
+    _out[..., 0, 3] = -a1
+    _out[..., 1, 3] = -b
+    _out[..., 2, 3] = -h
+    _out[..., 0, 4] = a2
+    _out[..., 1, 4] = b
+    _out[..., 2, 4] = -h
+    _out[..., 0, 5] = -a2
+    _out[..., 1, 5] = b
+    _out[..., 2, 5] = -h
+    _out[..., 0, 6] = a2
+    _out[..., 1, 6] = -b
+    _out[..., 2, 6] = -h
+    _out[..., 0, 7] = -a2
+    _out[..., 1, 7] = -b
+    _out[..., 2, 7] = -h
+    return _out
 
 
 def effect_scales(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):

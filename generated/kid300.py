@@ -241,6 +241,7 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
+    "isolator_points": ("L_xy", "L_z"),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -2622,6 +2623,33 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
         ],
         axis=-3,
     ).reshape(*_shape, 2, 4, 6, 6)
+
+
+def isolator_points(L_xy, L_z):
+    """Point of each isolator [m] from the coordinate origin, shape (..., 3, 4), isolators in the
+    order of ISOLATORS:
+
+        corner[+x+y]: (L_xy*sqrt(2)/2, L_xy*sqrt(2)/2, -L_z)
+        corner[-x+y]: (-L_xy*sqrt(2)/2, L_xy*sqrt(2)/2, -L_z)
+        corner[+x-y]: (L_xy*sqrt(2)/2, -L_xy*sqrt(2)/2, -L_z)
+        corner[-x-y]: (-L_xy*sqrt(2)/2, -L_xy*sqrt(2)/2, -L_z)
+    """
+    L_xy, L_z = _runtime.as_arrays(L_xy, L_z)
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
+    _out = numpy.zeros((*_shape, 3, 4))
+    _out[..., 0, 0] = (0.5) * numpy.sqrt(2) * L_xy
+    _out[..., 1, 0] = (0.5) * numpy.sqrt(2) * L_xy
+    _out[..., 2, 0] = -L_z
+    _out[..., 0, 1] = -0.5 * numpy.sqrt(2) * L_xy
+    _out[..., 1, 1] = (0.5) * numpy.sqrt(2) * L_xy
+    _out[..., 2, 1] = -L_z
+    _out[..., 0, 2] = (0.5) * numpy.sqrt(2) * L_xy
+    _out[..., 1, 2] = -0.5 * numpy.sqrt(2) * L_xy
+    _out[..., 2, 2] = -L_z
+    _out[..., 0, 3] = -0.5 * numpy.sqrt(2) * L_xy
+    _out[..., 1, 3] = -0.5 * numpy.sqrt(2) * L_xy
+    _out[..., 2, 3] = -L_z
+    return _out
 
 
 def effect_scales(m, L_xy, L_z, c_xy, c_z):

@@ -379,6 +379,7 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -3867,6 +3868,33 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
         ],
         axis=-3,
     ).reshape(*_shape, 3, 4, 6, 6)
+
+
+def isolator_points(a, b, h):
+    """Point of each isolator [m] from the coordinate origin, shape (..., 3, 4), isolators in the
+    order of ISOLATORS:
+
+        corner[+x+y]: (a, b, -h)
+        corner[-x+y]: (-a, b, -h)
+        corner[+x-y]: (a, -b, -h)
+        corner[-x-y]: (-a, -b, -h)
+    """
+    a, b, h = _runtime.as_arrays(a, b, h)
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    _out = numpy.zeros((*_shape, 3, 4))
+    _out[..., 0, 0] = a
+    _out[..., 1, 0] = b
+    _out[..., 2, 0] = -h
+    _out[..., 0, 1] = -a
+    _out[..., 1, 1] = b
+    _out[..., 2, 1] = -h
+    _out[..., 0, 2] = a
+    _out[..., 1, 2] = -b
+    _out[..., 2, 2] = -h
+    _out[..., 0, 3] = -a
+    _out[..., 1, 3] = -b
+    _out[..., 2, 3] = -h
+    return _out
 
 
 def effect_scales(m, a, b, h, c_x, c_y, c_z):

@@ -38,6 +38,35 @@ def test_the_diagnosis_is_not_told_the_truth():
     assert set(a) == {"name", "machine", "known", "modes"}
 
 
+def test_campaign_kinds_measure_what_they_say():
+    shapes, _ = blind.make_case(5, "damping", kind="shapes")
+    freqs, _ = blind.make_case(5, "damping", kind="frequencies")
+    damped, _ = blind.make_case(5, "damping", kind="damping")
+    assert all("shape" in m and "damping_ratio" not in m for m in shapes["modes"].values())
+    assert all(set(m) == {"frequency", "uncertainty"} for m in freqs["modes"].values())
+    assert all(0 < m["damping_ratio"] < 0.5 for m in damped["modes"].values())
+    # the same truth and noise in every kind
+    assert [m["frequency"] for m in freqs["modes"].values()] == [m["frequency"] for m in shapes["modes"].values()]
+    with pytest.raises(ValueError, match="score one campaign kind"):
+        blind.score([blind.run_case(3, "none", "frequencies"), blind.run_case(3, "none", "shapes")])
+
+
+def test_true_damping_ratios_of_proportional_damping_are_the_modal_ones():
+    """B = beta C gives zeta_k = beta omega_k / 2 exactly: the pairing of poles with shapes is right."""
+    machine = blind.Machine.resolve("kid300")
+    kid = blind.Kid300(machine)
+    t = blind.Truth("none", {}, 74.4e3, 472.3e3)
+    m, c, _ = kid.matrices(t)
+    omega, shapes = blind_truth.true_modes(kid, machine, t)
+
+    class Proportional(blind.Kid300):
+        def matrices(self, truth):
+            return m, c, 1e-3 * c
+
+    zeta = blind_truth.true_damping_ratios(Proportional(machine), t, shapes)
+    assert zeta == pytest.approx(1e-3 * omega / 2, rel=1e-9)
+
+
 def test_noise_is_at_the_stated_uncertainty():
     z = []
     for seed in range(40):

@@ -88,7 +88,6 @@ def triple(text: str, option: str) -> tuple[float, float, float]:
 
 
 def read_record(path: str):
-    from mountid.measurement.records import read_csv
-    from mountid.measurement.uff import read_uff
+    from mountid.measurement.records import read_record as read
 
-    return read_uff(path) if path.lower().endswith((".uff", ".unv")) else read_csv(path)
+    return read(path)

@@ -9,20 +9,28 @@ violation is reported as one line naming the entry). Example (the paper's four f
      "modes": {"x": {"frequency": 17.71}, "psi": {"frequency": 64.10},
                "z": {"frequency": 46.60}, "phi": {"frequency": 36.91}},
      "fit": ["x", "psi"]}
+
+A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
+{"file": "hit2.uff", "start": 0.1}]``. Each is read (CSV with mountid channel metadata, or UFF with its
+geometry) and run through the records chain (mountid.identification.from_records.modal_data): frequencies
+with their standard deviations, damping ratios and, where the channels span the six motions, mode shapes.
+A mode given under "modes" overrides the records'; of several records, each mode comes from the one with
+the smallest frequency standard deviation. The records' quality warnings travel with the campaign.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 
 import jsonschema
+import numpy as np
 
 from mountid.errors import InputError
-from mountid.machine import Machine
+from mountid.machine import Machine, call
 from mountid.measurement.modes import MeasuredMode
 
 
@@ -37,6 +45,18 @@ DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
 
 
+DEFAULT_RECORD_START = 0.07
+"""Start of the free decay [s] of a record listed without one (as the command line's --start)."""
+
+
+@dataclass(frozen=True)
+class RecordSource:
+    """A record file of a campaign and where its free decay starts [s]."""
+
+    path: Path
+    start: float = DEFAULT_RECORD_START
+
+
 @dataclass(frozen=True)
 class Campaign:
     """A validated campaign (see the module docstring)."""
@@ -47,7 +67,23 @@ class Campaign:
     fit: tuple[str, ...] | None = None
     """Labels fitted; None: leave-one-out over all."""
     name: str = ""
-    records: list[str] = field(default_factory=list)
+    records: tuple[RecordSource, ...] = ()
+    record_notes: tuple[str, ...] = ()
+    """What the records chain said about the records (quality warnings, which record gave which mode)."""
+
+    def conventions(self) -> dict:
+        """What the campaign's numbers refer to, for the report to echo: the description used, the
+        coordinates of the mode shapes and their reference point, the isolator layout [m] at the known values."""
+        mod = self.machine.module
+        values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
+        points = np.asarray(call(mod, "isolator_points", values))
+        return {
+            "description": f"{self.machine.name}: {mod.TITLE}",
+            "shape_coordinates": list(mod.COORDINATES),
+            "shape_reference": "translations of the description's coordinate origin [m], rotations about its "
+            "axes [rad]",
+            "isolators": {name: [float(v) for v in points[:, k]] for k, name in enumerate(mod.ISOLATORS)},
+        }
 
 
 def _path(error: jsonschema.ValidationError) -> str:
@@ -73,7 +109,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             raise InputError(f"known.{name}", "must be finite")
     seen: dict[str, str] = {}
     modes = {}
-    for label, entry in data["modes"].items():
+    for label, entry in data.get("modes", {}).items():
         if label not in machine.modes:
             raise InputError(f"modes.{label}", f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})")
         frequency, std = float(entry["frequency"]), entry.get("uncertainty")
@@ -89,6 +125,14 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
+    sources = tuple(_source(entry, base) for entry in data.get("records", []))
+    from_records, notes = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    for label, mode in from_records.items():
+        if label not in modes:
+            modes[label] = mode
+            seen[label] = machine.module.REPRESENTATIVE[label]
+    if not modes:
+        raise InputError("records", "no mode found in the records: " + "; ".join(notes))
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -101,7 +145,43 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             f"{len(distinct)} distinct frequencies for {len(machine.unknown)} unknowns"
             + ("" if fit else " plus one held out"),
         )
-    return Campaign(machine, dict(data.get("known", {})), modes, fit, data.get("name", ""), data.get("records", []))
+    return Campaign(machine, dict(data.get("known", {})), modes, fit, data.get("name", ""), sources, tuple(notes))
+
+
+def _source(entry: str | dict, base: Path | None) -> RecordSource:
+    file, start = (entry, DEFAULT_RECORD_START) if isinstance(entry, str) else (entry["file"], entry.get("start"))
+    path = Path(file)
+    if base is not None and not path.is_absolute():
+        path = base / path
+    return RecordSource(path, DEFAULT_RECORD_START if start is None else float(start))
+
+
+def _modes_from_records(
+    machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]
+) -> tuple[dict[str, MeasuredMode], list[str]]:
+    """Each record through the records chain; per mode the estimate with the smallest standard deviation."""
+    if not sources:
+        return {}, []
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement.records import read_record
+
+    best: dict[str, tuple[MeasuredMode, str]] = {}
+    notes = []
+    for source in sources:
+        found, _, warnings = modal_data(machine, read_record(source.path), known, source.start)
+        notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
+        for label, mode in found.items():
+            if label not in best or mode.frequency_std < best[label][0].frequency_std:
+                best[label] = (mode, source.path.name)
+    for label, (mode, name) in best.items():
+        kept = "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
+        notes.append(f"{label}: {kept} from {name}")
+    # a record's shape has no stated spread: the campaign default, as for a shape given without one
+    modes = {
+        label: replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD) if mode.shape is not None else mode
+        for label, (mode, _) in best.items()
+    }
+    return modes, notes
 
 
 def load(path: str | Path) -> Campaign:

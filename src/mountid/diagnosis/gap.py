@@ -357,6 +357,9 @@ class Diagnosis:
         return {
             "campaign": campaign.name,
             "machine": campaign.machine.name,
+            "conventions": campaign.conventions(),
+            "records": [str(r.path) for r in campaign.records],
+            "record_notes": list(campaign.record_notes),
             "parameters": report.parameters,
             "parameter_std": report.parameter_std,
             "residuals": [r.to_dict() for r in report.residuals],

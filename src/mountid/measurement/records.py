@@ -158,3 +158,12 @@ def read_csv(path: str | Path) -> Record:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
     channels = tuple(meta.get(n, Channel(n)) for n in names)
     return Record(table[:, 0], table[:, 1:], channels)
+
+
+def read_record(path: str | Path) -> Record:
+    """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff) or CSV (read_csv)."""
+    if str(path).lower().endswith((".uff", ".unv")):
+        from mountid.measurement.uff import read_uff  # pyuff is an extra: imported only for UFF files
+
+        return read_uff(path)
+    return read_csv(path)

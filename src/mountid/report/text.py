@@ -7,6 +7,15 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
     report, effects, campaign = diagnosis.where, diagnosis.effects, diagnosis.campaign
     print(f"{title} ({campaign.machine.name})")
+    conventions = campaign.conventions()
+    print(f"description: {conventions['description']}")
+    print(
+        f"mode shapes in ({', '.join(conventions['shape_coordinates'])}): {conventions['shape_reference']}; "
+        "isolators at [m]: "
+        + ", ".join(f"{n} ({', '.join(f'{v:.3g}' for v in p)})" for n, p in conventions["isolators"].items())
+    )
+    for note in campaign.record_notes:
+        print(f"record: {note}")
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     print(f"  {'mode':6s}{'measured':>10s}{'predicted':>11s}{'gap':>9s}{'sigma':>8s}{'z':>7s}  use")
     for r in report.residuals:

@@ -277,6 +277,24 @@ def true_modes(kid: Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.
     return omega, shapes
 
 
+def true_damping_ratios(kid: Kid300, t: Truth, shapes: np.ndarray) -> np.ndarray:
+    """Damping ratio of each mode (in the machine's mode order, paired with ``shapes`` by MAC): -Re p / |p| of
+    the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
+    m, c, b = kid.matrices(t)
+    n = m.shape[0]
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
+    poles, vectors = np.linalg.eig(a)
+    upper = poles.imag > 0
+    poles, vectors = poles[upper], vectors[:n, upper]
+    out = np.empty(shapes.shape[1])
+    for i in range(shapes.shape[1]):
+        phi = shapes[:, i]
+        fit = np.abs(np.conj(vectors[: len(phi)]).T @ phi) / np.linalg.norm(vectors[: len(phi)], axis=0)
+        p = poles[int(np.argmax(fit))]
+        out[i] = -p.real / abs(p)
+    return out
+
+
 def _hardened(kid: Kid300, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each mode of hardening isolators by equivalent linearisation: every isolator direction stiffer by
     1 + gamma (d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the isolators

@@ -118,6 +118,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     )
     functions.append(fn)
     functions.append(_isolator_gradient_function(model, dict(zip(names, per, strict=True))))
+    functions.append(_isolator_points_function(model))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
     doc = (
@@ -168,6 +169,19 @@ def _isolator_gradient_function(model: SymbolicModel, per: dict[str, sp.Matrix])
     args = model.parameters_of(*per.values())
     shape = (len(unknowns), len(per), 6, 6)
     return _matrices_function("isolator_stiffness_gradient", derivs, COORDINATES, args, doc, stacked=shape)
+
+
+def _isolator_points_function(model: SymbolicModel) -> Function:
+    """Where each isolator acts on the body [m]: the layout a report names (the diagnosis's conventions)."""
+    points = [iso.position for iso in model.isolators]
+    entries = tuple((i, k, p[i]) for k, p in enumerate(points) for i in range(3) if p[i] != 0)
+    lines = [f"        {iso.name}: ({', '.join(describe(v) for v in iso.position)})" for iso in model.isolators]
+    doc = (
+        f"Point of each isolator [m] from the coordinate origin, shape (..., 3, {len(points)}), isolators in the\n"
+        "    order of ISOLATORS:\n\n" + "\n".join(lines) + "\n"
+    )
+    args = model.parameters_of(*points)
+    return print_function(Function("isolator_points", args, doc, Filled((3, len(points)), entries), cse=False))
 
 
 def point_function(model: SymbolicModel) -> Function:

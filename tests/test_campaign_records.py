@@ -1,0 +1,81 @@
+"""A campaign that lists impact records: the records chain runs on them inside `mountid diagnose`, and the
+report echoes its conventions (the description, the shape coordinates, the isolator layout)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mountid.cli import main
+from mountid.diagnosis import campaign
+from mountid.errors import InputError
+from mountid.measurement.records import write_csv
+from mountid.measurement.rig import Hammer, Rig, Sensor
+
+KNOWN = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "b_xy": 337.2, "b_z": 1039.0}
+CORNERS = ((0.4, 0.3, 0.25), (-0.4, -0.3, 0.25))
+
+
+def _eight_channels() -> list[Sensor]:
+    """Two triaxial sensors and two single axes: the channels span the six motions."""
+    axes = dict(zip("xyz", np.eye(3), strict=True))
+    out = [Sensor(f"{c}{i}", p, d, noise=0.01) for i, p in enumerate(CORNERS) for c, d in axes.items()]
+    return [
+        *out,
+        Sensor("z2", (0.4, -0.3, 0.25), (0, 0, 1), noise=0.01),
+        Sensor("y3", (-0.4, 0.3, 0.25), (0, 1, 0), noise=0.01),
+    ]
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    """Two records of the nominal machine (hit at a corner and at the top), and a campaign of records only."""
+    out = tmp_path_factory.mktemp("records")
+    rig = Rig.of("kid300")
+    hits = [Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6)), Hammer((-0.4, 0.3, 0.3), (0.3, -1, -0.5))]
+    for k, hit in enumerate(hits):
+        write_csv(rig.simulate(_eight_channels(), 20.0, 500.0, hammers=[hit], seed=k), out / f"hit{k}.csv")
+    data = {"name": "records only", "machine": "kid300", "known": KNOWN}
+    data["records"] = ["hit0.csv", {"file": "hit1.csv", "start": 0.08}]
+    (out / "campaign.json").write_text(json.dumps(data), encoding="utf-8")
+    return out
+
+
+def test_records_become_modal_data_with_shapes(folder):
+    c = campaign.load(folder / "campaign.json")
+    assert [r.path.name for r in c.records] == ["hit0.csv", "hit1.csv"] and c.records[1].start == 0.08
+    assert set(c.modes) >= {"x", "z", "psi", "phi"}
+    for mode in c.modes.values():
+        assert mode.damping_ratio is not None and mode.shape is not None and mode.shape_std > 0
+    truth = Rig.of("kid300").machine.frequencies(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3})
+    for label, mode in c.modes.items():
+        # measured |p| against the undamped model: within the damping's second-order shift and 5 sigma
+        assert abs(mode.frequency - truth[label]) < 5 * mode.frequency_std + 2e-3 * truth[label], label
+    assert any("from hit" in note for note in c.record_notes)
+
+
+def test_diagnose_runs_the_records_chain_and_echoes_the_conventions(folder, capsys):
+    code = main(["diagnose", str(folder / "campaign.json"), "--json", "--no-figure"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["kind"] == "no significant gap"  # the records are of the nominal machine
+    assert [Path(r).name for r in out["records"]] == ["hit0.csv", "hit1.csv"]
+    conventions = out["conventions"]
+    assert conventions["shape_coordinates"] == ["x", "y", "z", "psi", "theta", "phi"]
+    a = KNOWN["L_xy"] / np.sqrt(2)
+    assert conventions["isolators"]["corner[+x-y]"] == pytest.approx([a, -a, -KNOWN["L_z"]], rel=1e-15)
+    main(["diagnose", str(folder / "campaign.json"), "--no-figure"])
+    text = capsys.readouterr().out
+    assert "isolators at [m]: corner[+x+y] (0.344, 0.344, -0.3)" in text and "record: x:" in text
+
+
+def test_a_missing_record_is_named(folder, capsys):
+    data = {"machine": "kid300", "known": KNOWN, "records": ["nowhere.csv"]}
+    with pytest.raises(InputError, match="no such file"):
+        campaign.parse(data, folder)
+    bad = folder / "bad.json"
+    bad.write_text(json.dumps({**data, "records": [{"start": 0.1}]}), encoding="utf-8")
+    assert main(["diagnose", str(bad), "--no-figure"]) == 2
+    assert "records.0" in capsys.readouterr().err
