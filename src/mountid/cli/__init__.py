@@ -89,10 +89,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
     p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
     p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
+    p.add_argument(
+        "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
+    )
     p.set_defaults(func=cmd_identify_record)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.add_argument(
+        "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
+    )
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(
         "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"

@@ -87,7 +87,9 @@ def triple(text: str, option: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
-def read_record(path: str):
+def read_record(path: str, rate: float | None = None):
     from mountid.measurement.records import read_record as read
 
-    return read(path)
+    if rate is not None:
+        finite_number(rate, "--rate")
+    return read(path, rate)

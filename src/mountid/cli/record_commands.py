@@ -92,7 +92,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import identify_from_record
 
     machine = Machine.resolve(args.machine)
-    record = read_record(args.record)
+    record = read_record(args.record, args.rate)
     use = tuple(args.use) if args.use else None
     result = identify_from_record(machine, record, pairs(args.set, "--set"), start=args.start, use=use)
     if args.figures:
@@ -125,7 +125,9 @@ def cmd_process(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import modal_data
 
     machine = Machine.resolve(args.machine)
-    modes, rest, warnings = modal_data(machine, read_record(args.record), pairs(args.set, "--set"), args.start)
+    modes, rest, warnings = modal_data(
+        machine, read_record(args.record, args.rate), pairs(args.set, "--set"), args.start
+    )
     out = _modal_json(machine, modes, rest, warnings)
     if args.json:
         print_json(out)

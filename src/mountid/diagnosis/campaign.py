@@ -55,6 +55,8 @@ class RecordSource:
 
     path: Path
     start: float = DEFAULT_RECORD_START
+    rate: float | None = None
+    """Sampling rate [Hz] that replaces the file's time column (None: the column)."""
 
 
 @dataclass(frozen=True)
@@ -149,11 +151,11 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
 
 
 def _source(entry: str | dict, base: Path | None) -> RecordSource:
-    file, start = (entry, DEFAULT_RECORD_START) if isinstance(entry, str) else (entry["file"], entry.get("start"))
-    path = Path(file)
+    entry = {"file": entry} if isinstance(entry, str) else entry
+    path = Path(entry["file"])
     if base is not None and not path.is_absolute():
         path = base / path
-    return RecordSource(path, DEFAULT_RECORD_START if start is None else float(start))
+    return RecordSource(path, float(entry.get("start", DEFAULT_RECORD_START)), entry.get("rate"))
 
 
 def _modes_from_records(
@@ -168,7 +170,7 @@ def _modes_from_records(
     best: dict[str, tuple[MeasuredMode, str]] = {}
     notes = []
     for source in sources:
-        found, _, warnings = modal_data(machine, read_record(source.path), known, source.start)
+        found, _, warnings = modal_data(machine, read_record(source.path, source.rate), known, source.start)
         notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
         for label, mode in found.items():
             if label not in best or mode.frequency_std < best[label][0].frequency_std:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.optimize
@@ -25,7 +25,7 @@ from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
 from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
-from mountid.measurement.records import Record
+from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 
 
@@ -295,12 +295,22 @@ def modal_data(
     guess = {**known, **(nominal or {})}
     nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
     top = float(np.max(nominal_omega))
+    full = record.in_si()
+    if not full.responses:
+        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
+    record = full.select(full.responses)
+    _check_length(record, start, float(np.min(nominal_omega)), settings)
     poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+    poles = [_as_acceleration(p, record) for p in poles]
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top, settings=settings)
+    warnings += [w for name in full.forces for w in modal.force_quality(full, name, start, settings)]
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
-        raise InputError("record", "no damped mode found in the free decay (check start, channels and excitation)")
+        raise with_warnings(
+            InputError("record", "no damped mode found in the free decay (check start, channels and excitation)"),
+            warnings,
+        )
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
     modes = {
@@ -316,6 +326,33 @@ def modal_data(
         for label, (p, m) in labelled.items()
     }
     return modes, rest, warnings
+
+
+def _check_length(record: Record, start: float, lowest: float, settings: RecordSettings) -> None:
+    """A named error when the free decay after ``start`` [s] holds fewer than settings.min_periods periods of
+    the lowest mode expected (``lowest`` [rad/s], the model's at the nominal values): the pencil cannot
+    resolve it, and a shorter segment would only fail later with a less useful message."""
+    length = float(record.time[-1]) - max(start, float(record.time[0]))
+    periods = max(length, 0.0) * lowest / (2 * np.pi)
+    if periods < settings.min_periods:
+        need = settings.min_periods * 2 * np.pi / lowest + max(start - float(record.time[0]), 0.0)
+        raise InputError(
+            "record",
+            f"too short: {max(length, 0.0):.3g} s of free decay after the start ({start:g} s) holds {periods:.1f} "
+            f"periods of the lowest mode ({lowest:.4g} rad/s); at least {settings.min_periods:g} are needed: "
+            f"record {need:.2g} s or more",
+        )
+
+
+def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
+    """The pole with its channel amplitudes as accelerations: a velocity amplitude times p, a displacement
+    amplitude times p^2 (p the complex pole), so that channels of different quantities give one shape."""
+    orders = np.array([RESPONSE_ORDER[c.quantity] for c in record.channels])
+    if np.all(orders == 2):
+        return pole
+    w, z = pole.frequency, pole.damping_ratio
+    p = complex(-z * w, w * np.sqrt(max(1 - z * z, 0.0)))
+    return replace(pole, shape=pole.shape * p ** (2 - orders))
 
 
 def coordinate_shape(rows: np.ndarray, channel_shape: np.ndarray) -> tuple[float, ...]:
@@ -340,6 +377,29 @@ def identify_from_record(
     stiffnesses from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the
     paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios."""
     modes, rest, warnings = modal_data(machine, record, known, start, nominal, settings)
+    try:
+        return _identify(machine, known, modes, rest, warnings, use)
+    except InputError as err:
+        raise with_warnings(err, warnings) from None
+
+
+def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> InputError:
+    """The error with the record's quality warnings appended (clipping and the like are reported even when
+    the run stops for another reason: they may be the reason)."""
+    if not warnings:
+        return error
+    found = "; ".join(f"{w.kind} ({w.channel}): {w.message}" for w in warnings)
+    return InputError(error.parameter, f"{error.reason} [the record also shows: {found}]")
+
+
+def _identify(
+    machine: Machine,
+    known: dict[str, float],
+    modes: dict[str, MeasuredMode],
+    rest: list[modal.Pole],
+    warnings: list[modal.QualityWarning],
+    use: tuple[str, ...] | None,
+) -> Identification:
     chosen = modes
     if use is not None:
         missing = [lab for lab in use if lab not in modes]

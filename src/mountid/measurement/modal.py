@@ -9,6 +9,7 @@ check of the damping.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -266,6 +267,97 @@ class QualityWarning:
     message: str
 
 
+def clipped_level(y: NDArray, settings: RecordSettings = RECORDS) -> float | None:
+    """The level a channel was clipped at, or None: settings.clip_samples or more consecutive samples held
+    at the channel's extreme within 4 noise standard deviations (an exact flat top, or one the noise added
+    after the saturation roughens; the noise from the first difference late in the record)."""
+    a = np.abs(np.asarray(y, dtype=float))
+    top = float(a.max())
+    if not top > 0:
+        return None
+    tail = np.diff(y[-max(len(y) // 4, 8) :])
+    noise = float(np.median(np.abs(tail - np.median(tail)))) * 1.4826 / math.sqrt(2)
+    near = a >= top - max(1e-9 * top, 4 * noise)
+    # the longest run of consecutive samples near the extreme, on one side
+    key = np.where(near, np.sign(y), 0.0)
+    bounds = np.concatenate([[0], np.flatnonzero(np.diff(key) != 0) + 1, [len(key)]])
+    lengths, values = np.diff(bounds), key[bounds[:-1]]
+    best = int(lengths[values != 0].max(initial=0))
+    return top if best >= settings.clip_samples else None
+
+
+def impact_bursts(record: Record, settings: RecordSettings = RECORDS) -> NDArray[np.intp]:
+    """Sample indices where the impacts of a record without a force channel begin.
+
+    The first difference of every channel, each in units of its own level late in the record (noise and
+    the slowest modes), as a moving RMS over settings.double_hit_spacing (a pulse's rise and fall are one
+    impact); an impact is a burst above settings.double_hit_height of the first one and 4 times the
+    record's median level, standing out from its surroundings (prominence half its height). Second hits
+    closer than about settings.double_hit_spacing merge with the first: a force channel resolves them."""
+    diff = np.diff(record.data, axis=0)
+    tail = diff[-max(len(diff) // 4, 8) :]
+    level = np.median(np.abs(tail - np.median(tail, axis=0)), axis=0) * 1.4826
+    level = np.where(level > 0, level, np.max(np.abs(diff), axis=0) + 1e-300)
+    energy = np.sum((diff / level) ** 2, axis=1)
+    width = max(1, int(round(settings.double_hit_spacing * record.rate)))
+    rms = np.sqrt(np.convolve(energy, np.ones(width) / width, mode="same"))
+    floor = 4 * float(np.median(rms))
+    first = int(np.argmax(rms > max(0.5 * rms.max(), floor)))  # the first burst's rise
+    top = float(rms[first : first + 2 * width].max())
+    peaks, _ = scipy.signal.find_peaks(
+        rms,
+        height=max(settings.double_hit_height * top, floor),
+        distance=width,
+        prominence=0.5 * max(settings.double_hit_height * top, floor),
+    )
+    # each burst at its rise: the last sample before the peak below half the peak's level (a burst that rises
+    # out of the previous one: its lowest point since that one's peak)
+    onsets, before = [], 0
+    for k in peaks:
+        back = rms[k:before:-1] if before else rms[k::-1]
+        low = np.flatnonzero(back < 0.5 * rms[k])
+        onsets.append(k - int(low[0]) + 1 if len(low) else before + int(np.argmin(rms[before : k + 1])))
+        before = k
+    return np.array(onsets, dtype=np.intp)
+
+
+def force_quality(record: Record, name: str, start: float, settings: RecordSettings = RECORDS) -> list[QualityWarning]:
+    """Checks of a hammer's force channel ``name``: clipping (a flat top), a second hit (a pulse after the
+    first one has ended, above settings.double_hit_height of its peak, however small the response shows it),
+    and a hit inside the analysed free decay (after ``start`` [s])."""
+    f = np.abs(record.channel(name))
+    out = []
+    top = float(f.max())
+    if top <= 0:
+        return [QualityWarning("no_hit", name, "the force channel is zero throughout: no impact recorded")]
+    if np.count_nonzero(np.abs(f - top) <= 1e-9 * top) >= settings.clip_samples:
+        out.append(QualityWarning("clipping", name, f"force held at {top:g} N on several samples: clipped"))
+    above = f > 0.05 * top
+    first = int(np.argmax(above))
+    end = first + int(np.argmin(above[first:])) if not np.all(above[first:]) else len(f)
+    second = float(f[end:].max()) if end < len(f) else 0.0
+    if second > settings.double_hit_height * top:
+        # both hits timed where they pass half their own peak (the same phase of a pulse)
+        onset = int(np.argmax(f > 0.5 * top))
+        k = end + int(np.argmax(f[end:] > 0.5 * second))
+        gap = float(record.time[k] - record.time[onset])
+        size = second / top
+        out.append(
+            QualityWarning(
+                "double_hit", name, f"a second hit {gap * 1e3:.1f} ms after the first ({size:.0%} of its peak)"
+            )
+        )
+    if record.time[end - 1] >= start:
+        out.append(
+            QualityWarning(
+                "impact_in_segment",
+                name,
+                f"the hit lasts until t = {record.time[end - 1]:.3f} s, inside the analysed segment (from {start:g} s)",
+            )
+        )
+    return out
+
+
 def hammer_test_quality(
     record: Record,
     lowest_frequency: float,
@@ -288,11 +380,13 @@ def hammer_test_quality(
       burst-based checks above are then not made: the modes' own oscillation fills the first difference).
     """
     out = []
+    clipped = []
     for j, c in enumerate(record.channels):
-        y = record.data[:, j]
-        top = np.max(np.abs(y))
-        if top > 0 and np.count_nonzero(np.abs(np.abs(y) - top) <= 1e-9 * top) >= settings.clip_samples:
-            out.append(QualityWarning("clipping", c.name, f"held at {top:g} {c.unit} on several samples: clipped"))
+        level = clipped_level(record.data[:, j], settings)
+        if level is not None:
+            clipped.append(c.name)
+            out.append(QualityWarning("clipping", c.name, f"held at {level:.4g} {c.unit} on several samples: clipped"))
+    unclipped = [n for n in record.names if n not in clipped]
     low_rate = highest_frequency is not None and record.rate < settings.low_rate_factor * highest_frequency / (
         2 * np.pi
     )
@@ -306,14 +400,10 @@ def hammer_test_quality(
             )
         )
     else:
-        # the impact bursts (energy of the first difference) stand out only where the modes are well sampled
-        burst = np.sum(np.diff(record.data, axis=0) ** 2, axis=1)
-        smooth = np.convolve(burst, np.ones(5) / 5, mode="same")
-        peaks, _ = scipy.signal.find_peaks(
-            smooth,
-            height=settings.double_hit_height * smooth.max(),
-            distance=max(1, int(settings.double_hit_spacing * record.rate)),
-        )
+        # the impact bursts (the first difference, which the slow modes barely carry) stand out only where the
+        # modes are well sampled
+        # a clipped channel's flat tops are bursts of their own: the impacts are sought on the others
+        peaks = impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
         if len(peaks) and record.time[peaks[0]] >= start - settings.double_hit_spacing:
             out.append(
                 QualityWarning(

@@ -26,14 +26,15 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
-from mountid.measurement.records import Channel, Record
+from mountid.measurement.records import UNITS, Channel, Record
 
 
 @dataclass(frozen=True)
 class Sensor:
-    """An accelerometer channel: body point [m] (from the coordinate origin), measuring direction, and
-    its imperfections: white noise std [m/s^2] relative to the channel's clean RMS, constant bias [m/s^2],
-    clipping level [m/s^2] (None: no clipping)."""
+    """A response channel: body point [m] (from the coordinate origin), measuring direction, what it
+    measures (``quantity`` acceleration, velocity or displacement, recorded in ``unit``, one of
+    records.UNITS), and its imperfections in that unit: white noise std relative to the channel's clean RMS,
+    constant bias, clipping level (None: no clipping)."""
 
     name: str
     point: tuple[float, float, float]
@@ -41,6 +42,8 @@ class Sensor:
     noise: float = 0.0
     bias: float = 0.0
     clip: float | None = None
+    quantity: str = "acceleration"
+    unit: str = "m/s^2"
 
 
 @dataclass(frozen=True)
@@ -190,8 +193,11 @@ class Rig:
         oversample: int = 8,
         anti_alias: bool = True,
         seed: int | None = 0,
+        force_channel: str | None = None,
     ) -> Record:
-        """A record of the sensors' accelerations [m/s^2] sampled at ``rate`` [Hz] for ``duration`` [s].
+        """A record of the sensors (each in its quantity and unit) sampled at ``rate`` [Hz] for ``duration``
+        [s]; with ``force_channel`` a last channel of that name records the hammers' force [N] (the
+        excitation, through the same anti-alias filter, without noise).
 
         The response is computed at ``oversample`` x the rate (so that a hammer pulse of a few ms is well
         resolved), passed through an 8th-order Butterworth anti-alias filter at 0.4 x rate (the analog
@@ -209,9 +215,12 @@ class Rig:
             force += np.outer(hammer.force(t), self.force_column(hammer.point, hammer.direction, "hammer"))
         for unbalance in unbalances:
             force += self.unbalance_force(unbalance, t)
-        _, _, qdd = self.respond(t, force)
+        motion = dict(zip(("displacement", "velocity", "acceleration"), self.respond(t, force), strict=True))
         rows = np.array([self.sensor_row(s.point, s.direction, s.name) for s in sensors])
-        clean = qdd @ rows.T  # (len(t), n_sensors)
+        per_unit = np.array([UNITS[s.quantity][s.unit] for s in sensors])
+        clean = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)]) / per_unit
+        if force_channel is not None:
+            clean = np.column_stack([clean, sum((h.force(t) for h in hammers), np.zeros_like(t))])
         if anti_alias and oversample > 1:
             sos = scipy.signal.butter(8, 0.4 * rate, fs=fine_rate, output="sos")
             clean = scipy.signal.sosfilt(sos, clean, axis=0)
@@ -226,6 +235,15 @@ class Rig:
                 y = np.clip(y, -s.clip, s.clip)
             data[:, j] = y
             channels.append(
-                Channel(s.name, tuple(map(float, s.point)), tuple(map(float, unit_vector(s.direction, s.name))))
+                Channel(
+                    s.name,
+                    tuple(map(float, s.point)),
+                    tuple(map(float, unit_vector(s.direction, s.name))),
+                    s.quantity,
+                    s.unit,
+                )
             )
+        if force_channel is not None:
+            data[:, -1] = clean[:, -1]
+            channels.append(Channel(force_channel, quantity="force", unit="N"))
         return Record(np.arange(n_out) / rate, data, tuple(channels))

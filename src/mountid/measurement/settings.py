@@ -11,6 +11,10 @@ class RecordSettings:
 
     sampling_rtol: float = 1e-6
     """A time step differing from the median step by more than this (relative) is non-uniform sampling."""
+    rounding: float = 0.01
+    """Sample times within this share of a step of a uniform grid are that grid written with the
+    instrument's resolution (read as the grid); beyond it, the time column has jitter, a dropped sample or
+    a gap (records.uniform_time)."""
     decay_bandwidth: float = 0.2
     """Relative half-width of the band-pass around the mode in the decay-envelope fit."""
     low_rate_factor: float = 5.0
@@ -19,10 +23,11 @@ class RecordSettings:
     kid300 record the torsion pole came out labelled as the vertical mode)."""
     clip_samples: int = 3
     """A channel's extreme value held on this many samples or more is clipping (a flat top)."""
-    double_hit_height: float = 0.2
-    """A second impact burst above this fraction of the first is a double hit."""
-    double_hit_spacing: float = 0.005
-    """Impact bursts closer than this [s] are one impact."""
+    double_hit_height: float = 0.1
+    """A second impact above this fraction of the first (in amplitude: the force's peak, or the burst's RMS
+    level without a force channel) is a double hit."""
+    double_hit_spacing: float = 0.015
+    """Impact bursts closer than this [s] are one impact (a hammer pulse's rise and fall, 1-10 ms apart)."""
     min_periods: float = 5.0
     """A record holding fewer periods of the lowest mode after the start is too short for the pencil."""
 

@@ -16,9 +16,13 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError
-from mountid.measurement.records import Channel, Record
+from mountid.measurement.records import UNITS, Channel, Record
 
 _TAG = "mountid point="
+
+
+_ORDINATE_TYPES = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force"}
+"""UFF 58 ordinate specific data types mountid reads (the others are read as acceleration)."""
 
 
 def _axis(direction: tuple[float, float, float]) -> int:
@@ -58,7 +62,7 @@ def write_uff(record: Record, path: str | Path) -> None:
                 abscissa_min=float(record.time[0]),
                 abscissa_inc=dt,
                 abscissa_spec_data_type=17,  # time
-                ordinate_spec_data_type=12 if c.quantity == "acceleration" else 0,  # 12: acceleration
+                ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}.get(c.quantity, 0),
                 ver_num=0,
                 load_case_id=0,
                 rsp_ent_name=c.name[:10],
@@ -115,10 +119,12 @@ def read_uff(path: str | Path) -> Record:
                 point, direction = _triple(p_text), _triple(d_text)
             except ValueError as err:
                 raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
-        quantity, unit = "acceleration", "m/s^2"
         label = str(s.get("id5", "")).strip()
         if label.endswith("]") and " [" in label:
             quantity, unit = label[:-1].split(" [", 1)
+        else:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
+            quantity = _ORDINATE_TYPES.get(int(s.get("ordinate_spec_data_type", 12) or 12), "acceleration")
+            unit = str(s.get("ordinate_axis_units_lab", "")).strip() or next(iter(UNITS[quantity]))
         columns.append(np.real(np.asarray(s["data"])).astype(float))
         channels.append(Channel(name, point, direction, quantity, unit))
     return Record(time, np.column_stack(columns), tuple(channels))
