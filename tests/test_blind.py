@@ -1,8 +1,11 @@
 """The blind validation harness, small: one case per effect and one without, the benchmark's targets.
 
-``make bench`` runs the same over 200 cases (benchmarks/diagnosis.py)."""
+``make bench`` runs the same over 96 cases per campaign kind (benchmarks/diagnosis.py)."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,3 +131,20 @@ def test_a_foundation_truth_built_apart_from_the_engine_is_diagnosed():
     data, truth = blind.make_case(18, "foundation")
     report = diagnose_effects(campaign.parse(data))
     assert report.significant and "foundation" in report.tie
+
+
+@pytest.mark.parametrize(
+    ("example", "kind", "seed", "truth"),
+    [
+        ("kid300-blind-tie.json", "tie", 28, "support_frame"),
+        ("kid300-blind-not-explained.json", "not explained", 14, "isolator_scatter+cog_height"),
+    ],
+)
+def test_the_readme_worked_examples_give_their_verdict_kinds(example, kind, seed, truth):
+    """The README's examples of a tie and of 'not explained': blind cases as make_case writes them."""
+    path = Path(__file__).resolve().parents[1] / "examples" / example
+    data = json.loads(path.read_text(encoding="utf-8"))
+    made, _ = blind.make_case(seed, truth)
+    assert data["modes"] == made["modes"] and data["known"] == made["known"]
+    report = diagnose_effects(campaign.parse(data))
+    assert report.kind == kind and not report.confident

@@ -89,6 +89,27 @@ def test_isolator_stiffness_sums_to_the_stiffness_matrix(machine):
     assert np.allclose(per.sum(axis=0), total, rtol=1e-13, atol=1e-9 * np.max(np.abs(total)))
 
 
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolator_points_are_the_descriptions_at_high_precision(machine):
+    """isolator_points() against each isolator's position (the description's mirrored points) at 30 digits,
+    and against the stiffness they carry: the isolator's stiffness matrix is J(r)^T K J(r) at that point."""
+    mod = generated(machine)
+    model = SymbolicModel(load(ROOT / "derivations" / f"{machine}.toml"))
+    values = _values(mod)
+    points = call(mod, "isolator_points", values)
+    assert points.shape == (3, len(mod.ISOLATORS))
+    subs = {s: values[n] for n, s in model.symbols.items()}
+    with mpmath.workdps(30):
+        for k, iso in enumerate(model.isolators):
+            exact = np.array([float(v.evalf(30, subs=subs)) for v in iso.position])
+            assert np.allclose(points[:, k], exact, rtol=1e-14, atol=1e-15)
+    per = call(mod, "isolator_stiffness", values)
+    for k, iso in enumerate(model.isolators):
+        tensor = np.array(iso.stiffness.evalf(subs=subs).tolist(), dtype=float)
+        j = _jac(points[:, k])
+        assert np.allclose(j.T @ tensor @ j, per[k], rtol=1e-12, atol=1e-9 * np.abs(per[k]).max())
+
+
 def test_kid300_effects_match_an_independent_numpy_assembly():
     """Built from u = t + w x r in numpy (the blind harness's truth code), not from the engine."""
     mod = generated("kid300")
