@@ -16,6 +16,8 @@ from mountid import runtime as _runtime
 
 DESCRIPTION = "genset8"
 TITLE = "Generator set on eight mounts in two groups (chevron inner group, upright outer group)"
+ROOT_RULE = ""
+"""Physical rule that picks between solutions fitting the measured frequencies equally ("" for none)."""
 SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {

@@ -16,6 +16,8 @@ from mountid import runtime as _runtime
 
 DESCRIPTION = "kid300"
 TITLE = "Cone inertial crusher KID-300 on four isolators (reference paper)"
+ROOT_RULE = "c_z\u003ec_xy"
+"""Physical rule that picks between solutions fitting the measured frequencies equally ("" for none)."""
 SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {

@@ -16,6 +16,8 @@ from mountid import runtime as _runtime
 
 DESCRIPTION = "rectangular"
 TITLE = "Rectangular machine on four corner isolators (J_x != J_y, c_x != c_y)"
+ROOT_RULE = ""
+"""Physical rule that picks between solutions fitting the measured frequencies equally ("" for none)."""
 SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {

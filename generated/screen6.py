@@ -16,6 +16,8 @@ from mountid import runtime as _runtime
 
 DESCRIPTION = "screen6"
 TITLE = "Vibrating screen on six isolators in two groups (four inclined corners, two on a symmetry plane)"
+ROOT_RULE = ""
+"""Physical rule that picks between solutions fitting the measured frequencies equally ("" for none)."""
 SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {

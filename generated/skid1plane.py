@@ -16,6 +16,8 @@ from mountid import runtime as _runtime
 
 DESCRIPTION = "skid1plane"
 TITLE = "Compressor skid on four isolators, centre of mass off the yz plane (one plane of symmetry)"
+ROOT_RULE = ""
+"""Physical rule that picks between solutions fitting the measured frequencies equally ("" for none)."""
 SYMPY_VERSION = "1.14.0"
 COORDINATES = ("x", "y", "z", "psi", "theta", "phi")
 PARAMETERS = {

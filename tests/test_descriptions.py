@@ -93,3 +93,12 @@ def test_sixteen_mounts_in_four_groups_with_six_unknowns():
         found = np.array([roots.parameters[u][roots.admissible] for u in mod.UNKNOWN])
         truth = np.array([values[u] for u in mod.UNKNOWN])
         assert np.min(np.max(np.abs(found / truth[:, None] - 1), axis=0)) <= 1e-9
+
+
+def test_a_root_rule_names_two_unknowns():
+    data = tomllib.loads((Path(__file__).resolve().parents[1] / "derivations" / "kid300.toml").read_text())
+    assert parse(data).root == "c_z>c_xy"
+    assert parse({**data, "root": "c_xy < c_z"}).root == "c_xy<c_z"
+    for bad in ("c_z>m", "c_z=c_xy", "c_z>c_z", 3):
+        with pytest.raises(DescriptionError, match="root: must be a rule A>B or A<B on two unknowns"):
+            parse({**data, "root": bad})

@@ -90,6 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
     p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
     p.add_argument(
+        "--root", metavar="RULE", help="pick between equally good solutions no measured mode decides, e.g. c_z>c_xy"
+    )
+    p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
     p.set_defaults(func=cmd_identify_record)

@@ -85,6 +85,7 @@ def _identification_json(machine: Machine, result) -> dict:
         "damping": result.damping,
         "damping_std": result.damping_std,
         "frequencies": result.frequencies,
+        "notes": result.notes,
     }
 
 
@@ -94,7 +95,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     record = read_record(args.record, args.rate)
     use = tuple(args.use) if args.use else None
-    result = identify_from_record(machine, record, pairs(args.set, "--set"), start=args.start, use=use)
+    result = identify_from_record(machine, record, pairs(args.set, "--set"), start=args.start, use=use, root=args.root)
     if args.figures:
         from mountid.report import figures
 
@@ -110,6 +111,8 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     print(f"{machine.name}: {len(result.modes)} modes from {args.record}")
     for w in result.warnings:
         print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for note in result.notes:
+        print(f"  note: {note}")
     for k, m in result.modes.items():
         print(
             f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"

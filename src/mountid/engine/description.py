@@ -81,6 +81,9 @@ class Description:
     isolators: tuple[IsolatorGroup, ...]
     modes: tuple[ModeSpec, ...] | None
     source: str = field(default="", compare=False)
+    root: str = ""
+    """Physical rule that picks between solutions fitting the measured frequencies equally, "A>B" or "A<B"
+    on two unknowns (e.g. "c_z>c_xy": rubber stiffer in compression than in shear); "" for none."""
 
     @property
     def known(self) -> tuple[str, ...]:
@@ -168,7 +171,7 @@ def parse(data: dict, source: str = "") -> Description:
     """Check the structure of a description read from TOML and return it."""
     if not isinstance(data, dict):
         raise _fail("description", "expected a TOML table")
-    extra = set(data) - {"name", "title", "symmetry", "parameters", "body", "isolators", "modes"}
+    extra = set(data) - {"name", "title", "symmetry", "parameters", "body", "isolators", "modes", "root"}
     if extra:
         raise _fail("description", f"unknown top-level entries {sorted(extra)}")
     name = data.get("name")
@@ -230,7 +233,21 @@ def parse(data: dict, source: str = "") -> Description:
         isolators=tuple(groups),
         modes=_modes(data.get("modes")),
         source=source,
+        root=_root(data.get("root", ""), parameters),
     )
+
+
+def _root(rule: object, parameters: dict[str, Parameter]) -> str:
+    """A root rule "A>B" or "A<B" on two unknowns, checked (see Description.root)."""
+    if rule == "":
+        return ""
+    unknown = [n for n, p in parameters.items() if p.role == "unknown"]
+    if isinstance(rule, str):
+        for op in (">", "<"):
+            left, sep, right = (part.strip() for part in rule.partition(op))
+            if sep and left in unknown and right in unknown and left != right:
+                return f"{left}{op}{right}"
+    raise _fail("root", f"must be a rule A>B or A<B on two unknowns ({', '.join(unknown)}), got {rule!r}")
 
 
 def load(path: str | Path) -> Description:

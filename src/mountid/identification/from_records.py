@@ -42,6 +42,8 @@ class Identification:
     """Every mode's natural frequency [rad/s] with the identified parameters."""
     unlabelled: list[modal.Pole] = field(default_factory=list)
     warnings: list[modal.QualityWarning] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    """How the identification decided what the data leave open (a root chosen by a rule)."""
 
 
 def channel_rows(machine: Machine, record: Record) -> np.ndarray:
@@ -52,6 +54,59 @@ def channel_rows(machine: Machine, record: Record) -> np.ndarray:
             raise InputError(c.name, "channel has no point and direction: needed to label modes")
         rows.append(sensor_row(machine.module, c.point, c.direction, c.name))
     return np.array(rows)
+
+
+SENSOR_RATIO = 4.0
+"""A channel is named as not moving with the rigid body when the other channels' rigid-body fit without it
+leaves a residual variance per redundant equation at most 1/SENSOR_RATIO of the fit with it, and removing any
+other single channel leaves at least SENSOR_RATIO times that (the culprit is the one whose removal makes the
+rest consistent)."""
+
+
+def inconsistent_channel(machine: Machine, record: Record, start: float = 0.0) -> modal.QualityWarning | None:
+    """The one channel that does not move with the rigid body (turned, misplaced or mislabelled), or None.
+
+    Needs 8 or more response channels whose rows span the six motions without any one of them: each channel
+    is left out in turn and the others fitted as a rigid body over the free decay from ``start`` [s]; the
+    residual variance per redundant equation tells which removal makes the rest consistent. A plain
+    leave-one-out residual of each channel blames honest channels too (the turned one pulls the fit of the
+    others); with 7 channels a misfit is seen but cannot be placed, and is reported as such."""
+    rows = channel_rows(machine, record)
+    c = len(rows)
+    if c < 7 or np.linalg.matrix_rank(rows) < 6:
+        return None
+    data = record.data[record.time >= start].T  # (channels, samples)
+
+    def variance(keep: np.ndarray) -> float:
+        fit = np.linalg.lstsq(rows[keep], data[keep], rcond=None)[0]
+        dof = keep.sum() - 6
+        return float(np.sum((data[keep] - rows[keep] @ fit) ** 2) / (dof * data.shape[1])) if dof > 0 else math.nan
+
+    full = variance(np.ones(c, dtype=bool))
+    if c == 7:
+        return None  # one redundant equation: every channel's standardised residual is the same
+    without = []
+    for j in range(c):
+        keep = np.arange(c) != j
+        without.append(variance(keep) if np.linalg.matrix_rank(rows[keep]) == 6 else math.nan)
+    v = np.array(without)
+    if not np.any(np.isfinite(v)):
+        return None
+    best = float(np.nanmin(v))
+    if not full >= SENSOR_RATIO * best:
+        return None
+    # every channel whose removal makes the rest about as consistent is a suspect: a layout whose redundant
+    # equations do not separate them cannot tell which of them is wrong
+    suspects = [record.channels[j].name for j in range(c) if np.isfinite(v[j]) and v[j] * SENSOR_RATIO < full]
+    who = suspects[0] if len(suspects) == 1 else ", ".join(suspects[:-1]) + " or " + suspects[-1]
+    what = "does" if len(suspects) == 1 else "one of these does"
+    return modal.QualityWarning(
+        "sensor",
+        who,
+        f"{what} not move with the rigid body the other channels agree on (their misfit falls "
+        f"{math.sqrt(full / best):.1f}x without it): check its direction, position and label"
+        + ("" if len(suspects) == 1 else "; the layout cannot tell which (add a channel that separates them)"),
+    )
 
 
 def generalised_accelerations(machine: Machine, record: Record) -> tuple[np.ndarray, dict[str, float]]:
@@ -136,6 +191,16 @@ def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
     return np.where(poles != 0, np.abs(poles), undamped)
 
 
+def root_rule(rule: str, unknown: tuple[str, ...]):
+    """The predicate of a root rule "A>B" or "A<B" on two unknowns (see fit_stiffness)."""
+    for op in (">", "<"):
+        left, sep, right = (part.strip() for part in rule.partition(op))
+        if sep and left in unknown and right in unknown and left != right:
+            big, small = (left, right) if op == ">" else (right, left)
+            return lambda v, big=big, small=small: v[big] > v[small]
+    raise InputError("root", f"{rule!r} is not a rule A>B or A<B on two unknowns ({', '.join(unknown)})")
+
+
 def pole_frequency_derivatives(machine: Machine, values: dict[str, float], names: tuple[str, ...]) -> np.ndarray:
     """d omega_n / dq [rad/s per unit of q] of :func:`pole_frequencies` for the parameters ``names``, shape
     (n_names, n_modes): d|p| = Re(conj(p) dp) / |p| with dp from the generated matrix derivatives
@@ -160,8 +225,15 @@ def fit_stiffness(
     measured: dict[str, tuple[float, float]],
     others: dict[str, tuple[float, float]] | None = None,
     damping: dict[str, float] | None = None,
+    root: str | None = None,
+    notes: list[str] | None = None,
+    rule_source: str = "",
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
+
+    ``root``: the rule that picks one of several solutions that fit equally when no other measured mode
+    decides, "A>B" or "A<B" for two unknowns A, B (e.g. "c_z>c_xy": rubber is stiffer in compression than in
+    shear); why the solution was chosen is appended to ``notes`` (naming the rule as ``rule_source``).
 
     Starting points: every admissible root of every generated inverse over a subset of the measured
     labels. The fit minimises sum ((omega_model - omega)/std)^2 in log-parameters; the returned standard
@@ -225,11 +297,26 @@ def fit_stiffness(
             tied.append(f)
     best = tied[0]
     if len(tied) > 1:
-        if not others:
-            choices = "; ".join(
-                ", ".join(f"{u} = {v:.6g}" for u, v in zip(unknown, np.exp(f.x), strict=True)) for f in tied
+        choices = "; ".join(
+            ", ".join(f"{u} = {v:.6g}" for u, v in zip(unknown, np.exp(f.x), strict=True)) for f in tied
+        )
+        if not others and root is None:
+            raise InputError(
+                "measured",
+                f"{len(tied)} solutions fit equally ({choices}): measure another mode, or choose by a physical "
+                "rule (--root, e.g. c_z>c_xy)",
             )
-            raise InputError("measured", f"{len(tied)} solutions fit equally ({choices}): measure another mode")
+        if not others:
+            keep = root_rule(root, unknown)
+            chosen = [f for f in tied if keep(dict(zip(unknown, np.exp(f.x), strict=True)))]
+            if len(chosen) != 1:
+                raise InputError("root", f"{root} holds for {len(chosen)} of the {len(tied)} solutions ({choices})")
+            if notes is not None:
+                notes.append(
+                    f"{len(tied)} solutions fit the measured frequencies equally ({choices}) and no other "
+                    f"measured mode decides: chosen by {rule_source or 'the rule ' + root}"
+                )
+            tied = chosen
         o_idx = [mod.MODES.index(lab) for lab in others]
         o_w = np.array([w for w, _ in others.values()])
 
@@ -305,6 +392,9 @@ def modal_data(
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top, settings=settings)
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, start, settings)]
+    if len(record.channels) >= 8 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
+        sensor = inconsistent_channel(machine, record, start)
+        warnings += [sensor] if sensor is not None else []
     labelled, rest = label_poles(machine, record, poles, guess)
     if not labelled:
         raise with_warnings(
@@ -372,13 +462,15 @@ def identify_from_record(
     nominal: dict[str, float] | None = None,
     use: tuple[str, ...] | None = None,
     settings: RecordSettings = RECORDS,
+    root: str | None = None,
 ) -> Identification:
     """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes (modal_data) -> unknown
     stiffnesses from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the
-    paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios."""
+    paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios. ``root``:
+    the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
     modes, rest, warnings = modal_data(machine, record, known, start, nominal, settings)
     try:
-        return _identify(machine, known, modes, rest, warnings, use)
+        return _identify(machine, known, modes, rest, warnings, use, root)
     except InputError as err:
         raise with_warnings(err, warnings) from None
 
@@ -399,6 +491,7 @@ def _identify(
     rest: list[modal.Pole],
     warnings: list[modal.QualityWarning],
     use: tuple[str, ...] | None,
+    root: str | None,
 ) -> Identification:
     chosen = modes
     if use is not None:
@@ -411,9 +504,15 @@ def _identify(
     damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
     # the record shows damped poles: undamped fit first, then damping, then the stiffness refitted to the
     # damped model's |p| (the shift is second order in damping: one more round changes nothing measurable)
-    params, stds = fit_stiffness(machine, known, fitted, others)
+    notes: list[str] = []
+    if root is None and getattr(machine.module, "ROOT_RULE", ""):
+        root = machine.module.ROOT_RULE  # the description's physical rule, unless the caller gave one
+        source = f"the rule of the description {machine.name} ({root})"
+    else:
+        source = f"the rule {root}"
+    params, stds = fit_stiffness(machine, known, fitted, others, root=root, notes=notes, rule_source=source)
     damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
-    params, stds = fit_stiffness(machine, known, fitted, others, damping)
+    params, stds = fit_stiffness(machine, known, fitted, others, damping, root=root)
     damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
     freqs = machine.frequencies({**known, **params})
-    return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings)
+    return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings, notes)
