@@ -96,6 +96,13 @@ def stable_tolerance(pole: complex) -> float:
     return max(0.01, 0.25 * float(-pole.real / abs(pole)))
 
 
+def _same_damping(p: complex, p0: complex) -> bool:
+    """Whether two estimates of a pole agree in damping ratio (within 0.01, or 30 % of the reference's where
+    that is more): a noise pole of zeta 0.39 near a mode of zeta 0.05 is not that mode."""
+    z, z0 = -p.real / abs(p), -p0.real / abs(p0)
+    return abs(z - z0) <= max(0.01, 0.3 * z0)
+
+
 def free_decay_poles(
     record: Record,
     start: float,
@@ -109,7 +116,8 @@ def free_decay_poles(
 
     The pencil is solved with 2 n_modes + extra poles (the extra ones take up noise) for each entry of
     ``extra_orders`` and for two pencil sizes; a pole is kept when it recurs in every run (within
-    stable_tolerance in frequency: 1 %, more for heavily damped poles; poles that carry less than 1e-3 of
+    stable_tolerance in frequency: 1 %, more for heavily damped poles, and with the same damping ratio; poles
+    that carry less than 1e-3 of
     the strongest pole's amplitude are dropped as noise).
     The kept poles, averaged over the runs, start a joint least-squares refinement of all of them on all
     channels (refine_poles), which also gives their standard deviations.
@@ -137,7 +145,7 @@ def free_decay_poles(
             if not len(run):
                 break
             k = int(np.argmin(np.abs(np.abs(run) - np.abs(p0))))
-            if abs(abs(run[k]) - abs(p0)) > stable_tolerance(p0) * abs(p0):
+            if abs(abs(run[k]) - abs(p0)) > stable_tolerance(p0) * abs(p0) or not _same_damping(run[k], p0):
                 break
             matches.append(run[k])
         if len(matches) != len(runs):
