@@ -168,3 +168,37 @@ def test_laplace_evidence_matches_the_integral_over_a_uniform_prior():
     free = np.hstack([jac, np.zeros((3, 1))])
     cost = log_evidence(free, chi2_min, np.array([40.0, 60.0, 100.0])) - log_evidence(jac, chi2_min, widths)
     assert cost == pytest.approx(0.5 * math.log(2 * math.pi / 12), rel=1e-9)
+
+
+def test_damping_ratios_enter_the_fit_and_find_a_damping_scale():
+    """Six frequencies and their damping ratios from the model with B doubled: the damping ratios enter the
+    fit (six more data) and the nominal model's gap is in them."""
+    machine = Machine.resolve("kid300")
+    nominal = machine.frequencies({**KNOWN, **UNKNOWN})
+    stub = parse({"machine": "kid300", "known": KNOWN, "modes": {k: {"frequency": w} for k, w in nominal.items()}})
+    model = CandidateModel(stub, EFFECTS["damping"])
+    theta = model.vector({**UNKNOWN, "damping_scale": 2.0})
+    e = model.evaluate(theta, machine.modes)
+    zeta = model.strategy.damping_ratios(model, e.values, e.mats, e.lam)[e.index]
+    modes = {
+        label: {
+            "frequency": float(w),
+            "uncertainty": SIGMA_REL * float(w),
+            "damping_ratio": float(z),
+            "damping_uncertainty": 0.02 * float(z),
+        }
+        for label, w, z in zip(machine.modes, model.predict(theta, machine.modes).frequencies, zeta, strict=True)
+    }
+    data = {"machine": "kid300", "known": KNOWN, "modes": modes}
+    campaign = parse(data)
+    fit = fit_candidate(campaign, EFFECTS["damping"])
+    assert fit.n_data == 12 and fit.chi2 < 1e-3
+    assert fit.parameters["damping_scale"] == pytest.approx(2.0, rel=1e-4)
+    nominal_fit = fit_candidate(campaign, None)
+    assert nominal_fit.chi2 > 1e3  # the damping ratios are twice the model's: 50 sigma each
+    # the damping ratios sharpen the scale the frequencies (zeta^2 / 2 shifts at 3e-4) hold already
+    frequencies_only = parse(
+        {**data, "modes": {k: {f: m[f] for f in ("frequency", "uncertainty")} for k, m in modes.items()}}
+    )
+    loose = fit_candidate(frequencies_only, EFFECTS["damping"])
+    assert loose.std["damping_scale"] > 1.5 * fit.std["damping_scale"]

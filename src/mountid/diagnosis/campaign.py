@@ -43,6 +43,8 @@ DEFAULT_FREQUENCY_STD = 1e-3
 """Relative standard deviation taken for a frequency given without uncertainty."""
 DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
+DEFAULT_DAMPING_STD = 0.05
+"""Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
 
 
 DEFAULT_RECORD_START = 0.07
@@ -75,11 +77,24 @@ class Campaign:
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the
-        coordinates of the mode shapes and their reference point, the isolator layout [m] at the known values."""
+        coordinates of the mode shapes and their reference point, the isolator layout [m] at the known values,
+        and where damping ratios are measured, the damping parameters the model's ratios are computed with
+        (from the campaign's known values or the description's nominal ones)."""
         mod = self.machine.module
         values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
         points = np.asarray(call(mod, "isolator_points", values))
+        damping = {n: p for n, p in self.machine.parameters.items() if p["kind"] == "damping"}
+        measured = any(m.damping_ratio is not None for m in self.modes.values())
         return {
+            "damping_parameters": {
+                n: {
+                    "value": self.machine.values(self.known, (n,))[n],
+                    "from": "known" if n in self.known else "description",
+                }
+                for n in damping
+            }
+            if measured
+            else {},
             "description": f"{self.machine.name}: {mod.TITLE}",
             "shape_coordinates": list(mod.COORDINATES),
             "shape_reference": "translations of the description's coordinate origin [m], rotations about its "
@@ -121,6 +136,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             float(std) if std is not None else DEFAULT_FREQUENCY_STD * frequency,
             frequency_std_stated=std is not None,
             damping_ratio=entry.get("damping_ratio"),
+            damping_std=entry.get("damping_uncertainty"),
             shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
             shape_std=float(entry.get("shape_uncertainty") or DEFAULT_SHAPE_STD),
         )

@@ -34,6 +34,8 @@ class Prediction:
     frequencies: np.ndarray
     shapes: list[np.ndarray]
     clusters: list[tuple[np.ndarray, float] | None]
+    damping: np.ndarray | None = None
+    """Damping ratio of each mode (None when the campaign measures none)."""
 
 
 class CandidateModel:
@@ -50,6 +52,8 @@ class CandidateModel:
         machine = campaign.machine
         self.mod = mod = machine.module
         self.labels = tuple(campaign.modes)
+        self.damped = any(m.damping_ratio is not None for m in campaign.modes.values())
+        """Whether the campaign measures damping ratios (the model's are then computed)."""
         self.unknown = machine.unknown
         everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in machine.unknown))
         self.known = everything
@@ -194,7 +198,8 @@ class CandidateModel:
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
-        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)))
+        zeta = self.strategy.damping_ratios(self, values, mats, lam) if self.damped else None
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), zeta)
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
@@ -213,7 +218,7 @@ class CandidateModel:
             near = np.flatnonzero(partners[k])
             # the weakest partner sets how far the mix is allowed
             clusters[k] = (spans[key], 1.0 if exact_twins(lam, j, near) else float(np.min(weight[k, near])))
-        return Prediction(e.omega[index], shapes, clusters)
+        return Prediction(e.omega[index], shapes, clusters, None if e.zeta is None else e.zeta[index])
 
 
 PARTNER_WEIGHT = 1e-3
@@ -243,6 +248,8 @@ class Evaluation:
     index: np.ndarray
     gap: np.ndarray
     weight: np.ndarray
+    zeta: np.ndarray | None = None
+    """Damping ratio of every mode (None unless the campaign measures damping ratios)."""
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:

@@ -11,7 +11,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
-from mountid.diagnosis.campaign import Campaign
+from mountid.diagnosis.campaign import DEFAULT_DAMPING_STD, Campaign
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect
@@ -107,8 +107,25 @@ class Data:
             for lab in self.shape_labels
         ]
         self.shape_sigma = [campaign.modes[lab].shape_std for lab in self.shape_labels]
-        self.n = len(self.labels) + 5 * len(self.shape_labels)
-        """Data count: one per frequency, five per shape (six components less the free scale)."""
+        self.damping_labels = tuple(
+            lab for lab, m in zip(self.labels, modes, strict=True) if m.damping_ratio is not None
+        )
+        self.zeta = np.array([campaign.modes[lab].damping_ratio for lab in self.damping_labels], dtype=float)
+        self.zeta_sigma = np.array(
+            [
+                campaign.modes[lab].damping_std or DEFAULT_DAMPING_STD * campaign.modes[lab].damping_ratio
+                for lab in self.damping_labels
+            ],
+            dtype=float,
+        )
+        self.n = len(self.labels) + 5 * len(self.shape_labels) + len(self.damping_labels)
+        """Data count: one per frequency, five per shape (six components less the free scale), one per damping
+        ratio."""
+
+    @property
+    def n_rows(self) -> int:
+        """Residual rows: one per frequency, six per shape, one per damping ratio (the prior rows follow)."""
+        return len(self.labels) + 6 * len(self.shape_labels) + len(self.damping_labels)
 
     def residuals(self, pred: Prediction) -> np.ndarray:
         rows = [(self.omega - pred.frequencies) / self.sigma]
@@ -120,6 +137,9 @@ class Data:
                 basis, w = cluster
                 own = w * off_span(s, basis) + (1 - w) * own
             rows.append(own / sig)
+        if self.damping_labels:
+            zeta = pred.damping[[self.labels.index(lab) for lab in self.damping_labels]]
+            rows.append((self.zeta - zeta) / self.zeta_sigma)
         return np.concatenate(rows)
 
     def rows_of(self, label: str) -> np.ndarray:
@@ -129,6 +149,8 @@ class Data:
             k = self.shape_labels.index(label)
             first = len(self.labels) + 6 * k
             idx += list(range(first, first + 6))
+        if label in self.damping_labels:
+            idx.append(len(self.labels) + 6 * len(self.shape_labels) + self.damping_labels.index(label))
         return np.array(idx)
 
 
@@ -185,7 +207,7 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
     n = len(model.unknown)
     width = prior_widths(model)[n:]
 
-    n_rows = len(data.labels) + 6 * len(data.shape_labels)
+    n_rows = data.n_rows
 
     def fun(theta: np.ndarray) -> np.ndarray:
         try:
@@ -200,6 +222,8 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
 
     def jac(theta: np.ndarray) -> np.ndarray:
         """Analytic (mountid.diagnosis.jacobian); forward differences where it is undefined (twins split)."""
+        if data.damping_labels:  # the analytic Jacobian has no damping rows: forward differences
+            return forward_differences(fun, theta, model.bounds()[1])
         try:
             j = jacobian(model, data, theta)
         except (np.linalg.LinAlgError, ValueError):
@@ -307,7 +331,7 @@ def fit_candidate(
     else:
         res = _least_squares(model, data, [start])
     theta = res.x
-    n_rows = len(data.labels) + 6 * len(data.shape_labels)
+    n_rows = data.n_rows
     chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
     jac = res.jac
     dof = data.n - k
@@ -373,7 +397,7 @@ def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
     data = Data(model.campaign, model.length)
     out = {}
     for i, lab in enumerate(data.labels):
-        keep = np.setdiff1d(np.arange(len(data.labels) + 6 * len(data.shape_labels)), data.rows_of(lab))
+        keep = np.setdiff1d(np.arange(data.n_rows), data.rows_of(lab))
         if len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1:
             out[lab] = math.nan
             continue

@@ -45,6 +45,18 @@ class Strategy:
         """The body motion (6 x n) the measured shapes are compared with."""
         return vectors[:6, :]
 
+    def damping_matrix(self, model: CandidateModel, values: dict[str, float], mats: Matrices) -> np.ndarray:
+        """B [N s/m, N m s/rad] of the candidate model: the strategy's own, else the description's."""
+        return mats[2] if mats[2] is not None else np.asarray(call(model.mod, "damping_matrix", values))
+
+    def damping_ratios(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+        """Damping ratio -Re p / |p| of every mode (in the order of ``lam``) from the poles of
+        M p^2 + B p + C = 0; 1 for a mode that does not oscillate."""
+        m, c, _ = mats
+        p = damped_poles(m, c, self.damping_matrix(model, values, mats), lam)
+        size = np.abs(p)
+        return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
+
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         """Why the effect cannot act on this campaign ('' when it can)."""
         return ""
@@ -134,6 +146,9 @@ class Damping(Strategy):
     def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
         m, c, b = mats
         return damped_poles(m, c, values["damping_scale"] * b, lam).imag
+
+    def damping_matrix(self, model: CandidateModel, values: dict[str, float], mats: Matrices) -> np.ndarray:
+        return values["damping_scale"] * mats[2]
 
     def derivatives(self, model: CandidateModel, values: dict[str, float]) -> Derivatives:
         # the model's B is damping_scale * B: its derivatives scale with it, and d/d(damping_scale) is B

@@ -14,6 +14,11 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
         "isolators at [m]: "
         + ", ".join(f"{n} ({', '.join(f'{v:.3g}' for v in p)})" for n, p in conventions["isolators"].items())
     )
+    if conventions["damping_parameters"]:
+        print(
+            "damping ratios compared with the model's at "
+            + ", ".join(f"{n} = {d['value']:.6g} ({d['from']})" for n, d in conventions["damping_parameters"].items())
+        )
     for note in campaign.record_notes:
         print(f"record: {note}")
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))

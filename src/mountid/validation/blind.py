@@ -70,7 +70,7 @@ def make_case(seed: int, effect: str, noise: bool = True, kind: str = "shapes") 
         if kind == "shapes":
             modes[label] |= {"shape": [float(x) for x in s], "shape_uncertainty": SHAPE_STD}
         elif kind == "damping":
-            modes[label]["damping_ratio"] = float(z)
+            modes[label] |= {"damping_ratio": float(z), "damping_uncertainty": float(DAMPING_STD * zeta[i])}
     known = {k: kid.v[k] for k in ("m", "J_xy", "J_z", "L_xy", "L_z", "b_xy", "b_z")}
     return {"name": f"blind case {seed}", "machine": "kid300", "known": known, "modes": modes}, t
 
