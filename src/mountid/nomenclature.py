@@ -26,3 +26,14 @@ KINDS: dict[str, str] = {
 
 POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotational_stiffness", "damping"})
 """Kinds whose values must be strictly positive (a length may be 0 where the description allows it)."""
+
+
+def root_rule(rule: str, unknown: tuple[str, ...] | list[str]) -> tuple[str, str] | None:
+    """The two unknowns (larger, smaller) of a root rule "A>B" or "A<B" (spaces allowed), or None when the
+    rule is not one on two distinct unknowns. A description's ``root`` and the command line's --root pick with
+    it between solutions that fit the measured frequencies equally."""
+    for op in (">", "<"):
+        left, sep, right = (part.strip() for part in rule.partition(op))
+        if sep and left in unknown and right in unknown and left != right:
+            return (left, right) if op == ">" else (right, left)
+    return None

@@ -16,7 +16,7 @@ import tomllib
 
 from mountid.effects import EFFECT_PARAMETERS
 from mountid.errors import DescriptionError
-from mountid.nomenclature import COORDINATES, KINDS, POSITIVE_KINDS
+from mountid.nomenclature import COORDINATES, KINDS, POSITIVE_KINDS, root_rule
 
 MIRROR_PLANES: dict[str, int] = {"yz": 0, "xz": 1}
 """Vertical mirror planes and the axis each one reverses (``yz``: x -> -x, ``xz``: y -> -y)."""
@@ -242,11 +242,9 @@ def _root(rule: object, parameters: dict[str, Parameter]) -> str:
     if rule == "":
         return ""
     unknown = [n for n, p in parameters.items() if p.role == "unknown"]
-    if isinstance(rule, str):
-        for op in (">", "<"):
-            left, sep, right = (part.strip() for part in rule.partition(op))
-            if sep and left in unknown and right in unknown and left != right:
-                return f"{left}{op}{right}"
+    parts = root_rule(rule, unknown) if isinstance(rule, str) else None
+    if parts is not None:
+        return f"{parts[0]}>{parts[1]}"
     raise _fail("root", f"must be a rule A>B or A<B on two unknowns ({', '.join(unknown)}), got {rule!r}")
 
 

@@ -27,6 +27,7 @@ from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
+from mountid.nomenclature import root_rule
 
 
 @dataclass(frozen=True)
@@ -191,14 +192,13 @@ def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
     return np.where(poles != 0, np.abs(poles), undamped)
 
 
-def root_rule(rule: str, unknown: tuple[str, ...]):
-    """The predicate of a root rule "A>B" or "A<B" on two unknowns (see fit_stiffness)."""
-    for op in (">", "<"):
-        left, sep, right = (part.strip() for part in rule.partition(op))
-        if sep and left in unknown and right in unknown and left != right:
-            big, small = (left, right) if op == ">" else (right, left)
-            return lambda v, big=big, small=small: v[big] > v[small]
-    raise InputError("root", f"{rule!r} is not a rule A>B or A<B on two unknowns ({', '.join(unknown)})")
+def root_predicate(rule: str, unknown: tuple[str, ...]):
+    """The predicate of a root rule "A>B" or "A<B" on two unknowns (nomenclature.root_rule; fit_stiffness)."""
+    parts = root_rule(rule, unknown)
+    if parts is None:
+        raise InputError("root", f"{rule!r} is not a rule A>B or A<B on two unknowns ({', '.join(unknown)})")
+    big, small = parts
+    return lambda v: v[big] > v[small]
 
 
 def pole_frequency_derivatives(machine: Machine, values: dict[str, float], names: tuple[str, ...]) -> np.ndarray:
@@ -307,7 +307,7 @@ def fit_stiffness(
                 "rule (--root, e.g. c_z>c_xy)",
             )
         if not others:
-            keep = root_rule(root, unknown)
+            keep = root_predicate(root, unknown)
             chosen = [f for f in tied if keep(dict(zip(unknown, np.exp(f.x), strict=True)))]
             if len(chosen) != 1:
                 raise InputError("root", f"{root} holds for {len(chosen)} of the {len(tied)} solutions ({choices})")
