@@ -96,6 +96,31 @@ def stable_tolerance(pole: complex) -> float:
     return max(0.01, 0.25 * float(-pole.real / abs(pole)))
 
 
+def stable_poles(runs: list[NDArray[np.complex128]]) -> list[tuple[float, float, float, float]]:
+    """The poles that recur in every run (model orders, pencil sizes; or any estimator's orders): each pole of
+    the first run that every other run has within stable_tolerance in |p| and with the same damping ratio,
+    as (mean |p| [rad/s], mean zeta, std of |p| over the runs, std of zeta). The one selection rule of the
+    records chain; the benchmark applies it to LSCF's poles too, so that both estimators are compared with
+    the same choice of stable poles."""
+    out = []
+    for p0 in runs[0] if runs else []:
+        matches = []
+        for run in runs:
+            if not len(run):
+                break
+            k = int(np.argmin(np.abs(np.abs(run) - np.abs(p0))))
+            if abs(abs(run[k]) - abs(p0)) > stable_tolerance(p0) * abs(p0) or not _same_damping(run[k], p0):
+                break
+            matches.append(run[k])
+        if len(matches) != len(runs):
+            continue
+        m = np.array(matches)
+        w = np.abs(m)
+        zeta = -m.real / w
+        out.append((float(np.mean(w)), float(np.mean(zeta)), float(np.std(w, ddof=1)), float(np.std(zeta, ddof=1))))
+    return out
+
+
 def _same_damping(p: complex, p0: complex) -> bool:
     """Whether two estimates of a pole agree in damping ratio (within 0.01, or 30 % of the reference's where
     that is more): a noise pole of zeta 0.39 near a mode of zeta 0.05 is not that mode."""
@@ -115,10 +140,8 @@ def free_decay_poles(
     free decay from ``start`` [s], for a machine with up to ``n_modes`` modes.
 
     The pencil is solved with 2 n_modes + extra poles (the extra ones take up noise) for each entry of
-    ``extra_orders`` and for two pencil sizes; a pole is kept when it recurs in every run (within
-    stable_tolerance in frequency: 1 %, more for heavily damped poles, and with the same damping ratio; poles
-    that carry less than 1e-3 of
-    the strongest pole's amplitude are dropped as noise).
+    ``extra_orders`` and for two pencil sizes; a pole is kept when it recurs in every run (stable_poles;
+    poles that carry less than 1e-3 of the strongest pole's amplitude are dropped as noise).
     The kept poles, averaged over the runs, start a joint least-squares refinement of all of them on all
     channels (refine_poles), which also gives their standard deviations.
     """
@@ -137,23 +160,7 @@ def free_decay_poles(
             p = p[ok]
             amp = np.linalg.norm(amplitudes(samples, dt, np.concatenate([p, p.conj()]))[: len(p)], axis=1)
             runs.append(p[amp > 1e-3 * amp.max()] if len(p) else p)
-    reference = runs[0]
-    poles = []
-    for p0 in reference:
-        matches = []
-        for run in runs:
-            if not len(run):
-                break
-            k = int(np.argmin(np.abs(np.abs(run) - np.abs(p0))))
-            if abs(abs(run[k]) - abs(p0)) > stable_tolerance(p0) * abs(p0) or not _same_damping(run[k], p0):
-                break
-            matches.append(run[k])
-        if len(matches) != len(runs):
-            continue
-        m = np.array(matches)
-        w = np.abs(m)
-        zeta = -m.real / w
-        poles.append((np.mean(w), np.mean(zeta), np.std(w, ddof=1), np.std(zeta, ddof=1)))
+    poles = stable_poles(runs)
     if not poles:
         return []
     start = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
