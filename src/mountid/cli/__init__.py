@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from mountid.cli.arguments import Parser
 from mountid.cli.diagnose_command import cmd_diagnose
 from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
-from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_process, cmd_simulate
+from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_plan, cmd_process, cmd_simulate
 from mountid.errors import InputError
 
 EXTRAS = {
@@ -96,6 +96,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
     p.set_defaults(func=cmd_identify_record)
+    p = machine_command("plan", "before the test: what a sensor layout, hit and record length will measure")
+    p.add_argument(
+        "--sensor",
+        nargs="+",
+        action="extend",
+        metavar="NAME=x,y,z:dx,dy,dz",
+        help="accelerometer channels (default: the paper's three, A_x, A_y, B_y)",
+    )
+    p.add_argument("--hit-point", help="impact point x,y,z [m] (default: the paper's oblique hit)")
+    p.add_argument("--hit-direction", help="impact direction")
+    p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
+    p.add_argument("--rate", type=float, default=2048.0, help="sampling rate [Hz]")
+    p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
+    p.set_defaults(func=cmd_plan)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")

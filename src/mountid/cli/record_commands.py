@@ -20,7 +20,7 @@ from mountid.machine import Machine
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from mountid.measurement.records import write_csv
-    from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
+    from mountid.measurement.rig import Hammer, Rig, Unbalance
     from mountid.measurement.uff import write_uff
 
     out = Path(args.out)
@@ -38,13 +38,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         )
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
-    sensors = []
-    for item in args.sensor or ():
-        name, sep, rest = item.partition("=")
-        point, sep2, direction = rest.partition(":")
-        if not sep or not sep2:
-            raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
-        sensors.append(Sensor(name, triple(point, "--sensor"), triple(direction, "--sensor"), noise=args.noise))
+    sensors = _sensors(args.sensor, args.noise)
     if not sensors:
         from mountid.validation.paper import paper_sensors
 
@@ -64,6 +58,60 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
     (write_uff if args.out.lower().endswith((".uff", ".unv")) else write_csv)(record, args.out)
     print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
+
+
+def _sensors(items: list[str] | None, noise: float):
+    """Sensors from --sensor NAME=x,y,z:dx,dy,dz options, each with white noise of ``noise`` x its RMS."""
+    from mountid.measurement.rig import Sensor
+
+    out = []
+    for item in items or ():
+        name, sep, rest = item.partition("=")
+        point, sep2, direction = rest.partition(":")
+        if not sep or not sep2:
+            raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
+        out.append(Sensor(name, triple(point, "--sensor"), triple(direction, "--sensor"), noise=noise))
+    return out
+
+
+def cmd_plan(args: argparse.Namespace) -> None:
+    from mountid.identification.planning import plan
+    from mountid.measurement.rig import Hammer
+    from mountid.validation.paper import paper_hit, paper_sensors
+
+    finite_number(args.duration, "--duration")
+    finite_number(args.rate, "--rate")
+    finite_number(args.noise, "--noise")
+    machine = Machine.resolve(args.machine)
+    sensors = _sensors(args.sensor, args.noise) or paper_sensors(args.noise)[:3]
+    hit = paper_hit()
+    if args.hit_point or args.hit_direction:
+        hit = Hammer(
+            triple(args.hit_point, "--hit-point") if args.hit_point else hit.point,
+            triple(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
+        )
+    result = plan(machine, sensors, hit, args.duration, args.rate, args.noise, pairs(args.set, "--set"))
+    if args.json:
+        print_json(result.to_dict())
+        return
+    print(
+        f"{machine.name}: {len(sensors)} channels ({', '.join(s.name for s in sensors)}), a hit at "
+        f"{hit.point} along {hit.direction}, {args.duration:g} s at {args.rate:g} Hz, noise {args.noise:g} x RMS"
+    )
+    print(f"  {'mode':8s}{'frequency':>11s}{'zeta':>8s}  {'expected std: frequency':>24s}{'zeta':>10s}")
+    for m in result.modes:
+        if m.measured:
+            tail = f"{m.frequency_std:>17.2g} rad/s{m.damping_std:>10.2g}"
+            tail += f"  (one pole with {m.pole_of})" if m.pole_of != m.label else ""
+        else:
+            tail = "  not seen by these channels" if not m.seen else "  not excited by this hit"
+        print(f"  {m.label:8s}{m.frequency:11.4f}{m.damping_ratio:8.4f}  {tail}")
+    for name, value in result.parameter_std.items():
+        print(f"  expected std of {name}: {value:.3g} {machine.parameters[name]['unit']}")
+    for note in result.notes:
+        print(f"  note: {note}")
+    best = ", ".join(c for c, _ in result.ranking[:6])
+    print(f"  six most informative channels (effective independence, candidates at the sensors and isolators): {best}")
 
 
 def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:

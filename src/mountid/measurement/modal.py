@@ -166,27 +166,43 @@ def free_decay_poles(
     start = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
     refined, cov = refine_poles(samples, dt, start)
     shapes = amplitudes(samples, dt, np.concatenate([refined, refined.conj()]))
+    stds = pole_standard_deviations(refined, cov)
+    out = [Pole(float(abs(p)), float(-p.real / abs(p)), shapes[i], *stds[i]) for i, p in enumerate(refined)]
+    return sorted(out, key=lambda p: p.frequency)
+
+
+def pole_standard_deviations(poles: NDArray, cov: NDArray) -> list[tuple[float, float]]:
+    """Standard deviations of |p| [rad/s] and zeta = -Re p / |p| of each pole, from the covariance of
+    (sigma_1..k, omega_1..k) (refine_poles, fisher_pole_covariance), by first-order propagation."""
     out = []
-    k = len(refined)
-    for i, p in enumerate(refined):
+    k = len(poles)
+    for i, p in enumerate(poles):
         w, sig, om = abs(p), p.real, p.imag
         c2 = cov[np.ix_([i, k + i], [i, k + i])]
         g_w = np.array([sig, om]) / w
         g_z = np.array([-(om**2), sig * om]) / w**3  # zeta = -sigma / |p|
-        std_w, std_z = np.sqrt(max(g_w @ c2 @ g_w, 0.0)), np.sqrt(max(g_z @ c2 @ g_z, 0.0))
-        out.append(Pole(float(w), float(-sig / w), shapes[i], float(std_w), float(std_z)))
-    return sorted(out, key=lambda p: p.frequency)
+        out.append((float(np.sqrt(max(g_w @ c2 @ g_w, 0.0))), float(np.sqrt(max(g_z @ c2 @ g_z, 0.0)))))
+    return out
 
 
-def _gauss_newton_terms(samples: NDArray, dt: float, poles: NDArray):
+def fisher_pole_covariance(samples: NDArray, dt: float, poles: NDArray, variance: NDArray) -> NDArray:
+    """The Cramer-Rao covariance of (sigma_1..k, omega_1..k) for noise-free ``samples`` of the damped
+    exponentials ``poles`` and white noise of ``variance`` per channel (per sample of ``samples``): what
+    refine_poles will state on such a record, before it is made."""
+    info, _ = _gauss_newton_terms(samples, dt, np.asarray(poles, dtype=complex), variance)
+    return np.linalg.pinv(info)
+
+
+def _gauss_newton_terms(samples: NDArray, dt: float, poles: NDArray, variance: NDArray | None = None):
     """Normal equations of the damped-exponential fit in the poles (sigma_k, omega_k), with the amplitudes
     and a constant per channel projected out (variable projection, Kaufman's Jacobian) and each channel
-    weighted by its residual variance. Returns (J^T W J, J^T W r)."""
+    weighted by its residual variance (or the noise ``variance`` per channel given, for a record without
+    noise: the Fisher information of a planned test). Returns (J^T W J, J^T W r)."""
     t = np.arange(len(samples)) * dt
     basis = _basis(len(samples), dt, np.concatenate([poles, poles.conj()]))
     coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
     resid = np.real(samples - basis @ coef)
-    var = np.maximum(np.mean(resid**2, axis=0), 1e-300)
+    var = np.maximum(np.mean(resid**2, axis=0) if variance is None else np.asarray(variance, float), 1e-300)
     q, _ = np.linalg.qr(basis)
     k = len(poles)
     info, grad = np.zeros((2 * k, 2 * k)), np.zeros(2 * k)

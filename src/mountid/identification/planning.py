@@ -1,0 +1,192 @@
+"""Test planning before the test: what a proposed sensor layout, hit and record length will measure.
+
+For a machine at its nominal (or given) values, a set of sensors (points, directions), one hammer hit and a
+record length and rate:
+
+1. which modes the layout cannot observe (every channel reads less than OBSERVABLE of the mode's largest
+   motion at the sensors' points) and which the hit does not excite (its generalised force on the mode is
+   less than OBSERVABLE of the largest);
+2. the standard deviation of each observable distinct frequency and damping ratio: the Cramer-Rao bound of
+   the records chain's own pole fit (mountid.measurement.modal.fisher_pole_covariance) on the noise-free
+   response the rig simulates, with the channels' white noise (``noise`` times each channel's RMS, the rig's
+   convention) through the chain's decimation;
+3. the standard deviation of each unknown stiffness: the records chain's stiffness fit
+   (from_records.fit_stiffness) on those frequencies with those standard deviations;
+4. a ranked proposal of sensor positions: effective independence (Kammer, 1991) over candidate channels
+   (the given sensors' points and the isolator points, in x, y and z) for the six modes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mountid.errors import InputError
+from mountid.identification.from_records import fit_stiffness
+from mountid.machine import Machine, call
+from mountid.measurement import modal
+from mountid.measurement.rig import Hammer, Rig, Sensor
+
+OBSERVABLE = 1e-3
+"""A mode is unseen by a layout (not excited by a hit) below this share of its largest reading (force)."""
+
+
+@dataclass(frozen=True)
+class ModePlan:
+    """One mode of the plan: its natural frequency [rad/s] and damping ratio, whether the layout sees it and
+    the hit excites it, and the standard deviations the test will state (nan where it will not measure it)."""
+
+    label: str
+    frequency: float
+    damping_ratio: float
+    seen: bool
+    excited: bool
+    frequency_std: float = math.nan
+    damping_std: float = math.nan
+    pole_of: str = ""
+    """The label whose pole this mode shares (its twin of equal frequency; itself otherwise): the record
+    shows one pole for both."""
+
+    @property
+    def measured(self) -> bool:
+        return self.seen and self.excited
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What the planned test will measure (see the module docstring)."""
+
+    machine: str
+    modes: list[ModePlan]
+    parameter_std: dict[str, float]
+    ranking: list[tuple[str, float]]
+    """Candidate channels, most informative first, with their effective-independence value (1: the channel
+    alone fixes a mode direction; 0: it adds nothing the others do not)."""
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def unseen(self) -> list[str]:
+        return [m.label for m in self.modes if not m.seen]
+
+    @property
+    def not_excited(self) -> list[str]:
+        return [m.label for m in self.modes if m.seen and not m.excited]
+
+    def to_dict(self) -> dict:
+        return {
+            "machine": self.machine,
+            "modes": [vars(m) | {"measured": m.measured} for m in self.modes],
+            "unseen": self.unseen,
+            "not_excited": self.not_excited,
+            "parameter_std": self.parameter_std,
+            "ranking": [{"channel": c, "effective_independence": v} for c, v in self.ranking],
+            "notes": self.notes,
+        }
+
+
+def plan(
+    machine: Machine,
+    sensors: list[Sensor],
+    hammer: Hammer,
+    duration: float,
+    rate: float,
+    noise: float,
+    values: dict[str, float] | None = None,
+    start: float | None = None,
+) -> Plan:
+    """The plan of one impact test (see the module docstring); ``values`` override the description's nominal
+    ones, ``noise`` is each channel's white-noise std relative to its RMS, ``start`` the start of the free
+    decay [s] (default: 20 ms after the hit ends)."""
+    rig = Rig.of(machine, values)
+    mod = machine.module
+    fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
+    phi = np.asarray(mod.modal_matrix(**fwd))  # (6, modes), in the order of MODES
+    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
+    reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+    force = np.abs(phi.T @ rig.force_column(hammer.point, hammer.direction))
+    seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
+    excited = force >= OBSERVABLE * max(force.max(), 1e-300)
+
+    poles = rig.poles[rig.poles.imag > 0]
+    lam = np.asarray(mod.squared_frequencies(**fwd))
+    label_pole = {lab: poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))] for i, lab in enumerate(mod.MODES)}
+    # the record shows one pole per distinct frequency (twins are one exponential): the measured labels
+    measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i]]
+    distinct: dict[str, complex] = {}
+    for lab in measured:
+        rep = mod.REPRESENTATIVE[lab]
+        distinct.setdefault(rep, label_pole[lab])
+
+    clean = rig.simulate([Sensor(s.name, s.point, s.direction) for s in sensors], duration, rate, [hammer])
+    begin = hammer.time + hammer.duration + 0.02 if start is None else start
+    top = float(np.max(np.abs(poles)))
+    dt, samples = modal.decimated(clean, begin, 2.0 * top)
+    if len(samples) < 8:
+        raise InputError("duration", f"{duration:g} s leaves no free decay after {begin:g} s")
+    rms = np.sqrt(np.mean(clean.data**2, axis=0))
+    # white noise of std noise * rms per sample at ``rate``: through the decimating low-pass its variance
+    # per retained sample falls by the decimation factor
+    variance = (noise * rms) ** 2 / max(1.0, round(dt * rate))
+    reps = list(distinct)
+    chosen = np.array([distinct[r] for r in reps])
+    cov = modal.fisher_pole_covariance(samples, dt, chosen, variance) if len(reps) else np.zeros((0, 0))
+    stds = dict(zip(reps, modal.pole_standard_deviations(chosen, cov), strict=True))
+    modes = []
+    for i, lab in enumerate(mod.MODES):
+        p = label_pole[lab]
+        w_std, z_std = stds.get(mod.REPRESENTATIVE[lab], (math.nan, math.nan)) if lab in measured else (math.nan,) * 2
+        modes.append(
+            ModePlan(
+                lab,
+                float(abs(p)),
+                float(-p.real / abs(p)),
+                bool(seen[i]),
+                bool(excited[i]),
+                w_std,
+                z_std,
+                mod.REPRESENTATIVE[lab],
+            )
+        )
+
+    notes = []
+    parameter_std = {u: math.nan for u in machine.unknown}
+    frequencies = {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}
+    known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
+    damping = {n: rig.values[n] for n, p in machine.parameters.items() if p["kind"] == "damping"}
+    try:
+        rule = getattr(mod, "ROOT_RULE", "") or None
+        _, parameter_std = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
+    except InputError as err:  # the plan says why it cannot give the stiffness spread
+        notes.append(f"no stiffness standard deviation: {err}")
+    return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
+
+
+def effective_independence(rig: Rig, sensors: list[Sensor], phi: np.ndarray) -> list[tuple[str, float]]:
+    """Candidate channels (each given sensor's point and each isolator's point, along x, y and z) ranked by
+    effective independence for the six modes: the candidate with the smallest E_i = diag(A (A^T A)^-1 A^T)
+    is dropped in turn while more than six remain; the order of dropping, reversed, is the ranking (the
+    last six kept first, by E_i), so that the first n of the list are the best n channels found."""
+    iso = np.asarray(call(rig.machine.module, "isolator_points", rig.values))
+    points = [tuple(map(float, s.point)) for s in sensors] + [tuple(map(float, iso[:, k])) for k in range(iso.shape[1])]
+    unique = list(dict.fromkeys(points))
+    candidates = [
+        (f"({', '.join(f'{v:.3g}' for v in point)}) {axis}", rig.sensor_row(point, direction) @ phi)
+        for point in unique
+        for axis, direction in zip("xyz", np.eye(3), strict=True)
+    ]
+    names = [c for c, _ in candidates]
+    a = np.array([row for _, row in candidates])
+    keep = list(range(len(names)))
+    dropped: list[tuple[str, float]] = []
+    while len(keep) > phi.shape[1]:
+        sub = a[keep]
+        e = np.einsum("ij,jk,ik->i", sub, np.linalg.pinv(sub.T @ sub), sub)
+        worst = int(np.argmin(e))
+        dropped.append((names[keep[worst]], float(e[worst])))
+        del keep[worst]
+    sub = a[keep]
+    e = np.einsum("ij,jk,ik->i", sub, np.linalg.pinv(sub.T @ sub), sub)
+    kept = sorted(((names[k], float(v)) for k, v in zip(keep, e, strict=True)), key=lambda x: -x[1])
+    return kept + dropped[::-1]

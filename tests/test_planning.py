@@ -1,0 +1,76 @@
+"""Test planning (mountid plan): the paper's case before the test, against the records chain after it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mountid.cli import main
+from mountid.identification.from_records import identify_from_record
+from mountid.identification.planning import plan
+from mountid.machine import Machine
+from mountid.measurement.rig import Rig, Sensor
+from mountid.validation.paper import TABLE_1, paper_hit, paper_sensors
+
+
+@pytest.fixture(scope="module")
+def paper_plan():
+    return plan(Machine.resolve("kid300"), paper_sensors()[:3], paper_hit(), 4.0, 2048.0, 0.01)
+
+
+def test_the_papers_three_channels_cannot_see_z(paper_plan):
+    assert paper_plan.unseen == ["z"] and paper_plan.not_excited == []
+    measured = {m.label for m in paper_plan.modes if m.measured}
+    assert measured == {"x", "y", "psi", "theta", "phi"}
+
+
+def test_the_plan_predicts_what_the_records_chain_states_and_scatters(paper_plan):
+    """Twelve simulated 4 s records of the paper's test: the plan's frequency standard deviations are those
+    the chain states (within 15 %), its stiffness standard deviations match the chain's scatter (within a
+    factor 1.6, the scatter of 12 draws being itself uncertain by about 20 %)."""
+    rig = Rig.of("kid300")
+    found, freq_std = [], []
+    for seed in range(12):
+        record = rig.simulate(paper_sensors()[:3], 4.0, 2048.0, hammers=[paper_hit()], seed=seed)
+        result = identify_from_record(rig.machine, record, TABLE_1, 0.07)
+        found.append([result.parameters["c_xy"], result.parameters["c_z"]])
+        freq_std.append([result.modes[lab].frequency_std for lab in ("x", "psi", "phi")])
+    planned = {m.label: m.frequency_std for m in paper_plan.modes}
+    for k, lab in enumerate(("x", "psi", "phi")):
+        assert planned[lab] == pytest.approx(np.mean(freq_std, axis=0)[k], rel=0.15), lab
+    scatter = np.std(found, axis=0, ddof=1)
+    for k, name in enumerate(("c_xy", "c_z")):
+        assert 1 / 1.6 < paper_plan.parameter_std[name] / scatter[k] < 1.6, name
+
+
+def test_effective_independence_proposes_channels_that_see_every_mode(paper_plan):
+    rig = Rig.of("kid300")
+    mod = rig.machine.module
+    phi = mod.modal_matrix(**rig.machine.values(rig.values, mod.FORWARD_ARGUMENTS))
+    best = []
+    for name, _ in paper_plan.ranking[:6]:
+        coords, axis = name.rsplit(" ", 1)
+        point = tuple(float(v) for v in coords.strip("()").split(","))
+        best.append(rig.sensor_row(point, np.eye(3)["xyz".index(axis)]) @ phi)
+    assert np.linalg.matrix_rank(np.array(best)) == 6
+    proposal = [Sensor(f"s{k}", *_parse(name)) for k, (name, _) in enumerate(paper_plan.ranking[:6])]
+    assert plan(Machine.resolve("kid300"), proposal, paper_hit(), 4.0, 2048.0, 0.01).unseen == []
+
+
+def _parse(name: str):
+    coords, axis = name.rsplit(" ", 1)
+    return tuple(float(v) for v in coords.strip("()").split(",")), tuple(np.eye(3)["xyz".index(axis)])
+
+
+def test_plan_on_the_command_line(capsys):
+    assert main(["plan", "kid300"]) == 0
+    out = capsys.readouterr().out
+    assert "z           47.4637  0.0522    not seen by these channels" in out
+    assert "expected std of c_xy: 3.3 N/m" in out
+    assert main(["plan", "kid300", "--sensor", "V=0.3,0.3,0.3:0,0,1", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["unseen"] == ["phi"]  # one vertical channel off the axes sees the rocking in x and y, not yaw
+    assert main(["plan", "kid300", "--duration", "0.01"]) == 2
+    assert "duration: 0.01 s leaves no free decay" in capsys.readouterr().err
