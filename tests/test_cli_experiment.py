@@ -30,7 +30,8 @@ def test_simulate_then_identify_record(capsys, tmp_path, suffix):
     assert result["parameters"]["c_xy"] == pytest.approx(74.4e3, rel=5e-3)
     assert result["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
     assert result["warnings"] == []
-    assert (tmp_path / "f" / "modes.png").stat().st_size > 0
+    for name in ("modes.png", "spectrum.png", "stabilisation.png"):
+        assert (tmp_path / "f" / name).stat().st_size > 10_000, name
 
 
 def test_forced_response_json(capsys):
@@ -79,6 +80,7 @@ def test_demo_runs_the_simulated_experiment(capsys, tmp_path):
     assert {p.name for p in tmp_path.iterdir()} == {
         "record.png",
         "spectrum.png",
+        "stabilisation.png",
         "decay.png",
         "unbalance.png",
         "modes.png",

@@ -147,12 +147,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     if args.figures:
         from mountid.report import figures
 
-        labels = {k: m.frequency for k, m in result.modes.items()}
-        first = record.names[0]
-        figures.spectrum_figure(record, first, args.start, labels, f"{args.figures}/spectrum.png")
-        figures.mode_shapes_figure(
-            machine, {**pairs(args.set, "--set"), **result.parameters}, (0.5, 0.5, 0.4), f"{args.figures}/modes.png"
-        )
+        figures.experiment_figures(machine, record, args.start, result, pairs(args.set, "--set"), args.figures)
     if args.json:
         print_json(_identification_json(machine, result))
         return

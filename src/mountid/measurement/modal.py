@@ -121,6 +121,34 @@ def stable_poles(runs: list[NDArray[np.complex128]]) -> list[tuple[float, float,
     return out
 
 
+def stabilisation(
+    record: Record, start: float, max_frequency: float, n_modes: int, extra: range = range(0, 25, 2)
+) -> list[tuple[int, NDArray[np.complex128], NDArray[np.bool_]]]:
+    """The data of a stabilisation diagram: for each model order 2 n_modes + e (e in ``extra``) the pencil's
+    physical poles (0 < zeta < 0.5, |p| <= max_frequency [rad/s]) of the free decay from ``start`` [s], and
+    whether each is stable against the previous order (within stable_tolerance in |p|, the same damping)."""
+    dt, samples = decimated(record, start, max_frequency)
+    out, previous = [], np.array([], dtype=complex)
+    for e in extra:
+        order = 2 * n_modes + e
+        p = matrix_pencil(samples, dt, order, min(len(samples) // 2, 100))
+        p = p[np.isfinite(p) & (p.imag > 0)]
+        w, zeta = np.abs(p), -p.real / np.abs(p)
+        p = p[(zeta > 0) & (zeta < 0.5) & (w <= max_frequency)]
+        stable = np.array([_recurs(x, previous) for x in p], dtype=bool)
+        out.append((order, p, stable))
+        previous = p
+    return out
+
+
+def _recurs(pole: complex, previous: NDArray[np.complex128]) -> bool:
+    """Whether ``pole`` is in ``previous`` (the nearest in |p| within stable_tolerance, the same damping)."""
+    if not len(previous):
+        return False
+    q = previous[np.argmin(np.abs(np.abs(previous) - abs(pole)))]
+    return abs(abs(q) - abs(pole)) <= stable_tolerance(pole) * abs(pole) and _same_damping(q, pole)
+
+
 def _same_damping(p: complex, p0: complex) -> bool:
     """Whether two estimates of a pole agree in damping ratio (within 0.01, or 30 % of the reference's where
     that is more): a noise pole of zeta 0.39 near a mode of zeta 0.05 is not that mode."""

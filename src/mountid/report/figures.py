@@ -44,22 +44,64 @@ def record_figure(record: Record, channel: str, low: float, high: float, path: s
     return _save(fig, path)
 
 
-def spectrum_figure(record: Record, channel: str, start: float, labels: dict[str, float], path: str | Path) -> Path:
-    """Paper Fig. 4 b): Hann-windowed amplitude spectrum of the free decay, the matrix-pencil frequencies
-    (lines, labelled) and the raw FFT bin size for comparison."""
+def spectrum_figure(
+    record: Record,
+    channels: list[str] | tuple[str, ...] | None,
+    start: float,
+    poles: dict[str, tuple[float, float]],
+    path: str | Path,
+) -> Path:
+    """Paper Fig. 4 b), every channel: Hann-windowed amplitude spectra of the free decay from ``start`` [s]
+    (``channels``, default all but force channels), in each channel's unit, against rad/s (below) and Hz
+    (above); the picked poles {label: (frequency [rad/s], damping ratio)} as labelled lines; the raw FFT bin
+    size for comparison."""
+    names = list(channels) if channels else list(record.responses)
     keep = record.time >= start
-    omega, amp = modal.spectrum(record.channel(channel)[keep], 1 / record.rate)
-    top = 1.6 * max(list(labels.values()) or [omega[-1] / 4])
-    sel = omega <= top
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.semilogy(omega[sel], amp[sel], lw=0.8)
-    for i, (label, w) in enumerate(sorted(labels.items(), key=lambda kv: kv[1])):
-        ax.axvline(w, color="C3", lw=0.8, ls="--")
-        ax.text(w, amp[sel].max() * 0.3**i, f" {label} {w:.2f}", color="C3", va="top", fontsize=8)
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    top = 1.6 * max([w for w, _ in poles.values()] or [np.pi * record.rate / 4])
+    units = set()
+    peak = 0.0
+    for name in names:
+        omega, amp = modal.spectrum(record.channel(name)[keep], 1 / record.rate)
+        sel = omega <= top
+        ax.semilogy(omega[sel], amp[sel], lw=0.7, label=name)
+        units.add(record.channels[record.names.index(name)].unit)
+        peak = max(peak, float(amp[sel].max()))
+    for i, (label, (w, zeta)) in enumerate(sorted(poles.items(), key=lambda kv: kv[1][0])):
+        ax.axvline(w, color="k", lw=0.7, ls="--")
+        ax.text(w, peak * 0.35**i, f" {label} {w:.2f} rad/s\n zeta {zeta:.3f}", va="top", fontsize=7)
     bin_ = 2 * np.pi / (record.time[keep][-1] - record.time[keep][0])
-    ax.set_title(f"spectrum of {channel} (raw FFT bin {bin_:.2f} rad/s); dashed: matrix-pencil frequencies")
+    ax.set_title(f"spectra of the free decay from {start:g} s (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles")
     ax.set_xlabel("omega [rad/s]")
-    ax.set_ylabel("amplitude")
+    ax.set_ylabel(f"amplitude spectrum [{', '.join(sorted(units))}]")
+    hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
+    hz.set_xlabel("f [Hz]")
+    ax.legend(fontsize=7, ncol=2, loc="upper right")
+    return _save(fig, path)
+
+
+def stabilisation_figure(
+    runs: list[tuple[int, np.ndarray, np.ndarray]], poles: dict[str, tuple[float, float]], path: str | Path
+) -> Path:
+    """The stabilisation diagram (modal.stabilisation): each model order's poles against frequency, stable
+    ones (recurring from the previous order within the chain's tolerance, same damping) filled, new ones
+    hollow; the picked poles as labelled lines."""
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for order, p, stable in runs:
+        w = np.abs(p)
+        ax.plot(w[stable], np.full(stable.sum(), order), "o", color="C2", ms=4)
+        ax.plot(w[~stable], np.full((~stable).sum(), order), "o", mfc="none", color="C1", ms=4)
+    for label, (w, zeta) in poles.items():
+        ax.axvline(w, color="k", lw=0.7, ls="--")
+        ax.text(w, ax.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
+    ax.plot([], [], "o", color="C2", label="stable (recurs from the previous order)")
+    ax.plot([], [], "o", mfc="none", color="C1", label="new or moved")
+    ax.set_xlabel("|p| [rad/s]")
+    ax.set_ylabel("model order")
+    hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
+    hz.set_xlabel("f [Hz]")
+    ax.set_title("stabilisation diagram of the matrix pencil")
+    ax.legend(fontsize=7, loc="lower right")
     return _save(fig, path)
 
 
@@ -100,35 +142,92 @@ def unbalance_figure(t: np.ndarray, measured: np.ndarray, model: np.ndarray, spe
 
 
 def mode_shapes_figure(
-    machine: Machine, parameters: dict[str, float], half_size: tuple[float, float, float], path: str | Path
+    machine: Machine,
+    parameters: dict[str, float],
+    half_size: tuple[float, float, float],
+    path: str | Path,
+    measured: dict | None = None,
+    sensors: list[tuple[float, float, float]] | None = None,
 ) -> Path:
-    """Each mode drawn on the machine: a box of the given half sizes [m] around the origin, at rest (grey)
-    and displaced by the mode (scaled for visibility), seen from the side (x-z), the front (y-z) and above (x-y)."""
+    """Each mode drawn on the machine, seen from the side (x-z), the front (y-z) and above (x-y): a box of
+    the given half sizes [m] around the origin at rest (grey), displaced by the model's mode at the
+    identified ``parameters`` (blue), and where ``measured`` ({label: MeasuredMode}) has its shape in q, by
+    the measured one (red, dashed), titled with both frequencies and the MAC of the channel shape; modes the
+    record did not give are marked so. The isolators (triangles) and the ``sensors`` (dots) are drawn; every
+    shape is scaled so that its largest corner motion is a quarter of the box's largest half size."""
     mod = machine.module
     args = machine.values(parameters, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)
     omega = mod.frequencies(**args)
+    measured = measured or {}
     hx, hy, hz = half_size
     corners = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
     jac = mod.point_jacobian(corners[:, 0], corners[:, 1], corners[:, 2])  # (8, 3, 6)
-    fig, axes = plt.subplots(3, len(mod.MODES), figsize=(2.6 * len(mod.MODES), 7.8))
+    isolators = np.asarray(mod.isolator_points(**machine.values(parameters, mod.ARGUMENTS["isolator_points"])))
+    scale = 0.25 * max(hx, hy, hz)
+    fig, axes = plt.subplots(3, len(mod.MODES), figsize=(2.6 * len(mod.MODES), 8.2))
+
+    def moved(q: np.ndarray) -> np.ndarray:
+        u = jac @ np.asarray(q, dtype=float)
+        sign = 1.0 if np.vdot(u.ravel(), (jac @ phi[:, k]).ravel()) >= 0 else -1.0
+        return corners + sign * scale * u / np.max(np.abs(u))
+
     for k, label in enumerate(mod.MODES):
-        u = jac @ phi[:, k]
-        moved = corners + 0.25 * max(hx, hy, hz) * u / np.max(np.abs(u))
+        rep = mod.REPRESENTATIVE[label]
+        m = measured.get(label) or (measured.get(rep) if rep == label else None)
+        model = moved(phi[:, k])
+        shown = moved(m.shape) if m is not None and m.shape is not None else None
         for row, (a, b, name) in enumerate([(0, 2, "x-z"), (1, 2, "y-z"), (0, 1, "x-y")]):
             ax = axes[row, k]
             for i, j in edges:
-                ax.plot(corners[[i, j], a], corners[[i, j], b], color="0.75", lw=0.8)
-                ax.plot(moved[[i, j], a], moved[[i, j], b], color="C0", lw=1.2)
+                ax.plot(corners[[i, j], a], corners[[i, j], b], color="0.8", lw=0.8)
+                ax.plot(model[[i, j], a], model[[i, j], b], color="C0", lw=1.2)
+                if shown is not None:
+                    ax.plot(shown[[i, j], a], shown[[i, j], b], color="C3", lw=1.0, ls="--")
+            ax.plot(isolators[a], isolators[b], "^", color="0.3", ms=5)
+            for point in sensors or ():
+                ax.plot(point[a], point[b], "o", color="C1", ms=3)
             ax.set_aspect("equal")
             ax.set_xticks([])
             ax.set_yticks([])
-            if row == 0:
-                ax.set_title(f"{label}: {omega[k]:.2f} rad/s", fontsize=9)
             if k == 0:
                 ax.set_ylabel(name)
+        title = f"{label}: model {omega[k]:.2f} rad/s"
+        if m is not None:
+            title += f"\nmeasured {m.frequency:.2f}" + (f", MAC {m.mac:.2f}" if m.mac is not None else "")
+        elif measured and rep in measured:
+            title += f"\none pole with {rep}"
+        elif measured:
+            title += "\nnot in the record"
+        axes[0, k].set_title(title, fontsize=8)
+    fig.suptitle(
+        "blue: model at the identified values; red dashed: measured (shape in q); triangles: isolators; dots: "
+        f"sensors; largest motion drawn as {scale:.2g} m",
+        fontsize=8,
+    )
     return _save(fig, path)
+
+
+def experiment_figures(
+    machine: Machine, record: Record, start: float, result, known: dict[str, float], folder: str | Path
+) -> list[Path]:
+    """The figures of an identified record (identify-record --figures, the demo): spectra of every channel
+    with the picked poles, the stabilisation diagram, and the mode shapes measured beside the model's."""
+    folder = Path(folder)
+    poles = {k: (m.frequency, m.damping_ratio) for k, m in result.modes.items()}
+    si = record.in_si()
+    responses = si.select(si.responses)
+    top = 2.0 * float(max(result.frequencies.values()))
+    runs = modal.stabilisation(responses, start, top, len(machine.module.MODES))
+    sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
+    return [
+        spectrum_figure(si, None, start, poles, folder / "spectrum.png"),
+        stabilisation_figure(runs, poles, folder / "stabilisation.png"),
+        mode_shapes_figure(
+            machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes, sensors
+        ),
+    ]
 
 
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:

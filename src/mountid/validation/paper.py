@@ -146,8 +146,7 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     folder = Path(figures)
     w1 = result.modes["x"].frequency if "x" in result.modes else true_w["x"]
     fig.record_figure(record, "A_x", 0.5 * w1, 1.5 * w1, folder / "record.png")
-    labels = {k: m.frequency for k, m in result.modes.items()}
-    fig.spectrum_figure(record, "A_y", start, labels, folder / "spectrum.png")
+    fig.experiment_figures(rig.machine, record, start, result, TABLE_1, folder)
     _, a0, n = fig.decay_figure(record, "A_x", start, w1, folder / "decay.png")
     print(
         f"  Eq. (25) on A_x: A0 = {a0:.3g} m/s^2, n = {n:.3f} 1/s -> zeta_x = {n / w1:.4f} "
@@ -163,6 +162,5 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     _, qdd = identified.steady_state(unb, t)
     model = qdd @ identified.sensor_row(POINT_A, (1, 0, 0))
     fig.unbalance_figure(t, measured.channel("A_x")[measured.time >= 2.5], model, speed, folder / "unbalance.png")
-    fig.mode_shapes_figure(rig.machine, {**TABLE_1, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png")
-    print(f"  figures: {folder}/record.png spectrum.png decay.png unbalance.png modes.png")
+    print(f"  figures: {folder}/record.png spectrum.png stabilisation.png decay.png unbalance.png modes.png")
     return out
