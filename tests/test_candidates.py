@@ -202,3 +202,15 @@ def test_damping_ratios_enter_the_fit_and_find_a_damping_scale():
     )
     loose = fit_candidate(frequencies_only, EFFECTS["damping"])
     assert loose.std["damping_scale"] > 1.5 * fit.std["damping_scale"]
+
+
+def test_a_damping_ratio_of_zero_without_uncertainty_is_weighted_not_infinite():
+    from mountid.diagnosis.fitting import DAMPING_STD_FLOOR, Data
+
+    data = _campaign_from(None, {})
+    data["modes"]["x"]["damping_ratio"] = 0.0
+    campaign = parse(data)
+    rows = Data(campaign, 0.57)
+    assert rows.zeta_sigma.tolist() == [DAMPING_STD_FLOOR]
+    fit = fit_candidate(campaign, None)
+    assert np.isfinite(fit.chi2) and fit.chi2 > 1e3  # the model's x is damped by zeta 0.04: 40 sigma

@@ -8,7 +8,9 @@ measurement's standard deviation:
 - mode shapes: rotations scaled by the machine's length scale (so that components compare as motion
   of a point at the isolators), normalised to unit length; the residual is the part of the measured shape
   outside the model's mode (or the span of a model cluster of equal frequencies, where the model leaves
-  the combination free), divided by the shape's standard deviation per component.
+  the combination free), divided by the shape's standard deviation per component;
+- damping ratios, where measured: (measured - model) / sigma_zeta, the model's from the damped poles of the
+  candidate's M, C, B (strategies.Strategy.damping_ratios).
 
 Ranking is by posterior probability: each candidate's evidence by the Laplace approximation with a uniform
 prior over the effect's plausible range (fitting.log_evidence), equal prior probabilities for the nominal model

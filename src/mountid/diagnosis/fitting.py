@@ -93,6 +93,11 @@ class CandidateFit:
         }
 
 
+DAMPING_STD_FLOOR = 1e-3
+"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
+uncertainty)."""
+
+
 class Data:
     """The campaign's measurements as weighted data rows (see the module docstring)."""
 
@@ -113,7 +118,8 @@ class Data:
         self.zeta = np.array([campaign.modes[lab].damping_ratio for lab in self.damping_labels], dtype=float)
         self.zeta_sigma = np.array(
             [
-                campaign.modes[lab].damping_std or DEFAULT_DAMPING_STD * campaign.modes[lab].damping_ratio
+                campaign.modes[lab].damping_std
+                or max(DEFAULT_DAMPING_STD * campaign.modes[lab].damping_ratio, DAMPING_STD_FLOOR)
                 for lab in self.damping_labels
             ],
             dtype=float,
