@@ -276,3 +276,13 @@ def test_a_root_rule_picks_between_equally_good_solutions(tmp_path, capsys):
     assert out["parameters"]["c_z"] < 2e5 and "chosen by the rule c_z<c_xy" in out["notes"][0]
     assert main(["identify-record", "kid300", str(path), "--root", "m>c_z"]) == 2
     assert "root: 'm>c_z' is not a rule A>B or A<B on two unknowns (c_xy, c_z)" in capsys.readouterr().err
+
+
+def test_the_hit_on_a_force_channel_is_reported():
+    """Peak, duration and impulse of the first hit (a 4 ms half-sine of 2 kN: 2 P T / pi = 5.09 N s)."""
+    record = _rig().simulate(_EIGHT, 20.0, 1000.0, hammers=[HIT], force_channel="F")
+    result = identify_from_record(Machine.resolve("kid300"), record, KNOWN, 0.07)
+    (note,) = [n for n in result.notes if n.startswith("hit on F")]
+    impulse = float(note.split("impulse ")[1].split(" N s")[0])
+    assert impulse == pytest.approx(2 * HIT.peak * HIT.duration / np.pi, rel=0.02)
+    assert "peak 2" in note and "ms above 5 % of it" in note

@@ -469,8 +469,10 @@ def identify_from_record(
     paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios. ``root``:
     the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
     modes, rest, warnings = modal_data(machine, record, known, start, nominal, settings)
+    si = record.in_si()
+    hits = [modal.hit_summary(si, name) for name in si.forces]
     try:
-        return _identify(machine, known, modes, rest, warnings, use, root)
+        return _identify(machine, known, modes, rest, warnings, use, root, hits)
     except InputError as err:
         raise with_warnings(err, warnings) from None
 
@@ -492,6 +494,7 @@ def _identify(
     warnings: list[modal.QualityWarning],
     use: tuple[str, ...] | None,
     root: str | None,
+    notes: list[str],
 ) -> Identification:
     chosen = modes
     if use is not None:
@@ -504,7 +507,7 @@ def _identify(
     damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
     # the record shows damped poles: undamped fit first, then damping, then the stiffness refitted to the
     # damped model's |p| (the shift is second order in damping: one more round changes nothing measurable)
-    notes: list[str] = []
+    notes = list(notes)
     if root is None and getattr(machine.module, "ROOT_RULE", ""):
         root = machine.module.ROOT_RULE  # the description's physical rule, unless the caller gave one
         source = f"the rule of the description {machine.name} ({root})"

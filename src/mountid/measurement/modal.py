@@ -388,6 +388,24 @@ def impact_bursts(record: Record, settings: RecordSettings = RECORDS) -> NDArray
     return np.array(onsets, dtype=np.intp)
 
 
+def hit_summary(record: Record, name: str) -> str:
+    """The first hit on the force channel ``name`` [N]: its peak, how long it stays above 5 % of the peak, and
+    its impulse (the integral of the force over that time) [N s]."""
+    f = record.channel(name)
+    top = float(np.max(np.abs(f)))
+    if not top > 0:
+        return f"{name}: no hit recorded"
+    above = np.abs(f) > 0.05 * top
+    first = int(np.argmax(above))
+    end = first + (int(np.argmin(above[first:])) if not np.all(above[first:]) else len(f) - first)
+    dt = 1 / record.rate
+    impulse = float(np.sum(f[first:end]) * dt)
+    return (
+        f"hit on {name} at t = {record.time[first]:.4f} s: peak {top:.4g} N, "
+        f"{(end - first) * dt * 1e3:.1f} ms above 5 % of it, impulse {impulse:.4g} N s"
+    )
+
+
 def force_quality(record: Record, name: str, start: float, settings: RecordSettings = RECORDS) -> list[QualityWarning]:
     """Checks of a hammer's force channel ``name``: clipping (a flat top), a second hit (a pulse after the
     first one has ended, above settings.double_hit_height of its peak, however small the response shows it),
@@ -397,7 +415,7 @@ def force_quality(record: Record, name: str, start: float, settings: RecordSetti
     top = float(f.max())
     if top <= 0:
         return [QualityWarning("no_hit", name, "the force channel is zero throughout: no impact recorded")]
-    if np.count_nonzero(np.abs(f - top) <= 1e-9 * top) >= settings.clip_samples:
+    if clipped_level(record.channel(name), settings) is not None:
         out.append(QualityWarning("clipping", name, f"force held at {top:g} N on several samples: clipped"))
     above = f > 0.05 * top
     first = int(np.argmax(above))
