@@ -286,3 +286,21 @@ def test_the_hit_on_a_force_channel_is_reported():
     impulse = float(note.split("impulse ")[1].split(" N s")[0])
     assert impulse == pytest.approx(2 * HIT.peak * HIT.duration / np.pi, rel=0.02)
     assert "peak 2" in note and "ms above 5 % of it" in note
+
+
+def test_the_records_chain_does_not_import_scipy_signal(tmp_path):
+    """Half a second of the one a file to stiffness may take went to importing scipy.signal: the chain
+    decimates and finds bursts in numpy (modal.decimate, modal.find_bursts; compared with scipy in
+    test_modal), and the command line must stay free of it."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "r.csv"
+    write_csv(_rig().simulate(SIX[:3], 4.0, 2048.0, hammers=[HIT]), path)
+    code = (
+        "import sys; from mountid.cli import main; "
+        f"main(['identify-record', 'kid300', {str(path)!r}, '--json']); "
+        "print('scipy.signal' in sys.modules, file=sys.stderr)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stderr.strip().splitlines()[-1] == "False"

@@ -41,3 +41,34 @@ def test_quality_checks_name_clipping_double_hits_short_records_and_an_early_sta
     )
     kinds = {(w.kind, w.channel) for w in modal.hammer_test_quality(bad, 17.7, start=0.07)}
     assert kinds == {("clipping", "b"), ("double_hit", "all"), ("too_short", "all")}
+
+
+@pytest.mark.parametrize("factor", [2, 3, 7, 12, 16])
+def test_numpy_decimation_is_scipys(factor):
+    """modal.decimate is scipy.signal.decimate (FIR, zero phase) without importing scipy.signal."""
+    import scipy.signal
+
+    x = np.random.default_rng(factor).standard_normal((997 + factor, 3))
+    reference = scipy.signal.decimate(x, factor, ftype="fir", zero_phase=True, axis=0)
+    assert np.allclose(modal.decimate(x, factor), reference, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_burst_peaks_are_scipys_find_peaks(seed):
+    """modal.find_bursts against scipy.signal.find_peaks with height, distance and prominence, on the burst
+    levels of records with and without second hits (the signals impact_bursts gives it)."""
+    import scipy.signal
+
+    rng = np.random.default_rng(seed)
+    second = None if seed % 2 else (float(rng.uniform(0.02, 0.2)), float(rng.uniform(0.1, 1.0)))
+    hit = Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6), duration=float(rng.uniform(0.002, 0.01)), second_hit=second)
+    record = Rig.of("kid300").simulate(
+        [Sensor("a", (0.4, 0.0, 0.1), (1, 0, 0), noise=0.01)], 2.0, 2048.0, hammers=[hit], seed=seed
+    )
+    level = np.abs(np.diff(record.data[:, 0]))
+    smooth = np.convolve(level, np.ones(20) / 20, mode="same")
+    for height, distance, prominence in ((0.1, 30, 0.05), (0.02, 5, 0.01), (0.3, 60, 0.2)):
+        h = height * smooth.max()
+        ours = modal.find_bursts(smooth, h, distance, prominence * smooth.max())
+        theirs, _ = scipy.signal.find_peaks(smooth, height=h, distance=distance, prominence=prominence * smooth.max())
+        assert ours.tolist() == theirs.tolist()
