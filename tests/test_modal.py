@@ -51,6 +51,7 @@ def test_numpy_decimation_is_scipys(factor):
     x = np.random.default_rng(factor).standard_normal((997 + factor, 3))
     reference = scipy.signal.decimate(x, factor, ftype="fir", zero_phase=True, axis=0)
     assert np.allclose(modal.decimate(x, factor), reference, rtol=0, atol=1e-13)
+    assert modal.decimate(x[:0], factor).shape == (0, 3)  # an empty segment stays empty
 
 
 @pytest.mark.parametrize("seed", range(6))

@@ -68,6 +68,8 @@ def decimate(data: NDArray, factor: int) -> NDArray[np.float64]:
     kernel /= kernel.sum()
     half = (taps - 1) // 2
     x = np.asarray(data, dtype=float)
+    if len(x) == 0:
+        return x[::factor]
     out = np.column_stack([np.convolve(x[:, j], kernel)[half : half + len(x)] for j in range(x.shape[1])])
     return out[::factor]
 
