@@ -71,7 +71,8 @@ def inconsistent_channel(machine: Machine, record: Record, start: float = 0.0) -
     is left out in turn and the others fitted as a rigid body over the free decay from ``start`` [s]; the
     residual variance per redundant equation tells which removal makes the rest consistent. A plain
     leave-one-out residual of each channel blames honest channels too (the turned one pulls the fit of the
-    others); with 7 channels a misfit is seen but cannot be placed, and is reported as such."""
+    others); with 7 channels a misfit beyond SENSOR_RATIO times the channels' own noise is seen but cannot be
+    placed, and is reported as such."""
     rows = channel_rows(machine, record)
     c = len(rows)
     if c < 7 or np.linalg.matrix_rank(rows) < 6:
@@ -85,7 +86,21 @@ def inconsistent_channel(machine: Machine, record: Record, start: float = 0.0) -
 
     full = variance(np.ones(c, dtype=bool))
     if c == 7:
-        return None  # one redundant equation: every channel's standardised residual is the same
+        # one redundant equation: every channel's standardised residual is the same, so the misfit is judged
+        # against the channels' own noise (from the first difference late in the record) and not placed
+        null = np.linalg.svd(rows.T)[2][-1]  # the combination of channels no rigid motion excites
+        tail = np.diff(record.data[-max(len(record.data) // 4, 8) :], axis=0)
+        noise = (np.median(np.abs(tail - np.median(tail, axis=0)), axis=0) * 1.4826 / math.sqrt(2)) ** 2
+        misfit = float(np.mean((null @ data) ** 2))
+        expected = float(np.sum(null**2 * noise))
+        if expected > 0 and misfit > SENSOR_RATIO**2 * expected:
+            return modal.QualityWarning(
+                "sensor",
+                "all",
+                f"the 7 channels do not move as one rigid body (misfit {math.sqrt(misfit / expected):.0f}x their "
+                "noise): one is turned, misplaced or mislabelled, and 7 channels cannot tell which (add an 8th)",
+            )
+        return None
     without = []
     for j in range(c):
         keep = np.arange(c) != j
@@ -392,7 +407,7 @@ def modal_data(
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top, settings=settings)
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, start, settings)]
-    if len(record.channels) >= 8 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
+    if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         sensor = inconsistent_channel(machine, record, start)
         warnings += [sensor] if sensor is not None else []
     labelled, rest = label_poles(machine, record, poles, guess)
