@@ -661,6 +661,8 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "isolator_axial_stiffness": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
+    "isolator_axial_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_points": ("a1", "a2", "b", "h"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
@@ -2756,7 +2758,7 @@ def effect_com_offset_derivatives(
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
 ):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
-    shape (..., 6, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2791,6 +2793,26 @@ def effect_com_offset_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/ddx_com:
           [y, phi] = m
           [z, theta] = -m
@@ -2812,25 +2834,35 @@ def effect_com_offset_derivatives(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3 * _tmp5 * b
-    _tmp7 = 4 * _tmp6
-    _tmp8 = _tmp5**2
-    _tmp9 = 4 * _tmp8
-    _tmp10 = _tmp0 * _tmp6
-    _tmp11 = a1**2
-    _tmp12 = _tmp11 * _tmp9
-    _tmp13 = 4 * a2**2
-    _tmp14 = _tmp11 * _tmp4
-    _tmp15 = -m
-    _tmp16 = dy_com * m
-    _tmp17 = dx_com * m
-    _tmp18 = 2 * _tmp17
-    _tmp19 = 2 * _tmp16
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
+    _tmp25 = -m
+    _tmp26 = dy_com * m
+    _tmp27 = dx_com * m
+    _tmp28 = 2 * _tmp27
+    _tmp29 = 2 * _tmp26
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2853,19 +2885,39 @@ def effect_com_offset_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2874,31 +2926,27 @@ def effect_com_offset_derivatives(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
-                _shape, 6, {(1, 5): m, (2, 4): _tmp15, (3, 4): -_tmp16, (4, 4): _tmp18, (5, 5): _tmp18}
+                _shape, 6, {(1, 5): m, (2, 4): _tmp25, (3, 4): -_tmp26, (4, 4): _tmp28, (5, 5): _tmp28}
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp15, (2, 3): m, (3, 3): _tmp19, (3, 4): -_tmp17, (5, 5): _tmp19}
+                _shape, 6, {(0, 5): _tmp25, (2, 3): m, (3, 3): _tmp29, (3, 4): -_tmp27, (5, 5): _tmp29}
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
@@ -2949,7 +2997,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
     """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2984,6 +3032,26 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/ddz_com:
           [x, theta] = m
           [y, psi] = -m
@@ -2996,21 +3064,31 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3 * _tmp5 * b
-    _tmp7 = 4 * _tmp6
-    _tmp8 = _tmp5**2
-    _tmp9 = 4 * _tmp8
-    _tmp10 = _tmp0 * _tmp6
-    _tmp11 = a1**2
-    _tmp12 = _tmp11 * _tmp9
-    _tmp13 = 4 * a2**2
-    _tmp14 = _tmp11 * _tmp4
-    _tmp15 = 2 * dz_com * m
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
+    _tmp25 = 2 * dz_com * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3032,19 +3110,39 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -3053,24 +3151,20 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp15, (4, 4): _tmp15}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp25, (4, 4): _tmp25}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(
@@ -3133,7 +3227,7 @@ def effect_rotational_stiffness_derivatives(
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
 ):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
-    shape (..., 6, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3168,6 +3262,26 @@ def effect_rotational_stiffness_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/dk_bend:
         dC/dk_bend:
           [psi, psi] = 8
@@ -3184,21 +3298,30 @@ def effect_rotational_stiffness_derivatives(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = _tmp4 + 4
-    _tmp6 = numpy.sin(gamma)
-    _tmp7 = _tmp3 * _tmp6 * b
-    _tmp8 = 4 * _tmp7
-    _tmp9 = _tmp6**2
-    _tmp10 = 4 * _tmp9
-    _tmp11 = _tmp0 * _tmp7
-    _tmp12 = a1**2
-    _tmp13 = _tmp10 * _tmp12
-    _tmp14 = 4 * a2**2
-    _tmp15 = _tmp12 * _tmp4
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3221,19 +3344,39 @@ def effect_rotational_stiffness_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp5,
-                    (1, 3): _tmp4 * h + _tmp8 + 4 * h,
-                    (2, 2): _tmp10,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 * _tmp2 + _tmp11,
-                    (4, 4): _tmp13,
-                    (5, 5): _tmp14 + _tmp15,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -3242,27 +3385,23 @@ def effect_rotational_stiffness_derivatives(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp10,
-                    (1, 3): -_tmp8 + 4 * _tmp9 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp10 - _tmp11 + _tmp2 * _tmp4,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp13,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp14}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp10, (5, 5): 4 - _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp14, (5, 5): 4 - _tmp7}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp14, (5, 5): _tmp8}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -3619,7 +3758,7 @@ def effect_foundation_derivatives(
     found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 9, 3, 12, 12), differentiated by sympy.
+    shape (..., 11, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3691,6 +3830,55 @@ def effect_foundation_derivatives(
           [psi_found, psi_found] = 4*b**2
           [theta_found, theta_found] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [x, x_found] = -8
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [y, y_found] = -4 - 4*cos(gamma)**2
+          [y, psi_found] = -4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [z, z_found] = -4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [psi, y_found] = -4*h - 4*h*cos(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [psi, psi_found] = 4*b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [theta, x_found] = 8*h
+          [theta, theta_found] = -4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi_found] = -8*b**2 - 4*a2**2 - 4*a1**2*cos(gamma)**2
+          [x_found, x_found] = 8
+          [y_found, y_found] = 4 + 4*cos(gamma)**2
+          [y_found, psi_found] = 4*b*cos(gamma)*sin(gamma)
+          [z_found, z_found] = 4*sin(gamma)**2
+          [psi_found, psi_found] = 4*b**2*sin(gamma)**2
+          [theta_found, theta_found] = 4*a1**2*sin(gamma)**2
+          [phi_found, phi_found] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [y, y_found] = -4*sin(gamma)**2
+          [y, psi_found] = 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [z, z_found] = -4 - 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [psi, y_found] = -4*h*sin(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [psi, psi_found] = 4*b*(-b - b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [theta, theta_found] = -4*a2**2 - 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+          [phi, phi_found] = -4*a1**2*sin(gamma)**2
+          [y_found, y_found] = 4*sin(gamma)**2
+          [y_found, psi_found] = -4*b*cos(gamma)*sin(gamma)
+          [z_found, z_found] = 4 + 4*cos(gamma)**2
+          [psi_found, psi_found] = 4*b**2*(1 + cos(gamma)**2)
+          [theta_found, theta_found] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi_found, phi_found] = 4*a1**2*sin(gamma)**2
         dM/dm_found:
           [x_found, x_found] = 1
           [x_found, theta_found] = -found_depth
@@ -3785,54 +3973,65 @@ def effect_foundation_derivatives(
         found_depth,
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
     _tmp3 = 8 * _tmp2
-    _tmp4 = numpy.cos(gamma)
-    _tmp5 = _tmp4**2
-    _tmp6 = 4 * _tmp5
-    _tmp7 = _tmp6 + 4
-    _tmp8 = numpy.sin(gamma)
-    _tmp9 = _tmp4 * _tmp8
-    _tmp10 = 4 * b
-    _tmp11 = _tmp10 * _tmp9
-    _tmp12 = _tmp11 + _tmp6 * h + 4 * h
-    _tmp13 = -_tmp11
-    _tmp14 = _tmp8**2
-    _tmp15 = 4 * _tmp14
-    _tmp16 = -_tmp15
-    _tmp17 = _tmp0 * _tmp9 * b
-    _tmp18 = _tmp15 * _tmp2
-    _tmp19 = _tmp9 * h
-    _tmp20 = a1**2
-    _tmp21 = _tmp15 * _tmp20
-    _tmp22 = -_tmp21
-    _tmp23 = a2**2
-    _tmp24 = 4 * _tmp23
-    _tmp25 = _tmp20 * _tmp6
-    _tmp26 = _tmp24 + _tmp25
-    _tmp27 = _tmp11 - 4 * _tmp14 * h
-    _tmp28 = _tmp2 * _tmp6
-    _tmp29 = 4 * _tmp2
-    _tmp30 = found_depth**2
-    _tmp31 = (0.5) * _tmp20
-    _tmp32 = (0.5) * _tmp23
-    _tmp33 = _tmp1 + _tmp2 + _tmp31 + _tmp32
-    _tmp34 = _tmp30 + _tmp33
-    _tmp35 = found_depth * found_shear
-    _tmp36 = _tmp30 * found_shear
-    _tmp37 = found_spread**2
-    _tmp38 = _tmp2 * _tmp37
-    _tmp39 = _tmp31 * _tmp37
-    _tmp40 = _tmp32 * _tmp37
-    _tmp41 = found_depth * k_found
-    _tmp42 = _tmp30 * k_found
-    _tmp43 = found_spread * k_found
-    _tmp44 = 2 * _tmp2
-    _tmp45 = found_shear * k_found
-    _tmp46 = _tmp45 * found_spread
-    _tmp47 = 2 * found_depth * m_found
-    _tmp48 = 2 * _tmp35 * k_found
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = _tmp6**2
+    _tmp8 = 4 * _tmp7
+    _tmp9 = _tmp8 + 4
+    _tmp10 = numpy.sin(gamma)
+    _tmp11 = _tmp10 * _tmp6
+    _tmp12 = 4 * b
+    _tmp13 = _tmp11 * _tmp12
+    _tmp14 = _tmp13 + _tmp8 * h + 4 * h
+    _tmp15 = -_tmp9
+    _tmp16 = -_tmp13
+    _tmp17 = _tmp10**2
+    _tmp18 = 4 * _tmp17
+    _tmp19 = -_tmp18
+    _tmp20 = _tmp0 * _tmp11 * b
+    _tmp21 = _tmp18 * _tmp4
+    _tmp22 = _tmp2 * _tmp8 + 4 * _tmp2 + _tmp20 + _tmp21
+    _tmp23 = -_tmp14
+    _tmp24 = _tmp11 * h
+    _tmp25 = _tmp12 * (-_tmp17 * b - _tmp24)
+    _tmp26 = a1**2
+    _tmp27 = _tmp18 * _tmp26
+    _tmp28 = -_tmp27
+    _tmp29 = a2**2
+    _tmp30 = 4 * _tmp29
+    _tmp31 = _tmp26 * _tmp8
+    _tmp32 = _tmp30 + _tmp31
+    _tmp33 = -_tmp32
+    _tmp34 = _tmp13 - 4 * _tmp17 * h
+    _tmp35 = -_tmp34
+    _tmp36 = _tmp4 * _tmp8
+    _tmp37 = _tmp18 * _tmp2 - _tmp20 + _tmp36
+    _tmp38 = -_tmp24 + _tmp7 * b
+    _tmp39 = 4 * _tmp4
+    _tmp40 = _tmp32 + _tmp5
+    _tmp41 = found_depth**2
+    _tmp42 = (0.5) * _tmp26
+    _tmp43 = (0.5) * _tmp29
+    _tmp44 = _tmp2 + _tmp4 + _tmp42 + _tmp43
+    _tmp45 = _tmp41 + _tmp44
+    _tmp46 = found_depth * found_shear
+    _tmp47 = _tmp41 * found_shear
+    _tmp48 = found_spread**2
+    _tmp49 = _tmp4 * _tmp48
+    _tmp50 = _tmp42 * _tmp48
+    _tmp51 = _tmp43 * _tmp48
+    _tmp52 = found_depth * k_found
+    _tmp53 = _tmp41 * k_found
+    _tmp54 = found_spread * k_found
+    _tmp55 = 2 * _tmp4
+    _tmp56 = found_shear * k_found
+    _tmp57 = _tmp56 * found_spread
+    _tmp58 = 2 * found_depth * m_found
+    _tmp59 = 2 * _tmp46 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3863,14 +4062,14 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (0, 0): 8,
-                    (0, 4): -_tmp0,
+                    (0, 4): _tmp1,
                     (0, 6): -8,
-                    (4, 4): 8 * _tmp1,
+                    (4, 4): _tmp3,
                     (4, 6): _tmp0,
-                    (5, 5): _tmp3,
-                    (5, 11): -_tmp3,
+                    (5, 5): _tmp5,
+                    (5, 11): -_tmp5,
                     (6, 6): 8,
-                    (11, 11): _tmp3,
+                    (11, 11): _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3879,52 +4078,52 @@ def effect_foundation_derivatives(
                 _shape,
                 12,
                 {
-                    (1, 1): _tmp7,
-                    (1, 3): _tmp12,
-                    (1, 7): -_tmp7,
-                    (1, 9): _tmp13,
-                    (2, 2): _tmp15,
-                    (2, 8): _tmp16,
-                    (3, 3): _tmp1 * _tmp6 + 4 * _tmp1 + _tmp17 + _tmp18,
-                    (3, 7): -_tmp12,
-                    (3, 9): _tmp10 * (-_tmp14 * b - _tmp19),
-                    (4, 4): _tmp21,
-                    (4, 10): _tmp22,
-                    (5, 5): _tmp26,
-                    (5, 11): -_tmp26,
-                    (7, 7): _tmp7,
-                    (7, 9): _tmp11,
-                    (8, 8): _tmp15,
-                    (9, 9): _tmp18,
-                    (10, 10): _tmp21,
-                    (11, 11): _tmp26,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): _tmp15,
-                    (1, 3): -_tmp27,
-                    (1, 7): _tmp16,
-                    (1, 9): _tmp11,
-                    (2, 2): _tmp6,
-                    (2, 8): -_tmp6,
-                    (3, 3): _tmp1 * _tmp15 - _tmp17 + _tmp28,
-                    (3, 7): _tmp27,
-                    (3, 9): _tmp10 * (_tmp19 - _tmp5 * b),
-                    (4, 4): _tmp25,
-                    (4, 10): -_tmp25,
-                    (5, 5): _tmp21,
-                    (5, 11): _tmp22,
-                    (7, 7): _tmp15,
+                    (1, 1): _tmp9,
+                    (1, 3): _tmp14,
+                    (1, 7): _tmp15,
+                    (1, 9): _tmp16,
+                    (2, 2): _tmp18,
+                    (2, 8): _tmp19,
+                    (3, 3): _tmp22,
+                    (3, 7): _tmp23,
+                    (3, 9): _tmp25,
+                    (4, 4): _tmp27,
+                    (4, 10): _tmp28,
+                    (5, 5): _tmp32,
+                    (5, 11): _tmp33,
+                    (7, 7): _tmp9,
                     (7, 9): _tmp13,
-                    (8, 8): _tmp6,
-                    (9, 9): _tmp28,
-                    (10, 10): _tmp25,
-                    (11, 11): _tmp21,
+                    (8, 8): _tmp18,
+                    (9, 9): _tmp21,
+                    (10, 10): _tmp27,
+                    (11, 11): _tmp32,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): _tmp18,
+                    (1, 3): _tmp35,
+                    (1, 7): _tmp19,
+                    (1, 9): _tmp13,
+                    (2, 2): _tmp8,
+                    (2, 8): -_tmp8,
+                    (3, 3): _tmp37,
+                    (3, 7): _tmp34,
+                    (3, 9): -_tmp12 * _tmp38,
+                    (4, 4): _tmp31,
+                    (4, 10): -_tmp31,
+                    (5, 5): _tmp27,
+                    (5, 11): _tmp28,
+                    (7, 7): _tmp18,
+                    (7, 9): _tmp16,
+                    (8, 8): _tmp8,
+                    (9, 9): _tmp36,
+                    (10, 10): _tmp31,
+                    (11, 11): _tmp27,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3935,16 +4134,75 @@ def effect_foundation_derivatives(
                 {
                     (2, 2): 4,
                     (2, 8): -4,
-                    (3, 3): _tmp29,
-                    (3, 9): -_tmp29,
-                    (4, 4): _tmp24,
-                    (4, 10): -_tmp24,
+                    (3, 3): _tmp39,
+                    (3, 9): -_tmp39,
+                    (4, 4): _tmp30,
+                    (4, 10): -_tmp30,
                     (8, 8): 4,
-                    (9, 9): _tmp29,
-                    (10, 10): _tmp24,
+                    (9, 9): _tmp39,
+                    (10, 10): _tmp30,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (0, 6): -8,
+                    (1, 1): _tmp9,
+                    (1, 3): _tmp14,
+                    (1, 7): _tmp15,
+                    (1, 9): _tmp16,
+                    (2, 2): _tmp18,
+                    (2, 8): _tmp19,
+                    (3, 3): _tmp22,
+                    (3, 7): _tmp23,
+                    (3, 9): _tmp25,
+                    (4, 4): _tmp27 + _tmp3,
+                    (4, 6): _tmp0,
+                    (4, 10): _tmp28,
+                    (5, 5): _tmp40,
+                    (5, 11): -_tmp40,
+                    (6, 6): 8,
+                    (7, 7): _tmp9,
+                    (7, 9): _tmp13,
+                    (8, 8): _tmp18,
+                    (9, 9): _tmp21,
+                    (10, 10): _tmp27,
+                    (11, 11): _tmp40,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): _tmp18,
+                    (1, 3): _tmp35,
+                    (1, 7): _tmp19,
+                    (1, 9): _tmp13,
+                    (2, 2): _tmp9,
+                    (2, 8): _tmp15,
+                    (3, 3): _tmp37 + _tmp39,
+                    (3, 7): _tmp34,
+                    (3, 9): _tmp12 * (-_tmp38 - b),
+                    (4, 4): _tmp32,
+                    (4, 10): _tmp33,
+                    (5, 5): _tmp27,
+                    (5, 11): _tmp28,
+                    (7, 7): _tmp18,
+                    (7, 9): _tmp16,
+                    (8, 8): _tmp9,
+                    (9, 9): _tmp39 * (_tmp7 + 1),
+                    (10, 10): _tmp32,
+                    (11, 11): _tmp27,
+                },
+            ),
             _runtime.stack_matrix(
                 _shape,
                 12,
@@ -3954,9 +4212,9 @@ def effect_foundation_derivatives(
                     (7, 7): 1,
                     (7, 9): found_depth,
                     (8, 8): 1,
-                    (9, 9): _tmp34,
-                    (10, 10): _tmp34,
-                    (11, 11): _tmp33,
+                    (9, 9): _tmp45,
+                    (10, 10): _tmp45,
+                    (11, 11): _tmp44,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3967,13 +4225,13 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): found_shear,
-                    (6, 10): -_tmp35,
+                    (6, 10): -_tmp46,
                     (7, 7): found_shear,
-                    (7, 9): _tmp35,
+                    (7, 9): _tmp46,
                     (8, 8): 1,
-                    (9, 9): _tmp36 + _tmp38,
-                    (10, 10): _tmp36 + _tmp39 + _tmp40,
-                    (11, 11): _tmp38 * found_shear + _tmp39 * found_shear + _tmp40 * found_shear,
+                    (9, 9): _tmp47 + _tmp49,
+                    (10, 10): _tmp47 + _tmp50 + _tmp51,
+                    (11, 11): _tmp49 * found_shear + _tmp50 * found_shear + _tmp51 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3983,12 +4241,12 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): k_found,
-                    (6, 10): -_tmp41,
+                    (6, 10): -_tmp52,
                     (7, 7): k_found,
-                    (7, 9): _tmp41,
-                    (9, 9): _tmp42,
-                    (10, 10): _tmp42,
-                    (11, 11): _tmp38 * k_found + _tmp39 * k_found + _tmp40 * k_found,
+                    (7, 9): _tmp52,
+                    (9, 9): _tmp53,
+                    (10, 10): _tmp53,
+                    (11, 11): _tmp49 * k_found + _tmp50 * k_found + _tmp51 * k_found,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -3997,18 +4255,18 @@ def effect_foundation_derivatives(
                 _shape,
                 12,
                 {
-                    (9, 9): _tmp43 * _tmp44,
-                    (10, 10): _tmp20 * _tmp43 + _tmp23 * _tmp43,
-                    (11, 11): _tmp20 * _tmp46 + _tmp23 * _tmp46 + _tmp44 * _tmp46,
+                    (9, 9): _tmp54 * _tmp55,
+                    (10, 10): _tmp26 * _tmp54 + _tmp29 * _tmp54,
+                    (11, 11): _tmp26 * _tmp57 + _tmp29 * _tmp57 + _tmp55 * _tmp57,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp47, (10, 10): _tmp47}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp45, (7, 9): _tmp45, (9, 9): _tmp48, (10, 10): _tmp48}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp58, (10, 10): _tmp58}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp56, (7, 9): _tmp56, (9, 9): _tmp59, (10, 10): _tmp59}),
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 9, 3, 12, 12)
+    ).reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -4143,7 +4401,7 @@ def effect_added_mass_derivatives(
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 9, 3, 6, 6), differentiated by sympy.
+    shape (..., 11, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4178,6 +4436,26 @@ def effect_added_mass_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
@@ -4274,35 +4552,45 @@ def effect_added_mass_derivatives(
         g_added,
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3 * _tmp5 * b
-    _tmp7 = 4 * _tmp6
-    _tmp8 = _tmp5**2
-    _tmp9 = 4 * _tmp8
-    _tmp10 = _tmp0 * _tmp6
-    _tmp11 = a1**2
-    _tmp12 = _tmp11 * _tmp9
-    _tmp13 = 4 * a2**2
-    _tmp14 = _tmp11 * _tmp4
-    _tmp15 = y_added**2
-    _tmp16 = g_added**2
-    _tmp17 = _tmp16 + h_added**2
-    _tmp18 = x_added**2
-    _tmp19 = -m_added
-    _tmp20 = m_added * y_added
-    _tmp21 = -_tmp20
-    _tmp22 = h_added * m_added
-    _tmp23 = -_tmp22
-    _tmp24 = m_added * x_added
-    _tmp25 = 2 * _tmp24
-    _tmp26 = 2 * _tmp20
-    _tmp27 = -_tmp24
-    _tmp28 = 2 * _tmp22
-    _tmp29 = 2 * g_added * m_added
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
+    _tmp25 = y_added**2
+    _tmp26 = g_added**2
+    _tmp27 = _tmp26 + h_added**2
+    _tmp28 = x_added**2
+    _tmp29 = -m_added
+    _tmp30 = m_added * y_added
+    _tmp31 = -_tmp30
+    _tmp32 = h_added * m_added
+    _tmp33 = -_tmp32
+    _tmp34 = m_added * x_added
+    _tmp35 = 2 * _tmp34
+    _tmp36 = 2 * _tmp30
+    _tmp37 = -_tmp34
+    _tmp38 = 2 * _tmp32
+    _tmp39 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4328,19 +4616,39 @@ def effect_added_mass_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4349,18 +4657,14 @@ def effect_added_mass_derivatives(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
@@ -4374,12 +4678,12 @@ def effect_added_mass_derivatives(
                     (2, 2): 1,
                     (2, 3): y_added,
                     (2, 4): -x_added,
-                    (3, 3): _tmp15 + _tmp17,
+                    (3, 3): _tmp25 + _tmp27,
                     (3, 4): -x_added * y_added,
                     (3, 5): -h_added * x_added,
-                    (4, 4): _tmp17 + _tmp18,
+                    (4, 4): _tmp27 + _tmp28,
                     (4, 5): -h_added * y_added,
-                    (5, 5): _tmp15 + _tmp16 + _tmp18,
+                    (5, 5): _tmp25 + _tmp26 + _tmp28,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4387,30 +4691,30 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(1, 5): m_added, (2, 4): _tmp19, (3, 4): _tmp21, (3, 5): _tmp23, (4, 4): _tmp25, (5, 5): _tmp25},
+                {(1, 5): m_added, (2, 4): _tmp29, (3, 4): _tmp31, (3, 5): _tmp33, (4, 4): _tmp35, (5, 5): _tmp35},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 5): _tmp19, (2, 3): m_added, (3, 3): _tmp26, (3, 4): _tmp27, (4, 5): _tmp23, (5, 5): _tmp26},
+                {(0, 5): _tmp29, (2, 3): m_added, (3, 3): _tmp36, (3, 4): _tmp37, (4, 5): _tmp33, (5, 5): _tmp36},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 4): m_added, (1, 3): _tmp19, (3, 3): _tmp28, (3, 5): _tmp27, (4, 4): _tmp28, (4, 5): _tmp21},
+                {(0, 4): m_added, (1, 3): _tmp29, (3, 3): _tmp38, (3, 5): _tmp37, (4, 4): _tmp38, (4, 5): _tmp31},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp29, (4, 4): _tmp29, (5, 5): _tmp29}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp39, (4, 4): _tmp39, (5, 5): _tmp39}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 9, 3, 6, 6)
+    ).reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
@@ -4461,7 +4765,7 @@ def effect_drive_belt_derivatives(
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
 ):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
-    shape (..., 6, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4496,6 +4800,26 @@ def effect_drive_belt_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/dk_belt:
         dC/dk_belt:
           [x, x] = 1
@@ -4512,20 +4836,30 @@ def effect_drive_belt_derivatives(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3 * _tmp5 * b
-    _tmp7 = 4 * _tmp6
-    _tmp8 = _tmp5**2
-    _tmp9 = 4 * _tmp8
-    _tmp10 = _tmp0 * _tmp6
-    _tmp11 = a1**2
-    _tmp12 = _tmp11 * _tmp9
-    _tmp13 = 4 * a2**2
-    _tmp14 = _tmp11 * _tmp4
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4548,19 +4882,39 @@ def effect_drive_belt_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4569,18 +4923,14 @@ def effect_drive_belt_derivatives(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4589,7 +4939,7 @@ def effect_drive_belt_derivatives(
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
@@ -4639,7 +4989,7 @@ def effect_gravity_preload_derivatives(
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
 ):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4674,6 +5024,26 @@ def effect_gravity_preload_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
         dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
         dM/dh_preload:
         dC/dh_preload:
           [psi, psi] = -196133*m/20000
@@ -4684,21 +5054,31 @@ def effect_gravity_preload_derivatives(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
     )
     _tmp0 = 8 * h
-    _tmp1 = h**2
-    _tmp2 = b**2
-    _tmp3 = numpy.cos(gamma)
-    _tmp4 = 4 * _tmp3**2
-    _tmp5 = numpy.sin(gamma)
-    _tmp6 = _tmp3 * _tmp5 * b
-    _tmp7 = 4 * _tmp6
-    _tmp8 = _tmp5**2
-    _tmp9 = 4 * _tmp8
-    _tmp10 = _tmp0 * _tmp6
-    _tmp11 = a1**2
-    _tmp12 = _tmp11 * _tmp9
-    _tmp13 = 4 * a2**2
-    _tmp14 = _tmp11 * _tmp4
-    _tmp15 = -9.80665 * m
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
+    _tmp25 = -9.80665 * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4720,19 +5100,39 @@ def effect_gravity_preload_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
+                    (0, 0): 8,
+                    (0, 4): _tmp1,
+                    (1, 1): _tmp8,
+                    (1, 3): _tmp12,
+                    (2, 2): _tmp14,
+                    (3, 3): _tmp16,
+                    (4, 4): _tmp18 + _tmp3,
+                    (5, 5): _tmp21 + _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4741,29 +5141,25 @@ def effect_gravity_preload_derivatives(
                 _shape,
                 6,
                 {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
+                    (1, 1): _tmp14,
+                    (1, 3): _tmp22,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp23 + _tmp24,
+                    (4, 4): _tmp21,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp15, (4, 4): _tmp15}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp25, (4, 4): _tmp25}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
-    """Stiffness matrix of each isolator alone, shape (..., 8, 6, 6), isolators in the order of
-    ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone, shape (..., 8, 6, 6),
+    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
 
     Non-zero upper-triangle entries:
 
@@ -5715,6 +6111,560 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     ).reshape(*_shape, 4, 8, 6, 6)
 
 
+def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 8, 6, 6),
+    isolators in the order of ISOLATORS.
+
+    Non-zero upper-triangle entries:
+
+        inner[+x+y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = -a1*c_v1*cos(gamma)**2
+          [z, phi] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+        inner[-x+y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = a1*c_v1*cos(gamma)**2
+          [z, phi] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+        inner[+x-y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = -a1*c_v1*cos(gamma)**2
+          [z, phi] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+        inner[-x-y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = a1*c_v1*cos(gamma)**2
+          [z, phi] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+        outer[+x+y]:
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = -a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = -a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+        outer[-x+y]:
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+        outer[+x-y]:
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = -a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+        outer[-x-y]:
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = -a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+    """
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    _tmp0 = numpy.sin(gamma)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * c_v1
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = _tmp0 * c_v1
+    _tmp5 = _tmp3 * _tmp4
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp3 * b
+    _tmp8 = -_tmp0 * h + _tmp7
+    _tmp9 = -_tmp8
+    _tmp10 = _tmp4 * _tmp9
+    _tmp11 = _tmp5 * a1
+    _tmp12 = _tmp2 * a1
+    _tmp13 = _tmp3**2
+    _tmp14 = _tmp13 * c_v1
+    _tmp15 = _tmp3 * c_v1
+    _tmp16 = _tmp15 * _tmp8
+    _tmp17 = _tmp14 * a1
+    _tmp18 = -_tmp17
+    _tmp19 = -_tmp11
+    _tmp20 = b**2
+    _tmp21 = c_v1 * (-2 * _tmp0 * _tmp7 * h + _tmp1 * h**2 + _tmp13 * _tmp20)
+    _tmp22 = _tmp15 * _tmp9
+    _tmp23 = _tmp22 * a1
+    _tmp24 = _tmp10 * a1
+    _tmp25 = a1**2
+    _tmp26 = _tmp14 * _tmp25
+    _tmp27 = _tmp25 * _tmp5
+    _tmp28 = _tmp2 * _tmp25
+    _tmp29 = -_tmp12
+    _tmp30 = _tmp16 * a1
+    _tmp31 = _tmp4 * _tmp8 * a1
+    _tmp32 = -_tmp27
+    _tmp33 = b * c_v2
+    _tmp34 = a2 * c_v2
+    _tmp35 = -_tmp34
+    _tmp36 = _tmp20 * c_v2
+    _tmp37 = _tmp33 * a2
+    _tmp38 = -_tmp37
+    _tmp39 = a2**2 * c_v2
+    _tmp40 = -_tmp33
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp2,
+                    (1, 2): _tmp6,
+                    (1, 3): _tmp10,
+                    (1, 4): _tmp11,
+                    (1, 5): _tmp12,
+                    (2, 2): _tmp14,
+                    (2, 3): _tmp16,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp19,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp2,
+                    (1, 2): _tmp6,
+                    (1, 3): _tmp10,
+                    (1, 4): _tmp19,
+                    (1, 5): _tmp29,
+                    (2, 2): _tmp14,
+                    (2, 3): _tmp16,
+                    (2, 4): _tmp17,
+                    (2, 5): _tmp11,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp30,
+                    (3, 5): _tmp31,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp2,
+                    (1, 2): _tmp5,
+                    (1, 3): _tmp10,
+                    (1, 4): _tmp19,
+                    (1, 5): _tmp12,
+                    (2, 2): _tmp14,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp11,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp30,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp32,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp2,
+                    (1, 2): _tmp5,
+                    (1, 3): _tmp10,
+                    (1, 4): _tmp11,
+                    (1, 5): _tmp29,
+                    (2, 2): _tmp14,
+                    (2, 3): _tmp22,
+                    (2, 4): _tmp17,
+                    (2, 5): _tmp19,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp31,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp32,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(2, 2): c_v2, (2, 3): _tmp33, (2, 4): _tmp35, (3, 3): _tmp36, (3, 4): _tmp38, (4, 4): _tmp39},
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(2, 2): c_v2, (2, 3): _tmp33, (2, 4): _tmp34, (3, 3): _tmp36, (3, 4): _tmp37, (4, 4): _tmp39},
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(2, 2): c_v2, (2, 3): _tmp40, (2, 4): _tmp35, (3, 3): _tmp36, (3, 4): _tmp37, (4, 4): _tmp39},
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(2, 2): c_v2, (2, 3): _tmp40, (2, 4): _tmp34, (3, 3): _tmp36, (3, 4): _tmp38, (4, 4): _tmp39},
+            ),
+        ],
+        axis=-3,
+    )
+
+
+def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
+    """Derivatives of isolator_axial_stiffness() with respect to the unknowns c_x, c_y, c_v1, c_v2, shape
+    (..., 4, 8, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dinner[+x+y]/dc_x:
+        dinner[-x+y]/dc_x:
+        dinner[+x-y]/dc_x:
+        dinner[-x-y]/dc_x:
+        douter[+x+y]/dc_x:
+        douter[-x+y]/dc_x:
+        douter[+x-y]/dc_x:
+        douter[-x-y]/dc_x:
+        dinner[+x+y]/dc_y:
+        dinner[-x+y]/dc_y:
+        dinner[+x-y]/dc_y:
+        dinner[-x-y]/dc_y:
+        douter[+x+y]/dc_y:
+        douter[-x+y]/dc_y:
+        douter[+x-y]/dc_y:
+        douter[-x-y]/dc_y:
+        dinner[+x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[+x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        douter[+x+y]/dc_v1:
+        douter[-x+y]/dc_v1:
+        douter[+x-y]/dc_v1:
+        douter[-x-y]/dc_v1:
+        dinner[+x+y]/dc_v2:
+        dinner[-x+y]/dc_v2:
+        dinner[+x-y]/dc_v2:
+        dinner[-x-y]/dc_v2:
+        douter[+x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+        douter[-x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[+x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[-x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+    """
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    _tmp0 = numpy.sin(gamma)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.cos(gamma)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = -_tmp3
+    _tmp5 = -_tmp0 * h + _tmp2 * b
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp0 * _tmp6
+    _tmp8 = _tmp3 * a1
+    _tmp9 = _tmp1 * a1
+    _tmp10 = _tmp2**2
+    _tmp11 = _tmp2 * _tmp5
+    _tmp12 = _tmp10 * a1
+    _tmp13 = -_tmp12
+    _tmp14 = -_tmp8
+    _tmp15 = b**2
+    _tmp16 = _tmp1 * h**2 + _tmp10 * _tmp15 - 2 * _tmp3 * b * h
+    _tmp17 = _tmp2 * _tmp6
+    _tmp18 = _tmp17 * a1
+    _tmp19 = _tmp7 * a1
+    _tmp20 = a1**2
+    _tmp21 = _tmp10 * _tmp20
+    _tmp22 = _tmp20 * _tmp3
+    _tmp23 = _tmp1 * _tmp20
+    _tmp24 = -_tmp9
+    _tmp25 = _tmp11 * a1
+    _tmp26 = _tmp0 * _tmp5 * a1
+    _tmp27 = -_tmp22
+    _tmp28 = -a2
+    _tmp29 = a2 * b
+    _tmp30 = -_tmp29
+    _tmp31 = a2**2
+    _tmp32 = -b
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp1,
+                    (1, 2): _tmp4,
+                    (1, 3): _tmp7,
+                    (1, 4): _tmp8,
+                    (1, 5): _tmp9,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp11,
+                    (2, 4): _tmp13,
+                    (2, 5): _tmp14,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp18,
+                    (3, 5): _tmp19,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp1,
+                    (1, 2): _tmp4,
+                    (1, 3): _tmp7,
+                    (1, 4): _tmp14,
+                    (1, 5): _tmp24,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp11,
+                    (2, 4): _tmp12,
+                    (2, 5): _tmp8,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp25,
+                    (3, 5): _tmp26,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp1,
+                    (1, 2): _tmp3,
+                    (1, 3): _tmp7,
+                    (1, 4): _tmp14,
+                    (1, 5): _tmp9,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp17,
+                    (2, 4): _tmp13,
+                    (2, 5): _tmp8,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp25,
+                    (3, 5): _tmp19,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (1, 1): _tmp1,
+                    (1, 2): _tmp3,
+                    (1, 3): _tmp7,
+                    (1, 4): _tmp8,
+                    (1, 5): _tmp24,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp17,
+                    (2, 4): _tmp12,
+                    (2, 5): _tmp14,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp18,
+                    (3, 5): _tmp26,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp28, (3, 3): _tmp15, (3, 4): _tmp30, (4, 4): _tmp31}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp15, (3, 4): _tmp29, (4, 4): _tmp31}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp32, (2, 4): _tmp28, (3, 3): _tmp15, (3, 4): _tmp29, (4, 4): _tmp31}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp32, (2, 4): a2, (3, 3): _tmp15, (3, 4): _tmp30, (4, 4): _tmp31}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 4, 8, 6, 6)
+
+
 def isolator_points(a1, a2, b, h):
     """Point of each isolator [m] from the coordinate origin, shape (..., 3, 8), isolators in the
     order of ISOLATORS:
@@ -5946,13 +6896,25 @@ EFFECT_COORDINATES = {
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
 EFFECT_DERIVATIVE_PARAMETERS = {
-    "com_offset": ("c_x", "c_y", "c_v1", "c_v2", "dx_com", "dy_com"),
-    "cog_height": ("c_x", "c_y", "c_v1", "c_v2", "dz_com"),
-    "rotational_stiffness": ("c_x", "c_y", "c_v1", "c_v2", "k_bend", "k_torsion"),
-    "foundation": ("c_x", "c_y", "c_v1", "c_v2", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
-    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "m_added", "x_added", "y_added", "h_added", "g_added"),
-    "drive_belt": ("c_x", "c_y", "c_v1", "c_v2", "k_belt", "h_belt"),
-    "gravity_preload": ("c_x", "c_y", "c_v1", "c_v2", "h_preload"),
+    "com_offset": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dx_com", "dy_com"),
+    "cog_height": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "dz_com"),
+    "rotational_stiffness": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_bend", "k_torsion"),
+    "foundation": (
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
+    ),
+    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "drive_belt": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
+    "gravity_preload": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
 }
 """Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
 matrices depend on, then the effect's parameters."""

@@ -243,6 +243,8 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
+    "isolator_axial_stiffness": ("L_xy", "c_z"),
+    "isolator_axial_stiffness_gradient": ("L_xy", "c_z"),
     "isolator_points": ("L_xy", "L_z"),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
@@ -1041,7 +1043,7 @@ def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_
 
 def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1061,6 +1063,22 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/ddx_com:
           [y, phi] = m
           [z, theta] = -m
@@ -1082,14 +1100,16 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
-    _tmp4 = -m
-    _tmp5 = dy_com * m
-    _tmp6 = dx_com * m
-    _tmp7 = 2 * _tmp6
-    _tmp8 = 2 * _tmp5
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
+    _tmp6 = -m
+    _tmp7 = dy_com * m
+    _tmp8 = dx_com * m
+    _tmp9 = 2 * _tmp8
+    _tmp10 = 2 * _tmp7
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1109,21 +1129,33 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp6, (3, 4): -_tmp7, (4, 4): _tmp9, (5, 5): _tmp9}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(0, 5): _tmp6, (2, 3): m, (3, 3): _tmp10, (3, 4): -_tmp8, (5, 5): _tmp10}
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
@@ -1168,7 +1200,7 @@ def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
 
 def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
     """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
-    shape (..., 3, 3, 6, 6), differentiated by sympy.
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1188,6 +1220,22 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/ddz_com:
           [x, theta] = m
           [y, psi] = -m
@@ -1200,10 +1248,12 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
-    _tmp4 = 2 * dz_com * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
+    _tmp6 = 2 * dz_com * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1222,18 +1272,28 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp6, (4, 4): _tmp6}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 3, 3, 6, 6)
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
@@ -1277,7 +1337,7 @@ def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k
 
 def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1297,6 +1357,22 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/dk_bend:
         dC/dk_bend:
           [psi, psi] = 4
@@ -1311,9 +1387,11 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1333,12 +1411,22 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -1347,7 +1435,7 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(
@@ -1562,7 +1650,7 @@ def effect_foundation_derivatives(
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 7, 3, 12, 12), differentiated by sympy.
+    shape (..., 9, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1596,6 +1684,36 @@ def effect_foundation_derivatives(
           [psi_found, psi_found] = 2*L_xy**2
           [theta_found, theta_found] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [x, x_found] = -4
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [y, y_found] = -4
+          [psi, psi] = 4*L_z**2
+          [psi, y_found] = -4*L_z
+          [theta, theta] = 4*L_z**2
+          [theta, x_found] = 4*L_z
+          [phi, phi] = 4*L_xy**2
+          [phi, phi_found] = -4*L_xy**2
+          [x_found, x_found] = 4
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 2*L_xy**2
+          [psi, psi_found] = -2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+          [theta, theta_found] = -2*L_xy**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 2*L_xy**2
+          [theta_found, theta_found] = 2*L_xy**2
         dM/dm_found:
           [x_found, x_found] = 1
           [x_found, theta_found] = -found_depth
@@ -1657,20 +1775,21 @@ def effect_foundation_derivatives(
     _tmp3 = 4 * _tmp2
     _tmp4 = L_xy**2
     _tmp5 = 4 * _tmp4
-    _tmp6 = 2 * _tmp4
-    _tmp7 = -_tmp6
-    _tmp8 = found_depth**2
-    _tmp9 = _tmp2 + _tmp4
-    _tmp10 = _tmp8 + _tmp9
-    _tmp11 = found_depth * found_shear
-    _tmp12 = _tmp4 * found_spread**2
-    _tmp13 = (0.5) * _tmp12 + _tmp8 * found_shear
-    _tmp14 = found_depth * k_found
-    _tmp15 = _tmp8 * k_found
-    _tmp16 = _tmp4 * found_spread * k_found
-    _tmp17 = found_shear * k_found
-    _tmp18 = 2 * found_depth * m_found
-    _tmp19 = 2 * _tmp11 * k_found
+    _tmp6 = -_tmp5
+    _tmp7 = 2 * _tmp4
+    _tmp8 = -_tmp7
+    _tmp9 = found_depth**2
+    _tmp10 = _tmp2 + _tmp4
+    _tmp11 = _tmp10 + _tmp9
+    _tmp12 = found_depth * found_shear
+    _tmp13 = _tmp4 * found_spread**2
+    _tmp14 = (0.5) * _tmp13 + _tmp9 * found_shear
+    _tmp15 = found_depth * k_found
+    _tmp16 = _tmp9 * k_found
+    _tmp17 = _tmp4 * found_spread * k_found
+    _tmp18 = found_shear * k_found
+    _tmp19 = 2 * found_depth * m_found
+    _tmp20 = 2 * _tmp12 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1705,7 +1824,7 @@ def effect_foundation_derivatives(
                     (4, 4): _tmp3,
                     (4, 6): _tmp0,
                     (5, 5): _tmp5,
-                    (5, 11): -_tmp5,
+                    (5, 11): _tmp6,
                     (6, 6): 4,
                     (7, 7): 4,
                     (11, 11): _tmp5,
@@ -1719,16 +1838,56 @@ def effect_foundation_derivatives(
                 {
                     (2, 2): 4,
                     (2, 8): -4,
-                    (3, 3): _tmp6,
-                    (3, 9): _tmp7,
-                    (4, 4): _tmp6,
-                    (4, 10): _tmp7,
+                    (3, 3): _tmp7,
+                    (3, 9): _tmp8,
+                    (4, 4): _tmp7,
+                    (4, 10): _tmp8,
                     (8, 8): 4,
-                    (9, 9): _tmp6,
-                    (10, 10): _tmp6,
+                    (9, 9): _tmp7,
+                    (10, 10): _tmp7,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp5,
+                    (5, 11): _tmp6,
+                    (6, 6): 4,
+                    (7, 7): 4,
+                    (11, 11): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp7,
+                    (3, 9): _tmp8,
+                    (4, 4): _tmp7,
+                    (4, 10): _tmp8,
+                    (8, 8): 4,
+                    (9, 9): _tmp7,
+                    (10, 10): _tmp7,
+                },
+            ),
             _runtime.stack_matrix(
                 _shape,
                 12,
@@ -1738,9 +1897,9 @@ def effect_foundation_derivatives(
                     (7, 7): 1,
                     (7, 9): found_depth,
                     (8, 8): 1,
-                    (9, 9): _tmp10,
-                    (10, 10): _tmp10,
-                    (11, 11): _tmp9,
+                    (9, 9): _tmp11,
+                    (10, 10): _tmp11,
+                    (11, 11): _tmp10,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -1751,13 +1910,13 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): found_shear,
-                    (6, 10): -_tmp11,
+                    (6, 10): -_tmp12,
                     (7, 7): found_shear,
-                    (7, 9): _tmp11,
+                    (7, 9): _tmp12,
                     (8, 8): 1,
-                    (9, 9): _tmp13,
-                    (10, 10): _tmp13,
-                    (11, 11): _tmp12 * found_shear,
+                    (9, 9): _tmp14,
+                    (10, 10): _tmp14,
+                    (11, 11): _tmp13 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -1767,26 +1926,26 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): k_found,
-                    (6, 10): -_tmp14,
+                    (6, 10): -_tmp15,
                     (7, 7): k_found,
-                    (7, 9): _tmp14,
-                    (9, 9): _tmp15,
-                    (10, 10): _tmp15,
-                    (11, 11): _tmp12 * k_found,
+                    (7, 9): _tmp15,
+                    (9, 9): _tmp16,
+                    (10, 10): _tmp16,
+                    (11, 11): _tmp13 * k_found,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(9, 9): _tmp16, (10, 10): _tmp16, (11, 11): _tmp17 * _tmp6 * found_spread}
+                _shape, 12, {(9, 9): _tmp17, (10, 10): _tmp17, (11, 11): _tmp18 * _tmp7 * found_spread}
             ),
             _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp18, (10, 10): _tmp18}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp17, (7, 9): _tmp17, (9, 9): _tmp19, (10, 10): _tmp19}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp19, (10, 10): _tmp19}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp18, (7, 9): _tmp18, (9, 9): _tmp20, (10, 10): _tmp20}),
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 7, 3, 12, 12)
+    ).reshape(*_shape, 9, 3, 12, 12)
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -1873,7 +2032,7 @@ def effect_added_mass_derivatives(
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 7, 3, 6, 6), differentiated by sympy.
+    shape (..., 9, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1893,6 +2052,22 @@ def effect_added_mass_derivatives(
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
@@ -1949,24 +2124,26 @@ def effect_added_mass_derivatives(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
-    _tmp4 = y_added**2
-    _tmp5 = g_added**2
-    _tmp6 = _tmp5 + h_added**2
-    _tmp7 = x_added**2
-    _tmp8 = -m_added
-    _tmp9 = m_added * y_added
-    _tmp10 = -_tmp9
-    _tmp11 = h_added * m_added
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
+    _tmp6 = y_added**2
+    _tmp7 = g_added**2
+    _tmp8 = _tmp7 + h_added**2
+    _tmp9 = x_added**2
+    _tmp10 = -m_added
+    _tmp11 = m_added * y_added
     _tmp12 = -_tmp11
-    _tmp13 = m_added * x_added
-    _tmp14 = 2 * _tmp13
-    _tmp15 = 2 * _tmp9
-    _tmp16 = -_tmp13
+    _tmp13 = h_added * m_added
+    _tmp14 = -_tmp13
+    _tmp15 = m_added * x_added
+    _tmp16 = 2 * _tmp15
     _tmp17 = 2 * _tmp11
-    _tmp18 = 2 * g_added * m_added
+    _tmp18 = -_tmp15
+    _tmp19 = 2 * _tmp13
+    _tmp20 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1989,12 +2166,22 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(
                 _shape,
                 6,
@@ -2008,12 +2195,12 @@ def effect_added_mass_derivatives(
                     (2, 2): 1,
                     (2, 3): y_added,
                     (2, 4): -x_added,
-                    (3, 3): _tmp4 + _tmp6,
+                    (3, 3): _tmp6 + _tmp8,
                     (3, 4): -x_added * y_added,
                     (3, 5): -h_added * x_added,
-                    (4, 4): _tmp6 + _tmp7,
+                    (4, 4): _tmp8 + _tmp9,
                     (4, 5): -h_added * y_added,
-                    (5, 5): _tmp4 + _tmp5 + _tmp7,
+                    (5, 5): _tmp6 + _tmp7 + _tmp9,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2021,30 +2208,30 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(1, 5): m_added, (2, 4): _tmp8, (3, 4): _tmp10, (3, 5): _tmp12, (4, 4): _tmp14, (5, 5): _tmp14},
+                {(1, 5): m_added, (2, 4): _tmp10, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp16, (5, 5): _tmp16},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 5): _tmp8, (2, 3): m_added, (3, 3): _tmp15, (3, 4): _tmp16, (4, 5): _tmp12, (5, 5): _tmp15},
+                {(0, 5): _tmp10, (2, 3): m_added, (3, 3): _tmp17, (3, 4): _tmp18, (4, 5): _tmp14, (5, 5): _tmp17},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 4): m_added, (1, 3): _tmp8, (3, 3): _tmp17, (3, 5): _tmp16, (4, 4): _tmp17, (4, 5): _tmp10},
+                {(0, 4): m_added, (1, 3): _tmp10, (3, 3): _tmp19, (3, 5): _tmp18, (4, 4): _tmp19, (4, 5): _tmp12},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp18, (4, 4): _tmp18, (5, 5): _tmp18}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp20, (4, 4): _tmp20, (5, 5): _tmp20}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    ).reshape(*_shape, 9, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
@@ -2087,7 +2274,7 @@ def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_b
 
 def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2107,6 +2294,22 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/dk_belt:
         dC/dk_belt:
           [x, x] = 1
@@ -2123,9 +2326,11 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -2145,12 +2350,22 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2159,7 +2374,7 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
@@ -2200,7 +2415,7 @@ def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_prel
 
 def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
-    shape (..., 3, 3, 6, 6), differentiated by sympy.
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2220,6 +2435,22 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
         dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
         dM/dh_preload:
         dC/dh_preload:
           [psi, psi] = -196133*m/20000
@@ -2230,10 +2461,12 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload
     )
     _tmp0 = 4 * L_z
-    _tmp1 = 4 * L_z**2
-    _tmp2 = L_xy**2
-    _tmp3 = 2 * _tmp2
-    _tmp4 = -9.80665 * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
+    _tmp6 = -9.80665 * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -2252,23 +2485,33 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (4, 4): _tmp6}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 3, 3, 6, 6)
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
-    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6), isolators in the order of
-    ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
 
     Non-zero upper-triangle entries:
 
@@ -2627,6 +2870,135 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
     ).reshape(*_shape, 2, 4, 6, 6)
 
 
+def isolator_axial_stiffness(L_xy, c_z):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+        corner[-x+y]:
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+        corner[+x-y]:
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+        corner[-x-y]:
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+    """
+    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    _tmp0 = (0.5) * c_z
+    _tmp1 = numpy.sqrt(2) * L_xy * _tmp0
+    _tmp2 = -_tmp1
+    _tmp3 = L_xy**2 * _tmp0
+    _tmp4 = -_tmp3
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp3}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp3, (4, 4): _tmp3}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp3, (4, 4): _tmp3}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp3}
+            ),
+        ],
+        axis=-3,
+    )
+
+
+def isolator_axial_stiffness_gradient(L_xy, c_z):
+    """Derivatives of isolator_axial_stiffness() with respect to the unknowns c_xy, c_z, shape
+    (..., 2, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_xy:
+        dcorner[-x+y]/dc_xy:
+        dcorner[+x-y]/dc_xy:
+        dcorner[-x-y]/dc_xy:
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+    """
+    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    _tmp0 = (0.5) * numpy.sqrt(2) * L_xy
+    _tmp1 = -_tmp0
+    _tmp2 = (0.5) * L_xy**2
+    _tmp3 = -_tmp2
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp2, (3, 4): _tmp3, (4, 4): _tmp2}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp0, (2, 4): _tmp0, (3, 3): _tmp2, (3, 4): _tmp2, (4, 4): _tmp2}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp2, (3, 4): _tmp2, (4, 4): _tmp2}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp0, (3, 3): _tmp2, (3, 4): _tmp3, (4, 4): _tmp2}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 2, 4, 6, 6)
+
+
 def isolator_points(L_xy, L_z):
     """Point of each isolator [m] from the coordinate origin, shape (..., 3, 4), isolators in the
     order of ISOLATORS:
@@ -2778,13 +3150,13 @@ EFFECT_COORDINATES = {
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
 EFFECT_DERIVATIVE_PARAMETERS = {
-    "com_offset": ("c_xy", "c_z", "dx_com", "dy_com"),
-    "cog_height": ("c_xy", "c_z", "dz_com"),
-    "rotational_stiffness": ("c_xy", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_xy", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
-    "added_mass": ("c_xy", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
-    "drive_belt": ("c_xy", "c_z", "k_belt", "h_belt"),
-    "gravity_preload": ("c_xy", "c_z", "h_preload"),
+    "com_offset": ("c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
+    "cog_height": ("c_xy", "c_z", "b_xy", "b_z", "dz_com"),
+    "rotational_stiffness": ("c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
+    "foundation": ("c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_xy", "c_z", "b_xy", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "drive_belt": ("c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_xy", "c_z", "b_xy", "b_z", "h_preload"),
 }
 """Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
 matrices depend on, then the effect's parameters."""

@@ -381,6 +381,8 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "isolator_axial_stiffness": ("a", "b", "c_z"),
+    "isolator_axial_stiffness_gradient": ("a", "b", "c_z"),
     "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
 }
@@ -2142,7 +2144,7 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2166,6 +2168,26 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/ddx_com:
           [y, phi] = m
           [z, theta] = -m
@@ -2187,14 +2209,15 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
-    _tmp4 = -m
-    _tmp5 = dy_com * m
-    _tmp6 = dx_com * m
-    _tmp7 = 2 * _tmp6
-    _tmp8 = 2 * _tmp5
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
+    _tmp5 = -m
+    _tmp6 = dy_com * m
+    _tmp7 = dx_com * m
+    _tmp8 = 2 * _tmp7
+    _tmp9 = 2 * _tmp6
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2215,23 +2238,32 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp4, (3, 4): -_tmp5, (4, 4): _tmp7, (5, 5): _tmp7}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp8, (3, 4): -_tmp6, (5, 5): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp5, (3, 4): -_tmp6, (4, 4): _tmp8, (5, 5): _tmp8}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp5, (2, 3): m, (3, 3): _tmp9, (3, 4): -_tmp7, (5, 5): _tmp9}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
@@ -2280,7 +2312,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
     """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2304,6 +2336,26 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/ddz_com:
           [x, theta] = m
           [y, psi] = -m
@@ -2316,10 +2368,11 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
-    _tmp4 = 2 * dz_com * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
+    _tmp5 = 2 * dz_com * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2339,20 +2392,29 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
@@ -2400,7 +2462,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b
 
 def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2424,6 +2486,26 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dk_bend:
         dC/dk_bend:
           [psi, psi] = 4
@@ -2438,9 +2520,10 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2461,14 +2544,23 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2477,7 +2569,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -2727,7 +2819,7 @@ def effect_foundation_derivatives(
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found, found_shear, found_spread, found_depth
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 8, 3, 12, 12), differentiated by sympy.
+    shape (..., 11, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2767,6 +2859,42 @@ def effect_foundation_derivatives(
           [psi_found, psi_found] = 4*b**2
           [theta_found, theta_found] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [x, x_found] = -4
+          [theta, theta] = 4*h**2
+          [theta, x_found] = 4*h
+          [phi, phi] = 4*b**2
+          [phi, phi_found] = -4*b**2
+          [x_found, x_found] = 4
+          [phi_found, phi_found] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [y, y_found] = -4
+          [psi, psi] = 4*h**2
+          [psi, y_found] = -4*h
+          [phi, phi] = 4*a**2
+          [phi, phi_found] = -4*a**2
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 4*b**2
+          [psi, psi_found] = -4*b**2
+          [theta, theta] = 4*a**2
+          [theta, theta_found] = -4*a**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 4*b**2
+          [theta_found, theta_found] = 4*a**2
         dM/dm_found:
           [x_found, x_found] = 1
           [x_found, theta_found] = -found_depth
@@ -2955,6 +3083,57 @@ def effect_foundation_derivatives(
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp5,
+                    (5, 11): _tmp6,
+                    (6, 6): 4,
+                    (11, 11): _tmp5,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (5, 5): _tmp8,
+                    (5, 11): _tmp9,
+                    (7, 7): 4,
+                    (11, 11): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp5,
+                    (3, 9): _tmp6,
+                    (4, 4): _tmp8,
+                    (4, 10): _tmp9,
+                    (8, 8): 4,
+                    (9, 9): _tmp5,
+                    (10, 10): _tmp8,
+                },
+            ),
             _runtime.stack_matrix(
                 _shape,
                 12,
@@ -3014,7 +3193,7 @@ def effect_foundation_derivatives(
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 8, 3, 12, 12)
+    ).reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -3109,7 +3288,7 @@ def effect_added_mass_derivatives(
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 8, 3, 6, 6), differentiated by sympy.
+    shape (..., 11, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3133,6 +3312,26 @@ def effect_added_mass_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
@@ -3191,24 +3390,25 @@ def effect_added_mass_derivatives(
         )
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
-    _tmp4 = y_added**2
-    _tmp5 = g_added**2
-    _tmp6 = _tmp5 + h_added**2
-    _tmp7 = x_added**2
-    _tmp8 = -m_added
-    _tmp9 = m_added * y_added
-    _tmp10 = -_tmp9
-    _tmp11 = h_added * m_added
-    _tmp12 = -_tmp11
-    _tmp13 = m_added * x_added
-    _tmp14 = 2 * _tmp13
-    _tmp15 = 2 * _tmp9
-    _tmp16 = -_tmp13
-    _tmp17 = 2 * _tmp11
-    _tmp18 = 2 * g_added * m_added
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
+    _tmp5 = y_added**2
+    _tmp6 = g_added**2
+    _tmp7 = _tmp6 + h_added**2
+    _tmp8 = x_added**2
+    _tmp9 = -m_added
+    _tmp10 = m_added * y_added
+    _tmp11 = -_tmp10
+    _tmp12 = h_added * m_added
+    _tmp13 = -_tmp12
+    _tmp14 = m_added * x_added
+    _tmp15 = 2 * _tmp14
+    _tmp16 = 2 * _tmp10
+    _tmp17 = -_tmp14
+    _tmp18 = 2 * _tmp12
+    _tmp19 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3232,14 +3432,23 @@ def effect_added_mass_derivatives(
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(
                 _shape,
                 6,
@@ -3253,12 +3462,12 @@ def effect_added_mass_derivatives(
                     (2, 2): 1,
                     (2, 3): y_added,
                     (2, 4): -x_added,
-                    (3, 3): _tmp4 + _tmp6,
+                    (3, 3): _tmp5 + _tmp7,
                     (3, 4): -x_added * y_added,
                     (3, 5): -h_added * x_added,
-                    (4, 4): _tmp6 + _tmp7,
+                    (4, 4): _tmp7 + _tmp8,
                     (4, 5): -h_added * y_added,
-                    (5, 5): _tmp4 + _tmp5 + _tmp7,
+                    (5, 5): _tmp5 + _tmp6 + _tmp8,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -3266,30 +3475,30 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(1, 5): m_added, (2, 4): _tmp8, (3, 4): _tmp10, (3, 5): _tmp12, (4, 4): _tmp14, (5, 5): _tmp14},
+                {(1, 5): m_added, (2, 4): _tmp9, (3, 4): _tmp11, (3, 5): _tmp13, (4, 4): _tmp15, (5, 5): _tmp15},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 5): _tmp8, (2, 3): m_added, (3, 3): _tmp15, (3, 4): _tmp16, (4, 5): _tmp12, (5, 5): _tmp15},
+                {(0, 5): _tmp9, (2, 3): m_added, (3, 3): _tmp16, (3, 4): _tmp17, (4, 5): _tmp13, (5, 5): _tmp16},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 4): m_added, (1, 3): _tmp8, (3, 3): _tmp17, (3, 5): _tmp16, (4, 4): _tmp17, (4, 5): _tmp10},
+                {(0, 4): m_added, (1, 3): _tmp9, (3, 3): _tmp18, (3, 5): _tmp17, (4, 4): _tmp18, (4, 5): _tmp11},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp18, (4, 4): _tmp18, (5, 5): _tmp18}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp19, (4, 4): _tmp19, (5, 5): _tmp19}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    ).reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -3336,7 +3545,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3360,6 +3569,26 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dk_belt:
         dC/dk_belt:
           [x, x] = 1
@@ -3376,9 +3605,10 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3399,14 +3629,23 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -3415,7 +3654,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
@@ -3460,7 +3699,7 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3484,6 +3723,26 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dh_preload:
         dC/dh_preload:
           [psi, psi] = -196133*m/20000
@@ -3494,10 +3753,11 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * b**2
-    _tmp3 = 4 * a**2
-    _tmp4 = -9.80665 * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
+    _tmp5 = -9.80665 * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3517,25 +3777,34 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
     return numpy.stack(
         [
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp5, (4, 4): _tmp5}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
-    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6), isolators in the order of
-    ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
 
     Non-zero upper-triangle entries:
 
@@ -3872,6 +4141,148 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
     ).reshape(*_shape, 3, 4, 6, 6)
 
 
+def isolator_axial_stiffness(a, b, c_z):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+        corner[-x+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [theta, theta] = c_z*a**2
+        corner[+x-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [theta, theta] = c_z*a**2
+        corner[-x-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = b * c_z
+    _tmp1 = a * c_z
+    _tmp2 = -_tmp1
+    _tmp3 = b**2 * c_z
+    _tmp4 = _tmp0 * a
+    _tmp5 = -_tmp4
+    _tmp6 = a**2 * c_z
+    _tmp7 = -_tmp0
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
+            ),
+        ],
+        axis=-3,
+    )
+
+
+def isolator_axial_stiffness_gradient(a, b, c_z):
+    """Derivatives of isolator_axial_stiffness() with respect to the unknowns c_x, c_y, c_z, shape
+    (..., 3, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_x:
+        dcorner[-x+y]/dc_x:
+        dcorner[+x-y]/dc_x:
+        dcorner[-x-y]/dc_x:
+        dcorner[+x+y]/dc_y:
+        dcorner[-x+y]/dc_y:
+        dcorner[+x-y]/dc_y:
+        dcorner[-x-y]/dc_y:
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = -a
+    _tmp1 = b**2
+    _tmp2 = a * b
+    _tmp3 = -_tmp2
+    _tmp4 = a**2
+    _tmp5 = -b
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 4, 6, 6)
+
+
 def isolator_points(a, b, h):
     """Point of each isolator [m] from the coordinate origin, shape (..., 3, 4), isolators in the
     order of ISOLATORS:
@@ -4055,13 +4466,25 @@ EFFECT_COORDINATES = {
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
 EFFECT_DERIVATIVE_PARAMETERS = {
-    "com_offset": ("c_x", "c_y", "c_z", "dx_com", "dy_com"),
-    "cog_height": ("c_x", "c_y", "c_z", "dz_com"),
-    "rotational_stiffness": ("c_x", "c_y", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_x", "c_y", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
-    "added_mass": ("c_x", "c_y", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
-    "drive_belt": ("c_x", "c_y", "c_z", "k_belt", "h_belt"),
-    "gravity_preload": ("c_x", "c_y", "c_z", "h_preload"),
+    "com_offset": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dx_com", "dy_com"),
+    "cog_height": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "dz_com"),
+    "rotational_stiffness": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_bend", "k_torsion"),
+    "foundation": (
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
+    ),
+    "added_mass": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "drive_belt": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
 }
 """Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
 matrices depend on, then the effect's parameters."""

@@ -429,6 +429,8 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_stiffness_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "isolator_axial_stiffness": ("a", "b", "h", "alpha", "c_v", "c_m"),
+    "isolator_axial_stiffness_gradient": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
@@ -3898,7 +3900,7 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3927,6 +3929,31 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/ddx_com:
           [y, phi] = m
           [z, theta] = -m
@@ -3949,22 +3976,30 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0 * _tmp2 * a
-    _tmp4 = 4 * _tmp3
-    _tmp5 = 4 * _tmp2**2
-    _tmp6 = h**2
-    _tmp7 = b**2
-    _tmp8 = _tmp5 * _tmp7
-    _tmp9 = 8 * _tmp3 * h
-    _tmp10 = a**2
-    _tmp11 = 2 * _tmp7
-    _tmp12 = _tmp1 * _tmp7
-    _tmp13 = -m
-    _tmp14 = dy_com * m
-    _tmp15 = dx_com * m
-    _tmp16 = 2 * _tmp15
-    _tmp17 = 2 * _tmp14
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
+    _tmp21 = -m
+    _tmp22 = dy_com * m
+    _tmp23 = dx_com * m
+    _tmp24 = 2 * _tmp23
+    _tmp25 = 2 * _tmp22
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3990,14 +4025,14 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
                 _shape,
                 6,
                 {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4005,32 +4040,51 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
                     (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
-            _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
-                _shape, 6, {(1, 5): m, (2, 4): _tmp13, (3, 4): -_tmp14, (4, 4): _tmp16, (5, 5): _tmp16}
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(
+                _shape, 6, {(1, 5): m, (2, 4): _tmp21, (3, 4): -_tmp22, (4, 4): _tmp24, (5, 5): _tmp24}
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp13, (2, 3): m, (3, 3): _tmp17, (3, 4): -_tmp15, (5, 5): _tmp17}
+                _shape, 6, {(0, 5): _tmp21, (2, 3): m, (3, 3): _tmp25, (3, 4): -_tmp23, (5, 5): _tmp25}
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
@@ -4080,7 +4134,7 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
     """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4109,6 +4163,31 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/ddz_com:
           [x, theta] = m
           [y, psi] = -m
@@ -4122,18 +4201,26 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0 * _tmp2 * a
-    _tmp4 = 4 * _tmp3
-    _tmp5 = 4 * _tmp2**2
-    _tmp6 = h**2
-    _tmp7 = b**2
-    _tmp8 = _tmp5 * _tmp7
-    _tmp9 = 8 * _tmp3 * h
-    _tmp10 = a**2
-    _tmp11 = 2 * _tmp7
-    _tmp12 = _tmp1 * _tmp7
-    _tmp13 = 2 * dz_com * m
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
+    _tmp21 = 2 * dz_com * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4158,14 +4245,14 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
                 _shape,
                 6,
                 {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4173,25 +4260,44 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
                     (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp13, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp21, (4, 4): _tmp21}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
@@ -4253,7 +4359,7 @@ def effect_rotational_stiffness_derivatives(
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
 ):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4282,6 +4388,31 @@ def effect_rotational_stiffness_derivatives(
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/dk_bend:
         dC/dk_bend:
           [psi, psi] = 6 - 4*sin(alpha)**2
@@ -4303,14 +4434,21 @@ def effect_rotational_stiffness_derivatives(
     _tmp3 = numpy.sin(alpha)
     _tmp4 = _tmp0 * _tmp3 * a
     _tmp5 = 4 * _tmp4
-    _tmp6 = 4 * _tmp3**2
-    _tmp7 = h**2
-    _tmp8 = b**2
-    _tmp9 = _tmp6 * _tmp8
-    _tmp10 = 8 * _tmp4 * h
-    _tmp11 = a**2
-    _tmp12 = 2 * _tmp8
-    _tmp13 = _tmp1 * _tmp8
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4337,13 +4475,13 @@ def effect_rotational_stiffness_derivatives(
                 6,
                 {
                     (0, 0): _tmp2,
-                    (0, 4): -_tmp1 * h + _tmp5 - 2 * h,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp6,
-                    (3, 3): 6 * _tmp7 + _tmp9,
-                    (4, 4): _tmp1 * _tmp7 - _tmp10 + _tmp11 * _tmp6 + 2 * _tmp7,
-                    (5, 5): 4 * _tmp11 + _tmp12 + _tmp13,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -4351,28 +4489,47 @@ def effect_rotational_stiffness_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp6,
-                    (0, 4): -_tmp5 - _tmp6 * h,
-                    (2, 2): _tmp1,
-                    (3, 3): _tmp13,
-                    (4, 4): _tmp1 * _tmp11 + _tmp10 + _tmp6 * _tmp7,
-                    (5, 5): _tmp9,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp12}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp6, (4, 4): 6, (5, 5): 4 - _tmp1}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp8, (4, 4): 6, (5, 5): 4 - _tmp1}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (5, 5): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp8, (5, 5): _tmp2}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -4725,7 +4882,7 @@ def effect_foundation_derivatives(
     found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 8, 3, 12, 12), differentiated by sympy.
+    shape (..., 11, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4787,6 +4944,64 @@ def effect_foundation_derivatives(
           [z_found, z_found] = 2
           [psi_found, psi_found] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [x, x_found] = -2 - 4*cos(alpha)**2
+          [x, theta_found] = -4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [y, y_found] = -6
+          [z, z] = 4*sin(alpha)**2
+          [z, z_found] = -4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [psi, y_found] = -6*h
+          [psi, psi_found] = -4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [theta, x_found] = 2*h + 4*h*cos(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [theta, theta_found] = 4*a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+          [phi, phi_found] = -4*a**2 - 2*b**2 - 4*b**2*cos(alpha)**2
+          [x_found, x_found] = 2 + 4*cos(alpha)**2
+          [x_found, theta_found] = 4*a*cos(alpha)*sin(alpha)
+          [y_found, y_found] = 6
+          [z_found, z_found] = 4*sin(alpha)**2
+          [psi_found, psi_found] = 4*b**2*sin(alpha)**2
+          [theta_found, theta_found] = 4*a**2*sin(alpha)**2
+          [phi_found, phi_found] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [x, x_found] = -4*sin(alpha)**2
+          [x, theta_found] = 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [z, z_found] = -4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [psi, psi_found] = -4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [theta, x_found] = 4*h*sin(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [theta, theta_found] = 4*a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [phi, phi] = 4*b**2*sin(alpha)**2
+          [phi, phi_found] = -4*b**2*sin(alpha)**2
+          [x_found, x_found] = 4*sin(alpha)**2
+          [x_found, theta_found] = -4*a*cos(alpha)*sin(alpha)
+          [z_found, z_found] = 4*cos(alpha)**2
+          [psi_found, psi_found] = 4*b**2*cos(alpha)**2
+          [theta_found, theta_found] = 4*a**2*cos(alpha)**2
+          [phi_found, phi_found] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [z, z_found] = -2
+          [psi, psi] = 2*b**2
+          [psi, psi_found] = -2*b**2
+          [z_found, z_found] = 2
+          [psi_found, psi_found] = 2*b**2
         dM/dm_found:
           [x_found, x_found] = 1
           [x_found, theta_found] = -found_depth
@@ -4888,40 +5103,53 @@ def effect_foundation_derivatives(
     _tmp7 = _tmp5 * _tmp6
     _tmp8 = -_tmp7
     _tmp9 = _tmp2 * h + _tmp8 + 2 * h
-    _tmp10 = 6 * h
-    _tmp11 = _tmp4**2
-    _tmp12 = 4 * _tmp11
-    _tmp13 = -_tmp12
-    _tmp14 = h**2
-    _tmp15 = b**2
-    _tmp16 = _tmp12 * _tmp15
-    _tmp17 = -_tmp16
-    _tmp18 = _tmp5 * h
-    _tmp19 = 8 * _tmp18 * a
-    _tmp20 = a**2
-    _tmp21 = _tmp12 * _tmp20
-    _tmp22 = 2 * _tmp15
-    _tmp23 = _tmp15 * _tmp2
-    _tmp24 = 4 * _tmp20 + _tmp22 + _tmp23
-    _tmp25 = _tmp12 * h + _tmp7
-    _tmp26 = _tmp2 * _tmp20
-    _tmp27 = found_depth**2
-    _tmp28 = (0.6666666666666666) * _tmp20
-    _tmp29 = _tmp14 + _tmp15 + _tmp28
-    _tmp30 = _tmp27 + _tmp29
-    _tmp31 = found_depth * found_shear
-    _tmp32 = _tmp27 * found_shear
-    _tmp33 = found_spread**2
-    _tmp34 = _tmp15 * _tmp33
-    _tmp35 = _tmp28 * _tmp33
-    _tmp36 = found_depth * k_found
-    _tmp37 = _tmp27 * k_found
-    _tmp38 = found_spread * k_found
-    _tmp39 = (1.3333333333333333) * _tmp20
-    _tmp40 = found_shear * k_found
-    _tmp41 = _tmp40 * found_spread
-    _tmp42 = 2 * found_depth * m_found
-    _tmp43 = 2 * _tmp31 * k_found
+    _tmp10 = -_tmp9
+    _tmp11 = -_tmp3
+    _tmp12 = 6 * h
+    _tmp13 = _tmp4**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = -_tmp14
+    _tmp16 = h**2
+    _tmp17 = b**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 6 * _tmp16 + _tmp18
+    _tmp20 = -_tmp12
+    _tmp21 = -_tmp18
+    _tmp22 = _tmp5 * h
+    _tmp23 = 8 * _tmp22 * a
+    _tmp24 = a**2
+    _tmp25 = _tmp14 * _tmp24
+    _tmp26 = _tmp16 * _tmp2 + 2 * _tmp16 - _tmp23 + _tmp25
+    _tmp27 = _tmp6 * (-_tmp13 * a + _tmp22)
+    _tmp28 = 2 * _tmp17
+    _tmp29 = _tmp17 * _tmp2
+    _tmp30 = 4 * _tmp24 + _tmp28 + _tmp29
+    _tmp31 = -_tmp30
+    _tmp32 = _tmp14 * h + _tmp7
+    _tmp33 = -_tmp32
+    _tmp34 = -_tmp2
+    _tmp35 = -_tmp29
+    _tmp36 = _tmp2 * _tmp24
+    _tmp37 = _tmp14 * _tmp16 + _tmp23 + _tmp36
+    _tmp38 = _tmp6 * (-_tmp1 * a - _tmp22)
+    _tmp39 = -_tmp28
+    _tmp40 = found_depth**2
+    _tmp41 = (0.6666666666666666) * _tmp24
+    _tmp42 = _tmp16 + _tmp17 + _tmp41
+    _tmp43 = _tmp40 + _tmp42
+    _tmp44 = found_depth * found_shear
+    _tmp45 = _tmp40 * found_shear
+    _tmp46 = found_spread**2
+    _tmp47 = _tmp17 * _tmp46
+    _tmp48 = _tmp41 * _tmp46
+    _tmp49 = found_depth * k_found
+    _tmp50 = _tmp40 * k_found
+    _tmp51 = found_spread * k_found
+    _tmp52 = (1.3333333333333333) * _tmp24
+    _tmp53 = found_shear * k_found
+    _tmp54 = _tmp53 * found_spread
+    _tmp55 = 2 * found_depth * m_found
+    _tmp56 = 2 * _tmp44 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4951,29 +5179,29 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (0, 0): _tmp3,
-                    (0, 4): -_tmp9,
-                    (0, 6): -_tmp3,
+                    (0, 4): _tmp10,
+                    (0, 6): _tmp11,
                     (0, 10): _tmp8,
                     (1, 1): 6,
-                    (1, 3): _tmp10,
+                    (1, 3): _tmp12,
                     (1, 7): -6,
-                    (2, 2): _tmp12,
-                    (2, 8): _tmp13,
-                    (3, 3): 6 * _tmp14 + _tmp16,
-                    (3, 7): -_tmp10,
-                    (3, 9): _tmp17,
-                    (4, 4): _tmp14 * _tmp2 + 2 * _tmp14 - _tmp19 + _tmp21,
+                    (2, 2): _tmp14,
+                    (2, 8): _tmp15,
+                    (3, 3): _tmp19,
+                    (3, 7): _tmp20,
+                    (3, 9): _tmp21,
+                    (4, 4): _tmp26,
                     (4, 6): _tmp9,
-                    (4, 10): _tmp6 * (-_tmp11 * a + _tmp18),
-                    (5, 5): _tmp24,
-                    (5, 11): -_tmp24,
+                    (4, 10): _tmp27,
+                    (5, 5): _tmp30,
+                    (5, 11): _tmp31,
                     (6, 6): _tmp3,
                     (6, 10): _tmp7,
                     (7, 7): 6,
-                    (8, 8): _tmp12,
-                    (9, 9): _tmp16,
-                    (10, 10): _tmp21,
-                    (11, 11): _tmp24,
+                    (8, 8): _tmp14,
+                    (9, 9): _tmp18,
+                    (10, 10): _tmp25,
+                    (11, 11): _tmp30,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -4982,33 +5210,97 @@ def effect_foundation_derivatives(
                 _shape,
                 12,
                 {
-                    (0, 0): _tmp12,
-                    (0, 4): -_tmp25,
-                    (0, 6): _tmp13,
+                    (0, 0): _tmp14,
+                    (0, 4): _tmp33,
+                    (0, 6): _tmp15,
                     (0, 10): _tmp7,
                     (2, 2): _tmp2,
-                    (2, 8): -_tmp2,
-                    (3, 3): _tmp23,
-                    (3, 9): -_tmp23,
-                    (4, 4): _tmp12 * _tmp14 + _tmp19 + _tmp26,
-                    (4, 6): _tmp25,
-                    (4, 10): _tmp6 * (-_tmp1 * a - _tmp18),
-                    (5, 5): _tmp16,
-                    (5, 11): _tmp17,
-                    (6, 6): _tmp12,
+                    (2, 8): _tmp34,
+                    (3, 3): _tmp29,
+                    (3, 9): _tmp35,
+                    (4, 4): _tmp37,
+                    (4, 6): _tmp32,
+                    (4, 10): _tmp38,
+                    (5, 5): _tmp18,
+                    (5, 11): _tmp21,
+                    (6, 6): _tmp14,
                     (6, 10): _tmp8,
                     (8, 8): _tmp2,
-                    (9, 9): _tmp23,
-                    (10, 10): _tmp26,
-                    (11, 11): _tmp16,
+                    (9, 9): _tmp29,
+                    (10, 10): _tmp36,
+                    (11, 11): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(_shape, 12, {}),
             _runtime.stack_matrix(
-                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp22, (3, 9): -_tmp22, (8, 8): 2, (9, 9): _tmp22}
+                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp28, (3, 9): _tmp39, (8, 8): 2, (9, 9): _tmp28}
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): _tmp3,
+                    (0, 4): _tmp10,
+                    (0, 6): _tmp11,
+                    (0, 10): _tmp8,
+                    (1, 1): 6,
+                    (1, 3): _tmp12,
+                    (1, 7): -6,
+                    (2, 2): _tmp14,
+                    (2, 8): _tmp15,
+                    (3, 3): _tmp19,
+                    (3, 7): _tmp20,
+                    (3, 9): _tmp21,
+                    (4, 4): _tmp26,
+                    (4, 6): _tmp9,
+                    (4, 10): _tmp27,
+                    (5, 5): _tmp30,
+                    (5, 11): _tmp31,
+                    (6, 6): _tmp3,
+                    (6, 10): _tmp7,
+                    (7, 7): 6,
+                    (8, 8): _tmp14,
+                    (9, 9): _tmp18,
+                    (10, 10): _tmp25,
+                    (11, 11): _tmp30,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): _tmp14,
+                    (0, 4): _tmp33,
+                    (0, 6): _tmp15,
+                    (0, 10): _tmp7,
+                    (2, 2): _tmp2,
+                    (2, 8): _tmp34,
+                    (3, 3): _tmp29,
+                    (3, 9): _tmp35,
+                    (4, 4): _tmp37,
+                    (4, 6): _tmp32,
+                    (4, 10): _tmp38,
+                    (5, 5): _tmp18,
+                    (5, 11): _tmp21,
+                    (6, 6): _tmp14,
+                    (6, 10): _tmp8,
+                    (8, 8): _tmp2,
+                    (9, 9): _tmp29,
+                    (10, 10): _tmp36,
+                    (11, 11): _tmp18,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp28, (3, 9): _tmp39, (8, 8): 2, (9, 9): _tmp28}
+            ),
             _runtime.stack_matrix(
                 _shape,
                 12,
@@ -5018,9 +5310,9 @@ def effect_foundation_derivatives(
                     (7, 7): 1,
                     (7, 9): found_depth,
                     (8, 8): 1,
-                    (9, 9): _tmp30,
-                    (10, 10): _tmp30,
-                    (11, 11): _tmp29,
+                    (9, 9): _tmp43,
+                    (10, 10): _tmp43,
+                    (11, 11): _tmp42,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -5031,13 +5323,13 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): found_shear,
-                    (6, 10): -_tmp31,
+                    (6, 10): -_tmp44,
                     (7, 7): found_shear,
-                    (7, 9): _tmp31,
+                    (7, 9): _tmp44,
                     (8, 8): 1,
-                    (9, 9): _tmp32 + _tmp34,
-                    (10, 10): _tmp32 + _tmp35,
-                    (11, 11): _tmp34 * found_shear + _tmp35 * found_shear,
+                    (9, 9): _tmp45 + _tmp47,
+                    (10, 10): _tmp45 + _tmp48,
+                    (11, 11): _tmp47 * found_shear + _tmp48 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -5047,12 +5339,12 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): k_found,
-                    (6, 10): -_tmp36,
+                    (6, 10): -_tmp49,
                     (7, 7): k_found,
-                    (7, 9): _tmp36,
-                    (9, 9): _tmp37,
-                    (10, 10): _tmp37,
-                    (11, 11): _tmp34 * k_found + _tmp35 * k_found,
+                    (7, 9): _tmp49,
+                    (9, 9): _tmp50,
+                    (10, 10): _tmp50,
+                    (11, 11): _tmp47 * k_found + _tmp48 * k_found,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -5060,15 +5352,15 @@ def effect_foundation_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 12,
-                {(9, 9): _tmp22 * _tmp38, (10, 10): _tmp38 * _tmp39, (11, 11): _tmp22 * _tmp41 + _tmp39 * _tmp41},
+                {(9, 9): _tmp28 * _tmp51, (10, 10): _tmp51 * _tmp52, (11, 11): _tmp28 * _tmp54 + _tmp52 * _tmp54},
             ),
             _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp42, (10, 10): _tmp42}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp40, (7, 9): _tmp40, (9, 9): _tmp43, (10, 10): _tmp43}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp55, (10, 10): _tmp55}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp53, (7, 9): _tmp53, (9, 9): _tmp56, (10, 10): _tmp56}),
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 8, 3, 12, 12)
+    ).reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -5164,7 +5456,7 @@ def effect_added_mass_derivatives(
     m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 8, 3, 6, 6), differentiated by sympy.
+    shape (..., 11, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -5193,6 +5485,31 @@ def effect_added_mass_derivatives(
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
@@ -5252,32 +5569,40 @@ def effect_added_mass_derivatives(
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0 * _tmp2 * a
-    _tmp4 = 4 * _tmp3
-    _tmp5 = 4 * _tmp2**2
-    _tmp6 = h**2
-    _tmp7 = b**2
-    _tmp8 = _tmp5 * _tmp7
-    _tmp9 = 8 * _tmp3 * h
-    _tmp10 = a**2
-    _tmp11 = 2 * _tmp7
-    _tmp12 = _tmp1 * _tmp7
-    _tmp13 = y_added**2
-    _tmp14 = g_added**2
-    _tmp15 = _tmp14 + h_added**2
-    _tmp16 = x_added**2
-    _tmp17 = -m_added
-    _tmp18 = m_added * y_added
-    _tmp19 = -_tmp18
-    _tmp20 = h_added * m_added
-    _tmp21 = -_tmp20
-    _tmp22 = m_added * x_added
-    _tmp23 = 2 * _tmp22
-    _tmp24 = 2 * _tmp18
-    _tmp25 = -_tmp22
-    _tmp26 = 2 * _tmp20
-    _tmp27 = 2 * g_added * m_added
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
+    _tmp21 = y_added**2
+    _tmp22 = g_added**2
+    _tmp23 = _tmp22 + h_added**2
+    _tmp24 = x_added**2
+    _tmp25 = -m_added
+    _tmp26 = m_added * y_added
+    _tmp27 = -_tmp26
+    _tmp28 = h_added * m_added
+    _tmp29 = -_tmp28
+    _tmp30 = m_added * x_added
+    _tmp31 = 2 * _tmp30
+    _tmp32 = 2 * _tmp26
+    _tmp33 = -_tmp30
+    _tmp34 = 2 * _tmp28
+    _tmp35 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -5306,14 +5631,14 @@ def effect_added_mass_derivatives(
                 _shape,
                 6,
                 {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -5321,19 +5646,38 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
                     (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
             _runtime.stack_matrix(
                 _shape,
                 6,
@@ -5347,12 +5691,12 @@ def effect_added_mass_derivatives(
                     (2, 2): 1,
                     (2, 3): y_added,
                     (2, 4): -x_added,
-                    (3, 3): _tmp13 + _tmp15,
+                    (3, 3): _tmp21 + _tmp23,
                     (3, 4): -x_added * y_added,
                     (3, 5): -h_added * x_added,
-                    (4, 4): _tmp15 + _tmp16,
+                    (4, 4): _tmp23 + _tmp24,
                     (4, 5): -h_added * y_added,
-                    (5, 5): _tmp13 + _tmp14 + _tmp16,
+                    (5, 5): _tmp21 + _tmp22 + _tmp24,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -5360,30 +5704,30 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(1, 5): m_added, (2, 4): _tmp17, (3, 4): _tmp19, (3, 5): _tmp21, (4, 4): _tmp23, (5, 5): _tmp23},
+                {(1, 5): m_added, (2, 4): _tmp25, (3, 4): _tmp27, (3, 5): _tmp29, (4, 4): _tmp31, (5, 5): _tmp31},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 5): _tmp17, (2, 3): m_added, (3, 3): _tmp24, (3, 4): _tmp25, (4, 5): _tmp21, (5, 5): _tmp24},
+                {(0, 5): _tmp25, (2, 3): m_added, (3, 3): _tmp32, (3, 4): _tmp33, (4, 5): _tmp29, (5, 5): _tmp32},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 4): m_added, (1, 3): _tmp17, (3, 3): _tmp26, (3, 5): _tmp25, (4, 4): _tmp26, (4, 5): _tmp19},
+                {(0, 4): m_added, (1, 3): _tmp25, (3, 3): _tmp34, (3, 5): _tmp33, (4, 4): _tmp34, (4, 5): _tmp27},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp27, (4, 4): _tmp27, (5, 5): _tmp27}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp35, (4, 4): _tmp35, (5, 5): _tmp35}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    ).reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
@@ -5431,7 +5775,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
-    shape (..., 5, 3, 6, 6), differentiated by sympy.
+    shape (..., 8, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -5460,6 +5804,31 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/dk_belt:
         dC/dk_belt:
           [x, x] = 1
@@ -5477,17 +5846,25 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0 * _tmp2 * a
-    _tmp4 = 4 * _tmp3
-    _tmp5 = 4 * _tmp2**2
-    _tmp6 = h**2
-    _tmp7 = b**2
-    _tmp8 = _tmp5 * _tmp7
-    _tmp9 = 8 * _tmp3 * h
-    _tmp10 = a**2
-    _tmp11 = 2 * _tmp7
-    _tmp12 = _tmp1 * _tmp7
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -5513,14 +5890,14 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
                 _shape,
                 6,
                 {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -5528,19 +5905,38 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
                     (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -5549,7 +5945,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    ).reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
@@ -5596,7 +5992,7 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h,
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 7, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -5625,6 +6021,31 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
           [z, z] = 2
           [psi, psi] = 2*b**2
         dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
         dM/dh_preload:
         dC/dh_preload:
           [psi, psi] = -196133*m/20000
@@ -5636,18 +6057,26 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
     )
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
-    _tmp2 = numpy.sin(alpha)
-    _tmp3 = _tmp0 * _tmp2 * a
-    _tmp4 = 4 * _tmp3
-    _tmp5 = 4 * _tmp2**2
-    _tmp6 = h**2
-    _tmp7 = b**2
-    _tmp8 = _tmp5 * _tmp7
-    _tmp9 = 8 * _tmp3 * h
-    _tmp10 = a**2
-    _tmp11 = 2 * _tmp7
-    _tmp12 = _tmp1 * _tmp7
-    _tmp13 = -9.80665 * m
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
+    _tmp21 = -9.80665 * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -5672,14 +6101,14 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
                 _shape,
                 6,
                 {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
                     (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
+                    (3, 3): _tmp12,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -5687,30 +6116,49 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
             _runtime.stack_matrix(
                 _shape,
                 6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
                 {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
+                    (0, 0): _tmp2,
+                    (0, 4): _tmp6,
+                    (1, 1): 6,
+                    (1, 3): _tmp7,
+                    (2, 2): _tmp8,
                     (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
+                    (4, 4): _tmp15,
+                    (5, 5): _tmp18,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
+            ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp13, (4, 4): _tmp13}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp21, (4, 4): _tmp21}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
-    """Stiffness matrix of each isolator alone, shape (..., 6, 6, 6), isolators in the order of
-    ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone, shape (..., 6, 6, 6),
+    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
 
     Non-zero upper-triangle entries:
 
@@ -5790,7 +6238,7 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
           [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
           [theta, phi] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
           [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
-        middle[+x+y]:
+        middle[+y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = -b*c_h
@@ -5802,7 +6250,7 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
           [theta, theta] = c_h*h**2
           [theta, phi] = b*c_h*h
           [phi, phi] = c_h*b**2
-        middle[+x-y]:
+        middle[-y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = b*c_h
@@ -6093,7 +6541,7 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
           [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
           [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
           [phi, phi] = a**2 + b**2*cos(alpha)**2
-        dmiddle[+x+y]/dc_h:
+        dmiddle[+y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = -b
@@ -6103,7 +6551,7 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
           [theta, theta] = h**2
           [theta, phi] = b*h
           [phi, phi] = b**2
-        dmiddle[+x-y]/dc_h:
+        dmiddle[-y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = b
@@ -6177,17 +6625,17 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
           [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
           [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
           [phi, phi] = b**2*sin(alpha)**2
-        dmiddle[+x+y]/dc_v:
-        dmiddle[+x-y]/dc_v:
+        dmiddle[+y]/dc_v:
+        dmiddle[-y]/dc_v:
         dcorner[+x+y]/dc_m:
         dcorner[-x+y]/dc_m:
         dcorner[+x-y]/dc_m:
         dcorner[-x-y]/dc_m:
-        dmiddle[+x+y]/dc_m:
+        dmiddle[+y]/dc_m:
           [z, z] = 1
           [z, psi] = b
           [psi, psi] = b**2
-        dmiddle[+x-y]/dc_m:
+        dmiddle[-y]/dc_m:
           [z, z] = 1
           [z, psi] = -b
           [psi, psi] = b**2
@@ -6475,6 +6923,443 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
     ).reshape(*_shape, 3, 6, 6, 6)
 
 
+def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 6, 6, 6),
+    isolators in the order of ISOLATORS.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = c_v*cos(alpha)*sin(alpha)
+          [x, psi] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = b*c_v*cos(alpha)**2
+          [z, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+        corner[-x+y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = b*c_v*cos(alpha)**2
+          [z, theta] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+        corner[+x-y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = c_v*cos(alpha)*sin(alpha)
+          [x, psi] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = -b*c_v*cos(alpha)**2
+          [z, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+        corner[-x-y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = -b*c_v*cos(alpha)**2
+          [z, theta] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+        middle[+y]:
+          [z, z] = c_m
+          [z, psi] = b*c_m
+          [psi, psi] = c_m*b**2
+        middle[-y]:
+          [z, z] = c_m
+          [z, psi] = -b*c_m
+          [psi, psi] = c_m*b**2
+    """
+    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    _tmp0 = numpy.sin(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * c_v
+    _tmp3 = numpy.cos(alpha)
+    _tmp4 = _tmp0 * c_v
+    _tmp5 = _tmp3 * _tmp4
+    _tmp6 = _tmp5 * b
+    _tmp7 = _tmp3 * a
+    _tmp8 = _tmp0 * h
+    _tmp9 = _tmp7 + _tmp8
+    _tmp10 = _tmp4 * _tmp9
+    _tmp11 = -_tmp10
+    _tmp12 = _tmp2 * b
+    _tmp13 = -_tmp12
+    _tmp14 = _tmp3**2
+    _tmp15 = _tmp14 * c_v
+    _tmp16 = _tmp15 * b
+    _tmp17 = _tmp3 * _tmp9 * c_v
+    _tmp18 = -_tmp17
+    _tmp19 = -_tmp6
+    _tmp20 = b**2
+    _tmp21 = _tmp15 * _tmp20
+    _tmp22 = _tmp17 * b
+    _tmp23 = -_tmp22
+    _tmp24 = _tmp20 * _tmp5
+    _tmp25 = -_tmp24
+    _tmp26 = c_v * (_tmp1 * h**2 + _tmp14 * a**2 + 2 * _tmp7 * _tmp8)
+    _tmp27 = _tmp10 * b
+    _tmp28 = _tmp2 * _tmp20
+    _tmp29 = -_tmp5
+    _tmp30 = -_tmp16
+    _tmp31 = -_tmp27
+    _tmp32 = b * c_m
+    _tmp33 = _tmp20 * c_m
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp2,
+                    (0, 2): _tmp5,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp11,
+                    (0, 5): _tmp13,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp16,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp19,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp25,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp2,
+                    (0, 2): _tmp29,
+                    (0, 3): _tmp19,
+                    (0, 4): _tmp11,
+                    (0, 5): _tmp13,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp16,
+                    (2, 4): _tmp17,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp22,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp27,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp2,
+                    (0, 2): _tmp5,
+                    (0, 3): _tmp19,
+                    (0, 4): _tmp11,
+                    (0, 5): _tmp12,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp30,
+                    (2, 4): _tmp18,
+                    (2, 5): _tmp6,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp22,
+                    (3, 5): _tmp25,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp31,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp2,
+                    (0, 2): _tmp29,
+                    (0, 3): _tmp6,
+                    (0, 4): _tmp11,
+                    (0, 5): _tmp12,
+                    (2, 2): _tmp15,
+                    (2, 3): _tmp30,
+                    (2, 4): _tmp17,
+                    (2, 5): _tmp19,
+                    (3, 3): _tmp21,
+                    (3, 4): _tmp23,
+                    (3, 5): _tmp24,
+                    (4, 4): _tmp26,
+                    (4, 5): _tmp31,
+                    (5, 5): _tmp28,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): c_m, (2, 3): _tmp32, (3, 3): _tmp33}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): c_m, (2, 3): -_tmp32, (3, 3): _tmp33}),
+        ],
+        axis=-3,
+    )
+
+
+def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
+    """Derivatives of isolator_axial_stiffness() with respect to the unknowns c_h, c_v, c_m, shape
+    (..., 3, 6, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_h:
+        dcorner[-x+y]/dc_h:
+        dcorner[+x-y]/dc_h:
+        dcorner[-x-y]/dc_h:
+        dmiddle[+y]/dc_h:
+        dmiddle[-y]/dc_h:
+        dcorner[+x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[+x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+        dmiddle[+y]/dc_v:
+        dmiddle[-y]/dc_v:
+        dcorner[+x+y]/dc_m:
+        dcorner[-x+y]/dc_m:
+        dcorner[+x-y]/dc_m:
+        dcorner[-x-y]/dc_m:
+        dmiddle[+y]/dc_m:
+          [z, z] = 1
+          [z, psi] = b
+          [psi, psi] = b**2
+        dmiddle[-y]/dc_m:
+          [z, z] = 1
+          [z, psi] = -b
+          [psi, psi] = b**2
+    """
+    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    _tmp0 = numpy.sin(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.cos(alpha)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = _tmp3 * b
+    _tmp5 = _tmp0 * h + _tmp2 * a
+    _tmp6 = _tmp0 * _tmp5
+    _tmp7 = -_tmp6
+    _tmp8 = _tmp1 * b
+    _tmp9 = -_tmp8
+    _tmp10 = _tmp2**2
+    _tmp11 = _tmp10 * b
+    _tmp12 = _tmp2 * _tmp5
+    _tmp13 = -_tmp12
+    _tmp14 = -_tmp4
+    _tmp15 = b**2
+    _tmp16 = _tmp10 * _tmp15
+    _tmp17 = _tmp12 * b
+    _tmp18 = -_tmp17
+    _tmp19 = _tmp15 * _tmp3
+    _tmp20 = -_tmp19
+    _tmp21 = _tmp1 * h**2 + _tmp10 * a**2 + 2 * _tmp3 * a * h
+    _tmp22 = _tmp6 * b
+    _tmp23 = _tmp1 * _tmp15
+    _tmp24 = -_tmp3
+    _tmp25 = -_tmp11
+    _tmp26 = -_tmp22
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
+    )
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp4,
+                    (0, 4): _tmp7,
+                    (0, 5): _tmp9,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp11,
+                    (2, 4): _tmp13,
+                    (2, 5): _tmp14,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp18,
+                    (3, 5): _tmp20,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp24,
+                    (0, 3): _tmp14,
+                    (0, 4): _tmp7,
+                    (0, 5): _tmp9,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp11,
+                    (2, 4): _tmp12,
+                    (2, 5): _tmp4,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp17,
+                    (3, 5): _tmp19,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp22,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp3,
+                    (0, 3): _tmp14,
+                    (0, 4): _tmp7,
+                    (0, 5): _tmp8,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp25,
+                    (2, 4): _tmp13,
+                    (2, 5): _tmp4,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp17,
+                    (3, 5): _tmp20,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp26,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {
+                    (0, 0): _tmp1,
+                    (0, 2): _tmp24,
+                    (0, 3): _tmp4,
+                    (0, 4): _tmp7,
+                    (0, 5): _tmp8,
+                    (2, 2): _tmp10,
+                    (2, 3): _tmp25,
+                    (2, 4): _tmp12,
+                    (2, 5): _tmp14,
+                    (3, 3): _tmp16,
+                    (3, 4): _tmp18,
+                    (3, 5): _tmp19,
+                    (4, 4): _tmp21,
+                    (4, 5): _tmp26,
+                    (5, 5): _tmp23,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp15}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): -b, (3, 3): _tmp15}),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 3, 6, 6, 6)
+
+
 def isolator_points(a, b, h):
     """Point of each isolator [m] from the coordinate origin, shape (..., 3, 6), isolators in the
     order of ISOLATORS:
@@ -6483,8 +7368,8 @@ def isolator_points(a, b, h):
         corner[-x+y]: (-a, b, -h)
         corner[+x-y]: (a, -b, -h)
         corner[-x-y]: (-a, -b, -h)
-        middle[+x+y]: (0, b, -h)
-        middle[+x-y]: (0, -b, -h)
+        middle[+y]: (0, b, -h)
+        middle[-y]: (0, -b, -h)
     """
     a, b, h = _runtime.as_arrays(a, b, h)
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
@@ -6651,7 +7536,7 @@ unknowns (isolators in the plane of the centre of mass, upright isolators); the 
 solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
-ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]", "middle[+x+y]", "middle[+x-y]")
+ISOLATORS = ("corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]", "middle[+y]", "middle[-y]")
 """Every isolator after mirroring: group name and the signs of its mirror image (order of isolator_stiffness())."""
 EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
@@ -6677,13 +7562,25 @@ EFFECT_COORDINATES = {
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
 EFFECT_DERIVATIVE_PARAMETERS = {
-    "com_offset": ("c_h", "c_v", "c_m", "dx_com", "dy_com"),
-    "cog_height": ("c_h", "c_v", "c_m", "dz_com"),
-    "rotational_stiffness": ("c_h", "c_v", "c_m", "k_bend", "k_torsion"),
-    "foundation": ("c_h", "c_v", "c_m", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
-    "added_mass": ("c_h", "c_v", "c_m", "m_added", "x_added", "y_added", "h_added", "g_added"),
-    "drive_belt": ("c_h", "c_v", "c_m", "k_belt", "h_belt"),
-    "gravity_preload": ("c_h", "c_v", "c_m", "h_preload"),
+    "com_offset": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dx_com", "dy_com"),
+    "cog_height": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "dz_com"),
+    "rotational_stiffness": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_bend", "k_torsion"),
+    "foundation": (
+        "c_h",
+        "c_v",
+        "c_m",
+        "b_h",
+        "b_v",
+        "b_m",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_depth",
+    ),
+    "added_mass": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "drive_belt": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "k_belt", "h_belt"),
+    "gravity_preload": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "h_preload"),
 }
 """Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
 matrices depend on, then the effect's parameters."""

@@ -314,6 +314,8 @@ ARGUMENTS = {
     ),
     "isolator_stiffness": ("a", "b", "h", "c_h", "c_z"),
     "isolator_stiffness_gradient": ("a", "b", "h", "c_h", "c_z"),
+    "isolator_axial_stiffness": ("a", "b", "c_z"),
+    "isolator_axial_stiffness_gradient": ("a", "b", "c_z"),
     "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "e", "a", "b", "h", "c_h", "c_z"),
 }
@@ -1487,7 +1489,7 @@ def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, 
 
 def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com):
     """Derivatives of the M, C, B of effect_com_offset() with respect to EFFECT_DERIVATIVE_PARAMETERS['com_offset'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1507,6 +1509,22 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/ddx_com:
           [y, phi] = m
           [z, theta] = -m
@@ -1528,13 +1546,15 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
-    _tmp4 = -m
-    _tmp5 = dy_com * m
-    _tmp6 = 2 * e
-    _tmp7 = 2 * _tmp5
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
+    _tmp6 = -m
+    _tmp7 = dy_com * m
+    _tmp8 = 2 * e
+    _tmp9 = 2 * _tmp7
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -1557,41 +1577,43 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(
                 _shape,
                 6,
                 {
                     (1, 5): m,
-                    (2, 4): _tmp4,
-                    (3, 4): -_tmp5,
-                    (4, 4): dx_com * m + m * (_tmp6 + dx_com),
-                    (5, 5): m * (_tmp6 + 2 * dx_com),
+                    (2, 4): _tmp6,
+                    (3, 4): -_tmp7,
+                    (4, 4): dx_com * m + m * (_tmp8 + dx_com),
+                    (5, 5): m * (_tmp8 + 2 * dx_com),
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp4, (2, 3): m, (3, 3): _tmp7, (3, 4): -m * (dx_com + e), (5, 5): _tmp7}
+                _shape, 6, {(0, 5): _tmp6, (2, 3): m, (3, 3): _tmp9, (3, 4): -m * (dx_com + e), (5, 5): _tmp9}
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
@@ -1642,7 +1664,7 @@ def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
 
 def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
     """Derivatives of the M, C, B of effect_cog_height() with respect to EFFECT_DERIVATIVE_PARAMETERS['cog_height'],
-    shape (..., 3, 3, 6, 6), differentiated by sympy.
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1662,6 +1684,22 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/ddz_com:
           [x, theta] = m
           [y, psi] = -m
@@ -1675,10 +1713,12 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
-    _tmp4 = 2 * dz_com * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
+    _tmp6 = 2 * dz_com * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -1700,26 +1740,28 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp4, (3, 5): -e * m, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp6, (3, 5): -e * m, (4, 4): _tmp6}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 3, 3, 6, 6)
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
@@ -1766,7 +1808,7 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
 
 def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
     """Derivatives of the M, C, B of effect_rotational_stiffness() with respect to EFFECT_DERIVATIVE_PARAMETERS['rotational_stiffness'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1786,6 +1828,22 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dk_bend:
         dC/dk_bend:
           [psi, psi] = 4
@@ -1800,9 +1858,11 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -1825,20 +1885,22 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -1847,7 +1909,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(
@@ -2073,7 +2135,7 @@ def effect_foundation_derivatives(
     m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 7, 3, 12, 12), differentiated by sympy.
+    shape (..., 9, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2107,6 +2169,36 @@ def effect_foundation_derivatives(
           [psi_found, psi_found] = 4*b**2
           [theta_found, theta_found] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [x, x_found] = -4
+          [y, y] = 4
+          [y, psi] = 4*h
+          [y, y_found] = -4
+          [psi, psi] = 4*h**2
+          [psi, y_found] = -4*h
+          [theta, theta] = 4*h**2
+          [theta, x_found] = 4*h
+          [phi, phi] = 4*a**2 + 4*b**2
+          [phi, phi_found] = -4*a**2 - 4*b**2
+          [x_found, x_found] = 4
+          [y_found, y_found] = 4
+          [phi_found, phi_found] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [z, z_found] = -4
+          [psi, psi] = 4*b**2
+          [psi, psi_found] = -4*b**2
+          [theta, theta] = 4*a**2
+          [theta, theta_found] = -4*a**2
+          [z_found, z_found] = 4
+          [psi_found, psi_found] = 4*b**2
+          [theta_found, theta_found] = 4*a**2
         dM/dm_found:
           [x_found, x_found] = 1
           [x_found, theta_found] = -found_depth
@@ -2171,22 +2263,25 @@ def effect_foundation_derivatives(
     _tmp6 = b**2
     _tmp7 = 4 * _tmp6
     _tmp8 = _tmp5 + _tmp7
-    _tmp9 = found_depth**2
-    _tmp10 = _tmp2 + _tmp4 + _tmp6 + e**2
-    _tmp11 = _tmp10 + _tmp9
-    _tmp12 = found_depth * found_shear
-    _tmp13 = _tmp9 * found_shear
-    _tmp14 = found_spread**2
-    _tmp15 = _tmp14 * _tmp6
-    _tmp16 = _tmp14 * _tmp4
-    _tmp17 = found_depth * k_found
-    _tmp18 = _tmp9 * k_found
-    _tmp19 = 2 * k_found
-    _tmp20 = _tmp19 * found_spread
-    _tmp21 = found_shear * k_found
-    _tmp22 = 2 * _tmp21 * found_spread
-    _tmp23 = 2 * found_depth * m_found
-    _tmp24 = _tmp12 * _tmp19
+    _tmp9 = -_tmp8
+    _tmp10 = -_tmp7
+    _tmp11 = -_tmp5
+    _tmp12 = found_depth**2
+    _tmp13 = _tmp2 + _tmp4 + _tmp6 + e**2
+    _tmp14 = _tmp12 + _tmp13
+    _tmp15 = found_depth * found_shear
+    _tmp16 = _tmp12 * found_shear
+    _tmp17 = found_spread**2
+    _tmp18 = _tmp17 * _tmp6
+    _tmp19 = _tmp17 * _tmp4
+    _tmp20 = found_depth * k_found
+    _tmp21 = _tmp12 * k_found
+    _tmp22 = 2 * k_found
+    _tmp23 = _tmp22 * found_spread
+    _tmp24 = found_shear * k_found
+    _tmp25 = 2 * _tmp24 * found_spread
+    _tmp26 = 2 * found_depth * m_found
+    _tmp27 = _tmp15 * _tmp22
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2224,7 +2319,7 @@ def effect_foundation_derivatives(
                     (4, 4): _tmp3,
                     (4, 6): _tmp0,
                     (5, 5): _tmp8,
-                    (5, 11): -_tmp8,
+                    (5, 11): _tmp9,
                     (6, 6): 4,
                     (7, 7): 4,
                     (11, 11): _tmp8,
@@ -2239,15 +2334,55 @@ def effect_foundation_derivatives(
                     (2, 2): 4,
                     (2, 8): -4,
                     (3, 3): _tmp7,
-                    (3, 9): -_tmp7,
+                    (3, 9): _tmp10,
                     (4, 4): _tmp5,
-                    (4, 10): -_tmp5,
+                    (4, 10): _tmp11,
                     (8, 8): 4,
                     (9, 9): _tmp7,
                     (10, 10): _tmp5,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (0, 0): 4,
+                    (0, 4): _tmp1,
+                    (0, 6): -4,
+                    (1, 1): 4,
+                    (1, 3): _tmp0,
+                    (1, 7): -4,
+                    (3, 3): _tmp3,
+                    (3, 7): _tmp1,
+                    (4, 4): _tmp3,
+                    (4, 6): _tmp0,
+                    (5, 5): _tmp8,
+                    (5, 11): _tmp9,
+                    (6, 6): 4,
+                    (7, 7): 4,
+                    (11, 11): _tmp8,
+                },
+            ),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(_shape, 12, {}),
+            _runtime.stack_matrix(
+                _shape,
+                12,
+                {
+                    (2, 2): 4,
+                    (2, 8): -4,
+                    (3, 3): _tmp7,
+                    (3, 9): _tmp10,
+                    (4, 4): _tmp5,
+                    (4, 10): _tmp11,
+                    (8, 8): 4,
+                    (9, 9): _tmp7,
+                    (10, 10): _tmp5,
+                },
+            ),
             _runtime.stack_matrix(
                 _shape,
                 12,
@@ -2257,9 +2392,9 @@ def effect_foundation_derivatives(
                     (7, 7): 1,
                     (7, 9): found_depth,
                     (8, 8): 1,
-                    (9, 9): _tmp11,
-                    (10, 10): _tmp11,
-                    (11, 11): _tmp10,
+                    (9, 9): _tmp14,
+                    (10, 10): _tmp14,
+                    (11, 11): _tmp13,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -2270,13 +2405,13 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): found_shear,
-                    (6, 10): -_tmp12,
+                    (6, 10): -_tmp15,
                     (7, 7): found_shear,
-                    (7, 9): _tmp12,
+                    (7, 9): _tmp15,
                     (8, 8): 1,
-                    (9, 9): _tmp13 + _tmp15,
-                    (10, 10): _tmp13 + _tmp16,
-                    (11, 11): _tmp15 * found_shear + _tmp16 * found_shear,
+                    (9, 9): _tmp16 + _tmp18,
+                    (10, 10): _tmp16 + _tmp19,
+                    (11, 11): _tmp18 * found_shear + _tmp19 * found_shear,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -2286,12 +2421,12 @@ def effect_foundation_derivatives(
                 12,
                 {
                     (6, 6): k_found,
-                    (6, 10): -_tmp17,
+                    (6, 10): -_tmp20,
                     (7, 7): k_found,
-                    (7, 9): _tmp17,
-                    (9, 9): _tmp18,
-                    (10, 10): _tmp18,
-                    (11, 11): _tmp15 * k_found + _tmp16 * k_found,
+                    (7, 9): _tmp20,
+                    (9, 9): _tmp21,
+                    (10, 10): _tmp21,
+                    (11, 11): _tmp18 * k_found + _tmp19 * k_found,
                 },
             ),
             _runtime.stack_matrix(_shape, 12, {}),
@@ -2299,15 +2434,15 @@ def effect_foundation_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 12,
-                {(9, 9): _tmp20 * _tmp6, (10, 10): _tmp20 * _tmp4, (11, 11): _tmp22 * _tmp4 + _tmp22 * _tmp6},
+                {(9, 9): _tmp23 * _tmp6, (10, 10): _tmp23 * _tmp4, (11, 11): _tmp25 * _tmp4 + _tmp25 * _tmp6},
             ),
             _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp23, (10, 10): _tmp23}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp21, (7, 9): _tmp21, (9, 9): _tmp24, (10, 10): _tmp24}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp26, (10, 10): _tmp26}),
+            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp24, (7, 9): _tmp24, (9, 9): _tmp27, (10, 10): _tmp27}),
             _runtime.stack_matrix(_shape, 12, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 7, 3, 12, 12)
+    ).reshape(*_shape, 9, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -2398,7 +2533,7 @@ def effect_added_mass_derivatives(
     m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 7, 3, 6, 6), differentiated by sympy.
+    shape (..., 9, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2418,6 +2553,22 @@ def effect_added_mass_derivatives(
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dm_added:
           [x, x] = 1
           [x, theta] = h_added
@@ -2474,25 +2625,27 @@ def effect_added_mass_derivatives(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
-    _tmp4 = e + x_added
-    _tmp5 = y_added**2
-    _tmp6 = g_added**2
-    _tmp7 = _tmp6 + h_added**2
-    _tmp8 = 2 * x_added
-    _tmp9 = _tmp8 * e + e**2 + x_added**2
-    _tmp10 = -m_added
-    _tmp11 = m_added * y_added
-    _tmp12 = -_tmp11
-    _tmp13 = h_added * m_added
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
+    _tmp6 = e + x_added
+    _tmp7 = y_added**2
+    _tmp8 = g_added**2
+    _tmp9 = _tmp8 + h_added**2
+    _tmp10 = 2 * x_added
+    _tmp11 = _tmp10 * e + e**2 + x_added**2
+    _tmp12 = -m_added
+    _tmp13 = m_added * y_added
     _tmp14 = -_tmp13
-    _tmp15 = m_added * (_tmp8 + 2 * e)
-    _tmp16 = 2 * _tmp11
-    _tmp17 = -_tmp4 * m_added
+    _tmp15 = h_added * m_added
+    _tmp16 = -_tmp15
+    _tmp17 = m_added * (_tmp10 + 2 * e)
     _tmp18 = 2 * _tmp13
-    _tmp19 = 2 * g_added * m_added
+    _tmp19 = -_tmp6 * m_added
+    _tmp20 = 2 * _tmp15
+    _tmp21 = 2 * g_added * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2518,20 +2671,22 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(
                 _shape,
                 6,
@@ -2541,16 +2696,16 @@ def effect_added_mass_derivatives(
                     (0, 5): -y_added,
                     (1, 1): 1,
                     (1, 3): -h_added,
-                    (1, 5): _tmp4,
+                    (1, 5): _tmp6,
                     (2, 2): 1,
                     (2, 3): y_added,
-                    (2, 4): -_tmp4,
-                    (3, 3): _tmp5 + _tmp7,
-                    (3, 4): -_tmp4 * y_added,
-                    (3, 5): -_tmp4 * h_added,
-                    (4, 4): _tmp7 + _tmp9,
+                    (2, 4): -_tmp6,
+                    (3, 3): _tmp7 + _tmp9,
+                    (3, 4): -_tmp6 * y_added,
+                    (3, 5): -_tmp6 * h_added,
+                    (4, 4): _tmp11 + _tmp9,
                     (4, 5): -h_added * y_added,
-                    (5, 5): _tmp5 + _tmp6 + _tmp9,
+                    (5, 5): _tmp11 + _tmp7 + _tmp8,
                 },
             ),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2558,30 +2713,30 @@ def effect_added_mass_derivatives(
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(1, 5): m_added, (2, 4): _tmp10, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp15, (5, 5): _tmp15},
+                {(1, 5): m_added, (2, 4): _tmp12, (3, 4): _tmp14, (3, 5): _tmp16, (4, 4): _tmp17, (5, 5): _tmp17},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 5): _tmp10, (2, 3): m_added, (3, 3): _tmp16, (3, 4): _tmp17, (4, 5): _tmp14, (5, 5): _tmp16},
+                {(0, 5): _tmp12, (2, 3): m_added, (3, 3): _tmp18, (3, 4): _tmp19, (4, 5): _tmp16, (5, 5): _tmp18},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {(0, 4): m_added, (1, 3): _tmp10, (3, 3): _tmp18, (3, 5): _tmp17, (4, 4): _tmp18, (4, 5): _tmp12},
+                {(0, 4): m_added, (1, 3): _tmp12, (3, 3): _tmp20, (3, 5): _tmp19, (4, 4): _tmp20, (4, 5): _tmp14},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp19, (4, 4): _tmp19, (5, 5): _tmp19}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp21, (4, 4): _tmp21, (5, 5): _tmp21}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    ).reshape(*_shape, 9, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -2627,7 +2782,7 @@ def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, 
 
 def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
     """Derivatives of the M, C, B of effect_drive_belt() with respect to EFFECT_DERIVATIVE_PARAMETERS['drive_belt'],
-    shape (..., 4, 3, 6, 6), differentiated by sympy.
+    shape (..., 6, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2647,6 +2802,22 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dk_belt:
         dC/dk_belt:
           [x, x] = 1
@@ -2663,9 +2834,11 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2688,20 +2861,22 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
             _runtime.stack_matrix(_shape, 6, {}),
@@ -2710,7 +2885,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 4, 3, 6, 6)
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
@@ -2754,7 +2929,7 @@ def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_p
 
 def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
     """Derivatives of the M, C, B of effect_gravity_preload() with respect to EFFECT_DERIVATIVE_PARAMETERS['gravity_preload'],
-    shape (..., 3, 3, 6, 6), differentiated by sympy.
+    shape (..., 5, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2774,6 +2949,22 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
         dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
         dM/dh_preload:
         dC/dh_preload:
           [psi, psi] = -196133*m/20000
@@ -2784,10 +2975,12 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload
     )
     _tmp0 = 4 * h
-    _tmp1 = 4 * h**2
-    _tmp2 = 4 * a**2
-    _tmp3 = 4 * b**2
-    _tmp4 = -9.80665 * m
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
+    _tmp6 = -9.80665 * m
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2809,35 +3002,37 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
             _runtime.stack_matrix(
                 _shape,
                 6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
             ),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
             _runtime.stack_matrix(_shape, 6, {}),
             _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp4, (4, 4): _tmp4}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape,
+                6,
+                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
+            ),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (4, 4): _tmp6}),
             _runtime.stack_matrix(_shape, 6, {}),
         ],
         axis=-3,
-    ).reshape(*_shape, 3, 3, 6, 6)
+    ).reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_h, c_z):
-    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6), isolators in the order of
-    ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
 
     Non-zero upper-triangle entries:
 
-        end[+x+y]:
+        end[+y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = -b*c_h
@@ -2853,7 +3048,7 @@ def isolator_stiffness(a, b, h, c_h, c_z):
           [theta, theta] = c_h*h**2 + c_z*a**2
           [theta, phi] = b*c_h*h
           [phi, phi] = c_h*(a**2 + b**2)
-        end[+x-y]:
+        end[-y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = b*c_h
@@ -2869,7 +3064,7 @@ def isolator_stiffness(a, b, h, c_h, c_z):
           [theta, theta] = c_h*h**2 + c_z*a**2
           [theta, phi] = -b*c_h*h
           [phi, phi] = c_h*(a**2 + b**2)
-        other_end[+x+y]:
+        other_end[+y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = -b*c_h
@@ -2885,7 +3080,7 @@ def isolator_stiffness(a, b, h, c_h, c_z):
           [theta, theta] = c_h*h**2 + c_z*a**2
           [theta, phi] = b*c_h*h
           [phi, phi] = c_h*(a**2 + b**2)
-        other_end[+x-y]:
+        other_end[-y]:
           [x, x] = c_h
           [x, theta] = -c_h*h
           [x, phi] = b*c_h
@@ -3023,7 +3218,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
 
     Non-zero upper-triangle entries:
 
-        dend[+x+y]/dc_h:
+        dend[+y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = -b
@@ -3035,7 +3230,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
           [theta, theta] = h**2
           [theta, phi] = b*h
           [phi, phi] = a**2 + b**2
-        dend[+x-y]/dc_h:
+        dend[-y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = b
@@ -3047,7 +3242,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
           [theta, theta] = h**2
           [theta, phi] = -b*h
           [phi, phi] = a**2 + b**2
-        dother_end[+x+y]/dc_h:
+        dother_end[+y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = -b
@@ -3059,7 +3254,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
           [theta, theta] = h**2
           [theta, phi] = b*h
           [phi, phi] = a**2 + b**2
-        dother_end[+x-y]/dc_h:
+        dother_end[-y]/dc_h:
           [x, x] = 1
           [x, theta] = -h
           [x, phi] = b
@@ -3071,28 +3266,28 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
           [theta, theta] = h**2
           [theta, phi] = -b*h
           [phi, phi] = a**2 + b**2
-        dend[+x+y]/dc_z:
+        dend[+y]/dc_z:
           [z, z] = 1
           [z, psi] = b
           [z, theta] = -a
           [psi, psi] = b**2
           [psi, theta] = -a*b
           [theta, theta] = a**2
-        dend[+x-y]/dc_z:
+        dend[-y]/dc_z:
           [z, z] = 1
           [z, psi] = -b
           [z, theta] = -a
           [psi, psi] = b**2
           [psi, theta] = a*b
           [theta, theta] = a**2
-        dother_end[+x+y]/dc_z:
+        dother_end[+y]/dc_z:
           [z, z] = 1
           [z, psi] = b
           [z, theta] = a
           [psi, psi] = b**2
           [psi, theta] = a*b
           [theta, theta] = a**2
-        dother_end[+x-y]/dc_z:
+        dother_end[-y]/dc_z:
           [z, z] = 1
           [z, psi] = -b
           [z, theta] = a
@@ -3202,14 +3397,148 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
     ).reshape(*_shape, 2, 4, 6, 6)
 
 
+def isolator_axial_stiffness(a, b, c_z):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 4, 6, 6),
+    isolators in the order of ISOLATORS.
+
+    Non-zero upper-triangle entries:
+
+        end[+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+        end[-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [theta, theta] = c_z*a**2
+        other_end[+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [theta, theta] = c_z*a**2
+        other_end[-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = b * c_z
+    _tmp1 = a * c_z
+    _tmp2 = -_tmp1
+    _tmp3 = b**2 * c_z
+    _tmp4 = _tmp0 * a
+    _tmp5 = -_tmp4
+    _tmp6 = a**2 * c_z
+    _tmp7 = -_tmp0
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
+            ),
+        ],
+        axis=-3,
+    )
+
+
+def isolator_axial_stiffness_gradient(a, b, c_z):
+    """Derivatives of isolator_axial_stiffness() with respect to the unknowns c_h, c_z, shape
+    (..., 2, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dend[+y]/dc_h:
+        dend[-y]/dc_h:
+        dother_end[+y]/dc_h:
+        dother_end[-y]/dc_h:
+        dend[+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dend[-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = -a
+    _tmp1 = b**2
+    _tmp2 = a * b
+    _tmp3 = -_tmp2
+    _tmp4 = a**2
+    _tmp5 = -b
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    return numpy.stack(
+        [
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(_shape, 6, {}),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
+            ),
+            _runtime.stack_matrix(
+                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
+            ),
+        ],
+        axis=-3,
+    ).reshape(*_shape, 2, 4, 6, 6)
+
+
 def isolator_points(a, b, h):
     """Point of each isolator [m] from the coordinate origin, shape (..., 3, 4), isolators in the
     order of ISOLATORS:
 
-        end[+x+y]: (a, b, -h)
-        end[+x-y]: (a, -b, -h)
-        other_end[+x+y]: (-a, b, -h)
-        other_end[+x-y]: (-a, -b, -h)
+        end[+y]: (a, b, -h)
+        end[-y]: (a, -b, -h)
+        other_end[+y]: (-a, b, -h)
+        other_end[-y]: (-a, -b, -h)
     """
     a, b, h = _runtime.as_arrays(a, b, h)
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
@@ -3358,7 +3687,7 @@ unknowns (isolators in the plane of the centre of mass, upright isolators); the 
 solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
 """False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
-ISOLATORS = ("end[+x+y]", "end[+x-y]", "other_end[+x+y]", "other_end[+x-y]")
+ISOLATORS = ("end[+y]", "end[-y]", "other_end[+y]", "other_end[-y]")
 """Every isolator after mirroring: group name and the signs of its mirror image (order of isolator_stiffness())."""
 EFFECT_COORDINATES = {
     "com_offset": ("x", "y", "z", "psi", "theta", "phi"),
@@ -3384,13 +3713,13 @@ EFFECT_COORDINATES = {
 }
 """Coordinates of each extended model returned by effect_<name>() (candidate effects, mountid.effects)."""
 EFFECT_DERIVATIVE_PARAMETERS = {
-    "com_offset": ("c_h", "c_z", "dx_com", "dy_com"),
-    "cog_height": ("c_h", "c_z", "dz_com"),
-    "rotational_stiffness": ("c_h", "c_z", "k_bend", "k_torsion"),
-    "foundation": ("c_h", "c_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
-    "added_mass": ("c_h", "c_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
-    "drive_belt": ("c_h", "c_z", "k_belt", "h_belt"),
-    "gravity_preload": ("c_h", "c_z", "h_preload"),
+    "com_offset": ("c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
+    "cog_height": ("c_h", "c_z", "b_h", "b_z", "dz_com"),
+    "rotational_stiffness": ("c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
+    "foundation": ("c_h", "c_z", "b_h", "b_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "added_mass": ("c_h", "c_z", "b_h", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "drive_belt": ("c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
+    "gravity_preload": ("c_h", "c_z", "b_h", "b_z", "h_preload"),
 }
 """Parameters of each effect_<name>_derivatives(), in the order of its axis -4: the unknowns the extended
 matrices depend on, then the effect's parameters."""

@@ -37,8 +37,8 @@ def budget(n: int) -> int:
     return n * FUZZ_FACTOR
 
 
-MACHINES = ("kid300", "rectangular", "screen6", "genset8", "skid1plane")
-CLOSED_FORM_MACHINES = ("kid300", "rectangular", "screen6", "genset8")
+MACHINES = ("kid300", "kid300axes", "rectangular", "screen6", "genset8", "skid1plane")
+CLOSED_FORM_MACHINES = ("kid300", "kid300axes", "rectangular", "screen6", "genset8")
 """Machines whose blocks are at most 2x2 (closed-form eigenvalues; skid1plane has 3x3 blocks)."""
 
 

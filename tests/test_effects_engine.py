@@ -17,7 +17,7 @@ from mountid.engine.description import load, parse
 from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
-from mountid.validation.blind_truth import _body_mass, _jac
+from mountid.validation.blind_truth import TruthMachine, _body_mass, _jac
 
 ROOT = Path(__file__).resolve().parents[1]
 EFFECT_VALUES = {
@@ -59,6 +59,7 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_five_paramet
         "gravity_preload",
         "damping",
         "sensor_error",
+        "sensor_turned",
     ]
     assert all(1 <= len(e.parameters) <= 5 for e in CATALOGUE)
     assert all(p.plausible[0] < p.plausible[1] for e in CATALOGUE for p in e.parameters)
@@ -201,7 +202,8 @@ def test_generated_effect_derivatives_match_sympy_at_high_precision(machine, eff
     numeric = call(mod, f"effect_{effect}_derivatives", values)
     names = mod.EFFECT_DERIVATIVE_PARAMETERS[effect]
     assert names[-len(ext.symbols) :] == tuple(ext.symbols)
-    assert set(names[: -len(ext.symbols)]) <= set(mod.UNKNOWN)
+    damping = {n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping"}
+    assert set(names[: -len(ext.symbols)]) <= set(mod.UNKNOWN) | damping
     symbols = {**ext.model.symbols, **ext.symbols}
     subs = {s: values[n] for n, s in symbols.items()}
     with mpmath.workdps(30):
@@ -213,16 +215,34 @@ def test_generated_effect_derivatives_match_sympy_at_high_precision(machine, eff
 
 
 @pytest.mark.parametrize("machine", MACHINES)
-def test_isolator_stiffness_gradient_matches_a_central_difference(machine):
-    """Each isolator's stiffness is linear in the unknown stiffnesses: the central difference is exact up
-    to rounding."""
+@pytest.mark.parametrize("function", ["isolator_stiffness", "isolator_axial_stiffness"])
+def test_isolator_stiffness_gradient_matches_a_central_difference(machine, function):
+    """Each isolator's stiffness (and its axial part) is linear in the unknown stiffnesses: the central
+    difference is exact up to rounding."""
     mod = generated(machine)
     values = _values(mod)
-    grad = call(mod, "isolator_stiffness_gradient", values)
+    grad = call(mod, f"{function}_gradient", values)
     assert grad.shape == (len(mod.UNKNOWN), len(mod.ISOLATORS), 6, 6)
     for k, u in enumerate(mod.UNKNOWN):
         h = 1e-3 * values[u]
-        up = call(mod, "isolator_stiffness", {**values, u: values[u] + h})
-        down = call(mod, "isolator_stiffness", {**values, u: values[u] - h})
+        up = call(mod, function, {**values, u: values[u] + h})
+        down = call(mod, function, {**values, u: values[u] - h})
         numeric = (up - down) / (2 * h)
-        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * np.max(np.abs(numeric))), u
+        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), u
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolator_axial_stiffness_is_the_axial_spring_of_an_independent_assembly(machine):
+    """isolator_axial_stiffness() against k_a J^T a a^T J at each isolator of the description assembled in numpy
+    apart from the engine (the blind harness's truth machine: a the isolator's own axis, k_a its axial
+    stiffness), and no larger than the isolator's whole stiffness."""
+    mod = generated(machine)
+    truth = TruthMachine(machine)
+    values = {**truth.nominal}
+    axial = call(mod, "isolator_axial_stiffness", values)
+    whole = call(mod, "isolator_stiffness", values)
+    for k, iso in enumerate(truth.isolators(values)):
+        row = iso.axis @ _jac(iso.point)
+        want = iso.stiffness[2] * np.outer(row, row)
+        assert np.allclose(axial[k], want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want)))
+        assert np.all(np.linalg.eigvalsh(whole[k] - axial[k]) >= -1e-9 * np.max(np.abs(whole[k])))

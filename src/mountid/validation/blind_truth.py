@@ -1,11 +1,12 @@
-"""The blind harness's truths: the KID-300 assembled in numpy, independently of the engine (rigid-body point
-Jacobians typed from u = t + w x r), with effects built the way they are in a machine rather than the way the
-candidate catalogue parameterises them.
+"""The blind harness's truths: any shipped machine assembled in numpy straight from its description file
+(tomllib, expressions evaluated with :mod:`math`), independently of the engine (rigid-body point Jacobians
+typed from u = t + w x r, isolators mirrored by hand), with effects built the way they are in a machine
+rather than the way the candidate catalogue parameterises them.
 
 In the catalogue (mountid.effects), each by its own physics here:
 
-- ``foundation``: a 6-dof slab (2 m x 2 m x 0.3 m, its own mass and inertia) on pads under the isolator
-  feet, the isolators between body and slab;
+- ``foundation``: a 6-dof slab (square, 2.06 times the isolators' largest radius in half-width, 0.3 m thick, its
+  own mass and inertia) on pads under the isolator feet, the isolators between body and slab;
 - ``frequency_dependent``: rubber as a fractional Kelvin-Voigt solid (storage stiffness
   k (1 + a (w tau)^r cos(r pi / 2))), each mode solved as a nonlinear eigenproblem;
 - ``added_mass``: a motor as a rigid body with its own inertia, on the vertical axis;
@@ -13,47 +14,78 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``com_offset``: the centre of mass off in a random horizontal direction;
 - ``sensor_error``: four triaxial sensors in a measurement frame turned in yaw against the machine's axes
   and placed off in height, the shapes recovered by least squares with the assumed geometry;
+- ``sensor_turned``: one of those twelve channels turned on its mount by 3-20 degrees about an axis across
+  it (a rotation, not the catalogue's first-order turn), the shapes recovered with the assumed geometry;
 - ``damping``: damped frequencies |Im p| of non-proportionally damped isolators;
-- ``cog_height``, ``isolator_scatter``, ``rotational_stiffness``, ``gravity_preload`` by the same physics;
-- ``support_frame`` (the catalogue's ``foundation``): a steel frame (2.6 m x 2.6 m x 0.25 m, its own mass
-  and inertia) below the isolators, standing on four ground springs on the x and y axes (not under the
-  isolator feet, which sit on the diagonals), softer horizontally than vertically, the springs below the
-  frame's centre of mass;
+- ``isolator_scatter``: one isolator of rubber from another batch: stiffer or softer in all directions, in
+  shear only, or along its axis only;
+- ``cog_height``, ``rotational_stiffness``, ``gravity_preload`` by the same physics;
+- ``support_frame`` (the catalogue's ``foundation``): a steel frame (2.67 times the isolators' largest radius
+  in half-width, 0.25 m thick, its own mass and inertia) below the isolators, standing on four ground springs
+  on the x and y axes at its edges (not under the isolator feet), softer horizontally than vertically, the
+  springs below the frame's centre of mass;
 - ``offaxis_mass`` (the catalogue's ``added_mass``): a motor with its own inertia bolted on off the vertical
-  axis (radius 0.2-0.6 m, any direction and height).
+  axis (radius 0.4-1.2 times the isolators' largest radius, any direction and height).
+
+- ``isolator_scatter+cog_height`` (the catalogue's pair ``cog_height+isolator_scatter``): two effects at once.
 
 Outside the catalogue (REPRESENTED_BY None: no candidate represents them; an honest diagnosis ends "not
 explained" or in a tie, never confident):
 
-- ``isolator_scatter+cog_height``: two effects at once;
 - ``nonlinear_isolator``: hardening rubber, stiffness k (1 + gamma (d / d_ref)^2) in each direction with the
   deformation amplitude d of that direction in the mode being measured (equivalent linearisation): each
-  mode sees its own isolator stiffness, which no linear model reproduces.
+  mode sees its own isolator stiffness, which no linear model reproduces;
+- ``resilient_attachment``: a component (a cabinet, a motor on its own mounts) of 3-15 % of the mass on
+  springs at a point off the axis, its own frequency 0.5-0.9 times the machine's highest, inside the band of
+  the machine's modes: its apparent mass changes sign across its resonance (a vibration absorber), which
+  neither a rigid added mass nor stiffening rubber reproduces (9 coordinates);
+- ``support_frame+isolator_scatter``: one isolator off and the machine on a support frame, a pair the catalogue
+  does not compose (the isolators stand on the support).
+
+A truth of several parts counts a candidate naming one part as right when that part alone explains the
+noise-free data within their uncertainty (the other part is below what the data can see):
+mountid.validation.blind.run_case.
+
+Sizes are drawn relative to the machine (its mass, the isolators' stiffness and radius); physical parts keep
+their size (a rubber block's height, a motor's proportions).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import scipy.linalg
+import tomllib
 
 from mountid.diagnosis.candidate_model import label_modes, scaled_unit
 from mountid.effects import STANDARD_GRAVITY
-from mountid.machine import Machine, call, damped_poles
+from mountid.machine import Machine, damped_poles
 
 REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
     "offaxis_mass": "added_mass",
-    "isolator_scatter+cog_height": None,
+    "isolator_scatter+cog_height": "cog_height+isolator_scatter",
     "nonlinear_isolator": None,
+    "resilient_attachment": None,
+    "support_frame+isolator_scatter": None,
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
 
 OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
 """Truths no candidate of the catalogue represents."""
+
+MOTOR = (0.12, 0.3)
+"""Radius and length [m] of the motor of an 838.6 kg machine (the KID-300); a machine of mass m carries one
+(m / 838.6)^(1/3) times as large."""
+REFERENCE_MASS = 838.6
+"""[kg] the mass whose motor has the MOTOR dimensions."""
 
 
 def represented_by(truth: str) -> str | None:
@@ -78,182 +110,371 @@ def _body_mass(m: float, inertia: np.ndarray, centre: np.ndarray) -> np.ndarray:
     return out
 
 
+def _rotation(ax: float, ay: float, az: float) -> np.ndarray:
+    """Local isolator axes to global, R = Rz(az) Ry(ay) Rx(ax) (docs/descriptions.md)."""
+    cx, sx, cy, sy, cz, sz = math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay), math.cos(az), math.sin(az)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return rz @ ry @ rx
+
+
+_FUNCTIONS = {"sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan, "pi": math.pi}
+
+
+@dataclass(frozen=True)
+class TrueIsolator:
+    """One isolator after mirroring: point [m], local axes in global ones (columns of ``axes``), stiffness and
+    damping along the local axes [N/m, N s/m]."""
+
+    point: np.ndarray
+    axes: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+
+    def tensor(self, local: np.ndarray) -> np.ndarray:
+        """A tensor diagonal in the isolator's axes, in global axes."""
+        return self.axes @ np.diag(local) @ self.axes.T
+
+    @property
+    def axis(self) -> np.ndarray:
+        """The isolator's own (local z) axis in global axes."""
+        return self.axes[:, 2]
+
+
+class TruthMachine:
+    """A shipped machine (``derivations/<name>.toml``) assembled in numpy from its description file: the body
+    (mass, inertia with products, centre of mass) and every isolator mirrored across the declared planes."""
+
+    def __init__(self, name: str, path: Path | None = None) -> None:
+        if path is None:
+            text = resources.files("mountid.derivations").joinpath(f"{name}.toml").read_text(encoding="utf-8")
+        else:
+            text = path.read_text(encoding="utf-8")
+        self.name = name
+        self.data = tomllib.loads(text)
+        params = self.data["parameters"]
+        self.nominal: dict[str, float] = {n: float(p["value"]) for n, p in params.items()}
+        self.unknown: tuple[str, ...] = tuple(n for n, p in params.items() if p.get("role", "known") == "unknown")
+        self.known: tuple[str, ...] = tuple(n for n in params if n not in self.unknown)
+
+    def _eval(self, expr: object, values: dict[str, float]) -> float:
+        if isinstance(expr, int | float):
+            return float(expr)
+        return float(eval(str(expr), {"__builtins__": {}}, {**_FUNCTIONS, **values}))
+
+    def _triple(self, exprs: list, values: dict[str, float]) -> np.ndarray:
+        return np.array([self._eval(e, values) for e in exprs])
+
+    # -- the body ------------------------------------------------------------------------------------
+    def mass(self, values: dict[str, float]) -> float:
+        return self._eval(self.data["body"]["mass"], values)
+
+    def inertia(self, values: dict[str, float]) -> np.ndarray:
+        """Inertia tensor about the centre of mass [kg m^2]: principal moments and products [J_xy, J_xz, J_yz]
+        entering as -J_ij."""
+        body = self.data["body"]
+        jx, jy, jz = self._triple(body["inertia"], values)
+        jxy, jxz, jyz = self._triple(body.get("products_of_inertia", [0, 0, 0]), values)
+        return np.array([[jx, -jxy, -jxz], [-jxy, jy, -jyz], [-jxz, -jyz, jz]])
+
+    def centre(self, values: dict[str, float]) -> np.ndarray:
+        return self._triple(self.data["body"].get("centre_of_mass", [0, 0, 0]), values)
+
+    # -- the isolators ---------------------------------------------------------------------------------
+    def isolators(self, values: dict[str, float]) -> list[TrueIsolator]:
+        """Every isolator: each group's representative and its mirror images (a point on a mirror plane is
+        its own image there); an image's axes are the representative's reflected."""
+        planes = {"yz": 0, "xz": 1}
+        symmetry = [planes[p] for p in self.data["symmetry"]]
+        out = []
+        for group in self.data["isolators"]:
+            point = self._triple(group["point"], values)
+            axes = _rotation(*self._triple(group.get("inclination", [0, 0, 0]), values))
+            k = self._triple(group["stiffness"], values)
+            b = self._triple(group.get("damping", [0, 0, 0]), values)
+            seen: list[np.ndarray] = []
+            for n in range(len(symmetry) + 1):
+                for subset in itertools.combinations(symmetry, n):
+                    s = np.ones(3)
+                    s[list(subset)] = -1.0
+                    image = s * point
+                    if any(np.allclose(image, p, rtol=0, atol=1e-12) for p in seen):
+                        continue
+                    seen.append(image)
+                    out.append(TrueIsolator(image, s[:, None] * axes, k, b))
+        return out
+
+    # -- machine scales (nominal values) ----------------------------------------------------------------
+    @cached_property
+    def _nominal_isolators(self) -> list[TrueIsolator]:
+        return self.isolators(self.nominal)
+
+    @cached_property
+    def length(self) -> float:
+        """RMS distance of the isolators from the centre of mass [m] (the rotations' factor in shapes)."""
+        c = self.centre(self.nominal)
+        return math.sqrt(np.mean([np.sum((i.point - c) ** 2) for i in self._nominal_isolators]))
+
+    @cached_property
+    def radius(self) -> float:
+        """Largest horizontal distance of an isolator from the vertical axis through the centre of mass [m]."""
+        c = self.centre(self.nominal)
+        return max(math.hypot(*(i.point - c)[:2]) for i in self._nominal_isolators)
+
+    @cached_property
+    def depth(self) -> float:
+        """Mean depth of the isolator points below the centre of mass [m]."""
+        c = self.centre(self.nominal)
+        return float(np.mean([c[2] - i.point[2] for i in self._nominal_isolators]))
+
+    @cached_property
+    def vertical(self) -> float:
+        """Total vertical stiffness of the isolators at the nominal values [N/m]."""
+        return float(sum(i.tensor(i.stiffness)[2, 2] for i in self._nominal_isolators))
+
+    @cached_property
+    def horizontal(self) -> float:
+        """Total stiffness of the isolators along x at the nominal values [N/m]."""
+        return float(sum(i.tensor(i.stiffness)[0, 0] for i in self._nominal_isolators))
+
+    @cached_property
+    def rocking(self) -> float:
+        """Rocking stiffness of the vertical springs, sum k_z r^2 / 2 over the isolators [N m/rad]."""
+        c = self.centre(self.nominal)
+        return float(
+            sum(i.tensor(i.stiffness)[2, 2] * np.sum((i.point - c)[:2] ** 2) / 2 for i in self._nominal_isolators)
+        )
+
+    @cached_property
+    def _nominal_frequencies(self) -> np.ndarray:
+        m, c, _ = truth_matrices(self, Truth("none", {}, {}, self.name))
+        return np.sqrt(scipy.linalg.eigh(c, m, eigvals_only=True))
+
+    @cached_property
+    def mean_frequency(self) -> float:
+        """Geometric mean of the natural frequencies at the nominal values [rad/s]."""
+        return float(np.exp(np.mean(np.log(self._nominal_frequencies))))
+
+    @cached_property
+    def highest_frequency(self) -> float:
+        """The highest natural frequency at the nominal values [rad/s]."""
+        return float(np.max(self._nominal_frequencies))
+
+
 @dataclass(frozen=True)
 class Truth:
-    """One synthetic machine: kid300 values, the true unknowns, and the injected effect with its size."""
+    """One synthetic machine: its description, the true unknowns, and the injected effect with its size."""
 
     effect: str
     size: dict[str, float]
-    c_xy: float
-    c_z: float
+    unknowns: dict[str, float]
+    machine: str = "kid300"
+    known: dict[str, float] = field(default_factory=dict)
+    """Known values that differ from the description's nominal ones (none so far)."""
 
 
-class Kid300:
-    """The KID-300 assembled in numpy (known values of the description)."""
-
-    def __init__(self, machine: Machine) -> None:
-        v = machine.values({}, tuple(machine.parameters))
-        self.v = v
-        a = v["L_xy"] / math.sqrt(2)
-        self.points = [np.array([sx * a, sy * a, -v["L_z"]]) for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))]
-        self.inertia = np.diag([v["J_xy"], v["J_xy"], v["J_z"]])
-        scales = call(machine.module, "effect_scales", v)
-        self.length = float(scales["length"])  # [m], the rotations' factor in scaled unit shapes
-
-    def matrices(self, t: Truth):
-        """M, C, B of the truth (12 x 12 with a support below the isolators)."""
-        v = self.v
-        parts = set(t.effect.split("+"))
-        k_iso = [np.diag([t.c_xy, t.c_xy, t.c_z]) for _ in self.points]
-        b_iso = [np.diag([v["b_xy"], v["b_xy"], v["b_z"]]) for _ in self.points]
-        centre = np.zeros(3)
-        s = t.size
-        if "com_offset" in parts:
-            centre = np.array([s["e"] * math.cos(s["angle"]), s["e"] * math.sin(s["angle"]), 0.0])
-        if "cog_height" in parts:
-            centre = np.array([0.0, 0.0, s["dz"]])
-        if "isolator_scatter" in parts:
-            k_iso[int(s["isolator"])] = k_iso[int(s["isolator"])] * (1 + s["s"])
-        if "damping" in parts:
-            b_iso = [b * s["eta"] for b in b_iso]
-        m = _body_mass(v["m"], self.inertia, centre)
-        c = sum(_jac(r).T @ k @ _jac(r) for r, k in zip(self.points, k_iso, strict=True))
-        b = sum(_jac(r).T @ d @ _jac(r) for r, d in zip(self.points, b_iso, strict=True))
-        if "rotational_stiffness" in parts:
-            c[3:, 3:] += len(self.points) * np.diag([s["k_bend"], s["k_bend"], s["k_torsion"]])
-        if "gravity_preload" in parts:
-            c[3, 3] -= v["m"] * STANDARD_GRAVITY * s["h"]
-            c[4, 4] -= v["m"] * STANDARD_GRAVITY * s["h"]
-        if "added_mass" in parts:
-            r_m, l_m = 0.12, 0.3  # motor as a solid cylinder with a horizontal axis along x
-            ma = s["m"]
-            own = ma * np.diag([r_m**2 / 2, (3 * r_m**2 + l_m**2) / 12, (3 * r_m**2 + l_m**2) / 12])
-            m = m + _body_mass(ma, own, np.array([0.0, 0.0, s["h"]]))
-        if "drive_belt" in parts:
-            d = np.array([1.0, 0.0, 0.0])
-            row = d @ _jac(np.array([0.0, 0.0, s["h"]]))
-            c = c + s["k"] * np.outer(row, row)
+def truth_matrices(tm: TruthMachine, t: Truth) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """M, C, B of the truth (12 x 12 with a support below the isolators)."""
+    v = {**tm.nominal, **t.known, **t.unknowns}
+    parts = set(t.effect.split("+"))
+    isolators = tm.isolators(v)
+    k_iso = [i.tensor(i.stiffness) for i in isolators]
+    b_iso = [i.tensor(i.damping) for i in isolators]
+    centre = tm.centre(v)
+    inertia = tm.inertia(v)
+    mass = tm.mass(v)
+    s = t.size
+    if "com_offset" in parts:
+        centre = centre + np.array([s["e"] * math.cos(s["angle"]), s["e"] * math.sin(s["angle"]), 0.0])
+    if "cog_height" in parts:
+        centre = centre + np.array([0.0, 0.0, s["dz"]])
+    if "isolator_scatter" in parts:
+        i = int(s["isolator"])
+        iso = isolators[i]
+        k_iso[i] = iso.tensor(iso.stiffness * (1 + np.array([s["s_h"], s["s_h"], s["s_v"]])))
+    if "damping" in parts:
+        b_iso = [b * s["eta"] for b in b_iso]
+    m = _body_mass(mass, inertia, centre)
+    points = [i.point for i in isolators]
+    c = sum(_jac(r).T @ k @ _jac(r) for r, k in zip(points, k_iso, strict=True))
+    b = sum(_jac(r).T @ d @ _jac(r) for r, d in zip(points, b_iso, strict=True))
+    if "rotational_stiffness" in parts:
+        for iso in isolators:
+            a = iso.axis
+            c[3:, 3:] += s["k_bend"] * (np.eye(3) - np.outer(a, a)) + s["k_torsion"] * np.outer(a, a)
+    if "gravity_preload" in parts:
+        c[3, 3] -= mass * STANDARD_GRAVITY * s["h"]
+        c[4, 4] -= mass * STANDARD_GRAVITY * s["h"]
+    if "added_mass" in parts or "offaxis_mass" in parts:
+        ma = s["m"]
+        size = (mass / REFERENCE_MASS) ** (1 / 3)
+        r_m, l_m = MOTOR[0] * size, MOTOR[1] * size  # a solid cylinder with a horizontal axis along x
+        own = ma * np.diag([r_m**2 / 2, (3 * r_m**2 + l_m**2) / 12, (3 * r_m**2 + l_m**2) / 12])
+        where = np.array([0.0, 0.0, s["h"]])
         if "offaxis_mass" in parts:
-            r_m, l_m = 0.12, 0.3
-            ma = s["m"]
-            own = ma * np.diag([r_m**2 / 2, (3 * r_m**2 + l_m**2) / 12, (3 * r_m**2 + l_m**2) / 12])
             where = np.array([s["r"] * math.cos(s["angle"]), s["r"] * math.sin(s["angle"]), s["h"]])
-            m = m + _body_mass(ma, own, where)
-        if "foundation" in parts:
-            return self._on_slab(m, k_iso, b_iso, s)
-        if "support_frame" in parts:
-            return self._on_frame(m, k_iso, b_iso, s)
-        return m, c, b
-
-    def _on_slab(self, m_body, k_iso, b_iso, s):
-        """Body and slab, 12 dof; the isolators act on the difference of the two bodies' point motions."""
-        depth = self.v["L_z"]
-        slab_origin = np.array([0.0, 0.0, -depth])
-        n = 12
-        m = np.zeros((n, n))
-        c = np.zeros((n, n))
-        b = np.zeros((n, n))
-        m[:6, :6] = m_body
-        half = 1.0  # slab 2 m x 2 m, 0.3 m thick
-        mf = s["m"]
-        m[6:, 6:] = _body_mass(mf, mf * np.diag([(4 * half**2 + 0.09) / 12] * 2 + [8 * half**2 / 12]), np.zeros(3))
-        for r, k, d in zip(self.points, k_iso, b_iso, strict=True):
-            rel = np.hstack([_jac(r), -_jac(r - slab_origin)])
-            c += rel.T @ k @ rel
-            b += rel.T @ d @ rel
-        kz = s["k"] / 4  # a pad under each isolator foot
-        ground = np.diag([0.5 * kz, 0.5 * kz, kz])
-        for r in self.points:
-            j = np.hstack([np.zeros((3, 6)), _jac(r - slab_origin)])
-            c += j.T @ ground @ j
-        return m, c, b
-
-    def _on_frame(self, m_body, k_iso, b_iso, s):
-        """Body and frame, 12 dof, both in coordinates about the body's origin: the isolators act on the
-        difference of the two bodies' motions at the feet, the frame stands on four ground springs on the
-        x and y axes at 1.3 m (the isolator feet are on the diagonals)."""
-        depth = self.v["L_z"]
-        m = np.zeros((12, 12))
-        c = np.zeros((12, 12))
-        b = np.zeros((12, 12))
-        m[:6, :6] = m_body
-        mf, half, thick = s["m"], 1.3, 0.25
-        own = mf * np.diag([(4 * half**2 + thick**2) / 12] * 2 + [8 * half**2 / 12])
-        m[6:, 6:] = _body_mass(mf, own, np.array([0.0, 0.0, -depth - thick / 2]))
-        for r, k, d in zip(self.points, k_iso, b_iso, strict=True):
-            rel = np.hstack([_jac(r), -_jac(r)])
-            c += rel.T @ k @ rel
-            b += rel.T @ d @ rel
-        kv = s["k"] / 4
-        ground = np.diag([s["horizontal"] * kv, s["horizontal"] * kv, kv])
-        for x, y in ((half, 0.0), (-half, 0.0), (0.0, half), (0.0, -half)):
-            j = np.hstack([np.zeros((3, 6)), _jac(np.array([x, y, -depth - thick]))])
-            c += j.T @ ground @ j
-        return m, c, b
+        m = m + _body_mass(ma, own, tm.centre(v) + where)
+    if "drive_belt" in parts:
+        row = np.array([1.0, 0.0, 0.0]) @ _jac(np.array([0.0, 0.0, s["h"]]))
+        c = c + s["k"] * np.outer(row, row)
+    if "resilient_attachment" in parts:
+        return _with_attachment(tm, m, c, b, s)
+    if "foundation" in parts:
+        return _on_slab(tm, m, points, k_iso, b_iso, s)
+    if "support_frame" in parts:
+        return _on_frame(tm, m, points, k_iso, b_iso, s)
+    return m, c, b
 
 
-def sample(rng: np.random.Generator, effect: str, v: dict[str, float]) -> dict[str, float]:
+def _two_bodies(m_body, points, k_iso, b_iso, m_support, support_origin):
+    """Body and support, 12 dof (each in coordinates about its own origin): the isolators act on the
+    difference of the two bodies' motions at the feet."""
+    m = np.zeros((12, 12))
+    c = np.zeros((12, 12))
+    b = np.zeros((12, 12))
+    m[:6, :6] = m_body
+    m[6:, 6:] = m_support
+    for r, k, d in zip(points, k_iso, b_iso, strict=True):
+        rel = np.hstack([_jac(r), -_jac(r - support_origin)])
+        c += rel.T @ k @ rel
+        b += rel.T @ d @ rel
+    return m, c, b
+
+
+def _with_attachment(tm: TruthMachine, m_body, c_body, b_body, s):
+    """A point mass on isotropic springs (5 % damping) at a body point: 9 coordinates, the attachment's
+    translations last."""
+    where = tm.centre(tm.nominal) + np.array([s["r"] * math.cos(s["angle"]), s["r"] * math.sin(s["angle"]), s["h"]])
+    k = s["m"] * s["omega"] ** 2
+    rel = np.hstack([_jac(where), -np.eye(3)])
+    m = np.zeros((9, 9))
+    m[:6, :6] = m_body
+    m[6:, 6:] = s["m"] * np.eye(3)
+    c = np.zeros((9, 9))
+    c[:6, :6] = c_body
+    c += k * rel.T @ rel
+    b = np.zeros((9, 9))
+    b[:6, :6] = b_body
+    b += 2 * 0.05 * math.sqrt(k * s["m"]) * rel.T @ rel
+    return m, c, b
+
+
+def _on_slab(tm: TruthMachine, m_body, points, k_iso, b_iso, s):
+    """A square slab, 0.3 m thick, under the isolator feet on a pad under each foot."""
+    depth = float(np.mean([p[2] for p in points]))
+    origin = np.array([0.0, 0.0, depth])
+    half = 1.0 * tm.radius / 0.486  # the KID-300's slab: 2 m x 2 m under isolators at 0.486 m
+    mf = s["m"]
+    own = mf * np.diag([(4 * half**2 + 0.09) / 12] * 2 + [8 * half**2 / 12])
+    m, c, b = _two_bodies(m_body, points, k_iso, b_iso, _body_mass(mf, own, np.zeros(3)), origin)
+    kz = s["k"] / len(points)
+    ground = np.diag([0.5 * kz, 0.5 * kz, kz])
+    for r in points:
+        j = np.hstack([np.zeros((3, 6)), _jac(r - origin)])
+        c += j.T @ ground @ j
+    return m, c, b
+
+
+def _on_frame(tm: TruthMachine, m_body, points, k_iso, b_iso, s):
+    """A square steel frame, 0.25 m thick, below the isolators on four ground springs on the x and y axes at its
+    edges (wherever the isolator feet are)."""
+    depth = float(np.mean([p[2] for p in points]))
+    mf, half, thick = s["m"], 1.3 * tm.radius / 0.486, 0.25
+    own = mf * np.diag([(4 * half**2 + thick**2) / 12] * 2 + [8 * half**2 / 12])
+    support = _body_mass(mf, own, np.array([0.0, 0.0, depth - thick / 2]))
+    m, c, b = _two_bodies(m_body, points, k_iso, b_iso, support, np.zeros(3))
+    kv = s["k"] / 4
+    ground = np.diag([s["horizontal"] * kv, s["horizontal"] * kv, kv])
+    for x, y in ((half, 0.0), (-half, 0.0), (0.0, half), (0.0, -half)):
+        j = np.hstack([np.zeros((3, 6)), _jac(np.array([x, y, depth - thick]))])
+        c += j.T @ ground @ j
+    return m, c, b
+
+
+def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str, float]:
     """A random effect size, from barely visible to clearly visible against the synthetic noise."""
 
     def logu(lo: float, hi: float) -> float:
         return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
 
     sign = 1.0 if rng.random() < 0.5 else -1.0
-    c_rock = 4 * 472.3e3 * v["L_xy"] ** 2 / 2
+    mass = tm.mass(tm.nominal)
     if effect == "com_offset":
         return {"e": logu(0.01, 0.06), "angle": rng.uniform(0, 2 * math.pi)}
     if effect == "cog_height":
         return {"dz": sign * logu(0.01, 0.1)}
     if effect == "isolator_scatter":
-        return {"s": sign * logu(0.05, 0.4), "isolator": int(rng.integers(4))}
+        s = sign * logu(0.05, 0.4)
+        which = int(rng.integers(len(tm.isolators(tm.nominal))))
+        direction = ("all", "shear", "axial")[int(rng.integers(3))]
+        return {
+            "s_h": 0.0 if direction == "axial" else s,
+            "s_v": 0.0 if direction == "shear" else s,
+            "isolator": which,
+        }
     if effect == "rotational_stiffness":
-        return {"k_bend": logu(0.003, 0.03) * c_rock / 4, "k_torsion": logu(0.003, 0.03) * c_rock / 4}
+        return {"k_bend": logu(0.003, 0.03) * tm.rocking / 4, "k_torsion": logu(0.003, 0.03) * tm.rocking / 4}
     if effect == "frequency_dependent":
-        return {"a": logu(0.03, 0.3), "r": rng.uniform(0.2, 0.6), "tau": 1 / 40.0}
+        return {"a": logu(0.03, 0.3), "r": rng.uniform(0.2, 0.6), "tau": 1 / tm.mean_frequency}
     if effect == "foundation":
-        return {"m": logu(0.5, 5) * v["m"], "k": logu(10, 100) * 4 * 472.3e3}
+        return {"m": logu(0.5, 5) * mass, "k": logu(10, 100) * tm.vertical}
     if effect == "added_mass":
-        return {"m": logu(0.02, 0.15) * v["m"], "h": rng.uniform(-0.5, 0.5)}
+        return {"m": logu(0.02, 0.15) * mass, "h": rng.uniform(-0.5, 0.5)}
     if effect == "drive_belt":
-        return {"k": logu(0.01, 0.2) * 4 * 74.4e3, "h": rng.uniform(-0.3, 0.5)}
+        return {"k": logu(0.01, 0.2) * tm.horizontal, "h": rng.uniform(-0.3, 0.5)}
     if effect == "gravity_preload":
-        return {"h": v["L_z"] + rng.uniform(0.0, 0.2)}
+        return {"h": tm.depth + rng.uniform(0.0, 0.2)}
     if effect == "damping":
         return {"eta": logu(1.5, 5.0)}
     if effect == "sensor_error":
         return {"yaw": sign * logu(0.01, 0.08), "dz": rng.uniform(-0.15, 0.15)}
+    if effect == "sensor_turned":
+        return {
+            "channel": int(rng.integers(len(sensor_layout(tm)))),
+            "angle": logu(0.05, 0.35),
+            "about": rng.uniform(0, 2 * math.pi),
+        }
     if effect == "support_frame":
-        return {"m": logu(0.3, 2) * v["m"], "k": logu(3, 30) * 4 * 472.3e3, "horizontal": rng.uniform(0.2, 0.6)}
+        return {"m": logu(0.3, 2) * mass, "k": logu(3, 30) * tm.vertical, "horizontal": rng.uniform(0.2, 0.6)}
     if effect == "nonlinear_isolator":
         return {"gamma": logu(0.02, 0.2)}
+    if effect == "resilient_attachment":
+        return {
+            "m": logu(0.03, 0.15) * mass,
+            "r": logu(0.2, 0.6) * tm.radius / 0.486,
+            "angle": rng.uniform(0, 2 * math.pi),
+            "h": rng.uniform(-0.2, 0.5),
+            "omega": logu(0.5, 0.9) * tm.highest_frequency,
+        }
     if effect == "offaxis_mass":
         return {
-            "m": logu(0.03, 0.15) * v["m"],
-            "r": logu(0.2, 0.6),
+            "m": logu(0.03, 0.15) * mass,
+            "r": logu(0.2, 0.6) * tm.radius / 0.486,
             "angle": rng.uniform(0, 2 * math.pi),
             "h": rng.uniform(-0.3, 0.5),
         }
     if "+" in effect:
         out: dict[str, float] = {}
         for part in effect.split("+"):
-            out.update(sample(rng, part, v))
+            out.update(sample(rng, part, tm))
         return out
     if effect == "none":
         return {}
-    raise ValueError(f"no blind truth for the effect {effect!r}: add its size here and its physics to Kid300")
+    raise ValueError(f"no blind truth for the effect {effect!r}: add its size here and its physics to truth_matrices")
 
 
-def true_modes(kid: Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
-    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order."""
-    mod = machine.module
-    m, c, b = kid.matrices(t)
+def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
+    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order. Where the truth has
+    exactly equal frequencies (twins), any combination of them is a mode: each label gets the projection of
+    its nominal mode on their span, so that the shapes do not depend on the basis LAPACK returned."""
+    m, c, b = truth_matrices(tm, t)
     lam, vec = scipy.linalg.eigh(c, m)
-    nominal = {**kid.v, "c_xy": t.c_xy, "c_z": t.c_z}
-    fwd = {a: nominal[a] for a in mod.FORWARD_ARGUMENTS}
-    ref = scaled_unit(mod.modal_matrix(**fwd), kid.length)
-    body = scaled_unit(vec[:6], kid.length)
+    ref, ref_lambda = _reference(tm, machine, t)
+    body = scaled_unit(vec[:6], tm.length)
     share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6])
-    order = label_modes(lam, body, np.asarray(mod.squared_frequencies(**fwd)), ref, share)
+    order = label_modes(lam, body, ref_lambda, ref, share)
+    vec = _canonical_twins(lam, vec, m, order, ref, tm.length)
     omega = np.sqrt(lam[order])
     shapes = vec[:6, order]
     parts = set(t.effect.split("+"))
@@ -271,16 +492,59 @@ def true_modes(kid: Kid300, machine: Machine, t: Truth) -> tuple[np.ndarray, np.
     elif "damping" in parts:
         omega = damped_poles(m, c, b, lam)[order].imag
     elif "sensor_error" in parts:
-        shapes = _through_sensors(kid, shapes, t.size["yaw"], t.size["dz"])
+        shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
+    elif "sensor_turned" in parts:
+        shapes = _one_turned(tm, shapes, int(t.size["channel"]), t.size["angle"], t.size["about"])
     elif "nonlinear_isolator" in parts:
-        omega, shapes = _hardened(kid, t, m, shapes)
+        omega, shapes = _hardened(tm, t, m, shapes)
     return omega, shapes
 
 
-def true_damping_ratios(kid: Kid300, t: Truth, shapes: np.ndarray) -> np.ndarray:
+def _reference(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
+    """The machine's nominal modes at the true values (scaled unit shapes, squared frequencies): what the
+    truth's modes are labelled by."""
+    mod = machine.module
+    values = {**tm.nominal, **t.known, **t.unknowns}
+    fwd = {a: values[a] for a in mod.FORWARD_ARGUMENTS}
+    return scaled_unit(np.asarray(mod.modal_matrix(**fwd)), tm.length), np.asarray(mod.squared_frequencies(**fwd))
+
+
+TWIN_RTOL = 1e-9
+"""Eigenvalues closer than this (relative) are twins of the truth (equal up to rounding)."""
+
+
+def _canonical_twins(
+    lam: np.ndarray, vec: np.ndarray, m: np.ndarray, order: np.ndarray, ref: np.ndarray, length: float
+) -> np.ndarray:
+    """The eigenvectors with each set of twins replaced, for the labels ``order`` gave them, by the
+    projections of those labels' nominal shapes ``ref`` on the twins' span, M-orthonormalised in label order
+    (independent of the basis LAPACK returned)."""
+    out = vec.copy()
+    done: set[int] = set()
+    for j in range(len(lam)):
+        group = np.flatnonzero(np.abs(lam - lam[j]) <= TWIN_RTOL * abs(lam[j]))
+        if len(group) < 2 or j in done:
+            continue
+        done |= set(group.tolist())
+        labels = [k for k in range(len(order)) if order[k] in group]  # in label order
+        v = vec[:, group]
+        body = v[:6].copy()
+        body[3:] *= length
+        coef, *_ = np.linalg.lstsq(body, ref[:, labels], rcond=None)
+        basis = v @ coef
+        for k in range(basis.shape[1]):  # Gram-Schmidt in the mass inner product
+            x = basis[:, k]
+            for prev in range(k):
+                x = x - basis[:, prev] * (basis[:, prev] @ m @ x)
+            basis[:, k] = x / math.sqrt(x @ m @ x)
+        out[:, order[labels]] = basis
+    return out
+
+
+def true_damping_ratios(tm: TruthMachine, t: Truth, shapes: np.ndarray) -> np.ndarray:
     """Damping ratio of each mode (in the machine's mode order, paired with ``shapes`` by MAC): -Re p / |p| of
     the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
-    m, c, b = kid.matrices(t)
+    m, c, b = truth_matrices(tm, t)
     n = m.shape[0]
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
     poles, vectors = np.linalg.eig(a)
@@ -295,19 +559,22 @@ def true_damping_ratios(kid: Kid300, t: Truth, shapes: np.ndarray) -> np.ndarray
     return out
 
 
-def _hardened(kid: Kid300, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each mode of hardening isolators by equivalent linearisation: every isolator direction stiffer by
-    1 + gamma (d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the isolators
-    and directions (each mode excited to the same largest deformation); iterated to a fixed point."""
+def _hardened(tm: TruthMachine, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each mode of hardening isolators by equivalent linearisation: every isolator direction (global axes)
+    stiffer by 1 + gamma (d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the
+    isolators and directions (each mode excited to the same largest deformation); iterated to a fixed point."""
     gamma = t.size["gamma"]
-    nominal = np.array([t.c_xy, t.c_xy, t.c_z])
+    isolators = tm.isolators({**tm.nominal, **t.known, **t.unknowns})
     omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
     for i in range(shapes.shape[1]):
         phi = shapes[:, i]
         for _ in range(50):
-            d = np.array([_jac(r) @ phi for r in kid.points])
+            d = np.array([iso.axes.T @ (_jac(iso.point) @ phi) for iso in isolators])  # along local axes
             factor = 1 + gamma * (np.abs(d) / np.abs(d).max()) ** 2
-            c = sum(_jac(r).T @ np.diag(nominal * f) @ _jac(r) for r, f in zip(kid.points, factor, strict=True))
+            c = sum(
+                _jac(iso.point).T @ iso.tensor(iso.stiffness * f) @ _jac(iso.point)
+                for iso, f in zip(isolators, factor, strict=True)
+            )
             lam, vec = scipy.linalg.eigh(c, m)
             j = int(np.argmax(np.abs(vec.T @ m @ phi)))
             step = vec[:, j] * np.sign(vec[:, j] @ m @ phi)
@@ -319,12 +586,35 @@ def _hardened(kid: Kid300, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple
     return omega, out
 
 
-def _through_sensors(kid: Kid300, shapes: np.ndarray, yaw: float, dz: float) -> np.ndarray:
-    """Shapes recovered by least squares from four triaxial sensors on the top corners. The measurement
-    frame (sensor axes and the positions the processing assumes) is turned by ``yaw`` about the vertical
-    against the machine's axes, and the sensors sit ``dz`` higher than assumed."""
-    a = kid.v["L_xy"] / math.sqrt(2)
-    assumed = [np.array([sx * a, sy * a, 0.25]) for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))]
+def sensor_layout(tm: TruthMachine) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The harness's measurement layout: four triaxial sensors on the top corners of the isolators' bounding
+    box, 0.25 m above the origin; 12 channels (name, point [m], unit direction)."""
+    points = np.array([i.point for i in tm._nominal_isolators])
+    ax, ay = np.max(np.abs(points[:, 0])), np.max(np.abs(points[:, 1]))
+    corners = [np.array([sx * ax, sy * ay, 0.25]) for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))]
+    return [(f"S{k + 1}_{a}", r, np.eye(3)[i]) for k, r in enumerate(corners) for i, a in enumerate("xyz")]
+
+
+def _one_turned(tm: TruthMachine, shapes: np.ndarray, channel: int, angle: float, about: float) -> np.ndarray:
+    """Shapes recovered by least squares from the layout's readings, one channel's sensor turned on its mount
+    by ``angle`` [rad] about an axis across its direction (at ``about`` [rad] around it)."""
+    layout = sensor_layout(tm)
+    d = layout[channel][2]
+    helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(helper, d) / np.linalg.norm(np.cross(helper, d))
+    axis = math.cos(about) * e1 + math.sin(about) * np.cross(d, e1)
+    turned = d * math.cos(angle) + np.cross(axis, d) * math.sin(angle)  # Rodrigues, axis across d
+    model = np.array([direction @ _jac(r) for _, r, direction in layout])
+    read = model.copy()
+    read[channel] = turned @ _jac(layout[channel][1])
+    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
+
+
+def _through_sensors(tm: TruthMachine, shapes: np.ndarray, yaw: float, dz: float) -> np.ndarray:
+    """Shapes recovered by least squares from the layout's four triaxial sensors (sensor_layout). The
+    measurement frame (sensor axes and the positions the processing assumes) is turned by ``yaw`` about the
+    vertical against the machine's axes, and the sensors sit ``dz`` higher than assumed."""
+    assumed = [r for _, r, _ in sensor_layout(tm)[::3]]
     cz, sz = math.cos(yaw), math.sin(yaw)
     turn = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # machine axes -> measurement frame
     read = np.vstack([turn @ _jac(turn.T @ r + np.array([0.0, 0.0, dz])) for r in assumed])

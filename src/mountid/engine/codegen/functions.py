@@ -11,7 +11,13 @@ import sympy as sp
 from mountid.effects import EFFECTS
 from mountid.engine.codegen.layouts import Call, Filled, ForwardModel, Function, Mapping, Matrices, SymmetricMatrix
 from mountid.engine.codegen.printing import describe, print_function
-from mountid.engine.symbolic.effects import GENERATED_EFFECTS, ExtendedModel, isolator_stiffness, scales
+from mountid.engine.symbolic.effects import (
+    GENERATED_EFFECTS,
+    ExtendedModel,
+    isolator_axial_stiffness,
+    isolator_stiffness,
+    scales,
+)
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.nomenclature import COORDINATES
 
@@ -104,20 +110,26 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
             )
         functions.append(fn)
         functions.append(_effect_derivative_function(model, ext))
-    per = isolator_stiffness(model)
     names = tuple(iso.name for iso in model.isolators)
-    args = model.parameters_of(*per)
-    fn = _matrices_function(
-        "isolator_stiffness",
-        dict(zip(names, per, strict=True)),
-        COORDINATES,
-        args,
-        f"Stiffness matrix of each isolator alone, shape (..., {len(per)}, 6, 6), isolators in the order of\n"
-        "    ISOLATORS; their sum is stiffness_matrix().\n",
-        stacked=(),
-    )
-    functions.append(fn)
-    functions.append(_isolator_gradient_function(model, dict(zip(names, per, strict=True))))
+    for name, per, what in (
+        ("isolator_stiffness", isolator_stiffness(model), "Stiffness matrix of each isolator alone"),
+        (
+            "isolator_axial_stiffness",
+            isolator_axial_stiffness(model),
+            "The part of each isolator's stiffness matrix along its own axis (local z, compression)",
+        ),
+    ):
+        fn = _matrices_function(
+            name,
+            dict(zip(names, per, strict=True)),
+            COORDINATES,
+            model.parameters_of(*per),
+            f"{what}, shape (..., {len(per)}, 6, 6),\n    isolators in the order of ISOLATORS"
+            + ("; their sum is stiffness_matrix().\n" if name == "isolator_stiffness" else ".\n"),
+            stacked=(),
+        )
+        functions.append(fn)
+        functions.append(_isolator_gradient_function(model, name, dict(zip(names, per, strict=True))))
     functions.append(_isolator_points_function(model))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
@@ -132,9 +144,11 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
 
 def effect_derivative_parameters(model: SymbolicModel, ext: ExtendedModel) -> tuple[str, ...]:
     """What a candidate fit varies, in the order of effect_<name>_derivatives(): the unknowns the extended
-    matrices depend on, then the effect's parameters."""
+    matrices depend on, the damping parameters (fitted where damping ratios are measured), then the effect's
+    parameters."""
     args = ext.arguments()
-    return tuple(u for u in model.description.unknown if u in args) + tuple(ext.symbols)
+    damping = tuple(n for n, p in model.description.parameters.items() if p.kind == "damping" and n in args)
+    return tuple(u for u in model.description.unknown if u in args) + damping + tuple(ext.symbols)
 
 
 def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Function:
@@ -158,17 +172,17 @@ def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Fun
     )
 
 
-def _isolator_gradient_function(model: SymbolicModel, per: dict[str, sp.Matrix]) -> Function:
-    """d(isolator_stiffness())/d(unknown) for each unknown: the Jacobian of an isolator-scatter fit."""
+def _isolator_gradient_function(model: SymbolicModel, name: str, per: dict[str, sp.Matrix]) -> Function:
+    """d(name())/d(unknown) for each unknown of per-isolator matrices: the Jacobian of an isolator-scatter fit."""
     unknowns = model.description.unknown
     derivs = {f"d{iso}/d{u}": mat.diff(model.symbols[u]) for u in unknowns for iso, mat in per.items()}
     doc = (
-        f"Derivatives of isolator_stiffness() with respect to the unknowns {', '.join(unknowns)}, shape\n"
+        f"Derivatives of {name}() with respect to the unknowns {', '.join(unknowns)}, shape\n"
         f"    (..., {len(unknowns)}, {len(per)}, 6, 6), differentiated by sympy.\n"
     )
     args = model.parameters_of(*per.values())
     shape = (len(unknowns), len(per), 6, 6)
-    return _matrices_function("isolator_stiffness_gradient", derivs, COORDINATES, args, doc, stacked=shape)
+    return _matrices_function(f"{name}_gradient", derivs, COORDINATES, args, doc, stacked=shape)
 
 
 def _isolator_points_function(model: SymbolicModel) -> Function:

@@ -235,10 +235,25 @@ def isolator_hessian(position: sp.Matrix, tensor: sp.Matrix, slab_position: sp.M
     return generic.xreplace(subs)
 
 
+def _tidy(e: sp.Expr) -> sp.Expr:
+    return sp.factor_terms(sp.expand(e))
+
+
 def isolator_stiffness(model: SymbolicModel) -> list[sp.Matrix]:
     """The stiffness matrix of each isolator alone (Hessian of its potential energy): C is their sum."""
-    tidy = lambda e: sp.factor_terms(sp.expand(e))  # noqa: E731
-    return [isolator_hessian(iso.position, iso.stiffness).applyfunc(tidy) for iso in model.isolators]
+    return [isolator_hessian(iso.position, iso.stiffness).applyfunc(_tidy) for iso in model.isolators]
+
+
+def isolator_axial_stiffness(model: SymbolicModel) -> list[sp.Matrix]:
+    """The part of each isolator's stiffness matrix along its own axis a (local z): the Hessian of the energy
+    1/2 k_a (a . u)^2 with k_a = a^T K a, the isolator's axial stiffness (compression of the rubber). The rest
+    of isolator_stiffness() is its shear part (local x and y)."""
+    out = []
+    for iso in model.isolators:
+        a = iso.axis
+        axial = sp.simplify((a.T * iso.stiffness * a)[0])
+        out.append(isolator_hessian(iso.position, axial * a * a.T).applyfunc(_tidy))
+    return out
 
 
 def scales(model: SymbolicModel) -> dict[str, sp.Expr]:

@@ -41,12 +41,17 @@ class Isolator:
     """Unit vector of the isolator's own axis (local z) in global axes (sign irrelevant)."""
     mirror: tuple[int, int, int] = (1, 1, 1)
     """Signs of the reflection that made this isolator from its group's representative."""
+    mirrored: tuple[str, ...] = ("x", "y")
+    """The axes along which the group has mirror images (its representative lies off that mirror plane)."""
 
     @property
     def name(self) -> str:
-        """Group name and the signs of the mirror image, e.g. ``corner[+x-y]``."""
-        signs = "".join(("+" if s > 0 else "-") + a for s, a in zip(self.mirror, "xy", strict=False))
-        return f"{self.group}[{signs}]"
+        """Group name and the signs of the mirror image along the axes the group is mirrored along, e.g.
+        ``corner[+x-y]``, ``middle[-y]`` (a group on the yz plane), ``centre`` (on the vertical axis)."""
+        signs = "".join(
+            ("+" if s > 0 else "-") + a for s, a in zip(self.mirror, "xy", strict=False) if a in self.mirrored
+        )
+        return f"{self.group}[{signs}]" if signs else self.group
 
 
 def rational_point(symbols: Iterable[sp.Symbol], seed: int) -> dict[sp.Symbol, sp.Rational]:
@@ -133,7 +138,7 @@ class SymbolicModel:
         """Inertia tensor about the centre of mass [kg m^2]; products enter as -J_ij."""
         d = self.description
         jx, jy, jz = self._triple(d.inertia, "body.inertia")
-        jyz, jxz, jxy = self._triple(d.products_of_inertia, "body.products_of_inertia")
+        jxy, jxz, jyz = self._triple(d.products_of_inertia, "body.products_of_inertia")
         return sp.Matrix([[jx, -jxy, -jxz], [-jxy, jy, -jyz], [-jxz, -jyz, jz]])
 
     @cached_property
@@ -167,6 +172,7 @@ class SymbolicModel:
         planes = self.description.symmetry
         for group in self.description.isolators:
             point, k, b, axis = self._group_geometry(group)
+            mirrored = tuple("xy"[MIRROR_PLANES[p]] for p in planes if sp.simplify(point[MIRROR_PLANES[p]]) != 0)
             seen: list[sp.Matrix] = []
             for n in range(len(planes) + 1):
                 for subset in itertools.combinations(planes, n):
@@ -176,7 +182,7 @@ class SymbolicModel:
                         continue
                     seen.append(image)
                     signs = (int(s[0, 0]), int(s[1, 1]), 1)
-                    out.append(Isolator(group.name, image, s * k * s, s * b * s, s * axis, signs))
+                    out.append(Isolator(group.name, image, s * k * s, s * b * s, s * axis, signs, mirrored))
         return tuple(out)
 
     # -- symmetry validation -------------------------------------------------------------------------

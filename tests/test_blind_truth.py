@@ -1,0 +1,130 @@
+"""The blind harness's truth machines (mountid.validation.blind_truth): assembled in numpy from the description
+files alone, they agree with the engine's generated modules where both describe the same physics, and their
+twin modes do not depend on the basis LAPACK returns."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import MACHINES
+
+from mountid.machine import Machine, call, matrices
+from mountid.validation import blind, blind_truth
+
+PRODUCTS = """
+name = "skewed_press"
+symmetry = []
+
+[parameters]
+m    = { kind = "mass",      role = "known",   value = 1800.0 }
+J_x  = { kind = "inertia",   role = "known",   value = 300.0 }
+J_y  = { kind = "inertia",   role = "known",   value = 520.0 }
+J_z  = { kind = "inertia",   role = "known",   value = 610.0 }
+P_xy = { kind = "inertia",   role = "known",   value = 25.0 }
+P_xz = { kind = "inertia",   role = "known",   value = 45.0 }
+P_yz = { kind = "inertia",   role = "known",   value = 15.0 }
+a    = { kind = "length",    role = "known",   value = 0.8 }
+b    = { kind = "length",    role = "known",   value = 0.5 }
+h    = { kind = "length",    role = "known",   value = 0.4 }
+tilt = { kind = "angle",     role = "known",   value = 0.2 }
+c_h  = { kind = "stiffness", role = "unknown", value = 2.0e5 }
+c_z  = { kind = "stiffness", role = "unknown", value = 8.0e5 }
+
+[body]
+mass = "m"
+inertia = ["J_x", "J_y", "J_z"]
+products_of_inertia = ["P_xy", "P_xz", "-P_yz"]
+centre_of_mass = ["h/8", "-h/10", "h/10"]
+
+[[isolators]]
+name = "a"
+point = ["a", "b", "-h"]
+stiffness = ["c_h", "0.8*c_h", "c_z"]
+inclination = ["tilt", "tilt/2", 0]
+
+[[isolators]]
+name = "b"
+point = ["-a", "b*cos(pi/6)", "-h"]
+stiffness = ["c_h", "c_h", "c_z"]
+
+[[isolators]]
+name = "c"
+point = ["-a", "-b", "-h"]
+stiffness = ["c_h", "c_h", "c_z"]
+inclination = [0, 0, "tilt"]
+
+[[isolators]]
+name = "d"
+point = ["a", "-b", "-1.1*h"]
+stiffness = ["c_h", "c_h", "1.2*c_z"]
+"""
+
+
+def _compare(truth: blind_truth.TruthMachine, machine: Machine) -> None:
+    values = dict(truth.nominal)
+    m, c, b = blind_truth.truth_matrices(truth, blind_truth.Truth("none", {}, {}, truth.name))
+    for mine, generated in zip((m, c, b), matrices(machine.module, values), strict=True):
+        scale = max(np.max(np.abs(generated)), 1e-300)
+        assert np.max(np.abs(mine - generated)) <= 1e-13 * scale
+    points = np.asarray(call(machine.module, "isolator_points", values))
+    assert np.array([i.point for i in truth.isolators(values)]).T == pytest.approx(points, abs=1e-14)
+    assert truth.length == pytest.approx(float(call(machine.module, "effect_scales", values)["length"]), rel=1e-14)
+
+
+@pytest.mark.parametrize("name", sorted(set(MACHINES) | set(blind.MACHINES)))
+def test_every_shipped_machine_assembled_apart_from_the_engine_agrees_with_it(name):
+    """M, C, B, the isolators in the generated order and the length scale."""
+    _compare(blind_truth.TruthMachine(name), Machine.resolve(name))
+
+
+def test_products_of_inertia_inclined_isolators_and_an_offset_centre_agree(tmp_path):
+    """Products of inertia in the documented order [J_xy, J_xz, J_yz] (the engine read them in the reverse
+    order until this test), isolators inclined about two axes and turned, no plane of symmetry."""
+    path = tmp_path / "skewed_press.toml"
+    path.write_text(PRODUCTS, encoding="utf-8")
+    truth = blind_truth.TruthMachine("skewed_press", path)
+    assert truth.inertia(truth.nominal)[0, 1] == -25.0 and truth.inertia(truth.nominal)[1, 2] == 15.0
+    _compare(truth, Machine.resolve(str(path)))
+
+
+def test_twin_modes_do_not_depend_on_the_eigenvector_basis(monkeypatch):
+    """A support frame below isolators on the diagonals keeps the x/y and psi/theta twins exactly equal: any
+    rotation of each twin pair is a solution of the eigenproblem, and the truth returns the same shapes."""
+    machine = Machine.resolve("kid300")
+    truth = blind_truth.TruthMachine("kid300")
+    t = blind_truth.Truth("support_frame", {"m": 900.0, "k": 2.0e7, "horizontal": 0.4}, {})
+    omega, shapes = blind_truth.true_modes(truth, machine, t)
+    eigh = blind_truth.scipy.linalg.eigh
+
+    def rotated(c, m):
+        lam, vec = eigh(c, m)
+        for j in range(len(lam) - 1):
+            if abs(lam[j + 1] - lam[j]) <= 1e-9 * lam[j]:
+                a = 0.7
+                turn = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+                vec[:, j : j + 2] = vec[:, j : j + 2] @ turn
+        return lam, vec
+
+    monkeypatch.setattr(blind_truth.scipy.linalg, "eigh", rotated)
+    omega2, shapes2 = blind_truth.true_modes(truth, machine, t)
+    assert omega2 == pytest.approx(omega, rel=1e-12)
+    signs = np.sign(np.sum(shapes * shapes2, axis=0))
+    assert shapes2 * signs == pytest.approx(shapes, abs=1e-10)
+    # the twins' shapes are the nominal ones projected: x moves along x (with theta), y along y (with psi)
+    assert abs(shapes[1, 0]) < 1e-9 and abs(shapes[0, 1]) < 1e-9
+
+
+@pytest.mark.parametrize("name", blind.MACHINES)
+def test_every_truth_draws_on_every_machine(name):
+    """Every truth of the harness has a size and physics on every machine, and changes its modes."""
+    machine = Machine.resolve(name)
+    truth = blind_truth.TruthMachine(name)
+    without = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, name))
+    for effect in blind.EFFECT_NAMES[1:]:
+        size = blind_truth.sample(np.random.default_rng(5), effect, truth)
+        modes = blind_truth.true_modes(truth, machine, blind_truth.Truth(effect, size, {}, name))
+        assert all(np.all(np.isfinite(a)) for a in modes), effect
+        changed = [not np.allclose(a, b, rtol=1e-9, atol=1e-12) for a, b in zip(modes, without, strict=True)]
+        assert any(changed), f"the truth {effect} does not change the modes of {name}"
