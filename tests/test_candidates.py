@@ -17,7 +17,9 @@ from mountid.diagnosis.candidates import diagnose_effects
 from mountid.diagnosis.fitting import fit_candidate
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS
+from mountid.errors import InputError
 from mountid.machine import Machine
+from mountid.validation import blind_truth
 from mountid.validation.paper import TABLE_1
 
 KNOWN = {**TABLE_1, "b_xy": 337.2, "b_z": 1039.0}
@@ -81,12 +83,14 @@ def test_each_effect_fits_its_own_data_back(effect):
         assert fit.parameters[name] == pytest.approx(value, rel=2e-4), name
 
 
-def test_isolator_scatter_finds_the_isolator_from_the_shapes():
-    data = _campaign_from("isolator_scatter", {"scatter": 0.3}, isolator=2)
+@pytest.mark.parametrize(("shear", "axial"), [(0.0, 0.3), (-0.25, 0.0), (0.2, 0.2)])
+def test_isolator_scatter_finds_the_isolator_and_the_direction_from_the_shapes(shear, axial):
+    data = _campaign_from("isolator_scatter", {"scatter_shear": shear, "scatter_axial": axial}, isolator=2)
     report = diagnose_effects(parse(data))
     best = report.best
     assert best.effect == "isolator_scatter" and best.variant == "corner[+x-y]"
-    assert best.parameters["scatter"] == pytest.approx(0.3, rel=1e-4)
+    assert best.parameters["scatter_shear"] == pytest.approx(shear, abs=1e-4)
+    assert best.parameters["scatter_axial"] == pytest.approx(axial, abs=1e-4)
     assert report.confident and report.tie == ["isolator_scatter"]
 
 
@@ -112,7 +116,7 @@ def test_sensor_error_leaves_frequencies_and_is_found_in_the_shapes():
 
 
 def test_modal_force_residual_points_at_the_stiffer_isolator():
-    data = _campaign_from("isolator_scatter", {"scatter": 0.2}, isolator=1)
+    data = _campaign_from("isolator_scatter", {"scatter_shear": 0.2, "scatter_axial": 0.2}, isolator=1)
     forces, relative = isolator_forces(parse(data), UNKNOWN)
     change = {f.isolator: f.change for f in forces}
     assert change["corner[-x+y]"] == pytest.approx(0.2, rel=1e-6)
@@ -214,3 +218,51 @@ def test_a_damping_ratio_of_zero_without_uncertainty_is_weighted_not_infinite():
     assert rows.zeta_sigma.tolist() == [DAMPING_STD_FLOOR]
     fit = fit_candidate(campaign, None)
     assert np.isfinite(fit.chi2) and fit.chi2 > 1e3  # the model's x is damped by zeta 0.04: 40 sigma
+
+
+def _layout() -> list[dict]:
+    truth = blind_truth.TruthMachine("kid300")
+    return [
+        {"name": name, "point": [float(x) for x in r], "direction": [float(x) for x in d]}
+        for name, r, d in blind_truth.sensor_layout(truth)
+    ]
+
+
+def _turned_campaign(channel: int, turn: tuple[float, float]) -> dict:
+    """Noise-free shapes of kid300 as estimated from the 12-channel layout with one channel turned."""
+    data = _campaign_from(None, {})
+    data["sensors"] = _layout()
+    model = CandidateModel(parse(data), EFFECTS["sensor_turned"], channel)
+    pred = model.predict(model.vector({**UNKNOWN, "turn_1": turn[0], "turn_2": turn[1]}))
+    for label, shape in zip(model.labels, pred.shapes, strict=True):
+        s = np.array(shape, dtype=float)
+        s[3:] /= model.length
+        data["modes"][label]["shape"] = s.tolist()
+    return data
+
+
+def test_a_turned_channel_is_found_and_named():
+    data = _turned_campaign(4, (0.3, -0.1))
+    report = diagnose_effects(parse(data))
+    best = report.best
+    assert best.effect == "sensor_turned" and best.variant == "S2_y"
+    assert best.parameters["turn_1"] == pytest.approx(0.3, abs=1e-3)
+    assert best.parameters["turn_2"] == pytest.approx(-0.1, abs=1e-3)
+    assert report.confident
+
+
+def test_a_turned_channel_needs_the_layout_and_the_shapes():
+    data = _campaign_from(None, {})
+    fit = fit_candidate(parse(data), EFFECTS["sensor_turned"])
+    assert not fit.applicable and "sensor layout" in fit.note
+    data["sensors"] = _layout()[:5]
+    with pytest.raises(InputError, match="sensors"):
+        parse(data)
+
+
+def test_a_layout_that_does_not_see_six_motions_is_refused():
+    data = _campaign_from(None, {})
+    layout = _layout()
+    data["sensors"] = [c for c in layout if c["name"].endswith("_z")] * 2
+    with pytest.raises(InputError, match="sensors: the channels do not see all six"):
+        parse(data)

@@ -73,7 +73,7 @@ def test_damped_pole_derivatives_match_a_central_difference(seed):
 
 TRUTHS = {
     **ROUND_TRIP,
-    "isolator_scatter": {"scatter": 0.2},
+    "isolator_scatter": {"scatter_shear": 0.1, "scatter_axial": 0.2},
     "sensor_error": {"sensor_yaw": 0.03, "sensor_dz": 0.1},
     None: {},
 }
@@ -106,6 +106,51 @@ def test_candidate_jacobian_matches_a_central_difference_of_the_residuals(truth,
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
 
 
+def test_turned_channel_jacobian_matches_a_central_difference():
+    from test_candidates import _turned_campaign
+
+    campaign = parse(_turned_campaign(7, (0.1, 0.04)))
+    model = CandidateModel(campaign, EFFECTS["sensor_turned"], 7)
+    data = Data(campaign, model.length)
+    fun, _ = _residual_function(model, data, None)
+    theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": 0.03})
+    analytic = jacobian(model, data, theta)
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
+
+
+DAMPED = ["damping", "drive_belt", "isolator_scatter", "foundation", "frequency_dependent", None]
+
+
+@pytest.mark.parametrize("fitted", DAMPED, ids=str)
+def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fitted):
+    """A campaign with damping ratios and no damping parameters known: b_xy and b_z are fitted with the
+    stiffnesses, and the damping-ratio rows (damped-pole derivatives) match a central difference."""
+    isolator = 0 if fitted == "isolator_scatter" else None
+    data = _campaign_from(fitted, TRUTHS[fitted], isolator)
+    known = {k: v for k, v in data["known"].items() if not k.startswith("b_")}
+    for i, mode in enumerate(data["modes"].values()):
+        mode["damping_ratio"] = 0.03 + 0.01 * i
+    campaign = parse({**data, "known": known})
+    model = CandidateModel(campaign, EFFECTS[fitted] if fitted else None, isolator)
+    assert model.damping_unknown == ("b_xy", "b_z") and model.parameter_names[2:4] == ("b_xy", "b_z")
+    rows = Data(campaign, model.length)
+    fun, _ = _residual_function(model, rows, None)
+    rng = np.random.default_rng(4)
+    theta = model.vector({**UNKNOWN, "b_xy": 400.0, "b_z": 900.0, **TRUTHS[fitted]})
+    theta += rng.normal(0, 0.01, len(theta))
+    analytic = jacobian(model, rows, theta)
+    assert analytic is not None and analytic.shape[0] == rows.n_rows
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])[
+        : len(analytic)
+    ]
+    zeta_rows = slice(rows.n_rows - len(rows.damping_labels), rows.n_rows)
+    assert np.max(np.abs(analytic[zeta_rows] - numeric[zeta_rows])) <= 1e-6 * np.max(np.abs(numeric[zeta_rows]))
+    assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+
+
 def _assert_same_labelling(here, there) -> None:
     """Each label on the same model mode, or on its exact twin (then the residuals see only their span)."""
     for a, b in zip(here.index, there.index, strict=True):
@@ -115,12 +160,14 @@ def _assert_same_labelling(here, there) -> None:
 def test_a_parameter_that_splits_twins_falls_back_to_differences():
     """At scatter = 0 the x/y twins of kid300 are exactly equal and one isolator's scatter splits them: the
     frequencies are not differentiable there, the Jacobian says so, and the fit still converges."""
-    campaign = parse(_campaign_from("isolator_scatter", {"scatter": 0.2}, 0))
+    truth = {"scatter_shear": 0.2, "scatter_axial": 0.2}
+    campaign = parse(_campaign_from("isolator_scatter", truth, 0))
     model = CandidateModel(campaign, EFFECTS["isolator_scatter"], 0)
     data = Data(campaign, model.length)
-    assert jacobian(model, data, model.vector({**UNKNOWN, "scatter": 0.0})) is None
+    assert jacobian(model, data, model.vector({**UNKNOWN, "scatter_shear": 0.0, "scatter_axial": 0.0})) is None
     fit = fit_candidate(campaign, EFFECTS["isolator_scatter"], 0)
-    assert fit.parameters["scatter"] == pytest.approx(0.2, rel=1e-4)
+    assert fit.parameters["scatter_shear"] == pytest.approx(0.2, rel=1e-4)
+    assert fit.parameters["scatter_axial"] == pytest.approx(0.2, rel=1e-4)
 
 
 @pytest.mark.parametrize("damping_factor", [1.0, 30.0])

@@ -5,14 +5,18 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``generated``: the effect adds or changes energy terms; :mod:`mountid.engine.symbolic.effects` derives the
   extended M, C, B from the energies and the engine emits them as ``effect_<name>()`` in every generated
   machine module.
-- ``isolator``: one isolator's stiffness scaled by (1 + s); the per-isolator stiffness matrices are generated
-  (``isolator_stiffness()``, Hessians of each isolator's potential energy).
+- ``isolator``: one isolator's shear stiffness (its local x and y) scaled by (1 + s_shear) and its axial
+  stiffness (local z) by (1 + s_axial); the per-isolator stiffness matrices and their axial parts are
+  generated (``isolator_stiffness()``, ``isolator_axial_stiffness()``, Hessians of each isolator's energy).
 - ``frequency``: rubber stiffness rising with frequency as a standard linear solid, c(omega) = c g(omega),
   g = 1 + beta x^2 / (1 + x^2), x = omega / omega_c (c is then the static stiffness): every isolator
   stiffness enters C linearly, so each mode solves omega^2 = g(omega) lambda_k(C, M).
 - ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B).
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in
   height; the generated ``point_jacobian`` maps the motion to that point.
+- ``channel``: one channel of the layout the shapes were estimated from (the campaign's ``sensors``) read along
+  a turned axis; the shapes are the least-squares estimate from the layout's readings with that channel's row
+  turned.
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -29,7 +33,7 @@ STANDARD_GRAVITY = 9.80665
 """g [m/s^2] (the gravity_preload potential is derived with this value)."""
 
 
-EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor")
+EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor", "channel")
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
 
@@ -98,8 +102,11 @@ CATALOGUE: tuple[Effect, ...] = (
     Effect(
         "isolator_scatter",
         "isolator",
-        "one isolator stiffer or softer than the others",
-        (_p("scatter", "1", "one", -0.5, 1.0, 0.0, "relative stiffness change of one isolator (all directions)"),),
+        "one isolator stiffer or softer than the others (in shear, along its axis, or both)",
+        (
+            _p("scatter_shear", "1", "one", -0.5, 1.0, 0.0, "relative change of one isolator's shear stiffness", False),
+            _p("scatter_axial", "1", "one", -0.5, 1.0, 0.0, "relative change of one isolator's axial stiffness", False),
+        ),
         "splits the twin modes (x/y, psi/theta) and couples modes across the symmetry planes; which isolator "
         "shows only in the mode shapes",
     ),
@@ -108,8 +115,8 @@ CATALOGUE: tuple[Effect, ...] = (
         "generated",
         "isolator bending and torsion stiffness",
         (
-            _p("k_bend", "N m/rad", "rotational", 0.0, 0.1, 0.0, "bending stiffness of one isolator"),
-            _p("k_torsion", "N m/rad", "rotational", 0.0, 0.1, 0.0, "torsion stiffness of one isolator"),
+            _p("k_bend", "N m/rad", "rotational", 0.002, 0.1, 0.005, "bending stiffness of one isolator"),
+            _p("k_torsion", "N m/rad", "rotational", 0.002, 0.1, 0.005, "torsion stiffness of one isolator"),
         ),
         "raises the rocking modes (bending) and the yaw mode phi (torsion); z untouched",
     ),
@@ -118,7 +125,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "frequency",
         "viscoelastic rubber: stiffness rising with frequency",
         (
-            _p("rubber_strength", "1", "one", 0.0, 1.0, 0.1, "stiffening from static to high frequency, beta"),
+            _p("rubber_strength", "1", "one", 0.02, 1.0, 0.1, "stiffening from static to high frequency, beta"),
             EffectParameter(
                 "rubber_corner",
                 "1",
@@ -178,7 +185,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "generated",
         "an unmodelled attached mass (drive, motor)",
         (
-            _p("m_added", "kg", "mass", 0.0, 0.3, 0.0, "attached mass"),
+            _p("m_added", "kg", "mass", 0.005, 0.3, 0.01, "attached mass"),
             _p("x_added", "m", "length", -1.5, 1.5, 0.0, "its position ahead of the centre of mass (x)", False),
             _p("y_added", "m", "length", -1.5, 1.5, 0.0, "its position beside the centre of mass (y)", False),
             _p("h_added", "m", "length", -2.0, 2.0, 0.0, "its height above the centre of mass"),
@@ -200,7 +207,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "generated",
         "a belt or coupling stiffness acting along x",
         (
-            _p("k_belt", "N/m", "horizontal", 0.0, 0.5, 0.0, "stiffness of the belt along x"),
+            _p("k_belt", "N/m", "horizontal", 0.006, 0.5, 0.01, "stiffness of the belt along x"),
             _p("h_belt", "m", "length", -2.0, 2.0, 0.0, "height of the belt's line above the centre of mass"),
         ),
         "raises the x-theta modes only: the x/y and psi/theta twins split",
@@ -233,9 +240,100 @@ CATALOGUE: tuple[Effect, ...] = (
         ),
         "mode shapes rotated in x-y and tilted by rocking; frequencies exactly unchanged",
     ),
+    Effect(
+        "sensor_turned",
+        "channel",
+        "one channel's sensor turned (misaligned) on its mount",
+        (
+            _p(
+                "turn_1",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the sensor's axis about the first axis across it",
+                False,
+            ),
+            _p(
+                "turn_2",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the sensor's axis about the second axis across it",
+                False,
+            ),
+        ),
+        "one channel reads along a turned axis: the shapes estimated from the layout are distorted in the motions "
+        "that channel carries; frequencies exactly unchanged",
+    ),
 )
 """Every candidate effect, in the order reports list them."""
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in CATALOGUE}
 EFFECT_PARAMETERS: tuple[str, ...] = tuple(p.name for e in CATALOGUE for p in e.parameters)
 """Every effect parameter name (reserved: a description may not use them)."""
+
+
+PAIR_EXCLUSIONS: dict[frozenset[str], str] = {
+    frozenset({"com_offset", "cog_height"}): "both move the body's centre of mass: one com_offset in 3D, not a pair",
+    frozenset({"frequency_dependent", "damping"}): "both change how frequencies follow from M and C",
+    frozenset({"foundation", "isolator_scatter"}): "the isolators stand on the support, not on the ground",
+    frozenset({"foundation", "rotational_stiffness"}): "the isolators stand on the support, not on the ground",
+    frozenset({"foundation", "gravity_preload"}): "the isolators stand on the support, not on the ground",
+    frozenset({"foundation", "frequency_dependent"}): "the support's springs would stiffen with the rubber",
+    frozenset({"sensor_error", "sensor_turned"}): "both change how the shapes are read",
+    frozenset({"isolator_scatter", "sensor_turned"}): "each is fitted per isolator or per channel, not both",
+}
+"""Pairs of effects that do not compose by adding their changes of M, C and B (the changes act on the same
+energy term, or one effect's energy is written for isolators on the ground), with the reason. The damping
+effect (the measured frequencies are damped ones) is a reading of the data, not a second physical effect:
+it is never paired."""
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Two effects at once: the changes of M, C (and B) of each added to the nominal model, the first's
+    frequency map or sensor frame where it has one (mountid.diagnosis.strategies.Composite)."""
+
+    first: Effect
+    second: Effect
+    kind: str = "pair"
+
+    @property
+    def name(self) -> str:
+        return f"{self.first.name}+{self.second.name}"
+
+    @property
+    def title(self) -> str:
+        return f"{self.first.title} and {self.second.title}"
+
+    @property
+    def parameters(self) -> tuple[EffectParameter, ...]:
+        return self.first.parameters + self.second.parameters
+
+    @property
+    def members(self) -> tuple[Effect, Effect]:
+        return (self.first, self.second)
+
+    @property
+    def signature(self) -> str:
+        return f"{self.first.signature}; and {self.second.signature}"
+
+
+def pair(a: Effect, b: Effect) -> Pair | None:
+    """The pair of two different catalogue effects in catalogue order (None when they do not compose:
+    PAIR_EXCLUSIONS, or either is the damping effect)."""
+    if a.name == b.name or "damping" in (a.name, b.name) or frozenset({a.name, b.name}) in PAIR_EXCLUSIONS:
+        return None
+    order = [e.name for e in CATALOGUE]
+    first, second = sorted((a, b), key=lambda e: order.index(e.name))
+    return Pair(first, second)
+
+
+def pair_name(names: list[str] | tuple[str, ...]) -> str:
+    """The candidate name of effects acting at once, in catalogue order ('cog_height+isolator_scatter')."""
+    order = [e.name for e in CATALOGUE]
+    return "+".join(sorted(names, key=order.index))

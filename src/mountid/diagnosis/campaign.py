@@ -30,7 +30,7 @@ import jsonschema
 import numpy as np
 
 from mountid.errors import InputError
-from mountid.machine import Machine, call
+from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modes import MeasuredMode
 
 
@@ -62,6 +62,16 @@ class RecordSource:
 
 
 @dataclass(frozen=True)
+class Channel:
+    """One channel of the layout a campaign's mode shapes were estimated from: a sensor at ``point`` [m]
+    reading along the unit ``direction``."""
+
+    name: str
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
 class Campaign:
     """A validated campaign (see the module docstring)."""
 
@@ -74,12 +84,15 @@ class Campaign:
     records: tuple[RecordSource, ...] = ()
     record_notes: tuple[str, ...] = ()
     """What the records chain said about the records (quality warnings, which record gave which mode)."""
+    sensors: tuple[Channel, ...] = ()
+    """The channels the mode shapes were estimated from (empty when the campaign does not say)."""
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the
         coordinates of the mode shapes and their reference point, the isolator layout [m] at the known values,
-        and where damping ratios are measured, the damping parameters the model's ratios are computed with
-        (from the campaign's known values or the description's nominal ones)."""
+        and where damping ratios are measured, the damping parameters of the model's ratios: the campaign's
+        known values, else fitted with the stiffnesses (the value given is then the description's, where the fit
+        starts)."""
         mod = self.machine.module
         values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
         points = np.asarray(call(mod, "isolator_points", values))
@@ -89,7 +102,7 @@ class Campaign:
             "damping_parameters": {
                 n: {
                     "value": self.machine.values(self.known, (n,))[n],
-                    "from": "known" if n in self.known else "description",
+                    "from": "known" if n in self.known else "fitted",
                 }
                 for n in damping
             }
@@ -163,7 +176,23 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             f"{len(distinct)} distinct frequencies for {len(machine.unknown)} unknowns"
             + ("" if fit else " plus one held out"),
         )
-    return Campaign(machine, dict(data.get("known", {})), modes, fit, data.get("name", ""), sources, tuple(notes))
+    sensors = tuple(_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))
+    if sensors:
+        rows = np.array(
+            [sensor_row(machine.module, c.point, c.direction, f"sensors[{i}]") for i, c in enumerate(sensors)]
+        )
+        if np.linalg.matrix_rank(rows) < 6:
+            raise InputError(
+                "sensors", "the channels do not see all six rigid-body motions (their readings have rank < 6)"
+            )
+    return Campaign(
+        machine, dict(data.get("known", {})), modes, fit, data.get("name", ""), sources, tuple(notes), sensors
+    )
+
+
+def _channel(entry: dict, i: int) -> Channel:
+    direction = unit_vector(entry["direction"], f"sensors[{i}].direction")
+    return Channel(entry["name"], tuple(map(float, entry["point"])), tuple(map(float, direction)))
 
 
 def _source(entry: str | dict, base: Path | None) -> RecordSource:

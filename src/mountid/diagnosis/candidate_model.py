@@ -15,7 +15,7 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.strategies import strategy
-from mountid.effects import Effect
+from mountid.effects import Effect, Pair
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call
 
@@ -40,24 +40,35 @@ class Prediction:
 
 class CandidateModel:
     """The campaign's machine, optionally with one candidate effect, as a function of a flat parameter
-    vector: log of each unknown, then each effect parameter (log for strictly positive ranges, else in
-    units of its scale)."""
+    vector: log of each unknown (the machine's unknown stiffnesses, then the damping parameters fitted where
+    damping ratios are measured), then each effect parameter (log for strictly positive ranges, else in units of
+    its scale)."""
 
-    def __init__(self, campaign: Campaign, effect: Effect | None, isolator: int | None = None) -> None:
+    def __init__(self, campaign: Campaign, effect: Effect | Pair | None, variant: int | None = None) -> None:
         self.campaign = campaign
         self.effect = effect
         self._last: tuple[tuple, Evaluation] | None = None
         self.strategy = strategy(effect)
-        self.isolator = isolator
+        self.variant = variant
+        """Which isolator or channel a per-variant effect acts at (the strategy's variants)."""
+        self.cache: dict[str, object] = {}
+        """What a strategy computes once per model (a channel layout)."""
         machine = campaign.machine
         self.mod = mod = machine.module
         self.labels = tuple(campaign.modes)
         self.damped = any(m.damping_ratio is not None for m in campaign.modes.values())
         """Whether the campaign measures damping ratios (the model's are then computed)."""
-        self.unknown = machine.unknown
-        everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in machine.unknown))
+        self.damping_unknown = (
+            tuple(n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping" and n not in campaign.known)
+            if self.damped
+            else ()
+        )
+        """Damping parameters fitted with the stiffnesses: those the campaign does not know, where it measures
+        damping ratios (else the known or nominal values)."""
+        self.unknown = machine.unknown + self.damping_unknown
+        everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in self.unknown))
         self.known = everything
-        start = machine.values({}, machine.unknown)
+        start = machine.values({}, self.unknown)
         self.start_unknowns = start
         nominal = {**everything, **start}
         self.scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
@@ -128,10 +139,11 @@ class CandidateModel:
         return starts
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Search box: unknowns free (log), effect parameters within their plausible range widened by its
-        width on each side (log ranges by a factor 10)."""
-        lo = [-np.inf] * len(self.unknown)
-        hi = [np.inf] * len(self.unknown)
+        """Search box: unknowns within UNKNOWN_RANGE of their nominal values either way (log), effect
+        parameters within their plausible range widened by its width on each side (log ranges by a factor 10)."""
+        centre = [math.log(self.start_unknowns[u]) for u in self.unknown]
+        lo = [c - math.log(UNKNOWN_RANGE) for c in centre]
+        hi = [c + math.log(UNKNOWN_RANGE) for c in centre]
         for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
             a, b = p.plausible
             if log:
@@ -220,6 +232,10 @@ class CandidateModel:
             clusters[k] = (spans[key], 1.0 if exact_twins(lam, j, near) else float(np.min(weight[k, near])))
         return Prediction(e.omega[index], shapes, clusters, None if e.zeta is None else e.zeta[index])
 
+
+UNKNOWN_RANGE = 1e4
+"""How far the fit may take an unknown from its nominal value (a factor either way): far beyond any machine
+built to its description, short of overflowing the matrices."""
 
 PARTNER_WEIGHT = 1e-3
 """A model mode whose closeness weight to a labelled mode exceeds this is a partner: the measured shape is

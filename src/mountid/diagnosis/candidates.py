@@ -15,13 +15,15 @@ measurement's standard deviation:
 Ranking is by posterior probability: each candidate's evidence by the Laplace approximation with a uniform
 prior over the effect's plausible range (fitting.log_evidence), equal prior probabilities for the nominal model
 and each effect. Fitted values outside the plausible range (outside the prior) get probability 0. The tie is
-the credible set (the best candidates up to ``settings.credible`` of the probability). The
+the credible set (the best candidates up to ``settings.credible`` of the probability) and every other candidate
+the data do not rule out (it fits within the uncertainty, scaled as the probabilities are). The
 held-out error of each candidate is its leave-one-mode-out prediction error (linearised for all
 candidates; refitted for the nominal model and, when there is a gap to explain, the first three of the tie).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field, replace
 
@@ -32,10 +34,35 @@ import scipy.special
 import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
-from mountid.diagnosis.fitting import CandidateFit, exact_leave_one_out, fit_candidate, held_out_z
+from mountid.diagnosis.candidate_model import CandidateModel
+from mountid.diagnosis.fitting import (
+    CandidateFit,
+    exact_leave_one_out,
+    fit_candidate,
+    held_out_z,
+    promised_chi2,
+    tempered_log_evidence,
+)
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.diagnosis.strategies import strategy
-from mountid.effects import CATALOGUE, Effect
+from mountid.effects import CATALOGUE, EFFECTS, Effect, pair
+
+
+@dataclass(frozen=True)
+class ScreenedPair:
+    """A pair of effects screened but not fitted: the chi^2 one Gauss-Newton step from its members' fits
+    promises (fitting.promised_chi2), for its data and parameter counts."""
+
+    name: str
+    promised_chi2: float
+    n_data: int
+    n_parameters: int
+
+    @property
+    def fits(self) -> bool:
+        """Whether the promise is within the data's uncertainty (it may explain them as well)."""
+        dof = self.n_data - self.n_parameters
+        return bool(dof > 0 and scipy.stats.chi2.sf(self.promised_chi2, dof) >= DIAGNOSIS.fit_p_value)
 
 
 @dataclass(frozen=True)
@@ -54,6 +81,8 @@ class EffectsReport:
     kind: str
     """The verdict's kind: "confident", "tie", "not explained", "no significant gap" or "cannot judge"."""
     notes: list[str] = field(default_factory=list)
+    screened: list[ScreenedPair] = field(default_factory=list)
+    """Pairs of effects screened but not fitted (fit_pairs)."""
 
     @property
     def best(self) -> CandidateFit | None:
@@ -68,30 +97,37 @@ def fit_all(
     warm: EffectsReport | None = None,
     settings: DiagnosisSettings = DIAGNOSIS,
 ) -> tuple[CandidateFit, list[CandidateFit]]:
-    """The nominal fit and the best fit of each candidate effect (isolator_scatter: its best isolator; the
-    others within settings.tie in chi^2 are named in its note, mirror images that frequencies alone cannot tell).
-    ``warm``: a report on nearby data whose fits start these (one start each; scatter keeps its isolator)."""
+    """The nominal fit and the best fit of each candidate effect (one fitted per isolator or channel: its best
+    variant; the others within settings.tie in chi^2 are named in its note, mirror images that frequencies
+    alone cannot tell). ``warm``: a report on nearby data whose fits start these (one start each; a per-variant
+    effect keeps its variant)."""
     previous = {f.effect: f for f in (warm.ranked if warm else []) if f.state is not None}
     nominal = fit_candidate(campaign, None, start=warm.nominal.theta if warm else None)
     fits = []
     for effect in effects:
         before = previous.get(effect.name)
-        if strategy(effect).per_isolator:
-            isolators = campaign.machine.module.ISOLATORS
-            if before is not None:  # the isolator of the nearby fit only: 1/N of the mean over isolators
-                fit = fit_candidate(campaign, effect, isolators.index(before.variant), before.theta)
-                fits.append(replace(fit, log_evidence=fit.log_evidence - math.log(len(isolators))))
+        names = strategy(effect).variants(campaign)
+        if names:
+            offset = -math.log(len(names))
+            if before is not None and before.variant in names:  # the nearby fit's variant only: 1/N of the mean
+                fit = fit_candidate(campaign, effect, names.index(before.variant), before.theta)
+                fits.append(replace(fit, log_evidence=fit.log_evidence + offset, evidence_offset=offset))
                 continue
-            # the first isolator from the default starts; the others (often mirror images) start from it
+            # the first variant from the default starts; the others (often mirror images) start from it
             variants = [fit_candidate(campaign, effect, 0)]
-            variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(isolators))]
+            if not variants[0].applicable:
+                fits.append(variants[0])
+                continue
+            variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(names))]
             variants.sort(key=lambda f: f.chi2)
-            # one candidate whose isolator is unknown: its evidence is the mean over the isolators
-            evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) - math.log(len(variants)))
-            best = replace(variants[0], log_evidence=evidence)
+            # one candidate whose isolator (channel) is unknown: its evidence is the mean over them
+            evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) + offset)
+            terms = tuple(t for v in variants for t in v.state.evidence_terms)
+            state = replace(variants[0].state, evidence_terms=terms)
+            best = replace(variants[0], log_evidence=evidence, evidence_offset=offset, state=state)
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
             if alike:
-                note = f"as good: {', '.join(alike)} (which isolator needs mode shapes that tell them apart)"
+                note = f"as good: {', '.join(alike)} (which one needs mode shapes that tell them apart)"
                 best = replace(best, note=note)
             fits.append(best)
         else:
@@ -99,19 +135,88 @@ def fit_all(
     return nominal, fits
 
 
+def fit_pairs(
+    campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[list[CandidateFit], list[ScreenedPair]]:
+    """Pairs of effects (mountid.effects.pair) where the data leave settings.pair_dof degrees of freedom beyond
+    the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
+    fits (one member's fit with the other nil, and the other way round), the settings.pair_count most promising
+    fitted from all of pair_starts, a scatter pair at the scatter's best isolator. Returns the fits and the
+    screened pairs not fitted."""
+    singles = [
+        f
+        for f in fits
+        if f.applicable
+        and f.state is not None
+        and math.isfinite(f.chi2)
+        and all(0 < abs(v) < math.inf for u, v in f.parameters.items() if u in f.state.model.unknown)
+    ]
+    promising = []
+    for fa, fb in itertools.combinations(singles, 2):
+        both = pair(EFFECTS[fa.effect], EFFECTS[fb.effect])
+        k = len(fa.state.model.unknown) + len(both.parameters) if both else 0
+        if both is None or nominal.n_data - k < settings.pair_dof:
+            continue
+        where = fa.variant or fb.variant
+        variant = strategy(both).variants(campaign).index(where) if where else None
+        model = CandidateModel(campaign, both, variant)
+        starts = pair_starts(model, fa, fb)
+        promise = promised_chi2(campaign, model, starts[:2])
+        promising.append((promise, both, variant, starts, k))
+    promising.sort(key=lambda x: x[0])
+    out = []
+    for _, both, variant, starts, _ in promising[: settings.pair_count]:
+        fit = fit_candidate(campaign, both, variant, starts=starts)
+        out.append(replace(fit, log_prior=math.log(settings.pair_prior)))
+    screened = [
+        ScreenedPair(both.name, promise, nominal.n_data, k)
+        for promise, both, _, _, k in promising[settings.pair_count :]
+    ]
+    return out, screened
+
+
+def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit) -> list[np.ndarray]:
+    """Starting vectors of a pair's fit from its members' single fits: the first member's fit with the second
+    nil (at its start values), the other way round, and both fitted values with the unknowns of the better."""
+    nil = {p.name: p.start * model.scales[p.scale] for p in model.effect_parameters}
+    better = fa if fa.chi2 <= fb.chi2 else fb
+    both = {**nil, **fa.parameters, **fb.parameters, **better.parameters}
+    starts = [model.vector({**nil, **fa.parameters}), model.vector({**nil, **fb.parameters}), model.vector(both)]
+    # a signed parameter with a local minimum on the wrong side (a height): both fitted values with it at half
+    # its plausible bound on either side (they run only while the fit stays above noise level)
+    for p in model.effect_parameters:
+        if p.both_sides and p.plausible[0] < 0 < p.plausible[1]:
+            starts += [model.vector({**both, p.name: b / 2 * model.scales[p.scale]}) for b in p.plausible]
+    return starts
+
+
 def _rank_key(f: CandidateFit) -> tuple:
-    return (not f.applicable, not f.plausible, -f.log_evidence, f.chi2)  # log_evidence is finite or -inf
+    return (not f.applicable, not f.plausible, -f.probability, -f.log_evidence, f.chi2)
 
 
-def _probabilities(nominal: CandidateFit, fits: list[CandidateFit]) -> dict[int, float]:
-    """Posterior probability of every candidate (by id) with equal prior probabilities for the nominal model
-    and each effect; 0 for candidates not applicable, implausible (outside their prior) or unfitted."""
+def _probabilities(
+    nominal: CandidateFit, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[dict[int, tuple[float, float]], float]:
+    """Posterior probability and log weight of every candidate (by id) with equal prior probabilities for the
+    nominal model and each effect (a pair: settings.pair_prior of a single's); 0 (and -inf) for candidates not
+    applicable, implausible (outside their prior) or unfitted. When the data reject even the candidate of the
+    smallest chi^2 per degree of freedom (fits_within_uncertainty), every evidence is taken with the variances
+    scaled by that ratio (fitting.tempered_log_evidence): the returned scale (else 1). The probabilities are
+    proportional to exp(settings.evidence_temperature log weight), the log weights returned are the plain ones
+    (evidence plus log prior)."""
     pool = [nominal, *(f for f in fits if f.applicable and f.plausible and math.isfinite(f.log_evidence))]
-    logs = np.array([f.log_evidence for f in pool])
-    weights = np.exp(logs - logs.max()) if np.isfinite(logs.max()) else np.ones(len(pool))
-    out = {id(f): 0.0 for f in fits}
-    out.update({id(f): float(w / weights.sum()) for f, w in zip(pool, weights, strict=True)})
-    return out
+    judged = [f for f in pool if f.n_data > f.n_parameters]
+    closest = min(judged, key=lambda f: f.chi2 / (f.n_data - f.n_parameters), default=None)
+    scale = 1.0
+    if closest is not None and not fits_within_uncertainty(closest, settings):
+        scale = closest.chi2 / (closest.n_data - closest.n_parameters)
+    logs = np.array([tempered_log_evidence(f, scale) + f.log_prior for f in pool])
+    weights = (
+        np.exp(settings.evidence_temperature * (logs - logs.max())) if np.isfinite(logs.max()) else np.ones(len(pool))
+    )
+    out = {id(f): (0.0, -math.inf) for f in fits}
+    out.update({id(f): (float(w / weights.sum()), float(g)) for f, w, g in zip(pool, weights, logs, strict=True)})
+    return out, scale
 
 
 def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
@@ -125,11 +230,18 @@ def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     return math.isfinite(f.held_out_median) and f.held_out_median <= settings.held_out_limit
 
 
-def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
-    """Whether the data do not reject a candidate: chi^2 below its 1 - settings.fit_p_value quantile."""
+def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """Whether the data rule a candidate out: it is fitted with degrees of freedom to spare and does not fit
+    within its uncertainty (a candidate of as many parameters as data, or more, is not ruled out by them)."""
+    return f.n_data > f.n_parameters and not fits_within_uncertainty(f, settings)
+
+
+def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, scale: float = 1.0) -> bool:
+    """Whether the data do not reject a candidate: chi^2 below its 1 - settings.fit_p_value quantile (with every
+    variance multiplied by ``scale``)."""
     if not (f.applicable and f.plausible) or f.n_data <= f.n_parameters:
         return False
-    return bool(scipy.stats.chi2.sf(f.chi2, f.n_data - f.n_parameters) >= settings.fit_p_value)
+    return bool(scipy.stats.chi2.sf(f.chi2 / scale, f.n_data - f.n_parameters) >= settings.fit_p_value)
 
 
 def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
@@ -150,22 +262,28 @@ def rank(
     fits: list[CandidateFit],
     exact_held_out: bool = True,
     settings: DiagnosisSettings = DIAGNOSIS,
+    screened: list[ScreenedPair] | None = None,
 ) -> EffectsReport:
     """Rank fitted candidates by posterior probability (Laplace evidence, fitting.log_evidence), judge the
     nominal gap, find the tie (the credible set) and what would separate it (``exact_held_out``: refit
     without each mode for the nominal model and, with a significant gap, the first three of the tie; else
     linearised only). The verdict is confident only when the best candidate explains the gap (fits, and
     predicts the held-out modes: :func:`explains`), has probability settings.confidence or more, and the data
-    reject every other candidate (:func:`fits_within_uncertainty`); when no candidate explains it, the verdict
-    says so and names the closest."""
+    reject every other candidate (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2
+    they promise); when no candidate explains it, the verdict says so and names the closest."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
     significant = bool(p_value < settings.gap_p_value)
-    probability = _probabilities(nominal, fits)
-    nominal = replace(nominal, probability=probability[id(nominal)])
-    fits = [replace(f, probability=probability[id(f)]) for f in fits]
+    probability, scale = _probabilities(nominal, fits, settings)
+    nominal = replace(nominal, probability=probability[id(nominal)][0], log_weight=probability[id(nominal)][1])
+    fits = [replace(f, probability=probability[id(f)][0], log_weight=probability[id(f)][1]) for f in fits]
     ranked = sorted(fits, key=_rank_key)
     notes = []
+    if scale > 1:
+        notes.append(
+            f"even the best candidate misses the data by {math.sqrt(scale):.2g} times their uncertainty: the "
+            "probabilities are taken with the uncertainties scaled by that much"
+        )
     if n - k - 2 <= 0:
         notes.append(
             f"{n} data for {k} unknowns: too few to fit any candidate effect with a degree of freedom to spare; "
@@ -179,6 +297,17 @@ def rank(
             break
         tie.append(f)
         total += f.probability
+    # and every other candidate the data do not rule out: it fits within the uncertainty (scaled as the
+    # probabilities are, when even the best misses the data) at plausible values
+    tie += [
+        f
+        for f in ranked
+        if f not in tie
+        and f.applicable
+        and f.plausible
+        and not f.outside_range
+        and fits_within_uncertainty(f, settings, scale)
+    ]
     # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
     # the tie (the others keep their linearised ones)
     refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
@@ -194,8 +323,23 @@ def rank(
     done = {id(f): finished(f) for f in [nominal, *fits]}
     nominal, ranked, tie = done[id(nominal)], [done[id(f)] for f in ranked], [done[id(f)] for f in tie]
     best = done[id(best)] if best is not None else None
-    separation = [separate(campaign, best, other) for other in tie[1:]] if best and significant else []
+    separation = [separate(campaign, best, other) for other in tie[1:4]] if best and significant else []
     confident = False
+    # what the data cannot rule out besides the fitted candidates: candidates of as many parameters as data,
+    # and pairs screened but not fitted whose one-step promise fits within the uncertainty
+    untested = [f.effect for f in ranked if f.applicable and f.n_data <= f.n_parameters and f is not best]
+    possible = [p.name for p in screened or () if p.fits]
+    open_ = "; ".join(
+        part
+        for part in (
+            f"{', '.join(untested)} (more parameters than data)" if untested else "",
+            f"the pairs {', '.join(possible)} (screened, not fitted: one step from their members' fits promises a "
+            "fit within the uncertainty)"
+            if possible
+            else "",
+        )
+        if part
+    )
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
@@ -208,7 +352,8 @@ def rank(
         best is not None
         and explains(best, settings)
         and best.probability >= settings.confidence
-        and not any(fits_within_uncertainty(f, settings) for f in candidates[1:])
+        and all(rejected(f, settings) for f in candidates[1:])
+        and not open_
     ):
         kind = "confident"
         verdict = (
@@ -219,14 +364,31 @@ def rank(
         confident = True
     elif any(explains(f, settings) for f in tie):
         kind = "tie"
-        names = ", ".join(f"{f.effect} ({f.probability:.2f})" for f in tie)
-        verdict = f"significant gap; explained equally well by {names} (a tie)"
+        if len(tie) > 1:
+            names = ", ".join(f"{f.effect} ({f.probability:.2f})" for f in tie)
+            verdict = f"significant gap; explained equally well by {names} (a tie)"
+        else:
+            verdict = f"significant gap, explained by {tie[0].effect} ({tie[0].probability:.2f}), not confidently"
+        if open_:
+            verdict += f"; not ruled out: {open_}"
     else:
         kind = "not explained"
         closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
         verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
     tie_names = [f.effect for f in tie] if significant else []
-    return EffectsReport(nominal, ranked, p_value, significant, tie_names, separation, verdict, confident, kind, notes)
+    return EffectsReport(
+        nominal,
+        ranked,
+        p_value,
+        significant,
+        tie_names,
+        separation,
+        verdict,
+        confident,
+        kind,
+        notes,
+        list(screened or ()),
+    )
 
 
 def diagnose_effects(
@@ -239,7 +401,14 @@ def diagnose_effects(
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
     ``warm`` as in :func:`fit_all`, ``exact_held_out`` as in :func:`rank`)."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
-    return rank(campaign, nominal, fits, exact_held_out, settings)
+    significant = nominal.n_data > nominal.n_parameters and bool(
+        scipy.stats.chi2.sf(nominal.chi2, nominal.n_data - nominal.n_parameters) < settings.gap_p_value
+    )
+    screened: list[ScreenedPair] = []
+    if significant and settings.pair_count > 0 and not any(fits_within_uncertainty(f, settings) for f in fits):
+        pairs, screened = fit_pairs(campaign, nominal, fits, settings)
+        fits = fits + pairs
+    return rank(campaign, nominal, fits, exact_held_out, settings, screened)
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:

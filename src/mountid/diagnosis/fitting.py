@@ -9,22 +9,28 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+import scipy.special
 import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_DAMPING_STD, Campaign
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
 from mountid.diagnosis.jacobian import jacobian
-from mountid.effects import Effect
+from mountid.effects import Effect, Pair
 from mountid.identification.statistics import covariance, standard_deviations
 
 
 @dataclass(frozen=True)
 class FitState:
-    """What a fit leaves behind for later refits (leave-one-out, separation, warm starts): the candidate
-    model and the fitted flat parameter vector. Not part of the result's value."""
+    """What a fit leaves behind for later refits (leave-one-out, separation, warm starts) and for its evidence
+    at another noise level (the ranking's tempering): the candidate model, the fitted flat parameter vector,
+    and the whitened data-row Jacobian and chi^2 of each variant whose evidence the candidate's averages (one,
+    or one per isolator). Not part of the result's value."""
 
     model: CandidateModel
     theta: np.ndarray
+    evidence_terms: tuple[tuple[np.ndarray, float], ...] = ()
+    residuals: np.ndarray | None = None
+    """The whitened data residuals at the fit (Data.residuals)."""
 
 
 @dataclass(frozen=True)
@@ -54,9 +60,19 @@ class CandidateFit:
     """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
     whose omission leaves a parameter poorly determined (set by the ranking)."""
     log_evidence: float = -math.inf
-    """Laplace approximation of log p(data | candidate) (see :func:`log_evidence`; -inf when not applicable)."""
+    """Laplace approximation of log p(data | candidate) (see :func:`log_evidence`; -inf when not applicable):
+    for a candidate fitted per isolator or channel the mean over them (see ``evidence_offset``)."""
+    evidence_offset: float = 0.0
+    """Added to the log of the summed evidence of the variants: -log(number of variants) for a candidate whose
+    isolator or channel is unknown (its evidence is the mean over them), else 0."""
+    log_prior: float = 0.0
+    """Log prior odds of the candidate against a single effect (0; a pair of effects less, see
+    DiagnosisSettings.pair_prior)."""
     probability: float = math.nan
     """Posterior probability of the candidate among those ranked (set by the ranking)."""
+    log_weight: float = -math.inf
+    """Log of the candidate's unnormalised posterior weight (evidence, tempered, plus log prior; set by the
+    ranking; -inf where its probability is 0 by rule)."""
     outside_range: tuple[str, ...] = ()
     """Effect parameters whose fitted value lies outside the plausible range beyond RANGE_TOLERANCE
     (``plausible`` allows a standard deviation beyond it; a confident verdict allows none: candidates.explains)."""
@@ -208,6 +224,21 @@ def log_evidence(jac: np.ndarray, chi2: float, widths: np.ndarray) -> float:
     return float(-0.5 * chi2 - np.sum(np.log(widths)) + 0.5 * k * math.log(2 * math.pi) - 0.5 * logdet)
 
 
+def tempered_log_evidence(fit: CandidateFit, scale: float = 1.0) -> float:
+    """The candidate's log evidence with every measurement's variance multiplied by ``scale`` (>= 1): the
+    Laplace approximation at the fit with chi^2 / scale and the Jacobian / sqrt(scale), summed over its variants
+    and offset as :attr:`CandidateFit.log_evidence` (equal to it at scale 1). The ranking tempers with the best
+    candidate's chi^2 per degree of freedom when even that one misses the data beyond their uncertainty: the
+    misfit is then a model error no candidate holds, and evidence ratios taken at the stated noise would be
+    overconfident."""
+    if fit.state is None or not fit.state.evidence_terms or not math.isfinite(fit.log_evidence):
+        return fit.log_evidence
+    widths = prior_widths(fit.state.model)
+    root = math.sqrt(scale)
+    terms = [log_evidence(jac / root, chi2 / scale, widths) for jac, chi2 in fit.state.evidence_terms]
+    return float(scipy.special.logsumexp(terms) + fit.evidence_offset)
+
+
 def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
     start = model.start()[0]
     n = len(model.unknown)
@@ -220,6 +251,8 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
             r = data.residuals(model.predict(theta))
         except (np.linalg.LinAlgError, ValueError):
             r = np.full(n_rows, _FAILED)
+        if not np.all(np.isfinite(r)):
+            r = np.full(n_rows, _FAILED)
         prior = PRIOR_WEIGHT * (theta[n:] - start[n:]) / width
         return np.concatenate([r if rows is None else r[rows], prior])
 
@@ -228,17 +261,31 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
 
     def jac(theta: np.ndarray) -> np.ndarray:
         """Analytic (mountid.diagnosis.jacobian); forward differences where it is undefined (twins split)."""
-        if data.damping_labels:  # the analytic Jacobian has no damping rows: forward differences
-            return forward_differences(fun, theta, model.bounds()[1])
         try:
             j = jacobian(model, data, theta)
         except (np.linalg.LinAlgError, ValueError):
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:
             return forward_differences(fun, theta, model.bounds()[1])
+        if not np.all(np.isfinite(j)):
+            return np.zeros((len(fun(theta)), len(theta)))  # as where the model fails: a step there is refused
         return np.concatenate([j if rows is None else j[rows], prior_rows])
 
     return fun, jac
+
+
+def promised_chi2(campaign: Campaign, model: CandidateModel, starts: list[np.ndarray]) -> float:
+    """The smallest chi^2 one Gauss-Newton step from any of ``starts`` predicts (the residuals and Jacobian
+    there, the step of the linear least squares with the prior rows): what a fit from there promises, at the
+    cost of one Jacobian per start."""
+    data = Data(campaign, model.length)
+    fun, jac = _residual_function(model, data, None)
+    best = math.inf
+    for x in starts:
+        r, j = fun(x), jac(x)
+        step = np.linalg.lstsq(j, -r, rcond=None)[0]
+        best = min(best, float(np.sum((r + j @ step)[: data.n_rows] ** 2)))
+    return best
 
 
 def forward_differences(fun, theta: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -318,21 +365,28 @@ def _solve(fun, jac, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, refit: bool
 
 
 def fit_candidate(
-    campaign: Campaign, effect: Effect | None, isolator: int | None = None, start: np.ndarray | None = None
+    campaign: Campaign,
+    effect: Effect | Pair | None,
+    variant: int | None = None,
+    start: np.ndarray | None = None,
+    starts: list[np.ndarray] | None = None,
 ) -> CandidateFit:
-    """Fit one candidate (None: the nominal model) with the unknowns to every measured mode (``start``: a
-    single starting vector, e.g. the fit of the same candidate to nearby data, instead of the default ones)."""
-    model = CandidateModel(campaign, effect, isolator)
+    """Fit one candidate (None: the nominal model; a Pair: two effects at once) with the unknowns to every
+    measured mode (``start``: a single starting vector, e.g. the fit of the same candidate to nearby data;
+    ``starts``: several, the first always run; instead of the default ones)."""
+    model = CandidateModel(campaign, effect, variant)
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
-    variant = campaign.machine.module.ISOLATORS[isolator] if isolator is not None else ""
+    where = model.strategy.variants(campaign)[variant] if variant is not None else ""
     why = model.strategy.inapplicable(model, bool(data.shape_labels))
     k = len(model.start()[0])
     if why:
         return CandidateFit(
-            name, variant, {}, {}, math.nan, data.n, k, math.inf, False, "", {}, applicable=False, note=why
+            name, where, {}, {}, math.nan, data.n, k, math.inf, False, "", {}, applicable=False, note=why
         )
-    if start is None:
+    if starts is not None:
+        res = _least_squares(model, data, starts)
+    elif start is None:
         res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
     else:
         res = _least_squares(model, data, [start])
@@ -364,7 +418,7 @@ def fit_candidate(
     held_out = _linear_leave_one_out(data, res.fun, jac)
     return CandidateFit(
         name,
-        variant,
+        where,
         phys,
         std,
         chi2,
@@ -377,7 +431,7 @@ def fit_candidate(
         held_out_gap=held_out,
         log_evidence=evidence,
         outside_range=tuple(outside),
-        state=FitState(model, theta),
+        state=FitState(model, theta, ((jac[:n_rows], chi2),), res.fun[:n_rows].copy()),
     )
 
 

@@ -370,6 +370,10 @@ class Diagnosis:
             "modal_force_residual": self.force_residual,
             "nominal": effects.nominal.to_dict(),
             "candidates": [f.to_dict() for f in effects.ranked],
+            "screened_pairs": [
+                {"effect": s.name, "promised_chi2": s.promised_chi2, "n_data": s.n_data, "n_parameters": s.n_parameters}
+                for s in effects.screened
+            ],
             "gap": self.gap_table(),
             "p_value": effects.p_value,
             "significant": effects.significant,

@@ -6,7 +6,8 @@ Chain, for each fit parameter q (an unknown or an effect parameter):
 
 1. d(M, C, B)/dq from the generated derivatives (the candidate's strategy, mountid.diagnosis.strategies);
 2. d lambda_k = phi_k^T (C' - lambda_k M') phi_k and d phi_k by modal expansion (mountid.runtime);
-3. the model frequencies and body shapes through the strategy (stiffening, damped poles, sensor frame);
+3. the model frequencies and body shapes through the strategy (stiffening, damped poles, sensor frame), and
+   the damping ratios from the damped-pole derivatives where the campaign measures them;
 4. each shape residual: the part of the measured shape off the model shape, or off the span of the modes
    the measurement cannot separate from it, blended by their closeness weight (Data.residuals).
 
@@ -76,6 +77,10 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
                 span = np.linalg.qr(basis)[0]
                 own = w * d_span + (1 - w) * own + np.outer(d_w, off_span(s, span) - off_span(s, body[:, j]))
         rows.append(own.T / sig)
+    if data.damping_labels:
+        d_zeta = model.strategy.damping_ratio_derivatives(model, e, d_mats)
+        modes = e.index[[labels.index(lab) for lab in data.damping_labels]]
+        rows.append(-(d_zeta[:, modes] / data.zeta_sigma[None, :]).T)
     return np.concatenate(rows) * scale[None, :]
 
 
@@ -84,7 +89,7 @@ def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, 
     given = model.strategy.derivatives(model, e.values)
     n = len(e.lam)
     zero = np.zeros((n, n))
-    return [given.get(q, (zero, zero, zero)) for q in names]
+    return [tuple(zero if d is None else d for d in given.get(q, (zero, zero, zero))) for q in names]
 
 
 def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:

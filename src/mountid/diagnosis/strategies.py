@@ -3,9 +3,9 @@ registry (:data:`mountid.effects.EFFECT_KINDS`), so the diagnosis never dispatch
 
 A strategy gives the matrices M, C, B at the parameter values, the model frequencies from the eigenvalues,
 the body motion the mode shapes are compared in, whether the effect can act on a campaign at all, and
-whether it is fitted once per isolator; and for the analytic Jacobian of a fit (mountid.diagnosis.jacobian)
-the derivatives of each: d(M, C, B)/dq from the engine's generated derivatives, and the chain rule through
-the frequencies and shapes. The nominal model is the base strategy (no change).
+the variants it is fitted once each for (isolators, channels); and for the analytic Jacobian of a fit
+(mountid.diagnosis.jacobian) the derivatives of each: d(M, C, B)/dq from the engine's generated derivatives,
+and the chain rule through the frequencies and shapes. The nominal model is the base strategy (no change).
 """
 
 from __future__ import annotations
@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mountid.effects import Effect
+from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles
 
 if TYPE_CHECKING:
+    from mountid.diagnosis.campaign import Campaign
     from mountid.diagnosis.candidate_model import CandidateModel, Evaluation
 
 Matrices = tuple[np.ndarray, np.ndarray, np.ndarray | None]
@@ -30,8 +31,10 @@ does not enter the matrices is absent, a B derivative None where the strategy us
 class Strategy:
     """The nominal model: M and C of the generated module, undamped frequencies, shapes in q."""
 
-    per_isolator = False
-    """Fitted once per isolator (the variant names the isolator), the best one reported."""
+    def variants(self, campaign: Campaign) -> tuple[str, ...]:
+        """The variants the effect is fitted once each for (the isolators, the channels), the best reported;
+        empty for an effect fitted once."""
+        return ()
 
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
         """M, C and (where the strategy uses it) B [SI] at ``values``."""
@@ -56,6 +59,18 @@ class Strategy:
         p = damped_poles(m, c, self.damping_matrix(model, values, mats), lam)
         size = np.abs(p)
         return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
+
+    def damping_ratio_derivatives(self, model: CandidateModel, e: Evaluation, d_mats: list[Matrices]) -> np.ndarray:
+        """d zeta / dq of every mode, shape (n_q, n_modes), from the damped-pole derivatives of
+        M p^2 + B p + C = 0 (zeta = -Re p / |p|, d|p| = Re(conj(p) dp) / |p|); 0 for a mode that does not
+        oscillate."""
+        m, c, _ = e.mats
+        stacked = [np.array([d[i] for d in d_mats]) for i in range(3)]
+        p, dp = damped_pole_derivatives(m, c, self.damping_matrix(model, e.values, e.mats), e.lam, *stacked)
+        size = np.abs(p)
+        safe = np.where(size > 0, size, 1.0)
+        d_size = (np.conj(p)[None, :] * dp).real / safe
+        return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         """Why the effect cannot act on this campaign ('' when it can)."""
@@ -84,33 +99,48 @@ class Strategy:
 class Generated(Strategy):
     """Energy extensions: the engine's ``effect_<name>()`` gives the extended M, C, B."""
 
+    def __init__(self, name: str = "") -> None:
+        self.name = name
+        """The effect (one strategy object per generated effect)."""
+
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
-        return tuple(call(model.mod, f"effect_{model.effect.name}", values))
+        return tuple(call(model.mod, f"effect_{self.name}", values))
 
     def derivatives(self, model: CandidateModel, values: dict[str, float]) -> Derivatives:
-        name = model.effect.name
-        d = np.asarray(call(model.mod, f"effect_{name}_derivatives", values))
-        return {q: tuple(d[k]) for k, q in enumerate(model.mod.EFFECT_DERIVATIVE_PARAMETERS[name])}
+        d = np.asarray(call(model.mod, f"effect_{self.name}_derivatives", values))
+        names = model.mod.EFFECT_DERIVATIVE_PARAMETERS[self.name]
+        return {q: tuple(d[k]) for k, q in enumerate(names) if q in model.parameter_names}
 
 
 class Isolator(Strategy):
-    """One isolator's stiffness matrix (the generated ``isolator_stiffness()``) scaled by (1 + scatter)."""
+    """One isolator's stiffness changed, in shear (the generated ``isolator_stiffness()`` less its axial part) by
+    (1 + scatter_shear) and along its axis (``isolator_axial_stiffness()``) by (1 + scatter_axial)."""
 
-    per_isolator = True
+    def variants(self, campaign: Campaign) -> tuple[str, ...]:
+        return tuple(campaign.machine.module.ISOLATORS)
+
+    def _parts(self, model: CandidateModel, values: dict[str, float], function: str) -> tuple[np.ndarray, np.ndarray]:
+        """The shear and axial parts of the isolator's stiffness matrix (or of their gradients, by unknown)."""
+        total = np.asarray(call(model.mod, function, values))[..., model.variant, :, :]
+        axial = np.asarray(call(model.mod, function.replace("isolator_", "isolator_axial_", 1), values))
+        axial = axial[..., model.variant, :, :]
+        return total - axial, axial
 
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
         m, c, _ = super().matrices(model, values)
-        per = call(model.mod, "isolator_stiffness", values)
-        return m, c + values["scatter"] * per[model.isolator], None
+        shear, axial = self._parts(model, values, "isolator_stiffness")
+        return m, c + values["scatter_shear"] * shear + values["scatter_axial"] * axial, None
 
     def derivatives(self, model: CandidateModel, values: dict[str, float]) -> Derivatives:
         out = super().derivatives(model, values)
-        grad = np.asarray(call(model.mod, "isolator_stiffness_gradient", values))[:, model.isolator]
+        shear_grad, axial_grad = self._parts(model, values, "isolator_stiffness_gradient")
+        s_shear, s_axial = values["scatter_shear"], values["scatter_axial"]
         for k, u in enumerate(model.mod.UNKNOWN):
-            d_m, d_c, _ = out.get(u, (np.zeros_like(grad[k]), np.zeros_like(grad[k]), None))
-            out[u] = (d_m, d_c + values["scatter"] * grad[k], None)
-        per = np.asarray(call(model.mod, "isolator_stiffness", values))[model.isolator]
-        out["scatter"] = (np.zeros_like(per), per, None)
+            d_m, d_c, _ = out.get(u, (np.zeros_like(shear_grad[k]), np.zeros_like(shear_grad[k]), None))
+            out[u] = (d_m, d_c + s_shear * shear_grad[k] + s_axial * axial_grad[k], None)
+        shear, axial = self._parts(model, values, "isolator_stiffness")
+        out["scatter_shear"] = (np.zeros_like(shear), shear, None)
+        out["scatter_axial"] = (np.zeros_like(axial), axial, None)
         return out
 
 
@@ -193,21 +223,160 @@ class Sensor(Strategy):
         return ""
 
 
+class Composite(Strategy):
+    """Two effects at once (mountid.effects.Pair): each one's change of M, C (its extended matrices less the
+    nominal ones) added to the nominal model, the change of an effect with fewer coordinates entering the
+    body's block of the other's (the support's 12 x 12); frequencies through the member that maps them
+    (rubber stiffening), shapes through the member that reads them (the sensor frame)."""
+
+    def __init__(self, first: Strategy, second: Strategy) -> None:
+        self.members = (first, second)
+        self.frequency_role = next((m for m in self.members if type(m).frequencies is not Strategy.frequencies), None)
+        self.shape_role = next((m for m in self.members if type(m).shapes is not Strategy.shapes), None)
+
+    def variants(self, campaign: Campaign) -> tuple[str, ...]:
+        return next((v for m in self.members if (v := m.variants(campaign))), ())
+
+    def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
+        m0, c0, _ = NOMINAL.matrices(model, values)
+        parts = sorted((m.matrices(model, values) for m in self.members), key=lambda x: -len(x[0]))
+        (m, c, b), (m2, c2, b2) = parts
+        m, c = m.copy(), c.copy()
+        m[:6, :6] += m2[:6, :6] - m0
+        c[:6, :6] += c2[:6, :6] - c0
+        return m, c, b if b is not None else b2
+
+    def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+        role = self.frequency_role or NOMINAL
+        return role.frequencies(model, values, mats, lam)
+
+    def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
+        return (self.shape_role or NOMINAL).shapes(model, values, vectors)
+
+    def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
+        return next((why for m in self.members if (why := m.inapplicable(model, has_shapes))), "")
+
+    def derivatives(self, model: CandidateModel, values: dict[str, float]) -> Derivatives:
+        """d(M_first + (M_second - M_0))/dq (the second's change in the body's block), likewise C and B."""
+        nominal = NOMINAL.derivatives(model, values)
+        first, second = sorted((m.derivatives(model, values) for m in self.members), key=lambda d: -_size(d))
+        n = _size(first) or 6
+
+        def dense(mats: Matrices | None, size: int) -> list[np.ndarray]:
+            return [
+                np.zeros((size, size)) if mats is None or x is None else np.array(x, dtype=float)
+                for x in mats or (None,) * 3
+            ]
+
+        out: Derivatives = {}
+        for q in {*first, *second}:
+            base = nominal.get(q)
+            total = dense(first.get(q, base), n)
+            if total[0].shape[0] < n:  # an unknown the first does not list: its nominal derivative, embedded
+                small, total = total, [np.zeros((n, n)) for _ in range(3)]
+                for i in range(3):
+                    total[i][:6, :6] = small[i]
+            change = [x - y for x, y in zip(dense(second.get(q, base), 6), dense(base, 6), strict=True)]
+            for i in range(3):
+                total[i][:6, :6] += change[i][:6, :6]
+            out[q] = tuple(total)
+        return out
+
+    def frequency_derivatives(
+        self, model: CandidateModel, e: Evaluation, d_lam: np.ndarray, d_mats: list[Matrices]
+    ) -> np.ndarray:
+        return (self.frequency_role or NOMINAL).frequency_derivatives(model, e, d_lam, d_mats)
+
+    def shape_derivatives(self, model: CandidateModel, e: Evaluation, d_vec: np.ndarray) -> np.ndarray:
+        return (self.shape_role or NOMINAL).shape_derivatives(model, e, d_vec)
+
+
+def _size(d: Derivatives) -> int:
+    """The number of coordinates of a strategy's derivative matrices (0 when it gives none)."""
+    return max((np.shape(x)[0] for mats in d.values() for x in mats if x is not None), default=0)
+
+
+class Channel(Strategy):
+    """One channel of the layout the shapes were estimated from (the campaign's sensors) reads along its axis
+    turned by turn_1 and turn_2 [rad] about two axes across it: the shapes are the least-squares estimate
+    P^+ P' q from the layout's readings, P the channels' rows d^T du/dq (the generated point_jacobian), P' with
+    the turned channel's row."""
+
+    def variants(self, campaign: Campaign) -> tuple[str, ...]:
+        return tuple(c.name for c in campaign.sensors)
+
+    def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
+        if not has_shapes:
+            return "no mode shapes measured: a turned sensor leaves the frequencies exactly unchanged"
+        if not model.campaign.sensors:
+            return "the campaign does not give the sensor layout its shapes were estimated from"
+        return ""
+
+    def _layout(self, model: CandidateModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The layout's rows P, their pseudo-inverse, and for the turned channel its point Jacobian, axis d and two
+        unit axes across it (cached on the model)."""
+        if "channel" not in model.cache:
+            channels = model.campaign.sensors
+            jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
+            rows = np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
+            d = np.asarray(channels[model.variant].direction)
+            helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+            e1 = np.cross(helper, d)
+            e1 /= np.linalg.norm(e1)
+            e2 = np.cross(d, e1)
+            model.cache["channel"] = (rows, np.linalg.pinv(rows), jac[model.variant], d, np.column_stack([e1, e2]))
+        return model.cache["channel"]
+
+    def transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The 6 x 6 map from the body's motion to the estimated shape, and its derivatives by (turn_1, turn_2),
+        shape (2, 6, 6)."""
+        rows, pinv, jac, d, across = self._layout(model)
+        turn = np.array([values["turn_1"], values["turn_2"]])
+        norm = math.sqrt(1.0 + turn @ turn)
+        axis = (d + across @ turn) / norm
+        turned = rows.copy()
+        turned[model.variant] = axis @ jac
+        k = model.variant
+        derivatives = []
+        for i in range(2):
+            d_axis = across[:, i] / norm - axis * turn[i] / norm**2
+            derivatives.append(np.outer(pinv[:, k], d_axis @ jac))
+        return pinv @ turned, np.array(derivatives)
+
+    def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
+        return self.transform(model, values)[0] @ vectors[:6, :]
+
+    def shape_derivatives(self, model: CandidateModel, e: Evaluation, d_vec: np.ndarray) -> np.ndarray:
+        transform, derivatives = self.transform(model, e.values)
+        out = np.einsum("ab,qbk->qak", transform, d_vec[:, :6, :])
+        names = model.parameter_names
+        for i, name in enumerate(("turn_1", "turn_2")):
+            out[names.index(name)] += derivatives[i] @ e.vec[:6, :]
+        return out
+
+
 STRATEGIES: dict[str, Strategy] = {
     "generated": Generated(),
     "isolator": Isolator(),
     "frequency": Frequency(),
     "damping": Damping(),
     "sensor": Sensor(),
+    "channel": Channel(),
 }
 """One strategy per effect kind; ``tests/test_effect_registry.py`` checks that every kind has one."""
 
 NOMINAL = Strategy()
 
 
-def strategy(effect: Effect | None) -> Strategy:
-    """The strategy of ``effect`` (None: the nominal model)."""
-    return NOMINAL if effect is None else STRATEGIES[effect.kind]
+def strategy(effect: Effect | Pair | None) -> Strategy:
+    """The strategy of ``effect`` (None: the nominal model; a pair: the composite of its members')."""
+    if effect is None:
+        return NOMINAL
+    if isinstance(effect, Pair):
+        return Composite(strategy(effect.first), strategy(effect.second))
+    if effect.kind == "generated":
+        return Generated(effect.name)
+    return STRATEGIES[effect.kind]
 
 
 def stiffened_frequencies(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:

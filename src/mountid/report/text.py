@@ -16,8 +16,11 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     )
     if conventions["damping_parameters"]:
         print(
-            "damping ratios compared with the model's at "
-            + ", ".join(f"{n} = {d['value']:.6g} ({d['from']})" for n, d in conventions["damping_parameters"].items())
+            "damping ratios compared with the model's: "
+            + ", ".join(
+                f"{n} = {d['value']:.6g} (known)" if d["from"] == "known" else f"{n} fitted (from {d['value']:.6g})"
+                for n, d in conventions["damping_parameters"].items()
+            )
         )
     for note in campaign.record_notes:
         print(f"record: {note}")
@@ -65,8 +68,9 @@ def _print_candidates(effects) -> None:
         f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}, "
         f"probability {n.probability:.3g}), by posterior probability:"
     )
-    print(f"  {'effect':22s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
-    print(f"  {'':22s}{'':>8s}{'':>9s}{'RMS | median':>17s}  (held-out errors in sigma)")
+    width = max([22, *(len(f.effect) + 1 for f in effects.ranked)])
+    print(f"  {'effect':{width}s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
+    print(f"  {'':{width}s}{'':>8s}{'':>9s}{'RMS | median':>17s}  (held-out errors in sigma)")
     for f in ranked:
         ho = f"{f.held_out_rms:8.3g} | {f.held_out_median:5.3g}" if f.held_out_rms == f.held_out_rms else f"{'-':>16s}"
         params = ", ".join(
@@ -75,7 +79,7 @@ def _print_candidates(effects) -> None:
         mark = " [tie]" if f.effect in effects.tie else ""
         mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
         where = f" at {f.variant}" if f.variant else ""
-        print(f"  {f.effect:22s}{f.probability:8.3f} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
+        print(f"  {f.effect:{width}s}{f.probability:8.3f} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
     for f in effects.ranked:
         if not f.applicable:
-            print(f"  {f.effect:22s} not applicable: {f.note}")
+            print(f"  {f.effect:{width}s} not applicable: {f.note}")
