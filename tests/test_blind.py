@@ -18,18 +18,21 @@ from mountid.validation import blind, blind_truth
 
 @pytest.fixture(scope="module")
 def results() -> list[blind.CaseResult]:
-    return blind.run(24, workers=2, first_seed=1000)
+    return blind.run(18, workers=2, first_seed=1000, machines=("kid300", "rectangular"))
 
 
 def test_blind_targets_on_a_small_run(results):
+    """One case of every truth on two machines (seeds the benchmark and the calibration do not use): the
+    targets that 36 cases can judge."""
     score = blind.score(results)
     print(score.text())
-    assert score.n == 24 and score.n_none == 2
-    assert score.n_identifiable >= 8  # enough cases for the top-1 figure to mean something
+    assert score.n == 36 and score.n_none == 2
+    assert score.n_identifiable >= 10  # enough cases for the top-1 figure to mean something
     assert score.top1_identifiable >= 0.9
     assert score.truth_in_tie >= 0.9
     assert score.median_reduction >= 0.8
     assert score.confident_on_none == 0 and score.confident_outside == 0 and score.confident_and_wrong == 0
+    assert score.honest_outside == 1.0
 
 
 def test_the_diagnosis_is_not_told_the_truth():
@@ -38,7 +41,8 @@ def test_the_diagnosis_is_not_told_the_truth():
     a, truth = blind.make_case(7, "drive_belt")
     b, _ = blind.make_case(7, "drive_belt")
     assert a == b and "drive_belt" not in str(a) and truth.effect == "drive_belt"
-    assert set(a) == {"name", "machine", "known", "modes"}
+    assert set(a) == {"name", "machine", "known", "modes", "sensors"}
+    assert {c["name"] for c in a["sensors"]} == {f"S{k}_{axis}" for k in range(1, 5) for axis in "xyz"}
 
 
 def test_campaign_kinds_measure_what_they_say():
@@ -54,19 +58,15 @@ def test_campaign_kinds_measure_what_they_say():
         blind.score([blind.run_case(3, "none", "frequencies"), blind.run_case(3, "none", "shapes")])
 
 
-def test_true_damping_ratios_of_proportional_damping_are_the_modal_ones():
+def test_true_damping_ratios_of_proportional_damping_are_the_modal_ones(monkeypatch):
     """B = beta C gives zeta_k = beta omega_k / 2 exactly: the pairing of poles with shapes is right."""
-    machine = blind.Machine.resolve("kid300")
-    kid = blind.Kid300(machine)
-    t = blind.Truth("none", {}, 74.4e3, 472.3e3)
-    m, c, _ = kid.matrices(t)
-    omega, shapes = blind_truth.true_modes(kid, machine, t)
-
-    class Proportional(blind.Kid300):
-        def matrices(self, truth):
-            return m, c, 1e-3 * c
-
-    zeta = blind_truth.true_damping_ratios(Proportional(machine), t, shapes)
+    machine = blind.Machine.resolve("rectangular")
+    truth = blind_truth.TruthMachine("rectangular")
+    t = blind_truth.Truth("none", {}, {})
+    m, c, _ = blind_truth.truth_matrices(truth, t)
+    omega, shapes = blind_truth.true_modes(truth, machine, t)
+    monkeypatch.setattr(blind_truth, "truth_matrices", lambda tm, t: (m, c, 1e-3 * c))
+    zeta = blind_truth.true_damping_ratios(truth, t, shapes)
     assert zeta == pytest.approx(1e-3 * omega / 2, rel=1e-9)
 
 
@@ -88,15 +88,20 @@ def test_score_counts_a_confident_verdict_on_a_case_without_an_effect():
             "nonlinear_isolator", ("foundation",), ("foundation",), True, True, False, 0.5, "confident", 0.97
         ),
         blind.CaseResult(
+            "resilient_attachment", ("added_mass",), ("added_mass",), True, False, False, 0.5, "not explained", 1.0
+        ),
+        # a truth of two parts: naming the part that alone explains the noise-free data is right
+        blind.CaseResult(
             "isolator_scatter+cog_height",
             ("cog_height",),
             ("cog_height",),
             True,
-            False,
+            True,
             False,
             0.5,
-            "not explained",
-            1.0,
+            "confident",
+            0.99,
+            acceptable=("cog_height+isolator_scatter", "cog_height"),
         ),
         # a truth of other physics that a catalogue effect represents is right when that effect is named
         blind.CaseResult("support_frame", ("foundation",), ("foundation",), True, True, True, 0.8, "confident", 0.97),
@@ -105,16 +110,23 @@ def test_score_counts_a_confident_verdict_on_a_case_without_an_effect():
     assert score.confident_on_none == 1 and score.confident_outside == 1 and score.confident_and_wrong == 2
     assert not score.targets_met and score.honest_outside == 0.5
     assert score.top1_identifiable == 1.0 and score.truth_in_tie == 1.0
-    # the reliability table holds the verdicts that state a probability (not the 'not explained' one)
+    # the reliability table holds the verdicts that state a probability (not the 'not explained' one) on truths
+    # the catalogue represents (not the nonlinear isolator's)
     assert sum(row[2] for row in score.reliability) == 4
+    assert score.confusion["isolator_scatter+cog_height"]["cog_height"] == 1
 
 
 def test_every_truth_names_the_catalogue_effect_that_represents_it():
     names = {e.name for e in CATALOGUE}
     for truth in blind.EFFECT_NAMES:
         expected = blind_truth.represented_by(truth)
-        assert expected is None or expected == "none" or expected in names, truth
-    assert set(blind_truth.OUT_OF_CATALOGUE) == {"isolator_scatter+cog_height", "nonlinear_isolator"}
+        assert expected is None or expected == "none" or set(expected.split("+")) <= names, truth
+    assert set(blind_truth.OUT_OF_CATALOGUE) == {
+        "nonlinear_isolator",
+        "resilient_attachment",
+        "support_frame+isolator_scatter",
+    }
+    assert blind_truth.represented_by("isolator_scatter+cog_height") == "cog_height+isolator_scatter"
 
 
 def test_a_support_frame_of_other_geometry_is_not_a_confident_wrong_verdict():
@@ -136,15 +148,24 @@ def test_a_foundation_truth_built_apart_from_the_engine_is_diagnosed():
 @pytest.mark.parametrize(
     ("example", "kind", "seed", "truth"),
     [
+        ("kid300-blind-belt.json", "confident", 20, "drive_belt"),
+        ("kid300-blind-pair.json", "confident", 14, "isolator_scatter+cog_height"),
         ("kid300-blind-tie.json", "tie", 28, "support_frame"),
-        ("kid300-blind-not-explained.json", "not explained", 14, "isolator_scatter+cog_height"),
+        ("kid300-blind-not-explained.json", "not explained", 16, "resilient_attachment"),
     ],
 )
 def test_the_readme_worked_examples_give_their_verdict_kinds(example, kind, seed, truth):
-    """The README's examples of a tie and of 'not explained': blind cases as make_case writes them."""
+    """The README's examples of each verdict kind on a blind case (the paper's four frequencies, the fourth
+    kind, 'no significant gap', are tested with the command line): campaigns as blind.example writes them."""
     path = Path(__file__).resolve().parents[1] / "examples" / example
     data = json.loads(path.read_text(encoding="utf-8"))
-    made, _ = blind.make_case(seed, truth)
-    assert data["modes"] == made["modes"] and data["known"] == made["known"]
+    made = blind.example(seed, truth)
+    assert data["known"] == made["known"] and data["modes"].keys() == made["modes"].keys()
+    assert data["sensors"] == made["sensors"]
+    for label, mode in data["modes"].items():  # equal up to the rounding of another BLAS build
+        assert mode["frequency"] == pytest.approx(made["modes"][label]["frequency"], rel=1e-12)
+        assert mode["shape"] == pytest.approx(made["modes"][label]["shape"], abs=1e-9)
     report = diagnose_effects(campaign.parse(data))
-    assert report.kind == kind and not report.confident
+    assert report.kind == kind
+    if kind == "confident":
+        assert report.best.effect == blind_truth.represented_by(truth)
