@@ -232,8 +232,8 @@ def experiment_figures(
 
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
-    fitted and held out. Right: the candidates by posterior probability (tie shaded, implausible
-    hatched), with the nominal model for reference."""
+    fitted and held out (linear within 2 sigma, logarithmic beyond). Right: the candidates by posterior
+    probability (tie shaded, implausible hatched), with the nominal model for reference."""
     effects = diagnosis.effects
     nominal, best = effects.nominal, effects.best
     labels = list(nominal.frequency_gap)
@@ -255,8 +255,11 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
         left.bar(x + (k - (len(series) - 1) / 2) * width, z, width, label=name, color=colour)
     left.axhspan(-2, 2, color="#2ca02c", alpha=0.08, label="within 2 sigma")
     left.axhline(0, color="black", lw=0.6)
+    # gaps span from a fraction of a sigma to hundreds (a held-out mode that alone determined a parameter):
+    # linear within 2 sigma, logarithmic beyond
+    left.set_yscale("symlog", linthresh=2.0)
     left.set_xticks(x, labels)
-    left.set_ylabel("measured - model [sigma]")
+    left.set_ylabel("measured - model [sigma] (logarithmic beyond 2)")
     left.set_title("gap per mode")
     left.legend(fontsize=7)
     ranked = [f for f in effects.ranked if f.applicable]
