@@ -123,7 +123,8 @@ def fit_all(
             # one candidate whose isolator (channel) is unknown: its evidence is the mean over them
             evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) + offset)
             terms = tuple(t for v in variants for t in v.state.evidence_terms)
-            state = replace(variants[0].state, evidence_terms=terms)
+            order = tuple(v.variant for v in variants)
+            state = replace(variants[0].state, evidence_terms=terms, variants_by_fit=order)
             best = replace(variants[0], log_evidence=evidence, evidence_offset=offset, state=state)
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
             if alike:
@@ -142,7 +143,8 @@ def fit_pairs(
     the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
     fits (one member's fit with the other nil, and the other way round), the settings.pair_count most promising
     fitted from all of pair_starts, a scatter pair at the scatter's best isolator. Returns the fits and the
-    screened pairs not fitted."""
+    screened pairs not fitted. (diagnose_effects calls it when no single effect explains the gap: fits it
+    within its uncertainty and predicts the held-out modes.)"""
     singles = [
         f
         for f in fits
@@ -157,20 +159,28 @@ def fit_pairs(
         k = len(fa.state.model.unknown) + len(both.parameters) if both else 0
         if both is None or nominal.n_data - k < settings.pair_dof:
             continue
-        where = fa.variant or fb.variant
-        variant = strategy(both).variants(campaign).index(where) if where else None
-        model = CandidateModel(campaign, both, variant)
-        starts = pair_starts(model, fa, fb)
-        promise = promised_chi2(campaign, model, starts[:2])
-        promising.append((promise, both, variant, starts, k))
+        # an isolator (channel) the single fit ranked first may be the wrong one once the other effect acts too:
+        # the pair is screened at the settings.pair_variants best of them
+        given = fa.state.variants_by_fit or fb.state.variants_by_fit or tuple(v for v in (fa.variant, fb.variant) if v)
+        ranked = given[: settings.pair_variants]
+        names = strategy(both).variants(campaign)
+        for where in ranked or (None,):
+            variant = names.index(where) if where else None
+            model = CandidateModel(campaign, both, variant)
+            starts = pair_starts(model, fa, fb)
+            promise = promised_chi2(campaign, model, starts[:2])
+            promising.append((promise, both, variant, starts, k))
     promising.sort(key=lambda x: x[0])
-    out = []
+    # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
+    # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
+    best: dict[str, CandidateFit] = {}
     for _, both, variant, starts, _ in promising[: settings.pair_count]:
         fit = fit_candidate(campaign, both, variant, starts=starts)
-        out.append(replace(fit, log_prior=math.log(settings.pair_prior)))
+        if both.name not in best or fit.chi2 < best[both.name].chi2:
+            best[both.name] = replace(fit, log_prior=math.log(settings.pair_prior))
+    out, fitted = list(best.values()), set(best)
     screened = [
-        ScreenedPair(both.name, promise, nominal.n_data, k)
-        for promise, both, _, _, k in promising[settings.pair_count :]
+        ScreenedPair(b.name, promise, nominal.n_data, k) for promise, b, _, _, k in promising if b.name not in fitted
     ]
     return out, screened
 
@@ -405,10 +415,18 @@ def diagnose_effects(
         scipy.stats.chi2.sf(nominal.chi2, nominal.n_data - nominal.n_parameters) < settings.gap_p_value
     )
     screened: list[ScreenedPair] = []
-    if significant and settings.pair_count > 0 and not any(fits_within_uncertainty(f, settings) for f in fits):
+    if significant and settings.pair_count > 0 and not any(_explains_linearised(f, campaign, settings) for f in fits):
         pairs, screened = fit_pairs(campaign, nominal, fits, settings)
         fits = fits + pairs
     return rank(campaign, nominal, fits, exact_held_out, settings, screened)
+
+
+def _explains_linearised(f: CandidateFit, campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """:func:`explains` with the fit's linearised held-out errors (before the ranking refits any): whether a
+    single candidate leaves pairs of effects unneeded."""
+    z = held_out_z(f, campaign)
+    median = float(np.median(np.abs(z))) if len(z) else math.nan
+    return explains(replace(f, held_out_median=median), settings)
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:

@@ -31,6 +31,8 @@ class FitState:
     evidence_terms: tuple[tuple[np.ndarray, float], ...] = ()
     residuals: np.ndarray | None = None
     """The whitened data residuals at the fit (Data.residuals)."""
+    variants_by_fit: tuple[str, ...] = ()
+    """For an effect fitted per isolator or channel: the variants from the best fitting to the worst."""
 
 
 @dataclass(frozen=True)

@@ -27,9 +27,13 @@ class DiagnosisSettings:
     many standard deviations (leave one mode out)."""
     significance: float = 2.0
     """A single residual (or a twin pair's difference) is flagged beyond this many standard deviations."""
-    pair_count: int = 3
-    """When no single effect fits a significant gap within its uncertainty, this many pairs of effects are
-    fitted: those whose members' single fits promise the smallest chi^2 together (candidates.fit_pairs)."""
+    pair_count: int = 5
+    """When no single effect explains a significant gap, this many pairs of effects (at an isolator or channel,
+    where one member acts at one) are fitted: those whose members' single fits promise the smallest chi^2
+    together (candidates.fit_pairs)."""
+    pair_variants: int = 8
+    """A pair with an effect fitted per isolator or channel is screened at this many of that effect's best-fitting
+    isolators (channels)."""
     pair_dof: int = 3
     """A pair is fitted only where the data leave at least this many degrees of freedom beyond its
     parameters (and the unknowns)."""
