@@ -86,7 +86,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
     p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
-    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.add_argument(
+        "--start",
+        type=float,
+        default=0.07,
+        help="start of the free decay [s] (after the hit; not used with a force channel)",
+    )
+    p.add_argument(
+        "--free-decay",
+        action="store_true",
+        help="fit the free decay after --start even where the record has a force channel (default: H1 from it)",
+    )
     p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
     p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
     p.add_argument(

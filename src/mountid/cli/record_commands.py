@@ -143,7 +143,15 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     record = read_record(args.record, args.rate)
     use = tuple(args.use) if args.use else None
-    result = identify_from_record(machine, record, pairs(args.set, "--set"), start=args.start, use=use, root=args.root)
+    result = identify_from_record(
+        machine,
+        record,
+        pairs(args.set, "--set"),
+        start=args.start,
+        use=use,
+        root=args.root,
+        use_force=not args.free_decay,
+    )
     if args.figures:
         from mountid.report import figures
 

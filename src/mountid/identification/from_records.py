@@ -23,7 +23,8 @@ from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
-from mountid.measurement import modal
+from mountid.measurement import frf, modal
+from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
@@ -44,7 +45,10 @@ class Identification:
     unlabelled: list[modal.Pole] = field(default_factory=list)
     warnings: list[modal.QualityWarning] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    """How the identification decided what the data leave open (a root chosen by a rule)."""
+    """How the identification decided what the data leave open (a root chosen by a rule), the hits, and where
+    the modes came from."""
+    frf: FrfEstimate | None = None
+    """The H1 frequency responses the modes were fitted on (None: the free decay)."""
 
 
 def channel_rows(machine: Machine, record: Record) -> np.ndarray:
@@ -173,6 +177,8 @@ def label_poles(
     ``settings.record_frequency_weight``). Modes the channels cannot see are left
     out; of two poles on modes equal by symmetry the better one keeps the label. Returns
     ({label: (pole, MAC)}, poles left unlabelled)."""
+    if not poles:
+        return {}, []
     mod = machine.module
     args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)  # (6, n_modes)
@@ -382,6 +388,28 @@ def fit_damping(
     return values, {n: float(spread[i]) for i, n in enumerate(names)}
 
 
+@dataclass(frozen=True)
+class ModalData:
+    """What a record gives (modal_data): labelled modes, the poles left unlabelled, the record's quality
+    warnings, and with a force channel the frequency responses the modes came from and how. Unpacks as
+    (modes, unlabelled, warnings)."""
+
+    modes: dict[str, MeasuredMode]
+    unlabelled: list[modal.Pole]
+    warnings: list[modal.QualityWarning]
+    frf: FrfEstimate | None = None
+    """The H1 frequency responses the modes were fitted on (None: the free decay after ``start``)."""
+    notes: tuple[str, ...] = ()
+
+    def __iter__(self):
+        return iter((self.modes, self.unlabelled, self.warnings))
+
+
+IRF_START = 0.02
+"""[s] The pole fit on impulse responses starts this long after their beginning (RecordSettings.pretrigger
+before the hit): past the hit and the ringing of the band-limited division at its instant."""
+
+
 def modal_data(
     machine: Machine,
     record: Record,
@@ -389,9 +417,12 @@ def modal_data(
     start: float,
     nominal: dict[str, float] | None = None,
     settings: RecordSettings = RECORDS,
-) -> tuple[dict[str, MeasuredMode], list[modal.Pole], list[modal.QualityWarning]]:
-    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes, the poles left
-    unlabelled, and the record's quality warnings. ``nominal`` values of the unknowns (default: the
+    use_force: bool = True,
+) -> ModalData:
+    """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
+    With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
+    responses averaged over the record's hits (measurement.frf): from the instant of each hit, the force divided
+    out; otherwise on the free decay from ``start`` [s]. ``nominal`` values of the unknowns (default: the
     description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
     guess = {**known, **(nominal or {})}
@@ -401,12 +432,34 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
-    _check_length(record, start, float(np.min(nominal_omega)), settings)
-    poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+    estimate, notes = None, []
+    if full.forces and use_force:
+        estimate = frf.h1(full, full.forces[0], settings)
+        fitted = estimate.impulse_responses()
+        _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)
+        poles = modal.free_decay_poles(fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+        hits = len(estimate.hits)
+        notes.append(
+            f"modes from the H1 frequency responses of {hits} hit{'s' if hits > 1 else ''} on {estimate.force} "
+            f"({estimate.length:.3g} s each"
+            + (
+                f", exponential window of {estimate.window_decay:.3g} 1/s on the responses"
+                if estimate.window_decay
+                else ""
+            )
+            + ("; one hit: no coherence" if hits == 1 else "")
+            + ")"
+        )
+    else:
+        _check_length(record, start, float(np.min(nominal_omega)), settings)
+        poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     poles = [_as_acceleration(p, record) for p in poles]
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    warnings = modal.hammer_test_quality(record, lowest, start, highest_frequency=top, settings=settings)
-    warnings += [w for name in full.forces for w in modal.force_quality(full, name, start, settings)]
+    warnings = modal.hammer_test_quality(
+        record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
+    )
+    segment = None if estimate is not None else start
+    warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         sensor = inconsistent_channel(machine, record, start)
         warnings += [sensor] if sensor is not None else []
@@ -416,6 +469,8 @@ def modal_data(
             InputError("record", "no damped mode found in the free decay (check start, channels and excitation)"),
             warnings,
         )
+    if estimate is not None and len(estimate.hits) > 1:
+        warnings += _coherence_warnings(estimate, labelled, settings)
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
     modes = {
@@ -430,7 +485,27 @@ def modal_data(
         )
         for label, (p, m) in labelled.items()
     }
-    return modes, rest, warnings
+    return ModalData(modes, rest, warnings, estimate, tuple(notes))
+
+
+def _coherence_warnings(
+    estimate: FrfEstimate, labelled: dict[str, tuple[modal.Pole, float]], settings: RecordSettings
+) -> list[modal.QualityWarning]:
+    """A low_coherence warning for each mode whose coherence at its frequency is below settings.low_coherence on
+    every channel: noise, a nonlinearity or an input the force channel does not measure."""
+    out = []
+    for label, (pole, _) in labelled.items():
+        _, coherence = estimate.at(pole.damped_frequency)
+        if float(np.max(coherence)) < settings.low_coherence:
+            out.append(
+                modal.QualityWarning(
+                    "low_coherence",
+                    "all",
+                    f"mode {label} at {pole.frequency:.4g} rad/s: coherence {float(np.max(coherence)):.2f} at most "
+                    f"over {len(estimate.hits)} hits (noise, a nonlinearity or an unmeasured input)",
+                )
+            )
+    return out
 
 
 def _check_length(record: Record, start: float, lowest: float, settings: RecordSettings) -> None:
@@ -478,18 +553,23 @@ def identify_from_record(
     use: tuple[str, ...] | None = None,
     settings: RecordSettings = RECORDS,
     root: str | None = None,
+    use_force: bool = True,
 ) -> Identification:
-    """Record of a free decay after an impact (from ``start`` [s]) -> labelled modes (modal_data) -> unknown
-    stiffnesses from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the
-    paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios. ``root``:
-    the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
-    modes, rest, warnings = modal_data(machine, record, known, start, nominal, settings)
+    """Record of an impact test -> labelled modes (modal_data: from the H1 frequency responses where the record
+    has a force channel and ``use_force``, else from the free decay after ``start`` [s]) -> unknown stiffnesses
+    from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the paper's ("x", "psi"):
+    then exactly determined) -> damping parameters from the damping ratios. ``root``: the rule that picks
+    between equally good solutions when no measured mode decides (fit_stiffness)."""
+    found = modal_data(machine, record, known, start, nominal, settings, use_force)
     si = record.in_si()
     hits = [modal.hit_summary(si, name) for name in si.forces]
     try:
-        return _identify(machine, known, modes, rest, warnings, use, root, hits)
+        result = _identify(
+            machine, known, found.modes, found.unlabelled, found.warnings, use, root, [*hits, *found.notes]
+        )
     except InputError as err:
-        raise with_warnings(err, warnings) from None
+        raise with_warnings(err, found.warnings) from None
+    return replace(result, frf=found.frf)
 
 
 def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> InputError:

@@ -452,10 +452,14 @@ def hit_summary(record: Record, name: str) -> str:
     )
 
 
-def force_quality(record: Record, name: str, start: float, settings: RecordSettings = RECORDS) -> list[QualityWarning]:
+def force_quality(
+    record: Record, name: str, start: float | None, settings: RecordSettings = RECORDS
+) -> list[QualityWarning]:
     """Checks of a hammer's force channel ``name``: clipping (a flat top), a second hit (a pulse after the
-    first one has ended, above settings.double_hit_height of its peak, however small the response shows it),
-    and a hit inside the analysed free decay (after ``start`` [s])."""
+    first one has ended and within settings.hit_spacing of its start, above settings.double_hit_height of its
+    peak, however small the response shows it; later pulses are separate hits, which a frequency response
+    averages over), and a hit inside the analysed free decay (after ``start`` [s]; None: no free decay is
+    analysed, the frequency responses start at the hit)."""
     f = np.abs(record.channel(name))
     out = []
     top = float(f.max())
@@ -466,7 +470,8 @@ def force_quality(record: Record, name: str, start: float, settings: RecordSetti
     above = f > 0.05 * top
     first = int(np.argmax(above))
     end = first + int(np.argmin(above[first:])) if not np.all(above[first:]) else len(f)
-    second = float(f[end:].max()) if end < len(f) else 0.0
+    window = first + int(round(settings.hit_spacing * record.rate))
+    second = float(f[end:window].max()) if end < min(window, len(f)) else 0.0
     if second > settings.double_hit_height * top:
         # both hits timed where they pass half their own peak (the same phase of a pulse)
         onset = int(np.argmax(f > 0.5 * top))
@@ -478,7 +483,7 @@ def force_quality(record: Record, name: str, start: float, settings: RecordSetti
                 "double_hit", name, f"a second hit {gap * 1e3:.1f} ms after the first ({size:.0%} of its peak)"
             )
         )
-    if record.time[end - 1] >= start:
+    if start is not None and record.time[end - 1] >= start:
         out.append(
             QualityWarning(
                 "impact_in_segment",
@@ -495,6 +500,7 @@ def hammer_test_quality(
     start: float = 0.0,
     highest_frequency: float | None = None,
     settings: RecordSettings = RECORDS,
+    impacts: bool = True,
 ) -> list[QualityWarning]:
     """Checks of an impact record before it is trusted (thresholds: ``settings``).
 
@@ -509,7 +515,9 @@ def hammer_test_quality(
       needs a few periods of every mode; the paper's 4 s record holds 11 of its 17.71 rad/s);
     - low_rate: sampled below ``low_rate_factor`` x ``highest_frequency`` [rad/s] / (2 pi), when given (the
       burst-based checks above are then not made: the modes' own oscillation fills the first difference).
-    """
+
+    ``impacts`` False leaves out the checks that seek impacts in the responses (double_hit, impact_in_segment):
+    a force channel shows the hits themselves (force_quality)."""
     out = []
     clipped = []
     for j, c in enumerate(record.channels):
@@ -530,7 +538,7 @@ def hammer_test_quality(
                 f"({highest_frequency / (2 * np.pi):.3g} Hz)",
             )
         )
-    else:
+    elif impacts:
         # the impact bursts (the first difference, which the slow modes barely carry) stand out only where the
         # modes are well sampled
         # a clipped channel's flat tops are bursts of their own: the impacts are sought on the others

@@ -30,6 +30,16 @@ class RecordSettings:
     """Impact bursts closer than this [s] are one impact (a hammer pulse's rise and fall, 1-10 ms apart)."""
     min_periods: float = 5.0
     """A record holding fewer periods of the lowest mode after the start is too short for the pencil."""
+    hit_spacing: float = 0.5
+    """[s] Impacts on a force channel closer than this to a hit belong to it (a double hit); later ones are
+    separate hits that a frequency response averages over (measurement.frf)."""
+    pretrigger: float = 0.01
+    """[s] A frequency response's segment starts this long before its hit."""
+    force_floor: float = 1e-6
+    """Spectral lines where the hits' force spectrum is below this share of its largest carry no H1 (0): above
+    the pulse's bandwidth the division only amplifies noise."""
+    low_coherence: float = 0.8
+    """A mode whose coherence at its frequency is below this on every channel gets a low_coherence warning."""
 
 
 RECORDS = RecordSettings()

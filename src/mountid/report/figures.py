@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from mountid.identification.from_records import IRF_START
 from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.records import Record
@@ -77,6 +78,35 @@ def spectrum_figure(
     hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
     hz.set_xlabel("f [Hz]")
     ax.legend(fontsize=7, ncol=2, loc="upper right")
+    return _save(fig, path)
+
+
+def frf_figure(estimate, poles: dict[str, tuple[float, float]], path: str | Path) -> Path:
+    """The H1 frequency responses of every response channel (magnitude, in its unit per N, logarithmic) and
+    their coherence below, against rad/s (and Hz above), the picked poles as labelled lines; the number of
+    hits averaged and the exponential window in the title."""
+    fig, (mag, coh) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, gridspec_kw={"height_ratios": [2.2, 1]})
+    top = 1.6 * max([w for w, _ in poles.values()] or [float(estimate.omega[-1]) / 4])
+    sel = (estimate.omega > 0) & (estimate.omega <= top)
+    for j, channel in enumerate(estimate.responses):
+        mag.semilogy(estimate.omega[sel], np.abs(estimate.h1[sel, j]), lw=0.8, label=channel.name)
+        coh.plot(estimate.omega[sel], estimate.coherence[sel, j], lw=0.8)
+    units = sorted({c.unit for c in estimate.responses})
+    for ax in (mag, coh):
+        for w, _ in poles.values():
+            ax.axvline(w, color="k", lw=0.7, ls="--")
+    for label, (w, zeta) in poles.items():
+        mag.text(w, mag.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
+    hits = len(estimate.hits)
+    window = f", exponential window {estimate.window_decay:.3g} 1/s" if estimate.window_decay else ""
+    mag.set_title(f"H1 from {hits} hit{'s' if hits > 1 else ''} on {estimate.force}{window}; dashed: picked poles")
+    mag.set_ylabel(f"|H1| [{', '.join(units)} per N]")
+    mag.legend(fontsize=7, ncol=2, loc="upper right")
+    coh.set_ylim(0, 1.05)
+    coh.set_ylabel("coherence" + (" (one hit: 1)" if hits == 1 else ""))
+    coh.set_xlabel("omega [rad/s]")
+    hz = mag.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
+    hz.set_xlabel("f [Hz]")
     return _save(fig, path)
 
 
@@ -213,21 +243,28 @@ def experiment_figures(
     machine: Machine, record: Record, start: float, result, known: dict[str, float], folder: str | Path
 ) -> list[Path]:
     """The figures of an identified record (identify-record --figures, the demo): spectra of every channel
-    with the picked poles, the stabilisation diagram, and the mode shapes measured beside the model's."""
+    with the picked poles, the stabilisation diagram, the mode shapes measured beside the model's, and where
+    the modes came from a force channel's frequency responses, those with their coherence."""
     folder = Path(folder)
     poles = {k: (m.frequency, m.damping_ratio) for k, m in result.modes.items()}
     si = record.in_si()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
-    runs = modal.stabilisation(responses, start, top, len(machine.module.MODES))
+    if result.frf is not None:  # the poles were fitted on the impulse responses of H1
+        runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
+    else:
+        runs = modal.stabilisation(responses, start, top, len(machine.module.MODES))
     sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
-    return [
+    out = [
         spectrum_figure(si, None, start, poles, folder / "spectrum.png"),
         stabilisation_figure(runs, poles, folder / "stabilisation.png"),
         mode_shapes_figure(
             machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes, sensors
         ),
     ]
+    if result.frf is not None:
+        out.append(frf_figure(result.frf, poles, folder / "frf.png"))
+    return out
 
 
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:

@@ -1,0 +1,135 @@
+"""Frequency response functions of a hammer test with a force channel: H1 = S_fy / S_ff averaged over the
+separate hits of a record, the ordinary coherence, and the impulse responses the modal fit runs on.
+
+A record with a force channel holds one or more hits (the hammer's force) and the responses to them. Each hit
+opens a segment: the force inside a window of RecordSettings.hit_spacing after the hit's start (a double hit
+within it belongs to the hit: the measured force is divided out, so it no longer spoils the fit), the
+responses until the next hit, with an exponential window where they have not died out by the segment's end
+(it adds a known decay rate, removed from the poles again). Over the segments k,
+
+    H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2),
+
+the coherence 1 for a single hit (one average tells nothing) and below 1 where noise, a nonlinearity or an
+unmeasured input enter. The impulse responses are the inverse transform of H1 where the hits carry force;
+they are a free decay from the instant of the hit, whatever the pulse's shape or a second hit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mountid.errors import InputError
+from mountid.measurement.records import Channel, Record
+from mountid.measurement.settings import RECORDS, RecordSettings
+
+
+@dataclass(frozen=True)
+class FrfEstimate:
+    """H1 estimates of every response channel from one force channel of a record."""
+
+    omega: NDArray[np.float64]
+    """Frequencies [rad/s] of the spectral lines, (n_f,)."""
+    h1: NDArray[np.complex128]
+    """H1 per response channel [response unit per N], (n_f, n_responses); 0 where the hits carry no force."""
+    coherence: NDArray[np.float64]
+    """Ordinary coherence per response channel, (n_f, n_responses), in [0, 1]."""
+    responses: tuple[Channel, ...]
+    force: str
+    hits: tuple[float, ...]
+    """Times [s] at which the averaged hits start."""
+    length: float
+    """Length of each segment [s]."""
+    window_decay: float
+    """Decay rate [1/s] of the exponential window on the responses (0 without one); the impulse responses
+    decay faster by this much."""
+    rate: float
+    """Sampling rate [Hz]."""
+
+    def at(self, omega: float) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
+        """H1 and coherence of every response channel at the spectral line nearest ``omega`` [rad/s]."""
+        k = int(np.argmin(np.abs(self.omega - omega)))
+        return self.h1[k], self.coherence[k]
+
+    def impulse_responses(self) -> Record:
+        """The impulse responses [response unit per N s] of the responses from the start of the segments
+        (RecordSettings.pretrigger before the hits), as a record of the response channels: the inverse
+        transform of H1 with the exponential window divided out again (for a hit much shorter than the window's
+        time constant the window multiplies the impulse response; dividing it out leaves the measurement noise
+        as level as it was recorded, so a fit weighs every sample alike)."""
+        n = int(round(self.length * self.rate))
+        t = np.arange(n) / self.rate
+        h = np.fft.irfft(self.h1, n=n, axis=0) * self.rate * np.exp(self.window_decay * t)[:, None]
+        return Record(t, h, self.responses)
+
+
+def hit_times(record: Record, force: str, settings: RecordSettings = RECORDS) -> NDArray[np.float64]:
+    """Times [s] at which the separate hits on the force channel ``force`` start: where the force first
+    exceeds settings.double_hit_height of the largest peak, impacts within settings.hit_spacing of a hit
+    belonging to it (a double hit)."""
+    f = np.abs(record.channel(force))
+    top = float(f.max()) if len(f) else 0.0
+    if not top > 0:
+        raise InputError(force, "the force channel is zero throughout: no impact recorded")
+    above = np.flatnonzero(f > settings.double_hit_height * top)
+    starts = [int(above[0])]
+    for k in above[1:]:
+        if record.time[k] - record.time[starts[-1]] > settings.hit_spacing:
+            starts.append(int(k))
+    return record.time[np.array(starts)]
+
+
+def h1(record: Record, force: str, settings: RecordSettings = RECORDS) -> FrfEstimate:
+    """H1 and coherence of every response channel of ``record`` (SI units) from its force channel ``force``,
+    averaged over the hits (hit_times); segments start settings.pretrigger [s] before each hit and last until
+    the next (the shortest such spacing for all, the record's end after the last hit)."""
+    record = record.in_si()
+    times = hit_times(record, force, settings)
+    rate = record.rate
+    pre = int(round(settings.pretrigger * rate))
+    first = [max(0, int(round((t - record.time[0]) * rate)) - pre) for t in times]
+    ends = [*first[1:], len(record.time)]
+    n = min(e - s for s, e in zip(first, ends, strict=True))
+    if n < 16:
+        raise InputError("record", f"too short after the hit at {times[-1]:.3g} s for a frequency response")
+    window = min(n, int(round(settings.hit_spacing * rate)))
+    responses = record.select(record.responses)
+    if not responses.channels:
+        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
+    f_all = record.channel(force)
+    segments = [(f_all[s : s + n].copy(), responses.data[s : s + n]) for s in first]
+    decay = _window_decay([y for _, y in segments], n / rate)
+    t = np.arange(n) / rate
+    expo = np.exp(-decay * t)[:, None]
+    s_ff = np.zeros(n // 2 + 1)
+    s_fy = np.zeros((n // 2 + 1, len(responses.channels)), dtype=complex)
+    s_yy = np.zeros((n // 2 + 1, len(responses.channels)))
+    for f, y in segments:
+        f[window:] = 0.0  # the force window: the hit (and its double) only, no noise after it
+        spec_f = np.fft.rfft(f)
+        spec_y = np.fft.rfft(y * expo, axis=0)
+        s_ff += np.abs(spec_f) ** 2
+        s_fy += np.conj(spec_f)[:, None] * spec_y
+        s_yy += np.abs(spec_y) ** 2
+    carried = s_ff > settings.force_floor * s_ff.max()  # lines where the hits carry force
+    h = np.where(carried[:, None], s_fy / np.where(carried, s_ff, 1.0)[:, None], 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coherence = np.where(carried[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)
+    coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
+    omega = 2 * np.pi * np.fft.rfftfreq(n, 1 / rate)
+    return FrfEstimate(omega, h, coherence, responses.channels, force, tuple(map(float, times)), n / rate, decay, rate)
+
+
+def _window_decay(responses: list[NDArray], length: float) -> float:
+    """Decay rate [1/s] of an exponential window that brings the responses' level (RMS) over the last tenth of
+    the segment down to 1 % of their level over the whole segment (0 where it is below that already): the
+    segment is then a free decay that has died out, and the transform does not leak."""
+    ratio = 0.0
+    for y in responses:
+        tail = y[-max(1, len(y) // 10) :]
+        level = np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(y**2, axis=0)), 1e-300)
+        ratio = max(ratio, float(np.max(level)))
+    return math.log(ratio / 0.01) / length if ratio > 0.01 else 0.0
