@@ -16,7 +16,7 @@ from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.candidates import diagnose_effects
 from mountid.diagnosis.fitting import fit_candidate
 from mountid.diagnosis.gap import isolator_forces
-from mountid.effects import EFFECTS
+from mountid.effects import EFFECTS, Pair
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.validation import blind_truth
@@ -27,12 +27,13 @@ UNKNOWN = {"c_xy": 74.4e3, "c_z": 472.3e3}
 SIGMA_REL, SHAPE_SIGMA = 3e-4, 0.01
 
 
-def _campaign_from(effect: str | None, values: dict[str, float], isolator: int | None = None) -> dict:
-    """Noise-free campaign: all six modes (frequency and shape) from the library's own extended model."""
+def _campaign_from(effect: str | Pair | None, values: dict[str, float], isolator: int | None = None) -> dict:
+    """Noise-free campaign: all six modes (frequency and shape) from the library's own extended model (an
+    effect by name, a pair of effects, or None for the nominal model)."""
     machine = Machine.resolve("kid300")
     nominal = machine.frequencies({**KNOWN, **UNKNOWN})
     stub = parse({"machine": "kid300", "known": KNOWN, "modes": {k: {"frequency": w} for k, w in nominal.items()}})
-    model = CandidateModel(stub, EFFECTS[effect] if effect else None, isolator)
+    model = CandidateModel(stub, EFFECTS[effect] if isinstance(effect, str) else effect, isolator)
     pred = model.predict(model.vector({**UNKNOWN, **values}), machine.modes)
     modes = {}
     for label, w, shape in zip(machine.modes, pred.frequencies, pred.shapes, strict=True):
@@ -44,7 +45,8 @@ def _campaign_from(effect: str | None, values: dict[str, float], isolator: int |
             "shape": s.tolist(),
             "shape_uncertainty": SHAPE_SIGMA,
         }
-    return {"name": f"{effect} round trip", "machine": "kid300", "known": KNOWN, "modes": modes}
+    name = effect if isinstance(effect, str) or effect is None else effect.name
+    return {"name": f"{name} round trip", "machine": "kid300", "known": KNOWN, "modes": modes}
 
 
 ROUND_TRIP = {

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_candidates import KNOWN, SHAPE_SIGMA, SIGMA_REL, UNKNOWN
+from test_candidates import SHAPE_SIGMA, SIGMA_REL, UNKNOWN, _campaign_from
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
@@ -14,7 +14,6 @@ from mountid.diagnosis.candidates import diagnose_effects, pair_starts
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import EFFECTS, Pair, pair, pair_name
-from mountid.machine import Machine
 from mountid.validation import blind_truth
 
 
@@ -24,24 +23,9 @@ def _pair(a: str, b: str) -> Pair:
     return both
 
 
-def _campaign(both: Pair, values: dict[str, float], isolator: int | None = None, damping: bool = False) -> dict:
+def _campaign(both: Pair, values: dict[str, float], isolator: int | None = None) -> dict:
     """Noise-free campaign of all six modes from the pair's own model."""
-    machine = Machine.resolve("kid300")
-    nominal = machine.frequencies({**KNOWN, **UNKNOWN})
-    stub = parse({"machine": "kid300", "known": KNOWN, "modes": {k: {"frequency": w} for k, w in nominal.items()}})
-    model = CandidateModel(stub, both, isolator)
-    pred = model.predict(model.vector({**UNKNOWN, **values}), machine.modes)
-    modes = {}
-    for label, w, shape in zip(machine.modes, pred.frequencies, pred.shapes, strict=True):
-        s = np.array(shape, dtype=float)
-        s[3:] /= model.length
-        modes[label] = {
-            "frequency": float(w),
-            "uncertainty": SIGMA_REL * float(w),
-            "shape": s.tolist(),
-            "shape_uncertainty": SHAPE_SIGMA,
-        }
-    return {"name": f"{both.name} round trip", "machine": "kid300", "known": KNOWN, "modes": modes}
+    return _campaign_from(both, values, isolator)
 
 
 PAIRS = {

@@ -58,11 +58,10 @@ class ScreenedPair:
     n_data: int
     n_parameters: int
 
-    @property
-    def fits(self) -> bool:
+    def fits(self, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
         """Whether the promise is within the data's uncertainty (it may explain them as well)."""
         dof = self.n_data - self.n_parameters
-        return bool(dof > 0 and scipy.stats.chi2.sf(self.promised_chi2, dof) >= DIAGNOSIS.fit_p_value)
+        return bool(dof > 0 and scipy.stats.chi2.sf(self.promised_chi2, dof) >= settings.fit_p_value)
 
 
 @dataclass(frozen=True)
@@ -338,7 +337,7 @@ def rank(
     # what the data cannot rule out besides the fitted candidates: candidates of as many parameters as data,
     # and pairs screened but not fitted whose one-step promise fits within the uncertainty
     untested = [f.effect for f in ranked if f.applicable and f.n_data <= f.n_parameters and f is not best]
-    possible = [p.name for p in screened or () if p.fits]
+    possible = [p.name for p in screened or () if p.fits(settings)]
     open_ = "; ".join(
         part
         for part in (
