@@ -109,7 +109,8 @@ class CaseResult:
     identifiable: bool
     reduction: float
     """1 - held-out gap of the best candidate / that of the nominal model (median over the modes of
-    |held-out error| / sigma; nan without a significant gap)."""
+    |held-out frequency error| / sigma; nan without a significant gap, or where the nominal model's held-out
+    median is within DiagnosisSettings.significance: no held-out frequency gap to reduce)."""
     kind: str = ""
     """The verdict's kind (candidates.EffectsReport.kind)."""
     probability: float = math.nan
@@ -187,7 +188,9 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
     best = report.best
     if report.significant and best is not None:
         before, after = report.nominal.held_out_median, best.held_out_median
-        if math.isfinite(before) and math.isfinite(after) and before > 0:
+        # a gap to reduce: the nominal model misses the held-out frequencies beyond DiagnosisSettings.significance
+        # (an effect on the shapes alone, a turned sensor, leaves them within their noise before and after)
+        if math.isfinite(before) and math.isfinite(after) and before > DIAGNOSIS.significance:
             reduction = 1 - after / before
     return CaseResult(
         effect,
