@@ -32,6 +32,7 @@ import numpy as np
 from mountid.errors import InputError
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modes import MeasuredMode
+from mountid.measurement.records import Channel
 
 
 def schema() -> dict:
@@ -62,16 +63,6 @@ class RecordSource:
 
 
 @dataclass(frozen=True)
-class Channel:
-    """One channel of the layout a campaign's mode shapes were estimated from: a sensor at ``point`` [m]
-    reading along the unit ``direction``."""
-
-    name: str
-    point: tuple[float, float, float]
-    direction: tuple[float, float, float]
-
-
-@dataclass(frozen=True)
 class Campaign:
     """A validated campaign (see the module docstring)."""
 
@@ -85,7 +76,8 @@ class Campaign:
     record_notes: tuple[str, ...] = ()
     """What the records chain said about the records (quality warnings, which record gave which mode)."""
     sensors: tuple[Channel, ...] = ()
-    """The channels the mode shapes were estimated from (empty when the campaign does not say)."""
+    """The channels (acceleration sensors at a point along a unit direction) the mode shapes were estimated from
+    (empty when the campaign does not say)."""
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the

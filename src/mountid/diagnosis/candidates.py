@@ -60,8 +60,7 @@ class ScreenedPair:
 
     def fits(self, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
         """Whether the promise is within the data's uncertainty (it may explain them as well)."""
-        dof = self.n_data - self.n_parameters
-        return bool(dof > 0 and scipy.stats.chi2.sf(self.promised_chi2, dof) >= settings.fit_p_value)
+        return _accepts(self.promised_chi2, self.n_data - self.n_parameters, settings)
 
 
 @dataclass(frozen=True)
@@ -248,9 +247,13 @@ def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
 def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, scale: float = 1.0) -> bool:
     """Whether the data do not reject a candidate: chi^2 below its 1 - settings.fit_p_value quantile (with every
     variance multiplied by ``scale``)."""
-    if not (f.applicable and f.plausible) or f.n_data <= f.n_parameters:
-        return False
-    return bool(scipy.stats.chi2.sf(f.chi2 / scale, f.n_data - f.n_parameters) >= settings.fit_p_value)
+    return f.applicable and f.plausible and _accepts(f.chi2 / scale, f.n_data - f.n_parameters, settings)
+
+
+def _accepts(chi2: float, dof: int, settings: DiagnosisSettings) -> bool:
+    """Whether ``chi2`` lies below the 1 - settings.fit_p_value quantile for ``dof`` degrees of freedom (never
+    without a degree of freedom)."""
+    return bool(dof > 0 and scipy.stats.chi2.sf(chi2, dof) >= settings.fit_p_value)
 
 
 def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
@@ -281,7 +284,7 @@ def rank(
     reject every other candidate (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2
     they promise); when no candidate explains it, the verdict says so and names the closest."""
     n, k = nominal.n_data, nominal.n_parameters
-    p_value = float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
+    p_value = _gap_p_value(nominal)
     significant = bool(p_value < settings.gap_p_value)
     probability, scale = _probabilities(nominal, fits, settings)
     nominal = replace(nominal, probability=probability[id(nominal)][0], log_weight=probability[id(nominal)][1])
@@ -322,12 +325,7 @@ def rank(
     refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
 
     def finished(f: CandidateFit) -> CandidateFit:
-        if id(f) in refit:
-            f = exact_leave_one_out(f)
-        z = held_out_z(f, campaign)
-        if len(z):
-            f = replace(f, held_out_rms=float(np.sqrt(np.mean(z**2))), held_out_median=float(np.median(np.abs(z))))
-        return f
+        return _with_held_out_summary(exact_leave_one_out(f) if id(f) in refit else f, campaign)
 
     done = {id(f): finished(f) for f in [nominal, *fits]}
     nominal, ranked, tie = done[id(nominal)], [done[id(f)] for f in ranked], [done[id(f)] for f in tie]
@@ -410,22 +408,31 @@ def diagnose_effects(
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
     ``warm`` as in :func:`fit_all`, ``exact_held_out`` as in :func:`rank`)."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
-    significant = nominal.n_data > nominal.n_parameters and bool(
-        scipy.stats.chi2.sf(nominal.chi2, nominal.n_data - nominal.n_parameters) < settings.gap_p_value
-    )
     screened: list[ScreenedPair] = []
-    if significant and settings.pair_count > 0 and not any(_explains_linearised(f, campaign, settings) for f in fits):
+    # pairs where the gap is significant and no single candidate explains it with its linearised held-out errors
+    # (the ranking refits some of them later)
+    if (
+        _gap_p_value(nominal) < settings.gap_p_value
+        and settings.pair_count > 0
+        and not any(explains(_with_held_out_summary(f, campaign), settings) for f in fits)
+    ):
         pairs, screened = fit_pairs(campaign, nominal, fits, settings)
         fits = fits + pairs
     return rank(campaign, nominal, fits, exact_held_out, settings, screened)
 
 
-def _explains_linearised(f: CandidateFit, campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
-    """:func:`explains` with the fit's linearised held-out errors (before the ranking refits any): whether a
-    single candidate leaves pairs of effects unneeded."""
+def _gap_p_value(nominal: CandidateFit) -> float:
+    """Probability of the nominal model's chi^2 or more if it were right (nan without more data than unknowns)."""
+    n, k = nominal.n_data, nominal.n_parameters
+    return float(scipy.stats.chi2.sf(nominal.chi2, n - k)) if n > k else math.nan
+
+
+def _with_held_out_summary(f: CandidateFit, campaign: Campaign) -> CandidateFit:
+    """The fit with the RMS and median of its held-out errors in units of their standard deviation."""
     z = held_out_z(f, campaign)
-    median = float(np.median(np.abs(z))) if len(z) else math.nan
-    return explains(replace(f, held_out_median=median), settings)
+    if not len(z):
+        return f
+    return replace(f, held_out_rms=float(np.sqrt(np.mean(z**2))), held_out_median=float(np.median(np.abs(z))))
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:

@@ -5,7 +5,7 @@ A record with a force channel holds one or more hits (the hammer's force) and th
 opens a segment: the force inside a window of RecordSettings.hit_spacing after the hit's start (a double hit
 within it belongs to the hit: the measured force is divided out, so it no longer spoils the fit), the
 responses until the next hit, with an exponential window where they have not died out by the segment's end
-(it adds a known decay rate, removed from the poles again). Over the segments k,
+(it keeps the transform from leaking; the impulse responses have it divided out again). Over the segments k,
 
     H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2),
 
@@ -44,8 +44,8 @@ class FrfEstimate:
     length: float
     """Length of each segment [s]."""
     window_decay: float
-    """Decay rate [1/s] of the exponential window on the responses (0 without one); the impulse responses
-    decay faster by this much."""
+    """Decay rate [1/s] of the exponential window on the responses (0 without one): H1 is the transform of the
+    windowed impulse responses, which impulse_responses() divides out."""
     rate: float
     """Sampling rate [Hz]."""
 
