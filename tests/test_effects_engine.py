@@ -60,6 +60,7 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_five_paramet
         "damping",
         "sensor_error",
         "sensor_turned",
+        "sensor_misplaced",
     ]
     assert all(1 <= len(e.parameters) <= 5 for e in CATALOGUE)
     assert all(p.plausible[0] < p.plausible[1] for e in CATALOGUE for p in e.parameters)

@@ -120,6 +120,20 @@ def test_turned_channel_jacobian_matches_a_central_difference():
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
+def test_misplaced_channel_jacobian_matches_a_central_difference():
+    from test_candidates import _misplaced_campaign
+
+    campaign = parse(_misplaced_campaign(5, (0.1, 0.2, -0.1))[0])
+    model = CandidateModel(campaign, EFFECTS["sensor_misplaced"], 5)
+    data = Data(campaign, model.length)
+    fun, _ = _residual_function(model, data, None)
+    theta = model.vector({**UNKNOWN, "offset_1": 0.05, "offset_2": -0.12})
+    analytic = jacobian(model, data, theta)
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
+
+
 DAMPED = ["damping", "drive_belt", "isolator_scatter", "foundation", "frequency_dependent", None]
 
 

@@ -17,6 +17,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``channel``: one channel of the layout the shapes were estimated from (the campaign's ``sensors``) read along
   a turned axis; the shapes are the least-squares estimate from the layout's readings with that channel's row
   turned.
+- ``placement``: one channel of that layout sits off its stated point across its direction; its row is that of
+  the point where it sits (the generated ``point_jacobian`` is affine in the point, so the row changes linearly
+  with the offset and only in the rotations).
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -33,7 +36,7 @@ STANDARD_GRAVITY = 9.80665
 """g [m/s^2] (the gravity_preload potential is derived with this value)."""
 
 
-EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor", "channel")
+EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor", "channel", "placement")
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
 
@@ -62,7 +65,7 @@ class Effect:
 
     name: str
     kind: str
-    """How the effect enters the model: generated, isolator, frequency, damping or sensor (module docstring)."""
+    """How the effect enters the model: one of EFFECT_KINDS (module docstring)."""
     title: str
     parameters: tuple[EffectParameter, ...]
     signature: str
@@ -269,6 +272,35 @@ CATALOGUE: tuple[Effect, ...] = (
         "one channel reads along a turned axis: the shapes estimated from the layout are distorted in the motions "
         "that channel carries; frequencies exactly unchanged",
     ),
+    Effect(
+        "sensor_misplaced",
+        "placement",
+        "one channel's sensor mounted off its stated point",
+        (
+            _p(
+                "offset_1",
+                "m",
+                "length",
+                -1.0,
+                1.0,
+                0.0,
+                "offset of the sensor's point along the first axis across its direction",
+                False,
+            ),
+            _p(
+                "offset_2",
+                "m",
+                "length",
+                -1.0,
+                1.0,
+                0.0,
+                "offset of the sensor's point along the second axis across its direction",
+                False,
+            ),
+        ),
+        "one channel reads the motion of another point: the shapes estimated from the layout are distorted in the "
+        "rotations that channel carries (translations read true); frequencies exactly unchanged",
+    ),
 )
 """Every candidate effect, in the order reports list them."""
 
@@ -286,6 +318,9 @@ PAIR_EXCLUSIONS: dict[frozenset[str], str] = {
     frozenset({"foundation", "frequency_dependent"}): "the support's springs would stiffen with the rubber",
     frozenset({"sensor_error", "sensor_turned"}): "both change how the shapes are read",
     frozenset({"isolator_scatter", "sensor_turned"}): "each is fitted per isolator or per channel, not both",
+    frozenset({"sensor_error", "sensor_misplaced"}): "both change how the shapes are read",
+    frozenset({"sensor_turned", "sensor_misplaced"}): "both change how the shapes are read",
+    frozenset({"isolator_scatter", "sensor_misplaced"}): "each is fitted per isolator or per channel, not both",
 }
 """Pairs of effects that do not compose by adding their changes of M, C and B (the changes act on the same
 energy term, or one effect's energy is written for isolators on the ground), with the reason. The damping

@@ -302,18 +302,21 @@ class Channel(Strategy):
     P^+ P' q from the layout's readings, P the channels' rows d^T du/dq (the generated point_jacobian), P' with
     the turned channel's row."""
 
+    parameters: tuple[str, str] = ("turn_1", "turn_2")
+    what = "a turned sensor"
+
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
         return tuple(c.name for c in campaign.sensors)
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         if not has_shapes:
-            return "no mode shapes measured: a turned sensor leaves the frequencies exactly unchanged"
+            return f"no mode shapes measured: {self.what} leaves the frequencies exactly unchanged"
         if not model.campaign.sensors:
             return "the campaign does not give the sensor layout its shapes were estimated from"
         return ""
 
     def _layout(self, model: CandidateModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The layout's rows P, their pseudo-inverse, and for the turned channel its point Jacobian, axis d and two
+        """The layout's rows P, their pseudo-inverse, and for the chosen channel its point Jacobian, axis d and two
         unit axes across it (cached on the model)."""
         if "channel" not in model.cache:
             channels = model.campaign.sensors
@@ -327,21 +330,24 @@ class Channel(Strategy):
             model.cache["channel"] = (rows, np.linalg.pinv(rows), jac[model.variant], d, np.column_stack([e1, e2]))
         return model.cache["channel"]
 
-    def transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
-        """The 6 x 6 map from the body's motion to the estimated shape, and its derivatives by (turn_1, turn_2),
-        shape (2, 6, 6)."""
-        rows, pinv, jac, d, across = self._layout(model)
+    def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The chosen channel's row (6) and its derivatives by the two parameters (2, 6)."""
+        _, _, jac, d, across = self._layout(model)
         turn = np.array([values["turn_1"], values["turn_2"]])
         norm = math.sqrt(1.0 + turn @ turn)
         axis = (d + across @ turn) / norm
-        turned = rows.copy()
-        turned[model.variant] = axis @ jac
+        d_axis = [across[:, i] / norm - axis * turn[i] / norm**2 for i in range(2)]
+        return axis @ jac, np.array([a @ jac for a in d_axis])
+
+    def transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The 6 x 6 map from the body's motion to the estimated shape, and its derivatives by the two
+        parameters, shape (2, 6, 6)."""
+        rows, pinv, *_ = self._layout(model)
         k = model.variant
-        derivatives = []
-        for i in range(2):
-            d_axis = across[:, i] / norm - axis * turn[i] / norm**2
-            derivatives.append(np.outer(pinv[:, k], d_axis @ jac))
-        return pinv @ turned, np.array(derivatives)
+        row, d_row = self.row(model, values)
+        changed = rows.copy()
+        changed[k] = row
+        return pinv @ changed, np.array([np.outer(pinv[:, k], d_row[i]) for i in range(2)])
 
     def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
         return self.transform(model, values)[0] @ vectors[:6, :]
@@ -350,9 +356,30 @@ class Channel(Strategy):
         transform, derivatives = self.transform(model, e.values)
         out = np.einsum("ab,qbk->qak", transform, d_vec[:, :6, :])
         names = model.parameter_names
-        for i, name in enumerate(("turn_1", "turn_2")):
+        for i, name in enumerate(self.parameters):
             out[names.index(name)] += derivatives[i] @ e.vec[:6, :]
         return out
+
+
+class Placement(Channel):
+    """One channel of the layout sits offset_1, offset_2 [m] off its stated point along two axes across its
+    direction (an offset along it changes nothing): its row is d^T du/dq at the point where it sits. The
+    generated point_jacobian is affine in the point, so the row is linear in the offsets, and only its rotation
+    part changes."""
+
+    parameters = ("offset_1", "offset_2")
+    what = "a misplaced sensor"
+
+    def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        rows, _, _, d, across = self._layout(model)
+        if "placement" not in model.cache:
+            origin = np.asarray(model.mod.point_jacobian(0.0, 0.0, 0.0))
+            model.cache["placement"] = np.array(
+                [d @ (np.asarray(model.mod.point_jacobian(*across[:, i])) - origin) for i in range(2)]
+            )
+        d_row = model.cache["placement"]
+        offset = np.array([values["offset_1"], values["offset_2"]])
+        return rows[model.variant] + offset @ d_row, d_row
 
 
 STRATEGIES: dict[str, Strategy] = {
@@ -362,6 +389,7 @@ STRATEGIES: dict[str, Strategy] = {
     "damping": Damping(),
     "sensor": Sensor(),
     "channel": Channel(),
+    "placement": Placement(),
 }
 """One strategy per effect kind; ``tests/test_effect_registry.py`` checks that every kind has one."""
 

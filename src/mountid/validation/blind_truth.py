@@ -16,6 +16,9 @@ In the catalogue (mountid.effects), each by its own physics here:
   and placed off in height, the shapes recovered by least squares with the assumed geometry;
 - ``sensor_turned``: one of those twelve channels turned on its mount by 3-20 degrees about an axis across
   it (a rotation, not the catalogue's first-order turn), the shapes recovered with the assumed geometry;
+- ``sensor_misplaced``: one of those twelve channels mounted 10-60 % of the isolators' largest radius off its
+  stated point in a random direction (the component along its axis included, which changes nothing), the
+  shapes recovered with the assumed geometry;
 - ``damping``: damped frequencies |Im p| of non-proportionally damped isolators;
 - ``isolator_scatter``: one isolator of rubber from another batch: stiffer or softer in all directions, in
   shear only, or along its axis only;
@@ -435,6 +438,14 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
             "angle": logu(0.05, 0.35),
             "about": rng.uniform(0, 2 * math.pi),
         }
+    if effect == "sensor_misplaced":
+        theta, azimuth = math.acos(rng.uniform(-1.0, 1.0)), rng.uniform(0, 2 * math.pi)
+        distance = logu(0.1, 0.6) * tm.radius
+        direction = (math.sin(theta) * math.cos(azimuth), math.sin(theta) * math.sin(azimuth), math.cos(theta))
+        return {
+            "channel": int(rng.integers(len(sensor_layout(tm)))),
+            **{a: distance * x for a, x in zip("xyz", direction, strict=False)},
+        }
     if effect == "support_frame":
         return {"m": logu(0.3, 2) * mass, "k": logu(3, 30) * tm.vertical, "horizontal": rng.uniform(0.2, 0.6)}
     if effect == "nonlinear_isolator":
@@ -495,6 +506,9 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
         shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
     elif "sensor_turned" in parts:
         shapes = _one_turned(tm, shapes, int(t.size["channel"]), t.size["angle"], t.size["about"])
+    elif "sensor_misplaced" in parts:
+        offset = np.array([t.size["x"], t.size["y"], t.size["z"]])
+        shapes = _one_misplaced(tm, shapes, int(t.size["channel"]), offset)
     elif "nonlinear_isolator" in parts:
         omega, shapes = _hardened(tm, t, m, shapes)
     return omega, shapes
@@ -607,6 +621,16 @@ def _one_turned(tm: TruthMachine, shapes: np.ndarray, channel: int, angle: float
     model = np.array([direction @ _jac(r) for _, r, direction in layout])
     read = model.copy()
     read[channel] = turned @ _jac(layout[channel][1])
+    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
+
+
+def _one_misplaced(tm: TruthMachine, shapes: np.ndarray, channel: int, offset: np.ndarray) -> np.ndarray:
+    """Shapes recovered by least squares from the layout's readings, one channel's sensor sitting ``offset``
+    [m] off its stated point (reading the motion u = t + w x r of the point where it sits)."""
+    layout = sensor_layout(tm)
+    model = np.array([direction @ _jac(r) for _, r, direction in layout])
+    read = model.copy()
+    read[channel] = layout[channel][2] @ _jac(layout[channel][1] + offset)
     return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
 
 
