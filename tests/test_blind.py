@@ -116,6 +116,29 @@ def test_score_counts_a_confident_verdict_on_a_case_without_an_effect():
     assert score.confusion["isolator_scatter+cog_height"]["cog_height"] == 1
 
 
+def _stated_results(stated: np.ndarray, right: np.ndarray) -> list[blind.CaseResult]:
+    return [
+        blind.CaseResult("cog_height", ("cog_height" if ok else "foundation",), (), True, False, True, 0.9, "tie", p)
+        for p, ok in zip(stated, right, strict=True)
+    ]
+
+
+def test_calibration_error_comes_with_its_sampling_noise():
+    """Verdicts right as often as stated: the error is of the size of its floor (what a calibrated diagnosis
+    shows at these counts) and not rejected; right far more often than stated: rejected."""
+    rng = np.random.default_rng(7)
+    stated = rng.uniform(0.3, 1.0, 60)
+    calibrated = blind.score(_stated_results(stated, rng.random(60) < stated))
+    assert calibrated.calibration_floor > 0.03 and calibrated.calibration_p > 0.05
+    underconfident = blind.score(_stated_results(stated, stated > 0.1))
+    assert underconfident.calibration_error > 0.1 and underconfident.calibration_p < 0.05
+    assert any(m == "calib." for m in underconfident.missed())
+    # a dozen calibrated verdicts: the error exceeds 0.05 by chance, and the miss says it is within noise
+    few = blind.score(_stated_results(stated[:12], rng.random(12) < stated[:12]))
+    assert few.calibration_error > 0.05 and few.calibration_p > 0.05
+    assert any(m.startswith("calib. (within noise") for m in few.missed())
+
+
 def test_every_truth_names_the_catalogue_effect_that_represents_it():
     names = {e.name for e in CATALOGUE}
     for truth in blind.EFFECT_NAMES:

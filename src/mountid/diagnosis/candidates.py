@@ -227,15 +227,18 @@ def _probabilities(
     return out, scale
 
 
-def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, predictive: bool = False) -> bool:
     """Whether a candidate explains the gap: it fits every measurement within its uncertainty (chi^2 test at
     settings.fit_p_value) with every effect parameter inside its plausible range (a support of a few kg under
     an 800 kg machine mimics other effects; a flexible candidate fits much at values no machine has), and
     predicts the modes held out (leave one mode out) within settings.held_out_limit sigma in the median (the
-    median forgives the one mode whose omission leaves a parameter undetermined)."""
+    median forgives the one mode whose omission leaves a parameter undetermined). With ``predictive`` the
+    held-out errors are judged against their predictive standard deviation (CandidateFit.held_out_variance):
+    consistent with the fit, though the other modes may predict them only loosely."""
     if not fits_within_uncertainty(f, settings) or f.outside_range:
         return False
-    return math.isfinite(f.held_out_median) and f.held_out_median <= settings.held_out_limit
+    median = f.held_out_median_predictive if predictive else f.held_out_median
+    return math.isfinite(median) and median <= settings.held_out_limit
 
 
 def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
@@ -369,13 +372,22 @@ def rank(
             + f" (probability {best.probability:.2f})"
         )
         confident = True
-    elif any(explains(f, settings) for f in tie):
+    elif any(explains(f, settings, predictive=True) for f in tie):
+        # explained, not confidently: a candidate fits and the modes held out agree with it within their
+        # predictive uncertainty (the other modes may determine them only loosely)
         kind = "tie"
         if len(tie) > 1:
             names = ", ".join(f"{f.effect} ({f.probability:.2f})" for f in tie)
             verdict = f"significant gap; explained equally well by {names} (a tie)"
         else:
             verdict = f"significant gap, explained by {tie[0].effect} ({tie[0].probability:.2f}), not confidently"
+        if not any(explains(f, settings) for f in tie):
+            loose = next(f for f in tie if explains(f, settings, predictive=True))
+            verdict += (
+                f"; the other modes predict each held-out one only loosely ({loose.effect}: median "
+                f"{loose.held_out_median:.1f} sigma of the measurement, {loose.held_out_median_predictive:.1f} of the "
+                "prediction's own uncertainty): more modes or mode shapes would confirm it"
+            )
         if open_:
             verdict += f"; not ruled out: {open_}"
     else:
@@ -432,7 +444,13 @@ def _with_held_out_summary(f: CandidateFit, campaign: Campaign) -> CandidateFit:
     z = held_out_z(f, campaign)
     if not len(z):
         return f
-    return replace(f, held_out_rms=float(np.sqrt(np.mean(z**2))), held_out_median=float(np.median(np.abs(z))))
+    predictive = held_out_z(f, campaign, predictive=True)
+    return replace(
+        f,
+        held_out_rms=float(np.sqrt(np.mean(z**2))),
+        held_out_median=float(np.median(np.abs(z))),
+        held_out_median_predictive=float(np.median(np.abs(predictive))) if len(predictive) else math.nan,
+    )
 
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:

@@ -61,6 +61,15 @@ class CandidateFit:
     held_out_median: float = math.nan
     """Median of |held-out frequency error| / standard deviation over the modes: robust to the one mode
     whose omission leaves a parameter poorly determined (set by the ranking)."""
+    held_out_variance: dict[str, float] = field(default_factory=dict)
+    """Variance of each held-out frequency error in units of the frequency's variance, to first order: 1 plus
+    the variance of the refit's prediction, [(I - H_gg)^-1]_00 of the weighted hat matrix H for the mode's rows
+    g (nan where the mode alone determines a parameter). Large where the other modes barely determine the
+    parameters that predict this one (a machine of four unknown stiffnesses measured at six frequencies)."""
+    held_out_median_predictive: float = math.nan
+    """Median of |held-out frequency error| / its predictive standard deviation (sigma times the square root of
+    held_out_variance): whether the held-out modes are consistent with the fit, where held_out_median says
+    whether it predicts them to within the measurement's uncertainty (set by the ranking)."""
     log_evidence: float = -math.inf
     """Laplace approximation of log p(data | candidate) (see :func:`log_evidence`; -inf when not applicable):
     for a candidate fitted per isolator or channel the mean over them (see ``evidence_offset``)."""
@@ -106,6 +115,7 @@ class CandidateFit:
             "note": self.note,
             "held_out_rms_sigma": self.held_out_rms,
             "held_out_median_sigma": self.held_out_median,
+            "held_out_median_predictive_sigma": self.held_out_median_predictive,
             "log_evidence": self.log_evidence,
             "probability": self.probability,
         }
@@ -417,7 +427,7 @@ def fit_candidate(
     evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model))
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
-    held_out = _linear_leave_one_out(data, res.fun, jac)
+    held_out, variance = _linear_leave_one_out(data, res.fun, jac)
     return CandidateFit(
         name,
         where,
@@ -431,26 +441,29 @@ def fit_candidate(
         "; ".join(reasons),
         gap,
         held_out_gap=held_out,
+        held_out_variance=variance,
         log_evidence=evidence,
         outside_range=tuple(outside),
         state=FitState(model, theta, ((jac[:n_rows], chi2),), res.fun[:n_rows].copy()),
     )
 
 
-def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> dict[str, float]:
+def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
     """measured - prediction without the mode [rad/s], to first order: (I - H_gg)^-1 r_g for the mode's rows g
-    of the weighted hat matrix H = J (J^T J)^-1 J^T (nan where the mode alone determines a parameter)."""
+    of the weighted hat matrix H = J (J^T J)^-1 J^T; and its variance in units of the frequency's,
+    [(I - H_gg)^-1]_00 (r_g has covariance I - H_gg). Both nan where the mode alone determines a parameter."""
     inv = np.linalg.pinv(jac.T @ jac)
-    out = {}
+    out, variance = {}, {}
     for i, lab in enumerate(data.labels):
         g = data.rows_of(lab)
         h = jac[g] @ inv @ jac[g].T
         a = np.eye(len(g)) - h
         if np.linalg.cond(a) > 1e10:
-            out[lab] = math.nan
+            out[lab] = variance[lab] = math.nan
             continue
         out[lab] = float(np.linalg.solve(a, r[g])[0] * data.sigma[i])
-    return out
+        variance[lab] = float(np.linalg.inv(a)[0, 0])
+    return out, variance
 
 
 def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
@@ -468,11 +481,13 @@ def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
     return replace(fit, held_out_gap=out, held_out_exact=True)
 
 
-def held_out_z(fit: CandidateFit, campaign: Campaign) -> np.ndarray:
-    """Held-out errors in units of each frequency's standard deviation (modes without one skipped)."""
+def held_out_z(fit: CandidateFit, campaign: Campaign, predictive: bool = False) -> np.ndarray:
+    """Held-out errors in units of each frequency's standard deviation, or with ``predictive`` of their own
+    predictive standard deviation (fit.held_out_variance; modes without one skipped)."""
     z = []
     for lab, e in fit.held_out_gap.items():
         m = campaign.modes[lab]
-        if math.isfinite(e):
-            z.append(e / m.frequency_std)
+        v = fit.held_out_variance.get(lab, 1.0) if predictive else 1.0
+        if math.isfinite(e) and math.isfinite(v):
+            z.append(e / (m.frequency_std * math.sqrt(max(v, 1.0))))
     return np.array(z)
