@@ -128,7 +128,7 @@ CATALOGUE: tuple[Effect, ...] = (
         "frequency",
         "viscoelastic rubber: stiffness rising with frequency",
         (
-            _p("rubber_strength", "1", "one", 0.02, 1.0, 0.1, "stiffening from static to high frequency, beta"),
+            _p("rubber_strength", "1", "one", 0.005, 1.0, 0.1, "stiffening from static to high frequency, beta"),
             EffectParameter(
                 "rubber_corner",
                 "1",

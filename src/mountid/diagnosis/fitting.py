@@ -272,16 +272,21 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
     prior_rows[:, n:] = np.diag(PRIOR_WEIGHT / width)
 
     def jac(theta: np.ndarray) -> np.ndarray:
-        """Analytic (mountid.diagnosis.jacobian); forward differences where it is undefined (twins split)."""
+        """Analytic (mountid.diagnosis.jacobian); forward differences for the columns where it is undefined
+        (parameters that split exactly equal twins)."""
         try:
             j = jacobian(model, data, theta)
         except (np.linalg.LinAlgError, ValueError):
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:
             return forward_differences(fun, theta, model.bounds()[1])
-        if not np.all(np.isfinite(j)):
+        split = np.flatnonzero(np.all(np.isnan(j), axis=0))
+        out = np.concatenate([j if rows is None else j[rows], prior_rows])
+        if len(split):
+            out[:, split] = forward_differences(fun, theta, model.bounds()[1], split)[:, split]
+        if not np.all(np.isfinite(out)):
             return np.zeros((len(fun(theta)), len(theta)))  # as where the model fails: a step there is refused
-        return np.concatenate([j if rows is None else j[rows], prior_rows])
+        return out
 
     return fun, jac
 
@@ -300,12 +305,15 @@ def promised_chi2(campaign: Campaign, model: CandidateModel, starts: list[np.nda
     return best
 
 
-def forward_differences(fun, theta: np.ndarray, upper: np.ndarray) -> np.ndarray:
+def forward_differences(fun, theta: np.ndarray, upper: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
     """d fun / d theta by forward differences with scipy's 2-point step (sqrt(eps) max(1, |theta|)),
-    stepping backwards where the forward step would pass the ``upper`` bounds."""
+    stepping backwards where the forward step would pass the ``upper`` bounds (only the ``columns`` given,
+    the others nan)."""
     f0 = fun(theta)
-    out = np.empty((len(f0), len(theta)))
+    out = np.full((len(f0), len(theta)), np.nan)
     for i, x in enumerate(theta):
+        if columns is not None and i not in columns:
+            continue
         h = math.sqrt(np.finfo(float).eps) * max(1.0, abs(x))
         if x + h > upper[i]:
             h = -h
@@ -350,7 +358,7 @@ def _least_squares(
     for i, x0 in enumerate(starts):
         if i >= mandatory and 2 * best.cost <= noise:
             break  # fits to noise level: the remaining starts are not needed
-        res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 100 if len(starts) == 1 else 30)
+        res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 100 if len(starts) == 1 else 15)
         if best is None or res.cost < best.cost:
             best = res
     if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:

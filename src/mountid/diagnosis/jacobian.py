@@ -12,8 +12,9 @@ Chain, for each fit parameter q (an unknown or an effect parameter):
    the measurement cannot separate from it, blended by their closeness weight (Data.residuals).
 
 The labelling of modes is held fixed (it is piecewise constant). Where the model has exactly equal
-frequencies (twins) and a parameter splits them, the frequencies are not differentiable: :func:`jacobian`
-returns None and the fit takes finite differences at that point.
+frequencies (twins) and a parameter splits them, the frequencies are not differentiable in that parameter:
+:func:`jacobian` returns its column as nan and the fit takes a finite difference for that column alone (the
+parameters that move the twins together, often every unknown stiffness, keep their analytic columns).
 """
 
 from __future__ import annotations
@@ -43,7 +44,8 @@ identity within this (relative to its largest entry)."""
 
 def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray | None:
     """d(weighted residual rows)/d(theta), shape (n_rows, n_theta) in the row order of
-    :meth:`Data.residuals`, or None at a point where the frequencies are not differentiable (twins split)."""
+    :meth:`Data.residuals`, with nan columns for the parameters in which the frequencies are not differentiable
+    at this point (they split exactly equal twins); None where no column can be given (parallel partners)."""
     e = model.evaluate(theta)
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta)  # d(physical)/d(theta), diagonal
@@ -51,8 +53,15 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     d_m = np.array([d[0] for d in d_mats])
     d_c = np.array([d[1] for d in d_mats])
     d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
-    if not _twins_kept(e, d_m, d_c):
+    split = _splitting(e, d_m, d_c)
+    if split.all():
         return None
+    if split.any():  # the columns of the others are computed with the splitting ones' derivatives at zero
+        d_m, d_c = d_m.copy(), d_c.copy()
+        d_m[split] = 0.0
+        d_c[split] = 0.0
+        d_mats = [tuple(np.zeros_like(x) for x in d) if out else d for d, out in zip(d_mats, split, strict=True)]
+        d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
     d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
@@ -81,7 +90,9 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
         d_zeta = model.strategy.damping_ratio_derivatives(model, e, d_mats)
         modes = e.index[[labels.index(lab) for lab in data.damping_labels]]
         rows.append(-(d_zeta[:, modes] / data.zeta_sigma[None, :]).T)
-    return np.concatenate(rows) * scale[None, :]
+    out = np.concatenate(rows) * scale[None, :]
+    out[:, split] = np.nan
+    return out
 
 
 def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, ...]) -> list:
@@ -92,9 +103,10 @@ def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, 
     return [tuple(zero if d is None else d for d in given.get(q, (zero, zero, zero))) for q in names]
 
 
-def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:
-    """Whether every parameter moves each set of exactly equal eigenvalues together (its perturbation of
-    their subspace, phi^T (C' - lambda M') phi, a multiple of the identity)."""
+def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
+    """Per parameter, whether it splits a set of exactly equal eigenvalues (its perturbation of their subspace,
+    phi^T (C' - lambda M') phi, is not a multiple of the identity)."""
+    split = np.zeros(len(d_m), dtype=bool)
     for group, members in twin_groups(e.lam):
         v = e.vec[:, group]
         lam = e.lam[members[0]]
@@ -102,9 +114,8 @@ def _twins_kept(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> bool:
         mean = np.trace(g, axis1=1, axis2=2) / v.shape[1]
         off = g - mean[:, None, None] * np.eye(v.shape[1])[None]
         size = np.max(np.abs(g), axis=(1, 2))
-        if np.any(np.max(np.abs(off), axis=(1, 2)) > _SPLIT_RTOL * np.maximum(size, np.finfo(float).tiny)):
-            return False
-    return True
+        split |= np.max(np.abs(off), axis=(1, 2)) > _SPLIT_RTOL * np.maximum(size, np.finfo(float).tiny)
+    return split
 
 
 def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
