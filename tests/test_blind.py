@@ -139,6 +139,16 @@ def test_calibration_error_comes_with_its_sampling_noise():
     assert any(m.startswith("calib. (within noise") for m in few.missed())
 
 
+def test_what_a_campaign_can_test():
+    """The rectangular machine: three unknown stiffnesses; with damping ratios three damping coefficients too."""
+    assert blind.can_test("cog_height", 6, 3) and not blind.can_test("foundation", 6, 3)
+    assert blind.can_test("foundation", 36, 3)  # six frequencies and five shapes of six components
+    # six ratios for three damping coefficients leave the support as untested as six frequencies alone do
+    assert blind.can_test("cog_height", 12, 6, 6, 3) and not blind.can_test("foundation", 12, 6, 6, 3)
+    assert not blind.can_test("cog_height+isolator_scatter", 12, 6, 6, 3)  # two degrees of freedom, a pair needs 3
+    assert blind.can_test("cog_height+isolator_scatter", 36, 3)  # with the mode shapes
+
+
 def test_every_truth_names_the_catalogue_effect_that_represents_it():
     names = {e.name for e in CATALOGUE}
     for truth in blind.EFFECT_NAMES:

@@ -81,7 +81,7 @@ def make_case(
             modes[label] |= {"damping_ratio": float(z), "damping_uncertainty": float(DAMPING_STD * zeta[i])}
     # a test engineer knows the machine's build but not its isolators' damping: campaigns that measure damping
     # ratios leave the damping parameters to the fit
-    damping = {n for n, p in tm.data["parameters"].items() if p["kind"] == "damping"} if kind == "damping" else set()
+    damping = set(tm.damping_parameters) if kind == "damping" else set()
     known = {k: tm.nominal[k] for k in tm.known if k not in damping}
     data = {"name": f"blind case {seed}", "machine": machine, "known": known, "modes": modes}
     if kind == "shapes":  # the layout the shapes were estimated from
@@ -125,7 +125,8 @@ class CaseResult:
     testable: bool = True
     """Whether the campaign can test the candidate that represents the truth at all: it has fewer parameters
     (with the unknowns) than the campaign has data, a pair DiagnosisSettings.pair_dof fewer (six frequencies
-    cannot test a support of five parameters)."""
+    cannot test a support of five parameters); measured damping ratios and the damping parameters left to the
+    fit count apart from the rest (they determine each other, not an effect on M and C)."""
     seed: int = -1
     weights: tuple[tuple[str, float], ...] = ()
     """Log posterior weight of the nominal model ('none') and every ranked candidate (for studies of the
@@ -156,6 +157,20 @@ class CaseResult:
         return self.confident and not self.right
 
 
+def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_free_damping: int = 0) -> bool:
+    """Whether a campaign of ``n_data`` data for ``n_unknowns`` unknowns can test ``candidate`` (an effect or a
+    pair 'a+b') at all: the data exceed the parameters by one, a pair's by DiagnosisSettings.pair_dof. Measured
+    damping ratios (``n_ratios``) carry the damping parameters left to the fit (``n_free_damping``) and next to
+    nothing of an effect on M and C, so both count apart: six frequencies and six ratios cannot test a
+    five-parameter support of a machine with three unknown stiffnesses and three unknown damping coefficients,
+    as six frequencies alone cannot."""
+    names = candidate.split("+")
+    n, k = n_data, n_unknowns + sum(len(EFFECTS[name].parameters) for name in names)
+    if n_ratios and "damping" not in names:
+        n, k = n - n_ratios, k - n_free_damping
+    return n - k >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
+
+
 def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid300") -> CaseResult:
     """Diagnose one blind case. On the same truth without noise: identifiability (the gap is significant there
     and the effect that represents the truth has the posterior probability of a confident verdict), and for a
@@ -181,9 +196,13 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
             )
     testable = True
     if expected not in (None, "none"):
-        names = expected.split("+")
-        k = report.nominal.n_parameters + sum(len(EFFECTS[n].parameters) for n in names)
-        testable = report.nominal.n_data - k >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
+        testable = can_test(
+            expected,
+            report.nominal.n_data,
+            report.nominal.n_parameters,
+            sum("damping_ratio" in m for m in data["modes"].values()),
+            len(set(report.nominal.parameters) & set(TruthMachine(machine).damping_parameters)),
+        )
     reduction = math.nan
     best = report.best
     if report.significant and best is not None:

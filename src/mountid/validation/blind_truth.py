@@ -226,6 +226,11 @@ class TruthMachine:
         return max(math.hypot(*(i.point - c)[:2]) for i in self._nominal_isolators)
 
     @cached_property
+    def damping_parameters(self) -> tuple[str, ...]:
+        """The description's damping parameters (kind "damping")."""
+        return tuple(n for n, p in self.data["parameters"].items() if p["kind"] == "damping")
+
+    @cached_property
     def depth(self) -> float:
         """Mean depth of the isolator points below the centre of mass [m]."""
         c = self.centre(self.nominal)
