@@ -311,7 +311,7 @@ class Score:
         for name, ok in checks.items():
             if ok:
                 continue
-            if _nan(name, self):  # a rate over no case: not shown either way
+            if _nan(name, self):  # a rate over no case: the target cannot be shown here
                 out.append(f"{name} (no case)")
             elif name == "calib." and self.calibration_p >= 0.05:
                 out.append(f"calib. (within noise, p {self.calibration_p:.2f})")
