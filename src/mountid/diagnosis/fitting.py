@@ -29,8 +29,6 @@ class FitState:
     model: CandidateModel
     theta: np.ndarray
     evidence_terms: tuple[tuple[np.ndarray, float], ...] = ()
-    residuals: np.ndarray | None = None
-    """The whitened data residuals at the fit (Data.residuals)."""
     variants_by_fit: tuple[str, ...] = ()
     """For an effect fitted per isolator or channel: the variants from the best fitting to the worst."""
 
@@ -452,7 +450,7 @@ def fit_candidate(
         held_out_variance=variance,
         log_evidence=evidence,
         outside_range=tuple(outside),
-        state=FitState(model, theta, ((jac[:n_rows], chi2),), res.fun[:n_rows].copy()),
+        state=FitState(model, theta, ((jac[:n_rows], chi2),)),
     )
 
 
@@ -469,8 +467,9 @@ def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[d
         if np.linalg.cond(a) > 1e10:
             out[lab] = variance[lab] = math.nan
             continue
-        out[lab] = float(np.linalg.solve(a, r[g])[0] * data.sigma[i])
-        variance[lab] = float(np.linalg.inv(a)[0, 0])
+        inverse = np.linalg.inv(a)
+        out[lab] = float((inverse[0] @ r[g]) * data.sigma[i])
+        variance[lab] = float(inverse[0, 0])
     return out, variance
 
 

@@ -52,7 +52,6 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     d_mats = _matrix_derivatives(model, e, names)
     d_m = np.array([d[0] for d in d_mats])
     d_c = np.array([d[1] for d in d_mats])
-    d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
     split = _splitting(e, d_m, d_c)
     if split.all():
         return None
@@ -61,7 +60,7 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
         d_m[split] = 0.0
         d_c[split] = 0.0
         d_mats = [tuple(np.zeros_like(x) for x in d) if out else d for d, out in zip(d_mats, split, strict=True)]
-        d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
+    d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
     d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)

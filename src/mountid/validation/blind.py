@@ -405,25 +405,27 @@ def _calibration_error(rows: list[tuple[float, float, int, float, float]]) -> fl
     return float(np.mean([abs(a - b) for _, _, _, a, b in rows])) if rows else math.nan
 
 
-def _reliability(results: list[CaseResult]) -> tuple[tuple, float, float, float, float]:
+def _reliability(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, float, float, float, float]:
     """The reliability table, its mean error over the bins, the mean weighted by the bins' counts, and the error's
     sampling noise: the mean error of a perfectly calibrated diagnosis with the same stated probabilities
-    (outcomes drawn right with the stated probability, a fixed seed) and the share of those draws with an error
-    at least the observed one."""
+    (outcomes drawn right with the stated probability, ``draws`` times with a fixed seed; nan without draws) and
+    the share of those draws with an error at least the observed one."""
     stated, right = _stated(results)
     rows = _reliability_rows(stated, right)
     if not rows:
         return (), math.nan, math.nan, math.nan, math.nan
     error = _calibration_error(rows)
     weighted = sum(n * abs(a - b) for _, _, n, a, b in rows) / sum(n for _, _, n, _, _ in rows)
+    if not draws:
+        return tuple(rows), error, float(weighted), math.nan, math.nan
     rng = np.random.default_rng(0)
-    draws = np.array(
+    drawn = np.array(
         [
             _calibration_error(_reliability_rows(stated, (rng.random(len(stated)) < stated).astype(float)))
-            for _ in range(CALIBRATION_DRAWS)
+            for _ in range(draws)
         ]
     )
-    return tuple(rows), error, float(weighted), float(draws.mean()), float(np.mean(draws >= error - 1e-12))
+    return tuple(rows), error, float(weighted), float(drawn.mean()), float(np.mean(drawn >= error - 1e-12))
 
 
 def _in_tie(r: CaseResult) -> bool:
@@ -448,7 +450,7 @@ def score(results: list[CaseResult]) -> Score:
         confusion.setdefault(r.truth, Counter())["pair" if "+" in column else column] += 1
     reductions = np.array([r.reduction for r in detected if math.isfinite(r.reduction)])
     reliability, calibration, weighted, floor, p_calibration = _reliability([r for r in results if r.in_catalogue])
-    _, calibration_all, *_ = _reliability(results)
+    _, calibration_all, *_ = _reliability(results, draws=0)  # its sampling noise is not reported
     ties = [len(r.tie) for r in results if r.significant]
     return Score(
         len(results),
