@@ -314,6 +314,34 @@ def test_held_out_modes_predicted_loosely_make_a_tie_not_a_miss():
     assert "only loosely" in report.verdict
 
 
+def test_a_softer_isolator_is_reached_from_the_mirrored_start():
+    """Blind case (seed 23, rectangular, frequencies and damping ratios): one isolator 19 % softer in every
+    direction. From the scatter's start (nil) and the middle of its lopsided range (+0.25) the fit stops in a
+    stiffer-axial minimum at chi^2 41; the middle's mirror image through zero reaches the softer one."""
+    data, truth = blind.make_case(23, "isolator_scatter", kind="damping", machine="rectangular")
+    campaign = parse(data)
+    signed = [s[-2:] for s in CandidateModel(campaign, EFFECTS["isolator_scatter"], 0).start()]
+    assert any((s > 0).all() for s in signed) and any((s < 0).all() for s in signed)
+    fit = fit_candidate(campaign, EFFECTS["isolator_scatter"], 0)
+    assert fit.chi2 < fit.n_data - fit.n_parameters + 3 * math.sqrt(2 * (fit.n_data - fit.n_parameters))
+    assert fit.parameters["scatter_axial"] == pytest.approx(truth.size["s_v"], abs=3 * fit.std["scatter_axial"])
+
+
+def test_a_support_fitted_just_beyond_its_range_stays_in_the_tie_and_is_not_confident():
+    """Blind case (seed 26, screen6, shapes): a slab under the feet whose inertia is not the catalogue
+    support's fits the data with its centre of mass 8 cm above the feet, 8 standard deviations beyond the
+    plausible range's edge (0) but within fitting.PLAUSIBLE_MARGIN of it: the support keeps its probability
+    and its place in the tie, and the verdict is not confident and names the parameter."""
+    data, _ = blind.make_case(26, "foundation", machine="screen6")
+    report = diagnose_effects(parse(data))
+    support = next(f for f in report.ranked if f.effect == "foundation")
+    depth = support.parameters["found_depth"]
+    assert depth < -3 * support.std["found_depth"] < 0  # beyond the edge by more than its std
+    assert support.plausible and support.outside_range == ("found_depth",)
+    assert "foundation" in report.tie and not report.confident
+    assert "found_depth beyond the plausible range" in report.verdict
+
+
 def test_a_turned_channel_needs_the_layout_and_the_shapes():
     data = _campaign_from(None, {})
     fit = fit_candidate(parse(data), EFFECTS["sensor_turned"])

@@ -99,7 +99,8 @@ class CandidateModel:
         others at their start; for an effect of two or more parameters with signed ones (a height, an offset)
         each signed parameter (EffectParameter.both_sides) at half its plausible bound on either side, the
         others at the middle of their range (at its start, often 0, the effect vanishes, the signed one has no
-        gradient and slides to whichever side the unknowns prefer); last the middle of the plausible range. Sets
+        gradient and slides to whichever side the unknowns prefer); last the middle of the plausible range, and
+        where that puts a signed parameter off zero (a lopsided range) its mirror image through zero. Sets
         ``mandatory_starts``: the first starts, which always run (the others run only while the fit stays
         above noise level)."""
         base = [math.log(self.start_unknowns[u]) for u in self.unknown]
@@ -135,7 +136,13 @@ class CandidateModel:
                         starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
             self.mandatory_starts = len(starts)
         if params:
-            starts.append(vector([0.5 * (p.plausible[0] + p.plausible[1]) for p in params]))
+            middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
+            starts.append(vector(middle))
+            # a signed parameter whose range is lopsided (a scatter of -0.5 to 1) has its middle on one side: its
+            # mirror image through zero too (a softer isolator's minimum is not reached from a stiffer start)
+            mirror = [-v if p.plausible[0] < 0 < p.plausible[1] else v for p, v in zip(params, middle, strict=True)]
+            if mirror != middle:
+                starts.append(vector(mirror))
         return starts
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

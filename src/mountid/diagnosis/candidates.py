@@ -141,8 +141,8 @@ def fit_pairs(
     the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
     fits (one member's fit with the other nil, and the other way round), the settings.pair_count most promising
     fitted from all of pair_starts, a scatter pair at the scatter's best isolator. Returns the fits and the
-    screened pairs not fitted. (diagnose_effects calls it when no single effect explains the gap: fits it
-    within its uncertainty and predicts the held-out modes.)"""
+    screened pairs not fitted (each once, at its most promising isolator or channel). (diagnose_effects calls it
+    when no single effect explains the gap: fits it within its uncertainty and predicts the held-out modes.)"""
     singles = [
         f
         for f in fits
@@ -177,10 +177,12 @@ def fit_pairs(
         if both.name not in best or fit.chi2 < best[both.name].chi2:
             best[both.name] = replace(fit, log_prior=math.log(settings.pair_prior))
     out, fitted = list(best.values()), set(best)
-    screened = [
-        ScreenedPair(b.name, promise, nominal.n_data, k) for promise, b, _, _, k in promising if b.name not in fitted
-    ]
-    return out, screened
+    # a pair not fitted, once, at its most promising isolator (channel)
+    screened: dict[str, ScreenedPair] = {}
+    for promise, b, _, _, k in promising:
+        if b.name not in fitted and b.name not in screened:
+            screened[b.name] = ScreenedPair(b.name, promise, nominal.n_data, k)
+    return out, list(screened.values())
 
 
 def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit) -> list[np.ndarray]:
@@ -243,8 +245,10 @@ def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, predictiv
 
 def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     """Whether the data rule a candidate out: it is fitted with degrees of freedom to spare and does not fit
-    within its uncertainty (a candidate of as many parameters as data, or more, is not ruled out by them)."""
-    return f.n_data > f.n_parameters and not fits_within_uncertainty(f, settings)
+    within its uncertainty, or fits only with an effect parameter beyond its plausible range (outside_range: it
+    keeps a probability, fitting.PLAUSIBLE_MARGIN, but does not stand against a candidate that explains the
+    gap). A candidate of as many parameters as data, or more, is not ruled out by them."""
+    return f.n_data > f.n_parameters and (not fits_within_uncertainty(f, settings) or bool(f.outside_range))
 
 
 def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, scale: float = 1.0) -> bool:
@@ -260,13 +264,15 @@ def _accepts(chi2: float, dof: int, settings: DiagnosisSettings) -> bool:
 
 
 def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
-    """How much of the gap each of the (up to three) best candidates explains."""
+    """How much of the gap each of the (up to three) best candidates explains (and which of its parameters lie
+    beyond their plausible range, where that kept it from explaining the gap)."""
     parts = []
     for f in fits[:3]:
         share = 1 - f.chi2 / nominal.chi2 if nominal.chi2 > 0 else math.nan
         parts.append(
             f"{f.effect}{' at ' + f.variant if f.variant else ''} removes {share:.0%} of the chi^2, held-out "
             f"median {nominal.held_out_median:.1f} -> {f.held_out_median:.1f} sigma"
+            + (f" ({', '.join(f.outside_range)} beyond the plausible range)" if f.outside_range else "")
         )
     return "; ".join(parts)
 

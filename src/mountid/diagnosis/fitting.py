@@ -84,7 +84,7 @@ class CandidateFit:
     ranking; -inf where its probability is 0 by rule)."""
     outside_range: tuple[str, ...] = ()
     """Effect parameters whose fitted value lies outside the plausible range beyond RANGE_TOLERANCE
-    (``plausible`` allows a standard deviation beyond it; a confident verdict allows none: candidates.explains)."""
+    (``plausible`` allows more, PLAUSIBLE_MARGIN; a confident verdict allows none: candidates.explains)."""
     state: FitState | None = field(default=None, repr=False, compare=False)
     """The fit's state (None when the candidate is not applicable)."""
 
@@ -327,6 +327,14 @@ it by more than its standard deviation or this share of the range's width, which
 at the edge of a range (a support right under the feet) stays inside, a support of a few kg under an
 800 kg machine does not."""
 
+PLAUSIBLE_MARGIN = 0.05
+"""A fitted effect parameter makes its candidate implausible (probability 0) when it lies outside its plausible
+range by more than its standard deviation or this share of the range's width (in the fit's own units: log for
+positive ranges), whichever is larger. A truth at the edge of a range, fitted a little beyond it by a model
+that only approximates its geometry, keeps its probability: a slab under the feet whose inertia differs from
+the catalogue support's fits 8 cm above them at 8 standard deviations. A confident verdict allows less
+(RANGE_TOLERANCE: the smaller of the two)."""
+
 POLISH = 10.0
 """A fit whose best start ran out of evaluations is carried on when its chi^2 is within POLISH times the
 noise level (mean plus three standard deviations of chi^2)."""
@@ -420,15 +428,17 @@ def fit_candidate(
     reasons, outside = [], []
     for j, (p, log) in enumerate(zip(model.effect_parameters, model.log_scaled, strict=True), len(model.unknown)):
         lo, hi = (v * model.scales[p.scale] for v in p.plausible)
-        v, s = phys[p.name], std[p.name]
+        v = phys[p.name]
         # outside by more than its standard deviation or RANGE_TOLERANCE of the range (in the fit's own
         # units: log for positive ranges), whichever is smaller
         a, b = (math.log(x) for x in p.plausible) if log else p.plausible
         slack = min(spread[j], RANGE_TOLERANCE * (b - a))
         if not a - slack <= theta[j] <= b + slack:
             outside.append(p.name)
-        if not lo - s <= v <= hi + s:
-            reasons.append(f"{p.name} = {v:.3g} {p.unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
+        margin = max(spread[j], PLAUSIBLE_MARGIN * (b - a))
+        if not a - margin <= theta[j] <= b + margin:
+            unit = "" if p.unit == "1" else f" {p.unit}"
+            reasons.append(f"{p.name} = {v:.3g}{unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
     evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model))
     pred = model.predict(theta)

@@ -69,15 +69,22 @@ def _print_candidates(effects) -> None:
         f"probability {n.probability:.3g}), by posterior probability:"
     )
     width = max([22, *(len(f.effect) + 1 for f in effects.ranked)])
-    print(f"  {'effect':{width}s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>17s}  parameters (+- std)")
-    print(f"  {'':{width}s}{'':>8s}{'':>9s}{'RMS | median':>17s}  (held-out errors in sigma)")
+    print(f"  {'effect':{width}s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>25s}  parameters (+- std)")
+    print(f"  {'':{width}s}{'':>8s}{'':>9s}{'RMS | median | pred.':>25s}  (held-out errors in sigma of the")
+    print(f"  {'':{width}s}{'':>8s}{'':>9s}{'':>25s}  measurement; pred.: median in the prediction's own sigma)")
     for f in ranked:
-        ho = f"{f.held_out_rms:8.3g} | {f.held_out_median:5.3g}" if f.held_out_rms == f.held_out_rms else f"{'-':>16s}"
+        ho = (
+            f"{f.held_out_rms:8.3g} | {f.held_out_median:6.3g} | {f.held_out_median_predictive:5.3g}"
+            if f.held_out_rms == f.held_out_rms
+            else f"{'-':>24s}"
+        )
         params = ", ".join(
             f"{k} = {v:.4g} +- {f.std[k]:.2g}" for k, v in f.parameters.items() if k not in effects.nominal.parameters
         )
         mark = " [tie]" if f.effect in effects.tie else ""
         mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
+        if f.plausible and f.outside_range:
+            mark += f" [beyond the plausible range: {', '.join(f.outside_range)}; not confident]"
         where = f" at {f.variant}" if f.variant else ""
         print(f"  {f.effect:{width}s}{f.probability:8.3f} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
     for f in effects.ranked:
