@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: all demo test fuzz lint format generate check-generated bench core-check clean
+.PHONY: all demo test fuzz lint format generate check-generated bench bench-blind core-check clean
 
 all: test
 
@@ -51,8 +51,15 @@ core-check:
 	cd build && ../$(CORE)/bin/mountid identify kid300 --measured x=17.71 psi=64.1
 	! $(CORE)/bin/python -c "import sympy" 2>/dev/null
 
+# blind cases per machine and campaign kind (60: three of each truth; the calibration needs a few hundred)
+BLIND_CASES ?= 60
+
 bench: $(STAMP)
-	$(PY) -m benchmarks
+	$(PY) -m benchmarks --blind-cases $(BLIND_CASES)
+
+# the diagnosis benchmarks alone: one diagnosis's time and the blind validation
+bench-blind: $(STAMP)
+	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES)
 
 clean:
 	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache .ruff_cache .hypothesis

@@ -5,7 +5,9 @@ inside the reported tie >= 98 %; confident and wrong <= 1 % (2 % with frequencie
 and outside the catalogue; outside the catalogue 'not explained' or a tie >= 90 %; calibration error <= 0.05;
 held-out gap reduction median >= 80 %), through dask (1000 cases < 10 minutes on 2 cores).
 
-The blind cases use seeds from 0; DiagnosisSettings.evidence_temperature was calibrated on seeds 5000-5035."""
+The blind cases use seeds from 0; DiagnosisSettings.evidence_temperature was calibrated on seeds 5000-5039,
+6000-6039 and 7000-7099. ``python -m benchmarks.diagnosis --cases N`` (``make bench-blind BLIND_CASES=N``)
+runs these alone with N cases per machine and kind."""
 
 from __future__ import annotations
 
@@ -89,3 +91,13 @@ def validation(
         f"{per:.2f} s per case: 1000 cases would take {1000 * per / 60:.1f} min (target < 10 min)"
     )
     return results
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis", description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=60, help="blind cases per machine and campaign kind")
+    args = parser.parse_args()
+    speed()
+    validation(args.cases)
