@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.candidates import diagnose_effects
+from mountid.diagnosis.candidates import diagnose_effects, explains, sized
 from mountid.diagnosis.fitting import PRIOR_WEIGHT, fit_candidate, prior_widths
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS, Pair
@@ -340,6 +340,22 @@ def test_a_support_fitted_just_beyond_its_range_stays_in_the_tie_and_is_not_conf
     assert support.plausible and support.outside_range == ("found_depth",)
     assert "foundation" in report.tie and not report.confident
     assert "found_depth beyond the plausible range" in report.verdict
+
+
+def test_an_effect_whose_size_the_data_do_not_determine_is_not_confident():
+    """Blind case (seed 237, skid1plane, shapes): a gently hardening isolator, outside the catalogue. A belt fits
+    all six modes (chi^2 40 for 32 degrees of freedom, held-out median 2 sigma, probability 1) at 3.7 +- 4.6 kN/m
+    with its height anywhere within +-6 m: a size the data do not determine, so no confident verdict."""
+    data, _ = blind.make_case(237, "nonlinear_isolator", machine="skid1plane")
+    report = diagnose_effects(parse(data))
+    best = report.best
+    assert best.effect == "drive_belt" and best.probability > 0.95 and explains(best)
+    assert best.std["k_belt"] > best.parameters["k_belt"] and not sized(best)
+    assert report.kind == "tie" and not report.confident
+    assert "do not determine the size of drive_belt" in report.verdict
+    # a belt the data hold: the README's confident example
+    belt = diagnose_effects(parse(blind.example(20, "drive_belt")))
+    assert belt.confident and sized(belt.best)
 
 
 def test_a_turned_channel_needs_the_layout_and_the_shapes():

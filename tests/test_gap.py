@@ -158,6 +158,9 @@ def test_diagnose_text_names_the_candidates_and_the_verdict(capsys, tmp_path):
     text = capsys.readouterr().out
     assert "drive_belt" in text and "gap [rad/s] before (nominal) -> after (drive_belt)" in text
     assert text.rstrip().endswith("verdict: significant gap, explained by drive_belt (probability 1.00)")
+    # the belt's row: held-out RMS, median in the measurement's sigma, median in the prediction's own sigma
+    row = next(line.split() for line in text.splitlines() if line.strip().startswith("drive_belt "))
+    assert row[4] == row[6] == "|" and float(row[5]) > float(row[7]) > 0
 
 
 def test_twin_map_carries_the_sign_of_each_coupling_entry():

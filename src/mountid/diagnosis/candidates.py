@@ -243,6 +243,19 @@ def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, predictiv
     return math.isfinite(median) and median <= settings.held_out_limit
 
 
+def sized(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """Whether the fit determines the size of each of its effects: one of the effect's magnitudes (parameters
+    of a positive plausible range) within settings.size_spread relative standard deviation (an effect without
+    one, a scatter or a height, counts as sized: its signed parameters are its size)."""
+    for name in f.effect.split("+"):
+        magnitudes = [p.name for p in EFFECTS[name].parameters if p.plausible[0] > 0]
+        if magnitudes and not any(
+            f.parameters[m] > 0 and f.std.get(m, math.inf) <= settings.size_spread * f.parameters[m] for m in magnitudes
+        ):
+            return False
+    return True
+
+
 def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     """Whether the data rule a candidate out: it is fitted with degrees of freedom to spare and does not fit
     within its uncertainty, or fits only with an effect parameter beyond its plausible range (outside_range: it
@@ -367,6 +380,7 @@ def rank(
     elif (
         best is not None
         and explains(best, settings)
+        and sized(best, settings)
         and best.probability >= settings.confidence
         and all(rejected(f, settings) for f in candidates[1:])
         and not open_
@@ -387,6 +401,15 @@ def rank(
             verdict = f"significant gap; explained equally well by {names} (a tie)"
         else:
             verdict = f"significant gap, explained by {tie[0].effect} ({tie[0].probability:.2f}), not confidently"
+        if best is not None and explains(best, settings) and not sized(best, settings):
+            sizes = ", ".join(
+                f"{p.name} = {best.parameters[p.name]:.3g} +- {best.std.get(p.name, math.inf):.2g}"
+                + ("" if p.unit == "1" else f" {p.unit}")
+                for name in best.effect.split("+")
+                for p in EFFECTS[name].parameters
+                if p.plausible[0] > 0
+            )
+            verdict += f"; the data do not determine the size of {best.effect} ({sizes})"
         if not any(explains(f, settings) for f in tie):
             loose = next(f for f in tie if explains(f, settings, predictive=True))
             verdict += (

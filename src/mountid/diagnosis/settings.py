@@ -25,6 +25,11 @@ class DiagnosisSettings:
     held_out_limit: float = 3.0
     """A candidate predicts the modes it was not fitted to when the median |held-out error| is within this
     many standard deviations (leave one mode out)."""
+    size_spread: float = 1.0
+    """A confident verdict needs the size of each effect determined: one of its magnitudes (a parameter of a
+    positive plausible range: a stiffness, a mass) within this relative standard deviation. A belt fitted at
+    3.7 +- 4.6 kN/m with its height anywhere within +-6 m fits a hardening isolator's six modes, but names no
+    belt an engineer could look for."""
     significance: float = 2.0
     """A single residual (or a twin pair's difference) is flagged beyond this many standard deviations."""
     pair_count: int = 5

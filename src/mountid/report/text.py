@@ -84,7 +84,7 @@ def _print_candidates(effects) -> None:
         mark = " [tie]" if f.effect in effects.tie else ""
         mark += "" if f.plausible else f" [implausible: {f.implausible_reason}]"
         if f.plausible and f.outside_range:
-            mark += f" [beyond the plausible range: {', '.join(f.outside_range)}; not confident]"
+            mark += f" [{', '.join(f.outside_range)} beyond the plausible range]"
         where = f" at {f.variant}" if f.variant else ""
         print(f"  {f.effect:{width}s}{f.probability:8.3f} {f.chi2:8.4g} {ho}  {params}{where}{mark}")
     for f in effects.ranked:
