@@ -58,6 +58,12 @@ class EffectParameter:
     wrong side, as a height does). False where the machine's symmetry or the mode shapes decide the sign
     from any start (a horizontal position)."""
 
+    @property
+    def magnitude(self) -> bool:
+        """A size of the effect that is positive throughout its plausible range (a stiffness, a mass): fitted
+        in log, and its relative standard deviation says whether the data determine the effect's size."""
+        return self.plausible[0] > 0
+
 
 @dataclass(frozen=True)
 class Effect:

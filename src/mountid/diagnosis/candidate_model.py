@@ -74,7 +74,7 @@ class CandidateModel:
         self.scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
         self.length = self.scales["length"]
         self.effect_parameters = effect.parameters if effect else ()
-        self.log_scaled = tuple(p.plausible[0] > 0 for p in self.effect_parameters)
+        self.log_scaled = tuple(p.magnitude for p in self.effect_parameters)
         measured = [campaign.modes[lab].frequency for lab in self.labels]
         self.omega_ref = float(np.exp(np.mean(np.log(measured))))
         # modes are paired with labels by shape and frequency: the measured ones where measured, else the

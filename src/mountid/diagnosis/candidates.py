@@ -248,7 +248,7 @@ def sized(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     of a positive plausible range) within settings.size_spread relative standard deviation (an effect without
     one, a scatter or a height, counts as sized: its signed parameters are its size)."""
     for name in f.effect.split("+"):
-        magnitudes = [p.name for p in EFFECTS[name].parameters if p.plausible[0] > 0]
+        magnitudes = [p.name for p in EFFECTS[name].parameters if p.magnitude]
         if magnitudes and not any(
             f.parameters[m] > 0 and f.std.get(m, math.inf) <= settings.size_spread * f.parameters[m] for m in magnitudes
         ):
@@ -407,7 +407,7 @@ def rank(
                 + ("" if p.unit == "1" else f" {p.unit}")
                 for name in best.effect.split("+")
                 for p in EFFECTS[name].parameters
-                if p.plausible[0] > 0
+                if p.magnitude
             )
             verdict += f"; the data do not determine the size of {best.effect} ({sizes})"
         if not any(explains(f, settings) for f in tie):
