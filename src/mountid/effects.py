@@ -64,6 +64,11 @@ class EffectParameter:
         in log, and its relative standard deviation says whether the data determine the effect's size."""
         return self.plausible[0] > 0
 
+    @property
+    def unit_suffix(self) -> str:
+        """The unit as it follows a number in text: ' N/m', nothing for a ratio (unit '1')."""
+        return "" if self.unit == "1" else f" {self.unit}"
+
 
 @dataclass(frozen=True)
 class Effect:

@@ -45,7 +45,7 @@ from mountid.diagnosis.fitting import (
 )
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.diagnosis.strategies import strategy
-from mountid.effects import CATALOGUE, EFFECTS, Effect, pair
+from mountid.effects import CATALOGUE, EFFECTS, Effect, EffectParameter, pair
 
 
 @dataclass(frozen=True)
@@ -243,17 +243,23 @@ def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, predictiv
     return math.isfinite(median) and median <= settings.held_out_limit
 
 
+def _magnitudes(f: CandidateFit) -> list[list[EffectParameter]]:
+    """Per effect of the candidate (two for a pair), its magnitudes (EffectParameter.magnitude)."""
+    return [[p for p in EFFECTS[name].parameters if p.magnitude] for name in f.effect.split("+")]
+
+
 def sized(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     """Whether the fit determines the size of each of its effects: one of the effect's magnitudes (parameters
     of a positive plausible range) within settings.size_spread relative standard deviation (an effect without
     one, a scatter or a height, counts as sized: its signed parameters are its size)."""
-    for name in f.effect.split("+"):
-        magnitudes = [p.name for p in EFFECTS[name].parameters if p.magnitude]
-        if magnitudes and not any(
-            f.parameters[m] > 0 and f.std.get(m, math.inf) <= settings.size_spread * f.parameters[m] for m in magnitudes
-        ):
-            return False
-    return True
+    return all(
+        not magnitudes
+        or any(
+            f.parameters[p.name] > 0 and f.std.get(p.name, math.inf) <= settings.size_spread * f.parameters[p.name]
+            for p in magnitudes
+        )
+        for magnitudes in _magnitudes(f)
+    )
 
 
 def rejected(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
@@ -403,11 +409,9 @@ def rank(
             verdict = f"significant gap, explained by {tie[0].effect} ({tie[0].probability:.2f}), not confidently"
         if best is not None and explains(best, settings) and not sized(best, settings):
             sizes = ", ".join(
-                f"{p.name} = {best.parameters[p.name]:.3g} +- {best.std.get(p.name, math.inf):.2g}"
-                + ("" if p.unit == "1" else f" {p.unit}")
-                for name in best.effect.split("+")
-                for p in EFFECTS[name].parameters
-                if p.magnitude
+                f"{p.name} = {best.parameters[p.name]:.3g} +- {best.std.get(p.name, math.inf):.2g}{p.unit_suffix}"
+                for magnitudes in _magnitudes(best)
+                for p in magnitudes
             )
             verdict += f"; the data do not determine the size of {best.effect} ({sizes})"
         if not any(explains(f, settings) for f in tie):

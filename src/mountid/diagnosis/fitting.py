@@ -437,8 +437,7 @@ def fit_candidate(
             outside.append(p.name)
         margin = max(spread[j], PLAUSIBLE_MARGIN * (b - a))
         if not a - margin <= theta[j] <= b + margin:
-            unit = "" if p.unit == "1" else f" {p.unit}"
-            reasons.append(f"{p.name} = {v:.3g}{unit} outside the plausible range [{lo:.3g}, {hi:.3g}]")
+            reasons.append(f"{p.name} = {v:.3g}{p.unit_suffix} outside the plausible range [{lo:.3g}, {hi:.3g}]")
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
     evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model))
     pred = model.predict(theta)
