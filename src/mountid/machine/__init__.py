@@ -1,7 +1,7 @@
 """The user's view of a generated module: checked inputs, the two directions (frequencies and
 identification), matrices, the first-order form and sensor rows, calling generated functions by name.
 
-Depends on the runtime and the generated modules only (numpy); the engine is imported lazily, and only to
+Depends on the runtime and the generated modules only (numpy, scipy); the engine is imported lazily, and only to
 generate a description file that is not cached yet.
 """
 
@@ -11,6 +11,7 @@ from mountid.machine.dynamics import (
     damped_pole_derivatives,
     damped_poles,
     matrices,
+    pair_with_undamped,
     sensor_row,
     state_matrix,
     unit_vector,
@@ -29,6 +30,7 @@ __all__ = [
     "damped_poles",
     "matrices",
     "module_from_description",
+    "pair_with_undamped",
     "sensor_row",
     "shipped_machines",
     "state_matrix",

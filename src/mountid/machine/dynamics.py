@@ -11,6 +11,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import scipy.linalg
+import scipy.optimize
 from numpy.typing import NDArray
 
 from mountid.errors import InputError
@@ -37,9 +39,10 @@ def state_matrix(mass: NDArray, stiffness: NDArray, damping: NDArray) -> NDArray
 
 def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray) -> NDArray[np.complex128]:
     """The pole p (Im p > 0) of each mode of M p^2 + B p + C = 0 [rad/s], in the order of the undamped
-    eigenvalues ``lam`` [rad^2/s^2]: the k-th lowest damped frequency goes to the mode with the k-th lowest
-    lam (damping does not reorder the modes of a lightly damped mount). A mode that does not oscillate
-    (overdamped) has p = 0; those are given to the highest modes.
+    eigenvalues ``lam`` [rad^2/s^2] (the k-th lowest lam is the k-th lowest eigenvalue of C, M): each
+    pole goes to the undamped mode whose shape it holds most of (:func:`pair_with_undamped`), so that heavy
+    damping that lowers one of two close modes below the other does not swap their labels. A mode that does
+    not oscillate (overdamped) has p = 0.
 
     The damped frequency a spectrum shows is ``p.imag`` (omega_d); the natural frequency a pole fit of a
     free decay reports is ``abs(p)`` (omega_n, with zeta = -p.real / abs(p))."""
@@ -57,10 +60,38 @@ def damped_modes(
     upper = upper[np.argsort(poles[upper].imag, kind="stable")][:n]
     out = np.zeros(n, dtype=complex)
     shapes = np.zeros((n, n), dtype=complex)
-    slots = np.argsort(lam, kind="stable")[: len(upper)]
+    ranks = pair_with_undamped(mass, stiffness, vectors[:n, upper], poles[upper].imag)
+    slots = np.argsort(lam, kind="stable")[ranks]
     out[slots] = poles[upper]
     shapes[:, slots] = vectors[:n, upper]
     return out, shapes
+
+
+def pair_with_undamped(
+    mass: NDArray, stiffness: NDArray, shapes: NDArray, frequencies: NDArray, rtol: float = 1e-9
+) -> NDArray[np.intp]:
+    """For each damped mode (complex ``shapes``, columns, with damped ``frequencies`` [rad/s]) the rank of the
+    undamped mode it is (0 = the lowest eigenvalue of C, M), one each: the assignment that keeps the most of
+    the damped shapes' mass-weighted content |phi^T M x|^2 / x^H M x (scipy.optimize.linear_sum_assignment).
+    Undamped eigenvalues within ``rtol`` of each other (twins) have no preferred basis: a damped mode's content
+    in them is its projection on their span, and among themselves they take the damped modes in the order of
+    their damped frequencies."""
+    n = len(mass)
+    lam, phi = scipy.linalg.eigh(stiffness, mass)
+    group = np.zeros(n, dtype=int)
+    for k in range(1, n):
+        same = abs(lam[k] - lam[k - 1]) <= rtol * max(abs(lam[k]), abs(lam[k - 1]))
+        group[k] = group[k - 1] if same else group[k - 1] + 1
+    weight = np.einsum("ak,ab,bk->k", np.conj(shapes), mass, shapes).real
+    content = np.abs(phi.T @ mass @ shapes) ** 2 / np.where(weight > 0, weight, 1.0)
+    # a damped mode's content in a group of twins, repeated for each of the group's slots
+    by_group = np.array([content[group == g].sum(axis=0) for g in group])
+    _, column = scipy.optimize.linear_sum_assignment(by_group.T, maximize=True)
+    ranks = np.empty(shapes.shape[1], dtype=np.intp)
+    for g in np.unique(group[column]):
+        mine = np.flatnonzero(group[column] == g)  # damped modes given to this group, in rank order
+        ranks[mine[np.argsort(frequencies[mine], kind="stable")]] = np.sort(column[mine])
+    return ranks
 
 
 def damped_pole_derivatives(

@@ -1,0 +1,66 @@
+"""Damped poles of the machine layer (mountid.machine.dynamics): which undamped mode each pole belongs to."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.stats
+
+from mountid.machine import damped_poles, pair_with_undamped, state_matrix
+
+
+def _uncoupled_in_a_turned_basis(c: list[float], b: list[float], seed: int = 0):
+    """M = I, C = Q diag(c) Q^T, B = Q diag(b) Q^T: mode k is one degree of freedom of stiffness c[k] and
+    damping b[k] in the basis Q, with the pole -b/2 + i sqrt(c - b^2/4) (0 when it does not oscillate)."""
+    q = scipy.stats.special_ortho_group.rvs(len(c), random_state=seed)
+    mass = np.eye(len(c))
+    stiffness, damping = q @ np.diag(c) @ q.T, q @ np.diag(b) @ q.T
+    exact = np.array(
+        [complex(-bk / 2, np.sqrt(ck - bk**2 / 4)) if ck > bk**2 / 4 else 0j for ck, bk in zip(c, b, strict=True)]
+    )
+    return mass, stiffness, damping, exact
+
+
+def test_heavy_damping_that_reorders_two_close_modes_does_not_swap_their_labels():
+    """Two modes at 10 and 10.2 rad/s: damping the upper one at zeta 0.59 puts its damped frequency (8.3 rad/s)
+    below the lower one's. Pairing by damped frequency would swap them; the poles stay with their shapes."""
+    mass, stiffness, damping, exact = _uncoupled_in_a_turned_basis([100.0, 104.0, 400.0], [0.5, 12.0, 1.0])
+    assert exact[1].imag < exact[0].imag  # the reordering this test is about
+    lam = np.array([100.0, 104.0, 400.0])
+    assert damped_poles(mass, stiffness, damping, lam) == pytest.approx(exact, rel=1e-12)
+    # the modes in another order: the poles follow lam, not their position
+    turned = lam[[2, 0, 1]]
+    assert damped_poles(mass, stiffness, damping, turned) == pytest.approx(exact[[2, 0, 1]], rel=1e-12)
+
+
+def test_a_lightly_damped_mount_is_paired_as_by_frequency():
+    mass, stiffness, damping, exact = _uncoupled_in_a_turned_basis([50.0, 80.0, 120.0, 300.0], [0.2, 0.3, 0.1, 0.5], 3)
+    assert damped_poles(mass, stiffness, damping, np.array([50.0, 80.0, 120.0, 300.0])) == pytest.approx(exact)
+
+
+def test_twins_take_their_damped_modes_in_frequency_order_whatever_basis_eigh_returns():
+    """Two undamped modes at exactly 100 rad^2/s^2 have no preferred basis: both damped modes belong to the
+    pair, the lower damped frequency to the first slot."""
+    mass, stiffness, damping, exact = _uncoupled_in_a_turned_basis([100.0, 100.0, 150.0], [1.0, 3.0, 1.0], 5)
+    poles = damped_poles(mass, stiffness, damping, np.array([100.0, 100.0, 150.0]))
+    assert poles[:2] == pytest.approx(sorted(exact[:2], key=lambda p: p.imag), rel=1e-9)
+    assert poles[2] == pytest.approx(exact[2], rel=1e-9)
+
+
+def test_a_mode_that_does_not_oscillate_has_no_pole_and_the_others_keep_their_labels():
+    mass, stiffness, damping, exact = _uncoupled_in_a_turned_basis([100.0, 110.0, 200.0], [0.5, 30.0, 1.0], 2)
+    assert exact[1] == 0
+    assert damped_poles(mass, stiffness, damping, np.array([100.0, 110.0, 200.0])) == pytest.approx(exact)
+
+
+def test_pair_with_undamped_is_one_to_one():
+    rng = np.random.default_rng(4)
+    a = rng.standard_normal((6, 6))
+    mass = a @ a.T + 6 * np.eye(6)
+    b = rng.standard_normal((6, 6))
+    stiffness = 100 * (b @ b.T + np.eye(6))
+    damping = 0.3 * np.abs(b @ b.T)
+    poles, vectors = np.linalg.eig(state_matrix(mass, stiffness, damping))
+    upper = poles.imag > 0
+    ranks = pair_with_undamped(mass, stiffness, vectors[:6, upper], poles[upper].imag)
+    assert sorted(ranks) == list(range(6))
