@@ -128,3 +128,23 @@ def test_every_truth_draws_on_every_machine(name):
         assert all(np.all(np.isfinite(a)) for a in modes), effect
         changed = [not np.allclose(a, b, rtol=1e-9, atol=1e-12) for a, b in zip(modes, without, strict=True)]
         assert any(changed), f"the truth {effect} does not change the modes of {name}"
+
+
+def test_a_measured_mode_is_one_pole_however_heavy_damping_reorders_the_modes():
+    """Blind case (seed 90, genset8, damping 3.4 times the described): z and psi (37.6 and 38.5 rad/s damped) have
+    damping ratios 0.28 and 0.38, and the more damped one's damped frequency falls below the other's. Each
+    mode's frequency and damping ratio are one pole of the truth (its frequency was once the pole of the next
+    damped frequency, its damping ratio the pole of its shape)."""
+    machine = Machine.resolve("genset8")
+    truth = blind_truth.TruthMachine("genset8")
+    _, t = blind.make_case(90, "damping", kind="damping", machine="genset8")
+    omega, shapes = blind_truth.true_modes(truth, machine, t)
+    zeta = blind_truth.true_damping_ratios(truth, t, shapes)
+    m, c, b = blind_truth.truth_matrices(truth, t)
+    n = len(m)
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
+    poles = np.linalg.eigvals(a)
+    measured = omega / np.sqrt(1 - zeta**2) * (-zeta + 1j * np.sqrt(1 - zeta**2))  # |p| from omega_d and zeta
+    for p in measured:
+        assert np.min(np.abs(poles - p)) < 1e-9 * abs(p)
+    assert max(zeta) > 0.35  # heavy enough to reorder z and psi

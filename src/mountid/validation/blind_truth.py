@@ -64,11 +64,12 @@ from pathlib import Path
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 import tomllib
 
 from mountid.diagnosis.candidate_model import label_modes, scaled_unit
 from mountid.effects import STANDARD_GRAVITY
-from mountid.machine import Machine, damped_poles
+from mountid.machine import Machine
 
 REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
@@ -506,7 +507,7 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
                 w = w_new
             omega[i] = w_new
     elif "damping" in parts:
-        omega = damped_poles(m, c, b, lam)[order].imag
+        omega = true_poles(m, c, b, shapes).imag
     elif "sensor_error" in parts:
         shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
     elif "sensor_turned" in parts:
@@ -561,20 +562,28 @@ def _canonical_twins(
 
 
 def true_damping_ratios(tm: TruthMachine, t: Truth, shapes: np.ndarray) -> np.ndarray:
-    """Damping ratio of each mode (in the machine's mode order, paired with ``shapes`` by MAC): -Re p / |p| of
-    the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
-    m, c, b = truth_matrices(tm, t)
+    """Damping ratio of each mode (in the machine's mode order, paired with ``shapes`` by :func:`true_poles`):
+    -Re p / |p| of the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
+    p = true_poles(*truth_matrices(tm, t), shapes)
+    size = np.abs(p)
+    return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
+
+
+def true_poles(m: np.ndarray, c: np.ndarray, b: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """The damped pole (Im p > 0) [rad/s] of each mode of ``shapes`` (undamped, body coordinates, columns): one
+    pole per mode, the assignment that keeps the most of each pole's shape in its mode (normalised overlap of
+    the first-order form's eigenvectors with the shapes, scipy.optimize.linear_sum_assignment). A measured mode
+    is one pole: its frequency and its damping ratio both come from it, however heavy damping reorders them (a
+    mode that does not oscillate gets p = 0)."""
     n = m.shape[0]
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
     poles, vectors = np.linalg.eig(a)
     upper = poles.imag > 0
-    poles, vectors = poles[upper], vectors[:n, upper]
-    out = np.empty(shapes.shape[1])
-    for i in range(shapes.shape[1]):
-        phi = shapes[:, i]
-        fit = np.abs(np.conj(vectors[: len(phi)]).T @ phi) / np.linalg.norm(vectors[: len(phi)], axis=0)
-        p = poles[int(np.argmax(fit))]
-        out[i] = -p.real / abs(p)
+    poles, vectors = poles[upper], vectors[: shapes.shape[0], upper]
+    fit = np.abs(np.conj(vectors).T @ shapes) / np.linalg.norm(vectors, axis=0)[:, None]
+    rows, columns = scipy.optimize.linear_sum_assignment(fit, maximize=True)
+    out = np.zeros(shapes.shape[1], dtype=complex)  # 0: a mode that does not oscillate
+    out[columns] = poles[rows]
     return out
 
 
