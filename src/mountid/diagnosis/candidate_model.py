@@ -175,6 +175,17 @@ class CandidateModel:
             out[p.name] = float((np.exp(v) if log else v) * self.scales[p.scale])
         return out
 
+    def mirrored(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` with each signed effect parameter (a plausible range across zero: a scatter, a turn, an
+        offset) through zero: a per-isolator fit's other-sign start (a softer isolator where the best one was
+        stiffer)."""
+        out = theta.copy()
+        n = len(self.unknown)
+        for k, (p, log) in enumerate(zip(self.effect_parameters, self.log_scaled, strict=True)):
+            if not log and p.plausible[0] < 0 < p.plausible[1]:
+                out[n + k] = -out[n + k]
+        return out
+
     def vector(self, physical: dict[str, float]) -> np.ndarray:
         """The flat vector of physical values (inverse of :meth:`physical`)."""
         out = [math.log(physical[u]) for u in self.unknown]

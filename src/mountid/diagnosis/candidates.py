@@ -111,18 +111,27 @@ def fit_all(
                 fit = fit_candidate(campaign, effect, names.index(before.variant), before.theta)
                 fits.append(replace(fit, log_evidence=fit.log_evidence + offset, evidence_offset=offset))
                 continue
-            # the first variant from the default starts; the others (often mirror images) start from it
+            # the first variant from the default starts; the others (often mirror images) from it or from its
+            # signed parameters through zero, whichever promises more (a stiffer isolator's fit does not reach a
+            # softer one elsewhere)
             variants = [fit_candidate(campaign, effect, 0)]
             if not variants[0].applicable:
                 fits.append(variants[0])
                 continue
-            variants += [fit_candidate(campaign, effect, i, variants[0].theta) for i in range(1, len(names))]
+            first = variants[0].theta
+            others = [first, variants[0].state.model.mirrored(first)]
+            variants += [fit_candidate(campaign, effect, i, starts=others, pick=True) for i in range(1, len(names))]
             variants.sort(key=lambda f: f.chi2)
             # one candidate whose isolator (channel) is unknown: its evidence is the mean over them
             evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) + offset)
             terms = tuple(t for v in variants for t in v.state.evidence_terms)
             order = tuple(v.variant for v in variants)
-            state = replace(variants[0].state, evidence_terms=terms, variants_by_fit=order)
+            state = replace(
+                variants[0].state,
+                evidence_terms=terms,
+                variants_by_fit=order,
+                variant_parameters=tuple(v.parameters for v in variants),
+            )
             best = replace(variants[0], log_evidence=evidence, evidence_offset=offset, state=state)
             alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
             if alike:
@@ -139,8 +148,9 @@ def fit_pairs(
 ) -> tuple[list[CandidateFit], list[ScreenedPair]]:
     """Pairs of effects (mountid.effects.pair) where the data leave settings.pair_dof degrees of freedom beyond
     the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
-    fits (one member's fit with the other nil, and the other way round), the settings.pair_count most promising
-    fitted from all of pair_starts, a scatter pair at the scatter's best isolator. Returns the fits and the
+    fits (one member's fit with the other nil, and the other way round) at each of the settings.pair_variants
+    isolators (channels) its per-isolator member fits best, the settings.pair_count most promising by the
+    promise's BIC (chi^2 + k ln n) fitted from all of pair_starts. Returns the fits and the
     screened pairs not fitted (each once, at its most promising isolator or channel). (diagnose_effects calls it
     when no single effect explains the gap: fits it within its uncertainty and predicts the held-out modes.)"""
     singles = [
@@ -165,10 +175,12 @@ def fit_pairs(
         for where in ranked or (None,):
             variant = names.index(where) if where else None
             model = CandidateModel(campaign, both, variant)
-            starts = pair_starts(model, fa, fb)
+            starts = pair_starts(model, fa, fb, where)
             promise = promised_chi2(campaign, model, starts[:2])
             promising.append((promise, both, variant, starts, k))
-    promising.sort(key=lambda x: x[0])
+    # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
+    # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
+    promising.sort(key=lambda x: x[0] + x[4] * math.log(nominal.n_data))
     # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
     # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
     best: dict[str, CandidateFit] = {}
@@ -185,19 +197,33 @@ def fit_pairs(
     return out, list(screened.values())
 
 
-def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit) -> list[np.ndarray]:
+def pair_starts(
+    model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where: str | None = None
+) -> list[np.ndarray]:
     """Starting vectors of a pair's fit from its members' single fits: the first member's fit with the second
-    nil (at its start values), the other way round, and both fitted values with the unknowns of the better."""
+    nil (at its start values), the other way round, and both fitted values with the unknowns of the better. A
+    member fitted per isolator (channel) gives its fit at the pair's isolator ``where`` (its best isolator may
+    be another one, with a scatter of the other sign)."""
     nil = {p.name: p.start * model.scales[p.scale] for p in model.effect_parameters}
-    better = fa if fa.chi2 <= fb.chi2 else fb
-    both = {**nil, **fa.parameters, **fb.parameters, **better.parameters}
-    starts = [model.vector({**nil, **fa.parameters}), model.vector({**nil, **fb.parameters}), model.vector(both)]
+    pa, pb = _parameters_at(fa, where), _parameters_at(fb, where)
+    better = pa if fa.chi2 <= fb.chi2 else pb
+    both = {**nil, **pa, **pb, **better}
+    starts = [model.vector({**nil, **pa}), model.vector({**nil, **pb}), model.vector(both)]
     # a signed parameter with a local minimum on the wrong side (a height): both fitted values with it at half
     # its plausible bound on either side (they run only while the fit stays above noise level)
     for p in model.effect_parameters:
         if p.both_sides and p.plausible[0] < 0 < p.plausible[1]:
             starts += [model.vector({**both, p.name: b / 2 * model.scales[p.scale]}) for b in p.plausible]
     return starts
+
+
+def _parameters_at(fit: CandidateFit, where: str | None) -> dict[str, float]:
+    """A candidate's fitted values at the isolator (channel) ``where`` where it was fitted there, else at its
+    best one."""
+    state = fit.state
+    if where is not None and state is not None and where in state.variants_by_fit and state.variant_parameters:
+        return state.variant_parameters[state.variants_by_fit.index(where)]
+    return fit.parameters
 
 
 def _rank_key(f: CandidateFit) -> tuple:

@@ -31,6 +31,9 @@ class FitState:
     evidence_terms: tuple[tuple[np.ndarray, float], ...] = ()
     variants_by_fit: tuple[str, ...] = ()
     """For an effect fitted per isolator or channel: the variants from the best fitting to the worst."""
+    variant_parameters: tuple[dict[str, float], ...] = ()
+    """The fitted values at each of those variants, in the same order (a pair screened at an isolator starts
+    from its member's fit at that isolator)."""
 
 
 @dataclass(frozen=True)
@@ -293,14 +296,19 @@ def promised_chi2(campaign: Campaign, model: CandidateModel, starts: list[np.nda
     """The smallest chi^2 one Gauss-Newton step from any of ``starts`` predicts (the residuals and Jacobian
     there, the step of the linear least squares with the prior rows): what a fit from there promises, at the
     cost of one Jacobian per start."""
+    return min(promises(campaign, model, starts), default=math.inf)
+
+
+def promises(campaign: Campaign, model: CandidateModel, starts: list[np.ndarray]) -> list[float]:
+    """The chi^2 one Gauss-Newton step from each of ``starts`` predicts (see promised_chi2)."""
     data = Data(campaign, model.length)
     fun, jac = _residual_function(model, data, None)
-    best = math.inf
+    out = []
     for x in starts:
         r, j = fun(x), jac(x)
         step = np.linalg.lstsq(j, -r, rcond=None)[0]
-        best = min(best, float(np.sum((r + j @ step)[: data.n_rows] ** 2)))
-    return best
+        out.append(float(np.sum((r + j @ step)[: data.n_rows] ** 2)))
+    return out
 
 
 def forward_differences(fun, theta: np.ndarray, upper: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
@@ -396,12 +404,16 @@ def fit_candidate(
     variant: int | None = None,
     start: np.ndarray | None = None,
     starts: list[np.ndarray] | None = None,
+    pick: bool = False,
 ) -> CandidateFit:
     """Fit one candidate (None: the nominal model; a Pair: two effects at once) with the unknowns to every
     measured mode (``start``: a single starting vector, e.g. the fit of the same candidate to nearby data;
-    ``starts``: several, the first always run; instead of the default ones)."""
+    ``starts``: several, the first always run, or with ``pick`` only the one whose Gauss-Newton step promises
+    the smallest chi^2 (promised_chi2); instead of the default ones)."""
     model = CandidateModel(campaign, effect, variant)
     data = Data(campaign, model.length)
+    if pick and starts is not None and len(starts) > 1:
+        starts = [starts[int(np.argmin(promises(campaign, model, starts)))]]
     name = effect.name if effect else "none"
     where = model.strategy.variants(campaign)[variant] if variant is not None else ""
     why = model.strategy.inapplicable(model, bool(data.shape_labels))
