@@ -65,7 +65,7 @@ def make_case(
     size = sample(rng, effect, tm)
     t = Truth(effect, size, {u: tm.nominal[u] * rng.uniform(0.8, 1.2) for u in tm.unknown}, machine)
     omega, shapes = true_modes(tm, model, t)
-    zeta = true_damping_ratios(tm, t, shapes)
+    zeta = true_damping_ratios(tm, model, t)
     noise_rng = np.random.default_rng(seed + 1_000_003)
     modes = {}
     unit = scaled_unit(shapes, tm.length)

@@ -19,7 +19,8 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``sensor_misplaced``: one of those twelve channels mounted 10-60 % of the isolators' largest radius off its
   stated point in a random direction (the component along its axis included, which changes nothing), the
   shapes recovered with the assumed geometry;
-- ``damping``: damped frequencies |Im p| of non-proportionally damped isolators;
+- ``damping``: damped frequencies |Im p| of non-proportionally damped isolators (a measured mode is one pole,
+  its frequency and damping ratio, labelled by its shape: ``true_poles``);
 - ``isolator_scatter``: one isolator of rubber from another batch: stiffer or softer in all directions, in
   shear only, or along its axis only;
 - ``cog_height``, ``rotational_stiffness``, ``gravity_preload`` by the same physics;
@@ -481,10 +482,13 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
     raise ValueError(f"no blind truth for the effect {effect!r}: add its size here and its physics to truth_matrices")
 
 
-def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
-    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order. Where the truth has
-    exactly equal frequencies (twins), any combination of them is a mode: each label gets the projection of
-    its nominal mode on their span, so that the shapes do not depend on the basis LAPACK returned."""
+def labelled_modes(
+    tm: TruthMachine, machine: Machine, t: Truth
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray, np.ndarray]:
+    """The truth's M, C, B and its undamped modes in the machine's mode order: squared frequencies [rad^2/s^2]
+    and eigenvectors (n, 6) over all its coordinates (12 with a support). Where the truth has exactly equal
+    frequencies (twins), any combination of them is a mode: each label gets the projection of its nominal mode
+    on their span, so that the shapes do not depend on the basis LAPACK returned."""
     m, c, b = truth_matrices(tm, t)
     lam, vec = scipy.linalg.eigh(c, m)
     ref, ref_lambda = _reference(tm, machine, t)
@@ -492,8 +496,14 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
     share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6])
     order = label_modes(lam, body, ref_lambda, ref, share)
     vec = _canonical_twins(lam, vec, m, order, ref, tm.length)
-    omega = np.sqrt(lam[order])
-    shapes = vec[:6, order]
+    return (m, c, b), lam[order], vec[:, order]
+
+
+def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
+    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order (labelled_modes)."""
+    (m, c, b), lam, modes = labelled_modes(tm, machine, t)
+    omega = np.sqrt(lam)
+    shapes = modes[:6]
     parts = set(t.effect.split("+"))
     if "frequency_dependent" in parts:
         a, r, tau = t.size["a"], t.size["r"], t.size["tau"]
@@ -501,13 +511,13 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
             w = omega[i]
             for _ in range(200):
                 g = 1 + a * (w * tau) ** r * math.cos(r * math.pi / 2)
-                w_new = math.sqrt(g * lam[order][i])
+                w_new = math.sqrt(g * lam[i])
                 if abs(w_new - w) < 1e-13 * w:
                     break
                 w = w_new
             omega[i] = w_new
     elif "damping" in parts:
-        omega = true_poles(m, c, b, shapes).imag
+        omega = true_poles(m, c, b, modes).imag
     elif "sensor_error" in parts:
         shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
     elif "sensor_turned" in parts:
@@ -561,28 +571,32 @@ def _canonical_twins(
     return out
 
 
-def true_damping_ratios(tm: TruthMachine, t: Truth, shapes: np.ndarray) -> np.ndarray:
-    """Damping ratio of each mode (in the machine's mode order, paired with ``shapes`` by :func:`true_poles`):
-    -Re p / |p| of the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
-    p = true_poles(*truth_matrices(tm, t), shapes)
+def true_damping_ratios(tm: TruthMachine, machine: Machine, t: Truth) -> np.ndarray:
+    """Damping ratio of each mode (in the machine's mode order, its pole by :func:`true_poles`): -Re p / |p| of
+    the truth's damped poles (M p^2 + B p + C = 0, its own non-proportional B)."""
+    (m, c, b), _, modes = labelled_modes(tm, machine, t)
+    p = true_poles(m, c, b, modes)
     size = np.abs(p)
     return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
 
 
-def true_poles(m: np.ndarray, c: np.ndarray, b: np.ndarray, shapes: np.ndarray) -> np.ndarray:
-    """The damped pole (Im p > 0) [rad/s] of each mode of ``shapes`` (undamped, body coordinates, columns): one
-    pole per mode, the assignment that keeps the most of each pole's shape in its mode (normalised overlap of
-    the first-order form's eigenvectors with the shapes, scipy.optimize.linear_sum_assignment). A measured mode
-    is one pole: its frequency and its damping ratio both come from it, however heavy damping reorders them (a
-    mode that does not oscillate gets p = 0)."""
+def true_poles(m: np.ndarray, c: np.ndarray, b: np.ndarray, modes: np.ndarray) -> np.ndarray:
+    """The damped pole (Im p > 0) [rad/s] of each undamped mode (``modes``: eigenvectors over all the truth's
+    coordinates, columns): one pole per mode, the assignment that keeps the most of the modes' mass-weighted
+    overlap |x^H M phi|^2 / (x^H M x phi^T M phi) with the poles' shapes x (scipy.optimize.linear_sum_assignment).
+    A measured mode is one pole: its frequency and its damping ratio both come from it, however heavy damping
+    reorders them; a support's modes (12 coordinates) are told from the body's by their whole shape, not by
+    the body's part alone (a mode that does not oscillate gets p = 0)."""
     n = m.shape[0]
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, c), -np.linalg.solve(m, b)]])
     poles, vectors = np.linalg.eig(a)
     upper = poles.imag > 0
-    poles, vectors = poles[upper], vectors[: shapes.shape[0], upper]
-    fit = np.abs(np.conj(vectors).T @ shapes) / np.linalg.norm(vectors, axis=0)[:, None]
+    poles, x = poles[upper], vectors[:n, upper]
+    size = np.einsum("ak,ab,bk->k", np.conj(x), m, x).real
+    norm = np.einsum("ak,ab,bk->k", modes, m, modes)
+    fit = np.abs(np.conj(x).T @ m @ modes) ** 2 / np.outer(size, norm)
     rows, columns = scipy.optimize.linear_sum_assignment(fit, maximize=True)
-    out = np.zeros(shapes.shape[1], dtype=complex)  # 0: a mode that does not oscillate
+    out = np.zeros(modes.shape[1], dtype=complex)  # 0: a mode that does not oscillate
     out[columns] = poles[rows]
     return out
 
