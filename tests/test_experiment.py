@@ -216,11 +216,8 @@ def test_heavily_damped_close_modes_keep_their_labels_in_the_stiffness_fit():
     assert sorted(mode_of_pole) == list(range(6))
     by_mode = poles[np.argsort(mode_of_pole)]  # the pole of each undamped mode, in the order of lam
     assert np.any(np.diff(by_mode.imag) < 0)  # damping reorders two modes: the case this test is about
-    labels = [mod.MODES[int(np.argmin(np.abs(mod.squared_frequencies(**_forward(mod, values)) - lk)))] for lk in lam]
+    generated = np.asarray(mod.squared_frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS}))
+    labels = [mod.MODES[int(np.argmin(np.abs(generated - lk)))] for lk in lam]
     measured = {label: (abs(p), 1e-4 * abs(p)) for label, p in zip(labels, by_mode, strict=True)}
     params, _ = fit_stiffness(machine, {}, measured, damping=damping)
     assert params == pytest.approx(truth, rel=1e-4)
-
-
-def _forward(mod, values: dict[str, float]) -> dict[str, float]:
-    return {a: values[a] for a in mod.FORWARD_ARGUMENTS}

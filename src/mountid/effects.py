@@ -65,6 +65,12 @@ class EffectParameter:
         return self.plausible[0] > 0
 
     @property
+    def signed(self) -> bool:
+        """Whether the plausible range runs across zero (a scatter, a height, a turn): the effect acts either way
+        and a fit may stop on the wrong side."""
+        return self.plausible[0] < 0 < self.plausible[1]
+
+    @property
     def unit_suffix(self) -> str:
         """The unit as it follows a number in text: ' N/m', nothing for a ratio (unit '1')."""
         return "" if self.unit == "1" else f" {self.unit}"

@@ -131,7 +131,7 @@ class CandidateModel:
         elif len(params) >= 2:
             middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
             for i, p in enumerate(params):
-                if p.plausible[0] < 0 < p.plausible[1] and p.both_sides:
+                if p.signed and p.both_sides:
                     for bound in p.plausible:
                         starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
             self.mandatory_starts = len(starts)
@@ -140,7 +140,7 @@ class CandidateModel:
             starts.append(vector(middle))
             # a signed parameter whose range is lopsided (a scatter of -0.5 to 1) has its middle on one side: its
             # mirror image through zero too (a softer isolator's minimum is not reached from a stiffer start)
-            mirror = [-v if p.plausible[0] < 0 < p.plausible[1] else v for p, v in zip(params, middle, strict=True)]
+            mirror = [-v if p.signed else v for p, v in zip(params, middle, strict=True)]
             if mirror != middle:
                 starts.append(vector(mirror))
         return starts
@@ -181,8 +181,8 @@ class CandidateModel:
         stiffer)."""
         out = theta.copy()
         n = len(self.unknown)
-        for k, (p, log) in enumerate(zip(self.effect_parameters, self.log_scaled, strict=True)):
-            if not log and p.plausible[0] < 0 < p.plausible[1]:
+        for k, p in enumerate(self.effect_parameters):
+            if p.signed:  # never log-scaled (EffectParameter.magnitude)
                 out[n + k] = -out[n + k]
         return out
 

@@ -212,7 +212,7 @@ def pair_starts(
     # a signed parameter with a local minimum on the wrong side (a height): both fitted values with it at half
     # its plausible bound on either side (they run only while the fit stays above noise level)
     for p in model.effect_parameters:
-        if p.both_sides and p.plausible[0] < 0 < p.plausible[1]:
+        if p.both_sides and p.signed:
             starts += [model.vector({**both, p.name: b / 2 * model.scales[p.scale]}) for b in p.plausible]
     return starts
 

@@ -412,8 +412,6 @@ def fit_candidate(
     the smallest chi^2 (promised_chi2); instead of the default ones)."""
     model = CandidateModel(campaign, effect, variant)
     data = Data(campaign, model.length)
-    if pick and starts is not None and len(starts) > 1:
-        starts = [starts[int(np.argmin(promises(campaign, model, starts)))]]
     name = effect.name if effect else "none"
     where = model.strategy.variants(campaign)[variant] if variant is not None else ""
     why = model.strategy.inapplicable(model, bool(data.shape_labels))
@@ -423,6 +421,8 @@ def fit_candidate(
             name, where, {}, {}, math.nan, data.n, k, math.inf, False, "", {}, applicable=False, note=why
         )
     if starts is not None:
+        if pick and len(starts) > 1:
+            starts = [starts[int(np.argmin(promises(campaign, model, starts)))]]
         res = _least_squares(model, data, starts)
     elif start is None:
         res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
