@@ -25,6 +25,13 @@ the measurement barely separates (a few standard deviations of the measured freq
 the measured shape through their common span, blended smoothly into the single mode as they move apart."""
 
 
+SPREAD_GRID = (0.125, 0.375, 0.625, 0.875)
+"""Where CandidateModel.spread puts the starts along each plausible range of an effect of one or two
+parameters (as shares of the range)."""
+SPREAD_POINTS = 16
+"""Starts CandidateModel.spread draws for an effect (or pair) of three or more parameters."""
+
+
 @dataclass(frozen=True)
 class Prediction:
     """Frequencies [rad/s], scaled unit shapes (6,) per mode label, and for each label an orthonormal basis
@@ -144,6 +151,30 @@ class CandidateModel:
             if mirror != middle:
                 starts.append(vector(mirror))
         return starts
+
+    def spread(self) -> list[np.ndarray]:
+        """Starts spread over the effect parameters' plausible ranges (log for positive ones), the unknowns at
+        their nominal values: for one or two parameters a grid at 1/8, 3/8, 5/8 and 7/8 of each range, for more
+        SPREAD_POINTS points of a scrambled Sobol sequence (fixed seed). Where the default starts all stop
+        above noise level a fit goes on from the one whose Gauss-Newton step promises most (a scatter of one
+        isolator whose basin none of the default starts lies in)."""
+        params = self.effect_parameters
+        if not params:
+            return []
+        if len(params) <= 2:
+            unit = np.array(list(itertools.product(SPREAD_GRID, repeat=len(params))))
+        else:
+            unit = scipy.stats.qmc.Sobol(len(params), scramble=True, seed=0).random(SPREAD_POINTS)
+        base = self.start()[0]
+        n = len(self.unknown)
+        out = []
+        for u in unit:
+            x = base.copy()
+            for k, (p, log, f) in enumerate(zip(params, self.log_scaled, u, strict=True)):
+                a, b = (math.log(v) for v in p.plausible) if log else p.plausible
+                x[n + k] = a + f * (b - a)
+            out.append(x)
+        return out
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Search box: unknowns within UNKNOWN_RANGE of their nominal values either way (log), effect

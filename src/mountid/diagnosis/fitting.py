@@ -302,12 +302,15 @@ def promised_chi2(campaign: Campaign, model: CandidateModel, starts: list[np.nda
 def promises(campaign: Campaign, model: CandidateModel, starts: list[np.ndarray]) -> list[float]:
     """The chi^2 one Gauss-Newton step from each of ``starts`` predicts (see promised_chi2)."""
     data = Data(campaign, model.length)
-    fun, jac = _residual_function(model, data, None)
+    return _promises(*_residual_function(model, data, None), data.n_rows, starts)
+
+
+def _promises(fun, jac, n_rows: int, starts: list[np.ndarray]) -> list[float]:
     out = []
     for x in starts:
         r, j = fun(x), jac(x)
         step = np.linalg.lstsq(j, -r, rcond=None)[0]
-        out.append(float(np.sum((r + j @ step)[: data.n_rows] ** 2)))
+        out.append(float(np.sum((r + j @ step)[:n_rows] ** 2)))
     return out
 
 
@@ -347,6 +350,10 @@ POLISH = 10.0
 """A fit whose best start ran out of evaluations is carried on when its chi^2 is within POLISH times the
 noise level (mean plus three standard deviations of chi^2)."""
 
+SPREAD_PROMISE = 0.5
+"""A fit whose starts all stopped above noise level goes on from the most promising of the spread starts
+(CandidateModel.spread) when one Gauss-Newton step from there promises less than this share of its chi^2."""
+
 LEAVE_ONE_OUT_STEPS = 12
 """Evaluations allowed to a leave-one-mode-out refit: it starts at the full fit, a few Gauss-Newton steps
 away from its own minimum (its tolerance is looser than a fit's: a held-out error is judged in sigma)."""
@@ -375,6 +382,16 @@ def _least_squares(
         res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 100 if len(starts) == 1 else 15)
         if best is None or res.cost < best.cost:
             best = res
+    if not refit and rows is None and model.strategy.spread_starts and 2 * best.cost > noise:
+        # every start stopped above noise level: on from the spread start that promises most (CandidateModel.spread)
+        # where it promises a fraction of the chi^2 reached (another basin, not the same one seen from elsewhere)
+        spread = model.spread()
+        promised = _promises(fun, jac, data.n_rows, spread) if spread else [math.inf]
+        if min(promised) < SPREAD_PROMISE * 2 * best.cost:
+            x0 = spread[int(np.argmin(promised))]
+            res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 15)
+            if res.cost < best.cost:
+                best = res
     if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:
         # the best start ran out of evaluations near noise level: carry it on (a candidate far from the data
         # keeps its rough minimum, its probability is nil either way)
