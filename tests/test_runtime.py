@@ -64,3 +64,21 @@ def test_fused_expressions_agree_between_numexpr_and_numpy_paths():
     scalar = kid300.squared_frequencies(**{a: float(v[0]) for a, v in p.items()})
     assert scalar.shape == (6,)
     np.testing.assert_allclose(scalar, batch[0], rtol=4e-15)
+
+
+def test_modal_projection_and_diagonal_match_the_index_sums():
+    """phi^T A phi by matrix products against the three-operand einsum they replace: batched, fewer modes than
+    coordinates, and complex modes unconjugated (the damped poles' derivatives)."""
+    rng = np.random.default_rng(3)
+    phi = rng.normal(size=(2, 12, 5))
+    stack = rng.normal(size=(2, 4, 12, 12))
+    expected = np.einsum("...ak,...pab,...bl->...pkl", phi, stack, phi)
+    np.testing.assert_allclose(runtime.modal_projection(phi, stack), expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        runtime.modal_diagonal(phi, stack), np.diagonal(expected, axis1=-2, axis2=-1), rtol=1e-12, atol=1e-12
+    )
+    x = rng.normal(size=(6, 6)) + 1j * rng.normal(size=(6, 6))
+    single = rng.normal(size=(3, 6, 6))
+    np.testing.assert_allclose(
+        runtime.modal_diagonal(x, single), np.einsum("ak,qab,bk->qk", x, single, x), rtol=1e-12, atol=1e-12
+    )

@@ -32,7 +32,7 @@ from mountid.diagnosis.candidate_model import (
     off_span,
     twin_groups,
 )
-from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives
+from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives, modal_projection
 
 if TYPE_CHECKING:
     from mountid.diagnosis.fitting import Data
@@ -109,7 +109,7 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     for group, members in twin_groups(e.lam):
         v = e.vec[:, group]
         lam = e.lam[members[0]]
-        g = np.einsum("ak,qab,bl->qkl", v, d_c, v) - lam * np.einsum("ak,qab,bl->qkl", v, d_m, v)
+        g = modal_projection(v, d_c) - lam * modal_projection(v, d_m)
         mean = np.trace(g, axis1=1, axis2=2) / v.shape[1]
         off = g - mean[:, None, None] * np.eye(v.shape[1])[None]
         size = np.max(np.abs(g), axis=(1, 2))
@@ -142,9 +142,9 @@ def _off_span_derivative(s: np.ndarray, basis: np.ndarray, d_basis: np.ndarray) 
     (n_q, 6, c): dP = (I - P) dU U^+ + (U^+)^T dU^T (I - P)."""
     pinv = np.linalg.pinv(basis)
     rest = np.eye(len(s)) - basis @ pinv
-    d_p = np.einsum("ab,qbc,cd->qad", rest, d_basis, pinv)
+    d_p = rest @ d_basis @ pinv
     d_p += np.swapaxes(d_p, 1, 2)
-    return -np.einsum("qab,b->qa", d_p, s)
+    return -(d_p @ s)
 
 
 def _blend_weight(e: Evaluation, k: int, partners: np.ndarray, d_lam: np.ndarray) -> tuple[float, np.ndarray]:

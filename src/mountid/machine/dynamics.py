@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine.modules import GeneratedModule
+from mountid.runtime import modal_diagonal
 
 
 def call(module: GeneratedModule, function: str, values: Mapping[str, float]) -> Any:
@@ -112,12 +113,8 @@ def damped_pole_derivatives(
     shape (n_q, n); zero for a mode that does not oscillate."""
     poles, x = damped_modes(mass, stiffness, damping, lam)
     p = poles[None, :]
-    top = (
-        p**2 * np.einsum("ak,qab,bk->qk", x, d_mass, x)
-        + p * np.einsum("ak,qab,bk->qk", x, d_damping, x)
-        + np.einsum("ak,qab,bk->qk", x, d_stiffness, x)
-    )
-    bottom = 2 * poles * np.einsum("ak,ab,bk->k", x, mass, x) + np.einsum("ak,ab,bk->k", x, damping, x)
+    top = p**2 * modal_diagonal(x, d_mass) + p * modal_diagonal(x, d_damping) + modal_diagonal(x, d_stiffness)
+    bottom = 2 * poles * modal_diagonal(x, mass[None])[0] + modal_diagonal(x, damping[None])[0]
     oscillates = poles != 0
     return poles, np.where(oscillates[None, :], -top / np.where(oscillates, bottom, 1.0)[None, :], 0.0)
 

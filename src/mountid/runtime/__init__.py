@@ -14,7 +14,9 @@ from mountid.runtime.eigen import (
     eigenvalue_derivatives,
     eigenvector_derivatives,
     kinetic_energy_distribution,
+    modal_diagonal,
     modal_matrix,
+    modal_projection,
     stack_matrix,
 )
 from mountid.runtime.evaluation import FUSED_MIN_SIZE, as_arrays, fused, linear_root, polynomial_roots, quadratic_roots
@@ -49,7 +51,9 @@ __all__ = [
     "fused",
     "kinetic_energy_distribution",
     "linear_root",
+    "modal_diagonal",
     "modal_matrix",
+    "modal_projection",
     "polynomial_roots",
     "quadratic_roots",
     "solve_inverse",
