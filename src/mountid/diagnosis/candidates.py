@@ -36,10 +36,12 @@ import scipy.stats
 from mountid.diagnosis.campaign import Campaign
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.fitting import (
+    OTHER_SOLUTION_SIGMA,
     CandidateFit,
     exact_leave_one_out,
     fit_candidate,
     held_out_z,
+    other_solutions,
     promised_chi2,
     tempered_log_evidence,
 )
@@ -322,6 +324,25 @@ def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
     return "; ".join(parts)
 
 
+def _other_solutions_text(f: CandidateFit) -> str:
+    """The verdict's note on a best candidate with other solutions: the effect parameters where they differ."""
+    names = [p.name for effect in f.effect.split("+") for p in EFFECTS[effect].parameters]
+    differ = {
+        q
+        for other in f.other_solutions
+        for q in names
+        if abs(other[q] - f.parameters[q]) > OTHER_SOLUTION_SIGMA * f.std.get(q, 0.0)
+    }
+    alternatives = "; or ".join(
+        ", ".join(f"{q} = {other[q]:.3g}" for q in names if q in differ) for other in f.other_solutions
+    )
+    values = ", ".join(f"{q} = {f.parameters[q]:.3g} +- {f.std[q]:.2g}" for q in names if q in differ)
+    return (
+        f"{f.effect} fits as well with {alternatives} as with {values}: the data do not decide between them "
+        "(mode shapes or what is known of the build may)"
+    )
+
+
 def rank(
     campaign: Campaign,
     nominal: CandidateFit,
@@ -329,6 +350,7 @@ def rank(
     exact_held_out: bool = True,
     settings: DiagnosisSettings = DIAGNOSIS,
     screened: list[ScreenedPair] | None = None,
+    other_roots: bool = True,
 ) -> EffectsReport:
     """Rank fitted candidates by posterior probability (Laplace evidence, fitting.log_evidence), judge the
     nominal gap, find the tie (the credible set) and what would separate it (``exact_held_out``: refit
@@ -336,7 +358,9 @@ def rank(
     linearised only). The verdict is confident only when the best candidate explains the gap (fits, and
     predicts the held-out modes: :func:`explains`), has probability settings.confidence or more, and the data
     reject every other candidate (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2
-    they promise); when no candidate explains it, the verdict says so and names the closest."""
+    they promise); when no candidate explains it, the verdict says so and names the closest. With
+    ``other_roots`` a candidate the verdict names is searched for other values that fit as well
+    (fitting.other_solutions), which the verdict names too."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = _gap_p_value(nominal)
     significant = bool(p_value < settings.gap_p_value)
@@ -453,6 +477,13 @@ def rank(
         kind = "not explained"
         closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
         verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
+    if other_roots and best is not None and kind in ("confident", "tie"):
+        others = other_solutions(best, settings.tie)
+        if others:
+            found = replace(best, other_solutions=others)
+            ranked = [found if f is best else f for f in ranked]
+            best = found
+            verdict += f"; {_other_solutions_text(found)}"
     tie_names = [f.effect for f in tie] if significant else []
     return EffectsReport(
         nominal,
@@ -475,9 +506,10 @@ def diagnose_effects(
     warm: EffectsReport | None = None,
     exact_held_out: bool = True,
     settings: DiagnosisSettings = DIAGNOSIS,
+    other_roots: bool = True,
 ) -> EffectsReport:
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
-    ``warm`` as in :func:`fit_all`, ``exact_held_out`` as in :func:`rank`)."""
+    ``warm`` as in :func:`fit_all`, ``exact_held_out`` and ``other_roots`` as in :func:`rank`)."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
     screened: list[ScreenedPair] = []
     # pairs where the gap is significant and no single candidate explains it with its linearised held-out errors
@@ -489,7 +521,7 @@ def diagnose_effects(
     ):
         pairs, screened = fit_pairs(campaign, nominal, fits, settings)
         fits = fits + pairs
-    return rank(campaign, nominal, fits, exact_held_out, settings, screened)
+    return rank(campaign, nominal, fits, exact_held_out, settings, screened, other_roots)
 
 
 def _gap_p_value(nominal: CandidateFit) -> float:

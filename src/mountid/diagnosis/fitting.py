@@ -88,6 +88,10 @@ class CandidateFit:
     outside_range: tuple[str, ...] = ()
     """Effect parameters whose fitted value lies outside the plausible range beyond RANGE_TOLERANCE
     (``plausible`` allows more, PLAUSIBLE_MARGIN; a confident verdict allows none: candidates.explains)."""
+    other_solutions: tuple[dict[str, float], ...] = ()
+    """Other sets of values (unknowns and effect parameters, physical units) at which the candidate fits the data
+    as well (see :func:`other_solutions`; searched for the verdict's best candidate): the standard deviations
+    describe the neighbourhood of the reported values only."""
     state: FitState | None = field(default=None, repr=False, compare=False)
     """The fit's state (None when the candidate is not applicable)."""
 
@@ -119,6 +123,7 @@ class CandidateFit:
             "held_out_median_predictive_sigma": self.held_out_median_predictive,
             "log_evidence": self.log_evidence,
             "probability": self.probability,
+            "other_solutions": list(self.other_solutions),
         }
 
 
@@ -370,16 +375,13 @@ def _least_squares(
     lo, hi = model.bounds()
     fun, jac = _residual_function(model, data, rows)
     best = None
-    finite = np.isfinite(lo)
-    inner_lo = np.where(finite, lo + 1e-9 * (1 + np.abs(np.where(finite, lo, 0))), lo)
-    inner_hi = np.where(np.isfinite(hi), hi - 1e-9 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), hi)
     n = len(fun(starts[0]))
     noise = n + 3 * math.sqrt(2 * n)
     # chi^2 at noise level: mean plus three standard deviations
     for i, x0 in enumerate(starts):
         if i >= mandatory and 2 * best.cost <= noise:
             break  # fits to noise level: the remaining starts are not needed
-        res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 100 if len(starts) == 1 else 15)
+        res = _solve(fun, jac, _inside(x0, lo, hi), lo, hi, refit, 100 if len(starts) == 1 else 15)
         if best is None or res.cost < best.cost:
             best = res
     if not refit and rows is None and model.strategy.spread_starts and 2 * best.cost > noise:
@@ -389,7 +391,7 @@ def _least_squares(
         promised = _promises(fun, jac, data.n_rows, spread) if spread else [math.inf]
         if min(promised) < SPREAD_PROMISE * 2 * best.cost:
             x0 = spread[int(np.argmin(promised))]
-            res = _solve(fun, jac, np.clip(x0, inner_lo, inner_hi), lo, hi, refit, 15)
+            res = _solve(fun, jac, _inside(x0, lo, hi), lo, hi, refit, 15)
             if res.cost < best.cost:
                 best = res
     if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:
@@ -399,6 +401,14 @@ def _least_squares(
         if polished.cost <= best.cost:
             best = polished
     return best
+
+
+def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``x`` clipped to just inside the bounds (least squares starts strictly inside them)."""
+    finite_lo, finite_hi = np.isfinite(lo), np.isfinite(hi)
+    inner_lo = np.where(finite_lo, lo + 1e-9 * (1 + np.abs(np.where(finite_lo, lo, 0))), lo)
+    inner_hi = np.where(finite_hi, hi - 1e-9 * (1 + np.abs(np.where(finite_hi, hi, 0))), hi)
+    return np.clip(x, inner_lo, inner_hi)
 
 
 def _solve(fun, jac, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, refit: bool, max_nfev: int):
@@ -490,6 +500,56 @@ def fit_candidate(
         outside_range=tuple(outside),
         state=FitState(model, theta, ((jac[:n_rows], chi2),)),
     )
+
+
+OTHER_SOLUTION_FITS = 3
+"""Fits other_solutions runs: from the most promising of the spread starts and the fit's mirror image."""
+
+OTHER_SOLUTION_SIGMA = 3.0
+"""A solution is another one when an effect parameter differs from the fit's (and from every other solution's) by
+more than this many of its standard deviations."""
+
+
+def other_solutions(fit: CandidateFit, within: float) -> tuple[dict[str, float], ...]:
+    """Other minima at which the candidate fits the data as well (chi^2 within ``within`` of the fit's) at plausible
+    values (within PLAUSIBLE_MARGIN of each range) with an effect parameter OTHER_SOLUTION_SIGMA standard
+    deviations or more away: fits from the OTHER_SOLUTION_FITS most promising (one Gauss-Newton step,
+    fitting.promises) of the spread starts (CandidateModel.spread) and the fit's signed parameters through zero
+    (CandidateModel.mirrored). Frequencies alone leave such roots: one kid300
+    isolator 39 % softer fits as well 47 % stiffer in shear with a softer c_xy; a centre of mass off to one side
+    as well off to the other. Physical values, unknowns included."""
+    if fit.state is None or not fit.state.model.effect_parameters:
+        return ()
+    model, theta = fit.state.model, fit.state.theta
+    data = Data(model.campaign, model.length)
+    fun, jac = _residual_function(model, data, None)
+    lo, hi = model.bounds()
+    n = len(model.unknown)
+    scale = model.jacobian_to_physical(theta)[n:]
+    names = model.parameter_names[n:]
+    spread = np.array([fit.std.get(q, math.inf) / abs(d) if d else math.inf for q, d in zip(names, scale, strict=True)])
+    spread = np.maximum(spread, 1e-12)
+    starts = [*model.spread(), model.mirrored(theta)]
+    promised = _promises(fun, jac, data.n_rows, starts)
+    found = [theta]
+    for i in np.argsort(promised)[:OTHER_SOLUTION_FITS]:
+        res = _solve(fun, jac, _inside(starts[i], lo, hi), lo, hi, False, 30)
+        if np.sum(res.fun[: data.n_rows] ** 2) > fit.chi2 + within or not _plausible(model, res.x):
+            continue
+        if all(np.any(np.abs(res.x[n:] - y[n:]) > OTHER_SOLUTION_SIGMA * spread) for y in found):
+            found.append(res.x)
+    return tuple(model.physical(x) for x in found[1:])
+
+
+def _plausible(model: CandidateModel, theta: np.ndarray) -> bool:
+    """Whether every effect parameter of ``theta`` lies inside its plausible range widened by PLAUSIBLE_MARGIN of
+    its width (in the fit's own units: log for positive ranges)."""
+    n = len(model.unknown)
+    for value, p, log in zip(theta[n:], model.effect_parameters, model.log_scaled, strict=True):
+        a, b = (math.log(x) for x in p.plausible) if log else p.plausible
+        if not a - PLAUSIBLE_MARGIN * (b - a) <= value <= b + PLAUSIBLE_MARGIN * (b - a):
+            return False
+    return True
 
 
 def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:

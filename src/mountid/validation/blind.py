@@ -184,7 +184,7 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
     parts = effect.split("+")
     if effect != "none" and (expected is not None or len(parts) > 1):
         clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine)
-        ideal = diagnose_effects(campaign_module.parse(clean), warm=report, exact_held_out=False)
+        ideal = diagnose_effects(campaign_module.parse(clean), warm=report, exact_held_out=False, other_roots=False)
         fits = {f.effect: f for f in ideal.ranked}
         truth = fits.get(expected) if expected is not None else None
         identifiable = bool(ideal.significant and truth is not None and truth.probability >= DIAGNOSIS.confidence)
