@@ -325,7 +325,8 @@ def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
 
 
 def _other_solutions_text(f: CandidateFit) -> str:
-    """The verdict's note on a best candidate with other solutions: the effect parameters where they differ."""
+    """The verdict's note on a best candidate with other solutions: the effect parameters where they differ by more
+    than OTHER_SOLUTION_SIGMA of their standard deviations ('' where none does in physical units)."""
     names = [p.name for effect in f.effect.split("+") for p in EFFECTS[effect].parameters]
     differ = {
         q
@@ -337,6 +338,8 @@ def _other_solutions_text(f: CandidateFit) -> str:
         ", ".join(f"{q} = {other[q]:.3g}" for q in names if q in differ) for other in f.other_solutions
     )
     values = ", ".join(f"{q} = {f.parameters[q]:.3g} +- {f.std[q]:.2g}" for q in names if q in differ)
+    if not differ:
+        return ""
     return (
         f"{f.effect} fits as well with {alternatives} as with {values}: the data do not decide between them "
         "(mode shapes or what is known of the build may)"
@@ -483,7 +486,8 @@ def rank(
             found = replace(best, other_solutions=others)
             ranked = [found if f is best else f for f in ranked]
             best = found
-            verdict += f"; {_other_solutions_text(found)}"
+            note = _other_solutions_text(found)
+            verdict += f"; {note}" if note else ""
     tie_names = [f.effect for f in tie] if significant else []
     return EffectsReport(
         nominal,

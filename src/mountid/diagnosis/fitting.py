@@ -515,9 +515,9 @@ def other_solutions(fit: CandidateFit, within: float) -> tuple[dict[str, float],
     values (within PLAUSIBLE_MARGIN of each range) with an effect parameter OTHER_SOLUTION_SIGMA standard
     deviations or more away: fits from the OTHER_SOLUTION_FITS most promising (one Gauss-Newton step,
     fitting.promises) of the spread starts (CandidateModel.spread) and the fit's signed parameters through zero
-    (CandidateModel.mirrored). Frequencies alone leave such roots: one kid300
-    isolator 39 % softer fits as well 47 % stiffer in shear with a softer c_xy; a centre of mass off to one side
-    as well off to the other. Physical values, unknowns included."""
+    (CandidateModel.mirrored). Frequencies alone leave such roots: one kid300 isolator 39 % softer fits as well
+    47 % stiffer in shear with a softer c_xy; a centre of mass off to one side as well off to the other. Physical
+    values, unknowns included."""
     if fit.state is None or not fit.state.model.effect_parameters:
         return ()
     model, theta = fit.state.model, fit.state.theta
