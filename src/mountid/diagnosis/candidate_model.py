@@ -152,6 +152,16 @@ class CandidateModel:
                 starts.append(vector(mirror))
         return starts
 
+    def plausible_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper ends of each effect parameter's plausible range in the units of the flat vector (log
+        for positive ranges): the spread starts' box and the plausibility checks' reference."""
+        ends = [
+            [math.log(v) for v in p.plausible] if log else list(p.plausible)
+            for p, log in zip(self.effect_parameters, self.log_scaled, strict=True)
+        ]
+        box = np.array(ends, dtype=float).reshape(-1, 2)
+        return box[:, 0], box[:, 1]
+
     def spread(self) -> list[np.ndarray]:
         """Starts spread over the effect parameters' plausible ranges (log for positive ones), the unknowns at
         their nominal values: for one or two parameters a grid at 1/8, 3/8, 5/8 and 7/8 of each range, for more
@@ -167,12 +177,11 @@ class CandidateModel:
             unit = scipy.stats.qmc.Sobol(len(params), scramble=True, seed=0).random(SPREAD_POINTS)
         base = self.start()[0]
         n = len(self.unknown)
+        a, b = self.plausible_box()
         out = []
         for u in unit:
             x = base.copy()
-            for k, (p, log, f) in enumerate(zip(params, self.log_scaled, u, strict=True)):
-                a, b = (math.log(v) for v in p.plausible) if log else p.plausible
-                x[n + k] = a + f * (b - a)
+            x[n:] = a + u * (b - a)
             out.append(x)
         return out
 

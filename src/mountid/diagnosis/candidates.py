@@ -334,12 +334,12 @@ def _other_solutions_text(f: CandidateFit) -> str:
         for q in names
         if abs(other[q] - f.parameters[q]) > OTHER_SOLUTION_SIGMA * f.std.get(q, 0.0)
     }
+    if not differ:
+        return ""
     alternatives = "; or ".join(
         ", ".join(f"{q} = {other[q]:.3g}" for q in names if q in differ) for other in f.other_solutions
     )
     values = ", ".join(f"{q} = {f.parameters[q]:.3g} +- {f.std[q]:.2g}" for q in names if q in differ)
-    if not differ:
-        return ""
     return (
         f"{f.effect} fits as well with {alternatives} as with {values}: the data do not decide between them "
         "(mode shapes or what is known of the build may)"

@@ -465,12 +465,12 @@ def fit_candidate(
     phys = model.physical(theta)
     std = {n: float(abs(d[i]) * spread[i]) for i, n in enumerate(phys)}
     reasons, outside = [], []
-    for j, (p, log) in enumerate(zip(model.effect_parameters, model.log_scaled, strict=True), len(model.unknown)):
+    box = zip(*model.plausible_box(), strict=True)
+    for j, (p, (a, b)) in enumerate(zip(model.effect_parameters, box, strict=True), len(model.unknown)):
         lo, hi = (v * model.scales[p.scale] for v in p.plausible)
         v = phys[p.name]
         # outside by more than its standard deviation or RANGE_TOLERANCE of the range (in the fit's own
         # units: log for positive ranges), whichever is smaller
-        a, b = (math.log(x) for x in p.plausible) if log else p.plausible
         slack = min(spread[j], RANGE_TOLERANCE * (b - a))
         if not a - slack <= theta[j] <= b + slack:
             outside.append(p.name)
@@ -527,8 +527,8 @@ def other_solutions(fit: CandidateFit, within: float) -> tuple[dict[str, float],
     n = len(model.unknown)
     scale = model.jacobian_to_physical(theta)[n:]
     names = model.parameter_names[n:]
-    spread = np.array([fit.std.get(q, math.inf) / abs(d) if d else math.inf for q, d in zip(names, scale, strict=True)])
-    spread = np.maximum(spread, 1e-12)
+    sigma = np.array([fit.std.get(q, math.inf) / abs(d) if d else math.inf for q, d in zip(names, scale, strict=True)])
+    sigma = np.maximum(sigma, 1e-12)  # in the flat vector's units
     starts = [*model.spread(), model.mirrored(theta)]
     promised = _promises(fun, jac, data.n_rows, starts)
     found = [theta]
@@ -536,7 +536,7 @@ def other_solutions(fit: CandidateFit, within: float) -> tuple[dict[str, float],
         res = _solve(fun, jac, _inside(starts[i], lo, hi), lo, hi, False, 30)
         if np.sum(res.fun[: data.n_rows] ** 2) > fit.chi2 + within or not _plausible(model, res.x):
             continue
-        if all(np.any(np.abs(res.x[n:] - y[n:]) > OTHER_SOLUTION_SIGMA * spread) for y in found):
+        if all(np.any(np.abs(res.x[n:] - y[n:]) > OTHER_SOLUTION_SIGMA * sigma) for y in found):
             found.append(res.x)
     return tuple(model.physical(x) for x in found[1:])
 
@@ -544,12 +544,10 @@ def other_solutions(fit: CandidateFit, within: float) -> tuple[dict[str, float],
 def _plausible(model: CandidateModel, theta: np.ndarray) -> bool:
     """Whether every effect parameter of ``theta`` lies inside its plausible range widened by PLAUSIBLE_MARGIN of
     its width (in the fit's own units: log for positive ranges)."""
-    n = len(model.unknown)
-    for value, p, log in zip(theta[n:], model.effect_parameters, model.log_scaled, strict=True):
-        a, b = (math.log(x) for x in p.plausible) if log else p.plausible
-        if not a - PLAUSIBLE_MARGIN * (b - a) <= value <= b + PLAUSIBLE_MARGIN * (b - a):
-            return False
-    return True
+    a, b = model.plausible_box()
+    margin = PLAUSIBLE_MARGIN * (b - a)
+    values = theta[len(model.unknown) :]
+    return bool(np.all((a - margin <= values) & (values <= b + margin)))
 
 
 def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
