@@ -837,37 +837,27 @@ def stiffness_gradient(a1, a2, b, h, gamma):
     _shape = numpy.broadcast_shapes(
         numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma)
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp0, (4, 4): 8 * _tmp1, (5, 5): 8 * _tmp2}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp4 + 4,
-                    (1, 3): _tmp4 * h + _tmp7 + 4 * h,
-                    (2, 2): _tmp9,
-                    (3, 3): _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9,
-                    (4, 4): _tmp12,
-                    (5, 5): _tmp13 + _tmp14,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp9,
-                    (1, 3): -_tmp7 + 4 * _tmp8 * h,
-                    (2, 2): _tmp4,
-                    (3, 3): _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4,
-                    (4, 4): _tmp14,
-                    (5, 5): _tmp12,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp2, (4, 4): _tmp13}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 0, 0] = 8
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
+    _out[..., 0, 4, 4] = 8 * _tmp1
+    _out[..., 0, 5, 5] = 8 * _tmp2
+    _out[..., 1, 1, 1] = _tmp4 + 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp4 * h + _tmp7 + 4 * h
+    _out[..., 1, 2, 2] = _tmp9
+    _out[..., 1, 3, 3] = _tmp1 * _tmp4 + 4 * _tmp1 + _tmp10 + _tmp2 * _tmp9
+    _out[..., 1, 4, 4] = _tmp12
+    _out[..., 1, 5, 5] = _tmp13 + _tmp14
+    _out[..., 2, 1, 1] = _tmp9
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = -_tmp7 + 4 * _tmp8 * h
+    _out[..., 2, 2, 2] = _tmp4
+    _out[..., 2, 3, 3] = _tmp1 * _tmp9 - _tmp10 + _tmp2 * _tmp4
+    _out[..., 2, 4, 4] = _tmp14
+    _out[..., 2, 5, 5] = _tmp12
+    _out[..., 3, 2, 2] = 4
+    _out[..., 3, 3, 3] = 4 * _tmp2
+    _out[..., 3, 4, 4] = _tmp13
+    return _out
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -1186,160 +1176,103 @@ def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_
         numpy.shape(b_h),
         numpy.shape(b_v),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * _tmp3 + _tmp6 * c_y, (5, 5): _tmp6 * c_v1 + _tmp7 * c_y}),
-            _runtime.stack_matrix(
-                _shape, 6, {(4, 4): _tmp5 * _tmp9 + _tmp7 * b_v, (5, 5): _tmp2 * _tmp9 + _tmp6 * b_v}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10 * c_v2, (5, 5): _tmp10 * c_y}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp10 * b_v, (5, 5): _tmp8 * a2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 3): 4 * _tmp1 * _tmp4 * c_y - _tmp12 * c_v1,
-                    (3, 3): _tmp13 * _tmp3 + _tmp13 * c_v2 + _tmp14 * _tmp5 - _tmp17 + _tmp19,
-                    (5, 5): _tmp20 * c_x,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 3): _tmp11 * _tmp21 - _tmp12 * b_v,
-                    (3, 3): _tmp2 * _tmp22 + _tmp22 + _tmp23 * _tmp8 + _tmp25,
-                    (5, 5): _tmp20 * b_h,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -8 * c_x,
-                    (1, 3): _tmp26 + _tmp28 + _tmp29,
-                    (3, 3): _tmp11 * _tmp14 - _tmp13 * _tmp31 + _tmp18 * _tmp2 + _tmp18 + _tmp30 * c_v1,
-                    (4, 4): _tmp32 * c_x,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -_tmp8,
-                    (1, 3): _tmp2 * _tmp21 + _tmp21 + _tmp27 * b_v,
-                    (3, 3): -_tmp11 * _tmp22 + _tmp24 + _tmp30 * b_v + _tmp33 + _tmp34 * b,
-                    (4, 4): _tmp32 * b_h,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp37,
-                    (1, 3): _tmp17 - _tmp19 - _tmp23 * _tmp26 + _tmp28 * b + _tmp29 * b - _tmp39 * c_v1,
-                    (2, 2): -_tmp37,
-                    (3, 3): 8 * _tmp1 * _tmp4 * _tmp41 * c_y
-                    + 8 * _tmp1 * _tmp4 * _tmp43 * c_v1
-                    - _tmp11 * _tmp44 * c_y
-                    - _tmp18 * _tmp23
-                    + 8 * _tmp2 * b * c_y * h
-                    - _tmp3 * _tmp40
-                    - _tmp31 * _tmp42
-                    + 8 * _tmp5 * b * c_v1 * h,
-                    (4, 4): -_tmp46,
-                    (5, 5): _tmp46,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): -_tmp47,
-                    (1, 3): 4 * _tmp2 * b * b_h - _tmp21 * _tmp23 - _tmp25 - _tmp39 * b_v + 4 * _tmp5 * b * b_v,
-                    (2, 2): _tmp47,
-                    (3, 3): _tmp15 * _tmp23 * b_v
-                    - _tmp2 * _tmp40 * b_v
-                    - _tmp23 * _tmp24
-                    + _tmp33 * b
-                    + _tmp34 * _tmp41
-                    - _tmp34 * _tmp43
-                    - _tmp42 * _tmp48
-                    + _tmp44 * _tmp48,
-                    (4, 4): _tmp49,
-                    (5, 5): -_tmp49,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp50, (4, 4): _tmp44, (5, 5): _tmp42}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp51, (1, 3): _tmp53, (2, 2): _tmp27, (3, 3): _tmp55, (4, 4): _tmp56, (5, 5): _tmp59},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp27, (1, 3): _tmp60, (2, 2): _tmp38, (3, 3): _tmp61, (4, 4): _tmp58, (5, 5): _tmp56},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp62, (4, 4): _tmp57}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp50,
-                    (1, 1): _tmp51,
-                    (1, 3): _tmp53,
-                    (2, 2): _tmp27,
-                    (3, 3): _tmp55,
-                    (4, 4): _tmp44 + _tmp56,
-                    (5, 5): _tmp42 + _tmp59,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp27,
-                    (1, 3): _tmp60,
-                    (2, 2): _tmp51,
-                    (3, 3): _tmp61 + _tmp62,
-                    (4, 4): _tmp59,
-                    (5, 5): _tmp56,
-                },
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 15, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 45, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 3, 3, 3] = 1
+    _out[..., 6, 4, 4] = 1
+    _out[..., 9, 5, 5] = 1
+    _out[..., 13, 4, 4] = _tmp0 * _tmp3 + _tmp6 * c_y
+    _out[..., 13, 5, 5] = _tmp6 * c_v1 + _tmp7 * c_y
+    _out[..., 14, 4, 4] = _tmp5 * _tmp9 + _tmp7 * b_v
+    _out[..., 14, 5, 5] = _tmp2 * _tmp9 + _tmp6 * b_v
+    _out[..., 16, 4, 4] = _tmp10 * c_v2
+    _out[..., 16, 5, 5] = _tmp10 * c_y
+    _out[..., 17, 4, 4] = _tmp10 * b_v
+    _out[..., 17, 5, 5] = _tmp8 * a2
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = 4 * _tmp1 * _tmp4 * c_y - _tmp12 * c_v1
+    _out[..., 19, 3, 3] = _tmp13 * _tmp3 + _tmp13 * c_v2 + _tmp14 * _tmp5 - _tmp17 + _tmp19
+    _out[..., 19, 5, 5] = _tmp20 * c_x
+    _out[..., 20, 1, 3] = _out[..., 20, 3, 1] = _tmp11 * _tmp21 - _tmp12 * b_v
+    _out[..., 20, 3, 3] = _tmp2 * _tmp22 + _tmp22 + _tmp23 * _tmp8 + _tmp25
+    _out[..., 20, 5, 5] = _tmp20 * b_h
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = -8 * c_x
+    _out[..., 22, 1, 3] = _out[..., 22, 3, 1] = _tmp26 + _tmp28 + _tmp29
+    _out[..., 22, 3, 3] = _tmp11 * _tmp14 - _tmp13 * _tmp31 + _tmp18 * _tmp2 + _tmp18 + _tmp30 * c_v1
+    _out[..., 22, 4, 4] = _tmp32 * c_x
+    _out[..., 23, 0, 4] = _out[..., 23, 4, 0] = -_tmp8
+    _out[..., 23, 1, 3] = _out[..., 23, 3, 1] = _tmp2 * _tmp21 + _tmp21 + _tmp27 * b_v
+    _out[..., 23, 3, 3] = -_tmp11 * _tmp22 + _tmp24 + _tmp30 * b_v + _tmp33 + _tmp34 * b
+    _out[..., 23, 4, 4] = _tmp32 * b_h
+    _out[..., 25, 1, 1] = _tmp37
+    _out[..., 25, 1, 3] = _out[..., 25, 3, 1] = (
+        _tmp17 - _tmp19 - _tmp23 * _tmp26 + _tmp28 * b + _tmp29 * b - _tmp39 * c_v1
+    )
+    _out[..., 25, 2, 2] = -_tmp37
+    _out[..., 25, 3, 3] = (
+        8 * _tmp1 * _tmp4 * _tmp41 * c_y
+        + 8 * _tmp1 * _tmp4 * _tmp43 * c_v1
+        - _tmp11 * _tmp44 * c_y
+        - _tmp18 * _tmp23
+        + 8 * _tmp2 * b * c_y * h
+        - _tmp3 * _tmp40
+        - _tmp31 * _tmp42
+        + 8 * _tmp5 * b * c_v1 * h
+    )
+    _out[..., 25, 4, 4] = -_tmp46
+    _out[..., 25, 5, 5] = _tmp46
+    _out[..., 26, 1, 1] = -_tmp47
+    _out[..., 26, 1, 3] = _out[..., 26, 3, 1] = (
+        4 * _tmp2 * b * b_h - _tmp21 * _tmp23 - _tmp25 - _tmp39 * b_v + 4 * _tmp5 * b * b_v
+    )
+    _out[..., 26, 2, 2] = _tmp47
+    _out[..., 26, 3, 3] = (
+        _tmp15 * _tmp23 * b_v
+        - _tmp2 * _tmp40 * b_v
+        - _tmp23 * _tmp24
+        + _tmp33 * b
+        + _tmp34 * _tmp41
+        - _tmp34 * _tmp43
+        - _tmp42 * _tmp48
+        + _tmp44 * _tmp48
+    )
+    _out[..., 26, 4, 4] = _tmp49
+    _out[..., 26, 5, 5] = -_tmp49
+    _out[..., 28, 0, 0] = 8
+    _out[..., 28, 0, 4] = _out[..., 28, 4, 0] = _tmp50
+    _out[..., 28, 4, 4] = _tmp44
+    _out[..., 28, 5, 5] = _tmp42
+    _out[..., 31, 1, 1] = _tmp51
+    _out[..., 31, 1, 3] = _out[..., 31, 3, 1] = _tmp53
+    _out[..., 31, 2, 2] = _tmp27
+    _out[..., 31, 3, 3] = _tmp55
+    _out[..., 31, 4, 4] = _tmp56
+    _out[..., 31, 5, 5] = _tmp59
+    _out[..., 34, 1, 1] = _tmp27
+    _out[..., 34, 1, 3] = _out[..., 34, 3, 1] = _tmp60
+    _out[..., 34, 2, 2] = _tmp38
+    _out[..., 34, 3, 3] = _tmp61
+    _out[..., 34, 4, 4] = _tmp58
+    _out[..., 34, 5, 5] = _tmp56
+    _out[..., 37, 2, 2] = 4
+    _out[..., 37, 3, 3] = _tmp62
+    _out[..., 37, 4, 4] = _tmp57
+    _out[..., 41, 0, 0] = 8
+    _out[..., 41, 0, 4] = _out[..., 41, 4, 0] = _tmp50
+    _out[..., 41, 1, 1] = _tmp51
+    _out[..., 41, 1, 3] = _out[..., 41, 3, 1] = _tmp53
+    _out[..., 41, 2, 2] = _tmp27
+    _out[..., 41, 3, 3] = _tmp55
+    _out[..., 41, 4, 4] = _tmp44 + _tmp56
+    _out[..., 41, 5, 5] = _tmp42 + _tmp59
+    _out[..., 44, 1, 1] = _tmp27
+    _out[..., 44, 1, 3] = _out[..., 44, 3, 1] = _tmp60
+    _out[..., 44, 2, 2] = _tmp51
+    _out[..., 44, 3, 3] = _tmp61 + _tmp62
+    _out[..., 44, 4, 4] = _tmp59
+    _out[..., 44, 5, 5] = _tmp56
+    return _out.reshape(*_shape, 15, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -1472,96 +1405,61 @@ def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
         numpy.shape(c_v1),
         numpy.shape(c_v2),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(4, 4): _tmp0 * _tmp3 + _tmp6 * c_y, (5, 5): _tmp0 * _tmp2 * c_y + _tmp6 * c_v1}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp7 * c_v2, (5, 5): _tmp7 * c_y}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 3): 4 * _tmp1 * _tmp4 * c_y - 4 * _tmp9,
-                    (3, 3): _tmp10 * _tmp3 + _tmp10 * c_v2 + _tmp11 * _tmp5 - _tmp13 + _tmp15,
-                    (5, 5): _tmp16 * b,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -8 * c_x,
-                    (1, 3): _tmp17 + _tmp19 + _tmp20,
-                    (3, 3): -_tmp10 * _tmp9 + _tmp11 * _tmp8 + _tmp12 * _tmp5 * c_v1 + _tmp14 * _tmp2 + _tmp14,
-                    (4, 4): _tmp16 * h,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp23,
-                    (1, 3): _tmp13 - _tmp15 - _tmp17 * _tmp25 + _tmp19 * b + _tmp20 * b - _tmp24 * b * c_v1,
-                    (2, 2): -_tmp23,
-                    (3, 3): 8 * _tmp1 * _tmp26 * _tmp4 * c_y
-                    + 8 * _tmp1 * _tmp28 * _tmp4 * c_v1
-                    - _tmp12 * _tmp3 * b
-                    - _tmp14 * _tmp25
-                    + 8 * _tmp2 * b * c_y * h
-                    - _tmp22 * _tmp29
-                    - _tmp27 * _tmp9
-                    + 8 * _tmp5 * b * c_v1 * h,
-                    (4, 4): -_tmp31,
-                    (5, 5): _tmp31,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): -_tmp12, (4, 4): _tmp29, (5, 5): _tmp27}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp24 + 4,
-                    (1, 3): _tmp24 * h + _tmp33 + 4 * h,
-                    (2, 2): _tmp18,
-                    (3, 3): _tmp18 * _tmp26 + _tmp24 * _tmp28 + 4 * _tmp28 + _tmp34,
-                    (4, 4): _tmp35,
-                    (5, 5): _tmp36 + _tmp37,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp18,
-                    (1, 3): -_tmp33 + 4 * _tmp5 * h,
-                    (2, 2): _tmp24,
-                    (3, 3): _tmp18 * _tmp28 + _tmp24 * _tmp26 - _tmp34,
-                    (4, 4): _tmp37,
-                    (5, 5): _tmp35,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): 4 * _tmp26, (4, 4): _tmp36}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 13, 2, 6, 6)
+    _out = numpy.zeros((*_shape, 26, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 2, 3, 3] = 1
+    _out[..., 4, 4, 4] = 1
+    _out[..., 6, 5, 5] = 1
+    _out[..., 9, 4, 4] = _tmp0 * _tmp3 + _tmp6 * c_y
+    _out[..., 9, 5, 5] = _tmp0 * _tmp2 * c_y + _tmp6 * c_v1
+    _out[..., 11, 4, 4] = _tmp7 * c_v2
+    _out[..., 11, 5, 5] = _tmp7 * c_y
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = 4 * _tmp1 * _tmp4 * c_y - 4 * _tmp9
+    _out[..., 13, 3, 3] = _tmp10 * _tmp3 + _tmp10 * c_v2 + _tmp11 * _tmp5 - _tmp13 + _tmp15
+    _out[..., 13, 5, 5] = _tmp16 * b
+    _out[..., 15, 0, 4] = _out[..., 15, 4, 0] = -8 * c_x
+    _out[..., 15, 1, 3] = _out[..., 15, 3, 1] = _tmp17 + _tmp19 + _tmp20
+    _out[..., 15, 3, 3] = -_tmp10 * _tmp9 + _tmp11 * _tmp8 + _tmp12 * _tmp5 * c_v1 + _tmp14 * _tmp2 + _tmp14
+    _out[..., 15, 4, 4] = _tmp16 * h
+    _out[..., 17, 1, 1] = _tmp23
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = (
+        _tmp13 - _tmp15 - _tmp17 * _tmp25 + _tmp19 * b + _tmp20 * b - _tmp24 * b * c_v1
+    )
+    _out[..., 17, 2, 2] = -_tmp23
+    _out[..., 17, 3, 3] = (
+        8 * _tmp1 * _tmp26 * _tmp4 * c_y
+        + 8 * _tmp1 * _tmp28 * _tmp4 * c_v1
+        - _tmp12 * _tmp3 * b
+        - _tmp14 * _tmp25
+        + 8 * _tmp2 * b * c_y * h
+        - _tmp22 * _tmp29
+        - _tmp27 * _tmp9
+        + 8 * _tmp5 * b * c_v1 * h
+    )
+    _out[..., 17, 4, 4] = -_tmp31
+    _out[..., 17, 5, 5] = _tmp31
+    _out[..., 19, 0, 0] = 8
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = -_tmp12
+    _out[..., 19, 4, 4] = _tmp29
+    _out[..., 19, 5, 5] = _tmp27
+    _out[..., 21, 1, 1] = _tmp24 + 4
+    _out[..., 21, 1, 3] = _out[..., 21, 3, 1] = _tmp24 * h + _tmp33 + 4 * h
+    _out[..., 21, 2, 2] = _tmp18
+    _out[..., 21, 3, 3] = _tmp18 * _tmp26 + _tmp24 * _tmp28 + 4 * _tmp28 + _tmp34
+    _out[..., 21, 4, 4] = _tmp35
+    _out[..., 21, 5, 5] = _tmp36 + _tmp37
+    _out[..., 23, 1, 1] = _tmp18
+    _out[..., 23, 1, 3] = _out[..., 23, 3, 1] = -_tmp33 + 4 * _tmp5 * h
+    _out[..., 23, 2, 2] = _tmp24
+    _out[..., 23, 3, 3] = _tmp18 * _tmp28 + _tmp24 * _tmp26 - _tmp34
+    _out[..., 23, 4, 4] = _tmp37
+    _out[..., 23, 5, 5] = _tmp35
+    _out[..., 25, 2, 2] = 4
+    _out[..., 25, 3, 3] = 4 * _tmp26
+    _out[..., 25, 4, 4] = _tmp36
+    return _out.reshape(*_shape, 13, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -2882,71 +2780,51 @@ def effect_com_offset_derivatives(
         numpy.shape(dx_com),
         numpy.shape(dy_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 5): m, (2, 4): _tmp25, (3, 4): -_tmp26, (4, 4): _tmp28, (5, 5): _tmp28}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp25, (2, 3): m, (3, 3): _tmp29, (3, 4): -_tmp27, (5, 5): _tmp29}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = m
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp25
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -_tmp26
+    _out[..., 18, 4, 4] = _tmp28
+    _out[..., 18, 5, 5] = _tmp28
+    _out[..., 21, 0, 5] = _out[..., 21, 5, 0] = _tmp25
+    _out[..., 21, 2, 3] = _out[..., 21, 3, 2] = m
+    _out[..., 21, 3, 3] = _tmp29
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = -_tmp27
+    _out[..., 21, 5, 5] = _tmp29
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com):
@@ -3107,64 +2985,45 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         numpy.shape(b_v),
         numpy.shape(dz_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp25, (4, 4): _tmp25}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = m
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -m
+    _out[..., 18, 3, 3] = _tmp25
+    _out[..., 18, 4, 4] = _tmp25
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(
@@ -3341,67 +3200,46 @@ def effect_rotational_stiffness_derivatives(
         numpy.shape(k_bend),
         numpy.shape(k_torsion),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 8, (4, 4): 8 - _tmp14, (5, 5): 4 - _tmp7}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp14, (5, 5): _tmp8}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 19, 3, 3] = 8
+    _out[..., 19, 4, 4] = 8 - _tmp14
+    _out[..., 19, 5, 5] = 4 - _tmp7
+    _out[..., 22, 4, 4] = _tmp14
+    _out[..., 22, 5, 5] = _tmp8
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -4054,219 +3892,141 @@ def effect_foundation_derivatives(
         numpy.shape(found_spread),
         numpy.shape(found_depth),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (0, 6): -8,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp5,
-                    (5, 11): -_tmp5,
-                    (6, 6): 8,
-                    (11, 11): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): _tmp9,
-                    (1, 3): _tmp14,
-                    (1, 7): _tmp15,
-                    (1, 9): _tmp16,
-                    (2, 2): _tmp18,
-                    (2, 8): _tmp19,
-                    (3, 3): _tmp22,
-                    (3, 7): _tmp23,
-                    (3, 9): _tmp25,
-                    (4, 4): _tmp27,
-                    (4, 10): _tmp28,
-                    (5, 5): _tmp32,
-                    (5, 11): _tmp33,
-                    (7, 7): _tmp9,
-                    (7, 9): _tmp13,
-                    (8, 8): _tmp18,
-                    (9, 9): _tmp21,
-                    (10, 10): _tmp27,
-                    (11, 11): _tmp32,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): _tmp18,
-                    (1, 3): _tmp35,
-                    (1, 7): _tmp19,
-                    (1, 9): _tmp13,
-                    (2, 2): _tmp8,
-                    (2, 8): -_tmp8,
-                    (3, 3): _tmp37,
-                    (3, 7): _tmp34,
-                    (3, 9): -_tmp12 * _tmp38,
-                    (4, 4): _tmp31,
-                    (4, 10): -_tmp31,
-                    (5, 5): _tmp27,
-                    (5, 11): _tmp28,
-                    (7, 7): _tmp18,
-                    (7, 9): _tmp16,
-                    (8, 8): _tmp8,
-                    (9, 9): _tmp36,
-                    (10, 10): _tmp31,
-                    (11, 11): _tmp27,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp39,
-                    (3, 9): -_tmp39,
-                    (4, 4): _tmp30,
-                    (4, 10): -_tmp30,
-                    (8, 8): 4,
-                    (9, 9): _tmp39,
-                    (10, 10): _tmp30,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (0, 6): -8,
-                    (1, 1): _tmp9,
-                    (1, 3): _tmp14,
-                    (1, 7): _tmp15,
-                    (1, 9): _tmp16,
-                    (2, 2): _tmp18,
-                    (2, 8): _tmp19,
-                    (3, 3): _tmp22,
-                    (3, 7): _tmp23,
-                    (3, 9): _tmp25,
-                    (4, 4): _tmp27 + _tmp3,
-                    (4, 6): _tmp0,
-                    (4, 10): _tmp28,
-                    (5, 5): _tmp40,
-                    (5, 11): -_tmp40,
-                    (6, 6): 8,
-                    (7, 7): _tmp9,
-                    (7, 9): _tmp13,
-                    (8, 8): _tmp18,
-                    (9, 9): _tmp21,
-                    (10, 10): _tmp27,
-                    (11, 11): _tmp40,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): _tmp18,
-                    (1, 3): _tmp35,
-                    (1, 7): _tmp19,
-                    (1, 9): _tmp13,
-                    (2, 2): _tmp9,
-                    (2, 8): _tmp15,
-                    (3, 3): _tmp37 + _tmp39,
-                    (3, 7): _tmp34,
-                    (3, 9): _tmp12 * (-_tmp38 - b),
-                    (4, 4): _tmp32,
-                    (4, 10): _tmp33,
-                    (5, 5): _tmp27,
-                    (5, 11): _tmp28,
-                    (7, 7): _tmp18,
-                    (7, 9): _tmp16,
-                    (8, 8): _tmp9,
-                    (9, 9): _tmp39 * (_tmp7 + 1),
-                    (10, 10): _tmp32,
-                    (11, 11): _tmp27,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): 1,
-                    (6, 10): -found_depth,
-                    (7, 7): 1,
-                    (7, 9): found_depth,
-                    (8, 8): 1,
-                    (9, 9): _tmp45,
-                    (10, 10): _tmp45,
-                    (11, 11): _tmp44,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): found_shear,
-                    (6, 10): -_tmp46,
-                    (7, 7): found_shear,
-                    (7, 9): _tmp46,
-                    (8, 8): 1,
-                    (9, 9): _tmp47 + _tmp49,
-                    (10, 10): _tmp47 + _tmp50 + _tmp51,
-                    (11, 11): _tmp49 * found_shear + _tmp50 * found_shear + _tmp51 * found_shear,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): k_found,
-                    (6, 10): -_tmp52,
-                    (7, 7): k_found,
-                    (7, 9): _tmp52,
-                    (9, 9): _tmp53,
-                    (10, 10): _tmp53,
-                    (11, 11): _tmp49 * k_found + _tmp50 * k_found + _tmp51 * k_found,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (9, 9): _tmp54 * _tmp55,
-                    (10, 10): _tmp26 * _tmp54 + _tmp29 * _tmp54,
-                    (11, 11): _tmp26 * _tmp57 + _tmp29 * _tmp57 + _tmp55 * _tmp57,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp58, (10, 10): _tmp58}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp56, (7, 9): _tmp56, (9, 9): _tmp59, (10, 10): _tmp59}),
-            _runtime.stack_matrix(_shape, 12, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 12, 12)
+    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -8
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = -_tmp5
+    _out[..., 1, 6, 6] = 8
+    _out[..., 1, 11, 11] = _tmp5
+    _out[..., 4, 1, 1] = _tmp9
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp14
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = _tmp15
+    _out[..., 4, 1, 9] = _out[..., 4, 9, 1] = _tmp16
+    _out[..., 4, 2, 2] = _tmp18
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp19
+    _out[..., 4, 3, 3] = _tmp22
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp23
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp25
+    _out[..., 4, 4, 4] = _tmp27
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp28
+    _out[..., 4, 5, 5] = _tmp32
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp33
+    _out[..., 4, 7, 7] = _tmp9
+    _out[..., 4, 7, 9] = _out[..., 4, 9, 7] = _tmp13
+    _out[..., 4, 8, 8] = _tmp18
+    _out[..., 4, 9, 9] = _tmp21
+    _out[..., 4, 10, 10] = _tmp27
+    _out[..., 4, 11, 11] = _tmp32
+    _out[..., 7, 1, 1] = _tmp18
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp35
+    _out[..., 7, 1, 7] = _out[..., 7, 7, 1] = _tmp19
+    _out[..., 7, 1, 9] = _out[..., 7, 9, 1] = _tmp13
+    _out[..., 7, 2, 2] = _tmp8
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = -_tmp8
+    _out[..., 7, 3, 3] = _tmp37
+    _out[..., 7, 3, 7] = _out[..., 7, 7, 3] = _tmp34
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = -_tmp12 * _tmp38
+    _out[..., 7, 4, 4] = _tmp31
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = -_tmp31
+    _out[..., 7, 5, 5] = _tmp27
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp28
+    _out[..., 7, 7, 7] = _tmp18
+    _out[..., 7, 7, 9] = _out[..., 7, 9, 7] = _tmp16
+    _out[..., 7, 8, 8] = _tmp8
+    _out[..., 7, 9, 9] = _tmp36
+    _out[..., 7, 10, 10] = _tmp31
+    _out[..., 7, 11, 11] = _tmp27
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 2, 8] = _out[..., 10, 8, 2] = -4
+    _out[..., 10, 3, 3] = _tmp39
+    _out[..., 10, 3, 9] = _out[..., 10, 9, 3] = -_tmp39
+    _out[..., 10, 4, 4] = _tmp30
+    _out[..., 10, 4, 10] = _out[..., 10, 10, 4] = -_tmp30
+    _out[..., 10, 8, 8] = 4
+    _out[..., 10, 9, 9] = _tmp39
+    _out[..., 10, 10, 10] = _tmp30
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 0, 6] = _out[..., 14, 6, 0] = -8
+    _out[..., 14, 1, 1] = _tmp9
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp14
+    _out[..., 14, 1, 7] = _out[..., 14, 7, 1] = _tmp15
+    _out[..., 14, 1, 9] = _out[..., 14, 9, 1] = _tmp16
+    _out[..., 14, 2, 2] = _tmp18
+    _out[..., 14, 2, 8] = _out[..., 14, 8, 2] = _tmp19
+    _out[..., 14, 3, 3] = _tmp22
+    _out[..., 14, 3, 7] = _out[..., 14, 7, 3] = _tmp23
+    _out[..., 14, 3, 9] = _out[..., 14, 9, 3] = _tmp25
+    _out[..., 14, 4, 4] = _tmp27 + _tmp3
+    _out[..., 14, 4, 6] = _out[..., 14, 6, 4] = _tmp0
+    _out[..., 14, 4, 10] = _out[..., 14, 10, 4] = _tmp28
+    _out[..., 14, 5, 5] = _tmp40
+    _out[..., 14, 5, 11] = _out[..., 14, 11, 5] = -_tmp40
+    _out[..., 14, 6, 6] = 8
+    _out[..., 14, 7, 7] = _tmp9
+    _out[..., 14, 7, 9] = _out[..., 14, 9, 7] = _tmp13
+    _out[..., 14, 8, 8] = _tmp18
+    _out[..., 14, 9, 9] = _tmp21
+    _out[..., 14, 10, 10] = _tmp27
+    _out[..., 14, 11, 11] = _tmp40
+    _out[..., 17, 1, 1] = _tmp18
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp35
+    _out[..., 17, 1, 7] = _out[..., 17, 7, 1] = _tmp19
+    _out[..., 17, 1, 9] = _out[..., 17, 9, 1] = _tmp13
+    _out[..., 17, 2, 2] = _tmp9
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = _tmp15
+    _out[..., 17, 3, 3] = _tmp37 + _tmp39
+    _out[..., 17, 3, 7] = _out[..., 17, 7, 3] = _tmp34
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp12 * (-_tmp38 - b)
+    _out[..., 17, 4, 4] = _tmp32
+    _out[..., 17, 4, 10] = _out[..., 17, 10, 4] = _tmp33
+    _out[..., 17, 5, 5] = _tmp27
+    _out[..., 17, 5, 11] = _out[..., 17, 11, 5] = _tmp28
+    _out[..., 17, 7, 7] = _tmp18
+    _out[..., 17, 7, 9] = _out[..., 17, 9, 7] = _tmp16
+    _out[..., 17, 8, 8] = _tmp9
+    _out[..., 17, 9, 9] = _tmp39 * (_tmp7 + 1)
+    _out[..., 17, 10, 10] = _tmp32
+    _out[..., 17, 11, 11] = _tmp27
+    _out[..., 18, 6, 6] = 1
+    _out[..., 18, 6, 10] = _out[..., 18, 10, 6] = -found_depth
+    _out[..., 18, 7, 7] = 1
+    _out[..., 18, 7, 9] = _out[..., 18, 9, 7] = found_depth
+    _out[..., 18, 8, 8] = 1
+    _out[..., 18, 9, 9] = _tmp45
+    _out[..., 18, 10, 10] = _tmp45
+    _out[..., 18, 11, 11] = _tmp44
+    _out[..., 22, 6, 6] = found_shear
+    _out[..., 22, 6, 10] = _out[..., 22, 10, 6] = -_tmp46
+    _out[..., 22, 7, 7] = found_shear
+    _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp46
+    _out[..., 22, 8, 8] = 1
+    _out[..., 22, 9, 9] = _tmp47 + _tmp49
+    _out[..., 22, 10, 10] = _tmp47 + _tmp50 + _tmp51
+    _out[..., 22, 11, 11] = _tmp49 * found_shear + _tmp50 * found_shear + _tmp51 * found_shear
+    _out[..., 25, 6, 6] = k_found
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp52
+    _out[..., 25, 7, 7] = k_found
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp52
+    _out[..., 25, 9, 9] = _tmp53
+    _out[..., 25, 10, 10] = _tmp53
+    _out[..., 25, 11, 11] = _tmp49 * k_found + _tmp50 * k_found + _tmp51 * k_found
+    _out[..., 28, 9, 9] = _tmp54 * _tmp55
+    _out[..., 28, 10, 10] = _tmp26 * _tmp54 + _tmp29 * _tmp54
+    _out[..., 28, 11, 11] = _tmp26 * _tmp57 + _tmp29 * _tmp57 + _tmp55 * _tmp57
+    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
+    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
+    _out[..., 30, 9, 9] = _tmp58
+    _out[..., 30, 10, 10] = _tmp58
+    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp56
+    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp56
+    _out[..., 31, 9, 9] = _tmp59
+    _out[..., 31, 10, 10] = _tmp59
+    return _out.reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -4613,108 +4373,77 @@ def effect_added_mass_derivatives(
         numpy.shape(h_added),
         numpy.shape(g_added),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): h_added,
-                    (0, 5): -y_added,
-                    (1, 1): 1,
-                    (1, 3): -h_added,
-                    (1, 5): x_added,
-                    (2, 2): 1,
-                    (2, 3): y_added,
-                    (2, 4): -x_added,
-                    (3, 3): _tmp25 + _tmp27,
-                    (3, 4): -x_added * y_added,
-                    (3, 5): -h_added * x_added,
-                    (4, 4): _tmp27 + _tmp28,
-                    (4, 5): -h_added * y_added,
-                    (5, 5): _tmp25 + _tmp26 + _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 5): m_added, (2, 4): _tmp29, (3, 4): _tmp31, (3, 5): _tmp33, (4, 4): _tmp35, (5, 5): _tmp35},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 5): _tmp29, (2, 3): m_added, (3, 3): _tmp36, (3, 4): _tmp37, (4, 5): _tmp33, (5, 5): _tmp36},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 4): m_added, (1, 3): _tmp29, (3, 3): _tmp38, (3, 5): _tmp37, (4, 4): _tmp38, (4, 5): _tmp31},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp39, (4, 4): _tmp39, (5, 5): _tmp39}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 33, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 18, 0, 0] = 1
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = h_added
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = -y_added
+    _out[..., 18, 1, 1] = 1
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -h_added
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = x_added
+    _out[..., 18, 2, 2] = 1
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = y_added
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = -x_added
+    _out[..., 18, 3, 3] = _tmp25 + _tmp27
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -x_added * y_added
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = -h_added * x_added
+    _out[..., 18, 4, 4] = _tmp27 + _tmp28
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = -h_added * y_added
+    _out[..., 18, 5, 5] = _tmp25 + _tmp26 + _tmp28
+    _out[..., 21, 1, 5] = _out[..., 21, 5, 1] = m_added
+    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp29
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp31
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp33
+    _out[..., 21, 4, 4] = _tmp35
+    _out[..., 21, 5, 5] = _tmp35
+    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp29
+    _out[..., 24, 2, 3] = _out[..., 24, 3, 2] = m_added
+    _out[..., 24, 3, 3] = _tmp36
+    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp37
+    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp33
+    _out[..., 24, 5, 5] = _tmp36
+    _out[..., 27, 0, 4] = _out[..., 27, 4, 0] = m_added
+    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp29
+    _out[..., 27, 3, 3] = _tmp38
+    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp37
+    _out[..., 27, 4, 4] = _tmp38
+    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp31
+    _out[..., 30, 3, 3] = _tmp39
+    _out[..., 30, 4, 4] = _tmp39
+    _out[..., 30, 5, 5] = _tmp39
+    return _out.reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
@@ -4879,67 +4608,46 @@ def effect_drive_belt_derivatives(
         numpy.shape(k_belt),
         numpy.shape(h_belt),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 19, 0, 0] = 1
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = h_belt
+    _out[..., 19, 4, 4] = h_belt**2
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = k_belt
+    _out[..., 22, 4, 4] = 2 * h_belt * k_belt
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload):
@@ -5097,64 +4805,43 @@ def effect_gravity_preload_derivatives(
         numpy.shape(b_v),
         numpy.shape(h_preload),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 8, (0, 4): _tmp1, (4, 4): _tmp3, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp8, (1, 3): _tmp12, (2, 2): _tmp14, (3, 3): _tmp16, (4, 4): _tmp18, (5, 5): _tmp21},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 1): _tmp14, (1, 3): _tmp22, (2, 2): _tmp7, (3, 3): _tmp23, (4, 4): _tmp20, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp24, (4, 4): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 8,
-                    (0, 4): _tmp1,
-                    (1, 1): _tmp8,
-                    (1, 3): _tmp12,
-                    (2, 2): _tmp14,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp18 + _tmp3,
-                    (5, 5): _tmp21 + _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp14,
-                    (1, 3): _tmp22,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp23 + _tmp24,
-                    (4, 4): _tmp21,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp25, (4, 4): _tmp25}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = 8
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 1, 1] = _tmp8
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp12
+    _out[..., 4, 2, 2] = _tmp14
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp18
+    _out[..., 4, 5, 5] = _tmp21
+    _out[..., 7, 1, 1] = _tmp14
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp22
+    _out[..., 7, 2, 2] = _tmp7
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 4, 4] = _tmp20
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 10, 2, 2] = 4
+    _out[..., 10, 3, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp19
+    _out[..., 14, 0, 0] = 8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp1
+    _out[..., 14, 1, 1] = _tmp8
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp12
+    _out[..., 14, 2, 2] = _tmp14
+    _out[..., 14, 3, 3] = _tmp16
+    _out[..., 14, 4, 4] = _tmp18 + _tmp3
+    _out[..., 14, 5, 5] = _tmp21 + _tmp5
+    _out[..., 17, 1, 1] = _tmp14
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp22
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp23 + _tmp24
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 5, 5] = _tmp18
+    _out[..., 19, 3, 3] = _tmp25
+    _out[..., 19, 4, 4] = _tmp25
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -5377,191 +5064,140 @@ def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
         numpy.shape(c_v1),
         numpy.shape(c_v2),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): _tmp10,
-                    (1, 2): _tmp13,
-                    (1, 3): _tmp16,
-                    (1, 4): _tmp18,
-                    (1, 5): _tmp19,
-                    (2, 2): _tmp22,
-                    (2, 3): _tmp25,
-                    (2, 4): _tmp27,
-                    (2, 5): _tmp28,
-                    (3, 3): _tmp31,
-                    (3, 4): _tmp33,
-                    (3, 5): _tmp34,
-                    (4, 4): _tmp37,
-                    (4, 5): _tmp39,
-                    (5, 5): _tmp41,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): _tmp10,
-                    (1, 2): _tmp13,
-                    (1, 3): _tmp16,
-                    (1, 4): _tmp28,
-                    (1, 5): _tmp42,
-                    (2, 2): _tmp22,
-                    (2, 3): _tmp25,
-                    (2, 4): _tmp26,
-                    (2, 5): _tmp18,
-                    (3, 3): _tmp31,
-                    (3, 4): _tmp43,
-                    (3, 5): _tmp44,
-                    (4, 4): _tmp37,
-                    (4, 5): _tmp39,
-                    (5, 5): _tmp41,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): _tmp10,
-                    (1, 2): _tmp17,
-                    (1, 3): _tmp16,
-                    (1, 4): _tmp28,
-                    (1, 5): _tmp19,
-                    (2, 2): _tmp22,
-                    (2, 3): _tmp32,
-                    (2, 4): _tmp27,
-                    (2, 5): _tmp18,
-                    (3, 3): _tmp31,
-                    (3, 4): _tmp43,
-                    (3, 5): _tmp34,
-                    (4, 4): _tmp37,
-                    (4, 5): _tmp45,
-                    (5, 5): _tmp41,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): _tmp10,
-                    (1, 2): _tmp17,
-                    (1, 3): _tmp16,
-                    (1, 4): _tmp18,
-                    (1, 5): _tmp42,
-                    (2, 2): _tmp22,
-                    (2, 3): _tmp32,
-                    (2, 4): _tmp26,
-                    (2, 5): _tmp28,
-                    (3, 3): _tmp31,
-                    (3, 4): _tmp33,
-                    (3, 5): _tmp44,
-                    (4, 4): _tmp37,
-                    (4, 5): _tmp45,
-                    (5, 5): _tmp41,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_y,
-                    (1, 3): _tmp23,
-                    (1, 5): _tmp46,
-                    (2, 2): c_v2,
-                    (2, 3): _tmp47,
-                    (2, 4): _tmp49,
-                    (3, 3): _tmp50,
-                    (3, 4): _tmp52,
-                    (3, 5): _tmp53,
-                    (4, 4): _tmp55,
-                    (4, 5): _tmp38,
-                    (5, 5): _tmp56,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_y,
-                    (1, 3): _tmp23,
-                    (1, 5): _tmp57,
-                    (2, 2): c_v2,
-                    (2, 3): _tmp47,
-                    (2, 4): _tmp48,
-                    (3, 3): _tmp50,
-                    (3, 4): _tmp51,
-                    (3, 5): _tmp58,
-                    (4, 4): _tmp55,
-                    (4, 5): _tmp38,
-                    (5, 5): _tmp56,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_y,
-                    (1, 3): _tmp23,
-                    (1, 5): _tmp46,
-                    (2, 2): c_v2,
-                    (2, 3): _tmp59,
-                    (2, 4): _tmp49,
-                    (3, 3): _tmp50,
-                    (3, 4): _tmp51,
-                    (3, 5): _tmp53,
-                    (4, 4): _tmp55,
-                    (4, 5): _tmp60,
-                    (5, 5): _tmp56,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_y,
-                    (1, 3): _tmp23,
-                    (1, 5): _tmp57,
-                    (2, 2): c_v2,
-                    (2, 3): _tmp59,
-                    (2, 4): _tmp48,
-                    (3, 3): _tmp50,
-                    (3, 4): _tmp52,
-                    (3, 5): _tmp58,
-                    (4, 4): _tmp55,
-                    (4, 5): _tmp60,
-                    (5, 5): _tmp56,
-                },
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 0, 0, 0] = c_x
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp3
+    _out[..., 0, 1, 1] = _tmp10
+    _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp13
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp16
+    _out[..., 0, 1, 4] = _out[..., 0, 4, 1] = _tmp18
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp19
+    _out[..., 0, 2, 2] = _tmp22
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp25
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp27
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp28
+    _out[..., 0, 3, 3] = _tmp31
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp33
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp34
+    _out[..., 0, 4, 4] = _tmp37
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp39
+    _out[..., 0, 5, 5] = _tmp41
+    _out[..., 1, 0, 0] = c_x
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp3
+    _out[..., 1, 1, 1] = _tmp10
+    _out[..., 1, 1, 2] = _out[..., 1, 2, 1] = _tmp13
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp16
+    _out[..., 1, 1, 4] = _out[..., 1, 4, 1] = _tmp28
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp42
+    _out[..., 1, 2, 2] = _tmp22
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp25
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp26
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp18
+    _out[..., 1, 3, 3] = _tmp31
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp43
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp44
+    _out[..., 1, 4, 4] = _tmp37
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp39
+    _out[..., 1, 5, 5] = _tmp41
+    _out[..., 2, 0, 0] = c_x
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp2
+    _out[..., 2, 1, 1] = _tmp10
+    _out[..., 2, 1, 2] = _out[..., 2, 2, 1] = _tmp17
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp16
+    _out[..., 2, 1, 4] = _out[..., 2, 4, 1] = _tmp28
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp19
+    _out[..., 2, 2, 2] = _tmp22
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp32
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp27
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp18
+    _out[..., 2, 3, 3] = _tmp31
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp43
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp34
+    _out[..., 2, 4, 4] = _tmp37
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp45
+    _out[..., 2, 5, 5] = _tmp41
+    _out[..., 3, 0, 0] = c_x
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp2
+    _out[..., 3, 1, 1] = _tmp10
+    _out[..., 3, 1, 2] = _out[..., 3, 2, 1] = _tmp17
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp16
+    _out[..., 3, 1, 4] = _out[..., 3, 4, 1] = _tmp18
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp42
+    _out[..., 3, 2, 2] = _tmp22
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp32
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp26
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp28
+    _out[..., 3, 3, 3] = _tmp31
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp33
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp44
+    _out[..., 3, 4, 4] = _tmp37
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp45
+    _out[..., 3, 5, 5] = _tmp41
+    _out[..., 4, 0, 0] = c_x
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp1
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp3
+    _out[..., 4, 1, 1] = c_y
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp23
+    _out[..., 4, 1, 5] = _out[..., 4, 5, 1] = _tmp46
+    _out[..., 4, 2, 2] = c_v2
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp47
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp49
+    _out[..., 4, 3, 3] = _tmp50
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp52
+    _out[..., 4, 3, 5] = _out[..., 4, 5, 3] = _tmp53
+    _out[..., 4, 4, 4] = _tmp55
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp38
+    _out[..., 4, 5, 5] = _tmp56
+    _out[..., 5, 0, 0] = c_x
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp1
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp3
+    _out[..., 5, 1, 1] = c_y
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = _tmp23
+    _out[..., 5, 1, 5] = _out[..., 5, 5, 1] = _tmp57
+    _out[..., 5, 2, 2] = c_v2
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp47
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp48
+    _out[..., 5, 3, 3] = _tmp50
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp51
+    _out[..., 5, 3, 5] = _out[..., 5, 5, 3] = _tmp58
+    _out[..., 5, 4, 4] = _tmp55
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp38
+    _out[..., 5, 5, 5] = _tmp56
+    _out[..., 6, 0, 0] = c_x
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp1
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp2
+    _out[..., 6, 1, 1] = c_y
+    _out[..., 6, 1, 3] = _out[..., 6, 3, 1] = _tmp23
+    _out[..., 6, 1, 5] = _out[..., 6, 5, 1] = _tmp46
+    _out[..., 6, 2, 2] = c_v2
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp59
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp49
+    _out[..., 6, 3, 3] = _tmp50
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp51
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp53
+    _out[..., 6, 4, 4] = _tmp55
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp60
+    _out[..., 6, 5, 5] = _tmp56
+    _out[..., 7, 0, 0] = c_x
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp1
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp2
+    _out[..., 7, 1, 1] = c_y
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp23
+    _out[..., 7, 1, 5] = _out[..., 7, 5, 1] = _tmp57
+    _out[..., 7, 2, 2] = c_v2
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp59
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp48
+    _out[..., 7, 3, 3] = _tmp50
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp52
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp58
+    _out[..., 7, 4, 4] = _tmp55
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp60
+    _out[..., 7, 5, 5] = _tmp56
+    return _out
 
 
 def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -5880,235 +5516,224 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
         numpy.shape(c_v1),
         numpy.shape(c_v2),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp7,
-                    (1, 2): _tmp9,
-                    (1, 3): _tmp11,
-                    (1, 4): _tmp13,
-                    (1, 5): _tmp14,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp17,
-                    (2, 4): _tmp19,
-                    (2, 5): _tmp12,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp28,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp7,
-                    (1, 2): _tmp9,
-                    (1, 3): _tmp11,
-                    (1, 4): _tmp12,
-                    (1, 5): _tmp30,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp17,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp13,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp32,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp28,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp7,
-                    (1, 2): _tmp33,
-                    (1, 3): _tmp11,
-                    (1, 4): _tmp12,
-                    (1, 5): _tmp14,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp19,
-                    (2, 5): _tmp13,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp7,
-                    (1, 2): _tmp33,
-                    (1, 3): _tmp11,
-                    (1, 4): _tmp13,
-                    (1, 5): _tmp30,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp12,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp32,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a2, (3, 3): _tmp2, (3, 5): _tmp34, (5, 5): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp36, (3, 3): _tmp2, (3, 5): _tmp37, (5, 5): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp15,
-                    (1, 2): _tmp33,
-                    (1, 3): _tmp39,
-                    (1, 4): _tmp12,
-                    (1, 5): _tmp18,
-                    (2, 2): _tmp7,
-                    (2, 3): _tmp40,
-                    (2, 4): _tmp30,
-                    (2, 5): _tmp13,
-                    (3, 3): _tmp41,
-                    (3, 4): _tmp43,
-                    (3, 5): _tmp44,
-                    (4, 4): _tmp29,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp26,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp15,
-                    (1, 2): _tmp33,
-                    (1, 3): _tmp39,
-                    (1, 4): _tmp13,
-                    (1, 5): _tmp19,
-                    (2, 2): _tmp7,
-                    (2, 3): _tmp40,
-                    (2, 4): _tmp14,
-                    (2, 5): _tmp12,
-                    (3, 3): _tmp41,
-                    (3, 4): _tmp45,
-                    (3, 5): _tmp46,
-                    (4, 4): _tmp29,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp26,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp15,
-                    (1, 2): _tmp9,
-                    (1, 3): _tmp39,
-                    (1, 4): _tmp13,
-                    (1, 5): _tmp18,
-                    (2, 2): _tmp7,
-                    (2, 3): _tmp42,
-                    (2, 4): _tmp30,
-                    (2, 5): _tmp12,
-                    (3, 3): _tmp41,
-                    (3, 4): _tmp45,
-                    (3, 5): _tmp44,
-                    (4, 4): _tmp29,
-                    (4, 5): _tmp28,
-                    (5, 5): _tmp26,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp15,
-                    (1, 2): _tmp9,
-                    (1, 3): _tmp39,
-                    (1, 4): _tmp12,
-                    (1, 5): _tmp19,
-                    (2, 2): _tmp7,
-                    (2, 3): _tmp42,
-                    (2, 4): _tmp14,
-                    (2, 5): _tmp13,
-                    (3, 3): _tmp41,
-                    (3, 4): _tmp43,
-                    (3, 5): _tmp46,
-                    (4, 4): _tmp29,
-                    (4, 5): _tmp28,
-                    (5, 5): _tmp26,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp36, (3, 3): _tmp4, (3, 4): _tmp47, (4, 4): _tmp35}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a2, (3, 3): _tmp4, (3, 4): _tmp48, (4, 4): _tmp35}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 4, 8, 6, 6)
+    _out = numpy.zeros((*_shape, 32, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp1
+    _out[..., 0, 4, 4] = _tmp2
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp3
+    _out[..., 0, 5, 5] = _tmp4
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = b
+    _out[..., 2, 4, 4] = _tmp2
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp5
+    _out[..., 2, 5, 5] = _tmp4
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = b
+    _out[..., 3, 4, 4] = _tmp2
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp5
+    _out[..., 3, 5, 5] = _tmp4
+    _out[..., 4, 0, 0] = 1
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp0
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp1
+    _out[..., 4, 4, 4] = _tmp2
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp3
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 5, 0, 0] = 1
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp0
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp1
+    _out[..., 5, 4, 4] = _tmp2
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp3
+    _out[..., 5, 5, 5] = _tmp4
+    _out[..., 6, 0, 0] = 1
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp0
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = b
+    _out[..., 6, 4, 4] = _tmp2
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp5
+    _out[..., 6, 5, 5] = _tmp4
+    _out[..., 7, 0, 0] = 1
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp0
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = b
+    _out[..., 7, 4, 4] = _tmp2
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp5
+    _out[..., 7, 5, 5] = _tmp4
+    _out[..., 8, 1, 1] = _tmp7
+    _out[..., 8, 1, 2] = _out[..., 8, 2, 1] = _tmp9
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp11
+    _out[..., 8, 1, 4] = _out[..., 8, 4, 1] = _tmp13
+    _out[..., 8, 1, 5] = _out[..., 8, 5, 1] = _tmp14
+    _out[..., 8, 2, 2] = _tmp15
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp17
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp19
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp12
+    _out[..., 8, 3, 3] = _tmp21
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp23
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp24
+    _out[..., 8, 4, 4] = _tmp26
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp28
+    _out[..., 8, 5, 5] = _tmp29
+    _out[..., 9, 1, 1] = _tmp7
+    _out[..., 9, 1, 2] = _out[..., 9, 2, 1] = _tmp9
+    _out[..., 9, 1, 3] = _out[..., 9, 3, 1] = _tmp11
+    _out[..., 9, 1, 4] = _out[..., 9, 4, 1] = _tmp12
+    _out[..., 9, 1, 5] = _out[..., 9, 5, 1] = _tmp30
+    _out[..., 9, 2, 2] = _tmp15
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp17
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp18
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp13
+    _out[..., 9, 3, 3] = _tmp21
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp31
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp32
+    _out[..., 9, 4, 4] = _tmp26
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp28
+    _out[..., 9, 5, 5] = _tmp29
+    _out[..., 10, 1, 1] = _tmp7
+    _out[..., 10, 1, 2] = _out[..., 10, 2, 1] = _tmp33
+    _out[..., 10, 1, 3] = _out[..., 10, 3, 1] = _tmp11
+    _out[..., 10, 1, 4] = _out[..., 10, 4, 1] = _tmp12
+    _out[..., 10, 1, 5] = _out[..., 10, 5, 1] = _tmp14
+    _out[..., 10, 2, 2] = _tmp15
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp22
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp19
+    _out[..., 10, 2, 5] = _out[..., 10, 5, 2] = _tmp13
+    _out[..., 10, 3, 3] = _tmp21
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp31
+    _out[..., 10, 3, 5] = _out[..., 10, 5, 3] = _tmp24
+    _out[..., 10, 4, 4] = _tmp26
+    _out[..., 10, 4, 5] = _out[..., 10, 5, 4] = _tmp27
+    _out[..., 10, 5, 5] = _tmp29
+    _out[..., 11, 1, 1] = _tmp7
+    _out[..., 11, 1, 2] = _out[..., 11, 2, 1] = _tmp33
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp11
+    _out[..., 11, 1, 4] = _out[..., 11, 4, 1] = _tmp13
+    _out[..., 11, 1, 5] = _out[..., 11, 5, 1] = _tmp30
+    _out[..., 11, 2, 2] = _tmp15
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp22
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = _tmp18
+    _out[..., 11, 2, 5] = _out[..., 11, 5, 2] = _tmp12
+    _out[..., 11, 3, 3] = _tmp21
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp23
+    _out[..., 11, 3, 5] = _out[..., 11, 5, 3] = _tmp32
+    _out[..., 11, 4, 4] = _tmp26
+    _out[..., 11, 4, 5] = _out[..., 11, 5, 4] = _tmp27
+    _out[..., 11, 5, 5] = _tmp29
+    _out[..., 12, 1, 1] = 1
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = h
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = a2
+    _out[..., 12, 3, 3] = _tmp2
+    _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = _tmp34
+    _out[..., 12, 5, 5] = _tmp35
+    _out[..., 13, 1, 1] = 1
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = h
+    _out[..., 13, 1, 5] = _out[..., 13, 5, 1] = _tmp36
+    _out[..., 13, 3, 3] = _tmp2
+    _out[..., 13, 3, 5] = _out[..., 13, 5, 3] = _tmp37
+    _out[..., 13, 5, 5] = _tmp35
+    _out[..., 14, 1, 1] = 1
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = h
+    _out[..., 14, 1, 5] = _out[..., 14, 5, 1] = a2
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 3, 5] = _out[..., 14, 5, 3] = _tmp34
+    _out[..., 14, 5, 5] = _tmp35
+    _out[..., 15, 1, 1] = 1
+    _out[..., 15, 1, 3] = _out[..., 15, 3, 1] = h
+    _out[..., 15, 1, 5] = _out[..., 15, 5, 1] = _tmp36
+    _out[..., 15, 3, 3] = _tmp2
+    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp37
+    _out[..., 15, 5, 5] = _tmp35
+    _out[..., 16, 1, 1] = _tmp15
+    _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp33
+    _out[..., 16, 1, 3] = _out[..., 16, 3, 1] = _tmp39
+    _out[..., 16, 1, 4] = _out[..., 16, 4, 1] = _tmp12
+    _out[..., 16, 1, 5] = _out[..., 16, 5, 1] = _tmp18
+    _out[..., 16, 2, 2] = _tmp7
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = _tmp40
+    _out[..., 16, 2, 4] = _out[..., 16, 4, 2] = _tmp30
+    _out[..., 16, 2, 5] = _out[..., 16, 5, 2] = _tmp13
+    _out[..., 16, 3, 3] = _tmp41
+    _out[..., 16, 3, 4] = _out[..., 16, 4, 3] = _tmp43
+    _out[..., 16, 3, 5] = _out[..., 16, 5, 3] = _tmp44
+    _out[..., 16, 4, 4] = _tmp29
+    _out[..., 16, 4, 5] = _out[..., 16, 5, 4] = _tmp27
+    _out[..., 16, 5, 5] = _tmp26
+    _out[..., 17, 1, 1] = _tmp15
+    _out[..., 17, 1, 2] = _out[..., 17, 2, 1] = _tmp33
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp39
+    _out[..., 17, 1, 4] = _out[..., 17, 4, 1] = _tmp13
+    _out[..., 17, 1, 5] = _out[..., 17, 5, 1] = _tmp19
+    _out[..., 17, 2, 2] = _tmp7
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp40
+    _out[..., 17, 2, 4] = _out[..., 17, 4, 2] = _tmp14
+    _out[..., 17, 2, 5] = _out[..., 17, 5, 2] = _tmp12
+    _out[..., 17, 3, 3] = _tmp41
+    _out[..., 17, 3, 4] = _out[..., 17, 4, 3] = _tmp45
+    _out[..., 17, 3, 5] = _out[..., 17, 5, 3] = _tmp46
+    _out[..., 17, 4, 4] = _tmp29
+    _out[..., 17, 4, 5] = _out[..., 17, 5, 4] = _tmp27
+    _out[..., 17, 5, 5] = _tmp26
+    _out[..., 18, 1, 1] = _tmp15
+    _out[..., 18, 1, 2] = _out[..., 18, 2, 1] = _tmp9
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = _tmp39
+    _out[..., 18, 1, 4] = _out[..., 18, 4, 1] = _tmp13
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = _tmp18
+    _out[..., 18, 2, 2] = _tmp7
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = _tmp42
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp30
+    _out[..., 18, 2, 5] = _out[..., 18, 5, 2] = _tmp12
+    _out[..., 18, 3, 3] = _tmp41
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp45
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = _tmp44
+    _out[..., 18, 4, 4] = _tmp29
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp28
+    _out[..., 18, 5, 5] = _tmp26
+    _out[..., 19, 1, 1] = _tmp15
+    _out[..., 19, 1, 2] = _out[..., 19, 2, 1] = _tmp9
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = _tmp39
+    _out[..., 19, 1, 4] = _out[..., 19, 4, 1] = _tmp12
+    _out[..., 19, 1, 5] = _out[..., 19, 5, 1] = _tmp19
+    _out[..., 19, 2, 2] = _tmp7
+    _out[..., 19, 2, 3] = _out[..., 19, 3, 2] = _tmp42
+    _out[..., 19, 2, 4] = _out[..., 19, 4, 2] = _tmp14
+    _out[..., 19, 2, 5] = _out[..., 19, 5, 2] = _tmp13
+    _out[..., 19, 3, 3] = _tmp41
+    _out[..., 19, 3, 4] = _out[..., 19, 4, 3] = _tmp43
+    _out[..., 19, 3, 5] = _out[..., 19, 5, 3] = _tmp46
+    _out[..., 19, 4, 4] = _tmp29
+    _out[..., 19, 4, 5] = _out[..., 19, 5, 4] = _tmp28
+    _out[..., 19, 5, 5] = _tmp26
+    _out[..., 28, 2, 2] = 1
+    _out[..., 28, 2, 3] = _out[..., 28, 3, 2] = b
+    _out[..., 28, 2, 4] = _out[..., 28, 4, 2] = _tmp36
+    _out[..., 28, 3, 3] = _tmp4
+    _out[..., 28, 3, 4] = _out[..., 28, 4, 3] = _tmp48
+    _out[..., 28, 4, 4] = _tmp35
+    _out[..., 29, 2, 2] = 1
+    _out[..., 29, 2, 3] = _out[..., 29, 3, 2] = b
+    _out[..., 29, 2, 4] = _out[..., 29, 4, 2] = a2
+    _out[..., 29, 3, 3] = _tmp4
+    _out[..., 29, 3, 4] = _out[..., 29, 4, 3] = _tmp47
+    _out[..., 29, 4, 4] = _tmp35
+    _out[..., 30, 2, 2] = 1
+    _out[..., 30, 2, 3] = _out[..., 30, 3, 2] = _tmp1
+    _out[..., 30, 2, 4] = _out[..., 30, 4, 2] = _tmp36
+    _out[..., 30, 3, 3] = _tmp4
+    _out[..., 30, 3, 4] = _out[..., 30, 4, 3] = _tmp47
+    _out[..., 30, 4, 4] = _tmp35
+    _out[..., 31, 2, 2] = 1
+    _out[..., 31, 2, 3] = _out[..., 31, 3, 2] = _tmp1
+    _out[..., 31, 2, 4] = _out[..., 31, 4, 2] = a2
+    _out[..., 31, 3, 3] = _tmp4
+    _out[..., 31, 3, 4] = _out[..., 31, 4, 3] = _tmp48
+    _out[..., 31, 4, 4] = _tmp35
+    return _out.reshape(*_shape, 4, 8, 6, 6)
 
 
 def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
@@ -6261,115 +5886,92 @@ def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
         numpy.shape(c_v1),
         numpy.shape(c_v2),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp2,
-                    (1, 2): _tmp6,
-                    (1, 3): _tmp10,
-                    (1, 4): _tmp11,
-                    (1, 5): _tmp12,
-                    (2, 2): _tmp14,
-                    (2, 3): _tmp16,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp19,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp2,
-                    (1, 2): _tmp6,
-                    (1, 3): _tmp10,
-                    (1, 4): _tmp19,
-                    (1, 5): _tmp29,
-                    (2, 2): _tmp14,
-                    (2, 3): _tmp16,
-                    (2, 4): _tmp17,
-                    (2, 5): _tmp11,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp30,
-                    (3, 5): _tmp31,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp2,
-                    (1, 2): _tmp5,
-                    (1, 3): _tmp10,
-                    (1, 4): _tmp19,
-                    (1, 5): _tmp12,
-                    (2, 2): _tmp14,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp11,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp30,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp32,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp2,
-                    (1, 2): _tmp5,
-                    (1, 3): _tmp10,
-                    (1, 4): _tmp11,
-                    (1, 5): _tmp29,
-                    (2, 2): _tmp14,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp17,
-                    (2, 5): _tmp19,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp31,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp32,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(2, 2): c_v2, (2, 3): _tmp33, (2, 4): _tmp35, (3, 3): _tmp36, (3, 4): _tmp38, (4, 4): _tmp39},
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(2, 2): c_v2, (2, 3): _tmp33, (2, 4): _tmp34, (3, 3): _tmp36, (3, 4): _tmp37, (4, 4): _tmp39},
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(2, 2): c_v2, (2, 3): _tmp40, (2, 4): _tmp35, (3, 3): _tmp36, (3, 4): _tmp37, (4, 4): _tmp39},
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(2, 2): c_v2, (2, 3): _tmp40, (2, 4): _tmp34, (3, 3): _tmp36, (3, 4): _tmp38, (4, 4): _tmp39},
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 0, 1, 1] = _tmp2
+    _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp6
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp10
+    _out[..., 0, 1, 4] = _out[..., 0, 4, 1] = _tmp11
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp12
+    _out[..., 0, 2, 2] = _tmp14
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp16
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp18
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp19
+    _out[..., 0, 3, 3] = _tmp21
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp23
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp24
+    _out[..., 0, 4, 4] = _tmp26
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp27
+    _out[..., 0, 5, 5] = _tmp28
+    _out[..., 1, 1, 1] = _tmp2
+    _out[..., 1, 1, 2] = _out[..., 1, 2, 1] = _tmp6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp10
+    _out[..., 1, 1, 4] = _out[..., 1, 4, 1] = _tmp19
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp29
+    _out[..., 1, 2, 2] = _tmp14
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp16
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp17
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp11
+    _out[..., 1, 3, 3] = _tmp21
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp30
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp31
+    _out[..., 1, 4, 4] = _tmp26
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp27
+    _out[..., 1, 5, 5] = _tmp28
+    _out[..., 2, 1, 1] = _tmp2
+    _out[..., 2, 1, 2] = _out[..., 2, 2, 1] = _tmp5
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp10
+    _out[..., 2, 1, 4] = _out[..., 2, 4, 1] = _tmp19
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp12
+    _out[..., 2, 2, 2] = _tmp14
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp22
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp18
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp11
+    _out[..., 2, 3, 3] = _tmp21
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp30
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp24
+    _out[..., 2, 4, 4] = _tmp26
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp32
+    _out[..., 2, 5, 5] = _tmp28
+    _out[..., 3, 1, 1] = _tmp2
+    _out[..., 3, 1, 2] = _out[..., 3, 2, 1] = _tmp5
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp10
+    _out[..., 3, 1, 4] = _out[..., 3, 4, 1] = _tmp11
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp29
+    _out[..., 3, 2, 2] = _tmp14
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp22
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp17
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp19
+    _out[..., 3, 3, 3] = _tmp21
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp23
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp31
+    _out[..., 3, 4, 4] = _tmp26
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp32
+    _out[..., 3, 5, 5] = _tmp28
+    _out[..., 4, 2, 2] = c_v2
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp33
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp35
+    _out[..., 4, 3, 3] = _tmp36
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp38
+    _out[..., 4, 4, 4] = _tmp39
+    _out[..., 5, 2, 2] = c_v2
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp33
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp34
+    _out[..., 5, 3, 3] = _tmp36
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp37
+    _out[..., 5, 4, 4] = _tmp39
+    _out[..., 6, 2, 2] = c_v2
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp40
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp35
+    _out[..., 6, 3, 3] = _tmp36
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp37
+    _out[..., 6, 4, 4] = _tmp39
+    _out[..., 7, 2, 2] = c_v2
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp40
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp34
+    _out[..., 7, 3, 3] = _tmp36
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp38
+    _out[..., 7, 4, 4] = _tmp39
+    return _out
 
 
 def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
@@ -6538,131 +6140,92 @@ def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
         numpy.shape(c_v1),
         numpy.shape(c_v2),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp1,
-                    (1, 2): _tmp4,
-                    (1, 3): _tmp7,
-                    (1, 4): _tmp8,
-                    (1, 5): _tmp9,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp11,
-                    (2, 4): _tmp13,
-                    (2, 5): _tmp14,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp18,
-                    (3, 5): _tmp19,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp1,
-                    (1, 2): _tmp4,
-                    (1, 3): _tmp7,
-                    (1, 4): _tmp14,
-                    (1, 5): _tmp24,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp11,
-                    (2, 4): _tmp12,
-                    (2, 5): _tmp8,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp25,
-                    (3, 5): _tmp26,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp1,
-                    (1, 2): _tmp3,
-                    (1, 3): _tmp7,
-                    (1, 4): _tmp14,
-                    (1, 5): _tmp9,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp17,
-                    (2, 4): _tmp13,
-                    (2, 5): _tmp8,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp25,
-                    (3, 5): _tmp19,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 1): _tmp1,
-                    (1, 2): _tmp3,
-                    (1, 3): _tmp7,
-                    (1, 4): _tmp8,
-                    (1, 5): _tmp24,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp17,
-                    (2, 4): _tmp12,
-                    (2, 5): _tmp14,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp18,
-                    (3, 5): _tmp26,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp28, (3, 3): _tmp15, (3, 4): _tmp30, (4, 4): _tmp31}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a2, (3, 3): _tmp15, (3, 4): _tmp29, (4, 4): _tmp31}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp32, (2, 4): _tmp28, (3, 3): _tmp15, (3, 4): _tmp29, (4, 4): _tmp31}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp32, (2, 4): a2, (3, 3): _tmp15, (3, 4): _tmp30, (4, 4): _tmp31}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 4, 8, 6, 6)
+    _out = numpy.zeros((*_shape, 32, 6, 6))
+    _out[..., 16, 1, 1] = _tmp1
+    _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp4
+    _out[..., 16, 1, 3] = _out[..., 16, 3, 1] = _tmp7
+    _out[..., 16, 1, 4] = _out[..., 16, 4, 1] = _tmp8
+    _out[..., 16, 1, 5] = _out[..., 16, 5, 1] = _tmp9
+    _out[..., 16, 2, 2] = _tmp10
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = _tmp11
+    _out[..., 16, 2, 4] = _out[..., 16, 4, 2] = _tmp13
+    _out[..., 16, 2, 5] = _out[..., 16, 5, 2] = _tmp14
+    _out[..., 16, 3, 3] = _tmp16
+    _out[..., 16, 3, 4] = _out[..., 16, 4, 3] = _tmp18
+    _out[..., 16, 3, 5] = _out[..., 16, 5, 3] = _tmp19
+    _out[..., 16, 4, 4] = _tmp21
+    _out[..., 16, 4, 5] = _out[..., 16, 5, 4] = _tmp22
+    _out[..., 16, 5, 5] = _tmp23
+    _out[..., 17, 1, 1] = _tmp1
+    _out[..., 17, 1, 2] = _out[..., 17, 2, 1] = _tmp4
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp7
+    _out[..., 17, 1, 4] = _out[..., 17, 4, 1] = _tmp14
+    _out[..., 17, 1, 5] = _out[..., 17, 5, 1] = _tmp24
+    _out[..., 17, 2, 2] = _tmp10
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp11
+    _out[..., 17, 2, 4] = _out[..., 17, 4, 2] = _tmp12
+    _out[..., 17, 2, 5] = _out[..., 17, 5, 2] = _tmp8
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 17, 3, 4] = _out[..., 17, 4, 3] = _tmp25
+    _out[..., 17, 3, 5] = _out[..., 17, 5, 3] = _tmp26
+    _out[..., 17, 4, 4] = _tmp21
+    _out[..., 17, 4, 5] = _out[..., 17, 5, 4] = _tmp22
+    _out[..., 17, 5, 5] = _tmp23
+    _out[..., 18, 1, 1] = _tmp1
+    _out[..., 18, 1, 2] = _out[..., 18, 2, 1] = _tmp3
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = _tmp7
+    _out[..., 18, 1, 4] = _out[..., 18, 4, 1] = _tmp14
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = _tmp9
+    _out[..., 18, 2, 2] = _tmp10
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = _tmp17
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp13
+    _out[..., 18, 2, 5] = _out[..., 18, 5, 2] = _tmp8
+    _out[..., 18, 3, 3] = _tmp16
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp25
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = _tmp19
+    _out[..., 18, 4, 4] = _tmp21
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp27
+    _out[..., 18, 5, 5] = _tmp23
+    _out[..., 19, 1, 1] = _tmp1
+    _out[..., 19, 1, 2] = _out[..., 19, 2, 1] = _tmp3
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = _tmp7
+    _out[..., 19, 1, 4] = _out[..., 19, 4, 1] = _tmp8
+    _out[..., 19, 1, 5] = _out[..., 19, 5, 1] = _tmp24
+    _out[..., 19, 2, 2] = _tmp10
+    _out[..., 19, 2, 3] = _out[..., 19, 3, 2] = _tmp17
+    _out[..., 19, 2, 4] = _out[..., 19, 4, 2] = _tmp12
+    _out[..., 19, 2, 5] = _out[..., 19, 5, 2] = _tmp14
+    _out[..., 19, 3, 3] = _tmp16
+    _out[..., 19, 3, 4] = _out[..., 19, 4, 3] = _tmp18
+    _out[..., 19, 3, 5] = _out[..., 19, 5, 3] = _tmp26
+    _out[..., 19, 4, 4] = _tmp21
+    _out[..., 19, 4, 5] = _out[..., 19, 5, 4] = _tmp27
+    _out[..., 19, 5, 5] = _tmp23
+    _out[..., 28, 2, 2] = 1
+    _out[..., 28, 2, 3] = _out[..., 28, 3, 2] = b
+    _out[..., 28, 2, 4] = _out[..., 28, 4, 2] = _tmp28
+    _out[..., 28, 3, 3] = _tmp15
+    _out[..., 28, 3, 4] = _out[..., 28, 4, 3] = _tmp30
+    _out[..., 28, 4, 4] = _tmp31
+    _out[..., 29, 2, 2] = 1
+    _out[..., 29, 2, 3] = _out[..., 29, 3, 2] = b
+    _out[..., 29, 2, 4] = _out[..., 29, 4, 2] = a2
+    _out[..., 29, 3, 3] = _tmp15
+    _out[..., 29, 3, 4] = _out[..., 29, 4, 3] = _tmp29
+    _out[..., 29, 4, 4] = _tmp31
+    _out[..., 30, 2, 2] = 1
+    _out[..., 30, 2, 3] = _out[..., 30, 3, 2] = _tmp32
+    _out[..., 30, 2, 4] = _out[..., 30, 4, 2] = _tmp28
+    _out[..., 30, 3, 3] = _tmp15
+    _out[..., 30, 3, 4] = _out[..., 30, 4, 3] = _tmp29
+    _out[..., 30, 4, 4] = _tmp31
+    _out[..., 31, 2, 2] = 1
+    _out[..., 31, 2, 3] = _out[..., 31, 3, 2] = _tmp32
+    _out[..., 31, 2, 4] = _out[..., 31, 4, 2] = a2
+    _out[..., 31, 3, 3] = _tmp15
+    _out[..., 31, 3, 4] = _out[..., 31, 4, 3] = _tmp30
+    _out[..., 31, 4, 4] = _tmp31
+    return _out.reshape(*_shape, 4, 8, 6, 6)
 
 
 def isolator_points(a1, a2, b, h):

@@ -348,17 +348,18 @@ def stiffness_gradient(L_xy, L_z):
     _tmp2 = L_xy**2
     _tmp3 = 2 * _tmp2
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): -_tmp0, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (4, 4): _tmp1, (5, 5): 4 * _tmp2},
-            ),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp3}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 2, 6, 6))
+    _out[..., 0, 0, 0] = 4
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
+    _out[..., 0, 1, 1] = 4
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp0
+    _out[..., 0, 3, 3] = _tmp1
+    _out[..., 0, 4, 4] = _tmp1
+    _out[..., 0, 5, 5] = 4 * _tmp2
+    _out[..., 1, 2, 2] = 4
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 4, 4] = _tmp3
+    return _out
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -533,46 +534,48 @@ def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
         numpy.shape(b_xy),
         numpy.shape(b_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1, (4, 4): _tmp1, (5, 5): _tmp2 * c_xy}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3, (4, 4): _tmp3, (5, 5): _tmp2 * b_xy}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp13},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp14, (4, 4): _tmp14}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 9, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 27, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 3, 3, 3] = 1
+    _out[..., 3, 4, 4] = 1
+    _out[..., 6, 5, 5] = 1
+    _out[..., 10, 3, 3] = _tmp1
+    _out[..., 10, 4, 4] = _tmp1
+    _out[..., 10, 5, 5] = _tmp2 * c_xy
+    _out[..., 11, 3, 3] = _tmp3
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 11, 5, 5] = _tmp2 * b_xy
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = -_tmp4
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = _tmp4
+    _out[..., 13, 3, 3] = _tmp6
+    _out[..., 13, 4, 4] = _tmp6
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = -_tmp7
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp7
+    _out[..., 14, 3, 3] = _tmp8
+    _out[..., 14, 4, 4] = _tmp8
+    _out[..., 16, 0, 0] = 4
+    _out[..., 16, 0, 4] = _out[..., 16, 4, 0] = _tmp10
+    _out[..., 16, 1, 1] = 4
+    _out[..., 16, 1, 3] = _out[..., 16, 3, 1] = _tmp9
+    _out[..., 16, 3, 3] = _tmp11
+    _out[..., 16, 4, 4] = _tmp11
+    _out[..., 16, 5, 5] = _tmp13
+    _out[..., 19, 2, 2] = 4
+    _out[..., 19, 3, 3] = _tmp14
+    _out[..., 19, 4, 4] = _tmp14
+    _out[..., 23, 0, 0] = 4
+    _out[..., 23, 0, 4] = _out[..., 23, 4, 0] = _tmp10
+    _out[..., 23, 1, 1] = 4
+    _out[..., 23, 1, 3] = _out[..., 23, 3, 1] = _tmp9
+    _out[..., 23, 3, 3] = _tmp11
+    _out[..., 23, 4, 4] = _tmp11
+    _out[..., 23, 5, 5] = _tmp13
+    _out[..., 26, 2, 2] = 4
+    _out[..., 26, 3, 3] = _tmp14
+    _out[..., 26, 4, 4] = _tmp14
+    return _out.reshape(*_shape, 9, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
@@ -636,29 +639,31 @@ def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
         numpy.shape(c_xy),
         numpy.shape(c_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1, (4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0, (5, 5): L_xy * _tmp1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp2, (1, 3): _tmp2, (3, 3): _tmp3, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): -_tmp4, (1, 1): 4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5, (5, 5): 4 * _tmp6},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp7, (4, 4): _tmp7}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 2, 6, 6)
+    _out = numpy.zeros((*_shape, 14, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 2, 3, 3] = 1
+    _out[..., 2, 4, 4] = 1
+    _out[..., 4, 5, 5] = 1
+    _out[..., 7, 3, 3] = _tmp0
+    _out[..., 7, 4, 4] = _tmp0
+    _out[..., 7, 5, 5] = L_xy * _tmp1
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = -_tmp2
+    _out[..., 9, 1, 3] = _out[..., 9, 3, 1] = _tmp2
+    _out[..., 9, 3, 3] = _tmp3
+    _out[..., 9, 4, 4] = _tmp3
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = -_tmp4
+    _out[..., 11, 1, 1] = 4
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 11, 5, 5] = 4 * _tmp6
+    _out[..., 13, 2, 2] = 4
+    _out[..., 13, 3, 3] = _tmp7
+    _out[..., 13, 4, 4] = _tmp7
+    return _out.reshape(*_shape, 7, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -1123,39 +1128,38 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         numpy.shape(dx_com),
         numpy.shape(dy_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp6, (3, 4): -_tmp7, (4, 4): _tmp9, (5, 5): _tmp9}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp6, (2, 3): m, (3, 3): _tmp10, (3, 4): -_tmp8, (5, 5): _tmp10}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = m
+    _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = _tmp6
+    _out[..., 12, 3, 4] = _out[..., 12, 4, 3] = -_tmp7
+    _out[..., 12, 4, 4] = _tmp9
+    _out[..., 12, 5, 5] = _tmp9
+    _out[..., 15, 0, 5] = _out[..., 15, 5, 0] = _tmp6
+    _out[..., 15, 2, 3] = _out[..., 15, 3, 2] = m
+    _out[..., 15, 3, 3] = _tmp10
+    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = -_tmp8
+    _out[..., 15, 5, 5] = _tmp10
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
@@ -1266,34 +1270,32 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         numpy.shape(b_z),
         numpy.shape(dz_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp6, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 15, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 12, 0, 4] = _out[..., 12, 4, 0] = m
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = -m
+    _out[..., 12, 3, 3] = _tmp6
+    _out[..., 12, 4, 4] = _tmp6
+    return _out.reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion):
@@ -1405,37 +1407,31 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
         numpy.shape(k_bend),
         numpy.shape(k_torsion),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 13, 3, 3] = 4
+    _out[..., 13, 4, 4] = 4
+    _out[..., 16, 5, 5] = 4
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(
@@ -1806,146 +1802,90 @@ def effect_foundation_derivatives(
         numpy.shape(found_spread),
         numpy.shape(found_depth),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp5,
-                    (5, 11): _tmp6,
-                    (6, 6): 4,
-                    (7, 7): 4,
-                    (11, 11): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp7,
-                    (3, 9): _tmp8,
-                    (4, 4): _tmp7,
-                    (4, 10): _tmp8,
-                    (8, 8): 4,
-                    (9, 9): _tmp7,
-                    (10, 10): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp5,
-                    (5, 11): _tmp6,
-                    (6, 6): 4,
-                    (7, 7): 4,
-                    (11, 11): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp7,
-                    (3, 9): _tmp8,
-                    (4, 4): _tmp7,
-                    (4, 10): _tmp8,
-                    (8, 8): 4,
-                    (9, 9): _tmp7,
-                    (10, 10): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): 1,
-                    (6, 10): -found_depth,
-                    (7, 7): 1,
-                    (7, 9): found_depth,
-                    (8, 8): 1,
-                    (9, 9): _tmp11,
-                    (10, 10): _tmp11,
-                    (11, 11): _tmp10,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): found_shear,
-                    (6, 10): -_tmp12,
-                    (7, 7): found_shear,
-                    (7, 9): _tmp12,
-                    (8, 8): 1,
-                    (9, 9): _tmp14,
-                    (10, 10): _tmp14,
-                    (11, 11): _tmp13 * found_shear,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): k_found,
-                    (6, 10): -_tmp15,
-                    (7, 7): k_found,
-                    (7, 9): _tmp15,
-                    (9, 9): _tmp16,
-                    (10, 10): _tmp16,
-                    (11, 11): _tmp13 * k_found,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape, 12, {(9, 9): _tmp17, (10, 10): _tmp17, (11, 11): _tmp18 * _tmp7 * found_spread}
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp19, (10, 10): _tmp19}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp18, (7, 9): _tmp18, (9, 9): _tmp20, (10, 10): _tmp20}),
-            _runtime.stack_matrix(_shape, 12, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 9, 3, 12, 12)
+    _out = numpy.zeros((*_shape, 27, 12, 12))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = -4
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp6
+    _out[..., 1, 6, 6] = 4
+    _out[..., 1, 7, 7] = 4
+    _out[..., 1, 11, 11] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = -4
+    _out[..., 4, 3, 3] = _tmp7
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp8
+    _out[..., 4, 4, 4] = _tmp7
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp8
+    _out[..., 4, 8, 8] = 4
+    _out[..., 4, 9, 9] = _tmp7
+    _out[..., 4, 10, 10] = _tmp7
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 0, 6] = _out[..., 8, 6, 0] = -4
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 1, 7] = _out[..., 8, 7, 1] = -4
+    _out[..., 8, 3, 3] = _tmp3
+    _out[..., 8, 3, 7] = _out[..., 8, 7, 3] = _tmp1
+    _out[..., 8, 4, 4] = _tmp3
+    _out[..., 8, 4, 6] = _out[..., 8, 6, 4] = _tmp0
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 8, 5, 11] = _out[..., 8, 11, 5] = _tmp6
+    _out[..., 8, 6, 6] = 4
+    _out[..., 8, 7, 7] = 4
+    _out[..., 8, 11, 11] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = -4
+    _out[..., 11, 3, 3] = _tmp7
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp8
+    _out[..., 11, 4, 4] = _tmp7
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp8
+    _out[..., 11, 8, 8] = 4
+    _out[..., 11, 9, 9] = _tmp7
+    _out[..., 11, 10, 10] = _tmp7
+    _out[..., 12, 6, 6] = 1
+    _out[..., 12, 6, 10] = _out[..., 12, 10, 6] = -found_depth
+    _out[..., 12, 7, 7] = 1
+    _out[..., 12, 7, 9] = _out[..., 12, 9, 7] = found_depth
+    _out[..., 12, 8, 8] = 1
+    _out[..., 12, 9, 9] = _tmp11
+    _out[..., 12, 10, 10] = _tmp11
+    _out[..., 12, 11, 11] = _tmp10
+    _out[..., 16, 6, 6] = found_shear
+    _out[..., 16, 6, 10] = _out[..., 16, 10, 6] = -_tmp12
+    _out[..., 16, 7, 7] = found_shear
+    _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp12
+    _out[..., 16, 8, 8] = 1
+    _out[..., 16, 9, 9] = _tmp14
+    _out[..., 16, 10, 10] = _tmp14
+    _out[..., 16, 11, 11] = _tmp13 * found_shear
+    _out[..., 19, 6, 6] = k_found
+    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp15
+    _out[..., 19, 7, 7] = k_found
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp15
+    _out[..., 19, 9, 9] = _tmp16
+    _out[..., 19, 10, 10] = _tmp16
+    _out[..., 19, 11, 11] = _tmp13 * k_found
+    _out[..., 22, 9, 9] = _tmp17
+    _out[..., 22, 10, 10] = _tmp17
+    _out[..., 22, 11, 11] = _tmp18 * _tmp7 * found_spread
+    _out[..., 24, 6, 10] = _out[..., 24, 10, 6] = -m_found
+    _out[..., 24, 7, 9] = _out[..., 24, 9, 7] = m_found
+    _out[..., 24, 9, 9] = _tmp19
+    _out[..., 24, 10, 10] = _tmp19
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp18
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp18
+    _out[..., 25, 9, 9] = _tmp20
+    _out[..., 25, 10, 10] = _tmp20
+    return _out.reshape(*_shape, 9, 3, 12, 12)
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -2160,78 +2100,64 @@ def effect_added_mass_derivatives(
         numpy.shape(h_added),
         numpy.shape(g_added),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): h_added,
-                    (0, 5): -y_added,
-                    (1, 1): 1,
-                    (1, 3): -h_added,
-                    (1, 5): x_added,
-                    (2, 2): 1,
-                    (2, 3): y_added,
-                    (2, 4): -x_added,
-                    (3, 3): _tmp6 + _tmp8,
-                    (3, 4): -x_added * y_added,
-                    (3, 5): -h_added * x_added,
-                    (4, 4): _tmp8 + _tmp9,
-                    (4, 5): -h_added * y_added,
-                    (5, 5): _tmp6 + _tmp7 + _tmp9,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 5): m_added, (2, 4): _tmp10, (3, 4): _tmp12, (3, 5): _tmp14, (4, 4): _tmp16, (5, 5): _tmp16},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 5): _tmp10, (2, 3): m_added, (3, 3): _tmp17, (3, 4): _tmp18, (4, 5): _tmp14, (5, 5): _tmp17},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 4): m_added, (1, 3): _tmp10, (3, 3): _tmp19, (3, 5): _tmp18, (4, 4): _tmp19, (4, 5): _tmp12},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp20, (4, 4): _tmp20, (5, 5): _tmp20}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 9, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 27, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 12, 0, 0] = 1
+    _out[..., 12, 0, 4] = _out[..., 12, 4, 0] = h_added
+    _out[..., 12, 0, 5] = _out[..., 12, 5, 0] = -y_added
+    _out[..., 12, 1, 1] = 1
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = -h_added
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = x_added
+    _out[..., 12, 2, 2] = 1
+    _out[..., 12, 2, 3] = _out[..., 12, 3, 2] = y_added
+    _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = -x_added
+    _out[..., 12, 3, 3] = _tmp6 + _tmp8
+    _out[..., 12, 3, 4] = _out[..., 12, 4, 3] = -x_added * y_added
+    _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = -h_added * x_added
+    _out[..., 12, 4, 4] = _tmp8 + _tmp9
+    _out[..., 12, 4, 5] = _out[..., 12, 5, 4] = -h_added * y_added
+    _out[..., 12, 5, 5] = _tmp6 + _tmp7 + _tmp9
+    _out[..., 15, 1, 5] = _out[..., 15, 5, 1] = m_added
+    _out[..., 15, 2, 4] = _out[..., 15, 4, 2] = _tmp10
+    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = _tmp12
+    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp14
+    _out[..., 15, 4, 4] = _tmp16
+    _out[..., 15, 5, 5] = _tmp16
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = _tmp10
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = m_added
+    _out[..., 18, 3, 3] = _tmp17
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp18
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp14
+    _out[..., 18, 5, 5] = _tmp17
+    _out[..., 21, 0, 4] = _out[..., 21, 4, 0] = m_added
+    _out[..., 21, 1, 3] = _out[..., 21, 3, 1] = _tmp10
+    _out[..., 21, 3, 3] = _tmp19
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp18
+    _out[..., 21, 4, 4] = _tmp19
+    _out[..., 21, 4, 5] = _out[..., 21, 5, 4] = _tmp12
+    _out[..., 24, 3, 3] = _tmp20
+    _out[..., 24, 4, 4] = _tmp20
+    _out[..., 24, 5, 5] = _tmp20
+    return _out.reshape(*_shape, 9, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt):
@@ -2344,37 +2270,33 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         numpy.shape(k_belt),
         numpy.shape(h_belt),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 13, 0, 0] = 1
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = h_belt
+    _out[..., 13, 4, 4] = h_belt**2
+    _out[..., 16, 0, 4] = _out[..., 16, 4, 0] = k_belt
+    _out[..., 16, 4, 4] = 2 * h_belt * k_belt
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload):
@@ -2479,34 +2401,30 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
         numpy.shape(b_z),
         numpy.shape(h_preload),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp4},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 15, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp5
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp4
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 13, 3, 3] = _tmp6
+    _out[..., 13, 4, 4] = _tmp6
+    return _out.reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
@@ -2598,95 +2516,68 @@ def isolator_stiffness(L_xy, L_z, c_xy, c_z):
     _tmp14 = _tmp9 * c_xy
     _tmp15 = -_tmp13
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_xy,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp5,
-                    (1, 1): c_xy,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp4,
-                    (2, 2): c_z,
-                    (2, 3): _tmp7,
-                    (2, 4): _tmp8,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp13,
-                    (4, 4): _tmp11,
-                    (4, 5): _tmp13,
-                    (5, 5): _tmp14,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_xy,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp5,
-                    (1, 1): c_xy,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp5,
-                    (2, 2): c_z,
-                    (2, 3): _tmp7,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp10,
-                    (3, 5): _tmp15,
-                    (4, 4): _tmp11,
-                    (4, 5): _tmp13,
-                    (5, 5): _tmp14,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_xy,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp4,
-                    (1, 1): c_xy,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp4,
-                    (2, 2): c_z,
-                    (2, 3): _tmp8,
-                    (2, 4): _tmp8,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp10,
-                    (3, 5): _tmp13,
-                    (4, 4): _tmp11,
-                    (4, 5): _tmp15,
-                    (5, 5): _tmp14,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_xy,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp4,
-                    (1, 1): c_xy,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp5,
-                    (2, 2): c_z,
-                    (2, 3): _tmp8,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp15,
-                    (4, 4): _tmp11,
-                    (4, 5): _tmp15,
-                    (5, 5): _tmp14,
-                },
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 0, 0] = c_xy
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp5
+    _out[..., 0, 1, 1] = c_xy
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp0
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp4
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp7
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp8
+    _out[..., 0, 3, 3] = _tmp11
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp12
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp13
+    _out[..., 0, 4, 4] = _tmp11
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp13
+    _out[..., 0, 5, 5] = _tmp14
+    _out[..., 1, 0, 0] = c_xy
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp5
+    _out[..., 1, 1, 1] = c_xy
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp5
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp7
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp7
+    _out[..., 1, 3, 3] = _tmp11
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp10
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp15
+    _out[..., 1, 4, 4] = _tmp11
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp13
+    _out[..., 1, 5, 5] = _tmp14
+    _out[..., 2, 0, 0] = c_xy
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp4
+    _out[..., 2, 1, 1] = c_xy
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp0
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp4
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp8
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp8
+    _out[..., 2, 3, 3] = _tmp11
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp10
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp13
+    _out[..., 2, 4, 4] = _tmp11
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp15
+    _out[..., 2, 5, 5] = _tmp14
+    _out[..., 3, 0, 0] = c_xy
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp4
+    _out[..., 3, 1, 1] = c_xy
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp0
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp5
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp8
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp7
+    _out[..., 3, 3, 3] = _tmp11
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp12
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp15
+    _out[..., 3, 4, 4] = _tmp11
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp15
+    _out[..., 3, 5, 5] = _tmp14
+    return _out
 
 
 def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
@@ -2783,91 +2674,76 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
     _tmp7 = (0.5) * _tmp5
     _tmp8 = -_tmp7
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp2,
-                    (1, 1): 1,
-                    (1, 3): L_z,
-                    (1, 5): _tmp1,
-                    (3, 3): _tmp3,
-                    (3, 5): _tmp4,
-                    (4, 4): _tmp3,
-                    (4, 5): _tmp4,
-                    (5, 5): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp2,
-                    (1, 1): 1,
-                    (1, 3): L_z,
-                    (1, 5): _tmp2,
-                    (3, 3): _tmp3,
-                    (3, 5): _tmp6,
-                    (4, 4): _tmp3,
-                    (4, 5): _tmp4,
-                    (5, 5): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp1,
-                    (1, 1): 1,
-                    (1, 3): L_z,
-                    (1, 5): _tmp1,
-                    (3, 3): _tmp3,
-                    (3, 5): _tmp4,
-                    (4, 4): _tmp3,
-                    (4, 5): _tmp6,
-                    (5, 5): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp1,
-                    (1, 1): 1,
-                    (1, 3): L_z,
-                    (1, 5): _tmp2,
-                    (3, 3): _tmp3,
-                    (3, 5): _tmp6,
-                    (4, 4): _tmp3,
-                    (4, 5): _tmp6,
-                    (5, 5): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp7, (3, 4): _tmp7, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp7, (3, 4): _tmp8, (4, 4): _tmp7}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 2, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp2
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = L_z
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp1
+    _out[..., 0, 3, 3] = _tmp3
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp4
+    _out[..., 0, 4, 4] = _tmp3
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp4
+    _out[..., 0, 5, 5] = _tmp5
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp2
+    _out[..., 1, 1, 1] = 1
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = L_z
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp2
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp6
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp4
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp1
+    _out[..., 2, 1, 1] = 1
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = L_z
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp1
+    _out[..., 2, 3, 3] = _tmp3
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp4
+    _out[..., 2, 4, 4] = _tmp3
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp6
+    _out[..., 2, 5, 5] = _tmp5
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp1
+    _out[..., 3, 1, 1] = 1
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = L_z
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp2
+    _out[..., 3, 3, 3] = _tmp3
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp6
+    _out[..., 3, 4, 4] = _tmp3
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp6
+    _out[..., 3, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp1
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp2
+    _out[..., 4, 3, 3] = _tmp7
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp8
+    _out[..., 4, 4, 4] = _tmp7
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp1
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp1
+    _out[..., 5, 3, 3] = _tmp7
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp7
+    _out[..., 5, 4, 4] = _tmp7
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp2
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp2
+    _out[..., 6, 3, 3] = _tmp7
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp7
+    _out[..., 6, 4, 4] = _tmp7
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp2
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp1
+    _out[..., 7, 3, 3] = _tmp7
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp8
+    _out[..., 7, 4, 4] = _tmp7
+    return _out.reshape(*_shape, 2, 4, 6, 6)
 
 
 def isolator_axial_stiffness(L_xy, c_z):
@@ -2912,23 +2788,32 @@ def isolator_axial_stiffness(L_xy, c_z):
     _tmp3 = L_xy**2 * _tmp0
     _tmp4 = -_tmp3
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp1, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp3}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp3, (4, 4): _tmp3}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp2, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp3, (4, 4): _tmp3}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp2, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp3}
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp1
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp2
+    _out[..., 0, 3, 3] = _tmp3
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp4
+    _out[..., 0, 4, 4] = _tmp3
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp1
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp1
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp3
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp2
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp2
+    _out[..., 2, 3, 3] = _tmp3
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp3
+    _out[..., 2, 4, 4] = _tmp3
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp2
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp1
+    _out[..., 3, 3, 3] = _tmp3
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp4
+    _out[..., 3, 4, 4] = _tmp3
+    return _out
 
 
 def isolator_axial_stiffness_gradient(L_xy, c_z):
@@ -2976,27 +2861,32 @@ def isolator_axial_stiffness_gradient(L_xy, c_z):
     _tmp2 = (0.5) * L_xy**2
     _tmp3 = -_tmp2
     _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp2, (3, 4): _tmp3, (4, 4): _tmp2}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp0, (2, 4): _tmp0, (3, 3): _tmp2, (3, 4): _tmp2, (4, 4): _tmp2}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp1, (3, 3): _tmp2, (3, 4): _tmp2, (4, 4): _tmp2}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp0, (3, 3): _tmp2, (3, 4): _tmp3, (4, 4): _tmp2}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 2, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp0
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp3
+    _out[..., 4, 4, 4] = _tmp2
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp0
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp0
+    _out[..., 5, 3, 3] = _tmp2
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp2
+    _out[..., 5, 4, 4] = _tmp2
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp1
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp1
+    _out[..., 6, 3, 3] = _tmp2
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp2
+    _out[..., 6, 4, 4] = _tmp2
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp1
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp0
+    _out[..., 7, 3, 3] = _tmp2
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp2
+    return _out.reshape(*_shape, 2, 4, 6, 6)
 
 
 def isolator_points(L_xy, L_z):

@@ -492,14 +492,19 @@ def stiffness_gradient(a, b, h):
     _tmp2 = 4 * b**2
     _tmp3 = 4 * a**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp0, (4, 4): _tmp1, (5, 5): _tmp2}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp1, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp2, (4, 4): _tmp3}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 3, 6, 6))
+    _out[..., 0, 0, 0] = 4
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
+    _out[..., 0, 4, 4] = _tmp1
+    _out[..., 0, 5, 5] = _tmp2
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp1
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 2, 2, 2] = 4
+    _out[..., 2, 3, 3] = _tmp2
+    _out[..., 2, 4, 4] = _tmp3
+    return _out
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -697,54 +702,52 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
         numpy.shape(b_y),
         numpy.shape(b_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * c_z, (5, 5): _tmp0 * c_y}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * b_z, (5, 5): _tmp0 * b_y}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * c_z, (5, 5): _tmp1 * c_x}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * b_z, (5, 5): _tmp1 * b_x}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): -4 * c_x, (1, 3): 4 * c_y, (3, 3): _tmp2 * c_y, (4, 4): _tmp2 * c_x}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): -4 * b_x, (1, 3): 4 * b_y, (3, 3): _tmp2 * b_y, (4, 4): _tmp2 * b_x}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp4, (4, 4): _tmp5, (5, 5): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp5, (5, 5): _tmp7}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp6, (4, 4): _tmp7}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 13, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 39, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 3, 3, 3] = 1
+    _out[..., 6, 4, 4] = 1
+    _out[..., 9, 5, 5] = 1
+    _out[..., 13, 4, 4] = _tmp0 * c_z
+    _out[..., 13, 5, 5] = _tmp0 * c_y
+    _out[..., 14, 4, 4] = _tmp0 * b_z
+    _out[..., 14, 5, 5] = _tmp0 * b_y
+    _out[..., 16, 3, 3] = _tmp1 * c_z
+    _out[..., 16, 5, 5] = _tmp1 * c_x
+    _out[..., 17, 3, 3] = _tmp1 * b_z
+    _out[..., 17, 5, 5] = _tmp1 * b_x
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = -4 * c_x
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = 4 * c_y
+    _out[..., 19, 3, 3] = _tmp2 * c_y
+    _out[..., 19, 4, 4] = _tmp2 * c_x
+    _out[..., 20, 0, 4] = _out[..., 20, 4, 0] = -4 * b_x
+    _out[..., 20, 1, 3] = _out[..., 20, 3, 1] = 4 * b_y
+    _out[..., 20, 3, 3] = _tmp2 * b_y
+    _out[..., 20, 4, 4] = _tmp2 * b_x
+    _out[..., 22, 0, 0] = 4
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = _tmp4
+    _out[..., 22, 4, 4] = _tmp5
+    _out[..., 22, 5, 5] = _tmp6
+    _out[..., 25, 1, 1] = 4
+    _out[..., 25, 1, 3] = _out[..., 25, 3, 1] = _tmp3
+    _out[..., 25, 3, 3] = _tmp5
+    _out[..., 25, 5, 5] = _tmp7
+    _out[..., 28, 2, 2] = 4
+    _out[..., 28, 3, 3] = _tmp6
+    _out[..., 28, 4, 4] = _tmp7
+    _out[..., 32, 0, 0] = 4
+    _out[..., 32, 0, 4] = _out[..., 32, 4, 0] = _tmp4
+    _out[..., 32, 4, 4] = _tmp5
+    _out[..., 32, 5, 5] = _tmp6
+    _out[..., 35, 1, 1] = 4
+    _out[..., 35, 1, 3] = _out[..., 35, 3, 1] = _tmp3
+    _out[..., 35, 3, 3] = _tmp5
+    _out[..., 35, 5, 5] = _tmp7
+    _out[..., 38, 2, 2] = 4
+    _out[..., 38, 3, 3] = _tmp6
+    _out[..., 38, 4, 4] = _tmp7
+    return _out.reshape(*_shape, 13, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
@@ -818,33 +821,33 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
         numpy.shape(c_y),
         numpy.shape(c_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp0 * c_z, (5, 5): _tmp0 * c_y}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp1 * c_z, (5, 5): _tmp1 * c_x}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): -4 * c_x, (1, 3): 4 * c_y, (3, 3): _tmp2 * c_y, (4, 4): _tmp2 * c_x}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): -_tmp3, (4, 4): _tmp4, (5, 5): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp3, (3, 3): _tmp4, (5, 5): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp5, (4, 4): _tmp6}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 10, 2, 6, 6)
+    _out = numpy.zeros((*_shape, 20, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 2, 3, 3] = 1
+    _out[..., 4, 4, 4] = 1
+    _out[..., 6, 5, 5] = 1
+    _out[..., 9, 4, 4] = _tmp0 * c_z
+    _out[..., 9, 5, 5] = _tmp0 * c_y
+    _out[..., 11, 3, 3] = _tmp1 * c_z
+    _out[..., 11, 5, 5] = _tmp1 * c_x
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = -4 * c_x
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = 4 * c_y
+    _out[..., 13, 3, 3] = _tmp2 * c_y
+    _out[..., 13, 4, 4] = _tmp2 * c_x
+    _out[..., 15, 0, 0] = 4
+    _out[..., 15, 0, 4] = _out[..., 15, 4, 0] = -_tmp3
+    _out[..., 15, 4, 4] = _tmp4
+    _out[..., 15, 5, 5] = _tmp5
+    _out[..., 17, 1, 1] = 4
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp3
+    _out[..., 17, 3, 3] = _tmp4
+    _out[..., 17, 5, 5] = _tmp6
+    _out[..., 19, 2, 2] = 4
+    _out[..., 19, 3, 3] = _tmp5
+    _out[..., 19, 4, 4] = _tmp6
+    return _out.reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -2235,35 +2238,40 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         numpy.shape(dx_com),
         numpy.shape(dy_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): _tmp5, (3, 4): -_tmp6, (4, 4): _tmp8, (5, 5): _tmp8}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 5): _tmp5, (2, 3): m, (3, 3): _tmp9, (3, 4): -_tmp7, (5, 5): _tmp9}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = m
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp5
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -_tmp6
+    _out[..., 18, 4, 4] = _tmp8
+    _out[..., 18, 5, 5] = _tmp8
+    _out[..., 21, 0, 5] = _out[..., 21, 5, 0] = _tmp5
+    _out[..., 21, 2, 3] = _out[..., 21, 3, 2] = m
+    _out[..., 21, 3, 3] = _tmp9
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = -_tmp7
+    _out[..., 21, 5, 5] = _tmp9
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com):
@@ -2389,32 +2397,34 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         numpy.shape(b_z),
         numpy.shape(dz_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = m
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -m
+    _out[..., 18, 3, 3] = _tmp5
+    _out[..., 18, 4, 4] = _tmp5
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion):
@@ -2541,35 +2551,33 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
         numpy.shape(k_bend),
         numpy.shape(k_torsion),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 19, 3, 3] = 4
+    _out[..., 19, 4, 4] = 4
+    _out[..., 22, 5, 5] = 4
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -3030,170 +3038,96 @@ def effect_foundation_derivatives(
         numpy.shape(found_spread),
         numpy.shape(found_depth),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp5,
-                    (5, 11): _tmp6,
-                    (6, 6): 4,
-                    (11, 11): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (5, 5): _tmp8,
-                    (5, 11): _tmp9,
-                    (7, 7): 4,
-                    (11, 11): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp5,
-                    (3, 9): _tmp6,
-                    (4, 4): _tmp8,
-                    (4, 10): _tmp9,
-                    (8, 8): 4,
-                    (9, 9): _tmp5,
-                    (10, 10): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp5,
-                    (5, 11): _tmp6,
-                    (6, 6): 4,
-                    (11, 11): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (5, 5): _tmp8,
-                    (5, 11): _tmp9,
-                    (7, 7): 4,
-                    (11, 11): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp5,
-                    (3, 9): _tmp6,
-                    (4, 4): _tmp8,
-                    (4, 10): _tmp9,
-                    (8, 8): 4,
-                    (9, 9): _tmp5,
-                    (10, 10): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): 1,
-                    (6, 10): -found_depth,
-                    (7, 7): 1,
-                    (7, 9): found_depth,
-                    (8, 8): 1,
-                    (9, 9): _tmp12,
-                    (10, 10): _tmp12,
-                    (11, 11): _tmp11,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): found_shear,
-                    (6, 10): -_tmp13,
-                    (7, 7): found_shear,
-                    (7, 9): _tmp13,
-                    (8, 8): 1,
-                    (9, 9): _tmp14 + _tmp16,
-                    (10, 10): _tmp14 + _tmp17,
-                    (11, 11): _tmp16 * found_shear + _tmp17 * found_shear,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): k_found,
-                    (6, 10): -_tmp18,
-                    (7, 7): k_found,
-                    (7, 9): _tmp18,
-                    (9, 9): _tmp19,
-                    (10, 10): _tmp19,
-                    (11, 11): _tmp16 * k_found + _tmp17 * k_found,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {(9, 9): _tmp21 * _tmp4, (10, 10): _tmp21 * _tmp7, (11, 11): _tmp23 * _tmp4 + _tmp23 * _tmp7},
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp24, (10, 10): _tmp24}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp22, (7, 9): _tmp22, (9, 9): _tmp25, (10, 10): _tmp25}),
-            _runtime.stack_matrix(_shape, 12, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 12, 12)
+    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp6
+    _out[..., 1, 6, 6] = 4
+    _out[..., 1, 11, 11] = _tmp5
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = -4
+    _out[..., 4, 3, 3] = _tmp3
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp1
+    _out[..., 4, 5, 5] = _tmp8
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp9
+    _out[..., 4, 7, 7] = 4
+    _out[..., 4, 11, 11] = _tmp8
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = -4
+    _out[..., 7, 3, 3] = _tmp5
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp6
+    _out[..., 7, 4, 4] = _tmp8
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp9
+    _out[..., 7, 8, 8] = 4
+    _out[..., 7, 9, 9] = _tmp5
+    _out[..., 7, 10, 10] = _tmp8
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 0, 6] = _out[..., 11, 6, 0] = -4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 11, 4, 6] = _out[..., 11, 6, 4] = _tmp0
+    _out[..., 11, 5, 5] = _tmp5
+    _out[..., 11, 5, 11] = _out[..., 11, 11, 5] = _tmp6
+    _out[..., 11, 6, 6] = 4
+    _out[..., 11, 11, 11] = _tmp5
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 1, 7] = _out[..., 14, 7, 1] = -4
+    _out[..., 14, 3, 3] = _tmp3
+    _out[..., 14, 3, 7] = _out[..., 14, 7, 3] = _tmp1
+    _out[..., 14, 5, 5] = _tmp8
+    _out[..., 14, 5, 11] = _out[..., 14, 11, 5] = _tmp9
+    _out[..., 14, 7, 7] = 4
+    _out[..., 14, 11, 11] = _tmp8
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = -4
+    _out[..., 17, 3, 3] = _tmp5
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp6
+    _out[..., 17, 4, 4] = _tmp8
+    _out[..., 17, 4, 10] = _out[..., 17, 10, 4] = _tmp9
+    _out[..., 17, 8, 8] = 4
+    _out[..., 17, 9, 9] = _tmp5
+    _out[..., 17, 10, 10] = _tmp8
+    _out[..., 18, 6, 6] = 1
+    _out[..., 18, 6, 10] = _out[..., 18, 10, 6] = -found_depth
+    _out[..., 18, 7, 7] = 1
+    _out[..., 18, 7, 9] = _out[..., 18, 9, 7] = found_depth
+    _out[..., 18, 8, 8] = 1
+    _out[..., 18, 9, 9] = _tmp12
+    _out[..., 18, 10, 10] = _tmp12
+    _out[..., 18, 11, 11] = _tmp11
+    _out[..., 22, 6, 6] = found_shear
+    _out[..., 22, 6, 10] = _out[..., 22, 10, 6] = -_tmp13
+    _out[..., 22, 7, 7] = found_shear
+    _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp13
+    _out[..., 22, 8, 8] = 1
+    _out[..., 22, 9, 9] = _tmp14 + _tmp16
+    _out[..., 22, 10, 10] = _tmp14 + _tmp17
+    _out[..., 22, 11, 11] = _tmp16 * found_shear + _tmp17 * found_shear
+    _out[..., 25, 6, 6] = k_found
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp18
+    _out[..., 25, 7, 7] = k_found
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp18
+    _out[..., 25, 9, 9] = _tmp19
+    _out[..., 25, 10, 10] = _tmp19
+    _out[..., 25, 11, 11] = _tmp16 * k_found + _tmp17 * k_found
+    _out[..., 28, 9, 9] = _tmp21 * _tmp4
+    _out[..., 28, 10, 10] = _tmp21 * _tmp7
+    _out[..., 28, 11, 11] = _tmp23 * _tmp4 + _tmp23 * _tmp7
+    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
+    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
+    _out[..., 30, 9, 9] = _tmp24
+    _out[..., 30, 10, 10] = _tmp24
+    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp22
+    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp22
+    _out[..., 31, 9, 9] = _tmp25
+    _out[..., 31, 10, 10] = _tmp25
+    return _out.reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -3429,76 +3363,66 @@ def effect_added_mass_derivatives(
         numpy.shape(h_added),
         numpy.shape(g_added),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): h_added,
-                    (0, 5): -y_added,
-                    (1, 1): 1,
-                    (1, 3): -h_added,
-                    (1, 5): x_added,
-                    (2, 2): 1,
-                    (2, 3): y_added,
-                    (2, 4): -x_added,
-                    (3, 3): _tmp5 + _tmp7,
-                    (3, 4): -x_added * y_added,
-                    (3, 5): -h_added * x_added,
-                    (4, 4): _tmp7 + _tmp8,
-                    (4, 5): -h_added * y_added,
-                    (5, 5): _tmp5 + _tmp6 + _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 5): m_added, (2, 4): _tmp9, (3, 4): _tmp11, (3, 5): _tmp13, (4, 4): _tmp15, (5, 5): _tmp15},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 5): _tmp9, (2, 3): m_added, (3, 3): _tmp16, (3, 4): _tmp17, (4, 5): _tmp13, (5, 5): _tmp16},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 4): m_added, (1, 3): _tmp9, (3, 3): _tmp18, (3, 5): _tmp17, (4, 4): _tmp18, (4, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp19, (4, 4): _tmp19, (5, 5): _tmp19}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 33, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 18, 0, 0] = 1
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = h_added
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = -y_added
+    _out[..., 18, 1, 1] = 1
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -h_added
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = x_added
+    _out[..., 18, 2, 2] = 1
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = y_added
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = -x_added
+    _out[..., 18, 3, 3] = _tmp5 + _tmp7
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -x_added * y_added
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = -h_added * x_added
+    _out[..., 18, 4, 4] = _tmp7 + _tmp8
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = -h_added * y_added
+    _out[..., 18, 5, 5] = _tmp5 + _tmp6 + _tmp8
+    _out[..., 21, 1, 5] = _out[..., 21, 5, 1] = m_added
+    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp9
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp11
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp13
+    _out[..., 21, 4, 4] = _tmp15
+    _out[..., 21, 5, 5] = _tmp15
+    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp9
+    _out[..., 24, 2, 3] = _out[..., 24, 3, 2] = m_added
+    _out[..., 24, 3, 3] = _tmp16
+    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp17
+    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp13
+    _out[..., 24, 5, 5] = _tmp16
+    _out[..., 27, 0, 4] = _out[..., 27, 4, 0] = m_added
+    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp9
+    _out[..., 27, 3, 3] = _tmp18
+    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp17
+    _out[..., 27, 4, 4] = _tmp18
+    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp11
+    _out[..., 30, 3, 3] = _tmp19
+    _out[..., 30, 4, 4] = _tmp19
+    _out[..., 30, 5, 5] = _tmp19
+    return _out.reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -3626,35 +3550,35 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         numpy.shape(k_belt),
         numpy.shape(h_belt),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 19, 0, 0] = 1
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = h_belt
+    _out[..., 19, 4, 4] = h_belt**2
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = k_belt
+    _out[..., 22, 4, 4] = 2 * h_belt * k_belt
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload):
@@ -3774,32 +3698,32 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
         numpy.shape(b_z),
         numpy.shape(h_preload),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 4, (0, 4): _tmp1, (4, 4): _tmp2, (5, 5): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (5, 5): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp3
+    _out[..., 4, 1, 1] = 4
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 5, 5] = _tmp4
+    _out[..., 7, 2, 2] = 4
+    _out[..., 7, 3, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    _out[..., 11, 0, 0] = 4
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2
+    _out[..., 11, 5, 5] = _tmp3
+    _out[..., 14, 1, 1] = 4
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = _tmp0
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 5, 5] = _tmp4
+    _out[..., 17, 2, 2] = 4
+    _out[..., 17, 3, 3] = _tmp3
+    _out[..., 17, 4, 4] = _tmp4
+    _out[..., 19, 3, 3] = _tmp5
+    _out[..., 19, 4, 4] = _tmp5
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
@@ -3900,95 +3824,68 @@ def isolator_stiffness(a, b, h, c_x, c_y, c_z):
     _shape = numpy.broadcast_shapes(
         numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_y,
-                    (1, 3): _tmp4,
-                    (1, 5): _tmp5,
-                    (2, 2): c_z,
-                    (2, 3): _tmp6,
-                    (2, 4): _tmp8,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp13,
-                    (3, 5): _tmp14,
-                    (4, 4): _tmp16,
-                    (4, 5): _tmp17,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_y,
-                    (1, 3): _tmp4,
-                    (1, 5): _tmp19,
-                    (2, 2): c_z,
-                    (2, 3): _tmp6,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp20,
-                    (4, 4): _tmp16,
-                    (4, 5): _tmp17,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_y,
-                    (1, 3): _tmp4,
-                    (1, 5): _tmp5,
-                    (2, 2): c_z,
-                    (2, 3): _tmp21,
-                    (2, 4): _tmp8,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp14,
-                    (4, 4): _tmp16,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_x,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_y,
-                    (1, 3): _tmp4,
-                    (1, 5): _tmp19,
-                    (2, 2): c_z,
-                    (2, 3): _tmp21,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp11,
-                    (3, 4): _tmp13,
-                    (3, 5): _tmp20,
-                    (4, 4): _tmp16,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp18,
-                },
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 0, 0] = c_x
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp3
+    _out[..., 0, 1, 1] = c_y
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp4
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp5
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp6
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp8
+    _out[..., 0, 3, 3] = _tmp11
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp13
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp14
+    _out[..., 0, 4, 4] = _tmp16
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp17
+    _out[..., 0, 5, 5] = _tmp18
+    _out[..., 1, 0, 0] = c_x
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp3
+    _out[..., 1, 1, 1] = c_y
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp4
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp19
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp6
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp7
+    _out[..., 1, 3, 3] = _tmp11
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp12
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp20
+    _out[..., 1, 4, 4] = _tmp16
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp17
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 2, 0, 0] = c_x
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp2
+    _out[..., 2, 1, 1] = c_y
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp4
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp5
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp21
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp8
+    _out[..., 2, 3, 3] = _tmp11
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp12
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp14
+    _out[..., 2, 4, 4] = _tmp16
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp22
+    _out[..., 2, 5, 5] = _tmp18
+    _out[..., 3, 0, 0] = c_x
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp2
+    _out[..., 3, 1, 1] = c_y
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp4
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp19
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp21
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp7
+    _out[..., 3, 3, 3] = _tmp11
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp13
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp20
+    _out[..., 3, 4, 4] = _tmp16
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp22
+    _out[..., 3, 5, 5] = _tmp18
+    return _out
 
 
 def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
@@ -4098,47 +3995,80 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
     _shape = numpy.broadcast_shapes(
         numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): _tmp1, (4, 4): _tmp2, (4, 5): _tmp3, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (0, 4): _tmp0, (0, 5): b, (4, 4): _tmp2, (4, 5): _tmp5, (5, 5): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): a, (3, 3): _tmp2, (3, 5): _tmp6, (5, 5): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 1): 1, (1, 3): h, (1, 5): _tmp8, (3, 3): _tmp2, (3, 5): _tmp9, (5, 5): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp8, (3, 3): _tmp4, (3, 4): _tmp10, (4, 4): _tmp7}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp4, (3, 4): _tmp11, (4, 4): _tmp7}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 3, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 12, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp1
+    _out[..., 0, 4, 4] = _tmp2
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp3
+    _out[..., 0, 5, 5] = _tmp4
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp1
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp3
+    _out[..., 1, 5, 5] = _tmp4
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = b
+    _out[..., 2, 4, 4] = _tmp2
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp5
+    _out[..., 2, 5, 5] = _tmp4
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = b
+    _out[..., 3, 4, 4] = _tmp2
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp5
+    _out[..., 3, 5, 5] = _tmp4
+    _out[..., 4, 1, 1] = 1
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = h
+    _out[..., 4, 1, 5] = _out[..., 4, 5, 1] = a
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 3, 5] = _out[..., 4, 5, 3] = _tmp6
+    _out[..., 4, 5, 5] = _tmp7
+    _out[..., 5, 1, 1] = 1
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = h
+    _out[..., 5, 1, 5] = _out[..., 5, 5, 1] = _tmp8
+    _out[..., 5, 3, 3] = _tmp2
+    _out[..., 5, 3, 5] = _out[..., 5, 5, 3] = _tmp9
+    _out[..., 5, 5, 5] = _tmp7
+    _out[..., 6, 1, 1] = 1
+    _out[..., 6, 1, 3] = _out[..., 6, 3, 1] = h
+    _out[..., 6, 1, 5] = _out[..., 6, 5, 1] = a
+    _out[..., 6, 3, 3] = _tmp2
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp6
+    _out[..., 6, 5, 5] = _tmp7
+    _out[..., 7, 1, 1] = 1
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = h
+    _out[..., 7, 1, 5] = _out[..., 7, 5, 1] = _tmp8
+    _out[..., 7, 3, 3] = _tmp2
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp9
+    _out[..., 7, 5, 5] = _tmp7
+    _out[..., 8, 2, 2] = 1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp8
+    _out[..., 8, 3, 3] = _tmp4
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp11
+    _out[..., 8, 4, 4] = _tmp7
+    _out[..., 9, 2, 2] = 1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = b
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = a
+    _out[..., 9, 3, 3] = _tmp4
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp10
+    _out[..., 9, 4, 4] = _tmp7
+    _out[..., 10, 2, 2] = 1
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp1
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp8
+    _out[..., 10, 3, 3] = _tmp4
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp10
+    _out[..., 10, 4, 4] = _tmp7
+    _out[..., 11, 2, 2] = 1
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp1
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = a
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp11
+    _out[..., 11, 4, 4] = _tmp7
+    return _out.reshape(*_shape, 3, 4, 6, 6)
 
 
 def isolator_axial_stiffness(a, b, c_z):
@@ -4186,23 +4116,32 @@ def isolator_axial_stiffness(a, b, c_z):
     _tmp6 = a**2 * c_z
     _tmp7 = -_tmp0
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp2
+    _out[..., 0, 3, 3] = _tmp3
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp5
+    _out[..., 0, 4, 4] = _tmp6
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp0
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp1
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp4
+    _out[..., 1, 4, 4] = _tmp6
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp7
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp2
+    _out[..., 2, 3, 3] = _tmp3
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp4
+    _out[..., 2, 4, 4] = _tmp6
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp7
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp1
+    _out[..., 3, 3, 3] = _tmp3
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp5
+    _out[..., 3, 4, 4] = _tmp6
+    return _out
 
 
 def isolator_axial_stiffness_gradient(a, b, c_z):
@@ -4256,31 +4195,32 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
     _tmp4 = a**2
     _tmp5 = -b
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 3, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 12, 6, 6))
+    _out[..., 8, 2, 2] = 1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp0
+    _out[..., 8, 3, 3] = _tmp1
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp3
+    _out[..., 8, 4, 4] = _tmp4
+    _out[..., 9, 2, 2] = 1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = b
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = a
+    _out[..., 9, 3, 3] = _tmp1
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp2
+    _out[..., 9, 4, 4] = _tmp4
+    _out[..., 10, 2, 2] = 1
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp5
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp0
+    _out[..., 10, 3, 3] = _tmp1
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp2
+    _out[..., 10, 4, 4] = _tmp4
+    _out[..., 11, 2, 2] = 1
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp5
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = a
+    _out[..., 11, 3, 3] = _tmp1
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp3
+    _out[..., 11, 4, 4] = _tmp4
+    return _out.reshape(*_shape, 3, 4, 6, 6)
 
 
 def isolator_points(a, b, h):

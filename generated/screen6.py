@@ -599,38 +599,24 @@ def stiffness_gradient(a, b, h, alpha):
     _tmp11 = 2 * _tmp7
     _tmp12 = _tmp1 * _tmp7
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1 + 2,
-                    (0, 4): -_tmp1 * h + _tmp4 - 2 * h,
-                    (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp5,
-                    (3, 3): 6 * _tmp6 + _tmp8,
-                    (4, 4): _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9,
-                    (5, 5): 4 * _tmp10 + _tmp11 + _tmp12,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp5,
-                    (0, 4): -_tmp4 - _tmp5 * h,
-                    (2, 2): _tmp1,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9,
-                    (5, 5): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp11}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 3, 6, 6))
+    _out[..., 0, 0, 0] = _tmp1 + 2
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp1 * h + _tmp4 - 2 * h
+    _out[..., 0, 1, 1] = 6
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = 6 * h
+    _out[..., 0, 2, 2] = _tmp5
+    _out[..., 0, 3, 3] = 6 * _tmp6 + _tmp8
+    _out[..., 0, 4, 4] = _tmp1 * _tmp6 + _tmp10 * _tmp5 + 2 * _tmp6 - _tmp9
+    _out[..., 0, 5, 5] = 4 * _tmp10 + _tmp11 + _tmp12
+    _out[..., 1, 0, 0] = _tmp5
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = -_tmp4 - _tmp5 * h
+    _out[..., 1, 2, 2] = _tmp1
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp1 * _tmp10 + _tmp5 * _tmp6 + _tmp9
+    _out[..., 1, 5, 5] = _tmp8
+    _out[..., 2, 2, 2] = 2
+    _out[..., 2, 3, 3] = _tmp11
+    return _out
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -933,159 +919,98 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v
         numpy.shape(b_v),
         numpy.shape(b_m),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): _tmp3 * c_h - _tmp3 * c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): _tmp3 * b_h - _tmp3 * b_v, (4, 4): _tmp17 + _tmp18 + _tmp22, (5, 5): _tmp16}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (3, 3): _tmp23 * c_m + _tmp25 * _tmp4 + _tmp26 * _tmp8,
-                    (5, 5): _tmp23 * c_h + _tmp25 * _tmp8 + _tmp26 * _tmp4,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (3, 3): _tmp23 * b_m + _tmp27 * _tmp4 + _tmp28 * _tmp8,
-                    (5, 5): _tmp23 * b_h + _tmp27 * _tmp8 + _tmp28 * _tmp4,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -_tmp29 * c_h - _tmp30 * c_v - 2 * c_h,
-                    (1, 3): 6 * c_h,
-                    (3, 3): 12 * _tmp11,
-                    (4, 4): _tmp11 * _tmp31 + 4 * _tmp11 + _tmp13 * _tmp32 - _tmp2 * _tmp6 + _tmp33 * c_v,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -_tmp29 * b_h - _tmp30 * b_v - 2 * b_h,
-                    (1, 3): 6 * b_h,
-                    (3, 3): 12 * _tmp19,
-                    (4, 4): -_tmp16 * _tmp2 + _tmp19 * _tmp31 + 4 * _tmp19 + _tmp20 * _tmp32 + _tmp33 * b_v,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): -_tmp35,
-                    (0, 4): -_tmp15 - _tmp36 * c_h - _tmp37 * c_v + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h,
-                    (2, 2): _tmp35,
-                    (3, 3): _tmp39,
-                    (4, 4): _tmp10 * h
-                    - _tmp14 * _tmp42
-                    + _tmp14 * _tmp43
-                    + _tmp34 * _tmp42
-                    - _tmp34 * _tmp43
-                    - _tmp40 * _tmp6
-                    - _tmp41 * c_v
-                    + _tmp7 * h,
-                    (5, 5): -_tmp39,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): -_tmp45,
-                    (0, 4): -_tmp22 - _tmp36 * b_h - _tmp37 * b_v + 4 * _tmp4 * a * b_v + 4 * _tmp8 * a * b_h,
-                    (2, 2): _tmp45,
-                    (3, 3): _tmp46,
-                    (4, 4): -_tmp16 * _tmp40
-                    + _tmp17 * h
-                    + _tmp18 * h
-                    - _tmp21 * _tmp42
-                    + _tmp21 * _tmp43
-                    - _tmp41 * b_v
-                    + _tmp42 * _tmp44
-                    - _tmp43 * _tmp44,
-                    (5, 5): -_tmp46,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp47,
-                    (0, 4): _tmp49,
-                    (1, 1): 6,
-                    (1, 3): _tmp50,
-                    (2, 2): _tmp30,
-                    (3, 3): _tmp52,
-                    (4, 4): _tmp54,
-                    (5, 5): _tmp57,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp47,
-                    (0, 4): _tmp49,
-                    (1, 1): 6,
-                    (1, 3): _tmp50,
-                    (2, 2): _tmp30,
-                    (3, 3): _tmp52,
-                    (4, 4): _tmp54,
-                    (5, 5): _tmp57,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp30, (0, 4): _tmp58, (2, 2): _tmp29, (3, 3): _tmp56, (4, 4): _tmp59, (5, 5): _tmp51},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp55}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 14, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 42, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 3, 3, 3] = 1
+    _out[..., 6, 4, 4] = 1
+    _out[..., 9, 5, 5] = 1
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = _tmp3 * c_h - _tmp3 * c_v
+    _out[..., 13, 4, 4] = _tmp10 + _tmp15 + _tmp7
+    _out[..., 13, 5, 5] = _tmp6
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp3 * b_h - _tmp3 * b_v
+    _out[..., 14, 4, 4] = _tmp17 + _tmp18 + _tmp22
+    _out[..., 14, 5, 5] = _tmp16
+    _out[..., 16, 3, 3] = _tmp23 * c_m + _tmp25 * _tmp4 + _tmp26 * _tmp8
+    _out[..., 16, 5, 5] = _tmp23 * c_h + _tmp25 * _tmp8 + _tmp26 * _tmp4
+    _out[..., 17, 3, 3] = _tmp23 * b_m + _tmp27 * _tmp4 + _tmp28 * _tmp8
+    _out[..., 17, 5, 5] = _tmp23 * b_h + _tmp27 * _tmp8 + _tmp28 * _tmp4
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = -_tmp29 * c_h - _tmp30 * c_v - 2 * c_h
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = 6 * c_h
+    _out[..., 19, 3, 3] = 12 * _tmp11
+    _out[..., 19, 4, 4] = _tmp11 * _tmp31 + 4 * _tmp11 + _tmp13 * _tmp32 - _tmp2 * _tmp6 + _tmp33 * c_v
+    _out[..., 20, 0, 4] = _out[..., 20, 4, 0] = -_tmp29 * b_h - _tmp30 * b_v - 2 * b_h
+    _out[..., 20, 1, 3] = _out[..., 20, 3, 1] = 6 * b_h
+    _out[..., 20, 3, 3] = 12 * _tmp19
+    _out[..., 20, 4, 4] = -_tmp16 * _tmp2 + _tmp19 * _tmp31 + 4 * _tmp19 + _tmp20 * _tmp32 + _tmp33 * b_v
+    _out[..., 22, 0, 0] = -_tmp35
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = (
+        -_tmp15 - _tmp36 * c_h - _tmp37 * c_v + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h
+    )
+    _out[..., 22, 2, 2] = _tmp35
+    _out[..., 22, 3, 3] = _tmp39
+    _out[..., 22, 4, 4] = (
+        _tmp10 * h
+        - _tmp14 * _tmp42
+        + _tmp14 * _tmp43
+        + _tmp34 * _tmp42
+        - _tmp34 * _tmp43
+        - _tmp40 * _tmp6
+        - _tmp41 * c_v
+        + _tmp7 * h
+    )
+    _out[..., 22, 5, 5] = -_tmp39
+    _out[..., 23, 0, 0] = -_tmp45
+    _out[..., 23, 0, 4] = _out[..., 23, 4, 0] = (
+        -_tmp22 - _tmp36 * b_h - _tmp37 * b_v + 4 * _tmp4 * a * b_v + 4 * _tmp8 * a * b_h
+    )
+    _out[..., 23, 2, 2] = _tmp45
+    _out[..., 23, 3, 3] = _tmp46
+    _out[..., 23, 4, 4] = (
+        -_tmp16 * _tmp40
+        + _tmp17 * h
+        + _tmp18 * h
+        - _tmp21 * _tmp42
+        + _tmp21 * _tmp43
+        - _tmp41 * b_v
+        + _tmp42 * _tmp44
+        - _tmp43 * _tmp44
+    )
+    _out[..., 23, 5, 5] = -_tmp46
+    _out[..., 25, 0, 0] = _tmp47
+    _out[..., 25, 0, 4] = _out[..., 25, 4, 0] = _tmp49
+    _out[..., 25, 1, 1] = 6
+    _out[..., 25, 1, 3] = _out[..., 25, 3, 1] = _tmp50
+    _out[..., 25, 2, 2] = _tmp30
+    _out[..., 25, 3, 3] = _tmp52
+    _out[..., 25, 4, 4] = _tmp54
+    _out[..., 25, 5, 5] = _tmp57
+    _out[..., 28, 0, 0] = _tmp30
+    _out[..., 28, 0, 4] = _out[..., 28, 4, 0] = _tmp58
+    _out[..., 28, 2, 2] = _tmp29
+    _out[..., 28, 3, 3] = _tmp56
+    _out[..., 28, 4, 4] = _tmp59
+    _out[..., 28, 5, 5] = _tmp51
+    _out[..., 31, 2, 2] = 2
+    _out[..., 31, 3, 3] = _tmp55
+    _out[..., 35, 0, 0] = _tmp47
+    _out[..., 35, 0, 4] = _out[..., 35, 4, 0] = _tmp49
+    _out[..., 35, 1, 1] = 6
+    _out[..., 35, 1, 3] = _out[..., 35, 3, 1] = _tmp50
+    _out[..., 35, 2, 2] = _tmp30
+    _out[..., 35, 3, 3] = _tmp52
+    _out[..., 35, 4, 4] = _tmp54
+    _out[..., 35, 5, 5] = _tmp57
+    _out[..., 38, 0, 0] = _tmp30
+    _out[..., 38, 0, 4] = _out[..., 38, 4, 0] = _tmp58
+    _out[..., 38, 2, 2] = _tmp29
+    _out[..., 38, 3, 3] = _tmp56
+    _out[..., 38, 4, 4] = _tmp59
+    _out[..., 38, 5, 5] = _tmp51
+    _out[..., 41, 2, 2] = 2
+    _out[..., 41, 3, 3] = _tmp55
+    return _out.reshape(*_shape, 14, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
@@ -1205,93 +1130,56 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
         numpy.shape(c_v),
         numpy.shape(c_m),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (1, 1): 1, (2, 2): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 4): _tmp3 * c_h - _tmp3 * c_v, (4, 4): _tmp10 + _tmp15 + _tmp7, (5, 5): _tmp6}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (3, 3): _tmp16 * c_m + _tmp17 * _tmp9 + _tmp18 * _tmp4,
-                    (5, 5): _tmp16 * c_h + _tmp17 * _tmp19 + _tmp18 * _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 4): -_tmp20 * c_h - _tmp21 * c_v - 2 * c_h,
-                    (1, 3): 6 * c_h,
-                    (3, 3): 12 * _tmp11,
-                    (4, 4): 4 * _tmp11 + _tmp12 * _tmp8 + _tmp13 * _tmp19 + _tmp14 * _tmp5 - _tmp2 * _tmp6,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): -_tmp24,
-                    (0, 4): -_tmp15 - _tmp20 * a * c_v - _tmp21 * a * c_h + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h,
-                    (2, 2): _tmp24,
-                    (3, 3): _tmp27,
-                    (4, 4): _tmp10 * h
-                    - _tmp19 * _tmp28
-                    + _tmp23 * _tmp29
-                    - _tmp23 * _tmp30
-                    - _tmp26 * _tmp29
-                    + _tmp26 * _tmp30
-                    - _tmp6 * _tmp8 * h
-                    + _tmp7 * h,
-                    (5, 5): -_tmp27,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp20 + 2,
-                    (0, 4): -_tmp20 * h + _tmp31 - 2 * h,
-                    (1, 1): 6,
-                    (1, 3): 6 * h,
-                    (2, 2): _tmp21,
-                    (3, 3): 6 * _tmp30 + _tmp32,
-                    (4, 4): _tmp20 * _tmp30 + _tmp21 * _tmp29 + 2 * _tmp30 - _tmp33,
-                    (5, 5): 4 * _tmp29 + _tmp34 + _tmp35,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp21,
-                    (0, 4): -_tmp21 * h - _tmp31,
-                    (2, 2): _tmp20,
-                    (3, 3): _tmp35,
-                    (4, 4): _tmp20 * _tmp29 + _tmp21 * _tmp30 + _tmp33,
-                    (5, 5): _tmp32,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp34}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 2, 6, 6)
+    _out = numpy.zeros((*_shape, 22, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 2, 2] = 1
+    _out[..., 2, 3, 3] = 1
+    _out[..., 4, 4, 4] = 1
+    _out[..., 6, 5, 5] = 1
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = _tmp3 * c_h - _tmp3 * c_v
+    _out[..., 9, 4, 4] = _tmp10 + _tmp15 + _tmp7
+    _out[..., 9, 5, 5] = _tmp6
+    _out[..., 11, 3, 3] = _tmp16 * c_m + _tmp17 * _tmp9 + _tmp18 * _tmp4
+    _out[..., 11, 5, 5] = _tmp16 * c_h + _tmp17 * _tmp19 + _tmp18 * _tmp8
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = -_tmp20 * c_h - _tmp21 * c_v - 2 * c_h
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = 6 * c_h
+    _out[..., 13, 3, 3] = 12 * _tmp11
+    _out[..., 13, 4, 4] = 4 * _tmp11 + _tmp12 * _tmp8 + _tmp13 * _tmp19 + _tmp14 * _tmp5 - _tmp2 * _tmp6
+    _out[..., 15, 0, 0] = -_tmp24
+    _out[..., 15, 0, 4] = _out[..., 15, 4, 0] = (
+        -_tmp15 - _tmp20 * a * c_v - _tmp21 * a * c_h + 4 * _tmp4 * a * c_v + 4 * _tmp8 * a * c_h
+    )
+    _out[..., 15, 2, 2] = _tmp24
+    _out[..., 15, 3, 3] = _tmp27
+    _out[..., 15, 4, 4] = (
+        _tmp10 * h
+        - _tmp19 * _tmp28
+        + _tmp23 * _tmp29
+        - _tmp23 * _tmp30
+        - _tmp26 * _tmp29
+        + _tmp26 * _tmp30
+        - _tmp6 * _tmp8 * h
+        + _tmp7 * h
+    )
+    _out[..., 15, 5, 5] = -_tmp27
+    _out[..., 17, 0, 0] = _tmp20 + 2
+    _out[..., 17, 0, 4] = _out[..., 17, 4, 0] = -_tmp20 * h + _tmp31 - 2 * h
+    _out[..., 17, 1, 1] = 6
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = 6 * h
+    _out[..., 17, 2, 2] = _tmp21
+    _out[..., 17, 3, 3] = 6 * _tmp30 + _tmp32
+    _out[..., 17, 4, 4] = _tmp20 * _tmp30 + _tmp21 * _tmp29 + 2 * _tmp30 - _tmp33
+    _out[..., 17, 5, 5] = 4 * _tmp29 + _tmp34 + _tmp35
+    _out[..., 19, 0, 0] = _tmp21
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = -_tmp21 * h - _tmp31
+    _out[..., 19, 2, 2] = _tmp20
+    _out[..., 19, 3, 3] = _tmp35
+    _out[..., 19, 4, 4] = _tmp20 * _tmp29 + _tmp21 * _tmp30 + _tmp33
+    _out[..., 19, 5, 5] = _tmp32
+    _out[..., 21, 2, 2] = 2
+    _out[..., 21, 3, 3] = _tmp34
+    return _out.reshape(*_shape, 11, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -4018,73 +3906,50 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         numpy.shape(dx_com),
         numpy.shape(dy_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(
-                _shape, 6, {(1, 5): m, (2, 4): _tmp21, (3, 4): -_tmp22, (4, 4): _tmp24, (5, 5): _tmp24}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp21, (2, 3): m, (3, 3): _tmp25, (3, 4): -_tmp23, (5, 5): _tmp25}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = m
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp21
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -_tmp22
+    _out[..., 18, 4, 4] = _tmp24
+    _out[..., 18, 5, 5] = _tmp24
+    _out[..., 21, 0, 5] = _out[..., 21, 5, 0] = _tmp21
+    _out[..., 21, 2, 3] = _out[..., 21, 3, 2] = m
+    _out[..., 21, 3, 3] = _tmp25
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = -_tmp23
+    _out[..., 21, 5, 5] = _tmp25
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com):
@@ -4238,66 +4103,44 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         numpy.shape(b_m),
         numpy.shape(dz_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp21, (4, 4): _tmp21}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = m
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -m
+    _out[..., 18, 3, 3] = _tmp21
+    _out[..., 18, 4, 4] = _tmp21
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion):
@@ -4467,69 +4310,45 @@ def effect_rotational_stiffness_derivatives(
         numpy.shape(k_bend),
         numpy.shape(k_torsion),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 6 - _tmp8, (4, 4): 6, (5, 5): 4 - _tmp1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp8, (5, 5): _tmp2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 19, 3, 3] = 6 - _tmp8
+    _out[..., 19, 4, 4] = 6
+    _out[..., 19, 5, 5] = 4 - _tmp1
+    _out[..., 22, 3, 3] = _tmp8
+    _out[..., 22, 5, 5] = _tmp2
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_foundation(
@@ -5171,196 +4990,140 @@ def effect_foundation_derivatives(
         numpy.shape(found_spread),
         numpy.shape(found_depth),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): _tmp3,
-                    (0, 4): _tmp10,
-                    (0, 6): _tmp11,
-                    (0, 10): _tmp8,
-                    (1, 1): 6,
-                    (1, 3): _tmp12,
-                    (1, 7): -6,
-                    (2, 2): _tmp14,
-                    (2, 8): _tmp15,
-                    (3, 3): _tmp19,
-                    (3, 7): _tmp20,
-                    (3, 9): _tmp21,
-                    (4, 4): _tmp26,
-                    (4, 6): _tmp9,
-                    (4, 10): _tmp27,
-                    (5, 5): _tmp30,
-                    (5, 11): _tmp31,
-                    (6, 6): _tmp3,
-                    (6, 10): _tmp7,
-                    (7, 7): 6,
-                    (8, 8): _tmp14,
-                    (9, 9): _tmp18,
-                    (10, 10): _tmp25,
-                    (11, 11): _tmp30,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): _tmp14,
-                    (0, 4): _tmp33,
-                    (0, 6): _tmp15,
-                    (0, 10): _tmp7,
-                    (2, 2): _tmp2,
-                    (2, 8): _tmp34,
-                    (3, 3): _tmp29,
-                    (3, 9): _tmp35,
-                    (4, 4): _tmp37,
-                    (4, 6): _tmp32,
-                    (4, 10): _tmp38,
-                    (5, 5): _tmp18,
-                    (5, 11): _tmp21,
-                    (6, 6): _tmp14,
-                    (6, 10): _tmp8,
-                    (8, 8): _tmp2,
-                    (9, 9): _tmp29,
-                    (10, 10): _tmp36,
-                    (11, 11): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp28, (3, 9): _tmp39, (8, 8): 2, (9, 9): _tmp28}
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): _tmp3,
-                    (0, 4): _tmp10,
-                    (0, 6): _tmp11,
-                    (0, 10): _tmp8,
-                    (1, 1): 6,
-                    (1, 3): _tmp12,
-                    (1, 7): -6,
-                    (2, 2): _tmp14,
-                    (2, 8): _tmp15,
-                    (3, 3): _tmp19,
-                    (3, 7): _tmp20,
-                    (3, 9): _tmp21,
-                    (4, 4): _tmp26,
-                    (4, 6): _tmp9,
-                    (4, 10): _tmp27,
-                    (5, 5): _tmp30,
-                    (5, 11): _tmp31,
-                    (6, 6): _tmp3,
-                    (6, 10): _tmp7,
-                    (7, 7): 6,
-                    (8, 8): _tmp14,
-                    (9, 9): _tmp18,
-                    (10, 10): _tmp25,
-                    (11, 11): _tmp30,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): _tmp14,
-                    (0, 4): _tmp33,
-                    (0, 6): _tmp15,
-                    (0, 10): _tmp7,
-                    (2, 2): _tmp2,
-                    (2, 8): _tmp34,
-                    (3, 3): _tmp29,
-                    (3, 9): _tmp35,
-                    (4, 4): _tmp37,
-                    (4, 6): _tmp32,
-                    (4, 10): _tmp38,
-                    (5, 5): _tmp18,
-                    (5, 11): _tmp21,
-                    (6, 6): _tmp14,
-                    (6, 10): _tmp8,
-                    (8, 8): _tmp2,
-                    (9, 9): _tmp29,
-                    (10, 10): _tmp36,
-                    (11, 11): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape, 12, {(2, 2): 2, (2, 8): -2, (3, 3): _tmp28, (3, 9): _tmp39, (8, 8): 2, (9, 9): _tmp28}
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): 1,
-                    (6, 10): -found_depth,
-                    (7, 7): 1,
-                    (7, 9): found_depth,
-                    (8, 8): 1,
-                    (9, 9): _tmp43,
-                    (10, 10): _tmp43,
-                    (11, 11): _tmp42,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): found_shear,
-                    (6, 10): -_tmp44,
-                    (7, 7): found_shear,
-                    (7, 9): _tmp44,
-                    (8, 8): 1,
-                    (9, 9): _tmp45 + _tmp47,
-                    (10, 10): _tmp45 + _tmp48,
-                    (11, 11): _tmp47 * found_shear + _tmp48 * found_shear,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): k_found,
-                    (6, 10): -_tmp49,
-                    (7, 7): k_found,
-                    (7, 9): _tmp49,
-                    (9, 9): _tmp50,
-                    (10, 10): _tmp50,
-                    (11, 11): _tmp47 * k_found + _tmp48 * k_found,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {(9, 9): _tmp28 * _tmp51, (10, 10): _tmp51 * _tmp52, (11, 11): _tmp28 * _tmp54 + _tmp52 * _tmp54},
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp55, (10, 10): _tmp55}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp53, (7, 9): _tmp53, (9, 9): _tmp56, (10, 10): _tmp56}),
-            _runtime.stack_matrix(_shape, 12, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 12, 12)
+    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out[..., 1, 0, 0] = _tmp3
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp10
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp11
+    _out[..., 1, 0, 10] = _out[..., 1, 10, 0] = _tmp8
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp12
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = -6
+    _out[..., 1, 2, 2] = _tmp14
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp15
+    _out[..., 1, 3, 3] = _tmp19
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp20
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp21
+    _out[..., 1, 4, 4] = _tmp26
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp9
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp27
+    _out[..., 1, 5, 5] = _tmp30
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp31
+    _out[..., 1, 6, 6] = _tmp3
+    _out[..., 1, 6, 10] = _out[..., 1, 10, 6] = _tmp7
+    _out[..., 1, 7, 7] = 6
+    _out[..., 1, 8, 8] = _tmp14
+    _out[..., 1, 9, 9] = _tmp18
+    _out[..., 1, 10, 10] = _tmp25
+    _out[..., 1, 11, 11] = _tmp30
+    _out[..., 4, 0, 0] = _tmp14
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp33
+    _out[..., 4, 0, 6] = _out[..., 4, 6, 0] = _tmp15
+    _out[..., 4, 0, 10] = _out[..., 4, 10, 0] = _tmp7
+    _out[..., 4, 2, 2] = _tmp2
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp34
+    _out[..., 4, 3, 3] = _tmp29
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp35
+    _out[..., 4, 4, 4] = _tmp37
+    _out[..., 4, 4, 6] = _out[..., 4, 6, 4] = _tmp32
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp38
+    _out[..., 4, 5, 5] = _tmp18
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp21
+    _out[..., 4, 6, 6] = _tmp14
+    _out[..., 4, 6, 10] = _out[..., 4, 10, 6] = _tmp8
+    _out[..., 4, 8, 8] = _tmp2
+    _out[..., 4, 9, 9] = _tmp29
+    _out[..., 4, 10, 10] = _tmp36
+    _out[..., 4, 11, 11] = _tmp18
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = -2
+    _out[..., 7, 3, 3] = _tmp28
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp39
+    _out[..., 7, 8, 8] = 2
+    _out[..., 7, 9, 9] = _tmp28
+    _out[..., 11, 0, 0] = _tmp3
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp10
+    _out[..., 11, 0, 6] = _out[..., 11, 6, 0] = _tmp11
+    _out[..., 11, 0, 10] = _out[..., 11, 10, 0] = _tmp8
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp12
+    _out[..., 11, 1, 7] = _out[..., 11, 7, 1] = -6
+    _out[..., 11, 2, 2] = _tmp14
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = _tmp15
+    _out[..., 11, 3, 3] = _tmp19
+    _out[..., 11, 3, 7] = _out[..., 11, 7, 3] = _tmp20
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp21
+    _out[..., 11, 4, 4] = _tmp26
+    _out[..., 11, 4, 6] = _out[..., 11, 6, 4] = _tmp9
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp27
+    _out[..., 11, 5, 5] = _tmp30
+    _out[..., 11, 5, 11] = _out[..., 11, 11, 5] = _tmp31
+    _out[..., 11, 6, 6] = _tmp3
+    _out[..., 11, 6, 10] = _out[..., 11, 10, 6] = _tmp7
+    _out[..., 11, 7, 7] = 6
+    _out[..., 11, 8, 8] = _tmp14
+    _out[..., 11, 9, 9] = _tmp18
+    _out[..., 11, 10, 10] = _tmp25
+    _out[..., 11, 11, 11] = _tmp30
+    _out[..., 14, 0, 0] = _tmp14
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp33
+    _out[..., 14, 0, 6] = _out[..., 14, 6, 0] = _tmp15
+    _out[..., 14, 0, 10] = _out[..., 14, 10, 0] = _tmp7
+    _out[..., 14, 2, 2] = _tmp2
+    _out[..., 14, 2, 8] = _out[..., 14, 8, 2] = _tmp34
+    _out[..., 14, 3, 3] = _tmp29
+    _out[..., 14, 3, 9] = _out[..., 14, 9, 3] = _tmp35
+    _out[..., 14, 4, 4] = _tmp37
+    _out[..., 14, 4, 6] = _out[..., 14, 6, 4] = _tmp32
+    _out[..., 14, 4, 10] = _out[..., 14, 10, 4] = _tmp38
+    _out[..., 14, 5, 5] = _tmp18
+    _out[..., 14, 5, 11] = _out[..., 14, 11, 5] = _tmp21
+    _out[..., 14, 6, 6] = _tmp14
+    _out[..., 14, 6, 10] = _out[..., 14, 10, 6] = _tmp8
+    _out[..., 14, 8, 8] = _tmp2
+    _out[..., 14, 9, 9] = _tmp29
+    _out[..., 14, 10, 10] = _tmp36
+    _out[..., 14, 11, 11] = _tmp18
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = -2
+    _out[..., 17, 3, 3] = _tmp28
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp39
+    _out[..., 17, 8, 8] = 2
+    _out[..., 17, 9, 9] = _tmp28
+    _out[..., 18, 6, 6] = 1
+    _out[..., 18, 6, 10] = _out[..., 18, 10, 6] = -found_depth
+    _out[..., 18, 7, 7] = 1
+    _out[..., 18, 7, 9] = _out[..., 18, 9, 7] = found_depth
+    _out[..., 18, 8, 8] = 1
+    _out[..., 18, 9, 9] = _tmp43
+    _out[..., 18, 10, 10] = _tmp43
+    _out[..., 18, 11, 11] = _tmp42
+    _out[..., 22, 6, 6] = found_shear
+    _out[..., 22, 6, 10] = _out[..., 22, 10, 6] = -_tmp44
+    _out[..., 22, 7, 7] = found_shear
+    _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp44
+    _out[..., 22, 8, 8] = 1
+    _out[..., 22, 9, 9] = _tmp45 + _tmp47
+    _out[..., 22, 10, 10] = _tmp45 + _tmp48
+    _out[..., 22, 11, 11] = _tmp47 * found_shear + _tmp48 * found_shear
+    _out[..., 25, 6, 6] = k_found
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp49
+    _out[..., 25, 7, 7] = k_found
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp49
+    _out[..., 25, 9, 9] = _tmp50
+    _out[..., 25, 10, 10] = _tmp50
+    _out[..., 25, 11, 11] = _tmp47 * k_found + _tmp48 * k_found
+    _out[..., 28, 9, 9] = _tmp28 * _tmp51
+    _out[..., 28, 10, 10] = _tmp51 * _tmp52
+    _out[..., 28, 11, 11] = _tmp28 * _tmp54 + _tmp52 * _tmp54
+    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
+    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
+    _out[..., 30, 9, 9] = _tmp55
+    _out[..., 30, 10, 10] = _tmp55
+    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp53
+    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp53
+    _out[..., 31, 9, 9] = _tmp56
+    _out[..., 31, 10, 10] = _tmp56
+    return _out.reshape(*_shape, 11, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -5624,110 +5387,76 @@ def effect_added_mass_derivatives(
         numpy.shape(h_added),
         numpy.shape(g_added),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): h_added,
-                    (0, 5): -y_added,
-                    (1, 1): 1,
-                    (1, 3): -h_added,
-                    (1, 5): x_added,
-                    (2, 2): 1,
-                    (2, 3): y_added,
-                    (2, 4): -x_added,
-                    (3, 3): _tmp21 + _tmp23,
-                    (3, 4): -x_added * y_added,
-                    (3, 5): -h_added * x_added,
-                    (4, 4): _tmp23 + _tmp24,
-                    (4, 5): -h_added * y_added,
-                    (5, 5): _tmp21 + _tmp22 + _tmp24,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 5): m_added, (2, 4): _tmp25, (3, 4): _tmp27, (3, 5): _tmp29, (4, 4): _tmp31, (5, 5): _tmp31},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 5): _tmp25, (2, 3): m_added, (3, 3): _tmp32, (3, 4): _tmp33, (4, 5): _tmp29, (5, 5): _tmp32},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 4): m_added, (1, 3): _tmp25, (3, 3): _tmp34, (3, 5): _tmp33, (4, 4): _tmp34, (4, 5): _tmp27},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp35, (4, 4): _tmp35, (5, 5): _tmp35}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 11, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 33, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 18, 0, 0] = 1
+    _out[..., 18, 0, 4] = _out[..., 18, 4, 0] = h_added
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = -y_added
+    _out[..., 18, 1, 1] = 1
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = -h_added
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = x_added
+    _out[..., 18, 2, 2] = 1
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = y_added
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = -x_added
+    _out[..., 18, 3, 3] = _tmp21 + _tmp23
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -x_added * y_added
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = -h_added * x_added
+    _out[..., 18, 4, 4] = _tmp23 + _tmp24
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = -h_added * y_added
+    _out[..., 18, 5, 5] = _tmp21 + _tmp22 + _tmp24
+    _out[..., 21, 1, 5] = _out[..., 21, 5, 1] = m_added
+    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp25
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp27
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp29
+    _out[..., 21, 4, 4] = _tmp31
+    _out[..., 21, 5, 5] = _tmp31
+    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp25
+    _out[..., 24, 2, 3] = _out[..., 24, 3, 2] = m_added
+    _out[..., 24, 3, 3] = _tmp32
+    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp33
+    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp29
+    _out[..., 24, 5, 5] = _tmp32
+    _out[..., 27, 0, 4] = _out[..., 27, 4, 0] = m_added
+    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp25
+    _out[..., 27, 3, 3] = _tmp34
+    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp33
+    _out[..., 27, 4, 4] = _tmp34
+    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp27
+    _out[..., 30, 3, 3] = _tmp35
+    _out[..., 30, 4, 4] = _tmp35
+    _out[..., 30, 5, 5] = _tmp35
+    return _out.reshape(*_shape, 11, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt):
@@ -5883,69 +5612,45 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         numpy.shape(k_belt),
         numpy.shape(h_belt),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 8, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 24, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 19, 0, 0] = 1
+    _out[..., 19, 0, 4] = _out[..., 19, 4, 0] = h_belt
+    _out[..., 19, 4, 4] = h_belt**2
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = k_belt
+    _out[..., 22, 4, 4] = 2 * h_belt * k_belt
+    return _out.reshape(*_shape, 8, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload):
@@ -6094,66 +5799,42 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
         numpy.shape(b_m),
         numpy.shape(h_preload),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 4): _tmp6,
-                    (1, 1): 6,
-                    (1, 3): _tmp7,
-                    (2, 2): _tmp8,
-                    (3, 3): _tmp12,
-                    (4, 4): _tmp15,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): _tmp8, (0, 4): _tmp19, (2, 2): _tmp1, (3, 3): _tmp17, (4, 4): _tmp20, (5, 5): _tmp11},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 2, (3, 3): _tmp16}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp21, (4, 4): _tmp21}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 7, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 21, 6, 6))
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
+    _out[..., 1, 1, 1] = 6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp7
+    _out[..., 1, 2, 2] = _tmp8
+    _out[..., 1, 3, 3] = _tmp12
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 5, 5] = _tmp18
+    _out[..., 4, 0, 0] = _tmp8
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp19
+    _out[..., 4, 2, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp17
+    _out[..., 4, 4, 4] = _tmp20
+    _out[..., 4, 5, 5] = _tmp11
+    _out[..., 7, 2, 2] = 2
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 11, 0, 0] = _tmp2
+    _out[..., 11, 0, 4] = _out[..., 11, 4, 0] = _tmp6
+    _out[..., 11, 1, 1] = 6
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp7
+    _out[..., 11, 2, 2] = _tmp8
+    _out[..., 11, 3, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp15
+    _out[..., 11, 5, 5] = _tmp18
+    _out[..., 14, 0, 0] = _tmp8
+    _out[..., 14, 0, 4] = _out[..., 14, 4, 0] = _tmp19
+    _out[..., 14, 2, 2] = _tmp1
+    _out[..., 14, 3, 3] = _tmp17
+    _out[..., 14, 4, 4] = _tmp20
+    _out[..., 14, 5, 5] = _tmp11
+    _out[..., 17, 2, 2] = 2
+    _out[..., 17, 3, 3] = _tmp16
+    _out[..., 19, 3, 3] = _tmp21
+    _out[..., 19, 4, 4] = _tmp21
+    return _out.reshape(*_shape, 7, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
@@ -6322,141 +6003,102 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
         numpy.shape(c_v),
         numpy.shape(c_m),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp6,
-                    (0, 2): _tmp9,
-                    (0, 3): _tmp10,
-                    (0, 4): _tmp14,
-                    (0, 5): _tmp16,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (1, 5): _tmp18,
-                    (2, 2): _tmp21,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp24,
-                    (2, 5): _tmp26,
-                    (3, 3): _tmp30,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp34,
-                    (4, 4): _tmp36,
-                    (4, 5): _tmp37,
-                    (5, 5): _tmp38,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp6,
-                    (0, 2): _tmp25,
-                    (0, 3): _tmp26,
-                    (0, 4): _tmp14,
-                    (0, 5): _tmp16,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (1, 5): _tmp39,
-                    (2, 2): _tmp21,
-                    (2, 3): _tmp22,
-                    (2, 4): _tmp23,
-                    (2, 5): _tmp10,
-                    (3, 3): _tmp30,
-                    (3, 4): _tmp40,
-                    (3, 5): _tmp41,
-                    (4, 4): _tmp36,
-                    (4, 5): _tmp37,
-                    (5, 5): _tmp38,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp6,
-                    (0, 2): _tmp9,
-                    (0, 3): _tmp26,
-                    (0, 4): _tmp14,
-                    (0, 5): _tmp15,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (1, 5): _tmp18,
-                    (2, 2): _tmp21,
-                    (2, 3): _tmp42,
-                    (2, 4): _tmp24,
-                    (2, 5): _tmp10,
-                    (3, 3): _tmp30,
-                    (3, 4): _tmp40,
-                    (3, 5): _tmp34,
-                    (4, 4): _tmp36,
-                    (4, 5): _tmp43,
-                    (5, 5): _tmp38,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp6,
-                    (0, 2): _tmp25,
-                    (0, 3): _tmp10,
-                    (0, 4): _tmp14,
-                    (0, 5): _tmp15,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (1, 5): _tmp39,
-                    (2, 2): _tmp21,
-                    (2, 3): _tmp42,
-                    (2, 4): _tmp23,
-                    (2, 5): _tmp26,
-                    (3, 3): _tmp30,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp41,
-                    (4, 4): _tmp36,
-                    (4, 5): _tmp43,
-                    (5, 5): _tmp38,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp44,
-                    (0, 5): -_tmp45,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (2, 2): c_m,
-                    (2, 3): _tmp46,
-                    (3, 3): _tmp47,
-                    (4, 4): _tmp28,
-                    (4, 5): _tmp48,
-                    (5, 5): _tmp33,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp44,
-                    (0, 5): _tmp45,
-                    (1, 1): c_h,
-                    (1, 3): _tmp17,
-                    (2, 2): c_m,
-                    (2, 3): -_tmp46,
-                    (3, 3): _tmp47,
-                    (4, 4): _tmp28,
-                    (4, 5): -_tmp48,
-                    (5, 5): _tmp33,
-                },
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 6, 6, 6))
+    _out[..., 0, 0, 0] = _tmp6
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp9
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp10
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp14
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp16
+    _out[..., 0, 1, 1] = c_h
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp17
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp18
+    _out[..., 0, 2, 2] = _tmp21
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp22
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp24
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp26
+    _out[..., 0, 3, 3] = _tmp30
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp31
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp34
+    _out[..., 0, 4, 4] = _tmp36
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp37
+    _out[..., 0, 5, 5] = _tmp38
+    _out[..., 1, 0, 0] = _tmp6
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp25
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp26
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp14
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp16
+    _out[..., 1, 1, 1] = c_h
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp17
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp39
+    _out[..., 1, 2, 2] = _tmp21
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp22
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp23
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp10
+    _out[..., 1, 3, 3] = _tmp30
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp40
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp41
+    _out[..., 1, 4, 4] = _tmp36
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp37
+    _out[..., 1, 5, 5] = _tmp38
+    _out[..., 2, 0, 0] = _tmp6
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp9
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp26
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp14
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp15
+    _out[..., 2, 1, 1] = c_h
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp17
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp18
+    _out[..., 2, 2, 2] = _tmp21
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp42
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp24
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp10
+    _out[..., 2, 3, 3] = _tmp30
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp40
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp34
+    _out[..., 2, 4, 4] = _tmp36
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp43
+    _out[..., 2, 5, 5] = _tmp38
+    _out[..., 3, 0, 0] = _tmp6
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp25
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp10
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp14
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp15
+    _out[..., 3, 1, 1] = c_h
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp17
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp39
+    _out[..., 3, 2, 2] = _tmp21
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp42
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp23
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp26
+    _out[..., 3, 3, 3] = _tmp30
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp31
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp41
+    _out[..., 3, 4, 4] = _tmp36
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp43
+    _out[..., 3, 5, 5] = _tmp38
+    _out[..., 4, 0, 0] = c_h
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp44
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = -_tmp45
+    _out[..., 4, 1, 1] = c_h
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp17
+    _out[..., 4, 2, 2] = c_m
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp46
+    _out[..., 4, 3, 3] = _tmp47
+    _out[..., 4, 4, 4] = _tmp28
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp48
+    _out[..., 4, 5, 5] = _tmp33
+    _out[..., 5, 0, 0] = c_h
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp44
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp45
+    _out[..., 5, 1, 1] = c_h
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = _tmp17
+    _out[..., 5, 2, 2] = c_m
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = -_tmp46
+    _out[..., 5, 3, 3] = _tmp47
+    _out[..., 5, 4, 4] = _tmp28
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = -_tmp48
+    _out[..., 5, 5, 5] = _tmp33
+    return _out
 
 
 def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
@@ -6698,229 +6340,164 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
         numpy.shape(c_v),
         numpy.shape(c_m),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp4,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp8,
-                    (0, 5): _tmp10,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): a,
-                    (2, 2): _tmp11,
-                    (2, 3): _tmp12,
-                    (2, 4): _tmp15,
-                    (2, 5): _tmp5,
-                    (3, 3): _tmp19,
-                    (3, 4): _tmp20,
-                    (3, 5): _tmp23,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp5,
-                    (0, 4): _tmp8,
-                    (0, 5): _tmp10,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): _tmp30,
-                    (2, 2): _tmp11,
-                    (2, 3): _tmp12,
-                    (2, 4): _tmp14,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp19,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp32,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp4,
-                    (0, 3): _tmp5,
-                    (0, 4): _tmp8,
-                    (0, 5): _tmp9,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): a,
-                    (2, 2): _tmp11,
-                    (2, 3): _tmp33,
-                    (2, 4): _tmp15,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp19,
-                    (3, 4): _tmp31,
-                    (3, 5): _tmp23,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp34,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp8,
-                    (0, 5): _tmp9,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): _tmp30,
-                    (2, 2): _tmp11,
-                    (2, 3): _tmp33,
-                    (2, 4): _tmp14,
-                    (2, 5): _tmp5,
-                    (3, 3): _tmp19,
-                    (3, 4): _tmp20,
-                    (3, 5): _tmp32,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp34,
-                    (5, 5): _tmp29,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp35,
-                    (0, 5): _tmp36,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp16,
-                    (4, 5): _tmp37,
-                    (5, 5): _tmp17,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp35,
-                    (0, 5): b,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (3, 3): _tmp16,
-                    (4, 4): _tmp16,
-                    (4, 5): -_tmp37,
-                    (5, 5): _tmp17,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp11,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp5,
-                    (0, 4): _tmp39,
-                    (0, 5): _tmp33,
-                    (2, 2): _tmp1,
-                    (2, 3): _tmp9,
-                    (2, 4): _tmp41,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp28,
-                    (3, 4): _tmp42,
-                    (3, 5): _tmp43,
-                    (4, 4): _tmp44,
-                    (4, 5): _tmp45,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp11,
-                    (0, 2): _tmp4,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp39,
-                    (0, 5): _tmp33,
-                    (2, 2): _tmp1,
-                    (2, 3): _tmp9,
-                    (2, 4): _tmp40,
-                    (2, 5): _tmp5,
-                    (3, 3): _tmp28,
-                    (3, 4): _tmp46,
-                    (3, 5): _tmp22,
-                    (4, 4): _tmp44,
-                    (4, 5): _tmp45,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp11,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp39,
-                    (0, 5): _tmp12,
-                    (2, 2): _tmp1,
-                    (2, 3): _tmp10,
-                    (2, 4): _tmp41,
-                    (2, 5): _tmp5,
-                    (3, 3): _tmp28,
-                    (3, 4): _tmp46,
-                    (3, 5): _tmp43,
-                    (4, 4): _tmp44,
-                    (4, 5): _tmp47,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp11,
-                    (0, 2): _tmp4,
-                    (0, 3): _tmp5,
-                    (0, 4): _tmp39,
-                    (0, 5): _tmp12,
-                    (2, 2): _tmp1,
-                    (2, 3): _tmp10,
-                    (2, 4): _tmp40,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp28,
-                    (3, 4): _tmp42,
-                    (3, 5): _tmp22,
-                    (4, 4): _tmp44,
-                    (4, 5): _tmp47,
-                    (5, 5): _tmp18,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp17}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): _tmp36, (3, 3): _tmp17}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 3, 6, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 0, 0, 0] = _tmp1
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp4
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp6
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp8
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp10
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = h
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = a
+    _out[..., 0, 2, 2] = _tmp11
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp12
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp15
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp5
+    _out[..., 0, 3, 3] = _tmp19
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp20
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp23
+    _out[..., 0, 4, 4] = _tmp26
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp27
+    _out[..., 0, 5, 5] = _tmp29
+    _out[..., 1, 0, 0] = _tmp1
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp3
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp5
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp8
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp10
+    _out[..., 1, 1, 1] = 1
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = h
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp30
+    _out[..., 1, 2, 2] = _tmp11
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp12
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp14
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp6
+    _out[..., 1, 3, 3] = _tmp19
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp31
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp32
+    _out[..., 1, 4, 4] = _tmp26
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp27
+    _out[..., 1, 5, 5] = _tmp29
+    _out[..., 2, 0, 0] = _tmp1
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp4
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp5
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp8
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp9
+    _out[..., 2, 1, 1] = 1
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = h
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = a
+    _out[..., 2, 2, 2] = _tmp11
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp33
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp15
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp6
+    _out[..., 2, 3, 3] = _tmp19
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp31
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp23
+    _out[..., 2, 4, 4] = _tmp26
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp34
+    _out[..., 2, 5, 5] = _tmp29
+    _out[..., 3, 0, 0] = _tmp1
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp3
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp6
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp8
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp9
+    _out[..., 3, 1, 1] = 1
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = h
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp30
+    _out[..., 3, 2, 2] = _tmp11
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp33
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp14
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp5
+    _out[..., 3, 3, 3] = _tmp19
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp20
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp32
+    _out[..., 3, 4, 4] = _tmp26
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp34
+    _out[..., 3, 5, 5] = _tmp29
+    _out[..., 4, 0, 0] = 1
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp35
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp36
+    _out[..., 4, 1, 1] = 1
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = h
+    _out[..., 4, 3, 3] = _tmp16
+    _out[..., 4, 4, 4] = _tmp16
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp37
+    _out[..., 4, 5, 5] = _tmp17
+    _out[..., 5, 0, 0] = 1
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp35
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = b
+    _out[..., 5, 1, 1] = 1
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = h
+    _out[..., 5, 3, 3] = _tmp16
+    _out[..., 5, 4, 4] = _tmp16
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = -_tmp37
+    _out[..., 5, 5, 5] = _tmp17
+    _out[..., 6, 0, 0] = _tmp11
+    _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
+    _out[..., 6, 0, 3] = _out[..., 6, 3, 0] = _tmp5
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp39
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp33
+    _out[..., 6, 2, 2] = _tmp1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp9
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp41
+    _out[..., 6, 2, 5] = _out[..., 6, 5, 2] = _tmp6
+    _out[..., 6, 3, 3] = _tmp28
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp42
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp43
+    _out[..., 6, 4, 4] = _tmp44
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp45
+    _out[..., 6, 5, 5] = _tmp18
+    _out[..., 7, 0, 0] = _tmp11
+    _out[..., 7, 0, 2] = _out[..., 7, 2, 0] = _tmp4
+    _out[..., 7, 0, 3] = _out[..., 7, 3, 0] = _tmp6
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp39
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp33
+    _out[..., 7, 2, 2] = _tmp1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp9
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp40
+    _out[..., 7, 2, 5] = _out[..., 7, 5, 2] = _tmp5
+    _out[..., 7, 3, 3] = _tmp28
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp46
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp22
+    _out[..., 7, 4, 4] = _tmp44
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp45
+    _out[..., 7, 5, 5] = _tmp18
+    _out[..., 8, 0, 0] = _tmp11
+    _out[..., 8, 0, 2] = _out[..., 8, 2, 0] = _tmp3
+    _out[..., 8, 0, 3] = _out[..., 8, 3, 0] = _tmp6
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp39
+    _out[..., 8, 0, 5] = _out[..., 8, 5, 0] = _tmp12
+    _out[..., 8, 2, 2] = _tmp1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp10
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp41
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp5
+    _out[..., 8, 3, 3] = _tmp28
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp46
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp43
+    _out[..., 8, 4, 4] = _tmp44
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp47
+    _out[..., 8, 5, 5] = _tmp18
+    _out[..., 9, 0, 0] = _tmp11
+    _out[..., 9, 0, 2] = _out[..., 9, 2, 0] = _tmp4
+    _out[..., 9, 0, 3] = _out[..., 9, 3, 0] = _tmp5
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = _tmp39
+    _out[..., 9, 0, 5] = _out[..., 9, 5, 0] = _tmp12
+    _out[..., 9, 2, 2] = _tmp1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp10
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp40
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp6
+    _out[..., 9, 3, 3] = _tmp28
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp42
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp22
+    _out[..., 9, 4, 4] = _tmp44
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp47
+    _out[..., 9, 5, 5] = _tmp18
+    _out[..., 16, 2, 2] = 1
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = b
+    _out[..., 16, 3, 3] = _tmp17
+    _out[..., 17, 2, 2] = 1
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp36
+    _out[..., 17, 3, 3] = _tmp17
+    return _out.reshape(*_shape, 3, 6, 6, 6)
 
 
 def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
@@ -7040,97 +6617,74 @@ def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
     _shape = numpy.broadcast_shapes(
         numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 2): _tmp5,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp11,
-                    (0, 5): _tmp13,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp16,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp19,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp25,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 2): _tmp29,
-                    (0, 3): _tmp19,
-                    (0, 4): _tmp11,
-                    (0, 5): _tmp13,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp16,
-                    (2, 4): _tmp17,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp22,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp27,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 2): _tmp5,
-                    (0, 3): _tmp19,
-                    (0, 4): _tmp11,
-                    (0, 5): _tmp12,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp30,
-                    (2, 4): _tmp18,
-                    (2, 5): _tmp6,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp22,
-                    (3, 5): _tmp25,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp31,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp2,
-                    (0, 2): _tmp29,
-                    (0, 3): _tmp6,
-                    (0, 4): _tmp11,
-                    (0, 5): _tmp12,
-                    (2, 2): _tmp15,
-                    (2, 3): _tmp30,
-                    (2, 4): _tmp17,
-                    (2, 5): _tmp19,
-                    (3, 3): _tmp21,
-                    (3, 4): _tmp23,
-                    (3, 5): _tmp24,
-                    (4, 4): _tmp26,
-                    (4, 5): _tmp31,
-                    (5, 5): _tmp28,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): c_m, (2, 3): _tmp32, (3, 3): _tmp33}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): c_m, (2, 3): -_tmp32, (3, 3): _tmp33}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 6, 6, 6))
+    _out[..., 0, 0, 0] = _tmp2
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp5
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp6
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp11
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp13
+    _out[..., 0, 2, 2] = _tmp15
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp16
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp18
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp19
+    _out[..., 0, 3, 3] = _tmp21
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp23
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp25
+    _out[..., 0, 4, 4] = _tmp26
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp27
+    _out[..., 0, 5, 5] = _tmp28
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp29
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp19
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp11
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp13
+    _out[..., 1, 2, 2] = _tmp15
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp16
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp17
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp6
+    _out[..., 1, 3, 3] = _tmp21
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp22
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp24
+    _out[..., 1, 4, 4] = _tmp26
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp27
+    _out[..., 1, 5, 5] = _tmp28
+    _out[..., 2, 0, 0] = _tmp2
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp5
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp19
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp11
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp12
+    _out[..., 2, 2, 2] = _tmp15
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp30
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp18
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp6
+    _out[..., 2, 3, 3] = _tmp21
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp22
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp25
+    _out[..., 2, 4, 4] = _tmp26
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp31
+    _out[..., 2, 5, 5] = _tmp28
+    _out[..., 3, 0, 0] = _tmp2
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp29
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp6
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp11
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp12
+    _out[..., 3, 2, 2] = _tmp15
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp30
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp17
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp19
+    _out[..., 3, 3, 3] = _tmp21
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp23
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp24
+    _out[..., 3, 4, 4] = _tmp26
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp31
+    _out[..., 3, 5, 5] = _tmp28
+    _out[..., 4, 2, 2] = c_m
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp32
+    _out[..., 4, 3, 3] = _tmp33
+    _out[..., 5, 2, 2] = c_m
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = -_tmp32
+    _out[..., 5, 3, 3] = _tmp33
+    return _out
 
 
 def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
@@ -7255,109 +6809,74 @@ def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
     _shape = numpy.broadcast_shapes(
         numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp4,
-                    (0, 4): _tmp7,
-                    (0, 5): _tmp9,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp11,
-                    (2, 4): _tmp13,
-                    (2, 5): _tmp14,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp18,
-                    (3, 5): _tmp20,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp24,
-                    (0, 3): _tmp14,
-                    (0, 4): _tmp7,
-                    (0, 5): _tmp9,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp11,
-                    (2, 4): _tmp12,
-                    (2, 5): _tmp4,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp17,
-                    (3, 5): _tmp19,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp22,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp3,
-                    (0, 3): _tmp14,
-                    (0, 4): _tmp7,
-                    (0, 5): _tmp8,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp25,
-                    (2, 4): _tmp13,
-                    (2, 5): _tmp4,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp17,
-                    (3, 5): _tmp20,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp26,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): _tmp1,
-                    (0, 2): _tmp24,
-                    (0, 3): _tmp4,
-                    (0, 4): _tmp7,
-                    (0, 5): _tmp8,
-                    (2, 2): _tmp10,
-                    (2, 3): _tmp25,
-                    (2, 4): _tmp12,
-                    (2, 5): _tmp14,
-                    (3, 3): _tmp16,
-                    (3, 4): _tmp18,
-                    (3, 5): _tmp19,
-                    (4, 4): _tmp21,
-                    (4, 5): _tmp26,
-                    (5, 5): _tmp23,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): b, (3, 3): _tmp15}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 1, (2, 3): -b, (3, 3): _tmp15}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 3, 6, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 6, 0, 0] = _tmp1
+    _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
+    _out[..., 6, 0, 3] = _out[..., 6, 3, 0] = _tmp4
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp7
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp9
+    _out[..., 6, 2, 2] = _tmp10
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp11
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp13
+    _out[..., 6, 2, 5] = _out[..., 6, 5, 2] = _tmp14
+    _out[..., 6, 3, 3] = _tmp16
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp18
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp20
+    _out[..., 6, 4, 4] = _tmp21
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp22
+    _out[..., 6, 5, 5] = _tmp23
+    _out[..., 7, 0, 0] = _tmp1
+    _out[..., 7, 0, 2] = _out[..., 7, 2, 0] = _tmp24
+    _out[..., 7, 0, 3] = _out[..., 7, 3, 0] = _tmp14
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp7
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp9
+    _out[..., 7, 2, 2] = _tmp10
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp11
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp12
+    _out[..., 7, 2, 5] = _out[..., 7, 5, 2] = _tmp4
+    _out[..., 7, 3, 3] = _tmp16
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp17
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp19
+    _out[..., 7, 4, 4] = _tmp21
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp22
+    _out[..., 7, 5, 5] = _tmp23
+    _out[..., 8, 0, 0] = _tmp1
+    _out[..., 8, 0, 2] = _out[..., 8, 2, 0] = _tmp3
+    _out[..., 8, 0, 3] = _out[..., 8, 3, 0] = _tmp14
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp7
+    _out[..., 8, 0, 5] = _out[..., 8, 5, 0] = _tmp8
+    _out[..., 8, 2, 2] = _tmp10
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp25
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp13
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp4
+    _out[..., 8, 3, 3] = _tmp16
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp17
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp20
+    _out[..., 8, 4, 4] = _tmp21
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp26
+    _out[..., 8, 5, 5] = _tmp23
+    _out[..., 9, 0, 0] = _tmp1
+    _out[..., 9, 0, 2] = _out[..., 9, 2, 0] = _tmp24
+    _out[..., 9, 0, 3] = _out[..., 9, 3, 0] = _tmp4
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = _tmp7
+    _out[..., 9, 0, 5] = _out[..., 9, 5, 0] = _tmp8
+    _out[..., 9, 2, 2] = _tmp10
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp25
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp12
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp14
+    _out[..., 9, 3, 3] = _tmp16
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp18
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp19
+    _out[..., 9, 4, 4] = _tmp21
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp26
+    _out[..., 9, 5, 5] = _tmp23
+    _out[..., 16, 2, 2] = 1
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = b
+    _out[..., 16, 3, 3] = _tmp15
+    _out[..., 17, 2, 2] = 1
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = -b
+    _out[..., 17, 3, 3] = _tmp15
+    return _out.reshape(*_shape, 3, 6, 6, 6)
 
 
 def isolator_points(a, b, h):

@@ -440,25 +440,18 @@ def stiffness_gradient(a, b, h):
     _tmp2 = 4 * a**2
     _tmp3 = 4 * b**2
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp0,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (3, 3): _tmp1,
-                    (4, 4): _tmp1,
-                    (5, 5): _tmp2 + _tmp3,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp3, (4, 4): _tmp2}),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 2, 6, 6))
+    _out[..., 0, 0, 0] = 4
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
+    _out[..., 0, 1, 1] = 4
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp0
+    _out[..., 0, 3, 3] = _tmp1
+    _out[..., 0, 4, 4] = _tmp1
+    _out[..., 0, 5, 5] = _tmp2 + _tmp3
+    _out[..., 1, 2, 2] = 4
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 4, 4] = _tmp2
+    return _out
 
 
 def point_jacobian(r_x, r_y, r_z):
@@ -640,57 +633,58 @@ def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
         numpy.shape(b_h),
         numpy.shape(b_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * c_z, (5, 5): _tmp2 * c_h}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * b_z, (5, 5): _tmp2 * b_h}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * c_z, (5, 5): _tmp3 * c_h}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * b_z, (5, 5): _tmp3 * b_h}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp6, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp7, (1, 3): _tmp7, (3, 3): _tmp8, (4, 4): _tmp8}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp10, (1, 1): 4, (1, 3): _tmp9, (3, 3): _tmp11, (4, 4): _tmp11, (5, 5): _tmp14},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp13, (4, 4): _tmp12}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 12, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 36, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = e
+    _out[..., 0, 2, 2] = 1
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = -e
+    _out[..., 0, 4, 4] = _tmp0
+    _out[..., 0, 5, 5] = _tmp0
+    _out[..., 3, 3, 3] = 1
+    _out[..., 6, 4, 4] = 1
+    _out[..., 9, 5, 5] = 1
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = m
+    _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = -m
+    _out[..., 12, 4, 4] = _tmp1
+    _out[..., 12, 5, 5] = _tmp1
+    _out[..., 16, 4, 4] = _tmp2 * c_z
+    _out[..., 16, 5, 5] = _tmp2 * c_h
+    _out[..., 17, 4, 4] = _tmp2 * b_z
+    _out[..., 17, 5, 5] = _tmp2 * b_h
+    _out[..., 19, 3, 3] = _tmp3 * c_z
+    _out[..., 19, 5, 5] = _tmp3 * c_h
+    _out[..., 20, 3, 3] = _tmp3 * b_z
+    _out[..., 20, 5, 5] = _tmp3 * b_h
+    _out[..., 22, 0, 4] = _out[..., 22, 4, 0] = -_tmp4
+    _out[..., 22, 1, 3] = _out[..., 22, 3, 1] = _tmp4
+    _out[..., 22, 3, 3] = _tmp6
+    _out[..., 22, 4, 4] = _tmp6
+    _out[..., 23, 0, 4] = _out[..., 23, 4, 0] = -_tmp7
+    _out[..., 23, 1, 3] = _out[..., 23, 3, 1] = _tmp7
+    _out[..., 23, 3, 3] = _tmp8
+    _out[..., 23, 4, 4] = _tmp8
+    _out[..., 25, 0, 0] = 4
+    _out[..., 25, 0, 4] = _out[..., 25, 4, 0] = _tmp10
+    _out[..., 25, 1, 1] = 4
+    _out[..., 25, 1, 3] = _out[..., 25, 3, 1] = _tmp9
+    _out[..., 25, 3, 3] = _tmp11
+    _out[..., 25, 4, 4] = _tmp11
+    _out[..., 25, 5, 5] = _tmp14
+    _out[..., 28, 2, 2] = 4
+    _out[..., 28, 3, 3] = _tmp13
+    _out[..., 28, 4, 4] = _tmp12
+    _out[..., 32, 0, 0] = 4
+    _out[..., 32, 0, 4] = _out[..., 32, 4, 0] = _tmp10
+    _out[..., 32, 1, 1] = 4
+    _out[..., 32, 1, 3] = _out[..., 32, 3, 1] = _tmp9
+    _out[..., 32, 3, 3] = _tmp11
+    _out[..., 32, 4, 4] = _tmp11
+    _out[..., 32, 5, 5] = _tmp14
+    _out[..., 35, 2, 2] = 4
+    _out[..., 35, 3, 3] = _tmp13
+    _out[..., 35, 4, 4] = _tmp12
+    return _out.reshape(*_shape, 12, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
@@ -774,45 +768,40 @@ def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
         numpy.shape(c_h),
         numpy.shape(c_z),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 0): 1, (1, 1): 1, (1, 5): e, (2, 2): 1, (2, 4): -e, (4, 4): _tmp0, (5, 5): _tmp0}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(1, 5): m, (2, 4): -m, (4, 4): _tmp1, (5, 5): _tmp1}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(4, 4): _tmp2 * c_z, (5, 5): _tmp2 * c_h}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp3 * c_z, (5, 5): _tmp3 * c_h}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): -_tmp4, (1, 3): _tmp4, (3, 3): _tmp5, (4, 4): _tmp5}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 4,
-                    (0, 4): -_tmp6,
-                    (1, 1): 4,
-                    (1, 3): _tmp6,
-                    (3, 3): _tmp7,
-                    (4, 4): _tmp7,
-                    (5, 5): _tmp8 + _tmp9,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp9, (4, 4): _tmp8}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 10, 2, 6, 6)
+    _out = numpy.zeros((*_shape, 20, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = e
+    _out[..., 0, 2, 2] = 1
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = -e
+    _out[..., 0, 4, 4] = _tmp0
+    _out[..., 0, 5, 5] = _tmp0
+    _out[..., 2, 3, 3] = 1
+    _out[..., 4, 4, 4] = 1
+    _out[..., 6, 5, 5] = 1
+    _out[..., 8, 1, 5] = _out[..., 8, 5, 1] = m
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = -m
+    _out[..., 8, 4, 4] = _tmp1
+    _out[..., 8, 5, 5] = _tmp1
+    _out[..., 11, 4, 4] = _tmp2 * c_z
+    _out[..., 11, 5, 5] = _tmp2 * c_h
+    _out[..., 13, 3, 3] = _tmp3 * c_z
+    _out[..., 13, 5, 5] = _tmp3 * c_h
+    _out[..., 15, 0, 4] = _out[..., 15, 4, 0] = -_tmp4
+    _out[..., 15, 1, 3] = _out[..., 15, 3, 1] = _tmp4
+    _out[..., 15, 3, 3] = _tmp5
+    _out[..., 15, 4, 4] = _tmp5
+    _out[..., 17, 0, 0] = 4
+    _out[..., 17, 0, 4] = _out[..., 17, 4, 0] = -_tmp6
+    _out[..., 17, 1, 1] = 4
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp6
+    _out[..., 17, 3, 3] = _tmp7
+    _out[..., 17, 4, 4] = _tmp7
+    _out[..., 17, 5, 5] = _tmp8 + _tmp9
+    _out[..., 19, 2, 2] = 4
+    _out[..., 19, 3, 3] = _tmp9
+    _out[..., 19, 4, 4] = _tmp8
+    return _out.reshape(*_shape, 10, 2, 6, 6)
 
 
 def _model(_known, _unknowns, _modes):
@@ -1571,49 +1560,38 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         numpy.shape(dx_com),
         numpy.shape(dy_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (1, 5): m,
-                    (2, 4): _tmp6,
-                    (3, 4): -_tmp7,
-                    (4, 4): dx_com * m + m * (_tmp8 + dx_com),
-                    (5, 5): m * (_tmp8 + 2 * dx_com),
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(0, 5): _tmp6, (2, 3): m, (3, 3): _tmp9, (3, 4): -m * (dx_com + e), (5, 5): _tmp9}
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = m
+    _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = _tmp6
+    _out[..., 12, 3, 4] = _out[..., 12, 4, 3] = -_tmp7
+    _out[..., 12, 4, 4] = dx_com * m + m * (_tmp8 + dx_com)
+    _out[..., 12, 5, 5] = m * (_tmp8 + 2 * dx_com)
+    _out[..., 15, 0, 5] = _out[..., 15, 5, 0] = _tmp6
+    _out[..., 15, 2, 3] = _out[..., 15, 3, 2] = m
+    _out[..., 15, 3, 3] = _tmp9
+    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = -m * (dx_com + e)
+    _out[..., 15, 5, 5] = _tmp9
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
@@ -1734,34 +1712,33 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         numpy.shape(b_z),
         numpy.shape(dz_com),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): m, (1, 3): -m, (3, 3): _tmp6, (3, 5): -e * m, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 15, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 12, 0, 4] = _out[..., 12, 4, 0] = m
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = -m
+    _out[..., 12, 3, 3] = _tmp6
+    _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = -e * m
+    _out[..., 12, 4, 4] = _tmp6
+    return _out.reshape(*_shape, 5, 3, 6, 6)
 
 
 def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion):
@@ -1879,37 +1856,31 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
         numpy.shape(k_bend),
         numpy.shape(k_torsion),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): 4, (4, 4): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(5, 5): 4}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 13, 3, 3] = 4
+    _out[..., 13, 4, 4] = 4
+    _out[..., 16, 5, 5] = 4
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_foundation(
@@ -2301,148 +2272,90 @@ def effect_foundation_derivatives(
         numpy.shape(found_spread),
         numpy.shape(found_depth),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp8,
-                    (5, 11): _tmp9,
-                    (6, 6): 4,
-                    (7, 7): 4,
-                    (11, 11): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp7,
-                    (3, 9): _tmp10,
-                    (4, 4): _tmp5,
-                    (4, 10): _tmp11,
-                    (8, 8): 4,
-                    (9, 9): _tmp7,
-                    (10, 10): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (0, 0): 4,
-                    (0, 4): _tmp1,
-                    (0, 6): -4,
-                    (1, 1): 4,
-                    (1, 3): _tmp0,
-                    (1, 7): -4,
-                    (3, 3): _tmp3,
-                    (3, 7): _tmp1,
-                    (4, 4): _tmp3,
-                    (4, 6): _tmp0,
-                    (5, 5): _tmp8,
-                    (5, 11): _tmp9,
-                    (6, 6): 4,
-                    (7, 7): 4,
-                    (11, 11): _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (2, 2): 4,
-                    (2, 8): -4,
-                    (3, 3): _tmp7,
-                    (3, 9): _tmp10,
-                    (4, 4): _tmp5,
-                    (4, 10): _tmp11,
-                    (8, 8): 4,
-                    (9, 9): _tmp7,
-                    (10, 10): _tmp5,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): 1,
-                    (6, 10): -found_depth,
-                    (7, 7): 1,
-                    (7, 9): found_depth,
-                    (8, 8): 1,
-                    (9, 9): _tmp14,
-                    (10, 10): _tmp14,
-                    (11, 11): _tmp13,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): found_shear,
-                    (6, 10): -_tmp15,
-                    (7, 7): found_shear,
-                    (7, 9): _tmp15,
-                    (8, 8): 1,
-                    (9, 9): _tmp16 + _tmp18,
-                    (10, 10): _tmp16 + _tmp19,
-                    (11, 11): _tmp18 * found_shear + _tmp19 * found_shear,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {
-                    (6, 6): k_found,
-                    (6, 10): -_tmp20,
-                    (7, 7): k_found,
-                    (7, 9): _tmp20,
-                    (9, 9): _tmp21,
-                    (10, 10): _tmp21,
-                    (11, 11): _tmp18 * k_found + _tmp19 * k_found,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(
-                _shape,
-                12,
-                {(9, 9): _tmp23 * _tmp6, (10, 10): _tmp23 * _tmp4, (11, 11): _tmp25 * _tmp4 + _tmp25 * _tmp6},
-            ),
-            _runtime.stack_matrix(_shape, 12, {}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -m_found, (7, 9): m_found, (9, 9): _tmp26, (10, 10): _tmp26}),
-            _runtime.stack_matrix(_shape, 12, {(6, 10): -_tmp24, (7, 9): _tmp24, (9, 9): _tmp27, (10, 10): _tmp27}),
-            _runtime.stack_matrix(_shape, 12, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 9, 3, 12, 12)
+    _out = numpy.zeros((*_shape, 27, 12, 12))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = -4
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp1
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 5, 5] = _tmp8
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp9
+    _out[..., 1, 6, 6] = 4
+    _out[..., 1, 7, 7] = 4
+    _out[..., 1, 11, 11] = _tmp8
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = -4
+    _out[..., 4, 3, 3] = _tmp7
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp10
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp11
+    _out[..., 4, 8, 8] = 4
+    _out[..., 4, 9, 9] = _tmp7
+    _out[..., 4, 10, 10] = _tmp5
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 0, 6] = _out[..., 8, 6, 0] = -4
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 1, 7] = _out[..., 8, 7, 1] = -4
+    _out[..., 8, 3, 3] = _tmp3
+    _out[..., 8, 3, 7] = _out[..., 8, 7, 3] = _tmp1
+    _out[..., 8, 4, 4] = _tmp3
+    _out[..., 8, 4, 6] = _out[..., 8, 6, 4] = _tmp0
+    _out[..., 8, 5, 5] = _tmp8
+    _out[..., 8, 5, 11] = _out[..., 8, 11, 5] = _tmp9
+    _out[..., 8, 6, 6] = 4
+    _out[..., 8, 7, 7] = 4
+    _out[..., 8, 11, 11] = _tmp8
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = -4
+    _out[..., 11, 3, 3] = _tmp7
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp10
+    _out[..., 11, 4, 4] = _tmp5
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp11
+    _out[..., 11, 8, 8] = 4
+    _out[..., 11, 9, 9] = _tmp7
+    _out[..., 11, 10, 10] = _tmp5
+    _out[..., 12, 6, 6] = 1
+    _out[..., 12, 6, 10] = _out[..., 12, 10, 6] = -found_depth
+    _out[..., 12, 7, 7] = 1
+    _out[..., 12, 7, 9] = _out[..., 12, 9, 7] = found_depth
+    _out[..., 12, 8, 8] = 1
+    _out[..., 12, 9, 9] = _tmp14
+    _out[..., 12, 10, 10] = _tmp14
+    _out[..., 12, 11, 11] = _tmp13
+    _out[..., 16, 6, 6] = found_shear
+    _out[..., 16, 6, 10] = _out[..., 16, 10, 6] = -_tmp15
+    _out[..., 16, 7, 7] = found_shear
+    _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp15
+    _out[..., 16, 8, 8] = 1
+    _out[..., 16, 9, 9] = _tmp16 + _tmp18
+    _out[..., 16, 10, 10] = _tmp16 + _tmp19
+    _out[..., 16, 11, 11] = _tmp18 * found_shear + _tmp19 * found_shear
+    _out[..., 19, 6, 6] = k_found
+    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp20
+    _out[..., 19, 7, 7] = k_found
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp20
+    _out[..., 19, 9, 9] = _tmp21
+    _out[..., 19, 10, 10] = _tmp21
+    _out[..., 19, 11, 11] = _tmp18 * k_found + _tmp19 * k_found
+    _out[..., 22, 9, 9] = _tmp23 * _tmp6
+    _out[..., 22, 10, 10] = _tmp23 * _tmp4
+    _out[..., 22, 11, 11] = _tmp25 * _tmp4 + _tmp25 * _tmp6
+    _out[..., 24, 6, 10] = _out[..., 24, 10, 6] = -m_found
+    _out[..., 24, 7, 9] = _out[..., 24, 9, 7] = m_found
+    _out[..., 24, 9, 9] = _tmp26
+    _out[..., 24, 10, 10] = _tmp26
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp24
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp24
+    _out[..., 25, 9, 9] = _tmp27
+    _out[..., 25, 10, 10] = _tmp27
+    return _out.reshape(*_shape, 9, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -2665,78 +2578,64 @@ def effect_added_mass_derivatives(
         numpy.shape(h_added),
         numpy.shape(g_added),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): h_added,
-                    (0, 5): -y_added,
-                    (1, 1): 1,
-                    (1, 3): -h_added,
-                    (1, 5): _tmp6,
-                    (2, 2): 1,
-                    (2, 3): y_added,
-                    (2, 4): -_tmp6,
-                    (3, 3): _tmp7 + _tmp9,
-                    (3, 4): -_tmp6 * y_added,
-                    (3, 5): -_tmp6 * h_added,
-                    (4, 4): _tmp11 + _tmp9,
-                    (4, 5): -h_added * y_added,
-                    (5, 5): _tmp11 + _tmp7 + _tmp8,
-                },
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(1, 5): m_added, (2, 4): _tmp12, (3, 4): _tmp14, (3, 5): _tmp16, (4, 4): _tmp17, (5, 5): _tmp17},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 5): _tmp12, (2, 3): m_added, (3, 3): _tmp18, (3, 4): _tmp19, (4, 5): _tmp16, (5, 5): _tmp18},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 4): m_added, (1, 3): _tmp12, (3, 3): _tmp20, (3, 5): _tmp19, (4, 4): _tmp20, (4, 5): _tmp14},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp21, (4, 4): _tmp21, (5, 5): _tmp21}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 9, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 27, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 12, 0, 0] = 1
+    _out[..., 12, 0, 4] = _out[..., 12, 4, 0] = h_added
+    _out[..., 12, 0, 5] = _out[..., 12, 5, 0] = -y_added
+    _out[..., 12, 1, 1] = 1
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = -h_added
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = _tmp6
+    _out[..., 12, 2, 2] = 1
+    _out[..., 12, 2, 3] = _out[..., 12, 3, 2] = y_added
+    _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = -_tmp6
+    _out[..., 12, 3, 3] = _tmp7 + _tmp9
+    _out[..., 12, 3, 4] = _out[..., 12, 4, 3] = -_tmp6 * y_added
+    _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = -_tmp6 * h_added
+    _out[..., 12, 4, 4] = _tmp11 + _tmp9
+    _out[..., 12, 4, 5] = _out[..., 12, 5, 4] = -h_added * y_added
+    _out[..., 12, 5, 5] = _tmp11 + _tmp7 + _tmp8
+    _out[..., 15, 1, 5] = _out[..., 15, 5, 1] = m_added
+    _out[..., 15, 2, 4] = _out[..., 15, 4, 2] = _tmp12
+    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = _tmp14
+    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp16
+    _out[..., 15, 4, 4] = _tmp17
+    _out[..., 15, 5, 5] = _tmp17
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = _tmp12
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = m_added
+    _out[..., 18, 3, 3] = _tmp18
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp19
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp16
+    _out[..., 18, 5, 5] = _tmp18
+    _out[..., 21, 0, 4] = _out[..., 21, 4, 0] = m_added
+    _out[..., 21, 1, 3] = _out[..., 21, 3, 1] = _tmp12
+    _out[..., 21, 3, 3] = _tmp20
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp19
+    _out[..., 21, 4, 4] = _tmp20
+    _out[..., 21, 4, 5] = _out[..., 21, 5, 4] = _tmp14
+    _out[..., 24, 3, 3] = _tmp21
+    _out[..., 24, 4, 4] = _tmp21
+    _out[..., 24, 5, 5] = _tmp21
+    return _out.reshape(*_shape, 9, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -2855,37 +2754,33 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         numpy.shape(k_belt),
         numpy.shape(h_belt),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 0): 1, (0, 4): h_belt, (4, 4): h_belt**2}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(0, 4): k_belt, (4, 4): 2 * h_belt * k_belt}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 6, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 18, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 13, 0, 0] = 1
+    _out[..., 13, 0, 4] = _out[..., 13, 4, 0] = h_belt
+    _out[..., 13, 4, 4] = h_belt**2
+    _out[..., 16, 0, 4] = _out[..., 16, 4, 0] = k_belt
+    _out[..., 16, 4, 4] = 2 * h_belt * k_belt
+    return _out.reshape(*_shape, 6, 3, 6, 6)
 
 
 def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload):
@@ -2996,34 +2891,30 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
         numpy.shape(b_z),
         numpy.shape(h_preload),
     )
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {(0, 0): 4, (0, 4): _tmp1, (1, 1): 4, (1, 3): _tmp0, (3, 3): _tmp2, (4, 4): _tmp2, (5, 5): _tmp5},
-            ),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(2, 2): 4, (3, 3): _tmp4, (4, 4): _tmp3}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp6, (4, 4): _tmp6}),
-            _runtime.stack_matrix(_shape, 6, {}),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 5, 3, 6, 6)
+    _out = numpy.zeros((*_shape, 15, 6, 6))
+    _out[..., 1, 0, 0] = 4
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 1, 1] = 4
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 4, 2, 2] = 4
+    _out[..., 4, 3, 3] = _tmp4
+    _out[..., 4, 4, 4] = _tmp3
+    _out[..., 8, 0, 0] = 4
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp1
+    _out[..., 8, 1, 1] = 4
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp0
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 4, 4] = _tmp2
+    _out[..., 8, 5, 5] = _tmp5
+    _out[..., 11, 2, 2] = 4
+    _out[..., 11, 3, 3] = _tmp4
+    _out[..., 11, 4, 4] = _tmp3
+    _out[..., 13, 3, 3] = _tmp6
+    _out[..., 13, 4, 4] = _tmp6
+    return _out.reshape(*_shape, 5, 3, 6, 6)
 
 
 def isolator_stiffness(a, b, h, c_h, c_z):
@@ -3121,95 +3012,68 @@ def isolator_stiffness(a, b, h, c_h, c_z):
     _tmp20 = -_tmp4
     _tmp21 = -_tmp13
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_h,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp4,
-                    (2, 2): c_z,
-                    (2, 3): _tmp5,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp10,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp13,
-                    (4, 4): _tmp15,
-                    (4, 5): _tmp16,
-                    (5, 5): _tmp17,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_h,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp4,
-                    (2, 2): c_z,
-                    (2, 3): _tmp18,
-                    (2, 4): _tmp7,
-                    (3, 3): _tmp10,
-                    (3, 4): _tmp11,
-                    (3, 5): _tmp13,
-                    (4, 4): _tmp15,
-                    (4, 5): _tmp19,
-                    (5, 5): _tmp17,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp3,
-                    (1, 1): c_h,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp20,
-                    (2, 2): c_z,
-                    (2, 3): _tmp5,
-                    (2, 4): _tmp6,
-                    (3, 3): _tmp10,
-                    (3, 4): _tmp11,
-                    (3, 5): _tmp21,
-                    (4, 4): _tmp15,
-                    (4, 5): _tmp16,
-                    (5, 5): _tmp17,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): c_h,
-                    (0, 4): _tmp1,
-                    (0, 5): _tmp2,
-                    (1, 1): c_h,
-                    (1, 3): _tmp0,
-                    (1, 5): _tmp20,
-                    (2, 2): c_z,
-                    (2, 3): _tmp18,
-                    (2, 4): _tmp6,
-                    (3, 3): _tmp10,
-                    (3, 4): _tmp12,
-                    (3, 5): _tmp21,
-                    (4, 4): _tmp15,
-                    (4, 5): _tmp19,
-                    (5, 5): _tmp17,
-                },
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 0, 0] = c_h
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp3
+    _out[..., 0, 1, 1] = c_h
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp0
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp4
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp5
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp7
+    _out[..., 0, 3, 3] = _tmp10
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp12
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp13
+    _out[..., 0, 4, 4] = _tmp15
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp16
+    _out[..., 0, 5, 5] = _tmp17
+    _out[..., 1, 0, 0] = c_h
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp2
+    _out[..., 1, 1, 1] = c_h
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp4
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp18
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp7
+    _out[..., 1, 3, 3] = _tmp10
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp11
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp13
+    _out[..., 1, 4, 4] = _tmp15
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp19
+    _out[..., 1, 5, 5] = _tmp17
+    _out[..., 2, 0, 0] = c_h
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp3
+    _out[..., 2, 1, 1] = c_h
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp0
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp20
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp5
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp6
+    _out[..., 2, 3, 3] = _tmp10
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp11
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp21
+    _out[..., 2, 4, 4] = _tmp15
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp16
+    _out[..., 2, 5, 5] = _tmp17
+    _out[..., 3, 0, 0] = c_h
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp2
+    _out[..., 3, 1, 1] = c_h
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp0
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp20
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp18
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp6
+    _out[..., 3, 3, 3] = _tmp10
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp12
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp21
+    _out[..., 3, 4, 4] = _tmp15
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp19
+    _out[..., 3, 5, 5] = _tmp17
+    return _out
 
 
 def isolator_stiffness_gradient(a, b, h, c_h, c_z):
@@ -3310,91 +3174,76 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
     _tmp11 = a * b
     _tmp12 = -_tmp11
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp1,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): a,
-                    (3, 3): _tmp2,
-                    (3, 5): _tmp3,
-                    (4, 4): _tmp2,
-                    (4, 5): _tmp4,
-                    (5, 5): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): b,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): a,
-                    (3, 3): _tmp2,
-                    (3, 5): _tmp3,
-                    (4, 4): _tmp2,
-                    (4, 5): _tmp8,
-                    (5, 5): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): _tmp1,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): _tmp9,
-                    (3, 3): _tmp2,
-                    (3, 5): _tmp10,
-                    (4, 4): _tmp2,
-                    (4, 5): _tmp4,
-                    (5, 5): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape,
-                6,
-                {
-                    (0, 0): 1,
-                    (0, 4): _tmp0,
-                    (0, 5): b,
-                    (1, 1): 1,
-                    (1, 3): h,
-                    (1, 5): _tmp9,
-                    (3, 3): _tmp2,
-                    (3, 5): _tmp10,
-                    (4, 4): _tmp2,
-                    (4, 5): _tmp8,
-                    (5, 5): _tmp7,
-                },
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): _tmp9, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp11, (4, 4): _tmp5}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp1, (2, 4): a, (3, 3): _tmp6, (3, 4): _tmp12, (4, 4): _tmp5}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 2, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = h
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = a
+    _out[..., 0, 3, 3] = _tmp2
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp3
+    _out[..., 0, 4, 4] = _tmp2
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp4
+    _out[..., 0, 5, 5] = _tmp7
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = b
+    _out[..., 1, 1, 1] = 1
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = h
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = a
+    _out[..., 1, 3, 3] = _tmp2
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp3
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp8
+    _out[..., 1, 5, 5] = _tmp7
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp1
+    _out[..., 2, 1, 1] = 1
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = h
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp9
+    _out[..., 2, 3, 3] = _tmp2
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp10
+    _out[..., 2, 4, 4] = _tmp2
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp4
+    _out[..., 2, 5, 5] = _tmp7
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = b
+    _out[..., 3, 1, 1] = 1
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = h
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp9
+    _out[..., 3, 3, 3] = _tmp2
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp10
+    _out[..., 3, 4, 4] = _tmp2
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp8
+    _out[..., 3, 5, 5] = _tmp7
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = b
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp9
+    _out[..., 4, 3, 3] = _tmp6
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp12
+    _out[..., 4, 4, 4] = _tmp5
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp1
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp9
+    _out[..., 5, 3, 3] = _tmp6
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp11
+    _out[..., 5, 4, 4] = _tmp5
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = b
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = a
+    _out[..., 6, 3, 3] = _tmp6
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp11
+    _out[..., 6, 4, 4] = _tmp5
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp1
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = a
+    _out[..., 7, 3, 3] = _tmp6
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp12
+    _out[..., 7, 4, 4] = _tmp5
+    return _out.reshape(*_shape, 2, 4, 6, 6)
 
 
 def isolator_axial_stiffness(a, b, c_z):
@@ -3442,23 +3291,32 @@ def isolator_axial_stiffness(a, b, c_z):
     _tmp6 = a**2 * c_z
     _tmp7 = -_tmp0
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp2, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp0, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp4, (4, 4): _tmp6}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): c_z, (2, 3): _tmp7, (2, 4): _tmp1, (3, 3): _tmp3, (3, 4): _tmp5, (4, 4): _tmp6}
-            ),
-        ],
-        axis=-3,
-    )
+    _out = numpy.zeros((*_shape, 4, 6, 6))
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp2
+    _out[..., 0, 3, 3] = _tmp3
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp5
+    _out[..., 0, 4, 4] = _tmp6
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp7
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp2
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp4
+    _out[..., 1, 4, 4] = _tmp6
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp0
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp1
+    _out[..., 2, 3, 3] = _tmp3
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp4
+    _out[..., 2, 4, 4] = _tmp6
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp7
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp1
+    _out[..., 3, 3, 3] = _tmp3
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp5
+    _out[..., 3, 4, 4] = _tmp6
+    return _out
 
 
 def isolator_axial_stiffness_gradient(a, b, c_z):
@@ -3508,27 +3366,32 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
     _tmp4 = a**2
     _tmp5 = -b
     _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
-    return numpy.stack(
-        [
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(_shape, 6, {}),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): _tmp0, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): b, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp2, (4, 4): _tmp4}
-            ),
-            _runtime.stack_matrix(
-                _shape, 6, {(2, 2): 1, (2, 3): _tmp5, (2, 4): a, (3, 3): _tmp1, (3, 4): _tmp3, (4, 4): _tmp4}
-            ),
-        ],
-        axis=-3,
-    ).reshape(*_shape, 2, 4, 6, 6)
+    _out = numpy.zeros((*_shape, 8, 6, 6))
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = b
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp0
+    _out[..., 4, 3, 3] = _tmp1
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp3
+    _out[..., 4, 4, 4] = _tmp4
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp5
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp0
+    _out[..., 5, 3, 3] = _tmp1
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp2
+    _out[..., 5, 4, 4] = _tmp4
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = b
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = a
+    _out[..., 6, 3, 3] = _tmp1
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp2
+    _out[..., 6, 4, 4] = _tmp4
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp5
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = a
+    _out[..., 7, 3, 3] = _tmp1
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp3
+    _out[..., 7, 4, 4] = _tmp4
+    return _out.reshape(*_shape, 2, 4, 6, 6)
 
 
 def isolator_points(a, b, h):
