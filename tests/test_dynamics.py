@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from mountid.machine import damped_poles, pair_with_undamped, state_matrix
+from mountid.machine import damped_modes, damped_poles, dynamics, pair_with_undamped, state_matrix
 
 
 def _uncoupled_in_a_turned_basis(c: list[float], b: list[float], seed: int = 0):
@@ -64,3 +64,24 @@ def test_pair_with_undamped_is_one_to_one():
     upper = poles.imag > 0
     ranks = pair_with_undamped(mass, stiffness, vectors[:6, upper], poles[upper].imag)
     assert sorted(ranks) == list(range(6))
+
+
+def test_three_twins_take_their_damped_modes_in_frequency_order():
+    mass, stiffness, damping, exact = _uncoupled_in_a_turned_basis(
+        [100.0, 100.0, 100.0, 150.0], [1.0, 3.0, 2.0, 1.0], 7
+    )
+    poles = damped_poles(mass, stiffness, damping, np.array([100.0, 100.0, 100.0, 150.0]))
+    assert poles[:3] == pytest.approx(sorted(exact[:3], key=lambda p: p.imag), rel=1e-9)
+    assert poles[3] == pytest.approx(exact[3], rel=1e-9)
+
+
+def test_damped_modes_keeps_its_last_result_and_hands_out_copies():
+    mass, stiffness, damping, _ = _uncoupled_in_a_turned_basis([50.0, 80.0, 120.0], [0.2, 0.3, 0.1], 1)
+    lam = np.array([50.0, 80.0, 120.0])
+    poles, shapes = damped_modes(mass, stiffness, damping, lam)
+    fresh = dynamics._damped_modes(mass, stiffness, damping, lam)
+    poles[:], shapes[:] = 0, 0  # a caller's changes do not reach the kept result
+    again = damped_modes(mass, stiffness, damping, lam)
+    assert np.array_equal(again[0], fresh[0]) and np.array_equal(again[1], fresh[1])
+    # other inputs are solved afresh
+    assert not np.array_equal(damped_modes(mass, stiffness, 2 * damping, lam)[0], fresh[0])

@@ -35,7 +35,11 @@ def state_matrix(mass: NDArray, stiffness: NDArray, damping: NDArray) -> NDArray
     """First-order form x' = A x of M q'' + B q' + C q = 0 with x = [q; q']."""
     n = mass.shape[0]
     minv = np.linalg.inv(mass)
-    return np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ stiffness, -minv @ damping]])
+    out = np.zeros((2 * n, 2 * n))
+    out[:n, n:] = np.eye(n)
+    out[n:, :n] = -minv @ stiffness
+    out[n:, n:] = -minv @ damping
+    return out
 
 
 def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray) -> NDArray[np.complex128]:
@@ -54,7 +58,24 @@ def damped_modes(
     mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray
 ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
     """The poles of :func:`damped_poles` and their mode shapes x (columns, (n, n); zero for a mode that
-    does not oscillate): (M p^2 + B p + C) x = 0."""
+    does not oscillate): (M p^2 + B p + C) x = 0. The last result is kept: a fit asks for the poles, then
+    their derivatives, at one point (copies are returned)."""
+    key = tuple((a.shape, a.dtype.str, a.tobytes()) for a in map(np.asarray, (mass, stiffness, damping, lam)))
+    if _LAST_DAMPED and _LAST_DAMPED[0] == key:
+        poles, shapes = _LAST_DAMPED[1]
+        return poles.copy(), shapes.copy()
+    poles, shapes = _damped_modes(mass, stiffness, damping, lam)
+    _LAST_DAMPED[:] = [key, (poles.copy(), shapes.copy())]
+    return poles, shapes
+
+
+_LAST_DAMPED: list = []
+"""The last (inputs, result) of damped_modes."""
+
+
+def _damped_modes(
+    mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
     n = len(mass)
     poles, vectors = np.linalg.eig(state_matrix(mass, stiffness, damping))
     upper = np.flatnonzero(poles.imag > 0)
@@ -77,21 +98,19 @@ def pair_with_undamped(
     Undamped eigenvalues within ``rtol`` of each other (twins) have no preferred basis: a damped mode's content
     in them is its projection on their span, and among themselves they take the damped modes in the order of
     their damped frequencies."""
-    n = len(mass)
     lam, phi = scipy.linalg.eigh(stiffness, mass)
-    group = np.zeros(n, dtype=int)
-    for k in range(1, n):
-        same = abs(lam[k] - lam[k - 1]) <= rtol * max(abs(lam[k]), abs(lam[k - 1]))
-        group[k] = group[k - 1] if same else group[k - 1] + 1
-    weight = np.einsum("ak,ab,bk->k", np.conj(shapes), mass, shapes).real
-    content = np.abs(phi.T @ mass @ shapes) ** 2 / np.where(weight > 0, weight, 1.0)
-    # a damped mode's content in a group of twins, repeated for each of the group's slots
-    by_group = np.array([content[group == g].sum(axis=0) for g in group])
-    _, column = scipy.optimize.linear_sum_assignment(by_group.T, maximize=True)
+    same = np.abs(np.diff(lam)) <= rtol * np.maximum(np.abs(lam[1:]), np.abs(lam[:-1]))
+    group = np.concatenate([[0], np.cumsum(~same)])
+    m_shapes = mass @ shapes
+    weight = np.sum(np.conj(shapes) * m_shapes, axis=0).real
+    content = np.abs(phi.T @ m_shapes) ** 2 / np.where(weight > 0, weight, 1.0)
+    if same.any():  # a damped mode's content in a group of twins, repeated for each of the group's slots
+        content = (group[:, None] == group[None, :]).astype(float) @ content
+    _, column = scipy.optimize.linear_sum_assignment(content.T, maximize=True)
+    # within each group the damped modes given to it take its slots in the order of their frequencies (the
+    # groups ascend with the rank, so the sorted slots run group by group as the modes sorted by group do)
     ranks = np.empty(shapes.shape[1], dtype=np.intp)
-    for g in np.unique(group[column]):
-        mine = np.flatnonzero(group[column] == g)  # damped modes given to this group, in rank order
-        ranks[mine[np.argsort(frequencies[mine], kind="stable")]] = np.sort(column[mine])
+    ranks[np.lexsort((frequencies, group[column]))] = np.sort(column)
     return ranks
 
 
