@@ -1,0 +1,48 @@
+"""The fits of the gap diagnosis (mountid.diagnosis.fitting): when a fit stops."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mountid.diagnosis import fitting
+from mountid.diagnosis.campaign import parse
+from mountid.effects import EFFECTS
+from mountid.validation import blind
+
+CASES = [
+    (1, "foundation", "shapes", "kid300", "foundation"),
+    (1, "foundation", "frequencies", "kid300", "foundation"),
+    (1, "added_mass", "damping", "kid300", "added_mass"),
+    (2, "drive_belt", "shapes", "rectangular", "drive_belt"),
+    (1, "cog_height", "shapes", "rectangular", "added_mass"),  # a candidate that does not represent the truth
+]
+"""Blind cases (seed, truth, campaign kind, machine) and a candidate whose fit the rule stops."""
+
+
+@pytest.mark.parametrize(("seed", "truth", "kind", "machine", "fitted"), CASES)
+def test_a_fit_stopped_by_the_convergence_rule_is_at_the_minimum_within_its_uncertainty(
+    seed, truth, kind, machine, fitted, monkeypatch
+):
+    """The rule (CONVERGED_CHI2 over CONVERGED_ITERATIONS iterations) against the same fit run on to scipy's
+    own tolerances: chi^2 within 0.05 and every parameter within a third of its standard deviation."""
+    campaign = parse(blind.make_case(seed, truth, kind=kind, machine=machine)[0])
+    stopped = []
+    solve = fitting._solve
+
+    def counted(*args, **kwargs):
+        res = solve(*args, **kwargs)
+        stopped.append(res.status == -2)
+        return res
+
+    monkeypatch.setattr(fitting, "_solve", counted)
+    fit = fitting.fit_candidate(campaign, EFFECTS[fitted])
+    assert any(stopped)  # the rule stopped at least one of its runs
+    monkeypatch.setattr(fitting, "CONVERGED_CHI2", -math.inf)  # never met: scipy's tolerances alone
+    tight = fitting.fit_candidate(campaign, EFFECTS[fitted])
+    assert fit.chi2 == pytest.approx(tight.chi2, abs=0.05)
+    for name, value in tight.parameters.items():
+        assert abs(fit.parameters[name] - value) <= tight.std[name] / 3, name
+    assert np.isfinite(fit.log_evidence)
