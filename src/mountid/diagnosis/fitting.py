@@ -413,12 +413,13 @@ def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 CONVERGED_CHI2 = 1e-3
 """A fit has converged when its objective (chi^2 with the prior rows) fell by less than this over its last
-CONVERGED_ITERATIONS iterations: the rest of the way to the minimum is worth less than a thousandth of one
-unit of chi^2 per iteration, while scipy's relative tolerances (1e-7 of chi^2) keep a fit of chi^2 near
-noise level creeping along a shallow valley for tens of evaluations (a quarter of every fit's evaluations in
-the blind cases, each within 0.01 of its final chi^2)."""
+CONVERGED_ITERATIONS iterations: what is left of the way to the minimum is worth hundredths of one unit of
+chi^2 at most, while scipy's relative tolerances (1e-7 of chi^2) keep a fit creeping along a shallow valley
+for tens of evaluations (a quarter of every fit's evaluations in the blind cases were made within 0.01 of
+the fit's final chi^2)."""
 
 CONVERGED_ITERATIONS = 3
+"""The iterations (accepted steps) over which CONVERGED_CHI2 is judged."""
 
 
 class _Converged:

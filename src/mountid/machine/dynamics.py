@@ -54,6 +54,10 @@ def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArr
     return damped_modes(mass, stiffness, damping, lam)[0]
 
 
+_LAST_DAMPED: list = []
+"""The last (inputs, result) of damped_modes."""
+
+
 def damped_modes(
     mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArray
 ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
@@ -67,10 +71,6 @@ def damped_modes(
     poles, shapes = _damped_modes(mass, stiffness, damping, lam)
     _LAST_DAMPED[:] = [key, (poles.copy(), shapes.copy())]
     return poles, shapes
-
-
-_LAST_DAMPED: list = []
-"""The last (inputs, result) of damped_modes."""
 
 
 def _damped_modes(
