@@ -10,6 +10,7 @@ import pytest
 from mountid.diagnosis import fitting
 from mountid.diagnosis.campaign import parse
 from mountid.effects import EFFECTS
+from mountid.errors import InputError
 from mountid.validation import blind
 
 CASES = [
@@ -17,7 +18,7 @@ CASES = [
     (1, "foundation", "frequencies", "kid300", "foundation"),
     (1, "added_mass", "damping", "kid300", "added_mass"),
     (2, "drive_belt", "shapes", "rectangular", "drive_belt"),
-    (1, "cog_height", "shapes", "rectangular", "added_mass"),  # a candidate that does not represent the truth
+    (1, "cog_height", "shapes", "screen6", "added_mass"),  # a candidate that does not represent the truth
 ]
 """Blind cases (seed, truth, campaign kind, machine) and a candidate whose fit the rule stops."""
 
@@ -46,3 +47,13 @@ def test_a_fit_stopped_by_the_convergence_rule_is_at_the_minimum_within_its_unce
     for name, value in tight.parameters.items():
         assert abs(fit.parameters[name] - value) <= tight.std[name] / 3, name
     assert np.isfinite(fit.log_evidence)
+
+
+def test_an_effect_that_acts_at_one_isolator_needs_to_be_told_which():
+    campaign = parse(blind.make_case(1, "none")[0])
+    with pytest.raises(InputError, match="variant"):
+        fitting.fit_candidate(campaign, EFFECTS["isolator_scatter"])
+    with pytest.raises(InputError, match="variant"):
+        fitting.fit_candidate(campaign, EFFECTS["isolator_scatter"], 4)  # kid300 has four isolators: 0..3
+    with pytest.raises(InputError, match="variant"):
+        fitting.fit_candidate(campaign, EFFECTS["cog_height"], 0)

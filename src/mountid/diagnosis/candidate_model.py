@@ -16,6 +16,7 @@ import scipy.stats
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect, Pair
+from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call
 
@@ -56,6 +57,12 @@ class CandidateModel:
         self.effect = effect
         self._last: tuple[tuple, Evaluation] | None = None
         self.strategy = strategy(effect)
+        names = self.strategy.variants(campaign)
+        if (variant is None) != (not names) or (variant is not None and not 0 <= variant < len(names)):
+            where = f"one of 0..{len(names) - 1} ({', '.join(names)})" if names else "None (it acts once)"
+            raise InputError(
+                "variant", f"{effect.name if effect else 'the nominal model'} takes {where}, got {variant}"
+            )
         self.variant = variant
         """Which isolator or channel a per-variant effect acts at (the strategy's variants)."""
         self.cache: dict[str, object] = {}
