@@ -353,7 +353,7 @@ the catalogue support's fits 8 cm above them at 8 standard deviations. A confide
 
 POLISH = 10.0
 """A fit whose best start ran out of evaluations is carried on when its chi^2 is within POLISH times the
-noise level (mean plus three standard deviations of chi^2)."""
+noise level (noise_level: mean plus three standard deviations of chi^2 at its degrees of freedom)."""
 
 SPREAD_PROMISE = 0.5
 """A fit whose starts all stopped above noise level goes on from the most promising of the spread starts
