@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.candidates import diagnose_effects, explains, sized
-from mountid.diagnosis.fitting import PRIOR_WEIGHT, fit_candidate, prior_widths, promises
+from mountid.diagnosis.fitting import PRIOR_WEIGHT, fit_candidate, noise_level, prior_widths, promises
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS, Pair
 from mountid.errors import InputError
@@ -338,8 +338,7 @@ def test_a_scatter_outside_every_default_start_basin_is_reached_from_the_spread(
     campaign = parse(data)
     effect = EFFECTS["isolator_scatter"]
     fit = fit_candidate(campaign, effect, truth.size["isolator"])
-    dof = fit.n_data - fit.n_parameters
-    assert fit.chi2 < dof + 3 * math.sqrt(2 * dof)
+    assert fit.chi2 < noise_level(fit.n_data, fit.n_parameters)
     assert fit.parameters["scatter_axial"] == pytest.approx(truth.size["s_v"], abs=3 * fit.std["scatter_axial"])
     model = CandidateModel(campaign, effect, truth.size["isolator"])
     assert min(promises(campaign, model, model.start())) > 100 * min(promises(campaign, model, model.spread()))
@@ -373,8 +372,7 @@ def test_heavy_damping_that_reorders_close_modes_is_found(kind):
     data, truth = blind.make_case(90, "damping", kind=kind, machine="genset8")
     campaign = parse(data)
     fit = fit_candidate(campaign, EFFECTS["damping"])
-    dof = fit.n_data - fit.n_parameters
-    assert fit.chi2 < dof + 3 * math.sqrt(2 * dof)
+    assert fit.chi2 < noise_level(fit.n_data, fit.n_parameters)
     if kind == "shapes":  # with the damping parameters unknown only their product with the factor is fitted
         assert fit.parameters["damping_scale"] == pytest.approx(truth.size["eta"], abs=3 * fit.std["damping_scale"])
     assert "damping" in diagnose_effects(campaign).tie
