@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +101,12 @@ def test_sensitivities_match_the_closed_form_of_the_vertical_mode():
         (lambda d: d.update(fit=["x", "theta"]), "fit: theta is not among the measured modes"),
         (lambda d: d["known"].update(c_z=1.0), "known.c_z: is an unknown to identify"),
         (lambda d: d.update(colour="red"), "campaign: Additional properties are not allowed"),
+        # JSON files may hold NaN and Infinity (Python's json reads them); they passed the schema's bounds
+        (lambda d: d["modes"]["z"].update(frequency=math.nan), "modes.z.frequency: must be a finite number"),
+        (lambda d: d["known"].update(L_z=math.inf), "known.L_z: must be a finite number"),
+        (lambda d: d.pop("modes"), "campaign: needs one of: 'modes' is a required property; or 'records'"),
+        # a record entry of the object form: the fault inside it, not the whole entry against either form
+        (lambda d: d.update(records=[{"file": "r.csv", "start": -1}]), "records.0.start: -1 is less than the minimum"),
     ],
 )
 def test_bad_campaigns_are_rejected_by_entry(edit, start):

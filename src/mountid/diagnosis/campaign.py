@@ -112,12 +112,41 @@ def _path(error: jsonschema.ValidationError) -> str:
     return ".".join(str(p) for p in error.absolute_path) or "campaign"
 
 
+def _explained(error: jsonschema.ValidationError) -> tuple[str, str]:
+    """Where and what the schema error is. For a rule of alternatives (anyOf, oneOf): the error inside the
+    one alternative whose shape the entry has (a record given as an object with a negative start), else the
+    alternatives' own messages joined (neither 'modes' nor 'records'); never the whole instance."""
+    if error.validator not in ("anyOf", "oneOf") or not error.context:
+        return _path(error), error.message
+    inside = [e for e in error.context if len(e.absolute_path) > len(error.absolute_path)]
+    if inside:
+        best = jsonschema.exceptions.best_match(inside)
+        return _path(best), best.message
+    return _path(error), "needs one of: " + "; or ".join(dict.fromkeys(e.message for e in error.context))
+
+
+def _non_finite(value: object, path: str) -> str | None:
+    """The path of the first number in ``value`` that is not finite (JSON files may hold NaN and Infinity,
+    which Python's json module reads), else None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return path
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _non_finite(item, f"{path}.{key}" if isinstance(key, str) else f"{path}[{key}]")
+        if found is not None:
+            return found
+    return None
+
+
 def parse(data: dict, base: Path | None = None) -> Campaign:
     """A campaign from its JSON data (``base``: folder that relative description paths start from)."""
     validator = jsonschema.Draft202012Validator(schema())
     errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
     if errors:
-        raise InputError(_path(errors[0]), errors[0].message)
+        raise InputError(*_explained(errors[0]))
+    bad = _non_finite(data, "campaign")
+    if bad is not None:
+        raise InputError(bad.removeprefix("campaign."), "must be a finite number (NaN or infinity given)")
     target = data["machine"]
     if base is not None and target.endswith(".toml") and not Path(target).is_absolute():
         target = str(base / target)
@@ -127,8 +156,6 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             raise InputError(f"known.{name}", f"not a parameter of {machine.name}")
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
-        if not math.isfinite(data["known"][name]):
-            raise InputError(f"known.{name}", "must be finite")
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
