@@ -44,6 +44,9 @@ def test_plain_csv_reads_without_metadata(tmp_path):
             "^time: non-uniform sampling at t = 0.098",
         ),
         (lambda t, d: (t[:10], d[:10]), "^time: a record needs at least 16 samples"),
+        # two rows swapped: a step back, not a dropped sample one row later
+        (lambda t, d: (t[np.r_[0:50, 51, 50, 52 : len(t)]], d), "^time: goes back or repeats at t = 0.1 s after"),
+        (lambda t, d: (t[np.r_[0:50, 50, 50 : len(t) - 1]], d), "^time: goes back or repeats at t = 0.1 s after 0.1 s"),
     ],
 )
 def test_bad_records_are_rejected_by_name(edit, message):

@@ -115,6 +115,21 @@ class Record:
         return Record(self.time, self.data[:, cols], tuple(self.channels[c] for c in cols))
 
 
+def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
+    """Reject a time column that is not increasing: falling in the median step, or going back or standing
+    still at one row (rows swapped or written twice), which no uniform grid explains."""
+    if not step > 0:
+        raise InputError("time", "must increase")
+    back = np.flatnonzero(dt <= 0)
+    if len(back):
+        i = int(back[0])
+        raise InputError(
+            "time",
+            f"goes back or repeats at t = {time[i + 1]:.6g} s after {time[i]:.6g} s (samples out of order or "
+            "written twice): re-export the record",
+        )
+
+
 def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: RecordSettings = RECORDS) -> None:
     """Reject what would silently give a wrong frequency: NaN, too few samples, non-uniform sampling (beyond
     ``settings.sampling_rtol``). A Record validates itself with the default settings."""
@@ -133,8 +148,7 @@ def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: Rec
         raise InputError(names[first], f"NaN or infinite sample at t = {time[row]:g} s (row {row})")
     dt = np.diff(time)
     step = np.median(dt)
-    if not step > 0:
-        raise InputError("time", "must increase")
+    _increasing(time, dt, step)
     off = np.abs(dt - step) > settings.sampling_rtol * step
     if np.any(off):
         k = int(np.flatnonzero(off)[0])
@@ -147,7 +161,8 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
 
     Sample times within settings.rounding of a step from the least-squares uniform grid t0 + k dt are the
     grid written with the instrument's resolution (a 2048 Hz record with 6 decimals is off by up to 0.1 %):
-    the grid is returned. Otherwise a step of about two is a dropped sample, a longer one a gap, and times
+    the grid is returned. Otherwise a step back or of zero is rows out of order or repeated, a step of about
+    two is a dropped sample, a longer one a gap, and times
     scattered about the grid with no such step are jitter; each is an error naming where (for jitter, the
     sampling-rate option ``rate`` takes the nominal grid instead of the column)."""
     time = np.asarray(time, dtype=float)
@@ -155,8 +170,7 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
         return time  # validate() names these
     dt = np.diff(time)
     step = float(np.median(dt))
-    if not step > 0:
-        raise InputError("time", "must increase")
+    _increasing(time, dt, step)
     if np.all(np.abs(dt - step) <= settings.sampling_rtol * step):
         return time  # uniform as written: kept exactly (a record read back is the record written)
     k = np.arange(len(time))
