@@ -62,12 +62,12 @@ def _row(machine: str, kind: str, s: blind.Score) -> str:
 
 
 def validation(
-    n: int = 60,
+    n: int = 66,
     workers: int = 2,
     kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
     machines: tuple[str, ...] = blind.MACHINES,
 ) -> list[blind.CaseResult]:
-    """n blind cases per machine and campaign kind (three of each truth at n = 60), through dask: one line per
+    """n blind cases per machine and campaign kind (three of each truth at n = 66), through dask: one line per
     machine and kind, then per kind over every machine the full score (reliability table, confusion matrix)."""
     t = time.perf_counter()
     results = blind.run(n, workers=workers, kinds=kinds, machines=machines)
@@ -97,7 +97,7 @@ if __name__ == "__main__":
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis", description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", type=int, default=60, help="blind cases per machine and campaign kind")
+    parser.add_argument("--cases", type=int, default=66, help="blind cases per machine and campaign kind")
     args = parser.parse_args()
     speed()
     validation(args.cases)

@@ -161,3 +161,29 @@ def test_a_support_truths_damped_poles_are_told_apart_by_the_whole_shape():
     assert len(m) == 12
     poles = blind_truth.true_poles(m, c, b, modes)
     assert np.abs(poles) == pytest.approx(np.sqrt(lam), rel=0.01)
+
+
+def test_two_channels_misread_at_once_reduce_to_one_when_the_other_reads_true():
+    """Outside the catalogue: two channels turned, or one turned and misplaced. With the second turn (the
+    offset) nil, each reads exactly as the catalogue's single-channel truth; with both, the readings differ
+    from either alone."""
+    truth = blind_truth.TruthMachine("kid300")
+    machine = Machine.resolve("kid300")
+    _, shapes = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, "kid300"))
+    turn = {"channel": 4, "angle": 0.2, "about": 1.0}
+
+    def read(effect: str, size: dict[str, float]) -> np.ndarray:
+        return blind_truth._misread(truth, shapes, blind_truth.Truth(effect, size, {}, "kid300"))
+
+    one = read("sensor_turned", turn)
+    two = {**turn, "channel_2": 9, "angle_2": 0.15, "about_2": 2.0}
+    assert np.array_equal(read("sensor_turned+sensor_turned", {**two, "angle_2": 0.0}), one)
+    both = read("sensor_turned+sensor_turned", two)
+    assert not np.allclose(both, one, atol=1e-6)
+    assert not np.allclose(both, read("sensor_turned", {"channel": 9, "angle": 0.15, "about": 2.0}), atol=1e-6)
+    offset = {"x": 0.1, "y": -0.05, "z": 0.02}
+    assert np.array_equal(read("sensor_turned+sensor_misplaced", {**turn, "x": 0.0, "y": 0.0, "z": 0.0}), one)
+    misplaced = read("sensor_misplaced", {"channel": 4, **offset})
+    assert np.array_equal(read("sensor_turned+sensor_misplaced", {**turn, **offset, "angle": 0.0}), misplaced)
+    combined = read("sensor_turned+sensor_misplaced", {**turn, **offset})
+    assert not np.allclose(combined, one, atol=1e-6) and not np.allclose(combined, misplaced, atol=1e-6)

@@ -261,7 +261,8 @@ def _misplaced_campaign(channel: int, offset: tuple[float, float, float]) -> tup
     data["sensors"] = _layout()
     truth = blind_truth.TruthMachine("kid300")
     shapes = np.array([data["modes"][label]["shape"] for label in data["modes"]]).T  # in q: m and rad
-    read = blind_truth._one_misplaced(truth, shapes, channel, np.asarray(offset))
+    misplaced = blind_truth.Truth("sensor_misplaced", {"channel": channel, **dict(zip("xyz", offset, strict=True))}, {})
+    read = blind_truth._misread(truth, shapes, misplaced)
     for i, label in enumerate(data["modes"]):
         data["modes"][label]["shape"] = read[:, i].tolist()
     return data, np.asarray(data["sensors"][channel]["direction"])

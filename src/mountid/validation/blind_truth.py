@@ -45,6 +45,10 @@ explained" or in a tie, never confident):
   neither a rigid added mass nor stiffening rubber reproduces (9 coordinates);
 - ``support_frame+isolator_scatter``: one isolator off and the machine on a support frame, a pair the catalogue
   does not compose (the isolators stand on the support).
+- ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
+  ``sensor_turned``), where the catalogue turns one;
+- ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
+  the catalogue does not compose (both change how the same reading is taken).
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
@@ -79,6 +83,8 @@ REPRESENTED_BY: dict[str, str | None] = {
     "nonlinear_isolator": None,
     "resilient_attachment": None,
     "support_frame+isolator_scatter": None,
+    "sensor_turned+sensor_turned": None,
+    "sensor_turned+sensor_misplaced": None,
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
@@ -472,6 +478,15 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
             "angle": rng.uniform(0, 2 * math.pi),
             "h": rng.uniform(-0.3, 0.5),
         }
+    if effect == "sensor_turned+sensor_turned":  # two different channels
+        first = sample(rng, "sensor_turned", tm)
+        second = sample(rng, "sensor_turned", tm)
+        while second["channel"] == first["channel"]:
+            second = sample(rng, "sensor_turned", tm)
+        return {**first, **{f"{k}_2": v for k, v in second.items()}}
+    if effect == "sensor_turned+sensor_misplaced":  # one channel, turned and off its point
+        turned = sample(rng, "sensor_turned", tm)
+        return {**turned, **{k: v for k, v in sample(rng, "sensor_misplaced", tm).items() if k != "channel"}}
     if "+" in effect:
         out: dict[str, float] = {}
         for part in effect.split("+"):
@@ -520,11 +535,8 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
         omega = true_poles(m, c, b, modes).imag
     elif "sensor_error" in parts:
         shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
-    elif "sensor_turned" in parts:
-        shapes = _one_turned(tm, shapes, int(t.size["channel"]), t.size["angle"], t.size["about"])
-    elif "sensor_misplaced" in parts:
-        offset = np.array([t.size["x"], t.size["y"], t.size["z"]])
-        shapes = _one_misplaced(tm, shapes, int(t.size["channel"]), offset)
+    elif parts & {"sensor_turned", "sensor_misplaced"}:
+        shapes = _misread(tm, shapes, t)
     elif "nonlinear_isolator" in parts:
         omega, shapes = _hardened(tm, t, m, shapes)
     return omega, shapes
@@ -637,28 +649,33 @@ def sensor_layout(tm: TruthMachine) -> list[tuple[str, np.ndarray, np.ndarray]]:
     return [(f"S{k + 1}_{a}", r, np.eye(3)[i]) for k, r in enumerate(corners) for i, a in enumerate("xyz")]
 
 
-def _one_turned(tm: TruthMachine, shapes: np.ndarray, channel: int, angle: float, about: float) -> np.ndarray:
-    """Shapes recovered by least squares from the layout's readings, one channel's sensor turned on its mount
-    by ``angle`` [rad] about an axis across its direction (at ``about`` [rad] around it)."""
-    layout = sensor_layout(tm)
-    d = layout[channel][2]
-    helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    e1 = np.cross(helper, d) / np.linalg.norm(np.cross(helper, d))
-    axis = math.cos(about) * e1 + math.sin(about) * np.cross(d, e1)
-    turned = d * math.cos(angle) + np.cross(axis, d) * math.sin(angle)  # Rodrigues, axis across d
-    model = np.array([direction @ _jac(r) for _, r, direction in layout])
-    read = model.copy()
-    read[channel] = turned @ _jac(layout[channel][1])
-    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
+def _turned(direction: np.ndarray, angle: float, about: float) -> np.ndarray:
+    """A channel's direction turned on its mount by ``angle`` [rad] about an axis across it (at ``about`` [rad]
+    around it): Rodrigues' rotation, not the catalogue's first-order turn."""
+    helper = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(helper, direction) / np.linalg.norm(np.cross(helper, direction))
+    axis = math.cos(about) * e1 + math.sin(about) * np.cross(direction, e1)
+    return direction * math.cos(angle) + np.cross(axis, direction) * math.sin(angle)
 
 
-def _one_misplaced(tm: TruthMachine, shapes: np.ndarray, channel: int, offset: np.ndarray) -> np.ndarray:
-    """Shapes recovered by least squares from the layout's readings, one channel's sensor sitting ``offset``
-    [m] off its stated point (reading the motion u = t + w x r of the point where it sits)."""
+def _misread(tm: TruthMachine, shapes: np.ndarray, t: Truth) -> np.ndarray:
+    """Shapes recovered by least squares from the layout's readings with the assumed geometry, where the
+    truth's channels read otherwise: ``sensor_turned`` one channel turned on its mount (a second one with the
+    sizes ending in '_2' for two channels turned), ``sensor_misplaced`` one channel's sensor sitting offset
+    (x, y, z) [m] off its stated point (reading the motion u = t + w x r of the point where it sits), both at
+    once on one channel."""
     layout = sensor_layout(tm)
     model = np.array([direction @ _jac(r) for _, r, direction in layout])
     read = model.copy()
-    read[channel] = layout[channel][2] @ _jac(layout[channel][1] + offset)
+    size, parts = t.size, t.effect.split("+")
+    turned = {}  # channel -> its direction as mounted
+    for suffix in ("", "_2")[: parts.count("sensor_turned")]:
+        channel = int(size["channel" + suffix])
+        turned[channel] = _turned(layout[channel][2], size["angle" + suffix], size["about" + suffix])
+    offset = {int(size["channel"]): np.array([size["x"], size["y"], size["z"]])} if "sensor_misplaced" in parts else {}
+    for channel in sorted(turned.keys() | offset.keys()):
+        direction = turned.get(channel, layout[channel][2])
+        read[channel] = direction @ _jac(layout[channel][1] + offset.get(channel, 0.0))
     return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
 
 
