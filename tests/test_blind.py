@@ -204,3 +204,15 @@ def test_the_readme_worked_examples_give_their_verdict_kinds(example, kind, seed
     assert report.kind == kind
     if kind == "confident":
         assert report.best.effect == blind_truth.represented_by(truth)
+
+
+def test_a_rival_whose_parameter_the_data_leave_undetermined_is_not_ruled_out():
+    """Blind case (seed 182, genset8, shapes): a slab of 3300 kg on pads 300 times as stiff as the isolators.
+    The support fits (chi^2 23 on 27 degrees of freedom) with its pads' shear ratio at 5 +- 100 (range 0.1-2):
+    beyond the range, but not placed there by the data. It counted as ruled out, and the gravity preload
+    (chi^2 26) was named confidently; now both are in the tie."""
+    data, _ = blind.make_case(182, "foundation", machine="genset8")
+    report = diagnose_effects(campaign.parse(data))
+    foundation = next(f for f in report.ranked if f.effect == "foundation")
+    assert foundation.outside_range == ("found_shear",) and not foundation.placed_outside
+    assert not report.confident and "foundation" in report.tie

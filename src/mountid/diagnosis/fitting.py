@@ -88,6 +88,10 @@ class CandidateFit:
     outside_range: tuple[str, ...] = ()
     """Effect parameters whose fitted value lies outside the plausible range beyond RANGE_TOLERANCE
     (``plausible`` allows more, PLAUSIBLE_MARGIN; a confident verdict allows none: candidates.explains)."""
+    placed_outside: tuple[str, ...] = ()
+    """Effect parameters the data place outside the plausible range: beyond it by more than their standard
+    deviation (a rival is ruled out by them: candidates.rejected). A parameter the data leave undetermined
+    (a stiff support's shear ratio at 5 +- 100 against a range of 0.1-2) is outside_range but not placed."""
     other_solutions: tuple[dict[str, float], ...] = ()
     """Other sets of values (unknowns and effect parameters, physical units) at which the candidate fits the data
     as well (see :func:`other_solutions`; searched for the verdict's best candidate): the standard deviations
@@ -497,7 +501,7 @@ def fit_candidate(
     d = model.jacobian_to_physical(theta)
     phys = model.physical(theta)
     std = {n: float(abs(d[i]) * spread[i]) for i, n in enumerate(phys)}
-    reasons, outside = [], []
+    reasons, outside, placed = [], [], []
     box = zip(*model.plausible_box(), strict=True)
     for j, (p, (a, b)) in enumerate(zip(model.effect_parameters, box, strict=True), len(model.unknown)):
         lo, hi = (v * model.scales[p.scale] for v in p.plausible)
@@ -507,6 +511,8 @@ def fit_candidate(
         slack = min(spread[j], RANGE_TOLERANCE * (b - a))
         if not a - slack <= theta[j] <= b + slack:
             outside.append(p.name)
+        if not a - spread[j] <= theta[j] <= b + spread[j]:
+            placed.append(p.name)
         margin = max(spread[j], PLAUSIBLE_MARGIN * (b - a))
         if not a - margin <= theta[j] <= b + margin:
             reasons.append(f"{p.name} = {v:.3g}{p.unit_suffix} outside the plausible range [{lo:.3g}, {hi:.3g}]")
@@ -531,6 +537,7 @@ def fit_candidate(
         held_out_variance=variance,
         log_evidence=evidence,
         outside_range=tuple(outside),
+        placed_outside=tuple(placed),
         state=FitState(model, theta, ((jac[:n_rows], chi2),)),
     )
 

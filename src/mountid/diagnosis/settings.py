@@ -35,7 +35,8 @@ class DiagnosisSettings:
     pair_count: int = 5
     """When no single effect explains a significant gap, this many pairs of effects (at an isolator or channel,
     where one member acts at one) are fitted: those whose members' single fits promise the smallest chi^2
-    together (candidates.fit_pairs)."""
+    together (candidates.fit_pairs). Before a pair is named confidently, this many more are fitted: the most
+    promising screened pairs of as many parameters or fewer (candidates.diagnose_effects)."""
     pair_variants: int = 8
     """A pair with an effect fitted per isolator or channel is screened at this many of that effect's best-fitting
     isolators (channels)."""

@@ -116,8 +116,8 @@ class Record:
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
-    """Reject a time column that is not increasing: falling in the median step, or going back or standing
-    still at one row (rows swapped or written twice), which no uniform grid explains."""
+    """Reject a time column that does not increase: a median step that is not positive (a column written
+    backwards), or one step back or of zero (rows swapped or written twice), which no uniform grid explains."""
     if not step > 0:
         raise InputError("time", "must increase")
     back = np.flatnonzero(dt <= 0)
@@ -162,9 +162,9 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
     Sample times within settings.rounding of a step from the least-squares uniform grid t0 + k dt are the
     grid written with the instrument's resolution (a 2048 Hz record with 6 decimals is off by up to 0.1 %):
     the grid is returned. Otherwise a step back or of zero is rows out of order or repeated, a step of about
-    two is a dropped sample, a longer one a gap, and times
-    scattered about the grid with no such step are jitter; each is an error naming where (for jitter, the
-    sampling-rate option ``rate`` takes the nominal grid instead of the column)."""
+    two is a dropped sample, a longer one a gap, and times scattered about the grid with no such step are
+    jitter; each is an error naming where (for jitter, the sampling-rate option ``rate`` takes the nominal grid
+    instead of the column)."""
     time = np.asarray(time, dtype=float)
     if len(time) < 2 or not np.all(np.isfinite(time)):
         return time  # validate() names these
