@@ -197,7 +197,7 @@ def fit_pairs(
         if both.name not in best or fit.chi2 < best[both.name].chi2:
             best[both.name] = replace(fit, log_prior=math.log(settings.pair_prior))
     out, fitted = list(best.values()), set(best)
-    # a pair not fitted, once, at its most promising isolator (channel)
+    # a pair not fitted, once, at its most promising isolator (channel), with every isolator it was screened at
     screened: dict[str, ScreenedPair] = {}
     at: dict[str, list] = {}
     for _, b, variant, starts, _ in promising:
@@ -525,7 +525,10 @@ def diagnose_effects(
     other_roots: bool = True,
 ) -> EffectsReport:
     """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
-    ``warm`` as in :func:`fit_all`, ``exact_held_out`` and ``other_roots`` as in :func:`rank`)."""
+    ``warm`` as in :func:`fit_all`, ``exact_held_out`` and ``other_roots`` as in :func:`rank`). When no single
+    effect explains a significant gap, pairs are screened and the most promising fitted (:func:`fit_pairs`);
+    when a pair would be named confidently, the settings.pair_count most promising screened pairs of as many
+    parameters or fewer are fitted too and the candidates ranked again."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
     screened: list[ScreenedPair] = []
     # pairs where the gap is significant and no single candidate explains it with its linearised held-out errors
