@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -59,10 +60,10 @@ class ScreenedPair:
     promised_chi2: float
     n_data: int
     n_parameters: int
-    pair: Pair | None = field(default=None, repr=False, compare=False)
+    pair: Pair = field(repr=False, compare=False)
     """The pair, and each isolator (channel) index it was screened at with the starts screened from (to fit it
-    after all)."""
-    screened_at: tuple[tuple[int | None, tuple[np.ndarray, ...]], ...] = field(default=(), repr=False, compare=False)
+    after all: _best_fit)."""
+    screened_at: tuple[tuple[int | None, tuple[np.ndarray, ...]], ...] = field(repr=False, compare=False)
 
     def fits(self, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
         """Whether the promise is within the data's uncertainty (it may explain them as well)."""
@@ -191,21 +192,28 @@ def fit_pairs(
     promising.sort(key=lambda x: x[0] + x[4] * math.log(nominal.n_data))
     # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
     # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
-    best: dict[str, CandidateFit] = {}
+    chosen: dict[str, tuple[Pair, list]] = {}
     for _, both, variant, starts, _ in promising[: settings.pair_count]:
-        fit = fit_candidate(campaign, both, variant, starts=starts)
-        if both.name not in best or fit.chi2 < best[both.name].chi2:
-            best[both.name] = replace(fit, log_prior=math.log(settings.pair_prior))
-    out, fitted = list(best.values()), set(best)
+        chosen.setdefault(both.name, (both, []))[1].append((variant, starts))
+    out = [_best_fit(campaign, both, at, settings) for both, at in chosen.values()]
     # a pair not fitted, once, at its most promising isolator (channel), with every isolator it was screened at
     screened: dict[str, ScreenedPair] = {}
     at: dict[str, list] = {}
     for _, b, variant, starts, _ in promising:
         at.setdefault(b.name, []).append((variant, tuple(starts)))
     for promise, b, _, _, k in promising:
-        if b.name not in fitted and b.name not in screened:
+        if b.name not in chosen and b.name not in screened:
             screened[b.name] = ScreenedPair(b.name, promise, nominal.n_data, k, b, tuple(at[b.name]))
     return out, list(screened.values())
+
+
+def _best_fit(
+    campaign: Campaign, both: Pair, at: Sequence[tuple[int | None, Sequence[np.ndarray]]], settings: DiagnosisSettings
+) -> CandidateFit:
+    """A pair fitted at each isolator (channel) of ``at`` (pairs of the index and the starts): its best fit,
+    with the pair's prior (the most promising isolator may be a mirror image or a neighbour of the true one)."""
+    fits = [fit_candidate(campaign, both, variant, starts=list(starts)) for variant, starts in at]
+    return replace(min(fits, key=lambda f: f.chi2), log_prior=math.log(settings.pair_prior))
 
 
 def pair_starts(
@@ -547,22 +555,13 @@ def diagnose_effects(
         # parameters or fewer are fitted too: a pair's one-step promise is no fit (an isolator stiffer with the
         # centre of mass higher promised chi^2 964-1236 and fits to 29 with 6 parameters, below the 37 of the
         # confident 9-parameter pair); those further down stay judged by their promise
-        lean = [p for p in screened if p.pair is not None and p.n_parameters <= best.n_parameters]
+        lean = [p for p in screened if p.n_parameters <= best.n_parameters]
         lean = lean[: settings.pair_count]
         if lean:
-            fits = fits + [_fit_screened(campaign, p, settings) for p in lean]
+            fits = fits + [_best_fit(campaign, p.pair, p.screened_at, settings) for p in lean]
             screened = [p for p in screened if p not in lean]
             report = rank(campaign, nominal, fits, exact_held_out, settings, screened, other_roots)
     return report
-
-
-def _fit_screened(campaign: Campaign, screened: ScreenedPair, settings: DiagnosisSettings) -> CandidateFit:
-    """A screened pair fitted after all, at every isolator (channel) it was screened at from the same starts:
-    its best fit (the most promising isolator may be the mirror image of the true one)."""
-    fits = [
-        fit_candidate(campaign, screened.pair, variant, starts=list(starts)) for variant, starts in screened.screened_at
-    ]
-    return replace(min(fits, key=lambda f: f.chi2), log_prior=math.log(settings.pair_prior))
 
 
 def _gap_p_value(nominal: CandidateFit) -> float:
