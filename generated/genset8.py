@@ -663,6 +663,10 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_axial_stiffness": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_axial_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
+    "isolator_stiffness_on_foundation": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "isolator_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
+    "isolator_axial_stiffness_on_foundation": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_points": ("a1", "a2", "b", "h"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
@@ -4845,8 +4849,9 @@ def effect_gravity_preload_derivatives(
 
 
 def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
-    """Stiffness matrix of each isolator alone, shape (..., 8, 6, 6),
-    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone,
+    shape (..., 8, 6, 6), isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -5737,8 +5742,9 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
 
 
 def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
-    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 8, 6, 6),
-    isolators in the order of ISOLATORS.
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression),
+    shape (..., 8, 6, 6), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -6226,6 +6232,3949 @@ def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
     _out[..., 31, 3, 4] = _out[..., 31, 4, 3] = _tmp30
     _out[..., 31, 4, 4] = _tmp31
     return _out.reshape(*_shape, 4, 8, 6, 6)
+
+
+def isolator_stiffness_on_foundation(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
+    """Stiffness matrix of each isolator alone between the body and the support of foundation,
+    shape (..., 8, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        inner[+x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y, z] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, phi] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, y_found] = -(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, z_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z, z] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z, psi] = b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [z, y_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [z, z_found] = -(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, psi_found] = -b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, theta_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*b**2*cos(gamma)**2 + c_v1*h**2*sin(gamma)**2 + c_y*b**2*sin(gamma)**2 + c_y*h**2*cos(gamma)**2 - 2*b*c_v1*h*cos(gamma)*sin(gamma) + 2*b*c_y*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma))
+          [psi, y_found] = -c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma))
+          [theta, theta] = c_x*h**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2
+          [theta, phi] = b*c_x*h + c_v1*a1**2*cos(gamma)*sin(gamma) - c_y*a1**2*cos(gamma)*sin(gamma)
+          [theta, x_found] = c_x*h
+          [theta, y_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, psi_found] = a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, theta_found] = -a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, phi_found] = -b*c_x*h + c_y*a1**2*cos(gamma)*sin(gamma) - c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [phi, z_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -(c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y_found, z_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z_found, z_found] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z_found, psi_found] = b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, theta_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, phi_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, theta_found] = -a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, phi_found] = a1*b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta_found, phi_found] = a1**2*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+        inner[-x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y, z] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, y_found] = -(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, z_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z, z] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z, psi] = b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [z, y_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [z, z_found] = -(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, psi_found] = -b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, theta_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*b**2*cos(gamma)**2 + c_v1*h**2*sin(gamma)**2 + c_y*b**2*sin(gamma)**2 + c_y*h**2*cos(gamma)**2 - 2*b*c_v1*h*cos(gamma)*sin(gamma) + 2*b*c_y*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma))
+          [psi, y_found] = -c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma))
+          [theta, theta] = c_x*h**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2
+          [theta, phi] = b*c_x*h + c_v1*a1**2*cos(gamma)*sin(gamma) - c_y*a1**2*cos(gamma)*sin(gamma)
+          [theta, x_found] = c_x*h
+          [theta, y_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, psi_found] = -a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, theta_found] = -a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, phi_found] = -b*c_x*h + c_y*a1**2*cos(gamma)*sin(gamma) - c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [phi, z_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -(c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y_found, z_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z_found, z_found] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z_found, psi_found] = b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, theta_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, phi_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, theta_found] = a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, phi_found] = a1*b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta_found, phi_found] = a1**2*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+        inner[+x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y, z] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, phi] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, y_found] = -(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, z_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z, z] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z, psi] = -b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [z, y_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [z, z_found] = -(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, psi_found] = b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, theta_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*b**2*cos(gamma)**2 + c_v1*h**2*sin(gamma)**2 + c_y*b**2*sin(gamma)**2 + c_y*h**2*cos(gamma)**2 - 2*b*c_v1*h*cos(gamma)*sin(gamma) + 2*b*c_y*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma))
+          [psi, y_found] = -c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma))
+          [theta, theta] = c_x*h**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2
+          [theta, phi] = -b*c_x*h + c_y*a1**2*cos(gamma)*sin(gamma) - c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, x_found] = c_x*h
+          [theta, y_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, psi_found] = -a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, theta_found] = -a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, phi_found] = b*c_x*h + c_v1*a1**2*cos(gamma)*sin(gamma) - c_y*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [phi, z_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -(c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y_found, z_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z_found, z_found] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z_found, psi_found] = -b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, theta_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, phi_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, theta_found] = a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, phi_found] = a1*b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta_found, phi_found] = a1**2*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+        inner[-x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y, z] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, y_found] = -(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [y, z_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z, z] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z, psi] = -b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [z, y_found] = (c_y - c_v1)*cos(gamma)*sin(gamma)
+          [z, z_found] = -(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, psi_found] = b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, theta_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z, phi_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*b**2*cos(gamma)**2 + c_v1*h**2*sin(gamma)**2 + c_y*b**2*sin(gamma)**2 + c_y*h**2*cos(gamma)**2 - 2*b*c_v1*h*cos(gamma)*sin(gamma) + 2*b*c_y*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma))
+          [psi, y_found] = -c_v1*h*sin(gamma)**2 - c_y*h*cos(gamma)**2 + b*c_v1*cos(gamma)*sin(gamma) - b*c_y*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*c_v1*cos(gamma)**2 - b*c_y*sin(gamma)**2 + c_v1*h*cos(gamma)*sin(gamma) - c_y*h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*c_v1*cos(gamma)**2 + b*c_y*sin(gamma)**2 + c_y*h*cos(gamma)*sin(gamma) - c_v1*h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(c_v1*h*sin(gamma)**2 + c_y*h*cos(gamma)**2 + b*c_y*cos(gamma)*sin(gamma) - b*c_v1*cos(gamma)*sin(gamma))
+          [theta, theta] = c_x*h**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2
+          [theta, phi] = -b*c_x*h + c_y*a1**2*cos(gamma)*sin(gamma) - c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, x_found] = c_x*h
+          [theta, y_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, psi_found] = a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, theta_found] = -a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta, phi_found] = b*c_x*h + c_v1*a1**2*cos(gamma)*sin(gamma) - c_y*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [phi, z_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -(c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_v1*sin(gamma)**2 + c_y*cos(gamma)**2
+          [y_found, z_found] = (c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*(c_v1*sin(gamma)**2 + c_y*cos(gamma)**2)
+          [z_found, z_found] = c_v1*cos(gamma)**2 + c_y*sin(gamma)**2
+          [z_found, psi_found] = -b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, theta_found] = a1*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [z_found, phi_found] = a1*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, theta_found] = -a1*b*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [psi_found, phi_found] = a1*b*(c_v1 - c_y)*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*(c_v1*cos(gamma)**2 + c_y*sin(gamma)**2)
+          [theta_found, phi_found] = a1**2*(c_y - c_v1)*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2
+        outer[+x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = a2*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = -a2*c_y
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = -a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = -b*c_v2
+          [z, theta_found] = a2*c_v2
+          [psi, psi] = c_v2*b**2 + c_y*h**2
+          [psi, theta] = -a2*b*c_v2
+          [psi, phi] = a2*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = -b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = a2*b*c_v2
+          [psi, phi_found] = -a2*c_y*h
+          [theta, theta] = c_v2*a2**2 + c_x*h**2
+          [theta, phi] = b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = a2*c_v2
+          [theta, psi_found] = a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [theta, phi_found] = -b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a2**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = -a2*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a2**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = a2*c_y
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = b*c_v2
+          [z_found, theta_found] = -a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = -a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a2**2
+        outer[-x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = -a2*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = a2*c_y
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = -b*c_v2
+          [z, theta_found] = -a2*c_v2
+          [psi, psi] = c_v2*b**2 + c_y*h**2
+          [psi, theta] = a2*b*c_v2
+          [psi, phi] = -a2*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = -b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = -a2*b*c_v2
+          [psi, phi_found] = a2*c_y*h
+          [theta, theta] = c_v2*a2**2 + c_x*h**2
+          [theta, phi] = b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = -a2*c_v2
+          [theta, psi_found] = -a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [theta, phi_found] = -b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a2**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = a2*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a2**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = -a2*c_y
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = b*c_v2
+          [z_found, theta_found] = a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a2**2
+        outer[+x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = a2*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = -a2*c_y
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = -a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = b*c_v2
+          [z, theta_found] = a2*c_v2
+          [psi, psi] = c_v2*b**2 + c_y*h**2
+          [psi, theta] = a2*b*c_v2
+          [psi, phi] = a2*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = -a2*b*c_v2
+          [psi, phi_found] = -a2*c_y*h
+          [theta, theta] = c_v2*a2**2 + c_x*h**2
+          [theta, phi] = -b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = a2*c_v2
+          [theta, psi_found] = -a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [theta, phi_found] = b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a2**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = -a2*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a2**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = a2*c_y
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = -b*c_v2
+          [z_found, theta_found] = -a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a2**2
+        outer[-x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = -a2*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = a2*c_y
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = b*c_v2
+          [z, theta_found] = -a2*c_v2
+          [psi, psi] = c_v2*b**2 + c_y*h**2
+          [psi, theta] = -a2*b*c_v2
+          [psi, phi] = -a2*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = a2*b*c_v2
+          [psi, phi_found] = a2*c_y*h
+          [theta, theta] = c_v2*a2**2 + c_x*h**2
+          [theta, phi] = -b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = -a2*c_v2
+          [theta, psi_found] = a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [theta, phi_found] = b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a2**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = a2*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a2**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = -a2*c_y
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = -b*c_v2
+          [z_found, theta_found] = a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = -a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a2**2
+    """
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _tmp0 = c_x * h
+    _tmp1 = -_tmp0
+    _tmp2 = b * c_x
+    _tmp3 = -_tmp2
+    _tmp4 = -c_x
+    _tmp5 = numpy.sin(gamma)
+    _tmp6 = _tmp5**2
+    _tmp7 = _tmp6 * c_v1
+    _tmp8 = numpy.cos(gamma)
+    _tmp9 = _tmp8**2
+    _tmp10 = _tmp9 * c_y
+    _tmp11 = _tmp10 + _tmp7
+    _tmp12 = -c_y
+    _tmp13 = _tmp12 + c_v1
+    _tmp14 = _tmp5 * _tmp8
+    _tmp15 = -_tmp13 * _tmp14
+    _tmp16 = _tmp14 * b
+    _tmp17 = _tmp16 * c_v1
+    _tmp18 = _tmp10 * h + _tmp16 * c_y - _tmp17 + _tmp7 * h
+    _tmp19 = _tmp13 * _tmp14
+    _tmp20 = _tmp19 * a1
+    _tmp21 = _tmp11 * a1
+    _tmp22 = -_tmp11
+    _tmp23 = _tmp19 * b
+    _tmp24 = _tmp15 * a1
+    _tmp25 = -_tmp21
+    _tmp26 = _tmp9 * c_v1
+    _tmp27 = _tmp6 * c_y
+    _tmp28 = _tmp26 + _tmp27
+    _tmp29 = c_y * h
+    _tmp30 = _tmp14 * c_v1
+    _tmp31 = _tmp14 * _tmp29 + _tmp26 * b + _tmp27 * b - _tmp30 * h
+    _tmp32 = _tmp28 * a1
+    _tmp33 = -_tmp32
+    _tmp34 = -_tmp28
+    _tmp35 = _tmp28 * b
+    _tmp36 = -_tmp35
+    _tmp37 = b**2
+    _tmp38 = h**2
+    _tmp39 = _tmp10 * _tmp38 + 2 * _tmp16 * _tmp29 - 2 * _tmp17 * h + _tmp26 * _tmp37 + _tmp27 * _tmp37 + _tmp38 * _tmp7
+    _tmp40 = -_tmp31
+    _tmp41 = _tmp40 * a1
+    _tmp42 = _tmp18 * a1
+    _tmp43 = -_tmp18
+    _tmp44 = _tmp40 * b
+    _tmp45 = _tmp31 * a1
+    _tmp46 = _tmp43 * a1
+    _tmp47 = _tmp38 * c_x
+    _tmp48 = a1**2
+    _tmp49 = _tmp26 * _tmp48 + _tmp27 * _tmp48 + _tmp47
+    _tmp50 = _tmp0 * b
+    _tmp51 = -_tmp14 * _tmp48 * c_y + _tmp30 * _tmp48 + _tmp50
+    _tmp52 = _tmp32 * b
+    _tmp53 = _tmp28 * _tmp48
+    _tmp54 = -_tmp53
+    _tmp55 = -_tmp51
+    _tmp56 = _tmp37 * c_x
+    _tmp57 = _tmp10 * _tmp48 + _tmp48 * _tmp7 + _tmp56
+    _tmp58 = _tmp20 * b
+    _tmp59 = _tmp15 * _tmp48
+    _tmp60 = -_tmp57
+    _tmp61 = _tmp15 * b
+    _tmp62 = _tmp28 * _tmp37
+    _tmp63 = -_tmp52
+    _tmp64 = _tmp24 * b
+    _tmp65 = _tmp19 * _tmp48
+    _tmp66 = a2 * c_y
+    _tmp67 = -_tmp66
+    _tmp68 = b * c_v2
+    _tmp69 = a2 * c_v2
+    _tmp70 = -_tmp69
+    _tmp71 = -c_v2
+    _tmp72 = -_tmp68
+    _tmp73 = _tmp37 * c_v2
+    _tmp74 = _tmp38 * c_y + _tmp73
+    _tmp75 = _tmp68 * a2
+    _tmp76 = -_tmp75
+    _tmp77 = _tmp29 * a2
+    _tmp78 = -_tmp29
+    _tmp79 = -_tmp73
+    _tmp80 = -_tmp77
+    _tmp81 = a2**2
+    _tmp82 = _tmp81 * c_v2
+    _tmp83 = _tmp47 + _tmp82
+    _tmp84 = -_tmp82
+    _tmp85 = -_tmp50
+    _tmp86 = _tmp56 + _tmp81 * c_y
+    _tmp87 = -_tmp86
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    _out = numpy.zeros((*_shape, 8, 12, 12))
+    _out[..., 0, 0, 0] = c_x
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp3
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp4
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp2
+    _out[..., 0, 1, 1] = _tmp11
+    _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp15
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp18
+    _out[..., 0, 1, 4] = _out[..., 0, 4, 1] = _tmp20
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp21
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = _tmp22
+    _out[..., 0, 1, 8] = _out[..., 0, 8, 1] = _tmp19
+    _out[..., 0, 1, 9] = _out[..., 0, 9, 1] = _tmp23
+    _out[..., 0, 1, 10] = _out[..., 0, 10, 1] = _tmp24
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp25
+    _out[..., 0, 2, 2] = _tmp28
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp31
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp33
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp24
+    _out[..., 0, 2, 7] = _out[..., 0, 7, 2] = _tmp19
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp34
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp36
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp32
+    _out[..., 0, 2, 11] = _out[..., 0, 11, 2] = _tmp20
+    _out[..., 0, 3, 3] = _tmp39
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp41
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp42
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp43
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp40
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp44
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp45
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp46
+    _out[..., 0, 4, 4] = _tmp49
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp51
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp0
+    _out[..., 0, 4, 7] = _out[..., 0, 7, 4] = _tmp24
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp32
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp52
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp54
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp55
+    _out[..., 0, 5, 5] = _tmp57
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp2
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp25
+    _out[..., 0, 5, 8] = _out[..., 0, 8, 5] = _tmp20
+    _out[..., 0, 5, 9] = _out[..., 0, 9, 5] = _tmp58
+    _out[..., 0, 5, 10] = _out[..., 0, 10, 5] = _tmp59
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp60
+    _out[..., 0, 6, 6] = c_x
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp3
+    _out[..., 0, 7, 7] = _tmp11
+    _out[..., 0, 7, 8] = _out[..., 0, 8, 7] = _tmp15
+    _out[..., 0, 7, 9] = _out[..., 0, 9, 7] = _tmp61
+    _out[..., 0, 7, 10] = _out[..., 0, 10, 7] = _tmp20
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp21
+    _out[..., 0, 8, 8] = _tmp28
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp35
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp33
+    _out[..., 0, 8, 11] = _out[..., 0, 11, 8] = _tmp24
+    _out[..., 0, 9, 9] = _tmp62
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp63
+    _out[..., 0, 9, 11] = _out[..., 0, 11, 9] = _tmp64
+    _out[..., 0, 10, 10] = _tmp53
+    _out[..., 0, 10, 11] = _out[..., 0, 11, 10] = _tmp65
+    _out[..., 0, 11, 11] = _tmp57
+    _out[..., 1, 0, 0] = c_x
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp3
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp4
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp2
+    _out[..., 1, 1, 1] = _tmp11
+    _out[..., 1, 1, 2] = _out[..., 1, 2, 1] = _tmp15
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp18
+    _out[..., 1, 1, 4] = _out[..., 1, 4, 1] = _tmp24
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp25
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = _tmp22
+    _out[..., 1, 1, 8] = _out[..., 1, 8, 1] = _tmp19
+    _out[..., 1, 1, 9] = _out[..., 1, 9, 1] = _tmp23
+    _out[..., 1, 1, 10] = _out[..., 1, 10, 1] = _tmp20
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp21
+    _out[..., 1, 2, 2] = _tmp28
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp31
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp32
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp20
+    _out[..., 1, 2, 7] = _out[..., 1, 7, 2] = _tmp19
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp34
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp36
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp33
+    _out[..., 1, 2, 11] = _out[..., 1, 11, 2] = _tmp24
+    _out[..., 1, 3, 3] = _tmp39
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp45
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp46
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp43
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp40
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp44
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp41
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp42
+    _out[..., 1, 4, 4] = _tmp49
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp51
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 4, 7] = _out[..., 1, 7, 4] = _tmp20
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp33
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp63
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp54
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp55
+    _out[..., 1, 5, 5] = _tmp57
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp2
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp21
+    _out[..., 1, 5, 8] = _out[..., 1, 8, 5] = _tmp24
+    _out[..., 1, 5, 9] = _out[..., 1, 9, 5] = _tmp64
+    _out[..., 1, 5, 10] = _out[..., 1, 10, 5] = _tmp59
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp60
+    _out[..., 1, 6, 6] = c_x
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp3
+    _out[..., 1, 7, 7] = _tmp11
+    _out[..., 1, 7, 8] = _out[..., 1, 8, 7] = _tmp15
+    _out[..., 1, 7, 9] = _out[..., 1, 9, 7] = _tmp61
+    _out[..., 1, 7, 10] = _out[..., 1, 10, 7] = _tmp24
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp25
+    _out[..., 1, 8, 8] = _tmp28
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp35
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp32
+    _out[..., 1, 8, 11] = _out[..., 1, 11, 8] = _tmp20
+    _out[..., 1, 9, 9] = _tmp62
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp52
+    _out[..., 1, 9, 11] = _out[..., 1, 11, 9] = _tmp58
+    _out[..., 1, 10, 10] = _tmp53
+    _out[..., 1, 10, 11] = _out[..., 1, 11, 10] = _tmp65
+    _out[..., 1, 11, 11] = _tmp57
+    _out[..., 2, 0, 0] = c_x
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp2
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp4
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp3
+    _out[..., 2, 1, 1] = _tmp11
+    _out[..., 2, 1, 2] = _out[..., 2, 2, 1] = _tmp19
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp18
+    _out[..., 2, 1, 4] = _out[..., 2, 4, 1] = _tmp24
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp21
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = _tmp22
+    _out[..., 2, 1, 8] = _out[..., 2, 8, 1] = _tmp15
+    _out[..., 2, 1, 9] = _out[..., 2, 9, 1] = _tmp23
+    _out[..., 2, 1, 10] = _out[..., 2, 10, 1] = _tmp20
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp25
+    _out[..., 2, 2, 2] = _tmp28
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp40
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp33
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp20
+    _out[..., 2, 2, 7] = _out[..., 2, 7, 2] = _tmp15
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp34
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp35
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp32
+    _out[..., 2, 2, 11] = _out[..., 2, 11, 2] = _tmp24
+    _out[..., 2, 3, 3] = _tmp39
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp45
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp42
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp43
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp31
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp44
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp41
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp46
+    _out[..., 2, 4, 4] = _tmp49
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp55
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp0
+    _out[..., 2, 4, 7] = _out[..., 2, 7, 4] = _tmp20
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp32
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp63
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp54
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp51
+    _out[..., 2, 5, 5] = _tmp57
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp3
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp25
+    _out[..., 2, 5, 8] = _out[..., 2, 8, 5] = _tmp24
+    _out[..., 2, 5, 9] = _out[..., 2, 9, 5] = _tmp58
+    _out[..., 2, 5, 10] = _out[..., 2, 10, 5] = _tmp65
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp60
+    _out[..., 2, 6, 6] = c_x
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp2
+    _out[..., 2, 7, 7] = _tmp11
+    _out[..., 2, 7, 8] = _out[..., 2, 8, 7] = _tmp19
+    _out[..., 2, 7, 9] = _out[..., 2, 9, 7] = _tmp61
+    _out[..., 2, 7, 10] = _out[..., 2, 10, 7] = _tmp24
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp21
+    _out[..., 2, 8, 8] = _tmp28
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp36
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp33
+    _out[..., 2, 8, 11] = _out[..., 2, 11, 8] = _tmp20
+    _out[..., 2, 9, 9] = _tmp62
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp52
+    _out[..., 2, 9, 11] = _out[..., 2, 11, 9] = _tmp64
+    _out[..., 2, 10, 10] = _tmp53
+    _out[..., 2, 10, 11] = _out[..., 2, 11, 10] = _tmp59
+    _out[..., 2, 11, 11] = _tmp57
+    _out[..., 3, 0, 0] = c_x
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp2
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp4
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp3
+    _out[..., 3, 1, 1] = _tmp11
+    _out[..., 3, 1, 2] = _out[..., 3, 2, 1] = _tmp19
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp18
+    _out[..., 3, 1, 4] = _out[..., 3, 4, 1] = _tmp20
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp25
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = _tmp22
+    _out[..., 3, 1, 8] = _out[..., 3, 8, 1] = _tmp15
+    _out[..., 3, 1, 9] = _out[..., 3, 9, 1] = _tmp23
+    _out[..., 3, 1, 10] = _out[..., 3, 10, 1] = _tmp24
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp21
+    _out[..., 3, 2, 2] = _tmp28
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp40
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp32
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp24
+    _out[..., 3, 2, 7] = _out[..., 3, 7, 2] = _tmp15
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp34
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp35
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp33
+    _out[..., 3, 2, 11] = _out[..., 3, 11, 2] = _tmp20
+    _out[..., 3, 3, 3] = _tmp39
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp41
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp46
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp43
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp31
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp44
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp45
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp42
+    _out[..., 3, 4, 4] = _tmp49
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp55
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp0
+    _out[..., 3, 4, 7] = _out[..., 3, 7, 4] = _tmp24
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp33
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp52
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp54
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp51
+    _out[..., 3, 5, 5] = _tmp57
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp3
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp21
+    _out[..., 3, 5, 8] = _out[..., 3, 8, 5] = _tmp20
+    _out[..., 3, 5, 9] = _out[..., 3, 9, 5] = _tmp64
+    _out[..., 3, 5, 10] = _out[..., 3, 10, 5] = _tmp65
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp60
+    _out[..., 3, 6, 6] = c_x
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp2
+    _out[..., 3, 7, 7] = _tmp11
+    _out[..., 3, 7, 8] = _out[..., 3, 8, 7] = _tmp19
+    _out[..., 3, 7, 9] = _out[..., 3, 9, 7] = _tmp61
+    _out[..., 3, 7, 10] = _out[..., 3, 10, 7] = _tmp20
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp25
+    _out[..., 3, 8, 8] = _tmp28
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp36
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp32
+    _out[..., 3, 8, 11] = _out[..., 3, 11, 8] = _tmp24
+    _out[..., 3, 9, 9] = _tmp62
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp63
+    _out[..., 3, 9, 11] = _out[..., 3, 11, 9] = _tmp58
+    _out[..., 3, 10, 10] = _tmp53
+    _out[..., 3, 10, 11] = _out[..., 3, 11, 10] = _tmp59
+    _out[..., 3, 11, 11] = _tmp57
+    _out[..., 4, 0, 0] = c_x
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp1
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp3
+    _out[..., 4, 0, 6] = _out[..., 4, 6, 0] = _tmp4
+    _out[..., 4, 0, 11] = _out[..., 4, 11, 0] = _tmp2
+    _out[..., 4, 1, 1] = c_y
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp29
+    _out[..., 4, 1, 5] = _out[..., 4, 5, 1] = _tmp66
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = _tmp12
+    _out[..., 4, 1, 11] = _out[..., 4, 11, 1] = _tmp67
+    _out[..., 4, 2, 2] = c_v2
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp68
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp70
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp71
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp72
+    _out[..., 4, 2, 10] = _out[..., 4, 10, 2] = _tmp69
+    _out[..., 4, 3, 3] = _tmp74
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp76
+    _out[..., 4, 3, 5] = _out[..., 4, 5, 3] = _tmp77
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp78
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp72
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp79
+    _out[..., 4, 3, 10] = _out[..., 4, 10, 3] = _tmp75
+    _out[..., 4, 3, 11] = _out[..., 4, 11, 3] = _tmp80
+    _out[..., 4, 4, 4] = _tmp83
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp50
+    _out[..., 4, 4, 6] = _out[..., 4, 6, 4] = _tmp0
+    _out[..., 4, 4, 8] = _out[..., 4, 8, 4] = _tmp69
+    _out[..., 4, 4, 9] = _out[..., 4, 9, 4] = _tmp75
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp84
+    _out[..., 4, 4, 11] = _out[..., 4, 11, 4] = _tmp85
+    _out[..., 4, 5, 5] = _tmp86
+    _out[..., 4, 5, 6] = _out[..., 4, 6, 5] = _tmp2
+    _out[..., 4, 5, 7] = _out[..., 4, 7, 5] = _tmp67
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp87
+    _out[..., 4, 6, 6] = c_x
+    _out[..., 4, 6, 11] = _out[..., 4, 11, 6] = _tmp3
+    _out[..., 4, 7, 7] = c_y
+    _out[..., 4, 7, 11] = _out[..., 4, 11, 7] = _tmp66
+    _out[..., 4, 8, 8] = c_v2
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp68
+    _out[..., 4, 8, 10] = _out[..., 4, 10, 8] = _tmp70
+    _out[..., 4, 9, 9] = _tmp73
+    _out[..., 4, 9, 10] = _out[..., 4, 10, 9] = _tmp76
+    _out[..., 4, 10, 10] = _tmp82
+    _out[..., 4, 11, 11] = _tmp86
+    _out[..., 5, 0, 0] = c_x
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp1
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp3
+    _out[..., 5, 0, 6] = _out[..., 5, 6, 0] = _tmp4
+    _out[..., 5, 0, 11] = _out[..., 5, 11, 0] = _tmp2
+    _out[..., 5, 1, 1] = c_y
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = _tmp29
+    _out[..., 5, 1, 5] = _out[..., 5, 5, 1] = _tmp67
+    _out[..., 5, 1, 7] = _out[..., 5, 7, 1] = _tmp12
+    _out[..., 5, 1, 11] = _out[..., 5, 11, 1] = _tmp66
+    _out[..., 5, 2, 2] = c_v2
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp68
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp69
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = _tmp71
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp72
+    _out[..., 5, 2, 10] = _out[..., 5, 10, 2] = _tmp70
+    _out[..., 5, 3, 3] = _tmp74
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp75
+    _out[..., 5, 3, 5] = _out[..., 5, 5, 3] = _tmp80
+    _out[..., 5, 3, 7] = _out[..., 5, 7, 3] = _tmp78
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp72
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp79
+    _out[..., 5, 3, 10] = _out[..., 5, 10, 3] = _tmp76
+    _out[..., 5, 3, 11] = _out[..., 5, 11, 3] = _tmp77
+    _out[..., 5, 4, 4] = _tmp83
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp50
+    _out[..., 5, 4, 6] = _out[..., 5, 6, 4] = _tmp0
+    _out[..., 5, 4, 8] = _out[..., 5, 8, 4] = _tmp70
+    _out[..., 5, 4, 9] = _out[..., 5, 9, 4] = _tmp76
+    _out[..., 5, 4, 10] = _out[..., 5, 10, 4] = _tmp84
+    _out[..., 5, 4, 11] = _out[..., 5, 11, 4] = _tmp85
+    _out[..., 5, 5, 5] = _tmp86
+    _out[..., 5, 5, 6] = _out[..., 5, 6, 5] = _tmp2
+    _out[..., 5, 5, 7] = _out[..., 5, 7, 5] = _tmp66
+    _out[..., 5, 5, 11] = _out[..., 5, 11, 5] = _tmp87
+    _out[..., 5, 6, 6] = c_x
+    _out[..., 5, 6, 11] = _out[..., 5, 11, 6] = _tmp3
+    _out[..., 5, 7, 7] = c_y
+    _out[..., 5, 7, 11] = _out[..., 5, 11, 7] = _tmp67
+    _out[..., 5, 8, 8] = c_v2
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp68
+    _out[..., 5, 8, 10] = _out[..., 5, 10, 8] = _tmp69
+    _out[..., 5, 9, 9] = _tmp73
+    _out[..., 5, 9, 10] = _out[..., 5, 10, 9] = _tmp75
+    _out[..., 5, 10, 10] = _tmp82
+    _out[..., 5, 11, 11] = _tmp86
+    _out[..., 6, 0, 0] = c_x
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp1
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp2
+    _out[..., 6, 0, 6] = _out[..., 6, 6, 0] = _tmp4
+    _out[..., 6, 0, 11] = _out[..., 6, 11, 0] = _tmp3
+    _out[..., 6, 1, 1] = c_y
+    _out[..., 6, 1, 3] = _out[..., 6, 3, 1] = _tmp29
+    _out[..., 6, 1, 5] = _out[..., 6, 5, 1] = _tmp66
+    _out[..., 6, 1, 7] = _out[..., 6, 7, 1] = _tmp12
+    _out[..., 6, 1, 11] = _out[..., 6, 11, 1] = _tmp67
+    _out[..., 6, 2, 2] = c_v2
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp72
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp70
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = _tmp71
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp68
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp69
+    _out[..., 6, 3, 3] = _tmp74
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp75
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp77
+    _out[..., 6, 3, 7] = _out[..., 6, 7, 3] = _tmp78
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp68
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp79
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp76
+    _out[..., 6, 3, 11] = _out[..., 6, 11, 3] = _tmp80
+    _out[..., 6, 4, 4] = _tmp83
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp85
+    _out[..., 6, 4, 6] = _out[..., 6, 6, 4] = _tmp0
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp69
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp76
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp84
+    _out[..., 6, 4, 11] = _out[..., 6, 11, 4] = _tmp50
+    _out[..., 6, 5, 5] = _tmp86
+    _out[..., 6, 5, 6] = _out[..., 6, 6, 5] = _tmp3
+    _out[..., 6, 5, 7] = _out[..., 6, 7, 5] = _tmp67
+    _out[..., 6, 5, 11] = _out[..., 6, 11, 5] = _tmp87
+    _out[..., 6, 6, 6] = c_x
+    _out[..., 6, 6, 11] = _out[..., 6, 11, 6] = _tmp2
+    _out[..., 6, 7, 7] = c_y
+    _out[..., 6, 7, 11] = _out[..., 6, 11, 7] = _tmp66
+    _out[..., 6, 8, 8] = c_v2
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp72
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp70
+    _out[..., 6, 9, 9] = _tmp73
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp75
+    _out[..., 6, 10, 10] = _tmp82
+    _out[..., 6, 11, 11] = _tmp86
+    _out[..., 7, 0, 0] = c_x
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp1
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp2
+    _out[..., 7, 0, 6] = _out[..., 7, 6, 0] = _tmp4
+    _out[..., 7, 0, 11] = _out[..., 7, 11, 0] = _tmp3
+    _out[..., 7, 1, 1] = c_y
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = _tmp29
+    _out[..., 7, 1, 5] = _out[..., 7, 5, 1] = _tmp67
+    _out[..., 7, 1, 7] = _out[..., 7, 7, 1] = _tmp12
+    _out[..., 7, 1, 11] = _out[..., 7, 11, 1] = _tmp66
+    _out[..., 7, 2, 2] = c_v2
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp72
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp69
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = _tmp71
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp68
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp70
+    _out[..., 7, 3, 3] = _tmp74
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp76
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp80
+    _out[..., 7, 3, 7] = _out[..., 7, 7, 3] = _tmp78
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp68
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp79
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp75
+    _out[..., 7, 3, 11] = _out[..., 7, 11, 3] = _tmp77
+    _out[..., 7, 4, 4] = _tmp83
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp85
+    _out[..., 7, 4, 6] = _out[..., 7, 6, 4] = _tmp0
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp70
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp75
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp84
+    _out[..., 7, 4, 11] = _out[..., 7, 11, 4] = _tmp50
+    _out[..., 7, 5, 5] = _tmp86
+    _out[..., 7, 5, 6] = _out[..., 7, 6, 5] = _tmp3
+    _out[..., 7, 5, 7] = _out[..., 7, 7, 5] = _tmp66
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp87
+    _out[..., 7, 6, 6] = c_x
+    _out[..., 7, 6, 11] = _out[..., 7, 11, 6] = _tmp2
+    _out[..., 7, 7, 7] = c_y
+    _out[..., 7, 7, 11] = _out[..., 7, 11, 7] = _tmp67
+    _out[..., 7, 8, 8] = c_v2
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp72
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp69
+    _out[..., 7, 9, 9] = _tmp73
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp76
+    _out[..., 7, 10, 10] = _tmp82
+    _out[..., 7, 11, 11] = _tmp86
+    return _out
+
+
+def isolator_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
+    """Derivatives of isolator_stiffness_on_foundation() with respect to the unknowns c_x, c_y, c_v1, c_v2, shape
+    (..., 4, 8, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dinner[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        dinner[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        dinner[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        dinner[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        douter[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        douter[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        douter[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        douter[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        dinner[+x+y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [y, y_found] = -cos(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -sin(gamma)**2
+          [z, psi_found] = -b*sin(gamma)**2
+          [z, theta_found] = a1*sin(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*cos(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*sin(gamma)**2
+          [theta, psi_found] = a1*b*sin(gamma)**2
+          [theta, theta_found] = -a1**2*sin(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+          [phi, y_found] = -a1*cos(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*cos(gamma)**2
+          [y_found, y_found] = cos(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*cos(gamma)**2
+          [z_found, z_found] = sin(gamma)**2
+          [z_found, psi_found] = b*sin(gamma)**2
+          [z_found, theta_found] = -a1*sin(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*sin(gamma)**2
+          [psi_found, theta_found] = -a1*b*sin(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*sin(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*cos(gamma)**2
+        dinner[-x+y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [y, y_found] = -cos(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -sin(gamma)**2
+          [z, psi_found] = -b*sin(gamma)**2
+          [z, theta_found] = -a1*sin(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*cos(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*sin(gamma)**2
+          [theta, psi_found] = -a1*b*sin(gamma)**2
+          [theta, theta_found] = -a1**2*sin(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+          [phi, y_found] = a1*cos(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*cos(gamma)**2
+          [y_found, y_found] = cos(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*cos(gamma)**2
+          [z_found, z_found] = sin(gamma)**2
+          [z_found, psi_found] = b*sin(gamma)**2
+          [z_found, theta_found] = a1*sin(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*sin(gamma)**2
+          [psi_found, theta_found] = a1*b*sin(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*sin(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*cos(gamma)**2
+        dinner[+x-y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [y, y_found] = -cos(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -sin(gamma)**2
+          [z, psi_found] = b*sin(gamma)**2
+          [z, theta_found] = a1*sin(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*cos(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*sin(gamma)**2
+          [theta, psi_found] = -a1*b*sin(gamma)**2
+          [theta, theta_found] = -a1**2*sin(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+          [phi, y_found] = -a1*cos(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*cos(gamma)**2
+          [y_found, y_found] = cos(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*cos(gamma)**2
+          [z_found, z_found] = sin(gamma)**2
+          [z_found, psi_found] = -b*sin(gamma)**2
+          [z_found, theta_found] = -a1*sin(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*sin(gamma)**2
+          [psi_found, theta_found] = a1*b*sin(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*sin(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*cos(gamma)**2
+        dinner[-x-y]/dc_y:
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [y, y_found] = -cos(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -sin(gamma)**2
+          [z, psi_found] = b*sin(gamma)**2
+          [z, theta_found] = -a1*sin(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*cos(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*sin(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*sin(gamma)**2
+          [theta, psi_found] = a1*b*sin(gamma)**2
+          [theta, theta_found] = -a1**2*sin(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*cos(gamma)**2
+          [phi, y_found] = a1*cos(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*cos(gamma)**2
+          [y_found, y_found] = cos(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*cos(gamma)**2
+          [z_found, z_found] = sin(gamma)**2
+          [z_found, psi_found] = -b*sin(gamma)**2
+          [z_found, theta_found] = a1*sin(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*sin(gamma)**2
+          [psi_found, theta_found] = -a1*b*sin(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*sin(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*cos(gamma)**2
+        douter[+x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [y, y_found] = -1
+          [y, phi_found] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [psi, y_found] = -h
+          [psi, phi_found] = -a2*h
+          [phi, phi] = a2**2
+          [phi, y_found] = -a2
+          [phi, phi_found] = -a2**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a2
+          [phi_found, phi_found] = a2**2
+        douter[-x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [y, y_found] = -1
+          [y, phi_found] = a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [psi, y_found] = -h
+          [psi, phi_found] = a2*h
+          [phi, phi] = a2**2
+          [phi, y_found] = a2
+          [phi, phi_found] = -a2**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a2
+          [phi_found, phi_found] = a2**2
+        douter[+x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [y, y_found] = -1
+          [y, phi_found] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [psi, y_found] = -h
+          [psi, phi_found] = -a2*h
+          [phi, phi] = a2**2
+          [phi, y_found] = -a2
+          [phi, phi_found] = -a2**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a2
+          [phi_found, phi_found] = a2**2
+        douter[-x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [y, y_found] = -1
+          [y, phi_found] = a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [psi, y_found] = -h
+          [psi, phi_found] = a2*h
+          [phi, phi] = a2**2
+          [phi, y_found] = a2
+          [phi, phi_found] = -a2**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a2
+          [phi_found, phi_found] = a2**2
+        dinner[+x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = -b*cos(gamma)**2
+          [z, theta_found] = a1*cos(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*sin(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*cos(gamma)**2
+          [theta, psi_found] = a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*sin(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = b*cos(gamma)**2
+          [z_found, theta_found] = -a1*cos(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[-x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = -b*cos(gamma)**2
+          [z, theta_found] = -a1*cos(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*sin(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [psi, z_found] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = a1*sin(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = b*cos(gamma)**2
+          [z_found, theta_found] = a1*cos(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[+x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = b*cos(gamma)**2
+          [z, theta_found] = a1*cos(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*sin(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*sin(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = -b*cos(gamma)**2
+          [z_found, theta_found] = -a1*cos(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[-x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = b*cos(gamma)**2
+          [z, theta_found] = -a1*cos(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [psi, y_found] = -h*sin(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [psi, z_found] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [psi, psi_found] = b*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, theta_found] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi_found] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*cos(gamma)**2
+          [theta, psi_found] = a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = a1*sin(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = -b*cos(gamma)**2
+          [z_found, theta_found] = a1*cos(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        douter[+x+y]/dc_v1:
+        douter[-x+y]/dc_v1:
+        douter[+x-y]/dc_v1:
+        douter[-x-y]/dc_v1:
+        dinner[+x+y]/dc_v2:
+        dinner[-x+y]/dc_v2:
+        dinner[+x-y]/dc_v2:
+        dinner[-x-y]/dc_v2:
+        douter[+x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a2
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = a2
+          [theta, psi_found] = a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = -a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a2*b
+          [theta_found, theta_found] = a2**2
+        douter[-x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a2
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = -a2
+          [theta, psi_found] = -a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a2*b
+          [theta_found, theta_found] = a2**2
+        douter[+x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a2
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = a2
+          [theta, psi_found] = -a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = -a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a2*b
+          [theta_found, theta_found] = a2**2
+        douter[-x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a2
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = -a2
+          [theta, psi_found] = a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a2*b
+          [theta_found, theta_found] = a2**2
+    """
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = b * h
+    _tmp4 = -_tmp3
+    _tmp5 = b**2
+    _tmp6 = -_tmp5
+    _tmp7 = numpy.cos(gamma)
+    _tmp8 = _tmp7**2
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp7 * _tmp9
+    _tmp11 = _tmp10 * b
+    _tmp12 = _tmp11 + _tmp8 * h
+    _tmp13 = _tmp10 * a1
+    _tmp14 = -_tmp13
+    _tmp15 = _tmp8 * a1
+    _tmp16 = -_tmp8
+    _tmp17 = -_tmp10
+    _tmp18 = -_tmp11
+    _tmp19 = -_tmp15
+    _tmp20 = _tmp9**2
+    _tmp21 = _tmp20 * b
+    _tmp22 = _tmp10 * h
+    _tmp23 = _tmp21 + _tmp22
+    _tmp24 = _tmp20 * a1
+    _tmp25 = -_tmp24
+    _tmp26 = -_tmp20
+    _tmp27 = -_tmp21
+    _tmp28 = _tmp20 * _tmp5
+    _tmp29 = 2 * _tmp10 * _tmp3
+    _tmp30 = _tmp2 * _tmp8 + _tmp28 + _tmp29
+    _tmp31 = -_tmp23
+    _tmp32 = _tmp31 * a1
+    _tmp33 = _tmp12 * a1
+    _tmp34 = -_tmp12
+    _tmp35 = _tmp31 * b
+    _tmp36 = _tmp23 * a1
+    _tmp37 = _tmp34 * a1
+    _tmp38 = a1**2
+    _tmp39 = _tmp20 * _tmp38
+    _tmp40 = _tmp10 * _tmp38
+    _tmp41 = -_tmp40
+    _tmp42 = _tmp21 * a1
+    _tmp43 = -_tmp39
+    _tmp44 = _tmp38 * _tmp8
+    _tmp45 = _tmp11 * a1
+    _tmp46 = -_tmp45
+    _tmp47 = -_tmp44
+    _tmp48 = -_tmp42
+    _tmp49 = -a2
+    _tmp50 = a2 * h
+    _tmp51 = -_tmp50
+    _tmp52 = a2**2
+    _tmp53 = -_tmp52
+    _tmp54 = _tmp11 - _tmp20 * h
+    _tmp55 = -_tmp54
+    _tmp56 = _tmp8 * b
+    _tmp57 = -_tmp22 + _tmp56
+    _tmp58 = -_tmp56
+    _tmp59 = _tmp5 * _tmp8
+    _tmp60 = _tmp2 * _tmp20 - _tmp29 + _tmp59
+    _tmp61 = -_tmp57
+    _tmp62 = _tmp61 * a1
+    _tmp63 = _tmp55 * a1
+    _tmp64 = _tmp61 * b
+    _tmp65 = _tmp57 * a1
+    _tmp66 = _tmp54 * a1
+    _tmp67 = _tmp15 * b
+    _tmp68 = -_tmp67
+    _tmp69 = a2 * b
+    _tmp70 = -_tmp69
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_x),
+        numpy.shape(c_y),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    _out = numpy.zeros((*_shape, 32, 12, 12))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp1
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = -1
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = b
+    _out[..., 0, 4, 4] = _tmp2
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp3
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = h
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp4
+    _out[..., 0, 5, 5] = _tmp5
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = b
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp6
+    _out[..., 0, 6, 6] = 1
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp1
+    _out[..., 0, 11, 11] = _tmp5
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -1
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = b
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = h
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp4
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = b
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp6
+    _out[..., 1, 6, 6] = 1
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp1
+    _out[..., 1, 11, 11] = _tmp5
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = b
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = -1
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp1
+    _out[..., 2, 4, 4] = _tmp2
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp4
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = h
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp3
+    _out[..., 2, 5, 5] = _tmp5
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp1
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp6
+    _out[..., 2, 6, 6] = 1
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = b
+    _out[..., 2, 11, 11] = _tmp5
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = b
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = -1
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp1
+    _out[..., 3, 4, 4] = _tmp2
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp4
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = h
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp3
+    _out[..., 3, 5, 5] = _tmp5
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp1
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp6
+    _out[..., 3, 6, 6] = 1
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = b
+    _out[..., 3, 11, 11] = _tmp5
+    _out[..., 4, 0, 0] = 1
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp0
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp1
+    _out[..., 4, 0, 6] = _out[..., 4, 6, 0] = -1
+    _out[..., 4, 0, 11] = _out[..., 4, 11, 0] = b
+    _out[..., 4, 4, 4] = _tmp2
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp3
+    _out[..., 4, 4, 6] = _out[..., 4, 6, 4] = h
+    _out[..., 4, 4, 11] = _out[..., 4, 11, 4] = _tmp4
+    _out[..., 4, 5, 5] = _tmp5
+    _out[..., 4, 5, 6] = _out[..., 4, 6, 5] = b
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp6
+    _out[..., 4, 6, 6] = 1
+    _out[..., 4, 6, 11] = _out[..., 4, 11, 6] = _tmp1
+    _out[..., 4, 11, 11] = _tmp5
+    _out[..., 5, 0, 0] = 1
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp0
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp1
+    _out[..., 5, 0, 6] = _out[..., 5, 6, 0] = -1
+    _out[..., 5, 0, 11] = _out[..., 5, 11, 0] = b
+    _out[..., 5, 4, 4] = _tmp2
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp3
+    _out[..., 5, 4, 6] = _out[..., 5, 6, 4] = h
+    _out[..., 5, 4, 11] = _out[..., 5, 11, 4] = _tmp4
+    _out[..., 5, 5, 5] = _tmp5
+    _out[..., 5, 5, 6] = _out[..., 5, 6, 5] = b
+    _out[..., 5, 5, 11] = _out[..., 5, 11, 5] = _tmp6
+    _out[..., 5, 6, 6] = 1
+    _out[..., 5, 6, 11] = _out[..., 5, 11, 6] = _tmp1
+    _out[..., 5, 11, 11] = _tmp5
+    _out[..., 6, 0, 0] = 1
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp0
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = b
+    _out[..., 6, 0, 6] = _out[..., 6, 6, 0] = -1
+    _out[..., 6, 0, 11] = _out[..., 6, 11, 0] = _tmp1
+    _out[..., 6, 4, 4] = _tmp2
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp4
+    _out[..., 6, 4, 6] = _out[..., 6, 6, 4] = h
+    _out[..., 6, 4, 11] = _out[..., 6, 11, 4] = _tmp3
+    _out[..., 6, 5, 5] = _tmp5
+    _out[..., 6, 5, 6] = _out[..., 6, 6, 5] = _tmp1
+    _out[..., 6, 5, 11] = _out[..., 6, 11, 5] = _tmp6
+    _out[..., 6, 6, 6] = 1
+    _out[..., 6, 6, 11] = _out[..., 6, 11, 6] = b
+    _out[..., 6, 11, 11] = _tmp5
+    _out[..., 7, 0, 0] = 1
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp0
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = b
+    _out[..., 7, 0, 6] = _out[..., 7, 6, 0] = -1
+    _out[..., 7, 0, 11] = _out[..., 7, 11, 0] = _tmp1
+    _out[..., 7, 4, 4] = _tmp2
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp4
+    _out[..., 7, 4, 6] = _out[..., 7, 6, 4] = h
+    _out[..., 7, 4, 11] = _out[..., 7, 11, 4] = _tmp3
+    _out[..., 7, 5, 5] = _tmp5
+    _out[..., 7, 5, 6] = _out[..., 7, 6, 5] = _tmp1
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp6
+    _out[..., 7, 6, 6] = 1
+    _out[..., 7, 6, 11] = _out[..., 7, 11, 6] = b
+    _out[..., 7, 11, 11] = _tmp5
+    _out[..., 8, 1, 1] = _tmp8
+    _out[..., 8, 1, 2] = _out[..., 8, 2, 1] = _tmp10
+    _out[..., 8, 1, 3] = _out[..., 8, 3, 1] = _tmp12
+    _out[..., 8, 1, 4] = _out[..., 8, 4, 1] = _tmp14
+    _out[..., 8, 1, 5] = _out[..., 8, 5, 1] = _tmp15
+    _out[..., 8, 1, 7] = _out[..., 8, 7, 1] = _tmp16
+    _out[..., 8, 1, 8] = _out[..., 8, 8, 1] = _tmp17
+    _out[..., 8, 1, 9] = _out[..., 8, 9, 1] = _tmp18
+    _out[..., 8, 1, 10] = _out[..., 8, 10, 1] = _tmp13
+    _out[..., 8, 1, 11] = _out[..., 8, 11, 1] = _tmp19
+    _out[..., 8, 2, 2] = _tmp20
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp23
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp25
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp13
+    _out[..., 8, 2, 7] = _out[..., 8, 7, 2] = _tmp17
+    _out[..., 8, 2, 8] = _out[..., 8, 8, 2] = _tmp26
+    _out[..., 8, 2, 9] = _out[..., 8, 9, 2] = _tmp27
+    _out[..., 8, 2, 10] = _out[..., 8, 10, 2] = _tmp24
+    _out[..., 8, 2, 11] = _out[..., 8, 11, 2] = _tmp14
+    _out[..., 8, 3, 3] = _tmp30
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp32
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp33
+    _out[..., 8, 3, 7] = _out[..., 8, 7, 3] = _tmp34
+    _out[..., 8, 3, 8] = _out[..., 8, 8, 3] = _tmp31
+    _out[..., 8, 3, 9] = _out[..., 8, 9, 3] = _tmp35
+    _out[..., 8, 3, 10] = _out[..., 8, 10, 3] = _tmp36
+    _out[..., 8, 3, 11] = _out[..., 8, 11, 3] = _tmp37
+    _out[..., 8, 4, 4] = _tmp39
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp41
+    _out[..., 8, 4, 7] = _out[..., 8, 7, 4] = _tmp13
+    _out[..., 8, 4, 8] = _out[..., 8, 8, 4] = _tmp24
+    _out[..., 8, 4, 9] = _out[..., 8, 9, 4] = _tmp42
+    _out[..., 8, 4, 10] = _out[..., 8, 10, 4] = _tmp43
+    _out[..., 8, 4, 11] = _out[..., 8, 11, 4] = _tmp40
+    _out[..., 8, 5, 5] = _tmp44
+    _out[..., 8, 5, 7] = _out[..., 8, 7, 5] = _tmp19
+    _out[..., 8, 5, 8] = _out[..., 8, 8, 5] = _tmp14
+    _out[..., 8, 5, 9] = _out[..., 8, 9, 5] = _tmp46
+    _out[..., 8, 5, 10] = _out[..., 8, 10, 5] = _tmp40
+    _out[..., 8, 5, 11] = _out[..., 8, 11, 5] = _tmp47
+    _out[..., 8, 7, 7] = _tmp8
+    _out[..., 8, 7, 8] = _out[..., 8, 8, 7] = _tmp10
+    _out[..., 8, 7, 9] = _out[..., 8, 9, 7] = _tmp11
+    _out[..., 8, 7, 10] = _out[..., 8, 10, 7] = _tmp14
+    _out[..., 8, 7, 11] = _out[..., 8, 11, 7] = _tmp15
+    _out[..., 8, 8, 8] = _tmp20
+    _out[..., 8, 8, 9] = _out[..., 8, 9, 8] = _tmp21
+    _out[..., 8, 8, 10] = _out[..., 8, 10, 8] = _tmp25
+    _out[..., 8, 8, 11] = _out[..., 8, 11, 8] = _tmp13
+    _out[..., 8, 9, 9] = _tmp28
+    _out[..., 8, 9, 10] = _out[..., 8, 10, 9] = _tmp48
+    _out[..., 8, 9, 11] = _out[..., 8, 11, 9] = _tmp45
+    _out[..., 8, 10, 10] = _tmp39
+    _out[..., 8, 10, 11] = _out[..., 8, 11, 10] = _tmp41
+    _out[..., 8, 11, 11] = _tmp44
+    _out[..., 9, 1, 1] = _tmp8
+    _out[..., 9, 1, 2] = _out[..., 9, 2, 1] = _tmp10
+    _out[..., 9, 1, 3] = _out[..., 9, 3, 1] = _tmp12
+    _out[..., 9, 1, 4] = _out[..., 9, 4, 1] = _tmp13
+    _out[..., 9, 1, 5] = _out[..., 9, 5, 1] = _tmp19
+    _out[..., 9, 1, 7] = _out[..., 9, 7, 1] = _tmp16
+    _out[..., 9, 1, 8] = _out[..., 9, 8, 1] = _tmp17
+    _out[..., 9, 1, 9] = _out[..., 9, 9, 1] = _tmp18
+    _out[..., 9, 1, 10] = _out[..., 9, 10, 1] = _tmp14
+    _out[..., 9, 1, 11] = _out[..., 9, 11, 1] = _tmp15
+    _out[..., 9, 2, 2] = _tmp20
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp23
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp24
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp14
+    _out[..., 9, 2, 7] = _out[..., 9, 7, 2] = _tmp17
+    _out[..., 9, 2, 8] = _out[..., 9, 8, 2] = _tmp26
+    _out[..., 9, 2, 9] = _out[..., 9, 9, 2] = _tmp27
+    _out[..., 9, 2, 10] = _out[..., 9, 10, 2] = _tmp25
+    _out[..., 9, 2, 11] = _out[..., 9, 11, 2] = _tmp13
+    _out[..., 9, 3, 3] = _tmp30
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp36
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp37
+    _out[..., 9, 3, 7] = _out[..., 9, 7, 3] = _tmp34
+    _out[..., 9, 3, 8] = _out[..., 9, 8, 3] = _tmp31
+    _out[..., 9, 3, 9] = _out[..., 9, 9, 3] = _tmp35
+    _out[..., 9, 3, 10] = _out[..., 9, 10, 3] = _tmp32
+    _out[..., 9, 3, 11] = _out[..., 9, 11, 3] = _tmp33
+    _out[..., 9, 4, 4] = _tmp39
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp41
+    _out[..., 9, 4, 7] = _out[..., 9, 7, 4] = _tmp14
+    _out[..., 9, 4, 8] = _out[..., 9, 8, 4] = _tmp25
+    _out[..., 9, 4, 9] = _out[..., 9, 9, 4] = _tmp48
+    _out[..., 9, 4, 10] = _out[..., 9, 10, 4] = _tmp43
+    _out[..., 9, 4, 11] = _out[..., 9, 11, 4] = _tmp40
+    _out[..., 9, 5, 5] = _tmp44
+    _out[..., 9, 5, 7] = _out[..., 9, 7, 5] = _tmp15
+    _out[..., 9, 5, 8] = _out[..., 9, 8, 5] = _tmp13
+    _out[..., 9, 5, 9] = _out[..., 9, 9, 5] = _tmp45
+    _out[..., 9, 5, 10] = _out[..., 9, 10, 5] = _tmp40
+    _out[..., 9, 5, 11] = _out[..., 9, 11, 5] = _tmp47
+    _out[..., 9, 7, 7] = _tmp8
+    _out[..., 9, 7, 8] = _out[..., 9, 8, 7] = _tmp10
+    _out[..., 9, 7, 9] = _out[..., 9, 9, 7] = _tmp11
+    _out[..., 9, 7, 10] = _out[..., 9, 10, 7] = _tmp13
+    _out[..., 9, 7, 11] = _out[..., 9, 11, 7] = _tmp19
+    _out[..., 9, 8, 8] = _tmp20
+    _out[..., 9, 8, 9] = _out[..., 9, 9, 8] = _tmp21
+    _out[..., 9, 8, 10] = _out[..., 9, 10, 8] = _tmp24
+    _out[..., 9, 8, 11] = _out[..., 9, 11, 8] = _tmp14
+    _out[..., 9, 9, 9] = _tmp28
+    _out[..., 9, 9, 10] = _out[..., 9, 10, 9] = _tmp42
+    _out[..., 9, 9, 11] = _out[..., 9, 11, 9] = _tmp46
+    _out[..., 9, 10, 10] = _tmp39
+    _out[..., 9, 10, 11] = _out[..., 9, 11, 10] = _tmp41
+    _out[..., 9, 11, 11] = _tmp44
+    _out[..., 10, 1, 1] = _tmp8
+    _out[..., 10, 1, 2] = _out[..., 10, 2, 1] = _tmp17
+    _out[..., 10, 1, 3] = _out[..., 10, 3, 1] = _tmp12
+    _out[..., 10, 1, 4] = _out[..., 10, 4, 1] = _tmp13
+    _out[..., 10, 1, 5] = _out[..., 10, 5, 1] = _tmp15
+    _out[..., 10, 1, 7] = _out[..., 10, 7, 1] = _tmp16
+    _out[..., 10, 1, 8] = _out[..., 10, 8, 1] = _tmp10
+    _out[..., 10, 1, 9] = _out[..., 10, 9, 1] = _tmp18
+    _out[..., 10, 1, 10] = _out[..., 10, 10, 1] = _tmp14
+    _out[..., 10, 1, 11] = _out[..., 10, 11, 1] = _tmp19
+    _out[..., 10, 2, 2] = _tmp20
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp31
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp25
+    _out[..., 10, 2, 5] = _out[..., 10, 5, 2] = _tmp14
+    _out[..., 10, 2, 7] = _out[..., 10, 7, 2] = _tmp10
+    _out[..., 10, 2, 8] = _out[..., 10, 8, 2] = _tmp26
+    _out[..., 10, 2, 9] = _out[..., 10, 9, 2] = _tmp21
+    _out[..., 10, 2, 10] = _out[..., 10, 10, 2] = _tmp24
+    _out[..., 10, 2, 11] = _out[..., 10, 11, 2] = _tmp13
+    _out[..., 10, 3, 3] = _tmp30
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp36
+    _out[..., 10, 3, 5] = _out[..., 10, 5, 3] = _tmp33
+    _out[..., 10, 3, 7] = _out[..., 10, 7, 3] = _tmp34
+    _out[..., 10, 3, 8] = _out[..., 10, 8, 3] = _tmp23
+    _out[..., 10, 3, 9] = _out[..., 10, 9, 3] = _tmp35
+    _out[..., 10, 3, 10] = _out[..., 10, 10, 3] = _tmp32
+    _out[..., 10, 3, 11] = _out[..., 10, 11, 3] = _tmp37
+    _out[..., 10, 4, 4] = _tmp39
+    _out[..., 10, 4, 5] = _out[..., 10, 5, 4] = _tmp40
+    _out[..., 10, 4, 7] = _out[..., 10, 7, 4] = _tmp14
+    _out[..., 10, 4, 8] = _out[..., 10, 8, 4] = _tmp24
+    _out[..., 10, 4, 9] = _out[..., 10, 9, 4] = _tmp48
+    _out[..., 10, 4, 10] = _out[..., 10, 10, 4] = _tmp43
+    _out[..., 10, 4, 11] = _out[..., 10, 11, 4] = _tmp41
+    _out[..., 10, 5, 5] = _tmp44
+    _out[..., 10, 5, 7] = _out[..., 10, 7, 5] = _tmp19
+    _out[..., 10, 5, 8] = _out[..., 10, 8, 5] = _tmp13
+    _out[..., 10, 5, 9] = _out[..., 10, 9, 5] = _tmp46
+    _out[..., 10, 5, 10] = _out[..., 10, 10, 5] = _tmp41
+    _out[..., 10, 5, 11] = _out[..., 10, 11, 5] = _tmp47
+    _out[..., 10, 7, 7] = _tmp8
+    _out[..., 10, 7, 8] = _out[..., 10, 8, 7] = _tmp17
+    _out[..., 10, 7, 9] = _out[..., 10, 9, 7] = _tmp11
+    _out[..., 10, 7, 10] = _out[..., 10, 10, 7] = _tmp13
+    _out[..., 10, 7, 11] = _out[..., 10, 11, 7] = _tmp15
+    _out[..., 10, 8, 8] = _tmp20
+    _out[..., 10, 8, 9] = _out[..., 10, 9, 8] = _tmp27
+    _out[..., 10, 8, 10] = _out[..., 10, 10, 8] = _tmp25
+    _out[..., 10, 8, 11] = _out[..., 10, 11, 8] = _tmp14
+    _out[..., 10, 9, 9] = _tmp28
+    _out[..., 10, 9, 10] = _out[..., 10, 10, 9] = _tmp42
+    _out[..., 10, 9, 11] = _out[..., 10, 11, 9] = _tmp45
+    _out[..., 10, 10, 10] = _tmp39
+    _out[..., 10, 10, 11] = _out[..., 10, 11, 10] = _tmp40
+    _out[..., 10, 11, 11] = _tmp44
+    _out[..., 11, 1, 1] = _tmp8
+    _out[..., 11, 1, 2] = _out[..., 11, 2, 1] = _tmp17
+    _out[..., 11, 1, 3] = _out[..., 11, 3, 1] = _tmp12
+    _out[..., 11, 1, 4] = _out[..., 11, 4, 1] = _tmp14
+    _out[..., 11, 1, 5] = _out[..., 11, 5, 1] = _tmp19
+    _out[..., 11, 1, 7] = _out[..., 11, 7, 1] = _tmp16
+    _out[..., 11, 1, 8] = _out[..., 11, 8, 1] = _tmp10
+    _out[..., 11, 1, 9] = _out[..., 11, 9, 1] = _tmp18
+    _out[..., 11, 1, 10] = _out[..., 11, 10, 1] = _tmp13
+    _out[..., 11, 1, 11] = _out[..., 11, 11, 1] = _tmp15
+    _out[..., 11, 2, 2] = _tmp20
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp31
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = _tmp24
+    _out[..., 11, 2, 5] = _out[..., 11, 5, 2] = _tmp13
+    _out[..., 11, 2, 7] = _out[..., 11, 7, 2] = _tmp10
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = _tmp26
+    _out[..., 11, 2, 9] = _out[..., 11, 9, 2] = _tmp21
+    _out[..., 11, 2, 10] = _out[..., 11, 10, 2] = _tmp25
+    _out[..., 11, 2, 11] = _out[..., 11, 11, 2] = _tmp14
+    _out[..., 11, 3, 3] = _tmp30
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp32
+    _out[..., 11, 3, 5] = _out[..., 11, 5, 3] = _tmp37
+    _out[..., 11, 3, 7] = _out[..., 11, 7, 3] = _tmp34
+    _out[..., 11, 3, 8] = _out[..., 11, 8, 3] = _tmp23
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp35
+    _out[..., 11, 3, 10] = _out[..., 11, 10, 3] = _tmp36
+    _out[..., 11, 3, 11] = _out[..., 11, 11, 3] = _tmp33
+    _out[..., 11, 4, 4] = _tmp39
+    _out[..., 11, 4, 5] = _out[..., 11, 5, 4] = _tmp40
+    _out[..., 11, 4, 7] = _out[..., 11, 7, 4] = _tmp13
+    _out[..., 11, 4, 8] = _out[..., 11, 8, 4] = _tmp25
+    _out[..., 11, 4, 9] = _out[..., 11, 9, 4] = _tmp42
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp43
+    _out[..., 11, 4, 11] = _out[..., 11, 11, 4] = _tmp41
+    _out[..., 11, 5, 5] = _tmp44
+    _out[..., 11, 5, 7] = _out[..., 11, 7, 5] = _tmp15
+    _out[..., 11, 5, 8] = _out[..., 11, 8, 5] = _tmp14
+    _out[..., 11, 5, 9] = _out[..., 11, 9, 5] = _tmp45
+    _out[..., 11, 5, 10] = _out[..., 11, 10, 5] = _tmp41
+    _out[..., 11, 5, 11] = _out[..., 11, 11, 5] = _tmp47
+    _out[..., 11, 7, 7] = _tmp8
+    _out[..., 11, 7, 8] = _out[..., 11, 8, 7] = _tmp17
+    _out[..., 11, 7, 9] = _out[..., 11, 9, 7] = _tmp11
+    _out[..., 11, 7, 10] = _out[..., 11, 10, 7] = _tmp14
+    _out[..., 11, 7, 11] = _out[..., 11, 11, 7] = _tmp19
+    _out[..., 11, 8, 8] = _tmp20
+    _out[..., 11, 8, 9] = _out[..., 11, 9, 8] = _tmp27
+    _out[..., 11, 8, 10] = _out[..., 11, 10, 8] = _tmp24
+    _out[..., 11, 8, 11] = _out[..., 11, 11, 8] = _tmp13
+    _out[..., 11, 9, 9] = _tmp28
+    _out[..., 11, 9, 10] = _out[..., 11, 10, 9] = _tmp48
+    _out[..., 11, 9, 11] = _out[..., 11, 11, 9] = _tmp46
+    _out[..., 11, 10, 10] = _tmp39
+    _out[..., 11, 10, 11] = _out[..., 11, 11, 10] = _tmp40
+    _out[..., 11, 11, 11] = _tmp44
+    _out[..., 12, 1, 1] = 1
+    _out[..., 12, 1, 3] = _out[..., 12, 3, 1] = h
+    _out[..., 12, 1, 5] = _out[..., 12, 5, 1] = a2
+    _out[..., 12, 1, 7] = _out[..., 12, 7, 1] = -1
+    _out[..., 12, 1, 11] = _out[..., 12, 11, 1] = _tmp49
+    _out[..., 12, 3, 3] = _tmp2
+    _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = _tmp50
+    _out[..., 12, 3, 7] = _out[..., 12, 7, 3] = _tmp0
+    _out[..., 12, 3, 11] = _out[..., 12, 11, 3] = _tmp51
+    _out[..., 12, 5, 5] = _tmp52
+    _out[..., 12, 5, 7] = _out[..., 12, 7, 5] = _tmp49
+    _out[..., 12, 5, 11] = _out[..., 12, 11, 5] = _tmp53
+    _out[..., 12, 7, 7] = 1
+    _out[..., 12, 7, 11] = _out[..., 12, 11, 7] = a2
+    _out[..., 12, 11, 11] = _tmp52
+    _out[..., 13, 1, 1] = 1
+    _out[..., 13, 1, 3] = _out[..., 13, 3, 1] = h
+    _out[..., 13, 1, 5] = _out[..., 13, 5, 1] = _tmp49
+    _out[..., 13, 1, 7] = _out[..., 13, 7, 1] = -1
+    _out[..., 13, 1, 11] = _out[..., 13, 11, 1] = a2
+    _out[..., 13, 3, 3] = _tmp2
+    _out[..., 13, 3, 5] = _out[..., 13, 5, 3] = _tmp51
+    _out[..., 13, 3, 7] = _out[..., 13, 7, 3] = _tmp0
+    _out[..., 13, 3, 11] = _out[..., 13, 11, 3] = _tmp50
+    _out[..., 13, 5, 5] = _tmp52
+    _out[..., 13, 5, 7] = _out[..., 13, 7, 5] = a2
+    _out[..., 13, 5, 11] = _out[..., 13, 11, 5] = _tmp53
+    _out[..., 13, 7, 7] = 1
+    _out[..., 13, 7, 11] = _out[..., 13, 11, 7] = _tmp49
+    _out[..., 13, 11, 11] = _tmp52
+    _out[..., 14, 1, 1] = 1
+    _out[..., 14, 1, 3] = _out[..., 14, 3, 1] = h
+    _out[..., 14, 1, 5] = _out[..., 14, 5, 1] = a2
+    _out[..., 14, 1, 7] = _out[..., 14, 7, 1] = -1
+    _out[..., 14, 1, 11] = _out[..., 14, 11, 1] = _tmp49
+    _out[..., 14, 3, 3] = _tmp2
+    _out[..., 14, 3, 5] = _out[..., 14, 5, 3] = _tmp50
+    _out[..., 14, 3, 7] = _out[..., 14, 7, 3] = _tmp0
+    _out[..., 14, 3, 11] = _out[..., 14, 11, 3] = _tmp51
+    _out[..., 14, 5, 5] = _tmp52
+    _out[..., 14, 5, 7] = _out[..., 14, 7, 5] = _tmp49
+    _out[..., 14, 5, 11] = _out[..., 14, 11, 5] = _tmp53
+    _out[..., 14, 7, 7] = 1
+    _out[..., 14, 7, 11] = _out[..., 14, 11, 7] = a2
+    _out[..., 14, 11, 11] = _tmp52
+    _out[..., 15, 1, 1] = 1
+    _out[..., 15, 1, 3] = _out[..., 15, 3, 1] = h
+    _out[..., 15, 1, 5] = _out[..., 15, 5, 1] = _tmp49
+    _out[..., 15, 1, 7] = _out[..., 15, 7, 1] = -1
+    _out[..., 15, 1, 11] = _out[..., 15, 11, 1] = a2
+    _out[..., 15, 3, 3] = _tmp2
+    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp51
+    _out[..., 15, 3, 7] = _out[..., 15, 7, 3] = _tmp0
+    _out[..., 15, 3, 11] = _out[..., 15, 11, 3] = _tmp50
+    _out[..., 15, 5, 5] = _tmp52
+    _out[..., 15, 5, 7] = _out[..., 15, 7, 5] = a2
+    _out[..., 15, 5, 11] = _out[..., 15, 11, 5] = _tmp53
+    _out[..., 15, 7, 7] = 1
+    _out[..., 15, 7, 11] = _out[..., 15, 11, 7] = _tmp49
+    _out[..., 15, 11, 11] = _tmp52
+    _out[..., 16, 1, 1] = _tmp20
+    _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp17
+    _out[..., 16, 1, 3] = _out[..., 16, 3, 1] = _tmp55
+    _out[..., 16, 1, 4] = _out[..., 16, 4, 1] = _tmp13
+    _out[..., 16, 1, 5] = _out[..., 16, 5, 1] = _tmp24
+    _out[..., 16, 1, 7] = _out[..., 16, 7, 1] = _tmp26
+    _out[..., 16, 1, 8] = _out[..., 16, 8, 1] = _tmp10
+    _out[..., 16, 1, 9] = _out[..., 16, 9, 1] = _tmp11
+    _out[..., 16, 1, 10] = _out[..., 16, 10, 1] = _tmp14
+    _out[..., 16, 1, 11] = _out[..., 16, 11, 1] = _tmp25
+    _out[..., 16, 2, 2] = _tmp8
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = _tmp57
+    _out[..., 16, 2, 4] = _out[..., 16, 4, 2] = _tmp19
+    _out[..., 16, 2, 5] = _out[..., 16, 5, 2] = _tmp14
+    _out[..., 16, 2, 7] = _out[..., 16, 7, 2] = _tmp10
+    _out[..., 16, 2, 8] = _out[..., 16, 8, 2] = _tmp16
+    _out[..., 16, 2, 9] = _out[..., 16, 9, 2] = _tmp58
+    _out[..., 16, 2, 10] = _out[..., 16, 10, 2] = _tmp15
+    _out[..., 16, 2, 11] = _out[..., 16, 11, 2] = _tmp13
+    _out[..., 16, 3, 3] = _tmp60
+    _out[..., 16, 3, 4] = _out[..., 16, 4, 3] = _tmp62
+    _out[..., 16, 3, 5] = _out[..., 16, 5, 3] = _tmp63
+    _out[..., 16, 3, 7] = _out[..., 16, 7, 3] = _tmp54
+    _out[..., 16, 3, 8] = _out[..., 16, 8, 3] = _tmp61
+    _out[..., 16, 3, 9] = _out[..., 16, 9, 3] = _tmp64
+    _out[..., 16, 3, 10] = _out[..., 16, 10, 3] = _tmp65
+    _out[..., 16, 3, 11] = _out[..., 16, 11, 3] = _tmp66
+    _out[..., 16, 4, 4] = _tmp44
+    _out[..., 16, 4, 5] = _out[..., 16, 5, 4] = _tmp40
+    _out[..., 16, 4, 7] = _out[..., 16, 7, 4] = _tmp14
+    _out[..., 16, 4, 8] = _out[..., 16, 8, 4] = _tmp15
+    _out[..., 16, 4, 9] = _out[..., 16, 9, 4] = _tmp67
+    _out[..., 16, 4, 10] = _out[..., 16, 10, 4] = _tmp47
+    _out[..., 16, 4, 11] = _out[..., 16, 11, 4] = _tmp41
+    _out[..., 16, 5, 5] = _tmp39
+    _out[..., 16, 5, 7] = _out[..., 16, 7, 5] = _tmp25
+    _out[..., 16, 5, 8] = _out[..., 16, 8, 5] = _tmp13
+    _out[..., 16, 5, 9] = _out[..., 16, 9, 5] = _tmp45
+    _out[..., 16, 5, 10] = _out[..., 16, 10, 5] = _tmp41
+    _out[..., 16, 5, 11] = _out[..., 16, 11, 5] = _tmp43
+    _out[..., 16, 7, 7] = _tmp20
+    _out[..., 16, 7, 8] = _out[..., 16, 8, 7] = _tmp17
+    _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp18
+    _out[..., 16, 7, 10] = _out[..., 16, 10, 7] = _tmp13
+    _out[..., 16, 7, 11] = _out[..., 16, 11, 7] = _tmp24
+    _out[..., 16, 8, 8] = _tmp8
+    _out[..., 16, 8, 9] = _out[..., 16, 9, 8] = _tmp56
+    _out[..., 16, 8, 10] = _out[..., 16, 10, 8] = _tmp19
+    _out[..., 16, 8, 11] = _out[..., 16, 11, 8] = _tmp14
+    _out[..., 16, 9, 9] = _tmp59
+    _out[..., 16, 9, 10] = _out[..., 16, 10, 9] = _tmp68
+    _out[..., 16, 9, 11] = _out[..., 16, 11, 9] = _tmp46
+    _out[..., 16, 10, 10] = _tmp44
+    _out[..., 16, 10, 11] = _out[..., 16, 11, 10] = _tmp40
+    _out[..., 16, 11, 11] = _tmp39
+    _out[..., 17, 1, 1] = _tmp20
+    _out[..., 17, 1, 2] = _out[..., 17, 2, 1] = _tmp17
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp55
+    _out[..., 17, 1, 4] = _out[..., 17, 4, 1] = _tmp14
+    _out[..., 17, 1, 5] = _out[..., 17, 5, 1] = _tmp25
+    _out[..., 17, 1, 7] = _out[..., 17, 7, 1] = _tmp26
+    _out[..., 17, 1, 8] = _out[..., 17, 8, 1] = _tmp10
+    _out[..., 17, 1, 9] = _out[..., 17, 9, 1] = _tmp11
+    _out[..., 17, 1, 10] = _out[..., 17, 10, 1] = _tmp13
+    _out[..., 17, 1, 11] = _out[..., 17, 11, 1] = _tmp24
+    _out[..., 17, 2, 2] = _tmp8
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp57
+    _out[..., 17, 2, 4] = _out[..., 17, 4, 2] = _tmp15
+    _out[..., 17, 2, 5] = _out[..., 17, 5, 2] = _tmp13
+    _out[..., 17, 2, 7] = _out[..., 17, 7, 2] = _tmp10
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = _tmp16
+    _out[..., 17, 2, 9] = _out[..., 17, 9, 2] = _tmp58
+    _out[..., 17, 2, 10] = _out[..., 17, 10, 2] = _tmp19
+    _out[..., 17, 2, 11] = _out[..., 17, 11, 2] = _tmp14
+    _out[..., 17, 3, 3] = _tmp60
+    _out[..., 17, 3, 4] = _out[..., 17, 4, 3] = _tmp65
+    _out[..., 17, 3, 5] = _out[..., 17, 5, 3] = _tmp66
+    _out[..., 17, 3, 7] = _out[..., 17, 7, 3] = _tmp54
+    _out[..., 17, 3, 8] = _out[..., 17, 8, 3] = _tmp61
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp64
+    _out[..., 17, 3, 10] = _out[..., 17, 10, 3] = _tmp62
+    _out[..., 17, 3, 11] = _out[..., 17, 11, 3] = _tmp63
+    _out[..., 17, 4, 4] = _tmp44
+    _out[..., 17, 4, 5] = _out[..., 17, 5, 4] = _tmp40
+    _out[..., 17, 4, 7] = _out[..., 17, 7, 4] = _tmp13
+    _out[..., 17, 4, 8] = _out[..., 17, 8, 4] = _tmp19
+    _out[..., 17, 4, 9] = _out[..., 17, 9, 4] = _tmp68
+    _out[..., 17, 4, 10] = _out[..., 17, 10, 4] = _tmp47
+    _out[..., 17, 4, 11] = _out[..., 17, 11, 4] = _tmp41
+    _out[..., 17, 5, 5] = _tmp39
+    _out[..., 17, 5, 7] = _out[..., 17, 7, 5] = _tmp24
+    _out[..., 17, 5, 8] = _out[..., 17, 8, 5] = _tmp14
+    _out[..., 17, 5, 9] = _out[..., 17, 9, 5] = _tmp46
+    _out[..., 17, 5, 10] = _out[..., 17, 10, 5] = _tmp41
+    _out[..., 17, 5, 11] = _out[..., 17, 11, 5] = _tmp43
+    _out[..., 17, 7, 7] = _tmp20
+    _out[..., 17, 7, 8] = _out[..., 17, 8, 7] = _tmp17
+    _out[..., 17, 7, 9] = _out[..., 17, 9, 7] = _tmp18
+    _out[..., 17, 7, 10] = _out[..., 17, 10, 7] = _tmp14
+    _out[..., 17, 7, 11] = _out[..., 17, 11, 7] = _tmp25
+    _out[..., 17, 8, 8] = _tmp8
+    _out[..., 17, 8, 9] = _out[..., 17, 9, 8] = _tmp56
+    _out[..., 17, 8, 10] = _out[..., 17, 10, 8] = _tmp15
+    _out[..., 17, 8, 11] = _out[..., 17, 11, 8] = _tmp13
+    _out[..., 17, 9, 9] = _tmp59
+    _out[..., 17, 9, 10] = _out[..., 17, 10, 9] = _tmp67
+    _out[..., 17, 9, 11] = _out[..., 17, 11, 9] = _tmp45
+    _out[..., 17, 10, 10] = _tmp44
+    _out[..., 17, 10, 11] = _out[..., 17, 11, 10] = _tmp40
+    _out[..., 17, 11, 11] = _tmp39
+    _out[..., 18, 1, 1] = _tmp20
+    _out[..., 18, 1, 2] = _out[..., 18, 2, 1] = _tmp10
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = _tmp55
+    _out[..., 18, 1, 4] = _out[..., 18, 4, 1] = _tmp14
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = _tmp24
+    _out[..., 18, 1, 7] = _out[..., 18, 7, 1] = _tmp26
+    _out[..., 18, 1, 8] = _out[..., 18, 8, 1] = _tmp17
+    _out[..., 18, 1, 9] = _out[..., 18, 9, 1] = _tmp11
+    _out[..., 18, 1, 10] = _out[..., 18, 10, 1] = _tmp13
+    _out[..., 18, 1, 11] = _out[..., 18, 11, 1] = _tmp25
+    _out[..., 18, 2, 2] = _tmp8
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = _tmp61
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp19
+    _out[..., 18, 2, 5] = _out[..., 18, 5, 2] = _tmp13
+    _out[..., 18, 2, 7] = _out[..., 18, 7, 2] = _tmp17
+    _out[..., 18, 2, 8] = _out[..., 18, 8, 2] = _tmp16
+    _out[..., 18, 2, 9] = _out[..., 18, 9, 2] = _tmp56
+    _out[..., 18, 2, 10] = _out[..., 18, 10, 2] = _tmp15
+    _out[..., 18, 2, 11] = _out[..., 18, 11, 2] = _tmp14
+    _out[..., 18, 3, 3] = _tmp60
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp65
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = _tmp63
+    _out[..., 18, 3, 7] = _out[..., 18, 7, 3] = _tmp54
+    _out[..., 18, 3, 8] = _out[..., 18, 8, 3] = _tmp57
+    _out[..., 18, 3, 9] = _out[..., 18, 9, 3] = _tmp64
+    _out[..., 18, 3, 10] = _out[..., 18, 10, 3] = _tmp62
+    _out[..., 18, 3, 11] = _out[..., 18, 11, 3] = _tmp66
+    _out[..., 18, 4, 4] = _tmp44
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp41
+    _out[..., 18, 4, 7] = _out[..., 18, 7, 4] = _tmp13
+    _out[..., 18, 4, 8] = _out[..., 18, 8, 4] = _tmp15
+    _out[..., 18, 4, 9] = _out[..., 18, 9, 4] = _tmp68
+    _out[..., 18, 4, 10] = _out[..., 18, 10, 4] = _tmp47
+    _out[..., 18, 4, 11] = _out[..., 18, 11, 4] = _tmp40
+    _out[..., 18, 5, 5] = _tmp39
+    _out[..., 18, 5, 7] = _out[..., 18, 7, 5] = _tmp25
+    _out[..., 18, 5, 8] = _out[..., 18, 8, 5] = _tmp14
+    _out[..., 18, 5, 9] = _out[..., 18, 9, 5] = _tmp45
+    _out[..., 18, 5, 10] = _out[..., 18, 10, 5] = _tmp40
+    _out[..., 18, 5, 11] = _out[..., 18, 11, 5] = _tmp43
+    _out[..., 18, 7, 7] = _tmp20
+    _out[..., 18, 7, 8] = _out[..., 18, 8, 7] = _tmp10
+    _out[..., 18, 7, 9] = _out[..., 18, 9, 7] = _tmp18
+    _out[..., 18, 7, 10] = _out[..., 18, 10, 7] = _tmp14
+    _out[..., 18, 7, 11] = _out[..., 18, 11, 7] = _tmp24
+    _out[..., 18, 8, 8] = _tmp8
+    _out[..., 18, 8, 9] = _out[..., 18, 9, 8] = _tmp58
+    _out[..., 18, 8, 10] = _out[..., 18, 10, 8] = _tmp19
+    _out[..., 18, 8, 11] = _out[..., 18, 11, 8] = _tmp13
+    _out[..., 18, 9, 9] = _tmp59
+    _out[..., 18, 9, 10] = _out[..., 18, 10, 9] = _tmp67
+    _out[..., 18, 9, 11] = _out[..., 18, 11, 9] = _tmp46
+    _out[..., 18, 10, 10] = _tmp44
+    _out[..., 18, 10, 11] = _out[..., 18, 11, 10] = _tmp41
+    _out[..., 18, 11, 11] = _tmp39
+    _out[..., 19, 1, 1] = _tmp20
+    _out[..., 19, 1, 2] = _out[..., 19, 2, 1] = _tmp10
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = _tmp55
+    _out[..., 19, 1, 4] = _out[..., 19, 4, 1] = _tmp13
+    _out[..., 19, 1, 5] = _out[..., 19, 5, 1] = _tmp25
+    _out[..., 19, 1, 7] = _out[..., 19, 7, 1] = _tmp26
+    _out[..., 19, 1, 8] = _out[..., 19, 8, 1] = _tmp17
+    _out[..., 19, 1, 9] = _out[..., 19, 9, 1] = _tmp11
+    _out[..., 19, 1, 10] = _out[..., 19, 10, 1] = _tmp14
+    _out[..., 19, 1, 11] = _out[..., 19, 11, 1] = _tmp24
+    _out[..., 19, 2, 2] = _tmp8
+    _out[..., 19, 2, 3] = _out[..., 19, 3, 2] = _tmp61
+    _out[..., 19, 2, 4] = _out[..., 19, 4, 2] = _tmp15
+    _out[..., 19, 2, 5] = _out[..., 19, 5, 2] = _tmp14
+    _out[..., 19, 2, 7] = _out[..., 19, 7, 2] = _tmp17
+    _out[..., 19, 2, 8] = _out[..., 19, 8, 2] = _tmp16
+    _out[..., 19, 2, 9] = _out[..., 19, 9, 2] = _tmp56
+    _out[..., 19, 2, 10] = _out[..., 19, 10, 2] = _tmp19
+    _out[..., 19, 2, 11] = _out[..., 19, 11, 2] = _tmp13
+    _out[..., 19, 3, 3] = _tmp60
+    _out[..., 19, 3, 4] = _out[..., 19, 4, 3] = _tmp62
+    _out[..., 19, 3, 5] = _out[..., 19, 5, 3] = _tmp66
+    _out[..., 19, 3, 7] = _out[..., 19, 7, 3] = _tmp54
+    _out[..., 19, 3, 8] = _out[..., 19, 8, 3] = _tmp57
+    _out[..., 19, 3, 9] = _out[..., 19, 9, 3] = _tmp64
+    _out[..., 19, 3, 10] = _out[..., 19, 10, 3] = _tmp65
+    _out[..., 19, 3, 11] = _out[..., 19, 11, 3] = _tmp63
+    _out[..., 19, 4, 4] = _tmp44
+    _out[..., 19, 4, 5] = _out[..., 19, 5, 4] = _tmp41
+    _out[..., 19, 4, 7] = _out[..., 19, 7, 4] = _tmp14
+    _out[..., 19, 4, 8] = _out[..., 19, 8, 4] = _tmp19
+    _out[..., 19, 4, 9] = _out[..., 19, 9, 4] = _tmp67
+    _out[..., 19, 4, 10] = _out[..., 19, 10, 4] = _tmp47
+    _out[..., 19, 4, 11] = _out[..., 19, 11, 4] = _tmp40
+    _out[..., 19, 5, 5] = _tmp39
+    _out[..., 19, 5, 7] = _out[..., 19, 7, 5] = _tmp24
+    _out[..., 19, 5, 8] = _out[..., 19, 8, 5] = _tmp13
+    _out[..., 19, 5, 9] = _out[..., 19, 9, 5] = _tmp46
+    _out[..., 19, 5, 10] = _out[..., 19, 10, 5] = _tmp40
+    _out[..., 19, 5, 11] = _out[..., 19, 11, 5] = _tmp43
+    _out[..., 19, 7, 7] = _tmp20
+    _out[..., 19, 7, 8] = _out[..., 19, 8, 7] = _tmp10
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp18
+    _out[..., 19, 7, 10] = _out[..., 19, 10, 7] = _tmp13
+    _out[..., 19, 7, 11] = _out[..., 19, 11, 7] = _tmp25
+    _out[..., 19, 8, 8] = _tmp8
+    _out[..., 19, 8, 9] = _out[..., 19, 9, 8] = _tmp58
+    _out[..., 19, 8, 10] = _out[..., 19, 10, 8] = _tmp15
+    _out[..., 19, 8, 11] = _out[..., 19, 11, 8] = _tmp14
+    _out[..., 19, 9, 9] = _tmp59
+    _out[..., 19, 9, 10] = _out[..., 19, 10, 9] = _tmp68
+    _out[..., 19, 9, 11] = _out[..., 19, 11, 9] = _tmp45
+    _out[..., 19, 10, 10] = _tmp44
+    _out[..., 19, 10, 11] = _out[..., 19, 11, 10] = _tmp41
+    _out[..., 19, 11, 11] = _tmp39
+    _out[..., 28, 2, 2] = 1
+    _out[..., 28, 2, 3] = _out[..., 28, 3, 2] = b
+    _out[..., 28, 2, 4] = _out[..., 28, 4, 2] = _tmp49
+    _out[..., 28, 2, 8] = _out[..., 28, 8, 2] = -1
+    _out[..., 28, 2, 9] = _out[..., 28, 9, 2] = _tmp1
+    _out[..., 28, 2, 10] = _out[..., 28, 10, 2] = a2
+    _out[..., 28, 3, 3] = _tmp5
+    _out[..., 28, 3, 4] = _out[..., 28, 4, 3] = _tmp70
+    _out[..., 28, 3, 8] = _out[..., 28, 8, 3] = _tmp1
+    _out[..., 28, 3, 9] = _out[..., 28, 9, 3] = _tmp6
+    _out[..., 28, 3, 10] = _out[..., 28, 10, 3] = _tmp69
+    _out[..., 28, 4, 4] = _tmp52
+    _out[..., 28, 4, 8] = _out[..., 28, 8, 4] = a2
+    _out[..., 28, 4, 9] = _out[..., 28, 9, 4] = _tmp69
+    _out[..., 28, 4, 10] = _out[..., 28, 10, 4] = _tmp53
+    _out[..., 28, 8, 8] = 1
+    _out[..., 28, 8, 9] = _out[..., 28, 9, 8] = b
+    _out[..., 28, 8, 10] = _out[..., 28, 10, 8] = _tmp49
+    _out[..., 28, 9, 9] = _tmp5
+    _out[..., 28, 9, 10] = _out[..., 28, 10, 9] = _tmp70
+    _out[..., 28, 10, 10] = _tmp52
+    _out[..., 29, 2, 2] = 1
+    _out[..., 29, 2, 3] = _out[..., 29, 3, 2] = b
+    _out[..., 29, 2, 4] = _out[..., 29, 4, 2] = a2
+    _out[..., 29, 2, 8] = _out[..., 29, 8, 2] = -1
+    _out[..., 29, 2, 9] = _out[..., 29, 9, 2] = _tmp1
+    _out[..., 29, 2, 10] = _out[..., 29, 10, 2] = _tmp49
+    _out[..., 29, 3, 3] = _tmp5
+    _out[..., 29, 3, 4] = _out[..., 29, 4, 3] = _tmp69
+    _out[..., 29, 3, 8] = _out[..., 29, 8, 3] = _tmp1
+    _out[..., 29, 3, 9] = _out[..., 29, 9, 3] = _tmp6
+    _out[..., 29, 3, 10] = _out[..., 29, 10, 3] = _tmp70
+    _out[..., 29, 4, 4] = _tmp52
+    _out[..., 29, 4, 8] = _out[..., 29, 8, 4] = _tmp49
+    _out[..., 29, 4, 9] = _out[..., 29, 9, 4] = _tmp70
+    _out[..., 29, 4, 10] = _out[..., 29, 10, 4] = _tmp53
+    _out[..., 29, 8, 8] = 1
+    _out[..., 29, 8, 9] = _out[..., 29, 9, 8] = b
+    _out[..., 29, 8, 10] = _out[..., 29, 10, 8] = a2
+    _out[..., 29, 9, 9] = _tmp5
+    _out[..., 29, 9, 10] = _out[..., 29, 10, 9] = _tmp69
+    _out[..., 29, 10, 10] = _tmp52
+    _out[..., 30, 2, 2] = 1
+    _out[..., 30, 2, 3] = _out[..., 30, 3, 2] = _tmp1
+    _out[..., 30, 2, 4] = _out[..., 30, 4, 2] = _tmp49
+    _out[..., 30, 2, 8] = _out[..., 30, 8, 2] = -1
+    _out[..., 30, 2, 9] = _out[..., 30, 9, 2] = b
+    _out[..., 30, 2, 10] = _out[..., 30, 10, 2] = a2
+    _out[..., 30, 3, 3] = _tmp5
+    _out[..., 30, 3, 4] = _out[..., 30, 4, 3] = _tmp69
+    _out[..., 30, 3, 8] = _out[..., 30, 8, 3] = b
+    _out[..., 30, 3, 9] = _out[..., 30, 9, 3] = _tmp6
+    _out[..., 30, 3, 10] = _out[..., 30, 10, 3] = _tmp70
+    _out[..., 30, 4, 4] = _tmp52
+    _out[..., 30, 4, 8] = _out[..., 30, 8, 4] = a2
+    _out[..., 30, 4, 9] = _out[..., 30, 9, 4] = _tmp70
+    _out[..., 30, 4, 10] = _out[..., 30, 10, 4] = _tmp53
+    _out[..., 30, 8, 8] = 1
+    _out[..., 30, 8, 9] = _out[..., 30, 9, 8] = _tmp1
+    _out[..., 30, 8, 10] = _out[..., 30, 10, 8] = _tmp49
+    _out[..., 30, 9, 9] = _tmp5
+    _out[..., 30, 9, 10] = _out[..., 30, 10, 9] = _tmp69
+    _out[..., 30, 10, 10] = _tmp52
+    _out[..., 31, 2, 2] = 1
+    _out[..., 31, 2, 3] = _out[..., 31, 3, 2] = _tmp1
+    _out[..., 31, 2, 4] = _out[..., 31, 4, 2] = a2
+    _out[..., 31, 2, 8] = _out[..., 31, 8, 2] = -1
+    _out[..., 31, 2, 9] = _out[..., 31, 9, 2] = b
+    _out[..., 31, 2, 10] = _out[..., 31, 10, 2] = _tmp49
+    _out[..., 31, 3, 3] = _tmp5
+    _out[..., 31, 3, 4] = _out[..., 31, 4, 3] = _tmp70
+    _out[..., 31, 3, 8] = _out[..., 31, 8, 3] = b
+    _out[..., 31, 3, 9] = _out[..., 31, 9, 3] = _tmp6
+    _out[..., 31, 3, 10] = _out[..., 31, 10, 3] = _tmp69
+    _out[..., 31, 4, 4] = _tmp52
+    _out[..., 31, 4, 8] = _out[..., 31, 8, 4] = _tmp49
+    _out[..., 31, 4, 9] = _out[..., 31, 9, 4] = _tmp69
+    _out[..., 31, 4, 10] = _out[..., 31, 10, 4] = _tmp53
+    _out[..., 31, 8, 8] = 1
+    _out[..., 31, 8, 9] = _out[..., 31, 9, 8] = _tmp1
+    _out[..., 31, 8, 10] = _out[..., 31, 10, 8] = a2
+    _out[..., 31, 9, 9] = _tmp5
+    _out[..., 31, 9, 10] = _out[..., 31, 10, 9] = _tmp70
+    _out[..., 31, 10, 10] = _tmp52
+    return _out.reshape(*_shape, 4, 8, 12, 12)
+
+
+def isolator_axial_stiffness_on_foundation(a1, a2, b, h, gamma, c_v1, c_v2):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression) between the body and the support of foundation,
+    shape (..., 8, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        inner[+x+y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*c_v1*sin(gamma)**2
+          [y, y_found] = -c_v1*sin(gamma)**2
+          [y, z_found] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = -a1*c_v1*cos(gamma)**2
+          [z, phi] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [z, y_found] = c_v1*cos(gamma)*sin(gamma)
+          [z, z_found] = -c_v1*cos(gamma)**2
+          [z, psi_found] = -b*c_v1*cos(gamma)**2
+          [z, theta_found] = a1*c_v1*cos(gamma)**2
+          [z, phi_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [psi, y_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, psi_found] = b*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi_found] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*c_v1*cos(gamma)**2
+          [theta, psi_found] = a1*b*c_v1*cos(gamma)**2
+          [theta, theta_found] = -c_v1*a1**2*cos(gamma)**2
+          [theta, phi_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*c_v1*sin(gamma)**2
+          [phi, z_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*c_v1*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -c_v1*a1**2*sin(gamma)**2
+          [y_found, y_found] = c_v1*sin(gamma)**2
+          [y_found, z_found] = -c_v1*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*c_v1*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*c_v1*sin(gamma)**2
+          [z_found, z_found] = c_v1*cos(gamma)**2
+          [z_found, psi_found] = b*c_v1*cos(gamma)**2
+          [z_found, theta_found] = -a1*c_v1*cos(gamma)**2
+          [z_found, phi_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = c_v1*b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*c_v1*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*c_v1*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = c_v1*a1**2*cos(gamma)**2
+          [theta_found, phi_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_v1*a1**2*sin(gamma)**2
+        inner[-x+y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*c_v1*sin(gamma)**2
+          [y, y_found] = -c_v1*sin(gamma)**2
+          [y, z_found] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = a1*c_v1*cos(gamma)**2
+          [z, phi] = a1*c_v1*cos(gamma)*sin(gamma)
+          [z, y_found] = c_v1*cos(gamma)*sin(gamma)
+          [z, z_found] = -c_v1*cos(gamma)**2
+          [z, psi_found] = -b*c_v1*cos(gamma)**2
+          [z, theta_found] = -a1*c_v1*cos(gamma)**2
+          [z, phi_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, y_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, psi_found] = b*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi_found] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*c_v1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*c_v1*cos(gamma)**2
+          [theta, theta_found] = -c_v1*a1**2*cos(gamma)**2
+          [theta, phi_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+          [phi, y_found] = a1*c_v1*sin(gamma)**2
+          [phi, z_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*c_v1*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -c_v1*a1**2*sin(gamma)**2
+          [y_found, y_found] = c_v1*sin(gamma)**2
+          [y_found, z_found] = -c_v1*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*c_v1*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*c_v1*sin(gamma)**2
+          [z_found, z_found] = c_v1*cos(gamma)**2
+          [z_found, psi_found] = b*c_v1*cos(gamma)**2
+          [z_found, theta_found] = a1*c_v1*cos(gamma)**2
+          [z_found, phi_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = c_v1*b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*c_v1*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*c_v1*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = c_v1*a1**2*cos(gamma)**2
+          [theta_found, phi_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_v1*a1**2*sin(gamma)**2
+        inner[+x-y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*c_v1*sin(gamma)**2
+          [y, y_found] = -c_v1*sin(gamma)**2
+          [y, z_found] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = -a1*c_v1*cos(gamma)**2
+          [z, phi] = a1*c_v1*cos(gamma)*sin(gamma)
+          [z, y_found] = -c_v1*cos(gamma)*sin(gamma)
+          [z, z_found] = -c_v1*cos(gamma)**2
+          [z, psi_found] = b*c_v1*cos(gamma)**2
+          [z, theta_found] = a1*c_v1*cos(gamma)**2
+          [z, phi_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [psi, y_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, psi_found] = b*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi_found] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*c_v1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*c_v1*cos(gamma)**2
+          [theta, theta_found] = -c_v1*a1**2*cos(gamma)**2
+          [theta, phi_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*c_v1*sin(gamma)**2
+          [phi, z_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*c_v1*cos(gamma)*sin(gamma)
+          [phi, theta_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -c_v1*a1**2*sin(gamma)**2
+          [y_found, y_found] = c_v1*sin(gamma)**2
+          [y_found, z_found] = c_v1*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*c_v1*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*c_v1*sin(gamma)**2
+          [z_found, z_found] = c_v1*cos(gamma)**2
+          [z_found, psi_found] = -b*c_v1*cos(gamma)**2
+          [z_found, theta_found] = -a1*c_v1*cos(gamma)**2
+          [z_found, phi_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = c_v1*b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*c_v1*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*c_v1*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = c_v1*a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_v1*a1**2*sin(gamma)**2
+        inner[-x-y]:
+          [y, y] = c_v1*sin(gamma)**2
+          [y, z] = c_v1*cos(gamma)*sin(gamma)
+          [y, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*c_v1*sin(gamma)**2
+          [y, y_found] = -c_v1*sin(gamma)**2
+          [y, z_found] = -c_v1*cos(gamma)*sin(gamma)
+          [y, psi_found] = b*c_v1*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*c_v1*sin(gamma)**2
+          [z, z] = c_v1*cos(gamma)**2
+          [z, psi] = c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = a1*c_v1*cos(gamma)**2
+          [z, phi] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [z, y_found] = -c_v1*cos(gamma)*sin(gamma)
+          [z, z_found] = -c_v1*cos(gamma)**2
+          [z, psi_found] = b*c_v1*cos(gamma)**2
+          [z, theta_found] = -a1*c_v1*cos(gamma)**2
+          [z, phi_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [psi, psi] = c_v1*(b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma))
+          [psi, theta] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, y_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, psi_found] = b*c_v1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*c_v1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi_found] = a1*c_v1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = c_v1*a1**2*cos(gamma)**2
+          [theta, phi] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*c_v1*cos(gamma)**2
+          [theta, psi_found] = a1*b*c_v1*cos(gamma)**2
+          [theta, theta_found] = -c_v1*a1**2*cos(gamma)**2
+          [theta, phi_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = c_v1*a1**2*sin(gamma)**2
+          [phi, y_found] = a1*c_v1*sin(gamma)**2
+          [phi, z_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*c_v1*cos(gamma)*sin(gamma)
+          [phi, theta_found] = c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -c_v1*a1**2*sin(gamma)**2
+          [y_found, y_found] = c_v1*sin(gamma)**2
+          [y_found, z_found] = c_v1*cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*c_v1*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*c_v1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*c_v1*sin(gamma)**2
+          [z_found, z_found] = c_v1*cos(gamma)**2
+          [z_found, psi_found] = -b*c_v1*cos(gamma)**2
+          [z_found, theta_found] = a1*c_v1*cos(gamma)**2
+          [z_found, phi_found] = -a1*c_v1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = c_v1*b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*c_v1*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*c_v1*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = c_v1*a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -c_v1*a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = c_v1*a1**2*sin(gamma)**2
+        outer[+x+y]:
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = -a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = -b*c_v2
+          [z, theta_found] = a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = -a2*b*c_v2
+          [psi, z_found] = -b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+          [theta, z_found] = a2*c_v2
+          [theta, psi_found] = a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = b*c_v2
+          [z_found, theta_found] = -a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = -a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+        outer[-x+y]:
+          [z, z] = c_v2
+          [z, psi] = b*c_v2
+          [z, theta] = a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = -b*c_v2
+          [z, theta_found] = -a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = a2*b*c_v2
+          [psi, z_found] = -b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = -a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+          [theta, z_found] = -a2*c_v2
+          [theta, psi_found] = -a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = b*c_v2
+          [z_found, theta_found] = a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+        outer[+x-y]:
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = -a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = b*c_v2
+          [z, theta_found] = a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = a2*b*c_v2
+          [psi, z_found] = b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = -a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+          [theta, z_found] = a2*c_v2
+          [theta, psi_found] = -a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = -b*c_v2
+          [z_found, theta_found] = -a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+        outer[-x-y]:
+          [z, z] = c_v2
+          [z, psi] = -b*c_v2
+          [z, theta] = a2*c_v2
+          [z, z_found] = -c_v2
+          [z, psi_found] = b*c_v2
+          [z, theta_found] = -a2*c_v2
+          [psi, psi] = c_v2*b**2
+          [psi, theta] = -a2*b*c_v2
+          [psi, z_found] = b*c_v2
+          [psi, psi_found] = -c_v2*b**2
+          [psi, theta_found] = a2*b*c_v2
+          [theta, theta] = c_v2*a2**2
+          [theta, z_found] = -a2*c_v2
+          [theta, psi_found] = a2*b*c_v2
+          [theta, theta_found] = -c_v2*a2**2
+          [z_found, z_found] = c_v2
+          [z_found, psi_found] = -b*c_v2
+          [z_found, theta_found] = a2*c_v2
+          [psi_found, psi_found] = c_v2*b**2
+          [psi_found, theta_found] = -a2*b*c_v2
+          [theta_found, theta_found] = c_v2*a2**2
+    """
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    _tmp0 = numpy.sin(gamma)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * c_v1
+    _tmp3 = numpy.cos(gamma)
+    _tmp4 = _tmp0 * c_v1
+    _tmp5 = _tmp3 * _tmp4
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp3 * b
+    _tmp8 = -_tmp0 * h + _tmp7
+    _tmp9 = -_tmp8
+    _tmp10 = _tmp4 * _tmp9
+    _tmp11 = _tmp5 * a1
+    _tmp12 = _tmp2 * a1
+    _tmp13 = -_tmp2
+    _tmp14 = _tmp4 * _tmp7
+    _tmp15 = -_tmp11
+    _tmp16 = -_tmp12
+    _tmp17 = _tmp3**2
+    _tmp18 = _tmp17 * c_v1
+    _tmp19 = _tmp3 * c_v1
+    _tmp20 = _tmp19 * _tmp8
+    _tmp21 = _tmp18 * a1
+    _tmp22 = -_tmp21
+    _tmp23 = -_tmp18
+    _tmp24 = _tmp18 * b
+    _tmp25 = -_tmp24
+    _tmp26 = b**2
+    _tmp27 = c_v1 * (-2 * _tmp0 * _tmp7 * h + _tmp1 * h**2 + _tmp17 * _tmp26)
+    _tmp28 = _tmp19 * _tmp9
+    _tmp29 = _tmp28 * a1
+    _tmp30 = _tmp10 * a1
+    _tmp31 = _tmp4 * _tmp8
+    _tmp32 = _tmp7 * _tmp9 * c_v1
+    _tmp33 = _tmp20 * a1
+    _tmp34 = _tmp31 * a1
+    _tmp35 = a1**2
+    _tmp36 = _tmp18 * _tmp35
+    _tmp37 = _tmp35 * _tmp5
+    _tmp38 = _tmp21 * b
+    _tmp39 = -_tmp36
+    _tmp40 = -_tmp37
+    _tmp41 = _tmp2 * _tmp35
+    _tmp42 = _tmp14 * a1
+    _tmp43 = -_tmp41
+    _tmp44 = -_tmp14
+    _tmp45 = _tmp18 * _tmp26
+    _tmp46 = -_tmp38
+    _tmp47 = -_tmp42
+    _tmp48 = b * c_v2
+    _tmp49 = a2 * c_v2
+    _tmp50 = -_tmp49
+    _tmp51 = -c_v2
+    _tmp52 = -_tmp48
+    _tmp53 = _tmp26 * c_v2
+    _tmp54 = _tmp48 * a2
+    _tmp55 = -_tmp54
+    _tmp56 = -_tmp53
+    _tmp57 = a2**2 * c_v2
+    _tmp58 = -_tmp57
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    _out = numpy.zeros((*_shape, 8, 12, 12))
+    _out[..., 0, 1, 1] = _tmp2
+    _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp6
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp10
+    _out[..., 0, 1, 4] = _out[..., 0, 4, 1] = _tmp11
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp12
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = _tmp13
+    _out[..., 0, 1, 8] = _out[..., 0, 8, 1] = _tmp5
+    _out[..., 0, 1, 9] = _out[..., 0, 9, 1] = _tmp14
+    _out[..., 0, 1, 10] = _out[..., 0, 10, 1] = _tmp15
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp16
+    _out[..., 0, 2, 2] = _tmp18
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp20
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp22
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp15
+    _out[..., 0, 2, 7] = _out[..., 0, 7, 2] = _tmp5
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp23
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp25
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp21
+    _out[..., 0, 2, 11] = _out[..., 0, 11, 2] = _tmp11
+    _out[..., 0, 3, 3] = _tmp27
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp29
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp30
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp31
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp28
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp32
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp33
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp34
+    _out[..., 0, 4, 4] = _tmp36
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp37
+    _out[..., 0, 4, 7] = _out[..., 0, 7, 4] = _tmp15
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp21
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp38
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp39
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp40
+    _out[..., 0, 5, 5] = _tmp41
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp16
+    _out[..., 0, 5, 8] = _out[..., 0, 8, 5] = _tmp11
+    _out[..., 0, 5, 9] = _out[..., 0, 9, 5] = _tmp42
+    _out[..., 0, 5, 10] = _out[..., 0, 10, 5] = _tmp40
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp43
+    _out[..., 0, 7, 7] = _tmp2
+    _out[..., 0, 7, 8] = _out[..., 0, 8, 7] = _tmp6
+    _out[..., 0, 7, 9] = _out[..., 0, 9, 7] = _tmp44
+    _out[..., 0, 7, 10] = _out[..., 0, 10, 7] = _tmp11
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp12
+    _out[..., 0, 8, 8] = _tmp18
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp24
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp22
+    _out[..., 0, 8, 11] = _out[..., 0, 11, 8] = _tmp15
+    _out[..., 0, 9, 9] = _tmp45
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp46
+    _out[..., 0, 9, 11] = _out[..., 0, 11, 9] = _tmp47
+    _out[..., 0, 10, 10] = _tmp36
+    _out[..., 0, 10, 11] = _out[..., 0, 11, 10] = _tmp37
+    _out[..., 0, 11, 11] = _tmp41
+    _out[..., 1, 1, 1] = _tmp2
+    _out[..., 1, 1, 2] = _out[..., 1, 2, 1] = _tmp6
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp10
+    _out[..., 1, 1, 4] = _out[..., 1, 4, 1] = _tmp15
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp16
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = _tmp13
+    _out[..., 1, 1, 8] = _out[..., 1, 8, 1] = _tmp5
+    _out[..., 1, 1, 9] = _out[..., 1, 9, 1] = _tmp14
+    _out[..., 1, 1, 10] = _out[..., 1, 10, 1] = _tmp11
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp12
+    _out[..., 1, 2, 2] = _tmp18
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp20
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp21
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp11
+    _out[..., 1, 2, 7] = _out[..., 1, 7, 2] = _tmp5
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp23
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp25
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp22
+    _out[..., 1, 2, 11] = _out[..., 1, 11, 2] = _tmp15
+    _out[..., 1, 3, 3] = _tmp27
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp33
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp34
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp31
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp28
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp32
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp29
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp30
+    _out[..., 1, 4, 4] = _tmp36
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp37
+    _out[..., 1, 4, 7] = _out[..., 1, 7, 4] = _tmp11
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp22
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp46
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp39
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp40
+    _out[..., 1, 5, 5] = _tmp41
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp12
+    _out[..., 1, 5, 8] = _out[..., 1, 8, 5] = _tmp15
+    _out[..., 1, 5, 9] = _out[..., 1, 9, 5] = _tmp47
+    _out[..., 1, 5, 10] = _out[..., 1, 10, 5] = _tmp40
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp43
+    _out[..., 1, 7, 7] = _tmp2
+    _out[..., 1, 7, 8] = _out[..., 1, 8, 7] = _tmp6
+    _out[..., 1, 7, 9] = _out[..., 1, 9, 7] = _tmp44
+    _out[..., 1, 7, 10] = _out[..., 1, 10, 7] = _tmp15
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp16
+    _out[..., 1, 8, 8] = _tmp18
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp24
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp21
+    _out[..., 1, 8, 11] = _out[..., 1, 11, 8] = _tmp11
+    _out[..., 1, 9, 9] = _tmp45
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp38
+    _out[..., 1, 9, 11] = _out[..., 1, 11, 9] = _tmp42
+    _out[..., 1, 10, 10] = _tmp36
+    _out[..., 1, 10, 11] = _out[..., 1, 11, 10] = _tmp37
+    _out[..., 1, 11, 11] = _tmp41
+    _out[..., 2, 1, 1] = _tmp2
+    _out[..., 2, 1, 2] = _out[..., 2, 2, 1] = _tmp5
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp10
+    _out[..., 2, 1, 4] = _out[..., 2, 4, 1] = _tmp15
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp12
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = _tmp13
+    _out[..., 2, 1, 8] = _out[..., 2, 8, 1] = _tmp6
+    _out[..., 2, 1, 9] = _out[..., 2, 9, 1] = _tmp14
+    _out[..., 2, 1, 10] = _out[..., 2, 10, 1] = _tmp11
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp16
+    _out[..., 2, 2, 2] = _tmp18
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp28
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp22
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp11
+    _out[..., 2, 2, 7] = _out[..., 2, 7, 2] = _tmp6
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp23
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp24
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp21
+    _out[..., 2, 2, 11] = _out[..., 2, 11, 2] = _tmp15
+    _out[..., 2, 3, 3] = _tmp27
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp33
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp30
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp31
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp20
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp32
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp29
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp34
+    _out[..., 2, 4, 4] = _tmp36
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp40
+    _out[..., 2, 4, 7] = _out[..., 2, 7, 4] = _tmp11
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp21
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp46
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp39
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp37
+    _out[..., 2, 5, 5] = _tmp41
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp16
+    _out[..., 2, 5, 8] = _out[..., 2, 8, 5] = _tmp15
+    _out[..., 2, 5, 9] = _out[..., 2, 9, 5] = _tmp42
+    _out[..., 2, 5, 10] = _out[..., 2, 10, 5] = _tmp37
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp43
+    _out[..., 2, 7, 7] = _tmp2
+    _out[..., 2, 7, 8] = _out[..., 2, 8, 7] = _tmp5
+    _out[..., 2, 7, 9] = _out[..., 2, 9, 7] = _tmp44
+    _out[..., 2, 7, 10] = _out[..., 2, 10, 7] = _tmp15
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp12
+    _out[..., 2, 8, 8] = _tmp18
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp25
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp22
+    _out[..., 2, 8, 11] = _out[..., 2, 11, 8] = _tmp11
+    _out[..., 2, 9, 9] = _tmp45
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp38
+    _out[..., 2, 9, 11] = _out[..., 2, 11, 9] = _tmp47
+    _out[..., 2, 10, 10] = _tmp36
+    _out[..., 2, 10, 11] = _out[..., 2, 11, 10] = _tmp40
+    _out[..., 2, 11, 11] = _tmp41
+    _out[..., 3, 1, 1] = _tmp2
+    _out[..., 3, 1, 2] = _out[..., 3, 2, 1] = _tmp5
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp10
+    _out[..., 3, 1, 4] = _out[..., 3, 4, 1] = _tmp11
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp16
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = _tmp13
+    _out[..., 3, 1, 8] = _out[..., 3, 8, 1] = _tmp6
+    _out[..., 3, 1, 9] = _out[..., 3, 9, 1] = _tmp14
+    _out[..., 3, 1, 10] = _out[..., 3, 10, 1] = _tmp15
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp12
+    _out[..., 3, 2, 2] = _tmp18
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp28
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp21
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp15
+    _out[..., 3, 2, 7] = _out[..., 3, 7, 2] = _tmp6
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp23
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp24
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp22
+    _out[..., 3, 2, 11] = _out[..., 3, 11, 2] = _tmp11
+    _out[..., 3, 3, 3] = _tmp27
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp29
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp34
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp31
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp20
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp32
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp33
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp30
+    _out[..., 3, 4, 4] = _tmp36
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp40
+    _out[..., 3, 4, 7] = _out[..., 3, 7, 4] = _tmp15
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp22
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp38
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp39
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp37
+    _out[..., 3, 5, 5] = _tmp41
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp12
+    _out[..., 3, 5, 8] = _out[..., 3, 8, 5] = _tmp11
+    _out[..., 3, 5, 9] = _out[..., 3, 9, 5] = _tmp47
+    _out[..., 3, 5, 10] = _out[..., 3, 10, 5] = _tmp37
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp43
+    _out[..., 3, 7, 7] = _tmp2
+    _out[..., 3, 7, 8] = _out[..., 3, 8, 7] = _tmp5
+    _out[..., 3, 7, 9] = _out[..., 3, 9, 7] = _tmp44
+    _out[..., 3, 7, 10] = _out[..., 3, 10, 7] = _tmp11
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp16
+    _out[..., 3, 8, 8] = _tmp18
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp25
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp21
+    _out[..., 3, 8, 11] = _out[..., 3, 11, 8] = _tmp15
+    _out[..., 3, 9, 9] = _tmp45
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp46
+    _out[..., 3, 9, 11] = _out[..., 3, 11, 9] = _tmp42
+    _out[..., 3, 10, 10] = _tmp36
+    _out[..., 3, 10, 11] = _out[..., 3, 11, 10] = _tmp40
+    _out[..., 3, 11, 11] = _tmp41
+    _out[..., 4, 2, 2] = c_v2
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp48
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp50
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp51
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp52
+    _out[..., 4, 2, 10] = _out[..., 4, 10, 2] = _tmp49
+    _out[..., 4, 3, 3] = _tmp53
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp55
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp52
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp56
+    _out[..., 4, 3, 10] = _out[..., 4, 10, 3] = _tmp54
+    _out[..., 4, 4, 4] = _tmp57
+    _out[..., 4, 4, 8] = _out[..., 4, 8, 4] = _tmp49
+    _out[..., 4, 4, 9] = _out[..., 4, 9, 4] = _tmp54
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp58
+    _out[..., 4, 8, 8] = c_v2
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp48
+    _out[..., 4, 8, 10] = _out[..., 4, 10, 8] = _tmp50
+    _out[..., 4, 9, 9] = _tmp53
+    _out[..., 4, 9, 10] = _out[..., 4, 10, 9] = _tmp55
+    _out[..., 4, 10, 10] = _tmp57
+    _out[..., 5, 2, 2] = c_v2
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp48
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp49
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = _tmp51
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp52
+    _out[..., 5, 2, 10] = _out[..., 5, 10, 2] = _tmp50
+    _out[..., 5, 3, 3] = _tmp53
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp54
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp52
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp56
+    _out[..., 5, 3, 10] = _out[..., 5, 10, 3] = _tmp55
+    _out[..., 5, 4, 4] = _tmp57
+    _out[..., 5, 4, 8] = _out[..., 5, 8, 4] = _tmp50
+    _out[..., 5, 4, 9] = _out[..., 5, 9, 4] = _tmp55
+    _out[..., 5, 4, 10] = _out[..., 5, 10, 4] = _tmp58
+    _out[..., 5, 8, 8] = c_v2
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp48
+    _out[..., 5, 8, 10] = _out[..., 5, 10, 8] = _tmp49
+    _out[..., 5, 9, 9] = _tmp53
+    _out[..., 5, 9, 10] = _out[..., 5, 10, 9] = _tmp54
+    _out[..., 5, 10, 10] = _tmp57
+    _out[..., 6, 2, 2] = c_v2
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp52
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp50
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = _tmp51
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp48
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp49
+    _out[..., 6, 3, 3] = _tmp53
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp54
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp48
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp56
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp55
+    _out[..., 6, 4, 4] = _tmp57
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp49
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp55
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp58
+    _out[..., 6, 8, 8] = c_v2
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp52
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp50
+    _out[..., 6, 9, 9] = _tmp53
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp54
+    _out[..., 6, 10, 10] = _tmp57
+    _out[..., 7, 2, 2] = c_v2
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp52
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp49
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = _tmp51
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp48
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp50
+    _out[..., 7, 3, 3] = _tmp53
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp55
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp48
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp56
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp54
+    _out[..., 7, 4, 4] = _tmp57
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp50
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp54
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp58
+    _out[..., 7, 8, 8] = c_v2
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp52
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp49
+    _out[..., 7, 9, 9] = _tmp53
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp55
+    _out[..., 7, 10, 10] = _tmp57
+    return _out
+
+
+def isolator_axial_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
+    """Derivatives of isolator_axial_stiffness_on_foundation() with respect to the unknowns c_x, c_y, c_v1, c_v2, shape
+    (..., 4, 8, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dinner[+x+y]/dc_x:
+        dinner[-x+y]/dc_x:
+        dinner[+x-y]/dc_x:
+        dinner[-x-y]/dc_x:
+        douter[+x+y]/dc_x:
+        douter[-x+y]/dc_x:
+        douter[+x-y]/dc_x:
+        douter[-x-y]/dc_x:
+        dinner[+x+y]/dc_y:
+        dinner[-x+y]/dc_y:
+        dinner[+x-y]/dc_y:
+        dinner[-x-y]/dc_y:
+        douter[+x+y]/dc_y:
+        douter[-x+y]/dc_y:
+        douter[+x-y]/dc_y:
+        douter[-x-y]/dc_y:
+        dinner[+x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = -b*cos(gamma)**2
+          [z, theta_found] = a1*cos(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [psi, y_found] = (b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, psi_found] = b*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi_found] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*cos(gamma)**2
+          [theta, psi_found] = a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*sin(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = b*cos(gamma)**2
+          [z_found, theta_found] = -a1*cos(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[-x+y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = -b*cos(gamma)**2
+          [z, theta_found] = -a1*cos(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, y_found] = (b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, psi_found] = b*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi_found] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = a1*sin(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = -cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = b*cos(gamma)**2
+          [z_found, theta_found] = a1*cos(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[+x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = b*cos(gamma)**2
+          [z, theta_found] = a1*cos(gamma)**2
+          [z, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [psi, y_found] = (b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, psi_found] = b*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi_found] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = a1*cos(gamma)**2
+          [theta, psi_found] = -a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = -a1*sin(gamma)**2
+          [phi, z_found] = -a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = -b*cos(gamma)**2
+          [z_found, theta_found] = -a1*cos(gamma)**2
+          [z_found, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = a1*b*cos(gamma)**2
+          [psi_found, phi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        dinner[-x-y]/dc_v1:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = (h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [y, y_found] = -sin(gamma)**2
+          [y, z_found] = -cos(gamma)*sin(gamma)
+          [y, psi_found] = b*cos(gamma)*sin(gamma)
+          [y, theta_found] = -a1*cos(gamma)*sin(gamma)
+          [y, phi_found] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = (h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [z, y_found] = -cos(gamma)*sin(gamma)
+          [z, z_found] = -cos(gamma)**2
+          [z, psi_found] = b*cos(gamma)**2
+          [z, theta_found] = -a1*cos(gamma)**2
+          [z, phi_found] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, phi] = a1*(b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, y_found] = (b*cos(gamma) - h*sin(gamma))*sin(gamma)
+          [psi, z_found] = (b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, psi_found] = b*(h*sin(gamma) - b*cos(gamma))*cos(gamma)
+          [psi, theta_found] = a1*(b*cos(gamma) - h*sin(gamma))*cos(gamma)
+          [psi, phi_found] = a1*(h*sin(gamma) - b*cos(gamma))*sin(gamma)
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [theta, y_found] = -a1*cos(gamma)*sin(gamma)
+          [theta, z_found] = -a1*cos(gamma)**2
+          [theta, psi_found] = a1*b*cos(gamma)**2
+          [theta, theta_found] = -a1**2*cos(gamma)**2
+          [theta, phi_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+          [phi, y_found] = a1*sin(gamma)**2
+          [phi, z_found] = a1*cos(gamma)*sin(gamma)
+          [phi, psi_found] = -a1*b*cos(gamma)*sin(gamma)
+          [phi, theta_found] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi_found] = -a1**2*sin(gamma)**2
+          [y_found, y_found] = sin(gamma)**2
+          [y_found, z_found] = cos(gamma)*sin(gamma)
+          [y_found, psi_found] = -b*cos(gamma)*sin(gamma)
+          [y_found, theta_found] = a1*cos(gamma)*sin(gamma)
+          [y_found, phi_found] = -a1*sin(gamma)**2
+          [z_found, z_found] = cos(gamma)**2
+          [z_found, psi_found] = -b*cos(gamma)**2
+          [z_found, theta_found] = a1*cos(gamma)**2
+          [z_found, phi_found] = -a1*cos(gamma)*sin(gamma)
+          [psi_found, psi_found] = b**2*cos(gamma)**2
+          [psi_found, theta_found] = -a1*b*cos(gamma)**2
+          [psi_found, phi_found] = a1*b*cos(gamma)*sin(gamma)
+          [theta_found, theta_found] = a1**2*cos(gamma)**2
+          [theta_found, phi_found] = -a1**2*cos(gamma)*sin(gamma)
+          [phi_found, phi_found] = a1**2*sin(gamma)**2
+        douter[+x+y]/dc_v1:
+        douter[-x+y]/dc_v1:
+        douter[+x-y]/dc_v1:
+        douter[-x-y]/dc_v1:
+        dinner[+x+y]/dc_v2:
+        dinner[-x+y]/dc_v2:
+        dinner[+x-y]/dc_v2:
+        dinner[-x-y]/dc_v2:
+        douter[+x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a2
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = a2
+          [theta, psi_found] = a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = -a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a2*b
+          [theta_found, theta_found] = a2**2
+        douter[-x+y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a2
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = -a2
+          [theta, psi_found] = -a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a2*b
+          [theta_found, theta_found] = a2**2
+        douter[+x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a2
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = a2
+          [theta, psi_found] = -a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = -a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a2*b
+          [theta_found, theta_found] = a2**2
+        douter[-x-y]/dc_v2:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a2
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a2*b
+          [theta, theta] = a2**2
+          [theta, z_found] = -a2
+          [theta, psi_found] = a2*b
+          [theta, theta_found] = -a2**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = a2
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a2*b
+          [theta_found, theta_found] = a2**2
+    """
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    _tmp0 = numpy.sin(gamma)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.cos(gamma)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = -_tmp3
+    _tmp5 = _tmp2 * b
+    _tmp6 = -_tmp0 * h + _tmp5
+    _tmp7 = -_tmp6
+    _tmp8 = _tmp0 * _tmp7
+    _tmp9 = _tmp3 * a1
+    _tmp10 = _tmp1 * a1
+    _tmp11 = -_tmp1
+    _tmp12 = _tmp3 * b
+    _tmp13 = -_tmp9
+    _tmp14 = -_tmp10
+    _tmp15 = _tmp2**2
+    _tmp16 = _tmp2 * _tmp6
+    _tmp17 = _tmp15 * a1
+    _tmp18 = -_tmp17
+    _tmp19 = -_tmp15
+    _tmp20 = _tmp15 * b
+    _tmp21 = -_tmp20
+    _tmp22 = b**2
+    _tmp23 = _tmp15 * _tmp22
+    _tmp24 = _tmp1 * h**2 - 2 * _tmp12 * h + _tmp23
+    _tmp25 = _tmp2 * _tmp7
+    _tmp26 = _tmp25 * a1
+    _tmp27 = _tmp8 * a1
+    _tmp28 = _tmp0 * _tmp6
+    _tmp29 = _tmp5 * _tmp7
+    _tmp30 = _tmp16 * a1
+    _tmp31 = _tmp28 * a1
+    _tmp32 = a1**2
+    _tmp33 = _tmp15 * _tmp32
+    _tmp34 = _tmp3 * _tmp32
+    _tmp35 = _tmp17 * b
+    _tmp36 = -_tmp33
+    _tmp37 = -_tmp34
+    _tmp38 = _tmp1 * _tmp32
+    _tmp39 = _tmp9 * b
+    _tmp40 = -_tmp38
+    _tmp41 = -_tmp12
+    _tmp42 = -_tmp35
+    _tmp43 = -_tmp39
+    _tmp44 = -a2
+    _tmp45 = -b
+    _tmp46 = a2 * b
+    _tmp47 = -_tmp46
+    _tmp48 = -_tmp22
+    _tmp49 = a2**2
+    _tmp50 = -_tmp49
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a1),
+        numpy.shape(a2),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(gamma),
+        numpy.shape(c_v1),
+        numpy.shape(c_v2),
+    )
+    _out = numpy.zeros((*_shape, 32, 12, 12))
+    _out[..., 16, 1, 1] = _tmp1
+    _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp4
+    _out[..., 16, 1, 3] = _out[..., 16, 3, 1] = _tmp8
+    _out[..., 16, 1, 4] = _out[..., 16, 4, 1] = _tmp9
+    _out[..., 16, 1, 5] = _out[..., 16, 5, 1] = _tmp10
+    _out[..., 16, 1, 7] = _out[..., 16, 7, 1] = _tmp11
+    _out[..., 16, 1, 8] = _out[..., 16, 8, 1] = _tmp3
+    _out[..., 16, 1, 9] = _out[..., 16, 9, 1] = _tmp12
+    _out[..., 16, 1, 10] = _out[..., 16, 10, 1] = _tmp13
+    _out[..., 16, 1, 11] = _out[..., 16, 11, 1] = _tmp14
+    _out[..., 16, 2, 2] = _tmp15
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = _tmp16
+    _out[..., 16, 2, 4] = _out[..., 16, 4, 2] = _tmp18
+    _out[..., 16, 2, 5] = _out[..., 16, 5, 2] = _tmp13
+    _out[..., 16, 2, 7] = _out[..., 16, 7, 2] = _tmp3
+    _out[..., 16, 2, 8] = _out[..., 16, 8, 2] = _tmp19
+    _out[..., 16, 2, 9] = _out[..., 16, 9, 2] = _tmp21
+    _out[..., 16, 2, 10] = _out[..., 16, 10, 2] = _tmp17
+    _out[..., 16, 2, 11] = _out[..., 16, 11, 2] = _tmp9
+    _out[..., 16, 3, 3] = _tmp24
+    _out[..., 16, 3, 4] = _out[..., 16, 4, 3] = _tmp26
+    _out[..., 16, 3, 5] = _out[..., 16, 5, 3] = _tmp27
+    _out[..., 16, 3, 7] = _out[..., 16, 7, 3] = _tmp28
+    _out[..., 16, 3, 8] = _out[..., 16, 8, 3] = _tmp25
+    _out[..., 16, 3, 9] = _out[..., 16, 9, 3] = _tmp29
+    _out[..., 16, 3, 10] = _out[..., 16, 10, 3] = _tmp30
+    _out[..., 16, 3, 11] = _out[..., 16, 11, 3] = _tmp31
+    _out[..., 16, 4, 4] = _tmp33
+    _out[..., 16, 4, 5] = _out[..., 16, 5, 4] = _tmp34
+    _out[..., 16, 4, 7] = _out[..., 16, 7, 4] = _tmp13
+    _out[..., 16, 4, 8] = _out[..., 16, 8, 4] = _tmp17
+    _out[..., 16, 4, 9] = _out[..., 16, 9, 4] = _tmp35
+    _out[..., 16, 4, 10] = _out[..., 16, 10, 4] = _tmp36
+    _out[..., 16, 4, 11] = _out[..., 16, 11, 4] = _tmp37
+    _out[..., 16, 5, 5] = _tmp38
+    _out[..., 16, 5, 7] = _out[..., 16, 7, 5] = _tmp14
+    _out[..., 16, 5, 8] = _out[..., 16, 8, 5] = _tmp9
+    _out[..., 16, 5, 9] = _out[..., 16, 9, 5] = _tmp39
+    _out[..., 16, 5, 10] = _out[..., 16, 10, 5] = _tmp37
+    _out[..., 16, 5, 11] = _out[..., 16, 11, 5] = _tmp40
+    _out[..., 16, 7, 7] = _tmp1
+    _out[..., 16, 7, 8] = _out[..., 16, 8, 7] = _tmp4
+    _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp41
+    _out[..., 16, 7, 10] = _out[..., 16, 10, 7] = _tmp9
+    _out[..., 16, 7, 11] = _out[..., 16, 11, 7] = _tmp10
+    _out[..., 16, 8, 8] = _tmp15
+    _out[..., 16, 8, 9] = _out[..., 16, 9, 8] = _tmp20
+    _out[..., 16, 8, 10] = _out[..., 16, 10, 8] = _tmp18
+    _out[..., 16, 8, 11] = _out[..., 16, 11, 8] = _tmp13
+    _out[..., 16, 9, 9] = _tmp23
+    _out[..., 16, 9, 10] = _out[..., 16, 10, 9] = _tmp42
+    _out[..., 16, 9, 11] = _out[..., 16, 11, 9] = _tmp43
+    _out[..., 16, 10, 10] = _tmp33
+    _out[..., 16, 10, 11] = _out[..., 16, 11, 10] = _tmp34
+    _out[..., 16, 11, 11] = _tmp38
+    _out[..., 17, 1, 1] = _tmp1
+    _out[..., 17, 1, 2] = _out[..., 17, 2, 1] = _tmp4
+    _out[..., 17, 1, 3] = _out[..., 17, 3, 1] = _tmp8
+    _out[..., 17, 1, 4] = _out[..., 17, 4, 1] = _tmp13
+    _out[..., 17, 1, 5] = _out[..., 17, 5, 1] = _tmp14
+    _out[..., 17, 1, 7] = _out[..., 17, 7, 1] = _tmp11
+    _out[..., 17, 1, 8] = _out[..., 17, 8, 1] = _tmp3
+    _out[..., 17, 1, 9] = _out[..., 17, 9, 1] = _tmp12
+    _out[..., 17, 1, 10] = _out[..., 17, 10, 1] = _tmp9
+    _out[..., 17, 1, 11] = _out[..., 17, 11, 1] = _tmp10
+    _out[..., 17, 2, 2] = _tmp15
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp16
+    _out[..., 17, 2, 4] = _out[..., 17, 4, 2] = _tmp17
+    _out[..., 17, 2, 5] = _out[..., 17, 5, 2] = _tmp9
+    _out[..., 17, 2, 7] = _out[..., 17, 7, 2] = _tmp3
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = _tmp19
+    _out[..., 17, 2, 9] = _out[..., 17, 9, 2] = _tmp21
+    _out[..., 17, 2, 10] = _out[..., 17, 10, 2] = _tmp18
+    _out[..., 17, 2, 11] = _out[..., 17, 11, 2] = _tmp13
+    _out[..., 17, 3, 3] = _tmp24
+    _out[..., 17, 3, 4] = _out[..., 17, 4, 3] = _tmp30
+    _out[..., 17, 3, 5] = _out[..., 17, 5, 3] = _tmp31
+    _out[..., 17, 3, 7] = _out[..., 17, 7, 3] = _tmp28
+    _out[..., 17, 3, 8] = _out[..., 17, 8, 3] = _tmp25
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp29
+    _out[..., 17, 3, 10] = _out[..., 17, 10, 3] = _tmp26
+    _out[..., 17, 3, 11] = _out[..., 17, 11, 3] = _tmp27
+    _out[..., 17, 4, 4] = _tmp33
+    _out[..., 17, 4, 5] = _out[..., 17, 5, 4] = _tmp34
+    _out[..., 17, 4, 7] = _out[..., 17, 7, 4] = _tmp9
+    _out[..., 17, 4, 8] = _out[..., 17, 8, 4] = _tmp18
+    _out[..., 17, 4, 9] = _out[..., 17, 9, 4] = _tmp42
+    _out[..., 17, 4, 10] = _out[..., 17, 10, 4] = _tmp36
+    _out[..., 17, 4, 11] = _out[..., 17, 11, 4] = _tmp37
+    _out[..., 17, 5, 5] = _tmp38
+    _out[..., 17, 5, 7] = _out[..., 17, 7, 5] = _tmp10
+    _out[..., 17, 5, 8] = _out[..., 17, 8, 5] = _tmp13
+    _out[..., 17, 5, 9] = _out[..., 17, 9, 5] = _tmp43
+    _out[..., 17, 5, 10] = _out[..., 17, 10, 5] = _tmp37
+    _out[..., 17, 5, 11] = _out[..., 17, 11, 5] = _tmp40
+    _out[..., 17, 7, 7] = _tmp1
+    _out[..., 17, 7, 8] = _out[..., 17, 8, 7] = _tmp4
+    _out[..., 17, 7, 9] = _out[..., 17, 9, 7] = _tmp41
+    _out[..., 17, 7, 10] = _out[..., 17, 10, 7] = _tmp13
+    _out[..., 17, 7, 11] = _out[..., 17, 11, 7] = _tmp14
+    _out[..., 17, 8, 8] = _tmp15
+    _out[..., 17, 8, 9] = _out[..., 17, 9, 8] = _tmp20
+    _out[..., 17, 8, 10] = _out[..., 17, 10, 8] = _tmp17
+    _out[..., 17, 8, 11] = _out[..., 17, 11, 8] = _tmp9
+    _out[..., 17, 9, 9] = _tmp23
+    _out[..., 17, 9, 10] = _out[..., 17, 10, 9] = _tmp35
+    _out[..., 17, 9, 11] = _out[..., 17, 11, 9] = _tmp39
+    _out[..., 17, 10, 10] = _tmp33
+    _out[..., 17, 10, 11] = _out[..., 17, 11, 10] = _tmp34
+    _out[..., 17, 11, 11] = _tmp38
+    _out[..., 18, 1, 1] = _tmp1
+    _out[..., 18, 1, 2] = _out[..., 18, 2, 1] = _tmp3
+    _out[..., 18, 1, 3] = _out[..., 18, 3, 1] = _tmp8
+    _out[..., 18, 1, 4] = _out[..., 18, 4, 1] = _tmp13
+    _out[..., 18, 1, 5] = _out[..., 18, 5, 1] = _tmp10
+    _out[..., 18, 1, 7] = _out[..., 18, 7, 1] = _tmp11
+    _out[..., 18, 1, 8] = _out[..., 18, 8, 1] = _tmp4
+    _out[..., 18, 1, 9] = _out[..., 18, 9, 1] = _tmp12
+    _out[..., 18, 1, 10] = _out[..., 18, 10, 1] = _tmp9
+    _out[..., 18, 1, 11] = _out[..., 18, 11, 1] = _tmp14
+    _out[..., 18, 2, 2] = _tmp15
+    _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = _tmp25
+    _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = _tmp18
+    _out[..., 18, 2, 5] = _out[..., 18, 5, 2] = _tmp9
+    _out[..., 18, 2, 7] = _out[..., 18, 7, 2] = _tmp4
+    _out[..., 18, 2, 8] = _out[..., 18, 8, 2] = _tmp19
+    _out[..., 18, 2, 9] = _out[..., 18, 9, 2] = _tmp20
+    _out[..., 18, 2, 10] = _out[..., 18, 10, 2] = _tmp17
+    _out[..., 18, 2, 11] = _out[..., 18, 11, 2] = _tmp13
+    _out[..., 18, 3, 3] = _tmp24
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp30
+    _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = _tmp27
+    _out[..., 18, 3, 7] = _out[..., 18, 7, 3] = _tmp28
+    _out[..., 18, 3, 8] = _out[..., 18, 8, 3] = _tmp16
+    _out[..., 18, 3, 9] = _out[..., 18, 9, 3] = _tmp29
+    _out[..., 18, 3, 10] = _out[..., 18, 10, 3] = _tmp26
+    _out[..., 18, 3, 11] = _out[..., 18, 11, 3] = _tmp31
+    _out[..., 18, 4, 4] = _tmp33
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp37
+    _out[..., 18, 4, 7] = _out[..., 18, 7, 4] = _tmp9
+    _out[..., 18, 4, 8] = _out[..., 18, 8, 4] = _tmp17
+    _out[..., 18, 4, 9] = _out[..., 18, 9, 4] = _tmp42
+    _out[..., 18, 4, 10] = _out[..., 18, 10, 4] = _tmp36
+    _out[..., 18, 4, 11] = _out[..., 18, 11, 4] = _tmp34
+    _out[..., 18, 5, 5] = _tmp38
+    _out[..., 18, 5, 7] = _out[..., 18, 7, 5] = _tmp14
+    _out[..., 18, 5, 8] = _out[..., 18, 8, 5] = _tmp13
+    _out[..., 18, 5, 9] = _out[..., 18, 9, 5] = _tmp39
+    _out[..., 18, 5, 10] = _out[..., 18, 10, 5] = _tmp34
+    _out[..., 18, 5, 11] = _out[..., 18, 11, 5] = _tmp40
+    _out[..., 18, 7, 7] = _tmp1
+    _out[..., 18, 7, 8] = _out[..., 18, 8, 7] = _tmp3
+    _out[..., 18, 7, 9] = _out[..., 18, 9, 7] = _tmp41
+    _out[..., 18, 7, 10] = _out[..., 18, 10, 7] = _tmp13
+    _out[..., 18, 7, 11] = _out[..., 18, 11, 7] = _tmp10
+    _out[..., 18, 8, 8] = _tmp15
+    _out[..., 18, 8, 9] = _out[..., 18, 9, 8] = _tmp21
+    _out[..., 18, 8, 10] = _out[..., 18, 10, 8] = _tmp18
+    _out[..., 18, 8, 11] = _out[..., 18, 11, 8] = _tmp9
+    _out[..., 18, 9, 9] = _tmp23
+    _out[..., 18, 9, 10] = _out[..., 18, 10, 9] = _tmp35
+    _out[..., 18, 9, 11] = _out[..., 18, 11, 9] = _tmp43
+    _out[..., 18, 10, 10] = _tmp33
+    _out[..., 18, 10, 11] = _out[..., 18, 11, 10] = _tmp37
+    _out[..., 18, 11, 11] = _tmp38
+    _out[..., 19, 1, 1] = _tmp1
+    _out[..., 19, 1, 2] = _out[..., 19, 2, 1] = _tmp3
+    _out[..., 19, 1, 3] = _out[..., 19, 3, 1] = _tmp8
+    _out[..., 19, 1, 4] = _out[..., 19, 4, 1] = _tmp9
+    _out[..., 19, 1, 5] = _out[..., 19, 5, 1] = _tmp14
+    _out[..., 19, 1, 7] = _out[..., 19, 7, 1] = _tmp11
+    _out[..., 19, 1, 8] = _out[..., 19, 8, 1] = _tmp4
+    _out[..., 19, 1, 9] = _out[..., 19, 9, 1] = _tmp12
+    _out[..., 19, 1, 10] = _out[..., 19, 10, 1] = _tmp13
+    _out[..., 19, 1, 11] = _out[..., 19, 11, 1] = _tmp10
+    _out[..., 19, 2, 2] = _tmp15
+    _out[..., 19, 2, 3] = _out[..., 19, 3, 2] = _tmp25
+    _out[..., 19, 2, 4] = _out[..., 19, 4, 2] = _tmp17
+    _out[..., 19, 2, 5] = _out[..., 19, 5, 2] = _tmp13
+    _out[..., 19, 2, 7] = _out[..., 19, 7, 2] = _tmp4
+    _out[..., 19, 2, 8] = _out[..., 19, 8, 2] = _tmp19
+    _out[..., 19, 2, 9] = _out[..., 19, 9, 2] = _tmp20
+    _out[..., 19, 2, 10] = _out[..., 19, 10, 2] = _tmp18
+    _out[..., 19, 2, 11] = _out[..., 19, 11, 2] = _tmp9
+    _out[..., 19, 3, 3] = _tmp24
+    _out[..., 19, 3, 4] = _out[..., 19, 4, 3] = _tmp26
+    _out[..., 19, 3, 5] = _out[..., 19, 5, 3] = _tmp31
+    _out[..., 19, 3, 7] = _out[..., 19, 7, 3] = _tmp28
+    _out[..., 19, 3, 8] = _out[..., 19, 8, 3] = _tmp16
+    _out[..., 19, 3, 9] = _out[..., 19, 9, 3] = _tmp29
+    _out[..., 19, 3, 10] = _out[..., 19, 10, 3] = _tmp30
+    _out[..., 19, 3, 11] = _out[..., 19, 11, 3] = _tmp27
+    _out[..., 19, 4, 4] = _tmp33
+    _out[..., 19, 4, 5] = _out[..., 19, 5, 4] = _tmp37
+    _out[..., 19, 4, 7] = _out[..., 19, 7, 4] = _tmp13
+    _out[..., 19, 4, 8] = _out[..., 19, 8, 4] = _tmp18
+    _out[..., 19, 4, 9] = _out[..., 19, 9, 4] = _tmp35
+    _out[..., 19, 4, 10] = _out[..., 19, 10, 4] = _tmp36
+    _out[..., 19, 4, 11] = _out[..., 19, 11, 4] = _tmp34
+    _out[..., 19, 5, 5] = _tmp38
+    _out[..., 19, 5, 7] = _out[..., 19, 7, 5] = _tmp10
+    _out[..., 19, 5, 8] = _out[..., 19, 8, 5] = _tmp9
+    _out[..., 19, 5, 9] = _out[..., 19, 9, 5] = _tmp43
+    _out[..., 19, 5, 10] = _out[..., 19, 10, 5] = _tmp34
+    _out[..., 19, 5, 11] = _out[..., 19, 11, 5] = _tmp40
+    _out[..., 19, 7, 7] = _tmp1
+    _out[..., 19, 7, 8] = _out[..., 19, 8, 7] = _tmp3
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp41
+    _out[..., 19, 7, 10] = _out[..., 19, 10, 7] = _tmp9
+    _out[..., 19, 7, 11] = _out[..., 19, 11, 7] = _tmp14
+    _out[..., 19, 8, 8] = _tmp15
+    _out[..., 19, 8, 9] = _out[..., 19, 9, 8] = _tmp21
+    _out[..., 19, 8, 10] = _out[..., 19, 10, 8] = _tmp17
+    _out[..., 19, 8, 11] = _out[..., 19, 11, 8] = _tmp13
+    _out[..., 19, 9, 9] = _tmp23
+    _out[..., 19, 9, 10] = _out[..., 19, 10, 9] = _tmp42
+    _out[..., 19, 9, 11] = _out[..., 19, 11, 9] = _tmp39
+    _out[..., 19, 10, 10] = _tmp33
+    _out[..., 19, 10, 11] = _out[..., 19, 11, 10] = _tmp37
+    _out[..., 19, 11, 11] = _tmp38
+    _out[..., 28, 2, 2] = 1
+    _out[..., 28, 2, 3] = _out[..., 28, 3, 2] = b
+    _out[..., 28, 2, 4] = _out[..., 28, 4, 2] = _tmp44
+    _out[..., 28, 2, 8] = _out[..., 28, 8, 2] = -1
+    _out[..., 28, 2, 9] = _out[..., 28, 9, 2] = _tmp45
+    _out[..., 28, 2, 10] = _out[..., 28, 10, 2] = a2
+    _out[..., 28, 3, 3] = _tmp22
+    _out[..., 28, 3, 4] = _out[..., 28, 4, 3] = _tmp47
+    _out[..., 28, 3, 8] = _out[..., 28, 8, 3] = _tmp45
+    _out[..., 28, 3, 9] = _out[..., 28, 9, 3] = _tmp48
+    _out[..., 28, 3, 10] = _out[..., 28, 10, 3] = _tmp46
+    _out[..., 28, 4, 4] = _tmp49
+    _out[..., 28, 4, 8] = _out[..., 28, 8, 4] = a2
+    _out[..., 28, 4, 9] = _out[..., 28, 9, 4] = _tmp46
+    _out[..., 28, 4, 10] = _out[..., 28, 10, 4] = _tmp50
+    _out[..., 28, 8, 8] = 1
+    _out[..., 28, 8, 9] = _out[..., 28, 9, 8] = b
+    _out[..., 28, 8, 10] = _out[..., 28, 10, 8] = _tmp44
+    _out[..., 28, 9, 9] = _tmp22
+    _out[..., 28, 9, 10] = _out[..., 28, 10, 9] = _tmp47
+    _out[..., 28, 10, 10] = _tmp49
+    _out[..., 29, 2, 2] = 1
+    _out[..., 29, 2, 3] = _out[..., 29, 3, 2] = b
+    _out[..., 29, 2, 4] = _out[..., 29, 4, 2] = a2
+    _out[..., 29, 2, 8] = _out[..., 29, 8, 2] = -1
+    _out[..., 29, 2, 9] = _out[..., 29, 9, 2] = _tmp45
+    _out[..., 29, 2, 10] = _out[..., 29, 10, 2] = _tmp44
+    _out[..., 29, 3, 3] = _tmp22
+    _out[..., 29, 3, 4] = _out[..., 29, 4, 3] = _tmp46
+    _out[..., 29, 3, 8] = _out[..., 29, 8, 3] = _tmp45
+    _out[..., 29, 3, 9] = _out[..., 29, 9, 3] = _tmp48
+    _out[..., 29, 3, 10] = _out[..., 29, 10, 3] = _tmp47
+    _out[..., 29, 4, 4] = _tmp49
+    _out[..., 29, 4, 8] = _out[..., 29, 8, 4] = _tmp44
+    _out[..., 29, 4, 9] = _out[..., 29, 9, 4] = _tmp47
+    _out[..., 29, 4, 10] = _out[..., 29, 10, 4] = _tmp50
+    _out[..., 29, 8, 8] = 1
+    _out[..., 29, 8, 9] = _out[..., 29, 9, 8] = b
+    _out[..., 29, 8, 10] = _out[..., 29, 10, 8] = a2
+    _out[..., 29, 9, 9] = _tmp22
+    _out[..., 29, 9, 10] = _out[..., 29, 10, 9] = _tmp46
+    _out[..., 29, 10, 10] = _tmp49
+    _out[..., 30, 2, 2] = 1
+    _out[..., 30, 2, 3] = _out[..., 30, 3, 2] = _tmp45
+    _out[..., 30, 2, 4] = _out[..., 30, 4, 2] = _tmp44
+    _out[..., 30, 2, 8] = _out[..., 30, 8, 2] = -1
+    _out[..., 30, 2, 9] = _out[..., 30, 9, 2] = b
+    _out[..., 30, 2, 10] = _out[..., 30, 10, 2] = a2
+    _out[..., 30, 3, 3] = _tmp22
+    _out[..., 30, 3, 4] = _out[..., 30, 4, 3] = _tmp46
+    _out[..., 30, 3, 8] = _out[..., 30, 8, 3] = b
+    _out[..., 30, 3, 9] = _out[..., 30, 9, 3] = _tmp48
+    _out[..., 30, 3, 10] = _out[..., 30, 10, 3] = _tmp47
+    _out[..., 30, 4, 4] = _tmp49
+    _out[..., 30, 4, 8] = _out[..., 30, 8, 4] = a2
+    _out[..., 30, 4, 9] = _out[..., 30, 9, 4] = _tmp47
+    _out[..., 30, 4, 10] = _out[..., 30, 10, 4] = _tmp50
+    _out[..., 30, 8, 8] = 1
+    _out[..., 30, 8, 9] = _out[..., 30, 9, 8] = _tmp45
+    _out[..., 30, 8, 10] = _out[..., 30, 10, 8] = _tmp44
+    _out[..., 30, 9, 9] = _tmp22
+    _out[..., 30, 9, 10] = _out[..., 30, 10, 9] = _tmp46
+    _out[..., 30, 10, 10] = _tmp49
+    _out[..., 31, 2, 2] = 1
+    _out[..., 31, 2, 3] = _out[..., 31, 3, 2] = _tmp45
+    _out[..., 31, 2, 4] = _out[..., 31, 4, 2] = a2
+    _out[..., 31, 2, 8] = _out[..., 31, 8, 2] = -1
+    _out[..., 31, 2, 9] = _out[..., 31, 9, 2] = b
+    _out[..., 31, 2, 10] = _out[..., 31, 10, 2] = _tmp44
+    _out[..., 31, 3, 3] = _tmp22
+    _out[..., 31, 3, 4] = _out[..., 31, 4, 3] = _tmp47
+    _out[..., 31, 3, 8] = _out[..., 31, 8, 3] = b
+    _out[..., 31, 3, 9] = _out[..., 31, 9, 3] = _tmp48
+    _out[..., 31, 3, 10] = _out[..., 31, 10, 3] = _tmp46
+    _out[..., 31, 4, 4] = _tmp49
+    _out[..., 31, 4, 8] = _out[..., 31, 8, 4] = _tmp44
+    _out[..., 31, 4, 9] = _out[..., 31, 9, 4] = _tmp46
+    _out[..., 31, 4, 10] = _out[..., 31, 10, 4] = _tmp50
+    _out[..., 31, 8, 8] = 1
+    _out[..., 31, 8, 9] = _out[..., 31, 9, 8] = _tmp45
+    _out[..., 31, 8, 10] = _out[..., 31, 10, 8] = a2
+    _out[..., 31, 9, 9] = _tmp22
+    _out[..., 31, 9, 10] = _out[..., 31, 10, 9] = _tmp47
+    _out[..., 31, 10, 10] = _tmp49
+    return _out.reshape(*_shape, 4, 8, 12, 12)
 
 
 def isolator_points(a1, a2, b, h):

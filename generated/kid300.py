@@ -245,6 +245,10 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_axial_stiffness": ("L_xy", "c_z"),
     "isolator_axial_stiffness_gradient": ("L_xy", "c_z"),
+    "isolator_stiffness_on_foundation": ("L_xy", "L_z", "c_xy", "c_z"),
+    "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
+    "isolator_axial_stiffness_on_foundation": ("L_xy", "c_z"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("L_xy", "c_z"),
     "isolator_points": ("L_xy", "L_z"),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
@@ -2428,8 +2432,9 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
 
 
 def isolator_stiffness(L_xy, L_z, c_xy, c_z):
-    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6),
-    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone,
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -2747,8 +2752,9 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
 
 
 def isolator_axial_stiffness(L_xy, c_z):
-    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 4, 6, 6),
-    isolators in the order of ISOLATORS.
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -2887,6 +2893,1211 @@ def isolator_axial_stiffness_gradient(L_xy, c_z):
     _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp3
     _out[..., 7, 4, 4] = _tmp2
     return _out.reshape(*_shape, 2, 4, 6, 6)
+
+
+def isolator_stiffness_on_foundation(L_xy, L_z, c_xy, c_z):
+    """Stiffness matrix of each isolator alone between the body and the support of foundation,
+    shape (..., 4, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = -L_xy*c_xy*sqrt(2)/2
+          [x, x_found] = -c_xy
+          [x, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = L_xy*c_xy*sqrt(2)/2
+          [y, y_found] = -c_xy
+          [y, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [psi, y_found] = -L_z*c_xy
+          [psi, z_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = c_z*L_xy**2/2
+          [psi, phi_found] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, x_found] = L_z*c_xy
+          [theta, z_found] = L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [theta, phi_found] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+          [phi, x_found] = L_xy*c_xy*sqrt(2)/2
+          [phi, y_found] = -L_xy*c_xy*sqrt(2)/2
+          [phi, phi_found] = -c_xy*L_xy**2
+          [x_found, x_found] = c_xy
+          [x_found, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [y_found, y_found] = c_xy
+          [y_found, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = -c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+          [phi_found, phi_found] = c_xy*L_xy**2
+        corner[-x+y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = -L_xy*c_xy*sqrt(2)/2
+          [x, x_found] = -c_xy
+          [x, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = -L_xy*c_xy*sqrt(2)/2
+          [y, y_found] = -c_xy
+          [y, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [psi, y_found] = -L_z*c_xy
+          [psi, z_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = -c_z*L_xy**2/2
+          [psi, phi_found] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, x_found] = L_z*c_xy
+          [theta, z_found] = -L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = -c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [theta, phi_found] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+          [phi, x_found] = L_xy*c_xy*sqrt(2)/2
+          [phi, y_found] = L_xy*c_xy*sqrt(2)/2
+          [phi, phi_found] = -c_xy*L_xy**2
+          [x_found, x_found] = c_xy
+          [x_found, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [y_found, y_found] = c_xy
+          [y_found, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+          [phi_found, phi_found] = c_xy*L_xy**2
+        corner[+x-y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = L_xy*c_xy*sqrt(2)/2
+          [x, x_found] = -c_xy
+          [x, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = L_xy*c_xy*sqrt(2)/2
+          [y, y_found] = -c_xy
+          [y, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*c_xy*sqrt(2)/2
+          [psi, y_found] = -L_z*c_xy
+          [psi, z_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = -c_z*L_xy**2/2
+          [psi, phi_found] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, x_found] = L_z*c_xy
+          [theta, z_found] = L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = -c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [theta, phi_found] = L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+          [phi, x_found] = -L_xy*c_xy*sqrt(2)/2
+          [phi, y_found] = -L_xy*c_xy*sqrt(2)/2
+          [phi, phi_found] = -c_xy*L_xy**2
+          [x_found, x_found] = c_xy
+          [x_found, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [y_found, y_found] = c_xy
+          [y_found, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+          [phi_found, phi_found] = c_xy*L_xy**2
+        corner[-x-y]:
+          [x, x] = c_xy
+          [x, theta] = -L_z*c_xy
+          [x, phi] = L_xy*c_xy*sqrt(2)/2
+          [x, x_found] = -c_xy
+          [x, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [y, y] = c_xy
+          [y, psi] = L_z*c_xy
+          [y, phi] = -L_xy*c_xy*sqrt(2)/2
+          [y, y_found] = -c_xy
+          [y, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [psi, y_found] = -L_z*c_xy
+          [psi, z_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = c_z*L_xy**2/2
+          [psi, phi_found] = L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, theta] = c_xy*L_z**2 + c_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
+          [theta, x_found] = L_z*c_xy
+          [theta, z_found] = -L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [theta, phi_found] = L_xy*L_z*c_xy*sqrt(2)/2
+          [phi, phi] = c_xy*L_xy**2
+          [phi, x_found] = -L_xy*c_xy*sqrt(2)/2
+          [phi, y_found] = L_xy*c_xy*sqrt(2)/2
+          [phi, phi_found] = -c_xy*L_xy**2
+          [x_found, x_found] = c_xy
+          [x_found, phi_found] = L_xy*c_xy*sqrt(2)/2
+          [y_found, y_found] = c_xy
+          [y_found, phi_found] = -L_xy*c_xy*sqrt(2)/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = -c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+          [phi_found, phi_found] = c_xy*L_xy**2
+    """
+    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    _tmp0 = L_z * c_xy
+    _tmp1 = -_tmp0
+    _tmp2 = numpy.sqrt(2) * L_xy
+    _tmp3 = (0.5) * _tmp2
+    _tmp4 = _tmp3 * c_xy
+    _tmp5 = -_tmp4
+    _tmp6 = -c_xy
+    _tmp7 = (0.5) * c_z
+    _tmp8 = _tmp2 * _tmp7
+    _tmp9 = -_tmp8
+    _tmp10 = -c_z
+    _tmp11 = L_xy**2
+    _tmp12 = _tmp11 * _tmp7
+    _tmp13 = L_z**2 * c_xy + _tmp12
+    _tmp14 = -_tmp12
+    _tmp15 = _tmp0 * _tmp3
+    _tmp16 = -_tmp15
+    _tmp17 = _tmp11 * c_xy
+    _tmp18 = -_tmp17
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 4, 12, 12))
+    _out[..., 0, 0, 0] = c_xy
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp5
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp6
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp4
+    _out[..., 0, 1, 1] = c_xy
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp0
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp4
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = _tmp6
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp5
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp8
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp9
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp10
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp9
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp8
+    _out[..., 0, 3, 3] = _tmp13
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp14
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp15
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp1
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp9
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp14
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp12
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp16
+    _out[..., 0, 4, 4] = _tmp13
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp15
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp0
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp8
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp12
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp14
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp16
+    _out[..., 0, 5, 5] = _tmp17
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp4
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp5
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp18
+    _out[..., 0, 6, 6] = c_xy
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp5
+    _out[..., 0, 7, 7] = c_xy
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp4
+    _out[..., 0, 8, 8] = c_z
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp8
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp9
+    _out[..., 0, 9, 9] = _tmp12
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp14
+    _out[..., 0, 10, 10] = _tmp12
+    _out[..., 0, 11, 11] = _tmp17
+    _out[..., 1, 0, 0] = c_xy
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp5
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp6
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp4
+    _out[..., 1, 1, 1] = c_xy
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp0
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp5
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = _tmp6
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp4
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp8
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp8
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp10
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp9
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp9
+    _out[..., 1, 3, 3] = _tmp13
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp12
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp16
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp1
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp9
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp14
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp14
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp15
+    _out[..., 1, 4, 4] = _tmp13
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp15
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp9
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp14
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp14
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp16
+    _out[..., 1, 5, 5] = _tmp17
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp4
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp4
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp18
+    _out[..., 1, 6, 6] = c_xy
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp5
+    _out[..., 1, 7, 7] = c_xy
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp5
+    _out[..., 1, 8, 8] = c_z
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp8
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp8
+    _out[..., 1, 9, 9] = _tmp12
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp12
+    _out[..., 1, 10, 10] = _tmp12
+    _out[..., 1, 11, 11] = _tmp17
+    _out[..., 2, 0, 0] = c_xy
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp4
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp6
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp5
+    _out[..., 2, 1, 1] = c_xy
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp0
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp4
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = _tmp6
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp5
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp9
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp9
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp10
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp8
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp8
+    _out[..., 2, 3, 3] = _tmp13
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp12
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp15
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp1
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp8
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp14
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp14
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp16
+    _out[..., 2, 4, 4] = _tmp13
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp16
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp0
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp8
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp14
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp14
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp15
+    _out[..., 2, 5, 5] = _tmp17
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp5
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp5
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp18
+    _out[..., 2, 6, 6] = c_xy
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp4
+    _out[..., 2, 7, 7] = c_xy
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp4
+    _out[..., 2, 8, 8] = c_z
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp9
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp9
+    _out[..., 2, 9, 9] = _tmp12
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp12
+    _out[..., 2, 10, 10] = _tmp12
+    _out[..., 2, 11, 11] = _tmp17
+    _out[..., 3, 0, 0] = c_xy
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp4
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp6
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp5
+    _out[..., 3, 1, 1] = c_xy
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp0
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp5
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = _tmp6
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp4
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp9
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp8
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp10
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp8
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp9
+    _out[..., 3, 3, 3] = _tmp13
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp14
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp16
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp1
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp8
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp14
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp12
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp15
+    _out[..., 3, 4, 4] = _tmp13
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp16
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp0
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp9
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp12
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp14
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp15
+    _out[..., 3, 5, 5] = _tmp17
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp5
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp4
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp18
+    _out[..., 3, 6, 6] = c_xy
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp4
+    _out[..., 3, 7, 7] = c_xy
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp5
+    _out[..., 3, 8, 8] = c_z
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp9
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp8
+    _out[..., 3, 9, 9] = _tmp12
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp14
+    _out[..., 3, 10, 10] = _tmp12
+    _out[..., 3, 11, 11] = _tmp17
+    return _out
+
+
+def isolator_stiffness_on_foundation_gradient(L_xy, L_z, c_xy, c_z):
+    """Derivatives of isolator_stiffness_on_foundation() with respect to the unknowns c_xy, c_z, shape
+    (..., 2, 4, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [x, x_found] = -1
+          [x, phi_found] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [y, y_found] = -1
+          [y, phi_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [psi, y_found] = -L_z
+          [psi, phi_found] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, x_found] = L_z
+          [theta, phi_found] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+          [phi, x_found] = L_xy*sqrt(2)/2
+          [phi, y_found] = -L_xy*sqrt(2)/2
+          [phi, phi_found] = -L_xy**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -L_xy*sqrt(2)/2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = L_xy*sqrt(2)/2
+          [phi_found, phi_found] = L_xy**2
+        dcorner[-x+y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [x, x_found] = -1
+          [x, phi_found] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [y, y_found] = -1
+          [y, phi_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [psi, y_found] = -L_z
+          [psi, phi_found] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, x_found] = L_z
+          [theta, phi_found] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+          [phi, x_found] = L_xy*sqrt(2)/2
+          [phi, y_found] = L_xy*sqrt(2)/2
+          [phi, phi_found] = -L_xy**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -L_xy*sqrt(2)/2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -L_xy*sqrt(2)/2
+          [phi_found, phi_found] = L_xy**2
+        dcorner[+x-y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [x, x_found] = -1
+          [x, phi_found] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [y, y_found] = -1
+          [y, phi_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [psi, y_found] = -L_z
+          [psi, phi_found] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, x_found] = L_z
+          [theta, phi_found] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+          [phi, x_found] = -L_xy*sqrt(2)/2
+          [phi, y_found] = -L_xy*sqrt(2)/2
+          [phi, phi_found] = -L_xy**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = L_xy*sqrt(2)/2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = L_xy*sqrt(2)/2
+          [phi_found, phi_found] = L_xy**2
+        dcorner[-x-y]/dc_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [x, x_found] = -1
+          [x, phi_found] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [y, y_found] = -1
+          [y, phi_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [psi, y_found] = -L_z
+          [psi, phi_found] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, x_found] = L_z
+          [theta, phi_found] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+          [phi, x_found] = -L_xy*sqrt(2)/2
+          [phi, y_found] = L_xy*sqrt(2)/2
+          [phi, phi_found] = -L_xy**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = L_xy*sqrt(2)/2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -L_xy*sqrt(2)/2
+          [phi_found, phi_found] = L_xy**2
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = -L_xy*sqrt(2)/2
+          [z, theta_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [psi, z_found] = -L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = L_xy*sqrt(2)/2
+          [theta, psi_found] = L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = L_xy*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = -L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = -L_xy*sqrt(2)/2
+          [z, theta_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [psi, z_found] = -L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = -L_xy*sqrt(2)/2
+          [theta, psi_found] = -L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = L_xy*sqrt(2)/2
+          [z_found, theta_found] = L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = L_xy*sqrt(2)/2
+          [z, theta_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [psi, z_found] = L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = L_xy*sqrt(2)/2
+          [theta, psi_found] = -L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -L_xy*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = L_xy*sqrt(2)/2
+          [z, theta_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [psi, z_found] = L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = -L_xy*sqrt(2)/2
+          [theta, psi_found] = L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -L_xy*sqrt(2)/2
+          [z_found, theta_found] = L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = -L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+    """
+    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    _tmp0 = -L_z
+    _tmp1 = (0.5) * numpy.sqrt(2) * L_xy
+    _tmp2 = -_tmp1
+    _tmp3 = L_z**2
+    _tmp4 = L_z * _tmp1
+    _tmp5 = -_tmp4
+    _tmp6 = L_xy**2
+    _tmp7 = -_tmp6
+    _tmp8 = (0.5) * _tmp6
+    _tmp9 = -_tmp8
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 8, 12, 12))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp2
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = -1
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp1
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = L_z
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp1
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = -1
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp2
+    _out[..., 0, 3, 3] = _tmp3
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp4
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp0
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp5
+    _out[..., 0, 4, 4] = _tmp3
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp4
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = L_z
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp5
+    _out[..., 0, 5, 5] = _tmp6
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp1
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp2
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp7
+    _out[..., 0, 6, 6] = 1
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp2
+    _out[..., 0, 7, 7] = 1
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp1
+    _out[..., 0, 11, 11] = _tmp6
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp2
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -1
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp1
+    _out[..., 1, 1, 1] = 1
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = L_z
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp2
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = -1
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp1
+    _out[..., 1, 3, 3] = _tmp3
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp5
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp0
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp4
+    _out[..., 1, 4, 4] = _tmp3
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp4
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = L_z
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp5
+    _out[..., 1, 5, 5] = _tmp6
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp1
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp1
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp7
+    _out[..., 1, 6, 6] = 1
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp2
+    _out[..., 1, 7, 7] = 1
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp2
+    _out[..., 1, 11, 11] = _tmp6
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp1
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = -1
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp2
+    _out[..., 2, 1, 1] = 1
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = L_z
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp1
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = -1
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp2
+    _out[..., 2, 3, 3] = _tmp3
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp4
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp0
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp5
+    _out[..., 2, 4, 4] = _tmp3
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp5
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = L_z
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp4
+    _out[..., 2, 5, 5] = _tmp6
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp2
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp2
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp7
+    _out[..., 2, 6, 6] = 1
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp1
+    _out[..., 2, 7, 7] = 1
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp1
+    _out[..., 2, 11, 11] = _tmp6
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp1
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = -1
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp2
+    _out[..., 3, 1, 1] = 1
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = L_z
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp2
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = -1
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp1
+    _out[..., 3, 3, 3] = _tmp3
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp5
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp0
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp4
+    _out[..., 3, 4, 4] = _tmp3
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp5
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = L_z
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp4
+    _out[..., 3, 5, 5] = _tmp6
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp2
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp1
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp7
+    _out[..., 3, 6, 6] = 1
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp1
+    _out[..., 3, 7, 7] = 1
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp2
+    _out[..., 3, 11, 11] = _tmp6
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp1
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp2
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = -1
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp2
+    _out[..., 4, 2, 10] = _out[..., 4, 10, 2] = _tmp1
+    _out[..., 4, 3, 3] = _tmp8
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp9
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp2
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp9
+    _out[..., 4, 3, 10] = _out[..., 4, 10, 3] = _tmp8
+    _out[..., 4, 4, 4] = _tmp8
+    _out[..., 4, 4, 8] = _out[..., 4, 8, 4] = _tmp1
+    _out[..., 4, 4, 9] = _out[..., 4, 9, 4] = _tmp8
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp9
+    _out[..., 4, 8, 8] = 1
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp1
+    _out[..., 4, 8, 10] = _out[..., 4, 10, 8] = _tmp2
+    _out[..., 4, 9, 9] = _tmp8
+    _out[..., 4, 9, 10] = _out[..., 4, 10, 9] = _tmp9
+    _out[..., 4, 10, 10] = _tmp8
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp1
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp1
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = -1
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp2
+    _out[..., 5, 2, 10] = _out[..., 5, 10, 2] = _tmp2
+    _out[..., 5, 3, 3] = _tmp8
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp8
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp2
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp9
+    _out[..., 5, 3, 10] = _out[..., 5, 10, 3] = _tmp9
+    _out[..., 5, 4, 4] = _tmp8
+    _out[..., 5, 4, 8] = _out[..., 5, 8, 4] = _tmp2
+    _out[..., 5, 4, 9] = _out[..., 5, 9, 4] = _tmp9
+    _out[..., 5, 4, 10] = _out[..., 5, 10, 4] = _tmp9
+    _out[..., 5, 8, 8] = 1
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp1
+    _out[..., 5, 8, 10] = _out[..., 5, 10, 8] = _tmp1
+    _out[..., 5, 9, 9] = _tmp8
+    _out[..., 5, 9, 10] = _out[..., 5, 10, 9] = _tmp8
+    _out[..., 5, 10, 10] = _tmp8
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp2
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp2
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = -1
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp1
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp1
+    _out[..., 6, 3, 3] = _tmp8
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp8
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp1
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp9
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp9
+    _out[..., 6, 4, 4] = _tmp8
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp1
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp9
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp9
+    _out[..., 6, 8, 8] = 1
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp2
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp2
+    _out[..., 6, 9, 9] = _tmp8
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp8
+    _out[..., 6, 10, 10] = _tmp8
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp2
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp1
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = -1
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp1
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp2
+    _out[..., 7, 3, 3] = _tmp8
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp9
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp1
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp9
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp8
+    _out[..., 7, 4, 4] = _tmp8
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp2
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp8
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp9
+    _out[..., 7, 8, 8] = 1
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp2
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp1
+    _out[..., 7, 9, 9] = _tmp8
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp9
+    _out[..., 7, 10, 10] = _tmp8
+    return _out.reshape(*_shape, 2, 4, 12, 12)
+
+
+def isolator_axial_stiffness_on_foundation(L_xy, c_z):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression) between the body and the support of foundation,
+    shape (..., 4, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, z_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+          [theta, z_found] = L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = -c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+        corner[-x+y]:
+          [z, z] = c_z
+          [z, psi] = L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, z_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = -c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+          [theta, z_found] = -L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = -c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+        corner[+x-y]:
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = -L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = c_z*L_xy**2/2
+          [psi, z_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = -c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+          [theta, z_found] = L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = -c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+        corner[-x-y]:
+          [z, z] = c_z
+          [z, psi] = -L_xy*c_z*sqrt(2)/2
+          [z, theta] = L_xy*c_z*sqrt(2)/2
+          [z, z_found] = -c_z
+          [z, psi_found] = L_xy*c_z*sqrt(2)/2
+          [z, theta_found] = -L_xy*c_z*sqrt(2)/2
+          [psi, psi] = c_z*L_xy**2/2
+          [psi, theta] = -c_z*L_xy**2/2
+          [psi, z_found] = L_xy*c_z*sqrt(2)/2
+          [psi, psi_found] = -c_z*L_xy**2/2
+          [psi, theta_found] = c_z*L_xy**2/2
+          [theta, theta] = c_z*L_xy**2/2
+          [theta, z_found] = -L_xy*c_z*sqrt(2)/2
+          [theta, psi_found] = c_z*L_xy**2/2
+          [theta, theta_found] = -c_z*L_xy**2/2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -L_xy*c_z*sqrt(2)/2
+          [z_found, theta_found] = L_xy*c_z*sqrt(2)/2
+          [psi_found, psi_found] = c_z*L_xy**2/2
+          [psi_found, theta_found] = -c_z*L_xy**2/2
+          [theta_found, theta_found] = c_z*L_xy**2/2
+    """
+    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    _tmp0 = (0.5) * c_z
+    _tmp1 = numpy.sqrt(2) * L_xy * _tmp0
+    _tmp2 = -_tmp1
+    _tmp3 = -c_z
+    _tmp4 = L_xy**2 * _tmp0
+    _tmp5 = -_tmp4
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 4, 12, 12))
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp1
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp2
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp3
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp2
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp1
+    _out[..., 0, 3, 3] = _tmp4
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp5
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp2
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp5
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp4
+    _out[..., 0, 4, 4] = _tmp4
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp1
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp4
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp5
+    _out[..., 0, 8, 8] = c_z
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp1
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp2
+    _out[..., 0, 9, 9] = _tmp4
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp5
+    _out[..., 0, 10, 10] = _tmp4
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp1
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp1
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp3
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp2
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp2
+    _out[..., 1, 3, 3] = _tmp4
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp4
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp2
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp5
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp5
+    _out[..., 1, 4, 4] = _tmp4
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp2
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp5
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp5
+    _out[..., 1, 8, 8] = c_z
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp1
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp1
+    _out[..., 1, 9, 9] = _tmp4
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp4
+    _out[..., 1, 10, 10] = _tmp4
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp2
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp2
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp3
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp1
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp1
+    _out[..., 2, 3, 3] = _tmp4
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp4
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp1
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp5
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp5
+    _out[..., 2, 4, 4] = _tmp4
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp1
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp5
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp5
+    _out[..., 2, 8, 8] = c_z
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp2
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp2
+    _out[..., 2, 9, 9] = _tmp4
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp4
+    _out[..., 2, 10, 10] = _tmp4
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp2
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp1
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp3
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp1
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp2
+    _out[..., 3, 3, 3] = _tmp4
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp5
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp1
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp5
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp4
+    _out[..., 3, 4, 4] = _tmp4
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp2
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp4
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp5
+    _out[..., 3, 8, 8] = c_z
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp2
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp1
+    _out[..., 3, 9, 9] = _tmp4
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp5
+    _out[..., 3, 10, 10] = _tmp4
+    return _out
+
+
+def isolator_axial_stiffness_on_foundation_gradient(L_xy, c_z):
+    """Derivatives of isolator_axial_stiffness_on_foundation() with respect to the unknowns c_xy, c_z, shape
+    (..., 2, 4, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_xy:
+        dcorner[-x+y]/dc_xy:
+        dcorner[+x-y]/dc_xy:
+        dcorner[-x-y]/dc_xy:
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = -L_xy*sqrt(2)/2
+          [z, theta_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [psi, z_found] = -L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = L_xy*sqrt(2)/2
+          [theta, psi_found] = L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = L_xy*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = -L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = -L_xy*sqrt(2)/2
+          [z, theta_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [psi, z_found] = -L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = -L_xy*sqrt(2)/2
+          [theta, psi_found] = -L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = L_xy*sqrt(2)/2
+          [z_found, theta_found] = L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = L_xy*sqrt(2)/2
+          [z, theta_found] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [psi, z_found] = L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = L_xy*sqrt(2)/2
+          [theta, psi_found] = -L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -L_xy*sqrt(2)/2
+          [z_found, theta_found] = -L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [z, z_found] = -1
+          [z, psi_found] = L_xy*sqrt(2)/2
+          [z, theta_found] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [psi, z_found] = L_xy*sqrt(2)/2
+          [psi, psi_found] = -L_xy**2/2
+          [psi, theta_found] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+          [theta, z_found] = -L_xy*sqrt(2)/2
+          [theta, psi_found] = L_xy**2/2
+          [theta, theta_found] = -L_xy**2/2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -L_xy*sqrt(2)/2
+          [z_found, theta_found] = L_xy*sqrt(2)/2
+          [psi_found, psi_found] = L_xy**2/2
+          [psi_found, theta_found] = -L_xy**2/2
+          [theta_found, theta_found] = L_xy**2/2
+    """
+    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    _tmp0 = (0.5) * numpy.sqrt(2) * L_xy
+    _tmp1 = -_tmp0
+    _tmp2 = (0.5) * L_xy**2
+    _tmp3 = -_tmp2
+    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 8, 12, 12))
+    _out[..., 4, 2, 2] = 1
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp0
+    _out[..., 4, 2, 4] = _out[..., 4, 4, 2] = _tmp1
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = -1
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp1
+    _out[..., 4, 2, 10] = _out[..., 4, 10, 2] = _tmp0
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 3, 4] = _out[..., 4, 4, 3] = _tmp3
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp1
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp3
+    _out[..., 4, 3, 10] = _out[..., 4, 10, 3] = _tmp2
+    _out[..., 4, 4, 4] = _tmp2
+    _out[..., 4, 4, 8] = _out[..., 4, 8, 4] = _tmp0
+    _out[..., 4, 4, 9] = _out[..., 4, 9, 4] = _tmp2
+    _out[..., 4, 4, 10] = _out[..., 4, 10, 4] = _tmp3
+    _out[..., 4, 8, 8] = 1
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp0
+    _out[..., 4, 8, 10] = _out[..., 4, 10, 8] = _tmp1
+    _out[..., 4, 9, 9] = _tmp2
+    _out[..., 4, 9, 10] = _out[..., 4, 10, 9] = _tmp3
+    _out[..., 4, 10, 10] = _tmp2
+    _out[..., 5, 2, 2] = 1
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp0
+    _out[..., 5, 2, 4] = _out[..., 5, 4, 2] = _tmp0
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = -1
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp1
+    _out[..., 5, 2, 10] = _out[..., 5, 10, 2] = _tmp1
+    _out[..., 5, 3, 3] = _tmp2
+    _out[..., 5, 3, 4] = _out[..., 5, 4, 3] = _tmp2
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp1
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp3
+    _out[..., 5, 3, 10] = _out[..., 5, 10, 3] = _tmp3
+    _out[..., 5, 4, 4] = _tmp2
+    _out[..., 5, 4, 8] = _out[..., 5, 8, 4] = _tmp1
+    _out[..., 5, 4, 9] = _out[..., 5, 9, 4] = _tmp3
+    _out[..., 5, 4, 10] = _out[..., 5, 10, 4] = _tmp3
+    _out[..., 5, 8, 8] = 1
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp0
+    _out[..., 5, 8, 10] = _out[..., 5, 10, 8] = _tmp0
+    _out[..., 5, 9, 9] = _tmp2
+    _out[..., 5, 9, 10] = _out[..., 5, 10, 9] = _tmp2
+    _out[..., 5, 10, 10] = _tmp2
+    _out[..., 6, 2, 2] = 1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp1
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp1
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = -1
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp0
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp0
+    _out[..., 6, 3, 3] = _tmp2
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp2
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp0
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp3
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp3
+    _out[..., 6, 4, 4] = _tmp2
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp0
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp3
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp3
+    _out[..., 6, 8, 8] = 1
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp1
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp1
+    _out[..., 6, 9, 9] = _tmp2
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp2
+    _out[..., 6, 10, 10] = _tmp2
+    _out[..., 7, 2, 2] = 1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp1
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp0
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = -1
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp0
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp1
+    _out[..., 7, 3, 3] = _tmp2
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp3
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp0
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp3
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp2
+    _out[..., 7, 4, 4] = _tmp2
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp1
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp2
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp3
+    _out[..., 7, 8, 8] = 1
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp1
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp0
+    _out[..., 7, 9, 9] = _tmp2
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp3
+    _out[..., 7, 10, 10] = _tmp2
+    return _out.reshape(*_shape, 2, 4, 12, 12)
 
 
 def isolator_points(L_xy, L_z):

@@ -383,6 +383,10 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_axial_stiffness": ("a", "b", "c_z"),
     "isolator_axial_stiffness_gradient": ("a", "b", "c_z"),
+    "isolator_stiffness_on_foundation": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
+    "isolator_axial_stiffness_on_foundation": ("a", "b", "c_z"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "c_z"),
     "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
 }
@@ -3727,8 +3731,9 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
 
 
 def isolator_stiffness(a, b, h, c_x, c_y, c_z):
-    """Stiffness matrix of each isolator alone, shape (..., 4, 6, 6),
-    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone,
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -4072,8 +4077,9 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
 
 
 def isolator_axial_stiffness(a, b, c_z):
-    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 4, 6, 6),
-    isolators in the order of ISOLATORS.
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -4221,6 +4227,1273 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
     _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp3
     _out[..., 11, 4, 4] = _tmp4
     return _out.reshape(*_shape, 3, 4, 6, 6)
+
+
+def isolator_stiffness_on_foundation(a, b, h, c_x, c_y, c_z):
+    """Stiffness matrix of each isolator alone between the body and the support of foundation,
+    shape (..., 4, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = a*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = -a*c_y
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = -a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = -b*c_z
+          [z, theta_found] = a*c_z
+          [psi, psi] = c_y*h**2 + c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [psi, phi] = a*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = -b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = a*b*c_z
+          [psi, phi_found] = -a*c_y*h
+          [theta, theta] = c_x*h**2 + c_z*a**2
+          [theta, phi] = b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = a*c_z
+          [theta, psi_found] = a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [theta, phi_found] = -b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = -a*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = a*c_y
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = b*c_z
+          [z_found, theta_found] = -a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = -a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a**2
+        corner[-x+y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = -b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = -a*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = a*c_y
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = -b*c_z
+          [z, theta_found] = -a*c_z
+          [psi, psi] = c_y*h**2 + c_z*b**2
+          [psi, theta] = a*b*c_z
+          [psi, phi] = -a*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = -b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = -a*b*c_z
+          [psi, phi_found] = a*c_y*h
+          [theta, theta] = c_x*h**2 + c_z*a**2
+          [theta, phi] = b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = -a*c_z
+          [theta, psi_found] = -a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [theta, phi_found] = -b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a**2
+          [phi, x_found] = b*c_x
+          [phi, y_found] = a*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = -b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = -a*c_y
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = b*c_z
+          [z_found, theta_found] = a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a**2
+        corner[+x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = a*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = -a*c_y
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = -a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = b*c_z
+          [z, theta_found] = a*c_z
+          [psi, psi] = c_y*h**2 + c_z*b**2
+          [psi, theta] = a*b*c_z
+          [psi, phi] = a*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = -a*b*c_z
+          [psi, phi_found] = -a*c_y*h
+          [theta, theta] = c_x*h**2 + c_z*a**2
+          [theta, phi] = -b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = a*c_z
+          [theta, psi_found] = -a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [theta, phi_found] = b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = -a*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = a*c_y
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -b*c_z
+          [z_found, theta_found] = -a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a**2
+        corner[-x-y]:
+          [x, x] = c_x
+          [x, theta] = -c_x*h
+          [x, phi] = b*c_x
+          [x, x_found] = -c_x
+          [x, phi_found] = -b*c_x
+          [y, y] = c_y
+          [y, psi] = c_y*h
+          [y, phi] = -a*c_y
+          [y, y_found] = -c_y
+          [y, phi_found] = a*c_y
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = b*c_z
+          [z, theta_found] = -a*c_z
+          [psi, psi] = c_y*h**2 + c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [psi, phi] = -a*c_y*h
+          [psi, y_found] = -c_y*h
+          [psi, z_found] = b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = a*b*c_z
+          [psi, phi_found] = a*c_y*h
+          [theta, theta] = c_x*h**2 + c_z*a**2
+          [theta, phi] = -b*c_x*h
+          [theta, x_found] = c_x*h
+          [theta, z_found] = -a*c_z
+          [theta, psi_found] = a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [theta, phi_found] = b*c_x*h
+          [phi, phi] = c_x*b**2 + c_y*a**2
+          [phi, x_found] = -b*c_x
+          [phi, y_found] = a*c_y
+          [phi, phi_found] = -(c_x*b**2 + c_y*a**2)
+          [x_found, x_found] = c_x
+          [x_found, phi_found] = b*c_x
+          [y_found, y_found] = c_y
+          [y_found, phi_found] = -a*c_y
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -b*c_z
+          [z_found, theta_found] = a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = -a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+          [phi_found, phi_found] = c_x*b**2 + c_y*a**2
+    """
+    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    _tmp0 = c_x * h
+    _tmp1 = -_tmp0
+    _tmp2 = b * c_x
+    _tmp3 = -_tmp2
+    _tmp4 = -c_x
+    _tmp5 = c_y * h
+    _tmp6 = a * c_y
+    _tmp7 = -c_y
+    _tmp8 = -_tmp6
+    _tmp9 = b * c_z
+    _tmp10 = a * c_z
+    _tmp11 = -_tmp10
+    _tmp12 = -c_z
+    _tmp13 = -_tmp9
+    _tmp14 = b**2
+    _tmp15 = _tmp14 * c_z
+    _tmp16 = h**2
+    _tmp17 = _tmp15 + _tmp16 * c_y
+    _tmp18 = _tmp9 * a
+    _tmp19 = -_tmp18
+    _tmp20 = _tmp5 * a
+    _tmp21 = -_tmp5
+    _tmp22 = -_tmp15
+    _tmp23 = -_tmp20
+    _tmp24 = a**2
+    _tmp25 = _tmp24 * c_z
+    _tmp26 = _tmp16 * c_x + _tmp25
+    _tmp27 = _tmp0 * b
+    _tmp28 = -_tmp25
+    _tmp29 = -_tmp27
+    _tmp30 = _tmp14 * c_x + _tmp24 * c_y
+    _tmp31 = -_tmp30
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
+    )
+    _out = numpy.zeros((*_shape, 4, 12, 12))
+    _out[..., 0, 0, 0] = c_x
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp3
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp4
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp2
+    _out[..., 0, 1, 1] = c_y
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp5
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp6
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = _tmp7
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp8
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp9
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp11
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp12
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp13
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp10
+    _out[..., 0, 3, 3] = _tmp17
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp19
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp20
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp21
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp13
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp22
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp18
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp23
+    _out[..., 0, 4, 4] = _tmp26
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp27
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp0
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp10
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp18
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp28
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp29
+    _out[..., 0, 5, 5] = _tmp30
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp2
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp8
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp31
+    _out[..., 0, 6, 6] = c_x
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp3
+    _out[..., 0, 7, 7] = c_y
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp6
+    _out[..., 0, 8, 8] = c_z
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp9
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp11
+    _out[..., 0, 9, 9] = _tmp15
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp19
+    _out[..., 0, 10, 10] = _tmp25
+    _out[..., 0, 11, 11] = _tmp30
+    _out[..., 1, 0, 0] = c_x
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp3
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp4
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp2
+    _out[..., 1, 1, 1] = c_y
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp5
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp8
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = _tmp7
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp6
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp9
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp10
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp12
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp13
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp11
+    _out[..., 1, 3, 3] = _tmp17
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp18
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp23
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp21
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp13
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp22
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp19
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp20
+    _out[..., 1, 4, 4] = _tmp26
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp27
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp0
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp11
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp19
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp28
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp29
+    _out[..., 1, 5, 5] = _tmp30
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp2
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp6
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp31
+    _out[..., 1, 6, 6] = c_x
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp3
+    _out[..., 1, 7, 7] = c_y
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp8
+    _out[..., 1, 8, 8] = c_z
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp9
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp10
+    _out[..., 1, 9, 9] = _tmp15
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp18
+    _out[..., 1, 10, 10] = _tmp25
+    _out[..., 1, 11, 11] = _tmp30
+    _out[..., 2, 0, 0] = c_x
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp1
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp2
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp4
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp3
+    _out[..., 2, 1, 1] = c_y
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp5
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp6
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = _tmp7
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp8
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp13
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp11
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp12
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp9
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp10
+    _out[..., 2, 3, 3] = _tmp17
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp18
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp20
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp21
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp9
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp22
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp19
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp23
+    _out[..., 2, 4, 4] = _tmp26
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp29
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp0
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp10
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp19
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp28
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp27
+    _out[..., 2, 5, 5] = _tmp30
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp3
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp8
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp31
+    _out[..., 2, 6, 6] = c_x
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp2
+    _out[..., 2, 7, 7] = c_y
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp6
+    _out[..., 2, 8, 8] = c_z
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp13
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp11
+    _out[..., 2, 9, 9] = _tmp15
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp18
+    _out[..., 2, 10, 10] = _tmp25
+    _out[..., 2, 11, 11] = _tmp30
+    _out[..., 3, 0, 0] = c_x
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp1
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp2
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp4
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp3
+    _out[..., 3, 1, 1] = c_y
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp5
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp8
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = _tmp7
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp6
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp13
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp10
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp12
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp9
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp11
+    _out[..., 3, 3, 3] = _tmp17
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp19
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp23
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp21
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp9
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp22
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp18
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp20
+    _out[..., 3, 4, 4] = _tmp26
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp29
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp0
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp11
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp18
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp28
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp27
+    _out[..., 3, 5, 5] = _tmp30
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp3
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp6
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp31
+    _out[..., 3, 6, 6] = c_x
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp2
+    _out[..., 3, 7, 7] = c_y
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp8
+    _out[..., 3, 8, 8] = c_z
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp13
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp10
+    _out[..., 3, 9, 9] = _tmp15
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp19
+    _out[..., 3, 10, 10] = _tmp25
+    _out[..., 3, 11, 11] = _tmp30
+    return _out
+
+
+def isolator_stiffness_on_foundation_gradient(a, b, h, c_x, c_y, c_z):
+    """Derivatives of isolator_stiffness_on_foundation() with respect to the unknowns c_x, c_y, c_z, shape
+    (..., 3, 4, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        dcorner[-x+y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [phi_found, phi_found] = b**2
+        dcorner[+x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        dcorner[-x-y]/dc_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [phi_found, phi_found] = b**2
+        dcorner[+x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [y, y_found] = -1
+          [y, phi_found] = -a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [psi, y_found] = -h
+          [psi, phi_found] = -a*h
+          [phi, phi] = a**2
+          [phi, y_found] = -a
+          [phi, phi_found] = -a**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a
+          [phi_found, phi_found] = a**2
+        dcorner[-x+y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [y, y_found] = -1
+          [y, phi_found] = a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [psi, y_found] = -h
+          [psi, phi_found] = a*h
+          [phi, phi] = a**2
+          [phi, y_found] = a
+          [phi, phi_found] = -a**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a
+          [phi_found, phi_found] = a**2
+        dcorner[+x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [y, y_found] = -1
+          [y, phi_found] = -a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [psi, y_found] = -h
+          [psi, phi_found] = -a*h
+          [phi, phi] = a**2
+          [phi, y_found] = -a
+          [phi, phi_found] = -a**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a
+          [phi_found, phi_found] = a**2
+        dcorner[-x-y]/dc_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [y, y_found] = -1
+          [y, phi_found] = a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [psi, y_found] = -h
+          [psi, phi_found] = a*h
+          [phi, phi] = a**2
+          [phi, y_found] = a
+          [phi, phi_found] = -a**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a
+          [phi_found, phi_found] = a**2
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a*b
+          [theta, theta] = a**2
+          [theta, z_found] = a
+          [theta, psi_found] = a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = -a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a*b
+          [theta_found, theta_found] = a**2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a*b
+          [theta, theta] = a**2
+          [theta, z_found] = -a
+          [theta, psi_found] = -a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a*b
+          [theta_found, theta_found] = a**2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a*b
+          [theta, theta] = a**2
+          [theta, z_found] = a
+          [theta, psi_found] = -a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = -a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a*b
+          [theta_found, theta_found] = a**2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a*b
+          [theta, theta] = a**2
+          [theta, z_found] = -a
+          [theta, psi_found] = a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a*b
+          [theta_found, theta_found] = a**2
+    """
+    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = b * h
+    _tmp4 = -_tmp3
+    _tmp5 = b**2
+    _tmp6 = -_tmp5
+    _tmp7 = -a
+    _tmp8 = a * h
+    _tmp9 = -_tmp8
+    _tmp10 = a**2
+    _tmp11 = -_tmp10
+    _tmp12 = a * b
+    _tmp13 = -_tmp12
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
+    )
+    _out = numpy.zeros((*_shape, 12, 12, 12))
+    _out[..., 0, 0, 0] = 1
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp1
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = -1
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = b
+    _out[..., 0, 4, 4] = _tmp2
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp3
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = h
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp4
+    _out[..., 0, 5, 5] = _tmp5
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = b
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp6
+    _out[..., 0, 6, 6] = 1
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp1
+    _out[..., 0, 11, 11] = _tmp5
+    _out[..., 1, 0, 0] = 1
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp0
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp1
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -1
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = b
+    _out[..., 1, 4, 4] = _tmp2
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp3
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = h
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp4
+    _out[..., 1, 5, 5] = _tmp5
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = b
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp6
+    _out[..., 1, 6, 6] = 1
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp1
+    _out[..., 1, 11, 11] = _tmp5
+    _out[..., 2, 0, 0] = 1
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp0
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = b
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = -1
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp1
+    _out[..., 2, 4, 4] = _tmp2
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp4
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = h
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp3
+    _out[..., 2, 5, 5] = _tmp5
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp1
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp6
+    _out[..., 2, 6, 6] = 1
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = b
+    _out[..., 2, 11, 11] = _tmp5
+    _out[..., 3, 0, 0] = 1
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp0
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = b
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = -1
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp1
+    _out[..., 3, 4, 4] = _tmp2
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp4
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = h
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp3
+    _out[..., 3, 5, 5] = _tmp5
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp1
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp6
+    _out[..., 3, 6, 6] = 1
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = b
+    _out[..., 3, 11, 11] = _tmp5
+    _out[..., 4, 1, 1] = 1
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = h
+    _out[..., 4, 1, 5] = _out[..., 4, 5, 1] = a
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = -1
+    _out[..., 4, 1, 11] = _out[..., 4, 11, 1] = _tmp7
+    _out[..., 4, 3, 3] = _tmp2
+    _out[..., 4, 3, 5] = _out[..., 4, 5, 3] = _tmp8
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp0
+    _out[..., 4, 3, 11] = _out[..., 4, 11, 3] = _tmp9
+    _out[..., 4, 5, 5] = _tmp10
+    _out[..., 4, 5, 7] = _out[..., 4, 7, 5] = _tmp7
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp11
+    _out[..., 4, 7, 7] = 1
+    _out[..., 4, 7, 11] = _out[..., 4, 11, 7] = a
+    _out[..., 4, 11, 11] = _tmp10
+    _out[..., 5, 1, 1] = 1
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = h
+    _out[..., 5, 1, 5] = _out[..., 5, 5, 1] = _tmp7
+    _out[..., 5, 1, 7] = _out[..., 5, 7, 1] = -1
+    _out[..., 5, 1, 11] = _out[..., 5, 11, 1] = a
+    _out[..., 5, 3, 3] = _tmp2
+    _out[..., 5, 3, 5] = _out[..., 5, 5, 3] = _tmp9
+    _out[..., 5, 3, 7] = _out[..., 5, 7, 3] = _tmp0
+    _out[..., 5, 3, 11] = _out[..., 5, 11, 3] = _tmp8
+    _out[..., 5, 5, 5] = _tmp10
+    _out[..., 5, 5, 7] = _out[..., 5, 7, 5] = a
+    _out[..., 5, 5, 11] = _out[..., 5, 11, 5] = _tmp11
+    _out[..., 5, 7, 7] = 1
+    _out[..., 5, 7, 11] = _out[..., 5, 11, 7] = _tmp7
+    _out[..., 5, 11, 11] = _tmp10
+    _out[..., 6, 1, 1] = 1
+    _out[..., 6, 1, 3] = _out[..., 6, 3, 1] = h
+    _out[..., 6, 1, 5] = _out[..., 6, 5, 1] = a
+    _out[..., 6, 1, 7] = _out[..., 6, 7, 1] = -1
+    _out[..., 6, 1, 11] = _out[..., 6, 11, 1] = _tmp7
+    _out[..., 6, 3, 3] = _tmp2
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp8
+    _out[..., 6, 3, 7] = _out[..., 6, 7, 3] = _tmp0
+    _out[..., 6, 3, 11] = _out[..., 6, 11, 3] = _tmp9
+    _out[..., 6, 5, 5] = _tmp10
+    _out[..., 6, 5, 7] = _out[..., 6, 7, 5] = _tmp7
+    _out[..., 6, 5, 11] = _out[..., 6, 11, 5] = _tmp11
+    _out[..., 6, 7, 7] = 1
+    _out[..., 6, 7, 11] = _out[..., 6, 11, 7] = a
+    _out[..., 6, 11, 11] = _tmp10
+    _out[..., 7, 1, 1] = 1
+    _out[..., 7, 1, 3] = _out[..., 7, 3, 1] = h
+    _out[..., 7, 1, 5] = _out[..., 7, 5, 1] = _tmp7
+    _out[..., 7, 1, 7] = _out[..., 7, 7, 1] = -1
+    _out[..., 7, 1, 11] = _out[..., 7, 11, 1] = a
+    _out[..., 7, 3, 3] = _tmp2
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp9
+    _out[..., 7, 3, 7] = _out[..., 7, 7, 3] = _tmp0
+    _out[..., 7, 3, 11] = _out[..., 7, 11, 3] = _tmp8
+    _out[..., 7, 5, 5] = _tmp10
+    _out[..., 7, 5, 7] = _out[..., 7, 7, 5] = a
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp11
+    _out[..., 7, 7, 7] = 1
+    _out[..., 7, 7, 11] = _out[..., 7, 11, 7] = _tmp7
+    _out[..., 7, 11, 11] = _tmp10
+    _out[..., 8, 2, 2] = 1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp7
+    _out[..., 8, 2, 8] = _out[..., 8, 8, 2] = -1
+    _out[..., 8, 2, 9] = _out[..., 8, 9, 2] = _tmp1
+    _out[..., 8, 2, 10] = _out[..., 8, 10, 2] = a
+    _out[..., 8, 3, 3] = _tmp5
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp13
+    _out[..., 8, 3, 8] = _out[..., 8, 8, 3] = _tmp1
+    _out[..., 8, 3, 9] = _out[..., 8, 9, 3] = _tmp6
+    _out[..., 8, 3, 10] = _out[..., 8, 10, 3] = _tmp12
+    _out[..., 8, 4, 4] = _tmp10
+    _out[..., 8, 4, 8] = _out[..., 8, 8, 4] = a
+    _out[..., 8, 4, 9] = _out[..., 8, 9, 4] = _tmp12
+    _out[..., 8, 4, 10] = _out[..., 8, 10, 4] = _tmp11
+    _out[..., 8, 8, 8] = 1
+    _out[..., 8, 8, 9] = _out[..., 8, 9, 8] = b
+    _out[..., 8, 8, 10] = _out[..., 8, 10, 8] = _tmp7
+    _out[..., 8, 9, 9] = _tmp5
+    _out[..., 8, 9, 10] = _out[..., 8, 10, 9] = _tmp13
+    _out[..., 8, 10, 10] = _tmp10
+    _out[..., 9, 2, 2] = 1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = b
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = a
+    _out[..., 9, 2, 8] = _out[..., 9, 8, 2] = -1
+    _out[..., 9, 2, 9] = _out[..., 9, 9, 2] = _tmp1
+    _out[..., 9, 2, 10] = _out[..., 9, 10, 2] = _tmp7
+    _out[..., 9, 3, 3] = _tmp5
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp12
+    _out[..., 9, 3, 8] = _out[..., 9, 8, 3] = _tmp1
+    _out[..., 9, 3, 9] = _out[..., 9, 9, 3] = _tmp6
+    _out[..., 9, 3, 10] = _out[..., 9, 10, 3] = _tmp13
+    _out[..., 9, 4, 4] = _tmp10
+    _out[..., 9, 4, 8] = _out[..., 9, 8, 4] = _tmp7
+    _out[..., 9, 4, 9] = _out[..., 9, 9, 4] = _tmp13
+    _out[..., 9, 4, 10] = _out[..., 9, 10, 4] = _tmp11
+    _out[..., 9, 8, 8] = 1
+    _out[..., 9, 8, 9] = _out[..., 9, 9, 8] = b
+    _out[..., 9, 8, 10] = _out[..., 9, 10, 8] = a
+    _out[..., 9, 9, 9] = _tmp5
+    _out[..., 9, 9, 10] = _out[..., 9, 10, 9] = _tmp12
+    _out[..., 9, 10, 10] = _tmp10
+    _out[..., 10, 2, 2] = 1
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp1
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp7
+    _out[..., 10, 2, 8] = _out[..., 10, 8, 2] = -1
+    _out[..., 10, 2, 9] = _out[..., 10, 9, 2] = b
+    _out[..., 10, 2, 10] = _out[..., 10, 10, 2] = a
+    _out[..., 10, 3, 3] = _tmp5
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp12
+    _out[..., 10, 3, 8] = _out[..., 10, 8, 3] = b
+    _out[..., 10, 3, 9] = _out[..., 10, 9, 3] = _tmp6
+    _out[..., 10, 3, 10] = _out[..., 10, 10, 3] = _tmp13
+    _out[..., 10, 4, 4] = _tmp10
+    _out[..., 10, 4, 8] = _out[..., 10, 8, 4] = a
+    _out[..., 10, 4, 9] = _out[..., 10, 9, 4] = _tmp13
+    _out[..., 10, 4, 10] = _out[..., 10, 10, 4] = _tmp11
+    _out[..., 10, 8, 8] = 1
+    _out[..., 10, 8, 9] = _out[..., 10, 9, 8] = _tmp1
+    _out[..., 10, 8, 10] = _out[..., 10, 10, 8] = _tmp7
+    _out[..., 10, 9, 9] = _tmp5
+    _out[..., 10, 9, 10] = _out[..., 10, 10, 9] = _tmp12
+    _out[..., 10, 10, 10] = _tmp10
+    _out[..., 11, 2, 2] = 1
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp1
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = a
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = -1
+    _out[..., 11, 2, 9] = _out[..., 11, 9, 2] = b
+    _out[..., 11, 2, 10] = _out[..., 11, 10, 2] = _tmp7
+    _out[..., 11, 3, 3] = _tmp5
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp13
+    _out[..., 11, 3, 8] = _out[..., 11, 8, 3] = b
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp6
+    _out[..., 11, 3, 10] = _out[..., 11, 10, 3] = _tmp12
+    _out[..., 11, 4, 4] = _tmp10
+    _out[..., 11, 4, 8] = _out[..., 11, 8, 4] = _tmp7
+    _out[..., 11, 4, 9] = _out[..., 11, 9, 4] = _tmp12
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp11
+    _out[..., 11, 8, 8] = 1
+    _out[..., 11, 8, 9] = _out[..., 11, 9, 8] = _tmp1
+    _out[..., 11, 8, 10] = _out[..., 11, 10, 8] = a
+    _out[..., 11, 9, 9] = _tmp5
+    _out[..., 11, 9, 10] = _out[..., 11, 10, 9] = _tmp13
+    _out[..., 11, 10, 10] = _tmp10
+    return _out.reshape(*_shape, 3, 4, 12, 12)
+
+
+def isolator_axial_stiffness_on_foundation(a, b, c_z):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression) between the body and the support of foundation,
+    shape (..., 4, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = -a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = -b*c_z
+          [z, theta_found] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [psi, z_found] = -b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = a*b*c_z
+          [theta, theta] = c_z*a**2
+          [theta, z_found] = a*c_z
+          [theta, psi_found] = a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = b*c_z
+          [z_found, theta_found] = -a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = -a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+        corner[-x+y]:
+          [z, z] = c_z
+          [z, psi] = b*c_z
+          [z, theta] = a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = -b*c_z
+          [z, theta_found] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [psi, z_found] = -b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+          [theta, z_found] = -a*c_z
+          [theta, psi_found] = -a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = b*c_z
+          [z_found, theta_found] = a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+        corner[+x-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = -a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = b*c_z
+          [z, theta_found] = a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = a*b*c_z
+          [psi, z_found] = b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = -a*b*c_z
+          [theta, theta] = c_z*a**2
+          [theta, z_found] = a*c_z
+          [theta, psi_found] = -a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -b*c_z
+          [z_found, theta_found] = -a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+        corner[-x-y]:
+          [z, z] = c_z
+          [z, psi] = -b*c_z
+          [z, theta] = a*c_z
+          [z, z_found] = -c_z
+          [z, psi_found] = b*c_z
+          [z, theta_found] = -a*c_z
+          [psi, psi] = c_z*b**2
+          [psi, theta] = -a*b*c_z
+          [psi, z_found] = b*c_z
+          [psi, psi_found] = -c_z*b**2
+          [psi, theta_found] = a*b*c_z
+          [theta, theta] = c_z*a**2
+          [theta, z_found] = -a*c_z
+          [theta, psi_found] = a*b*c_z
+          [theta, theta_found] = -c_z*a**2
+          [z_found, z_found] = c_z
+          [z_found, psi_found] = -b*c_z
+          [z_found, theta_found] = a*c_z
+          [psi_found, psi_found] = c_z*b**2
+          [psi_found, theta_found] = -a*b*c_z
+          [theta_found, theta_found] = c_z*a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = b * c_z
+    _tmp1 = a * c_z
+    _tmp2 = -_tmp1
+    _tmp3 = -c_z
+    _tmp4 = -_tmp0
+    _tmp5 = b**2 * c_z
+    _tmp6 = _tmp0 * a
+    _tmp7 = -_tmp6
+    _tmp8 = -_tmp5
+    _tmp9 = a**2 * c_z
+    _tmp10 = -_tmp9
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 4, 12, 12))
+    _out[..., 0, 2, 2] = c_z
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp2
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp3
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp4
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp1
+    _out[..., 0, 3, 3] = _tmp5
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp7
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp4
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp8
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp6
+    _out[..., 0, 4, 4] = _tmp9
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp1
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp6
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp10
+    _out[..., 0, 8, 8] = c_z
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp0
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp2
+    _out[..., 0, 9, 9] = _tmp5
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp7
+    _out[..., 0, 10, 10] = _tmp9
+    _out[..., 1, 2, 2] = c_z
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp0
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp1
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp3
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp4
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp2
+    _out[..., 1, 3, 3] = _tmp5
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp6
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp4
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp8
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp7
+    _out[..., 1, 4, 4] = _tmp9
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp2
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp7
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp10
+    _out[..., 1, 8, 8] = c_z
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp0
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp1
+    _out[..., 1, 9, 9] = _tmp5
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp6
+    _out[..., 1, 10, 10] = _tmp9
+    _out[..., 2, 2, 2] = c_z
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp4
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp2
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp3
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp0
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp1
+    _out[..., 2, 3, 3] = _tmp5
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp6
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp0
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp8
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp7
+    _out[..., 2, 4, 4] = _tmp9
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp1
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp7
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp10
+    _out[..., 2, 8, 8] = c_z
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp4
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp2
+    _out[..., 2, 9, 9] = _tmp5
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp6
+    _out[..., 2, 10, 10] = _tmp9
+    _out[..., 3, 2, 2] = c_z
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp4
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp1
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp3
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp0
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp2
+    _out[..., 3, 3, 3] = _tmp5
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp7
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp0
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp8
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp6
+    _out[..., 3, 4, 4] = _tmp9
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp2
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp6
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp10
+    _out[..., 3, 8, 8] = c_z
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp4
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp1
+    _out[..., 3, 9, 9] = _tmp5
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp7
+    _out[..., 3, 10, 10] = _tmp9
+    return _out
+
+
+def isolator_axial_stiffness_on_foundation_gradient(a, b, c_z):
+    """Derivatives of isolator_axial_stiffness_on_foundation() with respect to the unknowns c_x, c_y, c_z, shape
+    (..., 3, 4, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_x:
+        dcorner[-x+y]/dc_x:
+        dcorner[+x-y]/dc_x:
+        dcorner[-x-y]/dc_x:
+        dcorner[+x+y]/dc_y:
+        dcorner[-x+y]/dc_y:
+        dcorner[+x-y]/dc_y:
+        dcorner[-x-y]/dc_y:
+        dcorner[+x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a*b
+          [theta, theta] = a**2
+          [theta, z_found] = a
+          [theta, psi_found] = a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = -a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a*b
+          [theta_found, theta_found] = a**2
+        dcorner[-x+y]/dc_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [z, theta_found] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a*b
+          [theta, theta] = a**2
+          [theta, z_found] = -a
+          [theta, psi_found] = -a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [z_found, theta_found] = a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a*b
+          [theta_found, theta_found] = a**2
+        dcorner[+x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = -a*b
+          [theta, theta] = a**2
+          [theta, z_found] = a
+          [theta, psi_found] = -a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = -a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = a*b
+          [theta_found, theta_found] = a**2
+        dcorner[-x-y]/dc_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [z, theta_found] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [psi, theta_found] = a*b
+          [theta, theta] = a**2
+          [theta, z_found] = -a
+          [theta, psi_found] = a*b
+          [theta, theta_found] = -a**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [z_found, theta_found] = a
+          [psi_found, psi_found] = b**2
+          [psi_found, theta_found] = -a*b
+          [theta_found, theta_found] = a**2
+    """
+    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    _tmp0 = -a
+    _tmp1 = -b
+    _tmp2 = b**2
+    _tmp3 = a * b
+    _tmp4 = -_tmp3
+    _tmp5 = -_tmp2
+    _tmp6 = a**2
+    _tmp7 = -_tmp6
+    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _out = numpy.zeros((*_shape, 12, 12, 12))
+    _out[..., 8, 2, 2] = 1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp0
+    _out[..., 8, 2, 8] = _out[..., 8, 8, 2] = -1
+    _out[..., 8, 2, 9] = _out[..., 8, 9, 2] = _tmp1
+    _out[..., 8, 2, 10] = _out[..., 8, 10, 2] = a
+    _out[..., 8, 3, 3] = _tmp2
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp4
+    _out[..., 8, 3, 8] = _out[..., 8, 8, 3] = _tmp1
+    _out[..., 8, 3, 9] = _out[..., 8, 9, 3] = _tmp5
+    _out[..., 8, 3, 10] = _out[..., 8, 10, 3] = _tmp3
+    _out[..., 8, 4, 4] = _tmp6
+    _out[..., 8, 4, 8] = _out[..., 8, 8, 4] = a
+    _out[..., 8, 4, 9] = _out[..., 8, 9, 4] = _tmp3
+    _out[..., 8, 4, 10] = _out[..., 8, 10, 4] = _tmp7
+    _out[..., 8, 8, 8] = 1
+    _out[..., 8, 8, 9] = _out[..., 8, 9, 8] = b
+    _out[..., 8, 8, 10] = _out[..., 8, 10, 8] = _tmp0
+    _out[..., 8, 9, 9] = _tmp2
+    _out[..., 8, 9, 10] = _out[..., 8, 10, 9] = _tmp4
+    _out[..., 8, 10, 10] = _tmp6
+    _out[..., 9, 2, 2] = 1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = b
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = a
+    _out[..., 9, 2, 8] = _out[..., 9, 8, 2] = -1
+    _out[..., 9, 2, 9] = _out[..., 9, 9, 2] = _tmp1
+    _out[..., 9, 2, 10] = _out[..., 9, 10, 2] = _tmp0
+    _out[..., 9, 3, 3] = _tmp2
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp3
+    _out[..., 9, 3, 8] = _out[..., 9, 8, 3] = _tmp1
+    _out[..., 9, 3, 9] = _out[..., 9, 9, 3] = _tmp5
+    _out[..., 9, 3, 10] = _out[..., 9, 10, 3] = _tmp4
+    _out[..., 9, 4, 4] = _tmp6
+    _out[..., 9, 4, 8] = _out[..., 9, 8, 4] = _tmp0
+    _out[..., 9, 4, 9] = _out[..., 9, 9, 4] = _tmp4
+    _out[..., 9, 4, 10] = _out[..., 9, 10, 4] = _tmp7
+    _out[..., 9, 8, 8] = 1
+    _out[..., 9, 8, 9] = _out[..., 9, 9, 8] = b
+    _out[..., 9, 8, 10] = _out[..., 9, 10, 8] = a
+    _out[..., 9, 9, 9] = _tmp2
+    _out[..., 9, 9, 10] = _out[..., 9, 10, 9] = _tmp3
+    _out[..., 9, 10, 10] = _tmp6
+    _out[..., 10, 2, 2] = 1
+    _out[..., 10, 2, 3] = _out[..., 10, 3, 2] = _tmp1
+    _out[..., 10, 2, 4] = _out[..., 10, 4, 2] = _tmp0
+    _out[..., 10, 2, 8] = _out[..., 10, 8, 2] = -1
+    _out[..., 10, 2, 9] = _out[..., 10, 9, 2] = b
+    _out[..., 10, 2, 10] = _out[..., 10, 10, 2] = a
+    _out[..., 10, 3, 3] = _tmp2
+    _out[..., 10, 3, 4] = _out[..., 10, 4, 3] = _tmp3
+    _out[..., 10, 3, 8] = _out[..., 10, 8, 3] = b
+    _out[..., 10, 3, 9] = _out[..., 10, 9, 3] = _tmp5
+    _out[..., 10, 3, 10] = _out[..., 10, 10, 3] = _tmp4
+    _out[..., 10, 4, 4] = _tmp6
+    _out[..., 10, 4, 8] = _out[..., 10, 8, 4] = a
+    _out[..., 10, 4, 9] = _out[..., 10, 9, 4] = _tmp4
+    _out[..., 10, 4, 10] = _out[..., 10, 10, 4] = _tmp7
+    _out[..., 10, 8, 8] = 1
+    _out[..., 10, 8, 9] = _out[..., 10, 9, 8] = _tmp1
+    _out[..., 10, 8, 10] = _out[..., 10, 10, 8] = _tmp0
+    _out[..., 10, 9, 9] = _tmp2
+    _out[..., 10, 9, 10] = _out[..., 10, 10, 9] = _tmp3
+    _out[..., 10, 10, 10] = _tmp6
+    _out[..., 11, 2, 2] = 1
+    _out[..., 11, 2, 3] = _out[..., 11, 3, 2] = _tmp1
+    _out[..., 11, 2, 4] = _out[..., 11, 4, 2] = a
+    _out[..., 11, 2, 8] = _out[..., 11, 8, 2] = -1
+    _out[..., 11, 2, 9] = _out[..., 11, 9, 2] = b
+    _out[..., 11, 2, 10] = _out[..., 11, 10, 2] = _tmp0
+    _out[..., 11, 3, 3] = _tmp2
+    _out[..., 11, 3, 4] = _out[..., 11, 4, 3] = _tmp4
+    _out[..., 11, 3, 8] = _out[..., 11, 8, 3] = b
+    _out[..., 11, 3, 9] = _out[..., 11, 9, 3] = _tmp5
+    _out[..., 11, 3, 10] = _out[..., 11, 10, 3] = _tmp3
+    _out[..., 11, 4, 4] = _tmp6
+    _out[..., 11, 4, 8] = _out[..., 11, 8, 4] = _tmp0
+    _out[..., 11, 4, 9] = _out[..., 11, 9, 4] = _tmp3
+    _out[..., 11, 4, 10] = _out[..., 11, 10, 4] = _tmp7
+    _out[..., 11, 8, 8] = 1
+    _out[..., 11, 8, 9] = _out[..., 11, 9, 8] = _tmp1
+    _out[..., 11, 8, 10] = _out[..., 11, 10, 8] = a
+    _out[..., 11, 9, 9] = _tmp2
+    _out[..., 11, 9, 10] = _out[..., 11, 10, 9] = _tmp4
+    _out[..., 11, 10, 10] = _tmp6
+    return _out.reshape(*_shape, 3, 4, 12, 12)
 
 
 def isolator_points(a, b, h):

@@ -431,6 +431,10 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_axial_stiffness": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_axial_stiffness_gradient": ("a", "b", "h", "alpha", "c_v", "c_m"),
+    "isolator_stiffness_on_foundation": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
+    "isolator_axial_stiffness_on_foundation": ("a", "b", "h", "alpha", "c_v", "c_m"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_points": ("a", "b", "h"),
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
@@ -5838,8 +5842,9 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
 
 
 def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
-    """Stiffness matrix of each isolator alone, shape (..., 6, 6, 6),
-    isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    """Stiffness matrix of each isolator alone,
+    shape (..., 6, 6, 6), isolators in the order of ISOLATORS; their sum is stiffness_matrix().
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -6501,8 +6506,9 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
 
 
 def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
-    """The part of each isolator's stiffness matrix along its own axis (local z, compression), shape (..., 6, 6, 6),
-    isolators in the order of ISOLATORS.
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression),
+    shape (..., 6, 6, 6), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi.
 
     Non-zero upper-triangle entries:
 
@@ -6877,6 +6883,3038 @@ def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
     _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = -b
     _out[..., 17, 3, 3] = _tmp15
     return _out.reshape(*_shape, 3, 6, 6, 6)
+
+
+def isolator_stiffness_on_foundation(a, b, h, alpha, c_h, c_v, c_m):
+    """Stiffness matrix of each isolator alone between the body and the support of foundation,
+    shape (..., 6, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, x_found] = -(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, z_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = a*c_h
+          [y, y_found] = -c_h
+          [y, phi_found] = -a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [z, x_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [z, z_found] = -(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, psi_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta_found] = a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, phi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, psi_found] = -b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, theta_found] = a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, phi_found] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [theta, x_found] = c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+          [phi, x_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [phi, y_found] = -a*c_h
+          [phi, z_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -(c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x_found, z_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y_found, y_found] = c_h
+          [y_found, phi_found] = a*c_h
+          [z_found, z_found] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z_found, psi_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, theta_found] = -a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, phi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, theta_found] = -a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, phi_found] = b**2*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [theta_found, phi_found] = a*b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[-x+y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, x_found] = -(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, z_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = -a*c_h
+          [y, y_found] = -c_h
+          [y, phi_found] = a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [z, x_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [z, z_found] = -(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, psi_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta_found] = -a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, phi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, psi_found] = -b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, theta_found] = -a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, phi_found] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [theta, x_found] = c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+          [phi, x_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [phi, y_found] = a*c_h
+          [phi, z_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -(c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x_found, z_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y_found, y_found] = c_h
+          [y_found, phi_found] = -a*c_h
+          [z_found, z_found] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z_found, psi_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, theta_found] = a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, phi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, theta_found] = a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, phi_found] = b**2*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [theta_found, phi_found] = a*b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[+x-y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, x_found] = -(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, z_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = a*c_h
+          [y, y_found] = -c_h
+          [y, phi_found] = -a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [z, x_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [z, z_found] = -(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, psi_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta_found] = a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, phi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, psi_found] = -b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, theta_found] = -a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, phi_found] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [theta, x_found] = c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+          [phi, x_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [phi, y_found] = -a*c_h
+          [phi, z_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -(c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x_found, z_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y_found, y_found] = c_h
+          [y_found, phi_found] = a*c_h
+          [z_found, z_found] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z_found, psi_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, theta_found] = -a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, phi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, theta_found] = a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, phi_found] = b**2*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [theta_found, phi_found] = a*b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        corner[-x-y]:
+          [x, x] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x, z] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, x_found] = -(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [x, z_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, phi] = -a*c_h
+          [y, y_found] = -c_h
+          [y, phi_found] = a*c_h
+          [z, z] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z, psi] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta] = a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [z, x_found] = (c_v - c_h)*cos(alpha)*sin(alpha)
+          [z, z_found] = -(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, psi_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, theta_found] = -a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z, phi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = c_h*h**2 + c_h*b**2*sin(alpha)**2 + c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*c_h*h + c_v*b**2*cos(alpha)*sin(alpha) - c_h*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, psi_found] = -b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, theta_found] = a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi, phi_found] = a*c_h*h + c_h*b**2*cos(alpha)*sin(alpha) - c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_h*a**2*sin(alpha)**2 + c_h*h**2*cos(alpha)**2 + c_v*a**2*cos(alpha)**2 + c_v*h**2*sin(alpha)**2 - 2*a*c_h*h*cos(alpha)*sin(alpha) + 2*a*c_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-c_h*h*cos(alpha)**2 - c_v*h*sin(alpha)**2 + a*c_h*cos(alpha)*sin(alpha) - a*c_v*cos(alpha)*sin(alpha))
+          [theta, x_found] = c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*c_h*sin(alpha)**2 + a*c_v*cos(alpha)**2 + c_v*h*cos(alpha)*sin(alpha) - c_h*h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*c_h*sin(alpha)**2 - a*c_v*cos(alpha)**2 + c_h*h*cos(alpha)*sin(alpha) - c_v*h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(c_h*h*cos(alpha)**2 + c_v*h*sin(alpha)**2 + a*c_v*cos(alpha)*sin(alpha) - a*c_h*cos(alpha)*sin(alpha))
+          [phi, phi] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+          [phi, x_found] = -b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [phi, y_found] = a*c_h
+          [phi, z_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -(c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2)
+          [x_found, x_found] = c_h*cos(alpha)**2 + c_v*sin(alpha)**2
+          [x_found, z_found] = (c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*(c_h*cos(alpha)**2 + c_v*sin(alpha)**2)
+          [y_found, y_found] = c_h
+          [y_found, phi_found] = -a*c_h
+          [z_found, z_found] = c_h*sin(alpha)**2 + c_v*cos(alpha)**2
+          [z_found, psi_found] = -b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, theta_found] = a*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [z_found, phi_found] = b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, theta_found] = -a*b*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [psi_found, phi_found] = b**2*(c_v - c_h)*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*(c_h*sin(alpha)**2 + c_v*cos(alpha)**2)
+          [theta_found, phi_found] = a*b*(c_h - c_v)*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_h*a**2 + c_h*b**2*cos(alpha)**2 + c_v*b**2*sin(alpha)**2
+        middle[+y]:
+          [x, x] = c_h
+          [x, theta] = -c_h*h
+          [x, phi] = -b*c_h
+          [x, x_found] = -c_h
+          [x, phi_found] = b*c_h
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, y_found] = -c_h
+          [z, z] = c_m
+          [z, psi] = b*c_m
+          [z, z_found] = -c_m
+          [z, psi_found] = -b*c_m
+          [psi, psi] = c_h*h**2 + c_m*b**2
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = -b*c_m
+          [psi, psi_found] = -c_m*b**2
+          [theta, theta] = c_h*h**2
+          [theta, phi] = b*c_h*h
+          [theta, x_found] = c_h*h
+          [theta, phi_found] = -b*c_h*h
+          [phi, phi] = c_h*b**2
+          [phi, x_found] = b*c_h
+          [phi, phi_found] = -c_h*b**2
+          [x_found, x_found] = c_h
+          [x_found, phi_found] = -b*c_h
+          [y_found, y_found] = c_h
+          [z_found, z_found] = c_m
+          [z_found, psi_found] = b*c_m
+          [psi_found, psi_found] = c_m*b**2
+          [phi_found, phi_found] = c_h*b**2
+        middle[-y]:
+          [x, x] = c_h
+          [x, theta] = -c_h*h
+          [x, phi] = b*c_h
+          [x, x_found] = -c_h
+          [x, phi_found] = -b*c_h
+          [y, y] = c_h
+          [y, psi] = c_h*h
+          [y, y_found] = -c_h
+          [z, z] = c_m
+          [z, psi] = -b*c_m
+          [z, z_found] = -c_m
+          [z, psi_found] = b*c_m
+          [psi, psi] = c_h*h**2 + c_m*b**2
+          [psi, y_found] = -c_h*h
+          [psi, z_found] = b*c_m
+          [psi, psi_found] = -c_m*b**2
+          [theta, theta] = c_h*h**2
+          [theta, phi] = -b*c_h*h
+          [theta, x_found] = c_h*h
+          [theta, phi_found] = b*c_h*h
+          [phi, phi] = c_h*b**2
+          [phi, x_found] = -b*c_h
+          [phi, phi_found] = -c_h*b**2
+          [x_found, x_found] = c_h
+          [x_found, phi_found] = b*c_h
+          [y_found, y_found] = c_h
+          [z_found, z_found] = c_m
+          [z_found, psi_found] = -b*c_m
+          [psi_found, psi_found] = c_m*b**2
+          [phi_found, phi_found] = c_h*b**2
+    """
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * c_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = _tmp4 * c_v
+    _tmp6 = _tmp2 + _tmp5
+    _tmp7 = c_h - c_v
+    _tmp8 = _tmp0 * _tmp3
+    _tmp9 = -_tmp7 * _tmp8
+    _tmp10 = _tmp9 * b
+    _tmp11 = _tmp8 * c_v
+    _tmp12 = _tmp11 * a
+    _tmp13 = -_tmp0 * _tmp3 * a * c_h + _tmp12 + _tmp2 * h + _tmp5 * h
+    _tmp14 = -_tmp13
+    _tmp15 = _tmp6 * b
+    _tmp16 = -_tmp15
+    _tmp17 = -_tmp6
+    _tmp18 = _tmp7 * _tmp8
+    _tmp19 = _tmp18 * b
+    _tmp20 = _tmp9 * a
+    _tmp21 = c_h * h
+    _tmp22 = a * c_h
+    _tmp23 = -c_h
+    _tmp24 = -_tmp22
+    _tmp25 = _tmp4 * c_h
+    _tmp26 = _tmp1 * c_v
+    _tmp27 = _tmp25 + _tmp26
+    _tmp28 = _tmp27 * b
+    _tmp29 = -_tmp0 * _tmp3 * c_h * h + _tmp11 * h + _tmp22 * _tmp4 + _tmp26 * a
+    _tmp30 = -_tmp29
+    _tmp31 = -_tmp27
+    _tmp32 = -_tmp28
+    _tmp33 = _tmp27 * a
+    _tmp34 = h**2
+    _tmp35 = _tmp34 * c_h
+    _tmp36 = b**2
+    _tmp37 = _tmp25 * _tmp36 + _tmp26 * _tmp36 + _tmp35
+    _tmp38 = _tmp30 * b
+    _tmp39 = _tmp21 * a
+    _tmp40 = _tmp36 * c_h
+    _tmp41 = -_tmp11 * _tmp36 + _tmp39 + _tmp40 * _tmp8
+    _tmp42 = -_tmp21
+    _tmp43 = _tmp27 * _tmp36
+    _tmp44 = -_tmp43
+    _tmp45 = _tmp28 * a
+    _tmp46 = -_tmp41
+    _tmp47 = a**2
+    _tmp48 = 2 * _tmp12 * h + _tmp2 * _tmp34 + _tmp25 * _tmp47 + _tmp26 * _tmp47 + _tmp34 * _tmp5 - 2 * _tmp39 * _tmp8
+    _tmp49 = _tmp13 * b
+    _tmp50 = _tmp29 * b
+    _tmp51 = _tmp30 * a
+    _tmp52 = _tmp14 * b
+    _tmp53 = _tmp2 * _tmp36 + _tmp36 * _tmp5 + _tmp47 * c_h
+    _tmp54 = _tmp36 * _tmp9
+    _tmp55 = _tmp19 * a
+    _tmp56 = -_tmp53
+    _tmp57 = _tmp18 * a
+    _tmp58 = -_tmp33
+    _tmp59 = -_tmp45
+    _tmp60 = _tmp18 * _tmp36
+    _tmp61 = _tmp27 * _tmp47
+    _tmp62 = _tmp10 * a
+    _tmp63 = b * c_h
+    _tmp64 = -_tmp63
+    _tmp65 = b * c_m
+    _tmp66 = -c_m
+    _tmp67 = -_tmp65
+    _tmp68 = _tmp36 * c_m
+    _tmp69 = _tmp35 + _tmp68
+    _tmp70 = -_tmp68
+    _tmp71 = _tmp21 * b
+    _tmp72 = -_tmp71
+    _tmp73 = -_tmp40
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    _out = numpy.zeros((*_shape, 6, 12, 12))
+    _out[..., 0, 0, 0] = _tmp6
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp9
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp10
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp14
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp16
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp17
+    _out[..., 0, 0, 8] = _out[..., 0, 8, 0] = _tmp18
+    _out[..., 0, 0, 9] = _out[..., 0, 9, 0] = _tmp19
+    _out[..., 0, 0, 10] = _out[..., 0, 10, 0] = _tmp20
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp15
+    _out[..., 0, 1, 1] = c_h
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = _tmp21
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = _tmp22
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = _tmp23
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp24
+    _out[..., 0, 2, 2] = _tmp27
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp28
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp30
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp19
+    _out[..., 0, 2, 6] = _out[..., 0, 6, 2] = _tmp18
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp31
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp32
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp33
+    _out[..., 0, 2, 11] = _out[..., 0, 11, 2] = _tmp10
+    _out[..., 0, 3, 3] = _tmp37
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp38
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp41
+    _out[..., 0, 3, 6] = _out[..., 0, 6, 3] = _tmp19
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp42
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp32
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp44
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp45
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp46
+    _out[..., 0, 4, 4] = _tmp48
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp49
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp13
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp29
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp50
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp51
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp52
+    _out[..., 0, 5, 5] = _tmp53
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp15
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp24
+    _out[..., 0, 5, 8] = _out[..., 0, 8, 5] = _tmp10
+    _out[..., 0, 5, 9] = _out[..., 0, 9, 5] = _tmp54
+    _out[..., 0, 5, 10] = _out[..., 0, 10, 5] = _tmp55
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp56
+    _out[..., 0, 6, 6] = _tmp6
+    _out[..., 0, 6, 8] = _out[..., 0, 8, 6] = _tmp9
+    _out[..., 0, 6, 9] = _out[..., 0, 9, 6] = _tmp10
+    _out[..., 0, 6, 10] = _out[..., 0, 10, 6] = _tmp57
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp16
+    _out[..., 0, 7, 7] = c_h
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = _tmp22
+    _out[..., 0, 8, 8] = _tmp27
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp28
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp58
+    _out[..., 0, 8, 11] = _out[..., 0, 11, 8] = _tmp19
+    _out[..., 0, 9, 9] = _tmp43
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp59
+    _out[..., 0, 9, 11] = _out[..., 0, 11, 9] = _tmp60
+    _out[..., 0, 10, 10] = _tmp61
+    _out[..., 0, 10, 11] = _out[..., 0, 11, 10] = _tmp62
+    _out[..., 0, 11, 11] = _tmp53
+    _out[..., 1, 0, 0] = _tmp6
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp18
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp19
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp14
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp16
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp17
+    _out[..., 1, 0, 8] = _out[..., 1, 8, 0] = _tmp9
+    _out[..., 1, 0, 9] = _out[..., 1, 9, 0] = _tmp10
+    _out[..., 1, 0, 10] = _out[..., 1, 10, 0] = _tmp20
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp15
+    _out[..., 1, 1, 1] = c_h
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = _tmp21
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp24
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = _tmp23
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = _tmp22
+    _out[..., 1, 2, 2] = _tmp27
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp28
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp29
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp10
+    _out[..., 1, 2, 6] = _out[..., 1, 6, 2] = _tmp9
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp31
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp32
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp58
+    _out[..., 1, 2, 11] = _out[..., 1, 11, 2] = _tmp19
+    _out[..., 1, 3, 3] = _tmp37
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp50
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp46
+    _out[..., 1, 3, 6] = _out[..., 1, 6, 3] = _tmp10
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp42
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp32
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp44
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp59
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp41
+    _out[..., 1, 4, 4] = _tmp48
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp49
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp13
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp30
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp38
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp51
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp52
+    _out[..., 1, 5, 5] = _tmp53
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp15
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = _tmp22
+    _out[..., 1, 5, 8] = _out[..., 1, 8, 5] = _tmp19
+    _out[..., 1, 5, 9] = _out[..., 1, 9, 5] = _tmp60
+    _out[..., 1, 5, 10] = _out[..., 1, 10, 5] = _tmp55
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp56
+    _out[..., 1, 6, 6] = _tmp6
+    _out[..., 1, 6, 8] = _out[..., 1, 8, 6] = _tmp18
+    _out[..., 1, 6, 9] = _out[..., 1, 9, 6] = _tmp19
+    _out[..., 1, 6, 10] = _out[..., 1, 10, 6] = _tmp57
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp16
+    _out[..., 1, 7, 7] = c_h
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp24
+    _out[..., 1, 8, 8] = _tmp27
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp28
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp33
+    _out[..., 1, 8, 11] = _out[..., 1, 11, 8] = _tmp10
+    _out[..., 1, 9, 9] = _tmp43
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp45
+    _out[..., 1, 9, 11] = _out[..., 1, 11, 9] = _tmp54
+    _out[..., 1, 10, 10] = _tmp61
+    _out[..., 1, 10, 11] = _out[..., 1, 11, 10] = _tmp62
+    _out[..., 1, 11, 11] = _tmp53
+    _out[..., 2, 0, 0] = _tmp6
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp9
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp19
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp14
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp15
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp17
+    _out[..., 2, 0, 8] = _out[..., 2, 8, 0] = _tmp18
+    _out[..., 2, 0, 9] = _out[..., 2, 9, 0] = _tmp10
+    _out[..., 2, 0, 10] = _out[..., 2, 10, 0] = _tmp20
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp16
+    _out[..., 2, 1, 1] = c_h
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = _tmp21
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = _tmp22
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = _tmp23
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp24
+    _out[..., 2, 2, 2] = _tmp27
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp32
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp30
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp10
+    _out[..., 2, 2, 6] = _out[..., 2, 6, 2] = _tmp18
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp31
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp28
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp33
+    _out[..., 2, 2, 11] = _out[..., 2, 11, 2] = _tmp19
+    _out[..., 2, 3, 3] = _tmp37
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp50
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp41
+    _out[..., 2, 3, 6] = _out[..., 2, 6, 3] = _tmp10
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp42
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp28
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp44
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp59
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp46
+    _out[..., 2, 4, 4] = _tmp48
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp52
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp13
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp29
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp38
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp51
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp49
+    _out[..., 2, 5, 5] = _tmp53
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp16
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp24
+    _out[..., 2, 5, 8] = _out[..., 2, 8, 5] = _tmp19
+    _out[..., 2, 5, 9] = _out[..., 2, 9, 5] = _tmp54
+    _out[..., 2, 5, 10] = _out[..., 2, 10, 5] = _tmp62
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp56
+    _out[..., 2, 6, 6] = _tmp6
+    _out[..., 2, 6, 8] = _out[..., 2, 8, 6] = _tmp9
+    _out[..., 2, 6, 9] = _out[..., 2, 9, 6] = _tmp19
+    _out[..., 2, 6, 10] = _out[..., 2, 10, 6] = _tmp57
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp15
+    _out[..., 2, 7, 7] = c_h
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = _tmp22
+    _out[..., 2, 8, 8] = _tmp27
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp32
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp58
+    _out[..., 2, 8, 11] = _out[..., 2, 11, 8] = _tmp10
+    _out[..., 2, 9, 9] = _tmp43
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp45
+    _out[..., 2, 9, 11] = _out[..., 2, 11, 9] = _tmp60
+    _out[..., 2, 10, 10] = _tmp61
+    _out[..., 2, 10, 11] = _out[..., 2, 11, 10] = _tmp55
+    _out[..., 2, 11, 11] = _tmp53
+    _out[..., 3, 0, 0] = _tmp6
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp18
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp10
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp14
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp15
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp17
+    _out[..., 3, 0, 8] = _out[..., 3, 8, 0] = _tmp9
+    _out[..., 3, 0, 9] = _out[..., 3, 9, 0] = _tmp19
+    _out[..., 3, 0, 10] = _out[..., 3, 10, 0] = _tmp20
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp16
+    _out[..., 3, 1, 1] = c_h
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = _tmp21
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp24
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = _tmp23
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = _tmp22
+    _out[..., 3, 2, 2] = _tmp27
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp32
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp29
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp19
+    _out[..., 3, 2, 6] = _out[..., 3, 6, 2] = _tmp9
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp31
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp28
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp58
+    _out[..., 3, 2, 11] = _out[..., 3, 11, 2] = _tmp10
+    _out[..., 3, 3, 3] = _tmp37
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp38
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp46
+    _out[..., 3, 3, 6] = _out[..., 3, 6, 3] = _tmp19
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp42
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp28
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp44
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp45
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp41
+    _out[..., 3, 4, 4] = _tmp48
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp52
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp13
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp30
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp50
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp51
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp49
+    _out[..., 3, 5, 5] = _tmp53
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp16
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = _tmp22
+    _out[..., 3, 5, 8] = _out[..., 3, 8, 5] = _tmp10
+    _out[..., 3, 5, 9] = _out[..., 3, 9, 5] = _tmp60
+    _out[..., 3, 5, 10] = _out[..., 3, 10, 5] = _tmp62
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp56
+    _out[..., 3, 6, 6] = _tmp6
+    _out[..., 3, 6, 8] = _out[..., 3, 8, 6] = _tmp18
+    _out[..., 3, 6, 9] = _out[..., 3, 9, 6] = _tmp10
+    _out[..., 3, 6, 10] = _out[..., 3, 10, 6] = _tmp57
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp15
+    _out[..., 3, 7, 7] = c_h
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp24
+    _out[..., 3, 8, 8] = _tmp27
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp32
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp33
+    _out[..., 3, 8, 11] = _out[..., 3, 11, 8] = _tmp19
+    _out[..., 3, 9, 9] = _tmp43
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp59
+    _out[..., 3, 9, 11] = _out[..., 3, 11, 9] = _tmp54
+    _out[..., 3, 10, 10] = _tmp61
+    _out[..., 3, 10, 11] = _out[..., 3, 11, 10] = _tmp55
+    _out[..., 3, 11, 11] = _tmp53
+    _out[..., 4, 0, 0] = c_h
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp42
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp64
+    _out[..., 4, 0, 6] = _out[..., 4, 6, 0] = _tmp23
+    _out[..., 4, 0, 11] = _out[..., 4, 11, 0] = _tmp63
+    _out[..., 4, 1, 1] = c_h
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = _tmp21
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = _tmp23
+    _out[..., 4, 2, 2] = c_m
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp65
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp66
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp67
+    _out[..., 4, 3, 3] = _tmp69
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp42
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp67
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp70
+    _out[..., 4, 4, 4] = _tmp35
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp71
+    _out[..., 4, 4, 6] = _out[..., 4, 6, 4] = _tmp21
+    _out[..., 4, 4, 11] = _out[..., 4, 11, 4] = _tmp72
+    _out[..., 4, 5, 5] = _tmp40
+    _out[..., 4, 5, 6] = _out[..., 4, 6, 5] = _tmp63
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp73
+    _out[..., 4, 6, 6] = c_h
+    _out[..., 4, 6, 11] = _out[..., 4, 11, 6] = _tmp64
+    _out[..., 4, 7, 7] = c_h
+    _out[..., 4, 8, 8] = c_m
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp65
+    _out[..., 4, 9, 9] = _tmp68
+    _out[..., 4, 11, 11] = _tmp40
+    _out[..., 5, 0, 0] = c_h
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp42
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = _tmp63
+    _out[..., 5, 0, 6] = _out[..., 5, 6, 0] = _tmp23
+    _out[..., 5, 0, 11] = _out[..., 5, 11, 0] = _tmp64
+    _out[..., 5, 1, 1] = c_h
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = _tmp21
+    _out[..., 5, 1, 7] = _out[..., 5, 7, 1] = _tmp23
+    _out[..., 5, 2, 2] = c_m
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp67
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = _tmp66
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp65
+    _out[..., 5, 3, 3] = _tmp69
+    _out[..., 5, 3, 7] = _out[..., 5, 7, 3] = _tmp42
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp65
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp70
+    _out[..., 5, 4, 4] = _tmp35
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp72
+    _out[..., 5, 4, 6] = _out[..., 5, 6, 4] = _tmp21
+    _out[..., 5, 4, 11] = _out[..., 5, 11, 4] = _tmp71
+    _out[..., 5, 5, 5] = _tmp40
+    _out[..., 5, 5, 6] = _out[..., 5, 6, 5] = _tmp64
+    _out[..., 5, 5, 11] = _out[..., 5, 11, 5] = _tmp73
+    _out[..., 5, 6, 6] = c_h
+    _out[..., 5, 6, 11] = _out[..., 5, 11, 6] = _tmp63
+    _out[..., 5, 7, 7] = c_h
+    _out[..., 5, 8, 8] = c_m
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp67
+    _out[..., 5, 9, 9] = _tmp68
+    _out[..., 5, 11, 11] = _tmp40
+    return _out
+
+
+def isolator_stiffness_on_foundation_gradient(a, b, h, alpha, c_h, c_v, c_m):
+    """Derivatives of isolator_stiffness_on_foundation() with respect to the unknowns c_h, c_v, c_m, shape
+    (..., 3, 6, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [x, x_found] = -cos(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [y, y_found] = -1
+          [y, phi_found] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -sin(alpha)**2
+          [z, psi_found] = -b*sin(alpha)**2
+          [z, theta_found] = a*sin(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, y_found] = -h
+          [psi, z_found] = -b*sin(alpha)**2
+          [psi, psi_found] = -b**2*sin(alpha)**2
+          [psi, theta_found] = a*b*sin(alpha)**2
+          [psi, phi_found] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*cos(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+          [phi, x_found] = b*cos(alpha)**2
+          [phi, y_found] = -a
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -a**2 - b**2*cos(alpha)**2
+          [x_found, x_found] = cos(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*cos(alpha)**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a
+          [z_found, z_found] = sin(alpha)**2
+          [z_found, psi_found] = b*sin(alpha)**2
+          [z_found, theta_found] = -a*sin(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*sin(alpha)**2
+          [psi_found, theta_found] = -a*b*sin(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*sin(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x+y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [x, x_found] = -cos(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [y, y_found] = -1
+          [y, phi_found] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -sin(alpha)**2
+          [z, psi_found] = -b*sin(alpha)**2
+          [z, theta_found] = -a*sin(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, y_found] = -h
+          [psi, z_found] = -b*sin(alpha)**2
+          [psi, psi_found] = -b**2*sin(alpha)**2
+          [psi, theta_found] = -a*b*sin(alpha)**2
+          [psi, phi_found] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*cos(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+          [phi, x_found] = b*cos(alpha)**2
+          [phi, y_found] = a
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -a**2 - b**2*cos(alpha)**2
+          [x_found, x_found] = cos(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*cos(alpha)**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a
+          [z_found, z_found] = sin(alpha)**2
+          [z_found, psi_found] = b*sin(alpha)**2
+          [z_found, theta_found] = a*sin(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*sin(alpha)**2
+          [psi_found, theta_found] = a*b*sin(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*sin(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = a**2 + b**2*cos(alpha)**2
+        dcorner[+x-y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [x, x_found] = -cos(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [y, y_found] = -1
+          [y, phi_found] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -sin(alpha)**2
+          [z, psi_found] = b*sin(alpha)**2
+          [z, theta_found] = a*sin(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, y_found] = -h
+          [psi, z_found] = b*sin(alpha)**2
+          [psi, psi_found] = -b**2*sin(alpha)**2
+          [psi, theta_found] = -a*b*sin(alpha)**2
+          [psi, phi_found] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*cos(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+          [phi, x_found] = -b*cos(alpha)**2
+          [phi, y_found] = -a
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -a**2 - b**2*cos(alpha)**2
+          [x_found, x_found] = cos(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*cos(alpha)**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = a
+          [z_found, z_found] = sin(alpha)**2
+          [z_found, psi_found] = -b*sin(alpha)**2
+          [z_found, theta_found] = -a*sin(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*sin(alpha)**2
+          [psi_found, theta_found] = a*b*sin(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*sin(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x-y]/dc_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [x, x_found] = -cos(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [y, y_found] = -1
+          [y, phi_found] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -sin(alpha)**2
+          [z, psi_found] = b*sin(alpha)**2
+          [z, theta_found] = -a*sin(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, y_found] = -h
+          [psi, z_found] = b*sin(alpha)**2
+          [psi, psi_found] = -b**2*sin(alpha)**2
+          [psi, theta_found] = a*b*sin(alpha)**2
+          [psi, phi_found] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*cos(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+          [phi, x_found] = -b*cos(alpha)**2
+          [phi, y_found] = a
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -a**2 - b**2*cos(alpha)**2
+          [x_found, x_found] = cos(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*cos(alpha)**2
+          [y_found, y_found] = 1
+          [y_found, phi_found] = -a
+          [z_found, z_found] = sin(alpha)**2
+          [z_found, psi_found] = -b*sin(alpha)**2
+          [z_found, theta_found] = a*sin(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*sin(alpha)**2
+          [psi_found, theta_found] = -a*b*sin(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*sin(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = a**2 + b**2*cos(alpha)**2
+        dmiddle[+y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [x, x_found] = -1
+          [x, phi_found] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, y_found] = -1
+          [psi, psi] = h**2
+          [psi, y_found] = -h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [theta, x_found] = h
+          [theta, phi_found] = -b*h
+          [phi, phi] = b**2
+          [phi, x_found] = b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = -b
+          [y_found, y_found] = 1
+          [phi_found, phi_found] = b**2
+        dmiddle[-y]/dc_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [x, x_found] = -1
+          [x, phi_found] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, y_found] = -1
+          [psi, psi] = h**2
+          [psi, y_found] = -h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [theta, x_found] = h
+          [theta, phi_found] = b*h
+          [phi, phi] = b**2
+          [phi, x_found] = -b
+          [phi, phi_found] = -b**2
+          [x_found, x_found] = 1
+          [x_found, phi_found] = b
+          [y_found, y_found] = 1
+          [phi_found, phi_found] = b**2
+        dcorner[+x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = -b*cos(alpha)**2
+          [z, theta_found] = a*cos(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*cos(alpha)**2
+          [psi, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*sin(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = b*sin(alpha)**2
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = b*cos(alpha)**2
+          [z_found, theta_found] = -a*cos(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*cos(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[-x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = -b*cos(alpha)**2
+          [z, theta_found] = -a*cos(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*cos(alpha)**2
+          [psi, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*sin(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = b*sin(alpha)**2
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = b*cos(alpha)**2
+          [z_found, theta_found] = a*cos(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*cos(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[+x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = b*cos(alpha)**2
+          [z, theta_found] = a*cos(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*cos(alpha)**2
+          [psi, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*sin(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [theta, z_found] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = -b*sin(alpha)**2
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = -b*cos(alpha)**2
+          [z_found, theta_found] = -a*cos(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*cos(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[-x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = b*cos(alpha)**2
+          [z, theta_found] = -a*cos(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*cos(alpha)**2
+          [psi, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [theta, x_found] = h*sin(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [theta, z_found] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [theta, psi_found] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [theta, theta_found] = a*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [theta, phi_found] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = -b*sin(alpha)**2
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = -b*cos(alpha)**2
+          [z_found, theta_found] = a*cos(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*cos(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dmiddle[+y]/dc_v:
+        dmiddle[-y]/dc_v:
+        dcorner[+x+y]/dc_m:
+        dcorner[-x+y]/dc_m:
+        dcorner[+x-y]/dc_m:
+        dcorner[-x-y]/dc_m:
+        dmiddle[+y]/dc_m:
+          [z, z] = 1
+          [z, psi] = b
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [psi, psi] = b**2
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [psi_found, psi_found] = b**2
+        dmiddle[-y]/dc_m:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [psi, psi] = b**2
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [psi_found, psi_found] = b**2
+    """
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = -_tmp3
+    _tmp5 = _tmp3 * b
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp3 * a
+    _tmp8 = -_tmp1 * h + _tmp7
+    _tmp9 = _tmp1 * b
+    _tmp10 = -_tmp9
+    _tmp11 = -_tmp1
+    _tmp12 = -_tmp7
+    _tmp13 = -a
+    _tmp14 = _tmp2**2
+    _tmp15 = _tmp14 * b
+    _tmp16 = _tmp14 * a
+    _tmp17 = _tmp3 * h
+    _tmp18 = _tmp16 - _tmp17
+    _tmp19 = -_tmp18
+    _tmp20 = -_tmp14
+    _tmp21 = -_tmp15
+    _tmp22 = h**2
+    _tmp23 = b**2
+    _tmp24 = _tmp14 * _tmp23
+    _tmp25 = _tmp22 + _tmp24
+    _tmp26 = _tmp19 * b
+    _tmp27 = a * h
+    _tmp28 = _tmp23 * _tmp3
+    _tmp29 = _tmp27 + _tmp28
+    _tmp30 = -h
+    _tmp31 = -_tmp24
+    _tmp32 = _tmp15 * a
+    _tmp33 = -_tmp29
+    _tmp34 = a**2
+    _tmp35 = _tmp14 * _tmp34
+    _tmp36 = 2 * _tmp27 * _tmp3
+    _tmp37 = _tmp1 * _tmp22 + _tmp35 - _tmp36
+    _tmp38 = -_tmp8
+    _tmp39 = _tmp38 * b
+    _tmp40 = _tmp18 * b
+    _tmp41 = _tmp19 * a
+    _tmp42 = _tmp8 * b
+    _tmp43 = _tmp1 * _tmp23
+    _tmp44 = _tmp34 + _tmp43
+    _tmp45 = -_tmp28
+    _tmp46 = _tmp5 * a
+    _tmp47 = -_tmp44
+    _tmp48 = -_tmp16
+    _tmp49 = -_tmp32
+    _tmp50 = -_tmp46
+    _tmp51 = -b
+    _tmp52 = b * h
+    _tmp53 = -_tmp52
+    _tmp54 = -_tmp23
+    _tmp55 = _tmp14 * h + _tmp7
+    _tmp56 = -_tmp55
+    _tmp57 = _tmp1 * a
+    _tmp58 = _tmp17 + _tmp57
+    _tmp59 = -_tmp58
+    _tmp60 = _tmp59 * b
+    _tmp61 = -_tmp43
+    _tmp62 = _tmp9 * a
+    _tmp63 = _tmp1 * _tmp34
+    _tmp64 = _tmp14 * _tmp22 + _tmp36 + _tmp63
+    _tmp65 = _tmp55 * b
+    _tmp66 = _tmp58 * b
+    _tmp67 = _tmp59 * a
+    _tmp68 = _tmp56 * b
+    _tmp69 = -_tmp57
+    _tmp70 = -_tmp62
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a),
+        numpy.shape(b),
+        numpy.shape(h),
+        numpy.shape(alpha),
+        numpy.shape(c_h),
+        numpy.shape(c_v),
+        numpy.shape(c_m),
+    )
+    _out = numpy.zeros((*_shape, 18, 12, 12))
+    _out[..., 0, 0, 0] = _tmp1
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp4
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp6
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp8
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp10
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp11
+    _out[..., 0, 0, 8] = _out[..., 0, 8, 0] = _tmp3
+    _out[..., 0, 0, 9] = _out[..., 0, 9, 0] = _tmp5
+    _out[..., 0, 0, 10] = _out[..., 0, 10, 0] = _tmp12
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp9
+    _out[..., 0, 1, 1] = 1
+    _out[..., 0, 1, 3] = _out[..., 0, 3, 1] = h
+    _out[..., 0, 1, 5] = _out[..., 0, 5, 1] = a
+    _out[..., 0, 1, 7] = _out[..., 0, 7, 1] = -1
+    _out[..., 0, 1, 11] = _out[..., 0, 11, 1] = _tmp13
+    _out[..., 0, 2, 2] = _tmp14
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp15
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp19
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp5
+    _out[..., 0, 2, 6] = _out[..., 0, 6, 2] = _tmp3
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp20
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp21
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp16
+    _out[..., 0, 2, 11] = _out[..., 0, 11, 2] = _tmp6
+    _out[..., 0, 3, 3] = _tmp25
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp26
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp29
+    _out[..., 0, 3, 6] = _out[..., 0, 6, 3] = _tmp5
+    _out[..., 0, 3, 7] = _out[..., 0, 7, 3] = _tmp30
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp21
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp31
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp32
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp33
+    _out[..., 0, 4, 4] = _tmp37
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp39
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp38
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp18
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp40
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp41
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp42
+    _out[..., 0, 5, 5] = _tmp44
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp9
+    _out[..., 0, 5, 7] = _out[..., 0, 7, 5] = _tmp13
+    _out[..., 0, 5, 8] = _out[..., 0, 8, 5] = _tmp6
+    _out[..., 0, 5, 9] = _out[..., 0, 9, 5] = _tmp45
+    _out[..., 0, 5, 10] = _out[..., 0, 10, 5] = _tmp46
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp47
+    _out[..., 0, 6, 6] = _tmp1
+    _out[..., 0, 6, 8] = _out[..., 0, 8, 6] = _tmp4
+    _out[..., 0, 6, 9] = _out[..., 0, 9, 6] = _tmp6
+    _out[..., 0, 6, 10] = _out[..., 0, 10, 6] = _tmp7
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp10
+    _out[..., 0, 7, 7] = 1
+    _out[..., 0, 7, 11] = _out[..., 0, 11, 7] = a
+    _out[..., 0, 8, 8] = _tmp14
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp15
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp48
+    _out[..., 0, 8, 11] = _out[..., 0, 11, 8] = _tmp5
+    _out[..., 0, 9, 9] = _tmp24
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp49
+    _out[..., 0, 9, 11] = _out[..., 0, 11, 9] = _tmp28
+    _out[..., 0, 10, 10] = _tmp35
+    _out[..., 0, 10, 11] = _out[..., 0, 11, 10] = _tmp50
+    _out[..., 0, 11, 11] = _tmp44
+    _out[..., 1, 0, 0] = _tmp1
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp3
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp5
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp8
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp10
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp11
+    _out[..., 1, 0, 8] = _out[..., 1, 8, 0] = _tmp4
+    _out[..., 1, 0, 9] = _out[..., 1, 9, 0] = _tmp6
+    _out[..., 1, 0, 10] = _out[..., 1, 10, 0] = _tmp12
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp9
+    _out[..., 1, 1, 1] = 1
+    _out[..., 1, 1, 3] = _out[..., 1, 3, 1] = h
+    _out[..., 1, 1, 5] = _out[..., 1, 5, 1] = _tmp13
+    _out[..., 1, 1, 7] = _out[..., 1, 7, 1] = -1
+    _out[..., 1, 1, 11] = _out[..., 1, 11, 1] = a
+    _out[..., 1, 2, 2] = _tmp14
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp15
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp18
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp6
+    _out[..., 1, 2, 6] = _out[..., 1, 6, 2] = _tmp4
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp20
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp21
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp48
+    _out[..., 1, 2, 11] = _out[..., 1, 11, 2] = _tmp5
+    _out[..., 1, 3, 3] = _tmp25
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp40
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp33
+    _out[..., 1, 3, 6] = _out[..., 1, 6, 3] = _tmp6
+    _out[..., 1, 3, 7] = _out[..., 1, 7, 3] = _tmp30
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp21
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp31
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp49
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp29
+    _out[..., 1, 4, 4] = _tmp37
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp39
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp38
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp19
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp26
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp41
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp42
+    _out[..., 1, 5, 5] = _tmp44
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp9
+    _out[..., 1, 5, 7] = _out[..., 1, 7, 5] = a
+    _out[..., 1, 5, 8] = _out[..., 1, 8, 5] = _tmp5
+    _out[..., 1, 5, 9] = _out[..., 1, 9, 5] = _tmp28
+    _out[..., 1, 5, 10] = _out[..., 1, 10, 5] = _tmp46
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp47
+    _out[..., 1, 6, 6] = _tmp1
+    _out[..., 1, 6, 8] = _out[..., 1, 8, 6] = _tmp3
+    _out[..., 1, 6, 9] = _out[..., 1, 9, 6] = _tmp5
+    _out[..., 1, 6, 10] = _out[..., 1, 10, 6] = _tmp7
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp10
+    _out[..., 1, 7, 7] = 1
+    _out[..., 1, 7, 11] = _out[..., 1, 11, 7] = _tmp13
+    _out[..., 1, 8, 8] = _tmp14
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp15
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp16
+    _out[..., 1, 8, 11] = _out[..., 1, 11, 8] = _tmp6
+    _out[..., 1, 9, 9] = _tmp24
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp32
+    _out[..., 1, 9, 11] = _out[..., 1, 11, 9] = _tmp45
+    _out[..., 1, 10, 10] = _tmp35
+    _out[..., 1, 10, 11] = _out[..., 1, 11, 10] = _tmp50
+    _out[..., 1, 11, 11] = _tmp44
+    _out[..., 2, 0, 0] = _tmp1
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp4
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp5
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp8
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp9
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp11
+    _out[..., 2, 0, 8] = _out[..., 2, 8, 0] = _tmp3
+    _out[..., 2, 0, 9] = _out[..., 2, 9, 0] = _tmp6
+    _out[..., 2, 0, 10] = _out[..., 2, 10, 0] = _tmp12
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp10
+    _out[..., 2, 1, 1] = 1
+    _out[..., 2, 1, 3] = _out[..., 2, 3, 1] = h
+    _out[..., 2, 1, 5] = _out[..., 2, 5, 1] = a
+    _out[..., 2, 1, 7] = _out[..., 2, 7, 1] = -1
+    _out[..., 2, 1, 11] = _out[..., 2, 11, 1] = _tmp13
+    _out[..., 2, 2, 2] = _tmp14
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp21
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp19
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp6
+    _out[..., 2, 2, 6] = _out[..., 2, 6, 2] = _tmp3
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp20
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp15
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp16
+    _out[..., 2, 2, 11] = _out[..., 2, 11, 2] = _tmp5
+    _out[..., 2, 3, 3] = _tmp25
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp40
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp29
+    _out[..., 2, 3, 6] = _out[..., 2, 6, 3] = _tmp6
+    _out[..., 2, 3, 7] = _out[..., 2, 7, 3] = _tmp30
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp15
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp31
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp49
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp33
+    _out[..., 2, 4, 4] = _tmp37
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp42
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp38
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp18
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp26
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp41
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp39
+    _out[..., 2, 5, 5] = _tmp44
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp10
+    _out[..., 2, 5, 7] = _out[..., 2, 7, 5] = _tmp13
+    _out[..., 2, 5, 8] = _out[..., 2, 8, 5] = _tmp5
+    _out[..., 2, 5, 9] = _out[..., 2, 9, 5] = _tmp45
+    _out[..., 2, 5, 10] = _out[..., 2, 10, 5] = _tmp50
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp47
+    _out[..., 2, 6, 6] = _tmp1
+    _out[..., 2, 6, 8] = _out[..., 2, 8, 6] = _tmp4
+    _out[..., 2, 6, 9] = _out[..., 2, 9, 6] = _tmp5
+    _out[..., 2, 6, 10] = _out[..., 2, 10, 6] = _tmp7
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp9
+    _out[..., 2, 7, 7] = 1
+    _out[..., 2, 7, 11] = _out[..., 2, 11, 7] = a
+    _out[..., 2, 8, 8] = _tmp14
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp21
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp48
+    _out[..., 2, 8, 11] = _out[..., 2, 11, 8] = _tmp6
+    _out[..., 2, 9, 9] = _tmp24
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp32
+    _out[..., 2, 9, 11] = _out[..., 2, 11, 9] = _tmp28
+    _out[..., 2, 10, 10] = _tmp35
+    _out[..., 2, 10, 11] = _out[..., 2, 11, 10] = _tmp46
+    _out[..., 2, 11, 11] = _tmp44
+    _out[..., 3, 0, 0] = _tmp1
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp3
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp6
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp8
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp9
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp11
+    _out[..., 3, 0, 8] = _out[..., 3, 8, 0] = _tmp4
+    _out[..., 3, 0, 9] = _out[..., 3, 9, 0] = _tmp5
+    _out[..., 3, 0, 10] = _out[..., 3, 10, 0] = _tmp12
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp10
+    _out[..., 3, 1, 1] = 1
+    _out[..., 3, 1, 3] = _out[..., 3, 3, 1] = h
+    _out[..., 3, 1, 5] = _out[..., 3, 5, 1] = _tmp13
+    _out[..., 3, 1, 7] = _out[..., 3, 7, 1] = -1
+    _out[..., 3, 1, 11] = _out[..., 3, 11, 1] = a
+    _out[..., 3, 2, 2] = _tmp14
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp21
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp18
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp5
+    _out[..., 3, 2, 6] = _out[..., 3, 6, 2] = _tmp4
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp20
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp15
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp48
+    _out[..., 3, 2, 11] = _out[..., 3, 11, 2] = _tmp6
+    _out[..., 3, 3, 3] = _tmp25
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp26
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp33
+    _out[..., 3, 3, 6] = _out[..., 3, 6, 3] = _tmp5
+    _out[..., 3, 3, 7] = _out[..., 3, 7, 3] = _tmp30
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp15
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp31
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp32
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp29
+    _out[..., 3, 4, 4] = _tmp37
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp42
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp38
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp19
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp40
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp41
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp39
+    _out[..., 3, 5, 5] = _tmp44
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp10
+    _out[..., 3, 5, 7] = _out[..., 3, 7, 5] = a
+    _out[..., 3, 5, 8] = _out[..., 3, 8, 5] = _tmp6
+    _out[..., 3, 5, 9] = _out[..., 3, 9, 5] = _tmp28
+    _out[..., 3, 5, 10] = _out[..., 3, 10, 5] = _tmp50
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp47
+    _out[..., 3, 6, 6] = _tmp1
+    _out[..., 3, 6, 8] = _out[..., 3, 8, 6] = _tmp3
+    _out[..., 3, 6, 9] = _out[..., 3, 9, 6] = _tmp6
+    _out[..., 3, 6, 10] = _out[..., 3, 10, 6] = _tmp7
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp9
+    _out[..., 3, 7, 7] = 1
+    _out[..., 3, 7, 11] = _out[..., 3, 11, 7] = _tmp13
+    _out[..., 3, 8, 8] = _tmp14
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp21
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp16
+    _out[..., 3, 8, 11] = _out[..., 3, 11, 8] = _tmp5
+    _out[..., 3, 9, 9] = _tmp24
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp49
+    _out[..., 3, 9, 11] = _out[..., 3, 11, 9] = _tmp45
+    _out[..., 3, 10, 10] = _tmp35
+    _out[..., 3, 10, 11] = _out[..., 3, 11, 10] = _tmp46
+    _out[..., 3, 11, 11] = _tmp44
+    _out[..., 4, 0, 0] = 1
+    _out[..., 4, 0, 4] = _out[..., 4, 4, 0] = _tmp30
+    _out[..., 4, 0, 5] = _out[..., 4, 5, 0] = _tmp51
+    _out[..., 4, 0, 6] = _out[..., 4, 6, 0] = -1
+    _out[..., 4, 0, 11] = _out[..., 4, 11, 0] = b
+    _out[..., 4, 1, 1] = 1
+    _out[..., 4, 1, 3] = _out[..., 4, 3, 1] = h
+    _out[..., 4, 1, 7] = _out[..., 4, 7, 1] = -1
+    _out[..., 4, 3, 3] = _tmp22
+    _out[..., 4, 3, 7] = _out[..., 4, 7, 3] = _tmp30
+    _out[..., 4, 4, 4] = _tmp22
+    _out[..., 4, 4, 5] = _out[..., 4, 5, 4] = _tmp52
+    _out[..., 4, 4, 6] = _out[..., 4, 6, 4] = h
+    _out[..., 4, 4, 11] = _out[..., 4, 11, 4] = _tmp53
+    _out[..., 4, 5, 5] = _tmp23
+    _out[..., 4, 5, 6] = _out[..., 4, 6, 5] = b
+    _out[..., 4, 5, 11] = _out[..., 4, 11, 5] = _tmp54
+    _out[..., 4, 6, 6] = 1
+    _out[..., 4, 6, 11] = _out[..., 4, 11, 6] = _tmp51
+    _out[..., 4, 7, 7] = 1
+    _out[..., 4, 11, 11] = _tmp23
+    _out[..., 5, 0, 0] = 1
+    _out[..., 5, 0, 4] = _out[..., 5, 4, 0] = _tmp30
+    _out[..., 5, 0, 5] = _out[..., 5, 5, 0] = b
+    _out[..., 5, 0, 6] = _out[..., 5, 6, 0] = -1
+    _out[..., 5, 0, 11] = _out[..., 5, 11, 0] = _tmp51
+    _out[..., 5, 1, 1] = 1
+    _out[..., 5, 1, 3] = _out[..., 5, 3, 1] = h
+    _out[..., 5, 1, 7] = _out[..., 5, 7, 1] = -1
+    _out[..., 5, 3, 3] = _tmp22
+    _out[..., 5, 3, 7] = _out[..., 5, 7, 3] = _tmp30
+    _out[..., 5, 4, 4] = _tmp22
+    _out[..., 5, 4, 5] = _out[..., 5, 5, 4] = _tmp53
+    _out[..., 5, 4, 6] = _out[..., 5, 6, 4] = h
+    _out[..., 5, 4, 11] = _out[..., 5, 11, 4] = _tmp52
+    _out[..., 5, 5, 5] = _tmp23
+    _out[..., 5, 5, 6] = _out[..., 5, 6, 5] = _tmp51
+    _out[..., 5, 5, 11] = _out[..., 5, 11, 5] = _tmp54
+    _out[..., 5, 6, 6] = 1
+    _out[..., 5, 6, 11] = _out[..., 5, 11, 6] = b
+    _out[..., 5, 7, 7] = 1
+    _out[..., 5, 11, 11] = _tmp23
+    _out[..., 6, 0, 0] = _tmp14
+    _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
+    _out[..., 6, 0, 3] = _out[..., 6, 3, 0] = _tmp5
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp56
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp21
+    _out[..., 6, 0, 6] = _out[..., 6, 6, 0] = _tmp20
+    _out[..., 6, 0, 8] = _out[..., 6, 8, 0] = _tmp4
+    _out[..., 6, 0, 9] = _out[..., 6, 9, 0] = _tmp6
+    _out[..., 6, 0, 10] = _out[..., 6, 10, 0] = _tmp7
+    _out[..., 6, 0, 11] = _out[..., 6, 11, 0] = _tmp15
+    _out[..., 6, 2, 2] = _tmp1
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp9
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp59
+    _out[..., 6, 2, 5] = _out[..., 6, 5, 2] = _tmp6
+    _out[..., 6, 2, 6] = _out[..., 6, 6, 2] = _tmp4
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = _tmp11
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp10
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp57
+    _out[..., 6, 2, 11] = _out[..., 6, 11, 2] = _tmp5
+    _out[..., 6, 3, 3] = _tmp43
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp60
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp45
+    _out[..., 6, 3, 6] = _out[..., 6, 6, 3] = _tmp6
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp10
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp61
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp62
+    _out[..., 6, 3, 11] = _out[..., 6, 11, 3] = _tmp28
+    _out[..., 6, 4, 4] = _tmp64
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp65
+    _out[..., 6, 4, 6] = _out[..., 6, 6, 4] = _tmp55
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp58
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp66
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp67
+    _out[..., 6, 4, 11] = _out[..., 6, 11, 4] = _tmp68
+    _out[..., 6, 5, 5] = _tmp24
+    _out[..., 6, 5, 6] = _out[..., 6, 6, 5] = _tmp15
+    _out[..., 6, 5, 8] = _out[..., 6, 8, 5] = _tmp5
+    _out[..., 6, 5, 9] = _out[..., 6, 9, 5] = _tmp28
+    _out[..., 6, 5, 10] = _out[..., 6, 10, 5] = _tmp50
+    _out[..., 6, 5, 11] = _out[..., 6, 11, 5] = _tmp31
+    _out[..., 6, 6, 6] = _tmp14
+    _out[..., 6, 6, 8] = _out[..., 6, 8, 6] = _tmp3
+    _out[..., 6, 6, 9] = _out[..., 6, 9, 6] = _tmp5
+    _out[..., 6, 6, 10] = _out[..., 6, 10, 6] = _tmp12
+    _out[..., 6, 6, 11] = _out[..., 6, 11, 6] = _tmp21
+    _out[..., 6, 8, 8] = _tmp1
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp9
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp69
+    _out[..., 6, 8, 11] = _out[..., 6, 11, 8] = _tmp6
+    _out[..., 6, 9, 9] = _tmp43
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp70
+    _out[..., 6, 9, 11] = _out[..., 6, 11, 9] = _tmp45
+    _out[..., 6, 10, 10] = _tmp63
+    _out[..., 6, 10, 11] = _out[..., 6, 11, 10] = _tmp46
+    _out[..., 6, 11, 11] = _tmp24
+    _out[..., 7, 0, 0] = _tmp14
+    _out[..., 7, 0, 2] = _out[..., 7, 2, 0] = _tmp4
+    _out[..., 7, 0, 3] = _out[..., 7, 3, 0] = _tmp6
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp56
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp21
+    _out[..., 7, 0, 6] = _out[..., 7, 6, 0] = _tmp20
+    _out[..., 7, 0, 8] = _out[..., 7, 8, 0] = _tmp3
+    _out[..., 7, 0, 9] = _out[..., 7, 9, 0] = _tmp5
+    _out[..., 7, 0, 10] = _out[..., 7, 10, 0] = _tmp7
+    _out[..., 7, 0, 11] = _out[..., 7, 11, 0] = _tmp15
+    _out[..., 7, 2, 2] = _tmp1
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp9
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp58
+    _out[..., 7, 2, 5] = _out[..., 7, 5, 2] = _tmp5
+    _out[..., 7, 2, 6] = _out[..., 7, 6, 2] = _tmp3
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = _tmp11
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp10
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp69
+    _out[..., 7, 2, 11] = _out[..., 7, 11, 2] = _tmp6
+    _out[..., 7, 3, 3] = _tmp43
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp66
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp28
+    _out[..., 7, 3, 6] = _out[..., 7, 6, 3] = _tmp5
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp10
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp61
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp70
+    _out[..., 7, 3, 11] = _out[..., 7, 11, 3] = _tmp45
+    _out[..., 7, 4, 4] = _tmp64
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp65
+    _out[..., 7, 4, 6] = _out[..., 7, 6, 4] = _tmp55
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp59
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp60
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp67
+    _out[..., 7, 4, 11] = _out[..., 7, 11, 4] = _tmp68
+    _out[..., 7, 5, 5] = _tmp24
+    _out[..., 7, 5, 6] = _out[..., 7, 6, 5] = _tmp15
+    _out[..., 7, 5, 8] = _out[..., 7, 8, 5] = _tmp6
+    _out[..., 7, 5, 9] = _out[..., 7, 9, 5] = _tmp45
+    _out[..., 7, 5, 10] = _out[..., 7, 10, 5] = _tmp50
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp31
+    _out[..., 7, 6, 6] = _tmp14
+    _out[..., 7, 6, 8] = _out[..., 7, 8, 6] = _tmp4
+    _out[..., 7, 6, 9] = _out[..., 7, 9, 6] = _tmp6
+    _out[..., 7, 6, 10] = _out[..., 7, 10, 6] = _tmp12
+    _out[..., 7, 6, 11] = _out[..., 7, 11, 6] = _tmp21
+    _out[..., 7, 8, 8] = _tmp1
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp9
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp57
+    _out[..., 7, 8, 11] = _out[..., 7, 11, 8] = _tmp5
+    _out[..., 7, 9, 9] = _tmp43
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp62
+    _out[..., 7, 9, 11] = _out[..., 7, 11, 9] = _tmp28
+    _out[..., 7, 10, 10] = _tmp63
+    _out[..., 7, 10, 11] = _out[..., 7, 11, 10] = _tmp46
+    _out[..., 7, 11, 11] = _tmp24
+    _out[..., 8, 0, 0] = _tmp14
+    _out[..., 8, 0, 2] = _out[..., 8, 2, 0] = _tmp3
+    _out[..., 8, 0, 3] = _out[..., 8, 3, 0] = _tmp6
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp56
+    _out[..., 8, 0, 5] = _out[..., 8, 5, 0] = _tmp15
+    _out[..., 8, 0, 6] = _out[..., 8, 6, 0] = _tmp20
+    _out[..., 8, 0, 8] = _out[..., 8, 8, 0] = _tmp4
+    _out[..., 8, 0, 9] = _out[..., 8, 9, 0] = _tmp5
+    _out[..., 8, 0, 10] = _out[..., 8, 10, 0] = _tmp7
+    _out[..., 8, 0, 11] = _out[..., 8, 11, 0] = _tmp21
+    _out[..., 8, 2, 2] = _tmp1
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp10
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp59
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp5
+    _out[..., 8, 2, 6] = _out[..., 8, 6, 2] = _tmp4
+    _out[..., 8, 2, 8] = _out[..., 8, 8, 2] = _tmp11
+    _out[..., 8, 2, 9] = _out[..., 8, 9, 2] = _tmp9
+    _out[..., 8, 2, 10] = _out[..., 8, 10, 2] = _tmp57
+    _out[..., 8, 2, 11] = _out[..., 8, 11, 2] = _tmp6
+    _out[..., 8, 3, 3] = _tmp43
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp66
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp45
+    _out[..., 8, 3, 6] = _out[..., 8, 6, 3] = _tmp5
+    _out[..., 8, 3, 8] = _out[..., 8, 8, 3] = _tmp9
+    _out[..., 8, 3, 9] = _out[..., 8, 9, 3] = _tmp61
+    _out[..., 8, 3, 10] = _out[..., 8, 10, 3] = _tmp70
+    _out[..., 8, 3, 11] = _out[..., 8, 11, 3] = _tmp28
+    _out[..., 8, 4, 4] = _tmp64
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp68
+    _out[..., 8, 4, 6] = _out[..., 8, 6, 4] = _tmp55
+    _out[..., 8, 4, 8] = _out[..., 8, 8, 4] = _tmp58
+    _out[..., 8, 4, 9] = _out[..., 8, 9, 4] = _tmp60
+    _out[..., 8, 4, 10] = _out[..., 8, 10, 4] = _tmp67
+    _out[..., 8, 4, 11] = _out[..., 8, 11, 4] = _tmp65
+    _out[..., 8, 5, 5] = _tmp24
+    _out[..., 8, 5, 6] = _out[..., 8, 6, 5] = _tmp21
+    _out[..., 8, 5, 8] = _out[..., 8, 8, 5] = _tmp6
+    _out[..., 8, 5, 9] = _out[..., 8, 9, 5] = _tmp28
+    _out[..., 8, 5, 10] = _out[..., 8, 10, 5] = _tmp46
+    _out[..., 8, 5, 11] = _out[..., 8, 11, 5] = _tmp31
+    _out[..., 8, 6, 6] = _tmp14
+    _out[..., 8, 6, 8] = _out[..., 8, 8, 6] = _tmp3
+    _out[..., 8, 6, 9] = _out[..., 8, 9, 6] = _tmp6
+    _out[..., 8, 6, 10] = _out[..., 8, 10, 6] = _tmp12
+    _out[..., 8, 6, 11] = _out[..., 8, 11, 6] = _tmp15
+    _out[..., 8, 8, 8] = _tmp1
+    _out[..., 8, 8, 9] = _out[..., 8, 9, 8] = _tmp10
+    _out[..., 8, 8, 10] = _out[..., 8, 10, 8] = _tmp69
+    _out[..., 8, 8, 11] = _out[..., 8, 11, 8] = _tmp5
+    _out[..., 8, 9, 9] = _tmp43
+    _out[..., 8, 9, 10] = _out[..., 8, 10, 9] = _tmp62
+    _out[..., 8, 9, 11] = _out[..., 8, 11, 9] = _tmp45
+    _out[..., 8, 10, 10] = _tmp63
+    _out[..., 8, 10, 11] = _out[..., 8, 11, 10] = _tmp50
+    _out[..., 8, 11, 11] = _tmp24
+    _out[..., 9, 0, 0] = _tmp14
+    _out[..., 9, 0, 2] = _out[..., 9, 2, 0] = _tmp4
+    _out[..., 9, 0, 3] = _out[..., 9, 3, 0] = _tmp5
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = _tmp56
+    _out[..., 9, 0, 5] = _out[..., 9, 5, 0] = _tmp15
+    _out[..., 9, 0, 6] = _out[..., 9, 6, 0] = _tmp20
+    _out[..., 9, 0, 8] = _out[..., 9, 8, 0] = _tmp3
+    _out[..., 9, 0, 9] = _out[..., 9, 9, 0] = _tmp6
+    _out[..., 9, 0, 10] = _out[..., 9, 10, 0] = _tmp7
+    _out[..., 9, 0, 11] = _out[..., 9, 11, 0] = _tmp21
+    _out[..., 9, 2, 2] = _tmp1
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp10
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp58
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp6
+    _out[..., 9, 2, 6] = _out[..., 9, 6, 2] = _tmp3
+    _out[..., 9, 2, 8] = _out[..., 9, 8, 2] = _tmp11
+    _out[..., 9, 2, 9] = _out[..., 9, 9, 2] = _tmp9
+    _out[..., 9, 2, 10] = _out[..., 9, 10, 2] = _tmp69
+    _out[..., 9, 2, 11] = _out[..., 9, 11, 2] = _tmp5
+    _out[..., 9, 3, 3] = _tmp43
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp60
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp28
+    _out[..., 9, 3, 6] = _out[..., 9, 6, 3] = _tmp6
+    _out[..., 9, 3, 8] = _out[..., 9, 8, 3] = _tmp9
+    _out[..., 9, 3, 9] = _out[..., 9, 9, 3] = _tmp61
+    _out[..., 9, 3, 10] = _out[..., 9, 10, 3] = _tmp62
+    _out[..., 9, 3, 11] = _out[..., 9, 11, 3] = _tmp45
+    _out[..., 9, 4, 4] = _tmp64
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp68
+    _out[..., 9, 4, 6] = _out[..., 9, 6, 4] = _tmp55
+    _out[..., 9, 4, 8] = _out[..., 9, 8, 4] = _tmp59
+    _out[..., 9, 4, 9] = _out[..., 9, 9, 4] = _tmp66
+    _out[..., 9, 4, 10] = _out[..., 9, 10, 4] = _tmp67
+    _out[..., 9, 4, 11] = _out[..., 9, 11, 4] = _tmp65
+    _out[..., 9, 5, 5] = _tmp24
+    _out[..., 9, 5, 6] = _out[..., 9, 6, 5] = _tmp21
+    _out[..., 9, 5, 8] = _out[..., 9, 8, 5] = _tmp5
+    _out[..., 9, 5, 9] = _out[..., 9, 9, 5] = _tmp45
+    _out[..., 9, 5, 10] = _out[..., 9, 10, 5] = _tmp46
+    _out[..., 9, 5, 11] = _out[..., 9, 11, 5] = _tmp31
+    _out[..., 9, 6, 6] = _tmp14
+    _out[..., 9, 6, 8] = _out[..., 9, 8, 6] = _tmp4
+    _out[..., 9, 6, 9] = _out[..., 9, 9, 6] = _tmp5
+    _out[..., 9, 6, 10] = _out[..., 9, 10, 6] = _tmp12
+    _out[..., 9, 6, 11] = _out[..., 9, 11, 6] = _tmp15
+    _out[..., 9, 8, 8] = _tmp1
+    _out[..., 9, 8, 9] = _out[..., 9, 9, 8] = _tmp10
+    _out[..., 9, 8, 10] = _out[..., 9, 10, 8] = _tmp57
+    _out[..., 9, 8, 11] = _out[..., 9, 11, 8] = _tmp6
+    _out[..., 9, 9, 9] = _tmp43
+    _out[..., 9, 9, 10] = _out[..., 9, 10, 9] = _tmp70
+    _out[..., 9, 9, 11] = _out[..., 9, 11, 9] = _tmp28
+    _out[..., 9, 10, 10] = _tmp63
+    _out[..., 9, 10, 11] = _out[..., 9, 11, 10] = _tmp50
+    _out[..., 9, 11, 11] = _tmp24
+    _out[..., 16, 2, 2] = 1
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = b
+    _out[..., 16, 2, 8] = _out[..., 16, 8, 2] = -1
+    _out[..., 16, 2, 9] = _out[..., 16, 9, 2] = _tmp51
+    _out[..., 16, 3, 3] = _tmp23
+    _out[..., 16, 3, 8] = _out[..., 16, 8, 3] = _tmp51
+    _out[..., 16, 3, 9] = _out[..., 16, 9, 3] = _tmp54
+    _out[..., 16, 8, 8] = 1
+    _out[..., 16, 8, 9] = _out[..., 16, 9, 8] = b
+    _out[..., 16, 9, 9] = _tmp23
+    _out[..., 17, 2, 2] = 1
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp51
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = -1
+    _out[..., 17, 2, 9] = _out[..., 17, 9, 2] = b
+    _out[..., 17, 3, 3] = _tmp23
+    _out[..., 17, 3, 8] = _out[..., 17, 8, 3] = b
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp54
+    _out[..., 17, 8, 8] = 1
+    _out[..., 17, 8, 9] = _out[..., 17, 9, 8] = _tmp51
+    _out[..., 17, 9, 9] = _tmp23
+    return _out.reshape(*_shape, 3, 6, 12, 12)
+
+
+def isolator_axial_stiffness_on_foundation(a, b, h, alpha, c_v, c_m):
+    """The part of each isolator's stiffness matrix along its own axis (local z, compression) between the body and the support of foundation,
+    shape (..., 6, 12, 12), isolators in the order of ISOLATORS.
+    Coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = c_v*cos(alpha)*sin(alpha)
+          [x, psi] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*c_v*sin(alpha)**2
+          [x, x_found] = -c_v*sin(alpha)**2
+          [x, z_found] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*c_v*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = b*c_v*cos(alpha)**2
+          [z, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*c_v*cos(alpha)*sin(alpha)
+          [z, x_found] = -c_v*cos(alpha)*sin(alpha)
+          [z, z_found] = -c_v*cos(alpha)**2
+          [z, psi_found] = -b*c_v*cos(alpha)**2
+          [z, theta_found] = a*c_v*cos(alpha)**2
+          [z, phi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*c_v*cos(alpha)**2
+          [psi, psi_found] = -c_v*b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*c_v*cos(alpha)**2
+          [psi, phi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+          [phi, x_found] = b*c_v*sin(alpha)**2
+          [phi, z_found] = b*c_v*cos(alpha)*sin(alpha)
+          [phi, psi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*c_v*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -c_v*b**2*sin(alpha)**2
+          [x_found, x_found] = c_v*sin(alpha)**2
+          [x_found, z_found] = c_v*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*c_v*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*c_v*sin(alpha)**2
+          [z_found, z_found] = c_v*cos(alpha)**2
+          [z_found, psi_found] = b*c_v*cos(alpha)**2
+          [z_found, theta_found] = -a*c_v*cos(alpha)**2
+          [z_found, phi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = c_v*b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*c_v*cos(alpha)**2
+          [psi_found, phi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = c_v*a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*c_v*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_v*b**2*sin(alpha)**2
+        corner[-x+y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*c_v*sin(alpha)**2
+          [x, x_found] = -c_v*sin(alpha)**2
+          [x, z_found] = c_v*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*c_v*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = b*c_v*cos(alpha)**2
+          [z, theta] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*c_v*cos(alpha)*sin(alpha)
+          [z, x_found] = c_v*cos(alpha)*sin(alpha)
+          [z, z_found] = -c_v*cos(alpha)**2
+          [z, psi_found] = -b*c_v*cos(alpha)**2
+          [z, theta_found] = -a*c_v*cos(alpha)**2
+          [z, phi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*c_v*cos(alpha)**2
+          [psi, psi_found] = -c_v*b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*c_v*cos(alpha)**2
+          [psi, phi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+          [phi, x_found] = b*c_v*sin(alpha)**2
+          [phi, z_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*c_v*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -c_v*b**2*sin(alpha)**2
+          [x_found, x_found] = c_v*sin(alpha)**2
+          [x_found, z_found] = -c_v*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*c_v*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*c_v*sin(alpha)**2
+          [z_found, z_found] = c_v*cos(alpha)**2
+          [z_found, psi_found] = b*c_v*cos(alpha)**2
+          [z_found, theta_found] = a*c_v*cos(alpha)**2
+          [z_found, phi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = c_v*b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*c_v*cos(alpha)**2
+          [psi_found, phi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = c_v*a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*c_v*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_v*b**2*sin(alpha)**2
+        corner[+x-y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = c_v*cos(alpha)*sin(alpha)
+          [x, psi] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*c_v*sin(alpha)**2
+          [x, x_found] = -c_v*sin(alpha)**2
+          [x, z_found] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*c_v*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = -b*c_v*cos(alpha)**2
+          [z, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*c_v*cos(alpha)*sin(alpha)
+          [z, x_found] = -c_v*cos(alpha)*sin(alpha)
+          [z, z_found] = -c_v*cos(alpha)**2
+          [z, psi_found] = b*c_v*cos(alpha)**2
+          [z, theta_found] = a*c_v*cos(alpha)**2
+          [z, phi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*c_v*cos(alpha)**2
+          [psi, psi_found] = -c_v*b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*c_v*cos(alpha)**2
+          [psi, phi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+          [phi, x_found] = -b*c_v*sin(alpha)**2
+          [phi, z_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [phi, psi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*c_v*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -c_v*b**2*sin(alpha)**2
+          [x_found, x_found] = c_v*sin(alpha)**2
+          [x_found, z_found] = c_v*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*c_v*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*c_v*sin(alpha)**2
+          [z_found, z_found] = c_v*cos(alpha)**2
+          [z_found, psi_found] = -b*c_v*cos(alpha)**2
+          [z_found, theta_found] = -a*c_v*cos(alpha)**2
+          [z_found, phi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = c_v*b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*c_v*cos(alpha)**2
+          [psi_found, phi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = c_v*a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*c_v*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_v*b**2*sin(alpha)**2
+        corner[-x-y]:
+          [x, x] = c_v*sin(alpha)**2
+          [x, z] = -c_v*cos(alpha)*sin(alpha)
+          [x, psi] = b*c_v*cos(alpha)*sin(alpha)
+          [x, theta] = -c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*c_v*sin(alpha)**2
+          [x, x_found] = -c_v*sin(alpha)**2
+          [x, z_found] = c_v*cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*c_v*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*c_v*sin(alpha)**2
+          [z, z] = c_v*cos(alpha)**2
+          [z, psi] = -b*c_v*cos(alpha)**2
+          [z, theta] = c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*c_v*cos(alpha)*sin(alpha)
+          [z, x_found] = c_v*cos(alpha)*sin(alpha)
+          [z, z_found] = -c_v*cos(alpha)**2
+          [z, psi_found] = b*c_v*cos(alpha)**2
+          [z, theta_found] = -a*c_v*cos(alpha)**2
+          [z, phi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [psi, psi] = c_v*b**2*cos(alpha)**2
+          [psi, theta] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = c_v*b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*c_v*cos(alpha)**2
+          [psi, psi_found] = -c_v*b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*c_v*cos(alpha)**2
+          [psi, phi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = c_v*(a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha))
+          [theta, phi] = -b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = -c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = b*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*c_v*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = b*c_v*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = c_v*b**2*sin(alpha)**2
+          [phi, x_found] = -b*c_v*sin(alpha)**2
+          [phi, z_found] = b*c_v*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -c_v*b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*c_v*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -c_v*b**2*sin(alpha)**2
+          [x_found, x_found] = c_v*sin(alpha)**2
+          [x_found, z_found] = -c_v*cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*c_v*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*c_v*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*c_v*sin(alpha)**2
+          [z_found, z_found] = c_v*cos(alpha)**2
+          [z_found, psi_found] = -b*c_v*cos(alpha)**2
+          [z_found, theta_found] = a*c_v*cos(alpha)**2
+          [z_found, phi_found] = -b*c_v*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = c_v*b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*c_v*cos(alpha)**2
+          [psi_found, phi_found] = c_v*b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = c_v*a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*c_v*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = c_v*b**2*sin(alpha)**2
+        middle[+y]:
+          [z, z] = c_m
+          [z, psi] = b*c_m
+          [z, z_found] = -c_m
+          [z, psi_found] = -b*c_m
+          [psi, psi] = c_m*b**2
+          [psi, z_found] = -b*c_m
+          [psi, psi_found] = -c_m*b**2
+          [z_found, z_found] = c_m
+          [z_found, psi_found] = b*c_m
+          [psi_found, psi_found] = c_m*b**2
+        middle[-y]:
+          [z, z] = c_m
+          [z, psi] = -b*c_m
+          [z, z_found] = -c_m
+          [z, psi_found] = b*c_m
+          [psi, psi] = c_m*b**2
+          [psi, z_found] = b*c_m
+          [psi, psi_found] = -c_m*b**2
+          [z_found, z_found] = c_m
+          [z_found, psi_found] = -b*c_m
+          [psi_found, psi_found] = c_m*b**2
+    """
+    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    _tmp0 = numpy.sin(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * c_v
+    _tmp3 = numpy.cos(alpha)
+    _tmp4 = _tmp0 * c_v
+    _tmp5 = _tmp3 * _tmp4
+    _tmp6 = _tmp5 * b
+    _tmp7 = _tmp3 * a
+    _tmp8 = _tmp0 * h
+    _tmp9 = _tmp7 + _tmp8
+    _tmp10 = _tmp4 * _tmp9
+    _tmp11 = -_tmp10
+    _tmp12 = _tmp2 * b
+    _tmp13 = -_tmp12
+    _tmp14 = -_tmp2
+    _tmp15 = -_tmp5
+    _tmp16 = -_tmp6
+    _tmp17 = _tmp4 * _tmp7
+    _tmp18 = _tmp3**2
+    _tmp19 = _tmp18 * c_v
+    _tmp20 = _tmp19 * b
+    _tmp21 = _tmp9 * c_v
+    _tmp22 = _tmp21 * _tmp3
+    _tmp23 = -_tmp22
+    _tmp24 = -_tmp19
+    _tmp25 = -_tmp20
+    _tmp26 = _tmp19 * a
+    _tmp27 = b**2
+    _tmp28 = _tmp19 * _tmp27
+    _tmp29 = _tmp22 * b
+    _tmp30 = -_tmp29
+    _tmp31 = _tmp27 * _tmp5
+    _tmp32 = -_tmp31
+    _tmp33 = -_tmp28
+    _tmp34 = _tmp20 * a
+    _tmp35 = a**2
+    _tmp36 = c_v * (_tmp1 * h**2 + _tmp18 * _tmp35 + 2 * _tmp7 * _tmp8)
+    _tmp37 = _tmp10 * b
+    _tmp38 = -_tmp21 * _tmp7
+    _tmp39 = -_tmp37
+    _tmp40 = _tmp2 * _tmp27
+    _tmp41 = _tmp17 * b
+    _tmp42 = -_tmp41
+    _tmp43 = -_tmp40
+    _tmp44 = -_tmp17
+    _tmp45 = -_tmp26
+    _tmp46 = -_tmp34
+    _tmp47 = _tmp19 * _tmp35
+    _tmp48 = b * c_m
+    _tmp49 = -c_m
+    _tmp50 = -_tmp48
+    _tmp51 = _tmp27 * c_m
+    _tmp52 = -_tmp51
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
+    )
+    _out = numpy.zeros((*_shape, 6, 12, 12))
+    _out[..., 0, 0, 0] = _tmp2
+    _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp5
+    _out[..., 0, 0, 3] = _out[..., 0, 3, 0] = _tmp6
+    _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp11
+    _out[..., 0, 0, 5] = _out[..., 0, 5, 0] = _tmp13
+    _out[..., 0, 0, 6] = _out[..., 0, 6, 0] = _tmp14
+    _out[..., 0, 0, 8] = _out[..., 0, 8, 0] = _tmp15
+    _out[..., 0, 0, 9] = _out[..., 0, 9, 0] = _tmp16
+    _out[..., 0, 0, 10] = _out[..., 0, 10, 0] = _tmp17
+    _out[..., 0, 0, 11] = _out[..., 0, 11, 0] = _tmp12
+    _out[..., 0, 2, 2] = _tmp19
+    _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp20
+    _out[..., 0, 2, 4] = _out[..., 0, 4, 2] = _tmp23
+    _out[..., 0, 2, 5] = _out[..., 0, 5, 2] = _tmp16
+    _out[..., 0, 2, 6] = _out[..., 0, 6, 2] = _tmp15
+    _out[..., 0, 2, 8] = _out[..., 0, 8, 2] = _tmp24
+    _out[..., 0, 2, 9] = _out[..., 0, 9, 2] = _tmp25
+    _out[..., 0, 2, 10] = _out[..., 0, 10, 2] = _tmp26
+    _out[..., 0, 2, 11] = _out[..., 0, 11, 2] = _tmp6
+    _out[..., 0, 3, 3] = _tmp28
+    _out[..., 0, 3, 4] = _out[..., 0, 4, 3] = _tmp30
+    _out[..., 0, 3, 5] = _out[..., 0, 5, 3] = _tmp32
+    _out[..., 0, 3, 6] = _out[..., 0, 6, 3] = _tmp16
+    _out[..., 0, 3, 8] = _out[..., 0, 8, 3] = _tmp25
+    _out[..., 0, 3, 9] = _out[..., 0, 9, 3] = _tmp33
+    _out[..., 0, 3, 10] = _out[..., 0, 10, 3] = _tmp34
+    _out[..., 0, 3, 11] = _out[..., 0, 11, 3] = _tmp31
+    _out[..., 0, 4, 4] = _tmp36
+    _out[..., 0, 4, 5] = _out[..., 0, 5, 4] = _tmp37
+    _out[..., 0, 4, 6] = _out[..., 0, 6, 4] = _tmp10
+    _out[..., 0, 4, 8] = _out[..., 0, 8, 4] = _tmp22
+    _out[..., 0, 4, 9] = _out[..., 0, 9, 4] = _tmp29
+    _out[..., 0, 4, 10] = _out[..., 0, 10, 4] = _tmp38
+    _out[..., 0, 4, 11] = _out[..., 0, 11, 4] = _tmp39
+    _out[..., 0, 5, 5] = _tmp40
+    _out[..., 0, 5, 6] = _out[..., 0, 6, 5] = _tmp12
+    _out[..., 0, 5, 8] = _out[..., 0, 8, 5] = _tmp6
+    _out[..., 0, 5, 9] = _out[..., 0, 9, 5] = _tmp31
+    _out[..., 0, 5, 10] = _out[..., 0, 10, 5] = _tmp42
+    _out[..., 0, 5, 11] = _out[..., 0, 11, 5] = _tmp43
+    _out[..., 0, 6, 6] = _tmp2
+    _out[..., 0, 6, 8] = _out[..., 0, 8, 6] = _tmp5
+    _out[..., 0, 6, 9] = _out[..., 0, 9, 6] = _tmp6
+    _out[..., 0, 6, 10] = _out[..., 0, 10, 6] = _tmp44
+    _out[..., 0, 6, 11] = _out[..., 0, 11, 6] = _tmp13
+    _out[..., 0, 8, 8] = _tmp19
+    _out[..., 0, 8, 9] = _out[..., 0, 9, 8] = _tmp20
+    _out[..., 0, 8, 10] = _out[..., 0, 10, 8] = _tmp45
+    _out[..., 0, 8, 11] = _out[..., 0, 11, 8] = _tmp16
+    _out[..., 0, 9, 9] = _tmp28
+    _out[..., 0, 9, 10] = _out[..., 0, 10, 9] = _tmp46
+    _out[..., 0, 9, 11] = _out[..., 0, 11, 9] = _tmp32
+    _out[..., 0, 10, 10] = _tmp47
+    _out[..., 0, 10, 11] = _out[..., 0, 11, 10] = _tmp41
+    _out[..., 0, 11, 11] = _tmp40
+    _out[..., 1, 0, 0] = _tmp2
+    _out[..., 1, 0, 2] = _out[..., 1, 2, 0] = _tmp15
+    _out[..., 1, 0, 3] = _out[..., 1, 3, 0] = _tmp16
+    _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp11
+    _out[..., 1, 0, 5] = _out[..., 1, 5, 0] = _tmp13
+    _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp14
+    _out[..., 1, 0, 8] = _out[..., 1, 8, 0] = _tmp5
+    _out[..., 1, 0, 9] = _out[..., 1, 9, 0] = _tmp6
+    _out[..., 1, 0, 10] = _out[..., 1, 10, 0] = _tmp17
+    _out[..., 1, 0, 11] = _out[..., 1, 11, 0] = _tmp12
+    _out[..., 1, 2, 2] = _tmp19
+    _out[..., 1, 2, 3] = _out[..., 1, 3, 2] = _tmp20
+    _out[..., 1, 2, 4] = _out[..., 1, 4, 2] = _tmp22
+    _out[..., 1, 2, 5] = _out[..., 1, 5, 2] = _tmp6
+    _out[..., 1, 2, 6] = _out[..., 1, 6, 2] = _tmp5
+    _out[..., 1, 2, 8] = _out[..., 1, 8, 2] = _tmp24
+    _out[..., 1, 2, 9] = _out[..., 1, 9, 2] = _tmp25
+    _out[..., 1, 2, 10] = _out[..., 1, 10, 2] = _tmp45
+    _out[..., 1, 2, 11] = _out[..., 1, 11, 2] = _tmp16
+    _out[..., 1, 3, 3] = _tmp28
+    _out[..., 1, 3, 4] = _out[..., 1, 4, 3] = _tmp29
+    _out[..., 1, 3, 5] = _out[..., 1, 5, 3] = _tmp31
+    _out[..., 1, 3, 6] = _out[..., 1, 6, 3] = _tmp6
+    _out[..., 1, 3, 8] = _out[..., 1, 8, 3] = _tmp25
+    _out[..., 1, 3, 9] = _out[..., 1, 9, 3] = _tmp33
+    _out[..., 1, 3, 10] = _out[..., 1, 10, 3] = _tmp46
+    _out[..., 1, 3, 11] = _out[..., 1, 11, 3] = _tmp32
+    _out[..., 1, 4, 4] = _tmp36
+    _out[..., 1, 4, 5] = _out[..., 1, 5, 4] = _tmp37
+    _out[..., 1, 4, 6] = _out[..., 1, 6, 4] = _tmp10
+    _out[..., 1, 4, 8] = _out[..., 1, 8, 4] = _tmp23
+    _out[..., 1, 4, 9] = _out[..., 1, 9, 4] = _tmp30
+    _out[..., 1, 4, 10] = _out[..., 1, 10, 4] = _tmp38
+    _out[..., 1, 4, 11] = _out[..., 1, 11, 4] = _tmp39
+    _out[..., 1, 5, 5] = _tmp40
+    _out[..., 1, 5, 6] = _out[..., 1, 6, 5] = _tmp12
+    _out[..., 1, 5, 8] = _out[..., 1, 8, 5] = _tmp16
+    _out[..., 1, 5, 9] = _out[..., 1, 9, 5] = _tmp32
+    _out[..., 1, 5, 10] = _out[..., 1, 10, 5] = _tmp42
+    _out[..., 1, 5, 11] = _out[..., 1, 11, 5] = _tmp43
+    _out[..., 1, 6, 6] = _tmp2
+    _out[..., 1, 6, 8] = _out[..., 1, 8, 6] = _tmp15
+    _out[..., 1, 6, 9] = _out[..., 1, 9, 6] = _tmp16
+    _out[..., 1, 6, 10] = _out[..., 1, 10, 6] = _tmp44
+    _out[..., 1, 6, 11] = _out[..., 1, 11, 6] = _tmp13
+    _out[..., 1, 8, 8] = _tmp19
+    _out[..., 1, 8, 9] = _out[..., 1, 9, 8] = _tmp20
+    _out[..., 1, 8, 10] = _out[..., 1, 10, 8] = _tmp26
+    _out[..., 1, 8, 11] = _out[..., 1, 11, 8] = _tmp6
+    _out[..., 1, 9, 9] = _tmp28
+    _out[..., 1, 9, 10] = _out[..., 1, 10, 9] = _tmp34
+    _out[..., 1, 9, 11] = _out[..., 1, 11, 9] = _tmp31
+    _out[..., 1, 10, 10] = _tmp47
+    _out[..., 1, 10, 11] = _out[..., 1, 11, 10] = _tmp41
+    _out[..., 1, 11, 11] = _tmp40
+    _out[..., 2, 0, 0] = _tmp2
+    _out[..., 2, 0, 2] = _out[..., 2, 2, 0] = _tmp5
+    _out[..., 2, 0, 3] = _out[..., 2, 3, 0] = _tmp16
+    _out[..., 2, 0, 4] = _out[..., 2, 4, 0] = _tmp11
+    _out[..., 2, 0, 5] = _out[..., 2, 5, 0] = _tmp12
+    _out[..., 2, 0, 6] = _out[..., 2, 6, 0] = _tmp14
+    _out[..., 2, 0, 8] = _out[..., 2, 8, 0] = _tmp15
+    _out[..., 2, 0, 9] = _out[..., 2, 9, 0] = _tmp6
+    _out[..., 2, 0, 10] = _out[..., 2, 10, 0] = _tmp17
+    _out[..., 2, 0, 11] = _out[..., 2, 11, 0] = _tmp13
+    _out[..., 2, 2, 2] = _tmp19
+    _out[..., 2, 2, 3] = _out[..., 2, 3, 2] = _tmp25
+    _out[..., 2, 2, 4] = _out[..., 2, 4, 2] = _tmp23
+    _out[..., 2, 2, 5] = _out[..., 2, 5, 2] = _tmp6
+    _out[..., 2, 2, 6] = _out[..., 2, 6, 2] = _tmp15
+    _out[..., 2, 2, 8] = _out[..., 2, 8, 2] = _tmp24
+    _out[..., 2, 2, 9] = _out[..., 2, 9, 2] = _tmp20
+    _out[..., 2, 2, 10] = _out[..., 2, 10, 2] = _tmp26
+    _out[..., 2, 2, 11] = _out[..., 2, 11, 2] = _tmp16
+    _out[..., 2, 3, 3] = _tmp28
+    _out[..., 2, 3, 4] = _out[..., 2, 4, 3] = _tmp29
+    _out[..., 2, 3, 5] = _out[..., 2, 5, 3] = _tmp32
+    _out[..., 2, 3, 6] = _out[..., 2, 6, 3] = _tmp6
+    _out[..., 2, 3, 8] = _out[..., 2, 8, 3] = _tmp20
+    _out[..., 2, 3, 9] = _out[..., 2, 9, 3] = _tmp33
+    _out[..., 2, 3, 10] = _out[..., 2, 10, 3] = _tmp46
+    _out[..., 2, 3, 11] = _out[..., 2, 11, 3] = _tmp31
+    _out[..., 2, 4, 4] = _tmp36
+    _out[..., 2, 4, 5] = _out[..., 2, 5, 4] = _tmp39
+    _out[..., 2, 4, 6] = _out[..., 2, 6, 4] = _tmp10
+    _out[..., 2, 4, 8] = _out[..., 2, 8, 4] = _tmp22
+    _out[..., 2, 4, 9] = _out[..., 2, 9, 4] = _tmp30
+    _out[..., 2, 4, 10] = _out[..., 2, 10, 4] = _tmp38
+    _out[..., 2, 4, 11] = _out[..., 2, 11, 4] = _tmp37
+    _out[..., 2, 5, 5] = _tmp40
+    _out[..., 2, 5, 6] = _out[..., 2, 6, 5] = _tmp13
+    _out[..., 2, 5, 8] = _out[..., 2, 8, 5] = _tmp16
+    _out[..., 2, 5, 9] = _out[..., 2, 9, 5] = _tmp31
+    _out[..., 2, 5, 10] = _out[..., 2, 10, 5] = _tmp41
+    _out[..., 2, 5, 11] = _out[..., 2, 11, 5] = _tmp43
+    _out[..., 2, 6, 6] = _tmp2
+    _out[..., 2, 6, 8] = _out[..., 2, 8, 6] = _tmp5
+    _out[..., 2, 6, 9] = _out[..., 2, 9, 6] = _tmp16
+    _out[..., 2, 6, 10] = _out[..., 2, 10, 6] = _tmp44
+    _out[..., 2, 6, 11] = _out[..., 2, 11, 6] = _tmp12
+    _out[..., 2, 8, 8] = _tmp19
+    _out[..., 2, 8, 9] = _out[..., 2, 9, 8] = _tmp25
+    _out[..., 2, 8, 10] = _out[..., 2, 10, 8] = _tmp45
+    _out[..., 2, 8, 11] = _out[..., 2, 11, 8] = _tmp6
+    _out[..., 2, 9, 9] = _tmp28
+    _out[..., 2, 9, 10] = _out[..., 2, 10, 9] = _tmp34
+    _out[..., 2, 9, 11] = _out[..., 2, 11, 9] = _tmp32
+    _out[..., 2, 10, 10] = _tmp47
+    _out[..., 2, 10, 11] = _out[..., 2, 11, 10] = _tmp42
+    _out[..., 2, 11, 11] = _tmp40
+    _out[..., 3, 0, 0] = _tmp2
+    _out[..., 3, 0, 2] = _out[..., 3, 2, 0] = _tmp15
+    _out[..., 3, 0, 3] = _out[..., 3, 3, 0] = _tmp6
+    _out[..., 3, 0, 4] = _out[..., 3, 4, 0] = _tmp11
+    _out[..., 3, 0, 5] = _out[..., 3, 5, 0] = _tmp12
+    _out[..., 3, 0, 6] = _out[..., 3, 6, 0] = _tmp14
+    _out[..., 3, 0, 8] = _out[..., 3, 8, 0] = _tmp5
+    _out[..., 3, 0, 9] = _out[..., 3, 9, 0] = _tmp16
+    _out[..., 3, 0, 10] = _out[..., 3, 10, 0] = _tmp17
+    _out[..., 3, 0, 11] = _out[..., 3, 11, 0] = _tmp13
+    _out[..., 3, 2, 2] = _tmp19
+    _out[..., 3, 2, 3] = _out[..., 3, 3, 2] = _tmp25
+    _out[..., 3, 2, 4] = _out[..., 3, 4, 2] = _tmp22
+    _out[..., 3, 2, 5] = _out[..., 3, 5, 2] = _tmp16
+    _out[..., 3, 2, 6] = _out[..., 3, 6, 2] = _tmp5
+    _out[..., 3, 2, 8] = _out[..., 3, 8, 2] = _tmp24
+    _out[..., 3, 2, 9] = _out[..., 3, 9, 2] = _tmp20
+    _out[..., 3, 2, 10] = _out[..., 3, 10, 2] = _tmp45
+    _out[..., 3, 2, 11] = _out[..., 3, 11, 2] = _tmp6
+    _out[..., 3, 3, 3] = _tmp28
+    _out[..., 3, 3, 4] = _out[..., 3, 4, 3] = _tmp30
+    _out[..., 3, 3, 5] = _out[..., 3, 5, 3] = _tmp31
+    _out[..., 3, 3, 6] = _out[..., 3, 6, 3] = _tmp16
+    _out[..., 3, 3, 8] = _out[..., 3, 8, 3] = _tmp20
+    _out[..., 3, 3, 9] = _out[..., 3, 9, 3] = _tmp33
+    _out[..., 3, 3, 10] = _out[..., 3, 10, 3] = _tmp34
+    _out[..., 3, 3, 11] = _out[..., 3, 11, 3] = _tmp32
+    _out[..., 3, 4, 4] = _tmp36
+    _out[..., 3, 4, 5] = _out[..., 3, 5, 4] = _tmp39
+    _out[..., 3, 4, 6] = _out[..., 3, 6, 4] = _tmp10
+    _out[..., 3, 4, 8] = _out[..., 3, 8, 4] = _tmp23
+    _out[..., 3, 4, 9] = _out[..., 3, 9, 4] = _tmp29
+    _out[..., 3, 4, 10] = _out[..., 3, 10, 4] = _tmp38
+    _out[..., 3, 4, 11] = _out[..., 3, 11, 4] = _tmp37
+    _out[..., 3, 5, 5] = _tmp40
+    _out[..., 3, 5, 6] = _out[..., 3, 6, 5] = _tmp13
+    _out[..., 3, 5, 8] = _out[..., 3, 8, 5] = _tmp6
+    _out[..., 3, 5, 9] = _out[..., 3, 9, 5] = _tmp32
+    _out[..., 3, 5, 10] = _out[..., 3, 10, 5] = _tmp41
+    _out[..., 3, 5, 11] = _out[..., 3, 11, 5] = _tmp43
+    _out[..., 3, 6, 6] = _tmp2
+    _out[..., 3, 6, 8] = _out[..., 3, 8, 6] = _tmp15
+    _out[..., 3, 6, 9] = _out[..., 3, 9, 6] = _tmp6
+    _out[..., 3, 6, 10] = _out[..., 3, 10, 6] = _tmp44
+    _out[..., 3, 6, 11] = _out[..., 3, 11, 6] = _tmp12
+    _out[..., 3, 8, 8] = _tmp19
+    _out[..., 3, 8, 9] = _out[..., 3, 9, 8] = _tmp25
+    _out[..., 3, 8, 10] = _out[..., 3, 10, 8] = _tmp26
+    _out[..., 3, 8, 11] = _out[..., 3, 11, 8] = _tmp16
+    _out[..., 3, 9, 9] = _tmp28
+    _out[..., 3, 9, 10] = _out[..., 3, 10, 9] = _tmp46
+    _out[..., 3, 9, 11] = _out[..., 3, 11, 9] = _tmp31
+    _out[..., 3, 10, 10] = _tmp47
+    _out[..., 3, 10, 11] = _out[..., 3, 11, 10] = _tmp42
+    _out[..., 3, 11, 11] = _tmp40
+    _out[..., 4, 2, 2] = c_m
+    _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp48
+    _out[..., 4, 2, 8] = _out[..., 4, 8, 2] = _tmp49
+    _out[..., 4, 2, 9] = _out[..., 4, 9, 2] = _tmp50
+    _out[..., 4, 3, 3] = _tmp51
+    _out[..., 4, 3, 8] = _out[..., 4, 8, 3] = _tmp50
+    _out[..., 4, 3, 9] = _out[..., 4, 9, 3] = _tmp52
+    _out[..., 4, 8, 8] = c_m
+    _out[..., 4, 8, 9] = _out[..., 4, 9, 8] = _tmp48
+    _out[..., 4, 9, 9] = _tmp51
+    _out[..., 5, 2, 2] = c_m
+    _out[..., 5, 2, 3] = _out[..., 5, 3, 2] = _tmp50
+    _out[..., 5, 2, 8] = _out[..., 5, 8, 2] = _tmp49
+    _out[..., 5, 2, 9] = _out[..., 5, 9, 2] = _tmp48
+    _out[..., 5, 3, 3] = _tmp51
+    _out[..., 5, 3, 8] = _out[..., 5, 8, 3] = _tmp48
+    _out[..., 5, 3, 9] = _out[..., 5, 9, 3] = _tmp52
+    _out[..., 5, 8, 8] = c_m
+    _out[..., 5, 8, 9] = _out[..., 5, 9, 8] = _tmp50
+    _out[..., 5, 9, 9] = _tmp51
+    return _out
+
+
+def isolator_axial_stiffness_on_foundation_gradient(a, b, h, alpha, c_v, c_m):
+    """Derivatives of isolator_axial_stiffness_on_foundation() with respect to the unknowns c_h, c_v, c_m, shape
+    (..., 3, 6, 12, 12), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_h:
+        dcorner[-x+y]/dc_h:
+        dcorner[+x-y]/dc_h:
+        dcorner[-x-y]/dc_h:
+        dmiddle[+y]/dc_h:
+        dmiddle[-y]/dc_h:
+        dcorner[+x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = -b*cos(alpha)**2
+          [z, theta_found] = a*cos(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*cos(alpha)**2
+          [psi, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = (a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = b*sin(alpha)**2
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = b*cos(alpha)**2
+          [z_found, theta_found] = -a*cos(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*cos(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[-x+y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = -b*cos(alpha)**2
+          [z, theta_found] = -a*cos(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, z_found] = -b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*cos(alpha)**2
+          [psi, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = (a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = b*sin(alpha)**2
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = -b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = b*cos(alpha)**2
+          [z_found, theta_found] = a*cos(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*cos(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[+x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = -cos(alpha)*sin(alpha)
+          [x, psi_found] = b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [z, x_found] = -cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = b*cos(alpha)**2
+          [z, theta_found] = a*cos(alpha)**2
+          [z, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = b*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = -a*b*cos(alpha)**2
+          [psi, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = (a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = -b*sin(alpha)**2
+          [phi, z_found] = -b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = cos(alpha)*sin(alpha)
+          [x_found, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = -b*cos(alpha)**2
+          [z_found, theta_found] = -a*cos(alpha)**2
+          [z_found, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = a*b*cos(alpha)**2
+          [psi_found, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dcorner[-x-y]/dc_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [x, x_found] = -sin(alpha)**2
+          [x, z_found] = cos(alpha)*sin(alpha)
+          [x, psi_found] = -b*cos(alpha)*sin(alpha)
+          [x, theta_found] = a*cos(alpha)*sin(alpha)
+          [x, phi_found] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = (a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [z, x_found] = cos(alpha)*sin(alpha)
+          [z, z_found] = -cos(alpha)**2
+          [z, psi_found] = b*cos(alpha)**2
+          [z, theta_found] = -a*cos(alpha)**2
+          [z, phi_found] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = -b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [psi, x_found] = -b*cos(alpha)*sin(alpha)
+          [psi, z_found] = b*cos(alpha)**2
+          [psi, psi_found] = -b**2*cos(alpha)**2
+          [psi, theta_found] = a*b*cos(alpha)**2
+          [psi, phi_found] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = -b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, x_found] = (a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [theta, z_found] = -(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, psi_found] = b*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, theta_found] = -a*(a*cos(alpha) + h*sin(alpha))*cos(alpha)
+          [theta, phi_found] = b*(a*cos(alpha) + h*sin(alpha))*sin(alpha)
+          [phi, phi] = b**2*sin(alpha)**2
+          [phi, x_found] = -b*sin(alpha)**2
+          [phi, z_found] = b*cos(alpha)*sin(alpha)
+          [phi, psi_found] = -b**2*cos(alpha)*sin(alpha)
+          [phi, theta_found] = a*b*cos(alpha)*sin(alpha)
+          [phi, phi_found] = -b**2*sin(alpha)**2
+          [x_found, x_found] = sin(alpha)**2
+          [x_found, z_found] = -cos(alpha)*sin(alpha)
+          [x_found, psi_found] = b*cos(alpha)*sin(alpha)
+          [x_found, theta_found] = -a*cos(alpha)*sin(alpha)
+          [x_found, phi_found] = b*sin(alpha)**2
+          [z_found, z_found] = cos(alpha)**2
+          [z_found, psi_found] = -b*cos(alpha)**2
+          [z_found, theta_found] = a*cos(alpha)**2
+          [z_found, phi_found] = -b*cos(alpha)*sin(alpha)
+          [psi_found, psi_found] = b**2*cos(alpha)**2
+          [psi_found, theta_found] = -a*b*cos(alpha)**2
+          [psi_found, phi_found] = b**2*cos(alpha)*sin(alpha)
+          [theta_found, theta_found] = a**2*cos(alpha)**2
+          [theta_found, phi_found] = -a*b*cos(alpha)*sin(alpha)
+          [phi_found, phi_found] = b**2*sin(alpha)**2
+        dmiddle[+y]/dc_v:
+        dmiddle[-y]/dc_v:
+        dcorner[+x+y]/dc_m:
+        dcorner[-x+y]/dc_m:
+        dcorner[+x-y]/dc_m:
+        dcorner[-x-y]/dc_m:
+        dmiddle[+y]/dc_m:
+          [z, z] = 1
+          [z, psi] = b
+          [z, z_found] = -1
+          [z, psi_found] = -b
+          [psi, psi] = b**2
+          [psi, z_found] = -b
+          [psi, psi_found] = -b**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = b
+          [psi_found, psi_found] = b**2
+        dmiddle[-y]/dc_m:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, z_found] = -1
+          [z, psi_found] = b
+          [psi, psi] = b**2
+          [psi, z_found] = b
+          [psi, psi_found] = -b**2
+          [z_found, z_found] = 1
+          [z_found, psi_found] = -b
+          [psi_found, psi_found] = b**2
+    """
+    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    _tmp0 = numpy.sin(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.cos(alpha)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = _tmp3 * b
+    _tmp5 = _tmp2 * a
+    _tmp6 = _tmp0 * h + _tmp5
+    _tmp7 = _tmp0 * _tmp6
+    _tmp8 = -_tmp7
+    _tmp9 = _tmp1 * b
+    _tmp10 = -_tmp9
+    _tmp11 = -_tmp1
+    _tmp12 = -_tmp3
+    _tmp13 = -_tmp4
+    _tmp14 = _tmp3 * a
+    _tmp15 = _tmp2**2
+    _tmp16 = _tmp15 * b
+    _tmp17 = _tmp2 * _tmp6
+    _tmp18 = -_tmp17
+    _tmp19 = -_tmp15
+    _tmp20 = -_tmp16
+    _tmp21 = _tmp15 * a
+    _tmp22 = b**2
+    _tmp23 = _tmp15 * _tmp22
+    _tmp24 = _tmp17 * b
+    _tmp25 = -_tmp24
+    _tmp26 = _tmp22 * _tmp3
+    _tmp27 = -_tmp26
+    _tmp28 = -_tmp23
+    _tmp29 = _tmp16 * a
+    _tmp30 = _tmp15 * a**2
+    _tmp31 = _tmp1 * h**2 + 2 * _tmp14 * h + _tmp30
+    _tmp32 = _tmp7 * b
+    _tmp33 = -_tmp5 * _tmp6
+    _tmp34 = -_tmp32
+    _tmp35 = _tmp1 * _tmp22
+    _tmp36 = _tmp4 * a
+    _tmp37 = -_tmp36
+    _tmp38 = -_tmp35
+    _tmp39 = -_tmp14
+    _tmp40 = -_tmp21
+    _tmp41 = -_tmp29
+    _tmp42 = -b
+    _tmp43 = -_tmp22
+    _shape = numpy.broadcast_shapes(
+        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
+    )
+    _out = numpy.zeros((*_shape, 18, 12, 12))
+    _out[..., 6, 0, 0] = _tmp1
+    _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
+    _out[..., 6, 0, 3] = _out[..., 6, 3, 0] = _tmp4
+    _out[..., 6, 0, 4] = _out[..., 6, 4, 0] = _tmp8
+    _out[..., 6, 0, 5] = _out[..., 6, 5, 0] = _tmp10
+    _out[..., 6, 0, 6] = _out[..., 6, 6, 0] = _tmp11
+    _out[..., 6, 0, 8] = _out[..., 6, 8, 0] = _tmp12
+    _out[..., 6, 0, 9] = _out[..., 6, 9, 0] = _tmp13
+    _out[..., 6, 0, 10] = _out[..., 6, 10, 0] = _tmp14
+    _out[..., 6, 0, 11] = _out[..., 6, 11, 0] = _tmp9
+    _out[..., 6, 2, 2] = _tmp15
+    _out[..., 6, 2, 3] = _out[..., 6, 3, 2] = _tmp16
+    _out[..., 6, 2, 4] = _out[..., 6, 4, 2] = _tmp18
+    _out[..., 6, 2, 5] = _out[..., 6, 5, 2] = _tmp13
+    _out[..., 6, 2, 6] = _out[..., 6, 6, 2] = _tmp12
+    _out[..., 6, 2, 8] = _out[..., 6, 8, 2] = _tmp19
+    _out[..., 6, 2, 9] = _out[..., 6, 9, 2] = _tmp20
+    _out[..., 6, 2, 10] = _out[..., 6, 10, 2] = _tmp21
+    _out[..., 6, 2, 11] = _out[..., 6, 11, 2] = _tmp4
+    _out[..., 6, 3, 3] = _tmp23
+    _out[..., 6, 3, 4] = _out[..., 6, 4, 3] = _tmp25
+    _out[..., 6, 3, 5] = _out[..., 6, 5, 3] = _tmp27
+    _out[..., 6, 3, 6] = _out[..., 6, 6, 3] = _tmp13
+    _out[..., 6, 3, 8] = _out[..., 6, 8, 3] = _tmp20
+    _out[..., 6, 3, 9] = _out[..., 6, 9, 3] = _tmp28
+    _out[..., 6, 3, 10] = _out[..., 6, 10, 3] = _tmp29
+    _out[..., 6, 3, 11] = _out[..., 6, 11, 3] = _tmp26
+    _out[..., 6, 4, 4] = _tmp31
+    _out[..., 6, 4, 5] = _out[..., 6, 5, 4] = _tmp32
+    _out[..., 6, 4, 6] = _out[..., 6, 6, 4] = _tmp7
+    _out[..., 6, 4, 8] = _out[..., 6, 8, 4] = _tmp17
+    _out[..., 6, 4, 9] = _out[..., 6, 9, 4] = _tmp24
+    _out[..., 6, 4, 10] = _out[..., 6, 10, 4] = _tmp33
+    _out[..., 6, 4, 11] = _out[..., 6, 11, 4] = _tmp34
+    _out[..., 6, 5, 5] = _tmp35
+    _out[..., 6, 5, 6] = _out[..., 6, 6, 5] = _tmp9
+    _out[..., 6, 5, 8] = _out[..., 6, 8, 5] = _tmp4
+    _out[..., 6, 5, 9] = _out[..., 6, 9, 5] = _tmp26
+    _out[..., 6, 5, 10] = _out[..., 6, 10, 5] = _tmp37
+    _out[..., 6, 5, 11] = _out[..., 6, 11, 5] = _tmp38
+    _out[..., 6, 6, 6] = _tmp1
+    _out[..., 6, 6, 8] = _out[..., 6, 8, 6] = _tmp3
+    _out[..., 6, 6, 9] = _out[..., 6, 9, 6] = _tmp4
+    _out[..., 6, 6, 10] = _out[..., 6, 10, 6] = _tmp39
+    _out[..., 6, 6, 11] = _out[..., 6, 11, 6] = _tmp10
+    _out[..., 6, 8, 8] = _tmp15
+    _out[..., 6, 8, 9] = _out[..., 6, 9, 8] = _tmp16
+    _out[..., 6, 8, 10] = _out[..., 6, 10, 8] = _tmp40
+    _out[..., 6, 8, 11] = _out[..., 6, 11, 8] = _tmp13
+    _out[..., 6, 9, 9] = _tmp23
+    _out[..., 6, 9, 10] = _out[..., 6, 10, 9] = _tmp41
+    _out[..., 6, 9, 11] = _out[..., 6, 11, 9] = _tmp27
+    _out[..., 6, 10, 10] = _tmp30
+    _out[..., 6, 10, 11] = _out[..., 6, 11, 10] = _tmp36
+    _out[..., 6, 11, 11] = _tmp35
+    _out[..., 7, 0, 0] = _tmp1
+    _out[..., 7, 0, 2] = _out[..., 7, 2, 0] = _tmp12
+    _out[..., 7, 0, 3] = _out[..., 7, 3, 0] = _tmp13
+    _out[..., 7, 0, 4] = _out[..., 7, 4, 0] = _tmp8
+    _out[..., 7, 0, 5] = _out[..., 7, 5, 0] = _tmp10
+    _out[..., 7, 0, 6] = _out[..., 7, 6, 0] = _tmp11
+    _out[..., 7, 0, 8] = _out[..., 7, 8, 0] = _tmp3
+    _out[..., 7, 0, 9] = _out[..., 7, 9, 0] = _tmp4
+    _out[..., 7, 0, 10] = _out[..., 7, 10, 0] = _tmp14
+    _out[..., 7, 0, 11] = _out[..., 7, 11, 0] = _tmp9
+    _out[..., 7, 2, 2] = _tmp15
+    _out[..., 7, 2, 3] = _out[..., 7, 3, 2] = _tmp16
+    _out[..., 7, 2, 4] = _out[..., 7, 4, 2] = _tmp17
+    _out[..., 7, 2, 5] = _out[..., 7, 5, 2] = _tmp4
+    _out[..., 7, 2, 6] = _out[..., 7, 6, 2] = _tmp3
+    _out[..., 7, 2, 8] = _out[..., 7, 8, 2] = _tmp19
+    _out[..., 7, 2, 9] = _out[..., 7, 9, 2] = _tmp20
+    _out[..., 7, 2, 10] = _out[..., 7, 10, 2] = _tmp40
+    _out[..., 7, 2, 11] = _out[..., 7, 11, 2] = _tmp13
+    _out[..., 7, 3, 3] = _tmp23
+    _out[..., 7, 3, 4] = _out[..., 7, 4, 3] = _tmp24
+    _out[..., 7, 3, 5] = _out[..., 7, 5, 3] = _tmp26
+    _out[..., 7, 3, 6] = _out[..., 7, 6, 3] = _tmp4
+    _out[..., 7, 3, 8] = _out[..., 7, 8, 3] = _tmp20
+    _out[..., 7, 3, 9] = _out[..., 7, 9, 3] = _tmp28
+    _out[..., 7, 3, 10] = _out[..., 7, 10, 3] = _tmp41
+    _out[..., 7, 3, 11] = _out[..., 7, 11, 3] = _tmp27
+    _out[..., 7, 4, 4] = _tmp31
+    _out[..., 7, 4, 5] = _out[..., 7, 5, 4] = _tmp32
+    _out[..., 7, 4, 6] = _out[..., 7, 6, 4] = _tmp7
+    _out[..., 7, 4, 8] = _out[..., 7, 8, 4] = _tmp18
+    _out[..., 7, 4, 9] = _out[..., 7, 9, 4] = _tmp25
+    _out[..., 7, 4, 10] = _out[..., 7, 10, 4] = _tmp33
+    _out[..., 7, 4, 11] = _out[..., 7, 11, 4] = _tmp34
+    _out[..., 7, 5, 5] = _tmp35
+    _out[..., 7, 5, 6] = _out[..., 7, 6, 5] = _tmp9
+    _out[..., 7, 5, 8] = _out[..., 7, 8, 5] = _tmp13
+    _out[..., 7, 5, 9] = _out[..., 7, 9, 5] = _tmp27
+    _out[..., 7, 5, 10] = _out[..., 7, 10, 5] = _tmp37
+    _out[..., 7, 5, 11] = _out[..., 7, 11, 5] = _tmp38
+    _out[..., 7, 6, 6] = _tmp1
+    _out[..., 7, 6, 8] = _out[..., 7, 8, 6] = _tmp12
+    _out[..., 7, 6, 9] = _out[..., 7, 9, 6] = _tmp13
+    _out[..., 7, 6, 10] = _out[..., 7, 10, 6] = _tmp39
+    _out[..., 7, 6, 11] = _out[..., 7, 11, 6] = _tmp10
+    _out[..., 7, 8, 8] = _tmp15
+    _out[..., 7, 8, 9] = _out[..., 7, 9, 8] = _tmp16
+    _out[..., 7, 8, 10] = _out[..., 7, 10, 8] = _tmp21
+    _out[..., 7, 8, 11] = _out[..., 7, 11, 8] = _tmp4
+    _out[..., 7, 9, 9] = _tmp23
+    _out[..., 7, 9, 10] = _out[..., 7, 10, 9] = _tmp29
+    _out[..., 7, 9, 11] = _out[..., 7, 11, 9] = _tmp26
+    _out[..., 7, 10, 10] = _tmp30
+    _out[..., 7, 10, 11] = _out[..., 7, 11, 10] = _tmp36
+    _out[..., 7, 11, 11] = _tmp35
+    _out[..., 8, 0, 0] = _tmp1
+    _out[..., 8, 0, 2] = _out[..., 8, 2, 0] = _tmp3
+    _out[..., 8, 0, 3] = _out[..., 8, 3, 0] = _tmp13
+    _out[..., 8, 0, 4] = _out[..., 8, 4, 0] = _tmp8
+    _out[..., 8, 0, 5] = _out[..., 8, 5, 0] = _tmp9
+    _out[..., 8, 0, 6] = _out[..., 8, 6, 0] = _tmp11
+    _out[..., 8, 0, 8] = _out[..., 8, 8, 0] = _tmp12
+    _out[..., 8, 0, 9] = _out[..., 8, 9, 0] = _tmp4
+    _out[..., 8, 0, 10] = _out[..., 8, 10, 0] = _tmp14
+    _out[..., 8, 0, 11] = _out[..., 8, 11, 0] = _tmp10
+    _out[..., 8, 2, 2] = _tmp15
+    _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = _tmp20
+    _out[..., 8, 2, 4] = _out[..., 8, 4, 2] = _tmp18
+    _out[..., 8, 2, 5] = _out[..., 8, 5, 2] = _tmp4
+    _out[..., 8, 2, 6] = _out[..., 8, 6, 2] = _tmp12
+    _out[..., 8, 2, 8] = _out[..., 8, 8, 2] = _tmp19
+    _out[..., 8, 2, 9] = _out[..., 8, 9, 2] = _tmp16
+    _out[..., 8, 2, 10] = _out[..., 8, 10, 2] = _tmp21
+    _out[..., 8, 2, 11] = _out[..., 8, 11, 2] = _tmp13
+    _out[..., 8, 3, 3] = _tmp23
+    _out[..., 8, 3, 4] = _out[..., 8, 4, 3] = _tmp24
+    _out[..., 8, 3, 5] = _out[..., 8, 5, 3] = _tmp27
+    _out[..., 8, 3, 6] = _out[..., 8, 6, 3] = _tmp4
+    _out[..., 8, 3, 8] = _out[..., 8, 8, 3] = _tmp16
+    _out[..., 8, 3, 9] = _out[..., 8, 9, 3] = _tmp28
+    _out[..., 8, 3, 10] = _out[..., 8, 10, 3] = _tmp41
+    _out[..., 8, 3, 11] = _out[..., 8, 11, 3] = _tmp26
+    _out[..., 8, 4, 4] = _tmp31
+    _out[..., 8, 4, 5] = _out[..., 8, 5, 4] = _tmp34
+    _out[..., 8, 4, 6] = _out[..., 8, 6, 4] = _tmp7
+    _out[..., 8, 4, 8] = _out[..., 8, 8, 4] = _tmp17
+    _out[..., 8, 4, 9] = _out[..., 8, 9, 4] = _tmp25
+    _out[..., 8, 4, 10] = _out[..., 8, 10, 4] = _tmp33
+    _out[..., 8, 4, 11] = _out[..., 8, 11, 4] = _tmp32
+    _out[..., 8, 5, 5] = _tmp35
+    _out[..., 8, 5, 6] = _out[..., 8, 6, 5] = _tmp10
+    _out[..., 8, 5, 8] = _out[..., 8, 8, 5] = _tmp13
+    _out[..., 8, 5, 9] = _out[..., 8, 9, 5] = _tmp26
+    _out[..., 8, 5, 10] = _out[..., 8, 10, 5] = _tmp36
+    _out[..., 8, 5, 11] = _out[..., 8, 11, 5] = _tmp38
+    _out[..., 8, 6, 6] = _tmp1
+    _out[..., 8, 6, 8] = _out[..., 8, 8, 6] = _tmp3
+    _out[..., 8, 6, 9] = _out[..., 8, 9, 6] = _tmp13
+    _out[..., 8, 6, 10] = _out[..., 8, 10, 6] = _tmp39
+    _out[..., 8, 6, 11] = _out[..., 8, 11, 6] = _tmp9
+    _out[..., 8, 8, 8] = _tmp15
+    _out[..., 8, 8, 9] = _out[..., 8, 9, 8] = _tmp20
+    _out[..., 8, 8, 10] = _out[..., 8, 10, 8] = _tmp40
+    _out[..., 8, 8, 11] = _out[..., 8, 11, 8] = _tmp4
+    _out[..., 8, 9, 9] = _tmp23
+    _out[..., 8, 9, 10] = _out[..., 8, 10, 9] = _tmp29
+    _out[..., 8, 9, 11] = _out[..., 8, 11, 9] = _tmp27
+    _out[..., 8, 10, 10] = _tmp30
+    _out[..., 8, 10, 11] = _out[..., 8, 11, 10] = _tmp37
+    _out[..., 8, 11, 11] = _tmp35
+    _out[..., 9, 0, 0] = _tmp1
+    _out[..., 9, 0, 2] = _out[..., 9, 2, 0] = _tmp12
+    _out[..., 9, 0, 3] = _out[..., 9, 3, 0] = _tmp4
+    _out[..., 9, 0, 4] = _out[..., 9, 4, 0] = _tmp8
+    _out[..., 9, 0, 5] = _out[..., 9, 5, 0] = _tmp9
+    _out[..., 9, 0, 6] = _out[..., 9, 6, 0] = _tmp11
+    _out[..., 9, 0, 8] = _out[..., 9, 8, 0] = _tmp3
+    _out[..., 9, 0, 9] = _out[..., 9, 9, 0] = _tmp13
+    _out[..., 9, 0, 10] = _out[..., 9, 10, 0] = _tmp14
+    _out[..., 9, 0, 11] = _out[..., 9, 11, 0] = _tmp10
+    _out[..., 9, 2, 2] = _tmp15
+    _out[..., 9, 2, 3] = _out[..., 9, 3, 2] = _tmp20
+    _out[..., 9, 2, 4] = _out[..., 9, 4, 2] = _tmp17
+    _out[..., 9, 2, 5] = _out[..., 9, 5, 2] = _tmp13
+    _out[..., 9, 2, 6] = _out[..., 9, 6, 2] = _tmp3
+    _out[..., 9, 2, 8] = _out[..., 9, 8, 2] = _tmp19
+    _out[..., 9, 2, 9] = _out[..., 9, 9, 2] = _tmp16
+    _out[..., 9, 2, 10] = _out[..., 9, 10, 2] = _tmp40
+    _out[..., 9, 2, 11] = _out[..., 9, 11, 2] = _tmp4
+    _out[..., 9, 3, 3] = _tmp23
+    _out[..., 9, 3, 4] = _out[..., 9, 4, 3] = _tmp25
+    _out[..., 9, 3, 5] = _out[..., 9, 5, 3] = _tmp26
+    _out[..., 9, 3, 6] = _out[..., 9, 6, 3] = _tmp13
+    _out[..., 9, 3, 8] = _out[..., 9, 8, 3] = _tmp16
+    _out[..., 9, 3, 9] = _out[..., 9, 9, 3] = _tmp28
+    _out[..., 9, 3, 10] = _out[..., 9, 10, 3] = _tmp29
+    _out[..., 9, 3, 11] = _out[..., 9, 11, 3] = _tmp27
+    _out[..., 9, 4, 4] = _tmp31
+    _out[..., 9, 4, 5] = _out[..., 9, 5, 4] = _tmp34
+    _out[..., 9, 4, 6] = _out[..., 9, 6, 4] = _tmp7
+    _out[..., 9, 4, 8] = _out[..., 9, 8, 4] = _tmp18
+    _out[..., 9, 4, 9] = _out[..., 9, 9, 4] = _tmp24
+    _out[..., 9, 4, 10] = _out[..., 9, 10, 4] = _tmp33
+    _out[..., 9, 4, 11] = _out[..., 9, 11, 4] = _tmp32
+    _out[..., 9, 5, 5] = _tmp35
+    _out[..., 9, 5, 6] = _out[..., 9, 6, 5] = _tmp10
+    _out[..., 9, 5, 8] = _out[..., 9, 8, 5] = _tmp4
+    _out[..., 9, 5, 9] = _out[..., 9, 9, 5] = _tmp27
+    _out[..., 9, 5, 10] = _out[..., 9, 10, 5] = _tmp36
+    _out[..., 9, 5, 11] = _out[..., 9, 11, 5] = _tmp38
+    _out[..., 9, 6, 6] = _tmp1
+    _out[..., 9, 6, 8] = _out[..., 9, 8, 6] = _tmp12
+    _out[..., 9, 6, 9] = _out[..., 9, 9, 6] = _tmp4
+    _out[..., 9, 6, 10] = _out[..., 9, 10, 6] = _tmp39
+    _out[..., 9, 6, 11] = _out[..., 9, 11, 6] = _tmp9
+    _out[..., 9, 8, 8] = _tmp15
+    _out[..., 9, 8, 9] = _out[..., 9, 9, 8] = _tmp20
+    _out[..., 9, 8, 10] = _out[..., 9, 10, 8] = _tmp21
+    _out[..., 9, 8, 11] = _out[..., 9, 11, 8] = _tmp13
+    _out[..., 9, 9, 9] = _tmp23
+    _out[..., 9, 9, 10] = _out[..., 9, 10, 9] = _tmp41
+    _out[..., 9, 9, 11] = _out[..., 9, 11, 9] = _tmp26
+    _out[..., 9, 10, 10] = _tmp30
+    _out[..., 9, 10, 11] = _out[..., 9, 11, 10] = _tmp37
+    _out[..., 9, 11, 11] = _tmp35
+    _out[..., 16, 2, 2] = 1
+    _out[..., 16, 2, 3] = _out[..., 16, 3, 2] = b
+    _out[..., 16, 2, 8] = _out[..., 16, 8, 2] = -1
+    _out[..., 16, 2, 9] = _out[..., 16, 9, 2] = _tmp42
+    _out[..., 16, 3, 3] = _tmp22
+    _out[..., 16, 3, 8] = _out[..., 16, 8, 3] = _tmp42
+    _out[..., 16, 3, 9] = _out[..., 16, 9, 3] = _tmp43
+    _out[..., 16, 8, 8] = 1
+    _out[..., 16, 8, 9] = _out[..., 16, 9, 8] = b
+    _out[..., 16, 9, 9] = _tmp22
+    _out[..., 17, 2, 2] = 1
+    _out[..., 17, 2, 3] = _out[..., 17, 3, 2] = _tmp42
+    _out[..., 17, 2, 8] = _out[..., 17, 8, 2] = -1
+    _out[..., 17, 2, 9] = _out[..., 17, 9, 2] = b
+    _out[..., 17, 3, 3] = _tmp22
+    _out[..., 17, 3, 8] = _out[..., 17, 8, 3] = b
+    _out[..., 17, 3, 9] = _out[..., 17, 9, 3] = _tmp43
+    _out[..., 17, 8, 8] = 1
+    _out[..., 17, 8, 9] = _out[..., 17, 9, 8] = _tmp42
+    _out[..., 17, 9, 9] = _tmp22
+    return _out.reshape(*_shape, 3, 6, 12, 12)
 
 
 def isolator_points(a, b, h):

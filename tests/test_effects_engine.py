@@ -215,15 +215,24 @@ def test_generated_effect_derivatives_match_sympy_at_high_precision(machine, eff
                 assert np.max(np.abs(numeric[k, i] - exact)) <= 1e-13 * scale, (p, name)
 
 
+ISOLATOR_FUNCTIONS = [
+    "isolator_stiffness",
+    "isolator_axial_stiffness",
+    "isolator_stiffness_on_foundation",
+    "isolator_axial_stiffness_on_foundation",
+]
+
+
 @pytest.mark.parametrize("machine", MACHINES)
-@pytest.mark.parametrize("function", ["isolator_stiffness", "isolator_axial_stiffness"])
+@pytest.mark.parametrize("function", ISOLATOR_FUNCTIONS)
 def test_isolator_stiffness_gradient_matches_a_central_difference(machine, function):
-    """Each isolator's stiffness (and its axial part) is linear in the unknown stiffnesses: the central
-    difference is exact up to rounding."""
+    """Each isolator's stiffness (and its axial part, on the ground or on the foundation's support) is linear in
+    the unknown stiffnesses: the central difference is exact up to rounding."""
     mod = generated(machine)
     values = _values(mod)
     grad = call(mod, f"{function}_gradient", values)
-    assert grad.shape == (len(mod.UNKNOWN), len(mod.ISOLATORS), 6, 6)
+    n = 12 if function.endswith("_on_foundation") else 6
+    assert grad.shape == (len(mod.UNKNOWN), len(mod.ISOLATORS), n, n)
     for k, u in enumerate(mod.UNKNOWN):
         h = 1e-3 * values[u]
         up = call(mod, function, {**values, u: values[u] + h})
@@ -247,3 +256,22 @@ def test_isolator_axial_stiffness_is_the_axial_spring_of_an_independent_assembly
         want = iso.stiffness[2] * np.outer(row, row)
         assert np.allclose(axial[k], want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want)))
         assert np.all(np.linalg.eigvalsh(whole[k] - axial[k]) >= -1e-9 * np.max(np.abs(whole[k])))
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolators_on_the_support_make_the_foundations_stiffness_but_its_ground_springs(machine):
+    """isolator_stiffness_on_foundation(): summed over the isolators, the foundation's C in every entry that
+    involves the body (the ground springs act on the support alone); each isolator's body block is its
+    stiffness on the ground, and its axial part on the support is no larger than the whole."""
+    mod = generated(machine)
+    values = _values(mod)
+    on = call(mod, "isolator_stiffness_on_foundation", values)
+    axial = call(mod, "isolator_axial_stiffness_on_foundation", values)
+    c = call(mod, "effect_foundation", values)[1]
+    total = on.sum(axis=0)
+    scale = np.max(np.abs(c))
+    assert np.allclose(total[:6], c[:6], rtol=0, atol=1e-12 * scale)
+    assert np.max(np.abs((c - total)[6:, 6:])) > 1e-3 * scale  # the ground springs
+    assert np.allclose(on[:, :6, :6], call(mod, "isolator_stiffness", values), rtol=0, atol=1e-12 * scale)
+    for k in range(len(mod.ISOLATORS)):
+        assert np.all(np.linalg.eigvalsh(on[k] - axial[k]) >= -1e-9 * np.max(np.abs(on[k])))

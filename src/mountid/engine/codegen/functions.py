@@ -13,6 +13,7 @@ from mountid.engine.codegen.layouts import Call, Filled, ForwardModel, Function,
 from mountid.engine.codegen.printing import describe, print_function
 from mountid.engine.symbolic.effects import (
     GENERATED_EFFECTS,
+    SUPPORT_EFFECTS,
     ExtendedModel,
     isolator_axial_stiffness,
     isolator_stiffness,
@@ -111,25 +112,9 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
         functions.append(fn)
         functions.append(_effect_derivative_function(model, ext))
     names = tuple(iso.name for iso in model.isolators)
-    for name, per, what in (
-        ("isolator_stiffness", isolator_stiffness(model), "Stiffness matrix of each isolator alone"),
-        (
-            "isolator_axial_stiffness",
-            isolator_axial_stiffness(model),
-            "The part of each isolator's stiffness matrix along its own axis (local z, compression)",
-        ),
-    ):
-        fn = _matrices_function(
-            name,
-            dict(zip(names, per, strict=True)),
-            COORDINATES,
-            model.parameters_of(*per),
-            f"{what}, shape (..., {len(per)}, 6, 6),\n    isolators in the order of ISOLATORS"
-            + ("; their sum is stiffness_matrix().\n" if name == "isolator_stiffness" else ".\n"),
-            stacked=(),
-        )
-        functions.append(fn)
-        functions.append(_isolator_gradient_function(model, name, dict(zip(names, per, strict=True))))
+    functions += _isolator_functions(model, "", COORDINATES)
+    for name in SUPPORT_EFFECTS:
+        functions += _isolator_functions(model, name, coords[name])
     functions.append(_isolator_points_function(model))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
@@ -140,6 +125,40 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     )
     functions.append(print_function(Function("effect_scales", args, doc, Mapping(tuple(sc.items())))))
     return EffectFunctions(functions, coords, derivative_parameters, names)
+
+
+def _isolator_functions(model: SymbolicModel, support: str, coordinates: tuple[str, ...]) -> list[Function]:
+    """Each isolator's stiffness matrix and its axial part, and their gradients by the unknowns: on the ground
+    (``support`` empty: isolator_stiffness() ...) or between the body and the support of the generated effect
+    ``support`` (isolator_stiffness_on_<support>() ..., in that effect's coordinates): the matrices an isolator
+    scatter changes, alone or on that support."""
+    names = tuple(iso.name for iso in model.isolators)
+    on = bool(support)
+    suffix = f"_on_{support}" if on else ""
+    where = f" between the body and the support of {support}" if on else ""
+    out = []
+    n = len(coordinates)
+    for name, per, what in (
+        ("isolator_stiffness", isolator_stiffness(model, on), "Stiffness matrix of each isolator alone"),
+        (
+            "isolator_axial_stiffness",
+            isolator_axial_stiffness(model, on),
+            "The part of each isolator's stiffness matrix along its own axis (local z, compression)",
+        ),
+    ):
+        total = "; their sum is stiffness_matrix().\n" if name == "isolator_stiffness" and not on else ".\n"
+        fn = _matrices_function(
+            name + suffix,
+            dict(zip(names, per, strict=True)),
+            coordinates,
+            model.parameters_of(*per),
+            f"{what}{where},\n    shape (..., {len(per)}, {n}, {n}), isolators in the order of ISOLATORS{total}"
+            f"    Coordinates {', '.join(coordinates)}.\n",
+            stacked=(),
+        )
+        out.append(fn)
+        out.append(_isolator_gradient_function(model, name + suffix, dict(zip(names, per, strict=True)), coordinates))
+    return out
 
 
 def effect_derivative_parameters(model: SymbolicModel, ext: ExtendedModel) -> tuple[str, ...]:
@@ -172,17 +191,20 @@ def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Fun
     )
 
 
-def _isolator_gradient_function(model: SymbolicModel, name: str, per: dict[str, sp.Matrix]) -> Function:
+def _isolator_gradient_function(
+    model: SymbolicModel, name: str, per: dict[str, sp.Matrix], coordinates: tuple[str, ...]
+) -> Function:
     """d(name())/d(unknown) for each unknown of per-isolator matrices: the Jacobian of an isolator-scatter fit."""
     unknowns = model.description.unknown
+    n = len(coordinates)
     derivs = {f"d{iso}/d{u}": mat.diff(model.symbols[u]) for u in unknowns for iso, mat in per.items()}
     doc = (
         f"Derivatives of {name}() with respect to the unknowns {', '.join(unknowns)}, shape\n"
-        f"    (..., {len(unknowns)}, {len(per)}, 6, 6), differentiated by sympy.\n"
+        f"    (..., {len(unknowns)}, {len(per)}, {n}, {n}), differentiated by sympy.\n"
     )
     args = model.parameters_of(*per.values())
-    shape = (len(unknowns), len(per), 6, 6)
-    return _matrices_function(f"{name}_gradient", derivs, COORDINATES, args, doc, stacked=shape)
+    shape = (len(unknowns), len(per), n, n)
+    return _matrices_function(f"{name}_gradient", derivs, coordinates, args, doc, stacked=shape)
 
 
 def _isolator_points_function(model: SymbolicModel) -> Function:

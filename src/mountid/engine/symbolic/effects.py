@@ -114,6 +114,9 @@ ENERGIES: dict[str, EnergyExtension] = {
 }
 """The energy extension of every ``generated`` effect of the registry (mountid.effects), by name."""
 
+SUPPORT_EFFECTS: tuple[str, ...] = tuple(name for name in GENERATED_EFFECTS if ENERGIES[name].slab)
+"""The generated effects that put a support with coordinates of its own between the isolators and the ground."""
+
 
 def second_order_motion(w: sp.Matrix, position: sp.Matrix) -> sp.Matrix:
     """Second-order displacement 1/2 w x (w x r) of the body point r under the small rotation w: the term
@@ -141,9 +144,8 @@ class ExtendedModel:
     # -- energies ----------------------------------------------------------------------------------
     @cached_property
     def slab_centre(self) -> sp.Matrix:
-        """Centre of the foundation slab: the mean of the isolator points [m]."""
-        points = [iso.position for iso in self.model.isolators]
-        return sum(points, sp.zeros(3, 1)) / len(points)
+        """Centre of the foundation slab: the mean of the isolator points [m] (slab_centre())."""
+        return slab_centre(self.model)
 
     @cached_property
     def added_kinetic_energy(self) -> sp.Expr:
@@ -239,20 +241,37 @@ def _tidy(e: sp.Expr) -> sp.Expr:
     return sp.factor_terms(sp.expand(e))
 
 
-def isolator_stiffness(model: SymbolicModel) -> list[sp.Matrix]:
-    """The stiffness matrix of each isolator alone (Hessian of its potential energy): C is their sum."""
-    return [isolator_hessian(iso.position, iso.stiffness).applyfunc(_tidy) for iso in model.isolators]
+def slab_centre(model: SymbolicModel) -> sp.Matrix:
+    """Where the coordinates of a support below the isolators (the foundation's slab) refer to: the mean of
+    the isolator points [m]."""
+    points = [iso.position for iso in model.isolators]
+    return sum(points, sp.zeros(3, 1)) / len(points)
 
 
-def isolator_axial_stiffness(model: SymbolicModel) -> list[sp.Matrix]:
+def _foot(model: SymbolicModel, iso, on_support: bool) -> sp.Matrix | None:
+    """The isolator's foot in the support's coordinates (None: the isolator stands on the ground)."""
+    return iso.position - slab_centre(model) if on_support else None
+
+
+def isolator_stiffness(model: SymbolicModel, on_support: bool = False) -> list[sp.Matrix]:
+    """The stiffness matrix of each isolator alone (Hessian of its potential energy): C is their sum. With
+    ``on_support``, the isolator between the body and a support below it (the foundation's twelve coordinates,
+    body then support): the foundation's C is their sum plus the support's ground springs."""
+    return [
+        isolator_hessian(iso.position, iso.stiffness, _foot(model, iso, on_support)).applyfunc(_tidy)
+        for iso in model.isolators
+    ]
+
+
+def isolator_axial_stiffness(model: SymbolicModel, on_support: bool = False) -> list[sp.Matrix]:
     """The part of each isolator's stiffness matrix along its own axis a (local z): the Hessian of the energy
     1/2 k_a (a . u)^2 with k_a = a^T K a, the isolator's axial stiffness (compression of the rubber). The rest
-    of isolator_stiffness() is its shear part (local x and y)."""
+    of isolator_stiffness() is its shear part (local x and y). ``on_support`` as for isolator_stiffness()."""
     out = []
     for iso in model.isolators:
         a = iso.axis
         axial = sp.simplify((a.T * iso.stiffness * a)[0])
-        out.append(isolator_hessian(iso.position, axial * a * a.T).applyfunc(_tidy))
+        out.append(isolator_hessian(iso.position, axial * a * a.T, _foot(model, iso, on_support)).applyfunc(_tidy))
     return out
 
 
