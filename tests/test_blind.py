@@ -157,11 +157,11 @@ def test_every_truth_names_the_catalogue_effect_that_represents_it():
     assert set(blind_truth.OUT_OF_CATALOGUE) == {
         "nonlinear_isolator",
         "resilient_attachment",
-        "support_frame+isolator_scatter",
         "sensor_turned+sensor_turned",
         "sensor_turned+sensor_misplaced",
     }
     assert blind_truth.represented_by("isolator_scatter+cog_height") == "cog_height+isolator_scatter"
+    assert blind_truth.represented_by("support_frame+isolator_scatter") == "isolator_scatter+foundation"
 
 
 def test_a_support_frame_of_other_geometry_is_not_a_confident_wrong_verdict():

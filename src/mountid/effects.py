@@ -329,7 +329,6 @@ EFFECT_PARAMETERS: tuple[str, ...] = tuple(p.name for e in CATALOGUE for p in e.
 PAIR_EXCLUSIONS: dict[frozenset[str], str] = {
     frozenset({"com_offset", "cog_height"}): "both move the body's centre of mass: one com_offset in 3D, not a pair",
     frozenset({"frequency_dependent", "damping"}): "both change how frequencies follow from M and C",
-    frozenset({"foundation", "isolator_scatter"}): "the isolators stand on the support, not on the ground",
     frozenset({"foundation", "rotational_stiffness"}): "the isolators stand on the support, not on the ground",
     frozenset({"foundation", "gravity_preload"}): "the isolators stand on the support, not on the ground",
     frozenset({"foundation", "frequency_dependent"}): "the support's springs would stiffen with the rubber",

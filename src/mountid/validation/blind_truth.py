@@ -32,6 +32,8 @@ In the catalogue (mountid.effects), each by its own physics here:
   axis (radius 0.4-1.2 times the isolators' largest radius, any direction and height).
 
 - ``isolator_scatter+cog_height`` (the catalogue's pair ``cog_height+isolator_scatter``): two effects at once.
+- ``support_frame+isolator_scatter`` (the catalogue's pair ``isolator_scatter+foundation``): one isolator off
+  and the machine on a support frame (each as above); the scattered isolator stands on the frame.
 
 Outside the catalogue (REPRESENTED_BY None: no candidate represents them; an honest diagnosis ends "not
 explained" or in a tie, never confident):
@@ -43,8 +45,6 @@ explained" or in a tie, never confident):
   springs at a point off the axis, its own frequency 0.5-0.9 times the machine's highest, inside the band of
   the machine's modes: its apparent mass changes sign across its resonance (a vibration absorber), which
   neither a rigid added mass nor stiffening rubber reproduces (9 coordinates);
-- ``support_frame+isolator_scatter``: one isolator off and the machine on a support frame, a pair the catalogue
-  does not compose (the isolators stand on the support).
 - ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
   ``sensor_turned``), where the catalogue turns one;
 - ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
@@ -82,7 +82,7 @@ REPRESENTED_BY: dict[str, str | None] = {
     "isolator_scatter+cog_height": "cog_height+isolator_scatter",
     "nonlinear_isolator": None,
     "resilient_attachment": None,
-    "support_frame+isolator_scatter": None,
+    "support_frame+isolator_scatter": "isolator_scatter+foundation",
     "sensor_turned+sensor_turned": None,
     "sensor_turned+sensor_misplaced": None,
 }
