@@ -157,7 +157,8 @@ def fit_pairs(
     the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
     fits (one member's fit with the other nil, the other way round, and both together) at each of the
     settings.pair_variants isolators (channels) its per-isolator member fits best, the settings.pair_count most
-    promising by the promise's BIC (chi^2 + k ln n) fitted from all of pair_starts. Returns the fits and the
+    promising by the promise's BIC (chi^2 + k ln n) fitted from all of pair_starts (a pair fitted goes on at
+    its next screened isolators while one promises less than its fit reached). Returns the fits and the
     screened pairs not fitted (each once, at its most promising isolator or channel). (diagnose_effects calls it
     when no single effect explains the gap: fits it within its uncertainty and predicts the held-out modes.)"""
     singles = [
@@ -195,7 +196,20 @@ def fit_pairs(
     chosen: dict[str, tuple[Pair, list]] = {}
     for _, both, variant, starts, _ in promising[: settings.pair_count]:
         chosen.setdefault(both.name, (both, []))[1].append((variant, starts))
-    out = [_best_fit(campaign, both, at, settings) for both, at in chosen.values()]
+    later: dict[str, list] = {}
+    for promise, both, variant, starts, _ in promising[settings.pair_count :]:
+        if both.name in chosen:
+            later.setdefault(both.name, []).append((promise, variant, starts))
+    out = []
+    for name, (both, at) in chosen.items():
+        fit = _best_fit(campaign, both, at, settings)
+        # the promise may rank a mirror image of the true isolator first, and the fit there stop far above noise
+        # level: the pair goes on at its next screened isolators while one promises less than the fit reached
+        for promise, variant, starts in later.get(name, []):
+            if promise >= fit.chi2:
+                break
+            fit = min(fit, _best_fit(campaign, both, [(variant, starts)], settings), key=lambda f: f.chi2)
+        out.append(fit)
     # a pair not fitted, once, at its most promising isolator (channel), with every isolator it was screened at
     screened: dict[str, ScreenedPair] = {}
     at: dict[str, list] = {}
