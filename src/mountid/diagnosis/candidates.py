@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -191,34 +192,29 @@ def fit_pairs(
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
     promising.sort(key=lambda x: x[0] + x[4] * math.log(nominal.n_data))
-    # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
-    # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
-    chosen: dict[str, tuple[Pair, list]] = {}
-    for _, both, variant, starts, _ in promising[: settings.pair_count]:
-        chosen.setdefault(both.name, (both, []))[1].append((variant, starts))
-    later: dict[str, list] = {}
-    for promise, both, variant, starts, _ in promising[settings.pair_count :]:
-        if both.name in chosen:
-            later.setdefault(both.name, []).append((promise, variant, starts))
+    # each pair's screened isolators (channels), most promising first; the settings.pair_count most promising
+    # (pair, isolator) combinations are fitted, a pair keeping its best fitting isolator (the one-step promise
+    # may rank a mirror image or a neighbour first)
+    by_pair: dict[str, tuple[Pair, int, list]] = {}
+    for promise, both, variant, starts, k in promising:
+        by_pair.setdefault(both.name, (both, k, []))[2].append((promise, variant, tuple(starts)))
+    top = Counter(both.name for _, both, _, _, _ in promising[: settings.pair_count])
     out = []
-    for name, (both, at) in chosen.items():
-        fit = _best_fit(campaign, both, at, settings)
+    screened: list[ScreenedPair] = []
+    for name, (both, k, entries) in by_pair.items():
+        if name not in top:  # not fitted: once, at its most promising isolator, with every one it was screened at
+            at = tuple((variant, starts) for _, variant, starts in entries)
+            screened.append(ScreenedPair(name, entries[0][0], nominal.n_data, k, both, at))
+            continue
+        fit = _best_fit(campaign, both, [(variant, starts) for _, variant, starts in entries[: top[name]]], settings)
         # the promise may rank a mirror image of the true isolator first, and the fit there stop far above noise
         # level: the pair goes on at its next screened isolators while one promises less than the fit reached
-        for promise, variant, starts in later.get(name, []):
+        for promise, variant, starts in entries[top[name] :]:
             if promise >= fit.chi2:
                 break
             fit = min(fit, _best_fit(campaign, both, [(variant, starts)], settings), key=lambda f: f.chi2)
         out.append(fit)
-    # a pair not fitted, once, at its most promising isolator (channel), with every isolator it was screened at
-    screened: dict[str, ScreenedPair] = {}
-    at: dict[str, list] = {}
-    for _, b, variant, starts, _ in promising:
-        at.setdefault(b.name, []).append((variant, tuple(starts)))
-    for promise, b, _, _, k in promising:
-        if b.name not in chosen and b.name not in screened:
-            screened[b.name] = ScreenedPair(b.name, promise, nominal.n_data, k, b, tuple(at[b.name]))
-    return out, list(screened.values())
+    return out, screened
 
 
 def _best_fit(

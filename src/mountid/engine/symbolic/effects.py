@@ -78,7 +78,7 @@ def _slab_on_ground(x: ExtendedModel) -> sp.Expr:
     spring = sp.diag(s["found_shear"], s["found_shear"], 1) * s["k_found"] / len(m.isolators)
     p = sp.Integer(0)
     for iso in m.isolators:
-        foot = iso.position - x.slab_centre
+        foot = _foot(x.model, iso, True)
         ground = sp.Matrix([s["found_spread"] * foot[0], s["found_spread"] * foot[1], foot[2] - s["found_depth"]])
         u = SymbolicModel.point_motion(x.q[6:, 0], ground)
         p += (u.T * spring * u)[0] / 2
@@ -143,11 +143,6 @@ class ExtendedModel:
 
     # -- energies ----------------------------------------------------------------------------------
     @cached_property
-    def slab_centre(self) -> sp.Matrix:
-        """Centre of the foundation slab: the mean of the isolator points [m] (slab_centre())."""
-        return slab_centre(self.model)
-
-    @cached_property
     def added_kinetic_energy(self) -> sp.Expr:
         """T of the extended model minus the nominal T (the effect's registered kinetic energy)."""
         term = ENERGIES[self.effect.name].kinetic
@@ -169,7 +164,7 @@ class ExtendedModel:
             full = sp.zeros(len(variables))
             if tensor is not None:
                 for iso in self.model.isolators:
-                    full += isolator_hessian(iso.position, getattr(iso, tensor), iso.position - self.slab_centre)
+                    full += isolator_hessian(iso.position, getattr(iso, tensor), _foot(self.model, iso, True))
                 full = full.applyfunc(sp.expand)
             elif nominal is not None:
                 full[:6, :6] = nominal
