@@ -152,3 +152,45 @@ def test_a_description_file_is_generated_once_and_cached_by_content(tmp_path):
     desc.write_text(desc.read_text().replace("5200.0", "5300.0"))
     assert run().strip() == "True"
     assert len(list((tmp_path / "cache").glob("press-*.py"))) == 2
+
+
+README_TRANSCRIPT = "    $ mountid diagnose examples/"
+
+
+def _readme_transcripts() -> list[tuple[str, list[str]]]:
+    """The README's `mountid diagnose` transcripts: (example file, the lines shown, without their indent)."""
+    lines = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8").splitlines()
+    out = []
+    for i, line in enumerate(lines):
+        if line.startswith(README_TRANSCRIPT):
+            shown = []
+            for following in lines[i + 1 :]:
+                if not following.startswith("    "):
+                    break
+                shown.append(following[4:].rstrip())
+            out.append((line[len(README_TRANSCRIPT) :].split()[0], shown))
+    return out
+
+
+@pytest.mark.parametrize(("example", "shown"), _readme_transcripts(), ids=lambda v: v if isinstance(v, str) else "")
+def test_the_readme_diagnosis_transcripts_are_what_the_command_prints(capsys, tmp_path, monkeypatch, example, shown):
+    """Every line of a README transcript is a line the command prints, in order; a line with '...' is its
+    fragments in one printed line (a transcript shows a selection). A README that drifts from the code fails."""
+    path = Path(__file__).resolve().parents[1] / "examples" / example
+    monkeypatch.chdir(tmp_path)
+    code, out, _ = run(capsys, "diagnose", str(path), "--no-figure")
+    assert code == 0
+    printed = [line.rstrip() for line in out.splitlines()]
+    at = 0
+    for line in shown:
+        fragments = [f.strip() for f in line.split("...") if f.strip()]
+        found = next(
+            (
+                k
+                for k in range(at, len(printed))
+                if (line == printed[k] if "..." not in line else all(f in printed[k] for f in fragments))
+            ),
+            None,
+        )
+        assert found is not None, f"{example}: the README shows {line!r}, the command does not print it (in order)"
+        at = found if not fragments else found + 1
