@@ -194,3 +194,16 @@ def test_the_readme_diagnosis_transcripts_are_what_the_command_prints(capsys, tm
         )
         assert found is not None, f"{example}: the README shows {line!r}, the command does not print it (in order)"
         at = found if not fragments else found + 1
+
+
+def test_the_readme_has_a_transcript_for_every_verdict_example():
+    """The transcript test above is not empty: the paper's campaign and the four blind examples, each a file."""
+    examples = [example for example, _ in _readme_transcripts()]
+    assert examples == [
+        "kid300-paper.json",
+        "kid300-blind-belt.json",
+        "kid300-blind-pair.json",
+        "kid300-blind-tie.json",
+        "kid300-blind-not-explained.json",
+    ]
+    assert all((Path(__file__).resolve().parents[1] / "examples" / e).is_file() for e in examples)
