@@ -159,7 +159,7 @@ README_TRANSCRIPT = "    $ mountid diagnose examples/"
 
 def _readme_transcripts() -> list[tuple[str, list[str]]]:
     """The README's `mountid diagnose` transcripts: (example file, the lines shown, without their indent)."""
-    lines = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8").splitlines()
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
     out = []
     for i, line in enumerate(lines):
         if line.startswith(README_TRANSCRIPT):
@@ -176,24 +176,22 @@ def _readme_transcripts() -> list[tuple[str, list[str]]]:
 def test_the_readme_diagnosis_transcripts_are_what_the_command_prints(capsys, tmp_path, monkeypatch, example, shown):
     """Every line of a README transcript is a line the command prints, in order; a line with '...' is its
     fragments in one printed line (a transcript shows a selection). A README that drifts from the code fails."""
-    path = Path(__file__).resolve().parents[1] / "examples" / example
     monkeypatch.chdir(tmp_path)
-    code, out, _ = run(capsys, "diagnose", str(path), "--no-figure")
+    code, out, _ = run(capsys, "diagnose", str(ROOT / "examples" / example), "--no-figure")
     assert code == 0
     printed = [line.rstrip() for line in out.splitlines()]
     at = 0
     for line in shown:
-        fragments = [f.strip() for f in line.split("...") if f.strip()]
-        found = next(
-            (
-                k
-                for k in range(at, len(printed))
-                if (line == printed[k] if "..." not in line else all(f in printed[k] for f in fragments))
-            ),
-            None,
-        )
+        found = next((k for k in range(at, len(printed)) if _shows(line, printed[k])), None)
         assert found is not None, f"{example}: the README shows {line!r}, the command does not print it (in order)"
-        at = found if not fragments else found + 1
+        at = found + 1 if any(f.strip() for f in line.split("...")) else found  # a bare '...' matches any line
+
+
+def _shows(line: str, printed: str) -> bool:
+    """Whether a transcript line shows a printed one: equal, or with '...' its fragments in it."""
+    if "..." not in line:
+        return line == printed
+    return all(f.strip() in printed for f in line.split("...") if f.strip())
 
 
 def test_the_readme_has_a_transcript_for_every_verdict_example():
@@ -206,4 +204,4 @@ def test_the_readme_has_a_transcript_for_every_verdict_example():
         "kid300-blind-tie.json",
         "kid300-blind-not-explained.json",
     ]
-    assert all((Path(__file__).resolve().parents[1] / "examples" / e).is_file() for e in examples)
+    assert all((ROOT / "examples" / e).is_file() for e in examples)
