@@ -44,7 +44,8 @@ from mountid.diagnosis.fitting import (
     fit_candidate,
     held_out_z,
     other_solutions,
-    promised_chi2,
+    promises,
+    short_fit,
     tempered_log_evidence,
 )
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
@@ -187,34 +188,64 @@ def fit_pairs(
             starts = pair_starts(model, fa, fb, where)
             # screened from each member's fit with the other nil and from both fitted values together (a softer
             # isolator with a higher centre of mass: 185 from either member, 3.4 from both; the truth)
-            promise = promised_chi2(campaign, model, starts[:3])
-            promising.append((promise, both, variant, starts, k))
+            promised = promises(campaign, model, starts[:3])
+            first = int(np.argmin(promised))
+            promising.append((promised[first], both, variant, starts, k, first))
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
-    promising.sort(key=lambda x: x[0] + x[4] * math.log(nominal.n_data))
-    # each pair's screened isolators (channels), most promising first; the settings.pair_count most promising
-    # (pair, isolator) combinations are fitted, a pair keeping its best fitting isolator (the one-step promise
-    # may rank a mirror image or a neighbour first)
+    log_n = math.log(nominal.n_data)
+    promising.sort(key=lambda x: x[0] + x[4] * log_n)
+    # each pair's screened isolators (channels), most promising first, with the index of its most promising start
     by_pair: dict[str, tuple[Pair, int, list]] = {}
-    for promise, both, variant, starts, k in promising:
-        by_pair.setdefault(both.name, (both, k, []))[2].append((promise, variant, tuple(starts)))
-    top = Counter(both.name for _, both, _, _, _ in promising[: settings.pair_count])
+    for promise, both, variant, starts, k, first in promising:
+        by_pair.setdefault(both.name, (both, k, []))[2].append((promise, variant, tuple(starts), first))
+    # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
+    # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
+    top = Counter(both.name for _, both, *_ in promising[: settings.pair_count])
     out = []
-    screened: list[ScreenedPair] = []
-    for name, (both, k, entries) in by_pair.items():
-        if name not in top:  # not fitted: once, at its most promising isolator, with every one it was screened at
-            at = tuple((variant, starts) for _, variant, starts in entries)
-            screened.append(ScreenedPair(name, entries[0][0], nominal.n_data, k, both, at))
-            continue
-        fit = _best_fit(campaign, both, [(variant, starts) for _, variant, starts in entries[: top[name]]], settings)
-        # the promise may rank a mirror image of the true isolator first, and the fit there stop far above noise
-        # level: the pair goes on at its next screened isolators while one promises less than the fit reached
-        for promise, variant, starts in entries[top[name] :]:
-            if promise >= fit.chi2:
-                break
-            fit = min(fit, _best_fit(campaign, both, [(variant, starts)], settings), key=lambda f: f.chi2)
-        out.append(fit)
+    for name in top:
+        both, k, entries = by_pair[name]
+        out.append(_pair_fit(campaign, both, entries, top[name], settings))
+    rest = [name for name in by_pair if name not in top]
+    # none of them fits within the uncertainty: the next settings.pair_screened go on by a short fit from their
+    # most promising start at their most promising isolator, and each that reaches less (BIC) than the best
+    # fitted pair is fitted from there
+    if out and not any(fits_within_uncertainty(f, settings) for f in out):
+        bar = min(f.chi2 + f.n_parameters * log_n for f in out)
+        for name in rest[: settings.pair_screened]:
+            both, k, entries = by_pair[name]
+            _, variant, starts, first = entries[0]
+            chi2, x = short_fit(
+                campaign, CandidateModel(campaign, both, variant), np.asarray(starts[first]), SCREEN_EVALUATIONS
+            )
+            if chi2 + k * log_n < bar:
+                entries = [(entries[0][0], variant, (x, *starts), first), *entries[1:]]
+                out.append(_pair_fit(campaign, both, entries, 1, settings))
+    fitted = {f.effect for f in out}
+    screened = [
+        # not fitted: once, at its most promising isolator, with every one it was screened at
+        ScreenedPair(name, entries[0][0], nominal.n_data, k, both, tuple((v, st) for _, v, st, _ in entries))
+        for name, (both, k, entries) in by_pair.items()
+        if name not in fitted
+    ]
     return out, screened
+
+
+SCREEN_EVALUATIONS = 4
+"""Evaluations of the residuals a short fit of a screened pair may take (settings.pair_screened)."""
+
+
+def _pair_fit(campaign: Campaign, both: Pair, entries: list, count: int, settings: DiagnosisSettings) -> CandidateFit:
+    """A screened pair fitted at its ``count`` most promising isolators (channels) of ``entries`` (promise,
+    index, starts, most promising start), the best kept; then on at its next screened isolators while one
+    promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and
+    the fit there stop far above noise level)."""
+    fit = _best_fit(campaign, both, [(variant, starts) for _, variant, starts, _ in entries[:count]], settings)
+    for promise, variant, starts, _ in entries[count:]:
+        if promise >= fit.chi2:
+            break
+        fit = min(fit, _best_fit(campaign, both, [(variant, starts)], settings), key=lambda f: f.chi2)
+    return fit
 
 
 def _best_fit(
