@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.candidates import diagnose_effects, explains, sized
-from mountid.diagnosis.fitting import PRIOR_WEIGHT, fit_candidate, noise_level, prior_widths, promises
+from mountid.diagnosis.candidates import confirmed, diagnose_effects, explains, held_out_shift, sized
+from mountid.diagnosis.fitting import PRIOR_WEIGHT, CandidateFit, fit_candidate, noise_level, prior_widths, promises
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS, Pair
 from mountid.errors import InputError
@@ -425,3 +425,42 @@ def test_a_layout_that_does_not_see_six_motions_is_refused():
     data["sensors"] = [c for c in layout if c["name"].endswith("_z")] * 2
     with pytest.raises(InputError, match="sensors: the channels do not see all six"):
         parse(data)
+
+
+def _fit_with_held_out(gap: dict[str, float], variance: dict[str, float]) -> CandidateFit:
+    return CandidateFit("x", "", {}, {}, 0.0, 12, 2, 0.0, True, "", {}, gap, held_out_variance=variance)
+
+
+def test_held_out_shift_counts_the_modes_with_a_gap_in_the_candidates_own_spread():
+    """held_out_shift by hand: the modes whose held-out frequency the nominal model misses beyond 3 of its own
+    predictive standard deviations (x and y here, not z), each the move of the candidate's prediction from the
+    nominal's over the candidate's predictive standard deviation; nan without such a mode."""
+    data, _ = blind.make_case(13, "cog_height", kind="frequencies", machine="rectangular")
+    campaign = parse(data)
+    s = {lab: m.frequency_std for lab, m in campaign.modes.items()}
+    nominal = _fit_with_held_out({"x": 40 * s["x"], "y": -9 * s["y"], "z": 2 * s["z"]}, {"x": 4.0, "y": 1.0, "z": 1.0})
+    sharp = _fit_with_held_out({"x": 1 * s["x"], "y": 0.5 * s["y"], "z": 0.0}, {"x": 1.0, "y": 4.0, "z": 1.0})
+    assert held_out_shift(sharp, nominal, campaign) == pytest.approx(np.median([39.0, 9.5 / 2.0]))
+    assert confirmed(sharp, nominal, campaign)
+    # the same errors predicted with a spread of 30 sigma: they match the measurement and confirm nothing
+    loose = _fit_with_held_out(sharp.held_out_gap, {"x": 900.0, "y": 900.0, "z": 900.0})
+    assert held_out_shift(loose, nominal, campaign) == pytest.approx(np.median([39.0 / 30, 9.5 / 30]))
+    assert not confirmed(loose, nominal, campaign)
+    no_gap = _fit_with_held_out({"x": 2 * s["x"], "y": s["y"], "z": 0.0}, {"x": 1.0, "y": 1.0, "z": 1.0})
+    assert math.isnan(held_out_shift(sharp, no_gap, campaign)) and confirmed(sharp, no_gap, campaign)
+
+
+def test_a_fit_whose_held_out_predictions_are_too_uncertain_is_not_confident():
+    """Blind case (seed 18, kid300, frequencies and damping ratios): a component on its own springs tuned inside
+    the band, outside the catalogue. The pair com_offset+isolator_scatter has as many parameters acting on the
+    frequencies as there are frequencies; it fits (chi^2 12.4 on 4 degrees of freedom, the damping ratios'),
+    every other candidate is ruled out, and each held-out frequency is matched within a sigma of the
+    measurement by a refit that the other modes barely determine (predictive spread 17-100 sigma). It was named
+    confidently; the held-out predictions confirm nothing, so it is a tie that says so."""
+    data, _ = blind.make_case(18, "resilient_attachment", kind="damping")
+    campaign = parse(data)
+    report = diagnose_effects(campaign)
+    best = report.best
+    assert best.effect == "com_offset+isolator_scatter" and explains(best) and best.probability > 0.95
+    assert held_out_shift(best, report.nominal, campaign) < 1
+    assert not report.confident and report.kind == "tie" and "too uncertain to confirm" in report.verdict

@@ -329,6 +329,37 @@ def explains(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, predictiv
     return math.isfinite(median) and median <= settings.held_out_limit
 
 
+def held_out_shift(
+    f: CandidateFit, nominal: CandidateFit, campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS
+) -> float:
+    """How far the candidate's held-out predictions move from the nominal model's, in units of their own
+    predictive standard deviation (sigma times the square root of CandidateFit.held_out_variance): the median
+    over the modes whose held-out frequency the nominal model misses beyond settings.held_out_limit of its own
+    predictive standard deviation (the modes with a gap to explain). nan where no mode has one (an effect on
+    the shapes alone, a turned sensor) or the candidate has no held-out prediction there. A candidate whose
+    parameters the other modes barely determine predicts a held-out mode anywhere within its wide spread:
+    matching the measurement there confirms nothing."""
+    shifts = []
+    for lab, e1 in f.held_out_gap.items():
+        e0, v0 = nominal.held_out_gap.get(lab, math.nan), nominal.held_out_variance.get(lab, math.nan)
+        v = f.held_out_variance.get(lab, math.nan)
+        sigma = campaign.modes[lab].frequency_std
+        if not all(math.isfinite(x) for x in (e0, v0, e1, v)):
+            continue
+        if abs(e0) > settings.held_out_limit * sigma * math.sqrt(max(v0, 1.0)):
+            shifts.append(abs(e0 - e1) / (sigma * math.sqrt(max(v, 1.0))))
+    return float(np.median(shifts)) if shifts else math.nan
+
+
+def confirmed(
+    f: CandidateFit, nominal: CandidateFit, campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS
+) -> bool:
+    """Whether the candidate's held-out predictions are sharp enough to confirm it (held_out_shift beyond
+    settings.held_out_shift), or there is no held-out frequency gap for them to confirm."""
+    shift = held_out_shift(f, nominal, campaign, settings)
+    return math.isnan(shift) or shift > settings.held_out_shift
+
+
 def _magnitudes(f: CandidateFit) -> list[list[EffectParameter]]:
     """Per effect of the candidate (two for a pair), its magnitudes (EffectParameter.magnitude)."""
     return [[p for p in EFFECTS[name].parameters if p.magnitude] for name in f.effect.split("+")]
@@ -420,7 +451,8 @@ def rank(
     nominal gap, find the tie (the credible set) and what would separate it (``exact_held_out``: refit
     without each mode for the nominal model and, with a significant gap, the first three of the tie; else
     linearised only). The verdict is confident only when the best candidate explains the gap (fits, and
-    predicts the held-out modes: :func:`explains`), has probability settings.confidence or more, and the data
+    predicts the held-out modes: :func:`explains`) with held-out predictions sharp enough to confirm it
+    (:func:`confirmed`), has probability settings.confidence or more, and the data
     reject every other candidate (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2
     they promise); when no candidate explains it, the verdict says so and names the closest. With
     ``other_roots`` a candidate the verdict names is searched for other values that fit as well
@@ -504,6 +536,7 @@ def rank(
         and best.probability >= settings.confidence
         and all(rejected(f, settings) for f in candidates[1:])
         and not open_
+        and confirmed(best, nominal, campaign, settings)
     ):
         kind = "confident"
         verdict = (
@@ -534,6 +567,12 @@ def rank(
                 f"; the other modes predict each held-out one only loosely ({loose.effect}: median "
                 f"{loose.held_out_median:.1f} sigma of the measurement, {loose.held_out_median_predictive:.1f} of the "
                 "prediction's own uncertainty): more modes or mode shapes would confirm it"
+            )
+        if best is not None and explains(best, settings) and not confirmed(best, nominal, campaign, settings):
+            verdict += (
+                f"; the held-out predictions of {best.effect} are too uncertain to confirm it (they move from the "
+                f"nominal model's by {held_out_shift(best, nominal, campaign, settings):.2g} of their own standard "
+                "deviation in the median): more modes or mode shapes would confirm or rule it out"
             )
         if open_:
             verdict += f"; not ruled out: {open_}"

@@ -25,6 +25,14 @@ class DiagnosisSettings:
     held_out_limit: float = 3.0
     """A candidate predicts the modes it was not fitted to when the median |held-out error| is within this
     many standard deviations (leave one mode out)."""
+    held_out_shift: float = 1.0
+    """A confident verdict needs its held-out predictions sharp enough to confirm it: on the modes whose held-out
+    frequency the nominal model misses beyond settings.held_out_limit of its own predictive standard deviation,
+    the candidate's held-out prediction moves from the nominal model's by more than this many of its own
+    predictive standard deviations in the median (candidates.held_out_shift). A pair whose parameters the
+    other modes barely determine fits every held-out mode to a fraction of a sigma of the measurement and
+    predicts it to +-30-100 (kid300 seed 18, damping ratios: a component on its own springs, outside the
+    catalogue, named confidently as a centre of mass off with a scattered isolator)."""
     size_spread: float = 1.0
     """A confident verdict needs the size of each effect determined: one of its magnitudes (a parameter of a
     positive plausible range: a stiffness, a mass) within this relative standard deviation. A belt fitted at
