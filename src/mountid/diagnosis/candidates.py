@@ -298,7 +298,9 @@ def _probabilities(
     applicable, implausible (outside their prior) or unfitted. When the data reject even the candidate of the
     smallest chi^2 per degree of freedom (fits_within_uncertainty), every evidence is taken with the variances
     scaled by that ratio (fitting.tempered_log_evidence): the returned scale (else 1). The probabilities are
-    proportional to exp(settings.evidence_temperature log weight), the log weights returned are the plain ones
+    proportional to the prior odds times the evidence to the power settings.evidence_temperature (the
+    temperature corrects the evidence of candidates that only approximate the machine; the prior odds are a
+    statement about machines, not evidence, and are not tempered); the log weights returned are the plain ones
     (evidence plus log prior)."""
     pool = [nominal, *(f for f in fits if f.applicable and f.plausible and math.isfinite(f.log_evidence))]
     judged = [f for f in pool if f.n_data > f.n_parameters]
@@ -306,10 +308,11 @@ def _probabilities(
     scale = 1.0
     if closest is not None and not fits_within_uncertainty(closest, settings):
         scale = closest.chi2 / (closest.n_data - closest.n_parameters)
-    logs = np.array([tempered_log_evidence(f, scale) + f.log_prior for f in pool])
-    weights = (
-        np.exp(settings.evidence_temperature * (logs - logs.max())) if np.isfinite(logs.max()) else np.ones(len(pool))
-    )
+    evidence = np.array([tempered_log_evidence(f, scale) for f in pool])
+    prior = np.array([f.log_prior for f in pool])
+    logs = evidence + prior
+    tempered = settings.evidence_temperature * evidence + prior
+    weights = np.exp(tempered - tempered.max()) if np.isfinite(tempered.max()) else np.ones(len(pool))
     out = {id(f): (0.0, -math.inf) for f in fits}
     out.update({id(f): (float(w / weights.sum()), float(g)) for f, w, g in zip(pool, weights, logs, strict=True)})
     return out, scale
