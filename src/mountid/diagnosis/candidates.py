@@ -524,6 +524,8 @@ def rank(
         )
         if part
     )
+    # the held-out predictions sharp enough to confirm the best candidate (judged once, used twice)
+    best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
@@ -539,7 +541,7 @@ def rank(
         and best.probability >= settings.confidence
         and all(rejected(f, settings) for f in candidates[1:])
         and not open_
-        and confirmed(best, nominal, campaign, settings)
+        and best_confirmed
     ):
         kind = "confident"
         verdict = (
@@ -571,7 +573,7 @@ def rank(
                 f"{loose.held_out_median:.1f} sigma of the measurement, {loose.held_out_median_predictive:.1f} of the "
                 "prediction's own uncertainty): more modes or mode shapes would confirm it"
             )
-        if best is not None and explains(best, settings) and not confirmed(best, nominal, campaign, settings):
+        if best is not None and explains(best, settings) and not best_confirmed:
             verdict += (
                 f"; the held-out predictions of {best.effect} are too uncertain to confirm it (they move from the "
                 f"nominal model's by {held_out_shift(best, nominal, campaign, settings):.2g} of their own standard "
