@@ -13,7 +13,14 @@ from hypothesis import strategies as st
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.candidates import confirmed, diagnose_effects, explains, held_out_shift, sized
+from mountid.diagnosis.candidates import (
+    confirmed,
+    diagnose_effects,
+    explains,
+    held_out_shift,
+    sized,
+    untestable_note,
+)
 from mountid.diagnosis.fitting import PRIOR_WEIGHT, CandidateFit, fit_candidate, noise_level, prior_widths, promises
 from mountid.diagnosis.gap import isolator_forces
 from mountid.effects import EFFECTS, Pair
@@ -464,3 +471,24 @@ def test_a_fit_whose_held_out_predictions_are_too_uncertain_is_not_confident():
     assert best.effect == "com_offset+isolator_scatter" and explains(best) and best.probability > 0.95
     assert held_out_shift(best, report.nominal, campaign) < 1
     assert not report.confident and report.kind == "tie" and "too uncertain to confirm" in report.verdict
+
+
+def test_the_note_names_the_pairs_the_data_cannot_test_grouped_by_parameter_count():
+    """untestable_note by hand: every pair named under its parameter count, fewest first; nothing to say
+    without one."""
+    note = untestable_note([("b+c", 11), ("a+b", 10), ("a+c", 11)], 12)
+    assert "these 12 data" in note and "3 pairs" in note and "3 degrees of freedom" in note
+    assert "10: a+b; 11: a+c, b+c)" in note
+    assert untestable_note([], 12) == ""
+
+
+def test_a_tie_says_which_pairs_its_probabilities_leave_out():
+    """Blind case (seed 107, kid300, frequencies and damping ratios): a support frame on ground springs with one
+    isolator scattered, represented by the pair isolator_scatter+foundation (11 parameters with the unknowns),
+    which twelve data cannot test. The tie states 1.00 for another pair; the report says that its
+    probabilities weigh only the candidates these data can test and names the true pair among those left out."""
+    data, _ = blind.make_case(107, "support_frame+isolator_scatter", kind="damping")
+    report = diagnose_effects(parse(data))
+    assert report.kind == "tie" and report.best.probability > 0.99
+    (note,) = [n for n in report.notes if "can test" in n]
+    assert "isolator_scatter+foundation" in note and "11: " in note

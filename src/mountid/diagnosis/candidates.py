@@ -154,14 +154,15 @@ def fit_all(
 
 def fit_pairs(
     campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
-) -> tuple[list[CandidateFit], list[ScreenedPair]]:
+) -> tuple[list[CandidateFit], list[ScreenedPair], list[tuple[str, int]]]:
     """Pairs of effects (mountid.effects.pair) where the data leave settings.pair_dof degrees of freedom beyond
     the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
     fits (one member's fit with the other nil, the other way round, and both together) at each of the
     settings.pair_variants isolators (channels) its per-isolator member fits best, the settings.pair_count most
     promising by the promise's BIC (chi^2 + k ln n) fitted from all of pair_starts (a pair fitted goes on at
-    its next screened isolators while one promises less than its fit reached). Returns the fits and the
-    screened pairs not fitted (each once, at its most promising isolator or channel). (diagnose_effects calls it
+    its next screened isolators while one promises less than its fit reached). Returns the fits, the screened
+    pairs not fitted (each once, at its most promising isolator or channel), and the pairs the data cannot test
+    (too few degrees of freedom) with their parameter counts, unknowns included. (diagnose_effects calls it
     when no single effect explains the gap: fits it within its uncertainty and predicts the held-out modes.)"""
     singles = [
         f
@@ -171,11 +172,14 @@ def fit_pairs(
         and math.isfinite(f.chi2)
         and all(0 < abs(v) < math.inf for u, v in f.parameters.items() if u in f.state.model.unknown)
     ]
-    promising = []
+    promising, untestable = [], []
     for fa, fb in itertools.combinations(singles, 2):
         both = pair(EFFECTS[fa.effect], EFFECTS[fb.effect])
-        k = len(fa.state.model.unknown) + len(both.parameters) if both else 0
-        if both is None or nominal.n_data - k < settings.pair_dof:
+        if both is None:
+            continue
+        k = len(fa.state.model.unknown) + len(both.parameters)
+        if nominal.n_data - k < settings.pair_dof:
+            untestable.append((both.name, k))
             continue
         # an isolator (channel) the single fit ranked first may be the wrong one once the other effect acts too:
         # the pair is screened at the settings.pair_variants best of them
@@ -228,7 +232,24 @@ def fit_pairs(
         for name, (both, k, entries) in by_pair.items()
         if name not in fitted
     ]
-    return out, screened
+    return out, screened, untestable
+
+
+def untestable_note(untestable: list[tuple[str, int]], n_data: int, settings: DiagnosisSettings = DIAGNOSIS) -> str:
+    """The report's note that the probabilities weigh only the candidates the data can test, naming every pair
+    of effects fit_pairs left out for too few degrees of freedom, grouped by their parameter count (unknowns
+    included): a truth that needs one of them is not among the candidates weighed, and a tie may state a
+    probability near 1 for another (the blind benchmark's support frame with a scattered isolator, 11
+    parameters, from six frequencies and six damping ratios). Empty when there are none."""
+    if not untestable:
+        return ""
+    counts = sorted({k for _, k in untestable})
+    groups = "; ".join(f"{k}: " + ", ".join(sorted(name for name, kk in untestable if kk == k)) for k in counts)
+    return (
+        f"the probabilities weigh only the candidates these {n_data} data can test; {len(untestable)} pairs of "
+        f"effects have too many parameters to leave {settings.pair_dof} degrees of freedom (by their count, "
+        f"unknowns included: {groups}); more modes or mode shapes would test them"
+    )
 
 
 SCREEN_EVALUATIONS = 4
@@ -624,6 +645,7 @@ def diagnose_effects(
     parameters or fewer are fitted too and the candidates ranked again."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
     screened: list[ScreenedPair] = []
+    untestable: list[tuple[str, int]] = []
     # pairs where the gap is significant and no single candidate explains it with its linearised held-out errors
     # (the ranking refits some of them later)
     if (
@@ -631,7 +653,7 @@ def diagnose_effects(
         and settings.pair_count > 0
         and not any(explains(_with_held_out_summary(f, campaign), settings) for f in fits)
     ):
-        pairs, screened = fit_pairs(campaign, nominal, fits, settings)
+        pairs, screened, untestable = fit_pairs(campaign, nominal, fits, settings)
         fits = fits + pairs
     report = rank(campaign, nominal, fits, exact_held_out, settings, screened, other_roots)
     best = report.best
@@ -646,7 +668,8 @@ def diagnose_effects(
             fits = fits + [_best_fit(campaign, p.pair, p.screened_at, settings) for p in lean]
             screened = [p for p in screened if p not in lean]
             report = rank(campaign, nominal, fits, exact_held_out, settings, screened, other_roots)
-    return report
+    note = untestable_note(untestable, nominal.n_data, settings)
+    return replace(report, notes=[*report.notes, note]) if note else report
 
 
 def _gap_p_value(nominal: CandidateFit) -> float:
