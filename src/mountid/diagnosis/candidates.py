@@ -545,7 +545,8 @@ def rank(
         )
         if part
     )
-    # the held-out predictions sharp enough to confirm the best candidate (judged once, used twice)
+    # whether the best candidate's held-out predictions are sharp enough to confirm it: for the confident
+    # check, and for the tie's note (which states the shift itself)
     best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
