@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 import scipy.stats
 
-from mountid.machine import damped_modes, damped_poles, dynamics, pair_with_undamped, state_matrix
+import mountid.generated.screen6 as screen6
+from mountid.machine import call, damped_modes, damped_poles, dynamics, pair_with_undamped, state_matrix, undamped_modes
 
 
 def _uncoupled_in_a_turned_basis(c: list[float], b: list[float], seed: int = 0):
@@ -85,3 +87,44 @@ def test_damped_modes_keeps_its_last_result_and_hands_out_copies():
     assert np.array_equal(again[0], fresh[0]) and np.array_equal(again[1], fresh[1])
     # other inputs are solved afresh
     assert not np.array_equal(damped_modes(mass, stiffness, 2 * damping, lam)[0], fresh[0])
+
+
+def test_undamped_modes_are_scipy_eigh_to_the_bit_and_kept_read_only():
+    """The direct LAPACK call gives scipy.linalg.eigh(C, M)'s numbers exactly (the benchmark's verdicts were
+    validated with them); its kept result cannot be changed by a caller."""
+    rng = np.random.default_rng(4)
+    for n in (6, 12):
+        a, b = rng.normal(size=(n, n)), rng.normal(size=(n, n))
+        stiffness, mass = a @ a.T, b @ b.T + n * np.eye(n)
+        lam, vec = undamped_modes(stiffness, mass)
+        expected = scipy.linalg.eigh(stiffness, mass)
+        assert np.array_equal(lam, expected[0]) and np.array_equal(vec, expected[1])
+        assert undamped_modes(stiffness.copy(), mass.copy())[1] is vec  # the same pair again: the kept result
+        with pytest.raises(ValueError):
+            vec[0, 0] = 1.0
+
+
+@pytest.mark.parametrize(
+    ("mass", "why"),
+    [(np.diag([1.0, -1.0]), "positive definite"), (np.diag([1.0, np.nan]), "NaN"), (np.eye(3), "size")],
+)
+def test_undamped_modes_refuses_what_eigh_refuses(mass, why):
+    with pytest.raises((np.linalg.LinAlgError, ValueError), match=why):
+        undamped_modes(np.eye(2), mass)
+
+
+def test_call_keeps_scalar_results_read_only_and_tells_minus_zero_from_zero():
+    values = {a: 0.3 + 0.01 * i for i, a in enumerate(screen6.ARGUMENTS["effect_foundation"])}
+    first = call(screen6, "effect_foundation", values)
+    fresh = screen6.effect_foundation(**{a: values[a] for a in screen6.ARGUMENTS["effect_foundation"]})
+    assert all(np.array_equal(x, y) for x, y in zip(first, fresh, strict=True))
+    assert call(screen6, "effect_foundation", dict(values))[0] is first[0]  # kept
+    with pytest.raises(ValueError):
+        first[1][0, 0] = 0.0
+    turned = {**values, "alpha": 0.0}
+    flipped = {**values, "alpha": -0.0}
+    assert call(screen6, "effect_foundation", turned)[0] is not call(screen6, "effect_foundation", flipped)[0]
+    # batches are evaluated afresh every time (and stay writable)
+    batch = {**values, "alpha": np.array([0.1, 0.2])}
+    out = call(screen6, "effect_foundation", batch)
+    assert out[0].shape[0] == 2 and out[0].flags.writeable

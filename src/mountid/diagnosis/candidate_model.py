@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
@@ -18,7 +17,7 @@ from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect, Pair
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
-from mountid.machine import call
+from mountid.machine import call, undamped_modes
 
 DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
@@ -264,7 +263,7 @@ class CandidateModel:
         values = {**self.known, **self.physical(theta)}
         mats = self.strategy.matrices(self, values)
         m, c, _ = mats
-        lam, vec = scipy.linalg.eigh(c, m)
+        lam, vec = undamped_modes(c, m)
         body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         order = label_modes(lam, body, self.reference_lambda, self.reference, share)
@@ -309,7 +308,7 @@ compared with the span of the partners (see :meth:`CandidateModel.predict`)."""
 
 def exact_twins(lam: np.ndarray, j: int, near: np.ndarray) -> bool:
     """Whether the modes ``near`` all have the eigenvalue of mode ``j`` (twins; relative :data:`DEGENERATE`)."""
-    return bool(np.all(np.abs(lam[near] - lam[j]) <= DEGENERATE * abs(lam[j])))
+    return bool((np.abs(lam[near] - lam[j]) <= DEGENERATE * abs(lam[j])).all())
 
 
 @dataclass(frozen=True)
@@ -341,7 +340,7 @@ def scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
     """Rotations times the length scale, each column normalised to unit length."""
     out = np.array(shapes, dtype=float)
     out[3:6] *= length
-    norm = np.linalg.norm(out, axis=0)
+    norm = np.sqrt(np.add.reduce(out * out, axis=0))  # np.linalg.norm(out, axis=0) without its checks
     return out / np.where(norm > 0, norm, 1.0)  # a foundation mode may leave the body at rest
 
 
@@ -361,7 +360,7 @@ def label_modes(
     # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
     # projection on their common span
     for group, members in twin_groups(lam):
-        mac[:, members] = np.sum((reference.T @ _orthonormal(body[:, group])) ** 2, axis=1)[:, None]
+        mac[:, members] = np.add.reduce((reference.T @ _orthonormal(body[:, group])) ** 2, axis=1)[:, None]
     if participation is not None:
         mac = mac * participation[None, :]
     log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None])  # ln(lambda / lambda_reference)
@@ -374,7 +373,10 @@ def label_modes(
 def twin_groups(lam: np.ndarray) -> list[tuple[np.ndarray, list[int]]]:
     """The sets of modes with equal eigenvalues (within DEGENERATE of mode j's, relative): (boolean mask of
     the set, the modes j whose set it is), for every set of two or more."""
-    near = np.abs(lam[:, None] - lam[None, :]) <= DEGENERATE * np.abs(lam[None, :])
+    size = np.abs(lam)
+    if np.diff(np.sort(lam)).min(initial=math.inf) > DEGENERATE * size.max(initial=0.0):
+        return []  # no two within DEGENERATE of the largest: none within it of either (the common case, cheaply)
+    near = np.abs(lam[:, None] - lam[None, :]) <= DEGENERATE * size[None, :]
     groups: dict[bytes, tuple[np.ndarray, list[int]]] = {}
     for j in np.flatnonzero(near.sum(axis=0) > 1):
         groups.setdefault(near[:, j].tobytes(), (near[:, j], []))[1].append(int(j))
@@ -387,7 +389,7 @@ def _orthonormal(basis: np.ndarray) -> np.ndarray:
     if basis.shape[1] == 2:
         a, b = basis[:, 0], basis[:, 1]
         b = b - a * (a @ b)
-        norm = np.linalg.norm(b)
+        norm = np.sqrt(b.dot(b))  # np.linalg.norm(b)
         return np.column_stack([a, b / norm]) if norm > 1e-12 else a[:, None]  # parallel: one direction
     q, r = np.linalg.qr(basis)
     return q[:, np.abs(np.diag(r)) > 1e-12]

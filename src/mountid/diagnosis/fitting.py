@@ -273,7 +273,7 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
             r = data.residuals(model.predict(theta))
         except (np.linalg.LinAlgError, ValueError):
             r = np.full(n_rows, _FAILED)
-        if not np.all(np.isfinite(r)):
+        if not np.isfinite(r).all():
             r = np.full(n_rows, _FAILED)
         prior = PRIOR_WEIGHT * (theta[n:] - start[n:]) / width
         return np.concatenate([r if rows is None else r[rows], prior])
@@ -290,11 +290,11 @@ def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | Non
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:
             return forward_differences(fun, theta, model.bounds()[1])
-        split = np.flatnonzero(np.all(np.isnan(j), axis=0))
+        split = np.flatnonzero(np.isnan(j).all(axis=0))
         out = np.concatenate([j if rows is None else j[rows], prior_rows])
         if len(split):
             out[:, split] = forward_differences(fun, theta, model.bounds()[1], split)[:, split]
-        if not np.all(np.isfinite(out)):
+        if not np.isfinite(out).all():
             return np.zeros((len(fun(theta)), len(theta)))  # as where the model fails: a step there is refused
         return out
 

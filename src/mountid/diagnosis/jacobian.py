@@ -124,7 +124,7 @@ def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tup
     v[3:6] *= length
     d_v = np.array(d_shapes, dtype=float)
     d_v[:, 3:6] *= length
-    norm = np.linalg.norm(v, axis=0)
+    norm = np.sqrt(np.add.reduce(v * v, axis=0))  # np.linalg.norm(v, axis=0) without its checks
     norm = np.where(norm > 0, norm, 1.0)  # as scaled_unit: a mode may leave the body at rest
     u = v / norm
     d_u = d_v / norm[None, None, :]

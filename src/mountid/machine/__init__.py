@@ -14,6 +14,7 @@ from mountid.machine.dynamics import (
     pair_with_undamped,
     sensor_row,
     state_matrix,
+    undamped_modes,
     unit_vector,
 )
 from mountid.machine.model import Machine, Solution
@@ -34,5 +35,6 @@ __all__ = [
     "sensor_row",
     "shipped_machines",
     "state_matrix",
+    "undamped_modes",
     "unit_vector",
 ]

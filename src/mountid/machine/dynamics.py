@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 import scipy.optimize
 from numpy.typing import NDArray
 
@@ -22,8 +23,39 @@ from mountid.runtime import modal_diagonal
 
 def call(module: GeneratedModule, function: str, values: Mapping[str, float]) -> Any:
     """The generated ``function`` of ``module`` evaluated with its arguments (``module.ARGUMENTS``) taken
-    by name from ``values`` (which may hold more)."""
-    return getattr(module, function)(**{a: values[a] for a in module.ARGUMENTS[function]})
+    by name from ``values`` (which may hold more).
+
+    With every argument a scalar, the result is kept (the last CALL_CACHE_SIZE calls, read-only arrays): a
+    candidate fit asks for matrices most of whose arguments it does not vary (the mass matrix, an isolator's
+    stiffness) at every step."""
+    names = module.ARGUMENTS[function]
+    args = [values[a] for a in names]
+    if not all(type(a) in _SCALARS for a in args):
+        return getattr(module, function)(**dict(zip(names, args, strict=True)))
+    key = (module, function, np.array(args, dtype=float).tobytes())  # bytes: -0.0 is not 0.0 here
+    out = _CALLS.pop(key, None)
+    if out is None:
+        out = _read_only(getattr(module, function)(**dict(zip(names, args, strict=True))))
+        if len(_CALLS) >= CALL_CACHE_SIZE:
+            del _CALLS[next(iter(_CALLS))]  # the least recently used
+    _CALLS[key] = out  # last in the order of use
+    return out
+
+
+CALL_CACHE_SIZE = 64
+"""Results of generated functions kept by :func:`call` (the most recently used, over every module and function)."""
+
+_CALLS: dict = {}
+_SCALARS = (float, int, np.float64)
+
+
+def _read_only(out: Any) -> Any:
+    """``out`` (an array or a tuple of them) with every array made read-only (a kept result is shared)."""
+    if isinstance(out, tuple):
+        return tuple(_read_only(x) for x in out)
+    if isinstance(out, np.ndarray):
+        out.setflags(write=False)
+    return out
 
 
 def matrices(module: GeneratedModule, values: Mapping[str, float]) -> tuple[NDArray, NDArray, NDArray]:
@@ -52,6 +84,37 @@ def damped_poles(mass: NDArray, stiffness: NDArray, damping: NDArray, lam: NDArr
     The damped frequency a spectrum shows is ``p.imag`` (omega_d); the natural frequency a pole fit of a
     free decay reports is ``abs(p)`` (omega_n, with zeta = -p.real / abs(p))."""
     return damped_modes(mass, stiffness, damping, lam)[0]
+
+
+def undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues lambda [rad^2/s^2] (ascending) and M-normalised eigenvectors (columns) of C phi = lambda M phi
+    for one real symmetric pair: LAPACK's dsygvd, the routine scipy.linalg.eigh(C, M) calls, with the same
+    arguments and so the same numbers, without its per-call validation (a candidate fit solves 10^5 of them).
+    The last result is kept, read-only: the evaluation of a candidate model and the pairing of its damped poles
+    (:func:`pair_with_undamped`) ask for the same pair. Raises ValueError for non-finite entries and
+    numpy.linalg.LinAlgError where M is not positive definite or the solver fails (as scipy.linalg.eigh)."""
+    stiffness = np.asarray(stiffness, dtype=float)
+    mass = np.asarray(mass, dtype=float)
+    key = (stiffness.shape, stiffness.tobytes(), mass.tobytes())
+    if _LAST_UNDAMPED and _LAST_UNDAMPED[0] == key:
+        return _LAST_UNDAMPED[1]
+    if stiffness.ndim != 2 or stiffness.shape[0] != stiffness.shape[1] or mass.shape != stiffness.shape:
+        raise ValueError(f"expected two square matrices of one size, got {stiffness.shape} and {mass.shape}")
+    if not (np.isfinite(stiffness).all() and np.isfinite(mass).all()):
+        raise ValueError("array must not contain infs or NaNs")
+    lam, vec, info = scipy.linalg.lapack.dsygvd(
+        stiffness, mass, itype=1, jobz="V", uplo="L", overwrite_a=False, overwrite_b=False
+    )
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dsygvd failed (info {info}): M not positive definite or no convergence")
+    lam.setflags(write=False)
+    vec.setflags(write=False)
+    _LAST_UNDAMPED[:] = [key, (lam, vec)]
+    return lam, vec
+
+
+_LAST_UNDAMPED: list = []
+"""The last (inputs, result) of undamped_modes."""
 
 
 _LAST_DAMPED: list = []
@@ -98,7 +161,7 @@ def pair_with_undamped(
     Undamped eigenvalues within ``rtol`` of each other (twins) have no preferred basis: a damped mode's content
     in them is its projection on their span, and among themselves they take the damped modes in the order of
     their damped frequencies."""
-    lam, phi = scipy.linalg.eigh(stiffness, mass)
+    lam, phi = undamped_modes(stiffness, mass)
     same = np.abs(np.diff(lam)) <= rtol * np.maximum(np.abs(lam[1:]), np.abs(lam[:-1]))
     group = np.concatenate([[0], np.cumsum(~same)])
     m_shapes = mass @ shapes
