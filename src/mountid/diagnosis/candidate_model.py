@@ -266,22 +266,25 @@ class CandidateModel:
         lam, vec = undamped_modes(c, m)
         body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
-        order = label_modes(lam, body, self.reference_lambda, self.reference, share)
+        twins = twin_groups(lam)
+        order = label_modes(lam, body, self.reference_lambda, self.reference, share, twins=twins)
         omega = self.strategy.frequencies(self, values, mats, lam)
         shapes = self.strategy.shapes(self, values, vec)  # the body motion as the sensors read it
+        # the shapes as compared with the measured ones: the body motion itself unless the sensors turn it
+        unit = body if np.array_equal(shapes, vec[:6, :]) else scaled_unit(shapes, self.length)
         rows = np.array(self._rows if labels is None else [self.mod.MODES.index(label) for label in labels])
         index = order[rows]
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
         zeta = self.strategy.damping_ratios(self, values, mats, lam) if self.damped else None
-        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), zeta)
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), zeta, twins, unit)
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
         e = self.evaluate(theta, labels)
         lam, index, weight = e.lam, e.index, e.weight
-        body = scaled_unit(e.shapes, self.length)
+        body = e.unit
         partners = weight > PARTNER_WEIGHT
         shapes = list(body[:, index].T)
         clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
@@ -330,6 +333,10 @@ class Evaluation:
     weight: np.ndarray
     zeta: np.ndarray | None = None
     """Damping ratio of every mode (None unless the campaign measures damping ratios)."""
+    twins: list[tuple[np.ndarray, list[int]]] | None = None
+    """The sets of modes with equal eigenvalues (:func:`twin_groups` of ``lam``)."""
+    unit: np.ndarray | None = None
+    """The ``shapes`` as compared with measured ones (:func:`scaled_unit`)."""
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
@@ -351,15 +358,17 @@ def label_modes(
     reference: np.ndarray,
     participation: np.ndarray | None = None,
     settings: LabellingSettings = LABELLING,
+    twins: list[tuple[np.ndarray, list[int]]] | None = None,
 ) -> np.ndarray:
     """Index of the model mode for each reference mode: one-to-one, by MAC with the reference shapes
     (scaled unit columns) times the share of the mode's kinetic energy in the body (``participation``, for
     models with more coordinates than the body's: a foundation mode is not a machine mode however its small
-    body motion looks) and, to break ties between modes of equal shape, closeness in frequency."""
+    body motion looks) and, to break ties between modes of equal shape, closeness in frequency. ``twins``:
+    :func:`twin_groups` of ``lam`` where the caller has them."""
     mac = (reference.T @ body) ** 2
     # modes of equal frequency (twins) may come in any combination: each is matched by the reference's
     # projection on their common span
-    for group, members in twin_groups(lam):
+    for group, members in twin_groups(lam) if twins is None else twins:
         mac[:, members] = np.add.reduce((reference.T @ _orthonormal(body[:, group])) ** 2, axis=1)[:, None]
     if participation is not None:
         mac = mac * participation[None, :]

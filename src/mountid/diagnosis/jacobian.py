@@ -106,7 +106,7 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     """Per parameter, whether it splits a set of exactly equal eigenvalues (its perturbation of their subspace,
     phi^T (C' - lambda M') phi, is not a multiple of the identity)."""
     split = np.zeros(len(d_m), dtype=bool)
-    for group, members in twin_groups(e.lam):
+    for group, members in twin_groups(e.lam) if e.twins is None else e.twins:
         v = e.vec[:, group]
         lam = e.lam[members[0]]
         g = modal_projection(v, d_c) - lam * modal_projection(v, d_m)
