@@ -128,3 +128,16 @@ def test_call_keeps_scalar_results_read_only_and_tells_minus_zero_from_zero():
     batch = {**values, "alpha": np.array([0.1, 0.2])}
     out = call(screen6, "effect_foundation", batch)
     assert out[0].shape[0] == 2 and out[0].flags.writeable
+
+
+def test_each_thread_keeps_its_own_generated_results():
+    """A dask cluster's workers run blind cases in threads: the results call() keeps are each thread's own
+    (one thread's eviction never races another's lookup)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    values = {a: 0.3 + 0.01 * i for i, a in enumerate(screen6.ARGUMENTS["effect_foundation"])}
+    here = call(screen6, "effect_foundation", values)
+    with ThreadPoolExecutor(1) as pool:
+        there = pool.submit(call, screen6, "effect_foundation", values).result()
+    assert there[1] is not here[1] and np.array_equal(there[1], here[1])
+    assert call(screen6, "effect_foundation", values)[1] is here[1]

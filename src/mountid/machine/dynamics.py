@@ -7,6 +7,7 @@ Units: M [kg, kg m, kg m^2], C [N/m, N, N m/rad], B [N s/m, N s, N m s/rad] (doc
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -33,19 +34,31 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     if not all(type(a) in _SCALARS for a in args):
         return getattr(module, function)(**dict(zip(names, args, strict=True)))
     key = (module, function, np.array(args, dtype=float).tobytes())  # bytes: -0.0 is not 0.0 here
-    out = _CALLS.pop(key, None)
+    kept = _kept_calls()
+    out = kept.pop(key, None)
     if out is None:
         out = _read_only(getattr(module, function)(**dict(zip(names, args, strict=True))))
-        if len(_CALLS) >= CALL_CACHE_SIZE:
-            del _CALLS[next(iter(_CALLS))]  # the least recently used
-    _CALLS[key] = out  # last in the order of use
+        if len(kept) >= CALL_CACHE_SIZE:
+            del kept[next(iter(kept))]  # the least recently used
+    kept[key] = out  # last in the order of use
     return out
 
 
 CALL_CACHE_SIZE = 64
-"""Results of generated functions kept by :func:`call` (the most recently used, over every module and function)."""
+"""Results of generated functions kept by :func:`call` in each thread (the most recently used, over every module and
+function)."""
 
-_CALLS: dict = {}
+_THREAD = threading.local()
+"""Each thread's own kept results (the blind harness on a dask cluster runs cases in threads)."""
+
+
+def _kept_calls() -> dict:
+    kept = getattr(_THREAD, "calls", None)
+    if kept is None:
+        kept = _THREAD.calls = {}
+    return kept
+
+
 _SCALARS = (float, int, np.float64)
 
 
@@ -96,8 +109,9 @@ def undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float6
     stiffness = np.asarray(stiffness, dtype=float)
     mass = np.asarray(mass, dtype=float)
     key = (stiffness.shape, stiffness.tobytes(), mass.tobytes())
-    if _LAST_UNDAMPED and _LAST_UNDAMPED[0] == key:
-        return _LAST_UNDAMPED[1]
+    last = _LAST_UNDAMPED[0]  # one read: another thread may replace it meanwhile
+    if last is not None and last[0] == key:
+        return last[1]
     if stiffness.ndim != 2 or stiffness.shape[0] != stiffness.shape[1] or mass.shape != stiffness.shape:
         raise ValueError(f"expected two square matrices of one size, got {stiffness.shape} and {mass.shape}")
     if not (np.isfinite(stiffness).all() and np.isfinite(mass).all()):
@@ -109,15 +123,15 @@ def undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float6
         raise np.linalg.LinAlgError(f"dsygvd failed (info {info}): M not positive definite or no convergence")
     lam.setflags(write=False)
     vec.setflags(write=False)
-    _LAST_UNDAMPED[:] = [key, (lam, vec)]
+    _LAST_UNDAMPED[0] = (key, (lam, vec))
     return lam, vec
 
 
-_LAST_UNDAMPED: list = []
+_LAST_UNDAMPED: list = [None]
 """The last (inputs, result) of undamped_modes."""
 
 
-_LAST_DAMPED: list = []
+_LAST_DAMPED: list = [None]
 """The last (inputs, result) of damped_modes."""
 
 
@@ -128,11 +142,12 @@ def damped_modes(
     does not oscillate): (M p^2 + B p + C) x = 0. The last result is kept: a fit asks for the poles, then
     their derivatives, at one point (copies are returned)."""
     key = tuple((a.shape, a.dtype.str, a.tobytes()) for a in map(np.asarray, (mass, stiffness, damping, lam)))
-    if _LAST_DAMPED and _LAST_DAMPED[0] == key:
-        poles, shapes = _LAST_DAMPED[1]
+    last = _LAST_DAMPED[0]  # one read: another thread may replace it meanwhile
+    if last is not None and last[0] == key:
+        poles, shapes = last[1]
         return poles.copy(), shapes.copy()
     poles, shapes = _damped_modes(mass, stiffness, damping, lam)
-    _LAST_DAMPED[:] = [key, (poles.copy(), shapes.copy())]
+    _LAST_DAMPED[0] = (key, (poles.copy(), shapes.copy()))
     return poles, shapes
 
 
