@@ -278,7 +278,7 @@ class CandidateModel:
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
         zeta = self.strategy.damping_ratios(self, values, mats, lam) if self.damped else None
-        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), zeta, twins, unit)
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), twins, unit, zeta)
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
@@ -331,12 +331,12 @@ class Evaluation:
     index: np.ndarray
     gap: np.ndarray
     weight: np.ndarray
+    twins: list[tuple[np.ndarray, list[int]]]
+    """The sets of modes with equal eigenvalues (:func:`twin_groups` of ``lam``)."""
+    unit: np.ndarray
+    """The ``shapes`` as compared with measured ones (:func:`scaled_unit`)."""
     zeta: np.ndarray | None = None
     """Damping ratio of every mode (None unless the campaign measures damping ratios)."""
-    twins: list[tuple[np.ndarray, list[int]]] | None = None
-    """The sets of modes with equal eigenvalues (:func:`twin_groups` of ``lam``)."""
-    unit: np.ndarray | None = None
-    """The ``shapes`` as compared with measured ones (:func:`scaled_unit`)."""
 
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:

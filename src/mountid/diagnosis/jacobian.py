@@ -30,7 +30,6 @@ from mountid.diagnosis.candidate_model import (
     Evaluation,
     exact_twins,
     off_span,
-    twin_groups,
 )
 from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives, modal_projection
 
@@ -106,7 +105,7 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     """Per parameter, whether it splits a set of exactly equal eigenvalues (its perturbation of their subspace,
     phi^T (C' - lambda M') phi, is not a multiple of the identity)."""
     split = np.zeros(len(d_m), dtype=bool)
-    for group, members in twin_groups(e.lam) if e.twins is None else e.twins:
+    for group, members in e.twins:
         v = e.vec[:, group]
         lam = e.lam[members[0]]
         g = modal_projection(v, d_c) - lam * modal_projection(v, d_m)

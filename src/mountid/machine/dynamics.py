@@ -8,11 +8,10 @@ Units: M [kg, kg m, kg m^2], C [N/m, N, N m/rad], B [N s/m, N s, N m s/rad] (doc
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 import scipy.linalg.lapack
 import scipy.optimize
 from numpy.typing import NDArray
@@ -108,10 +107,10 @@ def undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float6
     numpy.linalg.LinAlgError where M is not positive definite or the solver fails (as scipy.linalg.eigh)."""
     stiffness = np.asarray(stiffness, dtype=float)
     mass = np.asarray(mass, dtype=float)
-    key = (stiffness.shape, stiffness.tobytes(), mass.tobytes())
-    last = _LAST_UNDAMPED[0]  # one read: another thread may replace it meanwhile
-    if last is not None and last[0] == key:
-        return last[1]
+    return _kept_last(_LAST_UNDAMPED, (stiffness, mass), lambda: _undamped_modes(stiffness, mass))
+
+
+def _undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     if stiffness.ndim != 2 or stiffness.shape[0] != stiffness.shape[1] or mass.shape != stiffness.shape:
         raise ValueError(f"expected two square matrices of one size, got {stiffness.shape} and {mass.shape}")
     if not (np.isfinite(stiffness).all() and np.isfinite(mass).all()):
@@ -121,10 +120,19 @@ def undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float6
     )
     if info != 0:
         raise np.linalg.LinAlgError(f"dsygvd failed (info {info}): M not positive definite or no convergence")
-    lam.setflags(write=False)
-    vec.setflags(write=False)
-    _LAST_UNDAMPED[0] = (key, (lam, vec))
-    return lam, vec
+    return _read_only((lam, vec))
+
+
+def _kept_last(slot: list, inputs: tuple[NDArray, ...], solve: Callable[[], Any]) -> Any:
+    """``solve()``, or the result ``slot`` keeps when its last call had the same ``inputs`` (shapes, types and
+    bytes). The slot is read in one step: another thread may replace it meanwhile."""
+    key = tuple((a.shape, a.dtype.str, a.tobytes()) for a in inputs)
+    last = slot[0]
+    if last is not None and last[0] == key:
+        return last[1]
+    out = solve()
+    slot[0] = (key, out)
+    return out
 
 
 _LAST_UNDAMPED: list = [None]
@@ -132,7 +140,7 @@ _LAST_UNDAMPED: list = [None]
 
 
 _LAST_DAMPED: list = [None]
-"""The last (inputs, result) of damped_modes."""
+"""The last (inputs, result) of damped_modes (read-only)."""
 
 
 def damped_modes(
@@ -141,14 +149,9 @@ def damped_modes(
     """The poles of :func:`damped_poles` and their mode shapes x (columns, (n, n); zero for a mode that
     does not oscillate): (M p^2 + B p + C) x = 0. The last result is kept: a fit asks for the poles, then
     their derivatives, at one point (copies are returned)."""
-    key = tuple((a.shape, a.dtype.str, a.tobytes()) for a in map(np.asarray, (mass, stiffness, damping, lam)))
-    last = _LAST_DAMPED[0]  # one read: another thread may replace it meanwhile
-    if last is not None and last[0] == key:
-        poles, shapes = last[1]
-        return poles.copy(), shapes.copy()
-    poles, shapes = _damped_modes(mass, stiffness, damping, lam)
-    _LAST_DAMPED[0] = (key, (poles.copy(), shapes.copy()))
-    return poles, shapes
+    inputs = tuple(map(np.asarray, (mass, stiffness, damping, lam)))
+    poles, shapes = _kept_last(_LAST_DAMPED, inputs, lambda: _read_only(_damped_modes(mass, stiffness, damping, lam)))
+    return poles.copy(), shapes.copy()
 
 
 def _damped_modes(
