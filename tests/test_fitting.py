@@ -9,7 +9,6 @@ import pytest
 
 from mountid.diagnosis import fitting
 from mountid.diagnosis.campaign import parse
-from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.effects import EFFECTS
 from mountid.errors import InputError
 from mountid.validation import blind
@@ -58,24 +57,3 @@ def test_an_effect_that_acts_at_one_isolator_needs_to_be_told_which():
         fitting.fit_candidate(campaign, EFFECTS["isolator_scatter"], 4)  # kid300 has four isolators: 0..3
     with pytest.raises(InputError, match="variant"):
         fitting.fit_candidate(campaign, EFFECTS["cog_height"], 0)
-
-
-def test_a_warm_start_goes_on_without_the_spread_starts(monkeypatch):
-    """A fit from the default starts that stops above noise level searches the spread starts; the same fit
-    started warm (from a fit to nearby data, as the blind harness refits the noise-free campaign) does not: that
-    fit searched them. It reaches the same minimum from there."""
-    campaign = parse(blind.make_case(1, "cog_height", machine="screen6")[0])
-    searched = []
-    spread = CandidateModel.spread
-
-    def counted(model):
-        searched.append(model.effect.name)
-        return spread(model)
-
-    monkeypatch.setattr(CandidateModel, "spread", counted)
-    cold = fitting.fit_candidate(campaign, EFFECTS["added_mass"])
-    assert searched == ["added_mass"]  # it misses the data: above noise level
-    searched.clear()
-    warm = fitting.fit_candidate(campaign, EFFECTS["added_mass"], start=cold.theta)
-    assert searched == []
-    assert warm.chi2 == pytest.approx(cold.chi2, rel=1e-3)
