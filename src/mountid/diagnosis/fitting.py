@@ -397,7 +397,6 @@ def _least_squares(
     rows: np.ndarray | None = None,
     mandatory: int = 1,
     refit: bool = False,
-    spread: bool = True,
 ):
     lo, hi = model.bounds()
     fun, jac = _residual_function(model, data, rows)
@@ -409,7 +408,7 @@ def _least_squares(
         res = _solve(fun, jac, _inside(x0, lo, hi), lo, hi, refit, 100 if len(starts) == 1 else 15)
         if best is None or res.cost < best.cost:
             best = res
-    if spread and not refit and rows is None and model.strategy.spread_starts and 2 * best.cost > noise:
+    if not refit and rows is None and model.strategy.spread_starts and 2 * best.cost > noise:
         # every start stopped above noise level: on from the spread start that promises most (CandidateModel.spread)
         # where it promises a fraction of the chi^2 reached (another basin, not the same one seen from elsewhere)
         spread = model.spread()
@@ -485,10 +484,9 @@ def fit_candidate(
     pick: bool = False,
 ) -> CandidateFit:
     """Fit one candidate (None: the nominal model; a Pair: two effects at once) with the unknowns to every
-    measured mode (``start``: a single starting vector, the fit of the same candidate to nearby data, which
-    goes on without the spread starts: they were searched for that fit; ``starts``: several, the first always
-    run, or with ``pick`` only the one whose Gauss-Newton step promises the smallest chi^2 (promised_chi2);
-    instead of the default ones)."""
+    measured mode (``start``: a single starting vector, e.g. the fit of the same candidate to nearby data;
+    ``starts``: several, the first always run, or with ``pick`` only the one whose Gauss-Newton step promises
+    the smallest chi^2 (promised_chi2); instead of the default ones)."""
     model = CandidateModel(campaign, effect, variant)
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
@@ -506,9 +504,7 @@ def fit_candidate(
     elif start is None:
         res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
     else:
-        # a warm start is the fit to nearby data (the same campaign with noise), which went through the spread
-        # starts already: its basin is the one they found
-        res = _least_squares(model, data, [start], spread=False)
+        res = _least_squares(model, data, [start])
     theta = res.x
     n_rows = data.n_rows
     chi2 = float(np.sum(res.fun[:n_rows] ** 2))  # without the prior rows
