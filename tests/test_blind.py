@@ -227,3 +227,65 @@ def test_a_part_that_alone_explains_the_noise_free_data_is_found_by_a_full_searc
     result = blind.run_case(195, "support_frame+isolator_scatter", "shapes", "screen6")
     assert result.acceptable == ("isolator_scatter+foundation", "foundation")
     assert result.ranked[0] == "foundation" and result.right
+
+
+# Found on held-out seeds (`make bench-blind BLIND_CASES=264 BLIND_FIRST_SEED=264`, 2026-11-25): the four
+# confident and wrong verdicts of 4752 cases the diagnosis was not developed on (seeds 0-263 gave none). Pinned
+# so the limits stay visible; each passes once the diagnosis is no longer confident there (strict xfail).
+HELD_OUT_CONFIDENT_AND_WRONG = [
+    pytest.param(
+        325,
+        "nonlinear_isolator",
+        "shapes",
+        "rectangular",
+        id="hardening-isolator-named-a-belt",
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="known limit: a drive belt at the centre's height (15 kN/m, sized) fits a gently hardening "
+            "isolator (gamma 0.05) at noise level, chi^2 34 on 31 degrees of freedom, held-out 1.4 sigma; "
+            "outside the catalogue, named with probability 1.00",
+        ),
+    ),
+    pytest.param(
+        307,
+        "sensor_turned+sensor_misplaced",
+        "shapes",
+        "genset8",
+        id="turned-and-misplaced-channel-named-turned",
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="known limit: the right channel named turned (S1_x, 0.37 rad, within the range's margin); "
+            "on the noise-free data its first-order turn goes to 0.40 rad, beyond the margin of 0.35, so the "
+            "turn alone does not count as explaining the data",
+        ),
+    ),
+    pytest.param(
+        314,
+        "foundation",
+        "shapes",
+        "genset8",
+        id="stiff-heavy-slab-named-gravity-preload",
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="known limit: a heavy stiff slab acts like a gravity preload (noise-free: preload 0.77, "
+            "support 0.06); on the noisy data the support's fit misses its basin, so the preload stands alone",
+        ),
+    ),
+    pytest.param(
+        390,
+        "isolator_scatter+cog_height",
+        "damping",
+        "kid300",
+        id="scatter-and-height-named-height",
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="known limit: the height alone fits the noisy data just within its uncertainty (chi^2 18.3 "
+            "on 7 degrees of freedom), so the pair is not fitted; on the noise-free data it is not within",
+        ),
+    ),
+]
+
+
+@pytest.mark.parametrize(("seed", "truth", "kind", "machine"), HELD_OUT_CONFIDENT_AND_WRONG)
+def test_held_out_cases_are_not_confident_and_wrong(seed, truth, kind, machine):
+    assert not blind.run_case(seed, truth, kind, machine).confident_and_wrong
