@@ -17,6 +17,7 @@ from mountid.diagnosis.candidates import (
     confirmed,
     diagnose_effects,
     explains,
+    fits_within_uncertainty,
     held_out_shift,
     sized,
     untestable_note,
@@ -401,17 +402,31 @@ def test_a_support_fitted_just_beyond_its_range_stays_in_the_tie_and_is_not_conf
     assert "found_depth beyond the plausible range" in report.verdict
 
 
+def test_a_support_whose_free_fit_leaves_its_range_is_refitted_within_it_and_stays_a_rival():
+    """Held-out blind case (seed 314, genset8, shapes): a heavy stiff slab under the feet acts like a gravity
+    preload. The support's free fit (chi^2 27.8) puts its centre of mass 1.7 m above the feet, beyond its range,
+    and used to drop out, leaving the preload (31.8) confident and wrong. Held within its ranges it fits at
+    about 31 and stays in the tie."""
+    data, _ = blind.make_case(314, "foundation", machine="genset8")
+    report = diagnose_effects(parse(data))
+    support = next(f for f in report.ranked if f.effect == "foundation")
+    assert support.plausible and "fitted within its plausible ranges" in support.note
+    assert support.chi2 < 1.5 * report.best.chi2
+    assert "foundation" in report.tie and not report.confident
+
+
 def test_an_effect_whose_size_the_data_do_not_determine_is_not_confident():
     """Blind case (seed 237, skid1plane, shapes): a gently hardening isolator, outside the catalogue. A belt fits
     all six modes (chi^2 40 for 32 degrees of freedom, held-out median 2 sigma, probability 1) at 3.7 +- 4.6 kN/m
-    with its height anywhere within +-6 m: a size the data do not determine, so no confident verdict."""
+    with its height anywhere within +-6 m: a size the data do not determine, so no confident verdict. Since
+    candidates are refitted within their plausible ranges, the support held to its range (chi^2 23) ties with
+    the belt and comes first; the belt's size is still undetermined."""
     data, _ = blind.make_case(237, "nonlinear_isolator", machine="skid1plane")
     report = diagnose_effects(parse(data))
-    best = report.best
-    assert best.effect == "drive_belt" and best.probability > 0.95 and explains(best)
-    assert best.std["k_belt"] > best.parameters["k_belt"] and not sized(best)
-    assert report.kind == "tie" and not report.confident
-    assert "do not determine the size of drive_belt" in report.verdict
+    belt = next(f for f in report.ranked if f.effect == "drive_belt")
+    assert fits_within_uncertainty(belt) and belt.probability > 0.3
+    assert belt.std["k_belt"] > belt.parameters["k_belt"] and not sized(belt)
+    assert report.kind == "tie" and not report.confident and "drive_belt" in report.tie
     # a belt the data hold: the README's confident example
     belt = diagnose_effects(parse(blind.example(20, "drive_belt")))
     assert belt.confident and sized(belt.best)

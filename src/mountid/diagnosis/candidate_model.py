@@ -64,6 +64,9 @@ class CandidateModel:
             )
         self.variant = variant
         """Which isolator or channel a per-variant effect acts at (the strategy's variants)."""
+        self.within_plausible = False
+        """Whether the effect parameters are searched within their plausible ranges only (bounds), not the
+        wider search box: the refit of a candidate whose free fit left them (candidates.fit_all)."""
         self.cache: dict[str, object] = {}
         """What a strategy computes once per model (a channel layout)."""
         machine = campaign.machine
@@ -193,10 +196,14 @@ class CandidateModel:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Search box: unknowns within UNKNOWN_RANGE of their nominal values either way (log), effect
-        parameters within their plausible range widened by its width on each side (log ranges by a factor 10)."""
+        parameters within their plausible range widened by its width on each side (log ranges by a factor 10);
+        with ``within_plausible`` within their plausible range."""
         centre = [math.log(self.start_unknowns[u]) for u in self.unknown]
         lo = [c - math.log(UNKNOWN_RANGE) for c in centre]
         hi = [c + math.log(UNKNOWN_RANGE) for c in centre]
+        if self.within_plausible:
+            a, b = self.plausible_box()
+            return np.array(lo + list(a)), np.array(hi + list(b))
         for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
             a, b = p.plausible
             if log:

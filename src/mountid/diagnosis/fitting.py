@@ -482,12 +482,15 @@ def fit_candidate(
     start: np.ndarray | None = None,
     starts: list[np.ndarray] | None = None,
     pick: bool = False,
+    within_plausible: bool = False,
 ) -> CandidateFit:
     """Fit one candidate (None: the nominal model; a Pair: two effects at once) with the unknowns to every
     measured mode (``start``: a single starting vector, e.g. the fit of the same candidate to nearby data;
     ``starts``: several, the first always run, or with ``pick`` only the one whose Gauss-Newton step promises
-    the smallest chi^2 (promised_chi2); instead of the default ones)."""
+    the smallest chi^2 (promised_chi2); instead of the default ones). ``within_plausible``: the effect
+    parameters bounded by their plausible ranges (CandidateModel.within_plausible)."""
     model = CandidateModel(campaign, effect, variant)
+    model.within_plausible = within_plausible
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
     where = model.strategy.variants(campaign)[variant] if variant is not None else ""
