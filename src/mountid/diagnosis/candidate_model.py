@@ -51,7 +51,13 @@ class CandidateModel:
     damping ratios are measured), then each effect parameter (log for strictly positive ranges, else in units of
     its scale)."""
 
-    def __init__(self, campaign: Campaign, effect: Effect | Pair | None, variant: int | None = None) -> None:
+    def __init__(
+        self,
+        campaign: Campaign,
+        effect: Effect | Pair | None,
+        variant: int | None = None,
+        within_plausible: bool = False,
+    ) -> None:
         self.campaign = campaign
         self.effect = effect
         self._last: tuple[tuple, Evaluation] | None = None
@@ -64,7 +70,7 @@ class CandidateModel:
             )
         self.variant = variant
         """Which isolator or channel a per-variant effect acts at (the strategy's variants)."""
-        self.within_plausible = False
+        self.within_plausible = within_plausible
         """Whether the effect parameters are searched within their plausible ranges only (bounds), not the
         wider search box: the refit of a candidate whose free fit left them (candidates.fit_all)."""
         self.cache: dict[str, object] = {}

@@ -159,20 +159,13 @@ def _within_plausible(campaign: Campaign, fits: list[CandidateFit]) -> list[Cand
     (blind seed 314) fits at chi^2 27.8 with its centre of mass 1.7 m above the feet; held to its range it stays a
     rival of the gravity preload (31.8) that the data cannot tell it from, where it used to drop out and leave
     the preload confident."""
-    usable = [f for f in fits if f.applicable and math.isfinite(f.chi2)]
-    plausible = [f.chi2 for f in usable if f.plausible]
-    bar = min(plausible, default=math.inf)
+    bar = min((f.chi2 for f in fits if f.applicable and f.plausible and math.isfinite(f.chi2)), default=math.inf)
     out = []
     for f in fits:
-        if f in usable and not f.plausible and not f.variant and f.chi2 < bar and f.state is not None:
-            model = f.state.model
-            lo, hi = model.plausible_box()
-            n = len(model.unknown)
-            start = f.theta.copy()
-            start[n:] = np.clip(start[n:], lo, hi)
-            # from the free fit clipped into the ranges and from the default starts (a clipped fit may sit in a
-            # corner far from the plausible minimum)
-            starts = [start, *model.start()]
+        if f.applicable and not f.plausible and not f.variant and f.chi2 < bar and f.state is not None:
+            # from the free fit (least squares clips it into the ranges) and from the default starts (a clipped
+            # fit may sit in a corner far from the plausible minimum)
+            starts = [f.theta, *f.state.model.start()]
             held = fit_candidate(campaign, EFFECTS[f.effect], starts=starts, within_plausible=True)
             if held.applicable and held.plausible and math.isfinite(held.chi2):
                 note = f"fitted within its plausible ranges (free fit: chi^2 {f.chi2:.3g}, {f.implausible_reason})"

@@ -489,8 +489,7 @@ def fit_candidate(
     ``starts``: several, the first always run, or with ``pick`` only the one whose Gauss-Newton step promises
     the smallest chi^2 (promised_chi2); instead of the default ones). ``within_plausible``: the effect
     parameters bounded by their plausible ranges (CandidateModel.within_plausible)."""
-    model = CandidateModel(campaign, effect, variant)
-    model.within_plausible = within_plausible
+    model = CandidateModel(campaign, effect, variant, within_plausible)
     data = Data(campaign, model.length)
     name = effect.name if effect else "none"
     where = model.strategy.variants(campaign)[variant] if variant is not None else ""
