@@ -185,7 +185,8 @@ def fit_pairs(
     its next screened isolators while one promises less than its fit reached). Returns the fits, the screened
     pairs not fitted (each once, at its most promising isolator or channel), and the pairs the data cannot test
     (too few degrees of freedom) with their parameter counts, unknowns included. (diagnose_effects calls it
-    when no single effect explains the gap: fits it within its uncertainty and predicts the held-out modes.)"""
+    when no single effect explains the gap comfortably: fits it within settings.confident_p_value and predicts
+    the held-out modes.)"""
     singles = [
         f
         for f in fits
@@ -442,10 +443,26 @@ def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGN
     return f.applicable and f.plausible and _accepts(f.chi2 / scale, f.n_data - f.n_parameters, settings)
 
 
-def _accepts(chi2: float, dof: int, settings: DiagnosisSettings) -> bool:
-    """Whether ``chi2`` lies below the 1 - settings.fit_p_value quantile for ``dof`` degrees of freedom (never
-    without a degree of freedom)."""
-    return bool(dof > 0 and scipy.stats.chi2.sf(chi2, dof) >= settings.fit_p_value)
+def fits_comfortably(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
+    """Whether a candidate fits well enough to be named confidently: chi^2 below its 1 -
+    settings.confident_p_value quantile (stricter than fits_within_uncertainty: one between the two explains
+    the gap, not confidently)."""
+    return fits_within_uncertainty(f, settings) and _accepts(
+        f.chi2, f.n_data - f.n_parameters, settings, settings.confident_p_value
+    )
+
+
+def fit_p_value(f: CandidateFit) -> float:
+    """Probability of the candidate's chi^2 or more if it were right (nan without a degree of freedom)."""
+    dof = f.n_data - f.n_parameters
+    return float(scipy.stats.chi2.sf(f.chi2, dof)) if dof > 0 else math.nan
+
+
+def _accepts(chi2: float, dof: int, settings: DiagnosisSettings, p_value: float | None = None) -> bool:
+    """Whether ``chi2`` lies below the 1 - ``p_value`` quantile (settings.fit_p_value by default) for ``dof``
+    degrees of freedom (never without a degree of freedom)."""
+    p_value = settings.fit_p_value if p_value is None else p_value
+    return bool(dof > 0 and scipy.stats.chi2.sf(chi2, dof) >= p_value)
 
 
 def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
@@ -493,16 +510,15 @@ def rank(
     screened: list[ScreenedPair] | None = None,
     other_roots: bool = True,
 ) -> EffectsReport:
-    """Rank fitted candidates by posterior probability (Laplace evidence, fitting.log_evidence), judge the
-    nominal gap, find the tie (the credible set) and what would separate it (``exact_held_out``: refit
-    without each mode for the nominal model and, with a significant gap, the first three of the tie; else
-    linearised only). The verdict is confident only when the best candidate explains the gap (fits, and
-    predicts the held-out modes: :func:`explains`) with held-out predictions sharp enough to confirm it
-    (:func:`confirmed`), has probability settings.confidence or more, and the data
-    reject every other candidate (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2
-    they promise); when no candidate explains it, the verdict says so and names the closest. With
-    ``other_roots`` a candidate the verdict names is searched for other values that fit as well
-    (fitting.other_solutions), which the verdict names too."""
+    """Rank fitted candidates by posterior probability (Laplace evidence, fitting.log_evidence), judge the nominal gap,
+    find the tie (the credible set) and what would separate it (``exact_held_out``: refit without each mode for the
+    nominal model and, with a significant gap, the first three of the tie; else linearised only). The verdict is
+    confident only when the best candidate explains the gap (fits, and predicts the held-out modes: :func:`explains`),
+    fits comfortably (:func:`fits_comfortably`), with held-out predictions sharp enough to confirm it
+    (:func:`confirmed`), has probability settings.confidence or more, and the data reject every other candidate
+    (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2 they promise); when no candidate
+    explains it, the verdict says so and names the closest. With ``other_roots`` a candidate the verdict names is
+    searched for other values that fit as well (fitting.other_solutions), which the verdict names too."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = _gap_p_value(nominal)
     significant = bool(p_value < settings.gap_p_value)
@@ -581,6 +597,7 @@ def rank(
     elif (
         best is not None
         and explains(best, settings)
+        and fits_comfortably(best, settings)
         and sized(best, settings)
         and best.probability >= settings.confidence
         and all(rejected(f, settings) for f in candidates[1:])
@@ -603,6 +620,12 @@ def rank(
             verdict = f"significant gap; explained equally well by {names} (a tie)"
         else:
             verdict = f"significant gap, explained by {tie[0].effect} ({tie[0].probability:.2f}), not confidently"
+        if best is not None and explains(best, settings) and not fits_comfortably(best, settings):
+            verdict += (
+                f"; {best.effect} fits only marginally (chi^2 = {best.chi2:.3g} for "
+                f"{best.n_data - best.n_parameters} degrees of freedom, p = {fit_p_value(best):.2g}): a second "
+                "effect may act"
+            )
         if best is not None and explains(best, settings) and not sized(best, settings):
             sizes = ", ".join(
                 f"{p.name} = {best.parameters[p.name]:.3g} +- {best.std.get(p.name, math.inf):.2g}{p.unit_suffix}"
@@ -661,20 +684,22 @@ def diagnose_effects(
     settings: DiagnosisSettings = DIAGNOSIS,
     other_roots: bool = True,
 ) -> EffectsReport:
-    """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis;
-    ``warm`` as in :func:`fit_all`, ``exact_held_out`` and ``other_roots`` as in :func:`rank`). When no single
-    effect explains a significant gap, pairs are screened and the most promising fitted (:func:`fit_pairs`);
-    when a pair would be named confidently, the settings.pair_count most promising screened pairs of as many
-    parameters or fewer are fitted too and the candidates ranked again."""
+    """Fit every candidate effect to the campaign and rank them (the 'which effect' half of the diagnosis; ``warm`` as
+    in :func:`fit_all`, ``exact_held_out`` and ``other_roots`` as in :func:`rank`). When no single effect explains a
+    significant gap comfortably (:func:`fits_comfortably`), pairs are screened and the most promising fitted
+    (:func:`fit_pairs`); when a pair would be named confidently, the settings.pair_count most promising screened pairs
+    of as many parameters or fewer are fitted too and the candidates ranked again."""
     nominal, fits = fit_all(campaign, effects, warm, settings)
     screened: list[ScreenedPair] = []
     untestable: list[tuple[str, int]] = []
-    # pairs where the gap is significant and no single candidate explains it with its linearised held-out errors
-    # (the ranking refits some of them later)
+    # pairs where the gap is significant and no single candidate explains it comfortably (fits_comfortably) with
+    # its linearised held-out errors (the ranking refits some of them later)
     if (
         _gap_p_value(nominal) < settings.gap_p_value
         and settings.pair_count > 0
-        and not any(explains(_with_held_out_summary(f, campaign), settings) for f in fits)
+        and not any(
+            explains(_with_held_out_summary(f, campaign), settings) and fits_comfortably(f, settings) for f in fits
+        )
     ):
         pairs, screened, untestable = fit_pairs(campaign, nominal, fits, settings)
         fits = fits + pairs
