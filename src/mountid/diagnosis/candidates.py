@@ -447,9 +447,7 @@ def fits_comfortably(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -
     """Whether a candidate fits well enough to be named confidently: chi^2 below its 1 -
     settings.confident_p_value quantile (stricter than fits_within_uncertainty: one between the two explains
     the gap, not confidently)."""
-    return fits_within_uncertainty(f, settings) and _accepts(
-        f.chi2, f.n_data - f.n_parameters, settings, settings.confident_p_value
-    )
+    return fits_within_uncertainty(f, settings) and fit_p_value(f) >= settings.confident_p_value
 
 
 def fit_p_value(f: CandidateFit) -> float:
@@ -458,11 +456,10 @@ def fit_p_value(f: CandidateFit) -> float:
     return float(scipy.stats.chi2.sf(f.chi2, dof)) if dof > 0 else math.nan
 
 
-def _accepts(chi2: float, dof: int, settings: DiagnosisSettings, p_value: float | None = None) -> bool:
-    """Whether ``chi2`` lies below the 1 - ``p_value`` quantile (settings.fit_p_value by default) for ``dof``
-    degrees of freedom (never without a degree of freedom)."""
-    p_value = settings.fit_p_value if p_value is None else p_value
-    return bool(dof > 0 and scipy.stats.chi2.sf(chi2, dof) >= p_value)
+def _accepts(chi2: float, dof: int, settings: DiagnosisSettings) -> bool:
+    """Whether ``chi2`` lies below the 1 - settings.fit_p_value quantile for ``dof`` degrees of freedom (never
+    without a degree of freedom)."""
+    return bool(dof > 0 and scipy.stats.chi2.sf(chi2, dof) >= settings.fit_p_value)
 
 
 def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
@@ -698,7 +695,7 @@ def diagnose_effects(
         _gap_p_value(nominal) < settings.gap_p_value
         and settings.pair_count > 0
         and not any(
-            explains(_with_held_out_summary(f, campaign), settings) and fits_comfortably(f, settings) for f in fits
+            fits_comfortably(f, settings) and explains(_with_held_out_summary(f, campaign), settings) for f in fits
         )
     ):
         pairs, screened, untestable = fit_pairs(campaign, nominal, fits, settings)
