@@ -517,6 +517,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_foundation_derivatives": (
@@ -539,6 +540,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_added_mass": (
@@ -3266,6 +3268,7 @@ def effect_foundation(
     k_found,
     found_shear,
     found_spread,
+    found_aspect,
     found_depth,
 ):
     """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
@@ -3312,9 +3315,9 @@ def effect_foundation(
           [y_found, y_found] = 4*c_y + found_shear*k_found + 4*c_v1*sin(gamma)**2 + 4*c_y*cos(gamma)**2
           [y_found, psi_found] = found_depth*found_shear*k_found - 4*b*c_v1*cos(gamma)*sin(gamma) + 4*b*c_y*cos(gamma)*sin(gamma)
           [z_found, z_found] = k_found + 4*c_v2 + 4*c_v1*cos(gamma)**2 + 4*c_y*sin(gamma)**2
-          [psi_found, psi_found] = 4*c_v2*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_y*b**2*sin(gamma)**2
+          [psi_found, psi_found] = 4*c_v2*b**2 + found_shear*k_found*found_depth**2 + 4*c_v1*b**2*cos(gamma)**2 + 4*c_y*b**2*sin(gamma)**2 + k_found*found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = 4*c_v2*a2**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a1**2/2 + k_found*found_spread**2*a2**2/2 + 4*c_v1*a1**2*cos(gamma)**2 + 4*c_y*a1**2*sin(gamma)**2
-          [phi_found, phi_found] = 4*c_y*a2**2 + 8*c_x*b**2 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2 + found_shear*k_found*found_spread**2*b**2 + found_shear*k_found*found_spread**2*a1**2/2 + found_shear*k_found*found_spread**2*a2**2/2
+          [phi_found, phi_found] = 4*c_y*a2**2 + 8*c_x*b**2 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2 + found_shear*k_found*found_spread**2*a1**2/2 + found_shear*k_found*found_spread**2*a2**2/2 + found_shear*k_found*found_aspect**2*found_spread**2*b**2
         B:
           [x, x] = 8*b_h
           [x, theta] = -8*b_h*h
@@ -3361,6 +3364,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -3382,6 +3386,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = found_depth * m_found
@@ -3432,24 +3437,25 @@ def effect_foundation(
     _tmp45 = _tmp1 * _tmp42
     _tmp46 = found_spread**2
     _tmp47 = _tmp46 * k_found
-    _tmp48 = _tmp42 * _tmp46
-    _tmp49 = 8 * b_h
-    _tmp50 = _tmp49 * h
-    _tmp51 = _tmp16 * b_h
-    _tmp52 = _tmp13 * b_v
-    _tmp53 = 4 * _tmp51 + 4 * _tmp52 + 4 * b_h
-    _tmp54 = b_h * h
-    _tmp55 = b * b_v
-    _tmp56 = -_tmp20 * _tmp55 + _tmp21 * b_h + _tmp51 * h + _tmp52 * h + _tmp54
-    _tmp57 = b_h - b_v
-    _tmp58 = _tmp13 * b_h
-    _tmp59 = _tmp16 * b_v
-    _tmp60 = _tmp58 + _tmp59 + b_v
-    _tmp61 = 4 * _tmp60
-    _tmp62 = _tmp3 * b_h
-    _tmp63 = _tmp4 * _tmp58 + _tmp4 * _tmp59 + _tmp6 * b_v
-    _tmp64 = 4 * _tmp63
-    _tmp65 = 8 * _tmp2 * b_h + 4 * _tmp4 * _tmp51 + 4 * _tmp4 * _tmp52 + 4 * _tmp6 * b_h
+    _tmp48 = _tmp2 * found_aspect**2
+    _tmp49 = _tmp42 * _tmp46
+    _tmp50 = 8 * b_h
+    _tmp51 = _tmp50 * h
+    _tmp52 = _tmp16 * b_h
+    _tmp53 = _tmp13 * b_v
+    _tmp54 = 4 * _tmp52 + 4 * _tmp53 + 4 * b_h
+    _tmp55 = b_h * h
+    _tmp56 = b * b_v
+    _tmp57 = -_tmp20 * _tmp56 + _tmp21 * b_h + _tmp52 * h + _tmp53 * h + _tmp55
+    _tmp58 = b_h - b_v
+    _tmp59 = _tmp13 * b_h
+    _tmp60 = _tmp16 * b_v
+    _tmp61 = _tmp59 + _tmp60 + b_v
+    _tmp62 = 4 * _tmp61
+    _tmp63 = _tmp3 * b_h
+    _tmp64 = _tmp4 * _tmp59 + _tmp4 * _tmp60 + _tmp6 * b_v
+    _tmp65 = 4 * _tmp64
+    _tmp66 = 8 * _tmp2 * b_h + 4 * _tmp4 * _tmp52 + 4 * _tmp4 * _tmp53 + 4 * _tmp6 * b_h
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3470,6 +3476,7 @@ def effect_foundation(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
     return (
@@ -3526,52 +3533,52 @@ def effect_foundation(
                 (7, 7): 4 * _tmp14 + 4 * _tmp17 + _tmp42 + _tmp44,
                 (7, 9): _tmp21 * _tmp44 - _tmp25 * c_v1 + _tmp43,
                 (8, 8): 4 * _tmp26 + 4 * _tmp27 + 4 * c_v2 + k_found,
-                (9, 9): _tmp2 * _tmp47 + 4 * _tmp29 + 4 * _tmp30 + 4 * _tmp31 + _tmp45,
+                (9, 9): 4 * _tmp29 + 4 * _tmp30 + 4 * _tmp31 + _tmp45 + _tmp47 * _tmp48,
                 (10, 10): 4 * _tmp34 + 4 * _tmp35 + 4 * _tmp36 + _tmp45 + _tmp47 * _tmp5 + _tmp47 * _tmp7,
                 (11, 11): _tmp10 * _tmp2
-                + _tmp2 * _tmp48
                 + 4 * _tmp38
                 + 4 * _tmp39
                 + 4 * _tmp40
-                + _tmp48 * _tmp5
-                + _tmp48 * _tmp7,
+                + _tmp48 * _tmp49
+                + _tmp49 * _tmp5
+                + _tmp49 * _tmp7,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp49,
-                (0, 4): -_tmp50,
-                (0, 6): -_tmp49,
-                (1, 1): _tmp53,
-                (1, 3): 4 * _tmp56,
-                (1, 7): -_tmp53,
-                (1, 9): -_tmp25 * _tmp57,
-                (2, 2): _tmp61,
-                (2, 8): -_tmp61,
-                (3, 3): 4 * _tmp2 * _tmp58
-                + 4 * _tmp2 * _tmp59
+                (0, 0): _tmp50,
+                (0, 4): -_tmp51,
+                (0, 6): -_tmp50,
+                (1, 1): _tmp54,
+                (1, 3): 4 * _tmp57,
+                (1, 7): -_tmp54,
+                (1, 9): -_tmp25 * _tmp58,
+                (2, 2): _tmp62,
+                (2, 8): -_tmp62,
+                (3, 3): 4 * _tmp2 * _tmp59
+                + 4 * _tmp2 * _tmp60
                 + 4 * _tmp2 * b_v
-                - 8 * _tmp20 * _tmp55 * h
-                + 4 * _tmp3 * _tmp51
+                - 8 * _tmp20 * _tmp56 * h
                 + 4 * _tmp3 * _tmp52
-                + 4 * _tmp32 * _tmp54
-                + 4 * _tmp62,
-                (3, 7): -4 * _tmp56,
-                (3, 9): _tmp24 * (_tmp12 * _tmp15 * b_v * h - _tmp20 * _tmp54 - _tmp55 - _tmp58 * b - _tmp59 * b),
-                (4, 4): 8 * _tmp62 + 4 * _tmp63,
-                (4, 6): _tmp50,
-                (4, 10): -_tmp64,
-                (5, 5): _tmp65,
-                (5, 11): -_tmp65,
-                (6, 6): _tmp49,
-                (7, 7): _tmp53,
-                (7, 9): _tmp25 * _tmp57,
-                (8, 8): _tmp61,
-                (9, 9): 4 * _tmp2 * _tmp60,
-                (10, 10): _tmp64,
-                (11, 11): _tmp65,
+                + 4 * _tmp3 * _tmp53
+                + 4 * _tmp32 * _tmp55
+                + 4 * _tmp63,
+                (3, 7): -4 * _tmp57,
+                (3, 9): _tmp24 * (_tmp12 * _tmp15 * b_v * h - _tmp20 * _tmp55 - _tmp56 - _tmp59 * b - _tmp60 * b),
+                (4, 4): 8 * _tmp63 + 4 * _tmp64,
+                (4, 6): _tmp51,
+                (4, 10): -_tmp65,
+                (5, 5): _tmp66,
+                (5, 11): -_tmp66,
+                (6, 6): _tmp50,
+                (7, 7): _tmp54,
+                (7, 9): _tmp25 * _tmp58,
+                (8, 8): _tmp62,
+                (9, 9): 4 * _tmp2 * _tmp61,
+                (10, 10): _tmp65,
+                (11, 11): _tmp66,
             },
         ),
     )
@@ -3597,10 +3604,11 @@ def effect_foundation_derivatives(
     k_found,
     found_shear,
     found_spread,
+    found_aspect,
     found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 11, 3, 12, 12), differentiated by sympy.
+    shape (..., 12, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3739,9 +3747,9 @@ def effect_foundation_derivatives(
           [y_found, y_found] = found_shear
           [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a1**2/2 + found_spread**2*a2**2/2
-          [phi_found, phi_found] = found_shear*found_spread**2*b**2 + found_shear*found_spread**2*a1**2/2 + found_shear*found_spread**2*a2**2/2
+          [phi_found, phi_found] = found_shear*found_spread**2*a1**2/2 + found_shear*found_spread**2*a2**2/2 + found_shear*found_aspect**2*found_spread**2*b**2
         dB/dk_found:
         dM/dfound_shear:
         dC/dfound_shear:
@@ -3751,14 +3759,19 @@ def effect_foundation_derivatives(
           [y_found, psi_found] = found_depth*k_found
           [psi_found, psi_found] = k_found*found_depth**2
           [theta_found, theta_found] = k_found*found_depth**2
-          [phi_found, phi_found] = k_found*found_spread**2*b**2 + k_found*found_spread**2*a1**2/2 + k_found*found_spread**2*a2**2/2
+          [phi_found, phi_found] = k_found*found_spread**2*a1**2/2 + k_found*found_spread**2*a2**2/2 + k_found*found_aspect**2*found_spread**2*b**2
         dB/dfound_shear:
         dM/dfound_spread:
         dC/dfound_spread:
-          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [psi_found, psi_found] = 2*found_spread*k_found*found_aspect**2*b**2
           [theta_found, theta_found] = found_spread*k_found*a1**2 + found_spread*k_found*a2**2
-          [phi_found, phi_found] = found_shear*found_spread*k_found*a1**2 + found_shear*found_spread*k_found*a2**2 + 2*found_shear*found_spread*k_found*b**2
+          [phi_found, phi_found] = found_shear*found_spread*k_found*a1**2 + found_shear*found_spread*k_found*a2**2 + 2*found_shear*found_spread*k_found*found_aspect**2*b**2
         dB/dfound_spread:
+        dM/dfound_aspect:
+        dC/dfound_aspect:
+          [psi_found, psi_found] = 2*found_aspect*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 2*found_aspect*found_shear*k_found*found_spread**2*b**2
+        dB/dfound_aspect:
         dM/dfound_depth:
           [x_found, theta_found] = -m_found
           [y_found, psi_found] = m_found
@@ -3791,6 +3804,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -3812,6 +3826,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = 8 * h
@@ -3863,17 +3878,20 @@ def effect_foundation_derivatives(
     _tmp46 = found_depth * found_shear
     _tmp47 = _tmp41 * found_shear
     _tmp48 = found_spread**2
-    _tmp49 = _tmp4 * _tmp48
-    _tmp50 = _tmp42 * _tmp48
-    _tmp51 = _tmp43 * _tmp48
-    _tmp52 = found_depth * k_found
-    _tmp53 = _tmp41 * k_found
-    _tmp54 = found_spread * k_found
-    _tmp55 = 2 * _tmp4
-    _tmp56 = found_shear * k_found
-    _tmp57 = _tmp56 * found_spread
-    _tmp58 = 2 * found_depth * m_found
-    _tmp59 = 2 * _tmp46 * k_found
+    _tmp49 = _tmp4 * found_aspect**2
+    _tmp50 = _tmp48 * _tmp49
+    _tmp51 = _tmp42 * _tmp48
+    _tmp52 = _tmp43 * _tmp48
+    _tmp53 = found_depth * k_found
+    _tmp54 = _tmp41 * k_found
+    _tmp55 = found_spread * k_found
+    _tmp56 = 2 * _tmp49
+    _tmp57 = found_shear * k_found
+    _tmp58 = _tmp57 * found_spread
+    _tmp59 = 2 * k_found
+    _tmp60 = _tmp4 * _tmp48 * found_aspect
+    _tmp61 = 2 * found_depth * m_found
+    _tmp62 = _tmp46 * _tmp59
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3894,9 +3912,10 @@ def effect_foundation_derivatives(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
-    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -8
@@ -4009,28 +4028,30 @@ def effect_foundation_derivatives(
     _out[..., 22, 7, 7] = found_shear
     _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp46
     _out[..., 22, 8, 8] = 1
-    _out[..., 22, 9, 9] = _tmp47 + _tmp49
-    _out[..., 22, 10, 10] = _tmp47 + _tmp50 + _tmp51
-    _out[..., 22, 11, 11] = _tmp49 * found_shear + _tmp50 * found_shear + _tmp51 * found_shear
+    _out[..., 22, 9, 9] = _tmp47 + _tmp50
+    _out[..., 22, 10, 10] = _tmp47 + _tmp51 + _tmp52
+    _out[..., 22, 11, 11] = _tmp50 * found_shear + _tmp51 * found_shear + _tmp52 * found_shear
     _out[..., 25, 6, 6] = k_found
-    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp52
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp53
     _out[..., 25, 7, 7] = k_found
-    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp52
-    _out[..., 25, 9, 9] = _tmp53
-    _out[..., 25, 10, 10] = _tmp53
-    _out[..., 25, 11, 11] = _tmp49 * k_found + _tmp50 * k_found + _tmp51 * k_found
-    _out[..., 28, 9, 9] = _tmp54 * _tmp55
-    _out[..., 28, 10, 10] = _tmp26 * _tmp54 + _tmp29 * _tmp54
-    _out[..., 28, 11, 11] = _tmp26 * _tmp57 + _tmp29 * _tmp57 + _tmp55 * _tmp57
-    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
-    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
-    _out[..., 30, 9, 9] = _tmp58
-    _out[..., 30, 10, 10] = _tmp58
-    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp56
-    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp56
-    _out[..., 31, 9, 9] = _tmp59
-    _out[..., 31, 10, 10] = _tmp59
-    return _out.reshape(*_shape, 11, 3, 12, 12)
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp53
+    _out[..., 25, 9, 9] = _tmp54
+    _out[..., 25, 10, 10] = _tmp54
+    _out[..., 25, 11, 11] = _tmp50 * k_found + _tmp51 * k_found + _tmp52 * k_found
+    _out[..., 28, 9, 9] = _tmp55 * _tmp56
+    _out[..., 28, 10, 10] = _tmp26 * _tmp55 + _tmp29 * _tmp55
+    _out[..., 28, 11, 11] = _tmp26 * _tmp58 + _tmp29 * _tmp58 + _tmp56 * _tmp58
+    _out[..., 31, 9, 9] = _tmp59 * _tmp60
+    _out[..., 31, 11, 11] = 2 * _tmp57 * _tmp60
+    _out[..., 33, 6, 10] = _out[..., 33, 10, 6] = -m_found
+    _out[..., 33, 7, 9] = _out[..., 33, 9, 7] = m_found
+    _out[..., 33, 9, 9] = _tmp61
+    _out[..., 33, 10, 10] = _tmp61
+    _out[..., 34, 6, 10] = _out[..., 34, 10, 6] = -_tmp57
+    _out[..., 34, 7, 9] = _out[..., 34, 9, 7] = _tmp57
+    _out[..., 34, 9, 9] = _tmp62
+    _out[..., 34, 10, 10] = _tmp62
+    return _out.reshape(*_shape, 12, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -10422,6 +10443,7 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "x_added", "y_added", "h_added", "g_added"),

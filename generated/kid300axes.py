@@ -164,6 +164,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_foundation_derivatives": (
@@ -180,6 +181,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_added_mass": (
@@ -1439,7 +1441,21 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
 
 
 def effect_foundation(
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_xy,
+    J_z,
+    L_xy,
+    L_z,
+    c_xy,
+    c_z,
+    b_xy,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
@@ -1484,9 +1500,9 @@ def effect_foundation(
           [y_found, y_found] = 4*c_xy + found_shear*k_found
           [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = 2*c_z*L_xy**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*L_xy**2/2
+          [psi_found, psi_found] = 2*c_z*L_xy**2 + found_shear*k_found*found_depth**2 + k_found*found_aspect**2*found_spread**2*L_xy**2/2
           [theta_found, theta_found] = 2*c_z*L_xy**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*L_xy**2/2
-          [phi_found, phi_found] = L_xy**2*(4*c_xy + found_shear*k_found*found_spread**2)
+          [phi_found, phi_found] = L_xy**2*(4*c_xy + found_shear*k_found*found_spread**2/2 + found_shear*k_found*found_aspect**2*found_spread**2/2)
         B:
           [x, x] = 4*b_xy
           [x, theta] = -4*L_z*b_xy
@@ -1511,10 +1527,38 @@ def effect_foundation(
           [theta_found, theta_found] = 2*b_z*L_xy**2
           [phi_found, phi_found] = 4*b_xy*L_xy**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
-        _runtime.as_arrays(
-            m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
-        )
+    (
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _tmp0 = found_depth * m_found
     _tmp1 = found_depth**2
@@ -1536,18 +1580,21 @@ def effect_foundation(
     _tmp17 = found_shear * k_found
     _tmp18 = _tmp17 + _tmp6
     _tmp19 = _tmp17 * found_depth
-    _tmp20 = found_spread**2
-    _tmp21 = _tmp1 * _tmp17 + _tmp14 + (0.5) * _tmp2 * _tmp20 * k_found
-    _tmp22 = 4 * b_xy
-    _tmp23 = L_z * _tmp22
-    _tmp24 = -_tmp23
-    _tmp25 = -_tmp22
-    _tmp26 = 4 * b_z
-    _tmp27 = _tmp2 * b_z
-    _tmp28 = 2 * _tmp12 * b_xy + 2 * _tmp27
-    _tmp29 = 2 * _tmp27
-    _tmp30 = -_tmp29
-    _tmp31 = _tmp2 * _tmp22
+    _tmp20 = found_aspect**2
+    _tmp21 = (0.5) * found_spread**2
+    _tmp22 = _tmp2 * _tmp21 * k_found
+    _tmp23 = _tmp1 * _tmp17 + _tmp14
+    _tmp24 = _tmp17 * _tmp21
+    _tmp25 = 4 * b_xy
+    _tmp26 = L_z * _tmp25
+    _tmp27 = -_tmp26
+    _tmp28 = -_tmp25
+    _tmp29 = 4 * b_z
+    _tmp30 = _tmp2 * b_z
+    _tmp31 = 2 * _tmp12 * b_xy + 2 * _tmp30
+    _tmp32 = 2 * _tmp30
+    _tmp33 = -_tmp32
+    _tmp34 = _tmp2 * _tmp25
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1562,6 +1609,7 @@ def effect_foundation(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
     return (
@@ -1610,47 +1658,61 @@ def effect_foundation(
                 (7, 7): _tmp18,
                 (7, 9): _tmp19,
                 (8, 8): _tmp10 + k_found,
-                (9, 9): _tmp21,
-                (10, 10): _tmp21,
-                (11, 11): _tmp2 * (_tmp17 * _tmp20 + _tmp6),
+                (9, 9): _tmp20 * _tmp22 + _tmp23,
+                (10, 10): _tmp22 + _tmp23,
+                (11, 11): _tmp2 * (_tmp20 * _tmp24 + _tmp24 + _tmp6),
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp22,
-                (0, 4): _tmp24,
-                (0, 6): _tmp25,
-                (1, 1): _tmp22,
-                (1, 3): _tmp23,
-                (1, 7): _tmp25,
-                (2, 2): _tmp26,
-                (2, 8): -_tmp26,
-                (3, 3): _tmp28,
-                (3, 7): _tmp24,
-                (3, 9): _tmp30,
-                (4, 4): _tmp28,
-                (4, 6): _tmp23,
-                (4, 10): _tmp30,
-                (5, 5): _tmp31,
-                (5, 11): -_tmp31,
-                (6, 6): _tmp22,
-                (7, 7): _tmp22,
-                (8, 8): _tmp26,
-                (9, 9): _tmp29,
-                (10, 10): _tmp29,
-                (11, 11): _tmp31,
+                (0, 0): _tmp25,
+                (0, 4): _tmp27,
+                (0, 6): _tmp28,
+                (1, 1): _tmp25,
+                (1, 3): _tmp26,
+                (1, 7): _tmp28,
+                (2, 2): _tmp29,
+                (2, 8): -_tmp29,
+                (3, 3): _tmp31,
+                (3, 7): _tmp27,
+                (3, 9): _tmp33,
+                (4, 4): _tmp31,
+                (4, 6): _tmp26,
+                (4, 10): _tmp33,
+                (5, 5): _tmp34,
+                (5, 11): -_tmp34,
+                (6, 6): _tmp25,
+                (7, 7): _tmp25,
+                (8, 8): _tmp29,
+                (9, 9): _tmp32,
+                (10, 10): _tmp32,
+                (11, 11): _tmp34,
             },
         ),
     )
 
 
 def effect_foundation_derivatives(
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_xy,
+    J_z,
+    L_xy,
+    L_z,
+    c_xy,
+    c_z,
+    b_xy,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 9, 3, 12, 12), differentiated by sympy.
+    shape (..., 10, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -1732,9 +1794,9 @@ def effect_foundation_derivatives(
           [y_found, y_found] = found_shear
           [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*L_xy**2/2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_aspect**2*found_spread**2*L_xy**2/2
           [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*L_xy**2/2
-          [phi_found, phi_found] = found_shear*found_spread**2*L_xy**2
+          [phi_found, phi_found] = L_xy**2*(found_shear*found_spread**2/2 + found_shear*found_aspect**2*found_spread**2/2)
         dB/dk_found:
         dM/dfound_shear:
         dC/dfound_shear:
@@ -1744,14 +1806,19 @@ def effect_foundation_derivatives(
           [y_found, psi_found] = found_depth*k_found
           [psi_found, psi_found] = k_found*found_depth**2
           [theta_found, theta_found] = k_found*found_depth**2
-          [phi_found, phi_found] = k_found*found_spread**2*L_xy**2
+          [phi_found, phi_found] = L_xy**2*(k_found*found_spread**2/2 + k_found*found_aspect**2*found_spread**2/2)
         dB/dfound_shear:
         dM/dfound_spread:
         dC/dfound_spread:
-          [psi_found, psi_found] = found_spread*k_found*L_xy**2
+          [psi_found, psi_found] = found_spread*k_found*found_aspect**2*L_xy**2
           [theta_found, theta_found] = found_spread*k_found*L_xy**2
-          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*L_xy**2
+          [phi_found, phi_found] = L_xy**2*(found_shear*found_spread*k_found + found_shear*found_spread*k_found*found_aspect**2)
         dB/dfound_spread:
+        dM/dfound_aspect:
+        dC/dfound_aspect:
+          [psi_found, psi_found] = found_aspect*k_found*found_spread**2*L_xy**2
+          [phi_found, phi_found] = found_aspect*found_shear*k_found*found_spread**2*L_xy**2
+        dB/dfound_aspect:
         dM/dfound_depth:
           [x_found, theta_found] = -m_found
           [y_found, psi_found] = m_found
@@ -1764,10 +1831,38 @@ def effect_foundation_derivatives(
           [theta_found, theta_found] = 2*found_depth*found_shear*k_found
         dB/dfound_depth:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
-        _runtime.as_arrays(
-            m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_found, k_found, found_shear, found_spread, found_depth
-        )
+    (
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _tmp0 = 4 * L_z
     _tmp1 = -_tmp0
@@ -1782,14 +1877,22 @@ def effect_foundation_derivatives(
     _tmp10 = _tmp2 + _tmp4
     _tmp11 = _tmp10 + _tmp9
     _tmp12 = found_depth * found_shear
-    _tmp13 = _tmp4 * found_spread**2
-    _tmp14 = (0.5) * _tmp13 + _tmp9 * found_shear
-    _tmp15 = found_depth * k_found
-    _tmp16 = _tmp9 * k_found
-    _tmp17 = _tmp4 * found_spread * k_found
-    _tmp18 = found_shear * k_found
-    _tmp19 = 2 * found_depth * m_found
-    _tmp20 = 2 * _tmp12 * k_found
+    _tmp13 = _tmp9 * found_shear
+    _tmp14 = found_aspect**2
+    _tmp15 = found_spread**2
+    _tmp16 = (0.5) * _tmp15
+    _tmp17 = _tmp16 * _tmp4
+    _tmp18 = _tmp16 * found_shear
+    _tmp19 = found_depth * k_found
+    _tmp20 = _tmp9 * k_found
+    _tmp21 = _tmp16 * k_found
+    _tmp22 = _tmp4 * k_found
+    _tmp23 = _tmp22 * found_spread
+    _tmp24 = found_shear * k_found
+    _tmp25 = _tmp24 * found_spread
+    _tmp26 = _tmp15 * found_aspect
+    _tmp27 = 2 * found_depth * m_found
+    _tmp28 = 2 * _tmp12 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_xy),
@@ -1804,9 +1907,10 @@ def effect_foundation_derivatives(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
-    _out = numpy.zeros((*_shape, 27, 12, 12))
+    _out = numpy.zeros((*_shape, 30, 12, 12))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
@@ -1868,28 +1972,30 @@ def effect_foundation_derivatives(
     _out[..., 16, 7, 7] = found_shear
     _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp12
     _out[..., 16, 8, 8] = 1
-    _out[..., 16, 9, 9] = _tmp14
-    _out[..., 16, 10, 10] = _tmp14
-    _out[..., 16, 11, 11] = _tmp13 * found_shear
+    _out[..., 16, 9, 9] = _tmp13 + _tmp14 * _tmp17
+    _out[..., 16, 10, 10] = _tmp13 + _tmp17
+    _out[..., 16, 11, 11] = _tmp4 * (_tmp14 * _tmp18 + _tmp18)
     _out[..., 19, 6, 6] = k_found
-    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp15
+    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp19
     _out[..., 19, 7, 7] = k_found
-    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp15
-    _out[..., 19, 9, 9] = _tmp16
-    _out[..., 19, 10, 10] = _tmp16
-    _out[..., 19, 11, 11] = _tmp13 * k_found
-    _out[..., 22, 9, 9] = _tmp17
-    _out[..., 22, 10, 10] = _tmp17
-    _out[..., 22, 11, 11] = _tmp18 * _tmp7 * found_spread
-    _out[..., 24, 6, 10] = _out[..., 24, 10, 6] = -m_found
-    _out[..., 24, 7, 9] = _out[..., 24, 9, 7] = m_found
-    _out[..., 24, 9, 9] = _tmp19
-    _out[..., 24, 10, 10] = _tmp19
-    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp18
-    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp18
-    _out[..., 25, 9, 9] = _tmp20
-    _out[..., 25, 10, 10] = _tmp20
-    return _out.reshape(*_shape, 9, 3, 12, 12)
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp19
+    _out[..., 19, 9, 9] = _tmp20
+    _out[..., 19, 10, 10] = _tmp20
+    _out[..., 19, 11, 11] = _tmp4 * (_tmp14 * _tmp21 + _tmp21)
+    _out[..., 22, 9, 9] = _tmp14 * _tmp23
+    _out[..., 22, 10, 10] = _tmp23
+    _out[..., 22, 11, 11] = _tmp4 * (_tmp14 * _tmp25 + _tmp25)
+    _out[..., 25, 9, 9] = _tmp22 * _tmp26
+    _out[..., 25, 11, 11] = _tmp24 * _tmp26 * _tmp4
+    _out[..., 27, 6, 10] = _out[..., 27, 10, 6] = -m_found
+    _out[..., 27, 7, 9] = _out[..., 27, 9, 7] = m_found
+    _out[..., 27, 9, 9] = _tmp27
+    _out[..., 27, 10, 10] = _tmp27
+    _out[..., 28, 6, 10] = _out[..., 28, 10, 6] = -_tmp24
+    _out[..., 28, 7, 9] = _out[..., 28, 9, 7] = _tmp24
+    _out[..., 28, 9, 9] = _tmp28
+    _out[..., 28, 10, 10] = _tmp28
+    return _out.reshape(*_shape, 10, 3, 12, 12)
 
 
 def effect_added_mass(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -3672,7 +3778,18 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_xy", "c_z", "b_xy", "b_z", "dx_com", "dy_com"),
     "cog_height": ("c_xy", "c_z", "b_xy", "b_z", "dz_com"),
     "rotational_stiffness": ("c_xy", "c_z", "b_xy", "b_z", "k_bend", "k_torsion"),
-    "foundation": ("c_xy", "c_z", "b_xy", "b_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "foundation": (
+        "c_xy",
+        "c_z",
+        "b_xy",
+        "b_z",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
     "added_mass": ("c_xy", "c_z", "b_xy", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_xy", "c_z", "b_xy", "b_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_xy", "c_z", "b_xy", "b_z", "h_preload"),

@@ -251,6 +251,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_foundation_derivatives": (
@@ -271,6 +272,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_added_mass": (
@@ -2585,7 +2587,25 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
 
 
 def effect_foundation(
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a,
+    b,
+    h,
+    c_x,
+    c_y,
+    c_z,
+    b_x,
+    b_y,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
@@ -2630,9 +2650,9 @@ def effect_foundation(
           [y_found, y_found] = 4*c_y + found_shear*k_found
           [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2
+          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = 4*c_z*a**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a**2
-          [phi_found, phi_found] = 4*c_x*b**2 + 4*c_y*a**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 4*c_x*b**2 + 4*c_y*a**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_aspect**2*found_spread**2*b**2
         B:
           [x, x] = 4*b_x
           [x, theta] = -4*b_x*h
@@ -2675,6 +2695,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -2694,6 +2715,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = found_depth * m_found
@@ -2716,15 +2738,16 @@ def effect_foundation(
     _tmp17 = _tmp1 * _tmp15
     _tmp18 = found_spread**2
     _tmp19 = _tmp18 * k_found
-    _tmp20 = _tmp15 * _tmp18
-    _tmp21 = 4 * b_x
-    _tmp22 = _tmp21 * h
-    _tmp23 = 4 * b_y
-    _tmp24 = _tmp23 * h
-    _tmp25 = 4 * b_z
-    _tmp26 = _tmp25 * _tmp3
-    _tmp27 = _tmp2 * _tmp25
-    _tmp28 = 4 * _tmp2 * b_y + 4 * _tmp3 * b_x
+    _tmp20 = _tmp3 * found_aspect**2
+    _tmp21 = _tmp15 * _tmp18
+    _tmp22 = 4 * b_x
+    _tmp23 = _tmp22 * h
+    _tmp24 = 4 * b_y
+    _tmp25 = _tmp24 * h
+    _tmp26 = 4 * b_z
+    _tmp27 = _tmp26 * _tmp3
+    _tmp28 = _tmp2 * _tmp26
+    _tmp29 = 4 * _tmp2 * b_y + 4 * _tmp3 * b_x
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2743,6 +2766,7 @@ def effect_foundation(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
     return (
@@ -2791,47 +2815,65 @@ def effect_foundation(
                 (7, 7): _tmp15 + _tmp9,
                 (7, 9): _tmp16,
                 (8, 8): _tmp11 + k_found,
-                (9, 9): _tmp12 + _tmp17 + _tmp19 * _tmp3,
+                (9, 9): _tmp12 + _tmp17 + _tmp19 * _tmp20,
                 (10, 10): _tmp13 + _tmp17 + _tmp19 * _tmp2,
-                (11, 11): _tmp2 * _tmp20 + _tmp2 * _tmp9 + _tmp20 * _tmp3 + _tmp3 * _tmp7,
+                (11, 11): _tmp2 * _tmp21 + _tmp2 * _tmp9 + _tmp20 * _tmp21 + _tmp3 * _tmp7,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp21,
-                (0, 4): -_tmp22,
-                (0, 6): -_tmp21,
-                (1, 1): _tmp23,
-                (1, 3): _tmp24,
-                (1, 7): -_tmp23,
-                (2, 2): _tmp25,
-                (2, 8): -_tmp25,
+                (0, 0): _tmp22,
+                (0, 4): -_tmp23,
+                (0, 6): -_tmp22,
+                (1, 1): _tmp24,
+                (1, 3): _tmp25,
+                (1, 7): -_tmp24,
+                (2, 2): _tmp26,
+                (2, 8): -_tmp26,
                 (3, 3): 4 * _tmp3 * b_z + 4 * _tmp4 * b_y,
-                (3, 7): -_tmp24,
-                (3, 9): -_tmp26,
+                (3, 7): -_tmp25,
+                (3, 9): -_tmp27,
                 (4, 4): 4 * _tmp2 * b_z + 4 * _tmp4 * b_x,
-                (4, 6): _tmp22,
-                (4, 10): -_tmp27,
-                (5, 5): _tmp28,
-                (5, 11): -_tmp28,
-                (6, 6): _tmp21,
-                (7, 7): _tmp23,
-                (8, 8): _tmp25,
-                (9, 9): _tmp26,
-                (10, 10): _tmp27,
-                (11, 11): _tmp28,
+                (4, 6): _tmp23,
+                (4, 10): -_tmp28,
+                (5, 5): _tmp29,
+                (5, 11): -_tmp29,
+                (6, 6): _tmp22,
+                (7, 7): _tmp24,
+                (8, 8): _tmp26,
+                (9, 9): _tmp27,
+                (10, 10): _tmp28,
+                (11, 11): _tmp29,
             },
         ),
     )
 
 
 def effect_foundation_derivatives(
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a,
+    b,
+    h,
+    c_x,
+    c_y,
+    c_z,
+    b_x,
+    b_y,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 11, 3, 12, 12), differentiated by sympy.
+    shape (..., 12, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2925,9 +2967,9 @@ def effect_foundation_derivatives(
           [y_found, y_found] = found_shear
           [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a**2
-          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_spread**2*b**2
+          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_aspect**2*found_spread**2*b**2
         dB/dk_found:
         dM/dfound_shear:
         dC/dfound_shear:
@@ -2937,14 +2979,19 @@ def effect_foundation_derivatives(
           [y_found, psi_found] = found_depth*k_found
           [psi_found, psi_found] = k_found*found_depth**2
           [theta_found, theta_found] = k_found*found_depth**2
-          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_spread**2*b**2
+          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_aspect**2*found_spread**2*b**2
         dB/dfound_shear:
         dM/dfound_spread:
         dC/dfound_spread:
-          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [psi_found, psi_found] = 2*found_spread*k_found*found_aspect**2*b**2
           [theta_found, theta_found] = 2*found_spread*k_found*a**2
-          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*b**2
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*found_aspect**2*b**2
         dB/dfound_spread:
+        dM/dfound_aspect:
+        dC/dfound_aspect:
+          [psi_found, psi_found] = 2*found_aspect*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 2*found_aspect*found_shear*k_found*found_spread**2*b**2
+        dB/dfound_aspect:
         dM/dfound_depth:
           [x_found, theta_found] = -m_found
           [y_found, psi_found] = m_found
@@ -2975,6 +3022,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -2994,6 +3042,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = 4 * h
@@ -3012,16 +3061,19 @@ def effect_foundation_derivatives(
     _tmp13 = found_depth * found_shear
     _tmp14 = _tmp10 * found_shear
     _tmp15 = found_spread**2
-    _tmp16 = _tmp15 * _tmp4
-    _tmp17 = _tmp15 * _tmp7
-    _tmp18 = found_depth * k_found
-    _tmp19 = _tmp10 * k_found
-    _tmp20 = 2 * k_found
-    _tmp21 = _tmp20 * found_spread
-    _tmp22 = found_shear * k_found
-    _tmp23 = 2 * _tmp22 * found_spread
-    _tmp24 = 2 * found_depth * m_found
-    _tmp25 = _tmp13 * _tmp20
+    _tmp16 = _tmp4 * found_aspect**2
+    _tmp17 = _tmp15 * _tmp16
+    _tmp18 = _tmp15 * _tmp7
+    _tmp19 = found_depth * k_found
+    _tmp20 = _tmp10 * k_found
+    _tmp21 = 2 * k_found
+    _tmp22 = _tmp21 * found_spread
+    _tmp23 = found_shear * k_found
+    _tmp24 = 2 * _tmp23
+    _tmp25 = _tmp24 * found_spread
+    _tmp26 = _tmp15 * _tmp4 * found_aspect
+    _tmp27 = 2 * found_depth * m_found
+    _tmp28 = _tmp13 * _tmp21
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3040,9 +3092,10 @@ def effect_foundation_derivatives(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
-    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
@@ -3110,28 +3163,30 @@ def effect_foundation_derivatives(
     _out[..., 22, 7, 7] = found_shear
     _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp13
     _out[..., 22, 8, 8] = 1
-    _out[..., 22, 9, 9] = _tmp14 + _tmp16
-    _out[..., 22, 10, 10] = _tmp14 + _tmp17
-    _out[..., 22, 11, 11] = _tmp16 * found_shear + _tmp17 * found_shear
+    _out[..., 22, 9, 9] = _tmp14 + _tmp17
+    _out[..., 22, 10, 10] = _tmp14 + _tmp18
+    _out[..., 22, 11, 11] = _tmp17 * found_shear + _tmp18 * found_shear
     _out[..., 25, 6, 6] = k_found
-    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp18
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp19
     _out[..., 25, 7, 7] = k_found
-    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp18
-    _out[..., 25, 9, 9] = _tmp19
-    _out[..., 25, 10, 10] = _tmp19
-    _out[..., 25, 11, 11] = _tmp16 * k_found + _tmp17 * k_found
-    _out[..., 28, 9, 9] = _tmp21 * _tmp4
-    _out[..., 28, 10, 10] = _tmp21 * _tmp7
-    _out[..., 28, 11, 11] = _tmp23 * _tmp4 + _tmp23 * _tmp7
-    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
-    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
-    _out[..., 30, 9, 9] = _tmp24
-    _out[..., 30, 10, 10] = _tmp24
-    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp22
-    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp22
-    _out[..., 31, 9, 9] = _tmp25
-    _out[..., 31, 10, 10] = _tmp25
-    return _out.reshape(*_shape, 11, 3, 12, 12)
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp19
+    _out[..., 25, 9, 9] = _tmp20
+    _out[..., 25, 10, 10] = _tmp20
+    _out[..., 25, 11, 11] = _tmp17 * k_found + _tmp18 * k_found
+    _out[..., 28, 9, 9] = _tmp16 * _tmp22
+    _out[..., 28, 10, 10] = _tmp22 * _tmp7
+    _out[..., 28, 11, 11] = _tmp16 * _tmp25 + _tmp25 * _tmp7
+    _out[..., 31, 9, 9] = _tmp21 * _tmp26
+    _out[..., 31, 11, 11] = _tmp24 * _tmp26
+    _out[..., 33, 6, 10] = _out[..., 33, 10, 6] = -m_found
+    _out[..., 33, 7, 9] = _out[..., 33, 9, 7] = m_found
+    _out[..., 33, 9, 9] = _tmp27
+    _out[..., 33, 10, 10] = _tmp27
+    _out[..., 34, 6, 10] = _out[..., 34, 10, 6] = -_tmp23
+    _out[..., 34, 7, 9] = _out[..., 34, 9, 7] = _tmp23
+    _out[..., 34, 9, 9] = _tmp28
+    _out[..., 34, 10, 10] = _tmp28
+    return _out.reshape(*_shape, 12, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -5693,6 +5748,7 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "added_mass": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),

@@ -292,6 +292,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_foundation_derivatives": (
@@ -313,6 +314,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_added_mass": (
@@ -4374,6 +4376,7 @@ def effect_foundation(
     k_found,
     found_shear,
     found_spread,
+    found_aspect,
     found_depth,
 ):
     """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
@@ -4420,9 +4423,9 @@ def effect_foundation(
           [y_found, y_found] = 6*c_h + found_shear*k_found
           [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2
-          [psi_found, psi_found] = 2*c_m*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2
+          [psi_found, psi_found] = 2*c_m*b**2 + found_shear*k_found*found_depth**2 + 4*c_h*b**2*sin(alpha)**2 + 4*c_v*b**2*cos(alpha)**2 + k_found*found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = found_shear*k_found*found_depth**2 + 4*c_h*a**2*sin(alpha)**2 + 4*c_v*a**2*cos(alpha)**2 + 2*k_found*found_spread**2*a**2/3
-          [phi_found, phi_found] = 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2 + found_shear*k_found*found_spread**2*b**2 + 2*found_shear*k_found*found_spread**2*a**2/3
+          [phi_found, phi_found] = 2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2 + 2*found_shear*k_found*found_spread**2*a**2/3 + found_shear*k_found*found_aspect**2*found_spread**2*b**2
         B:
           [x, x] = 2*(b_h + 2*b_h*cos(alpha)**2 + 2*b_v*sin(alpha)**2)
           [x, theta] = 2*(-b_h*h - 2*b_h*h*cos(alpha)**2 - 2*b_v*h*sin(alpha)**2 - 2*a*b_v*cos(alpha)*sin(alpha) + 2*a*b_h*cos(alpha)*sin(alpha))
@@ -4468,6 +4471,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -4488,6 +4492,7 @@ def effect_foundation(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = found_depth * m_found
@@ -4539,27 +4544,28 @@ def effect_foundation(
     _tmp46 = _tmp1 * _tmp39
     _tmp47 = found_spread**2
     _tmp48 = _tmp47 * k_found
-    _tmp49 = _tmp39 * _tmp47
-    _tmp50 = 2 * b_h
-    _tmp51 = 2 * _tmp12
-    _tmp52 = _tmp51 * b_v
-    _tmp53 = 2 * _tmp50 * _tmp9 + 2 * _tmp52 + 2 * b_h
-    _tmp54 = b_h * h
-    _tmp55 = -2 * _tmp11 * _tmp8 * a * b_h + _tmp17 * _tmp54 + 2 * _tmp19 * b_v + _tmp52 * h + _tmp54
-    _tmp56 = b_h - b_v
-    _tmp57 = 6 * b_h
-    _tmp58 = 6 * _tmp54
-    _tmp59 = _tmp12 * b_h
-    _tmp60 = 2 * _tmp59
-    _tmp61 = _tmp9 * b_v
-    _tmp62 = 2 * _tmp61
-    _tmp63 = _tmp60 + _tmp62 + b_m
-    _tmp64 = 2 * _tmp63
-    _tmp65 = _tmp3 * b_h
-    _tmp66 = _tmp2 * b_h
-    _tmp67 = _tmp33 * _tmp63
-    _tmp68 = _tmp34 * b_v
-    _tmp69 = 2 * _tmp12 * _tmp33 * b_v + 2 * _tmp17 * _tmp66 + 2 * _tmp4 * _tmp50 + 2 * _tmp66
+    _tmp49 = _tmp2 * found_aspect**2
+    _tmp50 = _tmp39 * _tmp47
+    _tmp51 = 2 * b_h
+    _tmp52 = 2 * _tmp12
+    _tmp53 = _tmp52 * b_v
+    _tmp54 = 2 * _tmp51 * _tmp9 + 2 * _tmp53 + 2 * b_h
+    _tmp55 = b_h * h
+    _tmp56 = -2 * _tmp11 * _tmp8 * a * b_h + _tmp17 * _tmp55 + 2 * _tmp19 * b_v + _tmp53 * h + _tmp55
+    _tmp57 = b_h - b_v
+    _tmp58 = 6 * b_h
+    _tmp59 = 6 * _tmp55
+    _tmp60 = _tmp12 * b_h
+    _tmp61 = 2 * _tmp60
+    _tmp62 = _tmp9 * b_v
+    _tmp63 = 2 * _tmp62
+    _tmp64 = _tmp61 + _tmp63 + b_m
+    _tmp65 = 2 * _tmp64
+    _tmp66 = _tmp3 * b_h
+    _tmp67 = _tmp2 * b_h
+    _tmp68 = _tmp33 * _tmp64
+    _tmp69 = _tmp34 * b_v
+    _tmp70 = 2 * _tmp12 * _tmp33 * b_v + 2 * _tmp17 * _tmp67 + 2 * _tmp4 * _tmp51 + 2 * _tmp67
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4579,6 +4585,7 @@ def effect_foundation(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
     return (
@@ -4634,50 +4641,50 @@ def effect_foundation(
                 (7, 7): _tmp23 + _tmp39,
                 (7, 9): _tmp43,
                 (8, 8): _tmp44 + _tmp45 + 2 * c_m + k_found,
-                (9, 9): _tmp2 * _tmp45 + _tmp2 * _tmp48 + 2 * _tmp29 + _tmp31 * _tmp41 + _tmp46,
+                (9, 9): _tmp2 * _tmp45 + 2 * _tmp29 + _tmp31 * _tmp41 + _tmp46 + _tmp48 * _tmp49,
                 (10, 10): _tmp4 * _tmp44 + _tmp4 * _tmp45 + _tmp46 + _tmp48 * _tmp5,
                 (11, 11): _tmp2 * _tmp42
-                + _tmp2 * _tmp49
                 + 4 * _tmp31 * _tmp9
                 + _tmp32
                 + _tmp4 * _tmp40
-                + _tmp49 * _tmp5,
+                + _tmp49 * _tmp50
+                + _tmp5 * _tmp50,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp53,
-                (0, 4): -2 * _tmp55,
-                (0, 6): -_tmp53,
-                (0, 10): -_tmp22 * _tmp56,
-                (1, 1): _tmp57,
-                (1, 3): _tmp58,
-                (1, 7): -_tmp57,
-                (2, 2): _tmp64,
-                (2, 8): -_tmp64,
-                (3, 3): 2 * _tmp2 * b_m + 2 * _tmp33 * _tmp61 + 2 * _tmp51 * _tmp66 + 6 * _tmp65,
-                (3, 7): -_tmp58,
-                (3, 9): -_tmp67,
-                (4, 4): 2 * _tmp17 * _tmp65
-                - 2 * _tmp18 * _tmp21 * _tmp54
-                + 2 * _tmp21 * _tmp68
-                + 2 * _tmp3 * _tmp52
-                + 2 * _tmp4 * _tmp60
-                + 2 * _tmp4 * _tmp62
-                + 2 * _tmp65,
-                (4, 6): 2 * _tmp55,
-                (4, 10): _tmp21 * (_tmp11 * _tmp8 * b_h * h - _tmp59 * a - _tmp61 * a - _tmp68),
-                (5, 5): _tmp69,
-                (5, 11): -_tmp69,
-                (6, 6): _tmp53,
-                (6, 10): _tmp22 * _tmp56,
-                (7, 7): _tmp57,
-                (8, 8): _tmp64,
-                (9, 9): _tmp67,
-                (10, 10): 4 * _tmp4 * (_tmp59 + _tmp61),
-                (11, 11): _tmp69,
+                (0, 0): _tmp54,
+                (0, 4): -2 * _tmp56,
+                (0, 6): -_tmp54,
+                (0, 10): -_tmp22 * _tmp57,
+                (1, 1): _tmp58,
+                (1, 3): _tmp59,
+                (1, 7): -_tmp58,
+                (2, 2): _tmp65,
+                (2, 8): -_tmp65,
+                (3, 3): 2 * _tmp2 * b_m + 2 * _tmp33 * _tmp62 + 2 * _tmp52 * _tmp67 + 6 * _tmp66,
+                (3, 7): -_tmp59,
+                (3, 9): -_tmp68,
+                (4, 4): 2 * _tmp17 * _tmp66
+                - 2 * _tmp18 * _tmp21 * _tmp55
+                + 2 * _tmp21 * _tmp69
+                + 2 * _tmp3 * _tmp53
+                + 2 * _tmp4 * _tmp61
+                + 2 * _tmp4 * _tmp63
+                + 2 * _tmp66,
+                (4, 6): 2 * _tmp56,
+                (4, 10): _tmp21 * (_tmp11 * _tmp8 * b_h * h - _tmp60 * a - _tmp62 * a - _tmp69),
+                (5, 5): _tmp70,
+                (5, 11): -_tmp70,
+                (6, 6): _tmp54,
+                (6, 10): _tmp22 * _tmp57,
+                (7, 7): _tmp58,
+                (8, 8): _tmp65,
+                (9, 9): _tmp68,
+                (10, 10): 4 * _tmp4 * (_tmp60 + _tmp62),
+                (11, 11): _tmp70,
             },
         ),
     )
@@ -4702,10 +4709,11 @@ def effect_foundation_derivatives(
     k_found,
     found_shear,
     found_spread,
+    found_aspect,
     found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 11, 3, 12, 12), differentiated by sympy.
+    shape (..., 12, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4843,9 +4851,9 @@ def effect_foundation_derivatives(
           [y_found, y_found] = found_shear
           [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = found_shear*found_depth**2 + 2*found_spread**2*a**2/3
-          [phi_found, phi_found] = found_shear*found_spread**2*b**2 + 2*found_shear*found_spread**2*a**2/3
+          [phi_found, phi_found] = 2*found_shear*found_spread**2*a**2/3 + found_shear*found_aspect**2*found_spread**2*b**2
         dB/dk_found:
         dM/dfound_shear:
         dC/dfound_shear:
@@ -4855,14 +4863,19 @@ def effect_foundation_derivatives(
           [y_found, psi_found] = found_depth*k_found
           [psi_found, psi_found] = k_found*found_depth**2
           [theta_found, theta_found] = k_found*found_depth**2
-          [phi_found, phi_found] = k_found*found_spread**2*b**2 + 2*k_found*found_spread**2*a**2/3
+          [phi_found, phi_found] = 2*k_found*found_spread**2*a**2/3 + k_found*found_aspect**2*found_spread**2*b**2
         dB/dfound_shear:
         dM/dfound_spread:
         dC/dfound_spread:
-          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [psi_found, psi_found] = 2*found_spread*k_found*found_aspect**2*b**2
           [theta_found, theta_found] = 4*found_spread*k_found*a**2/3
-          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*b**2 + 4*found_shear*found_spread*k_found*a**2/3
+          [phi_found, phi_found] = 4*found_shear*found_spread*k_found*a**2/3 + 2*found_shear*found_spread*k_found*found_aspect**2*b**2
         dB/dfound_spread:
+        dM/dfound_aspect:
+        dC/dfound_aspect:
+          [psi_found, psi_found] = 2*found_aspect*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 2*found_aspect*found_shear*k_found*found_spread**2*b**2
+        dB/dfound_aspect:
         dM/dfound_depth:
           [x_found, theta_found] = -m_found
           [y_found, psi_found] = m_found
@@ -4894,6 +4907,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     ) = _runtime.as_arrays(
         m,
@@ -4914,6 +4928,7 @@ def effect_foundation_derivatives(
         k_found,
         found_shear,
         found_spread,
+        found_aspect,
         found_depth,
     )
     _tmp0 = numpy.cos(alpha)
@@ -4962,17 +4977,20 @@ def effect_foundation_derivatives(
     _tmp43 = _tmp40 + _tmp42
     _tmp44 = found_depth * found_shear
     _tmp45 = _tmp40 * found_shear
-    _tmp46 = found_spread**2
-    _tmp47 = _tmp17 * _tmp46
-    _tmp48 = _tmp41 * _tmp46
-    _tmp49 = found_depth * k_found
-    _tmp50 = _tmp40 * k_found
-    _tmp51 = found_spread * k_found
-    _tmp52 = (1.3333333333333333) * _tmp24
-    _tmp53 = found_shear * k_found
-    _tmp54 = _tmp53 * found_spread
-    _tmp55 = 2 * found_depth * m_found
-    _tmp56 = 2 * _tmp44 * k_found
+    _tmp46 = found_aspect**2
+    _tmp47 = found_spread**2
+    _tmp48 = _tmp17 * _tmp46 * _tmp47
+    _tmp49 = _tmp41 * _tmp47
+    _tmp50 = found_depth * k_found
+    _tmp51 = _tmp40 * k_found
+    _tmp52 = found_spread * k_found
+    _tmp53 = _tmp28 * _tmp46
+    _tmp54 = (1.3333333333333333) * _tmp24
+    _tmp55 = found_shear * k_found
+    _tmp56 = _tmp55 * found_spread
+    _tmp57 = _tmp28 * _tmp47 * found_aspect
+    _tmp58 = 2 * found_depth * m_found
+    _tmp59 = 2 * _tmp44 * k_found
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4992,9 +5010,10 @@ def effect_foundation_derivatives(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
-    _out = numpy.zeros((*_shape, 33, 12, 12))
+    _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = _tmp3
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp10
     _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = _tmp11
@@ -5106,28 +5125,30 @@ def effect_foundation_derivatives(
     _out[..., 22, 7, 7] = found_shear
     _out[..., 22, 7, 9] = _out[..., 22, 9, 7] = _tmp44
     _out[..., 22, 8, 8] = 1
-    _out[..., 22, 9, 9] = _tmp45 + _tmp47
-    _out[..., 22, 10, 10] = _tmp45 + _tmp48
-    _out[..., 22, 11, 11] = _tmp47 * found_shear + _tmp48 * found_shear
+    _out[..., 22, 9, 9] = _tmp45 + _tmp48
+    _out[..., 22, 10, 10] = _tmp45 + _tmp49
+    _out[..., 22, 11, 11] = _tmp48 * found_shear + _tmp49 * found_shear
     _out[..., 25, 6, 6] = k_found
-    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp49
+    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp50
     _out[..., 25, 7, 7] = k_found
-    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp49
-    _out[..., 25, 9, 9] = _tmp50
-    _out[..., 25, 10, 10] = _tmp50
-    _out[..., 25, 11, 11] = _tmp47 * k_found + _tmp48 * k_found
-    _out[..., 28, 9, 9] = _tmp28 * _tmp51
-    _out[..., 28, 10, 10] = _tmp51 * _tmp52
-    _out[..., 28, 11, 11] = _tmp28 * _tmp54 + _tmp52 * _tmp54
-    _out[..., 30, 6, 10] = _out[..., 30, 10, 6] = -m_found
-    _out[..., 30, 7, 9] = _out[..., 30, 9, 7] = m_found
-    _out[..., 30, 9, 9] = _tmp55
-    _out[..., 30, 10, 10] = _tmp55
-    _out[..., 31, 6, 10] = _out[..., 31, 10, 6] = -_tmp53
-    _out[..., 31, 7, 9] = _out[..., 31, 9, 7] = _tmp53
-    _out[..., 31, 9, 9] = _tmp56
-    _out[..., 31, 10, 10] = _tmp56
-    return _out.reshape(*_shape, 11, 3, 12, 12)
+    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp50
+    _out[..., 25, 9, 9] = _tmp51
+    _out[..., 25, 10, 10] = _tmp51
+    _out[..., 25, 11, 11] = _tmp48 * k_found + _tmp49 * k_found
+    _out[..., 28, 9, 9] = _tmp52 * _tmp53
+    _out[..., 28, 10, 10] = _tmp52 * _tmp54
+    _out[..., 28, 11, 11] = _tmp53 * _tmp56 + _tmp54 * _tmp56
+    _out[..., 31, 9, 9] = _tmp57 * k_found
+    _out[..., 31, 11, 11] = _tmp55 * _tmp57
+    _out[..., 33, 6, 10] = _out[..., 33, 10, 6] = -m_found
+    _out[..., 33, 7, 9] = _out[..., 33, 9, 7] = m_found
+    _out[..., 33, 9, 9] = _tmp58
+    _out[..., 33, 10, 10] = _tmp58
+    _out[..., 34, 6, 10] = _out[..., 34, 10, 6] = -_tmp55
+    _out[..., 34, 7, 9] = _out[..., 34, 9, 7] = _tmp55
+    _out[..., 34, 9, 9] = _tmp59
+    _out[..., 34, 10, 10] = _tmp59
+    return _out.reshape(*_shape, 12, 3, 12, 12)
 
 
 def effect_added_mass(
@@ -10133,6 +10154,7 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "added_mass": ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m", "m_added", "x_added", "y_added", "h_added", "g_added"),

@@ -220,6 +220,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_foundation_derivatives": (
@@ -239,6 +240,7 @@ ARGUMENTS = {
         "k_found",
         "found_shear",
         "found_spread",
+        "found_aspect",
         "found_depth",
     ),
     "effect_added_mass": (
@@ -1888,7 +1890,24 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
 
 
 def effect_foundation(
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_x,
+    J_y,
+    J_z,
+    e,
+    a,
+    b,
+    h,
+    c_h,
+    c_z,
+    b_h,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """M, C, B of the model extended by the candidate effect foundation (compliant support below the isolators (pads under the feet or a frame on ground springs)),
     each of shape (..., 12, 12), coordinates x, y, z, psi, theta, phi, x_found, y_found, z_found, psi_found, theta_found, phi_found; derived from the
@@ -1935,9 +1954,9 @@ def effect_foundation(
           [y_found, y_found] = 4*c_h + found_shear*k_found
           [y_found, psi_found] = found_depth*found_shear*k_found
           [z_found, z_found] = k_found + 4*c_z
-          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*b**2
+          [psi_found, psi_found] = 4*c_z*b**2 + found_shear*k_found*found_depth**2 + k_found*found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = 4*c_z*a**2 + found_shear*k_found*found_depth**2 + k_found*found_spread**2*a**2
-          [phi_found, phi_found] = 4*c_h*a**2 + 4*c_h*b**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 4*c_h*a**2 + 4*c_h*b**2 + found_shear*k_found*found_spread**2*a**2 + found_shear*k_found*found_aspect**2*found_spread**2*b**2
         B:
           [x, x] = 4*b_h
           [x, theta] = -4*b_h*h
@@ -1962,10 +1981,44 @@ def effect_foundation(
           [theta_found, theta_found] = 4*b_z*a**2
           [phi_found, phi_found] = 4*b_h*(a**2 + b**2)
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
-        _runtime.as_arrays(
-            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
-        )
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _tmp0 = e * m
     _tmp1 = e**2
@@ -1993,16 +2046,17 @@ def effect_foundation(
     _tmp23 = _tmp20 * _tmp4
     _tmp24 = found_spread**2
     _tmp25 = _tmp24 * k_found
-    _tmp26 = _tmp20 * _tmp24
-    _tmp27 = 4 * b_h
-    _tmp28 = _tmp27 * h
-    _tmp29 = -_tmp28
-    _tmp30 = -_tmp27
-    _tmp31 = 4 * b_z
-    _tmp32 = _tmp5 * b_h
-    _tmp33 = _tmp31 * _tmp7
-    _tmp34 = _tmp31 * _tmp6
-    _tmp35 = _tmp27 * _tmp8
+    _tmp26 = _tmp7 * found_aspect**2
+    _tmp27 = _tmp20 * _tmp24
+    _tmp28 = 4 * b_h
+    _tmp29 = _tmp28 * h
+    _tmp30 = -_tmp29
+    _tmp31 = -_tmp28
+    _tmp32 = 4 * b_z
+    _tmp33 = _tmp5 * b_h
+    _tmp34 = _tmp32 * _tmp7
+    _tmp35 = _tmp32 * _tmp6
+    _tmp36 = _tmp28 * _tmp8
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2020,6 +2074,7 @@ def effect_foundation(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
     return (
@@ -2070,47 +2125,64 @@ def effect_foundation(
                 (7, 7): _tmp21,
                 (7, 9): _tmp22,
                 (8, 8): _tmp15 + k_found,
-                (9, 9): _tmp17 + _tmp23 + _tmp25 * _tmp7,
+                (9, 9): _tmp17 + _tmp23 + _tmp25 * _tmp26,
                 (10, 10): _tmp18 + _tmp23 + _tmp25 * _tmp6,
-                (11, 11): _tmp11 * _tmp6 + _tmp11 * _tmp7 + _tmp26 * _tmp6 + _tmp26 * _tmp7,
+                (11, 11): _tmp11 * _tmp6 + _tmp11 * _tmp7 + _tmp26 * _tmp27 + _tmp27 * _tmp6,
             },
         ),
         _runtime.stack_matrix(
             _shape,
             12,
             {
-                (0, 0): _tmp27,
-                (0, 4): _tmp29,
-                (0, 6): _tmp30,
-                (1, 1): _tmp27,
-                (1, 3): _tmp28,
-                (1, 7): _tmp30,
-                (2, 2): _tmp31,
-                (2, 8): -_tmp31,
-                (3, 3): 4 * _tmp32 + 4 * _tmp7 * b_z,
-                (3, 7): _tmp29,
-                (3, 9): -_tmp33,
-                (4, 4): 4 * _tmp32 + 4 * _tmp6 * b_z,
-                (4, 6): _tmp28,
-                (4, 10): -_tmp34,
-                (5, 5): _tmp35,
-                (5, 11): -_tmp35,
-                (6, 6): _tmp27,
-                (7, 7): _tmp27,
-                (8, 8): _tmp31,
-                (9, 9): _tmp33,
-                (10, 10): _tmp34,
-                (11, 11): _tmp35,
+                (0, 0): _tmp28,
+                (0, 4): _tmp30,
+                (0, 6): _tmp31,
+                (1, 1): _tmp28,
+                (1, 3): _tmp29,
+                (1, 7): _tmp31,
+                (2, 2): _tmp32,
+                (2, 8): -_tmp32,
+                (3, 3): 4 * _tmp33 + 4 * _tmp7 * b_z,
+                (3, 7): _tmp30,
+                (3, 9): -_tmp34,
+                (4, 4): 4 * _tmp33 + 4 * _tmp6 * b_z,
+                (4, 6): _tmp29,
+                (4, 10): -_tmp35,
+                (5, 5): _tmp36,
+                (5, 11): -_tmp36,
+                (6, 6): _tmp28,
+                (7, 7): _tmp28,
+                (8, 8): _tmp32,
+                (9, 9): _tmp34,
+                (10, 10): _tmp35,
+                (11, 11): _tmp36,
             },
         ),
     )
 
 
 def effect_foundation_derivatives(
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
+    m,
+    J_x,
+    J_y,
+    J_z,
+    e,
+    a,
+    b,
+    h,
+    c_h,
+    c_z,
+    b_h,
+    b_z,
+    m_found,
+    k_found,
+    found_shear,
+    found_spread,
+    found_aspect,
+    found_depth,
 ):
     """Derivatives of the M, C, B of effect_foundation() with respect to EFFECT_DERIVATIVE_PARAMETERS['foundation'],
-    shape (..., 9, 3, 12, 12), differentiated by sympy.
+    shape (..., 10, 3, 12, 12), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2192,9 +2264,9 @@ def effect_foundation_derivatives(
           [y_found, y_found] = found_shear
           [y_found, psi_found] = found_depth*found_shear
           [z_found, z_found] = 1
-          [psi_found, psi_found] = found_shear*found_depth**2 + found_spread**2*b**2
+          [psi_found, psi_found] = found_shear*found_depth**2 + found_aspect**2*found_spread**2*b**2
           [theta_found, theta_found] = found_shear*found_depth**2 + found_spread**2*a**2
-          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_spread**2*b**2
+          [phi_found, phi_found] = found_shear*found_spread**2*a**2 + found_shear*found_aspect**2*found_spread**2*b**2
         dB/dk_found:
         dM/dfound_shear:
         dC/dfound_shear:
@@ -2204,14 +2276,19 @@ def effect_foundation_derivatives(
           [y_found, psi_found] = found_depth*k_found
           [psi_found, psi_found] = k_found*found_depth**2
           [theta_found, theta_found] = k_found*found_depth**2
-          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_spread**2*b**2
+          [phi_found, phi_found] = k_found*found_spread**2*a**2 + k_found*found_aspect**2*found_spread**2*b**2
         dB/dfound_shear:
         dM/dfound_spread:
         dC/dfound_spread:
-          [psi_found, psi_found] = 2*found_spread*k_found*b**2
+          [psi_found, psi_found] = 2*found_spread*k_found*found_aspect**2*b**2
           [theta_found, theta_found] = 2*found_spread*k_found*a**2
-          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*b**2
+          [phi_found, phi_found] = 2*found_shear*found_spread*k_found*a**2 + 2*found_shear*found_spread*k_found*found_aspect**2*b**2
         dB/dfound_spread:
+        dM/dfound_aspect:
+        dC/dfound_aspect:
+          [psi_found, psi_found] = 2*found_aspect*k_found*found_spread**2*b**2
+          [phi_found, phi_found] = 2*found_aspect*found_shear*k_found*found_spread**2*b**2
+        dB/dfound_aspect:
         dM/dfound_depth:
           [x_found, theta_found] = -m_found
           [y_found, psi_found] = m_found
@@ -2224,10 +2301,44 @@ def effect_foundation_derivatives(
           [theta_found, theta_found] = 2*found_depth*found_shear*k_found
         dB/dfound_depth:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth = (
-        _runtime.as_arrays(
-            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_found, k_found, found_shear, found_spread, found_depth
-        )
+    (
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
+    ) = _runtime.as_arrays(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _tmp0 = 4 * h
     _tmp1 = -_tmp0
@@ -2247,16 +2358,19 @@ def effect_foundation_derivatives(
     _tmp15 = found_depth * found_shear
     _tmp16 = _tmp12 * found_shear
     _tmp17 = found_spread**2
-    _tmp18 = _tmp17 * _tmp6
-    _tmp19 = _tmp17 * _tmp4
-    _tmp20 = found_depth * k_found
-    _tmp21 = _tmp12 * k_found
-    _tmp22 = 2 * k_found
-    _tmp23 = _tmp22 * found_spread
-    _tmp24 = found_shear * k_found
-    _tmp25 = 2 * _tmp24 * found_spread
-    _tmp26 = 2 * found_depth * m_found
-    _tmp27 = _tmp15 * _tmp22
+    _tmp18 = _tmp6 * found_aspect**2
+    _tmp19 = _tmp17 * _tmp18
+    _tmp20 = _tmp17 * _tmp4
+    _tmp21 = found_depth * k_found
+    _tmp22 = _tmp12 * k_found
+    _tmp23 = 2 * k_found
+    _tmp24 = _tmp23 * found_spread
+    _tmp25 = found_shear * k_found
+    _tmp26 = 2 * _tmp25
+    _tmp27 = _tmp26 * found_spread
+    _tmp28 = _tmp17 * _tmp6 * found_aspect
+    _tmp29 = 2 * found_depth * m_found
+    _tmp30 = _tmp15 * _tmp23
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2274,9 +2388,10 @@ def effect_foundation_derivatives(
         numpy.shape(k_found),
         numpy.shape(found_shear),
         numpy.shape(found_spread),
+        numpy.shape(found_aspect),
         numpy.shape(found_depth),
     )
-    _out = numpy.zeros((*_shape, 27, 12, 12))
+    _out = numpy.zeros((*_shape, 30, 12, 12))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 0, 6] = _out[..., 1, 6, 0] = -4
@@ -2338,28 +2453,30 @@ def effect_foundation_derivatives(
     _out[..., 16, 7, 7] = found_shear
     _out[..., 16, 7, 9] = _out[..., 16, 9, 7] = _tmp15
     _out[..., 16, 8, 8] = 1
-    _out[..., 16, 9, 9] = _tmp16 + _tmp18
-    _out[..., 16, 10, 10] = _tmp16 + _tmp19
-    _out[..., 16, 11, 11] = _tmp18 * found_shear + _tmp19 * found_shear
+    _out[..., 16, 9, 9] = _tmp16 + _tmp19
+    _out[..., 16, 10, 10] = _tmp16 + _tmp20
+    _out[..., 16, 11, 11] = _tmp19 * found_shear + _tmp20 * found_shear
     _out[..., 19, 6, 6] = k_found
-    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp20
+    _out[..., 19, 6, 10] = _out[..., 19, 10, 6] = -_tmp21
     _out[..., 19, 7, 7] = k_found
-    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp20
-    _out[..., 19, 9, 9] = _tmp21
-    _out[..., 19, 10, 10] = _tmp21
-    _out[..., 19, 11, 11] = _tmp18 * k_found + _tmp19 * k_found
-    _out[..., 22, 9, 9] = _tmp23 * _tmp6
-    _out[..., 22, 10, 10] = _tmp23 * _tmp4
-    _out[..., 22, 11, 11] = _tmp25 * _tmp4 + _tmp25 * _tmp6
-    _out[..., 24, 6, 10] = _out[..., 24, 10, 6] = -m_found
-    _out[..., 24, 7, 9] = _out[..., 24, 9, 7] = m_found
-    _out[..., 24, 9, 9] = _tmp26
-    _out[..., 24, 10, 10] = _tmp26
-    _out[..., 25, 6, 10] = _out[..., 25, 10, 6] = -_tmp24
-    _out[..., 25, 7, 9] = _out[..., 25, 9, 7] = _tmp24
-    _out[..., 25, 9, 9] = _tmp27
-    _out[..., 25, 10, 10] = _tmp27
-    return _out.reshape(*_shape, 9, 3, 12, 12)
+    _out[..., 19, 7, 9] = _out[..., 19, 9, 7] = _tmp21
+    _out[..., 19, 9, 9] = _tmp22
+    _out[..., 19, 10, 10] = _tmp22
+    _out[..., 19, 11, 11] = _tmp19 * k_found + _tmp20 * k_found
+    _out[..., 22, 9, 9] = _tmp18 * _tmp24
+    _out[..., 22, 10, 10] = _tmp24 * _tmp4
+    _out[..., 22, 11, 11] = _tmp18 * _tmp27 + _tmp27 * _tmp4
+    _out[..., 25, 9, 9] = _tmp23 * _tmp28
+    _out[..., 25, 11, 11] = _tmp26 * _tmp28
+    _out[..., 27, 6, 10] = _out[..., 27, 10, 6] = -m_found
+    _out[..., 27, 7, 9] = _out[..., 27, 9, 7] = m_found
+    _out[..., 27, 9, 9] = _tmp29
+    _out[..., 27, 10, 10] = _tmp29
+    _out[..., 28, 6, 10] = _out[..., 28, 10, 6] = -_tmp25
+    _out[..., 28, 7, 9] = _out[..., 28, 9, 7] = _tmp25
+    _out[..., 28, 9, 9] = _tmp30
+    _out[..., 28, 10, 10] = _tmp30
+    return _out.reshape(*_shape, 10, 3, 12, 12)
 
 
 def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added):
@@ -4815,7 +4932,18 @@ EFFECT_DERIVATIVE_PARAMETERS = {
     "com_offset": ("c_h", "c_z", "b_h", "b_z", "dx_com", "dy_com"),
     "cog_height": ("c_h", "c_z", "b_h", "b_z", "dz_com"),
     "rotational_stiffness": ("c_h", "c_z", "b_h", "b_z", "k_bend", "k_torsion"),
-    "foundation": ("c_h", "c_z", "b_h", "b_z", "m_found", "k_found", "found_shear", "found_spread", "found_depth"),
+    "foundation": (
+        "c_h",
+        "c_z",
+        "b_h",
+        "b_z",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
     "added_mass": ("c_h", "c_z", "b_h", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
     "drive_belt": ("c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_h", "c_z", "b_h", "b_z", "h_preload"),

@@ -66,7 +66,14 @@ ROUND_TRIP = {
     "drive_belt": {"k_belt": 2e4, "h_belt": 0.2},
     "gravity_preload": {"h_preload": 0.35},
     "damping": {"damping_scale": 3.0},
-    "foundation": {"m_found": 800.0, "k_found": 2e7, "found_shear": 0.4, "found_spread": 2.0, "found_depth": 0.15},
+    "foundation": {
+        "m_found": 800.0,
+        "k_found": 2e7,
+        "found_shear": 0.4,
+        "found_spread": 2.0,
+        "found_aspect": 1.25,
+        "found_depth": 0.15,
+    },
 }
 
 
@@ -80,10 +87,12 @@ def test_each_effect_fits_its_own_data_back(effect):
         assert fit.chi2 < 1e-2 and fit.plausible
         return
     if effect == "foundation":
-        # six modes with shapes at 3e-4 / 0.01 do not pin a support's five parameters and the two unknowns
+        # six modes with shapes at 3e-4 / 0.01 do not pin a support's six parameters and the two unknowns
         # (the support's spread trades against its stiffness and depth): the data are reproduced, and the
-        # stated standard deviations say how loosely each parameter is held
-        assert fit.chi2 < 1e-3 and fit.plausible
+        # stated standard deviations say how loosely each parameter is held. Along that flat valley the fit
+        # stops where chi^2 falls by less than CONVERGED_CHI2 over CONVERGED_ITERATIONS iterations: hundredths
+        # of one unit of chi^2, where the noise of the data would be one unit per datum
+        assert fit.chi2 < 0.05 and fit.plausible
         for name, value in {**UNKNOWN, **truth}.items():
             assert abs(fit.parameters[name] - value) <= 2 * fit.std[name], name
         assert fit.std["found_spread"] > 0.5 * truth["found_spread"]
@@ -389,14 +398,15 @@ def test_heavy_damping_that_reorders_close_modes_is_found(kind):
 
 def test_a_support_fitted_just_beyond_its_range_stays_in_the_tie_and_is_not_confident():
     """Blind case (seed 26, screen6, shapes): a slab under the feet whose inertia is not the catalogue
-    support's fits the data with its centre of mass 8 cm above the feet, 8 standard deviations beyond the
-    plausible range's edge (0) but within fitting.PLAUSIBLE_MARGIN of it: the support keeps its probability
-    and its place in the tie, and the verdict is not confident and names the parameter."""
+    support's fits the data with its centre of mass 12 cm above the feet, beyond the plausible range's edge (0)
+    by more than its standard deviation (1.4 of them; 8 before the support had its aspect) but within
+    fitting.PLAUSIBLE_MARGIN of it: the support keeps its probability and its place among the closest
+    candidates, and the verdict is not confident and names the parameter."""
     data, _ = blind.make_case(26, "foundation", machine="screen6")
     report = diagnose_effects(parse(data))
     support = next(f for f in report.ranked if f.effect == "foundation")
     depth = support.parameters["found_depth"]
-    assert depth < -3 * support.std["found_depth"] < 0  # beyond the edge by more than its std
+    assert depth < -support.std["found_depth"] < 0  # beyond the edge by more than its std
     assert support.plausible and support.outside_range == ("found_depth",)
     assert "foundation" in report.tie and not report.confident
     assert "found_depth beyond the plausible range" in report.verdict

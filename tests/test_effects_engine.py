@@ -30,6 +30,7 @@ EFFECT_VALUES = {
     "k_found": 8.0e6,
     "found_shear": 0.3,
     "found_spread": 2.5,
+    "found_aspect": 1.4,
     "found_depth": 0.2,
     "m_added": 60.0,
     "x_added": 0.25,
@@ -46,7 +47,7 @@ def _values(mod) -> dict[str, float]:
     return {**{n: p["value"] for n, p in mod.PARAMETERS.items()}, **EFFECT_VALUES}
 
 
-def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_five_parameters():
+def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_six_parameters():
     assert [e.name for e in CATALOGUE] == [
         "com_offset",
         "cog_height",
@@ -62,7 +63,7 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_five_paramet
         "sensor_turned",
         "sensor_misplaced",
     ]
-    assert all(1 <= len(e.parameters) <= 5 for e in CATALOGUE)
+    assert all(1 <= len(e.parameters) <= 6 for e in CATALOGUE)
     assert all(p.plausible[0] < p.plausible[1] for e in CATALOGUE for p in e.parameters)
 
 
@@ -145,9 +146,9 @@ def test_kid300_effects_match_an_independent_numpy_assembly():
     assert m.shape == c.shape == b.shape == (12, 12)
     # body and support assembled here from u = t + w x r: the support's coordinates refer to the feet's
     # centre (z = -L_z), its centre of mass and ground springs found_depth below, the springs found_spread
-    # times as far out as the feet
+    # times as far out along x as the feet and found_spread found_aspect times along y
     length = float(call(mod, "effect_scales", v)["length"])
-    depth, spread = v["found_depth"], v["found_spread"]
+    depth, spread, aspect = v["found_depth"], v["found_spread"], v["found_aspect"]
     m_want = np.zeros((12, 12))
     m_want[:6, :6] = m0
     own = v["m_found"] * length**2 * np.eye(3)
@@ -161,7 +162,7 @@ def test_kid300_effects_match_an_independent_numpy_assembly():
     for r in feet:
         foot = r - np.array([0.0, 0.0, -v["L_z"]])
         rel = np.hstack([_jac(r), -_jac(foot)])
-        ground = np.hstack([np.zeros((3, 6)), _jac(np.array([spread * foot[0], spread * foot[1], -depth]))])
+        ground = np.hstack([np.zeros((3, 6)), _jac(np.array([spread * foot[0], spread * aspect * foot[1], -depth]))])
         c_want += rel.T @ k_iso @ rel + ground.T @ spring @ ground
     assert np.allclose(c, c_want, rtol=1e-12, atol=1e-6 * np.abs(c_want).max())
 

@@ -57,6 +57,10 @@ class EffectParameter:
     """For a signed parameter: the fit also starts on either side of zero (it has a local minimum on the
     wrong side, as a height does). False where the machine's symmetry or the mode shapes decide the sign
     from any start (a horizontal position)."""
+    refines: bool = False
+    """A refinement of the effect's shape (the support's aspect ratio): a fit from the default starts holds it
+    at its start, then releases it from the best fit, so the freedom it adds does not lead the search away from
+    the basins the effect without it reaches."""
 
     @property
     def magnitude(self) -> bool:
@@ -94,9 +98,17 @@ class Effect:
 
 
 def _p(
-    name: str, unit: str, scale: str, lo: float, hi: float, start: float, text: str, both_sides: bool = True
+    name: str,
+    unit: str,
+    scale: str,
+    lo: float,
+    hi: float,
+    start: float,
+    text: str,
+    both_sides: bool = True,
+    refines: bool = False,
 ) -> EffectParameter:
-    return EffectParameter(name, unit, scale, (lo, hi), start, text, both_sides=both_sides)
+    return EffectParameter(name, unit, scale, (lo, hi), start, text, both_sides=both_sides, refines=refines)
 
 
 CATALOGUE: tuple[Effect, ...] = (
@@ -183,7 +195,17 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.5,
                 4.0,
                 1.0,
-                "horizontal distance of the ground springs from the axis over that of the isolator feet",
+                "distance of the ground springs from the yz plane (along x) over that of the isolator feet",
+            ),
+            _p(
+                "found_aspect",
+                "1",
+                "one",
+                0.25,
+                4.0,
+                1.0,
+                "the ground springs' spread along y over their spread along x (1: under the feet, scaled alike)",
+                refines=True,
             ),
             _p(
                 "found_depth",
@@ -196,9 +218,10 @@ CATALOGUE: tuple[Effect, ...] = (
             ),
         ),
         "a rigid support (six coordinates) between isolators and ground, on a ground spring below each isolator "
-        "(vertical k_found/n, horizontal found_shear times that), found_spread times as far from the axis and "
-        "found_depth below the feet: every mode drops, most those whose isolators are stiffest relative to the "
-        "support (z, rocking); six support modes",
+        "(vertical k_found/n, horizontal found_shear times that), found_spread times as far from the yz plane "
+        "and found_spread found_aspect times as far from the xz plane as the foot, found_depth below it: every "
+        "mode drops, most those whose isolators are stiffest relative to the support (z, rocking); six support "
+        "modes",
     ),
     Effect(
         "added_mass",

@@ -167,6 +167,12 @@ class CandidateModel:
                 starts.append(vector(mirror))
         return starts
 
+    def held_first(self) -> np.ndarray:
+        """Indices in the flat vector of the effect parameters a fit from the default starts holds at their start
+        before releasing them (EffectParameter.refines)."""
+        n = len(self.unknown)
+        return np.array([n + i for i, p in enumerate(self.effect_parameters) if p.refines], dtype=int)
+
     def plausible_box(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper ends of each effect parameter's plausible range in the units of the flat vector (log
         for positive ranges): the spread starts' box and the plausibility checks' reference."""

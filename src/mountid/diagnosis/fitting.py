@@ -381,6 +381,10 @@ LEAVE_ONE_OUT_STEPS = 12
 away from its own minimum (its tolerance is looser than a fit's: a held-out error is judged in sigma)."""
 
 
+HELD_WIDTH = 1e-9
+"""Half-width of the search box around its start of a parameter held in a first fit (EffectParameter.refines)."""
+
+
 def noise_level(n_data: int, n_parameters: int) -> float:
     """chi^2 at noise level for a fit of ``n_parameters`` to ``n_data`` data: the mean plus three standard
     deviations of chi^2 with their difference as degrees of freedom (one at least). Counting every residual
@@ -397,9 +401,18 @@ def _least_squares(
     rows: np.ndarray | None = None,
     mandatory: int = 1,
     refit: bool = False,
+    hold: bool = False,
 ):
-    lo, hi = model.bounds()
+    """The best fit from ``starts`` (the first ``mandatory`` always run, the others while the fit stays above
+    noise level), on from a spread start where all stop above it. ``hold``: the refining parameters
+    (CandidateModel.held_first) held at their start values until then, and released from the best fit."""
+    full_lo, full_hi = lo, hi = model.bounds()
     fun, jac = _residual_function(model, data, rows)
+    held = model.held_first() if hold else np.array([], dtype=int)
+    if len(held):
+        at = model.start()[0][held]
+        lo, hi = lo.copy(), hi.copy()
+        lo[held], hi[held] = at - HELD_WIDTH, at + HELD_WIDTH
     best = None
     noise = noise_level(data.n, len(starts[0]))
     for i, x0 in enumerate(starts):
@@ -411,13 +424,19 @@ def _least_squares(
     if not refit and rows is None and model.strategy.spread_starts and 2 * best.cost > noise:
         # every start stopped above noise level: on from the spread start that promises most (CandidateModel.spread)
         # where it promises a fraction of the chi^2 reached (another basin, not the same one seen from elsewhere)
-        spread = model.spread()
+        spread = [_inside(x, lo, hi) for x in model.spread()]
         promised = _promises(fun, jac, data.n_rows, spread) if spread else [math.inf]
         if min(promised) < SPREAD_PROMISE * 2 * best.cost:
             x0 = spread[int(np.argmin(promised))]
             res = _solve(fun, jac, _inside(x0, lo, hi), lo, hi, refit, 15)
             if res.cost < best.cost:
                 best = res
+    if len(held):
+        # released from the best held fit: the refinement can only lower its chi^2
+        released = _solve(fun, jac, _inside(best.x, full_lo, full_hi), full_lo, full_hi, refit, 100)
+        if released.cost <= best.cost:
+            best = released
+        lo, hi = full_lo, full_hi
     if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:
         # the best start ran out of evaluations near noise level: carry it on (a candidate far from the data
         # keeps its rough minimum, its probability is nil either way)
@@ -504,7 +523,7 @@ def fit_candidate(
             starts = [starts[int(np.argmin(promises(campaign, model, starts)))]]
         res = _least_squares(model, data, starts)
     elif start is None:
-        res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts)
+        res = _least_squares(model, data, model.start(), mandatory=model.mandatory_starts, hold=True)
     else:
         res = _least_squares(model, data, [start])
     theta = res.x

@@ -73,13 +73,16 @@ def _slab_kinetic(x: ExtendedModel) -> sp.Expr:
 
 def _slab_on_ground(x: ExtendedModel) -> sp.Expr:
     """The support on a ground spring below each isolator: vertical k_found/n, horizontal found_shear times
-    that, found_spread times as far from the vertical axis as the isolator's foot and found_depth below it."""
+    that, found_spread times as far from the yz plane as the isolator's foot, found_spread found_aspect times
+    as far from the xz plane, and found_depth below it (the two spreads set the support's rocking stiffness
+    about y and about x apart: a frame whose ground springs are not under the feet)."""
     m, s = x.model, x.symbols
     spring = sp.diag(s["found_shear"], s["found_shear"], 1) * s["k_found"] / len(m.isolators)
+    spread = (s["found_spread"], s["found_spread"] * s["found_aspect"])
     p = sp.Integer(0)
     for iso in m.isolators:
         foot = _foot(x.model, iso, True)
-        ground = sp.Matrix([s["found_spread"] * foot[0], s["found_spread"] * foot[1], foot[2] - s["found_depth"]])
+        ground = sp.Matrix([spread[0] * foot[0], spread[1] * foot[1], foot[2] - s["found_depth"]])
         u = SymbolicModel.point_motion(x.q[6:, 0], ground)
         p += (u.T * spring * u)[0] / 2
     return p
