@@ -102,10 +102,15 @@ def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, 
 
 
 def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
-    """Per parameter, whether it splits a set of exactly equal eigenvalues (its perturbation of their subspace,
-    phi^T (C' - lambda M') phi, is not a multiple of the identity)."""
+    """Per parameter, whether it splits a set of exactly equal eigenvalues of a measured mode (its perturbation
+    of their subspace, phi^T (C' - lambda M') phi, is not a multiple of the identity). Twins among the modes no
+    measurement is paired with or blended with (two support modes a support's aspect parts by 3e-8) leave the measured
+    frequencies and shapes differentiable: their derivatives take the others' differences only."""
     split = np.zeros(len(d_m), dtype=bool)
+    used = np.union1d(e.index, np.flatnonzero(np.max(e.weight, axis=0) > PARTNER_WEIGHT))
     for group, members in e.twins:
+        if not np.isin(members, used).any():
+            continue
         v = e.vec[:, group]
         lam = e.lam[members[0]]
         g = modal_projection(v, d_c) - lam * modal_projection(v, d_m)
