@@ -125,7 +125,7 @@ class CaseResult:
     testable: bool = True
     """Whether the campaign can test the candidate that represents the truth at all: it has fewer parameters
     (with the unknowns) than the campaign has data, a pair DiagnosisSettings.pair_dof fewer (six frequencies
-    cannot test a support of five parameters); measured damping ratios and the damping parameters left to the
+    cannot test a support of six parameters); measured damping ratios and the damping parameters left to the
     fit count apart from the rest (they determine each other, not an effect on M and C)."""
     seed: int = -1
     weights: tuple[tuple[str, float], ...] = ()
