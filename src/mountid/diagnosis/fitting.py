@@ -23,12 +23,13 @@ from mountid.identification.statistics import covariance, standard_deviations
 class FitState:
     """What a fit leaves behind for later refits (leave-one-out, separation, warm starts) and for its evidence
     at another noise level (the ranking's tempering): the candidate model, the fitted flat parameter vector,
-    and the whitened data-row Jacobian and chi^2 of each variant whose evidence the candidate's averages (one,
-    or one per isolator). Not part of the result's value."""
+    and the whitened data-row Jacobian, chi^2 and refining parameters' offsets from their starts
+    (log_evidence) of each variant whose evidence the candidate's averages (one, or one per isolator). Not part
+    of the result's value."""
 
     model: CandidateModel
     theta: np.ndarray
-    evidence_terms: tuple[tuple[np.ndarray, float], ...] = ()
+    evidence_terms: tuple[tuple[np.ndarray, float, np.ndarray], ...] = ()
     variants_by_fit: tuple[str, ...] = ()
     """For an effect fitted per isolator or channel: the variants from the best fitting to the worst."""
     variant_parameters: tuple[dict[str, float], ...] = ()
@@ -227,7 +228,14 @@ def prior_widths(model: CandidateModel) -> np.ndarray:
     )
 
 
-def log_evidence(jac: np.ndarray, chi2: float, widths: np.ndarray) -> float:
+REFINED_AT_START = 0.5
+"""Prior probability that a refining parameter (EffectParameter.refines: the support's aspect) sits exactly at
+its start (a support as symmetric as the isolator layout); the rest is spread over its plausible range."""
+
+
+def log_evidence(
+    jac: np.ndarray, chi2: float, widths: np.ndarray, held: np.ndarray | None = None, offsets: np.ndarray | None = None
+) -> float:
     """Laplace approximation of the log marginal likelihood of a fitted candidate, up to a constant common to
     all candidates of one campaign:
 
@@ -237,13 +245,33 @@ def log_evidence(jac: np.ndarray, chi2: float, widths: np.ndarray) -> float:
     uniform prior enters A as the Gaussian of equal variance (W^2/12), so that a parameter the data do not
     determine costs nothing (its Occam factor tends to sqrt(2 pi / 12)) and a determined one costs
     log(W / (sqrt(2 pi) sigma)): the penalty grows with the prior range the data rule out, not with a fixed
-    count per parameter as AICc's (which outweighs small data sets: 30 per parameter at n = 6)."""
+    count per parameter as AICc's (which outweighs small data sets: 30 per parameter at n = 6).
+
+    ``held``: the columns of refining parameters, ``offsets`` their fitted values less their starts. Their
+    prior puts REFINED_AT_START at the start and the rest uniformly over the range: the evidence is the mixture
+    of the model with them free and with them held, the latter by the Savage-Dickey ratio (the free model's
+    Gaussian posterior density at the starts over the prior density there). Where the data pin them at
+    their starts (a square frame under a square machine) the held model carries the evidence, free of the
+    Occam factor a parameter the data rule out most of the range of would cost; where they exclude the starts,
+    the free one does."""
     a = jac.T @ jac + np.diag(12.0 / widths**2)
     sign, logdet = np.linalg.slogdet(a)
     if sign <= 0 or not math.isfinite(chi2):
         return -math.inf
     k = len(widths)
-    return float(-0.5 * chi2 - np.sum(np.log(widths)) + 0.5 * k * math.log(2 * math.pi) - 0.5 * logdet)
+    free = float(-0.5 * chi2 - np.sum(np.log(widths)) + 0.5 * k * math.log(2 * math.pi) - 0.5 * logdet)
+    if held is None or not len(held):
+        return free
+    cov = np.linalg.inv(a)[np.ix_(held, held)]
+    d = np.asarray(offsets, dtype=float)
+    sign_c, logdet_c = np.linalg.slogdet(cov)
+    if sign_c <= 0:
+        return free
+    log_posterior = float(-0.5 * d @ np.linalg.solve(cov, d) - 0.5 * logdet_c - 0.5 * len(held) * math.log(2 * math.pi))
+    at_start = free + log_posterior + float(np.sum(np.log(widths[held])))
+    return float(
+        scipy.special.logsumexp([math.log(1 - REFINED_AT_START) + free, math.log(REFINED_AT_START) + at_start])
+    )
 
 
 def tempered_log_evidence(fit: CandidateFit, scale: float = 1.0) -> float:
@@ -256,8 +284,11 @@ def tempered_log_evidence(fit: CandidateFit, scale: float = 1.0) -> float:
     if fit.state is None or not fit.state.evidence_terms or not math.isfinite(fit.log_evidence):
         return fit.log_evidence
     widths = prior_widths(fit.state.model)
+    held = fit.state.model.held_first()
     root = math.sqrt(scale)
-    terms = [log_evidence(jac / root, chi2 / scale, widths) for jac, chi2 in fit.state.evidence_terms]
+    terms = [
+        log_evidence(jac / root, chi2 / scale, widths, held, offsets) for jac, chi2, offsets in fit.state.evidence_terms
+    ]
     return float(scipy.special.logsumexp(terms) + fit.evidence_offset)
 
 
@@ -551,7 +582,9 @@ def fit_candidate(
         if not a - margin <= theta[j] <= b + margin:
             reasons.append(f"{p.name} = {v:.3g}{p.unit_suffix} outside the plausible range [{lo:.3g}, {hi:.3g}]")
     aicc = chi2 + 2 * k + 2 * k * (k + 1) / (data.n - k - 1) if data.n - k - 1 > 0 else math.inf
-    evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model))
+    held = model.held_first()
+    offsets = theta[held] - model.start()[0][held]
+    evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model), held, offsets)
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
     held_out, variance = _linear_leave_one_out(data, res.fun, jac)
@@ -572,7 +605,7 @@ def fit_candidate(
         log_evidence=evidence,
         outside_range=tuple(outside),
         placed_outside=tuple(placed),
-        state=FitState(model, theta, ((jac[:n_rows], chi2),)),
+        state=FitState(model, theta, ((jac[:n_rows], chi2, offsets),)),
     )
 
 
