@@ -193,6 +193,36 @@ def test_laplace_evidence_matches_the_integral_over_a_uniform_prior():
     assert cost == pytest.approx(0.5 * math.log(2 * math.pi / 12), rel=1e-9)
 
 
+def test_evidence_with_a_refinement_matches_the_integral_over_its_spike_and_slab_prior():
+    """The same linear model, its second parameter a refinement (the support's aspect): prior mass
+    REFINED_AT_START at its start (0), the rest uniform over its width. The mixture log_evidence gives (the
+    held part by the Savage-Dickey ratio) is the integral of exp(-chi^2/2) over that prior: half the box
+    integral and half the line integral at the start, the fit 0.2 from it."""
+    import scipy.integrate
+
+    from mountid.diagnosis.fitting import REFINED_AT_START, log_evidence
+
+    jac = np.array([[3.0, 0.5], [1.0, 2.0], [0.2, -1.5]])
+    widths = np.array([40.0, 60.0])
+    chi2_min, fitted = 2.5, np.array([0.1, 0.2])
+    a = jac.T @ jac
+
+    def chi2(x: float, y: float) -> float:
+        d = np.array([x, y]) - fitted
+        return chi2_min + d @ a @ d
+
+    box, _ = scipy.integrate.dblquad(
+        lambda y, x: math.exp(-0.5 * chi2(x, y)) / (widths[0] * widths[1]), -2.0, 2.0, -3.0, 3.0, epsabs=1e-14
+    )
+    line, _ = scipy.integrate.quad(lambda x: math.exp(-0.5 * chi2(x, 0.0)) / widths[0], -3.0, 3.0, epsabs=1e-14)
+    exact = (1 - REFINED_AT_START) * box + REFINED_AT_START * line
+    mixed = log_evidence(jac, chi2_min, widths, np.array([1]), fitted[1:])
+    assert mixed == pytest.approx(math.log(exact), abs=2e-3)
+    # held where the data exclude the start: the free model's evidence, less the prior's mass at the start
+    far = log_evidence(jac, chi2_min, widths, np.array([1]), np.array([5.0]))
+    assert far == pytest.approx(math.log(1 - REFINED_AT_START) + log_evidence(jac, chi2_min, widths), abs=1e-9)
+
+
 def test_damping_ratios_enter_the_fit_and_find_a_damping_scale():
     """Six frequencies and their damping ratios from the model with B doubled: the damping ratios enter the
     fit (six more data) and the nominal model's gap is in them."""
