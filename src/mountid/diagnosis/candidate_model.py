@@ -173,6 +173,16 @@ class CandidateModel:
         n = len(self.unknown)
         return np.array([n + i for i, p in enumerate(self.effect_parameters) if p.refines], dtype=int)
 
+    def with_refinements_at_start(self, vectors: list[np.ndarray]) -> list[np.ndarray]:
+        """Each flat vector with its refining parameters (held_first) set to their start values."""
+        held, start = self.held_first(), self.start()[0]
+        out = []
+        for x in vectors:
+            y = np.array(x, dtype=float)
+            y[held] = start[held]
+            out.append(y)
+        return out
+
     def plausible_box(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper ends of each effect parameter's plausible range in the units of the flat vector (log
         for positive ranges): the spread starts' box and the plausibility checks' reference."""

@@ -320,11 +320,10 @@ def pair_starts(
     better = pa if fa.chi2 <= fb.chi2 else pb
     both = {**nil, **pa, **pb, **better}
     starts = [model.vector({**nil, **pa}), model.vector({**nil, **pb}), model.vector(both)]
-    held = model.held_first()
-    if len(held):
+    if len(model.held_first()):
         # a member's refinement (the support's aspect) may have gone astray explaining the other member's part of
         # the gap alone: the same three with the refinements at their start values, screened beside them
-        starts += [np.where(np.isin(np.arange(len(x)), held), model.start()[0], x) for x in starts]
+        starts += model.with_refinements_at_start(starts)
     # a signed parameter with a local minimum on the wrong side (a height): both fitted values with it at half
     # its plausible bound on either side (they run only while the fit stays above noise level)
     for p in model.effect_parameters:
