@@ -154,7 +154,7 @@ def test_a_pair_fits_its_own_data_back(names):
     model = CandidateModel(campaign, both, isolator)
     singles = [fit_candidate(campaign, e, isolator if e.kind == "isolator" else None) for e in both.members]
     assert min(f.chi2 for f in singles) > 100  # neither member alone
-    fit = fit_candidate(campaign, both, isolator, starts=pair_starts(model, *singles))
+    fit = fit_candidate(campaign, both, isolator, starts=list(pair_starts(model, *singles).all))
     if names == ("rotational_stiffness", "drive_belt"):
         assert fit.chi2 < 5
         return

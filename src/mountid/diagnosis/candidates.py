@@ -28,6 +28,7 @@ import math
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -71,6 +72,21 @@ class ScreenedPair:
     def fits(self, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
         """Whether the promise is within the data's uncertainty (it may explain them as well)."""
         return _accepts(self.promised_chi2, self.n_data - self.n_parameters, settings)
+
+
+class _Promise(NamedTuple):
+    """One pair screened at one isolator (channel) in fit_pairs: the chi^2 its most promising start promises,
+    the isolator's index, every start (pair_starts) with the index of the most promising, its parameter count
+    (unknowns included) and the count its screen's BIC ranks it by (a refinement held at its start by half the
+    prior is not counted)."""
+
+    promise: float
+    pair: Pair
+    variant: int | None
+    starts: tuple[np.ndarray, ...]
+    n_parameters: int
+    first: int
+    ranked_parameters: int
 
 
 @dataclass(frozen=True)
@@ -220,22 +236,25 @@ def fit_pairs(
             starts = pair_starts(model, fa, fb, where)
             # screened from each member's fit with the other nil and from both fitted values together (a softer
             # isolator with a higher centre of mass: 185 from either member, 3.4 from both; the truth)
-            promised = promises(campaign, model, starts[: screened_starts(model)])
+            promised = promises(campaign, model, list(starts.screened))
             first = int(np.argmin(promised))
             # a refinement held at its start by half the prior (the support's aspect) is not a full parameter
             # in the ranking's BIC: counted as one, it pushed the true pair out of the fitted five
-            promising.append((promised[first], both, variant, starts, k, first, k - len(model.held_first())))
+            ranked = k - len(model.held_first())
+            promising.append(_Promise(promised[first], both, variant, starts.all, k, first, ranked))
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
     log_n = math.log(nominal.n_data)
-    promising.sort(key=lambda x: x[0] + x[6] * log_n)
+    promising.sort(key=lambda x: x.promise + x.ranked_parameters * log_n)
     # each pair's screened isolators (channels), most promising first, with the index of its most promising start
     by_pair: dict[str, tuple[Pair, int, list]] = {}
-    for promise, both, variant, starts, k, first, _ in promising:
-        by_pair.setdefault(both.name, (both, k, []))[2].append((promise, variant, tuple(starts), first))
+    for x in promising:
+        by_pair.setdefault(x.pair.name, (x.pair, x.n_parameters, []))[2].append(
+            (x.promise, x.variant, x.starts, x.first)
+        )
     # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
     # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
-    top = Counter(both.name for _, both, *_ in promising[: settings.pair_count])
+    top = Counter(x.pair.name for x in promising[: settings.pair_count])
     out = []
     for name in top:
         both, k, entries = by_pair[name]
@@ -308,34 +327,44 @@ def _best_fit(
     return replace(min(fits, key=lambda f: f.chi2), log_prior=math.log(settings.pair_prior))
 
 
-def pair_starts(
-    model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where: str | None = None
-) -> list[np.ndarray]:
-    """Starting vectors of a pair's fit from its members' single fits: the first member's fit with the second
-    nil (at its start values), the other way round, and both fitted values with the unknowns of the better. A
-    member fitted per isolator (channel) gives its fit at the pair's isolator ``where`` (its best isolator may
-    be another one, with a scatter of the other sign)."""
+@dataclass(frozen=True)
+class PairStarts:
+    """Starting vectors of a pair's fit (pair_starts): those its screen weighs, and further ones only a fit
+    runs from."""
+
+    screened: tuple[np.ndarray, ...]
+    further: tuple[np.ndarray, ...]
+
+    @property
+    def all(self) -> tuple[np.ndarray, ...]:
+        """Every start, the screened ones first."""
+        return (*self.screened, *self.further)
+
+
+def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where: str | None = None) -> PairStarts:
+    """Starting vectors of a pair's fit from its members' single fits. Screened: the first member's fit with the
+    second nil (at its start values), the other way round, and both fitted values with the unknowns of the
+    better; where the pair has refining parameters (the support's aspect), the same three with them at their
+    start values. Further: for a signed parameter that may have a minimum on either side (a height), both
+    fitted values with it at half its plausible bound on either side. A member fitted per isolator (channel)
+    gives its fit at the pair's isolator ``where`` (its best isolator may be another one, with a scatter of the
+    other sign)."""
     nil = {p.name: p.start * model.scales[p.scale] for p in model.effect_parameters}
     pa, pb = _parameters_at(fa, where), _parameters_at(fb, where)
     better = pa if fa.chi2 <= fb.chi2 else pb
     both = {**nil, **pa, **pb, **better}
-    starts = [model.vector({**nil, **pa}), model.vector({**nil, **pb}), model.vector(both)]
+    screened = [model.vector({**nil, **pa}), model.vector({**nil, **pb}), model.vector(both)]
     if len(model.held_first()):
-        # a member's refinement (the support's aspect) may have gone astray explaining the other member's part of
-        # the gap alone: the same three with the refinements at their start values, screened beside them
-        starts += model.with_refinements_at_start(starts)
-    # a signed parameter with a local minimum on the wrong side (a height): both fitted values with it at half
-    # its plausible bound on either side (they run only while the fit stays above noise level)
-    for p in model.effect_parameters:
-        if p.both_sides and p.signed:
-            starts += [model.vector({**both, p.name: b / 2 * model.scales[p.scale]}) for b in p.plausible]
-    return starts
-
-
-def screened_starts(model: CandidateModel) -> int:
-    """How many of pair_starts' starts a pair's screen weighs: the members' fits alone and together, and the
-    same with the refining parameters at their starts where the pair has any."""
-    return 6 if len(model.held_first()) else 3
+        # a member's refinement may have gone astray explaining the other member's part of the gap alone
+        screened += model.with_refinements_at_start(screened)
+    # a signed parameter with a local minimum on the wrong side: run only while the fit stays above noise level
+    further = [
+        model.vector({**both, p.name: b / 2 * model.scales[p.scale]})
+        for p in model.effect_parameters
+        if p.both_sides and p.signed
+        for b in p.plausible
+    ]
+    return PairStarts(tuple(screened), tuple(further))
 
 
 def _parameters_at(fit: CandidateFit, where: str | None) -> dict[str, float]:
