@@ -564,6 +564,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -586,6 +587,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_drive_belt": (
         "m",
@@ -4055,7 +4057,27 @@ def effect_foundation_derivatives(
 
 
 def effect_added_mass(
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, x_added, y_added, h_added, g_added
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a1,
+    a2,
+    b,
+    h,
+    gamma,
+    c_x,
+    c_y,
+    c_v1,
+    c_v2,
+    b_h,
+    b_v,
+    m_added,
+    x_added,
+    y_added,
+    h_added,
+    g_added,
+    a_added,
 ):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -4074,10 +4096,10 @@ def effect_added_mass(
           [z, z] = m_added
           [z, psi] = m_added*y_added
           [z, theta] = -m_added*x_added
-          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2)
           [psi, theta] = -m_added*x_added*y_added
           [psi, phi] = -h_added*m_added*x_added
-          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2 - a_added*g_added**2)
           [theta, phi] = -h_added*m_added*y_added
           [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
@@ -4103,6 +4125,7 @@ def effect_added_mass(
         y_added,
         h_added,
         g_added,
+        a_added,
     ) = _runtime.as_arrays(
         m,
         J_x,
@@ -4124,14 +4147,16 @@ def effect_added_mass(
         y_added,
         h_added,
         g_added,
+        a_added,
     )
     _tmp0 = h_added * m_added
     _tmp1 = m_added * y_added
     _tmp2 = m_added * x_added
-    _tmp3 = y_added**2
+    _tmp3 = h_added**2
     _tmp4 = g_added**2
-    _tmp5 = _tmp4 + h_added**2
-    _tmp6 = x_added**2
+    _tmp5 = _tmp4 * a_added
+    _tmp6 = _tmp4 + y_added**2
+    _tmp7 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4153,6 +4178,7 @@ def effect_added_mass(
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -4169,12 +4195,12 @@ def effect_added_mass(
                 (2, 2): m_added,
                 (2, 3): _tmp1,
                 (2, 4): -_tmp2,
-                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 3): m_added * (_tmp3 + _tmp5 + _tmp6),
                 (3, 4): -_tmp1 * x_added,
                 (3, 5): -_tmp0 * x_added,
-                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 4): m_added * (_tmp3 + _tmp4 - _tmp5 + _tmp7),
                 (4, 5): -_tmp0 * y_added,
-                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
+                (5, 5): m_added * (_tmp6 + _tmp7),
             },
         ),
         stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2) + _runtime.stack_matrix(_shape, 6, {}),
@@ -4183,10 +4209,30 @@ def effect_added_mass(
 
 
 def effect_added_mass_derivatives(
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, m_added, x_added, y_added, h_added, g_added
+    m,
+    J_x,
+    J_y,
+    J_z,
+    a1,
+    a2,
+    b,
+    h,
+    gamma,
+    c_x,
+    c_y,
+    c_v1,
+    c_v2,
+    b_h,
+    b_v,
+    m_added,
+    x_added,
+    y_added,
+    h_added,
+    g_added,
+    a_added,
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 11, 3, 6, 6), differentiated by sympy.
+    shape (..., 12, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -4251,10 +4297,10 @@ def effect_added_mass_derivatives(
           [z, z] = 1
           [z, psi] = y_added
           [z, theta] = -x_added
-          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2
           [psi, theta] = -x_added*y_added
           [psi, phi] = -h_added*x_added
-          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2 - a_added*g_added**2
           [theta, phi] = -h_added*y_added
           [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
@@ -4287,11 +4333,16 @@ def effect_added_mass_derivatives(
         dC/dh_added:
         dB/dh_added:
         dM/dg_added:
-          [psi, psi] = 2*g_added*m_added
-          [theta, theta] = 2*g_added*m_added
+          [psi, psi] = m_added*(2*g_added + 2*a_added*g_added)
+          [theta, theta] = m_added*(2*g_added - 2*a_added*g_added)
           [phi, phi] = 2*g_added*m_added
         dC/dg_added:
         dB/dg_added:
+        dM/da_added:
+          [psi, psi] = m_added*g_added**2
+          [theta, theta] = -m_added*g_added**2
+        dC/da_added:
+        dB/da_added:
     """
     (
         m,
@@ -4314,6 +4365,7 @@ def effect_added_mass_derivatives(
         y_added,
         h_added,
         g_added,
+        a_added,
     ) = _runtime.as_arrays(
         m,
         J_x,
@@ -4335,6 +4387,7 @@ def effect_added_mass_derivatives(
         y_added,
         h_added,
         g_added,
+        a_added,
     )
     _tmp0 = 8 * h
     _tmp1 = -_tmp0
@@ -4361,21 +4414,24 @@ def effect_added_mass_derivatives(
     _tmp22 = -_tmp11 + 4 * _tmp13 * h
     _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
     _tmp24 = 4 * _tmp4
-    _tmp25 = y_added**2
+    _tmp25 = h_added**2
     _tmp26 = g_added**2
-    _tmp27 = _tmp26 + h_added**2
-    _tmp28 = x_added**2
-    _tmp29 = -m_added
-    _tmp30 = m_added * y_added
-    _tmp31 = -_tmp30
-    _tmp32 = h_added * m_added
-    _tmp33 = -_tmp32
-    _tmp34 = m_added * x_added
-    _tmp35 = 2 * _tmp34
-    _tmp36 = 2 * _tmp30
-    _tmp37 = -_tmp34
-    _tmp38 = 2 * _tmp32
-    _tmp39 = 2 * g_added * m_added
+    _tmp27 = _tmp26 * a_added
+    _tmp28 = _tmp26 + y_added**2
+    _tmp29 = x_added**2
+    _tmp30 = -m_added
+    _tmp31 = m_added * y_added
+    _tmp32 = -_tmp31
+    _tmp33 = h_added * m_added
+    _tmp34 = -_tmp33
+    _tmp35 = m_added * x_added
+    _tmp36 = 2 * _tmp35
+    _tmp37 = 2 * _tmp31
+    _tmp38 = -_tmp35
+    _tmp39 = 2 * _tmp33
+    _tmp40 = 2 * g_added
+    _tmp41 = _tmp40 * a_added
+    _tmp42 = _tmp26 * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -4397,8 +4453,9 @@ def effect_added_mass_derivatives(
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
-    _out = numpy.zeros((*_shape, 33, 6, 6))
+    _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 4, 4] = _tmp3
@@ -4441,34 +4498,36 @@ def effect_added_mass_derivatives(
     _out[..., 18, 2, 2] = 1
     _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = y_added
     _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = -x_added
-    _out[..., 18, 3, 3] = _tmp25 + _tmp27
+    _out[..., 18, 3, 3] = _tmp25 + _tmp27 + _tmp28
     _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -x_added * y_added
     _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = -h_added * x_added
-    _out[..., 18, 4, 4] = _tmp27 + _tmp28
+    _out[..., 18, 4, 4] = _tmp25 + _tmp26 - _tmp27 + _tmp29
     _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = -h_added * y_added
-    _out[..., 18, 5, 5] = _tmp25 + _tmp26 + _tmp28
+    _out[..., 18, 5, 5] = _tmp28 + _tmp29
     _out[..., 21, 1, 5] = _out[..., 21, 5, 1] = m_added
-    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp29
-    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp31
-    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp33
-    _out[..., 21, 4, 4] = _tmp35
-    _out[..., 21, 5, 5] = _tmp35
-    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp29
+    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp30
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp32
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp34
+    _out[..., 21, 4, 4] = _tmp36
+    _out[..., 21, 5, 5] = _tmp36
+    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp30
     _out[..., 24, 2, 3] = _out[..., 24, 3, 2] = m_added
-    _out[..., 24, 3, 3] = _tmp36
-    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp37
-    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp33
-    _out[..., 24, 5, 5] = _tmp36
+    _out[..., 24, 3, 3] = _tmp37
+    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp38
+    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp34
+    _out[..., 24, 5, 5] = _tmp37
     _out[..., 27, 0, 4] = _out[..., 27, 4, 0] = m_added
-    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp29
-    _out[..., 27, 3, 3] = _tmp38
-    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp37
-    _out[..., 27, 4, 4] = _tmp38
-    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp31
-    _out[..., 30, 3, 3] = _tmp39
-    _out[..., 30, 4, 4] = _tmp39
-    _out[..., 30, 5, 5] = _tmp39
-    return _out.reshape(*_shape, 11, 3, 6, 6)
+    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp30
+    _out[..., 27, 3, 3] = _tmp39
+    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp38
+    _out[..., 27, 4, 4] = _tmp39
+    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp32
+    _out[..., 30, 3, 3] = m_added * (_tmp40 + _tmp41)
+    _out[..., 30, 4, 4] = m_added * (-_tmp41 + 2 * g_added)
+    _out[..., 30, 5, 5] = _tmp40 * m_added
+    _out[..., 33, 3, 3] = _tmp42
+    _out[..., 33, 4, 4] = -_tmp42
+    return _out.reshape(*_shape, 12, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt):
@@ -10446,7 +10505,20 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "found_aspect",
         "found_depth",
     ),
-    "added_mass": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "added_mass": (
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+        "a_added",
+    ),
     "drive_belt": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "k_belt", "h_belt"),
     "gravity_preload": ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v", "h_preload"),
 }

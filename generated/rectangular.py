@@ -294,6 +294,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -314,6 +315,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_drive_belt": (
         "m",
@@ -3190,7 +3192,7 @@ def effect_foundation_derivatives(
 
 
 def effect_added_mass(
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added
 ):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
@@ -3209,26 +3211,45 @@ def effect_added_mass(
           [z, z] = m_added
           [z, psi] = m_added*y_added
           [z, theta] = -m_added*x_added
-          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2)
           [psi, theta] = -m_added*x_added*y_added
           [psi, phi] = -h_added*m_added*x_added
-          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2)
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2 - a_added*g_added**2)
           [theta, phi] = -h_added*m_added*y_added
           [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added = (
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
         _runtime.as_arrays(
-            m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            c_x,
+            c_y,
+            c_z,
+            b_x,
+            b_y,
+            b_z,
+            m_added,
+            x_added,
+            y_added,
+            h_added,
+            g_added,
+            a_added,
         )
     )
     _tmp0 = h_added * m_added
     _tmp1 = m_added * y_added
     _tmp2 = m_added * x_added
-    _tmp3 = y_added**2
+    _tmp3 = h_added**2
     _tmp4 = g_added**2
-    _tmp5 = _tmp4 + h_added**2
-    _tmp6 = x_added**2
+    _tmp5 = _tmp4 * a_added
+    _tmp6 = _tmp4 + y_added**2
+    _tmp7 = x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3248,6 +3269,7 @@ def effect_added_mass(
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -3264,12 +3286,12 @@ def effect_added_mass(
                 (2, 2): m_added,
                 (2, 3): _tmp1,
                 (2, 4): -_tmp2,
-                (3, 3): m_added * (_tmp3 + _tmp5),
+                (3, 3): m_added * (_tmp3 + _tmp5 + _tmp6),
                 (3, 4): -_tmp1 * x_added,
                 (3, 5): -_tmp0 * x_added,
-                (4, 4): m_added * (_tmp5 + _tmp6),
+                (4, 4): m_added * (_tmp3 + _tmp4 - _tmp5 + _tmp7),
                 (4, 5): -_tmp0 * y_added,
-                (5, 5): m_added * (_tmp3 + _tmp4 + _tmp6),
+                (5, 5): m_added * (_tmp6 + _tmp7),
             },
         ),
         stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -3278,10 +3300,10 @@ def effect_added_mass(
 
 
 def effect_added_mass_derivatives(
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 11, 3, 6, 6), differentiated by sympy.
+    shape (..., 12, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -3335,10 +3357,10 @@ def effect_added_mass_derivatives(
           [z, z] = 1
           [z, psi] = y_added
           [z, theta] = -x_added
-          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2
           [psi, theta] = -x_added*y_added
           [psi, phi] = -h_added*x_added
-          [theta, theta] = g_added**2 + h_added**2 + x_added**2
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2 - a_added*g_added**2
           [theta, phi] = -h_added*y_added
           [phi, phi] = g_added**2 + x_added**2 + y_added**2
         dC/dm_added:
@@ -3371,15 +3393,38 @@ def effect_added_mass_derivatives(
         dC/dh_added:
         dB/dh_added:
         dM/dg_added:
-          [psi, psi] = 2*g_added*m_added
-          [theta, theta] = 2*g_added*m_added
+          [psi, psi] = m_added*(2*g_added + 2*a_added*g_added)
+          [theta, theta] = m_added*(2*g_added - 2*a_added*g_added)
           [phi, phi] = 2*g_added*m_added
         dC/dg_added:
         dB/dg_added:
+        dM/da_added:
+          [psi, psi] = m_added*g_added**2
+          [theta, theta] = -m_added*g_added**2
+        dC/da_added:
+        dB/da_added:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added = (
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
         _runtime.as_arrays(
-            m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added
+            m,
+            J_x,
+            J_y,
+            J_z,
+            a,
+            b,
+            h,
+            c_x,
+            c_y,
+            c_z,
+            b_x,
+            b_y,
+            b_z,
+            m_added,
+            x_added,
+            y_added,
+            h_added,
+            g_added,
+            a_added,
         )
     )
     _tmp0 = 4 * h
@@ -3387,21 +3432,24 @@ def effect_added_mass_derivatives(
     _tmp2 = 4 * h**2
     _tmp3 = 4 * b**2
     _tmp4 = 4 * a**2
-    _tmp5 = y_added**2
+    _tmp5 = h_added**2
     _tmp6 = g_added**2
-    _tmp7 = _tmp6 + h_added**2
-    _tmp8 = x_added**2
-    _tmp9 = -m_added
-    _tmp10 = m_added * y_added
-    _tmp11 = -_tmp10
-    _tmp12 = h_added * m_added
-    _tmp13 = -_tmp12
-    _tmp14 = m_added * x_added
-    _tmp15 = 2 * _tmp14
-    _tmp16 = 2 * _tmp10
-    _tmp17 = -_tmp14
-    _tmp18 = 2 * _tmp12
-    _tmp19 = 2 * g_added * m_added
+    _tmp7 = _tmp6 * a_added
+    _tmp8 = _tmp6 + y_added**2
+    _tmp9 = x_added**2
+    _tmp10 = -m_added
+    _tmp11 = m_added * y_added
+    _tmp12 = -_tmp11
+    _tmp13 = h_added * m_added
+    _tmp14 = -_tmp13
+    _tmp15 = m_added * x_added
+    _tmp16 = 2 * _tmp15
+    _tmp17 = 2 * _tmp11
+    _tmp18 = -_tmp15
+    _tmp19 = 2 * _tmp13
+    _tmp20 = 2 * g_added
+    _tmp21 = _tmp20 * a_added
+    _tmp22 = _tmp6 * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -3421,8 +3469,9 @@ def effect_added_mass_derivatives(
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
-    _out = numpy.zeros((*_shape, 33, 6, 6))
+    _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 4, 4] = _tmp2
@@ -3454,34 +3503,36 @@ def effect_added_mass_derivatives(
     _out[..., 18, 2, 2] = 1
     _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = y_added
     _out[..., 18, 2, 4] = _out[..., 18, 4, 2] = -x_added
-    _out[..., 18, 3, 3] = _tmp5 + _tmp7
+    _out[..., 18, 3, 3] = _tmp5 + _tmp7 + _tmp8
     _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = -x_added * y_added
     _out[..., 18, 3, 5] = _out[..., 18, 5, 3] = -h_added * x_added
-    _out[..., 18, 4, 4] = _tmp7 + _tmp8
+    _out[..., 18, 4, 4] = _tmp5 + _tmp6 - _tmp7 + _tmp9
     _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = -h_added * y_added
-    _out[..., 18, 5, 5] = _tmp5 + _tmp6 + _tmp8
+    _out[..., 18, 5, 5] = _tmp8 + _tmp9
     _out[..., 21, 1, 5] = _out[..., 21, 5, 1] = m_added
-    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp9
-    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp11
-    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp13
-    _out[..., 21, 4, 4] = _tmp15
-    _out[..., 21, 5, 5] = _tmp15
-    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp9
+    _out[..., 21, 2, 4] = _out[..., 21, 4, 2] = _tmp10
+    _out[..., 21, 3, 4] = _out[..., 21, 4, 3] = _tmp12
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp14
+    _out[..., 21, 4, 4] = _tmp16
+    _out[..., 21, 5, 5] = _tmp16
+    _out[..., 24, 0, 5] = _out[..., 24, 5, 0] = _tmp10
     _out[..., 24, 2, 3] = _out[..., 24, 3, 2] = m_added
-    _out[..., 24, 3, 3] = _tmp16
-    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp17
-    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp13
-    _out[..., 24, 5, 5] = _tmp16
+    _out[..., 24, 3, 3] = _tmp17
+    _out[..., 24, 3, 4] = _out[..., 24, 4, 3] = _tmp18
+    _out[..., 24, 4, 5] = _out[..., 24, 5, 4] = _tmp14
+    _out[..., 24, 5, 5] = _tmp17
     _out[..., 27, 0, 4] = _out[..., 27, 4, 0] = m_added
-    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp9
-    _out[..., 27, 3, 3] = _tmp18
-    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp17
-    _out[..., 27, 4, 4] = _tmp18
-    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp11
-    _out[..., 30, 3, 3] = _tmp19
-    _out[..., 30, 4, 4] = _tmp19
-    _out[..., 30, 5, 5] = _tmp19
-    return _out.reshape(*_shape, 11, 3, 6, 6)
+    _out[..., 27, 1, 3] = _out[..., 27, 3, 1] = _tmp10
+    _out[..., 27, 3, 3] = _tmp19
+    _out[..., 27, 3, 5] = _out[..., 27, 5, 3] = _tmp18
+    _out[..., 27, 4, 4] = _tmp19
+    _out[..., 27, 4, 5] = _out[..., 27, 5, 4] = _tmp12
+    _out[..., 30, 3, 3] = m_added * (_tmp20 + _tmp21)
+    _out[..., 30, 4, 4] = m_added * (-_tmp21 + 2 * g_added)
+    _out[..., 30, 5, 5] = _tmp20 * m_added
+    _out[..., 33, 3, 3] = _tmp22
+    _out[..., 33, 4, 4] = -_tmp22
+    return _out.reshape(*_shape, 12, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt):
@@ -5751,7 +5802,20 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "found_aspect",
         "found_depth",
     ),
-    "added_mass": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "added_mass": (
+        "c_x",
+        "c_y",
+        "c_z",
+        "b_x",
+        "b_y",
+        "b_z",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+        "a_added",
+    ),
     "drive_belt": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z", "h_preload"),
 }

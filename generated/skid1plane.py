@@ -261,6 +261,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_added_mass_derivatives": (
         "m",
@@ -280,6 +281,7 @@ ARGUMENTS = {
         "y_added",
         "h_added",
         "g_added",
+        "a_added",
     ),
     "effect_drive_belt": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
     "effect_drive_belt_derivatives": (
@@ -2479,7 +2481,9 @@ def effect_foundation_derivatives(
     return _out.reshape(*_shape, 10, 3, 12, 12)
 
 
-def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added):
+def effect_added_mass(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
+):
     """M, C, B of the model extended by the candidate effect added_mass (an unmodelled attached mass (drive, motor)),
     each of shape (..., 6, 6), coordinates x, y, z, psi, theta, phi; derived from the
     extended energies (mountid.engine.symbolic.effects).
@@ -2497,25 +2501,28 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
           [z, z] = m_added
           [z, psi] = m_added*y_added
           [z, theta] = -m_added*(x_added + e)
-          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2)
+          [psi, psi] = m_added*(g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2)
           [psi, theta] = -m_added*y_added*(x_added + e)
           [psi, phi] = -h_added*m_added*(x_added + e)
-          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2 + e**2 + 2*x_added*e)
+          [theta, theta] = m_added*(g_added**2 + h_added**2 + x_added**2 + e**2 - a_added*g_added**2 + 2*x_added*e)
           [theta, phi] = -h_added*m_added*y_added
           [phi, phi] = m_added*(g_added**2 + x_added**2 + y_added**2 + e**2 + 2*x_added*e)
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
+        )
     )
     _tmp0 = h_added * m_added
     _tmp1 = m_added * y_added
     _tmp2 = e + x_added
     _tmp3 = _tmp2 * m_added
-    _tmp4 = y_added**2
+    _tmp4 = h_added**2
     _tmp5 = g_added**2
-    _tmp6 = _tmp5 + h_added**2
-    _tmp7 = e**2 + 2 * e * x_added + x_added**2
+    _tmp6 = _tmp5 * a_added
+    _tmp7 = _tmp5 + y_added**2
+    _tmp8 = e**2 + 2 * e * x_added + x_added**2
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2534,6 +2541,7 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
     return (
         mass_matrix(m, J_x, J_y, J_z, e)
@@ -2550,12 +2558,12 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
                 (2, 2): m_added,
                 (2, 3): _tmp1,
                 (2, 4): -_tmp3,
-                (3, 3): m_added * (_tmp4 + _tmp6),
+                (3, 3): m_added * (_tmp4 + _tmp6 + _tmp7),
                 (3, 4): -_tmp1 * _tmp2,
                 (3, 5): -_tmp0 * _tmp2,
-                (4, 4): m_added * (_tmp6 + _tmp7),
+                (4, 4): m_added * (_tmp4 + _tmp5 - _tmp6 + _tmp8),
                 (4, 5): -_tmp0 * y_added,
-                (5, 5): m_added * (_tmp4 + _tmp5 + _tmp7),
+                (5, 5): m_added * (_tmp7 + _tmp8),
             },
         ),
         stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -2564,10 +2572,10 @@ def effect_added_mass(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added,
 
 
 def effect_added_mass_derivatives(
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
 ):
     """Derivatives of the M, C, B of effect_added_mass() with respect to EFFECT_DERIVATIVE_PARAMETERS['added_mass'],
-    shape (..., 9, 3, 6, 6), differentiated by sympy.
+    shape (..., 10, 3, 6, 6), differentiated by sympy.
 
     Non-zero upper-triangle entries:
 
@@ -2613,10 +2621,10 @@ def effect_added_mass_derivatives(
           [z, z] = 1
           [z, psi] = y_added
           [z, theta] = -x_added - e
-          [psi, psi] = g_added**2 + h_added**2 + y_added**2
+          [psi, psi] = g_added**2 + h_added**2 + y_added**2 + a_added*g_added**2
           [psi, theta] = -y_added*(x_added + e)
           [psi, phi] = -h_added*(x_added + e)
-          [theta, theta] = g_added**2 + h_added**2 + x_added**2 + e**2 + 2*x_added*e
+          [theta, theta] = g_added**2 + h_added**2 + x_added**2 + e**2 - a_added*g_added**2 + 2*x_added*e
           [theta, phi] = -h_added*y_added
           [phi, phi] = g_added**2 + x_added**2 + y_added**2 + e**2 + 2*x_added*e
         dC/dm_added:
@@ -2649,14 +2657,21 @@ def effect_added_mass_derivatives(
         dC/dh_added:
         dB/dh_added:
         dM/dg_added:
-          [psi, psi] = 2*g_added*m_added
-          [theta, theta] = 2*g_added*m_added
+          [psi, psi] = m_added*(2*g_added + 2*a_added*g_added)
+          [theta, theta] = m_added*(2*g_added - 2*a_added*g_added)
           [phi, phi] = 2*g_added*m_added
         dC/dg_added:
         dB/dg_added:
+        dM/da_added:
+          [psi, psi] = m_added*g_added**2
+          [theta, theta] = -m_added*g_added**2
+        dC/da_added:
+        dB/da_added:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added = _runtime.as_arrays(
-        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
+        _runtime.as_arrays(
+            m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
+        )
     )
     _tmp0 = 4 * h
     _tmp1 = -_tmp0
@@ -2665,21 +2680,24 @@ def effect_added_mass_derivatives(
     _tmp4 = 4 * b**2
     _tmp5 = _tmp3 + _tmp4
     _tmp6 = e + x_added
-    _tmp7 = y_added**2
+    _tmp7 = h_added**2
     _tmp8 = g_added**2
-    _tmp9 = _tmp8 + h_added**2
-    _tmp10 = 2 * x_added
-    _tmp11 = _tmp10 * e + e**2 + x_added**2
-    _tmp12 = -m_added
-    _tmp13 = m_added * y_added
-    _tmp14 = -_tmp13
-    _tmp15 = h_added * m_added
-    _tmp16 = -_tmp15
-    _tmp17 = m_added * (_tmp10 + 2 * e)
-    _tmp18 = 2 * _tmp13
-    _tmp19 = -_tmp6 * m_added
-    _tmp20 = 2 * _tmp15
-    _tmp21 = 2 * g_added * m_added
+    _tmp9 = _tmp8 * a_added
+    _tmp10 = _tmp8 + y_added**2
+    _tmp11 = 2 * x_added
+    _tmp12 = _tmp11 * e + e**2 + x_added**2
+    _tmp13 = -m_added
+    _tmp14 = m_added * y_added
+    _tmp15 = -_tmp14
+    _tmp16 = h_added * m_added
+    _tmp17 = -_tmp16
+    _tmp18 = m_added * (_tmp11 + 2 * e)
+    _tmp19 = 2 * _tmp14
+    _tmp20 = -_tmp6 * m_added
+    _tmp21 = 2 * _tmp16
+    _tmp22 = 2 * g_added
+    _tmp23 = _tmp22 * a_added
+    _tmp24 = _tmp8 * m_added
     _shape = numpy.broadcast_shapes(
         numpy.shape(m),
         numpy.shape(J_x),
@@ -2698,8 +2716,9 @@ def effect_added_mass_derivatives(
         numpy.shape(y_added),
         numpy.shape(h_added),
         numpy.shape(g_added),
+        numpy.shape(a_added),
     )
-    _out = numpy.zeros((*_shape, 27, 6, 6))
+    _out = numpy.zeros((*_shape, 30, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
     _out[..., 1, 1, 1] = 4
@@ -2729,34 +2748,36 @@ def effect_added_mass_derivatives(
     _out[..., 12, 2, 2] = 1
     _out[..., 12, 2, 3] = _out[..., 12, 3, 2] = y_added
     _out[..., 12, 2, 4] = _out[..., 12, 4, 2] = -_tmp6
-    _out[..., 12, 3, 3] = _tmp7 + _tmp9
+    _out[..., 12, 3, 3] = _tmp10 + _tmp7 + _tmp9
     _out[..., 12, 3, 4] = _out[..., 12, 4, 3] = -_tmp6 * y_added
     _out[..., 12, 3, 5] = _out[..., 12, 5, 3] = -_tmp6 * h_added
-    _out[..., 12, 4, 4] = _tmp11 + _tmp9
+    _out[..., 12, 4, 4] = _tmp12 + _tmp7 + _tmp8 - _tmp9
     _out[..., 12, 4, 5] = _out[..., 12, 5, 4] = -h_added * y_added
-    _out[..., 12, 5, 5] = _tmp11 + _tmp7 + _tmp8
+    _out[..., 12, 5, 5] = _tmp10 + _tmp12
     _out[..., 15, 1, 5] = _out[..., 15, 5, 1] = m_added
-    _out[..., 15, 2, 4] = _out[..., 15, 4, 2] = _tmp12
-    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = _tmp14
-    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp16
-    _out[..., 15, 4, 4] = _tmp17
-    _out[..., 15, 5, 5] = _tmp17
-    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = _tmp12
+    _out[..., 15, 2, 4] = _out[..., 15, 4, 2] = _tmp13
+    _out[..., 15, 3, 4] = _out[..., 15, 4, 3] = _tmp15
+    _out[..., 15, 3, 5] = _out[..., 15, 5, 3] = _tmp17
+    _out[..., 15, 4, 4] = _tmp18
+    _out[..., 15, 5, 5] = _tmp18
+    _out[..., 18, 0, 5] = _out[..., 18, 5, 0] = _tmp13
     _out[..., 18, 2, 3] = _out[..., 18, 3, 2] = m_added
-    _out[..., 18, 3, 3] = _tmp18
-    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp19
-    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp16
-    _out[..., 18, 5, 5] = _tmp18
+    _out[..., 18, 3, 3] = _tmp19
+    _out[..., 18, 3, 4] = _out[..., 18, 4, 3] = _tmp20
+    _out[..., 18, 4, 5] = _out[..., 18, 5, 4] = _tmp17
+    _out[..., 18, 5, 5] = _tmp19
     _out[..., 21, 0, 4] = _out[..., 21, 4, 0] = m_added
-    _out[..., 21, 1, 3] = _out[..., 21, 3, 1] = _tmp12
-    _out[..., 21, 3, 3] = _tmp20
-    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp19
-    _out[..., 21, 4, 4] = _tmp20
-    _out[..., 21, 4, 5] = _out[..., 21, 5, 4] = _tmp14
-    _out[..., 24, 3, 3] = _tmp21
-    _out[..., 24, 4, 4] = _tmp21
-    _out[..., 24, 5, 5] = _tmp21
-    return _out.reshape(*_shape, 9, 3, 6, 6)
+    _out[..., 21, 1, 3] = _out[..., 21, 3, 1] = _tmp13
+    _out[..., 21, 3, 3] = _tmp21
+    _out[..., 21, 3, 5] = _out[..., 21, 5, 3] = _tmp20
+    _out[..., 21, 4, 4] = _tmp21
+    _out[..., 21, 4, 5] = _out[..., 21, 5, 4] = _tmp15
+    _out[..., 24, 3, 3] = m_added * (_tmp22 + _tmp23)
+    _out[..., 24, 4, 4] = m_added * (-_tmp23 + 2 * g_added)
+    _out[..., 24, 5, 5] = _tmp22 * m_added
+    _out[..., 27, 3, 3] = _tmp24
+    _out[..., 27, 4, 4] = -_tmp24
+    return _out.reshape(*_shape, 10, 3, 6, 6)
 
 
 def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt):
@@ -4944,7 +4965,7 @@ EFFECT_DERIVATIVE_PARAMETERS = {
         "found_aspect",
         "found_depth",
     ),
-    "added_mass": ("c_h", "c_z", "b_h", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added"),
+    "added_mass": ("c_h", "c_z", "b_h", "b_z", "m_added", "x_added", "y_added", "h_added", "g_added", "a_added"),
     "drive_belt": ("c_h", "c_z", "b_h", "b_z", "k_belt", "h_belt"),
     "gravity_preload": ("c_h", "c_z", "b_h", "b_z", "h_preload"),
 }

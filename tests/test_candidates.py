@@ -62,7 +62,7 @@ ROUND_TRIP = {
     "cog_height": {"dz_com": 0.05},
     "rotational_stiffness": {"k_bend": 3e3, "k_torsion": 2e3},
     "frequency_dependent": {"rubber_strength": 0.3, "rubber_corner": 1.2},
-    "added_mass": {"m_added": 80.0, "x_added": 0.2, "y_added": -0.1, "h_added": 0.4, "g_added": 0.15},
+    "added_mass": {"m_added": 80.0, "x_added": 0.2, "y_added": -0.1, "h_added": 0.4, "g_added": 0.15, "a_added": 0.2},
     "drive_belt": {"k_belt": 2e4, "h_belt": 0.2},
     "gravity_preload": {"h_preload": 0.35},
     "damping": {"damping_scale": 3.0},

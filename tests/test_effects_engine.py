@@ -37,6 +37,7 @@ EFFECT_VALUES = {
     "y_added": -0.15,
     "h_added": 0.4,
     "g_added": 0.1,
+    "a_added": -0.3,
     "k_belt": 3.0e4,
     "h_belt": 0.2,
     "h_preload": 0.35,
@@ -128,7 +129,7 @@ def test_kid300_effects_match_an_independent_numpy_assembly():
     assert np.allclose(m, _body_mass(v["m"], inertia, np.array([v["dx_com"], v["dy_com"], 0.0])), rtol=1e-13)
     m, _, _ = effect("added_mass")
     where = np.array([v["x_added"], v["y_added"], v["h_added"]])
-    own = v["m_added"] * v["g_added"] ** 2 * np.eye(3)
+    own = v["m_added"] * v["g_added"] ** 2 * np.diag([1 + v["a_added"], 1 - v["a_added"], 1.0])
     assert np.allclose(m, m0 + _body_mass(v["m_added"], own, where), rtol=1e-13)
     _, c, _ = effect("drive_belt")
     row = np.array([1.0, 0, 0]) @ _jac(np.array([0, 0, v["h_belt"]]))

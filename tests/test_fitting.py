@@ -16,7 +16,7 @@ from mountid.validation import blind
 CASES = [
     (1, "foundation", "shapes", "kid300", "foundation"),
     (1, "foundation", "frequencies", "kid300", "foundation"),
-    (1, "added_mass", "damping", "kid300", "added_mass"),
+    (2, "added_mass", "damping", "kid300", "added_mass"),
     (2, "drive_belt", "shapes", "rectangular", "drive_belt"),
     (1, "cog_height", "shapes", "screen6", "added_mass"),  # a candidate that does not represent the truth
 ]

@@ -44,6 +44,7 @@ PAIRS = {
             "y_added": -0.1,
             "h_added": 0.3,
             "g_added": 0.1,
+            "a_added": 0.0,
         },
         None,
     ),

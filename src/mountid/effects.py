@@ -58,9 +58,9 @@ class EffectParameter:
     wrong side, as a height does). False where the machine's symmetry or the mode shapes decide the sign
     from any start (a horizontal position)."""
     refines: bool = False
-    """A refinement of the effect's shape (the support's aspect ratio): a fit from the default starts holds it
-    at its start, then releases it from the best fit, so the freedom it adds does not lead the search away from
-    the basins the effect without it reaches."""
+    """A refinement of the effect's shape (the support's aspect ratio, an attached body's anisotropy): a fit
+    from the default starts holds it at its start, then releases it from the best fit, so the freedom it adds
+    does not lead the search away from the basins the effect without it reaches."""
 
     @property
     def magnitude(self) -> bool:
@@ -239,7 +239,19 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.0,
                 0.5,
                 0.0,
-                "its radius of gyration about its own centre (a body, not a point)",
+                "its radius of gyration about its own vertical axis (a body, not a point)",
+            ),
+            _p(
+                "a_added",
+                "1",
+                "one",
+                -0.5,
+                0.5,
+                0.0,
+                "its own inertia about x and y, (1 + a) and (1 - a) times that about z (0: alike about every axis; "
+                "a motor with its shaft along x about -0.3)",
+                both_sides=False,
+                refines=True,
             ),
         ),
         "lowers every translational mode by the mass ratio and the rocking modes by m h^2, yaw by m (x^2 + y^2); "

@@ -229,8 +229,9 @@ def prior_widths(model: CandidateModel) -> np.ndarray:
 
 
 REFINED_AT_START = 0.5
-"""Prior probability that a refining parameter (EffectParameter.refines: the support's aspect) sits exactly at
-its start (a support as symmetric as the isolator layout); the rest is spread over its plausible range."""
+"""Prior probability that a refining parameter (EffectParameter.refines: the support's aspect, an attached
+body's anisotropy) sits exactly at its start (a support as symmetric as the isolator layout, a body alike about
+x and y); the rest is spread over its plausible range."""
 
 
 def log_evidence(

@@ -47,7 +47,10 @@ def _shifted_centre(shift: Callable[[dict[str, sp.Symbol]], sp.Matrix]) -> Calla
 def _added_mass(x: ExtendedModel) -> sp.Expr:
     s = x.symbols
     where = sp.Matrix([s["x_added"], s["y_added"], s["h_added"]])
-    own = s["m_added"] * s["g_added"] ** 2 * sp.eye(3)
+    # its own inertia about axes parallel to the machine's: (1 + a, 1 - a, 1) times m g^2 (a rigid body for
+    # |a| <= 1/2, where each moment is at most the sum of the other two)
+    a = s["a_added"]
+    own = s["m_added"] * s["g_added"] ** 2 * sp.diag(1 + a, 1 - a, 1)
     return rigid_body_kinetic_energy(s["m_added"], own, x.model.centre_of_mass + where, x.qdot[:6, 0])
 
 
