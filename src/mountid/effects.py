@@ -238,7 +238,7 @@ CATALOGUE: tuple[Effect, ...] = (
                 "length",
                 0.0,
                 0.5,
-                0.0,
+                0.1,
                 "its radius of gyration about its own vertical axis (a body, not a point)",
             ),
             _p(

@@ -416,6 +416,10 @@ away from its own minimum (its tolerance is looser than a fit's: a held-out erro
 HELD_WIDTH = 1e-9
 """Half-width of the search box around its start of a parameter held in a first fit (EffectParameter.refines)."""
 
+NUDGE = 0.02
+"""A refinement that a released fit (within POLISH times noise level) left at its start is released again from
+this share of its search range off the start, on a side whose residuals there are smaller (_least_squares)."""
+
 
 def noise_level(n_data: int, n_parameters: int) -> float:
     """chi^2 at noise level for a fit of ``n_parameters`` to ``n_data`` data: the mean plus three standard
@@ -469,6 +473,20 @@ def _least_squares(
         if released.cost <= best.cost:
             best = released
         lo, hi = full_lo, full_hi
+        width = full_hi[held] - full_lo[held]
+        stuck = np.all(np.abs(best.x[held] - at) < NUDGE * width / 10)
+        if stuck and not refit and 2 * best.cost <= POLISH * noise:
+            # at its start a refinement may sit on a kink: twins that the symmetric model leaves equal split by
+            # |a| (an attached body alike about x and y on the KID-300's axis), and the gradient there points
+            # back to the start from either side; released again from just off it on a side that fits better
+            for sign in (-1.0, 1.0):
+                x0 = best.x.copy()
+                x0[held] = at + sign * NUDGE * width
+                x0 = _inside(x0, lo, hi)
+                if 0.5 * float(np.sum(fun(x0) ** 2)) < best.cost:
+                    nudged = _solve(fun, jac, x0, lo, hi, refit, 100)
+                    if nudged.cost < best.cost:
+                        best = nudged
     if best.status == 0 and not refit and 2 * best.cost <= POLISH * noise:
         # the best start ran out of evaluations near noise level: carry it on (a candidate far from the data
         # keeps its rough minimum, its probability is nil either way)
