@@ -249,7 +249,7 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.5,
                 0.0,
                 "its own inertia about x and y, (1 + a) and (1 - a) times that about z (0: alike about every axis; "
-                "a motor with its shaft along x about -0.3)",
+                "below 0 for a motor with its shaft along x)",
                 both_sides=False,
                 refines=True,
             ),
