@@ -162,7 +162,7 @@ def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_
     pair 'a+b') at all: the data exceed the parameters by one, a pair's by DiagnosisSettings.pair_dof. Measured
     damping ratios (``n_ratios``) carry the damping parameters left to the fit (``n_free_damping``) and next to
     nothing of an effect on M and C, so both count apart: six frequencies and six ratios cannot test a
-    five-parameter support of a machine with three unknown stiffnesses and three unknown damping coefficients,
+    six-parameter support of a machine with three unknown stiffnesses and three unknown damping coefficients,
     as six frequencies alone cannot."""
     names = candidate.split("+")
     n, k = n_data, n_unknowns + sum(len(EFFECTS[name].parameters) for name in names)
