@@ -272,7 +272,8 @@ def fit_pairs(
                 campaign, CandidateModel(campaign, both, variant), np.asarray(starts[first]), SCREEN_EVALUATIONS
             )
             if chi2 + k * log_n < bar:
-                entries = [(entries[0][0], variant, (x, *starts), first), *entries[1:]]
+                # the short fit's end is now the first start and the most promising one
+                entries = [(entries[0][0], variant, (x, *starts), 0), *entries[1:]]
                 out.append(_pair_fit(campaign, both, entries, 1, settings))
     fitted = {f.effect for f in out}
     screened = [

@@ -417,8 +417,9 @@ HELD_WIDTH = 1e-9
 """Half-width of the search box around its start of a parameter held in a first fit (EffectParameter.refines)."""
 
 NUDGE = 0.02
-"""A refinement that a released fit (within POLISH times noise level) left at its start is released again from
-this share of its search range off the start, on a side whose residuals there are smaller (_least_squares)."""
+"""A refinement that a released fit (within POLISH times noise level) left at its start (within a tenth of this
+share of its search range) is released again from this share off the start, on a side whose residuals there are
+smaller (_least_squares)."""
 
 
 def noise_level(n_data: int, n_parameters: int) -> float:
