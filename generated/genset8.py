@@ -689,8 +689,8 @@ def mass_matrix(m, J_x, J_y, J_z):
         [theta, theta] = J_y
         [phi, phi] = J_z
     """
-    m, J_x, J_y, J_z = _runtime.as_arrays(m, J_x, J_y, J_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z))
+    m, J_x, J_y, J_z = _runtime.as_operands(m, J_x, J_y, J_z)
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z)
     return _runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z})
 
 
@@ -708,7 +708,7 @@ def stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
         [theta, theta] = 4*(c_v2*a2**2 + 2*c_x*h**2 + c_v1*a1**2*cos(gamma)**2 + c_y*a1**2*sin(gamma)**2)
         [phi, phi] = 4*(c_y*a2**2 + 2*c_x*b**2 + c_v1*a1**2*sin(gamma)**2 + c_y*a1**2*cos(gamma)**2)
     """
-    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = 8 * c_x
     _tmp1 = numpy.sin(gamma)
     _tmp2 = _tmp1**2
@@ -726,17 +726,7 @@ def stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     _tmp14 = a2**2
     _tmp15 = 2 * c_x
     _tmp16 = a1**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -774,7 +764,7 @@ def damping_matrix(a1, a2, b, h, gamma, b_h, b_v):
         [theta, theta] = 4*(b_v*a2**2 + 2*b_h*h**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2)
         [phi, phi] = 4*(b_h*a2**2 + 2*b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2)
     """
-    a1, a2, b, h, gamma, b_h, b_v = _runtime.as_arrays(a1, a2, b, h, gamma, b_h, b_v)
+    a1, a2, b, h, gamma, b_h, b_v = _runtime.as_operands(a1, a2, b, h, gamma, b_h, b_v)
     _tmp0 = 8 * b_h
     _tmp1 = numpy.cos(gamma)
     _tmp2 = _tmp1**2
@@ -792,15 +782,7 @@ def damping_matrix(a1, a2, b, h, gamma, b_h, b_v):
     _tmp14 = _tmp13 * b_h
     _tmp15 = a2**2
     _tmp16 = a1**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, b_h, b_v)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -826,7 +808,7 @@ def damping_matrix(a1, a2, b, h, gamma, b_h, b_v):
 
 def stiffness_gradient(a1, a2, b, h, gamma):
     """Derivatives dC/d(c_x, c_y, c_v1, c_v2) of the stiffness matrix, shape (..., 4, 6, 6)."""
-    a1, a2, b, h, gamma = _runtime.as_arrays(a1, a2, b, h, gamma)
+    a1, a2, b, h, gamma = _runtime.as_operands(a1, a2, b, h, gamma)
     _tmp0 = 8 * h
     _tmp1 = h**2
     _tmp2 = b**2
@@ -842,9 +824,7 @@ def stiffness_gradient(a1, a2, b, h, gamma):
     _tmp12 = _tmp11 * _tmp9
     _tmp13 = 4 * a2**2
     _tmp14 = _tmp11 * _tmp4
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h), numpy.shape(gamma)
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 0, 0] = 8
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
@@ -885,8 +865,8 @@ def point_jacobian(r_x, r_y, r_z):
         [z, psi] = r_y
         [z, theta] = -r_x
     """
-    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    r_x, r_y, r_z = _runtime.as_operands(r_x, r_y, r_z)
+    _shape = _runtime.batch_shape(r_x, r_y, r_z)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = 1
     _out[..., 0, 4] = r_z
@@ -912,24 +892,10 @@ def squared_frequencies(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c
         block {z}: lambda = (4*c_v2 + 4*c_v1*cos(gamma)**2 + 4*c_y*sin(gamma)**2)/m
         block {phi}: lambda = (4*c_y*a2**2 + 8*c_x*b**2 + 4*c_v1*a1**2*sin(gamma)**2 + 4*c_y*a1**2*cos(gamma)**2)/J_z
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.empty((6, *_shape))
     _v = {
         "m": m,
@@ -1101,7 +1067,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_
           [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
           [phi, phi] = 4*a1**2*sin(gamma)**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v
     )
     _tmp0 = 8 * a1
@@ -1167,23 +1133,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_
     _tmp60 = 4 * _tmp5 * h - _tmp52
     _tmp61 = _tmp27 * _tmp43 + _tmp38 * _tmp41 - _tmp54
     _tmp62 = 4 * _tmp41
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v)
     _out = numpy.zeros((*_shape, 45, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -1357,7 +1307,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a2**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2
     )
     _tmp0 = 8 * a1
@@ -1398,21 +1348,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp35 = _tmp18 * _tmp30
     _tmp36 = 4 * a2**2
     _tmp37 = _tmp24 * _tmp30
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 26, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -1701,7 +1637,7 @@ def identify_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1728,7 +1664,7 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1758,7 +1694,7 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1788,7 +1724,7 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1818,7 +1754,7 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1848,7 +1784,7 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1878,7 +1814,7 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1908,7 +1844,7 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2003,7 +1939,7 @@ def identify_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2030,7 +1966,7 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2261,7 +2197,7 @@ def identify_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -2487,7 +2423,7 @@ def identify_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2514,7 +2450,7 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2544,7 +2480,7 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2574,7 +2510,7 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2613,32 +2549,14 @@ def effect_com_offset(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
     )
     _tmp0 = dy_com * m
     _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(
@@ -2736,7 +2654,7 @@ def effect_com_offset_derivatives(
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com
     )
     _tmp0 = 8 * h
@@ -2769,25 +2687,7 @@ def effect_com_offset_derivatives(
     _tmp27 = dx_com * m
     _tmp28 = 2 * _tmp27
     _tmp29 = 2 * _tmp26
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dx_com, dy_com)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2850,29 +2750,12 @@ def effect_cog_height(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com
     )
     _tmp0 = dz_com * m
     _tmp1 = dz_com**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
@@ -2946,7 +2829,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com
     )
     _tmp0 = 8 * h
@@ -2975,24 +2858,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_
     _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
     _tmp24 = 4 * _tmp4
     _tmp25 = 2 * dz_com * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, dz_com)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -3050,29 +2916,13 @@ def effect_rotational_stiffness(
           [theta, theta] = 4*(2*k_bend + k_torsion*sin(gamma)**2 - k_bend*sin(gamma)**2)
           [phi, phi] = 4*(k_bend + k_torsion + k_torsion*cos(gamma)**2 - k_bend*cos(gamma)**2)
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
     )
     _tmp0 = numpy.sin(gamma) ** 2
     _tmp1 = numpy.cos(gamma) ** 2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
     )
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
@@ -3161,7 +3011,7 @@ def effect_rotational_stiffness_derivatives(
           [phi, phi] = 4 + 4*cos(gamma)**2
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
     )
     _tmp0 = 8 * h
@@ -3189,24 +3039,8 @@ def effect_rotational_stiffness_derivatives(
     _tmp22 = -_tmp11 + 4 * _tmp13 * h
     _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
     _tmp24 = 4 * _tmp4
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_bend, k_torsion
     )
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 8
@@ -3368,7 +3202,7 @@ def effect_foundation(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -3458,28 +3292,28 @@ def effect_foundation(
     _tmp64 = _tmp4 * _tmp59 + _tmp4 * _tmp60 + _tmp6 * b_v
     _tmp65 = 4 * _tmp64
     _tmp66 = 8 * _tmp2 * b_h + 4 * _tmp4 * _tmp52 + 4 * _tmp4 * _tmp53 + 4 * _tmp6 * b_h
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     return (
         _runtime.stack_matrix(
@@ -3808,7 +3642,7 @@ def effect_foundation_derivatives(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -3894,28 +3728,28 @@ def effect_foundation_derivatives(
     _tmp60 = _tmp4 * _tmp48 * found_aspect
     _tmp61 = 2 * found_depth * m_found
     _tmp62 = _tmp46 * _tmp59
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = 8
@@ -4126,7 +3960,7 @@ def effect_added_mass(
         h_added,
         g_added,
         a_added,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -4157,28 +3991,28 @@ def effect_added_mass(
     _tmp5 = _tmp4 * a_added
     _tmp6 = _tmp4 + y_added**2
     _tmp7 = x_added**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+        a_added,
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -4366,7 +4200,7 @@ def effect_added_mass_derivatives(
         h_added,
         g_added,
         a_added,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -4432,28 +4266,28 @@ def effect_added_mass_derivatives(
     _tmp40 = 2 * g_added
     _tmp41 = _tmp40 * a_added
     _tmp42 = _tmp26 * m_added
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a1,
+        a2,
+        b,
+        h,
+        gamma,
+        c_x,
+        c_y,
+        c_v1,
+        c_v2,
+        b_h,
+        b_v,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+        a_added,
     )
     _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 1, 0, 0] = 8
@@ -4544,28 +4378,10 @@ def effect_drive_belt(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
@@ -4645,7 +4461,7 @@ def effect_drive_belt_derivatives(
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt
     )
     _tmp0 = 8 * h
@@ -4673,25 +4489,7 @@ def effect_drive_belt_derivatives(
     _tmp22 = -_tmp11 + 4 * _tmp13 * h
     _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
     _tmp24 = 4 * _tmp4
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, k_belt, h_belt)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -4747,28 +4545,11 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
     )
     _tmp0 = -9.80665 * h_preload * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
@@ -4842,7 +4623,7 @@ def effect_gravity_preload_derivatives(
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload
     )
     _tmp0 = 8 * h
@@ -4871,24 +4652,7 @@ def effect_gravity_preload_derivatives(
     _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
     _tmp24 = 4 * _tmp4
     _tmp25 = -9.80665 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v, h_preload)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = 8
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -5076,7 +4840,7 @@ def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
           [theta, phi] = -b*c_x*h
           [phi, phi] = c_x*b**2 + c_y*a2**2
     """
-    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = c_x * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_x
@@ -5138,17 +4902,7 @@ def isolator_stiffness(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     _tmp58 = -_tmp53
     _tmp59 = -_tmp47
     _tmp60 = -_tmp38
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 0, 0, 0] = c_x
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -5540,7 +5294,7 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
           [psi, theta] = -a2*b
           [theta, theta] = a2**2
     """
-    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
@@ -5590,17 +5344,7 @@ def isolator_stiffness_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     _tmp46 = _tmp38 * a1
     _tmp47 = a2 * b
     _tmp48 = -_tmp47
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 32, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -5921,7 +5665,7 @@ def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
           [psi, theta] = -a2*b*c_v2
           [theta, theta] = c_v2*a2**2
     """
-    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_v1, c_v2)
     _tmp0 = numpy.sin(gamma)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_v1
@@ -5963,15 +5707,7 @@ def isolator_axial_stiffness(a1, a2, b, h, gamma, c_v1, c_v2):
     _tmp38 = -_tmp37
     _tmp39 = a2**2 * c_v2
     _tmp40 = -_tmp33
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 0, 1, 1] = _tmp2
     _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp6
@@ -6183,7 +5919,7 @@ def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
           [psi, theta] = -a2*b
           [theta, theta] = a2**2
     """
-    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_v1, c_v2)
     _tmp0 = numpy.sin(gamma)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.cos(gamma)
@@ -6217,15 +5953,7 @@ def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
     _tmp30 = -_tmp29
     _tmp31 = a2**2
     _tmp32 = -b
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 32, 6, 6))
     _out[..., 16, 1, 1] = _tmp1
     _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp4
@@ -6770,7 +6498,7 @@ def isolator_stiffness_on_foundation(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
           [theta_found, theta_found] = c_v2*a2**2
           [phi_found, phi_found] = c_x*b**2 + c_y*a2**2
     """
-    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = c_x * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_x
@@ -6859,17 +6587,7 @@ def isolator_stiffness_on_foundation(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     _tmp85 = -_tmp50
     _tmp86 = _tmp56 + _tmp81 * c_y
     _tmp87 = -_tmp86
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 0, 0, 0] = c_x
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -8057,7 +7775,7 @@ def isolator_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v
           [psi_found, theta_found] = -a2*b
           [theta_found, theta_found] = a2**2
     """
-    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
@@ -8129,17 +7847,7 @@ def isolator_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_x, c_y, c_v
     _tmp68 = -_tmp67
     _tmp69 = a2 * b
     _tmp70 = -_tmp69
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 32, 12, 12))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -9168,7 +8876,7 @@ def isolator_axial_stiffness_on_foundation(a1, a2, b, h, gamma, c_v1, c_v2):
           [psi_found, theta_found] = -a2*b*c_v2
           [theta_found, theta_found] = c_v2*a2**2
     """
-    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_v1, c_v2)
     _tmp0 = numpy.sin(gamma)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_v1
@@ -9228,15 +8936,7 @@ def isolator_axial_stiffness_on_foundation(a1, a2, b, h, gamma, c_v1, c_v2):
     _tmp56 = -_tmp53
     _tmp57 = a2**2 * c_v2
     _tmp58 = -_tmp57
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 0, 1, 1] = _tmp2
     _out[..., 0, 1, 2] = _out[..., 0, 2, 1] = _tmp6
@@ -9888,7 +9588,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_v1, c
           [psi_found, theta_found] = -a2*b
           [theta_found, theta_found] = a2**2
     """
-    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_arrays(a1, a2, b, h, gamma, c_v1, c_v2)
+    a1, a2, b, h, gamma, c_v1, c_v2 = _runtime.as_operands(a1, a2, b, h, gamma, c_v1, c_v2)
     _tmp0 = numpy.sin(gamma)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.cos(gamma)
@@ -9940,15 +9640,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a1, a2, b, h, gamma, c_v1, c
     _tmp48 = -_tmp22
     _tmp49 = a2**2
     _tmp50 = -_tmp49
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a1),
-        numpy.shape(a2),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(gamma),
-        numpy.shape(c_v1),
-        numpy.shape(c_v2),
-    )
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, c_v1, c_v2)
     _out = numpy.zeros((*_shape, 32, 12, 12))
     _out[..., 16, 1, 1] = _tmp1
     _out[..., 16, 1, 2] = _out[..., 16, 2, 1] = _tmp4
@@ -10270,8 +9962,8 @@ def isolator_points(a1, a2, b, h):
         outer[+x-y]: (a2, -b, -h)
         outer[-x-y]: (-a2, -b, -h)
     """
-    a1, a2, b, h = _runtime.as_arrays(a1, a2, b, h)
-    _shape = numpy.broadcast_shapes(numpy.shape(a1), numpy.shape(a2), numpy.shape(b), numpy.shape(h))
+    a1, a2, b, h = _runtime.as_operands(a1, a2, b, h)
+    _shape = _runtime.batch_shape(a1, a2, b, h)
     _out = numpy.zeros((*_shape, 3, 8))
     _out[..., 0, 0] = a1
     _out[..., 1, 0] = b
@@ -10311,7 +10003,7 @@ def effect_scales(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
     rotational = (b**2 + h**2 + a1**2/2 + a2**2/2)*(c_x/3 + c_v2/6 + c_y/6 + c_v1*cos(gamma)**2/6 + c_v1*sin(gamma)**2/6 + c_y*cos(gamma)**2/6 + c_y*sin(gamma)**2/6)
     one = 1
     """
-    m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_arrays(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
+    m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2 = _runtime.as_operands(m, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2)
     _tmp0 = (0.5) * a1**2 + (0.5) * a2**2 + b**2 + h**2
     _tmp1 = (0.16666666666666666) * c_y
     _tmp2 = numpy.sin(gamma) ** 2

@@ -271,8 +271,8 @@ def mass_matrix(m, J_xy, J_z):
         [theta, theta] = J_xy
         [phi, phi] = J_z
     """
-    m, J_xy, J_z = _runtime.as_arrays(m, J_xy, J_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_xy), numpy.shape(J_z))
+    m, J_xy, J_z = _runtime.as_operands(m, J_xy, J_z)
+    _shape = _runtime.batch_shape(m, J_xy, J_z)
     return _runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_xy, (4, 4): J_xy, (5, 5): J_z})
 
 
@@ -290,12 +290,12 @@ def stiffness_matrix(L_xy, L_z, c_xy, c_z):
         [theta, theta] = 2*(c_z*L_xy**2 + 2*c_xy*L_z**2)
         [phi, phi] = 4*c_xy*L_xy**2
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z, c_xy, c_z = _runtime.as_operands(L_xy, L_z, c_xy, c_z)
     _tmp0 = 4 * c_xy
     _tmp1 = L_z * _tmp0
     _tmp2 = L_xy**2
     _tmp3 = 4 * L_z**2 * c_xy + 2 * _tmp2 * c_z
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, c_xy, c_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -326,12 +326,12 @@ def damping_matrix(L_xy, L_z, b_xy, b_z):
         [theta, theta] = 2*(b_z*L_xy**2 + 2*b_xy*L_z**2)
         [phi, phi] = 4*b_xy*L_xy**2
     """
-    L_xy, L_z, b_xy, b_z = _runtime.as_arrays(L_xy, L_z, b_xy, b_z)
+    L_xy, L_z, b_xy, b_z = _runtime.as_operands(L_xy, L_z, b_xy, b_z)
     _tmp0 = 4 * b_xy
     _tmp1 = L_z * _tmp0
     _tmp2 = L_xy**2
     _tmp3 = 4 * L_z**2 * b_xy + 2 * _tmp2 * b_z
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(b_xy), numpy.shape(b_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, b_xy, b_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -350,12 +350,12 @@ def damping_matrix(L_xy, L_z, b_xy, b_z):
 
 def stiffness_gradient(L_xy, L_z):
     """Derivatives dC/d(c_xy, c_z) of the stiffness matrix, shape (..., 2, 6, 6)."""
-    L_xy, L_z = _runtime.as_arrays(L_xy, L_z)
+    L_xy, L_z = _runtime.as_operands(L_xy, L_z)
     _tmp0 = 4 * L_z
     _tmp1 = 4 * L_z**2
     _tmp2 = L_xy**2
     _tmp3 = 2 * _tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
+    _shape = _runtime.batch_shape(L_xy, L_z)
     _out = numpy.zeros((*_shape, 2, 6, 6))
     _out[..., 0, 0, 0] = 4
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
@@ -387,8 +387,8 @@ def point_jacobian(r_x, r_y, r_z):
         [z, psi] = r_y
         [z, theta] = -r_x
     """
-    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    r_x, r_y, r_z = _runtime.as_operands(r_x, r_y, r_z)
+    _shape = _runtime.batch_shape(r_x, r_y, r_z)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = 1
     _out[..., 0, 4] = r_z
@@ -414,16 +414,8 @@ def squared_frequencies(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
         block {z}: lambda = 4*c_z/m
         block {phi}: lambda = 4*c_xy*L_xy**2/J_z
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-    )
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
     _out = numpy.empty((6, *_shape))
     _v = {"m": m, "J_xy": J_xy, "J_z": J_z, "L_xy": L_xy, "L_z": L_z, "c_xy": c_xy, "c_z": c_z}
     # block {x, theta}: upper root from a sum of squares, lower from the root product
@@ -515,7 +507,7 @@ def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
     _tmp0 = 4 * L_xy
     _tmp1 = _tmp0 * c_z
     _tmp2 = 8 * L_xy
@@ -531,17 +523,7 @@ def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
     _tmp12 = L_xy**2
     _tmp13 = 4 * _tmp12
     _tmp14 = 2 * _tmp12
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
     _out = numpy.zeros((*_shape, 27, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -629,7 +611,7 @@ def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
           [psi, psi] = 2*L_xy**2
           [theta, theta] = 2*L_xy**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
     _tmp0 = 4 * L_xy * c_z
     _tmp1 = 8 * c_xy
     _tmp2 = 4 * c_xy
@@ -638,15 +620,7 @@ def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
     _tmp5 = 4 * L_z**2
     _tmp6 = L_xy**2
     _tmp7 = 2 * _tmp6
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z)
     _out = numpy.zeros((*_shape, 14, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -723,7 +697,7 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
+    m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
     return _runtime.solve_inverse(
         _roots_x_z,
         _model,
@@ -778,7 +752,7 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
+    m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
     return _runtime.solve_inverse(
         _roots_x_psi,
         _model,
@@ -829,7 +803,7 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
+    m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
     return _runtime.solve_inverse(
         _roots_x_phi,
         _model,
@@ -878,7 +852,7 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
+    m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
     return _runtime.solve_inverse(
         _roots_z_psi,
         _model,
@@ -925,7 +899,7 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
+    m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
     return _runtime.solve_inverse(
         _roots_z_phi,
         _model,
@@ -979,7 +953,7 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_arrays(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
+    m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
     return _runtime.solve_inverse(
         _roots_psi_phi,
         _model,
@@ -1013,26 +987,14 @@ def effect_com_offset(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com
     )
     _tmp0 = dy_com * m
     _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
     return (
         mass_matrix(m, J_xy, J_z)
         + _runtime.stack_matrix(
@@ -1109,7 +1071,7 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * L_z
@@ -1123,19 +1085,7 @@ def effect_com_offset_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
     _tmp8 = dx_com * m
     _tmp9 = 2 * _tmp8
     _tmp10 = 2 * _tmp7
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dx_com, dy_com)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -1185,23 +1135,12 @@ def effect_cog_height(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com):
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com
     )
     _tmp0 = dz_com * m
     _tmp1 = dz_com**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
     return (
         mass_matrix(m, J_xy, J_z)
         + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
@@ -1256,7 +1195,7 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com
     )
     _tmp0 = 4 * L_z
@@ -1266,18 +1205,7 @@ def effect_cog_height_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
     _tmp4 = 4 * _tmp3
     _tmp5 = 2 * _tmp3
     _tmp6 = 2 * dz_com * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, dz_com)
     _out = numpy.zeros((*_shape, 15, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -1320,23 +1248,11 @@ def effect_rotational_stiffness(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * k_bend
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
     return (
         mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(L_xy, L_z, c_xy, c_z)
@@ -1393,7 +1309,7 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * L_z
@@ -1402,19 +1318,7 @@ def effect_rotational_stiffness_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, 
     _tmp3 = L_xy**2
     _tmp4 = 4 * _tmp3
     _tmp5 = 2 * _tmp3
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_bend, k_torsion)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -1545,7 +1449,7 @@ def effect_foundation(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_xy,
         J_z,
@@ -1597,22 +1501,22 @@ def effect_foundation(
     _tmp32 = 2 * _tmp30
     _tmp33 = -_tmp32
     _tmp34 = _tmp2 * _tmp25
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     return (
         _runtime.stack_matrix(
@@ -1849,7 +1753,7 @@ def effect_foundation_derivatives(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_xy,
         J_z,
@@ -1895,22 +1799,22 @@ def effect_foundation_derivatives(
     _tmp26 = _tmp15 * found_aspect
     _tmp27 = 2 * found_depth * m_found
     _tmp28 = 2 * _tmp12 * k_found
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_xy,
+        J_z,
+        L_xy,
+        L_z,
+        c_xy,
+        c_z,
+        b_xy,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _out = numpy.zeros((*_shape, 30, 12, 12))
     _out[..., 1, 0, 0] = 4
@@ -2029,7 +1933,7 @@ def effect_added_mass(
         C:
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added
         )
     )
@@ -2041,22 +1945,8 @@ def effect_added_mass(
     _tmp5 = _tmp4 * a_added
     _tmp6 = _tmp4 + y_added**2
     _tmp7 = x_added**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     return (
         mass_matrix(m, J_xy, J_z)
@@ -2184,7 +2074,7 @@ def effect_added_mass_derivatives(
         dB/da_added:
     """
     m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added
         )
     )
@@ -2212,22 +2102,8 @@ def effect_added_mass_derivatives(
     _tmp21 = 2 * g_added
     _tmp22 = _tmp21 * a_added
     _tmp23 = _tmp7 * m_added
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     _out = numpy.zeros((*_shape, 30, 6, 6))
     _out[..., 1, 0, 0] = 4
@@ -2305,22 +2181,10 @@ def effect_drive_belt(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_b
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
     return (
         mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(L_xy, L_z, c_xy, c_z)
@@ -2379,7 +2243,7 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * L_z
@@ -2388,19 +2252,7 @@ def effect_drive_belt_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z,
     _tmp3 = L_xy**2
     _tmp4 = 4 * _tmp3
     _tmp5 = 2 * _tmp3
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, k_belt, h_belt)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2443,22 +2295,11 @@ def effect_gravity_preload(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_prel
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload
     )
     _tmp0 = -9.80665 * h_preload * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
     return (
         mass_matrix(m, J_xy, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(L_xy, L_z, c_xy, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
@@ -2510,7 +2351,7 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_arrays(
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload = _runtime.as_operands(
         m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload
     )
     _tmp0 = 4 * L_z
@@ -2520,18 +2361,7 @@ def effect_gravity_preload_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy,
     _tmp4 = 4 * _tmp3
     _tmp5 = 2 * _tmp3
     _tmp6 = -9.80665 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_xy),
-        numpy.shape(J_z),
-        numpy.shape(L_xy),
-        numpy.shape(L_z),
-        numpy.shape(c_xy),
-        numpy.shape(c_z),
-        numpy.shape(b_xy),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z, h_preload)
     _out = numpy.zeros((*_shape, 15, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2630,7 +2460,7 @@ def isolator_stiffness(L_xy, L_z, c_xy, c_z):
           [theta, phi] = -L_xy*L_z*c_xy*sqrt(2)/2
           [phi, phi] = c_xy*L_xy**2
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z, c_xy, c_z = _runtime.as_operands(L_xy, L_z, c_xy, c_z)
     _tmp0 = L_z * c_xy
     _tmp1 = -_tmp0
     _tmp2 = numpy.sqrt(2) * L_xy
@@ -2647,7 +2477,7 @@ def isolator_stiffness(L_xy, L_z, c_xy, c_z):
     _tmp13 = _tmp0 * _tmp3
     _tmp14 = _tmp9 * c_xy
     _tmp15 = -_tmp13
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, c_xy, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 0, 0] = c_xy
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -2795,7 +2625,7 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
           [psi, theta] = -L_xy**2/2
           [theta, theta] = L_xy**2/2
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z, c_xy, c_z = _runtime.as_operands(L_xy, L_z, c_xy, c_z)
     _tmp0 = -L_z
     _tmp1 = (0.5) * numpy.sqrt(2) * L_xy
     _tmp2 = -_tmp1
@@ -2805,7 +2635,7 @@ def isolator_stiffness_gradient(L_xy, L_z, c_xy, c_z):
     _tmp6 = -_tmp4
     _tmp7 = (0.5) * _tmp5
     _tmp8 = -_tmp7
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, c_xy, c_z)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -2914,13 +2744,13 @@ def isolator_axial_stiffness(L_xy, c_z):
           [psi, theta] = -c_z*L_xy**2/2
           [theta, theta] = c_z*L_xy**2/2
     """
-    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    L_xy, c_z = _runtime.as_operands(L_xy, c_z)
     _tmp0 = (0.5) * c_z
     _tmp1 = numpy.sqrt(2) * L_xy * _tmp0
     _tmp2 = -_tmp1
     _tmp3 = L_xy**2 * _tmp0
     _tmp4 = -_tmp3
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp1
@@ -2988,12 +2818,12 @@ def isolator_axial_stiffness_gradient(L_xy, c_z):
           [psi, theta] = -L_xy**2/2
           [theta, theta] = L_xy**2/2
     """
-    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    L_xy, c_z = _runtime.as_operands(L_xy, c_z)
     _tmp0 = (0.5) * numpy.sqrt(2) * L_xy
     _tmp1 = -_tmp0
     _tmp2 = (0.5) * L_xy**2
     _tmp3 = -_tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, c_z)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 4, 2, 2] = 1
     _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp0
@@ -3218,7 +3048,7 @@ def isolator_stiffness_on_foundation(L_xy, L_z, c_xy, c_z):
           [theta_found, theta_found] = c_z*L_xy**2/2
           [phi_found, phi_found] = c_xy*L_xy**2
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z, c_xy, c_z = _runtime.as_operands(L_xy, L_z, c_xy, c_z)
     _tmp0 = L_z * c_xy
     _tmp1 = -_tmp0
     _tmp2 = numpy.sqrt(2) * L_xy
@@ -3238,7 +3068,7 @@ def isolator_stiffness_on_foundation(L_xy, L_z, c_xy, c_z):
     _tmp16 = -_tmp15
     _tmp17 = _tmp11 * c_xy
     _tmp18 = -_tmp17
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, c_xy, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 0, 0] = c_xy
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -3634,7 +3464,7 @@ def isolator_stiffness_on_foundation_gradient(L_xy, L_z, c_xy, c_z):
           [psi_found, theta_found] = -L_xy**2/2
           [theta_found, theta_found] = L_xy**2/2
     """
-    L_xy, L_z, c_xy, c_z = _runtime.as_arrays(L_xy, L_z, c_xy, c_z)
+    L_xy, L_z, c_xy, c_z = _runtime.as_operands(L_xy, L_z, c_xy, c_z)
     _tmp0 = -L_z
     _tmp1 = (0.5) * numpy.sqrt(2) * L_xy
     _tmp2 = -_tmp1
@@ -3645,7 +3475,7 @@ def isolator_stiffness_on_foundation_gradient(L_xy, L_z, c_xy, c_z):
     _tmp7 = -_tmp6
     _tmp8 = (0.5) * _tmp6
     _tmp9 = -_tmp8
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z), numpy.shape(c_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, L_z, c_xy, c_z)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -3938,14 +3768,14 @@ def isolator_axial_stiffness_on_foundation(L_xy, c_z):
           [psi_found, theta_found] = -c_z*L_xy**2/2
           [theta_found, theta_found] = c_z*L_xy**2/2
     """
-    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    L_xy, c_z = _runtime.as_operands(L_xy, c_z)
     _tmp0 = (0.5) * c_z
     _tmp1 = numpy.sqrt(2) * L_xy * _tmp0
     _tmp2 = -_tmp1
     _tmp3 = -c_z
     _tmp4 = L_xy**2 * _tmp0
     _tmp5 = -_tmp4
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp1
@@ -4133,12 +3963,12 @@ def isolator_axial_stiffness_on_foundation_gradient(L_xy, c_z):
           [psi_found, theta_found] = -L_xy**2/2
           [theta_found, theta_found] = L_xy**2/2
     """
-    L_xy, c_z = _runtime.as_arrays(L_xy, c_z)
+    L_xy, c_z = _runtime.as_operands(L_xy, c_z)
     _tmp0 = (0.5) * numpy.sqrt(2) * L_xy
     _tmp1 = -_tmp0
     _tmp2 = (0.5) * L_xy**2
     _tmp3 = -_tmp2
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(L_xy, c_z)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 4, 2, 2] = 1
     _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = _tmp0
@@ -4236,8 +4066,8 @@ def isolator_points(L_xy, L_z):
         corner[+x-y]: (L_xy*sqrt(2)/2, -L_xy*sqrt(2)/2, -L_z)
         corner[-x-y]: (-L_xy*sqrt(2)/2, -L_xy*sqrt(2)/2, -L_z)
     """
-    L_xy, L_z = _runtime.as_arrays(L_xy, L_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(L_xy), numpy.shape(L_z))
+    L_xy, L_z = _runtime.as_operands(L_xy, L_z)
+    _shape = _runtime.batch_shape(L_xy, L_z)
     _out = numpy.zeros((*_shape, 3, 4))
     _out[..., 0, 0] = (0.5) * numpy.sqrt(2) * L_xy
     _out[..., 1, 0] = (0.5) * numpy.sqrt(2) * L_xy
@@ -4265,7 +4095,7 @@ def effect_scales(m, L_xy, L_z, c_xy, c_z):
     rotational = (L_xy**2 + L_z**2)*(c_z/3 + 2*c_xy/3)
     one = 1
     """
-    m, L_xy, L_z, c_xy, c_z = _runtime.as_arrays(m, L_xy, L_z, c_xy, c_z)
+    m, L_xy, L_z, c_xy, c_z = _runtime.as_operands(m, L_xy, L_z, c_xy, c_z)
     _tmp0 = L_xy**2 + L_z**2
     _tmp1 = (0.6666666666666666) * c_xy + (0.3333333333333333) * c_z
     return {

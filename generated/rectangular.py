@@ -409,8 +409,8 @@ def mass_matrix(m, J_x, J_y, J_z):
         [theta, theta] = J_y
         [phi, phi] = J_z
     """
-    m, J_x, J_y, J_z = _runtime.as_arrays(m, J_x, J_y, J_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z))
+    m, J_x, J_y, J_z = _runtime.as_operands(m, J_x, J_y, J_z)
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z)
     return _runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z})
 
 
@@ -428,15 +428,13 @@ def stiffness_matrix(a, b, h, c_x, c_y, c_z):
         [theta, theta] = 4*(c_x*h**2 + c_z*a**2)
         [phi, phi] = 4*(c_x*b**2 + c_y*a**2)
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h, c_x, c_y, c_z = _runtime.as_operands(a, b, h, c_x, c_y, c_z)
     _tmp0 = 4 * c_x
     _tmp1 = 4 * c_y
     _tmp2 = b**2
     _tmp3 = h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, c_x, c_y, c_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -467,15 +465,13 @@ def damping_matrix(a, b, h, b_x, b_y, b_z):
         [theta, theta] = 4*(b_x*h**2 + b_z*a**2)
         [phi, phi] = 4*(b_x*b**2 + b_y*a**2)
     """
-    a, b, h, b_x, b_y, b_z = _runtime.as_arrays(a, b, h, b_x, b_y, b_z)
+    a, b, h, b_x, b_y, b_z = _runtime.as_operands(a, b, h, b_x, b_y, b_z)
     _tmp0 = 4 * b_x
     _tmp1 = 4 * b_y
     _tmp2 = b**2
     _tmp3 = h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(b_x), numpy.shape(b_y), numpy.shape(b_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, b_x, b_y, b_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -494,12 +490,12 @@ def damping_matrix(a, b, h, b_x, b_y, b_z):
 
 def stiffness_gradient(a, b, h):
     """Derivatives dC/d(c_x, c_y, c_z) of the stiffness matrix, shape (..., 3, 6, 6)."""
-    a, b, h = _runtime.as_arrays(a, b, h)
+    a, b, h = _runtime.as_operands(a, b, h)
     _tmp0 = 4 * h
     _tmp1 = 4 * h**2
     _tmp2 = 4 * b**2
     _tmp3 = 4 * a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    _shape = _runtime.batch_shape(a, b, h)
     _out = numpy.zeros((*_shape, 3, 6, 6))
     _out[..., 0, 0, 0] = 4
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
@@ -532,8 +528,8 @@ def point_jacobian(r_x, r_y, r_z):
         [z, psi] = r_y
         [z, theta] = -r_x
     """
-    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    r_x, r_y, r_z = _runtime.as_operands(r_x, r_y, r_z)
+    _shape = _runtime.batch_shape(r_x, r_y, r_z)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = 1
     _out[..., 0, 4] = r_z
@@ -559,19 +555,8 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
         block {z}: lambda = 4*c_z/m
         block {phi}: lambda = (4*c_x*b**2 + 4*c_y*a**2)/J_z
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-    )
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_operands(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
     _out = numpy.empty((6, *_shape))
     _v = {"m": m, "J_x": J_x, "J_y": J_y, "J_z": J_z, "a": a, "b": b, "h": h, "c_x": c_x, "c_y": c_y, "c_z": c_z}
     # block {x, theta}: upper root from a sum of squares, lower from the root product
@@ -684,7 +669,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z
     )
     _tmp0 = 8 * a
@@ -695,21 +680,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
     _tmp5 = 4 * h**2
     _tmp6 = 4 * b**2
     _tmp7 = 4 * a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z)
     _out = numpy.zeros((*_shape, 39, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -809,7 +780,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z = _runtime.as_operands(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
     _tmp0 = 8 * a
     _tmp1 = 8 * b
     _tmp2 = 8 * h
@@ -817,18 +788,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
     _tmp4 = 4 * h**2
     _tmp5 = 4 * b**2
     _tmp6 = 4 * a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z)
     _out = numpy.zeros((*_shape, 20, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -911,7 +871,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z
     )
     return _runtime.solve_inverse(
@@ -980,7 +940,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1041,7 +1001,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1137,7 +1097,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1192,7 +1152,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1245,7 +1205,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1306,7 +1266,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1402,7 +1362,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1461,7 +1421,7 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1516,7 +1476,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1579,7 +1539,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1648,7 +1608,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1707,7 +1667,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1804,7 +1764,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1859,7 +1819,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1922,7 +1882,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1975,7 +1935,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2072,7 +2032,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2108,30 +2068,14 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com
     )
     _tmp0 = dy_com * m
     _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(
@@ -2216,7 +2160,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * h
@@ -2229,23 +2173,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     _tmp7 = dx_com * m
     _tmp8 = 2 * _tmp7
     _tmp9 = 2 * _tmp6
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dx_com, dy_com)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2297,27 +2225,12 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, d
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com
     )
     _tmp0 = dz_com * m
     _tmp1 = dz_com**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
@@ -2380,7 +2293,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com
     )
     _tmp0 = 4 * h
@@ -2389,22 +2302,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     _tmp3 = 4 * b**2
     _tmp4 = 4 * a**2
     _tmp5 = 2 * dz_com * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, dz_com)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2449,27 +2347,11 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * k_bend
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_x, c_y, c_z)
@@ -2534,7 +2416,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * h
@@ -2542,23 +2424,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y,
     _tmp2 = 4 * h**2
     _tmp3 = 4 * b**2
     _tmp4 = 4 * a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_bend, k_torsion)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2699,7 +2565,7 @@ def effect_foundation(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -2750,26 +2616,26 @@ def effect_foundation(
     _tmp27 = _tmp26 * _tmp3
     _tmp28 = _tmp2 * _tmp26
     _tmp29 = 4 * _tmp2 * b_y + 4 * _tmp3 * b_x
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     return (
         _runtime.stack_matrix(
@@ -3026,7 +2892,7 @@ def effect_foundation_derivatives(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -3076,26 +2942,26 @@ def effect_foundation_derivatives(
     _tmp26 = _tmp15 * _tmp4 * found_aspect
     _tmp27 = 2 * found_depth * m_found
     _tmp28 = _tmp13 * _tmp21
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        c_x,
+        c_y,
+        c_z,
+        b_x,
+        b_y,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = 4
@@ -3220,7 +3086,7 @@ def effect_added_mass(
         C:
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m,
             J_x,
             J_y,
@@ -3250,26 +3116,8 @@ def effect_added_mass(
     _tmp5 = _tmp4 * a_added
     _tmp6 = _tmp4 + y_added**2
     _tmp7 = x_added**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -3405,7 +3253,7 @@ def effect_added_mass_derivatives(
         dB/da_added:
     """
     m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m,
             J_x,
             J_y,
@@ -3450,26 +3298,8 @@ def effect_added_mass_derivatives(
     _tmp20 = 2 * g_added
     _tmp21 = _tmp20 * a_added
     _tmp22 = _tmp6 * m_added
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 1, 0, 0] = 4
@@ -3549,26 +3379,10 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_x, c_y, c_z)
@@ -3635,7 +3449,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * h
@@ -3643,23 +3457,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x,
     _tmp2 = 4 * h**2
     _tmp3 = 4 * b**2
     _tmp4 = 4 * a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, k_belt, h_belt)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -3704,26 +3502,11 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload
     )
     _tmp0 = -9.80665 * h_preload * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_x, c_y, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
@@ -3783,7 +3566,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload
     )
     _tmp0 = 4 * h
@@ -3792,22 +3575,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z,
     _tmp3 = 4 * b**2
     _tmp4 = 4 * a**2
     _tmp5 = -9.80665 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_x),
-        numpy.shape(c_y),
-        numpy.shape(c_z),
-        numpy.shape(b_x),
-        numpy.shape(b_y),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z, h_preload)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -3908,7 +3676,7 @@ def isolator_stiffness(a, b, h, c_x, c_y, c_z):
           [theta, phi] = -b*c_x*h
           [phi, phi] = c_x*b**2 + c_y*a**2
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h, c_x, c_y, c_z = _runtime.as_operands(a, b, h, c_x, c_y, c_z)
     _tmp0 = c_x * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_x
@@ -3932,9 +3700,7 @@ def isolator_stiffness(a, b, h, c_x, c_y, c_z):
     _tmp20 = -_tmp14
     _tmp21 = -_tmp6
     _tmp22 = -_tmp17
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, c_x, c_y, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 0, 0] = c_x
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -4090,7 +3856,7 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
           [psi, theta] = -a*b
           [theta, theta] = a**2
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h, c_x, c_y, c_z = _runtime.as_operands(a, b, h, c_x, c_y, c_z)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
@@ -4103,9 +3869,7 @@ def isolator_stiffness_gradient(a, b, h, c_x, c_y, c_z):
     _tmp9 = -_tmp6
     _tmp10 = a * b
     _tmp11 = -_tmp10
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, c_x, c_y, c_z)
     _out = numpy.zeros((*_shape, 12, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -4218,7 +3982,7 @@ def isolator_axial_stiffness(a, b, c_z):
           [psi, theta] = -a*b*c_z
           [theta, theta] = c_z*a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = b * c_z
     _tmp1 = a * c_z
     _tmp2 = -_tmp1
@@ -4227,7 +3991,7 @@ def isolator_axial_stiffness(a, b, c_z):
     _tmp5 = -_tmp4
     _tmp6 = a**2 * c_z
     _tmp7 = -_tmp0
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
@@ -4299,14 +4063,14 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
           [psi, theta] = -a*b
           [theta, theta] = a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = -a
     _tmp1 = b**2
     _tmp2 = a * b
     _tmp3 = -_tmp2
     _tmp4 = a**2
     _tmp5 = -b
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 12, 6, 6))
     _out[..., 8, 2, 2] = 1
     _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
@@ -4531,7 +4295,7 @@ def isolator_stiffness_on_foundation(a, b, h, c_x, c_y, c_z):
           [theta_found, theta_found] = c_z*a**2
           [phi_found, phi_found] = c_x*b**2 + c_y*a**2
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h, c_x, c_y, c_z = _runtime.as_operands(a, b, h, c_x, c_y, c_z)
     _tmp0 = c_x * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_x
@@ -4564,9 +4328,7 @@ def isolator_stiffness_on_foundation(a, b, h, c_x, c_y, c_z):
     _tmp29 = -_tmp27
     _tmp30 = _tmp14 * c_x + _tmp24 * c_y
     _tmp31 = -_tmp30
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, c_x, c_y, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 0, 0] = c_x
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -4978,7 +4740,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, c_x, c_y, c_z):
           [psi_found, theta_found] = -a*b
           [theta_found, theta_found] = a**2
     """
-    a, b, h, c_x, c_y, c_z = _runtime.as_arrays(a, b, h, c_x, c_y, c_z)
+    a, b, h, c_x, c_y, c_z = _runtime.as_operands(a, b, h, c_x, c_y, c_z)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
@@ -4993,9 +4755,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, c_x, c_y, c_z):
     _tmp11 = -_tmp10
     _tmp12 = a * b
     _tmp13 = -_tmp12
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_x), numpy.shape(c_y), numpy.shape(c_z)
-    )
+    _shape = _runtime.batch_shape(a, b, h, c_x, c_y, c_z)
     _out = numpy.zeros((*_shape, 12, 12, 12))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -5300,7 +5060,7 @@ def isolator_axial_stiffness_on_foundation(a, b, c_z):
           [psi_found, theta_found] = -a*b*c_z
           [theta_found, theta_found] = c_z*a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = b * c_z
     _tmp1 = a * c_z
     _tmp2 = -_tmp1
@@ -5312,7 +5072,7 @@ def isolator_axial_stiffness_on_foundation(a, b, c_z):
     _tmp8 = -_tmp5
     _tmp9 = a**2 * c_z
     _tmp10 = -_tmp9
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
@@ -5504,7 +5264,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, c_z):
           [psi_found, theta_found] = -a*b
           [theta_found, theta_found] = a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = -a
     _tmp1 = -b
     _tmp2 = b**2
@@ -5513,7 +5273,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, c_z):
     _tmp5 = -_tmp2
     _tmp6 = a**2
     _tmp7 = -_tmp6
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 12, 12, 12))
     _out[..., 8, 2, 2] = 1
     _out[..., 8, 2, 3] = _out[..., 8, 3, 2] = b
@@ -5611,8 +5371,8 @@ def isolator_points(a, b, h):
         corner[+x-y]: (a, -b, -h)
         corner[-x-y]: (-a, -b, -h)
     """
-    a, b, h = _runtime.as_arrays(a, b, h)
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    a, b, h = _runtime.as_operands(a, b, h)
+    _shape = _runtime.batch_shape(a, b, h)
     _out = numpy.zeros((*_shape, 3, 4))
     _out[..., 0, 0] = a
     _out[..., 1, 0] = b
@@ -5640,7 +5400,7 @@ def effect_scales(m, a, b, h, c_x, c_y, c_z):
     rotational = (a**2 + b**2 + h**2)*(c_x/3 + c_y/3 + c_z/3)
     one = 1
     """
-    m, a, b, h, c_x, c_y, c_z = _runtime.as_arrays(m, a, b, h, c_x, c_y, c_z)
+    m, a, b, h, c_x, c_y, c_z = _runtime.as_operands(m, a, b, h, c_x, c_y, c_z)
     _tmp0 = a**2 + b**2 + h**2
     _tmp1 = (0.3333333333333333) * c_x + (0.3333333333333333) * c_y + (0.3333333333333333) * c_z
     return {

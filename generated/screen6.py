@@ -457,8 +457,8 @@ def mass_matrix(m, J_x, J_y, J_z):
         [theta, theta] = J_y
         [phi, phi] = J_z
     """
-    m, J_x, J_y, J_z = _runtime.as_arrays(m, J_x, J_y, J_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z))
+    m, J_x, J_y, J_z = _runtime.as_operands(m, J_x, J_y, J_z)
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z)
     return _runtime.stack_matrix(_shape, 6, {(0, 0): m, (1, 1): m, (2, 2): m, (3, 3): J_x, (4, 4): J_y, (5, 5): J_z})
 
 
@@ -476,7 +476,7 @@ def stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m):
         [theta, theta] = 2*(c_h*h**2 + 2*c_h*a**2*sin(alpha)**2 + 2*c_h*h**2*cos(alpha)**2 + 2*c_v*a**2*cos(alpha)**2 + 2*c_v*h**2*sin(alpha)**2 - 4*a*c_h*h*cos(alpha)*sin(alpha) + 4*a*c_v*h*cos(alpha)*sin(alpha))
         [phi, phi] = 2*(c_h*b**2 + 2*c_h*a**2 + 2*c_h*b**2*cos(alpha)**2 + 2*c_v*b**2*sin(alpha)**2)
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = 2 * c_h
@@ -495,15 +495,7 @@ def stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m):
     _tmp15 = _tmp12 * c_h
     _tmp16 = 4 * _tmp9
     _tmp17 = a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_h, c_v, c_m)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -540,7 +532,7 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
         [theta, theta] = 2*(b_h*h**2 + 2*b_h*a**2*sin(alpha)**2 + 2*b_h*h**2*cos(alpha)**2 + 2*b_v*a**2*cos(alpha)**2 + 2*b_v*h**2*sin(alpha)**2 - 4*a*b_h*h*cos(alpha)*sin(alpha) + 4*a*b_v*h*cos(alpha)*sin(alpha))
         [phi, phi] = 2*(b_h*b**2 + 2*b_h*a**2 + 2*b_h*b**2*cos(alpha)**2 + 2*b_v*b**2*sin(alpha)**2)
     """
-    a, b, h, alpha, b_h, b_v, b_m = _runtime.as_arrays(a, b, h, alpha, b_h, b_v, b_m)
+    a, b, h, alpha, b_h, b_v, b_m = _runtime.as_operands(a, b, h, alpha, b_h, b_v, b_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = 2 * b_h
@@ -559,15 +551,7 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
     _tmp15 = _tmp12 * b_h
     _tmp16 = 4 * _tmp9
     _tmp17 = a**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, b_h, b_v, b_m)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -592,7 +576,7 @@ def damping_matrix(a, b, h, alpha, b_h, b_v, b_m):
 
 def stiffness_gradient(a, b, h, alpha):
     """Derivatives dC/d(c_h, c_v, c_m) of the stiffness matrix, shape (..., 3, 6, 6)."""
-    a, b, h, alpha = _runtime.as_arrays(a, b, h, alpha)
+    a, b, h, alpha = _runtime.as_operands(a, b, h, alpha)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = 4 * _tmp0**2
     _tmp2 = numpy.sin(alpha)
@@ -606,7 +590,7 @@ def stiffness_gradient(a, b, h, alpha):
     _tmp10 = a**2
     _tmp11 = 2 * _tmp7
     _tmp12 = _tmp1 * _tmp7
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha))
+    _shape = _runtime.batch_shape(a, b, h, alpha)
     _out = numpy.zeros((*_shape, 3, 6, 6))
     _out[..., 0, 0, 0] = _tmp1 + 2
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp1 * h + _tmp4 - 2 * h
@@ -644,8 +628,8 @@ def point_jacobian(r_x, r_y, r_z):
         [z, psi] = r_y
         [z, theta] = -r_x
     """
-    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    r_x, r_y, r_z = _runtime.as_operands(r_x, r_y, r_z)
+    _shape = _runtime.batch_shape(r_x, r_y, r_z)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = 1
     _out[..., 0, 4] = r_z
@@ -671,22 +655,10 @@ def squared_frequencies(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
         block {z}: lambda = (2*c_m + 4*c_h*sin(alpha)**2 + 4*c_v*cos(alpha)**2)/m
         block {phi}: lambda = (2*c_h*b**2 + 4*c_h*a**2 + 4*c_h*b**2*cos(alpha)**2 + 4*c_v*b**2*sin(alpha)**2)/J_z
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.empty((6, *_shape))
     _v = {
         "m": m,
@@ -848,7 +820,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v
           [z, z] = 2
           [psi, psi] = 2*b**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m
     )
     _tmp0 = numpy.cos(alpha)
@@ -911,22 +883,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v
     _tmp57 = 4 * _tmp42 + _tmp55 + _tmp56
     _tmp58 = -_tmp30 * h - _tmp48
     _tmp59 = _tmp29 * _tmp42 + _tmp30 * _tmp43 + _tmp53
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m)
     _out = numpy.zeros((*_shape, 42, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -1086,7 +1043,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
           [z, z] = 2
           [psi, psi] = 2*b**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m
     )
     _tmp0 = numpy.cos(alpha)
@@ -1125,19 +1082,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
     _tmp33 = _tmp2 * _tmp28
     _tmp34 = 2 * _tmp25
     _tmp35 = _tmp20 * _tmp25
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.zeros((*_shape, 22, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -1296,7 +1241,7 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z
     )
     return _runtime.solve_inverse(
@@ -1407,7 +1352,7 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1601,7 +1546,7 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1812,7 +1757,7 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1915,7 +1860,7 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi
     )
     return _runtime.solve_inverse(
@@ -2053,7 +1998,7 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta
     )
     return _runtime.solve_inverse(
@@ -2203,7 +2148,7 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2397,7 +2342,7 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -2607,7 +2552,7 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2710,7 +2655,7 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta
     )
     return _runtime.solve_inverse(
@@ -2779,7 +2724,7 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -2890,7 +2835,7 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -2967,7 +2912,7 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -3179,7 +3124,7 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -3282,7 +3227,7 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -3351,7 +3296,7 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -3501,7 +3446,7 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -3712,7 +3657,7 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     given), the data alone cannot choose between them and the choice is physical (the paper keeps
     c_z > c_xy for its isolators).
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -3748,31 +3693,14 @@ def effect_com_offset(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [phi, phi] = m*(dx_com**2 + dy_com**2)
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com
     )
     _tmp0 = dy_com * m
     _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = dx_com**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(
@@ -3867,7 +3795,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com
     )
     _tmp0 = numpy.cos(alpha)
@@ -3896,24 +3824,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     _tmp23 = dx_com * m
     _tmp24 = 2 * _tmp23
     _tmp25 = 2 * _tmp22
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dx_com, dy_com)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
@@ -3975,28 +3886,12 @@ def effect_cog_height(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com
     )
     _tmp0 = dz_com * m
     _tmp1 = dz_com**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
     return (
         mass_matrix(m, J_x, J_y, J_z)
         + _runtime.stack_matrix(_shape, 6, {(0, 4): _tmp0, (1, 3): -_tmp0, (3, 3): _tmp1, (4, 4): _tmp1}),
@@ -4069,7 +3964,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com
     )
     _tmp0 = numpy.cos(alpha)
@@ -4094,23 +3989,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     _tmp19 = -_tmp5 - _tmp8 * h
     _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
     _tmp21 = 2 * dz_com * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, dz_com)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
@@ -4165,31 +4044,14 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m,
           [theta, theta] = 6*k_bend
           [phi, phi] = 2*(k_torsion + 2*k_bend - 2*k_bend*cos(alpha)**2 + 2*k_torsion*cos(alpha)**2)
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
     )
     _tmp0 = numpy.sin(alpha) ** 2
     _tmp1 = 2 * k_bend
     _tmp2 = 2 * k_torsion
     _tmp3 = numpy.cos(alpha) ** 2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
@@ -4276,7 +4138,7 @@ def effect_rotational_stiffness_derivatives(
           [phi, phi] = 2 + 4*cos(alpha)**2
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion
     )
     _tmp0 = numpy.cos(alpha)
@@ -4300,24 +4162,7 @@ def effect_rotational_stiffness_derivatives(
     _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
     _tmp19 = -_tmp5 - _tmp8 * h
     _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_bend, k_torsion)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
@@ -4475,7 +4320,7 @@ def effect_foundation(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -4568,27 +4413,27 @@ def effect_foundation(
     _tmp68 = _tmp33 * _tmp64
     _tmp69 = _tmp34 * b_v
     _tmp70 = 2 * _tmp12 * _tmp33 * b_v + 2 * _tmp17 * _tmp67 + 2 * _tmp4 * _tmp51 + 2 * _tmp67
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     return (
         _runtime.stack_matrix(
@@ -4911,7 +4756,7 @@ def effect_foundation_derivatives(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -4993,27 +4838,27 @@ def effect_foundation_derivatives(
     _tmp57 = _tmp28 * _tmp47 * found_aspect
     _tmp58 = 2 * found_depth * m_found
     _tmp59 = 2 * _tmp44 * k_found
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _out = numpy.zeros((*_shape, 36, 12, 12))
     _out[..., 1, 0, 0] = _tmp3
@@ -5202,7 +5047,7 @@ def effect_added_mass(
         h_added,
         g_added,
         a_added,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -5232,27 +5077,27 @@ def effect_added_mass(
     _tmp5 = _tmp4 * a_added
     _tmp6 = _tmp4 + y_added**2
     _tmp7 = x_added**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+        a_added,
     )
     return (
         mass_matrix(m, J_x, J_y, J_z)
@@ -5418,7 +5263,7 @@ def effect_added_mass_derivatives(
         h_added,
         g_added,
         a_added,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -5479,27 +5324,27 @@ def effect_added_mass_derivatives(
     _tmp36 = 2 * g_added
     _tmp37 = _tmp36 * a_added
     _tmp38 = _tmp22 * m_added
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        a,
+        b,
+        h,
+        alpha,
+        c_h,
+        c_v,
+        c_m,
+        b_h,
+        b_v,
+        b_m,
+        m_added,
+        x_added,
+        y_added,
+        h_added,
+        g_added,
+        a_added,
     )
     _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
@@ -5589,27 +5434,10 @@ def effect_drive_belt(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v,
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
@@ -5686,7 +5514,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt
     )
     _tmp0 = numpy.cos(alpha)
@@ -5710,24 +5538,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_
     _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
     _tmp19 = -_tmp5 - _tmp8 * h
     _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, k_belt, h_belt)
     _out = numpy.zeros((*_shape, 24, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
@@ -5782,27 +5593,11 @@ def effect_gravity_preload(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h,
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload
     )
     _tmp0 = -9.80665 * h_preload * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
     return (
         mass_matrix(m, J_x, J_y, J_z) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, alpha, c_h, c_v, c_m)
@@ -5873,7 +5668,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload
     )
     _tmp0 = numpy.cos(alpha)
@@ -5898,23 +5693,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_
     _tmp19 = -_tmp5 - _tmp8 * h
     _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
     _tmp21 = -9.80665 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-        numpy.shape(b_h),
-        numpy.shape(b_v),
-        numpy.shape(b_m),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m, h_preload)
     _out = numpy.zeros((*_shape, 21, 6, 6))
     _out[..., 1, 0, 0] = _tmp2
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp6
@@ -6061,7 +5840,7 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
           [theta, phi] = -b*c_h*h
           [phi, phi] = c_h*b**2
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_h
@@ -6111,15 +5890,7 @@ def isolator_stiffness(a, b, h, alpha, c_h, c_v, c_m):
     _tmp46 = b * c_m
     _tmp47 = _tmp28 + _tmp29 * c_m
     _tmp48 = _tmp17 * b
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.zeros((*_shape, 6, 6, 6))
     _out[..., 0, 0, 0] = _tmp6
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp9
@@ -6399,7 +6170,7 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
           [z, psi] = -b
           [psi, psi] = b**2
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.sin(alpha)
@@ -6448,15 +6219,7 @@ def isolator_stiffness_gradient(a, b, h, alpha, c_h, c_v, c_m):
     _tmp45 = _tmp38 * b
     _tmp46 = _tmp40 * b
     _tmp47 = _tmp39 * b
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 0, 0, 0] = _tmp1
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp4
@@ -6697,7 +6460,7 @@ def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
           [z, psi] = -b*c_m
           [psi, psi] = c_m*b**2
     """
-    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    a, b, h, alpha, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_v, c_m)
     _tmp0 = numpy.sin(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_v
@@ -6732,9 +6495,7 @@ def isolator_axial_stiffness(a, b, h, alpha, c_v, c_m):
     _tmp31 = -_tmp27
     _tmp32 = b * c_m
     _tmp33 = _tmp20 * c_m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_v, c_m)
     _out = numpy.zeros((*_shape, 6, 6, 6))
     _out[..., 0, 0, 0] = _tmp2
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp5
@@ -6896,7 +6657,7 @@ def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
           [z, psi] = -b
           [psi, psi] = b**2
     """
-    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    a, b, h, alpha, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_v, c_m)
     _tmp0 = numpy.sin(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.cos(alpha)
@@ -6924,9 +6685,7 @@ def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
     _tmp24 = -_tmp3
     _tmp25 = -_tmp11
     _tmp26 = -_tmp22
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_v, c_m)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 6, 0, 0] = _tmp1
     _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
@@ -7327,7 +7086,7 @@ def isolator_stiffness_on_foundation(a, b, h, alpha, c_h, c_v, c_m):
           [psi_found, psi_found] = c_m*b**2
           [phi_found, phi_found] = c_h*b**2
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_h
@@ -7402,15 +7161,7 @@ def isolator_stiffness_on_foundation(a, b, h, alpha, c_h, c_v, c_m):
     _tmp71 = _tmp21 * b
     _tmp72 = -_tmp71
     _tmp73 = -_tmp40
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.zeros((*_shape, 6, 12, 12))
     _out[..., 0, 0, 0] = _tmp6
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp9
@@ -8294,7 +8045,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, alpha, c_h, c_v, c_m):
           [z_found, psi_found] = -b
           [psi_found, psi_found] = b**2
     """
-    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_h, c_v, c_m)
+    a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = numpy.cos(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.sin(alpha)
@@ -8366,15 +8117,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, alpha, c_h, c_v, c_m):
     _tmp68 = _tmp56 * b
     _tmp69 = -_tmp57
     _tmp70 = -_tmp62
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(alpha),
-        numpy.shape(c_h),
-        numpy.shape(c_v),
-        numpy.shape(c_m),
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_h, c_v, c_m)
     _out = numpy.zeros((*_shape, 18, 12, 12))
     _out[..., 0, 0, 0] = _tmp1
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp4
@@ -9171,7 +8914,7 @@ def isolator_axial_stiffness_on_foundation(a, b, h, alpha, c_v, c_m):
           [z_found, psi_found] = -b*c_m
           [psi_found, psi_found] = c_m*b**2
     """
-    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    a, b, h, alpha, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_v, c_m)
     _tmp0 = numpy.sin(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = _tmp1 * c_v
@@ -9225,9 +8968,7 @@ def isolator_axial_stiffness_on_foundation(a, b, h, alpha, c_v, c_m):
     _tmp50 = -_tmp48
     _tmp51 = _tmp27 * c_m
     _tmp52 = -_tmp51
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_v, c_m)
     _out = numpy.zeros((*_shape, 6, 12, 12))
     _out[..., 0, 0, 0] = _tmp2
     _out[..., 0, 0, 2] = _out[..., 0, 2, 0] = _tmp5
@@ -9737,7 +9478,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, h, alpha, c_v, c_m):
           [z_found, psi_found] = -b
           [psi_found, psi_found] = b**2
     """
-    a, b, h, alpha, c_v, c_m = _runtime.as_arrays(a, b, h, alpha, c_v, c_m)
+    a, b, h, alpha, c_v, c_m = _runtime.as_operands(a, b, h, alpha, c_v, c_m)
     _tmp0 = numpy.sin(alpha)
     _tmp1 = _tmp0**2
     _tmp2 = numpy.cos(alpha)
@@ -9782,9 +9523,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, h, alpha, c_v, c_m):
     _tmp41 = -_tmp29
     _tmp42 = -b
     _tmp43 = -_tmp22
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(alpha), numpy.shape(c_v), numpy.shape(c_m)
-    )
+    _shape = _runtime.batch_shape(a, b, h, alpha, c_v, c_m)
     _out = numpy.zeros((*_shape, 18, 12, 12))
     _out[..., 6, 0, 0] = _tmp1
     _out[..., 6, 0, 2] = _out[..., 6, 2, 0] = _tmp3
@@ -10040,8 +9779,8 @@ def isolator_points(a, b, h):
         middle[+y]: (0, b, -h)
         middle[-y]: (0, -b, -h)
     """
-    a, b, h = _runtime.as_arrays(a, b, h)
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    a, b, h = _runtime.as_operands(a, b, h)
+    _shape = _runtime.batch_shape(a, b, h)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = a
     _out[..., 1, 0] = b
@@ -10073,7 +9812,7 @@ def effect_scales(m, a, b, h, alpha, c_h, c_v, c_m):
     rotational = (b**2 + h**2 + 2*a**2/3)*(c_m/9 + 4*c_h/9 + 2*c_h*cos(alpha)**2/9 + 2*c_h*sin(alpha)**2/9 + 2*c_v*cos(alpha)**2/9 + 2*c_v*sin(alpha)**2/9)
     one = 1
     """
-    m, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_arrays(m, a, b, h, alpha, c_h, c_v, c_m)
+    m, a, b, h, alpha, c_h, c_v, c_m = _runtime.as_operands(m, a, b, h, alpha, c_h, c_v, c_m)
     _tmp0 = (0.6666666666666666) * a**2 + b**2 + h**2
     _tmp1 = numpy.sin(alpha) ** 2
     _tmp2 = (0.2222222222222222) * c_h

@@ -344,12 +344,10 @@ def mass_matrix(m, J_x, J_y, J_z, e):
         [theta, theta] = J_y + m*e**2
         [phi, phi] = J_z + m*e**2
     """
-    m, J_x, J_y, J_z, e = _runtime.as_arrays(m, J_x, J_y, J_z, e)
+    m, J_x, J_y, J_z, e = _runtime.as_operands(m, J_x, J_y, J_z, e)
     _tmp0 = e * m
     _tmp1 = e**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m), numpy.shape(J_x), numpy.shape(J_y), numpy.shape(J_z), numpy.shape(e)
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -380,13 +378,13 @@ def stiffness_matrix(a, b, h, c_h, c_z):
         [theta, theta] = 4*(c_h*h**2 + c_z*a**2)
         [phi, phi] = 4*c_h*(a**2 + b**2)
     """
-    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    a, b, h, c_h, c_z = _runtime.as_operands(a, b, h, c_h, c_z)
     _tmp0 = 4 * c_h
     _tmp1 = _tmp0 * h
     _tmp2 = b**2
     _tmp3 = c_h * h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, h, c_h, c_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -417,13 +415,13 @@ def damping_matrix(a, b, h, b_h, b_z):
         [theta, theta] = 4*(b_h*h**2 + b_z*a**2)
         [phi, phi] = 4*b_h*(a**2 + b**2)
     """
-    a, b, h, b_h, b_z = _runtime.as_arrays(a, b, h, b_h, b_z)
+    a, b, h, b_h, b_z = _runtime.as_operands(a, b, h, b_h, b_z)
     _tmp0 = 4 * b_h
     _tmp1 = _tmp0 * h
     _tmp2 = b**2
     _tmp3 = b_h * h**2
     _tmp4 = a**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(b_h), numpy.shape(b_z))
+    _shape = _runtime.batch_shape(a, b, h, b_h, b_z)
     return _runtime.stack_matrix(
         _shape,
         6,
@@ -442,12 +440,12 @@ def damping_matrix(a, b, h, b_h, b_z):
 
 def stiffness_gradient(a, b, h):
     """Derivatives dC/d(c_h, c_z) of the stiffness matrix, shape (..., 2, 6, 6)."""
-    a, b, h = _runtime.as_arrays(a, b, h)
+    a, b, h = _runtime.as_operands(a, b, h)
     _tmp0 = 4 * h
     _tmp1 = 4 * h**2
     _tmp2 = 4 * a**2
     _tmp3 = 4 * b**2
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    _shape = _runtime.batch_shape(a, b, h)
     _out = numpy.zeros((*_shape, 2, 6, 6))
     _out[..., 0, 0, 0] = 4
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = -_tmp0
@@ -479,8 +477,8 @@ def point_jacobian(r_x, r_y, r_z):
         [z, psi] = r_y
         [z, theta] = -r_x
     """
-    r_x, r_y, r_z = _runtime.as_arrays(r_x, r_y, r_z)
-    _shape = numpy.broadcast_shapes(numpy.shape(r_x), numpy.shape(r_y), numpy.shape(r_z))
+    r_x, r_y, r_z = _runtime.as_operands(r_x, r_y, r_z)
+    _shape = _runtime.batch_shape(r_x, r_y, r_z)
     _out = numpy.zeros((*_shape, 3, 6))
     _out[..., 0, 0] = 1
     _out[..., 0, 4] = r_z
@@ -503,7 +501,7 @@ def squared_frequencies(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
         block {x, z, theta}: numeric (size 3)
         block {y, psi, phi}: numeric (size 3)
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_operands(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
     _M = mass_matrix(m, J_x, J_y, J_z, e)
     _C = stiffness_matrix(a, b, h, c_h, c_z)
     _M, _C = numpy.broadcast_arrays(_M, _C)
@@ -609,7 +607,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
     )
     _tmp0 = e**2
@@ -627,20 +625,7 @@ def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
     _tmp12 = 4 * a**2
     _tmp13 = 4 * b**2
     _tmp14 = _tmp12 + _tmp13
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z)
     _out = numpy.zeros((*_shape, 36, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -753,7 +738,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
           [psi, psi] = 4*b**2
           [theta, theta] = 4*a**2
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z = _runtime.as_operands(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
     _tmp0 = e**2
     _tmp1 = 2 * e * m
     _tmp2 = 8 * a
@@ -764,18 +749,7 @@ def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
     _tmp7 = 4 * h**2
     _tmp8 = 4 * a**2
     _tmp9 = 4 * b**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z)
     _out = numpy.zeros((*_shape, 20, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 1, 1] = 1
@@ -837,7 +811,9 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y)
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_operands(
+        m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y
+    )
     return _runtime.solve_inverse(
         _runtime.start_grid(
             (180000.0, 750000.0),
@@ -875,7 +851,9 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z)
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_operands(
+        m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z
+    )
     return _runtime.solve_inverse(
         _runtime.start_grid(
             (180000.0, 750000.0),
@@ -913,7 +891,7 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi
     )
     return _runtime.solve_inverse(
@@ -953,7 +931,7 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta
     )
     return _runtime.solve_inverse(
@@ -993,7 +971,7 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1033,7 +1011,9 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_arrays(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z)
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_operands(
+        m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z
+    )
     return _runtime.solve_inverse(
         _runtime.start_grid(
             (180000.0, 750000.0),
@@ -1071,7 +1051,7 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1111,7 +1091,7 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1151,7 +1131,7 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1191,7 +1171,7 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi
     )
     return _runtime.solve_inverse(
@@ -1231,7 +1211,7 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1271,7 +1251,7 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1311,7 +1291,7 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta
     )
     return _runtime.solve_inverse(
@@ -1351,7 +1331,7 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1391,7 +1371,7 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
     is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
-    m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi
     )
     return _runtime.solve_inverse(
@@ -1440,29 +1420,14 @@ def effect_com_offset(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, 
           [phi, phi] = m*(dx_com**2 + dy_com**2 + 2*dx_com*e)
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com
     )
     _tmp0 = dy_com * m
     _tmp1 = dx_com * m
     _tmp2 = dy_com**2
     _tmp3 = 2 * e
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com)
     return (
         mass_matrix(m, J_x, J_y, J_z, e)
         + _runtime.stack_matrix(
@@ -1539,7 +1504,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dC/ddy_com:
         dB/ddy_com:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com
     )
     _tmp0 = 4 * h
@@ -1552,22 +1517,7 @@ def effect_com_offset_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
     _tmp7 = dy_com * m
     _tmp8 = 2 * e
     _tmp9 = 2 * _tmp7
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(dx_com),
-        numpy.shape(dy_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dx_com, dy_com)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -1618,26 +1568,12 @@ def effect_cog_height(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com):
           [theta, theta] = m*dz_com**2
         C:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com
     )
     _tmp0 = dz_com * m
     _tmp1 = dz_com**2 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com)
     return (
         mass_matrix(m, J_x, J_y, J_z, e)
         + _runtime.stack_matrix(
@@ -1695,7 +1631,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
         dC/ddz_com:
         dB/ddz_com:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com
     )
     _tmp0 = 4 * h
@@ -1705,21 +1641,7 @@ def effect_cog_height_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
     _tmp4 = 4 * b**2
     _tmp5 = _tmp3 + _tmp4
     _tmp6 = 2 * dz_com * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(dz_com),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, dz_com)
     _out = numpy.zeros((*_shape, 15, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -1763,26 +1685,11 @@ def effect_rotational_stiffness(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
           [theta, theta] = 4*k_bend
           [phi, phi] = 4*k_torsion
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * k_bend
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion)
     return (
         mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_h, c_z)
@@ -1839,7 +1746,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
           [phi, phi] = 4
         dB/dk_torsion:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion
     )
     _tmp0 = 4 * h
@@ -1848,22 +1755,7 @@ def effect_rotational_stiffness_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c
     _tmp3 = 4 * a**2
     _tmp4 = 4 * b**2
     _tmp5 = _tmp3 + _tmp4
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(k_bend),
-        numpy.shape(k_torsion),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_bend, k_torsion)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2002,7 +1894,7 @@ def effect_foundation(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -2059,25 +1951,25 @@ def effect_foundation(
     _tmp34 = _tmp32 * _tmp7
     _tmp35 = _tmp32 * _tmp6
     _tmp36 = _tmp28 * _tmp8
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     return (
         _runtime.stack_matrix(
@@ -2322,7 +2214,7 @@ def effect_foundation_derivatives(
         found_spread,
         found_aspect,
         found_depth,
-    ) = _runtime.as_arrays(
+    ) = _runtime.as_operands(
         m,
         J_x,
         J_y,
@@ -2373,25 +2265,25 @@ def effect_foundation_derivatives(
     _tmp28 = _tmp17 * _tmp6 * found_aspect
     _tmp29 = 2 * found_depth * m_found
     _tmp30 = _tmp15 * _tmp23
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(m_found),
-        numpy.shape(k_found),
-        numpy.shape(found_shear),
-        numpy.shape(found_spread),
-        numpy.shape(found_aspect),
-        numpy.shape(found_depth),
+    _shape = _runtime.batch_shape(
+        m,
+        J_x,
+        J_y,
+        J_z,
+        e,
+        a,
+        b,
+        h,
+        c_h,
+        c_z,
+        b_h,
+        b_z,
+        m_found,
+        k_found,
+        found_shear,
+        found_spread,
+        found_aspect,
+        found_depth,
     )
     _out = numpy.zeros((*_shape, 30, 12, 12))
     _out[..., 1, 0, 0] = 4
@@ -2510,7 +2402,7 @@ def effect_added_mass(
         C:
     """
     m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
         )
     )
@@ -2523,25 +2415,8 @@ def effect_added_mass(
     _tmp6 = _tmp5 * a_added
     _tmp7 = _tmp5 + y_added**2
     _tmp8 = e**2 + 2 * e * x_added + x_added**2
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     return (
         mass_matrix(m, J_x, J_y, J_z, e)
@@ -2669,7 +2544,7 @@ def effect_added_mass_derivatives(
         dB/da_added:
     """
     m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added = (
-        _runtime.as_arrays(
+        _runtime.as_operands(
             m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
         )
     )
@@ -2698,25 +2573,8 @@ def effect_added_mass_derivatives(
     _tmp22 = 2 * g_added
     _tmp23 = _tmp22 * a_added
     _tmp24 = _tmp8 * m_added
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(m_added),
-        numpy.shape(x_added),
-        numpy.shape(y_added),
-        numpy.shape(h_added),
-        numpy.shape(g_added),
-        numpy.shape(a_added),
+    _shape = _runtime.batch_shape(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, m_added, x_added, y_added, h_added, g_added, a_added
     )
     _out = numpy.zeros((*_shape, 30, 6, 6))
     _out[..., 1, 0, 0] = 4
@@ -2794,25 +2652,10 @@ def effect_drive_belt(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, 
           [x, theta] = h_belt*k_belt
           [theta, theta] = k_belt*h_belt**2
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt
     )
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt)
     return (
         mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_h, c_z)
@@ -2871,7 +2714,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
           [theta, theta] = 2*h_belt*k_belt
         dB/dh_belt:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt
     )
     _tmp0 = 4 * h
@@ -2880,22 +2723,7 @@ def effect_drive_belt_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b
     _tmp3 = 4 * a**2
     _tmp4 = 4 * b**2
     _tmp5 = _tmp3 + _tmp4
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(k_belt),
-        numpy.shape(h_belt),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, k_belt, h_belt)
     _out = numpy.zeros((*_shape, 18, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -2938,25 +2766,11 @@ def effect_gravity_preload(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_p
           [psi, psi] = -196133*h_preload*m/20000
           [theta, theta] = -196133*h_preload*m/20000
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload
     )
     _tmp0 = -9.80665 * h_preload * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload)
     return (
         mass_matrix(m, J_x, J_y, J_z, e) + _runtime.stack_matrix(_shape, 6, {}),
         stiffness_matrix(a, b, h, c_h, c_z) + _runtime.stack_matrix(_shape, 6, {(3, 3): _tmp0, (4, 4): _tmp0}),
@@ -3008,7 +2822,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
           [theta, theta] = -196133*m/20000
         dB/dh_preload:
     """
-    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_arrays(
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload = _runtime.as_operands(
         m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload
     )
     _tmp0 = 4 * h
@@ -3018,21 +2832,7 @@ def effect_gravity_preload_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b
     _tmp4 = 4 * b**2
     _tmp5 = _tmp3 + _tmp4
     _tmp6 = -9.80665 * m
-    _shape = numpy.broadcast_shapes(
-        numpy.shape(m),
-        numpy.shape(J_x),
-        numpy.shape(J_y),
-        numpy.shape(J_z),
-        numpy.shape(e),
-        numpy.shape(a),
-        numpy.shape(b),
-        numpy.shape(h),
-        numpy.shape(c_h),
-        numpy.shape(c_z),
-        numpy.shape(b_h),
-        numpy.shape(b_z),
-        numpy.shape(h_preload),
-    )
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z, h_preload)
     _out = numpy.zeros((*_shape, 15, 6, 6))
     _out[..., 1, 0, 0] = 4
     _out[..., 1, 0, 4] = _out[..., 1, 4, 0] = _tmp1
@@ -3131,7 +2931,7 @@ def isolator_stiffness(a, b, h, c_h, c_z):
           [theta, phi] = -b*c_h*h
           [phi, phi] = c_h*(a**2 + b**2)
     """
-    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    a, b, h, c_h, c_z = _runtime.as_operands(a, b, h, c_h, c_z)
     _tmp0 = c_h * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_h
@@ -3154,7 +2954,7 @@ def isolator_stiffness(a, b, h, c_h, c_z):
     _tmp19 = -_tmp16
     _tmp20 = -_tmp4
     _tmp21 = -_tmp13
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, h, c_h, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 0, 0] = c_h
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -3302,7 +3102,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
           [psi, theta] = -a*b
           [theta, theta] = a**2
     """
-    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    a, b, h, c_h, c_z = _runtime.as_operands(a, b, h, c_h, c_z)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = h**2
@@ -3316,7 +3116,7 @@ def isolator_stiffness_gradient(a, b, h, c_h, c_z):
     _tmp10 = -_tmp3
     _tmp11 = a * b
     _tmp12 = -_tmp11
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, h, c_h, c_z)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -3425,7 +3225,7 @@ def isolator_axial_stiffness(a, b, c_z):
           [psi, theta] = -a*b*c_z
           [theta, theta] = c_z*a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = b * c_z
     _tmp1 = a * c_z
     _tmp2 = -_tmp1
@@ -3434,7 +3234,7 @@ def isolator_axial_stiffness(a, b, c_z):
     _tmp5 = -_tmp4
     _tmp6 = a**2 * c_z
     _tmp7 = -_tmp0
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 4, 6, 6))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
@@ -3502,14 +3302,14 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
           [psi, theta] = -a*b
           [theta, theta] = a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = -a
     _tmp1 = b**2
     _tmp2 = a * b
     _tmp3 = -_tmp2
     _tmp4 = a**2
     _tmp5 = -b
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 8, 6, 6))
     _out[..., 4, 2, 2] = 1
     _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = b
@@ -3734,7 +3534,7 @@ def isolator_stiffness_on_foundation(a, b, h, c_h, c_z):
           [theta_found, theta_found] = c_z*a**2
           [phi_found, phi_found] = c_h*(a**2 + b**2)
     """
-    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    a, b, h, c_h, c_z = _runtime.as_operands(a, b, h, c_h, c_z)
     _tmp0 = c_h * h
     _tmp1 = -_tmp0
     _tmp2 = b * c_h
@@ -3764,7 +3564,7 @@ def isolator_stiffness_on_foundation(a, b, h, c_h, c_z):
     _tmp26 = -_tmp24
     _tmp27 = c_h * (_tmp12 + _tmp21)
     _tmp28 = -_tmp27
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, h, c_h, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 0, 0] = c_h
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp1
@@ -4160,7 +3960,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, c_h, c_z):
           [psi_found, theta_found] = -a*b
           [theta_found, theta_found] = a**2
     """
-    a, b, h, c_h, c_z = _runtime.as_arrays(a, b, h, c_h, c_z)
+    a, b, h, c_h, c_z = _runtime.as_operands(a, b, h, c_h, c_z)
     _tmp0 = -h
     _tmp1 = -b
     _tmp2 = -a
@@ -4177,7 +3977,7 @@ def isolator_stiffness_on_foundation_gradient(a, b, h, c_h, c_z):
     _tmp13 = -_tmp12
     _tmp14 = -_tmp9
     _tmp15 = -_tmp8
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h), numpy.shape(c_h), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, h, c_h, c_z)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 0, 0, 0] = 1
     _out[..., 0, 0, 4] = _out[..., 0, 4, 0] = _tmp0
@@ -4470,7 +4270,7 @@ def isolator_axial_stiffness_on_foundation(a, b, c_z):
           [psi_found, theta_found] = -a*b*c_z
           [theta_found, theta_found] = c_z*a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = b * c_z
     _tmp1 = a * c_z
     _tmp2 = -_tmp1
@@ -4482,7 +4282,7 @@ def isolator_axial_stiffness_on_foundation(a, b, c_z):
     _tmp8 = -_tmp5
     _tmp9 = a**2 * c_z
     _tmp10 = -_tmp9
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 4, 12, 12))
     _out[..., 0, 2, 2] = c_z
     _out[..., 0, 2, 3] = _out[..., 0, 3, 2] = _tmp0
@@ -4670,7 +4470,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, c_z):
           [psi_found, theta_found] = -a*b
           [theta_found, theta_found] = a**2
     """
-    a, b, c_z = _runtime.as_arrays(a, b, c_z)
+    a, b, c_z = _runtime.as_operands(a, b, c_z)
     _tmp0 = -a
     _tmp1 = -b
     _tmp2 = b**2
@@ -4679,7 +4479,7 @@ def isolator_axial_stiffness_on_foundation_gradient(a, b, c_z):
     _tmp5 = -_tmp2
     _tmp6 = a**2
     _tmp7 = -_tmp6
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(c_z))
+    _shape = _runtime.batch_shape(a, b, c_z)
     _out = numpy.zeros((*_shape, 8, 12, 12))
     _out[..., 4, 2, 2] = 1
     _out[..., 4, 2, 3] = _out[..., 4, 3, 2] = b
@@ -4777,8 +4577,8 @@ def isolator_points(a, b, h):
         other_end[+y]: (-a, b, -h)
         other_end[-y]: (-a, -b, -h)
     """
-    a, b, h = _runtime.as_arrays(a, b, h)
-    _shape = numpy.broadcast_shapes(numpy.shape(a), numpy.shape(b), numpy.shape(h))
+    a, b, h = _runtime.as_operands(a, b, h)
+    _shape = _runtime.batch_shape(a, b, h)
     _out = numpy.zeros((*_shape, 3, 4))
     _out[..., 0, 0] = a
     _out[..., 1, 0] = b
@@ -4806,7 +4606,7 @@ def effect_scales(m, e, a, b, h, c_h, c_z):
     rotational = (c_z/3 + 2*c_h/3)*(b**2 + h**2 + (a - e)**2/2 + (-a - e)**2/2)
     one = 1
     """
-    m, e, a, b, h, c_h, c_z = _runtime.as_arrays(m, e, a, b, h, c_h, c_z)
+    m, e, a, b, h, c_h, c_z = _runtime.as_operands(m, e, a, b, h, c_h, c_z)
     _tmp0 = b**2 + h**2 + (0.5) * (-a - e) ** 2 + (0.5) * (a - e) ** 2
     _tmp1 = (0.6666666666666666) * c_h + (0.3333333333333333) * c_z
     return {

@@ -82,3 +82,22 @@ def test_modal_projection_and_diagonal_match_the_index_sums():
     np.testing.assert_allclose(
         runtime.modal_diagonal(x, single), np.einsum("ak,qab,bk->qk", x, single, x), rtol=1e-12, atol=1e-12
     )
+
+
+def test_generated_functions_give_scalars_the_numbers_of_a_batch():
+    """A generated function computes with float64 scalars where every argument is a scalar (as_operands,
+    batch_shape): the same numbers, to the bit, as the one row of a batch, and a batch's shape otherwise."""
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        args = {a: float(rng.uniform(0.1, 3.0)) for a in kid300.ARGUMENTS["matrix_derivatives"]}
+        one = kid300.matrix_derivatives(**args)
+        batch = kid300.matrix_derivatives(**{a: np.array([v, 2 * v]) for a, v in args.items()})
+        assert one.shape == batch.shape[1:]
+        assert np.array_equal(one, batch[0])
+        fwd = {a: args.get(a, 1.0) for a in kid300.FORWARD_ARGUMENTS}
+        assert np.array_equal(
+            kid300.frequencies(**fwd), kid300.frequencies(**{a: np.array([v]) for a, v in fwd.items()})[0]
+        )
+    assert runtime.batch_shape(*runtime.as_operands(1.0, 2, np.float64(3.0))) == ()
+    assert runtime.batch_shape(*runtime.as_operands(1.0, [1.0, 2.0], np.zeros((3, 1)))) == (3, 2)
+    assert all(type(x) is np.float64 for x in runtime.as_operands(1.0, 2, np.float64(3.0)))

@@ -19,7 +19,16 @@ from mountid.runtime.eigen import (
     modal_projection,
     stack_matrix,
 )
-from mountid.runtime.evaluation import FUSED_MIN_SIZE, as_arrays, fused, linear_root, polynomial_roots, quadratic_roots
+from mountid.runtime.evaluation import (
+    FUSED_MIN_SIZE,
+    as_arrays,
+    as_operands,
+    batch_shape,
+    fused,
+    linear_root,
+    polynomial_roots,
+    quadratic_roots,
+)
 from mountid.runtime.inverse import (
     ADMISSIBILITY_RTOL,
     DUPLICATE_RTOL,
@@ -43,6 +52,8 @@ __all__ = [
     "InverseRoots",
     "admissible",
     "as_arrays",
+    "as_operands",
+    "batch_shape",
     "block_eigen",
     "eigen_jacobian",
     "eigen_newton",
