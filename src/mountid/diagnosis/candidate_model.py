@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,99 @@ class Prediction:
     """Damping ratio of each mode (None when the campaign measures none)."""
 
 
+@dataclass(frozen=True)
+class CampaignFrame:
+    """What every candidate model of one campaign shares (computed once per campaign: a diagnosis builds 10^4
+    models of one campaign). Arrays read-only."""
+
+    damped: bool
+    """Whether the campaign measures damping ratios."""
+    damping_unknown: tuple[str, ...]
+    """Damping parameters fitted with the stiffnesses (CandidateModel.damping_unknown)."""
+    unknown: tuple[str, ...]
+    """The machine's unknowns, then damping_unknown."""
+    known: dict[str, float]
+    """Every other parameter's value: the campaign's known ones, else the description's."""
+    start_unknowns: dict[str, float]
+    """The unknowns' nominal values (where fits start)."""
+    scales: dict[str, float]
+    """The generated effect_scales() at the nominal values."""
+    omega_ref: float
+    """Geometric mean of the measured frequencies [rad/s]."""
+    reference: np.ndarray
+    """Scaled unit shapes (6, n_modes) modes are labelled by: the measured ones where measured, else the
+    generated (block-pure) modal matrix at the nominal values."""
+    reference_lambda: np.ndarray
+    """Squared frequencies [rad^2/s^2] of the reference modes: measured where measured, else nominal."""
+    rows: tuple[int, ...]
+    """Each measured label's mode index (the generated module's MODES)."""
+    resolution: np.ndarray
+    """Relative standard deviation of each mode's measured frequency (DEFAULT_FREQUENCY_STD where not measured)."""
+
+
+def _campaign_frame(campaign: Campaign) -> CampaignFrame:
+    machine = campaign.machine
+    mod = machine.module
+    labels = tuple(campaign.modes)
+    damped = any(m.damping_ratio is not None for m in campaign.modes.values())
+    damping_unknown = (
+        tuple(n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping" and n not in campaign.known)
+        if damped
+        else ()
+    )
+    unknown = machine.unknown + damping_unknown
+    known = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in unknown))
+    start = machine.values({}, unknown)
+    nominal = {**known, **start}
+    scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
+    length = scales["length"]
+    measured = [campaign.modes[lab].frequency for lab in labels]
+    # modes are paired with labels by shape and frequency: the measured ones where measured, else the
+    # generated (block-pure) modal matrix and frequencies at the nominal values
+    fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
+    reference = scaled_unit(np.asarray(mod.modal_matrix(**fwd)), length)
+    reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
+    resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
+    for i, label in enumerate(mod.MODES):
+        m = campaign.modes.get(label)
+        if m is not None:
+            resolution[i] = m.frequency_std / m.frequency
+            reference_lambda[i] = m.frequency**2
+            if m.shape is not None:
+                reference[:, i] = scaled_unit(np.array(m.shape, dtype=float)[:, None], length)[:, 0]
+    for a in (reference, reference_lambda, resolution):
+        a.setflags(write=False)
+    return CampaignFrame(
+        damped,
+        damping_unknown,
+        unknown,
+        known,
+        start,
+        scales,
+        float(np.exp(np.mean(np.log(measured)))),
+        reference,
+        reference_lambda,
+        tuple(mod.MODES.index(label) for label in labels),
+        resolution,
+    )
+
+
+_FRAMES: dict[int, tuple[weakref.ref, CampaignFrame]] = {}
+"""campaign_frame's results by the campaign's id, with a weak reference that tells a live campaign from a new one
+at a reused id (and drops the entry with the campaign)."""
+
+
+def campaign_frame(campaign: Campaign) -> CampaignFrame:
+    """The frame of ``campaign``, computed once while the campaign lives (a campaign is frozen)."""
+    key = id(campaign)
+    kept = _FRAMES.get(key)
+    if kept is not None and kept[0]() is campaign:
+        return kept[1]
+    frame = _campaign_frame(campaign)
+    _FRAMES[key] = (weakref.ref(campaign, lambda _, key=key: _FRAMES.pop(key, None)), frame)
+    return frame
+
+
 class CandidateModel:
     """The campaign's machine, optionally with one candidate effect, as a function of a flat parameter
     vector: log of each unknown (the machine's unknown stiffnesses, then the damping parameters fitted where
@@ -75,44 +169,26 @@ class CandidateModel:
         wider search box: the refit of a candidate whose free fit left them (candidates.fit_all)."""
         self.cache: dict[str, object] = {}
         """What a strategy computes once per model (a channel layout)."""
-        machine = campaign.machine
-        self.mod = mod = machine.module
+        self.mod = campaign.machine.module
         self.labels = tuple(campaign.modes)
-        self.damped = any(m.damping_ratio is not None for m in campaign.modes.values())
+        frame = campaign_frame(campaign)
+        self.damped = frame.damped
         """Whether the campaign measures damping ratios (the model's are then computed)."""
-        self.damping_unknown = (
-            tuple(n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping" and n not in campaign.known)
-            if self.damped
-            else ()
-        )
+        self.damping_unknown = frame.damping_unknown
         """Damping parameters fitted with the stiffnesses: those the campaign does not know, where it measures
         damping ratios (else the known or nominal values)."""
-        self.unknown = machine.unknown + self.damping_unknown
-        everything = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in self.unknown))
-        self.known = everything
-        start = machine.values({}, self.unknown)
-        self.start_unknowns = start
-        nominal = {**everything, **start}
-        self.scales = {k: float(v) for k, v in call(mod, "effect_scales", nominal).items()}
+        self.unknown = frame.unknown
+        self.known = frame.known
+        self.start_unknowns = frame.start_unknowns
+        self.scales = frame.scales
         self.length = self.scales["length"]
         self.effect_parameters = effect.parameters if effect else ()
         self.log_scaled = tuple(p.magnitude for p in self.effect_parameters)
-        measured = [campaign.modes[lab].frequency for lab in self.labels]
-        self.omega_ref = float(np.exp(np.mean(np.log(measured))))
-        # modes are paired with labels by shape and frequency: the measured ones where measured, else the
-        # generated (block-pure) modal matrix and frequencies at the nominal values
-        fwd = _pick(nominal, mod.FORWARD_ARGUMENTS)
-        self.reference = scaled_unit(np.asarray(mod.modal_matrix(**fwd)), self.length)
-        self.reference_lambda = np.asarray(mod.squared_frequencies(**fwd), dtype=float).copy()
-        self._rows = [mod.MODES.index(label) for label in self.labels]
-        self.resolution = np.full(len(mod.MODES), DEFAULT_FREQUENCY_STD)
-        for i, label in enumerate(mod.MODES):
-            m = campaign.modes.get(label)
-            if m is not None:
-                self.resolution[i] = m.frequency_std / m.frequency
-                self.reference_lambda[i] = m.frequency**2
-                if m.shape is not None:
-                    self.reference[:, i] = scaled_unit(np.array(m.shape, dtype=float)[:, None], self.length)[:, 0]
+        self.omega_ref = frame.omega_ref
+        self.reference = frame.reference
+        self.reference_lambda = frame.reference_lambda
+        self._rows = frame.rows
+        self.resolution = frame.resolution
 
     # -- parameter vector ---------------------------------------------------------------------------
     def start(self) -> list[np.ndarray]:

@@ -7,6 +7,7 @@ Units: M [kg, kg m, kg m^2], C [N/m, N, N m/rad], B [N s/m, N s, N m s/rad] (doc
 
 from __future__ import annotations
 
+import struct
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -30,9 +31,9 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     stiffness) at every step."""
     names = module.ARGUMENTS[function]
     args = [values[a] for a in names]
-    if not all(type(a) in _SCALARS for a in args):
+    if not _SCALARS.issuperset(map(type, args)):
         return getattr(module, function)(**dict(zip(names, args, strict=True)))
-    key = (module, function, np.array(args, dtype=float).tobytes())  # bytes: -0.0 is not 0.0 here
+    key = (module, function, struct.pack(f"{len(args)}d", *args))  # bytes: -0.0 is not 0.0 here
     kept = _kept_calls()
     out = kept.pop(key, None)
     if out is None:
@@ -58,7 +59,7 @@ def _kept_calls() -> dict:
     return kept
 
 
-_SCALARS = (float, int, np.float64)
+_SCALARS = frozenset((float, int, np.float64))
 
 
 def _read_only(out: Any) -> Any:
@@ -187,7 +188,11 @@ def pair_with_undamped(
     content = np.abs(phi.T @ m_shapes) ** 2 / np.where(weight > 0, weight, 1.0)
     if same.any():  # a damped mode's content in a group of twins, repeated for each of the group's slots
         content = (group[:, None] == group[None, :]).astype(float) @ content
-    _, column = scipy.optimize.linear_sum_assignment(content.T, maximize=True)
+    column = np.argmax(content, axis=0)
+    # each damped mode's own best slot, where no two share one, attains the sum of the maxima, which no
+    # assignment exceeds: the assignment (a slot is unique where its content is; twins repeat theirs)
+    if same.any() or len(np.unique(column)) < len(column):
+        _, column = scipy.optimize.linear_sum_assignment(content.T, maximize=True)
     # within each group the damped modes given to it take its slots in the order of their frequencies (the
     # groups ascend with the rank, so the sorted slots run group by group as the modes sorted by group do)
     ranks = np.empty(shapes.shape[1], dtype=np.intp)
