@@ -48,8 +48,8 @@ class Prediction:
 
 @dataclass(frozen=True)
 class CampaignFrame:
-    """What every candidate model of one campaign shares (computed once per campaign: a diagnosis builds 10^4
-    models of one campaign). Arrays read-only."""
+    """What every candidate model of one campaign shares, computed once per campaign (a blind case builds some
+    40 models of each of its campaigns). Shared by them: the arrays are read-only, the dicts not to be changed."""
 
     damped: bool
     """Whether the campaign measures damping ratios."""

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine.modules import GeneratedModule
-from mountid.runtime import modal_diagonal
+from mountid.runtime import SCALAR_TYPES, modal_diagonal
 
 
 def call(module: GeneratedModule, function: str, values: Mapping[str, float]) -> Any:
@@ -31,7 +31,7 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     stiffness) at every step."""
     names = module.ARGUMENTS[function]
     args = [values[a] for a in names]
-    if not _SCALARS.issuperset(map(type, args)):
+    if not SCALAR_TYPES.issuperset(map(type, args)):
         return getattr(module, function)(**dict(zip(names, args, strict=True)))
     key = (module, function, struct.pack(f"{len(args)}d", *args))  # bytes: -0.0 is not 0.0 here
     kept = _kept_calls()
@@ -57,9 +57,6 @@ def _kept_calls() -> dict:
     if kept is None:
         kept = _THREAD.calls = {}
     return kept
-
-
-_SCALARS = frozenset((float, int, np.float64))
 
 
 def _read_only(out: Any) -> Any:
@@ -189,8 +186,8 @@ def pair_with_undamped(
     if same.any():  # a damped mode's content in a group of twins, repeated for each of the group's slots
         content = (group[:, None] == group[None, :]).astype(float) @ content
     column = np.argmax(content, axis=0)
-    # each damped mode's own best slot, where no two share one, attains the sum of the maxima, which no
-    # assignment exceeds: the assignment (a slot is unique where its content is; twins repeat theirs)
+    # each damped mode's best slot, where no two modes share one, attains the sum of the row maxima, which no
+    # assignment exceeds, so it is the assignment; twins repeat their content over the group's slots (ties)
     if same.any() or len(np.unique(column)) < len(column):
         _, column = scipy.optimize.linear_sum_assignment(content.T, maximize=True)
     # within each group the damped modes given to it take its slots in the order of their frequencies (the

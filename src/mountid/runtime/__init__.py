@@ -21,6 +21,7 @@ from mountid.runtime.eigen import (
 )
 from mountid.runtime.evaluation import (
     FUSED_MIN_SIZE,
+    SCALAR_TYPES,
     as_arrays,
     as_operands,
     batch_shape,
@@ -49,6 +50,7 @@ __all__ = [
     "MAX_RELATIVE_STEP",
     "NEWTON_RESIDUAL_RTOL",
     "RANK_RTOL",
+    "SCALAR_TYPES",
     "InverseRoots",
     "admissible",
     "as_arrays",

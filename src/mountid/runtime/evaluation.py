@@ -42,7 +42,8 @@ def as_arrays(*args: ArrayLike) -> list[NDArray[np.float64]]:
     return [np.asarray(a, dtype=float) for a in args]
 
 
-_SCALARS = frozenset((float, int, np.float64))
+SCALAR_TYPES = frozenset((float, int, np.float64))
+"""The types a generated function takes as a scalar (as_operands; machine.call keeps its results for them)."""
 
 
 def as_operands(*args: ArrayLike) -> list[np.float64 | NDArray[np.float64]]:
@@ -50,7 +51,7 @@ def as_operands(*args: ArrayLike) -> list[np.float64 | NDArray[np.float64]]:
     scalar, anything else as a float array (no copies for float arrays). A candidate fit calls generated
     functions with scalars 10^5 times per diagnosis: arithmetic on float64 scalars costs about half that on 0-d
     arrays, with the same IEEE results (the same ufuncs and C math)."""
-    return [np.float64(a) if type(a) in _SCALARS else np.asarray(a, dtype=float) for a in args]
+    return [np.float64(a) if type(a) in SCALAR_TYPES else np.asarray(a, dtype=float) for a in args]
 
 
 def batch_shape(*args: np.float64 | NDArray[np.float64]) -> tuple[int, ...]:
