@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
+import inspect
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -9,7 +12,16 @@ import scipy.optimize
 import scipy.stats
 
 import mountid.generated.screen6 as screen6
-from mountid.machine import call, damped_modes, damped_poles, dynamics, pair_with_undamped, state_matrix, undamped_modes
+from mountid.machine import (
+    call,
+    damped_modes,
+    damped_poles,
+    dynamics,
+    pair_with_undamped,
+    shipped_machines,
+    state_matrix,
+    undamped_modes,
+)
 
 
 def _uncoupled_in_a_turned_basis(c: list[float], b: list[float], seed: int = 0):
@@ -129,6 +141,14 @@ def test_call_keeps_scalar_results_read_only_and_tells_minus_zero_from_zero():
     batch = {**values, "alpha": np.array([0.1, 0.2])}
     out = call(screen6, "effect_foundation", batch)
     assert out[0].shape[0] == 2 and out[0].flags.writeable
+
+
+def test_arguments_list_every_generated_function_in_the_order_of_its_signature():
+    """call() passes the arguments by position."""
+    for name in shipped_machines():
+        mod = importlib.import_module(f"mountid.generated.{name}")
+        for function, names in mod.ARGUMENTS.items():
+            assert tuple(inspect.signature(getattr(mod, function)).parameters) == names, (name, function)
 
 
 def test_each_thread_keeps_its_own_generated_results():

@@ -31,7 +31,7 @@ from mountid.diagnosis.candidate_model import (
     exact_twins,
     off_span,
 )
-from mountid.runtime import eigenvalue_derivatives, eigenvector_derivatives, modal_projection
+from mountid.runtime import eigen_derivatives, modal_projection
 
 if TYPE_CHECKING:
     from mountid.diagnosis.fitting import Data
@@ -59,8 +59,7 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
         d_m[split] = 0.0
         d_c[split] = 0.0
         d_mats = [tuple(np.zeros_like(x) for x in d) if out else d for d, out in zip(d_mats, split, strict=True)]
-    d_lam = eigenvalue_derivatives(d_m, d_c, e.vec, e.lam)
-    d_vec = eigenvector_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
+    d_lam, d_vec = eigen_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
 
@@ -107,9 +106,11 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     measurement is paired with or blended with (two support modes a support's aspect parts by 3e-8) leave the measured
     frequencies and shapes differentiable: their derivatives take the others' differences only."""
     split = np.zeros(len(d_m), dtype=bool)
-    used = np.union1d(e.index, np.flatnonzero(np.max(e.weight, axis=0) > PARTNER_WEIGHT))
+    if not e.twins:
+        return split
+    used = {*e.index.tolist(), *np.flatnonzero(np.max(e.weight, axis=0) > PARTNER_WEIGHT).tolist()}
     for group, members in e.twins:
-        if not np.isin(members, used).any():
+        if used.isdisjoint(members):
             continue
         v = e.vec[:, group]
         lam = e.lam[members[0]]

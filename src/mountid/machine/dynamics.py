@@ -23,8 +23,8 @@ from mountid.runtime import SCALAR_TYPES, modal_diagonal
 
 
 def call(module: GeneratedModule, function: str, values: Mapping[str, float]) -> Any:
-    """The generated ``function`` of ``module`` evaluated with its arguments (``module.ARGUMENTS``) taken
-    by name from ``values`` (which may hold more).
+    """The generated ``function`` of ``module`` evaluated with its arguments (``module.ARGUMENTS``, in the
+    order of its signature) taken by name from ``values`` (which may hold more).
 
     With every argument a scalar, the result is kept (the last CALL_CACHE_SIZE calls, read-only arrays): a
     candidate fit asks for matrices most of whose arguments it does not vary (the mass matrix, an isolator's
@@ -32,12 +32,12 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     names = module.ARGUMENTS[function]
     args = [values[a] for a in names]
     if not SCALAR_TYPES.issuperset(map(type, args)):
-        return getattr(module, function)(**dict(zip(names, args, strict=True)))
+        return getattr(module, function)(*args)
     key = (module, function, struct.pack(f"{len(args)}d", *args))  # bytes: -0.0 is not 0.0 here
     kept = _kept_calls()
     out = kept.pop(key, None)
     if out is None:
-        out = _read_only(getattr(module, function)(**dict(zip(names, args, strict=True))))
+        out = _read_only(getattr(module, function)(*args))
         if len(kept) >= CALL_CACHE_SIZE:
             del kept[next(iter(kept))]  # the least recently used
     kept[key] = out  # last in the order of use
@@ -214,9 +214,12 @@ def damped_pole_derivatives(
 
     shape (n_q, n); zero for a mode that does not oscillate."""
     poles, x = damped_modes(mass, stiffness, damping, lam)
+    n_q = len(d_mass)
+    # one stack, one matrix product: d_mass, d_damping, d_stiffness, then mass and damping
+    on = modal_diagonal(x, np.concatenate((d_mass, d_damping, d_stiffness, mass[None], damping[None])))
     p = poles[None, :]
-    top = p**2 * modal_diagonal(x, d_mass) + p * modal_diagonal(x, d_damping) + modal_diagonal(x, d_stiffness)
-    bottom = 2 * poles * modal_diagonal(x, mass[None])[0] + modal_diagonal(x, damping[None])[0]
+    top = p**2 * on[:n_q] + p * on[n_q : 2 * n_q] + on[2 * n_q : 3 * n_q]
+    bottom = 2 * poles * on[3 * n_q] + on[3 * n_q + 1]
     oscillates = poles != 0
     return poles, np.where(oscillates[None, :], -top / np.where(oscillates, bottom, 1.0)[None, :], 0.0)
 

@@ -10,9 +10,9 @@ All functions broadcast over leading batch dimensions.
 
 from mountid.runtime.eigen import (
     block_eigen,
+    eigen_derivatives,
     eigen_jacobian,
     eigenvalue_derivatives,
-    eigenvector_derivatives,
     kinetic_energy_distribution,
     modal_diagonal,
     modal_matrix,
@@ -57,10 +57,10 @@ __all__ = [
     "as_operands",
     "batch_shape",
     "block_eigen",
+    "eigen_derivatives",
     "eigen_jacobian",
     "eigen_newton",
     "eigenvalue_derivatives",
-    "eigenvector_derivatives",
     "fused",
     "kinetic_energy_distribution",
     "linear_root",

@@ -131,22 +131,29 @@ def eigen_jacobian(phi: NDArray, dc: NDArray, mode_index: list[int] | tuple[int,
     return np.swapaxes(eigenvalue_derivatives(None, dc, phi[:, :, list(mode_index)], None), -1, -2)
 
 
-def eigenvector_derivatives(
+def eigen_derivatives(
     d_mass: NDArray, d_stiffness: NDArray, phi: NDArray, lam: NDArray, degenerate_rtol: float = 1e-6
-) -> NDArray[np.float64]:
-    """d phi_k / d p of the mass-normalised modes of (C, M) by modal expansion (Fox and Kapoor):
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """d lambda_k / d p and d phi_k / d p of the mass-normalised modes of (C, M) from dC/dp and dM/dp
+    (n_p, n, n) projected together on every mode phi (n, n), lam (n,). The eigenvalues' as
+    :func:`eigenvalue_derivatives` (the diagonal of the forcing below, to the bit), shape (n_p, n); the
+    modes' by modal expansion (Fox and Kapoor), shape (n_p, n, n) with [p, :, k] = d phi_k / d p:
 
         phi_k' = sum_{j != k} phi_j phi_j^T (C' - lambda_k M') phi_k / (lambda_k - lambda_j)
                  - phi_k (phi_k^T M' phi_k) / 2,
 
-    exact when ``phi`` (n, n) holds every mode. Modes within ``degenerate_rtol`` (relative) of mode k are
-    left out of its sum: within a degenerate subspace the eigenvectors are not differentiable (any rotation
-    of them is a basis), and only the motion of the subspace itself is defined. From dM/dp, dC/dp
-    (n_p, n, n), phi (n, n), lam (n,); shape (n_p, n, n): [p, :, k] = d phi_k / d p."""
-    forcing = modal_projection(phi, d_stiffness) - lam[None, None, :] * modal_projection(phi, d_mass)
+    exact when ``phi`` holds every mode. Modes within ``degenerate_rtol`` (relative) of mode k are left out
+    of its sum: within a degenerate subspace the eigenvectors are not differentiable (any rotation of them is
+    a basis), and only the motion of the subspace itself is defined."""
+    n_p = len(d_stiffness)
+    both = np.concatenate((d_stiffness, d_mass))  # one stack: one call of each product below
+    projected = modal_projection(phi, both)
+    diagonal = modal_diagonal(phi, both)  # the diagonal of ``projected``, summed as eigenvalue_derivatives sums it
+    forcing = projected[:n_p] - lam[None, None, :] * projected[n_p:]
+    d_lam = diagonal[:n_p] - lam[None, :] * diagonal[n_p:]
+    modes = np.arange(len(lam))
     gap = lam[None, :] - lam[:, None]  # [j, k] = lambda_k - lambda_j
     near = np.abs(gap) <= degenerate_rtol * np.abs(lam)[None, :]
     coefficient = np.where(near[None], 0.0, forcing / np.where(near, 1.0, gap)[None])
-    own = modal_diagonal(phi, d_mass)
-    coefficient[:, np.arange(len(lam)), np.arange(len(lam))] = -0.5 * own
-    return phi[None] @ coefficient
+    coefficient[:, modes, modes] = -0.5 * diagonal[n_p:]
+    return d_lam, phi[None] @ coefficient
