@@ -135,9 +135,10 @@ def eigen_derivatives(
     d_mass: NDArray, d_stiffness: NDArray, phi: NDArray, lam: NDArray, degenerate_rtol: float = 1e-6
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """d lambda_k / d p and d phi_k / d p of the mass-normalised modes of (C, M) from dC/dp and dM/dp
-    (n_p, n, n) projected together on every mode phi (n, n), lam (n,). The eigenvalues' are those of
-    :func:`eigenvalue_derivatives` to the bit (the diagonal of the forcing below, summed in its order), shape
-    (n_p, n); the modes' by modal expansion (Fox and Kapoor), shape (n_p, n, n), [p, :, k] = d phi_k / d p:
+    (n_p, n, n) projected together on every mode phi (n, n), lam (n,). The eigenvalue derivatives, shape
+    (n_p, n), are :func:`eigenvalue_derivatives`' to the bit (the diagonal of the forcing below, summed in its
+    order); the mode derivatives, by modal expansion (Fox and Kapoor), have shape (n_p, n, n),
+    [p, :, k] = d phi_k / d p:
 
         phi_k' = sum_{j != k} phi_j phi_j^T (C' - lambda_k M') phi_k / (lambda_k - lambda_j)
                  - phi_k (phi_k^T M' phi_k) / 2,

@@ -56,8 +56,9 @@ def as_operands(*args: ArrayLike) -> list[np.float64 | NDArray[np.float64]]:
 
 def batch_shape(*args: np.float64 | NDArray[np.float64]) -> tuple[int, ...]:
     """The shape the operands broadcast to (``numpy.broadcast_shapes`` of theirs): () at once when every one is
-    a scalar (their ``shape`` attributes: numpy.shape's call costs ten times as much on 40 arguments; it takes
-    the arguments of a function generated without as_operands)."""
+    a scalar. Read from their ``shape`` attributes (calling numpy.shape on 40 arguments costs ten times as
+    much); numpy.shape only where an argument has none (a function generated without as_operands, given a
+    Python float)."""
     try:
         shapes = [a.shape for a in args]
     except AttributeError:
