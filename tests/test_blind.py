@@ -266,3 +266,25 @@ def test_a_turned_and_misplaced_channel_is_not_named_turned_confidently():
     result = blind.run_case(307, "sensor_turned+sensor_misplaced", "shapes", "genset8")
     assert result.kind == "tie" and not result.confident
     assert result.ranked[0] == "sensor_turned"
+
+
+def test_reliability_per_first_ranked_candidate_finds_the_candidate_whose_probabilities_miss():
+    """Two candidates ranked first at 0.8: one right as often as stated, one never: the pooled table sees a
+    miss, the per-candidate rows say whose (p nil for the one never right, large for the calibrated one)."""
+    rng = np.random.default_rng(3)
+    calibrated = [
+        blind.CaseResult("cog_height" if ok else "com_offset", ("cog_height",), (), True, False, True, 0.9, "tie", 0.8)
+        for ok in rng.random(40) < 0.8
+    ]
+    never = [
+        blind.CaseResult("support_frame", ("rotational_stiffness",), (), True, False, True, 0.9, "tie", 0.8)
+        for _ in range(20)
+    ]
+    rows = {row[0]: row for row in blind.score(calibrated + never).by_candidate}
+    assert rows["rotational_stiffness"][1:4] == pytest.approx((20, 0.8, 0.0)) and rows["rotational_stiffness"][4] == 0
+    name, count, stated, observed, p = rows["cog_height"]
+    assert count == 40 and stated == pytest.approx(0.8) and abs(observed - 0.8) < 0.15 and p > 0.05
+    # a 'not explained' verdict states no probability and is not counted
+    quiet = blind.CaseResult("cog_height", ("cog_height",), (), True, False, True, 0.9, "not explained", 0.3)
+    assert [row[:2] for row in blind.score([*never, quiet]).by_candidate] == [("rotational_stiffness", 20)]
+    assert "rotational_stiffness" in blind.score(calibrated + never).text()

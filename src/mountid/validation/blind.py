@@ -286,6 +286,11 @@ class Score:
     """Share of those draws whose calibration error is at least the observed one: small (< 0.05) when the
     observed error is more than sampling noise, i.e. evidence that the probabilities are miscalibrated. The
     draws treat the cases as independent; seeds shared between machines make the true noise larger."""
+    by_candidate: tuple[tuple[str, int, float, float, float], ...] = ()
+    """The reliability table's verdicts per first-ranked candidate (candidate, verdicts, mean stated, observed
+    share right, p: how often a perfectly calibrated diagnosis is as far off; _by_candidate): where the
+    probabilities miss, which candidate's they are. With a dozen candidates tested, one p below 0.05 is
+    expected by chance."""
 
     @property
     def wrong_limit(self) -> float:
@@ -349,6 +354,15 @@ class Score:
         ]
         for lo, hi, count, stated, observed in self.reliability:
             lines.append(f"  [{lo:4.2f}, {min(hi, 1.0):4.2f}) {count:6d} {stated:12.3f} {observed:9.3f}")
+        shown = [row for row in self.by_candidate if row[1] >= BY_CANDIDATE_MINIMUM]
+        if shown:
+            lines.append(
+                f"the same per first-ranked candidate, ranked first in {BY_CANDIDATE_MINIMUM} verdicts or more (p: "
+                "share of a perfectly calibrated diagnosis's draws as far from the stated mean):"
+            )
+            lines.append(f"  {'first-ranked':>38} {'cases':>6} {'mean stated':>12} {'observed':>9} {'p':>6}")
+            for name, count, stated, observed, p in shown:
+                lines.append(f"  {name[:38]:>38} {count:6d} {stated:12.3f} {observed:9.3f} {p:6.3f}")
         lines.append(
             "confusion (rows: injected; columns: ranked first, '-' no significant gap, '?' not explained, "
             "'pair' two effects):"
@@ -382,13 +396,45 @@ def _short(name: str) -> str:
 CALIBRATION_DRAWS = 2000
 """Draws of a perfectly calibrated diagnosis for the calibration error's sampling noise (Score.calibration_floor)."""
 
+BY_CANDIDATE_MINIMUM = 10
+"""Score.text lists a candidate's reliability (Score.by_candidate) when it is ranked first in this many verdicts
+or more."""
+
+
+def _stating(results: list[CaseResult]) -> list[CaseResult]:
+    """The verdicts that state a probability of their first-ranked candidate: confident or a tie (a "not
+    explained" verdict says the catalogue's probabilities do not apply)."""
+    return [
+        r
+        for r in results
+        if r.significant and r.ranked and r.kind in ("confident", "tie") and math.isfinite(r.probability)
+    ]
+
 
 def _stated(results: list[CaseResult]) -> tuple[np.ndarray, np.ndarray]:
     """Stated probability of the first-ranked candidate and whether it is right, over the verdicts that state a
-    probability (confident or a tie: a "not explained" verdict says the catalogue's probabilities do not apply)."""
-    verdicts = [r for r in results if r.significant and r.ranked and r.kind in ("confident", "tie")]
-    pairs = [(r.probability, r.right) for r in verdicts if math.isfinite(r.probability)]
-    return np.array([p for p, _ in pairs], dtype=float), np.array([right for _, right in pairs], dtype=float)
+    probability (_stating)."""
+    verdicts = _stating(results)
+    return np.array([r.probability for r in verdicts], dtype=float), np.array([r.right for r in verdicts], dtype=float)
+
+
+def _by_candidate(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, ...]:
+    """Reliability per first-ranked candidate over the verdicts that state a probability (_stating): rows
+    (candidate, verdicts, mean stated probability, observed share right, p), most verdicts first. ``p``: the
+    share of ``draws`` of a perfectly calibrated diagnosis (each verdict right with its stated probability, a
+    fixed seed) whose share right is at least as far from the mean stated as the observed one (two-sided)."""
+    verdicts = _stating(results)
+    rng = np.random.default_rng(0)
+    rows = []
+    for name in sorted({r.ranked[0] for r in verdicts}):
+        mine = [r for r in verdicts if r.ranked[0] == name]
+        stated = np.array([r.probability for r in mine])
+        observed = float(np.mean([r.right for r in mine]))
+        drawn = (rng.random((draws, len(mine))) < stated).mean(axis=1)
+        distance = abs(observed - stated.mean())
+        p = float(np.mean(np.abs(drawn - stated.mean()) >= distance - 1e-12))
+        rows.append((name, len(mine), float(stated.mean()), observed, p))
+    return tuple(sorted(rows, key=lambda row: (-row[1], row[0])))
 
 
 def _reliability_rows(stated: np.ndarray, right: np.ndarray) -> list[tuple[float, float, int, float, float]]:
@@ -476,6 +522,7 @@ def score(results: list[CaseResult]) -> Score:
         float(np.mean(ties)) if ties else math.nan,
         floor,
         p_calibration,
+        _by_candidate([r for r in results if r.in_catalogue]),
     )
 
 
