@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: all demo test fuzz lint format generate check-generated bench bench-blind core-check clean
+.PHONY: all demo test fuzz lint format generate check-generated bench bench-blind bench-evidence core-check clean
 
 all: test
 
@@ -62,6 +62,10 @@ bench: $(STAMP)
 # the diagnosis benchmarks alone: one diagnosis's time and the blind validation
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED)
+
+# the Laplace evidence against nested sampling on four blind cases (about half an hour on 2 cores)
+bench-evidence: $(STAMP)
+	$(PY) -m benchmarks.evidence
 
 clean:
 	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache .ruff_cache .hypothesis
