@@ -63,7 +63,7 @@ bench: $(STAMP)
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED)
 
-# the Laplace evidence against nested sampling on four blind cases (about half an hour on 2 cores)
+# the Laplace evidence against nested sampling on four blind cases (56 minutes beside a benchmark on 2 cores)
 bench-evidence: $(STAMP)
 	$(PY) -m benchmarks.evidence
 

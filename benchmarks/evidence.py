@@ -1,6 +1,6 @@
 """The diagnosis's Laplace evidence against nested sampling (dynesty) on a few blind cases: how far the one-point
 Gaussian approximation (mountid.diagnosis.fitting.log_evidence) is from the integral it approximates, per
-candidate. Not part of ``make bench`` (minutes per candidate): ``make bench-evidence`` or
+candidate. Not part of ``make bench`` (2-11 minutes per candidate): ``make bench-evidence`` or
 ``python -m benchmarks.evidence [--live N] [SEED:TRUTH:KIND:MACHINE:CANDIDATE,CANDIDATE ...]``.
 
 The integral is the one the Laplace evidence approximates, with the same constant left out: the likelihood
