@@ -21,6 +21,7 @@ import numpy as np
 
 from mountid.diagnosis import campaign, fitting
 from mountid.diagnosis.candidate_model import CandidateModel
+from mountid.diagnosis.strategies import strategy
 from mountid.effects import EFFECTS
 from mountid.validation import blind
 
@@ -115,6 +116,13 @@ def parse_case(spec: str) -> tuple[int, str, str, str, list[str]]:
     unknown = [n for n in candidates if n not in EFFECTS]
     if unknown:
         raise ValueError(f"case {spec!r}: {', '.join(unknown)} not in the catalogue ({', '.join(EFFECTS)})")
+    camp = campaign.parse(blind.make_case(int(seed), truth, kind=kind, machine=machine)[0])
+    placed = [n for n in candidates if strategy(EFFECTS[n]).variants(camp)]
+    if placed:
+        raise ValueError(
+            f"case {spec!r}: {', '.join(placed)} acts at one isolator or channel (its evidence is a mean over them), "
+            "which this check does not integrate"
+        )
     return int(seed), truth, kind, machine, candidates
 
 
@@ -135,7 +143,7 @@ def check(spec: str, live: int) -> list[str]:
         lines.append(
             f"  {name:22s} chi^2 {fit.chi2:7.2f}  Laplace {fit.log_evidence:8.2f}  nested {ns['log_z']:8.2f} "
             f"+- {ns['error']:.2f}  (nested - Laplace {ns['log_z'] - fit.log_evidence:+6.2f}; best chi^2 visited "
-            f"{ns['best_chi2']:.2f}{', the fit missed: a lower bound' if missed else ''}; "
+            f"{ns['best_chi2']:.2f}{', the sampler missed the fit: a lower bound' if missed else ''}; "
             f"{ns['calls']} calls, {time.perf_counter() - t:.0f} s)"
         )
     return lines
