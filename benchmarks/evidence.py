@@ -46,10 +46,7 @@ def nested_evidence(model: CandidateModel, data: fitting.Data, centre: np.ndarra
     visited and its likelihood calls."""
     import dynesty  # the bench's own dependency (mountid[dev])
 
-    width = fitting.UNKNOWN_PRIOR_WIDTH
-    a, b = model.plausible_box()
-    lo = np.concatenate([centre - width / 2, a])
-    hi = np.concatenate([centre + width / 2, b])
+    lo, hi = fitting.prior_box(model, centre)
     held = model.held_first()
     start = model.start()[0]
 
@@ -98,8 +95,9 @@ def nested_evidence(model: CandidateModel, data: fitting.Data, centre: np.ndarra
     }
 
 
-def parse_case(spec: str) -> tuple[int, str, str, str, list[str]]:
-    """``SEED:TRUTH:KIND:MACHINE:CANDIDATE,...`` checked: a ValueError names what is wrong."""
+def parse_case(spec: str) -> tuple[str, campaign.Campaign, list[str]]:
+    """``SEED:TRUTH:KIND:MACHINE:CANDIDATE,...`` checked (a ValueError names what is wrong): a title, the blind
+    case's campaign and the candidates."""
     fields = spec.split(":")
     if len(fields) != 5:
         raise ValueError(f"case {spec!r}: expected SEED:TRUTH:KIND:MACHINE:CANDIDATE,... (five fields)")
@@ -123,17 +121,14 @@ def parse_case(spec: str) -> tuple[int, str, str, str, list[str]]:
             f"case {spec!r}: {', '.join(placed)} acts at one isolator or channel (its evidence is a mean over them), "
             "which this check does not integrate"
         )
-    return int(seed), truth, kind, machine, candidates
+    return f"{machine} seed {seed}, {truth}, {kind}:", camp, candidates
 
 
-def check(spec: str, live: int) -> list[str]:
-    """One case ``SEED:TRUTH:KIND:MACHINE:CANDIDATE,...``: a line per candidate."""
-    seed, truth, kind, machine, names = parse_case(spec)
-    data, _ = blind.make_case(seed, truth, kind=kind, machine=machine)
-    camp = campaign.parse(data)
+def check(title: str, camp: campaign.Campaign, names: list[str], live: int) -> list[str]:
+    """One case (parse_case): a line per candidate."""
     nominal = fitting.fit_candidate(camp, None)
     centre = nominal.theta[: len(nominal.state.model.unknown)]
-    lines = [f"{machine} seed {seed}, {truth}, {kind}:"]
+    lines = [title]
     for name in names:
         fit = fitting.fit_candidate(camp, EFFECTS[name])
         model = CandidateModel(camp, EFFECTS[name])
@@ -156,10 +151,9 @@ if __name__ == "__main__":
     args = parser.parse_args()
     if args.live < 50:
         parser.error("--live must be at least 50")
-    for case in args.cases:
-        try:
-            parse_case(case)
-        except ValueError as err:
-            parser.error(str(err))
-    for case in args.cases:
-        print("\n".join(check(case, args.live)), flush=True)
+    try:
+        cases = [parse_case(case) for case in args.cases]
+    except ValueError as err:
+        parser.error(str(err))
+    for title, camp, names in cases:
+        print("\n".join(check(title, camp, names, args.live)), flush=True)

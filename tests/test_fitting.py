@@ -96,12 +96,9 @@ def test_laplace_evidence_is_the_integral_over_the_prior_where_the_data_determin
     fit = fitting.fit_candidate(campaign, EFFECTS[fitted])
     model = fit.state.model
     data = fitting.Data(campaign, model.length)
-    n = len(model.unknown)
-    a, b = model.plausible_box()
-    lo = np.concatenate([fit.theta[:n] - fitting.UNKNOWN_PRIOR_WIDTH / 2, a])
-    hi = np.concatenate([fit.theta[:n] + fitting.UNKNOWN_PRIOR_WIDTH / 2, b])
+    lo, hi = fitting.prior_box(model, fit.theta[: len(model.unknown)])
     assert np.all((lo < fit.theta) & (fit.theta < hi))  # the fit inside the prior's box
-    jac, chi2, _ = fit.state.evidence_terms[0]
+    jac = fit.state.evidence_terms[0][0]
     covariance = 2 * np.linalg.inv(jac.T @ jac + np.diag(12 / fitting.prior_widths(model) ** 2))
     proposal = scipy.stats.multivariate_t(fit.theta, covariance, df=4, seed=np.random.default_rng(0))
     draws = proposal.rvs(2000)

@@ -228,6 +228,16 @@ def prior_widths(model: CandidateModel) -> np.ndarray:
     )
 
 
+def prior_box(model: CandidateModel, unknowns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper ends, in the units of the flat vector, of the uniform prior whose widths prior_widths
+    gives: each unknown over UNKNOWN_PRIOR_WIDTH centred on ``unknowns`` (log; where the box sits cancels from
+    the candidates' evidence ratios as long as it holds their fits), the effect parameters over their plausible
+    box. The region log_evidence approximates the integral over (its checks integrate over it)."""
+    a, b = model.plausible_box()
+    half = UNKNOWN_PRIOR_WIDTH / 2
+    return np.concatenate([unknowns - half, a]), np.concatenate([unknowns + half, b])
+
+
 REFINED_AT_START = 0.5
 """Prior probability that a refining parameter (EffectParameter.refines: the support's aspect, an attached
 body's anisotropy) sits exactly at its start (a support as symmetric as the isolator layout, a body alike about
