@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -288,3 +289,31 @@ def test_reliability_per_first_ranked_candidate_finds_the_candidate_whose_probab
     quiet = blind.CaseResult("cog_height", ("cog_height",), (), True, False, True, 0.9, "not explained", 0.3)
     assert [row[:2] for row in blind.score([*never, quiet]).by_candidate] == [("rotational_stiffness", 20)]
     assert "rotational_stiffness" in blind.score(calibrated + never).text()
+
+
+def _verdicts(stated: float, right: int, wrong: int) -> list[blind.CaseResult]:
+    """Tie verdicts naming the height of the centre of mass at ``stated``: right on ``right`` of them."""
+    return [
+        blind.CaseResult(truth, ("cog_height",), (), True, False, True, 0.9, "tie", stated)
+        for truth in ["cog_height"] * right + ["com_offset"] * wrong
+    ]
+
+
+def test_proper_scores_prefer_sharp_calibrated_probabilities_to_a_flat_statement_the_bins_cannot_fault():
+    """Half the verdicts stated at 0.95 and right in 0.9, half at 0.55 and right in 0.6: binned error 0.05. The
+    same verdicts all stated at 0.75 (right in 0.75): binned error 0, yet they say less; the log loss and the
+    Brier score (hand-computed here) rank the sharp ones better."""
+    sharp = blind.score(_verdicts(0.95, 45, 5) + _verdicts(0.55, 30, 20))
+    flat = blind.score(_verdicts(0.75, 75, 25))
+    assert sharp.calibration_error == pytest.approx(0.05) and flat.calibration_error == pytest.approx(0.0)
+    assert sharp.log_loss == pytest.approx(
+        -(45 * math.log(0.95) + 5 * math.log(0.05) + 30 * math.log(0.55) + 20 * math.log(0.45)) / 100
+    )
+    assert flat.log_loss == pytest.approx(-(75 * math.log(0.75) + 25 * math.log(0.25)) / 100)
+    assert sharp.brier == pytest.approx((45 * 0.05**2 + 5 * 0.95**2 + 30 * 0.45**2 + 20 * 0.55**2) / 100)
+    assert flat.brier == pytest.approx(0.75 * 0.25)
+    assert sharp.log_loss < flat.log_loss and sharp.brier < flat.brier
+    assert f"log loss {sharp.log_loss:.3f}, Brier {sharp.brier:.3f}" in sharp.text()
+    # a verdict stated at 1 and wrong costs ln(1 / LOG_LOSS_FLOOR), not infinity; no verdict, no score
+    assert blind.score(_verdicts(1.0, 0, 1)).log_loss == pytest.approx(-math.log(blind.LOG_LOSS_FLOOR))
+    assert math.isnan(blind.score([]).log_loss)

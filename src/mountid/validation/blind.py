@@ -291,6 +291,15 @@ class Score:
     share right, p: how often a perfectly calibrated diagnosis is as far off; _by_candidate): where the
     probabilities miss, which candidate's they are. With a dozen candidates tested, one p below 0.05 is
     expected by chance."""
+    log_loss: float = math.nan
+    """Mean of -ln(stated probability) over the reliability table's verdicts where the first-ranked candidate is
+    right and -ln(1 - stated) where it is wrong (stated probabilities kept within LOG_LOSS_FLOOR of 0 and 1): a
+    proper score, lowest only for probabilities that are both calibrated and sharp. The binned calibration
+    error can fall while the probabilities say less (stated flatter over verdicts the ranking could tell
+    apart); a change is better only where this does not rise."""
+    brier: float = math.nan
+    """Mean of (stated probability - 1 if right else 0)^2 over the same verdicts: the proper score that a single
+    confident and wrong verdict moves least."""
 
     @property
     def wrong_limit(self) -> float:
@@ -349,7 +358,8 @@ class Score:
             f"(calibration error {self.calibration_error:.3f}, target <= 0.05; weighted by the bins' counts "
             f"{self.weighted_calibration_error:.3f}; over every truth {self.calibration_error_all:.3f}; a perfectly "
             f"calibrated diagnosis would show {self.calibration_floor:.3f} on average at these counts, and "
-            f"{self.calibration_p:.0%} of its draws as much as observed):",
+            f"{self.calibration_p:.0%} of its draws as much as observed; proper scores of the same verdicts: log "
+            f"loss {self.log_loss:.3f}, Brier {self.brier:.3f}):",
             f"  {'stated':>13} {'cases':>6} {'mean stated':>12} {'observed':>9}",
         ]
         for lo, hi, count, stated, observed in self.reliability:
@@ -416,6 +426,22 @@ def _stated(results: list[CaseResult]) -> tuple[np.ndarray, np.ndarray]:
     probability (_stating)."""
     verdicts = _stating(results)
     return np.array([r.probability for r in verdicts], dtype=float), np.array([r.right for r in verdicts], dtype=float)
+
+
+LOG_LOSS_FLOOR = 1e-9
+"""Stated probabilities enter the log loss within this of 0 and 1: a verdict stated at 1 to the last digit and
+wrong costs 20.7 (ln 1e9), not infinity."""
+
+
+def _proper_scores(results: list[CaseResult]) -> tuple[float, float]:
+    """Log loss and Brier score of the stated probability of the first-ranked candidate over the verdicts that
+    state one (_stating; nan without any)."""
+    stated, right = _stated(results)
+    if not len(stated):
+        return math.nan, math.nan
+    p = np.clip(stated, LOG_LOSS_FLOOR, 1 - LOG_LOSS_FLOOR)
+    log_loss = float(np.mean(-np.log(np.where(right > 0, p, 1 - p))))
+    return log_loss, float(np.mean((stated - right) ** 2))
 
 
 def _by_candidate(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, ...]:
@@ -523,6 +549,7 @@ def score(results: list[CaseResult]) -> Score:
         floor,
         p_calibration,
         _by_candidate([r for r in results if r.in_catalogue]),
+        *_proper_scores([r for r in results if r.in_catalogue]),
     )
 
 
