@@ -49,7 +49,7 @@ def speed() -> None:
 
 HEADER = (
     f"{'machine':11s} {'campaign':11s} {'cases':>5s} {'top-1':>6s} {'in tie':>6s} {'c&w':>4s} {'c none':>6s} "
-    f"{'c out':>5s} {'honest':>6s} {'calib.':>6s} {'floor':>5s} {'reduct.':>7s} {'tie':>4s}  targets"
+    f"{'c out':>5s} {'honest':>6s} {'calib.':>6s} {'floor':>5s} {'logloss':>7s} {'reduct.':>7s} {'tie':>4s}  targets"
 )
 
 
@@ -57,8 +57,8 @@ def _row(machine: str, kind: str, s: blind.Score) -> str:
     return (
         f"{machine:11s} {kind:11s} {s.n:5d} {s.top1_identifiable:6.1%} {s.truth_in_tie:6.1%} "
         f"{s.confident_and_wrong:4d} {s.confident_on_none:6d} {s.confident_outside:5d} {s.honest_outside:6.1%} "
-        f"{s.calibration_error:6.3f} {s.calibration_floor:5.3f} {s.median_reduction:7.1%} {s.mean_tie:4.1f}  "
-        + ("met" if s.targets_met else "missed: " + ", ".join(s.missed()))
+        f"{s.calibration_error:6.3f} {s.calibration_floor:5.3f} {s.log_loss:7.3f} {s.median_reduction:7.1%} "
+        f"{s.mean_tie:4.1f}  " + ("met" if s.targets_met else "missed: " + ", ".join(s.missed()))
     )
 
 
@@ -78,7 +78,8 @@ def validation(
     print("blind validation per machine and campaign kind (top-1 on identifiable cases; truth in the tie of testable")
     print("cases with a gap; c&w confident and wrong, c none on cases without an effect, c out outside the catalogue;")
     print("honest: outside the catalogue 'not explained' or a tie; calib.: calibration error; floor: the calibration")
-    print("error a perfectly calibrated diagnosis shows on average at the same counts (sampling noise); reduct.:")
+    print("error a perfectly calibrated diagnosis shows on average at the same counts (sampling noise); logloss:")
+    print("log loss of the same stated probabilities, a proper score (no target: lower is better); reduct.:")
     print("held-out gap reduction, median; tie: mean size of the reported tie)")
     print(HEADER)
     for kind in kinds:
