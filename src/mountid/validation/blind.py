@@ -521,7 +521,8 @@ def score(results: list[CaseResult]) -> Score:
         column = "-" if not r.significant else "?" if r.kind == "not explained" or not r.ranked else r.ranked[0]
         confusion.setdefault(r.truth, Counter())["pair" if "+" in column else column] += 1
     reductions = np.array([r.reduction for r in detected if math.isfinite(r.reduction)])
-    reliability, calibration, weighted, floor, p_calibration = _reliability([r for r in results if r.in_catalogue])
+    represented = [r for r in results if r.in_catalogue]  # the verdicts the probabilities are judged on
+    reliability, calibration, weighted, floor, p_calibration = _reliability(represented)
     _, calibration_all, *_ = _reliability(results, draws=0)  # its sampling noise is not reported
     ties = [len(r.tie) for r in results if r.significant]
     return Score(
@@ -548,8 +549,8 @@ def score(results: list[CaseResult]) -> Score:
         float(np.mean(ties)) if ties else math.nan,
         floor,
         p_calibration,
-        _by_candidate([r for r in results if r.in_catalogue]),
-        *_proper_scores([r for r in results if r.in_catalogue]),
+        _by_candidate(represented),
+        *_proper_scores(represented),
     )
 
 
