@@ -205,6 +205,10 @@ def test_the_readme_worked_examples_give_their_verdict_kinds(example, kind, seed
     assert report.kind == kind
     if kind == "confident":
         assert report.best.effect == blind_truth.represented_by(truth)
+    if kind == "tie":  # the support (the truth) fits as well as rotational stiffness, ranked first by its priors
+        assert report.best.effect == "rotational_stiffness"
+        assert "foundation" in [s.rival for s in report.alike()]
+        assert any(note.startswith("the data fit frequency_dependent, foundation,") for note in report.notes)
 
 
 def test_a_rival_whose_parameter_the_data_leave_undetermined_is_not_ruled_out():
@@ -291,12 +295,26 @@ def test_reliability_per_first_ranked_candidate_finds_the_candidate_whose_probab
     assert "rotational_stiffness" in blind.score(calibrated + never).text()
 
 
-def _verdicts(stated: float, right: int, wrong: int) -> list[blind.CaseResult]:
-    """Tie verdicts naming the height of the centre of mass at ``stated``: right on ``right`` of them."""
+def _verdicts(stated: float, right: int, wrong: int, alike: tuple[str, ...] = ()) -> list[blind.CaseResult]:
+    """Tie verdicts naming the height of the centre of mass at ``stated``: right on ``right`` of them; ``alike``:
+    the rivals the data fit as well."""
     return [
-        blind.CaseResult(truth, ("cog_height",), (), True, False, True, 0.9, "tie", stated)
+        blind.CaseResult(truth, ("cog_height",), (), True, False, True, 0.9, "tie", stated, alike=alike)
         for truth in ["cog_height"] * right + ["com_offset"] * wrong
     ]
+
+
+def test_the_reliability_by_what_the_first_place_rests_on_splits_the_verdicts_where_a_rival_fits_alike():
+    """Verdicts with a rival the data fit as well (CaseResult.alike) and verdicts without, scored apart: counts,
+    mean stated, share right by hand, and the rows printed under the reliability table."""
+    on_priors = _verdicts(0.8, 6, 4, alike=("com_offset",))
+    on_data = _verdicts(0.99, 20, 0)
+    score = blind.score(on_priors + on_data)
+    rows = {row[0]: row[1:4] for row in score.by_basis}
+    assert rows[blind.BASIS_PRIORS] == (10, pytest.approx(0.8), pytest.approx(0.6))
+    assert rows[blind.BASIS_DATA] == (20, pytest.approx(0.99), pytest.approx(1.0))
+    assert [row[0] for row in score.by_basis] == [blind.BASIS_DATA, blind.BASIS_PRIORS]  # most verdicts first
+    assert blind.BASIS_PRIORS in score.text() and "first place rests on" in score.text()
 
 
 def test_proper_scores_prefer_sharp_calibrated_probabilities_to_a_flat_statement_the_bins_cannot_fault():

@@ -4,6 +4,7 @@ verdict without an effect, and the modal force residual per isolator."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,16 +15,20 @@ from hypothesis import strategies as st
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.candidates import (
+    alike,
+    alike_note,
     confirmed,
     diagnose_effects,
     explains,
     fits_within_uncertainty,
     held_out_shift,
+    odds_splits,
     sized,
     untestable_note,
 )
 from mountid.diagnosis.fitting import PRIOR_WEIGHT, CandidateFit, fit_candidate, noise_level, prior_widths, promises
 from mountid.diagnosis.gap import isolator_forces
+from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import EFFECTS, Pair
 from mountid.errors import InputError
 from mountid.machine import Machine
@@ -547,3 +552,36 @@ def test_a_tie_says_which_pairs_its_probabilities_leave_out():
     assert report.kind == "tie" and report.best.probability > 0.99
     (note,) = [n for n in report.notes if "can test" in n]
     assert "isolator_scatter+foundation" in note and "11: " in note
+
+
+def _ranked_fit(effect: str, chi2: float, probability: float) -> CandidateFit:
+    return CandidateFit(effect, "", {}, {}, chi2, 36, 4, 0.0, True, "", {}, probability=probability)
+
+
+def test_the_odds_against_the_first_candidate_split_into_what_the_fit_and_what_the_priors_hold():
+    """By hand, at the shipped evidence temperature T: the first (chi^2 29, probability 0.6) against a rival of
+    chi^2 25 and probability 0.1 (it fits better; the priors put it behind): log odds ln 6, of which the fit
+    holds T (25 - 29) / 2 and the priors the rest. With the variances scaled by 2 the fit holds half. A rival
+    the data fit alike (the fit holds DiagnosisSettings.fit_alike nats or less) is named by alike only inside the
+    tie; a rival the fit puts behind is not named; a rival of probability 0 has no odds."""
+    t = DIAGNOSIS.evidence_temperature
+    ranked = [
+        _ranked_fit("rotational_stiffness", 29.0, 0.6),
+        _ranked_fit("added_mass", 25.0, 0.1),
+        _ranked_fit("cog_height", 60.0, 0.3),
+        _ranked_fit("damping", 29.0, 0.0),
+    ]
+    splits = odds_splits(ranked)
+    assert [s.rival for s in splits] == ["added_mass", "cog_height"]
+    mass, height = splits
+    assert mass.odds == pytest.approx(math.log(6.0)) and mass.fit == pytest.approx(-2.0 * t)
+    assert mass.priors == pytest.approx(math.log(6.0) + 2.0 * t)
+    assert height.fit == pytest.approx(15.5 * t) and height.odds == pytest.approx(math.log(2.0))
+    assert odds_splits(ranked, scale=2.0)[0].fit == pytest.approx(-1.0 * t)
+    assert [s.rival for s in alike(splits, ["rotational_stiffness", "added_mass", "cog_height"])] == ["added_mass"]
+    assert alike(splits, ["rotational_stiffness", "cog_height"]) == ()
+    assert alike(splits, ["added_mass"], replace(DIAGNOSIS, fit_alike=-1.0)) == ()  # the fit holds -0.9 > -1
+    assert odds_splits([_ranked_fit("damping", 29.0, 0.0), *ranked]) == ()
+    note = alike_note(alike(splits, ["added_mass"]), "rotational_stiffness")
+    assert note.startswith("the data fit added_mass as well as rotational_stiffness: the order between them rests")
+    assert alike_note((), "rotational_stiffness") == ""

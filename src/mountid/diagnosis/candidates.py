@@ -90,6 +90,25 @@ class _Promise(NamedTuple):
 
 
 @dataclass(frozen=True)
+class OddsSplit:
+    """The first-ranked candidate's posterior log odds [nats] against a ``rival``, split into the part its fit
+    holds and the part the priors hold. ``fit``: the evidence temperature times half the rival's chi^2 less
+    the first's (with the variances the probabilities were taken with, EffectsReport.misfit_scale): positive
+    where the first fits better. ``priors``: the rest, the Occam factors of their prior ranges (what part of
+    its range each candidate needs), the mean over an unknown isolator or channel and the prior odds of a
+    pair. Where ``fit`` is near zero or negative the data fit both alike and the odds are the priors'."""
+
+    rival: str
+    fit: float
+    priors: float
+
+    @property
+    def odds(self) -> float:
+        """The whole log odds [nats]: ln(probability of the first / probability of the rival)."""
+        return self.fit + self.priors
+
+
+@dataclass(frozen=True)
 class EffectsReport:
     """Every candidate fitted and ranked, and what the data say about them."""
 
@@ -107,12 +126,62 @@ class EffectsReport:
     notes: list[str] = field(default_factory=list)
     screened: list[ScreenedPair] = field(default_factory=list)
     """Pairs of effects screened but not fitted (fit_pairs)."""
+    misfit_scale: float = 1.0
+    """The factor on every measurement's variance the probabilities were taken with (1 unless even the best
+    candidate misses the data beyond their uncertainty; see _probabilities)."""
 
     @property
     def best(self) -> CandidateFit | None:
         """The first-ranked candidate, when the data rank candidates at all (a positive probability)."""
         first = self.ranked[0] if self.ranked else None
         return first if first is not None and first.probability > 0 else None
+
+    def odds_splits(self, settings: DiagnosisSettings = DIAGNOSIS) -> tuple[OddsSplit, ...]:
+        """The first-ranked candidate's log odds against each other candidate of positive probability, in the
+        order ranked, split into what the fit and what the priors hold (OddsSplit)."""
+        return odds_splits(self.ranked, self.misfit_scale, settings)
+
+    def alike(self, settings: DiagnosisSettings = DIAGNOSIS) -> tuple[OddsSplit, ...]:
+        """The rivals in the tie the data fit as well as the first-ranked candidate (:func:`alike`)."""
+        return alike(self.odds_splits(settings), self.tie, settings)
+
+
+def odds_splits(
+    ranked: Sequence[CandidateFit], scale: float = 1.0, settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[OddsSplit, ...]:
+    """The log odds of the first of ``ranked`` (by probability) against each other of positive probability,
+    split into what the fit and what the priors hold (OddsSplit; ``scale``: the factor on the variances the
+    probabilities were taken with). Empty when the first has probability 0."""
+    if not ranked or not ranked[0].probability > 0:
+        return ()
+    best, out = ranked[0], []
+    for f in ranked[1:]:
+        if f.probability > 0 and math.isfinite(f.chi2):
+            fit = settings.evidence_temperature * (f.chi2 - best.chi2) / (2 * scale)
+            out.append(OddsSplit(f.effect, fit, math.log(best.probability / f.probability) - fit))
+    return tuple(out)
+
+
+def alike(
+    splits: Sequence[OddsSplit], tie: Sequence[str], settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[OddsSplit, ...]:
+    """The rivals in the ``tie`` that the data fit as well as the first-ranked candidate or better: the fit holds
+    settings.fit_alike nats of the odds against them or less. Between them the order rests on the priors (the
+    candidates' prior ranges), not on the data."""
+    return tuple(s for s in splits if s.rival in tie and s.fit <= settings.fit_alike)
+
+
+def alike_note(splits: Sequence[OddsSplit], first: str) -> str:
+    """The note of :func:`alike`'s rivals ('' without any)."""
+    if not splits:
+        return ""
+    each = "; ".join(f"{s.rival} {s.odds:.2g} = fit {s.fit:+.2g} + priors {s.priors:+.2g}" for s in splits)
+    return (
+        f"the data fit {', '.join(s.rival for s in splits)} as well as {first}: the order between them rests on "
+        f"the priors (log odds of {first} against {each} nats; the priors: Occam factors of the prior ranges, the "
+        "mean over an unknown isolator or channel, a pair's prior odds), so the probabilities between them state "
+        "those ranges, not the data"
+    )
 
 
 def fit_all(
@@ -696,6 +765,9 @@ def rank(
         kind = "not explained"
         closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
         verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
+    if significant and best is not None and kind in ("confident", "tie"):
+        note = alike_note(alike(odds_splits(ranked, scale, settings), [f.effect for f in tie], settings), best.effect)
+        notes += [note] if note else []
     if other_roots and best is not None and kind in ("confident", "tie"):
         others = other_solutions(best, settings.tie)
         if others:
@@ -717,6 +789,7 @@ def rank(
         kind,
         notes,
         list(screened or ()),
+        scale,
     )
 
 

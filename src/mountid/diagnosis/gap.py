@@ -379,6 +379,10 @@ class Diagnosis:
             "significant": effects.significant,
             "tie": effects.tie,
             "separation": effects.separation,
+            "odds_against_first": [
+                {"rival": o.rival, "log_odds": o.odds, "fit": o.fit, "priors": o.priors} for o in effects.odds_splits()
+            ],
+            "fit_alike": [o.rival for o in effects.alike()],
             "confident": effects.confident,
             "kind": effects.kind,
             "verdict": self.verdict,

@@ -66,6 +66,10 @@ class DiagnosisSettings:
     pair_dof: int = 3
     """A pair is fitted only where the data leave at least this many degrees of freedom beyond its
     parameters (and the unknowns)."""
+    fit_alike: float = 1.0
+    """A rival in the tie fits the data as well as the first-ranked candidate when the evidence temperature times
+    half their chi^2 difference is at most this many nats (odds of e to 1 from the fit alone): the report then
+    says that the order between them rests on the priors (candidates.alike)."""
     pair_prior: float = 0.1
     """Prior odds of a pair of effects against a single effect."""
     evidence_temperature: float = 0.45

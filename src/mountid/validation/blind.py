@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -131,6 +132,13 @@ class CaseResult:
     weights: tuple[tuple[str, float], ...] = ()
     """Log posterior weight of the nominal model ('none') and every ranked candidate (for studies of the
     probabilities' calibration)."""
+    fit_terms: tuple[tuple[str, float], ...] = ()
+    """-chi^2 / 2 of the nominal model ('none') and every ranked candidate, with the variances the probabilities
+    were taken with (candidates.EffectsReport.misfit_scale): the part of each log weight the fit holds, the rest
+    being its Occam factor and prior odds."""
+    alike: tuple[str, ...] = ()
+    """The candidates in the tie that the data fit as well as the first-ranked one (candidates.alike: the order
+    between them rests on the priors); empty unless the verdict is confident or a tie."""
 
     @property
     def expected(self) -> str | None:
@@ -227,6 +235,8 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
         testable,
         seed,
         (("none", report.nominal.log_weight), *((f.effect, f.log_weight) for f in report.ranked)),
+        tuple((f.effect or "none", -0.5 * f.chi2 / report.misfit_scale) for f in (report.nominal, *report.ranked)),
+        tuple(s.rival for s in report.alike()) if report.kind in ("confident", "tie") else (),
     )
 
 
@@ -300,6 +310,9 @@ class Score:
     brier: float = math.nan
     """Mean of (stated probability - 1 if right else 0)^2 over the same verdicts: the proper score that a single
     confident and wrong verdict moves least."""
+    by_basis: tuple[tuple[str, int, float, float, float], ...] = ()
+    """The reliability table's verdicts by what the first place rests on (_by_basis; rows as by_candidate): the
+    priors where a rival in the tie fits the data as well as the first-ranked candidate, else the data."""
 
     @property
     def wrong_limit(self) -> float:
@@ -364,6 +377,14 @@ class Score:
         ]
         for lo, hi, count, stated, observed in self.reliability:
             lines.append(f"  [{lo:4.2f}, {min(hi, 1.0):4.2f}) {count:6d} {stated:12.3f} {observed:9.3f}")
+        if self.by_basis:
+            lines.append(
+                "the same by what the first place rests on (the priors where the data fit a rival in the tie as "
+                "well, DiagnosisSettings.fit_alike; p as below):"
+            )
+            lines.append(f"  {'first place rests on':>38} {'cases':>6} {'mean stated':>12} {'observed':>9} {'p':>6}")
+            for name, count, stated, observed, p in self.by_basis:
+                lines.append(f"  {name:>38} {count:6d} {stated:12.3f} {observed:9.3f} {p:6.3f}")
         shown = [row for row in self.by_candidate if row[1] >= BY_CANDIDATE_MINIMUM]
         if shown:
             lines.append(
@@ -446,14 +467,32 @@ def _proper_scores(results: list[CaseResult]) -> tuple[float, float]:
 
 def _by_candidate(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, ...]:
     """Reliability per first-ranked candidate over the verdicts that state a probability (_stating): rows
-    (candidate, verdicts, mean stated probability, observed share right, p), most verdicts first. ``p``: the
-    share of ``draws`` of a perfectly calibrated diagnosis (each verdict right with its stated probability, a
-    fixed seed) whose share right is at least as far from the mean stated as the observed one (two-sided)."""
+    (candidate, verdicts, mean stated probability, observed share right, p), most verdicts first (_by_group)."""
+    return _by_group(results, lambda r: r.ranked[0], draws)
+
+
+BASIS_PRIORS = "the priors (a rival fits alike)"
+BASIS_DATA = "the data (no rival fits alike)"
+
+
+def _by_basis(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, ...]:
+    """Reliability by what the first place rests on (_by_group): BASIS_PRIORS where a rival in the tie fits the
+    data as well (CaseResult.alike), else BASIS_DATA."""
+    return _by_group(results, lambda r: BASIS_PRIORS if r.alike else BASIS_DATA, draws)
+
+
+def _by_group(
+    results: list[CaseResult], group: Callable[[CaseResult], str], draws: int = CALIBRATION_DRAWS
+) -> tuple[tuple, ...]:
+    """Reliability per ``group`` (of a case result) over the verdicts that state a probability (_stating): rows
+    (group, verdicts, mean stated probability, observed share right, p), most verdicts first. ``p``: the share
+    of ``draws`` of a perfectly calibrated diagnosis (each verdict right with its stated probability, a fixed
+    seed) whose share right is at least as far from the mean stated as the observed one (two-sided)."""
     verdicts = _stating(results)
     rng = np.random.default_rng(0)
     rows = []
-    for name in sorted({r.ranked[0] for r in verdicts}):
-        mine = [r for r in verdicts if r.ranked[0] == name]
+    for name in sorted({group(r) for r in verdicts}):
+        mine = [r for r in verdicts if group(r) == name]
         stated = np.array([r.probability for r in mine])
         observed = float(np.mean([r.right for r in mine]))
         drawn = (rng.random((draws, len(mine))) < stated).mean(axis=1)
@@ -551,6 +590,7 @@ def score(results: list[CaseResult]) -> Score:
         p_calibration,
         _by_candidate(represented),
         *_proper_scores(represented),
+        _by_basis(represented),
     )
 
 
