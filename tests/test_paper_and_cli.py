@@ -205,3 +205,23 @@ def test_the_readme_has_a_transcript_for_every_verdict_example():
         "kid300-blind-not-explained.json",
     ]
     assert all((ROOT / "examples" / e).is_file() for e in examples)
+
+
+def test_the_json_report_splits_each_rivals_odds_into_fit_and_priors(capsys, tmp_path, monkeypatch):
+    """The tie example as JSON: each candidate of positive probability after the first has its log odds against
+    the first (the log of their probabilities' ratio), split into fit and priors that add up to it; the rivals
+    the data fit as well (fit 1 nat or less) are the ones named, in the tie, the support (the hidden truth)
+    among them."""
+    monkeypatch.chdir(tmp_path)
+    code, out, _ = run(capsys, "diagnose", str(ROOT / "examples" / "kid300-blind-tie.json"), "--json", "--no-figure")
+    assert code == 0
+    report = json.loads(out)
+    probability = {c["effect"]: c["probability"] for c in report["candidates"]}
+    first = report["candidates"][0]["effect"]
+    odds = report["odds_against_first"]
+    assert [o["rival"] for o in odds] == [c["effect"] for c in report["candidates"][1:] if c["probability"] > 0]
+    for o in odds:
+        assert o["log_odds"] == pytest.approx(math.log(probability[first] / probability[o["rival"]]), rel=1e-12)
+        assert o["fit"] + o["priors"] == pytest.approx(o["log_odds"], rel=1e-12, abs=1e-12)
+    assert report["fit_alike"] == [o["rival"] for o in odds if o["fit"] <= 1.0 and o["rival"] in report["tie"]]
+    assert "foundation" in report["fit_alike"]
