@@ -211,10 +211,13 @@ def test_the_json_report_splits_each_rivals_odds_into_fit_and_priors(capsys, tmp
     """The tie example as JSON: each candidate of positive probability after the first has its log odds against
     the first (the log of their probabilities' ratio), split into fit and priors that add up to it; the rivals
     the data fit as well (fit 1 nat or less) are the ones named, in the tie, the support (the hidden truth)
-    among them."""
+    among them. The figure, which marks them, is written."""
     monkeypatch.chdir(tmp_path)
-    code, out, _ = run(capsys, "diagnose", str(ROOT / "examples" / "kid300-blind-tie.json"), "--json", "--no-figure")
-    assert code == 0
+    figure = tmp_path / "tie.png"
+    code, out, _ = run(
+        capsys, "diagnose", str(ROOT / "examples" / "kid300-blind-tie.json"), "--json", "--figure", str(figure)
+    )
+    assert code == 0 and figure.stat().st_size > 0
     report = json.loads(out)
     probability = {c["effect"]: c["probability"] for c in report["candidates"]}
     first = report["candidates"][0]["effect"]

@@ -270,7 +270,8 @@ def experiment_figures(
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
     fitted and held out (linear within 2 sigma, logarithmic beyond). Right: the candidates by posterior
-    probability (tie shaded, implausible hatched), with the nominal model for reference."""
+    probability (tie shaded, implausible hatched, those the data fit as well as the first marked:
+    candidates.alike), with the nominal model for reference."""
     effects = diagnosis.effects
     nominal, best = effects.nominal, effects.best
     labels = list(nominal.frequency_gap)
@@ -301,7 +302,8 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     left.legend(fontsize=7)
     ranked = [f for f in effects.ranked if f.applicable]
     if ranked:
-        names = [*(f.effect for f in ranked), "none (nominal)"]
+        alike = {s.rival for s in effects.alike()}  # the data fit them as well as the first: the order is the priors'
+        names = [*(f.effect + (" (fits as well)" if f.effect in alike else "") for f in ranked), "none (nominal)"]
         values = [*(f.probability for f in ranked), nominal.probability]
         colours = ["#1f77b4" if f.effect in effects.tie else "#aaaaaa" for f in ranked] + ["#d62728"]
         hatches = ["" if f.plausible else "//" for f in ranked] + [""]
@@ -313,7 +315,10 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
         right.set_yticks(y, names, fontsize=8)
         right.set_xscale("log")
         right.set_xlim(1e-6, 2)
-        right.set_xlabel("posterior probability (tie shaded blue, implausible hatched)")
+        right.set_xlabel(
+            "posterior probability (tie: blue, implausible: hatched;\n"
+            "fits as well: as the first, their order is the priors')"
+        )
     else:
         right.text(0.5, 0.5, "too few data to rank candidate effects", ha="center", va="center")
         right.set_axis_off()
