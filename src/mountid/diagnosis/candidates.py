@@ -89,6 +89,10 @@ class _Promise(NamedTuple):
     ranked_parameters: int
 
 
+STATING_KINDS = ("confident", "tie")
+"""The verdict kinds whose candidate probabilities are stated (a "not explained" verdict says they do not apply)."""
+
+
 @dataclass(frozen=True)
 class OddsSplit:
     """The first-ranked candidate's posterior log odds [nats] against a ``rival``, split into the part its fit
@@ -142,7 +146,10 @@ class EffectsReport:
         return odds_splits(self.ranked, self.misfit_scale, settings)
 
     def alike(self, settings: DiagnosisSettings = DIAGNOSIS) -> tuple[OddsSplit, ...]:
-        """The rivals in the tie the data fit as well as the first-ranked candidate (:func:`alike`)."""
+        """The rivals in the tie the data fit as well as the first-ranked candidate (:func:`alike`); none unless
+        the verdict states probabilities (confident or a tie), as the report's note."""
+        if self.kind not in STATING_KINDS:
+            return ()
         return alike(self.odds_splits(settings), self.tie, settings)
 
 
@@ -765,10 +772,10 @@ def rank(
         kind = "not explained"
         closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
         verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
-    if significant and best is not None and kind in ("confident", "tie"):
+    if best is not None and kind in STATING_KINDS:
         note = alike_note(alike(odds_splits(ranked, scale, settings), [f.effect for f in tie], settings), best.effect)
         notes += [note] if note else []
-    if other_roots and best is not None and kind in ("confident", "tie"):
+    if other_roots and best is not None and kind in STATING_KINDS:
         others = other_solutions(best, settings.tie)
         if others:
             found = replace(best, other_solutions=others)

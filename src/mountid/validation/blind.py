@@ -17,7 +17,7 @@ import numpy as np
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.candidate_model import scaled_unit
-from mountid.diagnosis.candidates import diagnose_effects, fits_within_uncertainty
+from mountid.diagnosis.candidates import STATING_KINDS, diagnose_effects, fits_within_uncertainty
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
@@ -236,7 +236,7 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
         seed,
         (("none", report.nominal.log_weight), *((f.effect, f.log_weight) for f in report.ranked)),
         tuple((f.effect or "none", -0.5 * f.chi2 / report.misfit_scale) for f in (report.nominal, *report.ranked)),
-        tuple(s.rival for s in report.alike()) if report.kind in ("confident", "tie") else (),
+        tuple(s.rival for s in report.alike()),
     )
 
 
@@ -436,9 +436,7 @@ def _stating(results: list[CaseResult]) -> list[CaseResult]:
     """The verdicts that state a probability of their first-ranked candidate: confident or a tie (a "not
     explained" verdict says the catalogue's probabilities do not apply)."""
     return [
-        r
-        for r in results
-        if r.significant and r.ranked and r.kind in ("confident", "tie") and math.isfinite(r.probability)
+        r for r in results if r.significant and r.ranked and r.kind in STATING_KINDS and math.isfinite(r.probability)
     ]
 
 
