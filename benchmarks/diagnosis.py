@@ -13,12 +13,16 @@ seeds from 264 on are held out from that. ``python -m benchmarks.diagnosis --cas
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from mountid.diagnosis import campaign, fitting
 from mountid.diagnosis.gap import diagnose
 from mountid.validation import blind
 
 CASES = ((1, "drive_belt"), (2, "cog_height"), (3, "none"))
+
+FIGURE = Path(__file__).resolve().parents[1] / "out" / "bench" / "reliability.png"
+"""Where the validation's reliability diagram goes (out/ is not tracked)."""
 
 
 def _per_diagnosis() -> float:
@@ -68,10 +72,11 @@ def validation(
     kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
     machines: tuple[str, ...] = blind.MACHINES,
     first_seed: int = 0,
+    figure: str | Path | None = FIGURE,
 ) -> list[blind.CaseResult]:
     """n blind cases per machine and campaign kind (three of each truth at n = 66), seeds from ``first_seed``,
     through dask: one line per machine and kind, then per kind over every machine the full score (reliability
-    table, confusion matrix)."""
+    table, confusion matrix); the reliability diagram per kind written to ``figure`` (None: not drawn)."""
     t = time.perf_counter()
     results = blind.run(n, workers=workers, first_seed=first_seed, kinds=kinds, machines=machines)
     elapsed = time.perf_counter() - t
@@ -94,6 +99,18 @@ def validation(
         f"blind benchmark: {len(results)} cases in {elapsed:.0f} s on {workers} processes through dask, "
         f"{per:.2f} s per case: 1000 cases would take {1000 * per / 60:.1f} min (target < 10 min)"
     )
+    if figure is not None:
+        from mountid.report.figures import reliability_figure
+
+        last = first_seed + n - 1
+        path = reliability_figure(
+            blind.reliability_panels(results),
+            figure,
+            blind.RELIABILITY_BINS,
+            f"blind validation, seeds {first_seed}-{last}, every shipped machine: the stated probability of the "
+            "first-ranked candidate against how often it is right, by what the first place rests on",
+        )
+        print(f"reliability diagram: {path}")
     return results
 
 
@@ -108,8 +125,9 @@ if __name__ == "__main__":
         default=0,
         help="seed of the first case (0: the seeds the diagnosis was developed on; 264 and above: held out)",
     )
+    parser.add_argument("--figure", default=str(FIGURE), help="where to write the reliability diagram")
     args = parser.parse_args()
     if args.cases < 1 or args.first_seed < 0:
         parser.error("--cases must be at least 1 and --first-seed at least 0")
     speed()
-    validation(args.cases, first_seed=args.first_seed)
+    validation(args.cases, first_seed=args.first_seed, figure=args.figure)

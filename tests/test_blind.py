@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -318,6 +319,31 @@ def test_the_reliability_by_what_the_first_place_rests_on_splits_the_verdicts_wh
     assert rows[blind.BASIS_DATA] == (20, pytest.approx(0.99), pytest.approx(1.0))
     assert [row[0] for row in score.by_basis] == [blind.BASIS_DATA, blind.BASIS_PRIORS]  # most verdicts first
     assert blind.BASIS_PRIORS in score.text() and "first place rests on" in score.text()
+
+
+def test_the_reliability_diagram_draws_the_reliability_tables_verdicts_per_kind_split_by_basis(tmp_path):
+    """reliability_panels takes the verdicts the reliability table scores (truths the catalogue represents,
+    verdicts that state a probability) per campaign kind and splits them as by_basis does; the diagram of them is
+    written (make bench draws it under out/bench)."""
+    from mountid.report.figures import reliability_figure
+
+    on_priors = _verdicts(0.8, 6, 4, alike=("com_offset",))
+    on_data = _verdicts(0.99, 20, 0)
+    frequencies = [replace(r, campaign="frequencies") for r in _verdicts(0.6, 3, 2)]
+    left_out = [
+        replace(on_data[0], truth="resilient_attachment"),  # outside the catalogue: scored by honesty
+        replace(on_data[0], kind="not explained"),  # states no probability
+    ]
+    panels = blind.reliability_panels(on_priors + on_data + frequencies + left_out, "all, ")
+    assert list(panels) == ["all, shapes", "all, frequencies"]
+    stated, right = panels["all, shapes"][blind.BASIS_PRIORS]
+    assert len(stated) == 10 and stated.mean() == pytest.approx(0.8) and right.sum() == 6
+    stated, right = panels["all, shapes"][blind.BASIS_DATA]
+    assert len(stated) == 20 and right.sum() == 20
+    stated, right = panels["all, frequencies"][blind.BASIS_DATA]
+    assert len(stated) == 5 and right.sum() == 3 and not len(panels["all, frequencies"][blind.BASIS_PRIORS][0])
+    path = reliability_figure(panels, tmp_path / "reliability.png", blind.RELIABILITY_BINS, "hand-made verdicts")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_proper_scores_prefer_sharp_calibrated_probabilities_to_a_flat_statement_the_bins_cannot_fault():

@@ -1,12 +1,14 @@
 """Figures of an experiment (matplotlib, written to files; nothing else in mountid imports this module).
 
 The paper's Figs. 4-6 and the mode shapes: record and band-passed record, spectrum with the picked peaks,
-the decay fit of Eq. (25), response under the rotating unbalance, and each mode drawn on the machine; and
-the gap diagnosis (residuals before and after, candidate effects ranked).
+the decay fit of Eq. (25), response under the rotating unbalance, and each mode drawn on the machine; the
+gap diagnosis (residuals before and after, candidate effects ranked); and the blind validation's reliability
+diagram (stated probability against share right).
 """
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 from pathlib import Path
 
@@ -325,4 +327,73 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     right.set_title("candidate effects")
     heading = f"{title}: {diagnosis.verdict}" if title else diagnosis.verdict
     fig.suptitle(textwrap.fill(heading, 150), fontsize=8)
+    return _save(fig, path)
+
+
+RELIABILITY_INTERVAL = 0.9
+"""Confidence of the Wilson interval drawn about each bin's observed share right (reliability_figure)."""
+
+
+def reliability_figure(
+    panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]],
+    path: str | Path,
+    bins: tuple[float, ...] = (0.0, 0.5, 0.8, 0.95, 0.99, 1.0 + 1e-12),
+    title: str = "",
+    columns: int = 3,
+) -> Path:
+    """Reliability diagram: one panel per entry of ``panels`` (``columns`` to a row), in it one series per entry
+    (stated probabilities of the first-ranked candidate and whether it was right, 1 or 0, as two arrays). Per
+    non-empty bin of ``bins`` a point at (mean stated, observed share right), its area proportional to the
+    verdicts in the bin, with the RELIABILITY_INTERVAL Wilson interval of the share (scipy.stats.binomtest); on
+    the diagonal the probabilities mean what they say."""
+    from scipy.stats import binomtest
+
+    rows = -(-len(panels) // columns)
+    width = min(columns, len(panels))
+    fig, axes = plt.subplots(rows, width, figsize=(4.2 * width, 4.0 * rows), squeeze=False, sharex=True, sharey=True)
+    markers = ("o", "s", "^", "D", "v")
+    for ax, (name, series) in zip(axes.flat, panels.items(), strict=False):
+        ax.plot([0, 1], [0, 1], color="black", lw=0.6, label="stated = observed")
+        for k, (label, (stated, right)) in enumerate(series.items()):
+            stated, right = np.asarray(stated, dtype=float), np.asarray(right, dtype=float)
+            x, y, low, high, count = [], [], [], [], []
+            for lo, hi in itertools.pairwise(bins):
+                inside = (stated >= lo) & (stated < hi)
+                n = int(inside.sum())
+                if not n:
+                    continue
+                hits = int(round(right[inside].sum()))
+                interval = binomtest(hits, n).proportion_ci(RELIABILITY_INTERVAL, method="wilson")
+                x.append(float(stated[inside].mean()))
+                y.append(hits / n)
+                low.append(hits / n - interval.low)
+                high.append(interval.high - hits / n)
+                count.append(n)
+            if not x:
+                continue
+            total = sum(count)
+            colour = f"C{k}"
+            ax.errorbar(x, y, yerr=[low, high], fmt="none", ecolor=colour, elinewidth=0.8, capsize=2)
+            ax.scatter(
+                x,
+                y,
+                s=[12 + 300 * n / total for n in count],
+                color=colour,
+                marker=markers[k % len(markers)],
+                alpha=0.75,
+                label=f"{label}: {total}",
+                zorder=3,
+            )
+        ax.set_xlim(0.3, 1.01)
+        ax.set_ylim(0.0, 1.02)
+        ax.set_title(name, fontsize=9)
+        ax.legend(fontsize=7, loc="lower right")
+    for ax in axes.flat[len(panels) :]:
+        ax.set_axis_off()
+    for ax in axes[-1]:
+        ax.set_xlabel("stated probability of the first-ranked candidate")
+    for ax in axes[:, 0]:
+        ax.set_ylabel(f"share right ({RELIABILITY_INTERVAL:.0%} Wilson interval)")
+    if title:
+        fig.suptitle(textwrap.fill(title, 150), fontsize=9)
     return _save(fig, path)

@@ -479,6 +479,23 @@ def _by_basis(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tupl
     return _by_group(results, lambda r: BASIS_PRIORS if r.alike else BASIS_DATA, draws)
 
 
+def reliability_panels(
+    results: list[CaseResult], prefix: str = ""
+) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The reliability table's verdicts (truths the catalogue represents, verdicts that state a probability) as
+    stated probabilities and outcomes (1 right, 0 wrong) per campaign kind (``prefix`` before its name), split
+    by what the first place rests on (_by_basis): the panels of mountid.report.figures.reliability_figure."""
+    panels = {}
+    for kind in CAMPAIGN_KINDS:
+        mine = [r for r in results if r.campaign == kind and r.in_catalogue]
+        if _stating(mine):
+            panels[f"{prefix}{kind}"] = {
+                BASIS_DATA: _stated([r for r in mine if not r.alike]),
+                BASIS_PRIORS: _stated([r for r in mine if r.alike]),
+            }
+    return panels
+
+
 def _by_group(
     results: list[CaseResult], group: Callable[[CaseResult], str], draws: int = CALIBRATION_DRAWS
 ) -> tuple[tuple, ...]:
