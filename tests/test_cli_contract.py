@@ -32,6 +32,9 @@ def files(tmp_path):
     (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xff\xfe")
     (tmp_path / "text.uff").write_text("hello\n")
     (tmp_path / "afile").write_text("")
+    campaign = json.loads(Path("examples/kid300-blind-belt.json").read_text(encoding="utf-8"))
+    campaign["sensors"][0]["direction"] = [0, 0, 0]
+    (tmp_path / "zero_direction.json").write_text(json.dumps(campaign), encoding="utf-8")
     return tmp_path
 
 
@@ -42,6 +45,11 @@ CASES = [
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
     (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
+    # the vector as given, not numpy's repr of its entries (np.float64(0.0))
+    (
+        ["diagnose", "{d}/zero_direction.json", "--no-figure"],
+        "sensors[0].direction: must be a non-zero 3-vector, got [0.0, 0.0, 0.0]",
+    ),
     (["forced", "kid300", "--speed", "1e308"], "--speed:"),
     (["forced", "kid300", "--speed", "inf"], "--speed:"),
     (["forced", "kid300", "--speed", "100", "--unbalance-mass", "nan"], "--unbalance-mass:"),

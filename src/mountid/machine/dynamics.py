@@ -229,7 +229,7 @@ def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:
     d = np.asarray(direction, dtype=float)
     norm = np.linalg.norm(d)
     if d.shape != (3,) or not np.isfinite(norm) or norm == 0:
-        raise InputError(name, f"must be a non-zero 3-vector, got {list(np.ravel(d))}")
+        raise InputError(name, f"must be a non-zero 3-vector, got {np.ravel(d).tolist()}")
     return d / norm
 
 
