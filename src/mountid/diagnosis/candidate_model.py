@@ -404,6 +404,24 @@ class CandidateModel:
             clusters[k] = (spans[key], 1.0 if exact_twins(lam, j, near) else float(np.min(weight[k, near])))
         return Prediction(e.omega[index], shapes, clusters, None if e.zeta is None else e.zeta[index])
 
+    def support_motion(self, theta: np.ndarray, labels: tuple[str, ...]) -> np.ndarray | None:
+        """Per mode of ``labels``: the largest motion of the support at an isolator's foot over the largest motion
+        of the machine at an isolator (displacement magnitudes, the generated point_jacobian applied to the
+        support's coordinates about the feet's centre and to the body's); None for a model whose isolators stand
+        on rigid ground. What an accelerometer on the support below an isolator, against one on the machine
+        above it, would read."""
+        e = self.evaluate(theta, labels)
+        if e.vec.shape[0] <= 6:
+            return None
+        points = np.asarray(call(self.mod, "isolator_points", e.values))  # (3, isolators) [m]
+        feet = points - points.mean(axis=1, keepdims=True)  # in the support's coordinates (engine: slab_centre)
+        on_body = np.asarray(self.mod.point_jacobian(*points))  # (isolators, 3, 6)
+        on_support = np.asarray(self.mod.point_jacobian(*feet))
+        modes = e.vec[:, e.index]
+        body = np.linalg.norm(on_body @ modes[:6], axis=1).max(axis=0)  # (modes,)
+        support = np.linalg.norm(on_support @ modes[6:12], axis=1).max(axis=0)
+        return support / np.where(body > 0, body, np.inf)
+
 
 UNKNOWN_RANGE = 1e4
 """How far the fit may take an unknown from its nominal value (a factor either way): far beyond any machine

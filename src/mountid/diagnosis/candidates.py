@@ -885,6 +885,34 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
             z = math.sqrt(max(0.0, 1 - float(sa @ sb) ** 2)) / shape_sigma
             if z > best[0]:
                 best = (z, f"the mode shape of {lab}")
+    support = _support_separation(a, b, labels)
     if best[0] < 1:
-        return f"{a.effect} vs {b.effect}: no single modal measurement separates them by 1 sigma"
-    return f"{a.effect} vs {b.effect}: measure {best[1]} (they differ there by {best[0]:.1f} sigma)"
+        text = f"{a.effect} vs {b.effect}: no single modal measurement of the machine separates them by 1 sigma"
+        return f"{text}; {support}" if support else text
+    text = f"{a.effect} vs {b.effect}: measure {best[1]} (they differ there by {best[0]:.1f} sigma)"
+    return f"{text}; or {support}" if support else text
+
+
+SUPPORT_MOTION_SHOWN = 1e-3
+"""The support's motion below an isolator (CandidateModel.support_motion) is named as a measurement that separates
+a candidate with a support from one on rigid ground when it reaches this share of the machine's motion above."""
+
+
+def _support_separation(a: CandidateFit, b: CandidateFit, labels: tuple[str, ...]) -> str:
+    """Where exactly one of ``a`` and ``b`` puts a support below the isolators: the mode in which its fit moves
+    the support most against the machine, as a measurement (an accelerometer on the support below an isolator);
+    '' otherwise. The modal measurements of the machine (separate) may not tell such a support from an effect
+    on rigid ground (a stiff frame and bending stiffness of the isolators both stiffen rocking)."""
+    ratios = {f.effect: f.state.model.support_motion(f.state.theta, labels) for f in (a, b)}
+    moving = [f for f in (a, b) if ratios[f.effect] is not None]
+    if len(moving) != 1:
+        return ""
+    on_support, rigid = moving[0], b if moving[0] is a else a
+    ratio = ratios[on_support.effect]
+    k = int(np.argmax(ratio))
+    if ratio[k] < SUPPORT_MOTION_SHOWN:
+        return ""
+    return (
+        f"measure the support below an isolator in mode {labels[k]}: {on_support.effect} moves it "
+        f"{ratio[k]:.1%} as much as the machine above it, {rigid.effect} stands on rigid ground"
+    )
