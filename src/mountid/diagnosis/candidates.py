@@ -28,6 +28,7 @@ import math
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -46,6 +47,7 @@ from mountid.diagnosis.fitting import (
     held_out_z,
     noise_level,
     other_solutions,
+    predictive_std,
     promises,
     short_fit,
     tempered_log_evidence,
@@ -122,7 +124,6 @@ class EffectsReport:
     """Probability of the nominal chi^2 or more if the nominal model were right."""
     significant: bool
     tie: list[str]
-    separation: list[str]
     verdict: str
     confident: bool
     kind: str
@@ -151,6 +152,18 @@ class EffectsReport:
         if self.kind not in STATING_KINDS:
             return ()
         return alike(self.odds_splits(settings), self.tie, settings)
+
+    @cached_property
+    def separation(self) -> list[str]:
+        """For the first-ranked candidate against each of the next three in the tie, the measurements that would
+        separate them (:func:`separate`); taken when first asked for (the report's text and JSON ask, a blind
+        case that is only scored does not)."""
+        best = self.best
+        if best is None or not self.significant or best.state is None:
+            return []
+        fits = {f.effect: f for f in self.ranked}
+        rivals = [fits[name] for name in self.tie[1:4] if name in fits and fits[name].state is not None]
+        return [separate(best.state.model.campaign, best, other) for other in rivals if other is not best]
 
 
 def odds_splits(
@@ -686,7 +699,6 @@ def rank(
     done = {id(f): finished(f) for f in [nominal, *fits]}
     nominal, ranked, tie = done[id(nominal)], [done[id(f)] for f in ranked], [done[id(f)] for f in tie]
     best = done[id(best)] if best is not None else None
-    separation = [separate(campaign, best, other) for other in tie[1:4]] if best and significant else []
     confident = False
     # what the data cannot rule out besides the fitted candidates: candidates of as many parameters as data,
     # and pairs screened but not fitted whose one-step promise fits within the uncertainty
@@ -790,7 +802,6 @@ def rank(
         p_value,
         significant,
         tie_names,
-        separation,
         verdict,
         confident,
         kind,
@@ -866,7 +877,10 @@ def _with_held_out_summary(f: CandidateFit, campaign: Campaign) -> CandidateFit:
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
     """The single modal measurement (a frequency or a mode shape of any mode) on which the fitted
-    candidates a and b differ most, in units of the campaign's typical uncertainty."""
+    candidates a and b differ most, in units of the campaign's typical uncertainty; and the measurements beyond
+    the machine's modes that separate them where their predictions differ by SEPARATES standard deviations:
+    the support's own motion (one of them on a support, the other on rigid ground) and the static deflection
+    under the machine's weight."""
     mod = campaign.machine.module
     labels = tuple(mod.MODES)
     pa = a.state.model.predict(a.state.theta, labels)
@@ -885,34 +899,72 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
             z = math.sqrt(max(0.0, 1 - float(sa @ sb) ** 2)) / shape_sigma
             if z > best[0]:
                 best = (z, f"the mode shape of {lab}")
-    support = _support_separation(a, b, labels)
+    others = [text for text in (_support_separation(a, b, labels), _static_separation(a, b)) if text]
     if best[0] < 1:
         text = f"{a.effect} vs {b.effect}: no single modal measurement of the machine separates them by 1 sigma"
-        return f"{text}; {support}" if support else text
+        return "; or ".join([f"{text}; {others[0]}", *others[1:]]) if others else text
     text = f"{a.effect} vs {b.effect}: measure {best[1]} (they differ there by {best[0]:.1f} sigma)"
-    return f"{text}; or {support}" if support else text
+    return "; or ".join([text, *others])
 
 
-SUPPORT_MOTION_SHOWN = 1e-3
-"""The support's motion below an isolator (CandidateModel.support_motion) is named as a measurement that separates
-a candidate with a support from one on rigid ground when it reaches this share of the machine's motion above."""
+SEPARATES = 2.0
+"""A measurement beyond the machine's modes (the support's motion, the static deflection) is named as separating two
+candidates where their predictions differ by this many standard deviations of the difference (to first order
+from each fit's posterior, fitting.predictive_std) or more."""
 
 
 def _support_separation(a: CandidateFit, b: CandidateFit, labels: tuple[str, ...]) -> str:
     """Where exactly one of ``a`` and ``b`` puts a support below the isolators: the mode in which its fit moves
-    the support most against the machine, as a measurement (an accelerometer on the support below an isolator);
-    '' otherwise. The modal measurements of the machine (separate) may not tell such a support from an effect
-    on rigid ground (a stiff frame and bending stiffness of the isolators both stiffen rocking)."""
-    ratios = {f.effect: f.state.model.support_motion(f.state.theta, labels) for f in (a, b)}
-    moving = [f for f in (a, b) if ratios[f.effect] is not None]
+    the support most against the machine, beyond SEPARATES of its standard deviation, as a measurement (an
+    accelerometer on the support below an isolator, one on the machine above it); '' otherwise. The modal
+    measurements of the machine (separate) may not tell such a support from an effect on rigid ground (a stiff
+    frame and bending stiffness of the isolators both stiffen rocking)."""
+    moving = [f for f in (a, b) if f.state.model.support_motion(f.state.theta, labels) is not None]
     if len(moving) != 1:
         return ""
-    on_support, rigid = moving[0], b if moving[0] is a else a
-    ratio = ratios[on_support.effect]
-    k = int(np.argmax(ratio))
-    if ratio[k] < SUPPORT_MOTION_SHOWN:
+    on_support = moving[0]
+    rigid = b if on_support is a else a
+    model = on_support.state.model
+    ratio = model.support_motion(on_support.state.theta, labels)
+    try:
+        std = predictive_std(on_support, lambda x: model.support_motion(x, labels))
+    except (np.linalg.LinAlgError, ValueError):  # the model fails next to the fit: no statement
+        return ""
+    k = int(np.argmax(ratio / np.where(std > 0, std, np.inf)))
+    if ratio[k] < SEPARATES * std[k] or not math.isfinite(std[k]):
         return ""
     return (
         f"measure the support below an isolator in mode {labels[k]}: {on_support.effect} moves it "
-        f"{ratio[k]:.1%} as much as the machine above it, {rigid.effect} stands on rigid ground"
+        f"{100 * ratio[k]:.2g} +- {100 * std[k]:.1g} % as much as the machine above it, {rigid.effect} stands on "
+        "rigid ground"
     )
+
+
+def _static_separation(a: CandidateFit, b: CandidateFit) -> str:
+    """The mean static deflection at the isolators under the machine's weight that ``a`` and ``b`` predict
+    (CandidateModel.static_deflection), where they differ by SEPARATES standard deviations or more ('' otherwise):
+    a dial gauge tells a stiffness that rises with frequency (the static one below the modes') or a support's
+    sag from candidates that the modes alone may not."""
+    sag, std = {}, {}
+    for f in (a, b):
+        model = f.state.model
+        d = model.static_deflection(f.state.theta)
+        if d is None or not np.all(np.isfinite(d)) or np.mean(d) <= 0:
+            return ""
+        sag[f.effect] = float(np.mean(d))
+        try:
+            std[f.effect] = float(predictive_std(f, lambda x, model=model: _mean_or_nan(model.static_deflection(x)))[0])
+        except (np.linalg.LinAlgError, ValueError):  # the model fails next to the fit: no statement
+            return ""
+    da, db = sag[a.effect], sag[b.effect]
+    spread = math.hypot(std[a.effect], std[b.effect])
+    if not math.isfinite(spread) or abs(da - db) < SEPARATES * spread:
+        return ""
+    return (
+        f"measure the static deflection under the machine's weight (mean at the isolators): {a.effect} "
+        f"{1e3 * da:.3g} +- {1e3 * std[a.effect]:.1g} mm, {b.effect} {1e3 * db:.3g} +- {1e3 * std[b.effect]:.1g} mm"
+    )
+
+
+def _mean_or_nan(values: np.ndarray | None) -> float:
+    return math.nan if values is None else float(np.mean(values))

@@ -4,6 +4,7 @@ and its leave-one-mode-out held-out errors."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -301,6 +302,22 @@ def tempered_log_evidence(fit: CandidateFit, scale: float = 1.0) -> float:
         log_evidence(jac / root, chi2 / scale, widths, held, offsets) for jac, chi2, offsets in fit.state.evidence_terms
     ]
     return float(scipy.special.logsumexp(terms) + fit.evidence_offset)
+
+
+def predictive_std(fit: CandidateFit, quantity: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """Standard deviation of what the fitted candidate predicts, ``quantity`` (a function of the flat parameter
+    vector, an array), to first order: sqrt(g^T A^-1 g) times sqrt(max(1, chi^2 / dof)) as the parameters'
+    (identification.statistics.covariance), with g its forward-difference gradient at the fit and A the
+    posterior precision of the Laplace evidence (log_evidence: the data's Jacobian and the uniform prior as the
+    Gaussian of equal variance), so that a parameter the data leave free spreads the prediction over its prior
+    range, not to infinity."""
+    model, theta = fit.state.model, fit.state.theta
+    jac = fit.state.evidence_terms[0][0]
+    precision = jac.T @ jac + np.diag(12.0 / prior_widths(model) ** 2)
+    scale = max(1.0, fit.chi2 / (fit.n_data - fit.n_parameters)) if fit.n_data > fit.n_parameters else 1.0
+    grad = forward_differences(lambda x: np.atleast_1d(quantity(x)), theta, model.bounds()[1])
+    variance = np.einsum("ik,ik->i", grad, np.linalg.solve(precision, grad.T).T)
+    return np.sqrt(np.maximum(variance, 0.0) * scale)
 
 
 def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
