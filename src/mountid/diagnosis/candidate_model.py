@@ -15,7 +15,7 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.strategies import strategy
-from mountid.effects import STANDARD_GRAVITY, Effect, Pair
+from mountid.effects import Effect, Pair
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call, undamped_modes
@@ -421,23 +421,6 @@ class CandidateModel:
         body = np.linalg.norm(on_body @ modes[:6], axis=1).max(axis=0)  # (modes,)
         support = np.linalg.norm(on_support @ modes[6:12], axis=1).max(axis=0)
         return support / np.where(body > 0, body, np.inf)
-
-    def static_deflection(self, theta: np.ndarray) -> np.ndarray | None:
-        """Downward deflection [m] of the machine at each isolator (isolator_points) under its weight (and on a
-        support, the support's too), relative to the ground: C u = -g M a with ``a`` a unit translation of every
-        body along z (a rigid body's generalised gravity force is -g M times its translation) and C the
-        candidate's static stiffness (rubber stiffening acts on the modes only, g(0) = 1). None where C is
-        singular."""
-        e = self.evaluate(theta)
-        m, c, _ = e.mats
-        lift = np.zeros(len(m))
-        lift[2::6] = 1.0  # z of the body (and of the support)
-        try:
-            u = np.linalg.solve(c, -STANDARD_GRAVITY * (m @ lift))
-        except np.linalg.LinAlgError:
-            return None
-        points = np.asarray(call(self.mod, "isolator_points", e.values))
-        return -(np.asarray(self.mod.point_jacobian(*points)) @ u[:6])[:, 2]
 
 
 UNKNOWN_RANGE = 1e4

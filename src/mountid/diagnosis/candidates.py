@@ -877,10 +877,8 @@ def _with_held_out_summary(f: CandidateFit, campaign: Campaign) -> CandidateFit:
 
 def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
     """The single modal measurement (a frequency or a mode shape of any mode) on which the fitted
-    candidates a and b differ most, in units of the campaign's typical uncertainty; and the measurements beyond
-    the machine's modes that separate them where their predictions differ by SEPARATES standard deviations:
-    the support's own motion (one of them on a support, the other on rigid ground) and the static deflection
-    under the machine's weight."""
+    candidates a and b differ most, in units of the campaign's typical uncertainty; and where one of them stands
+    on a support and the other on rigid ground, the support's own motion (_support_separation)."""
     mod = campaign.machine.module
     labels = tuple(mod.MODES)
     pa = a.state.model.predict(a.state.theta, labels)
@@ -899,18 +897,18 @@ def separate(campaign: Campaign, a: CandidateFit, b: CandidateFit) -> str:
             z = math.sqrt(max(0.0, 1 - float(sa @ sb) ** 2)) / shape_sigma
             if z > best[0]:
                 best = (z, f"the mode shape of {lab}")
-    others = [text for text in (_support_separation(a, b, labels), _static_separation(a, b)) if text]
+    support = _support_separation(a, b, labels)
     if best[0] < 1:
         text = f"{a.effect} vs {b.effect}: no single modal measurement of the machine separates them by 1 sigma"
-        return "; or ".join([f"{text}; {others[0]}", *others[1:]]) if others else text
+        return f"{text}; {support}" if support else text
     text = f"{a.effect} vs {b.effect}: measure {best[1]} (they differ there by {best[0]:.1f} sigma)"
-    return "; or ".join([text, *others])
+    return f"{text}; or {support}" if support else text
 
 
 SEPARATES = 2.0
-"""A measurement beyond the machine's modes (the support's motion, the static deflection) is named as separating two
-candidates where their predictions differ by this many standard deviations of the difference (to first order
-from each fit's posterior, fitting.predictive_std) or more."""
+"""The support's motion below an isolator is named as separating a candidate on a support from one on rigid ground
+where the first predicts it this many of its standard deviations (to first order from the fit's posterior,
+fitting.predictive_std) or more from nil."""
 
 
 def _support_separation(a: CandidateFit, b: CandidateFit, labels: tuple[str, ...]) -> str:
@@ -938,33 +936,3 @@ def _support_separation(a: CandidateFit, b: CandidateFit, labels: tuple[str, ...
         f"{100 * ratio[k]:.2g} +- {100 * std[k]:.1g} % as much as the machine above it, {rigid.effect} stands on "
         "rigid ground"
     )
-
-
-def _static_separation(a: CandidateFit, b: CandidateFit) -> str:
-    """The mean static deflection at the isolators under the machine's weight that ``a`` and ``b`` predict
-    (CandidateModel.static_deflection), where they differ by SEPARATES standard deviations or more ('' otherwise):
-    a dial gauge tells a stiffness that rises with frequency (the static one below the modes') or a support's
-    sag from candidates that the modes alone may not."""
-    sag, std = {}, {}
-    for f in (a, b):
-        model = f.state.model
-        d = model.static_deflection(f.state.theta)
-        if d is None or not np.all(np.isfinite(d)) or np.mean(d) <= 0:
-            return ""
-        sag[f.effect] = float(np.mean(d))
-        try:
-            std[f.effect] = float(predictive_std(f, lambda x, model=model: _mean_or_nan(model.static_deflection(x)))[0])
-        except (np.linalg.LinAlgError, ValueError):  # the model fails next to the fit: no statement
-            return ""
-    da, db = sag[a.effect], sag[b.effect]
-    spread = math.hypot(std[a.effect], std[b.effect])
-    if not math.isfinite(spread) or abs(da - db) < SEPARATES * spread:
-        return ""
-    return (
-        f"measure the static deflection under the machine's weight (mean at the isolators): {a.effect} "
-        f"{1e3 * da:.3g} +- {1e3 * std[a.effect]:.1g} mm, {b.effect} {1e3 * db:.3g} +- {1e3 * std[b.effect]:.1g} mm"
-    )
-
-
-def _mean_or_nan(values: np.ndarray | None) -> float:
-    return math.nan if values is None else float(np.mean(values))
