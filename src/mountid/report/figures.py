@@ -352,6 +352,7 @@ def reliability_figure(
     width = min(columns, len(panels))
     fig, axes = plt.subplots(rows, width, figsize=(4.2 * width, 4.0 * rows), squeeze=False, sharex=True, sharey=True)
     markers = ("o", "s", "^", "D", "v")
+    left = 0.3  # the axis starts here unless a bin's mean stated probability lies below it
     for ax, (name, series) in zip(axes.flat, panels.items(), strict=False):
         ax.plot([0, 1], [0, 1], color="black", lw=0.6, label="stated = observed")
         for k, (label, (stated, right)) in enumerate(series.items()):
@@ -372,6 +373,7 @@ def reliability_figure(
             if not x:
                 continue
             total = sum(count)
+            left = min(left, min(x) - 0.05)
             colour = f"C{k}"
             ax.errorbar(x, y, yerr=[low, high], fmt="none", ecolor=colour, elinewidth=0.8, capsize=2)
             ax.scatter(
@@ -384,10 +386,10 @@ def reliability_figure(
                 label=f"{label}: {total}",
                 zorder=3,
             )
-        ax.set_xlim(0.3, 1.01)
         ax.set_ylim(0.0, 1.02)
         ax.set_title(name, fontsize=9)
         ax.legend(fontsize=7, loc="lower right")
+    axes[0][0].set_xlim(max(left, 0.0), 1.01)  # shared by every panel
     for ax in axes.flat[len(panels) :]:
         ax.set_axis_off()
     for ax in axes[-1]:
