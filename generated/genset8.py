@@ -1660,8 +1660,9 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_operands(
@@ -1681,6 +1682,7 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1690,8 +1692,9 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_operands(
@@ -1711,6 +1714,7 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1720,8 +1724,9 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_operands(
@@ -1741,6 +1746,7 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1750,8 +1756,9 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_operands(
@@ -1771,6 +1778,7 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1780,8 +1788,9 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_operands(
@@ -1801,6 +1810,7 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1810,8 +1820,9 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_operands(
@@ -1831,6 +1842,7 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1840,8 +1852,9 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_operands(
@@ -1861,6 +1874,7 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -1962,8 +1976,9 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -1983,6 +1998,7 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -2446,8 +2462,9 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_operands(
@@ -2467,6 +2484,7 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -2476,8 +2494,9 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2497,6 +2516,7 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 
@@ -2506,8 +2526,9 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
     These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (625 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2527,6 +2548,7 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
+        between=True,
     )
 
 

@@ -807,8 +807,9 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_operands(
@@ -838,6 +839,7 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -847,8 +849,9 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_operands(
@@ -878,6 +881,7 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -887,8 +891,9 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_operands(
@@ -918,6 +923,7 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -927,8 +933,9 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_operands(
@@ -958,6 +965,7 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -967,8 +975,9 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_operands(
@@ -998,6 +1007,7 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1007,8 +1017,9 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_operands(
@@ -1038,6 +1049,7 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1047,8 +1059,9 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_operands(
@@ -1078,6 +1091,7 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1087,8 +1101,9 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_operands(
@@ -1118,6 +1133,7 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1127,8 +1143,9 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_operands(
@@ -1158,6 +1175,7 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1167,8 +1185,9 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_operands(
@@ -1198,6 +1217,7 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1207,8 +1227,9 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_operands(
@@ -1238,6 +1259,7 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1247,8 +1269,9 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_operands(
@@ -1278,6 +1301,7 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1287,8 +1311,9 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_operands(
@@ -1318,6 +1343,7 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1327,8 +1353,9 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_operands(
@@ -1358,6 +1385,7 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 
@@ -1367,8 +1395,9 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
     These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
     steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
     frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts). A root outside all their basins (unknowns in ratios far from the nominal ones)
-    is missed.
+    (81 starts), then midway between every two roots found (a root between two others has a
+    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
+    missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_operands(
@@ -1398,6 +1427,7 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
+        between=True,
     )
 
 

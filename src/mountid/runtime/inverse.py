@@ -168,6 +168,7 @@ def solve_inverse(
     special: tuple = (),
     n_roots: int | None = None,
     start: tuple[float, ...] | None = None,
+    between: bool = False,
 ) -> InverseRoots:
     """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility, conditioning.
 
@@ -177,7 +178,11 @@ def solve_inverse(
     turn, the candidates of each engine-derived specialised solution in ``special`` ((index of the known
     parameter that is 0 there, its closed form), ...) and then the single start ``start`` (the description's
     nominal unknowns), each polished by Newton at the row's own parameters. ``n_roots``: root slots per row
-    (at least the general closed form's). Every root found gets its Jacobian and relative condition number;
+    (at least the general closed form's). ``between`` (numeric inverses, whose candidates are a start grid):
+    where two or more roots are found, Newton starts again midway (geometric mean) between every two of them,
+    for up to BETWEEN_ROUNDS rounds while that finds more: roots along a curve of solutions lie next to each
+    other, and one between two others has a narrow basin that the grid's starts can all miss. Every root found
+    gets its Jacobian and relative condition number;
     a root that reproduces the frequencies at a rank-deficient point is marked, never admissible, and so
     is one where a given mode coincides with the other mode of its block (``mode_block``: each mode's
     block): the frequencies are not differentiable there, and such a root is the edge of a continuum of
@@ -214,6 +219,8 @@ def solve_inverse(
             for r, row in enumerate(missed):  # into the slots that hold no solution yet (rare rows)
                 free = np.flatnonzero(~found[:, row])[: xs.shape[1]]
                 x[:, free, row], lam[free, row] = xs[:, : free.size, r], lams[: free.size, r]
+        if between:
+            x, lam = _between_roots(model, flat, x, lam, lam_given, mode_index)
     reproduced = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
     jac, cond = _conditioning(model, flat, x, mode_index, mode_block, n_given)
     with np.errstate(invalid="ignore"):
@@ -227,6 +234,48 @@ def solve_inverse(
         jac.reshape(slots, *batch, n_given, n_unknowns),
         deficient.reshape(slots, *batch),
     )
+
+
+BETWEEN_ROUNDS = 3
+"""Rounds of Newton starts between the roots found (solve_inverse's ``between``)."""
+
+
+def _between_roots(model, flat, x, lam, lam_given, mode_index):
+    """solve_inverse's ``between``: polish starts midway between every two admissible roots of a row and put
+    the new roots into slots that hold none (x (n_unknowns, slots, B), lam (slots, B, n_modes))."""
+    n_unknowns, slots, _ = x.shape
+    for _ in range(BETWEEN_ROUNDS):
+        found = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
+        rows = np.flatnonzero(found.sum(axis=0) >= 2)
+        if not rows.size:
+            break
+        pairs = []  # per row, the midpoints of its admissible roots two by two (nan where a row has fewer)
+        for row in rows:
+            roots = x[:, found[:, row], row]
+            pairs.append(
+                [np.sqrt(roots[:, i] * roots[:, j]) for i, j in itertools.combinations(range(roots.shape[1]), 2)]
+            )
+        width = max(len(p) for p in pairs)
+        starts = np.full((n_unknowns, width, rows.size), np.nan)
+        for r, mids in enumerate(pairs):
+            starts[:, : len(mids), r] = np.array(mids).T
+        xs, lams = _polish(model, tuple(f[rows] for f in flat), starts, lam_given[rows], mode_index)
+        new = 0
+        for r, row in enumerate(rows):
+            free = np.flatnonzero(~found[:, row])
+            for k in range(width):
+                if not free.size:
+                    break
+                x[:, free[0], row], lam[free[0], row] = xs[:, k, r], lams[k, r]
+                ok = admissible(tuple(x[:, :, row]), lam[:, row], mode_index, tuple(lam_given[row]))
+                if ok[free[0]]:  # a root not found before: keep it in that slot
+                    new += 1
+                    free = free[1:]
+                else:
+                    x[:, free[0], row], lam[free[0], row] = np.nan, np.nan
+        if not new:
+            break
+    return x, lam
 
 
 def start_grid(start: tuple[float, ...], factors: tuple[float, ...], model, mode_index: tuple[int, ...]):

@@ -146,8 +146,9 @@ def _numeric_inverse_function(
         f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
         "    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given\n"
         f"    frequencies, times every combination of {len(factors)} factors from 0.1 to 10 in equal ratios\n"
-        f"    ({n_roots} starts). A root outside all their basins (unknowns in ratios far from the nominal ones)\n"
-        "    is missed.\n"
+        f"    ({n_roots} starts), then midway between every two roots found (a root between two others has a\n"
+        "    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is\n"
+        "    missed.\n"
         "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
     )
     return Function(f"identify_{s.name}", known + omegas, doc, layout)
