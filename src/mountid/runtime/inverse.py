@@ -243,7 +243,7 @@ BETWEEN_ROUNDS = 3
 def _between_roots(model, flat, x, lam, lam_given, mode_index):
     """solve_inverse's ``between``: polish starts midway between every two admissible roots of a row and put
     the new roots into slots that hold none (x (n_unknowns, slots, B), lam (slots, B, n_modes))."""
-    n_unknowns, slots, _ = x.shape
+    n_unknowns = x.shape[0]
     for _ in range(BETWEEN_ROUNDS):
         found = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
         rows = np.flatnonzero(found.sum(axis=0) >= 2)
@@ -266,13 +266,14 @@ def _between_roots(model, flat, x, lam, lam_given, mode_index):
             for k in range(width):
                 if not free.size:
                     break
+                kept = x[:, free[0], row].copy(), lam[free[0], row].copy()
                 x[:, free[0], row], lam[free[0], row] = xs[:, k, r], lams[k, r]
                 ok = admissible(tuple(x[:, :, row]), lam[:, row], mode_index, tuple(lam_given[row]))
                 if ok[free[0]]:  # a root not found before: keep it in that slot
                     new += 1
                     free = free[1:]
-                else:
-                    x[:, free[0], row], lam[free[0], row] = np.nan, np.nan
+                else:  # one found already (or none): the slot keeps what it held
+                    x[:, free[0], row], lam[free[0], row] = kept
         if not new:
             break
     return x, lam
