@@ -784,9 +784,6 @@ def rank(
         kind = "not explained"
         closest = _closest(nominal, [done[id(f)] for f in candidates]) if candidates else "none can be fitted"
         verdict = f"significant gap, not explained by any effect in the catalogue; closest: {closest}"
-    if best is not None and kind in STATING_KINDS:
-        note = alike_note(alike(odds_splits(ranked, scale, settings), [f.effect for f in tie], settings), best.effect)
-        notes += [note] if note else []
     if other_roots and best is not None and kind in STATING_KINDS:
         others = other_solutions(best, settings.tie)
         if others:
@@ -796,7 +793,7 @@ def rank(
             note = _other_solutions_text(found)
             verdict += f"; {note}" if note else ""
     tie_names = [f.effect for f in tie] if significant else []
-    return EffectsReport(
+    report = EffectsReport(
         nominal,
         ranked,
         p_value,
@@ -809,6 +806,9 @@ def rank(
         list(screened or ()),
         scale,
     )
+    # the rivals the data fit as well as the first: the report's own rule (EffectsReport.alike), said in a note
+    note = alike_note(report.alike(settings), report.best.effect) if report.best is not None else ""
+    return replace(report, notes=[*notes, note]) if note else report
 
 
 def diagnose_effects(
@@ -917,13 +917,13 @@ def _support_separation(a: CandidateFit, b: CandidateFit, labels: tuple[str, ...
     accelerometer on the support below an isolator, one on the machine above it); '' otherwise. The modal
     measurements of the machine (separate) may not tell such a support from an effect on rigid ground (a stiff
     frame and bending stiffness of the isolators both stiffen rocking)."""
-    moving = [f for f in (a, b) if f.state.model.support_motion(f.state.theta, labels) is not None]
+    motion = [(f, f.state.model.support_motion(f.state.theta, labels)) for f in (a, b)]
+    moving = [(f, ratio) for f, ratio in motion if ratio is not None]
     if len(moving) != 1:
         return ""
-    on_support = moving[0]
+    on_support, ratio = moving[0]
     rigid = b if on_support is a else a
     model = on_support.state.model
-    ratio = model.support_motion(on_support.state.theta, labels)
     try:
         std = predictive_std(on_support, lambda x: model.support_motion(x, labels))
     except (np.linalg.LinAlgError, ValueError):  # the model fails next to the fit: no statement

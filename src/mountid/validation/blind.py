@@ -471,12 +471,19 @@ def _by_candidate(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> 
 
 BASIS_PRIORS = "the priors (a rival fits alike)"
 BASIS_DATA = "the data (no rival fits alike)"
+BASES = (BASIS_DATA, BASIS_PRIORS)
+"""What a first place can rest on, in the order the reliability diagram draws them."""
+
+
+def _basis(r: CaseResult) -> str:
+    """What the first place rests on: BASIS_PRIORS where a rival in the tie fits the data as well
+    (CaseResult.alike), else BASIS_DATA."""
+    return BASIS_PRIORS if r.alike else BASIS_DATA
 
 
 def _by_basis(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, ...]:
-    """Reliability by what the first place rests on (_by_group): BASIS_PRIORS where a rival in the tie fits the
-    data as well (CaseResult.alike), else BASIS_DATA."""
-    return _by_group(results, lambda r: BASIS_PRIORS if r.alike else BASIS_DATA, draws)
+    """Reliability by what the first place rests on (_basis, _by_group)."""
+    return _by_group(results, _basis, draws)
 
 
 def reliability_panels(
@@ -484,15 +491,12 @@ def reliability_panels(
 ) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """The reliability table's verdicts (truths the catalogue represents, verdicts that state a probability) as
     stated probabilities and outcomes (1 right, 0 wrong) per campaign kind (``prefix`` before its name), split
-    by what the first place rests on (_by_basis): the panels of mountid.report.figures.reliability_figure."""
+    by what the first place rests on (_basis): the panels of mountid.report.figures.reliability_figure."""
     panels = {}
     for kind in CAMPAIGN_KINDS:
         mine = [r for r in results if r.campaign == kind and r.in_catalogue]
         if _stating(mine):
-            panels[f"{prefix}{kind}"] = {
-                BASIS_DATA: _stated([r for r in mine if not r.alike]),
-                BASIS_PRIORS: _stated([r for r in mine if r.alike]),
-            }
+            panels[f"{prefix}{kind}"] = {basis: _stated([r for r in mine if _basis(r) == basis]) for basis in BASES}
     return panels
 
 
