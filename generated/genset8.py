@@ -672,6 +672,7 @@ ARGUMENTS = {
     "isolator_axial_stiffness_on_foundation": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_points": ("a1", "a2", "b", "h"),
+    "support_feet": ("a1", "a2", "b"),
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
 """Argument names of every generated function, by function name."""
@@ -10011,6 +10012,42 @@ def isolator_points(a1, a2, b, h):
     _out[..., 0, 7] = -a2
     _out[..., 1, 7] = -b
     _out[..., 2, 7] = -h
+    return _out
+
+
+def support_feet(a1, a2, b):
+    """Foot of each isolator on a support below the isolators [m], from the point the support's coordinates
+    refer to (the mean of the isolator points), shape (..., 3, 8), isolators in the
+    order of ISOLATORS:
+
+        inner[+x+y]: (a1, b, 0)
+        inner[-x+y]: (-a1, b, 0)
+        inner[+x-y]: (a1, -b, 0)
+        inner[-x-y]: (-a1, -b, 0)
+        outer[+x+y]: (a2, b, 0)
+        outer[-x+y]: (-a2, b, 0)
+        outer[+x-y]: (a2, -b, 0)
+        outer[-x-y]: (-a2, -b, 0)
+    """
+    a1, a2, b = _runtime.as_operands(a1, a2, b)
+    _shape = _runtime.batch_shape(a1, a2, b)
+    _out = numpy.zeros((*_shape, 3, 8))
+    _out[..., 0, 0] = a1
+    _out[..., 1, 0] = b
+    _out[..., 0, 1] = -a1
+    _out[..., 1, 1] = b
+    _out[..., 0, 2] = a1
+    _out[..., 1, 2] = -b
+    _out[..., 0, 3] = -a1
+    _out[..., 1, 3] = -b
+    _out[..., 0, 4] = a2
+    _out[..., 1, 4] = b
+    _out[..., 0, 5] = -a2
+    _out[..., 1, 5] = b
+    _out[..., 0, 6] = a2
+    _out[..., 1, 6] = -b
+    _out[..., 0, 7] = -a2
+    _out[..., 1, 7] = -b
     return _out
 
 

@@ -254,6 +254,7 @@ ARGUMENTS = {
     "isolator_axial_stiffness_on_foundation": ("L_xy", "c_z"),
     "isolator_axial_stiffness_on_foundation_gradient": ("L_xy", "c_z"),
     "isolator_points": ("L_xy", "L_z"),
+    "support_feet": ("L_xy",),
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -3499,6 +3500,26 @@ def isolator_points(L_xy, L_z):
     _out[..., 2, 2] = -L_z
     _out[..., 1, 3] = -L_xy
     _out[..., 2, 3] = -L_z
+    return _out
+
+
+def support_feet(L_xy):
+    """Foot of each isolator on a support below the isolators [m], from the point the support's coordinates
+    refer to (the mean of the isolator points), shape (..., 3, 4), isolators in the
+    order of ISOLATORS:
+
+        front[+x]: (L_xy, 0, 0)
+        front[-x]: (-L_xy, 0, 0)
+        side[+y]: (0, L_xy, 0)
+        side[-y]: (0, -L_xy, 0)
+    """
+    (L_xy,) = _runtime.as_operands(L_xy)
+    _shape = _runtime.batch_shape(L_xy)
+    _out = numpy.zeros((*_shape, 3, 4))
+    _out[..., 0, 0] = L_xy
+    _out[..., 0, 1] = -L_xy
+    _out[..., 1, 2] = L_xy
+    _out[..., 1, 3] = -L_xy
     return _out
 
 

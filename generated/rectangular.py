@@ -392,6 +392,7 @@ ARGUMENTS = {
     "isolator_axial_stiffness_on_foundation": ("a", "b", "c_z"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "c_z"),
     "isolator_points": ("a", "b", "h"),
+    "support_feet": ("a", "b"),
     "effect_scales": ("m", "a", "b", "h", "c_x", "c_y", "c_z"),
 }
 """Argument names of every generated function, by function name."""
@@ -5386,6 +5387,30 @@ def isolator_points(a, b, h):
     _out[..., 0, 3] = -a
     _out[..., 1, 3] = -b
     _out[..., 2, 3] = -h
+    return _out
+
+
+def support_feet(a, b):
+    """Foot of each isolator on a support below the isolators [m], from the point the support's coordinates
+    refer to (the mean of the isolator points), shape (..., 3, 4), isolators in the
+    order of ISOLATORS:
+
+        corner[+x+y]: (a, b, 0)
+        corner[-x+y]: (-a, b, 0)
+        corner[+x-y]: (a, -b, 0)
+        corner[-x-y]: (-a, -b, 0)
+    """
+    a, b = _runtime.as_operands(a, b)
+    _shape = _runtime.batch_shape(a, b)
+    _out = numpy.zeros((*_shape, 3, 4))
+    _out[..., 0, 0] = a
+    _out[..., 1, 0] = b
+    _out[..., 0, 1] = -a
+    _out[..., 1, 1] = b
+    _out[..., 0, 2] = a
+    _out[..., 1, 2] = -b
+    _out[..., 0, 3] = -a
+    _out[..., 1, 3] = -b
     return _out
 
 

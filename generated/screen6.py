@@ -440,6 +440,7 @@ ARGUMENTS = {
     "isolator_axial_stiffness_on_foundation": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_points": ("a", "b", "h"),
+    "support_feet": ("a", "b"),
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
 """Argument names of every generated function, by function name."""
@@ -9798,6 +9799,34 @@ def isolator_points(a, b, h):
     _out[..., 2, 4] = -h
     _out[..., 1, 5] = -b
     _out[..., 2, 5] = -h
+    return _out
+
+
+def support_feet(a, b):
+    """Foot of each isolator on a support below the isolators [m], from the point the support's coordinates
+    refer to (the mean of the isolator points), shape (..., 3, 6), isolators in the
+    order of ISOLATORS:
+
+        corner[+x+y]: (a, b, 0)
+        corner[-x+y]: (-a, b, 0)
+        corner[+x-y]: (a, -b, 0)
+        corner[-x-y]: (-a, -b, 0)
+        middle[+y]: (0, b, 0)
+        middle[-y]: (0, -b, 0)
+    """
+    a, b = _runtime.as_operands(a, b)
+    _shape = _runtime.batch_shape(a, b)
+    _out = numpy.zeros((*_shape, 3, 6))
+    _out[..., 0, 0] = a
+    _out[..., 1, 0] = b
+    _out[..., 0, 1] = -a
+    _out[..., 1, 1] = b
+    _out[..., 0, 2] = a
+    _out[..., 1, 2] = -b
+    _out[..., 0, 3] = -a
+    _out[..., 1, 3] = -b
+    _out[..., 1, 4] = b
+    _out[..., 1, 5] = -b
     return _out
 
 

@@ -96,7 +96,8 @@ def test_isolator_stiffness_sums_to_the_stiffness_matrix(machine):
 @pytest.mark.parametrize("machine", MACHINES)
 def test_isolator_points_are_the_descriptions_at_high_precision(machine):
     """isolator_points() against each isolator's position (the description's mirrored points) at 30 digits,
-    and against the stiffness they carry: the isolator's stiffness matrix is J(r)^T K J(r) at that point."""
+    support_feet() against them about their mean, and isolator_points against the stiffness they carry: the
+    isolator's stiffness matrix is J(r)^T K J(r) at that point."""
     mod = generated(machine)
     model = SymbolicModel(load(ROOT / "derivations" / f"{machine}.toml"))
     values = _values(mod)
@@ -107,6 +108,9 @@ def test_isolator_points_are_the_descriptions_at_high_precision(machine):
         for k, iso in enumerate(model.isolators):
             exact = np.array([float(v.evalf(30, subs=subs)) for v in iso.position])
             assert np.allclose(points[:, k], exact, rtol=1e-14, atol=1e-15)
+    # a support below the isolators refers its coordinates to the mean of the isolator points
+    feet = call(mod, "support_feet", values)
+    assert np.allclose(feet, points - points.mean(axis=1, keepdims=True), rtol=1e-14, atol=1e-14)
     per = call(mod, "isolator_stiffness", values)
     for k, iso in enumerate(model.isolators):
         tensor = np.array(iso.stiffness.evalf(subs=subs).tolist(), dtype=float)

@@ -407,14 +407,14 @@ class CandidateModel:
     def support_motion(self, theta: np.ndarray, labels: tuple[str, ...]) -> np.ndarray | None:
         """Per mode of ``labels``: the largest motion of the support at an isolator's foot over the largest motion
         of the machine at an isolator (displacement magnitudes, the generated point_jacobian applied to the
-        support's coordinates about the feet's centre and to the body's); None for a model whose isolators stand
-        on rigid ground. What an accelerometer on the support below an isolator, against one on the machine
-        above it, would read."""
+        support's coordinates at the generated support_feet and to the body's at isolator_points); None for a
+        model whose isolators stand on rigid ground. What an accelerometer on the support below an isolator,
+        against one on the machine above it, would read."""
         e = self.evaluate(theta, labels)
         if e.vec.shape[0] <= 6:
             return None
         points = np.asarray(call(self.mod, "isolator_points", e.values))  # (3, isolators) [m]
-        feet = points - points.mean(axis=1, keepdims=True)  # in the support's coordinates (engine: slab_centre)
+        feet = np.asarray(call(self.mod, "support_feet", e.values))  # the same feet in the support's coordinates
         on_body = np.asarray(self.mod.point_jacobian(*points))  # (isolators, 3, 6)
         on_support = np.asarray(self.mod.point_jacobian(*feet))
         modes = e.vec[:, e.index]

@@ -18,6 +18,7 @@ from mountid.engine.symbolic.effects import (
     isolator_axial_stiffness,
     isolator_stiffness,
     scales,
+    support_feet,
 )
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.nomenclature import COORDINATES
@@ -116,6 +117,7 @@ def effect_functions(model: SymbolicModel) -> EffectFunctions:
     for name in SUPPORT_EFFECTS:
         functions += _isolator_functions(model, name, coords[name])
     functions.append(_isolator_points_function(model))
+    functions.append(_support_feet_function(model))
     sc = scales(model)
     args = model.parameters_of(*sc.values())
     doc = (
@@ -207,17 +209,32 @@ def _isolator_gradient_function(
     return _matrices_function(f"{name}_gradient", derivs, coordinates, args, doc, stacked=shape)
 
 
+def _points_function(model: SymbolicModel, name: str, points: list[sp.Matrix], doc: str) -> Function:
+    """A generated function returning one point per isolator, shape (..., 3, isolators), ISOLATORS' order."""
+    entries = tuple((i, k, p[i]) for k, p in enumerate(points) for i in range(3) if p[i] != 0)
+    lines = [
+        f"        {iso.name}: ({', '.join(describe(v) for v in p)})"
+        for iso, p in zip(model.isolators, points, strict=True)
+    ]
+    doc += f", shape (..., 3, {len(points)}), isolators in the\n    order of ISOLATORS:\n\n" + "\n".join(lines) + "\n"
+    args = model.parameters_of(*points)
+    return print_function(Function(name, args, doc, Filled((3, len(points)), entries), cse=False))
+
+
 def _isolator_points_function(model: SymbolicModel) -> Function:
     """Where each isolator acts on the body [m]: the layout a report names (the diagnosis's conventions)."""
     points = [iso.position for iso in model.isolators]
-    entries = tuple((i, k, p[i]) for k, p in enumerate(points) for i in range(3) if p[i] != 0)
-    lines = [f"        {iso.name}: ({', '.join(describe(v) for v in iso.position)})" for iso in model.isolators]
+    return _points_function(model, "isolator_points", points, "Point of each isolator [m] from the coordinate origin")
+
+
+def _support_feet_function(model: SymbolicModel) -> Function:
+    """Where each isolator stands on a support below the isolators (the foundation), in the support's own
+    coordinates [m]: the points at which the support's motion is read (CandidateModel.support_motion)."""
     doc = (
-        f"Point of each isolator [m] from the coordinate origin, shape (..., 3, {len(points)}), isolators in the\n"
-        "    order of ISOLATORS:\n\n" + "\n".join(lines) + "\n"
+        "Foot of each isolator on a support below the isolators [m], from the point the support's coordinates\n"
+        "    refer to (the mean of the isolator points)"
     )
-    args = model.parameters_of(*points)
-    return print_function(Function("isolator_points", args, doc, Filled((3, len(points)), entries), cse=False))
+    return _points_function(model, "support_feet", support_feet(model), doc)
 
 
 def point_function(model: SymbolicModel) -> Function:

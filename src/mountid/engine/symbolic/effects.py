@@ -254,6 +254,12 @@ def _foot(model: SymbolicModel, iso, on_support: bool) -> sp.Matrix | None:
     return iso.position - slab_centre(model) if on_support else None
 
 
+def support_feet(model: SymbolicModel) -> list[sp.Matrix]:
+    """Each isolator's foot in the support's coordinates [m] (its point from slab_centre), in the order of the
+    isolators."""
+    return [_foot(model, iso, True) for iso in model.isolators]
+
+
 def isolator_stiffness(model: SymbolicModel, on_support: bool = False) -> list[sp.Matrix]:
     """The stiffness matrix of each isolator alone (Hessian of its potential energy): C is their sum. With
     ``on_support``, the isolator between the body and a support below it (the foundation's twelve coordinates,
