@@ -1658,12 +1658,12 @@ def identify_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
 def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_y, omega_z, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_operands(
@@ -1683,19 +1683,19 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_y, omega_z, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_operands(
@@ -1715,19 +1715,19 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_y, omega_psi, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_operands(
@@ -1747,19 +1747,19 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_y, omega_psi, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_operands(
@@ -1779,19 +1779,19 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_y, omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_operands(
@@ -1811,19 +1811,19 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_z, omega_psi, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_operands(
@@ -1843,19 +1843,19 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_z, omega_psi, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_operands(
@@ -1875,7 +1875,7 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
@@ -1974,12 +1974,12 @@ def identify_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
 def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_x, omega_psi, omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -1999,7 +1999,7 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
@@ -2460,12 +2460,12 @@ def identify_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z
 def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_y, omega_z, omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_operands(
@@ -2485,19 +2485,19 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_y, omega_psi, omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2517,19 +2517,19 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi):
     """Unknowns c_x, c_y, c_v1, c_v2 from the natural frequencies omega_z, omega_psi, omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found no closed form of manageable size: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 5 factors from 0.1 to 10 in equal ratios
-    (625 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found no closed form of manageable size: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2549,7 +2549,7 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
         UNKNOWN,
         MODE_BLOCK,
         n_roots=625,
-        between=True,
+        numeric=True,
     )
 
 

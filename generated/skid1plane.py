@@ -805,12 +805,12 @@ def _model(_known, _unknowns, _modes):
 def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
     """Unknowns c_h, c_z from the natural frequencies omega_x, omega_y [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_operands(
@@ -840,19 +840,19 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
     """Unknowns c_h, c_z from the natural frequencies omega_x, omega_z [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_operands(
@@ -882,19 +882,19 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
     """Unknowns c_h, c_z from the natural frequencies omega_x, omega_psi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_operands(
@@ -924,19 +924,19 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
     """Unknowns c_h, c_z from the natural frequencies omega_x, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_operands(
@@ -966,19 +966,19 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
     """Unknowns c_h, c_z from the natural frequencies omega_x, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_operands(
@@ -1008,19 +1008,19 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
     """Unknowns c_h, c_z from the natural frequencies omega_y, omega_z [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_operands(
@@ -1050,19 +1050,19 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
     """Unknowns c_h, c_z from the natural frequencies omega_y, omega_psi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_operands(
@@ -1092,19 +1092,19 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
     """Unknowns c_h, c_z from the natural frequencies omega_y, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_operands(
@@ -1134,19 +1134,19 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
     """Unknowns c_h, c_z from the natural frequencies omega_y, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_operands(
@@ -1176,19 +1176,19 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
     """Unknowns c_h, c_z from the natural frequencies omega_z, omega_psi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_operands(
@@ -1218,19 +1218,19 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
     """Unknowns c_h, c_z from the natural frequencies omega_z, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_operands(
@@ -1260,19 +1260,19 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
     """Unknowns c_h, c_z from the natural frequencies omega_z, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_operands(
@@ -1302,19 +1302,19 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
     """Unknowns c_h, c_z from the natural frequencies omega_psi, omega_theta [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_operands(
@@ -1344,19 +1344,19 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
     """Unknowns c_h, c_z from the natural frequencies omega_psi, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_operands(
@@ -1386,19 +1386,19 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 
 def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
     """Unknowns c_h, c_z from the natural frequencies omega_theta, omega_phi [rad/s], numerically.
 
-    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: Newton
-    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given
-    frequencies, times every combination of 9 factors from 0.1 to 10 in equal ratios
-    (81 starts), then midway between every two roots found (a root between two others has a
-    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is
-    missed.
+    These frequencies determine the unknowns, but the engine found a 3x3 block, no closed form generated: damped
+    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
+    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
+    every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
+    midway between every two roots found (a root between two others has a narrow basin). A root outside
+    all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_operands(
@@ -1428,7 +1428,7 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
         UNKNOWN,
         MODE_BLOCK,
         n_roots=81,
-        between=True,
+        numeric=True,
     )
 
 

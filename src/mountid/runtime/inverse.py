@@ -157,6 +157,90 @@ def eigen_newton(
     return x, lam_all
 
 
+LM_STEPS = 80
+"""Iterations (accepted or refused steps) allowed to eigen_levenberg_marquardt per start."""
+
+LM_DAMPING = (1e-3, 1e12)
+"""Initial damping of eigen_levenberg_marquardt, and the damping at which a start is given up (its steps no
+longer lower the residual: a minimum that is not a root, or a bound of the floating-point range)."""
+
+LM_RANGE = 1e4
+"""eigen_levenberg_marquardt gives a start up once an unknown has moved by more than this factor from it: it
+slides to an unknown of 0 or infinity along a valley that holds no root (the grid's starts spread the ratios
+over a decade; a root this far from every start is not promised)."""
+
+LM_LARGEST_STEP = np.log(10.0)
+"""Largest change of ln(unknown) in one step of eigen_levenberg_marquardt (a factor 10)."""
+
+
+def eigen_levenberg_marquardt(
+    model,
+    known: tuple[NDArray, ...],
+    unknowns: NDArray,
+    mode_index: tuple[int, ...],
+    given: NDArray,
+    max_steps: int = LM_STEPS,
+) -> NDArray[np.float64]:
+    """Levenberg-Marquardt steps in z = ln(unknowns) on r_k = ln(lambda_k(theta) / given_k), batched as
+    :func:`eigen_newton` (same arguments and ``model``): the start of a numeric inverse's polish. The unknowns
+    stay positive whatever the step, and a step is kept only where it lowers |r|; the damping mu of
+    (J^T J + mu diag(J^T J)) dz = -J^T r grows on a refused step and shrinks on a kept one. Near a degenerate
+    layout (two isolator groups at almost one distance: the frequencies hold the sum of their stiffnesses far
+    better than either) Newton's undamped steps slide along the valley of that sum to an unknown of 0; these
+    follow it to the root. Returns the unknowns where each start stopped (not yet polished to rounding level:
+    eigen_newton does that)."""
+    idx = list(mode_index)
+    x = np.array(unknowns, dtype=float)
+    n_rows = x.shape[0]
+    cost = np.full(n_rows, np.inf)
+    jac = np.full((n_rows, len(idx), x.shape[1]), np.nan)
+    res = np.full((n_rows, len(idx)), np.nan)
+
+    def evaluate(rows, at):
+        """Residuals, their cost and d r / d z at the points ``at`` of ``rows`` (nan where the model fails)."""
+        with np.errstate(all="ignore"):
+            lam, phi, dc = model(tuple(k[rows] for k in known), at, True)
+            r = np.log(lam[:, idx] / given[rows])
+            j = eigen_jacobian(phi, dc, idx) * at[:, None, :] / lam[:, idx, None]
+        c = np.sum(r * r, axis=-1)
+        bad = ~(np.isfinite(c) & np.all(np.isfinite(j), axis=(-1, -2)))
+        return r, np.where(bad, np.inf, c), j
+
+    start = np.flatnonzero(np.all(np.isfinite(x) & (x > 0), axis=-1))
+    if start.size:
+        res[start], cost[start], jac[start] = evaluate(start, x[start])
+    mu = np.full(n_rows, LM_DAMPING[0])
+    converged = (NEWTON_RESIDUAL_RTOL * len(idx)) ** 2
+    active = start[np.isfinite(cost[start]) & (cost[start] > converged)]
+    for _ in range(max_steps):
+        if not active.size:
+            break
+        j, r = jac[active], res[active]
+        a = np.swapaxes(j, -1, -2) @ j
+        diag = np.diagonal(a, axis1=-2, axis2=-1)
+        floor = 1e-12 * np.max(diag, axis=-1, keepdims=True)
+        damped = a + (mu[active, None] * np.maximum(diag, floor))[..., None] * np.eye(a.shape[-1])
+        gradient = np.swapaxes(j, -1, -2) @ r[..., None]
+        with np.errstate(all="ignore"):
+            try:
+                step = -np.linalg.solve(damped, gradient)[..., 0]
+            except np.linalg.LinAlgError:  # an unknown no given frequency depends on (a zero column)
+                step = -(np.linalg.pinv(damped, rcond=1e-13) @ gradient)[..., 0]
+        largest = np.max(np.abs(step), axis=-1, keepdims=True)
+        step = step * np.minimum(1.0, LM_LARGEST_STEP / np.where(largest > 0, largest, 1.0))
+        trial = x[active] * np.exp(step)
+        ok = np.all(np.isfinite(trial), axis=-1)
+        new_r, new_cost, new_j = evaluate(active, np.where(ok[:, None], trial, x[active]))
+        better = ok & (new_cost < cost[active])
+        kept = active[better]
+        x[kept], res[kept], cost[kept], jac[kept] = trial[better], new_r[better], new_cost[better], new_j[better]
+        mu[active] = np.where(better, np.maximum(mu[active] / 3, LM_DAMPING[0] * 1e-9), mu[active] * 4)
+        gone = np.any(np.abs(np.log(x[active] / unknowns[active])) > np.log(LM_RANGE), axis=-1)
+        done = (cost[active] <= converged) | (mu[active] > LM_DAMPING[1]) | gone
+        active = active[~done]
+    return x
+
+
 def solve_inverse(
     roots,
     model,
@@ -168,7 +252,7 @@ def solve_inverse(
     special: tuple = (),
     n_roots: int | None = None,
     start: tuple[float, ...] | None = None,
-    between: bool = False,
+    numeric: bool = False,
 ) -> InverseRoots:
     """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility, conditioning.
 
@@ -178,10 +262,12 @@ def solve_inverse(
     turn, the candidates of each engine-derived specialised solution in ``special`` ((index of the known
     parameter that is 0 there, its closed form), ...) and then the single start ``start`` (the description's
     nominal unknowns), each polished by Newton at the row's own parameters. ``n_roots``: root slots per row
-    (at least the general closed form's). ``between`` (numeric inverses, whose candidates are a start grid):
-    where two or more roots are found, Newton starts again midway (geometric mean) between every two of them,
-    for up to BETWEEN_ROUNDS rounds while that finds more: roots along a curve of solutions lie next to each
-    other, and one between two others has a narrow basin that the grid's starts can all miss. Every root found
+    (at least the general closed form's). ``numeric`` (numeric inverses, whose candidates are a start grid):
+    each start goes first by Levenberg-Marquardt steps in the logarithms of the unknowns
+    (eigen_levenberg_marquardt), then by Newton; and where two or more roots are found, the polish starts
+    again midway (geometric mean) between every two of them, for up to BETWEEN_ROUNDS rounds while that finds
+    more: roots along a curve of solutions lie next to each other, and one between two others has a narrow
+    basin that the grid's starts can all miss. Every root found
     gets its Jacobian and relative condition number;
     a root that reproduces the frequencies at a rank-deficient point is marked, never admissible, and so
     is one where a given mode coincides with the other mode of its block (``mode_block``: each mode's
@@ -198,7 +284,7 @@ def solve_inverse(
     x[:, : cand.shape[1]] = cand
     lam = np.full((slots, n_batch, max(mode_index) + 1), np.nan)  # replaced by the polish (empty batches keep it)
     if n_batch:
-        x, lam = _polish(model, flat, x, lam_given, mode_index)
+        x, lam = _polish(model, flat, x, lam_given, mode_index, numeric)
         fallbacks = [
             (lambda rows, r=r: _candidates(r, tuple(k[rows] for k in flat), lam_given[rows], n_unknowns))
             for _, r in special
@@ -215,11 +301,11 @@ def solve_inverse(
                 break
             extra = more(missed)
             sub = tuple(f[missed] for f in flat)
-            xs, lams = _polish(model, sub, extra, lam_given[missed], mode_index)
+            xs, lams = _polish(model, sub, extra, lam_given[missed], mode_index, numeric)
             for r, row in enumerate(missed):  # into the slots that hold no solution yet (rare rows)
                 free = np.flatnonzero(~found[:, row])[: xs.shape[1]]
                 x[:, free, row], lam[free, row] = xs[:, : free.size, r], lams[: free.size, r]
-        if between:
+        if numeric:
             x, lam = _between_roots(model, flat, x, lam, lam_given, mode_index)
     reproduced = admissible(tuple(x), lam, mode_index, tuple(lam_given.T))
     jac, cond = _conditioning(model, flat, x, mode_index, mode_block, n_given)
@@ -237,11 +323,11 @@ def solve_inverse(
 
 
 BETWEEN_ROUNDS = 3
-"""Rounds of Newton starts between the roots found (solve_inverse's ``between``)."""
+"""Rounds of starts between the roots found (solve_inverse's ``numeric``)."""
 
 
 def _between_roots(model, flat, x, lam, lam_given, mode_index):
-    """solve_inverse's ``between``: polish starts midway between every two admissible roots of a row and put
+    """solve_inverse's ``numeric``: polish starts midway between every two admissible roots of a row and put
     the new roots into slots that hold none (x (n_unknowns, slots, B), lam (slots, B, n_modes))."""
     n_unknowns = x.shape[0]
     for _ in range(BETWEEN_ROUNDS):
@@ -259,7 +345,7 @@ def _between_roots(model, flat, x, lam, lam_given, mode_index):
         starts = np.full((n_unknowns, width, rows.size), np.nan)
         for r, mids in enumerate(pairs):
             starts[:, : len(mids), r] = np.array(mids).T
-        xs, lams = _polish(model, tuple(f[rows] for f in flat), starts, lam_given[rows], mode_index)
+        xs, lams = _polish(model, tuple(f[rows] for f in flat), starts, lam_given[rows], mode_index, True)
         new = 0
         for r, row in enumerate(rows):
             free = np.flatnonzero(~found[:, row])
@@ -309,12 +395,17 @@ def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:
     return cand.reshape(n_unknowns, -1, lam_given.shape[0])
 
 
-def _polish(model, known, cand, lam_given, mode_index):
-    """Candidates (n_unknowns, n_roots, B) polished by Newton at the flat rows ``known`` ((B,) each).
-    Returns (unknowns (n_unknowns, n_roots, B), squared frequencies (n_roots, B, n_modes))."""
+def _polish(model, known, cand, lam_given, mode_index, damped: bool = False):
+    """Candidates (n_unknowns, n_roots, B) polished by Newton at the flat rows ``known`` ((B,) each), after
+    Levenberg-Marquardt steps (eigen_levenberg_marquardt) where ``damped``. Returns (unknowns
+    (n_unknowns, n_roots, B), squared frequencies (n_roots, B, n_modes))."""
     n_unknowns, n_roots, n_batch = cand.shape
     rows = tuple(np.tile(k, n_roots) for k in known)
-    x, lam = eigen_newton(model, rows, cand.reshape(n_unknowns, -1).T, mode_index, np.tile(lam_given, (n_roots, 1)))
+    given = np.tile(lam_given, (n_roots, 1))
+    x0 = cand.reshape(n_unknowns, -1).T
+    if damped:
+        x0 = eigen_levenberg_marquardt(model, rows, x0, mode_index, given)
+    x, lam = eigen_newton(model, rows, x0, mode_index, given)
     return x.T.reshape(n_unknowns, n_roots, n_batch), lam.reshape(n_roots, n_batch, -1)
 
 

@@ -143,12 +143,12 @@ def _numeric_inverse_function(
     layout = Inverse(None, known, omegas, mode_index, n_roots, start, factors=factors)
     doc = (
         f"Unknowns {', '.join(d.unknown)} from the natural frequencies {', '.join(omegas)} [rad/s], numerically.\n\n"
-        f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: Newton\n"
-        "    steps on the stable forward map start from the nominal unknowns, scaled to the level of the given\n"
-        f"    frequencies, times every combination of {len(factors)} factors from 0.1 to 10 in equal ratios\n"
-        f"    ({n_roots} starts), then midway between every two roots found (a root between two others has a\n"
-        "    narrow basin). A root outside all their basins (unknowns in ratios far from the nominal ones) is\n"
-        "    missed.\n"
+        f"    These frequencies determine the unknowns, but the engine found {s.reason.split(' (')[0]}: damped\n"
+        "    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable\n"
+        "    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times\n"
+        f"    every combination of {len(factors)} factors from 0.1 to 10 in equal ratios ({n_roots} starts), then\n"
+        "    midway between every two roots found (a root between two others has a narrow basin). A root outside\n"
+        "    all their basins (unknowns in ratios far from the nominal ones) is missed.\n"
         "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
     )
     return Function(f"identify_{s.name}", known + omegas, doc, layout)
