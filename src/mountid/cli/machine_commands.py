@@ -32,6 +32,9 @@ def cmd_identify(args: argparse.Namespace) -> None:
         raise InputError("--measured", "give the measured frequencies as label=rad/s")
     given = pairs(args.set, "--set")
     std = pairs(args.std, "--std") if args.std else None
+    if len(machine.distinct_measured(measured)) > len(machine.unknown):
+        _identify_least_squares(args, machine, given, measured, std)
+        return
     solutions = machine.identify(given, measured, std)
     defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
     if args.json:
@@ -64,6 +67,69 @@ def cmd_identify(args: argparse.Namespace) -> None:
         print("      frequencies: " + ", ".join(f"{lab} {w:.5g}" for lab, w in s.frequencies.items()) + " rad/s")
         print(f"      relative condition number {s.condition:.3g} (relative change of the unknowns per relative change")
         print("      of the measured frequencies)")
+    defaults_note(machine, defaults)
+
+
+def _identify_least_squares(
+    args: argparse.Namespace,
+    machine: Machine,
+    given: dict[str, float],
+    measured: dict[str, float],
+    std: dict[str, float] | None,
+) -> None:
+    """More distinct frequencies than unknowns: one least-squares fit, its residuals and goodness of fit."""
+    from mountid.identification.frequency_fit import fit_frequencies
+
+    fit = fit_frequencies(machine, given, measured, std)
+    defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
+    if args.json:
+        print_json(
+            {
+                "machine": machine.name,
+                "measured": measured,
+                "fit": {
+                    "parameters": fit.parameters,
+                    "parameter_std": fit.std,
+                    "frequencies": fit.fitted,
+                    "dof": fit.dof,
+                    **({"chi2": fit.chi2, "p_value": fit.p_value} if fit.frequency_std is not None else {}),
+                    "notes": list(fit.notes),
+                },
+                "defaults": defaults,
+            }
+        )
+        return
+    n = len(fit.measured)
+    print(
+        f"{machine.name}: least-squares fit of {', '.join(machine.unknown)} to {n} measured frequencies "
+        f"({fit.dof} degree{'s' if fit.dof != 1 else ''} of freedom)"
+    )
+    params = ", ".join(
+        f"{k} = {v:.6g} +- {float(f'{fit.std[k]:.2g}'):g} {machine.parameters[k]['unit']}"
+        for k, v in fit.parameters.items()
+    )
+    print(f"  {params}")
+    print(f"  {'mode':>8s}  {'measured':>10s}  {'fitted':>10s}  {'residual':>9s}" + ("  [sigma]" if std else ""))
+    for label, w in fit.measured.items():
+        model = fit.fitted[label]
+        line = f"  {label:>8s}  {w:10.5g}  {model:10.5g}  {100 * (model - w) / w:+8.2f}%"
+        if fit.frequency_std is not None:
+            line += f"  {(model - w) / fit.frequency_std[label]:+7.2f}"
+        print(line)
+    if fit.frequency_std is not None:
+        verdict = "within their uncertainty" if fit.p_value >= 0.01 else "beyond their uncertainty"
+        print(
+            f"  chi^2 = {fit.chi2:.3g} on {fit.dof} degree{'s' if fit.dof != 1 else ''} of freedom "
+            f"(p = {fit.p_value:.2g}): the model fits the frequencies {verdict}"
+        )
+    else:
+        rms = math.sqrt(sum(((fit.fitted[k] - w) / w) ** 2 for k, w in fit.measured.items()) / n)
+        print(
+            "  no --std given: the standard deviations come from the scatter of the frequencies about the fit "
+            f"(RMS {100 * rms:.2g} % of the frequencies)"
+        )
+    for note in fit.notes:
+        print(f"  note: {note}")
     defaults_note(machine, defaults)
 
 

@@ -134,13 +134,10 @@ class Machine:
         """Natural frequency of every mode [rad/s] for the given (or nominal) parameters."""
         return self._forward(params)
 
-    def identify(
-        self, known: dict[str, float], measured: dict[str, float], std: dict[str, float] | None = None
-    ) -> list[Solution]:
-        """Every admissible set of unknowns reproducing the measured frequencies [rad/s], each with its
-        relative condition number and, with ``std`` (standard deviation [rad/s] of every measured
-        frequency), the standard deviation of each unknown. Frequencies that leave an unknown undetermined
-        at this point (e.g. a coupling that vanishes) are an input error naming it."""
+    def distinct_measured(self, measured: dict[str, float]) -> dict[str, tuple[str, float]]:
+        """The measured natural frequencies [rad/s] checked and keyed by the representative of their mode
+        (modes equal by symmetry share one): {representative: (label as given, omega)}. A label that is not a
+        mode, a frequency that is not positive and finite, and two twins given at once are input errors."""
         rep = self.module.REPRESENTATIVE
         chosen: dict[str, tuple[str, float]] = {}
         for label, omega in measured.items():
@@ -154,9 +151,43 @@ class Machine:
                     label, f"repeats the frequency of {chosen[r][0]} (equal by symmetry); give one of them"
                 )
             chosen[r] = (label, omega)
+        return chosen
+
+    def measured_std(
+        self, chosen: dict[str, tuple[str, float]], std: dict[str, float] | None
+    ) -> dict[str, float] | None:
+        """The standard deviation [rad/s] of each measured frequency of ``chosen`` (distinct_measured), keyed as
+        ``chosen``, from ``std`` keyed by the labels as given (None: no standard deviations). A standard
+        deviation of a frequency not measured, one not positive and finite, or one missing are input errors."""
+        if std is None:
+            return None
+        given = {label for label, _ in chosen.values()}
+        for label in std:
+            if label not in given:
+                raise InputError(label, "a standard deviation is given for a frequency that is not measured")
+            if not (math.isfinite(std[label]) and std[label] > 0):
+                raise InputError(label, f"a standard deviation must be positive and finite, got {std[label]}")
+        order = [k for k in self.unique_modes if k in chosen]
+        missing = [chosen[k][0] for k in order if chosen[k][0] not in std]
+        if missing:
+            raise InputError(missing[0], "no standard deviation given (give one for every measured frequency)")
+        return {k: std[chosen[k][0]] for k in order}
+
+    def check_known(self, known: dict[str, float]) -> None:
+        """An unknown given as known is an input error."""
         for unknown in self.unknown:
             if unknown in known:
                 raise InputError(unknown, "is an unknown to identify; do not --set it")
+
+    def identify(
+        self, known: dict[str, float], measured: dict[str, float], std: dict[str, float] | None = None
+    ) -> list[Solution]:
+        """Every admissible set of unknowns reproducing the measured frequencies [rad/s], each with its
+        relative condition number and, with ``std`` (standard deviation [rad/s] of every measured
+        frequency), the standard deviation of each unknown. Frequencies that leave an unknown undetermined
+        at this point (e.g. a coupling that vanishes) are an input error naming it."""
+        chosen = self.distinct_measured(measured)
+        self.check_known(known)
         key = tuple(label for label in self.unique_modes if label in chosen)
         n = len(self.unknown)
         if len(key) != n:
@@ -172,17 +203,9 @@ class Machine:
             )
         if key not in self.module.INVERSES:
             raise InputError("measured", f"no inverse solution was generated for {', '.join(key)}")
-        sigma = None
-        if std is not None:
-            for label in std:
-                if label not in measured:
-                    raise InputError(label, "a standard deviation is given for a frequency that is not measured")
-                if not (math.isfinite(std[label]) and std[label] > 0):
-                    raise InputError(label, f"a standard deviation must be positive and finite, got {std[label]}")
-            missing = [chosen[k][0] for k in key if chosen[k][0] not in std]
-            if missing:
-                raise InputError(missing[0], "no standard deviation given (give one for every measured frequency)")
-            sigma = np.array([std[chosen[k][0]] for k in key])
+        sigma = self.measured_std(chosen, std)
+        if sigma is not None:
+            sigma = np.array([sigma[k] for k in key])
         fn = self.module.INVERSES[key]
         knowns = self.values(known, tuple(a for a in self.module.FORWARD_ARGUMENTS if a not in self.unknown))
         omegas = {f"omega_{label}": chosen[label][1] for label in key}

@@ -1,0 +1,135 @@
+"""mountid.identification.frequency_fit: the unknowns fitted to more measured frequencies than unknowns, against
+an independent scipy fit of the generated forward map, a Monte Carlo of its standard deviations, round trips
+from exact frequencies, and the command line's output and errors."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.optimize
+import scipy.stats
+from conftest import budget, log_uniform
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mountid.cli import main
+from mountid.errors import InputError
+from mountid.generated import kid300
+from mountid.identification.frequency_fit import fit_frequencies
+from mountid.machine import Machine
+from mountid.validation.paper import MEASURED, TABLE_1
+
+STD = {label: 0.45 for label in MEASURED}
+"""0.45 rad/s on each of the paper's four measured frequencies."""
+
+
+def _independent_fit(measured: dict[str, float], std: dict[str, float]) -> np.ndarray:
+    """c_xy, c_z minimising sum(((omega_model - omega) / std)^2) with kid300.frequencies and scipy's own
+    finite differences, from the description's nominal stiffnesses."""
+    idx = [kid300.MODES.index(label) for label in measured]
+    omega = np.array(list(measured.values()))
+    sigma = np.array([std[label] for label in measured])
+
+    def residual(log_c):
+        c_xy, c_z = np.exp(log_c)
+        return (kid300.frequencies(**TABLE_1, c_xy=c_xy, c_z=c_z)[idx] - omega) / sigma
+
+    start = np.log([kid300.PARAMETERS["c_xy"]["value"], kid300.PARAMETERS["c_z"]["value"]])
+    return np.exp(scipy.optimize.least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15).x)
+
+
+def test_the_papers_four_frequencies_fit_as_an_independent_least_squares_does():
+    fit = fit_frequencies(Machine.resolve("kid300"), TABLE_1, MEASURED, STD)
+    c_xy, c_z = _independent_fit(MEASURED, STD)
+    assert fit.parameters["c_xy"] == pytest.approx(c_xy, rel=1e-7)
+    assert fit.parameters["c_z"] == pytest.approx(c_z, rel=1e-7)
+    assert fit.dof == 2
+    model = kid300.frequencies(**TABLE_1, c_xy=c_xy, c_z=c_z)
+    chi2 = sum(((model[kid300.MODES.index(k)] - w) / STD[k]) ** 2 for k, w in MEASURED.items())
+    assert fit.chi2 == pytest.approx(chi2, rel=1e-6)
+    assert fit.p_value == pytest.approx(scipy.stats.chi2.sf(chi2, 2), rel=1e-6)
+    assert 0.01 < fit.p_value < 0.99  # the paper's frequencies fit within 0.45 rad/s
+
+
+def test_the_standard_deviations_match_a_monte_carlo_of_the_fit():
+    """The frequencies scattered by their standard deviation around the fitted model's: the spread of the
+    refitted unknowns against the stated std (chi^2 of the paper's data is below its dof, so no inflation)."""
+    machine = Machine.resolve("kid300")
+    fit = fit_frequencies(machine, TABLE_1, MEASURED, STD)
+    rng = np.random.default_rng(7)
+    draws = []
+    for _ in range(200):
+        noisy = {k: w + STD[k] * rng.standard_normal() for k, w in fit.fitted.items()}
+        draws.append(list(fit_frequencies(machine, TABLE_1, noisy, STD).parameters.values()))
+    spread = np.std(draws, axis=0)
+    for k, u in enumerate(("c_xy", "c_z")):
+        assert fit.std[u] == pytest.approx(spread[k], rel=0.15)
+
+
+@settings(max_examples=budget(10))
+@given(
+    c_xy=log_uniform(2e4, 3e5),
+    c_z=log_uniform(1e5, 2e6),
+    labels=st.sampled_from([("x", "z", "psi"), ("x", "psi", "phi"), ("z", "psi", "phi"), ("x", "z", "psi", "phi")]),
+)
+def test_exact_frequencies_give_back_the_stiffnesses(c_xy, c_z, labels):
+    omega = kid300.frequencies(**TABLE_1, c_xy=c_xy, c_z=c_z)
+    measured = {label: float(omega[kid300.MODES.index(label)]) for label in labels}
+    fit = fit_frequencies(Machine.resolve("kid300"), TABLE_1, measured, dict.fromkeys(labels, 0.01))
+    assert fit.parameters["c_xy"] == pytest.approx(c_xy, rel=1e-7)
+    assert fit.parameters["c_z"] == pytest.approx(c_z, rel=1e-7)
+    assert fit.chi2 < 1e-6
+
+
+def test_an_exactly_determined_set_is_not_a_least_squares_fit():
+    with pytest.raises(InputError, match="2 distinct frequencies for 2 unknowns"):
+        fit_frequencies(Machine.resolve("kid300"), TABLE_1, {"x": 17.71, "psi": 64.10})
+
+
+def test_the_command_line_reports_the_fit_its_residuals_and_its_goodness(capsys):
+    args = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items())]
+    args += ["--std", *(f"{k}=0.45" for k in MEASURED)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "least-squares fit of c_xy, c_z to 4 measured frequencies (2 degrees of freedom)" in out
+    assert "chi^2 = 2.14 on 2 degrees of freedom (p = 0.34): the model fits the frequencies within" in out
+    assert main([*args, "--json"]) == 0
+    fit = json.loads(capsys.readouterr().out)["fit"]
+    assert set(fit) == {"parameters", "parameter_std", "frequencies", "dof", "chi2", "p_value", "notes"}
+    assert fit["parameters"]["c_z"] == pytest.approx(_independent_fit(MEASURED, STD)[1], rel=1e-7)
+    # without standard deviations: the spread of the frequencies about the fit instead of a chi^2
+    assert main(args[: args.index("--std")]) == 0
+    assert "no --std given" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "z:"),
+        (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "phi:"),
+        (["--set", "c_xy=7e4"], "c_xy:"),
+    ],
+)
+def test_bad_input_to_the_fit_is_one_line_naming_the_parameter(capsys, extra, named):
+    args = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items()), *extra]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"error: {named}" in err
+
+
+def test_the_readme_transcript_is_what_the_command_prints(capsys):
+    """The README's least-squares `mountid identify` transcript, line by line."""
+    lines = Path("README.md").read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("    $ mountid identify kid300 --measured x="))
+    shown = []
+    for line in lines[start + 1 :]:
+        if not line.startswith("    "):
+            break
+        shown.append(line[4:])
+    assert main(shlex.split(lines[start][len("    $ mountid ") :])) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[: len(shown)] == shown
