@@ -4,7 +4,9 @@ notes a user needs: nominal values taken from the description, conditioning, und
 
 from __future__ import annotations
 
+import io
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -122,3 +124,21 @@ def test_empty_batches_give_empty_arrays():
     assert roots.parameters["c_xy"].shape == (2, 0) and roots.admissible.shape == (2, 0)
     assert roots.jacobian.shape == (2, 0, 2, 2)
     assert kid300.frequencies(**TABLE_1, c_xy=empty, c_z=empty).shape == (0, 6)
+
+
+def test_a_reader_that_stops_early_gets_no_error_message(capsys, monkeypatch, tmp_path):
+    """`mountid ... | head -1`: the pipe's reader closes it and the next write raises BrokenPipeError; the command
+    stops quietly (exit 1, nothing on stderr) instead of reporting 'file: Broken pipe'."""
+    target = (tmp_path / "stdout").open("w")
+
+    class ClosedPipe(io.StringIO):
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def fileno(self) -> int:
+            return target.fileno()
+
+    monkeypatch.setattr(sys, "stdout", ClosedPipe())
+    assert main(["frequencies", "kid300"]) == 1
+    target.close()
+    assert capsys.readouterr().err == ""

@@ -7,6 +7,7 @@ one line ``mountid: error: <parameter>: <reason>`` on stderr and exit code 2, ne
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -158,6 +159,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    except BrokenPipeError:  # the reader of the output stopped early (mountid ... | head): nothing to report
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the interpreter's final flush of stdout would fail again
+        return 1
     except OSError as exc:  # a file that cannot be read or written: named, one line
         print(f"mountid: error: {exc.filename or 'file'}: {exc.strerror or exc}", file=sys.stderr)
         return 2

@@ -180,7 +180,7 @@ def cmd_describe(args: argparse.Namespace) -> None:
     numeric = getattr(m, "NUMERIC_INVERSES", {})
     for key, n in m.INVERSE_ROOTS.items():
         if key in numeric:
-            print(f"  {', '.join(key):24s} solvable numerically ({n} Newton starts): {numeric[key]}")
+            print(f"  {', '.join(key):24s} solvable numerically ({n} starts): {numeric[key]}")
         else:
             print(f"  {', '.join(key):24s} solvable, {n} candidate root(s)")
     if getattr(m, "SPECIAL_POINTS", ()):
