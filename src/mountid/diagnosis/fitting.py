@@ -255,9 +255,13 @@ def log_evidence(
 
     J the whitened residual Jacobian at the fit (data rows only), W_i the prior widths (prior_widths). The
     uniform prior enters A as the Gaussian of equal variance (W^2/12), so that a parameter the data do not
-    determine costs nothing (its Occam factor tends to sqrt(2 pi / 12)) and a determined one costs
-    log(W / (sqrt(2 pi) sigma)): the penalty grows with the prior range the data rule out, not with a fixed
-    count per parameter as AICc's (which outweighs small data sets: 30 per parameter at n = 6).
+    determine costs little (its Occam factor tends to sqrt(2 pi / 12): 0.32 nats, where the exact integral of a
+    flat likelihood over the prior costs none) and a determined one costs log(W / (sqrt(2 pi) sigma)): the
+    penalty grows with the prior range the data rule out, not with a fixed count per parameter as AICc's (which
+    outweighs small data sets: 30 per parameter at n = 6). The Gaussian of equal height (variance W^2 / (2 pi),
+    exact in both limits) was tried on held-out seeds 264-461 (3564 cases): the calibration with frequencies
+    only went from 0.017 to 0.035 pooled (genset8 0.19 to 0.36) and kid300's first places where a rival fits
+    alike stayed as overconfident (0.82 stated, 0.71 right), log loss unchanged: not kept.
 
     ``held``: the columns of refining parameters, ``offsets`` their fitted values less their starts. Their
     prior puts REFINED_AT_START at the start and the rest uniformly over the range: the evidence is the mixture
