@@ -112,6 +112,7 @@ def test_the_command_line_reports_the_fit_its_residuals_and_its_goodness(capsys)
         (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "z:"),
         (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "phi:"),
         (["--set", "c_xy=7e4"], "c_xy:"),
+        (["--root", "c_q>c_xy"], "root:"),  # not a rule, though no tie needs one here
     ],
 )
 def test_bad_input_to_the_fit_is_one_line_naming_the_parameter(capsys, extra, named):
@@ -133,3 +134,25 @@ def test_the_readme_transcript_is_what_the_command_prints(capsys):
     assert main(shlex.split(lines[start][len("    $ mountid ") :])) == 0
     printed = capsys.readouterr().out.splitlines()
     assert printed[: len(shown)] == shown
+
+
+def test_a_root_rule_is_for_least_squares_fits_only(capsys):
+    """With exactly as many frequencies as unknowns every admissible root is listed: --root is an error there."""
+    assert main(["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--root", "c_z>c_xy"]) == 2
+    assert "error: --root:" in capsys.readouterr().err
+
+
+def test_a_root_rule_picks_between_equally_good_fits():
+    """Two frequencies of kid300's x, psi and a third from one of the two exact solutions of (x, psi): two
+    least-squares fits of chi^2 0 would tie for (x, psi) alone; the third frequency decides, and a rule only
+    chooses where it does not. Each exact solution's own third frequency returns that solution, whatever the
+    rule (the data decide), and the note names no rule."""
+    machine = Machine.resolve("kid300")
+    roots = kid300.identify_x_psi(**TABLE_1, omega_x=17.71, omega_psi=64.10)
+    for k in np.flatnonzero(roots.admissible):
+        c = {u: float(roots.parameters[u][k]) for u in ("c_xy", "c_z")}
+        z = float(kid300.frequencies(**TABLE_1, **c)[kid300.MODES.index("z")])
+        for rule in ("c_z>c_xy", "c_z<c_xy"):
+            fit = fit_frequencies(machine, TABLE_1, {"x": 17.71, "psi": 64.10, "z": z}, root=rule)
+            assert fit.parameters["c_z"] == pytest.approx(c["c_z"], rel=1e-6)
+            assert fit.notes == ()

@@ -55,6 +55,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="LABEL=RAD_S",
         help="standard deviation of each measured frequency [rad/s]: the unknowns' standard deviations",
     )
+    p.add_argument(
+        "--root",
+        metavar="RULE",
+        help="with more frequencies than unknowns: pick between equally good fits, e.g. c_z>c_xy "
+        "(default: the description's rule)",
+    )
     p.set_defaults(func=cmd_identify)
     machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
     machine_command("describe", "parameters, modes and inverse sets of a machine").set_defaults(func=cmd_describe)

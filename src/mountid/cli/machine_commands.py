@@ -35,8 +35,10 @@ def cmd_identify(args: argparse.Namespace) -> None:
     if len(machine.distinct_measured(measured)) > len(machine.unknown):
         _identify_least_squares(args, machine, given, measured, std)
         return
+    if args.root:
+        raise InputError("--root", "picks between least-squares fits: give more frequencies than unknowns")
     solutions = machine.identify(given, measured, std)
-    defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
+    defaults = _known_defaults(machine, given)
     if args.json:
         print_json(
             {
@@ -70,6 +72,11 @@ def cmd_identify(args: argparse.Namespace) -> None:
     defaults_note(machine, defaults)
 
 
+def _known_defaults(machine: Machine, given: dict[str, float]) -> dict[str, float]:
+    """The known parameters not given that take the description's nominal value (the note of identify)."""
+    return machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
+
+
 def _identify_least_squares(
     args: argparse.Namespace,
     machine: Machine,
@@ -80,8 +87,8 @@ def _identify_least_squares(
     """More distinct frequencies than unknowns: one least-squares fit, its residuals and goodness of fit."""
     from mountid.identification.frequency_fit import fit_frequencies
 
-    fit = fit_frequencies(machine, given, measured, std)
-    defaults = machine.defaults(given, tuple(a for a in machine.module.FORWARD_ARGUMENTS if a not in machine.unknown))
+    fit = fit_frequencies(machine, given, measured, std, args.root)
+    defaults = _known_defaults(machine, given)
     if args.json:
         print_json(
             {

@@ -52,12 +52,16 @@ class FrequencyFit:
 
 
 def fit_frequencies(
-    machine: Machine, known: dict[str, float], measured: dict[str, float], std: dict[str, float] | None = None
+    machine: Machine,
+    known: dict[str, float],
+    measured: dict[str, float],
+    std: dict[str, float] | None = None,
+    root: str | None = None,
 ) -> FrequencyFit:
     """The unknowns fitted to measured natural frequencies [rad/s] of more distinct modes than unknowns, from
     every admissible root of every exactly determined subset (fit_stiffness), with ``std`` the standard
-    deviation of each [rad/s]. Where several solutions fit equally, the description's physical rule
-    (ROOT_RULE) chooses, named in the notes."""
+    deviation of each [rad/s]. Where several solutions fit equally, the physical rule ``root`` ("A>B", e.g.
+    "c_z>c_xy"; default the description's ROOT_RULE) chooses, named in the notes."""
     chosen = machine.distinct_measured(measured)
     machine.check_known(known)
     n = len(machine.unknown)
@@ -65,11 +69,10 @@ def fit_frequencies(
         raise InputError("measured", f"{len(chosen)} distinct frequencies for {n} unknowns: no least squares fit")
     sigma = machine.measured_std(chosen, std)
     data = {k: (w, sigma[k] if sigma else 0.0) for k, (_, w) in chosen.items()}
-    rule = getattr(machine.module, "ROOT_RULE", "") or None
+    rule = root or getattr(machine.module, "ROOT_RULE", "") or None
+    source = f"the rule {rule}" if root else f"the description's rule {rule}"
     notes: list[str] = []
-    params, stds = fit_stiffness(
-        machine, known, data, root=rule, notes=notes, rule_source=f"the description's rule {rule}"
-    )
+    params, stds = fit_stiffness(machine, known, data, root=rule, notes=notes, rule_source=source)
     model = machine.frequencies({**known, **params})
     return FrequencyFit(
         params,

@@ -267,6 +267,8 @@ def fit_stiffness(
     (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
+    if root is not None:
+        root_predicate(root, unknown)  # a rule that is not one is an error whether or not a tie needs it
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
     if len(labels) < len(unknown):
         raise InputError("measured", f"{len(labels)} distinct frequencies found for {len(unknown)} unknowns")

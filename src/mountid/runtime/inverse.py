@@ -161,8 +161,9 @@ LM_STEPS = 80
 """Iterations (accepted or refused steps) allowed to eigen_levenberg_marquardt per start."""
 
 LM_DAMPING = (1e-3, 1e12)
-"""Initial damping of eigen_levenberg_marquardt, and the damping at which a start is given up (its steps no
-longer lower the residual: a minimum that is not a root, or a bound of the floating-point range)."""
+"""Initial damping of eigen_levenberg_marquardt (a kept step divides it by 3, down to 1e-9 of this), and the
+damping at which a start is given up (its steps no longer lower the residual: a minimum that is not a root,
+or a bound of the floating-point range)."""
 
 LM_RANGE = 1e4
 """eigen_levenberg_marquardt gives a start up once an unknown has moved by more than this factor from it: it
@@ -224,7 +225,7 @@ def eigen_levenberg_marquardt(
         with np.errstate(all="ignore"):
             try:
                 step = -np.linalg.solve(damped, gradient)[..., 0]
-            except np.linalg.LinAlgError:  # an unknown no given frequency depends on (a zero column)
+            except np.linalg.LinAlgError:  # singular: J^T J singular with the damping at its floor
                 step = -(np.linalg.pinv(damped, rcond=1e-13) @ gradient)[..., 0]
         largest = np.max(np.abs(step), axis=-1, keepdims=True)
         step = step * np.minimum(1.0, LM_LARGEST_STEP / np.where(largest > 0, largest, 1.0))
