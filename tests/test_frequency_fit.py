@@ -142,11 +142,11 @@ def test_a_root_rule_is_for_least_squares_fits_only(capsys):
     assert "error: --root:" in capsys.readouterr().err
 
 
-def test_a_root_rule_picks_between_equally_good_fits():
-    """Two frequencies of kid300's x, psi and a third from one of the two exact solutions of (x, psi): two
-    least-squares fits of chi^2 0 would tie for (x, psi) alone; the third frequency decides, and a rule only
-    chooses where it does not. Each exact solution's own third frequency returns that solution, whatever the
-    rule (the data decide), and the note names no rule."""
+def test_a_third_frequency_decides_before_any_root_rule():
+    """Two frequencies of kid300's x, psi and a third from one of the two exact solutions of (x, psi): the two
+    solutions would tie for (x, psi) alone; the third frequency decides, so neither rule is consulted. Each
+    exact solution's own third frequency returns that solution, whatever the rule, and no note names a rule.
+    (A tie that a rule breaks is tested through identify-record, test_bench_records.)"""
     machine = Machine.resolve("kid300")
     roots = kid300.identify_x_psi(**TABLE_1, omega_x=17.71, omega_psi=64.10)
     for k in np.flatnonzero(roots.admissible):

@@ -116,7 +116,10 @@ def _identify_least_squares(
         for k, v in fit.parameters.items()
     )
     print(f"  {params}")
-    print(f"  {'mode':>8s}  {'measured':>10s}  {'fitted':>10s}  {'residual':>9s}" + ("  [sigma]" if std else ""))
+    print(
+        f"  {'mode':>8s}  {'measured':>10s}  {'fitted':>10s}  {'residual':>9s}"
+        + ("  [sigma]" if fit.frequency_std is not None else "")
+    )
     for label, w in fit.measured.items():
         model = fit.fitted[label]
         line = f"  {label:>8s}  {w:10.5g}  {model:10.5g}  {100 * (model - w) / w:+8.2f}%"
