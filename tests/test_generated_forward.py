@@ -173,17 +173,50 @@ def test_matrix_derivatives_match_sympy_at_30_digits(name):
             np.testing.assert_allclose(got[k, m], exact, rtol=1e-13, atol=1e-13 * max(1.0, np.abs(exact).max()))
 
 
-@pytest.mark.parametrize("name", CLOSED_FORM_MACHINES)
-@settings(max_examples=budget(3))
-@given(data=st.data())
-def test_squared_frequency_derivatives_match_a_50_digit_derivative(name, data):
+def derivative_rounding_bound(mod, p):
+    """Absolute rounding error that d lambda_k / d p_j may carry, shape (n_p, n_modes).
+
+    lambda_k' = phi_k^T G phi_k with G = C' - lambda_k M' (mass-normalised phi). A backward-stable mode of a
+    symmetric block carries an error of about eps ||A|| / gap_k in the mass-normalised metric
+    (A = M^-1/2 C M^-1/2 on the block, gap_k the distance to the block's other eigenvalues), which reaches the
+    derivative doubled and weighted by ||M^-1/2 G M^-1/2||. A mode alone in its block has an exact shape.
+    The factor 16 is the usual small multiple of n in rounding bounds; it is not fitted to a find.
+    """
+    M, C = matrices(mod, p)
+    damping = {a: 1.0 for a in mod.ARGUMENTS["matrix_derivatives"] if a not in p}  # B' is not used
+    d = call(mod, "matrix_derivatives", {**damping, **p})
+    n_p = len(mod.FORWARD_ARGUMENTS)
+    lam = mod.squared_frequencies(**p)
+    bound = np.zeros((n_p, len(mod.MODES)))
+    for k in range(len(mod.MODES)):
+        idx = list(mod.BLOCKS[mod.MODE_BLOCK[k]])
+        others = [lam[i] for i in range(len(lam)) if i != k and mod.MODE_BLOCK[i] == mod.MODE_BLOCK[k]]
+        if not others:
+            continue
+        low = scipy.linalg.cholesky(M[np.ix_(idx, idx)], lower=True)
+
+        def mass_normalised(x, low=low):
+            y = scipy.linalg.solve_triangular(low, x, lower=True)
+            return scipy.linalg.solve_triangular(low, y.T, lower=True).T
+
+        a_norm = np.linalg.norm(mass_normalised(C[np.ix_(idx, idx)]), 2)
+        gap = min(abs(lam[k] - o) for o in others)
+        for j, name in enumerate(mod.FORWARD_ARGUMENTS):
+            dm, dc = d[mod.DERIVATIVE_PARAMETERS.index(name), :2]
+            g = dc[np.ix_(idx, idx)] - lam[k] * dm[np.ix_(idx, idx)]
+            g_norm = np.linalg.norm(mass_normalised(g), 2)
+            bound[j, k] = 16 * np.finfo(float).eps * 2 * g_norm * a_norm / gap
+    return bound
+
+
+def check_squared_frequency_derivatives(name: str, p: dict) -> None:
     """d lambda / d p against mpmath's derivative of the symbolic closed form at 50 digits."""
     mod = generated(name)
     hp = HighPrecision(name)
-    p = data.draw(parameters(mod))
     values = [p[a] for a in mod.FORWARD_ARGUMENTS]
     got = mod.squared_frequency_derivatives(**p)
     lam = mod.squared_frequencies(**p)
+    rounding = derivative_rounding_bound(mod, p)
     for j in range(len(values)):
         for k in range(len(mod.MODES)):
 
@@ -192,9 +225,29 @@ def test_squared_frequency_derivatives_match_a_50_digit_derivative(name, data):
 
             with mpmath.workdps(50):
                 exact = float(mpmath.diff(f, mpmath.mpf(values[j])))
-            # relative to the size of lambda_k / p_j (a derivative can vanish by symmetry; an angle can be 0)
+            # relative to the size of lambda_k / p_j (a derivative can vanish by symmetry; an angle can be 0),
+            # and never asked below the rounding its mode shape carries
             scale = abs(lam[k]) / max(abs(values[j]), 1e-3)
-            assert abs(got[j, k] - exact) <= 1e-8 * scale + 1e-9 * abs(exact), (j, k, got[j, k], exact)
+            tolerance = 1e-8 * scale + 1e-9 * abs(exact) + rounding[j, k]
+            assert abs(got[j, k] - exact) <= tolerance, (j, k, got[j, k], exact)
+
+
+@pytest.mark.parametrize("name", CLOSED_FORM_MACHINES)
+@settings(max_examples=budget(3))
+@given(data=st.data())
+def test_squared_frequency_derivatives_match_a_50_digit_derivative(name, data):
+    check_squared_frequency_derivatives(name, data.draw(parameters(generated(name))))
+
+
+def test_squared_frequency_derivatives_where_a_mode_barely_depends_on_a_parameter():
+    """Pinned find of `make fuzz`: the x-theta block with eigenvalues 0.022 and 4e8 rad^2/s^2. The soft mode's
+    d lambda / d c_x is 1.2e-17 at 50 digits and 4.8e-17 in double precision: its mode shape carries a rounding
+    error of eps relative, which reaches the derivative through the stiff mode's 40 rad^2/s^2 per N/m."""
+    p = dict(m=10.0, J_x=1.0, J_y=1.0, J_z=1.0, a=0.023713737056616554, b=1.0, h=np.sqrt(10.0))
+    p.update(c_x=1e7, c_y=1e3, c_z=1e3)
+    mod = generated("rectangular")
+    assert derivative_rounding_bound(mod, p)[mod.FORWARD_ARGUMENTS.index("c_x"), 0] < 1e-12
+    check_squared_frequency_derivatives("rectangular", p)
 
 
 def test_squared_frequency_derivatives_of_3x3_blocks_match_eigh_differences():
