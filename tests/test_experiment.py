@@ -160,6 +160,11 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
     assert params["c_z"] == pytest.approx(rig.values["c_z"], rel=1e-9)
     with pytest.raises(InputError, match="^measured: 2 solutions fit equally .*c_xy = 341"):
         fit_stiffness(rig.machine, TABLE_1, exact)
+    # the rule it suggests is one on the machine's own unknowns
+    rect = Rig.of("rectangular").machine
+    w = rect.frequencies({})
+    with pytest.raises(InputError, match=r"2 solutions fit equally .*e\.g\. c_x>c_y\)$"):
+        fit_stiffness(rect, {}, {lab: (w[lab], 0.01) for lab in ("x", "y", "psi")})
 
 
 def test_mode_shapes_in_the_coordinates_match_the_model():

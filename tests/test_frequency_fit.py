@@ -85,6 +85,30 @@ def test_exact_frequencies_give_back_the_stiffnesses(c_xy, c_z, labels):
     assert fit.chi2 < 1e-6
 
 
+@settings(max_examples=budget(10), deadline=None)
+@given(scale=st.tuples(*[log_uniform(0.3, 3.0)] * 4))
+def test_genset8s_six_frequencies_give_back_its_four_stiffnesses(scale):
+    """A machine with a ROOT_RULE-free description and isolator groups whose inverses are numeric: exact
+    frequencies of all six modes return the stiffnesses, and no unknown is taken for one that ran off."""
+    machine = Machine.resolve("genset8")
+    truth = {u: machine.module.PARAMETERS[u]["value"] * f for u, f in zip(machine.unknown, scale, strict=True)}
+    measured = machine.frequencies(truth)
+    fit = fit_frequencies(machine, {}, measured)
+    for u, c in truth.items():
+        assert fit.parameters[u] == pytest.approx(c, rel=1e-6)
+
+
+def test_frequencies_no_mount_fits_are_an_error_naming_the_stiffness_that_ran_off(capsys):
+    """Six made-up frequencies for genset8: the closest fit takes c_v2 to zero (it left three starts tied at
+    c_v2 = 1e-72 .. 1e-86, reported as three equal solutions): one line naming the stiffness and the miss."""
+    args = ["identify", "genset8", "--measured", "x=10", "y=12", "z=20", "psi=25", "theta=30", "phi=35"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "error: measured: no mount of this description fits" in err and "c_v2 to zero" in err
+    assert "misses phi by 26.4%" in err
+
+
 def test_an_exactly_determined_set_is_not_a_least_squares_fit():
     with pytest.raises(InputError, match="2 distinct frequencies for 2 unknowns"):
         fit_frequencies(Machine.resolve("kid300"), TABLE_1, {"x": 17.71, "psi": 64.10})

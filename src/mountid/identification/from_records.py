@@ -262,9 +262,11 @@ def fit_stiffness(
     than unknowns, scattering more than their stated std). When several distinct solutions fit equally well
     (an exactly determined set with two admissible roots, as the paper's (w1, w4)), the one that best
     predicts the ``others`` (measured modes left out of the fit) is taken; without others that is an error
-    naming the choices. With ``damping`` (values of the damping parameters) the model frequencies are the
-    damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones. Returns
-    (parameters, stds)."""
+    naming the choices. A fit that runs an unknown to zero or without bound (the frequencies stop depending on
+    it) is no solution; where such a fit is the closest, no mount of the description fits the frequencies and
+    that is an error naming the unknown and the largest miss. With ``damping`` (values of the damping
+    parameters) the model frequencies are the damped |p| (pole_frequencies), which a free decay measures;
+    without, the undamped ones. Returns (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
     if root is not None:
@@ -312,6 +314,10 @@ def fit_stiffness(
         (scipy.optimize.least_squares(residual, s, jac=jacobian, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts),
         key=lambda f: f.cost,
     )
+    inside = [f for f in fits if not _left_behind(f.jac).any()]
+    if not inside or inside[0].cost > fits[0].cost + 1e-6 * (1 + fits[0].cost):
+        raise InputError("measured", _no_mount(fits[0], unknown, labels, omega, std, np.array(starts)))
+    fits = inside
     tied = [fits[0]]
     for f in fits[1:]:
         if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all(
@@ -327,7 +333,7 @@ def fit_stiffness(
             raise InputError(
                 "measured",
                 f"{len(tied)} solutions fit equally ({choices}): measure another mode, or choose by a physical "
-                "rule (--root, e.g. c_z>c_xy)",
+                f"rule (--root, e.g. {unknown[0]}>{unknown[1]})",
             )
         if not others:
             keep = root_predicate(root, unknown)
@@ -354,6 +360,39 @@ def fit_stiffness(
     params = dict(zip(unknown, map(float, values), strict=True))
     stds = {u: float(values[i] * spread[i]) for i, u in enumerate(unknown)}
     return params, stds
+
+
+_LEFT_BEHIND_RTOL = 1e-8
+"""An unknown whose column of d residual / d ln p is below this share of the largest column no longer moves
+the frequencies: the fit has taken it to zero or without bound."""
+
+
+def _left_behind(jac: np.ndarray) -> np.ndarray:
+    """Per unknown of a fit (columns of d residual / d ln p): whether the frequencies have stopped depending on
+    it (the fit ran to a stiffness of zero or of no bound, off every mount of the description)."""
+    size = np.sqrt(np.add.reduce(jac * jac, axis=0))
+    return size <= _LEFT_BEHIND_RTOL * size.max(initial=0.0)
+
+
+def _no_mount(
+    fit: scipy.optimize.OptimizeResult,
+    unknown: tuple[str, ...],
+    labels: list[str],
+    omega: np.ndarray,
+    std: np.ndarray,
+    starts: np.ndarray,
+) -> str:
+    """Why the frequencies [rad/s] fit no mount: the closest ``fit`` (ln p from ``starts``, one row each) runs an
+    unknown to zero or without bound."""
+    gone = np.flatnonzero(_left_behind(fit.jac))
+    ends = [f"{unknown[i]} to {'zero' if fit.x[i] < np.median(starts[:, i]) else 'no bound'}" for i in gone]
+    miss = np.abs(fit.fun * std / omega)
+    worst = int(np.argmax(miss))
+    return (
+        f"no mount of this description fits these frequencies: the closest fit takes {', '.join(ends)}, where "
+        f"they no longer depend on it, and still misses {labels[worst]} by {miss[worst]:.1%}; check the mode "
+        "labels and the known parameters"
+    )
 
 
 def fit_damping(
