@@ -142,3 +142,25 @@ def test_a_reader_that_stops_early_gets_no_error_message(capsys, monkeypatch, tm
     assert main(["frequencies", "kid300"]) == 1
     target.close()
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("setting", [[], ["--set", "c_z=1e20"], ["--set", "m=1e5", "c_xy=1e3"]])
+def test_the_modes_table_reads_back_as_the_json_numbers(capsys, setting):
+    """Every row of `mountid modes` is six separated numbers that agree with --json to their printed digits, the
+    frequencies too where they are wider than the column (kid300's z at c_z = 1e20 N/m: 6.91e+08 rad/s), and
+    no entry prints as a negative zero."""
+    code, out, _ = run(capsys, "modes", "kid300", *setting)
+    assert code == 0
+    code, text, _ = run(capsys, "modes", "kid300", *setting, "--json")
+    data = json.loads(text)
+    lines = out.splitlines()
+    rows = {line.split()[0]: line.split()[1:] for line in lines[2:9]}
+    shares = {line.split()[0]: line.split()[1:] for line in lines[12:18]}
+    np.testing.assert_allclose([float(v) for v in rows["rad/s"]], list(data["frequencies"].values()), rtol=5e-3)
+    for i, c in enumerate(data["coordinates"]):
+        assert len(rows[c]) == len(shares[c]) == 6
+        np.testing.assert_allclose([float(v) for v in rows[c]], data["modal_matrix"][i], atol=5e-5)
+        np.testing.assert_allclose(
+            [float(v) for v in shares[c]], np.multiply(data["kinetic_energy_distribution"][i], 100), atol=0.05
+        )
+    assert "-0.0 " not in out + " " and "-0.0000" not in out

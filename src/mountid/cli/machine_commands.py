@@ -167,14 +167,23 @@ def cmd_modes(args: argparse.Namespace) -> None:
         return
     head = "".join(f"{lab:>9s}" for lab in m.MODES)
     print(f"{machine.name}: mass-normalised modal matrix (rows: coordinates, columns: modes)")
-    print(f"{'':>8s}{head}\n{'rad/s':>8s}" + "".join(f"{w:9.3f}" for w in freqs))
+    print(f"{'':>8s}{head}\n{'rad/s':>8s}" + "".join(_cell(w, 3) for w in freqs))
     for i, c in enumerate(m.COORDINATES):
-        print(f"{c:>8s}" + "".join(f"{v:9.4f}" for v in phi[i]))
+        print(f"{c:>8s}" + "".join(_cell(v, 4) for v in phi[i]))
     print("\nkinetic-energy distribution (share of each mode's kinetic energy per coordinate, %)")
     print(f"{'':>8s}{head}")
     for i, c in enumerate(m.COORDINATES):
-        print(f"{c:>8s}" + "".join(f"{100 * v:9.1f}" for v in energy[i]))
+        print(f"{c:>8s}" + "".join(_cell(100 * v, 1) for v in energy[i]))
     defaults_note(machine, defaults)
+
+
+def _cell(value: float, decimals: int) -> str:
+    """One column of the modes table: ``decimals`` places, three significant digits where that is wider than
+    the column; never a negative zero (a share or a shape entry rounding to zero)."""
+    text = f"{round(float(value), decimals) + 0.0:.{decimals}f}"
+    if len(text) > 8:
+        text = f"{value:.3g}"
+    return f"{text:>9s}"
 
 
 def cmd_describe(args: argparse.Namespace) -> None:
