@@ -164,3 +164,22 @@ def test_the_modes_table_reads_back_as_the_json_numbers(capsys, setting):
             [float(v) for v in shares[c]], np.multiply(data["kinetic_energy_distribution"][i], 100), atol=0.05
         )
     assert "-0.0 " not in out + " " and "-0.0000" not in out
+
+
+def test_a_mount_that_leaves_a_motion_free_is_named_as_such(capsys, tmp_path):
+    """A mechanism is not a range problem: kid300's isolators all at one point (L_xy = 0) leave x, y and phi
+    without stiffness, and the error names L_xy; a description that declares one plane of symmetry where its
+    isolators need two (two isolators on one line) names the machine at its nominal values. Stiffnesses or
+    masses decades apart stay a range error naming that parameter."""
+    code, _, err = run(capsys, "frequencies", "kid300", "--set", "L_xy=0")
+    assert code == 2
+    assert err.startswith("mountid: error: L_xy: 0 m: the isolators leave x, y, phi without stiffness")
+    text = Path("derivations/rectangular.toml").read_text(encoding="utf-8")
+    one_plane = tmp_path / "one_plane.toml"
+    one_plane.write_text(text.replace('symmetry = ["yz", "xz"]', 'symmetry = ["yz"]'), encoding="utf-8")
+    code, _, err = run(capsys, "frequencies", str(one_plane))
+    assert code == 2
+    assert err.startswith("mountid: error: machine: at rectangular's nominal values the isolators leave y without")
+    for setting, named in (("c_z=1e300", "c_z: 1e+300 N/m puts the model out of the range"), ("m=1e-300", "m: 1e-300")):
+        code, _, err = run(capsys, "frequencies", "kid300", "--set", setting)
+        assert code == 2 and err.startswith(f"mountid: error: {named}") and "without stiffness" not in err

@@ -31,6 +31,11 @@ class Solution:
     std: dict[str, float] | None = None
 
 
+MECHANISM_RTOL = 1e-10
+"""An eigenvalue of the Jacobi-scaled stiffness matrix (dimensionless, at most its size) at or below this is a
+motion the mount leaves without stiffness (a singular matrix gives zero within rounding, of either sign)."""
+
+
 class Machine:
     """Checked access to one generated module."""
 
@@ -110,19 +115,63 @@ class Machine:
         return out
 
     def _range_error(self, values: dict[str, float], why: str) -> InputError:
+        """The error for values at which the model fails in double precision: a mount that leaves a motion
+        without stiffness (a mechanism) where that is the cause, else the parameter furthest from its nominal
+        value (in decades; a zero where the nominal value is not is furthest)."""
+
         def decades(name: str) -> float:
             nominal = self.parameters[name]["value"]
             v = abs(values[name])
-            if not nominal or v == 0:
+            if not nominal:
                 return 0.0
-            return abs(math.log10(v / abs(nominal)))
+            return math.inf if v == 0 else abs(math.log10(v / abs(nominal)))
 
         worst = max(values, key=decades)
+        nominal = f"the nominal value is {self.parameters[worst]['value']:g}"
+        free = self._modes_without_stiffness(values)
+        if free:
+            worst = max((v for v in values if self.parameters[v]["kind"] != "stiffness"), key=decades)
+            nominal = f"the nominal value is {self.parameters[worst]['value']:g}"
+            what = (
+                f"the isolators leave {', '.join(free)} without stiffness: a motion they do not hold (are they all "
+                "on one line, or is a plane of symmetry missing from the description?)"
+            )
+            if decades(worst) == 0:
+                return InputError("machine", f"at {self.name}'s nominal values {what}")
+            return InputError(worst, f"{values[worst]:g} {self.parameters[worst]['unit']}: {what}; {nominal}")
         return InputError(
             worst,
             f"{values[worst]:g} {self.parameters[worst]['unit']} puts the model out of the range of double "
-            f"precision ({why}); the nominal value is {self.parameters[worst]['value']:g}",
+            f"precision ({why}); {nominal}",
         )
+
+    def _modes_without_stiffness(self, values: dict[str, float]) -> tuple[str, ...]:
+        """Modes the mount's geometry leaves without stiffness (a mechanism), where ``values`` hold every forward
+        argument; else (). The test is on the stiffness matrix alone, with every stiffness at its nominal value
+        (stiffnesses or masses given decades apart are a range problem, not a mechanism): Jacobi-scaled,
+        D^-1/2 C D^-1/2 with D its diagonal, it has an eigenvalue within rounding of zero, or a coordinate has no
+        stiffness at all. The modes named are as many as the null space has dimensions, those of smallest
+        squared frequency."""
+        names = self.module.FORWARD_ARGUMENTS
+        if not all(a in values for a in names):
+            return ()
+        nominal = {a: self.parameters[a]["value"] for a in names if self.parameters[a]["kind"] == "stiffness"}
+        if any(v is None for v in nominal.values()):
+            return ()
+        at = {**values, **nominal}
+        with np.errstate(all="ignore"):
+            c = np.asarray(self.module.stiffness_matrix(*(at[a] for a in self.module.ARGUMENTS["stiffness_matrix"])))
+            if not np.isfinite(c).all():
+                return ()
+            d = np.diag(c)
+            held = d > 0
+            scaled = c[np.ix_(held, held)] / np.sqrt(np.outer(d[held], d[held]))
+            free = int(np.count_nonzero(~held)) + int(np.count_nonzero(np.linalg.eigvalsh(scaled) <= MECHANISM_RTOL))
+            if free == 0:
+                return ()
+            lam = np.asarray(self.module.squared_frequencies(**{a: at[a] for a in names}), dtype=float)
+        order = np.argsort(np.where(np.isfinite(lam), lam, -np.inf))
+        return tuple(self.modes[k] for k in sorted(order[:free]))
 
     def _forward(self, params: dict[str, float]) -> dict[str, float]:
         args = self.values(params, self.module.FORWARD_ARGUMENTS)
