@@ -180,3 +180,13 @@ def test_a_third_frequency_decides_before_any_root_rule():
             fit = fit_frequencies(machine, TABLE_1, {"x": 17.71, "psi": 64.10, "z": z}, root=rule)
             assert fit.parameters["c_z"] == pytest.approx(c["c_z"], rel=1e-6)
             assert fit.notes == ()
+
+
+def test_a_fit_whose_model_leaves_double_precision_is_an_error_not_a_traceback(monkeypatch):
+    """scipy stops on a non-finite residual with a ValueError: a start whose model frequencies are not finite
+    is dropped, and with none left the error names the measured frequencies."""
+    machine = Machine.resolve("kid300")
+    finite = kid300.frequencies
+    monkeypatch.setattr(kid300, "frequencies", lambda **v: finite(**v) * np.nan)
+    with pytest.raises(InputError, match="^measured: every fit .* left the range of double precision"):
+        fit_frequencies(machine, TABLE_1, MEASURED, STD)

@@ -269,6 +269,7 @@ def fit_stiffness(
     without, the undamped ones. Returns (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
+    machine.check_known(known)
     if root is not None:
         root_predicate(root, unknown)  # a rule that is not one is an error whether or not a tie needs it
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
@@ -310,10 +311,19 @@ def fit_stiffness(
                 starts.append(np.log([roots.parameters[u][i] for u in unknown]))
     if not starts:
         raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
-    fits = sorted(
-        (scipy.optimize.least_squares(residual, s, jac=jacobian, x_scale=1.0, xtol=1e-14, ftol=1e-14) for s in starts),
-        key=lambda f: f.cost,
-    )
+
+    def fit_from(start: np.ndarray) -> scipy.optimize.OptimizeResult | None:
+        """The fit from one start; None where its path left double precision (a frequency of zero or an
+        overflow: scipy stops on a non-finite residual or Jacobian)."""
+        with np.errstate(all="ignore"):
+            try:
+                return scipy.optimize.least_squares(residual, start, jac=jacobian, x_scale=1.0, xtol=1e-14, ftol=1e-14)
+            except ValueError:
+                return None
+
+    fits = sorted((f for f in map(fit_from, starts) if f is not None), key=lambda f: f.cost)
+    if not fits:
+        raise InputError("measured", "every fit from the generated inverses' roots left the range of double precision")
     inside = [f for f in fits if not _left_behind(f.jac).any()]
     if not inside or inside[0].cost > fits[0].cost + 1e-6 * (1 + fits[0].cost):
         raise InputError("measured", _no_mount(fits[0], unknown, labels, omega, std, np.array(starts)))

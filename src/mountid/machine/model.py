@@ -223,10 +223,20 @@ class Machine:
         return {k: std[chosen[k][0]] for k in order}
 
     def check_known(self, known: dict[str, float]) -> None:
-        """An unknown given as known is an input error."""
+        """An unknown given as known is an input error; so are known values at which the mount leaves a motion
+        without stiffness whatever the unknown stiffnesses (a mechanism: no frequencies identify them)."""
         for unknown in self.unknown:
             if unknown in known:
                 raise InputError(unknown, "is an unknown to identify; do not --set it")
+        if any(self.parameters[u]["kind"] != "stiffness" for u in self.unknown):
+            return
+        names = self.module.FORWARD_ARGUMENTS
+        values = {
+            **self.values(known, tuple(a for a in names if a not in self.unknown)),
+            **dict.fromkeys(self.unknown, 1.0),
+        }
+        if self._modes_without_stiffness(values):  # it puts every stiffness at its nominal value
+            raise self._range_error(values, "")
 
     def identify(
         self, known: dict[str, float], measured: dict[str, float], std: dict[str, float] | None = None
