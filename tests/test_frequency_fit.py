@@ -190,3 +190,13 @@ def test_a_fit_whose_model_leaves_double_precision_is_an_error_not_a_traceback(m
     monkeypatch.setattr(kid300, "frequencies", lambda **v: finite(**v) * np.nan)
     with pytest.raises(InputError, match="^measured: every fit .* left the range of double precision"):
         fit_frequencies(machine, TABLE_1, MEASURED, STD)
+
+
+def test_residuals_of_millions_of_sigma_keep_their_column(capsys):
+    """Standard deviations of 1e-9 rad/s put the residuals at 1e6-1e8 sigma: printed in three significant digits
+    (they printed as -9543866.99, wider than the column)."""
+    args = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items())]
+    assert main([*args, "--std", *(f"{k}=1e-9" for k in MEASURED)]) == 0
+    rows = capsys.readouterr().out.splitlines()[3:7]
+    assert all(len(row) <= len("         x       17.71      17.719     +0.05%    +0.02") + 1 for row in rows)
+    assert all("e+0" in row.split()[-1] for row in rows)

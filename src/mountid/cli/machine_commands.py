@@ -124,7 +124,8 @@ def _identify_least_squares(
         model = fit.fitted[label]
         line = f"  {label:>8s}  {w:10.5g}  {model:10.5g}  {100 * (model - w) / w:+8.2f}%"
         if fit.frequency_std is not None:
-            line += f"  {(model - w) / fit.frequency_std[label]:+7.2f}"
+            z = (model - w) / fit.frequency_std[label]
+            line += f"  {z:+7.2f}" if abs(z) < 1e4 else f"  {z:+7.2g}"
         print(line)
     if fit.frequency_std is not None:
         verdict = "within their uncertainty" if fit.p_value >= 0.01 else "beyond their uncertainty"
