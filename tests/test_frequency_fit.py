@@ -200,3 +200,17 @@ def test_residuals_of_millions_of_sigma_keep_their_column(capsys):
     rows = capsys.readouterr().out.splitlines()[3:7]
     assert all(len(row) <= len("         x       17.71      17.719     +0.05%    +0.02") + 1 for row in rows)
     assert all("e+0" in row.split()[-1] for row in rows)
+
+
+def test_standard_deviations_beyond_first_order_are_noted(capsys):
+    """A standard deviation of half the value or more is first order out of its depth: a note names the unknown,
+    in the exactly determined and the least-squares output; the paper's 0.45 rad/s gets none."""
+    exact = ["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std"]
+    assert main([*exact, "x=100", "psi=0.4"]) == 0
+    assert "note: the standard deviations of c_xy, c_z are half their values or more" in capsys.readouterr().out
+    fit = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items()), "--std"]
+    assert main([*fit, "x=30", "z=0.3", "psi=30", "phi=30"]) == 0
+    assert "  note: the standard deviation of c_xy is half its value or more" in capsys.readouterr().out
+    for argv in ([*exact, "x=0.45", "psi=0.45"], [*fit, *(f"{k}=0.45" for k in MEASURED)]):
+        assert main(argv) == 0
+        assert "first order does not hold" not in capsys.readouterr().out
