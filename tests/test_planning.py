@@ -74,3 +74,20 @@ def test_plan_on_the_command_line(capsys):
     assert data["unseen"] == ["phi"]  # one vertical channel off the axes sees the rocking in x and y, not yaw
     assert main(["plan", "kid300", "--duration", "0.01"]) == 2
     assert "duration: 0.01 s leaves no free decay" in capsys.readouterr().err
+
+
+def test_modes_above_the_records_band_are_named_and_the_rest_still_planned(capsys):
+    """At 10 Hz the anti-alias filter's corner is 4 Hz: phi (5.9 Hz) and psi, theta (10.2 Hz) are above the band
+    and not planned as measured; x (2.8 Hz) is, with a larger standard deviation than at 2048 Hz (the hit was
+    silent at such rates and the plan stated 0 rad/s); one distinct frequency leaves the stiffness spread
+    unstated, with the reason."""
+    slow = plan(Machine.resolve("kid300"), paper_sensors()[:3], paper_hit(), 4.0, 10.0, 0.01)
+    fast = plan(Machine.resolve("kid300"), paper_sensors()[:3], paper_hit(), 4.0, 2048.0, 0.01)
+    assert slow.above_band == ["psi", "theta", "phi"] and fast.above_band == []
+    assert [m.label for m in slow.modes if m.measured] == ["x", "y"]
+    assert slow.modes[0].frequency_std > 2 * fast.modes[0].frequency_std > 0
+    assert all(np.isnan(v) for v in slow.parameter_std.values()) and "1 distinct frequencies" in slow.notes[0]
+    assert main(["plan", "kid300", "--rate", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "phi         36.9373  0.0837    above the record's band (the anti-alias filter at 0.4 x 10 Hz)" in out
+    assert "expected std of c_xy: none (see the note)" in out and "nan" not in out

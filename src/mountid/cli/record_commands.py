@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from mountid.cli.arguments import (
@@ -76,7 +77,7 @@ def _sensors(items: list[str] | None, noise: float):
 
 def cmd_plan(args: argparse.Namespace) -> None:
     from mountid.identification.planning import plan
-    from mountid.measurement.rig import Hammer
+    from mountid.measurement.rig import ANTI_ALIAS, Hammer
     from mountid.validation.paper import paper_hit, paper_sensors
 
     finite_number(args.duration, "--duration")
@@ -105,9 +106,12 @@ def cmd_plan(args: argparse.Namespace) -> None:
             tail += f"  (one pole with {m.pole_of})" if m.pole_of != m.label else ""
         else:
             tail = "  not seen by these channels" if not m.seen else "  not excited by this hit"
+            if m.seen and m.excited:
+                tail = f"  above the record's band (the anti-alias filter at {ANTI_ALIAS:g} x {args.rate:g} Hz)"
         print(f"  {m.label:8s}{m.frequency:11.4f}{m.damping_ratio:8.4f}  {tail}")
     for name, value in result.parameter_std.items():
-        print(f"  expected std of {name}: {value:.3g} {machine.parameters[name]['unit']}")
+        shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"
+        print(f"  expected std of {name}: {shown}")
     for note in result.notes:
         print(f"  note: {note}")
     best = ", ".join(c for c, _ in result.ranking[:6])

@@ -4,8 +4,9 @@ For a machine at its nominal (or given) values, a set of sensors (points, direct
 record length and rate:
 
 1. which modes the layout cannot observe (every channel reads less than OBSERVABLE of the mode's largest
-   motion at the sensors' points) and which the hit does not excite (its generalised force on the mode is
-   less than OBSERVABLE of the largest);
+   motion at the sensors' points), which the hit does not excite (its generalised force on the mode is
+   less than OBSERVABLE of the largest) and which lie above the record's band (the acquisition's anti-alias
+   corner, rig.ANTI_ALIAS x the rate);
 2. the standard deviation of each observable distinct frequency and damping ratio: the Cramer-Rao bound of
    the records chain's own pole fit (mountid.measurement.modal.fisher_pole_covariance) on the noise-free
    response the rig simulates, with the channels' white noise (``noise`` times each channel's RMS, the rig's
@@ -27,7 +28,7 @@ from mountid.errors import InputError
 from mountid.identification.from_records import fit_stiffness
 from mountid.machine import Machine, call
 from mountid.measurement import modal
-from mountid.measurement.rig import Hammer, Rig, Sensor
+from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
 
 OBSERVABLE = 1e-3
 """A mode is unseen by a layout (not excited by a hit) below this share of its largest reading (force)."""
@@ -35,8 +36,9 @@ OBSERVABLE = 1e-3
 
 @dataclass(frozen=True)
 class ModePlan:
-    """One mode of the plan: its natural frequency [rad/s] and damping ratio, whether the layout sees it and
-    the hit excites it, and the standard deviations the test will state (nan where it will not measure it)."""
+    """One mode of the plan: its natural frequency [rad/s] and damping ratio, whether the layout sees it, the
+    hit excites it and the record's band holds it, and the standard deviations the test will state (nan where
+    it will not measure it)."""
 
     label: str
     frequency: float
@@ -48,10 +50,13 @@ class ModePlan:
     pole_of: str = ""
     """The label whose pole this mode shares (its twin of equal frequency; itself otherwise): the record
     shows one pole for both."""
+    in_band: bool = True
+    """Whether the mode lies below the acquisition's anti-alias corner (rig.ANTI_ALIAS x the rate): above it
+    the filter takes it out of the record, and beyond half the rate it would alias."""
 
     @property
     def measured(self) -> bool:
-        return self.seen and self.excited
+        return self.seen and self.excited and self.in_band
 
 
 @dataclass(frozen=True)
@@ -74,12 +79,17 @@ class Plan:
     def not_excited(self) -> list[str]:
         return [m.label for m in self.modes if m.seen and not m.excited]
 
+    @property
+    def above_band(self) -> list[str]:
+        return [m.label for m in self.modes if m.seen and m.excited and not m.in_band]
+
     def to_dict(self) -> dict:
         return {
             "machine": self.machine,
             "modes": [vars(m) | {"measured": m.measured} for m in self.modes],
             "unseen": self.unseen,
             "not_excited": self.not_excited,
+            "above_band": self.above_band,
             "parameter_std": self.parameter_std,
             "ranking": [{"channel": c, "effective_independence": v} for c, v in self.ranking],
             "notes": self.notes,
@@ -108,12 +118,13 @@ def plan(
     force = np.abs(phi.T @ rig.force_column(hammer.point, hammer.direction))
     seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
     excited = force >= OBSERVABLE * max(force.max(), 1e-300)
+    in_band = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**fwd)))) / (2 * np.pi) < ANTI_ALIAS * rate
 
     poles = rig.poles[rig.poles.imag > 0]
     lam = np.asarray(mod.squared_frequencies(**fwd))
     label_pole = {lab: poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))] for i, lab in enumerate(mod.MODES)}
     # the record shows one pole per distinct frequency (twins are one exponential): the measured labels
-    measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i]]
+    measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i] and in_band[i]]
     distinct: dict[str, complex] = {}
     for lab in measured:
         rep = mod.REPRESENTATIVE[lab]
@@ -147,6 +158,7 @@ def plan(
                 w_std,
                 z_std,
                 mod.REPRESENTATIVE[lab],
+                bool(in_band[i]),
             )
         )
 

@@ -15,6 +15,7 @@ Two independent solutions of the same equations, which tests hold against each o
 
 from __future__ import annotations
 
+import math
 import types
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -44,6 +45,15 @@ class Sensor:
     clip: float | None = None
     quantity: str = "acceleration"
     unit: str = "m/s^2"
+
+
+ANTI_ALIAS = 0.4
+"""Corner of the simulated acquisition's anti-alias filter over the sampling rate (an 8th-order Butterworth): a
+mode above it is not in the record's band."""
+
+RESOLVED = 16
+"""Samples the simulation takes at least per hammer pulse and per period of the fastest mode or unbalance
+(Rig.simulate raises its oversampling to reach them)."""
 
 
 @dataclass(frozen=True)
@@ -199,14 +209,19 @@ class Rig:
         [s]; with ``force_channel`` a last channel of that name records the hammers' force [N] (the
         excitation, through the same anti-alias filter, without noise).
 
-        The response is computed at ``oversample`` x the rate (so that a hammer pulse of a few ms is well
-        resolved), passed through an 8th-order Butterworth anti-alias filter at 0.4 x rate (the analog
+        The response is computed at ``oversample`` x the rate, or more where that leaves fewer than
+        RESOLVED samples per hammer pulse or per period of the fastest mode or unbalance (the physics does not
+        depend on how the record is sampled: at 30 Hz x 8 a 4 ms pulse fell between the samples and the record
+        was silent), passed through an 8th-order Butterworth anti-alias filter at ANTI_ALIAS x rate (the analog
         filter of a real acquisition), and decimated; then noise, bias and clipping are applied per sensor.
         """
         if not duration > 0:
             raise InputError("duration", f"must be positive, got {duration}")
         if not rate > 0:
             raise InputError("rate", f"must be positive, got {rate}")
+        fastest = [float(np.max(np.abs(self.poles))) / (2 * np.pi), *(u.speed / (2 * np.pi) for u in unbalances)]
+        needed = [RESOLVED / (h.duration * rate) for h in hammers] + [RESOLVED * f / rate for f in fastest]
+        oversample = max(oversample, math.ceil(max(needed)))
         n_out = int(round(duration * rate))
         fine_rate = rate * oversample
         t = np.arange(n_out * oversample) / fine_rate
@@ -222,7 +237,7 @@ class Rig:
         if force_channel is not None:
             clean = np.column_stack([clean, sum((h.force(t) for h in hammers), np.zeros_like(t))])
         if anti_alias and oversample > 1:
-            sos = scipy.signal.butter(8, 0.4 * rate, fs=fine_rate, output="sos")
+            sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos")
             clean = scipy.signal.sosfilt(sos, clean, axis=0)
         clean = clean[::oversample]
         rng = np.random.default_rng(seed)
