@@ -51,6 +51,10 @@ ANTI_ALIAS = 0.4
 """Corner of the simulated acquisition's anti-alias filter over the sampling rate (an 8th-order Butterworth): a
 mode above it is not in the record's band."""
 
+BLOCK = 1 << 17
+"""Fine samples Rig.simulate integrates at a time (about 0.1 GB): a long record at a high rate is simulated in
+blocks, each continuing from the state and the anti-alias filter's memory of the one before."""
+
 RESOLVED = 16
 """Samples the simulation takes at least per hammer pulse and per period of the fastest mode or unbalance
 (Rig.simulate raises its oversampling to reach them)."""
@@ -224,22 +228,36 @@ class Rig:
         oversample = max(oversample, math.ceil(max(needed)))
         n_out = int(round(duration * rate))
         fine_rate = rate * oversample
-        t = np.arange(n_out * oversample) / fine_rate
-        force = np.zeros((len(t), self.M.shape[0]))
-        for hammer in hammers:
-            force += np.outer(hammer.force(t), self.force_column(hammer.point, hammer.direction, "hammer"))
-        for unbalance in unbalances:
-            force += self.unbalance_force(unbalance, t)
-        motion = dict(zip(("displacement", "velocity", "acceleration"), self.respond(t, force), strict=True))
         rows = np.array([self.sensor_row(s.point, s.direction, s.name) for s in sensors])
         per_unit = np.array([UNITS[s.quantity][s.unit] for s in sensors])
-        clean = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)]) / per_unit
-        if force_channel is not None:
-            clean = np.column_stack([clean, sum((h.force(t) for h in hammers), np.zeros_like(t))])
-        if anti_alias and oversample > 1:
-            sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos")
-            clean = scipy.signal.sosfilt(sos, clean, axis=0)
-        clean = clean[::oversample]
+        sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if anti_alias else None
+        if oversample == 1:
+            sos = None
+        n_fine = n_out * oversample
+        state, filtered, blocks = None, None, []
+        # the fine grid in blocks of BLOCK samples (memory), each from the state at the last one before it
+        for start in range(0, n_fine, BLOCK):
+            first = max(start - 1, 0)
+            t = np.arange(first, min(start + BLOCK, n_fine)) / fine_rate
+            force = np.zeros((len(t), self.M.shape[0]))
+            for hammer in hammers:
+                force += np.outer(hammer.force(t), self.force_column(hammer.point, hammer.direction, "hammer"))
+            for unbalance in unbalances:
+                force += self.unbalance_force(unbalance, t)
+            q, qd, qdd = self.respond(t, force, state)
+            state = np.concatenate([q[-1], qd[-1]])
+            new = slice(start - first, None)  # the first sample of a later block is the last of the one before
+            motion = {"displacement": q[new], "velocity": qd[new], "acceleration": qdd[new]}
+            block = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)])
+            block = block / per_unit
+            if force_channel is not None:
+                block = np.column_stack([block, sum((h.force(t[new]) for h in hammers), np.zeros_like(t[new]))])
+            if sos is not None:
+                if filtered is None:
+                    filtered = np.zeros((sos.shape[0], 2, block.shape[1]))
+                block, filtered = scipy.signal.sosfilt(sos, block, axis=0, zi=filtered)
+            blocks.append(block[(-start) % oversample :: oversample])
+        clean = np.concatenate(blocks)
         rng = np.random.default_rng(seed)
         data = np.empty_like(clean)
         channels = []
