@@ -46,6 +46,7 @@ CASES = [
     (["identify-record", "kid300", "{d}/binary.csv"], "record:"),
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
+    (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
     (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
     # the vector as given, not numpy's repr of its entries (np.float64(0.0))
     (

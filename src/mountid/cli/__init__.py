@@ -73,7 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
 
     p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv or .uff)")
-    p.add_argument("--out", required=True, help="record file to write (.csv, or .uff/.unv for UFF dataset 58)")
+    p.add_argument(
+        "--out", required=True, help="record file to write (.csv or .txt for text, .uff/.unv for UFF dataset 58)"
+    )
     p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
     p.add_argument("--rate", type=float, default=2000.0, help="sampling rate [Hz]")
     p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")

@@ -27,6 +27,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     out = Path(args.out)
     if not out.parent.is_dir():
         raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
+    if out.suffix.lower() not in (".csv", ".txt", ".uff", ".unv"):
+        raise InputError("--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58")
     finite_number(args.duration, "--duration")
     finite_number(args.rate, "--rate")
     finite_number(args.noise, "--noise", strict=False)
