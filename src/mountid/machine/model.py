@@ -171,7 +171,9 @@ class Machine:
                 return ()
             lam = np.asarray(self.module.squared_frequencies(**{a: at[a] for a in names}), dtype=float)
         order = np.argsort(np.where(np.isfinite(lam), lam, -np.inf))
-        return tuple(self.modes[k] for k in sorted(order[:free]))
+        same = self.module.REPRESENTATIVE  # a mode's twin (equal by symmetry) is as free as it
+        chosen = {same[self.modes[k]] for k in order[:free]}
+        return tuple(label for label in self.modes if same[label] in chosen)
 
     def _forward(self, params: dict[str, float]) -> dict[str, float]:
         args = self.values(params, self.module.FORWARD_ARGUMENTS)
