@@ -197,7 +197,9 @@ def test_residuals_of_millions_of_sigma_keep_their_column(capsys):
     (they printed as -9543866.99, wider than the column)."""
     args = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items())]
     assert main([*args, "--std", *(f"{k}=1e-9" for k in MEASURED)]) == 0
-    rows = capsys.readouterr().out.splitlines()[3:7]
+    out = capsys.readouterr().out
+    assert "`mountid diagnose`" in out  # chi^2 beyond the uncertainty points to the gap diagnosis
+    rows = out.splitlines()[3:7]
     assert all(len(row) <= len("         x       17.71      17.719     +0.05%    +0.02") + 1 for row in rows)
     assert all("e+0" in row.split()[-1] for row in rows)
 
@@ -210,7 +212,9 @@ def test_standard_deviations_beyond_first_order_are_noted(capsys):
     assert "note: the standard deviations of c_xy, c_z are half their values or more" in capsys.readouterr().out
     fit = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in MEASURED.items()), "--std"]
     assert main([*fit, "x=30", "z=0.3", "psi=30", "phi=30"]) == 0
-    assert "  note: the standard deviation of c_xy is half its value or more" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "  note: the standard deviation of c_xy is half its value or more" in out
     for argv in ([*exact, "x=0.45", "psi=0.45"], [*fit, *(f"{k}=0.45" for k in MEASURED)]):
         assert main(argv) == 0
-        assert "first order does not hold" not in capsys.readouterr().out
+        out = capsys.readouterr().out
+        assert "first order does not hold" not in out and "mountid diagnose" not in out

@@ -151,6 +151,11 @@ def _identify_least_squares(
             f"  chi^2 = {fit.chi2:.3g} on {fit.dof} degree{'s' if fit.dof != 1 else ''} of freedom "
             f"(p = {fit.p_value:.2g}): the model fits the frequencies {verdict}"
         )
+        if fit.p_value < 0.01:
+            print(
+                "  note: which unmodelled effect explains the gap, and how far adding it closes it: `mountid diagnose`"
+                " on a campaign file of these frequencies (README, gap diagnosis)"
+            )
     else:
         rms = math.sqrt(sum(((fit.fitted[k] - w) / w) ** 2 for k, w in fit.measured.items()) / n)
         print(
