@@ -604,9 +604,12 @@ def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
     parts = []
     for f in fits[:3]:
         share = 1 - f.chi2 / nominal.chi2 if nominal.chi2 > 0 else math.nan
+        if math.isfinite(nominal.held_out_median) and math.isfinite(f.held_out_median):
+            held = f"held-out median {nominal.held_out_median:.1f} -> {f.held_out_median:.1f} sigma"
+        else:  # a candidate with as many parameters as data less one cannot be refitted without a mode
+            held = "no held-out prediction (too few data to refit it without a mode)"
         parts.append(
-            f"{f.effect}{' at ' + f.variant if f.variant else ''} removes {share:.0%} of the chi^2, held-out "
-            f"median {nominal.held_out_median:.1f} -> {f.held_out_median:.1f} sigma"
+            f"{f.effect}{' at ' + f.variant if f.variant else ''} removes {share:.0%} of the chi^2, {held}"
             + (f" ({', '.join(f.outside_range)} beyond the plausible range)" if f.outside_range else "")
         )
     return "; ".join(parts)

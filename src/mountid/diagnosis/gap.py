@@ -232,8 +232,14 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
     labels = list(campaign.modes)
     fitted = list(campaign.fit) if campaign.fit else labels
     held_out = [lab for lab in labels if lab not in fitted]
+    notes: list[str] = []  # the nominal identification's own (a fit at a boundary), then the gap's
     params, stds = fit_stiffness(
-        machine, campaign.known, _fit_data(campaign, fitted), _fit_data(campaign, held_out) or None
+        machine,
+        campaign.known,
+        _fit_data(campaign, fitted),
+        _fit_data(campaign, held_out) or None,
+        notes=notes,
+        boundary_ok=True,
     )
     predicted = _predict(campaign, params)
     residuals = []
@@ -250,7 +256,7 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
             residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False, threshold))
             if len({rep[lab] for lab in others}) >= len(machine.unknown):
                 p_loo, _ = fit_stiffness(
-                    machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label])
+                    machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label]), boundary_ok=True
                 )
                 residuals.append(
                     Residual(
@@ -262,7 +268,6 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
     # names the fitted ones, the fit to all modes under leave-one-out
     loc = localise(campaign, params, [r for r in residuals if campaign.fit is not None or not r.held_out])
     judged = [r for r in residuals if r.significant is not None]
-    notes = []
     if len(judged) < len(residuals):
         notes.append("some frequencies have no uncertainty: their gaps are listed, their significance not judged")
     tied = [x for x in loc if loc and x.explained >= loc[0].explained - 0.01]

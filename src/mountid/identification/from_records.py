@@ -249,6 +249,7 @@ def fit_stiffness(
     root: str | None = None,
     notes: list[str] | None = None,
     rule_source: str = "",
+    boundary_ok: bool = False,
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
 
@@ -264,7 +265,10 @@ def fit_stiffness(
     predicts the ``others`` (measured modes left out of the fit) is taken; without others that is an error
     naming the choices. A fit that runs an unknown to zero or without bound (the frequencies stop depending on
     it) is no solution; where such a fit is the closest, no mount of the description fits the frequencies and
-    that is an error naming the unknown and the largest miss. With ``damping`` (values of the damping
+    that is an error naming the unknown and the largest miss, unless ``boundary_ok`` (the gap diagnosis, whose
+    nominal model may miss that far: the closest fit is returned, fits at the same boundary counted as one, and
+    the reason is appended to ``notes``).
+    With ``damping`` (values of the damping
     parameters) the model frequencies are the damped |p| (pole_frequencies), which a free decay measures;
     without, the undamped ones. Returns (parameters, stds)."""
     mod = machine.module
@@ -326,13 +330,16 @@ def fit_stiffness(
         raise InputError("measured", "every fit from the generated inverses' roots left the range of double precision")
     inside = [f for f in fits if not _left_behind(f.jac).any()]
     if not inside or inside[0].cost > fits[0].cost + 1e-6 * (1 + fits[0].cost):
-        raise InputError("measured", _no_mount(fits[0], unknown, labels, omega, std, np.array(starts)))
-    fits = inside
+        why = _no_mount(fits[0], unknown, labels, omega, std, np.array(starts))
+        if not boundary_ok:
+            raise InputError("measured", why)
+        if notes is not None:
+            notes.append(why)
+    else:
+        fits = inside
     tied = [fits[0]]
     for f in fits[1:]:
-        if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all(
-            [np.max(np.abs(f.x - t.x)) > 1e-6 for t in tied]
-        ):
+        if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all([_distinct(f, t) for t in tied]):
             tied.append(f)
     best = tied[0]
     if len(tied) > 1:
@@ -382,6 +389,13 @@ def _left_behind(jac: np.ndarray) -> np.ndarray:
     it (the fit ran to a stiffness of zero or of no bound, off every mount of the description)."""
     size = np.sqrt(np.add.reduce(jac * jac, axis=0))
     return size <= _LEFT_BEHIND_RTOL * size.max(initial=0.0)
+
+
+def _distinct(a: scipy.optimize.OptimizeResult, b: scipy.optimize.OptimizeResult) -> bool:
+    """Whether two fits (ln p) are different solutions: apart by more than 1e-6 in an unknown that is not left
+    behind by both (two fits that ran one stiffness to 1e-72 and 1e-86 N/m are one)."""
+    both = _left_behind(a.jac) & _left_behind(b.jac)
+    return bool(np.max(np.abs(a.x - b.x)[~both], initial=0.0) > 1e-6)
 
 
 def _no_mount(
