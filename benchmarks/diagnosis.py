@@ -12,6 +12,7 @@ seeds from 264 on are held out from that. ``python -m benchmarks.diagnosis --cas
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -59,11 +60,25 @@ HEADER = (
 
 def _row(machine: str, kind: str, s: blind.Score) -> str:
     return (
-        f"{machine:11s} {kind:11s} {s.n:5d} {s.top1_identifiable:6.1%} {s.truth_in_tie:6.1%} "
-        f"{s.confident_and_wrong:4d} {s.confident_on_none:6d} {s.confident_outside:5d} {s.honest_outside:6.1%} "
-        f"{s.calibration_error:6.3f} {s.calibration_floor:5.3f} {s.log_loss:7.3f} {s.median_reduction:7.1%} "
-        f"{s.mean_tie:4.1f}  " + ("met" if s.targets_met else "missed: " + ", ".join(s.missed()))
+        f"{machine:11s} {kind:11s} {s.n:5d} {_share(s.top1_identifiable)} {_share(s.truth_in_tie)} "
+        f"{s.confident_and_wrong:4d} {s.confident_on_none:6d} {s.confident_outside:5d} {_share(s.honest_outside)} "
+        f"{_cell(s.calibration_error, '6.3f')} {_cell(s.calibration_floor, '5.3f')} {_cell(s.log_loss, '7.3f')} "
+        f"{_share(s.median_reduction, 7)} {_cell(s.mean_tie, '4.1f')}  "
+        + ("met" if s.targets_met else "missed: " + ", ".join(s.missed()))
     )
+
+
+def _cell(value: float, spec: str) -> str:
+    """A number of the table in ``spec``; '-' where it was taken over no case (genset8 with frequencies only has no
+    identifiable case: its top-1 is none, not nan)."""
+    if math.isfinite(value):
+        return f"{value:{spec}}"
+    return f"{'-':>{int(spec.split('.')[0])}s}"
+
+
+def _share(value: float, width: int = 6) -> str:
+    """A rate of the table in percent (_cell)."""
+    return _cell(value, f"{width}.1%")
 
 
 def validation(

@@ -364,3 +364,17 @@ def test_proper_scores_prefer_sharp_calibrated_probabilities_to_a_flat_statement
     # a verdict stated at 1 and wrong costs ln(1 / LOG_LOSS_FLOOR), not infinity; no verdict, no score
     assert blind.score(_verdicts(1.0, 0, 1)).log_loss == pytest.approx(-math.log(blind.LOG_LOSS_FLOOR))
     assert math.isnan(blind.score([]).log_loss)
+
+
+def test_a_score_without_an_identifiable_case_says_so_and_prints_no_nan():
+    """genset8 with frequencies only has no identifiable case: the score's text and the bench's row say that the
+    top-1 target cannot be shown (they printed nan%)."""
+    import re
+
+    from benchmarks.diagnosis import _row
+
+    results = [blind.CaseResult("cog_height", ("cog_height",), (), True, False, False, 0.9, "tie", 0.8)] * 3
+    score = blind.score(results)
+    assert score.n_identifiable == 0 and "top-1 (no case)" in score.missed()
+    assert "none is identifiable" in score.text()
+    assert not re.search(r"\bnan\b", _row("genset8", "frequencies", score).split("missed")[0])

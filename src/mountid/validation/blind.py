@@ -355,8 +355,12 @@ class Score:
         lines = [
             f"campaigns measuring {self.campaign}: {self.n} blind cases ({self.n_none} without an injected effect, "
             f"{sum(sum(self.confusion.get(t, Counter()).values()) for t in OUT_OF_CATALOGUE)} outside the catalogue)",
-            f"top-1 on identifiable cases: {self.top1_identifiable:.1%} (target >= 90%), "
-            f"top-2: {self.top2_identifiable:.1%}, identifiable: {self.n_identifiable}",
+            (
+                f"top-1 on identifiable cases: {self.top1_identifiable:.1%} (target >= 90%), "
+                f"top-2: {self.top2_identifiable:.1%}, identifiable: {self.n_identifiable}"
+                if self.n_identifiable
+                else "top-1 on identifiable cases: none is identifiable (the target cannot be shown)"
+            ),
             f"truth inside the reported tie: {self.truth_in_tie:.1%} of {self.n_detected} in-catalogue cases with a "
             "detected gap that the campaign can test (target >= 98%)",
             f"held-out gap reduction: median {self.median_reduction:.1%} (target >= 80%), RMS {self.rms_reduction:.1%}",
