@@ -47,6 +47,7 @@ CASES = [
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e-4", "--rate", "1000"], "duration:"),  # no sample
     (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
     # the vector as given, not numpy's repr of its entries (np.float64(0.0))
     (

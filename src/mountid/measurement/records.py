@@ -130,6 +130,10 @@ def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
         )
 
 
+MIN_SAMPLES = 16
+"""Fewest samples a record may hold."""
+
+
 def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: RecordSettings = RECORDS) -> None:
     """Reject what would silently give a wrong frequency: NaN, too few samples, non-uniform sampling (beyond
     ``settings.sampling_rtol``). A Record validates itself with the default settings."""
@@ -137,8 +141,8 @@ def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: Rec
         raise InputError("data", f"shape {data.shape} does not match {len(time)} samples x {len(names)} channels")
     if len(set(names)) != len(names):
         raise InputError("channels", "channel names must be unique")
-    if len(time) < 16:
-        raise InputError("time", f"a record needs at least 16 samples, got {len(time)}")
+    if len(time) < MIN_SAMPLES:
+        raise InputError("time", f"a record needs at least {MIN_SAMPLES} samples, got {len(time)}")
     if not np.all(np.isfinite(time)):
         raise InputError("time", "contains NaN or infinite values")
     bad = ~np.all(np.isfinite(data), axis=0)

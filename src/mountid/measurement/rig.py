@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
-from mountid.measurement.records import UNITS, Channel, Record
+from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, Record
 
 
 @dataclass(frozen=True)
@@ -227,6 +227,10 @@ class Rig:
         needed = [RESOLVED / (h.duration * rate) for h in hammers] + [RESOLVED * f / rate for f in fastest]
         oversample = max(oversample, math.ceil(max(needed)))
         n_out = int(round(duration * rate))
+        if n_out < MIN_SAMPLES:
+            raise InputError(
+                "duration", f"{duration:g} s at {rate:g} Hz is {n_out} samples; a record needs at least {MIN_SAMPLES}"
+            )
         fine_rate = rate * oversample
         rows = np.array([self.sensor_row(s.point, s.direction, s.name) for s in sensors])
         per_unit = np.array([UNITS[s.quantity][s.unit] for s in sensors])
