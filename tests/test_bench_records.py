@@ -324,3 +324,18 @@ def test_seven_channels_see_a_turned_sensor_but_cannot_place_it():
     record = turned.select([s.name for s in seven])
     warning = inconsistent_channel(machine, record, 0.07)
     assert warning.channel == "all" and "7 channels cannot tell which" in warning.message
+
+
+def test_an_aliased_record_states_a_wide_stiffness_instead_of_two_equal_solutions(capsys, tmp_path):
+    """A 60 s record at 12 Hz: psi (10.2 Hz) aliases, the chain warns, and the stiffness fit's starts stop at
+    different points of a valley the data hardly rise from (c_z 220961 and 224709 N/m): one solution within
+    their standard deviations, stated with its width, not "c_z>c_xy holds for 2 of the 2 solutions"."""
+    path = tmp_path / "slow.csv"
+    assert main(["simulate", "kid300", "--out", str(path), "--rate", "12", "--duration", "60"]) == 0
+    capsys.readouterr()
+    assert main(["identify-record", "kid300", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "warning (low_rate, all)" in out
+    c_z, std = (float(v) for v in out.split("c_z = ")[1].split(" N/m")[0].split(" +- "))
+    assert std > 0.3 * c_z  # the record hardly determines c_z, and says so
+    assert "note: the standard deviation of c_z is half its value or more" in out

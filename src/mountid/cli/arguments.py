@@ -93,3 +93,19 @@ def read_record(path: str, rate: float | None = None):
     if rate is not None:
         finite_number(rate, "--rate")
     return read(path, rate)
+
+
+def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:
+    """A note where a first-order standard deviation reaches half its value: the linearisation it comes from
+    no longer describes the uncertainty (a stiffness cannot go below zero); the frequencies, at the stated
+    uncertainty, hardly determine that unknown."""
+    wide = [n for n, v in values.items() if std is not None and std[n] >= 0.5 * abs(v)]
+    if len(wide) == 1:
+        what = f"the standard deviation of {wide[0]} is half its value or more"
+    else:
+        what = f"the standard deviations of {', '.join(wide)} are half their values or more"
+    if wide:
+        print(
+            f"{indent}note: {what}: first order does not hold there; at this uncertainty the frequencies hardly "
+            + ("determine it" if len(wide) == 1 else "determine them")
+        )

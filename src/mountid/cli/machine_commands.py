@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from mountid.cli.arguments import defaults_note, pairs, print_json
+from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, print_json
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.report.text import print_diagnosis
@@ -69,24 +69,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
         print("      frequencies: " + ", ".join(f"{lab} {w:.5g}" for lab, w in s.frequencies.items()) + " rad/s")
         print(f"      relative condition number {s.condition:.3g} (relative change of the unknowns per relative change")
         print("      of the measured frequencies)")
-        _beyond_first_order(s.parameters, s.std)
+        beyond_first_order(s.parameters, s.std)
     defaults_note(machine, defaults)
-
-
-def _beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:
-    """A note where a first-order standard deviation reaches half its value: the linearisation it comes from
-    no longer describes the uncertainty (a stiffness cannot go below zero); the frequencies, at the stated
-    uncertainty, hardly determine that unknown."""
-    wide = [n for n, v in values.items() if std is not None and std[n] >= 0.5 * abs(v)]
-    if len(wide) == 1:
-        what = f"the standard deviation of {wide[0]} is half its value or more"
-    else:
-        what = f"the standard deviations of {', '.join(wide)} are half their values or more"
-    if wide:
-        print(
-            f"{indent}note: {what}: first order does not hold there; at this uncertainty the frequencies hardly "
-            + ("determine it" if len(wide) == 1 else "determine them")
-        )
 
 
 def _known_defaults(machine: Machine, given: dict[str, float]) -> dict[str, float]:
@@ -133,7 +117,7 @@ def _identify_least_squares(
         for k, v in fit.parameters.items()
     )
     print(f"  {params}")
-    _beyond_first_order(fit.parameters, fit.std, "  ")
+    beyond_first_order(fit.parameters, fit.std, "  ")
     print(
         f"  {'mode':>8s}  {'measured':>10s}  {'fitted':>10s}  {'residual':>9s}"
         + ("  [sigma]" if fit.frequency_std is not None else "")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from mountid.cli.arguments import (
     MAX_SAMPLES,
+    beyond_first_order,
     check_unbalance,
     finite_number,
     pairs,
@@ -179,6 +180,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
         print(f"  {name} = {value:.6g} +- {result.damping_std[name]:.2g} {machine.parameters[name]['unit']}")
+    beyond_first_order({**result.parameters, **result.damping}, {**result.parameter_std, **result.damping_std}, "  ")
 
 
 def cmd_process(args: argparse.Namespace) -> None:

@@ -337,9 +337,10 @@ def fit_stiffness(
             notes.append(why)
     else:
         fits = inside
+    dof = len(labels) - len(unknown)
     tied = [fits[0]]
     for f in fits[1:]:
-        if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all([_distinct(f, t) for t in tied]):
+        if f.cost <= fits[0].cost + 1e-6 * (1 + fits[0].cost) and np.all([_distinct(f, t, dof) for t in tied]):
             tied.append(f)
     best = tied[0]
     if len(tied) > 1:
@@ -371,7 +372,6 @@ def fit_stiffness(
 
         best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
-    dof = len(labels) - len(unknown)
     spread = standard_deviations(covariance(jac, 2 * best.cost, dof))  # least_squares' cost is chi^2 / 2
     values = np.exp(best.x)
     params = dict(zip(unknown, map(float, values), strict=True))
@@ -391,11 +391,21 @@ def _left_behind(jac: np.ndarray) -> np.ndarray:
     return size <= _LEFT_BEHIND_RTOL * size.max(initial=0.0)
 
 
-def _distinct(a: scipy.optimize.OptimizeResult, b: scipy.optimize.OptimizeResult) -> bool:
-    """Whether two fits (ln p) are different solutions: apart by more than 1e-6 in an unknown that is not left
-    behind by both (two fits that ran one stiffness to 1e-72 and 1e-86 N/m are one)."""
+def _distinct(a: scipy.optimize.OptimizeResult, b: scipy.optimize.OptimizeResult, dof: int) -> bool:
+    """Whether two fits of equal cost (ln p) are different solutions: apart by more than 1e-6 and more than
+    SAME_SOLUTION_SIGMA of their standard deviations in an unknown that is not left behind by both. Two fits that
+    ran one stiffness to 1e-72 and 1e-86 N/m are one; so are two that stopped at different points of a valley
+    the data hardly rise from (c_z 220961 and 224709 N/m from an aliased record)."""
     both = _left_behind(a.jac) & _left_behind(b.jac)
-    return bool(np.max(np.abs(a.x - b.x)[~both], initial=0.0) > 1e-6)
+    sigma = np.maximum(
+        standard_deviations(covariance(a.jac, 2 * a.cost, dof)), standard_deviations(covariance(b.jac, 2 * b.cost, dof))
+    )
+    apart = np.abs(a.x - b.x) > np.maximum(1e-6, SAME_SOLUTION_SIGMA * sigma)
+    return bool(np.any(apart[~both]))
+
+
+SAME_SOLUTION_SIGMA = 3.0
+"""Two fits of equal cost closer than this many standard deviations in every unknown are one solution."""
 
 
 def _no_mount(
