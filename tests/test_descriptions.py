@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,35 @@ def test_contradictions_name_the_entry(edit, entry):
     with pytest.raises(DescriptionError) as info:
         build(data)
     assert info.value.parameter == entry
+
+
+@pytest.mark.parametrize(
+    ("edit", "entry", "said"),
+    [
+        (lambda d: d["isolators"][0].__setitem__("stiffness", ["c_xy", "c_xy", "m"]), "stiffness[2]", "in kg"),
+        (lambda d: d["isolators"][0].__setitem__("damping", ["b_xy", "c_xy", "b_z"]), "damping[1]", "in kg s^-2"),
+        (lambda d: d["isolators"][0].__setitem__("point", ["L_xy + m", "0", "-L_z"]), "point[0]", "term m is in kg"),
+        (lambda d: d["isolators"][0].__setitem__("point", ["L_xy", 0, "-L_z*sin(L_xy)"]), "point[2]", "inside a f"),
+        (lambda d: d["body"].__setitem__("mass", "J_z"), "body.mass", "in kg m^2"),
+    ],
+)
+def test_an_entry_of_the_wrong_dimension_is_named(edit, entry, said):
+    """Each parameter carries its kind's dimension: a term of an entry in another is an error naming the entry
+    (a mass given as a stiffness used to build a model of nonsense units without a word)."""
+    data = kid300_data()
+    edit(data)
+    with pytest.raises(DescriptionError, match=re.escape(said)) as info:
+        build(data)
+    assert info.value.parameter.endswith(entry)
+
+
+def test_numbers_are_si_and_dimensionless_combinations_pass():
+    """A bare number is in SI units (a point 0.1 m lower), a ratio of lengths scales nothing, an angle enters a
+    sine: all pass the dimension check."""
+    data = kid300_data()
+    data["isolators"][0]["point"] = ["L_xy/sqrt(2)", "L_xy/sqrt(2)", "-L_z - 0.1"]
+    data["isolators"][0]["stiffness"] = ["c_xy*L_z/L_xy", "c_xy", "c_z*cos(pi/12)**2 + c_xy*sin(pi/12)**2"]
+    build(data)
 
 
 def test_less_symmetric_description_gets_numeric_blocks():

@@ -24,7 +24,7 @@ from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
 from mountid.engine.description import MIRROR_PLANES, Description, IsolatorGroup
 from mountid.errors import DescriptionError
-from mountid.nomenclature import COORDINATES
+from mountid.nomenclature import COORDINATES, KINDS
 
 _ALLOWED_FUNCTIONS = {"sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "pi": sp.pi}
 
@@ -86,6 +86,30 @@ def _rotation(angles: tuple[sp.Expr, sp.Expr, sp.Expr]) -> sp.Matrix:
     return rz * ry * rx
 
 
+DIMENSIONS: dict[str, tuple[int, int, int]] = {
+    "mass": (1, 0, 0),
+    "inertia": (1, 2, 0),
+    "length": (0, 1, 0),
+    "stiffness": (1, 0, -2),
+    "rotational_stiffness": (1, 2, -2),
+    "damping": (1, 0, -1),
+    "angle": (0, 0, 0),
+    "ratio": (0, 0, 0),
+}
+"""Exponents of mass, length and time of each parameter kind (nomenclature.KINDS' units)."""
+
+
+def _unit(monomial: sp.Expr, base: tuple[sp.Symbol, ...]) -> str:
+    """A monomial in the base dimensions as SI units (kg, m, s); 'units that do not scale as a power' else."""
+    powers = monomial.as_powers_dict()
+    if not set(powers) <= set(base) | {sp.Integer(1)}:
+        return "no unit (it does not scale as a power of kg, m and s: a dimensional quantity inside a function?)"
+    parts = [
+        f"{u}^{powers[b]}" if powers[b] != 1 else u for b, u in zip(base, ("kg", "m", "s"), strict=True) if b in powers
+    ]
+    return " ".join(parts) or "1 (dimensionless)"
+
+
 class SymbolicModel:
     """The symbolic meaning of a description: symbols, isolators, energies and matrices."""
 
@@ -97,6 +121,7 @@ class SymbolicModel:
         }
         self.q = sp.Matrix(sp.symbols(" ".join(COORDINATES), real=True))
         self.qdot = sp.Matrix(sp.symbols(" ".join(c + "_dot" for c in COORDINATES), real=True))
+        self._check_dimensions()
         self._check_symmetry()
 
     # -- expressions -------------------------------------------------------------------------------
@@ -184,6 +209,42 @@ class SymbolicModel:
                     signs = (int(s[0, 0]), int(s[1, 1]), 1)
                     out.append(Isolator(group.name, image, s * k * s, s * b * s, s * axis, signs, mirrored))
         return tuple(out)
+
+    # -- dimension validation ------------------------------------------------------------------------
+    def _check_dimensions(self) -> None:
+        """Reject an entry whose terms with parameters do not have the entry's dimension (a mass given as an
+        isolator's stiffness, a length inside a sine), naming the entry. Each parameter carries its kind's
+        dimension in mass, length and time (DIMENSIONS); a term's dimension is how it scales when they do.
+        A bare number is taken in SI units (a point 0.1 m off, h + 0.1)."""
+        base = sp.symbols("_M _L _T", positive=True)
+        scaled = {
+            self.symbols[n]: self.symbols[n] * sp.Mul(*(b**e for b, e in zip(base, DIMENSIONS[p.kind], strict=True)))
+            for n, p in self.description.parameters.items()
+        }
+        d = self.description
+        entries = [("body.mass", d.mass, "mass")]
+        entries += [(f"body.inertia[{i}]", t, "inertia") for i, t in enumerate(d.inertia)]
+        entries += [(f"body.products_of_inertia[{i}]", t, "inertia") for i, t in enumerate(d.products_of_inertia)]
+        entries += [(f"body.centre_of_mass[{i}]", t, "length") for i, t in enumerate(d.centre_of_mass)]
+        for g in d.isolators:
+            for field, kind in (("point", "length"), ("stiffness", "stiffness"), ("damping", "damping")):
+                texts = getattr(g, field) or ()
+                entries += [(f"isolators.{g.name}.{field}[{i}]", t, kind) for i, t in enumerate(texts)]
+            entries += [(f"isolators.{g.name}.inclination[{i}]", t, "angle") for i, t in enumerate(g.inclination or ())]
+        for entry, text, kind in entries:
+            value = self.expr(text, entry)
+            want = sp.Mul(*(b**e for b, e in zip(base, DIMENSIONS[kind], strict=True)))
+            for term in sp.Add.make_args(sp.expand(value)):
+                if not term.free_symbols:
+                    continue  # a number, in SI units
+                ratio = sp.simplify(term.subs(scaled, simultaneous=True) / term / want)
+                if ratio != 1:
+                    names = sorted(map(str, term.free_symbols))
+                    raise DescriptionError(
+                        entry,
+                        f"{text!r} is not a {kind} ({KINDS[kind]}): its term {term} is in "
+                        f"{_unit(sp.simplify(ratio * want), base)}; check the kinds of {names}",
+                    )
 
     # -- symmetry validation -------------------------------------------------------------------------
     def _check_symmetry(self) -> None:
