@@ -69,6 +69,7 @@ def test_contradictions_name_the_entry(edit, entry):
         (lambda d: d["isolators"][0].__setitem__("point", ["L_xy + m", "0", "-L_z"]), "point[0]", "term m is in kg"),
         (lambda d: d["isolators"][0].__setitem__("point", ["L_xy", 0, "-L_z*sin(L_xy)"]), "point[2]", "inside a f"),
         (lambda d: d["body"].__setitem__("mass", "J_z"), "body.mass", "in kg m^2"),
+        (lambda d: d["parameters"].__setitem__("L_q", {"kind": "length", "role": "known"}), "parameters.L_q", "uses"),
     ],
 )
 def test_an_entry_of_the_wrong_dimension_is_named(edit, entry, said):

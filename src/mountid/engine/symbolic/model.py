@@ -213,9 +213,9 @@ class SymbolicModel:
     # -- dimension validation ------------------------------------------------------------------------
     def _check_dimensions(self) -> None:
         """Reject an entry whose terms with parameters do not have the entry's dimension (a mass given as an
-        isolator's stiffness, a length inside a sine), naming the entry. Each parameter carries its kind's
-        dimension in mass, length and time (DIMENSIONS); a term's dimension is how it scales when they do.
-        A bare number is taken in SI units (a point 0.1 m off, h + 0.1)."""
+        isolator's stiffness, a length inside a sine), naming the entry, and a parameter no entry uses. Each
+        parameter carries its kind's dimension in mass, length and time (DIMENSIONS); a term's dimension is how
+        it scales when they do. A bare number is taken in SI units (a point 0.1 m off, h + 0.1)."""
         base = sp.symbols("_M _L _T", positive=True)
         scaled = {
             self.symbols[n]: self.symbols[n] * sp.Mul(*(b**e for b, e in zip(base, DIMENSIONS[p.kind], strict=True)))
@@ -231,8 +231,10 @@ class SymbolicModel:
                 texts = getattr(g, field) or ()
                 entries += [(f"isolators.{g.name}.{field}[{i}]", t, kind) for i, t in enumerate(texts)]
             entries += [(f"isolators.{g.name}.inclination[{i}]", t, "angle") for i, t in enumerate(g.inclination or ())]
+        used: set[sp.Symbol] = set()
         for entry, text, kind in entries:
             value = self.expr(text, entry)
+            used |= value.free_symbols
             want = sp.Mul(*(b**e for b, e in zip(base, DIMENSIONS[kind], strict=True)))
             for term in sp.Add.make_args(sp.expand(value)):
                 if not term.free_symbols:
@@ -245,6 +247,11 @@ class SymbolicModel:
                         f"{text!r} is not a {kind} ({KINDS[kind]}): its term {term} is in "
                         f"{_unit(sp.simplify(ratio * want), base)}; check the kinds of {names}",
                     )
+        for name, symbol in self.symbols.items():
+            if symbol not in used:
+                raise DescriptionError(
+                    f"parameters.{name}", "is declared but no entry of the body or the isolators uses it"
+                )
 
     # -- symmetry validation -------------------------------------------------------------------------
     def _check_symmetry(self) -> None:
