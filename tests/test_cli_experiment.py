@@ -102,3 +102,13 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
     code, _, err = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "theta")
     assert code == 2 and err.startswith("mountid: error: use: theta not found in the record")
+
+
+def test_an_unknown_set_as_known_is_named_before_the_record_is_read(capsys, tmp_path):
+    """--set c_xy=1 on identify-record: the unknown is named (the labelling read the model at c_xy = 1 N/m first
+    and called a 4 s record too short for its 0.07 rad/s lowest mode)."""
+    path = tmp_path / "hit.csv"
+    assert run(capsys, "simulate", "kid300", "--out", str(path))[0] == 0
+    code, out, err = run(capsys, "identify-record", "kid300", str(path), "--set", "c_xy=1")
+    assert code == 2 and out == ""
+    assert err == "mountid: error: c_xy: is an unknown to identify; do not --set it\n"

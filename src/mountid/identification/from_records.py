@@ -635,6 +635,7 @@ def identify_from_record(
     from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the paper's ("x", "psi"):
     then exactly determined) -> damping parameters from the damping ratios. ``root``: the rule that picks
     between equally good solutions when no measured mode decides (fit_stiffness)."""
+    machine.check_known(known)  # before the labelling, which reads the model at the known values
     found = modal_data(machine, record, known, start, nominal, settings, use_force)
     si = record.in_si()
     hits = [modal.hit_summary(si, name) for name in si.forces]
