@@ -100,12 +100,11 @@ def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, i
     no longer describes the uncertainty (a stiffness cannot go below zero); the frequencies, at the stated
     uncertainty, hardly determine that unknown."""
     wide = [n for n, v in values.items() if std is not None and std[n] >= 0.5 * abs(v)]
+    if not wide:
+        return
     if len(wide) == 1:
-        what = f"the standard deviation of {wide[0]} is half its value or more"
+        what, it = f"the standard deviation of {wide[0]} is half its value or more", "it"
     else:
-        what = f"the standard deviations of {', '.join(wide)} are half their values or more"
-    if wide:
-        print(
-            f"{indent}note: {what}: first order does not hold there; at this uncertainty the frequencies hardly "
-            + ("determine it" if len(wide) == 1 else "determine them")
-        )
+        what, it = f"the standard deviations of {', '.join(wide)} are half their values or more", "them"
+    tail = f"first order does not hold there; at this uncertainty the frequencies hardly determine {it}"
+    print(f"{indent}note: {what}: {tail}")

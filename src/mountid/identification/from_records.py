@@ -267,10 +267,9 @@ def fit_stiffness(
     it) is no solution; where such a fit is the closest, no mount of the description fits the frequencies and
     that is an error naming the unknown and the largest miss, unless ``boundary_ok`` (the gap diagnosis, whose
     nominal model may miss that far: the closest fit is returned, fits at the same boundary counted as one, and
-    the reason is appended to ``notes``).
-    With ``damping`` (values of the damping
-    parameters) the model frequencies are the damped |p| (pole_frequencies), which a free decay measures;
-    without, the undamped ones. Returns (parameters, stds)."""
+    the reason is appended to ``notes``). With ``damping`` (values of the damping parameters) the model
+    frequencies are the damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones.
+    Returns (parameters, stds)."""
     mod = machine.module
     unknown = machine.unknown
     machine.check_known(known)

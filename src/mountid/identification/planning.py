@@ -118,10 +118,10 @@ def plan(
     force = np.abs(phi.T @ rig.force_column(hammer.point, hammer.direction))
     seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
     excited = force >= OBSERVABLE * max(force.max(), 1e-300)
-    in_band = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**fwd)))) / (2 * np.pi) < ANTI_ALIAS * rate
+    lam = np.asarray(mod.squared_frequencies(**fwd))
+    in_band = np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
 
     poles = rig.poles[rig.poles.imag > 0]
-    lam = np.asarray(mod.squared_frequencies(**fwd))
     label_pole = {lab: poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))] for i, lab in enumerate(mod.MODES)}
     # the record shows one pole per distinct frequency (twins are one exponential): the measured labels
     measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i] and in_band[i]]

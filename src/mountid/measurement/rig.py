@@ -234,9 +234,8 @@ class Rig:
         fine_rate = rate * oversample
         rows = np.array([self.sensor_row(s.point, s.direction, s.name) for s in sensors])
         per_unit = np.array([UNITS[s.quantity][s.unit] for s in sensors])
-        sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if anti_alias else None
-        if oversample == 1:
-            sos = None
+        filtering = anti_alias and oversample > 1
+        sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if filtering else None
         n_fine = n_out * oversample
         state, filtered, blocks = None, None, []
         # the fine grid in blocks of BLOCK samples (memory), each from the state at the last one before it
