@@ -14,6 +14,7 @@ from mountid.diagnosis import campaign
 from mountid.errors import InputError
 from mountid.measurement.records import write_csv
 from mountid.measurement.rig import Hammer, Rig, Sensor
+from mountid.validation.paper import paper_hit, paper_sensors
 
 KNOWN = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3, "b_xy": 337.2, "b_z": 1039.0}
 CORNERS = ((0.4, 0.3, 0.25), (-0.4, -0.3, 0.25))
@@ -79,3 +80,27 @@ def test_a_missing_record_is_named(folder, capsys):
     bad.write_text(json.dumps({**data, "records": [{"start": 0.1}]}), encoding="utf-8")
     assert main(["diagnose", str(bad), "--no-figure"]) == 2
     assert "records.0" in capsys.readouterr().err
+
+
+def test_records_of_two_states_are_named_and_a_frequency_only_report_prints(tmp_path, capsys):
+    """Records without shapes (the paper's five channels) of two states of the machine (c_z 472 and 240 kN/m):
+    the campaign notes the modes whose records disagree, and the text report (which compares the tie's mode
+    shapes against the campaign's typical shape uncertainty) prints without a shape measured."""
+    for name, c_z in (("a.csv", 472.3e3), ("b.csv", 240e3)):
+        record = Rig.of("kid300", {"c_z": c_z}).simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], seed=1)
+        write_csv(record, tmp_path / name)
+    data = {"machine": "kid300", "known": KNOWN, "records": ["a.csv", "b.csv"]}
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    c = campaign.load(tmp_path / "c.json")
+    assert all(mode.shape is None for mode in c.modes.values())
+    disagree = [n for n in c.record_notes if "the records disagree" in n]
+    assert {n.split(":")[0] for n in disagree} >= {"z", "psi"}, c.record_notes
+    assert main(["diagnose", str(tmp_path / "c.json"), "--no-figure"]) == 0
+    out = capsys.readouterr().out
+    assert "record: z: the records disagree beyond their uncertainty (a.csv 47.4" in out and "verdict:" in out
+
+
+def test_records_of_one_state_agree(folder):
+    """The two nominal records of the fixture: no mode is named as disagreeing."""
+    notes = campaign.load(folder / "campaign.json").record_notes
+    assert not [n for n in notes if "disagree" in n], notes

@@ -50,6 +50,9 @@ DEFAULT_DAMPING_STD = 0.05
 
 DEFAULT_RECORD_START = 0.07
 """Start of the free decay [s] of a record listed without one (as the command line's --start)."""
+RECORDS_DISAGREE = 5.0
+"""Two records' frequencies of one mode further apart than this many of their combined standard deviations are
+named in the campaign's notes (the diagnosis takes the estimate with the smallest standard deviation)."""
 
 
 @dataclass(frozen=True)
@@ -231,23 +234,39 @@ def _modes_from_records(
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record
 
-    best: dict[str, tuple[MeasuredMode, str]] = {}
+    estimates: dict[str, list[tuple[MeasuredMode, str]]] = {}
     notes = []
     for source in sources:
         found, _, warnings = modal_data(machine, read_record(source.path, source.rate), known, source.start)
         notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
         for label, mode in found.items():
-            if label not in best or mode.frequency_std < best[label][0].frequency_std:
-                best[label] = (mode, source.path.name)
+            estimates.setdefault(label, []).append((mode, source.path.name))
+    best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
     for label, (mode, name) in best.items():
         kept = "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
         notes.append(f"{label}: {kept} from {name}")
-    # a record's shape has no stated spread: the campaign default, as for a shape given without one
-    modes = {
-        label: replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD) if mode.shape is not None else mode
-        for label, (mode, _) in best.items()
-    }
+        notes += _disagreement(label, estimates[label], name)
+    # a record's shape has no stated spread: the campaign default, as for a shape given without one (and as a
+    # campaign's mode without a shape, the typical spread of a shape one would measure)
+    modes = {label: replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD) for label, (mode, _) in best.items()}
     return modes, notes
+
+
+def _disagreement(label: str, found: list[tuple[MeasuredMode, str]], kept: str) -> list[str]:
+    """A note when the records' frequencies of one mode differ by more than RECORDS_DISAGREE of their combined
+    standard deviation: records of different states of the machine (another load, temperature, amplitude of the
+    rubber's strain) or a mode labelled differently in one of them. Empty otherwise."""
+    if len(found) < 2:
+        return []
+    pairs = [(a, b) for i, a in enumerate(found) for b in found[i + 1 :]]
+    z = [abs(a.frequency - b.frequency) / math.hypot(a.frequency_std, b.frequency_std) for (a, _), (b, _) in pairs]
+    if max(z) <= RECORDS_DISAGREE:
+        return []
+    each = ", ".join(f"{name} {m.frequency:.6g} +- {m.frequency_std:.2g}" for m, name in found)
+    return [
+        f"{label}: the records disagree beyond their uncertainty ({each} rad/s; up to {max(z):.3g} sigma apart): "
+        f"not one state of the machine, or a mode labelled differently in one of them; the diagnosis takes {kept}'s"
+    ]
 
 
 def load(path: str | Path) -> Campaign:
