@@ -227,3 +227,25 @@ def test_frequencies_no_mount_fits_are_diagnosed_with_the_reason_noted(capsys, t
     assert "note: no mount of this description fits these frequencies: the closest fit takes c_v2 to zero" in out
     assert "verdict: significant gap, not explained by any effect in the catalogue" in out
     assert not re.search(r"\bnan\b", out)
+
+
+def test_the_residual_table_keeps_its_columns_apart_at_any_size():
+    """Residuals from 1e-4 rad/s (records) to thousands of sigma: every row splits into its seven cells, the
+    frequencies carry the decimals their uncertainty needs, and no gap or z prints as a negative zero."""
+    from mountid.diagnosis.gap import Residual
+    from mountid.report.text import _residual_table
+
+    rows = [
+        Residual("x", 16.662013, 17.705961, 0.0002, True),
+        Residual("psi", 64.097791, 64.097952, 0.000744, False),
+        Residual("phi", 36.91, 36.91 + 1e-12, 0.45, False),
+        Residual("z", 47.46709, 47.88671, None, True),
+    ]
+    head, *lines = _residual_table(rows)
+    assert head.split() == ["mode", "measured", "predicted", "gap", "sigma", "z", "use"]
+    cells = [line.split() for line in lines]
+    assert [c[0] for c in cells] == ["x", "psi", "phi", "z"]
+    assert cells[0][1:6] == ["16.66201", "17.70596", "-1.04395", "0.0002", "-5219.74"]
+    assert cells[1][1:4] == ["64.09779", "64.09795", "-0.00016"] and cells[2][3:6] == ["+0.00000", "0.45", "+0.00"]
+    assert cells[3][-2:] == ["held", "out"] and len(cells[3]) == 6  # no uncertainty: sigma and z left blank
+    assert not [c for row in cells for c in row if re.fullmatch(r"-0\.0+", c)]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 
 def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
@@ -25,13 +27,8 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     for note in campaign.record_notes:
         print(f"record: {note}")
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
-    print(f"  {'mode':6s}{'measured':>10s}{'predicted':>11s}{'gap':>9s}{'sigma':>8s}{'z':>7s}  use")
-    for r in report.residuals:
-        z = "" if r.z is None else f"{r.z:+7.2f}"
-        sig = "" if r.uncertainty is None else f"{r.uncertainty:8.3g}"
-        flag = " *" if r.significant else ""
-        use = "held out" if r.held_out else "fitted"
-        print(f"  {r.label:6s}{r.measured:10.3f}{r.predicted:11.3f}{r.residual:+9.3f}{sig:>8s}{z:>7s}  {use}{flag}")
+    for line in _residual_table(report.residuals):
+        print(line)
     for loc in report.localisation[:3]:
         print(f"  matrix level: {loc.describe()}")
     if diagnosis.isolators:
@@ -90,3 +87,32 @@ def _print_candidates(effects) -> None:
     for f in effects.ranked:
         if not f.applicable:
             print(f"  {f.effect:{width}s} not applicable: {f.note}")
+
+
+def _residual_table(residuals) -> list[str]:
+    """The nominal identification's residuals, one row per mode and use, in columns at least two spaces apart:
+    frequencies [rad/s] and gaps to the decimal of a tenth of the smallest uncertainty (three places at
+    least), the uncertainty and z to three significant digits."""
+    stds = [r.uncertainty for r in residuals if r.uncertainty]
+    places = max(3, min(9, 1 - math.floor(math.log10(min(stds))))) if stds else 3
+    head = ("mode", "measured", "predicted", "gap", "sigma", "z")
+    rows = [
+        (
+            r.label,
+            f"{r.measured:.{places}f}",
+            f"{r.predicted:.{places}f}",
+            f"{round(r.residual, places) + 0.0:+.{places}f}",
+            "" if r.uncertainty is None else f"{r.uncertainty:.3g}",
+            "" if r.z is None else (f"{round(r.z, 2) + 0.0:+.2f}" if abs(r.z) < 1e4 else f"{r.z:+.3g}"),
+            ("held out" if r.held_out else "fitted") + (" *" if r.significant else ""),
+        )
+        for r in residuals
+    ]
+    widths = [max(len(x) for x in column) for column in zip(head, *(row[:6] for row in rows), strict=True)]
+
+    def line(cells) -> str:
+        return "  " + "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        )
+
+    return [line(head) + "  use", *(line(row[:6]) + "  " + row[6] for row in rows)]
