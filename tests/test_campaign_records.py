@@ -4,6 +4,8 @@ report echoes its conventions (the description, the shape coordinates, the isola
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -124,3 +126,24 @@ def test_long_records_of_the_nominal_machine_show_no_gap(tmp_path):
         assert abs(mode.frequency - truth[label]) < 4 * mode.frequency_std, (label, mode.frequency, truth[label])
     assert any("pole frequencies |p| as undamped ones" in n and "x 17.712" in n for n in c.record_notes)
     assert diagnose(c).effects.kind == "no significant gap"
+
+
+def test_a_turned_channel_in_the_records_is_tested_on_the_records_layout(tmp_path):
+    """Every shape from records of one layout: that layout is the campaign's sensors (the turned-sensor and
+    misplaced-sensor candidates need it), and channel y1, turned 15 degrees on its mount while its header
+    states y, is what the diagnosis puts first."""
+    turn = math.radians(15.0)
+    sensors = [
+        replace(s, direction=(np.sin(turn), np.cos(turn), 0.0)) if s.name == "y1" else s for s in _eight_channels()
+    ]
+    rig = Rig.of("kid300")
+    record = rig.simulate(sensors, 20.0, 500.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=3)
+    stated = tuple(replace(c, direction=(0.0, 1.0, 0.0)) if c.name == "y1" else c for c in record.channels)
+    write_csv(replace(record, channels=stated), tmp_path / "turned.csv")
+    data = {"machine": "kid300", "known": KNOWN, "records": ["turned.csv"]}
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    c = campaign.load(tmp_path / "c.json")
+    assert [s.name for s in c.sensors] == [s.name for s in sensors] and c.sensors[4].direction == (0.0, 1.0, 0.0)
+    assert any(n.startswith("sensor layout of the shapes: the records' 8 channels") for n in c.record_notes)
+    effects = diagnose(c).effects
+    assert effects.best is not None and (effects.best.effect, effects.best.variant) == ("sensor_turned", "y1")

@@ -179,7 +179,8 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
-    from_records, notes = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    from_records, notes, layout = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    shaped_by_hand = any(mode.shape is not None for mode in modes.values())
     for label, mode in from_records.items():
         if label not in modes:
             modes[label] = mode
@@ -199,6 +200,12 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             + ("" if fit else " plus one held out"),
         )
     sensors = tuple(_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))
+    if not sensors and layout and not shaped_by_hand:
+        # every measured shape came from records of one channel layout: the layout a turned sensor is tested on
+        sensors = layout
+        notes.append(
+            f"sensor layout of the shapes: the records' {len(layout)} channels ({', '.join(c.name for c in layout)})"
+        )
     if sensors:
         rows = np.array(
             [sensor_row(machine.module, c.point, c.direction, f"sensors[{i}]") for i, c in enumerate(sensors)]
@@ -227,20 +234,26 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
 
 def _modes_from_records(
     machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]
-) -> tuple[dict[str, MeasuredMode], list[str]]:
-    """Each record through the records chain; per mode the estimate with the smallest standard deviation."""
+) -> tuple[dict[str, MeasuredMode], list[str], tuple[Channel, ...]]:
+    """Each record through the records chain; per mode the estimate with the smallest standard deviation, the
+    notes, and the records' channel layout where every shape came from records of one layout (else ())."""
     if not sources:
-        return {}, []
+        return {}, [], ()
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record
 
     estimates: dict[str, list[tuple[MeasuredMode, str]]] = {}
     notes = []
+    layouts: dict[str, tuple[Channel, ...]] = {}
     for source in sources:
-        found, _, warnings = modal_data(machine, read_record(source.path, source.rate), known, source.start)
+        record = read_record(source.path, source.rate)
+        found, _, warnings = modal_data(machine, record, known, source.start)
         notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
         for label, mode in found.items():
             estimates.setdefault(label, []).append((mode, source.path.name))
+        layouts[source.path.name] = tuple(
+            Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force"
+        )
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
     for label, (mode, name) in best.items():
         kept = "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
@@ -249,7 +262,9 @@ def _modes_from_records(
     # a record's shape has no stated spread: the campaign default, as for a shape given without one (and as a
     # campaign's mode without a shape, the typical spread of a shape one would measure)
     modes = {label: replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD) for label, (mode, _) in best.items()}
-    return _as_undamped(machine, known, modes, notes)
+    modes, notes = _as_undamped(machine, known, modes, notes)
+    shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
+    return modes, notes, shaped.pop() if len(shaped) == 1 else ()
 
 
 def _as_undamped(
