@@ -74,6 +74,111 @@ def test_uff58_round_trip(tmp_path):
     np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)
 
 
+def _bench_uff(
+    path, record: Record, nodes: dict[int, tuple[float, float, float]], dofs: list[tuple[int, int]], title=None
+) -> None:
+    """A file as test-bench software writes it: units (dataset 164, mm), geometry (2411, in mm), and one
+    dataset 58 per channel naming its response node and direction (+-1, 2, 3), without mountid's ID-line-4."""
+    import pyuff
+
+    uff = pyuff.UFF(str(path))
+    sets = [
+        pyuff.prepare_164(
+            units_code=5,
+            units_description="mm (milli newton)",
+            temp_mode=1,
+            length=1000.0,
+            force=1000.0,
+            temp=1.0,
+            temp_offset=273.15,
+        ),
+        pyuff.prepare_2411(
+            node_nums=np.array(list(nodes)),
+            def_cs=np.ones(len(nodes), dtype=int),
+            disp_cs=np.ones(len(nodes), dtype=int),
+            color=np.ones(len(nodes), dtype=int),
+            x=np.array([1e3 * p[0] for p in nodes.values()]),
+            y=np.array([1e3 * p[1] for p in nodes.values()]),
+            z=np.array([1e3 * p[2] for p in nodes.values()]),
+        ),
+    ]
+    dt = float(record.time[1] - record.time[0])
+    for k, (node, axis) in enumerate(dofs):
+        sets.append(
+            pyuff.prepare_58(
+                binary=0,
+                id1=title or f"Point{node}:{'+-'[axis < 0]}{'XYZ'[abs(axis) - 1]}",
+                id2="Time",
+                id3="",
+                id4="NONE",
+                id5="NONE",
+                func_type=1,
+                rsp_node=node,
+                rsp_dir=axis,
+                ref_node=0,
+                ref_dir=0,
+                ord_data_type=4,
+                num_pts=len(record.time),
+                abscissa_spacing=1,
+                abscissa_min=float(record.time[0]),
+                abscissa_inc=dt,
+                abscissa_spec_data_type=17,
+                ordinate_spec_data_type=12,
+                abscissa_axis_units_lab="s",
+                ordinate_axis_units_lab="m/s^2",
+                ver_num=0,
+                load_case_id=0,
+                rsp_ent_name=f"Point{node}",
+                ref_ent_name="NONE",
+                z_axis_value=0.0,
+                **{
+                    f"{a}_{what}_unit_exp": 0
+                    for a in ("abscissa", "ordinate", "orddenom", "z_axis")
+                    for what in ("len", "force", "temp")
+                },
+                orddenom_spec_data_type=0,
+                orddenom_axis_units_lab="",
+                z_axis_spec_data_type=0,
+                z_axis_axis_units_lab="",
+                data=np.asarray(record.data[:, k], dtype=float),
+                x=np.asarray(record.time, dtype=float),
+            )
+        )
+    uff.write_sets(sets, mode="add")
+
+
+def test_a_bench_files_geometry_places_its_channels(tmp_path):
+    """A UFF file with geometry (2411 in mm) and node/direction references instead of mountid's metadata: each
+    channel sits at its node [m] along its axis, and the records chain gets mode shapes from it."""
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement.rig import Hammer, Rig, Sensor
+    from mountid.measurement.uff import read_uff
+
+    nodes = {11: (0.4, 0.3, 0.25), 12: (-0.4, -0.3, 0.25), 13: (0.4, -0.3, 0.25)}
+    dofs = [(11, 1), (11, 2), (11, 3), (12, 1), (12, -2), (12, 3), (13, 3)]
+    axes = {1: (1.0, 0.0, 0.0), 2: (0.0, 1.0, 0.0), 3: (0.0, 0.0, 1.0)}
+    sensors = [
+        Sensor(f"s{k}", nodes[n], tuple(np.sign(a) * v for v in axes[abs(a)]), noise=0.01)
+        for k, (n, a) in enumerate(dofs)
+    ]
+    rig = Rig.of("kid300")
+    record = rig.simulate(sensors, 8.0, 500.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=2)
+    _bench_uff(tmp_path / "bench.uff", record, nodes, dofs)
+    back = read_uff(tmp_path / "bench.uff")
+    assert [c.name for c in back.channels][:2] == ["Point11:+X", "Point11:+Y"] and back.channels[4].name == "Point12:-Y"
+    for got, sensor in zip(back.channels, sensors, strict=True):
+        np.testing.assert_allclose(got.point, sensor.point, rtol=1e-12, atol=1e-15)
+        assert got.direction == tuple(float(v) + 0.0 for v in sensor.direction)
+    found = modal_data(rig.machine, back, {}, 0.07).modes
+    assert {"x", "z", "psi", "phi"} <= set(found) and all(m.shape is not None for m in found.values())
+    # one description in every dataset's ID line 1: named by node and direction instead
+    _bench_uff(tmp_path / "same.uff", record, nodes, [*dofs[:-1], (12, 3)], title="Time Response")
+    names = [c.name for c in read_uff(tmp_path / "same.uff").channels]
+    assert (
+        names[:2] == ["node11:1", "node11:2"] and names[4] == "node12:-2" and names[-2:] == ["node12:3#1", "node12:3#2"]
+    )
+
+
 @settings(max_examples=budget(30), deadline=None)
 @given(
     n=st.integers(16, 200),

@@ -3,8 +3,12 @@
 One dataset 58 per channel: a time response (function type 1), real, evenly spaced abscissa. The channel
 name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
-axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too:
-channels without the ID-line-4 metadata get NaN points and directions (processing that needs them says so).
+axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too: a
+channel without the ID-line-4 metadata sits at its response node's coordinates where the file holds its
+geometry (datasets 15 or 2411, in the length unit of dataset 164, converted to m) and measures along its
+response direction's axis (+-1, 2, 3 for x, y, z); else its point and direction are NaN (processing that needs
+them says so). The coordinates are taken as the description's (origin and axes): a test bench's geometry in
+another frame must be moved there first; node coordinate systems other than the global one are not read.
 """
 
 from __future__ import annotations
@@ -104,10 +108,12 @@ def read_uff(path: str | Path) -> Record:
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
     sets = [uff.read_sets(i) for i in found]
+    nodes = _nodes(uff, types)
     time = np.asarray(sets[0]["x"], dtype=float)
     columns, channels = [], []
+    names = _names(sets)
     for n, s in enumerate(sets):
-        name = str(s.get("id1", "")).strip() or f"node{s.get('rsp_node', n)}:{s.get('rsp_dir', 0)}"
+        name = names[n]
         x = np.asarray(s["x"], dtype=float)
         if len(x) != len(time) or not np.allclose(x, time, rtol=0, atol=1e-9 * max(1.0, abs(time[-1]))):
             raise InputError(name, "sampling differs from the first channel's (one record needs one time base)")
@@ -119,6 +125,11 @@ def read_uff(path: str | Path) -> Record:
                 point, direction = _triple(p_text), _triple(d_text)
             except ValueError as err:
                 raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
+        else:  # another tool's file: the response node's coordinates and the response direction's axis
+            node, axis = int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
+            if node in nodes and 1 <= abs(axis) <= 3:
+                point = nodes[node]
+                direction = tuple(float(math.copysign(1.0, axis)) if k == abs(axis) - 1 else 0.0 for k in range(3))
         label = str(s.get("id5", "")).strip()
         if label.endswith("]") and " [" in label:
             quantity, unit = label[:-1].split(" [", 1)
@@ -128,3 +139,29 @@ def read_uff(path: str | Path) -> Record:
         columns.append(np.real(np.asarray(s["data"])).astype(float))
         channels.append(Channel(name, point, direction, quantity, unit))
     return Record(time, np.column_stack(columns), tuple(channels))
+
+
+def _names(sets: list[dict]) -> list[str]:
+    """Each channel's name: ID line 1, unless it is empty or another channel's too (bench software often writes
+    one description, "Time Response", into every dataset), then its response node and direction (node11:-2), and
+    a count where even those repeat."""
+    titles = [str(s.get("id1", "")).strip() for s in sets]
+    out = [
+        t if t and titles.count(t) == 1 else f"node{s.get('rsp_node', n)}:{s.get('rsp_dir', 0)}"
+        for n, (t, s) in enumerate(zip(titles, sets, strict=True))
+    ]
+    return [name if out.count(name) == 1 else f"{name}#{out[:k].count(name) + 1}" for k, name in enumerate(out)]
+
+
+def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[float, float, float]]:
+    """Node coordinates [m] of the file's geometry (datasets 15 and 2411), converted from the length unit of its
+    first dataset 164 (SI = file value / its length factor; SI without one)."""
+    units = [i for i, t in enumerate(types) if int(t) == 164]
+    length = float(uff.read_sets(units[0]).get("length") or 1.0) if units else 1.0
+    out: dict[int, tuple[float, float, float]] = {}
+    for i in (i for i, t in enumerate(types) if int(t) in (15, 2411)):
+        geometry = uff.read_sets(i)
+        xyz = np.column_stack([np.atleast_1d(geometry[a]) for a in "xyz"]).astype(float) / length
+        for node, p in zip(np.atleast_1d(geometry["node_nums"]), xyz, strict=True):
+            out[int(node)] = (float(p[0]), float(p[1]), float(p[2]))
+    return out
