@@ -112,3 +112,29 @@ def test_an_unknown_set_as_known_is_named_before_the_record_is_read(capsys, tmp_
     code, out, err = run(capsys, "identify-record", "kid300", str(path), "--set", "c_xy=1")
     assert code == 2 and out == ""
     assert err == "mountid: error: c_xy: is an unknown to identify; do not --set it\n"
+
+
+def test_a_plain_csv_is_placed_on_the_command_line(capsys, tmp_path):
+    """A bench export without mountid's channel lines (a header and the columns): the labelling needs each
+    channel's place, which --channel gives (its direction made unit); a channel it does not hold and a zero
+    direction are one-line errors naming the option."""
+    from mountid.measurement.records import read_record, write_csv
+
+    path = tmp_path / "hit.csv"
+    assert run(capsys, "simulate", "kid300", "--out", str(path), "--seed", "3")[0] == 0
+    placed = read_record(path)
+    plain = tmp_path / "plain.csv"
+    write_csv(placed, plain)
+    plain.write_text("".join(ln for ln in plain.read_text().splitlines(True) if not ln.startswith("#")))
+    code, _, err = run(capsys, "process", "kid300", str(plain))
+    assert code == 2 and "A_x: channel has no point and direction" in err
+    given = [
+        f"{c.name}={','.join(map(str, c.point))}:{','.join(str(2 * v) for v in c.direction)}" for c in placed.channels
+    ]
+    code, out, _ = run(capsys, "identify-record", "kid300", str(plain), "--json", "--channel", *given)
+    assert code == 0 and sorted(json.loads(out)["modes"]) == ["phi", "psi", "x", "z"]
+    code, out2, _ = run(capsys, "identify-record", "kid300", str(path), "--json")
+    assert json.loads(out)["parameters"] == json.loads(out2)["parameters"]  # the file's own placement, to the bit
+    for bad, message in (("Q=0,0,0:1,0,0", "--channel: Q: no such channel"), ("A_x=0,0,0:0,0,0", "direction is zero")):
+        code, _, err = run(capsys, "process", "kid300", str(plain), "--channel", bad)
+        assert code == 2 and message in err and len(err.strip().splitlines()) == 1

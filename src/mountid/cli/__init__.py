@@ -114,6 +114,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
+    p.add_argument(
+        "--channel",
+        nargs="+",
+        action="extend",
+        metavar="NAME=x,y,z:dx,dy,dz",
+        help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
+    )
     p.set_defaults(func=cmd_identify_record)
     p = machine_command("plan", "before the test: what a sensor layout, hit and record length will measure")
     p.add_argument(
@@ -134,6 +141,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
+    )
+    p.add_argument(
+        "--channel",
+        nargs="+",
+        action="extend",
+        metavar="NAME=x,y,z:dx,dy,dz",
+        help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
     )
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(

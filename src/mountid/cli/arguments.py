@@ -87,12 +87,29 @@ def triple(text: str, option: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
-def read_record(path: str, rate: float | None = None):
+def placements(items: Sequence[str] | None, option: str) -> dict[str, tuple[tuple[float, ...], tuple[float, ...]]]:
+    """Channel placements from NAME=x,y,z:dx,dy,dz items: {name: (point [m], direction)}."""
+    out = {}
+    for item in items or ():
+        name, sep, rest = item.partition("=")
+        point, sep2, direction = rest.partition(":")
+        if not sep or not sep2 or not name:
+            raise InputError(option, f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
+        out[name] = (triple(point, option), triple(direction, option))
+    return out
+
+
+def read_record(path: str, rate: float | None = None, channels: Sequence[str] | None = None):
+    """The record file at ``path`` (--rate: its sampling rate; --channel: points and directions of its
+    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's)."""
     from mountid.measurement.records import read_record as read
+    from mountid.measurement.records import with_geometry
 
     if rate is not None:
         finite_number(rate, "--rate")
-    return read(path, rate)
+    geometry = placements(channels, "--channel")
+    record = read(path, rate)
+    return with_geometry(record, geometry, "--channel") if geometry else record
 
 
 def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:

@@ -12,6 +12,7 @@ from mountid.cli.arguments import (
     check_unbalance,
     finite_number,
     pairs,
+    placements,
     print_json,
     read_record,
     triple,
@@ -68,14 +69,7 @@ def _sensors(items: list[str] | None, noise: float):
     """Sensors from --sensor NAME=x,y,z:dx,dy,dz options, each with white noise of ``noise`` x its RMS."""
     from mountid.measurement.rig import Sensor
 
-    out = []
-    for item in items or ():
-        name, sep, rest = item.partition("=")
-        point, sep2, direction = rest.partition(":")
-        if not sep or not sep2:
-            raise InputError("--sensor", f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
-        out.append(Sensor(name, triple(point, "--sensor"), triple(direction, "--sensor"), noise=noise))
-    return out
+    return [Sensor(name, p, d, noise=noise) for name, (p, d) in placements(items, "--sensor").items()]
 
 
 def cmd_plan(args: argparse.Namespace) -> None:
@@ -148,7 +142,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import identify_from_record
 
     machine = Machine.resolve(args.machine)
-    record = read_record(args.record, args.rate)
+    record = read_record(args.record, args.rate, args.channel)
     use = tuple(args.use) if args.use else None
     result = identify_from_record(
         machine,
@@ -188,7 +182,7 @@ def cmd_process(args: argparse.Namespace) -> None:
 
     machine = Machine.resolve(args.machine)
     modes, rest, warnings = modal_data(
-        machine, read_record(args.record, args.rate), pairs(args.set, "--set"), args.start
+        machine, read_record(args.record, args.rate, args.channel), pairs(args.set, "--set"), args.start
     )
     out = _modal_json(machine, modes, rest, warnings)
     if args.json:

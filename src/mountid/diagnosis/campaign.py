@@ -63,6 +63,8 @@ class RecordSource:
     start: float = DEFAULT_RECORD_START
     rate: float | None = None
     """Sampling rate [Hz] that replaces the file's time column (None: the column)."""
+    channels: tuple[tuple[str, tuple[float, float, float], tuple[float, float, float]], ...] = ()
+    """(name, point [m], direction) of channels whose placement the campaign gives or replaces."""
 
 
 @dataclass(frozen=True)
@@ -229,7 +231,11 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     path = Path(entry["file"])
     if base is not None and not path.is_absolute():
         path = base / path
-    return RecordSource(path, float(entry.get("start", DEFAULT_RECORD_START)), entry.get("rate"))
+    channels = tuple(
+        (name, tuple(map(float, c["point"])), tuple(map(float, c["direction"])))
+        for name, c in entry.get("channels", {}).items()
+    )
+    return RecordSource(path, float(entry.get("start", DEFAULT_RECORD_START)), entry.get("rate"), channels)
 
 
 def _modes_from_records(
@@ -240,13 +246,16 @@ def _modes_from_records(
     if not sources:
         return {}, [], ()
     from mountid.identification.from_records import modal_data
-    from mountid.measurement.records import read_record
+    from mountid.measurement.records import read_record, with_geometry
 
     estimates: dict[str, list[tuple[MeasuredMode, str]]] = {}
     notes = []
     layouts: dict[str, tuple[Channel, ...]] = {}
-    for source in sources:
+    for i, source in enumerate(sources):
         record = read_record(source.path, source.rate)
+        if source.channels:
+            geometry = {name: (point, direction) for name, point, direction in source.channels}
+            record = with_geometry(record, geometry, f"records.{i}.channels")
         found, _, warnings = modal_data(machine, record, known, source.start)
         notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
         for label, mode in found.items():

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -283,6 +283,32 @@ def _time_column(time: NDArray, rate: float | None) -> NDArray[np.float64]:
     if not (math.isfinite(rate) and rate > 0):
         raise InputError("rate", f"must be a positive number of samples per second, got {rate}")
     return float(time[0]) + np.arange(len(time)) / rate
+
+
+Placement = tuple[tuple[float, float, float], tuple[float, float, float]]
+"""A channel's body point [m] and measuring direction (any length; made unit)."""
+
+
+def with_geometry(record: Record, geometry: dict[str, Placement], source: str = "channel") -> Record:
+    """The record with the named channels placed at ``geometry``'s point [m] along its direction (made unit),
+    given or replacing what the file states (a plain CSV states nothing): how a test engineer places the
+    channels of a bench's export. ``source`` names the option or entry in errors."""
+    names = [c.name for c in record.channels]
+    for name, (point, direction) in geometry.items():
+        if name not in names:
+            raise InputError(source, f"{name}: no such channel in the record (channels: {', '.join(names)})")
+        if not all(map(math.isfinite, (*point, *direction))):
+            raise InputError(source, f"{name}: point and direction must be finite numbers")
+        if math.hypot(*direction) == 0:
+            raise InputError(source, f"{name}: the direction is zero")
+    channels = []
+    for c in record.channels:
+        if c.name in geometry:
+            point, direction = geometry[c.name]
+            size = math.hypot(*direction)
+            c = replace(c, point=tuple(map(float, point)), direction=tuple(float(v) / size for v in direction))
+        channels.append(c)
+    return replace(record, channels=tuple(channels))
 
 
 def read_record(path: str | Path, rate: float | None = None) -> Record:
