@@ -198,3 +198,30 @@ def test_csv_round_trip_any_record(tmp_path_factory, n, rate, values, point):
     assert back.channels == rec.channels
     np.testing.assert_array_equal(back.data, rec.data)
     np.testing.assert_array_equal(back.time, rec.time)
+
+
+@pytest.mark.parametrize("separator", [",", ";", "\t"])
+def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
+    """Units in the header set each channel's quantity; time in ms; semicolon-separated files with decimal
+    commas; a unit mountid does not know is named with its column."""
+    rec = _record()
+
+    def cell(v: float) -> str:
+        return repr(float(v)).replace(".", ",") if separator == ";" else repr(float(v))
+
+    head = separator.join(["Time [ms]", "A_x [g]", "B_y (mm/s)"])
+    lines = [separator.join(cell(v) for v in (1e3 * t, *row)) for t, row in zip(rec.time, rec.data, strict=True)]
+    (tmp_path / "bench.csv").write_text("\n".join([head, *lines]) + "\n", encoding="utf-8")
+    back = read_csv(tmp_path / "bench.csv")
+    assert [(c.name, c.quantity, c.unit) for c in back.channels] == [
+        ("A_x", "acceleration", "g"),
+        ("B_y", "velocity", "mm/s"),
+    ]
+    np.testing.assert_allclose(back.time, rec.time, rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(back.data, rec.data)
+    (tmp_path / "odd.csv").write_text(head.replace("(mm/s)", "[in/s]") + "\n" + lines[0] + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"^odd.csv: column 3: 'B_y \[in/s\]': unit 'in/s' is not one of"):
+        read_csv(tmp_path / "odd.csv")
+    (tmp_path / "min.csv").write_text(head.replace("[ms]", "[min]") + "\n" + lines[0] + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match="time in 'min'"):
+        read_csv(tmp_path / "min.csv")

@@ -9,8 +9,10 @@ file carries this metadata in comment lines before the table, so a record read b
     time,A_x,...
     0.0,0.0012,...
 
-A file without the comment lines reads with unknown points and directions (NaN), which processing that
-needs them rejects by channel name.
+A file without the comment lines (a bench's export) reads with unknown points and directions (NaN), which
+processing that needs them rejects by channel name (:func:`with_geometry` places them). Its header may carry
+units, ``Time [ms];A_x [g];F (kN)``; its columns may be separated by semicolons (then with decimal commas) or
+tabs.
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
 or mm/s; displacement in m, mm or um; force in N or kN (a hammer's force channel: the excitation, never a
@@ -256,10 +258,14 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
                 meta[channel.name] = channel
             continue
         if header is None:
-            header = [h.strip() for h in line.split(",")]
+            separator = _separator(line)
+            header = [h.strip() for h in line.split(separator)]
             continue
         try:
-            rows.append([float(v) if v.strip() else math.nan for v in line.split(",")])
+            cells = line.split(separator)
+            if separator == ";":  # a semicolon-separated export writes decimal commas
+                cells = [v.replace(",", ".") for v in cells]
+            rows.append([float(v) if v.strip() else math.nan for v in cells])
         except ValueError:
             raise InputError(f"{path.name}:{number}", "a value is not a number") from None
         if len(rows[-1]) != len(header):
@@ -267,12 +273,52 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     if header is None or not rows:
         raise InputError("record", f"{path.name} holds no table")
     table = np.array(rows)
-    names = tuple(header[1:])
+    time_unit = _split_unit(header[0])[1] or "s"
+    if time_unit not in TIME_UNITS:
+        raise InputError(f"{path.name}: column 1", f"time in {time_unit!r}: the time column's unit must be s or ms")
+    channels = tuple(_column(h, meta, f"{path.name}: column {k + 2}") for k, h in enumerate(header[1:]))
+    names = tuple(c.name for c in channels)
     missing = [n for n in meta if n not in names]
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
-    channels = tuple(meta.get(n, Channel(n)) for n in names)
-    return Record(_time_column(table[:, 0], rate), table[:, 1:], channels)
+    return Record(_time_column(table[:, 0] * TIME_UNITS[time_unit], rate), table[:, 1:], channels)
+
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3}
+"""Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
+
+
+def _separator(header: str) -> str:
+    """The column separator of a CSV from its header row: a comma, else a semicolon (then decimal commas are
+    read), else a tab."""
+    if "," in header:
+        return ","
+    return ";" if ";" in header else "\t"
+
+
+def _split_unit(title: str) -> tuple[str, str | None]:
+    """A header cell's name and unit, as bench exports write them: "A_x [g]" or "A_x (mm/s)"; (title, None)
+    without a unit."""
+    for left, right in ("[]", "()"):
+        if title.endswith(right) and left in title:
+            name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
+            return name, unit
+    return title, None
+
+
+def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
+    """A header cell as a channel: a name with mountid's channel metadata keeps it; a unit in the header sets
+    the quantity (records.UNITS); a bare name is an acceleration in m/s^2."""
+    if title in meta:
+        return meta[title]
+    name, unit = _split_unit(title)
+    if unit is None:
+        return Channel(name)
+    quantity = next((q for q, units in UNITS.items() if unit in units), None)
+    if quantity is None:
+        known = ", ".join(u for units in UNITS.values() for u in units)
+        raise InputError(where, f"{title!r}: unit {unit!r} is not one of {known}")
+    return Channel(name, quantity=quantity, unit=unit)
 
 
 def _time_column(time: NDArray, rate: float | None) -> NDArray[np.float64]:
