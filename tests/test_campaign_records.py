@@ -164,3 +164,41 @@ def test_a_campaign_places_the_channels_of_a_plain_csv(tmp_path, capsys):
     data["records"][0]["channels"]["C_q"] = data["records"][0]["channels"].pop("C_x")
     with pytest.raises(InputError, match=r"^records\.0\.channels: C_q: no such channel"):
         campaign.parse(data, tmp_path)
+
+
+@pytest.mark.parametrize("damping_known", [True, False])
+def test_pole_frequencies_given_by_hand_are_converted(damping_known, capsys, tmp_path):
+    """Modes as modal-analysis software reports them (|p| and zeta of kid300's exact damped poles, 1e-5
+    uncertainty) under `"frequency_type": "pole"`: the campaign holds the undamped frequencies, to 0.1 of
+    their uncertainty whether the damping is known or fitted to the ratios; the report says so. Without damping
+    ratios or known damping the conversion is an error naming frequency_type."""
+    from mountid.machine import Machine, damped_poles, matrices
+
+    machine = Machine.resolve("kid300")
+    values = machine.values(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3}, tuple(machine.parameters))
+    undamped = machine.frequencies(values)
+    lam = np.array([undamped[label] ** 2 for label in machine.module.MODES])
+    p = dict(zip(machine.module.MODES, damped_poles(*matrices(machine.module, values), lam), strict=True))
+    modes = {
+        label: {
+            "frequency": abs(p[label]),
+            "uncertainty": 1e-5 * abs(p[label]),
+            "damping_ratio": -p[label].real / abs(p[label]),
+            "damping_uncertainty": 1e-3,
+        }
+        for label in ("x", "z", "psi", "phi")
+    }
+    known = KNOWN if damping_known else {k: v for k, v in KNOWN.items() if not k.startswith("b_")}
+    data = {"machine": "kid300", "known": known, "modes": modes, "frequency_type": "pole"}
+    c = campaign.parse(data)
+    for label, mode in c.modes.items():
+        assert abs(mode.frequency - undamped[label]) < 0.1 * mode.frequency_std, label
+    assert abs(modes["x"]["frequency"] - undamped["x"]) > 5 * c.modes["x"].frequency_std  # a shift that matters
+    assert len(c.notes) == 1 and c.notes[0].startswith("the modes' pole frequencies |p| as undamped ones")
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    assert main(["diagnose", str(tmp_path / "c.json"), "--no-figure"]) == 0
+    out = capsys.readouterr().out
+    assert "the modes' given as poles' |p| and converted" in out and "campaign: the modes' pole frequencies" in out
+    bare = {label: {"frequency": m["frequency"]} for label, m in modes.items()}
+    with pytest.raises(InputError, match=r"^frequency_type: .*give damping ratios or the damping parameters"):
+        campaign.parse({**data, "known": {k: v for k, v in KNOWN.items() if not k.startswith("b_")}, "modes": bare})

@@ -83,6 +83,10 @@ class Campaign:
     sensors: tuple[Channel, ...] = ()
     """The channels (acceleration sensors at a point along a unit direction) the mode shapes were estimated from
     (empty when the campaign does not say)."""
+    frequency_type: str = "undamped"
+    """What the frequencies under the campaign's ``modes`` were: "undamped" or "pole" (|p|, converted)."""
+    notes: tuple[str, ...] = ()
+    """What reading the campaign's ``modes`` said (pole frequencies converted: ``frequency_type``)."""
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the
@@ -106,6 +110,9 @@ class Campaign:
             if measured
             else {},
             "description": f"{self.machine.name}: {mod.TITLE}",
+            "frequencies": "undamped natural frequencies [rad/s] (the model's sqrt of the eigenvalues of (C, M))"
+            + ("; the modes' given as poles' |p| and converted" if self.frequency_type == "pole" else "")
+            + ("; the records' poles' |p| converted" if self.records else ""),
             "shape_coordinates": list(mod.COORDINATES),
             "shape_reference": "translations of the description's coordinate origin [m], rotations about its "
             "axes [rad]",
@@ -180,6 +187,9 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
+    notes_on_modes: list[str] = []
+    if data.get("frequency_type") == "pole" and modes:
+        modes, notes_on_modes = _poles_as_undamped(machine, dict(data.get("known", {})), modes)
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
     from_records, notes, layout = _modes_from_records(machine, dict(data.get("known", {})), sources)
     shaped_by_hand = any(mode.shape is not None for mode in modes.values())
@@ -217,8 +227,32 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
                 "sensors", "the channels do not see all six rigid-body motions (their readings have rank < 6)"
             )
     return Campaign(
-        machine, dict(data.get("known", {})), modes, fit, data.get("name", ""), sources, tuple(notes), sensors
+        machine,
+        dict(data.get("known", {})),
+        modes,
+        fit,
+        data.get("name", ""),
+        sources,
+        tuple(notes),
+        sensors,
+        data.get("frequency_type", "undamped"),
+        tuple(notes_on_modes),
     )
+
+
+def _poles_as_undamped(
+    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode]
+) -> tuple[dict[str, MeasuredMode], list[str]]:
+    """The ``modes`` of a campaign whose frequencies are poles' |p| (``frequency_type`` "pole") as undamped
+    frequencies (_as_undamped); an error where the campaign gives no damping to convert them with."""
+    names = [n for n, p in machine.parameters.items() if p["kind"] == "damping" and n not in known]
+    if names and not any(m.damping_ratio is not None for m in modes.values()):
+        raise InputError(
+            "frequency_type",
+            "pole frequencies are converted through the damped model: give damping ratios or the damping "
+            f"parameters under known ({', '.join(names)})",
+        )
+    return _as_undamped(machine, known, modes, [], "the modes'", strict=True)
 
 
 def _channel(entry: dict, i: int) -> Channel:
@@ -277,7 +311,12 @@ def _modes_from_records(
 
 
 def _as_undamped(
-    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode], notes: list[str]
+    machine: Machine,
+    known: dict[str, float],
+    modes: dict[str, MeasuredMode],
+    notes: list[str],
+    whose: str = "the records'",
+    strict: bool = False,
 ) -> tuple[dict[str, MeasuredMode], list[str]]:
     """The records' frequencies as the undamped natural frequencies the diagnosis compares (its convention, as a
     campaign's ``modes``): a record gives poles, and with non-proportional damping |p| differs from the undamped
@@ -285,7 +324,8 @@ def _as_undamped(
     |p| is divided by the ratio |p| / omega of the records chain's own identification (stiffness fitted to the
     damped model's |p|, damping to the damping ratios; the damping parameters under ``known`` kept): an effect
     the nominal model lacks changes that ratio only at third order. Without damping parameters, or where the
-    identification fails (the diagnosis then says why), the frequencies are kept with a note."""
+    identification fails (the diagnosis then says why), the frequencies are kept with a note (an error naming
+    ``frequency_type`` when ``strict``: the campaign said its frequencies are poles). ``whose``: the notes' subject."""
     from mountid.identification.from_records import fit_damping, fit_stiffness, pole_frequencies
 
     names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
@@ -306,7 +346,9 @@ def _as_undamped(
             machine.module.frequencies(**{a: values[a] for a in machine.module.FORWARD_ARGUMENTS})
         )
     except (InputError, np.linalg.LinAlgError) as err:
-        return modes, [*notes, f"the records' pole frequencies |p| are taken as undamped ones (not converted: {err})"]
+        if strict:
+            raise InputError("frequency_type", f"the pole frequencies cannot be converted: {err}") from None
+        return modes, [*notes, f"{whose} pole frequencies |p| are taken as undamped ones (not converted: {err})"]
     out, shifts = {}, []
     for label, mode in modes.items():
         r = float(ratio[machine.module.MODES.index(label)])
@@ -315,7 +357,7 @@ def _as_undamped(
             shifts.append(f"{label} {mode.frequency:.6g} -> {mode.frequency / r:.6g}")
     if shifts:
         notes.append(
-            "the records' pole frequencies |p| as undamped ones through the identified damped model "
+            f"{whose} pole frequencies |p| as undamped ones through the identified damped model "
             f"({', '.join(shifts)} rad/s; beyond a tenth of their standard deviation)"
         )
     return out, notes

@@ -365,6 +365,7 @@ class Diagnosis:
             "conventions": campaign.conventions(),
             "records": [str(r.path) for r in campaign.records],
             "record_notes": list(campaign.record_notes),
+            "campaign_notes": list(campaign.notes),
             "parameters": report.parameters,
             "parameter_std": report.parameter_std,
             "residuals": [r.to_dict() for r in report.residuals],

@@ -24,6 +24,9 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
                 for n, d in conventions["damping_parameters"].items()
             )
         )
+    print(f"frequencies: {conventions['frequencies']}")
+    for note in campaign.notes:
+        print(f"campaign: {note}")
     for note in campaign.record_notes:
         print(f"record: {note}")
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
