@@ -81,6 +81,8 @@ def _bench_uff(
     dataset 58 per channel naming its response node and direction (+-1, 2, 3), without mountid's ID-line-4."""
     import pyuff
 
+    from mountid.measurement.uff import dataset_58
+
     uff = pyuff.UFF(str(path))
     sets = [
         pyuff.prepare_164(
@@ -102,48 +104,9 @@ def _bench_uff(
             z=np.array([1e3 * p[2] for p in nodes.values()]),
         ),
     ]
-    dt = float(record.time[1] - record.time[0])
     for k, (node, axis) in enumerate(dofs):
-        sets.append(
-            pyuff.prepare_58(
-                binary=0,
-                id1=title or f"Point{node}:{'+-'[axis < 0]}{'XYZ'[abs(axis) - 1]}",
-                id2="Time",
-                id3="",
-                id4="NONE",
-                id5="NONE",
-                func_type=1,
-                rsp_node=node,
-                rsp_dir=axis,
-                ref_node=0,
-                ref_dir=0,
-                ord_data_type=4,
-                num_pts=len(record.time),
-                abscissa_spacing=1,
-                abscissa_min=float(record.time[0]),
-                abscissa_inc=dt,
-                abscissa_spec_data_type=17,
-                ordinate_spec_data_type=12,
-                abscissa_axis_units_lab="s",
-                ordinate_axis_units_lab="m/s^2",
-                ver_num=0,
-                load_case_id=0,
-                rsp_ent_name=f"Point{node}",
-                ref_ent_name="NONE",
-                z_axis_value=0.0,
-                **{
-                    f"{a}_{what}_unit_exp": 0
-                    for a in ("abscissa", "ordinate", "orddenom", "z_axis")
-                    for what in ("len", "force", "temp")
-                },
-                orddenom_spec_data_type=0,
-                orddenom_axis_units_lab="",
-                z_axis_spec_data_type=0,
-                z_axis_axis_units_lab="",
-                data=np.asarray(record.data[:, k], dtype=float),
-                x=np.asarray(record.time, dtype=float),
-            )
-        )
+        name = title or f"Point{node}:{'+-'[axis < 0]}{'XYZ'[abs(axis) - 1]}"
+        sets.append(dataset_58(record.channels[k], record.time, record.data[:, k], node, axis, "NONE", "NONE", name))
     uff.write_sets(sets, mode="add")
 
 

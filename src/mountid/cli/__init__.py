@@ -68,6 +68,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figures", default="out/figures", help="folder for the figures (default out/figures)")
     p.set_defaults(func=cmd_demo)
 
+    def add_channel(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--channel",
+            nargs="+",
+            action="extend",
+            metavar="NAME=x,y,z:dx,dy,dz",
+            help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
+        )
+
     def add_unbalance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
         p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
@@ -114,13 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
-    p.add_argument(
-        "--channel",
-        nargs="+",
-        action="extend",
-        metavar="NAME=x,y,z:dx,dy,dz",
-        help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
-    )
+    add_channel(p)
     p.set_defaults(func=cmd_identify_record)
     p = machine_command("plan", "before the test: what a sensor layout, hit and record length will measure")
     p.add_argument(
@@ -142,13 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
-    p.add_argument(
-        "--channel",
-        nargs="+",
-        action="extend",
-        metavar="NAME=x,y,z:dx,dy,dz",
-        help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
-    )
+    add_channel(p)
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(
         "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"

@@ -42,52 +42,64 @@ def write_uff(record: Record, path: str | Path) -> None:
     path = Path(path)
     if path.exists():
         path.unlink()  # pyuff appends to an existing file
-    uff = pyuff.UFF(str(path))
-    dt = float(record.time[1] - record.time[0])
     sets = []
     for k, c in enumerate(record.channels):
         meta = f"{_TAG}{','.join(repr(float(v)) for v in c.point)} dir={','.join(repr(float(v)) for v in c.direction)}"
-        sets.append(
-            pyuff.prepare_58(
-                binary=0,
-                id1=c.name,
-                id2="time response",
-                id3="",
-                id4=meta,
-                id5=f"{c.quantity} [{c.unit}]",
-                func_type=1,
-                rsp_node=k + 1,
-                rsp_dir=_axis(c.direction),
-                ref_node=0,
-                ref_dir=0,
-                ord_data_type=4,
-                num_pts=len(record.time),
-                abscissa_spacing=1,
-                abscissa_min=float(record.time[0]),
-                abscissa_inc=dt,
-                abscissa_spec_data_type=17,  # time
-                ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}.get(c.quantity, 0),
-                ver_num=0,
-                load_case_id=0,
-                rsp_ent_name=c.name[:10],
-                ref_ent_name="NONE",
-                z_axis_value=0.0,
-                **{
-                    f"{axis}_{what}_unit_exp": 0
-                    for axis in ("abscissa", "ordinate", "orddenom", "z_axis")
-                    for what in ("len", "force", "temp")
-                },
-                abscissa_axis_units_lab="s",
-                ordinate_axis_units_lab=c.unit,
-                orddenom_spec_data_type=0,
-                orddenom_axis_units_lab="",
-                z_axis_spec_data_type=0,
-                z_axis_axis_units_lab="",
-                data=np.asarray(record.data[:, k], dtype=float),
-                x=np.asarray(record.time, dtype=float),
-            )
-        )
-    uff.write_sets(sets, mode="add")
+        sets.append(dataset_58(c, record.time, record.data[:, k], node=k + 1, axis=_axis(c.direction), id4=meta))
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+
+
+def dataset_58(
+    channel: Channel,
+    time: np.ndarray,
+    values: np.ndarray,
+    node: int,
+    axis: int,
+    id4: str,
+    id5: str | None = None,
+    title: str | None = None,
+) -> dict:
+    """One channel's time response as a pyuff dataset 58 (double precision ASCII): ID line 1 ``title`` (default
+    the channel's name), ID line 4 ``id4``, ID line 5 ``id5`` (default "quantity [unit]"), response ``node`` and
+    direction ``axis`` (+-1, 2, 3; 0 for none), the ordinate's data type and axis label from the channel."""
+    return pyuff.prepare_58(
+        binary=0,
+        id1=channel.name if title is None else title,
+        id2="time response",
+        id3="",
+        id4=id4,
+        id5=f"{channel.quantity} [{channel.unit}]" if id5 is None else id5,
+        func_type=1,
+        rsp_node=node,
+        rsp_dir=axis,
+        ref_node=0,
+        ref_dir=0,
+        ord_data_type=4,
+        num_pts=len(time),
+        abscissa_spacing=1,
+        abscissa_min=float(time[0]),
+        abscissa_inc=float(time[1] - time[0]),
+        abscissa_spec_data_type=17,  # time
+        ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}.get(channel.quantity, 0),
+        ver_num=0,
+        load_case_id=0,
+        rsp_ent_name=channel.name[:10],
+        ref_ent_name="NONE",
+        z_axis_value=0.0,
+        **{
+            f"{part}_{what}_unit_exp": 0
+            for part in ("abscissa", "ordinate", "orddenom", "z_axis")
+            for what in ("len", "force", "temp")
+        },
+        abscissa_axis_units_lab="s",
+        ordinate_axis_units_lab=channel.unit,
+        orddenom_spec_data_type=0,
+        orddenom_axis_units_lab="",
+        z_axis_spec_data_type=0,
+        z_axis_axis_units_lab="",
+        data=np.asarray(values, dtype=float),
+        x=np.asarray(time, dtype=float),
+    )
 
 
 def _triple(text: str) -> tuple[float, float, float]:
