@@ -249,3 +249,25 @@ def test_the_residual_table_keeps_its_columns_apart_at_any_size():
     assert cells[1][1:4] == ["64.09779", "64.09795", "-0.00016"] and cells[2][3:6] == ["+0.00000", "0.45", "+0.00"]
     assert cells[3][-2:] == ["held", "out"] and len(cells[3]) == 6  # no uncertainty: sigma and z left blank
     assert not [c for row in cells for c in row if re.fullmatch(r"-0\.0+", c)]
+
+
+def test_a_gap_in_the_damping_ratios_is_shown_and_named(capsys, tmp_path):
+    """Every mode at the same damping ratio (rubber with a loss factor, which viscous b_xy, b_z cannot give):
+    frequencies exact, damping ratios 0.05 +- 0.002. The report shows each ratio's gap in sigma, splits the
+    nominal chi^2 by kind, and the verdict leads to the damping ratios, not to a frequency effect."""
+    known = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
+    machine = Machine.resolve("kid300")
+    f = machine.frequencies(machine.values(known | {"c_xy": 74.4e3, "c_z": 472.3e3}, tuple(machine.parameters)))
+    modes = {
+        lab: {"frequency": f[lab], "uncertainty": 1e-4 * f[lab], "damping_ratio": 0.05, "damping_uncertainty": 0.002}
+        for lab in ("x", "z", "psi", "phi")
+    }
+    path = tmp_path / "loss.json"
+    path.write_text(json.dumps({"machine": "kid300", "known": known, "modes": modes}), encoding="utf-8")
+    assert main(["diagnose", str(path), "--no-figure"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"nominal chi\^2 = [\d.]+ \(frequencies [\de.+-]+, damping ratios [\d.]+\)", out)
+    rows = dict(re.findall(r"^  (x|z|psi|phi) +0\.0500 \+- 0\.002 +([+-][\d.]+)", out, flags=re.M))
+    assert set(rows) == {"x", "z", "psi", "phi"} and abs(float(rows["x"])) > 5
+    verdict = out.strip().splitlines()[-1]
+    assert "not explained" in verdict and "lead: the damping ratios (chi^2" in verdict, verdict

@@ -18,6 +18,7 @@ from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_sp
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect, Pair
 from mountid.identification.statistics import covariance, standard_deviations
+from mountid.measurement.modes import MeasuredMode
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,12 @@ class FitState:
     from its member's fit at that isolator)."""
 
 
+def damping_std(mode: MeasuredMode) -> float:
+    """Standard deviation of a measured damping ratio: as stated, else DEFAULT_DAMPING_STD of it (at least
+    DAMPING_STD_FLOOR)."""
+    return mode.damping_std or max(DEFAULT_DAMPING_STD * mode.damping_ratio, DAMPING_STD_FLOOR)
+
+
 @dataclass(frozen=True)
 class CandidateFit:
     """One fitted candidate: effect (``none`` for the nominal model), fitted values with standard deviations."""
@@ -56,6 +63,8 @@ class CandidateFit:
     """measured - fitted model frequency [rad/s] per measured mode."""
     held_out_gap: dict[str, float] = field(default_factory=dict)
     """measured - prediction of the fit without that mode [rad/s] (leave one mode out)."""
+    damping_gap: dict[str, float] = field(default_factory=dict)
+    """measured - fitted model damping ratio per mode whose damping ratio the campaign measures."""
     held_out_exact: bool = False
     applicable: bool = True
     note: str = ""
@@ -120,6 +129,7 @@ class CandidateFit:
             "plausible": self.plausible,
             "implausible_reason": self.implausible_reason,
             "gap_after": self.frequency_gap,
+            "damping_gap_after": self.damping_gap,
             "held_out_gap": self.held_out_gap,
             "held_out_exact": self.held_out_exact,
             "applicable": self.applicable,
@@ -131,6 +141,19 @@ class CandidateFit:
             "probability": self.probability,
             "other_solutions": list(self.other_solutions),
         }
+
+
+def chi2_by_kind(fit: CandidateFit, campaign: Campaign) -> dict[str, float]:
+    """The fit's chi^2 split by what was measured: frequencies, damping ratios and (the rest) mode shapes; the
+    kinds the campaign does not measure are left out."""
+    freq = sum((gap / campaign.modes[lab].frequency_std) ** 2 for lab, gap in fit.frequency_gap.items())
+    damp = sum((gap / damping_std(campaign.modes[lab])) ** 2 for lab, gap in fit.damping_gap.items())
+    out = {"frequencies": float(freq)}
+    if any(m.shape is not None for m in campaign.modes.values()):
+        out["shapes"] = max(0.0, float(fit.chi2 - freq - damp))
+    if fit.damping_gap:
+        out["damping ratios"] = float(damp)
+    return out
 
 
 DAMPING_STD_FLOOR = 1e-3
@@ -157,11 +180,7 @@ class Data:
         )
         self.zeta = np.array([campaign.modes[lab].damping_ratio for lab in self.damping_labels], dtype=float)
         self.zeta_sigma = np.array(
-            [
-                campaign.modes[lab].damping_std
-                or max(DEFAULT_DAMPING_STD * campaign.modes[lab].damping_ratio, DAMPING_STD_FLOOR)
-                for lab in self.damping_labels
-            ],
+            [damping_std(campaign.modes[lab]) for lab in self.damping_labels],
             dtype=float,
         )
         self.n = len(self.labels) + 5 * len(self.shape_labels) + len(self.damping_labels)
@@ -638,6 +657,10 @@ def fit_candidate(
     evidence = log_evidence(jac[:n_rows], chi2, prior_widths(model), held, offsets)
     pred = model.predict(theta)
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
+    damping_gap = {}
+    if data.damping_labels:
+        zeta = pred.damping[[data.labels.index(lab) for lab in data.damping_labels]]
+        damping_gap = {lab: float(z - m) for lab, z, m in zip(data.damping_labels, data.zeta, zeta, strict=True)}
     held_out, variance = _linear_leave_one_out(data, res.fun, jac)
     return CandidateFit(
         name,
@@ -652,6 +675,7 @@ def fit_candidate(
         "; ".join(reasons),
         gap,
         held_out_gap=held_out,
+        damping_gap=damping_gap,
         held_out_variance=variance,
         log_evidence=evidence,
         outside_range=tuple(outside),

@@ -17,6 +17,7 @@ import scipy.stats
 
 from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
+from mountid.diagnosis.fitting import chi2_by_kind, damping_std
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.identification.from_records import fit_stiffness
 from mountid.identification.statistics import covariance, standard_deviations
@@ -351,9 +352,32 @@ class Diagnosis:
     def verdict(self) -> str:
         if self.where.broken_symmetry and not self.effects.significant:
             return self.where.verdict
-        if self.effects.kind == "not explained" and self.where.localisation:
-            return f"{self.effects.verdict}; lead: {self.where.localisation[0].describe()}"
+        if self.effects.kind == "not explained":
+            damping = self.damping_lead
+            if damping:
+                return f"{self.effects.verdict}; lead: {damping}"
+            if self.where.localisation:
+                return f"{self.effects.verdict}; lead: {self.where.localisation[0].describe()}"
         return self.effects.verdict
+
+    @property
+    def damping_lead(self) -> str:
+        """Where the damping ratios hold most of the nominal fit's chi^2: that the model's damping parameters do
+        not reproduce them (the frequency localisation has nothing to say about it); '' otherwise."""
+        nominal = self.effects.nominal
+        if not nominal.applicable or not nominal.damping_gap:
+            return ""
+        parts = chi2_by_kind(nominal, self.campaign)
+        if parts["damping ratios"] <= 0.5 * nominal.chi2:
+            return ""
+        names = [n for n, p in self.campaign.machine.parameters.items() if p["kind"] == "damping"]
+        worst = max(
+            nominal.damping_gap, key=lambda lab: abs(nominal.damping_gap[lab]) / damping_std(self.campaign.modes[lab])
+        )
+        return (
+            f"the damping ratios (chi^2 {parts['damping ratios']:.4g} of {nominal.chi2:.4g}, most in {worst}): the "
+            f"model's damping ({', '.join(names)}) does not reproduce them"
+        )
 
     def to_dict(self) -> dict:
         """The diagnosis as plain data (the JSON of ``mountid diagnose --json`` without the figure; non-finite

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from mountid.diagnosis.fitting import chi2_by_kind, damping_std
+
 
 def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
@@ -37,19 +39,27 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     if diagnosis.isolators:
         print("modal force residual of the measured shapes, as a stiffness change per isolator:")
         print("  " + ", ".join(f"{f.isolator} {f.change:+.1%} +- {f.std:.1%}" for f in diagnosis.isolators))
-    _print_candidates(effects)
+    _print_candidates(effects, campaign)
     gaps = diagnosis.gap_table()
     if "after" in gaps:
         before, after = gaps["before"], gaps["after"]
+        places = _places([m.frequency_std for m in campaign.modes.values()], 4)
+        w = places + 5
+
+        def cell(value: float | None, sign: str = "+") -> str:
+            v = float("nan") if value is None else round(value, places) + 0.0
+            return f"{v:{sign}{w}.{places}f}"
+
         print(f"gap [rad/s] before (nominal) -> after ({after['effect']}), fitted | held out:")
         for label in before["fitted"]:
             b, a = before["fitted"][label], after["fitted"][label]
-            hb, ha = before["held_out"].get(label, float("nan")), after["held_out"].get(label, float("nan"))
-            print(f"  {label:6s}{b:+9.4f} -> {a:+9.4f} | {hb:+9.4f} -> {ha:+9.4f}")
+            hb, ha = before["held_out"].get(label), after["held_out"].get(label)
+            print(f"  {label:6s}{cell(b)} -> {cell(a)} | {cell(hb)} -> {cell(ha)}")
         print(
-            f"  {'RMS':6s}{before['rms_fitted']:9.4f} -> {after['rms_fitted']:9.4f} | "
-            f"{before['rms_held_out'] or float('nan'):9.4f} -> {after['rms_held_out'] or float('nan'):9.4f}"
+            f"  {'RMS':6s}{cell(before['rms_fitted'], '')} -> {cell(after['rms_fitted'], '')} | "
+            f"{cell(before['rms_held_out'], '')} -> {cell(after['rms_held_out'], '')}"
         )
+    _print_damping(campaign, effects)
     for line in effects.separation:
         print(f"  to separate the tie: {line}")
     for note in [*report.notes, *effects.notes]:
@@ -59,13 +69,34 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     print(f"verdict: {diagnosis.verdict}")
 
 
-def _print_candidates(effects) -> None:
+def _print_damping(campaign, effects) -> None:
+    """The measured damping ratios against the nominal fit's (and the first-ranked candidate's), in units of
+    their standard deviation: the gap in damping, which the frequency tables do not show."""
+    nominal, best = effects.nominal, effects.best
+    if not nominal.damping_gap:
+        return
+    after = best is not None and best is not nominal and bool(best.damping_gap)
+    print(
+        "damping ratio: measured, (measured - model) / std for the nominal fit"
+        + (f" -> {best.effect}" if after else "")
+        + ":"
+    )
+    for label, gap in nominal.damping_gap.items():
+        m = campaign.modes[label]
+        std = damping_std(m)
+        text = f"  {label:6s}{m.damping_ratio:8.4f} +- {std:.2g}  {gap / std:+8.2f}"
+        print(text + (f" -> {best.damping_gap[label] / std:+8.2f}" if after else ""))
+
+
+def _print_candidates(effects, campaign) -> None:
     ranked = [f for f in effects.ranked if f.applicable]
     n = effects.nominal
     if n.held_out_rms == n.held_out_rms:
         print(f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma")
+    parts = chi2_by_kind(n, campaign) if n.applicable else {}
+    split = f" ({', '.join(f'{k} {v:.4g}' for k, v in parts.items())})" if len(parts) > 1 else ""
     print(
-        f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}, "
+        f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}{split}, "
         f"probability {n.probability:.3g}), by posterior probability:"
     )
     width = max([22, *(len(f.effect) + 1 for f in effects.ranked)])
@@ -96,8 +127,7 @@ def _residual_table(residuals) -> list[str]:
     """The nominal identification's residuals, one row per mode and use, in columns at least two spaces apart:
     frequencies [rad/s] and gaps to the decimal of a tenth of the smallest uncertainty (three places at
     least), the uncertainty and z to three significant digits."""
-    stds = [r.uncertainty for r in residuals if r.uncertainty]
-    places = max(3, min(9, 1 - math.floor(math.log10(min(stds))))) if stds else 3
+    places = _places([r.uncertainty for r in residuals], 3)
     head = ("mode", "measured", "predicted", "gap", "sigma", "z")
     rows = [
         (
@@ -119,3 +149,9 @@ def _residual_table(residuals) -> list[str]:
         )
 
     return [line(head) + "  use", *(line(row[:6]) + "  " + row[6] for row in rows)]
+
+
+def _places(stds, least: int) -> int:
+    """Decimals [rad/s] that show a tenth of the smallest of ``stds`` (None and zeros ignored): ``least`` to 9."""
+    given = [v for v in stds if v]
+    return max(least, min(9, 1 - math.floor(math.log10(min(given))))) if given else least
