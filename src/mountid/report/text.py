@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-from mountid.diagnosis.fitting import chi2_by_kind, damping_std
-
 
 def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
@@ -72,6 +70,8 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
 def _print_damping(campaign, effects) -> None:
     """The measured damping ratios against the nominal fit's (and the first-ranked candidate's), in units of
     their standard deviation: the gap in damping, which the frequency tables do not show."""
+    from mountid.diagnosis.fitting import damping_std  # the diagnosis's extras (jsonschema) only where it runs
+
     nominal, best = effects.nominal, effects.best
     if not nominal.damping_gap:
         return
@@ -93,6 +93,8 @@ def _print_candidates(effects, campaign) -> None:
     n = effects.nominal
     if n.held_out_rms == n.held_out_rms:
         print(f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma")
+    from mountid.diagnosis.fitting import chi2_by_kind
+
     parts = chi2_by_kind(n, campaign) if n.applicable else {}
     split = f" ({', '.join(f'{k} {v:.4g}' for k, v in parts.items())})" if len(parts) > 1 else ""
     print(
