@@ -103,10 +103,27 @@ def test_records_of_two_states_are_named_and_a_frequency_only_report_prints(tmp_
     assert "record: z: the records disagree beyond their uncertainty (a.csv 47.4" in out and "verdict:" in out
 
 
-def test_records_of_one_state_agree(folder):
-    """The two nominal records of the fixture: no mode is named as disagreeing."""
-    notes = campaign.load(folder / "campaign.json").record_notes
-    assert not [n for n in notes if "disagree" in n], notes
+def test_records_of_one_state_agree_and_are_combined(folder):
+    """The two nominal records of the fixture: no mode is named as disagreeing; each frequency is their
+    inverse-variance weighted mean, its standard deviation the mean's (widened by the Birge ratio where they
+    scatter beyond it)."""
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement.records import read_record
+
+    c = campaign.load(folder / "campaign.json")
+    assert not [n for n in c.record_notes if "disagree" in n], c.record_notes
+    each = [modal_data(c.machine, read_record(r.path), KNOWN, r.start).modes for r in c.records]
+    for label in ("z", "phi"):  # no damping shift to convert: the means as combined
+        (f0, s0), (f1, s1) = ((e[label].frequency, e[label].frequency_std) for e in each)
+        w0, w1 = s0**-2, s1**-2
+        mean, std = (w0 * f0 + w1 * f1) / (w0 + w1), (w0 + w1) ** -0.5
+        birge = max(1.0, abs(f0 - f1) / math.hypot(s0, s1))  # sqrt(chi^2 / 1) for two
+        assert c.modes[label].frequency == pytest.approx(mean, rel=1e-12)
+        assert c.modes[label].frequency_std == pytest.approx(std * birge, rel=1e-12)
+        assert any(
+            n.startswith(f"{label}: frequency, damping ratio from hit0.csv, hit1.csv (weighted means")
+            for n in c.record_notes
+        )
 
 
 def test_long_records_of_the_nominal_machine_show_no_gap(tmp_path):

@@ -14,8 +14,11 @@ A campaign may list impact records instead of (or beside) the modal data: ``"rec
 {"file": "hit2.uff", "start": 0.1}]``. Each is read (CSV with mountid channel metadata, or UFF with its
 geometry) and run through the records chain (mountid.identification.from_records.modal_data): frequencies
 with their standard deviations, damping ratios and, where the channels span the six motions, mode shapes.
-A mode given under "modes" overrides the records'; of several records, each mode comes from the one with
-the smallest frequency standard deviation. The records' quality warnings travel with the campaign.
+A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
+their frequencies and damping ratios (the standard deviations widened where the records scatter beyond them)
+and the shape of the one with the smallest frequency standard deviation. The records' poles are converted to
+undamped frequencies, their channel layout becomes the campaign's sensors where every shape came from one
+layout, and their quality warnings travel with the campaign.
 """
 
 from __future__ import annotations
@@ -52,7 +55,8 @@ DEFAULT_RECORD_START = 0.07
 """Start of the free decay [s] of a record listed without one (as the command line's --start)."""
 RECORDS_DISAGREE = 5.0
 """Two records' frequencies of one mode further apart than this many of their combined standard deviations are
-named in the campaign's notes (the diagnosis takes the estimate with the smallest standard deviation)."""
+named in the campaign's notes (the diagnosis takes their weighted mean, its uncertainty widened to their
+scatter)."""
 
 
 @dataclass(frozen=True)
@@ -298,13 +302,20 @@ def _modes_from_records(
             Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force"
         )
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
+    modes = {}
     for label, (mode, name) in best.items():
-        kept = "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
-        notes.append(f"{label}: {kept} from {name}")
-        notes += _disagreement(label, estimates[label], name)
-    # a record's shape has no stated spread: the campaign default, as for a shape given without one (and as a
-    # campaign's mode without a shape, the typical spread of a shape one would measure)
-    modes = {label: replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD) for label, (mode, _) in best.items()}
+        found = estimates[label]
+        if len(found) == 1:
+            notes.append(f"{label}: {_kinds(mode)} from {name}")
+        else:
+            mode, note = _combined(found, mode)
+            names = ", ".join(n for _, n in found)
+            shape = f"; shape from {name}" if mode.shape is not None else ""
+            notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
+        notes += _disagreement(label, found)
+        # a record's shape has no stated spread: the campaign default, as for a shape given without one (and
+        # as a campaign's mode without a shape, the typical spread of a shape one would measure)
+        modes[label] = replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD)
     modes, notes = _as_undamped(machine, known, modes, notes)
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
     return modes, notes, shaped.pop() if len(shaped) == 1 else ()
@@ -363,7 +374,42 @@ def _as_undamped(
     return out, notes
 
 
-def _disagreement(label: str, found: list[tuple[MeasuredMode, str]], kept: str) -> list[str]:
+def _kinds(mode: MeasuredMode) -> str:
+    return "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
+
+
+def _combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> tuple[MeasuredMode, str]:
+    """One mode measured in several records: the frequency and the damping ratio as weighted means, each
+    standard deviation the mean's, widened by the Birge ratio where the records scatter beyond their own
+    uncertainty (their repeatability, not only their noise); the shape from ``sharpest`` (the record with the
+    smallest frequency standard deviation). Returns the mode and a note of any widening ('' without)."""
+    frequency, frequency_std, widened = _weighted([(m.frequency, m.frequency_std) for m, _ in found])
+    mode = replace(sharpest, frequency=frequency, frequency_std=frequency_std)
+    ratios = [(m.damping_ratio, m.damping_std) for m, _ in found if m.damping_ratio is not None and m.damping_std]
+    note = (
+        f"; the frequencies scatter {widened:.3g} times their stated uncertainty, the mean's widened as much"
+        if widened > 1
+        else ""
+    )
+    if len(ratios) > 1:
+        zeta, zeta_std, zeta_widened = _weighted(ratios)
+        mode = replace(mode, damping_ratio=zeta, damping_std=zeta_std)
+        if zeta_widened > 1:
+            note += f"; the damping ratios {zeta_widened:.3g} times theirs, widened as much"
+    return mode, note
+
+
+def _weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
+    """Inverse-variance weighted mean of (value, std) pairs, its standard deviation times the Birge ratio
+    sqrt(chi^2 / (n - 1)) where that exceeds 1, and that ratio."""
+    x = np.array([v for v, _ in values])
+    w = 1.0 / np.array([s for _, s in values]) ** 2
+    mean = float(np.sum(w * x) / np.sum(w))
+    ratio = math.sqrt(float(np.sum(w * (x - mean) ** 2)) / (len(x) - 1))
+    return mean, float(1.0 / math.sqrt(np.sum(w))) * max(1.0, ratio), ratio
+
+
+def _disagreement(label: str, found: list[tuple[MeasuredMode, str]]) -> list[str]:
     """A note when the records' frequencies of one mode differ by more than RECORDS_DISAGREE of their combined
     standard deviation: records of different states of the machine (another load, temperature, amplitude of the
     rubber's strain) or a mode labelled differently in one of them. Empty otherwise."""
@@ -376,7 +422,7 @@ def _disagreement(label: str, found: list[tuple[MeasuredMode, str]], kept: str) 
     each = ", ".join(f"{name} {m.frequency:.6g} +- {m.frequency_std:.2g}" for m, name in found)
     return [
         f"{label}: the records disagree beyond their uncertainty ({each} rad/s; up to {max(z):.3g} sigma apart): "
-        f"not one state of the machine, or a mode labelled differently in one of them; the diagnosis takes {kept}'s"
+        "not one state of the machine, or a mode labelled differently in one of them"
     ]
 
 
