@@ -251,7 +251,7 @@ def test_the_residual_table_keeps_its_columns_apart_at_any_size():
     assert not [c for row in cells for c in row if re.fullmatch(r"-0\.0+", c)]
 
 
-def test_a_gap_in_the_damping_ratios_is_shown_and_named(capsys, tmp_path):
+def test_a_gap_in_the_damping_ratios_is_shown_and_named(capsys, tmp_path, monkeypatch):
     """Every mode at the same damping ratio (rubber with a loss factor, which viscous b_xy, b_z cannot give):
     frequencies exact, damping ratios 0.05 +- 0.002. The report shows each ratio's gap in sigma, splits the
     nominal chi^2 by kind, and the verdict leads to the damping ratios, not to a frequency effect."""
@@ -271,3 +271,19 @@ def test_a_gap_in_the_damping_ratios_is_shown_and_named(capsys, tmp_path):
     assert set(rows) == {"x", "z", "psi", "phi"} and abs(float(rows["x"])) > 5
     verdict = out.strip().splitlines()[-1]
     assert "not explained" in verdict and "lead: the damping ratios (chi^2" in verdict, verdict
+    assert "removes -0%" not in verdict
+    # the figure draws the damping ratios' gaps beside the frequencies'
+    from mountid.diagnosis.campaign import load
+    from mountid.diagnosis.gap import diagnose
+    from mountid.report import figures
+
+    drawn = []
+
+    def keep(fig, where):
+        drawn.append([t.get_text() for t in fig.axes[0].get_xticklabels()])
+        return real_save(fig, where)
+
+    real_save = figures._save
+    monkeypatch.setattr(figures, "_save", keep)
+    figures.diagnosis_figure(diagnose(load(path)), tmp_path / "f.png")
+    assert drawn == [["x", "z", "psi", "phi", "\u03b6 x", "\u03b6 z", "\u03b6 psi", "\u03b6 phi"]]

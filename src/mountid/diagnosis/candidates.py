@@ -603,7 +603,7 @@ def _closest(nominal: CandidateFit, fits: list[CandidateFit]) -> str:
     beyond their plausible range, where that kept it from explaining the gap)."""
     parts = []
     for f in fits[:3]:
-        share = 1 - f.chi2 / nominal.chi2 if nominal.chi2 > 0 else math.nan
+        share = round(1 - f.chi2 / nominal.chi2, 2) + 0.0 if nominal.chi2 > 0 else math.nan  # no "-0%"
         if math.isfinite(nominal.held_out_median) and math.isfinite(f.held_out_median):
             held = f"held-out median {nominal.held_out_median:.1f} -> {f.held_out_median:.1f} sigma"
         else:  # a candidate with as many parameters as data less one cannot be refitted without a mode

@@ -271,9 +271,9 @@ def experiment_figures(
 
 def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
-    fitted and held out (linear within 2 sigma, logarithmic beyond). Right: the candidates by posterior
-    probability (tie shaded, implausible hatched, those the data fit as well as the first marked:
-    candidates.alike), with the nominal model for reference."""
+    fitted and held out (linear within 2 sigma, logarithmic beyond), and each measured damping ratio's (fitted).
+    Right: the candidates by posterior probability (tie shaded, implausible hatched, those the data fit as well as
+    the first marked: candidates.alike), with the nominal model for reference."""
     effects = diagnosis.effects
     nominal, best = effects.nominal, effects.best
     labels = list(nominal.frequency_gap)
@@ -293,6 +293,20 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     for k, (name, gap, colour) in enumerate(series):
         z = np.array([gap.get(label, np.nan) for label in labels]) / sigma
         left.bar(x + (k - (len(series) - 1) / 2) * width, z, width, label=name, color=colour)
+    damped = list(nominal.damping_gap)  # the damping ratios' gaps beside the frequencies' (fitted only)
+    if damped:
+        from mountid.diagnosis.fitting import damping_std
+
+        xd = len(labels) + 0.5 + np.arange(len(damped))
+        std = np.array([damping_std(diagnosis.campaign.modes[label]) for label in damped])
+        for k, (_, gap, colour) in enumerate(series):
+            if gap is nominal.frequency_gap or (best is not None and gap is best.frequency_gap):
+                own = nominal.damping_gap if gap is nominal.frequency_gap else best.damping_gap
+                z = np.array([own.get(label, np.nan) for label in damped]) / std
+                left.bar(xd + (k - (len(series) - 1) / 2) * width, z, width, color=colour)
+        left.axvline(len(labels) - 0.25, color="#888888", lw=0.6, ls=":")
+        x = np.concatenate([x, xd])
+        labels = [*labels, *(f"\u03b6 {label}" for label in damped)]
     left.axhspan(-2, 2, color="#2ca02c", alpha=0.08, label="within 2 sigma")
     left.axhline(0, color="black", lw=0.6)
     # gaps span from a fraction of a sigma to hundreds (a held-out mode that alone determined a parameter):
