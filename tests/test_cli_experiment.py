@@ -95,8 +95,12 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     code, out, _ = run(capsys, "process", "kid300", str(path), "--json")
     assert code == 0
     modes = json.loads(out)["modes"]
-    assert sorted(modes) == ["phi", "psi", "x", "z"]
+    assert sorted(modes) == ["phi", "psi", "x", "z"] and json.loads(out)["frequency_type"] == "pole"
     assert modes["x"]["frequency"] == pytest.approx(17.71, rel=2e-3) and modes["x"]["frequency_std"] > 0
+    code, text, _ = run(capsys, "process", "kid300", str(path))
+    assert (
+        code == 0 and 'the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")' in text
+    )
     code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "psi", "--json")
     assert code == 0
     assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)

@@ -120,6 +120,7 @@ def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list)
     fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac", "shape")
     return {
         "machine": machine.name,
+        "frequency_type": "pole",  # |p| of each pole (a campaign of these modes says "frequency_type": "pole")
         "modes": {k: {f: getattr(m, f) for f in fields} for k, m in modes.items()},
         "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in unlabelled],
         "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in warnings],
@@ -190,6 +191,7 @@ def cmd_process(args: argparse.Namespace) -> None:
         return
     for w in warnings:
         print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    print('  the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')
     for k, m in modes.items():
         print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
 
