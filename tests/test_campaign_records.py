@@ -101,6 +101,9 @@ def test_records_of_two_states_are_named_and_a_frequency_only_report_prints(tmp_
     assert main(["diagnose", str(tmp_path / "c.json"), "--no-figure"]) == 0
     out = capsys.readouterr().out
     assert "record: z: the records disagree beyond their uncertainty (a.csv 47.4" in out and "verdict:" in out
+    assert {"z", "psi"} <= set(c.records_disagree)
+    verdict = out.strip().splitlines()[-1]
+    assert verdict.startswith("verdict: ") and "(but the records disagree on" in verdict, verdict
 
 
 def test_records_of_one_state_agree_and_are_combined(folder):

@@ -91,6 +91,8 @@ class Campaign:
     """What the frequencies under the campaign's ``modes`` were: "undamped" or "pole" (|p|, converted)."""
     notes: tuple[str, ...] = ()
     """What reading the campaign's ``modes`` said (pole frequencies converted: ``frequency_type``)."""
+    records_disagree: tuple[str, ...] = ()
+    """The modes taken from records that disagree on their frequency beyond RECORDS_DISAGREE sigma."""
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the
@@ -195,7 +197,8 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if data.get("frequency_type") == "pole" and modes:
         modes, notes_on_modes = _poles_as_undamped(machine, dict(data.get("known", {})), modes)
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
-    from_records, notes, layout = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    records = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    from_records, notes, layout = records.modes, records.notes, records.layout
     shaped_by_hand = any(mode.shape is not None for mode in modes.values())
     for label, mode in from_records.items():
         if label not in modes:
@@ -241,6 +244,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         sensors,
         data.get("frequency_type", "undamped"),
         tuple(notes_on_modes),
+        tuple(label for label in records.disagree if label not in data.get("modes", {})),
     )
 
 
@@ -276,13 +280,21 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     return RecordSource(path, float(entry.get("start", DEFAULT_RECORD_START)), entry.get("rate"), channels)
 
 
-def _modes_from_records(
-    machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]
-) -> tuple[dict[str, MeasuredMode], list[str], tuple[Channel, ...]]:
-    """Each record through the records chain; per mode the estimate with the smallest standard deviation, the
-    notes, and the records' channel layout where every shape came from records of one layout (else ())."""
+@dataclass(frozen=True)
+class _FromRecords:
+    modes: dict[str, MeasuredMode]
+    notes: list[str]
+    layout: tuple[Channel, ...]
+    """The records' channel layout where every shape came from records of one layout, else ()."""
+    disagree: tuple[str, ...]
+    """The modes whose records disagree beyond RECORDS_DISAGREE."""
+
+
+def _modes_from_records(machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]) -> _FromRecords:
+    """Each record through the records chain; per mode the records' combination (_combined), the notes, the
+    layout of the shapes' channels and the modes the records disagree on."""
     if not sources:
-        return {}, [], ()
+        return _FromRecords({}, [], (), ())
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record, with_geometry
 
@@ -302,7 +314,7 @@ def _modes_from_records(
             Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force"
         )
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
-    modes = {}
+    modes, disagree = {}, []
     for label, (mode, name) in best.items():
         found = estimates[label]
         if len(found) == 1:
@@ -312,13 +324,15 @@ def _modes_from_records(
             names = ", ".join(n for _, n in found)
             shape = f"; shape from {name}" if mode.shape is not None else ""
             notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
-        notes += _disagreement(label, found)
+        disagreement = _disagreement(label, found)
+        notes += disagreement
+        disagree += [label] if disagreement else []
         # a record's shape has no stated spread: the campaign default, as for a shape given without one (and
         # as a campaign's mode without a shape, the typical spread of a shape one would measure)
         modes[label] = replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD)
     modes, notes = _as_undamped(machine, known, modes, notes)
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
-    return modes, notes, shaped.pop() if len(shaped) == 1 else ()
+    return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree))
 
 
 def _as_undamped(

@@ -350,6 +350,17 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
+        disagree = self.campaign.records_disagree
+        caveat = (
+            f" (but the records disagree on {', '.join(disagree)} beyond their uncertainty: not one state of the "
+            "machine, see the notes)"
+            if disagree
+            else ""
+        )
+        return self._verdict + caveat
+
+    @property
+    def _verdict(self) -> str:
         if self.where.broken_symmetry and not self.effects.significant:
             return self.where.verdict
         if self.effects.kind == "not explained":
