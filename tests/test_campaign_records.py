@@ -76,8 +76,8 @@ def test_diagnose_runs_the_records_chain_and_echoes_the_conventions(folder, caps
 
 
 def test_a_missing_record_is_named(folder, capsys):
-    data = {"machine": "kid300", "known": KNOWN, "records": ["nowhere.csv"]}
-    with pytest.raises(InputError, match="no such file"):
+    data = {"machine": "kid300", "known": KNOWN, "records": ["hit0.csv", "nowhere.csv"]}
+    with pytest.raises(InputError, match=r"^records\.1 \(nowhere\.csv\): no such file"):
         campaign.parse(data, folder)
     bad = folder / "bad.json"
     bad.write_text(json.dumps({**data, "records": [{"start": 0.1}]}), encoding="utf-8")
@@ -182,7 +182,7 @@ def test_a_campaign_places_the_channels_of_a_plain_csv(tmp_path, capsys):
     c = campaign.parse(data, tmp_path)
     assert {"x", "z", "psi", "phi"} <= set(c.modes)
     data["records"][0]["channels"]["C_q"] = data["records"][0]["channels"].pop("C_x")
-    with pytest.raises(InputError, match=r"^records\.0\.channels: C_q: no such channel"):
+    with pytest.raises(InputError, match=r"^records\.0 \(plain\.csv\): channels: C_q: no such channel"):
         campaign.parse(data, tmp_path)
 
 

@@ -302,11 +302,15 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
     notes = []
     layouts: dict[str, tuple[Channel, ...]] = {}
     for i, source in enumerate(sources):
-        record = read_record(source.path, source.rate)
-        if source.channels:
-            geometry = {name: (point, direction) for name, point, direction in source.channels}
-            record = with_geometry(record, geometry, f"records.{i}.channels")
-        found, _, warnings = modal_data(machine, record, known, source.start)
+        try:
+            record = read_record(source.path, source.rate)
+            if source.channels:
+                geometry = {name: (point, direction) for name, point, direction in source.channels}
+                record = with_geometry(record, geometry, "channels")
+            found, _, warnings = modal_data(machine, record, known, source.start)
+        except InputError as err:  # which of the campaign's records, and what of it
+            what = "" if err.parameter == "record" else f"{err.parameter}: "
+            raise InputError(f"records.{i} ({source.path.name})", f"{what}{err.reason}") from None
         notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
         for label, mode in found.items():
             estimates.setdefault(label, []).append((mode, source.path.name))
