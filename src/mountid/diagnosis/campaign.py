@@ -118,7 +118,7 @@ class Campaign:
             "description": f"{self.machine.name}: {mod.TITLE}",
             "frequencies": "undamped natural frequencies [rad/s] (the model's sqrt of the eigenvalues of (C, M))"
             + ("; the modes' given as poles' |p| and converted" if self.frequency_type == "pole" else "")
-            + ("; the records' poles' |p| converted" if self.records else ""),
+            + ("; the records' poles' |p| converted (the record notes say where)" if self.records else ""),
             "shape_coordinates": list(mod.COORDINATES),
             "shape_reference": "translations of the description's coordinate origin [m], rotations about its "
             "axes [rad]",
@@ -353,7 +353,8 @@ def _as_undamped(
     |p| is divided by the ratio |p| / omega of the records chain's own identification (stiffness fitted to the
     damped model's |p|, damping to the damping ratios; the damping parameters under ``known`` kept): an effect
     the nominal model lacks changes that ratio only at third order. Without damping parameters, or where the
-    identification fails (the diagnosis then says why), the frequencies are kept with a note (an error naming
+    identification fails or no mount of the description fits (the stiffness fit runs to a boundary: the ratio
+    there would mean nothing), the frequencies are kept with a note (an error naming
     ``frequency_type`` when ``strict``: the campaign said its frequencies are poles). ``whose``: the notes' subject."""
     from mountid.identification.from_records import fit_damping, fit_stiffness, pole_frequencies
 
@@ -364,12 +365,12 @@ def _as_undamped(
     pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
     rule = getattr(machine.module, "ROOT_RULE", "") or None
     try:
-        params, _ = fit_stiffness(machine, known, pairs, root=rule, boundary_ok=True)
+        params, _ = fit_stiffness(machine, known, pairs, root=rule)
         damping = {n: float(known[n]) for n in names if n in known}
         with_modes = {label: m for label, m in modes.items() if m.damping_ratio is not None}
         if unknown:
             damping |= fit_damping(machine, {**known, **params}, with_modes, unknown)[0]
-        params, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule, boundary_ok=True)
+        params, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule)
         values = machine.values({**known, **damping, **params}, tuple(machine.parameters))
         ratio = pole_frequencies(machine, values) / np.asarray(
             machine.module.frequencies(**{a: values[a] for a in machine.module.FORWARD_ARGUMENTS})
