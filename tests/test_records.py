@@ -188,3 +188,10 @@ def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
     (tmp_path / "min.csv").write_text(head.replace("[ms]", "[min]") + "\n" + lines[0] + "\n", encoding="utf-8")
     with pytest.raises(InputError, match="time in 'min'"):
         read_csv(tmp_path / "min.csv")
+    # parentheses that hold no unit are part of the name; m/s\u00b2 as written with a superscript
+    names = head.replace("A_x [g]", "Ch(1)").replace("(mm/s)", "[m/s\u00b2]")
+    (tmp_path / "names.csv").write_text("\n".join([names, *lines]) + "\n", encoding="utf-8")
+    assert [(c.name, c.unit) for c in read_csv(tmp_path / "names.csv").channels] == [
+        ("Ch(1)", "m/s^2"),
+        ("B_y", "m/s\u00b2"),
+    ]

@@ -36,7 +36,15 @@ from mountid.measurement.settings import RECORDS, RecordSettings
 FORMAT_LINE = "# mountid record 1"
 
 UNITS: dict[str, dict[str, float]] = {
-    "acceleration": {"m/s^2": 1.0, "m/s2": 1.0, "g": STANDARD_GRAVITY, "mm/s^2": 1e-3, "mm/s2": 1e-3},
+    "acceleration": {
+        "m/s^2": 1.0,
+        "m/s2": 1.0,
+        "m/s\u00b2": 1.0,
+        "g": STANDARD_GRAVITY,
+        "mm/s^2": 1e-3,
+        "mm/s2": 1e-3,
+        "mm/s\u00b2": 1e-3,
+    },
     "velocity": {"m/s": 1.0, "mm/s": 1e-3},
     "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
     "force": {"N": 1.0, "kN": 1e3},
@@ -297,12 +305,15 @@ def _separator(header: str) -> str:
 
 
 def _split_unit(title: str) -> tuple[str, str | None]:
-    """A header cell's name and unit, as bench exports write them: "A_x [g]" or "A_x (mm/s)"; (title, None)
-    without a unit."""
+    """A header cell's name and unit, as bench exports write them: "A_x [g]" (square brackets: always a unit)
+    or "A_x (mm/s)" (parentheses: a unit where it is one of UNITS or TIME_UNITS, else part of the name, as in
+    "Ch(1)"); (title, None) without a unit."""
+    known = {*TIME_UNITS, *(u for units in UNITS.values() for u in units)}
     for left, right in ("[]", "()"):
         if title.endswith(right) and left in title:
             name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
-            return name, unit
+            if left == "[" or unit in known:
+                return name, unit
     return title, None
 
 
