@@ -31,6 +31,17 @@ def relative_condition(mod, key, p):
     return np.inf if s[-1] == 0 else 1.0 / s[-1]
 
 
+def round_trip_tolerance(mod, key, p, kappa: float) -> float:
+    """1e-9, or where larger the rounding the forward map itself carries into the unknowns: its eigenvalues
+    carry an absolute error of about eps * lambda_max, a relative one of eps * lambda_max / lambda_k on a
+    given mode, which the inverse problem amplifies by kappa (factor 16, as the 50-digit derivative check's;
+    not fitted). A machine whose given modes lie decades below its highest (screen6 at m = 1000 kg on J = 1
+    kg m^2: 3.7e3 apart, kappa 5e4) cannot round-trip to 1e-9."""
+    lam = np.asarray(mod.frequencies(**p)) ** 2
+    idx = [mod.MODES.index(k) for k in key]
+    return max(1e-9, 16 * kappa * np.finfo(float).eps * float(lam.max() / lam[idx].min()))
+
+
 def invert(mod, key, p):
     omega = mod.frequencies(**p)
     knowns = {a: p[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
@@ -53,7 +64,9 @@ def check_round_trip(name: str, key: tuple[str, ...], p: dict, pinned: bool = Fa
     err = np.max(np.abs(found - truth[:, None]) / truth[:, None], axis=0)
     assert roots.admissible.any(), "the true parameters must be an admissible root"
     closest = np.nanmin(np.where(roots.admissible, err, np.inf))
-    assert closest <= 1e-9, f"closest admissible root off by {closest:.2e} (kappa {kappa:.1e})"
+    assert closest <= round_trip_tolerance(
+        mod, key, p, kappa
+    ), f"closest admissible root off by {closest:.2e} (kappa {kappa:.1e})"
     # every admissible root (the truth or another exact solution) reproduces the given frequencies far more
     # closely than the 1e-6 admissibility tolerance
     knowns = {a: p[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
@@ -86,12 +99,28 @@ def test_round_trip_recovers_the_unknowns_rectangular(key, p):
 # divides by sin(alpha)^2 and the nearby-point fallback landed outside Newton's basin); about 1 in 100
 # square upright machines failed before the engine derived the alpha = 0 solution.
 _SQUARE_UPRIGHT = dict(m=10.0, J_x=1.0, J_y=1.0, J_z=1.0, a=1.0, b=1.0, h=1.0, alpha=0.0, c_h=1e3, c_v=10**6.5, c_m=1e6)
+# `make fuzz` (2026-11-27): a heavy body on tiny inertias, its given modes 3.7e3 below its highest: 3.3e-9 off,
+# within what the forward map's rounding allows (round_trip_tolerance), beyond the flat 1e-9 of before.
+_HEAVY_ON_TINY_INERTIA = dict(
+    m=1000.0,
+    J_x=1.0,
+    J_y=1.0,
+    J_z=1.0,
+    a=0.7233941627366748,
+    b=1.0,
+    h=1.0,
+    alpha=-0.609375,
+    c_h=1000.0,
+    c_v=10.0**6.5,
+    c_m=1000.0,
+)
 
 
 @pytest.mark.parametrize("key", _keys("screen6"), ids="_".join)
 @settings(max_examples=budget(40))
 @given(p=parameters(generated("screen6")))
 @example(p=_SQUARE_UPRIGHT)
+@example(p=_HEAVY_ON_TINY_INERTIA)
 def test_round_trip_recovers_the_unknowns_screen6(key, p):
     check_round_trip("screen6", key, p)
 
