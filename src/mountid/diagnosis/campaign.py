@@ -103,7 +103,6 @@ class Campaign:
         mod = self.machine.module
         values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
         points = np.asarray(call(mod, "isolator_points", values))
-        damping = {n: p for n, p in self.machine.parameters.items() if p["kind"] == "damping"}
         measured = any(m.damping_ratio is not None for m in self.modes.values())
         return {
             "damping_parameters": {
@@ -111,7 +110,7 @@ class Campaign:
                     "value": self.machine.values(self.known, (n,))[n],
                     "from": "known" if n in self.known else "fitted",
                 }
-                for n in damping
+                for n in self.machine.damping
             }
             if measured
             else {},
@@ -253,7 +252,7 @@ def _poles_as_undamped(
 ) -> tuple[dict[str, MeasuredMode], list[str]]:
     """The ``modes`` of a campaign whose frequencies are poles' |p| (``frequency_type`` "pole") as undamped
     frequencies (_as_undamped); an error where the campaign gives no damping to convert them with."""
-    names = [n for n, p in machine.parameters.items() if p["kind"] == "damping" and n not in known]
+    names = [n for n in machine.damping if n not in known]
     if names and not any(m.damping_ratio is not None for m in modes.values()):
         raise InputError(
             "frequency_type",
@@ -358,7 +357,7 @@ def _as_undamped(
     ``frequency_type`` when ``strict``: the campaign said its frequencies are poles). ``whose``: the notes' subject."""
     from mountid.identification.from_records import fit_damping, fit_stiffness, pole_frequencies
 
-    names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
+    names = machine.damping
     if not names:
         return modes, notes
     unknown = tuple(n for n in names if n not in known)

@@ -81,11 +81,7 @@ def _campaign_frame(campaign: Campaign) -> CampaignFrame:
     mod = machine.module
     labels = tuple(campaign.modes)
     damped = any(m.damping_ratio is not None for m in campaign.modes.values())
-    damping_unknown = (
-        tuple(n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping" and n not in campaign.known)
-        if damped
-        else ()
-    )
+    damping_unknown = tuple(n for n in machine.damping if n not in campaign.known) if damped else ()
     unknown = machine.unknown + damping_unknown
     known = machine.values(campaign.known, tuple(n for n in mod.PARAMETERS if n not in unknown))
     start = machine.values({}, unknown)

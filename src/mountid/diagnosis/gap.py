@@ -381,7 +381,7 @@ class Diagnosis:
         parts = chi2_by_kind(nominal, self.campaign)
         if parts["damping ratios"] <= 0.5 * nominal.chi2:
             return ""
-        names = [n for n, p in self.campaign.machine.parameters.items() if p["kind"] == "damping"]
+        names = self.campaign.machine.damping
         worst = max(
             nominal.damping_gap, key=lambda lab: abs(nominal.damping_gap[lab]) / damping_std(self.campaign.modes[lab])
         )

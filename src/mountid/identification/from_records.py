@@ -674,7 +674,7 @@ def _identify(
         chosen = {lab: modes[lab] for lab in use}
     pairs = {k: (m.frequency, m.frequency_std) for k, m in modes.items()}
     fitted, others = {k: pairs[k] for k in chosen}, {k: v for k, v in pairs.items() if k not in chosen}
-    damping_names = tuple(n for n, p in machine.parameters.items() if p["kind"] == "damping")
+    damping_names = machine.damping
     # the record shows damped poles: undamped fit first, then damping, then the stiffness refitted to the
     # damped model's |p| (the shift is second order in damping: one more round changes nothing measurable)
     notes = list(notes)

@@ -166,7 +166,7 @@ def plan(
     parameter_std = {u: math.nan for u in machine.unknown}
     frequencies = {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}
     known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
-    damping = {n: rig.values[n] for n, p in machine.parameters.items() if p["kind"] == "damping"}
+    damping = {n: rig.values[n] for n in machine.damping}
     try:
         rule = getattr(mod, "ROOT_RULE", "") or None
         _, parameter_std = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)

@@ -46,6 +46,8 @@ class Machine:
         self.modes: tuple[str, ...] = module.MODES
         self.unique_modes: tuple[str, ...] = module.UNIQUE_MODES
         self.unknown: tuple[str, ...] = module.UNKNOWN
+        self.damping: tuple[str, ...] = tuple(n for n, p in module.PARAMETERS.items() if p["kind"] == "damping")
+        """The damping parameters (B is linear in them), in the description's order."""
 
     @classmethod
     def resolve(cls, machine: str) -> Machine:

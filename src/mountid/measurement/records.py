@@ -308,13 +308,17 @@ def _split_unit(title: str) -> tuple[str, str | None]:
     """A header cell's name and unit, as bench exports write them: "A_x [g]" (square brackets: always a unit)
     or "A_x (mm/s)" (parentheses: a unit where it is one of UNITS or TIME_UNITS, else part of the name, as in
     "Ch(1)"); (title, None) without a unit."""
-    known = {*TIME_UNITS, *(u for units in UNITS.values() for u in units)}
     for left, right in ("[]", "()"):
         if title.endswith(right) and left in title:
             name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
-            if left == "[" or unit in known:
+            if left == "[" or unit in TIME_UNITS or _quantity(unit):
                 return name, unit
     return title, None
+
+
+def _quantity(unit: str) -> str | None:
+    """The quantity a unit of records.UNITS measures (None for a unit it does not list)."""
+    return next((q for q, units in UNITS.items() if unit in units), None)
 
 
 def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
@@ -325,7 +329,7 @@ def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
     name, unit = _split_unit(title)
     if unit is None:
         return Channel(name)
-    quantity = next((q for q, units in UNITS.items() if unit in units), None)
+    quantity = _quantity(unit)
     if quantity is None:
         known = ", ".join(u for units in UNITS.values() for u in units)
         raise InputError(where, f"{title!r}: unit {unit!r} is not one of {known}")
@@ -362,7 +366,7 @@ def with_geometry(record: Record, geometry: dict[str, Placement], source: str = 
     for c in record.channels:
         if c.name in geometry:
             point, direction = geometry[c.name]
-            size = math.hypot(*direction)
+            size = math.hypot(*direction)  # not zero: checked above
             c = replace(c, point=tuple(map(float, point)), direction=tuple(float(v) / size for v in direction))
         channels.append(c)
     return replace(record, channels=tuple(channels))

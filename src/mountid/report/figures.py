@@ -280,29 +280,29 @@ def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
     sigma = np.array([diagnosis.campaign.modes[label].frequency_std for label in labels])
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1.1, 1]})
     x = np.arange(len(labels))
+    # (name, frequency gaps, colour, damping-ratio gaps: the fitted series only)
     series = [
-        ("before, fitted", nominal.frequency_gap, "#999999"),
-        ("before, held out", nominal.held_out_gap, "#cccccc"),
+        ("before, fitted", nominal.frequency_gap, "#999999", nominal.damping_gap),
+        ("before, held out", nominal.held_out_gap, "#cccccc", None),
     ]
     if best is not None:
         series += [
-            (f"{best.effect}, fitted", best.frequency_gap, "#1f77b4"),
-            (f"{best.effect}, held out", best.held_out_gap, "#9ecae1"),
+            (f"{best.effect}, fitted", best.frequency_gap, "#1f77b4", best.damping_gap),
+            (f"{best.effect}, held out", best.held_out_gap, "#9ecae1", None),
         ]
     width = 0.8 / len(series)
-    for k, (name, gap, colour) in enumerate(series):
+    for k, (name, gap, colour, _) in enumerate(series):
         z = np.array([gap.get(label, np.nan) for label in labels]) / sigma
         left.bar(x + (k - (len(series) - 1) / 2) * width, z, width, label=name, color=colour)
-    damped = list(nominal.damping_gap)  # the damping ratios' gaps beside the frequencies' (fitted only)
+    damped = list(nominal.damping_gap)  # the damping ratios' gaps beside the frequencies'
     if damped:
         from mountid.diagnosis.fitting import damping_std
 
         xd = len(labels) + 0.5 + np.arange(len(damped))
         std = np.array([damping_std(diagnosis.campaign.modes[label]) for label in damped])
-        for k, (_, gap, colour) in enumerate(series):
-            if gap is nominal.frequency_gap or (best is not None and gap is best.frequency_gap):
-                own = nominal.damping_gap if gap is nominal.frequency_gap else best.damping_gap
-                z = np.array([own.get(label, np.nan) for label in damped]) / std
+        for k, (_, _, colour, damping_gap) in enumerate(series):
+            if damping_gap is not None:
+                z = np.array([damping_gap.get(label, np.nan) for label in damped]) / std
                 left.bar(xd + (k - (len(series) - 1) / 2) * width, z, width, color=colour)
         left.axvline(len(labels) - 0.25, color="#888888", lw=0.6, ls=":")
         x = np.concatenate([x, xd])
