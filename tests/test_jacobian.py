@@ -13,7 +13,7 @@ from test_candidates import ROUND_TRIP, UNKNOWN, _campaign_from
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
-from mountid.diagnosis.jacobian import jacobian
+from mountid.diagnosis.jacobian import _off_span_derivative, _span_factors, jacobian
 from mountid.effects import EFFECTS
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
@@ -197,6 +197,49 @@ def test_a_parameter_that_splits_twins_falls_back_to_differences():
     fit = fit_candidate(campaign, EFFECTS["isolator_scatter"], 0)
     assert fit.parameters["scatter_shear"] == pytest.approx(0.2, rel=1e-4)
     assert fit.parameters["scatter_axial"] == pytest.approx(0.2, rel=1e-4)
+
+
+@pytest.mark.parametrize("columns", [2, 3])
+@pytest.mark.parametrize("closeness", [1.0, 1e-3, 1e-7])
+def test_span_factors_and_the_span_derivative_hold_for_nearly_parallel_partners(columns, closeness):
+    """The partners' Gram-Schmidt factors give orthonormal columns of their span and its pseudo-inverse (against
+    numpy's SVD-based pinv, relative to the condition of the shapes), the derivative of the part of s off their
+    span matches the dense formula and a central difference, and parallel partners are refused (None)."""
+    rng = np.random.default_rng(columns)
+    base = rng.normal(size=(6, columns))
+    base[:, 1] = base[:, 0] + closeness * rng.normal(size=6)
+    direction = rng.normal(size=(6, columns))
+    s = rng.normal(size=6)
+
+    def unit(t: float) -> np.ndarray:
+        u = base + t * direction
+        return u / np.linalg.norm(u, axis=0)
+
+    u = unit(0.0)
+    q, pinv = _span_factors(u)
+    condition = np.linalg.cond(u)
+    assert np.max(np.abs(q.T @ q - np.eye(columns))) <= 1e-14
+    assert np.max(np.abs(pinv - np.linalg.pinv(u))) <= 1e-14 * condition * np.max(np.abs(pinv))
+    h = 1e-6 * closeness
+    d_u = (unit(h) - unit(-h)) / (2 * h)
+
+    def off(t: float) -> np.ndarray:
+        w = unit(t)
+        return s - w @ np.linalg.lstsq(w, s, rcond=None)[0]
+
+    analytic = _off_span_derivative(s, q, pinv, s - q @ (q.T @ s), d_u[None])[0]
+    # dP = (I - P) dU U^+ + its transpose, formed densely from numpy's pinv
+    full = np.linalg.pinv(u)
+    rest = np.eye(6) - u @ full
+    d_p = rest @ d_u @ full
+    dense = -(d_p + d_p.T) @ s
+    assert np.max(np.abs(analytic - dense)) <= 1e-13 * condition * np.max(np.abs(dense))
+    if closeness >= 1e-3:  # a central difference of nearly parallel partners is rounding alone
+        numeric = (off(h) - off(-h)) / (2 * h)
+        assert np.max(np.abs(analytic - numeric)) <= 1e-5 * np.max(np.abs(numeric))
+    parallel = u.copy()
+    parallel[:, 1] = parallel[:, 0]
+    assert _span_factors(parallel) is None
 
 
 @pytest.mark.parametrize("damping_factor", [1.0, 30.0])

@@ -19,6 +19,7 @@ parameters that move the twins together, often every unknown stiffness, keep the
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +36,10 @@ from mountid.runtime import eigen_derivatives, modal_projection
 
 if TYPE_CHECKING:
     from mountid.diagnosis.fitting import Data
+
+PARALLEL = 1e-12
+"""Partners' shapes are parallel (their span drops a direction) where a diagonal entry of the R factor of their
+unit columns is this small or smaller (the test of candidate_model._orthonormal)."""
 
 _SPLIT_RTOL = 1e-8
 """A parameter keeps twins together when its perturbation of their common subspace is a multiple of the
@@ -66,22 +71,29 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     rows = [-(d_omega[:, e.index] / data.sigma[None, :]).T]
     body, d_body = _unit_shapes(e.shapes, d_shapes, model.length)
     labels = model.labels
+    spans: dict[bytes, tuple[np.ndarray, np.ndarray] | None] = {}  # partner set -> (q, U^+) of their shapes
     for lab, s, sig in zip(data.shape_labels, data.shapes, data.shape_sigma, strict=True):
         k = labels.index(lab)
         j = e.index[k]
-        own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
-        partners = np.flatnonzero(e.weight[k] > PARTNER_WEIGHT)
-        if len(partners) > 1:
-            basis = body[:, partners]
-            if np.linalg.matrix_rank(basis, tol=1e-12) < len(partners):
+        near = e.weight[k] > PARTNER_WEIGHT
+        partners = np.flatnonzero(near)
+        if len(partners) <= 1:
+            own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
+        else:
+            key = near.tobytes()
+            if key not in spans:
+                spans[key] = _span_factors(body[:, partners])
+            if spans[key] is None:
                 return None  # parallel partners: the span drops a direction (candidate_model._orthonormal)
-            d_span = _off_span_derivative(s, basis, d_body[:, :, partners])
+            q, pinv = spans[key]
+            rest = s - q @ (q.T @ s)  # off_span(s, q): the part of s off the partners' span
+            d_span = _off_span_derivative(s, q, pinv, rest, d_body[:, :, partners])
             if exact_twins(e.lam, j, partners):
                 own = d_span
             else:
+                own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
                 w, d_w = _blend_weight(e, k, partners, d_lam)
-                span = np.linalg.qr(basis)[0]
-                own = w * d_span + (1 - w) * own + np.outer(d_w, off_span(s, span) - off_span(s, body[:, j]))
+                own = w * d_span + (1 - w) * own + np.outer(d_w, rest - off_span(s, body[:, j]))
         rows.append(own.T / sig)
     if data.damping_labels:
         d_zeta = model.strategy.damping_ratio_derivatives(model, e, d_mats)
@@ -109,14 +121,18 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     if not e.twins:
         return split
     used = {*e.index.tolist(), *np.flatnonzero(np.max(e.weight, axis=0) > PARTNER_WEIGHT).tolist()}
-    for group, members in e.twins:
-        if used.isdisjoint(members):
-            continue
-        v = e.vec[:, group]
-        lam = e.lam[members[0]]
-        g = modal_projection(v, d_c) - lam * modal_projection(v, d_m)
-        mean = np.trace(g, axis1=1, axis2=2) / v.shape[1]
-        off = g - mean[:, None, None] * np.eye(v.shape[1])[None]
+    sets = [(np.flatnonzero(group), members[0]) for group, members in e.twins if not used.isdisjoint(members)]
+    if not sets:
+        return split
+    n_p = len(d_m)
+    projected = modal_projection(e.vec[:, np.concatenate([c for c, _ in sets])], np.concatenate((d_c, d_m)))
+    at = 0
+    for columns, j in sets:
+        block = slice(at, at + len(columns))  # the set's rows and columns of the projection onto every set
+        at += len(columns)
+        g = projected[:n_p, block, block] - e.lam[j] * projected[n_p:, block, block]
+        mean = np.trace(g, axis1=1, axis2=2) / len(columns)
+        off = g - mean[:, None, None] * np.eye(len(columns))[None]
         size = np.max(np.abs(g), axis=(1, 2))
         split |= np.max(np.abs(off), axis=(1, 2)) > _SPLIT_RTOL * np.maximum(size, np.finfo(float).tiny)
     return split
@@ -142,14 +158,41 @@ def _off_direction_derivative(s: np.ndarray, u: np.ndarray, d_u: np.ndarray) -> 
     return -(d_u * (u @ s) + np.outer(d_u @ s, u))
 
 
-def _off_span_derivative(s: np.ndarray, basis: np.ndarray, d_basis: np.ndarray) -> np.ndarray:
-    """d/dq of (I - P) s, P the orthogonal projector onto the columns U of ``basis`` (6, c), from dU/dq
-    (n_q, 6, c): dP = (I - P) dU U^+ + (U^+)^T dU^T (I - P)."""
-    pinv = np.linalg.pinv(basis)
-    rest = np.eye(len(s)) - basis @ pinv
-    d_p = rest @ d_basis @ pinv
-    d_p += np.swapaxes(d_p, 1, 2)
-    return -(d_p @ s)
+def _span_factors(basis: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Orthonormal columns q spanning the columns U of ``basis`` (6, c) and the pseudo-inverse U^+ = r^-1 q^T
+    (c, 6), from U = q r by Gram-Schmidt, each column orthogonalised twice (twice is enough: q is orthonormal to
+    rounding however close the columns lie); None where a column lies in the span of those before it (a diagonal
+    entry of r at or below PARALLEL, the test of candidate_model._orthonormal). Two or three columns: numpy's
+    QR and inverse cost several times these few products at this size."""
+    n, c = basis.shape
+    q = np.empty((n, c))
+    r = np.zeros((c, c))
+    for i in range(c):
+        v = basis[:, i].copy()
+        for _ in range(2):
+            h = q[:, :i].T @ v
+            v -= q[:, :i] @ h
+            r[:i, i] += h
+        r[i, i] = math.sqrt(v @ v)
+        if r[i, i] <= PARALLEL:
+            return None
+        q[:, i] = v / r[i, i]
+    pinv = np.empty((c, n))  # r pinv = q^T by back substitution
+    for i in range(c - 1, -1, -1):
+        pinv[i] = (q[:, i] - r[i, i + 1 :] @ pinv[i + 1 :]) / r[i, i]
+    return q, pinv
+
+
+def _off_span_derivative(
+    s: np.ndarray, q: np.ndarray, pinv: np.ndarray, rest: np.ndarray, d_basis: np.ndarray
+) -> np.ndarray:
+    """d/dq of (I - P) s, P = q q^T the orthogonal projector onto the columns U of the partners' shapes (6, c),
+    ``pinv`` = U^+ and ``rest`` = (I - P) s, from dU/dq (n_q, 6, c): dP = (I - P) dU U^+ + (U^+)^T dU^T (I - P),
+    applied to s without forming dP."""
+    along = d_basis @ (pinv @ s)  # dU U^+ s, (n_q, 6)
+    along -= (along @ q) @ q.T  # (I - P) dU U^+ s
+    across = np.einsum("qac,a->qc", d_basis, rest) @ pinv  # ((U^+)^T dU^T (I - P) s)^T, (n_q, 6)
+    return -(along + across)
 
 
 def _blend_weight(e: Evaluation, k: int, partners: np.ndarray, d_lam: np.ndarray) -> tuple[float, np.ndarray]:
