@@ -167,6 +167,17 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
         fit_stiffness(rect, {}, {lab: (w[lab], 0.01) for lab in ("x", "y", "psi")})
 
 
+def test_frequencies_beyond_double_precision_are_a_named_error():
+    """A frequency whose square overflows in a generated inverse leaves that set without a root (an
+    OverflowError from the inverse's Python floats was a traceback); the others' roots fit nothing."""
+    from mountid.errors import InputError
+    from mountid.identification.from_records import fit_stiffness
+
+    machine = Rig.of("kid300").machine
+    with pytest.raises(InputError, match="^measured: no mount of this description fits these frequencies"):
+        fit_stiffness(machine, TABLE_1, {"x": (1e300, 1.0), "z": (1e300, 1.0), "psi": (1e300, 1.0)})
+
+
 def test_mode_shapes_in_the_coordinates_match_the_model():
     """Twelve channels fix all six coordinates: the measured shape of each distinct mode lies (MAC > 0.99)
     in the span of the model's shapes of the modes sharing its frequency (x with y, psi with theta)."""

@@ -108,6 +108,15 @@ def test_sensitivities_match_the_closed_form_of_the_vertical_mode():
         (lambda d: d.pop("modes"), "campaign: needs one of: 'modes' is a required property; or 'records'"),
         # a record entry of the object form: the fault inside it, not the whole entry against either form
         (lambda d: d.update(records=[{"file": "r.csv", "start": -1}]), "records.0.start: -1 is less than the minimum"),
+        # values a double-precision model cannot take: a named error each (they were tracebacks, warnings or nan)
+        (lambda d: d["modes"]["z"].update(frequency=1e300), "modes.z.frequency: 1e+300 rad/s is more than 10000"),
+        (lambda d: d["modes"]["z"].update(frequency=1e-300), "modes.z.frequency: 1e-300 rad/s is more than 10000"),
+        (lambda d: d["modes"]["z"].update(uncertainty=1e-12), "modes.z.uncertainty: 1e-12 rad/s is below 1e-09"),
+        (lambda d: d["modes"]["z"].update(uncertainty=1e300), "modes.z.uncertainty: 1e+300 rad/s is as large as"),
+        (lambda d: d["modes"]["z"].update(shape=[0, 0, 1, 0, 0, 0], shape_uncertainty=1e-300), "modes.z.shape_unc"),
+        (lambda d: d["modes"]["z"].update(damping_ratio=0.1, damping_uncertainty=1e-300), "modes.z.damping_unc"),
+        (lambda d: d["known"].update(b_z=1e300), "known.b_z: 1e+300 N s/m is 9.62e+296 times above"),
+        (lambda d: d["known"].update(m=1e-3), "known.m: 0.001 kg is 8.39e+05 times below"),
     ],
 )
 def test_bad_campaigns_are_rejected_by_entry(edit, start):

@@ -36,6 +36,7 @@ from mountid.errors import InputError
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Channel
+from mountid.nomenclature import POSITIVE_KINDS
 
 
 def schema() -> dict:
@@ -53,6 +54,20 @@ DEFAULT_DAMPING_STD = 0.05
 
 DEFAULT_RECORD_START = 0.07
 """Start of the free decay [s] of a record listed without one (as the command line's --start)."""
+RESOLUTION = 1e-9
+"""The smallest uncertainty a campaign may state: relative to the frequency for a frequency, absolute for a damping
+ratio and for each component of a unit-length shape. Below it the fits would weigh the double-precision model's own
+rounding (eigenvalues to 1e-12 - 1e-11 relative where twins or far-apart modes condition them) as a sizable part of
+a standard deviation, and chi^2 would measure rounding (at 1e-12 the report's held-out predictions were nan; at
+1e-300 a traceback)."""
+
+SCALE_LIMIT = 1e4
+"""How far (a factor either way) a measured frequency may lie outside the frequencies of the description at its
+nominal values with the campaign's known ones, and a known value from the description's nominal value. The fits
+reach a factor 100 in frequency (unknowns within candidate_model.UNKNOWN_RANGE, 1e4 in stiffness); beyond this
+the value is another machine, another unit or a typing error, and the model's products leave double precision
+(a frequency of 1e200 rad/s or a damping of 1e300 N s/m overflowed where a traceback was the answer)."""
+
 RECORDS_DISAGREE = 5.0
 """Two records' frequencies of one mode further apart than this many of their combined standard deviations are
 named in the campaign's notes (the diagnosis takes their weighted mean, its uncertainty widened to their
@@ -173,6 +188,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             raise InputError(f"known.{name}", f"not a parameter of {machine.name}")
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
+    _check_known_scale(machine, dict(data.get("known", {})))
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
@@ -192,6 +208,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
+    _check_modes_scale(machine, dict(data.get("known", {})), modes)
     notes_on_modes: list[str] = []
     if data.get("frequency_type") == "pole" and modes:
         modes, notes_on_modes = _poles_as_undamped(machine, dict(data.get("known", {})), modes)
@@ -205,6 +222,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             seen[label] = machine.module.REPRESENTATIVE[label]
     if not modes:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
+    _check_modes_scale(machine, dict(data.get("known", {})), {k: v for k, v in from_records.items() if modes[k] is v})
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -245,6 +263,66 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         tuple(notes_on_modes),
         tuple(label for label in records.disagree if label not in data.get("modes", {})),
     )
+
+
+def _check_known_scale(machine: Machine, known: dict[str, float]) -> None:
+    """An error naming the first known value (of a positive kind) more than SCALE_LIMIT from the description's
+    nominal value."""
+    for name, value in known.items():
+        spec = machine.parameters[name]
+        nominal = spec["value"]
+        if (
+            spec["kind"] in POSITIVE_KINDS
+            and nominal
+            and value > 0
+            and not (nominal / SCALE_LIMIT <= value <= nominal * SCALE_LIMIT)
+        ):
+            raise InputError(
+                f"known.{name}",
+                f"{value:g} {spec['unit']} is {max(value / nominal, nominal / value):.3g} times "
+                f"{'above' if value > nominal else 'below'} the description's nominal value {nominal:g} "
+                f"{spec['unit']}, more than {SCALE_LIMIT:g} (another unit, or another machine?)",
+            )
+
+
+def _check_modes_scale(machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode]) -> None:
+    """An error naming the first measured frequency more than SCALE_LIMIT outside the frequencies of the model
+    at its nominal values with the ``known`` ones, or the first stated uncertainty below RESOLUTION or as large
+    as the frequency."""
+    model = machine.frequencies(known)
+    low, high = min(model.values()), max(model.values())
+    for label, mode in modes.items():
+        if not low / SCALE_LIMIT <= mode.frequency <= high * SCALE_LIMIT:
+            side, bound = ("below the lowest", low) if mode.frequency < low else ("above the highest", high)
+            raise InputError(
+                f"modes.{label}.frequency",
+                f"{mode.frequency:.6g} rad/s is more than {SCALE_LIMIT:g} times {side} frequency of "
+                f"{machine.name} at its nominal values with the known ones ({bound:.4g} rad/s): another unit, or "
+                "a typing error?",
+            )
+    for label, mode in modes.items():
+        if mode.frequency_std < RESOLUTION * mode.frequency:
+            raise InputError(
+                f"modes.{label}.uncertainty",
+                f"{mode.frequency_std:.3g} rad/s is below {RESOLUTION:g} of the frequency {mode.frequency:.6g} rad/s, "
+                "below the rounding of the double-precision model",
+            )
+        if mode.frequency_std >= mode.frequency:
+            raise InputError(
+                f"modes.{label}.uncertainty",
+                f"{mode.frequency_std:.3g} rad/s is as large as the frequency {mode.frequency:.6g} rad/s: the "
+                "measurement does not determine it (leave the mode out)",
+            )
+        if mode.shape is not None and mode.shape_std < RESOLUTION:
+            raise InputError(
+                f"modes.{label}.shape_uncertainty",
+                f"{mode.shape_std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
+            )
+        if mode.damping_ratio is not None and mode.damping_std is not None and mode.damping_std < RESOLUTION:
+            raise InputError(
+                f"modes.{label}.damping_uncertainty",
+                f"{mode.damping_std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
+            )
 
 
 def _poles_as_undamped(

@@ -309,7 +309,11 @@ def fit_stiffness(
     starts = []
     for key in itertools.combinations(labels, len(unknown)):
         if key in mod.INVERSES:
-            roots = mod.INVERSES[key](**knowns, **{f"omega_{lab}": measured[lab][0] for lab in key})
+            try:
+                with np.errstate(all="ignore"):
+                    roots = mod.INVERSES[key](**knowns, **{f"omega_{lab}": measured[lab][0] for lab in key})
+            except (OverflowError, ZeroDivisionError):
+                continue  # a frequency whose powers leave double precision: no root from this set
             for i in np.flatnonzero(roots.admissible):
                 starts.append(np.log([roots.parameters[u][i] for u in unknown]))
     if not starts:
