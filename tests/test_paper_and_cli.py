@@ -70,7 +70,15 @@ def test_identify_json_contract(capsys):
         (["identify", "kid300", "--measured", "x=17.71"], "measured:"),
         (["identify", "kid300", "--measured", "x=17.71", "y=17.8"], "y:"),
         (["identify", "kid300", "--measured", "x=0", "psi=64.1"], "x:"),
-        (["identify", "rectangular", "--measured", "x=10", "z=30", "theta=50"], "measured:"),
+        (["identify", "rectangular", "--measured", "x=10", "z=30", "theta=50"], "measured: "),
+        # values beyond double precision or beyond any test: named, never a traceback, a warning or a hang
+        (["identify", "kid300", "--measured", "x=1e300", "z=46.6"], "measured: x = 1e+300 rad/s puts the model"),
+        (["plan", "kid300", "--duration", "1e300"], "--duration: 1e+300 s at 2048 Hz is 2.05e+303 samples"),
+        (["plan", "kid300", "--rate", "1e300"], "--duration: 4 s at 1e+300 Hz is 4e+300 samples"),
+        (["plan", "kid300", "--noise", "1e300"], "--noise: 1e+300 x RMS is beyond 100 x RMS"),
+        (["plan", "kid300", "--hit-point", "0,0,1e300"], "--hit-point: '0,0,1e300': a point on the machine lies"),
+        (["plan", "kid300", "--sensor", "A=1e300,0,0:1,0,0"], "--sensor: '1e300,0,0': a point on the machine lies"),
+        (["simulate", "kid300", "--out", "r.csv", "--hit-peak", "1e300"], "--hit-peak: 1e+300 N is beyond 1e+07 N"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(capsys, argv, named):

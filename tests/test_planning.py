@@ -91,3 +91,14 @@ def test_modes_above_the_records_band_are_named_and_the_rest_still_planned(capsy
     out = capsys.readouterr().out
     assert "phi         36.9373  0.0837    above the record's band (the anti-alias filter at 0.4 x 10 Hz)" in out
     assert "expected std of c_xy: none (see the note)" in out and "nan" not in out
+
+
+def test_a_hit_at_the_centre_plans_the_stiffness_by_the_descriptions_rule(capsys):
+    """A hit at the origin excites x, psi (and their twins) but not z or phi: the two distinct frequencies
+    have two solutions, the description's rule (c_z > c_xy) picks one, and the plan states their spread (it
+    was a TypeError: the rule's choice went on to compare solutions with other modes that were None); a hit
+    direction of components near the ends of double precision is that direction."""
+    assert main(["plan", "kid300", "--hit-point", "0,0,0", "--hit-direction", "1e300,1e300,0"]) == 0
+    out = capsys.readouterr().out
+    assert "along (1e+300, 1e+300, 0.0)" in out and "not excited by this hit" in out
+    assert "expected std of c_xy: " in out and "none" not in out

@@ -65,7 +65,36 @@ def check_unbalance(args: argparse.Namespace) -> None:
 
 
 MAX_SAMPLES = 10_000_000
-"""Most samples per channel a simulated record may hold (80 MB per channel in memory)."""
+"""Most samples per channel a simulated or planned record may hold (80 MB per channel in memory)."""
+
+POINT_LIMIT = 100.0
+"""The largest coordinate [m] of a sensor or hit point: on a machine on isolators, within 100 m of its origin (a
+point 1e300 m away overflowed)."""
+
+NOISE_LIMIT = 100.0
+"""The largest channel noise, relative to the channel's RMS: at 100 times its signal a channel measures nothing."""
+
+HIT_PEAK_LIMIT = 1e7
+"""The largest hit peak [N]: fifty times the largest modal impact hammers (a peak of 1e300 N overflowed)."""
+
+
+def record_size(duration: float, rate: float) -> None:
+    """--duration and --rate: positive, finite, and at most MAX_SAMPLES samples per channel together."""
+    finite_number(duration, "--duration")
+    finite_number(rate, "--rate")
+    if duration * rate > MAX_SAMPLES:
+        raise InputError(
+            "--duration",
+            f"{duration:g} s at {rate:g} Hz is {duration * rate:.3g} samples per channel; at most {MAX_SAMPLES:.0e}",
+        )
+
+
+def bounded(value: float, option: str, limit: float, unit: str, strict: bool = True) -> float:
+    """A finite number above (``strict``) or at least 0 and at most ``limit``."""
+    finite_number(value, option, strict=strict)
+    if value > limit:
+        raise InputError(option, f"{value:g}{unit} is beyond {limit:g}{unit}")
+    return value
 
 
 def writable(path: str, option: str) -> None:
@@ -95,8 +124,16 @@ def placements(items: Sequence[str] | None, option: str) -> dict[str, tuple[tupl
         point, sep2, direction = rest.partition(":")
         if not sep or not sep2 or not name:
             raise InputError(option, f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
-        out[name] = (triple(point, option), triple(direction, option))
+        out[name] = (point_on_machine(point, option), triple(direction, option))
     return out
+
+
+def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
+    """A point x,y,z [m] on the machine: three finite numbers, each within POINT_LIMIT."""
+    values = triple(text, option)
+    if max(map(abs, values)) > POINT_LIMIT:
+        raise InputError(option, f"{text!r}: a point on the machine lies within {POINT_LIMIT:g} m of its origin")
+    return values
 
 
 def read_record(path: str, rate: float | None = None, channels: Sequence[str] | None = None):

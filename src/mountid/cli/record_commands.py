@@ -7,14 +7,17 @@ import math
 from pathlib import Path
 
 from mountid.cli.arguments import (
-    MAX_SAMPLES,
+    HIT_PEAK_LIMIT,
+    NOISE_LIMIT,
     beyond_first_order,
+    bounded,
     check_unbalance,
-    finite_number,
     pairs,
     placements,
+    point_on_machine,
     print_json,
     read_record,
+    record_size,
     triple,
 )
 from mountid.errors import InputError
@@ -31,16 +34,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
     if out.suffix.lower() not in (".csv", ".txt", ".uff", ".unv"):
         raise InputError("--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58")
-    finite_number(args.duration, "--duration")
-    finite_number(args.rate, "--rate")
-    finite_number(args.noise, "--noise", strict=False)
-    finite_number(args.hit_peak, "--hit-peak", strict=False)
-    if args.duration * args.rate > MAX_SAMPLES:
-        raise InputError(
-            "--duration",
-            f"{args.duration:g} s at {args.rate:g} Hz is {args.duration * args.rate:.3g} samples per channel; "
-            f"at most {MAX_SAMPLES:.0e}",
-        )
+    record_size(args.duration, args.rate)
+    bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS", strict=False)
+    bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     sensors = _sensors(args.sensor, args.noise)
@@ -53,7 +49,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         if args.speed
         else [
             Hammer(
-                triple(args.hit_point, "--hit-point"),
+                point_on_machine(args.hit_point, "--hit-point"),
                 triple(args.hit_direction, "--hit-direction"),
                 peak=args.hit_peak,
             )
@@ -77,15 +73,14 @@ def cmd_plan(args: argparse.Namespace) -> None:
     from mountid.measurement.rig import ANTI_ALIAS, Hammer
     from mountid.validation.paper import paper_hit, paper_sensors
 
-    finite_number(args.duration, "--duration")
-    finite_number(args.rate, "--rate")
-    finite_number(args.noise, "--noise")
+    record_size(args.duration, args.rate)
+    bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS")
     machine = Machine.resolve(args.machine)
     sensors = _sensors(args.sensor, args.noise) or paper_sensors(args.noise)[:3]
     hit = paper_hit()
     if args.hit_point or args.hit_direction:
         hit = Hammer(
-            triple(args.hit_point, "--hit-point") if args.hit_point else hit.point,
+            point_on_machine(args.hit_point, "--hit-point") if args.hit_point else hit.point,
             triple(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
         )
     result = plan(machine, sensors, hit, args.duration, args.rate, args.noise, pairs(args.set, "--set"))

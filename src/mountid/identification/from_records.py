@@ -366,14 +366,15 @@ def fit_stiffness(
                     f"{len(tied)} solutions fit the measured frequencies equally ({choices}) and no other "
                     f"measured mode decides: chosen by {rule_source or 'the rule ' + root}"
                 )
-            tied = chosen
-        o_idx = [mod.MODES.index(lab) for lab in others]
-        o_w = np.array([w for w, _ in others.values()])
+            best = chosen[0]
+        else:
+            o_idx = [mod.MODES.index(lab) for lab in others]
+            o_w = np.array([w for w, _ in others.values()])
 
-        def miss(f):
-            return float(np.sum(np.log(model(dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2))
+            def miss(f):
+                return float(np.sum(np.log(model(dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2))
 
-        best = min(tied, key=miss)
+            best = min(tied, key=miss)
     jac = best.jac  # d residual / d log p
     spread = standard_deviations(covariance(jac, 2 * best.cost, dof))  # least_squares' cost is chi^2 / 2
     values = np.exp(best.x)

@@ -227,9 +227,13 @@ def damped_pole_derivatives(
 def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:
     """``direction`` normalised; an InputError naming ``name`` when it is not a non-zero finite 3-vector."""
     d = np.asarray(direction, dtype=float)
-    norm = np.linalg.norm(d)
-    if d.shape != (3,) or not np.isfinite(norm) or norm == 0:
+    if d.shape != (3,) or not np.isfinite(d).all() or not d.any():
         raise InputError(name, f"must be a non-zero 3-vector, got {np.ravel(d).tolist()}")
+    with np.errstate(over="ignore", under="ignore"):
+        norm = np.linalg.norm(d)
+    if not np.isfinite(norm) or norm < 1e-150:  # components near the ends of double precision: scaled first
+        d = d / np.max(np.abs(d))
+        norm = np.linalg.norm(d)
     return d / norm
 
 

@@ -95,14 +95,15 @@ class Machine:
         return out
 
     @contextlib.contextmanager
-    def _floating_point_errors(self, values: dict[str, float]):
+    def _floating_point_errors(self, values: dict[str, float], measured: dict[str, float] | None = None):
         """Floating-point overflow, division by zero and invalid operations inside as an InputError naming
-        the parameter furthest from its nominal value (underflow to zero is caught on the results)."""
+        the parameter furthest from its nominal value, or the ``measured`` frequency [rad/s] furthest from the
+        model's at ``values`` where that is further (underflow to zero is caught on the results)."""
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             try:
                 yield
             except (FloatingPointError, OverflowError, np.linalg.LinAlgError) as exc:
-                raise self._range_error(values, str(exc)) from None
+                raise self._range_error(values, str(exc), measured) from None
 
     def evaluate(self, function: str, values: dict[str, float]) -> np.ndarray:
         """A generated function of the forward arguments (frequencies, modal_matrix, ...) at checked values.
@@ -116,10 +117,11 @@ class Machine:
             raise self._range_error(values, "the result is not finite and positive in double precision")
         return out
 
-    def _range_error(self, values: dict[str, float], why: str) -> InputError:
+    def _range_error(self, values: dict[str, float], why: str, measured: dict[str, float] | None = None) -> InputError:
         """The error for values at which the model fails in double precision: a mount that leaves a motion
         without stiffness (a mechanism) where that is the cause, else the parameter furthest from its nominal
-        value (in decades; a zero where the nominal value is not is furthest)."""
+        value (in decades; a zero where the nominal value is not is furthest), or the ``measured`` frequency
+        furthest from the model's at the other ``values`` where that is further still."""
 
         def decades(name: str) -> float:
             nominal = self.parameters[name]["value"]
@@ -129,6 +131,14 @@ class Machine:
             return math.inf if v == 0 else abs(math.log10(v / abs(nominal)))
 
         worst = max(values, key=decades)
+        off = self._furthest_measured(values, measured or {})
+        if off is not None and off[1] > decades(worst):
+            label, _, model = off
+            return InputError(
+                "measured",
+                f"{label} = {measured[label]:g} rad/s puts the model out of the range of double precision ({why}); "
+                f"at these parameters {self.name} has {label} at {model:.4g} rad/s",
+            )
         nominal = f"the nominal value is {self.parameters[worst]['value']:g}"
         free = self._modes_without_stiffness(values)
         if free:
@@ -146,6 +156,22 @@ class Machine:
             f"{values[worst]:g} {self.parameters[worst]['unit']} puts the model out of the range of double "
             f"precision ({why}); {nominal}",
         )
+
+    def _furthest_measured(
+        self, values: dict[str, float], measured: dict[str, float]
+    ) -> tuple[str, float, float] | None:
+        """The measured frequency furthest (in decades) from the model's at ``values`` (the unknowns at their
+        nominal values): (label, decades, the model's frequency [rad/s]); None without measured frequencies or
+        where the model itself leaves double precision at these values."""
+        if not measured:
+            return None
+        try:
+            with np.errstate(all="raise"):
+                model = self._forward(values)
+        except (FloatingPointError, OverflowError, np.linalg.LinAlgError, InputError):
+            return None
+        label = max(measured, key=lambda lab: abs(math.log10(measured[lab] / model[lab])))
+        return label, abs(math.log10(measured[label] / model[label])), model[label]
 
     def _modes_without_stiffness(self, values: dict[str, float]) -> tuple[str, ...]:
         """Modes the mount's geometry leaves without stiffness (a mechanism), where ``values`` hold every forward
@@ -272,7 +298,7 @@ class Machine:
         fn = self.module.INVERSES[key]
         knowns = self.values(known, tuple(a for a in self.module.FORWARD_ARGUMENTS if a not in self.unknown))
         omegas = {f"omega_{label}": chosen[label][1] for label in key}
-        with self._floating_point_errors(knowns):
+        with self._floating_point_errors(knowns, {label: chosen[label][1] for label in key}):
             roots = fn(**knowns, **omegas)
         stds = roots.std(sigma) if sigma is not None else None
         solutions = []
