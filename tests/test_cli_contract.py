@@ -193,3 +193,44 @@ def test_a_mount_that_leaves_a_motion_free_is_named_as_such(capsys, tmp_path):
     for setting, named in (("c_z=1e300", "c_z: 1e+300 N/m puts the model out of the range"), ("m=1e-300", "m: 1e-300")):
         code, _, err = run(capsys, "frequencies", "kid300", "--set", setting)
         assert code == 2 and err.startswith(f"mountid: error: {named}") and "without stiffness" not in err
+
+
+def _strict(text: str):
+    """JSON as other tools read it: NaN and Infinity are not JSON."""
+
+    def refuse(constant: str):
+        raise ValueError(f"{constant} in JSON output")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_every_command_with_json_prints_json(capsys, tmp_path):
+    """Every command that takes --json prints strict JSON with it (describe and simulate ignored it and printed
+    text); a record simulated here feeds process and identify-record."""
+    record = str(tmp_path / "hit.csv")
+    code, out, _ = run(capsys, "simulate", "kid300", "--out", record, "--duration", "4", "--json")
+    assert code == 0 and _strict(out) == {
+        "file": record,
+        "format": "csv",
+        "samples": 8000,
+        "rate": 2000.0,
+        "duration": 4.0,
+        "channels": ["A_x", "A_y", "B_y", "A_z", "C_x"],
+    }
+    code, out, _ = run(capsys, "describe", "kid300", "--json")
+    described = _strict(out)
+    assert code == 0 and described["unknown"] == ["c_xy", "c_z"] and described["parameters"]["m"]["unit"] == "kg"
+    assert {"modes": ["x", "psi"], "roots": 2, "numeric": None} in described["inverse_sets"]
+    commands = [
+        ["frequencies", "kid300"],
+        ["identify", "kid300", "--measured", "x=17.71", "psi=64.10"],
+        ["modes", "kid300"],
+        ["plan", "kid300", "--rate", "10"],  # unstated stiffness spreads (nan inside) among them
+        ["process", "kid300", record],
+        ["identify-record", "kid300", record],
+        ["forced", "kid300", "--speed", "50"],
+        ["diagnose", PAPER, "--no-figure"],
+    ]
+    for argv in commands:
+        code, out, _ = run(capsys, *argv, "--json")
+        assert code == 0 and isinstance(_strict(out), dict), argv

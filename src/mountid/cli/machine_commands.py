@@ -197,6 +197,24 @@ def _cell(value: float, decimals: int) -> str:
 def cmd_describe(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     m = machine.module
+    numeric = getattr(m, "NUMERIC_INVERSES", {})
+    if args.json:
+        print_json(
+            {
+                "machine": machine.name,
+                "title": m.TITLE,
+                "parameters": {n: dict(p) for n, p in m.PARAMETERS.items()},
+                "modes": list(m.MODES),
+                "distinct_modes": list(m.UNIQUE_MODES),
+                "unknown": list(m.UNKNOWN),
+                "inverse_sets": [
+                    {"modes": list(key), "roots": n, "numeric": numeric.get(key)} for key, n in m.INVERSE_ROOTS.items()
+                ],
+                "special_points": list(getattr(m, "SPECIAL_POINTS", ())),
+                "unidentifiable": [{"modes": list(key), "reason": why} for key, why in m.UNIDENTIFIABLE.items()],
+            }
+        )
+        return
     print(f"{machine.name}: {m.TITLE}")
     print("parameters:")
     for n, p in m.PARAMETERS.items():
@@ -204,7 +222,6 @@ def cmd_describe(args: argparse.Namespace) -> None:
         print(f"  {n:>8s}  {p['role']:8s} {p['kind']:22s} {value:16s} {p['description']}")
     print(f"modes: {', '.join(m.MODES)}; distinct frequencies: {', '.join(m.UNIQUE_MODES)}")
     print(f"inverse sets for the unknowns {', '.join(m.UNKNOWN)}:")
-    numeric = getattr(m, "NUMERIC_INVERSES", {})
     for key, n in m.INVERSE_ROOTS.items():
         if key in numeric:
             print(f"  {', '.join(key):24s} solvable numerically ({n} starts): {numeric[key]}")

@@ -57,7 +57,20 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     )
     unbalances = [Unbalance(args.unbalance_mass, args.eccentricity, w) for w in args.speed or ()]
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
-    (write_uff if args.out.lower().endswith((".uff", ".unv")) else write_csv)(record, args.out)
+    uff = args.out.lower().endswith((".uff", ".unv"))
+    (write_uff if uff else write_csv)(record, args.out)
+    if args.json:
+        print_json(
+            {
+                "file": args.out,
+                "format": "uff58" if uff else "csv",
+                "samples": len(record.time),
+                "rate": args.rate,
+                "duration": args.duration,
+                "channels": list(record.names),
+            }
+        )
+        return
     print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
 
 
