@@ -54,6 +54,7 @@ DEFAULT_DAMPING_STD = 0.05
 
 DEFAULT_RECORD_START = 0.07
 """Start of the free decay [s] of a record listed without one (as the command line's --start)."""
+
 RESOLUTION = 1e-9
 """The smallest uncertainty a campaign may state: relative to the frequency for a frequency, absolute for a damping
 ratio and for each component of a unit-length shape. Below it the fits would weigh the double-precision model's own
@@ -189,6 +190,13 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
     _check_known_scale(machine, dict(data.get("known", {})))
+    missing = [u for u in machine.unknown if machine.parameters[u]["value"] is None]
+    if missing:
+        raise InputError(
+            "machine",
+            f"{machine.name} gives no nominal value for {', '.join(missing)}: the diagnosis starts its fits from the "
+            "unknowns' nominal values and bounds them there (give each unknown a value in the description)",
+        )
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
