@@ -251,3 +251,13 @@ def test_a_description_without_nominal_unknowns_is_named_before_the_diagnosis(ca
     assert code == 2 and err.startswith("mountid: error: machine: kid300 gives no nominal value for c_xy, c_z")
     code, out, _ = run(capsys, "identify", str(description), "--measured", "x=17.71", "psi=64.10", "--json")
     assert code == 0 and len(json.loads(out)["solutions"]) == 2
+
+
+def test_a_record_read_with_parameters_beyond_double_precision_is_named(capsys, tmp_path):
+    """The records chain labels modes with the model at the given values: an isolator spacing of 1e300 m is the
+    model's range error naming it (it evaluated the generated frequencies unchecked: an overflow warning)."""
+    record = str(tmp_path / "hit.csv")
+    assert run(capsys, "simulate", "kid300", "--out", record, "--duration", "4")[0] == 0
+    for command in ("process", "identify-record"):
+        code, out, err = run(capsys, command, "kid300", record, "--set", "L_xy=1e300")
+        assert code == 2 and out == "" and err.startswith("mountid: error: L_xy: 1e+300 m puts the model out of")

@@ -505,7 +505,7 @@ def modal_data(
     description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
     guess = {**known, **(nominal or {})}
-    nominal_omega = mod.frequencies(**machine.values(guess, mod.FORWARD_ARGUMENTS))
+    nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
     top = float(np.max(nominal_omega))
     full = record.in_si()
     if not full.responses:
