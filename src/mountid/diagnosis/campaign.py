@@ -184,12 +184,13 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if base is not None and target.endswith(".toml") and not Path(target).is_absolute():
         target = str(base / target)
     machine = Machine.resolve(target)
-    for name in data.get("known", {}):
+    known = dict(data.get("known", {}))
+    for name in known:
         if name not in machine.parameters:
             raise InputError(f"known.{name}", f"not a parameter of {machine.name}")
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
-    _check_known_scale(machine, dict(data.get("known", {})))
+    _check_known_scale(machine, known)
     missing = [u for u in machine.unknown if machine.parameters[u]["value"] is None]
     if missing:
         raise InputError(
@@ -216,12 +217,12 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
-    _check_modes_scale(machine, dict(data.get("known", {})), modes)
+    _check_modes_scale(machine, known, modes)
     notes_on_modes: list[str] = []
     if data.get("frequency_type") == "pole" and modes:
-        modes, notes_on_modes = _poles_as_undamped(machine, dict(data.get("known", {})), modes)
+        modes, notes_on_modes = _poles_as_undamped(machine, known, modes)
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
-    records = _modes_from_records(machine, dict(data.get("known", {})), sources)
+    records = _modes_from_records(machine, known, sources)
     from_records, notes, layout = records.modes, records.notes, records.layout
     shaped_by_hand = any(mode.shape is not None for mode in modes.values())
     for label, mode in from_records.items():
@@ -230,7 +231,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             seen[label] = machine.module.REPRESENTATIVE[label]
     if not modes:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
-    _check_modes_scale(machine, dict(data.get("known", {})), {k: v for k, v in from_records.items() if modes[k] is v})
+    _check_modes_scale(machine, known, {k: v for k, v in from_records.items() if modes[k] is v})
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -260,7 +261,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             )
     return Campaign(
         machine,
-        dict(data.get("known", {})),
+        known,
         modes,
         fit,
         data.get("name", ""),
@@ -297,6 +298,8 @@ def _check_modes_scale(machine: Machine, known: dict[str, float], modes: dict[st
     """An error naming the first measured frequency more than SCALE_LIMIT outside the frequencies of the model
     at its nominal values with the ``known`` ones, or the first stated uncertainty below RESOLUTION or as large
     as the frequency."""
+    if not modes:
+        return
     model = machine.frequencies(known)
     low, high = min(model.values()), max(model.values())
     for label, mode in modes.items():
@@ -321,16 +324,16 @@ def _check_modes_scale(machine: Machine, known: dict[str, float], modes: dict[st
                 f"{mode.frequency_std:.3g} rad/s is as large as the frequency {mode.frequency:.6g} rad/s: the "
                 "measurement does not determine it (leave the mode out)",
             )
-        if mode.shape is not None and mode.shape_std < RESOLUTION:
-            raise InputError(
-                f"modes.{label}.shape_uncertainty",
-                f"{mode.shape_std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
-            )
-        if mode.damping_ratio is not None and mode.damping_std is not None and mode.damping_std < RESOLUTION:
-            raise InputError(
-                f"modes.{label}.damping_uncertainty",
-                f"{mode.damping_std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
-            )
+        stated = {
+            "shape_uncertainty": mode.shape_std if mode.shape is not None else None,
+            "damping_uncertainty": mode.damping_std if mode.damping_ratio is not None else None,
+        }
+        for field, std in stated.items():
+            if std is not None and std < RESOLUTION:
+                raise InputError(
+                    f"modes.{label}.{field}",
+                    f"{std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
+                )
 
 
 def _poles_as_undamped(
