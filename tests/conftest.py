@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -82,3 +84,14 @@ def parameters(draw, module, names=None):
 @pytest.fixture(params=MACHINES)
 def module(request):
     return generated(request.param)
+
+
+def description_without_values(folder: Path, names: tuple[str, ...], machine: str = "kid300") -> Path:
+    """The shipped description ``machine`` written to ``folder`` with the nominal values of ``names`` left out
+    (the format makes them optional)."""
+    lines = Path(f"derivations/{machine}.toml").read_text(encoding="utf-8").splitlines()
+    value = re.compile(r",\s*value = [0-9.e+-]+")
+    keep = [value.sub("", line) if line.split("=")[0].strip() in names else line for line in lines]
+    out = folder / f"{machine}_without_{'_'.join(names)}.toml"
+    out.write_text("\n".join(keep) + "\n", encoding="utf-8")
+    return out

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import description_without_values
 
 from mountid.cli import main
 from mountid.diagnosis import campaign
@@ -83,6 +84,20 @@ def test_a_missing_record_is_named(folder, capsys):
     bad.write_text(json.dumps({**data, "records": [{"start": 0.1}]}), encoding="utf-8")
     assert main(["diagnose", str(bad), "--no-figure"]) == 2
     assert "records.0" in capsys.readouterr().err
+
+
+def test_records_on_a_description_without_nominal_unknowns(folder):
+    """The records chain labels its poles against the model at its nominal values: a campaign of records alone on
+    a description without them is a named error, and with measured frequencies under modes the records are
+    labelled against the model identified from those."""
+    description = description_without_values(folder, ("c_xy", "c_z"))
+    data = {"machine": str(description), "known": KNOWN, "records": ["hit0.csv"]}
+    with pytest.raises(InputError, match=r"^machine: kid300 gives no nominal value for c_xy, c_z: the records are"):
+        campaign.parse(data, folder)
+    truth = Rig.of("kid300").machine.frequencies(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3})
+    c = campaign.parse({**data, "modes": {k: {"frequency": truth[k]} for k in ("x", "psi", "z")}}, folder)
+    assert c.machine.parameters["c_z"]["value"] == pytest.approx(472.3e3, rel=1e-6)
+    assert set(c.modes) > {"x", "psi", "z"} and any("from hit0.csv" in n for n in c.record_notes)
 
 
 def test_records_of_two_states_are_named_and_a_frequency_only_report_prints(tmp_path, capsys):

@@ -272,7 +272,8 @@ def test_damping_ratios_enter_the_fit_and_find_a_damping_scale():
 
 
 def test_a_damping_ratio_of_zero_without_uncertainty_is_weighted_not_infinite():
-    from mountid.diagnosis.fitting import DAMPING_STD_FLOOR, Data
+    from mountid.diagnosis.campaign import DAMPING_STD_FLOOR
+    from mountid.diagnosis.fitting import Data
 
     data = _campaign_from(None, {})
     data["modes"]["x"]["damping_ratio"] = 0.0

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import description_without_values
 
 from mountid.cli import main
 from mountid.generated import kid300
@@ -237,27 +238,52 @@ def test_every_command_with_json_prints_json(capsys, tmp_path):
         assert code == 0 and isinstance(_strict(out), dict), argv
 
 
-def test_a_description_without_nominal_unknowns_is_named_before_the_diagnosis(capsys, tmp_path):
-    """Unknowns may come without a nominal value in a description (identify needs none); the diagnosis starts
-    and bounds its fits there, and says so by name (it failed inside the candidate fits with 'c_xy: missing')."""
-    lines = Path("derivations/kid300.toml").read_text(encoding="utf-8").splitlines()
-    keep = [re.sub(r", value = [0-9.e]+", "", line) if line.startswith(("c_xy", "c_z ")) else line for line in lines]
-    description = tmp_path / "no_nominal.toml"
-    description.write_text("\n".join(keep) + "\n", encoding="utf-8")
+def test_a_description_without_nominal_unknowns_is_diagnosed_from_the_identification(capsys, tmp_path):
+    """Unknowns may come without a nominal value in a description (identify needs none, and a test engineer who
+    measures to find the stiffness may know none). The diagnosis starts its fits at the nominal values and
+    bounds them around there: without them it takes the identification on every measured frequency, says so,
+    and reaches the verdict and nominal fit the description's values give (it failed with 'c_xy: missing')."""
+    description = description_without_values(tmp_path, ("c_xy", "c_z"))
     campaign = json.loads(Path(PAPER).read_text(encoding="utf-8"))
     campaign["machine"] = str(description)
     (tmp_path / "c.json").write_text(json.dumps(campaign), encoding="utf-8")
-    code, _, err = run(capsys, "diagnose", str(tmp_path / "c.json"), "--no-figure")
-    assert code == 2 and err.startswith("mountid: error: machine: kid300 gives no nominal value for c_xy, c_z")
+    code, out, _ = run(capsys, "diagnose", str(tmp_path / "c.json"), "--no-figure", "--json")
+    code_given, given, _ = run(capsys, "diagnose", PAPER, "--no-figure", "--json")
+    out, given = json.loads(out), json.loads(given)
+    assert code == code_given == 0 and out["kind"] == given["kind"] == "no significant gap"
+    note = next(n for n in out["campaign_notes"] if n.startswith("nominal values identified"))
+    assert re.search(r"c_xy = 7\.4\d+e\+04 N/m, c_z = 4\.\d+e\+05 N/m", note)
+    assert out["parameters"] == pytest.approx(given["parameters"], rel=1e-9)  # the nominal identification
+    assert out["nominal"]["parameters"] == pytest.approx(given["nominal"]["parameters"], rel=1e-6)  # its fit
     code, out, _ = run(capsys, "identify", str(description), "--measured", "x=17.71", "psi=64.10", "--json")
     assert code == 0 and len(json.loads(out)["solutions"]) == 2
 
 
-def test_a_record_read_with_parameters_beyond_double_precision_is_named(capsys, tmp_path):
-    """The records chain labels modes with the model at the given values: an isolator spacing of 1e300 m is the
-    model's range error naming it (it evaluated the generated frequencies unchecked: an overflow warning)."""
+def test_records_on_a_description_without_nominal_unknowns_are_labelled_at_given_values(capsys, tmp_path):
+    """The records chain labels a record's poles against the model at the unknowns' nominal values: without them
+    in the description it says so by name (it was 'c_xy: missing'), and --nominal gives the values to label with
+    (identify-record then identifies the unknowns as with the description's values)."""
+    description = str(description_without_values(tmp_path, ("c_xy", "c_z")))
     record = str(tmp_path / "hit.csv")
     assert run(capsys, "simulate", "kid300", "--out", record, "--duration", "4")[0] == 0
-    for command in ("process", "identify-record"):
-        code, out, err = run(capsys, command, "kid300", record, "--set", "L_xy=1e300")
-        assert code == 2 and out == "" and err.startswith("mountid: error: L_xy: 1e+300 m puts the model out of")
+    code, _, err = run(capsys, "identify-record", description, record)
+    assert code == 2 and err.startswith("mountid: error: nominal: kid300 gives no nominal value for c_xy, c_z:")
+    _, given, _ = run(capsys, "identify-record", "kid300", record, "--json")
+    given = json.loads(given)
+    code, out, _ = run(capsys, "identify-record", description, record, "--nominal", "c_xy=74.4e3", "c_z=472.3e3")
+    assert code == 0 and "c_xy = 74400" in out  # the description's values given: the same identification
+    code, out, _ = run(
+        capsys, "identify-record", description, record, "--nominal", "c_xy=74.4e3", "c_z=472.3e3", "--json"
+    )
+    assert json.loads(out)["parameters"] == given["parameters"]
+    guess = ("--nominal", "c_xy=5e4", "c_z=3e5")  # another guess: another band for the pole fit, within the spread
+    code, out, _ = run(capsys, "identify-record", description, record, *guess, "--json")
+    for name, value in json.loads(out)["parameters"].items():
+        assert abs(value - given["parameters"][name]) < given["parameter_std"][name], name
+    code, out, _ = run(capsys, "process", description, record, *guess, "--json")
+    assert code == 0 and {"x", "z", "psi", "phi"} <= set(json.loads(out)["modes"])
+    code, _, err = run(capsys, "process", description, record, "--nominal", "m=900")
+    assert code == 2 and err.startswith("mountid: error: nominal: m is not an unknown of kid300 (c_xy, c_z)")
+    code, _, err = run(capsys, "process", description, record, "--nominal", "c_xy=1e300", "c_z=1")
+    assert code == 2 and "c_xy: 1e+300 N/m puts the model out of the range" in err
+    assert err.rstrip().endswith("the description gives no nominal value")

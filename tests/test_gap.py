@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import description_without_values
 
 from mountid.cli import main
 from mountid.diagnosis.campaign import load, parse
@@ -125,6 +126,42 @@ def test_bad_campaigns_are_rejected_by_entry(edit, start):
     with pytest.raises(InputError) as err:
         parse(data)
     assert str(err.value).startswith(start)
+
+
+def test_nominal_values_a_description_leaves_out_are_identified_from_the_campaign(tmp_path):
+    """Stiffnesses from every measured frequency, damping parameters from the measured damping ratios
+    (fit_damping, as the records chain identifies them); a damping parameter the campaign cannot identify and
+    does not know is named under known, and so is a ratio set that identifies no damping."""
+    from dataclasses import replace
+
+    from mountid.diagnosis.campaign import damping_std
+    from mountid.identification.from_records import fit_damping
+
+    description = str(description_without_values(tmp_path, ("c_xy", "c_z", "b_xy", "b_z")))
+    ratios = {"x": 0.04, "z": 0.06, "psi": 0.05, "phi": 0.03}
+    data = _campaign(_measured(), machine=description)
+    for label, zeta in ratios.items():
+        data["modes"][label]["damping_ratio"] = zeta
+    c = parse(data)
+    nominal = {n: c.machine.parameters[n]["value"] for n in ("c_xy", "c_z", "b_xy", "b_z")}
+    assert nominal["c_xy"] == pytest.approx(TRUTH["c_xy"], rel=1e-9) and nominal["c_z"] == pytest.approx(TRUTH["c_z"])
+    stated = {label: replace(m, damping_std=damping_std(m)) for label, m in c.modes.items()}  # the diagnosis's
+    expected, _ = fit_damping(c.machine, {**TABLE_1, **nominal}, stated, ("b_xy", "b_z"))
+    assert nominal["b_xy"] == pytest.approx(expected["b_xy"]) and nominal["b_z"] == pytest.approx(expected["b_z"])
+    assert c.notes[0].startswith("nominal values identified from the measured frequencies and damping ratios")
+    assert Machine.resolve(description).parameters["c_xy"]["value"] is None  # the description is not changed
+    for label in ratios:
+        del data["modes"][label]["damping_ratio"]
+    with pytest.raises(InputError, match=r"^known\.b_xy: .* no measured mode has a damping ratio"):
+        parse(data)
+    parse({**data, "known": {**data["known"], "b_xy": 300.0, "b_z": 1000.0}})
+    data["modes"]["x"]["damping_ratio"], data["modes"]["psi"]["damping_ratio"] = 0.9, 1e-4
+    with pytest.raises(InputError, match=r"^machine: .* identify -?[0-9.]+ N s/m, not a damping"):
+        parse(data)
+    with pytest.raises(InputError, match=r"^machine: .* do not identify them: measured: 1 distinct frequencies"):
+        parse(
+            {**_campaign({"x": _measured()["x"]}, machine=description), "known": {**TABLE_1, "b_xy": 1.0, "b_z": 1.0}}
+        )
 
 
 def test_paper_worked_example_on_the_command_line(capsys, tmp_path):

@@ -77,6 +77,15 @@ def build_parser() -> argparse.ArgumentParser:
             help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
         )
 
+    def add_nominal(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--nominal",
+            nargs="+",
+            action="extend",
+            metavar="NAME=VALUE",
+            help="values of the unknowns [SI] the record's poles are labelled against (default: the description's)",
+        )
+
     def add_unbalance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
         p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
@@ -124,6 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
     add_channel(p)
+    add_nominal(p)
     p.set_defaults(func=cmd_identify_record)
     p = machine_command("plan", "before the test: what a sensor layout, hit and record length will measure")
     p.add_argument(
@@ -146,6 +156,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
     add_channel(p)
+    add_nominal(p)
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(
         "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"

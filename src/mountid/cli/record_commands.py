@@ -158,6 +158,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
         record,
         pairs(args.set, "--set"),
         start=args.start,
+        nominal=pairs(args.nominal, "--nominal"),
         use=use,
         root=args.root,
         use_force=not args.free_decay,
@@ -191,7 +192,11 @@ def cmd_process(args: argparse.Namespace) -> None:
 
     machine = Machine.resolve(args.machine)
     modes, rest, warnings = modal_data(
-        machine, read_record(args.record, args.rate, args.channel), pairs(args.set, "--set"), args.start
+        machine,
+        read_record(args.record, args.rate, args.channel),
+        pairs(args.set, "--set"),
+        args.start,
+        pairs(args.nominal, "--nominal"),
     )
     out = _modal_json(machine, modes, rest, warnings)
     if args.json:

@@ -51,6 +51,16 @@ DEFAULT_SHAPE_STD = 0.02
 DEFAULT_DAMPING_STD = 0.05
 """Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
 
+DAMPING_STD_FLOOR = 1e-3
+"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
+uncertainty)."""
+
+
+def damping_std(mode: MeasuredMode) -> float:
+    """Standard deviation of a measured damping ratio: as stated, else DEFAULT_DAMPING_STD of it (at least
+    DAMPING_STD_FLOOR)."""
+    return mode.damping_std or max(DEFAULT_DAMPING_STD * mode.damping_ratio, DAMPING_STD_FLOOR)
+
 
 DEFAULT_RECORD_START = 0.07
 """Start of the free decay [s] of a record listed without one (as the command line's --start)."""
@@ -191,13 +201,6 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
     _check_known_scale(machine, known)
-    missing = [u for u in machine.unknown if machine.parameters[u]["value"] is None]
-    if missing:
-        raise InputError(
-            "machine",
-            f"{machine.name} gives no nominal value for {', '.join(missing)}: the diagnosis starts its fits from the "
-            "unknowns' nominal values and bounds them there (give each unknown a value in the description)",
-        )
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
@@ -217,10 +220,11 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
+    machine, notes_on_modes = _nominal_from_modes(machine, known, modes)
     _check_modes_scale(machine, known, modes)
-    notes_on_modes: list[str] = []
     if data.get("frequency_type") == "pole" and modes:
-        modes, notes_on_modes = _poles_as_undamped(machine, known, modes)
+        modes, converted = _poles_as_undamped(machine, known, modes)
+        notes_on_modes += converted
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
     records = _modes_from_records(machine, known, sources)
     from_records, notes, layout = records.modes, records.notes, records.layout
@@ -272,6 +276,74 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         tuple(notes_on_modes),
         tuple(label for label in records.disagree if label not in data.get("modes", {})),
     )
+
+
+def _nominal_from_modes(
+    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode]
+) -> tuple[Machine, list[str]]:
+    """``machine`` with nominal values where its description gives none, identified from the campaign's
+    ``modes``, and a note saying so. The diagnosis starts its fits from the unknowns' nominal values and keeps
+    them within candidate_model.UNKNOWN_RANGE of them, and a description need not give them (``identify`` needs
+    none): the stiffnesses come from every measured frequency (fit_stiffness, the description's root rule
+    deciding between equal solutions), damping parameters the campaign neither knows nor can do without from
+    the measured damping ratios (fit_damping). Any other parameter without a value must be given under
+    ``known``."""
+    params = machine.parameters
+    missing = [n for n in params if n not in known and params[n]["value"] is None]
+    if not missing:
+        return machine, []
+    ratios = {label: m for label, m in modes.items() if m.damping_ratio is not None}
+    stiffness = [n for n in missing if n in machine.unknown]
+    damping = [n for n in missing if n in machine.damping and ratios]
+    for name in missing:
+        if name not in stiffness and name not in damping:
+            raise InputError(
+                f"known.{name}",
+                f"{machine.name} gives no value for it"
+                + (" and no measured mode has a damping ratio to identify it from" if name in machine.damping else "")
+                + ": give it under known",
+            )
+    if not modes:
+        raise InputError(
+            "machine",
+            f"{machine.name} gives no nominal value for {', '.join(missing)}: the records are labelled against the "
+            "model at its nominal values (give the unknowns values in the description, or measured frequencies "
+            "under modes to identify them from)",
+        )
+    from mountid.identification.from_records import fit_damping, fit_stiffness
+
+    notes: list[str] = []
+    found = {n: float(params[n]["value"]) for n in machine.unknown if n not in stiffness}
+    try:
+        if stiffness:
+            pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
+            rule = getattr(machine.module, "ROOT_RULE", "") or None
+            found, _ = fit_stiffness(machine, known, pairs, root=rule, notes=notes, boundary_ok=True)
+        if damping:
+            stated = {label: replace(m, damping_std=damping_std(m)) for label, m in ratios.items()}
+            found |= fit_damping(machine.with_nominal(found), {**known, **found}, stated, tuple(damping))[0]
+    except InputError as err:
+        raise InputError(
+            "machine",
+            f"{machine.name} gives no nominal value for {', '.join(missing)}, and the measured modes do not identify "
+            f"them: {err.parameter}: {err.reason}",
+        ) from None
+    for name in damping:
+        if found[name] <= 0:
+            raise InputError(
+                "machine",
+                f"{machine.name} gives no nominal value for {name}, and the measured damping ratios identify "
+                f"{found[name]:.4g} {params[name]['unit']}, not a damping: give it under known",
+            )
+    filled = {n: found[n] for n in missing}
+    values = ", ".join(f"{n} = {v:.4g} {params[n]['unit']}" for n, v in filled.items())
+    whence = " and ".join(w for w, names in (("frequencies", stiffness), ("damping ratios", damping)) if names)
+    notes.insert(
+        0,
+        f"nominal values identified from the measured {whence} ({machine.name} gives none; the diagnosis's fits start "
+        f"there and search around them): {values}",
+    )
+    return machine.with_nominal(filled), notes
 
 
 def _check_known_scale(machine: Machine, known: dict[str, float]) -> None:

@@ -13,12 +13,11 @@ import scipy.optimize
 import scipy.special
 import scipy.stats
 
-from mountid.diagnosis.campaign import DEFAULT_DAMPING_STD, Campaign
+from mountid.diagnosis.campaign import Campaign, damping_std
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect, Pair
 from mountid.identification.statistics import covariance, standard_deviations
-from mountid.measurement.modes import MeasuredMode
 
 
 @dataclass(frozen=True)
@@ -37,12 +36,6 @@ class FitState:
     variant_parameters: tuple[dict[str, float], ...] = ()
     """The fitted values at each of those variants, in the same order (a pair screened at an isolator starts
     from its member's fit at that isolator)."""
-
-
-def damping_std(mode: MeasuredMode) -> float:
-    """Standard deviation of a measured damping ratio: as stated, else DEFAULT_DAMPING_STD of it (at least
-    DAMPING_STD_FLOOR)."""
-    return mode.damping_std or max(DEFAULT_DAMPING_STD * mode.damping_ratio, DAMPING_STD_FLOOR)
 
 
 @dataclass(frozen=True)
@@ -154,11 +147,6 @@ def chi2_by_kind(fit: CandidateFit, campaign: Campaign) -> dict[str, float]:
     if fit.damping_gap:
         out["damping ratios"] = float(damp)
     return out
-
-
-DAMPING_STD_FLOOR = 1e-3
-"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
-uncertainty)."""
 
 
 class Data:

@@ -504,7 +504,7 @@ def modal_data(
     out; otherwise on the free decay from ``start`` [s]. ``nominal`` values of the unknowns (default: the
     description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
-    guess = {**known, **(nominal or {})}
+    guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
     top = float(np.max(nominal_omega))
     full = record.in_si()
@@ -565,6 +565,22 @@ def modal_data(
         for label, (p, m) in labelled.items()
     }
     return ModalData(modes, rest, warnings, estimate, tuple(notes))
+
+
+def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
+    """The values of the unknowns the record's poles are labelled against: ``nominal``, else the description's; an
+    error naming what is missing where it gives none, and naming a value that is not an unknown's."""
+    for name in nominal:
+        if name not in machine.unknown:
+            raise InputError("nominal", f"{name} is not an unknown of {machine.name} ({', '.join(machine.unknown)})")
+    missing = [u for u in machine.unknown if u not in nominal and machine.parameters[u]["value"] is None]
+    if missing:
+        raise InputError(
+            "nominal",
+            f"{machine.name} gives no nominal value for {', '.join(missing)}: the record's poles are labelled against "
+            "the model at the unknowns' nominal values (give values to label with, --nominal on the command line)",
+        )
+    return nominal
 
 
 def _coherence_warnings(

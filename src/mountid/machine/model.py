@@ -7,6 +7,7 @@ Importing this module does not import sympy; only resolving a description *file*
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib
 import math
 from dataclasses import dataclass
@@ -62,6 +63,19 @@ class Machine:
             f"unknown machine {machine!r}: not a shipped one ({', '.join(shipped_machines())}) "
             "nor a description file (.toml)",
         )
+
+    def with_nominal(self, values: dict[str, float]) -> Machine:
+        """This machine with ``values`` [SI] as the nominal values of those parameters (where a description
+        leaves them without one, a campaign gives the diagnosis the values identified from its measurements);
+        the module and the other parameters are shared."""
+        for name in values:
+            if name not in self.parameters:
+                raise InputError(name, f"not a parameter of {self.name} (parameters: {', '.join(self.parameters)})")
+        out = copy.copy(self)
+        out.parameters = {
+            n: {**spec, "value": float(values[n])} if n in values else spec for n, spec in self.parameters.items()
+        }
+        return out
 
     # -- inputs -----------------------------------------------------------------------------------
     def defaults(self, given: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
@@ -120,15 +134,22 @@ class Machine:
     def _range_error(self, values: dict[str, float], why: str, measured: dict[str, float] | None = None) -> InputError:
         """The error for values at which the model fails in double precision: a mount that leaves a motion
         without stiffness (a mechanism) where that is the cause, else the parameter furthest from its nominal
-        value (in decades; a zero where the nominal value is not is furthest), or the ``measured`` frequency
-        furthest from the model's at the other ``values`` where that is further still."""
+        value (in decades; a zero where the nominal value is not is furthest; from 1 SI unit where the description
+        gives none), or the ``measured`` frequency furthest from the model's at the other ``values`` where that is
+        further still."""
 
         def decades(name: str) -> float:
             nominal = self.parameters[name]["value"]
             v = abs(values[name])
-            if not nominal:
+            if nominal == 0:
                 return 0.0
-            return math.inf if v == 0 else abs(math.log10(v / abs(nominal)))
+            return math.inf if v == 0 else abs(math.log10(v / abs(nominal if nominal is not None else 1.0)))
+
+        def stated(name: str) -> str:
+            nominal = self.parameters[name]["value"]
+            return (
+                f"the nominal value is {nominal:g}" if nominal is not None else "the description gives no nominal value"
+            )
 
         worst = max(values, key=decades)
         off = self._furthest_measured(values, measured or {})
@@ -139,11 +160,11 @@ class Machine:
                 f"{label} = {measured[label]:g} rad/s puts the model out of the range of double precision ({why}); "
                 f"at these parameters {self.name} has {label} at {model:.4g} rad/s",
             )
-        nominal = f"the nominal value is {self.parameters[worst]['value']:g}"
+        nominal = stated(worst)
         free = self._modes_without_stiffness(values)
         if free:
             worst = max((v for v in values if self.parameters[v]["kind"] != "stiffness"), key=decades)
-            nominal = f"the nominal value is {self.parameters[worst]['value']:g}"
+            nominal = stated(worst)
             what = (
                 f"the isolators leave {', '.join(free)} without stiffness: a motion they do not hold (are they all "
                 "on one line, or is a plane of symmetry missing from the description?)"
