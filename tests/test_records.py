@@ -75,15 +75,24 @@ def test_uff58_round_trip(tmp_path):
 
 
 def _bench_uff(
-    path, record: Record, nodes: dict[int, tuple[float, float, float]], dofs: list[tuple[int, int]], title=None
+    path,
+    record: Record,
+    nodes: dict[int, tuple[float, float, float]],
+    dofs: list[tuple[int, int]],
+    title=None,
+    systems: dict[int, tuple[int, np.ndarray]] | None = None,
+    cs: dict[int, tuple[int, int]] | None = None,
 ) -> None:
     """A file as test-bench software writes it: units (dataset 164, mm), geometry (2411, in mm), and one
-    dataset 58 per channel naming its response node and direction (+-1, 2, 3), without mountid's ID-line-4."""
+    dataset 58 per channel naming its response node and direction (+-1, 2, 3), without mountid's ID-line-4.
+    ``systems``: coordinate systems (label: (type, 4 x 3 transformation, origin in mm)) written as a dataset
+    2420; ``cs``: each node's (definition, displacement) system (default 1, 1)."""
     import pyuff
 
     from mountid.measurement.uff import dataset_58
 
     uff = pyuff.UFF(str(path))
+    cs = cs or {}
     sets = [
         pyuff.prepare_164(
             units_code=5,
@@ -96,14 +105,26 @@ def _bench_uff(
         ),
         pyuff.prepare_2411(
             node_nums=np.array(list(nodes)),
-            def_cs=np.ones(len(nodes), dtype=int),
-            disp_cs=np.ones(len(nodes), dtype=int),
+            def_cs=np.array([cs.get(n, (1, 1))[0] for n in nodes], dtype=int),
+            disp_cs=np.array([cs.get(n, (1, 1))[1] for n in nodes], dtype=int),
             color=np.ones(len(nodes), dtype=int),
             x=np.array([1e3 * p[0] for p in nodes.values()]),
             y=np.array([1e3 * p[1] for p in nodes.values()]),
             z=np.array([1e3 * p[2] for p in nodes.values()]),
         ),
     ]
+    if systems:
+        sets.append(
+            pyuff.prepare_2420(
+                Part_UID=1,
+                Part_Name="bench",
+                CS_sys_labels=list(systems),
+                CS_types=[kind for kind, _ in systems.values()],
+                CS_colors=[8] * len(systems),
+                CS_names=[f"CS{label}" for label in systems],
+                CS_matrices=[matrix for _, matrix in systems.values()],
+            )
+        )
     for k, (node, axis) in enumerate(dofs):
         name = title or f"Point{node}:{'+-'[axis < 0]}{'XYZ'[abs(axis) - 1]}"
         sets.append(dataset_58(record.channels[k], record.time, record.data[:, k], node, axis, "NONE", "NONE", name))
@@ -140,6 +161,51 @@ def test_a_bench_files_geometry_places_its_channels(tmp_path):
     assert (
         names[:2] == ["node11:1", "node11:2"] and names[4] == "node12:-2" and names[-2:] == ["node12:3#1", "node12:3#2"]
     )
+
+
+def test_a_bench_files_local_coordinate_systems_are_applied(tmp_path):
+    """Nodes defined in a rotated, shifted coordinate system and a triaxial sensor measuring along tilted axes
+    (dataset 2420, as bench software writes a sensor mounted on a sloping face): each channel sits at its global
+    point along its global direction (they were read as if in the global system: silently wrong shapes). An
+    undefined system and a cylindrical one are named."""
+    from scipy.spatial.transform import Rotation
+
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement.rig import Hammer, Rig, Sensor
+    from mountid.measurement.uff import read_uff
+
+    turned = Rotation.from_euler("z", 90, degrees=True).as_matrix().T  # rows: the local axes in global
+    tilted = Rotation.from_euler("xz", [30, -20], degrees=True).as_matrix().T
+    origin = np.array([100.0, -50.0, 20.0])  # mm
+    systems = {5: (0, np.vstack([turned, origin])), 6: (0, np.vstack([tilted, np.zeros(3)]))}
+    world = {11: np.array([0.4, 0.3, 0.25]), 12: np.array([-0.4, -0.3, 0.25]), 13: np.array([0.4, -0.3, 0.25])}
+    local = {n: (1e3 * p - origin) @ turned.T / 1e3 for n, p in world.items()}  # the coordinates in system 5
+    cs = {11: (5, 1), 12: (5, 6), 13: (1, 1)}
+    dofs = [(11, 1), (11, 2), (11, 3), (12, 1), (12, -2), (12, 3), (13, 3)]
+    rows = {11: np.eye(3), 12: tilted, 13: np.eye(3)}
+    sensors = [
+        Sensor(f"s{k}", tuple(world[n]), tuple(np.sign(a) * rows[n][abs(a) - 1]), noise=0.01)
+        for k, (n, a) in enumerate(dofs)
+    ]
+    rig = Rig.of("kid300")
+    record = rig.simulate(sensors, 8.0, 500.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=2)
+    nodes = {n: tuple(local[n]) if cs[n][0] == 5 else tuple(world[n]) for n in world}
+    _bench_uff(tmp_path / "bench.uff", record, nodes, dofs, systems=systems, cs=cs)
+    back = read_uff(tmp_path / "bench.uff")
+    for got, sensor in zip(back.channels, sensors, strict=True):
+        np.testing.assert_allclose(got.point, sensor.point, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got.direction, sensor.direction, rtol=0, atol=1e-12)
+    found = modal_data(rig.machine, back, {}, 0.07).modes
+    truth = rig.machine.frequencies({"c_xy": 74.4e3, "c_z": 472.3e3})
+    assert {"x", "z", "psi", "phi"} <= set(found) and all(m.shape is not None for m in found.values())
+    assert all(abs(m.frequency - truth[label]) < 1e-2 * truth[label] for label, m in found.items())
+    _bench_uff(tmp_path / "undefined.uff", record, nodes, dofs, systems=systems, cs={**cs, 13: (1, 7)})
+    with pytest.raises(InputError, match=r"^record: node 13: its displacement coordinate system 7 is not defined"):
+        read_uff(tmp_path / "undefined.uff")
+    systems[5] = (1, systems[5][1])
+    _bench_uff(tmp_path / "cylindrical.uff", record, nodes, dofs, systems=systems, cs=cs)
+    with pytest.raises(InputError, match=r"^record: node 11: its definition coordinate system 5 is cylindrical"):
+        read_uff(tmp_path / "cylindrical.uff")
 
 
 @settings(max_examples=budget(30), deadline=None)

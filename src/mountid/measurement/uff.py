@@ -7,8 +7,12 @@ axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from othe
 channel without the ID-line-4 metadata sits at its response node's coordinates where the file holds its
 geometry (datasets 15 or 2411, in the length unit of dataset 164, converted to m) and measures along its
 response direction's axis (+-1, 2, 3 for x, y, z); else its point and direction are NaN (processing that needs
-them says so). The coordinates are taken as the description's (origin and axes): a test bench's geometry in
-another frame must be moved there first; node coordinate systems other than the global one are not read.
+them says so). A node's coordinates are in its definition coordinate system and its directions along the axes
+of its displacement coordinate system, as datasets 15 and 2411 name them: Cartesian systems the file defines in
+a dataset 2420 (the transformation's rows 1-3 the local axes in global coordinates, row 4 the origin) are
+applied; labels 0 and 1 the file does not define are the global system; any other, or a cylindrical or
+spherical system, is an error naming the node (dataset 18 is not read). The global coordinates are taken as the
+description's (origin and axes): a test bench's geometry in another frame must be moved there first.
 """
 
 from __future__ import annotations
@@ -140,8 +144,8 @@ def read_uff(path: str | Path) -> Record:
         else:  # another tool's file: the response node's coordinates and the response direction's axis
             node, axis = int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
             if node in nodes and 1 <= abs(axis) <= 3:
-                point = nodes[node]
-                direction = tuple(float(math.copysign(1.0, axis)) if k == abs(axis) - 1 else 0.0 for k in range(3))
+                point, axes = nodes[node]
+                direction = tuple(float(v) + 0.0 for v in math.copysign(1.0, axis) * axes[abs(axis) - 1])
         label = str(s.get("id5", "")).strip()
         if label.endswith("]") and " [" in label:
             quantity, unit = label[:-1].split(" [", 1)
@@ -165,15 +169,60 @@ def _names(sets: list[dict]) -> list[str]:
     return [name if out.count(name) == 1 else f"{name}#{out[:k].count(name) + 1}" for k, name in enumerate(out)]
 
 
-def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[float, float, float]]:
-    """Node coordinates [m] of the file's geometry (datasets 15 and 2411), converted from the length unit of its
-    first dataset 164 (SI = file value / its length factor; SI without one)."""
+def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[tuple[float, float, float], np.ndarray]]:
+    """Each node's global coordinates [m] and the axes of its displacement coordinate system (rows: x, y, z in
+    global coordinates) from the file's geometry (datasets 15 and 2411) and coordinate systems (2420), converted
+    from the length unit of its first dataset 164 (SI = file value / its length factor; SI without one)."""
     units = [i for i, t in enumerate(types) if int(t) == 164]
     length = float(uff.read_sets(units[0]).get("length") or 1.0) if units else 1.0
-    out: dict[int, tuple[float, float, float]] = {}
+    systems = _coordinate_systems(uff, types, length)
+    out: dict[int, tuple[tuple[float, float, float], np.ndarray]] = {}
     for i in (i for i, t in enumerate(types) if int(t) in (15, 2411)):
         geometry = uff.read_sets(i)
         xyz = np.column_stack([np.atleast_1d(geometry[a]) for a in "xyz"]).astype(float) / length
-        for node, p in zip(np.atleast_1d(geometry["node_nums"]), xyz, strict=True):
-            out[int(node)] = (float(p[0]), float(p[1]), float(p[2]))
+        labels = [np.atleast_1d(geometry.get(key, np.zeros(len(xyz)))).astype(int) for key in ("def_cs", "disp_cs")]
+        for node, p, defined, displaced in zip(np.atleast_1d(geometry["node_nums"]), xyz, *labels, strict=True):
+            axes, origin = _system(systems, int(defined), int(node), "definition")
+            point = origin + p @ axes
+            out[int(node)] = (
+                (float(point[0]), float(point[1]), float(point[2])),
+                _system(systems, int(displaced), int(node), "displacement")[0],
+            )
     return out
+
+
+_CS_TYPES = {0: "Cartesian", 1: "cylindrical", 2: "spherical"}
+
+
+def _coordinate_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int, tuple[np.ndarray, np.ndarray, int]]:
+    """The coordinate systems of the file's datasets 2420: label -> (axes, rows the local x, y, z in global
+    coordinates; origin [m]; type, 0 Cartesian). A transformation whose axes are not orthonormal is an error."""
+    out = {}
+    for i in (i for i, t in enumerate(types) if int(t) == 2420):
+        found = uff.read_sets(i)
+        for label, kind, matrix in zip(found["CS_sys_labels"], found["CS_types"], found["CS_matrices"], strict=True):
+            m = np.asarray(matrix, dtype=float)
+            if m.shape != (4, 3) or not np.allclose(m[:3] @ m[:3].T, np.eye(3), rtol=0, atol=1e-6):
+                raise InputError("record", f"coordinate system {label} (dataset 2420): its axes are not orthonormal")
+            out[int(label)] = (m[:3], m[3] / length, int(kind))
+    return out
+
+
+def _system(systems: dict, label: int, node: int, role: str) -> tuple[np.ndarray, np.ndarray]:
+    """Axes and origin [m] of coordinate system ``label`` (the global one for an undefined 0 or 1)."""
+    if label not in systems:
+        if label in (0, 1):
+            return np.eye(3), np.zeros(3)
+        raise InputError(
+            "record",
+            f"node {node}: its {role} coordinate system {label} is not defined in the file (no dataset 2420 holds "
+            "it; dataset 18 is not read)",
+        )
+    axes, origin, kind = systems[label]
+    if kind != 0:
+        raise InputError(
+            "record",
+            f"node {node}: its {role} coordinate system {label} is {_CS_TYPES.get(kind, f'of type {kind}')}; only "
+            "Cartesian ones are read",
+        )
+    return axes, origin
