@@ -94,6 +94,10 @@ def test_records_on_a_description_without_nominal_unknowns(folder):
     data = {"machine": str(description), "known": KNOWN, "records": ["hit0.csv"]}
     with pytest.raises(InputError, match=r"^machine: kid300 gives no nominal value for c_xy, c_z: the records are"):
         campaign.parse(data, folder)
+    given = campaign.parse({**data, "nominal": {"c_xy": 60e3, "c_z": 400e3}}, folder)  # values to label with
+    assert {"x", "z", "psi", "phi"} <= set(given.modes) and given.notes[0].startswith(
+        "nominal values from the campaign"
+    )
     truth = Rig.of("kid300").machine.frequencies(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3})
     c = campaign.parse({**data, "modes": {k: {"frequency": truth[k]} for k in ("x", "psi", "z")}}, folder)
     assert c.machine.parameters["c_z"]["value"] == pytest.approx(472.3e3, rel=1e-6)

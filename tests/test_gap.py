@@ -13,7 +13,7 @@ from conftest import description_without_values
 
 from mountid.cli import main
 from mountid.diagnosis.campaign import load, parse
-from mountid.diagnosis.gap import diagnose_where
+from mountid.diagnosis.gap import diagnose, diagnose_where
 from mountid.effects import CATALOGUE
 from mountid.errors import InputError
 from mountid.machine import Machine
@@ -118,6 +118,9 @@ def test_sensitivities_match_the_closed_form_of_the_vertical_mode():
         (lambda d: d["modes"]["z"].update(damping_ratio=0.1, damping_uncertainty=1e-300), "modes.z.damping_unc"),
         (lambda d: d["known"].update(b_z=1e300), "known.b_z: 1e+300 N s/m is 9.62e+296 times above"),
         (lambda d: d["known"].update(m=1e-3), "known.m: 0.001 kg is 8.39e+05 times below"),
+        (lambda d: d.update(nominal={"m": 900.0}), "nominal.m: not an unknown of kid300 (c_xy, c_z)"),
+        (lambda d: d.update(nominal={"c_z": 1e12}), "nominal.c_z: 1e+12 N/m is 2.12e+06 times above"),
+        (lambda d: d.update(nominal={"c_z": -1.0}), "nominal.c_z: -1.0 is less than or equal to the minimum of 0"),
     ],
 )
 def test_bad_campaigns_are_rejected_by_entry(edit, start):
@@ -162,6 +165,23 @@ def test_nominal_values_a_description_leaves_out_are_identified_from_the_campaig
         parse(
             {**_campaign({"x": _measured()["x"]}, machine=description), "known": {**TABLE_1, "b_xy": 1.0, "b_z": 1.0}}
         )
+
+
+def test_a_campaigns_nominal_values_replace_the_descriptions(capsys):
+    """A campaign's ``nominal`` values of the unknowns are where the diagnosis starts and searches: the
+    description's own values given there give the same report, other ones are echoed with the description's."""
+    paper = json.loads((ROOT / "examples" / "kid300-paper.json").read_text(encoding="utf-8"))
+    same = parse({**paper, "nominal": {"c_xy": 74.4e3, "c_z": 472.3e3}}, ROOT / "examples")
+    assert same.notes == (
+        "nominal values from the campaign: c_xy = 7.44e+04 N/m (the description's: 7.44e+04), "
+        "c_z = 4.723e+05 N/m (the description's: 4.723e+05)",
+    )
+    assert (
+        diagnose(same).to_dict() | {"campaign_notes": []}
+        == diagnose(load(ROOT / "examples" / "kid300-paper.json")).to_dict()
+    )
+    other = parse({**paper, "nominal": {"c_xy": 50e3}}, ROOT / "examples")
+    assert other.machine.parameters["c_xy"]["value"] == 50e3 and other.machine.parameters["c_z"]["value"] == 472.3e3
 
 
 def test_paper_worked_example_on_the_command_line(capsys, tmp_path):

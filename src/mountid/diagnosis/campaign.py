@@ -19,6 +19,9 @@ their frequencies and damping ratios (the standard deviations widened where the 
 and the shape of the one with the smallest frequency standard deviation. The records' poles are converted to
 undamped frequencies, their channel layout becomes the campaign's sensors where every shape came from one
 layout, and their quality warnings travel with the campaign.
+
+The fits start from the unknowns' nominal values: the campaign's ``"nominal": {"c_xy": 6e4}``, else the
+description's, else the identification on the measured frequencies (_nominal_from_modes).
 """
 
 from __future__ import annotations
@@ -201,6 +204,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
     _check_known_scale(machine, known)
+    machine, nominal_notes = _campaign_nominal(machine, dict(data.get("nominal", {})))
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
@@ -221,6 +225,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
     machine, notes_on_modes = _nominal_from_modes(machine, known, modes)
+    notes_on_modes = nominal_notes + notes_on_modes
     _check_modes_scale(machine, known, modes)
     if data.get("frequency_type") == "pole" and modes:
         modes, converted = _poles_as_undamped(machine, known, modes)
@@ -307,8 +312,8 @@ def _nominal_from_modes(
         raise InputError(
             "machine",
             f"{machine.name} gives no nominal value for {', '.join(missing)}: the records are labelled against the "
-            "model at its nominal values (give the unknowns values in the description, or measured frequencies "
-            "under modes to identify them from)",
+            "model at its nominal values (give them under nominal, or measured frequencies under modes to identify "
+            "them from)",
         )
     from mountid.identification.from_records import fit_damping, fit_stiffness
 
@@ -346,9 +351,31 @@ def _nominal_from_modes(
     return machine.with_nominal(filled), notes
 
 
-def _check_known_scale(machine: Machine, known: dict[str, float]) -> None:
+def _campaign_nominal(machine: Machine, nominal: dict[str, float]) -> tuple[Machine, list[str]]:
+    """``machine`` with the campaign's ``nominal`` values of its unknowns in place of the description's, and a note
+    saying so; an error naming a value that is not an unknown's or lies more than SCALE_LIMIT from the
+    description's."""
+    if not nominal:
+        return machine, []
+    for name in nominal:
+        if name not in machine.unknown:
+            raise InputError(
+                f"nominal.{name}",
+                f"not an unknown of {machine.name} ({', '.join(machine.unknown)}): known values go under known",
+            )
+    _check_known_scale(machine, nominal, "nominal")
+    params = machine.parameters
+    given = ", ".join(
+        f"{n} = {v:.4g} {params[n]['unit']}"
+        + (f" (the description's: {params[n]['value']:.4g})" if params[n]["value"] is not None else "")
+        for n, v in nominal.items()
+    )
+    return machine.with_nominal(nominal), [f"nominal values from the campaign: {given}"]
+
+
+def _check_known_scale(machine: Machine, known: dict[str, float], section: str = "known") -> None:
     """An error naming the first known value (of a positive kind) more than SCALE_LIMIT from the description's
-    nominal value."""
+    nominal value (``section``: where the campaign gives it)."""
     for name, value in known.items():
         spec = machine.parameters[name]
         nominal = spec["value"]
@@ -359,7 +386,7 @@ def _check_known_scale(machine: Machine, known: dict[str, float]) -> None:
             and not (nominal / SCALE_LIMIT <= value <= nominal * SCALE_LIMIT)
         ):
             raise InputError(
-                f"known.{name}",
+                f"{section}.{name}",
                 f"{value:g} {spec['unit']} is {max(value / nominal, nominal / value):.3g} times "
                 f"{'above' if value > nominal else 'below'} the description's nominal value {nominal:g} "
                 f"{spec['unit']}, more than {SCALE_LIMIT:g} (another unit, or another machine?)",
