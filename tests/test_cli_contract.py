@@ -59,6 +59,10 @@ CASES = [
     (["forced", "kid300", "--speed", "1e308"], "--speed:"),
     (["forced", "kid300", "--speed", "inf"], "--speed:"),
     (["forced", "kid300", "--speed", "100", "--unbalance-mass", "nan"], "--unbalance-mass:"),
+    # an unbalance heavier than the machine it turns in, or 1e300 m off its axis (amplitudes of 1e297 m, exit 0)
+    (["forced", "kid300", "--speed", "100", "--unbalance-mass", "1e300"], "--unbalance-mass: 1e+300 kg is more"),
+    (["forced", "kid300", "--speed", "100", "--eccentricity", "1e300"], "--eccentricity: 1e+300 m is beyond"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "9", "--unbalance-mass", "900"], "--unbalance-mass:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e9"], "--duration:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--rate", "-5"], "--rate:"),
     (["frequencies", "kid300", "--set", "c_xy=1e308"], "c_xy:"),

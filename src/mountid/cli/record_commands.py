@@ -39,6 +39,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
+    if args.speed:
+        check_unbalance(args, float(rig.M[0, 0]))
     sensors = _sensors(args.sensor, args.noise)
     if not sensors:
         from mountid.validation.paper import paper_sensors
@@ -216,6 +218,7 @@ def cmd_forced(args: argparse.Namespace) -> None:
 
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
+    check_unbalance(args, float(rig.M[0, 0]))
     rows = {}
     for w in args.speed:
         unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
