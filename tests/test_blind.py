@@ -60,6 +60,19 @@ def test_campaign_kinds_measure_what_they_say():
         blind.score([blind.run_case(3, "none", "frequencies"), blind.run_case(3, "none", "shapes")])
 
 
+def test_a_blind_case_can_start_from_identified_nominal_values():
+    """make_case(nominal="identified") asks the campaign to start from the identification on its frequencies (as
+    on a description without nominal unknowns); the truth and data are the same, and a clear effect is named
+    first either way."""
+    given, truth = blind.make_case(1, "drive_belt")
+    identified, same = blind.make_case(1, "drive_belt", nominal="identified")
+    assert identified == {**given, "nominal": "identified"} and same == truth
+    with pytest.raises(ValueError, match="nominal 'guessed' is not one of"):
+        blind.make_case(1, "drive_belt", nominal="guessed")
+    a, b = blind.run_case(1, "drive_belt"), blind.run_case(1, "drive_belt", nominal="identified")
+    assert a.ranked[0] == b.ranked[0] == "drive_belt" and a.confident and b.confident
+
+
 def test_true_damping_ratios_of_proportional_damping_are_the_modal_ones(monkeypatch):
     """B = beta C gives zeta_k = beta omega_k / 2 exactly: the pairing of poles with shapes is right."""
     machine = blind.Machine.resolve("rectangular")

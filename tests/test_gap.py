@@ -167,7 +167,7 @@ def test_nominal_values_a_description_leaves_out_are_identified_from_the_campaig
         )
 
 
-def test_a_campaigns_nominal_values_replace_the_descriptions(capsys):
+def test_a_campaigns_nominal_values_replace_the_descriptions(tmp_path):
     """A campaign's ``nominal`` values of the unknowns are where the diagnosis starts and searches: the
     description's own values given there give the same report, other ones are echoed with the description's."""
     paper = json.loads((ROOT / "examples" / "kid300-paper.json").read_text(encoding="utf-8"))
@@ -182,6 +182,18 @@ def test_a_campaigns_nominal_values_replace_the_descriptions(capsys):
     )
     other = parse({**paper, "nominal": {"c_xy": 50e3}}, ROOT / "examples")
     assert other.machine.parameters["c_xy"]["value"] == 50e3 and other.machine.parameters["c_z"]["value"] == 472.3e3
+    # "identified": from the measured frequencies whatever the description gives, as for a description without them
+    identified = parse({**paper, "nominal": "identified"}, ROOT / "examples")
+    assert identified.notes[0].startswith("nominal values identified from the measured frequencies (the campaign asks")
+    assert "c_xy = 7.465e+04 N/m (the description's: 7.44e+04)" in identified.notes[0]
+    stripped = description_without_values(tmp_path, ("c_xy", "c_z"))
+    without = parse({**paper, "machine": str(stripped)})
+    for name in ("c_xy", "c_z"):
+        assert identified.machine.parameters[name]["value"] == without.machine.parameters[name]["value"]
+    with pytest.raises(
+        InputError, match=r"^nominal: needs one of: 'guess' is not of type 'object'; or 'identified' was expected"
+    ):
+        parse({**paper, "nominal": "guess"})
 
 
 def test_paper_worked_example_on_the_command_line(capsys, tmp_path):

@@ -21,7 +21,8 @@ undamped frequencies, their channel layout becomes the campaign's sensors where 
 layout, and their quality warnings travel with the campaign.
 
 The fits start from the unknowns' nominal values: the campaign's ``"nominal": {"c_xy": 6e4}``, else the
-description's, else the identification on the measured frequencies (_nominal_from_modes).
+description's, else (or with ``"nominal": "identified"``) the identification on the measured frequencies
+(_nominal_from_modes).
 """
 
 from __future__ import annotations
@@ -204,7 +205,8 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if name in machine.unknown:
             raise InputError(f"known.{name}", "is an unknown to identify")
     _check_known_scale(machine, known)
-    machine, nominal_notes = _campaign_nominal(machine, dict(data.get("nominal", {})))
+    identified = data.get("nominal") == "identified"
+    machine, nominal_notes = _campaign_nominal(machine, {} if identified else dict(data.get("nominal", {})))
     seen: dict[str, str] = {}
     modes = {}
     for label, entry in data.get("modes", {}).items():
@@ -224,7 +226,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
-    machine, notes_on_modes = _nominal_from_modes(machine, known, modes)
+    machine, notes_on_modes = _nominal_from_modes(machine, known, modes, identified)
     notes_on_modes = nominal_notes + notes_on_modes
     _check_modes_scale(machine, known, modes)
     if data.get("frequency_type") == "pole" and modes:
@@ -284,17 +286,19 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
 
 
 def _nominal_from_modes(
-    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode]
+    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode], identified: bool = False
 ) -> tuple[Machine, list[str]]:
-    """``machine`` with nominal values where its description gives none, identified from the campaign's
-    ``modes``, and a note saying so. The diagnosis starts its fits from the unknowns' nominal values and keeps
-    them within candidate_model.UNKNOWN_RANGE of them, and a description need not give them (``identify`` needs
-    none): the stiffnesses come from every measured frequency (fit_stiffness, the description's root rule
-    deciding between equal solutions), damping parameters the campaign neither knows nor can do without from
-    the measured damping ratios (fit_damping). Any other parameter without a value must be given under
-    ``known``."""
+    """``machine`` with nominal values where its description gives none (every unknown's: ``identified``),
+    identified from the campaign's ``modes``, and a note saying so. The diagnosis starts its fits from the
+    unknowns' nominal values and keeps them within candidate_model.UNKNOWN_RANGE of them, and a description need
+    not give them (``identify`` needs none): the stiffnesses come from every measured frequency (fit_stiffness,
+    the description's root rule deciding between equal solutions), damping parameters the campaign neither knows
+    nor can do without from the measured damping ratios (fit_damping). Any other parameter without a value must
+    be given under ``known``."""
     params = machine.parameters
-    missing = [n for n in params if n not in known and params[n]["value"] is None]
+    missing = [
+        n for n in params if n not in known and (params[n]["value"] is None or (identified and n in machine.unknown))
+    ]
     if not missing:
         return machine, []
     ratios = {label: m for label, m in modes.items() if m.damping_ratio is not None}
@@ -310,11 +314,20 @@ def _nominal_from_modes(
             )
     if not modes:
         raise InputError(
-            "machine",
-            f"{machine.name} gives no nominal value for {', '.join(missing)}: the records are labelled against the "
-            "model at its nominal values (give them under nominal, or measured frequencies under modes to identify "
-            "them from)",
+            "nominal" if identified else "machine",
+            (
+                "the campaign asks for nominal values identified from its measured frequencies and lists none"
+                if identified
+                else f"{machine.name} gives no nominal value for {', '.join(missing)}"
+            )
+            + ": the records are labelled against the model at its nominal values (give them under nominal, or "
+            "measured frequencies under modes to identify them from)",
         )
+    source = (
+        f"the campaign asks for nominal values of {', '.join(missing)} identified from its measured modes"
+        if identified
+        else f"{machine.name} gives no nominal value for {', '.join(missing)}"
+    )
     from mountid.identification.from_records import fit_damping, fit_stiffness
 
     notes: list[str] = []
@@ -329,9 +342,8 @@ def _nominal_from_modes(
             found |= fit_damping(machine.with_nominal(found), {**known, **found}, stated, tuple(damping))[0]
     except InputError as err:
         raise InputError(
-            "machine",
-            f"{machine.name} gives no nominal value for {', '.join(missing)}, and the measured modes do not identify "
-            f"them: {err.parameter}: {err.reason}",
+            "nominal" if identified else "machine",
+            f"{source}, and the measured modes do not identify them: {err.parameter}: {err.reason}",
         ) from None
     for name in damping:
         if found[name] <= 0:
@@ -341,12 +353,17 @@ def _nominal_from_modes(
                 f"{found[name]:.4g} {params[name]['unit']}, not a damping: give it under known",
             )
     filled = {n: found[n] for n in missing}
-    values = ", ".join(f"{n} = {v:.4g} {params[n]['unit']}" for n, v in filled.items())
+    values = ", ".join(
+        f"{n} = {v:.4g} {params[n]['unit']}"
+        + (f" (the description's: {params[n]['value']:.4g})" if params[n]["value"] is not None else "")
+        for n, v in filled.items()
+    )
     whence = " and ".join(w for w, names in (("frequencies", stiffness), ("damping ratios", damping)) if names)
+    why = "the campaign asks for them" if identified else f"{machine.name} gives none"
     notes.insert(
         0,
-        f"nominal values identified from the measured {whence} ({machine.name} gives none; the diagnosis's fits start "
-        f"there and search around them): {values}",
+        f"nominal values identified from the measured {whence} ({why}; the diagnosis's fits start there and search "
+        f"around them): {values}",
     )
     return machine.with_nominal(filled), notes
 

@@ -51,13 +51,25 @@ with their damping ratios (true modal damping of the truth's B, 2 % relative noi
 DAMPING_STD = 0.02
 """Relative standard deviation of the synthetic damping ratios."""
 
+NOMINAL_SOURCES: tuple[str, ...] = ("description", "identified")
+"""Where a blind campaign's fits start (make_case): the description's nominal values of the unknowns, or the
+identification on the measured frequencies (campaign "nominal": "identified")."""
+
 
 def make_case(
-    seed: int, effect: str, noise: bool = True, kind: str = "shapes", machine: str = "kid300"
+    seed: int,
+    effect: str,
+    noise: bool = True,
+    kind: str = "shapes",
+    machine: str = "kid300",
+    nominal: str = "description",
 ) -> tuple[dict, Truth]:
     """A campaign (as its JSON data) of ``kind`` (CAMPAIGN_KINDS) on the shipped ``machine`` and the hidden
     truth for one seed and injected effect: the unknowns within 20 % of their nominal values, the known values
-    as described."""
+    as described. ``nominal``: where the diagnosis starts, the "description"'s nominal values of the unknowns or
+    those "identified" from the measured frequencies (a description that gives none)."""
+    if nominal not in NOMINAL_SOURCES:
+        raise ValueError(f"nominal {nominal!r} is not one of {NOMINAL_SOURCES}")
     if kind not in CAMPAIGN_KINDS:
         raise ValueError(f"campaign kind {kind!r} is not one of {CAMPAIGN_KINDS}")
     rng = np.random.default_rng(seed)
@@ -85,6 +97,8 @@ def make_case(
     damping = set(tm.damping_parameters) if kind == "damping" else set()
     known = {k: tm.nominal[k] for k in tm.known if k not in damping}
     data = {"name": f"blind case {seed}", "machine": machine, "known": known, "modes": modes}
+    if nominal == "identified":
+        data["nominal"] = "identified"
     if kind == "shapes":  # the layout the shapes were estimated from
         data["sensors"] = [
             {"name": name, "point": [float(x) for x in r], "direction": [float(x) for x in d]}
@@ -179,11 +193,14 @@ def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_
     return n - k >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
 
 
-def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid300") -> CaseResult:
+def run_case(
+    seed: int, effect: str, kind: str = "shapes", machine: str = "kid300", nominal: str = "description"
+) -> CaseResult:
     """Diagnose one blind case. On the same truth without noise: identifiability (the gap is significant there
     and the effect that represents the truth has the posterior probability of a confident verdict), and for a
-    truth of several parts which parts alone explain the data (fit them within their uncertainty)."""
-    data, _ = make_case(seed, effect, kind=kind, machine=machine)
+    truth of several parts which parts alone explain the data (fit them within their uncertainty). ``nominal``:
+    as make_case."""
+    data, _ = make_case(seed, effect, kind=kind, machine=machine, nominal=nominal)
     report = diagnose_effects(campaign_module.parse(data))
     ranked = tuple(f.effect for f in report.ranked if f.applicable)
     identifiable = False
@@ -191,7 +208,7 @@ def run_case(seed: int, effect: str, kind: str = "shapes", machine: str = "kid30
     acceptable = None
     parts = effect.split("+")
     if effect != "none" and (expected is not None or len(parts) > 1):
-        clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine)
+        clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine, nominal=nominal)
         ideal = diagnose_effects(campaign_module.parse(clean), warm=report, exact_held_out=False, other_roots=False)
         fits = {f.effect: f for f in ideal.ranked}
         truth = fits.get(expected) if expected is not None else None
@@ -624,11 +641,13 @@ def run(
     kinds: tuple[str, ...] = ("shapes",),
     scheduler: str | None = None,
     machines: tuple[str, ...] = ("kid300",),
+    nominal: str = "description",
 ) -> list[CaseResult]:
     """Run n blind cases per campaign kind and machine through dask: the local process scheduler with
     ``workers`` processes by default (one process: in this one, no dask needed), or the dask cluster at
-    ``scheduler`` (an address such as tcp://host:8786, for studies of 10^4 cases over many machines)."""
-    todo = cases(n, first_seed, kinds, machines)
+    ``scheduler`` (an address such as tcp://host:8786, for studies of 10^4 cases over many machines).
+    ``nominal``: where the fits start (make_case)."""
+    todo = [(*c, nominal) for c in cases(n, first_seed, kinds, machines)]
     if workers <= 1 and scheduler is None:
         return [run_case(*c) for c in todo]
     try:
