@@ -95,6 +95,8 @@ def test_records_on_a_description_without_nominal_unknowns(folder):
     with pytest.raises(InputError, match=r"^machine: kid300 gives no nominal value for c_xy, c_z: the records are"):
         campaign.parse(data, folder)
     given = campaign.parse({**data, "nominal": {"c_xy": 60e3, "c_z": 400e3}}, folder)  # values to label with
+    with pytest.raises(InputError, match=r"^nominal: the campaign asks for nominal values identified from its"):
+        campaign.parse({**data, "machine": "kid300", "nominal": "identified"}, folder)  # from no frequency
     assert {"x", "z", "psi", "phi"} <= set(given.modes) and given.notes[0].startswith(
         "nominal values from the campaign"
     )
