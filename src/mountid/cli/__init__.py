@@ -68,23 +68,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figures", default="out/figures", help="folder for the figures (default out/figures)")
     p.set_defaults(func=cmd_demo)
 
-    def add_channel(p: argparse.ArgumentParser) -> None:
-        p.add_argument(
-            "--channel",
-            nargs="+",
-            action="extend",
-            metavar="NAME=x,y,z:dx,dy,dz",
-            help="point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
-        )
-
-    def add_nominal(p: argparse.ArgumentParser) -> None:
-        p.add_argument(
-            "--nominal",
-            nargs="+",
-            action="extend",
-            metavar="NAME=VALUE",
-            help="values of the unknowns [SI] the record's poles are labelled against (default: the description's)",
-        )
+    def add_record_options(p: argparse.ArgumentParser) -> None:
+        """--channel and --nominal: where a record's channels sit, and the unknowns its poles are labelled at."""
+        for option, metavar, help_ in (
+            (
+                "--channel",
+                "NAME=x,y,z:dx,dy,dz",
+                "point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
+            ),
+            (
+                "--nominal",
+                "NAME=VALUE",
+                "values of the unknowns [SI] the record's poles are labelled against (default: the description's)",
+            ),
+        ):
+            p.add_argument(option, nargs="+", action="extend", metavar=metavar, help=help_)
 
     def add_unbalance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
@@ -132,8 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
-    add_channel(p)
-    add_nominal(p)
+    add_record_options(p)
     p.set_defaults(func=cmd_identify_record)
     p = machine_command("plan", "before the test: what a sensor layout, hit and record length will measure")
     p.add_argument(
@@ -155,8 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )
-    add_channel(p)
-    add_nominal(p)
+    add_record_options(p)
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(
         "diagnose", help="where the model misses a campaign's measurements and which unmodelled effect explains it"
