@@ -42,6 +42,20 @@ def test_no_gap_when_the_model_is_the_truth():
     assert len(held) == 4 and all(abs(r.z) < 1e-6 for r in held)  # leave-one-out predicts each exactly
 
 
+def test_the_leave_one_out_fits_reuse_the_inverse_roots_of_the_full_fit():
+    """Every subset of modes a leave-one-out fit solves the generated inverse on, the fit to all modes solved
+    already (at the same frequencies): the roots are kept, and the report is the same without them kept."""
+    from mountid.identification import from_records
+
+    c = parse(_campaign(_measured(J_xy=TABLE_1["J_xy"] * 1.15)))
+    from_records._inverse_starts.cache_clear()
+    report = diagnose_where(c)
+    kept = from_records._inverse_starts.cache_info()
+    assert kept.misses == 6 and kept.hits == 12  # four distinct frequencies: six pairs, each in two of the 3-sets
+    from_records._inverse_starts.cache_clear()
+    assert repr(diagnose_where(c)) == repr(report)
+
+
 def test_an_inertia_error_is_found_significant_and_localised_in_the_rocking_block():
     """Truth: J_xy 15 % larger than the campaign's known value (9.2 kg m^2). The gap is significant; a change
     of the rocking inertia M[psi,psi] = M[theta,theta], fitted together with the unknowns, removes it and
