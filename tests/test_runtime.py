@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from conftest import budget
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mountid import runtime
 from mountid.generated import kid300
@@ -101,3 +104,31 @@ def test_generated_functions_give_scalars_the_numbers_of_a_batch():
     assert runtime.batch_shape(*runtime.as_operands(1.0, 2, np.float64(3.0))) == ()
     assert runtime.batch_shape(*runtime.as_operands(1.0, [1.0, 2.0], np.zeros((3, 1)))) == (3, 2)
     assert all(type(x) is np.float64 for x in runtime.as_operands(1.0, 2, np.float64(3.0)))
+
+
+@settings(max_examples=budget(60), deadline=None)
+@given(
+    distinct=st.lists(st.floats(0.1, 10.0), min_size=1, max_size=4),
+    picks=st.lists(st.tuples(st.integers(0, 3), st.floats(-2e-9, 2e-9), st.booleans()), min_size=1, max_size=40),
+    columns=st.integers(1, 3),
+)
+def test_repeated_roots_are_dropped_as_by_comparing_each_with_every_earlier_one(distinct, picks, columns):
+    """inverse._drop_repeats (rounds over the kept roots) against the definition: a root is dropped when it lies
+    within DUPLICATE_RTOL of an earlier admissible root of its row, comparing each with every earlier one in turn.
+    Roots drawn from a few distinct values with relative jitter around the tolerance, some not admissible."""
+    from mountid.runtime import inverse
+
+    rng = np.random.default_rng(len(picks) * 7 + columns)
+    x = np.empty((len(picks), columns, 2))
+    ok = np.empty((len(picks), columns), dtype=bool)
+    for i, (k, jitter, admissible) in enumerate(picks):
+        base = distinct[k % len(distinct)]
+        x[i] = base * (1 + jitter * rng.uniform(0, 1, (columns, 2)))  # within or beyond the tolerance, 1e-9
+        ok[i] = admissible ^ (rng.uniform(size=columns) < 0.2)
+    expected = ok.copy()
+    for i in range(1, len(picks)):
+        same = np.all(np.abs(x[i] - x[:i]) <= inverse.DUPLICATE_RTOL * np.abs(x[:i]), axis=-1)
+        expected[i] &= ~np.any(same & expected[:i], axis=0)
+    got = ok.copy()
+    inverse._drop_repeats(x, got)
+    assert np.array_equal(got, expected)

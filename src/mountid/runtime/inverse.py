@@ -458,8 +458,30 @@ def admissible(
         for k, lam in zip(mode_index, given, strict=True):
             ok &= np.abs(predicted[..., k] - lam) <= rtol * np.abs(lam)
         # a root that repeats an earlier admissible one (two candidates polished onto one solution) is dropped
-        x = np.stack(np.broadcast_arrays(*unknowns), axis=-1)  # (n_roots, ..., n_unknowns)
-        for i in range(1, x.shape[0]):  # ok[:i] is final here: compare with every earlier root at once
-            same = np.all(np.abs(x[i] - x[:i]) <= DUPLICATE_RTOL * np.abs(x[:i]), axis=-1)
-            ok[i] &= ~np.any(same & ok[:i], axis=0)
+        _drop_repeats(np.stack(np.broadcast_arrays(*unknowns), axis=-1), ok)
     return ok
+
+
+def _drop_repeats(x: NDArray, ok: NDArray[np.bool_]) -> None:
+    """Clear ``ok`` (n_roots, ...) of each root within DUPLICATE_RTOL of an earlier admissible one in its row
+    (relative to the earlier root; ``x``: (n_roots, ..., n_unknowns)). In rounds: in every row the first root not
+    yet decided is kept, and every later one equal to it dropped; a root is dropped exactly when an earlier kept
+    root equals it, as comparing each root with every earlier one in turn would find, in as many rounds as a row
+    keeps roots (a numeric inverse's grid polishes hundreds of starts onto a handful of roots)."""
+    n_roots = x.shape[0]
+    if not n_roots:
+        return
+    flat_x = x.reshape(n_roots, -1, x.shape[-1])
+    flat_ok = ok.reshape(n_roots, -1)
+    open_ = flat_ok.copy()
+    order = np.arange(n_roots)[:, None]
+    while open_.any():
+        cols = np.flatnonzero(open_.any(axis=0))
+        first = np.argmax(open_[:, cols], axis=0)
+        kept = flat_x[first, cols]  # (n_cols, n_unknowns)
+        same = np.all(np.abs(flat_x[:, cols] - kept[None]) <= DUPLICATE_RTOL * np.abs(kept[None]), axis=-1)
+        drop = same & (order > first[None, :]) & open_[:, cols]
+        flat_ok[:, cols] &= ~drop
+        open_[:, cols] &= ~drop
+        open_[first, cols] = False
+    ok[...] = flat_ok.reshape(ok.shape)  # (reshape may have copied)
