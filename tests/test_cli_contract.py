@@ -272,6 +272,9 @@ def test_records_on_a_description_without_nominal_unknowns_are_labelled_at_given
     assert run(capsys, "simulate", "kid300", "--out", record, "--duration", "4")[0] == 0
     code, _, err = run(capsys, "identify-record", description, record)
     assert code == 2 and err.startswith("mountid: error: nominal: kid300 gives no nominal value for c_xy, c_z:")
+    code, _, err = run(capsys, "frequencies", description)  # a forward command: the option that gives them
+    assert code == 2 and err.startswith("mountid: error: c_xy: missing:") and "--set c_xy=VALUE" in err
+    assert run(capsys, "frequencies", description, "--set", "c_xy=7e4", "c_z=4e5")[0] == 0
     _, given, _ = run(capsys, "identify-record", "kid300", record, "--json")
     given = json.loads(given)
     code, out, _ = run(capsys, "identify-record", description, record, "--nominal", "c_xy=74.4e3", "c_z=472.3e3")

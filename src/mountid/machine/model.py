@@ -98,7 +98,11 @@ class Machine:
             elif spec["value"] is not None:
                 value = float(spec["value"])
             else:
-                raise InputError(name, "missing: no value given and the description has no nominal value")
+                raise InputError(
+                    name,
+                    "missing: no value given and the description has no nominal value (on the command line: "
+                    f"--set {name}=VALUE)",
+                )
             if not math.isfinite(value):
                 raise InputError(name, f"must be a finite number, got {value}")
             if spec["kind"] == "length" and value < 0:
