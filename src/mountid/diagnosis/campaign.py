@@ -353,11 +353,7 @@ def _nominal_from_modes(
                 f"{found[name]:.4g} {params[name]['unit']}, not a damping: give it under known",
             )
     filled = {n: found[n] for n in missing}
-    values = ", ".join(
-        f"{n} = {v:.4g} {params[n]['unit']}"
-        + (f" (the description's: {params[n]['value']:.4g})" if params[n]["value"] is not None else "")
-        for n, v in filled.items()
-    )
+    values = _beside_description(machine, filled)
     whence = " and ".join(w for w, names in (("frequencies", stiffness), ("damping ratios", damping)) if names)
     why = "the campaign asks for them" if identified else f"{machine.name} gives none"
     notes.insert(
@@ -381,13 +377,17 @@ def _campaign_nominal(machine: Machine, nominal: dict[str, float]) -> tuple[Mach
                 f"not an unknown of {machine.name} ({', '.join(machine.unknown)}): known values go under known",
             )
     _check_known_scale(machine, nominal, "nominal")
+    return machine.with_nominal(nominal), [f"nominal values from the campaign: {_beside_description(machine, nominal)}"]
+
+
+def _beside_description(machine: Machine, values: dict[str, float]) -> str:
+    """``values`` as a report note lists them, each beside the description's nominal value where it gives one."""
     params = machine.parameters
-    given = ", ".join(
+    return ", ".join(
         f"{n} = {v:.4g} {params[n]['unit']}"
         + (f" (the description's: {params[n]['value']:.4g})" if params[n]["value"] is not None else "")
-        for n, v in nominal.items()
+        for n, v in values.items()
     )
-    return machine.with_nominal(nominal), [f"nominal values from the campaign: {given}"]
 
 
 def _check_known_scale(machine: Machine, known: dict[str, float], section: str = "known") -> None:
