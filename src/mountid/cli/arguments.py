@@ -56,16 +56,18 @@ def finite_number(value: float, option: str, minimum: float = 0.0, strict: bool 
     return value
 
 
-def check_unbalance(args: argparse.Namespace, mass: float | None = None) -> None:
+def check_unbalance(args: argparse.Namespace) -> None:
     """The rotating-unbalance options of simulate and forced: speeds positive, mass and eccentricity >= 0, the
-    mass at most the machine's ``mass`` [kg] (the unbalance is one of its vibrating parts), the eccentricity
-    within POINT_LIMIT."""
+    eccentricity within POINT_LIMIT (the mass against the machine's: unbalance_within)."""
     for w in args.speed or ():
         finite_number(w, "--speed")
     finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
-    finite_number(args.eccentricity, "--eccentricity", strict=False)
     bounded(args.eccentricity, "--eccentricity", POINT_LIMIT, " m", strict=False)
-    if mass is not None and args.unbalance_mass > mass:
+
+
+def unbalance_within(args: argparse.Namespace, mass: float) -> None:
+    """--unbalance-mass at most the machine's vibrating ``mass`` [kg]: the unbalance is one of its parts."""
+    if args.unbalance_mass > mass:
         raise InputError(
             "--unbalance-mass",
             f"{args.unbalance_mass:g} kg is more than the machine's vibrating mass {mass:g} kg, of which it is part",
