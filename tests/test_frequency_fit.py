@@ -218,3 +218,50 @@ def test_standard_deviations_beyond_first_order_are_noted(capsys):
         assert main(argv) == 0
         out = capsys.readouterr().out
         assert "first order does not hold" not in out and "mountid diagnose" not in out
+
+
+@settings(max_examples=60)
+@given(
+    points=st.lists(
+        st.tuples(st.integers(0, 3), st.integers(0, 2), st.floats(-0.2, 0.2), st.floats(0.0, 10.0)),
+        min_size=1,
+        max_size=30,
+    )
+)
+def test_starting_points_are_thinned_as_the_rule_says(points):
+    """from_records._distinct_starts against its definition: in order of chi^2 (ties by position), a root is kept
+    unless it lies within START_SPACING (in every ln unknown) of a root kept before from another subset. Roots
+    drawn around a few centres with offsets on both sides of the spacing, from four subsets."""
+    from mountid.identification import from_records
+
+    centres = np.log([[1.0, 2.0], [1.5, 2.0], [1.0, 9.0]])
+    roots = [((f"s{subset}",), centres[c] + np.array([offset, -offset / 2])) for subset, c, offset, _ in points]
+    chi2 = {id(start): cost for (_, start), (*_, cost) in zip(roots, points, strict=True)}
+    expected: list[tuple[tuple[str, ...], np.ndarray]] = []
+    for i in sorted(range(len(roots)), key=lambda i: (points[i][3], i)):
+        key, start = roots[i]
+        if not any(k != key and np.max(np.abs(start - s)) < from_records.START_SPACING for k, s in expected):
+            expected.append(roots[i])
+
+    def residual(start):
+        return np.array([np.sqrt(chi2[id(start)])])
+
+    got = from_records._distinct_starts(roots, residual)
+    assert [id(s) for s in got] == [id(s) for _, s in expected]
+
+
+def test_close_roots_of_one_inverse_are_both_fitted():
+    """An exactly determined set whose two admissible roots lie within START_SPACING of each other (kid300's x
+    and psi just above the frequency where the two roots meet) still lists both: the roots of one inverse are
+    distinct solutions, never thinned."""
+    from mountid.identification import from_records
+
+    machine = Machine.resolve("kid300")
+    psi = np.linspace(46.0, 46.2, 2001)
+    roots = kid300.identify_x_psi(**TABLE_1, omega_x=17.71, omega_psi=psi)
+    ln = np.log(np.stack([roots.parameters[u] for u in ("c_xy", "c_z")], axis=-1))
+    apart = np.max(np.abs(ln[0] - ln[1]), axis=-1)
+    close = np.flatnonzero(roots.admissible.all(axis=0) & (apart < from_records.START_SPACING / 2))
+    assert close.size
+    with pytest.raises(InputError, match="2 solutions fit equally"):
+        from_records.fit_stiffness(machine, TABLE_1, {"x": (17.71, 1e-5), "psi": (float(psi[close[-1]]), 1e-5)})

@@ -308,16 +308,17 @@ def fit_stiffness(
             d_omega = pole_frequency_derivatives(machine, full, unknown)[:, idx]
         return d_omega.T * p[None, :] / std[:, None]
 
-    starts = [
-        start
+    roots = [
+        (key, start)
         for key in itertools.combinations(labels, len(unknown))
         if key in mod.INVERSES
         for start in _inverse_starts(
             mod, key, tuple(knowns), _packed(knowns.values()), _packed(measured[lab][0] for lab in key)
         )
     ]
-    if not starts:
+    if not roots:
         raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
+    starts = _distinct_starts(roots, residual)
 
     def fit_from(start: np.ndarray) -> scipy.optimize.OptimizeResult | None:
         """The fit from one start; None where its path left double precision (a frequency of zero or an
@@ -333,7 +334,7 @@ def fit_stiffness(
         raise InputError("measured", "every fit from the generated inverses' roots left the range of double precision")
     inside = [f for f in fits if not _left_behind(f.jac).any()]
     if not inside or inside[0].cost > fits[0].cost + 1e-6 * (1 + fits[0].cost):
-        why = _no_mount(fits[0], unknown, labels, omega, std, np.array(starts))
+        why = _no_mount(fits[0], unknown, labels, omega, std, np.array([start for _, start in roots]))
         if not boundary_ok:
             raise InputError("measured", why)
         if notes is not None:
@@ -381,6 +382,27 @@ def fit_stiffness(
     params = dict(zip(unknown, map(float, values), strict=True))
     stds = {u: float(values[i] * spread[i]) for i, u in enumerate(unknown)}
     return params, stds
+
+
+START_SPACING = 0.1
+"""Roots of the inverses over two different subsets of the measured modes closer than this in every log-unknown
+(about 10 %) are one starting point: fit_stiffness fits from the one with the smaller residual. Wherever the
+model fits the frequencies, those subsets give nearly the same root (they differ by the gap), and fits from
+one neighbourhood end in one minimum; the roots of one inverse are distinct solutions and are all kept."""
+
+
+def _distinct_starts(roots: list[tuple[tuple[str, ...], np.ndarray]], residual) -> list[np.ndarray]:
+    """The starting points (ln unknowns) of ``roots`` ((subset of labels, start) pairs), taken in order of their
+    chi^2 (``residual``'s sum of squares), without those within START_SPACING of one kept from another subset."""
+    with np.errstate(all="ignore"):
+        chi2 = [float(np.sum(residual(start) ** 2)) for _, start in roots]
+    order = sorted(range(len(roots)), key=lambda i: (not math.isfinite(chi2[i]), chi2[i], i))
+    kept: list[tuple[tuple[str, ...], np.ndarray]] = []
+    for i in order:
+        key, start = roots[i]
+        if all(k == key or np.max(np.abs(start - s)) >= START_SPACING for k, s in kept):
+            kept.append(roots[i])
+    return [start for _, start in kept]
 
 
 def _packed(values) -> bytes:
