@@ -54,7 +54,11 @@ def test_records_become_modal_data_with_shapes(folder):
     assert [r.path.name for r in c.records] == ["hit0.csv", "hit1.csv"] and c.records[1].start == 0.08
     assert set(c.modes) >= {"x", "z", "psi", "phi"}
     for mode in c.modes.values():
-        assert mode.damping_ratio is not None and mode.shape is not None and mode.shape_std > 0
+        assert mode.damping_ratio is not None and mode.shape is not None
+        # the record's noise and the default for what a record does not show, in quadrature
+        assert campaign.DEFAULT_SHAPE_STD < mode.shape_std < 1.01 * campaign.DEFAULT_SHAPE_STD
+    (note,) = [n for n in c.record_notes if n.startswith("shape uncertainty per component: the record's noise")]
+    assert all(f"{label} " in note for label in c.modes)
     truth = Rig.of("kid300").machine.frequencies(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3})
     for label, mode in c.modes.items():
         # measured |p| against the undamped model: within the damping's second-order shift and 5 sigma

@@ -97,6 +97,8 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     modes = json.loads(out)["modes"]
     assert sorted(modes) == ["phi", "psi", "x", "z"] and json.loads(out)["frequency_type"] == "pole"
     assert modes["x"]["frequency"] == pytest.approx(17.71, rel=2e-3) and modes["x"]["frequency_std"] > 0
+    # three channels do not fix a shape in the six coordinates: no shape, no shape noise
+    assert all(m["shape"] is None and m["shape_std"] is None for m in modes.values())
     code, text, _ = run(capsys, "process", "kid300", str(path))
     assert (
         code == 0 and 'the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")' in text

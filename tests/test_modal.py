@@ -73,3 +73,24 @@ def test_burst_peaks_are_scipys_find_peaks(seed):
         ours = modal.find_bursts(smooth, h, distance, prominence * smooth.max())
         theirs, _ = scipy.signal.find_peaks(smooth, height=h, distance=distance, prominence=prominence * smooth.max())
         assert ours.tolist() == theirs.tolist()
+
+
+def test_amplitude_standard_deviations_match_their_scatter():
+    """modal.amplitude_standard_deviations against 300 noisy records of three known damped exponentials in four
+    channels of different noise (two modes 0.5 Hz apart): the RMS error of every complex amplitude lies within
+    15 % of its stated standard deviation (sampling error of 600 degrees of freedom about 3 %)."""
+    rng = np.random.default_rng(1)
+    dt, n = 0.002, 3000
+    t = np.arange(n) * dt
+    poles = np.array([-0.5 + 2j * np.pi * 3, -1.0 + 2j * np.pi * 7.5, -0.8 + 2j * np.pi * 8.0])
+    both = np.concatenate([poles, poles.conj()])
+    amp = rng.normal(size=(3, 4)) + 1j * rng.normal(size=(3, 4))
+    clean = 2 * np.real(np.exp(np.outer(t, poles)) @ amp)
+    sigma = np.array([0.05, 0.2, 0.1, 0.5])
+    errors, stated = [], []
+    for _ in range(300):
+        y = clean + rng.normal(size=clean.shape) * sigma
+        errors.append(modal.amplitudes(y, dt, both)[:3] - amp)
+        stated.append(modal.amplitude_standard_deviations(y, dt, both)[:3])
+    ratio = np.sqrt(np.mean(np.abs(np.array(errors)) ** 2, axis=0)) / np.mean(stated, axis=0)
+    assert np.all(np.abs(ratio - 1) < 0.15), ratio

@@ -128,7 +128,7 @@ def cmd_plan(args: argparse.Namespace) -> None:
 
 def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:
     """The JSON of labelled modal data (process, identify-record)."""
-    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac", "shape")
+    fields = ("frequency", "frequency_std", "damping_ratio", "damping_std", "mac", "shape", "shape_std")
     return {
         "machine": machine.name,
         "frequency_type": "pole",  # |p| of each pole (a campaign of these modes says "frequency_type": "pole")

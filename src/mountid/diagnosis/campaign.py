@@ -52,6 +52,16 @@ DEFAULT_FREQUENCY_STD = 1e-3
 """Relative standard deviation taken for a frequency given without uncertainty."""
 DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
+
+
+def record_shape_std(noise: float | None) -> float:
+    """Standard deviation per component of a shape from a record: the noise's (the records chain's estimate,
+    MeasuredMode.shape_std; None where it gives none) and DEFAULT_SHAPE_STD in quadrature. The default stands
+    for what a record does not show, the sensors' placement and calibration: a clean record's shape is not
+    known better than a campaign's shape given without uncertainty, a noisy one's is known worse."""
+    return DEFAULT_SHAPE_STD if noise is None else math.hypot(noise, DEFAULT_SHAPE_STD)
+
+
 DEFAULT_DAMPING_STD = 0.05
 """Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
 
@@ -535,9 +545,15 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
         disagreement = _disagreement(label, found)
         notes += disagreement
         disagree += [label] if disagreement else []
-        # a record's shape has no stated spread: the campaign default, as for a shape given without one (and
-        # as a campaign's mode without a shape, the typical spread of a shape one would measure)
-        modes[label] = replace(mode, shape_std=mode.shape_std or DEFAULT_SHAPE_STD)
+        modes[label] = replace(mode, shape_std=record_shape_std(mode.shape_std))
+    noisy = {lab: m.shape_std for lab, (m, _) in best.items() if m.shape is not None and m.shape_std is not None}
+    if noisy:
+        notes.append(
+            "shape uncertainty per component: the record's noise ("
+            + ", ".join(f"{lab} {v:.2g}" for lab, v in noisy.items())
+            + f") with {DEFAULT_SHAPE_STD:g} for what a record does not show (sensor placement and calibration), "
+            "in quadrature"
+        )
     modes, notes = _as_undamped(machine, known, modes, notes)
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
     return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree))

@@ -603,6 +603,7 @@ def modal_data(
         warnings += _coherence_warnings(estimate, labelled, settings)
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
+    length = float(call(mod, "effect_scales", machine.values(guess, mod.ARGUMENTS["effect_scales"]))["length"])
     modes = {
         label: MeasuredMode(
             label,
@@ -611,6 +612,9 @@ def modal_data(
             damping_ratio=p.damping_ratio,
             damping_std=p.damping_std,
             shape=coordinate_shape(rows, p.shape) if full else None,
+            shape_std=coordinate_shape_std(rows, p.shape, p.shape_std, length)
+            if full and p.shape_std is not None
+            else None,
             mac=m,
         )
         for label, (p, m) in labelled.items()
@@ -678,7 +682,9 @@ def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
         return pole
     w, z = pole.frequency, pole.damping_ratio
     p = complex(-z * w, w * np.sqrt(max(1 - z * z, 0.0)))
-    return replace(pole, shape=pole.shape * p ** (2 - orders))
+    gain = p ** (2 - orders)
+    std = None if pole.shape_std is None else pole.shape_std * np.abs(gain)
+    return replace(pole, shape=pole.shape * gain, shape_std=std)
 
 
 def coordinate_shape(rows: np.ndarray, channel_shape: np.ndarray) -> tuple[float, ...]:
@@ -688,6 +694,27 @@ def coordinate_shape(rows: np.ndarray, channel_shape: np.ndarray) -> tuple[float
     k = int(np.argmax(np.abs(q)))
     q = q * np.exp(-1j * np.angle(q[k])) / np.abs(q[k])
     return tuple(float(v) for v in q.real)
+
+
+def coordinate_shape_std(rows: np.ndarray, channel_shape: np.ndarray, channel_std: np.ndarray, length: float) -> float:
+    """Standard deviation per component of the shape :func:`coordinate_shape` gives, scaled to unit length with
+    its rotations times ``length`` [m] (MeasuredMode.shape_std), from the standard deviations sqrt(E |error|^2)
+    of the complex channel amplitudes (modal.Pole.shape_std; independent, circular), to first order: the real
+    part of the rotated least-squares shape has the covariance P diag(std^2 / 2) P^T (P the pseudo-inverse of
+    the channel rows); its normalisation keeps the part normal to the shape; that part's variance spread over the
+    components less the free scale."""
+    pinv = np.linalg.pinv(rows)
+    q = pinv @ channel_shape
+    k = int(np.argmax(np.abs(q)))
+    real = (q * np.exp(-1j * np.angle(q[k]))).real
+    scale = np.ones(len(q))
+    scale[3:6] = length
+    scaled = real * scale
+    norm = float(np.linalg.norm(scaled))
+    unit = scaled / norm
+    normal = (np.eye(len(q)) - np.outer(unit, unit)) * scale[None, :] / norm
+    cov = (normal @ pinv) * (np.asarray(channel_std, dtype=float) ** 2 / 2)[None, :] @ (normal @ pinv).T
+    return float(np.sqrt(np.trace(cov) / max(len(q) - 1, 1)))
 
 
 def identify_from_record(

@@ -26,7 +26,9 @@ class Pole:
 
     frequency: undamped natural frequency |p| [rad/s]; damping_ratio: -Re(p)/|p| [-]; shape: complex
     amplitude per channel at the start of the analysed segment [channel unit]; *_std: standard deviation
-    the measurement noise causes (Cramer-Rao bound of the least-squares fit, see refine_poles).
+    the measurement noise causes (Cramer-Rao bound of the least-squares fit, see refine_poles); shape_std: per
+    channel, the standard deviation of the complex amplitude, sqrt(E |error|^2) [channel unit]
+    (amplitude_standard_deviations), None where not estimated.
     """
 
     frequency: float
@@ -34,6 +36,7 @@ class Pole:
     shape: NDArray[np.complex128]
     frequency_std: float = 0.0
     damping_std: float = 0.0
+    shape_std: NDArray[np.float64] | None = None
 
     @property
     def damped_frequency(self) -> float:
@@ -98,6 +101,21 @@ def amplitudes(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.comple
     """Complex amplitude of every pole in every channel by linear least squares, shape (n_poles, n_channels).
     A constant per channel (sensor bias) is fitted alongside and left out of the result."""
     return np.linalg.lstsq(_basis(len(samples), dt, poles), samples.astype(complex), rcond=None)[0][:-1]
+
+
+def amplitude_standard_deviations(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.float64]:
+    """Standard deviation sqrt(E |error|^2) of every amplitude that :func:`amplitudes` gives, shape (n_poles,
+    n_channels) [channel unit], for white noise of each channel's residual variance: the linear least squares'
+    sigma_c^2 [(B^H B)^-1]_kk (B the basis of the poles and the constant). The poles are taken as exact: their
+    own error moves the amplitudes of every channel of a mode alike (its scale and phase), which a mode shape
+    normalises away."""
+    basis = _basis(len(samples), dt, poles)
+    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    resid = np.real(samples - basis @ coef)
+    dof = max(len(samples) - len(poles) - 1, 1)  # real parameters per channel: two per conjugate pair, the bias
+    variance = np.sum(resid**2, axis=0) / dof
+    gain = np.real(np.diagonal(np.linalg.pinv(basis.conj().T @ basis)))[:-1]
+    return np.sqrt(np.maximum(gain, 0.0)[:, None] * variance[None, :])
 
 
 def _basis(n: int, dt: float, poles: NDArray) -> NDArray[np.complex128]:
@@ -210,9 +228,14 @@ def free_decay_poles(
         return []
     start = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
     refined, cov = refine_poles(samples, dt, start)
-    shapes = amplitudes(samples, dt, np.concatenate([refined, refined.conj()]))
+    both = np.concatenate([refined, refined.conj()])
+    shapes = amplitudes(samples, dt, both)
+    shape_stds = amplitude_standard_deviations(samples, dt, both)
     stds = pole_standard_deviations(refined, cov)
-    out = [Pole(float(abs(p)), float(-p.real / abs(p)), shapes[i], *stds[i]) for i, p in enumerate(refined)]
+    out = [
+        Pole(float(abs(p)), float(-p.real / abs(p)), shapes[i], *stds[i], shape_std=shape_stds[i])
+        for i, p in enumerate(refined)
+    ]
     return sorted(out, key=lambda p: p.frequency)
 
 
