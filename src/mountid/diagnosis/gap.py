@@ -19,14 +19,17 @@ from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
 from mountid.diagnosis.fitting import chi2_by_kind, damping_std
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
-from mountid.identification.from_records import fit_stiffness
+from mountid.identification.from_records import StiffnessFit, fit_stiffness_with_covariance
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import call
 
 
 @dataclass(frozen=True)
 class Residual:
-    """measured - predicted [rad/s] for one mode; z = residual / uncertainty (None without uncertainty)."""
+    """measured - predicted [rad/s] for one mode; z = residual / its standard deviation (None without the
+    measurement's uncertainty): the measurement's ``uncertainty`` and, for a mode held out, the prediction's own
+    ``prediction_std`` [rad/s] (the fit to the other modes propagated to this one at their stated uncertainties),
+    in quadrature."""
 
     label: str
     measured: float
@@ -35,14 +38,20 @@ class Residual:
     held_out: bool
     threshold: float = DIAGNOSIS.significance
     """Significant beyond this many standard deviations (DiagnosisSettings.significance)."""
+    prediction_std: float = 0.0
 
     @property
     def residual(self) -> float:
         return self.measured - self.predicted
 
     @property
+    def sigma(self) -> float | None:
+        """The standard deviation of the residual [rad/s]: measurement and prediction in quadrature."""
+        return None if self.uncertainty is None else math.hypot(self.uncertainty, self.prediction_std)
+
+    @property
     def z(self) -> float | None:
-        return None if self.uncertainty is None else self.residual / self.uncertainty
+        return None if self.sigma is None else self.residual / self.sigma
 
     @property
     def significant(self) -> bool | None:
@@ -55,6 +64,7 @@ class Residual:
             "predicted": self.predicted,
             "residual": self.residual,
             "uncertainty": self.uncertainty,
+            "prediction_std": self.prediction_std,
             "z": self.z,
             "significant": self.significant,
             "held_out": self.held_out,
@@ -127,6 +137,22 @@ def _predict(campaign: Campaign, params: dict[str, float]) -> dict[str, float]:
     return campaign.machine.frequencies({**campaign.known, **params})
 
 
+def _prediction_std(campaign: Campaign, fit: StiffnessFit) -> dict[str, float]:
+    """Standard deviation [rad/s] of each mode's frequency predicted by ``fit``, to first order from the
+    covariance of its ln unknowns and the generated d lambda / d p: d ln omega / d ln p = p (d lambda / d p) /
+    (2 lambda). Infinite where the fit leaves that frequency undetermined (a non-finite covariance)."""
+    machine = campaign.machine
+    mod = machine.module
+    values = machine.values({**campaign.known, **fit.parameters}, mod.FORWARD_ARGUMENTS)
+    rows = [mod.FORWARD_ARGUMENTS.index(u) for u in machine.unknown]
+    lam = np.asarray(mod.squared_frequencies(**values), dtype=float)
+    p = np.array([fit.parameters[u] for u in machine.unknown])
+    g = np.asarray(mod.squared_frequency_derivatives(**values), dtype=float)[rows] * p[:, None] / (2 * lam[None, :])
+    variance = np.einsum("im,ij,jm->m", g, fit.log_covariance, g)
+    std = np.where(np.isfinite(variance), np.sqrt(np.abs(variance) * lam), np.inf)
+    return {label: float(std[mod.MODES.index(label)]) for label in campaign.modes}
+
+
 def sensitivities(campaign: Campaign, params: dict[str, float]) -> dict[str, dict[str, float]]:
     """d ln omega / d ln p by central differences (relative step 1e-6) of the generated forward map."""
     machine = campaign.machine
@@ -160,7 +186,7 @@ def localise(campaign: Campaign, params: dict[str, float], residuals: list[Resid
     lam = mod.squared_frequencies(**args)
     rows = [mod.MODES.index(r.label) for r in residuals]
     d_lam = np.array([r.measured**2 - r.predicted**2 for r in residuals])
-    sigma = np.array([2 * r.measured * (r.uncertainty or DEFAULT_FREQUENCY_STD * r.measured) for r in residuals])
+    sigma = np.array([2 * r.measured * (r.sigma or DEFAULT_FREQUENCY_STD * r.measured) for r in residuals])
     before = float(np.sum((d_lam / sigma) ** 2))
     if before < 1e-12 * len(residuals):  # nothing to localise (the fit reproduces every measurement)
         return []
@@ -234,7 +260,7 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
     fitted = list(campaign.fit) if campaign.fit else labels
     held_out = [lab for lab in labels if lab not in fitted]
     notes: list[str] = []  # the nominal identification's own (a fit at a boundary), then the gap's
-    params, stds = fit_stiffness(
+    nominal = fit_stiffness_with_covariance(
         machine,
         campaign.known,
         _fit_data(campaign, fitted),
@@ -242,13 +268,18 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
         notes=notes,
         boundary_ok=True,
     )
+    params, stds = nominal.parameters, nominal.stds
     predicted = _predict(campaign, params)
+    spread = _prediction_std(campaign, nominal)
     residuals = []
     for label in labels:
         m = campaign.modes[label]
         if campaign.fit is not None:
             held = label not in campaign.fit
-            residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, held, threshold))
+            own = spread[label] if held else 0.0
+            residuals.append(
+                Residual(label, m.frequency, predicted[label], m.stated_frequency_std, held, threshold, own)
+            )
     if campaign.fit is None:
         # leave-one-out: each distinct frequency predicted by the fit to all the others
         for label in labels:
@@ -256,12 +287,18 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
             others = [lab for lab in labels if rep[lab] != rep[label]]
             residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False, threshold))
             if len({rep[lab] for lab in others}) >= len(machine.unknown):
-                p_loo, _ = fit_stiffness(
+                loo = fit_stiffness_with_covariance(
                     machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label]), boundary_ok=True
                 )
                 residuals.append(
                     Residual(
-                        label, m.frequency, _predict(campaign, p_loo)[label], m.stated_frequency_std, True, threshold
+                        label,
+                        m.frequency,
+                        _predict(campaign, loo.parameters)[label],
+                        m.stated_frequency_std,
+                        True,
+                        threshold,
+                        _prediction_std(campaign, loo)[label],
                     )
                 )
     broken = _broken_symmetry(campaign, labels, rep, threshold)

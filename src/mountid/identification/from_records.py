@@ -17,6 +17,7 @@ import itertools
 import math
 import struct
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import scipy.optimize
@@ -242,6 +243,17 @@ def pole_frequency_derivatives(machine: Machine, values: dict[str, float], names
     return np.where(poles != 0, damped, undamped)
 
 
+class StiffnessFit(NamedTuple):
+    """fit_stiffness_with_covariance's result: the unknowns [SI] with their standard deviations [SI] (widened by
+    the reduced chi^2 where that exceeds 1), and the covariance of their logarithms at the stated standard
+    deviations of the frequencies (never widened: what the fit's predictions scatter by if the model holds), in
+    the order of the machine's unknowns."""
+
+    parameters: dict[str, float]
+    stds: dict[str, float]
+    log_covariance: np.ndarray
+
+
 def fit_stiffness(
     machine: Machine,
     known: dict[str, float],
@@ -253,6 +265,25 @@ def fit_stiffness(
     rule_source: str = "",
     boundary_ok: bool = False,
 ) -> tuple[dict[str, float], dict[str, float]]:
+    """The unknowns and their standard deviations fitted to the measured frequencies: (parameters, stds) of
+    :func:`fit_stiffness_with_covariance` (same arguments)."""
+    fit = fit_stiffness_with_covariance(
+        machine, known, measured, others, damping, root, notes, rule_source, boundary_ok
+    )
+    return fit.parameters, fit.stds
+
+
+def fit_stiffness_with_covariance(
+    machine: Machine,
+    known: dict[str, float],
+    measured: dict[str, tuple[float, float]],
+    others: dict[str, tuple[float, float]] | None = None,
+    damping: dict[str, float] | None = None,
+    root: str | None = None,
+    notes: list[str] | None = None,
+    rule_source: str = "",
+    boundary_ok: bool = False,
+) -> StiffnessFit:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
 
     ``root``: the rule that picks one of several solutions that fit equally when no other measured mode
@@ -271,7 +302,7 @@ def fit_stiffness(
     nominal model may miss that far: the closest fit is returned, fits at the same boundary counted as one, and
     the reason is appended to ``notes``). With ``damping`` (values of the damping parameters) the model
     frequencies are the damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones.
-    Returns (parameters, stds)."""
+    Returns a StiffnessFit."""
     mod = machine.module
     unknown = machine.unknown
     machine.check_known(known)
@@ -381,7 +412,7 @@ def fit_stiffness(
     values = np.exp(best.x)
     params = dict(zip(unknown, map(float, values), strict=True))
     stds = {u: float(values[i] * spread[i]) for i, u in enumerate(unknown)}
-    return params, stds
+    return StiffnessFit(params, stds, covariance(jac, 0.0, dof))
 
 
 START_SPACING = 0.1

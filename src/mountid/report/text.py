@@ -92,7 +92,11 @@ def _print_candidates(effects, campaign) -> None:
     ranked = [f for f in effects.ranked if f.applicable]
     n = effects.nominal
     if n.held_out_rms == n.held_out_rms:
-        print(f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma")
+        own = n.held_out_median_predictive
+        print(
+            f"nominal model held out: RMS {n.held_out_rms:.3g} sigma, median {n.held_out_median:.3g} sigma of the "
+            "measurement" + (f" ({own:.3g} in the prediction's own sigma)" if own == own else "")
+        )
     from mountid.diagnosis.fitting import chi2_by_kind
 
     parts = chi2_by_kind(n, campaign) if n.applicable else {}
@@ -128,7 +132,8 @@ def _print_candidates(effects, campaign) -> None:
 def _residual_table(residuals) -> list[str]:
     """The nominal identification's residuals, one row per mode and use, in columns at least two spaces apart:
     frequencies [rad/s] and gaps to the decimal of a tenth of the smallest uncertainty (three places at
-    least), the uncertainty and z to three significant digits."""
+    least), the gap's standard deviation (Residual.sigma: a held-out mode's with its prediction's own) and z to
+    three significant digits."""
     places = _places([r.uncertainty for r in residuals], 3)
     head = ("mode", "measured", "predicted", "gap", "sigma", "z")
     rows = [
@@ -137,7 +142,7 @@ def _residual_table(residuals) -> list[str]:
             f"{r.measured:.{places}f}",
             f"{r.predicted:.{places}f}",
             f"{round(r.residual, places) + 0.0:+.{places}f}",
-            "" if r.uncertainty is None else f"{r.uncertainty:.3g}",
+            "" if r.sigma is None else f"{r.sigma:.3g}",
             "" if r.z is None else (f"{round(r.z, 2) + 0.0:+.2f}" if abs(r.z) < 1e4 else f"{r.z:+.3g}"),
             ("held out" if r.held_out else "fitted") + (" *" if r.significant else ""),
         )
@@ -150,7 +155,10 @@ def _residual_table(residuals) -> list[str]:
             c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
         )
 
-    return [line(head) + "  use", *(line(row[:6]) + "  " + row[6] for row in rows)]
+    out = [line(head) + "  use", *(line(row[:6]) + "  " + row[6] for row in rows)]
+    if any(r.held_out and r.prediction_std for r in residuals):
+        out.append("  (sigma of a held-out mode: the measurement's and its prediction's from the other modes)")
+    return out
 
 
 def _places(stds, least: int) -> int:
