@@ -206,6 +206,116 @@ def label_poles(
     return {k: (p, m) for k, (p, m, _) in best.items()}, sorted(rest, key=lambda p: p.frequency)
 
 
+@dataclass(frozen=True)
+class MergedPole:
+    """A record's pole in the place of two (or more) close modes of the model (:func:`unresolved`): the ``label``
+    it was given, the ``partners`` without a pole of their own, the share of its channel shape the labelled mode
+    explains (``alone``) and all of them together (``both``), their largest distance ``apart`` [rad/s] in the
+    model and the pole's half-power bandwidth ``width`` [rad/s]."""
+
+    label: str
+    pole: modal.Pole
+    partners: tuple[str, ...]
+    alone: float
+    both: float
+    apart: float
+    width: float
+
+    def describe(self) -> str:
+        names = " and ".join([self.label, *self.partners])
+        return (
+            f"{names}: one pole at {self.pole.frequency:.4g} rad/s (zeta {self.pole.damping_ratio:.3g}) in the span "
+            f"of all (MAC {self.alone:.2f} with {self.label} alone, {self.both:.2f} with {names}); the model puts them "
+            f"{self.apart:.3g} rad/s apart, within its half-power bandwidth of {self.width:.3g} rad/s"
+        )
+
+
+def unresolved(
+    machine: Machine,
+    record: Record,
+    labelled: dict[str, tuple[modal.Pole, float]],
+    nominal: dict[str, float],
+    settings: LabellingSettings = LABELLING,
+) -> tuple[dict[str, tuple[modal.Pole, float]], list[MergedPole]]:
+    """The labelled poles (label_poles) without those that merge modes of the model: a model mode of another
+    label that has no pole of its own, lies within the pole's half-power bandwidth 2 zeta |p| of the labelled one
+    (at the ``nominal`` parameters) and adds settings.unresolved_share or more of the pole's channel shape to what
+    the labelled mode (with its twins) explains. Such a pole's frequency lies between the modes and its shape is a
+    mix of them (screen6's x and y, 0.12 rad/s apart at a damping ratio of 0.05: one pole, MAC 0.51 with x, 1.00
+    with x and y), a measurement of neither. Returns (the poles kept, the merged ones)."""
+    mod = machine.module
+    args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
+    omega = mod.frequencies(**args)
+    predicted = channel_rows(machine, record) @ mod.modal_matrix(**args)
+    norms = np.linalg.norm(predicted, axis=0)
+    seen = norms > 1e-6 * norms.max()
+    rep = [mod.REPRESENTATIVE[lab] for lab in mod.MODES]
+    kept, merged = {}, []
+    for label, (pole, mac) in labelled.items():
+        own = [k for k in range(len(rep)) if rep[k] == label and seen[k]]
+        at = float(np.mean(omega[own])) if own else math.nan
+        width = 2 * pole.damping_ratio * pole.frequency
+        partners = [
+            k
+            for k in range(len(rep))
+            if rep[k] != label and rep[k] not in labelled and seen[k] and abs(omega[k] - at) < width
+        ]
+        alone = _span_mac(predicted[:, own], pole.shape)
+        both = _span_mac(predicted[:, own + partners], pole.shape) if partners else alone
+        if not partners or both - alone < settings.unresolved_share:
+            kept[label] = (pole, mac)
+            continue
+        names = tuple(sorted({rep[k] for k in partners}, key=lambda n: mod.UNIQUE_MODES.index(n)))
+        merged.append(MergedPole(label, pole, names, alone, both, max(abs(omega[k] - at) for k in partners), width))
+    return kept, merged
+
+
+def _split_merged(
+    machine: Machine,
+    record: Record,
+    source: tuple[Record, float, float],
+    poles: list[modal.Pole],
+    merged: list[MergedPole],
+    nominal: dict[str, float],
+) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]] | None:
+    """The record's poles refined again (modal.poles_from on ``source``: the record, start and highest frequency
+    they were fitted on) with each merged pole replaced by one seed per mode it merges, at the model's frequencies
+    scaled to the pole's and at its damping ratio; labelled. None unless every merged mode then has a pole of its
+    own that merges nothing (the record cannot separate them after all)."""
+    mod = machine.module
+    omega = dict(
+        zip(mod.MODES, machine.evaluate("frequencies", machine.values(nominal, mod.FORWARD_ARGUMENTS)), strict=True)
+    )
+    gone = {id(m.pole) for m in merged}
+    seeds = [_complex(p) for p in poles if id(p) not in gone]
+    for m in merged:
+        names = [m.label, *m.partners]
+        level = m.pole.frequency / float(np.mean([omega[n] for n in names]))
+        seeds += [_complex(replace(m.pole, frequency=omega[n] * level)) for n in names]
+    with np.errstate(all="ignore"):
+        split = [_as_acceleration(p, record) for p in modal.poles_from(*source, np.array(seeds))]
+    labelled, rest = label_poles(machine, record, split, nominal)
+    labelled, again = unresolved(machine, record, labelled, nominal)
+    wanted = {n for m in merged for n in (m.label, *m.partners)}
+    if again or not wanted <= set(labelled):
+        return None
+    return labelled, rest
+
+
+def _complex(pole: modal.Pole) -> complex:
+    """The pole p (Im p > 0) [rad/s] of a frequency |p| and damping ratio."""
+    w, z = pole.frequency, pole.damping_ratio
+    return complex(-z * w, w * math.sqrt(max(1 - z * z, 0.0)))
+
+
+def _span_mac(basis: np.ndarray, shape: np.ndarray) -> float:
+    """The share of a (complex) channel shape in the span of the real columns ``basis``: |P s|^2 / |s|^2."""
+    if basis.shape[1] == 0:
+        return 0.0
+    fitted = basis @ np.linalg.lstsq(basis, shape, rcond=None)[0]
+    return float(np.vdot(fitted, fitted).real / max(np.vdot(shape, shape).real, np.finfo(float).tiny))
+
+
 def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
     """omega_n = |p| [rad/s] of each mode of M q'' + B q' + C q = 0 (what a pole fit of a free decay
     reports), in mode order (:func:`mountid.machine.damped_poles`); a mode that does not oscillate keeps its
@@ -598,6 +708,7 @@ def modal_data(
         estimate = frf.h1(full, full.forces[0], settings)
         fitted = estimate.impulse_responses()
         _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)
+        source = (fitted, IRF_START, 2.0 * top)
         poles = modal.free_decay_poles(fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES))
         hits = len(estimate.hits)
         notes.append(
@@ -613,6 +724,7 @@ def modal_data(
         )
     else:
         _check_length(record, start, float(np.min(nominal_omega)), settings)
+        source = (record, start, 2.0 * top)
         poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     poles = [_as_acceleration(p, record) for p in poles]
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
@@ -625,6 +737,30 @@ def modal_data(
         sensor = inconsistent_channel(machine, record, start)
         warnings += [sensor] if sensor is not None else []
     labelled, rest = label_poles(machine, record, poles, guess)
+    labelled, merged = unresolved(machine, record, labelled, guess)
+    if merged:
+        split = _split_merged(machine, record, source, poles, merged, guess)
+        if split is None:  # left out: a frequency between the modes and a mix of their shapes measure neither
+            rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
+            warnings += [
+                modal.QualityWarning("unresolved_modes", "all", f"{m.describe()}: not separated, {m.label} left out")
+                for m in merged
+            ]
+        else:
+            labelled, rest = split
+            warnings += [
+                modal.QualityWarning(
+                    "close_modes",
+                    "all",
+                    f"{m.describe()}: split by a fit seeded at the model's modes, "
+                    + ", ".join(
+                        f"{n} {labelled[n][0].frequency:.4f} +- {labelled[n][0].frequency_std:.2g}"
+                        for n in (m.label, *m.partners)
+                    )
+                    + " rad/s",
+                )
+                for m in merged
+            ]
     if not labelled:
         raise with_warnings(
             InputError("record", "no damped mode found in the free decay (check start, channels and excitation)"),

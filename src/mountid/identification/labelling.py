@@ -26,6 +26,10 @@ class LabellingSettings:
     model_frequency_weight: float = 0.05
     """A candidate model's modes (full shapes in q), per |ln(lambda / lambda_reference)| of the squared
     frequencies: the shapes decide; frequency breaks ties between modes of equal shape."""
+    unresolved_share: float = 0.2
+    """A record's pole is two modes merged when a model mode without a pole of its own, within the pole's
+    half-power bandwidth, adds at least this share of the pole's channel shape to what its labelled mode
+    explains (MAC with both against MAC with its own): the record does not separate them (from_records.unresolved)."""
 
 
 LABELLING = LabellingSettings()

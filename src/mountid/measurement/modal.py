@@ -226,7 +226,19 @@ def free_decay_poles(
     poles = stable_poles(runs)
     if not poles:
         return []
-    start = np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles])
+    return _refined(samples, dt, np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles]))
+
+
+def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArray) -> list[Pole]:
+    """The poles of the free decay from ``start`` [s] refined jointly from the complex ``seeds`` [rad/s] (Im > 0)
+    on the samples free_decay_poles fits (same ``max_frequency``): e.g. two poles where its pencil found one in
+    the place of two close modes. Sorted by frequency."""
+    dt, samples = decimated(record, start, max_frequency)
+    return _refined(samples, dt, np.asarray(seeds, dtype=complex))
+
+
+def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
+    """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
     refined, cov = refine_poles(samples, dt, start)
     both = np.concatenate([refined, refined.conj()])
     shapes = amplitudes(samples, dt, both)
@@ -372,8 +384,8 @@ def spectrum_peaks(omega: NDArray, amplitude: NDArray, count: int, min_omega: fl
 
 @dataclass(frozen=True)
 class QualityWarning:
-    """A named problem of an impact record that can bias modal estimates: kind is one of "clipping",
-    "double_hit", "too_short"."""
+    """A named problem of an impact record that can bias modal estimates: ``kind`` names it (e.g. "clipping",
+    "double_hit", "low_coherence", "unresolved_modes"), ``channel`` the channel it is on ("all" for the record)."""
 
     kind: str
     channel: str
