@@ -158,7 +158,7 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
     rig = Rig.of("kid300")
     w = rig.machine.frequencies(rig.values)
     exact = {lab: (w[lab], 1e-6 * w[lab]) for lab in ("x", "psi")}
-    params, _ = fit_stiffness(rig.machine, TABLE_1, exact, {"z": (w["z"], 1e-3), "phi": (w["phi"], 1e-3)})
+    params, _, _ = fit_stiffness(rig.machine, TABLE_1, exact, {"z": (w["z"], 1e-3), "phi": (w["phi"], 1e-3)})
     assert params["c_z"] == pytest.approx(rig.values["c_z"], rel=1e-9)
     with pytest.raises(InputError, match="^measured: 2 solutions fit equally .*c_xy = 341"):
         fit_stiffness(rig.machine, TABLE_1, exact)
@@ -237,7 +237,7 @@ def test_heavily_damped_close_modes_keep_their_labels_in_the_stiffness_fit():
     generated = np.asarray(mod.squared_frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS}))
     labels = [mod.MODES[int(np.argmin(np.abs(generated - lk)))] for lk in lam]
     measured = {label: (abs(p), 1e-4 * abs(p)) for label, p in zip(labels, by_mode, strict=True)}
-    params, _ = fit_stiffness(machine, {}, measured, damping=damping)
+    params, _, _ = fit_stiffness(machine, {}, measured, damping=damping)
     assert params == pytest.approx(truth, rel=1e-4)
 
 

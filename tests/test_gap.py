@@ -419,6 +419,6 @@ def test_the_prediction_uncertainty_of_a_held_out_mode_matches_a_monte_carlo():
     predicted = []
     for _ in range(150):
         data = {k: (truth[k] + rng.normal() * s, s) for k, s in RECORD_SIGMA.items() if k != "y"}
-        params, _ = fit_stiffness(machine, {}, data, boundary_ok=True)
+        params, _, _ = fit_stiffness(machine, {}, data, boundary_ok=True)
         predicted.append(machine.frequencies(params)["y"])
     assert np.std(predicted) == pytest.approx(stated.prediction_std, rel=0.2)

@@ -346,7 +346,7 @@ def _nominal_from_modes(
         if stiffness:
             pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
             rule = getattr(machine.module, "ROOT_RULE", "") or None
-            found, _ = fit_stiffness(machine, known, pairs, root=rule, notes=notes, boundary_ok=True)
+            found, _, _ = fit_stiffness(machine, known, pairs, root=rule, notes=notes, boundary_ok=True)
         if damping:
             stated = {label: replace(m, damping_std=damping_std(m)) for label, m in ratios.items()}
             found |= fit_damping(machine.with_nominal(found), {**known, **found}, stated, tuple(damping))[0]
@@ -585,12 +585,12 @@ def _as_undamped(
     pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
     rule = getattr(machine.module, "ROOT_RULE", "") or None
     try:
-        params, _ = fit_stiffness(machine, known, pairs, root=rule)
+        params, _, _ = fit_stiffness(machine, known, pairs, root=rule)
         damping = {n: float(known[n]) for n in names if n in known}
         with_modes = {label: m for label, m in modes.items() if m.damping_ratio is not None}
         if unknown:
             damping |= fit_damping(machine, {**known, **params}, with_modes, unknown)[0]
-        params, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule)
+        params, _, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule)
         values = machine.values({**known, **damping, **params}, tuple(machine.parameters))
         ratio = pole_frequencies(machine, values) / np.asarray(
             machine.module.frequencies(**{a: values[a] for a in machine.module.FORWARD_ARGUMENTS})

@@ -19,7 +19,7 @@ from mountid.diagnosis.campaign import DEFAULT_FREQUENCY_STD, Campaign
 from mountid.diagnosis.candidates import EffectsReport, diagnose_effects
 from mountid.diagnosis.fitting import chi2_by_kind, damping_std
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
-from mountid.identification.from_records import StiffnessFit, fit_stiffness_with_covariance
+from mountid.identification.from_records import StiffnessFit, fit_stiffness
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import call
 
@@ -260,7 +260,7 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
     fitted = list(campaign.fit) if campaign.fit else labels
     held_out = [lab for lab in labels if lab not in fitted]
     notes: list[str] = []  # the nominal identification's own (a fit at a boundary), then the gap's
-    nominal = fit_stiffness_with_covariance(
+    nominal = fit_stiffness(
         machine,
         campaign.known,
         _fit_data(campaign, fitted),
@@ -287,7 +287,7 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
             others = [lab for lab in labels if rep[lab] != rep[label]]
             residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False, threshold))
             if len({rep[lab] for lab in others}) >= len(machine.unknown):
-                loo = fit_stiffness_with_covariance(
+                loo = fit_stiffness(
                     machine, campaign.known, _fit_data(campaign, others), _fit_data(campaign, [label]), boundary_ok=True
                 )
                 residuals.append(

@@ -72,7 +72,7 @@ def fit_frequencies(
     rule = root or getattr(machine.module, "ROOT_RULE", "") or None
     source = f"the rule {rule}" if root else f"the description's rule {rule}"
     notes: list[str] = []
-    params, stds = fit_stiffness(machine, known, data, root=rule, notes=notes, rule_source=source)
+    params, stds, _ = fit_stiffness(machine, known, data, root=rule, notes=notes, rule_source=source)
     model = machine.frequencies({**known, **params})
     return FrequencyFit(
         params,

@@ -354,7 +354,7 @@ def pole_frequency_derivatives(machine: Machine, values: dict[str, float], names
 
 
 class StiffnessFit(NamedTuple):
-    """fit_stiffness_with_covariance's result: the unknowns [SI] with their standard deviations [SI] (widened by
+    """fit_stiffness's result: the unknowns [SI] with their standard deviations [SI] (widened by
     the reduced chi^2 where that exceeds 1), and the covariance of their logarithms at the stated standard
     deviations of the frequencies (never widened: what the fit's predictions scatter by if the model holds), in
     the order of the machine's unknowns."""
@@ -365,25 +365,6 @@ class StiffnessFit(NamedTuple):
 
 
 def fit_stiffness(
-    machine: Machine,
-    known: dict[str, float],
-    measured: dict[str, tuple[float, float]],
-    others: dict[str, tuple[float, float]] | None = None,
-    damping: dict[str, float] | None = None,
-    root: str | None = None,
-    notes: list[str] | None = None,
-    rule_source: str = "",
-    boundary_ok: bool = False,
-) -> tuple[dict[str, float], dict[str, float]]:
-    """The unknowns and their standard deviations fitted to the measured frequencies: (parameters, stds) of
-    :func:`fit_stiffness_with_covariance` (same arguments)."""
-    fit = fit_stiffness_with_covariance(
-        machine, known, measured, others, damping, root, notes, rule_source, boundary_ok
-    )
-    return fit.parameters, fit.stds
-
-
-def fit_stiffness_with_covariance(
     machine: Machine,
     known: dict[str, float],
     measured: dict[str, tuple[float, float]],
@@ -949,9 +930,9 @@ def _identify(
         source = f"the rule of the description {machine.name} ({root})"
     else:
         source = f"the rule {root}"
-    params, stds = fit_stiffness(machine, known, fitted, others, root=root, notes=notes, rule_source=source)
+    params, stds, _ = fit_stiffness(machine, known, fitted, others, root=root, notes=notes, rule_source=source)
     damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
-    params, stds = fit_stiffness(machine, known, fitted, others, damping, root=root)
+    params, stds, _ = fit_stiffness(machine, known, fitted, others, damping, root=root)
     damping, damping_std = fit_damping(machine, {**known, **params}, modes, damping_names)
     freqs = machine.frequencies({**known, **params})
     return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings, notes)

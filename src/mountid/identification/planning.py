@@ -169,7 +169,7 @@ def plan(
     damping = {n: rig.values[n] for n in machine.damping}
     try:
         rule = getattr(mod, "ROOT_RULE", "") or None
-        _, parameter_std = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
+        _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
     except InputError as err:  # the plan says why it cannot give the stiffness spread
         notes.append(f"no stiffness standard deviation: {err}")
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
