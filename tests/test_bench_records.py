@@ -398,3 +398,19 @@ def test_close_modes_the_record_cannot_separate_are_left_out(screen6_record, mon
     (warning,) = [w for w in found.warnings if w.kind == "unresolved_modes"]
     assert "x and y: one pole at 17.79 rad/s" in warning.message and warning.message.endswith("x left out")
     assert any(abs(p.frequency - 17.79) < 0.01 for p in found.unlabelled)
+
+
+def test_records_of_the_nominal_screen6_show_no_gap(screen6_record, tmp_path):
+    """From records to a verdict on a clean machine whose x and y lie within one pole's bandwidth: with the pole
+    merged (labelled x, its shape half y) the diagnosis found a significant gap that no effect explained."""
+    import json
+
+    from mountid.diagnosis import campaign
+    from mountid.diagnosis.gap import diagnose
+    from mountid.measurement.records import write_csv
+
+    write_csv(screen6_record, tmp_path / "hit.csv")
+    (tmp_path / "c.json").write_text(json.dumps({"machine": "screen6", "records": ["hit.csv"]}), encoding="utf-8")
+    report = diagnose(campaign.load(tmp_path / "c.json"))
+    assert any(n.startswith("hit.csv: close_modes (all): x and y") for n in report.campaign.record_notes)
+    assert report.effects.kind == "no significant gap"
