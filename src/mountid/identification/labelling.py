@@ -30,8 +30,9 @@ class LabellingSettings:
     """A record's pole is two modes merged when a model mode without a pole of its own, within the pole's
     half-power bandwidth, adds at least this share of the pole's channel shape to what its labelled mode
     explains (MAC with both against MAC with its own; from_records.unresolved). To a pole of its own another
-    mode's direction adds 0.003 at most (records of screen6 and rectangular, 2 % noise); a pole of screen6's y with 2.4 % of x in it (a hit along y) lay 0.02 rad/s, ten standard
-    deviations, off y: at 0.2 it was kept, and a clean machine's records showed a significant gap."""
+    mode's direction adds 0.003 at most (records of screen6 and rectangular, 2 % noise); a pole of screen6's y
+    with 2.4 % of x in it (a hit along y) lay 0.02 rad/s, ten standard deviations, off y: at 0.2 it was kept, and
+    a clean machine's records showed a significant gap."""
 
 
 LABELLING = LabellingSettings()
