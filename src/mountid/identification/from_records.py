@@ -391,7 +391,8 @@ def fit_stiffness(
     it) is no solution; where such a fit is the closest, no mount of the description fits the frequencies and
     that is an error naming the unknown and the largest miss, unless ``boundary_ok`` (the gap diagnosis, whose
     nominal model may miss that far: the closest fit is returned, fits at the same boundary counted as one, and
-    the reason is appended to ``notes``). With ``damping`` (values of the damping parameters) the model
+    the reason is appended to ``notes``; frequencies for which no generated inverse has a root start from the
+    description's nominal values). With ``damping`` (values of the damping parameters) the model
     frequencies are the damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones.
     Returns a StiffnessFit."""
     mod = machine.module
@@ -439,7 +440,17 @@ def fit_stiffness(
         )
     ]
     if not roots:
-        raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
+        nominal = [machine.parameters[u]["value"] for u in unknown]
+        if not boundary_ok or None in nominal:
+            raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
+        # the gap diagnosis: a machine far from its description (a support below it) may leave a subset of its
+        # modes without a root; the fit starts from the description's values and may end at a boundary
+        roots = [((), np.log(np.array(nominal, dtype=float)))]
+        if notes is not None:
+            notes.append(
+                "no generated inverse has an admissible root for these frequencies: the fit starts from the "
+                "description's nominal values"
+            )
     starts = _distinct_starts(roots, residual)
 
     def fit_from(start: np.ndarray) -> scipy.optimize.OptimizeResult | None:
