@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: all demo test fuzz lint format generate check-generated bench bench-blind bench-evidence core-check clean
+.PHONY: all demo test fuzz lint format generate check-generated bench bench-blind bench-records bench-evidence core-check clean
 
 all: test
 
@@ -64,6 +64,10 @@ bench: $(STAMP)
 # the diagnosis benchmarks alone: one diagnosis's time and the blind validation
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL)
+
+# the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 10 minutes)
+bench-records: $(STAMP)
+	$(PY) -m benchmarks.records_blind
 
 # the Laplace evidence against nested sampling on four blind cases (56 minutes beside a benchmark on 2 cores)
 bench-evidence: $(STAMP)

@@ -114,13 +114,18 @@ class Rig:
 
     machine: Machine
     parameters: dict[str, float] = field(default_factory=dict)
+    given: tuple[NDArray, NDArray, NDArray] | None = field(default=None, compare=False, repr=False)
+    """M, C, B of a truth the description does not hold (:meth:`from_matrices`); None: the description's."""
 
     def __post_init__(self) -> None:
         mod: types.ModuleType = self.machine.module
         args = mod.ARGUMENTS
         names = sorted({a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in args[f]})
         self.values = self.machine.values(self.parameters, tuple(names))
-        self.M, self.C, self.B = matrices(mod, self.values)
+        if self.given is None:
+            self.M, self.C, self.B = matrices(mod, self.values)
+        else:
+            self.M, self.C, self.B = (np.array(x, dtype=float) for x in self.given)
         self.A = state_matrix(self.M, self.C, self.B)
         self.poles, self.V = scipy.linalg.eig(self.A)
         self.V_inv = np.linalg.inv(self.V)
@@ -130,10 +135,21 @@ class Rig:
     def of(cls, machine: str | Machine, parameters: dict[str, float] | None = None) -> Rig:
         return cls(machine if isinstance(machine, Machine) else Machine.resolve(machine), dict(parameters or {}))
 
+    @classmethod
+    def from_matrices(cls, machine: str | Machine, mass: NDArray, stiffness: NDArray, damping: NDArray) -> Rig:
+        """A rig of a truth given by its own M, C, B: the body's six coordinates q of ``machine`` first (the
+        sensors and hammers act on them), then any the truth adds (a support below the isolators, an attached
+        body), which no sensor reads. The blind harness's truths as records (mountid.validation.blind_records)."""
+        found = machine if isinstance(machine, Machine) else Machine.resolve(machine)
+        return cls(found, {}, (mass, stiffness, damping))
+
     # -- kinematics ---------------------------------------------------------------------------------
     def sensor_row(self, point: Sequence[float], direction: Sequence[float], name: str = "sensor") -> NDArray:
-        """d^T du/dq: what a sensor at ``point`` along ``direction`` reads per unit of each coordinate."""
-        return sensor_row(self.machine.module, point, direction, name)
+        """d^T du/dq: what a sensor at ``point`` along ``direction`` reads per unit of each coordinate (zero on
+        the coordinates a truth adds beyond the body's)."""
+        row = sensor_row(self.machine.module, point, direction, name)
+        extra = self.M.shape[0] - len(row)
+        return np.concatenate([row, np.zeros(extra)]) if extra else row
 
     def force_column(self, point: Sequence[float], direction: Sequence[float], name: str = "force") -> NDArray:
         """(du/dq)^T d: the generalised force [N, N m] of a unit force at ``point`` along ``direction``."""

@@ -1,0 +1,68 @@
+"""Blind truths through records (``make bench-records``): every truth a record carries as it is
+(blind_records.RECORD_TRUTHS) on every shipped machine, simulated as two impact records of the harness's 12
+channels (2 % noise), diagnosed from the records, beside the same truth's modal-data campaign with shapes
+(blind.run_case). Prints each case's two verdicts and counts, for the records: confident and wrong, effect-free
+truths given a significant gap, cases where the records chain stopped, and close modes split or left out.
+
+``python -m benchmarks.records_blind --seeds N --first-seed S [--machines kid300 screen6]``: N seeds per machine
+and truth (default 1, from seed 0)."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from mountid.validation import blind
+from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
+
+
+def _verdict(kind: str, first: str | None, probability: float) -> str:
+    return f"{kind} ({first} {probability:.2f})" if first else kind
+
+
+def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind.MACHINES) -> list:
+    """Run and print the study; returns the records' cases."""
+    out = []
+    started = time.perf_counter()
+    print(f"{'machine':11s} {'truth':30s} {'seed':>4s}  {'from records':45s}  {'from modal data (shapes)':45s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for machine in machines:
+            for i, truth in enumerate(RECORD_TRUTHS):
+                for k in range(seeds):
+                    seed = first_seed + i + k * len(RECORD_TRUTHS)
+                    case = run_record_case(seed, truth, machine, Path(tmp))
+                    modal = blind.run_case(seed, truth, "shapes", machine)
+                    shown = (
+                        f"error: {case.error[:38]}" if case.error else _verdict(case.kind, case.first, case.probability)
+                    )
+                    other = _verdict(modal.kind, modal.ranked[0] if modal.ranked else None, modal.probability)
+                    flags = " CONFIDENT AND WRONG" if case.confident_and_wrong else ""
+                    flags += " [close modes]" if case.close_modes else ""
+                    print(
+                        f"{machine:11s} {truth:30s} {seed:4d}  {shown:45s}  " f"{other:45s}{flags}",
+                        flush=True,
+                    )
+                    out.append(case)
+    wrong = sum(c.confident_and_wrong for c in out)
+    clean = [c for c in out if c.truth == "none"]
+    alarms = sum(c.kind not in ("no significant gap", "error") for c in clean)
+    print(
+        f"records: {len(out)} cases in {time.perf_counter() - started:.0f} s; confident and wrong {wrong}; "
+        f"effect-free truths with a significant gap {alarms} of {len(clean)}; the records chain stopped in "
+        f"{sum(bool(c.error) for c in out)}; close modes split or left out in {sum(bool(c.close_modes) for c in out)}"
+    )
+    return out
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.records_blind", description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=1, help="seeds per machine and truth")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--machines", nargs="+", choices=blind.MACHINES, default=list(blind.MACHINES))
+    args = parser.parse_args()
+    if args.seeds < 1 or args.first_seed < 0:
+        parser.error("--seeds must be at least 1 and --first-seed at least 0")
+    study(args.seeds, args.first_seed, tuple(args.machines))

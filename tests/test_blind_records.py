@@ -1,0 +1,61 @@
+"""The blind truths as impact records (mountid.validation.blind_records): a rig of a truth's own matrices, and a
+truth diagnosed from its records."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mountid.measurement.rig import Hammer, Rig, Sensor
+from mountid.validation import blind
+from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
+from mountid.validation.blind_truth import TruthMachine, truth_matrices
+
+SENSORS = [Sensor("a", (0.4, 0.3, 0.25), (1.0, 0.0, 0.0), noise=0.01), Sensor("b", (-0.4, 0.3, 0.25), (0, 0, 1.0))]
+HIT = Hammer((0.4, 0.3, 0.3), (1.0, 0.7, -0.6))
+
+
+def test_a_rig_of_a_truths_matrices_records_what_the_descriptions_rig_does():
+    """An effect-free truth has the description's M, C, B at its values: the rig of its matrices records the
+    same samples, to rounding, as the rig of the description at those values."""
+    data, truth = blind.make_case(7, "none", machine="rectangular")
+    own = Rig.from_matrices("rectangular", *truth_matrices(TruthMachine("rectangular"), truth))
+    described = Rig.of("rectangular", {**data["known"], **truth.unknowns})
+    a = own.simulate(SENSORS, 2.0, 200.0, hammers=[HIT], seed=1)
+    b = described.simulate(SENSORS, 2.0, 200.0, hammers=[HIT], seed=1)
+    scale = np.max(np.abs(b.data))
+    assert np.max(np.abs(a.data - b.data)) < 1e-9 * scale
+
+
+def test_a_truth_with_a_support_is_recorded_on_the_body():
+    """A truth on a slab has twelve coordinates: the sensors and the hammer act on the body's six, the slab's
+    motion only through the isolators."""
+    _, truth = blind.make_case(2, "foundation", machine="genset8")
+    rig = Rig.from_matrices("genset8", *truth_matrices(TruthMachine("genset8"), truth))
+    assert rig.M.shape == (12, 12)
+    row = rig.sensor_row((0.4, 0.3, 0.25), (0.0, 0.0, 1.0))
+    assert row.shape == (12,) and not row[6:].any() and row[:6].any()
+    record = rig.simulate(SENSORS, 2.0, 200.0, hammers=[HIT], seed=1)
+    assert np.all(np.isfinite(record.data)) and np.abs(record.data).max() > 0
+
+
+def test_the_sensor_truths_are_not_recorded():
+    """A record's channels read the truth's motion as it is: the harness's sensor truths (a misread layout) and
+    those it computes beyond M, C, B are left out of the records study."""
+    assert "none" in RECORD_TRUTHS and "support_frame" in RECORD_TRUTHS
+    assert not {"sensor_turned", "sensor_error", "frequency_dependent", "nonlinear_isolator"} & set(RECORD_TRUTHS)
+
+
+@pytest.mark.parametrize(
+    ("machine", "truth", "seed", "kind", "first"),
+    [("kid300", "cog_height", 4, "confident", "cog_height"), ("screen6", "none", 3, "no significant gap", None)],
+)
+def test_a_truth_diagnosed_from_its_records(tmp_path, machine, truth, seed, kind, first):
+    """A higher centre of mass diagnosed from two records of kid300 (twins: four distinct modes); the nominal
+    screen6 with its x and y in one pole's bandwidth, split by the records chain: no gap."""
+    case = run_record_case(seed, truth, machine, tmp_path)
+    assert case.error == "" and case.kind == kind and not case.confident_and_wrong
+    if first:
+        assert case.first == first
+    if machine == "screen6":
+        assert case.close_modes and len(case.modes) == 6
