@@ -59,7 +59,7 @@ def test_forced_response_json(capsys):
         (["forced", "kid300", "--speed", "-3"], "mountid: error: --speed: must be positive"),
         (
             ["forced", "kid300", "--speed", "100", "--set", "c_z=-1"],
-            "mountid: error: c_z: a stiffness must be positive",
+            "mountid: error: --set c_z: a stiffness must be positive",
         ),
     ],
 )
@@ -117,7 +117,7 @@ def test_an_unknown_set_as_known_is_named_before_the_record_is_read(capsys, tmp_
     assert run(capsys, "simulate", "kid300", "--out", str(path))[0] == 0
     code, out, err = run(capsys, "identify-record", "kid300", str(path), "--set", "c_xy=1")
     assert code == 2 and out == ""
-    assert err == "mountid: error: c_xy: is an unknown to identify; do not --set it\n"
+    assert err == "mountid: error: --set c_xy: is an unknown to identify; do not --set it\n"
 
 
 def test_a_plain_csv_is_placed_on_the_command_line(capsys, tmp_path):

@@ -135,7 +135,7 @@ def test_the_command_line_reports_the_fit_its_residuals_and_its_goodness(capsys)
     [
         (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "z:"),
         (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "phi:"),
-        (["--set", "c_xy=7e4"], "c_xy:"),
+        (["--set", "c_xy=7e4"], "--set c_xy:"),
         (["--root", "c_q>c_xy"], "root:"),  # not a rule, though no tie needs one here
     ],
 )

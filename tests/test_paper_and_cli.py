@@ -59,11 +59,11 @@ def test_identify_json_contract(capsys):
 @pytest.mark.parametrize(
     ("argv", "named"),
     [
-        (["frequencies", "kid300", "--set", "m=-5"], "m:"),
-        (["frequencies", "kid300", "--set", "J_z=0"], "J_z:"),
-        (["frequencies", "kid300", "--set", "L_xy=nan"], "L_xy:"),
-        (["frequencies", "kid300", "--set", "c_z=-1"], "c_z:"),
-        (["frequencies", "kid300", "--set", "foo=1"], "foo:"),
+        (["frequencies", "kid300", "--set", "m=-5"], "error: --set m:"),
+        (["frequencies", "kid300", "--set", "J_z=0"], "error: --set J_z:"),
+        (["frequencies", "kid300", "--set", "L_xy=nan"], "error: --set L_xy:"),
+        (["frequencies", "kid300", "--set", "c_z=-1"], "error: --set c_z:"),
+        (["frequencies", "kid300", "--set", "foo=1"], "error: --set foo:"),
         (["frequencies", "nosuchmachine"], "machine:"),
         (["identify", "kid300", "--measured", "x=64.1", "psi=17.71"], "measured:"),
         (["identify", "kid300", "--measured", "q=3", "psi=17.71"], "q:"),
@@ -104,7 +104,7 @@ def test_python_dash_m_and_process_exit_code():
         capture_output=True,
         text=True,
     )
-    assert result.returncode == 2 and result.stderr.startswith("mountid: error: m:")
+    assert result.returncode == 2 and result.stderr.startswith("mountid: error: --set m:")
 
 
 def test_generation_is_independent_of_hash_seed():

@@ -169,12 +169,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _as_given(error: InputError, args: argparse.Namespace | None) -> str:
+    """The error, its parameter named as the command line gave it: a value of ``--set`` as "--set m: ..." (a
+    campaign's as "known.m: ...")."""
+    for attr, option in (("set", "--set"), ("nominal", "--nominal")):
+        given = {item.partition("=")[0].strip() for item in (getattr(args, attr, None) or ())}
+        if error.parameter in given:
+            return f"{option} {error}"
+    return str(error)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    args = None
     try:
         args = build_parser().parse_args(argv)
         args.func(args)
     except InputError as exc:
-        print(f"mountid: error: {exc}", file=sys.stderr)
+        print(f"mountid: error: {_as_given(exc, args)}", file=sys.stderr)
         return 2
     except ModuleNotFoundError as exc:  # an optional dependency (extra) that is not installed
         top = (exc.name or "").split(".")[0]
