@@ -52,6 +52,12 @@ DEFAULT_FREQUENCY_STD = 1e-3
 """Relative standard deviation taken for a frequency given without uncertainty."""
 DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
+DEFAULT_DAMPING_STD = 0.05
+"""Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
+
+DAMPING_STD_FLOOR = 1e-3
+"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
+uncertainty)."""
 
 
 def record_shape_std(noise: float | None) -> float:
@@ -60,14 +66,6 @@ def record_shape_std(noise: float | None) -> float:
     for what a record does not show, the sensors' placement and calibration: a clean record's shape is not
     known better than a campaign's shape given without uncertainty, a noisy one's is known worse."""
     return DEFAULT_SHAPE_STD if noise is None else math.hypot(noise, DEFAULT_SHAPE_STD)
-
-
-DEFAULT_DAMPING_STD = 0.05
-"""Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
-
-DAMPING_STD_FLOOR = 1e-3
-"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
-uncertainty)."""
 
 
 def damping_std(mode: MeasuredMode) -> float:

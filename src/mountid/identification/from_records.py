@@ -262,7 +262,7 @@ def unresolved(
         ]
         alone = _span_mac(predicted[:, own], pole.shape)
         both = _span_mac(predicted[:, own + partners], pole.shape) if partners else alone
-        if not partners or both - alone < settings.unresolved_share:
+        if both - alone < settings.unresolved_share:  # no partner, or one that adds too little
             kept[label] = (pole, mac)
             continue
         names = tuple(sorted({rep[k] for k in partners}, key=lambda n: mod.UNIQUE_MODES.index(n)))
@@ -287,11 +287,11 @@ def _split_merged(
         zip(mod.MODES, machine.evaluate("frequencies", machine.values(nominal, mod.FORWARD_ARGUMENTS)), strict=True)
     )
     gone = {id(m.pole) for m in merged}
-    seeds = [_complex(p) for p in poles if id(p) not in gone]
+    seeds = [p.p for p in poles if id(p) not in gone]
     for m in merged:
         names = [m.label, *m.partners]
         level = m.pole.frequency / float(np.mean([omega[n] for n in names]))
-        seeds += [_complex(replace(m.pole, frequency=omega[n] * level)) for n in names]
+        seeds += [replace(m.pole, frequency=omega[n] * level).p for n in names]
     with np.errstate(all="ignore"):
         split = [_as_acceleration(p, record) for p in modal.poles_from(*source, np.array(seeds))]
     labelled, rest = label_poles(machine, record, split, nominal)
@@ -300,12 +300,6 @@ def _split_merged(
     if again or not wanted <= set(labelled):
         return None
     return labelled, rest
-
-
-def _complex(pole: modal.Pole) -> complex:
-    """The pole p (Im p > 0) [rad/s] of a frequency |p| and damping ratio."""
-    w, z = pole.frequency, pole.damping_ratio
-    return complex(-z * w, w * math.sqrt(max(1 - z * z, 0.0)))
 
 
 def _span_mac(basis: np.ndarray, shape: np.ndarray) -> float:
@@ -839,9 +833,7 @@ def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
     orders = np.array([RESPONSE_ORDER[c.quantity] for c in record.channels])
     if np.all(orders == 2):
         return pole
-    w, z = pole.frequency, pole.damping_ratio
-    p = complex(-z * w, w * np.sqrt(max(1 - z * z, 0.0)))
-    gain = p ** (2 - orders)
+    gain = pole.p ** (2 - orders)
     std = None if pole.shape_std is None else pole.shape_std * np.abs(gain)
     return replace(pole, shape=pole.shape * gain, shape_std=std)
 

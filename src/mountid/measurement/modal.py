@@ -39,6 +39,12 @@ class Pole:
     shape_std: NDArray[np.float64] | None = None
 
     @property
+    def p(self) -> complex:
+        """The pole p (Im p > 0) [rad/s] of this frequency |p| and damping ratio."""
+        w, z = self.frequency, self.damping_ratio
+        return complex(-z * w, w * np.sqrt(max(1.0 - z * z, 0.0)))
+
+    @property
     def damped_frequency(self) -> float:
         """Im(p) [rad/s]: what an FFT peak would show."""
         return self.frequency * np.sqrt(max(0.0, 1.0 - self.damping_ratio**2))
@@ -110,9 +116,13 @@ def amplitude_standard_deviations(samples: NDArray, dt: float, poles: NDArray) -
     own error moves the amplitudes of every channel of a mode alike (its scale and phase), which a mode shape
     normalises away."""
     basis = _basis(len(samples), dt, poles)
-    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    return _amplitude_stds(samples, basis, np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0])
+
+
+def _amplitude_stds(samples: NDArray, basis: NDArray, coef: NDArray) -> NDArray[np.float64]:
+    """amplitude_standard_deviations from the least squares' ``basis`` and coefficients ``coef``."""
     resid = np.real(samples - basis @ coef)
-    dof = max(len(samples) - len(poles) - 1, 1)  # real parameters per channel: two per conjugate pair, the bias
+    dof = max(len(samples) - basis.shape[1], 1)  # real parameters per channel: two per conjugate pair, the bias
     variance = np.sum(resid**2, axis=0) / dof
     gain = np.real(np.diagonal(np.linalg.pinv(basis.conj().T @ basis)))[:-1]
     return np.sqrt(np.maximum(gain, 0.0)[:, None] * variance[None, :])
@@ -240,9 +250,10 @@ def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArra
 def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
     """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
     refined, cov = refine_poles(samples, dt, start)
-    both = np.concatenate([refined, refined.conj()])
-    shapes = amplitudes(samples, dt, both)
-    shape_stds = amplitude_standard_deviations(samples, dt, both)
+    basis = _basis(len(samples), dt, np.concatenate([refined, refined.conj()]))
+    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    shapes = coef[:-1]  # amplitudes(): the constant's row left out
+    shape_stds = _amplitude_stds(samples, basis, coef)
     stds = pole_standard_deviations(refined, cov)
     out = [
         Pole(float(abs(p)), float(-p.real / abs(p)), shapes[i], *stds[i], shape_std=shape_stds[i])
