@@ -211,16 +211,21 @@ def test_a_campaign_places_the_channels_of_a_plain_csv(tmp_path, capsys):
         campaign.parse(data, tmp_path)
 
 
-@pytest.mark.parametrize("damping_known", [True, False])
-def test_pole_frequencies_given_by_hand_are_converted(damping_known, capsys, tmp_path):
+@pytest.mark.parametrize("damping", ["known", "fitted", "misstated"])
+def test_pole_frequencies_given_by_hand_are_converted(damping, capsys, tmp_path):
     """Modes as modal-analysis software reports them (|p| and zeta of kid300's exact damped poles, 1e-5
     uncertainty) under `"frequency_type": "pole"`: the campaign holds the undamped frequencies, to 0.1 of
-    their uncertainty whether the damping is known or fitted to the ratios; the report says so. Without damping
-    ratios or known damping the conversion is an error naming frequency_type."""
+    their uncertainty whether the damping is known, fitted to the ratios, or known but misstated (the machine's
+    twice the known values: the conversion takes the damping its ratios measure); the report says so. Without
+    damping ratios or known damping the conversion is an error naming frequency_type."""
     from mountid.machine import Machine, damped_poles, matrices
 
     machine = Machine.resolve("kid300")
-    values = machine.values(KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3}, tuple(machine.parameters))
+    factor = 2.0 if damping == "misstated" else 1.0
+    values = machine.values(
+        KNOWN | {"c_xy": 74.4e3, "c_z": 472.3e3, "b_xy": factor * KNOWN["b_xy"], "b_z": factor * KNOWN["b_z"]},
+        tuple(machine.parameters),
+    )
     undamped = machine.frequencies(values)
     lam = np.array([undamped[label] ** 2 for label in machine.module.MODES])
     p = dict(zip(machine.module.MODES, damped_poles(*matrices(machine.module, values), lam), strict=True))
@@ -233,7 +238,7 @@ def test_pole_frequencies_given_by_hand_are_converted(damping_known, capsys, tmp
         }
         for label in ("x", "z", "psi", "phi")
     }
-    known = KNOWN if damping_known else {k: v for k, v in KNOWN.items() if not k.startswith("b_")}
+    known = KNOWN if damping != "fitted" else {k: v for k, v in KNOWN.items() if not k.startswith("b_")}
     data = {"machine": "kid300", "known": known, "modes": modes, "frequency_type": "pole"}
     c = campaign.parse(data)
     for label, mode in c.modes.items():

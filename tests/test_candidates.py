@@ -271,6 +271,43 @@ def test_damping_ratios_enter_the_fit_and_find_a_damping_scale():
     assert loose.std["damping_scale"] > 1.5 * fit.std["damping_scale"]
 
 
+def test_pole_frequencies_of_a_misstated_damping_are_explained_by_the_damping_ratios_alone():
+    """The machine's B twice the described one, measured as a modal-analysis program gives it: each pole's |p|
+    and damping ratio (`"frequency_type": "pole"`). The campaign converts |p| with the damping the ratios
+    measure, so the frequencies are the undamped ones; the damping candidate keeps them undamped (a pole's |p|
+    is no damped frequency misread) and finds the scale in the ratios. As Im p the candidate missed them by
+    hundreds of standard deviations."""
+    from mountid.machine import damped_poles, matrices
+
+    machine = Machine.resolve("kid300")
+    doubled = {**KNOWN, **UNKNOWN, "b_xy": 2 * KNOWN["b_xy"], "b_z": 2 * KNOWN["b_z"]}
+    values = machine.values(doubled, tuple(machine.parameters))
+    undamped = machine.frequencies(values)
+    lam = np.array([undamped[label] ** 2 for label in machine.module.MODES])
+    poles = dict(zip(machine.module.MODES, damped_poles(*matrices(machine.module, values), lam), strict=True))
+    modes = {
+        label: {
+            "frequency": abs(p),
+            "uncertainty": SIGMA_REL * abs(p),
+            "damping_ratio": -p.real / abs(p),
+            "damping_uncertainty": 0.02 * -p.real / abs(p),
+        }
+        for label, p in poles.items()
+    }
+    campaign = parse({"machine": "kid300", "known": KNOWN, "modes": modes, "frequency_type": "pole"})
+    assert campaign.frequencies_from_poles
+    for label, mode in campaign.modes.items():
+        assert mode.frequency == pytest.approx(undamped[label], abs=0.1 * mode.frequency_std)
+    fit = fit_candidate(campaign, EFFECTS["damping"])
+    assert fit.chi2 < 0.05 * fit.n_data
+    assert fit.parameters["damping_scale"] == pytest.approx(2.0, rel=0.02)  # the ratios to first order
+    model = CandidateModel(campaign, EFFECTS["damping"])
+    theta = model.vector({**UNKNOWN, "damping_scale": 2.0})
+    e = model.evaluate(theta, machine.modes)
+    frequencies = model.strategy.frequencies(model, e.values, e.mats, e.lam)
+    assert np.array_equal(frequencies, np.sqrt(np.abs(e.lam)))
+
+
 def test_a_damping_ratio_of_zero_without_uncertainty_is_weighted_not_infinite():
     from mountid.diagnosis.campaign import DAMPING_STD_FLOOR
     from mountid.diagnosis.fitting import Data

@@ -167,6 +167,30 @@ def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fit
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
 
 
+def test_jacobian_of_the_damping_candidate_on_pole_frequencies_matches_a_central_difference():
+    """A campaign of poles' |p| (converted to undamped frequencies): the damping candidate's frequency rows are
+    the undamped model's (no column in damping_scale), its damping-ratio rows carry the scale."""
+    data = _campaign_from("damping", TRUTHS["damping"], None)
+    for i, mode in enumerate(data["modes"].values()):
+        mode["damping_ratio"] = 0.03 + 0.01 * i
+        mode["damping_uncertainty"] = 1e-3
+    campaign = parse({**data, "frequency_type": "pole"})
+    model = CandidateModel(campaign, EFFECTS["damping"], None)
+    rows = Data(campaign, model.length)
+    fun, _ = _residual_function(model, rows, None)
+    theta = model.vector({**UNKNOWN, **TRUTHS["damping"]})
+    analytic = jacobian(model, rows, theta)
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])[
+        : len(analytic)
+    ]
+    assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+    scale = model.parameter_names.index("damping_scale")
+    assert (
+        not analytic[: len(rows.sigma), scale].any() and np.abs(analytic[-len(rows.damping_labels) :, scale]).min() > 0
+    )
+
+
 def _assert_same_labelling(here, there) -> None:
     """Each label on the same model mode, or on its exact twin (then the residuals see only their span)."""
     for a, b in zip(here.index, there.index, strict=True):

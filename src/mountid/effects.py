@@ -11,7 +11,8 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``frequency``: rubber stiffness rising with frequency as a standard linear solid, c(omega) = c g(omega),
   g = 1 + beta x^2 / (1 + x^2), x = omega / omega_c (c is then the static stiffness): every isolator
   stiffness enters C linearly, so each mode solves omega^2 = g(omega) lambda_k(C, M).
-- ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B).
+- ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B); in
+  a campaign of poles' |p| (records), converted to undamped ones, eta acts on the damping ratios alone.
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in
   height; the generated ``point_jacobian`` maps the motion to that point.
 - ``channel``: one channel of the layout the shapes were estimated from (the campaign's ``sensors``) read along

@@ -131,6 +131,15 @@ class Campaign:
     """What reading the campaign's ``modes`` said (pole frequencies converted: ``frequency_type``)."""
     records_disagree: tuple[str, ...] = ()
     """The modes taken from records that disagree on their frequency beyond RECORDS_DISAGREE sigma."""
+    record_modes: tuple[str, ...] = ()
+    """The modes taken from the records (their frequencies poles' |p|, converted)."""
+
+    @property
+    def frequencies_from_poles(self) -> bool:
+        """Whether every frequency was a pole's |p|, converted to an undamped one (``frequency_type`` "pole", or
+        every mode from the records): the damping effect then acts on the damping ratios alone (a damped
+        frequency read as an undamped one is no misreading such a campaign can hold)."""
+        return self.frequency_type == "pole" or (bool(self.record_modes) and set(self.record_modes) == set(self.modes))
 
     def conventions(self) -> dict:
         """What the campaign's numbers refer to, for the report to echo: the description used, the
@@ -290,6 +299,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         data.get("frequency_type", "undamped"),
         tuple(notes_on_modes),
         tuple(label for label in records.disagree if label not in data.get("modes", {})),
+        tuple(label for label in from_records if label not in data.get("modes", {})),
     )
 
 
@@ -569,25 +579,28 @@ def _as_undamped(
     campaign's ``modes``): a record gives poles, and with non-proportional damping |p| differs from the undamped
     frequency at second order (1e-4 on kid300's x and psi, several standard deviations of a 20 s record). Each
     |p| is divided by the ratio |p| / omega of the records chain's own identification (stiffness fitted to the
-    damped model's |p|, damping to the damping ratios; the damping parameters under ``known`` kept): an effect
-    the nominal model lacks changes that ratio only at third order. Without damping parameters, or where the
-    identification fails or no mount of the description fits (the stiffness fit runs to a boundary: the ratio
-    there would mean nothing), the frequencies are kept with a note (an error naming
-    ``frequency_type`` when ``strict``: the campaign said its frequencies are poles). ``whose``: the notes' subject."""
+    damped model's |p|, every damping parameter to the measured damping ratios where they are as many, else
+    those not under ``known``): an effect the nominal model lacks changes that ratio only at third order, and
+    a damping the description misstates (twice its value: the ratio's shift four times) is the measured one.
+    Without damping parameters, or where the identification fails or no mount of the description fits (the
+    stiffness fit runs to a boundary: the ratio there would mean nothing), the frequencies are kept with a note
+    (an error naming ``frequency_type`` when ``strict``: the campaign said its frequencies are poles).
+    ``whose``: the notes' subject."""
     from mountid.identification.from_records import fit_damping, fit_stiffness, pole_frequencies
 
     names = machine.damping
     if not names:
         return modes, notes
-    unknown = tuple(n for n in names if n not in known)
+    with_modes = {label: m for label, m in modes.items() if m.damping_ratio is not None}
+    # the damping the records measure, where they carry its parameters, else the known values kept
+    free = names if len(with_modes) >= len(names) else tuple(n for n in names if n not in known)
     pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
     rule = getattr(machine.module, "ROOT_RULE", "") or None
     try:
         params, _, _ = fit_stiffness(machine, known, pairs, root=rule)
-        damping = {n: float(known[n]) for n in names if n in known}
-        with_modes = {label: m for label, m in modes.items() if m.damping_ratio is not None}
-        if unknown:
-            damping |= fit_damping(machine, {**known, **params}, with_modes, unknown)[0]
+        damping = {n: float(known[n]) for n in names if n not in free}
+        if free:
+            damping |= fit_damping(machine, {**known, **params}, with_modes, free)[0]
         params, _, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule)
         values = machine.values({**known, **damping, **params}, tuple(machine.parameters))
         ratio = pole_frequencies(machine, values) / np.asarray(
@@ -606,7 +619,12 @@ def _as_undamped(
     if shifts:
         notes.append(
             f"{whose} pole frequencies |p| as undamped ones through the identified damped model "
-            f"({', '.join(shifts)} rad/s; beyond a tenth of their standard deviation)"
+            + (
+                f"(damping {', '.join(f'{n} = {damping[n]:.4g}' for n in free)} from the damping ratios; "
+                if free
+                else "("
+            )
+            + f"{', '.join(shifts)} rad/s; beyond a tenth of their standard deviation)"
         )
     return out, notes
 

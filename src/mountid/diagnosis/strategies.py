@@ -225,13 +225,17 @@ class Frequency(Strategy):
 
 
 class Damping(Strategy):
-    """The measured frequencies are damped ones: Im p of M p^2 + eta B p + C = 0."""
+    """The measured frequencies are damped ones: Im p of M p^2 + eta B p + C = 0. In a campaign whose
+    frequencies were poles' |p|, converted to undamped ones (Campaign.frequencies_from_poles: records), the
+    frequencies stay undamped and eta acts on the damping ratios alone: the described damping a factor off."""
 
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
         m, c, _ = super().matrices(model, values)
         return m, c, call(model.mod, "damping_matrix", values)
 
     def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+        if model.campaign.frequencies_from_poles:
+            return super().frequencies(model, values, mats, lam)
         m, c, b = mats
         return damped_poles(m, c, values["damping_scale"] * b, lam).imag
 
@@ -249,6 +253,8 @@ class Damping(Strategy):
     def frequency_derivatives(
         self, model: CandidateModel, e: Evaluation, d_lam: np.ndarray, d_mats: list[Matrices]
     ) -> np.ndarray:
+        if model.campaign.frequencies_from_poles:
+            return super().frequency_derivatives(model, e, d_lam, d_mats)
         m, c, b = e.mats
         stacked = [np.array([d[i] for d in d_mats]) for i in range(3)]
         return damped_pole_derivatives(m, c, e.values["damping_scale"] * b, e.lam, *stacked)[1].imag
@@ -256,6 +262,10 @@ class Damping(Strategy):
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         if not np.any(call(model.mod, "damping_matrix", model.known | model.start_unknowns)):
             return "the description has no damping: nothing to scale"
+        if model.campaign.frequencies_from_poles and not model.damped:
+            return (
+                "the frequencies are poles converted to undamped ones and no damping ratio is measured: nothing to fit"
+            )
         return ""
 
 
