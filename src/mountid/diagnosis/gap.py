@@ -139,34 +139,35 @@ def _predict(campaign: Campaign, params: dict[str, float]) -> dict[str, float]:
 
 def _prediction_std(campaign: Campaign, fit: StiffnessFit) -> dict[str, float]:
     """Standard deviation [rad/s] of each mode's frequency predicted by ``fit``, to first order from the
-    covariance of its ln unknowns and the generated d lambda / d p: d ln omega / d ln p = p (d lambda / d p) /
-    (2 lambda). Infinite where the fit leaves that frequency undetermined (a non-finite covariance)."""
+    covariance of its ln unknowns and d ln omega / d ln p (_log_sensitivities). Infinite where the fit leaves
+    that frequency undetermined (a non-finite covariance)."""
     machine = campaign.machine
     mod = machine.module
     values = machine.values({**campaign.known, **fit.parameters}, mod.FORWARD_ARGUMENTS)
-    rows = [mod.FORWARD_ARGUMENTS.index(u) for u in machine.unknown]
-    lam = np.asarray(mod.squared_frequencies(**values), dtype=float)
-    p = np.array([fit.parameters[u] for u in machine.unknown])
-    g = np.asarray(mod.squared_frequency_derivatives(**values), dtype=float)[rows] * p[:, None] / (2 * lam[None, :])
+    lam, g = _log_sensitivities(mod, values)
+    g = g[[mod.FORWARD_ARGUMENTS.index(u) for u in machine.unknown]]
     variance = np.einsum("im,ij,jm->m", g, fit.log_covariance, g)
     std = np.where(np.isfinite(variance), np.sqrt(np.abs(variance) * lam), np.inf)
     return {label: float(std[mod.MODES.index(label)]) for label in campaign.modes}
 
 
 def sensitivities(campaign: Campaign, params: dict[str, float]) -> dict[str, dict[str, float]]:
-    """d ln omega / d ln p by central differences (relative step 1e-6) of the generated forward map."""
-    machine = campaign.machine
-    mod = machine.module
-    base = machine.values({**campaign.known, **params}, mod.FORWARD_ARGUMENTS)
-    out: dict[str, dict[str, float]] = {label: {} for label in campaign.modes}
-    for name in mod.FORWARD_ARGUMENTS:
-        up, down = dict(base), dict(base)
-        up[name] *= 1 + 1e-6
-        down[name] *= 1 - 1e-6
-        d = (np.log(mod.frequencies(**up)) - np.log(mod.frequencies(**down))) / (np.log1p(1e-6) - np.log1p(-1e-6))
-        for label in campaign.modes:
-            out[label][name] = float(d[mod.MODES.index(label)])
-    return out
+    """d ln omega / d ln p of each measured mode in every argument p of the forward map (_log_sensitivities)."""
+    mod = campaign.machine.module
+    _, g = _log_sensitivities(mod, campaign.machine.values({**campaign.known, **params}, mod.FORWARD_ARGUMENTS))
+    return {
+        label: {name: float(g[i, mod.MODES.index(label)]) for i, name in enumerate(mod.FORWARD_ARGUMENTS)}
+        for label in campaign.modes
+    }
+
+
+def _log_sensitivities(mod, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The squared frequencies lambda [rad^2/s^2] of every mode and d ln omega / d ln p = p (d lambda / d p) /
+    (2 lambda), shape (forward arguments, modes), from the generated d lambda / d p at ``values``."""
+    lam = np.asarray(mod.squared_frequencies(**values), dtype=float)
+    p = np.array([values[a] for a in mod.FORWARD_ARGUMENTS], dtype=float)
+    g = np.asarray(mod.squared_frequency_derivatives(**values), dtype=float)
+    return lam, g * p[:, None] / (2 * lam[None, :])
 
 
 def localise(campaign: Campaign, params: dict[str, float], residuals: list[Residual]) -> list[Localisation]:
