@@ -241,8 +241,9 @@ def unresolved(
     label that has no pole of its own, lies within the pole's half-power bandwidth 2 zeta |p| of the labelled one
     (at the ``nominal`` parameters) and adds settings.unresolved_share or more of the pole's channel shape to what
     the labelled mode (with its twins) explains. Such a pole's frequency lies between the modes and its shape is a
-    mix of them (screen6's x and y, 0.12 rad/s apart at a damping ratio of 0.05: one pole, MAC 0.51 with x, 1.00
-    with x and y), a measurement of neither. Returns (the poles kept, the merged ones)."""
+    mix of them (screen6's x and y, 0.12 rad/s apart at a damping ratio of 0.05, from pencils of 100 and 160
+    columns: one pole, MAC 0.51 with x, 1.00 with x and y), a measurement of neither. Returns (the poles kept,
+    the merged ones)."""
     mod = machine.module
     args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
     omega = mod.frequencies(**args)
