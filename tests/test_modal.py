@@ -94,3 +94,25 @@ def test_amplitude_standard_deviations_match_their_scatter():
         stated.append(modal.amplitude_standard_deviations(y, dt, both)[:3])
     ratio = np.sqrt(np.mean(np.abs(np.array(errors)) ** 2, axis=0)) / np.mean(stated, axis=0)
     assert np.all(np.abs(ratio - 1) < 0.15), ratio
+
+
+def test_the_matrix_pencil_recovers_the_poles_of_noise_free_decays():
+    """Three damped exponentials (two of them 1.5 % apart) in four channels, no noise: every pole to 1e-8
+    relative at both pencil sizes; the Gram matrix accumulated channel by channel is that of the stacked Hankel
+    matrices (its definition) to rounding."""
+    dt, n = 0.005, 3000
+    poles = np.array([-0.9 + 18.0j, -1.0 + 18.27j, -2.5 + 40.0j])
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(2)
+    weights = rng.normal(size=(len(poles), 4)) + 1j * rng.normal(size=(len(poles), 4))
+    samples = np.real(np.exp(np.outer(t, poles)) @ weights)
+    for size in modal.PENCIL_SIZES:
+        found = modal.matrix_pencil(samples, dt, 6, size)
+        found = np.sort_complex(found[found.imag > 0])
+        assert np.allclose(found, np.sort_complex(poles), rtol=1e-8, atol=0)
+    L = modal.PENCIL_SIZES[0]
+    idx = np.arange(n - L)[:, None] + np.arange(L + 1)[None, :]
+    stacked = np.concatenate([samples[:, j][idx] for j in range(samples.shape[1])], axis=0)
+    reference = np.linalg.eigh(stacked.T @ stacked)[1][:, ::-1][:, :6]
+    basis = modal._signal_basis(samples, 6, L)[:, :6]
+    assert np.allclose(np.abs(basis.T @ reference), np.eye(6), atol=1e-9)

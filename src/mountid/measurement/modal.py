@@ -107,9 +107,11 @@ def _signal_basis(samples: NDArray, order: int, pencil: int | None) -> NDArray[n
     L = pencil or n // 3
     if not order < L < n - 1:
         raise InputError("record", f"too short for {order} exponentials: {n} samples after decimation")
-    idx = np.arange(n - L)[:, None] + np.arange(L + 1)[None, :]
-    stacked = np.concatenate([samples[:, j][idx] for j in range(n_ch)], axis=0)
-    return np.linalg.eigh(stacked.T @ stacked)[1][:, ::-1]
+    gram = np.zeros((L + 1, L + 1))
+    for j in range(n_ch):  # channel by channel: the stacked Hankel matrices never held at once
+        hankel = np.lib.stride_tricks.sliding_window_view(np.ascontiguousarray(samples[:, j]), L + 1)[: n - L]
+        gram += hankel.T @ hankel
+    return np.linalg.eigh(gram)[1][:, ::-1]
 
 
 def _shift_poles(vecs: NDArray, order: int, dt: float) -> NDArray[np.complex128]:
