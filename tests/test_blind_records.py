@@ -3,12 +3,14 @@ truth diagnosed from its records."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
-from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
+from mountid.validation.blind_records import RECORD_TRUTHS, RecordCase, run_record_case
 from mountid.validation.blind_truth import TruthMachine, truth_matrices
 
 SENSORS = [Sensor("a", (0.4, 0.3, 0.25), (1.0, 0.0, 0.0), noise=0.01), Sensor("b", (-0.4, 0.3, 0.25), (0, 0, 1.0))]
@@ -66,3 +68,17 @@ def test_a_truth_diagnosed_from_its_records(tmp_path, machine, truth, seed, kind
         assert case.first == first
     if machine == "screen6":
         assert case.close_modes and len(case.modes) == 6
+
+
+def test_a_part_of_a_two_part_truth_is_right_only_where_it_alone_explains_the_noise_free_data():
+    """A confident verdict naming one part of a two-part truth is right only where that part alone explains the
+    truth's noise-free data (blind.acceptable_parts, as the modal-data benchmark counts it); it was always right.
+    A one-part truth: the candidate that represents it (a support frame by the catalogue's foundation)."""
+    case = RecordCase(
+        "isolator_scatter+cog_height", "kid300", 12, "confident", "isolator_scatter", 0.99, True, (), (), ()
+    )
+    alone = replace(case, acceptable=("cog_height+isolator_scatter", "isolator_scatter"))
+    assert not alone.confident_and_wrong
+    assert replace(case, acceptable=("cog_height+isolator_scatter",)).confident_and_wrong
+    frame = RecordCase("support_frame", "kid300", 10, "confident", "foundation", 0.99, True, (), (), ())
+    assert frame.right == ("foundation",) and not frame.confident_and_wrong

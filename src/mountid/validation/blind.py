@@ -17,7 +17,7 @@ import numpy as np
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.candidate_model import scaled_unit
-from mountid.diagnosis.candidates import STATING_KINDS, diagnose_effects, fits_within_uncertainty
+from mountid.diagnosis.candidates import STATING_KINDS, EffectsReport, diagnose_effects, fits_within_uncertainty
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
@@ -193,6 +193,28 @@ def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_
     return n - k >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
 
 
+def noise_free_diagnosis(
+    seed: int, effect: str, kind: str, machine: str, nominal: str = "description", warm: EffectsReport | None = None
+) -> EffectsReport:
+    """The candidates diagnosed on the truth of ``seed`` without noise (make_case with noise=False), the fits
+    started from ``warm`` (a report on the same truth with noise) where given."""
+    clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine, nominal=nominal)
+    return diagnose_effects(campaign_module.parse(clean), warm=warm, exact_held_out=False, other_roots=False)
+
+
+def acceptable_parts(effect: str, ideal: EffectsReport) -> tuple[str, ...]:
+    """The candidates counted right for a truth of several parts: the one that represents the whole truth and
+    each part's that alone explains the noise-free data within their uncertainty (``ideal``:
+    noise_free_diagnosis)."""
+    fits = {f.effect: f for f in ideal.ranked}
+    expected = represented_by(effect)
+    alone = [represented_by(p) for p in effect.split("+")]
+    return (
+        *((expected,) if expected else ()),
+        *(a for a in alone if a in fits and fits_within_uncertainty(fits[a])),
+    )
+
+
 def run_case(
     seed: int, effect: str, kind: str = "shapes", machine: str = "kid300", nominal: str = "description"
 ) -> CaseResult:
@@ -208,17 +230,12 @@ def run_case(
     acceptable = None
     parts = effect.split("+")
     if effect != "none" and (expected is not None or len(parts) > 1):
-        clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine, nominal=nominal)
-        ideal = diagnose_effects(campaign_module.parse(clean), warm=report, exact_held_out=False, other_roots=False)
+        ideal = noise_free_diagnosis(seed, effect, kind, machine, nominal, warm=report)
         fits = {f.effect: f for f in ideal.ranked}
         truth = fits.get(expected) if expected is not None else None
         identifiable = bool(ideal.significant and truth is not None and truth.probability >= DIAGNOSIS.confidence)
         if len(parts) > 1:
-            alone = [represented_by(p) for p in parts]
-            acceptable = (
-                *((expected,) if expected else ()),
-                *(a for a in alone if a in fits and fits_within_uncertainty(fits[a])),
-            )
+            acceptable = acceptable_parts(effect, ideal)
     testable = True
     if expected not in (None, "none"):
         testable = can_test(

@@ -57,14 +57,17 @@ class RecordCase:
     modes: tuple[str, ...]
     close_modes: tuple[str, ...]
     error: str = ""
+    acceptable: tuple[str, ...] | None = None
+    """For a truth of two parts, the candidates counted right (blind.acceptable_parts: the whole truth's and each
+    part's that alone explains the truth's noise-free modal data); None for one part."""
 
     @property
     def right(self) -> tuple[str, ...]:
-        """The candidates counted right: the one that represents the truth and, for a truth of two parts, each
-        part's."""
-        parts = self.truth.split("+")
-        names = [represented_by(self.truth), *(represented_by(p) for p in parts if len(parts) > 1)]
-        return tuple(n for n in names if n)
+        """The candidates counted right: the one that represents the truth, or ``acceptable``."""
+        if self.acceptable is not None:
+            return self.acceptable
+        name = represented_by(self.truth)
+        return (name,) if name else ()
 
     @property
     def confident_and_wrong(self) -> bool:
@@ -105,6 +108,9 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
         return RecordCase(truth, machine, seed, "error", None, math.nan, False, (), (), (), str(err))
     best = report.best
     notes = tuple(n for n in found.record_notes if "close_modes" in n or "unresolved_modes" in n)
+    acceptable = None
+    if "+" in truth:
+        acceptable = blind.acceptable_parts(truth, blind.noise_free_diagnosis(seed, truth, "shapes", machine))
     return RecordCase(
         truth,
         machine,
@@ -116,4 +122,5 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
         tuple(report.tie),
         tuple(found.modes),
         notes,
+        acceptable=acceptable,
     )
