@@ -65,7 +65,7 @@ bench: $(STAMP)
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL)
 
-# the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 10 minutes)
+# the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 12 minutes)
 bench-records: $(STAMP)
 	$(PY) -m benchmarks.records_blind
 

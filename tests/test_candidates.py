@@ -682,3 +682,20 @@ def test_the_predictive_standard_deviation_of_a_parameter_is_its_own():
         i = model.parameter_names.index(name)
         std = predictive_std(fit, lambda x, i=i: np.array([model.physical(x)[model.parameter_names[i]]]))[0]
         assert std == pytest.approx(fit.std[name], rel=0.02)
+
+
+def test_records_that_disagree_allow_no_confident_verdict():
+    """The same campaign, once as modal data and once as if its records had disagreed on x beyond their
+    uncertainty (Campaign.records_disagree: not one state of the machine, or twins the records resolve
+    differently): confident, then a tie of the same candidate. From records, kid300axes with an isolator from
+    another batch and a higher centre of mass gave 'confident: cog_height' (the records' single pole of each
+    pair of split twins read a different twin in each record), wrong for a part that alone does not explain
+    the truth's noise-free modal data."""
+    from mountid.diagnosis.candidates import diagnose_effects
+
+    data, _ = blind.make_case(1, "com_offset", machine="kid300")
+    campaign = parse(data)
+    report = diagnose_effects(campaign)
+    assert report.kind == "confident" and report.best.effect == "com_offset"
+    disagreeing = diagnose_effects(replace(campaign, records_disagree=("x",)))
+    assert disagreeing.kind == "tie" and not disagreeing.confident and disagreeing.best.effect == "com_offset"

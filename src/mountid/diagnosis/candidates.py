@@ -652,8 +652,11 @@ def rank(
     confident only when the best candidate explains the gap (fits, and predicts the held-out modes: :func:`explains`),
     fits comfortably (:func:`fits_comfortably`), with held-out predictions sharp enough to confirm it
     (:func:`confirmed`), has probability settings.confidence or more, and the data reject every other candidate
-    (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2 they promise); when no candidate
-    explains it, the verdict says so and names the closest. With ``other_roots`` a candidate the verdict names is
+    (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
+    records agree on every mode (Campaign.records_disagree: records of one mode beyond their uncertainty apart are
+    not one state of the machine, or twins one record resolves differently from another, which the campaign's
+    modes cannot hold; then a tie at best); when no candidate explains it, the verdict says so and names the
+    closest. With ``other_roots`` a candidate the verdict names is
     searched for other values that fit as well (fitting.other_solutions), which the verdict names too."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = _gap_p_value(nominal)
@@ -738,6 +741,7 @@ def rank(
         and all(rejected(f, settings) for f in candidates[1:])
         and not open_
         and best_confirmed
+        and not campaign.records_disagree
     ):
         kind = "confident"
         verdict = (
