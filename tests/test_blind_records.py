@@ -85,3 +85,26 @@ def test_a_part_of_a_two_part_truth_is_right_only_where_it_alone_explains_the_no
     assert replace(case, acceptable=("cog_height+isolator_scatter",)).confident_and_wrong
     frame = RecordCase("support_frame", "kid300", 10, "confident", "foundation", 0.99, True, (), (), ())
     assert frame.right == ("foundation",) and not frame.confident_and_wrong
+
+
+def test_a_record_without_a_mode_is_left_out_of_a_campaign_of_several(tmp_path):
+    """screen6 on a slab, hit at one corner: the record's two poles each merge two close modes it cannot
+    separate, so it has no mode to give ("no damped mode found"). The whole campaign stopped there; now that
+    record is left out with a note and the other gives all six modes. A campaign of that record alone is still
+    an error naming it."""
+    import json
+
+    from mountid.diagnosis import campaign
+    from mountid.errors import InputError
+    from mountid.validation.blind_records import record_campaign
+
+    path = record_campaign(20, "foundation", "screen6", tmp_path)
+    found = campaign.load(path)
+    assert len(found.modes) == 6
+    (note,) = [n for n in found.record_notes if "left out: no damped mode found" in n]
+    assert note.startswith("screen6-foundation-20-0.csv: left out")
+    data = json.loads(path.read_text(encoding="utf-8"))
+    alone = tmp_path / "alone.json"
+    alone.write_text(json.dumps({**data, "records": data["records"][:1]}), encoding="utf-8")
+    with pytest.raises(InputError, match=r"^records\.0 \(screen6-foundation-20-0\.csv\): no damped mode found"):
+        campaign.load(alone)

@@ -15,5 +15,10 @@ class InputError(ValueError):
         super().__init__(f"{parameter}: {reason}")
 
 
+class NoModeFound(InputError):
+    """A record in which the records chain found no mode it could label (no pole, or only poles of modes it could
+    not separate): a campaign of several records leaves that one out with a note."""
+
+
 class DescriptionError(InputError):
     """A machine description that is malformed or contradicts its declared symmetry."""

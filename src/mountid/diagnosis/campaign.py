@@ -36,7 +36,7 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 
-from mountid.errors import InputError
+from mountid.errors import InputError, NoModeFound
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Channel
@@ -530,6 +530,13 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
                 geometry = {name: (point, direction) for name, point, direction in source.channels}
                 record = with_geometry(record, geometry, "channels")
             found, _, warnings = modal_data(machine, record, known, source.start)
+        except NoModeFound as err:
+            if len(sources) == 1:
+                raise InputError(f"records.{i} ({source.path.name})", err.reason) from None
+            # one record of several without a mode it could label (a hit that excited only close modes it could
+            # not separate): left out, said in the notes; the others stand
+            notes.append(f"{source.path.name}: left out: {err.reason}")
+            continue
         except InputError as err:  # which of the campaign's records, and what of it
             what = "" if err.parameter == "record" else f"{err.parameter}: "
             raise InputError(f"records.{i} ({source.path.name})", f"{what}{err.reason}") from None

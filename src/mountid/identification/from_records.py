@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.optimize
 
-from mountid.errors import InputError
+from mountid.errors import InputError, NoModeFound
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import GeneratedModule, Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
@@ -750,7 +750,7 @@ def modal_data(
             ]
     if not labelled:
         raise with_warnings(
-            InputError("record", "no damped mode found in the free decay (check start, channels and excitation)"),
+            NoModeFound("record", "no damped mode found in the free decay (check start, channels and excitation)"),
             warnings,
         )
     if estimate is not None and len(estimate.hits) > 1:
@@ -904,7 +904,7 @@ def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> In
     if not warnings:
         return error
     found = "; ".join(f"{w.kind} ({w.channel}): {w.message}" for w in warnings)
-    return InputError(error.parameter, f"{error.reason} [the record also shows: {found}]")
+    return type(error)(error.parameter, f"{error.reason} [the record also shows: {found}]")
 
 
 def _identify(
