@@ -54,6 +54,28 @@ def test_newton_evaluates_only_rows_not_yet_converged():
     np.testing.assert_allclose(lam_out[:, [0, 3]], given, rtol=1e-13)
 
 
+def test_newton_gives_up_a_row_that_stalls():
+    """A start in a minimum that is no root (kid300: c_xy / c_z where x cannot reach a given frequency
+    far above it) is given up after STALL_STEPS steps without halving its residual, where it took all
+    max_steps before; a row converging beside it is not held up and ends at the root."""
+    knowns = dict(TABLE_1)
+    known = tuple(np.full(2, knowns[a]) for a in ("m", "J_xy", "J_z", "L_xy", "L_z"))
+    c = np.array([[1e5, 4e5], [1e5, 4e5]])
+    lam = kid300.squared_frequencies(*known, c[:, 0], c[:, 1])
+    given = lam[:, [0, 3]].copy()
+    given[1, 0] = given[1, 1] * 4  # x four times psi's squared frequency: no mount gives that
+    steps = []
+
+    def model(known_, unknowns, modes):
+        steps.append(len(unknowns))
+        return kid300._model(known_, unknowns, modes)
+
+    x, lam_out = runtime.eigen_newton(model, known, c * [1.1, 0.9], (0, 3), given, max_steps=40)
+    np.testing.assert_allclose(lam_out[0, [0, 3]], given[0], rtol=1e-13)
+    assert not np.allclose(lam_out[1, [0, 3]], given[1], rtol=1e-3)
+    assert len(steps) <= runtime.inverse.STALL_STEPS + 4 < 40
+
+
 def test_fused_expressions_agree_between_numexpr_and_numpy_paths():
     """Large batches go through numexpr, small ones through numpy: the same formula to rounding level."""
     rng = np.random.default_rng(7)

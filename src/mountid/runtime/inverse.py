@@ -93,6 +93,14 @@ class InverseRoots(NamedTuple):
 MAX_RELATIVE_STEP = 0.5
 """Largest relative change of an unknown in one Newton step (eigen_newton's trust region)."""
 
+STALL_STEPS = 8
+"""eigen_newton gives a row up once this many steps in a row have not brought its largest relative residual
+below half the smallest it had before them: a start that ends in a minimum that is no root (the candidate of a
+closed form that puts a given frequency on another mode; a Levenberg-Marquardt start that gave up), or a root
+whose residual bounces at the rounding of the forward map, just above NEWTON_RESIDUAL_RTOL. Such rows took all
+``max_steps`` before and were most of a numeric inverse's time; a row that converges, even from a far start
+under the trust region, halves its residual every few steps."""
+
 
 def eigen_newton(
     model,
@@ -124,7 +132,12 @@ def eigen_newton(
                 np.isfinite(f), axis=-1
             )
 
+        def residual(lam, rows):
+            return np.max(np.abs(lam[:, idx] - given[rows]) / np.abs(given[rows]), axis=-1)
+
         active = np.flatnonzero(pending(lam_all, slice(None)) & np.all(np.isfinite(x), axis=-1))
+        best = residual(lam_all, slice(None))  # each row's smallest residual so far
+        stalled = np.zeros(x.shape[0], dtype=int)  # steps since it last fell below half of that
         # each pass evaluates the rows still active at their current point, so every row's lam_all
         # belongs to its final x when the loop ends
         for step_count in range(max_steps + 1):
@@ -133,7 +146,11 @@ def eigen_newton(
             sub = tuple(k[active] for k in known)
             lam, phi, dc = model(sub, x[active], True)
             lam_all[active] = lam
-            go = pending(lam, active)
+            r = residual(lam, active)
+            better = r < 0.5 * best[active]
+            best[active] = np.where(better, r, best[active])
+            stalled[active] = np.where(better, 0, stalled[active] + 1)
+            go = pending(lam, active) & (stalled[active] < STALL_STEPS)
             if step_count == max_steps or not np.any(go):
                 break
             active, lam, phi, dc = active[go], lam[go], phi[go], dc[go]
@@ -164,6 +181,13 @@ LM_DAMPING = (1e-3, 1e12)
 """Initial damping of eigen_levenberg_marquardt (a kept step divides it by 3, down to 1e-9 of this), and the
 damping at which a start is given up (its steps no longer lower the residual: a minimum that is not a root,
 or a bound of the floating-point range)."""
+
+LM_STALL = 12
+"""eigen_levenberg_marquardt hands a start on to Newton once this many iterations in a row have not brought its
+residual norm below half the smallest it had before them (the cost below a quarter). Starts that lead to no root
+crept along a valley towards an unknown of 0 or infinity for the rest of LM_STEPS (three quarters of genset8's
+starts over x, psi, theta and phi at its nominal frequencies); a start on its way to a root halves its residual
+every few iterations, even along the valley of a degenerate layout, and Newton polishes the rest."""
 
 LM_RANGE = 1e4
 """eigen_levenberg_marquardt gives a start up once an unknown has moved by more than this factor from it: it
@@ -211,6 +235,8 @@ def eigen_levenberg_marquardt(
     if start.size:
         res[start], cost[start], jac[start] = evaluate(start, x[start])
     mu = np.full(n_rows, LM_DAMPING[0])
+    best = cost.copy()  # each start's smallest cost so far
+    stalled = np.zeros(n_rows, dtype=int)  # iterations since it last fell below a quarter of that
     converged = (NEWTON_RESIDUAL_RTOL * len(idx)) ** 2
     active = start[np.isfinite(cost[start]) & (cost[start] > converged)]
     for _ in range(max_steps):
@@ -236,8 +262,11 @@ def eigen_levenberg_marquardt(
         kept = active[better]
         x[kept], res[kept], cost[kept], jac[kept] = trial[better], new_r[better], new_cost[better], new_j[better]
         mu[active] = np.where(better, np.maximum(mu[active] / 3, LM_DAMPING[0] * 1e-9), mu[active] * 4)
+        halved = cost[active] < 0.25 * best[active]
+        best[active] = np.where(halved, cost[active], best[active])
+        stalled[active] = np.where(halved, 0, stalled[active] + 1)
         gone = np.any(np.abs(np.log(x[active] / unknowns[active])) > np.log(LM_RANGE), axis=-1)
-        done = (cost[active] <= converged) | (mu[active] > LM_DAMPING[1]) | gone
+        done = (cost[active] <= converged) | (mu[active] > LM_DAMPING[1]) | gone | (stalled[active] >= LM_STALL)
         active = active[~done]
     return x
 
