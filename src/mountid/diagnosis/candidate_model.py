@@ -180,6 +180,8 @@ class CandidateModel:
         self.length = self.scales["length"]
         self.effect_parameters = effect.parameters if effect else ()
         self.log_scaled = tuple(p.magnitude for p in self.effect_parameters)
+        self.parameter_names: tuple[str, ...] = tuple(self.unknown) + tuple(p.name for p in self.effect_parameters)
+        """Names of the entries of the flat vector: the unknowns, then the effect parameters."""
         self.omega_ref = frame.omega_ref
         self.reference = frame.reference
         self.reference_lambda = frame.reference_lambda
@@ -308,11 +310,6 @@ class CandidateModel:
                 hi.append(b + (b - a))
         return np.array(lo), np.array(hi)
 
-    @property
-    def parameter_names(self) -> tuple[str, ...]:
-        """Names of the entries of the flat vector: the unknowns, then the effect parameters."""
-        return tuple(self.unknown) + tuple(p.name for p in self.effect_parameters)
-
     def physical(self, theta: np.ndarray) -> dict[str, float]:
         """Unknowns [SI] and effect parameters [their units] from the flat vector."""
         n = len(self.unknown)
@@ -341,9 +338,9 @@ class CandidateModel:
             out.append(math.log(v) if log else v)
         return np.array(out)
 
-    def jacobian_to_physical(self, theta: np.ndarray) -> np.ndarray:
-        """d(physical)/d(theta), diagonal."""
-        phys = self.physical(theta)
+    def jacobian_to_physical(self, theta: np.ndarray, physical: dict[str, float] | None = None) -> np.ndarray:
+        """d(physical)/d(theta), diagonal (``physical``: :meth:`physical` of ``theta`` where the caller has it)."""
+        phys = self.physical(theta) if physical is None else physical
         d = [phys[u] for u in self.unknown]
         for p, log in zip(self.effect_parameters, self.log_scaled, strict=True):
             d.append(phys[p.name] if log else self.scales[p.scale])

@@ -52,7 +52,7 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     at this point (they split exactly equal twins); None where no column can be given (parallel partners)."""
     e = model.evaluate(theta)
     names = model.parameter_names
-    scale = model.jacobian_to_physical(theta)  # d(physical)/d(theta), diagonal
+    scale = model.jacobian_to_physical(theta, e.values)  # d(physical)/d(theta), diagonal
     d_mats = _matrix_derivatives(model, e, names)
     d_m = np.array([d[0] for d in d_mats])
     d_c = np.array([d[1] for d in d_mats])

@@ -136,7 +136,8 @@ class Generated(Strategy):
     def derivatives(self, model: CandidateModel, values: dict[str, float]) -> Derivatives:
         d = np.asarray(call(model.mod, f"effect_{self.name}_derivatives", values))
         names = model.mod.EFFECT_DERIVATIVE_PARAMETERS[self.name]
-        return {q: tuple(d[k]) for k, q in enumerate(names) if q in model.parameter_names}
+        fitted = model.parameter_names
+        return {q: tuple(d[k]) for k, q in enumerate(names) if q in fitted}
 
     def support(self, model: CandidateModel) -> str | None:
         return self.name if len(model.mod.EFFECT_COORDINATES[self.name]) > 6 else None
