@@ -82,11 +82,14 @@ def _bench_uff(
     title=None,
     systems: dict[int, tuple[int, np.ndarray]] | None = None,
     cs: dict[int, tuple[int, int]] | None = None,
+    legacy: dict[int, tuple[int, int, np.ndarray]] | None = None,
 ) -> None:
     """A file as test-bench software writes it: units (dataset 164, mm), geometry (2411, in mm), and one
     dataset 58 per channel naming its response node and direction (+-1, 2, 3), without mountid's ID-line-4.
     ``systems``: coordinate systems (label: (type, 4 x 3 transformation, origin in mm)) written as a dataset
-    2420; ``cs``: each node's (definition, displacement) system (default 1, 1)."""
+    2420; ``legacy``: coordinate systems (label: (type, reference system, rows: origin, a point on +x and one in
+    the +xz plane in the reference system, mm)) written as a dataset 18; ``cs``: each node's (definition,
+    displacement) system (default 1, 1)."""
     import pyuff
 
     from mountid.measurement.uff import dataset_58
@@ -123,6 +126,20 @@ def _bench_uff(
                 CS_colors=[8] * len(systems),
                 CS_names=[f"CS{label}" for label in systems],
                 CS_matrices=[matrix for _, matrix in systems.values()],
+            )
+        )
+    if legacy:
+        sets.append(
+            pyuff.prepare_18(
+                cs_num=list(legacy),
+                cs_type=[kind for kind, _, _ in legacy.values()],
+                ref_cs_num=[ref for _, ref, _ in legacy.values()],
+                color=[8] * len(legacy),
+                method=[1] * len(legacy),
+                cs_name=[f"CS{label}" for label in legacy],
+                ref_o=[points[0] for _, _, points in legacy.values()],
+                x_point=[points[1] for _, _, points in legacy.values()],
+                xz_point=[points[2] for _, _, points in legacy.values()],
             )
         )
     for k, (node, axis) in enumerate(dofs):
@@ -206,6 +223,62 @@ def test_a_bench_files_local_coordinate_systems_are_applied(tmp_path):
     _bench_uff(tmp_path / "cylindrical.uff", record, nodes, dofs, systems=systems, cs=cs)
     with pytest.raises(InputError, match=r"^record: node 11: its definition coordinate system 5 is cylindrical"):
         read_uff(tmp_path / "cylindrical.uff")
+
+
+def test_a_bench_files_legacy_coordinate_systems_are_applied(tmp_path):
+    """The same bench as above with its systems in the older dataset 18 (origin, a point on +x and one in the +xz
+    plane, in a reference system): the tilted system is given in the turned one, so the chain is followed. Dataset
+    18 writes six significant digits: points and directions to 2e-5. A loop of references, an undefined one, points
+    that define no axes and a system that datasets 2420 and 18 define differently are named."""
+    from scipy.spatial.transform import Rotation
+
+    from mountid.measurement.rig import Hammer, Rig, Sensor
+    from mountid.measurement.uff import read_uff
+
+    turned = Rotation.from_euler("z", 90, degrees=True).as_matrix().T  # rows: the local axes in global
+    tilted = Rotation.from_euler("xz", [30, -20], degrees=True).as_matrix().T
+    origin = np.array([100.0, -50.0, 20.0])  # mm
+    in_turned = tilted @ turned.T  # system 6's axes in system 5's coordinates
+    zero_in_turned = (np.zeros(3) - origin) @ turned.T  # system 6's origin (the global one) in system 5's
+    legacy = {
+        5: (0, 0, np.array([origin, origin + 1e3 * turned[0], origin + 1e3 * turned[2]])),
+        6: (0, 5, np.array([zero_in_turned, zero_in_turned + 1e3 * in_turned[0], zero_in_turned + 1e3 * in_turned[2]])),
+    }
+    world = {11: np.array([0.4, 0.3, 0.25]), 12: np.array([-0.4, -0.3, 0.25]), 13: np.array([0.4, -0.3, 0.25])}
+    local = {n: (1e3 * p - origin) @ turned.T / 1e3 for n, p in world.items()}
+    cs = {11: (5, 1), 12: (5, 6), 13: (1, 1)}
+    dofs = [(11, 1), (11, 2), (11, 3), (12, 1), (12, -2), (12, 3), (13, 3)]
+    rows = {11: np.eye(3), 12: tilted, 13: np.eye(3)}
+    sensors = [
+        Sensor(f"s{k}", tuple(world[n]), tuple(np.sign(a) * rows[n][abs(a) - 1]), noise=0.01)
+        for k, (n, a) in enumerate(dofs)
+    ]
+    record = Rig.of("kid300").simulate(sensors, 2.0, 200.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=2)
+    nodes = {n: tuple(local[n]) if cs[n][0] == 5 else tuple(world[n]) for n in world}
+    _bench_uff(tmp_path / "bench.uff", record, nodes, dofs, cs=cs, legacy=legacy)
+    back = read_uff(tmp_path / "bench.uff")
+    for got, sensor in zip(back.channels, sensors, strict=True):
+        np.testing.assert_allclose(got.point, sensor.point, rtol=0, atol=2e-5)
+        np.testing.assert_allclose(got.direction, sensor.direction, rtol=0, atol=2e-5)
+    # the same system in both datasets: read where they agree, named where they do not
+    both = {5: (0, np.vstack([turned, origin]))}
+    _bench_uff(tmp_path / "both.uff", record, nodes, dofs, systems=both, cs=cs, legacy=legacy)
+    for got, sensor in zip(read_uff(tmp_path / "both.uff").channels, sensors, strict=True):
+        np.testing.assert_allclose(got.point, sensor.point, rtol=0, atol=2e-5)
+    both = {5: (0, np.vstack([tilted, origin]))}
+    _bench_uff(tmp_path / "differ.uff", record, nodes, dofs, systems=both, cs=cs, legacy=legacy)
+    with pytest.raises(InputError, match=r"^record: coordinate system 5: datasets 2420 and 18 define it differently"):
+        read_uff(tmp_path / "differ.uff")
+    prefix = r"coordinate system (?:5|6) \(dataset 18\): its"
+    cases = {
+        "loop": ({**legacy, 5: (0, 6, legacy[5][2])}, "reference systems form a loop"),
+        "undefined": ({**legacy, 6: (0, 9, legacy[6][2])}, "reference system 9 is not defined"),
+        "flat": ({**legacy, 5: (0, 0, legacy[5][2][[0, 1, 1]])}, "points define no axes"),
+    }
+    for name, (systems, message) in cases.items():
+        _bench_uff(tmp_path / f"{name}.uff", record, nodes, dofs, cs=cs, legacy=systems)
+        with pytest.raises(InputError, match=f"^record: {prefix} {message}"):
+            read_uff(tmp_path / f"{name}.uff")
 
 
 @settings(max_examples=budget(30), deadline=None)

@@ -9,10 +9,12 @@ geometry (datasets 15 or 2411, in the length unit of dataset 164, converted to m
 response direction's axis (+-1, 2, 3 for x, y, z); else its point and direction are NaN (processing that needs
 them says so). A node's coordinates are in its definition coordinate system and its directions along the axes
 of its displacement coordinate system, as datasets 15 and 2411 name them: Cartesian systems the file defines in
-a dataset 2420 (the transformation's rows 1-3 the local axes in global coordinates, row 4 the origin) are
-applied; labels 0 and 1 the file does not define are the global system; any other, or a cylindrical or
-spherical system, is an error naming the node (dataset 18 is not read). The global coordinates are taken as the
-description's (origin and axes): a test bench's geometry in another frame must be moved there first.
+a dataset 2420 (the transformation's rows 1-3 the local axes in global coordinates, row 4 the origin) or in the
+older dataset 18 (an origin, a point on the +x axis and a point in the +xz plane, given in a reference system,
+which may itself be one of the file's) are applied; labels 0 and 1 the file does not define are the global
+system; any other, a cylindrical or spherical system, a reference chain that does not end in the global system,
+or one label defined differently by both datasets, is an error naming it. The global coordinates are taken as
+the description's (origin and axes): a test bench's geometry in another frame must be moved there first.
 """
 
 from __future__ import annotations
@@ -171,8 +173,9 @@ def _names(sets: list[dict]) -> list[str]:
 
 def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[tuple[float, float, float], np.ndarray]]:
     """Each node's global coordinates [m] and the axes of its displacement coordinate system (rows: x, y, z in
-    global coordinates) from the file's geometry (datasets 15 and 2411) and coordinate systems (2420), converted
-    from the length unit of its first dataset 164 (SI = file value / its length factor; SI without one)."""
+    global coordinates) from the file's geometry (datasets 15 and 2411) and coordinate systems (2420 and 18),
+    converted from the length unit of its first dataset 164 (SI = file value / its length factor; SI without
+    one)."""
     units = [i for i, t in enumerate(types) if int(t) == 164]
     length = float(uff.read_sets(units[0]).get("length") or 1.0) if units else 1.0
     systems = _coordinate_systems(uff, types, length)
@@ -193,9 +196,13 @@ def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[tuple[float, float, f
 
 _CS_TYPES = {0: "Cartesian", 1: "cylindrical", 2: "spherical"}
 
+_SAME_SYSTEM = 1e-4
+"""A coordinate system defined by both datasets 2420 and 18 must agree to this (axes; origin relative to its
+size, 1 m at least): dataset 18 writes six significant digits."""
+
 
 def _coordinate_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int, tuple[np.ndarray, np.ndarray, int]]:
-    """The coordinate systems of the file's datasets 2420: label -> (axes, rows the local x, y, z in global
+    """The coordinate systems of the file's datasets 2420 and 18: label -> (axes, rows the local x, y, z in global
     coordinates; origin [m]; type, 0 Cartesian). A transformation whose axes are not orthonormal is an error."""
     out = {}
     for i in (i for i, t in enumerate(types) if int(t) == 2420):
@@ -205,6 +212,85 @@ def _coordinate_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int,
             if m.shape != (4, 3) or not np.allclose(m[:3] @ m[:3].T, np.eye(3), rtol=0, atol=1e-6):
                 raise InputError("record", f"coordinate system {label} (dataset 2420): its axes are not orthonormal")
             out[int(label)] = (m[:3], m[3] / length, int(kind))
+    legacy = _legacy_systems(uff, types, length)
+    for label, (axes, origin, kind) in _resolved(legacy, out).items():
+        if label in out:
+            a, o, k = out[label]
+            size = max(1.0, float(np.max(np.abs(o))))
+            if k != kind or not (
+                np.allclose(a, axes, rtol=0, atol=_SAME_SYSTEM)
+                and np.allclose(o, origin, rtol=0, atol=_SAME_SYSTEM * size)
+            ):
+                raise InputError("record", f"coordinate system {label}: datasets 2420 and 18 define it differently")
+            continue
+        out[label] = (axes, origin, kind)
+    return out
+
+
+def _legacy_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int, tuple[int, int, np.ndarray]]:
+    """The coordinate systems of the file's datasets 18 as given: label -> (type, reference system, rows: the
+    origin, a point on the +x axis and a point in the +xz plane in the reference system [m]). A method of
+    definition other than 1 (the only one the format defines) is an error."""
+    out = {}
+    for i in (i for i, t in enumerate(types) if int(t) == 18):
+        found = uff.read_sets(i)
+        keys = ("cs_num", "cs_type", "ref_cs_num", "method", "ref_o", "x_point", "xz_point")
+        for label, kind, reference, method, origin, x_point, xz_point in zip(*(found[k] for k in keys), strict=True):
+            if int(method) != 1:
+                raise InputError(
+                    "record", f"coordinate system {int(label)} (dataset 18): method of definition {int(method)}, not 1"
+                )
+            points = np.array([origin, x_point, xz_point], dtype=float) / length
+            out[int(label)] = (int(kind), int(reference), points)
+    return out
+
+
+def _resolved(legacy: dict, given: dict) -> dict[int, tuple[np.ndarray, np.ndarray, int]]:
+    """Each dataset-18 system in global coordinates (axes rows, origin [m], type), its reference chain followed
+    through other dataset-18 systems to a dataset-2420 one (``given``) or the global system (an undefined 0 or 1).
+    A chain through a cylindrical or spherical system, a loop or an undefined reference is an error naming the
+    system; so are points that define no axes (the +x point at the origin, the +xz point on the x axis)."""
+    out: dict[int, tuple[np.ndarray, np.ndarray, int]] = {}
+
+    def resolve(label: int, chain: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, int]:
+        if label in out:
+            return out[label]
+        kind, reference, (origin, x_point, xz_point) = legacy[label]
+        if reference in chain or reference == label:
+            raise InputError("record", f"coordinate system {label} (dataset 18): its reference systems form a loop")
+        if reference in legacy and reference not in given:
+            ref_axes, ref_origin, ref_kind = resolve(reference, (*chain, label))
+        elif reference in given:
+            ref_axes, ref_origin, ref_kind = given[reference]
+        elif reference in (0, 1):
+            ref_axes, ref_origin, ref_kind = np.eye(3), np.zeros(3), 0
+        else:
+            raise InputError(
+                "record", f"coordinate system {label} (dataset 18): its reference system {reference} is not defined"
+            )
+        if ref_kind != 0:
+            raise InputError(
+                "record",
+                f"coordinate system {label} (dataset 18): its reference system {reference} is "
+                f"{_CS_TYPES.get(ref_kind, f'of type {ref_kind}')}; only Cartesian ones are read",
+            )
+        x = x_point - origin
+        xz = xz_point - origin
+        scale = max(float(np.linalg.norm(x)), float(np.linalg.norm(xz)))
+        z = xz - x * (x @ xz) / (x @ x) if x @ x > 0 else xz
+        if not scale or np.linalg.norm(x) <= 1e-9 * scale or np.linalg.norm(z) <= 1e-6 * scale:
+            raise InputError(
+                "record",
+                f"coordinate system {label} (dataset 18): its points define no axes (the +x point at the origin or "
+                "the +xz point on the x axis)",
+            )
+        ex, ez = x / np.linalg.norm(x), z / np.linalg.norm(z)
+        local = np.array([ex, np.cross(ez, ex), ez])  # rows: the local axes in the reference system
+        out[label] = (local @ ref_axes, ref_origin + origin @ ref_axes, kind)
+        return out[label]
+
+    for label in legacy:
+        resolve(label, ())
     return out
 
 
@@ -215,8 +301,8 @@ def _system(systems: dict, label: int, node: int, role: str) -> tuple[np.ndarray
             return np.eye(3), np.zeros(3)
         raise InputError(
             "record",
-            f"node {node}: its {role} coordinate system {label} is not defined in the file (no dataset 2420 holds "
-            "it; dataset 18 is not read)",
+            f"node {node}: its {role} coordinate system {label} is not defined in the file (no dataset 2420 or 18 "
+            "holds it)",
         )
     axes, origin, kind = systems[label]
     if kind != 0:
