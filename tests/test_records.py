@@ -180,21 +180,19 @@ def test_a_bench_files_geometry_places_its_channels(tmp_path):
     )
 
 
-def test_a_bench_files_local_coordinate_systems_are_applied(tmp_path):
-    """Nodes defined in a rotated, shifted coordinate system and a triaxial sensor measuring along tilted axes
-    (dataset 2420, as bench software writes a sensor mounted on a sloping face): each channel sits at its global
-    point along its global direction (they were read as if in the global system: silently wrong shapes). An
-    undefined system and a cylindrical one are named."""
+def _sloping_bench():
+    """A bench with local coordinate systems: system 5 turned by 90 degrees about z and shifted (origin in mm),
+    system 6 tilted (rows: the local axes in global coordinates); nodes 11 and 12 defined in system 5, node 12
+    measuring along system 6's axes, node 13 global. Returns (turned, tilted, origin [mm], the nodes' coordinates
+    in their definition systems [m], each node's (definition, displacement) system, the channels' (node, axis),
+    the sensors at their global points along their global directions)."""
     from scipy.spatial.transform import Rotation
 
-    from mountid.identification.from_records import modal_data
-    from mountid.measurement.rig import Hammer, Rig, Sensor
-    from mountid.measurement.uff import read_uff
+    from mountid.measurement.rig import Sensor
 
     turned = Rotation.from_euler("z", 90, degrees=True).as_matrix().T  # rows: the local axes in global
     tilted = Rotation.from_euler("xz", [30, -20], degrees=True).as_matrix().T
     origin = np.array([100.0, -50.0, 20.0])  # mm
-    systems = {5: (0, np.vstack([turned, origin])), 6: (0, np.vstack([tilted, np.zeros(3)]))}
     world = {11: np.array([0.4, 0.3, 0.25]), 12: np.array([-0.4, -0.3, 0.25]), 13: np.array([0.4, -0.3, 0.25])}
     local = {n: (1e3 * p - origin) @ turned.T / 1e3 for n, p in world.items()}  # the coordinates in system 5
     cs = {11: (5, 1), 12: (5, 6), 13: (1, 1)}
@@ -204,9 +202,23 @@ def test_a_bench_files_local_coordinate_systems_are_applied(tmp_path):
         Sensor(f"s{k}", tuple(world[n]), tuple(np.sign(a) * rows[n][abs(a) - 1]), noise=0.01)
         for k, (n, a) in enumerate(dofs)
     ]
+    nodes = {n: tuple(local[n]) if cs[n][0] == 5 else tuple(world[n]) for n in world}
+    return turned, tilted, origin, nodes, cs, dofs, sensors
+
+
+def test_a_bench_files_local_coordinate_systems_are_applied(tmp_path):
+    """Nodes defined in a rotated, shifted coordinate system and a triaxial sensor measuring along tilted axes
+    (dataset 2420, as bench software writes a sensor mounted on a sloping face): each channel sits at its global
+    point along its global direction (they were read as if in the global system: silently wrong shapes). An
+    undefined system and a cylindrical one are named."""
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement.rig import Hammer, Rig
+    from mountid.measurement.uff import read_uff
+
+    turned, tilted, origin, nodes, cs, dofs, sensors = _sloping_bench()
+    systems = {5: (0, np.vstack([turned, origin])), 6: (0, np.vstack([tilted, np.zeros(3)]))}
     rig = Rig.of("kid300")
     record = rig.simulate(sensors, 8.0, 500.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=2)
-    nodes = {n: tuple(local[n]) if cs[n][0] == 5 else tuple(world[n]) for n in world}
     _bench_uff(tmp_path / "bench.uff", record, nodes, dofs, systems=systems, cs=cs)
     back = read_uff(tmp_path / "bench.uff")
     for got, sensor in zip(back.channels, sensors, strict=True):
@@ -230,31 +242,17 @@ def test_a_bench_files_legacy_coordinate_systems_are_applied(tmp_path):
     plane, in a reference system): the tilted system is given in the turned one, so the chain is followed. Dataset
     18 writes six significant digits: points and directions to 2e-5. A loop of references, an undefined one, points
     that define no axes and a system that datasets 2420 and 18 define differently are named."""
-    from scipy.spatial.transform import Rotation
-
-    from mountid.measurement.rig import Hammer, Rig, Sensor
+    from mountid.measurement.rig import Hammer, Rig
     from mountid.measurement.uff import read_uff
 
-    turned = Rotation.from_euler("z", 90, degrees=True).as_matrix().T  # rows: the local axes in global
-    tilted = Rotation.from_euler("xz", [30, -20], degrees=True).as_matrix().T
-    origin = np.array([100.0, -50.0, 20.0])  # mm
+    turned, tilted, origin, nodes, cs, dofs, sensors = _sloping_bench()
     in_turned = tilted @ turned.T  # system 6's axes in system 5's coordinates
     zero_in_turned = (np.zeros(3) - origin) @ turned.T  # system 6's origin (the global one) in system 5's
     legacy = {
         5: (0, 0, np.array([origin, origin + 1e3 * turned[0], origin + 1e3 * turned[2]])),
         6: (0, 5, np.array([zero_in_turned, zero_in_turned + 1e3 * in_turned[0], zero_in_turned + 1e3 * in_turned[2]])),
     }
-    world = {11: np.array([0.4, 0.3, 0.25]), 12: np.array([-0.4, -0.3, 0.25]), 13: np.array([0.4, -0.3, 0.25])}
-    local = {n: (1e3 * p - origin) @ turned.T / 1e3 for n, p in world.items()}
-    cs = {11: (5, 1), 12: (5, 6), 13: (1, 1)}
-    dofs = [(11, 1), (11, 2), (11, 3), (12, 1), (12, -2), (12, 3), (13, 3)]
-    rows = {11: np.eye(3), 12: tilted, 13: np.eye(3)}
-    sensors = [
-        Sensor(f"s{k}", tuple(world[n]), tuple(np.sign(a) * rows[n][abs(a) - 1]), noise=0.01)
-        for k, (n, a) in enumerate(dofs)
-    ]
     record = Rig.of("kid300").simulate(sensors, 2.0, 200.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))], seed=2)
-    nodes = {n: tuple(local[n]) if cs[n][0] == 5 else tuple(world[n]) for n in world}
     _bench_uff(tmp_path / "bench.uff", record, nodes, dofs, cs=cs, legacy=legacy)
     back = read_uff(tmp_path / "bench.uff")
     for got, sensor in zip(back.channels, sensors, strict=True):
