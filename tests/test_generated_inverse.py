@@ -306,6 +306,24 @@ def test_numeric_inverse_gives_up_starts_that_lead_nowhere(monkeypatch, key, sha
     assert quick_rows <= share * full_rows
 
 
+def test_an_ill_conditioned_solution_is_listed_once():
+    """skid1plane far off its design (c_h 1.6e4, c_z 7.8e7 N/m from x and psi with 0.1 % noise; relative condition
+    1e5, where the frequencies hardly depend on c_z): the grid's starts end on one solution whose copies scatter by
+    1e-8, the rounding of so ill-conditioned a root. It was listed 75 times (DUPLICATE_RTOL alone); roots within
+    their condition number times the admissibility tolerance of an earlier one are one solution."""
+    mod = generated("skid1plane")
+    known = {"m": 1506.760270865734, "J_x": 284.56558259315284, "J_y": 689.584161290722, "J_z": 873.0055989971304}
+    known |= {"e": 0.15616113846063714, "a": 0.6989307054356815, "b": 0.5392966167838718, "h": 0.3281491486095065}
+    roots = mod.INVERSES[("x", "psi")](**known, omega_x=6.589145239598699, omega_psi=8.004444697904681)
+    assert roots.admissible.sum() == 1
+    assert 1e4 < roots.condition[roots.admissible][0] < 1e6
+    found = {u: roots.parameters[u][roots.admissible][0] for u in mod.UNKNOWN}
+    omega = mod.frequencies(**known, **found)
+    np.testing.assert_allclose(
+        omega[[mod.MODES.index("x"), mod.MODES.index("psi")]], [6.589145239598699, 8.004444697904681], rtol=1e-11
+    )
+
+
 def test_numeric_inverse_finds_a_root_between_two_others():
     """Found by `make fuzz` (2026-11-27), skid1plane near its design (relative condition 8.9): psi and theta
     have three roots along a curve, (c_h, c_z) = (1.45e5, 6.77e5), the truth (1.8e5, 5.62e5) and (2.03e5,

@@ -25,7 +25,8 @@ size (a few tens of eps: the rounding of the forward map). A rule on the step si
 double root the steps keep bouncing at kappa * eps however converged the root is."""
 
 DUPLICATE_RTOL = 1e-9
-"""Two admissible roots closer than this (relative, in every unknown) are one solution reached twice."""
+"""Two admissible roots closer than this (relative, in every unknown), or than the earlier one's condition number
+times ADMISSIBILITY_RTOL where that is larger, are one solution reached twice."""
 
 
 RANK_RTOL = 1e-10
@@ -342,6 +343,11 @@ def solve_inverse(
     with np.errstate(invalid="ignore"):
         deficient = reproduced & (cond * RANK_RTOL >= 1)
         ok = reproduced & (cond * RANK_RTOL < 1)
+        # a root is determined to about its condition number times the admissibility tolerance: roots nearer an
+        # earlier one than that are the same solution reached from two starts (DUPLICATE_RTOL alone listed an
+        # ill-conditioned one 75 times, its copies 1e-8 apart at a condition number of 1e5)
+        spread = np.where(ok, np.maximum(DUPLICATE_RTOL, cond * ADMISSIBILITY_RTOL), DUPLICATE_RTOL)
+    _drop_repeats(np.moveaxis(x, 0, -1), ok, spread)
     params = {u: x[j].reshape(slots, *batch) for j, u in enumerate(unknowns)}
     return InverseRoots(
         params,
@@ -491,9 +497,10 @@ def admissible(
     return ok
 
 
-def _drop_repeats(x: NDArray, ok: NDArray[np.bool_]) -> None:
-    """Clear ``ok`` (n_roots, ...) of each root within DUPLICATE_RTOL of an earlier admissible one in its row
-    (relative to the earlier root; ``x``: (n_roots, ..., n_unknowns)). In rounds: in every row the first root not
+def _drop_repeats(x: NDArray, ok: NDArray[np.bool_], rtol: NDArray | float = DUPLICATE_RTOL) -> None:
+    """Clear ``ok`` (n_roots, ...) of each root within ``rtol`` of an earlier admissible one in its row (relative
+    to the earlier root, with the earlier root's tolerance where ``rtol`` is given per root, shape (n_roots, ...);
+    ``x``: (n_roots, ..., n_unknowns)). In rounds: in every row the first root not
     yet decided is kept, and every later one equal to it dropped; a root is dropped exactly when an earlier kept
     root equals it, as comparing each root with every earlier one in turn would find, in as many rounds as a row
     keeps roots (a numeric inverse's grid polishes hundreds of starts onto a handful of roots)."""
@@ -502,13 +509,15 @@ def _drop_repeats(x: NDArray, ok: NDArray[np.bool_]) -> None:
         return
     flat_x = x.reshape(n_roots, -1, x.shape[-1])
     flat_ok = ok.reshape(n_roots, -1)
+    flat_rtol = np.broadcast_to(np.asarray(rtol, dtype=float), ok.shape).reshape(n_roots, -1)
     open_ = flat_ok.copy()
     order = np.arange(n_roots)[:, None]
     while open_.any():
         cols = np.flatnonzero(open_.any(axis=0))
         first = np.argmax(open_[:, cols], axis=0)
         kept = flat_x[first, cols]  # (n_cols, n_unknowns)
-        same = np.all(np.abs(flat_x[:, cols] - kept[None]) <= DUPLICATE_RTOL * np.abs(kept[None]), axis=-1)
+        tolerance = flat_rtol[first, cols][None, :, None]
+        same = np.all(np.abs(flat_x[:, cols] - kept[None]) <= tolerance * np.abs(kept[None]), axis=-1)
         drop = same & (order > first[None, :]) & open_[:, cols]
         flat_ok[:, cols] &= ~drop
         open_[:, cols] &= ~drop
