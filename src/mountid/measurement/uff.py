@@ -258,10 +258,10 @@ def _resolved(legacy: dict, given: dict) -> dict[int, tuple[np.ndarray, np.ndarr
         kind, reference, (origin, x_point, xz_point) = legacy[label]
         if reference in chain or reference == label:
             raise InputError("record", f"coordinate system {label} (dataset 18): its reference systems form a loop")
-        if reference in legacy and reference not in given:
-            ref_axes, ref_origin, ref_kind = resolve(reference, (*chain, label))
-        elif reference in given:
+        if reference in given:
             ref_axes, ref_origin, ref_kind = given[reference]
+        elif reference in legacy:
+            ref_axes, ref_origin, ref_kind = resolve(reference, (*chain, label))
         elif reference in (0, 1):
             ref_axes, ref_origin, ref_kind = np.eye(3), np.zeros(3), 0
         else:

@@ -127,17 +127,16 @@ def eigen_newton(
     with np.errstate(all="ignore"):
         lam_all = model(known, x, False)[0]
 
-        def pending(lam, rows):
+        def misfit(lam, rows):
+            """Per row: whether it is still to be polished (a given squared frequency off by more than
+            NEWTON_RESIDUAL_RTOL, every one finite), and its largest relative residual."""
             f = lam[:, idx] - given[rows]
-            return np.any(np.abs(f) > NEWTON_RESIDUAL_RTOL * np.abs(given[rows]), axis=-1) & np.all(
-                np.isfinite(f), axis=-1
-            )
+            size = np.abs(given[rows])
+            pending = np.any(np.abs(f) > NEWTON_RESIDUAL_RTOL * size, axis=-1) & np.all(np.isfinite(f), axis=-1)
+            return pending, np.max(np.abs(f) / size, axis=-1)
 
-        def residual(lam, rows):
-            return np.max(np.abs(lam[:, idx] - given[rows]) / np.abs(given[rows]), axis=-1)
-
-        active = np.flatnonzero(pending(lam_all, slice(None)) & np.all(np.isfinite(x), axis=-1))
-        best = residual(lam_all, slice(None))  # each row's smallest residual so far
+        pending, best = misfit(lam_all, slice(None))  # best: each row's smallest residual so far
+        active = np.flatnonzero(pending & np.all(np.isfinite(x), axis=-1))
         stalled = np.zeros(x.shape[0], dtype=int)  # steps since it last fell below half of that
         # each pass evaluates the rows still active at their current point, so every row's lam_all
         # belongs to its final x when the loop ends
@@ -147,11 +146,11 @@ def eigen_newton(
             sub = tuple(k[active] for k in known)
             lam, phi, dc = model(sub, x[active], True)
             lam_all[active] = lam
-            r = residual(lam, active)
+            pending, r = misfit(lam, active)
             better = r < 0.5 * best[active]
             best[active] = np.where(better, r, best[active])
             stalled[active] = np.where(better, 0, stalled[active] + 1)
-            go = pending(lam, active) & (stalled[active] < STALL_STEPS)
+            go = pending & (stalled[active] < STALL_STEPS)
             if step_count == max_steps or not np.any(go):
                 break
             active, lam, phi, dc = active[go], lam[go], phi[go], dc[go]
