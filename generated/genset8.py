@@ -1662,8 +1662,9 @@ def identify_x_y_z_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_theta = _runtime.as_operands(
@@ -1694,8 +1695,9 @@ def identify_x_y_z_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_phi = _runtime.as_operands(
@@ -1726,8 +1728,9 @@ def identify_x_y_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_theta = _runtime.as_operands(
@@ -1758,8 +1761,9 @@ def identify_x_y_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_psi, omega_phi = _runtime.as_operands(
@@ -1790,8 +1794,9 @@ def identify_x_y_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_theta, omega_phi = _runtime.as_operands(
@@ -1822,8 +1827,9 @@ def identify_x_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_theta = _runtime.as_operands(
@@ -1854,8 +1860,9 @@ def identify_x_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_psi, omega_phi = _runtime.as_operands(
@@ -1978,8 +1985,9 @@ def identify_x_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, ome
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2464,8 +2472,9 @@ def identify_y_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_theta, omega_phi = _runtime.as_operands(
@@ -2496,8 +2505,9 @@ def identify_y_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, ome
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
@@ -2528,8 +2538,9 @@ def identify_z_psi_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, ome
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 5 factors from 0.1 to 10 in equal ratios (625 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_z, omega_psi, omega_theta, omega_phi = _runtime.as_operands(

@@ -809,8 +809,9 @@ def identify_x_y(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_y = _runtime.as_operands(
@@ -851,8 +852,9 @@ def identify_x_z(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_z = _runtime.as_operands(
@@ -893,8 +895,9 @@ def identify_x_psi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_psi = _runtime.as_operands(
@@ -935,8 +938,9 @@ def identify_x_theta(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_theta = _runtime.as_operands(
@@ -977,8 +981,9 @@ def identify_x_phi(m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_x, omega_phi = _runtime.as_operands(
@@ -1019,8 +1024,9 @@ def identify_y_z(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_z = _runtime.as_operands(
@@ -1061,8 +1067,9 @@ def identify_y_psi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_psi = _runtime.as_operands(
@@ -1103,8 +1110,9 @@ def identify_y_theta(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_theta = _runtime.as_operands(
@@ -1145,8 +1153,9 @@ def identify_y_phi(m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_y, omega_phi = _runtime.as_operands(
@@ -1187,8 +1196,9 @@ def identify_z_psi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_psi = _runtime.as_operands(
@@ -1229,8 +1239,9 @@ def identify_z_theta(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_theta = _runtime.as_operands(
@@ -1271,8 +1282,9 @@ def identify_z_phi(m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_z, omega_phi = _runtime.as_operands(
@@ -1313,8 +1325,9 @@ def identify_psi_theta(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_theta = _runtime.as_operands(
@@ -1355,8 +1368,9 @@ def identify_psi_phi(m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_psi, omega_phi = _runtime.as_operands(
@@ -1397,8 +1411,9 @@ def identify_theta_phi(m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi):
     (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable
     forward map start from the nominal unknowns, scaled to the level of the given frequencies, times
     every combination of 9 factors from 0.1 to 10 in equal ratios (81 starts), then
-    midway between every two roots found (a root between two others has a narrow basin). A root outside
-    all their basins (unknowns in ratios far from the nominal ones) is missed.
+    midway between every two roots found (a root between two others has a narrow basin). A start whose
+    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root
+    outside all their basins (unknowns in ratios far from the nominal ones) is missed.
     Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.
     """
     m, J_x, J_y, J_z, e, a, b, h, omega_theta, omega_phi = _runtime.as_operands(

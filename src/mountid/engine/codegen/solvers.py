@@ -147,8 +147,9 @@ def _numeric_inverse_function(
         "    (Levenberg-Marquardt) steps in the logarithms of the unknowns, then Newton steps, on the stable\n"
         "    forward map start from the nominal unknowns, scaled to the level of the given frequencies, times\n"
         f"    every combination of {len(factors)} factors from 0.1 to 10 in equal ratios ({n_roots} starts), then\n"
-        "    midway between every two roots found (a root between two others has a narrow basin). A root outside\n"
-        "    all their basins (unknowns in ratios far from the nominal ones) is missed.\n"
+        "    midway between every two roots found (a root between two others has a narrow basin). A start whose\n"
+        "    steps stop halving its residual is given up (mountid.runtime.inverse: LM_STALL, STALL_STEPS). A root\n"
+        "    outside all their basins (unknowns in ratios far from the nominal ones) is missed.\n"
         "    Returns InverseRoots (mountid.runtime) as a closed-form inverse does, one row per start.\n"
     )
     return Function(f"identify_{s.name}", known + omegas, doc, layout)
