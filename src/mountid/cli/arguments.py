@@ -7,10 +7,14 @@ import argparse
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.report.jsonable import dumps
+
+if TYPE_CHECKING:
+    from mountid.measurement.records import Record
 
 
 class Parser(argparse.ArgumentParser):
@@ -146,7 +150,7 @@ def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
     return values
 
 
-def read_record(path: str, rate: float | None = None, channels: Sequence[str] | None = None):
+def read_record(path: str, rate: float | None = None, channels: Sequence[str] | None = None) -> Record:
     """The record file at ``path`` (--rate: its sampling rate; --channel: points and directions of its
     channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's)."""
     from mountid.measurement.records import read_record as read

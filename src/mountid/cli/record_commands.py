@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mountid.cli.arguments import (
     HIT_PEAK_LIMIT,
@@ -23,6 +24,10 @@ from mountid.cli.arguments import (
 )
 from mountid.errors import InputError
 from mountid.machine import Machine
+
+if TYPE_CHECKING:
+    from mountid.identification.from_records import Identification
+    from mountid.measurement.rig import Sensor
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
@@ -77,7 +82,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
 
 
-def _sensors(items: list[str] | None, noise: float):
+def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
     """Sensors from --sensor NAME=x,y,z:dx,dy,dz options, each with white noise of ``noise`` x its RMS."""
     from mountid.measurement.rig import Sensor
 
@@ -138,7 +143,7 @@ def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list)
     }
 
 
-def _identification_json(machine: Machine, result) -> dict:
+def _identification_json(machine: Machine, result: Identification) -> dict:
     return {
         **_modal_json(machine, result.modes, result.unlabelled, result.warnings),
         "parameters": result.parameters,

@@ -202,7 +202,7 @@ class CandidateModel:
         base = [math.log(self.start_unknowns[u]) for u in self.unknown]
         params = self.effect_parameters
 
-        def vector(values) -> np.ndarray:
+        def vector(values: list[float]) -> np.ndarray:
             out = list(base)
             for v, log in zip(values, self.log_scaled, strict=True):
                 out.append(math.log(v) if log else v)

@@ -331,7 +331,13 @@ def predictive_std(fit: CandidateFit, quantity: Callable[[np.ndarray], np.ndarra
     return np.sqrt(np.maximum(variance, 0.0) * scale)
 
 
-def _residual_function(model: CandidateModel, data: Data, rows: np.ndarray | None):
+VectorFunction = Callable[[np.ndarray], np.ndarray]
+"""A function of the flat parameter vector: the weighted residual rows, or their Jacobian."""
+
+
+def _residual_function(
+    model: CandidateModel, data: Data, rows: np.ndarray | None
+) -> tuple[VectorFunction, VectorFunction]:
     start = model.start()[0]
     n = len(model.unknown)
     width = prior_widths(model)[n:]
@@ -397,7 +403,7 @@ def short_fit(
     return float(np.sum(res.fun[: data.n_rows] ** 2)), res.x
 
 
-def _promises(fun, jac, n_rows: int, starts: list[np.ndarray]) -> list[float]:
+def _promises(fun: VectorFunction, jac: VectorFunction, n_rows: int, starts: list[np.ndarray]) -> list[float]:
     out = []
     for x in starts:
         r, j = fun(x), jac(x)
@@ -406,7 +412,9 @@ def _promises(fun, jac, n_rows: int, starts: list[np.ndarray]) -> list[float]:
     return out
 
 
-def forward_differences(fun, theta: np.ndarray, upper: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
+def forward_differences(
+    fun: VectorFunction, theta: np.ndarray, upper: np.ndarray, columns: np.ndarray | None = None
+) -> np.ndarray:
     """d fun / d theta by forward differences with scipy's 2-point step (sqrt(eps) max(1, |theta|)),
     stepping backwards where the forward step would pass the ``upper`` bounds (only the ``columns`` given,
     the others nan)."""
@@ -477,7 +485,7 @@ def _least_squares(
     mandatory: int = 1,
     refit: bool = False,
     hold: bool = False,
-):
+) -> scipy.optimize.OptimizeResult:
     """The best fit from ``starts`` (the first ``mandatory`` always run, the others while the fit stays above
     noise level), on from a spread start where all stop above it. ``hold``: the refining parameters
     (CandidateModel.held_first) held at their start values until then, and released from the best fit."""
@@ -568,7 +576,15 @@ class _Converged:
             raise StopIteration
 
 
-def _solve(fun, jac, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, refit: bool, max_nfev: int):
+def _solve(
+    fun: VectorFunction,
+    jac: VectorFunction,
+    x0: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    refit: bool,
+    max_nfev: int,
+) -> scipy.optimize.OptimizeResult:
     return scipy.optimize.least_squares(
         fun,
         x0,

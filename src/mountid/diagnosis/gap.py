@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,7 +22,7 @@ from mountid.diagnosis.fitting import chi2_by_kind, damping_std
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.identification.from_records import StiffnessFit, fit_stiffness
 from mountid.identification.statistics import covariance, standard_deviations
-from mountid.machine import call
+from mountid.machine import GeneratedModule, call
 
 
 @dataclass(frozen=True)
@@ -119,7 +120,7 @@ def _unit(matrix: str, i: int, j: int) -> str:
     return _UNITS[matrix][rot]
 
 
-def _fit_data(campaign: Campaign, labels) -> dict[str, tuple[float, float]]:
+def _fit_data(campaign: Campaign, labels: Iterable[str]) -> dict[str, tuple[float, float]]:
     """Distinct-frequency data for fit_stiffness: twins (x and y) averaged, weights from uncertainty."""
     rep = campaign.machine.module.REPRESENTATIVE
     groups: dict[str, list] = {}
@@ -161,7 +162,7 @@ def sensitivities(campaign: Campaign, params: dict[str, float]) -> dict[str, dic
     }
 
 
-def _log_sensitivities(mod, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def _log_sensitivities(mod: GeneratedModule, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The squared frequencies lambda [rad^2/s^2] of every mode and d ln omega / d ln p = p (d lambda / d p) /
     (2 lambda), shape (forward arguments, modes), from the generated d lambda / d p at ``values``."""
     lam = np.asarray(mod.squared_frequencies(**values), dtype=float)
@@ -488,7 +489,7 @@ class Diagnosis:
         return out
 
 
-def _rms(values) -> float | None:
+def _rms(values: Iterable[float]) -> float | None:
     v = [x for x in values if math.isfinite(x)]
     return float(np.sqrt(np.mean(np.square(v)))) if v else None
 

@@ -44,7 +44,9 @@ class Strategy:
         """M, C and (where the strategy uses it) B [SI] at ``values``."""
         return call(model.mod, "mass_matrix", values), call(model.mod, "stiffness_matrix", values), None
 
-    def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+    def frequencies(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
         """Model frequencies [rad/s] of every mode, from the generalised eigenvalues ``lam`` of (C, M)."""
         return np.sqrt(np.abs(lam))
 
@@ -56,7 +58,9 @@ class Strategy:
         """B [N s/m, N m s/rad] of the candidate model: the strategy's own, else the description's."""
         return mats[2] if mats[2] is not None else np.asarray(call(model.mod, "damping_matrix", values))
 
-    def damping_ratios(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+    def damping_ratios(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
         """Damping ratio -Re p / |p| of every mode (in the order of ``lam``) from the poles of
         M p^2 + B p + C = 0; 1 for a mode that does not oscillate."""
         m, c, _ = mats
@@ -206,7 +210,9 @@ class Isolator(Strategy):
 class Frequency(Strategy):
     """Rubber stiffening with frequency (standard linear solid): omega^2 = g(omega) lambda."""
 
-    def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+    def frequencies(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
         return stiffened_frequencies(np.abs(lam), values["rubber_strength"], values["rubber_corner"] * model.omega_ref)
 
     def frequency_derivatives(
@@ -234,7 +240,9 @@ class Damping(Strategy):
         m, c, _ = super().matrices(model, values)
         return m, c, call(model.mod, "damping_matrix", values)
 
-    def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+    def frequencies(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
         if model.campaign.frequencies_from_poles:
             return super().frequencies(model, values, mats, lam)
         m, c, b = mats
@@ -330,7 +338,9 @@ class Composite(Strategy):
         c[:n, :n] += d_c
         return m, c, b if b is not None else b2
 
-    def frequencies(self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray):
+    def frequencies(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
         role = self.frequency_role or NOMINAL
         return role.frequencies(model, values, mats, lam)
 

@@ -16,6 +16,7 @@ import functools
 import itertools
 import math
 import struct
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
@@ -321,7 +322,7 @@ def pole_frequencies(machine: Machine, values: dict[str, float]) -> np.ndarray:
     return np.where(poles != 0, np.abs(poles), undamped)
 
 
-def root_predicate(rule: str, unknown: tuple[str, ...]):
+def root_predicate(rule: str, unknown: tuple[str, ...]) -> Callable[[dict[str, float]], bool]:
     """The predicate of a root rule "A>B" or "A<B" on two unknowns (nomenclature.root_rule; fit_stiffness)."""
     parts = root_rule(rule, unknown)
     if parts is None:
@@ -408,12 +409,12 @@ def fit_stiffness(
             return mod.frequencies(**knowns, **p)
         return pole_frequencies(machine, machine.values({**known, **damping, **p}, tuple(machine.parameters)))
 
-    def residual(logp):
+    def residual(logp: np.ndarray) -> np.ndarray:
         return (model(dict(zip(unknown, np.exp(logp), strict=True)))[idx] - omega) / std
 
     columns = [mod.FORWARD_ARGUMENTS.index(u) for u in unknown]
 
-    def jacobian(logp):
+    def jacobian(logp: np.ndarray) -> np.ndarray:
         """d residual / d log p from the generated analytic derivatives: d omega / d p = (d lambda / d p) /
         (2 omega) for the undamped model, d|p| through the damped poles (pole_frequency_derivatives)."""
         p = np.exp(logp)
@@ -500,7 +501,7 @@ def fit_stiffness(
             o_idx = [mod.MODES.index(lab) for lab in others]
             o_w = np.array([w for w, _ in others.values()])
 
-            def miss(f):
+            def miss(f: scipy.optimize.OptimizeResult) -> float:
                 return float(np.sum(np.log(model(dict(zip(unknown, np.exp(f.x), strict=True)))[o_idx] / o_w) ** 2))
 
             best = min(tied, key=miss)
@@ -519,7 +520,9 @@ model fits the frequencies, those subsets give nearly the same root (they differ
 one neighbourhood end in one minimum; the roots of one inverse are distinct solutions and are all kept."""
 
 
-def _distinct_starts(roots: list[tuple[tuple[str, ...], np.ndarray]], residual) -> list[np.ndarray]:
+def _distinct_starts(
+    roots: list[tuple[tuple[str, ...], np.ndarray]], residual: Callable[[np.ndarray], np.ndarray]
+) -> list[np.ndarray]:
     """The starting points (ln unknowns) of ``roots`` ((subset of labels, start) pairs), taken in order of their
     chi^2 (``residual``'s sum of squares), without those within START_SPACING of one kept from another subset."""
     with np.errstate(all="ignore"):
@@ -533,7 +536,7 @@ def _distinct_starts(roots: list[tuple[tuple[str, ...], np.ndarray]], residual) 
     return [start for _, start in kept]
 
 
-def _packed(values) -> bytes:
+def _packed(values: Iterable[float]) -> bytes:
     """Floats as their bytes: a cache key that tells -0.0 from 0.0."""
     values = [float(v) for v in values]
     return struct.pack(f"{len(values)}d", *values)
@@ -659,7 +662,7 @@ class ModalData:
     """The H1 frequency responses the modes were fitted on (None: the free decay after ``start``)."""
     notes: tuple[str, ...] = ()
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
 
 

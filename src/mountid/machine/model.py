@@ -10,6 +10,7 @@ import contextlib
 import copy
 import importlib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,7 +114,9 @@ class Machine:
         return out
 
     @contextlib.contextmanager
-    def _floating_point_errors(self, values: dict[str, float], measured: dict[str, float] | None = None):
+    def _floating_point_errors(
+        self, values: dict[str, float], measured: dict[str, float] | None = None
+    ) -> Iterator[None]:
         """Floating-point overflow, division by zero and invalid operations inside as an InputError naming
         the parameter furthest from its nominal value, or the ``measured`` frequency [rad/s] furthest from the
         model's at ``values`` where that is further (underflow to zero is caught on the results)."""

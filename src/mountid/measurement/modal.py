@@ -50,7 +50,9 @@ class Pole:
         return self.frequency * np.sqrt(max(0.0, 1.0 - self.damping_ratio**2))
 
 
-def decimated(record: Record, start: float, max_frequency: float, points_per_period: float = 8.0):
+def decimated(
+    record: Record, start: float, max_frequency: float, points_per_period: float = 8.0
+) -> tuple[float, NDArray[np.float64]]:
     """Free-decay samples from ``start`` [s], low-pass filtered (zero phase) and decimated so that the
     highest frequency of interest ``max_frequency`` [rad/s] has about ``points_per_period`` samples.
 
@@ -304,7 +306,9 @@ def fisher_pole_covariance(samples: NDArray, dt: float, poles: NDArray, variance
     return np.linalg.pinv(info)
 
 
-def _gauss_newton_terms(samples: NDArray, dt: float, poles: NDArray, variance: NDArray | None = None):
+def _gauss_newton_terms(
+    samples: NDArray, dt: float, poles: NDArray, variance: NDArray | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Normal equations of the damped-exponential fit in the poles (sigma_k, omega_k), with the amplitudes
     and a constant per channel projected out (variable projection, Kaufman's Jacobian) and each channel
     weighted by its residual variance (or the noise ``variance`` per channel given, for a record without

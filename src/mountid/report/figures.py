@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -24,8 +25,15 @@ from mountid.measurement import modal
 from mountid.measurement.records import Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
-def _save(fig, path: str | Path) -> Path:
+    from mountid.diagnosis.gap import Diagnosis
+    from mountid.identification.from_records import Identification
+    from mountid.measurement.frf import FrfEstimate
+
+
+def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
@@ -83,7 +91,7 @@ def spectrum_figure(
     return _save(fig, path)
 
 
-def frf_figure(estimate, poles: dict[str, tuple[float, float]], path: str | Path) -> Path:
+def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], path: str | Path) -> Path:
     """The H1 frequency responses of every response channel (magnitude, in its unit per N, logarithmic) and
     their coherence below, against rad/s (and Hz above), the picked poles as labelled lines; the number of
     hits averaged and the exponential window in the title."""
@@ -242,7 +250,12 @@ def mode_shapes_figure(
 
 
 def experiment_figures(
-    machine: Machine, record: Record, start: float, result, known: dict[str, float], folder: str | Path
+    machine: Machine,
+    record: Record,
+    start: float,
+    result: Identification,
+    known: dict[str, float],
+    folder: str | Path,
 ) -> list[Path]:
     """The figures of an identified record (identify-record --figures, the demo): spectra of every channel
     with the picked poles, the stabilisation diagram, the mode shapes measured beside the model's, and where
@@ -269,7 +282,7 @@ def experiment_figures(
     return out
 
 
-def diagnosis_figure(diagnosis, path: str | Path, title: str = "") -> Path:
+def diagnosis_figure(diagnosis: Diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
     fitted and held out (linear within 2 sigma, logarithmic beyond), and each measured damping ratio's (fitted).
     Right: the candidates by posterior probability (tie shaded, implausible hatched, those the data fit as well as

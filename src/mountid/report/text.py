@@ -3,9 +3,16 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mountid.diagnosis.campaign import Campaign
+    from mountid.diagnosis.candidates import EffectsReport
+    from mountid.diagnosis.gap import Diagnosis, Residual
 
 
-def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
+def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None) -> None:
     """The readable summary of a diagnosis (``mountid diagnose`` without --json, and the demo)."""
     report, effects, campaign = diagnosis.where, diagnosis.effects, diagnosis.campaign
     print(f"{title} ({campaign.machine.name})")
@@ -67,7 +74,7 @@ def print_diagnosis(diagnosis, title: str, figure: str | None = None) -> None:
     print(f"verdict: {diagnosis.verdict}")
 
 
-def _print_damping(campaign, effects) -> None:
+def _print_damping(campaign: Campaign, effects: EffectsReport) -> None:
     """The measured damping ratios against the nominal fit's (and the first-ranked candidate's), in units of
     their standard deviation: the gap in damping, which the frequency tables do not show."""
     from mountid.diagnosis.fitting import damping_std  # the diagnosis's extras (jsonschema) only where it runs
@@ -88,7 +95,7 @@ def _print_damping(campaign, effects) -> None:
         print(text + (f" -> {best.damping_gap[label] / std:+8.2f}" if after else ""))
 
 
-def _print_candidates(effects, campaign) -> None:
+def _print_candidates(effects: EffectsReport, campaign: Campaign) -> None:
     ranked = [f for f in effects.ranked if f.applicable]
     n = effects.nominal
     if n.held_out_rms == n.held_out_rms:
@@ -129,7 +136,7 @@ def _print_candidates(effects, campaign) -> None:
             print(f"  {f.effect:{width}s} not applicable: {f.note}")
 
 
-def _residual_table(residuals) -> list[str]:
+def _residual_table(residuals: Sequence[Residual]) -> list[str]:
     """The nominal identification's residuals, one row per mode and use, in columns at least two spaces apart:
     frequencies [rad/s] and gaps to the decimal of a tenth of the smallest uncertainty (three places at
     least), the gap's standard deviation (Residual.sigma: a held-out mode's with its prediction's own) and z to
@@ -150,7 +157,7 @@ def _residual_table(residuals) -> list[str]:
     ]
     widths = [max(len(x) for x in column) for column in zip(head, *(row[:6] for row in rows), strict=True)]
 
-    def line(cells) -> str:
+    def line(cells: Sequence[str]) -> str:
         return "  " + "  ".join(
             c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
         )
@@ -161,7 +168,7 @@ def _residual_table(residuals) -> list[str]:
     return out
 
 
-def _places(stds, least: int) -> int:
+def _places(stds: Iterable[float | None], least: int) -> int:
     """Decimals [rad/s] that show a tenth of the smallest of ``stds`` (None and zeros ignored): ``least`` to 9."""
     given = [v for v in stds if v]
     return max(least, min(9, 1 - math.floor(math.log10(min(given))))) if given else least

@@ -4,6 +4,7 @@ large batches). All functions broadcast over leading batch dimensions."""
 from __future__ import annotations
 
 import functools
+from types import CodeType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,7 +22,7 @@ _NUMPY_FUNCTIONS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan
 
 
 @functools.cache
-def _compiled(expression: str):
+def _compiled(expression: str) -> CodeType:
     return compile(expression, "<generated expression>", "eval")
 
 

@@ -5,6 +5,7 @@ from the generated modules; nothing here is machine-specific."""
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -34,6 +35,16 @@ RANK_RTOL = 1e-10
 below this (relative condition number above 1e10): the rounding of the forward map alone then moves the
 unknowns by 1e-6 relative, and any measured frequency by far more. Exactly rank-deficient points (a coupling
 that vanishes, e.g. isolators in the plane of the centre of mass) give 1e-16 or less."""
+
+
+ModalModel = Callable[..., tuple]
+"""A generated module's ``_model(known, unknowns, modes)``: for flat rows of the ``known`` parameters (a tuple of
+(N,) arrays) and the ``unknowns`` (N, n_unknowns), the squared frequencies (N, n_modes), and where ``modes`` the
+mass-normalised modal matrix (N, 6, n_modes) and dC/d unknowns (N, n_unknowns, 6, 6) (eigen_newton)."""
+
+ClosedForm = Callable[..., tuple]
+"""A generated closed form ``roots(*known, *squared_frequencies)``: one array of candidate roots per unknown, each
+of shape (n_roots, *batch) (solve_inverse)."""
 
 
 class InverseRoots(NamedTuple):
@@ -104,7 +115,7 @@ under the trust region, halves its residual every few steps."""
 
 
 def eigen_newton(
-    model,
+    model: ModalModel,
     known: tuple[NDArray, ...],
     unknowns: NDArray,
     mode_index: tuple[int, ...],
@@ -127,7 +138,7 @@ def eigen_newton(
     with np.errstate(all="ignore"):
         lam_all = model(known, x, False)[0]
 
-        def misfit(lam, rows):
+        def misfit(lam: NDArray, rows: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
             """Per row: whether it is still to be polished (a given squared frequency off by more than
             NEWTON_RESIDUAL_RTOL, every one finite), and its largest relative residual."""
             f = lam[:, idx] - given[rows]
@@ -199,7 +210,7 @@ LM_LARGEST_STEP = np.log(10.0)
 
 
 def eigen_levenberg_marquardt(
-    model,
+    model: ModalModel,
     known: tuple[NDArray, ...],
     unknowns: NDArray,
     mode_index: tuple[int, ...],
@@ -221,7 +232,7 @@ def eigen_levenberg_marquardt(
     jac = np.full((n_rows, len(idx), x.shape[1]), np.nan)
     res = np.full((n_rows, len(idx)), np.nan)
 
-    def evaluate(rows, at):
+    def evaluate(rows: NDArray, at: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         """Residuals, their cost and d r / d z at the points ``at`` of ``rows`` (nan where the model fails)."""
         with np.errstate(all="ignore"):
             lam, phi, dc = model(tuple(k[rows] for k in known), at, True)
@@ -272,8 +283,8 @@ def eigen_levenberg_marquardt(
 
 
 def solve_inverse(
-    roots,
-    model,
+    roots: ClosedForm,
+    model: ModalModel,
     known: tuple[NDArray, ...],
     given: tuple[NDArray, ...],
     mode_index: tuple[int, ...],
@@ -361,7 +372,14 @@ BETWEEN_ROUNDS = 3
 """Rounds of starts between the roots found (solve_inverse's ``numeric``)."""
 
 
-def _between_roots(model, flat, x, lam, lam_given, mode_index):
+def _between_roots(
+    model: ModalModel,
+    flat: tuple[NDArray, ...],
+    x: NDArray,
+    lam: NDArray,
+    lam_given: NDArray,
+    mode_index: tuple[int, ...],
+) -> tuple[NDArray, NDArray]:
     """solve_inverse's ``numeric``: polish starts midway between every two admissible roots of a row and put
     the new roots into slots that hold none (x (n_unknowns, slots, B), lam (slots, B, n_modes))."""
     n_unknowns = x.shape[0]
@@ -400,7 +418,9 @@ def _between_roots(model, flat, x, lam, lam_given, mode_index):
     return x, lam
 
 
-def start_grid(start: tuple[float, ...], factors: tuple[float, ...], model, mode_index: tuple[int, ...]):
+def start_grid(
+    start: tuple[float, ...], factors: tuple[float, ...], model: ModalModel, mode_index: tuple[int, ...]
+) -> ClosedForm:
     """A 'closed form' for a numeric inverse: candidate roots for solve_inverse to polish, each unknown of
     shape (len(factors)**n, B) for flat rows.
 
@@ -410,7 +430,7 @@ def start_grid(start: tuple[float, ...], factors: tuple[float, ...], model, mode
     combination of ``factors`` (which spreads the ratios between the unknowns)."""
     grid = np.array(list(itertools.product(factors, repeat=len(start)))) * np.array(start)  # (n_roots, n)
 
-    def roots(*args):
+    def roots(*args: NDArray) -> tuple[NDArray, ...]:
         known, lam = args[: -len(mode_index)], np.stack(args[-len(mode_index) :], axis=-1)
         rows = lam.shape[0]
         with np.errstate(all="ignore"):
@@ -421,7 +441,9 @@ def start_grid(start: tuple[float, ...], factors: tuple[float, ...], model, mode
     return roots
 
 
-def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:
+def _candidates(
+    roots: ClosedForm, known: tuple[NDArray, ...], lam_given: NDArray, n_unknowns: int
+) -> NDArray[np.float64]:
     """A closed form's candidate roots at flat rows, shape (n_unknowns, n_roots, B)."""
     with np.errstate(all="ignore"):
         cand = np.stack(np.broadcast_arrays(*roots(*known, *lam_given.T)))
@@ -430,7 +452,14 @@ def _candidates(roots, known, lam_given, n_unknowns) -> NDArray[np.float64]:
     return cand.reshape(n_unknowns, -1, lam_given.shape[0])
 
 
-def _polish(model, known, cand, lam_given, mode_index, damped: bool = False):
+def _polish(
+    model: ModalModel,
+    known: tuple[NDArray, ...],
+    cand: NDArray,
+    lam_given: NDArray,
+    mode_index: tuple[int, ...],
+    damped: bool = False,
+) -> tuple[NDArray, NDArray]:
     """Candidates (n_unknowns, n_roots, B) polished by Newton at the flat rows ``known`` ((B,) each), after
     Levenberg-Marquardt steps (eigen_levenberg_marquardt) where ``damped``. Returns (unknowns
     (n_unknowns, n_roots, B), squared frequencies (n_roots, B, n_modes))."""
@@ -444,7 +473,14 @@ def _polish(model, known, cand, lam_given, mode_index, damped: bool = False):
     return x.T.reshape(n_unknowns, n_roots, n_batch), lam.reshape(n_roots, n_batch, -1)
 
 
-def _conditioning(model, known, x, mode_index, mode_block, n_given):
+def _conditioning(
+    model: ModalModel,
+    known: tuple[NDArray, ...],
+    x: NDArray,
+    mode_index: tuple[int, ...],
+    mode_block: tuple[int, ...],
+    n_given: int,
+) -> tuple[NDArray, NDArray]:
     """d omega_given / d unknowns (n_roots, B, n_given, n_unknowns) and the relative condition number
     1 / sigma_min(d ln omega / d ln unknowns) (n_roots, B) at every finite root (NaN elsewhere; inf at a
     rank-deficient root and where a given mode coincides with another mode of its block)."""

@@ -343,7 +343,14 @@ def truth_matrices(tm: TruthMachine, t: Truth) -> tuple[np.ndarray, np.ndarray, 
     return m, c, b
 
 
-def _two_bodies(m_body, points, k_iso, b_iso, m_support, support_origin):
+def _two_bodies(
+    m_body: np.ndarray,
+    points: list[np.ndarray],
+    k_iso: list[np.ndarray],
+    b_iso: list[np.ndarray],
+    m_support: np.ndarray,
+    support_origin: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Body and support, 12 dof (each in coordinates about its own origin): the isolators act on the
     difference of the two bodies' motions at the feet."""
     m = np.zeros((12, 12))
@@ -358,7 +365,9 @@ def _two_bodies(m_body, points, k_iso, b_iso, m_support, support_origin):
     return m, c, b
 
 
-def _with_attachment(tm: TruthMachine, m_body, c_body, b_body, s):
+def _with_attachment(
+    tm: TruthMachine, m_body: np.ndarray, c_body: np.ndarray, b_body: np.ndarray, s: dict[str, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A point mass on isotropic springs (5 % damping) at a body point: 9 coordinates, the attachment's
     translations last."""
     where = tm.centre(tm.nominal) + np.array([s["r"] * math.cos(s["angle"]), s["r"] * math.sin(s["angle"]), s["h"]])
@@ -376,7 +385,14 @@ def _with_attachment(tm: TruthMachine, m_body, c_body, b_body, s):
     return m, c, b
 
 
-def _on_slab(tm: TruthMachine, m_body, points, k_iso, b_iso, s):
+def _on_slab(
+    tm: TruthMachine,
+    m_body: np.ndarray,
+    points: list[np.ndarray],
+    k_iso: list[np.ndarray],
+    b_iso: list[np.ndarray],
+    s: dict[str, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A square slab, 0.3 m thick, under the isolator feet on a pad under each foot."""
     depth = float(np.mean([p[2] for p in points]))
     origin = np.array([0.0, 0.0, depth])
@@ -392,7 +408,14 @@ def _on_slab(tm: TruthMachine, m_body, points, k_iso, b_iso, s):
     return m, c, b
 
 
-def _on_frame(tm: TruthMachine, m_body, points, k_iso, b_iso, s):
+def _on_frame(
+    tm: TruthMachine,
+    m_body: np.ndarray,
+    points: list[np.ndarray],
+    k_iso: list[np.ndarray],
+    b_iso: list[np.ndarray],
+    s: dict[str, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A square steel frame, 0.25 m thick, below the isolators on four ground springs on the x and y axes at its
     edges (wherever the isolator feet are)."""
     depth = float(np.mean([p[2] for p in points]))

@@ -7,8 +7,12 @@ printed beside them is computed by the generated module ``mountid.generated.kid3
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mountid.machine import Machine, Solution
+
+if TYPE_CHECKING:
+    from mountid.measurement.rig import Hammer, Sensor
 
 TABLE_1 = {"m": 838.6, "J_xy": 61.44, "J_z": 51.52, "L_xy": 0.486, "L_z": 0.3}
 """Table 1: mass [kg], moments of inertia [kg m^2], distances [m]."""
@@ -83,7 +87,7 @@ TRUE_DAMPING = {"b_xy": 337.2, "b_z": 1039.0}
 """Sec. 4's damping per isolator [N s/m], used as the rig's truth."""
 
 
-def paper_sensors(noise: float = 0.01):
+def paper_sensors(noise: float = 0.01) -> list[Sensor]:
     """The paper's accelerometers plus A_z and C_x (see above), with white noise of ``noise`` x RMS."""
     from mountid.measurement.rig import Sensor
 
@@ -96,7 +100,7 @@ def paper_sensors(noise: float = 0.01):
     ]
 
 
-def paper_hit():
+def paper_hit() -> Hammer:
     """One oblique impact off the symmetry planes: it excites every mode (the paper hit along x)."""
     from mountid.measurement.rig import Hammer
 

@@ -9,6 +9,7 @@ and the module's constants for the template.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from importlib import resources
 
 import jinja2
@@ -119,7 +120,7 @@ def _environment() -> jinja2.Environment:
     return env
 
 
-def _pytuple(items) -> str:
+def _pytuple(items: Iterable[object]) -> str:
     """A Python tuple literal of strings with double quotes, as ruff formats it: ("a", "b") or ("a",)."""
     quoted = [json.dumps(str(i)) for i in items]
     return f"({quoted[0]},)" if len(quoted) == 1 else f"({', '.join(quoted)})"  # () when empty

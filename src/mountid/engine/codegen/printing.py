@@ -80,7 +80,7 @@ def describe(expr: sp.Expr) -> str:
     return sp.sstr(expr, order="none")
 
 
-def _map_leaves(obj, leaf: Callable, step: Callable):
+def _map_leaves(obj: object, leaf: Callable, step: Callable) -> object:
     """``obj`` with every sympy leaf replaced by ``leaf(expr)`` and every Step by ``step(s)``, walking
     dataclasses (field order) and tuples; anything else is kept."""
     if isinstance(obj, sp.Basic):

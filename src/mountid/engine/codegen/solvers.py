@@ -155,7 +155,9 @@ def _numeric_inverse_function(
     return Function(f"identify_{s.name}", known + omegas, doc, layout)
 
 
-def inverse_functions(s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]):
+def inverse_functions(
+    s: InverseSet, structure: ModalStructure, model: SymbolicModel, fwd_args: tuple[str, ...]
+) -> list[Function]:
     if s.numeric:
         return [_numeric_inverse_function(s, structure, model, fwd_args)]
     d = model.description

@@ -15,7 +15,7 @@ from functools import cache, cached_property
 import sympy as sp
 
 from mountid.effects import EFFECTS, STANDARD_GRAVITY, Effect
-from mountid.engine.symbolic.model import SymbolicModel, rigid_body_kinetic_energy
+from mountid.engine.symbolic.model import Isolator, SymbolicModel, rigid_body_kinetic_energy
 from mountid.errors import DescriptionError
 from mountid.nomenclature import COORDINATES
 
@@ -249,7 +249,7 @@ def slab_centre(model: SymbolicModel) -> sp.Matrix:
     return sum(points, sp.zeros(3, 1)) / len(points)
 
 
-def _foot(model: SymbolicModel, iso, on_support: bool) -> sp.Matrix | None:
+def _foot(model: SymbolicModel, iso: Isolator, on_support: bool) -> sp.Matrix | None:
     """The isolator's foot in the support's coordinates (None: the isolator stands on the ground)."""
     return iso.position - slab_centre(model) if on_support else None
 
