@@ -370,6 +370,7 @@ def fit_stiffness(
     notes: list[str] | None = None,
     rule_source: str = "",
     boundary_ok: bool = False,
+    numeric_inverses: bool = True,
 ) -> StiffnessFit:
     """Unknowns fitted to every measured distinct frequency {label: (omega, std)} [rad/s].
 
@@ -388,9 +389,13 @@ def fit_stiffness(
     that is an error naming the unknown and the largest miss, unless ``boundary_ok`` (the gap diagnosis, whose
     nominal model may miss that far: the closest fit is returned, fits at the same boundary counted as one, and
     the reason is appended to ``notes``; frequencies for which no generated inverse has a root start from the
-    description's nominal values). With ``damping`` (values of the damping parameters) the model
-    frequencies are the damped |p| (pole_frequencies), which a free decay measures; without, the undamped ones.
-    Returns a StiffnessFit."""
+    description's nominal values). ``numeric_inverses`` False (the gap diagnosis, which fits a machine near its
+    description): the subsets whose inverse is numeric (NUMERIC_INVERSES: a grid search of up to hundreds of
+    starts, a tenth of a second each) give one start instead, the description's nominal values, beside every
+    root of the closed forms; they are searched after all where the fit from these starts ends at a boundary,
+    or where the description gives no nominal values. With ``damping`` (values of the damping parameters) the
+    model frequencies are the damped |p| (pole_frequencies), which a free decay measures; without, the undamped
+    ones. Returns a StiffnessFit."""
     mod = machine.module
     unknown = machine.unknown
     machine.check_known(known)
@@ -427,16 +432,20 @@ def fit_stiffness(
             d_omega = pole_frequency_derivatives(machine, full, unknown)[:, idx]
         return d_omega.T * p[None, :] / std[:, None]
 
+    nominal = [machine.parameters[u]["value"] for u in unknown]
+    subsets = [key for key in itertools.combinations(labels, len(unknown)) if key in mod.INVERSES]
+    searched = [key for key in subsets if key not in getattr(mod, "NUMERIC_INVERSES", {})]
+    near_design = not numeric_inverses and None not in nominal and len(searched) < len(subsets)
     roots = [
         (key, start)
-        for key in itertools.combinations(labels, len(unknown))
-        if key in mod.INVERSES
+        for key in (searched if near_design else subsets)
         for start in _inverse_starts(
             mod, key, tuple(knowns), _packed(knowns.values()), _packed(measured[lab][0] for lab in key)
         )
     ]
+    if near_design:  # one start for the numeric inverses left out: the description's
+        roots.append(((), np.log(np.array(nominal, dtype=float))))
     if not roots:
-        nominal = [machine.parameters[u]["value"] for u in unknown]
         if not boundary_ok or None in nominal:
             raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
         # the gap diagnosis: a machine far from its description (a support below it) may leave a subset of its
@@ -463,6 +472,10 @@ def fit_stiffness(
         raise InputError("measured", "every fit from the generated inverses' roots left the range of double precision")
     inside = [f for f in fits if not _left_behind(f.jac).any()]
     if not inside or inside[0].cost > fits[0].cost + 1e-6 * (1 + fits[0].cost):
+        if near_design:  # no mount near the description fits: the numeric inverses search further
+            return fit_stiffness(
+                machine, known, measured, others, damping, root, notes, rule_source, boundary_ok=boundary_ok
+            )
         why = _no_mount(fits[0], unknown, labels, omega, std, np.array([start for _, start in roots]))
         if not boundary_ok:
             raise InputError("measured", why)
