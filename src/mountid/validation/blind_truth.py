@@ -290,7 +290,15 @@ class Truth:
     """Known values that differ from the description's nominal ones (none so far)."""
 
 
-def truth_matrices(tm: TruthMachine, t: Truth) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+Arrays = list[np.ndarray]
+"""One array per isolator: its point [m], or its stiffness [N/m] or damping [N s/m] tensor (3 x 3)."""
+Size = dict[str, float]
+"""An injected effect's size (sample)."""
+Matrices = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""M, C, B of a truth [SI]."""
+
+
+def truth_matrices(tm: TruthMachine, t: Truth) -> Matrices:
     """M, C, B of the truth (12 x 12 with a support below the isolators)."""
     v = {**tm.nominal, **t.known, **t.unknowns}
     parts = set(t.effect.split("+"))
@@ -344,13 +352,8 @@ def truth_matrices(tm: TruthMachine, t: Truth) -> tuple[np.ndarray, np.ndarray, 
 
 
 def _two_bodies(
-    m_body: np.ndarray,
-    points: list[np.ndarray],
-    k_iso: list[np.ndarray],
-    b_iso: list[np.ndarray],
-    m_support: np.ndarray,
-    support_origin: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    m_body: np.ndarray, points: Arrays, k_iso: Arrays, b_iso: Arrays, m_support: np.ndarray, support_origin: np.ndarray
+) -> Matrices:
     """Body and support, 12 dof (each in coordinates about its own origin): the isolators act on the
     difference of the two bodies' motions at the feet."""
     m = np.zeros((12, 12))
@@ -365,9 +368,7 @@ def _two_bodies(
     return m, c, b
 
 
-def _with_attachment(
-    tm: TruthMachine, m_body: np.ndarray, c_body: np.ndarray, b_body: np.ndarray, s: dict[str, float]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _with_attachment(tm: TruthMachine, m_body: np.ndarray, c_body: np.ndarray, b_body: np.ndarray, s: Size) -> Matrices:
     """A point mass on isotropic springs (5 % damping) at a body point: 9 coordinates, the attachment's
     translations last."""
     where = tm.centre(tm.nominal) + np.array([s["r"] * math.cos(s["angle"]), s["r"] * math.sin(s["angle"]), s["h"]])
@@ -385,14 +386,7 @@ def _with_attachment(
     return m, c, b
 
 
-def _on_slab(
-    tm: TruthMachine,
-    m_body: np.ndarray,
-    points: list[np.ndarray],
-    k_iso: list[np.ndarray],
-    b_iso: list[np.ndarray],
-    s: dict[str, float],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _on_slab(tm: TruthMachine, m_body: np.ndarray, points: Arrays, k_iso: Arrays, b_iso: Arrays, s: Size) -> Matrices:
     """A square slab, 0.3 m thick, under the isolator feet on a pad under each foot."""
     depth = float(np.mean([p[2] for p in points]))
     origin = np.array([0.0, 0.0, depth])
@@ -408,14 +402,7 @@ def _on_slab(
     return m, c, b
 
 
-def _on_frame(
-    tm: TruthMachine,
-    m_body: np.ndarray,
-    points: list[np.ndarray],
-    k_iso: list[np.ndarray],
-    b_iso: list[np.ndarray],
-    s: dict[str, float],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _on_frame(tm: TruthMachine, m_body: np.ndarray, points: Arrays, k_iso: Arrays, b_iso: Arrays, s: Size) -> Matrices:
     """A square steel frame, 0.25 m thick, below the isolators on four ground springs on the x and y axes at its
     edges (wherever the isolator feet are)."""
     depth = float(np.mean([p[2] for p in points]))
@@ -520,9 +507,7 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
     raise ValueError(f"no blind truth for the effect {effect!r}: add its size here and its physics to truth_matrices")
 
 
-def labelled_modes(
-    tm: TruthMachine, machine: Machine, t: Truth
-) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray, np.ndarray]:
+def labelled_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[Matrices, np.ndarray, np.ndarray]:
     """The truth's M, C, B and its undamped modes in the machine's mode order: squared frequencies [rad^2/s^2]
     and eigenvectors (n, 6) over all its coordinates (12 with a support). Where the truth has exactly equal
     frequencies (twins), any combination of them is a mode: each label gets the projection of its nominal mode
