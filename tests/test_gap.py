@@ -464,7 +464,7 @@ def test_a_gap_report_goes_on_where_some_modes_have_no_inverse_root():
     assert report.verdict.startswith("significant gap")
 
 
-def _numeric_inverse_calls(monkeypatch) -> list[tuple[str, ...]]:
+def _inverse_calls(monkeypatch) -> list[tuple[str, ...]]:
     """The subsets of modes whose generated inverse fit_stiffness solves from here on (the kept roots cleared)."""
     from mountid.identification import from_records
 
@@ -488,7 +488,7 @@ def test_the_gap_report_fits_near_the_description_without_the_numeric_inverses(m
     from mountid.validation import blind
 
     c = parse(blind.make_case(2003, "cog_height", machine="skid1plane")[0])
-    solved = _numeric_inverse_calls(monkeypatch)
+    solved = _inverse_calls(monkeypatch)
     report = diagnose_where(c)
     assert solved == []
     data = {lab: (m.frequency, m.stated_frequency_std) for lab, m in c.modes.items()}
@@ -510,7 +510,7 @@ def test_the_gap_report_searches_the_numeric_inverses_where_the_fit_near_the_des
 
     c = parse(blind.make_case(2003, "cog_height", machine="skid1plane")[0])
     expected = diagnose_where(c)
-    solved = _numeric_inverse_calls(monkeypatch)
+    solved = _inverse_calls(monkeypatch)
     real = from_records._left_behind
     monkeypatch.setattr(from_records, "_left_behind", lambda jac: real(jac) | (not solved))
     report = diagnose_where(c)
