@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -54,6 +55,9 @@ def test_forced_response_json(capsys):
     ("argv", "start"),
     [
         (["identify-record", "kid300", "missing.csv"], "mountid: error: record: no such file"),
+        (["identify-record", "kid300", "."], "mountid: error: record: . is a directory, not a file to read"),
+        (["process", "kid300", os.devnull], f"mountid: error: record: {os.devnull} is not a regular file"),
+        (["diagnose", "."], "mountid: error: campaign: . is a directory, not a file to read"),
         (["simulate", "kid300", "--out", "x.csv", "--hit-point", "1,2"], "mountid: error: --hit-point:"),
         (["simulate", "kid300", "--out", "x.csv", "--duration", "0"], "mountid: error: --duration: must be positive"),
         (["forced", "kid300", "--speed", "-3"], "mountid: error: --speed: must be positive"),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 
 class InputError(ValueError):
     """Bad input from a user: names the offending parameter or entry and says why.
@@ -22,3 +24,15 @@ class NoModeFound(InputError):
 
 class DescriptionError(InputError):
     """A machine description that is malformed or contradicts its declared symmetry."""
+
+
+def existing_file(path: str | Path, parameter: str) -> Path:
+    """``path`` as a Path where it names a regular file; else an InputError naming ``parameter`` that says
+    what is there instead: nothing, a directory, or something that is not a regular file (a device, a pipe)."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    if not path.exists():
+        raise InputError(parameter, f"no such file: {path}")
+    what = "a directory" if path.is_dir() else "not a regular file (a device or a pipe)"
+    raise InputError(parameter, f"{path} is {what}, not a file to read")

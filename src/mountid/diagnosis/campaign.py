@@ -36,7 +36,7 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 
-from mountid.errors import InputError, NoModeFound
+from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Channel
@@ -690,9 +690,7 @@ def _disagreement(label: str, found: list[tuple[MeasuredMode, str]]) -> list[str
 
 def load(path: str | Path) -> Campaign:
     """Read and validate a campaign file."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("campaign", f"no such file: {path}")
+    path = existing_file(path, "campaign")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError as err:

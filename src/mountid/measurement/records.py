@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mountid.effects import STANDARD_GRAVITY
-from mountid.errors import InputError
+from mountid.errors import InputError, existing_file
 from mountid.measurement.settings import RECORDS, RecordSettings
 
 FORMAT_LINE = "# mountid record 1"
@@ -237,9 +237,7 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     """Read a record written by :func:`write_csv`, or a plain CSV with a header row whose first column is
     the time [s] (channels then have unknown points and directions). ``rate`` [Hz]: the sampling rate, which
     replaces the time column's steps (see uniform_time for what is accepted without it)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("record", f"no such file: {path}")
+    path = existing_file(path, "record")
     meta: dict[str, Channel] = {}
     header: list[str] | None = None
     rows: list[list[float]] = []

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pyuff
 
-from mountid.errors import InputError
+from mountid.errors import InputError, existing_file
 from mountid.measurement.records import UNITS, Channel, Record
 
 _TAG = "mountid point="
@@ -117,9 +117,7 @@ def _triple(text: str) -> tuple[float, float, float]:
 
 def read_uff(path: str | Path) -> Record:
     """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("record", f"no such file: {path}")
+    path = existing_file(path, "record")
     uff = pyuff.UFF(str(path))
     types = list(uff.get_set_types())
     found = [i for i, t in enumerate(types) if int(t) == 58]
