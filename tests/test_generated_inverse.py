@@ -95,6 +95,17 @@ def test_round_trip_recovers_the_unknowns_rectangular(key, p):
     check_round_trip("rectangular", key, p)
 
 
+def test_a_start_far_from_its_root_is_not_given_up_under_the_trust_region():
+    """`make fuzz` (2026-11-28): rectangular with c_x 56 000 times c_y (m = 10 kg, J_y = 1e4 kg m^2). From y, theta
+    and phi the closed form's candidates miss, and Newton from the description's nominal values climbs to the root
+    under the trust region (MAX_RELATIVE_STEP), c_x 1.5 times larger a step, its residual 895 -> 845 in eight
+    steps; the stall rule (STALL_STEPS) gave it up there and no root was admissible. Steps the trust region cut
+    short do not count as stalled."""
+    p = {"m": 10.0, "J_x": 1.0, "J_y": 10000.0, "J_z": 1.0, "a": 0.06978305848598663, "b": 0.027384196342643614}
+    p |= {"h": 1.0, "c_x": 56234132.51903491, "c_y": 1000.0, "c_z": 1000.0}
+    check_round_trip("rectangular", ("y", "theta", "phi"), p, pinned=True)
+
+
 # Pinned finds. A square upright screen (alpha = 0): identify_x_y_phi gave only NaN roots (the closed form
 # divides by sin(alpha)^2 and the nearby-point fallback landed outside Newton's basin); about 1 in 100
 # square upright machines failed before the engine derived the alpha = 0 solution.

@@ -110,8 +110,12 @@ STALL_STEPS = 8
 below half the smallest it had before them: a start that ends in a minimum that is no root (the candidate of a
 closed form that puts a given frequency on another mode; a Levenberg-Marquardt start that gave up), or a root
 whose residual bounces at the rounding of the forward map, just above NEWTON_RESIDUAL_RTOL. Such rows took all
-``max_steps`` before and were most of a numeric inverse's time; a row that converges, even from a far start
-under the trust region, halves its residual every few steps."""
+``max_steps`` before and were most of a numeric inverse's time. A start far from its root that no
+Levenberg-Marquardt phase brought near (eigen_newton's ``far_starts``) moves by half an unknown a step under the
+trust region (MAX_RELATIVE_STEP) and its residual may take a dozen steps to halve (rectangular from its nominal
+c_x to one 280 times stiffer: 895 -> 845 in eight steps, then the root); such steps count as progress while each
+lowers the residual by more than the one before (a row that zigzags, or slides towards a bound with ever smaller
+gains, does not)."""
 
 
 def eigen_newton(
@@ -121,6 +125,7 @@ def eigen_newton(
     mode_index: tuple[int, ...],
     given: NDArray,
     max_steps: int = 40,
+    far_starts: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Newton steps on lambda_k(theta) = given_k with dlambda_k/dtheta_j = phi_k^T (dC/dtheta_j) phi_k.
 
@@ -131,7 +136,10 @@ def eigen_newton(
     polished roots are as accurate as the inverse problem allows. A row is done once its residual is at
     rounding level (NEWTON_RESIDUAL_RTOL), or when its step is not finite (admissibility judges it then);
     only rows not yet done are evaluated again, so closed-form roots that are already converged cost one
-    forward evaluation. Returns (unknowns, squared frequencies at them).
+    forward evaluation. A row is given up once it stalls (STALL_STEPS); with ``far_starts`` (rows that no
+    Levenberg-Marquardt phase brought near a root: a closed form's candidates, the nominal start) a step the
+    trust region cut short counts as progress while each such step lowers the residual by more than the one
+    before. Returns (unknowns, squared frequencies at them).
     """
     idx = list(mode_index)
     x = np.array(unknowns, dtype=float)
@@ -149,6 +157,9 @@ def eigen_newton(
         pending, best = misfit(lam_all, slice(None))  # best: each row's smallest residual so far
         active = np.flatnonzero(pending & np.all(np.isfinite(x), axis=-1))
         stalled = np.zeros(x.shape[0], dtype=int)  # steps since it last fell below half of that
+        cut = np.zeros(x.shape[0], dtype=bool)  # whether its last step was cut short by the trust region
+        last = best.copy()  # its residual before that step
+        drop = np.zeros(x.shape[0])  # how much the step before lowered it
         # each pass evaluates the rows still active at their current point, so every row's lam_all
         # belongs to its final x when the loop ends
         for step_count in range(max_steps + 1):
@@ -160,7 +171,13 @@ def eigen_newton(
             pending, r = misfit(lam, active)
             better = r < 0.5 * best[active]
             best[active] = np.where(better, r, best[active])
-            stalled[active] = np.where(better, 0, stalled[active] + 1)
+            # a step the trust region cut short that lowered the residual by more than the step before it did
+            # (which lowered it too) is progress, not a stall: the row is on its way to a root it has not yet
+            # come near; one that zigzags, or slides towards a bound with ever smaller gains, is not
+            fell = last[active] - r
+            climbing = far_starts & cut[active] & (drop[active] > 0) & (fell > drop[active])
+            drop[active], last[active] = fell, r
+            stalled[active] = np.where(better | climbing, 0, stalled[active] + 1)
             go = pending & (stalled[active] < STALL_STEPS)
             if step_count == max_steps or not np.any(go):
                 break
@@ -180,6 +197,7 @@ def eigen_newton(
             step = step * np.minimum(1.0, MAX_RELATIVE_STEP / np.where(largest > 0, largest, 1.0))
             new = x[active] - scale * step
             ok &= np.all(np.isfinite(new), axis=-1)
+            cut[active] = largest[:, 0] > MAX_RELATIVE_STEP
             active = active[ok]
             x[active] = new[ok]
     return x, lam_all
@@ -469,7 +487,7 @@ def _polish(
     x0 = cand.reshape(n_unknowns, -1).T
     if damped:
         x0 = eigen_levenberg_marquardt(model, rows, x0, mode_index, given)
-    x, lam = eigen_newton(model, rows, x0, mode_index, given)
+    x, lam = eigen_newton(model, rows, x0, mode_index, given, far_starts=not damped)
     return x.T.reshape(n_unknowns, n_roots, n_batch), lam.reshape(n_roots, n_batch, -1)
 
 
