@@ -433,9 +433,11 @@ def fit_stiffness(
         return d_omega.T * p[None, :] / std[:, None]
 
     nominal = [machine.parameters[u]["value"] for u in unknown]
+    # the description's nominal values as a start (ln unknowns), where it gives them
+    at_nominal = None if None in nominal else ((), np.log(np.array(nominal, dtype=float)))
     subsets = [key for key in itertools.combinations(labels, len(unknown)) if key in mod.INVERSES]
     searched = [key for key in subsets if key not in getattr(mod, "NUMERIC_INVERSES", {})]
-    near_design = not numeric_inverses and None not in nominal and len(searched) < len(subsets)
+    near_design = not numeric_inverses and at_nominal is not None and len(searched) < len(subsets)
     roots = [
         (key, start)
         for key in (searched if near_design else subsets)
@@ -444,13 +446,13 @@ def fit_stiffness(
         )
     ]
     if near_design:  # one start for the numeric inverses left out: the description's
-        roots.append(((), np.log(np.array(nominal, dtype=float))))
+        roots.append(at_nominal)
     if not roots:
-        if not boundary_ok or None in nominal:
+        if not boundary_ok or at_nominal is None:
             raise InputError("measured", "no generated inverse has an admissible root for these frequencies")
         # the gap diagnosis: a machine far from its description (a support below it) may leave a subset of its
         # modes without a root; the fit starts from the description's values and may end at a boundary
-        roots = [((), np.log(np.array(nominal, dtype=float)))]
+        roots = [at_nominal]
         if notes is not None:
             notes.append(
                 "no generated inverse has an admissible root for these frequencies: the fit starts from the "
