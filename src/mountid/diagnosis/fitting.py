@@ -163,6 +163,10 @@ class Data:
             for lab in self.shape_labels
         ]
         self.shape_sigma = [campaign.modes[lab].shape_std for lab in self.shape_labels]
+        self.shape_index = np.array([self.labels.index(lab) for lab in self.shape_labels], dtype=int)
+        """The index in ``labels`` of each measured shape's mode."""
+        self.shape_matrix = np.array(self.shapes).reshape(-1, 6).T
+        """The measured shapes as columns (6, n_shapes), in the order of ``shape_labels``."""
         self.damping_labels = tuple(
             lab for lab, m in zip(self.labels, modes, strict=True) if m.damping_ratio is not None
         )
@@ -182,14 +186,16 @@ class Data:
 
     def residuals(self, pred: Prediction) -> np.ndarray:
         rows = [(self.omega - pred.frequencies) / self.sigma]
-        for lab, s, sig in zip(self.shape_labels, self.shapes, self.shape_sigma, strict=True):
-            i = self.labels.index(lab)
-            own = off_span(s, pred.shapes[i])
-            cluster = pred.clusters[i]
-            if cluster is not None:  # blended, so that the residual is continuous as modes split
-                basis, w = cluster
-                own = w * off_span(s, basis) + (1 - w) * own
-            rows.append(own / sig)
+        if self.shape_labels:
+            s = self.shape_matrix
+            u = np.array([pred.shapes[i] for i in self.shape_index]).T  # (6, n_shapes)
+            own = s - u * np.add.reduce(u * s, axis=0)  # off_span of each column, at once
+            for col, i in enumerate(self.shape_index):
+                cluster = pred.clusters[i]
+                if cluster is not None:  # blended, so that the residual is continuous as modes split
+                    basis, w = cluster
+                    own[:, col] = w * off_span(s[:, col], basis) + (1 - w) * own[:, col]
+            rows.append((own / np.asarray(self.shape_sigma)[None, :]).T.ravel())
         if self.damping_labels:
             zeta = pred.damping[[self.labels.index(lab) for lab in self.damping_labels]]
             rows.append((self.zeta - zeta) / self.zeta_sigma)

@@ -69,35 +69,14 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
 
     rows = [-(d_omega[:, e.index] / data.sigma[None, :]).T]
-    body, d_body = _unit_shapes(e.shapes, d_shapes, model.length)
-    labels = model.labels
-    spans: dict[bytes, tuple[np.ndarray, np.ndarray] | None] = {}  # partner set -> (q, U^+) of their shapes
-    for lab, s, sig in zip(data.shape_labels, data.shapes, data.shape_sigma, strict=True):
-        k = labels.index(lab)
-        j = e.index[k]
-        near = e.weight[k] > PARTNER_WEIGHT
-        partners = np.flatnonzero(near)
-        if len(partners) <= 1:
-            own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
-        else:
-            key = near.tobytes()
-            if key not in spans:
-                spans[key] = _span_factors(body[:, partners])
-            if spans[key] is None:
-                return None  # parallel partners: the span drops a direction (candidate_model._orthonormal)
-            q, pinv = spans[key]
-            rest = s - q @ (q.T @ s)  # off_span(s, q): the part of s off the partners' span
-            d_span = _off_span_derivative(s, q, pinv, rest, d_body[:, :, partners])
-            if exact_twins(e.lam, j, partners):
-                own = d_span
-            else:
-                own = _off_direction_derivative(s, body[:, j], d_body[:, :, j])
-                w, d_w = _blend_weight(e, k, partners, d_lam)
-                own = w * d_span + (1 - w) * own + np.outer(d_w, rest - off_span(s, body[:, j]))
-        rows.append(own.T / sig)
+    if data.shape_labels:
+        shape_rows = _shape_rows(model, data, e, d_shapes, d_lam)
+        if shape_rows is None:
+            return None  # parallel partners: the span drops a direction (candidate_model._orthonormal)
+        rows.append(shape_rows)
     if data.damping_labels:
         d_zeta = model.strategy.damping_ratio_derivatives(model, e, d_mats)
-        modes = e.index[[labels.index(lab) for lab in data.damping_labels]]
+        modes = e.index[[model.labels.index(lab) for lab in data.damping_labels]]
         rows.append(-(d_zeta[:, modes] / data.zeta_sigma[None, :]).T)
     out = np.concatenate(rows) * scale[None, :]
     out[:, split] = np.nan
@@ -138,6 +117,42 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     return split
 
 
+def _shape_rows(
+    model: CandidateModel, data: Data, e: Evaluation, d_shapes: np.ndarray, d_lam: np.ndarray
+) -> np.ndarray | None:
+    """The rows of the shape residuals (six per measured shape, in the order of Data.residuals) by fit parameter,
+    unweighted by the scale to physical units: each the derivative of the part of the measured shape off the
+    model shape, or for a mode with partners of its blend with the part off their span; None where partners'
+    shapes are parallel."""
+    body, d_body = _unit_shapes(e.shapes, d_shapes, model.length)
+    k = data.shape_index
+    j = e.index[k]
+    s = data.shape_matrix
+    own = _off_direction_derivatives(s, body[:, j], d_body[:, :, j])  # (n_q, 6, n_shapes)
+    near_all = e.weight[k] > PARTNER_WEIGHT
+    spans: dict[bytes, tuple[np.ndarray, np.ndarray] | None] = {}  # partner set -> (q, U^+) of their shapes
+    for col in np.flatnonzero(near_all.sum(axis=1) > 1):
+        near = near_all[col]
+        partners = np.flatnonzero(near)
+        key = near.tobytes()
+        if key not in spans:
+            spans[key] = _span_factors(body[:, partners])
+        if spans[key] is None:
+            return None
+        q, pinv = spans[key]
+        sc = s[:, col]
+        rest = sc - q @ (q.T @ sc)  # off_span(sc, q): the part of the measured shape off the partners' span
+        d_span = _off_span_derivative(sc, q, pinv, rest, d_body[:, :, partners])
+        if exact_twins(e.lam, j[col], partners):
+            own[:, :, col] = d_span
+        else:
+            w, d_w = _blend_weight(e, k[col], partners, d_lam)
+            blended = w * d_span + (1 - w) * own[:, :, col] + np.outer(d_w, rest - off_span(sc, body[:, j[col]]))
+            own[:, :, col] = blended
+    own /= np.asarray(data.shape_sigma)[None, None, :]
+    return own.transpose(2, 1, 0).reshape(-1, own.shape[0])
+
+
 def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
     """scaled_unit of the shapes (6, n) and its derivative (n_q, 6, n): rotations times the length scale,
     each column of unit length, du = (I - u u^T) dv / |v|."""
@@ -153,9 +168,12 @@ def _unit_shapes(shapes: np.ndarray, d_shapes: np.ndarray, length: float) -> tup
     return u, d_u
 
 
-def _off_direction_derivative(s: np.ndarray, u: np.ndarray, d_u: np.ndarray) -> np.ndarray:
-    """d/dq of s - u (u . s), shape (n_q, 6), from du/dq (n_q, 6)."""
-    return -(d_u * (u @ s) + np.outer(d_u @ s, u))
+def _off_direction_derivatives(s: np.ndarray, u: np.ndarray, d_u: np.ndarray) -> np.ndarray:
+    """d/dq of s - u (u . s) for each column of s and u (6, n_shapes), shape (n_q, 6, n_shapes), from du/dq
+    (n_q, 6, n_shapes)."""
+    along = np.add.reduce(u * s, axis=0)  # u . s per column
+    d_along = np.add.reduce(d_u * s[None], axis=1)  # du/dq . s, (n_q, n_shapes)
+    return -(d_u * along[None, None, :] + d_along[:, None, :] * u[None])
 
 
 def _span_factors(basis: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
