@@ -40,7 +40,8 @@ class Prediction:
     :meth:`Data.residuals`)."""
 
     frequencies: np.ndarray
-    shapes: list[np.ndarray]
+    shapes: np.ndarray
+    """Row k: the scaled unit shape (6,) of labelled mode k."""
     clusters: list[tuple[np.ndarray, float] | None]
     damping: np.ndarray | None = None
     """Damping ratio of each mode (None when the campaign measures none)."""
@@ -384,7 +385,7 @@ class CandidateModel:
         lam, index, weight = e.lam, e.index, e.weight
         body = e.unit
         partners = weight > PARTNER_WEIGHT
-        shapes = list(body[:, index].T)
+        shapes = body[:, index].T
         clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
         spans: dict[bytes, np.ndarray] = {}
         for k in np.flatnonzero(partners.sum(axis=1) > 1):

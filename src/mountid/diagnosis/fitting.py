@@ -188,7 +188,7 @@ class Data:
         rows = [(self.omega - pred.frequencies) / self.sigma]
         if self.shape_labels:
             s = self.shape_matrix
-            u = np.array([pred.shapes[i] for i in self.shape_index]).T  # (6, n_shapes)
+            u = pred.shapes[self.shape_index].T  # (6, n_shapes)
             own = s - u * np.add.reduce(u * s, axis=0)  # off_span of each column, at once
             for col, i in enumerate(self.shape_index):
                 cluster = pred.clusters[i]
