@@ -158,15 +158,13 @@ class Data:
         self.omega = np.array([m.frequency for m in modes])
         self.sigma = np.array([m.frequency_std for m in modes])
         self.shape_labels = tuple(lab for lab, m in zip(self.labels, modes, strict=True) if m.shape is not None)
-        self.shapes = [
-            scaled_unit(np.array(campaign.modes[lab].shape, dtype=float)[:, None], length)[:, 0]
-            for lab in self.shape_labels
-        ]
-        self.shape_sigma = [campaign.modes[lab].shape_std for lab in self.shape_labels]
+        measured = [campaign.modes[lab].shape for lab in self.shape_labels]
+        self.shape_matrix = scaled_unit(np.array(measured, dtype=float).reshape(-1, 6).T, length)
+        """The measured shapes as columns (6, n_shapes) in the order of ``shape_labels``, scaled to unit length
+        (candidate_model.scaled_unit)."""
+        self.shape_sigma = np.array([campaign.modes[lab].shape_std for lab in self.shape_labels], dtype=float)
         self.shape_index = np.array([self.labels.index(lab) for lab in self.shape_labels], dtype=int)
         """The index in ``labels`` of each measured shape's mode."""
-        self.shape_matrix = np.array(self.shapes).reshape(-1, 6).T
-        """The measured shapes as columns (6, n_shapes), in the order of ``shape_labels``."""
         self.damping_labels = tuple(
             lab for lab, m in zip(self.labels, modes, strict=True) if m.damping_ratio is not None
         )
@@ -195,7 +193,7 @@ class Data:
                 if cluster is not None:  # blended, so that the residual is continuous as modes split
                     basis, w = cluster
                     own[:, col] = w * off_span(s[:, col], basis) + (1 - w) * own[:, col]
-            rows.append((own / np.asarray(self.shape_sigma)[None, :]).T.ravel())
+            rows.append((own / self.shape_sigma[None, :]).T.ravel())
         if self.damping_labels:
             zeta = pred.damping[[self.labels.index(lab) for lab in self.damping_labels]]
             rows.append((self.zeta - zeta) / self.zeta_sigma)

@@ -149,7 +149,7 @@ def _shape_rows(
             w, d_w = _blend_weight(e, k[col], partners, d_lam)
             blended = w * d_span + (1 - w) * own[:, :, col] + np.outer(d_w, rest - off_span(sc, body[:, j[col]]))
             own[:, :, col] = blended
-    own /= np.asarray(data.shape_sigma)[None, None, :]
+    own /= data.shape_sigma[None, None, :]
     return own.transpose(2, 1, 0).reshape(-1, own.shape[0])
 
 
