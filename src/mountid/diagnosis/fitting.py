@@ -168,6 +168,8 @@ class Data:
         self.damping_labels = tuple(
             lab for lab, m in zip(self.labels, modes, strict=True) if m.damping_ratio is not None
         )
+        self.damping_index = np.array([self.labels.index(lab) for lab in self.damping_labels], dtype=int)
+        """The index in ``labels`` of each measured damping ratio's mode."""
         self.zeta = np.array([campaign.modes[lab].damping_ratio for lab in self.damping_labels], dtype=float)
         self.zeta_sigma = np.array(
             [damping_std(campaign.modes[lab]) for lab in self.damping_labels],
@@ -195,7 +197,7 @@ class Data:
                     own[:, col] = w * off_span(s[:, col], basis) + (1 - w) * own[:, col]
             rows.append((own / self.shape_sigma[None, :]).T.ravel())
         if self.damping_labels:
-            zeta = pred.damping[[self.labels.index(lab) for lab in self.damping_labels]]
+            zeta = pred.damping[self.damping_index]
             rows.append((self.zeta - zeta) / self.zeta_sigma)
         return np.concatenate(rows)
 
@@ -667,7 +669,7 @@ def fit_candidate(
     gap = {lab: float(w - p) for lab, w, p in zip(data.labels, data.omega, pred.frequencies, strict=True)}
     damping_gap = {}
     if data.damping_labels:
-        zeta = pred.damping[[data.labels.index(lab) for lab in data.damping_labels]]
+        zeta = pred.damping[data.damping_index]
         damping_gap = {lab: float(z - m) for lab, z, m in zip(data.damping_labels, data.zeta, zeta, strict=True)}
     held_out, variance = _linear_leave_one_out(data, res.fun, jac)
     return CandidateFit(

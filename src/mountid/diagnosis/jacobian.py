@@ -76,8 +76,7 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
         rows.append(shape_rows)
     if data.damping_labels:
         d_zeta = model.strategy.damping_ratio_derivatives(model, e, d_mats)
-        modes = e.index[[model.labels.index(lab) for lab in data.damping_labels]]
-        rows.append(-(d_zeta[:, modes] / data.zeta_sigma[None, :]).T)
+        rows.append(-(d_zeta[:, e.index[data.damping_index]] / data.zeta_sigma[None, :]).T)
     out = np.concatenate(rows) * scale[None, :]
     out[:, split] = np.nan
     return out
