@@ -676,6 +676,47 @@ ARGUMENTS = {
     "effect_scales": ("m", "a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
 }
 """Argument names of every generated function, by function name."""
+DEPENDS = {
+    "matrix_derivatives": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v"),
+    "effect_com_offset_derivatives": ("m", "a1", "a2", "b", "h", "gamma", "dx_com", "dy_com"),
+    "effect_cog_height_derivatives": ("m", "a1", "a2", "b", "h", "gamma", "dz_com"),
+    "effect_rotational_stiffness_derivatives": ("a1", "a2", "b", "h", "gamma"),
+    "effect_foundation_derivatives": (
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
+    "effect_added_mass_derivatives": (
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+        "a_added",
+    ),
+    "effect_drive_belt_derivatives": ("a1", "a2", "b", "h", "gamma", "k_belt", "h_belt"),
+    "effect_gravity_preload_derivatives": ("m", "a1", "a2", "b", "h", "gamma"),
+    "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
+    "isolator_axial_stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
+    "isolator_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma"),
+}
+"""The arguments the result of a generated function depends on, where fewer than its ARGUMENTS (the free symbols
+of its expressions): the others only broadcast the batch shape. machine.call keeps a result while only those
+others change (the derivatives of a model linear in its unknowns, at every step of a fit)."""
 
 
 def mass_matrix(m, J_x, J_y, J_z):

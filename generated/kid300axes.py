@@ -258,6 +258,32 @@ ARGUMENTS = {
     "effect_scales": ("m", "L_xy", "L_z", "c_xy", "c_z"),
 }
 """Argument names of every generated function, by function name."""
+DEPENDS = {
+    "matrix_derivatives": ("L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z"),
+    "effect_com_offset_derivatives": ("m", "L_xy", "L_z", "dx_com", "dy_com"),
+    "effect_cog_height_derivatives": ("m", "L_xy", "L_z", "dz_com"),
+    "effect_rotational_stiffness_derivatives": ("L_xy", "L_z"),
+    "effect_foundation_derivatives": (
+        "L_xy",
+        "L_z",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
+    "effect_added_mass_derivatives": ("L_xy", "L_z", "m_added", "x_added", "y_added", "h_added", "g_added", "a_added"),
+    "effect_drive_belt_derivatives": ("L_xy", "L_z", "k_belt", "h_belt"),
+    "effect_gravity_preload_derivatives": ("m", "L_xy", "L_z"),
+    "isolator_stiffness_gradient": ("L_xy", "L_z"),
+    "isolator_axial_stiffness_gradient": ("L_xy",),
+    "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("L_xy",),
+}
+"""The arguments the result of a generated function depends on, where fewer than its ARGUMENTS (the free symbols
+of its expressions): the others only broadcast the batch shape. machine.call keeps a result while only those
+others change (the derivatives of a model linear in its unknowns, at every step of a fit)."""
 
 
 def mass_matrix(m, J_xy, J_z):

@@ -444,6 +444,45 @@ ARGUMENTS = {
     "effect_scales": ("m", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
 }
 """Argument names of every generated function, by function name."""
+DEPENDS = {
+    "matrix_derivatives": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m"),
+    "effect_com_offset_derivatives": ("m", "a", "b", "h", "alpha", "dx_com", "dy_com"),
+    "effect_cog_height_derivatives": ("m", "a", "b", "h", "alpha", "dz_com"),
+    "effect_rotational_stiffness_derivatives": ("a", "b", "h", "alpha"),
+    "effect_foundation_derivatives": (
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
+    "effect_added_mass_derivatives": (
+        "a",
+        "b",
+        "h",
+        "alpha",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+        "a_added",
+    ),
+    "effect_drive_belt_derivatives": ("a", "b", "h", "alpha", "k_belt", "h_belt"),
+    "effect_gravity_preload_derivatives": ("m", "a", "b", "h", "alpha"),
+    "isolator_stiffness_gradient": ("a", "b", "h", "alpha"),
+    "isolator_axial_stiffness_gradient": ("a", "b", "h", "alpha"),
+    "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha"),
+}
+"""The arguments the result of a generated function depends on, where fewer than its ARGUMENTS (the free symbols
+of its expressions): the others only broadcast the batch shape. machine.call keeps a result while only those
+others change (the derivatives of a model linear in its unknowns, at every step of a fit)."""
 
 
 def mass_matrix(m, J_x, J_y, J_z):

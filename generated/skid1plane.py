@@ -329,6 +329,45 @@ ARGUMENTS = {
     "effect_scales": ("m", "e", "a", "b", "h", "c_h", "c_z"),
 }
 """Argument names of every generated function, by function name."""
+DEPENDS = {
+    "matrix_derivatives": ("m", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z"),
+    "effect_com_offset_derivatives": ("m", "e", "a", "b", "h", "dx_com", "dy_com"),
+    "effect_cog_height_derivatives": ("m", "e", "a", "b", "h", "dz_com"),
+    "effect_rotational_stiffness_derivatives": ("a", "b", "h"),
+    "effect_foundation_derivatives": (
+        "e",
+        "a",
+        "b",
+        "h",
+        "m_found",
+        "k_found",
+        "found_shear",
+        "found_spread",
+        "found_aspect",
+        "found_depth",
+    ),
+    "effect_added_mass_derivatives": (
+        "e",
+        "a",
+        "b",
+        "h",
+        "m_added",
+        "x_added",
+        "y_added",
+        "h_added",
+        "g_added",
+        "a_added",
+    ),
+    "effect_drive_belt_derivatives": ("a", "b", "h", "k_belt", "h_belt"),
+    "effect_gravity_preload_derivatives": ("m", "a", "b", "h"),
+    "isolator_stiffness_gradient": ("a", "b", "h"),
+    "isolator_axial_stiffness_gradient": ("a", "b"),
+    "isolator_stiffness_on_foundation_gradient": ("a", "b", "h"),
+    "isolator_axial_stiffness_on_foundation_gradient": ("a", "b"),
+}
+"""The arguments the result of a generated function depends on, where fewer than its ARGUMENTS (the free symbols
+of its expressions): the others only broadcast the batch shape. machine.call keeps a result while only those
+others change (the derivatives of a model linear in its unknowns, at every step of a fit)."""
 
 
 def mass_matrix(m, J_x, J_y, J_z, e):

@@ -98,3 +98,17 @@ def test_closed_form_eigen_plain_and_fused_agree():
         f = _build(print_function(layouts.Function("f", ("a", "b", "c"), "", layout, cse=False, printer=printer)))
         lam = f(*(np.asarray(p) for p in point))
         assert np.allclose(lam, [*expected, 2.0 / 1.5, 2.0 / 1.5], rtol=1e-14)
+
+
+def test_printing_records_the_arguments_a_result_depends_on():
+    """Function.depends: the free symbols of the leaves and the arguments of the calls a matrices layout adds
+    to, in the order of the signature; None where the layout holds more than leaves and calls (an eigen-solve)."""
+    matrix = layouts.SymmetricMatrix.of(sp.Matrix([[a * x, 0], [0, 2 * a]]))
+    base = layouts.Call("stiffness_matrix", ("b",))
+    fn = layouts.Function("f", ("a", "b", "c", "x"), "", layouts.Matrices((matrix,), (base,)))
+    assert print_function(fn).depends == ("a", "b", "x")
+    filled = layouts.Function("g", ("a", "c"), "", layouts.Filled((1, 1), ((0, 0, 3 * c),)), cse=False)
+    assert print_function(filled).depends == ("c",)
+    mass, stiffness = layouts.Call("mass_matrix", ("a",)), layouts.Call("stiffness_matrix", ("b",))
+    eigen = layouts.Function("h", ("a", "b"), "", layouts.NumericEigen(mass, stiffness, ()))
+    assert print_function(eigen).depends is None

@@ -151,6 +151,28 @@ def test_arguments_list_every_generated_function_in_the_order_of_its_signature()
             assert tuple(inspect.signature(getattr(mod, function)).parameters) == names, (name, function)
 
 
+def test_depends_lists_every_argument_a_result_changes_with():
+    """DEPENDS names, in the order of ARGUMENTS, the arguments each listed function's result depends on: changing
+    every other argument leaves the result the same to the bit, and call() keeps it across such changes; changing
+    one that it lists changes the result."""
+    rng = np.random.default_rng(8)
+    for name in shipped_machines():
+        mod = importlib.import_module(f"mountid.generated.{name}")
+        assert mod.DEPENDS, name  # the derivatives of a model linear in its unknowns do not depend on them
+        for function, depends in mod.DEPENDS.items():
+            names = mod.ARGUMENTS[function]
+            assert depends == tuple(a for a in names if a in depends) and len(depends) < len(names), (name, function)
+            values = {a: float(rng.uniform(0.2, 0.6)) for a in names}
+            first = call(mod, function, values)
+            others = {a: (v if a in depends else v + float(rng.uniform(0.1, 0.3))) for a, v in values.items()}
+            fresh = getattr(mod, function)(*(others[a] for a in names))
+            assert np.array_equal(np.asarray(first), np.asarray(fresh)), (name, function)
+            assert call(mod, function, others) is first  # kept: the arguments it depends on are the same
+            if depends:
+                moved = {**values, depends[-1]: values[depends[-1]] + 0.25}
+                assert not np.array_equal(np.asarray(call(mod, function, moved)), np.asarray(first)), (name, function)
+
+
 def test_each_thread_keeps_its_own_generated_results():
     """A dask cluster's workers run blind cases in threads: the results call() keeps are each thread's own
     (one thread's eviction never races another's lookup)."""

@@ -26,14 +26,17 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     """The generated ``function`` of ``module`` evaluated with its arguments (``module.ARGUMENTS``, in the
     order of its signature) taken by name from ``values`` (which may hold more).
 
-    With every argument a scalar, the result is kept (the last CALL_CACHE_SIZE calls, read-only arrays): a
-    candidate fit asks for matrices most of whose arguments it does not vary (the mass matrix, an isolator's
-    stiffness) at every step."""
+    With every argument a scalar, the result is kept (the last CALL_CACHE_SIZE calls, read-only arrays), by
+    the values of the arguments it depends on (``module.DEPENDS``, where fewer than all): a candidate fit asks
+    for matrices most of whose arguments it does not vary (the mass matrix, an isolator's stiffness) at every
+    step, and for derivatives that do not depend on the unknowns it varies (a model linear in them)."""
     names = module.ARGUMENTS[function]
     args = [values[a] for a in names]
     if not SCALAR_TYPES.issuperset(map(type, args)):
         return getattr(module, function)(*args)
-    key = (module, function, struct.pack(f"{len(args)}d", *args))  # bytes: -0.0 is not 0.0 here
+    depends = getattr(module, "DEPENDS", _NONE).get(function)  # modules generated before DEPENDS have none
+    keyed = args if depends is None else [values[a] for a in depends]
+    key = (module, function, struct.pack(f"{len(keyed)}d", *keyed))  # bytes: -0.0 is not 0.0 here
     kept = _kept_calls()
     out = kept.pop(key, None)
     if out is None:
@@ -42,6 +45,9 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
             del kept[next(iter(kept))]  # the least recently used
     kept[key] = out  # last in the order of use
     return out
+
+
+_NONE: dict[str, tuple[str, ...]] = {}
 
 
 CALL_CACHE_SIZE = 64

@@ -29,6 +29,7 @@ class GeneratedModule(Protocol):
     REPRESENTATIVE: dict[str, str]
     FORWARD_ARGUMENTS: tuple[str, ...]
     ARGUMENTS: dict[str, tuple[str, ...]]
+    DEPENDS: dict[str, tuple[str, ...]]
     INVERSES: dict[tuple[str, ...], Any]
     UNIDENTIFIABLE: dict[tuple[str, ...], str]
 

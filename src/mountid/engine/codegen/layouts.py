@@ -189,6 +189,10 @@ class Function:
     convert: bool = True
     """Whether the arguments are converted to float arrays on entry (public functions)."""
     temporaries: tuple[tuple[str, str], ...] = ()
+    depends: tuple[str, ...] | None = None
+    """The arguments its result depends on, in the order of ``args`` (the others only broadcast its batch shape),
+    once printed: the free symbols of its sympy leaves and the arguments of the functions it calls, for the
+    layouts whose leaves and calls are all of its body (matrices, filled, mapping); None for the others."""
 
     @property
     def macro(self) -> str:

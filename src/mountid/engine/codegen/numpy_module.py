@@ -88,6 +88,11 @@ def module_context(
         "forward_args": fwd_args,
         "functions": functions,
         "arguments": {fn.name: fn.args for fn in functions},
+        "depends": {
+            fn.name: fn.depends
+            for fn in functions
+            if not fn.name.startswith("_") and fn.depends is not None and fn.depends != fn.args
+        },
         "inverses": [
             (s.labels, f"identify_{s.name}", root_slots(s, len(description.unknown), settings))
             for s in inverse_sets

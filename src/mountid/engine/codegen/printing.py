@@ -14,7 +14,7 @@ import sympy as sp
 from sympy.printing.lambdarepr import NumExprPrinter
 from sympy.printing.numpy import NumPyPrinter
 
-from mountid.engine.codegen.layouts import Function, Step
+from mountid.engine.codegen.layouts import Filled, Function, Mapping, Matrices, Step
 
 
 class _Printer(NumPyPrinter):
@@ -116,4 +116,15 @@ def print_function(fn: Function) -> Function:
         return Step(s.unknown, done.outputs[0], done.lines)
 
     layout = _map_leaves(fn.layout, lambda _: next(texts), step)
-    return dataclasses.replace(fn, layout=layout, temporaries=temporaries)
+    return dataclasses.replace(fn, layout=layout, temporaries=temporaries, depends=_depends(fn, leaves))
+
+
+def _depends(fn: Function, leaves: list[sp.Expr]) -> tuple[str, ...] | None:
+    """The arguments of ``fn`` its result depends on (Function.depends), from its sympy ``leaves`` before printing
+    and the calls its layout makes; None for a layout with more in its body than these (a solve, an inverse)."""
+    if not isinstance(fn.layout, Matrices | Filled | Mapping):
+        return None
+    used = {s.name for e in leaves for s in e.free_symbols}
+    if isinstance(fn.layout, Matrices):
+        used |= {a for call in fn.layout.bases for a in call.args}
+    return tuple(a for a in fn.args if a in used)
