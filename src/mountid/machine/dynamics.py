@@ -34,7 +34,7 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     args = [values[a] for a in names]
     if not SCALAR_TYPES.issuperset(map(type, args)):
         return getattr(module, function)(*args)
-    depends = getattr(module, "DEPENDS", _NONE).get(function)  # modules generated before DEPENDS have none
+    depends = module.DEPENDS.get(function)  # a cached module is generated anew when the templates change
     keyed = args if depends is None else [values[a] for a in depends]
     key = (module, function, struct.pack(f"{len(keyed)}d", *keyed))  # bytes: -0.0 is not 0.0 here
     kept = _kept_calls()
@@ -45,9 +45,6 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
             del kept[next(iter(kept))]  # the least recently used
     kept[key] = out  # last in the order of use
     return out
-
-
-_NONE: dict[str, tuple[str, ...]] = {}
 
 
 CALL_CACHE_SIZE = 64
