@@ -11,6 +11,8 @@ import scipy.stats
 
 from mountid.diagnosis import fitting
 from mountid.diagnosis.campaign import parse
+from mountid.diagnosis.candidate_model import KEPT_POINTS, CandidateModel
+from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import EFFECTS
 from mountid.errors import InputError
 from mountid.validation import blind
@@ -49,6 +51,59 @@ def test_a_fit_stopped_by_the_convergence_rule_is_at_the_minimum_within_its_unce
     for name, value in tight.parameters.items():
         assert abs(fit.parameters[name] - value) <= tight.std[name] / 3, name
     assert np.isfinite(fit.log_evidence)
+
+
+def test_a_model_keeps_its_recent_points_and_a_finished_fit_only_its_last():
+    """CandidateModel.kept: the same key computes once; beyond KEPT_POINTS the least recently used goes; a
+    raised error keeps nothing; forget() leaves the last of each kind."""
+    model = CandidateModel(parse(blind.make_case(1, "none")[0]), None)
+    calls = []
+
+    def compute(key):
+        calls.append(key)
+        return key * 2
+
+    for key in range(KEPT_POINTS):
+        assert model.kept("test", key, lambda k=key: compute(k)) == 2 * key
+    assert model.kept("test", 0, lambda: compute(0)) == 0  # kept, and now the most recently used
+    model.kept("test", KEPT_POINTS, lambda: compute(KEPT_POINTS))  # pushes out the least recently used: 1
+    model.kept("test", 0, lambda: compute(0))
+    model.kept("test", 1, lambda: compute(1))
+    assert calls == [*range(KEPT_POINTS), KEPT_POINTS, 1]
+
+    def fails():
+        raise ValueError("no point")
+
+    with pytest.raises(ValueError):
+        model.kept("test", "bad", fails)
+    assert model.kept("test", "bad", lambda: "computed") == "computed"
+    model.forget()
+    calls.clear()
+    model.kept("test", "bad", lambda: compute(3))  # the last kept
+    model.kept("test", 0, lambda: compute(0))
+    assert calls == [0]
+
+
+def test_a_kept_jacobian_belongs_to_the_data_it_was_taken_for():
+    """The residuals' Jacobian a model keeps is keyed by the point and the data rows: the same model on data
+    with other uncertainties gets its own (the uncached jacobian's, to the bit), and a repeat gets the same."""
+    description = blind.make_case(2, "cog_height", kind="shapes")[0]
+    campaign = parse(description)
+    model = CandidateModel(campaign, EFFECTS["cog_height"])
+    theta = model.start()[0]
+    data = fitting.Data(campaign, model.length)
+    for mode in description["modes"].values():
+        mode["uncertainty"] *= 2
+    wider = fitting.Data(parse(description), model.length)
+    _, jac = fitting._residual_function(model, data, None)
+    _, jac_wider = fitting._residual_function(model, wider, None)
+    first = jac(theta)
+    assert np.array_equal(jac(theta), first)
+    other = jac_wider(theta)
+    n = len(data.labels)
+    assert np.array_equal(other[:n], first[:n] / 2)  # the frequency rows, weighted by the doubled sigma
+    model.forget()
+    assert np.array_equal(jacobian(model, wider, theta), other[: wider.n_rows])
 
 
 def test_an_effect_that_acts_at_one_isolator_needs_to_be_told_which():

@@ -7,7 +7,9 @@ from __future__ import annotations
 import itertools
 import math
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import scipy.optimize
@@ -151,7 +153,7 @@ class CandidateModel:
     ) -> None:
         self.campaign = campaign
         self.effect = effect
-        self._last: tuple[tuple, Evaluation] | None = None
+        self._kept: dict[str, dict] = {}
         self.strategy = strategy(effect)
         names = self.strategy.variants(campaign)
         if (variant is None) != (not names) or (variant is not None and not 0 <= variant < len(names)):
@@ -349,14 +351,28 @@ class CandidateModel:
 
     # -- the model -------------------------------------------------------------------------------------
     def evaluate(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Evaluation:
-        """Every intermediate of :meth:`predict` (the analytic Jacobian of a fit differentiates them). The last
-        evaluation is kept: a least-squares step asks for the residuals and then the Jacobian at one point."""
+        """Every intermediate of :meth:`predict` (the analytic Jacobian of a fit differentiates them), kept
+        (:meth:`kept`): a least-squares step asks for the residuals and then the Jacobian at one point."""
         key = (np.asarray(theta, dtype=float).tobytes(), labels)
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        out = self._evaluate(theta, labels)
-        self._last = (key, out)
+        return self.kept("evaluation", key, lambda: self._evaluate(theta, labels))
+
+    def kept(self, kind: str, key: object, compute: Callable[[], _T]) -> _T:
+        """``compute()``, or what it gave for the same ``kind`` and ``key`` (the parameter vector's bytes: -0.0 is
+        not 0.0) among the last KEPT_POINTS of that kind. Nothing is kept where ``compute`` raises."""
+        store = self._kept.setdefault(kind, {})
+        out = store.pop(key, _MISSING)
+        if out is _MISSING:
+            out = compute()
+            if len(store) >= KEPT_POINTS:
+                del store[next(iter(store))]  # the least recently used
+        store[key] = out  # last in the order of use
         return out
+
+    def forget(self) -> None:
+        """Drop what :meth:`kept` keeps but the last of each kind (a finished fit's model lives on in its report;
+        the last is the fit's own point)."""
+        for kind, store in self._kept.items():
+            self._kept[kind] = dict([store.popitem()]) if store else store
 
     def _evaluate(self, theta: np.ndarray, labels: tuple[str, ...] | None) -> Evaluation:
         values = {**self.known, **self.physical(theta)}
@@ -416,6 +432,18 @@ class CandidateModel:
         support = np.linalg.norm(on_support @ modes[6:12], axis=1).max(axis=0)
         return support / np.where(body > 0, body, np.inf)
 
+
+KEPT_POINTS = 32
+"""Evaluations (and Jacobians: fitting) a candidate model keeps, the most recently used of each kind. Besides the
+residuals and the Jacobian of one step, a fit asks again where another ended or was screened: a carried-on or
+released fit starts at the best fit's end, a start picked by its one-step promise (fitting.promises) is fitted
+from there, and a pair's screened starts may repeat (genset8: 87 evaluations and 65 Jacobians of about 1400
+per diagnosis were repeats on their model; 10 and 9 are left with 32 kept). A finished fit keeps one of each
+(:meth:`forget`)."""
+
+_MISSING = object()
+
+_T = TypeVar("_T")
 
 UNKNOWN_RANGE = 1e4
 """How far the fit may take an unknown from its nominal value (a factor either way): far beyond any machine

@@ -175,6 +175,16 @@ class Data:
             [damping_std(campaign.modes[lab]) for lab in self.damping_labels],
             dtype=float,
         )
+        self.signature = (
+            self.labels,
+            self.shape_labels,
+            self.damping_labels,
+            b"".join(
+                a.tobytes()
+                for a in (self.omega, self.sigma, self.shape_matrix, self.shape_sigma, self.zeta, self.zeta_sigma)
+            ),
+        )
+        """Everything the rows depend on: two Data alike give the same Jacobian (CandidateModel.kept)."""
         self.n = len(self.labels) + 5 * len(self.shape_labels) + len(self.damping_labels)
         """Data count: one per frequency, five per shape (six components less the free scale), one per damping
         ratio."""
@@ -367,7 +377,8 @@ def _residual_function(
         """Analytic (mountid.diagnosis.jacobian); forward differences for the columns where it is undefined
         (parameters that split exactly equal twins)."""
         try:
-            j = jacobian(model, data, theta)
+            # every row of the data, whichever rows this fit uses
+            j = model.kept("jacobian", (theta.tobytes(), data.signature), lambda: jacobian(model, data, theta))
         except (np.linalg.LinAlgError, ValueError):
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:
@@ -672,6 +683,7 @@ def fit_candidate(
         zeta = pred.damping[data.damping_index]
         damping_gap = {lab: float(z - m) for lab, z, m in zip(data.damping_labels, data.zeta, zeta, strict=True)}
     held_out, variance = _linear_leave_one_out(data, res.fun, jac)
+    model.forget()
     return CandidateFit(
         name,
         where,
