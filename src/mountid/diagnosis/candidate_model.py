@@ -434,7 +434,8 @@ class CandidateModel:
 
 
 KEPT_POINTS = 32
-"""Evaluations (and Jacobians: fitting) a candidate model keeps, the most recently used of each kind. Besides the
+"""Evaluations (and Jacobians: fitting; a channel's layout transform: strategies) a candidate model keeps, the
+most recently used of each kind. Besides the
 residuals and the Jacobian of one step, a fit asks again where another ended or was screened: a carried-on or
 released fit starts at the best fit's end, a start picked by its one-step promise (fitting.promises) is fitted
 from there, and a pair's screened starts may repeat (genset8: 87 evaluations and 65 Jacobians of about 1400

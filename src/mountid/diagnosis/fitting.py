@@ -18,6 +18,7 @@ from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_sp
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect, Pair
 from mountid.identification.statistics import covariance, standard_deviations
+from mountid.machine import read_only
 
 
 @dataclass(frozen=True)
@@ -377,8 +378,10 @@ def _residual_function(
         """Analytic (mountid.diagnosis.jacobian); forward differences for the columns where it is undefined
         (parameters that split exactly equal twins)."""
         try:
-            # every row of the data, whichever rows this fit uses
-            j = model.kept("jacobian", (theta.tobytes(), data.signature), lambda: jacobian(model, data, theta))
+            # every row of the data, whichever rows this fit uses (read-only: it is kept)
+            j = model.kept(
+                "jacobian", (theta.tobytes(), data.signature), lambda: read_only(jacobian(model, data, theta))
+            )
         except (np.linalg.LinAlgError, ValueError):
             return np.zeros((len(fun(theta)), len(theta)))  # the residual is the constant _FAILED here
         if j is None:

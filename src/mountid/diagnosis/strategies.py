@@ -440,20 +440,18 @@ class Channel(Strategy):
 
     def transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """The 6 x 6 map from the body's motion to the estimated shape, and its derivatives by the two
-        parameters, shape (2, 6, 6). The last is kept on the model: a fit asks for it at each point twice, for
-        the shapes and for their derivatives."""
-        key = np.array([values[a] for a in self.parameters]).tobytes()  # bytes: -0.0 is not 0.0 here
-        last = model.cache.get("transform")
-        if last is not None and last[0] == key:
-            return last[1]
+        parameters, shape (2, 6, 6); kept by the model (CandidateModel.kept): a fit asks for it at each point
+        twice, for the shapes and for their derivatives."""
+        key = np.array([values[a] for a in self.parameters]).tobytes()
+        return model.kept("transform", key, lambda: self._transform(model, values))
+
+    def _transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         rows, pinv, *_ = self._layout(model)
         k = model.variant
         row, d_row = self.row(model, values)
         changed = rows.copy()
         changed[k] = row
-        out = pinv @ changed, np.array([np.outer(pinv[:, k], d_row[i]) for i in range(2)])
-        model.cache["transform"] = (key, out)
-        return out
+        return pinv @ changed, np.array([np.outer(pinv[:, k], d_row[i]) for i in range(2)])
 
     def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
         return self.transform(model, values)[0] @ vectors[:6, :]

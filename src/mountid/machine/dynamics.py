@@ -40,7 +40,7 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     kept = _kept_calls()
     out = kept.pop(key, None)
     if out is None:
-        out = _read_only(getattr(module, function)(*args))
+        out = read_only(getattr(module, function)(*args))
         if len(kept) >= CALL_CACHE_SIZE:
             del kept[next(iter(kept))]  # the least recently used
     kept[key] = out  # last in the order of use
@@ -62,10 +62,11 @@ def _kept_calls() -> dict:
     return kept
 
 
-def _read_only(out: Any) -> Any:
-    """``out`` (an array or a tuple of them) with every array made read-only (a kept result is shared)."""
+def read_only(out: Any) -> Any:
+    """``out`` (an array or a tuple of them) with every array made read-only (a kept result is shared); None and
+    other values as they are."""
     if isinstance(out, tuple):
-        return tuple(_read_only(x) for x in out)
+        return tuple(read_only(x) for x in out)
     if isinstance(out, np.ndarray):
         out.setflags(write=False)
     return out
@@ -121,7 +122,7 @@ def _undamped_modes(stiffness: NDArray, mass: NDArray) -> tuple[NDArray[np.float
     )
     if info != 0:
         raise np.linalg.LinAlgError(f"dsygvd failed (info {info}): M not positive definite or no convergence")
-    return _read_only((lam, vec))
+    return read_only((lam, vec))
 
 
 def _kept_last(slot: list, inputs: tuple[NDArray, ...], solve: Callable[[], Any]) -> Any:
@@ -151,7 +152,7 @@ def damped_modes(
     does not oscillate): (M p^2 + B p + C) x = 0. The last result is kept: a fit asks for the poles, then
     their derivatives, at one point (copies are returned)."""
     inputs = tuple(map(np.asarray, (mass, stiffness, damping, lam)))
-    poles, shapes = _kept_last(_LAST_DAMPED, inputs, lambda: _read_only(_damped_modes(mass, stiffness, damping, lam)))
+    poles, shapes = _kept_last(_LAST_DAMPED, inputs, lambda: read_only(_damped_modes(mass, stiffness, damping, lam)))
     return poles.copy(), shapes.copy()
 
 
