@@ -20,7 +20,7 @@ from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect, Pair
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
-from mountid.machine import call, undamped_modes
+from mountid.machine import call, read_only, undamped_modes
 
 DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
@@ -393,7 +393,11 @@ class CandidateModel:
         # that frequency (relative); within a few units the measured shape may be any mix of them
         gap = np.abs(lam[index, None] - lam[None, :]) / (2 * np.abs(lam[index, None]) * self.resolution[rows, None])
         zeta = self.strategy.damping_ratios(self, values, mats, lam) if self.damped else None
-        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, np.exp(-(gap**2)), twins, unit, zeta)
+        # an evaluation is kept (kept()) and shared: its arrays are read-only
+        omega, shapes, index, gap, weight, unit, zeta = read_only(
+            (omega, shapes, index, gap, np.exp(-(gap**2)), unit, zeta)
+        )
+        return Evaluation(values, mats, lam, vec, omega, shapes, index, gap, weight, twins, unit, zeta)
 
     def predict(self, theta: np.ndarray, labels: tuple[str, ...] | None = None) -> Prediction:
         """Frequencies and scaled shapes of the modes ``labels`` (default: the measured ones)."""
