@@ -507,6 +507,22 @@ def test_a_support_whose_free_fit_leaves_its_range_is_refitted_within_it_and_sta
     assert "foundation" in report.tie and not report.confident
 
 
+def test_a_channel_turned_to_the_edge_of_its_range_is_refitted_within_it_and_named():
+    """Blind case (seed 56, kid300, shapes): one channel turned by 19.3 degrees, the tangent of its turn 0.351 where
+    the catalogue's range ends at 0.35. Its free fit (chi^2 31.9 against 150 for the best plausible candidate)
+    lands beyond the range by more than its standard deviation; per channel it used to keep probability 0, and
+    the diagnosis said "not explained" with the truth outside the tie. Held within its range at every channel it
+    fits at about 35, at the same channel, and is named."""
+    data, truth = blind.make_case(56, "sensor_turned", kind="shapes")[:2]
+    campaign = parse(data)
+    report = diagnose_effects(campaign)
+    turned = next(f for f in report.ranked if f.effect == "sensor_turned")
+    assert turned.plausible and "fitted within its plausible ranges" in turned.note
+    assert turned.variant == campaign.sensors[truth.size["channel"]].name
+    assert turned.chi2 < 40 and len(turned.state.variants_by_fit) == len(campaign.sensors)
+    assert report.best.effect == "sensor_turned" and report.best.probability > 0.9
+
+
 def test_an_effect_whose_size_the_data_do_not_determine_is_not_confident():
     """Blind case (seed 237, skid1plane, shapes): a gently hardening isolator, outside the catalogue. A belt fits
     all six modes (chi^2 40 for 32 degrees of freedom, held-out median 2 sigma, probability 1) at 3.7 +- 4.6 kN/m
