@@ -5,6 +5,8 @@ candidate against a central difference of the residuals it differentiates."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -14,10 +16,12 @@ from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import DEGENERATE, CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import EQUAL, _off_span_derivative, _span_factors, jacobian
+from mountid.diagnosis.strategies import turned_axis
 from mountid.effects import EFFECTS
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
 from mountid.runtime import eigen_derivatives, eigenvalue_derivatives
+from mountid.validation.blind_truth import _turned
 from mountid.validation.paper import TABLE_1
 
 
@@ -106,6 +110,29 @@ def test_candidate_jacobian_matches_a_central_difference_of_the_residuals(truth,
         columns.append((fun(theta + step) - fun(theta - step)) / (2 * h))
     numeric = np.column_stack(columns)[: len(analytic)]
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+
+
+@pytest.mark.parametrize(
+    "turn", [(0.0, 0.0), (1e-9, 0.0), (0.004, -0.007), (0.0099, 0.0014), (0.0101, 0.0), (0.3, -0.1), (-0.2, 0.25)]
+)
+def test_a_turned_axis_is_the_blind_truths_rotation_and_its_derivative_a_central_difference(turn):
+    """strategies.turned_axis: the channel's axis turned by the rotation vector ``turn`` across it is the blind
+    harness's Rodrigues rotation by the angle |turn| (so the fitted turn is the angle, in rad), on both sides of
+    SMALL_TURN where its sin(a)/a switches to the series; its derivatives match central differences."""
+    d = np.array([0.36, 0.48, 0.8])
+    e1 = np.cross([0.0, 0.0, 1.0], d)  # as Channel._layout builds it (|d_z| < 0.9)
+    e1 /= np.linalg.norm(e1)
+    across = np.column_stack([e1, np.cross(d, e1)])
+    t = np.array(turn)
+    axis, d_axis = turned_axis(d, across, t)
+    angle = math.hypot(*turn)
+    about = math.atan2(t[0], -t[1])  # the harness turns d toward (sin(about), -cos(about)) in (e1, e2)
+    assert np.allclose(axis, _turned(d, angle, about), rtol=0, atol=1e-15)
+    h = 1e-6
+    numeric = [
+        (turned_axis(d, across, t + h * e)[0] - turned_axis(d, across, t - h * e)[0]) / (2 * h) for e in np.eye(2)
+    ]
+    assert np.allclose(d_axis, numeric, rtol=0, atol=1e-9)
 
 
 def test_turned_channel_jacobian_matches_a_central_difference():

@@ -308,7 +308,7 @@ CATALOGUE: tuple[Effect, ...] = (
                 -0.35,
                 0.35,
                 0.0,
-                "turn of the sensor's axis about the first axis across it",
+                "turn of the sensor's axis toward the first axis across it",
                 False,
             ),
             _p(
@@ -318,7 +318,7 @@ CATALOGUE: tuple[Effect, ...] = (
                 -0.35,
                 0.35,
                 0.0,
-                "turn of the sensor's axis about the second axis across it",
+                "turn of the sensor's axis toward the second axis across it",
                 False,
             ),
         ),

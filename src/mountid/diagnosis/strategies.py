@@ -392,9 +392,9 @@ def _dense(x: np.ndarray | None, n: int) -> np.ndarray:
 
 class Channel(Strategy):
     """One channel of the layout the shapes were estimated from (the campaign's sensors) reads along its axis
-    turned by turn_1 and turn_2 [rad] about two axes across it: the shapes are the least-squares estimate
-    P^+ P' q from the layout's readings, P the channels' rows d^T du/dq (the generated point_jacobian), P' with
-    the turned channel's row."""
+    turned by the rotation vector (turn_1, turn_2) [rad] across it (turned_axis): the shapes are the least-squares
+    estimate P^+ P' q from the layout's readings, P the channels' rows d^T du/dq (the generated point_jacobian),
+    P' with the turned channel's row."""
 
     parameters: tuple[str, str] = ("turn_1", "turn_2")
     what = "a turned sensor"
@@ -432,11 +432,8 @@ class Channel(Strategy):
     def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """The chosen channel's row (6) and its derivatives by the two parameters (2, 6)."""
         _, _, jac, d, across = self._layout(model)
-        turn = np.array([values["turn_1"], values["turn_2"]])
-        norm = math.sqrt(1.0 + turn @ turn)
-        axis = (d + across @ turn) / norm
-        d_axis = [across[:, i] / norm - axis * turn[i] / norm**2 for i in range(2)]
-        return axis @ jac, np.array([a @ jac for a in d_axis])
+        axis, d_axis = turned_axis(d, across, np.array([values["turn_1"], values["turn_2"]]))
+        return axis @ jac, d_axis @ jac
 
     def transform(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """The 6 x 6 map from the body's motion to the estimated shape, and its derivatives by the two
@@ -520,6 +517,29 @@ def stiffened_frequencies(lam: np.ndarray, beta: float, corner: float) -> np.nda
     root = np.sqrt(b * b + 4 * lam * c)
     y = np.where(b > 0, 2 * lam * c / (b + root), (root - b) / 2)
     return np.sqrt(y)
+
+
+SMALL_TURN = 1e-2
+"""Below this angle [rad] turned_axis takes sin(a)/a and its derivative from their series (to a^4: the first term
+left out is below 1e-16 of the sum), where the quotients lose digits."""
+
+
+def turned_axis(d: np.ndarray, across: np.ndarray, turn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The unit axis ``d`` (3) turned by the rotation vector ``turn`` [rad] (2) across it: by the angle a = |turn|
+    toward across @ turn (``across``: two orthonormal axes across d, 3 x 2), cos(a) d + sin(a)/a across @ turn;
+    and its derivatives by the two components (2, 3)."""
+    angle = math.hypot(turn[0], turn[1])
+    if angle < SMALL_TURN:
+        a2 = angle * angle
+        sinc = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
+        d_sinc = -1.0 / 3.0 + a2 / 30.0 - a2 * a2 / 840.0  # (d sinc / da) / a
+    else:
+        sinc = math.sin(angle) / angle
+        d_sinc = (angle * math.cos(angle) - math.sin(angle)) / angle**3
+    w = across @ turn
+    axis = math.cos(angle) * d + sinc * w
+    d_axis = np.array([sinc * (across[:, i] - turn[i] * d) + d_sinc * turn[i] * w for i in range(2)])
+    return axis, d_axis
 
 
 def sensor_transform(mod: GeneratedModule, yaw: float, dz: float) -> np.ndarray:

@@ -15,7 +15,7 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``sensor_error``: four triaxial sensors in a measurement frame turned in yaw against the machine's axes
   and placed off in height, the shapes recovered by least squares with the assumed geometry;
 - ``sensor_turned``: one of those twelve channels turned on its mount by 3-20 degrees about an axis across
-  it (a rotation, not the catalogue's first-order turn), the shapes recovered with the assumed geometry;
+  it (a rotation: the catalogue's turned_axis by its rotation vector), the shapes recovered with the assumed geometry;
 - ``sensor_misplaced``: one of those twelve channels mounted 10-60 % of the isolators' largest radius off its
   stated point in a random direction (the component along its axis included, which changes nothing), the
   shapes recovered with the assumed geometry;
@@ -659,7 +659,8 @@ def sensor_layout(tm: TruthMachine) -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 def _turned(direction: np.ndarray, angle: float, about: float) -> np.ndarray:
     """A channel's direction turned on its mount by ``angle`` [rad] about an axis across it (at ``about`` [rad]
-    around it): Rodrigues' rotation, not the catalogue's first-order turn."""
+    around it): Rodrigues' rotation (the catalogue's strategies.turned_axis by its rotation vector since 2026-11-28;
+    it was the axis plus the tangents across it, normalised)."""
     helper = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     e1 = np.cross(helper, direction) / np.linalg.norm(np.cross(helper, direction))
     axis = math.cos(about) * e1 + math.sin(about) * np.cross(direction, e1)
