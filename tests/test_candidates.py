@@ -20,6 +20,7 @@ from mountid.diagnosis.candidates import (
     confirmed,
     diagnose_effects,
     explains,
+    fit_all,
     fits_within_uncertainty,
     held_out_shift,
     odds_splits,
@@ -508,11 +509,11 @@ def test_a_support_whose_free_fit_leaves_its_range_is_refitted_within_it_and_sta
 
 
 def test_a_channel_turned_to_the_edge_of_its_range_is_refitted_within_it_and_named():
-    """Blind case (seed 56, kid300, shapes): one channel turned by 19.3 degrees, the tangent of its turn 0.351 where
-    the catalogue's range ends at 0.35. Its free fit (chi^2 31.9 against 150 for the best plausible candidate)
-    lands beyond the range by more than its standard deviation; per channel it used to keep probability 0, and
-    the diagnosis said "not explained" with the truth outside the tie. Held within its range at every channel it
-    fits at about 35, at the same channel, and is named."""
+    """Blind case (seed 56, kid300, shapes): one channel turned by 19.3 degrees toward one axis across it, where
+    the catalogue's range ends at 0.35 rad (20 degrees). Its free fit (chi^2 31.9 against 150 for the best
+    plausible candidate) lands at 22.9 +- 2.2 degrees, beyond the range by more than its standard deviation; per
+    channel it used to keep probability 0, and the diagnosis said "not explained" with the truth outside the tie.
+    Held within its range at every channel it fits at about 34, at the same channel, and is named."""
     data, truth = blind.make_case(56, "sensor_turned", kind="shapes")[:2]
     campaign = parse(data)
     report = diagnose_effects(campaign)
@@ -521,6 +522,11 @@ def test_a_channel_turned_to_the_edge_of_its_range_is_refitted_within_it_and_nam
     assert turned.variant == campaign.sensors[truth.size["channel"]].name
     assert turned.chi2 < 40 and len(turned.state.variants_by_fit) == len(campaign.sensors)
     assert report.best.effect == "sensor_turned" and report.best.probability > 0.9
+    # started from this report (fit_all's warm start: its channel alone, 1/N of the mean), held within the range too
+    _, warm = fit_all(campaign, warm=report)
+    again = next(f for f in warm if f.effect == "sensor_turned")
+    assert again.plausible and again.variant == turned.variant and "fitted within its plausible ranges" in again.note
+    assert again.evidence_offset == pytest.approx(-math.log(len(campaign.sensors)))
 
 
 def test_an_effect_whose_size_the_data_do_not_determine_is_not_confident():

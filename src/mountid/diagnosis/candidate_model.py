@@ -20,7 +20,7 @@ from mountid.diagnosis.strategies import strategy
 from mountid.effects import Effect, Pair
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
-from mountid.machine import call, read_only, undamped_modes
+from mountid.machine import call, read_only, recently_used, undamped_modes
 
 DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
@@ -359,14 +359,7 @@ class CandidateModel:
     def kept(self, kind: str, key: object, compute: Callable[[], _T]) -> _T:
         """``compute()``, or what it gave for the same ``kind`` and ``key`` (the parameter vector's bytes: -0.0 is
         not 0.0) among the last KEPT_POINTS of that kind. Nothing is kept where ``compute`` raises."""
-        store = self._kept.setdefault(kind, {})
-        out = store.pop(key, _MISSING)
-        if out is _MISSING:
-            out = compute()
-            if len(store) >= KEPT_POINTS:
-                del store[next(iter(store))]  # the least recently used
-        store[key] = out  # last in the order of use
-        return out
+        return recently_used(self._kept.setdefault(kind, {}), key, compute, KEPT_POINTS)
 
     def forget(self) -> None:
         """Drop what :meth:`kept` keeps but the last of each kind (a finished fit's model lives on in its report;
@@ -439,14 +432,11 @@ class CandidateModel:
 
 KEPT_POINTS = 32
 """Evaluations (and Jacobians: fitting; a channel's layout transform: strategies) a candidate model keeps, the
-most recently used of each kind. Besides the
-residuals and the Jacobian of one step, a fit asks again where another ended or was screened: a carried-on or
-released fit starts at the best fit's end, a start picked by its one-step promise (fitting.promises) is fitted
-from there, and a pair's screened starts may repeat (genset8: 87 evaluations and 65 Jacobians of about 1400
-per diagnosis were repeats on their model; 10 and 9 are left with 32 kept). A finished fit keeps one of each
-(:meth:`forget`)."""
-
-_MISSING = object()
+most recently used of each kind. Besides the residuals and the Jacobian of one step, a fit asks again where
+another ended or was screened: a carried-on or released fit starts at the best fit's end, a start picked by its
+one-step promise (fitting.promises) is fitted from there, and a pair's screened starts may repeat (genset8: 87
+evaluations and 65 Jacobians of about 1400 per diagnosis were repeats on their model; 10 and 9 are left with 32
+kept). A finished fit keeps one of each (:meth:`forget`)."""
 
 _T = TypeVar("_T")
 

@@ -239,7 +239,7 @@ def fit_all(
             fits.append(_over_variants(variants, settings))
         else:
             fits.append(fit_candidate(campaign, effect, start=before.theta if before else None))
-    return nominal, _within_plausible(campaign, fits)
+    return nominal, _within_plausible(campaign, fits, settings)
 
 
 def _over_variants(variants: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS) -> CandidateFit:
@@ -262,7 +262,9 @@ def _over_variants(variants: list[CandidateFit], settings: DiagnosisSettings = D
     return best
 
 
-def _within_plausible(campaign: Campaign, fits: list[CandidateFit]) -> list[CandidateFit]:
+def _within_plausible(
+    campaign: Campaign, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
+) -> list[CandidateFit]:
     """Each candidate acting once whose free fit left its plausible range (probability 0) while fitting the
     data better than every plausible candidate, refitted with its parameters held within that range: the
     prior is nil outside it, so the evidence belongs to the best fit inside. A stiff heavy slab under genset8
@@ -277,7 +279,7 @@ def _within_plausible(campaign: Campaign, fits: list[CandidateFit]) -> list[Cand
     for f in fits:
         reach = max(bar, noise_level(f.n_data, f.n_parameters))
         if f.applicable and not f.plausible and f.chi2 < reach and f.state is not None:
-            held = _held_within_plausible(campaign, f)
+            held = _held_within_plausible(campaign, f, settings)
             if held.applicable and held.plausible and math.isfinite(held.chi2):
                 note = f"fitted within its plausible ranges (free fit: chi^2 {f.chi2:.3g}, {f.implausible_reason})"
                 f = replace(held, note=f"{held.note}; {note}" if held.note else note)
@@ -285,14 +287,16 @@ def _within_plausible(campaign: Campaign, fits: list[CandidateFit]) -> list[Cand
     return out
 
 
-def _held_within_plausible(campaign: Campaign, f: CandidateFit) -> CandidateFit:
+def _held_within_plausible(
+    campaign: Campaign, f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS
+) -> CandidateFit:
     """The candidate ``f`` refitted with its parameters held within their plausible ranges, from its free fit
     (least squares clips it into the ranges) and from the default starts (a clipped fit may sit in a corner far
     from the plausible minimum); one fitted per isolator (channel) at each of them from its free fit there, its
-    evidence again their mean (_over_variants). A channel turned by 19.3 degrees, the edge of the turned sensor's
-    range, fits at 24 +- 2.6 degrees (kid300, blind seed 56 with shapes: chi^2 31.9 where nothing plausible fits
-    below 150); held to its range it stays in the tie, where the free fit's probability 0 left "not explained"
-    without it."""
+    evidence again their mean (_over_variants). A channel turned by 19.3 degrees toward one axis across it, next
+    to the edge of the turned sensor's range (0.35 rad, 20 degrees), fits at 22.9 +- 2.2 degrees (kid300, blind
+    seed 56 with shapes: chi^2 31.9 where nothing plausible fits below 150); held to its range it is named (chi^2
+    33.5), where the free fit's probability 0 left "not explained" without it."""
     effect = EFFECTS[f.effect]
     model = f.state.model
     if not f.variant:
@@ -308,7 +312,7 @@ def _held_within_plausible(campaign: Campaign, f: CandidateFit) -> CandidateFit:
         fit_candidate(campaign, effect, i, starts=[model.vector(free[name]), *model.start()], within_plausible=True)
         for i, name in enumerate(names)
     ]
-    return _over_variants(variants)
+    return _over_variants(variants, settings)
 
 
 def fit_pairs(

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import struct
 import threading
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.linalg.lapack
@@ -37,13 +37,23 @@ def call(module: GeneratedModule, function: str, values: Mapping[str, float]) ->
     depends = module.DEPENDS.get(function)  # a cached module is generated anew when the templates change
     keyed = args if depends is None else [values[a] for a in depends]
     key = (module, function, struct.pack(f"{len(keyed)}d", *keyed))  # bytes: -0.0 is not 0.0 here
-    kept = _kept_calls()
-    out = kept.pop(key, None)
-    if out is None:
-        out = read_only(getattr(module, function)(*args))
-        if len(kept) >= CALL_CACHE_SIZE:
-            del kept[next(iter(kept))]  # the least recently used
-    kept[key] = out  # last in the order of use
+    return recently_used(_kept_calls(), key, lambda: read_only(getattr(module, function)(*args)), CALL_CACHE_SIZE)
+
+
+_T = TypeVar("_T")
+
+_MISSING = object()
+
+
+def recently_used(store: dict, key: Hashable, compute: Callable[[], _T], size: int) -> _T:
+    """``compute()``, or what it gave for ``key`` while ``store`` keeps it: the ``size`` most recently used
+    results (a dict in the order of use). Nothing is kept where ``compute`` raises."""
+    out = store.pop(key, _MISSING)
+    if out is _MISSING:
+        out = compute()
+        if len(store) >= size:
+            del store[next(iter(store))]  # the least recently used
+    store[key] = out  # last in the order of use
     return out
 
 
