@@ -269,3 +269,18 @@ def test_a_pair_far_down_the_promise_is_fitted_when_its_short_fit_beats_every_fi
     assert report.confident and best.effect == "cog_height+isolator_scatter" and best.variant == "corner[-x+y]"
     assert best.parameters["scatter_axial"] == pytest.approx(truth.size["s_v"], abs=3 * best.std["scatter_axial"])
     assert best.parameters["dz_com"] == pytest.approx(truth.size["dz"], abs=3 * best.std["dz_com"])
+
+
+def test_a_pair_that_fits_only_beyond_its_plausible_range_sets_no_bar_for_the_pairs_next_in_promise():
+    """Blind case (seed 6, screen6, frequencies and damping ratios): a support of 2645 kg on 72 MN/m. The five most
+    promising (pair, isolator) combinations are two pairs with a gravity preload, both fitted beyond its plausible
+    range (probability 0). The better of them (chi^2 682 + 8 ln 12) was the bar the pairs next in promise had to
+    pass after their short fit: none did, and the tempered variances then ranked a scattered isolator first. The
+    bar is now the best plausible fitted pair (none here): the pairs next in promise are fitted (the isolators
+    stiff in rotation with the centre of mass higher, chi^2 326, plausible), the variances are scaled by that
+    smaller misfit and the support is ranked first, not confidently."""
+    data, _ = blind.make_case(6, "foundation", kind="damping", machine="screen6")
+    report = diagnose_effects(parse(data))
+    fitted = {f.effect for f in report.ranked}
+    assert "cog_height+rotational_stiffness" in fitted
+    assert report.best.effect == "foundation" and not report.confident
