@@ -382,11 +382,11 @@ def fit_pairs(
     rest = [name for name in by_pair if name not in top]
     # the next settings.pair_screened go on by a short fit from their most promising start at their most
     # promising isolator, and each that reaches less (BIC) than the best plausible fitted pair is fitted from
-    # there (one that fits only at values no machine has sets no bar: a gravity preload beyond its range with an
-    # offset centre of mass at chi^2 3.0 kept a higher centre of mass with a drive belt, 5.4 on a support frame's
-    # noise-free data, from being fitted). Also where a fitted pair fits within the uncertainty: a better one may
-    # lie further down the promise (a scattered isolator with the centre of mass lower, screen6 seed 1038 with
-    # shapes: promised 58.5, sixth; 23 after the short fit, 21.8 fitted, where the best fitted pair reached 38)
+    # there (one that fits only at values no machine has sets no bar: on screen6 seed 6 with damping ratios two
+    # gravity-preload pairs beyond range barred every further pair, and a support was ranked behind a scattered
+    # isolator). Also where a fitted pair fits within the uncertainty: a better one may lie further down the
+    # promise (a scattered isolator with the centre of mass lower, screen6 seed 1038 with shapes: promised 58.5,
+    # sixth; 23 after the short fit, 21.8 fitted, where the best fitted pair reached 38)
     if out:
         bar = min((f.chi2 + f.n_parameters * log_n for f in out if f.plausible), default=math.inf)
         for name in rest[: settings.pair_screened]:
