@@ -104,7 +104,7 @@ class Strategy:
         out: Derivatives = {}
         for q, own in self.derivatives(model, values).items():
             base = nominal.get(q)
-            out[q] = tuple(_dense(x, 6) - _dense(None if base is None else base[i], 6) for i, x in enumerate(own))
+            out[q] = tuple(_difference(x, None if base is None else base[i], 6) for i, x in enumerate(own))
         return out
 
     # -- derivatives (the analytic Jacobian of a fit) ---------------------------------------------------
@@ -360,11 +360,10 @@ class Composite(Strategy):
         out: Derivatives = {}
         for q in {*own, *changes}:
             mats = own.get(q, nominal.get(q))
-            total = [_dense(None if mats is None else mats[i], n) for i in range(3)]
-            for i, x in enumerate(changes.get(q, ())):
-                k = x.shape[0]
-                total[i][:k, :k] += x
-            out[q] = tuple(total)
+            change = changes.get(q, ())
+            out[q] = tuple(
+                _sum(None if mats is None else mats[i], change[i] if i < len(change) else None, n) for i in range(3)
+            )
         return out
 
     def frequency_derivatives(
@@ -378,15 +377,41 @@ class Composite(Strategy):
 
 def _size(d: Derivatives) -> int:
     """The number of coordinates of a strategy's derivative matrices (0 when it gives none)."""
-    return max((np.shape(x)[0] for mats in d.values() for x in mats if x is not None), default=0)
+    return max((x.shape[0] for mats in d.values() for x in mats if x is not None), default=0)
 
 
 def _dense(x: np.ndarray | None, n: int) -> np.ndarray:
     """``x`` as an n x n array (a copy), zeros for None, a smaller matrix in the leading block."""
+    if x is not None and np.shape(x) == (n, n):
+        return np.array(x, dtype=float)
     out = np.zeros((n, n))
     if x is not None:
         k = np.shape(x)[0]
         out[:k, :k] = x
+    return out
+
+
+def _difference(x: np.ndarray | None, base: np.ndarray | None, n: int) -> np.ndarray:
+    """``_dense(x, n) - _dense(base, n)``, without the zero matrices where both are n x n or ``base`` is None (the
+    same subtractions: x - 0 is x to the bit, -0.0 included)."""
+    if x is not None and np.shape(x) == (n, n):
+        if base is None:
+            return np.array(x, dtype=float)
+        if np.shape(base) == (n, n):
+            return x - base
+    return _dense(x, n) - _dense(base, n)
+
+
+def _sum(x: np.ndarray | None, change: np.ndarray | None, n: int) -> np.ndarray:
+    """``_dense(x, n)`` with ``change`` (k x k, k <= n) added to its leading block: x + change in one operation
+    where both are n x n (the same sums)."""
+    if change is None:
+        return _dense(x, n)
+    if x is not None and np.shape(x) == (n, n) and change.shape == (n, n):
+        return x + change
+    out = _dense(x, n)
+    k = change.shape[0]
+    out[:k, :k] += change
     return out
 
 
