@@ -187,3 +187,23 @@ def test_two_channels_misread_at_once_reduce_to_one_when_the_other_reads_true():
     assert np.array_equal(read("sensor_turned+sensor_misplaced", {**turn, **offset, "angle": 0.0}), misplaced)
     combined = read("sensor_turned+sensor_misplaced", {**turn, **offset})
     assert not np.allclose(combined, one, atol=1e-6) and not np.allclose(combined, misplaced, atol=1e-6)
+
+
+def test_a_reversed_channel_reads_as_one_turned_by_pi():
+    """Outside the catalogue: one channel of reversed polarity reads along -d, as a turn by pi about any axis
+    across it would (to rounding); its shapes differ from the true ones, and every other channel reads true."""
+    truth = blind_truth.TruthMachine("kid300")
+    machine = Machine.resolve("kid300")
+    _, shapes = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, "kid300"))
+
+    def read(effect: str, size: dict[str, float]) -> np.ndarray:
+        return blind_truth._misread(truth, shapes, blind_truth.Truth(effect, size, {}, "kid300"))
+
+    reversed_ = read("sensor_reversed", {"channel": 7})
+    assert np.allclose(reversed_, read("sensor_turned", {"channel": 7, "angle": math.pi, "about": 0.4}), atol=1e-12)
+    assert not np.allclose(reversed_, shapes, atol=1e-3)
+    layout = blind_truth.sensor_layout(truth)
+    rows = np.array([d @ blind_truth._jac(r) for _, r, d in layout])
+    readings = rows @ shapes
+    readings[7] *= -1
+    assert np.allclose(reversed_, np.linalg.lstsq(rows, readings, rcond=None)[0], atol=1e-12)

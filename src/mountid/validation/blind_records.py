@@ -20,11 +20,19 @@ from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_truth import TruthMachine, represented_by, sensor_layout, truth_matrices
 
+_NOT_IN_RECORDS = frozenset(
+    (
+        "sensor_error",
+        "sensor_turned",
+        "sensor_misplaced",
+        "sensor_reversed",
+        "frequency_dependent",
+        "nonlinear_isolator",
+    )
+)
+
 RECORD_TRUTHS: tuple[str, ...] = tuple(
-    name
-    for name in blind.EFFECT_NAMES
-    if not {"sensor_error", "sensor_turned", "sensor_misplaced", "frequency_dependent", "nonlinear_isolator"}
-    & set(name.split("+"))
+    name for name in blind.EFFECT_NAMES if not _NOT_IN_RECORDS & set(name.split("+"))
 )
 """The truths a record carries as they are: M, C and B. Left out: the sensor truths (the harness misreads its
 modal data, not a record's channels), the frequency-dependent rubber and the hardening isolator (frequencies the

@@ -48,7 +48,10 @@ explained" or in a tie, never confident):
 - ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
   ``sensor_turned``), where the catalogue turns one;
 - ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
-  the catalogue does not compose (both change how the same reading is taken).
+  the catalogue does not compose (both change how the same reading is taken);
+- ``sensor_reversed``: one of the twelve channels reads with its polarity reversed (a sensor mounted upside down
+  or a cable wired the wrong way round: it reads along -d), the shapes recovered with the assumed geometry. The
+  catalogue turns a channel by 0.35 rad per component at most; a reversal is a turn by pi.
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
@@ -85,6 +88,7 @@ REPRESENTED_BY: dict[str, str | None] = {
     "support_frame+isolator_scatter": "isolator_scatter+foundation",
     "sensor_turned+sensor_turned": None,
     "sensor_turned+sensor_misplaced": None,
+    "sensor_reversed": None,
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
@@ -461,6 +465,8 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
             "angle": logu(0.05, 0.35),
             "about": rng.uniform(0, 2 * math.pi),
         }
+    if effect == "sensor_reversed":
+        return {"channel": int(rng.integers(len(sensor_layout(tm))))}
     if effect == "sensor_misplaced":
         theta, azimuth = math.acos(rng.uniform(-1.0, 1.0)), rng.uniform(0, 2 * math.pi)
         distance = logu(0.1, 0.6) * tm.radius
@@ -543,7 +549,7 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
         omega = true_poles(m, c, b, modes).imag
     elif "sensor_error" in parts:
         shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
-    elif parts & {"sensor_turned", "sensor_misplaced"}:
+    elif parts & {"sensor_turned", "sensor_misplaced", "sensor_reversed"}:
         shapes = _misread(tm, shapes, t)
     elif "nonlinear_isolator" in parts:
         omega, shapes = _hardened(tm, t, m, shapes)
@@ -672,7 +678,7 @@ def _misread(tm: TruthMachine, shapes: np.ndarray, t: Truth) -> np.ndarray:
     truth's channels read otherwise: ``sensor_turned`` one channel turned on its mount (a second one with the
     sizes ending in '_2' for two channels turned), ``sensor_misplaced`` one channel's sensor sitting offset
     (x, y, z) [m] off its stated point (reading the motion u = t + w x r of the point where it sits), both at
-    once on one channel."""
+    once on one channel; ``sensor_reversed`` one channel reading along -d (reversed polarity)."""
     layout = sensor_layout(tm)
     model = np.array([direction @ _jac(r) for _, r, direction in layout])
     read = model.copy()
@@ -681,6 +687,8 @@ def _misread(tm: TruthMachine, shapes: np.ndarray, t: Truth) -> np.ndarray:
     for suffix in ("", "_2")[: parts.count("sensor_turned")]:
         channel = int(size["channel" + suffix])
         turned[channel] = _turned(layout[channel][2], size["angle" + suffix], size["about" + suffix])
+    if "sensor_reversed" in parts:
+        turned[int(size["channel"])] = -layout[int(size["channel"])][2]
     offset = {int(size["channel"]): np.array([size["x"], size["y"], size["z"]])} if "sensor_misplaced" in parts else {}
     for channel in sorted(turned.keys() | offset.keys()):
         direction = turned.get(channel, layout[channel][2])
