@@ -6,7 +6,7 @@
 - records (benchmarks/experiment.py): simulation and file-to-stiffness times, accuracy per mode against
   sdypy-EMA's LSCF on the same records
 - gap diagnosis (benchmarks/diagnosis.py): one diagnosis with every candidate (target < 1 s) and the blind
-  validation, 66 cases per shipped machine and campaign kind (shapes, frequencies, damping ratios; more with
+  validation, 69 cases per shipped machine and campaign kind (shapes, frequencies, damping ratios; more with
   ``--blind-cases N``, ``make bench BLIND_CASES=N``), scored per machine and kind against the issue's targets,
   through dask (1000 cases < 10 minutes on 2 cores)
 """
@@ -136,4 +136,4 @@ if __name__ == "__main__":
     experiment.speed()
     experiment.accuracy()
     diagnosis.speed()
-    diagnosis.validation(int(sys.argv[sys.argv.index("--blind-cases") + 1]) if "--blind-cases" in sys.argv else 66)
+    diagnosis.validation(int(sys.argv[sys.argv.index("--blind-cases") + 1]) if "--blind-cases" in sys.argv else 69)

@@ -99,7 +99,7 @@ def _share(value: float, width: int = 6) -> str:
 
 
 def validation(
-    n: int = 66,
+    n: int = 69,
     workers: int = 2,
     kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
     machines: tuple[str, ...] = blind.MACHINES,
@@ -107,7 +107,7 @@ def validation(
     figure: str | Path | None = FIGURE,
     nominal: str = "description",
 ) -> list[blind.CaseResult]:
-    """n blind cases per machine and campaign kind (three of each truth at n = 66), seeds from ``first_seed``,
+    """n blind cases per machine and campaign kind (three of each truth at n = 69), seeds from ``first_seed``,
     through dask: one line per machine and kind, then per kind over every machine the full score (reliability
     table, confusion matrix); the reliability diagram per kind written to ``figure`` (None: not drawn).
     ``nominal``: where the fits start (blind.NOMINAL_SOURCES)."""
@@ -154,7 +154,7 @@ if __name__ == "__main__":
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.diagnosis", description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", type=int, default=66, help="blind cases per machine and campaign kind")
+    parser.add_argument("--cases", type=int, default=69, help="blind cases per machine and campaign kind")
     parser.add_argument(
         "--first-seed",
         type=int,
