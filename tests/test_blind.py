@@ -174,7 +174,6 @@ def test_every_truth_names_the_catalogue_effect_that_represents_it():
         "resilient_attachment",
         "sensor_turned+sensor_turned",
         "sensor_turned+sensor_misplaced",
-        "sensor_reversed",
     }
     assert blind_truth.represented_by("isolator_scatter+cog_height") == "cog_height+isolator_scatter"
     assert blind_truth.represented_by("support_frame+isolator_scatter") == "isolator_scatter+foundation"

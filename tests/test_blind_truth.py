@@ -190,8 +190,8 @@ def test_two_channels_misread_at_once_reduce_to_one_when_the_other_reads_true():
 
 
 def test_a_reversed_channel_reads_as_one_turned_by_pi():
-    """Outside the catalogue: one channel of reversed polarity reads along -d, as a turn by pi about any axis
-    across it would (to rounding); its shapes differ from the true ones, and every other channel reads true."""
+    """One channel of reversed polarity reads along -d, as a turn by pi about any axis across it would (to
+    rounding); its shapes differ from the true ones, and every other channel reads true."""
     truth = blind_truth.TruthMachine("kid300")
     machine = Machine.resolve("kid300")
     _, shapes = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, "kid300"))

@@ -39,7 +39,7 @@ from mountid.diagnosis.fitting import (
 )
 from mountid.diagnosis.gap import isolator_forces
 from mountid.diagnosis.settings import DIAGNOSIS
-from mountid.effects import EFFECTS, Pair
+from mountid.effects import CATALOGUE, EFFECTS, Pair
 from mountid.errors import InputError
 from mountid.machine import Machine, call
 from mountid.validation import blind, blind_truth
@@ -721,3 +721,24 @@ def test_records_that_disagree_allow_no_confident_verdict():
     assert report.kind == "confident" and report.best.effect == "com_offset"
     disagreeing = diagnose_effects(replace(campaign, records_disagree=("x",)))
     assert disagreeing.kind == "tie" and not disagreeing.confident and disagreeing.best.effect == "com_offset"
+
+
+def test_a_reversed_channel_is_named_at_its_channel_or_its_mirror_image():
+    """A channel of reversed polarity (the blind truth sensor_reversed, kid300 seeds 0 and 2: S3_x and S1_y): the
+    reversed channel is named confidently, fitted at the two channels whose reversal one Gauss-Newton step from
+    the nominal fit promises best, its evidence the mean over all twelve. S1_y's reversal distorts the shapes as
+    that of its mirror image about the x-z plane, S3_y, does: the other is named as good. Without the effect the
+    verdict is "not explained" (a turned channel turns by 0.35 rad at most, a reversal is a turn by pi)."""
+    for seed, channel, mirror in ((0, "S3_x", None), (2, "S1_y", "S3_y")):
+        data, truth = blind.make_case(seed, "sensor_reversed")
+        c = parse(data)
+        assert c.sensors[int(truth.size["channel"])].name == channel
+        report = diagnose_effects(c)
+        best = report.ranked[0]
+        assert report.confident and best.effect == "sensor_reversed"
+        assert best.variant in {channel, mirror}
+        assert len(best.state.variants_by_fit) == 2 and best.evidence_offset == pytest.approx(-math.log(12))
+        if mirror:
+            assert "as good" in best.note and {channel, mirror} == set(best.state.variants_by_fit)
+    others = tuple(e for e in CATALOGUE if e.name != "sensor_reversed")
+    assert diagnose_effects(parse(blind.make_case(0, "sensor_reversed")[0]), others).kind == "not explained"

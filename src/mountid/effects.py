@@ -21,6 +21,8 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``placement``: one channel of that layout sits off its stated point across its direction; its row is that of
   the point where it sits (the generated ``point_jacobian`` is affine in the point, so the row changes linearly
   with the offset and only in the rotations).
+- ``reversal``: one channel of that layout reads with its polarity reversed (along -d); its row is negated. No
+  parameter: the fit is the unknowns' alone, at the channels whose reversal promises most from the nominal fit.
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -37,7 +39,16 @@ STANDARD_GRAVITY = 9.80665
 """g [m/s^2] (the gravity_preload potential is derived with this value)."""
 
 
-EFFECT_KINDS: tuple[str, ...] = ("generated", "isolator", "frequency", "damping", "sensor", "channel", "placement")
+EFFECT_KINDS: tuple[str, ...] = (
+    "generated",
+    "isolator",
+    "frequency",
+    "damping",
+    "sensor",
+    "channel",
+    "placement",
+    "reversal",
+)
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
 
@@ -354,6 +365,14 @@ CATALOGUE: tuple[Effect, ...] = (
         "one channel reads the motion of another point: the shapes estimated from the layout are distorted in the "
         "rotations that channel carries (translations read true); frequencies exactly unchanged",
     ),
+    Effect(
+        "sensor_reversed",
+        "reversal",
+        "one channel's sensor reads with reversed polarity (mounted upside down, or its cable wired the wrong way)",
+        (),
+        "one channel reads the opposite of the motion along its axis: the shapes estimated from the layout are "
+        "distorted along that channel's column of the layout's pseudo-inverse; frequencies exactly unchanged",
+    ),
 )
 """Every candidate effect, in the order reports list them."""
 
@@ -373,6 +392,10 @@ PAIR_EXCLUSIONS: dict[frozenset[str], str] = {
     frozenset({"sensor_error", "sensor_misplaced"}): "both change how the shapes are read",
     frozenset({"sensor_turned", "sensor_misplaced"}): "both change how the shapes are read",
     frozenset({"isolator_scatter", "sensor_misplaced"}): "each is fitted per isolator or per channel, not both",
+    frozenset({"sensor_error", "sensor_reversed"}): "both change how the shapes are read",
+    frozenset({"sensor_turned", "sensor_reversed"}): "both change how the shapes are read",
+    frozenset({"sensor_misplaced", "sensor_reversed"}): "both change how the shapes are read",
+    frozenset({"isolator_scatter", "sensor_reversed"}): "each is fitted per isolator or per channel, not both",
 }
 """Pairs of effects that do not compose by adding their changes of M, C and B (the changes act on the same
 energy term, or one effect's energy is written for isolators on the ground), with the reason. The damping

@@ -42,12 +42,14 @@ from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.fitting import (
     OTHER_SOLUTION_SIGMA,
     CandidateFit,
+    Data,
     exact_leave_one_out,
     fit_candidate,
     held_out_z,
     noise_level,
     other_solutions,
     predictive_std,
+    promised_chi2,
     promises,
     short_fit,
     tempered_log_evidence,
@@ -226,6 +228,9 @@ def fit_all(
                 fit = fit_candidate(campaign, effect, names.index(before.variant), before.theta)
                 fits.append(replace(fit, log_evidence=fit.log_evidence + offset, evidence_offset=offset))
                 continue
+            if 0 < strategy(effect).screened_variants < len(names):
+                fits.append(_screened_variants(campaign, effect, nominal, len(names), settings))
+                continue
             # the first variant from the default starts; the others (often mirror images) from it or from its
             # signed parameters through zero, whichever promises more (a stiffer isolator's fit does not reach a
             # softer one elsewhere)
@@ -242,12 +247,32 @@ def fit_all(
     return nominal, _within_plausible(campaign, fits, settings)
 
 
-def _over_variants(variants: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS) -> CandidateFit:
-    """One candidate whose isolator (channel) is unknown from its fit at each of them: the best fit, with the
-    mean of their evidences (the prior 1/N each) and the variants from the best fitting to the worst; the others
-    within settings.tie in chi^2 named in its note."""
+def _screened_variants(
+    campaign: Campaign, effect: Effect, nominal: CandidateFit, count: int, settings: DiagnosisSettings = DIAGNOSIS
+) -> CandidateFit:
+    """One candidate fitted at the strategy's screened_variants of its ``count`` variants whose one Gauss-Newton
+    step from the ``nominal`` fit promises the smallest chi^2 (a reversed channel: the unknowns alone, from where
+    the nominal model fits), from there; its evidence the sum of theirs over ``count`` (the prior 1/N each; a
+    variant not fitted adds nothing, which understates the mean by what those whose promise is far above the
+    fitted ones hold)."""
+    first = CandidateModel(campaign, effect, 0)
+    if strategy(effect).inapplicable(first, bool(Data(campaign, first.length).shape_labels)):
+        return fit_candidate(campaign, effect, 0)
+    models = [first, *(CandidateModel(campaign, effect, i) for i in range(1, count))]
+    promised = [promised_chi2(campaign, model, [nominal.theta]) for model in models]
+    best = sorted(range(count), key=lambda i: (promised[i], i))[: strategy(effect).screened_variants]
+    variants = [fit_candidate(campaign, effect, i, start=nominal.theta) for i in best]
+    return _over_variants(variants, settings, count)
+
+
+def _over_variants(
+    variants: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS, count: int | None = None
+) -> CandidateFit:
+    """One candidate whose isolator (channel) is unknown from its fit at each of them (``count``: of that many,
+    the others not fitted): the best fit, with the mean of their evidences (the prior 1/N each) and the variants
+    from the best fitting to the worst; the others within settings.tie in chi^2 named in its note."""
     variants = sorted(variants, key=lambda f: f.chi2)
-    offset = -math.log(len(variants))
+    offset = -math.log(count or len(variants))
     evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) + offset)
     state = replace(
         variants[0].state,

@@ -35,6 +35,10 @@ class Strategy:
     """Whether a fit whose starts all stop above noise level goes on from the most promising of starts spread
     over the plausible ranges (CandidateModel.spread)."""
 
+    screened_variants: int = 0
+    """For an effect fitted per variant: how many variants are fitted, those whose one Gauss-Newton step from the
+    nominal fit promises most (candidates.fit_all); 0: every variant."""
+
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
         """The variants the effect is fitted once each for (the isolators, the channels), the best reported;
         empty for an effect fitted once."""
@@ -473,7 +477,9 @@ class Channel(Strategy):
         row, d_row = self.row(model, values)
         changed = rows.copy()
         changed[k] = row
-        return pinv @ changed, np.array([np.outer(pinv[:, k], d_row[i]) for i in range(2)])
+        size = len(pinv)
+        derivatives = [np.outer(pinv[:, k], d) for d in d_row]
+        return pinv @ changed, np.array(derivatives) if derivatives else np.zeros((0, size, size))
 
     def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
         return self.transform(model, values)[0] @ vectors[:6, :]
@@ -508,6 +514,24 @@ class Placement(Channel):
         return rows[model.variant] + offset @ d_row, d_row
 
 
+class Reversal(Channel):
+    """One channel of the layout reads with its polarity reversed, along -d (a sensor mounted upside down, a
+    cable wired the wrong way round): its row of the layout is negated, and the shapes are the least-squares
+    estimate P^+ P' q. No parameter: the fit is the unknowns' alone. The catalogue's turned sensor turns a
+    channel by 0.35 rad per component at most; a reversal is a turn by pi, which it cannot reach (the blind truth
+    ``sensor_reversed`` ended "not explained" in 36 of 36 cases with shapes before this strategy). Fitted at the
+    SCREENED_CHANNELS channels whose reversal promises most from the nominal fit: a channel's fit costs what the
+    nominal fit does, twelve of them a twentieth of a diagnosis."""
+
+    parameters: tuple[str, ...] = ()
+    what = "a reversed channel"
+    screened_variants = 2
+
+    def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        rows, *_ = self._layout(model)
+        return -rows[model.variant], np.zeros((0, rows.shape[1]))
+
+
 STRATEGIES: dict[str, Strategy] = {
     "generated": Generated(),
     "isolator": Isolator(),
@@ -516,6 +540,7 @@ STRATEGIES: dict[str, Strategy] = {
     "sensor": Sensor(),
     "channel": Channel(),
     "placement": Placement(),
+    "reversal": Reversal(),
 }
 """One strategy per effect kind; ``tests/test_effect_registry.py`` checks that every kind has one."""
 

@@ -19,6 +19,10 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``sensor_misplaced``: one of those twelve channels mounted 10-60 % of the isolators' largest radius off its
   stated point in a random direction (the component along its axis included, which changes nothing), the
   shapes recovered with the assumed geometry;
+- ``sensor_reversed``: one of those twelve channels reads with its polarity reversed (a sensor mounted upside
+  down or a cable wired the wrong way round: it reads along -d), the shapes recovered with the assumed geometry
+  (added outside the catalogue, where it ended "not explained" in every case with shapes, before the catalogue
+  had a reversed channel);
 - ``damping``: damped frequencies |Im p| of non-proportionally damped isolators (a measured mode is one pole,
   its frequency and damping ratio, labelled by its shape: ``true_poles``);
 - ``isolator_scatter``: one isolator of rubber from another batch: stiffer or softer in all directions, in
@@ -48,10 +52,7 @@ explained" or in a tie, never confident):
 - ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
   ``sensor_turned``), where the catalogue turns one;
 - ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
-  the catalogue does not compose (both change how the same reading is taken);
-- ``sensor_reversed``: one of the twelve channels reads with its polarity reversed (a sensor mounted upside down
-  or a cable wired the wrong way round: it reads along -d), the shapes recovered with the assumed geometry. The
-  catalogue turns a channel by 0.35 rad per component at most; a reversal is a turn by pi.
+  the catalogue does not compose (both change how the same reading is taken).
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
@@ -88,7 +89,6 @@ REPRESENTED_BY: dict[str, str | None] = {
     "support_frame+isolator_scatter": "isolator_scatter+foundation",
     "sensor_turned+sensor_turned": None,
     "sensor_turned+sensor_misplaced": None,
-    "sensor_reversed": None,
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
