@@ -22,7 +22,8 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
   the point where it sits (the generated ``point_jacobian`` is affine in the point, so the row changes linearly
   with the offset and only in the rotations).
 - ``reversal``: one channel of that layout reads with its polarity reversed (along -d); its row is negated. No
-  parameter: the fit is the unknowns' alone, at the channels whose reversal promises most from the nominal fit.
+  parameter: the fit is the unknowns' alone, at the channels whose reversal promises most from the unknowns the
+  frequencies identify.
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the

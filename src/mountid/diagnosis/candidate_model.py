@@ -372,14 +372,16 @@ class CandidateModel:
         mats = self.strategy.matrices(self, values)
         m, c, _ = mats
         lam, vec = undamped_modes(c, m)
-        body = scaled_unit(vec[:6, :], self.length)  # labelled by the motion of the body itself
+        body = scaled_unit(vec[:6, :], self.length)
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         twins = twin_groups(lam)
-        order = label_modes(lam, body, self.reference_lambda, self.reference, share, twins=twins)
         omega = self.strategy.frequencies(self, values, mats, lam)
         shapes = self.strategy.shapes(self, values, vec)  # the body motion as the sensors read it
         # the shapes as compared with the measured ones: the body motion itself unless the sensors turn it
         unit = body if np.array_equal(shapes, vec[:6, :]) else scaled_unit(shapes, self.length)
+        # labelled by the motion of the body itself, or where the strategy says so by the shapes as read
+        read = unit if self.strategy.labels_as_read else body
+        order = label_modes(lam, read, self.reference_lambda, self.reference, share, twins=twins)
         rows = np.array(self._rows if labels is None else [self.mod.MODES.index(label) for label in labels])
         index = order[rows]
         # closeness of every model mode to each labelled one, in units of the measurement's resolution of

@@ -45,6 +45,7 @@ from mountid.diagnosis.fitting import (
     Data,
     exact_leave_one_out,
     fit_candidate,
+    frequency_fit,
     held_out_z,
     noise_level,
     other_solutions,
@@ -250,18 +251,20 @@ def fit_all(
 def _screened_variants(
     campaign: Campaign, effect: Effect, nominal: CandidateFit, count: int, settings: DiagnosisSettings = DIAGNOSIS
 ) -> CandidateFit:
-    """One candidate fitted at the strategy's screened_variants of its ``count`` variants whose one Gauss-Newton
-    step from the ``nominal`` fit promises the smallest chi^2 (a reversed channel: the unknowns alone, from where
-    the nominal model fits), from there; its evidence the sum of theirs over ``count`` (the prior 1/N each; a
-    variant not fitted adds nothing, which understates the mean by what those whose promise is far above the
-    fitted ones hold)."""
+    """One candidate of no parameter of its own (a reversed channel: the unknowns alone) fitted at the strategy's
+    screened_variants of its ``count`` variants whose one Gauss-Newton step promises the smallest chi^2 from the
+    unknowns the frequencies alone identify (fitting.frequency_fit: the effect leaves them unchanged), from there
+    and from the ``nominal`` fit's; its evidence the sum of theirs over ``count`` (the prior 1/N each; a variant
+    not fitted adds nothing, which understates the mean by what those whose promise is far above the fitted ones
+    hold)."""
     first = CandidateModel(campaign, effect, 0)
     if strategy(effect).inapplicable(first, bool(Data(campaign, first.length).shape_labels)):
         return fit_candidate(campaign, effect, 0)
+    start = frequency_fit(campaign, first)
     models = [first, *(CandidateModel(campaign, effect, i) for i in range(1, count))]
-    promised = [promised_chi2(campaign, model, [nominal.theta]) for model in models]
+    promised = [promised_chi2(campaign, model, [start]) for model in models]
     best = sorted(range(count), key=lambda i: (promised[i], i))[: strategy(effect).screened_variants]
-    variants = [fit_candidate(campaign, effect, i, start=nominal.theta) for i in best]
+    variants = [fit_candidate(campaign, effect, i, starts=[start, nominal.theta]) for i in best]
     return _over_variants(variants, settings, count)
 
 
