@@ -48,7 +48,9 @@ def _values(mod) -> dict[str, float]:
     return {**{n: p["value"] for n, p in mod.PARAMETERS.items()}, **EFFECT_VALUES}
 
 
-def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_six_parameters():
+def test_catalogue_names_are_the_issues_and_every_effect_has_up_to_six_parameters():
+    """The issue's effects and the reversed channel (no parameter: the sign of one channel is wrong or it is not);
+    every other effect has one to six."""
     assert [e.name for e in CATALOGUE] == [
         "com_offset",
         "cog_height",
@@ -63,8 +65,10 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_one_to_six_paramete
         "sensor_error",
         "sensor_turned",
         "sensor_misplaced",
+        "sensor_reversed",
     ]
-    assert all(1 <= len(e.parameters) <= 6 for e in CATALOGUE)
+    assert all(1 <= len(e.parameters) <= 6 for e in CATALOGUE if e.kind != "reversal")
+    assert [e.name for e in CATALOGUE if not e.parameters] == ["sensor_reversed"]
     assert all(p.plausible[0] < p.plausible[1] for e in CATALOGUE for p in e.parameters)
 
 
