@@ -39,7 +39,8 @@ from mountid.diagnosis.fitting import (
 )
 from mountid.diagnosis.gap import isolator_forces
 from mountid.diagnosis.settings import DIAGNOSIS
-from mountid.effects import CATALOGUE, EFFECTS, Pair
+from mountid.diagnosis.strategies import strategy
+from mountid.effects import CATALOGUE, EFFECTS, Pair, pair
 from mountid.errors import InputError
 from mountid.machine import Machine, call
 from mountid.validation import blind, blind_truth
@@ -749,3 +750,11 @@ def test_a_reversed_channel_is_named_at_its_channel_or_its_mirror_image():
             assert "as good" in best.note and {channel, mirror} == set(best.state.variants_by_fit)
     others = tuple(e for e in CATALOGUE if e.name != "sensor_reversed")
     assert diagnose_effects(parse(blind.make_case(0, "sensor_reversed")[0]), others).kind == "not explained"
+
+
+def test_a_pair_with_a_reversed_channel_labels_its_modes_as_read():
+    """A pair reads the shapes through its reversed channel as the single candidate does, so it labels its modes
+    by the shapes as read too (Strategy.labels_as_read); a pair of physical effects by the body's motion."""
+    assert strategy(pair(EFFECTS["foundation"], EFFECTS["sensor_reversed"])).labels_as_read
+    assert strategy(EFFECTS["sensor_reversed"]).labels_as_read
+    assert not strategy(pair(EFFECTS["foundation"], EFFECTS["cog_height"])).labels_as_read

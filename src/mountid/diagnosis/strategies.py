@@ -326,6 +326,8 @@ class Composite(Strategy):
         self.members = (first, second)
         self.frequency_role = next((m for m in self.members if type(m).frequencies is not Strategy.frequencies), None)
         self.shape_role = next((m for m in self.members if type(m).shapes is not Strategy.shapes), None)
+        self.labels_as_read = any(m.labels_as_read for m in self.members)
+        """Labelled by the shapes as read where a member is (a reversed channel beside a physical effect)."""
 
     def _roles(self, model: CandidateModel) -> tuple[Strategy, Strategy]:
         """The member whose matrices the other's change is added to (the one with a support, else the first),
