@@ -258,12 +258,12 @@ def _screened_variants(
     not fitted adds nothing, which understates the mean by what those whose promise is far above the fitted ones
     hold)."""
     first = CandidateModel(campaign, effect, 0)
-    if strategy(effect).inapplicable(first, bool(Data(campaign, first.length).shape_labels)):
+    if first.strategy.inapplicable(first, bool(Data(campaign, first.length).shape_labels)):
         return fit_candidate(campaign, effect, 0)
     start = frequency_fit(campaign, first)
     models = [first, *(CandidateModel(campaign, effect, i) for i in range(1, count))]
     promised = [promised_chi2(campaign, model, [start]) for model in models]
-    best = sorted(range(count), key=lambda i: (promised[i], i))[: strategy(effect).screened_variants]
+    best = sorted(range(count), key=lambda i: (promised[i], i))[: first.strategy.screened_variants]
     variants = [fit_candidate(campaign, effect, i, starts=[start, nominal.theta]) for i in best]
     return _over_variants(variants, settings, count)
 

@@ -404,13 +404,12 @@ def _dense(x: np.ndarray | None, n: int) -> np.ndarray:
 
 
 def _difference(x: np.ndarray | None, base: np.ndarray | None, n: int) -> np.ndarray:
-    """``_dense(x, n) - _dense(base, n)``, without the zero matrices where both are n x n or ``base`` is None (the
-    same subtractions: x - 0 is x to the bit, -0.0 included)."""
-    if x is not None and np.shape(x) == (n, n):
-        if base is None:
-            return np.array(x, dtype=float)
-        if np.shape(base) == (n, n):
-            return x - base
+    """``_dense(x, n) - _dense(base, n)``, without the zero matrices where ``base`` is None (x - 0 is x to the bit,
+    -0.0 included) or both are n x n (the same subtractions)."""
+    if base is None:
+        return _dense(x, n)
+    if x is not None and np.shape(x) == np.shape(base) == (n, n):
+        return x - base
     return _dense(x, n) - _dense(base, n)
 
 
