@@ -547,9 +547,7 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
             omega[i] = w_new
     elif "damping" in parts:
         omega = true_poles(m, c, b, modes).imag
-    elif "sensor_error" in parts:
-        shapes = _through_sensors(tm, shapes, t.size["yaw"], t.size["dz"])
-    elif parts & {"sensor_turned", "sensor_misplaced", "sensor_reversed"}:
+    elif parts & SENSOR_TRUTHS:
         shapes = _misread(tm, shapes, t)
     elif "nonlinear_isolator" in parts:
         omega, shapes = _hardened(tm, t, m, shapes)
@@ -674,35 +672,42 @@ def _turned(direction: np.ndarray, angle: float, about: float) -> np.ndarray:
 
 
 def _misread(tm: TruthMachine, shapes: np.ndarray, t: Truth) -> np.ndarray:
-    """Shapes recovered by least squares from the layout's readings with the assumed geometry, where the
-    truth's channels read otherwise: ``sensor_turned`` one channel turned on its mount (a second one with the
-    sizes ending in '_2' for two channels turned), ``sensor_misplaced`` one channel's sensor sitting offset
-    (x, y, z) [m] off its stated point (reading the motion u = t + w x r of the point where it sits), both at
-    once on one channel; ``sensor_reversed`` one channel reading along -d (reversed polarity)."""
+    """Shapes recovered by least squares from the layout's readings with the assumed geometry (sensor_layout),
+    where the truth's channels read as they are mounted (mounted_layout): each the motion u = t + w x r of the
+    point where its sensor sits, along the direction it points."""
+    model = np.array([direction @ _jac(r) for _, r, direction in sensor_layout(tm)])
+    read = np.array([direction @ _jac(r) for _, r, direction in mounted_layout(tm, t)])
+    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
+
+
+SENSOR_TRUTHS = frozenset(("sensor_error", "sensor_turned", "sensor_misplaced", "sensor_reversed"))
+"""The parts of a truth that change how the layout's channels are mounted, not the machine."""
+
+
+def mounted_layout(tm: TruthMachine, t: Truth) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The layout's channels as the truth ``t`` mounts them (name, point [m], unit direction), where
+    sensor_layout gives them as stated: what each channel reads, in a record and in the misread modal data
+    (_misread), is the motion u = t + w x r of the point where its sensor sits along the direction it points.
+    ``sensor_error``: the four sensors in a measurement frame turned by ``yaw`` about the vertical against the
+    machine's axes and sitting ``dz`` higher than stated. ``sensor_turned``: one channel turned on its mount (a
+    second one with the sizes ending in '_2' for two channels turned); ``sensor_misplaced``: one channel's
+    sensor sitting offset (x, y, z) [m] off its stated point; both at once on one channel; ``sensor_reversed``:
+    one channel reading along -d (reversed polarity). Without a sensor part, the stated layout."""
     layout = sensor_layout(tm)
-    model = np.array([direction @ _jac(r) for _, r, direction in layout])
-    read = model.copy()
     size, parts = t.size, t.effect.split("+")
-    turned = {}  # channel -> its direction as mounted
+    if "sensor_error" in parts:
+        cz, sz = math.cos(size["yaw"]), math.sin(size["yaw"])
+        turn = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # machine axes -> measurement frame
+        lift = np.array([0.0, 0.0, size["dz"]])
+        return [(name, turn.T @ r + lift, turn[i % 3]) for i, (name, r, _) in enumerate(layout)]
+    turned: dict[int, np.ndarray] = {}
     for suffix in ("", "_2")[: parts.count("sensor_turned")]:
         channel = int(size["channel" + suffix])
         turned[channel] = _turned(layout[channel][2], size["angle" + suffix], size["about" + suffix])
     if "sensor_reversed" in parts:
         turned[int(size["channel"])] = -layout[int(size["channel"])][2]
     offset = {int(size["channel"]): np.array([size["x"], size["y"], size["z"]])} if "sensor_misplaced" in parts else {}
-    for channel in sorted(turned.keys() | offset.keys()):
-        direction = turned.get(channel, layout[channel][2])
-        read[channel] = direction @ _jac(layout[channel][1] + offset.get(channel, 0.0))
-    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
-
-
-def _through_sensors(tm: TruthMachine, shapes: np.ndarray, yaw: float, dz: float) -> np.ndarray:
-    """Shapes recovered by least squares from the layout's four triaxial sensors (sensor_layout). The
-    measurement frame (sensor axes and the positions the processing assumes) is turned by ``yaw`` about the
-    vertical against the machine's axes, and the sensors sit ``dz`` higher than assumed."""
-    assumed = [r for _, r, _ in sensor_layout(tm)[::3]]
-    cz, sz = math.cos(yaw), math.sin(yaw)
-    turn = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # machine axes -> measurement frame
-    read = np.vstack([turn @ _jac(turn.T @ r + np.array([0.0, 0.0, dz])) for r in assumed])
-    model = np.vstack([_jac(r) for r in assumed])
-    return np.linalg.lstsq(model, read @ shapes, rcond=None)[0]
+    return [
+        (name, r + offset[k] if k in offset else r, turned.get(k, direction))
+        for k, (name, r, direction) in enumerate(layout)
+    ]
