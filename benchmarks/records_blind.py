@@ -1,8 +1,11 @@
-"""Blind truths through records (``make bench-records``): every truth a record carries as it is
-(blind_records.RECORD_TRUTHS) on every shipped machine, simulated as two impact records of the harness's 12
-channels (2 % noise), diagnosed from the records, beside the same truth's modal-data campaign with shapes
-(blind.run_case). Prints each case's two verdicts and counts, for the records: confident and wrong, effect-free
-truths given a significant gap, cases where the records chain stopped, and close modes split or left out.
+"""Blind truths through records (``make bench-records``): every truth a record carries (blind_records.RECORD_TRUTHS:
+the machine's, then its sensors' as mounted against the layout the records state) on every shipped machine,
+simulated as two impact records of the harness's 12 channels (2 % noise), diagnosed from the records, beside the
+same truth's modal-data campaign with shapes (blind.run_case). Prints each case's two verdicts and counts, for the
+records: confident and wrong, effect-free truths given a significant gap, cases where the records chain stopped,
+and close modes split or left out; for the sensor truths: named first, confident, no significant gap, and how
+often the records chain's own check named the misread channel (and noted one where every channel reads as
+stated: its false alarms).
 
 ``python -m benchmarks.records_blind --seeds N --first-seed S [--machines kid300 screen6]``: N seeds per machine
 and truth (default 1, from seed 0)."""
@@ -15,6 +18,7 @@ from pathlib import Path
 
 from mountid.validation import blind
 from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
+from mountid.validation.blind_truth import SENSOR_TRUTHS
 
 
 def _verdict(kind: str, first: str | None, probability: float) -> str:
@@ -39,6 +43,9 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
                     other = _verdict(modal.kind, modal.ranked[0] if modal.ranked else None, modal.probability)
                     flags = " CONFIDENT AND WRONG" if case.confident_and_wrong else ""
                     flags += " [close modes]" if case.close_modes else ""
+                    if case.misread:
+                        flags += f" [misread {','.join(case.misread)}]" if len(case.misread) < 3 else " [misread frame]"
+                    flags += " [channel noted]" if case.channel_notes else ""
                     print(
                         f"{machine:11s} {truth:30s} {seed:4d}  {shown:45s}  " f"{other:45s}{flags}",
                         flush=True,
@@ -51,6 +58,16 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
         f"records: {len(out)} cases in {time.perf_counter() - started:.0f} s; confident and wrong {wrong}; "
         f"effect-free truths with a significant gap {alarms} of {len(clean)}; the records chain stopped in "
         f"{sum(bool(c.error) for c in out)}; close modes split or left out in {sum(bool(c.close_modes) for c in out)}"
+    )
+    sensor = [c for c in out if SENSOR_TRUTHS & set(c.truth.split("+"))]
+    one = [c for c in sensor if len(c.misread) == 1]
+    stated = [c for c in out if not c.misread]
+    print(
+        f"sensor truths: {len(sensor)} cases; right first {sum(c.first in c.right for c in sensor)}, confident and "
+        f"right {sum(c.confident and c.first in c.right for c in sensor)}, no significant gap "
+        f"{sum(c.kind == 'no significant gap' for c in sensor)}; the records chain named the misread channel in "
+        f"{sum(c.misread_named for c in one)} of {len(one)} with one; a channel noted in "
+        f"{sum(bool(c.channel_notes) for c in stated)} of {len(stated)} cases whose channels read as stated"
     )
     return out
 

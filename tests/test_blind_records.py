@@ -11,7 +11,14 @@ import pytest
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_records import RECORD_TRUTHS, RecordCase, run_record_case
-from mountid.validation.blind_truth import TruthMachine, truth_matrices
+from mountid.validation.blind_truth import (
+    SENSOR_TRUTHS,
+    Truth,
+    TruthMachine,
+    mounted_layout,
+    sensor_layout,
+    truth_matrices,
+)
 
 SENSORS = [Sensor("a", (0.4, 0.3, 0.25), (1.0, 0.0, 0.0), noise=0.01), Sensor("b", (-0.4, 0.3, 0.25), (0, 0, 1.0))]
 HIT = Hammer((0.4, 0.3, 0.3), (1.0, 0.7, -0.6))
@@ -41,11 +48,70 @@ def test_a_truth_with_a_support_is_recorded_on_the_body():
     assert np.all(np.isfinite(record.data)) and np.abs(record.data).max() > 0
 
 
-def test_the_sensor_truths_are_not_recorded():
-    """A record's channels read the truth's motion as it is: the harness's sensor truths (a misread layout) and
-    those it computes beyond M, C, B are left out of the records study."""
+def test_the_sensor_truths_are_recorded_after_the_others():
+    """A record's channels read the truth's motion where its sensors are mounted: the sensor truths are in the
+    records study, after the truths of the machine (which keep the seeds they had before); those the harness
+    computes beyond M, C, B are left out."""
     assert "none" in RECORD_TRUTHS and "support_frame" in RECORD_TRUTHS
-    assert not {"sensor_turned", "sensor_error", "frequency_dependent", "nonlinear_isolator"} & set(RECORD_TRUTHS)
+    assert not {"frequency_dependent", "nonlinear_isolator"} & {p for t in RECORD_TRUTHS for p in t.split("+")}
+    sensor = [bool(SENSOR_TRUTHS & set(t.split("+"))) for t in RECORD_TRUTHS]
+    assert {"sensor_reversed", "sensor_error", "sensor_turned"} <= set(RECORD_TRUTHS)
+    assert sensor == sorted(sensor)  # the machine's truths first
+
+
+def test_a_sensor_truth_mounts_its_channel_otherwise_than_stated():
+    """mounted_layout is the stated layout but at the truth's channel: a reversed channel reads along -d at its
+    stated point, a misplaced one at its offset point, a turned one along another unit direction; the measurement
+    frame of sensor_error turns and lifts all twelve; a truth of the machine mounts them as stated."""
+    truth = TruthMachine("kid300")
+    stated = sensor_layout(truth)
+
+    def mounted(effect: str, **size: float) -> list:
+        return mounted_layout(truth, Truth(effect, size, {}, "kid300"))
+
+    same = mounted("cog_height", dz=0.1)
+    assert all(
+        a[0] == b[0] and np.array_equal(a[1], b[1]) and np.array_equal(a[2], b[2])
+        for a, b in zip(same, stated, strict=True)
+    )
+    for effect, size in [
+        ("sensor_reversed", {"channel": 7}),
+        ("sensor_misplaced", {"channel": 7, "x": 0.02, "y": -0.01, "z": 0.03}),
+        ("sensor_turned", {"channel": 7, "angle": 0.2, "about": 0.5}),
+    ]:
+        got = mounted(effect, **size)
+        differs = [
+            k
+            for k, (a, b) in enumerate(zip(got, stated, strict=True))
+            if not (np.array_equal(a[1], b[1]) and np.array_equal(a[2], b[2]))
+        ]
+        assert differs == [7], effect
+        assert np.isclose(np.linalg.norm(got[7][2]), 1.0)
+    assert np.array_equal(mounted("sensor_reversed", channel=7)[7][2], -stated[7][2])
+    assert np.allclose(
+        mounted("sensor_misplaced", channel=7, x=0.02, y=-0.01, z=0.03)[7][1] - stated[7][1], [0.02, -0.01, 0.03]
+    )
+    frame = mounted("sensor_error", yaw=0.05, dz=0.02)
+    assert all(not np.array_equal(a[2], b[2]) for a, b in zip(frame, stated, strict=True) if b[2][2] == 0.0)
+    assert all(np.isclose(a[1][2] - b[1][2], 0.02) for a, b in zip(frame, stated, strict=True))
+
+
+def test_a_reversed_channel_in_a_record_is_named_by_the_records_and_the_diagnosis(tmp_path):
+    """kid300 with its channel S3_y reversed in both records (the files state the layout's direction): the
+    records chain notes that S3_y does not move with the rigid body the other channels agree on, in each record,
+    and the diagnosis of the modes it gives is confident: a reversed channel (at S3_y or at its mirror image
+    S1_y, whose reversal distorts kid300's mirror-symmetric modes alike)."""
+    from mountid.diagnosis import campaign
+    from mountid.diagnosis.gap import diagnose
+    from mountid.validation.blind_records import record_campaign
+
+    found = campaign.load(record_campaign(118, "sensor_reversed", "kid300", tmp_path))
+    warned = [n for n in found.record_notes if "does not move with the rigid body" in n]
+    assert len(warned) == 2 and all("(S3_y)" in n for n in warned)
+    effects = diagnose(found).effects
+    assert effects.kind == "confident" and effects.best.effect == "sensor_reversed"
+    assert effects.best.variant in ("S3_y", "S1_y")
+    assert "S3_y" in effects.best.variant + effects.best.note
 
 
 @pytest.mark.parametrize(
@@ -108,3 +174,14 @@ def test_a_record_without_a_mode_is_left_out_of_a_campaign_of_several(tmp_path):
     alone.write_text(json.dumps({**data, "records": data["records"][:1]}), encoding="utf-8")
     with pytest.raises(InputError, match=r"^records\.0 \(screen6-foundation-20-0\.csv\): no damped mode found"):
         campaign.load(alone)
+
+
+def test_the_misread_channel_is_named_only_where_a_note_names_it_alone():
+    """misread_named: a record note names the truth's one misread channel; a note of its mirror image, or a
+    truth with two misread channels, is not counted named."""
+    case = RecordCase("sensor_reversed", "kid300", 118, "confident", "sensor_reversed", 1.0, True, (), (), ())
+    noted = "a.csv: sensor (S3_y): does not move with the rigid body the other channels agree on"
+    assert replace(case, misread=("S3_y",), channel_notes=(noted,)).misread_named
+    assert not replace(case, misread=("S1_y",), channel_notes=(noted,)).misread_named
+    assert not replace(case, misread=("S3_y", "S2_z"), channel_notes=(noted,)).misread_named
+    assert not replace(case, misread=("S3_y",)).misread_named

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.gap import diagnose
@@ -18,25 +20,33 @@ from mountid.errors import InputError
 from mountid.measurement.records import write_csv
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
-from mountid.validation.blind_truth import TruthMachine, represented_by, sensor_layout, truth_matrices
+from mountid.validation.blind_truth import (
+    SENSOR_TRUTHS,
+    Truth,
+    TruthMachine,
+    mounted_layout,
+    represented_by,
+    sensor_layout,
+    truth_matrices,
+)
 
-_NOT_IN_RECORDS = frozenset(
-    (
-        "sensor_error",
-        "sensor_turned",
-        "sensor_misplaced",
-        "sensor_reversed",
-        "frequency_dependent",
-        "nonlinear_isolator",
+_NOT_IN_RECORDS = frozenset(("frequency_dependent", "nonlinear_isolator"))
+
+
+def _record_truths(sensors: bool) -> tuple[str, ...]:
+    return tuple(
+        name
+        for name in blind.EFFECT_NAMES
+        if not _NOT_IN_RECORDS & set(name.split("+")) and bool(SENSOR_TRUTHS & set(name.split("+"))) == sensors
     )
-)
 
-RECORD_TRUTHS: tuple[str, ...] = tuple(
-    name for name in blind.EFFECT_NAMES if not _NOT_IN_RECORDS & set(name.split("+"))
-)
-"""The truths a record carries as they are: M, C and B. Left out: the sensor truths (the harness misreads its
-modal data, not a record's channels), the frequency-dependent rubber and the hardening isolator (frequencies the
-harness computes beyond M, C, B)."""
+
+RECORD_TRUTHS: tuple[str, ...] = (*_record_truths(sensors=False), *_record_truths(sensors=True))
+"""The truths a record carries: those of the machine as they are (M, C and B), then those of its sensors (each
+channel simulated as its sensor is mounted, mounted_layout, and stated in the record as the layout says: a
+reversed, turned or misplaced channel, a turned and lifted measurement frame). Left out: the frequency-dependent
+rubber and the hardening isolator (frequencies the harness computes beyond M, C, B). The sensor truths come
+last, so that the others keep the seeds they had before records carried them (make bench-records)."""
 
 RECORD_NOISE = 0.02
 """White noise of each channel, relative to its RMS."""
@@ -52,7 +62,9 @@ HITS = ((1.0, 0.7, -0.6), (0.3, -1.0, -0.5))
 class RecordCase:
     """One truth diagnosed from its records: the verdict's ``kind``, the ``first`` candidate and its
     ``probability``, whether it was ``confident``, the candidates in the ``tie``, the modes the records gave, and
-    the record notes that split or left out close modes; ``error`` where the records chain stopped (its message)."""
+    the record notes that split or left out close modes; ``error`` where the records chain stopped (its message);
+    the channels the truth mounts otherwise than the records state (``misread``: none but for a sensor truth) and
+    the record notes that a channel does not move with the rigid body the others agree on (``channel_notes``)."""
 
     truth: str
     machine: str
@@ -68,6 +80,8 @@ class RecordCase:
     acceptable: tuple[str, ...] | None = None
     """For a truth of two parts, the candidates counted right (blind.acceptable_parts: the whole truth's and each
     part's that alone explains the truth's noise-free modal data); None for one part."""
+    misread: tuple[str, ...] = ()
+    channel_notes: tuple[str, ...] = ()
 
     @property
     def right(self) -> tuple[str, ...]:
@@ -81,39 +95,59 @@ class RecordCase:
     def confident_and_wrong(self) -> bool:
         return self.confident and self.first not in self.right
 
+    @property
+    def misread_named(self) -> bool:
+        """Whether a record note names the one channel the truth mounts otherwise than stated."""
+        return len(self.misread) == 1 and any(f"({self.misread[0]})" in n for n in self.channel_notes)
+
 
 def record_campaign(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> Path:
     """The campaign file (in ``folder``, with its two CSV records) of the truth blind.make_case draws for ``seed``
     on ``machine``: one hit per record at a top corner of the sensor layout, DURATION s, sampled at 20 points per
     period of the truth's highest nominal mode (200 Hz at least), the free decay analysed from 0.1 s plus 20
     samples after the hit (the anti-alias filter's ringing), the known values of the shapes campaign."""
+    return _written(seed, truth, machine, folder, noise)[0]
+
+
+def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) -> tuple[Path, Truth]:
+    """record_campaign's file and the truth it simulates."""
     data, t = blind.make_case(seed, truth, machine=machine)
     tm = TruthMachine(machine)
     rig = Rig.from_matrices(machine, *truth_matrices(tm, t))
-    sensors = [
-        Sensor(name, tuple(map(float, r)), tuple(map(float, d)), noise=noise) for name, r, d in sensor_layout(tm)
+    stated = {name: (tuple(map(float, r)), tuple(map(float, d))) for name, r, d in sensor_layout(tm)}
+    sensors = [  # as they are mounted: a sensor truth reads otherwise than the record states
+        Sensor(name, tuple(map(float, r)), tuple(map(float, d)), noise=noise) for name, r, d in mounted_layout(tm, t)
     ]
     rate = max(200.0, 20.0 * tm.highest_frequency / (2 * math.pi))
     peak = 2000.0 * tm.mass(tm.nominal) / 838.6  # the rig's 2 kN hit on the KID-300, scaled by the mass
     records = []
     for k, direction in enumerate(HITS):
-        hit = Hammer(sensors[3 * k].point, direction, peak=peak)
+        hit = Hammer(stated[sensors[3 * k].name][0], direction, peak=peak)  # at the stated corner
         name = f"{machine}-{truth}-{seed}-{k}.csv"
-        write_csv(rig.simulate(sensors, DURATION, rate, hammers=[hit], seed=seed * 10 + k), folder / name)
+        record = rig.simulate(sensors, DURATION, rate, hammers=[hit], seed=seed * 10 + k)
+        channels = tuple(replace(c, point=stated[c.name][0], direction=stated[c.name][1]) for c in record.channels)
+        write_csv(replace(record, channels=channels), folder / name)
         records.append({"file": name, "start": 0.1 + 20.0 / rate})
     path = folder / f"{machine}-{truth}-{seed}.json"
     path.write_text(json.dumps({"machine": machine, "known": data["known"], "records": records}), encoding="utf-8")
-    return path
+    return path, t
 
 
 def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> RecordCase:
     """Diagnose one truth from its records (record_campaign)."""
-    path = record_campaign(seed, truth, machine, folder, noise)
+    path, t = _written(seed, truth, machine, folder, noise)
+    tm = TruthMachine(machine)
+    mounted = mounted_layout(tm, t)
+    misread = tuple(
+        name
+        for (name, r, d), (_, r0, d0) in zip(mounted, sensor_layout(tm), strict=True)
+        if not (np.array_equal(r, r0) and np.array_equal(d, d0))
+    )
     try:
         found = campaign_module.load(path)
         report = diagnose(found).effects
     except InputError as err:
-        return RecordCase(truth, machine, seed, "error", None, math.nan, False, (), (), (), str(err))
+        return RecordCase(truth, machine, seed, "error", None, math.nan, False, (), (), (), str(err), misread=misread)
     best = report.best
     notes = tuple(n for n in found.record_notes if "close_modes" in n or "unresolved_modes" in n)
     acceptable = None
@@ -131,4 +165,6 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
         tuple(found.modes),
         notes,
         acceptable=acceptable,
+        misread=misread,
+        channel_notes=tuple(n for n in found.record_notes if "rigid body" in n),
     )
