@@ -65,8 +65,9 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
     print(
         f"sensor truths: {len(sensor)} cases; right first {sum(c.first in c.right for c in sensor)}, confident and "
         f"right {sum(c.confident and c.first in c.right for c in sensor)}, no significant gap "
-        f"{sum(c.kind == 'no significant gap' for c in sensor)}; the records chain named the misread channel in "
-        f"{sum(c.misread_named for c in one)} of {len(one)} with one; a channel noted in "
+        f"{sum(c.kind == 'no significant gap' for c in sensor)}; the records chain named the misread channel alone in "
+        f"{sum(c.misread_named for c in one)} and among its suspects in {sum(c.misread_suspected for c in one)} of "
+        f"{len(one)} with one; a channel noted in "
         f"{sum(bool(c.channel_notes) for c in stated)} of {len(stated)} cases whose channels read as stated"
     )
     return out

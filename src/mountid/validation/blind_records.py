@@ -97,8 +97,23 @@ class RecordCase:
 
     @property
     def misread_named(self) -> bool:
-        """Whether a record note names the one channel the truth mounts otherwise than stated."""
-        return len(self.misread) == 1 and any(f"({self.misread[0]})" in n for n in self.channel_notes)
+        """Whether a record note names the truth's one misread channel alone."""
+        return len(self.misread) == 1 and any(_suspects(n) == self.misread for n in self.channel_notes)
+
+    @property
+    def misread_suspected(self) -> bool:
+        """Whether a record note names the truth's one misread channel among the suspects it cannot tell apart
+        (a reversed z channel of four: the layout's one redundant z equation cannot say which), or alone."""
+        return len(self.misread) == 1 and any(self.misread[0] in _suspects(n) for n in self.channel_notes)
+
+
+def _suspects(note: str) -> tuple[str, ...]:
+    """The channels a records chain note names as not moving with the rigid body ("sensor (S1_z, S2_z or
+    S3_z): ...")."""
+    if "sensor (" not in note:
+        return ()
+    names = note.split("sensor (", 1)[1].split("):", 1)[0]
+    return tuple(n.strip() for n in names.replace(" or ", ", ").split(","))
 
 
 def record_campaign(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> Path:
