@@ -1,5 +1,6 @@
 """Blind truths as records: the harness's truths (:mod:`mountid.validation.blind_truth`) simulated as impact
-records of the harness's sensor layout and diagnosed from those records (the records chain inside the campaign,
+records of the harness's sensor layout (a sensor truth's channels as its sensors are mounted, the records stating
+the layout) and diagnosed from those records (the records chain inside the campaign,
 as a test engineer runs it), beside the same truth's modal-data campaign (:func:`blind.make_case`). What the
 records chain adds to or loses from the diagnosis on a known truth: close modes one pole merges, twins a record
 cannot split, the damped poles' |p| against the undamped frequencies, shapes from channels.
