@@ -13,8 +13,6 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import numpy as np
-
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.gap import diagnose
 from mountid.errors import InputError
@@ -23,7 +21,6 @@ from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_truth import (
     SENSOR_TRUTHS,
-    Truth,
     TruthMachine,
     mounted_layout,
     represented_by,
@@ -125,15 +122,17 @@ def record_campaign(seed: int, truth: str, machine: str, folder: Path, noise: fl
     return _written(seed, truth, machine, folder, noise)[0]
 
 
-def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) -> tuple[Path, Truth]:
-    """record_campaign's file and the truth it simulates."""
+def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) -> tuple[Path, tuple[str, ...]]:
+    """record_campaign's file and the channels its truth mounts otherwise than the records state."""
     data, t = blind.make_case(seed, truth, machine=machine)
     tm = TruthMachine(machine)
     rig = Rig.from_matrices(machine, *truth_matrices(tm, t))
-    stated = {name: (tuple(map(float, r)), tuple(map(float, d))) for name, r, d in sensor_layout(tm)}
-    sensors = [  # as they are mounted: a sensor truth reads otherwise than the record states
-        Sensor(name, tuple(map(float, r)), tuple(map(float, d)), noise=noise) for name, r, d in mounted_layout(tm, t)
-    ]
+    stated, mounted = (
+        {name: (tuple(map(float, r)), tuple(map(float, d))) for name, r, d in layout}
+        for layout in (sensor_layout(tm), mounted_layout(tm, t))
+    )
+    # as they are mounted: a sensor truth reads otherwise than the record states
+    sensors = [Sensor(name, r, d, noise=noise) for name, (r, d) in mounted.items()]
     rate = max(200.0, 20.0 * tm.highest_frequency / (2 * math.pi))
     peak = 2000.0 * tm.mass(tm.nominal) / 838.6  # the rig's 2 kN hit on the KID-300, scaled by the mass
     records = []
@@ -146,19 +145,12 @@ def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) ->
         records.append({"file": name, "start": 0.1 + 20.0 / rate})
     path = folder / f"{machine}-{truth}-{seed}.json"
     path.write_text(json.dumps({"machine": machine, "known": data["known"], "records": records}), encoding="utf-8")
-    return path, t
+    return path, tuple(name for name in mounted if mounted[name] != stated[name])
 
 
 def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> RecordCase:
     """Diagnose one truth from its records (record_campaign)."""
-    path, t = _written(seed, truth, machine, folder, noise)
-    tm = TruthMachine(machine)
-    mounted = mounted_layout(tm, t)
-    misread = tuple(
-        name
-        for (name, r, d), (_, r0, d0) in zip(mounted, sensor_layout(tm), strict=True)
-        if not (np.array_equal(r, r0) and np.array_equal(d, d0))
-    )
+    path, misread = _written(seed, truth, machine, folder, noise)
     try:
         found = campaign_module.load(path)
         report = diagnose(found).effects

@@ -699,7 +699,7 @@ def mounted_layout(tm: TruthMachine, t: Truth) -> list[tuple[str, np.ndarray, np
         cz, sz = math.cos(size["yaw"]), math.sin(size["yaw"])
         turn = np.array([[cz, sz, 0.0], [-sz, cz, 0.0], [0.0, 0.0, 1.0]])  # machine axes -> measurement frame
         lift = np.array([0.0, 0.0, size["dz"]])
-        return [(name, turn.T @ r + lift, turn[i % 3]) for i, (name, r, _) in enumerate(layout)]
+        return [(name, turn.T @ r + lift, turn.T @ d) for name, r, d in layout]
     turned: dict[int, np.ndarray] = {}
     for suffix in ("", "_2")[: parts.count("sensor_turned")]:
         channel = int(size["channel" + suffix])
