@@ -137,3 +137,4 @@ if __name__ == "__main__":
     experiment.accuracy()
     diagnosis.speed()
     diagnosis.validation(int(sys.argv[sys.argv.index("--blind-cases") + 1]) if "--blind-cases" in sys.argv else 69)
+    diagnosis.reversed_beside()

@@ -23,8 +23,8 @@ from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.validation.blind_truth import (
-    OUT_OF_CATALOGUE,
     REPRESENTED_BY,
+    REVERSED_BESIDE,
     Truth,
     TruthMachine,
     represented_by,
@@ -275,13 +275,19 @@ def run_case(
 
 
 def cases(
-    n: int, first_seed: int = 0, kinds: tuple[str, ...] = ("shapes",), machines: tuple[str, ...] = ("kid300",)
+    n: int,
+    first_seed: int = 0,
+    kinds: tuple[str, ...] = ("shapes",),
+    machines: tuple[str, ...] = ("kid300",),
+    truths: tuple[str, ...] = EFFECT_NAMES,
 ) -> list[tuple[int, str, str, str]]:
-    """n cases per campaign kind and machine cycling through 'none', every effect of the catalogue and every
-    truth of other physics: (seed, truth, kind, machine); a seed gives the same truth in every kind."""
-    return [
-        (first_seed + i, EFFECT_NAMES[i % len(EFFECT_NAMES)], k, m) for m in machines for k in kinds for i in range(n)
-    ]
+    """n cases per campaign kind and machine cycling through ``truths`` (by default 'none', every effect of the
+    catalogue and every truth of other physics; REVERSED_BESIDE for the study of a reversed channel beside a
+    physical effect): (seed, truth, kind, machine); a seed gives the same truth in every kind."""
+    unknown = [t for t in truths if t not in EFFECT_NAMES and t not in REVERSED_BESIDE]
+    if unknown or not truths:
+        raise InputError("truths", f"no blind truth {', '.join(unknown)}" if unknown else "no truth given")
+    return [(first_seed + i, truths[i % len(truths)], k, m) for m in machines for k in kinds for i in range(n)]
 
 
 RELIABILITY_BINS = (0.0, 0.5, 0.8, 0.95, 0.99, 1.0 + 1e-12)
@@ -388,7 +394,8 @@ class Score:
     def text(self) -> str:
         lines = [
             f"campaigns measuring {self.campaign}: {self.n} blind cases ({self.n_none} without an injected effect, "
-            f"{sum(sum(self.confusion.get(t, Counter()).values()) for t in OUT_OF_CATALOGUE)} outside the catalogue)",
+            f"{sum(sum(row.values()) for t, row in self.confusion.items() if represented_by(t) is None)} outside "
+            "the catalogue)",
             (
                 f"top-1 on identifiable cases: {self.top1_identifiable:.1%} (target >= 90%), "
                 f"top-2: {self.top2_identifiable:.1%}, identifiable: {self.n_identifiable}"
@@ -432,16 +439,22 @@ class Score:
             lines.append(f"  {'first-ranked':>38} {'cases':>6} {'mean stated':>12} {'observed':>9} {'p':>6}")
             for name, count, stated, observed, p in shown:
                 lines.append(f"  {name[:38]:>38} {count:6d} {stated:12.3f} {observed:9.3f} {p:6.3f}")
-        lines.append(
-            "confusion (rows: injected; columns: ranked first, '-' no significant gap, '?' not explained, "
-            "'pair' two effects):"
-        )
+        # the benchmark's cycle in its order, then any other truth scored (REVERSED_BESIDE)
+        lines += self.confusion_lines([*EFFECT_NAMES, *sorted(set(self.confusion) - set(EFFECT_NAMES))])
+        return "\n".join(lines)
+
+    def confusion_lines(self, truths: list[str]) -> list[str]:
+        """The confusion matrix's head and its rows of ``truths`` (a truth not scored: a row of zeros)."""
         cols = ["-", "?", *(e.name for e in CATALOGUE), "pair"]
-        lines.append(" " * 28 + " ".join(f"{_short(c):>6}" for c in cols))
-        for truth in EFFECT_NAMES:
+        lines = [
+            "confusion (rows: injected; columns: ranked first, '-' no significant gap, '?' not explained, "
+            "'pair' two effects):",
+            " " * 28 + " ".join(f"{_short(c):>6}" for c in cols),
+        ]
+        for truth in truths:
             row = self.confusion.get(truth, Counter())
             lines.append(f"{truth[:27]:>27} " + " ".join(f"{row.get(c, 0):>6}" for c in cols))
-        return "\n".join(lines)
+        return lines
 
 
 def _nan(target: str, s: Score) -> bool:
@@ -659,12 +672,13 @@ def run(
     scheduler: str | None = None,
     machines: tuple[str, ...] = ("kid300",),
     nominal: str = "description",
+    truths: tuple[str, ...] = EFFECT_NAMES,
 ) -> list[CaseResult]:
     """Run n blind cases per campaign kind and machine through dask: the local process scheduler with
     ``workers`` processes by default (one process: in this one, no dask needed), or the dask cluster at
     ``scheduler`` (an address such as tcp://host:8786, for studies of 10^4 cases over many machines).
-    ``nominal``: where the fits start (make_case)."""
-    todo = [(*c, nominal) for c in cases(n, first_seed, kinds, machines)]
+    ``nominal``: where the fits start (make_case); ``truths``: the truths cycled through (cases)."""
+    todo = [(*c, nominal) for c in cases(n, first_seed, kinds, machines, truths)]
     if workers <= 1 and scheduler is None:
         return [run_case(*c) for c in todo]
     try:

@@ -54,6 +54,9 @@ explained" or in a tie, never confident):
 - ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
   the catalogue does not compose (both change how the same reading is taken).
 
+Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
+body, a drive belt, or (outside the catalogue) a scattered isolator.
+
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
 mountid.validation.blind.run_case.
@@ -103,8 +106,24 @@ REFERENCE_MASS = 838.6
 """[kg] the mass whose motor has the MOTOR dimensions."""
 
 
+REVERSED_BESIDE: dict[str, str | None] = {
+    "cog_height+sensor_reversed": "cog_height+sensor_reversed",
+    "added_mass+sensor_reversed": "added_mass+sensor_reversed",
+    "drive_belt+sensor_reversed": "drive_belt+sensor_reversed",
+    "isolator_scatter+sensor_reversed": None,
+}
+"""Truths of one channel mounted reversed beside a physical effect (each part as its truth alone), with the
+candidate that represents each: a study of their own (mountid.validation.blind.run with ``truths``), outside the
+benchmark's cycle of EFFECT_NAMES so that its seeds keep their truths. The catalogue does not compose a scattered
+isolator with a reversed channel (each is fitted per isolator or per channel): that truth is outside it. From
+frequencies alone a reversed channel changes nothing, and the physical part alone is counted right where it
+explains the noise-free data."""
+
+
 def represented_by(truth: str) -> str | None:
     """The catalogue effect that represents the truth ``truth`` (None: none does; 'none' for no effect)."""
+    if truth in REVERSED_BESIDE:
+        return REVERSED_BESIDE[truth]
     return REPRESENTED_BY.get(truth, truth)
 
 
