@@ -1,11 +1,13 @@
 """Blind truths through records (``make bench-records``): every truth a record carries (blind_records.RECORD_TRUTHS:
-the machine's, then its sensors' as mounted against the layout the records state) on every shipped machine,
+the machine's, then its sensors' as mounted against the layout the records state, then a reversed channel beside
+a physical effect) on every shipped machine,
 simulated as two impact records of the harness's 12 channels (2 % noise), diagnosed from the records, beside the
 same truth's modal-data campaign with shapes (blind.run_case). Prints each case's two verdicts and counts, for the
 records: confident and wrong, effect-free truths given a significant gap, cases where the records chain stopped,
 and close modes split or left out; for the sensor truths: named first, confident, no significant gap, and how
 often the records chain's own check named the misread channel (and noted one where every channel reads as
-stated: its false alarms).
+stated: its false alarms); for a reversed channel beside a physical effect: the verdicts' kinds and the channel
+named.
 
 ``python -m benchmarks.records_blind --seeds N --first-seed S [--machines kid300 screen6]``: N seeds per machine
 and truth (default 1, from seed 0)."""
@@ -18,7 +20,7 @@ from pathlib import Path
 
 from mountid.validation import blind
 from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
-from mountid.validation.blind_truth import SENSOR_TRUTHS
+from mountid.validation.blind_truth import REVERSED_BESIDE, SENSOR_TRUTHS
 
 
 def _verdict(kind: str, first: str | None, probability: float) -> str:
@@ -59,7 +61,7 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
         f"effect-free truths with a significant gap {alarms} of {len(clean)}; the records chain stopped in "
         f"{sum(bool(c.error) for c in out)}; close modes split or left out in {sum(bool(c.close_modes) for c in out)}"
     )
-    sensor = [c for c in out if SENSOR_TRUTHS & set(c.truth.split("+"))]
+    sensor = [c for c in out if set(c.truth.split("+")) <= SENSOR_TRUTHS]
     one = [c for c in sensor if len(c.misread) == 1]
     stated = [c for c in out if not c.misread]
     print(
@@ -70,6 +72,17 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
         f"{len(one)} with one; a channel noted in "
         f"{sum(bool(c.channel_notes) for c in stated)} of {len(stated)} cases whose channels read as stated"
     )
+    beside = [c for c in out if c.truth in REVERSED_BESIDE]
+    if beside:
+        print(
+            f"a reversed channel beside a physical effect: {len(beside)} cases; right first "
+            f"{sum(c.first in c.right for c in beside)}, confident and right "
+            f"{sum(c.confident and c.first in c.right for c in beside)}, a tie "
+            f"{sum(c.kind == 'tie' for c in beside)}, not explained {sum(c.kind == 'not explained' for c in beside)}, "
+            f"no significant gap {sum(c.kind == 'no significant gap' for c in beside)}; the records chain named the "
+            f"reversed channel alone in {sum(c.misread_named for c in beside)} and among its suspects in "
+            f"{sum(c.misread_suspected for c in beside)}"
+        )
     return out
 
 

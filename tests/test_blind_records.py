@@ -12,6 +12,7 @@ from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_records import RECORD_TRUTHS, RecordCase, run_record_case
 from mountid.validation.blind_truth import (
+    REVERSED_BESIDE,
     SENSOR_TRUTHS,
     Truth,
     TruthMachine,
@@ -57,6 +58,8 @@ def test_the_sensor_truths_are_recorded_after_the_others():
     sensor = [bool(SENSOR_TRUTHS & set(t.split("+"))) for t in RECORD_TRUTHS]
     assert {"sensor_reversed", "sensor_error", "sensor_turned"} <= set(RECORD_TRUTHS)
     assert sensor == sorted(sensor)  # the machine's truths first
+    # a reversed channel beside a physical effect last: the sensor truths keep their seeds too
+    assert RECORD_TRUTHS[-len(REVERSED_BESIDE) :] == tuple(REVERSED_BESIDE)
 
 
 def test_a_sensor_truth_mounts_its_channel_otherwise_than_stated():

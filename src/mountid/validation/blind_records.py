@@ -20,6 +20,7 @@ from mountid.measurement.records import write_csv
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_truth import (
+    REVERSED_BESIDE,
     SENSOR_TRUTHS,
     TruthMachine,
     mounted_layout,
@@ -39,12 +40,17 @@ def _record_truths(sensors: bool) -> tuple[str, ...]:
     )
 
 
-RECORD_TRUTHS: tuple[str, ...] = (*_record_truths(sensors=False), *_record_truths(sensors=True))
+RECORD_TRUTHS: tuple[str, ...] = (
+    *_record_truths(sensors=False),
+    *_record_truths(sensors=True),
+    *REVERSED_BESIDE,
+)
 """The truths a record carries: those of the machine as they are (M, C and B), then those of its sensors (each
 channel simulated as its sensor is mounted, mounted_layout, and stated in the record as the layout says: a
-reversed, turned or misplaced channel, a turned and lifted measurement frame). Left out: the frequency-dependent
-rubber and the hardening isolator (frequencies the harness computes beyond M, C, B). The sensor truths come
-last, so that the others keep the seeds they had before records carried them (make bench-records)."""
+reversed, turned or misplaced channel, a turned and lifted measurement frame), then a reversed channel beside a
+physical effect (REVERSED_BESIDE). Left out: the frequency-dependent rubber and the hardening isolator
+(frequencies the harness computes beyond M, C, B). Each group comes after those before it, so that they keep the
+seeds they had before it was added (make bench-records)."""
 
 RECORD_NOISE = 0.02
 """White noise of each channel, relative to its RMS."""
