@@ -61,11 +61,11 @@ BLIND_NOMINAL ?= description
 bench: $(STAMP)
 	$(PY) -m benchmarks --blind-cases $(BLIND_CASES)
 
-# the diagnosis benchmarks alone: one diagnosis's time and the blind validation
+# the diagnosis benchmarks alone: one diagnosis's time, the blind validation, and a reversed channel beside an effect
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL)
 
-# the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 12 minutes)
+# the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 17 minutes)
 bench-records: $(STAMP)
 	$(PY) -m benchmarks.records_blind
 

@@ -8,7 +8,9 @@ held-out gap reduction median >= 80 %), through dask (1000 cases < 10 minutes on
 The blind cases use seeds from 0 (``--first-seed``); DiagnosisSettings.evidence_temperature was calibrated on
 seeds 5000-5039, 6000-6039 and 7000-7099. The diagnosis was developed looking at the results of seeds 0-263;
 seeds from 264 on are held out from that. ``python -m benchmarks.diagnosis --cases N --first-seed S``
-(``make bench-blind BLIND_CASES=N BLIND_FIRST_SEED=S``) runs these alone with N cases per machine and kind."""
+(``make bench-blind BLIND_CASES=N BLIND_FIRST_SEED=S``) runs these alone with N cases per machine and kind, then
+the study beside the benchmark's cycle (``--beside-cases``, 12 per machine and kind by default, 0 for none): a
+reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), from the same first seed."""
 
 from __future__ import annotations
 
@@ -98,6 +100,22 @@ def _share(value: float, width: int = 6) -> str:
     return _cell(value, f"{width}.1%")
 
 
+def _table(
+    results: list[blind.CaseResult], kinds: tuple[str, ...], machines: tuple[str, ...]
+) -> dict[str, blind.Score]:
+    """Print the table's head and one line per machine and kind with the pooled line of each kind; returns the
+    pooled scores by kind."""
+    print(HEADER)
+    pooled = {}
+    for kind in kinds:
+        for machine in machines:
+            s = blind.score([r for r in results if r.campaign == kind and r.machine == machine])
+            print(_row(machine, kind, s))
+        pooled[kind] = blind.score([r for r in results if r.campaign == kind])
+        print(_row("all", kind, pooled[kind]))
+    return pooled
+
+
 def validation(
     n: int = 69,
     workers: int = 2,
@@ -122,14 +140,9 @@ def validation(
     print("error a perfectly calibrated diagnosis shows on average at the same counts (sampling noise); logloss:")
     print("log loss of the same stated probabilities, a proper score (no target: lower is better); reduct.:")
     print("held-out gap reduction, median; tie: mean size of the reported tie)")
-    print(HEADER)
+    pooled = _table(results, kinds, machines)
     for kind in kinds:
-        for machine in machines:
-            s = blind.score([r for r in results if r.campaign == kind and r.machine == machine])
-            print(_row(machine, kind, s))
-        print(_row("all", kind, blind.score([r for r in results if r.campaign == kind])))
-    for kind in kinds:
-        print(blind.score([r for r in results if r.campaign == kind]).text())
+        print(pooled[kind].text())
     per = elapsed / len(results)
     print(
         f"blind benchmark: {len(results)} cases in {elapsed:.0f} s on {workers} processes through dask, "
@@ -172,16 +185,10 @@ def reversed_beside(
         f"a reversed channel beside a physical effect ({', '.join(truths)}; the last outside the catalogue), "
         f"seeds from {first_seed}, columns as above:"
     )
-    print(HEADER)
+    pooled = _table(results, kinds, machines)
     for kind in kinds:
-        for machine in machines:
-            s = blind.score([r for r in results if r.campaign == kind and r.machine == machine])
-            print(_row(machine, kind, s))
-        print(_row("all", kind, blind.score([r for r in results if r.campaign == kind])))
-    for kind in kinds:
-        s = blind.score([r for r in results if r.campaign == kind])
-        print(f"campaigns measuring {kind}, {s.n} cases:")
-        print("\n".join(s.confusion_lines(list(truths))))
+        print(f"campaigns measuring {kind}, {pooled[kind].n} cases:")
+        print("\n".join(pooled[kind].confusion_lines(list(truths))))
     wrong = sum(r.confident_and_wrong for r in results)
     print(f"reversed channel beside an effect: {len(results)} cases in {elapsed:.0f} s, confident and wrong {wrong}")
     return results
