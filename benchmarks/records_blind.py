@@ -47,7 +47,7 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
                     flags += " [close modes]" if case.close_modes else ""
                     if case.misread:
                         flags += f" [misread {','.join(case.misread)}]" if len(case.misread) < 3 else " [misread frame]"
-                    flags += " [channel noted]" if case.channel_notes else ""
+                    flags += " [channel noted]" if case.sensor_suspects else ""
                     print(
                         f"{machine:11s} {truth:30s} {seed:4d}  {shown:45s}  " f"{other:45s}{flags}",
                         flush=True,
@@ -70,7 +70,7 @@ def study(seeds: int = 1, first_seed: int = 0, machines: tuple[str, ...] = blind
         f"{sum(c.kind == 'no significant gap' for c in sensor)}; the records chain named the misread channel alone in "
         f"{sum(c.misread_named for c in one)} and among its suspects in {sum(c.misread_suspected for c in one)} of "
         f"{len(one)} with one; a channel noted in "
-        f"{sum(bool(c.channel_notes) for c in stated)} of {len(stated)} cases whose channels read as stated"
+        f"{sum(bool(c.sensor_suspects) for c in stated)} of {len(stated)} cases whose channels read as stated"
     )
     beside = [c for c in out if c.truth in REVERSED_BESIDE]
     if beside:

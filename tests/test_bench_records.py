@@ -224,10 +224,11 @@ def test_no_sensor_is_blamed_on_a_clean_eight_channel_record(seed):
 def test_a_sensor_turned_by_20_degrees_is_named(tmp_path, capsys):
     machine = Machine.resolve("kid300")
     warning = inconsistent_channel(machine, _turned("y0"), 0.07)
-    assert warning.kind == "sensor" and warning.channel == "y0"
+    assert warning.kind == "sensor" and warning.channel == "y0" and warning.suspects == ("y0",)
     # where the layout's redundant equations cannot separate channels, the suspects are named together
     warning = inconsistent_channel(machine, _turned("x1"), 0.07)
     assert warning.channel == "x0, x1 or y1" and "the layout cannot tell which" in warning.message
+    assert warning.suspects == ("x0", "x1", "y1")
     # the command line runs the check on every record of 8 or more channels
     path = tmp_path / "turned.csv"
     write_csv(_turned("y2"), path)
@@ -324,6 +325,7 @@ def test_seven_channels_see_a_turned_sensor_but_cannot_place_it():
     record = turned.select([s.name for s in seven])
     warning = inconsistent_channel(machine, record, 0.07)
     assert warning.channel == "all" and "7 channels cannot tell which" in warning.message
+    assert warning.suspects == ()
 
 
 def test_an_aliased_record_states_a_wide_stiffness_instead_of_two_equal_solutions(capsys, tmp_path):

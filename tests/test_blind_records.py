@@ -104,16 +104,26 @@ def test_a_reversed_channel_in_a_record_is_named_by_the_records_and_the_diagnosi
     records chain notes that S3_y does not move with the rigid body the other channels agree on, in each record,
     and the diagnosis of the modes it gives is confident: a reversed channel (at S3_y or at its mirror image
     S1_y, whose reversal distorts kid300's mirror-symmetric modes alike)."""
+    import json
+
     from mountid.diagnosis import campaign
     from mountid.diagnosis.gap import diagnose
+    from mountid.report.jsonable import dumps
     from mountid.validation.blind_records import record_campaign
 
     found = campaign.load(record_campaign(118, "sensor_reversed", "kid300", tmp_path))
-    warned = [n for n in found.record_notes if "does not move with the rigid body" in n]
-    assert len(warned) == 2 and all("(S3_y)" in n for n in warned)
-    effects = diagnose(found).effects
+    warned = [w for w in found.record_warnings if w.kind == "sensor"]
+    files = [f"kid300-sensor_reversed-118-{k}.csv" for k in (0, 1)]
+    assert [(w.record, w.suspects) for w in warned] == [(f, ("S3_y",)) for f in files]
+    assert [n for n in found.record_notes if "with the rigid body" in n] == [w.describe() for w in warned]
+    assert warned[0].describe().startswith(f"{files[0]}: sensor (S3_y): does not move with the rigid body")
+    diagnosis = diagnose(found)
+    effects = diagnosis.effects
     assert effects.kind == "confident" and effects.best.effect == "sensor_reversed"
     assert effects.best.variant in ("S3_y", "S1_y")
+    # the report's JSON keeps the warnings as data: the suspects a program can act on without parsing notes
+    (sensor,) = [w for w in json.loads(dumps(diagnosis.to_dict()))["record_warnings"] if w["record"] == files[0]]
+    assert sensor == {**sensor, "kind": "sensor", "channel": "S3_y", "suspects": ["S3_y"]}
     assert "S3_y" in effects.best.variant + effects.best.note
 
 
@@ -179,18 +189,20 @@ def test_a_record_without_a_mode_is_left_out_of_a_campaign_of_several(tmp_path):
         campaign.load(alone)
 
 
-def test_the_misread_channel_is_named_only_where_a_note_names_it():
-    """misread_named: a record note names the truth's one misread channel alone; misread_suspected: among the
-    suspects a layout cannot tell apart (kid300 seed 18, S1_z reversed: 'S1_z, S2_z, S3_z or S4_z'). A note of its
-    mirror image, or a truth with two misread channels, is not counted."""
+def test_the_misread_channel_is_named_only_where_a_sensor_warning_names_it():
+    """misread_named: a sensor warning names the truth's one misread channel alone; misread_suspected: among the
+    suspects a layout cannot tell apart (kid300 seed 18, S1_z reversed: S1_z, S2_z, S3_z or S4_z). A warning of
+    its mirror image, a warning that cannot narrow the channels (seven of them), or a truth with two misread
+    channels, is not counted."""
     case = RecordCase("sensor_reversed", "kid300", 118, "confident", "sensor_reversed", 1.0, True, (), (), ())
-    noted = "a.csv: sensor (S3_y): does not move with the rigid body the other channels agree on"
-    assert replace(case, misread=("S3_y",), channel_notes=(noted,)).misread_named
-    assert replace(case, misread=("S3_y",), channel_notes=(noted,)).misread_suspected
-    assert not replace(case, misread=("S1_y",), channel_notes=(noted,)).misread_suspected
-    assert not replace(case, misread=("S3_y", "S2_z"), channel_notes=(noted,)).misread_suspected
+    noted = (("S3_y",),)
+    assert replace(case, misread=("S3_y",), sensor_suspects=noted).misread_named
+    assert replace(case, misread=("S3_y",), sensor_suspects=noted).misread_suspected
+    assert not replace(case, misread=("S1_y",), sensor_suspects=noted).misread_suspected
+    assert not replace(case, misread=("S3_y", "S2_z"), sensor_suspects=noted).misread_suspected
     assert not replace(case, misread=("S3_y",)).misread_suspected
-    among = "b.csv: sensor (S1_z, S2_z, S3_z or S4_z): one of these does not move with the rigid body"
-    z = replace(case, misread=("S3_z",), channel_notes=(among,))
+    assert not replace(case, misread=("S3_y",), sensor_suspects=((),)).misread_suspected
+    among = (("S1_z", "S2_z", "S3_z", "S4_z"),)
+    z = replace(case, misread=("S3_z",), sensor_suspects=among)
     assert z.misread_suspected and not z.misread_named
-    assert not replace(case, misread=("S3_y",), channel_notes=(among,)).misread_suspected
+    assert not replace(case, misread=("S3_y",), sensor_suspects=among).misread_suspected

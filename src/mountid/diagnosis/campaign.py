@@ -38,6 +38,7 @@ import numpy as np
 
 from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.machine import Machine, call, sensor_row, unit_vector
+from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Channel
 from mountid.nomenclature import POSITIVE_KINDS
@@ -133,6 +134,9 @@ class Campaign:
     """The modes taken from records that disagree on their frequency beyond RECORDS_DISAGREE sigma."""
     record_modes: tuple[str, ...] = ()
     """The modes taken from the records (their frequencies poles' |p|, converted)."""
+    record_warnings: tuple[QualityWarning, ...] = ()
+    """The records chain's quality warnings on the records, each with its record's file name (in ``record_notes``
+    as text too)."""
 
     @property
     def frequencies_from_poles(self) -> bool:
@@ -300,6 +304,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         tuple(notes_on_modes),
         tuple(label for label in records.disagree if label not in data.get("modes", {})),
         tuple(label for label in from_records if label not in data.get("modes", {})),
+        records.warnings,
     )
 
 
@@ -510,18 +515,21 @@ class _FromRecords:
     """The records' channel layout where every shape came from records of one layout, else ()."""
     disagree: tuple[str, ...]
     """The modes whose records disagree beyond RECORDS_DISAGREE."""
+    warnings: tuple[QualityWarning, ...]
+    """The records' quality warnings, each with its record's file name."""
 
 
 def _modes_from_records(machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]) -> _FromRecords:
     """Each record through the records chain; per mode the records' combination (_combined), the notes, the
     layout of the shapes' channels and the modes the records disagree on."""
     if not sources:
-        return _FromRecords({}, [], (), ())
+        return _FromRecords({}, [], (), (), ())
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record, with_geometry
 
     estimates: dict[str, list[tuple[MeasuredMode, str]]] = {}
     notes = []
+    warned: list[QualityWarning] = []
     layouts: dict[str, tuple[Channel, ...]] = {}
     for i, source in enumerate(sources):
         try:
@@ -540,7 +548,9 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
         except InputError as err:  # which of the campaign's records, and what of it
             what = "" if err.parameter == "record" else f"{err.parameter}: "
             raise InputError(f"records.{i} ({source.path.name})", f"{what}{err.reason}") from None
-        notes += [f"{source.path.name}: {w.kind} ({w.channel}): {w.message}" for w in warnings]
+        here = [replace(w, record=source.path.name) for w in warnings]
+        warned += here
+        notes += [w.describe() for w in here]
         for label, mode in found.items():
             estimates.setdefault(label, []).append((mode, source.path.name))
         layouts[source.path.name] = tuple(
@@ -571,7 +581,7 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
         )
     modes, notes = _as_undamped(machine, known, modes, notes)
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
-    return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree))
+    return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree), tuple(warned))
 
 
 def _as_undamped(

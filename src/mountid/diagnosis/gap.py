@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import scipy.stats
@@ -468,6 +468,7 @@ class Diagnosis:
             "conventions": campaign.conventions(),
             "records": [str(r.path) for r in campaign.records],
             "record_notes": list(campaign.record_notes),
+            "record_warnings": [asdict(w) for w in campaign.record_warnings],
             "campaign_notes": list(campaign.notes),
             "parameters": report.parameters,
             "parameter_std": report.parameter_std,

@@ -130,6 +130,7 @@ def inconsistent_channel(machine: Machine, record: Record, start: float = 0.0) -
         f"{what} not move with the rigid body the other channels agree on (their misfit falls "
         f"{math.sqrt(full / best):.1f}x without it): check its direction, position and label"
         + ("" if len(suspects) == 1 else "; the layout cannot tell which (add a channel that separates them)"),
+        suspects=tuple(suspects),
     )
 
 

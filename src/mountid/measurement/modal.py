@@ -420,11 +420,21 @@ def spectrum_peaks(omega: NDArray, amplitude: NDArray, count: int, min_omega: fl
 @dataclass(frozen=True)
 class QualityWarning:
     """A named problem of an impact record that can bias modal estimates: ``kind`` names it (e.g. "clipping",
-    "double_hit", "low_coherence", "unresolved_modes"), ``channel`` the channel it is on ("all" for the record)."""
+    "double_hit", "low_coherence", "unresolved_modes", "sensor"), ``channel`` the channel it is on as it is
+    printed ("all" for the record)."""
 
     kind: str
     channel: str
     message: str
+    suspects: tuple[str, ...] = ()
+    """The channels a "sensor" warning names, one of which does not move with the rigid body the others agree on
+    (several where the layout cannot tell which of them; none where it cannot narrow them at all)."""
+    record: str = ""
+    """The record file it is about, where a campaign read several ("" for one record read on its own)."""
+
+    def describe(self) -> str:
+        """One line: "record: kind (channel): message" (without "record: " where ``record`` is empty)."""
+        return (f"{self.record}: " if self.record else "") + f"{self.kind} ({self.channel}): {self.message}"
 
 
 def find_bursts(x: NDArray, height: float, distance: int, prominence: float) -> NDArray[np.intp]:

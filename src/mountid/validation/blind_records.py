@@ -68,7 +68,9 @@ class RecordCase:
     ``probability``, whether it was ``confident``, the candidates in the ``tie``, the modes the records gave, and
     the record notes that split or left out close modes; ``error`` where the records chain stopped (its message);
     the channels the truth mounts otherwise than the records state (``misread``: none but for a sensor truth) and
-    the record notes that a channel does not move with the rigid body the others agree on (``channel_notes``)."""
+    the suspects of each sensor warning the records chain gave (``sensor_suspects``: a channel that does not move
+    with the rigid body the others agree on; several where the layout cannot tell which, none where it cannot
+    narrow them)."""
 
     truth: str
     machine: str
@@ -85,7 +87,7 @@ class RecordCase:
     """For a truth of two parts, the candidates counted right (blind.acceptable_parts: the whole truth's and each
     part's that alone explains the truth's noise-free modal data); None for one part."""
     misread: tuple[str, ...] = ()
-    channel_notes: tuple[str, ...] = ()
+    sensor_suspects: tuple[tuple[str, ...], ...] = ()
 
     @property
     def right(self) -> tuple[str, ...]:
@@ -101,23 +103,14 @@ class RecordCase:
 
     @property
     def misread_named(self) -> bool:
-        """Whether a record note names the truth's one misread channel alone."""
-        return len(self.misread) == 1 and any(_suspects(n) == self.misread for n in self.channel_notes)
+        """Whether a sensor warning names the truth's one misread channel alone."""
+        return len(self.misread) == 1 and self.misread in self.sensor_suspects
 
     @property
     def misread_suspected(self) -> bool:
-        """Whether a record note names the truth's one misread channel among the suspects it cannot tell apart
+        """Whether a sensor warning names the truth's one misread channel among the suspects it cannot tell apart
         (a reversed z channel of four: the layout's one redundant z equation cannot say which), or alone."""
-        return len(self.misread) == 1 and any(self.misread[0] in _suspects(n) for n in self.channel_notes)
-
-
-def _suspects(note: str) -> tuple[str, ...]:
-    """The channels a records chain note names as not moving with the rigid body ("sensor (S1_z, S2_z or
-    S3_z): ...")."""
-    if "sensor (" not in note:
-        return ()
-    names = note.split("sensor (", 1)[1].split("):", 1)[0]
-    return tuple(n.strip() for n in names.replace(" or ", ", ").split(","))
+        return len(self.misread) == 1 and any(self.misread[0] in s for s in self.sensor_suspects)
 
 
 def record_campaign(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> Path:
@@ -163,7 +156,7 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
     except InputError as err:
         return RecordCase(truth, machine, seed, "error", None, math.nan, False, (), (), (), str(err), misread=misread)
     best = report.best
-    notes = tuple(n for n in found.record_notes if "close_modes" in n or "unresolved_modes" in n)
+    close = tuple(w.describe() for w in found.record_warnings if w.kind in ("close_modes", "unresolved_modes"))
     acceptable = None
     if "+" in truth:
         acceptable = blind.acceptable_parts(truth, blind.noise_free_diagnosis(seed, truth, "shapes", machine))
@@ -177,8 +170,8 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
         report.confident,
         tuple(report.tie),
         tuple(found.modes),
-        notes,
+        close,
         acceptable=acceptable,
         misread=misread,
-        channel_notes=tuple(n for n in found.record_notes if "rigid body" in n),
+        sensor_suspects=tuple(w.suspects for w in found.record_warnings if w.kind == "sensor"),
     )
