@@ -104,8 +104,8 @@ def parse_case(spec: str) -> tuple[str, campaign.Campaign, list[str]]:
     seed, truth, kind, machine, names = fields
     if not seed.isdigit():
         raise ValueError(f"case {spec!r}: the seed must be a non-negative integer, got {seed!r}")
-    if truth not in blind.EFFECT_NAMES:
-        raise ValueError(f"case {spec!r}: truth {truth!r} is not one of {', '.join(blind.EFFECT_NAMES)}")
+    if truth not in blind.TRUTHS:
+        raise ValueError(f"case {spec!r}: truth {truth!r} is not one of {', '.join(blind.TRUTHS)}")
     if kind not in blind.CAMPAIGN_KINDS:
         raise ValueError(f"case {spec!r}: kind {kind!r} is not one of {', '.join(blind.CAMPAIGN_KINDS)}")
     if machine not in blind.MACHINES:

@@ -195,6 +195,18 @@ def test_the_truths_beside_the_cycle_are_a_study_of_their_own():
         blind.cases(1, truths=("tilted_floor",))
 
 
+def test_the_evidence_check_takes_every_truth_make_case_draws():
+    """benchmarks/evidence.py (the Laplace evidence against the integral, on named blind cases) accepts a truth
+    beside the cycle as blind.cases does, and names the truths where it is given another."""
+    from benchmarks.evidence import parse_case
+
+    title, camp, names = parse_case("3:cog_height+sensor_reversed:shapes:kid300:cog_height")
+    assert title == "kid300 seed 3, cog_height+sensor_reversed, shapes:" and names == ["cog_height"]
+    assert camp.modes and blind.TRUTHS[-len(blind_truth.REVERSED_BESIDE) :] == tuple(blind_truth.REVERSED_BESIDE)
+    with pytest.raises(ValueError, match=r"truth 'tilted_floor' is not one of none, .*, drive_belt\+sensor_reversed"):
+        parse_case("3:tilted_floor:shapes:kid300:cog_height")
+
+
 def test_a_reversed_channel_beside_a_physical_effect_is_not_confident_and_wrong():
     """One case of each truth beside the cycle on kid300 with shapes (seeds 0-3 of the study in make bench): a
     drive belt with a reversed channel is named confidently; beside a scattered isolator (outside the

@@ -38,7 +38,10 @@ MACHINES: tuple[str, ...] = ("kid300", "kid300axes", "rectangular", "screen6", "
 """The shipped descriptions the harness draws machines of (each truth is diagnosed with its own description)."""
 
 EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE), *REPRESENTED_BY)
-"""Every truth of the harness: none, one per catalogue effect, and the truths of other physics."""
+"""The truths of the benchmark's cycle: none, one per catalogue effect, and the truths of other physics."""
+TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE)
+"""Every truth make_case draws: the benchmark's cycle (EFFECT_NAMES), then the study beside it of a reversed
+channel beside a physical effect (blind_truth.REVERSED_BESIDE)."""
 FREQUENCY_STD = 3e-4
 """Relative standard deviation of the synthetic frequencies (a 20 s record, see the records issue)."""
 SHAPE_STD = 0.01
@@ -284,7 +287,7 @@ def cases(
     """n cases per campaign kind and machine cycling through ``truths`` (by default 'none', every effect of the
     catalogue and every truth of other physics; REVERSED_BESIDE for the study of a reversed channel beside a
     physical effect): (seed, truth, kind, machine); a seed gives the same truth in every kind."""
-    unknown = [t for t in truths if t not in EFFECT_NAMES and t not in REVERSED_BESIDE]
+    unknown = [t for t in truths if t not in TRUTHS]
     if unknown or not truths:
         raise InputError("truths", f"no blind truth {', '.join(unknown)}" if unknown else "no truth given")
     return [(first_seed + i, truths[i % len(truths)], k, m) for m in machines for k in kinds for i in range(n)]
