@@ -156,6 +156,8 @@ class CaseResult:
     alike: tuple[str, ...] = ()
     """The candidates in the tie that the data fit as well as the first-ranked one (candidates.alike: the order
     between them rests on the priors); empty unless the verdict is confident or a tie."""
+    verdict: str = ""
+    """The verdict as the report states it (candidates.EffectsReport.verdict)."""
 
     @property
     def expected(self) -> str | None:
@@ -274,6 +276,7 @@ def run_case(
         (("none", report.nominal.log_weight), *((f.effect, f.log_weight) for f in report.ranked)),
         tuple((f.effect or "none", -0.5 * f.chi2 / report.misfit_scale) for f in (report.nominal, *report.ranked)),
         tuple(s.rival for s in report.alike()),
+        report.verdict,
     )
 
 
