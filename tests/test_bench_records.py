@@ -4,6 +4,7 @@ option, and records too short for the modes asked for. Each fault has its messag
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -234,6 +235,10 @@ def test_a_sensor_turned_by_20_degrees_is_named(tmp_path, capsys):
     write_csv(_turned("y2"), path)
     assert main(["process", "kid300", str(path)]) == 0
     assert "warning (sensor, y2): does not move with the rigid body" in capsys.readouterr().out
+    # and --json gives the warning as data, its suspects a list a program reads without parsing the message
+    assert main(["process", "kid300", str(path), "--json"]) == 0
+    (sensor,) = [w for w in json.loads(capsys.readouterr().out)["warnings"] if w["kind"] == "sensor"]
+    assert sensor["channel"] == "y2" and sensor["suspects"] == ["y2"] and sensor["record"] == ""
 
 
 # -- heavily damped modes -----------------------------------------------------------------------------------

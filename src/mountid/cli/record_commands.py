@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -139,7 +140,7 @@ def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list)
         "frequency_type": "pole",  # |p| of each pole (a campaign of these modes says "frequency_type": "pole")
         "modes": {k: {f: getattr(m, f) for f in fields} for k, m in modes.items()},
         "unlabelled_poles": [{"frequency": p.frequency, "damping_ratio": p.damping_ratio} for p in unlabelled],
-        "warnings": [{"kind": w.kind, "channel": w.channel, "message": w.message} for w in warnings],
+        "warnings": [asdict(w) for w in warnings],
     }
 
 

@@ -922,7 +922,7 @@ def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> In
     the run stops for another reason: they may be the reason)."""
     if not warnings:
         return error
-    found = "; ".join(f"{w.kind} ({w.channel}): {w.message}" for w in warnings)
+    found = "; ".join(w.describe() for w in warnings)
     return type(error)(error.parameter, f"{error.reason} [the record also shows: {found}]")
 
 
