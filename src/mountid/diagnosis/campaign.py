@@ -556,6 +556,7 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
         layouts[source.path.name] = tuple(
             Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force"
         )
+    notes += _lone_twins(machine, estimates)
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
     modes, disagree = {}, []
     for label, (mode, name) in best.items():
@@ -644,6 +645,38 @@ def _as_undamped(
             + f"{', '.join(shifts)} rad/s; beyond a tenth of their standard deviation)"
         )
     return out, notes
+
+
+def _lone_twins(machine: Machine, estimates: dict[str, list[tuple[MeasuredMode, str]]]) -> list[str]:
+    """Where some records part two modes the model has equal by symmetry (twins: x and y, named in the order of
+    frequency, from_records.label_poles) and another gives one pole of the two (under the first twin's label,
+    whichever it is), that pole goes to the twin whose frequency from the records that part them lies nearer
+    (changing ``estimates`` in place); a note for each. Were it kept under the first label, a pole of the upper
+    twin would be averaged with the lower one's."""
+    rep = machine.module.REPRESENTATIVE
+    notes = []
+    for label in [lab for lab in estimates if rep[lab] == lab]:
+        twins = [m for m in machine.module.MODES if rep[m] == label]
+        parting = {name for t in twins[1:] for _, name in estimates.get(t, [])}
+        if not parting:
+            continue
+        at = {
+            t: float(np.mean([m.frequency for m, name in estimates.get(t, []) if name in parting]))
+            for t in twins
+            if any(name in parting for _, name in estimates.get(t, []))
+        }
+        for mode, name in [e for e in estimates[label] if e[1] not in parting]:
+            nearest = min(at, key=lambda t: abs(at[t] - mode.frequency))
+            if nearest != label:
+                estimates[label].remove((mode, name))
+                estimates.setdefault(nearest, []).append((replace(mode, label=nearest), name))
+            notes.append(
+                f"{name}: one pole of {' and '.join(twins)} at {mode.frequency:.4f} rad/s, taken as {nearest} (the "
+                "records that part them: " + ", ".join(f"{t} {f:.4f}" for t, f in at.items()) + " rad/s)"
+            )
+        if not estimates[label]:
+            del estimates[label]
+    return notes
 
 
 def _kinds(mode: MeasuredMode) -> str:

@@ -179,8 +179,11 @@ def label_poles(
 ) -> tuple[dict[str, tuple[modal.Pole, float]], list[modal.Pole]]:
     """Distinct-frequency label of each pole: a one-to-one assignment of poles to the model's modes at the
     ``nominal`` parameters by :func:`mountid.identification.labelling.assign` (MAC of the channel shapes,
-    ``settings.record_frequency_weight``). Modes the channels cannot see are left
-    out; of two poles on modes equal by symmetry the better one keeps the label. Returns
+    ``settings.record_frequency_weight``). Modes the channels cannot see are left out. Of two poles on modes equal
+    by symmetry (twins) the better one keeps the twins' label, unless they lie settings.twin_separation standard
+    deviations apart or more: a machine whose symmetry is broken (kid300 with its centre of mass off the axis: x
+    and y 0.12 rad/s apart) parts its twins, and the two take the twins' labels in the order of frequency (the
+    lower x, the higher y: what a mode is called then says where it lies, not how it moves). Returns
     ({label: (pole, MAC)}, poles left unlabelled)."""
     if not poles:
         return {}, []
@@ -194,18 +197,30 @@ def label_poles(
     macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
     ratio = np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :])
     rows, cols, cost = assign(1.0 - macs, ratio, settings.record_frequency_weight)
-    best: dict[str, tuple[modal.Pole, float, float]] = {}
     assigned = set(rows)
     rest = [p for i, p in enumerate(poles) if i not in assigned]
+    on: dict[str, list[tuple[float, str, modal.Pole, float]]] = {}  # per twins' label: (cost, mode, pole, MAC)
     for i, j in zip(rows, cols, strict=True):
-        label = mod.REPRESENTATIVE[mod.MODES[visible[j]]]
-        if label in best and best[label][2] <= cost[i, j]:
-            rest.append(poles[i])
+        mode = mod.MODES[visible[j]]
+        on.setdefault(mod.REPRESENTATIVE[mode], []).append((float(cost[i, j]), mode, poles[i], float(macs[i, j])))
+    out: dict[str, tuple[modal.Pole, float]] = {}
+    for label, found in on.items():
+        found.sort(key=lambda f: f[0])
+        if len(found) == 2 and _parted(found[0][2], found[1][2], settings):
+            # named in the order of frequency, as every record of the machine names them (by shape, the
+            # nominal model's twins would name a pair mixed at 45 degrees by the noise)
+            twins = [m for m in mod.MODES if mod.REPRESENTATIVE[m] == label]
+            parted = sorted(found, key=lambda f: f[2].frequency)
+            out.update({mode: (pole, m) for mode, (_, _, pole, m) in zip(twins, parted, strict=False)})
             continue
-        if label in best:
-            rest.append(best[label][0])
-        best[label] = (poles[i], float(macs[i, j]), float(cost[i, j]))
-    return {k: (p, m) for k, (p, m, _) in best.items()}, sorted(rest, key=lambda p: p.frequency)
+        out[label] = (found[0][2], found[0][3])
+        rest += [pole for _, _, pole, _ in found[1:]]
+    return out, sorted(rest, key=lambda p: p.frequency)
+
+
+def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
+    """Whether two poles' frequencies lie settings.twin_separation combined standard deviations apart or more."""
+    return abs(a.frequency - b.frequency) >= settings.twin_separation * math.hypot(a.frequency_std, b.frequency_std)
 
 
 @dataclass(frozen=True)
@@ -253,9 +268,13 @@ def unresolved(
     norms = np.linalg.norm(predicted, axis=0)
     seen = norms > 1e-6 * norms.max()
     rep = [mod.REPRESENTATIVE[lab] for lab in mod.MODES]
+    parted = {lab for lab in labelled if lab != mod.REPRESENTATIVE[lab]}  # a twin with a pole of its own
+    parted |= {mod.REPRESENTATIVE[lab] for lab in parted}
     kept, merged = {}, []
     for label, (pole, mac) in labelled.items():
-        own = [k for k in range(len(rep)) if rep[k] == label and seen[k]]
+        own = [
+            k for k in range(len(rep)) if seen[k] and (mod.MODES[k] == label if label in parted else rep[k] == label)
+        ]
         at = float(np.mean(omega[own])) if own else math.nan
         width = 2 * pole.damping_ratio * pole.frequency
         partners = [
@@ -303,6 +322,71 @@ def _split_merged(
     if again or not wanted <= set(labelled):
         return None
     return labelled, rest
+
+
+class Twins(NamedTuple):
+    """What split_twins gives: the record's ``poles`` (refined again where a pole was split), the ``labelled``
+    ones and the ``rest``, as label_poles gives them, and a warning per split."""
+
+    poles: list[modal.Pole]
+    labelled: dict[str, tuple[modal.Pole, float]]
+    rest: list[modal.Pole]
+    warnings: list[modal.QualityWarning]
+
+
+def split_twins(
+    machine: Machine,
+    record: Record,
+    source: tuple[Record, float, float],
+    found: Twins,
+    nominal: dict[str, float],
+    settings: LabellingSettings = LABELLING,
+) -> Twins:
+    """The record's poles with each lone pole on modes the model has equal by symmetry (twins: a pole labelled x,
+    none labelled y) split in two where the record resolves them. A machine whose symmetry is broken parts its
+    twins by less than a pole's bandwidth (kid300 with its centre of mass off the axis: 18.775 and 18.895 rad/s
+    at zeta 0.034), and a record may give one pole between them with the uncertainty of one (18.8282 +- 0.00045
+    rad/s), which measures neither. The poles are refined again (modal.poles_from on ``source``: the record, start
+    and highest frequency they were fitted on) with the lone pole replaced by two seeds settings.twin_seed_offset
+    of its bandwidth 2 zeta |p| below and above it; the split is kept where the decay's misfit falls beyond noise
+    (settings.twin_p_value: the fall over each channel's residual variance against chi^2 of two parameters of the
+    pole and two of each channel's amplitude) and label_poles labels the two as the two twins (they part by
+    settings.twin_separation). ``found``: the poles as label_poles labelled them (no warnings)."""
+    import scipy.stats
+
+    mod = machine.module
+    reads = channel_rows(machine, record) @ mod.modal_matrix(**machine.values(nominal, mod.FORWARD_ARGUMENTS))
+    norms = np.linalg.norm(reads, axis=0)
+    visible = [m for m, n in zip(mod.MODES, norms, strict=True) if n > 1e-6 * norms.max()]
+    for label in list(found.labelled):
+        twins = [m for m in visible if mod.REPRESENTATIVE[m] == label]
+        if label not in found.labelled or len(twins) != 2 or twins[1] in found.labelled:
+            continue
+        pole = found.labelled[label][0]
+        offset = settings.twin_seed_offset * 2 * pole.damping_ratio * pole.frequency
+        seeds = [p.p for p in found.poles if p is not pole]
+        seeds += [replace(pole, frequency=pole.frequency + d).p for d in (-offset, offset)]
+        with np.errstate(all="ignore"):
+            split = [_as_acceleration(p, record) for p in modal.poles_from(*source, np.array(seeds))]
+        before, n = modal.decay_misfit(*source, np.array([p.p for p in found.poles]))
+        after, _ = modal.decay_misfit(*source, np.array([p.p for p in split]))
+        fall = float(np.sum((before - after) * (n - 2 * len(split) - 1) / after))
+        extra = 2 + 2 * len(before)
+        if not fall > scipy.stats.chi2.isf(settings.twin_p_value, extra):
+            continue
+        labelled, rest = label_poles(machine, record, split, nominal, settings)
+        if not all(t in labelled for t in twins):
+            continue
+        a, b = (labelled[t][0] for t in twins)
+        warning = modal.QualityWarning(
+            "twin_modes",
+            "all",
+            f"{twins[0]} and {twins[1]}: one pole at {pole.frequency:.4f} +- {pole.frequency_std:.2g} rad/s split by a "
+            f"fit of two (the misfit falls {fall:.0f}, noise {extra}): {twins[0]} {a.frequency:.4f} +- "
+            f"{a.frequency_std:.2g}, {twins[1]} {b.frequency:.4f} +- {b.frequency_std:.2g} rad/s",
+        )
+        found = Twins(split, labelled, rest, [*found.warnings, warning])
+    return found
 
 
 def _span_mac(basis: np.ndarray, shape: np.ndarray) -> float:
@@ -743,6 +827,9 @@ def modal_data(
         sensor = inconsistent_channel(machine, record, start)
         warnings += [sensor] if sensor is not None else []
     labelled, rest = label_poles(machine, record, poles, guess)
+    twins = split_twins(machine, record, source, Twins(poles, labelled, rest, []), guess)
+    poles, labelled, rest = twins.poles, twins.labelled, twins.rest
+    warnings += twins.warnings
     labelled, merged = unresolved(machine, record, labelled, guess)
     if merged:
         split = _split_merged(machine, record, source, poles, merged, guess)

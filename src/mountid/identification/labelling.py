@@ -33,6 +33,18 @@ class LabellingSettings:
     mode's direction adds 0.003 at most (records of screen6 and rectangular, 2 % noise); a pole of screen6's y
     with 2.4 % of x in it (a hit along y) lay 0.02 rad/s, ten standard deviations, off y: at 0.2 it was kept, and
     a clean machine's records showed a significant gap."""
+    twin_separation: float = 5.0
+    """Two poles of a record on modes equal by symmetry in the model (twins: kid300's x and y) are both kept, each
+    with its own mode's label, where their frequencies lie this many combined standard deviations apart or more
+    (else the better one keeps the twins' label); and a lone pole split in two (from_records.split_twins) must part
+    as far."""
+    twin_p_value: float = 1e-6
+    """A lone pole on twin modes is split in two only where the decay's misfit falls with the second pole by more
+    than noise would let it fall with this probability (chi^2 of the fall against the channels' noise, two
+    parameters of the pole and two of each channel's amplitude more)."""
+    twin_seed_offset: float = 0.15
+    """The two seeds of a lone pole's split lie this share of its half-power bandwidth 2 zeta |p| below and above
+    it."""
 
 
 LABELLING = LabellingSettings()

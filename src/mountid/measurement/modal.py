@@ -269,6 +269,17 @@ def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArra
     return _refined(samples, dt, np.asarray(seeds, dtype=complex))
 
 
+def decay_misfit(record: Record, start: float, max_frequency: float, poles: NDArray) -> tuple[NDArray[np.float64], int]:
+    """Per channel, the sum of squared residuals of the free decay from ``start`` [s] (the samples
+    free_decay_poles fits, same ``max_frequency``) after the least-squares amplitudes of the damped exponentials
+    ``poles`` [rad/s] and a constant; and the number of samples."""
+    dt, samples = decimated(record, start, max_frequency)
+    p = np.asarray(poles, dtype=complex)
+    basis = _basis(len(samples), dt, np.concatenate([p, p.conj()]))
+    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    return np.sum(np.abs(samples - (basis @ coef).real) ** 2, axis=0), len(samples)
+
+
 def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
     """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
     refined, cov = refine_poles(samples, dt, start)
@@ -420,8 +431,8 @@ def spectrum_peaks(omega: NDArray, amplitude: NDArray, count: int, min_omega: fl
 @dataclass(frozen=True)
 class QualityWarning:
     """A named problem of an impact record that can bias modal estimates: ``kind`` names it (e.g. "clipping",
-    "double_hit", "low_coherence", "unresolved_modes", "sensor"), ``channel`` the channel it is on as it is
-    printed ("all" for the record)."""
+    "double_hit", "low_coherence", "unresolved_modes", "twin_modes", "sensor"), ``channel`` the channel it is on
+    as it is printed ("all" for the record)."""
 
     kind: str
     channel: str
