@@ -370,7 +370,10 @@ def split_twins(
             split = [_as_acceleration(p, record) for p in modal.poles_from(*source, np.array(seeds))]
         before, n = modal.decay_misfit(*source, np.array([p.p for p in found.poles]))
         after, _ = modal.decay_misfit(*source, np.array([p.p for p in split]))
-        fall = float(np.sum((before - after) * (n - 2 * len(split) - 1) / after))
+        # each channel's fall over its residual variance; a channel the decay leaves at rest (a hit along x on a
+        # y channel: rounding only) weighs as one at 1e-12 of the largest variance
+        variance = np.maximum(after, 1e-12 * after.max()) / (n - 2 * len(split) - 1)
+        fall = float(np.sum((before - after) / variance))
         extra = 2 + 2 * len(before)
         if not fall > scipy.stats.chi2.isf(settings.twin_p_value, extra):
             continue
