@@ -28,7 +28,8 @@ class Pole:
     amplitude per channel at the start of the analysed segment [channel unit]; *_std: standard deviation
     the measurement noise causes (Cramer-Rao bound of the least-squares fit, see refine_poles); shape_std: per
     channel, the standard deviation of the complex amplitude, sqrt(E |error|^2) [channel unit]
-    (amplitude_standard_deviations), None where not estimated.
+    (amplitude_standard_deviations, with what the other poles' error moves between them), None where not
+    estimated.
     """
 
     frequency: float
@@ -286,13 +287,40 @@ def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
     basis = _basis(len(samples), dt, np.concatenate([refined, refined.conj()]))
     coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
     shapes = coef[:-1]  # amplitudes(): the constant's row left out
-    shape_stds = _amplitude_stds(samples, basis, coef)
+    shape_stds = np.sqrt(
+        _amplitude_stds(samples, basis, coef)[: len(refined)] ** 2 + _pole_shape_variances(dt, basis, coef, cov)
+    )
     stds = pole_standard_deviations(refined, cov)
     out = [
         Pole(float(abs(p)), float(-p.real / abs(p)), shapes[i], *stds[i], shape_std=shape_stds[i])
         for i, p in enumerate(refined)
     ]
     return sorted(out, key=lambda p: p.frequency)
+
+
+def _pole_shape_variances(dt: float, basis: NDArray, coef: NDArray, cov: NDArray) -> NDArray[np.float64]:
+    """E |error|^2 of each pole's channel amplitudes (n_poles, n_channels) from the error of the poles
+    (``cov`` of (sigma_1..k, omega_1..k), refine_poles), to first order: d coef = -B^+ (dB) coef for the least
+    squares' ``basis`` B (the poles, their conjugates and a constant) and coefficients ``coef``, with the part
+    along the pole's own amplitudes left out (a pole's own error scales and turns all of them alike, which a mode
+    shape normalises away). What is left is a partner's error moving amplitude between two poles: small where
+    the poles lie apart, the larger part of a shape's error for two poles within each other's bandwidth (twins
+    of a machine whose symmetry is broken), which amplitude_standard_deviations, the poles taken as exact, leaves
+    out."""
+    k = (basis.shape[1] - 1) // 2
+    t = np.arange(basis.shape[0]) * dt
+    pinv = np.linalg.pinv(basis)
+    moved = np.empty((k, coef.shape[1], 2 * k), dtype=complex)  # d amplitude / d (sigma_1..k, omega_1..k)
+    for m in range(k):
+        own, conj = t * basis[:, m], t * basis[:, k + m]  # d exp(p t) / d sigma, and of the conjugate
+        for j, (a, b) in enumerate(((own, conj), (1j * own, -1j * conj))):
+            moved[:, :, m + j * k] = -(pinv @ (np.outer(a, coef[m]) + np.outer(b, coef[k + m])))[:k]
+    out = np.empty((k, coef.shape[1]))
+    for i in range(k):
+        a = coef[i]
+        d = moved[i] - np.outer(a, a.conj() @ moved[i]) / max(np.vdot(a, a).real, np.finfo(float).tiny)
+        out[i] = np.maximum(np.real(np.einsum("cj,jl,cl->c", d, cov, d.conj())), 0.0)
+    return out
 
 
 def pole_standard_deviations(poles: NDArray, cov: NDArray) -> list[tuple[float, float]]:
