@@ -116,3 +116,30 @@ def test_the_matrix_pencil_recovers_the_poles_of_noise_free_decays():
     reference = np.linalg.eigh(stacked.T @ stacked)[1][:, ::-1][:, :6]
     basis = modal._signal_basis(samples, 6, L)[:, :6]
     assert np.allclose(np.abs(basis.T @ reference), np.eye(6), atol=1e-9)
+
+
+def test_the_shape_uncertainty_of_two_close_poles_holds_what_their_error_moves_between_them():
+    """Two modes 0.15 rad/s apart at zeta 0.03 (half-power bandwidth 0.6 rad/s), four channels, 40 noise seeds:
+    the stated standard deviation of each pole's channel amplitudes describes the error of its shape (after the
+    complex scale a normalised shape removes) within 0.7-1.4 in RMS; the least squares' own, the poles taken as
+    exact (amplitude_standard_deviations), understates it about twice (the other pole's error moves amplitude
+    between the two)."""
+    dt, n = 0.01, 4000
+    t = np.arange(n) * dt
+    poles = np.array([complex(-0.03 * w, w * np.sqrt(1 - 0.03**2)) for w in (10.0, 10.15)])
+    shapes = np.array([[1.0, 0.5, -0.3, 0.8], [0.2, -1.0, 0.7, 0.4]], dtype=complex)
+    clean = sum(2 * np.real(np.outer(np.exp(p * t), s)) for p, s in zip(poles, shapes, strict=True))
+    error, stated, exact = [], [], []
+    for seed in range(40):
+        y = clean + 0.05 * np.random.default_rng(seed).standard_normal(clean.shape)
+        fit = modal._refined(y, dt, poles)
+        found = np.array([p.p for p in fit])
+        for i, p in enumerate(fit):
+            scaled = p.shape * (np.vdot(p.shape, shapes[i]) / np.vdot(p.shape, p.shape))
+            error.append(np.sum(np.abs(scaled - shapes[i]) ** 2))
+            stated.append(np.sum(p.shape_std**2))
+        exact += list(
+            np.sum(modal.amplitude_standard_deviations(y, dt, np.concatenate([found, found.conj()]))[:2] ** 2, axis=1)
+        )
+    assert 0.7 < np.sqrt(np.mean(error) / np.mean(stated)) < 1.4
+    assert np.sqrt(np.mean(error) / np.mean(exact)) > 1.8

@@ -136,7 +136,8 @@ def amplitude_standard_deviations(samples: NDArray, dt: float, poles: NDArray) -
     n_channels) [channel unit], for white noise of each channel's residual variance: the linear least squares'
     sigma_c^2 [(B^H B)^-1]_kk (B the basis of the poles and the constant). The poles are taken as exact: their
     own error moves the amplitudes of every channel of a mode alike (its scale and phase), which a mode shape
-    normalises away."""
+    normalises away; another pole's error moves amplitude between the two, which the poles a record gives add
+    (Pole.shape_std: _pole_shape_variances)."""
     basis = _basis(len(samples), dt, poles)
     return _amplitude_stds(samples, basis, np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0])
 
