@@ -228,8 +228,12 @@ def test_twin_modes_a_broken_symmetry_parts_are_each_labelled(tmp_path):
         truth = sorted(data["modes"][label]["frequency"] for label in pair)
         for label, true in zip(pair, truth, strict=True):
             assert abs(found.modes[label].frequency - true) < 4 * found.modes[label].frequency_std, label
-    (split,) = [w for w in found.record_warnings if w.kind == "twin_modes"]
+    twins = [w for w in found.record_warnings if w.kind == "twin_modes"]
+    (split,) = [w for w in twins if "split by a fit of two" in w.message]
     assert split.record == "kid300-com_offset-1-1.csv" and split.message.startswith("x and y: one pole at 18.8282")
+    # the first record's pencil parted both pairs: said, with the names' order
+    parted = [w.message.split(":")[0] for w in twins if w.record == "kid300-com_offset-1-0.csv"]
+    assert parted == ["x and y", "psi and theta"] and all("order of frequency" in w.message for w in twins)
     effects = diagnose(found).effects
     assert effects.kind == "confident" and effects.best.effect == "com_offset"
 

@@ -351,13 +351,29 @@ def split_twins(
     of its bandwidth 2 zeta |p| below and above it; the split is kept where the decay's misfit falls beyond noise
     (settings.twin_p_value: the fall over each channel's residual variance against chi^2 of two parameters of the
     pole and two of each channel's amplitude) and label_poles labels the two as the two twins (they part by
-    settings.twin_separation). ``found``: the poles as label_poles labelled them (no warnings)."""
+    settings.twin_separation). ``found``: the poles as label_poles labelled them (no warnings). A "twin_modes"
+    warning says each pair parted (by label_poles or here) and that its names follow the order of frequency."""
     import scipy.stats
 
     mod = machine.module
     reads = channel_rows(machine, record) @ mod.modal_matrix(**machine.values(nominal, mod.FORWARD_ARGUMENTS))
     norms = np.linalg.norm(reads, axis=0)
     visible = [m for m, n in zip(mod.MODES, norms, strict=True) if n > 1e-6 * norms.max()]
+    parted = [
+        modal.QualityWarning(
+            "twin_modes",
+            "all",
+            f"{mod.REPRESENTATIVE[label]} and {label}: two poles, "
+            + " and ".join(
+                f"{p.frequency:.4f} +- {p.frequency_std:.2g}"
+                for p in (found.labelled[mod.REPRESENTATIVE[label]][0], found.labelled[label][0])
+            )
+            + " rad/s, apart beyond their uncertainty: named in the order of frequency",
+        )
+        for label in found.labelled
+        if label != mod.REPRESENTATIVE[label]  # the upper of two twins label_poles parted
+    ]
+    found = found._replace(warnings=[*found.warnings, *parted])
     for label in list(found.labelled):
         twins = [m for m in visible if mod.REPRESENTATIVE[m] == label]
         if label not in found.labelled or len(twins) != 2 or twins[1] in found.labelled:
@@ -386,7 +402,8 @@ def split_twins(
             "all",
             f"{twins[0]} and {twins[1]}: one pole at {pole.frequency:.4f} +- {pole.frequency_std:.2g} rad/s split by a "
             f"fit of two (the misfit falls {fall:.0f}, noise {extra}): {twins[0]} {a.frequency:.4f} +- "
-            f"{a.frequency_std:.2g}, {twins[1]} {b.frequency:.4f} +- {b.frequency_std:.2g} rad/s",
+            f"{a.frequency_std:.2g}, {twins[1]} {b.frequency:.4f} +- {b.frequency_std:.2g} rad/s (named in the "
+            "order of frequency)",
         )
         found = Twins(split, labelled, rest, [*found.warnings, warning])
     return found
