@@ -269,3 +269,17 @@ def test_a_lone_pole_of_twins_another_record_parts_is_left_out(tmp_path):
     assert abs(psi.frequency - data["modes"]["psi"]["frequency"]) < 2 * psi.frequency_std
     effects = diagnose(found).effects
     assert effects.kind == "confident" and effects.best.effect == "drive_belt"
+
+
+def test_a_lone_pole_on_twins_the_record_cannot_part_is_kept_with_a_warning(tmp_path):
+    """kid300 with its centre of mass off the axis (blind seed 0): psi and theta 0.155 rad/s apart at zeta 0.08 (a
+    bandwidth of 10.7 rad/s). A fit of two lowers the first record's misfit far beyond noise but does not part
+    them: the pole is kept (at 66.95, theta's 66.955) and the warning says it may be either twin or between."""
+    from mountid.diagnosis import campaign
+    from mountid.validation.blind_records import record_campaign
+
+    found = campaign.load(record_campaign(0, "com_offset", "kid300", tmp_path))
+    (warning,) = [w for w in found.record_warnings if w.kind == "twin_modes"]
+    assert warning.record == "kid300-com_offset-0-0.csv" and warning.message.startswith("psi and theta: one pole at")
+    assert "does not part them: the pole may be either twin or lie between them" in warning.message
+    assert set(found.modes) == {"x", "z", "psi", "phi"} and abs(found.modes["psi"].frequency - 66.955) < 0.01
