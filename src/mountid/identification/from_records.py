@@ -188,12 +188,8 @@ def label_poles(
     if not poles:
         return {}, []
     mod = machine.module
-    args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
-    phi = mod.modal_matrix(**args)  # (6, n_modes)
-    omega = mod.frequencies(**args)
-    predicted = channel_rows(machine, record) @ phi  # what each channel reads in each mode
-    norms = np.linalg.norm(predicted, axis=0)
-    visible = np.flatnonzero(norms > 1e-6 * norms.max())
+    omega, predicted, seen = _channel_modes(machine, record, nominal)
+    visible = np.flatnonzero(seen)
     macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
     ratio = np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :])
     rows, cols, cost = assign(1.0 - macs, ratio, settings.record_frequency_weight)
@@ -221,6 +217,19 @@ def label_poles(
 def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
     """Whether two poles' frequencies lie settings.twin_separation combined standard deviations apart or more."""
     return abs(a.frequency - b.frequency) >= settings.twin_separation * math.hypot(a.frequency_std, b.frequency_std)
+
+
+def _channel_modes(
+    machine: Machine, record: Record, nominal: dict[str, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The model's modes at the ``nominal`` parameters as the record's channels see them: the frequencies
+    [rad/s], what each channel reads in each mode (channels x modes), and whether the channels see each mode at
+    all (its readings above 1e-6 of the most visible mode's)."""
+    mod = machine.module
+    args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
+    predicted = channel_rows(machine, record) @ mod.modal_matrix(**args)
+    norms = np.linalg.norm(predicted, axis=0)
+    return mod.frequencies(**args), predicted, norms > 1e-6 * norms.max()
 
 
 @dataclass(frozen=True)
@@ -262,11 +271,7 @@ def unresolved(
     columns: one pole, MAC 0.51 with x, 1.00 with x and y), a measurement of neither. Returns (the poles kept,
     the merged ones)."""
     mod = machine.module
-    args = machine.values(nominal, mod.FORWARD_ARGUMENTS)
-    omega = mod.frequencies(**args)
-    predicted = channel_rows(machine, record) @ mod.modal_matrix(**args)
-    norms = np.linalg.norm(predicted, axis=0)
-    seen = norms > 1e-6 * norms.max()
+    omega, predicted, seen = _channel_modes(machine, record, nominal)
     rep = [mod.REPRESENTATIVE[lab] for lab in mod.MODES]
     parted = {lab for lab in labelled if lab != mod.REPRESENTATIVE[lab]}  # a twin with a pole of its own
     parted |= {mod.REPRESENTATIVE[lab] for lab in parted}
@@ -359,9 +364,7 @@ def split_twins(
     import scipy.stats
 
     mod = machine.module
-    reads = channel_rows(machine, record) @ mod.modal_matrix(**machine.values(nominal, mod.FORWARD_ARGUMENTS))
-    norms = np.linalg.norm(reads, axis=0)
-    visible = [m for m, n in zip(mod.MODES, norms, strict=True) if n > 1e-6 * norms.max()]
+    visible = [m for m, seen in zip(mod.MODES, _channel_modes(machine, record, nominal)[2], strict=True) if seen]
     parted = [
         modal.QualityWarning(
             "twin_modes",
