@@ -337,6 +337,9 @@ class Twins(NamedTuple):
     labelled: dict[str, tuple[modal.Pole, float]]
     rest: list[modal.Pole]
     warnings: list[modal.QualityWarning]
+    mixed: frozenset[str] = frozenset()
+    """The labels whose pole is one on two twins that a fit of two does not part: its shape a mix of theirs in
+    proportions the hit set (modal_data gives it no shape)."""
 
 
 def split_twins(
@@ -401,15 +404,21 @@ def split_twins(
             continue
         labelled, rest = label_poles(machine, record, split, nominal, settings)
         if not all(t in labelled for t in twins):
-            # two modes under the pole that the record cannot part: said, the pole kept (it may be either twin)
+            # two modes under the pole that the record cannot part: the pole kept (it may be either twin or lie
+            # between them), its uncertainty widened to cover the two poles of the fit of two
+            wide = _covering(pole, _pair_of(split, [p for p in found.poles if p is not pole]))
             warning = modal.QualityWarning(
                 "twin_modes",
                 "all",
                 f"{twins[0]} and {twins[1]}: one pole at {pole.frequency:.4f} +- {pole.frequency_std:.2g} rad/s; a fit "
                 f"of two lowers the misfit by {fall:.0f} (noise {extra}) but does not part them: the pole may be "
-                "either twin or lie between them, with the uncertainty of one",
+                f"either twin or lie between them: its uncertainty widened to cover the fit of two "
+                f"(+- {wide.frequency_std:.2g} rad/s, damping ratio +- {wide.damping_std:.2g}), its shape (a mix of "
+                "the twins') left out",
             )
-            found = found._replace(warnings=[*found.warnings, warning])
+            poles = [wide if p is pole else p for p in found.poles]
+            labelled = {k: (wide, *v[1:]) if v[0] is pole else v for k, v in found.labelled.items()}
+            found = Twins(poles, labelled, found.rest, [*found.warnings, warning], found.mixed | {label})
             continue
         a, b = (labelled[t][0] for t in twins)
         warning = modal.QualityWarning(
@@ -420,8 +429,28 @@ def split_twins(
             f"{a.frequency_std:.2g}, {twins[1]} {b.frequency:.4f} +- {b.frequency_std:.2g} rad/s (named in the "
             "order of frequency)",
         )
-        found = Twins(split, labelled, rest, [*found.warnings, warning])
+        found = Twins(split, labelled, rest, [*found.warnings, warning], found.mixed)
     return found
+
+
+def _pair_of(split: list[modal.Pole], others: list[modal.Pole]) -> list[modal.Pole]:
+    """The poles of a fit of two in the place of one (``split``: the record's poles refined again) that are not
+    the record's ``others`` refined again: each of those takes the split pole nearest it (in p)."""
+    left = list(split)
+    for other in others:
+        left.remove(min(left, key=lambda q: abs(q.p - other.p)))
+    return left
+
+
+def _covering(pole: modal.Pole, pair: list[modal.Pole]) -> modal.Pole:
+    """``pole`` with its frequency and damping standard deviations widened by the span of its value and those of
+    ``pair`` (the fit of two in its place): sqrt(std^2 + span^2). A pole that may be either of two twins, or lie
+    between them, may lie as far as their separation from the twin whose name it carries; and a model whose
+    twins lie within that uncertainty may mix their shapes in its comparison with the pole's (candidate_model:
+    the measured resolution), which a lone pole on both twins measures."""
+    df = np.ptp([pole.frequency, *(q.frequency for q in pair)])
+    dz = np.ptp([pole.damping_ratio, *(q.damping_ratio for q in pair)])
+    return replace(pole, frequency_std=math.hypot(pole.frequency_std, df), damping_std=math.hypot(pole.damping_std, dz))
 
 
 def _span_mac(basis: np.ndarray, shape: np.ndarray) -> float:
@@ -796,6 +825,9 @@ class ModalData:
     frf: FrfEstimate | None = None
     """The H1 frequency responses the modes were fitted on (None: the free decay after ``start``)."""
     notes: tuple[str, ...] = ()
+    mixed: frozenset[str] = frozenset()
+    """The labels whose pole lies on two twins that a fit of two does not part (Twins.mixed): its uncertainty
+    widened to cover the fit of two, no shape."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -906,15 +938,15 @@ def modal_data(
             p.frequency_std,
             damping_ratio=p.damping_ratio,
             damping_std=p.damping_std,
-            shape=coordinate_shape(rows, p.shape) if full else None,
+            shape=coordinate_shape(rows, p.shape) if full and label not in twins.mixed else None,
             shape_std=coordinate_shape_std(rows, p.shape, p.shape_std, length)
-            if full and p.shape_std is not None
+            if full and label not in twins.mixed and p.shape_std is not None
             else None,
             mac=m,
         )
         for label, (p, m) in labelled.items()
     }
-    return ModalData(modes, rest, warnings, estimate, tuple(notes))
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), twins.mixed & set(modes))
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
