@@ -337,9 +337,11 @@ class Twins(NamedTuple):
     labelled: dict[str, tuple[modal.Pole, float]]
     rest: list[modal.Pole]
     warnings: list[modal.QualityWarning]
-    mixed: frozenset[str] = frozenset()
-    """The labels whose pole is one on two twins that a fit of two does not part: its shape a mix of theirs in
-    proportions the hit set (modal_data gives it no shape)."""
+    mixed: tuple[tuple[str, float, float], ...] = ()
+    """(label, frequency span [rad/s], damping-ratio span) of each pole on two twins that a fit of two does not
+    part (_spans): modal_data widens its uncertainty by them and gives it no shape (a mix of the twins' in the
+    proportions the hit set), whatever later refits of the record's poles (a split of other twins, of close
+    modes) make of the pole itself."""
 
 
 def split_twins(
@@ -406,7 +408,8 @@ def split_twins(
         if not all(t in labelled for t in twins):
             # two modes under the pole that the record cannot part: the pole kept (it may be either twin or lie
             # between them), its uncertainty widened to cover the two poles of the fit of two
-            wide = _covering(pole, _pair_of(split, [p for p in found.poles if p is not pole]))
+            spans = _spans(pole, _pair_of(split, [p for p in found.poles if p is not pole]))
+            wide = _widened(pole, *spans)
             warning = modal.QualityWarning(
                 "twin_modes",
                 "all",
@@ -416,9 +419,7 @@ def split_twins(
                 f"(+- {wide.frequency_std:.2g} rad/s, damping ratio +- {wide.damping_std:.2g}), its shape (a mix of "
                 "the twins') left out",
             )
-            poles = [wide if p is pole else p for p in found.poles]
-            labelled = {k: (wide, *v[1:]) if v[0] is pole else v for k, v in found.labelled.items()}
-            found = Twins(poles, labelled, found.rest, [*found.warnings, warning], found.mixed | {label})
+            found = found._replace(warnings=[*found.warnings, warning], mixed=(*found.mixed, (label, *spans)))
             continue
         a, b = (labelled[t][0] for t in twins)
         warning = modal.QualityWarning(
@@ -442,15 +443,26 @@ def _pair_of(split: list[modal.Pole], others: list[modal.Pole]) -> list[modal.Po
     return left
 
 
-def _covering(pole: modal.Pole, pair: list[modal.Pole]) -> modal.Pole:
-    """``pole`` with its frequency and damping standard deviations widened by the span of its value and those of
-    ``pair`` (the fit of two in its place): sqrt(std^2 + span^2). A pole that may be either of two twins, or lie
-    between them, may lie as far as their separation from the twin whose name it carries; and a model whose
-    twins lie within that uncertainty may mix their shapes in its comparison with the pole's (candidate_model:
-    the measured resolution), which a lone pole on both twins measures."""
-    df = np.ptp([pole.frequency, *(q.frequency for q in pair)])
-    dz = np.ptp([pole.damping_ratio, *(q.damping_ratio for q in pair)])
-    return replace(pole, frequency_std=math.hypot(pole.frequency_std, df), damping_std=math.hypot(pole.damping_std, dz))
+def _spans(pole: modal.Pole, pair: list[modal.Pole]) -> tuple[float, float]:
+    """The span of ``pole``'s frequency [rad/s] and those of ``pair`` (the fit of two in its place), and the same
+    of their damping ratios."""
+    return (
+        float(np.ptp([pole.frequency, *(q.frequency for q in pair)])),
+        float(np.ptp([pole.damping_ratio, *(q.damping_ratio for q in pair)])),
+    )
+
+
+def _widened(pole: modal.Pole, frequency_span: float, damping_span: float) -> modal.Pole:
+    """``pole`` with its frequency and damping standard deviations widened by the spans of a fit of two in its
+    place (_spans): sqrt(std^2 + span^2). A pole that may be either of two twins, or lie between them, may lie as
+    far as their separation from the twin whose name it carries; and a model whose twins lie within that
+    uncertainty may mix their shapes in its comparison with the pole's (candidate_model: the measured
+    resolution), which a lone pole on both twins measures."""
+    return replace(
+        pole,
+        frequency_std=math.hypot(pole.frequency_std, frequency_span),
+        damping_std=math.hypot(pole.damping_std, damping_span),
+    )
 
 
 def _span_mac(basis: np.ndarray, shape: np.ndarray) -> float:
@@ -931,6 +943,9 @@ def modal_data(
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
     length = float(call(mod, "effect_scales", machine.values(guess, mod.ARGUMENTS["effect_scales"]))["length"])
+    # a pole on two twins that a fit of two does not part: widened, without its shape (Twins.mixed)
+    mixed = {label: spans for label, *spans in twins.mixed}
+    labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}
     modes = {
         label: MeasuredMode(
             label,
@@ -938,15 +953,15 @@ def modal_data(
             p.frequency_std,
             damping_ratio=p.damping_ratio,
             damping_std=p.damping_std,
-            shape=coordinate_shape(rows, p.shape) if full and label not in twins.mixed else None,
+            shape=coordinate_shape(rows, p.shape) if full and label not in mixed else None,
             shape_std=coordinate_shape_std(rows, p.shape, p.shape_std, length)
-            if full and label not in twins.mixed and p.shape_std is not None
+            if full and label not in mixed and p.shape_std is not None
             else None,
             mac=m,
         )
         for label, (p, m) in labelled.items()
     }
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), twins.mixed & set(modes))
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes))
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
