@@ -678,14 +678,14 @@ def _lone_twins(machine: Machine, estimates: dict[str, list[tuple[MeasuredMode, 
 def _mixed_twins(
     machine: Machine, estimates: dict[str, list[tuple[MeasuredMode, str]]], mixed: list[tuple[str, str]]
 ) -> list[str]:
-    """Where one record's lone pole on two twins is one that a fit of two lowers the misfit of beyond noise
-    without parting them (``mixed``: label and record; from_records.split_twins widened its uncertainty to cover
-    the fit of two and left its shape out), the other records' lone poles of the same twins (no record parts
-    them: _lone_twins) are treated alike: their frequency and damping standard deviations widened by the widest
-    of that record's, their shapes left out (``estimates`` changed in place), with a note. Their decays did not
-    show the second pole, but the machine has it: a lone pole whose record shows one mode may still lie on
-    either twin or between them (kid300axes, one isolator scattered and the centre of mass higher, blind seed 27:
-    x and y at 16.405 and 16.427 rad/s; one record's x 16.4149, flagged, the other's 16.4234 +- 0.0009)."""
+    """Where one record's lone pole on two twins is one that a fit of two lowers the misfit of beyond noise without
+    parting them (``mixed``: label and record; from_records.modal_data widened its uncertainty to cover the fit of
+    two and left its shape out: ModalData.mixed), the other records' lone poles of the same twins (no record parts
+    them: _lone_twins) are treated alike: their frequency and damping standard deviations widened by the widest of
+    that record's, their shapes left out (``estimates`` changed in place), with a note. Their decays did not show
+    the second pole, but the machine has it: a lone pole whose record shows one mode may still lie on either twin or
+    between them (kid300axes, one isolator scattered and the centre of mass higher, blind seed 27: x and y at 16.405
+    and 16.427 rad/s; one record's x 16.4149, flagged, the other's 16.4234 +- 0.0009)."""
     rep = machine.module.REPRESENTATIVE
     notes = []
     for label in sorted({lab for lab, _ in mixed}):
