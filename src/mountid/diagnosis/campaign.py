@@ -700,20 +700,18 @@ def _mixed_twins(
         for i, (mode, name) in enumerate(estimates[label]):
             if name in flagged:
                 continue
-            estimates[label][i] = (
-                replace(
-                    mode,
-                    frequency_std=math.hypot(mode.frequency_std, cover),
-                    damping_std=None if mode.damping_std is None else math.hypot(mode.damping_std, cover_damping),
-                    shape=None,
-                    shape_std=None,
-                ),
-                name,
+            wide = replace(
+                mode,
+                frequency_std=math.hypot(mode.frequency_std, cover),
+                damping_std=None if mode.damping_std is None else math.hypot(mode.damping_std, cover_damping),
+                shape=None,
+                shape_std=None,
             )
+            estimates[label][i] = (wide, name)
             notes.append(
                 f"{name}: the pole of {label} at {mode.frequency:.4f} rad/s may lie on either of two twins or "
                 f"between them, as {', '.join(sorted(flagged))} shows: its uncertainty widened alike (+- "
-                f"{math.hypot(mode.frequency_std, cover):.2g} rad/s), its shape left out"
+                f"{wide.frequency_std:.2g} rad/s), its shape left out"
             )
     return notes
 

@@ -455,9 +455,7 @@ def _spans(pole: modal.Pole, pair: list[modal.Pole]) -> tuple[float, float]:
 def _widened(pole: modal.Pole, frequency_span: float, damping_span: float) -> modal.Pole:
     """``pole`` with its frequency and damping standard deviations widened by the spans of a fit of two in its
     place (_spans): sqrt(std^2 + span^2). A pole that may be either of two twins, or lie between them, may lie as
-    far as their separation from the twin whose name it carries; and a model whose twins lie within that
-    uncertainty may mix their shapes in its comparison with the pole's (candidate_model: the measured
-    resolution), which a lone pole on both twins measures."""
+    far as their separation from the twin whose name it carries."""
     return replace(
         pole,
         frequency_std=math.hypot(pole.frequency_std, frequency_span),
