@@ -299,8 +299,8 @@ def test_a_pair_next_in_promise_is_short_fitted_at_the_isolator_its_member_ranks
 
 def _true_pair_named(seed: int, machine: str, variant: str, scatter: str, confident: bool = True) -> None:
     """The blind truth of a scattered isolator with the centre of mass moved (shapes) is diagnosed as that pair at
-    ``variant``, confidently unless ``confident`` is False, with its ``scatter`` parameter and height within three
-    standard deviations of the truth's."""
+    ``variant`` (confidently, where ``confident``; else the verdict's kind is not checked), with its ``scatter``
+    parameter and height within three standard deviations of the truth's."""
     data, truth = blind.make_case(seed, "isolator_scatter+cog_height", machine=machine)
     report = diagnose_effects(parse(data))
     best = report.best
