@@ -81,17 +81,23 @@ class ScreenedPair:
 
 class _Promise(NamedTuple):
     """One pair screened at one isolator (channel) in fit_pairs: the chi^2 its most promising start promises,
-    the isolator's index, every start (pair_starts) with the index of the most promising, its parameter count
-    (unknowns included) and the count its screen's BIC ranks it by (a refinement held at its start by half the
-    prior is not counted)."""
+    the isolator's index, every start (pair_starts) with what each screened one promises, its parameter count
+    (unknowns included), the count its screen's BIC ranks it by (a refinement held at its start by half the
+    prior is not counted) and whether the isolator is the one its members' single fits rank first."""
 
     promise: float
     pair: Pair
     variant: int | None
     starts: tuple[np.ndarray, ...]
+    promised: tuple[float, ...]
     n_parameters: int
-    first: int
     ranked_parameters: int
+    single_first: bool
+
+    @property
+    def first(self) -> int:
+        """The index of the most promising start."""
+        return int(np.argmin(self.promised))
 
 
 STATING_KINDS = ("confident", "tie")
@@ -351,7 +357,9 @@ def fit_pairs(
     fits (one member's fit with the other nil, the other way round, and both together) at each of the
     settings.pair_variants isolators (channels) its per-isolator member fits best, the settings.pair_count most
     promising by the promise's BIC (chi^2 + k ln n) fitted from all of pair_starts (a pair fitted goes on at
-    its next screened isolators while one promises less than its fit reached). Returns the fits, the screened
+    its next screened isolators while one promises less than its fit reached, and by short fits: _pair_fit),
+    the settings.pair_screened next by short fits (_short_tries) and fitted where these reach the fitted
+    pairs' BIC. Returns the fits, the screened
     pairs not fitted (each once, at its most promising isolator or channel), and the pairs the data cannot test
     (too few degrees of freedom) with their parameter counts, unknowns included. (diagnose_effects calls it
     when no single effect explains the gap comfortably: fits it within settings.confident_p_value and predicts
@@ -365,7 +373,6 @@ def fit_pairs(
         and all(0 < abs(v) < math.inf for u, v in f.parameters.items() if u in f.state.model.unknown)
     ]
     promising, untestable = [], []
-    single_best: dict[str, int | None] = {}  # per pair: the isolator (channel) its members' single fits rank first
     for fa, fb in itertools.combinations(singles, 2):
         both = pair(EFFECTS[fa.effect], EFFECTS[fb.effect])
         if both is None:
@@ -381,67 +388,57 @@ def fit_pairs(
         names = strategy(both).variants(campaign)
         for where in ranked or (None,):
             variant = names.index(where) if where else None
-            single_best.setdefault(both.name, variant)
             model = CandidateModel(campaign, both, variant)
             starts = pair_starts(model, fa, fb, where)
             # screened from each member's fit with the other nil and from both fitted values together (a softer
             # isolator with a higher centre of mass: 185 from either member, 3.4 from both; the truth)
-            promised = promises(campaign, model, list(starts.screened))
-            first = int(np.argmin(promised))
+            promised = tuple(promises(campaign, model, list(starts.screened)))
             # a refinement held at its start by half the prior (the support's aspect) is not a full parameter
             # in the ranking's BIC: counted as one, it pushed the true pair out of the fitted five
             counted = k - len(model.held_first())
-            promising.append(_Promise(promised[first], both, variant, starts.all, k, first, counted))
+            single_first = where is None or where == ranked[0]
+            promising.append(_Promise(min(promised), both, variant, starts.all, promised, k, counted, single_first))
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
     log_n = math.log(nominal.n_data)
     promising.sort(key=lambda x: x.promise + x.ranked_parameters * log_n)
-    # each pair's screened isolators (channels), most promising first, with the index of its most promising start
-    by_pair: dict[str, tuple[Pair, int, list]] = {}
+    # each pair's screened isolators (channels), most promising first
+    by_pair: dict[str, list[_Promise]] = {}
     for x in promising:
-        by_pair.setdefault(x.pair.name, (x.pair, x.n_parameters, []))[2].append(
-            (x.promise, x.variant, x.starts, x.first)
-        )
+        by_pair.setdefault(x.pair.name, []).append(x)
     # the settings.pair_count most promising (pair, isolator) combinations are fitted, a pair keeping its best
     # fitting isolator (the one-step promise may rank a mirror image or a neighbour first)
     top = Counter(x.pair.name for x in promising[: settings.pair_count])
-    out = []
-    for name in top:
-        both, k, entries = by_pair[name]
-        out.append(_pair_fit(campaign, both, entries, top[name], settings))
+    out = [_pair_fit(campaign, by_pair[name], top[name], settings) for name in top]
     rest = [name for name in by_pair if name not in top]
-    # the next settings.pair_screened go on by a short fit from their most promising start at their most
-    # promising isolator and at the one their members' single fits rank first (where that is another: a
-    # one-step promise from starts far from the minimum may rank the true isolator low; screen6 seed 2063 with
-    # shapes, a scattered isolator with the centre of mass lower: promised 901 at a neighbour, where the short
-    # fit reaches 1077, and 1425 at the isolator the scatter's single fit ranks first, the truth's, where it
-    # reaches 30), and each that reaches less (BIC) than the best plausible fitted pair is fitted from
-    # there (one that fits only at values no machine has sets no bar: on screen6 seed 6 with damping ratios two
-    # gravity-preload pairs beyond range barred every further pair, and a support was ranked behind a scattered
-    # isolator). Also where a fitted pair fits within the uncertainty: a better one may lie further down the
-    # promise (a scattered isolator with the centre of mass lower, screen6 seed 1038 with shapes: promised 58.5,
-    # sixth; 23 after the short fit, 21.8 fitted, where the best fitted pair reached 38)
+    # the next settings.pair_screened go on by short fits (_short_tries: from their most promising start at their
+    # most promising isolator, at the one their members' single fits rank first and at each start's most
+    # promising one), and each whose best short fit reaches less (BIC) than the best plausible fitted pair is
+    # fitted from there (one that fits only at values no machine has sets no bar: on screen6 seed 6 with damping
+    # ratios two gravity-preload pairs beyond range barred every further pair, and a support was ranked behind a
+    # scattered isolator). Also where a fitted pair fits within the uncertainty: a better one may lie further
+    # down the promise (a scattered isolator with the centre of mass lower, screen6 seed 1038 with shapes:
+    # promised 58.5, sixth; 23 after the short fit, 21.8 fitted, where the best fitted pair reached 38)
     if out:
         bar = min((f.chi2 + f.n_parameters * log_n for f in out if f.plausible), default=math.inf)
         for name in rest[: settings.pair_screened]:
-            both, k, entries = by_pair[name]
-            tried = [entries[0], *[e for e in entries[1:] if e[1] == single_best[name]][:1]]
-            shorts = []
-            for entry in tried:
-                _, variant, starts, first = entry
-                model = CandidateModel(campaign, both, variant)
-                shorts.append((*short_fit(campaign, model, np.asarray(starts[first]), SCREEN_EVALUATIONS), entry))
-            chi2, x, entry = min(shorts, key=lambda s: s[0])
-            if chi2 + k * log_n < bar:
-                # the short fit's end is now the first start and the most promising one, at its isolator first
-                promise, variant, starts, _ = entry
-                entries = [(promise, variant, (x, *starts), 0), *(e for e in entries if e is not entry)]
-                out.append(_pair_fit(campaign, both, entries, 1, settings))
+            entries = by_pair[name]
+            chi2, x, entry = min(_short_fits(campaign, _short_tries(entries)), key=lambda s: s[0])
+            if chi2 + entry.n_parameters * log_n < bar:
+                # from the short fit's end first, at its isolator first
+                out.append(_pair_fit(campaign, [entry, *(e for e in entries if e is not entry)], 1, settings, x))
     fitted = {f.effect for f in out}
     screened = [
         # not fitted: once, at its most promising isolator, with every one it was screened at
-        ScreenedPair(name, entries[0][0], nominal.n_data, k, both, tuple((v, st) for _, v, st, _ in entries))
-        for name, (both, k, entries) in by_pair.items()
+        ScreenedPair(
+            name,
+            entries[0].promise,
+            nominal.n_data,
+            entries[0].n_parameters,
+            entries[0].pair,
+            tuple((e.variant, e.starts) for e in entries),
+        )
+        for name, entries in by_pair.items()
         if name not in fitted
     ]
     return out, screened, untestable
@@ -468,17 +465,73 @@ SCREEN_EVALUATIONS = 4
 """Evaluations of the residuals a short fit of a screened pair may take (settings.pair_screened)."""
 
 
-def _pair_fit(campaign: Campaign, both: Pair, entries: list, count: int, settings: DiagnosisSettings) -> CandidateFit:
-    """A screened pair fitted at its ``count`` most promising isolators (channels) of ``entries`` (promise,
-    index, starts, most promising start), the best kept; then on at its next screened isolators while one
-    promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and
-    the fit there stop far above noise level)."""
-    fit = _best_fit(campaign, both, [(variant, starts) for _, variant, starts, _ in entries[:count]], settings)
-    for promise, variant, starts, _ in entries[count:]:
-        if promise >= fit.chi2:
+def _pair_fit(
+    campaign: Campaign, entries: list[_Promise], count: int, settings: DiagnosisSettings, lead: np.ndarray | None = None
+) -> CandidateFit:
+    """A screened pair fitted at its ``count`` most promising isolators (channels) of ``entries`` (``lead``: a
+    start before the others at the first), the best kept; then on at its next screened isolators while one
+    promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and the
+    fit there stop far above noise level). Where the fit stays above noise level, each screened start goes on by
+    a short fit at the isolator it promises least at, where not fitted yet, and the pair is fitted there where
+    that reaches less than the fit (screen6 seed 2040 with shapes, an isolator 5.5 % softer with the centre of
+    mass 3.7 cm lower: the most promising start, the scatter's fit with the height nil, promised 243 at the
+    truth's isolator and 230 at the one fitted, 190; the height's fit with the scatter nil promised least at the
+    truth's, 357, and its short fit there reached 47, the truth's minimum)."""
+    both = entries[0].pair
+    at = [(e.variant, e.starts) for e in entries[:count]]
+    if lead is not None:
+        at[0] = (at[0][0], (lead, *at[0][1]))
+    fit = _best_fit(campaign, both, at, settings)
+    done = count
+    for e in entries[count:]:
+        if e.promise >= fit.chi2:
             break
-        fit = min(fit, _best_fit(campaign, both, [(variant, starts)], settings), key=lambda f: f.chi2)
+        fit = min(fit, _best_fit(campaign, both, [(e.variant, e.starts)], settings), key=lambda f: f.chi2)
+        done += 1
+    if done < len(entries) and fit.chi2 > noise_level(fit.n_data, fit.n_parameters):
+        places = {e.variant for e in entries[:done]}
+        for chi2, x, e in _short_fits(campaign, _each_start_first(entries, places)):
+            if chi2 < fit.chi2:
+                fit = min(fit, _best_fit(campaign, both, [(e.variant, (x, *e.starts))], settings), key=lambda f: f.chi2)
     return fit
+
+
+def _each_start_first(entries: list[_Promise], places: set[int | None]) -> list[tuple[_Promise, int]]:
+    """For each screened start of a pair (by its index), the isolator (channel) of ``entries`` it promises least
+    at, with the start's index, where that isolator is not in ``places`` (and once each)."""
+    out = []
+    for start in range(len(entries[0].promised)):
+        e = min(entries, key=lambda e: e.promised[start])
+        if e.variant not in places:
+            out.append((e, start))
+            places = places | {e.variant}
+    return out
+
+
+def _short_tries(entries: list[_Promise]) -> list[tuple[_Promise, int]]:
+    """Where a pair next in promise goes on by a short fit (fit_pairs), as (isolator, start index): its most
+    promising start at its most promising isolator (channel); where another, the most promising start at the
+    one its members' single fits rank first (a one-step promise from starts far from the minimum may rank the
+    true isolator low: screen6 seed 2063 with shapes, a scattered isolator with the centre of mass lower,
+    promised 901 at a neighbour, where the short fit reaches 1077, and 1425 at the isolator the scatter's single
+    fit ranks first, the truth's, where it reaches 30); and each start at the isolator it promises least at,
+    where not tried yet (_each_start_first)."""
+    tried = [(entries[0], entries[0].first)]
+    single = next((e for e in entries if e.single_first), None)
+    if single is not None and single is not entries[0]:
+        tried.append((single, single.first))
+    return tried + _each_start_first(entries, {e.variant for e, _ in tried})
+
+
+def _short_fits(campaign: Campaign, tries: list[tuple[_Promise, int]]) -> list[tuple[float, np.ndarray, _Promise]]:
+    """The chi^2 and end of a short fit (SCREEN_EVALUATIONS evaluations) of each of ``tries`` (a pair at an
+    isolator or channel, the index of the start), with its entry."""
+    out = []
+    for entry, start in tries:
+        model = CandidateModel(campaign, entry.pair, entry.variant)
+        chi2, x = short_fit(campaign, model, np.asarray(entry.starts[start]), SCREEN_EVALUATIONS)
+        out.append((chi2, x, entry))
+    return out
 
 
 def _best_fit(
