@@ -423,10 +423,15 @@ def fit_pairs(
         bar = min((f.chi2 + f.n_parameters * log_n for f in out if f.plausible), default=math.inf)
         for name in rest[: settings.pair_screened]:
             entries = by_pair[name]
-            chi2, x, entry = min(_short_fits(campaign, _short_tries(entries)), key=lambda s: s[0])
-            if chi2 + entry.n_parameters * log_n < bar:
-                # from the short fit's end first, at its isolator first
-                out.append(_pair_fit(campaign, [entry, *(e for e in entries if e is not entry)], 1, settings, x))
+            # each short fit that reaches below the bar is fitted on from its end, the best first (a short fit at
+            # a wrong isolator may reach less than the truth's in its four evaluations: kid300 seed 1040 with
+            # damping ratios, 31 fitted at corner[-x+y], 2.9 at corner[+x+y])
+            shorts = sorted(_short_fits(campaign, _short_tries(entries)), key=lambda s: s[0])
+            going = [(x, e) for chi2, x, e in shorts if chi2 + e.n_parameters * log_n < bar]
+            if going:
+                ahead = [e for _, e in going]
+                entries = [*ahead, *(e for e in entries if all(e is not a for a in ahead))]
+                out.append(_pair_fit(campaign, entries, len(going), settings, [x for x, _ in going]))
     fitted = {f.effect for f in out}
     screened = [
         # not fitted: once, at its most promising isolator, with every one it was screened at
@@ -466,21 +471,23 @@ SCREEN_EVALUATIONS = 4
 
 
 def _pair_fit(
-    campaign: Campaign, entries: list[_Promise], count: int, settings: DiagnosisSettings, lead: np.ndarray | None = None
+    campaign: Campaign,
+    entries: list[_Promise],
+    count: int,
+    settings: DiagnosisSettings,
+    leads: Sequence[np.ndarray] = (),
 ) -> CandidateFit:
-    """A screened pair fitted at its ``count`` most promising isolators (channels) of ``entries`` (``lead``: a
-    start before the others at the first), the best kept; then on at its next screened isolators while one
-    promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and the
-    fit there stop far above noise level). Where the fit stays above noise level, each screened start goes on by
-    a short fit at the isolator it promises least at, where not fitted yet, and the pair is fitted there where
-    that reaches less than the fit (screen6 seed 2040 with shapes, an isolator 5.5 % softer with the centre of
-    mass 3.7 cm lower: the most promising start, the scatter's fit with the height nil, promised 243 at the
-    truth's isolator and 230 at the one fitted, 190; the height's fit with the scatter nil promised least at the
-    truth's, 357, and its short fit there reached 47, the truth's minimum)."""
+    """A screened pair fitted at its ``count`` most promising isolators (channels) of ``entries`` (``leads``: starts
+    before the others at the first of them, one each), the best kept; then on at its next screened isolators while
+    one promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and the
+    fit there stop far above noise level). Where the fit stays above noise level, each screened start goes on by a
+    short fit at the isolator it promises least at, where not fitted yet, and the pair is fitted there where that
+    reaches less than the fit (screen6 seed 2040 with shapes, an isolator 5.5 % softer with the centre of mass 3.7
+    cm lower: the most promising start, the scatter's fit with the height nil, promised 243 at the truth's isolator
+    and 230 at the one fitted, 190; the height's fit with the scatter nil promised least at the truth's, 357, and
+    its short fit there reached 47, the truth's minimum)."""
     both = entries[0].pair
-    at = [(e.variant, e.starts) for e in entries[:count]]
-    if lead is not None:
-        at[0] = (at[0][0], (lead, *at[0][1]))
+    at = [(e.variant, (*leads[i : i + 1], *e.starts)) for i, e in enumerate(entries[:count])]
     fit = _best_fit(campaign, both, at, settings)
     done = count
     for e in entries[count:]:
