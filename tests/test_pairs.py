@@ -313,11 +313,23 @@ def test_each_start_of_a_pair_goes_on_at_the_isolator_it_promises_least_at(seed,
     _true_pair_named(seed, "screen6", variant, scatter, confident)
 
 
-def _true_pair_named(seed: int, machine: str, variant: str, scatter: str, confident: bool = True) -> None:
-    """The blind truth of a scattered isolator with the centre of mass moved (shapes) is diagnosed as that pair at
-    ``variant`` (confidently, where ``confident``; else the verdict's kind is not checked), with its ``scatter``
-    parameter and height within three standard deviations of the truth's."""
-    data, truth = blind.make_case(seed, "isolator_scatter+cog_height", machine=machine)
+def test_every_short_fit_below_the_bar_is_fitted_on_not_only_the_best():
+    """Held-out blind case (seed 1040, kid300, frequencies and damping ratios): isolator corner[+x+y] 22 % softer
+    along its axis and the centre of mass 6.8 cm high. Of the true pair's short fits, one at corner[-x+y] (a
+    start's own most promising isolator) reached less in four evaluations than the one at the truth's; fitted
+    on from the best alone, the pair stopped at chi^2 31 there and the verdict was "not explained". Every short
+    fit below the bar is fitted on: the pair first at the truth's isolator (chi^2 2.9), not confidently (an
+    attached mass fits too)."""
+    _true_pair_named(1040, "kid300", "corner[+x+y]", "scatter_axial", confident=False, kind="damping")
+
+
+def _true_pair_named(
+    seed: int, machine: str, variant: str, scatter: str, confident: bool = True, kind: str = "shapes"
+) -> None:
+    """The blind truth of a scattered isolator with the centre of mass moved (a campaign of ``kind``) is diagnosed
+    as that pair at ``variant`` (confidently, where ``confident``; else the verdict's kind is not checked), with
+    its ``scatter`` parameter and height within three standard deviations of the truth's."""
+    data, truth = blind.make_case(seed, "isolator_scatter+cog_height", kind=kind, machine=machine)
     report = diagnose_effects(parse(data))
     best = report.best
     assert report.confident or not confident
