@@ -352,18 +352,17 @@ def _held_within_plausible(
 def fit_pairs(
     campaign: Campaign, nominal: CandidateFit, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
 ) -> tuple[list[CandidateFit], list[ScreenedPair], list[tuple[str, int]]]:
-    """Pairs of effects (mountid.effects.pair) where the data leave settings.pair_dof degrees of freedom beyond
-    the pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single
-    fits (one member's fit with the other nil, the other way round, and both together) at each of the
-    settings.pair_variants isolators (channels) its per-isolator member fits best, the settings.pair_count most
-    promising by the promise's BIC (chi^2 + k ln n) fitted from all of pair_starts (a pair fitted goes on at
-    its next screened isolators while one promises less than its fit reached, and by short fits: _pair_fit),
-    the settings.pair_screened next by short fits (_short_tries) and fitted where these reach the fitted
-    pairs' BIC. Returns the fits, the screened
-    pairs not fitted (each once, at its most promising isolator or channel), and the pairs the data cannot test
-    (too few degrees of freedom) with their parameter counts, unknowns included. (diagnose_effects calls it
-    when no single effect explains the gap comfortably: fits it within settings.confident_p_value and predicts
-    the held-out modes.)"""
+    """Pairs of effects (mountid.effects.pair) where the data leave settings.pair_dof degrees of freedom beyond the
+    pair's parameters: each screened by the chi^2 one Gauss-Newton step promises from its members' single fits (one
+    member's fit with the other nil, the other way round, and both together) at each of the settings.pair_variants
+    isolators (channels) its per-isolator member fits best, the settings.pair_count most promising by the promise's
+    BIC (chi^2 + k ln n) fitted from all of pair_starts (a pair fitted goes on at its next screened isolators while
+    one promises less than its fit reached, and by short fits: _pair_fit), the settings.pair_screened next by short
+    fits (_short_tries) and fitted from each that reaches below the fitted pairs' BIC. Returns the fits, the
+    screened pairs not fitted (each once, at its most promising isolator or channel), and the pairs the data cannot
+    test (too few degrees of freedom) with their parameter counts, unknowns included. (diagnose_effects calls it
+    when no single effect explains the gap comfortably: fits it within settings.confident_p_value and predicts the
+    held-out modes.)"""
     singles = [
         f
         for f in fits
@@ -413,8 +412,8 @@ def fit_pairs(
     rest = [name for name in by_pair if name not in top]
     # the next settings.pair_screened go on by short fits (_short_tries: from their most promising start at their
     # most promising isolator, at the one their members' single fits rank first and at each start's most
-    # promising one), and each whose best short fit reaches less (BIC) than the best plausible fitted pair is
-    # fitted from there (one that fits only at values no machine has sets no bar: on screen6 seed 6 with damping
+    # promising one), and a pair is fitted from each of its short fits that reaches less (BIC) than the best
+    # plausible fitted pair (one that fits only at values no machine has sets no bar: on screen6 seed 6 with damping
     # ratios two gravity-preload pairs beyond range barred every further pair, and a support was ranked behind a
     # scattered isolator). Also where a fitted pair fits within the uncertainty: a better one may lie further
     # down the promise (a scattered isolator with the centre of mass lower, screen6 seed 1038 with shapes:

@@ -56,9 +56,9 @@ class DiagnosisSettings:
     """After the settings.pair_count pairs are fitted, this many of the next screened pairs (by the one-step
     promise) go on by short fits (candidates.SCREEN_EVALUATIONS evaluations from their most promising start at
     their most promising isolator or channel, and at the one their members' single fits rank first where that is
-    another; from each start at the isolator it promises least at, where not tried yet), and each whose best
-    reaches a smaller BIC than the best plausible fitted pair (any, where none is
-    plausible) is fitted from there: one Gauss-Newton step from members' fits that each absorbed part of the
+    another; from each start at the isolator it promises least at, where not tried yet), and the pair is fitted
+    from each short fit that reaches a smaller BIC than the best plausible fitted pair (any, where none is
+    plausible), the best kept: one Gauss-Newton step from members' fits that each absorbed part of the
     other's effect can promise far less than the pair fits (screen6 seed 170, an isolator 30 % softer with the
     centre of mass 9 cm higher: promised 1153, the 14th pair; 67 after four evaluations, 27 fitted), also where a
     fitted pair already fits within the uncertainty (seed 1038: the true pair sixth by its promise, 21.8 fitted,
