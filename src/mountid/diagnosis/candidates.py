@@ -481,10 +481,10 @@ def _pair_fit(
     one promises less than the fit reached (the promise may rank a mirror image of the true isolator first, and the
     fit there stop far above noise level). Where the fit stays above noise level, each screened start goes on by a
     short fit at the isolator it promises least at, where not fitted yet, and the pair is fitted there where that
-    reaches less than the fit (screen6 seed 2040 with shapes, an isolator 5.5 % softer with the centre of mass 3.7
-    cm lower: the most promising start, the scatter's fit with the height nil, promised 243 at the truth's isolator
-    and 230 at the one fitted, 190; the height's fit with the scatter nil promised least at the truth's, 357, and
-    its short fit there reached 47, the truth's minimum)."""
+    reaches less than the fit: the most promising start may promise least at a wrong isolator while another start
+    ranks the truth's first (as for the pairs next in promise, _short_tries: screen6 seeds 2040 and 148 with shapes,
+    where the true pair was among them; in an earlier state of the screen seed 2040's was among those fitted,
+    stopped at chi^2 190 at a wrong isolator and never reached the truth's, where a start's short fit reaches 47)."""
     both = entries[0].pair
     at = [(e.variant, (*leads[i : i + 1], *e.starts)) for i, e in enumerate(entries[:count])]
     fit = _best_fit(campaign, both, at, settings)
@@ -521,7 +521,10 @@ def _short_tries(entries: list[_Promise]) -> list[tuple[_Promise, int]]:
     true isolator low: screen6 seed 2063 with shapes, a scattered isolator with the centre of mass lower,
     promised 901 at a neighbour, where the short fit reaches 1077, and 1425 at the isolator the scatter's single
     fit ranks first, the truth's, where it reaches 30); and each start at the isolator it promises least at,
-    where not tried yet (_each_start_first)."""
+    where not tried yet (_each_start_first: screen6 seeds 2040 and 148 with shapes, a scattered isolator with the
+    centre of mass moved, where the scatter's fit with the height nil, the most promising start, promised least
+    at a wrong isolator and the height's fit with the scatter nil, the same point at every isolator, at the
+    truth's, and its short fit there reached the truth's minimum: 46.7 and 49.8)."""
     tried = [(entries[0], entries[0].first)]
     single = next((e for e in entries if e.single_first), None)
     if single is not None and single is not entries[0]:
