@@ -80,12 +80,11 @@ class ScreenedPair:
 
 
 class _Promise(NamedTuple):
-    """One pair screened at one isolator (channel) in fit_pairs: the chi^2 its most promising start promises,
-    the isolator's index, every start (pair_starts) with what each screened one promises, its parameter count
-    (unknowns included), the count its screen's BIC ranks it by (a refinement held at its start by half the
-    prior is not counted) and whether the isolator is the one its members' single fits rank first."""
+    """One pair screened at one isolator (channel) in fit_pairs: the isolator's index, every start (pair_starts)
+    with what each screened one promises, its parameter count (unknowns included), the count its screen's BIC
+    ranks it by (a refinement held at its start by half the prior is not counted) and whether the isolator is the
+    one its members' single fits rank first."""
 
-    promise: float
     pair: Pair
     variant: int | None
     starts: tuple[np.ndarray, ...]
@@ -93,6 +92,11 @@ class _Promise(NamedTuple):
     n_parameters: int
     ranked_parameters: int
     single_first: bool
+
+    @property
+    def promise(self) -> float:
+        """The chi^2 its most promising start promises."""
+        return min(self.promised)
 
     @property
     def first(self) -> int:
@@ -396,7 +400,7 @@ def fit_pairs(
             # in the ranking's BIC: counted as one, it pushed the true pair out of the fitted five
             counted = k - len(model.held_first())
             single_first = where is None or where == ranked[0]
-            promising.append(_Promise(min(promised), both, variant, starts.all, promised, k, counted, single_first))
+            promising.append(_Promise(both, variant, starts.all, promised, k, counted, single_first))
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
     log_n = math.log(nominal.n_data)
