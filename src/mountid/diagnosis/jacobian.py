@@ -64,17 +64,15 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     e = model.evaluate(theta)
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta, e.values)  # d(physical)/d(theta), diagonal
-    d_mats = _matrix_derivatives(model, e, names)
-    d_m = np.array([d[0] for d in d_mats])
-    d_c = np.array([d[1] for d in d_mats])
+    d_mats = model.strategy.stacked_derivatives(model, e.values, names, len(e.lam))  # fresh arrays
+    d_m, d_c, d_b = d_mats
     split = _splitting(e, d_m, d_c)
     if split.all():
         return None
     if split.any():  # the columns of the others are computed with the splitting ones' derivatives at zero
-        d_m, d_c = d_m.copy(), d_c.copy()
         d_m[split] = 0.0
         d_c[split] = 0.0
-        d_mats = [tuple(np.zeros_like(x) for x in d) if out else d for d, out in zip(d_mats, split, strict=True)]
+        d_b[split] = 0.0
     d_lam, d_vec = eigen_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
@@ -91,14 +89,6 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     out = np.concatenate(rows) * scale[None, :]
     out[:, split] = np.nan
     return out
-
-
-def _matrix_derivatives(model: CandidateModel, e: Evaluation, names: tuple[str, ...]) -> list:
-    """d(M, C, B)/dq for every fit parameter in order (zero matrices for one that does not enter them)."""
-    given = model.strategy.derivatives(model, e.values)
-    n = len(e.lam)
-    zero = np.zeros((n, n))
-    return [tuple(zero if d is None else d for d in given.get(q, (zero, zero, zero))) for q in names]
 
 
 def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
