@@ -6,6 +6,7 @@ candidate against a central difference of the residuals it differentiates."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,10 +18,11 @@ from mountid.diagnosis.candidate_model import DEGENERATE, CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import EQUAL, _off_span_derivative, _span_factors, jacobian
 from mountid.diagnosis.strategies import turned_axis
-from mountid.effects import EFFECTS
+from mountid.effects import EFFECTS, pair
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
 from mountid.runtime import eigen_derivatives, eigenvalue_derivatives
+from mountid.validation.blind import make_case
 from mountid.validation.blind_truth import _turned
 from mountid.validation.paper import TABLE_1
 
@@ -192,6 +194,36 @@ def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fit
     zeta_rows = slice(rows.n_rows - len(rows.damping_labels), rows.n_rows)
     assert np.max(np.abs(analytic[zeta_rows] - numeric[zeta_rows])) <= 1e-6 * np.max(np.abs(numeric[zeta_rows]))
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+
+
+def test_damping_rows_where_the_described_damping_follows_a_stiffness(tmp_path):
+    """A description whose isolator damping is proportional to the unknown stiffness (b c / c_ref, rectangular):
+    the description's B depends on the unknowns, and an isolator's candidate (alone and beside another effect)
+    keeps its derivative. Its damping-ratio columns of c_x, c_y, c_z were 94-100 % off (B's derivative dropped)."""
+    text = Path("derivations/rectangular.toml").read_text(encoding="utf-8")
+    text = text.replace(
+        'damping = ["b_x", "b_y", "b_z"]', 'damping = ["b_x * c_x / k_x", "b_y * c_y / k_y", "b_z * c_z / k_z"]'
+    )
+    references = {"k_x": 2.0e5, "k_y": 1.4e5, "k_z": 9.0e5}
+    lines = "".join(f'{k} = {{ kind = "stiffness", role = "known", value = {v} }}\n' for k, v in references.items())
+    text = text.replace("[body]", lines + "\n[body]").replace(
+        'name = "rectangular"', 'name = "rectangular_proportional"', 1
+    )
+    (tmp_path / "proportional.toml").write_text(text, encoding="utf-8")
+    data, _ = make_case(5, "cog_height", machine="rectangular", kind="damping", noise=False)
+    campaign = parse({**data, "machine": str(tmp_path / "proportional.toml"), "known": {**data["known"], **references}})
+    for effect in (EFFECTS["isolator_scatter"], pair(EFFECTS["cog_height"], EFFECTS["isolator_scatter"])):
+        model = CandidateModel(campaign, effect, 1)
+        rows = Data(campaign, model.length)
+        fun, _ = _residual_function(model, rows, None)
+        theta = model.start()[0] + np.random.default_rng(5).normal(0, 0.01, len(model.parameter_names))
+        analytic = jacobian(model, rows, theta)
+        h = 1e-6
+        numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+        zeta = slice(rows.n_rows - len(rows.damping_labels), rows.n_rows)
+        stiffness = [model.parameter_names.index(u) for u in ("c_x", "c_y", "c_z")]
+        assert np.max(np.abs(numeric[zeta][:, stiffness])) > 1e-3 * np.max(np.abs(numeric[zeta]))  # B follows c
+        assert np.max(np.abs(analytic[zeta] - numeric[zeta])) <= 1e-6 * np.max(np.abs(numeric[zeta]))
 
 
 def test_jacobian_of_the_damping_candidate_on_pole_frequencies_matches_a_central_difference():

@@ -209,8 +209,9 @@ class Isolator(Strategy):
         shear_grad, axial_grad = self._parts(model, values, None, gradient=True)
         s_shear, s_axial = values["scatter_shear"], values["scatter_axial"]
         for k, u in enumerate(model.mod.UNKNOWN):
-            d_m, d_c, _ = out.get(u, (np.zeros_like(shear_grad[k]), np.zeros_like(shear_grad[k]), None))
-            out[u] = (d_m, d_c + s_shear * shear_grad[k] + s_axial * axial_grad[k], None)
+            # the description's B stays (matrices): its derivative too, where its damping follows a stiffness
+            d_m, d_c, d_b = out.get(u, (np.zeros_like(shear_grad[k]), np.zeros_like(shear_grad[k]), None))
+            out[u] = (d_m, d_c + s_shear * shear_grad[k] + s_axial * axial_grad[k], d_b)
         shear, axial = self._parts(model, values, None)
         out["scatter_shear"] = (np.zeros_like(shear), shear, None)
         out["scatter_axial"] = (np.zeros_like(axial), axial, None)
