@@ -136,7 +136,8 @@ class Strategy:
         self, model: CandidateModel, values: dict[str, float], names: tuple[str, ...], n: int
     ) -> Stacked:
         """d(M, C, B)/dq of :meth:`derivatives` stacked in the order of ``names`` (n x n zeros where a parameter
-        or a B derivative is absent): what the analytic Jacobian takes."""
+        or a B derivative is absent): what the analytic Jacobian takes. Fresh arrays (the Jacobian zeroes the
+        rows of parameters that split twins in place)."""
         given = self.derivatives(model, values)
         zero = np.zeros((n, n))
         rows = [given.get(q) for q in names]
