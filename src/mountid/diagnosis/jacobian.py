@@ -64,7 +64,7 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
     e = model.evaluate(theta)
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta, e.values)  # d(physical)/d(theta), diagonal
-    d_mats = model.strategy.stacked_derivatives(model, e.values, names, len(e.lam))  # fresh arrays
+    d_mats, _ = model.strategy.derivatives(model, e.values, names, len(e.lam))  # a fresh array
     d_m, d_c, d_b = d_mats
     split = _splitting(e, d_m, d_c)
     if split.all():
