@@ -109,6 +109,28 @@ def test_modal_projection_and_diagonal_match_the_index_sums():
     )
 
 
+def test_stack_symmetric_sets_each_entry_and_its_mirror_in_both_paths():
+    """The flat-position path of scalar inputs and the entry-by-entry path of a batch give the same matrices: each
+    upper-triangle entry and its mirror set, zeros elsewhere, for a stack and for one matrix; entries built anew
+    at each call (not a constant) are computed again, not kept without bound."""
+    entries = ((0, 0, 0), (0, 1, 2), (2, 0, 1), (2, 2, 2))
+    values = (1, 2.5, np.float64(-3.0), 4.0)
+    one = runtime.stack_symmetric((), (3, 3, 3), entries, values)
+    expected = np.zeros((3, 3, 3))
+    for (k, i, j), v in zip(entries, values, strict=True):
+        expected[k, i, j] = expected[k, j, i] = v
+    assert np.array_equal(one, expected)
+    batch = runtime.stack_symmetric((2,), (3, 3, 3), entries, tuple(np.array([v, 2 * v]) for v in values))
+    assert np.array_equal(batch[0], expected) and np.array_equal(batch[1], 2 * expected)
+    matrix = runtime.stack_symmetric((), (2, 2), ((0, 1),), (7.0,))
+    assert np.array_equal(matrix, [[0.0, 7.0], [7.0, 0.0]])
+    assert np.array_equal(runtime.stack_symmetric((), (2, 2), (), ()), np.zeros((2, 2)))
+    for _ in range(3 * runtime.eigen._POSITIONS_KEPT):
+        fresh = tuple(tuple(e) for e in [[0, 1]])
+        assert runtime.stack_symmetric((), (2, 2), fresh, (1.0,))[1, 0] == 1.0
+    assert len(runtime.eigen._POSITIONS) <= runtime.eigen._POSITIONS_KEPT
+
+
 def test_generated_functions_give_scalars_the_numbers_of_a_batch():
     """A generated function computes with float64 scalars where every argument is a scalar (as_operands,
     batch_shape): the same numbers, to the bit, as the one row of a batch, and a batch's shape otherwise."""

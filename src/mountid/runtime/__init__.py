@@ -17,7 +17,7 @@ from mountid.runtime.eigen import (
     modal_diagonal,
     modal_matrix,
     modal_projection,
-    stack_matrix,
+    stack_symmetric,
 )
 from mountid.runtime.evaluation import (
     FUSED_MIN_SIZE,
@@ -70,6 +70,6 @@ __all__ = [
     "polynomial_roots",
     "quadratic_roots",
     "solve_inverse",
-    "stack_matrix",
+    "stack_symmetric",
     "start_grid",
 ]

@@ -9,17 +9,50 @@ from numpy.typing import ArrayLike, NDArray
 from mountid.runtime.evaluation import as_arrays
 
 
-def stack_matrix(shape: tuple[int, ...], n: int, entries: dict[tuple[int, int], ArrayLike]) -> NDArray:
-    """A (*shape, n, n) symmetric matrix from its upper-triangle non-zero entries."""
-    out = np.zeros((*shape, n, n))
-    if not shape:  # one matrix (scalar inputs): plain indexing, a third of the cost of the ellipsis form
-        for (i, j), value in entries.items():
-            out[i, j] = out[j, i] = value
+def stack_symmetric(
+    shape: tuple[int, ...], dims: tuple[int, ...], entries: tuple[tuple[int, ...], ...], values: tuple[ArrayLike, ...]
+) -> NDArray:
+    """A (*shape, *dims) array of symmetric matrices (the last two of ``dims``; before them the index of a matrix in
+    a stack, if any), zero but for their non-zero upper-triangle ``entries`` (indices into ``dims``), set to
+    ``values`` and mirrored below the diagonal.
+
+    With scalar inputs (``shape`` ()) the values are set in one step at flat positions computed once for each
+    ``entries`` (a generated function passes the same constant tuple at every call): a stack of derivative
+    matrices with 70 entries takes 2 us instead of 25 entry by entry."""
+    out = np.zeros((*shape, *dims))
+    if not shape:
+        upper, lower = _flat_positions(dims, entries)
+        flat = out.reshape(-1)
+        flat[upper] = flat[lower] = np.fromiter(values, float, len(values))
         return out
-    for (i, j), value in entries.items():
-        out[..., i, j] = value
-        out[..., j, i] = value
+    for index, value in zip(entries, values, strict=True):
+        out[(..., *index)] = value
+        out[(..., *index[:-2], index[-1], index[-2])] = value
     return out
+
+
+_POSITIONS: dict[int, tuple[tuple, NDArray[np.intp], NDArray[np.intp]]] = {}
+"""The flat positions of stack_symmetric's entries and of their mirror images, by the identity of the entries'
+tuple (held here, so its identity is not reused)."""
+
+_POSITIONS_KEPT = 4096
+"""More distinct entry tuples than this (a generated function building its entries anew at every call) empty the
+store rather than grow it."""
+
+
+def _flat_positions(dims: tuple[int, ...], entries: tuple[tuple[int, ...], ...]) -> tuple[NDArray, NDArray]:
+    kept = _POSITIONS.get(id(entries))
+    if kept is not None and kept[0] is entries:
+        return kept[1], kept[2]
+    index = np.array(entries, dtype=np.intp).reshape(len(entries), len(dims)).T
+    mirrored = index.copy()
+    mirrored[[-2, -1]] = index[[-1, -2]]
+    upper = np.ravel_multi_index(tuple(index), dims)
+    lower = np.ravel_multi_index(tuple(mirrored), dims)
+    if len(_POSITIONS) >= _POSITIONS_KEPT:
+        _POSITIONS.clear()
+    _POSITIONS[id(entries)] = (entries, upper, lower)
+    return upper, lower
 
 
 def block_eigen(

@@ -29,7 +29,7 @@ class Call:
 @dataclass(frozen=True)
 class SymmetricMatrix:
     """A symmetric ``size`` x ``size`` matrix output: its non-zero upper-triangle entries (i, j, value),
-    assembled at run time by runtime.stack_matrix (a stack of them: their entries set into one zero array)."""
+    assembled at run time by runtime.stack_symmetric (a stack of them: their entries set into one zero array)."""
 
     size: int
     entries: tuple[tuple[int, int, Leaf], ...]
