@@ -160,6 +160,23 @@ ARGUMENTS = {
         "b_h",
         "b_v",
     ),
+    "fitted_derivatives": (
+        "m",
+        "J_x",
+        "J_y",
+        "J_z",
+        "a1",
+        "a2",
+        "b",
+        "h",
+        "gamma",
+        "c_x",
+        "c_y",
+        "c_v1",
+        "c_v2",
+        "b_h",
+        "b_v",
+    ),
     "identify_x_y_z_psi": (
         "m",
         "J_x",
@@ -678,6 +695,7 @@ ARGUMENTS = {
 """Argument names of every generated function, by function name."""
 DEPENDS = {
     "matrix_derivatives": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v"),
+    "fitted_derivatives": ("a1", "a2", "b", "h", "gamma"),
     "effect_com_offset_derivatives": ("m", "a1", "a2", "b", "h", "gamma", "dx_com", "dy_com"),
     "effect_cog_height_derivatives": ("m", "a1", "a2", "b", "h", "gamma", "dz_com"),
     "effect_rotational_stiffness_derivatives": ("a1", "a2", "b", "h", "gamma"),
@@ -1408,6 +1426,172 @@ def matrix_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_
             _tmp56,  # [44, 5, 5]
         ),
     ).reshape(*_shape, 15, 3, 6, 6)
+
+
+def fitted_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v):
+    """Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,
+    then the damping parameters), shape (..., 6, 3, 6, 6): [..., k, (M, C, B), :, :] =
+    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for
+    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them
+    computes them once.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [theta, theta] = 8*h**2
+          [phi, phi] = 8*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+        dB/dc_y:
+        dM/dc_v1:
+        dC/dc_v1:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*cos(gamma)**2
+          [psi, psi] = 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+        dB/dc_v1:
+        dM/dc_v2:
+        dC/dc_v2:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a2**2
+        dB/dc_v2:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 8
+          [x, theta] = -8*h
+          [y, y] = 4 + 4*cos(gamma)**2
+          [y, psi] = 4*h + 4*h*cos(gamma)**2 + 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4*sin(gamma)**2
+          [psi, psi] = 4*h**2 + 4*b**2*sin(gamma)**2 + 4*h**2*cos(gamma)**2 + 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 8*h**2 + 4*a1**2*sin(gamma)**2
+          [phi, phi] = 4*a2**2 + 8*b**2 + 4*a1**2*cos(gamma)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [y, y] = 4*sin(gamma)**2
+          [y, psi] = 4*h*sin(gamma)**2 - 4*b*cos(gamma)*sin(gamma)
+          [z, z] = 4 + 4*cos(gamma)**2
+          [psi, psi] = 4*b**2 + 4*b**2*cos(gamma)**2 + 4*h**2*sin(gamma)**2 - 8*b*h*cos(gamma)*sin(gamma)
+          [theta, theta] = 4*a2**2 + 4*a1**2*cos(gamma)**2
+          [phi, phi] = 4*a1**2*sin(gamma)**2
+    """
+    m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v = _runtime.as_operands(
+        m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v
+    )
+    _tmp0 = 8 * h
+    _tmp1 = -_tmp0
+    _tmp2 = h**2
+    _tmp3 = 8 * _tmp2
+    _tmp4 = b**2
+    _tmp5 = 8 * _tmp4
+    _tmp6 = numpy.cos(gamma)
+    _tmp7 = 4 * _tmp6**2
+    _tmp8 = _tmp7 + 4
+    _tmp9 = numpy.sin(gamma)
+    _tmp10 = _tmp6 * _tmp9 * b
+    _tmp11 = 4 * _tmp10
+    _tmp12 = _tmp11 + _tmp7 * h + 4 * h
+    _tmp13 = _tmp9**2
+    _tmp14 = 4 * _tmp13
+    _tmp15 = _tmp0 * _tmp10
+    _tmp16 = _tmp14 * _tmp4 + _tmp15 + _tmp2 * _tmp7 + 4 * _tmp2
+    _tmp17 = a1**2
+    _tmp18 = _tmp14 * _tmp17
+    _tmp19 = 4 * a2**2
+    _tmp20 = _tmp17 * _tmp7
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = -_tmp11 + 4 * _tmp13 * h
+    _tmp23 = _tmp14 * _tmp2 - _tmp15 + _tmp4 * _tmp7
+    _tmp24 = 4 * _tmp4
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2, b_h, b_v)
+    return _runtime.stack_symmetric(
+        _shape,
+        (18, 6, 6),
+        (
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 4, 4),
+            (1, 5, 5),
+            (4, 1, 1),
+            (4, 1, 3),
+            (4, 2, 2),
+            (4, 3, 3),
+            (4, 4, 4),
+            (4, 5, 5),
+            (7, 1, 1),
+            (7, 1, 3),
+            (7, 2, 2),
+            (7, 3, 3),
+            (7, 4, 4),
+            (7, 5, 5),
+            (10, 2, 2),
+            (10, 3, 3),
+            (10, 4, 4),
+            (14, 0, 0),
+            (14, 0, 4),
+            (14, 1, 1),
+            (14, 1, 3),
+            (14, 2, 2),
+            (14, 3, 3),
+            (14, 4, 4),
+            (14, 5, 5),
+            (17, 1, 1),
+            (17, 1, 3),
+            (17, 2, 2),
+            (17, 3, 3),
+            (17, 4, 4),
+            (17, 5, 5),
+        ),
+        (
+            8,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp3,  # [1, 4, 4]
+            _tmp5,  # [1, 5, 5]
+            _tmp8,  # [4, 1, 1]
+            _tmp12,  # [4, 1, 3]
+            _tmp14,  # [4, 2, 2]
+            _tmp16,  # [4, 3, 3]
+            _tmp18,  # [4, 4, 4]
+            _tmp21,  # [4, 5, 5]
+            _tmp14,  # [7, 1, 1]
+            _tmp22,  # [7, 1, 3]
+            _tmp7,  # [7, 2, 2]
+            _tmp23,  # [7, 3, 3]
+            _tmp20,  # [7, 4, 4]
+            _tmp18,  # [7, 5, 5]
+            4,  # [10, 2, 2]
+            _tmp24,  # [10, 3, 3]
+            _tmp19,  # [10, 4, 4]
+            8,  # [14, 0, 0]
+            _tmp1,  # [14, 0, 4]
+            _tmp8,  # [14, 1, 1]
+            _tmp12,  # [14, 1, 3]
+            _tmp14,  # [14, 2, 2]
+            _tmp16,  # [14, 3, 3]
+            _tmp18 + _tmp3,  # [14, 4, 4]
+            _tmp21 + _tmp5,  # [14, 5, 5]
+            _tmp14,  # [17, 1, 1]
+            _tmp22,  # [17, 1, 3]
+            _tmp8,  # [17, 2, 2]
+            _tmp23 + _tmp24,  # [17, 3, 3]
+            _tmp21,  # [17, 4, 4]
+            _tmp18,  # [17, 5, 5]
+        ),
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):
@@ -13360,6 +13544,8 @@ DERIVATIVE_PARAMETERS = (
     "b_v",
 )
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
+FITTED_PARAMETERS = ("c_x", "c_y", "c_v1", "c_v2", "b_h", "b_v")
+"""Parameters of fitted_derivatives(), in the order of its axis -4: the unknowns, then the damping parameters."""
 SPECIAL_POINTS = ("h", "gamma")
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

@@ -102,6 +102,7 @@ ARGUMENTS = {
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z"),
     "matrix_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z"),
+    "fitted_derivatives": ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z"),
     "identify_x_z": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_z"),
     "identify_x_psi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_psi"),
     "identify_x_phi": ("m", "J_xy", "J_z", "L_xy", "L_z", "omega_x", "omega_phi"),
@@ -260,6 +261,7 @@ ARGUMENTS = {
 """Argument names of every generated function, by function name."""
 DEPENDS = {
     "matrix_derivatives": ("L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z"),
+    "fitted_derivatives": ("L_xy", "L_z"),
     "effect_com_offset_derivatives": ("m", "L_xy", "L_z", "dx_com", "dy_com"),
     "effect_cog_height_derivatives": ("m", "L_xy", "L_z", "dz_com"),
     "effect_rotational_stiffness_derivatives": ("L_xy", "L_z"),
@@ -694,6 +696,106 @@ def matrix_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
             _tmp14,  # [26, 4, 4]
         ),
     ).reshape(*_shape, 9, 3, 6, 6)
+
+
+def fitted_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z):
+    """Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,
+    then the damping parameters), shape (..., 4, 3, 6, 6): [..., k, (M, C, B), :, :] =
+    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for
+    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them
+    computes them once.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_xy:
+        dC/dc_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dB/dc_xy:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+        dB/dc_z:
+        dM/db_xy:
+        dC/db_xy:
+        dB/db_xy:
+          [x, x] = 4
+          [x, theta] = -4*L_z
+          [y, y] = 4
+          [y, psi] = 4*L_z
+          [psi, psi] = 4*L_z**2
+          [theta, theta] = 4*L_z**2
+          [phi, phi] = 4*L_xy**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 2*L_xy**2
+          [theta, theta] = 2*L_xy**2
+    """
+    m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
+    _tmp0 = 4 * L_z
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * L_z**2
+    _tmp3 = L_xy**2
+    _tmp4 = 4 * _tmp3
+    _tmp5 = 2 * _tmp3
+    _shape = _runtime.batch_shape(m, J_xy, J_z, L_xy, L_z, c_xy, c_z, b_xy, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (12, 6, 6),
+        (
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 3, 3),
+            (1, 4, 4),
+            (1, 5, 5),
+            (4, 2, 2),
+            (4, 3, 3),
+            (4, 4, 4),
+            (8, 0, 0),
+            (8, 0, 4),
+            (8, 1, 1),
+            (8, 1, 3),
+            (8, 3, 3),
+            (8, 4, 4),
+            (8, 5, 5),
+            (11, 2, 2),
+            (11, 3, 3),
+            (11, 4, 4),
+        ),
+        (
+            4,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            4,  # [1, 1, 1]
+            _tmp0,  # [1, 1, 3]
+            _tmp2,  # [1, 3, 3]
+            _tmp2,  # [1, 4, 4]
+            _tmp4,  # [1, 5, 5]
+            4,  # [4, 2, 2]
+            _tmp5,  # [4, 3, 3]
+            _tmp5,  # [4, 4, 4]
+            4,  # [8, 0, 0]
+            _tmp1,  # [8, 0, 4]
+            4,  # [8, 1, 1]
+            _tmp0,  # [8, 1, 3]
+            _tmp2,  # [8, 3, 3]
+            _tmp2,  # [8, 4, 4]
+            _tmp4,  # [8, 5, 5]
+            4,  # [11, 2, 2]
+            _tmp5,  # [11, 3, 3]
+            _tmp5,  # [11, 4, 4]
+        ),
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_xy, J_z, L_xy, L_z, c_xy, c_z):
@@ -4749,6 +4851,8 @@ TWIN_COORDINATES = (
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_xy", "J_z", "L_xy", "L_z", "c_xy", "c_z", "b_xy", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
+FITTED_PARAMETERS = ("c_xy", "c_z", "b_xy", "b_z")
+"""Parameters of fitted_derivatives(), in the order of its axis -4: the unknowns, then the damping parameters."""
 SPECIAL_POINTS = ("L_z",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

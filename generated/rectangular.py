@@ -130,6 +130,7 @@ ARGUMENTS = {
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z"),
     "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z"),
+    "fitted_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_psi"),
     "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "omega_x", "omega_y", "omega_theta"),
@@ -398,6 +399,7 @@ ARGUMENTS = {
 """Argument names of every generated function, by function name."""
 DEPENDS = {
     "matrix_derivatives": ("a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z"),
+    "fitted_derivatives": ("a", "b", "h"),
     "effect_com_offset_derivatives": ("m", "a", "b", "h", "dx_com", "dy_com"),
     "effect_cog_height_derivatives": ("m", "a", "b", "h", "dz_com"),
     "effect_rotational_stiffness_derivatives": ("a", "b", "h"),
@@ -861,6 +863,119 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
             _tmp7,  # [38, 4, 4]
         ),
     ).reshape(*_shape, 13, 3, 6, 6)
+
+
+def fitted_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z):
+    """Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,
+    then the damping parameters), shape (..., 6, 3, 6, 6): [..., k, (M, C, B), :, :] =
+    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for
+    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them
+    computes them once.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_x:
+        dC/dc_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dB/dc_x:
+        dM/dc_y:
+        dC/dc_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dB/dc_y:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/db_x:
+        dC/db_x:
+        dB/db_x:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*b**2
+        dM/db_y:
+        dC/db_y:
+        dB/db_y:
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [phi, phi] = 4*a**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z = _runtime.as_operands(
+        m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z
+    )
+    _tmp0 = 4 * h
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * b**2
+    _tmp4 = 4 * a**2
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z, b_x, b_y, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (18, 6, 6),
+        (
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 4, 4),
+            (1, 5, 5),
+            (4, 1, 1),
+            (4, 1, 3),
+            (4, 3, 3),
+            (4, 5, 5),
+            (7, 2, 2),
+            (7, 3, 3),
+            (7, 4, 4),
+            (11, 0, 0),
+            (11, 0, 4),
+            (11, 4, 4),
+            (11, 5, 5),
+            (14, 1, 1),
+            (14, 1, 3),
+            (14, 3, 3),
+            (14, 5, 5),
+            (17, 2, 2),
+            (17, 3, 3),
+            (17, 4, 4),
+        ),
+        (
+            4,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp2,  # [1, 4, 4]
+            _tmp3,  # [1, 5, 5]
+            4,  # [4, 1, 1]
+            _tmp0,  # [4, 1, 3]
+            _tmp2,  # [4, 3, 3]
+            _tmp4,  # [4, 5, 5]
+            4,  # [7, 2, 2]
+            _tmp3,  # [7, 3, 3]
+            _tmp4,  # [7, 4, 4]
+            4,  # [11, 0, 0]
+            _tmp1,  # [11, 0, 4]
+            _tmp2,  # [11, 4, 4]
+            _tmp3,  # [11, 5, 5]
+            4,  # [14, 1, 1]
+            _tmp0,  # [14, 1, 3]
+            _tmp2,  # [14, 3, 3]
+            _tmp4,  # [14, 5, 5]
+            4,  # [17, 2, 2]
+            _tmp3,  # [17, 3, 3]
+            _tmp4,  # [17, 4, 4]
+        ),
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, c_x, c_y, c_z):
@@ -6994,6 +7109,8 @@ TWIN_COORDINATES = ()
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "c_x", "c_y", "c_z", "b_x", "b_y", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
+FITTED_PARAMETERS = ("c_x", "c_y", "c_z", "b_x", "b_y", "b_z")
+"""Parameters of fitted_derivatives(), in the order of its axis -4: the unknowns, then the damping parameters."""
 SPECIAL_POINTS = ("h",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

@@ -137,6 +137,7 @@ ARGUMENTS = {
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m"),
+    "fitted_derivatives": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m"),
     "identify_x_y_z": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_z"),
     "identify_x_y_psi": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_psi"),
     "identify_x_y_theta": ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "omega_x", "omega_y", "omega_theta"),
@@ -446,6 +447,7 @@ ARGUMENTS = {
 """Argument names of every generated function, by function name."""
 DEPENDS = {
     "matrix_derivatives": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m"),
+    "fitted_derivatives": ("a", "b", "h", "alpha"),
     "effect_com_offset_derivatives": ("m", "a", "b", "h", "alpha", "dx_com", "dy_com"),
     "effect_cog_height_derivatives": ("m", "a", "b", "h", "alpha", "dz_com"),
     "effect_rotational_stiffness_derivatives": ("a", "b", "h", "alpha"),
@@ -1143,6 +1145,165 @@ def matrix_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v
             _tmp55,  # [41, 3, 3]
         ),
     ).reshape(*_shape, 14, 3, 6, 6)
+
+
+def fitted_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m):
+    """Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,
+    then the damping parameters), shape (..., 6, 3, 6, 6): [..., k, (M, C, B), :, :] =
+    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for
+    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them
+    computes them once.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dB/dc_h:
+        dM/dc_v:
+        dC/dc_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dB/dc_v:
+        dM/dc_m:
+        dC/dc_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+        dB/dc_m:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 2 + 4*cos(alpha)**2
+          [x, theta] = -2*h - 4*h*cos(alpha)**2 + 4*a*cos(alpha)*sin(alpha)
+          [y, y] = 6
+          [y, psi] = 6*h
+          [z, z] = 4*sin(alpha)**2
+          [psi, psi] = 6*h**2 + 4*b**2*sin(alpha)**2
+          [theta, theta] = 2*h**2 + 4*a**2*sin(alpha)**2 + 4*h**2*cos(alpha)**2 - 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 2*b**2 + 4*a**2 + 4*b**2*cos(alpha)**2
+        dM/db_v:
+        dC/db_v:
+        dB/db_v:
+          [x, x] = 4*sin(alpha)**2
+          [x, theta] = -4*h*sin(alpha)**2 - 4*a*cos(alpha)*sin(alpha)
+          [z, z] = 4*cos(alpha)**2
+          [psi, psi] = 4*b**2*cos(alpha)**2
+          [theta, theta] = 4*a**2*cos(alpha)**2 + 4*h**2*sin(alpha)**2 + 8*a*h*cos(alpha)*sin(alpha)
+          [phi, phi] = 4*b**2*sin(alpha)**2
+        dM/db_m:
+        dC/db_m:
+        dB/db_m:
+          [z, z] = 2
+          [psi, psi] = 2*b**2
+    """
+    m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m = _runtime.as_operands(
+        m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m
+    )
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = 4 * _tmp0**2
+    _tmp2 = _tmp1 + 2
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp0 * _tmp3 * a
+    _tmp5 = 4 * _tmp4
+    _tmp6 = -_tmp1 * h + _tmp5 - 2 * h
+    _tmp7 = 6 * h
+    _tmp8 = 4 * _tmp3**2
+    _tmp9 = h**2
+    _tmp10 = b**2
+    _tmp11 = _tmp10 * _tmp8
+    _tmp12 = _tmp11 + 6 * _tmp9
+    _tmp13 = 8 * _tmp4 * h
+    _tmp14 = a**2
+    _tmp15 = _tmp1 * _tmp9 - _tmp13 + _tmp14 * _tmp8 + 2 * _tmp9
+    _tmp16 = 2 * _tmp10
+    _tmp17 = _tmp1 * _tmp10
+    _tmp18 = 4 * _tmp14 + _tmp16 + _tmp17
+    _tmp19 = -_tmp5 - _tmp8 * h
+    _tmp20 = _tmp1 * _tmp14 + _tmp13 + _tmp8 * _tmp9
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m, b_h, b_v, b_m)
+    return _runtime.stack_symmetric(
+        _shape,
+        (18, 6, 6),
+        (
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 2, 2),
+            (1, 3, 3),
+            (1, 4, 4),
+            (1, 5, 5),
+            (4, 0, 0),
+            (4, 0, 4),
+            (4, 2, 2),
+            (4, 3, 3),
+            (4, 4, 4),
+            (4, 5, 5),
+            (7, 2, 2),
+            (7, 3, 3),
+            (11, 0, 0),
+            (11, 0, 4),
+            (11, 1, 1),
+            (11, 1, 3),
+            (11, 2, 2),
+            (11, 3, 3),
+            (11, 4, 4),
+            (11, 5, 5),
+            (14, 0, 0),
+            (14, 0, 4),
+            (14, 2, 2),
+            (14, 3, 3),
+            (14, 4, 4),
+            (14, 5, 5),
+            (17, 2, 2),
+            (17, 3, 3),
+        ),
+        (
+            _tmp2,  # [1, 0, 0]
+            _tmp6,  # [1, 0, 4]
+            6,  # [1, 1, 1]
+            _tmp7,  # [1, 1, 3]
+            _tmp8,  # [1, 2, 2]
+            _tmp12,  # [1, 3, 3]
+            _tmp15,  # [1, 4, 4]
+            _tmp18,  # [1, 5, 5]
+            _tmp8,  # [4, 0, 0]
+            _tmp19,  # [4, 0, 4]
+            _tmp1,  # [4, 2, 2]
+            _tmp17,  # [4, 3, 3]
+            _tmp20,  # [4, 4, 4]
+            _tmp11,  # [4, 5, 5]
+            2,  # [7, 2, 2]
+            _tmp16,  # [7, 3, 3]
+            _tmp2,  # [11, 0, 0]
+            _tmp6,  # [11, 0, 4]
+            6,  # [11, 1, 1]
+            _tmp7,  # [11, 1, 3]
+            _tmp8,  # [11, 2, 2]
+            _tmp12,  # [11, 3, 3]
+            _tmp15,  # [11, 4, 4]
+            _tmp18,  # [11, 5, 5]
+            _tmp8,  # [14, 0, 0]
+            _tmp19,  # [14, 0, 4]
+            _tmp1,  # [14, 2, 2]
+            _tmp17,  # [14, 3, 3]
+            _tmp20,  # [14, 4, 4]
+            _tmp11,  # [14, 5, 5]
+            2,  # [17, 2, 2]
+            _tmp16,  # [17, 3, 3]
+        ),
+    ).reshape(*_shape, 6, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, a, b, h, alpha, c_h, c_v, c_m):
@@ -12544,6 +12705,8 @@ TWIN_COORDINATES = ()
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "a", "b", "h", "alpha", "c_h", "c_v", "c_m", "b_h", "b_v", "b_m")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
+FITTED_PARAMETERS = ("c_h", "c_v", "c_m", "b_h", "b_v", "b_m")
+"""Parameters of fitted_derivatives(), in the order of its axis -4: the unknowns, then the damping parameters."""
 SPECIAL_POINTS = ("h", "alpha")
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

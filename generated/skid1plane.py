@@ -123,6 +123,7 @@ ARGUMENTS = {
     "point_jacobian": ("r_x", "r_y", "r_z"),
     "squared_frequencies": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z"),
     "matrix_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z"),
+    "fitted_derivatives": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z"),
     "identify_x_y": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_y"),
     "identify_x_z": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_z"),
     "identify_x_psi": ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "omega_x", "omega_psi"),
@@ -331,6 +332,7 @@ ARGUMENTS = {
 """Argument names of every generated function, by function name."""
 DEPENDS = {
     "matrix_derivatives": ("m", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z"),
+    "fitted_derivatives": ("a", "b", "h"),
     "effect_com_offset_derivatives": ("m", "e", "a", "b", "h", "dx_com", "dy_com"),
     "effect_cog_height_derivatives": ("m", "e", "a", "b", "h", "dz_com"),
     "effect_rotational_stiffness_derivatives": ("a", "b", "h"),
@@ -820,6 +822,108 @@ def matrix_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
             _tmp12,  # [35, 4, 4]
         ),
     ).reshape(*_shape, 12, 3, 6, 6)
+
+
+def fitted_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z):
+    """Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,
+    then the damping parameters), shape (..., 4, 3, 6, 6): [..., k, (M, C, B), :, :] =
+    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for
+    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them
+    computes them once.
+
+    Non-zero upper-triangle entries:
+
+        dM/dc_h:
+        dC/dc_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dB/dc_h:
+        dM/dc_z:
+        dC/dc_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+        dB/dc_z:
+        dM/db_h:
+        dC/db_h:
+        dB/db_h:
+          [x, x] = 4
+          [x, theta] = -4*h
+          [y, y] = 4
+          [y, psi] = 4*h
+          [psi, psi] = 4*h**2
+          [theta, theta] = 4*h**2
+          [phi, phi] = 4*a**2 + 4*b**2
+        dM/db_z:
+        dC/db_z:
+        dB/db_z:
+          [z, z] = 4
+          [psi, psi] = 4*b**2
+          [theta, theta] = 4*a**2
+    """
+    m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z = _runtime.as_operands(
+        m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z
+    )
+    _tmp0 = 4 * h
+    _tmp1 = -_tmp0
+    _tmp2 = 4 * h**2
+    _tmp3 = 4 * a**2
+    _tmp4 = 4 * b**2
+    _tmp5 = _tmp3 + _tmp4
+    _shape = _runtime.batch_shape(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z, b_h, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (12, 6, 6),
+        (
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 3, 3),
+            (1, 4, 4),
+            (1, 5, 5),
+            (4, 2, 2),
+            (4, 3, 3),
+            (4, 4, 4),
+            (8, 0, 0),
+            (8, 0, 4),
+            (8, 1, 1),
+            (8, 1, 3),
+            (8, 3, 3),
+            (8, 4, 4),
+            (8, 5, 5),
+            (11, 2, 2),
+            (11, 3, 3),
+            (11, 4, 4),
+        ),
+        (
+            4,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            4,  # [1, 1, 1]
+            _tmp0,  # [1, 1, 3]
+            _tmp2,  # [1, 3, 3]
+            _tmp2,  # [1, 4, 4]
+            _tmp5,  # [1, 5, 5]
+            4,  # [4, 2, 2]
+            _tmp4,  # [4, 3, 3]
+            _tmp3,  # [4, 4, 4]
+            4,  # [8, 0, 0]
+            _tmp1,  # [8, 0, 4]
+            4,  # [8, 1, 1]
+            _tmp0,  # [8, 1, 3]
+            _tmp2,  # [8, 3, 3]
+            _tmp2,  # [8, 4, 4]
+            _tmp5,  # [8, 5, 5]
+            4,  # [11, 2, 2]
+            _tmp4,  # [11, 3, 3]
+            _tmp3,  # [11, 4, 4]
+        ),
+    ).reshape(*_shape, 4, 3, 6, 6)
 
 
 def _mc_derivatives(m, J_x, J_y, J_z, e, a, b, h, c_h, c_z):
@@ -6228,6 +6332,8 @@ TWIN_COORDINATES = ()
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""
 DERIVATIVE_PARAMETERS = ("m", "J_x", "J_y", "J_z", "e", "a", "b", "h", "c_h", "c_z", "b_h", "b_z")
 """Parameters of matrix_derivatives(), in the order of its axis -4."""
+FITTED_PARAMETERS = ("c_h", "c_z", "b_h", "b_z")
+"""Parameters of fitted_derivatives(), in the order of its axis -4: the unknowns, then the damping parameters."""
 SPECIAL_POINTS = ("h",)
 """Known parameters whose value 0 is a legitimate design where frequency sets may stop determining the
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse

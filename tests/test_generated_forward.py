@@ -178,7 +178,9 @@ def test_the_textbook_form_would_fail_where_the_generated_form_holds():
 
 @pytest.mark.parametrize("name", MACHINES)
 def test_matrix_derivatives_match_sympy_at_30_digits(name):
-    """matrix_derivatives() against sympy's own derivative of M, C, B evaluated with 30 digits."""
+    """matrix_derivatives() against sympy's own derivative of M, C, B evaluated with 30 digits; fitted_derivatives()
+    its rows for the unknowns and damping parameters, which (the shipped machines being linear in them) depend on
+    none of them."""
     mod = generated(name)
     model = SymbolicModel(load(shipped_descriptions()[name]))
     values = {a: mod.PARAMETERS[a]["value"] for a in mod.ARGUMENTS["matrix_derivatives"]}
@@ -188,6 +190,15 @@ def test_matrix_derivatives_match_sympy_at_30_digits(name):
         for m, matrix in enumerate((model.M, model.C, model.B)):
             exact = np.array(matrix.diff(model.symbols[p]).subs(subs).evalf(30).tolist(), dtype=float)
             np.testing.assert_allclose(got[k, m], exact, rtol=1e-13, atol=1e-13 * max(1.0, np.abs(exact).max()))
+    # the fitted parameters' rows alone (the diagnosis's nominal derivatives), kept by call while the geometry stays
+    alone = call(mod, "fitted_derivatives", values)
+    damping = tuple(n for n, p in mod.PARAMETERS.items() if p["kind"] == "damping")
+    assert mod.FITTED_PARAMETERS == mod.UNKNOWN + damping
+    for k, q in enumerate(mod.FITTED_PARAMETERS):
+        row = got[mod.DERIVATIVE_PARAMETERS.index(q)] if q in mod.DERIVATIVE_PARAMETERS else np.zeros_like(alone[k])
+        np.testing.assert_allclose(alone[k], row, rtol=1e-14, atol=1e-14)
+    depends = mod.DEPENDS.get("fitted_derivatives", mod.ARGUMENTS["fitted_derivatives"])
+    assert set(depends).isdisjoint(mod.FITTED_PARAMETERS)
 
 
 def derivative_rounding_bound(mod, p):

@@ -280,10 +280,19 @@ def _derivative_function(
     return _matrices_function(name, derivs, COORDINATES, args, doc, stacked=(len(parameters), len(matrices), 6, 6))
 
 
+def fitted_parameters(model: SymbolicModel) -> tuple[str, ...]:
+    """The parameters a fit of the gap diagnosis may vary: the description's unknowns, then its damping
+    parameters (fitted where a campaign measures damping ratios)."""
+    d = model.description
+    return d.unknown + tuple(n for n, p in d.parameters.items() if p.kind == "damping" and n not in d.unknown)
+
+
 def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> list[Function]:
-    """matrix_derivatives() (M, C, B with respect to every parameter they depend on) and the private
+    """matrix_derivatives() (M, C, B with respect to every parameter they depend on), fitted_derivatives() (its
+    rows for the parameters a diagnosis fits: fitted_parameters()) and the private
     _mc_derivatives() (M, C with respect to the forward arguments) that squared_frequency_derivatives() uses."""
     every = model.parameters_of(model.M, model.C, model.B)
+    fitted = fitted_parameters(model)
     return [
         _derivative_function(
             "matrix_derivatives",
@@ -293,6 +302,17 @@ def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> lis
             "Derivatives of M, C, B with respect to every parameter they depend on, shape\n"
             f"    (..., {len(every)}, 3, 6, 6): [..., k, (M, C, B), :, :] = d(matrix)/d(DERIVATIVE_PARAMETERS[k]),\n"
             "    differentiated by sympy.\n",
+        ),
+        _derivative_function(
+            "fitted_derivatives",
+            model,
+            fitted,
+            {"M": model.M, "C": model.C, "B": model.B},
+            "Derivatives of M, C, B with respect to the parameters a fit of the gap diagnosis may vary (the unknowns,\n"
+            f"    then the damping parameters), shape (..., {len(fitted)}, 3, 6, 6): [..., k, (M, C, B), :, :] =\n"
+            "    d(matrix)/d(FITTED_PARAMETERS[k]), differentiated by sympy. The rows of matrix_derivatives() for\n"
+            "    them; in a model linear in them they depend on the geometry alone (DEPENDS): a fit varying them\n"
+            "    computes them once.\n",
         ),
         _derivative_function(
             "_mc_derivatives",
