@@ -620,7 +620,7 @@ def _solve(
     tolerances), stopped once converged (_Converged). Where scipy's layout is the one this was written for
     (_TRF), its trust-region iteration is called with the arguments least_squares would give it: least_squares
     wraps the residuals and the Jacobian in a VectorFunction that copies and compares the point at every call,
-    5-7 % of a diagnosis over its hundred fits; the same numbers (tests/test_fitting.py)."""
+    6-9 % of a diagnosis over its hundred fits; the same numbers (tests/test_fitting.py)."""
     tol = 1e-5 if refit else 1e-7
     evaluations = LEAVE_ONE_OUT_STEPS if refit else max_nfev
     callback = None if refit else _Converged()
