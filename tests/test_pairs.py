@@ -29,6 +29,22 @@ def _campaign(both: Pair, values: dict[str, float], isolator: int | None = None)
     return _campaign_from(both, values, isolator)
 
 
+def _true_pair_named(
+    seed: int, machine: str, variant: str, scatter: str, confident: bool = True, kind: str = "shapes"
+) -> None:
+    """The blind truth of a scattered isolator with the centre of mass moved (a campaign of ``kind``) is diagnosed
+    as that pair at ``variant`` (confidently, where ``confident``; else the verdict's kind is not checked), with
+    its ``scatter`` parameter and height within three standard deviations of the truth's."""
+    data, truth = blind.make_case(seed, "isolator_scatter+cog_height", kind=kind, machine=machine)
+    report = diagnose_effects(parse(data))
+    best = report.best
+    assert report.confident or not confident
+    assert best.effect == "cog_height+isolator_scatter" and best.variant == variant
+    size = truth.size["s_v" if scatter == "scatter_axial" else "s_h"]
+    assert best.parameters[scatter] == pytest.approx(size, abs=3 * best.std[scatter])
+    assert best.parameters["dz_com"] == pytest.approx(truth.size["dz"], abs=3 * best.std["dz_com"])
+
+
 PAIRS = {
     ("cog_height", "isolator_scatter"): ({"dz_com": 0.04, "scatter_shear": 0.0, "scatter_axial": 0.25}, 1),
     ("foundation", "added_mass"): (
@@ -321,19 +337,3 @@ def test_every_short_fit_below_the_bar_is_fitted_on_not_only_the_best():
     fit below the bar is fitted on: the pair first at the truth's isolator (chi^2 2.9), not confidently (an
     attached mass fits too)."""
     _true_pair_named(1040, "kid300", "corner[+x+y]", "scatter_axial", confident=False, kind="damping")
-
-
-def _true_pair_named(
-    seed: int, machine: str, variant: str, scatter: str, confident: bool = True, kind: str = "shapes"
-) -> None:
-    """The blind truth of a scattered isolator with the centre of mass moved (a campaign of ``kind``) is diagnosed
-    as that pair at ``variant`` (confidently, where ``confident``; else the verdict's kind is not checked), with
-    its ``scatter`` parameter and height within three standard deviations of the truth's."""
-    data, truth = blind.make_case(seed, "isolator_scatter+cog_height", kind=kind, machine=machine)
-    report = diagnose_effects(parse(data))
-    best = report.best
-    assert report.confident or not confident
-    assert best.effect == "cog_height+isolator_scatter" and best.variant == variant
-    size = truth.size["s_v" if scatter == "scatter_axial" else "s_h"]
-    assert best.parameters[scatter] == pytest.approx(size, abs=3 * best.std[scatter])
-    assert best.parameters["dz_com"] == pytest.approx(truth.size["dz"], abs=3 * best.std["dz_com"])
