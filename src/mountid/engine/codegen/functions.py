@@ -282,9 +282,9 @@ def _derivative_function(
 
 def fitted_parameters(model: SymbolicModel) -> tuple[str, ...]:
     """The parameters a fit of the gap diagnosis may vary: the description's unknowns, then its damping
-    parameters (fitted where a campaign measures damping ratios)."""
+    parameters (fitted where a campaign measures damping ratios; an unknown is always a stiffness)."""
     d = model.description
-    return d.unknown + tuple(n for n, p in d.parameters.items() if p.kind == "damping" and n not in d.unknown)
+    return d.unknown + tuple(n for n, p in d.parameters.items() if p.kind == "damping")
 
 
 def derivative_functions(model: SymbolicModel, fwd_args: tuple[str, ...]) -> list[Function]:
