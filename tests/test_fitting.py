@@ -53,38 +53,6 @@ def test_a_fit_stopped_by_the_convergence_rule_is_at_the_minimum_within_its_unce
     assert np.isfinite(fit.log_evidence)
 
 
-@pytest.mark.parametrize(("seed", "truth", "kind", "machine", "fitted"), CASES)
-def test_scipys_trust_region_iteration_called_directly_gives_least_squares_numbers(
-    seed, truth, kind, machine, fitted, monkeypatch
-):
-    """_solve calls scipy's trf past least_squares (fitting._TRF): every fit of a candidate (multi-start, spread,
-    held and released, stopped by the convergence rule, leave-one-out refits) ends where least_squares ends, to
-    the bit, after as many evaluations."""
-    if fitting._TRF is None:
-        pytest.skip("this scipy's private trust-region modules differ: _solve calls least_squares")
-    campaign = parse(blind.make_case(seed, truth, kind=kind, machine=machine)[0])
-    runs: dict[str, list] = {"direct": [], "least_squares": []}
-    solve = fitting._solve
-
-    def logged(into):
-        def run(*args, **kwargs):
-            res = solve(*args, **kwargs)
-            runs[into].append((res.x.tobytes(), res.fun.tobytes(), res.cost, res.status, res.nfev, res.njev))
-            return res
-
-        return run
-
-    monkeypatch.setattr(fitting, "_solve", logged("direct"))
-    direct = fitting.exact_leave_one_out(fitting.fit_candidate(campaign, EFFECTS[fitted]))
-    monkeypatch.setattr(fitting, "_TRF", None)
-    monkeypatch.setattr(fitting, "_solve", logged("least_squares"))
-    wrapped = fitting.exact_leave_one_out(fitting.fit_candidate(campaign, EFFECTS[fitted]))
-    assert len(runs["direct"]) > 1
-    assert runs["direct"] == runs["least_squares"]
-    assert direct.theta.tobytes() == wrapped.theta.tobytes()
-    assert direct.held_out_gap == wrapped.held_out_gap
-
-
 def test_a_model_keeps_its_recent_points_and_a_finished_fit_only_its_last():
     """CandidateModel.kept: the same key computes once; beyond KEPT_POINTS the least recently used goes; a
     raised error keeps nothing; forget() leaves the last of each kind."""

@@ -3,7 +3,6 @@ and its leave-one-mode-out held-out errors."""
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -18,6 +17,7 @@ from mountid.diagnosis.campaign import Campaign, damping_std
 from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect, Pair
+from mountid.identification.least_squares import VectorFunction, trust_region
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import read_only
 
@@ -349,10 +349,6 @@ def predictive_std(fit: CandidateFit, quantity: Callable[[np.ndarray], np.ndarra
     return np.sqrt(np.maximum(variance, 0.0) * scale)
 
 
-VectorFunction = Callable[[np.ndarray], np.ndarray]
-"""A function of the flat parameter vector: the weighted residual rows, or their Jacobian."""
-
-
 def _residual_function(
     model: CandidateModel, data: Data, rows: np.ndarray | None
 ) -> tuple[VectorFunction, VectorFunction]:
@@ -617,58 +613,14 @@ def _solve(
 ) -> scipy.optimize.OptimizeResult:
     """scipy.optimize.least_squares from ``x0`` within (``lo``, ``hi``): the trust-region reflective method with
     the Jacobian's column norms as scales, ``max_nfev`` evaluations (a refit: LEAVE_ONE_OUT_STEPS at looser
-    tolerances), stopped once converged (_Converged). Where scipy's layout is the one this was written for
-    (_TRF), its trust-region iteration is called with the arguments least_squares would give it: least_squares
-    wraps the residuals and the Jacobian in a VectorFunction that copies and compares the point at every call,
-    6-9 % of a diagnosis over its hundred fits; the same numbers (tests/test_fitting.py)."""
+    tolerances), stopped once converged (_Converged); through identification.least_squares.trust_region, the
+    same numbers with fewer calls."""
     tol = 1e-5 if refit else 1e-7
     evaluations = LEAVE_ONE_OUT_STEPS if refit else max_nfev
     callback = None if refit else _Converged()
-    if _TRF is None:
-        return scipy.optimize.least_squares(
-            fun,
-            x0,
-            jac=jac,
-            bounds=(lo, hi),
-            method="trf",
-            x_scale="jac",
-            ftol=tol,
-            xtol=tol,
-            max_nfev=evaluations,
-            callback=callback,
-        )
-    trf, strictly_feasible = _TRF
-    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    x0 = strictly_feasible(np.atleast_1d(x0).astype(float), lo, hi)
-    f0 = fun(x0)
-    return trf(fun, jac, x0, f0, jac(x0), lo, hi, tol, tol, GTOL, evaluations, "jac", None, "exact", {}, 0, callback)
-
-
-GTOL = 1e-8
-"""least_squares' default gtol, passed to its trust-region iteration where _solve calls it directly."""
-
-
-def _scipy_trf() -> tuple[Callable, Callable] | None:
-    """scipy's trust-region reflective iteration (scipy.optimize._lsq.trf.trf, private) and the step least_squares
-    takes into the bounds' interior before it, where their signatures are those of scipy 1.16-1.17; None
-    otherwise (_solve then calls least_squares)."""
-    try:
-        from scipy.optimize._lsq.common import make_strictly_feasible
-        from scipy.optimize._lsq.trf import trf
-    except ImportError:  # another layout of scipy's private modules
-        return None
-    expected = (
-        "fun jac x0 f0 J0 lb ub ftol xtol gtol max_nfev x_scale loss_function tr_solver tr_options verbose callback"
+    return trust_region(
+        fun, jac, x0, lo, hi, ftol=tol, xtol=tol, max_nfev=evaluations, x_scale="jac", callback=callback
     )
-    if " ".join(inspect.signature(trf).parameters) != expected:
-        return None
-    if list(inspect.signature(make_strictly_feasible).parameters) != ["x", "lb", "ub", "rstep"]:
-        return None
-    return trf, make_strictly_feasible
-
-
-_TRF = _scipy_trf()
-"""(trf, make_strictly_feasible) of scipy's private least-squares modules, or None (see _solve)."""
 
 
 def fit_candidate(

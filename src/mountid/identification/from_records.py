@@ -25,6 +25,7 @@ import scipy.optimize
 
 from mountid.errors import InputError, NoModeFound
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
+from mountid.identification.least_squares import trust_region
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import GeneratedModule, Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
 from mountid.measurement import frf, modal
@@ -624,7 +625,7 @@ def fit_stiffness(
         overflow: scipy stops on a non-finite residual or Jacobian)."""
         with np.errstate(all="ignore"):
             try:
-                return scipy.optimize.least_squares(residual, start, jac=jacobian, x_scale=1.0, xtol=1e-14, ftol=1e-14)
+                return trust_region(residual, jacobian, start, xtol=1e-14, ftol=1e-14)
             except ValueError:
                 return None
 
