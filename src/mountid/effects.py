@@ -120,8 +120,11 @@ def _p(
     text: str,
     both_sides: bool = True,
     refines: bool = False,
+    floor: float | None = None,
 ) -> EffectParameter:
-    return EffectParameter(name, unit, scale, (lo, hi), start, text, both_sides=both_sides, refines=refines)
+    return EffectParameter(
+        name, unit, scale, (lo, hi), start, text, floor=floor, both_sides=both_sides, refines=refines
+    )
 
 
 CATALOGUE: tuple[Effect, ...] = (
@@ -253,6 +256,7 @@ CATALOGUE: tuple[Effect, ...] = (
                 0.5,
                 0.1,
                 "its radius of gyration about its own vertical axis (a body, not a point)",
+                floor=0.0,  # its inertia is m g^2: -g is the same body, outside the plausible range
             ),
             _p(
                 "a_added",
