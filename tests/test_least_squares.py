@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_fitting import CASES  # blind cases and a candidate fitted to them, the convergence rule stopping its fits
 
 from mountid.diagnosis import fitting
 from mountid.diagnosis.campaign import parse
@@ -12,15 +13,6 @@ from mountid.diagnosis.gap import diagnose_where
 from mountid.effects import EFFECTS
 from mountid.identification import from_records, least_squares
 from mountid.validation import blind
-
-CASES = [
-    (1, "foundation", "shapes", "kid300", "foundation"),
-    (1, "foundation", "frequencies", "kid300", "foundation"),
-    (2, "added_mass", "damping", "kid300", "added_mass"),
-    (2, "drive_belt", "shapes", "rectangular", "drive_belt"),
-    (1, "cog_height", "shapes", "screen6", "added_mass"),  # a candidate that does not represent the truth
-]
-"""Blind cases (seed, truth, campaign kind, machine) and a candidate fitted to them."""
 
 needs_direct = pytest.mark.skipif(
     least_squares._TRF is None, reason="this scipy's private trust-region modules differ: least_squares is called"
