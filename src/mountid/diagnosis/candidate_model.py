@@ -166,8 +166,6 @@ class CandidateModel:
         self.within_plausible = within_plausible
         """Whether the effect parameters are searched within their plausible ranges only (bounds), not the
         wider search box: the refit of a candidate whose free fit left them (candidates.fit_all)."""
-        self.cache: dict[str, object] = {}
-        """What a strategy computes once per model (a channel layout)."""
         self.mod = campaign.machine.module
         self.labels = tuple(campaign.modes)
         frame = campaign_frame(campaign)
@@ -358,7 +356,8 @@ class CandidateModel:
 
     def kept(self, kind: str, key: object, compute: Callable[[], _T]) -> _T:
         """``compute()``, or what it gave for the same ``kind`` and ``key`` (the parameter vector's bytes: -0.0 is
-        not 0.0) among the last KEPT_POINTS of that kind. Nothing is kept where ``compute`` raises."""
+        not 0.0; None for what a strategy computes once per model, a channel layout) among the last KEPT_POINTS
+        of that kind. Nothing is kept where ``compute`` raises."""
         return recently_used(self._kept.setdefault(kind, {}), key, compute, KEPT_POINTS)
 
     def forget(self) -> None:

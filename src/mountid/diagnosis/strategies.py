@@ -443,18 +443,20 @@ class Channel(Strategy):
 
     def _layout(self, model: CandidateModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The layout's rows P, their pseudo-inverse, and for the chosen channel its point Jacobian, axis d and two
-        unit axes across it (cached on the model)."""
-        if "channel" not in model.cache:
-            channels = model.campaign.sensors
-            jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
-            rows = np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
-            d = np.asarray(channels[model.variant].direction)
-            helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-            e1 = np.cross(helper, d)
-            e1 /= np.linalg.norm(e1)
-            e2 = np.cross(d, e1)
-            model.cache["channel"] = (rows, np.linalg.pinv(rows), jac[model.variant], d, np.column_stack([e1, e2]))
-        return model.cache["channel"]
+        unit axes across it (kept by the model: CandidateModel.kept, under one key)."""
+        return model.kept("channel layout", None, lambda: self._new_layout(model))
+
+    @staticmethod
+    def _new_layout(model: CandidateModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        channels = model.campaign.sensors
+        jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
+        rows = np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
+        d = np.asarray(channels[model.variant].direction)
+        helper = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        e1 = np.cross(helper, d)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(d, e1)
+        return rows, np.linalg.pinv(rows), jac[model.variant], d, np.column_stack([e1, e2])
 
     def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """The chosen channel's row (6) and its derivatives by the two parameters (2, 6)."""
@@ -502,14 +504,16 @@ class Placement(Channel):
 
     def row(self, model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         rows, _, _, d, across = self._layout(model)
-        if "placement" not in model.cache:
-            origin = np.asarray(model.mod.point_jacobian(0.0, 0.0, 0.0))
-            model.cache["placement"] = np.array(
-                [d @ (np.asarray(model.mod.point_jacobian(*across[:, i])) - origin) for i in range(2)]
-            )
-        d_row = model.cache["placement"]
+        d_row = model.kept("placement rows", None, lambda: self._row_derivatives(model, d, across))
         offset = np.array([values["offset_1"], values["offset_2"]])
         return rows[model.variant] + offset @ d_row, d_row
+
+    @staticmethod
+    def _row_derivatives(model: CandidateModel, d: np.ndarray, across: np.ndarray) -> np.ndarray:
+        """d(row)/d(offset_1, offset_2) (2, 6): the point Jacobian is affine in the point, so the difference of
+        its values at each axis across the channel and at the origin."""
+        origin = np.asarray(model.mod.point_jacobian(0.0, 0.0, 0.0))
+        return np.array([d @ (np.asarray(model.mod.point_jacobian(*across[:, i])) - origin) for i in range(2)])
 
 
 class Reversal(Channel):
