@@ -574,8 +574,19 @@ def fit_stiffness(
             return mod.frequencies(**knowns, **p)
         return pole_frequencies(machine, machine.values({**known, **damping, **p}, tuple(machine.parameters)))
 
+    last: dict[bytes, np.ndarray] = {}
+
+    def frequencies_at(logp: np.ndarray) -> np.ndarray:
+        """The model's frequencies at the ln unknowns ``logp``, the last kept: the Jacobian is asked for where the
+        residuals were just taken, and the undamped one divides by the same frequencies."""
+        key = logp.tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = model(dict(zip(unknown, np.exp(logp), strict=True)))
+        return last[key]
+
     def residual(logp: np.ndarray) -> np.ndarray:
-        return (model(dict(zip(unknown, np.exp(logp), strict=True)))[idx] - omega) / std
+        return (frequencies_at(logp)[idx] - omega) / std
 
     columns = [mod.FORWARD_ARGUMENTS.index(u) for u in unknown]
 
@@ -586,7 +597,7 @@ def fit_stiffness(
         values = {**knowns, **dict(zip(unknown, p, strict=True))}
         if damping is None:
             d_lam = mod.squared_frequency_derivatives(**values)[columns][:, idx]  # (n_unknown, n_labels)
-            d_omega = d_lam / (2 * mod.frequencies(**values)[idx])
+            d_omega = d_lam / (2 * frequencies_at(logp)[idx])
         else:
             full = machine.values({**known, **damping, **values}, tuple(machine.parameters))
             d_omega = pole_frequency_derivatives(machine, full, unknown)[:, idx]
