@@ -10,6 +10,7 @@ and the chain rule through the frequencies and shapes. The nominal model is the 
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -572,12 +573,25 @@ def stacked_rows(
     ``names`` into (3, n_q, n, n) zeros (their leading m x m block), for the names in ``rows`` (and in ``keep``
     where given); and which names were."""
     out = np.zeros((3, len(names), n, n))
-    present = np.array([q in rows and (keep is None or q in keep) for q in names], dtype=bool)
-    where = np.flatnonzero(present)
+    present, where, picks = _stacking(rows, names, keep)
     if len(where):
         m = d.shape[-1]
-        out[: d.shape[1], where, :m, :m] = np.swapaxes(d[[rows.index(names[j]) for j in where]], 0, 1)
-    return out, present
+        out[: d.shape[1], where, :m, :m] = np.swapaxes(d[picks], 0, 1)
+    return out, present.copy()  # the caller's to change
+
+
+@functools.lru_cache(maxsize=1024)
+def _stacking(
+    rows: tuple[str, ...], names: tuple[str, ...], keep: tuple[str, ...] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """stacked_rows' bookkeeping, the same at every point of a fit (kept, read-only): which ``names`` are in
+    ``rows`` (and ``keep``), their positions among ``names``, and the rows of ``d`` they take."""
+    present = np.array([q in rows and (keep is None or q in keep) for q in names], dtype=bool)
+    where = np.flatnonzero(present)
+    picks = np.array([rows.index(names[j]) for j in where], dtype=np.intp)
+    for a in (present, where, picks):
+        a.setflags(write=False)
+    return present, where, picks
 
 
 def stiffened_frequencies(lam: np.ndarray, beta: float, corner: float) -> np.ndarray:

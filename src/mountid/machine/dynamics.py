@@ -75,10 +75,11 @@ def _kept_calls() -> dict:
 def read_only(out: Any) -> Any:
     """``out`` (an array or a tuple of them) with every array made read-only (a kept result is shared); None and
     other values as they are."""
-    if isinstance(out, tuple):
-        return tuple(read_only(x) for x in out)
     if isinstance(out, np.ndarray):
         out.setflags(write=False)
+    elif isinstance(out, tuple):
+        for x in out:
+            read_only(x)
     return out
 
 
