@@ -376,8 +376,9 @@ class CandidateModel:
         twins = twin_groups(lam)
         omega = self.strategy.frequencies(self, values, mats, lam)
         shapes = self.strategy.shapes(self, values, vec)  # the body motion as the sensors read it
-        # the shapes as compared with the measured ones: the body motion itself unless the sensors turn it
-        unit = body if np.array_equal(shapes, vec[:6, :]) else scaled_unit(shapes, self.length)
+        # the shapes as compared with the measured ones: the body motion itself (the strategy's view of the
+        # vectors) unless the sensors turn it (a reading equal to it to the bit gives the same unit shapes)
+        unit = body if shapes.base is vec else scaled_unit(shapes, self.length)
         # labelled by the motion of the body itself, or where the strategy says so by the shapes as read
         read = unit if self.strategy.labels_as_read else body
         order = label_modes(lam, read, self.reference_lambda, self.reference, share, twins=twins)
