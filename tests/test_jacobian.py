@@ -17,7 +17,7 @@ from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import DEGENERATE, CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import EQUAL, _off_span_derivative, _span_factors, jacobian
-from mountid.diagnosis.strategies import turned_axis
+from mountid.diagnosis.strategies import stacked_rows, turned_axis
 from mountid.effects import EFFECTS, pair
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
@@ -371,3 +371,26 @@ def test_pole_frequency_derivatives_match_a_central_difference(damping_factor):
         up = pole_frequencies(machine, {**values, u: values[u] + h})
         down = pole_frequencies(machine, {**values, u: values[u] - h})
         assert np.allclose(analytic[k], (up - down) / (2 * h), rtol=1e-6, atol=1e-12), u
+
+
+def test_stacked_rows_hand_each_caller_its_own_rows_and_flags():
+    """stacked_rows keeps its bookkeeping per tuple of names (strategies._stacking) but every call returns fresh
+    arrays: Isolator.derivatives and Composite set flags and add rows in place, and a kept array changed that
+    way would leak into the next fit. The stack against a loop over the names."""
+    rows = ("c_xy", "c_z", "k_bend")
+    names = ("c_z", "dz_com", "k_bend", "c_xy")
+    d = np.arange(3 * 3 * 6 * 6, dtype=float).reshape(3, 3, 6, 6)
+    out, present = stacked_rows(d, rows, names, 12, keep=("c_z", "k_bend", "c_xy"))
+    assert present.tolist() == [True, False, True, True]
+    for j, q in enumerate(names):
+        expected = np.zeros((3, 12, 12))
+        if q in rows:
+            expected[:, :6, :6] = d[rows.index(q)]
+        assert np.array_equal(out[:, j], expected)
+    present[1] = True
+    out[1, 0] += 1.0
+    again, flags = stacked_rows(d, rows, names, 12, keep=("c_z", "k_bend", "c_xy"))
+    assert flags.tolist() == [True, False, True, True]
+    assert flags.flags.writeable and again.flags.writeable
+    assert np.array_equal(again[1, 0, :6, :6], d[1, 1])
+    assert stacked_rows(d, rows, names, 6, keep=("c_z",))[1].tolist() == [True, False, False, False]
