@@ -403,8 +403,7 @@ class CandidateModel:
         shapes = body[:, index].T
         clusters: list[tuple[np.ndarray, float] | None] = [None] * len(index)
         spans: dict[bytes, np.ndarray] = {}
-        multiple = partners.sum(axis=1) > 1
-        for k in np.flatnonzero(multiple) if multiple.any() else ():
+        for k in np.flatnonzero(partners.sum(axis=1) > 1):
             j = index[k]
             key = partners[k].tobytes()
             if key not in spans:

@@ -27,7 +27,16 @@ from mountid.errors import InputError, NoModeFound
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.least_squares import trust_region
 from mountid.identification.statistics import covariance, standard_deviations
-from mountid.machine import GeneratedModule, Machine, call, damped_pole_derivatives, damped_poles, matrices, sensor_row
+from mountid.machine import (
+    GeneratedModule,
+    Machine,
+    call,
+    damped_pole_derivatives,
+    damped_poles,
+    matrices,
+    recently_used,
+    sensor_row,
+)
 from mountid.measurement import frf, modal
 from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import MeasuredMode
@@ -579,11 +588,7 @@ def fit_stiffness(
     def frequencies_at(logp: np.ndarray) -> np.ndarray:
         """The model's frequencies at the ln unknowns ``logp``, the last kept: the Jacobian is asked for where the
         residuals were just taken, and the undamped one divides by the same frequencies."""
-        key = logp.tobytes()
-        if key not in last:
-            last.clear()
-            last[key] = model(dict(zip(unknown, np.exp(logp), strict=True)))
-        return last[key]
+        return recently_used(last, logp.tobytes(), lambda: model(dict(zip(unknown, np.exp(logp), strict=True))), 1)
 
     def residual(logp: np.ndarray) -> np.ndarray:
         return (frequencies_at(logp)[idx] - omega) / std
