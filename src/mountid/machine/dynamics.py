@@ -174,12 +174,12 @@ def _damped_modes(
     poles, vectors = np.linalg.eig(state_matrix(mass, stiffness, damping))
     upper = np.flatnonzero(poles.imag > 0)
     upper = upper[np.argsort(poles[upper].imag, kind="stable")][:n]
+    found, found_shapes = poles[upper], vectors[:n, upper]
     out = np.zeros(n, dtype=complex)
     shapes = np.zeros((n, n), dtype=complex)
-    ranks = pair_with_undamped(mass, stiffness, vectors[:n, upper], poles[upper].imag)
-    slots = np.argsort(lam, kind="stable")[ranks]
-    out[slots] = poles[upper]
-    shapes[:, slots] = vectors[:n, upper]
+    slots = np.argsort(lam, kind="stable")[pair_with_undamped(mass, stiffness, found_shapes, found.imag)]
+    out[slots] = found
+    shapes[:, slots] = found_shapes
     return out, shapes
 
 
@@ -194,17 +194,20 @@ def pair_with_undamped(
     their damped frequencies."""
     lam, phi = undamped_modes(stiffness, mass)
     same = np.abs(np.diff(lam)) <= rtol * np.maximum(np.abs(lam[1:]), np.abs(lam[:-1]))
-    group = np.concatenate([[0], np.cumsum(~same)])
+    twins = same.any()
     m_shapes = mass @ shapes
     weight = np.sum(np.conj(shapes) * m_shapes, axis=0).real
     content = np.abs(phi.T @ m_shapes) ** 2 / np.where(weight > 0, weight, 1.0)
-    if same.any():  # a damped mode's content in a group of twins, repeated for each of the group's slots
+    if twins:  # a damped mode's content in a group of twins, repeated for each of the group's slots
+        group = np.concatenate([[0], np.cumsum(~same)])
         content = (group[:, None] == group[None, :]).astype(float) @ content
     column = np.argmax(content, axis=0)
     # each damped mode's best slot, where no two modes share one, attains the sum of the row maxima, which no
     # assignment exceeds, so it is the assignment; twins repeat their content over the group's slots (ties)
-    if same.any() or len(np.unique(column)) < len(column):
+    if twins or len(np.unique(column)) < len(column):
         _, column = scipy.optimize.linear_sum_assignment(content.T, maximize=True)
+    if not twins:  # a slot a group: the slots are the ranks
+        return column
     # within each group the damped modes given to it take its slots in the order of their frequencies (the
     # groups ascend with the rank, so the sorted slots run group by group as the modes sorted by group do)
     ranks = np.empty(shapes.shape[1], dtype=np.intp)
