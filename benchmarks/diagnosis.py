@@ -137,9 +137,10 @@ def validation(
     print("blind validation per machine and campaign kind (top-1 on identifiable cases; truth in the tie of testable")
     print("cases with a gap; c&w confident and wrong, c none on cases without an effect, c out outside the catalogue;")
     print("honest: outside the catalogue 'not explained' or a tie; calib.: calibration error; floor: the calibration")
-    print("error a perfectly calibrated diagnosis shows on average at the same counts (sampling noise); logloss:")
-    print("log loss of the same stated probabilities, a proper score (no target: lower is better); reduct.:")
-    print("held-out gap reduction, median; tie: mean size of the reported tie)")
+    print("error a perfectly calibrated diagnosis shows on average at the same counts (sampling noise; pooled over")
+    print("the machines, which share seeds, widened by the design effect); logloss: log loss of the same stated")
+    print("probabilities, a proper score (no target: lower is better); reduct.: held-out gap reduction, median;")
+    print("tie: mean size of the reported tie)")
     pooled = _table(results, kinds, machines)
     for kind in kinds:
         print(pooled[kind].text())

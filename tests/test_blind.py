@@ -155,6 +155,40 @@ def test_calibration_error_comes_with_its_sampling_noise():
     assert any(m.startswith("calib. (within noise") for m in few.missed())
 
 
+def _seed_sharing_results(rng: np.random.Generator, shift: float = 0.0, seeds: int = 40) -> list[blind.CaseResult]:
+    """Six machines per seed, stated probabilities uniform in [0.3, 1), each verdict right with its stated
+    probability less ``shift``; a seed's six verdicts err together (one uniform draw per seed decides them all,
+    as one truth drawn for every machine does at its worst)."""
+    results = []
+    for seed in range(seeds):
+        u = rng.random()
+        for p in rng.uniform(0.3, 1.0, 6):
+            ranked = ("cog_height" if u < p - shift else "foundation",)
+            results.append(blind.CaseResult("cog_height", ranked, (), True, False, True, 0.9, "tie", p, seed=seed))
+    return results
+
+
+def test_calibration_noise_widens_where_verdicts_share_a_seed():
+    """Verdicts right as often as stated, but a seed's verdicts on six machines right or wrong together: the
+    independent draws call such a calibrated diagnosis miscalibrated far more often than at their 5 % level,
+    the draws widened by the design effect do not; a shifted one (right 0.2 less often than stated) is still
+    called miscalibrated; with a seed per verdict the design effect is 1 and the draws are the independent ones."""
+    rng = np.random.default_rng(3)
+    shared, alone = [], []
+    for _ in range(40):
+        results = _seed_sharing_results(rng)
+        *_, p, widening = blind._reliability(results, draws=200)
+        assert widening > 1.5
+        shared.append(p < 0.05)
+        apart = [replace(r, seed=i) for i, r in enumerate(results)]
+        *_, p_apart, one = blind._reliability(apart, draws=200)
+        assert one == 1.0
+        alone.append(p_apart < 0.05)
+    assert np.mean(alone) >= 0.15 and np.mean(shared) <= 0.1
+    *_, p_shifted, _ = blind._reliability(_seed_sharing_results(rng, shift=0.2), draws=200)
+    assert p_shifted < 0.05
+
+
 def test_what_a_campaign_can_test():
     """The rectangular machine: three unknown stiffnesses; with damping ratios three damping coefficients too."""
     assert blind.can_test("cog_height", 6, 3) and not blind.can_test("foundation", 6, 3)

@@ -340,8 +340,8 @@ class Score:
     sampling noise of calibration_error. With a few dozen verdicts it exceeds 0.05."""
     calibration_p: float = math.nan
     """Share of those draws whose calibration error is at least the observed one: small (< 0.05) when the
-    observed error is more than sampling noise, i.e. evidence that the probabilities are miscalibrated. The
-    draws treat the cases as independent; seeds shared between machines make the true noise larger."""
+    observed error is more than sampling noise, i.e. evidence that the probabilities are miscalibrated. Pooled
+    over machines, whose verdicts share seeds, the draws are widened by the design effect (design_effect)."""
     by_candidate: tuple[tuple[str, int, float, float, float], ...] = ()
     """The reliability table's verdicts per first-ranked candidate (candidate, verdicts, mean stated, observed
     share right, p: how often a perfectly calibrated diagnosis is as far off; _by_candidate): where the
@@ -359,6 +359,10 @@ class Score:
     by_basis: tuple[tuple[str, int, float, float, float], ...] = ()
     """The reliability table's verdicts by what the first place rests on (_by_basis; rows as by_candidate): the
     priors where a rival in the tie fits the data as well as the first-ranked candidate, else the data."""
+    design_effect: float = 1.0
+    """How much verdicts that share a seed (one truth drawn for every machine) widen the calibration error's
+    sampling noise (_design_effect): 1 for one machine, where every verdict has its own seed; calibration_floor
+    and calibration_p widen each bin's drawn departure by its square root."""
 
     @property
     def wrong_limit(self) -> float:
@@ -421,7 +425,13 @@ class Score:
             f"reliability of the stated probability of the first-ranked candidate, truths the catalogue represents "
             f"(calibration error {self.calibration_error:.3f}, target <= 0.05; weighted by the bins' counts "
             f"{self.weighted_calibration_error:.3f}; over every truth {self.calibration_error_all:.3f}; a perfectly "
-            f"calibrated diagnosis would show {self.calibration_floor:.3f} on average at these counts, and "
+            f"calibrated diagnosis would show {self.calibration_floor:.3f} on average at these counts"
+            + (
+                f" (widened by the seeds shared between machines, design effect {self.design_effect:.2f})"
+                if self.design_effect != 1
+                else ""
+            )
+            + ", and "
             f"{self.calibration_p:.0%} of its draws as much as observed; proper scores of the same verdicts: log "
             f"loss {self.log_loss:.3f}, Brier {self.brier:.3f}):",
             f"  {'stated':>13} {'cases':>6} {'mean stated':>12} {'observed':>9}",
@@ -563,17 +573,20 @@ def _by_group(
     """Reliability per ``group`` (of a case result) over the verdicts that state a probability (_stating): rows
     (group, verdicts, mean stated probability, observed share right, p), most verdicts first. ``p``: the share
     of ``draws`` of a perfectly calibrated diagnosis (each verdict right with its stated probability, a fixed
-    seed) whose share right is at least as far from the mean stated as the observed one (two-sided)."""
+    seed) whose share right is at least as far from the mean stated as the observed one (two-sided), the drawn
+    departures widened by the square root of the group's design effect (_design_effect: verdicts sharing a seed)."""
     verdicts = _stating(results)
     rng = np.random.default_rng(0)
     rows = []
     for name in sorted({group(r) for r in verdicts}):
         mine = [r for r in verdicts if group(r) == name]
         stated = np.array([r.probability for r in mine])
-        observed = float(np.mean([r.right for r in mine]))
+        right = np.array([r.right for r in mine], dtype=float)
+        observed = float(np.mean(right))
         drawn = (rng.random((draws, len(mine))) < stated).mean(axis=1)
+        widening = np.sqrt(_design_effect(stated, right, [r.seed for r in mine], np.zeros(len(mine), dtype=int)))
         distance = abs(observed - stated.mean())
-        p = float(np.mean(np.abs(drawn - stated.mean()) >= distance - 1e-12))
+        p = float(np.mean(widening * np.abs(drawn - stated.mean()) >= distance - 1e-12))
         rows.append((name, len(mine), float(stated.mean()), observed, p))
     return tuple(sorted(rows, key=lambda row: (-row[1], row[0])))
 
@@ -592,27 +605,55 @@ def _calibration_error(rows: list[tuple[float, float, int, float, float]]) -> fl
     return float(np.mean([abs(a - b) for _, _, _, a, b in rows])) if rows else math.nan
 
 
-def _reliability(results: list[CaseResult], draws: int = CALIBRATION_DRAWS) -> tuple[tuple, float, float, float, float]:
-    """The reliability table, its mean error over the bins, the mean weighted by the bins' counts, and the error's
-    sampling noise: the mean error of a perfectly calibrated diagnosis with the same stated probabilities
-    (outcomes drawn right with the stated probability, ``draws`` times with a fixed seed; nan without draws) and
-    the share of those draws with an error at least the observed one."""
+def _reliability(
+    results: list[CaseResult], draws: int = CALIBRATION_DRAWS
+) -> tuple[tuple, float, float, float, float, float]:
+    """The reliability table, its mean error over the bins, the mean weighted by the bins' counts, the error's
+    sampling noise and the seeds' design effect (_design_effect). The noise: the mean error of a perfectly
+    calibrated diagnosis with the same stated probabilities (outcomes drawn right with the stated probability,
+    ``draws`` times with a fixed seed; nan without draws), each bin's departure widened by the square root of
+    the design effect, and the share of those draws with an error at least the observed one."""
+    verdicts = _stating(results)
     stated, right = _stated(results)
     rows = _reliability_rows(stated, right)
     if not rows:
-        return (), math.nan, math.nan, math.nan, math.nan
+        return (), math.nan, math.nan, math.nan, math.nan, math.nan
     error = _calibration_error(rows)
     weighted = sum(n * abs(a - b) for _, _, n, a, b in rows) / sum(n for _, _, n, _, _ in rows)
+    widening = _design_effect(stated, right, [r.seed for r in verdicts])
     if not draws:
-        return tuple(rows), error, float(weighted), math.nan, math.nan
+        return tuple(rows), error, float(weighted), math.nan, math.nan, widening
     rng = np.random.default_rng(0)
-    drawn = np.array(
+    drawn = np.sqrt(widening) * np.array(
         [
             _calibration_error(_reliability_rows(stated, (rng.random(len(stated)) < stated).astype(float)))
             for _ in range(draws)
         ]
     )
-    return tuple(rows), error, float(weighted), float(drawn.mean()), float(np.mean(drawn >= error - 1e-12))
+    return tuple(rows), error, float(weighted), float(drawn.mean()), float(np.mean(drawn >= error - 1e-12)), widening
+
+
+def _design_effect(stated: np.ndarray, right: np.ndarray, seeds: list[int], bins: np.ndarray | None = None) -> float:
+    """How much verdicts that share a seed widen the sampling noise of the mean departure (right - stated) of
+    each of ``bins`` (one bin index per verdict; by default the reliability table's): a seed draws one truth for
+    every machine, so pooled over machines its verdicts are not independent. The ratio of the variance of the
+    bins' summed departures taken seed by seed to the same taken verdict by verdict (the cluster-robust variance
+    over the independent one; the departures centred in each bin, so that a miscalibration is not counted as
+    noise): 1 where no two verdicts share a seed (a seed below 0 is unknown: its own), above 1 where a seed's
+    verdicts tend to err together. An estimate from the verdicts themselves."""
+    clusters = [s if s >= 0 else -1 - i for i, s in enumerate(seeds)]
+    if len(set(clusters)) == len(clusters):
+        return 1.0
+    if bins is None:
+        bins = np.digitize(stated, RELIABILITY_BINS[1:-1])
+    departure = right - stated
+    _, index = np.unique(bins, return_inverse=True)
+    centred = departure - (np.bincount(index, departure) / np.bincount(index))[index]
+    per_seed: Counter = Counter()
+    for b, seed, value in zip(bins.tolist(), clusters, centred.tolist(), strict=True):
+        per_seed[b, seed] += value
+    independent = float(np.sum(centred**2))
+    return sum(v * v for v in per_seed.values()) / independent if independent > 0 else 1.0
 
 
 def _in_tie(r: CaseResult) -> bool:
@@ -637,7 +678,7 @@ def score(results: list[CaseResult]) -> Score:
         confusion.setdefault(r.truth, Counter())["pair" if "+" in column else column] += 1
     reductions = np.array([r.reduction for r in detected if math.isfinite(r.reduction)])
     represented = [r for r in results if r.in_catalogue]  # the verdicts the probabilities are judged on
-    reliability, calibration, weighted, floor, p_calibration = _reliability(represented)
+    reliability, calibration, weighted, floor, p_calibration, widening = _reliability(represented)
     _, calibration_all, *_ = _reliability(results, draws=0)  # its sampling noise is not reported
     ties = [len(r.tie) for r in results if r.significant]
     return Score(
@@ -667,6 +708,7 @@ def score(results: list[CaseResult]) -> Score:
         _by_candidate(represented),
         *_proper_scores(represented),
         _by_basis(represented),
+        widening,
     )
 
 
