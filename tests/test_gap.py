@@ -160,6 +160,9 @@ def test_sensitivities_match_a_central_difference_of_the_forward_map(name):
         (lambda d: d["modes"]["z"].update(damping_ratio=0.1, damping_uncertainty=1e-300), "modes.z.damping_unc"),
         (lambda d: d["known"].update(b_z=1e300), "known.b_z: 1e+300 N s/m is 9.62e+296 times above"),
         (lambda d: d["known"].update(m=1e-3), "known.m: 0.001 kg is 8.39e+05 times below"),
+        # a known value its kind cannot take, named where the campaign gives it (it was named "m" alone)
+        (lambda d: d["known"].update(m=-1.0), "known.m: a mass must be positive, got -1 kg"),
+        (lambda d: d["known"].update(L_z=-0.1), "known.L_z: a length must not be negative, got -0.1 m"),
         (lambda d: d.update(nominal={"m": 900.0}), "nominal.m: not an unknown of kid300 (c_xy, c_z)"),
         (lambda d: d.update(nominal={"c_z": 1e12}), "nominal.c_z: 1e+12 N/m is 2.12e+06 times above"),
         (lambda d: d.update(nominal={"c_z": -1.0}), "nominal.c_z: -1.0 is less than or equal to the minimum of 0"),

@@ -414,8 +414,13 @@ def _beside_description(machine: Machine, values: dict[str, float]) -> str:
 
 
 def _check_known_scale(machine: Machine, known: dict[str, float], section: str = "known") -> None:
-    """An error naming the first known value (of a positive kind) more than SCALE_LIMIT from the description's
-    nominal value (``section``: where the campaign gives it)."""
+    """An error naming the first known value that is no value of its kind (not finite, or not positive where
+    the kind must be) or (of a positive kind) more than SCALE_LIMIT from the description's nominal value
+    (``section``: where the campaign gives it, the error's name begins with it)."""
+    try:
+        machine.values(known, tuple(known))
+    except InputError as error:
+        raise InputError(f"{section}.{error.parameter}", error.reason) from None
     for name, value in known.items():
         spec = machine.parameters[name]
         nominal = spec["value"]
