@@ -124,15 +124,21 @@ def validation(
     first_seed: int = 0,
     figure: str | Path | None = FIGURE,
     nominal: str = "description",
+    level: float | None = None,
 ) -> list[blind.CaseResult]:
     """n blind cases per machine and campaign kind (three of each truth at n = 69), seeds from ``first_seed``,
     through dask: one line per machine and kind, then per kind over every machine the full score (reliability
     table, confusion matrix); the reliability diagram per kind written to ``figure`` (None: not drawn).
-    ``nominal``: where the fits start (blind.NOMINAL_SOURCES)."""
+    ``nominal``: where the fits start (blind.NOMINAL_SOURCES); ``level``: every campaign's frequencies measured
+    again at this many times the force (blind.make_case)."""
     t = time.perf_counter()
-    results = blind.run(n, workers=workers, first_seed=first_seed, kinds=kinds, machines=machines, nominal=nominal)
+    results = blind.run(
+        n, workers=workers, first_seed=first_seed, kinds=kinds, machines=machines, nominal=nominal, level=level
+    )
     if nominal != "description":
         print(f"every campaign starts from nominal values {nominal} from its measured frequencies")
+    if level is not None:
+        print(f"every campaign has its frequencies measured again at {level:g} times the force")
     elapsed = time.perf_counter() - t
     print("blind validation per machine and campaign kind (top-1 on identifiable cases; truth in the tie of testable")
     print("cases with a gap; c&w confident and wrong, c none on cases without an effect, c out outside the catalogue;")
@@ -171,6 +177,7 @@ def reversed_beside(
     machines: tuple[str, ...] = blind.MACHINES,
     first_seed: int = 0,
     nominal: str = "description",
+    level: float | None = None,
 ) -> list[blind.CaseResult]:
     """The study beside the benchmark's cycle: n blind cases per machine and campaign kind (three of each at
     n = 12) of a reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), one line per machine and
@@ -179,7 +186,14 @@ def reversed_beside(
     truths = tuple(blind_truth.REVERSED_BESIDE)
     t = time.perf_counter()
     results = blind.run(
-        n, workers=workers, first_seed=first_seed, kinds=kinds, machines=machines, nominal=nominal, truths=truths
+        n,
+        workers=workers,
+        first_seed=first_seed,
+        kinds=kinds,
+        machines=machines,
+        nominal=nominal,
+        truths=truths,
+        level=level,
     )
     elapsed = time.perf_counter() - t
     print(
@@ -220,10 +234,19 @@ if __name__ == "__main__":
         help="where the fits start: the description's nominal unknowns, or those identified from the measured "
         "frequencies (as for a description that gives none)",
     )
+    parser.add_argument(
+        "--level",
+        type=float,
+        default=None,
+        help="measure every campaign's frequencies again at this many times the force (a second excitation "
+        "level: hardening isolators stiffen by their law, every other truth's rubber by up to 10 %% per stiffness)",
+    )
     args = parser.parse_args()
     if args.cases < 1 or args.first_seed < 0 or args.beside_cases < 0:
         parser.error("--cases must be at least 1, --first-seed and --beside-cases at least 0")
+    if args.level is not None and not 0 < args.level < 10:
+        parser.error("--level must lie between 0 and 10 (times the campaign's force)")
     speed()
-    validation(args.cases, first_seed=args.first_seed, figure=args.figure, nominal=args.nominal)
+    validation(args.cases, first_seed=args.first_seed, figure=args.figure, nominal=args.nominal, level=args.level)
     if args.beside_cases:
-        reversed_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal)
+        reversed_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)

@@ -357,7 +357,8 @@ def test_a_hardening_isolator_a_belt_mimics_at_p_0_06_is_not_named_a_belt_confid
     held-out median from 12.5 to 1.6 sigma, and the support, its rival on seed 325 above, is rejected by the
     data (chi^2 54.2 on 27, p = 0.0014): named a belt with probability 0.99. What would tell them apart is not
     in a campaign of one excitation level (a hardening isolator's frequencies move with the amplitude of the
-    test, a belt's do not). A strict xfail: it fails once the verdict is no longer confident."""
+    test, a belt's do not): with a second level the verdict is not confident (test_levels). A strict xfail: it
+    fails once the verdict of one level is no longer confident."""
     result = blind.run_case(4179, "nonlinear_isolator", "shapes", "rectangular")
     assert not result.confident_and_wrong
 

@@ -163,6 +163,21 @@ def test_sensitivities_match_a_central_difference_of_the_forward_map(name):
         # a known value its kind cannot take, named where the campaign gives it (it was named "m" alone)
         (lambda d: d["known"].update(m=-1.0), "known.m: a mass must be positive, got -1 kg"),
         (lambda d: d["known"].update(L_z=-0.1), "known.L_z: a length must not be negative, got -0.1 m"),
+        # frequencies at another excitation level: only of modes the campaign gives, as the same mode
+        (
+            lambda d: d.update(levels=[{"name": "soft", "modes": {"y": {"frequency": 9.0}}}]),
+            "levels.0.modes.y: not among the campaign's modes (x, z, psi, phi)",
+        ),
+        (
+            lambda d: d.update(levels=[{"name": "soft", "modes": {"w9": {"frequency": 9.0}}}]),
+            "levels.0.modes.w9: not a mode of kid300",
+        ),
+        (
+            lambda d: d.update(levels=[{"name": "soft", "modes": {"x": {"frequency": 1.0}}}]),
+            "levels.0.modes.x.frequency: 1 rad/s is 0.0",
+        ),
+        (lambda d: d.update(levels=[{"name": "soft", "modes": {}}]), "levels.0.modes: {} should be non-empty"),
+        (lambda d: d.update(levels=[{"modes": {"x": {"frequency": 9.0}}}]), "levels.0: 'name' is a required property"),
         (lambda d: d.update(nominal={"m": 900.0}), "nominal.m: not an unknown of kid300 (c_xy, c_z)"),
         (lambda d: d.update(nominal={"c_z": 1e12}), "nominal.c_z: 1e+12 N/m is 2.12e+06 times above"),
         (lambda d: d.update(nominal={"c_z": -1.0}), "nominal.c_z: -1.0 is less than or equal to the minimum of 0"),

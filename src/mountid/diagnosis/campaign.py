@@ -20,6 +20,12 @@ and the shape of the one with the smallest frequency standard deviation. The rec
 undamped frequencies, their channel layout becomes the campaign's sensors where every shape came from one
 layout, and their quality warnings travel with the campaign.
 
+A campaign may give the frequencies of its modes again at other excitation levels (a hit at half the force):
+``"levels": [{"name": "hit at half the force", "modes": {"z": {"frequency": 46.1, "uncertainty": 0.02}}}]``,
+in the convention of its ``modes``. A linear model predicts the same frequencies at every level: the diagnosis
+tests whether they move beyond what a change of the isolators' stiffness alone makes of them
+(mountid.diagnosis.levels), an amplitude dependence no effect of the catalogue represents.
+
 The fits start from the unknowns' nominal values: the campaign's ``"nominal": {"c_xy": 6e4}``, else the
 description's, else (or with ``"nominal": "identified"``) the identification on the measured frequencies
 (_nominal_from_modes).
@@ -36,6 +42,7 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 
+from mountid.diagnosis.levels import LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
@@ -137,6 +144,9 @@ class Campaign:
     record_warnings: tuple[QualityWarning, ...] = ()
     """The records chain's quality warnings on the records, each with its record's file name (in ``record_notes``
     as text too)."""
+    levels: LevelTest | None = None
+    """The modes' frequencies measured again at other excitation levels against the campaign's (its ``levels``;
+    None where it gives none): whether the isolators' stiffness depends on the amplitude."""
 
     @property
     def frequencies_from_poles(self) -> bool:
@@ -247,6 +257,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
+    levels = _levels(machine, data.get("levels", []), modes)
     machine, notes_on_modes = _nominal_from_modes(machine, known, modes, identified)
     notes_on_modes = nominal_notes + notes_on_modes
     _check_modes_scale(machine, known, modes)
@@ -305,7 +316,31 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         tuple(label for label in records.disagree if label not in data.get("modes", {})),
         tuple(label for label in from_records if label not in data.get("modes", {})),
         records.warnings,
+        levels,
     )
+
+
+def _levels(machine: Machine, entries: list[dict], modes: dict[str, MeasuredMode]) -> LevelTest | None:
+    """The campaign's ``levels`` (the frequencies of its ``modes`` measured again at other excitation levels, in
+    the modes' convention) as a LevelTest; None without any."""
+    shifts = []
+    for i, level in enumerate(entries):
+        for label, entry in level["modes"].items():
+            path = f"levels.{i}.modes.{label}"
+            if label not in modes:
+                raise InputError(
+                    path,
+                    f"not among the campaign's modes ({', '.join(modes)}): a level repeats modes the campaign gives"
+                    if label in machine.modes
+                    else f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})",
+                )
+            mode, at, std = modes[label], float(entry["frequency"]), entry.get("uncertainty")
+            at_std = float(std) if std is not None else DEFAULT_FREQUENCY_STD * at
+            try:
+                shifts.append(level_shift(level["name"], label, mode.frequency, mode.frequency_std, at, at_std))
+            except ValueError as reason:
+                raise InputError(f"{path}.frequency", str(reason)) from None
+    return LevelTest(tuple(shifts)) if shifts else None
 
 
 def _nominal_from_modes(

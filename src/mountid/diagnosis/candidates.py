@@ -55,6 +55,7 @@ from mountid.diagnosis.fitting import (
     short_fit,
     tempered_log_evidence,
 )
+from mountid.diagnosis.levels import StiffnessChange, amplitude_dependent
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.diagnosis.strategies import strategy
 from mountid.effects import CATALOGUE, EFFECTS, Effect, EffectParameter, Pair, pair
@@ -794,8 +795,10 @@ def rank(
     (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
     records agree on every mode (Campaign.records_disagree: records of one mode beyond their uncertainty apart are
     not one state of the machine, or twins one record resolves differently from another, which the campaign's
-    modes cannot hold; then a tie at best); when no candidate explains it, the verdict says so and names the
-    closest. With ``other_roots`` a candidate the verdict names is
+    modes cannot hold; then a tie at best) and its frequencies repeated at other excitation levels do not move
+    beyond settings.gap_p_value (Campaign.levels: a stiffness that depends on the amplitude, which no linear
+    candidate represents, is said in the verdict); when no candidate explains it, the verdict says so and names
+    the closest. With ``other_roots`` a candidate the verdict names is
     searched for other values that fit as well (fitting.other_solutions), which the verdict names too."""
     n, k = nominal.n_data, nominal.n_parameters
     p_value = _gap_p_value(nominal)
@@ -863,6 +866,7 @@ def rank(
     # whether the best candidate's held-out predictions are sharp enough to confirm it: for the confident
     # check, and for the tie's note (which states the shift itself)
     best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
+    moving, level_text = _levels(campaign, tie if significant and tie else [nominal], settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
@@ -881,6 +885,7 @@ def rank(
         and not open_
         and best_confirmed
         and not campaign.records_disagree
+        and not moving
     ):
         kind = "confident"
         verdict = (
@@ -938,6 +943,10 @@ def rank(
             best = found
             note = _other_solutions_text(found)
             verdict += f"; {note}" if note else ""
+    if moving:  # an amplitude dependence no linear candidate represents is the verdict's to say; the rest a note's
+        verdict += f"; {level_text}"
+    elif level_text:
+        notes.append(level_text)
     tie_names = [f.effect for f in tie] if significant else []
     report = EffectsReport(
         nominal,
@@ -999,6 +1008,54 @@ def diagnose_effects(
             report = rank(campaign, nominal, fits, exact_held_out, settings, screened, other_roots)
     note = untestable_note(untestable, nominal.n_data, settings)
     return replace(report, notes=[*report.notes, note]) if note else report
+
+
+LEVEL_MODELS = 4
+"""The models in which a change of the isolators' stiffness is tried against the frequencies at other excitation
+levels (_levels): the first of the tie, in its order."""
+
+
+def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: DiagnosisSettings) -> tuple[bool, str]:
+    """Whether the campaign's frequencies repeated at other excitation levels (Campaign.levels) move beyond what a
+    change of the isolators' stiffness alone makes of them, at settings.gap_p_value (levels.amplitude_dependent),
+    and what the test says ('' without levels). The stiffnesses change from their values in each of ``models`` in
+    turn (up to LEVEL_MODELS; the nominal model where there is no gap, else the tie's), its effect held, until one
+    absorbs the shifts: a model that misses the modes misses their sensitivities to the stiffnesses too, and a
+    10 % softer rubber then shifts them by many standard deviations from what it predicts (a frame below the
+    isolators named a foundation of other geometry; kid300 seed 4006)."""
+    test = campaign.levels
+    if test is None:
+        return False, ""
+    changes = []
+    if test.p_value < settings.gap_p_value:
+        for fit in [f for f in models if f.state is not None][:LEVEL_MODELS]:
+            change = _stiffness_change(campaign, fit, fits_within_uncertainty(fit, settings))
+            if change is not None:
+                changes.append(change)
+                if change.absorbs(settings.gap_p_value):
+                    break
+    return amplitude_dependent(test, changes, settings.gap_p_value), test.text(changes, settings.gap_p_value)
+
+
+def _stiffness_change(campaign: Campaign, fit: CandidateFit, fits: bool) -> StiffnessChange | None:
+    """The change of the machine's unknown stiffnesses in ``fit``'s model that best makes the campaign's level
+    shifts (LevelTest.against_stiffness); None where the model fails on the way."""
+    test, model, theta = campaign.levels, fit.state.model, fit.state.theta
+    n = len(campaign.machine.unknown)  # the stiffnesses; damping parameters do not move a frequency
+    labels = tuple(dict.fromkeys(s.mode for s in test.shifts))
+    lower, upper = model.bounds()
+
+    def frequencies(x: np.ndarray) -> dict[str, float]:
+        full = np.concatenate([x, theta[n:]])
+        return dict(zip(labels, model.predict(full, labels).frequencies, strict=True))
+
+    name = fit.effect + (f" at {fit.variant}" if fit.variant else "") if fit.effect else "the nominal model"
+    try:
+        return test.against_stiffness(
+            frequencies, theta[:n], campaign.machine.unknown, (lower[:n], upper[:n]), name, fits
+        )
+    except (np.linalg.LinAlgError, ValueError):
+        return None
 
 
 def _gap_p_value(nominal: CandidateFit) -> float:

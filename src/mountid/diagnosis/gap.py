@@ -470,6 +470,10 @@ class Diagnosis:
             "record_notes": list(campaign.record_notes),
             "record_warnings": [asdict(w) for w in campaign.record_warnings],
             "campaign_notes": list(campaign.notes),
+            "levels": [
+                {**asdict(s), "z": s.z, "relative": s.relative}
+                for s in (campaign.levels.shifts if campaign.levels else ())
+            ],
             "parameters": report.parameters,
             "parameter_std": report.parameter_std,
             "residuals": [r.to_dict() for r in report.residuals],

@@ -36,6 +36,14 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
         print(f"campaign: {note}")
     for note in campaign.record_notes:
         print(f"record: {note}")
+    if campaign.levels is not None:
+        for level in dict.fromkeys(s.level for s in campaign.levels.shifts):
+            print(
+                f"frequencies at '{level}' against the campaign's: "
+                + ", ".join(
+                    f"{s.mode} {s.relative:+.2%} ({s.z:+.1f} sigma)" for s in campaign.levels.shifts if s.level == level
+                )
+            )
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     for line in _residual_table(report.residuals):
         print(line)

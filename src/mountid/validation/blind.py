@@ -11,9 +11,10 @@ import itertools
 import math
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.optimize
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.candidate_model import scaled_unit
@@ -54,6 +55,13 @@ with their damping ratios (true modal damping of the truth's B, 2 % relative noi
 DAMPING_STD = 0.02
 """Relative standard deviation of the synthetic damping ratios."""
 
+LEVEL_RUBBER = 0.1
+"""A campaign's frequencies at another excitation level (make_case's ``level``) come, for every truth but
+hardening isolators, from the truth with each unknown stiffness changed by a factor exp(u), u uniform within
++-LEVEL_RUBBER (drawn apart for each): filled rubber's dynamic stiffness moves by several percent between hits
+of different force, alike in every mode, which the diagnosis must not mistake for an amplitude dependence no
+linear model represents (mountid.diagnosis.levels)."""
+
 NOMINAL_SOURCES: tuple[str, ...] = ("description", "identified")
 """Where a blind campaign's fits start (make_case): the description's nominal values of the unknowns, or the
 identification on the measured frequencies (campaign "nominal": "identified")."""
@@ -66,11 +74,16 @@ def make_case(
     kind: str = "shapes",
     machine: str = "kid300",
     nominal: str = "description",
+    level: float | None = None,
 ) -> tuple[dict, Truth]:
     """A campaign (as its JSON data) of ``kind`` (CAMPAIGN_KINDS) on the shipped ``machine`` and the hidden
     truth for one seed and injected effect: the unknowns within 20 % of their nominal values, the known values
     as described. ``nominal``: where the diagnosis starts, the "description"'s nominal values of the unknowns or
-    those "identified" from the measured frequencies (a description that gives none)."""
+    those "identified" from the measured frequencies (a description that gives none). ``level``: the six
+    frequencies measured again with the machine hit at this many times the force (the campaign's ``levels``;
+    their own noise, drawn apart so that the rest of the campaign is the same with and without them): hardening
+    isolators (``nonlinear_isolator``) stiffen by their law at that level, every other truth's isolators by
+    LEVEL_RUBBER at most in each unknown stiffness, alike in every mode."""
     if nominal not in NOMINAL_SOURCES:
         raise ValueError(f"nominal {nominal!r} is not one of {NOMINAL_SOURCES}")
     if kind not in CAMPAIGN_KINDS:
@@ -100,6 +113,26 @@ def make_case(
     damping = set(tm.damping_parameters) if kind == "damping" else set()
     known = {k: tm.nominal[k] for k in tm.known if k not in damping}
     data = {"name": f"blind case {seed}", "machine": machine, "known": known, "modes": modes}
+    if level is not None:
+        level_rng = np.random.default_rng(seed + 2_000_003)
+        if "nonlinear_isolator" in t.effect.split("+"):
+            at_level, level_shapes = true_modes(tm, model, t, level)
+        else:  # rubber whose stiffness depends on the amplitude alike in every mode
+            rubber = {u: v * math.exp(level_rng.uniform(-LEVEL_RUBBER, LEVEL_RUBBER)) for u, v in t.unknowns.items()}
+            at_level, level_shapes = true_modes(tm, model, replace(t, unknowns=rubber))
+        at_level = at_level[same_modes(unit, scaled_unit(level_shapes, tm.length))]
+        data["levels"] = [
+            {
+                "name": f"hit at {level:g} times the force",
+                "modes": {
+                    label: {
+                        "frequency": float(w * (1 + (FREQUENCY_STD * level_rng.standard_normal() if noise else 0.0))),
+                        "uncertainty": float(FREQUENCY_STD * w),
+                    }
+                    for label, w in zip(model.modes, at_level, strict=True)
+                },
+            }
+        ]
     if nominal == "identified":
         data["nominal"] = "identified"
     if kind == "shapes":  # the layout the shapes were estimated from
@@ -108,6 +141,15 @@ def make_case(
             for name, r, d in sensor_layout(tm)
         ]
     return data, t
+
+
+def same_modes(shapes: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """For each mode (column) of ``shapes`` the column of ``other`` that is the same mode: the assignment of
+    largest total MAC (unit shapes of the same scaling), as a test engineer pairs the modes of two tests by their
+    shapes. Labelling each test's modes apart by the nominal model can swap two close modes that an effect split
+    (kid300's psi and theta with one isolator stiffer), and their shifts then compare different modes."""
+    mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
+    return scipy.optimize.linear_sum_assignment(-mac)[1]
 
 
 def example(seed: int, effect: str, machine: str = "kid300", kind: str = "shapes") -> dict:
@@ -199,11 +241,17 @@ def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_
 
 
 def noise_free_diagnosis(
-    seed: int, effect: str, kind: str, machine: str, nominal: str = "description", warm: EffectsReport | None = None
+    seed: int,
+    effect: str,
+    kind: str,
+    machine: str,
+    nominal: str = "description",
+    warm: EffectsReport | None = None,
+    level: float | None = None,
 ) -> EffectsReport:
     """The candidates diagnosed on the truth of ``seed`` without noise (make_case with noise=False), the fits
     started from ``warm`` (a report on the same truth with noise) where given."""
-    clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine, nominal=nominal)
+    clean, _ = make_case(seed, effect, noise=False, kind=kind, machine=machine, nominal=nominal, level=level)
     return diagnose_effects(campaign_module.parse(clean), warm=warm, exact_held_out=False, other_roots=False)
 
 
@@ -221,13 +269,18 @@ def acceptable_parts(effect: str, ideal: EffectsReport) -> tuple[str, ...]:
 
 
 def run_case(
-    seed: int, effect: str, kind: str = "shapes", machine: str = "kid300", nominal: str = "description"
+    seed: int,
+    effect: str,
+    kind: str = "shapes",
+    machine: str = "kid300",
+    nominal: str = "description",
+    level: float | None = None,
 ) -> CaseResult:
     """Diagnose one blind case. On the same truth without noise: identifiability (the gap is significant there
     and the effect that represents the truth has the posterior probability of a confident verdict), and for a
-    truth of several parts which parts alone explain the data (fit them within their uncertainty). ``nominal``:
-    as make_case."""
-    data, _ = make_case(seed, effect, kind=kind, machine=machine, nominal=nominal)
+    truth of several parts which parts alone explain the data (fit them within their uncertainty). ``nominal``
+    and ``level``: as make_case."""
+    data, _ = make_case(seed, effect, kind=kind, machine=machine, nominal=nominal, level=level)
     report = diagnose_effects(campaign_module.parse(data))
     ranked = tuple(f.effect for f in report.ranked if f.applicable)
     identifiable = False
@@ -235,7 +288,7 @@ def run_case(
     acceptable = None
     parts = effect.split("+")
     if effect != "none" and (expected is not None or len(parts) > 1):
-        ideal = noise_free_diagnosis(seed, effect, kind, machine, nominal, warm=report)
+        ideal = noise_free_diagnosis(seed, effect, kind, machine, nominal, warm=report, level=level)
         fits = {f.effect: f for f in ideal.ranked}
         truth = fits.get(expected) if expected is not None else None
         identifiable = bool(ideal.significant and truth is not None and truth.probability >= DIAGNOSIS.confidence)
@@ -721,12 +774,14 @@ def run(
     machines: tuple[str, ...] = ("kid300",),
     nominal: str = "description",
     truths: tuple[str, ...] = EFFECT_NAMES,
+    level: float | None = None,
 ) -> list[CaseResult]:
     """Run n blind cases per campaign kind and machine through dask: the local process scheduler with
     ``workers`` processes by default (one process: in this one, no dask needed), or the dask cluster at
     ``scheduler`` (an address such as tcp://host:8786, for studies of 10^4 cases over many machines).
-    ``nominal``: where the fits start (make_case); ``truths``: the truths cycled through (cases)."""
-    todo = [(*c, nominal) for c in cases(n, first_seed, kinds, machines, truths)]
+    ``nominal``: where the fits start, ``level``: the frequencies measured again at another level (make_case);
+    ``truths``: the truths cycled through (cases)."""
+    todo = [(*c, nominal, level) for c in cases(n, first_seed, kinds, machines, truths)]
     if workers <= 1 and scheduler is None:
         return [run_case(*c) for c in todo]
     try:

@@ -547,8 +547,9 @@ def labelled_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[Matric
     return (m, c, b), lam[order], vec[:, order]
 
 
-def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray, np.ndarray]:
-    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order (labelled_modes)."""
+def true_modes(tm: TruthMachine, machine: Machine, t: Truth, level: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """True frequencies [rad/s] and shapes (6, 6) in q, in the machine's mode order (labelled_modes), each mode
+    excited at ``level`` times the amplitude of a campaign's test (which only hardening isolators feel)."""
     (m, c, b), lam, modes = labelled_modes(tm, machine, t)
     omega = np.sqrt(lam)
     shapes = modes[:6]
@@ -569,7 +570,7 @@ def true_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
     elif parts & SENSOR_TRUTHS:
         shapes = _misread(tm, shapes, t)
     elif "nonlinear_isolator" in parts:
-        omega, shapes = _hardened(tm, t, m, shapes)
+        omega, shapes = _hardened(tm, t, m, shapes, level)
     return omega, shapes
 
 
@@ -644,10 +645,13 @@ def true_poles(m: np.ndarray, c: np.ndarray, b: np.ndarray, modes: np.ndarray) -
     return out
 
 
-def _hardened(tm: TruthMachine, t: Truth, m: np.ndarray, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _hardened(
+    tm: TruthMachine, t: Truth, m: np.ndarray, shapes: np.ndarray, level: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Each mode of hardening isolators by equivalent linearisation: every isolator direction (global axes)
-    stiffer by 1 + gamma (d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the
-    isolators and directions (each mode excited to the same largest deformation); iterated to a fixed point."""
+    stiffer by 1 + gamma (level d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the
+    isolators and directions (a campaign's test excites each mode to the same largest deformation, ``level``
+    times that another); iterated to a fixed point."""
     gamma = t.size["gamma"]
     isolators = tm.isolators({**tm.nominal, **t.known, **t.unknowns})
     omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
@@ -655,7 +659,7 @@ def _hardened(tm: TruthMachine, t: Truth, m: np.ndarray, shapes: np.ndarray) -> 
         phi = shapes[:, i]
         for _ in range(50):
             d = np.array([iso.axes.T @ (_jac(iso.point) @ phi) for iso in isolators])  # along local axes
-            factor = 1 + gamma * (np.abs(d) / np.abs(d).max()) ** 2
+            factor = 1 + gamma * (level * np.abs(d) / np.abs(d).max()) ** 2
             c = sum(
                 _jac(iso.point).T @ iso.tensor(iso.stiffness * f) @ _jac(iso.point)
                 for iso, f in zip(isolators, factor, strict=True)
