@@ -55,7 +55,7 @@ from mountid.diagnosis.fitting import (
     short_fit,
     tempered_log_evidence,
 )
-from mountid.diagnosis.levels import StiffnessChange, amplitude_dependent
+from mountid.diagnosis.levels import StiffnessChange, amplitude_dependent, picked_solution
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
 from mountid.diagnosis.strategies import strategy
 from mountid.effects import CATALOGUE, EFFECTS, Effect, EffectParameter, Pair, pair
@@ -866,7 +866,7 @@ def rank(
     # whether the best candidate's held-out predictions are sharp enough to confirm it: for the confident
     # check, and for the tie's note (which states the shift itself)
     best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
-    moving, level_text = _levels(campaign, tie if significant and tie else [nominal], settings)
+    moving, picked, level_text = _levels(campaign, tie if significant and tie else [nominal], settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
@@ -943,7 +943,7 @@ def rank(
             best = found
             note = _other_solutions_text(found)
             verdict += f"; {note}" if note else ""
-    if moving:  # an amplitude dependence no linear candidate represents is the verdict's to say; the rest a note's
+    if moving or picked:  # an amplitude dependence, or the levels deciding a root, is the verdict's to say
         verdict += f"; {level_text}"
     elif level_text:
         notes.append(level_text)
@@ -1015,32 +1015,51 @@ LEVEL_MODELS = 4
 levels (_levels): the first of the tie, in its order."""
 
 
-def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: DiagnosisSettings) -> tuple[bool, str]:
+def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: DiagnosisSettings) -> tuple[bool, bool, str]:
     """Whether the campaign's frequencies repeated at other excitation levels (Campaign.levels) move beyond what a
     change of the isolators' stiffness alone makes of them, at settings.gap_p_value (levels.amplitude_dependent),
-    and what the test says ('' without levels). The stiffnesses change from their values in each of ``models`` in
+    whether they pick another solution of a model's effect (levels.picked_solution), and what the test says (''
+    without levels). The stiffnesses change from their values in each of ``models`` in
     turn (up to LEVEL_MODELS; the nominal model where there is no gap, else the tie's), its effect held, until one
     absorbs the shifts: a model that misses the modes misses their sensitivities to the stiffnesses too, and a
     10 % softer rubber then shifts them by many standard deviations from what it predicts (a frame below the
-    isolators named a foundation of other geometry; kid300 seed 4006)."""
+    isolators named a foundation of other geometry; kid300 seed 4006). A model that fits the campaign's level and
+    does not absorb them is tried at its other solutions too (fitting.other_solutions): the levels tell apart roots
+    one level fits alike (kid300 seed 4261 with damping ratios: a belt fitted at 25.8 kN/m 0.48 m above the centre
+    of mass for the true 50.5 kN/m 0.28 m below it, whose other solution absorbs the shifts)."""
     test = campaign.levels
     if test is None:
-        return False, ""
-    changes = []
+        return False, False, ""
+    changes: list[StiffnessChange] = []
     if test.p_value < settings.gap_p_value:
         for fit in [f for f in models if f.state is not None][:LEVEL_MODELS]:
-            change = _stiffness_change(campaign, fit, fits_within_uncertainty(fit, settings))
-            if change is not None:
+            fits = fits_within_uncertainty(fit, settings)
+            change = _stiffness_change(campaign, fit, fit.state.theta, fits)
+            if change is not None and not change.absorbs(settings.gap_p_value) and fits:
                 changes.append(change)
-                if change.absorbs(settings.gap_p_value):
-                    break
-    return amplitude_dependent(test, changes, settings.gap_p_value), test.text(changes, settings.gap_p_value)
+                for values in other_solutions(fit, settings.tie):
+                    change = _stiffness_change(campaign, fit, fit.state.model.vector(values), fits, values)
+                    if change is not None and change.absorbs(settings.gap_p_value):
+                        break
+            if change is not None and change not in changes:
+                changes.append(change)
+            if change is not None and change.absorbs(settings.gap_p_value):
+                break
+    text = test.text(changes, settings.gap_p_value)
+    return (
+        amplitude_dependent(test, changes, settings.gap_p_value),
+        picked_solution(changes, settings.gap_p_value),
+        text,
+    )
 
 
-def _stiffness_change(campaign: Campaign, fit: CandidateFit, fits: bool) -> StiffnessChange | None:
-    """The change of the machine's unknown stiffnesses in ``fit``'s model that best makes the campaign's level
-    shifts (LevelTest.against_stiffness); None where the model fails on the way."""
-    test, model, theta = campaign.levels, fit.state.model, fit.state.theta
+def _stiffness_change(
+    campaign: Campaign, fit: CandidateFit, theta: np.ndarray, fits: bool, other: dict[str, float] | None = None
+) -> StiffnessChange | None:
+    """The change of the machine's unknown stiffnesses in ``fit``'s model at the flat vector ``theta`` (its fit, or
+    ``other``: another solution's values) that best makes the campaign's level shifts
+    (LevelTest.against_stiffness); None where the model fails on the way."""
+    test, model = campaign.levels, fit.state.model
     n = len(campaign.machine.unknown)  # the stiffnesses; damping parameters do not move a frequency
     labels = tuple(dict.fromkeys(s.mode for s in test.shifts))
     lower, upper = model.bounds()
@@ -1050,9 +1069,12 @@ def _stiffness_change(campaign: Campaign, fit: CandidateFit, fits: bool) -> Stif
         return dict(zip(labels, model.predict(full, labels).frequencies, strict=True))
 
     name = fit.effect + (f" at {fit.variant}" if fit.variant else "") if fit.effect else "the nominal model"
+    if other is not None:
+        effect = model.parameter_names[len(model.unknown) :]
+        name += " at its other solution (" + ", ".join(f"{q} = {other[q]:.3g}" for q in effect) + ")"
     try:
         return test.against_stiffness(
-            frequencies, theta[:n], campaign.machine.unknown, (lower[:n], upper[:n]), name, fits
+            frequencies, theta[:n], campaign.machine.unknown, (lower[:n], upper[:n]), name, fits, other is not None
         )
     except (np.linalg.LinAlgError, ValueError):
         return None

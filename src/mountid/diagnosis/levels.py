@@ -72,6 +72,8 @@ class StiffnessChange:
     """What remains of the shifts' chi^2 after the change."""
     dof: int
     """Repeated frequencies less the stiffness combinations they determine."""
+    other_solution: bool = False
+    """Whether the model's effect was held at another solution than the one fitted (fitting.other_solutions)."""
 
     @property
     def p_value(self) -> float:
@@ -114,6 +116,7 @@ class LevelTest:
         bounds: tuple[np.ndarray, np.ndarray],
         model: str = "the nominal model",
         fits: bool = True,
+        other_solution: bool = False,
     ) -> StiffnessChange:
         """The shifts against what a change of the isolators' stiffness alone makes of them: for each level, the
         log stiffnesses ``theta`` (``names``; their fit at the campaign's level in ``model``, which ``fits`` it or not,
@@ -133,7 +136,7 @@ class LevelTest:
             relative[level] = {n: float(math.expm1(d)) for n, d in zip(names, fit.x - theta, strict=True)}
             chi2 += float(fit.fun @ fit.fun)
             dof += len(shifts) - rank
-        return StiffnessChange(model, fits, relative, chi2, dof)
+        return StiffnessChange(model, fits, relative, chi2, dof, other_solution)
 
     def text(self, changes: Sequence[StiffnessChange], p_value: float) -> str:
         """What the test says, for a verdict or a note: the shifts, and against the stiffness ``changes`` tried (in
@@ -159,6 +162,12 @@ class LevelTest:
                 f"({_each(change)}; what remains: {_remains(change)}): the rubber's stiffness depends on the amplitude "
                 "alike in every mode, which the fitted stiffnesses absorb (they are the equivalents at the campaign's "
                 "level)"
+                + (
+                    "; the levels pick that solution of the effect, which the modes at the campaign's level alone do "
+                    "not tell from the one fitted"
+                    if change.other_solution
+                    else ""
+                )
             )
         unsaid = "; the candidates describe the modes at the campaign's level only and none is named confidently"
         if not told:
@@ -180,6 +189,12 @@ class LevelTest:
             "(rubber hardening or softening, which no effect of the linear catalogue represents), or the machine's "
             f"modes depend on the stiffness otherwise than in these models (their effect is not the machine's){unsaid}"
         )
+
+
+def picked_solution(changes: Sequence[StiffnessChange], p_value: float) -> bool:
+    """Whether the change that absorbs the shifts (the last of ``changes``, where any does at ``p_value``) held its
+    model's effect at another solution than the one fitted: the levels decide between the two."""
+    return bool(changes) and changes[-1].other_solution and changes[-1].absorbs(p_value)
 
 
 def amplitude_dependent(test: LevelTest, changes: Sequence[StiffnessChange], p_value: float) -> bool:
