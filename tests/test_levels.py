@@ -149,3 +149,17 @@ def test_the_levels_pick_the_root_of_an_effect_one_level_fits_alike():
     picked = result.verdict.split("at its other solution (")[1]
     assert picked.startswith("k_belt = 5.08e+04, h_belt = -0.283)")
     assert "the levels pick that solution of the effect" in result.verdict
+
+
+def test_the_readme_example_of_a_second_level_is_the_blind_case():
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "rectangular-blind-two-levels.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    made = blind.example(4179, "nonlinear_isolator", "rectangular", level=0.5)
+    assert data["known"] == made["known"] and data["levels"][0]["name"] == made["levels"][0]["name"]
+    for label, mode in data["levels"][0]["modes"].items():  # equal up to the rounding of another BLAS build
+        assert mode["frequency"] == pytest.approx(made["levels"][0]["modes"][label]["frequency"], rel=1e-12)
+    for label, mode in data["modes"].items():
+        assert mode["frequency"] == pytest.approx(made["modes"][label]["frequency"], rel=1e-12)

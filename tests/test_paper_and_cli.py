@@ -203,7 +203,7 @@ def _shows(line: str, printed: str) -> bool:
 
 
 def test_the_readme_has_a_transcript_for_every_verdict_example():
-    """The transcript test above is not empty: the paper's campaign and the four blind examples, each a file."""
+    """The transcript test above is not empty: the paper's campaign and the five blind examples, each a file."""
     examples = [example for example, _ in _readme_transcripts()]
     assert examples == [
         "kid300-paper.json",
@@ -211,6 +211,7 @@ def test_the_readme_has_a_transcript_for_every_verdict_example():
         "kid300-blind-pair.json",
         "kid300-blind-tie.json",
         "kid300-blind-not-explained.json",
+        "rectangular-blind-two-levels.json",
     ]
     assert all((ROOT / "examples" / e).is_file() for e in examples)
 

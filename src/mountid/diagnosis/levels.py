@@ -119,11 +119,11 @@ class LevelTest:
         other_solution: bool = False,
     ) -> StiffnessChange:
         """The shifts against what a change of the isolators' stiffness alone makes of them: for each level, the
-        log stiffnesses ``theta`` (``names``; their fit at the campaign's level in ``model``, which ``fits`` it or not,
-        within ``bounds``) fitted to the
-        shifts of the model's ``frequencies`` [rad/s] (per mode label, a function of the log stiffnesses), exactly
-        (the frequencies are not linear in them: kid300's shear 10 % softer and compression 5 % stiffer bends
-        them by up to 7e-4 of the frequency from the linearised change, chi^2 6.2 over six frequencies known to
+        log stiffnesses ``theta`` (``names``, within ``bounds``; their fit at the campaign's level in ``model``,
+        which ``fits`` that level or not, its effect at ``other_solution`` or at the one fitted) fitted to the shifts
+        of the model's ``frequencies`` [rad/s] (per mode label, a function of the log stiffnesses), exactly: the
+        frequencies are not linear in them (with kid300's shear 10 % softer and its compression 5 % stiffer, the
+        linearised change misses the shifts by up to 7e-4 of the frequency, chi^2 6.2 over six frequencies known to
         0.03 %)."""
         base = frequencies(theta)
         relative, chi2, dof = {}, 0.0, 0

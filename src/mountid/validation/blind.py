@@ -152,10 +152,10 @@ def same_modes(shapes: np.ndarray, other: np.ndarray) -> np.ndarray:
     return scipy.optimize.linear_sum_assignment(-mac)[1]
 
 
-def example(seed: int, effect: str, machine: str = "kid300", kind: str = "shapes") -> dict:
+def example(seed: int, effect: str, machine: str = "kid300", kind: str = "shapes", level: float | None = None) -> dict:
     """A blind case as a campaign file's data (the worked examples in examples/): make_case's campaign with a
     name that says the truth is hidden."""
-    data, _ = make_case(seed, effect, kind=kind, machine=machine)
+    data, _ = make_case(seed, effect, kind=kind, machine=machine, level=level)
     return {**data, "name": f"blind case {seed} on {machine}, {kind} (truth hidden)"}
 
 
