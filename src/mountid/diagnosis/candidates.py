@@ -1019,14 +1019,15 @@ def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: Diagno
     """Whether the campaign's frequencies repeated at other excitation levels (Campaign.levels) move beyond what a
     change of the isolators' stiffness alone makes of them, at settings.gap_p_value (levels.amplitude_dependent),
     whether they pick another solution of a model's effect (levels.picked_solution), and what the test says (''
-    without levels). The stiffnesses change from their values in each of ``models`` in
-    turn (up to LEVEL_MODELS; the nominal model where there is no gap, else the tie's), its effect held, until one
-    absorbs the shifts: a model that misses the modes misses their sensitivities to the stiffnesses too, and a
-    10 % softer rubber then shifts them by many standard deviations from what it predicts (a frame below the
-    isolators named a foundation of other geometry; kid300 seed 4006). A model that fits the campaign's level and
-    does not absorb them is tried at its other solutions too (fitting.other_solutions): the levels tell apart roots
-    one level fits alike (kid300 seed 4261 with damping ratios: a belt fitted at 25.8 kN/m 0.48 m above the centre
-    of mass for the true 50.5 kN/m 0.28 m below it, whose other solution absorbs the shifts)."""
+    without levels). The stiffnesses change from their values in each of ``models`` in turn (up to LEVEL_MODELS;
+    the nominal model where there is no gap, else the tie's), its effect held, until one absorbs the shifts: a
+    model that misses the modes misses their sensitivities to the stiffnesses too, and a 10 % softer rubber then
+    shifts them by many standard deviations from what it predicts (kid300 seed 4011 with shapes, the centre of
+    mass higher: such a change was beyond the noise in the nominal model, p < 1e-3, within it in the fitted
+    height's). A model that fits the campaign's level and does not absorb them is tried at its other solutions too
+    (fitting.other_solutions): the levels tell apart roots one level fits alike (kid300 seed 4261 with damping
+    ratios: a belt fitted at 25.8 kN/m 0.48 m above the centre of mass for the true 50.5 kN/m 0.28 m below it,
+    whose other solution absorbs the shifts)."""
     test = campaign.levels
     if test is None:
         return False, False, ""
