@@ -57,13 +57,16 @@ BLIND_CASES ?= 69
 BLIND_FIRST_SEED ?= 0
 # where the blind fits start: description (its nominal unknowns) or identified (from the measured frequencies)
 BLIND_NOMINAL ?= description
+# a second excitation level: every campaign's frequencies measured again at this many times the force (empty: none)
+BLIND_LEVEL ?=
 
 bench: $(STAMP)
 	$(PY) -m benchmarks --blind-cases $(BLIND_CASES)
 
 # the diagnosis benchmarks alone: one diagnosis's time, the blind validation, and a reversed channel beside an effect
 bench-blind: $(STAMP)
-	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL)
+	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL) \
+		$(if $(BLIND_LEVEL),--level $(BLIND_LEVEL))
 
 # the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 17 minutes)
 bench-records: $(STAMP)
