@@ -243,12 +243,12 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     for label, entry in data.get("modes", {}).items():
         if label not in machine.modes:
             raise InputError(f"modes.{label}", f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})")
-        frequency, std = float(entry["frequency"]), entry.get("uncertainty")
+        frequency = float(entry["frequency"])
         modes[label] = MeasuredMode(
             label,
             frequency,
-            float(std) if std is not None else DEFAULT_FREQUENCY_STD * frequency,
-            frequency_std_stated=std is not None,
+            _frequency_std(entry),
+            frequency_std_stated=entry.get("uncertainty") is not None,
             damping_ratio=entry.get("damping_ratio"),
             damping_std=entry.get("damping_uncertainty"),
             shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
@@ -320,6 +320,13 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     )
 
 
+def _frequency_std(entry: dict) -> float:
+    """The standard deviation [rad/s] of a frequency entry (a mode's or a level's): its ``uncertainty``, else
+    DEFAULT_FREQUENCY_STD of the frequency."""
+    std = entry.get("uncertainty")
+    return float(std) if std is not None else DEFAULT_FREQUENCY_STD * float(entry["frequency"])
+
+
 def _levels(machine: Machine, entries: list[dict], modes: dict[str, MeasuredMode]) -> LevelTest | None:
     """The campaign's ``levels`` (the frequencies of its ``modes`` measured again at other excitation levels, in
     the modes' convention) as a LevelTest; None without any."""
@@ -334,10 +341,11 @@ def _levels(machine: Machine, entries: list[dict], modes: dict[str, MeasuredMode
                     if label in machine.modes
                     else f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})",
                 )
-            mode, at, std = modes[label], float(entry["frequency"]), entry.get("uncertainty")
-            at_std = float(std) if std is not None else DEFAULT_FREQUENCY_STD * at
+            mode, at = modes[label], float(entry["frequency"])
             try:
-                shifts.append(level_shift(level["name"], label, mode.frequency, mode.frequency_std, at, at_std))
+                shifts.append(
+                    level_shift(level["name"], label, mode.frequency, mode.frequency_std, at, _frequency_std(entry))
+                )
             except ValueError as reason:
                 raise InputError(f"{path}.frequency", str(reason)) from None
     return LevelTest(tuple(shifts)) if shifts else None

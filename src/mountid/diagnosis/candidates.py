@@ -1036,16 +1036,17 @@ def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: Diagno
         for fit in [f for f in models if f.state is not None][:LEVEL_MODELS]:
             fits = fits_within_uncertainty(fit, settings)
             change = _stiffness_change(campaign, fit, fit.state.theta, fits)
-            if change is not None and not change.absorbs(settings.gap_p_value) and fits:
-                changes.append(change)
+            if change is not None and fits and not change.absorbs(settings.gap_p_value):
+                changes.append(change)  # then the last of its other solutions tried, if any
+                change = None
                 for values in other_solutions(fit, settings.tie):
                     change = _stiffness_change(campaign, fit, fit.state.model.vector(values), fits, values)
                     if change is not None and change.absorbs(settings.gap_p_value):
                         break
-            if change is not None and change not in changes:
+            if change is not None:
                 changes.append(change)
-            if change is not None and change.absorbs(settings.gap_p_value):
-                break
+                if change.absorbs(settings.gap_p_value):
+                    break
     text = test.text(changes, settings.gap_p_value)
     return (
         amplitude_dependent(test, changes, settings.gap_p_value),

@@ -103,6 +103,13 @@ class LevelTest:
         """Probability of this chi^2 or more if every frequency were the same at every level."""
         return float(scipy.stats.chi2.sf(self.chi2, len(self.shifts)))
 
+    def by_level(self) -> dict[str, list[LevelShift]]:
+        """The shifts grouped by their level's name, in the campaign's order."""
+        out: dict[str, list[LevelShift]] = {}
+        for s in self.shifts:
+            out.setdefault(s.level, []).append(s)
+        return out
+
     @property
     def largest(self) -> LevelShift:
         """The shift of most standard deviations."""
@@ -127,8 +134,7 @@ class LevelTest:
         0.03 %)."""
         base = frequencies(theta)
         relative, chi2, dof = {}, 0.0, 0
-        for level in dict.fromkeys(s.level for s in self.shifts):
-            shifts = [s for s in self.shifts if s.level == level]
+        for level, shifts in self.by_level().items():
             fit = scipy.optimize.least_squares(
                 _shift_residuals, theta, bounds=bounds, xtol=1e-12, ftol=1e-12, args=(shifts, frequencies, base)
             )

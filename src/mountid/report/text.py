@@ -36,14 +36,11 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
         print(f"campaign: {note}")
     for note in campaign.record_notes:
         print(f"record: {note}")
-    if campaign.levels is not None:
-        for level in dict.fromkeys(s.level for s in campaign.levels.shifts):
-            print(
-                f"frequencies at '{level}' against the campaign's: "
-                + ", ".join(
-                    f"{s.mode} {s.relative:+.2%} ({s.z:+.1f} sigma)" for s in campaign.levels.shifts if s.level == level
-                )
-            )
+    for level, shifts in (campaign.levels.by_level() if campaign.levels else {}).items():
+        print(
+            f"frequencies at '{level}' against the campaign's: "
+            + ", ".join(f"{s.mode} {s.relative:+.2%} ({s.z:+.1f} sigma)" for s in shifts)
+        )
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     for line in _residual_table(report.residuals):
         print(line)

@@ -14,7 +14,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.optimize
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.candidate_model import scaled_unit
@@ -22,6 +21,7 @@ from mountid.diagnosis.candidates import STATING_KINDS, EffectsReport, diagnose_
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
+from mountid.identification.labelling import assign
 from mountid.machine import Machine
 from mountid.validation.blind_truth import (
     REPRESENTED_BY,
@@ -99,11 +99,10 @@ def make_case(
     modes = {}
     unit = scaled_unit(shapes, tm.length)
     for i, label in enumerate(model.modes):
-        w = omega[i] * (1 + (FREQUENCY_STD * noise_rng.standard_normal() if noise else 0.0))
+        modes[label] = _measured_frequency(omega[i], noise_rng, noise)
         s = unit[:, i] + (SHAPE_STD * noise_rng.standard_normal(6) if noise else 0.0)
         s[3:] /= tm.length
         z = zeta[i] * (1 + (DAMPING_STD * noise_rng.standard_normal() if noise else 0.0))
-        modes[label] = {"frequency": float(w), "uncertainty": float(FREQUENCY_STD * omega[i])}
         if kind == "shapes":
             modes[label] |= {"shape": [float(x) for x in s], "shape_uncertainty": SHAPE_STD}
         elif kind == "damping":
@@ -125,10 +124,7 @@ def make_case(
             {
                 "name": f"hit at {level:g} times the force",
                 "modes": {
-                    label: {
-                        "frequency": float(w * (1 + (FREQUENCY_STD * level_rng.standard_normal() if noise else 0.0))),
-                        "uncertainty": float(FREQUENCY_STD * w),
-                    }
+                    label: _measured_frequency(w, level_rng, noise)
                     for label, w in zip(model.modes, at_level, strict=True)
                 },
             }
@@ -143,13 +139,21 @@ def make_case(
     return data, t
 
 
+def _measured_frequency(omega: float, rng: np.random.Generator, noise: bool) -> dict[str, float]:
+    """A campaign's entry for a true frequency ``omega`` [rad/s]: measured with FREQUENCY_STD relative noise (one
+    draw of ``rng``; none without ``noise``) and that uncertainty."""
+    w = omega * (1 + (FREQUENCY_STD * rng.standard_normal() if noise else 0.0))
+    return {"frequency": float(w), "uncertainty": float(FREQUENCY_STD * omega)}
+
+
 def same_modes(shapes: np.ndarray, other: np.ndarray) -> np.ndarray:
     """For each mode (column) of ``shapes`` the column of ``other`` that is the same mode: the assignment of
-    largest total MAC (unit shapes of the same scaling), as a test engineer pairs the modes of two tests by their
-    shapes. Labelling each test's modes apart by the nominal model can swap two close modes that an effect split
-    (kid300's psi and theta with one isolator stiffer), and their shifts then compare different modes."""
+    largest total MAC (unit shapes of the same scaling; labelling.assign on the shapes alone), as a test engineer
+    pairs the modes of two tests by their shapes. Labelling each test's modes apart by the nominal model can swap
+    two close modes that an effect split (kid300's psi and theta with one isolator stiffer), and their shifts then
+    compare different modes."""
     mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
-    return scipy.optimize.linear_sum_assignment(-mac)[1]
+    return assign(-mac, np.zeros_like(mac), 0.0)[1]
 
 
 def example(seed: int, effect: str, machine: str = "kid300", kind: str = "shapes", level: float | None = None) -> dict:
