@@ -22,9 +22,11 @@ layout, and their quality warnings travel with the campaign.
 
 A campaign may give the frequencies of its modes again at other excitation levels (a hit at half the force):
 ``"levels": [{"name": "hit at half the force", "modes": {"z": {"frequency": 46.1, "uncertainty": 0.02}}}]``,
-in the convention of its ``modes``. A linear model predicts the same frequencies at every level: the diagnosis
-tests whether they move beyond what a change of the isolators' stiffness alone makes of them
-(mountid.diagnosis.levels), an amplitude dependence no effect of the catalogue represents.
+in the convention of its ``modes``, or through records at that level (``"records": ["soft1.csv"]``, converted to
+undamped frequencies and compared with the campaign's undamped ones, as the campaign's records are). A linear
+model predicts the same frequencies at every level: the diagnosis tests whether they move beyond what a change of
+the isolators' stiffness alone makes of them (mountid.diagnosis.levels), an amplitude dependence no effect of
+the catalogue represents.
 
 The fits start from the unknowns' nominal values: the campaign's ``"nominal": {"c_xy": 6e4}``, else the
 description's, else (or with ``"nominal": "identified"``) the identification on the measured frequencies
@@ -35,7 +37,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
@@ -147,6 +149,8 @@ class Campaign:
     levels: LevelTest | None = None
     """The modes' frequencies measured again at other excitation levels against the campaign's (its ``levels``;
     None where it gives none): whether the isolators' stiffness depends on the amplitude."""
+    level_records: dict[str, tuple[RecordSource, ...]] = field(default_factory=dict)
+    """Per level name, the records its frequencies came from (levels given by hand only: none)."""
 
     @property
     def frequencies_from_poles(self) -> bool:
@@ -257,7 +261,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
-    levels = _levels(machine, data.get("levels", []), modes)
+    given = dict(modes)  # as the campaign gives them, before any conversion: what a level's modes compare with
     machine, notes_on_modes = _nominal_from_modes(machine, known, modes, identified)
     notes_on_modes = nominal_notes + notes_on_modes
     _check_modes_scale(machine, known, modes)
@@ -275,6 +279,8 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if not modes:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
     _check_modes_scale(machine, known, {k: v for k, v in from_records.items() if modes[k] is v})
+    levels, level_records, level_notes = _levels(machine, known, data, given, modes, base)
+    notes += level_notes
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -317,6 +323,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         tuple(label for label in from_records if label not in data.get("modes", {})),
         records.warnings,
         levels,
+        level_records,
     )
 
 
@@ -327,13 +334,59 @@ def _frequency_std(entry: dict) -> float:
     return float(std) if std is not None else DEFAULT_FREQUENCY_STD * float(entry["frequency"])
 
 
-def _levels(machine: Machine, entries: list[dict], modes: dict[str, MeasuredMode]) -> LevelTest | None:
-    """The campaign's ``levels`` (the frequencies of its ``modes`` measured again at other excitation levels, in
-    the modes' convention) as a LevelTest; None without any."""
-    shifts = []
-    for i, level in enumerate(entries):
-        for label, entry in level["modes"].items():
-            path = f"levels.{i}.modes.{label}"
+def _levels(
+    machine: Machine,
+    known: dict[str, float],
+    data: dict,
+    given: dict[str, MeasuredMode],
+    modes: dict[str, MeasuredMode],
+    base: Path | None,
+) -> tuple[LevelTest | None, dict[str, tuple[RecordSource, ...]], list[str]]:
+    """The campaign's ``levels`` (its modes' frequencies measured again at other excitation levels) as a
+    LevelTest (None without any), the records of each level that lists some, and their notes. A level's
+    frequency given by hand is compared with the campaign's as given (``given``, in the convention of
+    ``frequency_type``: the shift is the same in either); one from the level's records, a pole converted to an
+    undamped frequency as the campaign's records are, with the campaign's undamped frequency (``modes``). A
+    level's mode given by hand overrides its records'."""
+    shifts, notes = [], []
+    named: dict[str, int] = {}
+    recorded: dict[str, tuple[RecordSource, ...]] = {}
+    for i, level in enumerate(data.get("levels", [])):
+        name = level["name"]
+        if name in named:
+            raise InputError(
+                f"levels.{i}.name",
+                f"repeats the name of levels.{named[name]}: one entry per excitation level (its modes and records "
+                "together)",
+            )
+        named[name] = i
+        by_hand = level.get("modes", {})
+        sources = tuple(_source(entry, base) for entry in level.get("records", []))
+        found = _modes_from_records(machine, known, sources, f"levels.{i}.records")
+        if sources:
+            recorded[name] = sources
+        notes += [f"level {name!r}: {note}" for note in found.notes]
+        beyond = sorted(set(found.modes) - set(modes) - set(by_hand))
+        if beyond:
+            notes.append(
+                f"level {name!r}: its records find {', '.join(beyond)}, which the campaign does not give: not compared"
+            )
+        repeats = [
+            (f"levels.{i}.modes.{label}", label, float(entry["frequency"]), _frequency_std(entry), True)
+            for label, entry in by_hand.items()
+        ]
+        repeats += [
+            (f"levels.{i}.records", label, mode.frequency, mode.frequency_std, False)
+            for label, mode in found.modes.items()
+            if label in modes and label not in by_hand
+        ]
+        if sources and not repeats:
+            raise InputError(
+                f"levels.{i}.records",
+                f"no mode of the campaign's ({', '.join(modes)}) found in the level's records"
+                + (f" (they find {', '.join(beyond)})" if beyond else ""),
+            )
+        for path, label, at, std, hand in repeats:
             if label not in modes:
                 raise InputError(
                     path,
@@ -341,14 +394,20 @@ def _levels(machine: Machine, entries: list[dict], modes: dict[str, MeasuredMode
                     if label in machine.modes
                     else f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})",
                 )
-            mode, at = modes[label], float(entry["frequency"])
-            try:
-                shifts.append(
-                    level_shift(level["name"], label, mode.frequency, mode.frequency_std, at, _frequency_std(entry))
+            if hand and label not in given and data.get("frequency_type") == "pole":
+                raise InputError(
+                    path,
+                    f"the campaign's {label} comes from its records (an undamped frequency) and this level's is a "
+                    "pole's |p| (frequency_type): give the level's records, or the campaign's mode by hand",
                 )
+            mode = given[label] if hand and label in given else modes[label]
+            try:
+                shifts.append(level_shift(name, label, mode.frequency, mode.frequency_std, at, std))
             except ValueError as reason:
-                raise InputError(f"{path}.frequency", str(reason)) from None
-    return LevelTest(tuple(shifts)) if shifts else None
+                if hand:
+                    raise InputError(f"{path}.frequency", str(reason)) from None
+                raise InputError(path, f"{label}: {reason}") from None
+    return (LevelTest(tuple(shifts)) if shifts else None), recorded, notes
 
 
 def _nominal_from_modes(
@@ -515,10 +574,10 @@ def _check_modes_scale(machine: Machine, known: dict[str, float], modes: dict[st
             "shape_uncertainty": mode.shape_std if mode.shape is not None else None,
             "damping_uncertainty": mode.damping_std if mode.damping_ratio is not None else None,
         }
-        for field, std in stated.items():
+        for entry, std in stated.items():
             if std is not None and std < RESOLUTION:
                 raise InputError(
-                    f"modes.{label}.{field}",
+                    f"modes.{label}.{entry}",
                     f"{std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
                 )
 
@@ -567,9 +626,12 @@ class _FromRecords:
     """The records' quality warnings, each with its record's file name."""
 
 
-def _modes_from_records(machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...]) -> _FromRecords:
+def _modes_from_records(
+    machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...], where: str = "records"
+) -> _FromRecords:
     """Each record through the records chain; per mode the records' combination (_combined), the notes, the
-    layout of the shapes' channels and the modes the records disagree on."""
+    layout of the shapes' channels and the modes the records disagree on. ``where``: the campaign entry that
+    lists the records, for errors (``levels.0.records`` for a level's)."""
     if not sources:
         return _FromRecords({}, [], (), (), ())
     from mountid.identification.from_records import modal_data
@@ -590,14 +652,14 @@ def _modes_from_records(machine: Machine, known: dict[str, float], sources: tupl
             found, _, warnings = data
         except NoModeFound as err:
             if len(sources) == 1:
-                raise InputError(f"records.{i} ({source.path.name})", err.reason) from None
+                raise InputError(f"{where}.{i} ({source.path.name})", err.reason) from None
             # one record of several without a mode it could label (a hit that excited only close modes it could
             # not separate): left out, said in the notes; the others stand
             notes.append(f"{source.path.name}: left out: {err.reason}")
             continue
         except InputError as err:  # which of the campaign's records, and what of it
             what = "" if err.parameter == "record" else f"{err.parameter}: "
-            raise InputError(f"records.{i} ({source.path.name})", f"{what}{err.reason}") from None
+            raise InputError(f"{where}.{i} ({source.path.name})", f"{what}{err.reason}") from None
         here = [replace(w, record=source.path.name) for w in warnings]
         warned += here
         notes += [w.describe() for w in here]

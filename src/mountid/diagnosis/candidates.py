@@ -1070,7 +1070,8 @@ def _stiffness_change(
         full = np.concatenate([x, theta[n:]])
         return dict(zip(labels, model.predict(full, labels).frequencies, strict=True))
 
-    name = fit.effect + (f" at {fit.variant}" if fit.variant else "") if fit.effect else "the nominal model"
+    nominal = fit.effect == "none"  # the nominal model's fit (fitting.fit_candidate names it so)
+    name = "the nominal model" if nominal else fit.effect + (f" at {fit.variant}" if fit.variant else "")
     if other is not None:
         effect = model.parameter_names[len(model.unknown) :]
         name += " at its other solution (" + ", ".join(f"{q} = {other[q]:.3g}" for q in effect) + ")"

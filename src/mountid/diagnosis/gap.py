@@ -467,6 +467,7 @@ class Diagnosis:
             "machine": campaign.machine.name,
             "conventions": campaign.conventions(),
             "records": [str(r.path) for r in campaign.records],
+            "level_records": {level: [str(r.path) for r in rs] for level, rs in campaign.level_records.items()},
             "record_notes": list(campaign.record_notes),
             "record_warnings": [asdict(w) for w in campaign.record_warnings],
             "campaign_notes": list(campaign.notes),
