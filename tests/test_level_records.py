@@ -20,25 +20,30 @@ STIFFER = 1.04
 """The rubber at the second level: every isolator stiffness 4 % higher (a hit at half the force on rubber that
 softens with the amplitude)."""
 
+LOSSIER = 1.2
+"""The rubber's damping at another level: every isolator's damping 20 % higher, its stiffness the same."""
+
 LEVEL = "hit at half the force"
 
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
     """Two records of the nominal machine (the campaign's level), two with every isolator stiffness STIFFER times
-    the nominal one, two with the moment of inertia about z 4 % lower (no change of stiffness makes that)."""
+    the nominal one, two with the moment of inertia about z 4 % lower (no change of stiffness makes that), two with
+    the isolators' damping LOSSIER times the nominal."""
     out = tmp_path_factory.mktemp("levels")
     hits = [Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6)), Hammer((-0.4, 0.3, 0.3), (0.3, -1, -0.5))]
     states = {
         "hit": {},
         "soft": {"c_xy": 74.4e3 * STIFFER, "c_z": 472.3e3 * STIFFER},
         "jz": {"J_z": KNOWN["J_z"] * 0.96},
+        "lossy": {"b_xy": KNOWN["b_xy"] * LOSSIER, "b_z": KNOWN["b_z"] * LOSSIER},
     }
     for tag, values in states.items():
         rig = Rig.of("kid300", values)
         for k, hit in enumerate(hits):
             write_csv(rig.simulate(_eight_channels(), 20.0, 500.0, hammers=[hit], seed=k), out / f"{tag}{k}.csv")
-    for tag in ("soft", "jz"):
+    for tag in ("soft", "jz", "lossy"):
         level = {"name": LEVEL, "records": [f"{tag}0.csv", f"{tag}1.csv"]}
         (out / f"{tag}.json").write_text(json.dumps(_data(level)), encoding="utf-8")
     return out
@@ -79,6 +84,45 @@ def test_a_stiffer_level_is_absorbed_by_the_stiffnesses(folder, capsys):
     )
     assert absorbed in text
     assert "c_z +4 %" in text and "beyond any change" not in text
+    # the damping ratios are 2 % lower at the level, many sigma: what the stiffer rubber of the same damping makes
+    assert (
+        "note: the damping ratios agree between the excitation levels with what the change of stiffness in the " in text
+    )
+
+
+def test_damping_that_moves_with_the_level_is_noted(folder, capsys):
+    """The isolators' damping 20 % higher at the level, their stiffness the same: the frequencies agree, the damping
+    ratios move (each about 20 % up), and a note says that the damping depends on the amplitude."""
+    c = campaign.load(folder / "lossy.json")
+    assert {s.mode for s in c.levels.damping} == {"x", "phi", "z", "psi"}
+    for s in c.levels.damping:
+        assert s.relative == pytest.approx(LOSSIER - 1, abs=0.03) and s.z > 5
+    assert main(["diagnose", str(folder / "lossy.json"), "--json", "--no-figure"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {d["mode"] for d in out["level_damping"]} == {"x", "phi", "z", "psi"}
+    notes = out["notes"]
+    (note,) = [n for n in notes if n.startswith("the damping ratios move with the excitation level (chi^2")]
+    assert "the isolators' damping depends on the amplitude" in note
+    assert any(n.startswith("the frequencies agree between the excitation levels") for n in notes)
+
+
+def test_a_damping_ratio_by_hand_at_a_level_is_compared_where_the_campaign_gives_one():
+    """Levels by hand: a damping ratio is compared with the campaign's where it gives one, and said not compared
+    where it does not."""
+    modes = {"x": {"frequency": 17.71, "damping_ratio": 0.04}, "z": {"frequency": 46.6}, "psi": {"frequency": 64.1}}
+    modes["phi"] = {"frequency": 36.91}
+    level = {
+        "name": LEVEL,
+        "modes": {
+            "x": {"frequency": 17.72, "damping_ratio": 0.05, "damping_uncertainty": 0.002},
+            "z": {"frequency": 46.6, "damping_ratio": 0.05},
+        },
+    }
+    c = campaign.parse({"machine": "kid300", "known": KNOWN, "modes": modes, "levels": [level]})
+    (shift,) = c.levels.damping
+    assert (shift.mode, shift.ratio, shift.at_level) == ("x", 0.04, 0.05)
+    assert shift.std == pytest.approx(math.hypot(0.05 * 0.04, 0.002))  # the campaign's default: 5 % of its ratio
+    assert f"level '{LEVEL}': damping ratios of z not compared (the campaign gives none)" in c.notes
 
 
 def test_a_level_no_stiffness_change_makes_is_said_in_the_verdict(folder, capsys):

@@ -44,7 +44,7 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 
-from mountid.diagnosis.levels import LevelTest, level_shift
+from mountid.diagnosis.levels import DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
@@ -247,17 +247,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     for label, entry in data.get("modes", {}).items():
         if label not in machine.modes:
             raise InputError(f"modes.{label}", f"not a mode of {machine.name} (modes: {', '.join(machine.modes)})")
-        frequency = float(entry["frequency"])
-        modes[label] = MeasuredMode(
-            label,
-            frequency,
-            _frequency_std(entry),
-            frequency_std_stated=entry.get("uncertainty") is not None,
-            damping_ratio=entry.get("damping_ratio"),
-            damping_std=entry.get("damping_uncertainty"),
-            shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
-            shape_std=float(entry.get("shape_uncertainty") or DEFAULT_SHAPE_STD),
-        )
+        modes[label] = _by_hand(label, entry)
         if modes[label].shape is not None and not any(modes[label].shape):
             raise InputError(f"modes.{label}.shape", "is all zeros")
         seen[label] = machine.module.REPRESENTATIVE[label]
@@ -279,8 +269,9 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if not modes:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
     _check_modes_scale(machine, known, {k: v for k, v in from_records.items() if modes[k] is v})
-    levels, level_records, level_notes = _levels(machine, known, data, given, modes, base)
-    notes += level_notes
+    levels, level_records, level_record_notes, level_notes = _levels(machine, known, data, given, modes, base)
+    notes += level_record_notes
+    notes_on_modes += level_notes
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -327,6 +318,20 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     )
 
 
+def _by_hand(label: str, entry: dict) -> MeasuredMode:
+    """A mode as a campaign's ``modes`` (or a level's) give it."""
+    return MeasuredMode(
+        label,
+        float(entry["frequency"]),
+        _frequency_std(entry),
+        frequency_std_stated=entry.get("uncertainty") is not None,
+        damping_ratio=entry.get("damping_ratio"),
+        damping_std=entry.get("damping_uncertainty"),
+        shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
+        shape_std=float(entry.get("shape_uncertainty") or DEFAULT_SHAPE_STD),
+    )
+
+
 def _frequency_std(entry: dict) -> float:
     """The standard deviation [rad/s] of a frequency entry (a mode's or a level's): its ``uncertainty``, else
     DEFAULT_FREQUENCY_STD of the frequency."""
@@ -341,14 +346,16 @@ def _levels(
     given: dict[str, MeasuredMode],
     modes: dict[str, MeasuredMode],
     base: Path | None,
-) -> tuple[LevelTest | None, dict[str, tuple[RecordSource, ...]], list[str]]:
+) -> tuple[LevelTest | None, dict[str, tuple[RecordSource, ...]], list[str], list[str]]:
     """The campaign's ``levels`` (its modes' frequencies measured again at other excitation levels) as a
-    LevelTest (None without any), the records of each level that lists some, and their notes. A level's
+    LevelTest (None without any), the records of each level that lists some, the notes of the records chain on
+    them, and what of a level was not compared. A level's
     frequency given by hand is compared with the campaign's as given (``given``, in the convention of
     ``frequency_type``: the shift is the same in either); one from the level's records, a pole converted to an
     undamped frequency as the campaign's records are, with the campaign's undamped frequency (``modes``). A
-    level's mode given by hand overrides its records'."""
-    shifts, notes = [], []
+    level's mode given by hand overrides its records'. Damping ratios at a level are compared with the campaign's
+    where both give one (LevelTest.damping)."""
+    shifts, damping, notes, compared = [], [], [], []
     named: dict[str, int] = {}
     recorded: dict[str, tuple[RecordSource, ...]] = {}
     for i, level in enumerate(data.get("levels", [])):
@@ -368,15 +375,12 @@ def _levels(
         notes += [f"level {name!r}: {note}" for note in found.notes]
         beyond = sorted(set(found.modes) - set(modes) - set(by_hand))
         if beyond:
-            notes.append(
+            compared.append(
                 f"level {name!r}: its records find {', '.join(beyond)}, which the campaign does not give: not compared"
             )
-        repeats = [
-            (f"levels.{i}.modes.{label}", label, float(entry["frequency"]), _frequency_std(entry), True)
-            for label, entry in by_hand.items()
-        ]
+        repeats = [(f"levels.{i}.modes.{label}", _by_hand(label, entry), True) for label, entry in by_hand.items()]
         repeats += [
-            (f"levels.{i}.records", label, mode.frequency, mode.frequency_std, False)
+            (f"levels.{i}.records", mode, False)
             for label, mode in found.modes.items()
             if label in modes and label not in by_hand
         ]
@@ -386,7 +390,9 @@ def _levels(
                 f"no mode of the campaign's ({', '.join(modes)}) found in the level's records"
                 + (f" (they find {', '.join(beyond)})" if beyond else ""),
             )
-        for path, label, at, std, hand in repeats:
+        undamped = []  # the level's damping ratios of modes the campaign gives none for
+        for path, at, hand in repeats:
+            label = at.label
             if label not in modes:
                 raise InputError(
                     path,
@@ -402,12 +408,25 @@ def _levels(
                 )
             mode = given[label] if hand and label in given else modes[label]
             try:
-                shifts.append(level_shift(name, label, mode.frequency, mode.frequency_std, at, std))
+                shifts.append(
+                    level_shift(name, label, mode.frequency, mode.frequency_std, at.frequency, at.frequency_std)
+                )
             except ValueError as reason:
                 if hand:
                     raise InputError(f"{path}.frequency", str(reason)) from None
                 raise InputError(path, f"{label}: {reason}") from None
-    return (LevelTest(tuple(shifts)) if shifts else None), recorded, notes
+            if at.damping_ratio is not None and modes[label].damping_ratio is not None:
+                reference = modes[label]  # a damping ratio is one whichever frequency convention
+                std = math.hypot(damping_std(reference), damping_std(at))
+                damping.append(DampingShift(name, label, reference.damping_ratio, at.damping_ratio, std))
+            elif at.damping_ratio is not None:
+                undamped.append(label)
+        if undamped:
+            compared.append(
+                f"level {name!r}: damping ratios of {', '.join(undamped)} not compared (the campaign gives none)"
+            )
+    test = LevelTest(tuple(shifts), tuple(damping)) if shifts else None
+    return test, recorded, notes, compared
 
 
 def _nominal_from_modes(

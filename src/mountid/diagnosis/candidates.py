@@ -866,7 +866,7 @@ def rank(
     # whether the best candidate's held-out predictions are sharp enough to confirm it: for the confident
     # check, and for the tie's note (which states the shift itself)
     best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
-    moving, picked, level_text = _levels(campaign, tie if significant and tie else [nominal], settings)
+    moving, picked, level_text, damping_text = _levels(campaign, tie if significant and tie else [nominal], settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
     elif not significant:
@@ -947,6 +947,8 @@ def rank(
         verdict += f"; {level_text}"
     elif level_text:
         notes.append(level_text)
+    if damping_text:
+        notes.append(damping_text)
     tie_names = [f.effect for f in tie] if significant else []
     report = EffectsReport(
         nominal,
@@ -1015,13 +1017,16 @@ LEVEL_MODELS = 4
 levels (_levels): the first of the tie, in its order."""
 
 
-def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: DiagnosisSettings) -> tuple[bool, bool, str]:
+def _levels(
+    campaign: Campaign, models: Sequence[CandidateFit], settings: DiagnosisSettings
+) -> tuple[bool, bool, str, str]:
     """Whether the campaign's frequencies repeated at other excitation levels (Campaign.levels) move beyond what a
     change of the isolators' stiffness alone makes of them, at settings.gap_p_value (levels.amplitude_dependent),
-    whether they pick another solution of a model's effect (levels.picked_solution), and what the test says (''
-    without levels). The stiffnesses change from their values in each of ``models`` in turn (up to LEVEL_MODELS;
-    the nominal model where there is no gap, else the tie's), its effect held, until one absorbs the shifts: a
-    model that misses the modes misses their sensitivities to the stiffnesses too, and a 10 % softer rubber then
+    whether they pick another solution of a model's effect (levels.picked_solution), what the test says, and what
+    the damping ratios at the levels say against the last change tried (LevelTest.damping_text; '' without). The
+    stiffnesses change from their values in each of ``models`` in turn (up to LEVEL_MODELS; the nominal model
+    where there is no gap, else the tie's), its effect held, until one absorbs the shifts: a model that misses the
+    modes misses their sensitivities to the stiffnesses too, and a 10 % softer rubber then
     shifts them by many standard deviations from what it predicts (kid300 seed 4011 with shapes, the centre of
     mass higher: such a change was beyond the noise in the nominal model, p < 1e-3, within it in the fitted
     height's). A model that fits the campaign's level and does not absorb them is tried at its other solutions too
@@ -1030,7 +1035,7 @@ def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: Diagno
     whose other solution absorbs the shifts)."""
     test = campaign.levels
     if test is None:
-        return False, False, ""
+        return False, False, "", ""
     changes: list[StiffnessChange] = []
     if test.p_value < settings.gap_p_value:
         for fit in [f for f in models if f.state is not None][:LEVEL_MODELS]:
@@ -1047,11 +1052,11 @@ def _levels(campaign: Campaign, models: Sequence[CandidateFit], settings: Diagno
                 changes.append(change)
                 if change.absorbs(settings.gap_p_value):
                     break
-    text = test.text(changes, settings.gap_p_value)
     return (
         amplitude_dependent(test, changes, settings.gap_p_value),
         picked_solution(changes, settings.gap_p_value),
-        text,
+        test.text(changes, settings.gap_p_value),
+        test.damping_text(settings.gap_p_value, changes[-1] if changes else None),
     )
 
 
@@ -1070,6 +1075,10 @@ def _stiffness_change(
         full = np.concatenate([x, theta[n:]])
         return dict(zip(labels, model.predict(full, labels).frequencies, strict=True))
 
+    def damping(x: np.ndarray) -> dict[str, float]:
+        zeta = model.predict(np.concatenate([x, theta[n:]]), labels).damping
+        return dict(zip(labels, zeta, strict=True))
+
     nominal = fit.effect == "none"  # the nominal model's fit (fitting.fit_candidate names it so)
     name = "the nominal model" if nominal else fit.effect + (f" at {fit.variant}" if fit.variant else "")
     if other is not None:
@@ -1077,7 +1086,14 @@ def _stiffness_change(
         name += " at its other solution (" + ", ".join(f"{q} = {other[q]:.3g}" for q in effect) + ")"
     try:
         return test.against_stiffness(
-            frequencies, theta[:n], campaign.machine.unknown, (lower[:n], upper[:n]), name, fits, other is not None
+            frequencies,
+            theta[:n],
+            campaign.machine.unknown,
+            (lower[:n], upper[:n]),
+            name,
+            fits,
+            other is not None,
+            damping if test.damping and model.damped else None,
         )
     except (np.linalg.LinAlgError, ValueError):
         return None

@@ -475,6 +475,10 @@ class Diagnosis:
                 {**asdict(s), "z": s.z, "relative": s.relative}
                 for s in (campaign.levels.shifts if campaign.levels else ())
             ],
+            "level_damping": [
+                {**asdict(s), "z": s.z, "relative": s.relative}
+                for s in (campaign.levels.damping if campaign.levels else ())
+            ],
             "parameters": report.parameters,
             "parameter_std": report.parameter_std,
             "residuals": [r.to_dict() for r in report.residuals],

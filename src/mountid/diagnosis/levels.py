@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import scipy.optimize
@@ -57,6 +58,33 @@ class LevelShift:
 
 
 @dataclass(frozen=True)
+class DampingShift:
+    """One mode's damping ratio at another excitation level against the campaign's."""
+
+    level: str
+    mode: str
+    ratio: float
+    """The campaign's damping ratio of the mode."""
+    at_level: float
+    """Its damping ratio at the level."""
+    std: float
+    """Standard deviation of their difference (the two measurements' in quadrature)."""
+
+    @property
+    def z(self) -> float:
+        """The shift in standard deviations (positive: more damped at the level)."""
+        return (self.at_level - self.ratio) / self.std
+
+    @property
+    def relative(self) -> float:
+        """The shift relative to the campaign's damping ratio (nan where that is 0)."""
+        return self.at_level / self.ratio - 1 if self.ratio > 0 else math.nan
+
+
+_S = TypeVar("_S", LevelShift, DampingShift)
+
+
+@dataclass(frozen=True)
 class StiffnessChange:
     """What a change of the isolators' stiffness alone makes of the shifts (:meth:`LevelTest.against_stiffness`):
     the machine's unknown stiffnesses fitted to each level's frequencies from their fit at the campaign's level."""
@@ -74,6 +102,10 @@ class StiffnessChange:
     """Repeated frequencies less the stiffness combinations they determine."""
     other_solution: bool = False
     """Whether the model's effect was held at another solution than the one fitted (fitting.other_solutions)."""
+    damping_chi2: float = math.nan
+    """What remains of the damping ratios' shifts (LevelTest.damping) once the model's damping ratios at each
+    level's fitted stiffnesses are taken off, its damping held (nan without damping ratios at a level): a stiffer
+    isolator of the same viscous damping lowers a mode's damping ratio as 1 / sqrt(stiffness)."""
 
     @property
     def p_value(self) -> float:
@@ -92,11 +124,14 @@ class LevelTest:
     """Whether the repeated frequencies move with the excitation level beyond their uncertainty."""
 
     shifts: tuple[LevelShift, ...]
+    damping: tuple[DampingShift, ...] = ()
+    """The damping ratios measured at the levels against the campaign's (where both give one): reported, not
+    tested against a model (the damping a diagnosis fits or holds is the campaign level's)."""
 
     @property
     def chi2(self) -> float:
         """Sum of the squared standardised shifts."""
-        return float(sum(s.z**2 for s in self.shifts))
+        return _chi2(self.shifts)
 
     @property
     def p_value(self) -> float:
@@ -105,15 +140,49 @@ class LevelTest:
 
     def by_level(self) -> dict[str, list[LevelShift]]:
         """The shifts grouped by their level's name, in the campaign's order."""
-        out: dict[str, list[LevelShift]] = {}
-        for s in self.shifts:
-            out.setdefault(s.level, []).append(s)
-        return out
+        return _by_level(self.shifts)
+
+    def damping_by_level(self) -> dict[str, list[DampingShift]]:
+        """The damping ratios' shifts grouped by their level's name, in the campaign's order."""
+        return _by_level(self.damping)
 
     @property
     def largest(self) -> LevelShift:
         """The shift of most standard deviations."""
         return max(self.shifts, key=lambda s: abs(s.z))
+
+    def damping_text(self, p_value: float, change: StiffnessChange | None = None) -> str:
+        """What the damping ratios at the levels say, for a note ('' without any): whether they move with the level
+        beyond their uncertainty (chi^2 of the standardised shifts against its 1 - ``p_value`` quantile), where the
+        frequencies move against what remains once the stiffness ``change`` that absorbs them is taken off (the
+        damping ratios of a stiffer isolator are lower at the same damping), and not at all where no change does.
+        Rubber's damping commonly depends on the amplitude; the catalogue's damping is linear, so a damping fitted or
+        held describes the campaign's level."""
+        if not self.damping:
+            return ""
+        big = max(self.damping, key=lambda s: abs(s.z))
+        largest = f"largest shift {big.mode} {big.ratio:.3g} -> {big.at_level:.3g} at '{big.level}', {big.z:+.1f} sigma"
+        n = len(self.damping)
+        if self.p_value >= p_value:  # the stiffness the same at every level: the damping ratios should be too
+            chi2, against = _chi2(self.damping), ""
+        elif change is not None and change.absorbs(p_value) and math.isfinite(change.damping_chi2):
+            chi2 = change.damping_chi2
+            against = f" beyond what the change of stiffness in {change.model} makes of them"
+        else:
+            return (
+                f"the damping ratios at the levels are not compared with a model ({largest}): the frequencies move "
+                "beyond a change of the isolators' stiffness"
+            )
+        p = float(scipy.stats.chi2.sf(chi2, n))
+        stats = f"chi^2 = {chi2:.3g} for {n} repeated damping ratios, {_p(p)}; {largest}"
+        if p >= p_value:
+            return (
+                f"the damping ratios agree between the excitation levels{against.replace('beyond', 'with')} ({stats})"
+            )
+        return (
+            f"the damping ratios move with the excitation level{against} ({stats}): the isolators' damping depends on "
+            "the amplitude, and the damping the diagnosis fits or holds is the campaign level's"
+        )
 
     def against_stiffness(
         self,
@@ -124,6 +193,7 @@ class LevelTest:
         model: str = "the nominal model",
         fits: bool = True,
         other_solution: bool = False,
+        damping: Callable[[np.ndarray], dict[str, float]] | None = None,
     ) -> StiffnessChange:
         """The shifts against what a change of the isolators' stiffness alone makes of them: for each level, the
         log stiffnesses ``theta`` (``names``, within ``bounds``; their fit at the campaign's level in ``model``,
@@ -131,9 +201,12 @@ class LevelTest:
         of the model's ``frequencies`` [rad/s] (per mode label, a function of the log stiffnesses), exactly: the
         frequencies are not linear in them (with kid300's shear 10 % softer and its compression 5 % stiffer, the
         linearised change misses the shifts by up to 7e-4 of the frequency, chi^2 6.2 over six frequencies known to
-        0.03 %)."""
+        0.03 %). ``damping``: the model's damping ratios (per mode label, a function of the log stiffnesses, its
+        damping held), for what remains of the damping ratios' shifts at each level's fitted stiffnesses."""
         base = frequencies(theta)
         relative, chi2, dof = {}, 0.0, 0
+        damping_shifts = self.damping_by_level() if damping is not None else {}
+        damping_chi2 = 0.0 if damping_shifts else math.nan
         for level, shifts in self.by_level().items():
             fit = scipy.optimize.least_squares(
                 _shift_residuals, theta, bounds=bounds, xtol=1e-12, ftol=1e-12, args=(shifts, frequencies, base)
@@ -142,7 +215,12 @@ class LevelTest:
             relative[level] = {n: float(math.expm1(d)) for n, d in zip(names, fit.x - theta, strict=True)}
             chi2 += float(fit.fun @ fit.fun)
             dof += len(shifts) - rank
-        return StiffnessChange(model, fits, relative, chi2, dof, other_solution)
+            if level in damping_shifts:
+                at, before = damping(fit.x), damping(theta)
+                damping_chi2 += sum(
+                    ((s.at_level - s.ratio - (at[s.mode] - before[s.mode])) / s.std) ** 2 for s in damping_shifts[level]
+                )
+        return StiffnessChange(model, fits, relative, chi2, dof, other_solution, float(damping_chi2))
 
     def text(self, changes: Sequence[StiffnessChange], p_value: float) -> str:
         """What the test says, for a verdict or a note: the shifts, and against the stiffness ``changes`` tried (in
@@ -208,6 +286,17 @@ def amplitude_dependent(test: LevelTest, changes: Sequence[StiffnessChange], p_v
     stiffness alone makes of them in every model tried (``changes``; none where no model could be evaluated or
     no degree of freedom is left: then it cannot be told, and it counts as such)."""
     return test.p_value < p_value and not any(c.absorbs(p_value) for c in changes)
+
+
+def _chi2(shifts: Sequence[LevelShift | DampingShift]) -> float:
+    return float(sum(s.z**2 for s in shifts))
+
+
+def _by_level(shifts: Sequence[_S]) -> dict[str, list[_S]]:
+    out: dict[str, list[_S]] = {}
+    for s in shifts:
+        out.setdefault(s.level, []).append(s)
+    return out
 
 
 def _each(change: StiffnessChange) -> str:

@@ -41,6 +41,11 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
             f"frequencies at '{level}' against the campaign's: "
             + ", ".join(f"{s.mode} {s.relative:+.2%} ({s.z:+.1f} sigma)" for s in shifts)
         )
+    for level, shifts in (campaign.levels.damping_by_level() if campaign.levels else {}).items():
+        print(
+            f"damping ratios at '{level}' against the campaign's: "
+            + ", ".join(f"{s.mode} {s.ratio:.3g} -> {s.at_level:.3g} ({s.z:+.1f} sigma)" for s in shifts)
+        )
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     for line in _residual_table(report.residuals):
         print(line)
