@@ -349,12 +349,11 @@ def _levels(
 ) -> tuple[LevelTest | None, dict[str, tuple[RecordSource, ...]], list[str], list[str]]:
     """The campaign's ``levels`` (its modes' frequencies measured again at other excitation levels) as a
     LevelTest (None without any), the records of each level that lists some, the notes of the records chain on
-    them, and what of a level was not compared. A level's
-    frequency given by hand is compared with the campaign's as given (``given``, in the convention of
-    ``frequency_type``: the shift is the same in either); one from the level's records, a pole converted to an
-    undamped frequency as the campaign's records are, with the campaign's undamped frequency (``modes``). A
-    level's mode given by hand overrides its records'. Damping ratios at a level are compared with the campaign's
-    where both give one (LevelTest.damping)."""
+    them, and what of a level was not compared. A level's frequency given by hand is compared with the
+    campaign's as given (``given``, in the convention of ``frequency_type``: the shift is the same in either);
+    one from the level's records, a pole converted to an undamped frequency as the campaign's records are, with
+    the campaign's undamped frequency (``modes``). A level's mode given by hand overrides its records'. Damping
+    ratios at a level are compared with the campaign's where both give one (LevelTest.damping)."""
     shifts, damping, notes, compared = [], [], [], []
     named: dict[str, int] = {}
     recorded: dict[str, tuple[RecordSource, ...]] = {}

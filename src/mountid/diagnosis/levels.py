@@ -125,8 +125,8 @@ class LevelTest:
 
     shifts: tuple[LevelShift, ...]
     damping: tuple[DampingShift, ...] = ()
-    """The damping ratios measured at the levels against the campaign's (where both give one): reported, not
-    tested against a model (the damping a diagnosis fits or holds is the campaign level's)."""
+    """The damping ratios measured at the levels against the campaign's (where both give one): reported in a note
+    (:meth:`damping_text`), not in the verdict (the damping a diagnosis fits or holds is the campaign level's)."""
 
     @property
     def chi2(self) -> float:
@@ -164,10 +164,11 @@ class LevelTest:
         largest = f"largest shift {big.mode} {big.ratio:.3g} -> {big.at_level:.3g} at '{big.level}', {big.z:+.1f} sigma"
         n = len(self.damping)
         if self.p_value >= p_value:  # the stiffness the same at every level: the damping ratios should be too
-            chi2, against = _chi2(self.damping), ""
+            chi2, agree, move = _chi2(self.damping), "", ""
         elif change is not None and change.absorbs(p_value) and math.isfinite(change.damping_chi2):
             chi2 = change.damping_chi2
-            against = f" beyond what the change of stiffness in {change.model} makes of them"
+            made = f"what the change of stiffness in {change.model} makes of them"
+            agree, move = f" with {made}", f" beyond {made}"
         else:
             return (
                 f"the damping ratios at the levels are not compared with a model ({largest}): the frequencies move "
@@ -176,11 +177,9 @@ class LevelTest:
         p = float(scipy.stats.chi2.sf(chi2, n))
         stats = f"chi^2 = {chi2:.3g} for {n} repeated damping ratios, {_p(p)}; {largest}"
         if p >= p_value:
-            return (
-                f"the damping ratios agree between the excitation levels{against.replace('beyond', 'with')} ({stats})"
-            )
+            return f"the damping ratios agree between the excitation levels{agree} ({stats})"
         return (
-            f"the damping ratios move with the excitation level{against} ({stats}): the isolators' damping depends on "
+            f"the damping ratios move with the excitation level{move} ({stats}): the isolators' damping depends on "
             "the amplitude, and the damping the diagnosis fits or holds is the campaign level's"
         )
 
