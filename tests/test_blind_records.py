@@ -315,3 +315,30 @@ def test_a_lone_pole_on_twins_widened_lets_the_diagnosis_name_the_offset(tmp_pat
     assert found.modes["x"].shape is None
     effects = diagnose(found).effects
     assert effects.kind == "confident" and effects.best.effect == "com_offset"
+
+
+def test_a_level_in_records_is_the_level_make_case_draws(tmp_path):
+    """record_campaign(level=): two more records of the truth with its rubber changed as make_case's level draws it
+    (blind.at_other_level from blind.level_rng), listed under the campaign's ``levels``: the records chain's
+    frequencies there agree with make_case's noise-free level frequencies within a few of their standard
+    deviations, and the diagnosis takes the change for one of stiffness (an effect-free truth: no amplitude
+    dependence said)."""
+    from mountid.diagnosis import campaign
+    from mountid.diagnosis.gap import diagnose
+    from mountid.validation.blind_records import record_campaign
+
+    path = record_campaign(3, "none", "kid300", tmp_path, level=0.5)
+    found = campaign.load(path)
+    (level,) = found.level_records
+    assert level == "hit at 0.5 times the force" and len(found.level_records[level]) == 2
+    clean, _ = blind.make_case(3, "none", machine="kid300", level=0.5, noise=False)
+    truth = {label: entry["frequency"] for label, entry in clean["levels"][0]["modes"].items()}
+    for s in found.levels.shifts:
+        # the level's std is the two measurements' in quadrature: the level's own is at most that
+        assert abs(s.at_level - truth[s.mode]) < 5 * s.std, (s.mode, s.at_level, truth[s.mode], s.std)
+    assert found.levels.p_value < 1e-3  # the rubber moved by several percent: far beyond the records' noise
+    report = diagnose(found).effects
+    assert report.kind == "no significant gap" and "move with the excitation level" not in report.verdict
+    assert any(
+        "as a change of the isolators' stiffness alone makes them in the nominal model" in n for n in report.notes
+    )

@@ -62,6 +62,20 @@ hardening isolators, from the truth with each unknown stiffness changed by a fac
 of different force, alike in every mode, which the diagnosis must not mistake for an amplitude dependence no
 linear model represents (mountid.diagnosis.levels)."""
 
+
+def level_rng(seed: int) -> np.random.Generator:
+    """The draws of the truth of ``seed`` at another excitation level (its rubber, then the level's noise)."""
+    return np.random.default_rng(seed + 2_000_003)
+
+
+def at_other_level(t: Truth, rng: np.random.Generator) -> Truth:
+    """The linear truth ``t`` at another excitation level: each unknown stiffness changed by a factor exp(u), u
+    uniform within +-LEVEL_RUBBER (rubber whose stiffness depends on the amplitude alike in every mode)."""
+    return replace(
+        t, unknowns={u: v * math.exp(rng.uniform(-LEVEL_RUBBER, LEVEL_RUBBER)) for u, v in t.unknowns.items()}
+    )
+
+
 NOMINAL_SOURCES: tuple[str, ...] = ("description", "identified")
 """Where a blind campaign's fits start (make_case): the description's nominal values of the unknowns, or the
 identification on the measured frequencies (campaign "nominal": "identified")."""
@@ -113,19 +127,17 @@ def make_case(
     known = {k: tm.nominal[k] for k in tm.known if k not in damping}
     data = {"name": f"blind case {seed}", "machine": machine, "known": known, "modes": modes}
     if level is not None:
-        level_rng = np.random.default_rng(seed + 2_000_003)
+        drawn = level_rng(seed)
         if "nonlinear_isolator" in t.effect.split("+"):
             at_level, level_shapes = true_modes(tm, model, t, level)
-        else:  # rubber whose stiffness depends on the amplitude alike in every mode
-            rubber = {u: v * math.exp(level_rng.uniform(-LEVEL_RUBBER, LEVEL_RUBBER)) for u, v in t.unknowns.items()}
-            at_level, level_shapes = true_modes(tm, model, replace(t, unknowns=rubber))
+        else:
+            at_level, level_shapes = true_modes(tm, model, at_other_level(t, drawn))
         at_level = at_level[same_modes(unit, scaled_unit(level_shapes, tm.length))]
         data["levels"] = [
             {
                 "name": f"hit at {level:g} times the force",
                 "modes": {
-                    label: _measured_frequency(w, level_rng, noise)
-                    for label, w in zip(model.modes, at_level, strict=True)
+                    label: _measured_frequency(w, drawn, noise) for label, w in zip(model.modes, at_level, strict=True)
                 },
             }
         ]

@@ -22,6 +22,7 @@ from mountid.validation import blind
 from mountid.validation.blind_truth import (
     REVERSED_BESIDE,
     SENSOR_TRUTHS,
+    Truth,
     TruthMachine,
     mounted_layout,
     represented_by,
@@ -88,6 +89,8 @@ class RecordCase:
     part's that alone explains the truth's noise-free modal data); None for one part."""
     misread: tuple[str, ...] = ()
     sensor_suspects: tuple[tuple[str, ...], ...] = ()
+    verdict: str = ""
+    """The verdict as the report states it."""
 
     @property
     def right(self) -> tuple[str, ...]:
@@ -113,19 +116,24 @@ class RecordCase:
         return len(self.misread) == 1 and any(self.misread[0] in s for s in self.sensor_suspects)
 
 
-def record_campaign(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> Path:
+def record_campaign(
+    seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE, level: float | None = None
+) -> Path:
     """The campaign file (in ``folder``, with its two CSV records) of the truth blind.make_case draws for ``seed``
     on ``machine``: one hit per record at a top corner of the sensor layout, DURATION s, sampled at 20 points per
     period of the truth's highest nominal mode (200 Hz at least), the free decay analysed from 0.1 s plus 20
-    samples after the hit (the anti-alias filter's ringing), the known values of the shapes campaign."""
-    return _written(seed, truth, machine, folder, noise)[0]
+    samples after the hit (the anti-alias filter's ringing), the known values of the shapes campaign. ``level``:
+    two more records of the truth hit at that many times the force, its rubber's stiffness changed as make_case's
+    level draws it (blind.at_other_level: alike in every mode), listed under the campaign's ``levels``."""
+    return _written(seed, truth, machine, folder, noise, level)[0]
 
 
-def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) -> tuple[Path, tuple[str, ...]]:
+def _written(
+    seed: int, truth: str, machine: str, folder: Path, noise: float, level: float | None = None
+) -> tuple[Path, tuple[str, ...]]:
     """record_campaign's file and the channels its truth mounts otherwise than the records state."""
     data, t = blind.make_case(seed, truth, machine=machine)
     tm = TruthMachine(machine)
-    rig = Rig.from_matrices(machine, *truth_matrices(tm, t))
     stated, mounted = (
         {name: (tuple(map(float, r)), tuple(map(float, d))) for name, r, d in layout}
         for layout in (sensor_layout(tm), mounted_layout(tm, t))
@@ -134,22 +142,33 @@ def _written(seed: int, truth: str, machine: str, folder: Path, noise: float) ->
     sensors = [Sensor(name, r, d, noise=noise) for name, (r, d) in mounted.items()]
     rate = max(200.0, 20.0 * tm.highest_frequency / (2 * math.pi))
     peak = 2000.0 * tm.mass(tm.nominal) / 838.6  # the rig's 2 kN hit on the KID-300, scaled by the mass
-    records = []
-    for k, direction in enumerate(HITS):
-        hit = Hammer(stated[sensors[3 * k].name][0], direction, peak=peak)  # at the stated corner
-        name = f"{machine}-{truth}-{seed}-{k}.csv"
-        record = rig.simulate(sensors, DURATION, rate, hammers=[hit], seed=seed * 10 + k)
-        channels = tuple(replace(c, point=stated[c.name][0], direction=stated[c.name][1]) for c in record.channels)
-        write_csv(replace(record, channels=channels), folder / name)
-        records.append({"file": name, "start": 0.1 + 20.0 / rate})
+
+    def hits(truth_at: Truth, force: float, tag: str, first: int) -> list[dict]:
+        rig = Rig.from_matrices(machine, *truth_matrices(tm, truth_at))
+        records = []
+        for k, direction in enumerate(HITS):
+            hit = Hammer(stated[sensors[3 * k].name][0], direction, peak=force * peak)  # at the stated corner
+            name = f"{machine}-{truth}-{seed}-{tag}{k}.csv"
+            record = rig.simulate(sensors, DURATION, rate, hammers=[hit], seed=seed * 10 + first + k)
+            channels = tuple(replace(c, point=stated[c.name][0], direction=stated[c.name][1]) for c in record.channels)
+            write_csv(replace(record, channels=channels), folder / name)
+            records.append({"file": name, "start": 0.1 + 20.0 / rate})
+        return records
+
+    out = {"machine": machine, "known": data["known"], "records": hits(t, 1.0, "", 0)}
+    if level is not None:
+        at_level = blind.at_other_level(t, blind.level_rng(seed))
+        out["levels"] = [{"name": f"hit at {level:g} times the force", "records": hits(at_level, level, "level", 5)}]
     path = folder / f"{machine}-{truth}-{seed}.json"
-    path.write_text(json.dumps({"machine": machine, "known": data["known"], "records": records}), encoding="utf-8")
+    path.write_text(json.dumps(out), encoding="utf-8")
     return path, tuple(name for name in mounted if mounted[name] != stated[name])
 
 
-def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE) -> RecordCase:
-    """Diagnose one truth from its records (record_campaign)."""
-    path, misread = _written(seed, truth, machine, folder, noise)
+def run_record_case(
+    seed: int, truth: str, machine: str, folder: Path, noise: float = RECORD_NOISE, level: float | None = None
+) -> RecordCase:
+    """Diagnose one truth from its records (record_campaign, ``level`` as there)."""
+    path, misread = _written(seed, truth, machine, folder, noise, level)
     try:
         found = campaign_module.load(path)
         report = diagnose(found).effects
@@ -174,4 +193,5 @@ def run_record_case(seed: int, truth: str, machine: str, folder: Path, noise: fl
         acceptable=acceptable,
         misread=misread,
         sensor_suspects=tuple(w.suspects for w in found.record_warnings if w.kind == "sensor"),
+        verdict=report.verdict,
     )
