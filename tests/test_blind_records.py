@@ -342,3 +342,16 @@ def test_a_level_in_records_is_the_level_make_case_draws(tmp_path):
     assert any(
         "as a change of the isolators' stiffness alone makes them in the nominal model" in n for n in report.notes
     )
+
+
+def test_the_records_study_refuses_a_level_that_is_no_force_ratio():
+    """``python -m benchmarks.records_blind --level``: a force ratio; anything else is a one-line usage error."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run(
+        [sys.executable, "-m", "benchmarks.records_blind", "--level", "-1"], cwd=root, capture_output=True, text=True
+    )
+    assert run.returncode == 2 and "--level must be a force ratio between 0 and 100" in run.stderr
