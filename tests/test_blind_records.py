@@ -355,3 +355,17 @@ def test_the_records_study_refuses_a_level_that_is_no_force_ratio():
         [sys.executable, "-m", "benchmarks.records_blind", "--level", "-1"], cwd=root, capture_output=True, text=True
     )
     assert run.returncode == 2 and "--level must be a force ratio between 0 and 100" in run.stderr
+
+
+def test_a_levels_modes_from_records_are_paired_with_the_campaigns_by_their_shapes(tmp_path):
+    """genset8 with a component on its own springs (seed 13), records at two levels: the records chain labels x
+    and phi the other way round at the level (its x read 25 % above the campaign's x, its phi 15 % below); paired
+    by their shapes, each shifts by the 3 % the rubber moved, and a note says so."""
+    from mountid.diagnosis import campaign
+    from mountid.validation.blind_records import record_campaign
+
+    found = campaign.load(record_campaign(13, "resilient_attachment", "genset8", tmp_path, level=0.5))
+    (note,) = [n for n in found.notes if "paired with the campaign's by their shapes" in n]
+    assert "its phi as the campaign's x" in note and "its x as the campaign's phi" in note
+    shifts = {s.mode: s.relative for s in found.levels.shifts}
+    assert 0.02 < shifts["x"] < 0.04 and 0.02 < shifts["phi"] < 0.04, shifts

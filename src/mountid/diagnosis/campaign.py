@@ -46,6 +46,7 @@ import numpy as np
 
 from mountid.diagnosis.levels import DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
+from mountid.identification.labelling import same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode
@@ -377,12 +378,13 @@ def _levels(
             compared.append(
                 f"level {name!r}: its records find {', '.join(beyond)}, which the campaign does not give: not compared"
             )
+        at_level, paired = _paired_by_shape(
+            machine, known, modes, {k: v for k, v in found.modes.items() if k not in by_hand}
+        )
+        if paired:
+            compared.append(f"level {name!r}: {paired}")
         repeats = [(f"levels.{i}.modes.{label}", _by_hand(label, entry), True) for label, entry in by_hand.items()]
-        repeats += [
-            (f"levels.{i}.records", mode, False)
-            for label, mode in found.modes.items()
-            if label in modes and label not in by_hand
-        ]
+        repeats += [(f"levels.{i}.records", mode, False) for label, mode in at_level.items() if label in modes]
         if sources and not repeats:
             raise InputError(
                 f"levels.{i}.records",
@@ -426,6 +428,32 @@ def _levels(
             )
     test = LevelTest(tuple(shifts), tuple(damping)) if shifts else None
     return test, recorded, notes, compared
+
+
+def _paired_by_shape(
+    machine: Machine, known: dict[str, float], modes: dict[str, MeasuredMode], found: dict[str, MeasuredMode]
+) -> tuple[dict[str, MeasuredMode], str]:
+    """A level's modes from its records (``found``) paired with the campaign's ``modes`` by their shapes where both
+    give the shapes of two or more of the same labels (labelling.same_modes on the shapes with rotations times the
+    machine's length scale, as the diagnosis compares them), and a note where that pairing differs from the labels:
+    the records chain labels each test's poles apart by the nominal model, and where the machine differs from it
+    two close modes can take each other's labels at one level (genset8 with a component on its own springs: x and
+    phi swapped between two levels 3 % apart, x read 25 % higher)."""
+    shaped = [lab for lab, m in found.items() if m.shape is not None and lab in modes and modes[lab].shape is not None]
+    if len(shaped) < 2:
+        return found, ""
+    mod = machine.module
+    length = float(call(mod, "effect_scales", machine.values(known, mod.ARGUMENTS["effect_scales"]))["length"])
+    weights = np.array([1.0, 1.0, 1.0, length, length, length])[:, None]
+    ours = np.array([modes[lab].shape for lab in shaped], dtype=float).T * weights
+    theirs = np.array([found[lab].shape for lab in shaped], dtype=float).T * weights
+    pairs = same_modes(ours, theirs)
+    moved = [(lab, shaped[j]) for lab, j in zip(shaped, pairs, strict=True) if shaped[j] != lab]
+    if not moved:
+        return found, ""
+    out = {**found, **{lab: replace(found[other], label=lab) for lab, other in moved}}
+    said = ", ".join(f"its {other} as the campaign's {lab}" for lab, other in moved)
+    return out, f"modes from its records paired with the campaign's by their shapes: {said}"
 
 
 def _nominal_from_modes(

@@ -62,3 +62,13 @@ def assign(mismatch: NDArray, log_ratio: NDArray, frequency_weight: float) -> tu
     cost = np.asarray(mismatch) + frequency_weight * np.abs(np.asarray(log_ratio))
     rows, cols = scipy.optimize.linear_sum_assignment(cost)
     return rows, cols, cost
+
+
+def same_modes(shapes: NDArray, other: NDArray) -> NDArray:
+    """For each mode (column) of ``shapes`` the column of ``other`` that is the same mode: the assignment of
+    largest total MAC (shapes in the same coordinates and scaling; assign on the shapes alone), as a test engineer
+    pairs the modes of two tests by their shapes. Labelling each test's modes apart by the nominal model can swap
+    two close modes that an effect split (kid300's psi and theta with one isolator stiffer; genset8's x and phi on
+    a component on its own springs, records at two levels), and their shifts then compare different modes."""
+    mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
+    return assign(-mac, np.zeros_like(mac), 0.0)[1]

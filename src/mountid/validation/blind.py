@@ -21,7 +21,7 @@ from mountid.diagnosis.candidates import STATING_KINDS, EffectsReport, diagnose_
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
-from mountid.identification.labelling import assign
+from mountid.identification.labelling import same_modes
 from mountid.machine import Machine
 from mountid.validation.blind_truth import (
     REPRESENTED_BY,
@@ -156,16 +156,6 @@ def _measured_frequency(omega: float, rng: np.random.Generator, noise: bool) -> 
     draw of ``rng``; none without ``noise``) and that uncertainty."""
     w = omega * (1 + (FREQUENCY_STD * rng.standard_normal() if noise else 0.0))
     return {"frequency": float(w), "uncertainty": float(FREQUENCY_STD * omega)}
-
-
-def same_modes(shapes: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """For each mode (column) of ``shapes`` the column of ``other`` that is the same mode: the assignment of
-    largest total MAC (unit shapes of the same scaling; labelling.assign on the shapes alone), as a test engineer
-    pairs the modes of two tests by their shapes. Labelling each test's modes apart by the nominal model can swap
-    two close modes that an effect split (kid300's psi and theta with one isolator stiffer), and their shifts then
-    compare different modes."""
-    mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
-    return assign(-mac, np.zeros_like(mac), 0.0)[1]
 
 
 def example(seed: int, effect: str, machine: str = "kid300", kind: str = "shapes", level: float | None = None) -> dict:
