@@ -369,3 +369,19 @@ def test_a_levels_modes_from_records_are_paired_with_the_campaigns_by_their_shap
     assert "its phi as the campaign's x" in note and "its x as the campaign's phi" in note
     shifts = {s.mode: s.relative for s in found.levels.shifts}
     assert 0.02 < shifts["x"] < 0.04 and 0.02 < shifts["phi"] < 0.04, shifts
+
+
+def test_close_modes_mixed_differently_at_two_levels_raise_no_false_alarm(tmp_path):
+    """screen6, effect-free (seed 25): x and y 0.25 % apart, their shapes mixed differently in the records of the two
+    levels (the campaign's y mostly along x). Labelled as the records chain labels each level, no change of
+    stiffness made the shifts and the verdict said the frequencies move beyond one, a false alarm on a linear
+    machine; paired by their shapes, a change of stiffness absorbs them."""
+    from mountid.diagnosis import campaign
+    from mountid.diagnosis.gap import diagnose
+    from mountid.validation.blind_records import record_campaign
+
+    found = campaign.load(record_campaign(25, "none", "screen6", tmp_path, level=0.5))
+    assert any("its y as the campaign's x" in n for n in found.notes)
+    report = diagnose(found).effects
+    assert "move with the excitation level" not in report.verdict
+    assert any("as a change of the isolators' stiffness alone makes them in" in n for n in report.notes)
