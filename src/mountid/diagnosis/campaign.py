@@ -44,9 +44,9 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 
-from mountid.diagnosis.levels import DampingShift, LevelTest, level_shift
+from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
-from mountid.identification.labelling import same_modes
+from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode
@@ -435,7 +435,8 @@ def _paired_by_shape(
 ) -> tuple[dict[str, MeasuredMode], str]:
     """A level's modes from its records (``found``) paired with the campaign's ``modes`` by their shapes where both
     give the shapes of two or more of the same labels (labelling.same_modes on the shapes with rotations times the
-    machine's length scale, as the diagnosis compares them), and a note where that pairing differs from the labels:
+    machine's length scale, as the diagnosis compares them, and on their frequencies with the records chain's
+    weight), and a note where that pairing differs from the labels:
     the records chain labels each test's poles apart by the nominal model, and where the machine differs from it
     two close modes can take each other's labels at one level (genset8 with a component on its own springs: x and
     phi swapped between two levels 3 % apart, x read 25 % higher)."""
@@ -447,9 +448,12 @@ def _paired_by_shape(
     weights = np.array([1.0, 1.0, 1.0, length, length, length])[:, None]
     ours = np.array([modes[lab].shape for lab in shaped], dtype=float).T * weights
     theirs = np.array([found[lab].shape for lab in shaped], dtype=float).T * weights
-    pairs = same_modes(ours, theirs)
+    log_ratio = np.log(np.array([[found[b].frequency / modes[a].frequency for b in shaped] for a in shaped]))
+    pairs = same_modes(ours, theirs, log_ratio, LABELLING.record_frequency_weight)
     moved = [(lab, shaped[j]) for lab, j in zip(shaped, pairs, strict=True) if shaped[j] != lab]
-    if not moved:
+    if not moved or np.abs(log_ratio[np.arange(len(shaped)), pairs]).max() > math.log(LEVEL_RATIO_LIMIT):
+        # a pairing that puts a mode with one more than LEVEL_RATIO_LIMIT away is not the same mode's: the labels
+        # stand (a slab under rectangular: a body mode of the support's at 73 rad/s shaped like phi at 32)
         return found, ""
     out = {**found, **{lab: replace(found[other], label=lab) for lab, other in moved}}
     said = ", ".join(f"its {other} as the campaign's {lab}" for lab, other in moved)

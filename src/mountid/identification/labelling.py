@@ -64,11 +64,15 @@ def assign(mismatch: NDArray, log_ratio: NDArray, frequency_weight: float) -> tu
     return rows, cols, cost
 
 
-def same_modes(shapes: NDArray, other: NDArray) -> NDArray:
+def same_modes(
+    shapes: NDArray, other: NDArray, log_ratio: NDArray | None = None, frequency_weight: float = 0.0
+) -> NDArray:
     """For each mode (column) of ``shapes`` the column of ``other`` that is the same mode: the assignment of
-    largest total MAC (shapes in the same coordinates and scaling; assign on the shapes alone), as a test engineer
-    pairs the modes of two tests by their shapes. Labelling each test's modes apart by the nominal model can swap
-    two close modes that an effect split (kid300's psi and theta with one isolator stiffer; genset8's x and phi on
-    a component on its own springs, records at two levels), and their shifts then compare different modes."""
+    largest total MAC (shapes in the same coordinates and scaling), with ``frequency_weight`` times |``log_ratio``|
+    (the log of their frequencies' ratio, one row per mode of ``shapes``) where measured shapes need the frequency
+    beside them; as a test engineer pairs the modes of two tests. Labelling each test's modes apart by the nominal
+    model can swap two close modes that an effect split (kid300's psi and theta with one isolator stiffer;
+    genset8's x and phi on a component on its own springs, records at two levels), and their shifts then compare
+    different modes."""
     mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
-    return assign(-mac, np.zeros_like(mac), 0.0)[1]
+    return assign(-mac, np.zeros_like(mac) if log_ratio is None else log_ratio, frequency_weight)[1]
