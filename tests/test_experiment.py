@@ -274,9 +274,10 @@ def test_record_shape_uncertainty_describes_the_scatter():
     measured unit shape normal to the true one, per component in units of the stated standard deviation, lies in
     [0.5, 2] for every mode (measured 1.1-1.7: the poles' own error and the damping's complex shapes add a
     little; a standard deviation off by a factor 2 in either direction fails)."""
-    from mountid.diagnosis.candidate_model import off_span, scaled_unit
+    from mountid.diagnosis.candidate_model import off_span
     from mountid.identification.from_records import modal_data
     from mountid.machine import call
+    from mountid.measurement.modes import scaled_unit
 
     rig = Rig.of("rectangular")
     mod = rig.machine.module

@@ -49,7 +49,7 @@ from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
-from mountid.measurement.modes import MeasuredMode
+from mountid.measurement.modes import MeasuredMode, scaled_unit
 from mountid.measurement.records import Channel
 from mountid.nomenclature import POSITIVE_KINDS
 
@@ -443,11 +443,9 @@ def _paired_by_shape(
     shaped = [lab for lab, m in found.items() if m.shape is not None and lab in modes and modes[lab].shape is not None]
     if len(shaped) < 2:
         return found, ""
-    mod = machine.module
-    length = float(call(mod, "effect_scales", machine.values(known, mod.ARGUMENTS["effect_scales"]))["length"])
-    weights = np.array([1.0, 1.0, 1.0, length, length, length])[:, None]
-    ours = np.array([modes[lab].shape for lab in shaped], dtype=float).T * weights
-    theirs = np.array([found[lab].shape for lab in shaped], dtype=float).T * weights
+    length = machine.length_scale(known)
+    ours = scaled_unit(np.array([modes[lab].shape for lab in shaped], dtype=float).T, length)
+    theirs = scaled_unit(np.array([found[lab].shape for lab in shaped], dtype=float).T, length)
     log_ratio = np.log(np.array([[found[b].frequency / modes[a].frequency for b in shaped] for a in shaped]))
     pairs = same_modes(ours, theirs, log_ratio, LABELLING.record_frequency_weight)
     moved = [(lab, shaped[j]) for lab, j in zip(shaped, pairs, strict=True) if shaped[j] != lab]

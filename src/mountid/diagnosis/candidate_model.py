@@ -21,6 +21,7 @@ from mountid.effects import Effect, Pair
 from mountid.errors import InputError
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.machine import call, read_only, recently_used, undamped_modes
+from mountid.measurement.modes import scaled_unit
 
 DEGENERATE = 1e-6
 """Model modes closer than this in relative frequency are equal (twins): their combination is free. Modes
@@ -483,14 +484,6 @@ class Evaluation:
 
 def _pick(values: dict[str, float], names: tuple[str, ...]) -> dict[str, float]:
     return {n: values[n] for n in names}
-
-
-def scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
-    """Rotations times the length scale, each column normalised to unit length."""
-    out = np.array(shapes, dtype=float)
-    out[3:6] *= length
-    norm = np.sqrt(np.add.reduce(out * out, axis=0))  # np.linalg.norm(out, axis=0) without its checks
-    return out / np.where(norm > 0, norm, 1.0)  # a foundation mode may leave the body at rest
 
 
 def label_modes(

@@ -38,7 +38,7 @@ import scipy.special
 import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign
-from mountid.diagnosis.candidate_model import CandidateModel
+from mountid.diagnosis.candidate_model import CandidateModel, Prediction
 from mountid.diagnosis.fitting import (
     OTHER_SOLUTION_SIGMA,
     CandidateFit,
@@ -1071,13 +1071,14 @@ def _stiffness_change(
     labels = tuple(dict.fromkeys(s.mode for s in test.shifts))
     lower, upper = model.bounds()
 
+    def at(x: np.ndarray) -> Prediction:  # the log stiffnesses x, the rest held
+        return model.predict(np.concatenate([x, theta[n:]]), labels)
+
     def frequencies(x: np.ndarray) -> dict[str, float]:
-        full = np.concatenate([x, theta[n:]])
-        return dict(zip(labels, model.predict(full, labels).frequencies, strict=True))
+        return dict(zip(labels, at(x).frequencies, strict=True))
 
     def damping(x: np.ndarray) -> dict[str, float]:
-        zeta = model.predict(np.concatenate([x, theta[n:]]), labels).damping
-        return dict(zip(labels, zeta, strict=True))
+        return dict(zip(labels, at(x).damping, strict=True))
 
     nominal = fit.effect == "none"  # the nominal model's fit (fitting.fit_candidate names it so)
     name = "the nominal model" if nominal else fit.effect + (f" at {fit.variant}" if fit.variant else "")

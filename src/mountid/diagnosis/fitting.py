@@ -14,12 +14,13 @@ import scipy.special
 import scipy.stats
 
 from mountid.diagnosis.campaign import Campaign, damping_std
-from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span, scaled_unit
+from mountid.diagnosis.candidate_model import CandidateModel, Prediction, off_span
 from mountid.diagnosis.jacobian import jacobian
 from mountid.effects import Effect, Pair
 from mountid.identification.least_squares import VectorFunction, trust_region
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import read_only
+from mountid.measurement.modes import scaled_unit
 
 
 @dataclass(frozen=True)
@@ -163,7 +164,7 @@ class Data:
         measured = [campaign.modes[lab].shape for lab in self.shape_labels]
         self.shape_matrix = scaled_unit(np.array(measured, dtype=float).reshape(-1, 6).T, length)
         """The measured shapes as columns (6, n_shapes) in the order of ``shape_labels``, scaled to unit length
-        (candidate_model.scaled_unit)."""
+        (measurement.modes.scaled_unit)."""
         self.shape_sigma = np.array([campaign.modes[lab].shape_std for lab in self.shape_labels], dtype=float)
         self.shape_index = np.array([self.labels.index(lab) for lab in self.shape_labels], dtype=int)
         """The index in ``labels`` of each measured shape's mode."""

@@ -957,7 +957,7 @@ def modal_data(
         warnings += _coherence_warnings(estimate, labelled, settings)
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
-    length = float(call(mod, "effect_scales", machine.values(guess, mod.ARGUMENTS["effect_scales"]))["length"])
+    length = machine.length_scale(guess)
     # a pole on two twins that a fit of two does not part: widened, without its shape (Twins.mixed)
     mixed = {label: spans for label, *spans in twins.mixed}
     labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}

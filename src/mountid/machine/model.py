@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from mountid.errors import InputError
+from mountid.machine.dynamics import call
 from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
 from mountid.nomenclature import POSITIVE_KINDS
 
@@ -236,6 +237,13 @@ class Machine:
         return {label: float(w) for label, w in zip(self.modes, omega, strict=True)}
 
     # -- the two directions -------------------------------------------------------------------------
+    def length_scale(self, given: dict[str, float]) -> float:
+        """The machine's length scale [m] (the generated effect_scales' length) at the ``given`` values, the
+        description's nominal values for the rest: what the rotations of a mode shape are multiplied by to compare
+        them with its translations (scaled_unit)."""
+        mod = self.module
+        return float(call(mod, "effect_scales", self.values(given, mod.ARGUMENTS["effect_scales"]))["length"])
+
     def frequencies(self, params: dict[str, float]) -> dict[str, float]:
         """Natural frequency of every mode [rad/s] for the given (or nominal) parameters."""
         return self._forward(params)

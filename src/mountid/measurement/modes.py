@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class MeasuredMode:
@@ -31,3 +33,11 @@ class MeasuredMode:
     def stated_frequency_std(self) -> float | None:
         """The frequency's standard deviation as the measurement stated it [rad/s], else None."""
         return self.frequency_std if self.frequency_std_stated else None
+
+
+def scaled_unit(shapes: np.ndarray, length: float) -> np.ndarray:
+    """Rotations times the length scale, each column normalised to unit length."""
+    out = np.array(shapes, dtype=float)
+    out[3:6] *= length
+    norm = np.sqrt(np.add.reduce(out * out, axis=0))  # np.linalg.norm(out, axis=0) without its checks
+    return out / np.where(norm > 0, norm, 1.0)  # a foundation mode may leave the body at rest

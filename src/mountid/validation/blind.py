@@ -16,13 +16,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mountid.diagnosis import campaign as campaign_module
-from mountid.diagnosis.candidate_model import scaled_unit
 from mountid.diagnosis.candidates import STATING_KINDS, EffectsReport, diagnose_effects, fits_within_uncertainty
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
 from mountid.identification.labelling import same_modes
 from mountid.machine import Machine
+from mountid.measurement.modes import scaled_unit
 from mountid.validation.blind_truth import (
     REPRESENTED_BY,
     REVERSED_BESIDE,

@@ -79,9 +79,10 @@ import scipy.linalg
 import scipy.optimize
 import tomllib
 
-from mountid.diagnosis.candidate_model import label_modes, scaled_unit
+from mountid.diagnosis.candidate_model import label_modes
 from mountid.effects import STANDARD_GRAVITY
 from mountid.machine import Machine
+from mountid.measurement.modes import scaled_unit
 
 REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
