@@ -1,18 +1,19 @@
 """Blind truths through records (``make bench-records``): every truth a record carries (blind_records.RECORD_TRUTHS:
 the machine's, then its sensors' as mounted against the layout the records state, then a reversed channel beside
-a physical effect) on every shipped machine,
+a physical effect, then hardening isolators integrated through their law) on every shipped machine,
 simulated as two impact records of the harness's 12 channels (2 % noise), diagnosed from the records, beside the
 same truth's modal-data campaign with shapes (blind.run_case). Prints each case's two verdicts and counts, for the
 records: confident and wrong, effect-free truths given a significant gap, cases where the records chain stopped,
 and close modes split or left out; for the sensor truths: named first, confident, no significant gap, and how
 often the records chain's own check named the misread channel (and noted one where every channel reads as
 stated: its false alarms); for a reversed channel beside a physical effect: the verdicts' kinds and the channel
-named.
+named; for the hardening isolators: the verdicts' kinds and, with a level, how often the levels were said to move.
 
 ``python -m benchmarks.records_blind --seeds N --first-seed S [--machines kid300 screen6] [--level 0.5]``: N seeds
 per machine and truth (default 1, from seed 0); ``--level``: two more records per case, of the truth hit at that
-many times the force with its rubber's stiffness changed (blind_records.record_campaign), under the campaign's
-``levels``, and a count of the verdicts that say the frequencies move beyond a change of stiffness."""
+many times the force with its rubber's stiffness changed (blind_records.record_campaign; hardening isolators by
+their law alone), under the campaign's ``levels``, and a count of the verdicts that say the frequencies move beyond
+a change of stiffness."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import time
 from pathlib import Path
 
 from mountid.validation import blind
-from mountid.validation.blind_records import RECORD_TRUTHS, run_record_case
+from mountid.validation.blind_records import HARDENING_TRUTHS, RECORD_TRUTHS, run_record_case
 from mountid.validation.blind_truth import REVERSED_BESIDE, SENSOR_TRUTHS
 
 LEVELS_MOVE = "the frequencies move with the excitation level"
@@ -70,11 +71,20 @@ def study(
         f"{sum(bool(c.error) for c in out)}; close modes split or left out in {sum(bool(c.close_modes) for c in out)}"
     )
     if level is not None:
-        moved = [c for c in out if LEVELS_MOVE in c.verdict]
+        linear = [c for c in out if c.truth not in HARDENING_TRUTHS]
+        moved = [c for c in linear if LEVELS_MOVE in c.verdict]
         print(
-            f"a second level at {level:g} times the force (every truth linear, its rubber changed alike in every "
+            f"a second level at {level:g} times the force (the linear truths, their rubber changed alike in every "
             f"mode): the verdict says the frequencies move beyond a change of stiffness in {len(moved)} of "
-            f"{len(out)} ({sum(c.kind == 'not explained' for c in moved)} of them not explained)"
+            f"{len(linear)} ({sum(c.kind == 'not explained' for c in moved)} of them not explained)"
+        )
+    hard = [c for c in out if c.truth in HARDENING_TRUTHS]
+    if hard:
+        kinds = ", ".join(f"{k} {sum(c.kind == k for c in hard)}" for k in sorted({c.kind for c in hard}))
+        said = f"; the levels said to move in {sum(LEVELS_MOVE in c.verdict for c in hard)}" if level else ""
+        print(
+            f"hardening isolators: {len(hard)} cases; {kinds}; confident {sum(c.confident for c in hard)} (every "
+            f"one wrong: the catalogue is linear){said}"
         )
     sensor = [c for c in out if set(c.truth.split("+")) <= SENSOR_TRUTHS]
     one = [c for c in sensor if len(c.misread) == 1]

@@ -10,7 +10,7 @@ import pytest
 
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
-from mountid.validation.blind_records import RECORD_TRUTHS, RecordCase, run_record_case
+from mountid.validation.blind_records import HARDENING_TRUTHS, RECORD_TRUTHS, RecordCase, run_record_case
 from mountid.validation.blind_truth import (
     REVERSED_BESIDE,
     SENSOR_TRUTHS,
@@ -51,15 +51,17 @@ def test_a_truth_with_a_support_is_recorded_on_the_body():
 
 def test_the_sensor_truths_are_recorded_after_the_others():
     """A record's channels read the truth's motion where its sensors are mounted: the sensor truths are in the
-    records study, after the truths of the machine (which keep the seeds they had before); those the harness
-    computes beyond M, C, B are left out."""
+    records study, after the truths of the machine (which keep the seeds they had before); the hardening
+    isolators (integrated beyond M, C, B) after all of them; the frequency-dependent rubber is left out."""
     assert "none" in RECORD_TRUTHS and "support_frame" in RECORD_TRUTHS
-    assert not {"frequency_dependent", "nonlinear_isolator"} & {p for t in RECORD_TRUTHS for p in t.split("+")}
-    sensor = [bool(SENSOR_TRUTHS & set(t.split("+"))) for t in RECORD_TRUTHS]
+    assert "frequency_dependent" not in {p for t in RECORD_TRUTHS for p in t.split("+")}
+    assert RECORD_TRUTHS[-len(HARDENING_TRUTHS) :] == HARDENING_TRUTHS == ("nonlinear_isolator",)
+    before = RECORD_TRUTHS[: -len(HARDENING_TRUTHS)]
+    sensor = [bool(SENSOR_TRUTHS & set(t.split("+"))) for t in before]
     assert {"sensor_reversed", "sensor_error", "sensor_turned"} <= set(RECORD_TRUTHS)
     assert sensor == sorted(sensor)  # the machine's truths first
     # a reversed channel beside a physical effect last: the sensor truths keep their seeds too
-    assert RECORD_TRUTHS[-len(REVERSED_BESIDE) :] == tuple(REVERSED_BESIDE)
+    assert before[-len(REVERSED_BESIDE) :] == tuple(REVERSED_BESIDE)
 
 
 def test_a_sensor_truth_mounts_its_channel_otherwise_than_stated():

@@ -11,16 +11,23 @@ Two independent solutions of the same equations, which tests hold against each o
   harmonic forcing in closed form;
 - :meth:`Rig.simulate`: time integration in the complex modal coordinates of the first-order form, exact
   for forces that are linear between the internal samples (first-order hold), run by scipy.signal.lfilter.
+
+A rig may carry hardening isolators (:class:`Hardening`): rubber whose restoring force grows with the cube of
+its deformation, so that a mode's frequency depends on how hard the machine is hit. Its records are integrated
+by scipy.integrate.solve_ivp (DOP853) on the same fine grid (:meth:`Rig.respond_hardening`); with the
+hardening at zero that integration and the exact one agree, which the tests hold.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import types
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.integrate
 import scipy.linalg
 import scipy.signal
 from numpy.typing import NDArray
@@ -108,6 +115,37 @@ class Unbalance:
         return self.mass * self.eccentricity * self.speed**2
 
 
+@dataclass(frozen=True)
+class Hardening:
+    """Hardening isolators: along each of the isolators' local axes a restoring force
+    k x (1 + (4/3) gamma (x / reference)^2) at the deformation x [m] of that direction, of which the linear part
+    k x is in the rig's stiffness matrix. Harmonic balance at an amplitude A makes it a stiffness
+    k (1 + gamma (A / reference)^2): ``gamma`` is the relative stiffening at the ``reference`` amplitude [m]
+    (the blind harness's law of a hardening isolator, mountid.validation.blind_truth). ``deformation``: the rows
+    d x / d q of every isolator direction (one row per isolator and local axis, [m per coordinate]);
+    ``stiffness``: k of each row [N/m]."""
+
+    deformation: NDArray
+    stiffness: NDArray
+    gamma: float
+    reference: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.gamma) and self.gamma >= 0):
+            raise InputError("gamma", f"must be a finite number >= 0, got {self.gamma}")
+        if not (math.isfinite(self.reference) and self.reference > 0):
+            raise InputError("reference", f"must be a positive deformation [m], got {self.reference}")
+        if np.shape(self.stiffness) != np.shape(self.deformation)[:1]:
+            raise InputError(
+                "stiffness", f"needs one value per row of the deformation, {np.shape(self.deformation)[0]}"
+            )
+
+    def force(self, q: NDArray) -> NDArray[np.float64]:
+        """The generalised restoring force beyond C q [N, N m] at the coordinates q (the last axis)."""
+        x = q @ self.deformation.T
+        return (self.stiffness * (4.0 / 3.0) * self.gamma * x**3 / self.reference**2) @ self.deformation
+
+
 @dataclass
 class Rig:
     """A machine on its isolators with every parameter fixed: the truth a simulated experiment is made of."""
@@ -116,6 +154,9 @@ class Rig:
     parameters: dict[str, float] = field(default_factory=dict)
     given: tuple[NDArray, NDArray, NDArray] | None = field(default=None, compare=False, repr=False)
     """M, C, B of a truth the description does not hold (:meth:`from_matrices`); None: the description's."""
+    hardening: Hardening | None = field(default=None, compare=False, repr=False)
+    """Hardening isolators (their force beyond C q); None: a linear rig. Only :meth:`simulate` feels them: the
+    frequency-domain solutions are the linear rig's (its small-amplitude limit)."""
 
     def __post_init__(self) -> None:
         mod: types.ModuleType = self.machine.module
@@ -136,12 +177,20 @@ class Rig:
         return cls(machine if isinstance(machine, Machine) else Machine.resolve(machine), dict(parameters or {}))
 
     @classmethod
-    def from_matrices(cls, machine: str | Machine, mass: NDArray, stiffness: NDArray, damping: NDArray) -> Rig:
-        """A rig of a truth given by its own M, C, B: the body's six coordinates q of ``machine`` first (the
-        sensors and hammers act on them), then any the truth adds (a support below the isolators, an attached
-        body), which no sensor reads. The blind harness's truths as records (mountid.validation.blind_records)."""
+    def from_matrices(
+        cls,
+        machine: str | Machine,
+        mass: NDArray,
+        stiffness: NDArray,
+        damping: NDArray,
+        hardening: Hardening | None = None,
+    ) -> Rig:
+        """A rig of a truth given by its own M, C, B (and hardening isolators, if any): the body's six
+        coordinates q of ``machine`` first (the sensors and hammers act on them), then any the truth adds (a
+        support below the isolators, an attached body), which no sensor reads. The blind harness's truths as
+        records (mountid.validation.blind_records)."""
         found = machine if isinstance(machine, Machine) else Machine.resolve(machine)
-        return cls(found, {}, (mass, stiffness, damping))
+        return cls(found, {}, (mass, stiffness, damping), hardening)
 
     # -- kinematics ---------------------------------------------------------------------------------
     def sensor_row(self, point: Sequence[float], direction: Sequence[float], name: str = "sensor") -> NDArray:
@@ -213,6 +262,75 @@ class Rig:
         qdd = (force - qd @ self.B.T - q @ self.C.T) @ self._minv.T
         return q, qd, qdd
 
+    def forcing(
+        self, hammers: Sequence[Hammer] = (), unbalances: Sequence[Unbalance] = ()
+    ) -> Callable[[NDArray], NDArray[np.float64]]:
+        """The generalised force [N, N m] of the hammers and unbalances as a function of the times t [s], shape
+        (len(t), n): each one's force column taken once."""
+        hits = [(h, self.force_column(h.point, h.direction, "hammer")) for h in hammers]
+        turning = [
+            (u, *(u.amplitude * self.force_column(u.point, e, "unbalance") for e in u.plane())) for u in unbalances
+        ]
+        n = self.M.shape[0]
+
+        def force(t: NDArray) -> NDArray[np.float64]:
+            out = np.zeros((len(t), n))
+            for hammer, column in hits:
+                out += np.outer(hammer.force(t), column)
+            for u, sine, cosine in turning:
+                out += np.outer(np.sin(u.speed * t), sine) + np.outer(np.cos(u.speed * t), cosine)
+            return out
+
+        return force
+
+    def respond_hardening(
+        self,
+        t: NDArray,
+        hammers: Sequence[Hammer] = (),
+        unbalances: Sequence[Unbalance] = (),
+        x0: NDArray | None = None,
+    ) -> tuple[NDArray, NDArray, NDArray]:
+        """(q, q', q'') at the times t under the hammers' and unbalances' forces with the hardening isolators', from
+        the state x0 = [q; q'] at t[0] (rest by default): M q'' + B q' + C q + f(q) = Q(t) integrated by DOP853 at a
+        relative tolerance of 1e-10, in steps no longer than an eighth of a pulse while a hammer pulse lasts
+        (the integration is split at each pulse's start and end)."""
+        if self.hardening is None:
+            raise ValueError("respond_hardening needs a rig with hardening isolators")
+        t = np.asarray(t, dtype=float)
+        n = self.M.shape[0]
+        hardening, minv, b, c = self.hardening, self._minv, self.B, self.C
+        forcing = self.forcing(hammers, unbalances)
+
+        def rate(time: float, x: NDArray) -> NDArray:
+            q, qd = x[:n], x[n:]
+            force = forcing(np.array([time]))[0]
+            return np.concatenate([qd, minv @ (force - b @ qd - c @ q - hardening.force(q))])
+
+        pulses = [
+            (start, start + h.duration)
+            for h in hammers
+            for start in (h.time, *((h.time + h.second_hit[0],) if h.second_hit else ()))
+        ]
+        cuts = sorted({t[0], t[-1], *(x for p in pulses for x in p if t[0] < x < t[-1])})
+        scale = self.hardening.reference * np.concatenate([np.ones(n), np.full(n, np.max(np.abs(self.poles)))])
+        x = np.zeros(2 * n) if x0 is None else np.asarray(x0, dtype=float)
+        out = np.empty((len(t), 2 * n))
+        out[0] = x
+        for a, z in itertools.pairwise(cuts):
+            step = min(h.duration for h in hammers) / 8 if any(s < z and e > a for s, e in pulses) else np.inf
+            take = (t > a) & (t <= z)
+            wanted = np.concatenate([t[take], [z]]) if not take.any() or t[take][-1] < z else t[take]
+            solution = scipy.integrate.solve_ivp(
+                rate, (a, z), x, method="DOP853", t_eval=wanted, rtol=1e-10, atol=1e-10 * scale, max_step=step
+            )
+            if not solution.success:
+                raise RuntimeError(f"the hardening rig's integration failed near t = {solution.t[-1]:g} s")
+            out[take] = solution.y.T[: int(take.sum())]
+            x = solution.y[:, -1]
+        q, qd = out[:, :n], out[:, n:]
+        qdd = (forcing(t) - qd @ self.B.T - q @ self.C.T - hardening.force(q)) @ self._minv.T
+        return q, qd, qdd
+
     def simulate(
         self,
         sensors: Sequence[Sensor],
@@ -253,17 +371,16 @@ class Rig:
         filtering = anti_alias and oversample > 1
         sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if filtering else None
         n_fine = n_out * oversample
+        forcing = self.forcing(hammers, unbalances)
         state, filtered, blocks = None, None, []
         # the fine grid in blocks of BLOCK samples (memory), each from the state at the last one before it
         for start in range(0, n_fine, BLOCK):
             first = max(start - 1, 0)
             t = np.arange(first, min(start + BLOCK, n_fine)) / fine_rate
-            force = np.zeros((len(t), self.M.shape[0]))
-            for hammer in hammers:
-                force += np.outer(hammer.force(t), self.force_column(hammer.point, hammer.direction, "hammer"))
-            for unbalance in unbalances:
-                force += self.unbalance_force(unbalance, t)
-            q, qd, qdd = self.respond(t, force, state)
+            if self.hardening is None:
+                q, qd, qdd = self.respond(t, forcing(t), state)
+            else:
+                q, qd, qdd = self.respond_hardening(t, hammers, unbalances, state)
             state = np.concatenate([q[-1], qd[-1]])
             new = slice(start - first, None)  # the first sample of a later block is the last of the one before
             motion = {"displacement": q[new], "velocity": qd[new], "acceleration": qdd[new]}

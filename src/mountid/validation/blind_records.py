@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.gap import diagnose
 from mountid.errors import InputError
@@ -24,6 +26,7 @@ from mountid.validation.blind_truth import (
     SENSOR_TRUTHS,
     Truth,
     TruthMachine,
+    hardening,
     mounted_layout,
     represented_by,
     sensor_layout,
@@ -41,17 +44,23 @@ def _record_truths(sensors: bool) -> tuple[str, ...]:
     )
 
 
+HARDENING_TRUTHS = ("nonlinear_isolator",)
+"""The truths whose records are integrated through the rubber's hardening (the rig's Hardening, a time
+integration beyond M, C, B): the frequencies of a decaying record move as its amplitude falls."""
+
 RECORD_TRUTHS: tuple[str, ...] = (
     *_record_truths(sensors=False),
     *_record_truths(sensors=True),
     *REVERSED_BESIDE,
+    *HARDENING_TRUTHS,
 )
 """The truths a record carries: those of the machine as they are (M, C and B), then those of its sensors (each
 channel simulated as its sensor is mounted, mounted_layout, and stated in the record as the layout says: a
 reversed, turned or misplaced channel, a turned and lifted measurement frame), then a reversed channel beside a
-physical effect (REVERSED_BESIDE). Left out: the frequency-dependent rubber and the hardening isolator
-(frequencies the harness computes beyond M, C, B). Each group comes after those before it, so that they keep the
-seeds they had before it was added (make bench-records)."""
+physical effect (REVERSED_BESIDE), then hardening isolators (HARDENING_TRUTHS, since 2026-11-30). Left out: the
+frequency-dependent rubber (its frequencies are the roots of a nonlinear eigenproblem, which a time record of
+M, C, B does not carry). Each group comes after those before it, so that they keep the seeds they had before it
+was added (make bench-records)."""
 
 RECORD_NOISE = 0.02
 """White noise of each channel, relative to its RMS."""
@@ -143,11 +152,16 @@ def _written(
     rate = max(200.0, 20.0 * tm.highest_frequency / (2 * math.pi))
     peak = 2000.0 * tm.mass(tm.nominal) / 838.6  # the rig's 2 kN hit on the KID-300, scaled by the mass
 
+    def hammer(k: int, force: float) -> Hammer:  # at the stated corner
+        return Hammer(stated[sensors[3 * k].name][0], HITS[k], peak=force * peak)
+
+    reference = _largest_deformation(Rig.from_matrices(machine, *truth_matrices(tm, t)), tm, t, hammer(0, 1.0))
+
     def hits(truth_at: Truth, force: float, tag: str, first: int) -> list[dict]:
-        rig = Rig.from_matrices(machine, *truth_matrices(tm, truth_at))
+        rig = Rig.from_matrices(machine, *truth_matrices(tm, truth_at), hardening(tm, truth_at, reference))
         records = []
-        for k, direction in enumerate(HITS):
-            hit = Hammer(stated[sensors[3 * k].name][0], direction, peak=force * peak)  # at the stated corner
+        for k in range(len(HITS)):
+            hit = hammer(k, force)
             name = f"{machine}-{truth}-{seed}-{tag}{k}.csv"
             record = rig.simulate(sensors, DURATION, rate, hammers=[hit], seed=seed * 10 + first + k)
             channels = tuple(replace(c, point=stated[c.name][0], direction=stated[c.name][1]) for c in record.channels)
@@ -156,12 +170,28 @@ def _written(
         return records
 
     out = {"machine": machine, "known": data["known"], "records": hits(t, 1.0, "", 0)}
-    if level is not None:
-        at_level = blind.at_other_level(t, blind.level_rng(seed))
+    if level is not None:  # hardening isolators stiffen by their law at the level's force (as in make_case)
+        hardens = "nonlinear_isolator" in t.effect.split("+")
+        at_level = t if hardens else blind.at_other_level(t, blind.level_rng(seed))
         out["levels"] = [{"name": f"hit at {level:g} times the force", "records": hits(at_level, level, "level", 5)}]
     path = folder / f"{machine}-{truth}-{seed}.json"
     path.write_text(json.dumps(out), encoding="utf-8")
     return path, tuple(name for name in mounted if mounted[name] != stated[name])
+
+
+def _largest_deformation(rig: Rig, tm: TruthMachine, t: Truth, hit: Hammer) -> float:
+    """The largest deformation [m] along any isolator's local axis in the linear rig's response to the hit, over
+    one and a half periods of its slowest mode after it (where the free decay peaks): the deformation at which a
+    hardening isolator of the truth stiffens by its ``gamma`` (blind_truth.hardening). NaN for other truths."""
+    found = hardening(tm, t, 1.0)
+    if found is None:
+        return math.nan
+    slowest = float(np.min(np.abs(rig.poles)))
+    fastest = float(np.max(np.abs(rig.poles)))
+    step = min(hit.duration / 64, 2 * math.pi / fastest / 64)
+    time = np.arange(0.0, hit.time + hit.duration + 3 * math.pi / slowest, step)
+    q, _, _ = rig.respond(time, rig.forcing([hit])(time))
+    return float(np.max(np.abs(q @ found.deformation.T)))
 
 
 def run_record_case(

@@ -83,6 +83,7 @@ from mountid.diagnosis.candidate_model import label_modes
 from mountid.effects import STANDARD_GRAVITY
 from mountid.machine import Machine
 from mountid.measurement.modes import scaled_unit
+from mountid.measurement.rig import Hardening
 
 REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
@@ -674,6 +675,19 @@ def _hardened(
                 break
         omega[i], out[:, i] = math.sqrt(lam[j]), phi
     return omega, out
+
+
+def hardening(tm: TruthMachine, t: Truth, reference: float) -> Hardening | None:
+    """The hardening isolators of a ``nonlinear_isolator`` truth for a time simulation (the rig's
+    :class:`~mountid.measurement.rig.Hardening`): every isolator along each of its local axes with the law of
+    _hardened, its relative stiffening ``gamma`` reached at the deformation ``reference`` [m] (a records test sets
+    it at the largest deformation the campaign's hit gives the linear rubber, as _hardened excites each mode to
+    the same largest deformation). None for a truth without hardening."""
+    if "nonlinear_isolator" not in t.effect.split("+"):
+        return None
+    isolators = tm.isolators({**tm.nominal, **t.known, **t.unknowns})
+    rows = np.vstack([iso.axes.T @ _jac(iso.point) for iso in isolators])
+    return Hardening(rows, np.concatenate([iso.stiffness for iso in isolators]), t.size["gamma"], reference)
 
 
 def sensor_layout(tm: TruthMachine) -> list[tuple[str, np.ndarray, np.ndarray]]:
