@@ -399,3 +399,23 @@ def test_a_pairing_beyond_the_level_ratio_limit_keeps_the_labels(tmp_path):
     found = campaign.load(record_campaign(5, "foundation", "rectangular", tmp_path, level=0.5))
     assert not [n for n in found.notes if "paired with the campaign's by their shapes" in n]
     assert max(abs(s.relative) for s in found.levels.shifts) < 0.1
+
+
+def test_hardening_isolators_in_records_soften_at_half_the_force_and_are_never_named(tmp_path):
+    """skid1plane with hardening isolators (seed 77, gamma 0.07), recorded through their law: every frequency the
+    records resolve beyond their noise is lower at half the force (softer rubber at a smaller amplitude); from one
+    level the verdict is not confident (the catalogue is linear); with the second level it says the frequencies
+    move with the excitation level beyond any change of stiffness and is "not explained". Fails with the rig's
+    hardening left out (the level then moves no frequency) or a linear candidate named confidently."""
+    from mountid.diagnosis import campaign
+    from mountid.diagnosis.gap import diagnose
+    from mountid.validation.blind_records import record_campaign
+
+    one = run_record_case(77, "nonlinear_isolator", "skid1plane", tmp_path)
+    assert one.kind in ("not explained", "tie") and not one.confident
+    found = campaign.load(record_campaign(77, "nonlinear_isolator", "skid1plane", tmp_path, level=0.5))
+    resolved = [s for s in found.levels.shifts if abs(s.z) > 3]
+    assert len(resolved) >= 3 and all(s.relative < 0 for s in resolved), found.levels.shifts
+    report = diagnose(found).effects
+    assert report.kind == "not explained" and not report.confident
+    assert "the frequencies move with the excitation level" in report.verdict
