@@ -25,9 +25,6 @@ from mountid.validation import blind
 from mountid.validation.blind_records import HARDENING_TRUTHS, RECORD_TRUTHS, run_record_case
 from mountid.validation.blind_truth import REVERSED_BESIDE, SENSOR_TRUTHS
 
-LEVELS_MOVE = "the frequencies move with the excitation level"
-"""How a verdict opens its statement that the levels' frequencies move beyond a change of stiffness."""
-
 
 def _verdict(kind: str, first: str | None, probability: float) -> str:
     return f"{kind} ({first} {probability:.2f})" if first else kind
@@ -56,7 +53,7 @@ def study(
                     if case.misread:
                         flags += f" [misread {','.join(case.misread)}]" if len(case.misread) < 3 else " [misread frame]"
                     flags += " [channel noted]" if case.sensor_suspects else ""
-                    flags += " [levels move]" if LEVELS_MOVE in case.verdict else ""
+                    flags += " [levels move]" if case.levels_move else ""
                     print(
                         f"{machine:11s} {truth:30s} {seed:4d}  {shown:45s}  " f"{other:45s}{flags}",
                         flush=True,
@@ -72,7 +69,7 @@ def study(
     )
     if level is not None:
         linear = [c for c in out if c.truth not in HARDENING_TRUTHS]
-        moved = [c for c in linear if LEVELS_MOVE in c.verdict]
+        moved = [c for c in linear if c.levels_move]
         print(
             f"a second level at {level:g} times the force (the linear truths, their rubber changed alike in every "
             f"mode): the verdict says the frequencies move beyond a change of stiffness in {len(moved)} of "
@@ -81,7 +78,7 @@ def study(
     hard = [c for c in out if c.truth in HARDENING_TRUTHS]
     if hard:
         kinds = ", ".join(f"{k} {sum(c.kind == k for c in hard)}" for k in sorted({c.kind for c in hard}))
-        said = f"; the levels said to move in {sum(LEVELS_MOVE in c.verdict for c in hard)}" if level else ""
+        said = f"; the levels said to move in {sum(c.levels_move for c in hard)}" if level else ""
         print(
             f"hardening isolators: {len(hard)} cases; {kinds}; confident {sum(c.confident for c in hard)} (every "
             f"one wrong: the catalogue is linear){said}"

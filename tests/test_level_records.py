@@ -73,7 +73,7 @@ def test_a_level_from_records_compares_undamped_frequencies(folder):
 def test_a_stiffer_level_is_absorbed_by_the_stiffnesses(folder, capsys):
     assert main(["diagnose", str(folder / "soft.json"), "--json", "--no-figure"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["kind"] == "no significant gap"
+    assert out["kind"] == "no significant gap" and out["levels_move"] is False
     assert [Path(p).name for p in out["level_records"][LEVEL]] == ["soft0.csv", "soft1.csv"]
     assert {s["mode"] for s in out["levels"]} == {"x", "phi", "z", "psi"}
     assert main(["diagnose", str(folder / "soft.json"), "--no-figure"]) == 0
@@ -128,6 +128,8 @@ def test_a_damping_ratio_by_hand_at_a_level_is_compared_where_the_campaign_gives
 def test_a_level_no_stiffness_change_makes_is_said_in_the_verdict(folder, capsys):
     """The level's torsion mode higher, the others where they were: no change of the isolators' stiffness makes
     that, and the verdict says so."""
+    assert main(["diagnose", str(folder / "jz.json"), "--json", "--no-figure"]) == 0
+    assert json.loads(capsys.readouterr().out)["levels_move"] is True
     assert main(["diagnose", str(folder / "jz.json"), "--no-figure"]) == 0
     out = capsys.readouterr().out
     # no model says what the damping ratios should do there

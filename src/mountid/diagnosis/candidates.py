@@ -148,6 +148,10 @@ class EffectsReport:
     misfit_scale: float = 1.0
     """The factor on every measurement's variance the probabilities were taken with (1 unless even the best
     candidate misses the data beyond their uncertainty; see _probabilities)."""
+    levels_move: bool = False
+    """Whether the campaign's frequencies at other excitation levels move beyond what a change of the isolators'
+    stiffness makes of them in every model tried (levels.amplitude_dependent): the verdict says so and is not
+    confident."""
 
     @property
     def best(self) -> CandidateFit | None:
@@ -962,6 +966,7 @@ def rank(
         notes,
         list(screened or ()),
         scale,
+        moving,
     )
     # the rivals the data fit as well as the first: the report's own rule (EffectsReport.alike), said in a note
     note = alike_note(report.alike(settings), report.best.effect) if report.best is not None else ""

@@ -503,6 +503,7 @@ class Diagnosis:
             ],
             "fit_alike": [o.rival for o in effects.alike()],
             "confident": effects.confident,
+            "levels_move": effects.levels_move,
             "kind": effects.kind,
             "verdict": self.verdict,
             "where_verdict": report.verdict,

@@ -100,6 +100,9 @@ class RecordCase:
     sensor_suspects: tuple[tuple[str, ...], ...] = ()
     verdict: str = ""
     """The verdict as the report states it."""
+    levels_move: bool = False
+    """Whether the verdict says the frequencies at the second level move beyond any change of stiffness
+    (EffectsReport.levels_move)."""
 
     @property
     def right(self) -> tuple[str, ...]:
@@ -224,4 +227,5 @@ def run_record_case(
         misread=misread,
         sensor_suspects=tuple(w.suspects for w in found.record_warnings if w.kind == "sensor"),
         verdict=report.verdict,
+        levels_move=report.levels_move,
     )
