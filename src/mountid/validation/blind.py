@@ -566,10 +566,9 @@ def _stating(results: list[CaseResult]) -> list[CaseResult]:
     ]
 
 
-def _stated(results: list[CaseResult]) -> tuple[np.ndarray, np.ndarray]:
-    """Stated probability of the first-ranked candidate and whether it is right, over the verdicts that state a
-    probability (_stating)."""
-    verdicts = _stating(results)
+def _stated(verdicts: list[CaseResult]) -> tuple[np.ndarray, np.ndarray]:
+    """Stated probability of the first-ranked candidate and whether it is right (1.0 or 0.0), of each of
+    ``verdicts`` (already those that state a probability: _stating)."""
     return np.array([r.probability for r in verdicts], dtype=float), np.array([r.right for r in verdicts], dtype=float)
 
 
@@ -581,7 +580,7 @@ wrong costs 20.7 (ln 1e9), not infinity."""
 def _proper_scores(results: list[CaseResult]) -> tuple[float, float]:
     """Log loss and Brier score of the stated probability of the first-ranked candidate over the verdicts that
     state one (_stating; nan without any)."""
-    stated, right = _stated(results)
+    stated, right = _stated(_stating(results))
     if not len(stated):
         return math.nan, math.nan
     p = np.clip(stated, LOG_LOSS_FLOOR, 1 - LOG_LOSS_FLOOR)
@@ -622,7 +621,9 @@ def reliability_panels(
     for kind in CAMPAIGN_KINDS:
         mine = [r for r in results if r.campaign == kind and r.in_catalogue]
         if _stating(mine):
-            panels[f"{prefix}{kind}"] = {basis: _stated([r for r in mine if _basis(r) == basis]) for basis in BASES}
+            panels[f"{prefix}{kind}"] = {
+                basis: _stated(_stating([r for r in mine if _basis(r) == basis])) for basis in BASES
+            }
     return panels
 
 
@@ -639,8 +640,7 @@ def _by_group(
     rows = []
     for name in sorted({group(r) for r in verdicts}):
         mine = [r for r in verdicts if group(r) == name]
-        stated = np.array([r.probability for r in mine])
-        right = np.array([r.right for r in mine], dtype=float)
+        stated, right = _stated(mine)
         observed = float(np.mean(right))
         drawn = (rng.random((draws, len(mine))) < stated).mean(axis=1)
         widening = np.sqrt(_design_effect(stated, right, [r.seed for r in mine], np.zeros(len(mine), dtype=int)))
@@ -673,7 +673,7 @@ def _reliability(
     ``draws`` times with a fixed seed; nan without draws), each bin's departure widened by the square root of
     the design effect, and the share of those draws with an error at least the observed one."""
     verdicts = _stating(results)
-    stated, right = _stated(results)
+    stated, right = _stated(verdicts)
     rows = _reliability_rows(stated, right)
     if not rows:
         return (), math.nan, math.nan, math.nan, math.nan, math.nan
