@@ -87,3 +87,6 @@ def test_bad_hardening_is_named():
         Hardening(rows, np.ones(3), 0.1, 1e-4)
     with pytest.raises(ValueError, match="hardening"):
         Rig.of("kid300").respond_hardening(np.linspace(0, 1, 10), [])
+    tm, t = _truth(0.1)
+    with pytest.raises(InputError, match="hardening: its deformation rows need one column per coordinate"):
+        Rig.from_matrices("kid300", *truth_matrices(tm, t), Hardening(np.ones((2, 5)), np.ones(2), 0.1, 1e-4))

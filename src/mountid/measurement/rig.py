@@ -167,6 +167,12 @@ class Rig:
             self.M, self.C, self.B = matrices(mod, self.values)
         else:
             self.M, self.C, self.B = (np.array(x, dtype=float) for x in self.given)
+        if self.hardening is not None and np.shape(self.hardening.deformation)[1:] != self.M.shape[:1]:
+            raise InputError(
+                "hardening",
+                f"its deformation rows need one column per coordinate ({self.M.shape[0]}), got "
+                f"{np.shape(self.hardening.deformation)[1:]}",
+            )
         self.A = state_matrix(self.M, self.C, self.B)
         self.poles, self.V = scipy.linalg.eig(self.A)
         self.V_inv = np.linalg.inv(self.V)
@@ -224,12 +230,8 @@ class Rig:
         return q, -(w**2) * q
 
     def unbalance_force(self, unbalance: Unbalance, t: NDArray) -> NDArray[np.float64]:
-        """Generalised force of the unbalance at times t, shape (len(t), 6)."""
-        e_s, e_c = unbalance.plane()
-        w = unbalance.speed
-        f = unbalance.amplitude * (np.sin(w * t)[:, None] * e_s + np.cos(w * t)[:, None] * e_c)
-        jac = self.machine.module.point_jacobian(*np.asarray(unbalance.point, float))
-        return f @ jac
+        """Generalised force of the unbalance at times t, shape (len(t), n) (:meth:`forcing`)."""
+        return self.forcing((), [unbalance])(np.asarray(t, dtype=float))
 
     # -- time domain --------------------------------------------------------------------------------
     def respond(self, t: NDArray, force: NDArray, x0: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray]:
@@ -351,7 +353,9 @@ class Rig:
         RESOLVED samples per hammer pulse or per period of the fastest mode or unbalance (the physics does not
         depend on how the record is sampled: at 30 Hz x 8 a 4 ms pulse fell between the samples and the record
         was silent), passed through an 8th-order Butterworth anti-alias filter at ANTI_ALIAS x rate (the analog
-        filter of a real acquisition), and decimated; then noise, bias and clipping are applied per sensor.
+        filter of a real acquisition), and decimated; then noise, bias and clipping are applied per sensor. A rig
+        with hardening isolators is integrated through their law (:meth:`respond_hardening`), else exactly
+        (:meth:`respond`).
         """
         if not duration > 0:
             raise InputError("duration", f"must be positive, got {duration}")
