@@ -158,7 +158,7 @@ def _written(
     def hammer(k: int, force: float) -> Hammer:  # at the stated corner
         return Hammer(stated[sensors[3 * k].name][0], HITS[k], peak=force * peak)
 
-    reference = _largest_deformation(Rig.from_matrices(machine, *truth_matrices(tm, t)), tm, t, hammer(0, 1.0))
+    reference = _largest_deformation(machine, tm, t, hammer(0, 1.0))
 
     def hits(truth_at: Truth, force: float, tag: str, first: int) -> list[dict]:
         rig = Rig.from_matrices(machine, *truth_matrices(tm, truth_at), hardening(tm, truth_at, reference))
@@ -182,13 +182,15 @@ def _written(
     return path, tuple(name for name in mounted if mounted[name] != stated[name])
 
 
-def _largest_deformation(rig: Rig, tm: TruthMachine, t: Truth, hit: Hammer) -> float:
-    """The largest deformation [m] along any isolator's local axis in the linear rig's response to the hit, over
-    one and a half periods of its slowest mode after it (where the free decay peaks): the deformation at which a
-    hardening isolator of the truth stiffens by its ``gamma`` (blind_truth.hardening). NaN for other truths."""
+def _largest_deformation(machine: str, tm: TruthMachine, t: Truth, hit: Hammer) -> float:
+    """The largest deformation [m] along any isolator's local axis in the response of the truth's linear rubber
+    to the hit, over one and a half periods of its slowest mode after it (where the free decay peaks): the
+    deformation at which a hardening isolator of the truth stiffens by its ``gamma`` (blind_truth.hardening).
+    NaN for other truths."""
     found = hardening(tm, t, 1.0)
     if found is None:
         return math.nan
+    rig = Rig.from_matrices(machine, *truth_matrices(tm, t))
     slowest = float(np.min(np.abs(rig.poles)))
     fastest = float(np.max(np.abs(rig.poles)))
     step = min(hit.duration / 64, 2 * math.pi / fastest / 64)
