@@ -33,14 +33,16 @@ from mountid.validation.blind_truth import (
     truth_matrices,
 )
 
-_NOT_IN_RECORDS = frozenset(("frequency_dependent", "nonlinear_isolator"))
+_APART = frozenset(("frequency_dependent", "nonlinear_isolator"))
+"""Truths kept out of the first two groups: the frequency-dependent rubber (not recorded) and the hardening
+isolators (recorded last, HARDENING_TRUTHS)."""
 
 
 def _record_truths(sensors: bool) -> tuple[str, ...]:
     return tuple(
         name
         for name in blind.EFFECT_NAMES
-        if not _NOT_IN_RECORDS & set(name.split("+")) and bool(SENSOR_TRUTHS & set(name.split("+"))) == sensors
+        if not _APART & set(name.split("+")) and bool(SENSOR_TRUTHS & set(name.split("+"))) == sensors
     )
 
 
