@@ -193,7 +193,8 @@ def label_poles(
     by symmetry (twins) the better one keeps the twins' label, unless they lie settings.twin_separation standard
     deviations apart or more: a machine whose symmetry is broken (kid300 with its centre of mass off the axis: x
     and y 0.12 rad/s apart) parts its twins, and the two take the twins' labels in the order of frequency (the
-    lower x, the higher y: what a mode is called then says where it lies, not how it moves). Returns
+    lower x, the higher y: what a mode is called then says where it lies, not how it moves). A pole nearer another
+    mode's nominal frequency than the twins' (_in_band) parts no twins: the other keeps their label. Returns
     ({label: (pole, MAC)}, poles left unlabelled)."""
     if not poles:
         return {}, []
@@ -212,16 +213,32 @@ def label_poles(
     out: dict[str, tuple[modal.Pole, float]] = {}
     for label, found in on.items():
         found.sort(key=lambda f: f[0])
-        if len(found) == 2 and _parted(found[0][2], found[1][2], settings):
-            # named in the order of frequency, as every record of the machine names them (by shape, the
-            # nominal model's twins would name a pair mixed at 45 degrees by the noise)
+        if len(found) == 2:
             twins = [m for m in mod.MODES if mod.REPRESENTATIVE[m] == label]
-            parted = sorted(found, key=lambda f: f[2].frequency)
-            out.update({mode: (pole, m) for mode, (_, _, pole, m) in zip(twins, parted, strict=False)})
-            continue
+            own = [omega[k] for k in visible if mod.MODES[k] in twins]
+            others = [omega[k] for k in visible if mod.MODES[k] not in twins]
+            inside = [_in_band(f[2].frequency, own, others) for f in found]
+            if all(inside) and _parted(found[0][2], found[1][2], settings):
+                # named in the order of frequency, as every record of the machine names them (by shape, the
+                # nominal model's twins would name a pair mixed at 45 degrees by the noise)
+                parted = sorted(found, key=lambda f: f[2].frequency)
+                out.update({mode: (pole, m) for mode, (_, _, pole, m) in zip(twins, parted, strict=False)})
+                continue
+            if inside[1] and not inside[0]:  # the pole nearer another mode is no twin, however well it costs
+                found.reverse()
         out[label] = (found[0][2], found[0][3])
         rest += [pole for _, _, pole, _ in found[1:]]
     return out, sorted(rest, key=lambda p: p.frequency)
+
+
+def _in_band(frequency: float, twins: list[float], others: list[float]) -> bool:
+    """Whether ``frequency`` [rad/s] lies nearer the nominal frequency of the ``twins`` than that of any of the
+    ``others`` (the nominal frequencies of the other modes the channels see), in log frequency as the labelling
+    weighs it: a symmetry that an effect breaks parts the twins about their own frequency. A pole nearer another
+    mode that the one-to-one assignment still put on the twins (kid300 blind seed 24, hardening isolators: a
+    drifting decay's pole at 53.2 rad/s beside psi and theta at 64.6, nearer z and phi) is no twin."""
+    f = math.log(frequency)
+    return not others or min(abs(f - math.log(w)) for w in twins) < min(abs(f - math.log(w)) for w in others)
 
 
 def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
