@@ -653,28 +653,55 @@ def _hardened(
     """Each mode of hardening isolators by equivalent linearisation: every isolator direction (global axes)
     stiffer by 1 + gamma (level d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the
     isolators and directions (a campaign's test excites each mode to the same largest deformation, ``level``
-    times that another); iterated to a fixed point."""
+    times that another); iterated to a fixed point in the mode's own symmetry (_parities: a mode symmetric or
+    antisymmetric in a mirror plane of the machine stays so)."""
     gamma = t.size["gamma"]
-    isolators = tm.isolators({**tm.nominal, **t.known, **t.unknowns})
+    rows, stiffness = _deformation(tm.isolators({**tm.nominal, **t.known, **t.unknowns}))
+    linear = rows.T @ (rows * stiffness[:, None])
     omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
     for i in range(shapes.shape[1]):
         phi = shapes[:, i]
+        parities = _parities(m, linear, phi)
         for _ in range(50):
-            d = np.array([iso.axes.T @ (_jac(iso.point) @ phi) for iso in isolators])  # along local axes
-            factor = 1 + gamma * (level * np.abs(d) / np.abs(d).max()) ** 2
-            c = sum(
-                _jac(iso.point).T @ iso.tensor(iso.stiffness * f) @ _jac(iso.point)
-                for iso, f in zip(isolators, factor, strict=True)
-            )
+            d = np.abs(rows @ phi)  # along each isolator's local axes
+            factor = 1 + gamma * (level * d / d.max()) ** 2
+            c = rows.T @ (rows * (stiffness * factor)[:, None])
             lam, vec = scipy.linalg.eigh(c, m)
             j = int(np.argmax(np.abs(vec.T @ m @ phi)))
             step = vec[:, j] * np.sign(vec[:, j] @ m @ phi)
+            if parities:
+                # the stiffened rubber keeps the mirror symmetry of a mode of definite parity; rounding does not,
+                # and where a mode of the other parity lies close (kid300's psi and theta, 0.1 rad/s apart once
+                # stiffened) the iteration amplifies it: psi drifted to a rotation about a diagonal, theta's shape
+                for mirror, sign in parities:
+                    step = (step + sign * (mirror @ step)) / 2
+                step = step / math.sqrt(step @ m @ step)
             done = np.allclose(step, phi / math.sqrt(phi @ m @ phi), rtol=0, atol=1e-12)
             phi = step
             if done:
                 break
         omega[i], out[:, i] = math.sqrt(lam[j]), phi
     return omega, out
+
+
+MIRRORS = (np.diag([-1.0, 1.0, 1.0, 1.0, -1.0, -1.0]), np.diag([1.0, -1.0, 1.0, -1.0, 1.0, -1.0]))
+"""The body's coordinates (x, y, z, rotations about x, y, z) mirrored in the yz and in the xz plane (the rotations
+pseudo-vectors)."""
+
+
+def _parities(m: np.ndarray, c: np.ndarray, phi: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """The MIRRORS the body's mass and stiffness (``m``, ``c``: 6 x 6) are symmetric in and the sign (+1 or -1)
+    of the shape ``phi`` in each, where it is symmetric or antisymmetric there (to 1e-6 of its norm)."""
+    out = []
+    if m.shape != (6, 6):
+        return out
+    for mirror in MIRRORS:
+        if not all(np.allclose(mirror @ a @ mirror, a, rtol=0, atol=1e-12 * np.abs(a).max()) for a in (m, c)):
+            continue
+        sign = float(phi @ m @ (mirror @ phi) / (phi @ m @ phi))
+        if abs(abs(sign) - 1) < 1e-6:
+            out.append((mirror, math.copysign(1.0, sign)))
+    return out
 
 
 def hardening(tm: TruthMachine, t: Truth, reference: float) -> Hardening | None:
@@ -685,9 +712,15 @@ def hardening(tm: TruthMachine, t: Truth, reference: float) -> Hardening | None:
     the same largest deformation). None for a truth without hardening."""
     if "nonlinear_isolator" not in t.effect.split("+"):
         return None
-    isolators = tm.isolators({**tm.nominal, **t.known, **t.unknowns})
+    rows, stiffness = _deformation(tm.isolators({**tm.nominal, **t.known, **t.unknowns}))
+    return Hardening(rows, stiffness, t.size["gamma"], reference)
+
+
+def _deformation(isolators: list[TrueIsolator]) -> tuple[np.ndarray, np.ndarray]:
+    """What each isolator's local axes deform per unit of each body coordinate (rows (3 per isolator, 6) [m per m,
+    m per rad]) and the stiffness along them (3 per isolator) [N/m]: C of the isolators is rows^T diag(k) rows."""
     rows = np.vstack([iso.axes.T @ _jac(iso.point) for iso in isolators])
-    return Hardening(rows, np.concatenate([iso.stiffness for iso in isolators]), t.size["gamma"], reference)
+    return rows, np.concatenate([iso.stiffness for iso in isolators])
 
 
 def sensor_layout(tm: TruthMachine) -> list[tuple[str, np.ndarray, np.ndarray]]:
