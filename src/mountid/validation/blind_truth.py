@@ -650,9 +650,9 @@ def true_poles(m: np.ndarray, c: np.ndarray, b: np.ndarray, modes: np.ndarray) -
 def _hardened(
     tm: TruthMachine, t: Truth, m: np.ndarray, shapes: np.ndarray, level: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each mode of hardening isolators by equivalent linearisation: every isolator direction (global axes)
-    stiffer by 1 + gamma (level d / d_max)^2, d its deformation amplitude in the mode, d_max the largest over the
-    isolators and directions (a campaign's test excites each mode to the same largest deformation, ``level``
+    """Each mode of hardening isolators by equivalent linearisation: every isolator stiffer along each of its local
+    axes by 1 + gamma (level d / d_max)^2, d its deformation amplitude there in the mode, d_max the largest over the
+    isolators and axes (a campaign's test excites each mode to the same largest deformation, ``level``
     times that another); iterated to a fixed point in the mode's own symmetry (_parities: a mode symmetric or
     antisymmetric in a mirror plane of the machine stays so)."""
     gamma = t.size["gamma"]
