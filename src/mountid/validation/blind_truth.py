@@ -653,15 +653,15 @@ def _hardened(
     """Each mode of hardening isolators by equivalent linearisation: every isolator stiffer along each of its local
     axes by 1 + gamma (level d / d_max)^2, d its deformation amplitude there in the mode, d_max the largest over the
     isolators and axes (a campaign's test excites each mode to the same largest deformation, ``level``
-    times that another); iterated to a fixed point in the mode's own symmetry (_parities: a mode symmetric or
+    times that another); iterated to a fixed point in the mode's own symmetry (_mirrors, _parities: a mode symmetric or
     antisymmetric in a mirror plane of the machine stays so)."""
     gamma = t.size["gamma"]
     rows, stiffness = _deformation(tm.isolators({**tm.nominal, **t.known, **t.unknowns}))
-    linear = rows.T @ (rows * stiffness[:, None])
+    mirrors = _mirrors(m, rows.T @ (rows * stiffness[:, None]))
     omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
     for i in range(shapes.shape[1]):
         phi = shapes[:, i]
-        parities = _parities(m, linear, phi)
+        parities = _parities(mirrors, m, phi)
         for _ in range(50):
             d = np.abs(rows @ phi)  # along each isolator's local axes
             factor = 1 + gamma * (level * d / d.max()) ** 2
@@ -689,15 +689,23 @@ MIRRORS = (np.diag([-1.0, 1.0, 1.0, 1.0, -1.0, -1.0]), np.diag([1.0, -1.0, 1.0, 
 pseudo-vectors)."""
 
 
-def _parities(m: np.ndarray, c: np.ndarray, phi: np.ndarray) -> list[tuple[np.ndarray, float]]:
-    """The MIRRORS the body's mass and stiffness (``m``, ``c``: 6 x 6) are symmetric in and the sign (+1 or -1)
-    of the shape ``phi`` in each, where it is symmetric or antisymmetric there (to 1e-6 of its norm)."""
-    out = []
+def _mirrors(m: np.ndarray, c: np.ndarray) -> list[np.ndarray]:
+    """The MIRRORS the body's mass and stiffness (``m``, ``c``: 6 x 6) are symmetric in (none for a truth with
+    more coordinates)."""
     if m.shape != (6, 6):
-        return out
-    for mirror in MIRRORS:
-        if not all(np.allclose(mirror @ a @ mirror, a, rtol=0, atol=1e-12 * np.abs(a).max()) for a in (m, c)):
-            continue
+        return []
+    return [
+        mirror
+        for mirror in MIRRORS
+        if all(np.allclose(mirror @ a @ mirror, a, rtol=0, atol=1e-12 * np.abs(a).max()) for a in (m, c))
+    ]
+
+
+def _parities(mirrors: list[np.ndarray], m: np.ndarray, phi: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Of the machine's ``mirrors`` (_mirrors), those the shape ``phi`` is symmetric or antisymmetric in (to 1e-6
+    of its norm in ``m``), with its sign (+1 or -1) in each."""
+    out = []
+    for mirror in mirrors:
         sign = float(phi @ m @ (mirror @ phi) / (phi @ m @ phi))
         if abs(abs(sign) - 1) < 1e-6:
             out.append((mirror, math.copysign(1.0, sign)))
