@@ -442,3 +442,20 @@ def test_hardening_isolators_in_records_soften_at_half_the_force_and_are_never_n
     report = diagnose(found).effects
     assert report.kind == "not explained" and not report.confident and report.levels_move
     assert "the frequencies move with the excitation level" in report.verdict
+
+
+def test_a_pole_far_above_the_highest_twins_does_not_part_them(tmp_path):
+    """kid300axes on a frame (blind seed 5): the first record gave psi at 57.49 rad/s and a pole of the frame at
+    90.89, 58 % above the twins, the highest modes; nothing lay nearer, so the two were named psi and theta in
+    the order of frequency. Above the highest twins the band ends as far from them as the nearest other mode
+    lies below (mirrored): the frame's pole is no twin, and no record names theta."""
+    from mountid.diagnosis import campaign
+    from mountid.identification.from_records import _in_band
+    from mountid.validation.blind_records import record_campaign
+
+    others = [16.7, 42.5, 44.0]
+    assert _in_band(64.0, [60.0], others) and not _in_band(90.9, [60.0], others)
+    assert _in_band(15.0, [16.7], [42.5, 60.0]) and not _in_band(5.0, [16.7], [42.5, 60.0])  # below the lowest
+    found = campaign.load(record_campaign(5, "foundation", "kid300axes", tmp_path))
+    assert "theta" not in found.modes
+    assert not [w for w in found.record_warnings if w.kind == "twin_modes"]

@@ -236,9 +236,17 @@ def _in_band(frequency: float, twins: list[float], others: list[float]) -> bool:
     ``others`` (the nominal frequencies of the other modes the channels see), in log frequency as the labelling
     weighs it: a symmetry that an effect breaks parts the twins about their own frequency. A pole nearer another
     mode that the one-to-one assignment still put on the twins (kid300 blind seed 24, hardening isolators: a
-    drifting decay's pole at 53.2 rad/s beside psi and theta at 64.6, nearer z and phi) is no twin."""
-    f = math.log(frequency)
-    return not others or min(abs(f - math.log(w)) for w in twins) < min(abs(f - math.log(w)) for w in others)
+    drifting decay's pole at 53.2 rad/s beside psi and theta at 64.6, nearer z and phi) is no twin. On a side
+    with no other mode (above the highest twins, below the lowest) the band ends where it ends on the other side:
+    the nearest other mode is mirrored about the twins (kid300axes blind seed 5 on a frame: a pole of the frame
+    at 90.9 rad/s, 60 % above psi and theta, was named theta)."""
+    if not others:
+        return True
+    f, near = math.log(frequency), [math.log(w) for w in others]
+    lo, hi = min(math.log(w) for w in twins), max(math.log(w) for w in twins)
+    below, above = [w for w in near if w <= lo], [w for w in near if w >= hi]
+    mirrored = [*near, *([] if above else [2 * hi - max(below)]), *([] if below else [2 * lo - min(above)])]
+    return min(abs(f - math.log(w)) for w in twins) < min(abs(f - w) for w in mirrored)
 
 
 def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
