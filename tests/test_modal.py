@@ -27,6 +27,25 @@ def test_mac_is_scale_and_phase_invariant():
     assert modal.mac(a, np.array([2.0, -1.0, 0.0])) == pytest.approx(0.0, abs=1e-15)
 
 
+def test_mac_matrix_pairs_every_column():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(6, 3)) + 1j * rng.normal(size=(6, 3))
+    b = np.column_stack([rng.normal(size=(6, 3)), np.zeros(6)])
+    got = modal.mac_matrix(a, b)
+    vdot = [
+        [
+            abs(np.vdot(a[:, i], b[:, j])) ** 2 / (np.vdot(a[:, i], a[:, i]).real * np.vdot(b[:, j], b[:, j]).real)
+            if j < 3
+            else 0.0
+            for j in range(4)
+        ]
+        for i in range(3)
+    ]
+    assert got.shape == (3, 4)
+    np.testing.assert_allclose(got, vdot, rtol=1e-13, atol=0)
+    assert modal.mac(a[:, 0], b[:, 0]) == got[0, 0]
+
+
 def test_quality_checks_name_clipping_double_hits_short_records_and_an_early_start():
     rig = Rig.of("kid300")
     sensors = [Sensor("a", (0.4, 0.0, 0.1), (1, 0, 0), noise=0.01), Sensor("b", (0.4, 0.0, 0.1), (0, 0, 1), clip=0.05)]

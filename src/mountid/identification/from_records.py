@@ -201,7 +201,7 @@ def label_poles(
     mod = machine.module
     omega, predicted, seen = _channel_modes(machine, record, nominal)
     visible = np.flatnonzero(seen)
-    macs = np.array([[modal.mac(p.shape, predicted[:, k]) for k in visible] for p in poles]).reshape(len(poles), -1)
+    macs = modal.mac_matrix(np.column_stack([p.shape for p in poles]), predicted[:, visible])
     ratio = np.log(np.array([p.frequency for p in poles])[:, None] / omega[visible][None, :])
     rows, cols, cost = assign(1.0 - macs, ratio, settings.record_frequency_weight)
     assigned = set(rows)

@@ -15,6 +15,8 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
+from mountid.measurement import modal
+
 
 @dataclass(frozen=True)
 class LabellingSettings:
@@ -74,5 +76,5 @@ def same_modes(
     model can swap two close modes that an effect split (kid300's psi and theta with one isolator stiffer;
     genset8's x and phi on a component on its own springs, records at two levels), and their shifts then compare
     different modes."""
-    mac = (shapes.T @ other) ** 2 / np.outer(np.sum(shapes**2, axis=0), np.sum(other**2, axis=0))
+    mac = modal.mac_matrix(shapes, other)
     return assign(-mac, np.zeros_like(mac) if log_ratio is None else log_ratio, frequency_weight)[1]

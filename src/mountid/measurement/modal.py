@@ -395,10 +395,18 @@ def refine_poles(samples: NDArray, dt: float, poles: NDArray, max_steps: int = 1
 
 
 def mac(a: NDArray, b: NDArray) -> float:
-    """Modal assurance criterion |a^H b|^2 / (|a|^2 |b|^2) of two (complex) shapes, in [0, 1]."""
+    """Modal assurance criterion |a^H b|^2 / (|a|^2 |b|^2) of two (complex) shapes, in [0, 1] (0 where either
+    is zero)."""
+    return float(mac_matrix(np.asarray(a)[:, None], np.asarray(b)[:, None])[0, 0])
+
+
+def mac_matrix(a: NDArray, b: NDArray) -> NDArray[np.float64]:
+    """The modal assurance criterion of every column of ``a`` with every column of ``b`` (real or complex
+    shapes in the same coordinates, one per column): entry (i, j) is mac(a[:, i], b[:, j])."""
     a, b = np.asarray(a), np.asarray(b)
-    norm = np.vdot(a, a).real * np.vdot(b, b).real
-    return float(np.abs(np.vdot(a, b)) ** 2 / norm) if norm > 0 else 0.0
+    norm = np.outer(np.sum(np.abs(a) ** 2, axis=0), np.sum(np.abs(b) ** 2, axis=0))
+    cross = np.abs(np.conj(a).T @ b) ** 2
+    return np.divide(cross, norm, out=np.zeros(norm.shape), where=norm > 0)
 
 
 def band_pass(signal: NDArray, dt: float, low: float, high: float, order: int = 2) -> NDArray[np.float64]:
