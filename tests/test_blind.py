@@ -487,13 +487,13 @@ def test_a_score_without_an_identifiable_case_says_so_and_prints_no_nan():
     assert not re.search(r"\bnan\b", _row("genset8", "frequencies", score).split("missed")[0])
 
 
-@pytest.mark.xfail(strict=True, reason="a known limit: the evidence of a candidate the data do not determine")
 def test_a_confident_verdict_does_not_follow_rounding():
     """kid300axes seed 1 with damping ratios, the centre of mass off the axis: confident and right as made; with
     every measured frequency moved by 4 eps (benchmarks.rounding) an attached mass, fitted with 8 parameters to
-    12 data, stops at plausible values, fits within the uncertainty and joins the tie at probability 0.00: a tie.
-    Where a fit the data do not determine stops decides it (docs/validation.md, "Verdicts under rounding"). A
-    strict xfail: it fails once both runs give one verdict."""
+    12 data, stopped at 381 +- 549 kg (beyond its plausible range, undetermined), fitted within the uncertainty and
+    kept the verdict a tie (as made, its fit stopped at chi^2 318 and was rejected). Held within its range it fits
+    at chi^2 96: ruled out (candidates._fits_only_beyond_range), and both runs are confident and right. It failed
+    as a strict xfail before (docs/validation.md, "Verdicts under rounding")."""
     from benchmarks.rounding import verdicts
 
     made, rounded = verdicts(1, "com_offset", "damping", "kid300axes")
