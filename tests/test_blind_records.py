@@ -456,6 +456,7 @@ def test_a_pole_far_above_the_highest_twins_does_not_part_them(tmp_path):
     others = [16.7, 42.5, 44.0]
     assert _in_band(64.0, [60.0], others) and not _in_band(90.9, [60.0], others)
     assert _in_band(15.0, [16.7], [42.5, 60.0]) and not _in_band(5.0, [16.7], [42.5, 60.0])  # below the lowest
+    assert _in_band(15.2, [15.0, 17.0], [16.5]) and not _in_band(16.4, [15.0, 17.0], [16.5])  # others between only
     found = campaign.load(record_campaign(5, "foundation", "kid300axes", tmp_path))
     assert "theta" not in found.modes
     assert not [w for w in found.record_warnings if w.kind == "twin_modes"]

@@ -245,7 +245,11 @@ def _in_band(frequency: float, twins: list[float], others: list[float]) -> bool:
     f, near = math.log(frequency), [math.log(w) for w in others]
     lo, hi = min(math.log(w) for w in twins), max(math.log(w) for w in twins)
     below, above = [w for w in near if w <= lo], [w for w in near if w >= hi]
-    mirrored = [*near, *([] if above else [2 * hi - max(below)]), *([] if below else [2 * lo - min(above)])]
+    mirrored = list(near)
+    if below and not above:
+        mirrored.append(2 * hi - max(below))
+    if above and not below:
+        mirrored.append(2 * lo - min(above))
     return min(abs(f - math.log(w)) for w in twins) < min(abs(f - w) for w in mirrored)
 
 
