@@ -242,15 +242,15 @@ def _in_band(frequency: float, twins: list[float], others: list[float]) -> bool:
     at 90.9 rad/s, 60 % above psi and theta, was named theta)."""
     if not others:
         return True
-    f, near = math.log(frequency), [math.log(w) for w in others]
-    lo, hi = min(math.log(w) for w in twins), max(math.log(w) for w in twins)
+    f, own, near = math.log(frequency), [math.log(w) for w in twins], [math.log(w) for w in others]
+    lo, hi = min(own), max(own)
     below, above = [w for w in near if w <= lo], [w for w in near if w >= hi]
     mirrored = list(near)
     if below and not above:
         mirrored.append(2 * hi - max(below))
     if above and not below:
         mirrored.append(2 * lo - min(above))
-    return min(abs(f - math.log(w)) for w in twins) < min(abs(f - w) for w in mirrored)
+    return min(abs(f - w) for w in own) < min(abs(f - w) for w in mirrored)
 
 
 def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
