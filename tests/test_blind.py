@@ -320,6 +320,32 @@ def test_a_rival_whose_parameter_the_data_leave_undetermined_is_not_ruled_out():
     assert not report.confident and "foundation" in report.tie
 
 
+def test_a_rival_that_fits_only_beyond_its_range_leaves_a_tie():
+    """Fresh seed 4049, rectangular with frequencies only: one isolator scattered. A drive belt fits within the
+    uncertainty (chi^2 6.4 for 1 degree of freedom) only with its stiffness and height beyond their plausible
+    ranges, where the data leave them undetermined; held within them it misses (chi^2 12.3). It held a share of
+    the tie's probability; now it is ruled out (probability 0, marked implausible, said in a note) and the truth
+    stays in the tie."""
+    data, _ = blind.make_case(4049, "isolator_scatter", kind="frequencies", machine="rectangular")
+    report = diagnose_effects(campaign.parse(data))
+    belt = next(f for f in report.ranked if f.effect == "drive_belt")
+    assert belt.outside_range and not belt.placed_outside and belt.chi2 < 6.64  # within the 99 % quantile, 1 dof
+    assert belt.probability == 0 and not belt.plausible and "held within it" in belt.implausible_reason
+    assert "drive_belt" not in report.tie and "isolator_scatter" in report.tie
+    assert any(note.startswith("drive_belt fits within the uncertainty only with") for note in report.notes)
+
+
+def test_a_tie_held_by_a_rival_that_fits_only_beyond_its_range_becomes_confident():
+    """Fresh seed 4048, skid1plane with damping ratios: the centre of mass higher. A support fits (chi^2 1.8
+    for 2 degrees of freedom) only with its mass beyond its plausible range; held within it, chi^2 29. It kept
+    the verdict a tie (cog_height 0.94): ruled out in the tie now, the verdict is confident and right."""
+    data, _ = blind.make_case(4048, "cog_height", kind="damping", machine="skid1plane")
+    report = diagnose_effects(campaign.parse(data))
+    assert report.kind == "confident" and report.best.effect == "cog_height"
+    assert report.tie == ["cog_height"]
+    assert any(note.startswith("foundation fits within the uncertainty only with") for note in report.notes)
+
+
 def test_a_part_that_alone_explains_the_noise_free_data_is_found_by_a_full_search():
     """Blind case (seed 195, screen6, shapes): a support frame with one isolator 7 % stiffer in shear. Alone,
     the support explains the noise-free data within their uncertainty, and the harness counts it right, but

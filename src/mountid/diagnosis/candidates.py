@@ -728,14 +728,66 @@ def _fits_only_beyond_range(
     kid300axes blind seed 1 with damping ratios (the centre of mass off the axis): an attached mass of 8
     parameters fitted to 12 data stopped at chi^2 318 in one run and, with every frequency moved by 4 eps, at 7.8
     with 381 +- 549 kg (beyond its range, 0.3 of the machine's mass), within the uncertainty; held within its
-    range it fits at chi^2 96. Only asked of the rivals that would keep a verdict from being confident, and of
-    single effects (a pair is not refitted within its ranges: it keeps the verdict from being confident)."""
+    range it fits at chi^2 96. Asked of the tie's rivals of the first-ranked candidate (rank: a rival the data do
+    not rule out is in the tie), and of single effects (a pair is not refitted within its ranges: it keeps the
+    verdict from being confident)."""
     if f.effect not in EFFECTS or not f.outside_range or f.state is None or f.n_data <= f.n_parameters:
         return None
     if rejected(f, settings):
         return None
     held = _held_within_plausible(campaign, f, settings)
     return None if fits_within_uncertainty(held, settings) else held
+
+
+def _rule_out(f: CandidateFit, held: CandidateFit) -> CandidateFit:
+    """The candidate ``f`` ruled out by ``held``, its fit within its plausible ranges (_fits_only_beyond_range):
+    implausible (probability 0), as a candidate fitted beyond its range by more than fitting.PLAUSIBLE_MARGIN is.
+    Its own fit is kept: the report shows where it fits and why that does not count."""
+    reason = (
+        f"{', '.join(f.outside_range)} beyond the plausible range, and held within it the fit misses the data "
+        f"(chi^2 = {held.chi2:.3g} for {held.n_data - held.n_parameters} degrees of freedom)"
+    )
+    return replace(f, plausible=False, implausible_reason=reason)
+
+
+def _ruled_out_note(f: CandidateFit, held: CandidateFit) -> str:
+    """The verdict's note on a rival ruled out by its fit within its plausible ranges (_rule_out)."""
+    return (
+        f"{f.effect} fits within the uncertainty only with {', '.join(f.outside_range)} beyond the plausible range "
+        f"(chi^2 = {f.chi2:.3g}); held within it, it misses the data (chi^2 = {held.chi2:.3g} for "
+        f"{held.n_data - held.n_parameters} degrees of freedom): ruled out"
+    )
+
+
+def _credible(
+    nominal: CandidateFit, fits: list[CandidateFit], settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[CandidateFit, list[CandidateFit], list[CandidateFit], list[CandidateFit], float]:
+    """The nominal fit and the candidates with their probabilities (_probabilities), the candidates ranked, those
+    of probability above 0 in that order, the tie and the variance scale of the probabilities. The tie: the
+    credible set (the most probable candidates until they and the nominal model hold settings.credible) and every
+    other candidate the data do not rule out (it fits within the uncertainty, scaled as the probabilities are
+    when even the best misses the data, at plausible values)."""
+    probability, scale = _probabilities(nominal, fits, settings)
+    nominal = replace(nominal, probability=probability[id(nominal)][0], log_weight=probability[id(nominal)][1])
+    fits = [replace(f, probability=probability[id(f)][0], log_weight=probability[id(f)][1]) for f in fits]
+    ranked = sorted(fits, key=_rank_key)
+    candidates = [f for f in ranked if f.probability > 0]
+    tie, total = [], nominal.probability
+    for f in candidates:
+        if total >= settings.credible and tie:
+            break
+        tie.append(f)
+        total += f.probability
+    tie += [
+        f
+        for f in ranked
+        if f not in tie
+        and f.applicable
+        and f.plausible
+        and not f.placed_outside
+        and fits_within_uncertainty(f, settings, scale)
+    ]
+    return nominal, ranked, candidates, tie, scale
 
 
 def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, scale: float = 1.0) -> bool:
@@ -817,7 +869,9 @@ def rank(
     confident only when the best candidate explains the gap (fits, and predicts the held-out modes: :func:`explains`),
     fits comfortably (:func:`fits_comfortably`), with held-out predictions sharp enough to confirm it
     (:func:`confirmed`), has probability settings.confidence or more, and the data reject every other candidate
-    (:func:`rejected`), the ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
+    (:func:`rejected`; a rival in the tie that fits only beyond its plausible range and misses the data within it,
+    :func:`_fits_only_beyond_range`, is ruled out first: probability 0, out of the tie, said in a note), the
+    ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
     records agree on every mode (Campaign.records_disagree: records of one mode beyond their uncertainty apart are
     not one state of the machine, or twins one record resolves differently from another, which the campaign's
     modes cannot hold; then a tie at best) and its frequencies repeated at other excitation levels do not move
@@ -828,11 +882,17 @@ def rank(
     n, k = nominal.n_data, nominal.n_parameters
     p_value = _gap_p_value(nominal)
     significant = bool(p_value < settings.gap_p_value)
-    probability, scale = _probabilities(nominal, fits, settings)
-    nominal = replace(nominal, probability=probability[id(nominal)][0], log_weight=probability[id(nominal)][1])
-    fits = [replace(f, probability=probability[id(f)][0], log_weight=probability[id(f)][1]) for f in fits]
-    ranked = sorted(fits, key=_rank_key)
+    weighed, ranked, candidates, tie, scale = _credible(nominal, fits, settings)
     notes = []
+    if significant:
+        # a rival in the tie that fits only beyond its plausible range and misses the data held within it is ruled
+        # out: probability 0, as a candidate fitted beyond its range by more than the margin (_rule_out)
+        ruled = {f.effect: held for f in tie[1:] if (held := _fits_only_beyond_range(campaign, f, settings))}
+        if ruled:
+            fits = [_rule_out(f, ruled[f.effect]) if f.effect in ruled else f for f in fits]
+            weighed, ranked, candidates, tie, scale = _credible(nominal, fits, settings)
+            notes += [_ruled_out_note(f, ruled[f.effect]) for f in fits if f.effect in ruled]
+    nominal = weighed
     if scale > 1:
         notes.append(
             f"even the best candidate misses the data by {math.sqrt(scale):.2g} times their uncertainty: the "
@@ -843,25 +903,7 @@ def rank(
             f"{n} data for {k} unknowns: too few to fit any candidate effect with a degree of freedom to spare; "
             "measure more modes (both members of each twin pair) or mode shapes"
         )
-    candidates = [f for f in ranked if f.probability > 0]
     best = candidates[0] if candidates else None
-    tie, total = [], nominal.probability
-    for f in candidates:
-        if total >= settings.credible and tie:
-            break
-        tie.append(f)
-        total += f.probability
-    # and every other candidate the data do not rule out: it fits within the uncertainty (scaled as the
-    # probabilities are, when even the best misses the data) at plausible values
-    tie += [
-        f
-        for f in ranked
-        if f not in tie
-        and f.applicable
-        and f.plausible
-        and not f.placed_outside
-        and fits_within_uncertainty(f, settings, scale)
-    ]
     # refitted held-out errors for the nominal model and, when there is a gap to explain, the first three of
     # the tie (the others keep their linearised ones)
     refit = {id(f) for f in [nominal, *(tie[:3] if significant else [])]} if exact_held_out else set()
@@ -869,7 +911,7 @@ def rank(
     def finished(f: CandidateFit) -> CandidateFit:
         return _with_held_out_summary(exact_leave_one_out(f) if id(f) in refit else f, campaign)
 
-    done = {id(f): finished(f) for f in [nominal, *fits]}
+    done = {id(f): finished(f) for f in [nominal, *ranked]}
     nominal, ranked, tie = done[id(nominal)], [done[id(f)] for f in ranked], [done[id(f)] for f in tie]
     best = done[id(best)] if best is not None else None
     confident = False
@@ -891,13 +933,6 @@ def rank(
     # whether the best candidate's held-out predictions are sharp enough to confirm it: for the confident
     # check, and for the tie's note (which states the shift itself)
     best_confirmed = best is None or confirmed(best, nominal, campaign, settings)
-    ruled_out: dict[str, CandidateFit | None] = {}  # rivals asked whether they fit only beyond their range
-
-    def beyond_range(f: CandidateFit) -> bool:
-        if f.effect not in ruled_out:
-            ruled_out[f.effect] = _fits_only_beyond_range(campaign, f, settings)
-        return ruled_out[f.effect] is not None
-
     moving, picked, level_text, damping_text = _levels(campaign, tie if significant and tie else [nominal], settings)
     if math.isnan(p_value):
         kind, verdict = "cannot judge", "cannot judge: no more data than unknowns"
@@ -917,16 +952,8 @@ def rank(
         and best_confirmed
         and not campaign.records_disagree
         and not moving
-        and all(rejected(f, settings) or beyond_range(f) for f in candidates[1:])
+        and all(rejected(f, settings) for f in candidates[1:])
     ):
-        tie = [f for f in tie if ruled_out.get(f.effect) is None]
-        notes += [
-            f"{f.effect} fits within the uncertainty only with {', '.join(f.outside_range)} beyond the plausible "
-            f"range (chi^2 = {f.chi2:.3g}); held within it, it misses the data (chi^2 = {held.chi2:.3g} for "
-            f"{held.n_data - held.n_parameters} degrees of freedom): ruled out"
-            for f in candidates[1:]
-            if (held := ruled_out.get(f.effect)) is not None
-        ]
         kind = "confident"
         verdict = (
             f"significant gap, explained by {best.effect}"
