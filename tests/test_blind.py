@@ -335,18 +335,15 @@ def test_a_rival_that_fits_only_beyond_its_range_leaves_a_tie():
     assert any(note.startswith("drive_belt fits within the uncertainty only with") for note in report.notes)
 
 
-def test_a_first_place_that_fits_only_beyond_its_range_is_ruled_out_too():
-    """Fresh seed 4003, genset8 with damping ratios: one isolator scattered. Rotational stiffness fits (chi^2 10.2
-    for 4 degrees of freedom) only with its bending stiffness beyond its plausible range; held within it, chi^2
-    31.6. It was ranked first of the tie (0.28); ruled out as any member of the tie is, the tie is taken again
-    without it, and the truth stays in it."""
-    data, _ = blind.make_case(4003, "isolator_scatter", kind="damping", machine="genset8")
+def test_the_first_place_keeps_its_lead_though_it_fits_only_beyond_its_range():
+    """Blind seed 6, skid1plane with damping ratios: a compliant support outside the catalogue support's ranges.
+    The support fits within the uncertainty only beyond them and misses the data within them: the verdict is "not
+    explained", with the support as its closest candidate (the right lead). Ruled out as its rivals are, it gave
+    its place to a scattered isolator (tried, 4b4d64d, and taken back): the rule asks the rivals only."""
+    data, _ = blind.make_case(6, "foundation", kind="damping", machine="skid1plane")
     report = diagnose_effects(campaign.parse(data))
-    bending = next(f for f in report.ranked if f.effect == "rotational_stiffness")
-    assert bending.outside_range and bending.probability == 0 and not bending.plausible
-    assert report.best.effect != "rotational_stiffness" and "rotational_stiffness" not in report.tie
-    assert "isolator_scatter" in report.tie
-    assert any(note.startswith("rotational_stiffness fits within the uncertainty only with") for note in report.notes)
+    assert report.kind == "not explained" and report.best.effect == "foundation"
+    assert report.best.outside_range and report.best.plausible
 
 
 def test_a_tie_held_by_a_rival_that_fits_only_beyond_its_range_becomes_confident():

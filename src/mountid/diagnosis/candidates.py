@@ -728,8 +728,8 @@ def _fits_only_beyond_range(
     kid300axes blind seed 1 with damping ratios (the centre of mass off the axis): an attached mass of 8
     parameters fitted to 12 data stopped at chi^2 318 in one run and, with every frequency moved by 4 eps, at 7.8
     with 381 +- 549 kg (beyond its range, 0.3 of the machine's mass), within the uncertainty; held within its
-    range it fits at chi^2 96. Asked of every candidate in the tie (rank: one the data do not rule out is in the
-    tie), and of single effects (a pair is not refitted within its ranges: it keeps the
+    range it fits at chi^2 96. Asked of the rivals of the first in the tie (rank: a rival the data do not rule out
+    is in the tie), and of single effects (a pair is not refitted within its ranges: it keeps the
     verdict from being confident)."""
     if f.effect not in EFFECTS or not f.outside_range or f.state is None or f.n_data <= f.n_parameters:
         return None
@@ -869,8 +869,8 @@ def rank(
     confident only when the best candidate explains the gap (fits, and predicts the held-out modes: :func:`explains`),
     fits comfortably (:func:`fits_comfortably`), with held-out predictions sharp enough to confirm it
     (:func:`confirmed`), has probability settings.confidence or more, and the data reject every other candidate
-    (:func:`rejected`; a candidate in the tie that fits only beyond its plausible range and misses the data within
-    it, :func:`_fits_only_beyond_range`, is ruled out first: probability 0, out of the tie, said in a note), the
+    (:func:`rejected`; a rival in the tie that fits only beyond its plausible range and misses the data within it,
+    :func:`_fits_only_beyond_range`, is ruled out first: probability 0, out of the tie, said in a note), the
     ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
     records agree on every mode (Campaign.records_disagree: records of one mode beyond their uncertainty apart are
     not one state of the machine, or twins one record resolves differently from another, which the campaign's
@@ -883,13 +883,15 @@ def rank(
     p_value = _gap_p_value(nominal)
     significant = bool(p_value < settings.gap_p_value)
     weighed, ranked, candidates, tie, scale = _credible(nominal, fits, settings)
-    # a candidate in the tie that fits only beyond its plausible range and misses the data held within it is ruled
-    # out: probability 0, as a candidate fitted beyond its range by more than the margin (_rule_out); the tie taken
-    # again may hold candidates not asked yet (the credible set reaches further without one)
+    # a rival in the tie that fits only beyond its plausible range and misses the data held within it is ruled out:
+    # probability 0, as a candidate fitted beyond its range by more than the margin (_rule_out); the tie taken again
+    # may hold rivals not asked yet (the credible set reaches further without one). The first keeps its place: it
+    # is the lead of a verdict that names no candidate (a support truth beyond the catalogue's ranges, skid1plane
+    # seed 6 with damping ratios, is the closest candidate of "not explained"; ruled out, another took its place)
     ruled: dict[str, CandidateFit] = {}
     asked: set[str] = set()
     while significant:
-        fresh = [f for f in tie if f.effect not in asked]
+        fresh = [f for f in tie[1:] if f.effect not in asked]
         asked.update(f.effect for f in fresh)
         found = {f.effect: held for f in fresh if (held := _fits_only_beyond_range(campaign, f, settings))}
         if not found:
