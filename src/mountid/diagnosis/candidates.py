@@ -729,8 +729,8 @@ def _fits_only_beyond_range(
     parameters fitted to 12 data stopped at chi^2 318 in one run and, with every frequency moved by 4 eps, at 7.8
     with 381 +- 549 kg (beyond its range, 0.3 of the machine's mass), within the uncertainty; held within its
     range it fits at chi^2 96. Asked of the rivals of the first in the tie (rank: a rival the data do not rule out
-    is in the tie), and of single effects (a pair is not refitted within its ranges: it keeps the
-    verdict from being confident)."""
+    is in the tie), and of single effects (a pair is not refitted within its ranges: it keeps the verdict from
+    being confident)."""
     if f.effect not in EFFECTS or not f.outside_range or f.state is None or f.n_data <= f.n_parameters:
         return None
     if rejected(f, settings):
@@ -743,20 +743,21 @@ def _rule_out(f: CandidateFit, held: CandidateFit) -> CandidateFit:
     """The candidate ``f`` ruled out by ``held``, its fit within its plausible ranges (_fits_only_beyond_range):
     implausible (probability 0), as a candidate fitted beyond its range by more than fitting.PLAUSIBLE_MARGIN is.
     Its own fit is kept: the report shows where it fits and why that does not count."""
-    reason = (
-        f"{', '.join(f.outside_range)} beyond the plausible range, and held within it the fit misses the data "
-        f"(chi^2 = {held.chi2:.3g} for {held.n_data - held.n_parameters} degrees of freedom)"
-    )
-    return replace(f, plausible=False, implausible_reason=reason)
+    reason = f"{', '.join(f.outside_range)} beyond the plausible range, and held within it the fit misses the data "
+    return replace(f, plausible=False, implausible_reason=reason + f"({_held_miss(held)})")
 
 
 def _ruled_out_note(f: CandidateFit, held: CandidateFit) -> str:
     """The verdict's note on a rival ruled out by its fit within its plausible ranges (_rule_out)."""
     return (
         f"{f.effect} fits within the uncertainty only with {', '.join(f.outside_range)} beyond the plausible range "
-        f"(chi^2 = {f.chi2:.3g}); held within it, it misses the data (chi^2 = {held.chi2:.3g} for "
-        f"{held.n_data - held.n_parameters} degrees of freedom): ruled out"
+        f"(chi^2 = {f.chi2:.3g}); held within it, it misses the data ({_held_miss(held)}): ruled out"
     )
+
+
+def _held_miss(held: CandidateFit) -> str:
+    """How a fit held within its plausible ranges misses the data (_rule_out's reason, _ruled_out_note)."""
+    return f"chi^2 = {held.chi2:.3g} for {held.n_data - held.n_parameters} degrees of freedom"
 
 
 def _credible(
