@@ -191,6 +191,24 @@ def test_calibration_noise_widens_where_verdicts_share_a_seed():
     assert p_shifted < 0.05
 
 
+def test_a_group_all_right_is_never_judged_by_narrowed_draws():
+    """Pairs of verdicts sharing a seed, stated 0.9 and 0.99, all right: their centred departures cancel seed by
+    seed, so the design effect's estimate is 0 (it sees only the stated probabilities' spread); narrowed by it,
+    no draw would be as far from the mean stated as the observed share (p = 0, though all right is what a
+    calibrated diagnosis does in 89 % x 99 % of a pair's draws). The group's p is that of independent verdicts."""
+    results = [
+        blind.CaseResult("drive_belt", ("drive_belt",), (), True, True, True, 0.9, "confident", p, seed=seed)
+        for seed in range(12)
+        for p in (0.9, 0.99)
+    ]
+    stated, right = blind._stated(results)
+    assert blind._design_effect(stated, right, [r.seed for r in results], np.zeros(len(results), dtype=int)) < 0.01
+    apart = [replace(r, seed=i) for i, r in enumerate(results)]
+    group = blind._by_group(results, lambda r: r.ranked[0], draws=2000)
+    assert group == blind._by_group(apart, lambda r: r.ranked[0], draws=2000)
+    assert group[0][4] > 0.2
+
+
 def test_what_a_campaign_can_test():
     """The rectangular machine: three unknown stiffnesses; with damping ratios three damping coefficients too."""
     assert blind.can_test("cog_height", 6, 3) and not blind.can_test("foundation", 6, 3)

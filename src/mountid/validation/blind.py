@@ -634,7 +634,12 @@ def _by_group(
     (group, verdicts, mean stated probability, observed share right, p), most verdicts first. ``p``: the share
     of ``draws`` of a perfectly calibrated diagnosis (each verdict right with its stated probability, a fixed
     seed) whose share right is at least as far from the mean stated as the observed one (two-sided), the drawn
-    departures widened by the square root of the group's design effect (_design_effect: verdicts sharing a seed)."""
+    departures widened by the square root of the group's design effect (_design_effect: verdicts sharing a seed),
+    never narrowed: a group's shares right lie on a lattice, and draws narrowed by an estimate below 1 miss the
+    observed share where it is the lattice's edge. Every verdict of a group right leaves the estimate nothing
+    but the spread of the stated probabilities: 72 verdicts naming a belt, all right at a mean stated 0.959
+    (a perfectly calibrated diagnosis gets all right in 4 % of its draws, is as far off in 10 %), read
+    p = 0.006 at an estimate of 0.47 (a run of seeds 4000-4299 with shapes)."""
     verdicts = _stating(results)
     rng = np.random.default_rng(0)
     rows = []
@@ -643,7 +648,8 @@ def _by_group(
         stated, right = _stated(mine)
         observed = float(np.mean(right))
         drawn = (rng.random((draws, len(mine))) < stated).mean(axis=1)
-        widening = np.sqrt(_design_effect(stated, right, [r.seed for r in mine], np.zeros(len(mine), dtype=int)))
+        effect = _design_effect(stated, right, [r.seed for r in mine], np.zeros(len(mine), dtype=int))
+        widening = np.sqrt(max(effect, 1.0))
         distance = abs(observed - stated.mean())
         p = float(np.mean(widening * np.abs(drawn - stated.mean()) >= distance - 1e-12))
         rows.append((name, len(mine), float(stated.mean()), observed, p))
