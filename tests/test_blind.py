@@ -378,6 +378,20 @@ def test_a_tie_held_by_a_rival_that_fits_only_beyond_its_range_becomes_confident
     assert any(note.startswith("foundation fits within the uncertainty only with") for note in report.notes)
 
 
+def test_a_pair_that_fits_only_beyond_its_range_is_ruled_out_as_a_single_effect_is():
+    """Fresh seed 4040, screen6 with shapes: a scattered isolator and the centre of mass moved. The pair of a
+    scattered isolator and a support fits (chi^2 38.1 for 25 degrees of freedom) only with the support's depth
+    beyond its plausible range; held within it, chi^2 53.4. Pairs were not refitted within their ranges, so it
+    kept the verdict a tie (the true pair at 0.9996): ruled out now, the verdict is confident and right."""
+    data, _ = blind.make_case(4040, "isolator_scatter+cog_height", kind="shapes", machine="screen6")
+    report = diagnose_effects(campaign.parse(data))
+    assert report.kind == "confident" and report.best.effect == "cog_height+isolator_scatter"
+    ruled = "isolator_scatter+foundation fits within the uncertainty only with found_depth beyond the plausible range"
+    assert any(note.startswith(ruled) for note in report.notes)
+    held = next(f for f in report.ranked if f.effect == "isolator_scatter+foundation")
+    assert not held.plausible and held.probability == 0
+
+
 def test_a_part_that_alone_explains_the_noise_free_data_is_found_by_a_full_search():
     """Blind case (seed 195, screen6, shapes): a support frame with one isolator 7 % stiffer in shear. Alone,
     the support explains the noise-free data within their uncertainty, and the harness counts it right, but

@@ -339,9 +339,15 @@ def _held_within_plausible(
     evidence again their mean (_over_variants). A channel turned by 19.3 degrees toward one axis across it, next
     to the edge of the turned sensor's range (0.35 rad, 20 degrees), fits at 22.9 +- 2.2 degrees (kid300, blind
     seed 56 with shapes: chi^2 31.9 where nothing plausible fits below 150); held to its range it is named (chi^2
-    33.5), where the free fit's probability 0 left "not explained" without it."""
-    effect = EFFECTS[f.effect]
+    33.5), where the free fit's probability 0 left "not explained" without it. A pair is refitted at its isolator
+    (channel) only, with the pair's prior: its evidence is its best isolator's (_best_fit)."""
     model = f.state.model
+    if isinstance(model.effect, Pair):
+        held = fit_candidate(
+            campaign, model.effect, model.variant, starts=[f.theta, *model.start()], within_plausible=True
+        )
+        return replace(held, log_prior=f.log_prior)
+    effect = EFFECTS[f.effect]
     if not f.variant:
         return fit_candidate(campaign, effect, starts=[f.theta, *model.start()], within_plausible=True)
     names = strategy(effect).variants(campaign)
@@ -729,9 +735,8 @@ def _fits_only_beyond_range(
     parameters fitted to 12 data stopped at chi^2 318 in one run and, with every frequency moved by 4 eps, at 7.8
     with 381 +- 549 kg (beyond its range, 0.3 of the machine's mass), within the uncertainty; held within its
     range it fits at chi^2 96. Asked of the rivals of the first in the tie (rank: a rival the data do not rule out
-    is in the tie), and of single effects (a pair is not refitted within its ranges: it keeps the verdict from
-    being confident)."""
-    if f.effect not in EFFECTS or not f.outside_range or f.state is None or f.n_data <= f.n_parameters:
+    is in the tie), single effects and pairs alike."""
+    if not f.outside_range or f.state is None or f.n_data <= f.n_parameters:
         return None
     if rejected(f, settings):
         return None
