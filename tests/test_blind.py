@@ -435,6 +435,20 @@ def test_a_hardening_isolator_a_belt_mimics_at_p_0_06_is_not_named_a_belt_confid
     assert not result.confident_and_wrong
 
 
+@pytest.mark.xfail(strict=True, reason="a known limit: hardening isolators a drive belt mimics within the noise")
+def test_a_hardening_isolator_a_belt_fits_at_noise_level_is_not_named_a_belt_confidently():
+    """Seed 225, rectangular with shapes (`make bench-blind BLIND_CASES=264` on e64daf6: the one confident and
+    wrong verdict of 4752 cases): hardening isolators, outside the catalogue. A drive belt fits at noise level
+    (chi^2 17.3 on 31 degrees of freedom, p = 0.98; held-out median 1.2 sigma), named with probability 1.00.
+    Its one rival, a support, fits within the uncertainty only with its mass and shear ratio beyond their
+    plausible ranges (chi^2 23.9) and misses the data held within them (53.8 on 27): the tie rule rules it out
+    (on seed 325 above, the support held within its ranges still fits, and stays). One excitation level cannot
+    tell a hardening isolator from a belt (test_levels: with a second level the verdict is not confident). A
+    strict xfail: it fails once the verdict of one level is no longer confident."""
+    result = blind.run_case(225, "nonlinear_isolator", "shapes", "rectangular")
+    assert not result.confident_and_wrong
+
+
 def test_a_part_that_fits_only_marginally_is_not_named_confidently_and_the_pair_is_fitted():
     """Held-out seed 390, kid300 with damping ratios: one isolator scattered and the centre of mass higher. The
     height alone fits at chi^2 18.3 on 7 degrees of freedom (p = 0.011): not rejected, but no fit to be named
