@@ -342,19 +342,15 @@ def _held_within_plausible(
     33.5), where the free fit's probability 0 left "not explained" without it. A pair is refitted at its isolator
     (channel) only, with the pair's prior: its evidence is its best isolator's (_best_fit)."""
     model = f.state.model
-    if isinstance(model.effect, Pair):
-        held = fit_candidate(
-            campaign, model.effect, model.variant, starts=[f.theta, *model.start()], within_plausible=True
-        )
+    starts = [f.theta, *model.start()]
+    if isinstance(model.effect, Pair) or not f.variant:
+        # fitted once (model.variant None), or a pair at its isolator; the prior kept (a pair's, nil for a single)
+        held = fit_candidate(campaign, model.effect, model.variant, starts=starts, within_plausible=True)
         return replace(held, log_prior=f.log_prior)
     effect = EFFECTS[f.effect]
-    if not f.variant:
-        return fit_candidate(campaign, effect, starts=[f.theta, *model.start()], within_plausible=True)
     names = strategy(effect).variants(campaign)
     if not f.state.variants_by_fit:  # fitted at one variant only (fit_all's warm start): 1/N of the mean
-        held = fit_candidate(
-            campaign, effect, names.index(f.variant), starts=[f.theta, *model.start()], within_plausible=True
-        )
+        held = fit_candidate(campaign, effect, names.index(f.variant), starts=starts, within_plausible=True)
         return replace(held, log_evidence=held.log_evidence + f.evidence_offset, evidence_offset=f.evidence_offset)
     free = dict(zip(f.state.variants_by_fit, f.state.variant_parameters, strict=True))
     variants = [
@@ -748,8 +744,11 @@ def _rule_out(f: CandidateFit, held: CandidateFit) -> CandidateFit:
     """The candidate ``f`` ruled out by ``held``, its fit within its plausible ranges (_fits_only_beyond_range):
     implausible (probability 0), as a candidate fitted beyond its range by more than fitting.PLAUSIBLE_MARGIN is.
     Its own fit is kept: the report shows where it fits and why that does not count."""
-    reason = f"{', '.join(f.outside_range)} beyond the plausible range, and held within it the fit misses the data "
-    return replace(f, plausible=False, implausible_reason=reason + f"({_held_miss(held)})")
+    reason = (
+        f"{', '.join(f.outside_range)} beyond the plausible range, and held within it the fit misses the data "
+        f"({_held_miss(held)})"
+    )
+    return replace(f, plausible=False, implausible_reason=reason)
 
 
 def _ruled_out_note(f: CandidateFit, held: CandidateFit) -> str:
