@@ -11,6 +11,11 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``frequency``: rubber stiffness rising with frequency as a standard linear solid, c(omega) = c g(omega),
   g = 1 + beta x^2 / (1 + x^2), x = omega / omega_c (c is then the static stiffness): every isolator
   stiffness enters C linearly, so each mode solves omega^2 = g(omega) lambda_k(C, M).
+- ``amplitude``: hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each
+  principal axis of its translational stiffness (from the generated ``isolator_stiffness()``; axes of equal
+  stiffness as one) times 1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the
+  largest over the isolators and axes: a test that excites each mode to the same largest isolator deformation. Each mode solves its own stiffened eigenproblem,
+  iterated to its fixed point; no change of M and C common to the modes, so never part of a pair.
 - ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B); in
   a campaign of poles' |p| (records), converted to undamped ones, eta acts on the damping ratios alone.
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in
@@ -44,6 +49,7 @@ EFFECT_KINDS: tuple[str, ...] = (
     "generated",
     "isolator",
     "frequency",
+    "amplitude",
     "damping",
     "sensor",
     "channel",
@@ -185,6 +191,16 @@ CATALOGUE: tuple[Effect, ...] = (
         ),
         "every isolator stiffness times g(w) = 1 + beta x^2/(1 + x^2), x = w/w_c (a standard linear solid): "
         "the spectrum stretches, high modes rise more than low ones; shapes unchanged",
+    ),
+    Effect(
+        "rubber_hardening",
+        "amplitude",
+        "hardening rubber: isolators stiffer the further a mode deforms them",
+        (_p("hardening", "1", "one", 0.01, 1.0, 0.05, "relative stiffening of an isolator at the largest amplitude"),),
+        "each mode sees its own isolator stiffness, 1 + h (d/d_max)^2 at each isolator (d its amplitude there in "
+        "that mode, every mode excited to the same largest d_max): modes that move all isolators alike (z) rise "
+        "most, those that leave some at rest (rocking, yaw about an isolator) less; shapes lean towards the "
+        "isolators that move least",
     ),
     Effect(
         "foundation",
@@ -440,8 +456,14 @@ class Pair:
 
 def pair(a: Effect, b: Effect) -> Pair | None:
     """The pair of two different catalogue effects in catalogue order (None when they do not compose:
-    PAIR_EXCLUSIONS, or either is the damping effect)."""
-    if a.name == b.name or "damping" in (a.name, b.name) or frozenset({a.name, b.name}) in PAIR_EXCLUSIONS:
+    PAIR_EXCLUSIONS, either is the damping effect, or either stiffens each mode on its own (kind ``amplitude``:
+    no change of M and C to add))."""
+    if (
+        a.name == b.name
+        or "damping" in (a.name, b.name)
+        or "amplitude" in (a.kind, b.kind)
+        or frozenset({a.name, b.name}) in PAIR_EXCLUSIONS
+    ):
         return None
     order = [e.name for e in CATALOGUE]
     first, second = sorted((a, b), key=lambda e: order.index(e.name))

@@ -371,7 +371,7 @@ class CandidateModel:
         values = {**self.known, **self.physical(theta)}
         mats = self.strategy.matrices(self, values)
         m, c, _ = mats
-        lam, vec = undamped_modes(c, m)
+        lam, vec = self.strategy.modes(self, values, mats, *undamped_modes(c, m))
         body = scaled_unit(vec[:6, :], self.length)
         share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6]) if len(m) > 6 else None
         twins = twin_groups(lam)

@@ -60,7 +60,10 @@ identity within this (relative to its largest entry)."""
 def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray | None:
     """d(weighted residual rows)/d(theta), shape (n_rows, n_theta) in the row order of
     :meth:`Data.residuals`, with nan columns for the parameters in which the frequencies are not differentiable
-    at this point (they split exactly equal twins); None where no column can be given (parallel partners)."""
+    at this point (they split exactly equal twins); None where no column can be given (parallel partners, or a
+    strategy without analytic derivatives: Strategy.analytic)."""
+    if not model.strategy.analytic:
+        return None
     e = model.evaluate(theta)
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta, e.values)  # d(physical)/d(theta), diagonal

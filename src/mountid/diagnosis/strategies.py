@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.effects import Effect, Pair
-from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles
+from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
 
 if TYPE_CHECKING:
     from mountid.diagnosis.campaign import Campaign
@@ -51,10 +51,21 @@ class Strategy:
     Gauss-Newton step from the unknowns the frequencies identify promises most (candidates._screened_variants);
     0: every variant."""
 
+    analytic: bool = True
+    """Whether the fit's Jacobian is analytic (mountid.diagnosis.jacobian); False: forward differences of every
+    column (a model whose modes each solve an eigenproblem of their own, rubber_hardening)."""
+
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
         """The variants the effect is fitted once each for (the isolators, the channels), the best reported;
         empty for an effect fitted once."""
         return ()
+
+    def modes(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The eigenvalues [rad^2/s^2] and M-normalised vectors of the model's modes from those of (C, M), ``lam``
+        and ``vec``: here they themselves (a linear model)."""
+        return lam, vec
 
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
         """M, C and (where the strategy uses it) B [SI] at ``values``."""
@@ -266,6 +277,106 @@ class Frequency(Strategy):
         dy[names.index("rubber_strength")] += lam * y / f_y
         dy[names.index("rubber_corner")] += -(y - lam) / f_y * 2 * corner * model.omega_ref
         return dy / (2 * e.omega)
+
+
+HARDENING_ITERATIONS = 50
+"""Most fixed-point steps of one mode of hardening rubber (Amplitude); it stops where the shape moves by less than
+HARDENING_TOLERANCE."""
+
+HARDENING_TOLERANCE = 1e-12
+"""A hardened mode's shape (M-normalised) is at its fixed point when a step moves no entry by more than this."""
+
+
+class Amplitude(Strategy):
+    """Hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each of its
+    principal axes (isolator_axes of the generated ``isolator_stiffness()``, whose sum is C) times
+    1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the largest over the
+    isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the eigenproblem of its own stiffened C, from the
+    linear model's mode to the fixed point where its shape makes the stiffening it is the mode of. The measured
+    frequencies and shapes are those of the hardened modes, the damping ratios their poles' with the described B."""
+
+    analytic = False
+
+    def modes(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        hardened = self._hardened(model, values, mats, lam, vec)
+        return hardened[0], hardened[1]
+
+    def damping_ratios(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
+    ) -> np.ndarray:
+        m, c, _ = mats
+        b = self.damping_matrix(model, values, mats)
+        _, _, stiffened, picked = self._hardened(model, values, mats, *undamped_modes(c, m))
+        out = np.empty(len(lam))
+        for j, (cj, i) in enumerate(zip(stiffened, picked, strict=True)):
+            p = damped_poles(m, cj, b, undamped_modes(cj, m)[0])[i]
+            out[j] = -p.real / abs(p) if abs(p) > 0 else 1.0
+        return out
+
+    def _hardened(
+        self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[int]]:
+        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is."""
+        key = np.array([values[name] for name in sorted(values)]).tobytes()
+        return model.kept("hardened", key, lambda: _hardened_modes(model, values, mats, lam, vec))
+
+
+def _hardened_modes(
+    model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[int]]:
+    m, c, _ = mats
+    parts, along = isolator_axes(np.asarray(call(model.mod, "isolator_stiffness", values)))
+    h = values["hardening"]
+    lam_out, vec_out = np.array(lam, dtype=float), np.array(vec, dtype=float)
+    stiffened, picked = [], []
+    for j in range(len(lam)):
+        phi = vec_out[:, j]
+        for _ in range(HARDENING_ITERATIONS):
+            squared = np.einsum("a,kab,b->k", phi, parts, phi) / along  # each axis' squared deformation amplitude
+            cj = c + h * np.tensordot(squared / squared.max(), parts, axes=1)
+            lj, vj = undamped_modes(cj, m)
+            overlap = vj.T @ m @ phi
+            i = int(np.argmax(np.abs(overlap)))
+            step = vj[:, i] * math.copysign(1.0, overlap[i])
+            done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
+            phi = step
+            if done:
+                break
+        lam_out[j], vec_out[:, j] = lj[i], phi
+        stiffened.append(cj)
+        picked.append(i)
+    return lam_out, vec_out, stiffened, picked
+
+
+EQUAL_AXES = 1e-9
+"""Principal stiffnesses of an isolator this close (relative) are one: the axes they belong to are not determined,
+and their plane (or space) deforms as one (isolator_axes)."""
+
+
+def isolator_axes(stiffness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each isolator's stiffness matrix (``stiffness``: (isolators, n, n), the generated ``isolator_stiffness()``)
+    split along the principal axes of its translational stiffness, the 3 x 3 block K of the isolator's point
+    (the body's translation moves every point alike): C_i = J^T K J = sum_a g_a g_a^T / k_a, g_a = C_i[:, :3] e_a
+    for each eigenpair (k_a, e_a) of K. Axes of equal stiffness (EQUAL_AXES) form one part. Returns the parts
+    (n_parts, n, n) and the stiffness k along each, so that phi^T part phi / k is the squared deformation amplitude
+    of the part's axes in the motion phi [m^2 per unit of phi squared]."""
+    parts, along = [], []
+    for c in stiffness:
+        k, axes = np.linalg.eigh(c[:3, :3])
+        g = c[:, :3] @ axes  # (n, 3): the force of unit deformation along each axis, in the body's coordinates
+        groups: list[list[int]] = []
+        for a in range(3):
+            if groups and abs(k[a] - k[groups[-1][0]]) <= EQUAL_AXES * abs(k[a]):
+                groups[-1].append(a)
+            else:
+                groups.append([a])
+        for group in groups:
+            if k[group[0]] > 0:
+                parts.append(sum(np.outer(g[:, a], g[:, a]) / k[a] for a in group))
+                along.append(k[group[0]])
+    return np.array(parts), np.array(along)
 
 
 class Damping(Strategy):
@@ -544,6 +655,7 @@ STRATEGIES: dict[str, Strategy] = {
     "generated": Generated(),
     "isolator": Isolator(),
     "frequency": Frequency(),
+    "amplitude": Amplitude(),
     "damping": Damping(),
     "sensor": Sensor(),
     "channel": Channel(),

@@ -89,7 +89,7 @@ REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
     "offaxis_mass": "added_mass",
     "isolator_scatter+cog_height": "cog_height+isolator_scatter",
-    "nonlinear_isolator": None,
+    "nonlinear_isolator": "rubber_hardening",
     "resilient_attachment": None,
     "support_frame+isolator_scatter": "isolator_scatter+foundation",
     "sensor_turned+sensor_turned": None,
