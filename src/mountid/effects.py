@@ -14,8 +14,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``amplitude``: hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each
   principal axis of its translational stiffness (from the generated ``isolator_stiffness()``; axes of equal
   stiffness as one) times 1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the
-  largest over the isolators and axes: a test that excites each mode to the same largest isolator deformation. Each mode solves its own stiffened eigenproblem,
-  iterated to its fixed point; no change of M and C common to the modes, so never part of a pair.
+  largest over the isolators and axes: a test that excites each mode to the same largest isolator deformation.
+  Each mode solves its own stiffened eigenproblem, iterated to its fixed point; no change of M and C common to the
+  modes, so never part of a pair.
 - ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B); in
   a campaign of poles' |p| (records), converted to undamped ones, eta acts on the damping ratios alone.
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in

@@ -291,9 +291,10 @@ class Amplitude(Strategy):
     """Hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each of its
     principal axes (isolator_axes of the generated ``isolator_stiffness()``, whose sum is C) times
     1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the largest over the
-    isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the eigenproblem of its own stiffened C, from the
-    linear model's mode to the fixed point where its shape makes the stiffening it is the mode of. The measured
-    frequencies and shapes are those of the hardened modes, the damping ratios their poles' with the described B."""
+    isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the
+    eigenproblem of its own stiffened C, from the linear model's mode to the fixed point where its shape makes the
+    stiffening it is the mode of. The measured frequencies and shapes are those of the hardened modes, the damping
+    ratios their poles' with the described B."""
 
     analytic = False
 
