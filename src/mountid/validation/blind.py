@@ -24,6 +24,7 @@ from mountid.identification.labelling import same_modes
 from mountid.machine import Machine
 from mountid.measurement.modes import scaled_unit
 from mountid.validation.blind_truth import (
+    DRAWN_AS,
     REPRESENTED_BY,
     REVERSED_BESIDE,
     Truth,
@@ -38,8 +39,9 @@ from mountid.validation.blind_truth import (
 MACHINES: tuple[str, ...] = ("kid300", "kid300axes", "rectangular", "screen6", "genset8", "skid1plane")
 """The shipped descriptions the harness draws machines of (each truth is diagnosed with its own description)."""
 
-EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE), *REPRESENTED_BY)
-"""The truths of the benchmark's cycle: none, one per catalogue effect, and the truths of other physics."""
+EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE if e.name not in DRAWN_AS), *REPRESENTED_BY)
+"""The truths of the benchmark's cycle: none, one per catalogue effect (but those drawn as a truth of other physics,
+blind_truth.DRAWN_AS), and the truths of other physics."""
 TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE)
 """Every truth make_case draws: the benchmark's cycle (EFFECT_NAMES), then the study beside it of a reversed
 channel beside a physical effect (blind_truth.REVERSED_BESIDE)."""

@@ -98,6 +98,12 @@ REPRESENTED_BY: dict[str, str | None] = {
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
 
+DRAWN_AS: dict[str, str] = {"rubber_hardening": "nonlinear_isolator"}
+"""Catalogue effects whose truth is one of other physics (REPRESENTED_BY), drawn under its own name: the harness's
+hardening isolators (written before the catalogue had hardening rubber; the candidate assumes every mode excited to
+the same largest isolator deformation, as the truth does) stay the one truth of hardening rubber, so that the
+benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
+
 OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
 """Truths no candidate of the catalogue represents."""
 
