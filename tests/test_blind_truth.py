@@ -11,6 +11,7 @@ import pytest
 from conftest import MACHINES
 
 from mountid.machine import Machine, call, matrices
+from mountid.machine.symmetry import MIRRORS
 from mountid.validation import blind, blind_truth
 
 PRODUCTS = """
@@ -130,7 +131,7 @@ def test_hardening_isolators_keep_each_modes_symmetry(monkeypatch, machine, seed
     (m, _, _), _, linear = blind_truth.labelled_modes(truth, model, t)
     omega, shapes = blind_truth.true_modes(truth, model, t)
     for k in range(6):
-        for mirror in blind_truth.MIRRORS:
+        for mirror in MIRRORS:
             before = linear[:, k] @ m @ mirror @ linear[:, k] / (linear[:, k] @ m @ linear[:, k])
             after = shapes[:, k] @ m @ mirror @ shapes[:, k] / (shapes[:, k] @ m @ shapes[:, k])
             assert abs(abs(before) - 1) < 1e-9 and after == pytest.approx(before, abs=1e-9)

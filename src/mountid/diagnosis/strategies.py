@@ -18,6 +18,7 @@ import numpy as np
 
 from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
+from mountid.machine.symmetry import mirror_planes, parities, with_parities
 
 if TYPE_CHECKING:
     from mountid.diagnosis.campaign import Campaign
@@ -332,15 +333,17 @@ def _hardened_modes(
     h = values["hardening"]
     lam_out, vec_out = np.array(lam, dtype=float), np.array(vec, dtype=float)
     stiffened, picked = [], []
+    mirrors = mirror_planes(m, c)
     for j in range(len(lam)):
         phi = vec_out[:, j]
+        kept = parities(mirrors, m, phi)  # the hardened mode keeps the linear one's (rounding would not)
         for _ in range(HARDENING_ITERATIONS):
             squared = np.einsum("a,kab,b->k", phi, parts, phi) / along  # each axis' squared deformation amplitude
             cj = c + h * np.tensordot(squared / squared.max(), parts, axes=1)
             lj, vj = undamped_modes(cj, m)
             overlap = vj.T @ m @ phi
             i = int(np.argmax(np.abs(overlap)))
-            step = vj[:, i] * math.copysign(1.0, overlap[i])
+            step = with_parities(vj[:, i] * math.copysign(1.0, overlap[i]), kept, m)
             done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
             phi = step
             if done:

@@ -82,6 +82,7 @@ import tomllib
 from mountid.diagnosis.candidate_model import label_modes
 from mountid.effects import STANDARD_GRAVITY
 from mountid.machine import Machine
+from mountid.machine.symmetry import mirror_planes, parities, with_parities
 from mountid.measurement.modes import scaled_unit
 from mountid.measurement.rig import Hardening
 
@@ -659,15 +660,15 @@ def _hardened(
     """Each mode of hardening isolators by equivalent linearisation: every isolator stiffer along each of its local
     axes by 1 + gamma (level d / d_max)^2, d its deformation amplitude there in the mode, d_max the largest over the
     isolators and axes (a campaign's test excites each mode to the same largest deformation, ``level``
-    times that another); iterated to a fixed point in the mode's own symmetry (_mirrors, _parities: a mode symmetric or
-    antisymmetric in a mirror plane of the machine stays so)."""
+    times that another); iterated to a fixed point in the mode's own symmetry (mountid.machine.symmetry: a mode
+    symmetric or antisymmetric in a mirror plane of the machine stays so)."""
     gamma = t.size["gamma"]
     rows, stiffness = _deformation(tm.isolators({**tm.nominal, **t.known, **t.unknowns}))
-    mirrors = _mirrors(m, rows.T @ (rows * stiffness[:, None]))
+    mirrors = mirror_planes(m, rows.T @ (rows * stiffness[:, None]))
     omega, out = np.empty(shapes.shape[1]), np.empty_like(shapes)
     for i in range(shapes.shape[1]):
         phi = shapes[:, i]
-        parities = _parities(mirrors, m, phi)
+        kept = parities(mirrors, m, phi)
         for _ in range(50):
             d = np.abs(rows @ phi)  # along each isolator's local axes
             factor = 1 + gamma * (level * d / d.max()) ** 2
@@ -675,47 +676,17 @@ def _hardened(
             lam, vec = scipy.linalg.eigh(c, m)
             j = int(np.argmax(np.abs(vec.T @ m @ phi)))
             step = vec[:, j] * np.sign(vec[:, j] @ m @ phi)
-            if parities:
-                # the stiffened rubber keeps the mirror symmetry of a mode of definite parity; rounding does not,
-                # and where a mode of the other parity lies close (kid300's psi and theta, 0.1 rad/s apart once
-                # stiffened) the iteration amplifies it: psi drifted to a rotation about a diagonal, theta's shape
-                for mirror, sign in parities:
-                    step = (step + sign * (mirror @ step)) / 2
-                step = step / math.sqrt(step @ m @ step)
+            # the stiffened rubber keeps the mirror symmetry of a mode of definite parity; rounding does not,
+            # and where a mode of the other parity lies close (kid300's psi and theta, 0.1 rad/s apart once
+            # stiffened) the iteration amplifies it: psi drifted to a rotation about a diagonal, theta's shape
+            # with it
+            step = with_parities(step, kept, m)
             done = np.allclose(step, phi / math.sqrt(phi @ m @ phi), rtol=0, atol=1e-12)
             phi = step
             if done:
                 break
         omega[i], out[:, i] = math.sqrt(lam[j]), phi
     return omega, out
-
-
-MIRRORS = (np.diag([-1.0, 1.0, 1.0, 1.0, -1.0, -1.0]), np.diag([1.0, -1.0, 1.0, -1.0, 1.0, -1.0]))
-"""The body's coordinates (x, y, z, rotations about x, y, z) mirrored in the yz and in the xz plane (the rotations
-pseudo-vectors)."""
-
-
-def _mirrors(m: np.ndarray, c: np.ndarray) -> list[np.ndarray]:
-    """The MIRRORS the body's mass and stiffness (``m``, ``c``: 6 x 6) are symmetric in (none for a truth with
-    more coordinates)."""
-    if m.shape != (6, 6):
-        return []
-    return [
-        mirror
-        for mirror in MIRRORS
-        if all(np.allclose(mirror @ a @ mirror, a, rtol=0, atol=1e-12 * np.abs(a).max()) for a in (m, c))
-    ]
-
-
-def _parities(mirrors: list[np.ndarray], m: np.ndarray, phi: np.ndarray) -> list[tuple[np.ndarray, float]]:
-    """Of the machine's ``mirrors`` (_mirrors), those the shape ``phi`` is symmetric or antisymmetric in (to 1e-6
-    of its norm in ``m``), with its sign (+1 or -1) in each."""
-    out = []
-    for mirror in mirrors:
-        sign = float(phi @ m @ (mirror @ phi) / (phi @ m @ phi))
-        if abs(abs(sign) - 1) < 1e-6:
-            out.append((mirror, math.copysign(1.0, sign)))
-    return out
 
 
 def hardening(tm: TruthMachine, t: Truth, reference: float) -> Hardening | None:
