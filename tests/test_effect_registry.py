@@ -30,11 +30,14 @@ def test_every_effect_has_its_energy_strategy_truth_and_page(effect: Effect):
         assert effect.name in ENERGIES and effect.name in GENERATED_EFFECTS
         assert hasattr(Machine.resolve("kid300").module, f"effect_{effect.name}")
     assert effect.name in DOCUMENTED, f"docs/effects.md has no section '## {effect.name}: ...'"
-    # the blind truth: a size for it, and physics that changes the modes at that size
+    # the blind truth (its own, or the truth of other physics it is drawn as): a size for it, and physics that
+    # changes the modes at that size
+    drawn = blind_truth.DRAWN_AS.get(effect.name, effect.name)
+    assert blind_truth.represented_by(drawn) == effect.name
     machine = Machine.resolve("kid300")
     truth = blind_truth.TruthMachine("kid300")
-    size = blind_truth.sample(np.random.default_rng(3), effect.name, truth)
-    with_effect = blind_truth.true_modes(truth, machine, blind_truth.Truth(effect.name, size, {}))
+    size = blind_truth.sample(np.random.default_rng(3), drawn, truth)
+    with_effect = blind_truth.true_modes(truth, machine, blind_truth.Truth(drawn, size, {}))
     without = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}))
     changed = [not np.allclose(a, b, rtol=1e-9, atol=1e-12) for a, b in zip(with_effect, without, strict=True)]
     assert any(changed), f"the blind truth of {effect.name} does not change the modes"

@@ -12,11 +12,11 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
   g = 1 + beta x^2 / (1 + x^2), x = omega / omega_c (c is then the static stiffness): every isolator
   stiffness enters C linearly, so each mode solves omega^2 = g(omega) lambda_k(C, M).
 - ``amplitude``: hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each
-  principal axis of its translational stiffness (from the generated ``isolator_stiffness()``; axes of equal
-  stiffness as one) times 1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the
-  largest over the isolators and axes: a test that excites each mode to the same largest isolator deformation.
-  Each mode solves its own stiffened eigenproblem, iterated to its fixed point; no change of M and C common to the
-  modes, so never part of a pair.
+  of its local axes (its own axis from the generated ``isolator_axial_stiffness()``, its shear axes across it;
+  a round mount's along the machine's x and y as far as its axis allows) times 1 + h (d / d_max)^2, d the
+  deformation amplitude along that axis in the mode, d_max the largest over the isolators and axes: a test that
+  excites each mode to the same largest isolator deformation. Each mode solves its own stiffened eigenproblem,
+  iterated to its fixed point; no change of M and C common to the modes, so never part of a pair.
 - ``damping``: the measured frequencies are damped ones, |Im p| of M p^2 + eta B p + C = 0 (generated B); in
   a campaign of poles' |p| (records), converted to undamped ones, eta acts on the damping ratios alone.
 - ``sensor``: the shapes were read through a sensor frame turned by a yaw angle and a reference point off in

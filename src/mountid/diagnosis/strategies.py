@@ -290,7 +290,7 @@ HARDENING_TOLERANCE = 1e-12
 
 class Amplitude(Strategy):
     """Hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each of its
-    principal axes (isolator_axes of the generated ``isolator_stiffness()``, whose sum is C) times
+    local axes (isolator_axes of the generated ``isolator_stiffness()``, whose sum is C) times
     1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the largest over the
     isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the
     eigenproblem of its own stiffened C, from the linear model's mode to the fixed point where its shape makes the
@@ -329,7 +329,10 @@ def _hardened_modes(
     model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[int]]:
     m, c, _ = mats
-    parts, along = isolator_axes(np.asarray(call(model.mod, "isolator_stiffness", values)))
+    parts, along = isolator_axes(
+        np.asarray(call(model.mod, "isolator_stiffness", values)),
+        np.asarray(call(model.mod, "isolator_axial_stiffness", values)),
+    )
     h = values["hardening"]
     lam_out, vec_out = np.array(lam, dtype=float), np.array(vec, dtype=float)
     stiffened, picked = [], []
@@ -355,31 +358,36 @@ def _hardened_modes(
 
 
 EQUAL_AXES = 1e-9
-"""Principal stiffnesses of an isolator this close (relative) are one: the axes they belong to are not determined,
-and their plane (or space) deforms as one (isolator_axes)."""
+"""Shear stiffnesses of an isolator this close (relative) are one: the matrix does not say its local x and y axes
+(a round mount), and isolator_axes takes them along the machine's x and y as far as the mount's axis allows."""
 
 
-def isolator_axes(stiffness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each isolator's stiffness matrix (``stiffness``: (isolators, n, n), the generated ``isolator_stiffness()``)
-    split along the principal axes of its translational stiffness, the 3 x 3 block K of the isolator's point
-    (the body's translation moves every point alike): C_i = J^T K J = sum_a g_a g_a^T / k_a, g_a = C_i[:, :3] e_a
-    for each eigenpair (k_a, e_a) of K. Axes of equal stiffness (EQUAL_AXES) form one part. Returns the parts
-    (n_parts, n, n) and the stiffness k along each, so that phi^T part phi / k is the squared deformation amplitude
-    of the part's axes in the motion phi [m^2 per unit of phi squared]."""
+    split along its local axes: its own axis a (local z, from ``axial``, the generated
+    ``isolator_axial_stiffness()``) and the principal axes of its shear stiffness across a (local x and y; where
+    they are equal, the projection of the machine's x on the plane across a, or of its y where a lies along x,
+    and their cross product). The translational block K of an isolator's matrix (the body's translation moves
+    every point alike) is sum_e k_e e e^T over these axes, and C_i = J^T K J = sum_e g_e g_e^T / k_e with
+    g_e = C_i[:, :3] e. Returns the parts (3 per isolator, n x n) and the stiffness k_e along each, so that
+    phi^T part phi / k_e is the squared deformation along e in the motion phi [m^2]."""
     parts, along = [], []
-    for c in stiffness:
-        k, axes = np.linalg.eigh(c[:3, :3])
-        g = c[:, :3] @ axes  # (n, 3): the force of unit deformation along each axis, in the body's coordinates
-        groups: list[list[int]] = []
-        for a in range(3):
-            if groups and abs(k[a] - k[groups[-1][0]]) <= EQUAL_AXES * abs(k[a]):
-                groups[-1].append(a)
-            else:
-                groups.append([a])
-        for group in groups:
-            if k[group[0]] > 0:
-                parts.append(sum(np.outer(g[:, a], g[:, a]) / k[a] for a in group))
-                along.append(k[group[0]])
+    for c, c_axial in zip(stiffness, axial, strict=True):
+        block = c[:3, :3]
+        a = np.linalg.eigh(c_axial[:3, :3])[1][:, -1]  # k_a a a^T: its eigenvector of the largest eigenvalue
+        across = np.eye(3) - np.outer(a, a)
+        k, vectors = np.linalg.eigh(across @ (block - c_axial[:3, :3]) @ across)
+        shear = vectors[:, 1:]  # the two eigenvalues of the shear plane (the third, along a, is nil)
+        if abs(k[2] - k[1]) <= EQUAL_AXES * abs(k[2]):
+            first = across @ (np.eye(3)[0] if np.linalg.norm(across[:, 0]) > 0.5 else np.eye(3)[1])
+            first /= np.linalg.norm(first)
+            shear = np.column_stack([first, np.cross(a, first)])
+        for e in (*shear.T, a):
+            k_e = float(e @ block @ e)
+            if k_e > 0:
+                g = c[:, :3] @ e
+                parts.append(np.outer(g, g) / k_e)
+                along.append(k_e)
     return np.array(parts), np.array(along)
 
 
