@@ -18,7 +18,7 @@ import numpy as np
 
 from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
-from mountid.machine.symmetry import mirror_planes, parities, with_parities
+from mountid.machine.symmetry import mirror_planes, parities
 
 if TYPE_CHECKING:
     from mountid.diagnosis.campaign import Campaign
@@ -319,7 +319,7 @@ class Amplitude(Strategy):
 
     def _hardened(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[int]]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is."""
         key = np.array([values[name] for name in sorted(values)]).tobytes()
         return model.kept("hardened", key, lambda: _hardened_modes(model, values, mats, lam, vec))
@@ -327,34 +327,44 @@ class Amplitude(Strategy):
 
 def _hardened_modes(
     model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[int]]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every mode's fixed point at once (Amplitude): per step one batched eigensolution of the modes' stiffened
+    matrices in the standard form L^-1 C_j L^-T (M = L L^T), until no shape moves by more than HARDENING_TOLERANCE
+    or after HARDENING_ITERATIONS steps."""
     m, c, _ = mats
-    parts, along = isolator_axes(
-        np.asarray(call(model.mod, "isolator_stiffness", values)),
-        np.asarray(call(model.mod, "isolator_axial_stiffness", values)),
-    )
+    total = np.asarray(call(model.mod, "isolator_stiffness", values))
+    axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))
+    parts, along = model.kept("isolator axes", total.tobytes() + axial.tobytes(), lambda: isolator_axes(total, axial))
     h = values["hardening"]
-    lam_out, vec_out = np.array(lam, dtype=float), np.array(vec, dtype=float)
-    stiffened, picked = [], []
-    mirrors = mirror_planes(m, c)
+    lower_inverse = np.linalg.inv(np.linalg.cholesky(m))
+    # each mode keeps the mirror parity of its linear shape (rounding would not): its sign in each mirror plane
+    # the description's mirror planes (its symmetry holds at every value of its unknowns): found once per model
+    mirrors = model.kept("mirror planes", None, lambda: mirror_planes(m, c))
+    signs = np.zeros((len(mirrors), len(lam)))
     for j in range(len(lam)):
-        phi = vec_out[:, j]
-        kept = parities(mirrors, m, phi)  # the hardened mode keeps the linear one's (rounding would not)
-        for _ in range(HARDENING_ITERATIONS):
-            squared = np.einsum("a,kab,b->k", phi, parts, phi) / along  # each axis' squared deformation amplitude
-            cj = c + h * np.tensordot(squared / squared.max(), parts, axes=1)
-            lj, vj = undamped_modes(cj, m)
-            overlap = vj.T @ m @ phi
-            i = int(np.argmax(np.abs(overlap)))
-            step = with_parities(vj[:, i] * math.copysign(1.0, overlap[i]), kept, m)
-            done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
-            phi = step
-            if done:
-                break
-        lam_out[j], vec_out[:, j] = lj[i], phi
-        stiffened.append(cj)
-        picked.append(i)
-    return lam_out, vec_out, stiffened, picked
+        for mirror, sign in parities(mirrors, m, vec[:, j]):
+            signs[next(k for k, other in enumerate(mirrors) if other is mirror), j] = sign
+    keeps = signs.any(axis=0)
+    phi = np.array(vec, dtype=float)
+    for _ in range(HARDENING_ITERATIONS):
+        squared = np.einsum("aj,kab,bj->jk", phi, parts, phi) / along  # each axis' squared deformation, per mode
+        stiffened = c + h * np.einsum("jk,kab->jab", squared / squared.max(axis=1, keepdims=True), parts)
+        standard = lower_inverse @ stiffened @ lower_inverse.T
+        eigenvalues, vectors = np.linalg.eigh((standard + np.swapaxes(standard, 1, 2)) / 2)
+        vectors = lower_inverse.T @ vectors  # (modes, n, n): M-normalised eigenvectors of each mode's (C_j, M)
+        overlap = np.einsum("jai,ab,bj->ji", vectors, m, phi)
+        picked = np.argmax(np.abs(overlap), axis=1)
+        rows = np.arange(len(lam))
+        step = vectors[rows, :, picked].T * np.sign(overlap[rows, picked])
+        for k, mirror in enumerate(mirrors):
+            half = signs[k] != 0
+            step[:, half] = (step[:, half] + signs[k, half] * (mirror @ step[:, half])) / 2
+        step[:, keeps] /= np.sqrt(np.einsum("aj,ab,bj->j", step[:, keeps], m, step[:, keeps]))
+        done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
+        phi = step
+        if done:
+            break
+    return eigenvalues[rows, picked], phi, stiffened, picked
 
 
 EQUAL_AXES = 1e-9
@@ -371,24 +381,24 @@ def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray,
     every point alike) is sum_e k_e e e^T over these axes, and C_i = J^T K J = sum_e g_e g_e^T / k_e with
     g_e = C_i[:, :3] e. Returns the parts (3 per isolator, n x n) and the stiffness k_e along each, so that
     phi^T part phi / k_e is the squared deformation along e in the motion phi [m^2]."""
-    parts, along = [], []
-    for c, c_axial in zip(stiffness, axial, strict=True):
-        block = c[:3, :3]
-        a = np.linalg.eigh(c_axial[:3, :3])[1][:, -1]  # k_a a a^T: its eigenvector of the largest eigenvalue
-        across = np.eye(3) - np.outer(a, a)
-        k, vectors = np.linalg.eigh(across @ (block - c_axial[:3, :3]) @ across)
-        shear = vectors[:, 1:]  # the two eigenvalues of the shear plane (the third, along a, is nil)
-        if abs(k[2] - k[1]) <= EQUAL_AXES * abs(k[2]):
-            first = across @ (np.eye(3)[0] if np.linalg.norm(across[:, 0]) > 0.5 else np.eye(3)[1])
-            first /= np.linalg.norm(first)
-            shear = np.column_stack([first, np.cross(a, first)])
-        for e in (*shear.T, a):
-            k_e = float(e @ block @ e)
-            if k_e > 0:
-                g = c[:, :3] @ e
-                parts.append(np.outer(g, g) / k_e)
-                along.append(k_e)
-    return np.array(parts), np.array(along)
+    block = stiffness[:, :3, :3]
+    a = np.linalg.eigh(axial[:, :3, :3])[1][:, :, -1]  # k_a a a^T: the eigenvector of its largest eigenvalue
+    across = np.eye(3) - a[:, :, None] * a[:, None, :]
+    k, vectors = np.linalg.eigh(across @ (block - axial[:, :3, :3]) @ across)
+    shear = vectors[:, :, 1:]  # the two eigenvalues of the shear plane (the third, along a, is nil)
+    round_ = np.abs(k[:, 2] - k[:, 1]) <= EQUAL_AXES * np.abs(k[:, 2])
+    if round_.any():
+        # along the machine's x as far as the axis allows (its y where the axis lies along x), and across both
+        x_free = np.linalg.norm(across[:, :, 0], axis=1) > 0.5
+        first = np.where(x_free[:, None], across[:, :, 0], across[:, :, 1])
+        first /= np.linalg.norm(first, axis=1, keepdims=True)
+        shear = np.where(round_[:, None, None], np.stack([first, np.cross(a, first)], axis=2), shear)
+    axes = np.concatenate([shear, a[:, :, None]], axis=2)  # (isolators, 3, 3): columns local x, y, z
+    along = np.einsum("iae,iab,ibe->ie", axes, block, axes)  # k_e = e^T K e
+    g = stiffness[:, :, :3] @ axes  # (isolators, n, 3): the force of unit deformation along each axis
+    parts = np.einsum("iae,ibe->ieab", g, g) / along[:, :, None, None]
+    keep = (along > 0).ravel()
+    return parts.reshape(-1, *stiffness.shape[1:])[keep], along.ravel()[keep]
 
 
 class Damping(Strategy):
