@@ -49,14 +49,15 @@ def _values(mod) -> dict[str, float]:
 
 
 def test_catalogue_names_are_the_issues_and_every_effect_has_up_to_six_parameters():
-    """The issue's effects and the reversed channel (no parameter: the sign of one channel is wrong or it is not);
-    every other effect has one to six."""
+    """The issue's effects, hardening rubber and the reversed channel (no parameter: the sign of one channel is
+    wrong or it is not); every other effect has one to six."""
     assert [e.name for e in CATALOGUE] == [
         "com_offset",
         "cog_height",
         "isolator_scatter",
         "rotational_stiffness",
         "frequency_dependent",
+        "rubber_hardening",
         "foundation",
         "added_mass",
         "drive_belt",
