@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 # its last bits. Nine tests were found (2026-11-30) to rest on those bits: fits that stop on the other side of a
 # bar or in the mirror basin (test_pairs seed 1040, a belt's height, README transcripts). They and the benchmarks
 # were validated with SkylakeX's kernels, taken here wherever the CPU has AVX-512, whatever the environment says;
-# a host without it rounds as Haswell does and fails those nine (a known defect: docs/validation.md, "Rounding").
+# a host without it rounds as Haswell does and fails those nine (a known defect: docs/validation.md, "The BLAS kernel").
 ifneq ($(shell grep -m1 -o -w avx512f /proc/cpuinfo 2>/dev/null),)
 export OPENBLAS_CORETYPE := SkylakeX
 endif
