@@ -80,8 +80,8 @@ def study(
         kinds = ", ".join(f"{k} {sum(c.kind == k for c in hard)}" for k in sorted({c.kind for c in hard}))
         said = f"; the levels said to move in {sum(c.levels_move for c in hard)}" if level else ""
         print(
-            f"hardening isolators: {len(hard)} cases; {kinds}; confident {sum(c.confident for c in hard)} (every "
-            f"one wrong: the catalogue is linear){said}"
+            f"hardening isolators: {len(hard)} cases; {kinds}; confident {sum(c.confident for c in hard)}, "
+            f"hardening rubber first in {sum(c.first == 'rubber_hardening' for c in hard)}{said}"
         )
     sensor = [c for c in out if set(c.truth.split("+")) <= SENSOR_TRUTHS]
     one = [c for c in sensor if len(c.misread) == 1]

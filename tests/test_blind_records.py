@@ -427,9 +427,10 @@ def test_a_pairing_beyond_the_level_ratio_limit_keeps_the_labels(tmp_path):
 def test_hardening_isolators_in_records_soften_at_half_the_force_and_are_never_named(tmp_path):
     """skid1plane with hardening isolators (seed 77, gamma 0.07), recorded through their law: every frequency the
     records resolve beyond their noise is lower at half the force (softer rubber at a smaller amplitude); from one
-    level the verdict is not confident (the catalogue is linear); with the second level it says the frequencies
-    move with the excitation level beyond any change of stiffness and is "not explained". Fails with the rig's
-    hardening left out (the level then moves no frequency) or a linear candidate named confidently."""
+    level the verdict is not confident (each mode rings at its own amplitude in the records, not at the one largest
+    deformation hardening rubber's candidate assumes); with the second level it says the frequencies move with the
+    excitation level beyond any change of stiffness and is "not explained". Fails with the rig's hardening left out
+    (the level then moves no frequency) or a candidate named confidently."""
     from mountid.diagnosis import campaign
     from mountid.diagnosis.gap import diagnose
     from mountid.validation.blind_records import record_campaign
