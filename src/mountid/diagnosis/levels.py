@@ -269,7 +269,8 @@ class LevelTest:
         return (
             f"{moved}, beyond any change of the isolators' stiffness in the models that fit the campaign's level "
             f"(what remains: {remains}): the isolators' stiffness depends on the amplitude differently in each mode "
-            "(rubber hardening or softening, which no effect of the linear catalogue represents), or the machine's "
+            "(rubber hardening or softening, which the candidates, hardening rubber among them, describe at the "
+            "campaign's level alone), or the machine's "
             f"modes depend on the stiffness otherwise than in these models (their effect is not the machine's){unsaid}"
         )
 
