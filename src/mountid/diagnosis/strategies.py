@@ -337,9 +337,9 @@ def _hardened_modes(
     parts, along = model.kept("isolator axes", total.tobytes() + axial.tobytes(), lambda: isolator_axes(total, axial))
     h = values["hardening"]
     lower_inverse = np.linalg.inv(np.linalg.cholesky(m))
-    # each mode keeps the mirror parity of its linear shape (rounding would not): its sign in each mirror plane
     # the description's mirror planes (its symmetry holds at every value of its unknowns): found once per model
     mirrors = model.kept("mirror planes", None, lambda: mirror_planes(m, c))
+    # each mode keeps the mirror parity of its linear shape (rounding would not): its sign in each mirror plane
     signs = np.zeros((len(mirrors), len(lam)))
     for j in range(len(lam)):
         for mirror, sign in parities(mirrors, m, vec[:, j]):
