@@ -18,7 +18,7 @@ import numpy as np
 
 from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
-from mountid.machine.symmetry import mirror_planes, parities
+from mountid.machine.symmetry import mirror_planes, parity_signs, with_parity_signs
 
 if TYPE_CHECKING:
     from mountid.diagnosis.campaign import Campaign
@@ -340,11 +340,7 @@ def _hardened_modes(
     # the description's mirror planes (its symmetry holds at every value of its unknowns): found once per model
     mirrors = model.kept("mirror planes", None, lambda: mirror_planes(m, c))
     # each mode keeps the mirror parity of its linear shape (rounding would not): its sign in each mirror plane
-    signs = np.zeros((len(mirrors), len(lam)))
-    for j in range(len(lam)):
-        for mirror, sign in parities(mirrors, m, vec[:, j]):
-            signs[next(k for k, other in enumerate(mirrors) if other is mirror), j] = sign
-    keeps = signs.any(axis=0)
+    signs = parity_signs(mirrors, m, vec)
     phi = np.array(vec, dtype=float)
     for _ in range(HARDENING_ITERATIONS):
         squared = np.einsum("aj,kab,bj->jk", phi, parts, phi) / along  # each axis' squared deformation, per mode
@@ -356,10 +352,7 @@ def _hardened_modes(
         picked = np.argmax(np.abs(overlap), axis=1)
         rows = np.arange(len(lam))
         step = vectors[rows, :, picked].T * np.sign(overlap[rows, picked])
-        for k, mirror in enumerate(mirrors):
-            half = signs[k] != 0
-            step[:, half] = (step[:, half] + signs[k, half] * (mirror @ step[:, half])) / 2
-        step[:, keeps] /= np.sqrt(np.einsum("aj,ab,bj->j", step[:, keeps], m, step[:, keeps]))
+        step = with_parity_signs(step, signs, mirrors, m)
         done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
         phi = step
         if done:

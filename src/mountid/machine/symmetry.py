@@ -44,3 +44,23 @@ def with_parities(step: np.ndarray, kept: list[tuple[np.ndarray, float]], m: np.
     for mirror, sign in kept:
         step = (step + sign * (mirror @ step)) / 2
     return step / math.sqrt(step @ m @ step)
+
+
+def parity_signs(mirrors: list[np.ndarray], m: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """Each shape's (columns of ``shapes``) sign in each of ``mirrors`` (parities): shape (mirrors, shapes), 0 where
+    the shape has no parity in that mirror."""
+    signs = np.zeros((len(mirrors), shapes.shape[1]))
+    for j in range(shapes.shape[1]):
+        for mirror, sign in parities(mirrors, m, shapes[:, j]):
+            signs[next(k for k, other in enumerate(mirrors) if other is mirror), j] = sign
+    return signs
+
+
+def with_parity_signs(steps: np.ndarray, signs: np.ndarray, mirrors: list[np.ndarray], m: np.ndarray) -> np.ndarray:
+    """with_parities for every column of ``steps`` at once, each by its ``signs`` (parity_signs), in place."""
+    for k, mirror in enumerate(mirrors):
+        half = signs[k] != 0
+        steps[:, half] = (steps[:, half] + signs[k, half] * (mirror @ steps[:, half])) / 2
+    keeps = signs.any(axis=0)
+    steps[:, keeps] /= np.sqrt(np.einsum("aj,ab,bj->j", steps[:, keeps], m, steps[:, keeps]))
+    return steps
