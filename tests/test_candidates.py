@@ -12,6 +12,7 @@ from conftest import budget
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
+from mountid.diagnosis import fitting
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.candidates import (
@@ -120,9 +121,20 @@ def test_each_effect_fits_its_own_data_back(effect):
 
 @pytest.mark.parametrize(("shear", "axial"), [(0.0, 0.3), (-0.25, 0.0), (0.2, 0.2)])
 def test_isolator_scatter_finds_the_isolator_and_the_direction_from_the_shapes(shear, axial):
+    """Noise-free, all six modes with shapes, isolator corner[+x-y] scattered. In shear alone the isolator across
+    the axis fits as well (corner[-x+y], 29 % stiffer in shear; chi^2 1e-10 at both): the first in the
+    description's order is named, the note names the other, and the truth's corner has the truth's values."""
     data = _campaign_from("isolator_scatter", {"scatter_shear": shear, "scatter_axial": axial}, isolator=2)
     report = diagnose_effects(parse(data))
     best = report.best
+    if axial == 0.0:
+        assert best.effect == "isolator_scatter" and best.variant == "corner[-x+y]"
+        assert best.note.startswith("as good: corner[+x-y]")
+        at = dict(zip(best.state.variants_by_fit, best.state.variant_parameters, strict=True))["corner[+x-y]"]
+        assert at["scatter_shear"] == pytest.approx(shear, abs=1e-4)
+        assert at["scatter_axial"] == pytest.approx(axial, abs=1e-4)
+        assert report.confident and report.tie == ["isolator_scatter"]
+        return
     assert best.effect == "isolator_scatter" and best.variant == "corner[+x-y]"
     assert best.parameters["scatter_shear"] == pytest.approx(shear, abs=1e-4)
     assert best.parameters["scatter_axial"] == pytest.approx(axial, abs=1e-4)
@@ -430,27 +442,39 @@ def test_a_softer_isolator_is_reached_from_the_mirrored_start():
 
 
 @pytest.mark.parametrize("kind", ["frequencies", "damping"])
-def test_a_scatter_outside_every_default_start_basin_is_reached_from_the_spread(kind):
-    """Blind case (seed 63, kid300): isolator 3 39 % softer in every direction. From the scatter's three
-    default starts the fit stops at chi^2 1052-2155, above noise level; one Gauss-Newton step from the most
-    promising of the starts spread over the plausible ranges (CandidateModel.spread) promises chi^2 10-15, and
-    the fit from there reaches noise level with the axial scatter back. (The shear has a second root of equal
-    chi^2 with frequencies alone, +0.47 with a softer c_xy: not asserted.)"""
+def test_a_scatter_outside_its_start_basin_is_reached_from_the_spread(kind, monkeypatch):
+    """Blind case (seed 63, kid300): isolator 3 39 % softer in every direction. Every default start fits it to
+    noise level. From a stiffer isolator's start (+0.5 in shear and axially) the fit stops at chi^2 2176 (2191
+    with damping ratios) with the axial scatter stiffer; one Gauss-Newton step from the most promising of the
+    starts spread over the plausible ranges (CandidateModel.spread) promises 10.5 (15.6), and the fit goes on
+    from there to noise level with the axial scatter back. (Before the twins x and y, parted along a diagonal,
+    were labelled in the order of frequency, the default starts stopped at 1052-2155 where the last bits of the
+    eigenvectors labelled them the other way: docs/validation.md, "The BLAS kernel".)"""
     data, truth = blind.make_case(63, "isolator_scatter", kind=kind, machine="kid300")
     campaign = parse(data)
     effect = EFFECTS["isolator_scatter"]
-    fit = fit_candidate(campaign, effect, truth.size["isolator"])
-    assert fit.chi2 < noise_level(fit.n_data, fit.n_parameters)
-    assert fit.parameters["scatter_axial"] == pytest.approx(truth.size["s_v"], abs=3 * fit.std["scatter_axial"])
+    noise = None
+    for start in CandidateModel(campaign, effect, truth.size["isolator"]).start():
+        fit = fit_candidate(campaign, effect, truth.size["isolator"], starts=[start])
+        noise = noise_level(fit.n_data, fit.n_parameters)
+        assert fit.chi2 < noise
     model = CandidateModel(campaign, effect, truth.size["isolator"])
-    assert min(promises(campaign, model, model.start())) > 100 * min(promises(campaign, model, model.spread()))
+    stiffer = model.start()[0].copy()
+    stiffer[[model.parameter_names.index("scatter_shear"), model.parameter_names.index("scatter_axial")]] = 0.5
+    rescued = fit_candidate(campaign, effect, truth.size["isolator"], starts=[stiffer])
+    assert rescued.chi2 < noise
+    assert rescued.parameters["scatter_axial"] == pytest.approx(truth.size["s_v"], abs=3 * rescued.std["scatter_axial"])
+    monkeypatch.setattr(fitting, "SPREAD_PROMISE", 0.0)  # the spread's starts never taken
+    stuck = fit_candidate(campaign, effect, truth.size["isolator"], starts=[stiffer])
+    assert stuck.chi2 > 100 * noise and stuck.parameters["scatter_axial"] > 0
+    assert min(promises(campaign, model, model.spread())) < 0.1 * stuck.chi2
     assert diagnose_effects(campaign).best.effect == "isolator_scatter"
 
 
 @pytest.mark.parametrize("kind", ["frequencies", "shapes"])
 def test_values_the_data_do_not_decide_between_are_named(kind):
     """Blind case (seed 63, kid300): isolator 3 39 % softer in every direction. With frequencies alone the
-    scatter fits as well 47 % stiffer in shear with a softer c_xy (chi^2 3.96 at both): the verdict names both
+    scatter fits as well 48 % stiffer in shear with a softer c_xy (chi^2 5.36 at both): the verdict names both
     solutions, the truth's among them; with mode shapes only the truth's fits."""
     data, truth = blind.make_case(63, "isolator_scatter", kind=kind, machine="kid300")
     report = diagnose_effects(parse(data))
@@ -619,11 +643,12 @@ def test_the_note_names_the_pairs_the_data_cannot_test_grouped_by_parameter_coun
 def test_a_tie_says_which_pairs_its_probabilities_leave_out():
     """Blind case (seed 107, kid300, frequencies and damping ratios): a support frame on ground springs with one
     isolator scattered, represented by the pair isolator_scatter+foundation (11 parameters with the unknowns),
-    which twelve data cannot test. The tie states 1.00 for another pair; the report says that its
-    probabilities weigh only the candidates these data can test and names the true pair among those left out."""
+    which twelve data cannot test. The tie states 0.79 for another pair (1.00 before an attached mass's fit from
+    the machine's axis stopped apart from rounding: fitting.SPLIT_STEP); the report says that its probabilities
+    weigh only the candidates these data can test and names the true pair among those left out."""
     data, _ = blind.make_case(107, "support_frame+isolator_scatter", kind="damping")
     report = diagnose_effects(parse(data))
-    assert report.kind == "tie" and report.best.probability > 0.99
+    assert report.kind == "tie" and report.best.effect != "isolator_scatter+foundation"
     (note,) = [n for n in report.notes if "can test" in n]
     assert "isolator_scatter+foundation" in note and "11: " in note
 

@@ -508,10 +508,50 @@ def label_modes(
     if participation is not None:
         mac = mac * participation[None, :]
     log_ratio = np.log(np.abs(lam)[None, :] / reference_lambda[:, None])  # ln(lambda / lambda_reference)
-    rows, cols, _ = assign(-mac, log_ratio, settings.model_frequency_weight)
+    rows, cols, cost = assign(-mac, log_ratio, settings.model_frequency_weight)
     out = np.empty(len(reference_lambda), dtype=int)
-    out[rows] = cols
+    out[rows] = _tied_in_frequency_order(cost, np.abs(lam), reference_lambda, rows, cols)
     return out
+
+
+TIED_COST = 1e-9
+"""Two pairings of labels with modes whose total labelling costs differ by less than this are tied: rounding,
+not the data, would tell them apart."""
+SAME_FREQUENCY = 1e-12
+"""Relative difference of two squared frequencies below which they are the same (twins up to rounding: LAPACK
+gives equal eigenvalues to a few eps; a forward-difference step of 1.5e-8 parts twins by about 1e-10, and the
+frequency order then labels the parted pair)."""
+
+
+def _tied_in_frequency_order(
+    cost: np.ndarray, lam: np.ndarray, reference_lambda: np.ndarray, rows: np.ndarray, cols: np.ndarray
+) -> np.ndarray:
+    """``cols`` (the model modes assign gave the reference ``rows``) with every two pairs whose exchange costs
+    the same (within TIED_COST) paired in the order of frequency: the lower reference frequency, or of two equal
+    ones the first label (twins: x before y), with the lower model frequency; as the records chain names parted
+    twins (from_records.label_poles). Such ties are exact by symmetry: one isolator of kid300's diagonal layout
+    stiffer parts the twins x and y along the diagonals, each with MAC 1/2 with either label's nominal shape, and
+    with the twins' equal nominal frequencies (or with four frequencies on one side) both pairings cost the same;
+    the solver's pick then followed the last bits of LAPACK's eigenvectors (docs/validation.md, "The BLAS
+    kernel"). Model modes of the same frequency keep their pairing (their combination is free: twin_groups)."""
+    paired = cost[np.ix_(rows, cols)]  # pair i's reference with pair j's mode
+    own = np.diag(paired)
+    exchange = paired + paired.T - own[:, None] - own[None, :]
+    tied = np.argwhere(np.triu(np.abs(exchange) <= TIED_COST, 1))
+    if not len(tied):
+        return cols  # no tie (the common case)
+    cols = cols.copy()
+
+    def before(a: float, b: float) -> int:  # -1, 0 or 1: a below, at or above b (relative SAME_FREQUENCY)
+        return 0 if abs(a - b) <= SAME_FREQUENCY * max(abs(a), abs(b)) else (-1 if a < b else 1)
+
+    for i, j in tied:
+        ri, rj = rows[i], rows[j]
+        reference = before(reference_lambda[ri], reference_lambda[rj]) or (-1 if ri < rj else 1)
+        model = before(lam[cols[i]], lam[cols[j]])
+        if model and model != reference:
+            cols[i], cols[j] = cols[j], cols[i]
+    return cols
 
 
 def twin_groups(lam: np.ndarray) -> list[tuple[np.ndarray, list[int]]]:

@@ -289,7 +289,7 @@ def _over_variants(
     """One candidate whose isolator (channel) is unknown from its fit at each of them (``count``: of that many,
     the others not fitted): the best fit, with the mean of their evidences (the prior 1/N each) and the variants
     from the best fitting to the worst; the others within settings.tie in chi^2 named in its note."""
-    variants = sorted(variants, key=lambda f: f.chi2)
+    variants = ranked_by_fit(variants)
     offset = -math.log(count or len(variants))
     evidence = float(scipy.special.logsumexp([v.log_evidence for v in variants]) + offset)
     state = replace(
@@ -303,6 +303,26 @@ def _over_variants(
     if alike:
         best = replace(best, note=f"as good: {', '.join(alike)} (which one needs mode shapes that tell them apart)")
     return best
+
+
+SAME_CHI2 = 1e-3
+"""Two fits whose chi^2 differ by less than this are equally good: where they stop within the convergence rule
+and rounding, not the data, tells them apart (kid300's four corners for one scattered isolator from frequencies
+and damping ratios alone: chi^2 equal to 1e-11 relative between mirror images, their order following OpenBLAS's
+kernels, and with it where fit_pairs screened a pair; docs/validation.md, "The BLAS kernel")."""
+
+
+def ranked_by_fit(fits: list[CandidateFit]) -> list[CandidateFit]:
+    """``fits`` of one effect (or pair) at its variants from the best fitting to the worst, fits within SAME_CHI2
+    of the first of their run in the order of the variants (the description's isolators or channels; fits at the
+    same variant in the order given)."""
+    by_chi2 = sorted(fits, key=lambda f: f.chi2)
+    out: list[CandidateFit] = []
+    while by_chi2:
+        run = by_chi2[:1] + [f for f in by_chi2[1:] if f.chi2 <= by_chi2[0].chi2 + SAME_CHI2]  # nan: alone
+        out += sorted(run, key=lambda f: f.state.model.variant if f.state is not None else -1)
+        by_chi2 = by_chi2[len(run) :]
+    return out
 
 
 def _within_plausible(
@@ -503,13 +523,13 @@ def _pair_fit(
     for e in entries[count:]:
         if e.promise >= fit.chi2:
             break
-        fit = min(fit, _best_fit(campaign, both, [(e.variant, e.starts)], settings), key=lambda f: f.chi2)
+        fit = ranked_by_fit([fit, _best_fit(campaign, both, [(e.variant, e.starts)], settings)])[0]
         done += 1
     if done < len(entries) and fit.chi2 > noise_level(fit.n_data, fit.n_parameters):
         places = {e.variant for e in entries[:done]}
         for chi2, x, e in _short_fits(campaign, _each_start_first(entries, places)):
             if chi2 < fit.chi2:
-                fit = min(fit, _best_fit(campaign, both, [(e.variant, (x, *e.starts))], settings), key=lambda f: f.chi2)
+                fit = ranked_by_fit([fit, _best_fit(campaign, both, [(e.variant, (x, *e.starts))], settings)])[0]
     return fit
 
 
@@ -560,7 +580,7 @@ def _best_fit(
     """A pair fitted at each isolator (channel) of ``at`` (pairs of the index and the starts): its best fit,
     with the pair's prior (the most promising isolator may be a mirror image or a neighbour of the true one)."""
     fits = [fit_candidate(campaign, both, variant, starts=list(starts)) for variant, starts in at]
-    return replace(min(fits, key=lambda f: f.chi2), log_prior=math.log(settings.pair_prior))
+    return replace(ranked_by_fit(fits)[0], log_prior=math.log(settings.pair_prior))
 
 
 @dataclass(frozen=True)

@@ -117,8 +117,22 @@ def modal_matrix(
         if b not in numeric:
             numeric[b] = block_eigen(mass, stiffness, idx)[1]
         phi[..., np.array(idx), k] = numeric[b][..., :, rank - 1]
-    weight = phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None]
-    pick = np.take_along_axis(phi, np.argmax(np.abs(weight), axis=-2)[..., None, :], axis=-2)
+    return with_positive_largest(phi, mass)
+
+
+SAME_MAGNITUDE = 1e-9
+"""Relative difference of two mass-weighted entries of a mode below which they are equally large (a mode parted
+along a diagonal moves x and y alike): the first of them sets the sign."""
+
+
+def with_positive_largest(phi: NDArray, mass: NDArray) -> NDArray[np.float64]:
+    """``phi`` (columns are modes over the rows' coordinates, shape (..., n, n_modes)) with each column's sign
+    chosen so that its entry of largest mass-weighted magnitude (sqrt(M_ii) phi_i, diagonal of ``mass``) is
+    positive; of entries equal within SAME_MAGNITUDE the first, so that rounding does not choose the sign."""
+    weight = np.abs(phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None])
+    largest = np.max(weight, axis=-2, keepdims=True)
+    first = np.argmax(weight >= largest * (1 - SAME_MAGNITUDE), axis=-2)
+    pick = np.take_along_axis(phi, first[..., None, :], axis=-2)
     return phi * np.where(pick < 0, -1.0, 1.0)
 
 
