@@ -524,13 +524,17 @@ def test_a_support_whose_free_fit_leaves_its_range_is_refitted_within_it_and_sta
     """Held-out blind case (seed 314, genset8, shapes): a heavy stiff slab under the feet acts like a gravity
     preload. The support's free fit (chi^2 27.8) puts its centre of mass 1.7 m above the feet, beyond its range,
     and used to drop out, leaving the preload (31.8) confident and wrong. Held within its ranges it fits at
-    about 31 and stays in the tie."""
+    about 31 and stays in the tie. Where the free fit stops along the support's flat valley rests on rounding
+    (under OpenBLAS's Haswell kernels at chi^2 28.5 with the depth and stiffness beyond their ranges by less
+    than their uncertainty allows, plausible as it is): the fit held within the ranges is asserted apart."""
     data, _ = blind.make_case(314, "foundation", machine="genset8")
-    report = diagnose_effects(parse(data))
+    campaign = parse(data)
+    report = diagnose_effects(campaign)
     support = next(f for f in report.ranked if f.effect == "foundation")
-    assert support.plausible and "fitted within its plausible ranges" in support.note
-    assert support.chi2 < 1.5 * report.best.chi2
+    assert support.plausible and support.chi2 < 1.5 * report.best.chi2
     assert "foundation" in report.tie and not report.confident
+    held = fit_candidate(campaign, EFFECTS["foundation"], within_plausible=True)
+    assert held.plausible and held.outside_range == () and held.chi2 < 1.5 * report.best.chi2
 
 
 def test_a_channel_turned_to_the_edge_of_its_range_is_refitted_within_it_and_named():
