@@ -532,8 +532,8 @@ def _tied_in_frequency_order(
     twins (from_records.label_poles). Such ties are exact by symmetry: one isolator of kid300's diagonal layout
     stiffer parts the twins x and y along the diagonals, each with MAC 1/2 with either label's nominal shape, and
     with the twins' equal nominal frequencies (or with four frequencies on one side) both pairings cost the same;
-    the solver's pick then followed the last bits of LAPACK's eigenvectors (docs/validation.md, "The BLAS
-    kernel"). Model modes of the same frequency keep their pairing (their combination is free: twin_groups)."""
+    the solver's pick then followed the last bits of LAPACK's eigenvectors (docs/validation.md, "Ties, not
+    kernels"). Model modes of the same frequency keep their pairing (their combination is free: twin_groups)."""
     paired = cost[np.ix_(rows, cols)]  # pair i's reference with pair j's mode
     own = np.diag(paired)
     exchange = paired + paired.T - own[:, None] - own[None, :]

@@ -309,7 +309,7 @@ SAME_CHI2 = 1e-3
 """Two fits whose chi^2 differ by less than this are equally good: where they stop within the convergence rule
 and rounding, not the data, tells them apart (kid300's four corners for one scattered isolator from frequencies
 and damping ratios alone: chi^2 equal to 1e-11 relative between mirror images, their order following OpenBLAS's
-kernels, and with it where fit_pairs screened a pair; docs/validation.md, "The BLAS kernel")."""
+kernels, and with it where fit_pairs screened a pair; docs/validation.md, "Ties, not kernels")."""
 
 
 def ranked_by_fit(fits: list[CandidateFit]) -> list[CandidateFit]:
