@@ -1,0 +1,74 @@
+"""Ties the physics makes exact, decided by rules rather than by the last bits of a computation
+(docs/validation.md, "Ties, not kernels"): labels of twins parted along a diagonal, fits at mirror-image
+isolators, the sign of a mode with two equally large entries."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from mountid.diagnosis.candidate_model import label_modes
+from mountid.diagnosis.candidates import SAME_CHI2, ranked_by_fit
+from mountid.runtime.eigen import with_positive_largest
+
+DIAGONAL = 1 / math.sqrt(2.0)
+
+
+def _parted_twins(order: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Six unit body shapes and squared frequencies [rad^2/s^2]: the twins x and y parted along the diagonals,
+    (x + y)/sqrt(2) at 1.01 and (x - y)/sqrt(2) at 0.99, in the column ``order``, the other four pure."""
+    body = np.eye(6)
+    parted = {
+        0: (np.array([DIAGONAL, DIAGONAL, 0, 0, 0, 0]), 1.01),
+        1: (np.array([DIAGONAL, -DIAGONAL, 0, 0, 0, 0]), 0.99),
+    }
+    lam = np.array([0.0, 0.0, 4.0, 9.0, 16.0, 25.0])
+    for column, which in enumerate(order):
+        body[:, column], lam[column] = parted[which]
+    return body, lam
+
+
+@pytest.mark.parametrize("order", [(0, 1), (1, 0)])
+def test_twins_parted_along_a_diagonal_take_their_labels_in_the_order_of_frequency(order):
+    """Each parted mode has MAC 1/2 with either twin's nominal shape, and with the twins' equal nominal
+    frequencies both pairings cost the same: the first label (x) takes the lower mode, whichever column LAPACK
+    put it in; with measured frequencies the lower measured label takes it."""
+    body, lam = _parted_twins(order)
+    lower = int(np.argmin(lam[:2]))
+    nominal = np.array([1.0, 1.0, 4.0, 9.0, 16.0, 25.0])
+    assert list(label_modes(lam, body, nominal, np.eye(6))) == [lower, 1 - lower, 2, 3, 4, 5]
+    measured = np.array([1.02, 0.98, 4.0, 9.0, 16.0, 25.0])  # y measured below x
+    assert list(label_modes(lam, body, measured, np.eye(6))) == [1 - lower, lower, 2, 3, 4, 5]
+
+
+def test_a_shape_that_tells_the_parted_twins_apart_labels_them_whatever_their_frequencies():
+    """Not a tie: parted along the axes, the mode along x is x even where it is the higher."""
+    body, lam = np.eye(6), np.array([1.01, 0.99, 4.0, 9.0, 16.0, 25.0])
+    assert list(label_modes(lam, body, np.array([1.0, 1.0, 4.0, 9.0, 16.0, 25.0]), np.eye(6))) == [0, 1, 2, 3, 4, 5]
+
+
+def _fit(chi2: float, variant: int) -> SimpleNamespace:
+    return SimpleNamespace(chi2=chi2, state=SimpleNamespace(model=SimpleNamespace(variant=variant)))
+
+
+def test_fits_equally_good_at_mirror_image_isolators_are_ranked_in_the_description_order():
+    fits = [_fit(5.0 + SAME_CHI2 / 100, 2), _fit(5.0, 3), _fit(5.0 + SAME_CHI2 / 2, 0), _fit(7.0, 1), _fit(6.0, 4)]
+    assert [f.state.model.variant for f in ranked_by_fit(fits)] == [0, 2, 3, 4, 1]
+    apart = [_fit(5.0 + 2 * SAME_CHI2, 0), _fit(5.0, 1)]
+    assert [f.state.model.variant for f in ranked_by_fit(apart)] == [1, 0]
+    assert len(ranked_by_fit([_fit(math.nan, 0), _fit(1.0, 1)])) == 2  # a failed fit ends the ranking, not the loop
+
+
+def test_of_two_equally_large_entries_the_first_sets_a_modes_sign():
+    """x and y moved alike (a mode parted along a diagonal): whichever the last bit makes larger, the first
+    entry is made positive."""
+    a = np.array([[-0.7071067811865476], [0.7071067811865475]])
+    b = np.array([[-0.7071067811865475], [0.7071067811865476]])
+    for phi in (a, b):
+        out = with_positive_largest(phi, np.eye(2))
+        assert out[0, 0] > 0 > out[1, 0]
+    clear = np.array([[-0.1], [0.9]])
+    assert with_positive_largest(clear, np.eye(2))[1, 0] > 0
