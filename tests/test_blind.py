@@ -567,3 +567,14 @@ def test_a_confident_verdict_does_not_follow_rounding():
     made, rounded = verdicts(1, "com_offset", "damping", "kid300axes")
     assert made[:2] == ("confident", "com_offset")
     assert rounded[:2] == made[:2]
+
+
+def test_a_candidate_the_frequencies_cannot_test_is_not_named_confidently():
+    """kid300axes seed 180 with damping ratios, a body of 74 kg on its own springs (43.7 rad/s, outside the
+    catalogue): the attached mass (six parameters, with the two stiffnesses eight) fits the six frequencies by
+    construction and the ratios within their noise, at probability 1.00. The frequencies cannot test it
+    (candidates.tested): a verdict that names it, never confidently, and says why."""
+    r = blind.run_case(180, "resilient_attachment", "damping", "kid300axes")
+    assert r.ranked[0] == "added_mass" and r.probability > 0.99
+    assert r.kind == "tie" and not r.confident_and_wrong
+    assert "cannot test added_mass" in r.verdict

@@ -20,6 +20,7 @@ from mountid.diagnosis.candidates import (
     alike_note,
     confirmed,
     diagnose_effects,
+    effect_dof,
     explains,
     fit_all,
     fits_within_uncertainty,
@@ -792,3 +793,13 @@ def test_a_pair_with_a_reversed_channel_labels_its_modes_as_read():
     assert strategy(pair(EFFECTS["foundation"], EFFECTS["sensor_reversed"])).labels_as_read
     assert strategy(EFFECTS["sensor_reversed"]).labels_as_read
     assert not strategy(pair(EFFECTS["foundation"], EFFECTS["cog_height"])).labels_as_read
+
+
+def test_damping_ratios_count_apart_from_the_data_that_test_an_effect_on_m_and_c():
+    """Six frequencies and six ratios, two stiffnesses and two damping coefficients fitted: an attached mass of
+    six parameters leaves the frequencies two short of testing it; the damping effect (one parameter on the
+    damping) is tested by the ratios; without ratios the count is the plain one."""
+    assert effect_dof(12, 10, 6, 2) == -2
+    assert effect_dof(12, 5, 6, 2, damping_effect=True) == 7
+    assert effect_dof(6, 3) == 3
+    assert effect_dof(12, 5, 6, 2) == 3  # a one-parameter effect: six frequencies for three parameters on M and C

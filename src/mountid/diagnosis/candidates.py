@@ -821,6 +821,31 @@ def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGN
     return f.applicable and f.plausible and _accepts(f.chi2 / scale, f.n_data - f.n_parameters, settings)
 
 
+def effect_dof(
+    n_data: int, n_parameters: int, n_ratios: int = 0, n_free_damping: int = 0, damping_effect: bool = False
+) -> int:
+    """Degrees of freedom that ``n_data`` data leave beyond ``n_parameters`` parameters to test an effect on M
+    and C. Measured damping ratios (``n_ratios``) carry the damping parameters left to the fit
+    (``n_free_damping``) and next to nothing of an effect on M and C, so both count apart, except for an effect
+    that acts on the damping itself (``damping_effect``): six frequencies and six ratios test an attached mass of
+    six parameters on a machine of two unknown stiffnesses no more than six frequencies alone do."""
+    if n_ratios and not damping_effect:
+        return (n_data - n_ratios) - (n_parameters - n_free_damping)
+    return n_data - n_parameters
+
+
+def tested(f: CandidateFit, campaign: Campaign) -> bool:
+    """Whether the campaign's frequencies and shapes test the candidate at all (effect_dof of one or more): a
+    candidate that fits them with as many parameters on M and C as they hold fits by construction, however well
+    the damping ratios beside them agree (kid300axes seed 180 with damping ratios, a body on its own springs:
+    an attached mass of eight parameters with the stiffnesses fitted six frequencies, the ratios within their
+    noise, probability 1.00)."""
+    n_ratios = sum(m.damping_ratio is not None for m in campaign.modes.values())
+    n_free = len(set(f.parameters) & set(campaign.machine.damping))
+    damping_effect = "damping" in f.effect.split("+")
+    return effect_dof(f.n_data, f.n_parameters, n_ratios, n_free, damping_effect) >= 1
+
+
 def fits_comfortably(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
     """Whether a candidate fits well enough to be named confidently: chi^2 below its 1 -
     settings.confident_p_value quantile (stricter than fits_within_uncertainty: one between the two explains
@@ -893,7 +918,8 @@ def rank(
     nominal model and, with a significant gap, the first three of the tie; else linearised only). The verdict is
     confident only when the best candidate explains the gap (fits, and predicts the held-out modes: :func:`explains`),
     fits comfortably (:func:`fits_comfortably`), with held-out predictions sharp enough to confirm it
-    (:func:`confirmed`), has probability settings.confidence or more, and the data reject every other candidate
+    (:func:`confirmed`), is tested by the frequencies and shapes at all (:func:`tested`: damping ratios count
+    apart), has probability settings.confidence or more, and the data reject every other candidate
     (:func:`rejected`; a rival in the tie that fits only beyond its plausible range and misses the data within it,
     :func:`_fits_only_beyond_range`, is ruled out first: probability 0, out of the tie, said in a note), the
     ``screened`` pairs not fitted included (by the chi^2 they promise), and the campaign's
@@ -981,6 +1007,7 @@ def rank(
         and fits_comfortably(best, settings)
         and sized(best, settings)
         and best.probability >= settings.confidence
+        and tested(best, campaign)
         and not open_
         and best_confirmed
         and not campaign.records_disagree
@@ -1028,6 +1055,12 @@ def rank(
                 f"; the held-out predictions of {best.effect} are too uncertain to confirm it (they move from the "
                 f"nominal model's by {held_out_shift(best, nominal, campaign, settings):.2g} of their own standard "
                 "deviation in the median): more modes or mode shapes would confirm or rule it out"
+            )
+        if best is not None and explains(best, settings) and not tested(best, campaign):
+            verdict += (
+                f"; the frequencies and shapes measured cannot test {best.effect} "
+                "(as many of its parameters on M and C as they hold: it fits them whatever acts; the damping ratios "
+                "test the damping): mode shapes or more modes would"
             )
         if open_:
             verdict += f"; not ruled out: {open_}"

@@ -16,7 +16,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mountid.diagnosis import campaign as campaign_module
-from mountid.diagnosis.candidates import STATING_KINDS, EffectsReport, diagnose_effects, fits_within_uncertainty
+from mountid.diagnosis.candidates import (
+    STATING_KINDS,
+    EffectsReport,
+    diagnose_effects,
+    effect_dof,
+    fits_within_uncertainty,
+)
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
 from mountid.errors import InputError
@@ -242,10 +248,9 @@ def can_test(candidate: str, n_data: int, n_unknowns: int, n_ratios: int = 0, n_
     six-parameter support of a machine with three unknown stiffnesses and three unknown damping coefficients,
     as six frequencies alone cannot."""
     names = candidate.split("+")
-    n, k = n_data, n_unknowns + sum(len(EFFECTS[name].parameters) for name in names)
-    if n_ratios and "damping" not in names:
-        n, k = n - n_ratios, k - n_free_damping
-    return n - k >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
+    k = n_unknowns + sum(len(EFFECTS[name].parameters) for name in names)
+    spare = effect_dof(n_data, k, n_ratios, n_free_damping, "damping" in names)
+    return spare >= (DIAGNOSIS.pair_dof if len(names) > 1 else 1)
 
 
 def noise_free_diagnosis(
