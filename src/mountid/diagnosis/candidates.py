@@ -93,16 +93,18 @@ class _Promise(NamedTuple):
     n_parameters: int
     ranked_parameters: int
     single_first: bool
+    ranking: int
+    """How many of the starts promised (the first: PairStarts.screened, not its mirrored) rank the isolators."""
 
     @property
     def promise(self) -> float:
-        """The chi^2 its most promising start promises."""
-        return min(self.promised)
+        """The chi^2 its most promising ranking start promises."""
+        return min(self.promised[: self.ranking])
 
     @property
     def first(self) -> int:
-        """The index of the most promising start."""
-        return int(np.argmin(self.promised))
+        """The index of the most promising ranking start."""
+        return int(np.argmin(self.promised[: self.ranking]))
 
 
 STATING_KINDS = ("confident", "tie")
@@ -301,8 +303,37 @@ def _over_variants(
     best = replace(variants[0], log_evidence=evidence, evidence_offset=offset, state=state)
     alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
     if alike:
-        best = replace(best, note=f"as good: {', '.join(alike)} (which one needs mode shapes that tell them apart)")
+        best = replace(best, note=_as_good(alike))
     return best
+
+
+AS_GOOD = "as good: "
+"""How a candidate's note begins that names the other isolators (channels) where it fits as well."""
+
+
+def _as_good(variants: Sequence[str]) -> str:
+    return f"{AS_GOOD}{', '.join(variants)} (which one needs mode shapes that tell them apart)"
+
+
+def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> CandidateFit:
+    """A pair the verdict names at one isolator (channel), refitted at each other one from its values: those
+    where it fits as well (chi^2 within settings.tie) named in its note, as a single effect's fits at every
+    isolator name theirs (_over_variants). A pair is fitted only at the isolators its screen ranks, and without
+    mode shapes mirror-image corners fit alike (kid300 seed 1040 with damping ratios: the pair named at
+    corner[-x+y], the truth's corner[+x+y] at the same chi^2). The pair itself unchanged where none does."""
+    state = best.state
+    if state is None or "+" not in best.effect or not best.variant or state.variants_by_fit:
+        return best
+    model = state.model
+    names = strategy(model.effect).variants(model.campaign)
+    start = model.vector(best.parameters)
+    alike = [
+        name
+        for i, name in enumerate(names)
+        if i != model.variant
+        and fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
+    ]
+    return replace(best, note=_as_good(alike)) if alike else best
 
 
 SAME_CHI2 = 1e-3
@@ -422,12 +453,14 @@ def fit_pairs(
             starts = pair_starts(model, fa, fb, where)
             # screened from each member's fit with the other nil and from both fitted values together (a softer
             # isolator with a higher centre of mass: 185 from either member, 3.4 from both; the truth)
-            promised = tuple(promises(campaign, model, list(starts.screened)))
+            promised = tuple(promises(campaign, model, list(starts.promised)))
             # a refinement held at its start by half the prior (the support's aspect) is not a full parameter
             # in the ranking's BIC: counted as one, it pushed the true pair out of the fitted five
             counted = k - len(model.held_first())
             single_first = where is None or where == ranked[0]
-            promising.append(_Promise(both, variant, starts.all, promised, k, counted, single_first))
+            promising.append(
+                _Promise(both, variant, starts.all, promised, k, counted, single_first, len(starts.screened))
+            )
     # ranked as the evidence will rank them, in its large-sample form (BIC, -2 log evidence ~ chi^2 + k ln n): a
     # pair of 14 parameters that promises chi^2 25 does not push out one of 7 that promises 29
     log_n = math.log(nominal.n_data)
@@ -560,7 +593,14 @@ def _short_tries(entries: list[_Promise]) -> list[tuple[_Promise, int]]:
     single = next((e for e in entries if e.single_first), None)
     if single is not None and single is not entries[0]:
         tried.append((single, single.first))
-    return tried + _each_start_first(entries, {e.variant for e, _ in tried})
+    tried += _each_start_first(entries, {e.variant for e, _ in tried})
+    # the starts that rank no isolator (PairStarts.mirrored), each at the isolator it promises least at, even where
+    # another start was tried there (kid300 seed 1040 with damping ratios: the corners promise alike)
+    for start in range(entries[0].ranking, len(entries[0].promised)):
+        e = min(entries, key=lambda e: e.promised[start])
+        if not any(t is e and i == start for t, i in tried):
+            tried.append((e, start))
+    return tried
 
 
 def _short_fits(campaign: Campaign, tries: list[tuple[_Promise, int]]) -> list[tuple[float, np.ndarray, _Promise]]:
@@ -590,11 +630,20 @@ class PairStarts:
 
     screened: tuple[np.ndarray, ...]
     further: tuple[np.ndarray, ...]
+    mirrored: tuple[np.ndarray, ...] = ()
+    """Screened starts that do not rank the isolators (a scatter on its softer side beside the other member's fit:
+    a softer isolator at one corner promises well for a stiffer one across, screen6 seed 214 with shapes), each
+    short-fitted at the isolator it promises least at (_short_tries)."""
+
+    @property
+    def promised(self) -> tuple[np.ndarray, ...]:
+        """The starts whose promise is taken: the ranking ones first."""
+        return (*self.screened, *self.mirrored)
 
     @property
     def all(self) -> tuple[np.ndarray, ...]:
         """Every start, the screened ones first."""
-        return (*self.screened, *self.further)
+        return (*self.screened, *self.mirrored, *self.further)
 
 
 def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where: str | None = None) -> PairStarts:
@@ -619,6 +668,7 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
     # the mirror image too, where from nil it slides into the other sign's basin (kid300 seed 1040 with damping
     # ratios, an isolator 22 % softer along its axis and the centre of mass high: from the height's fit with the
     # scatter nil the short fit stops at 45.9 in the stiffer basin, from there with the scatter at -0.25 at 3.1)
+    softer = []
     for own, other in ((fa, pb), (fb, pa)):
         mirrored = {
             p.name: -0.5 * (p.plausible[0] + p.plausible[1]) * model.scales[p.scale]
@@ -626,7 +676,7 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
             if p.signed and p.plausible[0] + p.plausible[1] != 0
         }
         if mirrored:
-            screened.append(model.vector({**nil, **other, **mirrored}))
+            softer.append(model.vector({**nil, **other, **mirrored}))
     # a signed parameter with a local minimum on the wrong side: run only while the fit stays above noise level
     further = [
         model.vector({**both, p.name: b / 2 * model.scales[p.scale]})
@@ -634,7 +684,7 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
         if p.both_sides and p.signed
         for b in p.plausible
     ]
-    return PairStarts(tuple(screened), tuple(further))
+    return PairStarts(tuple(screened), tuple(further), tuple(softer))
 
 
 def _parameters_at(fit: CandidateFit, where: str | None) -> dict[str, float]:
@@ -1090,6 +1140,12 @@ def rank(
             best = found
             note = _other_solutions_text(found)
             verdict += f"; {note}" if note else ""
+        alike_at = _at_other_isolators(best, settings)
+        if alike_at is not best:
+            ranked = [alike_at if f is best else f for f in ranked]
+            best = alike_at
+        if best.note.startswith(AS_GOOD):
+            verdict += f"; {best.note}"
     if moving or picked:  # an amplitude dependence, or the levels deciding a root, is the verdict's to say
         verdict += f"; {level_text}"
     elif level_text:
