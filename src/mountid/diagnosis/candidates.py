@@ -650,9 +650,10 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
     """Starting vectors of a pair's fit from its members' single fits. Screened: the first member's fit with the
     second nil (at its start values), the other way round, and both fitted values with the unknowns of the
     better; where the pair has refining parameters (the support's aspect), the same three with them at their
-    start values; for a member with a lopsided signed range (a scatter), the other member's fit with it at the
-    mirror image of its middle. Further: for a signed parameter that may have a minimum on either side (a height), both
-    fitted values with it at half its plausible bound on either side. A member fitted per isolator (channel)
+    start values. Mirrored (promised, ranking no isolator): for a member with a lopsided signed range (a scatter),
+    the other member's fit with it at the mirror image of its middle. Further: for a signed parameter that may
+    have a minimum on either side (a height), both fitted values with it at half its plausible bound on either
+    side. A member fitted per isolator (channel)
     gives its fit at the pair's isolator ``where`` (its best isolator may be another one, with a scatter of the
     other sign)."""
     nil = {p.name: p.start * model.scales[p.scale] for p in model.effect_parameters}
@@ -668,15 +669,15 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
     # the mirror image too, where from nil it slides into the other sign's basin (kid300 seed 1040 with damping
     # ratios, an isolator 22 % softer along its axis and the centre of mass high: from the height's fit with the
     # scatter nil the short fit stops at 45.9 in the stiffer basin, from there with the scatter at -0.25 at 3.1)
-    softer = []
+    mirrored = []
     for own, other in ((fa, pb), (fb, pa)):
-        mirrored = {
+        other_side = {
             p.name: -0.5 * (p.plausible[0] + p.plausible[1]) * model.scales[p.scale]
             for p in EFFECTS[own.effect].parameters
             if p.signed and p.plausible[0] + p.plausible[1] != 0
         }
-        if mirrored:
-            softer.append(model.vector({**nil, **other, **mirrored}))
+        if other_side:
+            mirrored.append(model.vector({**nil, **other, **other_side}))
     # a signed parameter with a local minimum on the wrong side: run only while the fit stays above noise level
     further = [
         model.vector({**both, p.name: b / 2 * model.scales[p.scale]})
@@ -684,7 +685,7 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
         if p.both_sides and p.signed
         for b in p.plausible
     ]
-    return PairStarts(tuple(screened), tuple(further), tuple(softer))
+    return PairStarts(tuple(screened), tuple(further), tuple(mirrored))
 
 
 def _parameters_at(fit: CandidateFit, where: str | None) -> dict[str, float]:
