@@ -10,7 +10,7 @@ from test_candidates import SHAPE_SIGMA, SIGMA_REL, UNKNOWN, _campaign_from
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.candidates import diagnose_effects, pair_starts
+from mountid.diagnosis.candidates import as_good_clause, diagnose_effects, pair_starts
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import jacobian
 from mountid.diagnosis.strategies import strategy
@@ -353,9 +353,10 @@ def test_a_pair_starts_a_lopsided_scatter_beside_the_other_members_fit_on_the_so
     model = CandidateModel(campaign, both, corner)
     there = fit_candidate(campaign, both, corner, start=model.vector(best.parameters))
     assert there.chi2 == pytest.approx(best.chi2, rel=1e-6)
-    named = {best.variant, *best.note.removeprefix("as good: ").split(" (")[0].split(", ")}
+    clause = as_good_clause(best.note)
+    named = {best.variant, *clause.removeprefix("as good: ").split(" (")[0].split(", ")}
     assert named == {"corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]"}
-    assert "as good: " in report.verdict
+    assert clause in report.verdict
 
 
 def test_an_attached_body_with_a_negative_radius_of_gyration_is_the_same_body():

@@ -95,6 +95,17 @@ class EffectParameter:
         return self.plausible[0] < 0 < self.plausible[1]
 
     @property
+    def middle(self) -> float:
+        """The middle of the plausible range (a multiple of ``scale``)."""
+        return 0.5 * (self.plausible[0] + self.plausible[1])
+
+    @property
+    def lopsided(self) -> bool:
+        """A signed parameter whose range is not centred on zero (a scatter of -0.5 to 1): its middle lies on
+        one side, and a fit started there does not reach a minimum on the other."""
+        return self.signed and self.middle != 0
+
+    @property
     def unit_suffix(self) -> str:
         """The unit as it follows a number in text: ' N/m', nothing for a ratio (unit '1')."""
         return "" if self.unit == "1" else f" {self.unit}"

@@ -227,14 +227,14 @@ class CandidateModel:
             ]
             starts += [vector(point) for point in itertools.product(*grid)]
         elif len(params) >= 2:
-            middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
+            middle = [p.middle for p in params]
             for i, p in enumerate(params):
                 if p.signed and p.both_sides:
                     for bound in p.plausible:
                         starts.append(vector([bound / 2 if j == i else v for j, v in enumerate(middle)]))
             self.mandatory_starts = len(starts)
         if params:
-            middle = [0.5 * (p.plausible[0] + p.plausible[1]) for p in params]
+            middle = [p.middle for p in params]
             starts.append(vector(middle))
             # a signed parameter whose range is lopsided (a scatter of -0.5 to 1) has its middle on one side: its
             # mirror image through zero too (a softer isolator's minimum is not reached from a stiffer start)

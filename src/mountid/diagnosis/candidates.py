@@ -26,7 +26,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import NamedTuple
@@ -333,7 +333,15 @@ def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNO
         if i != model.variant
         and fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
     ]
-    return replace(best, note=_as_good(alike)) if alike else best
+    if not alike:
+        return best
+    return replace(best, note=f"{best.note}; {_as_good(alike)}" if best.note else _as_good(alike))
+
+
+def as_good_clause(note: str) -> str:
+    """The clause of a candidate's note that names the other isolators (channels) where it fits as well ('' if
+    none)."""
+    return next((part for part in note.split("; ") if part.startswith(AS_GOOD)), "")
 
 
 SAME_CHI2 = 1e-3
@@ -671,11 +679,7 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
     # scatter nil the short fit stops at 45.9 in the stiffer basin, from there with the scatter at -0.25 at 3.1)
     mirrored = []
     for own, other in ((fa, pb), (fb, pa)):
-        other_side = {
-            p.name: -0.5 * (p.plausible[0] + p.plausible[1]) * model.scales[p.scale]
-            for p in EFFECTS[own.effect].parameters
-            if p.signed and p.plausible[0] + p.plausible[1] != 0
-        }
+        other_side = {p.name: -p.middle * model.scales[p.scale] for p in EFFECTS[own.effect].parameters if p.lopsided}
         if other_side:
             mirrored.append(model.vector({**nil, **other, **other_side}))
     # a signed parameter with a local minimum on the wrong side: run only while the fit stays above noise level
@@ -905,10 +909,15 @@ def tested(f: CandidateFit, campaign: Campaign) -> bool:
     the damping ratios beside them agree (kid300axes seed 180 with damping ratios, a body on its own springs:
     an attached mass of eight parameters with the stiffnesses fitted six frequencies, the ratios within their
     noise, probability 1.00)."""
+    n_ratios, n_free = ratio_counts(campaign, f.parameters)
+    return effect_dof(f.n_data, f.n_parameters, n_ratios, n_free, "damping" in f.effect.split("+")) >= 1
+
+
+def ratio_counts(campaign: Campaign, fitted: Iterable[str]) -> tuple[int, int]:
+    """The campaign's measured damping ratios and how many of the description's damping parameters are among
+    the ``fitted`` ones: what effect_dof counts apart."""
     n_ratios = sum(m.damping_ratio is not None for m in campaign.modes.values())
-    n_free = len(set(f.parameters) & set(campaign.machine.damping))
-    damping_effect = "damping" in f.effect.split("+")
-    return effect_dof(f.n_data, f.n_parameters, n_ratios, n_free, damping_effect) >= 1
+    return n_ratios, len(set(fitted) & set(campaign.machine.damping))
 
 
 def fits_comfortably(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> bool:
@@ -1145,8 +1154,8 @@ def rank(
         if alike_at is not best:
             ranked = [alike_at if f is best else f for f in ranked]
             best = alike_at
-        if best.note.startswith(AS_GOOD):
-            verdict += f"; {best.note}"
+        if as_good_clause(best.note):
+            verdict += f"; {as_good_clause(best.note)}"
     if moving or picked:  # an amplitude dependence, or the levels deciding a root, is the verdict's to say
         verdict += f"; {level_text}"
     elif level_text:

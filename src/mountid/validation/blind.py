@@ -22,6 +22,7 @@ from mountid.diagnosis.candidates import (
     diagnose_effects,
     effect_dof,
     fits_within_uncertainty,
+    ratio_counts,
 )
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS
@@ -294,7 +295,8 @@ def run_case(
     truth of several parts which parts alone explain the data (fit them within their uncertainty). ``nominal``
     and ``level``: as make_case."""
     data, _ = make_case(seed, effect, kind=kind, machine=machine, nominal=nominal, level=level)
-    report = diagnose_effects(campaign_module.parse(data))
+    campaign = campaign_module.parse(data)
+    report = diagnose_effects(campaign)
     ranked = tuple(f.effect for f in report.ranked if f.applicable)
     identifiable = False
     expected = represented_by(effect)
@@ -309,13 +311,8 @@ def run_case(
             acceptable = acceptable_parts(effect, ideal)
     testable = True
     if expected not in (None, "none"):
-        testable = can_test(
-            expected,
-            report.nominal.n_data,
-            report.nominal.n_parameters,
-            sum("damping_ratio" in m for m in data["modes"].values()),
-            len(set(report.nominal.parameters) & set(TruthMachine(machine).damping_parameters)),
-        )
+        counts = ratio_counts(campaign, report.nominal.parameters)
+        testable = can_test(expected, report.nominal.n_data, report.nominal.n_parameters, *counts)
     reduction = math.nan
     best = report.best
     if report.significant and best is not None:
