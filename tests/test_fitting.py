@@ -27,8 +27,9 @@ CASES = [
     (3, "added_mass", "damping", "kid300", "added_mass"),
     (2, "drive_belt", "shapes", "rectangular", "drive_belt"),
     # a candidate that does not represent the truth (seed 1 with a higher centre of mass was the case here until
-    # the attached body's radius of gyration was searched at g >= 0: its fit there now ends by scipy's tolerance)
-    (3, "drive_belt", "shapes", "screen6", "added_mass"),
+    # the attached body's radius of gyration was searched at g >= 0: its fit there now ends by scipy's tolerance;
+    # seed 3 until the truth's shapes took their nominal modes' sign, with which scipy's tolerance ends it too)
+    (6, "drive_belt", "shapes", "screen6", "added_mass"),
 ]
 """Blind cases (seed, truth, campaign kind, machine) and a candidate whose fit the rule stops."""
 

@@ -545,15 +545,27 @@ def labelled_modes(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[Matric
     """The truth's M, C, B and its undamped modes in the machine's mode order: squared frequencies [rad^2/s^2]
     and eigenvectors (n, 6) over all its coordinates (12 with a support). Where the truth has exactly equal
     frequencies (twins), any combination of them is a mode: each label gets the projection of its nominal mode
-    on their span, so that the shapes do not depend on the basis LAPACK returned."""
+    on their span, so that the shapes do not depend on the basis LAPACK returned. Each mode's sign is its
+    nominal mode's (_signed_as_reference), not the one LAPACK returned (which differs between BLAS kernels)."""
     m, c, b = truth_matrices(tm, t)
     lam, vec = scipy.linalg.eigh(c, m)
     ref, ref_lambda = _reference(tm, machine, t)
     body = scaled_unit(vec[:6], tm.length)
     share = np.einsum("ij,ik,kj->j", vec[:6], m[:6, :6], vec[:6])
     order = label_modes(lam, body, ref_lambda, ref, share)
-    vec = _canonical_twins(lam, vec, m, order, ref, tm.length)
-    return (m, c, b), lam[order], vec[:, order]
+    vec = _canonical_twins(lam, vec, m, order, ref, tm.length)[:, order]
+    return (m, c, b), lam[order], _signed_as_reference(vec, ref, tm.length)
+
+
+def _signed_as_reference(modes: np.ndarray, ref: np.ndarray, length: float) -> np.ndarray:
+    """``modes`` (columns over all the truth's coordinates, in label order) each with the sign that makes its
+    body part's scaled unit shape point the way of its label's nominal shape ``ref`` (a non-negative dot
+    product): LAPACK's sign of an eigenvector is arbitrary and, for a mode resolved loosely, differs between
+    BLAS kernels, and the noise of a campaign's shapes is added to the signed shape. A mode whose body part is
+    orthogonal to its nominal shape (a support's own mode, the body at rest) keeps LAPACK's sign, which no
+    body shape sees."""
+    dot = np.einsum("ij,ij->j", scaled_unit(modes[:6], length), ref)
+    return modes * np.where(dot < 0, -1.0, 1.0)
 
 
 def true_modes(tm: TruthMachine, machine: Machine, t: Truth, level: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
