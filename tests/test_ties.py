@@ -1,6 +1,6 @@
 """Ties the physics makes exact, decided by rules rather than by the last bits of a computation
 (docs/validation.md, "Ties, not kernels"): labels of twins parted along a diagonal, fits at mirror-image
-isolators, the sign of a mode with two equally large entries."""
+isolators, the sign of a mode with two equally large entries, the sign of a blind truth's mode."""
 
 from __future__ import annotations
 
@@ -9,10 +9,14 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from mountid.diagnosis.candidate_model import label_modes
 from mountid.diagnosis.candidates import SAME_CHI2, ranked_by_fit
+from mountid.machine import Machine
+from mountid.measurement.modes import scaled_unit
 from mountid.runtime.eigen import with_positive_largest
+from mountid.validation import blind, blind_truth
 
 DIAGONAL = 1 / math.sqrt(2.0)
 
@@ -72,3 +76,38 @@ def test_of_two_equally_large_entries_the_first_sets_a_modes_sign():
         assert out[0, 0] > 0 > out[1, 0]
     clear = np.array([[-0.1], [0.9]])
     assert with_positive_largest(clear, np.eye(2))[1, 0] > 0
+
+
+@pytest.mark.parametrize("tilt", [-1e-8, 1e-8])
+def test_parted_twins_whose_pairings_cost_alike_to_rounding_take_their_labels_in_the_order_of_frequency(tilt):
+    """Near-twins on a support (blind seed 66, kid300: two modes 5e-6 apart, MAC 0.4996 with both twins'
+    labels): the two pairings cost the same to about 1e-9, which the rounding of another BLAS kernel turned the
+    other way. Shapes tilted by ``tilt`` off the diagonals (the pairings then differ by about 4 tilt): the first
+    label still takes the lower mode."""
+    body, lam = _parted_twins((0, 1))
+    turn = np.array([[math.cos(tilt), -math.sin(tilt)], [math.sin(tilt), math.cos(tilt)]])
+    body[:2, :2] = turn @ body[:2, :2]
+    nominal = np.array([1.0, 1.0, 4.0, 9.0, 16.0, 25.0])
+    assert list(label_modes(lam, body, nominal, np.eye(6))) == [1, 0, 2, 3, 4, 5]
+
+
+@pytest.mark.parametrize(("machine", "seed", "truth"), [("kid300", 20, "drive_belt"), ("screen6", 66, "foundation")])
+def test_a_truths_modes_take_their_nominal_modes_sign_whatever_lapack_returns(machine, seed, truth, monkeypatch):
+    """The blind truth's noisy shapes are its modes plus noise, so a mode's sign is part of the campaign: each
+    takes its nominal mode's (a non-negative dot product of the scaled unit shapes), and eigenvectors returned
+    with every sign turned give the same modes (LAPACK's sign differs between BLAS kernels: kid300 seed 20's psi,
+    README worked example 2, was another campaign under Haswell's kernels)."""
+    model, tm = Machine.resolve(machine), blind_truth.TruthMachine(machine)
+    _, t = blind.make_case(seed, truth, machine=machine)
+    _, lam, modes = blind_truth.labelled_modes(tm, model, t)
+    reference, _ = blind_truth._reference(tm, model, t)
+    assert np.all(np.einsum("ij,ij->j", scaled_unit(modes[:6], tm.length), reference) > 0)
+    eigh = scipy.linalg.eigh
+
+    def turned(a, b):
+        w, v = eigh(a, b)
+        return w, -v
+
+    monkeypatch.setattr(blind_truth.scipy.linalg, "eigh", turned)
+    _, lam_turned, modes_turned = blind_truth.labelled_modes(tm, model, t)
+    assert np.array_equal(lam_turned, lam) and np.array_equal(modes_turned, modes)
