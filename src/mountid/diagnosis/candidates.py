@@ -302,17 +302,26 @@ def _over_variants(
     )
     best = replace(variants[0], log_evidence=evidence, evidence_offset=offset, state=state)
     alike = [v.variant for v in variants[1:] if v.chi2 <= best.chi2 + settings.tie]
-    if alike:
-        best = replace(best, note=_as_good(alike))
-    return best
+    return _with_as_good(best, alike) if alike else best
 
 
 AS_GOOD = "as good: "
-"""How a candidate's note begins that names the other isolators (channels) where it fits as well."""
+"""How the clause of a candidate's note begins that names the other isolators (channels) where it fits as
+well (CandidateFit.as_good)."""
 
 
-def _as_good(variants: Sequence[str]) -> str:
-    return f"{AS_GOOD}{', '.join(variants)} (which one needs mode shapes that tell them apart)"
+def _with_as_good(f: CandidateFit, variants: Sequence[str]) -> CandidateFit:
+    """``f`` with ``variants`` (the other isolators or channels where it fits as well) in CandidateFit.as_good
+    and named in a clause appended to its note: what would tell them apart, mode shapes where the campaign has
+    none, other measurements where its shapes do not."""
+    shapes = any(mode.shape is not None for mode in f.state.model.campaign.modes.values())
+    need = (
+        "the measured mode shapes do not tell them apart"
+        if shapes
+        else "which one needs mode shapes that tell them apart"
+    )
+    clause = f"{AS_GOOD}{', '.join(variants)} ({need})"
+    return replace(f, as_good=tuple(variants), note=f"{f.note}; {clause}" if f.note else clause)
 
 
 def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> CandidateFit:
@@ -333,9 +342,7 @@ def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNO
         if i != model.variant
         and fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
     ]
-    if not alike:
-        return best
-    return replace(best, note=f"{best.note}; {_as_good(alike)}" if best.note else _as_good(alike))
+    return _with_as_good(best, alike) if alike else best
 
 
 def as_good_clause(note: str) -> str:

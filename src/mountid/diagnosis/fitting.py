@@ -99,6 +99,10 @@ class CandidateFit:
     """Effect parameters the data place outside the plausible range: beyond it by more than their standard
     deviation (a rival is ruled out by them: candidates.rejected). A parameter the data leave undetermined
     (a stiff support's shear ratio at 5 +- 100 against a range of 0.1-2) is outside_range but not placed."""
+    as_good: tuple[str, ...] = ()
+    """The other isolators (channels) at which the candidate fits the data as well as at ``variant`` (chi^2
+    within DiagnosisSettings.tie; candidates._over_variants, and for a pair named by the verdict
+    candidates._at_other_isolators): which of them it acts at, the data do not say."""
     other_solutions: tuple[dict[str, float], ...] = ()
     """Other sets of values (unknowns and effect parameters, physical units) at which the candidate fits the data
     as well (see :func:`other_solutions`; searched for the verdict's best candidate): the standard deviations
@@ -130,6 +134,7 @@ class CandidateFit:
             "held_out_exact": self.held_out_exact,
             "applicable": self.applicable,
             "note": self.note,
+            "as_good": list(self.as_good),
             "held_out_rms_sigma": self.held_out_rms,
             "held_out_median_sigma": self.held_out_median,
             "held_out_median_predictive_sigma": self.held_out_median_predictive,
