@@ -363,7 +363,7 @@ def test_a_pair_starts_a_lopsided_scatter_beside_the_other_members_fit_on_the_so
     there = fit_candidate(campaign, both, corner, start=model.vector(best.parameters))
     assert there.chi2 == pytest.approx(best.chi2, rel=1e-6)
     assert {best.variant, *best.as_good} == {"corner[+x+y]", "corner[-x+y]", "corner[+x-y]", "corner[-x-y]"}
-    clause = as_good_clause(best.note)
+    clause = as_good_clause(best)
     assert (
         clause.startswith(f"as good: {', '.join(best.as_good)} (which one needs mode shapes")
         and clause in report.verdict

@@ -305,23 +305,27 @@ def _over_variants(
     return _with_as_good(best, alike) if alike else best
 
 
-AS_GOOD = "as good: "
-"""How the clause of a candidate's note begins that names the other isolators (channels) where it fits as
-well (CandidateFit.as_good)."""
-
-
-def _with_as_good(f: CandidateFit, variants: Sequence[str]) -> CandidateFit:
-    """``f`` with ``variants`` (the other isolators or channels where it fits as well) in CandidateFit.as_good
-    and named in a clause appended to its note: what would tell them apart, mode shapes where the campaign has
-    none, other measurements where its shapes do not."""
+def as_good_clause(f: CandidateFit) -> str:
+    """The clause that names the other isolators (channels) where ``f`` fits as well (CandidateFit.as_good; ''
+    if none), with what would tell them apart: mode shapes where the campaign has none, other measurements
+    where its shapes do not. Its note and the verdict carry it."""
+    if not f.as_good:
+        return ""
     shapes = any(mode.shape is not None for mode in f.state.model.campaign.modes.values())
     need = (
         "the measured mode shapes do not tell them apart"
         if shapes
         else "which one needs mode shapes that tell them apart"
     )
-    clause = f"{AS_GOOD}{', '.join(variants)} ({need})"
-    return replace(f, as_good=tuple(variants), note=f"{f.note}; {clause}" if f.note else clause)
+    return f"as good: {', '.join(f.as_good)} ({need})"
+
+
+def _with_as_good(f: CandidateFit, variants: Sequence[str]) -> CandidateFit:
+    """``f`` with ``variants`` (the other isolators or channels where it fits as well) in CandidateFit.as_good
+    and named in a clause appended to its note (as_good_clause)."""
+    named = replace(f, as_good=tuple(variants))
+    clause = as_good_clause(named)
+    return replace(named, note=f"{f.note}; {clause}" if f.note else clause)
 
 
 def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS) -> CandidateFit:
@@ -343,12 +347,6 @@ def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNO
         and fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
     ]
     return _with_as_good(best, alike) if alike else best
-
-
-def as_good_clause(note: str) -> str:
-    """The clause of a candidate's note that names the other isolators (channels) where it fits as well ('' if
-    none)."""
-    return next((part for part in note.split("; ") if part.startswith(AS_GOOD)), "")
 
 
 SAME_CHI2 = 1e-3
@@ -1161,8 +1159,8 @@ def rank(
         if alike_at is not best:
             ranked = [alike_at if f is best else f for f in ranked]
             best = alike_at
-        if as_good_clause(best.note):
-            verdict += f"; {as_good_clause(best.note)}"
+        if best.as_good:
+            verdict += f"; {as_good_clause(best)}"
     if moving or picked:  # an amplitude dependence, or the levels deciding a root, is the verdict's to say
         verdict += f"; {level_text}"
     elif level_text:
