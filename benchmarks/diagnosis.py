@@ -193,12 +193,16 @@ def validation(
         f"{per:.2f} s per case: 1000 cases would take {1000 * per / 60:.1f} min (target < 10 min); "
         f"{per / unit:.1f} host units per case (host_unit: {unit * 1e3:.0f} ms before the run)"
     )
-    if figure is not None:
+    panels = blind.reliability_panels(results)
+    if figure is not None and not panels:
+        # a run of a few cases may end without a verdict that states a probability (--cases 1)
+        print("reliability diagram: not drawn, no verdict on a truth the catalogue represents states a probability")
+    elif figure is not None:
         from mountid.report.figures import reliability_figure
 
         last = first_seed + n - 1
         path = reliability_figure(
-            blind.reliability_panels(results),
+            panels,
             figure,
             blind.RELIABILITY_BINS,
             f"blind validation, seeds {first_seed}-{last}, every shipped machine: the stated probability of the "
