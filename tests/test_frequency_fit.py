@@ -109,6 +109,20 @@ def test_frequencies_no_mount_fits_are_an_error_naming_the_stiffness_that_ran_of
     assert "misses phi by 26.4%" in err
 
 
+def test_a_scatter_beyond_any_measurement_is_noted_as_a_model_or_labelling_gap():
+    """Without standard deviations the fit takes its uncertainty from the scatter: the paper's four frequencies
+    (0.61 % RMS) pass without a note, phi mistyped as 360.91 rad/s (88 % off the fit) is named as no noise."""
+    machine = Machine.resolve("kid300")
+    paper = fit_frequencies(machine, TABLE_1, MEASURED)
+    assert paper.rms_scatter == pytest.approx(0.0061, abs=5e-4)
+    assert not any("scatter" in note for note in paper.notes)
+    wrong = fit_frequencies(machine, TABLE_1, {**MEASURED, "phi": 360.91})
+    assert wrong.rms_scatter > 0.4
+    (note,) = [note for note in wrong.notes if "scatter" in note]
+    assert "largest phi, -88.3 %" in note and "not noise" in note
+    assert not any("scatter" in n for n in fit_frequencies(machine, TABLE_1, {**MEASURED, "phi": 360.91}, STD).notes)
+
+
 def test_an_exactly_determined_set_is_not_a_least_squares_fit():
     with pytest.raises(InputError, match="2 distinct frequencies for 2 unknowns"):
         fit_frequencies(Machine.resolve("kid300"), TABLE_1, {"x": 17.71, "psi": 64.10})

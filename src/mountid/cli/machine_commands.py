@@ -141,10 +141,9 @@ def _identify_least_squares(
                 " on a campaign file of these frequencies (README, gap diagnosis)"
             )
     else:
-        rms = math.sqrt(sum(((fit.fitted[k] - w) / w) ** 2 for k, w in fit.measured.items()) / n)
         print(
             "  no --std given: the standard deviations come from the scatter of the frequencies about the fit "
-            f"(RMS {100 * rms:.2g} % of the frequencies)"
+            f"(RMS {100 * fit.rms_scatter:.2g} % of the frequencies)"
         )
     for note in fit.notes:
         print(f"  note: {note}")
