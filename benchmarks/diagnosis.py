@@ -53,9 +53,8 @@ def host_unit(repeats: int = 5) -> float:
     """The host's speed, measured in the same run as what it is compared with: the time [s] of a fixed workload
     of the diagnosis's kind that no change of mountid touches, HOST_UNIT_SOLVES solutions of one generalised
     6 x 6 symmetric eigenproblem (scipy.linalg.eigh, a fixed stiffness and mass matrix) with a few array
-    operations each, the best of ``repeats``. A time in host units is the code's cost apart from the host's: the
-    same code (c907fe8) took 0.51-0.84 s per kid300 diagnosis on the hosts of 2026-11-25 to 30, before this unit,
-    and 3.23 s on the host of 2026-12-01, where the unit took 183 ms (kid300's diagnosis 17.7 units)."""
+    operations each, the best of ``repeats``. A time in host units is the code's cost apart from the host's (the
+    same code took five times as long on one host as on another: docs/validation.md, "A slower host")."""
     rng = np.random.default_rng(0)
     a = rng.standard_normal((6, 6))
     stiffness = a @ a.T + 6 * np.eye(6)
@@ -193,11 +192,13 @@ def validation(
         f"{per:.2f} s per case: 1000 cases would take {1000 * per / 60:.1f} min (target < 10 min); "
         f"{per / unit:.1f} host units per case (host_unit: {unit * 1e3:.0f} ms before the run)"
     )
+    if figure is None:
+        return results
     panels = blind.reliability_panels(results)
-    if figure is not None and not panels:
+    if not panels:
         # a run of a few cases may end without a verdict that states a probability (--cases 1)
         print("reliability diagram: not drawn, no verdict on a truth the catalogue represents states a probability")
-    elif figure is not None:
+    else:
         from mountid.report.figures import reliability_figure
 
         last = first_seed + n - 1
