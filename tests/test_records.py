@@ -74,6 +74,22 @@ def test_uff58_round_trip(tmp_path):
     np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)
 
 
+def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_channel(tmp_path):
+    """pyuff raises a bare Exception on a block it cannot parse (it ended in a traceback); a channel cut short by
+    a transfer names the first channel's length beside its own."""
+    from mountid.measurement.uff import read_uff, write_uff
+
+    (tmp_path / "bad.uff").write_text("    -1\n    58\nnot a dataset\n    -1\n")
+    with pytest.raises(InputError, match=r"^record: bad.uff: dataset 1 \(type 58\) is not readable \("):
+        read_uff(tmp_path / "bad.uff")
+    write_uff(_record(), tmp_path / "r.uff")
+    text = (tmp_path / "r.uff").read_text()
+    first_end = text.index("    -1", text.index("    -1") + 10)
+    (tmp_path / "cut.uff").write_text(text[: first_end - 200] + text[first_end:])
+    with pytest.raises(InputError, match=r"^B_y: sampling differs from the first channel's, A_x \(100 samples .* 9\d "):
+        read_uff(tmp_path / "cut.uff")
+
+
 def _bench_uff(
     path,
     record: Record,

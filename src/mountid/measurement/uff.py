@@ -123,8 +123,8 @@ def read_uff(path: str | Path) -> Record:
     found = [i for i, t in enumerate(types) if int(t) == 58]
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
-    sets = [uff.read_sets(i) for i in found]
-    nodes = _nodes(uff, types)
+    sets = [_read_set(uff, i, types, path) for i in found]
+    nodes = _nodes(uff, types, path)
     time = np.asarray(sets[0]["x"], dtype=float)
     columns, channels = [], []
     names = _names(sets)
@@ -132,7 +132,11 @@ def read_uff(path: str | Path) -> Record:
         name = names[n]
         x = np.asarray(s["x"], dtype=float)
         if len(x) != len(time) or not np.allclose(x, time, rtol=0, atol=1e-9 * max(1.0, abs(time[-1]))):
-            raise InputError(name, "sampling differs from the first channel's (one record needs one time base)")
+            raise InputError(
+                name,
+                f"sampling differs from the first channel's, {names[0]} ({len(x)} samples from {x[0]:.6g} s "
+                f"against {len(time)} from {time[0]:.6g} s; one record needs one time base)",
+            )
         point = direction = (math.nan,) * 3
         meta = str(s.get("id4", "")).strip()
         if meta.startswith(_TAG):
@@ -157,6 +161,17 @@ def read_uff(path: str | Path) -> Record:
     return Record(time, np.column_stack(columns), tuple(channels))
 
 
+def _read_set(uff: pyuff.UFF, index: int, types: list, path: Path) -> dict:
+    """The file's dataset number ``index`` as pyuff reads it; one pyuff cannot read (a truncated or malformed
+    block: pyuff raises a bare Exception) is an error naming the file, the dataset and pyuff's reason."""
+    try:
+        return uff.read_sets(index)
+    except Exception as err:  # pyuff raises Exception itself; its reason goes into the message
+        raise InputError(
+            "record", f"{path.name}: dataset {index + 1} (type {int(types[index])}) is not readable ({err})"
+        ) from None
+
+
 def _names(sets: list[dict]) -> list[str]:
     """Each channel's name: ID line 1, unless it is empty or another channel's too (bench software often writes
     one description, "Time Response", into every dataset), then its response node and direction (node11:-2), and
@@ -169,17 +184,17 @@ def _names(sets: list[dict]) -> list[str]:
     return [name if out.count(name) == 1 else f"{name}#{out[:k].count(name) + 1}" for k, name in enumerate(out)]
 
 
-def _nodes(uff: pyuff.UFF, types: list) -> dict[int, tuple[tuple[float, float, float], np.ndarray]]:
+def _nodes(uff: pyuff.UFF, types: list, path: Path) -> dict[int, tuple[tuple[float, float, float], np.ndarray]]:
     """Each node's global coordinates [m] and the axes of its displacement coordinate system (rows: x, y, z in
     global coordinates) from the file's geometry (datasets 15 and 2411) and coordinate systems (2420 and 18),
     converted from the length unit of its first dataset 164 (SI = file value / its length factor; SI without
     one)."""
     units = [i for i, t in enumerate(types) if int(t) == 164]
-    length = float(uff.read_sets(units[0]).get("length") or 1.0) if units else 1.0
-    systems = _coordinate_systems(uff, types, length)
+    length = float(_read_set(uff, units[0], types, path).get("length") or 1.0) if units else 1.0
+    systems = _coordinate_systems(uff, types, length, path)
     out: dict[int, tuple[tuple[float, float, float], np.ndarray]] = {}
     for i in (i for i, t in enumerate(types) if int(t) in (15, 2411)):
-        geometry = uff.read_sets(i)
+        geometry = _read_set(uff, i, types, path)
         xyz = np.column_stack([np.atleast_1d(geometry[a]) for a in "xyz"]).astype(float) / length
         labels = [np.atleast_1d(geometry.get(key, np.zeros(len(xyz)))).astype(int) for key in ("def_cs", "disp_cs")]
         for node, p, defined, displaced in zip(np.atleast_1d(geometry["node_nums"]), xyz, *labels, strict=True):
@@ -199,18 +214,20 @@ _SAME_SYSTEM = 1e-4
 size, 1 m at least): dataset 18 writes six significant digits."""
 
 
-def _coordinate_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int, tuple[np.ndarray, np.ndarray, int]]:
+def _coordinate_systems(
+    uff: pyuff.UFF, types: list, length: float, path: Path
+) -> dict[int, tuple[np.ndarray, np.ndarray, int]]:
     """The coordinate systems of the file's datasets 2420 and 18: label -> (axes, rows the local x, y, z in global
     coordinates; origin [m]; type, 0 Cartesian). A transformation whose axes are not orthonormal is an error."""
     out = {}
     for i in (i for i, t in enumerate(types) if int(t) == 2420):
-        found = uff.read_sets(i)
+        found = _read_set(uff, i, types, path)
         for label, kind, matrix in zip(found["CS_sys_labels"], found["CS_types"], found["CS_matrices"], strict=True):
             m = np.asarray(matrix, dtype=float)
             if m.shape != (4, 3) or not np.allclose(m[:3] @ m[:3].T, np.eye(3), rtol=0, atol=1e-6):
                 raise InputError("record", f"coordinate system {label} (dataset 2420): its axes are not orthonormal")
             out[int(label)] = (m[:3], m[3] / length, int(kind))
-    legacy = _legacy_systems(uff, types, length)
+    legacy = _legacy_systems(uff, types, length, path)
     for label, (axes, origin, kind) in _resolved(legacy, out).items():
         if label in out:
             a, o, k = out[label]
@@ -225,13 +242,13 @@ def _coordinate_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int,
     return out
 
 
-def _legacy_systems(uff: pyuff.UFF, types: list, length: float) -> dict[int, tuple[int, int, np.ndarray]]:
+def _legacy_systems(uff: pyuff.UFF, types: list, length: float, path: Path) -> dict[int, tuple[int, int, np.ndarray]]:
     """The coordinate systems of the file's datasets 18 as given: label -> (type, reference system, rows: the
     origin, a point on the +x axis and a point in the +xz plane in the reference system [m]). A method of
     definition other than 1 (the only one the format defines) is an error."""
     out = {}
     for i in (i for i, t in enumerate(types) if int(t) == 18):
-        found = uff.read_sets(i)
+        found = _read_set(uff, i, types, path)
         keys = ("cs_num", "cs_type", "ref_cs_num", "method", "ref_o", "x_point", "xz_point")
         for label, kind, reference, method, origin, x_point, xz_point in zip(*(found[k] for k in keys), strict=True):
             if int(method) != 1:
