@@ -162,6 +162,23 @@ def test_a_record_too_short_for_the_modes_is_a_named_error(duration, tmp_path, c
     assert err.count("\n") == 1 and "too short" in err
 
 
+@pytest.mark.parametrize(
+    ("start", "message"),
+    [
+        (math.nan, "start: must be a finite time \\[s\\], got nan"),
+        (-math.inf, "start: must be a finite time \\[s\\], got -inf"),
+        (2.5, "record: too short: 0 s of free decay after the start \\(2.5 s\\)"),
+    ],
+)
+def test_a_start_that_is_no_time_of_the_record_is_a_named_error(start, message):
+    """A NaN start passed every length check (NaN compares false) and failed in the pencil as a record of 0
+    samples; -inf was taken as the record's beginning without a word; a start past the record's end is the
+    record too short for it."""
+    record = _rig().simulate(SIX, 2.0, 2048.0, hammers=[HIT])
+    with pytest.raises(InputError, match=f"^{message}"):
+        identify_from_record(Machine.resolve("kid300"), record, KNOWN, start)
+
+
 # -- clipping ---------------------------------------------------------------------------------------------
 def test_clipping_under_noise_is_named():
     """A sensor saturated before the electronics add their noise: no exact flat top, still clipping."""

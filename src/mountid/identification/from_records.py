@@ -1047,7 +1047,10 @@ def _coherence_warnings(
 def _check_length(record: Record, start: float, lowest: float, settings: RecordSettings) -> None:
     """A named error when the free decay after ``start`` [s] holds fewer than settings.min_periods periods of
     the lowest mode expected (``lowest`` [rad/s], the model's at the nominal values): the pencil cannot
-    resolve it, and a shorter segment would only fail later with a less useful message."""
+    resolve it, and a shorter segment would only fail later with a less useful message. A start that is not
+    finite is an error naming the start (NaN passed every comparison and failed in the pencil)."""
+    if not math.isfinite(start):
+        raise InputError("start", f"must be a finite time [s], got {start}")
     length = float(record.time[-1]) - max(start, float(record.time[0]))
     periods = max(length, 0.0) * lowest / (2 * np.pi)
     if periods < settings.min_periods:
