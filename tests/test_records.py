@@ -76,8 +76,11 @@ def test_uff58_round_trip(tmp_path):
 
 def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_channel(tmp_path):
     """pyuff raises a bare Exception on a block it cannot parse (it ended in a traceback); a channel cut short by
-    a transfer names the first channel's length beside its own."""
-    from mountid.measurement.uff import read_uff, write_uff
+    a transfer names the first channel's length beside its own, a channel on other sample times the first sample
+    apart."""
+    import pyuff
+
+    from mountid.measurement.uff import dataset_58, read_uff, write_uff
 
     (tmp_path / "bad.uff").write_text("    -1\n    58\nnot a dataset\n    -1\n")
     with pytest.raises(InputError, match=r"^record: bad.uff: dataset 1 \(type 58\) is not readable \("):
@@ -86,8 +89,16 @@ def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_chann
     text = (tmp_path / "r.uff").read_text()
     first_end = text.index("    -1", text.index("    -1") + 10)
     (tmp_path / "cut.uff").write_text(text[: first_end - 200] + text[first_end:])
-    with pytest.raises(InputError, match=r"^B_y: sampling differs from the first channel's, A_x \(100 samples .* 9\d "):
+    with pytest.raises(InputError, match=r"^B_y: 100 samples against 9\d of the first channel, A_x \(one record"):
         read_uff(tmp_path / "cut.uff")
+    rec = _record()
+    sets = [
+        dataset_58(channel, rec.time + (0.5 if k else 0.0), rec.data[:, k], k + 1, 0, "")
+        for k, channel in enumerate(rec.channels)
+    ]
+    pyuff.UFF(str(tmp_path / "late.uff")).write_sets(sets, mode="add")
+    with pytest.raises(InputError, match=r"^B_y: sample \d+ at 0.5\d* s against 0 s of the first channel, A_x"):
+        read_uff(tmp_path / "late.uff")
 
 
 def _bench_uff(

@@ -131,11 +131,18 @@ def read_uff(path: str | Path) -> Record:
     for n, s in enumerate(sets):
         name = names[n]
         x = np.asarray(s["x"], dtype=float)
-        if len(x) != len(time) or not np.allclose(x, time, rtol=0, atol=1e-9 * max(1.0, abs(time[-1]))):
+        if len(x) != len(time):
             raise InputError(
                 name,
-                f"sampling differs from the first channel's, {names[0]} ({len(x)} samples from {x[0]:.6g} s "
-                f"against {len(time)} from {time[0]:.6g} s; one record needs one time base)",
+                f"{len(x)} samples against {len(time)} of the first channel, {names[0]} (one record needs one "
+                "time base: a channel cut short or sampled at another rate)",
+            )
+        if not np.allclose(x, time, rtol=0, atol=1e-9 * max(1.0, abs(time[-1]))):
+            k = int(np.argmax(np.abs(x - time)))
+            raise InputError(
+                name,
+                f"sample {k} at {x[k]:.9g} s against {time[k]:.9g} s of the first channel, {names[0]} (one "
+                "record needs one time base)",
             )
         point = direction = (math.nan,) * 3
         meta = str(s.get("id4", "")).strip()
