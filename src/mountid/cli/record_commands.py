@@ -80,7 +80,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             }
         )
         return
-    print(f"wrote {args.out}: {len(record.time)} samples x {len(record.channels)} channels ({', '.join(record.names)})")
+    count = f"{len(record.channels)} channel{'s' if len(record.channels) != 1 else ''}"
+    print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
 
 
 def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
@@ -110,7 +111,8 @@ def cmd_plan(args: argparse.Namespace) -> None:
         print_json(result.to_dict())
         return
     print(
-        f"{machine.name}: {len(sensors)} channels ({', '.join(s.name for s in sensors)}), a hit at "
+        f"{machine.name}: {len(sensors)} channel{'s' if len(sensors) != 1 else ''} "
+        f"({', '.join(s.name for s in sensors)}), a hit at "
         f"{hit.point} along {hit.direction}, {args.duration:g} s at {args.rate:g} Hz, noise {args.noise:g} x RMS"
     )
     print(f"  {'mode':8s}{'frequency':>11s}{'zeta':>8s}  {'expected std: frequency':>24s}{'zeta':>10s}")
