@@ -90,6 +90,15 @@ def test_a_missing_record_is_named(folder, capsys):
     assert "records.0" in capsys.readouterr().err
 
 
+def test_an_unreadable_uff_record_names_its_file_once(tmp_path):
+    """The reader's reason names the file (mountid.measurement.uff: `identify-record` shows only the reason's
+    parameter, "record"); in a campaign the entry names it, and the reason does not again."""
+    (tmp_path / "garbled.uff").write_text("    -1\n    58\nnot a dataset\n    -1\n")
+    data = {"machine": "kid300", "known": KNOWN, "records": ["garbled.uff"]}
+    with pytest.raises(InputError, match=r"^records\.0 \(garbled\.uff\): dataset 1 \(type 58\) is not readable"):
+        campaign.parse(data, tmp_path)
+
+
 def test_records_on_a_description_without_nominal_unknowns(folder):
     """The records chain labels its poles against the model at its nominal values: a campaign of records alone on
     a description without them is a named error, and with measured frequencies under modes the records are

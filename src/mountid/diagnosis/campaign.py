@@ -707,7 +707,9 @@ def _modes_from_records(
             continue
         except InputError as err:  # which of the campaign's records, and what of it
             what = "" if err.parameter == "record" else f"{err.parameter}: "
-            raise InputError(f"{where}.{i} ({source.path.name})", f"{what}{err.reason}") from None
+            # the file is named once, in the parameter (a reader's reason may start with it: uff._read_set)
+            reason = err.reason.removeprefix(f"{source.path.name}: ")
+            raise InputError(f"{where}.{i} ({source.path.name})", f"{what}{reason}") from None
         here = [replace(w, record=source.path.name) for w in warnings]
         warned += here
         notes += [w.describe() for w in here]
