@@ -368,6 +368,33 @@ def test_a_turned_channel_is_found_and_named():
     assert report.confident
 
 
+def _two_turned_campaign(channels: str, turns: tuple[float, float, float, float]) -> dict:
+    """Noise-free shapes of kid300 as estimated from the 12-channel layout with the two channels ``channels``
+    ('S2_y & S4_x') turned by ``turns`` (turn_1 .. turn_4)."""
+    data = _campaign_from(None, {})
+    data["sensors"] = _layout()
+    effect = EFFECTS["two_sensors_turned"]
+    model = CandidateModel(parse(data), effect, strategy(effect).variants(parse(data)).index(channels))
+    pred = model.predict(model.vector({**UNKNOWN, **dict(zip(strategy(effect).parameters, turns, strict=True))}))
+    for label, shape in zip(model.labels, pred.shapes, strict=True):
+        s = np.array(shape, dtype=float)
+        s[3:] /= model.length
+        data["modes"][label]["shape"] = s.tolist()
+    return data
+
+
+def test_two_turned_channels_are_found_and_named():
+    """Two channels turned (TurnedPair): the screen from the frequencies' unknowns finds the pair among the 66,
+    the fit recovers both turns, and one channel's turn or offset does not stand beside it."""
+    data = _two_turned_campaign("S2_y & S4_x", (0.25, -0.1, -0.05, 0.2))
+    report = diagnose_effects(parse(data))
+    best = report.best
+    assert best.effect == "two_sensors_turned" and best.variant == "S2_y & S4_x"
+    for name, value in zip(("turn_1", "turn_2", "turn_3", "turn_4"), (0.25, -0.1, -0.05, 0.2), strict=True):
+        assert best.parameters[name] == pytest.approx(value, abs=1e-3), name
+    assert report.confident and report.tie == ["two_sensors_turned"]
+
+
 def _misplaced_campaign(channel: int, offset: tuple[float, float, float]) -> tuple[dict, np.ndarray]:
     """Noise-free shapes of kid300 as the blind truth reads them (its own rigid-body kinematics, not the
     candidate's) from the 12-channel layout with one channel's sensor ``offset`` [m] off its stated point; and

@@ -17,7 +17,7 @@ from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import DEGENERATE, CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
 from mountid.diagnosis.jacobian import EQUAL, _off_span_derivative, _span_factors, jacobian
-from mountid.diagnosis.strategies import stacked_rows, turned_axis
+from mountid.diagnosis.strategies import stacked_rows, strategy, turned_axis
 from mountid.effects import EFFECTS, pair
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
@@ -159,6 +159,21 @@ def test_misplaced_channel_jacobian_matches_a_central_difference():
     data = Data(campaign, model.length)
     fun, _ = _residual_function(model, data, None)
     theta = model.vector({**UNKNOWN, "offset_1": 0.05, "offset_2": -0.12})
+    analytic = jacobian(model, data, theta)
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
+
+
+def test_two_turned_channels_jacobian_matches_a_central_difference():
+    from test_candidates import _two_turned_campaign
+
+    campaign = parse(_two_turned_campaign("S1_z & S3_y", (0.1, 0.04, -0.2, 0.05)))
+    effect = EFFECTS["two_sensors_turned"]
+    model = CandidateModel(campaign, effect, strategy(effect).variants(campaign).index("S1_z & S3_y"))
+    data = Data(campaign, model.length)
+    fun, _ = _residual_function(model, data, None)
+    theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": 0.03, "turn_3": -0.15, "turn_4": 0.1})
     analytic = jacobian(model, data, theta)
     h = 1e-6
     numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])

@@ -30,6 +30,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``reversal``: one channel of that layout reads with its polarity reversed (along -d); its row is negated. No
   parameter: the fit is the unknowns' alone, at the channels whose reversal promises most from the unknowns the
   frequencies identify.
+- ``channels``: two channels of that layout read along turned axes; the shapes are the least-squares estimate
+  with both rows turned. Fitted at the pairs of channels whose turns promise most; two effects of one kind
+  (``Effect.parts``): a pair's prior odds, and never part of a pair.
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -56,6 +59,7 @@ EFFECT_KINDS: tuple[str, ...] = (
     "channel",
     "placement",
     "reversal",
+    "channels",
 )
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
@@ -122,6 +126,12 @@ class Effect:
     parameters: tuple[EffectParameter, ...]
     signature: str
     """One line: what the effect does to the six modes."""
+    parts: int = 1
+    """How many effects of one kind it stands for (two turned channels: 2): its prior odds against a single
+    effect are a pair's (DiagnosisSettings.pair_prior) per part beyond the first, and it is never part of a pair."""
+    extends: str = ""
+    """The effect it holds as its special case, its other parts nil (two turned channels hold one turned channel):
+    it fits that effect's data as well, so the data never rule it out beside it (candidates.rank)."""
 
     def __post_init__(self) -> None:
         if self.kind not in EFFECT_KINDS:
@@ -406,6 +416,57 @@ CATALOGUE: tuple[Effect, ...] = (
         "one channel reads the opposite of the motion along its axis: the shapes estimated from the layout are "
         "distorted along that channel's column of the layout's pseudo-inverse; frequencies exactly unchanged",
     ),
+    Effect(
+        "two_sensors_turned",
+        "channels",
+        "two channels' sensors turned (misaligned) on their mounts",
+        (
+            _p(
+                "turn_1",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the first channel toward the first axis across it",
+                False,
+            ),
+            _p(
+                "turn_2",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the first channel toward the second axis across it",
+                False,
+            ),
+            _p(
+                "turn_3",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the second channel toward the first axis across it",
+                False,
+            ),
+            _p(
+                "turn_4",
+                "rad",
+                "one",
+                -0.35,
+                0.35,
+                0.0,
+                "turn of the second channel toward the second axis across it",
+                False,
+            ),
+        ),
+        "two channels read along turned axes: the shapes estimated from the layout are distorted in the motions "
+        "those channels carry, in ways one channel's turn or offset does not reach; frequencies exactly unchanged",
+        parts=2,
+        extends="sensor_turned",
+    ),
 )
 """Every candidate effect, in the order reports list them."""
 
@@ -468,12 +529,13 @@ class Pair:
 
 def pair(a: Effect, b: Effect) -> Pair | None:
     """The pair of two different catalogue effects in catalogue order (None when they do not compose:
-    PAIR_EXCLUSIONS, either is the damping effect, or either stiffens each mode on its own (kind ``amplitude``:
-    no change of M and C to add))."""
+    PAIR_EXCLUSIONS, either is the damping effect, either stiffens each mode on its own (kind ``amplitude``:
+    no change of M and C to add), or either is two effects of one kind already (Effect.parts))."""
     if (
         a.name == b.name
         or "damping" in (a.name, b.name)
         or "amplitude" in (a.kind, b.kind)
+        or max(a.parts, b.parts) > 1
         or frozenset({a.name, b.name}) in PAIR_EXCLUSIONS
     ):
         return None

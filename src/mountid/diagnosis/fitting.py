@@ -85,8 +85,8 @@ class CandidateFit:
     """Added to the log of the summed evidence of the variants: -log(number of variants) for a candidate whose
     isolator or channel is unknown (its evidence is the mean over them), else 0."""
     log_prior: float = 0.0
-    """Log prior odds of the candidate against a single effect (0; a pair of effects less, see
-    DiagnosisSettings.pair_prior)."""
+    """Log prior odds of the candidate against a single effect (0; a pair of effects, or an effect that stands for
+    two of one kind, less: DiagnosisSettings.pair_prior, candidates.effect_prior)."""
     probability: float = math.nan
     """Posterior probability of the candidate among those ranked (set by the ranking)."""
     log_weight: float = -math.inf

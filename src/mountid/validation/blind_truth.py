@@ -50,7 +50,7 @@ explained" or in a tie, never confident):
   the machine's modes: its apparent mass changes sign across its resonance (a vibration absorber), which
   neither a rigid added mass nor stiffening rubber reproduces (9 coordinates);
 - ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
-  ``sensor_turned``), where the catalogue turns one;
+  ``sensor_turned``), the truth of the catalogue's ``two_sensors_turned`` (written when it turned one only);
 - ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
   the catalogue does not compose (both change how the same reading is taken).
 
@@ -93,17 +93,21 @@ REPRESENTED_BY: dict[str, str | None] = {
     "nonlinear_isolator": "rubber_hardening",
     "resilient_attachment": None,
     "support_frame+isolator_scatter": "isolator_scatter+foundation",
-    "sensor_turned+sensor_turned": None,
+    "sensor_turned+sensor_turned": "two_sensors_turned",
     "sensor_turned+sensor_misplaced": None,
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
 
-DRAWN_AS: dict[str, str] = {"rubber_hardening": "nonlinear_isolator"}
+DRAWN_AS: dict[str, str] = {
+    "rubber_hardening": "nonlinear_isolator",
+    "two_sensors_turned": "sensor_turned+sensor_turned",
+}
 """Catalogue effects whose truth is one of other physics (REPRESENTED_BY), drawn under its own name: the harness's
 hardening isolators (written before the catalogue had hardening rubber; the candidate assumes every mode excited to
-the same largest isolator deformation, as the truth does) stay the one truth of hardening rubber, so that the
-benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
+the same largest isolator deformation, as the truth does) stay the one truth of hardening rubber, and two turned
+channels (a truth of two parts, written before the catalogue had two channels turned) the one truth of theirs, so
+that the benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
 
 OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
 """Truths no candidate of the catalogue represents."""
