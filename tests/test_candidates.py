@@ -345,17 +345,24 @@ def _layout() -> list[dict]:
     ]
 
 
-def _turned_campaign(channel: int, turn: tuple[float, float]) -> dict:
-    """Noise-free shapes of kid300 as estimated from the 12-channel layout with one channel turned."""
+def _read_through(effect: str, variant: int | str, values: dict[str, float]) -> dict:
+    """Noise-free shapes of kid300 as estimated from the 12-channel layout read as the channel effect ``effect``
+    at ``variant`` (an index or a name) with ``values`` says."""
     data = _campaign_from(None, {})
     data["sensors"] = _layout()
-    model = CandidateModel(parse(data), EFFECTS["sensor_turned"], channel)
-    pred = model.predict(model.vector({**UNKNOWN, "turn_1": turn[0], "turn_2": turn[1]}))
+    names = strategy(EFFECTS[effect]).variants(parse(data))
+    model = CandidateModel(parse(data), EFFECTS[effect], names.index(variant) if isinstance(variant, str) else variant)
+    pred = model.predict(model.vector({**UNKNOWN, **values}))
     for label, shape in zip(model.labels, pred.shapes, strict=True):
         s = np.array(shape, dtype=float)
         s[3:] /= model.length
         data["modes"][label]["shape"] = s.tolist()
     return data
+
+
+def _turned_campaign(channel: int, turn: tuple[float, float]) -> dict:
+    """Noise-free shapes of kid300 as estimated from the 12-channel layout with one channel turned."""
+    return _read_through("sensor_turned", channel, {"turn_1": turn[0], "turn_2": turn[1]})
 
 
 def test_a_turned_channel_is_found_and_named():
@@ -371,16 +378,8 @@ def test_a_turned_channel_is_found_and_named():
 def _two_turned_campaign(channels: str, turns: tuple[float, float, float, float]) -> dict:
     """Noise-free shapes of kid300 as estimated from the 12-channel layout with the two channels ``channels``
     ('S2_y & S4_x') turned by ``turns`` (turn_1 .. turn_4)."""
-    data = _campaign_from(None, {})
-    data["sensors"] = _layout()
-    effect = EFFECTS["two_sensors_turned"]
-    model = CandidateModel(parse(data), effect, strategy(effect).variants(parse(data)).index(channels))
-    pred = model.predict(model.vector({**UNKNOWN, **dict(zip(strategy(effect).parameters, turns, strict=True))}))
-    for label, shape in zip(model.labels, pred.shapes, strict=True):
-        s = np.array(shape, dtype=float)
-        s[3:] /= model.length
-        data["modes"][label]["shape"] = s.tolist()
-    return data
+    names = ("turn_1", "turn_2", "turn_3", "turn_4")
+    return _read_through("two_sensors_turned", channels, dict(zip(names, turns, strict=True)))
 
 
 def test_two_turned_channels_are_found_and_named():

@@ -155,6 +155,11 @@ def _p(
     )
 
 
+def _turn(name: str, text: str) -> EffectParameter:
+    """A channel's turn toward one axis across it [rad]: within 0.35 rad (20 degrees) either way, from 0."""
+    return _p(name, "rad", "one", -0.35, 0.35, 0.0, text, False)
+
+
 CATALOGUE: tuple[Effect, ...] = (
     Effect(
         "com_offset",
@@ -355,26 +360,8 @@ CATALOGUE: tuple[Effect, ...] = (
         "channel",
         "one channel's sensor turned (misaligned) on its mount",
         (
-            _p(
-                "turn_1",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the sensor's axis toward the first axis across it",
-                False,
-            ),
-            _p(
-                "turn_2",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the sensor's axis toward the second axis across it",
-                False,
-            ),
+            _turn("turn_1", "turn of the sensor's axis toward the first axis across it"),
+            _turn("turn_2", "turn of the sensor's axis toward the second axis across it"),
         ),
         "one channel reads along a turned axis: the shapes estimated from the layout are distorted in the motions "
         "that channel carries; frequencies exactly unchanged",
@@ -421,46 +408,10 @@ CATALOGUE: tuple[Effect, ...] = (
         "channels",
         "two channels' sensors turned (misaligned) on their mounts",
         (
-            _p(
-                "turn_1",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the first channel toward the first axis across it",
-                False,
-            ),
-            _p(
-                "turn_2",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the first channel toward the second axis across it",
-                False,
-            ),
-            _p(
-                "turn_3",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the second channel toward the first axis across it",
-                False,
-            ),
-            _p(
-                "turn_4",
-                "rad",
-                "one",
-                -0.35,
-                0.35,
-                0.0,
-                "turn of the second channel toward the second axis across it",
-                False,
-            ),
+            _turn("turn_1", "turn of the first channel toward the first axis across it"),
+            _turn("turn_2", "turn of the first channel toward the second axis across it"),
+            _turn("turn_3", "turn of the second channel toward the first axis across it"),
+            _turn("turn_4", "turn of the second channel toward the second axis across it"),
         ),
         "two channels read along turned axes: the shapes estimated from the layout are distorted in the motions "
         "those channels carry, in ways one channel's turn or offset does not reach; frequencies exactly unchanged",
