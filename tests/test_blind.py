@@ -103,7 +103,15 @@ def test_score_counts_a_confident_verdict_on_a_case_without_an_effect():
         blind.CaseResult("none", ("cog_height",), ("cog_height",), True, True, False, float("nan"), "confident", 0.99),
         blind.CaseResult("cog_height", ("cog_height",), ("cog_height",), True, True, True, 0.9, "confident", 0.99),
         blind.CaseResult(
-            "sensor_turned+sensor_turned", ("foundation",), ("foundation",), True, True, False, 0.5, "confident", 0.97
+            "sensor_turned+sensor_misplaced",
+            ("foundation",),
+            ("foundation",),
+            True,
+            True,
+            False,
+            0.5,
+            "confident",
+            0.97,
         ),
         blind.CaseResult(
             "resilient_attachment", ("added_mass",), ("added_mass",), True, False, False, 0.5, "not explained", 1.0
