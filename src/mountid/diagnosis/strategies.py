@@ -681,9 +681,9 @@ class TurnedPair(LayoutReading):
     turn_4) [rad] across them (turned_axis): the shapes are the least-squares estimate P^+ P' q with both rows of
     P' turned. Its variants are the pairs of channels (66 on twelve channels); it is fitted at the
     ``screened_variants`` pairs whose turns promise most from the unknowns the frequencies identify (turns
-    leave the frequencies unchanged), its evidence the sum of theirs over all pairs. Two channels turned are
-    outside what one channel's turn or offset reaches, and one misplaced channel fitted them within the
-    uncertainty (kid300axes, blind seed 779 with shapes: S3_x and S4_x turned by 0.33 and 0.28 rad, one
+    leave the frequencies unchanged), its evidence the mean over all pairs (the others adding nothing). Two
+    channels turned are outside what one channel's turn or offset reaches, and one misplaced channel fitted them
+    within the uncertainty (kid300axes, blind seed 779 with shapes: S3_x and S4_x turned by 0.33 and 0.28 rad, one
     misplaced at S3_x named with probability 1.00)."""
 
     parameters = ("turn_1", "turn_2", "turn_3", "turn_4")
