@@ -436,23 +436,19 @@ def _held_within_plausible(
             log_prior=f.log_prior,
         )
     free = dict(zip(f.state.variants_by_fit, f.state.variant_parameters, strict=True))
-    if len(free) < len(names):  # fitted at the screened variants only (_screened_variants): refitted there
-        variants = [
-            fit_candidate(
-                campaign,
-                effect,
-                names.index(name),
-                starts=[model.vector(free[name]), *model.start()],
-                within_plausible=True,
-            )
-            for name in f.state.variants_by_fit
-        ]
-        return replace(_over_variants(variants, settings, len(names)), log_prior=f.log_prior)
+    # refitted where it was fitted: at every variant, or at the screened ones only (_screened_variants)
+    refit = names if len(free) == len(names) else f.state.variants_by_fit
     variants = [
-        fit_candidate(campaign, effect, i, starts=[model.vector(free[name]), *model.start()], within_plausible=True)
-        for i, name in enumerate(names)
+        fit_candidate(
+            campaign,
+            effect,
+            names.index(name),
+            starts=[model.vector(free[name]), *model.start()],
+            within_plausible=True,
+        )
+        for name in refit
     ]
-    return _over_variants(variants, settings)
+    return replace(_over_variants(variants, settings, len(names)), log_prior=f.log_prior)
 
 
 def fit_pairs(
