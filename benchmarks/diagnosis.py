@@ -240,7 +240,7 @@ def reversed_beside(
     )
     elapsed = time.perf_counter() - t
     print(
-        f"a reversed channel beside a physical effect ({', '.join(truths)}; the last outside the catalogue), "
+        f"a reversed channel beside a physical effect ({', '.join(truths)}; each represented by its pair), "
         f"seeds from {first_seed}, columns as above:"
     )
     pooled = _table(results, kinds, machines)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_candidates import SHAPE_SIGMA, SIGMA_REL, UNKNOWN, _campaign_from
+from test_candidates import SHAPE_SIGMA, SIGMA_REL, UNKNOWN, _campaign_from, _layout
 
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import CandidateModel
@@ -184,6 +184,86 @@ def test_a_pair_fits_its_own_data_back(names):
         return
     assert fit.chi2 < 1e-3
     for name, value in {**UNKNOWN, **values}.items():
+        assert fit.parameters[name] == pytest.approx(value, rel=1e-3, abs=1e-5), name
+
+
+SCATTER_REVERSED = {"scatter_shear": -0.2, "scatter_axial": 0.3}
+"""One isolator 20 % softer in shear and 30 % stiffer along its axis, beside a reversed channel (no parameter)."""
+
+
+def _scatter_reversed(where: str) -> tuple[dict, int]:
+    """Noise-free frequencies and shapes of kid300 with one isolator scattered (SCATTER_REVERSED) and one channel
+    of the 12-channel layout reversed, the pair at ``where`` ('isolator & channel'); and that variant's index."""
+    both = _pair("isolator_scatter", "sensor_reversed")
+    data = _campaign_from(None, {})
+    data["sensors"] = _layout()
+    variant = strategy(both).variants(parse(data)).index(where)
+    model = CandidateModel(parse(data), both, variant)
+    pred = model.predict(model.vector({**UNKNOWN, **SCATTER_REVERSED}))
+    for label, w, shape in zip(model.labels, pred.frequencies, pred.shapes, strict=True):
+        s = np.array(shape, dtype=float)
+        s[3:] /= model.length
+        data["modes"][label].update(frequency=float(w), uncertainty=SIGMA_REL * float(w), shape=s.tolist())
+    return data, variant
+
+
+def test_a_scattered_isolator_beside_a_reversed_channel_acts_at_its_isolator_and_its_channel():
+    """Both members act per variant (Composite, MemberView): the pair's variants are every isolator with every
+    channel, and at one of them its stiffness is the scattered isolator's alone at that isolator, its shapes the
+    layout read with that channel reversed, each member at its own variant."""
+    both = _pair("isolator_scatter", "sensor_reversed")
+    data, variant = _scatter_reversed("corner[+x-y] & S3_y")
+    campaign = parse(data)
+    composite = strategy(both)
+    isolators = campaign.machine.module.ISOLATORS
+    channels = [c.name for c in campaign.sensors]
+    assert composite.variants(campaign) == tuple(f"{i} & {c}" for i in isolators for c in channels)
+    isolator, channel = isolators.index("corner[+x-y]"), channels.index("S3_y")
+    assert composite.member_variants(campaign, variant) == (isolator, channel)
+    model = CandidateModel(campaign, both, variant)
+    alone = CandidateModel(campaign, EFFECTS["isolator_scatter"], isolator)
+    reversed_alone = CandidateModel(campaign, EFFECTS["sensor_reversed"], channel)
+    values = {**model.known, **UNKNOWN, **SCATTER_REVERSED}
+    m, c, _ = model.strategy.matrices(model, values)
+    m1, c1, _ = alone.strategy.matrices(alone, values)
+    assert np.array_equal(m, m1)
+    assert np.allclose(c, c1, rtol=1e-13, atol=1e-13 * np.max(np.abs(c1)))
+    vectors = np.random.default_rng(3).normal(size=(6, 6))
+    shapes = model.strategy.shapes(model, values, vectors)
+    assert np.array_equal(shapes, reversed_alone.strategy.shapes(reversed_alone, values, vectors))
+    assert not np.allclose(shapes, vectors, atol=0.1)  # the reversal reads otherwise than the body moves
+
+
+def test_a_scattered_isolator_beside_a_reversed_channel_jacobian_matches_a_central_difference():
+    both = _pair("isolator_scatter", "sensor_reversed")
+    data, variant = _scatter_reversed("corner[-x+y] & S2_z")
+    campaign = parse(data)
+    model = CandidateModel(campaign, both, variant)
+    fit_data = Data(campaign, model.length)
+    fun, _ = _residual_function(model, fit_data, None)
+    theta = model.vector({**UNKNOWN, **SCATTER_REVERSED}) + np.random.default_rng(6).normal(0, 0.01, 4)
+    analytic = jacobian(model, fit_data, theta)
+    assert analytic is not None
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
+
+
+def test_a_scattered_isolator_beside_a_reversed_channel_fits_its_own_data_back():
+    """At its isolator and channel from its members' single fits there (candidates.pair_starts takes each
+    member's fit at its own part of the pair's variant); neither member alone fits."""
+    both = _pair("isolator_scatter", "sensor_reversed")
+    where = "corner[-x+y] & S2_z"
+    data, variant = _scatter_reversed(where)
+    campaign = parse(data)
+    model = CandidateModel(campaign, both, variant)
+    channel = [c.name for c in campaign.sensors].index("S2_z")
+    scatter = fit_candidate(campaign, EFFECTS["isolator_scatter"], 1)
+    reversal = fit_candidate(campaign, EFFECTS["sensor_reversed"], channel)
+    assert min(scatter.chi2, reversal.chi2) > 100
+    fit = fit_candidate(campaign, both, variant, starts=list(pair_starts(model, scatter, reversal, where).all))
+    assert fit.variant == where and fit.chi2 < 1e-3
+    for name, value in {**UNKNOWN, **SCATTER_REVERSED}.items():
         assert fit.parameters[name] == pytest.approx(value, rel=1e-3, abs=1e-5), name
 
 

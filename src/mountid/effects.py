@@ -433,19 +433,20 @@ PAIR_EXCLUSIONS: dict[frozenset[str], str] = {
     frozenset({"foundation", "gravity_preload"}): "the isolators stand on the support, not on the ground",
     frozenset({"foundation", "frequency_dependent"}): "the support's springs would stiffen with the rubber",
     frozenset({"sensor_error", "sensor_turned"}): "both change how the shapes are read",
-    frozenset({"isolator_scatter", "sensor_turned"}): "each is fitted per isolator or per channel, not both",
+    frozenset({"isolator_scatter", "sensor_turned"}): "at every isolator by every channel: 48 to 96 fits",
     frozenset({"sensor_error", "sensor_misplaced"}): "both change how the shapes are read",
     frozenset({"sensor_turned", "sensor_misplaced"}): "both change how the shapes are read",
-    frozenset({"isolator_scatter", "sensor_misplaced"}): "each is fitted per isolator or per channel, not both",
+    frozenset({"isolator_scatter", "sensor_misplaced"}): "at every isolator by every channel: 48 to 96 fits",
     frozenset({"sensor_error", "sensor_reversed"}): "both change how the shapes are read",
     frozenset({"sensor_turned", "sensor_reversed"}): "both change how the shapes are read",
     frozenset({"sensor_misplaced", "sensor_reversed"}): "both change how the shapes are read",
-    frozenset({"isolator_scatter", "sensor_reversed"}): "each is fitted per isolator or per channel, not both",
 }
 """Pairs of effects that do not compose by adding their changes of M, C and B (the changes act on the same
-energy term, or one effect's energy is written for isolators on the ground), with the reason. The damping
-effect (the measured frequencies are damped ones) is a reading of the data, not a second physical effect:
-it is never paired."""
+energy term, or one effect's energy is written for isolators on the ground, or the pair would be fitted at
+every isolator with every channel), with the reason. A scattered isolator beside a reversed channel is a pair:
+the reversal is fitted at few channels (its screen), and the pair at each of those with each isolator. The
+damping effect (the measured frequencies are damped ones) is a reading of the data, not a second physical
+effect: it is never paired."""
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, partial
 from typing import NamedTuple
 
 import numpy as np
@@ -57,7 +57,7 @@ from mountid.diagnosis.fitting import (
 )
 from mountid.diagnosis.levels import StiffnessChange, amplitude_dependent, picked_solution
 from mountid.diagnosis.settings import DIAGNOSIS, DiagnosisSettings
-from mountid.diagnosis.strategies import strategy
+from mountid.diagnosis.strategies import Composite, both_variants, strategy
 from mountid.effects import CATALOGUE, EFFECTS, Effect, EffectParameter, Pair, pair
 
 
@@ -347,18 +347,25 @@ def _at_other_isolators(best: CandidateFit, settings: DiagnosisSettings = DIAGNO
     where it fits as well (chi^2 within settings.tie) named in its note, as a single effect's fits at every
     isolator name theirs (_over_variants). A pair is fitted only at the isolators its screen ranks, and without
     mode shapes mirror-image corners fit alike (kid300 seed 1040 with damping ratios: the pair named at
-    corner[-x+y], the truth's corner[+x+y] at the same chi^2). The pair itself unchanged where none does."""
+    corner[-x+y], the truth's corner[+x+y] at the same chi^2). Where both members act per variant (a scattered
+    isolator beside a reversed channel), at the other isolators with the same channel. The pair itself unchanged
+    where none does."""
     state = best.state
     if state is None or "+" not in best.effect or not best.variant or state.variants_by_fit:
         return best
     model = state.model
-    names = strategy(model.effect).variants(model.campaign)
+    composite = strategy(model.effect)
+    assert isinstance(composite, Composite)
+    names = composite.variants(model.campaign)
+    parts = partial(composite.member_variants, model.campaign)
+    here = parts(model.variant)
+    # where both members act per variant, the other isolators with the same channel
+    others = [i for i in range(len(names)) if i != model.variant and (None in here or parts(i)[1] == here[1])]
     start = model.vector(best.parameters)
     alike = [
-        name
-        for i, name in enumerate(names)
-        if i != model.variant
-        and fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
+        names[i]
+        for i in others
+        if fit_candidate(model.campaign, model.effect, i, start=start).chi2 <= best.chi2 + settings.tie
     ]
     return _with_as_good(best, alike) if alike else best
 
@@ -484,8 +491,7 @@ def fit_pairs(
             continue
         # an isolator (channel) the single fit ranked first may be the wrong one once the other effect acts too:
         # the pair is screened at the settings.pair_variants best of them
-        given = fa.state.variants_by_fit or fb.state.variants_by_fit or tuple(v for v in (fa.variant, fb.variant) if v)
-        ranked = given[: settings.pair_variants]
+        ranked = _screened_pair_variants(both, fa, fb, settings)
         names = strategy(both).variants(campaign)
         for where in ranked or (None,):
             variant = names.index(where) if where else None
@@ -550,6 +556,39 @@ def fit_pairs(
         if name not in fitted
     ]
     return out, screened, untestable
+
+
+def _screened_pair_variants(
+    both: Pair, fa: CandidateFit, fb: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS
+) -> tuple[str, ...]:
+    """The pair's variants it is screened at: the settings.pair_variants isolators (channels) its per-variant member's
+    single fit ranks best; where both members act per variant (a scattered isolator beside a reversed channel),
+    every combination of each member's so ranked, in the order of the sum of their ranks (the first member's
+    first where the sums are equal)."""
+
+    def ranked(f: CandidateFit) -> tuple[str, ...]:
+        given = f.state.variants_by_fit if f.state is not None else ()
+        return (given or ((f.variant,) if f.variant else ()))[: settings.pair_variants]
+
+    by_member = {fa.effect: ranked(fa), fb.effect: ranked(fb)}
+    first, second = by_member[both.first.name], by_member[both.second.name]
+    if not (first and second):
+        return first or second
+    combined = sorted(itertools.product(range(len(first)), range(len(second))), key=lambda ij: (sum(ij), ij))
+    return tuple(both_variants(first[i], second[j]) for i, j in combined)
+
+
+def _member_variants(campaign: Campaign, both: Pair, where: str | None) -> dict[str, str | None]:
+    """Each member's own isolator or channel (by effect name) at the pair's variant ``where``; None for a member
+    fitted once, or where ``where`` is None."""
+    composite = strategy(both)
+    if where is None or not isinstance(composite, Composite):
+        return {m.name: None for m in both.members}
+    parts = composite.member_variants(campaign, composite.variants(campaign).index(where))
+    return {
+        m.name: None if i is None else s.variants(campaign)[i]
+        for m, s, i in zip(both.members, composite.members, parts, strict=True)
+    }
 
 
 def untestable_note(untestable: list[tuple[str, int]], n_data: int, settings: DiagnosisSettings = DIAGNOSIS) -> str:
@@ -697,7 +736,8 @@ def pair_starts(model: CandidateModel, fa: CandidateFit, fb: CandidateFit, where
     gives its fit at the pair's isolator ``where`` (its best isolator may be another one, with a scatter of the
     other sign)."""
     nil = {p.name: p.start * model.scales[p.scale] for p in model.effect_parameters}
-    pa, pb = _parameters_at(fa, where), _parameters_at(fb, where)
+    at = _member_variants(model.campaign, model.effect, where)
+    pa, pb = _parameters_at(fa, at[fa.effect]), _parameters_at(fb, at[fb.effect])
     better = pa if fa.chi2 <= fb.chi2 else pb
     both = {**nil, **pa, **pb, **better}
     screened = [model.vector({**nil, **pa}), model.vector({**nil, **pb}), model.vector(both)]

@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import typing
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -492,15 +493,42 @@ class Composite(Strategy):
         return (second, first) if second.support(model) and not first.support(model) else (first, second)
 
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
-        return next((v for m in self.members if (v := m.variants(campaign))), ())
+        """The member's variants where one member has them; where both do (a scattered isolator beside a reversed
+        channel), every combination, named 'isolator & channel', the first member's varying slowest."""
+        first, second = (m.variants(campaign) for m in self.members)
+        if first and second:
+            return tuple(both_variants(a, b) for a, b in itertools.product(first, second))
+        return first or second
+
+    def member_variants(self, campaign: Campaign, variant: int | None) -> tuple[int | None, int | None]:
+        """Each member's own variant (its index among its variants; None for a member fitted once) at the pair's
+        ``variant``."""
+        first, second = (m.variants(campaign) for m in self.members)
+        if variant is None:
+            return None, None
+        if first and second:
+            return divmod(variant, len(second))
+        return (variant, None) if first else (None, variant)
+
+    def _seen_by(self, member: Strategy, model: CandidateModel) -> CandidateModel:
+        """The model as ``member`` sees it: itself, or where both members act per variant the model at the
+        member's own variant (MemberView; kept by the model)."""
+        views = model.kept("member views", None, lambda: self._views(model))
+        return next((v for m, v in zip(self.members, views, strict=True) if m is member), model) if views else model
+
+    def _views(self, model: CandidateModel) -> tuple[CandidateModel, ...]:
+        both = self.member_variants(model.campaign, model.variant)
+        if None in both:
+            return ()
+        return tuple(typing.cast("CandidateModel", MemberView(model, v)) for v in both)
 
     def support(self, model: CandidateModel) -> str | None:
         return self._roles(model)[0].support(model)
 
     def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
         base, other = self._roles(model)
-        m, c, b = base.matrices(model, values)
-        d_m, d_c, b2 = other.change(model, values, base.support(model))
+        m, c, b = base.matrices(self._seen_by(base, model), values)
+        d_m, d_c, b2 = other.change(self._seen_by(other, model), values, base.support(model))
         m, c, n = m.copy(), c.copy(), d_m.shape[0]
         m[:n, :n] += d_m
         c[:n, :n] += d_c
@@ -510,13 +538,14 @@ class Composite(Strategy):
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
     ) -> np.ndarray:
         role = self.frequency_role or NOMINAL
-        return role.frequencies(model, values, mats, lam)
+        return role.frequencies(self._seen_by(role, model), values, mats, lam)
 
     def shapes(self, model: CandidateModel, values: dict[str, float], vectors: np.ndarray) -> np.ndarray:
-        return (self.shape_role or NOMINAL).shapes(model, values, vectors)
+        role = self.shape_role or NOMINAL
+        return role.shapes(self._seen_by(role, model), values, vectors)
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
-        return next((why for m in self.members if (why := m.inapplicable(model, has_shapes))), "")
+        return next((why for m in self.members if (why := m.inapplicable(self._seen_by(m, model), has_shapes))), "")
 
     def derivatives(
         self, model: CandidateModel, values: dict[str, float], names: tuple[str, ...], n: int
@@ -525,8 +554,8 @@ class Composite(Strategy):
         parameter the base's matrices do not depend on but the other's change does) with the other's change
         added to their leading block, in place."""
         base, other = self._roles(model)
-        out, own = base.derivatives(model, values, names, n)
-        change, present = other.change_derivatives(model, values, base.support(model), names)
+        out, own = base.derivatives(self._seen_by(base, model), values, names, n)
+        change, present = other.change_derivatives(self._seen_by(other, model), values, base.support(model), names)
         borrowed = present & ~own
         if borrowed.any():
             nominal, given = NOMINAL.derivatives(model, values, names, 6)
@@ -539,10 +568,26 @@ class Composite(Strategy):
     def frequency_derivatives(
         self, model: CandidateModel, e: Evaluation, d_lam: np.ndarray, d_mats: Stacked
     ) -> np.ndarray:
-        return (self.frequency_role or NOMINAL).frequency_derivatives(model, e, d_lam, d_mats)
+        role = self.frequency_role or NOMINAL
+        return role.frequency_derivatives(self._seen_by(role, model), e, d_lam, d_mats)
 
     def shape_derivatives(self, model: CandidateModel, e: Evaluation, d_vec: np.ndarray) -> np.ndarray:
-        return (self.shape_role or NOMINAL).shape_derivatives(model, e, d_vec)
+        role = self.shape_role or NOMINAL
+        return role.shape_derivatives(self._seen_by(role, model), e, d_vec)
+
+
+class MemberView:
+    """A candidate model as one member of a pair sees it where both members act per variant (a scattered
+    isolator beside a reversed channel, Composite): the model itself with ``variant`` the member's own (its
+    index among the member's variants). Everything else, what the model keeps (CandidateModel.kept) included,
+    is the model's: within one pair's model each member's variant is fixed."""
+
+    def __init__(self, model: CandidateModel, variant: int) -> None:
+        self._model = model
+        self.variant = variant
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._model, name)
 
 
 class LayoutReading(Strategy):
@@ -692,7 +737,7 @@ class TurnedPair(LayoutReading):
 
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
         names = [c.name for c in campaign.sensors]
-        return tuple(f"{a} & {b}" for a, b in itertools.combinations(names, 2))
+        return tuple(both_variants(a, b) for a, b in itertools.combinations(names, 2))
 
     def _layout(self, model: CandidateModel) -> tuple:
         """The layout's rows P, their pseudo-inverse, and for each of the two chosen channels its index, point
@@ -737,6 +782,12 @@ STRATEGIES: dict[str, Strategy] = {
 """One strategy per effect kind; ``tests/test_effect_registry.py`` checks that every kind has one."""
 
 NOMINAL = Strategy()
+
+
+def both_variants(a: str, b: str) -> str:
+    """The name of two variants at once: two channels turned ('S2_y & S4_x'), an isolator with a channel
+    ('corner[-x-y] & S1_x')."""
+    return f"{a} & {b}"
 
 
 def strategy(effect: Effect | Pair | None) -> Strategy:

@@ -123,12 +123,12 @@ REVERSED_BESIDE: dict[str, str | None] = {
     "cog_height+sensor_reversed": "cog_height+sensor_reversed",
     "added_mass+sensor_reversed": "added_mass+sensor_reversed",
     "drive_belt+sensor_reversed": "drive_belt+sensor_reversed",
-    "isolator_scatter+sensor_reversed": None,
+    "isolator_scatter+sensor_reversed": "isolator_scatter+sensor_reversed",
 }
 """Truths of one channel mounted reversed beside a physical effect (each part as its truth alone), with the
 candidate that represents each: a study of their own (mountid.validation.blind.run with ``truths``), outside the
-benchmark's cycle of EFFECT_NAMES so that its seeds keep their truths. The catalogue does not compose a scattered
-isolator with a reversed channel (each is fitted per isolator or per channel): that truth is outside it. From
+benchmark's cycle of EFFECT_NAMES so that its seeds keep their truths. A scattered isolator with a reversed channel
+was outside the catalogue until the pair was fitted at each isolator with each channel (2026-12-01). From
 frequencies alone a reversed channel changes nothing, and the physical part alone is counted right where it
 explains the noise-free data."""
 
