@@ -653,8 +653,7 @@ class Channel(LayoutReading):
     @staticmethod
     def _new_layout(model: CandidateModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         channels = model.campaign.sensors
-        jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
-        rows = np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
+        jac, rows = layout_rows(model)
         d = np.asarray(channels[model.variant].direction)
         return rows, np.linalg.pinv(rows), jac[model.variant], d, axes_across(d)
 
@@ -747,8 +746,7 @@ class TurnedPair(LayoutReading):
     @staticmethod
     def _new_pair_layout(model: CandidateModel) -> tuple:
         channels = model.campaign.sensors
-        jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
-        rows = np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
+        jac, rows = layout_rows(model)
         chosen = list(itertools.combinations(range(len(channels)), 2))[model.variant]
         picked = []
         for k in chosen:
@@ -782,6 +780,14 @@ STRATEGIES: dict[str, Strategy] = {
 """One strategy per effect kind; ``tests/test_effect_registry.py`` checks that every kind has one."""
 
 NOMINAL = Strategy()
+
+
+def layout_rows(model: CandidateModel) -> tuple[list[np.ndarray], np.ndarray]:
+    """The point Jacobian du/dq (3 x 6, the generated point_jacobian) at each channel's stated point of the
+    campaign's layout, and the layout's rows d^T du/dq (n_channels x 6)."""
+    channels = model.campaign.sensors
+    jac = [np.asarray(model.mod.point_jacobian(*c.point)) for c in channels]
+    return jac, np.array([np.asarray(c.direction) @ j for c, j in zip(channels, jac, strict=True)])
 
 
 def both_variants(a: str, b: str) -> str:
