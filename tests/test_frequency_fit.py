@@ -144,6 +144,15 @@ def test_the_command_line_reports_the_fit_its_residuals_and_its_goodness(capsys)
     assert "no --std given" in capsys.readouterr().out
 
 
+def test_one_degree_of_freedom_is_said_in_the_singular(capsys):
+    three = {k: MEASURED[k] for k in list(MEASURED)[:3]}
+    args = ["identify", "kid300", "--measured", *(f"{k}={w}" for k, w in three.items())]
+    assert main([*args, "--std", *(f"{k}=0.45" for k in three)]) == 0
+    out = capsys.readouterr().out
+    assert "to 3 measured frequencies (1 degree of freedom)" in out
+    assert " on 1 degree of freedom (p = " in out
+
+
 @pytest.mark.parametrize(
     ("extra", "named"),
     [

@@ -28,6 +28,11 @@ POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotationa
 """Kinds whose values must be strictly positive (a length may be 0 where the description allows it)."""
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` with ``noun`` in the number it takes: "1 channel", "12 channels", "0 degrees" (a regular plural)."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def root_rule(rule: str, unknown: tuple[str, ...] | list[str]) -> tuple[str, str] | None:
     """The two unknowns (larger, smaller) of a root rule "A>B" or "A<B" (spaces allowed), or None when the
     rule is not one on two distinct unknowns. A description's ``root`` and the command line's --root pick with

@@ -8,6 +8,7 @@ import math
 from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, print_json
 from mountid.errors import InputError
 from mountid.machine import Machine
+from mountid.nomenclature import counted
 from mountid.report.text import print_diagnosis
 
 
@@ -110,7 +111,7 @@ def _identify_least_squares(
     n = len(fit.measured)
     print(
         f"{machine.name}: least-squares fit of {', '.join(machine.unknown)} to {n} measured frequencies "
-        f"({fit.dof} degree{'s' if fit.dof != 1 else ''} of freedom)"
+        f"({counted(fit.dof, 'degree')} of freedom)"
     )
     params = ", ".join(
         f"{k} = {v:.6g} +- {float(f'{fit.std[k]:.2g}'):g} {machine.parameters[k]['unit']}"
@@ -132,7 +133,7 @@ def _identify_least_squares(
     if fit.frequency_std is not None:
         verdict = "within their uncertainty" if fit.p_value >= 0.01 else "beyond their uncertainty"
         print(
-            f"  chi^2 = {fit.chi2:.3g} on {fit.dof} degree{'s' if fit.dof != 1 else ''} of freedom "
+            f"  chi^2 = {fit.chi2:.3g} on {counted(fit.dof, 'degree')} of freedom "
             f"(p = {fit.p_value:.2g}): the model fits the frequencies {verdict}"
         )
         if fit.p_value < 0.01:

@@ -25,6 +25,7 @@ from mountid.cli.arguments import (
 )
 from mountid.errors import InputError
 from mountid.machine import Machine
+from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
     from mountid.identification.from_records import Identification
@@ -80,7 +81,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             }
         )
         return
-    count = f"{len(record.channels)} channel{'s' if len(record.channels) != 1 else ''}"
+    count = counted(len(record.channels), "channel")
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
 
 
@@ -111,7 +112,7 @@ def cmd_plan(args: argparse.Namespace) -> None:
         print_json(result.to_dict())
         return
     print(
-        f"{machine.name}: {len(sensors)} channel{'s' if len(sensors) != 1 else ''} "
+        f"{machine.name}: {counted(len(sensors), 'channel')} "
         f"({', '.join(s.name for s in sensors)}), a hit at "
         f"{hit.point} along {hit.direction}, {args.duration:g} s at {args.rate:g} Hz, noise {args.noise:g} x RMS"
     )

@@ -42,7 +42,7 @@ from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
-from mountid.nomenclature import root_rule
+from mountid.nomenclature import counted, root_rule
 
 
 @dataclass(frozen=True)
@@ -925,7 +925,7 @@ def modal_data(
         poles = modal.free_decay_poles(fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES))
         hits = len(estimate.hits)
         notes.append(
-            f"modes from the H1 frequency responses of {hits} hit{'s' if hits > 1 else ''} on {estimate.force} "
+            f"modes from the H1 frequency responses of {counted(hits, 'hit')} on {estimate.force} "
             f"({estimate.length:.3g} s each"
             + (
                 f", exponential window of {estimate.window_decay:.3g} 1/s on the responses"

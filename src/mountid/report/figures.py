@@ -24,6 +24,7 @@ from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.records import Record
 from mountid.measurement.settings import RECORDS, RecordSettings
+from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -109,7 +110,7 @@ def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], pat
         mag.text(w, mag.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
     hits = len(estimate.hits)
     window = f", exponential window {estimate.window_decay:.3g} 1/s" if estimate.window_decay else ""
-    mag.set_title(f"H1 from {hits} hit{'s' if hits > 1 else ''} on {estimate.force}{window}; dashed: picked poles")
+    mag.set_title(f"H1 from {counted(hits, 'hit')} on {estimate.force}{window}; dashed: picked poles")
     mag.set_ylabel(f"|H1| [{', '.join(units)} per N]")
     mag.legend(fontsize=7, ncol=2, loc="upper right")
     coh.set_ylim(0, 1.05)
