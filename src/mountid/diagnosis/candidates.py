@@ -675,9 +675,8 @@ def _short_tries(entries: list[_Promise]) -> list[tuple[_Promise, int]]:
     if single is not None and single is not entries[0]:
         tried.append((single, single.first))
     tried += _each_start_first(entries, {e.variant for e, _ in tried})
-    # the most promising start at every other screened isolator: a one-step promise from the members' fits may not
-    # rank the isolators at all (screen6 seed 1038 with shapes, a scattered isolator with the centre of mass lower:
-    # promised 54-80 at the six, the short fits reach 21.5 at the truth's, the fourth, and 54-80 elsewhere)
+    # the most promising start at every other screened isolator (seed 1038, the docstring), after the tries above
+    # so that _each_start_first places the other starts as before
     tried += [(e, e.first) for e in entries if not any(t is e and i == e.first for t, i in tried)]
     # the starts that rank no isolator (PairStarts.mirrored), each at the isolator it promises least at, even where
     # another start was tried there (kid300 seed 1040 with damping ratios: the corners promise alike)

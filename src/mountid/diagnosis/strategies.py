@@ -13,8 +13,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-import typing
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -520,7 +519,7 @@ class Composite(Strategy):
         both = self.member_variants(model.campaign, model.variant)
         if None in both:
             return ()
-        return tuple(typing.cast("CandidateModel", MemberView(model, v)) for v in both)
+        return tuple(cast("CandidateModel", MemberView(model, v)) for v in both)
 
     def support(self, model: CandidateModel) -> str | None:
         return self._roles(model)[0].support(model)
