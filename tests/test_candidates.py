@@ -424,6 +424,27 @@ def test_a_misplaced_channel_is_found_and_named():
     assert report.confident
 
 
+def _turned_misplaced_campaign(channel: str, values: tuple[float, float, float, float]) -> dict:
+    """Noise-free shapes of kid300 as estimated from the 12-channel layout with the channel ``channel`` turned by
+    (turn_1, turn_2) and off its point by (offset_1, offset_2) across its direction (``values``)."""
+    names = ("turn_1", "turn_2", "offset_1", "offset_2")
+    return _read_through("sensor_turned_misplaced", channel, dict(zip(names, values, strict=True)))
+
+
+def test_a_channel_turned_and_off_its_point_is_found_and_named():
+    """One channel both turned and misplaced (TurnedPlacement): the screen from the frequencies' unknowns finds
+    the channel, the fit recovers the turn and the offsets, and neither slip alone stands beside it. Two turned
+    channels (S2_y and S4_y) fit these noise-free data within their uncertainty (chi^2 10.3 for 36): the verdict is
+    a tie that the true slips lead, not a confident one."""
+    data = _turned_misplaced_campaign("S2_y", (0.25, -0.1, 0.3, -0.2))
+    report = diagnose_effects(parse(data))
+    best = report.best
+    assert best.effect == "sensor_turned_misplaced" and best.variant == "S2_y"
+    for name, value in zip(("turn_1", "turn_2", "offset_1", "offset_2"), (0.25, -0.1, 0.3, -0.2), strict=True):
+        assert best.parameters[name] == pytest.approx(value, abs=1e-3), name
+    assert report.tie == ["sensor_turned_misplaced", "two_sensors_turned"] and not report.confident
+
+
 def test_held_out_variance_is_one_plus_the_refit_prediction_variance():
     """[(I - H_gg)^-1]_00 against its meaning: 1 + j (J'^T J')^-1 j^T, J' the weighted Jacobian without the mode,
     j the held-out frequency's row (one row per mode in a frequency-only campaign)."""

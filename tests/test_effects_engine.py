@@ -68,6 +68,7 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_up_to_six_parameter
         "sensor_misplaced",
         "sensor_reversed",
         "two_sensors_turned",
+        "sensor_turned_misplaced",
     ]
     assert all(1 <= len(e.parameters) <= 6 for e in CATALOGUE if e.kind != "reversal")
     assert [e.name for e in CATALOGUE if not e.parameters] == ["sensor_reversed"]

@@ -180,6 +180,21 @@ def test_two_turned_channels_jacobian_matches_a_central_difference():
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
+def test_turned_and_misplaced_channel_jacobian_matches_a_central_difference():
+    from test_candidates import _turned_misplaced_campaign
+
+    campaign = parse(_turned_misplaced_campaign("S2_y", (0.1, -0.05, 0.2, 0.1)))
+    effect = EFFECTS["sensor_turned_misplaced"]
+    model = CandidateModel(campaign, effect, strategy(effect).variants(campaign).index("S2_y"))
+    data = Data(campaign, model.length)
+    fun, _ = _residual_function(model, data, None)
+    theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": -0.03, "offset_1": 0.15, "offset_2": 0.12})
+    analytic = jacobian(model, data, theta)
+    h = 1e-6
+    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
+
+
 DAMPED = ["damping", "drive_belt", "isolator_scatter", "foundation", "frequency_dependent", None]
 
 

@@ -33,6 +33,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``channels``: two channels of that layout read along turned axes; the shapes are the least-squares estimate
   with both rows turned. Fitted at the pairs of channels whose turns promise most; two effects of one kind
   (``Effect.parts``): a pair's prior odds, and never part of a pair.
+- ``turned_placement``: one channel of that layout read along a turned axis at a point off its stated one (a
+  ``channel`` and a ``placement`` on one channel): its row is the turned axis times the point Jacobian where the
+  sensor sits. Fitted at the channels whose turn and offset promise most; two slips of a test (``Effect.parts``).
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -60,6 +63,7 @@ EFFECT_KINDS: tuple[str, ...] = (
     "placement",
     "reversal",
     "channels",
+    "turned_placement",
 )
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
@@ -129,9 +133,10 @@ class Effect:
     parts: int = 1
     """How many effects of one kind it stands for (two turned channels: 2): its prior odds against a single
     effect are a pair's (DiagnosisSettings.pair_prior) per part beyond the first, and it is never part of a pair."""
-    extends: str = ""
-    """The effect it holds as its special case, its other parts nil (two turned channels hold one turned channel):
-    it fits that effect's data as well, so the data never rule it out beside it (candidates.rank)."""
+    extends: tuple[str, ...] = ()
+    """The effects it holds as its special cases, its other parts nil (two turned channels hold one turned channel;
+    a channel turned and off its point holds one turned and one misplaced): it fits those effects' data as well, so
+    the data never rule it out beside them (candidates.rank)."""
 
     def __post_init__(self) -> None:
         if self.kind not in EFFECT_KINDS:
@@ -158,6 +163,12 @@ def _p(
 def _turn(name: str, text: str) -> EffectParameter:
     """A channel's turn toward one axis across it [rad]: within 0.35 rad (20 degrees) either way, from 0."""
     return _p(name, "rad", "one", -0.35, 0.35, 0.0, text, False)
+
+
+def _offset(name: str, text: str) -> EffectParameter:
+    """A channel's offset from its stated point along one axis across its direction [m]: within one machine
+    length either way, from 0."""
+    return _p(name, "m", "length", -1.0, 1.0, 0.0, text, False)
 
 
 CATALOGUE: tuple[Effect, ...] = (
@@ -371,26 +382,8 @@ CATALOGUE: tuple[Effect, ...] = (
         "placement",
         "one channel's sensor mounted off its stated point",
         (
-            _p(
-                "offset_1",
-                "m",
-                "length",
-                -1.0,
-                1.0,
-                0.0,
-                "offset of the sensor's point along the first axis across its direction",
-                False,
-            ),
-            _p(
-                "offset_2",
-                "m",
-                "length",
-                -1.0,
-                1.0,
-                0.0,
-                "offset of the sensor's point along the second axis across its direction",
-                False,
-            ),
+            _offset("offset_1", "offset of the sensor's point along the first axis across its direction"),
+            _offset("offset_2", "offset of the sensor's point along the second axis across its direction"),
         ),
         "one channel reads the motion of another point: the shapes estimated from the layout are distorted in the "
         "rotations that channel carries (translations read true); frequencies exactly unchanged",
@@ -416,7 +409,23 @@ CATALOGUE: tuple[Effect, ...] = (
         "two channels read along turned axes: the shapes estimated from the layout are distorted in the motions "
         "those channels carry, in ways one channel's turn or offset does not reach; frequencies exactly unchanged",
         parts=2,
-        extends="sensor_turned",
+        extends=("sensor_turned",),
+    ),
+    Effect(
+        "sensor_turned_misplaced",
+        "turned_placement",
+        "one channel's sensor turned (misaligned) on its mount and mounted off its stated point",
+        (
+            _turn("turn_1", "turn of the sensor's axis toward the first axis across it"),
+            _turn("turn_2", "turn of the sensor's axis toward the second axis across it"),
+            _offset("offset_1", "offset of the sensor's point along the first axis across its stated direction"),
+            _offset("offset_2", "offset of the sensor's point along the second axis across its stated direction"),
+        ),
+        "one channel reads the motion of another point along a turned axis: the shapes estimated from the layout "
+        "are distorted in the motions that channel carries, in ways its turn or its offset alone does not reach; "
+        "frequencies exactly unchanged",
+        parts=2,
+        extends=("sensor_turned", "sensor_misplaced"),
     ),
 )
 """Every candidate effect, in the order reports list them."""

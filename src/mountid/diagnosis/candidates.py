@@ -963,14 +963,15 @@ def _credible(
 
 
 def extends(f: CandidateFit, g: CandidateFit) -> bool:
-    """Whether the candidate ``f`` holds ``g`` as its special case (Effect.extends: two turned channels, one): it
-    fits g's data as well, its other part nil, so the data never rule it out beside g. Its probability (the other
-    part's Occam factor and prior odds) states whether the data ask for more than g; beside a g that explains the
-    gap it neither joins the tie unless that probability puts it in the credible set, nor stands against a
-    confident g. (Fitted beside one turned channel in a noise-free case, two turned channels, at probability 0.01,
-    left the verdict a tie.)"""
+    """Whether the candidate ``f`` holds ``g`` as its special case (Effect.extends: two turned channels hold one
+    turned channel, a channel turned and off its point one turned or one misplaced channel): it fits g's data as
+    well, its other part nil, so the data never rule it out beside g. Its probability (the other part's Occam
+    factor and prior odds) states whether the data ask for more than g; beside a g that explains the gap it
+    neither joins the tie unless that probability puts it in the credible set, nor stands against a confident g.
+    (Fitted beside one turned channel in a noise-free case, two turned channels, at probability 0.01, left the
+    verdict a tie.)"""
     effect = EFFECTS.get(f.effect)
-    return effect is not None and bool(effect.extends) and effect.extends == g.effect
+    return effect is not None and g.effect in effect.extends
 
 
 def fits_within_uncertainty(f: CandidateFit, settings: DiagnosisSettings = DIAGNOSIS, scale: float = 1.0) -> bool:

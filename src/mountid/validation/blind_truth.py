@@ -39,20 +39,26 @@ In the catalogue (mountid.effects), each by its own physics here:
 - ``support_frame+isolator_scatter`` (the catalogue's pair ``isolator_scatter+foundation``): one isolator off
   and the machine on a support frame (each as above); the scattered isolator stands on the frame.
 
+Written outside the catalogue, represented since by an effect added to it (REPRESENTED_BY; drawn under their own
+names, DRAWN_AS):
+
+- ``nonlinear_isolator`` (the catalogue's ``rubber_hardening``): hardening rubber, stiffness
+  k (1 + gamma (d / d_ref)^2) in each direction with the deformation amplitude d of that direction in the mode
+  being measured (equivalent linearisation): each mode sees its own isolator stiffness;
+- ``sensor_turned+sensor_turned`` (the catalogue's ``two_sensors_turned``): two channels of the layout turned on
+  their mounts (each as ``sensor_turned``);
+- ``sensor_turned+sensor_misplaced`` (the catalogue's ``sensor_turned_misplaced``): one channel turned on its mount
+  and mounted off its stated point (offset in any direction, along its own as well: what an offset along the
+  stated direction adds to the turned reading, of the order of the turn times the offset, the candidate's offsets
+  across it take up but for a term of the turn's square).
+
 Outside the catalogue (REPRESENTED_BY None: no candidate represents them; an honest diagnosis ends "not
 explained" or in a tie, never confident):
 
-- ``nonlinear_isolator``: hardening rubber, stiffness k (1 + gamma (d / d_ref)^2) in each direction with the
-  deformation amplitude d of that direction in the mode being measured (equivalent linearisation): each
-  mode sees its own isolator stiffness, which no linear model reproduces;
 - ``resilient_attachment``: a component (a cabinet, a motor on its own mounts) of 3-15 % of the mass on
   springs at a point off the axis, its own frequency 0.5-0.9 times the machine's highest, inside the band of
   the machine's modes: its apparent mass changes sign across its resonance (a vibration absorber), which
-  neither a rigid added mass nor stiffening rubber reproduces (9 coordinates);
-- ``sensor_turned+sensor_turned``: two channels of the layout turned on their mounts (each as
-  ``sensor_turned``), the truth of the catalogue's ``two_sensors_turned`` (written when it turned one only);
-- ``sensor_turned+sensor_misplaced``: one channel turned on its mount and mounted off its stated point, a pair
-  the catalogue does not compose (both change how the same reading is taken).
+  neither a rigid added mass nor stiffening rubber reproduces (9 coordinates).
 
 Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
 body, a drive belt, or (outside the catalogue) a scattered isolator.
@@ -94,7 +100,7 @@ REPRESENTED_BY: dict[str, str | None] = {
     "resilient_attachment": None,
     "support_frame+isolator_scatter": "isolator_scatter+foundation",
     "sensor_turned+sensor_turned": "two_sensors_turned",
-    "sensor_turned+sensor_misplaced": None,
+    "sensor_turned+sensor_misplaced": "sensor_turned_misplaced",
 }
 """The catalogue effect that represents each truth not named after one (None: no candidate does). A truth
 named after a catalogue effect is represented by it, whatever the differences of its physics."""
@@ -102,12 +108,13 @@ named after a catalogue effect is represented by it, whatever the differences of
 DRAWN_AS: dict[str, str] = {
     "rubber_hardening": "nonlinear_isolator",
     "two_sensors_turned": "sensor_turned+sensor_turned",
+    "sensor_turned_misplaced": "sensor_turned+sensor_misplaced",
 }
 """Catalogue effects whose truth is one of other physics (REPRESENTED_BY), drawn under its own name: the harness's
 hardening isolators (written before the catalogue had hardening rubber; the candidate assumes every mode excited to
 the same largest isolator deformation, as the truth does) stay the one truth of hardening rubber, and two turned
-channels (a truth of two parts, written before the catalogue had two channels turned) the one truth of theirs, so
-that the benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
+channels and one channel turned and off its point (truths of two parts, written before the catalogue had those) the
+one truths of theirs, so that the benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
 
 OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
 """Truths no candidate of the catalogue represents."""
