@@ -23,7 +23,7 @@ demo: $(STAMP)
 	$(VENV)/bin/mountid demo
 
 test: $(STAMP) lint check-generated
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadscope
 
 # Random exploration (not part of CI): hypothesis with random seeds and 20x the examples of `make test`.
 # Pin every find as an explicit example in the test it broke; `make test` stays derandomized.
