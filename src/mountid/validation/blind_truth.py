@@ -61,7 +61,7 @@ explained" or in a tie, never confident):
   neither a rigid added mass nor stiffening rubber reproduces (9 coordinates).
 
 Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
-body, a drive belt, or (outside the catalogue) a scattered isolator.
+body, a drive belt, or a scattered isolator (each represented by the pair of its parts).
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
