@@ -68,7 +68,8 @@ BLIND_LEVEL ?=
 bench: $(STAMP)
 	$(PY) -m benchmarks --blind-cases $(BLIND_CASES)
 
-# the diagnosis benchmarks alone: one diagnosis's time, the blind validation, and a reversed channel beside an effect
+# the diagnosis benchmarks alone: one diagnosis's time, the blind validation, a reversed channel beside an effect and
+# truths outside the catalogue beside the cycle
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL) \
 		$(if $(BLIND_LEVEL),--level $(BLIND_LEVEL))

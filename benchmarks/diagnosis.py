@@ -9,8 +9,9 @@ The blind cases use seeds from 0 (``--first-seed``); DiagnosisSettings.evidence_
 seeds 5000-5039, 6000-6039 and 7000-7099. The diagnosis was developed looking at the results of seeds 0-263;
 seeds from 264 on are held out from that. ``python -m benchmarks.diagnosis --cases N --first-seed S``
 (``make bench-blind BLIND_CASES=N BLIND_FIRST_SEED=S``) runs these alone with N cases per machine and kind, then
-the study beside the benchmark's cycle (``--beside-cases``, 12 per machine and kind by default, 0 for none): a
-reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), from the same first seed."""
+the studies beside the benchmark's cycle (``--beside-cases``, 12 per machine and kind by default, 0 for none): a
+reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), and truths outside the catalogue
+(blind_truth.OUTSIDE_BESIDE, with shapes), from the same first seed."""
 
 from __future__ import annotations
 
@@ -226,7 +227,59 @@ def reversed_beside(
     n = 12) of a reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), one line per machine and
     kind as in :func:`validation`, the pooled line per kind and its confusion rows. Its few cases per line make
     the calibration column sampling noise (floor); the targets that count are the confident and wrong ones."""
-    truths = tuple(blind_truth.REVERSED_BESIDE)
+    return _beside(
+        tuple(blind_truth.REVERSED_BESIDE),
+        "a reversed channel beside a physical effect",
+        "each represented by its pair",
+        n,
+        workers,
+        kinds,
+        machines,
+        first_seed,
+        nominal,
+        level,
+    )
+
+
+def outside_beside(
+    n: int = 12,
+    workers: int = 2,
+    machines: tuple[str, ...] = blind.MACHINES,
+    first_seed: int = 0,
+    nominal: str = "description",
+    level: float | None = None,
+) -> list[blind.CaseResult]:
+    """The study beside the benchmark's cycle of truths outside the catalogue (blind_truth.OUTSIDE_BESIDE: two
+    misplaced channels), n blind cases per machine with shapes (without them a channel's slip leaves no gap), as
+    :func:`reversed_beside`: the targets that count are the confident and wrong ones and 'not explained' or a tie
+    where no part alone explains the noise-free data."""
+    return _beside(
+        blind_truth.OUTSIDE_BESIDE,
+        "outside the catalogue",
+        "no candidate represents them",
+        n,
+        workers,
+        ("shapes",),
+        machines,
+        first_seed,
+        nominal,
+        level,
+    )
+
+
+def _beside(
+    truths: tuple[str, ...],
+    title: str,
+    represented: str,
+    n: int,
+    workers: int,
+    kinds: tuple[str, ...],
+    machines: tuple[str, ...],
+    first_seed: int,
+    nominal: str,
+    level: float | None,
+) -> list[blind.CaseResult]:
+    """A study of ``truths`` beside the benchmark's cycle, printed under ``title`` (``represented``: by what)."""
     t = time.perf_counter()
     results = blind.run(
         n,
@@ -239,16 +292,13 @@ def reversed_beside(
         level=level,
     )
     elapsed = time.perf_counter() - t
-    print(
-        f"a reversed channel beside a physical effect ({', '.join(truths)}; each represented by its pair), "
-        f"seeds from {first_seed}, columns as above:"
-    )
+    print(f"{title} ({', '.join(truths)}; {represented}), seeds from {first_seed}, columns as above:")
     pooled = _table(results, kinds, machines)
     for kind in kinds:
         print(f"campaigns measuring {kind}, {pooled[kind].n} cases:")
         print("\n".join(pooled[kind].confusion_lines(list(truths))))
     wrong = sum(r.confident_and_wrong for r in results)
-    print(f"reversed channel beside an effect: {len(results)} cases in {elapsed:.0f} s, confident and wrong {wrong}")
+    print(f"{title}: {len(results)} cases in {elapsed:.0f} s, confident and wrong {wrong}")
     return results
 
 
@@ -267,7 +317,8 @@ if __name__ == "__main__":
         "--beside-cases",
         type=int,
         default=12,
-        help="cases per machine and campaign kind of a reversed channel beside a physical effect (0: none)",
+        help="cases per machine and campaign kind of a reversed channel beside a physical effect, and per machine "
+        "of the truths outside the catalogue beside the cycle, with shapes (0: none)",
     )
     parser.add_argument("--figure", default=str(FIGURE), help="where to write the reliability diagram")
     parser.add_argument(
@@ -293,3 +344,4 @@ if __name__ == "__main__":
     validation(args.cases, first_seed=args.first_seed, figure=args.figure, nominal=args.nominal, level=args.level)
     if args.beside_cases:
         reversed_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
+        outside_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)

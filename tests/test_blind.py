@@ -247,6 +247,23 @@ def test_the_truths_beside_the_cycle_are_a_study_of_their_own():
         blind.cases(1, truths=("tilted_floor",))
 
 
+def test_the_confusion_columns_name_every_candidate_apart():
+    heads = [blind._short(e.name) for e in CATALOGUE]
+    assert len(set(heads)) == len(heads) and all(len(h) <= 6 for h in heads)
+    assert blind._short("sensor_turned_misplaced") == "setumi" and blind._short("sensor_turned") == "sentur"
+
+
+def test_two_misplaced_channels_are_a_truth_outside_the_catalogue_beside_the_cycle():
+    """Two channels off their stated points (OUTSIDE_BESIDE): outside the benchmark's cycle, represented by no
+    candidate, drawn at two different channels."""
+    truth = "sensor_misplaced+sensor_misplaced"
+    assert truth in blind.TRUTHS and truth not in blind.EFFECT_NAMES
+    assert blind_truth.represented_by(truth) is None
+    for seed in range(6):
+        _, t = blind.make_case(seed, truth, machine="screen6")
+        assert t.size["channel"] != t.size["channel_2"]
+
+
 def test_the_evidence_check_takes_every_truth_make_case_draws():
     """benchmarks/evidence.py (the Laplace evidence against the integral, on named blind cases) accepts a truth
     beside the cycle as blind.cases does, and names the truths where it is given another."""

@@ -197,9 +197,8 @@ def test_a_support_truths_damped_poles_are_told_apart_by_the_whole_shape():
 
 
 def test_two_channels_misread_at_once_reduce_to_one_when_the_other_reads_true():
-    """Outside the catalogue: two channels turned, or one turned and misplaced. With the second turn (the
-    offset) nil, each reads exactly as the catalogue's single-channel truth; with both, the readings differ
-    from either alone."""
+    """Two channels turned or misplaced, or one turned and misplaced. With the second turn (the offset) nil, each
+    reads exactly as the catalogue's single-channel truth; with both, the readings differ from either alone."""
     truth = blind_truth.TruthMachine("kid300")
     machine = Machine.resolve("kid300")
     _, shapes = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, "kid300"))
@@ -220,6 +219,14 @@ def test_two_channels_misread_at_once_reduce_to_one_when_the_other_reads_true():
     assert np.array_equal(read("sensor_turned+sensor_misplaced", {**turn, **offset, "angle": 0.0}), misplaced)
     combined = read("sensor_turned+sensor_misplaced", {**turn, **offset})
     assert not np.allclose(combined, one, atol=1e-6) and not np.allclose(combined, misplaced, atol=1e-6)
+    second = {"channel_2": 9, "x_2": -0.2, "y_2": 0.0, "z_2": 0.1}
+    nil = {"x_2": 0.0, "y_2": 0.0, "z_2": 0.0}
+    assert np.array_equal(
+        read("sensor_misplaced+sensor_misplaced", {"channel": 4, **offset, **second, **nil}), misplaced
+    )
+    apart = read("sensor_misplaced+sensor_misplaced", {"channel": 4, **offset, **second})
+    assert not np.allclose(apart, misplaced, atol=1e-6)
+    assert not np.allclose(apart, read("sensor_misplaced", {"channel": 9, "x": -0.2, "y": 0.0, "z": 0.1}), atol=1e-6)
 
 
 def test_a_reversed_channel_reads_as_one_turned_by_pi():

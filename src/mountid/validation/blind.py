@@ -32,6 +32,7 @@ from mountid.machine import Machine
 from mountid.measurement.modes import scaled_unit
 from mountid.validation.blind_truth import (
     DRAWN_AS,
+    OUTSIDE_BESIDE,
     REPRESENTED_BY,
     REVERSED_BESIDE,
     Truth,
@@ -49,9 +50,10 @@ MACHINES: tuple[str, ...] = ("kid300", "kid300axes", "rectangular", "screen6", "
 EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE if e.name not in DRAWN_AS), *REPRESENTED_BY)
 """The truths of the benchmark's cycle: none, one per catalogue effect (but those drawn as a truth of other physics,
 blind_truth.DRAWN_AS), and the truths of other physics."""
-TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE)
-"""Every truth make_case draws: the benchmark's cycle (EFFECT_NAMES), then the study beside it of a reversed
-channel beside a physical effect (blind_truth.REVERSED_BESIDE)."""
+TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE, *OUTSIDE_BESIDE)
+"""Every truth make_case draws: the benchmark's cycle (EFFECT_NAMES), then the studies beside it of a reversed
+channel beside a physical effect (blind_truth.REVERSED_BESIDE) and of truths outside the catalogue
+(blind_truth.OUTSIDE_BESIDE)."""
 FREQUENCY_STD = 3e-4
 """Relative standard deviation of the synthetic frequencies (a 20 s record, see the records issue)."""
 SHAPE_STD = 0.01
@@ -549,9 +551,13 @@ def _nan(target: str, s: Score) -> bool:
 
 
 def _short(name: str) -> str:
-    """A column head of six characters: the first three of each of the first two words (sensor_error -> senerr)."""
+    """A column head of six characters: the first three letters of each of two words (sensor_error -> senerr), the
+    first two of each of the first three of three words or more (sensor_turned_misplaced -> setumi, apart from
+    sensor_turned's sentur)."""
     words = name.split("_")
-    return name[:6] if len(words) == 1 else (words[0][:3] + words[1][:3])
+    if len(words) == 1:
+        return name[:6]
+    return words[0][:3] + words[1][:3] if len(words) == 2 else "".join(w[:2] for w in words[:3])
 
 
 CALIBRATION_DRAWS = 2000
