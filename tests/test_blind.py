@@ -271,7 +271,9 @@ def test_the_evidence_check_takes_every_truth_make_case_draws():
 
     title, camp, names = parse_case("3:cog_height+sensor_reversed:shapes:kid300:cog_height")
     assert title == "kid300 seed 3, cog_height+sensor_reversed, shapes:" and names == ["cog_height"]
-    assert camp.modes and blind.TRUTHS[-len(blind_truth.REVERSED_BESIDE) :] == tuple(blind_truth.REVERSED_BESIDE)
+    beside = (*blind_truth.REVERSED_BESIDE, *blind_truth.OUTSIDE_BESIDE)
+    assert camp.modes and blind.TRUTHS[-len(beside) :] == beside
+    assert parse_case("5:sensor_misplaced+sensor_misplaced:shapes:kid300:cog_height")[2] == ["cog_height"]
     with pytest.raises(ValueError, match=r"truth 'tilted_floor' is not one of none, .*, drive_belt\+sensor_reversed"):
         parse_case("3:tilted_floor:shapes:kid300:cog_height")
 

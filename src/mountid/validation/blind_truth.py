@@ -119,7 +119,7 @@ channels and one channel turned and off its point (truths of two parts, written 
 one truths of theirs, so that the benchmark's cycle (blind.EFFECT_NAMES) and every seed's truth are as they were."""
 
 OUT_OF_CATALOGUE: tuple[str, ...] = tuple(name for name, effect in REPRESENTED_BY.items() if effect is None)
-"""Truths no candidate of the catalogue represents."""
+"""Truths of the benchmark's cycle no candidate of the catalogue represents (beside the cycle: OUTSIDE_BESIDE)."""
 
 MOTOR = (0.12, 0.3)
 """Radius and length [m] of the motor of an 838.6 kg machine (the KID-300); a machine of mass m carries one
