@@ -16,12 +16,12 @@ from test_candidates import ROUND_TRIP, UNKNOWN, _campaign_from
 from mountid.diagnosis.campaign import parse
 from mountid.diagnosis.candidate_model import DEGENERATE, CandidateModel
 from mountid.diagnosis.fitting import Data, _residual_function, fit_candidate
-from mountid.diagnosis.jacobian import EQUAL, _off_span_derivative, _span_factors, jacobian
+from mountid.diagnosis.jacobian import _off_span_derivative, _span_factors, jacobian
 from mountid.diagnosis.strategies import stacked_rows, strategy, turned_axis
 from mountid.effects import EFFECTS, pair
 from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
 from mountid.machine import Machine, damped_pole_derivatives
-from mountid.runtime import eigen_derivatives, eigenvalue_derivatives
+from mountid.runtime import EQUAL_EIGENVALUES, eigen_derivatives, eigenvalue_derivatives
 from mountid.validation.blind import make_case
 from mountid.validation.blind_truth import _turned
 from mountid.validation.paper import TABLE_1
@@ -327,7 +327,7 @@ def test_twins_a_small_asymmetry_parts_keep_analytic_columns(scatter):
     theta = model.vector({**UNKNOWN, "scatter_shear": 0.0, "scatter_axial": scatter})
     e = model.evaluate(theta)
     parted = [np.ptp(e.lam[group]) / e.lam[members[0]] for group, members in e.twins]
-    assert any(EQUAL < g <= DEGENERATE for g in parted)
+    assert any(EQUAL_EIGENVALUES < g <= DEGENERATE for g in parted)
     analytic = jacobian(model, data, theta)
     assert not np.isnan(analytic).any()
     fun, _ = _residual_function(model, data, None)

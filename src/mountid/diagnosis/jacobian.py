@@ -11,12 +11,12 @@ Chain, for each fit parameter q (an unknown or an effect parameter):
 4. each shape residual: the part of the measured shape off the model shape, or off the span of the modes
    the measurement cannot separate from it, blended by their closeness weight (Data.residuals).
 
-The labelling of modes is held fixed (it is piecewise constant). Where the model has exactly equal
-frequencies (twins, within EQUAL) and a parameter splits them, the frequencies are not differentiable in that
-parameter: :func:`jacobian` returns its column as nan and the fit takes a finite difference for that column alone
-(the parameters that move the twins together, often every unknown stiffness, keep their analytic columns).
+The labelling of modes is held fixed (it is piecewise constant). Where the model has exactly equal frequencies
+(twins, within runtime.EQUAL_EIGENVALUES) and a parameter splits them, the frequencies are not differentiable in
+that parameter: :func:`jacobian` returns its column as nan and the fit takes a finite difference for that column
+alone (the parameters that move the twins together, often every unknown stiffness, keep their analytic columns).
 Twins that a small asymmetry parts (within DEGENERATE, so that the residuals compare the measured shapes with
-their span, but further apart than EQUAL) are distinct eigenvalues with their own derivatives; their labels may
+their span, but further apart than that) are distinct eigenvalues with their own derivatives; their labels may
 swap under a step of 1e-9, and a finite difference across the swap reads their gap over the step.
 """
 
@@ -35,7 +35,7 @@ from mountid.diagnosis.candidate_model import (
     exact_twins,
     off_span,
 )
-from mountid.runtime import eigen_derivatives, modal_projection
+from mountid.runtime import EQUAL_EIGENVALUES, eigen_derivatives, modal_projection
 
 if TYPE_CHECKING:
     from mountid.diagnosis.fitting import Data
@@ -44,13 +44,12 @@ PARALLEL = 1e-12
 """Partners' shapes are parallel (their span drops a direction) where a diagonal entry of the R factor of their
 unit columns is this small or smaller (the test of candidate_model._orthonormal)."""
 
-EQUAL = 1e-9
-"""Twins (modes within DEGENERATE) whose eigenvalues differ by this or less (relative) are equal: a parameter that
-splits them has no derivative there. Further apart (a small asymmetry parts them) each eigenvalue has its own,
-phi_k^T (C' - lambda_k M') phi_k, and their span moves with its coupling to the other modes alone (what the shape
-residuals of twins see), as eigen_derivatives gives it. LAPACK resolves eigenvectors parted by 1e-9 to about
-1e-7 (eps over the gap). Forward differences there, as for equal twins, crossed swaps of the twins' labels:
-entries 40 times the largest derivative (kid300, an axial scatter of 1e-5 at one isolator)."""
+# Twins (modes within DEGENERATE) whose eigenvalues differ by EQUAL_EIGENVALUES or less (relative) are equal: a
+# parameter that splits them has no derivative there. Further apart (a small asymmetry parts them) each eigenvalue has
+# its own, phi_k^T (C' - lambda_k M') phi_k, and their span moves with its coupling to the other modes alone (what the
+# shape residuals of twins see), as eigen_derivatives gives it. LAPACK resolves eigenvectors parted by 1e-9 to about
+# 1e-7 (eps over the gap). Forward differences there, as for equal twins, crossed swaps of the twins' labels: entries
+# 40 times the largest derivative (kid300, an axial scatter of 1e-5 at one isolator).
 
 _SPLIT_RTOL = 1e-8
 """A parameter keeps twins together when its perturbation of their common subspace is a multiple of the
@@ -106,7 +105,7 @@ def _splitting(e: Evaluation, d_m: np.ndarray, d_c: np.ndarray) -> np.ndarray:
     sets = [
         (np.flatnonzero(group), members[0])
         for group, members in e.twins
-        if not used.isdisjoint(members) and np.ptp(e.lam[group]) <= EQUAL * abs(e.lam[members[0]])
+        if not used.isdisjoint(members) and np.ptp(e.lam[group]) <= EQUAL_EIGENVALUES * abs(e.lam[members[0]])
     ]
     if not sets:
         return split

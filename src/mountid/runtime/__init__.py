@@ -9,6 +9,7 @@ All functions broadcast over leading batch dimensions.
 """
 
 from mountid.runtime.eigen import (
+    EQUAL_EIGENVALUES,
     block_eigen,
     eigen_derivatives,
     eigen_jacobian,
@@ -46,6 +47,7 @@ from mountid.runtime.inverse import (
 __all__ = [
     "ADMISSIBILITY_RTOL",
     "DUPLICATE_RTOL",
+    "EQUAL_EIGENVALUES",
     "FUSED_MIN_SIZE",
     "MAX_RELATIVE_STEP",
     "NEWTON_RESIDUAL_RTOL",

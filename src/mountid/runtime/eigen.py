@@ -120,6 +120,12 @@ def modal_matrix(
     return with_positive_largest(phi, mass)
 
 
+EQUAL_EIGENVALUES = 1e-9
+"""Two eigenvalues (squared frequencies) this close, relative, are equal up to rounding: twins, whose span is the
+mode and which no parameter splits by a derivative (the inverse's condition number of a root with twins among
+the given modes is infinite; a diagnosis takes a finite difference for a parameter that splits them; the blind
+truth gives each twin's label the projection of its nominal shape on their span)."""
+
 SAME_MAGNITUDE = 1e-9
 """Relative difference of two mass-weighted entries of a mode below which they are equally large (a mode parted
 along a diagonal moves x and y alike): the first of them sets the sign."""

@@ -11,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mountid.runtime.eigen import eigen_jacobian
+from mountid.runtime.eigen import EQUAL_EIGENVALUES, eigen_jacobian
 
 ADMISSIBILITY_RTOL = 1e-11
 """A root is admissible when each given squared frequency is reproduced by its labelled mode to this
@@ -521,7 +521,8 @@ def _conditioning(
             for k in mode_index:
                 for j, b in enumerate(mode_block):
                     if j != k and b == mode_block[k]:
-                        smallest = np.where(np.abs(lam[:, j] - lam[:, k]) <= 1e-9 * lam[:, k], 0.0, smallest)
+                        equal = np.abs(lam[:, j] - lam[:, k]) <= EQUAL_EIGENVALUES * lam[:, k]
+                        smallest = np.where(equal, 0.0, smallest)
             cond[good] = np.where(smallest > 0, 1.0 / smallest, np.inf)
         jac[good] = d_omega
     return jac.reshape(n_roots, n_batch, n_given, n_unknowns), cond.reshape(n_roots, n_batch)

@@ -93,6 +93,7 @@ from mountid.machine import Machine
 from mountid.machine.symmetry import mirror_planes, parities, with_parities
 from mountid.measurement.modes import scaled_unit
 from mountid.measurement.rig import Hardening
+from mountid.runtime.eigen import EQUAL_EIGENVALUES
 
 REPRESENTED_BY: dict[str, str | None] = {
     "support_frame": "foundation",
@@ -629,10 +630,6 @@ def _reference(tm: TruthMachine, machine: Machine, t: Truth) -> tuple[np.ndarray
     return scaled_unit(np.asarray(mod.modal_matrix(**fwd)), tm.length), np.asarray(mod.squared_frequencies(**fwd))
 
 
-TWIN_RTOL = 1e-9
-"""Eigenvalues closer than this (relative) are twins of the truth (equal up to rounding)."""
-
-
 def _canonical_twins(
     lam: np.ndarray, vec: np.ndarray, m: np.ndarray, order: np.ndarray, ref: np.ndarray, length: float
 ) -> np.ndarray:
@@ -642,7 +639,7 @@ def _canonical_twins(
     out = vec.copy()
     done: set[int] = set()
     for j in range(len(lam)):
-        group = np.flatnonzero(np.abs(lam - lam[j]) <= TWIN_RTOL * abs(lam[j]))
+        group = np.flatnonzero(np.abs(lam - lam[j]) <= EQUAL_EIGENVALUES * abs(lam[j]))
         if len(group) < 2 or j in done:
             continue
         done |= set(group.tolist())
