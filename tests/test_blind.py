@@ -16,7 +16,7 @@ import scipy.stats
 from mountid.diagnosis import campaign
 from mountid.diagnosis.candidates import diagnose_effects
 from mountid.diagnosis.settings import DIAGNOSIS
-from mountid.effects import CATALOGUE
+from mountid.effects import CATALOGUE, EFFECTS, pair
 from mountid.errors import InputError
 from mountid.validation import blind, blind_truth
 
@@ -253,15 +253,21 @@ def test_the_confusion_columns_name_every_candidate_apart():
     assert blind._short("sensor_turned_misplaced") == "setumi" and blind._short("sensor_turned") == "sentur"
 
 
-def test_two_misplaced_channels_are_a_truth_outside_the_catalogue_beside_the_cycle():
-    """Two channels off their stated points (OUTSIDE_BESIDE): outside the benchmark's cycle, represented by no
-    candidate, drawn at two different channels."""
-    truth = "sensor_misplaced+sensor_misplaced"
-    assert truth in blind.TRUTHS and truth not in blind.EFFECT_NAMES
-    assert blind_truth.represented_by(truth) is None
+def test_truths_outside_the_catalogue_beside_the_cycle():
+    """Two channels off their stated points, and a scattered isolator with a turned channel (OUTSIDE_BESIDE):
+    outside the benchmark's cycle, represented by no candidate (the pair of a scattered isolator and a turned
+    channel is not composed: PAIR_EXCLUSIONS), each part drawn as its truth alone, the misplaced ones at two
+    different channels."""
+    assert blind_truth.OUTSIDE_BESIDE == ("sensor_misplaced+sensor_misplaced", "isolator_scatter+sensor_turned")
+    for truth in blind_truth.OUTSIDE_BESIDE:
+        assert truth in blind.TRUTHS and truth not in blind.EFFECT_NAMES
+        assert blind_truth.represented_by(truth) is None
+    assert pair(EFFECTS["isolator_scatter"], EFFECTS["sensor_turned"]) is None
     for seed in range(6):
-        _, t = blind.make_case(seed, truth, machine="screen6")
+        _, t = blind.make_case(seed, "sensor_misplaced+sensor_misplaced", machine="screen6")
         assert t.size["channel"] != t.size["channel_2"]
+        _, t = blind.make_case(seed, "isolator_scatter+sensor_turned", machine="screen6")
+        assert {"s_h", "s_v", "isolator", "channel", "angle", "about"} == set(t.size)
 
 
 def test_the_evidence_check_takes_every_truth_make_case_draws():

@@ -63,7 +63,8 @@ explained" or in a tie, never confident):
 Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
 body, a drive belt, or a scattered isolator (each represented by the pair of its parts). Beside it and outside the
 catalogue (OUTSIDE_BESIDE): two channels of the layout each mounted off its stated point
-(``sensor_misplaced+sensor_misplaced``).
+(``sensor_misplaced+sensor_misplaced``), and one isolator off with one channel turned on its mount
+(``isolator_scatter+sensor_turned``, each part as its truth alone).
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
@@ -143,13 +144,15 @@ frequencies alone a reversed channel changes nothing, and the physical part alon
 explains the noise-free data."""
 
 
-OUTSIDE_BESIDE: tuple[str, ...] = ("sensor_misplaced+sensor_misplaced",)
+OUTSIDE_BESIDE: tuple[str, ...] = ("sensor_misplaced+sensor_misplaced", "isolator_scatter+sensor_turned")
 """Truths outside the catalogue beside the benchmark's cycle (a study of their own, as REVERSED_BESIDE's, so that
-the cycle's seeds keep their truths): two channels each mounted off its stated point (each as
-``sensor_misplaced``), which no candidate represents (one misplaced channel, two turned ones and one turned and
-misplaced reach part of it). Written when the cycle's truths outside the catalogue had come down to one (the
-component on its own springs), the others represented by the effects added for them: an honest diagnosis ends
-"not explained" or in a tie, or names one part that alone explains the noise-free data."""
+the cycle's seeds keep their truths), which no candidate represents: two channels each mounted off its stated
+point (each as ``sensor_misplaced``; one misplaced channel, two turned ones and one turned and misplaced reach part
+of it), and one isolator off with one channel turned (each as its truth alone; the pair is not composed, it would
+be fitted at every isolator with every channel: effects.PAIR_EXCLUSIONS). Written when the cycle's truths outside
+the catalogue had come down to one (the component on its own springs), the others represented by the effects
+added for them: an honest diagnosis ends "not explained" or in a tie, or names one part that alone explains the
+noise-free data."""
 
 
 def represented_by(truth: str) -> str | None:
