@@ -250,8 +250,8 @@ def outside_beside(
     level: float | None = None,
 ) -> list[blind.CaseResult]:
     """The study beside the benchmark's cycle of truths outside the catalogue (blind_truth.OUTSIDE_BESIDE: two
-    misplaced channels, a scattered isolator with a turned channel), n blind cases per machine with shapes (six of
-    each truth at n = 12; without shapes a channel's slip leaves no gap), as
+    misplaced channels, a scattered isolator with a turned channel, a tilted isolator), n blind cases per machine
+    with shapes (four of each truth at n = 12; without shapes a channel's slip leaves no gap), as
     :func:`reversed_beside`: the targets that count are the confident and wrong ones and 'not explained' or a tie
     where no part alone explains the noise-free data."""
     return _beside(

@@ -254,11 +254,15 @@ def test_the_confusion_columns_name_every_candidate_apart():
 
 
 def test_truths_outside_the_catalogue_beside_the_cycle():
-    """Two channels off their stated points, and a scattered isolator with a turned channel (OUTSIDE_BESIDE):
-    outside the benchmark's cycle, represented by no candidate (the pair of a scattered isolator and a turned
-    channel is not composed: PAIR_EXCLUSIONS), each part drawn as its truth alone, the misplaced ones at two
-    different channels."""
-    assert blind_truth.OUTSIDE_BESIDE == ("sensor_misplaced+sensor_misplaced", "isolator_scatter+sensor_turned")
+    """Two channels off their stated points, a scattered isolator with a turned channel, and a tilted isolator
+    (OUTSIDE_BESIDE): outside the benchmark's cycle, represented by no candidate (the pair of a scattered isolator
+    and a turned channel is not composed: PAIR_EXCLUSIONS; no candidate turns an isolator's axes), each part drawn
+    as its truth alone, the misplaced ones at two different channels."""
+    assert blind_truth.OUTSIDE_BESIDE == (
+        "sensor_misplaced+sensor_misplaced",
+        "isolator_scatter+sensor_turned",
+        "isolator_tilted",
+    )
     for truth in blind_truth.OUTSIDE_BESIDE:
         assert truth in blind.TRUTHS and truth not in blind.EFFECT_NAMES
         assert blind_truth.represented_by(truth) is None
@@ -268,6 +272,8 @@ def test_truths_outside_the_catalogue_beside_the_cycle():
         assert t.size["channel"] != t.size["channel_2"]
         _, t = blind.make_case(seed, "isolator_scatter+sensor_turned", machine="screen6")
         assert {"s_h", "s_v", "isolator", "channel", "angle", "about"} == set(t.size)
+        _, t = blind.make_case(seed, "isolator_tilted", machine="screen6")
+        assert 0.05 <= t.size["tilt"] <= 0.25 and t.size["isolator"] in range(6)
 
 
 def test_the_evidence_check_takes_every_truth_make_case_draws():

@@ -151,16 +151,45 @@ def test_hardening_isolators_keep_each_modes_symmetry(monkeypatch, machine, seed
 
 @pytest.mark.parametrize("name", blind.MACHINES)
 def test_every_truth_draws_on_every_machine(name):
-    """Every truth of the harness has a size and physics on every machine, and changes its modes."""
+    """Every truth of the harness (the cycle's and those beside it) has a size and physics on every machine, and
+    changes its modes."""
     machine = Machine.resolve(name)
     truth = blind_truth.TruthMachine(name)
     without = blind_truth.true_modes(truth, machine, blind_truth.Truth("none", {}, {}, name))
-    for effect in blind.EFFECT_NAMES[1:]:
+    for effect in blind.TRUTHS[1:]:
         size = blind_truth.sample(np.random.default_rng(5), effect, truth)
         modes = blind_truth.true_modes(truth, machine, blind_truth.Truth(effect, size, {}, name))
         assert all(np.all(np.isfinite(a)) for a in modes), effect
         changed = [not np.allclose(a, b, rtol=1e-9, atol=1e-12) for a, b in zip(modes, without, strict=True)]
         assert any(changed), f"the truth {effect} does not change the modes of {name}"
+
+
+def test_a_tilted_isolator_turns_its_own_stiffness_and_damping_alone():
+    """isolator_tilted: one isolator's stiffness and damping keep their principal values along axes turned by the
+    tilt about a horizontal axis; every other isolator and the mass stay as described; no tilt is no effect. The
+    isolator's tensor is read back from C (C = sum J^T K J with J = [I, -r x], so the translational block of a
+    change of C is the change of K)."""
+    truth = blind_truth.TruthMachine("rectangular")
+    nominal = blind_truth.truth_matrices(truth, blind_truth.Truth("none", {}, {}, "rectangular"))
+    size = {"isolator": 1, "tilt": 0.0, "about": 0.7}
+    untilted = blind_truth.truth_matrices(truth, blind_truth.Truth("isolator_tilted", size, {}, "rectangular"))
+    assert all(np.allclose(a, b, rtol=1e-14, atol=0) for a, b in zip(untilted, nominal, strict=True))
+    tilted = blind_truth.truth_matrices(
+        truth, blind_truth.Truth("isolator_tilted", {**size, "tilt": 0.2}, {}, "rectangular")
+    )
+    assert np.array_equal(tilted[0], nominal[0])
+    iso = truth.isolators(truth.nominal)[1]
+    across = np.array([math.cos(0.7), math.sin(0.7), 0.0])
+    jac = np.hstack([np.eye(3), -np.cross(iso.point, np.eye(3)).T])  # u = t + w x r at the isolator's point
+    for got, was, local in ((tilted[1], nominal[1], iso.stiffness), (tilted[2], nominal[2], iso.damping)):
+        change = got - was
+        np.testing.assert_allclose(change, jac.T @ change[:3, :3] @ jac, atol=1e-9 * np.abs(was).max())
+        tensor = iso.tensor(local) + change[:3, :3]
+        values, vectors = np.linalg.eigh(tensor)
+        np.testing.assert_allclose(values, np.sort(local), rtol=1e-9)
+        axial = vectors[:, np.argmin(np.abs(values - local[2]))]
+        assert math.isclose(abs(axial @ iso.axis), math.cos(0.2), rel_tol=1e-9)
+        assert abs(axial @ across) < 1e-9  # turned about the horizontal axis across it
 
 
 def test_a_measured_mode_is_one_pole_however_heavy_damping_reorders_the_modes():

@@ -63,8 +63,10 @@ explained" or in a tie, never confident):
 Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
 body, a drive belt, or a scattered isolator (each represented by the pair of its parts). Beside it and outside the
 catalogue (OUTSIDE_BESIDE): two channels of the layout each mounted off its stated point
-(``sensor_misplaced+sensor_misplaced``), and one isolator off with one channel turned on its mount
-(``isolator_scatter+sensor_turned``, each part as its truth alone).
+(``sensor_misplaced+sensor_misplaced``), one isolator off with one channel turned on its mount
+(``isolator_scatter+sensor_turned``, each part as its truth alone), and ``isolator_tilted``: one isolator mounted
+tilted, its stiffness and damping axes turned by 3-14 degrees about a horizontal axis in any direction (a mount
+on a sloping floor or a bent bracket), which couples its axial and shear stiffness in the machine's axes.
 
 A truth of several parts counts a candidate naming one part as right when that part alone explains the
 noise-free data within their uncertainty (the other part is below what the data can see):
@@ -86,6 +88,7 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+import scipy.spatial.transform
 import tomllib
 
 from mountid.diagnosis.candidate_model import label_modes
@@ -144,15 +147,19 @@ frequencies alone a reversed channel changes nothing, and the physical part alon
 explains the noise-free data."""
 
 
-OUTSIDE_BESIDE: tuple[str, ...] = ("sensor_misplaced+sensor_misplaced", "isolator_scatter+sensor_turned")
-"""Truths outside the catalogue beside the benchmark's cycle (a study of their own, as REVERSED_BESIDE's, so that
-the cycle's seeds keep their truths), which no candidate represents: two channels each mounted off its stated
-point (each as ``sensor_misplaced``; one misplaced channel, two turned ones and one turned and misplaced reach part
-of it), and one isolator off with one channel turned (each as its truth alone; the pair is not composed, it would
-be fitted at every isolator with every channel: effects.PAIR_EXCLUSIONS). Written when the cycle's truths outside
-the catalogue had come down to one (the component on its own springs), the others represented by the effects
-added for them: an honest diagnosis ends "not explained" or in a tie, or names one part that alone explains the
-noise-free data."""
+OUTSIDE_BESIDE: tuple[str, ...] = (
+    "sensor_misplaced+sensor_misplaced",
+    "isolator_scatter+sensor_turned",
+    "isolator_tilted",
+)
+"""Truths outside the catalogue beside the benchmark's cycle (a study of their own, as REVERSED_BESIDE's, so that the
+cycle's seeds keep their truths), which no candidate represents: two channels each mounted off its stated point (each
+as ``sensor_misplaced``; one misplaced channel, two turned ones and one turned and misplaced reach part of it), one
+isolator off with one channel turned (each as its truth alone; the pair is not composed, it would be fitted at every
+isolator with every channel: effects.PAIR_EXCLUSIONS), and one isolator tilted (no candidate turns an isolator's
+axes; a scattered isolator scales its stiffness along them). Written when the cycle's truths outside the catalogue
+had come down to one (the component on its own springs), the others represented by the effects added for them: an
+honest diagnosis ends "not explained" or in a tie, or names one part that alone explains the noise-free data."""
 
 
 def represented_by(truth: str) -> str | None:
@@ -377,6 +384,14 @@ def truth_matrices(tm: TruthMachine, t: Truth) -> Matrices:
         i = int(s["isolator"])
         iso = isolators[i]
         k_iso[i] = iso.tensor(iso.stiffness * (1 + np.array([s["s_h"], s["s_h"], s["s_v"]])))
+    if "isolator_tilted" in parts:
+        # the whole mount (its stiffness and damping axes) turned by ``tilt`` about a horizontal axis at ``about``
+        i = int(s["isolator"])
+        turn = scipy.spatial.transform.Rotation.from_rotvec(
+            s["tilt"] * np.array([math.cos(s["about"]), math.sin(s["about"]), 0.0])
+        ).as_matrix()
+        k_iso[i] = turn @ k_iso[i] @ turn.T
+        b_iso[i] = turn @ b_iso[i] @ turn.T
     if "damping" in parts:
         b_iso = [b * s["eta"] for b in b_iso]
     m = _body_mass(mass, inertia, centre)
@@ -498,6 +513,12 @@ def sample(rng: np.random.Generator, effect: str, tm: TruthMachine) -> dict[str,
             "s_h": 0.0 if direction == "axial" else s,
             "s_v": 0.0 if direction == "shear" else s,
             "isolator": which,
+        }
+    if effect == "isolator_tilted":
+        return {
+            "isolator": int(rng.integers(len(tm.isolators(tm.nominal)))),
+            "tilt": logu(0.05, 0.25),
+            "about": rng.uniform(0, 2 * math.pi),
         }
     if effect == "rotational_stiffness":
         return {"k_bend": logu(0.003, 0.03) * tm.rocking / 4, "k_torsion": logu(0.003, 0.03) * tm.rocking / 4}
