@@ -139,3 +139,4 @@ if __name__ == "__main__":
     diagnosis.validation(int(sys.argv[sys.argv.index("--blind-cases") + 1]) if "--blind-cases" in sys.argv else 69)
     diagnosis.reversed_beside()
     diagnosis.outside_beside()
+    diagnosis.represented_beside()

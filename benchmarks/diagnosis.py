@@ -10,8 +10,9 @@ seeds 5000-5039, 6000-6039 and 7000-7099. The diagnosis was developed looking at
 seeds from 264 on are held out from that. ``python -m benchmarks.diagnosis --cases N --first-seed S``
 (``make bench-blind BLIND_CASES=N BLIND_FIRST_SEED=S``) runs these alone with N cases per machine and kind, then
 the studies beside the benchmark's cycle (``--beside-cases``, 12 per machine and kind by default, 0 for none): a
-reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), and truths outside the catalogue
-(blind_truth.OUTSIDE_BESIDE, with shapes), from the same first seed."""
+reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), truths outside the catalogue
+(blind_truth.OUTSIDE_BESIDE, with shapes), and truths represented by a candidate added since the cycle was fixed
+(blind_truth.REPRESENTED_BESIDE: a tilted isolator), from the same first seed."""
 
 from __future__ import annotations
 
@@ -250,8 +251,9 @@ def outside_beside(
     level: float | None = None,
 ) -> list[blind.CaseResult]:
     """The study beside the benchmark's cycle of truths outside the catalogue (blind_truth.OUTSIDE_BESIDE: two
-    misplaced channels, a scattered isolator with a turned channel, a tilted isolator), n blind cases per machine
-    with shapes (four of each truth at n = 12; without shapes a channel's slip leaves no gap), as
+    misplaced channels, a scattered isolator with a turned channel, a tilted isolator with a higher centre of mass),
+    n blind cases per machine with shapes (four of each truth at n = 12; without shapes a channel's slip leaves no
+    gap), as
     :func:`reversed_beside`: the targets that count are the confident and wrong ones and 'not explained' or a tie
     where no part alone explains the noise-free data."""
     return _beside(
@@ -261,6 +263,32 @@ def outside_beside(
         n,
         workers,
         ("shapes",),
+        machines,
+        first_seed,
+        nominal,
+        level,
+    )
+
+
+def represented_beside(
+    n: int = 12,
+    workers: int = 2,
+    kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
+    machines: tuple[str, ...] = blind.MACHINES,
+    first_seed: int = 0,
+    nominal: str = "description",
+    level: float | None = None,
+) -> list[blind.CaseResult]:
+    """The study beside the benchmark's cycle of truths a candidate added since represents
+    (blind_truth.REPRESENTED_BESIDE: a tilted isolator), n blind cases per machine and campaign kind, as
+    :func:`reversed_beside`."""
+    return _beside(
+        tuple(blind_truth.REPRESENTED_BESIDE),
+        "represented by a candidate added since the cycle was fixed",
+        "each by its own candidate",
+        n,
+        workers,
+        kinds,
         machines,
         first_seed,
         nominal,
@@ -318,8 +346,8 @@ if __name__ == "__main__":
         "--beside-cases",
         type=int,
         default=12,
-        help="cases per machine and campaign kind of a reversed channel beside a physical effect, and per machine "
-        "of the truths outside the catalogue beside the cycle, with shapes (0: none)",
+        help="cases per machine and campaign kind of a reversed channel beside a physical effect and of a tilted "
+        "isolator, and per machine of the truths outside the catalogue beside the cycle, with shapes (0: none)",
     )
     parser.add_argument("--figure", default=str(FIGURE), help="where to write the reliability diagram")
     parser.add_argument(
@@ -346,3 +374,4 @@ if __name__ == "__main__":
     if args.beside_cases:
         reversed_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
         outside_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
+        represented_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)

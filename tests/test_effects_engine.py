@@ -50,7 +50,8 @@ def _values(mod) -> dict[str, float]:
 
 def test_catalogue_names_are_the_issues_and_every_effect_has_up_to_six_parameters():
     """The issue's effects, hardening rubber, the reversed channel (no parameter: the sign of one channel is
-    wrong or it is not) and two turned channels; every other effect has one to six."""
+    wrong or it is not), two turned channels, a channel turned and off its point, and the tilted isolator (added
+    last); every other effect has one to six."""
     assert [e.name for e in CATALOGUE] == [
         "com_offset",
         "cog_height",
@@ -69,6 +70,7 @@ def test_catalogue_names_are_the_issues_and_every_effect_has_up_to_six_parameter
         "sensor_reversed",
         "two_sensors_turned",
         "sensor_turned_misplaced",
+        "isolator_tilted",
     ]
     assert all(1 <= len(e.parameters) <= 6 for e in CATALOGUE if e.kind != "reversal")
     assert [e.name for e in CATALOGUE if not e.parameters] == ["sensor_reversed"]

@@ -82,6 +82,7 @@ def test_damped_pole_derivatives_match_a_central_difference(seed):
 TRUTHS = {
     **ROUND_TRIP,
     "isolator_scatter": {"scatter_shear": 0.1, "scatter_axial": 0.2},
+    "isolator_tilted": {"tilt_1": 0.12, "tilt_2": -0.05},
     "sensor_error": {"sensor_yaw": 0.03, "sensor_dz": 0.1},
     None: {},
 }
@@ -92,7 +93,7 @@ CASES = [(name, name) for name in TRUTHS] + [("drive_belt", None), ("added_mass"
 def test_candidate_jacobian_matches_a_central_difference_of_the_residuals(truth, fitted):
     """At a point beside the truth (every shape residual form: single modes, exact twins, blended twins),
     with the labelling the same on both sides of every step (it is held fixed by the derivative)."""
-    isolator = 0 if fitted == "isolator_scatter" else None
+    isolator = 0 if fitted in ("isolator_scatter", "isolator_tilted") else None
     values = TRUTHS[fitted] if fitted == truth else {"k_belt": 1e4, "h_belt": 0.3} if fitted else {}
     truth_values = TRUTHS[truth]
     campaign = parse(_campaign_from(truth, truth_values, isolator))
@@ -202,7 +203,7 @@ DAMPED = ["damping", "drive_belt", "isolator_scatter", "foundation", "frequency_
 def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fitted):
     """A campaign with damping ratios and no damping parameters known: b_xy and b_z are fitted with the
     stiffnesses, and the damping-ratio rows (damped-pole derivatives) match a central difference."""
-    isolator = 0 if fitted == "isolator_scatter" else None
+    isolator = 0 if fitted in ("isolator_scatter", "isolator_tilted") else None
     data = _campaign_from(fitted, TRUTHS[fitted], isolator)
     known = {k: v for k, v in data["known"].items() if not k.startswith("b_")}
     for i, mode in enumerate(data["modes"].values()):

@@ -36,6 +36,9 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
 - ``turned_placement``: one channel of that layout read along a turned axis at a point off its stated one (a
   ``channel`` and a ``placement`` on one channel): its row is the turned axis times the point Jacobian where the
   sensor sits. Fitted at the channels whose turn and offset promise most; two slips of a test (``Effect.parts``).
+- ``tilt``: one isolator mounted tilted: its stiffness tensor K turned by two small rotations about the axes across
+  its own axis, C_i = J^T K J becoming J^T R K R^T J (K and J from the generated ``isolator_stiffness()``). Fitted
+  at each isolator; never part of a pair (its pairs would be fitted at every isolator beside every other effect).
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``
 the RMS distance of the isolators from the centre of mass [m], ``mass`` the body mass [kg], ``stiffness`` the
@@ -64,6 +67,7 @@ EFFECT_KINDS: tuple[str, ...] = (
     "reversal",
     "channels",
     "turned_placement",
+    "tilt",
 )
 """How an effect enters the model (module docstring); the diagnosis has one strategy per kind."""
 
@@ -161,7 +165,8 @@ def _p(
 
 
 def _turn(name: str, text: str) -> EffectParameter:
-    """A channel's turn toward one axis across it [rad]: within 0.35 rad (20 degrees) either way, from 0."""
+    """A turn about one axis across a channel's direction or an isolator's axis [rad]: within 0.35 rad (20 degrees)
+    either way, from 0."""
     return _p(name, "rad", "one", -0.35, 0.35, 0.0, text, False)
 
 
@@ -427,8 +432,21 @@ CATALOGUE: tuple[Effect, ...] = (
         parts=2,
         extends=("sensor_turned", "sensor_misplaced"),
     ),
+    Effect(
+        "isolator_tilted",
+        "tilt",
+        "one isolator mounted tilted (its stiffness axes turned)",
+        (
+            _turn("tilt_1", "turn of the isolator's axes about the first axis across its own axis"),
+            _turn("tilt_2", "turn of the isolator's axes about the second axis across its own axis"),
+        ),
+        "the isolator's axial and shear stiffness couple in the machine's axes: modes couple across the symmetry "
+        "planes at that isolator and the frequencies move in first order of the tilt times the difference of its "
+        "axial and shear stiffness; which isolator shows only in the mode shapes",
+    ),
 )
-"""Every candidate effect, in the order reports list them."""
+"""Every candidate effect, in the order reports list them (the tilted isolator, added last, after the channels so
+that every other candidate's fits are as they were)."""
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in CATALOGUE}
 EFFECT_PARAMETERS: tuple[str, ...] = tuple(p.name for e in CATALOGUE for p in e.parameters)
@@ -491,11 +509,14 @@ class Pair:
 def pair(a: Effect, b: Effect) -> Pair | None:
     """The pair of two different catalogue effects in catalogue order (None when they do not compose:
     PAIR_EXCLUSIONS, either is the damping effect, either stiffens each mode on its own (kind ``amplitude``:
-    no change of M and C to add), or either is two effects of one kind already (Effect.parts))."""
+    no change of M and C to add), either is a tilted isolator (kind ``tilt``: fitted at each isolator, its pairs
+    would be fitted at every isolator beside every other effect), or either is two effects of one kind already
+    (Effect.parts))."""
     if (
         a.name == b.name
         or "damping" in (a.name, b.name)
         or "amplitude" in (a.kind, b.kind)
+        or "tilt" in (a.kind, b.kind)
         or max(a.parts, b.parts) > 1
         or frozenset({a.name, b.name}) in PAIR_EXCLUSIONS
     ):

@@ -16,6 +16,7 @@ import math
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
@@ -255,6 +256,71 @@ class Isolator(Strategy):
                 continue
             present[j] = True
         return out, present
+
+
+class TiltedIsolator(Strategy):
+    """One isolator mounted tilted (a sloping floor under its foot, a bent bracket): its stiffness axes turned by
+    R = exp(tilt_1 [e1]x) exp(tilt_2 [e2]x), e1 and e2 the axes across its own axis a (axes_across: horizontal
+    where a is not near-horizontal). Its stiffness matrix C_i = J^T K J (the generated ``isolator_stiffness()``:
+    J (3 x n) the deformation of the isolator in the motion q, K its stiffness tensor in the machine's axes)
+    becomes J^T R K R^T J. K is C_i's translational block and J = K^-1 C_i[:3, :] (a rigid translation deforms the
+    isolator by itself, J = [I, ...]), so the tilt needs no matrix the engine does not generate. Where the isolator
+    is round (equal shear stiffnesses) R K R^T depends on the turned axis R a alone, and the two turns reach every
+    direction of it. The damping stays the description's B (the turn of the isolator's own damping would need its
+    B apart from the others'; it moves the damping ratios in second order). Never part of a pair
+    (mountid.effects.pair)."""
+
+    def variants(self, campaign: Campaign) -> tuple[str, ...]:
+        return tuple(campaign.machine.module.ISOLATORS)
+
+    def _tilt(
+        self, model: CandidateModel, values: dict[str, float]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The isolator's deformation Jacobian J (3 x n), its stiffness tensor K (3 x 3) [N/m], the rotation R and
+        its derivatives by tilt_1 and tilt_2 (2 x 3 x 3) [per rad]."""
+        total = np.asarray(call(model.mod, "isolator_stiffness", values))[model.variant]
+        axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))[model.variant]
+        k = total[:3, :3]
+        jac = np.linalg.solve(k, total[:3, :])
+        a = np.linalg.eigh(axial[:3, :3])[1][:, -1]  # k_a a a^T: the eigenvector of its largest eigenvalue
+        a = a if a[np.argmax(np.abs(a))] > 0 else -a  # one sign, so that a tilt's sign means one direction
+        across = axes_across(a)
+        skews = [_skew(across[:, i]) for i in range(2)]
+        first, second = (Rotation.from_rotvec(values[TILTS[i]] * across[:, i]).as_matrix() for i in range(2))
+        rotation = first @ second
+        return jac, k, rotation, np.array([skews[0] @ rotation, first @ skews[1] @ second])
+
+    def matrices(self, model: CandidateModel, values: dict[str, float]) -> Matrices:
+        m, c, _ = super().matrices(model, values)
+        jac, k, r, _ = self._tilt(model, values)
+        return m, c + jac.T @ (r @ k @ r.T - k) @ jac, None
+
+    def derivatives(
+        self, model: CandidateModel, values: dict[str, float], names: tuple[str, ...], n: int
+    ) -> Derivatives:
+        out, present = super().derivatives(model, values, names, n)
+        jac, k, r, d_r = self._tilt(model, values)
+        gradient = np.asarray(call(model.mod, "isolator_stiffness_gradient", values))[:, model.variant]
+        for g, u in zip(gradient, model.mod.UNKNOWN, strict=True):
+            if u in names:
+                d_k = g[:3, :3]
+                j = names.index(u)
+                out[1, j] = out[1, j] + jac.T @ (r @ d_k @ r.T - d_k) @ jac
+                present[j] = True
+        for q, d in zip(TILTS, d_r, strict=True):
+            turned = d @ k @ r.T
+            out[1, names.index(q)] = jac.T @ (turned + turned.T) @ jac
+            present[names.index(q)] = True
+        return out, present
+
+
+TILTS = ("tilt_1", "tilt_2")
+"""The tilted isolator's two turns [rad] (TiltedIsolator), about the first and the second axis across its axis."""
+
+
+def _skew(e: np.ndarray) -> np.ndarray:
+    """[e]x: the matrix of the cross product e x v."""
+    return np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
 
 
 class Frequency(Strategy):
@@ -781,6 +847,7 @@ class TurnedPair(LayoutReading):
 STRATEGIES: dict[str, Strategy] = {
     "generated": Generated(),
     "isolator": Isolator(),
+    "tilt": TiltedIsolator(),
     "frequency": Frequency(),
     "amplitude": Amplitude(),
     "damping": Damping(),

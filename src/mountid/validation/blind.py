@@ -33,6 +33,7 @@ from mountid.measurement.modes import scaled_unit
 from mountid.validation.blind_truth import (
     DRAWN_AS,
     OUTSIDE_BESIDE,
+    REPRESENTED_BESIDE,
     REPRESENTED_BY,
     REVERSED_BESIDE,
     Truth,
@@ -47,13 +48,19 @@ from mountid.validation.blind_truth import (
 MACHINES: tuple[str, ...] = ("kid300", "kid300axes", "rectangular", "screen6", "genset8", "skid1plane")
 """The shipped descriptions the harness draws machines of (each truth is diagnosed with its own description)."""
 
-EFFECT_NAMES: tuple[str, ...] = ("none", *(e.name for e in CATALOGUE if e.name not in DRAWN_AS), *REPRESENTED_BY)
+EFFECT_NAMES: tuple[str, ...] = (
+    "none",
+    *(e.name for e in CATALOGUE if e.name not in DRAWN_AS and e.name not in REPRESENTED_BESIDE.values()),
+    *REPRESENTED_BY,
+)
 """The truths of the benchmark's cycle: none, one per catalogue effect (but those drawn as a truth of other physics,
-blind_truth.DRAWN_AS), and the truths of other physics."""
-TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE, *OUTSIDE_BESIDE)
+blind_truth.DRAWN_AS, and those whose truth lies beside the cycle, blind_truth.REPRESENTED_BESIDE), and the truths of
+other physics."""
+TRUTHS: tuple[str, ...] = (*EFFECT_NAMES, *REVERSED_BESIDE, *OUTSIDE_BESIDE, *REPRESENTED_BESIDE)
 """Every truth make_case draws: the benchmark's cycle (EFFECT_NAMES), then the studies beside it of a reversed
-channel beside a physical effect (blind_truth.REVERSED_BESIDE) and of truths outside the catalogue
-(blind_truth.OUTSIDE_BESIDE)."""
+channel beside a physical effect (blind_truth.REVERSED_BESIDE), of truths outside the catalogue
+(blind_truth.OUTSIDE_BESIDE) and of truths represented by an effect added since the cycle was fixed
+(blind_truth.REPRESENTED_BESIDE)."""
 FREQUENCY_STD = 3e-4
 """Relative standard deviation of the synthetic frequencies (a 20 s record, see the records issue)."""
 SHAPE_STD = 0.01
