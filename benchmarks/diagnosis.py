@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -253,9 +254,8 @@ def outside_beside(
     """The study beside the benchmark's cycle of truths outside the catalogue (blind_truth.OUTSIDE_BESIDE: two
     misplaced channels, a scattered isolator with a turned channel, a tilted isolator with a higher centre of mass),
     n blind cases per machine with shapes (four of each truth at n = 12; without shapes a channel's slip leaves no
-    gap), as
-    :func:`reversed_beside`: the targets that count are the confident and wrong ones and 'not explained' or a tie
-    where no part alone explains the noise-free data."""
+    gap), as :func:`reversed_beside`: the targets that count are the confident and wrong ones and 'not explained' or
+    a tie where no part alone explains the noise-free data."""
     return _beside(
         blind_truth.OUTSIDE_BESIDE,
         "outside the catalogue",
@@ -270,29 +270,16 @@ def outside_beside(
     )
 
 
-def represented_beside(
-    n: int = 12,
-    workers: int = 2,
-    kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
-    machines: tuple[str, ...] = blind.MACHINES,
-    first_seed: int = 0,
-    nominal: str = "description",
-    level: float | None = None,
-) -> list[blind.CaseResult]:
+def represented_beside(n: int = 12, **options: Any) -> list[blind.CaseResult]:
     """The study beside the benchmark's cycle of truths a candidate added since represents
-    (blind_truth.REPRESENTED_BESIDE: a tilted isolator), n blind cases per machine and campaign kind, as
-    :func:`reversed_beside`."""
+    (blind_truth.REPRESENTED_BESIDE: a tilted isolator), n blind cases per machine and campaign kind, with the
+    options of :func:`reversed_beside` (workers, kinds, machines, first_seed, nominal, level)."""
     return _beside(
         tuple(blind_truth.REPRESENTED_BESIDE),
         "represented by a candidate added since the cycle was fixed",
         "each by its own candidate",
         n,
-        workers,
-        kinds,
-        machines,
-        first_seed,
-        nominal,
-        level,
+        **options,
     )
 
 
@@ -301,12 +288,12 @@ def _beside(
     title: str,
     represented: str,
     n: int,
-    workers: int,
-    kinds: tuple[str, ...],
-    machines: tuple[str, ...],
-    first_seed: int,
-    nominal: str,
-    level: float | None,
+    workers: int = 2,
+    kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
+    machines: tuple[str, ...] = blind.MACHINES,
+    first_seed: int = 0,
+    nominal: str = "description",
+    level: float | None = None,
 ) -> list[blind.CaseResult]:
     """A study of ``truths`` beside the benchmark's cycle, printed under ``title`` (``represented``: by what)."""
     t = time.perf_counter()
