@@ -216,30 +216,19 @@ def validation(
     return results
 
 
-def reversed_beside(
-    n: int = 12,
-    workers: int = 2,
-    kinds: tuple[str, ...] = blind.CAMPAIGN_KINDS,
-    machines: tuple[str, ...] = blind.MACHINES,
-    first_seed: int = 0,
-    nominal: str = "description",
-    level: float | None = None,
-) -> list[blind.CaseResult]:
+def reversed_beside(n: int = 12, **options: Any) -> list[blind.CaseResult]:
     """The study beside the benchmark's cycle: n blind cases per machine and campaign kind (three of each at
     n = 12) of a reversed channel beside a physical effect (blind_truth.REVERSED_BESIDE), one line per machine and
     kind as in :func:`validation`, the pooled line per kind and its confusion rows. Its few cases per line make
-    the calibration column sampling noise (floor); the targets that count are the confident and wrong ones."""
+    the calibration column sampling noise (floor); the targets that count are the confident and wrong ones.
+    ``options``: workers (2), kinds (every campaign kind), machines (every shipped one), first_seed (0), nominal
+    ('description') and level (None), as blind.run takes them."""
     return _beside(
         tuple(blind_truth.REVERSED_BESIDE),
         "a reversed channel beside a physical effect",
         "each represented by its pair",
         n,
-        workers,
-        kinds,
-        machines,
-        first_seed,
-        nominal,
-        level,
+        **options,
     )
 
 

@@ -196,7 +196,7 @@ def test_turned_and_misplaced_channel_jacobian_matches_a_central_difference():
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
-DAMPED = ["damping", "drive_belt", "isolator_scatter", "foundation", "frequency_dependent", None]
+DAMPED = ["damping", "drive_belt", "isolator_scatter", "isolator_tilted", "foundation", "frequency_dependent", None]
 
 
 @pytest.mark.parametrize("fitted", DAMPED, ids=str)

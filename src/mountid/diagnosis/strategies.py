@@ -282,7 +282,7 @@ class TiltedIsolator(Strategy):
         axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))[model.variant]
         k = total[:3, :3]
         jac = np.linalg.solve(k, total[:3, :])
-        a = np.linalg.eigh(axial[:3, :3])[1][:, -1]  # k_a a a^T: the eigenvector of its largest eigenvalue
+        a = own_axes(axial[None])[0]
         a = a if a[np.argmax(np.abs(a))] > 0 else -a  # one sign, so that a tilt's sign means one direction
         across = axes_across(a)
         skews = [_skew(across[:, i]) for i in range(2)]
@@ -432,6 +432,13 @@ EQUAL_AXES = 1e-9
 (a round mount), and isolator_axes takes them along the machine's x and y as far as the mount's axis allows."""
 
 
+def own_axes(axial: np.ndarray) -> np.ndarray:
+    """Each isolator's own axis a (unit, (isolators, 3), either sign) from its axial stiffness matrix k_a a a^T
+    (``axial``: (isolators, n, n), the generated ``isolator_axial_stiffness()``): the eigenvector of the largest
+    eigenvalue of its translational block."""
+    return np.linalg.eigh(axial[:, :3, :3])[1][:, :, -1]
+
+
 def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each isolator's stiffness matrix (``stiffness``: (isolators, n, n), the generated ``isolator_stiffness()``)
     split along its local axes: its own axis a (local z, from ``axial``, the generated
@@ -442,7 +449,7 @@ def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray,
     g_e = C_i[:, :3] e. Returns the parts (3 per isolator, n x n) and the stiffness k_e along each, so that
     phi^T part phi / k_e is the squared deformation along e in the motion phi [m^2]."""
     block = stiffness[:, :3, :3]
-    a = np.linalg.eigh(axial[:, :3, :3])[1][:, :, -1]  # k_a a a^T: the eigenvector of its largest eigenvalue
+    a = own_axes(axial)
     across = np.eye(3) - a[:, :, None] * a[:, None, :]
     k, vectors = np.linalg.eigh(across @ (block - axial[:, :3, :3]) @ across)
     shear = vectors[:, :, 1:]  # the two eigenvalues of the shear plane (the third, along a, is nil)
