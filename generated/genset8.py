@@ -684,6 +684,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_axial_stiffness": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
     "isolator_axial_stiffness_gradient": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
+    "isolator_damping": ("a1", "a2", "b", "h", "gamma", "b_h", "b_v"),
+    "isolator_damping_gradient": ("a1", "a2", "b", "h", "gamma", "b_h", "b_v"),
     "isolator_stiffness_on_foundation": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma", "c_x", "c_y", "c_v1", "c_v2"),
     "isolator_axial_stiffness_on_foundation": ("a1", "a2", "b", "h", "gamma", "c_v1", "c_v2"),
@@ -729,6 +731,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "a1", "a2", "b", "h", "gamma"),
     "isolator_stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
     "isolator_axial_stiffness_gradient": ("a1", "a2", "b", "h", "gamma"),
+    "isolator_damping_gradient": ("a1", "a2", "b", "h", "gamma"),
     "isolator_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a1", "a2", "b", "h", "gamma"),
 }
@@ -7633,6 +7636,1209 @@ def isolator_axial_stiffness_gradient(a1, a2, b, h, gamma, c_v1, c_v2):
             _tmp31,  # [31, 4, 4]
         ),
     ).reshape(*_shape, 4, 8, 6, 6)
+
+
+def isolator_damping(a1, a2, b, h, gamma, b_h, b_v):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 8, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        inner[+x+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h*cos(gamma)**2 + b_v*sin(gamma)**2
+          [y, z] = (b_h - b_v)*cos(gamma)*sin(gamma)
+          [y, psi] = b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(b_v - b_h)*cos(gamma)*sin(gamma)
+          [y, phi] = a1*(b_h*cos(gamma)**2 + b_v*sin(gamma)**2)
+          [z, z] = b_h*sin(gamma)**2 + b_v*cos(gamma)**2
+          [z, psi] = b*b_h*sin(gamma)**2 + b*b_v*cos(gamma)**2 + b_h*h*cos(gamma)*sin(gamma) - b_v*h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*(b_h*sin(gamma)**2 + b_v*cos(gamma)**2)
+          [z, phi] = a1*(b_h - b_v)*cos(gamma)*sin(gamma)
+          [psi, psi] = b_h*b**2*sin(gamma)**2 + b_h*h**2*cos(gamma)**2 + b_v*b**2*cos(gamma)**2 + b_v*h**2*sin(gamma)**2 - 2*b*b_v*h*cos(gamma)*sin(gamma) + 2*b*b_h*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*b_h*sin(gamma)**2 - b*b_v*cos(gamma)**2 + b_v*h*cos(gamma)*sin(gamma) - b_h*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma))
+          [theta, theta] = b_h*h**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2
+          [theta, phi] = b*b_h*h + b_v*a1**2*cos(gamma)*sin(gamma) - b_h*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2
+        inner[-x+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h*cos(gamma)**2 + b_v*sin(gamma)**2
+          [y, z] = (b_h - b_v)*cos(gamma)*sin(gamma)
+          [y, psi] = b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(b_h - b_v)*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*(b_h*cos(gamma)**2 + b_v*sin(gamma)**2)
+          [z, z] = b_h*sin(gamma)**2 + b_v*cos(gamma)**2
+          [z, psi] = b*b_h*sin(gamma)**2 + b*b_v*cos(gamma)**2 + b_h*h*cos(gamma)*sin(gamma) - b_v*h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*(b_h*sin(gamma)**2 + b_v*cos(gamma)**2)
+          [z, phi] = a1*(b_v - b_h)*cos(gamma)*sin(gamma)
+          [psi, psi] = b_h*b**2*sin(gamma)**2 + b_h*h**2*cos(gamma)**2 + b_v*b**2*cos(gamma)**2 + b_v*h**2*sin(gamma)**2 - 2*b*b_v*h*cos(gamma)*sin(gamma) + 2*b*b_h*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*b_h*sin(gamma)**2 + b*b_v*cos(gamma)**2 + b_h*h*cos(gamma)*sin(gamma) - b_v*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-b_h*h*cos(gamma)**2 - b_v*h*sin(gamma)**2 + b*b_v*cos(gamma)*sin(gamma) - b*b_h*cos(gamma)*sin(gamma))
+          [theta, theta] = b_h*h**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2
+          [theta, phi] = b*b_h*h + b_v*a1**2*cos(gamma)*sin(gamma) - b_h*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2
+        inner[+x-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h*cos(gamma)**2 + b_v*sin(gamma)**2
+          [y, z] = (b_v - b_h)*cos(gamma)*sin(gamma)
+          [y, psi] = b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(b_h - b_v)*cos(gamma)*sin(gamma)
+          [y, phi] = a1*(b_h*cos(gamma)**2 + b_v*sin(gamma)**2)
+          [z, z] = b_h*sin(gamma)**2 + b_v*cos(gamma)**2
+          [z, psi] = -b*b_h*sin(gamma)**2 - b*b_v*cos(gamma)**2 + b_v*h*cos(gamma)*sin(gamma) - b_h*h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*(b_h*sin(gamma)**2 + b_v*cos(gamma)**2)
+          [z, phi] = a1*(b_v - b_h)*cos(gamma)*sin(gamma)
+          [psi, psi] = b_h*b**2*sin(gamma)**2 + b_h*h**2*cos(gamma)**2 + b_v*b**2*cos(gamma)**2 + b_v*h**2*sin(gamma)**2 - 2*b*b_v*h*cos(gamma)*sin(gamma) + 2*b*b_h*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*b_h*sin(gamma)**2 + b*b_v*cos(gamma)**2 + b_h*h*cos(gamma)*sin(gamma) - b_v*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma))
+          [theta, theta] = b_h*h**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2
+          [theta, phi] = -b*b_h*h + b_h*a1**2*cos(gamma)*sin(gamma) - b_v*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2
+        inner[-x-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h*cos(gamma)**2 + b_v*sin(gamma)**2
+          [y, z] = (b_v - b_h)*cos(gamma)*sin(gamma)
+          [y, psi] = b_h*h*cos(gamma)**2 + b_v*h*sin(gamma)**2 + b*b_h*cos(gamma)*sin(gamma) - b*b_v*cos(gamma)*sin(gamma)
+          [y, theta] = a1*(b_v - b_h)*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*(b_h*cos(gamma)**2 + b_v*sin(gamma)**2)
+          [z, z] = b_h*sin(gamma)**2 + b_v*cos(gamma)**2
+          [z, psi] = -b*b_h*sin(gamma)**2 - b*b_v*cos(gamma)**2 + b_v*h*cos(gamma)*sin(gamma) - b_h*h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*(b_h*sin(gamma)**2 + b_v*cos(gamma)**2)
+          [z, phi] = a1*(b_h - b_v)*cos(gamma)*sin(gamma)
+          [psi, psi] = b_h*b**2*sin(gamma)**2 + b_h*h**2*cos(gamma)**2 + b_v*b**2*cos(gamma)**2 + b_v*h**2*sin(gamma)**2 - 2*b*b_v*h*cos(gamma)*sin(gamma) + 2*b*b_h*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*b_h*sin(gamma)**2 - b*b_v*cos(gamma)**2 + b_v*h*cos(gamma)*sin(gamma) - b_h*h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-b_h*h*cos(gamma)**2 - b_v*h*sin(gamma)**2 + b*b_v*cos(gamma)*sin(gamma) - b*b_h*cos(gamma)*sin(gamma))
+          [theta, theta] = b_h*h**2 + b_h*a1**2*sin(gamma)**2 + b_v*a1**2*cos(gamma)**2
+          [theta, phi] = -b*b_h*h + b_h*a1**2*cos(gamma)*sin(gamma) - b_v*a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b_h*b**2 + b_h*a1**2*cos(gamma)**2 + b_v*a1**2*sin(gamma)**2
+        outer[+x+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a2*b_h
+          [z, z] = b_v
+          [z, psi] = b*b_v
+          [z, theta] = -a2*b_v
+          [psi, psi] = b_h*h**2 + b_v*b**2
+          [psi, theta] = -a2*b*b_v
+          [psi, phi] = a2*b_h*h
+          [theta, theta] = b_h*h**2 + b_v*a2**2
+          [theta, phi] = b*b_h*h
+          [phi, phi] = b_h*(a2**2 + b**2)
+        outer[-x+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a2*b_h
+          [z, z] = b_v
+          [z, psi] = b*b_v
+          [z, theta] = a2*b_v
+          [psi, psi] = b_h*h**2 + b_v*b**2
+          [psi, theta] = a2*b*b_v
+          [psi, phi] = -a2*b_h*h
+          [theta, theta] = b_h*h**2 + b_v*a2**2
+          [theta, phi] = b*b_h*h
+          [phi, phi] = b_h*(a2**2 + b**2)
+        outer[+x-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a2*b_h
+          [z, z] = b_v
+          [z, psi] = -b*b_v
+          [z, theta] = -a2*b_v
+          [psi, psi] = b_h*h**2 + b_v*b**2
+          [psi, theta] = a2*b*b_v
+          [psi, phi] = a2*b_h*h
+          [theta, theta] = b_h*h**2 + b_v*a2**2
+          [theta, phi] = -b*b_h*h
+          [phi, phi] = b_h*(a2**2 + b**2)
+        outer[-x-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a2*b_h
+          [z, z] = b_v
+          [z, psi] = -b*b_v
+          [z, theta] = a2*b_v
+          [psi, psi] = b_h*h**2 + b_v*b**2
+          [psi, theta] = -a2*b*b_v
+          [psi, phi] = -a2*b_h*h
+          [theta, theta] = b_h*h**2 + b_v*a2**2
+          [theta, phi] = -b*b_h*h
+          [phi, phi] = b_h*(a2**2 + b**2)
+    """
+    a1, a2, b, h, gamma, b_h, b_v = _runtime.as_operands(a1, a2, b, h, gamma, b_h, b_v)
+    _tmp0 = b_h * h
+    _tmp1 = -_tmp0
+    _tmp2 = b * b_h
+    _tmp3 = -_tmp2
+    _tmp4 = numpy.cos(gamma)
+    _tmp5 = _tmp4**2
+    _tmp6 = _tmp5 * b_h
+    _tmp7 = numpy.sin(gamma)
+    _tmp8 = _tmp7**2
+    _tmp9 = _tmp8 * b_v
+    _tmp10 = _tmp6 + _tmp9
+    _tmp11 = b_h - b_v
+    _tmp12 = _tmp4 * _tmp7
+    _tmp13 = _tmp11 * _tmp12
+    _tmp14 = b * b_v
+    _tmp15 = _tmp12 * _tmp14
+    _tmp16 = _tmp0 * _tmp5 + _tmp12 * _tmp2 - _tmp15 + _tmp9 * h
+    _tmp17 = -_tmp11 * _tmp12
+    _tmp18 = _tmp17 * a1
+    _tmp19 = _tmp10 * a1
+    _tmp20 = _tmp8 * b_h
+    _tmp21 = _tmp5 * b_v
+    _tmp22 = _tmp20 + _tmp21
+    _tmp23 = _tmp12 * b_v
+    _tmp24 = _tmp0 * _tmp12 + _tmp2 * _tmp8 + _tmp21 * b - _tmp23 * h
+    _tmp25 = _tmp22 * a1
+    _tmp26 = -_tmp25
+    _tmp27 = _tmp13 * a1
+    _tmp28 = b**2
+    _tmp29 = h**2
+    _tmp30 = _tmp0 * b
+    _tmp31 = 2 * _tmp12 * _tmp30 - 2 * _tmp15 * h + _tmp20 * _tmp28 + _tmp21 * _tmp28 + _tmp29 * _tmp6 + _tmp29 * _tmp9
+    _tmp32 = -_tmp24
+    _tmp33 = _tmp32 * a1
+    _tmp34 = _tmp16 * a1
+    _tmp35 = _tmp29 * b_h
+    _tmp36 = a1**2
+    _tmp37 = _tmp20 * _tmp36 + _tmp21 * _tmp36 + _tmp35
+    _tmp38 = -_tmp12 * _tmp36 * b_h + _tmp23 * _tmp36 + _tmp30
+    _tmp39 = _tmp28 * b_h + _tmp36 * _tmp6 + _tmp36 * _tmp9
+    _tmp40 = -_tmp19
+    _tmp41 = _tmp24 * a1
+    _tmp42 = -_tmp16 * a1
+    _tmp43 = -_tmp38
+    _tmp44 = a2 * b_h
+    _tmp45 = a2 * b_v
+    _tmp46 = -_tmp45
+    _tmp47 = _tmp28 * b_v + _tmp35
+    _tmp48 = _tmp14 * a2
+    _tmp49 = -_tmp48
+    _tmp50 = _tmp0 * a2
+    _tmp51 = a2**2
+    _tmp52 = _tmp35 + _tmp51 * b_v
+    _tmp53 = b_h * (_tmp28 + _tmp51)
+    _tmp54 = -_tmp44
+    _tmp55 = -_tmp50
+    _tmp56 = -_tmp14
+    _tmp57 = -_tmp30
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, b_h, b_v)
+    return _runtime.stack_symmetric(
+        _shape,
+        (8, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 4),
+            (0, 0, 5),
+            (0, 1, 1),
+            (0, 1, 2),
+            (0, 1, 3),
+            (0, 1, 4),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 3),
+            (0, 2, 4),
+            (0, 2, 5),
+            (0, 3, 3),
+            (0, 3, 4),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 4, 5),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 0, 5),
+            (1, 1, 1),
+            (1, 1, 2),
+            (1, 1, 3),
+            (1, 1, 4),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 3),
+            (1, 2, 4),
+            (1, 2, 5),
+            (1, 3, 3),
+            (1, 3, 4),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 4, 5),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 2),
+            (2, 1, 3),
+            (2, 1, 4),
+            (2, 1, 5),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 2, 4),
+            (2, 2, 5),
+            (2, 3, 3),
+            (2, 3, 4),
+            (2, 3, 5),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 2),
+            (3, 1, 3),
+            (3, 1, 4),
+            (3, 1, 5),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 2, 4),
+            (3, 2, 5),
+            (3, 3, 3),
+            (3, 3, 4),
+            (3, 3, 5),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+            (4, 0, 0),
+            (4, 0, 4),
+            (4, 0, 5),
+            (4, 1, 1),
+            (4, 1, 3),
+            (4, 1, 5),
+            (4, 2, 2),
+            (4, 2, 3),
+            (4, 2, 4),
+            (4, 3, 3),
+            (4, 3, 4),
+            (4, 3, 5),
+            (4, 4, 4),
+            (4, 4, 5),
+            (4, 5, 5),
+            (5, 0, 0),
+            (5, 0, 4),
+            (5, 0, 5),
+            (5, 1, 1),
+            (5, 1, 3),
+            (5, 1, 5),
+            (5, 2, 2),
+            (5, 2, 3),
+            (5, 2, 4),
+            (5, 3, 3),
+            (5, 3, 4),
+            (5, 3, 5),
+            (5, 4, 4),
+            (5, 4, 5),
+            (5, 5, 5),
+            (6, 0, 0),
+            (6, 0, 4),
+            (6, 0, 5),
+            (6, 1, 1),
+            (6, 1, 3),
+            (6, 1, 5),
+            (6, 2, 2),
+            (6, 2, 3),
+            (6, 2, 4),
+            (6, 3, 3),
+            (6, 3, 4),
+            (6, 3, 5),
+            (6, 4, 4),
+            (6, 4, 5),
+            (6, 5, 5),
+            (7, 0, 0),
+            (7, 0, 4),
+            (7, 0, 5),
+            (7, 1, 1),
+            (7, 1, 3),
+            (7, 1, 5),
+            (7, 2, 2),
+            (7, 2, 3),
+            (7, 2, 4),
+            (7, 3, 3),
+            (7, 3, 4),
+            (7, 3, 5),
+            (7, 4, 4),
+            (7, 4, 5),
+            (7, 5, 5),
+        ),
+        (
+            b_h,  # [0, 0, 0]
+            _tmp1,  # [0, 0, 4]
+            _tmp3,  # [0, 0, 5]
+            _tmp10,  # [0, 1, 1]
+            _tmp13,  # [0, 1, 2]
+            _tmp16,  # [0, 1, 3]
+            _tmp18,  # [0, 1, 4]
+            _tmp19,  # [0, 1, 5]
+            _tmp22,  # [0, 2, 2]
+            _tmp24,  # [0, 2, 3]
+            _tmp26,  # [0, 2, 4]
+            _tmp27,  # [0, 2, 5]
+            _tmp31,  # [0, 3, 3]
+            _tmp33,  # [0, 3, 4]
+            _tmp34,  # [0, 3, 5]
+            _tmp37,  # [0, 4, 4]
+            _tmp38,  # [0, 4, 5]
+            _tmp39,  # [0, 5, 5]
+            b_h,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp3,  # [1, 0, 5]
+            _tmp10,  # [1, 1, 1]
+            _tmp13,  # [1, 1, 2]
+            _tmp16,  # [1, 1, 3]
+            _tmp27,  # [1, 1, 4]
+            _tmp40,  # [1, 1, 5]
+            _tmp22,  # [1, 2, 2]
+            _tmp24,  # [1, 2, 3]
+            _tmp25,  # [1, 2, 4]
+            _tmp18,  # [1, 2, 5]
+            _tmp31,  # [1, 3, 3]
+            _tmp41,  # [1, 3, 4]
+            _tmp42,  # [1, 3, 5]
+            _tmp37,  # [1, 4, 4]
+            _tmp38,  # [1, 4, 5]
+            _tmp39,  # [1, 5, 5]
+            b_h,  # [2, 0, 0]
+            _tmp1,  # [2, 0, 4]
+            _tmp2,  # [2, 0, 5]
+            _tmp10,  # [2, 1, 1]
+            _tmp17,  # [2, 1, 2]
+            _tmp16,  # [2, 1, 3]
+            _tmp27,  # [2, 1, 4]
+            _tmp19,  # [2, 1, 5]
+            _tmp22,  # [2, 2, 2]
+            _tmp32,  # [2, 2, 3]
+            _tmp26,  # [2, 2, 4]
+            _tmp18,  # [2, 2, 5]
+            _tmp31,  # [2, 3, 3]
+            _tmp41,  # [2, 3, 4]
+            _tmp34,  # [2, 3, 5]
+            _tmp37,  # [2, 4, 4]
+            _tmp43,  # [2, 4, 5]
+            _tmp39,  # [2, 5, 5]
+            b_h,  # [3, 0, 0]
+            _tmp1,  # [3, 0, 4]
+            _tmp2,  # [3, 0, 5]
+            _tmp10,  # [3, 1, 1]
+            _tmp17,  # [3, 1, 2]
+            _tmp16,  # [3, 1, 3]
+            _tmp18,  # [3, 1, 4]
+            _tmp40,  # [3, 1, 5]
+            _tmp22,  # [3, 2, 2]
+            _tmp32,  # [3, 2, 3]
+            _tmp25,  # [3, 2, 4]
+            _tmp27,  # [3, 2, 5]
+            _tmp31,  # [3, 3, 3]
+            _tmp33,  # [3, 3, 4]
+            _tmp42,  # [3, 3, 5]
+            _tmp37,  # [3, 4, 4]
+            _tmp43,  # [3, 4, 5]
+            _tmp39,  # [3, 5, 5]
+            b_h,  # [4, 0, 0]
+            _tmp1,  # [4, 0, 4]
+            _tmp3,  # [4, 0, 5]
+            b_h,  # [4, 1, 1]
+            _tmp0,  # [4, 1, 3]
+            _tmp44,  # [4, 1, 5]
+            b_v,  # [4, 2, 2]
+            _tmp14,  # [4, 2, 3]
+            _tmp46,  # [4, 2, 4]
+            _tmp47,  # [4, 3, 3]
+            _tmp49,  # [4, 3, 4]
+            _tmp50,  # [4, 3, 5]
+            _tmp52,  # [4, 4, 4]
+            _tmp30,  # [4, 4, 5]
+            _tmp53,  # [4, 5, 5]
+            b_h,  # [5, 0, 0]
+            _tmp1,  # [5, 0, 4]
+            _tmp3,  # [5, 0, 5]
+            b_h,  # [5, 1, 1]
+            _tmp0,  # [5, 1, 3]
+            _tmp54,  # [5, 1, 5]
+            b_v,  # [5, 2, 2]
+            _tmp14,  # [5, 2, 3]
+            _tmp45,  # [5, 2, 4]
+            _tmp47,  # [5, 3, 3]
+            _tmp48,  # [5, 3, 4]
+            _tmp55,  # [5, 3, 5]
+            _tmp52,  # [5, 4, 4]
+            _tmp30,  # [5, 4, 5]
+            _tmp53,  # [5, 5, 5]
+            b_h,  # [6, 0, 0]
+            _tmp1,  # [6, 0, 4]
+            _tmp2,  # [6, 0, 5]
+            b_h,  # [6, 1, 1]
+            _tmp0,  # [6, 1, 3]
+            _tmp44,  # [6, 1, 5]
+            b_v,  # [6, 2, 2]
+            _tmp56,  # [6, 2, 3]
+            _tmp46,  # [6, 2, 4]
+            _tmp47,  # [6, 3, 3]
+            _tmp48,  # [6, 3, 4]
+            _tmp50,  # [6, 3, 5]
+            _tmp52,  # [6, 4, 4]
+            _tmp57,  # [6, 4, 5]
+            _tmp53,  # [6, 5, 5]
+            b_h,  # [7, 0, 0]
+            _tmp1,  # [7, 0, 4]
+            _tmp2,  # [7, 0, 5]
+            b_h,  # [7, 1, 1]
+            _tmp0,  # [7, 1, 3]
+            _tmp54,  # [7, 1, 5]
+            b_v,  # [7, 2, 2]
+            _tmp56,  # [7, 2, 3]
+            _tmp45,  # [7, 2, 4]
+            _tmp47,  # [7, 3, 3]
+            _tmp49,  # [7, 3, 4]
+            _tmp55,  # [7, 3, 5]
+            _tmp52,  # [7, 4, 4]
+            _tmp57,  # [7, 4, 5]
+            _tmp53,  # [7, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(a1, a2, b, h, gamma, b_h, b_v):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_x, c_y, c_v1, c_v2, b_h, b_v, shape
+    (..., 6, 8, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dinner[+x+y]/dc_x:
+        dinner[-x+y]/dc_x:
+        dinner[+x-y]/dc_x:
+        dinner[-x-y]/dc_x:
+        douter[+x+y]/dc_x:
+        douter[-x+y]/dc_x:
+        douter[+x-y]/dc_x:
+        douter[-x-y]/dc_x:
+        dinner[+x+y]/dc_y:
+        dinner[-x+y]/dc_y:
+        dinner[+x-y]/dc_y:
+        dinner[-x-y]/dc_y:
+        douter[+x+y]/dc_y:
+        douter[-x+y]/dc_y:
+        douter[+x-y]/dc_y:
+        douter[-x-y]/dc_y:
+        dinner[+x+y]/dc_v1:
+        dinner[-x+y]/dc_v1:
+        dinner[+x-y]/dc_v1:
+        dinner[-x-y]/dc_v1:
+        douter[+x+y]/dc_v1:
+        douter[-x+y]/dc_v1:
+        douter[+x-y]/dc_v1:
+        douter[-x-y]/dc_v1:
+        dinner[+x+y]/dc_v2:
+        dinner[-x+y]/dc_v2:
+        dinner[+x-y]/dc_v2:
+        dinner[-x-y]/dc_v2:
+        douter[+x+y]/dc_v2:
+        douter[-x+y]/dc_v2:
+        douter[+x-y]/dc_v2:
+        douter[-x-y]/dc_v2:
+        dinner[+x+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = h**2 + a1**2*sin(gamma)**2
+          [theta, phi] = b*h - a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b**2 + a1**2*cos(gamma)**2
+        dinner[-x+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = cos(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = b*sin(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = h**2 + a1**2*sin(gamma)**2
+          [theta, phi] = b*h - a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b**2 + a1**2*cos(gamma)**2
+        dinner[+x-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*sin(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*sin(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*cos(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = h**2 + a1**2*sin(gamma)**2
+          [theta, phi] = -b*h + a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b**2 + a1**2*cos(gamma)**2
+        dinner[-x-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = cos(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*cos(gamma)**2 + b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*cos(gamma)**2
+          [z, z] = sin(gamma)**2
+          [z, psi] = -b*sin(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*sin(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*sin(gamma)**2 + h**2*cos(gamma)**2 + 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*sin(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*cos(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = h**2 + a1**2*sin(gamma)**2
+          [theta, phi] = -b*h + a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = b**2 + a1**2*cos(gamma)**2
+        douter[+x+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a2**2 + b**2
+        douter[-x+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a2**2 + b**2
+        douter[+x-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a2
+          [psi, psi] = h**2
+          [psi, phi] = a2*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a2**2 + b**2
+        douter[-x-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a2
+          [psi, psi] = h**2
+          [psi, phi] = -a2*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a2**2 + b**2
+        dinner[+x+y]/db_v:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x+y]/db_v:
+          [y, y] = sin(gamma)**2
+          [y, z] = -cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = b*cos(gamma)**2 - h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[+x-y]/db_v:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = -a1*cos(gamma)*sin(gamma)
+          [y, phi] = a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = -a1*cos(gamma)**2
+          [z, phi] = a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(b*cos(gamma)**2 - h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(h*sin(gamma)**2 - b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        dinner[-x-y]/db_v:
+          [y, y] = sin(gamma)**2
+          [y, z] = cos(gamma)*sin(gamma)
+          [y, psi] = h*sin(gamma)**2 - b*cos(gamma)*sin(gamma)
+          [y, theta] = a1*cos(gamma)*sin(gamma)
+          [y, phi] = -a1*sin(gamma)**2
+          [z, z] = cos(gamma)**2
+          [z, psi] = -b*cos(gamma)**2 + h*cos(gamma)*sin(gamma)
+          [z, theta] = a1*cos(gamma)**2
+          [z, phi] = -a1*cos(gamma)*sin(gamma)
+          [psi, psi] = b**2*cos(gamma)**2 + h**2*sin(gamma)**2 - 2*b*h*cos(gamma)*sin(gamma)
+          [psi, theta] = a1*(-b*cos(gamma)**2 + h*cos(gamma)*sin(gamma))
+          [psi, phi] = a1*(-h*sin(gamma)**2 + b*cos(gamma)*sin(gamma))
+          [theta, theta] = a1**2*cos(gamma)**2
+          [theta, phi] = -a1**2*cos(gamma)*sin(gamma)
+          [phi, phi] = a1**2*sin(gamma)**2
+        douter[+x+y]/db_v:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+        douter[-x+y]/db_v:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[+x-y]/db_v:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a2
+          [psi, psi] = b**2
+          [psi, theta] = a2*b
+          [theta, theta] = a2**2
+        douter[-x-y]/db_v:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a2
+          [psi, psi] = b**2
+          [psi, theta] = -a2*b
+          [theta, theta] = a2**2
+    """
+    a1, a2, b, h, gamma, b_h, b_v = _runtime.as_operands(a1, a2, b, h, gamma, b_h, b_v)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = numpy.cos(gamma)
+    _tmp3 = _tmp2**2
+    _tmp4 = numpy.sin(gamma)
+    _tmp5 = _tmp2 * _tmp4
+    _tmp6 = _tmp5 * b
+    _tmp7 = _tmp3 * h + _tmp6
+    _tmp8 = _tmp5 * a1
+    _tmp9 = -_tmp8
+    _tmp10 = _tmp3 * a1
+    _tmp11 = _tmp4**2
+    _tmp12 = _tmp5 * h
+    _tmp13 = _tmp11 * b + _tmp12
+    _tmp14 = _tmp11 * a1
+    _tmp15 = -_tmp14
+    _tmp16 = b**2
+    _tmp17 = h**2
+    _tmp18 = b * h
+    _tmp19 = 2 * _tmp18 * _tmp5
+    _tmp20 = _tmp11 * _tmp16 + _tmp17 * _tmp3 + _tmp19
+    _tmp21 = -_tmp13
+    _tmp22 = _tmp21 * a1
+    _tmp23 = _tmp7 * a1
+    _tmp24 = a1**2
+    _tmp25 = _tmp11 * _tmp24
+    _tmp26 = _tmp17 + _tmp25
+    _tmp27 = -_tmp18
+    _tmp28 = _tmp24 * _tmp5
+    _tmp29 = _tmp27 + _tmp28
+    _tmp30 = -_tmp29
+    _tmp31 = _tmp24 * _tmp3
+    _tmp32 = _tmp16 + _tmp31
+    _tmp33 = -_tmp10
+    _tmp34 = _tmp13 * a1
+    _tmp35 = -_tmp7 * a1
+    _tmp36 = -_tmp5
+    _tmp37 = a2 * h
+    _tmp38 = a2**2
+    _tmp39 = _tmp16 + _tmp38
+    _tmp40 = -a2
+    _tmp41 = -_tmp37
+    _tmp42 = -_tmp11 * h + _tmp6
+    _tmp43 = -_tmp42
+    _tmp44 = -_tmp12 + _tmp3 * b
+    _tmp45 = _tmp11 * _tmp17 + _tmp16 * _tmp3 - _tmp19
+    _tmp46 = -_tmp44
+    _tmp47 = _tmp46 * a1
+    _tmp48 = _tmp43 * a1
+    _tmp49 = _tmp44 * a1
+    _tmp50 = _tmp42 * a1
+    _tmp51 = -_tmp28
+    _tmp52 = a2 * b
+    _tmp53 = -_tmp52
+    _shape = _runtime.batch_shape(a1, a2, b, h, gamma, b_h, b_v)
+    return _runtime.stack_symmetric(
+        _shape,
+        (48, 6, 6),
+        (
+            (32, 0, 0),
+            (32, 0, 4),
+            (32, 0, 5),
+            (32, 1, 1),
+            (32, 1, 2),
+            (32, 1, 3),
+            (32, 1, 4),
+            (32, 1, 5),
+            (32, 2, 2),
+            (32, 2, 3),
+            (32, 2, 4),
+            (32, 2, 5),
+            (32, 3, 3),
+            (32, 3, 4),
+            (32, 3, 5),
+            (32, 4, 4),
+            (32, 4, 5),
+            (32, 5, 5),
+            (33, 0, 0),
+            (33, 0, 4),
+            (33, 0, 5),
+            (33, 1, 1),
+            (33, 1, 2),
+            (33, 1, 3),
+            (33, 1, 4),
+            (33, 1, 5),
+            (33, 2, 2),
+            (33, 2, 3),
+            (33, 2, 4),
+            (33, 2, 5),
+            (33, 3, 3),
+            (33, 3, 4),
+            (33, 3, 5),
+            (33, 4, 4),
+            (33, 4, 5),
+            (33, 5, 5),
+            (34, 0, 0),
+            (34, 0, 4),
+            (34, 0, 5),
+            (34, 1, 1),
+            (34, 1, 2),
+            (34, 1, 3),
+            (34, 1, 4),
+            (34, 1, 5),
+            (34, 2, 2),
+            (34, 2, 3),
+            (34, 2, 4),
+            (34, 2, 5),
+            (34, 3, 3),
+            (34, 3, 4),
+            (34, 3, 5),
+            (34, 4, 4),
+            (34, 4, 5),
+            (34, 5, 5),
+            (35, 0, 0),
+            (35, 0, 4),
+            (35, 0, 5),
+            (35, 1, 1),
+            (35, 1, 2),
+            (35, 1, 3),
+            (35, 1, 4),
+            (35, 1, 5),
+            (35, 2, 2),
+            (35, 2, 3),
+            (35, 2, 4),
+            (35, 2, 5),
+            (35, 3, 3),
+            (35, 3, 4),
+            (35, 3, 5),
+            (35, 4, 4),
+            (35, 4, 5),
+            (35, 5, 5),
+            (36, 0, 0),
+            (36, 0, 4),
+            (36, 0, 5),
+            (36, 1, 1),
+            (36, 1, 3),
+            (36, 1, 5),
+            (36, 3, 3),
+            (36, 3, 5),
+            (36, 4, 4),
+            (36, 4, 5),
+            (36, 5, 5),
+            (37, 0, 0),
+            (37, 0, 4),
+            (37, 0, 5),
+            (37, 1, 1),
+            (37, 1, 3),
+            (37, 1, 5),
+            (37, 3, 3),
+            (37, 3, 5),
+            (37, 4, 4),
+            (37, 4, 5),
+            (37, 5, 5),
+            (38, 0, 0),
+            (38, 0, 4),
+            (38, 0, 5),
+            (38, 1, 1),
+            (38, 1, 3),
+            (38, 1, 5),
+            (38, 3, 3),
+            (38, 3, 5),
+            (38, 4, 4),
+            (38, 4, 5),
+            (38, 5, 5),
+            (39, 0, 0),
+            (39, 0, 4),
+            (39, 0, 5),
+            (39, 1, 1),
+            (39, 1, 3),
+            (39, 1, 5),
+            (39, 3, 3),
+            (39, 3, 5),
+            (39, 4, 4),
+            (39, 4, 5),
+            (39, 5, 5),
+            (40, 1, 1),
+            (40, 1, 2),
+            (40, 1, 3),
+            (40, 1, 4),
+            (40, 1, 5),
+            (40, 2, 2),
+            (40, 2, 3),
+            (40, 2, 4),
+            (40, 2, 5),
+            (40, 3, 3),
+            (40, 3, 4),
+            (40, 3, 5),
+            (40, 4, 4),
+            (40, 4, 5),
+            (40, 5, 5),
+            (41, 1, 1),
+            (41, 1, 2),
+            (41, 1, 3),
+            (41, 1, 4),
+            (41, 1, 5),
+            (41, 2, 2),
+            (41, 2, 3),
+            (41, 2, 4),
+            (41, 2, 5),
+            (41, 3, 3),
+            (41, 3, 4),
+            (41, 3, 5),
+            (41, 4, 4),
+            (41, 4, 5),
+            (41, 5, 5),
+            (42, 1, 1),
+            (42, 1, 2),
+            (42, 1, 3),
+            (42, 1, 4),
+            (42, 1, 5),
+            (42, 2, 2),
+            (42, 2, 3),
+            (42, 2, 4),
+            (42, 2, 5),
+            (42, 3, 3),
+            (42, 3, 4),
+            (42, 3, 5),
+            (42, 4, 4),
+            (42, 4, 5),
+            (42, 5, 5),
+            (43, 1, 1),
+            (43, 1, 2),
+            (43, 1, 3),
+            (43, 1, 4),
+            (43, 1, 5),
+            (43, 2, 2),
+            (43, 2, 3),
+            (43, 2, 4),
+            (43, 2, 5),
+            (43, 3, 3),
+            (43, 3, 4),
+            (43, 3, 5),
+            (43, 4, 4),
+            (43, 4, 5),
+            (43, 5, 5),
+            (44, 2, 2),
+            (44, 2, 3),
+            (44, 2, 4),
+            (44, 3, 3),
+            (44, 3, 4),
+            (44, 4, 4),
+            (45, 2, 2),
+            (45, 2, 3),
+            (45, 2, 4),
+            (45, 3, 3),
+            (45, 3, 4),
+            (45, 4, 4),
+            (46, 2, 2),
+            (46, 2, 3),
+            (46, 2, 4),
+            (46, 3, 3),
+            (46, 3, 4),
+            (46, 4, 4),
+            (47, 2, 2),
+            (47, 2, 3),
+            (47, 2, 4),
+            (47, 3, 3),
+            (47, 3, 4),
+            (47, 4, 4),
+        ),
+        (
+            1,  # [32, 0, 0]
+            _tmp0,  # [32, 0, 4]
+            _tmp1,  # [32, 0, 5]
+            _tmp3,  # [32, 1, 1]
+            _tmp5,  # [32, 1, 2]
+            _tmp7,  # [32, 1, 3]
+            _tmp9,  # [32, 1, 4]
+            _tmp10,  # [32, 1, 5]
+            _tmp11,  # [32, 2, 2]
+            _tmp13,  # [32, 2, 3]
+            _tmp15,  # [32, 2, 4]
+            _tmp8,  # [32, 2, 5]
+            _tmp20,  # [32, 3, 3]
+            _tmp22,  # [32, 3, 4]
+            _tmp23,  # [32, 3, 5]
+            _tmp26,  # [32, 4, 4]
+            _tmp30,  # [32, 4, 5]
+            _tmp32,  # [32, 5, 5]
+            1,  # [33, 0, 0]
+            _tmp0,  # [33, 0, 4]
+            _tmp1,  # [33, 0, 5]
+            _tmp3,  # [33, 1, 1]
+            _tmp5,  # [33, 1, 2]
+            _tmp7,  # [33, 1, 3]
+            _tmp8,  # [33, 1, 4]
+            _tmp33,  # [33, 1, 5]
+            _tmp11,  # [33, 2, 2]
+            _tmp13,  # [33, 2, 3]
+            _tmp14,  # [33, 2, 4]
+            _tmp9,  # [33, 2, 5]
+            _tmp20,  # [33, 3, 3]
+            _tmp34,  # [33, 3, 4]
+            _tmp35,  # [33, 3, 5]
+            _tmp26,  # [33, 4, 4]
+            _tmp30,  # [33, 4, 5]
+            _tmp32,  # [33, 5, 5]
+            1,  # [34, 0, 0]
+            _tmp0,  # [34, 0, 4]
+            b,  # [34, 0, 5]
+            _tmp3,  # [34, 1, 1]
+            _tmp36,  # [34, 1, 2]
+            _tmp7,  # [34, 1, 3]
+            _tmp8,  # [34, 1, 4]
+            _tmp10,  # [34, 1, 5]
+            _tmp11,  # [34, 2, 2]
+            _tmp21,  # [34, 2, 3]
+            _tmp15,  # [34, 2, 4]
+            _tmp9,  # [34, 2, 5]
+            _tmp20,  # [34, 3, 3]
+            _tmp34,  # [34, 3, 4]
+            _tmp23,  # [34, 3, 5]
+            _tmp26,  # [34, 4, 4]
+            _tmp29,  # [34, 4, 5]
+            _tmp32,  # [34, 5, 5]
+            1,  # [35, 0, 0]
+            _tmp0,  # [35, 0, 4]
+            b,  # [35, 0, 5]
+            _tmp3,  # [35, 1, 1]
+            _tmp36,  # [35, 1, 2]
+            _tmp7,  # [35, 1, 3]
+            _tmp9,  # [35, 1, 4]
+            _tmp33,  # [35, 1, 5]
+            _tmp11,  # [35, 2, 2]
+            _tmp21,  # [35, 2, 3]
+            _tmp14,  # [35, 2, 4]
+            _tmp8,  # [35, 2, 5]
+            _tmp20,  # [35, 3, 3]
+            _tmp22,  # [35, 3, 4]
+            _tmp35,  # [35, 3, 5]
+            _tmp26,  # [35, 4, 4]
+            _tmp29,  # [35, 4, 5]
+            _tmp32,  # [35, 5, 5]
+            1,  # [36, 0, 0]
+            _tmp0,  # [36, 0, 4]
+            _tmp1,  # [36, 0, 5]
+            1,  # [36, 1, 1]
+            h,  # [36, 1, 3]
+            a2,  # [36, 1, 5]
+            _tmp17,  # [36, 3, 3]
+            _tmp37,  # [36, 3, 5]
+            _tmp17,  # [36, 4, 4]
+            _tmp18,  # [36, 4, 5]
+            _tmp39,  # [36, 5, 5]
+            1,  # [37, 0, 0]
+            _tmp0,  # [37, 0, 4]
+            _tmp1,  # [37, 0, 5]
+            1,  # [37, 1, 1]
+            h,  # [37, 1, 3]
+            _tmp40,  # [37, 1, 5]
+            _tmp17,  # [37, 3, 3]
+            _tmp41,  # [37, 3, 5]
+            _tmp17,  # [37, 4, 4]
+            _tmp18,  # [37, 4, 5]
+            _tmp39,  # [37, 5, 5]
+            1,  # [38, 0, 0]
+            _tmp0,  # [38, 0, 4]
+            b,  # [38, 0, 5]
+            1,  # [38, 1, 1]
+            h,  # [38, 1, 3]
+            a2,  # [38, 1, 5]
+            _tmp17,  # [38, 3, 3]
+            _tmp37,  # [38, 3, 5]
+            _tmp17,  # [38, 4, 4]
+            _tmp27,  # [38, 4, 5]
+            _tmp39,  # [38, 5, 5]
+            1,  # [39, 0, 0]
+            _tmp0,  # [39, 0, 4]
+            b,  # [39, 0, 5]
+            1,  # [39, 1, 1]
+            h,  # [39, 1, 3]
+            _tmp40,  # [39, 1, 5]
+            _tmp17,  # [39, 3, 3]
+            _tmp41,  # [39, 3, 5]
+            _tmp17,  # [39, 4, 4]
+            _tmp27,  # [39, 4, 5]
+            _tmp39,  # [39, 5, 5]
+            _tmp11,  # [40, 1, 1]
+            _tmp36,  # [40, 1, 2]
+            _tmp43,  # [40, 1, 3]
+            _tmp8,  # [40, 1, 4]
+            _tmp14,  # [40, 1, 5]
+            _tmp3,  # [40, 2, 2]
+            _tmp44,  # [40, 2, 3]
+            _tmp33,  # [40, 2, 4]
+            _tmp9,  # [40, 2, 5]
+            _tmp45,  # [40, 3, 3]
+            _tmp47,  # [40, 3, 4]
+            _tmp48,  # [40, 3, 5]
+            _tmp31,  # [40, 4, 4]
+            _tmp28,  # [40, 4, 5]
+            _tmp25,  # [40, 5, 5]
+            _tmp11,  # [41, 1, 1]
+            _tmp36,  # [41, 1, 2]
+            _tmp43,  # [41, 1, 3]
+            _tmp9,  # [41, 1, 4]
+            _tmp15,  # [41, 1, 5]
+            _tmp3,  # [41, 2, 2]
+            _tmp44,  # [41, 2, 3]
+            _tmp10,  # [41, 2, 4]
+            _tmp8,  # [41, 2, 5]
+            _tmp45,  # [41, 3, 3]
+            _tmp49,  # [41, 3, 4]
+            _tmp50,  # [41, 3, 5]
+            _tmp31,  # [41, 4, 4]
+            _tmp28,  # [41, 4, 5]
+            _tmp25,  # [41, 5, 5]
+            _tmp11,  # [42, 1, 1]
+            _tmp5,  # [42, 1, 2]
+            _tmp43,  # [42, 1, 3]
+            _tmp9,  # [42, 1, 4]
+            _tmp14,  # [42, 1, 5]
+            _tmp3,  # [42, 2, 2]
+            _tmp46,  # [42, 2, 3]
+            _tmp33,  # [42, 2, 4]
+            _tmp8,  # [42, 2, 5]
+            _tmp45,  # [42, 3, 3]
+            _tmp49,  # [42, 3, 4]
+            _tmp48,  # [42, 3, 5]
+            _tmp31,  # [42, 4, 4]
+            _tmp51,  # [42, 4, 5]
+            _tmp25,  # [42, 5, 5]
+            _tmp11,  # [43, 1, 1]
+            _tmp5,  # [43, 1, 2]
+            _tmp43,  # [43, 1, 3]
+            _tmp8,  # [43, 1, 4]
+            _tmp15,  # [43, 1, 5]
+            _tmp3,  # [43, 2, 2]
+            _tmp46,  # [43, 2, 3]
+            _tmp10,  # [43, 2, 4]
+            _tmp9,  # [43, 2, 5]
+            _tmp45,  # [43, 3, 3]
+            _tmp47,  # [43, 3, 4]
+            _tmp50,  # [43, 3, 5]
+            _tmp31,  # [43, 4, 4]
+            _tmp51,  # [43, 4, 5]
+            _tmp25,  # [43, 5, 5]
+            1,  # [44, 2, 2]
+            b,  # [44, 2, 3]
+            _tmp40,  # [44, 2, 4]
+            _tmp16,  # [44, 3, 3]
+            _tmp53,  # [44, 3, 4]
+            _tmp38,  # [44, 4, 4]
+            1,  # [45, 2, 2]
+            b,  # [45, 2, 3]
+            a2,  # [45, 2, 4]
+            _tmp16,  # [45, 3, 3]
+            _tmp52,  # [45, 3, 4]
+            _tmp38,  # [45, 4, 4]
+            1,  # [46, 2, 2]
+            _tmp1,  # [46, 2, 3]
+            _tmp40,  # [46, 2, 4]
+            _tmp16,  # [46, 3, 3]
+            _tmp52,  # [46, 3, 4]
+            _tmp38,  # [46, 4, 4]
+            1,  # [47, 2, 2]
+            _tmp1,  # [47, 2, 3]
+            a2,  # [47, 2, 4]
+            _tmp16,  # [47, 3, 3]
+            _tmp53,  # [47, 3, 4]
+            _tmp38,  # [47, 4, 4]
+        ),
+    ).reshape(*_shape, 6, 8, 6, 6)
 
 
 def isolator_stiffness_on_foundation(a1, a2, b, h, gamma, c_x, c_y, c_v1, c_v2):

@@ -250,6 +250,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_axial_stiffness": ("L_xy", "c_z"),
     "isolator_axial_stiffness_gradient": ("L_xy", "c_z"),
+    "isolator_damping": ("L_xy", "L_z", "b_xy", "b_z"),
+    "isolator_damping_gradient": ("L_xy", "L_z", "b_xy", "b_z"),
     "isolator_stiffness_on_foundation": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_axial_stiffness_on_foundation": ("L_xy", "c_z"),
@@ -280,6 +282,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "L_xy", "L_z"),
     "isolator_stiffness_gradient": ("L_xy", "L_z"),
     "isolator_axial_stiffness_gradient": ("L_xy",),
+    "isolator_damping_gradient": ("L_xy", "L_z"),
     "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z"),
     "isolator_axial_stiffness_on_foundation_gradient": ("L_xy",),
 }
@@ -3799,6 +3802,474 @@ def isolator_axial_stiffness_gradient(L_xy, c_z):
             _tmp2,  # [7, 4, 4]
         ),
     ).reshape(*_shape, 2, 4, 6, 6)
+
+
+def isolator_damping(L_xy, L_z, b_xy, b_z):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = -L_xy*b_xy*sqrt(2)/2
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = L_xy*b_xy*sqrt(2)/2
+          [z, z] = b_z
+          [z, psi] = L_xy*b_z*sqrt(2)/2
+          [z, theta] = -L_xy*b_z*sqrt(2)/2
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [psi, theta] = -b_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*b_xy*sqrt(2)/2
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*b_xy*sqrt(2)/2
+          [phi, phi] = b_xy*L_xy**2
+        corner[-x+y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = -L_xy*b_xy*sqrt(2)/2
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = -L_xy*b_xy*sqrt(2)/2
+          [z, z] = b_z
+          [z, psi] = L_xy*b_z*sqrt(2)/2
+          [z, theta] = L_xy*b_z*sqrt(2)/2
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [psi, theta] = b_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*b_xy*sqrt(2)/2
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [theta, phi] = L_xy*L_z*b_xy*sqrt(2)/2
+          [phi, phi] = b_xy*L_xy**2
+        corner[+x-y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = L_xy*b_xy*sqrt(2)/2
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = L_xy*b_xy*sqrt(2)/2
+          [z, z] = b_z
+          [z, psi] = -L_xy*b_z*sqrt(2)/2
+          [z, theta] = -L_xy*b_z*sqrt(2)/2
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [psi, theta] = b_z*L_xy**2/2
+          [psi, phi] = L_xy*L_z*b_xy*sqrt(2)/2
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*b_xy*sqrt(2)/2
+          [phi, phi] = b_xy*L_xy**2
+        corner[-x-y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = L_xy*b_xy*sqrt(2)/2
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = -L_xy*b_xy*sqrt(2)/2
+          [z, z] = b_z
+          [z, psi] = -L_xy*b_z*sqrt(2)/2
+          [z, theta] = L_xy*b_z*sqrt(2)/2
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [psi, theta] = -b_z*L_xy**2/2
+          [psi, phi] = -L_xy*L_z*b_xy*sqrt(2)/2
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2/2
+          [theta, phi] = -L_xy*L_z*b_xy*sqrt(2)/2
+          [phi, phi] = b_xy*L_xy**2
+    """
+    L_xy, L_z, b_xy, b_z = _runtime.as_operands(L_xy, L_z, b_xy, b_z)
+    _tmp0 = L_z * b_xy
+    _tmp1 = -_tmp0
+    _tmp2 = numpy.sqrt(2) * L_xy
+    _tmp3 = (0.5) * _tmp2
+    _tmp4 = _tmp3 * b_xy
+    _tmp5 = -_tmp4
+    _tmp6 = (0.5) * b_z
+    _tmp7 = _tmp2 * _tmp6
+    _tmp8 = -_tmp7
+    _tmp9 = L_xy**2
+    _tmp10 = _tmp6 * _tmp9
+    _tmp11 = L_z**2 * b_xy + _tmp10
+    _tmp12 = -_tmp10
+    _tmp13 = _tmp0 * _tmp3
+    _tmp14 = _tmp9 * b_xy
+    _tmp15 = -_tmp13
+    _shape = _runtime.batch_shape(L_xy, L_z, b_xy, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (4, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 4),
+            (0, 0, 5),
+            (0, 1, 1),
+            (0, 1, 3),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 3),
+            (0, 2, 4),
+            (0, 3, 3),
+            (0, 3, 4),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 4, 5),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 0, 5),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 3),
+            (1, 2, 4),
+            (1, 3, 3),
+            (1, 3, 4),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 4, 5),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 3),
+            (2, 1, 5),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 2, 4),
+            (2, 3, 3),
+            (2, 3, 4),
+            (2, 3, 5),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 3),
+            (3, 1, 5),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 2, 4),
+            (3, 3, 3),
+            (3, 3, 4),
+            (3, 3, 5),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+        ),
+        (
+            b_xy,  # [0, 0, 0]
+            _tmp1,  # [0, 0, 4]
+            _tmp5,  # [0, 0, 5]
+            b_xy,  # [0, 1, 1]
+            _tmp0,  # [0, 1, 3]
+            _tmp4,  # [0, 1, 5]
+            b_z,  # [0, 2, 2]
+            _tmp7,  # [0, 2, 3]
+            _tmp8,  # [0, 2, 4]
+            _tmp11,  # [0, 3, 3]
+            _tmp12,  # [0, 3, 4]
+            _tmp13,  # [0, 3, 5]
+            _tmp11,  # [0, 4, 4]
+            _tmp13,  # [0, 4, 5]
+            _tmp14,  # [0, 5, 5]
+            b_xy,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp5,  # [1, 0, 5]
+            b_xy,  # [1, 1, 1]
+            _tmp0,  # [1, 1, 3]
+            _tmp5,  # [1, 1, 5]
+            b_z,  # [1, 2, 2]
+            _tmp7,  # [1, 2, 3]
+            _tmp7,  # [1, 2, 4]
+            _tmp11,  # [1, 3, 3]
+            _tmp10,  # [1, 3, 4]
+            _tmp15,  # [1, 3, 5]
+            _tmp11,  # [1, 4, 4]
+            _tmp13,  # [1, 4, 5]
+            _tmp14,  # [1, 5, 5]
+            b_xy,  # [2, 0, 0]
+            _tmp1,  # [2, 0, 4]
+            _tmp4,  # [2, 0, 5]
+            b_xy,  # [2, 1, 1]
+            _tmp0,  # [2, 1, 3]
+            _tmp4,  # [2, 1, 5]
+            b_z,  # [2, 2, 2]
+            _tmp8,  # [2, 2, 3]
+            _tmp8,  # [2, 2, 4]
+            _tmp11,  # [2, 3, 3]
+            _tmp10,  # [2, 3, 4]
+            _tmp13,  # [2, 3, 5]
+            _tmp11,  # [2, 4, 4]
+            _tmp15,  # [2, 4, 5]
+            _tmp14,  # [2, 5, 5]
+            b_xy,  # [3, 0, 0]
+            _tmp1,  # [3, 0, 4]
+            _tmp4,  # [3, 0, 5]
+            b_xy,  # [3, 1, 1]
+            _tmp0,  # [3, 1, 3]
+            _tmp5,  # [3, 1, 5]
+            b_z,  # [3, 2, 2]
+            _tmp8,  # [3, 2, 3]
+            _tmp7,  # [3, 2, 4]
+            _tmp11,  # [3, 3, 3]
+            _tmp12,  # [3, 3, 4]
+            _tmp15,  # [3, 3, 5]
+            _tmp11,  # [3, 4, 4]
+            _tmp15,  # [3, 4, 5]
+            _tmp14,  # [3, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(L_xy, L_z, b_xy, b_z):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_xy, c_z, b_xy, b_z, shape
+    (..., 4, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_xy:
+        dcorner[-x+y]/dc_xy:
+        dcorner[+x-y]/dc_xy:
+        dcorner[-x-y]/dc_xy:
+        dcorner[+x+y]/dc_z:
+        dcorner[-x+y]/dc_z:
+        dcorner[+x-y]/dc_z:
+        dcorner[-x-y]/dc_z:
+        dcorner[+x+y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[-x+y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[+x-y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[-x-y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy*sqrt(2)/2
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z*sqrt(2)/2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z*sqrt(2)/2
+          [phi, phi] = L_xy**2
+        dcorner[+x+y]/db_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x+y]/db_z:
+          [z, z] = 1
+          [z, psi] = L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[+x-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = -L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = L_xy**2/2
+          [theta, theta] = L_xy**2/2
+        dcorner[-x-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -L_xy*sqrt(2)/2
+          [z, theta] = L_xy*sqrt(2)/2
+          [psi, psi] = L_xy**2/2
+          [psi, theta] = -L_xy**2/2
+          [theta, theta] = L_xy**2/2
+    """
+    L_xy, L_z, b_xy, b_z = _runtime.as_operands(L_xy, L_z, b_xy, b_z)
+    _tmp0 = -L_z
+    _tmp1 = (0.5) * numpy.sqrt(2) * L_xy
+    _tmp2 = -_tmp1
+    _tmp3 = L_z**2
+    _tmp4 = L_z * _tmp1
+    _tmp5 = L_xy**2
+    _tmp6 = -_tmp4
+    _tmp7 = (0.5) * _tmp5
+    _tmp8 = -_tmp7
+    _shape = _runtime.batch_shape(L_xy, L_z, b_xy, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (16, 6, 6),
+        (
+            (8, 0, 0),
+            (8, 0, 4),
+            (8, 0, 5),
+            (8, 1, 1),
+            (8, 1, 3),
+            (8, 1, 5),
+            (8, 3, 3),
+            (8, 3, 5),
+            (8, 4, 4),
+            (8, 4, 5),
+            (8, 5, 5),
+            (9, 0, 0),
+            (9, 0, 4),
+            (9, 0, 5),
+            (9, 1, 1),
+            (9, 1, 3),
+            (9, 1, 5),
+            (9, 3, 3),
+            (9, 3, 5),
+            (9, 4, 4),
+            (9, 4, 5),
+            (9, 5, 5),
+            (10, 0, 0),
+            (10, 0, 4),
+            (10, 0, 5),
+            (10, 1, 1),
+            (10, 1, 3),
+            (10, 1, 5),
+            (10, 3, 3),
+            (10, 3, 5),
+            (10, 4, 4),
+            (10, 4, 5),
+            (10, 5, 5),
+            (11, 0, 0),
+            (11, 0, 4),
+            (11, 0, 5),
+            (11, 1, 1),
+            (11, 1, 3),
+            (11, 1, 5),
+            (11, 3, 3),
+            (11, 3, 5),
+            (11, 4, 4),
+            (11, 4, 5),
+            (11, 5, 5),
+            (12, 2, 2),
+            (12, 2, 3),
+            (12, 2, 4),
+            (12, 3, 3),
+            (12, 3, 4),
+            (12, 4, 4),
+            (13, 2, 2),
+            (13, 2, 3),
+            (13, 2, 4),
+            (13, 3, 3),
+            (13, 3, 4),
+            (13, 4, 4),
+            (14, 2, 2),
+            (14, 2, 3),
+            (14, 2, 4),
+            (14, 3, 3),
+            (14, 3, 4),
+            (14, 4, 4),
+            (15, 2, 2),
+            (15, 2, 3),
+            (15, 2, 4),
+            (15, 3, 3),
+            (15, 3, 4),
+            (15, 4, 4),
+        ),
+        (
+            1,  # [8, 0, 0]
+            _tmp0,  # [8, 0, 4]
+            _tmp2,  # [8, 0, 5]
+            1,  # [8, 1, 1]
+            L_z,  # [8, 1, 3]
+            _tmp1,  # [8, 1, 5]
+            _tmp3,  # [8, 3, 3]
+            _tmp4,  # [8, 3, 5]
+            _tmp3,  # [8, 4, 4]
+            _tmp4,  # [8, 4, 5]
+            _tmp5,  # [8, 5, 5]
+            1,  # [9, 0, 0]
+            _tmp0,  # [9, 0, 4]
+            _tmp2,  # [9, 0, 5]
+            1,  # [9, 1, 1]
+            L_z,  # [9, 1, 3]
+            _tmp2,  # [9, 1, 5]
+            _tmp3,  # [9, 3, 3]
+            _tmp6,  # [9, 3, 5]
+            _tmp3,  # [9, 4, 4]
+            _tmp4,  # [9, 4, 5]
+            _tmp5,  # [9, 5, 5]
+            1,  # [10, 0, 0]
+            _tmp0,  # [10, 0, 4]
+            _tmp1,  # [10, 0, 5]
+            1,  # [10, 1, 1]
+            L_z,  # [10, 1, 3]
+            _tmp1,  # [10, 1, 5]
+            _tmp3,  # [10, 3, 3]
+            _tmp4,  # [10, 3, 5]
+            _tmp3,  # [10, 4, 4]
+            _tmp6,  # [10, 4, 5]
+            _tmp5,  # [10, 5, 5]
+            1,  # [11, 0, 0]
+            _tmp0,  # [11, 0, 4]
+            _tmp1,  # [11, 0, 5]
+            1,  # [11, 1, 1]
+            L_z,  # [11, 1, 3]
+            _tmp2,  # [11, 1, 5]
+            _tmp3,  # [11, 3, 3]
+            _tmp6,  # [11, 3, 5]
+            _tmp3,  # [11, 4, 4]
+            _tmp6,  # [11, 4, 5]
+            _tmp5,  # [11, 5, 5]
+            1,  # [12, 2, 2]
+            _tmp1,  # [12, 2, 3]
+            _tmp2,  # [12, 2, 4]
+            _tmp7,  # [12, 3, 3]
+            _tmp8,  # [12, 3, 4]
+            _tmp7,  # [12, 4, 4]
+            1,  # [13, 2, 2]
+            _tmp1,  # [13, 2, 3]
+            _tmp1,  # [13, 2, 4]
+            _tmp7,  # [13, 3, 3]
+            _tmp7,  # [13, 3, 4]
+            _tmp7,  # [13, 4, 4]
+            1,  # [14, 2, 2]
+            _tmp2,  # [14, 2, 3]
+            _tmp2,  # [14, 2, 4]
+            _tmp7,  # [14, 3, 3]
+            _tmp7,  # [14, 3, 4]
+            _tmp7,  # [14, 4, 4]
+            1,  # [15, 2, 2]
+            _tmp2,  # [15, 2, 3]
+            _tmp1,  # [15, 2, 4]
+            _tmp7,  # [15, 3, 3]
+            _tmp8,  # [15, 3, 4]
+            _tmp7,  # [15, 4, 4]
+        ),
+    ).reshape(*_shape, 4, 4, 6, 6)
 
 
 def isolator_stiffness_on_foundation(L_xy, L_z, c_xy, c_z):

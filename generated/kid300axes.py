@@ -250,6 +250,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_axial_stiffness": ("L_xy", "c_z"),
     "isolator_axial_stiffness_gradient": ("L_xy", "c_z"),
+    "isolator_damping": ("L_xy", "L_z", "b_xy", "b_z"),
+    "isolator_damping_gradient": ("L_xy", "L_z", "b_xy", "b_z"),
     "isolator_stiffness_on_foundation": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z", "c_xy", "c_z"),
     "isolator_axial_stiffness_on_foundation": ("L_xy", "c_z"),
@@ -280,6 +282,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "L_xy", "L_z"),
     "isolator_stiffness_gradient": ("L_xy", "L_z"),
     "isolator_axial_stiffness_gradient": ("L_xy",),
+    "isolator_damping_gradient": ("L_xy", "L_z"),
     "isolator_stiffness_on_foundation_gradient": ("L_xy", "L_z"),
     "isolator_axial_stiffness_on_foundation_gradient": ("L_xy",),
 }
@@ -3608,6 +3611,359 @@ def isolator_axial_stiffness_gradient(L_xy, c_z):
             _tmp1,  # [7, 3, 3]
         ),
     ).reshape(*_shape, 2, 4, 6, 6)
+
+
+def isolator_damping(L_xy, L_z, b_xy, b_z):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        front[+x]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = L_xy*b_xy
+          [z, z] = b_z
+          [z, theta] = -L_xy*b_z
+          [psi, psi] = b_xy*L_z**2
+          [psi, phi] = L_xy*L_z*b_xy
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2
+          [phi, phi] = b_xy*L_xy**2
+        front[-x]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [y, phi] = -L_xy*b_xy
+          [z, z] = b_z
+          [z, theta] = L_xy*b_z
+          [psi, psi] = b_xy*L_z**2
+          [psi, phi] = -L_xy*L_z*b_xy
+          [theta, theta] = b_xy*L_z**2 + b_z*L_xy**2
+          [phi, phi] = b_xy*L_xy**2
+        side[+y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = -L_xy*b_xy
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [z, z] = b_z
+          [z, psi] = L_xy*b_z
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2
+          [theta, theta] = b_xy*L_z**2
+          [theta, phi] = L_xy*L_z*b_xy
+          [phi, phi] = b_xy*L_xy**2
+        side[-y]:
+          [x, x] = b_xy
+          [x, theta] = -L_z*b_xy
+          [x, phi] = L_xy*b_xy
+          [y, y] = b_xy
+          [y, psi] = L_z*b_xy
+          [z, z] = b_z
+          [z, psi] = -L_xy*b_z
+          [psi, psi] = b_xy*L_z**2 + b_z*L_xy**2
+          [theta, theta] = b_xy*L_z**2
+          [theta, phi] = -L_xy*L_z*b_xy
+          [phi, phi] = b_xy*L_xy**2
+    """
+    L_xy, L_z, b_xy, b_z = _runtime.as_operands(L_xy, L_z, b_xy, b_z)
+    _tmp0 = L_z * b_xy
+    _tmp1 = -_tmp0
+    _tmp2 = L_xy * b_xy
+    _tmp3 = L_xy * b_z
+    _tmp4 = -_tmp3
+    _tmp5 = L_z**2 * b_xy
+    _tmp6 = L_xy * _tmp0
+    _tmp7 = L_xy**2
+    _tmp8 = _tmp5 + _tmp7 * b_z
+    _tmp9 = _tmp7 * b_xy
+    _tmp10 = -_tmp2
+    _tmp11 = -_tmp6
+    _shape = _runtime.batch_shape(L_xy, L_z, b_xy, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (4, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 4),
+            (0, 1, 1),
+            (0, 1, 3),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 4),
+            (0, 3, 3),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 4),
+            (1, 3, 3),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 3),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 3, 3),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 3),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 3, 3),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+        ),
+        (
+            b_xy,  # [0, 0, 0]
+            _tmp1,  # [0, 0, 4]
+            b_xy,  # [0, 1, 1]
+            _tmp0,  # [0, 1, 3]
+            _tmp2,  # [0, 1, 5]
+            b_z,  # [0, 2, 2]
+            _tmp4,  # [0, 2, 4]
+            _tmp5,  # [0, 3, 3]
+            _tmp6,  # [0, 3, 5]
+            _tmp8,  # [0, 4, 4]
+            _tmp9,  # [0, 5, 5]
+            b_xy,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            b_xy,  # [1, 1, 1]
+            _tmp0,  # [1, 1, 3]
+            _tmp10,  # [1, 1, 5]
+            b_z,  # [1, 2, 2]
+            _tmp3,  # [1, 2, 4]
+            _tmp5,  # [1, 3, 3]
+            _tmp11,  # [1, 3, 5]
+            _tmp8,  # [1, 4, 4]
+            _tmp9,  # [1, 5, 5]
+            b_xy,  # [2, 0, 0]
+            _tmp1,  # [2, 0, 4]
+            _tmp10,  # [2, 0, 5]
+            b_xy,  # [2, 1, 1]
+            _tmp0,  # [2, 1, 3]
+            b_z,  # [2, 2, 2]
+            _tmp3,  # [2, 2, 3]
+            _tmp8,  # [2, 3, 3]
+            _tmp5,  # [2, 4, 4]
+            _tmp6,  # [2, 4, 5]
+            _tmp9,  # [2, 5, 5]
+            b_xy,  # [3, 0, 0]
+            _tmp1,  # [3, 0, 4]
+            _tmp2,  # [3, 0, 5]
+            b_xy,  # [3, 1, 1]
+            _tmp0,  # [3, 1, 3]
+            b_z,  # [3, 2, 2]
+            _tmp4,  # [3, 2, 3]
+            _tmp8,  # [3, 3, 3]
+            _tmp5,  # [3, 4, 4]
+            _tmp11,  # [3, 4, 5]
+            _tmp9,  # [3, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(L_xy, L_z, b_xy, b_z):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_xy, c_z, b_xy, b_z, shape
+    (..., 4, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dfront[+x]/dc_xy:
+        dfront[-x]/dc_xy:
+        dside[+y]/dc_xy:
+        dside[-y]/dc_xy:
+        dfront[+x]/dc_z:
+        dfront[-x]/dc_z:
+        dside[+y]/dc_z:
+        dside[-y]/dc_z:
+        dfront[+x]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = L_xy
+          [psi, psi] = L_z**2
+          [psi, phi] = L_xy*L_z
+          [theta, theta] = L_z**2
+          [phi, phi] = L_xy**2
+        dfront[-x]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [y, y] = 1
+          [y, psi] = L_z
+          [y, phi] = -L_xy
+          [psi, psi] = L_z**2
+          [psi, phi] = -L_xy*L_z
+          [theta, theta] = L_z**2
+          [phi, phi] = L_xy**2
+        dside[+y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = -L_xy
+          [y, y] = 1
+          [y, psi] = L_z
+          [psi, psi] = L_z**2
+          [theta, theta] = L_z**2
+          [theta, phi] = L_xy*L_z
+          [phi, phi] = L_xy**2
+        dside[-y]/db_xy:
+          [x, x] = 1
+          [x, theta] = -L_z
+          [x, phi] = L_xy
+          [y, y] = 1
+          [y, psi] = L_z
+          [psi, psi] = L_z**2
+          [theta, theta] = L_z**2
+          [theta, phi] = -L_xy*L_z
+          [phi, phi] = L_xy**2
+        dfront[+x]/db_z:
+          [z, z] = 1
+          [z, theta] = -L_xy
+          [theta, theta] = L_xy**2
+        dfront[-x]/db_z:
+          [z, z] = 1
+          [z, theta] = L_xy
+          [theta, theta] = L_xy**2
+        dside[+y]/db_z:
+          [z, z] = 1
+          [z, psi] = L_xy
+          [psi, psi] = L_xy**2
+        dside[-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -L_xy
+          [psi, psi] = L_xy**2
+    """
+    L_xy, L_z, b_xy, b_z = _runtime.as_operands(L_xy, L_z, b_xy, b_z)
+    _tmp0 = -L_z
+    _tmp1 = L_z**2
+    _tmp2 = L_xy * L_z
+    _tmp3 = L_xy**2
+    _tmp4 = -L_xy
+    _tmp5 = -_tmp2
+    _shape = _runtime.batch_shape(L_xy, L_z, b_xy, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (16, 6, 6),
+        (
+            (8, 0, 0),
+            (8, 0, 4),
+            (8, 1, 1),
+            (8, 1, 3),
+            (8, 1, 5),
+            (8, 3, 3),
+            (8, 3, 5),
+            (8, 4, 4),
+            (8, 5, 5),
+            (9, 0, 0),
+            (9, 0, 4),
+            (9, 1, 1),
+            (9, 1, 3),
+            (9, 1, 5),
+            (9, 3, 3),
+            (9, 3, 5),
+            (9, 4, 4),
+            (9, 5, 5),
+            (10, 0, 0),
+            (10, 0, 4),
+            (10, 0, 5),
+            (10, 1, 1),
+            (10, 1, 3),
+            (10, 3, 3),
+            (10, 4, 4),
+            (10, 4, 5),
+            (10, 5, 5),
+            (11, 0, 0),
+            (11, 0, 4),
+            (11, 0, 5),
+            (11, 1, 1),
+            (11, 1, 3),
+            (11, 3, 3),
+            (11, 4, 4),
+            (11, 4, 5),
+            (11, 5, 5),
+            (12, 2, 2),
+            (12, 2, 4),
+            (12, 4, 4),
+            (13, 2, 2),
+            (13, 2, 4),
+            (13, 4, 4),
+            (14, 2, 2),
+            (14, 2, 3),
+            (14, 3, 3),
+            (15, 2, 2),
+            (15, 2, 3),
+            (15, 3, 3),
+        ),
+        (
+            1,  # [8, 0, 0]
+            _tmp0,  # [8, 0, 4]
+            1,  # [8, 1, 1]
+            L_z,  # [8, 1, 3]
+            L_xy,  # [8, 1, 5]
+            _tmp1,  # [8, 3, 3]
+            _tmp2,  # [8, 3, 5]
+            _tmp1,  # [8, 4, 4]
+            _tmp3,  # [8, 5, 5]
+            1,  # [9, 0, 0]
+            _tmp0,  # [9, 0, 4]
+            1,  # [9, 1, 1]
+            L_z,  # [9, 1, 3]
+            _tmp4,  # [9, 1, 5]
+            _tmp1,  # [9, 3, 3]
+            _tmp5,  # [9, 3, 5]
+            _tmp1,  # [9, 4, 4]
+            _tmp3,  # [9, 5, 5]
+            1,  # [10, 0, 0]
+            _tmp0,  # [10, 0, 4]
+            _tmp4,  # [10, 0, 5]
+            1,  # [10, 1, 1]
+            L_z,  # [10, 1, 3]
+            _tmp1,  # [10, 3, 3]
+            _tmp1,  # [10, 4, 4]
+            _tmp2,  # [10, 4, 5]
+            _tmp3,  # [10, 5, 5]
+            1,  # [11, 0, 0]
+            _tmp0,  # [11, 0, 4]
+            L_xy,  # [11, 0, 5]
+            1,  # [11, 1, 1]
+            L_z,  # [11, 1, 3]
+            _tmp1,  # [11, 3, 3]
+            _tmp1,  # [11, 4, 4]
+            _tmp5,  # [11, 4, 5]
+            _tmp3,  # [11, 5, 5]
+            1,  # [12, 2, 2]
+            _tmp4,  # [12, 2, 4]
+            _tmp3,  # [12, 4, 4]
+            1,  # [13, 2, 2]
+            L_xy,  # [13, 2, 4]
+            _tmp3,  # [13, 4, 4]
+            1,  # [14, 2, 2]
+            L_xy,  # [14, 2, 3]
+            _tmp3,  # [14, 3, 3]
+            1,  # [15, 2, 2]
+            _tmp4,  # [15, 2, 3]
+            _tmp3,  # [15, 3, 3]
+        ),
+    ).reshape(*_shape, 4, 4, 6, 6)
 
 
 def isolator_stiffness_on_foundation(L_xy, L_z, c_xy, c_z):

@@ -388,6 +388,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_axial_stiffness": ("a", "b", "c_z"),
     "isolator_axial_stiffness_gradient": ("a", "b", "c_z"),
+    "isolator_damping": ("a", "b", "h", "b_x", "b_y", "b_z"),
+    "isolator_damping_gradient": ("a", "b", "h", "b_x", "b_y", "b_z"),
     "isolator_stiffness_on_foundation": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "c_x", "c_y", "c_z"),
     "isolator_axial_stiffness_on_foundation": ("a", "b", "c_z"),
@@ -419,6 +421,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "a", "b", "h"),
     "isolator_stiffness_gradient": ("a", "b", "h"),
     "isolator_axial_stiffness_gradient": ("a", "b"),
+    "isolator_damping_gradient": ("a", "b", "h"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a", "b"),
 }
@@ -5089,6 +5092,504 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
             _tmp4,  # [11, 4, 4]
         ),
     ).reshape(*_shape, 3, 4, 6, 6)
+
+
+def isolator_damping(a, b, h, b_x, b_y, b_z):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = b_x
+          [x, theta] = -b_x*h
+          [x, phi] = -b*b_x
+          [y, y] = b_y
+          [y, psi] = b_y*h
+          [y, phi] = a*b_y
+          [z, z] = b_z
+          [z, psi] = b*b_z
+          [z, theta] = -a*b_z
+          [psi, psi] = b_y*h**2 + b_z*b**2
+          [psi, theta] = -a*b*b_z
+          [psi, phi] = a*b_y*h
+          [theta, theta] = b_x*h**2 + b_z*a**2
+          [theta, phi] = b*b_x*h
+          [phi, phi] = b_x*b**2 + b_y*a**2
+        corner[-x+y]:
+          [x, x] = b_x
+          [x, theta] = -b_x*h
+          [x, phi] = -b*b_x
+          [y, y] = b_y
+          [y, psi] = b_y*h
+          [y, phi] = -a*b_y
+          [z, z] = b_z
+          [z, psi] = b*b_z
+          [z, theta] = a*b_z
+          [psi, psi] = b_y*h**2 + b_z*b**2
+          [psi, theta] = a*b*b_z
+          [psi, phi] = -a*b_y*h
+          [theta, theta] = b_x*h**2 + b_z*a**2
+          [theta, phi] = b*b_x*h
+          [phi, phi] = b_x*b**2 + b_y*a**2
+        corner[+x-y]:
+          [x, x] = b_x
+          [x, theta] = -b_x*h
+          [x, phi] = b*b_x
+          [y, y] = b_y
+          [y, psi] = b_y*h
+          [y, phi] = a*b_y
+          [z, z] = b_z
+          [z, psi] = -b*b_z
+          [z, theta] = -a*b_z
+          [psi, psi] = b_y*h**2 + b_z*b**2
+          [psi, theta] = a*b*b_z
+          [psi, phi] = a*b_y*h
+          [theta, theta] = b_x*h**2 + b_z*a**2
+          [theta, phi] = -b*b_x*h
+          [phi, phi] = b_x*b**2 + b_y*a**2
+        corner[-x-y]:
+          [x, x] = b_x
+          [x, theta] = -b_x*h
+          [x, phi] = b*b_x
+          [y, y] = b_y
+          [y, psi] = b_y*h
+          [y, phi] = -a*b_y
+          [z, z] = b_z
+          [z, psi] = -b*b_z
+          [z, theta] = a*b_z
+          [psi, psi] = b_y*h**2 + b_z*b**2
+          [psi, theta] = -a*b*b_z
+          [psi, phi] = -a*b_y*h
+          [theta, theta] = b_x*h**2 + b_z*a**2
+          [theta, phi] = -b*b_x*h
+          [phi, phi] = b_x*b**2 + b_y*a**2
+    """
+    a, b, h, b_x, b_y, b_z = _runtime.as_operands(a, b, h, b_x, b_y, b_z)
+    _tmp0 = b_x * h
+    _tmp1 = -_tmp0
+    _tmp2 = b * b_x
+    _tmp3 = -_tmp2
+    _tmp4 = b_y * h
+    _tmp5 = a * b_y
+    _tmp6 = b * b_z
+    _tmp7 = a * b_z
+    _tmp8 = -_tmp7
+    _tmp9 = b**2
+    _tmp10 = h**2
+    _tmp11 = _tmp10 * b_y + _tmp9 * b_z
+    _tmp12 = _tmp6 * a
+    _tmp13 = -_tmp12
+    _tmp14 = _tmp4 * a
+    _tmp15 = a**2
+    _tmp16 = _tmp10 * b_x + _tmp15 * b_z
+    _tmp17 = _tmp0 * b
+    _tmp18 = _tmp15 * b_y + _tmp9 * b_x
+    _tmp19 = -_tmp5
+    _tmp20 = -_tmp14
+    _tmp21 = -_tmp6
+    _tmp22 = -_tmp17
+    _shape = _runtime.batch_shape(a, b, h, b_x, b_y, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (4, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 4),
+            (0, 0, 5),
+            (0, 1, 1),
+            (0, 1, 3),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 3),
+            (0, 2, 4),
+            (0, 3, 3),
+            (0, 3, 4),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 4, 5),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 0, 5),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 3),
+            (1, 2, 4),
+            (1, 3, 3),
+            (1, 3, 4),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 4, 5),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 3),
+            (2, 1, 5),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 2, 4),
+            (2, 3, 3),
+            (2, 3, 4),
+            (2, 3, 5),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 3),
+            (3, 1, 5),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 2, 4),
+            (3, 3, 3),
+            (3, 3, 4),
+            (3, 3, 5),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+        ),
+        (
+            b_x,  # [0, 0, 0]
+            _tmp1,  # [0, 0, 4]
+            _tmp3,  # [0, 0, 5]
+            b_y,  # [0, 1, 1]
+            _tmp4,  # [0, 1, 3]
+            _tmp5,  # [0, 1, 5]
+            b_z,  # [0, 2, 2]
+            _tmp6,  # [0, 2, 3]
+            _tmp8,  # [0, 2, 4]
+            _tmp11,  # [0, 3, 3]
+            _tmp13,  # [0, 3, 4]
+            _tmp14,  # [0, 3, 5]
+            _tmp16,  # [0, 4, 4]
+            _tmp17,  # [0, 4, 5]
+            _tmp18,  # [0, 5, 5]
+            b_x,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp3,  # [1, 0, 5]
+            b_y,  # [1, 1, 1]
+            _tmp4,  # [1, 1, 3]
+            _tmp19,  # [1, 1, 5]
+            b_z,  # [1, 2, 2]
+            _tmp6,  # [1, 2, 3]
+            _tmp7,  # [1, 2, 4]
+            _tmp11,  # [1, 3, 3]
+            _tmp12,  # [1, 3, 4]
+            _tmp20,  # [1, 3, 5]
+            _tmp16,  # [1, 4, 4]
+            _tmp17,  # [1, 4, 5]
+            _tmp18,  # [1, 5, 5]
+            b_x,  # [2, 0, 0]
+            _tmp1,  # [2, 0, 4]
+            _tmp2,  # [2, 0, 5]
+            b_y,  # [2, 1, 1]
+            _tmp4,  # [2, 1, 3]
+            _tmp5,  # [2, 1, 5]
+            b_z,  # [2, 2, 2]
+            _tmp21,  # [2, 2, 3]
+            _tmp8,  # [2, 2, 4]
+            _tmp11,  # [2, 3, 3]
+            _tmp12,  # [2, 3, 4]
+            _tmp14,  # [2, 3, 5]
+            _tmp16,  # [2, 4, 4]
+            _tmp22,  # [2, 4, 5]
+            _tmp18,  # [2, 5, 5]
+            b_x,  # [3, 0, 0]
+            _tmp1,  # [3, 0, 4]
+            _tmp2,  # [3, 0, 5]
+            b_y,  # [3, 1, 1]
+            _tmp4,  # [3, 1, 3]
+            _tmp19,  # [3, 1, 5]
+            b_z,  # [3, 2, 2]
+            _tmp21,  # [3, 2, 3]
+            _tmp7,  # [3, 2, 4]
+            _tmp11,  # [3, 3, 3]
+            _tmp13,  # [3, 3, 4]
+            _tmp20,  # [3, 3, 5]
+            _tmp16,  # [3, 4, 4]
+            _tmp22,  # [3, 4, 5]
+            _tmp18,  # [3, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(a, b, h, b_x, b_y, b_z):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_x, c_y, c_z, b_x, b_y, b_z, shape
+    (..., 6, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_x:
+        dcorner[-x+y]/dc_x:
+        dcorner[+x-y]/dc_x:
+        dcorner[-x-y]/dc_x:
+        dcorner[+x+y]/dc_y:
+        dcorner[-x+y]/dc_y:
+        dcorner[+x-y]/dc_y:
+        dcorner[-x-y]/dc_y:
+        dcorner[+x+y]/dc_z:
+        dcorner[-x+y]/dc_z:
+        dcorner[+x-y]/dc_z:
+        dcorner[-x-y]/dc_z:
+        dcorner[+x+y]/db_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dcorner[-x+y]/db_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dcorner[+x-y]/db_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[-x-y]/db_x:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[+x+y]/db_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [phi, phi] = a**2
+        dcorner[-x+y]/db_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [phi, phi] = a**2
+        dcorner[+x-y]/db_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [phi, phi] = a**2
+        dcorner[-x-y]/db_y:
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [phi, phi] = a**2
+        dcorner[+x+y]/db_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dcorner[-x+y]/db_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[+x-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dcorner[-x-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, h, b_x, b_y, b_z = _runtime.as_operands(a, b, h, b_x, b_y, b_z)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = b * h
+    _tmp4 = b**2
+    _tmp5 = -_tmp3
+    _tmp6 = a * h
+    _tmp7 = a**2
+    _tmp8 = -a
+    _tmp9 = -_tmp6
+    _tmp10 = a * b
+    _tmp11 = -_tmp10
+    _shape = _runtime.batch_shape(a, b, h, b_x, b_y, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (24, 6, 6),
+        (
+            (12, 0, 0),
+            (12, 0, 4),
+            (12, 0, 5),
+            (12, 4, 4),
+            (12, 4, 5),
+            (12, 5, 5),
+            (13, 0, 0),
+            (13, 0, 4),
+            (13, 0, 5),
+            (13, 4, 4),
+            (13, 4, 5),
+            (13, 5, 5),
+            (14, 0, 0),
+            (14, 0, 4),
+            (14, 0, 5),
+            (14, 4, 4),
+            (14, 4, 5),
+            (14, 5, 5),
+            (15, 0, 0),
+            (15, 0, 4),
+            (15, 0, 5),
+            (15, 4, 4),
+            (15, 4, 5),
+            (15, 5, 5),
+            (16, 1, 1),
+            (16, 1, 3),
+            (16, 1, 5),
+            (16, 3, 3),
+            (16, 3, 5),
+            (16, 5, 5),
+            (17, 1, 1),
+            (17, 1, 3),
+            (17, 1, 5),
+            (17, 3, 3),
+            (17, 3, 5),
+            (17, 5, 5),
+            (18, 1, 1),
+            (18, 1, 3),
+            (18, 1, 5),
+            (18, 3, 3),
+            (18, 3, 5),
+            (18, 5, 5),
+            (19, 1, 1),
+            (19, 1, 3),
+            (19, 1, 5),
+            (19, 3, 3),
+            (19, 3, 5),
+            (19, 5, 5),
+            (20, 2, 2),
+            (20, 2, 3),
+            (20, 2, 4),
+            (20, 3, 3),
+            (20, 3, 4),
+            (20, 4, 4),
+            (21, 2, 2),
+            (21, 2, 3),
+            (21, 2, 4),
+            (21, 3, 3),
+            (21, 3, 4),
+            (21, 4, 4),
+            (22, 2, 2),
+            (22, 2, 3),
+            (22, 2, 4),
+            (22, 3, 3),
+            (22, 3, 4),
+            (22, 4, 4),
+            (23, 2, 2),
+            (23, 2, 3),
+            (23, 2, 4),
+            (23, 3, 3),
+            (23, 3, 4),
+            (23, 4, 4),
+        ),
+        (
+            1,  # [12, 0, 0]
+            _tmp0,  # [12, 0, 4]
+            _tmp1,  # [12, 0, 5]
+            _tmp2,  # [12, 4, 4]
+            _tmp3,  # [12, 4, 5]
+            _tmp4,  # [12, 5, 5]
+            1,  # [13, 0, 0]
+            _tmp0,  # [13, 0, 4]
+            _tmp1,  # [13, 0, 5]
+            _tmp2,  # [13, 4, 4]
+            _tmp3,  # [13, 4, 5]
+            _tmp4,  # [13, 5, 5]
+            1,  # [14, 0, 0]
+            _tmp0,  # [14, 0, 4]
+            b,  # [14, 0, 5]
+            _tmp2,  # [14, 4, 4]
+            _tmp5,  # [14, 4, 5]
+            _tmp4,  # [14, 5, 5]
+            1,  # [15, 0, 0]
+            _tmp0,  # [15, 0, 4]
+            b,  # [15, 0, 5]
+            _tmp2,  # [15, 4, 4]
+            _tmp5,  # [15, 4, 5]
+            _tmp4,  # [15, 5, 5]
+            1,  # [16, 1, 1]
+            h,  # [16, 1, 3]
+            a,  # [16, 1, 5]
+            _tmp2,  # [16, 3, 3]
+            _tmp6,  # [16, 3, 5]
+            _tmp7,  # [16, 5, 5]
+            1,  # [17, 1, 1]
+            h,  # [17, 1, 3]
+            _tmp8,  # [17, 1, 5]
+            _tmp2,  # [17, 3, 3]
+            _tmp9,  # [17, 3, 5]
+            _tmp7,  # [17, 5, 5]
+            1,  # [18, 1, 1]
+            h,  # [18, 1, 3]
+            a,  # [18, 1, 5]
+            _tmp2,  # [18, 3, 3]
+            _tmp6,  # [18, 3, 5]
+            _tmp7,  # [18, 5, 5]
+            1,  # [19, 1, 1]
+            h,  # [19, 1, 3]
+            _tmp8,  # [19, 1, 5]
+            _tmp2,  # [19, 3, 3]
+            _tmp9,  # [19, 3, 5]
+            _tmp7,  # [19, 5, 5]
+            1,  # [20, 2, 2]
+            b,  # [20, 2, 3]
+            _tmp8,  # [20, 2, 4]
+            _tmp4,  # [20, 3, 3]
+            _tmp11,  # [20, 3, 4]
+            _tmp7,  # [20, 4, 4]
+            1,  # [21, 2, 2]
+            b,  # [21, 2, 3]
+            a,  # [21, 2, 4]
+            _tmp4,  # [21, 3, 3]
+            _tmp10,  # [21, 3, 4]
+            _tmp7,  # [21, 4, 4]
+            1,  # [22, 2, 2]
+            _tmp1,  # [22, 2, 3]
+            _tmp8,  # [22, 2, 4]
+            _tmp4,  # [22, 3, 3]
+            _tmp10,  # [22, 3, 4]
+            _tmp7,  # [22, 4, 4]
+            1,  # [23, 2, 2]
+            _tmp1,  # [23, 2, 3]
+            a,  # [23, 2, 4]
+            _tmp4,  # [23, 3, 3]
+            _tmp11,  # [23, 3, 4]
+            _tmp7,  # [23, 4, 4]
+        ),
+    ).reshape(*_shape, 6, 4, 6, 6)
 
 
 def isolator_stiffness_on_foundation(a, b, h, c_x, c_y, c_z):

@@ -436,6 +436,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_axial_stiffness": ("a", "b", "h", "alpha", "c_v", "c_m"),
     "isolator_axial_stiffness_gradient": ("a", "b", "h", "alpha", "c_v", "c_m"),
+    "isolator_damping": ("a", "b", "h", "alpha", "b_h", "b_v", "b_m"),
+    "isolator_damping_gradient": ("a", "b", "h", "alpha", "b_h", "b_v", "b_m"),
     "isolator_stiffness_on_foundation": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha", "c_h", "c_v", "c_m"),
     "isolator_axial_stiffness_on_foundation": ("a", "b", "h", "alpha", "c_v", "c_m"),
@@ -479,6 +481,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "a", "b", "h", "alpha"),
     "isolator_stiffness_gradient": ("a", "b", "h", "alpha"),
     "isolator_axial_stiffness_gradient": ("a", "b", "h", "alpha"),
+    "isolator_damping_gradient": ("a", "b", "h", "alpha"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a", "b", "h", "alpha"),
 }
@@ -8135,6 +8138,934 @@ def isolator_axial_stiffness_gradient(a, b, h, alpha, c_v, c_m):
             _tmp15,  # [17, 3, 3]
         ),
     ).reshape(*_shape, 3, 6, 6, 6)
+
+
+def isolator_damping(a, b, h, alpha, b_h, b_v, b_m):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 6, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        corner[+x+y]:
+          [x, x] = b_h*cos(alpha)**2 + b_v*sin(alpha)**2
+          [x, z] = (b_v - b_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(b_v - b_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(b_h*cos(alpha)**2 + b_v*sin(alpha)**2)
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a*b_h
+          [z, z] = b_h*sin(alpha)**2 + b_v*cos(alpha)**2
+          [z, psi] = b*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
+          [z, theta] = -a*b_h*sin(alpha)**2 - a*b_v*cos(alpha)**2 + b_h*h*cos(alpha)*sin(alpha) - b_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(b_h - b_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = b_h*h**2 + b_h*b**2*sin(alpha)**2 + b_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*b_h*sin(alpha)**2 - a*b_v*cos(alpha)**2 + b_h*h*cos(alpha)*sin(alpha) - b_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*b_h*h + b_h*b**2*cos(alpha)*sin(alpha) - b_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = b_h*a**2*sin(alpha)**2 + b_h*h**2*cos(alpha)**2 + b_v*a**2*cos(alpha)**2 + b_v*h**2*sin(alpha)**2 - 2*a*b_h*h*cos(alpha)*sin(alpha) + 2*a*b_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(b_h*h*cos(alpha)**2 + b_v*h*sin(alpha)**2 + a*b_v*cos(alpha)*sin(alpha) - a*b_h*cos(alpha)*sin(alpha))
+          [phi, phi] = b_h*a**2 + b_h*b**2*cos(alpha)**2 + b_v*b**2*sin(alpha)**2
+        corner[-x+y]:
+          [x, x] = b_h*cos(alpha)**2 + b_v*sin(alpha)**2
+          [x, z] = (b_h - b_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(b_h - b_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha)
+          [x, phi] = -b*(b_h*cos(alpha)**2 + b_v*sin(alpha)**2)
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a*b_h
+          [z, z] = b_h*sin(alpha)**2 + b_v*cos(alpha)**2
+          [z, psi] = b*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
+          [z, theta] = a*b_h*sin(alpha)**2 + a*b_v*cos(alpha)**2 + b_v*h*cos(alpha)*sin(alpha) - b_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(b_v - b_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = b_h*h**2 + b_h*b**2*sin(alpha)**2 + b_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*b_h*sin(alpha)**2 + a*b_v*cos(alpha)**2 + b_v*h*cos(alpha)*sin(alpha) - b_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*b_h*h + b_v*b**2*cos(alpha)*sin(alpha) - b_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = b_h*a**2*sin(alpha)**2 + b_h*h**2*cos(alpha)**2 + b_v*a**2*cos(alpha)**2 + b_v*h**2*sin(alpha)**2 - 2*a*b_h*h*cos(alpha)*sin(alpha) + 2*a*b_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(b_h*h*cos(alpha)**2 + b_v*h*sin(alpha)**2 + a*b_v*cos(alpha)*sin(alpha) - a*b_h*cos(alpha)*sin(alpha))
+          [phi, phi] = b_h*a**2 + b_h*b**2*cos(alpha)**2 + b_v*b**2*sin(alpha)**2
+        corner[+x-y]:
+          [x, x] = b_h*cos(alpha)**2 + b_v*sin(alpha)**2
+          [x, z] = (b_v - b_h)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(b_h - b_v)*cos(alpha)*sin(alpha)
+          [x, theta] = -b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(b_h*cos(alpha)**2 + b_v*sin(alpha)**2)
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a*b_h
+          [z, z] = b_h*sin(alpha)**2 + b_v*cos(alpha)**2
+          [z, psi] = -b*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
+          [z, theta] = -a*b_h*sin(alpha)**2 - a*b_v*cos(alpha)**2 + b_h*h*cos(alpha)*sin(alpha) - b_v*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(b_v - b_h)*cos(alpha)*sin(alpha)
+          [psi, psi] = b_h*h**2 + b_h*b**2*sin(alpha)**2 + b_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(a*b_h*sin(alpha)**2 + a*b_v*cos(alpha)**2 + b_v*h*cos(alpha)*sin(alpha) - b_h*h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*b_h*h + b_h*b**2*cos(alpha)*sin(alpha) - b_v*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = b_h*a**2*sin(alpha)**2 + b_h*h**2*cos(alpha)**2 + b_v*a**2*cos(alpha)**2 + b_v*h**2*sin(alpha)**2 - 2*a*b_h*h*cos(alpha)*sin(alpha) + 2*a*b_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha))
+          [phi, phi] = b_h*a**2 + b_h*b**2*cos(alpha)**2 + b_v*b**2*sin(alpha)**2
+        corner[-x-y]:
+          [x, x] = b_h*cos(alpha)**2 + b_v*sin(alpha)**2
+          [x, z] = (b_h - b_v)*cos(alpha)*sin(alpha)
+          [x, psi] = b*(b_v - b_h)*cos(alpha)*sin(alpha)
+          [x, theta] = -b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha)
+          [x, phi] = b*(b_h*cos(alpha)**2 + b_v*sin(alpha)**2)
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a*b_h
+          [z, z] = b_h*sin(alpha)**2 + b_v*cos(alpha)**2
+          [z, psi] = -b*(b_h*sin(alpha)**2 + b_v*cos(alpha)**2)
+          [z, theta] = a*b_h*sin(alpha)**2 + a*b_v*cos(alpha)**2 + b_v*h*cos(alpha)*sin(alpha) - b_h*h*cos(alpha)*sin(alpha)
+          [z, phi] = b*(b_h - b_v)*cos(alpha)*sin(alpha)
+          [psi, psi] = b_h*h**2 + b_h*b**2*sin(alpha)**2 + b_v*b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*b_h*sin(alpha)**2 - a*b_v*cos(alpha)**2 + b_h*h*cos(alpha)*sin(alpha) - b_v*h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*b_h*h + b_v*b**2*cos(alpha)*sin(alpha) - b_h*b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = b_h*a**2*sin(alpha)**2 + b_h*h**2*cos(alpha)**2 + b_v*a**2*cos(alpha)**2 + b_v*h**2*sin(alpha)**2 - 2*a*b_h*h*cos(alpha)*sin(alpha) + 2*a*b_v*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-b_h*h*cos(alpha)**2 - b_v*h*sin(alpha)**2 + a*b_h*cos(alpha)*sin(alpha) - a*b_v*cos(alpha)*sin(alpha))
+          [phi, phi] = b_h*a**2 + b_h*b**2*cos(alpha)**2 + b_v*b**2*sin(alpha)**2
+        middle[+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [z, z] = b_m
+          [z, psi] = b*b_m
+          [psi, psi] = b_h*h**2 + b_m*b**2
+          [theta, theta] = b_h*h**2
+          [theta, phi] = b*b_h*h
+          [phi, phi] = b_h*b**2
+        middle[-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [z, z] = b_m
+          [z, psi] = -b*b_m
+          [psi, psi] = b_h*h**2 + b_m*b**2
+          [theta, theta] = b_h*h**2
+          [theta, phi] = -b*b_h*h
+          [phi, phi] = b_h*b**2
+    """
+    a, b, h, alpha, b_h, b_v, b_m = _runtime.as_operands(a, b, h, alpha, b_h, b_v, b_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = _tmp1 * b_h
+    _tmp3 = numpy.sin(alpha)
+    _tmp4 = _tmp3**2
+    _tmp5 = _tmp4 * b_v
+    _tmp6 = _tmp2 + _tmp5
+    _tmp7 = b_h - b_v
+    _tmp8 = _tmp0 * _tmp3
+    _tmp9 = -_tmp7 * _tmp8
+    _tmp10 = _tmp9 * b
+    _tmp11 = _tmp8 * b_v
+    _tmp12 = _tmp11 * a
+    _tmp13 = -_tmp0 * _tmp3 * a * b_h + _tmp12 + _tmp2 * h + _tmp5 * h
+    _tmp14 = -_tmp13
+    _tmp15 = _tmp6 * b
+    _tmp16 = -_tmp15
+    _tmp17 = b_h * h
+    _tmp18 = a * b_h
+    _tmp19 = _tmp4 * b_h
+    _tmp20 = _tmp1 * b_v
+    _tmp21 = _tmp19 + _tmp20
+    _tmp22 = _tmp21 * b
+    _tmp23 = -_tmp0 * _tmp3 * b_h * h + _tmp11 * h + _tmp18 * _tmp4 + _tmp20 * a
+    _tmp24 = -_tmp23
+    _tmp25 = _tmp7 * _tmp8
+    _tmp26 = _tmp25 * b
+    _tmp27 = h**2
+    _tmp28 = _tmp27 * b_h
+    _tmp29 = b**2
+    _tmp30 = _tmp19 * _tmp29 + _tmp20 * _tmp29 + _tmp28
+    _tmp31 = _tmp24 * b
+    _tmp32 = _tmp17 * a
+    _tmp33 = _tmp29 * b_h
+    _tmp34 = -_tmp11 * _tmp29 + _tmp32 + _tmp33 * _tmp8
+    _tmp35 = a**2
+    _tmp36 = 2 * _tmp12 * h + _tmp19 * _tmp35 + _tmp2 * _tmp27 + _tmp20 * _tmp35 + _tmp27 * _tmp5 - 2 * _tmp32 * _tmp8
+    _tmp37 = _tmp13 * b
+    _tmp38 = _tmp2 * _tmp29 + _tmp29 * _tmp5 + _tmp35 * b_h
+    _tmp39 = -_tmp18
+    _tmp40 = _tmp23 * b
+    _tmp41 = -_tmp34
+    _tmp42 = -_tmp22
+    _tmp43 = _tmp14 * b
+    _tmp44 = -_tmp17
+    _tmp45 = b * b_h
+    _tmp46 = b * b_m
+    _tmp47 = _tmp28 + _tmp29 * b_m
+    _tmp48 = _tmp17 * b
+    _shape = _runtime.batch_shape(a, b, h, alpha, b_h, b_v, b_m)
+    return _runtime.stack_symmetric(
+        _shape,
+        (6, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 2),
+            (0, 0, 3),
+            (0, 0, 4),
+            (0, 0, 5),
+            (0, 1, 1),
+            (0, 1, 3),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 3),
+            (0, 2, 4),
+            (0, 2, 5),
+            (0, 3, 3),
+            (0, 3, 4),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 4, 5),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 2),
+            (1, 0, 3),
+            (1, 0, 4),
+            (1, 0, 5),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 3),
+            (1, 2, 4),
+            (1, 2, 5),
+            (1, 3, 3),
+            (1, 3, 4),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 4, 5),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 2),
+            (2, 0, 3),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 3),
+            (2, 1, 5),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 2, 4),
+            (2, 2, 5),
+            (2, 3, 3),
+            (2, 3, 4),
+            (2, 3, 5),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 2),
+            (3, 0, 3),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 3),
+            (3, 1, 5),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 2, 4),
+            (3, 2, 5),
+            (3, 3, 3),
+            (3, 3, 4),
+            (3, 3, 5),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+            (4, 0, 0),
+            (4, 0, 4),
+            (4, 0, 5),
+            (4, 1, 1),
+            (4, 1, 3),
+            (4, 2, 2),
+            (4, 2, 3),
+            (4, 3, 3),
+            (4, 4, 4),
+            (4, 4, 5),
+            (4, 5, 5),
+            (5, 0, 0),
+            (5, 0, 4),
+            (5, 0, 5),
+            (5, 1, 1),
+            (5, 1, 3),
+            (5, 2, 2),
+            (5, 2, 3),
+            (5, 3, 3),
+            (5, 4, 4),
+            (5, 4, 5),
+            (5, 5, 5),
+        ),
+        (
+            _tmp6,  # [0, 0, 0]
+            _tmp9,  # [0, 0, 2]
+            _tmp10,  # [0, 0, 3]
+            _tmp14,  # [0, 0, 4]
+            _tmp16,  # [0, 0, 5]
+            b_h,  # [0, 1, 1]
+            _tmp17,  # [0, 1, 3]
+            _tmp18,  # [0, 1, 5]
+            _tmp21,  # [0, 2, 2]
+            _tmp22,  # [0, 2, 3]
+            _tmp24,  # [0, 2, 4]
+            _tmp26,  # [0, 2, 5]
+            _tmp30,  # [0, 3, 3]
+            _tmp31,  # [0, 3, 4]
+            _tmp34,  # [0, 3, 5]
+            _tmp36,  # [0, 4, 4]
+            _tmp37,  # [0, 4, 5]
+            _tmp38,  # [0, 5, 5]
+            _tmp6,  # [1, 0, 0]
+            _tmp25,  # [1, 0, 2]
+            _tmp26,  # [1, 0, 3]
+            _tmp14,  # [1, 0, 4]
+            _tmp16,  # [1, 0, 5]
+            b_h,  # [1, 1, 1]
+            _tmp17,  # [1, 1, 3]
+            _tmp39,  # [1, 1, 5]
+            _tmp21,  # [1, 2, 2]
+            _tmp22,  # [1, 2, 3]
+            _tmp23,  # [1, 2, 4]
+            _tmp10,  # [1, 2, 5]
+            _tmp30,  # [1, 3, 3]
+            _tmp40,  # [1, 3, 4]
+            _tmp41,  # [1, 3, 5]
+            _tmp36,  # [1, 4, 4]
+            _tmp37,  # [1, 4, 5]
+            _tmp38,  # [1, 5, 5]
+            _tmp6,  # [2, 0, 0]
+            _tmp9,  # [2, 0, 2]
+            _tmp26,  # [2, 0, 3]
+            _tmp14,  # [2, 0, 4]
+            _tmp15,  # [2, 0, 5]
+            b_h,  # [2, 1, 1]
+            _tmp17,  # [2, 1, 3]
+            _tmp18,  # [2, 1, 5]
+            _tmp21,  # [2, 2, 2]
+            _tmp42,  # [2, 2, 3]
+            _tmp24,  # [2, 2, 4]
+            _tmp10,  # [2, 2, 5]
+            _tmp30,  # [2, 3, 3]
+            _tmp40,  # [2, 3, 4]
+            _tmp34,  # [2, 3, 5]
+            _tmp36,  # [2, 4, 4]
+            _tmp43,  # [2, 4, 5]
+            _tmp38,  # [2, 5, 5]
+            _tmp6,  # [3, 0, 0]
+            _tmp25,  # [3, 0, 2]
+            _tmp10,  # [3, 0, 3]
+            _tmp14,  # [3, 0, 4]
+            _tmp15,  # [3, 0, 5]
+            b_h,  # [3, 1, 1]
+            _tmp17,  # [3, 1, 3]
+            _tmp39,  # [3, 1, 5]
+            _tmp21,  # [3, 2, 2]
+            _tmp42,  # [3, 2, 3]
+            _tmp23,  # [3, 2, 4]
+            _tmp26,  # [3, 2, 5]
+            _tmp30,  # [3, 3, 3]
+            _tmp31,  # [3, 3, 4]
+            _tmp41,  # [3, 3, 5]
+            _tmp36,  # [3, 4, 4]
+            _tmp43,  # [3, 4, 5]
+            _tmp38,  # [3, 5, 5]
+            b_h,  # [4, 0, 0]
+            _tmp44,  # [4, 0, 4]
+            -_tmp45,  # [4, 0, 5]
+            b_h,  # [4, 1, 1]
+            _tmp17,  # [4, 1, 3]
+            b_m,  # [4, 2, 2]
+            _tmp46,  # [4, 2, 3]
+            _tmp47,  # [4, 3, 3]
+            _tmp28,  # [4, 4, 4]
+            _tmp48,  # [4, 4, 5]
+            _tmp33,  # [4, 5, 5]
+            b_h,  # [5, 0, 0]
+            _tmp44,  # [5, 0, 4]
+            _tmp45,  # [5, 0, 5]
+            b_h,  # [5, 1, 1]
+            _tmp17,  # [5, 1, 3]
+            b_m,  # [5, 2, 2]
+            -_tmp46,  # [5, 2, 3]
+            _tmp47,  # [5, 3, 3]
+            _tmp28,  # [5, 4, 4]
+            -_tmp48,  # [5, 4, 5]
+            _tmp33,  # [5, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(a, b, h, alpha, b_h, b_v, b_m):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_h, c_v, c_m, b_h, b_v, b_m, shape
+    (..., 6, 6, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dcorner[+x+y]/dc_h:
+        dcorner[-x+y]/dc_h:
+        dcorner[+x-y]/dc_h:
+        dcorner[-x-y]/dc_h:
+        dmiddle[+y]/dc_h:
+        dmiddle[-y]/dc_h:
+        dcorner[+x+y]/dc_v:
+        dcorner[-x+y]/dc_v:
+        dcorner[+x-y]/dc_v:
+        dcorner[-x-y]/dc_v:
+        dmiddle[+y]/dc_v:
+        dmiddle[-y]/dc_v:
+        dcorner[+x+y]/dc_m:
+        dcorner[-x+y]/dc_m:
+        dcorner[+x-y]/dc_m:
+        dcorner[-x-y]/dc_m:
+        dmiddle[+y]/dc_m:
+        dmiddle[-y]/dc_m:
+        dcorner[+x+y]/db_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x+y]/db_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*cos(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[+x-y]/db_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = -a*sin(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(a*sin(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = a*h + b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dcorner[-x-y]/db_h:
+          [x, x] = cos(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*cos(alpha)**2 + a*cos(alpha)*sin(alpha)
+          [x, phi] = b*cos(alpha)**2
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [z, z] = sin(alpha)**2
+          [z, psi] = -b*sin(alpha)**2
+          [z, theta] = a*sin(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = h**2 + b**2*sin(alpha)**2
+          [psi, theta] = b*(-a*sin(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -a*h - b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*sin(alpha)**2 + h**2*cos(alpha)**2 - 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*cos(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = a**2 + b**2*cos(alpha)**2
+        dmiddle[+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [psi, psi] = h**2
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = b**2
+        dmiddle[-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [psi, psi] = h**2
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = b**2
+        dcorner[+x+y]/db_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x+y]/db_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = -b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(h*sin(alpha)**2 + a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[+x-y]/db_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = cos(alpha)*sin(alpha)
+          [x, psi] = -b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = -a*cos(alpha)**2 - h*cos(alpha)*sin(alpha)
+          [z, phi] = b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(a*cos(alpha)**2 + h*cos(alpha)*sin(alpha))
+          [psi, phi] = -b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dcorner[-x-y]/db_v:
+          [x, x] = sin(alpha)**2
+          [x, z] = -cos(alpha)*sin(alpha)
+          [x, psi] = b*cos(alpha)*sin(alpha)
+          [x, theta] = -h*sin(alpha)**2 - a*cos(alpha)*sin(alpha)
+          [x, phi] = b*sin(alpha)**2
+          [z, z] = cos(alpha)**2
+          [z, psi] = -b*cos(alpha)**2
+          [z, theta] = a*cos(alpha)**2 + h*cos(alpha)*sin(alpha)
+          [z, phi] = -b*cos(alpha)*sin(alpha)
+          [psi, psi] = b**2*cos(alpha)**2
+          [psi, theta] = b*(-a*cos(alpha)**2 - h*cos(alpha)*sin(alpha))
+          [psi, phi] = b**2*cos(alpha)*sin(alpha)
+          [theta, theta] = a**2*cos(alpha)**2 + h**2*sin(alpha)**2 + 2*a*h*cos(alpha)*sin(alpha)
+          [theta, phi] = b*(-h*sin(alpha)**2 - a*cos(alpha)*sin(alpha))
+          [phi, phi] = b**2*sin(alpha)**2
+        dmiddle[+y]/db_v:
+        dmiddle[-y]/db_v:
+        dcorner[+x+y]/db_m:
+        dcorner[-x+y]/db_m:
+        dcorner[+x-y]/db_m:
+        dcorner[-x-y]/db_m:
+        dmiddle[+y]/db_m:
+          [z, z] = 1
+          [z, psi] = b
+          [psi, psi] = b**2
+        dmiddle[-y]/db_m:
+          [z, z] = 1
+          [z, psi] = -b
+          [psi, psi] = b**2
+    """
+    a, b, h, alpha, b_h, b_v, b_m = _runtime.as_operands(a, b, h, alpha, b_h, b_v, b_m)
+    _tmp0 = numpy.cos(alpha)
+    _tmp1 = _tmp0**2
+    _tmp2 = numpy.sin(alpha)
+    _tmp3 = _tmp0 * _tmp2
+    _tmp4 = -_tmp3
+    _tmp5 = _tmp3 * b
+    _tmp6 = -_tmp5
+    _tmp7 = _tmp3 * a
+    _tmp8 = -_tmp1 * h + _tmp7
+    _tmp9 = _tmp1 * b
+    _tmp10 = -_tmp9
+    _tmp11 = _tmp2**2
+    _tmp12 = _tmp11 * b
+    _tmp13 = _tmp3 * h
+    _tmp14 = _tmp11 * a - _tmp13
+    _tmp15 = -_tmp14
+    _tmp16 = h**2
+    _tmp17 = b**2
+    _tmp18 = _tmp11 * _tmp17
+    _tmp19 = _tmp16 + _tmp18
+    _tmp20 = _tmp15 * b
+    _tmp21 = a * h
+    _tmp22 = _tmp17 * _tmp3
+    _tmp23 = _tmp21 + _tmp22
+    _tmp24 = a**2
+    _tmp25 = 2 * _tmp21 * _tmp3
+    _tmp26 = _tmp1 * _tmp16 + _tmp11 * _tmp24 - _tmp25
+    _tmp27 = -_tmp8 * b
+    _tmp28 = _tmp1 * _tmp17
+    _tmp29 = _tmp24 + _tmp28
+    _tmp30 = -a
+    _tmp31 = _tmp14 * b
+    _tmp32 = -_tmp23
+    _tmp33 = -_tmp12
+    _tmp34 = _tmp8 * b
+    _tmp35 = -h
+    _tmp36 = -b
+    _tmp37 = b * h
+    _tmp38 = _tmp11 * h + _tmp7
+    _tmp39 = -_tmp38
+    _tmp40 = _tmp1 * a + _tmp13
+    _tmp41 = -_tmp40
+    _tmp42 = _tmp41 * b
+    _tmp43 = -_tmp22
+    _tmp44 = _tmp1 * _tmp24 + _tmp11 * _tmp16 + _tmp25
+    _tmp45 = _tmp38 * b
+    _tmp46 = _tmp40 * b
+    _tmp47 = _tmp39 * b
+    _shape = _runtime.batch_shape(a, b, h, alpha, b_h, b_v, b_m)
+    return _runtime.stack_symmetric(
+        _shape,
+        (36, 6, 6),
+        (
+            (18, 0, 0),
+            (18, 0, 2),
+            (18, 0, 3),
+            (18, 0, 4),
+            (18, 0, 5),
+            (18, 1, 1),
+            (18, 1, 3),
+            (18, 1, 5),
+            (18, 2, 2),
+            (18, 2, 3),
+            (18, 2, 4),
+            (18, 2, 5),
+            (18, 3, 3),
+            (18, 3, 4),
+            (18, 3, 5),
+            (18, 4, 4),
+            (18, 4, 5),
+            (18, 5, 5),
+            (19, 0, 0),
+            (19, 0, 2),
+            (19, 0, 3),
+            (19, 0, 4),
+            (19, 0, 5),
+            (19, 1, 1),
+            (19, 1, 3),
+            (19, 1, 5),
+            (19, 2, 2),
+            (19, 2, 3),
+            (19, 2, 4),
+            (19, 2, 5),
+            (19, 3, 3),
+            (19, 3, 4),
+            (19, 3, 5),
+            (19, 4, 4),
+            (19, 4, 5),
+            (19, 5, 5),
+            (20, 0, 0),
+            (20, 0, 2),
+            (20, 0, 3),
+            (20, 0, 4),
+            (20, 0, 5),
+            (20, 1, 1),
+            (20, 1, 3),
+            (20, 1, 5),
+            (20, 2, 2),
+            (20, 2, 3),
+            (20, 2, 4),
+            (20, 2, 5),
+            (20, 3, 3),
+            (20, 3, 4),
+            (20, 3, 5),
+            (20, 4, 4),
+            (20, 4, 5),
+            (20, 5, 5),
+            (21, 0, 0),
+            (21, 0, 2),
+            (21, 0, 3),
+            (21, 0, 4),
+            (21, 0, 5),
+            (21, 1, 1),
+            (21, 1, 3),
+            (21, 1, 5),
+            (21, 2, 2),
+            (21, 2, 3),
+            (21, 2, 4),
+            (21, 2, 5),
+            (21, 3, 3),
+            (21, 3, 4),
+            (21, 3, 5),
+            (21, 4, 4),
+            (21, 4, 5),
+            (21, 5, 5),
+            (22, 0, 0),
+            (22, 0, 4),
+            (22, 0, 5),
+            (22, 1, 1),
+            (22, 1, 3),
+            (22, 3, 3),
+            (22, 4, 4),
+            (22, 4, 5),
+            (22, 5, 5),
+            (23, 0, 0),
+            (23, 0, 4),
+            (23, 0, 5),
+            (23, 1, 1),
+            (23, 1, 3),
+            (23, 3, 3),
+            (23, 4, 4),
+            (23, 4, 5),
+            (23, 5, 5),
+            (24, 0, 0),
+            (24, 0, 2),
+            (24, 0, 3),
+            (24, 0, 4),
+            (24, 0, 5),
+            (24, 2, 2),
+            (24, 2, 3),
+            (24, 2, 4),
+            (24, 2, 5),
+            (24, 3, 3),
+            (24, 3, 4),
+            (24, 3, 5),
+            (24, 4, 4),
+            (24, 4, 5),
+            (24, 5, 5),
+            (25, 0, 0),
+            (25, 0, 2),
+            (25, 0, 3),
+            (25, 0, 4),
+            (25, 0, 5),
+            (25, 2, 2),
+            (25, 2, 3),
+            (25, 2, 4),
+            (25, 2, 5),
+            (25, 3, 3),
+            (25, 3, 4),
+            (25, 3, 5),
+            (25, 4, 4),
+            (25, 4, 5),
+            (25, 5, 5),
+            (26, 0, 0),
+            (26, 0, 2),
+            (26, 0, 3),
+            (26, 0, 4),
+            (26, 0, 5),
+            (26, 2, 2),
+            (26, 2, 3),
+            (26, 2, 4),
+            (26, 2, 5),
+            (26, 3, 3),
+            (26, 3, 4),
+            (26, 3, 5),
+            (26, 4, 4),
+            (26, 4, 5),
+            (26, 5, 5),
+            (27, 0, 0),
+            (27, 0, 2),
+            (27, 0, 3),
+            (27, 0, 4),
+            (27, 0, 5),
+            (27, 2, 2),
+            (27, 2, 3),
+            (27, 2, 4),
+            (27, 2, 5),
+            (27, 3, 3),
+            (27, 3, 4),
+            (27, 3, 5),
+            (27, 4, 4),
+            (27, 4, 5),
+            (27, 5, 5),
+            (34, 2, 2),
+            (34, 2, 3),
+            (34, 3, 3),
+            (35, 2, 2),
+            (35, 2, 3),
+            (35, 3, 3),
+        ),
+        (
+            _tmp1,  # [18, 0, 0]
+            _tmp4,  # [18, 0, 2]
+            _tmp6,  # [18, 0, 3]
+            _tmp8,  # [18, 0, 4]
+            _tmp10,  # [18, 0, 5]
+            1,  # [18, 1, 1]
+            h,  # [18, 1, 3]
+            a,  # [18, 1, 5]
+            _tmp11,  # [18, 2, 2]
+            _tmp12,  # [18, 2, 3]
+            _tmp15,  # [18, 2, 4]
+            _tmp5,  # [18, 2, 5]
+            _tmp19,  # [18, 3, 3]
+            _tmp20,  # [18, 3, 4]
+            _tmp23,  # [18, 3, 5]
+            _tmp26,  # [18, 4, 4]
+            _tmp27,  # [18, 4, 5]
+            _tmp29,  # [18, 5, 5]
+            _tmp1,  # [19, 0, 0]
+            _tmp3,  # [19, 0, 2]
+            _tmp5,  # [19, 0, 3]
+            _tmp8,  # [19, 0, 4]
+            _tmp10,  # [19, 0, 5]
+            1,  # [19, 1, 1]
+            h,  # [19, 1, 3]
+            _tmp30,  # [19, 1, 5]
+            _tmp11,  # [19, 2, 2]
+            _tmp12,  # [19, 2, 3]
+            _tmp14,  # [19, 2, 4]
+            _tmp6,  # [19, 2, 5]
+            _tmp19,  # [19, 3, 3]
+            _tmp31,  # [19, 3, 4]
+            _tmp32,  # [19, 3, 5]
+            _tmp26,  # [19, 4, 4]
+            _tmp27,  # [19, 4, 5]
+            _tmp29,  # [19, 5, 5]
+            _tmp1,  # [20, 0, 0]
+            _tmp4,  # [20, 0, 2]
+            _tmp5,  # [20, 0, 3]
+            _tmp8,  # [20, 0, 4]
+            _tmp9,  # [20, 0, 5]
+            1,  # [20, 1, 1]
+            h,  # [20, 1, 3]
+            a,  # [20, 1, 5]
+            _tmp11,  # [20, 2, 2]
+            _tmp33,  # [20, 2, 3]
+            _tmp15,  # [20, 2, 4]
+            _tmp6,  # [20, 2, 5]
+            _tmp19,  # [20, 3, 3]
+            _tmp31,  # [20, 3, 4]
+            _tmp23,  # [20, 3, 5]
+            _tmp26,  # [20, 4, 4]
+            _tmp34,  # [20, 4, 5]
+            _tmp29,  # [20, 5, 5]
+            _tmp1,  # [21, 0, 0]
+            _tmp3,  # [21, 0, 2]
+            _tmp6,  # [21, 0, 3]
+            _tmp8,  # [21, 0, 4]
+            _tmp9,  # [21, 0, 5]
+            1,  # [21, 1, 1]
+            h,  # [21, 1, 3]
+            _tmp30,  # [21, 1, 5]
+            _tmp11,  # [21, 2, 2]
+            _tmp33,  # [21, 2, 3]
+            _tmp14,  # [21, 2, 4]
+            _tmp5,  # [21, 2, 5]
+            _tmp19,  # [21, 3, 3]
+            _tmp20,  # [21, 3, 4]
+            _tmp32,  # [21, 3, 5]
+            _tmp26,  # [21, 4, 4]
+            _tmp34,  # [21, 4, 5]
+            _tmp29,  # [21, 5, 5]
+            1,  # [22, 0, 0]
+            _tmp35,  # [22, 0, 4]
+            _tmp36,  # [22, 0, 5]
+            1,  # [22, 1, 1]
+            h,  # [22, 1, 3]
+            _tmp16,  # [22, 3, 3]
+            _tmp16,  # [22, 4, 4]
+            _tmp37,  # [22, 4, 5]
+            _tmp17,  # [22, 5, 5]
+            1,  # [23, 0, 0]
+            _tmp35,  # [23, 0, 4]
+            b,  # [23, 0, 5]
+            1,  # [23, 1, 1]
+            h,  # [23, 1, 3]
+            _tmp16,  # [23, 3, 3]
+            _tmp16,  # [23, 4, 4]
+            -_tmp37,  # [23, 4, 5]
+            _tmp17,  # [23, 5, 5]
+            _tmp11,  # [24, 0, 0]
+            _tmp3,  # [24, 0, 2]
+            _tmp5,  # [24, 0, 3]
+            _tmp39,  # [24, 0, 4]
+            _tmp33,  # [24, 0, 5]
+            _tmp1,  # [24, 2, 2]
+            _tmp9,  # [24, 2, 3]
+            _tmp41,  # [24, 2, 4]
+            _tmp6,  # [24, 2, 5]
+            _tmp28,  # [24, 3, 3]
+            _tmp42,  # [24, 3, 4]
+            _tmp43,  # [24, 3, 5]
+            _tmp44,  # [24, 4, 4]
+            _tmp45,  # [24, 4, 5]
+            _tmp18,  # [24, 5, 5]
+            _tmp11,  # [25, 0, 0]
+            _tmp4,  # [25, 0, 2]
+            _tmp6,  # [25, 0, 3]
+            _tmp39,  # [25, 0, 4]
+            _tmp33,  # [25, 0, 5]
+            _tmp1,  # [25, 2, 2]
+            _tmp9,  # [25, 2, 3]
+            _tmp40,  # [25, 2, 4]
+            _tmp5,  # [25, 2, 5]
+            _tmp28,  # [25, 3, 3]
+            _tmp46,  # [25, 3, 4]
+            _tmp22,  # [25, 3, 5]
+            _tmp44,  # [25, 4, 4]
+            _tmp45,  # [25, 4, 5]
+            _tmp18,  # [25, 5, 5]
+            _tmp11,  # [26, 0, 0]
+            _tmp3,  # [26, 0, 2]
+            _tmp6,  # [26, 0, 3]
+            _tmp39,  # [26, 0, 4]
+            _tmp12,  # [26, 0, 5]
+            _tmp1,  # [26, 2, 2]
+            _tmp10,  # [26, 2, 3]
+            _tmp41,  # [26, 2, 4]
+            _tmp5,  # [26, 2, 5]
+            _tmp28,  # [26, 3, 3]
+            _tmp46,  # [26, 3, 4]
+            _tmp43,  # [26, 3, 5]
+            _tmp44,  # [26, 4, 4]
+            _tmp47,  # [26, 4, 5]
+            _tmp18,  # [26, 5, 5]
+            _tmp11,  # [27, 0, 0]
+            _tmp4,  # [27, 0, 2]
+            _tmp5,  # [27, 0, 3]
+            _tmp39,  # [27, 0, 4]
+            _tmp12,  # [27, 0, 5]
+            _tmp1,  # [27, 2, 2]
+            _tmp10,  # [27, 2, 3]
+            _tmp40,  # [27, 2, 4]
+            _tmp6,  # [27, 2, 5]
+            _tmp28,  # [27, 3, 3]
+            _tmp42,  # [27, 3, 4]
+            _tmp22,  # [27, 3, 5]
+            _tmp44,  # [27, 4, 4]
+            _tmp47,  # [27, 4, 5]
+            _tmp18,  # [27, 5, 5]
+            1,  # [34, 2, 2]
+            b,  # [34, 2, 3]
+            _tmp17,  # [34, 3, 3]
+            1,  # [35, 2, 2]
+            _tmp36,  # [35, 2, 3]
+            _tmp17,  # [35, 3, 3]
+        ),
+    ).reshape(*_shape, 6, 6, 6, 6)
 
 
 def isolator_stiffness_on_foundation(a, b, h, alpha, c_h, c_v, c_m):

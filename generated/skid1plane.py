@@ -321,6 +321,8 @@ ARGUMENTS = {
     "isolator_stiffness_gradient": ("a", "b", "h", "c_h", "c_z"),
     "isolator_axial_stiffness": ("a", "b", "c_z"),
     "isolator_axial_stiffness_gradient": ("a", "b", "c_z"),
+    "isolator_damping": ("a", "b", "h", "b_h", "b_z"),
+    "isolator_damping_gradient": ("a", "b", "h", "b_h", "b_z"),
     "isolator_stiffness_on_foundation": ("a", "b", "h", "c_h", "c_z"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h", "c_h", "c_z"),
     "isolator_axial_stiffness_on_foundation": ("a", "b", "c_z"),
@@ -364,6 +366,7 @@ DEPENDS = {
     "effect_gravity_preload_derivatives": ("m", "a", "b", "h"),
     "isolator_stiffness_gradient": ("a", "b", "h"),
     "isolator_axial_stiffness_gradient": ("a", "b"),
+    "isolator_damping_gradient": ("a", "b", "h"),
     "isolator_stiffness_on_foundation_gradient": ("a", "b", "h"),
     "isolator_axial_stiffness_on_foundation_gradient": ("a", "b"),
 }
@@ -4358,6 +4361,484 @@ def isolator_axial_stiffness_gradient(a, b, c_z):
             _tmp4,  # [7, 4, 4]
         ),
     ).reshape(*_shape, 2, 4, 6, 6)
+
+
+def isolator_damping(a, b, h, b_h, b_z):
+    """Damping matrix of each isolator alone (Hessian of its dissipation),
+    shape (..., 4, 6, 6), isolators in the order of ISOLATORS; their sum is damping_matrix().
+    Coordinates x, y, z, psi, theta, phi.
+
+    Non-zero upper-triangle entries:
+
+        end[+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a*b_h
+          [z, z] = b_z
+          [z, psi] = b*b_z
+          [z, theta] = -a*b_z
+          [psi, psi] = b_h*h**2 + b_z*b**2
+          [psi, theta] = -a*b*b_z
+          [psi, phi] = a*b_h*h
+          [theta, theta] = b_h*h**2 + b_z*a**2
+          [theta, phi] = b*b_h*h
+          [phi, phi] = b_h*(a**2 + b**2)
+        end[-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = a*b_h
+          [z, z] = b_z
+          [z, psi] = -b*b_z
+          [z, theta] = -a*b_z
+          [psi, psi] = b_h*h**2 + b_z*b**2
+          [psi, theta] = a*b*b_z
+          [psi, phi] = a*b_h*h
+          [theta, theta] = b_h*h**2 + b_z*a**2
+          [theta, phi] = -b*b_h*h
+          [phi, phi] = b_h*(a**2 + b**2)
+        other_end[+y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = -b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a*b_h
+          [z, z] = b_z
+          [z, psi] = b*b_z
+          [z, theta] = a*b_z
+          [psi, psi] = b_h*h**2 + b_z*b**2
+          [psi, theta] = a*b*b_z
+          [psi, phi] = -a*b_h*h
+          [theta, theta] = b_h*h**2 + b_z*a**2
+          [theta, phi] = b*b_h*h
+          [phi, phi] = b_h*(a**2 + b**2)
+        other_end[-y]:
+          [x, x] = b_h
+          [x, theta] = -b_h*h
+          [x, phi] = b*b_h
+          [y, y] = b_h
+          [y, psi] = b_h*h
+          [y, phi] = -a*b_h
+          [z, z] = b_z
+          [z, psi] = -b*b_z
+          [z, theta] = a*b_z
+          [psi, psi] = b_h*h**2 + b_z*b**2
+          [psi, theta] = -a*b*b_z
+          [psi, phi] = -a*b_h*h
+          [theta, theta] = b_h*h**2 + b_z*a**2
+          [theta, phi] = -b*b_h*h
+          [phi, phi] = b_h*(a**2 + b**2)
+    """
+    a, b, h, b_h, b_z = _runtime.as_operands(a, b, h, b_h, b_z)
+    _tmp0 = b_h * h
+    _tmp1 = -_tmp0
+    _tmp2 = b * b_h
+    _tmp3 = -_tmp2
+    _tmp4 = a * b_h
+    _tmp5 = b * b_z
+    _tmp6 = a * b_z
+    _tmp7 = -_tmp6
+    _tmp8 = b**2
+    _tmp9 = b_h * h**2
+    _tmp10 = _tmp8 * b_z + _tmp9
+    _tmp11 = _tmp5 * a
+    _tmp12 = -_tmp11
+    _tmp13 = _tmp0 * a
+    _tmp14 = a**2
+    _tmp15 = _tmp14 * b_z + _tmp9
+    _tmp16 = _tmp0 * b
+    _tmp17 = b_h * (_tmp14 + _tmp8)
+    _tmp18 = -_tmp5
+    _tmp19 = -_tmp16
+    _tmp20 = -_tmp4
+    _tmp21 = -_tmp13
+    _shape = _runtime.batch_shape(a, b, h, b_h, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (4, 6, 6),
+        (
+            (0, 0, 0),
+            (0, 0, 4),
+            (0, 0, 5),
+            (0, 1, 1),
+            (0, 1, 3),
+            (0, 1, 5),
+            (0, 2, 2),
+            (0, 2, 3),
+            (0, 2, 4),
+            (0, 3, 3),
+            (0, 3, 4),
+            (0, 3, 5),
+            (0, 4, 4),
+            (0, 4, 5),
+            (0, 5, 5),
+            (1, 0, 0),
+            (1, 0, 4),
+            (1, 0, 5),
+            (1, 1, 1),
+            (1, 1, 3),
+            (1, 1, 5),
+            (1, 2, 2),
+            (1, 2, 3),
+            (1, 2, 4),
+            (1, 3, 3),
+            (1, 3, 4),
+            (1, 3, 5),
+            (1, 4, 4),
+            (1, 4, 5),
+            (1, 5, 5),
+            (2, 0, 0),
+            (2, 0, 4),
+            (2, 0, 5),
+            (2, 1, 1),
+            (2, 1, 3),
+            (2, 1, 5),
+            (2, 2, 2),
+            (2, 2, 3),
+            (2, 2, 4),
+            (2, 3, 3),
+            (2, 3, 4),
+            (2, 3, 5),
+            (2, 4, 4),
+            (2, 4, 5),
+            (2, 5, 5),
+            (3, 0, 0),
+            (3, 0, 4),
+            (3, 0, 5),
+            (3, 1, 1),
+            (3, 1, 3),
+            (3, 1, 5),
+            (3, 2, 2),
+            (3, 2, 3),
+            (3, 2, 4),
+            (3, 3, 3),
+            (3, 3, 4),
+            (3, 3, 5),
+            (3, 4, 4),
+            (3, 4, 5),
+            (3, 5, 5),
+        ),
+        (
+            b_h,  # [0, 0, 0]
+            _tmp1,  # [0, 0, 4]
+            _tmp3,  # [0, 0, 5]
+            b_h,  # [0, 1, 1]
+            _tmp0,  # [0, 1, 3]
+            _tmp4,  # [0, 1, 5]
+            b_z,  # [0, 2, 2]
+            _tmp5,  # [0, 2, 3]
+            _tmp7,  # [0, 2, 4]
+            _tmp10,  # [0, 3, 3]
+            _tmp12,  # [0, 3, 4]
+            _tmp13,  # [0, 3, 5]
+            _tmp15,  # [0, 4, 4]
+            _tmp16,  # [0, 4, 5]
+            _tmp17,  # [0, 5, 5]
+            b_h,  # [1, 0, 0]
+            _tmp1,  # [1, 0, 4]
+            _tmp2,  # [1, 0, 5]
+            b_h,  # [1, 1, 1]
+            _tmp0,  # [1, 1, 3]
+            _tmp4,  # [1, 1, 5]
+            b_z,  # [1, 2, 2]
+            _tmp18,  # [1, 2, 3]
+            _tmp7,  # [1, 2, 4]
+            _tmp10,  # [1, 3, 3]
+            _tmp11,  # [1, 3, 4]
+            _tmp13,  # [1, 3, 5]
+            _tmp15,  # [1, 4, 4]
+            _tmp19,  # [1, 4, 5]
+            _tmp17,  # [1, 5, 5]
+            b_h,  # [2, 0, 0]
+            _tmp1,  # [2, 0, 4]
+            _tmp3,  # [2, 0, 5]
+            b_h,  # [2, 1, 1]
+            _tmp0,  # [2, 1, 3]
+            _tmp20,  # [2, 1, 5]
+            b_z,  # [2, 2, 2]
+            _tmp5,  # [2, 2, 3]
+            _tmp6,  # [2, 2, 4]
+            _tmp10,  # [2, 3, 3]
+            _tmp11,  # [2, 3, 4]
+            _tmp21,  # [2, 3, 5]
+            _tmp15,  # [2, 4, 4]
+            _tmp16,  # [2, 4, 5]
+            _tmp17,  # [2, 5, 5]
+            b_h,  # [3, 0, 0]
+            _tmp1,  # [3, 0, 4]
+            _tmp2,  # [3, 0, 5]
+            b_h,  # [3, 1, 1]
+            _tmp0,  # [3, 1, 3]
+            _tmp20,  # [3, 1, 5]
+            b_z,  # [3, 2, 2]
+            _tmp18,  # [3, 2, 3]
+            _tmp6,  # [3, 2, 4]
+            _tmp10,  # [3, 3, 3]
+            _tmp12,  # [3, 3, 4]
+            _tmp21,  # [3, 3, 5]
+            _tmp15,  # [3, 4, 4]
+            _tmp19,  # [3, 4, 5]
+            _tmp17,  # [3, 5, 5]
+        ),
+    )
+
+
+def isolator_damping_gradient(a, b, h, b_h, b_z):
+    """Derivatives of isolator_damping() with respect to FITTED_PARAMETERS c_h, c_z, b_h, b_z, shape
+    (..., 4, 4, 6, 6), differentiated by sympy.
+
+    Non-zero upper-triangle entries:
+
+        dend[+y]/dc_h:
+        dend[-y]/dc_h:
+        dother_end[+y]/dc_h:
+        dother_end[-y]/dc_h:
+        dend[+y]/dc_z:
+        dend[-y]/dc_z:
+        dother_end[+y]/dc_z:
+        dother_end[-y]/dc_z:
+        dend[+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a**2 + b**2
+        dend[-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = a
+          [psi, psi] = h**2
+          [psi, phi] = a*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a**2 + b**2
+        dother_end[+y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = -b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [theta, theta] = h**2
+          [theta, phi] = b*h
+          [phi, phi] = a**2 + b**2
+        dother_end[-y]/db_h:
+          [x, x] = 1
+          [x, theta] = -h
+          [x, phi] = b
+          [y, y] = 1
+          [y, psi] = h
+          [y, phi] = -a
+          [psi, psi] = h**2
+          [psi, phi] = -a*h
+          [theta, theta] = h**2
+          [theta, phi] = -b*h
+          [phi, phi] = a**2 + b**2
+        dend[+y]/db_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+        dend[-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = -a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[+y]/db_z:
+          [z, z] = 1
+          [z, psi] = b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = a*b
+          [theta, theta] = a**2
+        dother_end[-y]/db_z:
+          [z, z] = 1
+          [z, psi] = -b
+          [z, theta] = a
+          [psi, psi] = b**2
+          [psi, theta] = -a*b
+          [theta, theta] = a**2
+    """
+    a, b, h, b_h, b_z = _runtime.as_operands(a, b, h, b_h, b_z)
+    _tmp0 = -h
+    _tmp1 = -b
+    _tmp2 = h**2
+    _tmp3 = a * h
+    _tmp4 = b * h
+    _tmp5 = a**2
+    _tmp6 = b**2
+    _tmp7 = _tmp5 + _tmp6
+    _tmp8 = -_tmp4
+    _tmp9 = -a
+    _tmp10 = -_tmp3
+    _tmp11 = a * b
+    _tmp12 = -_tmp11
+    _shape = _runtime.batch_shape(a, b, h, b_h, b_z)
+    return _runtime.stack_symmetric(
+        _shape,
+        (16, 6, 6),
+        (
+            (8, 0, 0),
+            (8, 0, 4),
+            (8, 0, 5),
+            (8, 1, 1),
+            (8, 1, 3),
+            (8, 1, 5),
+            (8, 3, 3),
+            (8, 3, 5),
+            (8, 4, 4),
+            (8, 4, 5),
+            (8, 5, 5),
+            (9, 0, 0),
+            (9, 0, 4),
+            (9, 0, 5),
+            (9, 1, 1),
+            (9, 1, 3),
+            (9, 1, 5),
+            (9, 3, 3),
+            (9, 3, 5),
+            (9, 4, 4),
+            (9, 4, 5),
+            (9, 5, 5),
+            (10, 0, 0),
+            (10, 0, 4),
+            (10, 0, 5),
+            (10, 1, 1),
+            (10, 1, 3),
+            (10, 1, 5),
+            (10, 3, 3),
+            (10, 3, 5),
+            (10, 4, 4),
+            (10, 4, 5),
+            (10, 5, 5),
+            (11, 0, 0),
+            (11, 0, 4),
+            (11, 0, 5),
+            (11, 1, 1),
+            (11, 1, 3),
+            (11, 1, 5),
+            (11, 3, 3),
+            (11, 3, 5),
+            (11, 4, 4),
+            (11, 4, 5),
+            (11, 5, 5),
+            (12, 2, 2),
+            (12, 2, 3),
+            (12, 2, 4),
+            (12, 3, 3),
+            (12, 3, 4),
+            (12, 4, 4),
+            (13, 2, 2),
+            (13, 2, 3),
+            (13, 2, 4),
+            (13, 3, 3),
+            (13, 3, 4),
+            (13, 4, 4),
+            (14, 2, 2),
+            (14, 2, 3),
+            (14, 2, 4),
+            (14, 3, 3),
+            (14, 3, 4),
+            (14, 4, 4),
+            (15, 2, 2),
+            (15, 2, 3),
+            (15, 2, 4),
+            (15, 3, 3),
+            (15, 3, 4),
+            (15, 4, 4),
+        ),
+        (
+            1,  # [8, 0, 0]
+            _tmp0,  # [8, 0, 4]
+            _tmp1,  # [8, 0, 5]
+            1,  # [8, 1, 1]
+            h,  # [8, 1, 3]
+            a,  # [8, 1, 5]
+            _tmp2,  # [8, 3, 3]
+            _tmp3,  # [8, 3, 5]
+            _tmp2,  # [8, 4, 4]
+            _tmp4,  # [8, 4, 5]
+            _tmp7,  # [8, 5, 5]
+            1,  # [9, 0, 0]
+            _tmp0,  # [9, 0, 4]
+            b,  # [9, 0, 5]
+            1,  # [9, 1, 1]
+            h,  # [9, 1, 3]
+            a,  # [9, 1, 5]
+            _tmp2,  # [9, 3, 3]
+            _tmp3,  # [9, 3, 5]
+            _tmp2,  # [9, 4, 4]
+            _tmp8,  # [9, 4, 5]
+            _tmp7,  # [9, 5, 5]
+            1,  # [10, 0, 0]
+            _tmp0,  # [10, 0, 4]
+            _tmp1,  # [10, 0, 5]
+            1,  # [10, 1, 1]
+            h,  # [10, 1, 3]
+            _tmp9,  # [10, 1, 5]
+            _tmp2,  # [10, 3, 3]
+            _tmp10,  # [10, 3, 5]
+            _tmp2,  # [10, 4, 4]
+            _tmp4,  # [10, 4, 5]
+            _tmp7,  # [10, 5, 5]
+            1,  # [11, 0, 0]
+            _tmp0,  # [11, 0, 4]
+            b,  # [11, 0, 5]
+            1,  # [11, 1, 1]
+            h,  # [11, 1, 3]
+            _tmp9,  # [11, 1, 5]
+            _tmp2,  # [11, 3, 3]
+            _tmp10,  # [11, 3, 5]
+            _tmp2,  # [11, 4, 4]
+            _tmp8,  # [11, 4, 5]
+            _tmp7,  # [11, 5, 5]
+            1,  # [12, 2, 2]
+            b,  # [12, 2, 3]
+            _tmp9,  # [12, 2, 4]
+            _tmp6,  # [12, 3, 3]
+            _tmp12,  # [12, 3, 4]
+            _tmp5,  # [12, 4, 4]
+            1,  # [13, 2, 2]
+            _tmp1,  # [13, 2, 3]
+            _tmp9,  # [13, 2, 4]
+            _tmp6,  # [13, 3, 3]
+            _tmp11,  # [13, 3, 4]
+            _tmp5,  # [13, 4, 4]
+            1,  # [14, 2, 2]
+            b,  # [14, 2, 3]
+            a,  # [14, 2, 4]
+            _tmp6,  # [14, 3, 3]
+            _tmp11,  # [14, 3, 4]
+            _tmp5,  # [14, 4, 4]
+            1,  # [15, 2, 2]
+            _tmp1,  # [15, 2, 3]
+            a,  # [15, 2, 4]
+            _tmp6,  # [15, 3, 3]
+            _tmp12,  # [15, 3, 4]
+            _tmp5,  # [15, 4, 4]
+        ),
+    ).reshape(*_shape, 4, 4, 6, 6)
 
 
 def isolator_stiffness_on_foundation(a, b, h, c_h, c_z):

@@ -157,11 +157,12 @@ def test_a_tilted_isolator_is_found_and_named_from_the_shapes():
 
 
 @pytest.mark.parametrize(("which", "tilt", "about"), [(0, 0.2, 0.7), (3, 0.05, 4.0), (1, 0.3, -1.2)])
-def test_a_tilted_isolator_turns_the_stiffness_as_the_blind_truth_turns_the_mount(which, tilt, about):
+def test_a_tilted_isolator_turns_the_mount_as_the_blind_truth_does(which, tilt, about):
     """The candidate's change of C (from the generated isolator_stiffness()) against the blind harness's truth (the
     machine assembled by hand, the mount turned by scipy's rotation about a horizontal axis): the two tilts that
     reproduce it (least squares) turn the isolator's axis by the truth's angle, and the rest of C is untouched (the
-    candidate's C at no tilt is the truth's without one).
+    candidate's C at no tilt is the truth's without one). At those tilts the candidate's B (the generated
+    isolator_damping() turned) is the truth's, whose damping axes turned with the mount.
     kid300's isolators are round, so the turned axis says all."""
     tm = blind_truth.TruthMachine("kid300")
     truth = blind_truth.truth_matrices(
@@ -183,6 +184,11 @@ def test_a_tilted_isolator_turns_the_stiffness_as_the_blind_truth_turns_the_moun
     assert np.abs(found.fun).max() <= 1e-9 * np.abs(change).max()
     # the isolator's axis a turned about e1 and e2 across it: a . R a = cos(tilt_1) cos(tilt_2), whatever e1 and e2
     assert math.cos(found.x[0]) * math.cos(found.x[1]) == pytest.approx(math.cos(tilt), rel=1e-10)
+    for turns, b in (((0.0, 0.0), plain[2]), (found.x, truth[2])):
+        at = {**values, "tilt_1": turns[0], "tilt_2": turns[1]}
+        damping = tilted.damping_matrix(model, at, tilted.matrices(model, at))
+        assert np.allclose(damping, b, rtol=0, atol=1e-9 * np.abs(b).max())
+    assert np.abs(truth[2] - plain[2]).max() > 1e-3 * np.abs(plain[2]).max()  # the truth's damping did turn
 
 
 def test_no_effect_no_significant_gap_and_no_confident_verdict():

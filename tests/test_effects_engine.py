@@ -93,12 +93,15 @@ def test_generated_effect_matrices_match_sympy_at_high_precision(machine, effect
 
 
 @pytest.mark.parametrize("machine", MACHINES)
-def test_isolator_stiffness_sums_to_the_stiffness_matrix(machine):
+@pytest.mark.parametrize(
+    ("each", "whole"), [("isolator_stiffness", "stiffness_matrix"), ("isolator_damping", "damping_matrix")]
+)
+def test_isolator_matrices_sum_to_the_machines(machine, each, whole):
     mod = generated(machine)
     values = _values(mod)
-    per = call(mod, "isolator_stiffness", values)
+    per = call(mod, each, values)
     assert per.shape == (len(mod.ISOLATORS), 6, 6)
-    total = call(mod, "stiffness_matrix", values)
+    total = call(mod, whole, values)
     assert np.allclose(per.sum(axis=0), total, rtol=1e-13, atol=1e-9 * np.max(np.abs(total)))
 
 
@@ -120,11 +123,12 @@ def test_isolator_points_are_the_descriptions_at_high_precision(machine):
     # a support below the isolators refers its coordinates to the mean of the isolator points
     feet = call(mod, "support_feet", values)
     assert np.allclose(feet, points - points.mean(axis=1, keepdims=True), rtol=1e-14, atol=1e-14)
-    per = call(mod, "isolator_stiffness", values)
-    for k, iso in enumerate(model.isolators):
-        tensor = np.array(iso.stiffness.evalf(subs=subs).tolist(), dtype=float)
-        j = _jac(points[:, k])
-        assert np.allclose(j.T @ tensor @ j, per[k], rtol=1e-12, atol=1e-9 * np.abs(per[k]).max())
+    for function, field in (("isolator_stiffness", "stiffness"), ("isolator_damping", "damping")):
+        per = call(mod, function, values)
+        for k, iso in enumerate(model.isolators):
+            tensor = np.array(getattr(iso, field).evalf(subs=subs).tolist(), dtype=float)
+            j = _jac(points[:, k])
+            assert np.allclose(j.T @ tensor @ j, per[k], rtol=1e-12, atol=1e-9 * np.abs(per[k]).max())
 
 
 def test_kid300_effects_match_an_independent_numpy_assembly():
@@ -254,6 +258,25 @@ def test_isolator_stiffness_gradient_matches_a_central_difference(machine, funct
         down = call(mod, function, {**values, u: values[u] - h})
         numeric = (up - down) / (2 * h)
         assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), u
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_isolator_damping_gradient_matches_a_central_difference(machine):
+    """Each isolator's damping matrix by the parameters a fit may vary (FITTED_PARAMETERS: the unknowns, then the
+    damping parameters), linear in them: the central difference is exact up to rounding, and the damping
+    parameters move it."""
+    mod = generated(machine)
+    values = _values(mod)
+    grad = call(mod, "isolator_damping_gradient", values)
+    assert grad.shape == (len(mod.FITTED_PARAMETERS), len(mod.ISOLATORS), 6, 6)
+    for k, p in enumerate(mod.FITTED_PARAMETERS):
+        h = 1e-3 * values[p]
+        up = call(mod, "isolator_damping", {**values, p: values[p] + h})
+        down = call(mod, "isolator_damping", {**values, p: values[p] - h})
+        numeric = (up - down) / (2 * h)
+        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), p
+    damping = [k for k, p in enumerate(mod.FITTED_PARAMETERS) if p not in mod.UNKNOWN]
+    assert damping and all(np.abs(grad[k]).max() > 0 for k in damping)
 
 
 @pytest.mark.parametrize("machine", MACHINES)

@@ -230,7 +230,8 @@ def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fit
 def test_damping_rows_where_the_described_damping_follows_a_stiffness(tmp_path):
     """A description whose isolator damping is proportional to the unknown stiffness (b c / c_ref, rectangular):
     the description's B depends on the unknowns, and an isolator's candidate (alone and beside another effect)
-    keeps its derivative. Its damping-ratio columns of c_x, c_y, c_z were 94-100 % off (B's derivative dropped)."""
+    keeps its derivative. Its damping-ratio columns of c_x, c_y, c_z were 94-100 % off (B's derivative dropped).
+    A tilted isolator turns its own damping, which follows the stiffness too (isolator_damping_gradient())."""
     text = Path("derivations/rectangular.toml").read_text(encoding="utf-8")
     text = text.replace(
         'damping = ["b_x", "b_y", "b_z"]', 'damping = ["b_x * c_x / k_x", "b_y * c_y / k_y", "b_z * c_z / k_z"]'
@@ -243,7 +244,8 @@ def test_damping_rows_where_the_described_damping_follows_a_stiffness(tmp_path):
     (tmp_path / "proportional.toml").write_text(text, encoding="utf-8")
     data, _ = make_case(5, "cog_height", machine="rectangular", kind="damping", noise=False)
     campaign = parse({**data, "machine": str(tmp_path / "proportional.toml"), "known": {**data["known"], **references}})
-    for effect in (EFFECTS["isolator_scatter"], pair(EFFECTS["cog_height"], EFFECTS["isolator_scatter"])):
+    effects = (EFFECTS["isolator_scatter"], pair(EFFECTS["cog_height"], EFFECTS["isolator_scatter"]))
+    for effect in (*effects, EFFECTS["isolator_tilted"]):
         model = CandidateModel(campaign, effect, 1)
         rows = Data(campaign, model.length)
         fun, _ = _residual_function(model, rows, None)

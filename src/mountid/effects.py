@@ -37,7 +37,8 @@ This module holds what an effect *is* (no sympy, no numerics). How each one chan
   ``channel`` and a ``placement`` on one channel): its row is the turned axis times the point Jacobian where the
   sensor sits. Fitted at the channels whose turn and offset promise most; two slips of a test (``Effect.parts``).
 - ``tilt``: one isolator mounted tilted: its stiffness tensor K turned by two small rotations about the axes across
-  its own axis, C_i = J^T K J becoming J^T R K R^T J (K and J from the generated ``isolator_stiffness()``). Fitted
+  its own axis, C_i = J^T K J becoming J^T R K R^T J (K and J from the generated ``isolator_stiffness()``), and its
+  damping tensor with it (B_i = J^T D J from the generated ``isolator_damping()``). Fitted
   at each isolator; never part of a pair (its pairs would be fitted at every isolator beside every other effect).
 
 Plausible ranges are multiples of machine scales (``effect_scales()`` of the generated module): ``length``

@@ -266,8 +266,8 @@ class TiltedIsolator(Strategy):
     becomes J^T R K R^T J. K is C_i's translational block and J = K^-1 C_i[:3, :] (a rigid translation deforms the
     isolator by itself, J = [I, ...]), so the tilt needs no matrix the engine does not generate. Where the isolator
     is round (equal shear stiffnesses) R K R^T depends on the turned axis R a alone, and the two turns reach every
-    direction of it. The damping stays the description's B (the turn of the isolator's own damping would need its
-    B apart from the others'; it moves the damping ratios in second order). Never part of a pair
+    direction of it. The whole mount turns: its damping matrix B_i = J^T D J (the generated ``isolator_damping()``,
+    D its damping tensor, the same J) becomes J^T R D R^T J in the description's B. Never part of a pair
     (mountid.effects.pair)."""
 
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
@@ -295,6 +295,11 @@ class TiltedIsolator(Strategy):
         jac, k, r, _ = self._tilt(model, values)
         return m, c + jac.T @ (r @ k @ r.T - k) @ jac, None
 
+    def damping_matrix(self, model: CandidateModel, values: dict[str, float], mats: Matrices) -> np.ndarray:
+        jac, _, r, _ = self._tilt(model, values)
+        d = np.asarray(call(model.mod, "isolator_damping", values))[model.variant, :3, :3]
+        return super().damping_matrix(model, values, mats) + jac.T @ (r @ d @ r.T - d) @ jac
+
     def derivatives(
         self, model: CandidateModel, values: dict[str, float], names: tuple[str, ...], n: int
     ) -> Derivatives:
@@ -307,9 +312,18 @@ class TiltedIsolator(Strategy):
                 j = names.index(u)
                 out[1, j] = out[1, j] + jac.T @ (r @ d_k @ r.T - d_k) @ jac
                 present[j] = True
+        # the turned damping (damping_matrix): by the fitted parameters it follows, and by the turns
+        damping = np.asarray(call(model.mod, "isolator_damping", values))[model.variant, :3, :3]
+        gradient = np.asarray(call(model.mod, "isolator_damping_gradient", values))[:, model.variant, :3, :3]
+        for d_d, p in zip(gradient, model.mod.FITTED_PARAMETERS, strict=True):
+            if p in names and d_d.any():
+                j = names.index(p)
+                out[2, j] = out[2, j] + jac.T @ (r @ d_d @ r.T - d_d) @ jac
+                present[j] = True
         for q, d in zip(TILTS, d_r, strict=True):
-            turned = d @ k @ r.T
+            turned, turned_damping = d @ k @ r.T, d @ damping @ r.T
             out[1, names.index(q)] = jac.T @ (turned + turned.T) @ jac
+            out[2, names.index(q)] = jac.T @ (turned_damping + turned_damping.T) @ jac
             present[names.index(q)] = True
         return out, present
 

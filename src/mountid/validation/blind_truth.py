@@ -60,12 +60,12 @@ explained" or in a tie, never confident):
   the machine's modes: its apparent mass changes sign across its resonance (a vibration absorber), which
   neither a rigid added mass nor stiffening rubber reproduces (9 coordinates).
 
-Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached
-body, a drive belt, or a scattered isolator (each represented by the pair of its parts). Beside it and represented
-by an effect added for it (REPRESENTED_BESIDE): ``isolator_tilted``, one isolator mounted tilted, its stiffness
-and damping axes turned by 3-14 degrees about a horizontal axis in any direction (a mount on a sloping floor or a
-bent bracket), which couples its axial and shear stiffness in the machine's axes (the catalogue's
-``isolator_tilted`` turns the stiffness axes alone). Beside it and outside the catalogue (OUTSIDE_BESIDE): two
+Beside the cycle (REVERSED_BESIDE): a reversed channel together with a higher centre of mass, an attached body, a
+drive belt, or a scattered isolator (each represented by the pair of its parts). Beside it and represented by an
+effect added for it (REPRESENTED_BESIDE): ``isolator_tilted``, one isolator mounted tilted, its stiffness and
+damping axes turned by 3-14 degrees about a horizontal axis in any direction (a mount on a sloping floor or a bent
+bracket), which couples its axial and shear stiffness in the machine's axes (the catalogue's ``isolator_tilted``
+turns both, from the engine's per-isolator matrices). Beside it and outside the catalogue (OUTSIDE_BESIDE): two
 channels of the layout each mounted off its stated point (``sensor_misplaced+sensor_misplaced``), one isolator off
 with one channel turned on its mount (``isolator_scatter+sensor_turned``), and one isolator tilted with the centre
 of mass higher than described (``isolator_tilted+cog_height``), each part as its truth alone.

@@ -16,6 +16,7 @@ from mountid.engine.symbolic.effects import (
     SUPPORT_EFFECTS,
     ExtendedModel,
     isolator_axial_stiffness,
+    isolator_damping,
     isolator_stiffness,
     scales,
     support_feet,
@@ -160,6 +161,26 @@ def _isolator_functions(model: SymbolicModel, support: str, coordinates: tuple[s
         )
         out.append(fn)
         out.append(_isolator_gradient_function(model, name + suffix, dict(zip(names, per, strict=True)), coordinates))
+    if not on:
+        per = isolator_damping(model)
+        out.append(
+            _matrices_function(
+                "isolator_damping",
+                dict(zip(names, per, strict=True)),
+                coordinates,
+                model.parameters_of(*per),
+                "Damping matrix of each isolator alone (Hessian of its dissipation),\n"
+                f"    shape (..., {len(per)}, {n}, {n}), isolators in the order of ISOLATORS; "
+                "their sum is damping_matrix().\n"
+                f"    Coordinates {', '.join(coordinates)}.\n",
+                stacked=(),
+            )
+        )
+        out.append(
+            _isolator_gradient_function(
+                model, "isolator_damping", dict(zip(names, per, strict=True)), coordinates, fitted_parameters(model)
+            )
+        )
     return out
 
 
@@ -194,14 +215,20 @@ def _effect_derivative_function(model: SymbolicModel, ext: ExtendedModel) -> Fun
 
 
 def _isolator_gradient_function(
-    model: SymbolicModel, name: str, per: dict[str, sp.Matrix], coordinates: tuple[str, ...]
+    model: SymbolicModel,
+    name: str,
+    per: dict[str, sp.Matrix],
+    coordinates: tuple[str, ...],
+    by: tuple[str, ...] | None = None,
 ) -> Function:
-    """d(name())/d(unknown) for each unknown of per-isolator matrices: the Jacobian of an isolator-scatter fit."""
-    unknowns = model.description.unknown
+    """d(name())/dp of per-isolator matrices for each p of ``by`` (default: the unknowns), the Jacobian of an
+    isolator-scatter or tilted-isolator fit."""
+    unknowns = model.description.unknown if by is None else by
+    what = "the unknowns" if by is None else "FITTED_PARAMETERS"
     n = len(coordinates)
     derivs = {f"d{iso}/d{u}": mat.diff(model.symbols[u]) for u in unknowns for iso, mat in per.items()}
     doc = (
-        f"Derivatives of {name}() with respect to the unknowns {', '.join(unknowns)}, shape\n"
+        f"Derivatives of {name}() with respect to {what} {', '.join(unknowns)}, shape\n"
         f"    (..., {len(unknowns)}, {len(per)}, {n}, {n}), differentiated by sympy.\n"
     )
     args = model.parameters_of(*per.values())

@@ -270,6 +270,13 @@ def isolator_stiffness(model: SymbolicModel, on_support: bool = False) -> list[s
     ]
 
 
+def isolator_damping(model: SymbolicModel) -> list[sp.Matrix]:
+    """The damping matrix of each isolator alone (Hessian of its Rayleigh dissipation 1/2 u'^T B_i u' in the
+    velocities, the same form as its energy in the displacements): B is their sum. On the ground only (an isolator
+    on a support below it carries its damping in the support effect's B)."""
+    return [isolator_hessian(iso.position, iso.damping).applyfunc(_tidy) for iso in model.isolators]
+
+
 def isolator_axial_stiffness(model: SymbolicModel, on_support: bool = False) -> list[sp.Matrix]:
     """The part of each isolator's stiffness matrix along its own axis a (local z): the Hessian of the energy
     1/2 k_a (a . u)^2 with k_a = a^T K a, the isolator's axial stiffness (compression of the rubber). The rest
