@@ -11,6 +11,7 @@ import pytest
 import scipy.linalg
 
 from mountid.diagnosis import campaign as campaign_module
+from mountid.diagnosis import strategies
 from mountid.diagnosis.candidate_model import CandidateModel
 from mountid.diagnosis.fitting import Data
 from mountid.diagnosis.jacobian import jacobian
@@ -126,3 +127,24 @@ def test_damping_ratios_of_hardened_modes_are_their_own_poles():
         poles = scipy.linalg.eigvals(state_matrix(m, cj, b))
         p = poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(e.lam[j])) + (poles.imag < 0))]
         assert hard.damping[k] == pytest.approx(-p.real / abs(p), rel=1e-9)
+
+
+def test_a_step_in_a_damping_parameter_finds_the_hardened_modes_kept(monkeypatch):
+    """The hardened modes depend on M and C alone: a forward difference in a fitted damping parameter finds them
+    kept (no fixed point solved again) and gets to the bit what a model that never saw the first point computes."""
+    model, truth = _model(18, "screen6", kind="damping")
+    unknowns = {u: truth.unknowns.get(u, model.start_unknowns.get(u)) for u in model.unknown}
+    theta = _theta(model, unknowns, 0.3)
+    model.evaluate(theta)
+    stepped = theta.copy()
+    stepped[model.unknown.index(model.damping_unknown[0])] += 1e-3
+    solved = []
+    fixed_point = strategies._hardened_modes
+    monkeypatch.setattr(strategies, "_hardened_modes", lambda *args: solved.append(1) or fixed_point(*args))
+    kept = model.evaluate(stepped)
+    assert not solved
+    fresh = _model(18, "screen6", kind="damping")[0].evaluate(stepped)
+    assert solved
+    for name in ("lam", "vec", "omega", "zeta"):
+        assert np.array_equal(getattr(kept, name), getattr(fresh, name)), name
+    assert not np.array_equal(kept.zeta, model.evaluate(theta).zeta)  # the step did move the damping ratios

@@ -401,8 +401,9 @@ class Amplitude(Strategy):
     def _hardened(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is."""
-        key = np.array([values[name] for name in sorted(values)]).tobytes()
+        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is. Kept by
+        the values that M and C depend on: a step in a fitted damping parameter (a forward difference) finds them."""
+        key = np.array([values[name] for name in sorted(values) if name not in model.damping_unknown]).tobytes()
         return model.kept("hardened", key, lambda: _hardened_modes(model, values, mats, lam, vec))
 
 
