@@ -277,7 +277,15 @@ class TiltedIsolator(Strategy):
         self, model: CandidateModel, values: dict[str, float]
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The isolator's deformation Jacobian J (3 x n), its stiffness tensor K (3 x 3) [N/m], the rotation R and
-        its derivatives by tilt_1 and tilt_2 (2 x 3 x 3) [per rad]."""
+        its derivatives by tilt_1 and tilt_2 (2 x 3 x 3) [per rad]; kept for the point (matrices(), then the
+        damping matrix and derivatives() of the same point ask for it)."""
+        key = np.array([values[name] for name in sorted(values)]).tobytes()
+        return model.kept("tilt", key, lambda: self._turned(model, values))
+
+    @staticmethod
+    def _turned(
+        model: CandidateModel, values: dict[str, float]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         total = np.asarray(call(model.mod, "isolator_stiffness", values))[model.variant]
         axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))[model.variant]
         k = total[:3, :3]
