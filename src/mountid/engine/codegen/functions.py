@@ -223,16 +223,16 @@ def _isolator_gradient_function(
 ) -> Function:
     """d(name())/dp of per-isolator matrices for each p of ``by`` (default: the unknowns), the Jacobian of an
     isolator-scatter or tilted-isolator fit."""
-    unknowns = model.description.unknown if by is None else by
+    parameters = model.description.unknown if by is None else by
     what = "the unknowns" if by is None else "FITTED_PARAMETERS"
     n = len(coordinates)
-    derivs = {f"d{iso}/d{u}": mat.diff(model.symbols[u]) for u in unknowns for iso, mat in per.items()}
+    derivs = {f"d{iso}/d{p}": mat.diff(model.symbols[p]) for p in parameters for iso, mat in per.items()}
     doc = (
-        f"Derivatives of {name}() with respect to {what} {', '.join(unknowns)}, shape\n"
-        f"    (..., {len(unknowns)}, {len(per)}, {n}, {n}), differentiated by sympy.\n"
+        f"Derivatives of {name}() with respect to {what} {', '.join(parameters)}, shape\n"
+        f"    (..., {len(parameters)}, {len(per)}, {n}, {n}), differentiated by sympy.\n"
     )
     args = model.parameters_of(*per.values())
-    shape = (len(unknowns), len(per), n, n)
+    shape = (len(parameters), len(per), n, n)
     return _matrices_function(f"{name}_gradient", derivs, coordinates, args, doc, stacked=shape)
 
 
