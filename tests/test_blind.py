@@ -290,6 +290,17 @@ def test_a_tilted_isolator_is_a_truth_beside_the_cycle_its_candidate_represents(
         assert 0.05 <= t.size["tilt"] <= 0.25 and t.size["isolator"] in range(6)
 
 
+def test_a_tilted_isolator_with_damping_ratios_is_named_where_its_turned_damping_fits():
+    """Held-out kid300 cases with damping ratios (the study of 2026-12-02, docs/validation.md "Its damping turned
+    too"): the truth turns the whole mount, damping too. With the candidate turning the isolator's damping with its
+    stiffness, seed 3002 is named confidently and seed 3001 is a tie of the tilted isolator alone; while it turned
+    the stiffness alone, the first was a tie and the second 'not explained'."""
+    confident = blind.run_case(3002, "isolator_tilted", kind="damping", machine="kid300")
+    assert confident.kind == "confident" and confident.ranked[0] == "isolator_tilted"
+    alone = blind.run_case(3001, "isolator_tilted", kind="damping", machine="kid300")
+    assert alone.kind == "tie" and alone.tie == ("isolator_tilted",)
+
+
 def test_the_evidence_check_takes_every_truth_make_case_draws():
     """benchmarks/evidence.py (the Laplace evidence against the integral, on named blind cases) accepts a truth
     beside the cycle as blind.cases does, and names the truths where it is given another."""
