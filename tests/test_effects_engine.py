@@ -242,22 +242,30 @@ ISOLATOR_FUNCTIONS = [
 ]
 
 
+def _assert_gradient_is_the_central_difference(mod, function: str, parameters: tuple[str, ...], n: int) -> np.ndarray:
+    """``function``_gradient() of per-isolator matrices (n x n) by ``parameters`` against the central difference of
+    ``function``(), exact up to rounding for matrices linear in them; returns the gradient."""
+    values = _values(mod)
+    grad = call(mod, f"{function}_gradient", values)
+    assert grad.shape == (len(parameters), len(mod.ISOLATORS), n, n)
+    for k, p in enumerate(parameters):
+        h = 1e-3 * values[p]
+        up = call(mod, function, {**values, p: values[p] + h})
+        down = call(mod, function, {**values, p: values[p] - h})
+        numeric = (up - down) / (2 * h)
+        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), p
+    return grad
+
+
 @pytest.mark.parametrize("machine", MACHINES)
 @pytest.mark.parametrize("function", ISOLATOR_FUNCTIONS)
 def test_isolator_stiffness_gradient_matches_a_central_difference(machine, function):
     """Each isolator's stiffness (and its axial part, on the ground or on the foundation's support) is linear in
     the unknown stiffnesses: the central difference is exact up to rounding."""
     mod = generated(machine)
-    values = _values(mod)
-    grad = call(mod, f"{function}_gradient", values)
-    n = 12 if function.endswith("_on_foundation") else 6
-    assert grad.shape == (len(mod.UNKNOWN), len(mod.ISOLATORS), n, n)
-    for k, u in enumerate(mod.UNKNOWN):
-        h = 1e-3 * values[u]
-        up = call(mod, function, {**values, u: values[u] + h})
-        down = call(mod, function, {**values, u: values[u] - h})
-        numeric = (up - down) / (2 * h)
-        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), u
+    _assert_gradient_is_the_central_difference(
+        mod, function, mod.UNKNOWN, 12 if function.endswith("_on_foundation") else 6
+    )
 
 
 @pytest.mark.parametrize("machine", MACHINES)
@@ -266,15 +274,7 @@ def test_isolator_damping_gradient_matches_a_central_difference(machine):
     damping parameters), linear in them: the central difference is exact up to rounding, and the damping
     parameters move it."""
     mod = generated(machine)
-    values = _values(mod)
-    grad = call(mod, "isolator_damping_gradient", values)
-    assert grad.shape == (len(mod.FITTED_PARAMETERS), len(mod.ISOLATORS), 6, 6)
-    for k, p in enumerate(mod.FITTED_PARAMETERS):
-        h = 1e-3 * values[p]
-        up = call(mod, "isolator_damping", {**values, p: values[p] + h})
-        down = call(mod, "isolator_damping", {**values, p: values[p] - h})
-        numeric = (up - down) / (2 * h)
-        assert np.allclose(grad[k], numeric, rtol=1e-9, atol=1e-9 * max(np.max(np.abs(numeric)), 1e-300)), p
+    grad = _assert_gradient_is_the_central_difference(mod, "isolator_damping", mod.FITTED_PARAMETERS, 6)
     damping = [k for k, p in enumerate(mod.FITTED_PARAMETERS) if p not in mod.UNKNOWN]
     assert damping and all(np.abs(grad[k]).max() > 0 for k in damping)
 

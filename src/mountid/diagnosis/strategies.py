@@ -279,8 +279,15 @@ class TiltedIsolator(Strategy):
         """The isolator's deformation Jacobian J (3 x n), its stiffness tensor K (3 x 3) [N/m], the rotation R and
         its derivatives by tilt_1 and tilt_2 (2 x 3 x 3) [per rad]; kept for the point (matrices(), then the
         damping matrix and derivatives() of the same point ask for it)."""
-        key = np.array([values[name] for name in sorted(values)]).tobytes()
-        return model.kept("tilt", key, lambda: self._turned(model, values))
+        return model.kept("tilt", stiffness_point(model, values), lambda: self._turned(model, values))
+
+    @staticmethod
+    def _damping_tensor(model: CandidateModel, values: dict[str, float], gradient: bool = False) -> np.ndarray:
+        """The isolator's damping tensor D (3 x 3) [N s/m] from the generated ``isolator_damping()``, or its
+        derivatives by FITTED_PARAMETERS (``gradient``: n_fitted x 3 x 3)."""
+        if gradient:
+            return np.asarray(call(model.mod, "isolator_damping_gradient", values))[:, model.variant, :3, :3]
+        return np.asarray(call(model.mod, "isolator_damping", values))[model.variant, :3, :3]
 
     @staticmethod
     def _turned(
@@ -305,7 +312,7 @@ class TiltedIsolator(Strategy):
 
     def damping_matrix(self, model: CandidateModel, values: dict[str, float], mats: Matrices) -> np.ndarray:
         jac, _, r, _ = self._tilt(model, values)
-        d = np.asarray(call(model.mod, "isolator_damping", values))[model.variant, :3, :3]
+        d = self._damping_tensor(model, values)
         return super().damping_matrix(model, values, mats) + jac.T @ (r @ d @ r.T - d) @ jac
 
     def derivatives(
@@ -321,8 +328,7 @@ class TiltedIsolator(Strategy):
                 out[1, j] = out[1, j] + jac.T @ (r @ d_k @ r.T - d_k) @ jac
                 present[j] = True
         # the turned damping (damping_matrix): by the fitted parameters it follows, and by the turns
-        damping = np.asarray(call(model.mod, "isolator_damping", values))[model.variant, :3, :3]
-        gradient = np.asarray(call(model.mod, "isolator_damping_gradient", values))[:, model.variant, :3, :3]
+        damping, gradient = self._damping_tensor(model, values), self._damping_tensor(model, values, gradient=True)
         for d_d, p in zip(gradient, model.mod.FITTED_PARAMETERS, strict=True):
             if p in names and d_d.any():
                 j = names.index(p)
@@ -334,6 +340,13 @@ class TiltedIsolator(Strategy):
             out[2, names.index(q)] = jac.T @ (turned_damping + turned_damping.T) @ jac
             present[names.index(q)] = True
         return out, present
+
+
+def stiffness_point(model: CandidateModel, values: dict[str, float]) -> bytes:
+    """The key of what a strategy keeps per point of a fit (CandidateModel.kept): every value but the fitted damping
+    parameters, which M and C never depend on, so that a step in one of them (a forward difference) finds what the
+    point kept. Bytes of the values: -0.0 is not 0.0."""
+    return np.array([values[name] for name in sorted(values) if name not in model.damping_unknown]).tobytes()
 
 
 TILTS = ("tilt_1", "tilt_2")
@@ -409,10 +422,11 @@ class Amplitude(Strategy):
     def _hardened(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is. Kept by
-        the values that M and C depend on: a step in a fitted damping parameter (a forward difference) finds them."""
-        key = np.array([values[name] for name in sorted(values) if name not in model.damping_unknown]).tobytes()
-        return model.kept("hardened", key, lambda: _hardened_modes(model, values, mats, lam, vec))
+        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is, kept
+        for the point (stiffness_point)."""
+        return model.kept(
+            "hardened", stiffness_point(model, values), lambda: _hardened_modes(model, values, mats, lam, vec)
+        )
 
 
 def _hardened_modes(

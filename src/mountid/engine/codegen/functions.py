@@ -163,10 +163,11 @@ def _isolator_functions(model: SymbolicModel, support: str, coordinates: tuple[s
         out.append(_isolator_gradient_function(model, name + suffix, dict(zip(names, per, strict=True)), coordinates))
     if not on:
         per = isolator_damping(model)
+        named = dict(zip(names, per, strict=True))
         out.append(
             _matrices_function(
                 "isolator_damping",
-                dict(zip(names, per, strict=True)),
+                named,
                 coordinates,
                 model.parameters_of(*per),
                 "Damping matrix of each isolator alone (Hessian of its dissipation),\n"
@@ -176,11 +177,7 @@ def _isolator_functions(model: SymbolicModel, support: str, coordinates: tuple[s
                 stacked=(),
             )
         )
-        out.append(
-            _isolator_gradient_function(
-                model, "isolator_damping", dict(zip(names, per, strict=True)), coordinates, fitted_parameters(model)
-            )
-        )
+        out.append(_isolator_gradient_function(model, "isolator_damping", named, coordinates, fitted_parameters(model)))
     return out
 
 
