@@ -13,7 +13,7 @@ import scipy.linalg
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis import strategies
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.fitting import Data
+from mountid.diagnosis.fitting import Data, _residual_function
 from mountid.diagnosis.jacobian import jacobian
 from mountid.diagnosis.strategies import isolator_axes
 from mountid.effects import CATALOGUE, EFFECTS, pair
@@ -99,12 +99,74 @@ def test_each_hardened_mode_is_the_mode_of_its_own_stiffening():
     assert linear.lam == pytest.approx(lam0, rel=1e-10)
 
 
-def test_hardening_rubber_is_never_paired_and_its_jacobian_is_by_differences():
-    """No change of M and C common to the modes: no pair adds it; the analytic Jacobian declines it (the fit
-    takes forward differences of every column)."""
+def test_hardening_rubber_is_never_paired():
+    """No change of M and C common to the modes: no pair adds it."""
     assert all(pair(HARDENING, other) is None for other in CATALOGUE)
+
+
+def _central_difference(model: CandidateModel, theta: np.ndarray, rows: int, step: float = 1e-5) -> np.ndarray:
+    """d(residual rows)/d(theta) by central differences (each hardened mode's fixed point solved to 1e-12 on
+    either side: a step of 1e-5 keeps that noise below 1e-7 of the derivatives)."""
+    fun, _ = _residual_function(model, Data(model.campaign, model.length), None)
+    columns = [(fun(theta + step * e) - fun(theta - step * e)) / (2 * step) for e in np.eye(len(theta))]
+    return np.column_stack(columns)[:rows]
+
+
+@pytest.mark.parametrize(
+    ("seed", "machine", "kind", "h"),
+    [
+        (225, "rectangular", "shapes", 0.05),  # distinct shear axes
+        (3, "kid300", "shapes", 0.2),  # exact twins: each its own fixed point, their span compared
+        (5, "genset8", "shapes", 0.3),
+        (18, "screen6", "damping", 0.3),  # the damping ratios of each mode's own (M, C_j, B)
+        (2, "skid1plane", "frequencies", 0.5),
+    ],
+)
+def test_the_jacobian_of_hardened_modes_is_their_fixed_points_differentiated(seed, machine, kind, h):
+    """The analytic Jacobian (implicit differentiation of every mode's fixed point, strategies.hardened_derivatives)
+    matches a central difference of the residuals, column by column, beside the truth."""
+    model, truth = _model(seed, machine, kind)
+    unknowns = {u: truth.unknowns.get(u, model.start_unknowns.get(u)) for u in model.unknown}
+    theta = _theta(model, unknowns, h) + np.random.default_rng(1).normal(0, 0.02, len(model.parameter_names))
+    analytic = jacobian(model, Data(model.campaign, model.length), theta)
+    assert analytic is not None
+    numeric = _central_difference(model, theta, len(analytic))
+    scale = np.abs(numeric).max(axis=0)
+    assert np.all(scale > 0)
+    assert np.all(np.abs(analytic - numeric).max(axis=0) <= 1e-6 * scale)
+
+
+def test_a_hardened_mode_with_a_neighbour_in_its_own_problem_is_left_to_differences():
+    """Where h is so small that a mode's twin in (C_j, M) lies within SEPARATE_MODES of it (kid300), its shape is
+    not differentiable: the Jacobian declines the point (the fit takes differences)."""
+    model, truth = _model(3, "kid300")
+    data = Data(model.campaign, model.length)
+    assert jacobian(model, data, _theta(model, truth.unknowns, 1e-9)) is None
+    assert jacobian(model, data, _theta(model, truth.unknowns, 1e-2)) is not None  # the lower end of h's range
+
+
+def test_an_isolator_whose_axes_turn_with_a_parameter_is_left_to_differences(monkeypatch):
+    """The derivative holds each isolator's axes where they are: a stiffness gradient that turns them (an
+    off-diagonal entry in the isolator's axes, here 1e-6 of the largest) makes the Jacobian decline the point."""
     model, truth = _model(225, "rectangular")
-    assert jacobian(model, Data(model.campaign, model.length), _theta(model, truth.unknowns, 0.05)) is None
+    data = Data(model.campaign, model.length)
+    theta = _theta(model, truth.unknowns, 0.05)
+    assert jacobian(model, data, theta) is not None
+    generated = strategies.call
+
+    def turned(module, function, values):
+        out = generated(module, function, values)
+        if function != "isolator_stiffness_gradient":
+            return out
+        out = np.array(out)
+        size = np.abs(out[0, 0, :3, :3]).max()
+        out[0, 0, 0, 1] += 1e-6 * size
+        out[0, 0, 1, 0] += 1e-6 * size
+        return out
+
+    monkeypatch.setattr(strategies, "call", turned)
+    fresh = _model(225, "rectangular")[0]
+    assert jacobian(fresh, Data(fresh.campaign, fresh.length), theta) is None
 
 
 def test_damping_ratios_of_hardened_modes_are_their_own_poles():

@@ -35,7 +35,7 @@ from mountid.diagnosis.candidate_model import (
     exact_twins,
     off_span,
 )
-from mountid.runtime import EQUAL_EIGENVALUES, eigen_derivatives, modal_projection
+from mountid.runtime import EQUAL_EIGENVALUES, modal_projection
 
 if TYPE_CHECKING:
     from mountid.diagnosis.fitting import Data
@@ -59,10 +59,8 @@ identity within this (relative to its largest entry)."""
 def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray | None:
     """d(weighted residual rows)/d(theta), shape (n_rows, n_theta) in the row order of
     :meth:`Data.residuals`, with nan columns for the parameters in which the frequencies are not differentiable
-    at this point (they split exactly equal twins); None where no column can be given (parallel partners, or a
-    strategy without analytic derivatives: Strategy.analytic)."""
-    if not model.strategy.analytic:
-        return None
+    at this point (they split exactly equal twins); None where no column can be given (parallel partners, or
+    modes the strategy cannot differentiate here: Strategy.mode_derivatives)."""
     e = model.evaluate(theta)
     names = model.parameter_names
     scale = model.jacobian_to_physical(theta, e.values)  # d(physical)/d(theta), diagonal
@@ -75,7 +73,10 @@ def jacobian(model: CandidateModel, data: Data, theta: np.ndarray) -> np.ndarray
         d_m[split] = 0.0
         d_c[split] = 0.0
         d_b[split] = 0.0
-    d_lam, d_vec = eigen_derivatives(d_m, d_c, e.vec, e.lam, DEGENERATE)
+    modes = model.strategy.mode_derivatives(model, e, d_mats, DEGENERATE)
+    if modes is None:
+        return None
+    d_lam, d_vec = modes
     d_omega = model.strategy.frequency_derivatives(model, e, d_lam, d_mats)
     d_shapes = model.strategy.shape_derivatives(model, e, d_vec)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -21,6 +21,7 @@ from scipy.spatial.transform import Rotation
 from mountid.effects import Effect, Pair
 from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
 from mountid.machine.symmetry import mirror_planes, parity_signs, with_parity_signs
+from mountid.runtime import eigen_derivatives
 
 if TYPE_CHECKING:
     from mountid.diagnosis.campaign import Campaign
@@ -53,10 +54,6 @@ class Strategy:
     """For an effect of no parameter fitted per variant: how many variants are fitted, those whose one
     Gauss-Newton step from the unknowns the frequencies identify promises most (candidates._screened_variants);
     0: every variant."""
-
-    analytic: bool = True
-    """Whether the fit's Jacobian is analytic (mountid.diagnosis.jacobian); False: forward differences of every
-    column (a model whose modes each solve an eigenproblem of their own, rubber_hardening)."""
 
     def variants(self, campaign: Campaign) -> tuple[str, ...]:
         """The variants the effect is fitted once each for (the isolators, the channels), the best reported;
@@ -100,14 +97,10 @@ class Strategy:
 
     def damping_ratio_derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> np.ndarray:
         """d zeta / dq of every mode, shape (n_q, n_modes), from the damped-pole derivatives of
-        M p^2 + B p + C = 0 (zeta = -Re p / |p|, d|p| = Re(conj(p) dp) / |p|); 0 for a mode that does not
-        oscillate."""
+        M p^2 + B p + C = 0 (ratio_derivatives); 0 for a mode that does not oscillate."""
         m, c, _ = e.mats
         p, dp = damped_pole_derivatives(m, c, self.damping_matrix(model, e.values, e.mats), e.lam, *d_mats)
-        size = np.abs(p)
-        safe = np.where(size > 0, size, 1.0)
-        d_size = (np.conj(p)[None, :] * dp).real / safe
-        return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
+        return ratio_derivatives(p, dp)
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         """Why the effect cannot act on this campaign ('' when it can)."""
@@ -152,6 +145,15 @@ class Strategy:
         its own to the nominal ones."""
         d = np.asarray(call(model.mod, "fitted_derivatives", values))
         return stacked_rows(d, model.mod.FITTED_PARAMETERS, names, n, model.unknown)
+
+    def mode_derivatives(
+        self, model: CandidateModel, e: Evaluation, d_mats: Stacked, degenerate: float
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """d lambda / dq (n_q, n_modes) [rad^2/s^2 per unit of q] and d vec / dq (n_q, n, n_modes) of the model's
+        modes (e.lam, e.vec) from d(M, C, B)/dq (stacked); None where they are not differentiable at this point
+        (the fit takes differences). Here the eigen-perturbation of (C, M) (runtime.eigen_derivatives), modes
+        within ``degenerate`` (relative) of each other a subspace whose own motion alone is defined."""
+        return eigen_derivatives(d_mats[0], d_mats[1], e.vec, e.lam, degenerate)
 
     def frequency_derivatives(
         self, model: CandidateModel, e: Evaluation, d_lam: np.ndarray, d_mats: Stacked
@@ -342,6 +344,15 @@ class TiltedIsolator(Strategy):
         return out, present
 
 
+def ratio_derivatives(p: np.ndarray, dp: np.ndarray) -> np.ndarray:
+    """d zeta / dq, shape (n_q, n_modes), of the damping ratios zeta = -Re p / |p| of the poles ``p`` (n_modes,)
+    from their derivatives ``dp`` (n_q, n_modes), d|p| = Re(conj(p) dp) / |p|; 0 for a pole at zero."""
+    size = np.abs(p)
+    safe = np.where(size > 0, size, 1.0)
+    d_size = (np.conj(p)[None, :] * dp).real / safe
+    return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
+
+
 def stiffness_point(model: CandidateModel, values: dict[str, float]) -> bytes:
     """The key of what a strategy keeps per point of a fit (CandidateModel.kept): every value but the fitted damping
     parameters, which M and C never depend on, so that a step in one of them (a forward difference) finds what the
@@ -397,48 +408,99 @@ class Amplitude(Strategy):
     isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the
     eigenproblem of its own stiffened C, from the linear model's mode to the fixed point where its shape makes the
     stiffening it is the mode of. The measured frequencies and shapes are those of the hardened modes, the damping
-    ratios their poles' with the described B."""
+    ratios their poles' with the described B.
 
-    analytic = False
+    Derivatives (the analytic Jacobian) by implicit differentiation of each mode's fixed point
+    (hardened_derivatives)."""
 
     def modes(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         hardened = self._hardened(model, values, mats, lam, vec)
-        return hardened[0], hardened[1]
+        return hardened.lam, hardened.vec
 
     def damping_ratios(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray
     ) -> np.ndarray:
         m, c, _ = mats
         b = self.damping_matrix(model, values, mats)
-        _, _, stiffened, picked = self._hardened(model, values, mats, *undamped_modes(c, m))
+        hardened = self._hardened(model, values, mats, *undamped_modes(c, m))
         out = np.empty(len(lam))
-        for j, (cj, i) in enumerate(zip(stiffened, picked, strict=True)):
+        for j, (cj, i) in enumerate(zip(hardened.stiffened, hardened.picked, strict=True)):
             p = damped_poles(m, cj, b, undamped_modes(cj, m)[0])[i]
             out[j] = -p.real / abs(p) if abs(p) > 0 else 1.0
         return out
 
+    def mode_derivatives(
+        self, model: CandidateModel, e: Evaluation, d_mats: Stacked, degenerate: float
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        found = self._derivatives(model, e, d_mats)
+        return None if found is None else (found.d_lam, found.d_vec)
+
+    def damping_ratio_derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> np.ndarray:
+        # each mode's pole of (M, C_j, B), C_j moving with the parameters and with the mode's own shape
+        m, c, _ = e.mats
+        b = self.damping_matrix(model, e.values, e.mats)
+        d_m, _, d_b = d_mats
+        hardened = self._hardened(model, e.values, e.mats, *undamped_modes(c, m))
+        found = self._derivatives(model, e, d_mats)
+        if found is None:  # the Jacobian declined the point already (mode_derivatives)
+            raise ValueError("the hardened modes are not differentiable at this point")
+        out = np.empty((len(d_m), len(e.lam)))
+        for j, (cj, i) in enumerate(zip(hardened.stiffened, hardened.picked, strict=True)):
+            p, dp = damped_pole_derivatives(m, cj, b, undamped_modes(cj, m)[0], d_m, found.d_stiffened[j], d_b)
+            out[:, j] = ratio_derivatives(p[i : i + 1], dp[:, i : i + 1])[:, 0]
+        return out
+
     def _hardened(
         self, model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per mode: its eigenvalue and vector hardened, its stiffened C and which mode of (C_j, M) it is, kept
-        for the point (stiffness_point)."""
+    ) -> Hardened:
+        """Every mode hardened (the linear model's ``lam`` and ``vec`` its start), kept for the point
+        (stiffness_point)."""
         return model.kept(
             "hardened", stiffness_point(model, values), lambda: _hardened_modes(model, values, mats, lam, vec)
         )
 
+    def _derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> HardenedDerivatives | None:
+        """hardened_derivatives at the evaluation ``e``, kept for the point and d(M, C)/dq (the shapes and the
+        damping ratios of one Jacobian ask for them)."""
+        m, c, _ = e.mats
+        hardened = self._hardened(model, e.values, e.mats, *undamped_modes(c, m))
+        key = stiffness_point(model, e.values) + np.asarray(d_mats[:2]).tobytes()
+        return model.kept(
+            "hardened derivatives", key, lambda: hardened_derivatives(model, e.values, m, hardened, d_mats[:2])
+        )
+
+
+class Hardened(NamedTuple):
+    """The hardened modes of one point (Amplitude): per mode its eigenvalue [rad^2/s^2] and M-normalised vector
+    (columns), its stiffened C_j [SI], which mode of (C_j, M) it is, and every eigenvalue of (C_j, M)
+    (modes x n)."""
+
+    lam: np.ndarray
+    vec: np.ndarray
+    stiffened: np.ndarray
+    picked: np.ndarray
+    eigenvalues: np.ndarray
+
+
+class HardenedDerivatives(NamedTuple):
+    """d lambda / dq (n_q, n_modes), d vec / dq (n_q, n, n_modes) of the hardened modes, and each mode's
+    d C_j / dq (n_modes, n_q, n, n) through the parameters and the mode's own motion."""
+
+    d_lam: np.ndarray
+    d_vec: np.ndarray
+    d_stiffened: np.ndarray
+
 
 def _hardened_modes(
     model: CandidateModel, values: dict[str, float], mats: Matrices, lam: np.ndarray, vec: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> Hardened:
     """Every mode's fixed point at once (Amplitude): per step one batched eigensolution of the modes' stiffened
     matrices in the standard form L^-1 C_j L^-T (M = L L^T), until no shape moves by more than HARDENING_TOLERANCE
     or after HARDENING_ITERATIONS steps."""
     m, c, _ = mats
-    total = np.asarray(call(model.mod, "isolator_stiffness", values))
-    axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))
-    parts, along = model.kept("isolator axes", total.tobytes() + axial.tobytes(), lambda: isolator_axes(total, axial))
+    parts, along, _ = _split_at(model, values)
     h = values["hardening"]
     lower_inverse = np.linalg.inv(np.linalg.cholesky(m))
     # the description's mirror planes (its symmetry holds at every value of its unknowns): found once per model
@@ -461,7 +523,91 @@ def _hardened_modes(
         phi = step
         if done:
             break
-    return eigenvalues[rows, picked], phi, stiffened, picked
+    return Hardened(eigenvalues[rows, picked], phi, stiffened, picked, eigenvalues)
+
+
+def _split_at(model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """isolator_split of the generated isolator matrices at ``values``, kept by them."""
+    total = np.asarray(call(model.mod, "isolator_stiffness", values))
+    axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))
+    return model.kept("isolator axes", total.tobytes() + axial.tobytes(), lambda: isolator_split(total, axial))
+
+
+SEPARATE_MODES = 1e-6
+"""A hardened mode's shape is differentiable where every other mode of its own (C_j, M) lies further than this
+from it (relative); closer, the fit takes differences (hardened_derivatives)."""
+
+FIXED_AXES = 1e-9
+"""An isolator's axes stay where the parameters move them by no more than this: the off-diagonal entries of its
+stiffness tensor K and of dK/dq in its axes, relative to their largest entry (hardened_derivatives)."""
+
+
+def hardened_derivatives(
+    model: CandidateModel, values: dict[str, float], mass: np.ndarray, hardened: Hardened, d_mats: np.ndarray
+) -> HardenedDerivatives | None:
+    """The derivatives of the hardened modes by the fit's parameters (model.parameter_names), by implicit
+    differentiation of each mode's fixed point. Mode j solves (C_j(phi, q) - lambda M) phi = 0, phi^T M phi = 1,
+    with C_j = C + h sum_p r_p P_p, r_p = s_p / s_max, s_p = phi^T P_p phi / k_p the squared deformation along
+    axis p (isolator_split: P_p = k_p w_p w_p^T, w_p the axis' deformation per unit motion, a matter of geometry
+    where the axes stay). Differentiated:
+
+        (C_j - lambda M + G) dphi - M phi dlambda = -(dC_j/dq - lambda dM/dq) phi,  phi^T M dphi = -phi^T dM phi / 2,
+
+    G = h sum_p P_p phi (grad r_p)^T the stiffening's response to the mode's own motion, dC_j/dq at fixed phi
+    = dC/dq + h sum_p r_p (dk_p/dq / k_p) P_p (and sum_p r_p P_p by h). The axis of the largest deformation is held
+    (where axes tie by symmetry, their deformations move alike). None where that does not hold: an isolator's axes
+    turn with a parameter (FIXED_AXES), or another mode of (C_j, M) lies within ``degenerate`` (relative) of the
+    hardened one (SEPARATE_MODES: its shape is not differentiable). ``d_mats``: d(M, C)/dq (2, n_q, n, n), ``mass``
+    M."""
+    d_m, d_c = d_mats
+    names = model.parameter_names
+    parts, along, axes = _split_at(model, values)
+    gradient = np.asarray(call(model.mod, "isolator_stiffness_gradient", values))  # (unknowns, isolators, n, n)
+    tensor = np.asarray(call(model.mod, "isolator_stiffness", values))[:, :3, :3]
+    in_axes = np.einsum("iae,iab,ibf->ief", axes, tensor, axes)
+    d_in_axes = np.einsum("iae,uiab,ibf->uief", axes, gradient[..., :3, :3], axes)
+    for t in (in_axes, *d_in_axes):
+        diagonal = np.einsum("iee->ie", t)
+        off = np.abs(t - diagonal[:, :, None] * np.eye(3)).max(axis=(1, 2))
+        if np.any(off > FIXED_AXES * np.abs(t).max(axis=(1, 2))):
+            return None
+    keep = (np.einsum("iee->ie", in_axes) > 0).ravel()
+    d_along = np.zeros((len(names), len(along)))
+    for u, d in zip(model.mod.UNKNOWN, d_in_axes, strict=True):
+        if u in names:
+            d_k = np.einsum("iee->ie", d).ravel()
+            if np.any(d_k[~keep]):
+                return None  # an axis without stiffness gains some: a part appears
+            d_along[names.index(u)] = d_k[keep]
+    lam, phi, stiffened, eigenvalues = hardened.lam, hardened.vec, hardened.stiffened, hardened.eigenvalues
+    others = np.abs(eigenvalues - lam[:, None])
+    others[np.arange(len(lam)), hardened.picked] = np.inf
+    if np.any(others.min(axis=1) <= SEPARATE_MODES * np.abs(lam)):
+        return None
+    m, h, n_q = mass, values["hardening"], len(names)
+    squared = np.einsum("aj,pab,bj->jp", phi, parts, phi) / along
+    largest = np.argmax(squared, axis=1)
+    rows = np.arange(phi.shape[1])
+    ratio = squared / squared[rows, largest][:, None]
+    pushed = np.einsum("pab,bj->jpa", parts, phi)  # P_p phi per mode
+    grad_s = 2 * pushed / along[None, :, None]
+    grad_r = (grad_s - ratio[:, :, None] * grad_s[rows, largest][:, None, :]) / squared[rows, largest][:, None, None]
+    response = h * np.einsum("jpa,jpb->jab", pushed, grad_r)  # G per mode
+    weighted = np.einsum("jp,pab->jab", ratio, parts)  # sum_p r_p P_p per mode
+    d_fixed = d_c[None] + h * np.einsum("jp,qp,pab->jqab", ratio, d_along / along[None], parts)
+    d_fixed[:, names.index("hardening")] += weighted
+    size = len(m)
+    bordered = np.zeros((phi.shape[1], size + 1, size + 1))
+    bordered[:, :size, :size] = stiffened - lam[:, None, None] * m + response
+    bordered[:, :size, size] = -(m @ phi).T
+    bordered[:, size, :size] = (m @ phi).T
+    rhs = np.zeros((phi.shape[1], size + 1, n_q))
+    rhs[:, :size] = -np.einsum("jqab,bj->jaq", d_fixed - lam[:, None, None, None] * d_m[None], phi)
+    rhs[:, size] = -0.5 * np.einsum("aj,qab,bj->jq", phi, d_m, phi)
+    solution = np.linalg.solve(bordered, rhs)  # (modes, n + 1, n_q)
+    d_phi = solution[:, :size]
+    d_stiffened = d_fixed + h * np.einsum("pab,jpc,jcq->jqab", parts, grad_r, d_phi)
+    return HardenedDerivatives(solution[:, size].T, np.transpose(d_phi, (2, 1, 0)), d_stiffened)
 
 
 EQUAL_AXES = 1e-9
@@ -477,6 +623,13 @@ def own_axes(axial: np.ndarray) -> np.ndarray:
 
 
 def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The parts and the stiffness along each of :func:`isolator_split` (each isolator's stiffness matrix split
+    along its local axes)."""
+    parts, along, _ = isolator_split(stiffness, axial)
+    return parts, along
+
+
+def isolator_split(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each isolator's stiffness matrix (``stiffness``: (isolators, n, n), the generated ``isolator_stiffness()``)
     split along its local axes: its own axis a (local z, from ``axial``, the generated
     ``isolator_axial_stiffness()``) and the principal axes of its shear stiffness across a (local x and y; where
@@ -484,7 +637,8 @@ def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray,
     and their cross product). The translational block K of an isolator's matrix (the body's translation moves
     every point alike) is sum_e k_e e e^T over these axes, and C_i = J^T K J = sum_e g_e g_e^T / k_e with
     g_e = C_i[:, :3] e. Returns the parts (3 per isolator, n x n) and the stiffness k_e along each, so that
-    phi^T part phi / k_e is the squared deformation along e in the motion phi [m^2]."""
+    phi^T part phi / k_e is the squared deformation along e in the motion phi [m^2], and every isolator's axes
+    (isolators, 3, 3), columns local x, y, z (the parts are those of the axes of positive stiffness, in order)."""
     block = stiffness[:, :3, :3]
     a = own_axes(axial)
     across = np.eye(3) - a[:, :, None] * a[:, None, :]
@@ -502,7 +656,7 @@ def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray,
     g = stiffness[:, :, :3] @ axes  # (isolators, n, 3): the force of unit deformation along each axis
     parts = np.einsum("iae,ibe->ieab", g, g) / along[:, :, None, None]
     keep = (along > 0).ravel()
-    return parts.reshape(-1, *stiffness.shape[1:])[keep], along.ravel()[keep]
+    return parts.reshape(-1, *stiffness.shape[1:])[keep], along.ravel()[keep], axes
 
 
 class Damping(Strategy):
