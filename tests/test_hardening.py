@@ -145,6 +145,18 @@ def test_a_hardened_mode_with_a_neighbour_in_its_own_problem_is_left_to_differen
     assert jacobian(model, data, _theta(model, truth.unknowns, 1e-2)) is not None  # the lower end of h's range
 
 
+def test_hardened_modes_short_of_their_fixed_point_are_left_to_differences(monkeypatch):
+    """A fixed point not reached within HARDENING_ITERATIONS (here one step) has no implicit derivative: the Jacobian
+    declines the point."""
+    monkeypatch.setattr(strategies, "HARDENING_ITERATIONS", 1)
+    model, truth = _model(225, "rectangular")
+    theta = _theta(model, truth.unknowns, 0.05)
+    assert jacobian(model, Data(model.campaign, model.length), theta) is None
+    monkeypatch.undo()
+    fresh = _model(225, "rectangular")[0]
+    assert jacobian(fresh, Data(fresh.campaign, fresh.length), theta) is not None
+
+
 def test_an_isolator_whose_axes_turn_with_a_parameter_is_left_to_differences(monkeypatch):
     """The derivative holds each isolator's axes where they are: a stiffness gradient that turns them (an
     off-diagonal entry in the isolator's axes, here 1e-6 of the largest) makes the Jacobian decline the point."""

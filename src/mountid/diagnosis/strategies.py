@@ -475,13 +475,17 @@ class Amplitude(Strategy):
 class Hardened(NamedTuple):
     """The hardened modes of one point (Amplitude): per mode its eigenvalue [rad^2/s^2] and M-normalised vector
     (columns), its stiffened C_j [SI], which mode of (C_j, M) it is, and every eigenvalue of (C_j, M)
-    (modes x n)."""
+    (modes x n); and how far the shapes may still be from their fixed points."""
 
     lam: np.ndarray
     vec: np.ndarray
     stiffened: np.ndarray
     picked: np.ndarray
     eigenvalues: np.ndarray
+    distance: float
+    """How far the shapes may still be from their fixed points: the last step's largest movement times r / (1 - r),
+    r its ratio to the step before (a contraction's geometric tail); infinite where the steps do not shrink or one
+    step fell short of HARDENING_TOLERANCE."""
 
 
 class HardenedDerivatives(NamedTuple):
@@ -508,6 +512,7 @@ def _hardened_modes(
     # each mode keeps the mirror parity of its linear shape (rounding would not): its sign in each mirror plane
     signs = parity_signs(mirrors, m, vec)
     phi = np.array(vec, dtype=float)
+    moved = before = math.inf
     for _ in range(HARDENING_ITERATIONS):
         squared = np.einsum("aj,kab,bj->jk", phi, parts, phi) / along  # each axis' squared deformation, per mode
         stiffened = c + h * np.einsum("jk,kab->jab", squared / squared.max(axis=1, keepdims=True), parts)
@@ -519,11 +524,15 @@ def _hardened_modes(
         rows = np.arange(len(lam))
         step = vectors[rows, :, picked].T * np.sign(overlap[rows, picked])
         step = with_parity_signs(step, signs, mirrors, m)
-        done = bool(np.abs(step - phi).max() <= HARDENING_TOLERANCE)
+        moved, before = float(np.abs(step - phi).max()), moved
         phi = step
-        if done:
+        if moved <= HARDENING_TOLERANCE:
             break
-    return Hardened(eigenvalues[rows, picked], phi, stiffened, picked, eigenvalues)
+    if math.isfinite(before) and moved < before:
+        distance = moved * moved / (before - moved)  # moved r / (1 - r), r = moved / before
+    else:  # one step, or steps that do not shrink
+        distance = moved if moved <= HARDENING_TOLERANCE else math.inf
+    return Hardened(eigenvalues[rows, picked], phi, stiffened, picked, eigenvalues, distance)
 
 
 def _split_at(model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -532,6 +541,11 @@ def _split_at(model: CandidateModel, values: dict[str, float]) -> tuple[np.ndarr
     axial = np.asarray(call(model.mod, "isolator_axial_stiffness", values))
     return model.kept("isolator axes", total.tobytes() + axial.tobytes(), lambda: isolator_split(total, axial))
 
+
+REACHED = 1e-9
+"""Hardened shapes are at their fixed points for their derivatives where they may be no further from them than this,
+relative to their largest entry (Hardened.distance; a slow contraction, h = 0.5 on skid1plane, leaves 5e-10 after
+HARDENING_ITERATIONS steps, the derivatives right to 2e-8)."""
 
 SEPARATE_MODES = 1e-6
 """A hardened mode's shape is differentiable where every other mode of its own (C_j, M) lies further than this
@@ -555,10 +569,12 @@ def hardened_derivatives(
 
     G = h sum_p P_p phi (grad r_p)^T the stiffening's response to the mode's own motion, dC_j/dq at fixed phi
     = dC/dq + h sum_p r_p (dk_p/dq / k_p) P_p (and sum_p r_p P_p by h). The axis of the largest deformation is held
-    (where axes tie by symmetry, their deformations move alike). None where that does not hold: an isolator's axes
-    turn with a parameter (FIXED_AXES), or another mode of (C_j, M) lies within ``degenerate`` (relative) of the
-    hardened one (SEPARATE_MODES: its shape is not differentiable). ``d_mats``: d(M, C)/dq (2, n_q, n, n), ``mass``
-    M."""
+    (where axes tie by symmetry, their deformations move alike). None where that does not hold: a fixed point not
+    reached (Hardened.distance beyond REACHED), an isolator's axes turning with a parameter (FIXED_AXES), another
+    mode of (C_j, M) within SEPARATE_MODES (relative) of the hardened one (its shape is not differentiable), or a
+    singular system. ``d_mats``: d(M, C)/dq (2, n_q, n, n), ``mass`` M."""
+    if not hardened.distance <= REACHED * np.abs(hardened.vec).max():
+        return None
     d_m, d_c = d_mats
     names = model.parameter_names
     parts, along, axes = _split_at(model, values)
@@ -604,7 +620,10 @@ def hardened_derivatives(
     rhs = np.zeros((phi.shape[1], size + 1, n_q))
     rhs[:, :size] = -np.einsum("jqab,bj->jaq", d_fixed - lam[:, None, None, None] * d_m[None], phi)
     rhs[:, size] = -0.5 * np.einsum("aj,qab,bj->jq", phi, d_m, phi)
-    solution = np.linalg.solve(bordered, rhs)  # (modes, n + 1, n_q)
+    try:
+        solution = np.linalg.solve(bordered, rhs)  # (modes, n + 1, n_q)
+    except np.linalg.LinAlgError:
+        return None
     d_phi = solution[:, :size]
     d_stiffened = d_fixed + h * np.einsum("pab,jpc,jcq->jqab", parts, grad_r, d_phi)
     return HardenedDerivatives(solution[:, size].T, np.transpose(d_phi, (2, 1, 0)), d_stiffened)
