@@ -434,7 +434,7 @@ class Amplitude(Strategy):
     def mode_derivatives(
         self, model: CandidateModel, e: Evaluation, d_mats: Stacked, degenerate: float
     ) -> tuple[np.ndarray, np.ndarray] | None:
-        found = self._derivatives(model, e, d_mats)
+        found = self._derivatives(model, e, d_mats)[1]
         return None if found is None else (found.d_lam, found.d_vec)
 
     def damping_ratio_derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> np.ndarray:
@@ -442,9 +442,8 @@ class Amplitude(Strategy):
         m, c, _ = e.mats
         b = self.damping_matrix(model, e.values, e.mats)
         d_m, _, d_b = d_mats
-        hardened = self._hardened(model, e.values, e.mats, *undamped_modes(c, m))
-        found = self._derivatives(model, e, d_mats)
-        if found is None:  # the Jacobian declined the point already (mode_derivatives)
+        hardened, found = self._derivatives(model, e, d_mats)
+        if found is None:  # unreached: the Jacobian asks for these only where mode_derivatives gave its own
             raise ValueError("the hardened modes are not differentiable at this point")
         out = np.empty((len(d_m), len(e.lam)))
         for j, (cj, i) in enumerate(zip(hardened.stiffened, hardened.picked, strict=True)):
@@ -461,13 +460,15 @@ class Amplitude(Strategy):
             "hardened", stiffness_point(model, values), lambda: _hardened_modes(model, values, mats, lam, vec)
         )
 
-    def _derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> HardenedDerivatives | None:
-        """hardened_derivatives at the evaluation ``e``, kept for the point and d(M, C)/dq (the shapes and the
-        damping ratios of one Jacobian ask for them)."""
+    def _derivatives(
+        self, model: CandidateModel, e: Evaluation, d_mats: Stacked
+    ) -> tuple[Hardened, HardenedDerivatives | None]:
+        """The hardened modes at the evaluation ``e`` and their hardened_derivatives, kept for the point and
+        d(M, C)/dq (the shapes and the damping ratios of one Jacobian ask for them)."""
         m, c, _ = e.mats
         hardened = self._hardened(model, e.values, e.mats, *undamped_modes(c, m))
         key = stiffness_point(model, e.values) + np.asarray(d_mats[:2]).tobytes()
-        return model.kept(
+        return hardened, model.kept(
             "hardened derivatives", key, lambda: hardened_derivatives(model, e.values, m, hardened, d_mats[:2])
         )
 
