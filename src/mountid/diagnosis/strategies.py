@@ -403,7 +403,7 @@ HARDENING_TOLERANCE = 1e-12
 
 class Amplitude(Strategy):
     """Hardening rubber by equivalent linearisation: in each mode each isolator's stiffness along each of its
-    local axes (isolator_axes of the generated ``isolator_stiffness()``, whose sum is C) times
+    local axes (isolator_split of the generated ``isolator_stiffness()``, whose sum is C) times
     1 + h (d / d_max)^2, d the deformation amplitude along that axis in the mode, d_max the largest over the
     isolators and axes (each mode excited to the same largest isolator deformation). Each mode solves the
     eigenproblem of its own stiffened C, from the linear model's mode to the fixed point where its shape makes the
@@ -579,23 +579,9 @@ def hardened_derivatives(
     d_m, d_c = d_mats
     names = model.parameter_names
     parts, along, axes = _split_at(model, values)
-    gradient = np.asarray(call(model.mod, "isolator_stiffness_gradient", values))  # (unknowns, isolators, n, n)
-    tensor = np.asarray(call(model.mod, "isolator_stiffness", values))[:, :3, :3]
-    in_axes = np.einsum("iae,iab,ibf->ief", axes, tensor, axes)
-    d_in_axes = np.einsum("iae,uiab,ibf->uief", axes, gradient[..., :3, :3], axes)
-    for t in (in_axes, *d_in_axes):
-        diagonal = np.einsum("iee->ie", t)
-        off = np.abs(t - diagonal[:, :, None] * np.eye(3)).max(axis=(1, 2))
-        if np.any(off > FIXED_AXES * np.abs(t).max(axis=(1, 2))):
-            return None
-    keep = (np.einsum("iee->ie", in_axes) > 0).ravel()
-    d_along = np.zeros((len(names), len(along)))
-    for u, d in zip(model.mod.UNKNOWN, d_in_axes, strict=True):
-        if u in names:
-            d_k = np.einsum("iee->ie", d).ravel()
-            if np.any(d_k[~keep]):
-                return None  # an axis without stiffness gains some: a part appears
-            d_along[names.index(u)] = d_k[keep]
+    d_along = _axis_stiffness_derivatives(model, values, axes, len(along))
+    if d_along is None:
+        return None
     lam, phi, stiffened, eigenvalues = hardened.lam, hardened.vec, hardened.stiffened, hardened.eigenvalues
     others = np.abs(eigenvalues - lam[:, None])
     others[np.arange(len(lam)), hardened.picked] = np.inf
@@ -630,9 +616,37 @@ def hardened_derivatives(
     return HardenedDerivatives(solution[:, size].T, np.transpose(d_phi, (2, 1, 0)), d_stiffened)
 
 
+def _axis_stiffness_derivatives(
+    model: CandidateModel, values: dict[str, float], axes: np.ndarray, parts: int
+) -> np.ndarray | None:
+    """d k_p / dq [N/m per unit of q], shape (n_q, ``parts``), of the stiffness along each isolator axis with a part
+    (isolator_split: ``axes``, (isolators, 3, 3)) by the fit's parameters, from the generated
+    ``isolator_stiffness_gradient()``; None where the axes do not stay (FIXED_AXES: K or dK/dq off-diagonal in an
+    isolator's axes) or an axis without stiffness gains some (a part appears)."""
+    names = model.parameter_names
+    gradient = np.asarray(call(model.mod, "isolator_stiffness_gradient", values))  # (unknowns, isolators, n, n)
+    tensor = np.asarray(call(model.mod, "isolator_stiffness", values))[:, :3, :3]
+    in_axes = np.einsum("iae,iab,ibf->ief", axes, tensor, axes)
+    d_in_axes = np.einsum("iae,uiab,ibf->uief", axes, gradient[..., :3, :3], axes)
+    for t in (in_axes, *d_in_axes):
+        diagonal = np.einsum("iee->ie", t)
+        off = np.abs(t - diagonal[:, :, None] * np.eye(3)).max(axis=(1, 2))
+        if np.any(off > FIXED_AXES * np.abs(t).max(axis=(1, 2))):
+            return None
+    keep = (np.einsum("iee->ie", in_axes) > 0).ravel()  # the axes isolator_split made parts of
+    d_along = np.zeros((len(names), parts))
+    for u, d in zip(model.mod.UNKNOWN, d_in_axes, strict=True):
+        if u in names:
+            d_k = np.einsum("iee->ie", d).ravel()
+            if np.any(d_k[~keep]):
+                return None
+            d_along[names.index(u)] = d_k[keep]
+    return d_along
+
+
 EQUAL_AXES = 1e-9
 """Shear stiffnesses of an isolator this close (relative) are one: the matrix does not say its local x and y axes
-(a round mount), and isolator_axes takes them along the machine's x and y as far as the mount's axis allows."""
+(a round mount), and isolator_split takes them along the machine's x and y as far as the mount's axis allows."""
 
 
 def own_axes(axial: np.ndarray) -> np.ndarray:
@@ -640,13 +654,6 @@ def own_axes(axial: np.ndarray) -> np.ndarray:
     (``axial``: (isolators, n, n), the generated ``isolator_axial_stiffness()``): the eigenvector of the largest
     eigenvalue of its translational block."""
     return np.linalg.eigh(axial[:, :3, :3])[1][:, :, -1]
-
-
-def isolator_axes(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The parts and the stiffness along each of :func:`isolator_split` (each isolator's stiffness matrix split
-    along its local axes)."""
-    parts, along, _ = isolator_split(stiffness, axial)
-    return parts, along
 
 
 def isolator_split(stiffness: np.ndarray, axial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
