@@ -70,8 +70,15 @@ CASES = [
     (["frequencies", "kid300", "--set", "J_xy=1e-300"], "--set J_xy:"),
     (["modes", "kid300", "--set", "c_z=1e300"], "--set c_z:"),
     (["frequencies", "kid300", "--set", "L_z=-0.1"], "--set L_z:"),
-    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4"], "psi:"),
-    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4", "psi=-1"], "psi:"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4"], "--std psi:"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4", "psi=-1"], "--std psi:"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4", "psi=nan"], "--std psi: is NaN"),
+    (["identify", "kid300", "--measured", "x=17.71", "psi=64.1", "--std", "x=0.4", "z=1"], "--std z:"),
+    # a label in --measured and in --std: each error names the option that gave the bad value
+    (["identify", "kid300", "--measured", "x=-17.71", "psi=64.1", "--std", "x=0.4", "psi=1"], "--measured x:"),
+    (["identify", "kid300", "--measured", "q=17.71", "psi=64.1"], "--measured q:"),
+    (["identify", "kid300", "--measured", "x=17.71", "x=18", "psi=64.1"], "--measured x: given twice"),
+    (["frequencies", "kid300", "--set", "m=abc"], "--set m: not a number"),
 ]
 
 

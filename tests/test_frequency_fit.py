@@ -156,8 +156,8 @@ def test_one_degree_of_freedom_is_said_in_the_singular(capsys):
 @pytest.mark.parametrize(
     ("extra", "named"),
     [
-        (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "z:"),
-        (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "phi:"),
+        (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "--std z:"),
+        (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "--std phi:"),
         (["--set", "c_xy=7e4"], "--set c_xy:"),
         (["--root", "c_q>c_xy"], "root:"),  # not a rule, though no tie needs one here
     ],

@@ -23,6 +23,8 @@ class Parser(argparse.ArgumentParser):
 
 
 def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
+    """``name=value`` items of ``option`` as a dict of floats; an item without "=", a value that is not a number
+    or NaN, or a name given twice is an InputError naming the option and the name ("--std x: is NaN")."""
     out: dict[str, float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
@@ -32,11 +34,11 @@ def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
         try:
             value = float(text)
         except ValueError:
-            raise InputError(name, f"not a number: {text!r}") from None
+            raise InputError(f"{option} {name}", f"not a number: {text!r}") from None
         if math.isnan(value):
-            raise InputError(name, "is NaN")
+            raise InputError(f"{option} {name}", "is NaN")
         if name in out:
-            raise InputError(name, "given twice")
+            raise InputError(f"{option} {name}", "given twice")
         out[name] = value
     return out
 

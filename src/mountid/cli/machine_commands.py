@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+from typing import TypeVar
 
 from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, print_json
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.nomenclature import counted
 from mountid.report.text import print_diagnosis
+
+T = TypeVar("T")
 
 
 def cmd_frequencies(args: argparse.Namespace) -> None:
@@ -33,7 +37,9 @@ def cmd_identify(args: argparse.Namespace) -> None:
         raise InputError("--measured", "give the measured frequencies as label=rad/s")
     given = pairs(args.set, "--set")
     std = pairs(args.std, "--std") if args.std else None
-    if len(machine.distinct_measured(measured)) > len(machine.unknown):
+    chosen = _named_as_option(lambda: machine.distinct_measured(measured), "--measured")
+    _named_as_option(lambda: machine.measured_std(chosen, std), "--std")
+    if len(chosen) > len(machine.unknown):
         _identify_least_squares(args, machine, given, measured, std)
         return
     if args.root:
@@ -72,6 +78,15 @@ def cmd_identify(args: argparse.Namespace) -> None:
         print("      of the measured frequencies)")
         beyond_first_order(s.parameters, s.std)
     defaults_note(machine, defaults)
+
+
+def _named_as_option(check: Callable[[], T], option: str) -> T:
+    """``check()``, its InputError (which names a mode label) naming the option that gave the label, as the
+    command line gave it: "--std psi: ..." (a label may be in --measured and in --std)."""
+    try:
+        return check()
+    except InputError as exc:
+        raise InputError(f"{option} {exc.parameter}", exc.reason) from None
 
 
 def _known_defaults(machine: Machine, given: dict[str, float]) -> dict[str, float]:
