@@ -9,11 +9,12 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
+from test_jacobian import residual_difference
 
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis import strategies
 from mountid.diagnosis.candidate_model import CandidateModel
-from mountid.diagnosis.fitting import Data, _residual_function
+from mountid.diagnosis.fitting import Data
 from mountid.diagnosis.jacobian import jacobian
 from mountid.diagnosis.strategies import isolator_split
 from mountid.effects import CATALOGUE, EFFECTS, pair
@@ -105,14 +106,6 @@ def test_hardening_rubber_is_never_paired():
     assert all(pair(HARDENING, other) is None for other in CATALOGUE)
 
 
-def _central_difference(model: CandidateModel, theta: np.ndarray, rows: int, step: float = 1e-5) -> np.ndarray:
-    """d(residual rows)/d(theta) by central differences (each hardened mode's fixed point solved to 1e-12 on
-    either side: a step of 1e-5 keeps that noise below 1e-7 of the derivatives)."""
-    fun, _ = _residual_function(model, Data(model.campaign, model.length), None)
-    columns = [(fun(theta + step * e) - fun(theta - step * e)) / (2 * step) for e in np.eye(len(theta))]
-    return np.column_stack(columns)[:rows]
-
-
 @pytest.mark.parametrize(
     ("seed", "machine", "kind", "h"),
     [
@@ -131,7 +124,8 @@ def test_the_jacobian_of_hardened_modes_is_their_fixed_points_differentiated(see
     theta = _theta(model, unknowns, h) + np.random.default_rng(1).normal(0, 0.02, len(model.parameter_names))
     analytic = jacobian(model, Data(model.campaign, model.length), theta)
     assert analytic is not None
-    numeric = _central_difference(model, theta, len(analytic))
+    # each hardened mode's fixed point is solved to 1e-12 on either side: a step of 1e-5 keeps that noise below 1e-7
+    numeric = residual_difference(model, theta, step=1e-5)[: len(analytic)]
     scale = np.abs(numeric).max(axis=0)
     assert np.all(scale > 0)
     assert np.all(np.abs(analytic - numeric).max(axis=0) <= 1e-6 * scale)

@@ -115,6 +115,14 @@ def test_candidate_jacobian_matches_a_central_difference_of_the_residuals(truth,
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
 
 
+def residual_difference(model: CandidateModel, theta: np.ndarray, step: float = 1e-6) -> np.ndarray:
+    """d(residuals)/d(theta) of ``model``'s fit at ``theta`` by central differences, a column per parameter: the
+    residuals as the fit sees them (fitting._residual_function, every row of the data, then the prior rows, which
+    the analytic Jacobian does not hold: compare its first len(jacobian) rows)."""
+    fun, _ = _residual_function(model, Data(model.campaign, model.length), None)
+    return np.column_stack([(fun(theta + step * e) - fun(theta - step * e)) / (2 * step) for e in np.eye(len(theta))])
+
+
 @pytest.mark.parametrize(
     "turn", [(0.0, 0.0), (1e-9, 0.0), (0.004, -0.007), (0.0099, 0.0014), (0.0101, 0.0), (0.3, -0.1), (-0.2, 0.25)]
 )
@@ -143,12 +151,9 @@ def test_turned_channel_jacobian_matches_a_central_difference():
 
     campaign = parse(_turned_campaign(7, (0.1, 0.04)))
     model = CandidateModel(campaign, EFFECTS["sensor_turned"], 7)
-    data = Data(campaign, model.length)
-    fun, _ = _residual_function(model, data, None)
     theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": 0.03})
-    analytic = jacobian(model, data, theta)
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    analytic = jacobian(model, Data(campaign, model.length), theta)
+    numeric = residual_difference(model, theta)
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
@@ -157,12 +162,9 @@ def test_misplaced_channel_jacobian_matches_a_central_difference():
 
     campaign = parse(_misplaced_campaign(5, (0.1, 0.2, -0.1))[0])
     model = CandidateModel(campaign, EFFECTS["sensor_misplaced"], 5)
-    data = Data(campaign, model.length)
-    fun, _ = _residual_function(model, data, None)
     theta = model.vector({**UNKNOWN, "offset_1": 0.05, "offset_2": -0.12})
-    analytic = jacobian(model, data, theta)
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    analytic = jacobian(model, Data(campaign, model.length), theta)
+    numeric = residual_difference(model, theta)
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
@@ -172,12 +174,9 @@ def test_two_turned_channels_jacobian_matches_a_central_difference():
     campaign = parse(_two_turned_campaign("S1_z & S3_y", (0.1, 0.04, -0.2, 0.05)))
     effect = EFFECTS["two_sensors_turned"]
     model = CandidateModel(campaign, effect, strategy(effect).variants(campaign).index("S1_z & S3_y"))
-    data = Data(campaign, model.length)
-    fun, _ = _residual_function(model, data, None)
     theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": 0.03, "turn_3": -0.15, "turn_4": 0.1})
-    analytic = jacobian(model, data, theta)
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    analytic = jacobian(model, Data(campaign, model.length), theta)
+    numeric = residual_difference(model, theta)
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
@@ -187,12 +186,9 @@ def test_turned_and_misplaced_channel_jacobian_matches_a_central_difference():
     campaign = parse(_turned_misplaced_campaign("S2_y", (0.1, -0.05, 0.2, 0.1)))
     effect = EFFECTS["sensor_turned_misplaced"]
     model = CandidateModel(campaign, effect, strategy(effect).variants(campaign).index("S2_y"))
-    data = Data(campaign, model.length)
-    fun, _ = _residual_function(model, data, None)
     theta = model.vector({**UNKNOWN, "turn_1": 0.08, "turn_2": -0.03, "offset_1": 0.15, "offset_2": 0.12})
-    analytic = jacobian(model, data, theta)
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+    analytic = jacobian(model, Data(campaign, model.length), theta)
+    numeric = residual_difference(model, theta)
     assert np.max(np.abs(analytic - numeric[: len(analytic)])) <= 1e-6 * np.max(np.abs(numeric))
 
 
@@ -212,16 +208,12 @@ def test_jacobian_rows_of_measured_damping_ratios_match_a_central_difference(fit
     model = CandidateModel(campaign, EFFECTS[fitted] if fitted else None, isolator)
     assert model.damping_unknown == ("b_xy", "b_z") and model.parameter_names[2:4] == ("b_xy", "b_z")
     rows = Data(campaign, model.length)
-    fun, _ = _residual_function(model, rows, None)
     rng = np.random.default_rng(4)
     theta = model.vector({**UNKNOWN, "b_xy": 400.0, "b_z": 900.0, **TRUTHS[fitted]})
     theta += rng.normal(0, 0.01, len(theta))
     analytic = jacobian(model, rows, theta)
     assert analytic is not None and analytic.shape[0] == rows.n_rows
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])[
-        : len(analytic)
-    ]
+    numeric = residual_difference(model, theta)[: len(analytic)]
     zeta_rows = slice(rows.n_rows - len(rows.damping_labels), rows.n_rows)
     assert np.max(np.abs(analytic[zeta_rows] - numeric[zeta_rows])) <= 1e-6 * np.max(np.abs(numeric[zeta_rows]))
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
@@ -248,11 +240,9 @@ def test_damping_rows_where_the_described_damping_follows_a_stiffness(tmp_path):
     for effect in (*effects, EFFECTS["isolator_tilted"]):
         model = CandidateModel(campaign, effect, 1)
         rows = Data(campaign, model.length)
-        fun, _ = _residual_function(model, rows, None)
         theta = model.start()[0] + np.random.default_rng(5).normal(0, 0.01, len(model.parameter_names))
         analytic = jacobian(model, rows, theta)
-        h = 1e-6
-        numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])
+        numeric = residual_difference(model, theta)
         zeta = slice(rows.n_rows - len(rows.damping_labels), rows.n_rows)
         stiffness = [model.parameter_names.index(u) for u in ("c_x", "c_y", "c_z")]
         assert np.max(np.abs(numeric[zeta][:, stiffness])) > 1e-3 * np.max(np.abs(numeric[zeta]))  # B follows c
@@ -269,13 +259,9 @@ def test_jacobian_of_the_damping_candidate_on_pole_frequencies_matches_a_central
     campaign = parse({**data, "frequency_type": "pole"})
     model = CandidateModel(campaign, EFFECTS["damping"], None)
     rows = Data(campaign, model.length)
-    fun, _ = _residual_function(model, rows, None)
     theta = model.vector({**UNKNOWN, **TRUTHS["damping"]})
     analytic = jacobian(model, rows, theta)
-    h = 1e-6
-    numeric = np.column_stack([(fun(theta + h * e) - fun(theta - h * e)) / (2 * h) for e in np.eye(len(theta))])[
-        : len(analytic)
-    ]
+    numeric = residual_difference(model, theta)[: len(analytic)]
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
     scale = model.parameter_names.index("damping_scale")
     assert (
