@@ -181,6 +181,10 @@ def test_sensitivities_match_a_central_difference_of_the_forward_map(name):
         (lambda d: d.update(nominal={"m": 900.0}), "nominal.m: not an unknown of kid300 (c_xy, c_z)"),
         (lambda d: d.update(nominal={"c_z": 1e12}), "nominal.c_z: 1e+12 N/m is 2.12e+06 times above"),
         (lambda d: d.update(nominal={"c_z": -1.0}), "nominal.c_z: -1.0 is less than or equal to the minimum of 0"),
+        # an array or object the schema rejects is told briefly (it was quoted in full on the one line)
+        (lambda d: d["modes"]["z"].update(shape=[0.0, 0.0, 1.0, 0.0, 0.0]), "modes.z.shape: a list of 5 items is too"),
+        (lambda d: d["modes"]["z"].update(frequency={"value": 46.6}), "modes.z.frequency: an object is not of type"),
+        (lambda d: d["modes"]["z"].update(shape=[0.0] * 6), "modes.z.shape: is all zeros"),
     ],
 )
 def test_bad_campaigns_are_rejected_by_entry(edit, start):
@@ -189,6 +193,48 @@ def test_bad_campaigns_are_rejected_by_entry(edit, start):
     with pytest.raises(InputError) as err:
         parse(data)
     assert str(err.value).startswith(start)
+
+
+def test_a_campaign_that_is_not_an_object_is_named_briefly():
+    with pytest.raises(InputError, match=r"^campaign: a list of 1 item is not of type 'object'$"):
+        parse([_campaign(_measured())])
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-120, 1e120, 1e300])
+def test_a_shape_at_any_scale_is_the_same_shape(scale):
+    """A measured shape's scale carries nothing: one whose squares underflow or overflow (it ended in "SVD did not
+    converge" with a traceback, or in overflow warnings) gives the same data rows and isolator force residuals."""
+    from mountid.diagnosis.fitting import Data
+    from mountid.diagnosis.gap import isolator_forces
+
+    data = json.loads((ROOT / "examples" / "kid300-blind-tie.json").read_text())
+    scaled = json.loads(json.dumps(data))
+    for mode in scaled["modes"].values():
+        mode["shape"] = [v * scale for v in mode["shape"]]
+    given, extreme = parse(data), parse(scaled)
+    length = given.machine.length_scale(given.known)
+    assert np.allclose(Data(extreme, length).shape_matrix, Data(given, length).shape_matrix, rtol=1e-14, atol=1e-15)
+    forces = [[f.change for f in isolator_forces(c, TRUTH)[0]] for c in (given, extreme)]
+    assert np.allclose(forces[1], forces[0], rtol=1e-12, atol=1e-15)
+
+
+def test_known_values_a_campaign_leaves_out_are_named_in_the_report(capsys):
+    """A known parameter not in the campaign takes the description's value: the conventions say which, and the
+    text report names them with their values (a damping parameter fitted to measured damping ratios is not one)."""
+    nominal = {n: float(p["value"]) for n, p in Machine.resolve("kid300").parameters.items()}
+    data = _campaign(_measured())  # the known values of Table 1, without the damping parameters
+    del data["known"]["m"]
+    assert parse(data).conventions()["known_from_description"] == {n: nominal[n] for n in ("m", "b_xy", "b_z")}
+    data["known"].update(m=900.0, b_xy=300.0, b_z=1000.0)
+    assert parse(data).conventions()["known_from_description"] == {}
+    for k, mode in enumerate(data["modes"].values()):
+        mode.update(damping_ratio=0.05 + 0.01 * k, damping_uncertainty=0.005)
+    for name in ("m", "b_xy", "b_z"):
+        del data["known"][name]
+    assert parse(data).conventions()["known_from_description"] == {"m": nominal["m"]}
+    main(["diagnose", str(ROOT / "examples" / "kid300-paper.json"), "--no-figure"])
+    text = capsys.readouterr().out
+    assert "known values not in the campaign, the description's used: b_xy = 337.2 N s/m, b_z = 1039 N s/m" in text
 
 
 def test_nominal_values_a_description_leaves_out_are_identified_from_the_campaign(tmp_path):

@@ -51,7 +51,7 @@ from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
 from mountid.measurement.records import Channel
-from mountid.nomenclature import POSITIVE_KINDS
+from mountid.nomenclature import POSITIVE_KINDS, counted
 
 
 def schema() -> dict:
@@ -161,16 +161,22 @@ class Campaign:
         return self.frequency_type == "pole" or (bool(self.record_modes) and set(self.record_modes) == set(self.modes))
 
     def conventions(self) -> dict:
-        """What the campaign's numbers refer to, for the report to echo: the description used, the
-        coordinates of the mode shapes and their reference point, the isolator layout [m] at the known values,
-        and where damping ratios are measured, the damping parameters of the model's ratios: the campaign's
-        known values, else fitted with the stiffnesses (the value given is then the description's, where the fit
-        starts)."""
+        """What the campaign's numbers refer to, for the report to echo: the description used, the known
+        parameters the campaign does not give (they take the description's nominal values [SI]: a mass left out
+        is the description's mass, which the report says), the coordinates of the mode shapes and their reference
+        point, the isolator layout [m] at the known values, and where damping ratios are measured, the damping
+        parameters of the model's ratios: the campaign's known values, else fitted with the stiffnesses (the value
+        given is then the description's, where the fit starts)."""
         mod = self.machine.module
         values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
         points = np.asarray(call(mod, "isolator_points", values))
         measured = any(m.damping_ratio is not None for m in self.modes.values())
+        fitted = set(self.machine.damping) if measured else set()
         return {
+            "known_from_description": self.machine.defaults(
+                self.known,
+                tuple(n for n in self.machine.parameters if n not in self.machine.unknown and n not in fitted),
+            ),
             "damping_parameters": {
                 n: {
                     "value": self.machine.values(self.known, (n,))[n],
@@ -200,12 +206,22 @@ def _explained(error: jsonschema.ValidationError) -> tuple[str, str]:
     one alternative whose shape the entry has (a record given as an object with a negative start), else the
     alternatives' own messages joined (neither 'modes' nor 'records'); never the whole instance."""
     if error.validator not in ("anyOf", "oneOf") or not error.context:
-        return _path(error), error.message
+        return _path(error), _brief_message(error)
     inside = [e for e in error.context if len(e.absolute_path) > len(error.absolute_path)]
     if inside:
         best = jsonschema.exceptions.best_match(inside)
-        return _path(best), best.message
+        return _path(best), _brief_message(best)
     return _path(error), "needs one of: " + "; or ".join(dict.fromkeys(e.message for e in error.context))
+
+
+def _brief_message(error: jsonschema.ValidationError) -> str:
+    """The schema's message with an array or object it quotes in full (a whole campaign given as a list, a shape
+    of five components) told briefly: "a list of 5 items is too short", "an object is not of type 'number'"."""
+    instance = error.instance
+    if not isinstance(instance, (list, dict)) or not instance:
+        return error.message
+    brief = f"a list of {counted(len(instance), 'item')}" if isinstance(instance, list) else "an object"
+    return error.message.replace(repr(instance), brief)
 
 
 def _non_finite(value: object, path: str) -> str | None:
@@ -328,9 +344,24 @@ def _by_hand(label: str, entry: dict) -> MeasuredMode:
         frequency_std_stated=entry.get("uncertainty") is not None,
         damping_ratio=entry.get("damping_ratio"),
         damping_std=entry.get("damping_uncertainty"),
-        shape=tuple(map(float, entry["shape"])) if "shape" in entry else None,
+        shape=_in_range(tuple(map(float, entry["shape"]))) if "shape" in entry else None,
         shape_std=float(entry.get("shape_uncertainty") or DEFAULT_SHAPE_STD),
     )
+
+
+SHAPE_SCALE = (1e-100, 1e100)
+"""The range of a measured shape's largest |component| taken as given; one beyond it is divided by it (a shape's
+scale carries nothing: the fits compare directions), as its squares would underflow or overflow."""
+
+
+def _in_range(shape: tuple[float, ...]) -> tuple[float, ...]:
+    """``shape`` as given where its largest |component| lies within SHAPE_SCALE (or is zero: an error the caller
+    names), else divided by it. A shape of 1e-300 in every component ended in "SVD did not converge" with a
+    traceback, one of 1e300 in overflow warnings."""
+    largest = max(map(abs, shape), default=0.0)
+    if largest == 0 or SHAPE_SCALE[0] <= largest <= SHAPE_SCALE[1]:
+        return shape
+    return tuple(v / largest for v in shape)
 
 
 def _frequency_std(entry: dict) -> float:

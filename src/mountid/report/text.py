@@ -18,6 +18,12 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
     print(f"{title} ({campaign.machine.name})")
     conventions = campaign.conventions()
     print(f"description: {conventions['description']}")
+    if conventions["known_from_description"]:
+        units = campaign.machine.parameters
+        print(
+            "known values not in the campaign, the description's used: "
+            + ", ".join(f"{n} = {v:.6g} {units[n]['unit']}" for n, v in conventions["known_from_description"].items())
+        )
     print(
         f"mode shapes in ({', '.join(conventions['shape_coordinates'])}): {conventions['shape_reference']}; "
         "isolators at [m]: "
