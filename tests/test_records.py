@@ -47,6 +47,8 @@ def test_plain_csv_reads_without_metadata(tmp_path):
         # two rows swapped: a step back, not a dropped sample one row later
         (lambda t, d: (t[np.r_[0:50, 51, 50, 52 : len(t)]], d), "^time: goes back or repeats at t = 0.1 s after"),
         (lambda t, d: (t[np.r_[0:50, 50, 50 : len(t) - 1]], d), "^time: goes back or repeats at t = 0.1 s after 0.1 s"),
+        # samples whose squares overflow (they ended in "SVD did not converge" with a traceback)
+        (lambda t, d: (t, d * [1.0, 1e300]), r"^B_y: samples up to .*e\+300 m/s\^2, beyond 1e\+100"),
     ],
 )
 def test_bad_records_are_rejected_by_name(edit, message):
@@ -54,6 +56,26 @@ def test_bad_records_are_rejected_by_name(edit, message):
     t, d = edit(rec.time, rec.data)
     with pytest.raises(InputError, match=message):
         Record(t, d, rec.channels)
+
+
+def test_a_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Spreadsheet exports start UTF-8 with a byte order mark: it hid the first line's "#" (the record's
+    metadata) or the time column's name; the file reads as the same file without it."""
+    write_csv(_record(), tmp_path / "r.csv")
+    (tmp_path / "bom.csv").write_text("\ufeff" + (tmp_path / "r.csv").read_text(encoding="utf-8"), encoding="utf-8")
+    plain, marked = read_csv(tmp_path / "r.csv"), read_csv(tmp_path / "bom.csv")
+    assert marked.channels == plain.channels
+    np.testing.assert_array_equal(marked.data, plain.data)
+
+
+def test_channel_metadata_with_a_point_that_is_not_finite_is_named(tmp_path):
+    """NaN in a channel's metadata line (JSON as Python reads it) is an error naming the line, not a channel
+    without geometry."""
+    write_csv(_record(), tmp_path / "r.csv")
+    text = (tmp_path / "r.csv").read_text(encoding="utf-8").replace("[0.3, 0.0, 0.1]", "[NaN, 0.0, 0.1]", 1)
+    (tmp_path / "nan.csv").write_text(text, encoding="utf-8")
+    with pytest.raises(InputError, match="^nan.csv:2: channel A_x: point and direction must be finite numbers$"):
+        read_csv(tmp_path / "nan.csv")
 
 
 def test_missing_channel_is_named():

@@ -83,6 +83,14 @@ class Record:
                 raise InputError(c.name, f"quantity {c.quantity!r} is not one of {', '.join(UNITS)}")
             if c.unit not in units:
                 raise InputError(c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)})")
+        largest = np.abs(self.data).max(axis=0, initial=0.0)
+        for c, value in zip(self.channels, largest, strict=True):
+            if value > SAMPLE_LIMIT:
+                raise InputError(
+                    c.name,
+                    f"samples up to {value:g} {c.unit}, beyond {SAMPLE_LIMIT:g}: the records chain's squares of them "
+                    "overflow (a corrupt file, or another unit)",
+                )
 
     def in_si(self) -> Record:
         """The record with every channel in the SI unit of its quantity (m/s^2, m/s, m, N)."""
@@ -142,6 +150,10 @@ def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
 
 MIN_SAMPLES = 16
 """Fewest samples a record may hold."""
+
+SAMPLE_LIMIT = 1e100
+"""Largest |sample| a record may hold in its channel's unit (far beyond any acceleration, velocity, displacement
+or force a test bench records; samples of 1e300 ended in "SVD did not converge" with a traceback)."""
 
 
 def validate(time: NDArray, data: NDArray, names: tuple[str, ...], settings: RecordSettings = RECORDS) -> None:
@@ -242,7 +254,7 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     header: list[str] | None = None
     rows: list[list[float]] = []
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte order mark (spreadsheet exports) is not text
     except UnicodeDecodeError as err:
         raise InputError("record", f"{path.name} is not UTF-8 text (byte {err.start}): not a CSV record") from None
     for number, line in enumerate(text.splitlines(), start=1):
@@ -261,6 +273,10 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
                     )
                 except (ValueError, KeyError, TypeError) as err:
                     raise InputError(f"{path.name}:{number}", f"bad channel metadata ({err})") from None
+                if not all(map(math.isfinite, (*channel.point, *channel.direction))):
+                    raise InputError(
+                        f"{path.name}:{number}", f"channel {channel.name}: point and direction must be finite numbers"
+                    )
                 meta[channel.name] = channel
             continue
         if header is None:
