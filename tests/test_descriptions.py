@@ -82,12 +82,61 @@ def test_an_entry_of_the_wrong_dimension_is_named(edit, entry, said):
     assert info.value.parameter.endswith(entry)
 
 
+def _escape_to(path: Path) -> str:
+    """A point coordinate that, evaluated by Python, reaches os.system through object's subclasses and creates
+    ``path`` (then adds nothing: * 0 + L_z)."""
+    k = [c.__name__ for c in object.__subclasses__()].index("_wrap_close")
+    system = f"m.__class__.__mro__[-1].__subclasses__()[{k}].__init__.__globals__['system']"
+    return f"{system}('touch {path}') * 0 + L_z"
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("m.__class__", "'m.__class__' is not allowed"),
+        ("L_z if m else 0", "is not allowed"),
+        ("[L_z][0]", "is not allowed"),
+        ("sqrt(x=L_z)", "is not allowed"),
+        ("L_z^2", "a power is written **"),
+        ("10**10**10", "raises to the power 10 ** 10"),  # sympy's exact integer never came back
+        ("L_z*2**sqrt(10**100)", "raises to the power 100"),
+        ("L_z**(2**7)", "raises to the power 2 ** 7"),
+        ("L_z/0", "is not finite (zoo): a division by zero?"),
+        ("L_z/(L_xy - L_xy)", "is not finite"),
+        ("9" * 5000, "cannot read expression '999"),
+    ],
+)
+def test_an_expression_is_arithmetic_on_the_parameters(text, said):
+    """sympy reads an expression with Python's eval: anything but arithmetic on the parameters, the numbers and
+    sqrt/sin/cos/tan/pi is refused on its text, naming the entry, before it is evaluated."""
+    data = kid300_data()
+    data["isolators"][0]["point"] = ["L_xy/sqrt(2)", "L_xy/sqrt(2)", text]
+    with pytest.raises(DescriptionError, match=re.escape(said)) as info:
+        build(data)
+    assert info.value.parameter == "isolators.corner.point[2]" and len(str(info.value)) < 300
+
+
+def test_a_description_cannot_run_code(tmp_path):
+    """An expression that reached os.system through attribute access (it created a file when the machine was
+    derived) is refused and runs nothing."""
+    target = tmp_path / "ran"
+    data = kid300_data()
+    data["isolators"][0]["point"] = ["L_xy/sqrt(2)", "L_xy/sqrt(2)", _escape_to(target)]
+    with pytest.raises(DescriptionError, match="is not arithmetic on the parameters"):
+        build(data)
+    assert not target.exists()
+
+
 def test_numbers_are_si_and_dimensionless_combinations_pass():
     """A bare number is in SI units (a point 0.1 m lower), a ratio of lengths scales nothing, an angle enters a
     sine: all pass the dimension check."""
     data = kid300_data()
     data["isolators"][0]["point"] = ["L_xy/sqrt(2)", "L_xy/sqrt(2)", "-L_z - 0.1"]
     data["isolators"][0]["stiffness"] = ["c_xy*L_z/L_xy", "c_xy", "c_z*cos(pi/12)**2 + c_xy*sin(pi/12)**2"]
+    build(data)
+    # powers with constant exponents up to MAX_CONSTANT_EXPONENT, signed, fractional or from the functions
+    data["isolators"][0]["point"] = ["L_xy*(L_z/L_xy)**(1/2)", "L_xy**2/L_xy", "-L_z*(L_z**-64*L_z**(2**6))"]
+    data["isolators"][0]["stiffness"] = ["c_xy", "c_xy*(L_z/L_xy)**sin(pi/2)*L_xy/L_z", "+c_z"]
     build(data)
 
 

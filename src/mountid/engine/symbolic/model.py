@@ -23,10 +23,11 @@ import sympy as sp
 from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
 from mountid.engine.description import MIRROR_PLANES, Description, IsolatorGroup
+from mountid.engine.symbolic.syntax import FUNCTIONS, check_expression
 from mountid.errors import DescriptionError
 from mountid.nomenclature import COORDINATES, KINDS
 
-_ALLOWED_FUNCTIONS = {"sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "pi": sp.pi}
+_ALLOWED_FUNCTIONS = {name: getattr(sp, name) for name in FUNCTIONS}
 
 
 @dataclass(frozen=True)
@@ -126,7 +127,9 @@ class SymbolicModel:
 
     # -- expressions -------------------------------------------------------------------------------
     def expr(self, text: str, entry: str) -> sp.Expr:
-        """Parse one expression of the description; only declared parameters and sqrt/sin/cos/tan/pi."""
+        """Parse one expression of the description; only declared parameters and sqrt/sin/cos/tan/pi, checked as
+        text first (syntax.check_expression: sympy evaluates it with Python's eval)."""
+        check_expression(text, entry)
         local = dict(self.symbols)
         try:
             value = parse_expr(
@@ -148,6 +151,8 @@ class SymbolicModel:
         undeclared = sorted(str(s) for s in value.free_symbols if s not in self.symbols.values())
         if undeclared:
             raise DescriptionError(entry, f"uses undeclared name(s) {undeclared}")
+        if value.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+            raise DescriptionError(entry, f"{text!r} is not finite ({value}): a division by zero?")
         # decimal literals become exact rationals, so solving stays over the rationals
         return sp.nsimplify(value, rational=True)
 
