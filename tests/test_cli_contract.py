@@ -65,6 +65,7 @@ CASES = [
     (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "9", "--unbalance-mass", "900"], "--unbalance-mass:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e9"], "--duration:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--rate", "-5"], "--rate:"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--seed", "-1"], "--seed: must be a non-negative integer"),
     (["frequencies", "kid300", "--set", "c_xy=1e308"], "--set c_xy:"),
     (["frequencies", "kid300", "--set", "c_xy=1e200"], "--set c_xy:"),  # was x = 0 with exit 0
     (["frequencies", "kid300", "--set", "J_xy=1e-300"], "--set J_xy:"),

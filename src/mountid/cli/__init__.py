@@ -95,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
     p.add_argument("--rate", type=float, default=2000.0, help="sampling rate [Hz]")
     p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (a non-negative integer)")
     p.add_argument(
         "--sensor",
         nargs="+",

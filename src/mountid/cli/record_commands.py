@@ -43,6 +43,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     if out.suffix.lower() not in (".csv", ".txt", ".uff", ".unv"):
         raise InputError("--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58")
     record_size(args.duration, args.rate)
+    if args.seed < 0:
+        raise InputError("--seed", f"must be a non-negative integer, got {args.seed}")
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS", strict=False)
     bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
     check_unbalance(args)
