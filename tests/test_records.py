@@ -121,6 +121,13 @@ def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_chann
     pyuff.UFF(str(tmp_path / "late.uff")).write_sets(sets, mode="add")
     with pytest.raises(InputError, match=r"^B_y: sample \d+ at 0.5\d* s against 0 s of the first channel, A_x"):
         read_uff(tmp_path / "late.uff")
+    # a file cut inside its last dataset (an interrupted copy): pyuff left that dataset, a channel, out silently
+    for end in (len(text) // 4, 3 * len(text) // 4, len(text) - 8):
+        (tmp_path / "short.uff").write_text(text[:end])
+        with pytest.raises(InputError, match=r"^record: short.uff ends inside a dataset \(no closing -1 line\)"):
+            read_uff(tmp_path / "short.uff")
+    (tmp_path / "crlf.uff").write_text(text.replace("\n", "\r\n") + "\r\n\r\n")
+    assert read_uff(tmp_path / "crlf.uff").names == _record().names
 
 
 def _bench_uff(

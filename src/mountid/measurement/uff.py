@@ -118,6 +118,7 @@ def _triple(text: str) -> tuple[float, float, float]:
 def read_uff(path: str | Path) -> Record:
     """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling)."""
     path = existing_file(path, "record")
+    _whole(path)
     uff = pyuff.UFF(str(path))
     types = list(uff.get_set_types())
     found = [i for i, t in enumerate(types) if int(t) == 58]
@@ -166,6 +167,22 @@ def read_uff(path: str | Path) -> Record:
         columns.append(np.real(np.asarray(s["data"])).astype(float))
         channels.append(Channel(name, point, direction, quantity, unit))
     return Record(time, np.column_stack(columns), tuple(channels))
+
+
+def _whole(path: Path, window: int = 256) -> None:
+    """An InputError where ``path`` starts as a UFF file (a "-1" line) and does not end with one: its last dataset
+    is cut short (an interrupted copy). pyuff leaves an unterminated block out without a word, and with it the
+    channels it held. Reads the first and last ``window`` bytes only."""
+    with path.open("rb") as f:
+        head = f.read(window)
+        f.seek(max(0, path.stat().st_size - window))
+        tail = f.read()
+    first = head.strip().split(b"\n", 1)[0].strip()
+    last = tail.rstrip().rsplit(b"\n", 1)[-1].strip()
+    if first == b"-1" and last != b"-1":
+        raise InputError(
+            "record", f"{path.name} ends inside a dataset (no closing -1 line): the file is cut short; copy it again"
+        )
 
 
 def _read_set(uff: pyuff.UFF, index: int, types: list, path: Path) -> dict:
