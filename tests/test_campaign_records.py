@@ -90,6 +90,39 @@ def test_a_missing_record_is_named(folder, capsys):
     assert "records.0" in capsys.readouterr().err
 
 
+def test_a_record_listed_twice_is_named(folder, tmp_path):
+    """One record twice (or a copy under another name) would count its modes twice, halving their variance."""
+    data = {"machine": "kid300", "known": KNOWN, "records": ["hit0.csv", "hit1.csv", {"file": "hit0.csv"}]}
+    with pytest.raises(InputError, match=r"^records\.2 \(hit0\.csv\): the same file as records\.0 \(hit0\.csv\)"):
+        campaign.parse(data, folder)
+    (tmp_path / "copy.csv").write_bytes((folder / "hit1.csv").read_bytes())
+    data["records"] = [str(folder / "hit1.csv"), "copy.csv"]
+    with pytest.raises(InputError, match=r"^records\.1 \(copy\.csv\): the same content as records\.0 \(hit1\.csv\)"):
+        campaign.parse(data, tmp_path)
+
+
+def test_a_mode_given_by_hand_over_the_records_is_said_with_how_far_apart_they_lie(folder):
+    """A mode under ``modes`` overrides the records' estimate of it (its frequency, damping ratio and shape): the
+    notes say so, with both frequencies, instead of naming the records as its source, and ask whether it is the
+    same mode where they lie beyond RECORDS_DISAGREE of their combined standard deviation apart."""
+    records = campaign.parse({"machine": "kid300", "known": KNOWN, "records": ["hit0.csv"]}, folder)
+    x = records.modes["x"]
+    for frequency, far in ((x.frequency + 0.5 * x.frequency_std, False), (30.0, True)):
+        data = {
+            "machine": "kid300",
+            "known": KNOWN,
+            "records": ["hit0.csv"],
+            "modes": {"x": {"frequency": frequency, "uncertainty": x.frequency_std}},
+        }
+        c = campaign.parse(data, folder)
+        assert c.modes["x"].frequency == frequency and c.modes["x"].damping_ratio is None
+        assert not any(n.startswith("x: frequency") for n in c.record_notes)
+        (note,) = [n for n in c.record_notes if n.startswith("x: given by hand")]
+        assert f"({frequency:.6g} rad/s), in place of the records' (hit0.csv: {x.frequency:.6g} +- " in note
+        assert note.endswith("sigma apart: the same mode?") == far
+        assert c.record_modes == tuple(k for k in records.modes if k != "x")
+
+
 def test_an_unreadable_uff_record_names_its_file_once(tmp_path):
     """The reader's reason names the file (mountid.measurement.uff: `identify-record` shows only the reason's
     parameter, "record"); in a campaign the entry names it, and the reason does not again."""

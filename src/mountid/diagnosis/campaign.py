@@ -35,6 +35,7 @@ description's, else (or with ``"nominal": "identified"``) the identification on 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field, replace
@@ -276,7 +277,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         modes, converted = _poles_as_undamped(machine, known, modes)
         notes_on_modes += converted
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
-    records = _modes_from_records(machine, known, sources)
+    records = _modes_from_records(machine, known, sources, by_hand=modes)
     from_records, notes, layout = records.modes, records.notes, records.layout
     shaped_by_hand = any(mode.shape is not None for mode in modes.values())
     for label, mode in from_records.items():
@@ -400,7 +401,8 @@ def _levels(
         named[name] = i
         by_hand = level.get("modes", {})
         sources = tuple(_source(entry, base) for entry in level.get("records", []))
-        found = _modes_from_records(machine, known, sources, f"levels.{i}.records")
+        hand_modes = {label: _by_hand(label, entry) for label, entry in by_hand.items() if label in machine.modes}
+        found = _modes_from_records(machine, known, sources, f"levels.{i}.records", hand_modes)
         if sources:
             recorded[name] = sources
         notes += [f"level {name!r}: {note}" for note in found.notes]
@@ -706,13 +708,22 @@ class _FromRecords:
 
 
 def _modes_from_records(
-    machine: Machine, known: dict[str, float], sources: tuple[RecordSource, ...], where: str = "records"
+    machine: Machine,
+    known: dict[str, float],
+    sources: tuple[RecordSource, ...],
+    where: str = "records",
+    by_hand: dict[str, MeasuredMode] | None = None,
 ) -> _FromRecords:
     """Each record through the records chain; per mode the records' combination (_combined), the notes, the
     layout of the shapes' channels and the modes the records disagree on. ``where``: the campaign entry that
-    lists the records, for errors (``levels.0.records`` for a level's)."""
+    lists the records, for errors (``levels.0.records`` for a level's). ``by_hand``: the modes the campaign (or
+    the level) gives by hand, which override the records': left out of what is returned, with a note each
+    (_given_over_records; their records still inform the damping of the conversion to undamped frequencies).
+    One file listed twice, or two files of the same content, is an error: a record counted twice would halve
+    its variance."""
     if not sources:
         return _FromRecords({}, [], (), (), ())
+    _distinct_files(sources, where)
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record, with_geometry
 
@@ -731,7 +742,7 @@ def _modes_from_records(
             found, _, warnings = data
         except NoModeFound as err:
             if len(sources) == 1:
-                raise InputError(f"{where}.{i} ({source.path.name})", err.reason) from None
+                raise InputError(f"{where}.{i} ({source.path.name or source.path})", err.reason) from None
             # one record of several without a mode it could label (a hit that excited only close modes it could
             # not separate): left out, said in the notes; the others stand
             notes.append(f"{source.path.name}: left out: {err.reason}")
@@ -740,7 +751,7 @@ def _modes_from_records(
             what = "" if err.parameter == "record" else f"{err.parameter}: "
             # the file is named once, in the parameter (a reader's reason may start with it: uff._read_set)
             reason = err.reason.removeprefix(f"{source.path.name}: ")
-            raise InputError(f"{where}.{i} ({source.path.name})", f"{what}{reason}") from None
+            raise InputError(f"{where}.{i} ({source.path.name or source.path})", f"{what}{reason}") from None
         here = [replace(w, record=source.path.name) for w in warnings]
         warned += here
         notes += [w.describe() for w in here]
@@ -752,18 +763,21 @@ def _modes_from_records(
         )
     notes += _lone_twins(machine, estimates)
     notes += _mixed_twins(machine, estimates, mixed)
+    by_hand = by_hand or {}
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
     modes, disagree = {}, []
     for label, (mode, name) in best.items():
         found = estimates[label]
-        if len(found) == 1:
+        if label in by_hand:
+            pass  # said below, once its estimate is undamped as the hand-given one
+        elif len(found) == 1:
             notes.append(f"{label}: {_kinds(mode)} from {name}")
         else:
             mode, note = _combined(found, mode)
             names = ", ".join(n for _, n in found)
             shape = f"; shape from {name}" if mode.shape is not None else ""
             notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
-        disagreement = _disagreement(label, found)
+        disagreement = _disagreement(label, found) if label not in by_hand else []
         notes += disagreement
         disagree += [label] if disagreement else []
         modes[label] = replace(mode, shape_std=record_shape_std(mode.shape_std))
@@ -776,6 +790,8 @@ def _modes_from_records(
             "in quadrature"
         )
     modes, notes = _as_undamped(machine, known, modes, notes)
+    for label in by_hand.keys() & modes.keys():
+        notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
     return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree), tuple(warned))
 
@@ -940,6 +956,36 @@ def _weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
     mean = float(np.sum(w * x) / np.sum(w))
     ratio = math.sqrt(float(np.sum(w * (x - mean) ** 2)) / (len(x) - 1))
     return mean, float(1.0 / math.sqrt(np.sum(w))) * max(1.0, ratio), ratio
+
+
+def _distinct_files(sources: tuple[RecordSource, ...], where: str) -> None:
+    """An InputError naming the second of two entries of ``sources`` that are one file, or files of the same
+    content (a copy under another name): its modes would count twice."""
+    seen: dict[tuple[int, str], int] = {}
+    for i, source in enumerate(sources):
+        if not source.path.is_file():
+            continue  # the records chain names what is there instead
+        key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest())
+        if key in seen:
+            j = seen[key]
+            same = "the same file as" if source.path.resolve() == sources[j].path.resolve() else "the same content as"
+            raise InputError(
+                f"{where}.{i} ({source.path.name})",
+                f"{same} {where}.{j} ({sources[j].path.name}): a record listed twice would count twice",
+            )
+        seen[key] = i
+
+
+def _given_over_records(label: str, hand: MeasuredMode, record: MeasuredMode, names: list[str]) -> str:
+    """The note on a mode given by hand that the records (``names``) find too: their estimate ``record`` (as the
+    diagnosis compares it, undamped) is not used; how far the two lie apart in their combined standard
+    deviation, and a question where beyond RECORDS_DISAGREE."""
+    z = abs(hand.frequency - record.frequency) / math.hypot(hand.frequency_std, record.frequency_std)
+    apart = f"; {z:.3g} sigma apart: the same mode?" if z > RECORDS_DISAGREE else ""
+    return (
+        f"{label}: given by hand ({hand.frequency:.6g} rad/s), in place of the records' ({', '.join(names)}: "
+        f"{record.frequency:.6g} +- {record.frequency_std:.2g} rad/s){apart}"
+    )
 
 
 def _disagreement(label: str, found: list[tuple[MeasuredMode, str]]) -> list[str]:
