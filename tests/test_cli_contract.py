@@ -51,6 +51,9 @@ CASES = [
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
     (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e-4", "--rate", "1000"], "duration:"),  # no sample
     (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
+    # checked before the diagnosis: a folder was written to as "<folder>.png", ".txt" a traceback after the work
+    (["diagnose", PAPER, "--figure", "{d}"], "--figure: {d} is a folder: name a figure file in it"),
+    (["diagnose", PAPER, "--figure", "{d}/x.txt"], "--figure: x.txt: name a figure file ending in one of .avif"),
     # the vector as given, not numpy's repr of its entries (np.float64(0.0))
     (
         ["diagnose", "{d}/zero_direction.json", "--no-figure"],
@@ -87,7 +90,8 @@ CASES = [
 def test_bad_input_is_one_line_exit_2(capsys, files, argv, named):
     code, out, err = run(capsys, *(a.format(d=files) for a in argv))
     assert code == 2, (out, err)
-    assert err.count("\n") == 1 and err.startswith(f"mountid: error: {named}") and "Traceback" not in err
+    said = named.format(d=files)
+    assert err.count("\n") == 1 and err.startswith(f"mountid: error: {said}") and "Traceback" not in err
 
 
 def test_length_zero_is_a_design_and_an_undetermined_unknown_is_named(capsys):

@@ -14,13 +14,17 @@ def cmd_diagnose(args: argparse.Namespace) -> None:
     from mountid.diagnosis.gap import diagnose
 
     campaign = load(args.campaign)
-    diagnosis = diagnose(campaign)
     figure = None
     if not args.no_figure:
-        from mountid.report.figures import diagnosis_figure
+        from mountid.report.figures import figure_file
 
         figure = args.figure or f"{Path(args.campaign).stem}-diagnosis.png"
         writable(figure, "--figure")
+        figure_file(figure, "--figure")  # before the diagnosis: a name matplotlib cannot write fails at once
+    diagnosis = diagnose(campaign)
+    if figure is not None:
+        from mountid.report.figures import diagnosis_figure
+
         diagnosis_figure(diagnosis, figure, title=campaign.name or Path(args.campaign).stem)
     if args.json:
         print_json({**diagnosis.to_dict(), "figure": figure})

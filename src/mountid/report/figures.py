@@ -19,6 +19,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from mountid.errors import InputError
 from mountid.identification.from_records import IRF_START
 from mountid.machine import Machine
 from mountid.measurement import modal
@@ -32,6 +33,25 @@ if TYPE_CHECKING:
     from mountid.diagnosis.gap import Diagnosis
     from mountid.identification.from_records import Identification
     from mountid.measurement.frf import FrfEstimate
+
+
+def figure_file(path: str | Path, parameter: str) -> Path:
+    """``path`` as a figure file to write, checked before the work that draws it: not a folder, and ending in a
+    format matplotlib writes (.png, .pdf, .svg, ...); an InputError naming ``parameter`` otherwise. A folder was
+    written to as "<folder>.png" and reported under its own name; ".txt" ended in matplotlib's ValueError after
+    the whole diagnosis."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(parameter, f"{path} is a folder: name a figure file in it (e.g. {path / 'diagnosis.png'})")
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if path.suffix.lower().removeprefix(".") not in formats:
+        raise InputError(
+            parameter,
+            f"{path.name}: name a figure file ending in one of {', '.join('.' + f for f in sorted(formats))}",
+        )
+    return path
 
 
 def _save(fig: Figure, path: str | Path) -> Path:
