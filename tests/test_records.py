@@ -69,13 +69,17 @@ def test_a_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
 
 
 def test_channel_metadata_with_a_point_that_is_not_finite_is_named(tmp_path):
-    """NaN in a channel's metadata line (JSON as Python reads it) is an error naming the line, not a channel
-    without geometry."""
+    """NaN in some of a channel's point or direction (JSON as Python reads it) is an error naming the line, not a
+    channel without geometry; NaN in all is one without geometry."""
     write_csv(_record(), tmp_path / "r.csv")
     text = (tmp_path / "r.csv").read_text(encoding="utf-8").replace("[0.3, 0.0, 0.1]", "[NaN, 0.0, 0.1]", 1)
     (tmp_path / "nan.csv").write_text(text, encoding="utf-8")
-    with pytest.raises(InputError, match="^nan.csv:2: channel A_x: point and direction must be finite numbers$"):
+    with pytest.raises(InputError, match="^nan.csv:2: channel A_x: point and direction must be finite numbers"):
         read_csv(tmp_path / "nan.csv")
+    # all NaN is a channel without a placement, as write_csv writes a force channel's
+    text = text.replace("[NaN, 0.0, 0.1]", "[NaN, NaN, NaN]", 1).replace("[1.0, 0.0, 0.0]", "[NaN, NaN, NaN]", 1)
+    (tmp_path / "unplaced.csv").write_text(text, encoding="utf-8")
+    assert np.isnan(read_csv(tmp_path / "unplaced.csv").channels[0].point).all()
 
 
 def test_missing_channel_is_named():

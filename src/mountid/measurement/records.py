@@ -273,9 +273,10 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
                     )
                 except (ValueError, KeyError, TypeError) as err:
                     raise InputError(f"{path.name}:{number}", f"bad channel metadata ({err})") from None
-                if not all(map(math.isfinite, (*channel.point, *channel.direction))):
+                if any(_partly_known(v) for v in (channel.point, channel.direction)):
                     raise InputError(
-                        f"{path.name}:{number}", f"channel {channel.name}: point and direction must be finite numbers"
+                        f"{path.name}:{number}",
+                        f"channel {channel.name}: point and direction must be finite numbers (all NaN: not placed)",
                     )
                 meta[channel.name] = channel
             continue
@@ -304,6 +305,13 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
     return Record(_time_column(table[:, 0] * TIME_UNITS[time_unit], rate), table[:, 1:], channels)
+
+
+def _partly_known(vector: tuple[float, ...]) -> bool:
+    """A metadata vector with some entries finite and others not: neither a placement nor the NaN of a channel
+    without one (write_csv writes a force channel's point and direction as NaN)."""
+    finite = [math.isfinite(v) for v in vector]
+    return any(finite) != all(finite) or (not any(finite) and not all(math.isnan(v) for v in vector))
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
