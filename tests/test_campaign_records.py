@@ -91,7 +91,8 @@ def test_a_missing_record_is_named(folder, capsys):
 
 
 def test_a_record_listed_twice_is_named(folder, tmp_path):
-    """One record twice (or a copy under another name) would count its modes twice, halving their variance."""
+    """One record twice (or a copy under another name) would count its modes twice, halving their variance; the
+    campaign's record at a level would stand for two excitation levels."""
     data = {"machine": "kid300", "known": KNOWN, "records": ["hit0.csv", "hit1.csv", {"file": "hit0.csv"}]}
     with pytest.raises(InputError, match=r"^records\.2 \(hit0\.csv\): the same file as records\.0 \(hit0\.csv\)"):
         campaign.parse(data, folder)
@@ -99,6 +100,11 @@ def test_a_record_listed_twice_is_named(folder, tmp_path):
     data["records"] = [str(folder / "hit1.csv"), "copy.csv"]
     with pytest.raises(InputError, match=r"^records\.1 \(copy\.csv\): the same content as records\.0 \(hit1\.csv\)"):
         campaign.parse(data, tmp_path)
+    # the campaign's record again at another excitation level: it would compare the record with itself
+    data = {"machine": "kid300", "known": KNOWN, "records": ["hit0.csv"]}
+    data["levels"] = [{"name": "soft", "records": ["hit1.csv"]}, {"name": "hard", "records": ["hit0.csv"]}]
+    with pytest.raises(InputError, match=r"^levels\.1\.records\.0 \(hit0\.csv\): the same file as records\.0"):
+        campaign.parse(data, folder)
 
 
 def test_a_mode_given_by_hand_over_the_records_is_said_with_how_far_apart_they_lie(folder):

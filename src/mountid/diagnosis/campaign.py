@@ -288,6 +288,14 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
     _check_modes_scale(machine, known, {k: v for k, v in from_records.items() if modes[k] is v})
     levels, level_records, level_record_notes, level_notes = _levels(machine, known, data, given, modes, base)
+    _distinct_files(
+        [(f"records.{i}", source) for i, source in enumerate(sources)]
+        + [
+            (f"levels.{k}.records.{i}", source)
+            for k, level in enumerate(data.get("levels", []))
+            for i, source in enumerate(level_records.get(level["name"], ()))
+        ]
+    )
     notes += level_record_notes
     notes_on_modes += level_notes
     fit = tuple(data["fit"]) if "fit" in data else None
@@ -723,7 +731,7 @@ def _modes_from_records(
     its variance."""
     if not sources:
         return _FromRecords({}, [], (), (), ())
-    _distinct_files(sources, where)
+    _distinct_files([(f"{where}.{i}", source) for i, source in enumerate(sources)])
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record, with_geometry
 
@@ -958,22 +966,24 @@ def _weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
     return mean, float(1.0 / math.sqrt(np.sum(w))) * max(1.0, ratio), ratio
 
 
-def _distinct_files(sources: tuple[RecordSource, ...], where: str) -> None:
-    """An InputError naming the second of two entries of ``sources`` that are one file, or files of the same
-    content (a copy under another name): its modes would count twice."""
-    seen: dict[tuple[int, str], int] = {}
-    for i, source in enumerate(sources):
+def _distinct_files(entries: list[tuple[str, RecordSource]]) -> None:
+    """An InputError naming the second of two ``entries`` (campaign entry, source) that are one file, or files of
+    the same content (a copy under another name): its modes would count twice (in one list), or a level would
+    compare a record with itself (across the campaign's and a level's)."""
+    seen: dict[tuple[int, str], tuple[str, RecordSource]] = {}
+    for entry, source in entries:
         if not source.path.is_file():
             continue  # the records chain names what is there instead
         key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest())
         if key in seen:
-            j = seen[key]
-            same = "the same file as" if source.path.resolve() == sources[j].path.resolve() else "the same content as"
+            first, other = seen[key]
+            same = "the same file as" if source.path.resolve() == other.path.resolve() else "the same content as"
             raise InputError(
-                f"{where}.{i} ({source.path.name})",
-                f"{same} {where}.{j} ({sources[j].path.name}): a record listed twice would count twice",
+                f"{entry} ({source.path.name})",
+                f"{same} {first} ({other.path.name}): one record listed twice would count twice, or stand for "
+                "two excitation levels",
             )
-        seen[key] = i
+        seen[key] = (entry, source)
 
 
 def _given_over_records(label: str, hand: MeasuredMode, record: MeasuredMode, names: list[str]) -> str:
