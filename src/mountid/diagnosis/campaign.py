@@ -277,6 +277,14 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         modes, converted = _poles_as_undamped(machine, known, modes)
         notes_on_modes += converted
     sources = tuple(_source(entry, base) for entry in data.get("records", []))
+    _distinct_files(
+        [(f"records.{i}", source) for i, source in enumerate(sources)]
+        + [
+            (f"levels.{k}.records.{i}", _source(entry, base))
+            for k, level in enumerate(data.get("levels", []))
+            for i, entry in enumerate(level.get("records", []))
+        ]
+    )  # before any record goes through the records chain
     records = _modes_from_records(machine, known, sources, by_hand=modes)
     from_records, notes, layout = records.modes, records.notes, records.layout
     shaped_by_hand = any(mode.shape is not None for mode in modes.values())
@@ -288,14 +296,6 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         raise InputError("records", "no mode found in the records: " + "; ".join(notes))
     _check_modes_scale(machine, known, {k: v for k, v in from_records.items() if modes[k] is v})
     levels, level_records, level_record_notes, level_notes = _levels(machine, known, data, given, modes, base)
-    _distinct_files(
-        [(f"records.{i}", source) for i, source in enumerate(sources)]
-        + [
-            (f"levels.{k}.records.{i}", source)
-            for k, level in enumerate(data.get("levels", []))
-            for i, source in enumerate(level_records.get(level["name"], ()))
-        ]
-    )
     notes += level_record_notes
     notes_on_modes += level_notes
     fit = tuple(data["fit"]) if "fit" in data else None
@@ -727,11 +727,9 @@ def _modes_from_records(
     lists the records, for errors (``levels.0.records`` for a level's). ``by_hand``: the modes the campaign (or
     the level) gives by hand, which override the records': left out of what is returned, with a note each
     (_given_over_records; their records still inform the damping of the conversion to undamped frequencies).
-    One file listed twice, or two files of the same content, is an error: a record counted twice would halve
-    its variance."""
+    parse has checked that no record is listed twice (_distinct_files)."""
     if not sources:
         return _FromRecords({}, [], (), (), ())
-    _distinct_files([(f"{where}.{i}", source) for i, source in enumerate(sources)])
     from mountid.identification.from_records import modal_data
     from mountid.measurement.records import read_record, with_geometry
 

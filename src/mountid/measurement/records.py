@@ -308,10 +308,9 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
 
 
 def _partly_known(vector: tuple[float, ...]) -> bool:
-    """A metadata vector with some entries finite and others not: neither a placement nor the NaN of a channel
-    without one (write_csv writes a force channel's point and direction as NaN)."""
-    finite = [math.isfinite(v) for v in vector]
-    return any(finite) != all(finite) or (not any(finite) and not all(math.isnan(v) for v in vector))
+    """A metadata vector neither all finite (a placement) nor all NaN (a channel without one: write_csv writes a
+    force channel's point and direction so)."""
+    return not (all(map(math.isfinite, vector)) or all(map(math.isnan, vector)))
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}

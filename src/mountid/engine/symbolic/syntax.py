@@ -63,8 +63,9 @@ def _check(node: ast.expr, text: str, entry: str) -> None:
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         _check(node.left, text, entry)
         _check(node.right, text, entry)
-        names = {n.id for n in ast.walk(node.right) if isinstance(n, ast.Name)}
-        if isinstance(node.op, ast.Pow) and names <= set(FUNCTIONS):  # no parameter: a number sympy computes
+        if isinstance(node.op, ast.Pow) and all(  # no parameter in the exponent: a number sympy computes
+            n.id in FUNCTIONS for n in ast.walk(node.right) if isinstance(n, ast.Name)
+        ):
             exponent = _constant(node.right)
             if not abs(exponent) <= MAX_CONSTANT_EXPONENT:
                 raise DescriptionError(
