@@ -49,7 +49,15 @@ CASES = [
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
-    (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e-4", "--rate", "1000"], "duration:"),  # no sample
+    # no sample, or fewer than a record holds: named as the option, before the machine is built
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e-4", "--rate", "1000"], "--duration: 0.0001 s"),
+    (["plan", "kid300", "--rate", "1"], "--duration: 4 s at 1 Hz is 4 samples per channel; a record needs at least"),
+    # a zero direction named as the option that gave it (was "force.direction", "A.direction")
+    (["plan", "kid300", "--hit-direction", "0,0,0"], "--hit-direction: '0,0,0': a direction must not be zero"),
+    (["plan", "kid300", "--sensor", "A=0,0,0:0,0,0"], "--sensor A: '0,0,0': a direction must not be zero"),
+    # one name for two channels: the second silently replaced the first
+    (["plan", "kid300", "--sensor", "A=0,0,0:1,0,0", "A=1,0,0:0,1,0"], "--sensor A: given twice"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--sensor", "A=0,0,0:1,0,0", "A=0,0,0:0,0,1"], "--sensor A: given"),
     (["diagnose", PAPER, "--figure", "{d}/afile/x.png"], "--figure:"),
     # checked before the diagnosis: a folder was written to as "<folder>.png", ".txt" a traceback after the work
     (["diagnose", PAPER, "--figure", "{d}"], "--figure: {d} is a folder: name a figure file in it"),

@@ -145,6 +145,9 @@ def test_a_plain_csv_is_placed_on_the_command_line(capsys, tmp_path):
     assert code == 0 and sorted(json.loads(out)["modes"]) == ["phi", "psi", "x", "z"]
     code, out2, _ = run(capsys, "identify-record", "kid300", str(path), "--json")
     assert json.loads(out)["parameters"] == json.loads(out2)["parameters"]  # the file's own placement, to the bit
-    for bad, message in (("Q=0,0,0:1,0,0", "--channel: Q: no such channel"), ("A_x=0,0,0:0,0,0", "direction is zero")):
+    for bad, message in (
+        ("Q=0,0,0:1,0,0", "--channel: Q: no such channel"),
+        ("A_x=0,0,0:0,0,0", "--channel A_x: '0,0,0': a direction must not be zero"),
+    ):
         code, _, err = run(capsys, "process", "kid300", str(plain), "--channel", bad)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1

@@ -95,9 +95,17 @@ HIT_PEAK_LIMIT = 1e7
 
 
 def record_size(duration: float, rate: float) -> None:
-    """--duration and --rate: positive, finite, and at most MAX_SAMPLES samples per channel together."""
+    """--duration and --rate: positive, finite, and from MIN_SAMPLES to MAX_SAMPLES samples per channel together."""
+    from mountid.measurement.records import MIN_SAMPLES
+
     finite_number(duration, "--duration")
     finite_number(rate, "--rate")
+    if round(duration * rate) < MIN_SAMPLES:
+        raise InputError(
+            "--duration",
+            f"{duration:g} s at {rate:g} Hz is {round(duration * rate)} samples per channel; a record needs at least "
+            f"{MIN_SAMPLES}: a longer --duration or a higher --rate",
+        )
     if duration * rate > MAX_SAMPLES:
         raise InputError(
             "--duration",
@@ -132,15 +140,27 @@ def triple(text: str, option: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
+def direction(text: str, option: str) -> tuple[float, float, float]:
+    """A direction dx,dy,dz: three finite numbers, not all zero (its length does not matter)."""
+    values = triple(text, option)
+    if not any(values):
+        raise InputError(option, f"{text!r}: a direction must not be zero")
+    return values
+
+
 def placements(items: Sequence[str] | None, option: str) -> dict[str, tuple[tuple[float, ...], tuple[float, ...]]]:
-    """Channel placements from NAME=x,y,z:dx,dy,dz items: {name: (point [m], direction)}."""
+    """Channel placements from NAME=x,y,z:dx,dy,dz items: {name: (point [m], direction)}; a name given twice is
+    an InputError (two channels of one name: the record could not tell them apart)."""
     out = {}
     for item in items or ():
         name, sep, rest = item.partition("=")
-        point, sep2, direction = rest.partition(":")
+        point, sep2, towards = rest.partition(":")
+        name = name.strip()
         if not sep or not sep2 or not name:
             raise InputError(option, f"expected NAME=x,y,z:dx,dy,dz, got {item!r}")
-        out[name] = (point_on_machine(point, option), triple(direction, option))
+        if name in out:
+            raise InputError(f"{option} {name}", "given twice")
+        out[name] = (point_on_machine(point, option), direction(towards, f"{option} {name}"))
     return out
 
 

@@ -14,13 +14,13 @@ from mountid.cli.arguments import (
     beyond_first_order,
     bounded,
     check_unbalance,
+    direction,
     pairs,
     placements,
     point_on_machine,
     print_json,
     read_record,
     record_size,
-    triple,
     unbalance_within,
 )
 from mountid.errors import InputError
@@ -62,7 +62,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         else [
             Hammer(
                 point_on_machine(args.hit_point, "--hit-point"),
-                triple(args.hit_direction, "--hit-direction"),
+                direction(args.hit_direction, "--hit-direction"),
                 peak=args.hit_peak,
             )
         ]
@@ -107,7 +107,7 @@ def cmd_plan(args: argparse.Namespace) -> None:
     if args.hit_point or args.hit_direction:
         hit = Hammer(
             point_on_machine(args.hit_point, "--hit-point") if args.hit_point else hit.point,
-            triple(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
+            direction(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
         )
     result = plan(machine, sensors, hit, args.duration, args.rate, args.noise, pairs(args.set, "--set"))
     if args.json:
