@@ -14757,7 +14757,7 @@ SPECIAL_POINTS = ("h", "gamma")
 unknowns (isolators in the plane of the centre of mass, upright isolators); the engine derived the inverse
 solutions there where the general closed form is 0/0."""
 INVERSES_ENUMERATED = True
-"""False when the blocks are too large for symbolic inverse solutions (use mountid's numeric identification)."""
+"""False when no set of distinct natural frequencies is as large as the number of unknowns."""
 ISOLATORS = (
     "inner[+x+y]",
     "inner[-x+y]",

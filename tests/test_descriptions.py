@@ -12,6 +12,7 @@ import tomllib
 
 from mountid.engine.description import parse, shipped_descriptions
 from mountid.engine.symbolic.blocks import ModalStructure
+from mountid.engine.symbolic.inverse import InverseDerivation
 from mountid.engine.symbolic.model import SymbolicModel
 from mountid.errors import DescriptionError
 from mountid.machine import module_from_description
@@ -173,6 +174,70 @@ def test_sixteen_mounts_in_four_groups_with_six_unknowns():
         found = np.array([roots.parameters[u][roots.admissible] for u in mod.UNKNOWN])
         truth = np.array([values[u] for u in mod.UNKNOWN])
         assert np.min(np.max(np.abs(found / truth[:, None] - 1), axis=0)) <= 1e-9
+
+
+@pytest.mark.slow
+def test_a_machine_without_a_plane_of_symmetry_is_identified():
+    """tests/data/offcentre.toml: no plane of symmetry, one 6 x 6 block. Its frequency sets had no inverse at all
+    (identify: "no inverse solution was generated"); now each is numeric where the rank of d lambda / d c at
+    the engine's generic point is full. The engine's rank against a direct one (central differences of
+    scipy.linalg.eigh, at the nominal values), and each set's roots hold the truth."""
+    mod = module_from_description(Path(__file__).parent / "data" / "offcentre.toml")
+    assert len(mod.INVERSES) == 20 and set(mod.INVERSES) == set(mod.NUMERIC_INVERSES)
+    nominal = {n: p["value"] for n, p in mod.PARAMETERS.items()}
+
+    def squared(values: dict) -> np.ndarray:
+        m = mod.mass_matrix(**{a: values[a] for a in mod.ARGUMENTS["mass_matrix"]})
+        c = mod.stiffness_matrix(**{a: values[a] for a in mod.ARGUMENTS["stiffness_matrix"]})
+        return scipy.linalg.eigh(c, m, eigvals_only=True)
+
+    columns = []
+    for u in mod.UNKNOWN:
+        up, down = dict(nominal), dict(nominal)
+        up[u], down[u] = nominal[u] * (1 + 1e-6), nominal[u] * (1 - 1e-6)
+        columns.append((squared(up) - squared(down)) / (2e-6 * nominal[u]) * nominal[u])
+    jac = np.array(columns).T  # rows: modes in ascending order, as the block's labels
+    for key in (*mod.INVERSES, *mod.UNIDENTIFIABLE):
+        rows = jac[[mod.MODES.index(k) for k in key]]
+        full = np.linalg.matrix_rank(rows, tol=1e-6 * np.abs(jac).max()) == len(mod.UNKNOWN)
+        assert full == (key in mod.INVERSES), key
+    rng = np.random.default_rng(6)
+    for key in mod.INVERSES:
+        values = {n: v * 10 ** rng.uniform(-0.2, 0.2) for n, v in nominal.items()}
+        lam = squared(values)
+        np.testing.assert_allclose(mod.squared_frequencies(**{a: values[a] for a in mod.FORWARD_ARGUMENTS}), lam)
+        known = {a: values[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
+        roots = mod.INVERSES[key](**known, **{f"omega_{k}": np.sqrt(lam[mod.MODES.index(k)]) for k in key})
+        found = np.array([roots.parameters[u][roots.admissible] for u in mod.UNKNOWN])
+        truth = np.array([values[u] for u in mod.UNKNOWN])
+        assert np.min(np.max(np.abs(found / truth[:, None] - 1), axis=0)) <= 1e-9, key
+
+
+def test_rank_in_a_block_without_a_characteristic_polynomial():
+    """The rank of a 6 x 6 block's sets from its modes: x-stiffnesses of the front (k_f) and rear (k_r)
+    isolators at one height and the same |y| enter C only as k_f + k_r, so no set of four frequencies determines
+    c_y, c_z, k_f, k_r and each names k_f and k_r; the same frequencies fix c_x, c_y, c_z. A single isolator
+    leaves three motions free: their zero frequencies fix nothing (a zero row within rounding, not a full rank
+    of rounding noise)."""
+    data = tomllib.loads((Path(__file__).parent / "data" / "offcentre.toml").read_text(encoding="utf-8"))
+    derive = InverseDerivation(build(data)).derive
+    assert derive(("x", "y", "z")).numeric and derive(("psi", "theta", "phi")).identifiable
+    params = data["parameters"]
+    params["k_f"] = {**params["c_x"], "description": "x-stiffness of a front isolator"}
+    params["k_r"] = {**params.pop("c_x"), "description": "x-stiffness of a rear isolator"}
+    for group in data["isolators"]:
+        group["stiffness"][0] = "k_f" if group["name"].startswith("front") else "k_r"
+    result = InverseDerivation(build(data)).derive(("x", "y", "z", "psi"))
+    assert not result.identifiable
+    assert result.reason.endswith(
+        "fix only 3 independent combination(s) of the 4 unknowns (c_y, c_z, k_f, k_r); k_f, k_r are not determined"
+    )
+    data = tomllib.loads((Path(__file__).parent / "data" / "offcentre.toml").read_text(encoding="utf-8"))
+    data["isolators"] = data["isolators"][:1]
+    del data["parameters"]["a2"]
+    derive = InverseDerivation(build(data)).derive
+    assert "fix only 0 independent combination(s)" in derive(("x", "y", "z")).reason
+    assert derive(("psi", "theta", "phi")).numeric
 
 
 def test_a_root_rule_names_two_unknowns():

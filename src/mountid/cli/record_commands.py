@@ -127,7 +127,7 @@ def cmd_plan(args: argparse.Namespace) -> None:
             tail = "  not seen by these channels" if not m.seen else "  not excited by this hit"
             if m.seen and m.excited:
                 tail = f"  above the record's band (the anti-alias filter at {ANTI_ALIAS:g} x {args.rate:g} Hz)"
-        print(f"  {m.label:8s}{m.frequency:11.4f}{m.damping_ratio:8.4f}  {tail}")
+        print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
     for name, value in result.parameter_std.items():
         shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"
         print(f"  expected std of {name}: {shown}")

@@ -15,7 +15,8 @@ class EngineSettings:
 
     max_symbolic_block: int = 3
     """Largest symmetry block whose characteristic polynomial is expanded symbolically (larger blocks are
-    solved numerically at run time and have no symbolic inverse)."""
+    solved numerically at run time, frequencies and inverses alike: the rank of a set from the block's modes
+    at a generic point, its roots by Newton from a start grid)."""
     max_terms: int = 400
     """Largest polynomial (in terms) the elimination carries on with; beyond it a set is solved numerically."""
     max_substitution: int = 20_000

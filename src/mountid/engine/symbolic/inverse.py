@@ -7,7 +7,10 @@ For every set of distinct natural frequencies as large as the number of unknowns
    the coefficients of p); otherwise p(lambda_k) = 0 for each given root. Both are polynomial in the unknowns.
 2. Identifiability. The rank of the Jacobian of the equations with respect to the unknowns at a generic point
    (random rationals, exact arithmetic, roots to 30 digits): full rank means the set determines the unknowns
-   locally; a rank deficit is reported with the reason, never skipped silently.
+   locally; a rank deficit is reported with the reason, never skipped silently. A block too large for a
+   symbolic characteristic polynomial (a machine without a plane of symmetry is one 6 x 6 block) has no
+   equations: its rank comes from d lambda / d u = phi^T (dC/du) phi of its modes at the same point, and an
+   identifiable set is solved numerically (step 3 skipped).
 3. Solution. Directed elimination triangularises the system (see InverseDerivation._solve): unknowns that
    occur linearly are solved for and substituted, in the form with the fewest subtractions, leaving one
    polynomial in the last unknown, factored over the parameters. (A lexicographic Groebner basis does the
@@ -189,12 +192,43 @@ class InverseDerivation:
             roots = sorted(sp.re(r) for r in p.nroots(n=40))
             subs[lambda_symbol(label)] = roots[mode.rank - 1]
         jac = sp.Matrix([[sp.diff(e, u) for u in self.unknowns] for e in eqs]).subs(subs).evalf(40)
+        return self._rank_of(jac.tolist())
+
+    def _eigen_rank(self, labels: tuple[str, ...]) -> tuple[int, tuple[str, ...]]:
+        """As _rank, for sets in a block too large for a symbolic characteristic polynomial: the Jacobian of the
+        given squared frequencies, d lambda / du = phi^T (dC/du) phi with phi the mass-normalised mode of each
+        label at the generic point (40 digits; the unknowns are stiffnesses, M does not depend on them). A mode
+        the mount leaves without stiffness (a zero root) has a zero row, within rounding of the block's scale:
+        the largest derivative of any of its modes."""
+        import mpmath
+
+        rows, scale = [], mpmath.mpf(0)
+        with mpmath.workdps(40):
+            for label in labels:
+                mode = self.structure.mode(label)
+                block = self.structure.blocks[mode.block]
+                mass = mpmath.matrix(block.M.subs(self._point).evalf(40).tolist())
+                stiffness = mpmath.matrix(block.C.subs(self._point).evalf(40).tolist())
+                inverse = mpmath.cholesky(mass) ** -1
+                values, vectors = mpmath.eigsy(inverse * stiffness * inverse.T)
+                order = sorted(range(block.size), key=lambda i: values[i])
+                phis = [inverse.T * vectors[:, i] for i in order]
+                slopes = [mpmath.matrix(block.C.diff(u).subs(self._point).evalf(40).tolist()) for u in self.unknowns]
+                every = [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
+                scale = max(scale, *(abs(v) for row in every for v in row))
+                rows.append(every[mode.rank - 1])
+        return self._rank_of(rows, scale)
+
+    def _rank_of(self, jac: list[list], scale: object = 0) -> tuple[int, tuple[str, ...]]:
+        """Rank of a Jacobian (rows: equations, columns: the unknowns) to 40 digits, singular values below
+        1e-25 of the largest (or of ``scale``, if larger) counted as zero, and the unknowns with a component in
+        its null space."""
         import mpmath
 
         with mpmath.workdps(40):
-            _, sv, vt = mpmath.svd_r(mpmath.matrix(jac.tolist()))
+            _, sv, vt = mpmath.svd_r(mpmath.matrix(jac))
             svs = [abs(sv[i]) for i in range(len(sv))]
-            tol = max(svs) * mpmath.mpf(10) ** -25
+            tol = max(*svs, scale) * mpmath.mpf(10) ** -25
             rank = sum(1 for v in svs if v > tol)
             free = set()
             n = len(self.unknowns)
@@ -235,20 +269,25 @@ class InverseDerivation:
         ``special_points``: also examine the special points (see the module docstring)."""
         got = self.equations(labels)
         if got is None:
-            return InverseSet(labels, False, "a block is too large for a symbolic characteristic polynomial")
+            # a block beyond max_symbolic_block (a machine without a plane of symmetry is one 6 x 6 block):
+            # the rank from its numeric modes, the solution numeric on the forward map as for a 3x3 block
+            rank, free = self._eigen_rank(labels)
+            if rank < len(self.unknowns):
+                return self._undetermined(labels, rank, free)
+            size = max(self.structure.blocks[self.structure.mode(lab).block].size for lab in labels)
+            return InverseSet(
+                labels,
+                True,
+                f"a {size}x{size} block, no symbolic characteristic polynomial (solved numerically)",
+                tuple(lambda_symbol(lab) for lab in labels),
+                numeric=True,
+            )
         eqs, lams = got
         if at:
             eqs = [sp.expand(e.subs(at)) for e in eqs]
-        n = len(self.unknowns)
         rank, free = self._rank(eqs, labels, at)
-        if rank < n:
-            names = ", ".join(self.model.description.unknown)
-            return InverseSet(
-                labels,
-                False,
-                f"these frequencies fix only {rank} independent combination(s) of the {n} unknowns ({names}); "
-                f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined",
-            )
+        if rank < len(self.unknowns):
+            return self._undetermined(labels, rank, free)
         if any(self.structure.blocks[self.structure.mode(lab).block].size > 2 for lab in labels):
             # the roots of a cubic block come out of a companion matrix either way: Newton on the forward
             # map is as good, and eliminating through cubic characteristic polynomials costs seconds per set
@@ -287,6 +326,16 @@ class InverseDerivation:
                 if solved.identifiable:
                     special.append((name, solved))
         return dataclasses.replace(general, special=tuple(special))
+
+    def _undetermined(self, labels: tuple[str, ...], rank: int, free: tuple[str, ...]) -> InverseSet:
+        """The set that fixes only ``rank`` combinations of the unknowns, naming those left ``free``."""
+        names = ", ".join(self.model.description.unknown)
+        return InverseSet(
+            labels,
+            False,
+            f"these frequencies fix only {rank} independent combination(s) of the {len(self.unknowns)} unknowns "
+            f"({names}); {', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined",
+        )
 
     def _solve(self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol]) -> InverseSet:
         """Triangularise the polynomial system by directed elimination.
@@ -388,10 +437,7 @@ class InverseDerivation:
         return self._linear[key]
 
     def candidates(self) -> list[tuple[str, ...]]:
-        """Every set of distinct frequencies as large as the number of unknowns (empty when the blocks are
-        too large for symbolic characteristic polynomials)."""
-        if not (self.structure.closed_form or all(b.charpoly is not None for b in self.structure.blocks)):
-            return []
+        """Every set of distinct frequencies as large as the number of unknowns."""
         return list(itertools.combinations(self.structure.unique_labels, len(self.unknowns)))
 
     def all_sets(self) -> list[InverseSet]:
