@@ -218,7 +218,7 @@ def test_rank_in_a_block_without_a_characteristic_polynomial():
     isolators at one height and the same |y| enter C only as k_f + k_r, so no set of four frequencies determines
     c_y, c_z, k_f, k_r and each names k_f and k_r; the same frequencies fix c_x, c_y, c_z. A single isolator
     leaves three motions free: their zero frequencies fix nothing (a zero row within rounding, not a full rank
-    of rounding noise)."""
+    of rounding noise). With a product of inertia the modes are taken where M is positive definite."""
     data = tomllib.loads((Path(__file__).parent / "data" / "offcentre.toml").read_text(encoding="utf-8"))
     derive = InverseDerivation(build(data)).derive
     assert derive(("x", "y", "z")).numeric and derive(("psi", "theta", "phi")).identifiable
@@ -227,7 +227,12 @@ def test_rank_in_a_block_without_a_characteristic_polynomial():
     params["k_r"] = {**params.pop("c_x"), "description": "x-stiffness of a rear isolator"}
     for group in data["isolators"]:
         group["stiffness"][0] = "k_f" if group["name"].startswith("front") else "k_r"
-    result = InverseDerivation(build(data)).derive(("x", "y", "z", "psi"))
+    # a product of inertia twice a value drawn as the moments are makes the first generic point's M indefinite
+    params["J_xz"] = {"kind": "inertia", "value": 6.0}
+    data["body"]["products_of_inertia"] = ["0", "2*J_xz", "0"]
+    derivation = InverseDerivation(build(data))
+    assert np.linalg.eigvalsh(np.array(derivation.model.M.subs(derivation._point), dtype=float)).min() < 0
+    result = derivation.derive(("x", "y", "z", "psi"))
     assert not result.identifiable
     assert result.reason.endswith(
         "fix only 3 independent combination(s) of the 4 unknowns (c_y, c_z, k_f, k_r); k_f, k_r are not determined"

@@ -45,6 +45,10 @@ import sympy as sp
 from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
 from mountid.engine.symbolic.factoring import factor, factor_list
 from mountid.engine.symbolic.model import rational_point
+from mountid.errors import DescriptionError
+
+POINT_TRIES = 100
+"""Generic points tried for one where the mass matrix is positive definite (InverseDerivation._massive_point)."""
 
 
 @dataclass(frozen=True)
@@ -149,6 +153,7 @@ class InverseDerivation:
         self.settings = structure.settings
         self.model = structure.model
         self.unknowns = tuple(self.model.symbols[n] for n in self.model.description.unknown)
+        self._seed = seed
         self._point = self._generic_point(seed)
         self._linear: dict[tuple[sp.Expr, sp.Symbol], tuple | None] = {}
 
@@ -194,26 +199,46 @@ class InverseDerivation:
         jac = sp.Matrix([[sp.diff(e, u) for u in self.unknowns] for e in eqs]).subs(subs).evalf(40)
         return self._rank_of(jac.tolist())
 
+    @functools.cached_property
+    def _massive_point(self) -> dict[sp.Symbol, sp.Rational]:
+        """The generic point, or the first after it (seeds on from the engine's) where M is positive definite:
+        products of inertia drawn as large as the moments of inertia can make the generic point's inertia
+        tensor indefinite, where the modes of _eigen_rank do not exist."""
+        import mpmath
+
+        for seed in range(self._seed, self._seed + POINT_TRIES):
+            point = self._generic_point(seed)
+            try:
+                with mpmath.workdps(40):
+                    mpmath.cholesky(mpmath.matrix(self.model.M.subs(point).evalf(40).tolist()))
+            except ValueError:
+                continue
+            return point
+        raise DescriptionError(
+            "body", f"the mass matrix is not positive definite at {POINT_TRIES} points with every parameter in [0.5, 2]"
+        )
+
     def _eigen_rank(self, labels: tuple[str, ...]) -> tuple[int, tuple[str, ...]]:
         """As _rank, for sets in a block too large for a symbolic characteristic polynomial: the Jacobian of the
         given squared frequencies, d lambda / du = phi^T (dC/du) phi with phi the mass-normalised mode of each
-        label at the generic point (40 digits; the unknowns are stiffnesses, M does not depend on them). A mode
-        the mount leaves without stiffness (a zero root) has a zero row, within rounding of the block's scale:
-        the largest derivative of any of its modes."""
+        label at a generic point where M is positive definite (_massive_point; 40 digits; the unknowns are
+        stiffnesses, M does not depend on them). A mode the mount leaves without stiffness (a zero root) has a
+        zero row, within rounding of the block's scale: the largest derivative of any of its modes."""
         import mpmath
 
+        point = self._massive_point
         rows, scale = [], mpmath.mpf(0)
         with mpmath.workdps(40):
             for label in labels:
                 mode = self.structure.mode(label)
                 block = self.structure.blocks[mode.block]
-                mass = mpmath.matrix(block.M.subs(self._point).evalf(40).tolist())
-                stiffness = mpmath.matrix(block.C.subs(self._point).evalf(40).tolist())
+                mass = mpmath.matrix(block.M.subs(point).evalf(40).tolist())
+                stiffness = mpmath.matrix(block.C.subs(point).evalf(40).tolist())
                 inverse = mpmath.cholesky(mass) ** -1
                 values, vectors = mpmath.eigsy(inverse * stiffness * inverse.T)
                 order = sorted(range(block.size), key=lambda i: values[i])
                 phis = [inverse.T * vectors[:, i] for i in order]
-                slopes = [mpmath.matrix(block.C.diff(u).subs(self._point).evalf(40).tolist()) for u in self.unknowns]
+                slopes = [mpmath.matrix(block.C.diff(u).subs(point).evalf(40).tolist()) for u in self.unknowns]
                 every = [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
                 scale = max(scale, *(abs(v) for row in every for v in row))
                 rows.append(every[mode.rank - 1])
