@@ -19,6 +19,7 @@ from mountid.generated import kid300
 from mountid.validation.paper import TABLE_1
 
 PAPER = "examples/kid300-paper.json"
+OFFCENTRE = "tests/data/offcentre.toml"  # no plane of symmetry, a product of inertia
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -91,6 +92,9 @@ CASES = [
     (["identify", "kid300", "--measured", "q=17.71", "psi=64.1"], "--measured q:"),
     (["identify", "kid300", "--measured", "x=17.71", "x=18", "psi=64.1"], "--measured x: given twice"),
     (["frequencies", "kid300", "--set", "m=abc"], "--set m: not a number"),
+    # mass properties no body has: was "out of the range of double precision (Matrix is not positive definite)"
+    (["frequencies", OFFCENTRE, "--set", "J_xz=500"], "--set J_xz: 500 kg m^2: the mass matrix is not positive"),
+    (["frequencies", OFFCENTRE, "--set", "J_xz=-5"], "--set J_xz: an inertia must be positive"),
 ]
 
 

@@ -227,9 +227,8 @@ def test_rank_in_a_block_without_a_characteristic_polynomial():
     params["k_r"] = {**params.pop("c_x"), "description": "x-stiffness of a rear isolator"}
     for group in data["isolators"]:
         group["stiffness"][0] = "k_f" if group["name"].startswith("front") else "k_r"
-    # a product of inertia twice a value drawn as the moments are makes the first generic point's M indefinite
-    params["J_xz"] = {"kind": "inertia", "value": 6.0}
-    data["body"]["products_of_inertia"] = ["0", "2*J_xz", "0"]
+    # a product of inertia three times a value drawn as the moments are: the first generic point's M is indefinite
+    data["body"]["products_of_inertia"] = ["0", "3*J_xz", "0"]
     derivation = InverseDerivation(build(data))
     assert np.linalg.eigvalsh(np.array(derivation.model.M.subs(derivation._point), dtype=float)).min() < 0
     result = derivation.derive(("x", "y", "z", "psi"))

@@ -110,7 +110,8 @@ class Machine:
             if spec["kind"] == "length" and value < 0:
                 raise InputError(name, f"a length must not be negative, got {value:g} {spec['unit']}")
             if spec["kind"] in POSITIVE_KINDS and spec["kind"] != "length" and value <= 0:
-                raise InputError(name, f"a {spec['kind']} must be positive, got {value:g} {spec['unit']}")
+                article = "an" if spec["kind"][0] in "aeiou" else "a"
+                raise InputError(name, f"{article} {spec['kind']} must be positive, got {value:g} {spec['unit']}")
             out[name] = value
         return out
 
@@ -169,6 +170,15 @@ class Machine:
                 f"at these parameters {self.name} has {label} at {model:.4g} rad/s",
             )
         nominal = stated(worst)
+        if self._mass_indefinite(values):
+            worst = max(self.module.ARGUMENTS["mass_matrix"], key=decades)
+            what = (
+                "the mass matrix is not positive definite: no rigid body has these mass properties (a product of "
+                "inertia beyond sqrt(J_i J_j) of its moments?)"
+            )
+            if decades(worst) == 0:
+                return InputError("machine", f"at {self.name}'s nominal values {what}")
+            return InputError(worst, f"{values[worst]:g} {self.parameters[worst]['unit']}: {what}; {stated(worst)}")
         free = self._modes_without_stiffness(values)
         if free:
             worst = max((v for v in values if self.parameters[v]["kind"] != "stiffness"), key=decades)
@@ -200,6 +210,19 @@ class Machine:
             return None
         label = max(measured, key=lambda lab: abs(math.log10(measured[lab] / model[lab])))
         return label, abs(math.log10(measured[label] / model[label])), model[label]
+
+    def _mass_indefinite(self, values: dict[str, float]) -> bool:
+        """Whether the mass matrix at ``values`` (which hold its arguments) is not positive definite: mass
+        properties no rigid body has (a product of inertia beyond sqrt(J_i J_j)); False where they are missing."""
+        names = self.module.ARGUMENTS["mass_matrix"]
+        if not all(a in values for a in names):
+            return False
+        with np.errstate(all="ignore"):
+            m = np.asarray(self.module.mass_matrix(*(values[a] for a in names)), dtype=float)
+            if not np.isfinite(m).all():
+                return False
+            d = np.sqrt(np.abs(np.diag(m)))
+            return bool(np.any(np.diag(m) <= 0) or np.linalg.eigvalsh(m / np.outer(d, d)).min() <= 0)
 
     def _modes_without_stiffness(self, values: dict[str, float]) -> tuple[str, ...]:
         """Modes the mount's geometry leaves without stiffness (a mechanism), where ``values`` hold every forward
