@@ -68,6 +68,34 @@ def test_a_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
     np.testing.assert_array_equal(marked.data, plain.data)
 
 
+def test_spreadsheet_exports_read_as_the_plain_table(tmp_path):
+    """A bench's table as spreadsheets export it reads as the same table: every cell quoted ("0,5";"1,2": the
+    quotes were 'a value is not a number'), a separator at the end of every line (an unnamed column of NaN
+    ended in ': NaN or infinite sample' naming no channel). A header cell left empty over values, and text
+    before the header, are errors that say so."""
+    rec = _record()
+    rows = [";".join(f"{v:.17g}".replace(".", ",") for v in (t, *d)) for t, d in zip(rec.time, rec.data, strict=True)]
+    plain = "time;" + ";".join(rec.names) + "\n" + "\n".join(rows) + "\n"
+    (tmp_path / "plain.csv").write_text(plain, encoding="utf-8")
+    quoted = "\n".join(";".join(f'"{c}"' for c in line.split(";")) for line in plain.splitlines())
+    (tmp_path / "quoted.csv").write_text(quoted + "\n", encoding="utf-8")
+    trailing = "".join(line + ";\n" for line in plain.splitlines())
+    (tmp_path / "trailing.csv").write_text(trailing, encoding="utf-8")
+    expected = read_csv(tmp_path / "plain.csv")
+    np.testing.assert_array_equal(expected.data, rec.data)
+    for name in ("quoted.csv", "trailing.csv"):
+        got = read_csv(tmp_path / name)
+        assert got.names == rec.names
+        np.testing.assert_array_equal(got.time, expected.time)
+        np.testing.assert_array_equal(got.data, expected.data)
+    (tmp_path / "unnamed.csv").write_text(plain.replace("time;A_x;", "time;;", 1), encoding="utf-8")
+    with pytest.raises(InputError, match=r"^unnamed.csv: column 2: has no name in the header \(line 1\)"):
+        read_csv(tmp_path / "unnamed.csv")
+    (tmp_path / "preamble.csv").write_text("Exported 2026-11-30\nRate: 2000 Hz\n" + plain, encoding="utf-8")
+    with pytest.raises(InputError, match=r"^preamble.csv:2: a value is not a number \(line 1 was read as the header"):
+        read_csv(tmp_path / "preamble.csv")
+
+
 def test_channel_metadata_with_a_point_that_is_not_finite_is_named(tmp_path):
     """NaN in some of a channel's point or direction (JSON as Python reads it) is an error naming the line, not a
     channel without geometry; NaN in all is one without geometry."""

@@ -21,6 +21,7 @@ response). Any other unit is rejected by channel name; :meth:`Record.in_si` conv
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from dataclasses import asdict, dataclass, replace
@@ -282,20 +283,27 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
             continue
         if header is None:
             separator = _separator(line)
-            header = [h.strip() for h in line.split(separator)]
+            header = [h.strip() for h in _cells(line, separator)]
+            header_line = number
             continue
+        cells = _cells(line, separator)
+        if separator == ";":  # a semicolon-separated export writes decimal commas
+            cells = [v.replace(",", ".") for v in cells]
         try:
-            cells = line.split(separator)
-            if separator == ";":  # a semicolon-separated export writes decimal commas
-                cells = [v.replace(",", ".") for v in cells]
             rows.append([float(v) if v.strip() else math.nan for v in cells])
         except ValueError:
-            raise InputError(f"{path.name}:{number}", "a value is not a number") from None
+            hint = "" if rows else f" (line {header_line} was read as the header: a line before it must start with #)"
+            raise InputError(f"{path.name}:{number}", f"a value is not a number{hint}") from None
         if len(rows[-1]) != len(header):
             raise InputError(f"{path.name}:{number}", f"{len(rows[-1])} values for {len(header)} columns")
     if header is None or not rows:
         raise InputError("record", f"{path.name} holds no table")
     table = np.array(rows)
+    if not header[-1] and np.isnan(table[:, -1]).all():  # a separator at the end of every line (spreadsheets)
+        header, table = header[:-1], table[:, :-1]
+    for k, title in enumerate(header):
+        if not title:
+            raise InputError(f"{path.name}: column {k + 1}", f"has no name in the header (line {header_line})")
     time_unit = _split_unit(header[0])[1] or "s"
     if time_unit not in TIME_UNITS:
         raise InputError(f"{path.name}: column 1", f"time in {time_unit!r}: the time column's unit must be s or ms")
@@ -315,6 +323,12 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
+
+
+def _cells(line: str, separator: str) -> list[str]:
+    """One line's cells, quotes as the csv module reads them ("0,5";"1,2" from a spreadsheet's export; a line
+    without quotes is split directly, as fast)."""
+    return next(csv.reader([line], delimiter=separator)) if '"' in line else line.split(separator)
 
 
 def _separator(header: str) -> str:
