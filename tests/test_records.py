@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import budget
@@ -94,6 +96,32 @@ def test_spreadsheet_exports_read_as_the_plain_table(tmp_path):
     (tmp_path / "preamble.csv").write_text("Exported 2026-11-30\nRate: 2000 Hz\n" + plain, encoding="utf-8")
     with pytest.raises(InputError, match=r"^preamble.csv:2: a value is not a number \(line 1 was read as the header"):
         read_csv(tmp_path / "preamble.csv")
+
+
+def test_a_row_of_units_below_the_header_gives_the_units(tmp_path):
+    """Acquisition software that writes the units in a row of their own below the names ("ms;g;m/s^2") reads as
+    a header that states them ("time [ms];A_x [g];B_y [m/s^2]"); a unit it cannot read, a row of another width or
+    a unit the header contradicts are named."""
+    rec = _record()
+    rows = "".join(
+        f"{float(1e3 * t)!r},{float(d[0])!r},{float(d[1])!r}\n" for t, d in zip(rec.time, rec.data, strict=True)
+    )
+    (tmp_path / "stated.csv").write_text("time [ms],A_x [g],B_y [m/s^2]\n" + rows, encoding="utf-8")
+    (tmp_path / "row.csv").write_text("time,A_x,B_y\nms,g,m/s^2\n" + rows, encoding="utf-8")
+    stated, row = read_csv(tmp_path / "stated.csv"), read_csv(tmp_path / "row.csv")
+    assert row.channels == stated.channels and row.channels[0].unit == "g"
+    np.testing.assert_array_equal(row.time, stated.time)
+    np.testing.assert_array_equal(row.data, stated.data)
+    for units, said in (
+        ("ms,furlong,g", "a row of units? 'furlong' is not one of"),
+        ("ms,g", "a row of units? 2 for 3 columns"),
+    ):
+        (tmp_path / "bad.csv").write_text(f"time,A_x,B_y\n{units}\n" + rows, encoding="utf-8")
+        with pytest.raises(InputError, match=f"^bad.csv:2: a value is not a number \\({re.escape(said)}"):
+            read_csv(tmp_path / "bad.csv")
+    (tmp_path / "both.csv").write_text("time,A_x [g],B_y\nms,mm/s^2,g\n" + rows, encoding="utf-8")
+    with pytest.raises(InputError, match=r"^A_x \[g\]: the header says 'g', the units row 'mm/s\^2'"):
+        read_csv(tmp_path / "both.csv")
 
 
 def test_channel_metadata_with_a_point_that_is_not_finite_is_named(tmp_path):

@@ -11,8 +11,8 @@ file carries this metadata in comment lines before the table, so a record read b
 
 A file without the comment lines (a bench's export) reads with unknown points and directions (NaN), which
 processing that needs them rejects by channel name (:func:`with_geometry` places them). Its header may carry
-units, ``Time [ms];A_x [g];F (kN)``; its columns may be separated by semicolons (then with decimal commas) or
-tabs.
+units, ``Time [ms];A_x [g];F (kN)``, or a row of units of its own below the names (``ms;g;kN``); its columns may
+be separated by semicolons (then with decimal commas) or tabs, its cells quoted, its lines ended by a separator.
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
 or mm/s; displacement in m, mm or um; force in N or kN (a hammer's force channel: the excitation, never a
@@ -287,12 +287,20 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
             header_line = number
             continue
         cells = _cells(line, separator)
+        if not rows and number == header_line + 1 and _units_row(cells, len(header)):
+            header = [_with_unit(title, unit.strip()) for title, unit in zip(header, cells, strict=True)]
+            continue
         if separator == ";":  # a semicolon-separated export writes decimal commas
             cells = [v.replace(",", ".") for v in cells]
         try:
             rows.append([float(v) if v.strip() else math.nan for v in cells])
         except ValueError:
             hint = "" if rows else f" (line {header_line} was read as the header: a line before it must start with #)"
+            if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
+                other = next((c.strip() for c in cells[1:] if c.strip() and not _quantity(c.strip())), None)
+                known = ", ".join(u for units in UNITS.values() for u in units)
+                why = f"{len(cells)} for {len(header)} columns" if other is None else f"{other!r} is not one of {known}"
+                hint = f" (a row of units? {why})"
             raise InputError(f"{path.name}:{number}", f"a value is not a number{hint}") from None
         if len(rows[-1]) != len(header):
             raise InputError(f"{path.name}:{number}", f"{len(rows[-1])} values for {len(header)} columns")
@@ -323,6 +331,27 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
+
+
+def _units_row(cells: list[str], width: int) -> bool:
+    """Whether a row right below the header is a row of units, as some acquisition software writes them
+    ("s;m/s^2;g"): as many cells as the header, the first a time unit (or empty), every other one a unit of
+    UNITS (or empty), at least one not empty."""
+    units = [c.strip() for c in cells]
+    if len(units) != width or not any(units) or units[0] not in ("", *TIME_UNITS):
+        return False
+    return all(not u or _quantity(u) for u in units[1:])
+
+
+def _with_unit(title: str, unit: str) -> str:
+    """A header cell with the unit of a units row: "A_x [g]"; a cell that states a unit keeps it where the two
+    agree (else an InputError naming the column)."""
+    if not unit:
+        return title
+    stated = _split_unit(title)[1]
+    if stated is not None and stated != unit:
+        raise InputError(title, f"the header says {stated!r}, the units row {unit!r}")
+    return title if stated is not None else f"{title} [{unit}]"
 
 
 def _cells(line: str, separator: str) -> list[str]:
