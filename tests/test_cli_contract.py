@@ -15,6 +15,7 @@ import pytest
 from conftest import description_without_values
 
 from mountid.cli import main
+from mountid.errors import InputError
 from mountid.generated import kid300
 from mountid.validation.paper import TABLE_1
 
@@ -321,3 +322,21 @@ def test_records_on_a_description_without_nominal_unknowns_are_labelled_at_given
     code, _, err = run(capsys, "process", description, record, "--nominal", "c_xy=1e300", "c_z=1")
     assert code == 2 and "c_xy: 1e+300 N/m puts the model out of the range" in err
     assert err.rstrip().endswith("the description gives no nominal value")
+
+
+def test_the_python_api_names_a_value_that_is_not_a_number():
+    """Machine's values, measured frequencies and standard deviations are real numbers (numpy's scalars too): a
+    string, None, a bool or an array is an InputError naming the parameter (float() took "4e5" and True = 1 rad/s
+    silently; None and arrays were TypeErrors naming nothing)."""
+    from mountid.machine import Machine
+
+    kid = Machine.resolve("kid300")
+    expected = kid.identify({}, {"x": 17.71, "psi": 64.1})[0].parameters
+    assert kid.identify({}, {"x": np.float32(17.71), "psi": np.float64(64.1)})[0].parameters == pytest.approx(expected)
+    for bad in ("17.71", None, True, np.array([17.71, 17.8])):
+        with pytest.raises(InputError, match=r"^x: must be a real number, got "):
+            kid.identify({}, {"x": bad, "psi": 64.1})
+        with pytest.raises(InputError, match=r"^x: must be a real number, got "):
+            kid.identify({}, {"x": 17.71, "psi": 64.1}, {"x": bad, "psi": 0.4})
+        with pytest.raises(InputError, match=r"^c_z: must be a real number, got "):
+            kid.frequencies({"c_z": bad})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from pathlib import Path
 
 
@@ -36,3 +37,14 @@ def existing_file(path: str | Path, parameter: str) -> Path:
         raise InputError(parameter, f"no such file: {path}")
     what = "a directory" if path.is_dir() else "not a regular file (a device or a pipe)"
     raise InputError(parameter, f"{path} is {what}, not a file to read")
+
+
+def real_number(value: object, parameter: str) -> float:
+    """``value`` as a float where it is a real number (int, float, a numpy scalar); else an InputError naming
+    ``parameter``: a string, None, a bool or an array is not taken for a number (float() read "4e5" and True).
+    A 0-d array (what numpy's reductions of arrays may give) is its one value."""
+    if getattr(value, "ndim", None) == 0 and hasattr(value, "item"):
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(parameter, f"must be a real number, got {value!r} ({type(value).__name__})")
+    return float(value)

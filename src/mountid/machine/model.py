@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mountid.errors import InputError
+from mountid.errors import InputError, real_number
 from mountid.machine.dynamics import call
 from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
 from mountid.nomenclature import POSITIVE_KINDS
@@ -96,7 +96,7 @@ class Machine:
         for name in names:
             spec = self.parameters[name]
             if name in given:
-                value = float(given[name])
+                value = real_number(given[name], name)
             elif spec["value"] is not None:
                 value = float(spec["value"])
             else:
@@ -280,6 +280,7 @@ class Machine:
         for label, omega in measured.items():
             if label not in rep:
                 raise InputError(label, f"not a mode label of {self.name} (modes: {', '.join(self.modes)})")
+            omega = real_number(omega, label)
             if not math.isfinite(omega) or omega <= 0:
                 raise InputError(label, f"a natural frequency must be positive and finite, got {omega}")
             r = rep[label]
@@ -302,7 +303,7 @@ class Machine:
         for label in std:
             if label not in given:
                 raise InputError(label, "a standard deviation is given for a frequency that is not measured")
-            if not (math.isfinite(std[label]) and std[label] > 0):
+            if not (math.isfinite(real_number(std[label], label)) and std[label] > 0):
                 raise InputError(label, f"a standard deviation must be positive and finite, got {std[label]}")
         order = [k for k in self.unique_modes if k in chosen]
         missing = [chosen[k][0] for k in order if chosen[k][0] not in std]
