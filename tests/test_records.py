@@ -190,6 +190,40 @@ def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_chann
     assert read_uff(tmp_path / "crlf.uff").names == _record().names
 
 
+def test_a_uff_file_of_frequency_functions_or_empty_labels(tmp_path):
+    """A bench's UFF file of frequency response functions (function type 4, complex, abscissa in Hz) is named as
+    such: it passed as a record of the FRF's real parts over a frequency axis taken for time, stopped only by a
+    unit 'NONE'. That label is what pyuff and other writers put in an empty field: a time response whose unit
+    label says NONE takes the quantity's SI unit (it was 'unit NONE is not a unit of acceleration')."""
+    import pyuff
+
+    from mountid.measurement.uff import dataset_58, read_uff
+
+    rec = _record()
+    sets = [dataset_58(c, rec.time, rec.data[:, k], k + 1, 0, "") for k, c in enumerate(rec.channels)]
+    for dataset in sets:
+        dataset["ordinate_axis_units_lab"], dataset["id5"] = "NONE", "NONE"
+    pyuff.UFF(str(tmp_path / "none.uff")).write_sets(sets, mode="add")
+    back = read_uff(tmp_path / "none.uff")
+    assert [(c.quantity, c.unit) for c in back.channels] == [("acceleration", "m/s^2")] * 2
+    np.testing.assert_allclose(back.data, rec.data, rtol=1e-11)
+    frequency = np.linspace(0.0, 50.0, 101)
+    frf = 1.0 / (400.0 - (2 * np.pi * frequency) ** 2 + 2j * frequency)
+    for kind, changes, said in (
+        (4, {"ord_data_type": 6, "abscissa_spec_data_type": 18}, "is a frequency response function (UFF 58 function"),
+        (9, {"ord_data_type": 6}, "is a power spectral density (UFF 58 function type 9)"),
+        (0, {"ord_data_type": 6, "abscissa_spec_data_type": 18}, "its abscissa is frequency"),
+        (0, {"ord_data_type": 6}, "holds complex values"),
+    ):
+        dataset = {**dataset_58(rec.channels[0], frequency, frf.real, 1, 1, ""), "func_type": kind, "data": frf}
+        dataset.update(changes)
+        dataset["abscissa_inc"] = float(frequency[1])
+        (tmp_path / "frf.uff").unlink(missing_ok=True)
+        pyuff.UFF(str(tmp_path / "frf.uff")).write_sets([dataset], mode="add")
+        with pytest.raises(InputError, match=f"^A_x: {re.escape(said)}"):
+            read_uff(tmp_path / "frf.uff")
+
+
 def _bench_uff(
     path,
     record: Record,

@@ -1,6 +1,8 @@
 """Records in the Universal File Format, dataset 58 (function at nodal DOF), read and written by pyuff.
 
-One dataset 58 per channel: a time response (function type 1), real, evenly spaced abscissa. The channel
+One dataset 58 per channel: a time response (function type 1, or 0 over time), real, evenly spaced abscissa; a
+frequency response function, a spectrum or complex data is an error naming the channel, and a label that says
+NONE (what writers put in an empty one) is empty. The channel
 name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
 axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too: a
@@ -131,6 +133,7 @@ def read_uff(path: str | Path) -> Record:
     names = _names(sets)
     for n, s in enumerate(sets):
         name = names[n]
+        _time_response(s, name)
         x = np.asarray(s["x"], dtype=float)
         if len(x) != len(time):
             raise InputError(
@@ -163,10 +166,44 @@ def read_uff(path: str | Path) -> Record:
             quantity, unit = label[:-1].split(" [", 1)
         else:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
             quantity = _ORDINATE_TYPES.get(int(s.get("ordinate_spec_data_type", 12) or 12), "acceleration")
-            unit = str(s.get("ordinate_axis_units_lab", "")).strip() or next(iter(UNITS[quantity]))
+            unit = _label(s, "ordinate_axis_units_lab") or next(iter(UNITS[quantity]))
         columns.append(np.real(np.asarray(s["data"])).astype(float))
         channels.append(Channel(name, point, direction, quantity, unit))
     return Record(time, np.column_stack(columns), tuple(channels))
+
+
+_FUNCTION_TYPES = {
+    2: "an auto spectrum",
+    3: "a cross spectrum",
+    4: "a frequency response function",
+    5: "a transmissibility",
+    6: "a coherence",
+    9: "a power spectral density",
+    12: "a spectrum",
+}
+"""UFF 58 function types (record 6, field 1) a bench exports besides 0 (general) and 1 (time response); the
+others are named by number."""
+
+
+def _label(s: dict, key: str) -> str:
+    """A dataset's text field, "" where it is empty or "NONE" (what pyuff and other writers put in a label that
+    holds nothing: it was read as a unit named 'NONE')."""
+    text = str(s.get(key, "")).strip()
+    return "" if text.upper() == "NONE" else text
+
+
+def _time_response(s: dict, name: str) -> None:
+    """An InputError naming the channel where dataset 58 ``s`` is not a real time response: a frequency response
+    function or a spectrum (function type, abscissa in Hz) or complex data was read as its real part over a
+    frequency axis taken for time."""
+    kind = int(s.get("func_type", 1) or 0)
+    if kind not in (0, 1):
+        what = _FUNCTION_TYPES.get(kind, f"function type {kind}")
+        raise InputError(name, f"is {what} (UFF 58 function type {kind}): a record is time responses (type 1)")
+    if int(s.get("abscissa_spec_data_type", 0) or 0) == 18:
+        raise InputError(name, "its abscissa is frequency: a record is time responses, over time")
+    if np.iscomplexobj(s["data"]) and np.any(np.imag(np.asarray(s["data"])) != 0):
+        raise InputError(name, "holds complex values: a record is real time responses")
 
 
 def _whole(path: Path, window: int = 256) -> None:
