@@ -220,29 +220,35 @@ class InverseDerivation:
 
     def _eigen_rank(self, labels: tuple[str, ...]) -> tuple[int, tuple[str, ...]]:
         """As _rank, for sets in a block too large for a symbolic characteristic polynomial: the Jacobian of the
-        given squared frequencies, d lambda / du = phi^T (dC/du) phi with phi the mass-normalised mode of each
-        label at a generic point where M is positive definite (_massive_point; 40 digits; the unknowns are
-        stiffnesses, M does not depend on them). A mode the mount leaves without stiffness (a zero root) has a
-        zero row, within rounding of the block's scale: the largest derivative of any of its modes."""
+        given squared frequencies (_block_slopes), its rank against the largest derivative of any mode of the
+        blocks involved (a mode the mount leaves without stiffness has a zero row, within rounding of that)."""
+        rows, scale = [], 0
+        for label in labels:
+            mode = self.structure.mode(label)
+            every = self._block_slopes(mode.block)
+            scale = max(scale, *(abs(v) for row in every for v in row))
+            rows.append(every[mode.rank - 1])
+        return self._rank_of(rows, scale)
+
+    @functools.cache  # noqa: B019 (one derivation per engine run: the cache lives as long as it)
+    def _block_slopes(self, index: int) -> list[list]:
+        """d lambda_r / du = phi_r^T (dC/du) phi_r for every mode r of block ``index`` in ascending order (rows)
+        and unknown u (columns), phi_r mass-normalised, at a generic point where M is positive definite
+        (_massive_point), to 40 digits; the unknowns are stiffnesses, M does not depend on them. Once per block:
+        substituting the point into a 6 x 6 block's symbolic entries is most of the cost."""
         import mpmath
 
         point = self._massive_point
-        rows, scale = [], mpmath.mpf(0)
+        block = self.structure.blocks[index]
         with mpmath.workdps(40):
-            for label in labels:
-                mode = self.structure.mode(label)
-                block = self.structure.blocks[mode.block]
-                mass = mpmath.matrix(block.M.subs(point).evalf(40).tolist())
-                stiffness = mpmath.matrix(block.C.subs(point).evalf(40).tolist())
-                inverse = mpmath.cholesky(mass) ** -1
-                values, vectors = mpmath.eigsy(inverse * stiffness * inverse.T)
-                order = sorted(range(block.size), key=lambda i: values[i])
-                phis = [inverse.T * vectors[:, i] for i in order]
-                slopes = [mpmath.matrix(block.C.diff(u).subs(point).evalf(40).tolist()) for u in self.unknowns]
-                every = [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
-                scale = max(scale, *(abs(v) for row in every for v in row))
-                rows.append(every[mode.rank - 1])
-        return self._rank_of(rows, scale)
+            mass = mpmath.matrix(block.M.subs(point).evalf(40).tolist())
+            stiffness = mpmath.matrix(block.C.subs(point).evalf(40).tolist())
+            inverse = mpmath.cholesky(mass) ** -1
+            values, vectors = mpmath.eigsy(inverse * stiffness * inverse.T)
+            order = sorted(range(block.size), key=lambda i: values[i])
+            phis = [inverse.T * vectors[:, i] for i in order]
+            slopes = [mpmath.matrix(block.C.diff(u).subs(point).evalf(40).tolist()) for u in self.unknowns]
+            return [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
 
     def _rank_of(self, jac: list[list], scale: object = 0) -> tuple[int, tuple[str, ...]]:
         """Rank of a Jacobian (rows: equations, columns: the unknowns) to 40 digits, singular values below
