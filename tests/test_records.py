@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -90,12 +91,17 @@ def test_spreadsheet_exports_read_as_the_plain_table(tmp_path):
         assert got.names == rec.names
         np.testing.assert_array_equal(got.time, expected.time)
         np.testing.assert_array_equal(got.data, expected.data)
-    (tmp_path / "unnamed.csv").write_text(plain.replace("time;A_x;", "time;;", 1), encoding="utf-8")
-    with pytest.raises(InputError, match=r"^unnamed.csv: column 2: has no name in the header \(line 1\)"):
-        read_csv(tmp_path / "unnamed.csv")
-    (tmp_path / "preamble.csv").write_text("Exported 2026-11-30\nRate: 2000 Hz\n" + plain, encoding="utf-8")
-    with pytest.raises(InputError, match=r"^preamble.csv:2: a value is not a number \(line 1 was read as the header"):
-        read_csv(tmp_path / "preamble.csv")
+    unnamed = plain.replace("time;A_x;", "time;;", 1)
+    _refused(tmp_path / "unnamed.csv", unnamed, r"^unnamed.csv: column 2: has no name in the header \(line 1\)")
+    preamble = "Exported 2026-11-30\nRate: 2000 Hz\n" + plain
+    _refused(tmp_path / "preamble.csv", preamble, r"^preamble.csv:2: a value is not a number \(line 1 was read as")
+
+
+def _refused(path: Path, text: str, message: str) -> None:
+    """``text`` written to ``path`` is refused by read_csv with an InputError matching ``message``."""
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError, match=message):
+        read_csv(path)
 
 
 def test_a_row_of_units_below_the_header_gives_the_units(tmp_path):
@@ -116,12 +122,13 @@ def test_a_row_of_units_below_the_header_gives_the_units(tmp_path):
         ("ms,furlong,g", "a row of units? 'furlong' is not one of"),
         ("ms,g", "a row of units? 2 for 3 columns"),
     ):
-        (tmp_path / "bad.csv").write_text(f"time,A_x,B_y\n{units}\n" + rows, encoding="utf-8")
-        with pytest.raises(InputError, match=f"^bad.csv:2: a value is not a number \\({re.escape(said)}"):
-            read_csv(tmp_path / "bad.csv")
-    (tmp_path / "both.csv").write_text("time,A_x [g],B_y\nms,mm/s^2,g\n" + rows, encoding="utf-8")
-    with pytest.raises(InputError, match=r"^A_x \[g\]: the header says 'g', the units row 'mm/s\^2'"):
-        read_csv(tmp_path / "both.csv")
+        _refused(
+            tmp_path / "bad.csv",
+            f"time,A_x,B_y\n{units}\n" + rows,
+            f"^bad.csv:2: a value is not a number \\({re.escape(said)}",
+        )
+    both = "time,A_x [g],B_y\nms,mm/s^2,g\n" + rows
+    _refused(tmp_path / "both.csv", both, r"^A_x \[g\]: the header says 'g', the units row 'mm/s\^2'")
 
 
 def test_channel_metadata_with_a_point_that_is_not_finite_is_named(tmp_path):
