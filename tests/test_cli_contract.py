@@ -250,6 +250,7 @@ def test_every_command_with_json_prints_json(capsys, tmp_path):
         "rate": 2000.0,
         "duration": 4.0,
         "channels": ["A_x", "A_y", "B_y", "A_z", "C_x"],
+        "notes": [],
     }
     code, out, _ = run(capsys, "describe", "kid300", "--json")
     described = _strict(out)
@@ -340,3 +341,13 @@ def test_the_python_api_names_a_value_that_is_not_a_number():
             kid.identify({}, {"x": 17.71, "psi": 64.1}, {"x": bad, "psi": 0.4})
         with pytest.raises(InputError, match=r"^c_z: must be a real number, got "):
             kid.frequencies({"c_z": bad})
+
+
+def test_simulating_a_machine_without_damping_says_what_its_record_is(capsys, tmp_path):
+    """A description without damping simulates a decay that never decays; the note says so and what the records
+    chain makes of it (it took 3 of rectangular's 6 modes without damping, with no word). A damped machine's
+    record has no note."""
+    code, out, _ = run(capsys, "simulate", OFFCENTRE, "--out", str(tmp_path / "r.csv"))
+    assert code == 0 and "note: offcentre has no damping: its free decay never decays" in out
+    code, out, _ = run(capsys, "simulate", "kid300", "--out", str(tmp_path / "k.csv"), "--json")
+    assert code == 0 and json.loads(out)["notes"] == []

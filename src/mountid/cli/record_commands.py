@@ -71,6 +71,12 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
     uff = args.out.lower().endswith((".uff", ".unv"))
     (write_uff if uff else write_csv)(record, args.out)
+    notes = []
+    if not rig.B.any():
+        notes.append(
+            f"{rig.machine.name} has no damping: its free decay never decays, and the records chain, which takes a "
+            "mode for a pole of positive damping ratio, may leave out modes whose estimate lands at or below zero"
+        )
     if args.json:
         print_json(
             {
@@ -80,11 +86,14 @@ def cmd_simulate(args: argparse.Namespace) -> None:
                 "rate": args.rate,
                 "duration": args.duration,
                 "channels": list(record.names),
+                "notes": notes,
             }
         )
         return
     count = counted(len(record.channels), "channel")
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
+    for note in notes:
+        print(f"note: {note}")
 
 
 def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
