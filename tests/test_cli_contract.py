@@ -351,3 +351,12 @@ def test_simulating_a_machine_without_damping_says_what_its_record_is(capsys, tm
     assert code == 0 and "note: offcentre has no damping: its free decay never decays" in out
     code, out, _ = run(capsys, "simulate", "kid300", "--out", str(tmp_path / "k.csv"), "--json")
     assert code == 0 and json.loads(out)["notes"] == []
+
+
+def test_an_error_in_a_description_file_names_the_file(capsys, tmp_path):
+    """A campaign or a command names its description by path: an entry's error says which file holds it."""
+    text = Path("derivations/rectangular.toml").read_text(encoding="utf-8")
+    bad = tmp_path / "skid.toml"
+    bad.write_text(text.replace("[body]", 'zz = { kind = "length", value = 0.1 }\n\n[body]', 1), encoding="utf-8")
+    code, _, err = run(capsys, "frequencies", str(bad))
+    assert code == 2 and err.startswith("mountid: error: skid.toml: parameters.zz: is declared but no entry")

@@ -14,6 +14,8 @@ import types
 from pathlib import Path
 from typing import Any, Protocol
 
+from mountid.errors import DescriptionError
+
 
 class GeneratedModule(Protocol):
     """What every generated machine module offers (see templates/numpy_module.py.jinja): its metadata and
@@ -74,7 +76,12 @@ def module_from_description(path: Path) -> types.ModuleType:
         from mountid.engine.codegen.numpy_module import render  # sympy: only for descriptions not generated yet
         from mountid.engine.description import load
 
-        source = render(load(path))
+        try:
+            source = render(load(path))
+        except DescriptionError as err:  # the entry of which file: a campaign names its description by path
+            if err.parameter == "machine" or str(path) in err.parameter:
+                raise
+            raise DescriptionError(f"{path.name}: {err.parameter}", err.reason) from None
         try:
             cached.parent.mkdir(parents=True, exist_ok=True)
             tmp = cached.with_suffix(f".{os.getpid()}.tmp")
