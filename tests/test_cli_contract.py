@@ -360,3 +360,19 @@ def test_an_error_in_a_description_file_names_the_file(capsys, tmp_path):
     bad.write_text(text.replace("[body]", 'zz = { kind = "length", value = 0.1 }\n\n[body]', 1), encoding="utf-8")
     code, _, err = run(capsys, "frequencies", str(bad))
     assert code == 2 and err.startswith("mountid: error: skid.toml: parameters.zz: is declared but no entry")
+
+
+def test_a_steady_state_beyond_small_motions_is_named(capsys):
+    """An unbalance of 400 kg at 1 m turns kid300 by 2.4 rad at its lowest mode, and an undamped machine driven at
+    its natural frequency moves by 1e12 m: the numbers came out with exit 0 as if the linear model held. The note
+    names the coordinates beyond small motions (and the missing damping); the paper's speeds give none."""
+    code, out, _ = run(capsys, "forced", "kid300", "--speed", "17.71", "--unbalance-mass", "400", "--eccentricity", "1")
+    assert code == 0 and "note: at 17.71 rad/s x 6.28 m, y 6.28 m, psi 2.44 rad, theta 2.44 rad: beyond the" in out
+    omega = json.loads(run(capsys, "frequencies", OFFCENTRE, "--json")[1])["frequencies"]["x"]
+    code, out, _ = run(capsys, "forced", OFFCENTRE, "--speed", repr(omega), "--json")
+    (note,) = json.loads(out)["notes"]
+    assert code == 0 and note.endswith(
+        "the machine has no damping: at a natural frequency its response grows without bound"
+    )
+    code, out, _ = run(capsys, "forced", "kid300", "--speed", "113", "157", "--json")
+    assert code == 0 and json.loads(out)["notes"] == []

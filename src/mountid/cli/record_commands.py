@@ -235,12 +235,12 @@ def cmd_process(args: argparse.Namespace) -> None:
 def cmd_forced(args: argparse.Namespace) -> None:
     import numpy as np
 
-    from mountid.measurement.rig import Rig, Unbalance
+    from mountid.measurement.rig import SMALL_MOTION, Rig, Unbalance
 
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     unbalance_within(args, float(rig.M[0, 0]))
-    rows = {}
+    rows, notes = {}, []
     for w in args.speed:
         unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
         t = np.linspace(0, 2 * np.pi / w, 64, endpoint=False)
@@ -253,9 +253,19 @@ def cmd_forced(args: argparse.Namespace) -> None:
         if not np.all(np.isfinite(amplitude)):
             raise InputError("--speed", f"{w:g} rad/s puts the response out of the range of double precision")
         rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
+        large = rig.beyond_small_motion(amplitude)
+        if large:
+            why = "; the machine has no damping: at a natural frequency its response grows without bound"
+            notes.append(
+                f"at {w:g} rad/s {', '.join(large)}: beyond the small motions the linear model describes (rotations "
+                f"to {SMALL_MOTION:g} rad, translations to {SMALL_MOTION:g} of the machine's length scale)"
+                + ("" if rig.B.any() else why)
+            )
     if args.json:
-        print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows})
+        print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows, "notes": notes})
         return
     print(f"{rig.machine.name}: steady-state amplitude under the rotating unbalance [m, rad]")
     for w, amp in rows.items():
         print(f"  {w:>8s} rad/s  " + "  ".join(f"{c} {a:.3e}" for c, a in amp.items()))
+    for note in notes:
+        print(f"note: {note}")

@@ -62,6 +62,10 @@ BLOCK = 1 << 17
 """Fine samples Rig.simulate integrates at a time (about 0.1 GB): a long record at a high rate is simulated in
 blocks, each continuing from the state and the anti-alias filter's memory of the one before."""
 
+SMALL_MOTION = 0.1
+"""The largest rotation [rad], and translation as a fraction of the machine's length scale, that the linear model
+describes well (sin 0.1 = 0.1 within 0.2 %): a steady state beyond it is named (Rig.beyond_small_motion)."""
+
 RESOLVED = 16
 """Samples the simulation takes at least per hammer pulse and per period of the fastest mode or unbalance
 (Rig.simulate raises its oversampling to reach them)."""
@@ -228,6 +232,19 @@ class Rig:
         phase = np.exp(1j * w * np.asarray(t, dtype=float))[:, None]
         q = np.real(amp[None, :] * phase)
         return q, -(w**2) * q
+
+    def beyond_small_motion(self, amplitude: NDArray) -> list[str]:
+        """The coordinates whose steady-state ``amplitude`` (one per coordinate q [m, rad]) leaves the small motions
+        the linear model describes: a rotation beyond SMALL_MOTION rad, a translation beyond SMALL_MOTION of the
+        machine's length scale; each as "psi 2.44 rad" ([] where every motion is small)."""
+        limits = [SMALL_MOTION * self.machine.length_scale(self.parameters)] * 3 + [SMALL_MOTION] * 3
+        units = ["m"] * 3 + ["rad"] * 3
+        coordinates = self.machine.module.COORDINATES
+        return [
+            f"{c} {a:.3g} {u}"
+            for c, a, limit, u in zip(coordinates, amplitude, limits, units, strict=True)
+            if a > limit
+        ]
 
     def unbalance_force(self, unbalance: Unbalance, t: NDArray) -> NDArray[np.float64]:
         """Generalised force of the unbalance at times t, shape (len(t), n) (:meth:`forcing`)."""
