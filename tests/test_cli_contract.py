@@ -376,3 +376,12 @@ def test_a_steady_state_beyond_small_motions_is_named(capsys):
     )
     code, out, _ = run(capsys, "forced", "kid300", "--speed", "113", "157", "--json")
     assert code == 0 and json.loads(out)["notes"] == []
+
+
+def test_describe_says_a_label_in_a_big_block_names_a_rank(capsys):
+    """Without symmetry the lowest mode is labelled x whatever it moves (offcentre's is mostly y): describe says a
+    label of a block beyond 2 x 2 names a rank; kid300's 2 x 2 blocks get no such note."""
+    code, out, _ = run(capsys, "describe", OFFCENTRE)
+    assert code == 0 and "note: x, y, z, psi, theta, phi are the roots of one block (x, y, z, psi, theta, phi)" in out
+    code, out, _ = run(capsys, "describe", "kid300")
+    assert code == 0 and "note:" not in out
