@@ -362,7 +362,7 @@ def test_an_error_in_a_description_file_names_the_file(capsys, tmp_path):
     assert code == 2 and err.startswith("mountid: error: skid.toml: parameters.zz: is declared but no entry")
 
 
-def test_a_steady_state_beyond_small_motions_is_named(capsys):
+def test_a_steady_state_beyond_small_motions_is_named(capsys, tmp_path):
     """An unbalance of 400 kg at 1 m turns kid300 by 2.4 rad at its lowest mode, and an undamped machine driven at
     its natural frequency moves by 1e12 m: the numbers came out with exit 0 as if the linear model held. The note
     names the coordinates beyond small motions (and the missing damping); the paper's speeds give none."""
@@ -376,6 +376,10 @@ def test_a_steady_state_beyond_small_motions_is_named(capsys):
     )
     code, out, _ = run(capsys, "forced", "kid300", "--speed", "113", "157", "--json")
     assert code == 0 and json.loads(out)["notes"] == []
+    # a record simulated under that unbalance says the same
+    unbalance = ["--speed", "17.71", "--unbalance-mass", "400", "--eccentricity", "1"]
+    code, out, _ = run(capsys, "simulate", "kid300", "--out", str(tmp_path / "u.csv"), *unbalance)
+    assert code == 0 and "note: at 17.71 rad/s x 6.28 m, y 6.28 m, psi 2.44 rad, theta 2.44 rad: beyond the" in out
 
 
 def test_describe_says_a_label_in_a_big_block_names_a_rank(capsys):

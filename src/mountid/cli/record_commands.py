@@ -28,8 +28,10 @@ from mountid.machine import Machine
 from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
     from mountid.identification.from_records import Identification
-    from mountid.measurement.rig import Sensor
+    from mountid.measurement.rig import Rig, Sensor, Unbalance
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
@@ -71,7 +73,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
     uff = args.out.lower().endswith((".uff", ".unv"))
     (write_uff if uff else write_csv)(record, args.out)
-    notes = []
+    notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     if not rig.B.any():
         notes.append(
             f"{rig.machine.name} has no damping: its free decay never decays, and the records chain, which takes a "
@@ -232,35 +234,50 @@ def cmd_process(args: argparse.Namespace) -> None:
         print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
 
 
-def cmd_forced(args: argparse.Namespace) -> None:
+def _steady_amplitude(rig: Rig, unbalance: Unbalance) -> NDArray:
+    """The steady-state amplitude of every coordinate [m, rad] under ``unbalance``; an InputError naming --speed
+    where it leaves double precision."""
     import numpy as np
 
-    from mountid.measurement.rig import SMALL_MOTION, Rig, Unbalance
+    t = np.linspace(0, 2 * np.pi / unbalance.speed, 64, endpoint=False)
+    with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+        try:
+            q, _ = rig.steady_state(unbalance, t)
+            amplitude = np.max(np.abs(q), axis=0)
+        except (FloatingPointError, OverflowError):
+            amplitude = np.array([np.inf])
+    if not np.all(np.isfinite(amplitude)):
+        raise InputError("--speed", f"{unbalance.speed:g} rad/s puts the response out of the range of double precision")
+    return amplitude
+
+
+def _small_motion_note(rig: Rig, speed: float, amplitude: NDArray) -> list[str]:
+    """The note (a list of none or one) naming the coordinates of a steady state at ``speed`` [rad/s] beyond the
+    small motions the linear model describes (Rig.beyond_small_motion), and a missing damping."""
+    from mountid.measurement.rig import SMALL_MOTION
+
+    large = rig.beyond_small_motion(amplitude)
+    if not large:
+        return []
+    why = "; the machine has no damping: at a natural frequency its response grows without bound"
+    return [
+        f"at {speed:g} rad/s {', '.join(large)}: beyond the small motions the linear model describes (rotations "
+        f"to {SMALL_MOTION:g} rad, translations to {SMALL_MOTION:g} of the machine's length scale)"
+        + ("" if rig.B.any() else why)
+    ]
+
+
+def cmd_forced(args: argparse.Namespace) -> None:
+    from mountid.measurement.rig import Rig, Unbalance
 
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     unbalance_within(args, float(rig.M[0, 0]))
     rows, notes = {}, []
     for w in args.speed:
-        unb = Unbalance(args.unbalance_mass, args.eccentricity, w)
-        t = np.linspace(0, 2 * np.pi / w, 64, endpoint=False)
-        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
-            try:
-                q, _ = rig.steady_state(unb, t)
-                amplitude = np.max(np.abs(q), axis=0)
-            except (FloatingPointError, OverflowError):
-                amplitude = np.array([np.inf])
-        if not np.all(np.isfinite(amplitude)):
-            raise InputError("--speed", f"{w:g} rad/s puts the response out of the range of double precision")
+        amplitude = _steady_amplitude(rig, Unbalance(args.unbalance_mass, args.eccentricity, w))
         rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
-        large = rig.beyond_small_motion(amplitude)
-        if large:
-            why = "; the machine has no damping: at a natural frequency its response grows without bound"
-            notes.append(
-                f"at {w:g} rad/s {', '.join(large)}: beyond the small motions the linear model describes (rotations "
-                f"to {SMALL_MOTION:g} rad, translations to {SMALL_MOTION:g} of the machine's length scale)"
-                + ("" if rig.B.any() else why)
-            )
+        notes += _small_motion_note(rig, w, amplitude)
     if args.json:
         print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows, "notes": notes})
         return
