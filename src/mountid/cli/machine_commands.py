@@ -236,9 +236,9 @@ def cmd_describe(args: argparse.Namespace) -> None:
         value = "" if p["value"] is None else f"{p['value']:g} {p['unit']}"
         print(f"  {n:>8s}  {p['role']:8s} {p['kind']:22s} {value:16s} {p['description']}")
     print(f"modes: {', '.join(m.MODES)}; distinct frequencies: {', '.join(m.UNIQUE_MODES)}")
-    for block in m.BLOCKS:
+    for index, block in enumerate(m.BLOCKS):
         if len(block) > 2:
-            labels = [label for label, k in zip(m.MODES, m.MODE_BLOCK, strict=True) if m.BLOCKS[k] == block]
+            labels = [label for label, k in zip(m.MODES, m.MODE_BLOCK, strict=True) if k == index]
             coordinates = ", ".join(m.COORDINATES[i] for i in block)
             print(
                 f"  note: {', '.join(labels)} are the roots of one block ({coordinates}) in ascending order: a label "

@@ -303,7 +303,8 @@ class Machine:
         for label in std:
             if label not in given:
                 raise InputError(label, "a standard deviation is given for a frequency that is not measured")
-            if not (math.isfinite(real_number(std[label], label)) and std[label] > 0):
+            value = real_number(std[label], label)
+            if not (math.isfinite(value) and value > 0):
                 raise InputError(label, f"a standard deviation must be positive and finite, got {std[label]}")
         order = [k for k in self.unique_modes if k in chosen]
         missing = [chosen[k][0] for k in order if chosen[k][0] not in std]

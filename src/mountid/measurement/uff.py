@@ -198,7 +198,7 @@ def _time_response(s: dict, name: str) -> None:
     frequency axis taken for time."""
     kind = int(s.get("func_type", 1) or 0)
     if kind not in (0, 1):
-        what = _FUNCTION_TYPES.get(kind, f"function type {kind}")
+        what = _FUNCTION_TYPES.get(kind, "not a time response")
         raise InputError(name, f"is {what} (UFF 58 function type {kind}): a record is time responses (type 1)")
     if int(s.get("abscissa_spec_data_type", 0) or 0) == 18:
         raise InputError(name, "its abscissa is frequency: a record is time responses, over time")

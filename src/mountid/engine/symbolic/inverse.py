@@ -156,6 +156,7 @@ class InverseDerivation:
         self._seed = seed
         self._point = self._generic_point(seed)
         self._linear: dict[tuple[sp.Expr, sp.Symbol], tuple | None] = {}
+        self._slopes: dict[int, list[list]] = {}
 
     def _generic_point(self, seed: int) -> dict[sp.Symbol, sp.Rational]:
         return rational_point(self.model.symbols.values(), seed)
@@ -230,7 +231,6 @@ class InverseDerivation:
             rows.append(every[mode.rank - 1])
         return self._rank_of(rows, scale)
 
-    @functools.cache  # noqa: B019 (one derivation per engine run: the cache lives as long as it)
     def _block_slopes(self, index: int) -> list[list]:
         """d lambda_r / du = phi_r^T (dC/du) phi_r for every mode r of block ``index`` in ascending order (rows)
         and unknown u (columns), phi_r mass-normalised, at a generic point where M is positive definite
@@ -238,6 +238,8 @@ class InverseDerivation:
         substituting the point into a 6 x 6 block's symbolic entries is most of the cost."""
         import mpmath
 
+        if index in self._slopes:
+            return self._slopes[index]
         point = self._massive_point
         block = self.structure.blocks[index]
         with mpmath.workdps(40):
@@ -248,7 +250,8 @@ class InverseDerivation:
             order = sorted(range(block.size), key=lambda i: values[i])
             phis = [inverse.T * vectors[:, i] for i in order]
             slopes = [mpmath.matrix(block.C.diff(u).subs(point).evalf(40).tolist()) for u in self.unknowns]
-            return [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
+            self._slopes[index] = [[(phi.T * slope * phi)[0] for slope in slopes] for phi in phis]
+        return self._slopes[index]
 
     def _rank_of(self, jac: list[list], scale: object = 0) -> tuple[int, tuple[str, ...]]:
         """Rank of a Jacobian (rows: equations, columns: the unknowns) to 40 digits, singular values below
