@@ -381,6 +381,36 @@ def test_wrong_labelling_is_inadmissible():
     assert not roots.admissible.any()
 
 
+@pytest.mark.parametrize("name", MACHINES)
+def test_a_given_frequency_that_is_no_frequency_has_no_root(name):
+    """A negative, zero or non-finite given omega leaves its row without an admissible root in every inverse set,
+    closed-form and numeric (squared, a negative omega was its positive twin: every root admissible), while the
+    rows of the batch beside it keep theirs."""
+    mod = generated(name)
+    p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
+    omega = mod.frequencies(**p)
+    knowns = {a: p[a] for a in mod.FORWARD_ARGUMENTS if a not in mod.UNKNOWN}
+    key = next(k for k in mod.INVERSES if mod.INVERSES[k] is not None)
+    first = omega[mod.MODES.index(key[0])]
+    batch = np.array([first, -first, 0.0, np.nan, np.inf])
+    given_ = {f"omega_{k}": omega[mod.MODES.index(k)] for k in key} | {f"omega_{key[0]}": batch}
+    roots = mod.INVERSES[key](**knowns, **given_)
+    assert roots.admissible[:, 0].any()
+    assert not roots.admissible[:, 1:].any()
+
+
+def test_frequency_standard_deviations_are_checked():
+    """InverseRoots.std takes a non-negative finite standard deviation per given frequency (a negative one was
+    squared into a valid-looking answer)."""
+    mod = generated("kid300")
+    roots = mod.identify_x_psi(**TABLE_1, omega_x=17.71, omega_psi=64.10)
+    good = roots.std([0.45, 0.45])
+    assert np.all(np.isfinite(good["c_z"][roots.admissible]))
+    for bad in ([-0.45, 0.45], [0.45, np.nan]):
+        with pytest.raises(ValueError, match="frequency_std"):
+            roots.std(bad)
+
+
 def test_vectorised_inverse_matches_scalar_calls():
     mod = generated("kid300")
     knowns = dict(TABLE_1)

@@ -69,8 +69,11 @@ class InverseRoots(NamedTuple):
     def std(self, frequency_std: ArrayLike) -> dict[str, NDArray[np.float64]]:
         """Standard deviation of each unknown [SI] at each root, from the standard deviations of the given
         frequencies [rad/s] (independent; broadcast against (*batch, n_given)), to first order:
-        cov = J^-1 diag(sigma^2) J^-T. Infinite where the root is rank-deficient, NaN where it failed."""
+        cov = J^-1 diag(sigma^2) J^-T. Infinite where the root is rank-deficient, NaN where it failed.
+        Raises ValueError for a standard deviation that is negative or not finite."""
         sigma = np.broadcast_to(np.asarray(frequency_std, dtype=float), self.jacobian.shape[:-1])
+        if not np.all(np.isfinite(sigma) & (sigma >= 0)):
+            raise ValueError(f"frequency_std: a standard deviation must be >= 0 and finite, got {frequency_std!r}")
         with np.errstate(all="ignore"):
             finite = np.all(np.isfinite(self.jacobian), axis=(-1, -2)) & ~self.rank_deficient
             safe = np.where(finite[..., None, None], self.jacobian, np.eye(*self.jacobian.shape[-2:]))
@@ -304,7 +307,7 @@ def solve_inverse(
     roots: ClosedForm,
     model: ModalModel,
     known: tuple[NDArray, ...],
-    given: tuple[NDArray, ...],
+    frequencies: tuple[NDArray, ...],
     mode_index: tuple[int, ...],
     unknowns: tuple[str, ...],
     mode_block: tuple[int, ...],
@@ -315,8 +318,11 @@ def solve_inverse(
 ) -> InverseRoots:
     """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility, conditioning.
 
-    ``roots(*known, *given)`` is the generated closed form: a tuple with one array per unknown, shape
-    (n_roots, *batch). ``model`` is as in :func:`eigen_newton`. Rows where no candidate is admissible
+    ``frequencies``: the given natural frequencies omega [rad/s], one array per given mode; an entry that is not
+    positive and finite is no frequency, and its row has no admissible root (its square would be one: a
+    negative omega reproduced by its positive twin). ``roots(*known, *lambda_given)`` is the generated closed
+    form in the squared frequencies: a tuple with one array per unknown, shape (n_roots, *batch). ``model`` is
+    as in :func:`eigen_newton`. Rows where no candidate is admissible
     (the closed form can be 0/0 at a legitimate point, e.g. sin(alpha) = 0 for upright isolators) take, in
     turn, the candidates of each engine-derived specialised solution in ``special`` ((index of the known
     parameter that is 0 there, its closed form), ...) and then the single start ``start`` (the description's
@@ -333,10 +339,28 @@ def solve_inverse(
     block): the frequencies are not differentiable there, and such a root is the edge of a continuum of
     solutions of a decoupled block, not a determined one.
     """
-    batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *given)))
+    batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *frequencies)))
     flat = tuple(np.broadcast_to(k, batch).ravel() for k in known)
-    lam_given = np.stack([np.broadcast_to(g, batch).ravel() for g in given], axis=-1)
-    n_batch, n_unknowns, n_given = lam_given.shape[0], len(unknowns), len(given)
+    omega = np.stack([np.broadcast_to(g, batch).ravel() for g in frequencies], axis=-1)
+    with np.errstate(invalid="ignore"):
+        lam_given = np.where(np.isfinite(omega) & (omega > 0), omega**2, np.nan)
+    n_batch, n_unknowns, n_given = lam_given.shape[0], len(unknowns), len(frequencies)
+    valid = np.all(np.isfinite(lam_given), axis=-1)
+    if not valid.all():  # rows without frequencies are not solved (a numeric polish would take NaN to eigh)
+        inner = solve_inverse(
+            roots,
+            model,
+            tuple(f[valid] for f in flat),
+            tuple(omega[valid].T),
+            mode_index,
+            unknowns,
+            mode_block,
+            special,
+            n_roots,
+            start,
+            numeric,
+        )
+        return InverseRoots(*(_rows_of(field, valid, batch) for field in inner))
     cand = _candidates(roots, flat, lam_given, n_unknowns)
     slots = max(n_roots or 0, cand.shape[1])
     x = np.full((n_unknowns, slots, n_batch), np.nan)
@@ -384,6 +408,16 @@ def solve_inverse(
         jac.reshape(slots, *batch, n_given, n_unknowns),
         deficient.reshape(slots, *batch),
     )
+
+
+def _rows_of(field: dict | NDArray, valid: NDArray[np.bool_], batch: tuple[int, ...]) -> dict | NDArray:
+    """A field of InverseRoots solved for the ``valid`` rows of a flattened batch, spread over the whole batch:
+    the other rows NaN (False in masks)."""
+    if isinstance(field, dict):
+        return {u: _rows_of(v, valid, batch) for u, v in field.items()}
+    out = np.full((field.shape[0], valid.size, *field.shape[2:]), False if field.dtype == bool else np.nan)
+    out[:, valid] = field
+    return out.reshape(field.shape[0], *batch, *field.shape[2:])
 
 
 BETWEEN_ROUNDS = 3
