@@ -153,7 +153,7 @@ def test_the_sampling_rate_option_replaces_a_broken_time_column(tmp_path, capsys
 @pytest.mark.parametrize("duration", [0.05, 0.2, 0.5])
 def test_a_record_too_short_for_the_modes_is_a_named_error(duration, tmp_path, capsys):
     record = _rig().simulate(SIX, duration, 2048.0, hammers=[HIT])
-    with pytest.raises(InputError, match="record: too short: .* periods of the lowest mode .* record 1.8 s or more"):
+    with pytest.raises(InputError, match="record: too short: .* periods of the lowest mode .* record 1.84 s or more"):
         identify_from_record(Machine.resolve("kid300"), record, KNOWN, 0.07)
     path = tmp_path / "short.csv"
     write_csv(record, path)
@@ -167,16 +167,28 @@ def test_a_record_too_short_for_the_modes_is_a_named_error(duration, tmp_path, c
     [
         (math.nan, "start: must be a finite time \\[s\\], got nan"),
         (-math.inf, "start: must be a finite time \\[s\\], got -inf"),
-        (2.5, "record: too short: 0 s of free decay after the start \\(2.5 s\\)"),
+        (2.5, "start: 2.5 s is at or after the record's end \\(1.99951 s\\): no free decay"),
+        (1.9, "record: too short: 0.0995 s of free decay after the start \\(1.9 s\\) .* record 3.67 s or more"),
     ],
 )
 def test_a_start_that_is_no_time_of_the_record_is_a_named_error(start, message):
     """A NaN start passed every length check (NaN compares false) and failed in the pencil as a record of 0
-    samples; -inf was taken as the record's beginning without a word; a start past the record's end is the
-    record too short for it."""
+    samples; -inf was taken as the record's beginning without a word; a start past the record's end is named as
+    the start (it read "record: too short ... record 1e+02 s or more" for a 4 s record and --start 100)."""
     record = _rig().simulate(SIX, 2.0, 2048.0, hammers=[HIT])
     with pytest.raises(InputError, match=f"^{message}"):
         identify_from_record(Machine.resolve("kid300"), record, KNOWN, start)
+
+
+def test_the_command_line_names_the_start_as_its_option(tmp_path, capsys):
+    """An error about a command's option value names the option as typed (the Python API's parameter name,
+    "start: ...", read as a record field), and a start past the record's end is named as such."""
+    path = tmp_path / "hit.csv"
+    write_csv(_rig().simulate(SIX, 2.0, 2048.0, hammers=[HIT]), path)
+    says = {"nan": "must be a finite time [s], got nan", "100": "100 s is at or after the record's end"}
+    for start, said in says.items():
+        assert main(["process", "kid300", str(path), "--start", start]) == 2
+        assert capsys.readouterr().err.startswith(f"mountid: error: --start: {said}")
 
 
 # -- clipping ---------------------------------------------------------------------------------------------

@@ -113,7 +113,7 @@ def test_length_zero_is_a_design_and_an_undetermined_unknown_is_named(capsys):
     x, phi = float(omega[kid300.MODES.index("x")]), float(omega[kid300.MODES.index("phi")])
     code, _, err = run(capsys, "identify", "kid300", "--measured", f"x={x!r}", f"phi={phi!r}", "--set", "L_z=0")
     assert code == 2
-    assert err == "mountid: error: measured: c_z is not determined by x, phi when L_z = 0 " + (
+    assert err == "mountid: error: --measured: c_z is not determined by x, phi when L_z = 0 " + (
         "(the frequencies are reproduced, but the Jacobian is rank-deficient): measure another mode\n"
     )
     code, out, _ = run(capsys, "frequencies", "kid300", "--set", "L_z=0", "--json")
@@ -300,7 +300,7 @@ def test_records_on_a_description_without_nominal_unknowns_are_labelled_at_given
     record = str(tmp_path / "hit.csv")
     assert run(capsys, "simulate", "kid300", "--out", record, "--duration", "4")[0] == 0
     code, _, err = run(capsys, "identify-record", description, record)
-    assert code == 2 and err.startswith("mountid: error: nominal: kid300 gives no nominal value for c_xy, c_z:")
+    assert code == 2 and err.startswith("mountid: error: --nominal: kid300 gives no nominal value for c_xy, c_z:")
     code, _, err = run(capsys, "frequencies", description)  # a forward command: the option that gives them
     assert code == 2 and err.startswith("mountid: error: c_xy: missing:") and "--set c_xy=VALUE" in err
     assert run(capsys, "frequencies", description, "--set", "c_xy=7e4", "c_z=4e5")[0] == 0
@@ -319,7 +319,7 @@ def test_records_on_a_description_without_nominal_unknowns_are_labelled_at_given
     code, out, _ = run(capsys, "process", description, record, *guess, "--json")
     assert code == 0 and {"x", "z", "psi", "phi"} <= set(json.loads(out)["modes"])
     code, _, err = run(capsys, "process", description, record, "--nominal", "m=900")
-    assert code == 2 and err.startswith("mountid: error: nominal: m is not an unknown of kid300 (c_xy, c_z)")
+    assert code == 2 and err.startswith("mountid: error: --nominal: m is not an unknown of kid300 (c_xy, c_z)")
     code, _, err = run(capsys, "process", description, record, "--nominal", "c_xy=1e300", "c_z=1")
     assert code == 2 and "c_xy: 1e+300 N/m puts the model out of the range" in err
     assert err.rstrip().endswith("the description gives no nominal value")

@@ -111,7 +111,7 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     assert code == 0
     assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
     code, _, err = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "theta")
-    assert code == 2 and err.startswith("mountid: error: use: theta not found in the record")
+    assert code == 2 and err.startswith("mountid: error: --use: theta not found in the record")
 
 
 def test_an_unknown_set_as_known_is_named_before_the_record_is_read(capsys, tmp_path):

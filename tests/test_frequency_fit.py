@@ -105,7 +105,7 @@ def test_frequencies_no_mount_fits_are_an_error_naming_the_stiffness_that_ran_of
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
-    assert "error: measured: no mount of this description fits" in err and "c_v2 to zero" in err
+    assert "error: --measured: no mount of this description fits" in err and "c_v2 to zero" in err
     assert "misses phi by 26.4%" in err
 
 
@@ -159,7 +159,7 @@ def test_one_degree_of_freedom_is_said_in_the_singular(capsys):
         (["--std", "x=0.45", "psi=0.45", "phi=0.45"], "--std z:"),
         (["--std", "x=0.45", "z=0.45", "psi=0.45", "phi=0"], "--std phi:"),
         (["--set", "c_xy=7e4"], "--set c_xy:"),
-        (["--root", "c_q>c_xy"], "root:"),  # not a rule, though no tie needs one here
+        (["--root", "c_q>c_xy"], "--root:"),  # not a rule, though no tie needs one here
     ],
 )
 def test_bad_input_to_the_fit_is_one_line_naming_the_parameter(capsys, extra, named):

@@ -53,6 +53,10 @@ def test_quality_checks_name_clipping_double_hits_short_records_and_an_early_sta
     good = rig.simulate(sensors[:1], 4.0, 2000.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))])
     assert modal.hammer_test_quality(good, 17.7, start=0.07) == []
     assert [w.kind for w in modal.hammer_test_quality(good, 17.7, start=0.0)] == ["impact_in_segment"]
+    early = modal.hammer_test_quality(good, 17.7, start=0.01)[0].message
+    assert early.endswith("lies in the analysed segment (from 0.01 s)")
+    # a start before the first sample: the segment starts where the record does (it read "from -1 s")
+    assert modal.hammer_test_quality(good, 17.7, start=-1.0)[0].message.endswith("(from the record's start)")
     assert modal.hammer_test_quality(good, 17.7, start=0.07, highest_frequency=64.1) == []
     slow = rig.simulate(sensors[:1], 4.0, 50.0, hammers=[Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6))])
     assert [w.kind for w in modal.hammer_test_quality(slow, 17.7, 0.3, highest_frequency=64.1)] == ["low_rate"]

@@ -166,17 +166,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
     add_unbalance(p)
     p.set_defaults(func=cmd_forced)
+    for command in sub.choices.values():  # an error about an option's value names the option (_as_given)
+        options = {a.dest: a.option_strings[-1] for a in command._actions if a.option_strings}
+        command.set_defaults(options=options)
     return parser
 
 
 def _as_given(error: InputError, args: argparse.Namespace | None) -> str:
     """The error, its parameter named as the command line gave it: a value of ``--set`` as "--set m: ..." (a
-    campaign's as "known.m: ...")."""
+    campaign's as "known.m: ..."), the value of an option of the command as the option ("--start: ...", where
+    the Python API says "start: ...")."""
     for attr, option in (("set", "--set"), ("nominal", "--nominal")):
         given = {item.partition("=")[0].strip() for item in (getattr(args, attr, None) or ())}
         if error.parameter in given:
             return f"{option} {error}"
-    return str(error)
+    option = (getattr(args, "options", None) or {}).get(error.parameter)
+    return f"{option}: {error.reason}" if option else str(error)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1048,18 +1048,24 @@ def _check_length(record: Record, start: float, lowest: float, settings: RecordS
     """A named error when the free decay after ``start`` [s] holds fewer than settings.min_periods periods of
     the lowest mode expected (``lowest`` [rad/s], the model's at the nominal values): the pencil cannot
     resolve it, and a shorter segment would only fail later with a less useful message. A start that is not
-    finite is an error naming the start (NaN passed every comparison and failed in the pencil)."""
+    finite (NaN passed every comparison and failed in the pencil), or at or after the last sample of a record long
+    enough from its beginning (the start is past it, not the record too short), is an error naming the start."""
     if not math.isfinite(start):
         raise InputError("start", f"must be a finite time [s], got {start}")
     length = float(record.time[-1]) - max(start, float(record.time[0]))
     periods = max(length, 0.0) * lowest / (2 * np.pi)
+    whole = (float(record.time[-1]) - float(record.time[0])) * lowest / (2 * np.pi)
+    if start >= float(record.time[-1]) and whole >= settings.min_periods:
+        raise InputError(
+            "start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s): no free decay"
+        )
     if periods < settings.min_periods:
         need = settings.min_periods * 2 * np.pi / lowest + max(start - float(record.time[0]), 0.0)
         raise InputError(
             "record",
             f"too short: {max(length, 0.0):.3g} s of free decay after the start ({start:g} s) holds {periods:.1f} "
             f"periods of the lowest mode ({lowest:.4g} rad/s); at least {settings.min_periods:g} are needed: "
-            f"record {need:.2g} s or more",
+            f"record {need:.3g} s or more",
         )
 
 

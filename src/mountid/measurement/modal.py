@@ -676,7 +676,8 @@ def hammer_test_quality(
                 QualityWarning(
                     "impact_in_segment",
                     "all",
-                    f"the impact at t = {record.time[peaks[0]]:.3f} s lies in the analysed segment (from {start:g} s)",
+                    f"the impact at t = {record.time[peaks[0]]:.3f} s lies in the analysed segment (from "
+                    + (f"{start:g} s)" if start > record.time[0] else "the record's start)"),
                 )
             )
         if len(peaks) > 1:
