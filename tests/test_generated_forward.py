@@ -91,6 +91,28 @@ def test_vectorised_calls_broadcast_like_scalar_calls():
             np.testing.assert_array_equal(lam[i, j], mod.squared_frequencies(**TABLE_1, c_xy=c_xy[i, j], c_z=4.7e5))
 
 
+@pytest.mark.parametrize("name", MACHINES)
+def test_a_row_without_modes_is_nan_and_the_batch_beside_it_is_solved(name):
+    """A batch row whose parameters give no modes (a NaN or infinite value, a negative mass) is NaN in every
+    forward function, and the rows beside it equal their scalar calls: in numerically solved blocks
+    (skid1plane's 3x3) numpy's eigh and Cholesky raised LinAlgError for the whole batch."""
+    mod = generated(name)
+    p = {a: mod.PARAMETERS[a]["value"] for a in mod.FORWARD_ARGUMENTS}
+    mass = next(a for a in mod.FORWARD_ARGUMENTS if mod.PARAMETERS[a]["kind"] == "mass")
+    unknown = mod.UNKNOWN[0]
+    for varied, bad in ((unknown, np.nan), (unknown, np.inf), (mass, -p[mass]), (mass, np.nan)):
+        values = {**p, varied: np.array([p[varied], bad, 0.5 * p[varied]])}
+        for function in ("frequencies", "modal_matrix", "kinetic_energy_distribution"):
+            with np.errstate(invalid="ignore"):
+                rows = getattr(mod, function)(**values)
+                assert np.isnan(rows[1]).any(), (function, varied, bad)
+                assert not np.isnan(rows[0]).any() and not np.isnan(rows[2]).any()
+                np.testing.assert_array_equal(rows[0], getattr(mod, function)(**p))
+                np.testing.assert_array_equal(rows[2], getattr(mod, function)(**{**p, varied: 0.5 * p[varied]}))
+        with np.errstate(invalid="ignore"):
+            assert np.isnan(mod.frequencies(**{**p, varied: bad})).any()  # the modes it enters
+
+
 class HighPrecision:
     """The symbolic closed-form eigenvalues of a description, evaluated with mpmath at 50 digits."""
 

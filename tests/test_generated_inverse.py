@@ -397,6 +397,13 @@ def test_a_given_frequency_that_is_no_frequency_has_no_root(name):
     roots = mod.INVERSES[key](**knowns, **given_)
     assert roots.admissible[:, 0].any()
     assert not roots.admissible[:, 1:].any()
+    # a batch row of known parameters without modes (a negative or NaN mass): no root there, the others solved
+    # (a numerically solved block's eigh raised for the whole batch)
+    mass = next(a for a in knowns if mod.PARAMETERS[a]["kind"] == "mass")
+    given_ = {f"omega_{k}": omega[mod.MODES.index(k)] for k in key}
+    with np.errstate(invalid="ignore"):
+        roots = mod.INVERSES[key](**{**knowns, mass: np.array([p[mass], -p[mass], np.nan])}, **given_)
+    assert roots.admissible.any(axis=0).tolist() == [True, False, False]
 
 
 def test_frequency_standard_deviations_are_checked():

@@ -61,11 +61,33 @@ def block_eigen(
     """Eigenvalues (ascending) and mass-normalised eigenvectors of one block of (C, M), numerically.
 
     Solves C_b u = lambda M_b u through the Cholesky factor of M_b and numpy's symmetric eigen-solver.
-    Returns (lam (..., n), vectors (..., n, n)) with vectors as columns.
+    Returns (lam (..., n), vectors (..., n, n)) with vectors as columns. A row of the batch without a solution
+    (an entry NaN or infinite, M_b not positive definite) is NaN, as the closed-form blocks give it, and the
+    other rows are solved (numpy raised LinAlgError for the whole batch).
     """
     idx = np.asarray(index)
     mb = mass[..., idx[:, None], idx[None, :]]
     cb = stiffness[..., idx[:, None], idx[None, :]]
+    try:
+        return _block_eigen(mb, cb)
+    except np.linalg.LinAlgError:
+        pass
+    mb, cb = np.broadcast_arrays(mb, cb)
+    shape = mb.shape
+    mb, cb = mb.reshape(-1, *shape[-2:]), cb.reshape(-1, *shape[-2:])  # one batch axis (a scalar batch too)
+    lam = np.full(mb.shape[:-1], np.nan)
+    vec = np.full(mb.shape, np.nan)
+    good = np.all(np.isfinite(mb) & np.isfinite(cb), axis=(-1, -2))
+    good[good] = np.linalg.eigvalsh(mb[good])[..., 0] > 0
+    with np.errstate(all="ignore"):  # entries so large that the reduced stiffness overflows
+        inv = np.linalg.inv(np.linalg.cholesky(mb[good]))
+        good[good] = np.all(np.isfinite(inv @ cb[good] @ np.swapaxes(inv, -1, -2)), axis=(-1, -2))
+    if good.any():
+        lam[good], vec[good] = _block_eigen(mb[good], cb[good])
+    return lam.reshape(shape[:-1]), vec.reshape(shape)
+
+
+def _block_eigen(mb: NDArray, cb: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     chol = np.linalg.cholesky(mb)
     inv = np.linalg.inv(chol)
     sym = inv @ cb @ np.swapaxes(inv, -1, -2)
