@@ -80,6 +80,18 @@ def test_modal_matrix_of_a_stiff_mode_on_an_ill_conditioned_mass_matrix():
     check_modal_matrix("skid1plane", p)
 
 
+@pytest.mark.parametrize(("height", "above"), [(0.0, 0.0), (0.0, 1e-13), (1e-12, 0.0), (1e-12, 1e-13)])
+def test_modal_matrix_at_a_double_root_of_an_uncoupled_block(height, above):
+    """kid300 with its isolators in the plane of the centre of mass (L_z = 0: x and theta uncoupled), or a
+    picometre off it, and c_xy where the x translation's frequency meets the rocking's (``above``: relative
+    distance from it): the block's two modes, twins within EQUAL_EIGENVALUES, are an M-orthonormal pair. Each
+    mode's own null vector of (C - lambda M) gave NaN at the double root (with a RuntimeWarning) and nearly the
+    same vector twice beside it (phi^T M phi off the identity by 2e-5)."""
+    p = dict(TABLE_1, L_z=0.0, c_z=472.3e3)
+    p["c_xy"] = generated("kid300").squared_frequencies(**p, c_xy=74.4e3)[3] * p["m"] / 4 * (1 + above)
+    check_modal_matrix("kid300", {**p, "L_z": height})
+
+
 def test_vectorised_calls_broadcast_like_scalar_calls():
     mod = generated("kid300")
     rng = np.random.default_rng(1)

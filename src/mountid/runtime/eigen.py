@@ -107,8 +107,11 @@ def modal_matrix(
 
     For a block of size 1 the shape is 1/sqrt(M_ii). For size 2 the null vector of (C_b - lambda M_b) is
     taken from whichever row gives the larger vector (the other row may suffer cancellation when the
-    coupling is weak). Larger blocks use :func:`block_eigen`. Sign convention: the entry with the largest
-    mass-weighted magnitude is positive.
+    coupling is weak); where the block's two eigenvalues are equal within EQUAL_EIGENVALUES (twins: every
+    vector of the block is a mode, or nearly), its rank-2 mode is the M-orthogonal complement of its rank-1
+    mode, which is the block's first coordinate where C_b - lambda M_b is exactly zero (each null vector alone
+    gave the same vector twice near a double root of an uncoupled block, and NaN at it). Larger blocks use
+    :func:`block_eigen`. Sign convention: the entry with the largest mass-weighted magnitude is positive.
     """
     mass, stiffness, lam = np.broadcast_arrays(*as_arrays(mass, stiffness[..., :, :], lam[..., None, :]))
     lam = lam[..., 0, :]
@@ -122,24 +125,44 @@ def modal_matrix(
             phi[..., i, k] = 1.0 / np.sqrt(mass[..., i, i])
             continue
         if len(idx) == 2:
-            i, j = idx
-            lk = lam[..., k]
-            a11 = stiffness[..., i, i] - lk * mass[..., i, i]
-            a12 = stiffness[..., i, j] - lk * mass[..., i, j]
-            a22 = stiffness[..., j, j] - lk * mass[..., j, j]
-            u_row1 = np.stack([-a12, a11], axis=-1)
-            u_row2 = np.stack([a22, -a12], axis=-1)
-            use1 = np.hypot(a12, a11) > np.hypot(a22, a12)
-            u = np.where(use1[..., None], u_row1, u_row2)
             mb = mass[..., np.array(idx)[:, None], np.array(idx)[None, :]]
-            norm = np.sqrt(np.einsum("...i,...ij,...j->...", u, mb, u))
-            u = u / norm[..., None]
-            phi[..., i, k], phi[..., j, k] = u[..., 0], u[..., 1]
+            cb = stiffness[..., np.array(idx)[:, None], np.array(idx)[None, :]]
+            u = _null_vector(mb, cb, lam[..., k])
+            other = [j for j, c in enumerate(mode_block) if c == b and mode_rank[j] != rank]
+            if other:
+                twin = np.abs(lam[..., other[0]] - lam[..., k]) <= EQUAL_EIGENVALUES * np.abs(lam[..., k])
+                if np.any(twin):
+                    first = u if rank == 1 else _null_vector(mb, cb, lam[..., other[0]])
+                    first = np.where((_m_norm(first, mb) == 0)[..., None], np.array([1.0, 0.0]), first)
+                    if rank == 1:
+                        u = np.where(twin[..., None], first, u)
+                    else:  # the M-orthogonal complement of the rank-1 mode
+                        m_first = np.einsum("...ij,...j->...i", mb, first)
+                        u = np.where(twin[..., None], np.stack([-m_first[..., 1], m_first[..., 0]], axis=-1), u)
+            u = u / _m_norm(u, mb)[..., None]
+            phi[..., idx[0], k], phi[..., idx[1], k] = u[..., 0], u[..., 1]
             continue
         if b not in numeric:
             numeric[b] = block_eigen(mass, stiffness, idx)[1]
         phi[..., np.array(idx), k] = numeric[b][..., :, rank - 1]
     return with_positive_largest(phi, mass)
+
+
+def _null_vector(mb: NDArray, cb: NDArray, lk: NDArray) -> NDArray[np.float64]:
+    """A null vector of the 2 x 2 matrix C_b - lambda M_b (unnormalised, shape (..., 2)), from whichever row gives
+    the larger vector (the other row may suffer cancellation when the coupling is weak)."""
+    a11 = cb[..., 0, 0] - lk * mb[..., 0, 0]
+    a12 = cb[..., 0, 1] - lk * mb[..., 0, 1]
+    a22 = cb[..., 1, 1] - lk * mb[..., 1, 1]
+    u_row1 = np.stack([-a12, a11], axis=-1)
+    u_row2 = np.stack([a22, -a12], axis=-1)
+    use1 = np.hypot(a12, a11) > np.hypot(a22, a12)
+    return np.where(use1[..., None], u_row1, u_row2)
+
+
+def _m_norm(u: NDArray, mb: NDArray) -> NDArray[np.float64]:
+    """sqrt(u^T M_b u) of vectors u (..., 2)."""
+    return np.sqrt(np.einsum("...i,...ij,...j->...", u, mb, u))
 
 
 EQUAL_EIGENVALUES = 1e-9
