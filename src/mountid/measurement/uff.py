@@ -207,16 +207,18 @@ def _time_response(s: dict, name: str) -> None:
 
 
 def _whole(path: Path, window: int = 256) -> None:
-    """An InputError where ``path`` starts as a UFF file (a "-1" line) and does not end with one: its last dataset
-    is cut short (an interrupted copy). pyuff leaves an unterminated block out without a word, and with it the
-    channels it held. Reads the first and last ``window`` bytes only."""
+    """An InputError where ``path`` starts as a UFF file (a "-1" line) and does not end with one (or, after a
+    binary dataset's data, with its "    -1" field): its last dataset is cut short (an interrupted copy). pyuff
+    leaves an unterminated block out without a word, and with it the channels it held. Reads the first and last
+    ``window`` bytes only."""
     with path.open("rb") as f:
         head = f.read(window)
         f.seek(max(0, path.stat().st_size - window))
         tail = f.read()
     first = head.strip().split(b"\n", 1)[0].strip()
     last = tail.rstrip().rsplit(b"\n", 1)[-1].strip()
-    if first == b"-1" and last != b"-1":
+    # a binary dataset (58b) ends with its data and the "    -1" field (I6) with no line break between them
+    if first == b"-1" and last != b"-1" and not tail.rstrip().endswith(b"    -1"):
         raise InputError(
             "record", f"{path.name} ends inside a dataset (no closing -1 line): the file is cut short; copy it again"
         )
