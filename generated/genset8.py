@@ -2041,9 +2041,10 @@ def identify_x_y_z_psi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, 
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_y, omega_z, omega_psi
@@ -2364,9 +2365,10 @@ def identify_x_z_theta_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_x, omega_z, omega_theta, omega_phi
@@ -2625,9 +2627,10 @@ def identify_y_z_psi_theta(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_theta
@@ -2851,9 +2854,10 @@ def identify_y_z_psi_phi(m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a1, a2, b, h, gamma, omega_y, omega_z, omega_psi, omega_phi

@@ -955,9 +955,10 @@ def identify_x_z(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_z = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_z)
     return _runtime.solve_inverse(
@@ -1010,9 +1011,10 @@ def identify_x_psi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_psi)
     return _runtime.solve_inverse(
@@ -1061,9 +1063,10 @@ def identify_x_phi(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_x, omega_phi)
     return _runtime.solve_inverse(
@@ -1110,9 +1113,10 @@ def identify_z_psi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_z, omega_psi)
     return _runtime.solve_inverse(
@@ -1157,9 +1161,10 @@ def identify_z_phi(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_z, omega_phi)
     return _runtime.solve_inverse(
@@ -1211,9 +1216,10 @@ def identify_psi_phi(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi = _runtime.as_operands(m, J_xy, J_z, L_xy, L_z, omega_psi, omega_phi)
     return _runtime.solve_inverse(

@@ -1150,9 +1150,10 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_z
@@ -1219,9 +1220,10 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_psi
@@ -1280,9 +1282,10 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta)
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_theta
@@ -1376,9 +1379,10 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_y, omega_phi
@@ -1431,9 +1435,10 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_psi
@@ -1484,9 +1489,10 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_z, omega_phi
@@ -1545,9 +1551,10 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_th
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_theta
@@ -1641,9 +1648,10 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi)
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_psi, omega_phi
@@ -1700,9 +1708,10 @@ def identify_x_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_x, omega_theta, omega_phi
@@ -1755,9 +1764,10 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta)
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_theta
@@ -1818,9 +1828,10 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_z, omega_phi
@@ -1887,9 +1898,10 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_th
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_theta
@@ -1946,9 +1958,10 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi)
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_psi, omega_phi
@@ -2043,9 +2056,10 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_y, omega_theta, omega_phi
@@ -2098,9 +2112,10 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_th
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_theta
@@ -2161,9 +2176,10 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi)
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_psi, omega_phi
@@ -2214,9 +2230,10 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_z, omega_theta, omega_phi
@@ -2311,9 +2328,10 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, om
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, omega_psi, omega_theta, omega_phi

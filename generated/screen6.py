@@ -1607,9 +1607,10 @@ def identify_x_y_z(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z):
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_z
@@ -1718,9 +1719,10 @@ def identify_x_y_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_psi
@@ -1912,9 +1914,10 @@ def identify_x_y_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_theta
@@ -2123,9 +2126,10 @@ def identify_x_y_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_p
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_y, omega_phi
@@ -2226,9 +2230,10 @@ def identify_x_z_psi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_psi
@@ -2364,9 +2369,10 @@ def identify_x_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_theta
@@ -2514,9 +2520,10 @@ def identify_x_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_p
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_z, omega_phi
@@ -2708,9 +2715,10 @@ def identify_x_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, o
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_theta
@@ -2918,9 +2926,10 @@ def identify_x_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, ome
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_x, omega_psi, omega_phi
@@ -3021,9 +3030,10 @@ def identify_y_z_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_theta
@@ -3090,9 +3100,10 @@ def identify_y_z_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_p
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_z, omega_phi
@@ -3201,9 +3212,10 @@ def identify_y_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, o
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_theta
@@ -3278,9 +3290,10 @@ def identify_y_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, ome
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_psi, omega_phi
@@ -3490,9 +3503,10 @@ def identify_y_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta,
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_y, omega_theta, omega_phi
@@ -3593,9 +3607,10 @@ def identify_z_psi_theta(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, o
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_theta
@@ -3662,9 +3677,10 @@ def identify_z_psi_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, ome
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_psi, omega_phi
@@ -3812,9 +3828,10 @@ def identify_z_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta,
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_z, omega_theta, omega_phi
@@ -4023,9 +4040,10 @@ def identify_psi_theta_phi(m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_th
     Root choice: a root is admissible when every unknown is positive and finite, each given
     frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine
     the unknowns there (full rank): a root that puts a given frequency on the other mode of its block
-    is rejected. All admissible roots are returned; where several remain (both roots of a block
-    given), the data alone cannot choose between them and the choice is physical (the paper keeps
-    c_z > c_xy for its isolators).
+    is rejected, and a row whose given frequency is not positive and finite has none (a negative
+    omega is not its positive twin). All admissible roots are returned; where several remain (both
+    roots of a block given), the data alone cannot choose between them and the choice is physical
+    (the paper keeps c_z > c_xy for its isolators).
     """
     m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi = _runtime.as_operands(
         m, J_x, J_y, J_z, a, b, h, alpha, omega_psi, omega_theta, omega_phi

@@ -216,8 +216,9 @@ def inverse_functions(
         + "\n    Root choice: a root is admissible when every unknown is positive and finite, each given\n"
         "    frequency is reproduced by the mode it is labelled as (rel. 1e-11) and the frequencies determine\n"
         "    the unknowns there (full rank): a root that puts a given frequency on the other mode of its block\n"
-        "    is rejected. All admissible roots are returned; where several remain (both roots of a block\n"
-        "    given), the data alone cannot choose between them and the choice is physical (the paper keeps\n"
-        "    c_z > c_xy for its isolators).\n"
+        "    is rejected, and a row whose given frequency is not positive and finite has none (a negative\n"
+        "    omega is not its positive twin). All admissible roots are returned; where several remain (both\n"
+        "    roots of a block given), the data alone cannot choose between them and the choice is physical\n"
+        "    (the paper keeps c_z > c_xy for its isolators).\n"
     )
     return [*candidates, Function(f"identify_{s.name}", known + omegas, doc, layout)]
