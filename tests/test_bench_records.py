@@ -191,6 +191,20 @@ def test_the_command_line_names_the_start_as_its_option(tmp_path, capsys):
         assert capsys.readouterr().err.startswith(f"mountid: error: --start: {said}")
 
 
+def test_one_channel_reports_no_mac(tmp_path, capsys):
+    """A single channel's shape is one number: its MAC against any mode is 1. It was reported as "MAC 1.00" in
+    the text, the JSON and the mode figure's titles, as if the shape agreed; now it is not reported (None)."""
+    record = _rig().simulate([Sensor("a", (0.0, 0.0, 0.0), (1, 0, 0))], 4.0, 2048.0, hammers=[HIT])
+    found = modal_data(Machine.resolve("kid300"), record, {}, 0.07)
+    assert found.modes and all(m.mac is None for m in found.modes.values())
+    two = _rig().simulate([Sensor("a", (0.0, 0.0, 0.0), (1, 0, 0)), *SIX[:1]], 4.0, 2048.0, hammers=[HIT])
+    assert all(m.mac is not None for m in modal_data(Machine.resolve("kid300"), two, {}, 0.07).modes.values())
+    path = tmp_path / "one.csv"
+    write_csv(record, path)
+    assert main(["identify-record", "kid300", str(path)]) == 0
+    assert "MAC" not in capsys.readouterr().out
+
+
 # -- clipping ---------------------------------------------------------------------------------------------
 def test_clipping_under_noise_is_named():
     """A sensor saturated before the electronics add their noise: no exact flat top, still clipping."""

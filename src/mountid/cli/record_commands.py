@@ -203,7 +203,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     for k, m in result.modes.items():
         print(
             f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
-            f"  zeta {m.damping_ratio:.4f}  MAC {m.mac:.2f}"
+            f"  zeta {m.damping_ratio:.4f}" + (f"  MAC {m.mac:.2f}" if m.mac is not None else "")
         )
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")

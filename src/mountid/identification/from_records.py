@@ -1001,7 +1001,7 @@ def modal_data(
             shape_std=coordinate_shape_std(rows, p.shape, p.shape_std, length)
             if full and label not in mixed and p.shape_std is not None
             else None,
-            mac=m,
+            mac=m if rows.shape[0] > 1 else None,  # one channel's "shape" is its sign: a MAC of 1 by definition
         )
         for label, (p, m) in labelled.items()
     }
