@@ -28,9 +28,15 @@ POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotationa
 """Kinds whose values must be strictly positive (a length may be 0 where the description allows it)."""
 
 
-def counted(n: int, noun: str) -> str:
-    """``n`` with ``noun`` in the number it takes: "1 channel", "12 channels", "0 degrees" (a regular plural)."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``n`` with ``noun`` in the number it takes: "1 channel", "12 channels", "0 degrees" (a regular plural, or
+    ``plural``: "1 distinct frequency", "2 distinct frequencies")."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
+
+
+def distinct_frequencies(n: int) -> str:
+    """ "1 distinct frequency", "3 distinct frequencies": how many distinct natural frequencies a measurement gives."""
+    return counted(n, "distinct frequency", "distinct frequencies")
 
 
 def root_rule(rule: str, unknown: tuple[str, ...] | list[str]) -> tuple[str, str] | None:

@@ -64,7 +64,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
             }
         )
         return
-    print(f"{machine.name}: {len(solutions)} admissible solution(s) for {measured}")
+    print(f"{machine.name}: {counted(len(solutions), 'admissible solution')} for {measured}")
     for k, s in enumerate(solutions, 1):
         params = ", ".join(
             f"{n} = {v:.6g}"
@@ -249,7 +249,7 @@ def cmd_describe(args: argparse.Namespace) -> None:
         if key in numeric:
             print(f"  {', '.join(key):24s} solvable numerically ({n} starts): {numeric[key]}")
         else:
-            print(f"  {', '.join(key):24s} solvable, {n} candidate root(s)")
+            print(f"  {', '.join(key):24s} solvable, {counted(n, 'candidate root')}")
     if getattr(m, "SPECIAL_POINTS", ()):
         print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
     for key, reason in m.UNIDENTIFIABLE.items():

@@ -52,7 +52,7 @@ from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
 from mountid.measurement.records import Channel
-from mountid.nomenclature import POSITIVE_KINDS, counted
+from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
 
 
 def schema() -> dict:
@@ -307,7 +307,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if len(distinct) < need:
         raise InputError(
             "fit" if fit else "modes",
-            f"{len(distinct)} distinct frequencies for {len(machine.unknown)} unknowns"
+            f"{distinct_frequencies(len(distinct))} for {len(machine.unknown)} unknowns"
             + ("" if fit else " plus one held out"),
         )
     sensors = tuple(_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))

@@ -15,6 +15,7 @@ import scipy.stats
 from mountid.errors import InputError
 from mountid.identification.from_records import fit_stiffness
 from mountid.machine import Machine
+from mountid.nomenclature import distinct_frequencies
 
 NOT_NOISE_SCATTER = 0.05
 """Relative RMS scatter of measured frequencies about the fit beyond which the fit notes that it is not
@@ -85,7 +86,7 @@ def fit_frequencies(
     machine.check_known(known)
     n = len(machine.unknown)
     if len(chosen) <= n:
-        raise InputError("measured", f"{len(chosen)} distinct frequencies for {n} unknowns: no least squares fit")
+        raise InputError("measured", f"{distinct_frequencies(len(chosen))} for {n} unknowns: no least squares fit")
     sigma = machine.measured_std(chosen, std)
     data = {k: (w, sigma[k] if sigma else 0.0) for k, (_, w) in chosen.items()}
     rule = root or getattr(machine.module, "ROOT_RULE", "") or None

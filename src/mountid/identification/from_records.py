@@ -42,7 +42,7 @@ from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
-from mountid.nomenclature import counted, root_rule
+from mountid.nomenclature import counted, distinct_frequencies, root_rule
 
 
 @dataclass(frozen=True)
@@ -601,7 +601,7 @@ def fit_stiffness(
         root_predicate(root, unknown)  # a rule that is not one is an error whether or not a tie needs it
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
     if len(labels) < len(unknown):
-        raise InputError("measured", f"{len(labels)} distinct frequencies found for {len(unknown)} unknowns")
+        raise InputError("measured", f"{distinct_frequencies(len(labels))} found for {len(unknown)} unknowns")
     knowns = machine.values(known, tuple(a for a in mod.FORWARD_ARGUMENTS if a not in unknown))
     idx = [mod.MODES.index(lab) for lab in labels]
     omega = np.array([measured[lab][0] for lab in labels])

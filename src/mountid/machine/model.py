@@ -19,7 +19,7 @@ import numpy as np
 from mountid.errors import InputError, real_number
 from mountid.machine.dynamics import call
 from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
-from mountid.nomenclature import POSITIVE_KINDS
+from mountid.nomenclature import POSITIVE_KINDS, distinct_frequencies
 
 
 @dataclass(frozen=True)
@@ -342,7 +342,7 @@ class Machine:
         if len(key) != n:
             raise InputError(
                 "measured",
-                f"{len(key)} distinct frequencies given for {n} unknowns ({', '.join(self.unknown)}); "
+                f"{distinct_frequencies(len(key))} given for {n} unknowns ({', '.join(self.unknown)}); "
                 f"give {n} of {', '.join(self.unique_modes)}",
             )
         if key in self.module.UNIDENTIFIABLE:
