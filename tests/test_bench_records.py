@@ -193,7 +193,8 @@ def test_the_command_line_names_the_start_as_its_option(tmp_path, capsys):
 
 def test_one_channel_reports_no_mac(tmp_path, capsys):
     """A single channel's shape is one number: its MAC against any mode is 1. It was reported as "MAC 1.00" in
-    the text, the JSON and the mode figure's titles, as if the shape agreed; now it is not reported (None)."""
+    the text, the JSON and the mode figure's titles, as if the shape agreed; now it is not reported (None). The
+    modes the channel does not see are named as not found."""
     record = _rig().simulate([Sensor("a", (0.0, 0.0, 0.0), (1, 0, 0))], 4.0, 2048.0, hammers=[HIT])
     found = modal_data(Machine.resolve("kid300"), record, {}, 0.07)
     assert found.modes and all(m.mac is None for m in found.modes.values())
@@ -202,7 +203,28 @@ def test_one_channel_reports_no_mac(tmp_path, capsys):
     path = tmp_path / "one.csv"
     write_csv(record, path)
     assert main(["identify-record", "kid300", str(path)]) == 0
-    assert "MAC" not in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "MAC" not in out
+    # the modes a channel along x at the centre of mass does not see are named (the table alone left them out)
+    assert "\n  not found in the record: z, phi\n" in out
+    assert main(["process", "kid300", str(path)]) == 0
+    assert capsys.readouterr().out.endswith("\n  not found in the record: z, phi\n")
+
+
+def test_the_record_tables_name_missing_modes_and_unlabelled_poles():
+    """Below a record's table of modes: the model's modes without a pole (a twin found counts for both) and the
+    poles labelled as no mode, which only the JSON held."""
+    from mountid.cli.record_commands import _not_found
+    from mountid.measurement.modes import MeasuredMode
+
+    machine = Machine.resolve("kid300")
+    found = {label: MeasuredMode(label, 1.0, 0.1) for label in ("y", "psi")}
+    stray = modal.Pole(25.31, 0.0123, np.ones(1, complex))
+    assert _not_found(machine, found, [stray]) == [
+        "not found in the record: z, phi",
+        "poles labelled as no mode of the model: 25.31 rad/s (zeta 0.0123)",
+    ]
+    assert _not_found(machine, {k: MeasuredMode(k, 1.0, 0.1) for k in ("x", "z", "psi", "phi")}, []) == []
 
 
 # -- clipping ---------------------------------------------------------------------------------------------

@@ -267,7 +267,7 @@ def test_nominal_values_a_description_leaves_out_are_identified_from_the_campaig
     data["modes"]["x"]["damping_ratio"], data["modes"]["psi"]["damping_ratio"] = 0.9, 1e-4
     with pytest.raises(InputError, match=r"^machine: .* identify -?[0-9.]+ N s/m, not a damping"):
         parse(data)
-    with pytest.raises(InputError, match=r"^machine: .* do not identify them: measured: 1 distinct frequency found for"):
+    with pytest.raises(InputError, match=r"^machine: .* do not identify them: measured: 1 distinct frequency f"):
         parse(
             {**_campaign({"x": _measured()["x"]}, machine=description), "known": {**TABLE_1, "b_xy": 1.0, "b_z": 1.0}}
         )

@@ -205,6 +205,8 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
             f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
             f"  zeta {m.damping_ratio:.4f}" + (f"  MAC {m.mac:.2f}" if m.mac is not None else "")
         )
+    for line in _not_found(machine, result.modes, result.unlabelled):
+        print(f"  {line}")
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
@@ -232,6 +234,20 @@ def cmd_process(args: argparse.Namespace) -> None:
     print('  the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')
     for k, m in modes.items():
         print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
+    for line in _not_found(machine, modes, rest):
+        print(f"  {line}")
+
+
+def _not_found(machine: Machine, modes: dict, unlabelled: list) -> list[str]:
+    """Lines naming the model's modes without a labelled pole (twins count as found with each other) and the
+    poles that were labelled as no mode: what a reader of the table would otherwise not see."""
+    found = {machine.module.REPRESENTATIVE[label] for label in modes}
+    missing = [label for label in machine.unique_modes if label not in found]
+    lines = [f"not found in the record: {', '.join(missing)}"] if missing else []
+    if unlabelled:
+        poles = ", ".join(f"{p.frequency:.4g} rad/s (zeta {p.damping_ratio:.3g})" for p in unlabelled)
+        lines.append(f"poles labelled as no mode of the model: {poles}")
+    return lines
 
 
 def _steady_amplitude(rig: Rig, unbalance: Unbalance) -> NDArray:
