@@ -222,6 +222,27 @@ def test_a_pole_on_twins_has_the_mac_of_their_span():
     assert all(m.mac > 0.9999 for m in modes.values()), {k: m.mac for k, m in modes.items()}
 
 
+def test_the_mode_figure_draws_a_legend_only_for_lines_it_draws(monkeypatch, tmp_path):
+    """The mode figure's legend named "red dashed: measured" where no mode had a shape in q (five channels that do
+    not span the six motions): it says so instead."""
+    from mountid.measurement.modes import MeasuredMode
+    from mountid.report import figures
+
+    titles = []
+
+    def title_only(fig, path):
+        titles.append(fig._suptitle.get_text())
+        figures.plt.close(fig)
+
+    monkeypatch.setattr(figures, "_save", title_only)
+    machine = Machine.resolve("kid300")
+    shape = tuple(machine.module.modal_matrix(**machine.values(KNOWN, machine.module.FORWARD_ARGUMENTS))[:, 0])
+    for given in ({"x": MeasuredMode("x", 17.7, 0.1)}, {"x": MeasuredMode("x", 17.7, 0.1, shape=shape)}):
+        figures.mode_shapes_figure(machine, KNOWN, (0.5, 0.5, 0.4), tmp_path / "modes.png", given)
+    assert "no measured shape (the channels do not span the six motions)" in titles[0]
+    assert "red dashed" not in titles[0] and "red dashed: measured" in titles[1]
+
+
 def test_the_record_tables_name_missing_modes_and_unlabelled_poles():
     """Below a record's table of modes: the model's modes without a pole (a twin found counts for both) and the
     poles labelled as no mode, which only the JSON held."""

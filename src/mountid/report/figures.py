@@ -262,9 +262,13 @@ def mode_shapes_figure(
         elif measured:
             title += "\nnot in the record"
         axes[0, k].set_title(title, fontsize=8)
+    if any(m.shape is not None for m in measured.values()):
+        drawn = "red dashed: measured (shape in q); "
+    else:  # a legend for lines that are not there read as a measured shape that coincides with the model's
+        drawn = "no measured shape (the channels do not span the six motions); " if measured else ""
     fig.suptitle(
-        "blue: model at the identified values; red dashed: measured (shape in q); triangles: isolators; dots: "
-        f"sensors; largest motion drawn as {scale:.2g} m",
+        f"blue: model at the identified values; {drawn}triangles: isolators; dots: sensors; largest motion drawn "
+        f"as {scale:.2g} m",
         fontsize=8,
     )
     return _save(fig, path)
