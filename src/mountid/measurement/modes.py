@@ -17,7 +17,8 @@ class MeasuredMode:
     ``damping_ratio`` [1] and ``damping_std``; ``shape`` in the coordinates q (rotations in rad) with
     ``shape_std`` the standard deviation per component of the shape scaled to unit length (rotations times
     the machine's length scale); ``mac`` the MAC of the channel shape against the model's mode it is
-    labelled as (records of two response channels or more: one channel's MAC is 1 whatever it measured).
+    labelled as, or for a pole that stands for twins its share in their span (records of two response channels
+    or more: one channel's MAC is 1 whatever it measured).
     Quantities the measurement does not give are None."""
 
     label: str
