@@ -309,7 +309,8 @@ def experiment_figures(
 
 def diagnosis_figure(diagnosis: Diagnosis, path: str | Path, title: str = "") -> Path:
     """Left: each mode's gap in units of its uncertainty, before (nominal) and after the best candidate,
-    fitted and held out (linear within 2 sigma, logarithmic beyond), and each measured damping ratio's (fitted).
+    fitted and held out (linear within 2 sigma, logarithmic beyond; a held-out gap with its prediction's own
+    standard deviation as an error bar), and each measured damping ratio's (fitted).
     Right: the candidates by posterior probability (tie shaded, implausible hatched, those the data fit as well as
     the first marked: candidates.alike), with the nominal model for reference."""
     effects = diagnosis.effects
@@ -318,27 +319,38 @@ def diagnosis_figure(diagnosis: Diagnosis, path: str | Path, title: str = "") ->
     sigma = np.array([diagnosis.campaign.modes[label].frequency_std for label in labels])
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1.1, 1]})
     x = np.arange(len(labels))
-    # (name, frequency gaps, colour, damping-ratio gaps: the fitted series only)
+    # (name, frequency gaps, colour, damping-ratio gaps: the fitted series only, held-out variances: the held-out)
     series = [
-        ("before, fitted", nominal.frequency_gap, "#999999", nominal.damping_gap),
-        ("before, held out", nominal.held_out_gap, "#cccccc", None),
+        ("before, fitted", nominal.frequency_gap, "#999999", nominal.damping_gap, None),
+        ("before, held out", nominal.held_out_gap, "#cccccc", None, nominal.held_out_variance),
     ]
     if best is not None:
         series += [
-            (f"{best.effect}, fitted", best.frequency_gap, "#1f77b4", best.damping_gap),
-            (f"{best.effect}, held out", best.held_out_gap, "#9ecae1", None),
+            (f"{best.effect}, fitted", best.frequency_gap, "#1f77b4", best.damping_gap, None),
+            (f"{best.effect}, held out", best.held_out_gap, "#9ecae1", None, best.held_out_variance),
         ]
     width = 0.8 / len(series)
-    for k, (name, gap, colour, _) in enumerate(series):
+    for k, (name, gap, colour, _, variance) in enumerate(series):
         z = np.array([gap.get(label, np.nan) for label in labels]) / sigma
-        left.bar(x + (k - (len(series) - 1) / 2) * width, z, width, label=name, color=colour)
+        # a held-out prediction's own standard deviation (the refit without the mode, propagated): a mode that
+        # alone determines a parameter is predicted hundreds of sigma off within a spread as wide
+        spread = None if variance is None else np.sqrt([variance.get(label, np.nan) for label in labels])
+        left.bar(
+            x + (k - (len(series) - 1) / 2) * width,
+            z,
+            width,
+            label=name,
+            color=colour,
+            yerr=spread,
+            error_kw={"lw": 0.7, "capsize": 1.5, "ecolor": "#555555"},
+        )
     damped = list(nominal.damping_gap)  # the damping ratios' gaps beside the frequencies'
     if damped:
         from mountid.diagnosis.fitting import damping_std
 
         xd = len(labels) + 0.5 + np.arange(len(damped))
         std = np.array([damping_std(diagnosis.campaign.modes[label]) for label in damped])
-        for k, (_, _, colour, damping_gap) in enumerate(series):
+        for k, (_, _, colour, damping_gap, _) in enumerate(series):
             if damping_gap is not None:
                 z = np.array([damping_gap.get(label, np.nan) for label in damped]) / std
                 left.bar(xd + (k - (len(series) - 1) / 2) * width, z, width, color=colour)
@@ -351,7 +363,9 @@ def diagnosis_figure(diagnosis: Diagnosis, path: str | Path, title: str = "") ->
     # linear within 2 sigma, logarithmic beyond
     left.set_yscale("symlog", linthresh=2.0)
     left.set_xticks(x, labels)
-    left.set_ylabel("measured - model [sigma] (logarithmic beyond 2)")
+    left.set_ylabel(
+        "measured - model [sigma] (logarithmic beyond 2)\nwhiskers: a held-out prediction's own std", fontsize=8
+    )
     left.set_title("gap per mode")
     left.legend(fontsize=7)
     ranked = [f for f in effects.ranked if f.applicable]
