@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.optimize
@@ -416,6 +418,20 @@ def test_frequency_standard_deviations_are_checked():
     for bad in ([-0.45, 0.45], [0.45, np.nan]):
         with pytest.raises(ValueError, match="frequency_std"):
             roots.std(bad)
+
+
+def test_the_readme_example_of_the_generated_functions_runs():
+    """The README's "Using the generated functions" block, executed as written: the paper's x and psi give two
+    admissible roots, c_z = 472 kN/m among them, each with a condition number and standard deviations."""
+    lines = Path("README.md").read_text(encoding="utf-8").split("## Using the generated functions\n\n", 1)[1]
+    block = lines.split("\n\n", 1)[0].splitlines()
+    assert block[0] == "    from mountid.generated import kid300" and len(block) == 5
+    scope: dict = {}
+    exec("\n".join(line[4:] for line in block[:-2]), scope)  # the README's own lines
+    admissible = eval(block[-2][4:].split("#")[0], scope)
+    condition, std = eval(block[-1][4:].split("#")[0], scope)
+    assert admissible.shape == (2,) and np.min(np.abs(admissible / 472.3e3 - 1)) < 1e-3
+    assert np.all(np.isfinite(condition)) and set(std) == {"c_xy", "c_z"}
 
 
 def test_vectorised_inverse_matches_scalar_calls():
