@@ -38,6 +38,23 @@ def test_plain_csv_reads_without_metadata(tmp_path):
     assert rec.names == ("a",) and np.isnan(rec.channels[0].point[0])
 
 
+@pytest.mark.parametrize("rate", [None, 500.0])
+def test_a_csv_without_a_time_column_is_named(tmp_path, rate):
+    """A bench export of channels only: its first channel was read as the time ("time: must increase", or with
+    --rate its samples were dropped for a uniform grid and the channel was "no such channel"). The first column
+    is named as read for the time."""
+    rec = _record()
+    (tmp_path / "c.csv").write_text("A_x,B_y\n" + "\n".join(f"{a},{b}" for a, b in rec.data) + "\n")
+    with pytest.raises(InputError, match=r"^c.csv: column 1: 'A_x' is read as the time, but \d+% of its steps"):
+        read_csv(tmp_path / "c.csv", rate)
+    # a time column with two rows swapped is still named at the swap
+    t = rec.time[np.r_[0:50, 51, 50, 52 : len(rec.time)]]
+    rows = (f"{a},{b}" for a, b in zip(t, rec.data[:, 0], strict=True))
+    (tmp_path / "s.csv").write_text("t,A_x\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match="^time: goes back or repeats at t = 0.1 s"):
+        read_csv(tmp_path / "s.csv")
+
+
 @pytest.mark.parametrize(
     ("edit", "message"),
     [

@@ -149,6 +149,12 @@ def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
         )
 
 
+TIME_COLUMN_INCREASING = 0.9
+"""Share of the steps of a file's first column that must increase for it to be read as the time: a time column
+increases at every step but where rows were swapped or written twice (named one by one); a channel's samples
+rise in about half of them (a file without a time column had its first channel taken for the time, and with
+--rate lost it without a word)."""
+
 MIN_SAMPLES = 16
 """Fewest samples a record may hold."""
 
@@ -315,6 +321,15 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     time_unit = _split_unit(header[0])[1] or "s"
     if time_unit not in TIME_UNITS:
         raise InputError(f"{path.name}: column 1", f"time in {time_unit!r}: the time column's unit must be s or ms")
+    steps = np.diff(table[:, 0])
+    steps = steps[np.isfinite(steps)]
+    if steps.size and np.mean(steps > 0) < TIME_COLUMN_INCREASING:  # a channel in the time column's place
+        raise InputError(
+            f"{path.name}: column 1",
+            f"{header[0]!r} is read as the time, but {np.mean(steps > 0):.0%} of its steps increase: a record's "
+            "first column is its time (a file without one needs it added; --rate or a campaign's 'rate' then "
+            "replaces its values by a uniform grid)",
+        )
     channels = tuple(_column(h, meta, f"{path.name}: column {k + 2}") for k, h in enumerate(header[1:]))
     names = tuple(c.name for c in channels)
     missing = [n for n in meta if n not in names]
