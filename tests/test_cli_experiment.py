@@ -110,8 +110,11 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "psi", "--json")
     assert code == 0
     assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)
-    code, _, err = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "theta")
-    assert code == 2 and err.startswith("mountid: error: --use: theta not found in the record")
+    # a twin is found with the pole of its twins (theta with psi; it was "theta not found in the record")
+    code, twins, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "y", "theta", "--json")
+    assert code == 0 and json.loads(twins)["parameters"] == json.loads(out)["parameters"]
+    code, _, err = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "X")
+    assert code == 2 and err.startswith("mountid: error: --use: X: not a mode label of kid300 (x, y, z, psi, theta")
 
 
 def test_an_unknown_set_as_known_is_named_before_the_record_is_read(capsys, tmp_path):
