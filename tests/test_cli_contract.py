@@ -76,6 +76,8 @@ CASES = [
     (["forced", "kid300", "--speed", "100", "--unbalance-mass", "1e300"], "--unbalance-mass: 1e+300 kg is more"),
     (["forced", "kid300", "--speed", "100", "--eccentricity", "1e300"], "--eccentricity: 1e+300 m is beyond"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "9", "--unbalance-mass", "900"], "--unbalance-mass:"),
+    (["forced", "kid300", "--speed", "100", "--unbalance-axis", "0,0,0"], "--unbalance-axis: '0,0,0': a direction"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "9", "--unbalance-point", "1,2"], "--unbalance-point:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e9"], "--duration:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--rate", "-5"], "--rate:"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--seed", "-1"], "--seed: must be a non-negative integer"),

@@ -87,6 +87,15 @@ def build_parser() -> argparse.ArgumentParser:
     def add_unbalance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
         p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
+        p.add_argument(
+            "--unbalance-point",
+            default="0,0,0",
+            help="a point x,y,z [m] of the rotation axis (default: the origin, the paper's vibrator on the vertical "
+            "axis through the centre of mass)",
+        )
+        p.add_argument(
+            "--unbalance-axis", default="0,0,1", help="direction of the rotation axis (default: vertical, the paper's)"
+        )
 
     p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv or .uff)")
     p.add_argument(

@@ -15,6 +15,7 @@ from mountid.report.jsonable import dumps
 
 if TYPE_CHECKING:
     from mountid.measurement.records import Record
+    from mountid.measurement.rig import Unbalance
 
 
 class Parser(argparse.ArgumentParser):
@@ -69,6 +70,17 @@ def check_unbalance(args: argparse.Namespace) -> None:
         finite_number(w, "--speed")
     finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
     bounded(args.eccentricity, "--eccentricity", POINT_LIMIT, " m", strict=False)
+
+
+def unbalances_of(args: argparse.Namespace) -> list[Unbalance]:
+    """The rotating unbalance of simulate --speed and forced at each of its speeds: --unbalance-mass at
+    --eccentricity about the axis through --unbalance-point along --unbalance-axis."""
+    from mountid.measurement.rig import Unbalance
+
+    point = point_on_machine(args.unbalance_point, "--unbalance-point")
+    axis = direction(args.unbalance_axis, "--unbalance-axis")
+    axis = tuple(v / math.hypot(*axis) + 0.0 for v in axis)
+    return [Unbalance(args.unbalance_mass, args.eccentricity, w, point, axis) for w in args.speed or ()]
 
 
 def unbalance_within(args: argparse.Namespace, mass: float) -> None:

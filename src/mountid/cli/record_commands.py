@@ -22,6 +22,7 @@ from mountid.cli.arguments import (
     read_record,
     record_size,
     unbalance_within,
+    unbalances_of,
 )
 from mountid.errors import InputError
 from mountid.machine import Machine
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from mountid.measurement.records import write_csv
-    from mountid.measurement.rig import Hammer, Rig, Unbalance
+    from mountid.measurement.rig import Hammer, Rig
     from mountid.measurement.uff import write_uff
 
     out = Path(args.out)
@@ -69,7 +70,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             )
         ]
     )
-    unbalances = [Unbalance(args.unbalance_mass, args.eccentricity, w) for w in args.speed or ()]
+    unbalances = unbalances_of(args)
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
     uff = args.out.lower().endswith((".uff", ".unv"))
     (write_uff if uff else write_csv)(record, args.out)
@@ -284,20 +285,30 @@ def _small_motion_note(rig: Rig, speed: float, amplitude: NDArray) -> list[str]:
 
 
 def cmd_forced(args: argparse.Namespace) -> None:
-    from mountid.measurement.rig import Rig, Unbalance
+    from mountid.measurement.rig import Rig
 
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     unbalance_within(args, float(rig.M[0, 0]))
     rows, notes = {}, []
-    for w in args.speed:
-        amplitude = _steady_amplitude(rig, Unbalance(args.unbalance_mass, args.eccentricity, w))
-        rows[f"{w:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
-        notes += _small_motion_note(rig, w, amplitude)
+    turning = unbalances_of(args)
+    for u in turning:
+        amplitude = _steady_amplitude(rig, u)
+        rows[f"{u.speed:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
+        notes += _small_motion_note(rig, u.speed, amplitude)
+    where = {"mass": args.unbalance_mass, "eccentricity": args.eccentricity}
+    where |= {"point": list(turning[0].point), "axis": list(turning[0].axis)}
     if args.json:
-        print_json({"machine": rig.machine.name, "unit": "m, rad", "amplitudes": rows, "notes": notes})
+        print_json(
+            {"machine": rig.machine.name, "unit": "m, rad", "unbalance": where, "amplitudes": rows, "notes": notes}
+        )
         return
-    print(f"{rig.machine.name}: steady-state amplitude under the rotating unbalance [m, rad]")
+    axis = ", ".join(f"{v:.3g}" for v in where["axis"])
+    point = ", ".join(f"{v:g}" for v in where["point"])
+    print(
+        f"{rig.machine.name}: steady-state amplitude under the rotating unbalance [m, rad] ({args.unbalance_mass:g} kg "
+        f"at {args.eccentricity:g} m, about the axis ({axis}) through ({point}) m)"
+    )
     for w, amp in rows.items():
         print(f"  {w:>8s} rad/s  " + "  ".join(f"{c} {a:.3e}" for c, a in amp.items()))
     for note in notes:
