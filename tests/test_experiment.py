@@ -170,13 +170,14 @@ def test_two_exact_roots_are_chosen_by_the_other_modes_or_reported():
 
 
 def test_frequencies_beyond_double_precision_are_a_named_error():
-    """A frequency whose square overflows in a generated inverse leaves that set without a root (an
-    OverflowError from the inverse's Python floats was a traceback); the others' roots fit nothing."""
+    """A frequency whose square overflows is no frequency a generated inverse takes: every set is without a
+    root (an OverflowError from the inverse's Python floats was a traceback; then the candidates of an infinite
+    square were polished into starts that fitted nothing)."""
     from mountid.errors import InputError
     from mountid.identification.from_records import fit_stiffness
 
     machine = Rig.of("kid300").machine
-    with pytest.raises(InputError, match="^measured: no mount of this description fits these frequencies"):
+    with pytest.raises(InputError, match="^measured: no generated inverse has an admissible root for these freq"):
         fit_stiffness(machine, TABLE_1, {"x": (1e300, 1.0), "z": (1e300, 1.0), "psi": (1e300, 1.0)})
 
 

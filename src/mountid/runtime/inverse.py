@@ -319,10 +319,10 @@ def solve_inverse(
     """Every root of an inverse problem: closed-form candidates, Newton polish, admissibility, conditioning.
 
     ``frequencies``: the given natural frequencies omega [rad/s], one array per given mode; an entry that is not
-    positive and finite is no frequency, and its row has no admissible root (its square would be one: a
-    negative omega reproduced by its positive twin). ``roots(*known, *lambda_given)`` is the generated closed
-    form in the squared frequencies: a tuple with one array per unknown, shape (n_roots, *batch). ``model`` is
-    as in :func:`eigen_newton`. Rows where no candidate is admissible
+    positive and finite, or whose square is not, is no frequency, and its row has no admissible root (its square
+    would be one: a negative omega reproduced by its positive twin). ``roots(*known, *lambda_given)`` is the
+    generated closed form in the squared frequencies: a tuple with one array per unknown, shape (n_roots,
+    *batch). ``model`` is as in :func:`eigen_newton`. Rows where no candidate is admissible
     (the closed form can be 0/0 at a legitimate point, e.g. sin(alpha) = 0 for upright isolators) take, in
     turn, the candidates of each engine-derived specialised solution in ``special`` ((index of the known
     parameter that is 0 there, its closed form), ...) and then the single start ``start`` (the description's
@@ -342,10 +342,10 @@ def solve_inverse(
     batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *frequencies)))
     flat = tuple(np.broadcast_to(k, batch).ravel() for k in known)
     omega = np.stack([np.broadcast_to(g, batch).ravel() for g in frequencies], axis=-1)
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # a square beyond double precision is no frequency either
         lam_given = np.where(np.isfinite(omega) & (omega > 0), omega**2, np.nan)
     n_batch, n_unknowns, n_given = lam_given.shape[0], len(unknowns), len(frequencies)
-    valid = np.all(np.isfinite(lam_given), axis=-1)
+    valid = np.all(np.isfinite(lam_given), axis=-1)  # an overflowed square is inf
     if not valid.all():  # rows without frequencies are not solved (a numeric polish would take NaN to eigh)
         inner = solve_inverse(
             roots,
