@@ -342,7 +342,8 @@ def solve_inverse(
     batch = np.broadcast_shapes(*(np.shape(a) for a in (*known, *frequencies)))
     flat = tuple(np.broadcast_to(k, batch).ravel() for k in known)
     omega = np.stack([np.broadcast_to(g, batch).ravel() for g in frequencies], axis=-1)
-    with np.errstate(invalid="ignore", over="ignore"):  # a square beyond double precision is no frequency either
+    # an overflowing square follows the caller's floating-point state: Machine raises there and names the frequency
+    with np.errstate(invalid="ignore"):
         lam_given = np.where(np.isfinite(omega) & (omega > 0), omega**2, np.nan)
     n_batch, n_unknowns, n_given = lam_given.shape[0], len(unknowns), len(frequencies)
     valid = np.all(np.isfinite(lam_given), axis=-1)  # an overflowed square is inf
