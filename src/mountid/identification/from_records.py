@@ -1167,11 +1167,10 @@ def _identify(
     if use is not None:
         # a twin the record gave one pole for is found under the twins' label (kid300's y with x)
         rep = machine.module.REPRESENTATIVE
-        strange = [lab for lab in use if lab not in rep]
+        strange = ", ".join(lab for lab in use if lab not in rep)
         if strange:
-            modes_ = ", ".join(machine.modes)
-            raise InputError("use", f"{', '.join(strange)}: not a mode label of {machine.name} ({modes_})")
-        use = tuple(dict.fromkeys(lab if lab in modes or rep.get(lab) not in modes else rep[lab] for lab in use))
+            raise InputError("use", f"{strange}: not a mode label of {machine.name} ({', '.join(machine.modes)})")
+        use = tuple(dict.fromkeys(lab if lab in modes or rep[lab] not in modes else rep[lab] for lab in use))
         missing = [lab for lab in use if lab not in modes]
         if missing:
             raise InputError("use", f"{', '.join(missing)} not found in the record (found: {', '.join(modes)})")

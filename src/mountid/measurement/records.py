@@ -322,11 +322,11 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     if time_unit not in TIME_UNITS:
         raise InputError(f"{path.name}: column 1", f"time in {time_unit!r}: the time column's unit must be s or ms")
     steps = np.diff(table[:, 0])
-    steps = steps[np.isfinite(steps)]
-    if steps.size and np.mean(steps > 0) < TIME_COLUMN_INCREASING:  # a channel in the time column's place
+    rising = float(np.mean(steps[np.isfinite(steps)] > 0)) if np.isfinite(steps).any() else 1.0
+    if rising < TIME_COLUMN_INCREASING:  # a channel in the time column's place
         raise InputError(
             f"{path.name}: column 1",
-            f"{header[0]!r} is read as the time, but {np.mean(steps > 0):.0%} of its steps increase: a record's "
+            f"{header[0]!r} is read as the time, but {rising:.0%} of its steps increase: a record's "
             "first column is its time (a file without one needs it added; --rate or a campaign's 'rate' then "
             "replaces its values by a uniform grid)",
         )
