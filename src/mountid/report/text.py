@@ -68,8 +68,9 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
         w = places + 5
 
         def cell(value: float | None, sign: str = "+") -> str:
-            v = float("nan") if value is None else round(value, places) + 0.0
-            return f"{v:{sign}{w}.{places}f}"
+            if value is None or not math.isfinite(value):  # not held out: a candidate with no data to spare
+                return f"{'-':>{w}s}"
+            return f"{round(value, places) + 0.0:{sign}{w}.{places}f}"
 
         print(f"gap [rad/s] before (nominal) -> after ({after['effect']}), fitted | held out:")
         for label in before["fitted"]:
