@@ -503,6 +503,27 @@ def test_the_diagnosis_figure_draws_each_held_out_prediction_with_its_own_spread
     assert half[x] > 100
 
 
+def test_the_diagnosis_figure_leaves_a_series_without_bars_out_of_its_legend(monkeypatch, tmp_path):
+    """fan3's six frequencies (tests/data/fan3-frequencies.json): the first candidate, an attached mass, has more
+    parameters than data, so no mode can be left out for it and its held-out series has no bar; the legend
+    listed it all the same. The fitted series and the nominal model's held-out one stay."""
+    from mountid.diagnosis.campaign import load
+    from mountid.diagnosis.gap import diagnose
+    from mountid.report import figures
+
+    diagnosis = diagnose(load(Path(__file__).parent / "data" / "fan3-frequencies.json"))
+    drawn = []
+
+    def keep(fig, where):
+        drawn.append([t.get_text() for t in fig.axes[0].get_legend().get_texts()])
+        figures.plt.close(fig)
+
+    monkeypatch.setattr(figures, "_save", keep)
+    figures.diagnosis_figure(diagnosis, tmp_path / "f.png")
+    assert diagnosis.effects.best.effect == "added_mass"
+    assert drawn == [["within 2 sigma", "before, fitted", "before, held out", "added_mass, fitted"]]
+
+
 RECORD_SIGMA = {"y": 0.0009, "x": 0.00106, "phi": 0.0312, "z": 0.00582, "psi": 0.00997, "theta": 0.0122}
 """Standard deviations [rad/s] of the rectangular machine's modes from one 20 s record with 2 % sensor noise
 (`mountid simulate rectangular --noise 0.02`, eight channels): precise where the hit drives a mode hard."""

@@ -339,7 +339,9 @@ def diagnosis_figure(diagnosis: Diagnosis, path: str | Path, title: str = "") ->
             x + (k - (len(series) - 1) / 2) * width,
             z,
             width,
-            label=name,
+            # a series without a bar (held out where no mode can be left out: as many parameters as data) is
+            # left out of the legend, which would promise it
+            label=name if np.isfinite(z).any() else f"_{name}",
             color=colour,
             yerr=spread,
             error_kw={"lw": 0.7, "capsize": 1.5, "ecolor": "#555555"},
