@@ -120,6 +120,11 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     assert (
         code == 0 and 'the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")' in text
     )
+    # the table identify-record prints: what it comes from, and each mode's MAC (process printed neither)
+    assert text.startswith(f"kid300: 4 modes from {path}\n")
+    rows = [line.split() for line in text.splitlines()[2:]]
+    assert [r[0] for r in rows] == list(modes) and all(r[-2] == "MAC" for r in rows)
+    assert [float(r[-1]) for r in rows] == [round(m["mac"], 2) for m in modes.values()]
     code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "psi", "--json")
     assert code == 0
     assert json.loads(out)["parameters"]["c_z"] == pytest.approx(472.3e3, rel=5e-3)

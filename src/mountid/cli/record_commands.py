@@ -29,6 +29,8 @@ from mountid.machine import Machine
 from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from numpy.typing import NDArray
 
     from mountid.identification.from_records import Identification
@@ -196,18 +198,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     if args.json:
         print_json(_identification_json(machine, result))
         return
-    print(f"{machine.name}: {len(result.modes)} modes from {args.record}")
-    for w in result.warnings:
-        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
-    for note in result.notes:
-        print(f"  note: {note}")
-    for k, m in result.modes.items():
-        print(
-            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
-            f"  zeta {m.damping_ratio:.4f}" + (f"  MAC {m.mac:.2f}" if m.mac is not None else "")
-        )
-    for line in _not_found(machine, result.modes, result.unlabelled):
-        print(f"  {line}")
+    _print_modes(machine, args.record, result.modes, result.unlabelled, result.warnings, result.notes)
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
@@ -230,12 +221,27 @@ def cmd_process(args: argparse.Namespace) -> None:
     if args.json:
         print_json(out)
         return
+    _print_modes(machine, args.record, modes, rest, warnings)
+
+
+def _print_modes(
+    machine: Machine, record: str, modes: dict, unlabelled: list, warnings: list, notes: Sequence[str] = ()
+) -> None:
+    """The labelled modes of a record as process and identify-record print them: what they come from, the
+    record's warnings and notes, each mode's pole (|p| and zeta, with the MAC against the model's shape where
+    the channels give one) and what the table does not show (_not_found)."""
+    print(f"{machine.name}: {counted(len(modes), 'mode')} from {record}")
     for w in warnings:
         print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+    for note in notes:
+        print(f"  note: {note}")
     print('  the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')
     for k, m in modes.items():
-        print(f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s  zeta {m.damping_ratio:.4f}")
-    for line in _not_found(machine, modes, rest):
+        print(
+            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
+            f"  zeta {m.damping_ratio:.4f}" + (f"  MAC {m.mac:.2f}" if m.mac is not None else "")
+        )
+    for line in _not_found(machine, modes, unlabelled):
         print(f"  {line}")
 
 
