@@ -7615,12 +7615,12 @@ UNIDENTIFIABLE = {
         "x",
         "z",
         "theta",
-    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
+    ): "these frequencies fix only 2 independent combinations of the 3 unknowns (c_x, c_y, c_z); c_y is not determined",
     (
         "y",
         "z",
         "psi",
-    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
+    ): "these frequencies fix only 2 independent combinations of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()

@@ -13641,12 +13641,12 @@ UNIDENTIFIABLE = {
         "x",
         "theta",
         "phi",
-    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
+    ): "these frequencies fix only 2 independent combinations of the 3 unknowns (c_h, c_v, c_m); c_m is not determined",
     (
         "y",
         "z",
         "psi",
-    ): "these frequencies fix only 2 independent combination(s) of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",
+    ): "these frequencies fix only 2 independent combinations of the 3 unknowns (c_h, c_v, c_m); c_v, c_m are not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
 TWIN_COORDINATES = ()

@@ -407,3 +407,16 @@ def test_a_first_candidate_the_frequencies_cannot_test_is_said_so_and_its_gaps_n
     table = out[out.index("gap [rad/s] before (nominal) -> after (added_mass)") :].splitlines()[1:8]
     assert [line.split()[0] for line in table] == ["x", "y", "z", "psi", "theta", "phi", "RMS"]
     assert all(line.split()[-1] == "-" for line in table) and "nan" not in out
+
+
+def test_describe_lists_every_frequency_set_before_the_special_points(capsys):
+    """rectangular has frequency sets that determine its unknowns, sets that do not, and a special point (h):
+    the unidentifiable sets were printed below the special points, as if they belonged to them. Every set
+    follows the heading of the inverse sets; the special points close the listing."""
+    code, out, _ = run(capsys, "describe", "rectangular")
+    lines = out.splitlines()
+    heading = next(i for i, line in enumerate(lines) if line.startswith("inverse sets for the unknowns"))
+    sets = lines[heading + 1 : -1]
+    assert code == 0 and lines[-1] == "special points (0 is a legitimate design, solved there by the engine): h"
+    assert sets and all(line.startswith("  ") for line in sets)
+    assert any("NOT identifiable: these frequencies fix only 2 independent combinations of the 3" in s for s in sets)

@@ -250,10 +250,10 @@ def cmd_describe(args: argparse.Namespace) -> None:
             print(f"  {', '.join(key):24s} solvable numerically ({n} starts): {numeric[key]}")
         else:
             print(f"  {', '.join(key):24s} solvable, {counted(n, 'candidate root')}")
-    if getattr(m, "SPECIAL_POINTS", ()):
-        print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
     for key, reason in m.UNIDENTIFIABLE.items():
         print(f"  {', '.join(key):24s} NOT identifiable: {reason}")
+    if getattr(m, "SPECIAL_POINTS", ()):  # after the sets, which it would split
+        print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
 
 
 def cmd_demo(args: argparse.Namespace) -> None:

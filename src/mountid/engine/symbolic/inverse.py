@@ -46,6 +46,7 @@ from mountid.engine.symbolic.blocks import LAMBDA, ModalStructure
 from mountid.engine.symbolic.factoring import factor, factor_list
 from mountid.engine.symbolic.model import rational_point
 from mountid.errors import DescriptionError
+from mountid.nomenclature import counted
 
 POINT_TRIES = 100
 """Generic points tried for one where the mass matrix is positive definite (InverseDerivation._massive_point)."""
@@ -367,8 +368,9 @@ class InverseDerivation:
         return InverseSet(
             labels,
             False,
-            f"these frequencies fix only {rank} independent combination(s) of the {len(self.unknowns)} unknowns "
-            f"({names}); {', '.join(free)} {'is' if len(free) == 1 else 'are'} not determined",
+            f"these frequencies fix only {counted(rank, 'independent combination')} of the "
+            f"{counted(len(self.unknowns), 'unknown')} ({names}); {', '.join(free)} "
+            f"{'is' if len(free) == 1 else 'are'} not determined",
         )
 
     def _solve(self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol]) -> InverseSet:
