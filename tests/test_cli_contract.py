@@ -420,3 +420,29 @@ def test_describe_lists_every_frequency_set_before_the_special_points(capsys):
     assert code == 0 and lines[-1] == "special points (0 is a legitimate design, solved there by the engine): h"
     assert sets and all(line.startswith("  ") for line in sets)
     assert any("NOT identifiable: these frequencies fix only 2 independent combinations of the 3" in s for s in sets)
+
+
+def test_the_sensor_effects_a_campaign_without_shapes_cannot_test_are_named_in_one_sentence(capsys):
+    """The paper's four frequencies, no shapes: each sensor effect is listed as not applicable with one sentence
+    that reads for every one of them ("two turned sensors leaves the frequencies ..." did not)."""
+    code, out, _ = run(capsys, "diagnose", PAPER, "--no-figure")
+    reasons = {
+        line.split()[0]: line.split("not applicable: ")[1] for line in out.splitlines() if "not applicable: " in line
+    }
+    assert code == 0 and set(reasons) == {
+        "sensor_error",
+        "sensor_turned",
+        "sensor_misplaced",
+        "sensor_reversed",
+        "two_sensors_turned",
+        "sensor_turned_misplaced",
+    }
+    assert (
+        reasons["two_sensors_turned"]
+        == "no mode shapes measured: the frequencies are exactly unchanged by two turned sensors"
+    )
+    assert all(
+        r.startswith("no mode shapes measured: the frequencies are exactly unchanged by a")
+        for k, r in reasons.items()
+        if k != "two_sensors_turned"
+    )

@@ -757,7 +757,7 @@ class Sensor(Strategy):
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         if not has_shapes:
-            return "no mode shapes measured: a sensor error leaves the frequencies exactly unchanged"
+            return "no mode shapes measured: the frequencies are exactly unchanged by a sensor error"
         return ""
 
 
@@ -895,7 +895,7 @@ class LayoutReading(Strategy):
 
     def inapplicable(self, model: CandidateModel, has_shapes: bool) -> str:
         if not has_shapes:
-            return f"no mode shapes measured: {self.what} leaves the frequencies exactly unchanged"
+            return f"no mode shapes measured: the frequencies are exactly unchanged by {self.what}"
         if not model.campaign.sensors:
             return "the campaign does not give the sensor layout its shapes were estimated from"
         return ""
