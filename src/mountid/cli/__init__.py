@@ -123,8 +123,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--start",
         type=float,
-        default=0.07,
-        help="start of the free decay [s] (after the hit; not used with a force channel)",
+        help="start of the free decay [s] (default 0.07, or 0.03 after the impact the record shows where that is "
+        "later: a pre-trigger; not used with a force channel)",
     )
     p.add_argument(
         "--free-decay",
@@ -157,7 +157,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_plan)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
     p.add_argument("record", help="record file (.csv, .uff or .unv)")
-    p.add_argument("--start", type=float, default=0.07, help="start of the free decay [s] (after the hit)")
+    p.add_argument(
+        "--start",
+        type=float,
+        help="start of the free decay [s] (default 0.07, or 0.03 after the impact the record shows where that is "
+        "later: a pre-trigger)",
+    )
     p.add_argument(
         "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
     )

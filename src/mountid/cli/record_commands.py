@@ -194,7 +194,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     if args.figures:
         from mountid.report import figures
 
-        figures.experiment_figures(machine, record, args.start, result, pairs(args.set, "--set"), args.figures)
+        figures.experiment_figures(machine, record, result, pairs(args.set, "--set"), args.figures)
     if args.json:
         print_json(_identification_json(machine, result))
         return
@@ -210,18 +210,18 @@ def cmd_process(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import modal_data
 
     machine = Machine.resolve(args.machine)
-    modes, rest, warnings = modal_data(
+    found = modal_data(
         machine,
         read_record(args.record, args.rate, args.channel),
         pairs(args.set, "--set"),
         args.start,
         pairs(args.nominal, "--nominal"),
     )
-    out = _modal_json(machine, modes, rest, warnings)
+    out = _modal_json(machine, found.modes, found.unlabelled, found.warnings)
     if args.json:
-        print_json(out)
+        print_json({**out, "notes": list(found.notes)})
         return
-    _print_modes(machine, args.record, modes, rest, warnings)
+    _print_modes(machine, args.record, found.modes, found.unlabelled, found.warnings, found.notes)
 
 
 def _print_modes(

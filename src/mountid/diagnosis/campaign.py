@@ -86,9 +86,6 @@ def damping_std(mode: MeasuredMode) -> float:
     return mode.damping_std or max(DEFAULT_DAMPING_STD * mode.damping_ratio, DAMPING_STD_FLOOR)
 
 
-DEFAULT_RECORD_START = 0.07
-"""Start of the free decay [s] of a record listed without one (as the command line's --start)."""
-
 RESOLUTION = 1e-9
 """The smallest uncertainty a campaign may state: relative to the frequency for a frequency, absolute for a damping
 ratio and for each component of a unit-length shape. Below it the fits would weigh the double-precision model's own
@@ -111,10 +108,11 @@ scatter)."""
 
 @dataclass(frozen=True)
 class RecordSource:
-    """A record file of a campaign and where its free decay starts [s]."""
+    """A record file of a campaign and where its free decay starts [s] (None: after the impact the record shows,
+    measurement.modal.free_decay_start, as the command line's --start left out)."""
 
     path: Path
-    start: float = DEFAULT_RECORD_START
+    start: float | None = None
     rate: float | None = None
     """Sampling rate [Hz] that replaces the file's time column (None: the column)."""
     channels: tuple[tuple[str, tuple[float, float, float], tuple[float, float, float]], ...] = ()
@@ -700,7 +698,8 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
         (name, tuple(map(float, c["point"])), tuple(map(float, c["direction"])))
         for name, c in entry.get("channels", {}).items()
     )
-    return RecordSource(path, float(entry.get("start", DEFAULT_RECORD_START)), entry.get("rate"), channels)
+    start = entry.get("start")
+    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels)
 
 
 @dataclass(frozen=True)
@@ -761,6 +760,7 @@ def _modes_from_records(
         here = [replace(w, record=source.path.name) for w in warnings]
         warned += here
         notes += [w.describe() for w in here]
+        notes += [f"{source.path.name}: {note}" for note in data.notes]  # how the chain took it: H1, the start
         for label, mode in found.items():
             estimates.setdefault(label, []).append((mode, source.path.name))
         mixed += [(label, source.path.name) for label in data.mixed]

@@ -63,6 +63,8 @@ class Identification:
     the modes came from."""
     frf: FrfEstimate | None = None
     """The H1 frequency responses the modes were fitted on (None: the free decay)."""
+    start: float = modal.DEFAULT_START
+    """[s] Where the free decay the modes were fitted on starts (ModalData.start)."""
 
 
 def channel_rows(machine: Machine, record: Record) -> np.ndarray:
@@ -889,6 +891,9 @@ class ModalData:
     mixed: frozenset[str] = frozenset()
     """The labels whose pole lies on two twins that a fit of two does not part (Twins.mixed): its uncertainty
     widened to cover the fit of two, no shape."""
+    start: float = modal.DEFAULT_START
+    """[s] Where the free decay the modes were fitted on starts (the caller's, else modal.free_decay_start); with
+    the H1 frequency responses, the caller's or modal.DEFAULT_START, the segment the record's checks look at."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -903,7 +908,7 @@ def modal_data(
     machine: Machine,
     record: Record,
     known: dict[str, float],
-    start: float,
+    start: float | None = None,
     nominal: dict[str, float] | None = None,
     settings: RecordSettings = RECORDS,
     use_force: bool = True,
@@ -911,8 +916,9 @@ def modal_data(
     """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
     With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
     responses averaged over the record's hits (measurement.frf): from the instant of each hit, the force divided
-    out; otherwise on the free decay from ``start`` [s]. ``nominal`` values of the unknowns (default: the
-    description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
+    out; otherwise on the free decay from ``start`` [s] (None: modal.free_decay_start, after the impact the record
+    shows, said in a note where that is not at modal.DEFAULT_START). ``nominal`` values of the unknowns (default:
+    the description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
     guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
@@ -941,10 +947,14 @@ def modal_data(
             + ")"
         )
     else:
+        if start is None:
+            start, note = modal.free_decay_start(record, top, settings)
+            notes += [note] if note else []
         _check_length(record, start, float(np.min(nominal_omega)), settings)
         source = (record, start, 2.0 * top)
         poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     poles = [_as_acceleration(p, record) for p in poles]
+    start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     warnings = modal.hammer_test_quality(
         record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
@@ -1010,7 +1020,7 @@ def modal_data(
         )
         for label, (p, m) in labelled.items()
     }
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes))
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes), start)
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
@@ -1119,7 +1129,7 @@ def identify_from_record(
     machine: Machine,
     record: Record,
     known: dict[str, float],
-    start: float,
+    start: float | None = None,
     nominal: dict[str, float] | None = None,
     use: tuple[str, ...] | None = None,
     settings: RecordSettings = RECORDS,
@@ -1127,10 +1137,10 @@ def identify_from_record(
     use_force: bool = True,
 ) -> Identification:
     """Record of an impact test -> labelled modes (modal_data: from the H1 frequency responses where the record
-    has a force channel and ``use_force``, else from the free decay after ``start`` [s]) -> unknown stiffnesses
-    from all measured distinct frequencies, or only from the labels in ``use`` (e.g. the paper's ("x", "psi"):
-    then exactly determined) -> damping parameters from the damping ratios. ``root``: the rule that picks
-    between equally good solutions when no measured mode decides (fit_stiffness)."""
+    has a force channel and ``use_force``, else from the free decay after ``start`` [s], None: after the impact the
+    record shows) -> unknown stiffnesses from all measured distinct frequencies, or only from the labels in ``use``
+    (e.g. the paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios.
+    ``root``: the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
     machine.check_known(known)  # before the labelling, which reads the model at the known values
     found = modal_data(machine, record, known, start, nominal, settings, use_force)
     si = record.in_si()
@@ -1141,7 +1151,7 @@ def identify_from_record(
         )
     except InputError as err:
         raise with_warnings(err, found.warnings) from None
-    return replace(result, frf=found.frf)
+    return replace(result, frf=found.frf, start=found.start)
 
 
 def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> InputError:

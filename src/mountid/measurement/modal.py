@@ -562,6 +562,40 @@ def impact_bursts(record: Record, settings: RecordSettings = RECORDS) -> NDArray
     return np.array(onsets, dtype=np.intp)
 
 
+DEFAULT_START = 0.07
+"""[s] The free decay's start where none is given and the record shows its impact before it: 0.02 s after the
+virtual rig's hit (measurement.rig.Hammer.time, 0.05 s), a hammer pulse of a few milliseconds past."""
+
+AFTER_IMPACT = 0.03
+"""[s] Where a record shows its impact too late for DEFAULT_START (a bench export with a pre-trigger, the time
+counted from the acquisition's start), the free decay starts by default this long after the impact's onset
+(impact_bursts, whose moving RMS over RecordSettings.double_hit_spacing finds it up to half of that early): past a
+hammer pulse of a few milliseconds, a soft tip's 10 ms with a margin."""
+
+
+def free_decay_start(
+    record: Record, highest_frequency: float, settings: RecordSettings = RECORDS
+) -> tuple[float, str | None]:
+    """The start [s] of a record's free decay where the caller gives none, and a note where it is not
+    DEFAULT_START: AFTER_IMPACT after the first impact the responses show (impact_bursts, on the channels not
+    clipped) where that impact begins too late for DEFAULT_START (where hammer_test_quality would find it in the
+    analysed segment). DEFAULT_START where no impact stands out or the record is sampled too slowly for the bursts
+    to (below settings.low_rate_factor times ``highest_frequency`` [rad/s] / (2 pi))."""
+    if record.rate < settings.low_rate_factor * highest_frequency / (2 * np.pi):
+        return DEFAULT_START, None
+    unclipped = [c.name for j, c in enumerate(record.channels) if clipped_level(record.data[:, j], settings) is None]
+    peaks = impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
+    if not len(peaks) or record.time[peaks[0]] < DEFAULT_START - settings.double_hit_spacing:
+        return DEFAULT_START, None
+    onset, first = float(record.time[peaks[0]]), float(record.time[0])
+    start = onset + AFTER_IMPACT
+    into = f" ({onset - first:.3g} s into the record)" if first != 0 else ""
+    return start, (
+        f"free decay from t = {start:.4g} s, {AFTER_IMPACT:g} s after the impact the record shows at t = "
+        f"{onset:.4g} s{into}; a start given chooses another"
+    )
+
+
 def hit_summary(record: Record, name: str) -> str:
     """The first hit on the force channel ``name`` [N]: its peak, how long it stays above 5 % of the peak, and
     its impulse (the integral of the force over that time) [N s]."""

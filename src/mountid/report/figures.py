@@ -277,7 +277,6 @@ def mode_shapes_figure(
 def experiment_figures(
     machine: Machine,
     record: Record,
-    start: float,
     result: Identification,
     known: dict[str, float],
     folder: str | Path,
@@ -293,10 +292,10 @@ def experiment_figures(
     if result.frf is not None:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
     else:
-        runs = modal.stabilisation(responses, start, top, len(machine.module.MODES))
+        runs = modal.stabilisation(responses, result.start, top, len(machine.module.MODES))
     sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
     out = [
-        spectrum_figure(si, None, start, poles, folder / "spectrum.png"),
+        spectrum_figure(si, None, result.start, poles, folder / "spectrum.png"),
         stabilisation_figure(runs, poles, folder / "stabilisation.png"),
         mode_shapes_figure(
             machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes, sensors

@@ -150,7 +150,7 @@ def run_simulated_experiment(figures: str | None = "out/figures", duration: floa
     folder = Path(figures)
     w1 = result.modes["x"].frequency if "x" in result.modes else true_w["x"]
     fig.record_figure(record, "A_x", 0.5 * w1, 1.5 * w1, folder / "record.png")
-    fig.experiment_figures(rig.machine, record, start, result, TABLE_1, folder)
+    fig.experiment_figures(rig.machine, record, result, TABLE_1, folder)
     _, a0, n = fig.decay_figure(record, "A_x", start, w1, folder / "decay.png")
     print(
         f"  Eq. (25) on A_x: A0 = {a0:.3g} m/s^2, n = {n:.3f} 1/s -> zeta_x = {n / w1:.4f} "
