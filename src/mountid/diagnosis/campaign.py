@@ -109,7 +109,7 @@ scatter)."""
 @dataclass(frozen=True)
 class RecordSource:
     """A record file of a campaign and where its free decay starts [s] (None: after the impact the record shows,
-    measurement.modal.free_decay_start, as the command line's --start left out)."""
+    measurement.modal.free_decay, as the command line's --start left out)."""
 
     path: Path
     start: float | None = None

@@ -892,7 +892,7 @@ class ModalData:
     """The labels whose pole lies on two twins that a fit of two does not part (Twins.mixed): its uncertainty
     widened to cover the fit of two, no shape."""
     start: float = modal.DEFAULT_START
-    """[s] Where the free decay the modes were fitted on starts (the caller's, else modal.free_decay_start); with
+    """[s] Where the free decay the modes were fitted on starts (the caller's, else modal.free_decay's); with
     the H1 frequency responses, the caller's or modal.DEFAULT_START, the segment the record's checks look at."""
 
     def __iter__(self) -> Iterator:
@@ -916,7 +916,7 @@ def modal_data(
     """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
     With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
     responses averaged over the record's hits (measurement.frf): from the instant of each hit, the force divided
-    out; otherwise on the free decay from ``start`` [s] (None: modal.free_decay_start, after the impact the record
+    out; otherwise on the free decay from ``start`` [s] (None: modal.free_decay's, after the impact the record
     shows, said in a note where that is not at modal.DEFAULT_START). ``nominal`` values of the unknowns (default:
     the description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
     mod = machine.module
@@ -947,12 +947,12 @@ def modal_data(
             + ")"
         )
     else:
-        if start is None:
-            start, note = modal.free_decay_start(record, top, settings)
-            notes += [note] if note else []
-        _check_length(record, start, float(np.min(nominal_omega)), settings)
-        source = (record, start, 2.0 * top)
-        poles = modal.free_decay_poles(record, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+        decay = modal.free_decay(record, top, start, settings)
+        start, notes = decay.start, [*notes, *decay.notes]
+        analysed = record if decay.end is None else record.before(decay.end)
+        _check_length(analysed, start, float(np.min(nominal_omega)), settings, decay.end)
+        source = (analysed, start, 2.0 * top)
+        poles = modal.free_decay_poles(analysed, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
@@ -962,7 +962,7 @@ def modal_data(
     segment = None if estimate is not None else start
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
-        sensor = inconsistent_channel(machine, record, start)
+        sensor = inconsistent_channel(machine, source[0], start)
         warnings += [sensor] if sensor is not None else []
     labelled, rest = label_poles(machine, record, poles, guess)
     twins = split_twins(machine, record, source, Twins(poles, labelled, rest, []), guess)
@@ -1059,12 +1059,16 @@ def _coherence_warnings(
     return out
 
 
-def _check_length(record: Record, start: float, lowest: float, settings: RecordSettings) -> None:
+def _check_length(
+    record: Record, start: float, lowest: float, settings: RecordSettings, next_hit: float | None = None
+) -> None:
     """A named error when the free decay after ``start`` [s] holds fewer than settings.min_periods periods of
     the lowest mode expected (``lowest`` [rad/s], the model's at the nominal values): the pencil cannot
     resolve it, and a shorter segment would only fail later with a less useful message. A start that is not
     finite (NaN passed every comparison and failed in the pencil), or at or after the last sample of a record long
-    enough from its beginning (the start is past it, not the record too short), is an error naming the start."""
+    enough from its beginning (the start is past it, not the record too short), is an error naming the start.
+    ``next_hit`` [s]: where the record, cut there (modal.free_decay), holds another hit: too short, the hits are
+    too close, not the record."""
     if not math.isfinite(start):
         raise InputError("start", f"must be a finite time [s], got {start}")
     length = float(record.time[-1]) - max(start, float(record.time[0]))
@@ -1073,6 +1077,14 @@ def _check_length(record: Record, start: float, lowest: float, settings: RecordS
     if start >= float(record.time[-1]) and whole >= settings.min_periods:
         raise InputError(
             "start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s): no free decay"
+        )
+    if periods < settings.min_periods and next_hit is not None:
+        need = settings.min_periods * 2 * np.pi / lowest
+        raise InputError(
+            "record",
+            f"too short: {max(length, 0.0):.3g} s of free decay from the start ({start:g} s) to the next hit "
+            f"({next_hit:.4g} s) holds {periods:.1f} periods of the lowest mode ({lowest:.4g} rad/s); at least "
+            f"{settings.min_periods:g} are needed: hit {need:.3g} s apart or more, or record the force",
         )
     if periods < settings.min_periods:
         need = settings.min_periods * 2 * np.pi / lowest + max(start - float(record.time[0]), 0.0)

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from mountid.errors import InputError
 from mountid.measurement.records import Record
 from mountid.measurement.settings import RECORDS, RecordSettings
+from mountid.nomenclature import counted
 
 
 @dataclass(frozen=True)
@@ -573,27 +574,55 @@ counted from the acquisition's start), the free decay starts by default this lon
 hammer pulse of a few milliseconds, a soft tip's 10 ms with a margin."""
 
 
-def free_decay_start(
-    record: Record, highest_frequency: float, settings: RecordSettings = RECORDS
-) -> tuple[float, str | None]:
-    """The start [s] of a record's free decay where the caller gives none, and a note where it is not
-    DEFAULT_START: AFTER_IMPACT after the first impact the responses show (impact_bursts, on the channels not
-    clipped) where that impact begins too late for DEFAULT_START (where hammer_test_quality would find it in the
-    analysed segment). DEFAULT_START where no impact stands out or the record is sampled too slowly for the bursts
-    to (below settings.low_rate_factor times ``highest_frequency`` [rad/s] / (2 pi))."""
+@dataclass(frozen=True)
+class FreeDecay:
+    """Where a record's free decay lies (free_decay): from ``start`` [s] to ``end`` [s] (None: the record's end),
+    and the notes that say so where the record, not the caller or the default, decided."""
+
+    start: float
+    end: float | None = None
+    notes: tuple[str, ...] = ()
+
+
+def free_decay(
+    record: Record, highest_frequency: float, start: float | None = None, settings: RecordSettings = RECORDS
+) -> FreeDecay:
+    """The free decay of a record without a force channel, from the impacts its responses show (impact_bursts, on
+    the channels not clipped). Its start: ``start`` where given; else DEFAULT_START, or AFTER_IMPACT after the
+    first impact where that begins too late for DEFAULT_START (where hammer_test_quality would find it in the
+    analysed segment: a pre-trigger). Its end: the next impact after the start that is a hit of its own (more
+    than settings.hit_spacing after the one before it; closer, a double hit, which the check names), where the
+    record holds one: the decay after it is the sum of two. No impact is sought where the record is sampled too
+    slowly for the bursts to stand out (below settings.low_rate_factor times ``highest_frequency`` [rad/s] /
+    (2 pi))."""
     if record.rate < settings.low_rate_factor * highest_frequency / (2 * np.pi):
-        return DEFAULT_START, None
+        return FreeDecay(DEFAULT_START if start is None else start)
     unclipped = [c.name for j, c in enumerate(record.channels) if clipped_level(record.data[:, j], settings) is None]
     peaks = impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
-    if not len(peaks) or record.time[peaks[0]] < DEFAULT_START - settings.double_hit_spacing:
-        return DEFAULT_START, None
-    onset, first = float(record.time[peaks[0]]), float(record.time[0])
-    start = onset + AFTER_IMPACT
-    into = f" ({onset - first:.3g} s into the record)" if first != 0 else ""
-    return start, (
-        f"free decay from t = {start:.4g} s, {AFTER_IMPACT:g} s after the impact the record shows at t = "
-        f"{onset:.4g} s{into}; a start given chooses another"
+    onsets = [float(t) for t in record.time[peaks]]
+    notes = []
+    if start is None:
+        start = DEFAULT_START
+        if onsets and onsets[0] >= DEFAULT_START - settings.double_hit_spacing:
+            start = onsets[0] + AFTER_IMPACT
+            first = float(record.time[0])
+            into = f" ({onsets[0] - first:.3g} s into the record)" if first != 0 else ""
+            notes.append(
+                f"free decay from t = {start:.4g} s, {AFTER_IMPACT:g} s after the impact the record shows at t = "
+                f"{onsets[0]:.4g} s{into}; a start given chooses another"
+            )
+    hits: list[float] = []
+    for t in onsets:
+        if not hits or t - hits[-1] > settings.hit_spacing:  # closer: a bounce of the hit before
+            hits.append(t)
+    later = [t for t in hits[1:] if t > start]  # the first hit ends no decay (a start before it: the check warns)
+    if not later:
+        return FreeDecay(start, None, tuple(notes))
+    notes.append(
+        f"free decay until t = {later[0]:.4g} s, where the record shows another hit ({counted(len(hits), 'hit')} in "
+        "all, the decays after the first not used: a force channel would average them)"
     )
+    return FreeDecay(start, later[0], tuple(notes))
 
 
 def hit_summary(record: Record, name: str) -> str:
@@ -670,7 +699,7 @@ def hammer_test_quality(
       acquisition saturated);
     - double_hit: the high-frequency burst of an impact (energy of the first difference, which the slow
       modes barely carry) recurs after the first one, above ``double_hit_height`` of its peak, later than
-      ``double_hit_spacing``;
+      ``double_hit_spacing`` and within ``hit_spacing`` (later, a hit of its own: free_decay ends there);
     - impact_in_segment: the impact burst lies after ``start``: the analysed "free decay" still holds the
       forced response (pass a start after the hit);
     - too_short: fewer than ``min_periods`` periods of ``lowest_frequency`` [rad/s] after ``start`` [s] (the pencil
@@ -714,8 +743,11 @@ def hammer_test_quality(
                     + (f"{start:g} s)" if start > record.time[0] else "the record's start)"),
                 )
             )
-        if len(peaks) > 1:
-            gap = (peaks[1] - peaks[0]) / record.rate
+        # a second impact within settings.hit_spacing is part of the hit (a bounce); a later one is a hit of its own,
+        # where the free decay ends (free_decay)
+        bounces = [k for k in peaks[1:] if (k - peaks[0]) / record.rate <= settings.hit_spacing]
+        if bounces:
+            gap = (bounces[0] - peaks[0]) / record.rate
             out.append(QualityWarning("double_hit", "all", f"a second impact {gap * 1e3:.1f} ms after the first"))
     length = record.time[-1] - max(start, record.time[0])
     periods = length * lowest_frequency / (2 * np.pi)

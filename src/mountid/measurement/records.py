@@ -128,6 +128,11 @@ class Record:
             raise InputError(name, f"no such channel (channels: {', '.join(self.names)})")
         return self.data[:, self.names.index(name)]
 
+    def before(self, time: float) -> Record:
+        """The samples before ``time`` [s] (every channel)."""
+        keep = self.time < time
+        return Record(self.time[keep], self.data[keep], self.channels)
+
     def select(self, names: list[str] | tuple[str, ...]) -> Record:
         """A record of the named channels only, in that order."""
         cols = [self.names.index(n) if n in self.names else self.channel(n) for n in names]
