@@ -604,7 +604,7 @@ def test_a_record_of_several_hits_is_analysed_until_the_second():
         "the first not used: a force channel would average them)",
     )
     found = modal_data(kid300, record, KNOWN)
-    assert found.notes == decay.notes and found.warnings == []
+    assert found.notes == decay.notes and found.warnings == [] and (found.start, found.end) == (0.07, decay.end)
     alone = modal_data(kid300, _rig().simulate(SIX, 3.95, 2048.0, hammers=[HIT], seed=2), KNOWN)
     assert found.modes.keys() == alone.modes.keys() == {"x", "z", "psi", "phi"}
     for label, m in found.modes.items():
@@ -621,3 +621,32 @@ def test_a_record_of_several_hits_is_analysed_until_the_second():
     assert err.value.parameter == "record"
     assert err.value.reason.startswith("too short: 0.9") and "to the next hit (0.99" in err.value.reason
     assert err.value.reason.endswith("hit 1.77 s apart or more, or record the force")
+
+
+def test_the_figures_of_a_record_of_several_hits_show_the_decay_the_modes_came_from(monkeypatch, tmp_path):
+    """identify-record --figures on two hits: the spectra and the stabilisation diagram are of the free decay
+    the poles were fitted on, which ends at the second hit (they took the record to its end, the second hit's
+    forced response in it)."""
+    from mountid.report import figures
+
+    second = Hammer(HIT.point, HIT.direction, time=4.0)
+    record = _rig().simulate(SIX, 8.0, 2048.0, hammers=[HIT, second], seed=2)
+    result = identify_from_record(Machine.resolve("kid300"), record, KNOWN)
+    assert 3.99 <= result.end <= 4.0 and result.start == modal.DEFAULT_START
+    titles, segments = [], []
+    real_stabilisation = modal.stabilisation
+
+    def stabilisation(responses, start, *args):
+        segments.append((start, float(responses.time[-1])))
+        return real_stabilisation(responses, start, *args)
+
+    def keep(fig, where):
+        titles.append(fig.axes[0].get_title())
+        figures.plt.close(fig)
+        return where
+
+    monkeypatch.setattr(figures, "_save", keep)
+    monkeypatch.setattr(figures.modal, "stabilisation", stabilisation)
+    figures.experiment_figures(Machine.resolve("kid300"), record, result, KNOWN, tmp_path)
+    assert titles[0].startswith(f"spectra of the free decay from 0.07 s to {result.end:.4g} s (raw FFT bin")
+    assert segments == [(0.07, float(record.time[record.time < result.end][-1]))]

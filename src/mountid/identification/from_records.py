@@ -65,6 +65,8 @@ class Identification:
     """The H1 frequency responses the modes were fitted on (None: the free decay)."""
     start: float = modal.DEFAULT_START
     """[s] Where the free decay the modes were fitted on starts (ModalData.start)."""
+    end: float | None = None
+    """[s] Where it ends (ModalData.end)."""
 
 
 def channel_rows(machine: Machine, record: Record) -> np.ndarray:
@@ -894,6 +896,8 @@ class ModalData:
     start: float = modal.DEFAULT_START
     """[s] Where the free decay the modes were fitted on starts (the caller's, else modal.free_decay's); with
     the H1 frequency responses, the caller's or modal.DEFAULT_START, the segment the record's checks look at."""
+    end: float | None = None
+    """[s] Where that free decay ends: a later hit (modal.free_decay); None: the record's end, or the H1."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -927,7 +931,7 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
-    estimate, notes = None, []
+    estimate, notes, end = None, [], None
     if full.forces and use_force:
         estimate = frf.h1(full, full.forces[0], settings)
         fitted = estimate.impulse_responses()
@@ -948,9 +952,9 @@ def modal_data(
         )
     else:
         decay = modal.free_decay(record, top, start, settings)
-        start, notes = decay.start, [*notes, *decay.notes]
-        analysed = record if decay.end is None else record.before(decay.end)
-        _check_length(analysed, start, float(np.min(nominal_omega)), settings, decay.end)
+        start, end, notes = decay.start, decay.end, [*notes, *decay.notes]
+        analysed = record if end is None else record.before(end)
+        _check_length(analysed, start, float(np.min(nominal_omega)), settings, end)
         source = (analysed, start, 2.0 * top)
         poles = modal.free_decay_poles(analysed, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
     poles = [_as_acceleration(p, record) for p in poles]
@@ -1020,7 +1024,7 @@ def modal_data(
         )
         for label, (p, m) in labelled.items()
     }
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes), start)
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes), start, end)
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
@@ -1163,7 +1167,7 @@ def identify_from_record(
         )
     except InputError as err:
         raise with_warnings(err, found.warnings) from None
-    return replace(result, frf=found.frf, start=found.start)
+    return replace(result, frf=found.frf, start=found.start, end=found.end)
 
 
 def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> InputError:

@@ -82,13 +82,14 @@ def spectrum_figure(
     start: float,
     poles: dict[str, tuple[float, float]],
     path: str | Path,
+    end: float | None = None,
 ) -> Path:
-    """Paper Fig. 4 b), every channel: Hann-windowed amplitude spectra of the free decay from ``start`` [s]
-    (``channels``, default all but force channels), in each channel's unit, against rad/s (below) and Hz
-    (above); the picked poles {label: (frequency [rad/s], damping ratio)} as labelled lines; the raw FFT bin
-    size for comparison."""
+    """Paper Fig. 4 b), every channel: Hann-windowed amplitude spectra of the free decay from ``start`` [s] to
+    ``end`` [s] (None: the record's end; a later hit's) (``channels``, default all but force channels), in each
+    channel's unit, against rad/s (below) and Hz (above); the picked poles {label: (frequency [rad/s], damping
+    ratio)} as labelled lines; the raw FFT bin size for comparison."""
     names = list(channels) if channels else list(record.responses)
-    keep = record.time >= start
+    keep = (record.time >= start) & (record.time < (np.inf if end is None else end))
     fig, ax = plt.subplots(figsize=(9, 4.5))
     top = 1.6 * max([w for w, _ in poles.values()] or [np.pi * record.rate / 4])
     units = set()
@@ -103,7 +104,10 @@ def spectrum_figure(
         ax.axvline(w, color="k", lw=0.7, ls="--")
         ax.text(w, peak * 0.35**i, f" {label} {w:.2f} rad/s\n zeta {zeta:.3f}", va="top", fontsize=7)
     bin_ = 2 * np.pi / (record.time[keep][-1] - record.time[keep][0])
-    ax.set_title(f"spectra of the free decay from {start:g} s (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles")
+    until = "" if end is None else f" to {end:.4g} s"
+    ax.set_title(
+        f"spectra of the free decay from {start:g} s{until} (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles"
+    )
     ax.set_xlabel("omega [rad/s]")
     ax.set_ylabel(f"amplitude spectrum [{', '.join(sorted(units))}]")
     hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
@@ -291,11 +295,12 @@ def experiment_figures(
     top = 2.0 * float(max(result.frequencies.values()))
     if result.frf is not None:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
-    else:
-        runs = modal.stabilisation(responses, result.start, top, len(machine.module.MODES))
+    else:  # the free decay they were fitted on: until a later hit
+        analysed = responses if result.end is None else responses.before(result.end)
+        runs = modal.stabilisation(analysed, result.start, top, len(machine.module.MODES))
     sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
     out = [
-        spectrum_figure(si, None, result.start, poles, folder / "spectrum.png"),
+        spectrum_figure(si, None, result.start, poles, folder / "spectrum.png", result.end),
         stabilisation_figure(runs, poles, folder / "stabilisation.png"),
         mode_shapes_figure(
             machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes, sensors
