@@ -248,6 +248,17 @@ def test_a_root_rule_names_two_unknowns():
     data = tomllib.loads((Path(__file__).resolve().parents[1] / "derivations" / "kid300.toml").read_text())
     assert parse(data).root == "c_z>c_xy"
     assert parse({**data, "root": "c_xy < c_z"}).root == "c_z>c_xy"  # one canonical form
-    for bad in ("c_z>m", "c_z=c_xy", "c_z>c_z", 3):
-        with pytest.raises(DescriptionError, match="root: must be a rule A>B or A<B on two unknowns"):
+    for bad, why in (
+        ("c_z>m", "on two unknowns (c_xy, c_z): m is not an unknown, got 'c_z>m'"),
+        ("c_z=c_xy", "on two unknowns (c_xy, c_z), got 'c_z=c_xy'"),
+        ("c_z>c_z", "on two different unknowns (c_xy, c_z), got 'c_z>c_z'"),
+        (3, "on two unknowns (c_xy, c_z), got 3"),
+    ):
+        with pytest.raises(DescriptionError, match=re.escape(f"root: must be a rule A>B or A<B {why}")):
             parse({**data, "root": bad})
+    # with one unknown there is nothing to pick between (it read "... on two unknowns (c_z), got 'c_z>c_xy'")
+    data["parameters"]["c_xy"]["role"] = "known"
+    with pytest.raises(DescriptionError, match=re.escape("root: a rule picks between solutions of two unknowns, and")):
+        parse(data)
+    with pytest.raises(DescriptionError, match=re.escape("there is 1 unknown (c_z), got 'c_z>c_xy'")):
+        parse(data)

@@ -39,6 +39,25 @@ def distinct_frequencies(n: int) -> str:
     return counted(n, "distinct frequency", "distinct frequencies")
 
 
+def root_rule_problem(rule: object, unknown: tuple[str, ...] | list[str]) -> str:
+    """Why ``rule`` is no root rule on the ``unknown`` (root_rule), in words for an error; "" where it is one."""
+    names = ", ".join(unknown)
+    if isinstance(rule, str) and root_rule(rule, unknown) is not None:
+        return ""
+    if len(unknown) < 2:
+        return (
+            f"a rule picks between solutions of two unknowns, and there is {counted(len(unknown), 'unknown')} ({names})"
+        )
+    if not isinstance(rule, str) or not any(op in rule for op in "<>"):
+        return f"must be a rule A>B or A<B on two unknowns ({names})"
+    left, _, right = (part.strip() for part in rule.replace("<", ">").partition(">"))
+    strange = [n for n in dict.fromkeys((left, right)) if n not in unknown]
+    if strange:
+        which = f"{strange[0]} is not an unknown" if len(strange) == 1 else f"{' and '.join(strange)} are not unknowns"
+        return f"must be a rule A>B or A<B on two unknowns ({names}): {which}"
+    return f"must be a rule A>B or A<B on two different unknowns ({names})"
+
+
 def root_rule(rule: str, unknown: tuple[str, ...] | list[str]) -> tuple[str, str] | None:
     """The two unknowns (larger, smaller) of a root rule "A>B" or "A<B" (spaces allowed), or None when the
     rule is not one on two distinct unknowns. A description's ``root`` and the command line's --root pick with

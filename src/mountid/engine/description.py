@@ -16,7 +16,7 @@ import tomllib
 
 from mountid.effects import EFFECT_PARAMETERS
 from mountid.errors import DescriptionError
-from mountid.nomenclature import COORDINATES, KINDS, POSITIVE_KINDS, root_rule
+from mountid.nomenclature import COORDINATES, KINDS, POSITIVE_KINDS, root_rule, root_rule_problem
 
 MIRROR_PLANES: dict[str, int] = {"yz": 0, "xz": 1}
 """Vertical mirror planes and the axis each one reverses (``yz``: x -> -x, ``xz``: y -> -y)."""
@@ -245,7 +245,7 @@ def _root(rule: object, parameters: dict[str, Parameter]) -> str:
     parts = root_rule(rule, unknown) if isinstance(rule, str) else None
     if parts is not None:
         return f"{parts[0]}>{parts[1]}"
-    raise _fail("root", f"must be a rule A>B or A<B on two unknowns ({', '.join(unknown)}), got {rule!r}")
+    raise _fail("root", f"{root_rule_problem(rule, unknown)}, got {rule!r}")
 
 
 def load(path: str | Path) -> Description:

@@ -42,7 +42,7 @@ from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
-from mountid.nomenclature import counted, distinct_frequencies, root_rule
+from mountid.nomenclature import counted, distinct_frequencies, root_rule, root_rule_problem
 
 
 @dataclass(frozen=True)
@@ -533,7 +533,7 @@ def root_predicate(rule: str, unknown: tuple[str, ...]) -> Callable[[dict[str, f
     """The predicate of a root rule "A>B" or "A<B" on two unknowns (nomenclature.root_rule; fit_stiffness)."""
     parts = root_rule(rule, unknown)
     if parts is None:
-        raise InputError("root", f"{rule!r} is not a rule A>B or A<B on two unknowns ({', '.join(unknown)})")
+        raise InputError("root", f"{rule!r}: {root_rule_problem(rule, unknown)}")
     big, small = parts
     return lambda v: v[big] > v[small]
 
