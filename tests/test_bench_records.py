@@ -596,7 +596,7 @@ def test_a_record_of_several_hits_is_analysed_until_the_second():
     free decay ran over the second hit, which was named a "double hit", and gave one mode of four (x at zeta
     0.008). It now ends where the second hit begins, said in a note, and gives the modes the first hit alone
     gives; a bounce 30 ms after a hit stays a double hit, and hits closer than the lowest modes need are an error
-    that says how far apart to hit."""
+    that says how long a free decay they need."""
     kid300 = Machine.resolve("kid300")
     second = Hammer(HIT.point, HIT.direction, time=4.0)
     record = _rig().simulate(SIX, 8.0, 2048.0, hammers=[HIT, second], seed=2)
@@ -623,7 +623,7 @@ def test_a_record_of_several_hits_is_analysed_until_the_second():
         modal_data(kid300, _rig().simulate(SIX, 4.0, 2048.0, hammers=[HIT, close], seed=2), KNOWN)
     assert err.value.parameter == "record"
     assert err.value.reason.startswith("too short: 0.9") and "to the next hit (0.99" in err.value.reason
-    assert err.value.reason.endswith("hit 1.77 s apart or more, or record the force")
+    assert err.value.reason.endswith("1.77 s of free decay or more before the next hit (or record the force)")
 
 
 def test_the_figures_of_a_record_of_several_hits_show_the_decay_the_modes_came_from(monkeypatch, tmp_path):

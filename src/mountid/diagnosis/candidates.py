@@ -1220,7 +1220,7 @@ def rank(
                 f"nominal model's by {held_out_shift(best, nominal, campaign, settings):.2g} of their own standard "
                 "deviation in the median): more modes or mode shapes would confirm or rule it out"
             )
-        # said whether or not the first explains the data: a tie that names it first is read as its lead (tri3, a
+        # said whether or not the first explains the data: a tie that names it first is read as its lead (fan3, a
         # machine with no plane of symmetry: an attached mass of six parameters first at 0.58 on six frequencies)
         if best is not None and not tested(best, campaign):
             verdict += (

@@ -1088,7 +1088,8 @@ def _check_length(
             "record",
             f"too short: {max(length, 0.0):.3g} s of free decay from the start ({start:g} s) to the next hit "
             f"({next_hit:.4g} s) holds {periods:.1f} periods of the lowest mode ({lowest:.4g} rad/s); at least "
-            f"{settings.min_periods:g} are needed: hit {need:.3g} s apart or more, or record the force",
+            f"{settings.min_periods:g} are needed: {need:.3g} s of free decay or more before the next hit (or "
+            "record the force)",
         )
     if periods < settings.min_periods:
         need = settings.min_periods * 2 * np.pi / lowest + max(start - float(record.time[0]), 0.0)
