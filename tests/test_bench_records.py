@@ -575,9 +575,10 @@ def test_a_record_with_a_pre_trigger_is_analysed_from_after_its_impact(hit_time,
 
 def test_a_campaign_and_the_command_line_say_where_a_pre_triggered_free_decay_starts(capsys, tmp_path):
     """The note reaches the reader: process prints it (and gives it in its JSON), a campaign's record notes
-    name the record it belongs to."""
-    late = Hammer(HIT.point, HIT.direction, time=0.55)
-    write_csv(_rig().simulate(SIX, 5.55, 2048.0, hammers=[late], seed=3), tmp_path / "hit.csv")
+    name the record it belongs to. simulate --hit-time writes such a record."""
+    # the virtual rig's record of a pre-trigger, as simulate --hit-time writes it (the hit 0.55 s in)
+    argv = ["simulate", "kid300", "--out", str(tmp_path / "hit.csv"), "--hit-time", "0.55", "--duration", "5.55"]
+    assert main(argv) == 0 and capsys.readouterr().out.startswith("wrote")
     assert main(["process", "kid300", str(tmp_path / "hit.csv")]) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[1].startswith("  note: free decay from t = 0.5")

@@ -55,6 +55,12 @@ CASES = [
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
     # no sample, or fewer than a record holds: named as the option, before the machine is built
     (["simulate", "kid300", "--out", "{d}/x.csv", "--duration", "1e-4", "--rate", "1000"], "--duration: 0.0001 s"),
+    # a hit at or after the record's end would leave a record of noise
+    (
+        ["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "4"],
+        "--hit-time: 4 s is at or after the record's end",
+    ),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "-0.1"], "--hit-time: must be >= 0 and finite"),
     (["plan", "kid300", "--rate", "1"], "--duration: 4 s at 1 Hz is 4 samples per channel; a record needs at least"),
     # a zero direction named as the option that gave it (was "force.direction", "A.direction")
     (["plan", "kid300", "--hit-direction", "0,0,0"], "--hit-direction: '0,0,0': a direction must not be zero"),

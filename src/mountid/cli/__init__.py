@@ -115,6 +115,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hit-point", default="0.35,0.25,0.3", help="impact point x,y,z [m]")
     p.add_argument("--hit-direction", default="1,0.8,-0.6", help="impact direction")
     p.add_argument("--hit-peak", type=float, default=3000.0, help="peak impact force [N]")
+    p.add_argument(
+        "--hit-time",
+        type=float,
+        default=0.05,
+        help="when the hit begins [s] from the record's start (later: a pre-trigger, as bench exports keep one)",
+    )
     p.add_argument("--speed", nargs="+", type=float, help="rotating-unbalance speeds [rad/s] instead of a hit")
     add_unbalance(p)
     p.set_defaults(func=cmd_simulate)

@@ -52,6 +52,10 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         raise InputError("--seed", f"must be a non-negative integer, got {args.seed}")
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS", strict=False)
     bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
+    # a hit later than the record's start is a pre-trigger, as bench exports keep one; at or after its end, none
+    bounded(args.hit_time, "--hit-time", args.duration, " s", strict=False)
+    if args.hit_time >= args.duration:
+        raise InputError("--hit-time", f"{args.hit_time:g} s is at or after the record's end ({args.duration:g} s)")
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     if args.speed:
@@ -69,6 +73,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
                 point_on_machine(args.hit_point, "--hit-point"),
                 direction(args.hit_direction, "--hit-direction"),
                 peak=args.hit_peak,
+                time=args.hit_time,
             )
         ]
     )
