@@ -15,6 +15,7 @@ from mountid.cli.arguments import (
     bounded,
     check_unbalance,
     direction,
+    finite_number,
     pairs,
     placements,
     point_on_machine,
@@ -53,7 +54,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS", strict=False)
     bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
     # a hit later than the record's start is a pre-trigger, as bench exports keep one; at or after its end, none
-    bounded(args.hit_time, "--hit-time", args.duration, " s", strict=False)
+    finite_number(args.hit_time, "--hit-time", strict=False)
     if args.hit_time >= args.duration:
         raise InputError("--hit-time", f"{args.hit_time:g} s is at or after the record's end ({args.duration:g} s)")
     check_unbalance(args)

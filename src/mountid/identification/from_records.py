@@ -1082,22 +1082,18 @@ def _check_length(
         raise InputError(
             "start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s): no free decay"
         )
-    if periods < settings.min_periods and next_hit is not None:
-        need = settings.min_periods * 2 * np.pi / lowest
-        raise InputError(
-            "record",
-            f"too short: {max(length, 0.0):.3g} s of free decay from the start ({start:g} s) to the next hit "
-            f"({next_hit:.4g} s) holds {periods:.1f} periods of the lowest mode ({lowest:.4g} rad/s); at least "
-            f"{settings.min_periods:g} are needed: {need:.3g} s of free decay or more before the next hit (or "
-            "record the force)",
-        )
     if periods < settings.min_periods:
-        need = settings.min_periods * 2 * np.pi / lowest + max(start - float(record.time[0]), 0.0)
+        decay = settings.min_periods * 2 * np.pi / lowest
+        if next_hit is None:
+            span = f"after the start ({start:g} s)"
+            advice = f"record {decay + max(start - float(record.time[0]), 0.0):.3g} s or more"
+        else:
+            span = f"from the start ({start:g} s) to the next hit ({next_hit:.4g} s)"
+            advice = f"{decay:.3g} s of free decay or more before the next hit (or record the force)"
         raise InputError(
             "record",
-            f"too short: {max(length, 0.0):.3g} s of free decay after the start ({start:g} s) holds {periods:.1f} "
-            f"periods of the lowest mode ({lowest:.4g} rad/s); at least {settings.min_periods:g} are needed: "
-            f"record {need:.3g} s or more",
+            f"too short: {max(length, 0.0):.3g} s of free decay {span} holds {periods:.1f} periods of the lowest "
+            f"mode ({lowest:.4g} rad/s); at least {settings.min_periods:g} are needed: {advice}",
         )
 
 

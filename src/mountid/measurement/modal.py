@@ -574,6 +574,29 @@ counted from the acquisition's start), the free decay starts by default this lon
 hammer pulse of a few milliseconds, a soft tip's 10 ms with a margin."""
 
 
+def _too_slow_for_bursts(record: Record, highest_frequency: float | None, settings: RecordSettings) -> bool:
+    """Whether ``record`` is sampled below settings.low_rate_factor times ``highest_frequency`` [rad/s] / (2 pi)
+    (None: never): the modes' own oscillation then fills the first difference, and no impact burst stands out."""
+    return highest_frequency is not None and record.rate < settings.low_rate_factor * highest_frequency / (2 * np.pi)
+
+
+def _impacts(record: Record, settings: RecordSettings, clipped: list[str] | None = None) -> NDArray[np.intp]:
+    """impact_bursts on the channels not clipped (``clipped``: their names where known; a clipped channel's flat
+    tops are bursts of their own)."""
+    if clipped is None:
+        clipped = [
+            c.name for j, c in enumerate(record.channels) if clipped_level(record.data[:, j], settings) is not None
+        ]
+    unclipped = [n for n in record.names if n not in clipped]
+    return impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
+
+
+def _in_segment(onset: float, start: float, settings: RecordSettings) -> bool:
+    """Whether an impact beginning at ``onset`` [s] lies in a segment from ``start`` [s] (within the spread of its
+    onset, settings.double_hit_spacing)."""
+    return onset >= start - settings.double_hit_spacing
+
+
 @dataclass(frozen=True)
 class FreeDecay:
     """Where a record's free decay lies (free_decay): from ``start`` [s] to ``end`` [s] (None: the record's end),
@@ -595,15 +618,13 @@ def free_decay(
     record holds one: the decay after it is the sum of two. No impact is sought where the record is sampled too
     slowly for the bursts to stand out (below settings.low_rate_factor times ``highest_frequency`` [rad/s] /
     (2 pi))."""
-    if record.rate < settings.low_rate_factor * highest_frequency / (2 * np.pi):
+    if _too_slow_for_bursts(record, highest_frequency, settings):
         return FreeDecay(DEFAULT_START if start is None else start)
-    unclipped = [c.name for j, c in enumerate(record.channels) if clipped_level(record.data[:, j], settings) is None]
-    peaks = impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
-    onsets = [float(t) for t in record.time[peaks]]
+    onsets = [float(t) for t in record.time[_impacts(record, settings)]]
     notes = []
     if start is None:
         start = DEFAULT_START
-        if onsets and onsets[0] >= DEFAULT_START - settings.double_hit_spacing:
+        if onsets and _in_segment(onsets[0], DEFAULT_START, settings):
             start = onsets[0] + AFTER_IMPACT
             first = float(record.time[0])
             into = f" ({onsets[0] - first:.3g} s into the record)" if first != 0 else ""
@@ -716,11 +737,7 @@ def hammer_test_quality(
         if level is not None:
             clipped.append(c.name)
             out.append(QualityWarning("clipping", c.name, f"held at {level:.4g} {c.unit} on several samples: clipped"))
-    unclipped = [n for n in record.names if n not in clipped]
-    low_rate = highest_frequency is not None and record.rate < settings.low_rate_factor * highest_frequency / (
-        2 * np.pi
-    )
-    if low_rate:
+    if _too_slow_for_bursts(record, highest_frequency, settings):
         out.append(
             QualityWarning(
                 "low_rate",
@@ -732,9 +749,8 @@ def hammer_test_quality(
     elif impacts:
         # the impact bursts (the first difference, which the slow modes barely carry) stand out only where the
         # modes are well sampled
-        # a clipped channel's flat tops are bursts of their own: the impacts are sought on the others
-        peaks = impact_bursts(record.select(unclipped), settings) if unclipped else np.array([], dtype=np.intp)
-        if len(peaks) and record.time[peaks[0]] >= start - settings.double_hit_spacing:
+        peaks = _impacts(record, settings, clipped)
+        if len(peaks) and _in_segment(float(record.time[peaks[0]]), start, settings):
             out.append(
                 QualityWarning(
                     "impact_in_segment",
