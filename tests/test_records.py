@@ -92,8 +92,8 @@ def test_a_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
 def test_spreadsheet_exports_read_as_the_plain_table(tmp_path):
     """A bench's table as spreadsheets export it reads as the same table: every cell quoted ("0,5";"1,2": the
     quotes were 'a value is not a number'), a separator at the end of every line (an unnamed column of NaN
-    ended in ': NaN or infinite sample' naming no channel). A header cell left empty over values, and text
-    before the header, are errors that say so."""
+    ended in ': NaN or infinite sample' naming no channel). A header cell left empty over values is an error
+    that says so."""
     rec = _record()
     rows = [";".join(f"{v:.17g}".replace(".", ",") for v in (t, *d)) for t, d in zip(rec.time, rec.data, strict=True)]
     plain = "time;" + ";".join(rec.names) + "\n" + "\n".join(rows) + "\n"
@@ -111,8 +111,29 @@ def test_spreadsheet_exports_read_as_the_plain_table(tmp_path):
         np.testing.assert_array_equal(got.data, expected.data)
     unnamed = plain.replace("time;A_x;", "time;;", 1)
     _refused(tmp_path / "unnamed.csv", unnamed, r"^unnamed.csv: column 2: has no name in the header \(line 1\)")
-    preamble = "Exported 2026-11-30\nRate: 2000 Hz\n" + plain
-    _refused(tmp_path / "preamble.csv", preamble, r"^preamble.csv:2: a value is not a number \(line 1 was read as")
+
+
+def test_a_bench_exports_preamble_is_read_past(tmp_path):
+    """Acquisition software writes lines of text before the table (date, operator, "Sample rate;2000;Hz"): they
+    were "a value is not a number (line 1 was read as the header...)". The header is the first line of names
+    that a row of numbers (or a row of units and then one) of its width follows; the table reads as without the
+    preamble. Where no line is such a header (channels named by numbers), the first line is read as the header
+    and the error says so, as before."""
+    rec = _record()
+    rows = [";".join(f"{v:.17g}".replace(".", ",") for v in (t, *d)) for t, d in zip(rec.time, rec.data, strict=True)]
+    table = "time;" + ";".join(rec.names) + "\ns;g;g\n" + "\n".join(rows) + "\n"
+    (tmp_path / "plain.csv").write_text(table, encoding="utf-8")
+    preamble = "Exported 2026-11-30 10:41\nOperator;J. Doe\nSample rate;2000;Hz\nChannels;2\n\n"
+    (tmp_path / "bench.csv").write_text(preamble + table, encoding="utf-8")
+    expected, got = read_csv(tmp_path / "plain.csv"), read_csv(tmp_path / "bench.csv")
+    assert got.channels == expected.channels and got.channels[0].unit == "g"
+    np.testing.assert_array_equal(got.time, expected.time)
+    np.testing.assert_array_equal(got.data, expected.data)
+    commas = "Title,Hammer test\nDate,2026-11-30\nRate,2000\n" + table.replace(",", ".").replace(";", ",")
+    (tmp_path / "commas.csv").write_text(commas, encoding="utf-8")
+    np.testing.assert_array_equal(read_csv(tmp_path / "commas.csv").data, expected.data)
+    numbered = preamble + table.replace("time;A_x;B_y", "time;1;2", 1)
+    _refused(tmp_path / "numbered.csv", numbered, r"^numbered.csv:2: a value is not a number \(line 1 was read as")
 
 
 def _refused(path: Path, text: str, message: str) -> None:

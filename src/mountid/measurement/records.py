@@ -12,7 +12,8 @@ file carries this metadata in comment lines before the table, so a record read b
 A file without the comment lines (a bench's export) reads with unknown points and directions (NaN), which
 processing that needs them rejects by channel name (:func:`with_geometry` places them). Its header may carry
 units, ``Time [ms];A_x [g];F (kN)``, or a row of units of its own below the names (``ms;g;kN``); its columns may
-be separated by semicolons (then with decimal commas) or tabs, its cells quoted, its lines ended by a separator.
+be separated by semicolons (then with decimal commas) or tabs, its cells quoted, its lines ended by a separator,
+and lines of text before the header (an acquisition's preamble: date, operator, rate) are read past.
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
 or mm/s; displacement in m, mm or um; force in N or kN (a hammer's force channel: the excitation, never a
@@ -263,35 +264,23 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     replaces the time column's steps (see uniform_time for what is accepted without it)."""
     path = existing_file(path, "record")
     meta: dict[str, Channel] = {}
-    header: list[str] | None = None
-    rows: list[list[float]] = []
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte order mark (spreadsheet exports) is not text
     except UnicodeDecodeError as err:
         raise InputError("record", f"{path.name} is not UTF-8 text (byte {err.start}): not a CSV record") from None
+    lines: list[tuple[int, str]] = []  # the table's lines with their numbers: neither blank nor comments
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
-        if line.startswith("#"):
-            if line.startswith("# channel "):
-                try:
-                    c = json.loads(line.removeprefix("# channel "))
-                    channel = Channel(
-                        str(c["name"]),
-                        tuple(map(float, c["point"])),
-                        tuple(map(float, c["direction"])),
-                        str(c.get("quantity", "acceleration")),
-                        str(c.get("unit", "m/s^2")),
-                    )
-                except (ValueError, KeyError, TypeError) as err:
-                    raise InputError(f"{path.name}:{number}", f"bad channel metadata ({err})") from None
-                if any(_partly_known(v) for v in (channel.point, channel.direction)):
-                    raise InputError(
-                        f"{path.name}:{number}",
-                        f"channel {channel.name}: point and direction must be finite numbers (all NaN: not placed)",
-                    )
-                meta[channel.name] = channel
-            continue
+        if line.startswith("# channel "):
+            channel = _channel_metadata(line.removeprefix("# channel "), f"{path.name}:{number}")
+            meta[channel.name] = channel
+        elif not line.startswith("#"):
+            lines.append((number, line))
+    first = _header_index(lines)
+    header: list[str] | None = None
+    rows: list[list[float]] = []
+    for number, line in lines[first:]:
         if header is None:
             separator = _separator(line)
             header = [h.strip() for h in _cells(line, separator)]
@@ -301,10 +290,8 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
         if not rows and number == header_line + 1 and _units_row(cells, len(header)):
             header = [_with_unit(title, unit.strip()) for title, unit in zip(header, cells, strict=True)]
             continue
-        if separator == ";":  # a semicolon-separated export writes decimal commas
-            cells = [v.replace(",", ".") for v in cells]
         try:
-            rows.append([float(v) if v.strip() else math.nan for v in cells])
+            rows.append(_values(cells, separator))
         except ValueError:
             hint = "" if rows else f" (line {header_line} was read as the header: a line before it must start with #)"
             if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
@@ -341,6 +328,69 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
     return Record(_time_column(table[:, 0] * TIME_UNITS[time_unit], rate), table[:, 1:], channels)
+
+
+def _channel_metadata(text: str, where: str) -> Channel:
+    """A "# channel" comment's JSON as a channel; an error naming ``where`` (file:line) for one that is not."""
+    try:
+        c = json.loads(text)
+        channel = Channel(
+            str(c["name"]),
+            tuple(map(float, c["point"])),
+            tuple(map(float, c["direction"])),
+            str(c.get("quantity", "acceleration")),
+            str(c.get("unit", "m/s^2")),
+        )
+    except (ValueError, KeyError, TypeError) as err:
+        raise InputError(where, f"bad channel metadata ({err})") from None
+    if any(_partly_known(v) for v in (channel.point, channel.direction)):
+        why = "point and direction must be finite numbers (all NaN: not placed)"
+        raise InputError(where, f"channel {channel.name}: {why}")
+    return channel
+
+
+def _values(cells: list[str], separator: str) -> list[float]:
+    """One table row's numbers (an empty cell: NaN; a semicolon-separated export's decimal commas read); a
+    ValueError for a cell that is no number."""
+    if separator == ";":  # a semicolon-separated export writes decimal commas
+        cells = [v.replace(",", ".") for v in cells]
+    return [float(v) if v.strip() else math.nan for v in cells]
+
+
+def _header_index(lines: list[tuple[int, str]]) -> int:
+    """Which of a CSV's table lines (neither blank nor comments) is its header: the first, unless lines of text
+    come before it, as a bench export's preamble ("Exported 2026-11-30", "Sample rate: 2000 Hz"). The header is
+    then the first line of at least two cells, none a number and not all units, that a row of numbers of its
+    width follows (or a row of units and then one), and not below a line of its width that could be a header; it
+    is sought only before the first row of numbers. Where no line is one, the first line (whose table then fails
+    to read, naming the line read as the header)."""
+    names: list[str] | None = None  # the line before, where it could be a header
+    for k, (_, line) in enumerate(lines):
+        separator = _separator(line)
+        cells = _cells(line, separator)
+        if _is_numbers(cells, separator):
+            break  # the table has begun: a header, if any, came before
+        after, names = names, None
+        if len(cells) < 2 or any(_is_numbers([c], separator) for c in cells) or _units_row(cells, len(cells)):
+            continue  # a header names its columns: no number, and not a row of units (of channels numbered)
+        names = cells
+        if after is not None and len(after) == len(cells):
+            continue  # below a line that could be the header: a row of unknown units, not a header after a preamble
+        below = [_cells(other, separator) for _, other in lines[k + 1 : k + 3]]
+        if below and _units_row(below[0], len(cells)):
+            below = below[1:]
+        if below and len(below[0]) == len(cells) and _is_numbers(below[0], separator):
+            return k
+    return 0
+
+
+def _is_numbers(cells: list[str], separator: str) -> bool:
+    """Whether a row's cells are all numbers (or empty), at least one not empty."""
+    try:
+        _values(cells, separator)
+    except ValueError:
+        return False
+    return any(c.strip() for c in cells)
 
 
 def _partly_known(vector: tuple[float, ...]) -> bool:
