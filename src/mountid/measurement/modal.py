@@ -641,7 +641,7 @@ def free_decay(
         return FreeDecay(start, None, tuple(notes))
     notes.append(
         f"free decay until t = {later[0]:.4g} s, where the record shows another hit ({counted(len(hits), 'hit')} in "
-        "all, the decays after the first not used: a force channel would average them)"
+        "all, the others' decays not used: a force channel would average them)"
     )
     return FreeDecay(start, later[0], tuple(notes))
 
