@@ -16,6 +16,7 @@ from mountid.cli import main
 from mountid.diagnosis import campaign
 from mountid.diagnosis.gap import diagnose
 from mountid.errors import InputError
+from mountid.measurement import modal
 from mountid.measurement.records import write_csv
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation.paper import paper_hit, paper_sensors
@@ -300,3 +301,45 @@ def test_pole_frequencies_given_by_hand_are_converted(damping, capsys, tmp_path)
     bare = {label: {"frequency": m["frequency"]} for label, m in modes.items()}
     with pytest.raises(InputError, match=r"^frequency_type: .*give damping ratios or the damping parameters"):
         campaign.parse({**data, "known": {k: v for k, v in KNOWN.items() if not k.startswith("b_")}, "modes": bare})
+
+
+def test_a_record_of_several_hits_gives_a_free_decay_per_hit(tmp_path):
+    """A record hit three times without a force channel: a campaign that lists it without a start takes the free
+    decay after each hit as a record of its own ("hits.csv hit 2"), combined per mode as records are (only the
+    first hit's was used); each decay's own note no longer says the others are unused. With a start, the one
+    decay from there, as before."""
+    from mountid.identification.from_records import modal_data
+
+    rig = Rig.of("kid300")
+    hits = [
+        Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6), time=0.05),
+        Hammer((-0.4, 0.3, 0.3), (0.3, -1, -0.5), time=6.05),
+        Hammer((0.4, -0.3, 0.3), (-1, 0.4, -0.7), time=12.05),
+    ]
+    record = rig.simulate(_eight_channels(), 18.0, 500.0, hammers=hits, seed=4)
+    write_csv(record, tmp_path / "hits.csv")
+    data = {"machine": "kid300", "known": KNOWN, "records": ["hits.csv"]}
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    c = campaign.load(tmp_path / "c.json")
+    (said,) = [n for n in c.record_notes if n.startswith("hits.csv: 3 hits, a free decay after each (from t = 0.07, ")]
+    first = modal_data(c.machine, record, KNOWN)
+    assert first.hits == pytest.approx((0.05, 6.05, 12.05), abs=0.0075)  # an onset up to half the burst window early
+    assert said.startswith(f"hits.csv: 3 hits, a free decay after each (from t = 0.07, {first.hits[1] + 0.03:.4g}, ")
+    assert not [n for n in c.record_notes if "not used" in n]
+    each = [first.modes] + [modal_data(c.machine, record, KNOWN, t + modal.AFTER_IMPACT).modes for t in first.hits[1:]]
+    for label in ("z", "phi"):  # no damping shift to convert: the means as combined
+        values = [(e[label].frequency, e[label].frequency_std) for e in each]
+        w = np.array([s**-2 for _, s in values])
+        mean = float(np.sum(w * [f for f, _ in values]) / np.sum(w))
+        assert c.modes[label].frequency == pytest.approx(mean, rel=1e-12)
+        assert any(
+            n.startswith(f"{label}: frequency, damping ratio from hits.csv, hits.csv hit 2, hits.csv hit 3 (weighted")
+            for n in c.record_notes
+        )
+    assert not [n for n in c.record_notes if "disagree" in n], c.record_notes
+    assert diagnose(c).effects.kind == "no significant gap"
+    data["records"] = [{"file": "hits.csv", "start": 0.07}]
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    one = campaign.load(tmp_path / "c.json")
+    assert one.modes["z"].frequency == pytest.approx(each[0]["z"].frequency, rel=1e-12)
+    assert [n for n in one.record_notes if "others' decays not used" in n and "without a start uses each" in n]

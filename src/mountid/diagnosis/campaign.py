@@ -41,6 +41,7 @@ import math
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import jsonschema
 import numpy as np
@@ -49,10 +50,14 @@ from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest,
 from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
+from mountid.measurement import modal
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
-from mountid.measurement.records import Channel
+from mountid.measurement.records import Channel, Record
 from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
+
+if TYPE_CHECKING:
+    from mountid.identification.from_records import ModalData
 
 
 def schema() -> dict:
@@ -744,7 +749,6 @@ def _modes_from_records(
                 geometry = {name: (point, direction) for name, point, direction in source.channels}
                 record = with_geometry(record, geometry, "channels")
             data = modal_data(machine, record, known, source.start)
-            found, _, warnings = data
         except NoModeFound as err:
             if len(sources) == 1:
                 raise InputError(f"{where}.{i} ({source.path.name or source.path})", err.reason) from None
@@ -757,16 +761,20 @@ def _modes_from_records(
             # the file is named once, in the parameter (a reader's reason may start with it: uff._read_set)
             reason = err.reason.removeprefix(f"{source.path.name}: ")
             raise InputError(f"{where}.{i} ({source.path.name or source.path})", f"{what}{reason}") from None
-        here = [replace(w, record=source.path.name) for w in warnings]
-        warned += here
-        notes += [w.describe() for w in here]
-        notes += [f"{source.path.name}: {note}" for note in data.notes]  # how the chain took it: H1, the start
-        for label, mode in found.items():
-            estimates.setdefault(label, []).append((mode, source.path.name))
-        mixed += [(label, source.path.name) for label in data.mixed]
-        layouts[source.path.name] = tuple(
-            Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force"
-        )
+        segments = [(source.path.name, data)]
+        if source.start is None and len(data.hits) > 1:  # several hits without a force channel: every decay
+            segments, said = _every_hit(machine, record, known, data, source.path.name)
+            notes += said
+        layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
+        for name, data in segments:
+            here = [replace(w, record=name) for w in data.warnings]
+            warned += here
+            notes += [w.describe() for w in here]
+            notes += [f"{name}: {note}" for note in data.notes]  # how the chain took it: H1, the start
+            for label, mode in data.modes.items():
+                estimates.setdefault(label, []).append((mode, name))
+            mixed += [(label, name) for label in data.mixed]
+            layouts[name] = layout
     notes += _lone_twins(machine, estimates)
     notes += _mixed_twins(machine, estimates, mixed)
     by_hand = by_hand or {}
@@ -800,6 +808,36 @@ def _modes_from_records(
         notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
     return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree), tuple(warned))
+
+
+def _every_hit(
+    machine: Machine, record: Record, known: dict[str, float], first: ModalData, name: str
+) -> tuple[list[tuple[str, ModalData]], list[str]]:
+    """A record of several hits without a force channel (ModalData.hits; ``first``: modal_data's without a start,
+    the first hit's free decay): the free decay after each hit, from modal.AFTER_IMPACT after it to the next, as
+    records of their own named "``name`` hit k" (the first keeps ``name``), combined per mode as records are: the
+    superposed remainder of the decays before is a free decay of the same modes. A later decay the chain cannot use
+    (too short for the lowest mode before the next hit, no mode found) is left out with a note. Returns the decays
+    and the notes; the decays' own notes no longer say that the others are not used."""
+    from mountid.identification.from_records import modal_data
+
+    def own(data: ModalData) -> ModalData:
+        cut = modal.next_hit_note(data.end, len(data.hits)) if data.end is not None else None
+        return replace(data, notes=tuple(n for n in data.notes if n != cut))
+
+    segments, notes = [(name, own(first))], []
+    for k, hit in enumerate(first.hits[1:], start=2):
+        try:
+            segments.append((f"{name} hit {k}", own(modal_data(machine, record, known, hit + modal.AFTER_IMPACT))))
+        except InputError as err:  # NoModeFound too
+            notes.append(f"{name} hit {k}: left out: {err.reason}")
+    starts = ", ".join(f"{data.start:.4g}" for _, data in segments)
+    notes.insert(
+        0,
+        f"{name}: {counted(len(first.hits), 'hit')}, a free decay after each (from t = {starts} s; "
+        f"{modal.AFTER_IMPACT:g} s after the later hits), combined per mode as records are",
+    )
+    return segments, notes
 
 
 def _as_undamped(

@@ -898,6 +898,9 @@ class ModalData:
     the H1 frequency responses, the caller's or modal.DEFAULT_START, the segment the record's checks look at."""
     end: float | None = None
     """[s] Where that free decay ends: a later hit (modal.free_decay); None: the record's end, or the H1."""
+    hits: tuple[float, ...] = ()
+    """[s] Without a force channel, the onsets of the record's hits where it shows several (modal.FreeDecay.hits):
+    the starts of the other free decays it holds."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -931,7 +934,7 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
-    estimate, notes, end = None, [], None
+    estimate, notes, end, hits = None, [], None, ()
     if full.forces and use_force:
         estimate = frf.h1(full, full.forces[0], settings)
         fitted = estimate.impulse_responses()
@@ -952,7 +955,7 @@ def modal_data(
         )
     else:
         decay = modal.free_decay(record, top, start, settings)
-        start, end, notes = decay.start, decay.end, [*notes, *decay.notes]
+        start, end, hits, notes = decay.start, decay.end, decay.hits, [*notes, *decay.notes]
         analysed = record if end is None else record.before(end)
         _check_length(analysed, start, float(np.min(nominal_omega)), settings, end)
         source = (analysed, start, 2.0 * top)
@@ -1024,7 +1027,8 @@ def modal_data(
         )
         for label, (p, m) in labelled.items()
     }
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), frozenset(mixed) & set(modes), start, end)
+    mixed_labels = frozenset(mixed) & set(modes)
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), mixed_labels, start, end, hits)
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:

@@ -605,6 +605,9 @@ class FreeDecay:
     start: float
     end: float | None = None
     notes: tuple[str, ...] = ()
+    hits: tuple[float, ...] = ()
+    """[s] The onsets of the record's hits where it shows several (each more than RecordSettings.hit_spacing after
+    the one before; one hit: ()): a free decay after each (another start) measures the same modes."""
 
 
 def free_decay(
@@ -636,14 +639,20 @@ def free_decay(
     for t in onsets:
         if not hits or t - hits[-1] > settings.hit_spacing:  # closer: a bounce of the hit before
             hits.append(t)
+    several = tuple(hits) if len(hits) > 1 else ()
     later = [t for t in hits[1:] if t > start]  # the first hit ends no decay (a start before it: the check warns)
     if not later:
-        return FreeDecay(start, None, tuple(notes))
-    notes.append(
-        f"free decay until t = {later[0]:.4g} s, where the record shows another hit ({counted(len(hits), 'hit')} in "
-        "all, the others' decays not used: a force channel would average them)"
+        return FreeDecay(start, None, tuple(notes), several)
+    return FreeDecay(start, later[0], (*notes, next_hit_note(later[0], len(hits))), several)
+
+
+def next_hit_note(end: float, hits: int) -> str:
+    """free_decay's note on a decay that ends at ``end`` [s], where the record shows another of its ``hits``."""
+    return (
+        f"free decay until t = {end:.4g} s, where the record shows another hit ({counted(hits, 'hit')} in all, the "
+        "others' decays not used: a force channel would average them; a campaign listing the record without a start "
+        "uses each)"
     )
-    return FreeDecay(start, later[0], tuple(notes))
 
 
 def hit_summary(record: Record, name: str) -> str:
