@@ -38,15 +38,30 @@ def test_plain_csv_reads_without_metadata(tmp_path):
     assert rec.names == ("a",) and np.isnan(rec.channels[0].point[0])
 
 
-@pytest.mark.parametrize("rate", [None, 500.0])
-def test_a_csv_without_a_time_column_is_named(tmp_path, rate):
+def test_a_csv_without_a_time_column_is_named_or_read_at_the_rate_given(tmp_path):
     """A bench export of channels only: its first channel was read as the time ("time: must increase", or with
-    --rate its samples were dropped for a uniform grid and the channel was "no such channel"). The first column
-    is named as read for the time."""
+    --rate its samples were dropped for a uniform grid and the channel was "no such channel"). Without a rate the
+    first column is named as read for the time, and the error says how such a file reads; with one every column is
+    a channel, sampled from t = 0 (also where the first states a channel's unit, "A_x [g]"). A first column named
+    as a time whose steps do not rise stays an error with a rate too."""
     rec = _record()
     (tmp_path / "c.csv").write_text("A_x,B_y\n" + "\n".join(f"{a},{b}" for a, b in rec.data) + "\n")
-    with pytest.raises(InputError, match=r"^c.csv: column 1: 'A_x' is read as the time, but \d+% of its steps"):
-        read_csv(tmp_path / "c.csv", rate)
+    with pytest.raises(InputError, match=r"^c.csv: column 1: 'A_x' is read as the time, but \d+% of its steps") as e:
+        read_csv(tmp_path / "c.csv")
+    assert "a file of channels only reads with --rate or a campaign's 'rate'" in e.value.reason
+    got = read_csv(tmp_path / "c.csv", 500.0)
+    assert got.names == rec.names
+    np.testing.assert_array_equal(got.data, rec.data)
+    np.testing.assert_allclose(got.time, rec.time, rtol=0, atol=1e-15)
+    (tmp_path / "g.csv").write_text("A_x [g];B_y [g]\n" + "\n".join(f"{a};{b}" for a, b in rec.data) + "\n")
+    with pytest.raises(InputError, match=r"^g.csv: column 1: time in 'g': .* \(a file of channels only reads with"):
+        read_csv(tmp_path / "g.csv")
+    assert [(c.name, c.unit) for c in read_csv(tmp_path / "g.csv", 500.0).channels] == [("A_x", "g"), ("B_y", "g")]
+    (tmp_path / "t.csv").write_text("Time [s],A_x\n" + "\n".join(f"{a},{b}" for a, b in rec.data) + "\n")
+    with pytest.raises(InputError, match=r"^t.csv: column 1: 'Time \[s\]' is read as the time, but \d+% of its"):
+        read_csv(tmp_path / "t.csv", 500.0)
+    with pytest.raises(InputError, match="^rate: must be a positive number"):
+        read_csv(tmp_path / "c.csv", 0.0)
     # a time column with two rows swapped is still named at the swap
     t = rec.time[np.r_[0:50, 51, 50, 52 : len(rec.time)]]
     rows = (f"{a},{b}" for a, b in zip(t, rec.data[:, 0], strict=True))

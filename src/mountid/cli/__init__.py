@@ -143,7 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--root", metavar="RULE", help="pick between equally good solutions no measured mode decides, e.g. c_z>c_xy"
     )
     p.add_argument(
-        "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
+        "--rate",
+        type=float,
+        help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of channels "
+        "only: every column a channel, from t = 0)",
     )
     add_record_options(p)
     p.set_defaults(func=cmd_identify_record)
@@ -170,7 +173,10 @@ def build_parser() -> argparse.ArgumentParser:
         "later: a pre-trigger)",
     )
     p.add_argument(
-        "--rate", type=float, help="sampling rate [Hz]: a uniform grid from the first time instead of the time column"
+        "--rate",
+        type=float,
+        help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of channels "
+        "only: every column a channel, from t = 0)",
     )
     add_record_options(p)
     p.set_defaults(func=cmd_process)

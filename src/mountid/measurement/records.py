@@ -311,23 +311,33 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
         if not title:
             raise InputError(f"{path.name}: column {k + 1}", f"has no name in the header (line {header_line})")
     time_unit = _split_unit(header[0])[1] or "s"
-    if time_unit not in TIME_UNITS:
-        raise InputError(f"{path.name}: column 1", f"time in {time_unit!r}: the time column's unit must be s or ms")
     steps = np.diff(table[:, 0])
     rising = float(np.mean(steps[np.isfinite(steps)] > 0)) if np.isfinite(steps).any() else 1.0
-    if rising < TIME_COLUMN_INCREASING:  # a channel in the time column's place
+    named = _split_unit(header[0])[0].lower() in TIME_NAMES
+    timed = time_unit in TIME_UNITS and (rising >= TIME_COLUMN_INCREASING or named)
+    if rate is not None and not timed:  # channels only, sampled at the rate given from t = 0
+        time, columns, first = _time_column(np.zeros(len(table)), rate), header, 1
+    elif time_unit not in TIME_UNITS:
+        raise InputError(
+            f"{path.name}: column 1",
+            f"time in {time_unit!r}: the time column's unit must be s or ms (a file of channels only reads with "
+            "--rate or a campaign's 'rate')",
+        )
+    elif rising < TIME_COLUMN_INCREASING:  # a channel in the time column's place
         raise InputError(
             f"{path.name}: column 1",
             f"{header[0]!r} is read as the time, but {rising:.0%} of its steps increase: a record's "
-            "first column is its time (a file without one needs it added; --rate or a campaign's 'rate' then "
-            "replaces its values by a uniform grid)",
+            "first column is its time (a file of channels only reads with --rate or a campaign's 'rate': every "
+            "column a channel, sampled from t = 0)",
         )
-    channels = tuple(_column(h, meta, f"{path.name}: column {k + 2}") for k, h in enumerate(header[1:]))
+    else:
+        time, columns, first = _time_column(table[:, 0] * TIME_UNITS[time_unit], rate), header[1:], 2
+    channels = tuple(_column(h, meta, f"{path.name}: column {k + first}") for k, h in enumerate(columns))
     names = tuple(c.name for c in channels)
     missing = [n for n in meta if n not in names]
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
-    return Record(_time_column(table[:, 0] * TIME_UNITS[time_unit], rate), table[:, 1:], channels)
+    return Record(time, table[:, first - 1 :], channels)
 
 
 def _channel_metadata(text: str, where: str) -> Channel:
@@ -401,6 +411,10 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
+
+TIME_NAMES = ("time", "t", "zeit", "temps", "tiempo", "tempo")
+"""Names of a time column (in any case): with a sampling rate given, a first column whose steps do not rise as a
+time's is a channel (a file of channels only), unless it is so named (a broken time column: an error)."""
 
 
 def _units_row(cells: list[str], width: int) -> bool:
