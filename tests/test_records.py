@@ -573,3 +573,19 @@ def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
         ("Ch(1)", "m/s^2"),
         ("B_y", "m/s\u00b2"),
     ]
+
+
+def test_micrometres_read_with_the_micro_sign_as_with_u(tmp_path):
+    """Bench exports write a displacement in micrometres with the micro sign or the Greek mu (it was "unit 'µm'
+    is not one of ..."); both read as um, converted to m alike."""
+    rec = _record()
+    rows = "".join(
+        f"{t!r},{d[0]!r},{d[0]!r},{d[0]!r}\n" for t, d in zip(rec.time.tolist(), rec.data.tolist(), strict=True)
+    )
+    (tmp_path / "d.csv").write_text("time,d [um],e [\u00b5m],f [\u03bcm]\n" + rows, encoding="utf-8")
+    got = read_csv(tmp_path / "d.csv")
+    assert [c.quantity for c in got.channels] == ["displacement"] * 3
+    si = got.in_si().data
+    np.testing.assert_array_equal(si[:, 1], si[:, 0])
+    np.testing.assert_array_equal(si[:, 2], si[:, 0])
+    np.testing.assert_allclose(si[:, 0], 1e-6 * rec.data[:, 0], rtol=1e-15)

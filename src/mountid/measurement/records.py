@@ -16,7 +16,7 @@ be separated by semicolons (then with decimal commas) or tabs, its cells quoted,
 and lines of text before the header (an acquisition's preamble: date, operator, rate) are read past.
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
-or mm/s; displacement in m, mm or um; force in N or kN (a hammer's force channel: the excitation, never a
+or mm/s; displacement in m, mm or um (or µm); force in N or kN (a hammer's force channel: the excitation, never a
 response). Any other unit is rejected by channel name; :meth:`Record.in_si` converts every channel to SI.
 """
 
@@ -48,7 +48,7 @@ UNITS: dict[str, dict[str, float]] = {
         "mm/s\u00b2": 1e-3,
     },
     "velocity": {"m/s": 1.0, "mm/s": 1e-3},
-    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
+    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "\u00b5m": 1e-6, "\u03bcm": 1e-6},  # micro sign, Greek mu
     "force": {"N": 1.0, "kN": 1e3},
 }
 """Every quantity a channel may record, its units and each unit's factor to SI (the first unit listed)."""
