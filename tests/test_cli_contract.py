@@ -102,6 +102,13 @@ CASES = [
     (["identify", "kid300", "--measured", "x=-17.71", "psi=64.1", "--std", "x=0.4", "psi=1"], "--measured x:"),
     (["identify", "kid300", "--measured", "q=17.71", "psi=64.1"], "--measured q:"),
     (["identify", "kid300", "--measured", "x=17.71", "x=18", "psi=64.1"], "--measured x: given twice"),
+    # twins given at once: equal, a repeat; apart, the split said with what it means (it said "repeats")
+    (["identify", "kid300", "--measured", "x=17.6", "y=17.6", "psi=64.1"], "--measured y: repeats the frequency of x"),
+    (
+        ["identify", "kid300", "--measured", "x=17.6", "y=17.8", "psi=64.1"],
+        "--measured y: x and y are one frequency of kid300's model (equal by symmetry), measured 17.6 and 17.8 rad/s "
+        "(1.14% apart): give one of them, or their mean",
+    ),
     (["frequencies", "kid300", "--set", "m=abc"], "--set m: not a number"),
     # mass properties no body has: was "out of the range of double precision (Matrix is not positive definite)"
     (["frequencies", OFFCENTRE, "--set", "J_xz=500"], "--set J_xz: 500 kg m^2: the mass matrix is not positive"),

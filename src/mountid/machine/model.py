@@ -285,8 +285,16 @@ class Machine:
                 raise InputError(label, f"a natural frequency must be positive and finite, got {omega}")
             r = rep[label]
             if r in chosen:
+                twin, first = chosen[r]
+                if omega == first:
+                    raise InputError(label, f"repeats the frequency of {twin} (equal by symmetry); give one of them")
+                apart = abs(omega - first) / min(omega, first)
                 raise InputError(
-                    label, f"repeats the frequency of {chosen[r][0]} (equal by symmetry); give one of them"
+                    label,
+                    f"{twin} and {label} are one frequency of {self.name}'s model (equal by symmetry), measured "
+                    f"{first:g} and {omega:g} rad/s ({apart:.2%} apart): give one of them, or their mean; a split "
+                    "beyond the measurement's uncertainty is the machine's own asymmetry, which mountid diagnose "
+                    "locates",
                 )
             chosen[r] = (label, omega)
         return chosen
