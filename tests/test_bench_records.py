@@ -570,7 +570,8 @@ def test_a_record_with_a_pre_trigger_is_analysed_from_after_its_impact(hit_time,
         assert abs(m.frequency - other.frequency) < 4 * math.hypot(m.frequency_std, other.frequency_std), label
     given = modal_data(kid300, record, KNOWN, 0.07)  # taken as given: the impact inside it is named
     assert given.start == 0.07 and given.notes == ()
-    assert [w.kind for w in given.warnings] == ["impact_in_segment"]
+    # and the pre-trigger before it and the hit itself are no free decay of the modes found
+    assert [w.kind for w in given.warnings] == ["impact_in_segment", "unexplained"]
 
 
 def test_a_campaign_and_the_command_line_say_where_a_pre_triggered_free_decay_starts(capsys, tmp_path):
@@ -661,3 +662,39 @@ def test_the_figures_of_a_record_of_several_hits_show_the_decay_the_modes_came_f
     figures.experiment_figures(Machine.resolve("kid300"), record, result, KNOWN, tmp_path)
     assert titles[0].startswith(f"spectra of the free decay from 0.07 s to {result.end:.4g} s (raw FFT bin")
     assert segments == [(0.07, float(record.time[record.time < result.end][-1]))]
+
+
+# -- not the free decay of a hit ----------------------------------------------------------------------------------
+def test_a_record_that_is_no_free_decay_is_said_so(tmp_path, capsys):
+    """A record of the machine running under its rotating unbalance processed as an impact test gave two 'modes'
+    (MAC 0.30) without a word of what the record was; the damped poles found leave nearly all of its variance
+    unexplained, which an unexplained warning now says, and the running speed's own pole (damping ratio 1e-7) is
+    named as a steady oscillation. A hit's record, even at 20 % noise, leaves a few percent and gets neither. A
+    machine running near a mode's frequency beside a hit: its pole took the mode's label, now said."""
+    from mountid.measurement.rig import Unbalance
+
+    rig = _rig()
+    steady = rig.simulate(SIX, 4.0, 2000.0, unbalances=[Unbalance(43.1, 0.03, 100.0)], seed=1)
+    found = modal_data(rig.machine, steady, KNOWN)
+    (said,) = [w for w in found.warnings if w.kind == "unexplained"]
+    share = float(said.message.split("leave ")[1].split("%")[0])
+    assert share >= 95 and "not the free decay of a hit" in said.message
+    # the pencil finds the running speed itself as a pole of damping ratio 1e-7 or so, left unlabelled
+    (tone,) = [w for w in found.warnings if w.kind == "steady"]
+    assert (
+        tone.message.startswith("a pole at 100.0000 rad/s (15.92 Hz) of damping ratio ")
+        and "labelled" not in tone.message
+    )
+    noisy = [Sensor(s.name, s.point, s.direction, noise=0.2) for s in SIX]
+    hit = modal_data(rig.machine, rig.simulate(noisy, 4.0, 2000.0, hammers=[HIT], seed=1), KNOWN)
+    assert [w.kind for w in hit.warnings] == []
+    # a machine running at 17.5 rad/s beside the hit: the pencil's pole of the running speed took the label x
+    near = rig.simulate(SIX, 4.0, 2000.0, hammers=[HIT], unbalances=[Unbalance(0.5, 0.03, 17.5)], seed=1)
+    taken = modal_data(rig.machine, near, KNOWN)
+    (tone,) = [w.message for w in taken.warnings if w.kind == "steady"]
+    assert tone.startswith("a pole at 17.4992 rad/s") and tone.endswith(
+        "labelled x: its frequency is the oscillation's, not the mode's"
+    )
+    write_csv(steady, tmp_path / "steady.csv")
+    assert main(["process", "kid300", str(tmp_path / "steady.csv"), "--json"]) == 0
+    assert "unexplained" in [w["kind"] for w in json.loads(capsys.readouterr().out)["warnings"]]

@@ -999,6 +999,8 @@ def modal_data(
                 )
                 for m in merged
             ]
+    everything = [(label, p) for label, (p, _) in labelled.items()] + [("", p) for p in rest]
+    warnings += modal.not_a_free_decay(*source, everything, settings)
     if not labelled:
         raise with_warnings(
             NoModeFound("record", "no damped mode found in the free decay (check start, channels and excitation)"),

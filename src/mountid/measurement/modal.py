@@ -283,6 +283,52 @@ def decay_misfit(record: Record, start: float, max_frequency: float, poles: NDAr
     return np.sum(np.abs(samples - (basis @ coef).real) ** 2, axis=0), len(samples)
 
 
+def not_a_free_decay(
+    record: Record,
+    start: float,
+    max_frequency: float,
+    poles: list[tuple[str, Pole]],
+    settings: RecordSettings = RECORDS,
+) -> list[QualityWarning]:
+    """Checks that the free decay from ``start`` [s] (decay_misfit's samples, same ``max_frequency``) is one, from
+    the ``poles`` found there (each with its label, "" for one left unlabelled):
+
+    - steady: a pole of damping ratio below settings.steady_damping is a steady oscillation (a running machine,
+      mains hum), not a mode, named with its frequency (and the label it took);
+    - unexplained: the damped poles and a constant leave more than settings.unexplained of the decay's variance
+      unexplained (the median over the channels): the record is not the free decay of a hit (a steady excitation,
+      a record of another test) or holds more noise than response."""
+    out = []
+    for label, pole in poles:
+        if pole.damping_ratio < settings.steady_damping:
+            taken = f", labelled {label}: its frequency is the oscillation's, not the mode's" if label else ""
+            out.append(
+                QualityWarning(
+                    "steady",
+                    "all",
+                    f"a pole at {pole.frequency:.4f} rad/s ({pole.frequency / (2 * np.pi):.4g} Hz) of damping ratio "
+                    f"{pole.damping_ratio:.2g} is a steady oscillation (a running machine, mains hum), not a mode"
+                    + taken,
+                )
+            )
+    damped = np.array([p.p for _, p in poles if p.damping_ratio >= settings.steady_damping], dtype=complex)
+    misfit, _ = decay_misfit(record, start, max_frequency, damped)
+    _, samples = decimated(record, start, max_frequency)
+    variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
+    share = float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
+    if share > settings.unexplained:
+        out.append(
+            QualityWarning(
+                "unexplained",
+                "all",
+                f"the modes found leave {share:.0%} of the free decay's variance unexplained (the median over the "
+                "channels): not the free decay of a hit (a steady excitation such as a running machine, a record of "
+                "another test) or more noise than response",
+            )
+        )
+    return out
+
+
 def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
     """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
     refined, cov = refine_poles(samples, dt, start)
