@@ -589,3 +589,19 @@ def test_micrometres_read_with_the_micro_sign_as_with_u(tmp_path):
     np.testing.assert_array_equal(si[:, 1], si[:, 0])
     np.testing.assert_array_equal(si[:, 2], si[:, 0])
     np.testing.assert_allclose(si[:, 0], 1e-6 * rec.data[:, 0], rtol=1e-15)
+
+
+def test_a_tab_separated_export_with_decimal_commas_reads(tmp_path):
+    """A tab-separated export in a German locale writes decimal commas ("0,5\t1,25"): it was "a value is not a
+    number"; it reads as the same table with decimal points."""
+    rec = _record()
+    for name, mark in (("points.txt", "."), ("commas.txt", ",")):
+        rows = [
+            "\t".join(f"{v!r}".replace(".", mark) for v in (t, *d))
+            for t, d in zip(rec.time.tolist(), rec.data.tolist(), strict=True)
+        ]
+        (tmp_path / name).write_text("time\tA_x\tB_y\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    points, commas = read_csv(tmp_path / "points.txt"), read_csv(tmp_path / "commas.txt")
+    np.testing.assert_array_equal(commas.data, points.data)
+    np.testing.assert_array_equal(commas.time, points.time)
+    np.testing.assert_array_equal(points.data, rec.data)

@@ -12,8 +12,8 @@ file carries this metadata in comment lines before the table, so a record read b
 A file without the comment lines (a bench's export) reads with unknown points and directions (NaN), which
 processing that needs them rejects by channel name (:func:`with_geometry` places them). Its header may carry
 units, ``Time [ms];A_x [g];F (kN)``, or a row of units of its own below the names (``ms;g;kN``); its columns may
-be separated by semicolons (then with decimal commas) or tabs, its cells quoted, its lines ended by a separator,
-and lines of text before the header (an acquisition's preamble: date, operator, rate) are read past.
+be separated by semicolons or tabs (then with decimal commas or points), its cells quoted, its lines ended by a
+separator, and lines of text before the header (an acquisition's preamble: date, operator, rate) are read past.
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
 or mm/s; displacement in m, mm or um (or µm); force in N or kN (a hammer's force channel: the excitation, never a
@@ -360,9 +360,9 @@ def _channel_metadata(text: str, where: str) -> Channel:
 
 
 def _values(cells: list[str], separator: str) -> list[float]:
-    """One table row's numbers (an empty cell: NaN; a semicolon-separated export's decimal commas read); a
-    ValueError for a cell that is no number."""
-    if separator == ";":  # a semicolon-separated export writes decimal commas
+    """One table row's numbers (an empty cell: NaN; the decimal commas of an export separated by semicolons or
+    tabs read); a ValueError for a cell that is no number."""
+    if separator != ",":  # an export separated by semicolons or tabs may write decimal commas (German locales)
         cells = [v.replace(",", ".") for v in cells]
     return [float(v) if v.strip() else math.nan for v in cells]
 
@@ -445,8 +445,8 @@ def _cells(line: str, separator: str) -> list[str]:
 
 
 def _separator(header: str) -> str:
-    """The column separator of a CSV from its header row: a comma, else a semicolon (then decimal commas are
-    read), else a tab."""
+    """The column separator of a CSV from its header row: a comma, else a semicolon, else a tab (with either of
+    these two, decimal commas are read)."""
     if "," in header:
         return ","
     return ";" if ";" in header else "\t"
