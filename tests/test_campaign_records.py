@@ -343,3 +343,19 @@ def test_a_record_of_several_hits_gives_a_free_decay_per_hit(tmp_path):
     one = campaign.load(tmp_path / "c.json")
     assert one.modes["z"].frequency == pytest.approx(each[0]["z"].frequency, rel=1e-12)
     assert [n for n in one.record_notes if "others' decays not used" in n and "without a start uses each" in n]
+
+
+def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
+    """A campaign of one record of the machine running under its unbalance, not a hit: two modes were 'too few
+    for 2 unknowns plus one held out' and nothing more; the records' warnings now follow, the one that says the
+    record is no free decay among them."""
+    from mountid.measurement.rig import Unbalance
+
+    steady = Rig.of("kid300").simulate(_eight_channels(), 4.0, 500.0, unbalances=[Unbalance(43.1, 0.03, 100.0)])
+    write_csv(steady, tmp_path / "running.csv")
+    data = {"machine": "kid300", "known": KNOWN, "records": ["running.csv"]}
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        campaign.load(tmp_path / "c.json")
+    assert err.value.parameter == "modes" and " [the records also show: " in err.value.reason
+    assert "running.csv: unexplained (all): the modes found leave" in err.value.reason

@@ -308,11 +308,14 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     distinct = {seen[label] for label in (fit or modes)}
     need = len(machine.unknown) + (0 if fit else 1)  # leave-one-out fits all but one
     if len(distinct) < need:
-        raise InputError(
+        from mountid.identification.from_records import with_warnings
+
+        too_few = InputError(
             "fit" if fit else "modes",
             f"{distinct_frequencies(len(distinct))} for {len(machine.unknown)} unknowns"
             + ("" if fit else " plus one held out"),
         )
+        raise with_warnings(too_few, list(records.warnings), "the records also show")  # they may say why so few
     sensors = tuple(_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))
     if not sensors and layout and not shaped_by_hand:
         # every measured shape came from records of one channel layout: the layout a turned sensor is tested on

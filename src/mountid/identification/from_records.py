@@ -1173,13 +1173,15 @@ def identify_from_record(
     return replace(result, frf=found.frf, start=found.start, end=found.end)
 
 
-def with_warnings(error: InputError, warnings: list[modal.QualityWarning]) -> InputError:
+def with_warnings(
+    error: InputError, warnings: list[modal.QualityWarning], shows: str = "the record also shows"
+) -> InputError:
     """The error with the record's quality warnings appended (clipping and the like are reported even when
-    the run stops for another reason: they may be the reason)."""
+    the run stops for another reason: they may be the reason); ``shows`` introduces them."""
     if not warnings:
         return error
     found = "; ".join(w.describe() for w in warnings)
-    return type(error)(error.parameter, f"{error.reason} [the record also shows: {found}]")
+    return type(error)(error.parameter, f"{error.reason} [{shows}: {found}]")
 
 
 def _identify(
