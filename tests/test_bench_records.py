@@ -698,3 +698,25 @@ def test_a_record_that_is_no_free_decay_is_said_so(tmp_path, capsys):
     write_csv(steady, tmp_path / "steady.csv")
     assert main(["process", "kid300", str(tmp_path / "steady.csv"), "--json"]) == 0
     assert "unexplained" in [w["kind"] for w in json.loads(capsys.readouterr().out)["warnings"]]
+
+
+# -- a fast acquisition ---------------------------------------------------------------------------------------------
+def test_a_record_sampled_at_51_2_khz_is_clean_where_it_is_and_clipped_where_it_is():
+    """Acquisition systems sample at 51.2 kHz: a clean hit's record then had every channel "clipped" (a smooth peak
+    sampled that finely holds its top within the noise on several samples), which also hid the impact the free
+    decay starts after, and took 18 s to decimate (every sample filtered where one in 313 is kept). Clipping is
+    judged at 400 samples per period of the highest mode (RecordSettings.clip_resolution): the clean record has no
+    warning, its pre-triggered hit is found, and a saturated sensor is still named."""
+    late = Hammer(HIT.point, HIT.direction, time=0.55)
+    record = _rig().simulate(SIX, 3.0, 51200.0, hammers=[late], seed=1)
+    found = modal_data(Machine.resolve("kid300"), record, KNOWN)
+    assert found.warnings == [] and set(found.modes) == {"x", "z", "psi", "phi"}
+    assert 0.55 < found.start <= 0.58 and found.notes[0].startswith("free decay from t = ")
+    assert modal.clip_step(record, 64.1) == 12 and modal.clip_step(record, None) == 1
+    saturated = _rig().simulate([Sensor("b", (0.4, 0.0, 0.1), (0, 0, 1), clip=0.5)], 3.0, 51200.0, hammers=[HIT])
+    rng = np.random.default_rng(0)
+    noisy = Record(
+        saturated.time, saturated.data + 0.004 * rng.standard_normal(saturated.data.shape), saturated.channels
+    )
+    kinds = [(w.kind, w.channel) for w in modal.hammer_test_quality(noisy, 17.7, 0.07, highest_frequency=64.1)]
+    assert kinds == [("clipping", "b")]

@@ -23,6 +23,11 @@ class RecordSettings:
     kid300 record the torsion pole came out labelled as the vertical mode)."""
     clip_samples: int = 3
     """A channel's extreme value held on this many samples or more is clipping (a flat top)."""
+    clip_resolution: float = 400.0
+    """A response channel's clipping is judged on every k-th sample of a record sampled faster than this many
+    samples per period of the highest mode of interest: sampled finer, a smooth peak holds its top within the
+    noise on several consecutive samples (kid300 at 51.2 kHz: every channel of a clean hit "clipped"; none at 5
+    kHz, 490 samples per period of its highest mode), where a flat top stays flat in every k-th sample."""
     double_hit_height: float = 0.1
     """A second impact above this fraction of the first (in amplitude: the force's peak, or the burst's RMS
     level without a force channel) is a double hit."""
