@@ -940,7 +940,9 @@ def modal_data(
         fitted = estimate.impulse_responses()
         _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)
         source = (fitted, IRF_START, 2.0 * top)
-        poles = modal.free_decay_poles(fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+        poles = modal.free_decay_poles(
+            fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
+        )
         hits = len(estimate.hits)
         notes.append(
             f"modes from the H1 frequency responses of {counted(hits, 'hit')} on {estimate.force} "
@@ -959,7 +961,9 @@ def modal_data(
         analysed = record if end is None else record.before(end)
         _check_length(analysed, start, float(np.min(nominal_omega)), settings, end)
         source = (analysed, start, 2.0 * top)
-        poles = modal.free_decay_poles(analysed, start, max_frequency=2.0 * top, n_modes=len(mod.MODES))
+        poles = modal.free_decay_poles(
+            analysed, start, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
+        )
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
@@ -971,7 +975,10 @@ def modal_data(
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         sensor = inconsistent_channel(machine, source[0], start)
         warnings += [sensor] if sensor is not None else []
-    labelled, rest = label_poles(machine, record, poles, guess)
+    # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label
+    damped = [p for p in poles if p.damping_ratio >= settings.steady_damping]
+    labelled, rest = label_poles(machine, record, damped, guess)
+    rest = sorted([*rest, *(p for p in poles if p.damping_ratio < settings.steady_damping)], key=lambda p: p.frequency)
     twins = split_twins(machine, record, source, Twins(poles, labelled, rest, []), guess)
     poles, labelled, rest = twins.poles, twins.labelled, twins.rest
     warnings += twins.warnings

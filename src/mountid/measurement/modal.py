@@ -235,20 +235,25 @@ def free_decay_poles(
     n_modes: int,
     min_frequency: float = 0.0,
     extra_orders: tuple[int, ...] = (4, 8, 12),
+    steady: float = RECORDS.steady_damping,
 ) -> list[Pole]:
     """Physical poles (0 < damping ratio < 0.5, frequency in [min_frequency, max_frequency] rad/s) of the
-    free decay from ``start`` [s], for a machine with up to ``n_modes`` modes.
+    free decay from ``start`` [s], for a machine with up to ``n_modes`` modes, and the steady oscillations in it.
 
     The pencil is solved with 2 n_modes + extra poles (the extra ones take up noise) for each entry of
     ``extra_orders`` and for two pencil sizes; a pole is kept when it recurs in every run (stable_poles;
-    poles that carry less than 1e-3 of the strongest pole's amplitude are dropped as noise).
+    poles that carry less than 1e-3 of the strongest pole's amplitude are dropped as noise). A steady oscillation
+    (a machine running nearby, mains hum) comes out of the pencil at a damping ratio of about +-1e-7: one within
+    ``steady`` of zero or below it, recurring in every run, is kept too (a negative one was dropped, and the
+    oscillation left in the samples spoiled the modes' estimates: a tone at 18.2 rad/s beside kid300's x at 17.71
+    gave x at 18.06, zeta 0.012); the caller tells it from a mode by its damping (modal.not_a_free_decay).
     The kept poles, averaged over the runs, start a joint least-squares refinement of all of them on all
     channels (refine_poles), which also gives their standard deviations.
     """
     if max_frequency <= 0:
         raise InputError("max_frequency", f"must be positive, got {max_frequency}")
     dt, samples = decimated(record, start, max_frequency)
-    runs = []
+    runs, tones = [], []
     orders = [2 * n_modes + extra for extra in extra_orders]
     for cap in PENCIL_SIZES:
         vecs = _signal_basis(samples, max(orders), min(len(samples) // 2, cap))
@@ -257,14 +262,23 @@ def free_decay_poles(
             p = p[np.isfinite(p) & (p.imag > 0)]
             w = np.abs(p)
             zeta = -p.real / w
-            ok = (zeta > 0) & (zeta < 0.5) & (w >= min_frequency) & (w <= max_frequency)
-            p = p[ok]
+            band = (w >= min_frequency) & (w <= max_frequency)
+            tones.append(p[(np.abs(zeta) < steady) & band])  # either sign, as the noise moves it run by run
+            p = p[(zeta > 0) & (zeta < 0.5) & band]
             amp = np.linalg.norm(amplitudes(samples, dt, np.concatenate([p, p.conj()]))[: len(p)], axis=1)
             runs.append(p[amp > 1e-3 * amp.max()] if len(p) else p)
-    poles = stable_poles(runs)
+    steady_poles = stable_poles(tones)
+    # a steady oscillation whose damping came out positive in every run is among the damped ones too: kept once
+    damped = [d for d in stable_poles(runs) if not (d[1] < steady and any(_same_pole(d, t) for t in steady_poles))]
+    poles = damped + steady_poles
     if not poles:
         return []
     return _refined(samples, dt, np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles]))
+
+
+def _same_pole(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    """Whether two stable_poles entries (|p|, zeta, ...) are one pole: |p| within stable_tolerance."""
+    return abs(a[0] - b[0]) <= stable_tolerance(complex(-b[1] * b[0], b[0])) * b[0]
 
 
 def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArray) -> list[Pole]:
@@ -296,37 +310,43 @@ def not_a_free_decay(
     """Checks that the free decay from ``start`` [s] (decay_misfit's samples, same ``max_frequency``) is one, from
     the ``poles`` found there (each with its label, "" for one left unlabelled):
 
-    - steady: a pole of damping ratio below settings.steady_damping is a steady oscillation (a running machine,
-      mains hum), not a mode, named with its frequency (and the label it took);
-    - unexplained: the damped poles and a constant leave more than settings.unexplained of the decay's variance
-      unexplained (the median over the channels): the record is not the free decay of a hit (a steady excitation,
-      a record of another test) or holds more noise than response."""
+    - steady: a pole whose damping ratio lies within settings.steady_damping of zero, or below, is a steady
+      oscillation (a running machine, mains hum), not a mode: named with its frequency (and the label it took),
+      and with the share of the decay's variance the steady oscillations carry;
+    - unexplained: the poles and a constant leave more than settings.unexplained of the decay's variance
+      unexplained (the median over the channels): the record is not the free decay of a hit (a record of another
+      test) or holds more noise than response."""
+    _, samples = decimated(record, start, max_frequency)
+    variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
+
+    def unexplained(kept: list[Pole]) -> float:  # the median share of the variance the poles ``kept`` leave
+        misfit, _ = decay_misfit(record, start, max_frequency, np.array([p.p for p in kept], dtype=complex))
+        return float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
+
+    everything = [p for _, p in poles]
+    left = unexplained(everything)
+    tones = [(label, p) for label, p in poles if p.damping_ratio < settings.steady_damping]
     out = []
-    for label, pole in poles:
-        if pole.damping_ratio < settings.steady_damping:
-            taken = f", labelled {label}: its frequency is the oscillation's, not the mode's" if label else ""
+    if tones:
+        carried = max(0.0, unexplained([p for p in everything if p.damping_ratio >= settings.steady_damping]) - left)
+        for label, pole in tones:
+            taken = f" (labelled {label})" if label else ""
             out.append(
                 QualityWarning(
                     "steady",
                     "all",
-                    f"a pole at {pole.frequency:.4f} rad/s ({pole.frequency / (2 * np.pi):.4g} Hz) of damping ratio "
-                    f"{pole.damping_ratio:.2g} is a steady oscillation (a running machine, mains hum), not a mode"
-                    + taken,
+                    f"a pole at {pole.frequency:.4f} rad/s ({pole.frequency / (2 * np.pi):.4g} Hz){taken} of damping "
+                    f"ratio {pole.damping_ratio:.2g} is a steady oscillation (a running machine, mains hum), not a "
+                    f"mode; the steady oscillations carry {carried:.0%} of the free decay's variance",
                 )
             )
-    damped = np.array([p.p for _, p in poles if p.damping_ratio >= settings.steady_damping], dtype=complex)
-    misfit, _ = decay_misfit(record, start, max_frequency, damped)
-    _, samples = decimated(record, start, max_frequency)
-    variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
-    share = float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
-    if share > settings.unexplained:
+    if left > settings.unexplained:
         out.append(
             QualityWarning(
                 "unexplained",
                 "all",
-                f"the modes found leave {share:.0%} of the free decay's variance unexplained (the median over the "
-                "channels): not the free decay of a hit (a steady excitation such as a running machine, a record of "
-                "another test) or more noise than response",
+                f"the poles found leave {left:.0%} of the free decay's variance unexplained (the median over the "
+                "channels): not the free decay of a hit (a record of another test) or more noise than response",
             )
         )
     return out

@@ -46,13 +46,13 @@ class RecordSettings:
     low_coherence: float = 0.8
     """A mode whose coherence at its frequency is below this on every channel gets a low_coherence warning."""
     unexplained: float = 0.5
-    """A free decay whose damped poles leave more than this share of its variance unexplained (the median over
-    the channels) gets an unexplained warning: not the decay of a hit (a kid300 record under its rotating
-    unbalance leaves 0.98-1.0), where a hit's record at 20 % noise leaves 0.02."""
+    """A free decay whose poles leave more than this share of its variance unexplained (the median over the
+    channels) gets an unexplained warning: not the decay of a hit (a segment of quiet before a hit and the hit),
+    where a hit's record at 20 % noise leaves 0.02."""
     steady_damping: float = 1e-4
-    """A pole of a smaller damping ratio is a steady oscillation (a running machine, mains hum: the pencil gives
-    its frequency with a damping ratio of 1e-7 or so), not a mode of a machine on rubber (0.01-0.2); a steady
-    warning names it."""
+    """A pole whose damping ratio lies within this of zero, or below, is a steady oscillation (a running machine,
+    mains hum: the pencil gives it a damping ratio of about +-1e-7), not a mode of a machine on rubber (0.01-0.2):
+    kept by modal.free_decay_poles where it recurs, given no mode's label, named in a steady warning."""
 
 
 RECORDS = RecordSettings()
