@@ -348,7 +348,7 @@ def test_a_record_of_several_hits_gives_a_free_decay_per_hit(tmp_path):
 def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
     """A campaign of one record of the machine running under its unbalance, not a hit: two modes were 'too few
     for 2 unknowns plus one held out' and nothing more; the records' warnings now follow, the one that says the
-    record is no free decay among them."""
+    record is a steady oscillation among them."""
     from mountid.measurement.rig import Unbalance
 
     steady = Rig.of("kid300").simulate(_eight_channels(), 4.0, 500.0, unbalances=[Unbalance(43.1, 0.03, 100.0)])
@@ -358,4 +358,4 @@ def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
     with pytest.raises(InputError) as err:
         campaign.load(tmp_path / "c.json")
     assert err.value.parameter == "modes" and " [the records also show: " in err.value.reason
-    assert "running.csv: unexplained (all): the modes found leave" in err.value.reason
+    assert "running.csv: steady (all): a pole at 100.0000 rad/s (15.92 Hz) of damping ratio" in err.value.reason
