@@ -638,3 +638,18 @@ def test_a_table_read_at_once_is_the_table_read_line_by_line(rows, separator):
     if fast is not None:
         np.testing.assert_array_equal(fast, slow)
         assert np.array_equal(np.signbit(fast), np.signbit(slow))
+
+
+@pytest.mark.parametrize("separator", [",", ";", "\t"])
+def test_a_plain_table_is_read_at_once(separator):
+    """The fast path is taken on a plain table (with nan, inf, a sign and decimal commas where the separator is not a
+    comma), so the round trip above cannot pass by leaving every table to the line-by-line reader."""
+    from mountid.measurement.records import _at_once, _line_by_line
+
+    rows = [["0.0", "+2", "-0"], ["0.5", "nan", "-inf"], ["1.0", "1e5", "1.5"]]
+    if separator != ",":
+        rows = [[c.replace(".", ",") for c in row] for row in rows]
+    body = [(k + 2, separator.join(row)) for k, row in enumerate(rows)]
+    fast = _at_once(body, separator, 3)
+    assert fast is not None
+    np.testing.assert_array_equal(fast, _line_by_line(body, separator, ["t", "a", "b"], 1, "x.csv"))

@@ -132,7 +132,7 @@ def _shift_poles(vecs: NDArray, order: int, dt: float) -> NDArray[np.complex128]
 def amplitudes(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.complex128]:
     """Complex amplitude of every pole in every channel by linear least squares, shape (n_poles, n_channels).
     A constant per channel (sensor bias) is fitted alongside and left out of the result."""
-    return np.linalg.lstsq(_basis(len(samples), dt, poles), samples.astype(complex), rcond=None)[0][:-1]
+    return _least_squares(samples, dt, poles)[1][:-1]
 
 
 def amplitude_standard_deviations(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.float64]:
@@ -142,8 +142,7 @@ def amplitude_standard_deviations(samples: NDArray, dt: float, poles: NDArray) -
     own error moves the amplitudes of every channel of a mode alike (its scale and phase), which a mode shape
     normalises away; another pole's error moves amplitude between the two, which the poles a record gives add
     (Pole.shape_std: _pole_shape_variances)."""
-    basis = _basis(len(samples), dt, poles)
-    return _amplitude_stds(samples, basis, np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0])
+    return _amplitude_stds(samples, *_least_squares(samples, dt, poles))
 
 
 def _amplitude_stds(samples: NDArray, basis: NDArray, coef: NDArray) -> NDArray[np.float64]:
@@ -153,6 +152,15 @@ def _amplitude_stds(samples: NDArray, basis: NDArray, coef: NDArray) -> NDArray[
     variance = np.sum(resid**2, axis=0) / dof
     gain = np.real(np.diagonal(np.linalg.pinv(basis.conj().T @ basis)))[:-1]
     return np.sqrt(np.maximum(gain, 0.0)[:, None] * variance[None, :])
+
+
+def _least_squares(
+    samples: NDArray, dt: float, poles: NDArray
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """The basis of ``poles`` [rad/s] and a constant (_basis) on ``samples`` (step ``dt`` [s]), and the
+    least-squares coefficients of every channel in it, shape (n_poles + 1, n_channels)."""
+    basis = _basis(len(samples), dt, poles)
+    return basis, np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
 
 
 def _basis(n: int, dt: float, poles: NDArray) -> NDArray[np.complex128]:
@@ -180,10 +188,10 @@ def stable_poles(runs: list[NDArray[np.complex128]]) -> list[tuple[float, float,
         for run in runs:
             if not len(run):
                 break
-            k = int(np.argmin(np.abs(np.abs(run) - np.abs(p0))))
-            if abs(abs(run[k]) - abs(p0)) > stable_tolerance(p0) * abs(p0) or not _same_damping(run[k], p0):
+            match = _match(p0, run)
+            if match is None:
                 break
-            matches.append(run[k])
+            matches.append(match)
         if len(matches) != len(runs):
             continue
         m = np.array(matches)
@@ -214,11 +222,17 @@ def stabilisation(
 
 
 def _recurs(pole: complex, previous: NDArray[np.complex128]) -> bool:
-    """Whether ``pole`` is in ``previous`` (the nearest in |p| within stable_tolerance, the same damping)."""
-    if not len(previous):
-        return False
-    q = previous[np.argmin(np.abs(np.abs(previous) - abs(pole)))]
-    return abs(abs(q) - abs(pole)) <= stable_tolerance(pole) * abs(pole) and _same_damping(q, pole)
+    """Whether ``pole`` is in ``previous`` (_match)."""
+    return _match(pole, previous) is not None
+
+
+def _match(pole: complex, run: NDArray[np.complex128]) -> complex | None:
+    """The pole of ``run`` that is ``pole``: the nearest in |p|, where it lies within stable_tolerance of |pole|
+    and has the same damping ratio; None where there is none."""
+    if not len(run):
+        return None
+    q = run[np.argmin(np.abs(np.abs(run) - abs(pole)))]
+    return q if abs(abs(q) - abs(pole)) <= stable_tolerance(pole) * abs(pole) and _same_damping(q, pole) else None
 
 
 def _same_damping(p: complex, p0: complex) -> bool:
@@ -267,18 +281,20 @@ def free_decay_poles(
             p = p[(zeta > 0) & (zeta < 0.5) & band]
             amp = np.linalg.norm(amplitudes(samples, dt, np.concatenate([p, p.conj()]))[: len(p)], axis=1)
             runs.append(p[amp > 1e-3 * amp.max()] if len(p) else p)
-    steady_poles = stable_poles(tones)
+    steady_poles = np.array([_pole(w, z) for w, z, _, _ in stable_poles(tones)], dtype=complex)
     # a steady oscillation whose damping came out positive in every run is among the damped ones too: kept once
-    damped = [d for d in stable_poles(runs) if not (d[1] < steady and any(_same_pole(d, t) for t in steady_poles))]
-    poles = damped + steady_poles
+    damped = [
+        _pole(w, z) for w, z, _, _ in stable_poles(runs) if z >= steady or _match(_pole(w, z), steady_poles) is None
+    ]
+    poles = damped + list(steady_poles)
     if not poles:
         return []
-    return _refined(samples, dt, np.array([-z * w + 1j * w * np.sqrt(1 - z * z) for w, z, _, _ in poles]))
+    return _refined(samples, dt, np.array(poles, dtype=complex))
 
 
-def _same_pole(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    """Whether two stable_poles entries (|p|, zeta, ...) are one pole: |p| within stable_tolerance."""
-    return abs(a[0] - b[0]) <= stable_tolerance(complex(-b[1] * b[0], b[0])) * b[0]
+def _pole(w: float, zeta: float) -> complex:
+    """The pole of natural frequency ``w`` [rad/s] and damping ratio ``zeta`` (Im > 0)."""
+    return complex(-zeta * w, w * np.sqrt(1 - zeta * zeta))
 
 
 def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArray) -> list[Pole]:
@@ -294,10 +310,15 @@ def decay_misfit(record: Record, start: float, max_frequency: float, poles: NDAr
     free_decay_poles fits, same ``max_frequency``) after the least-squares amplitudes of the damped exponentials
     ``poles`` [rad/s] and a constant; and the number of samples."""
     dt, samples = decimated(record, start, max_frequency)
+    return _misfit(samples, dt, poles), len(samples)
+
+
+def _misfit(samples: NDArray, dt: float, poles: NDArray) -> NDArray[np.float64]:
+    """Per channel, the sum of squared residuals of ``samples`` (step ``dt`` [s]) after the least-squares
+    amplitudes of the damped exponentials ``poles`` [rad/s] and a constant."""
     p = np.asarray(poles, dtype=complex)
-    basis = _basis(len(samples), dt, np.concatenate([p, p.conj()]))
-    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
-    return np.sum(np.abs(samples - (basis @ coef).real) ** 2, axis=0), len(samples)
+    basis, coef = _least_squares(samples, dt, np.concatenate([p, p.conj()]))
+    return np.sum(np.abs(samples - (basis @ coef).real) ** 2, axis=0)
 
 
 def not_a_free_decay(
@@ -307,7 +328,7 @@ def not_a_free_decay(
     poles: list[tuple[str, Pole]],
     settings: RecordSettings = RECORDS,
 ) -> list[QualityWarning]:
-    """Checks that the free decay from ``start`` [s] (decay_misfit's samples, same ``max_frequency``) is one, from
+    """Checks that the free decay from ``start`` [s] (free_decay_poles's samples, same ``max_frequency``) is one, from
     the ``poles`` found there (each with its label, "" for one left unlabelled):
 
     - steady: a pole whose damping ratio lies within settings.steady_damping of zero, or below, is a steady
@@ -316,11 +337,11 @@ def not_a_free_decay(
     - unexplained: the poles and a constant leave more than settings.unexplained of the decay's variance
       unexplained (the median over the channels): the record is not the free decay of a hit (a record of another
       test) or holds more noise than response."""
-    _, samples = decimated(record, start, max_frequency)
+    dt, samples = decimated(record, start, max_frequency)
     variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
 
     def unexplained(kept: list[Pole]) -> float:  # the median share of the variance the poles ``kept`` leave
-        misfit, _ = decay_misfit(record, start, max_frequency, np.array([p.p for p in kept], dtype=complex))
+        misfit = _misfit(samples, dt, np.array([p.p for p in kept], dtype=complex))
         return float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
 
     everything = [p for _, p in poles]
@@ -355,8 +376,7 @@ def not_a_free_decay(
 def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
     """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
     refined, cov = refine_poles(samples, dt, start)
-    basis = _basis(len(samples), dt, np.concatenate([refined, refined.conj()]))
-    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    basis, coef = _least_squares(samples, dt, np.concatenate([refined, refined.conj()]))
     shapes = coef[:-1]  # amplitudes(): the constant's row left out
     shape_stds = np.sqrt(
         _amplitude_stds(samples, basis, coef)[: len(refined)] ** 2 + _pole_shape_variances(dt, basis, coef, cov)
@@ -424,8 +444,7 @@ def _gauss_newton_terms(
     weighted by its residual variance (or the noise ``variance`` per channel given, for a record without
     noise: the Fisher information of a planned test). Returns (J^T W J, J^T W r)."""
     t = np.arange(len(samples)) * dt
-    basis = _basis(len(samples), dt, np.concatenate([poles, poles.conj()]))
-    coef = np.linalg.lstsq(basis, samples.astype(complex), rcond=None)[0]
+    basis, coef = _least_squares(samples, dt, np.concatenate([poles, poles.conj()]))
     resid = np.real(samples - basis @ coef)
     var = np.maximum(np.mean(resid**2, axis=0) if variance is None else np.asarray(variance, float), 1e-300)
     q, _ = np.linalg.qr(basis)
