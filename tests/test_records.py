@@ -315,6 +315,86 @@ def test_a_uff_file_of_frequency_functions_or_empty_labels(tmp_path):
             read_uff(tmp_path / "frf.uff")
 
 
+def test_a_uff_channel_mountid_does_not_read_is_named_and_left_out_when_told(tmp_path):
+    """A bench's UFF export with a pressure (ordinate type 15) or a tachometer's speed (19) beside the
+    accelerations: it read as an acceleration ("unit 'Pa' is not a unit of acceleration"), a reaction force (9) at
+    an isolator would have been a response; now the channel is named by what it is, with how to leave it out, and
+    ``ignore`` leaves it out. A general channel (0, 1) takes the quantity of its unit (a hammer's force in N); an
+    ID line 5 of another tool ("Pressure [Pa]") is not read as mountid's quantity label."""
+    import pyuff
+
+    from mountid.measurement.uff import dataset_58, read_uff, write_uff
+
+    rec = _record()
+    write_uff(rec, tmp_path / "plain.uff")
+    for kind, unit, said in ((15, "Pa", "a pressure (UFF 58 ordinate type 15)"), (19, "rpm", "a rotational speed")):
+        extra = dataset_58(Channel("Mic"), rec.time, rec.data[:, 0], 3, 0, "", id5=f"Pressure [{unit}]")
+        extra.update(ordinate_spec_data_type=kind, ordinate_axis_units_lab=unit)
+        (tmp_path / "bench.uff").unlink(missing_ok=True)
+        sets = [dataset_58(c, rec.time, rec.data[:, k], k + 1, 0, "", id5="NONE") for k, c in enumerate(rec.channels)]
+        pyuff.UFF(str(tmp_path / "bench.uff")).write_sets([*sets, extra], mode="add")
+        with pytest.raises(InputError, match=f"^Mic: is {re.escape(said)}.*left out with --ignore NAME"):
+            read_uff(tmp_path / "bench.uff")
+        back = read_uff(tmp_path / "bench.uff", ignore=("Mic",))
+        assert back.names == rec.names
+        np.testing.assert_allclose(back.data, rec.data, rtol=1e-11)
+    with pytest.raises(InputError, match=r"^ignore: Tacho: no such channel in bench.uff \(channels: A_x, B_y, Mic\)"):
+        read_uff(tmp_path / "bench.uff", ignore=("Tacho",))
+    with pytest.raises(InputError, match="^ignore: leaves no channel of plain.uff"):
+        read_uff(tmp_path / "plain.uff", ignore=("A_x", "B_y"))
+    general = dataset_58(Channel("F"), rec.time, rec.data[:, 0], 3, 0, "", id5="NONE")
+    general.update(ordinate_spec_data_type=1, ordinate_axis_units_lab="kN")
+    (tmp_path / "force.uff").unlink(missing_ok=True)
+    pyuff.UFF(str(tmp_path / "force.uff")).write_sets([general], mode="add")
+    assert [(c.quantity, c.unit) for c in read_uff(tmp_path / "force.uff").channels] == [("force", "kN")]
+
+
+def test_a_bench_csv_column_mountid_does_not_read_is_named_and_left_out_when_told(tmp_path, monkeypatch):
+    """A bench's CSV export (preamble, semicolons, decimal commas) with a tachometer in V, a microphone in Pa and a
+    status column of text beside the accelerations: the text was "a value is not a number (line 1 was read as the
+    header ...)" since no row of numbers followed the header; now the column and its cell are named with how to
+    leave it out, a unit mountid does not read likewise, and ``ignore`` reads the file as without those columns
+    (both readers; a units row with their units too)."""
+    from mountid.measurement import records
+
+    rec = _record()
+
+    def table(extra: bool, units: bool = False) -> str:
+        head = ["Time [s]", "A_x [g]", "B_y [g]"] + (["Tacho [V]", "Mic [Pa]", "Status"] if extra else [])
+        if units:
+            head = [h.split(" [")[0] for h in head]
+        rows = [
+            ";".join([repr(float(t)), *map(repr, map(float, d))] + (["5.0", "-0.25", "OK"] if extra else []))
+            for t, d in zip(rec.time, rec.data, strict=True)
+        ]
+        row = ["s", "g", "g", "V", "Pa", ""] if units else []
+        lines = ["Exported by BenchSoft 4.2", "Sample rate;500;Hz", "", ";".join(head)]
+        return "\n".join([*lines, *([";".join(row)] if units else []), *(r.replace(".", ",") for r in rows)]) + "\n"
+
+    (tmp_path / "plain.csv").write_text(table(False), encoding="utf-8")
+    expected = read_csv(tmp_path / "plain.csv")
+    (tmp_path / "bench.csv").write_text(table(True), encoding="utf-8")
+    advice = "left out with --ignore NAME"
+    with pytest.raises(
+        InputError, match=f"^bench.csv:5: a value is not a number: column 6 \\('Status'\\) holds 'OK'.*{advice}"
+    ):
+        read_csv(tmp_path / "bench.csv")
+    with pytest.raises(InputError, match=f"^bench.csv: column 4: 'Tacho \\[V\\]': unit 'V' is not one of .*{advice}"):
+        read_csv(tmp_path / "bench.csv", ignore=("Status",))
+    with pytest.raises(InputError, match=r"^ignore: Rpm: no such column in bench.csv \(columns: Time, A_x, B_y, Tacho"):
+        read_csv(tmp_path / "bench.csv", ignore=("Rpm",))
+    (tmp_path / "units.csv").write_text(table(True, units=True), encoding="utf-8")
+    for name in ("bench.csv", "units.csv"):
+        for fast in (True, False):
+            if not fast:  # the line-by-line reader, as for a file numpy's reader declines
+                monkeypatch.setattr(records, "_at_once", lambda *args: None)
+            got = read_csv(tmp_path / name, ignore=("Tacho", "Mic", "Status"))
+            monkeypatch.undo()
+            assert got.channels == expected.channels
+            np.testing.assert_array_equal(got.time, expected.time)
+            np.testing.assert_array_equal(got.data, expected.data)
+
+
 def _bench_uff(
     path,
     record: Record,

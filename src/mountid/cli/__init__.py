@@ -69,12 +69,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
 
     def add_record_options(p: argparse.ArgumentParser) -> None:
-        """--channel and --nominal: where a record's channels sit, and the unknowns its poles are labelled at."""
+        """--channel, --ignore and --nominal: where a record's channels sit, which are left unread, and the unknowns
+        its poles are labelled at."""
         for option, metavar, help_ in (
             (
                 "--channel",
                 "NAME=x,y,z:dx,dy,dz",
                 "point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
+            ),
+            (
+                "--ignore",
+                "NAME",
+                "a channel of the record left unread: a tachometer, a microphone, a spare channel (any unit, any "
+                "content)",
             ),
             (
                 "--nominal",

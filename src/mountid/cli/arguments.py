@@ -184,16 +184,23 @@ def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
     return values
 
 
-def read_record(path: str, rate: float | None = None, channels: Sequence[str] | None = None) -> Record:
+def read_record(
+    path: str, rate: float | None = None, channels: Sequence[str] | None = None, ignore: Sequence[str] | None = None
+) -> Record:
     """The record file at ``path`` (--rate: its sampling rate; --channel: points and directions of its
-    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's)."""
+    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's; --ignore: channels left unread)."""
     from mountid.measurement.records import read_record as read
     from mountid.measurement.records import with_geometry
 
     if rate is not None:
         finite_number(rate, "--rate")
     geometry = placements(channels, "--channel")
-    record = read(path, rate)
+    try:
+        record = read(path, rate, tuple(ignore or ()))
+    except InputError as err:
+        if err.parameter != "ignore":
+            raise
+        raise InputError("--ignore", err.reason) from None
     return with_geometry(record, geometry, "--channel") if geometry else record
 
 

@@ -11,9 +11,11 @@ violation is reported as one line naming the entry). Example (the paper's four f
      "fit": ["x", "psi"]}
 
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
-{"file": "hit2.uff", "start": 0.1}]``. Each is read (CSV with mountid channel metadata, or UFF with its
-geometry) and run through the records chain (mountid.identification.from_records.modal_data): frequencies
-with their standard deviations, damping ratios and, where the channels span the six motions, mode shapes.
+{"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
+and directions (a plain CSV states none) and the channels to ``ignore`` (a tachometer, a microphone). Each is read
+(CSV with mountid channel metadata, or UFF with its geometry) and run through the records chain
+(mountid.identification.from_records.modal_data): frequencies with their standard deviations, damping ratios
+and, where the channels span the six motions, mode shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
 their frequencies and damping ratios (the standard deviations widened where the records scatter beyond them)
 and the shape of the one with the smallest frequency standard deviation. The records' poles are converted to
@@ -122,6 +124,8 @@ class RecordSource:
     """Sampling rate [Hz] that replaces the file's time column (None: the column)."""
     channels: tuple[tuple[str, tuple[float, float, float], tuple[float, float, float]], ...] = ()
     """(name, point [m], direction) of channels whose placement the campaign gives or replaces."""
+    ignore: tuple[str, ...] = ()
+    """Names of channels left unread (a tachometer, a microphone: records.read_csv)."""
 
 
 @dataclass(frozen=True)
@@ -707,7 +711,8 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
         for name, c in entry.get("channels", {}).items()
     )
     start = entry.get("start")
-    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels)
+    ignore = tuple(entry.get("ignore", ()))
+    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore)
 
 
 @dataclass(frozen=True)
@@ -747,7 +752,7 @@ def _modes_from_records(
     layouts: dict[str, tuple[Channel, ...]] = {}
     for i, source in enumerate(sources):
         try:
-            record = read_record(source.path, source.rate)
+            record = read_record(source.path, source.rate, source.ignore)
             if source.channels:
                 geometry = {name: (point, direction) for name, point, direction in source.channels}
                 record = with_geometry(record, geometry, "channels")
@@ -764,6 +769,8 @@ def _modes_from_records(
             # the file is named once, in the parameter (a reader's reason may start with it: uff._read_set)
             reason = err.reason.removeprefix(f"{source.path.name}: ")
             raise InputError(f"{where}.{i} ({source.path.name or source.path})", f"{what}{reason}") from None
+        if source.ignore:
+            notes.append(f"{source.path.name}: left unread as the campaign says: {', '.join(source.ignore)}")
         segments = [(source.path.name, data)]
         if source.start is None and len(data.hits) > 1:  # several hits without a force channel: every decay
             segments, said = _every_hit(machine, record, known, data, source.path.name)

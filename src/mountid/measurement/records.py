@@ -17,7 +17,9 @@ separator, and lines of text before the header (an acquisition's preamble: date,
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
 or mm/s; displacement in m, mm or um (or µm); force in N or kN (a hammer's force channel: the excitation, never a
-response). Any other unit is rejected by channel name; :meth:`Record.in_si` converts every channel to SI.
+response). Any other unit is rejected by channel name; :meth:`Record.in_si` converts every channel to SI. A column
+mountid does not read (a tachometer in V, a microphone in Pa, a status in text) is named with its unit or cell, and
+left out by name (``ignore``: the command line's --ignore, a campaign record's "ignore").
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import csv
 import io
 import json
 import math
+from collections.abc import Collection
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -85,7 +88,7 @@ class Record:
             if units is None:
                 raise InputError(c.name, f"quantity {c.quantity!r} is not one of {', '.join(UNITS)}")
             if c.unit not in units:
-                raise InputError(c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)})")
+                raise InputError(c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)}){UNREAD}")
         largest = np.abs(self.data).max(axis=0, initial=0.0)
         for c, value in zip(self.channels, largest, strict=True):
             if value > SAMPLE_LIMIT:
@@ -259,10 +262,11 @@ def write_csv(record: Record, path: str | Path) -> None:
     Path(path).write_text("\n".join(lines) + "\n" + body + "\n", encoding="utf-8")
 
 
-def read_csv(path: str | Path, rate: float | None = None) -> Record:
+def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> Record:
     """Read a record written by :func:`write_csv`, or a plain CSV with a header row whose first column is
     the time [s] (channels then have unknown points and directions). ``rate`` [Hz]: the sampling rate, which
-    replaces the time column's steps (see uniform_time for what is accepted without it)."""
+    replaces the time column's steps (see uniform_time for what is accepted without it). ``ignore``: names of
+    columns left unread (a bench's tachometer, microphone or spare channel: any unit, any text in its cells)."""
     path = existing_file(path, "record")
     meta: dict[str, Channel] = {}
     try:
@@ -278,20 +282,24 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
             meta[channel.name] = channel
         elif not line.startswith("#"):
             lines.append((number, line))
-    first = _header_index(lines)
+    first = _header_index(lines, ignore)
     if not lines:
         raise InputError("record", f"{path.name} holds no table")
     header_line, head = lines[first]
     separator = _separator(head)
     header = [h.strip() for h in _cells(head, separator)]
+    keep = _kept_columns(header, ignore, path.name)
     body = lines[first + 1 :]
     units = _cells(body[0][1], separator) if body and body[0][0] == header_line + 1 else []
-    if _units_row(units, len(header)):
+    if _units_row(units, header, keep):
         header = [_with_unit(title, unit.strip()) for title, unit in zip(header, units, strict=True)]
         body = body[1:]
-    table = _at_once(body, separator, len(header))
+    table = _at_once(body, separator, len(header), keep)
     if table is None:
-        table = _line_by_line(body, separator, header, header_line, path.name)
+        table = _line_by_line(body, separator, header, header_line, path.name, keep)
+    if keep is not None:
+        header = [header[k] for k in keep]
+        meta = {name: c for name, c in meta.items() if name not in ignore}
     if not len(table):
         raise InputError("record", f"{path.name} holds no table")
     if not header[-1] and np.isnan(table[:, -1]).all():  # a separator at the end of every line (spreadsheets)
@@ -329,44 +337,74 @@ def read_csv(path: str | Path, rate: float | None = None) -> Record:
     return Record(time, table[:, first - 1 :], channels)
 
 
-def _at_once(body: list[tuple[int, str]], separator: str, width: int) -> NDArray[np.float64] | None:
+def _at_once(
+    body: list[tuple[int, str]], separator: str, width: int, keep: list[int] | None = None
+) -> NDArray[np.float64] | None:
     """A table's rows (``body``: its lines with their numbers) read by numpy at once, five times faster than
     line by line (a minute's record of a dozen channels at 5 kHz: 7 s); None where a line needs _line_by_line
     (quotes, an empty cell, a cell that is no number, a row of another width), which reads the same numbers or
-    names the line."""
+    names the line. ``keep``: the columns read (None: all of the ``width``)."""
     text = "\n".join(line for _, line in body)
     if not body or '"' in text:
         return None
+    if keep is not None and any(line.count(separator) != width - 1 for _, line in body):
+        return None  # numpy checks the width of the columns it reads only
     if separator != ",":  # as _values: decimal commas
         text = text.replace(",", ".")
     try:
-        table = np.loadtxt(io.StringIO(text), delimiter=separator, dtype=float, ndmin=2, comments=None)
+        table = np.loadtxt(io.StringIO(text), delimiter=separator, dtype=float, ndmin=2, comments=None, usecols=keep)
     except ValueError:
         return None
-    return table if table.shape == (len(body), width) else None
+    return table if table.shape == (len(body), width if keep is None else len(keep)) else None
+
+
+def _kept_columns(header: list[str], ignore: Collection[str], name: str) -> list[int] | None:
+    """The columns of ``header`` read, all but those ``ignore`` names (by name, without the header's unit); None
+    where none is ignored. An InputError naming an ignored name the header lacks."""
+    if not ignore:
+        return None
+    names = [_split_unit(title)[0] for title in header]
+    for wanted in ignore:
+        if wanted not in names:
+            raise InputError("ignore", f"{wanted}: no such column in {name} (columns: {', '.join(names)})")
+    return [k for k, n in enumerate(names) if n not in ignore]
 
 
 def _line_by_line(
-    body: list[tuple[int, str]], separator: str, header: list[str], header_line: int, name: str
+    body: list[tuple[int, str]],
+    separator: str,
+    header: list[str],
+    header_line: int,
+    name: str,
+    keep: list[int] | None = None,
 ) -> NDArray[np.float64]:
     """A table's rows read line by line: each cell as _values reads it; a line that is not a row of numbers of
-    the header's width is an error naming it (and where it follows the header, what it may be)."""
+    the header's width is an error naming it (and where it follows the header, what it may be). ``keep``: the
+    columns read (None: all)."""
     rows: list[list[float]] = []
+    width = len(header) if keep is None else len(keep)
     for number, line in body:
-        cells = _cells(line, separator)
+        cells = every = _cells(line, separator)
+        if keep is not None and len(cells) == len(header):
+            cells = [cells[k] for k in keep]
         try:
             rows.append(_values(cells, separator))
         except ValueError:
             hint = "" if rows else f" (line {header_line} was read as the header: a line before it must start with #)"
+            text = [k for k, c in enumerate(every) if not _is_numbers([c], separator) and c.strip()]
+            if len(every) == len(header) and text and (rows or text[0] > 0):  # a column of text: named
+                k = text[0]
+                where = f"column {k + 1} ({_split_unit(header[k])[0]!r}) holds {every[k].strip()!r}"
+                raise InputError(f"{name}:{number}", f"a value is not a number: {where}{UNREAD}") from None
             if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
-                other = next((c.strip() for c in cells[1:] if c.strip() and not _quantity(c.strip())), None)
+                other = next((c.strip() for c in cells[1:] if c.strip() and not quantity_of(c.strip())), None)
                 known = ", ".join(u for units in UNITS.values() for u in units)
                 why = f"{len(cells)} for {len(header)} columns" if other is None else f"{other!r} is not one of {known}"
                 hint = f" (a row of units? {why})"
             raise InputError(f"{name}:{number}", f"a value is not a number{hint}") from None
-        if len(rows[-1]) != len(header):
+        if len(rows[-1]) != width:
             raise InputError(f"{name}:{number}", f"{len(rows[-1])} values for {len(header)} columns")
-    return np.array(rows, dtype=float).reshape(len(rows), len(header))
+    return np.array(rows, dtype=float).reshape(len(rows), width)
 
 
 def _channel_metadata(text: str, where: str) -> Channel:
@@ -396,13 +434,13 @@ def _values(cells: list[str], separator: str) -> list[float]:
     return [float(v) if v.strip() else math.nan for v in cells]
 
 
-def _header_index(lines: list[tuple[int, str]]) -> int:
+def _header_index(lines: list[tuple[int, str]], ignore: Collection[str] = ()) -> int:
     """Which of a CSV's table lines (neither blank nor comments) is its header: the first, unless lines of text
     come before it, as a bench export's preamble ("Exported 2026-11-30", "Sample rate: 2000 Hz"). The header is
     then the first line of at least two cells, none a number and not all units, that a row of numbers of its
-    width follows (or a row of units and then one), and not below a line of its width that could be a header; it
-    is sought only before the first row of numbers. Where no line is one, the first line (whose table then fails
-    to read, naming the line read as the header)."""
+    width follows (_is_data; or a row of units and then one), and not below a line of its width that could be a
+    header; it is sought only before the first row of numbers. Where no line is one, the first line (whose table
+    then fails to read, naming the line read as the header). The columns ``ignore`` names may hold any text."""
     names: list[str] | None = None  # the line before, where it could be a header
     for k, (_, line) in enumerate(lines):
         separator = _separator(line)
@@ -410,17 +448,27 @@ def _header_index(lines: list[tuple[int, str]]) -> int:
         if _is_numbers(cells, separator):
             break  # the table has begun: a header, if any, came before
         after, names = names, None
-        if len(cells) < 2 or any(_is_numbers([c], separator) for c in cells) or _units_row(cells, len(cells)):
+        if len(cells) < 2 or any(_is_numbers([c], separator) for c in cells) or _units_row(cells, cells):
             continue  # a header names its columns: no number, and not a row of units (of channels numbered)
         names = cells
         if after is not None and len(after) == len(cells):
             continue  # below a line that could be the header: a row of unknown units, not a header after a preamble
+        keep = [j for j, title in enumerate(cells) if _split_unit(title.strip())[0] not in ignore]
         below = [_cells(other, separator) for _, other in lines[k + 1 : k + 3]]
-        if below and _units_row(below[0], len(cells)):
+        if below and _units_row(below[0], cells, keep):
             below = below[1:]
-        if below and len(below[0]) == len(cells) and _is_numbers(below[0], separator):
+        if below and len(below[0]) == len(cells) and _is_data(below[0], keep, separator):
             return k
     return 0
+
+
+def _is_data(cells: list[str], keep: list[int], separator: str) -> bool:
+    """Whether a row is one of a table's rows: the cells ``keep`` (the columns read) all numbers, or the first cell
+    and most cells numbers (a column of text: a status, a comment, which then fails to read, naming it)."""
+    if _is_numbers([cells[j] for j in keep], separator):
+        return True
+    numbers = [_is_numbers([c], separator) for c in cells]
+    return numbers[0] and 2 * sum(numbers) > len(cells)
 
 
 def _is_numbers(cells: list[str], separator: str) -> bool:
@@ -438,6 +486,12 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
     return not (all(map(math.isfinite, vector)) or all(map(math.isnan, vector)))
 
 
+UNREAD = (
+    "; a channel mountid does not read (a tachometer, a microphone) is left out with --ignore NAME, or with "
+    'a campaign record\'s "ignore"'
+)
+"""The advice an error on a channel's quantity or unit ends with."""
+
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
 
@@ -446,14 +500,15 @@ TIME_NAMES = ("time", "t", "zeit", "temps", "tiempo", "tempo")
 time's is a channel (a file of channels only), unless it is so named (a broken time column: an error)."""
 
 
-def _units_row(cells: list[str], width: int) -> bool:
-    """Whether a row right below the header is a row of units, as some acquisition software writes them
+def _units_row(cells: list[str], header: list[str], keep: list[int] | None = None) -> bool:
+    """Whether a row right below the ``header`` is a row of units, as some acquisition software writes them
     ("s;m/s^2;g"): as many cells as the header, the first a time unit (or empty), every other one a unit of
-    UNITS (or empty), at least one not empty."""
+    UNITS (or empty; any text in a column not in ``keep``, the columns read), at least one not empty."""
     units = [c.strip() for c in cells]
-    if len(units) != width or not any(units) or units[0] not in ("", *TIME_UNITS):
+    if len(units) != len(header) or not any(units) or units[0] not in ("", *TIME_UNITS):
         return False
-    return all(not u or _quantity(u) for u in units[1:])
+    read = range(len(header)) if keep is None else keep
+    return all(not units[k] or quantity_of(units[k]) for k in read if k > 0)
 
 
 def _with_unit(title: str, unit: str) -> str:
@@ -488,12 +543,12 @@ def _split_unit(title: str) -> tuple[str, str | None]:
     for left, right in ("[]", "()"):
         if title.endswith(right) and left in title:
             name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
-            if left == "[" or unit in TIME_UNITS or _quantity(unit):
+            if left == "[" or unit in TIME_UNITS or quantity_of(unit):
                 return name, unit
     return title, None
 
 
-def _quantity(unit: str) -> str | None:
+def quantity_of(unit: str) -> str | None:
     """The quantity a unit of records.UNITS measures (None for a unit it does not list)."""
     return next((q for q, units in UNITS.items() if unit in units), None)
 
@@ -506,10 +561,10 @@ def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
     name, unit = _split_unit(title)
     if unit is None:
         return Channel(name)
-    quantity = _quantity(unit)
+    quantity = quantity_of(unit)
     if quantity is None:
         known = ", ".join(u for units in UNITS.values() for u in units)
-        raise InputError(where, f"{title!r}: unit {unit!r} is not one of {known}")
+        raise InputError(where, f"{title!r}: unit {unit!r} is not one of {known}{UNREAD}")
     return Channel(name, quantity=quantity, unit=unit)
 
 
@@ -549,12 +604,12 @@ def with_geometry(record: Record, geometry: dict[str, Placement], source: str = 
     return replace(record, channels=tuple(channels))
 
 
-def read_record(path: str | Path, rate: float | None = None) -> Record:
+def read_record(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> Record:
     """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff) or CSV (read_csv);
-    ``rate`` [Hz] as in read_csv."""
+    ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv."""
     if str(path).lower().endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff  # pyuff is an extra: imported only for UFF files
 
-        record = read_uff(path)
+        record = read_uff(path, ignore)
         return record if rate is None else with_rate(record, rate)
-    return read_csv(path, rate)
+    return read_csv(path, rate, ignore)

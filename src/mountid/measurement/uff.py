@@ -2,7 +2,8 @@
 
 One dataset 58 per channel: a time response (function type 1, or 0 over time), real, evenly spaced abscissa; a
 frequency response function, a spectrum or complex data is an error naming the channel, and a label that says
-NONE (what writers put in an empty one) is empty. The channel
+NONE (what writers put in an empty one) is empty. A channel of a quantity mountid does not read (ordinate type:
+a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). The channel
 name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
 axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too: a
@@ -22,13 +23,14 @@ the description's (origin and axes): a test bench's geometry in another frame mu
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from pathlib import Path
 
 import numpy as np
 import pyuff
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import UNITS, Channel, Record
+from mountid.measurement.records import UNITS, UNREAD, Channel, Record, quantity_of
 
 _TAG = "mountid point="
 
@@ -117,8 +119,9 @@ def _triple(text: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
-def read_uff(path: str | Path) -> Record:
-    """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling)."""
+def read_uff(path: str | Path, ignore: Collection[str] = ()) -> Record:
+    """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling), all but
+    the channels ``ignore`` names (a bench's tachometer or microphone: any quantity, function or sampling)."""
     path = existing_file(path, "record")
     _whole(path)
     uff = pyuff.UFF(str(path))
@@ -127,10 +130,19 @@ def read_uff(path: str | Path) -> Record:
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
     sets = [_read_set(uff, i, types, path) for i in found]
+    names = _names(sets)
+    for wanted in ignore:
+        if wanted not in names:
+            raise InputError("ignore", f"{wanted}: no such channel in {path.name} (channels: {', '.join(names)})")
+    sets, names = (
+        [s for s, n in zip(sets, names, strict=True) if n not in ignore],
+        [n for n in names if n not in ignore],
+    )
+    if not sets:
+        raise InputError("ignore", f"leaves no channel of {path.name}")
     nodes = _nodes(uff, types, path)
     time = np.asarray(sets[0]["x"], dtype=float)
     columns, channels = [], []
-    names = _names(sets)
     for n, s in enumerate(sets):
         name = names[n]
         _time_response(s, name)
@@ -162,11 +174,9 @@ def read_uff(path: str | Path) -> Record:
                 point, axes = nodes[node]
                 direction = tuple(float(v) + 0.0 for v in math.copysign(1.0, axis) * axes[abs(axis) - 1])
         label = str(s.get("id5", "")).strip()
-        if label.endswith("]") and " [" in label:
-            quantity, unit = label[:-1].split(" [", 1)
-        else:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
-            quantity = _ORDINATE_TYPES.get(int(s.get("ordinate_spec_data_type", 12) or 12), "acceleration")
-            unit = _label(s, "ordinate_axis_units_lab") or next(iter(UNITS[quantity]))
+        quantity, unit = label[:-1].split(" [", 1) if label.endswith("]") and " [" in label else ("", "")
+        if quantity not in UNITS:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
+            quantity, unit = _quantity_and_unit(s, name)
         columns.append(np.real(np.asarray(s["data"])).astype(float))
         channels.append(Channel(name, point, direction, quantity, unit))
     return Record(time, np.column_stack(columns), tuple(channels))
@@ -183,6 +193,42 @@ _FUNCTION_TYPES = {
 }
 """UFF 58 function types (record 6, field 1) a bench exports besides 0 (general) and 1 (time response); the
 others are named by number."""
+
+
+_OTHER_ORDINATES = {
+    2: "a stress",
+    3: "a strain",
+    5: "a temperature",
+    6: "a heat flux",
+    9: "a reaction force",
+    15: "a pressure",
+    16: "a mass",
+    17: "a time",
+    18: "a frequency",
+    19: "a rotational speed (rpm)",
+    20: "an order",
+}
+"""UFF 58 ordinate data types (record 8, field 1) a bench exports besides those mountid reads (_ORDINATE_TYPES)
+and 0 (unknown), 1 (general); the others are named by number."""
+
+
+def _quantity_and_unit(s: dict, name: str) -> tuple[str, str]:
+    """A channel's quantity and unit from its dataset 58's ordinate data type and axis label: a type mountid reads
+    (_ORDINATE_TYPES) with its label (the quantity's SI unit where it is empty); types 0 (unknown) and 1 (general)
+    by the label's unit (records.UNITS), an acceleration where it names none; any other type (a reaction force, a
+    pressure: a channel mountid does not read) an InputError naming the channel. Read as an acceleration, a
+    pressure was 'unit Pa is not a unit of acceleration', and a reaction force at an isolator a response."""
+    kind = int(s.get("ordinate_spec_data_type", 12) or 0)
+    unit = _label(s, "ordinate_axis_units_lab")
+    if kind in _ORDINATE_TYPES:
+        quantity = _ORDINATE_TYPES[kind]
+    elif kind in (0, 1):
+        quantity = quantity_of(unit) or "acceleration"
+    else:
+        what = _OTHER_ORDINATES.get(kind, "a quantity")
+        reads = ", ".join(f"{q} {k}" for k, q in _ORDINATE_TYPES.items())
+        raise InputError(name, f"is {what} (UFF 58 ordinate type {kind}): mountid reads {reads}{UNREAD}")
+    return quantity, unit or next(iter(UNITS[quantity]))
 
 
 def _label(s: dict, key: str) -> str:
