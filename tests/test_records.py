@@ -640,8 +640,8 @@ def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
     ]
     np.testing.assert_allclose(back.time, rec.time, rtol=1e-12, atol=1e-15)
     np.testing.assert_array_equal(back.data, rec.data)
-    (tmp_path / "odd.csv").write_text(head.replace("(mm/s)", "[in/s]") + "\n" + lines[0] + "\n", encoding="utf-8")
-    with pytest.raises(InputError, match=r"^odd.csv: column 3: 'B_y \[in/s\]': unit 'in/s' is not one of"):
+    (tmp_path / "odd.csv").write_text(head.replace("(mm/s)", "[ft/min]") + "\n" + lines[0] + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"^odd.csv: column 3: 'B_y \[ft/min\]': unit 'ft/min' is not one of"):
         read_csv(tmp_path / "odd.csv")
     (tmp_path / "min.csv").write_text(head.replace("[ms]", "[min]") + "\n" + lines[0] + "\n", encoding="utf-8")
     with pytest.raises(InputError, match="time in 'min'"):
@@ -653,6 +653,24 @@ def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
         ("Ch(1)", "m/s^2"),
         ("B_y", "m/s\u00b2"),
     ]
+
+
+def test_the_units_of_an_american_bench_read_as_their_si_values(tmp_path):
+    """in/s^2, in/s (ips), mil, in and lbf, as American benches and vibration monitors write them (they were
+    unknown units): converted by the inch's and the pound-force's definitions (25.4 mm; 0.45359237 kg under
+    9.80665 m/s^2, 4.4482216152605 N)."""
+    rec = _record()
+    titles = ["a [in/s^2]", "v [ips]", "w (in/s)", "d [mil]", "e [in]", "F [lbf]"]
+    rows = "".join(
+        f"{t!r}" + f",{d[0]!r}" * len(titles) + "\n" for t, d in zip(rec.time.tolist(), rec.data.tolist(), strict=True)
+    )
+    (tmp_path / "us.csv").write_text("time," + ",".join(titles) + "\n" + rows, encoding="utf-8")
+    got = read_csv(tmp_path / "us.csv")
+    assert [c.quantity for c in got.channels] == [
+        "acceleration", "velocity", "velocity", "displacement", "displacement", "force"
+    ]  # fmt: skip
+    factors = [0.0254, 0.0254, 0.0254, 2.54e-5, 0.0254, 4.4482216152605]
+    np.testing.assert_allclose(got.in_si().data, rec.data[:, :1] * np.array(factors), rtol=1e-15, atol=0)
 
 
 def test_micrometres_read_with_the_micro_sign_as_with_u(tmp_path):

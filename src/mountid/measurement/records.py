@@ -15,11 +15,12 @@ units, ``Time [ms];A_x [g];F (kN)``, or a row of units of its own below the name
 be separated by semicolons or tabs (then with decimal commas or points), its cells quoted, its lines ended by a
 separator, and lines of text before the header (an acquisition's preamble: date, operator, rate) are read past.
 
-Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g or mm/s^2; velocity in m/s
-or mm/s; displacement in m, mm or um (or µm); force in N or kN (a hammer's force channel: the excitation, never a
-response). Any other unit is rejected by channel name; :meth:`Record.in_si` converts every channel to SI. A column
-mountid does not read (a tachometer in V, a microphone in Pa, a status in text) is named with its unit or cell, and
-left out by name (``ignore``: the command line's --ignore, a campaign record's "ignore").
+Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g, mm/s^2 or in/s^2; velocity in
+m/s, mm/s or in/s (ips); displacement in m, mm, um (or µm), in or mil; force in N, kN or lbf (a hammer's force
+channel: the excitation, never a response). Any other unit is rejected by channel name; :meth:`Record.in_si`
+converts every channel to SI. A column mountid does not read (a tachometer in V, a microphone in Pa, a status in
+text) is named with its unit or cell, and left out by name (``ignore``: the command line's --ignore, a campaign
+record's "ignore").
 """
 
 from __future__ import annotations
@@ -41,6 +42,12 @@ from mountid.measurement.settings import RECORDS, RecordSettings
 
 FORMAT_LINE = "# mountid record 1"
 
+INCH = 0.0254
+"""[m] The international inch (1959), exact."""
+
+POUND_FORCE = 0.45359237 * STANDARD_GRAVITY
+"""[N] The pound-force: the international avoirdupois pound (1959, exact) under standard gravity."""
+
 UNITS: dict[str, dict[str, float]] = {
     "acceleration": {
         "m/s^2": 1.0,
@@ -50,12 +57,24 @@ UNITS: dict[str, dict[str, float]] = {
         "mm/s^2": 1e-3,
         "mm/s2": 1e-3,
         "mm/s\u00b2": 1e-3,
+        "in/s^2": INCH,
+        "in/s2": INCH,
+        "in/s\u00b2": INCH,
     },
-    "velocity": {"m/s": 1.0, "mm/s": 1e-3},
-    "displacement": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "\u00b5m": 1e-6, "\u03bcm": 1e-6},  # micro sign, Greek mu
-    "force": {"N": 1.0, "kN": 1e3},
+    "velocity": {"m/s": 1.0, "mm/s": 1e-3, "in/s": INCH, "ips": INCH},
+    "displacement": {
+        "m": 1.0,
+        "mm": 1e-3,
+        "um": 1e-6,
+        "\u00b5m": 1e-6,  # the micro sign
+        "\u03bcm": 1e-6,  # the Greek mu
+        "in": INCH,
+        "mil": 1e-3 * INCH,
+    },
+    "force": {"N": 1.0, "kN": 1e3, "lbf": POUND_FORCE},
 }
-"""Every quantity a channel may record, its units and each unit's factor to SI (the first unit listed)."""
+"""Every quantity a channel may record, its units and each unit's factor to SI (the first unit listed): SI and the
+US customary units of American benches (in/s, ips and mil of velocity and displacement, in/s^2, lbf)."""
 
 RESPONSE_ORDER: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2}
 """Time derivatives of the displacement a response quantity is: a free-decay amplitude of pole p in that
