@@ -655,6 +655,81 @@ def test_a_bench_export_reads_with_its_units_and_separator(tmp_path, separator):
     ]
 
 
+def _stamped(rec: Record, cell, separator: str = ",", head: str = "Time") -> str:
+    """``rec`` as a plain CSV whose time column holds ``cell(t)`` for each time t [s] of the record."""
+    rows = [
+        separator.join([cell(t), *(repr(float(v)) for v in row)]) for t, row in zip(rec.time, rec.data, strict=True)
+    ]
+    if separator != ",":
+        rows = [
+            separator.join([r.split(separator)[0], *(v.replace(".", ",") for v in r.split(separator)[1:])])
+            for r in rows
+        ]
+    return separator.join([head, *rec.names]) + "\n" + "\n".join(rows) + "\n"
+
+
+def test_a_time_column_of_dates_and_clock_times_reads_as_seconds_from_the_first(tmp_path):
+    """A logger's export stamps each row with its date and time (ISO 8601, with a T or a space, a Z for UTC) or its
+    clock time (a decimal comma in a German locale, behind a preamble): read as seconds from the first row (it was
+    "a value is not a number (line 1 was read as the header ...)"). A later cell of another form is named by its
+    line; a time of a form mountid does not read is named with how to read the file at its rate without it."""
+    from datetime import datetime, timedelta
+
+    rec = _record(400)
+    start = datetime(2026, 12, 3, 23, 59, 59)
+
+    def at(t: float, form: str) -> str:
+        return (start + timedelta(seconds=float(t))).strftime(form)
+
+    files = {
+        "iso.csv": _stamped(rec, lambda t: at(t, "%Y-%m-%dT%H:%M:%S.%fZ")),
+        "space.csv": _stamped(rec, lambda t: at(t, "%Y-%m-%d %H:%M:%S.%f")[:-3]),
+        "clock.csv": "Logger 7;serial 0042\nRate;500;Hz\n\n"
+        + _stamped(rec, lambda t: at(t - 1, "%H:%M:%S,%f")[:-2], ";", "Zeit"),
+    }
+    for name, text in files.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+        got = read_csv(tmp_path / name)
+        assert got.names == rec.names, name
+        np.testing.assert_allclose(got.time, rec.time, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got.data, rec.data)
+    lines = files["space.csv"].splitlines()
+    lines[7] = "2026-12-03 late" + lines[7][lines[7].index(",") :]
+    _refused(tmp_path / "late.csv", "\n".join(lines), r"^late.csv:8: column 1 holds '2026-12-03 late', not a time as")
+    slashes = _stamped(rec, lambda t: at(t, "%Y/%m/%d %H:%M:%S.%f"))
+    _refused(
+        tmp_path / "slash.csv", slashes, r"^slash.csv:2: column 1 \('Time'\) holds '2026/12/03 23:59:59.000000', a time"
+    )
+    got = read_csv(tmp_path / "slash.csv", 500.0, ignore=("Time",))
+    np.testing.assert_array_equal(got.data, rec.data)
+    np.testing.assert_allclose(got.time, rec.time, rtol=0, atol=1e-15)
+
+
+def test_times_written_coarser_than_their_step_or_counted_samples_are_named_and_read_at_the_rate(tmp_path):
+    """Clock times to the millisecond at 2 kHz repeat every other time; a first column "Sample" counts samples.
+    The first was "'Time' is read as the time, but 50% of its steps increase" (a channel in the time column's
+    place), the second read as seconds (a record at 1 Hz, "no damped mode found"); each is named with the sampling
+    rate as the way to read it, and reads with the rate (the count over the rate from the first count)."""
+    rec = _record(400)
+    rec = Record(np.arange(400) / 2000.0, rec.data, rec.channels)
+    coarse = _stamped(rec, lambda t: f"10:00:{t:06.3f}")
+    _refused(
+        tmp_path / "coarse.csv",
+        coarse,
+        r"^time: repeats its times in \d+ of 399 steps: written to 0.001 s, coarser than its step of 0.0005\d* s; give",
+    )
+    got = read_csv(tmp_path / "coarse.csv", 2000.0)
+    np.testing.assert_allclose(got.time, rec.time, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(got.data, rec.data)
+    for first in (0, 1):
+        counted = _stamped(rec, lambda t, first=first: str(round(t * 2000) + first), head="Sample")
+        _refused(tmp_path / "n.csv", counted, r"^n.csv: column 1: 'Sample' counts the samples, not the time: give the")
+        got = read_csv(tmp_path / "n.csv", 2000.0)
+        assert got.names == rec.names
+        np.testing.assert_allclose(got.time, rec.time + first / 2000.0, rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(got.data, rec.data)
+
+
 def test_the_units_of_an_american_bench_read_as_their_si_values(tmp_path):
     """in/s^2, in/s (ips), mil, in and lbf, as American benches and vibration monitors write them (they were
     unknown units): converted by the inch's and the pound-force's definitions (25.4 mm; 0.45359237 kg under

@@ -29,6 +29,7 @@ import csv
 import io
 import json
 import math
+import re
 from collections.abc import Collection
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -164,8 +165,18 @@ class Record:
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
-    """Reject a time column that does not increase: a median step that is not positive (a column written
-    backwards), or one step back or of zero (rows swapped or written twice), which no uniform grid explains."""
+    """Reject a time column that does not increase: one written with a resolution coarser than its step (times
+    repeated in a tenth of the steps or more, none back: clock times to 1 ms at 2 kHz), a median step that is not
+    positive (a column written backwards), or one step back or of zero (rows swapped or written twice), which no
+    uniform grid explains."""
+    repeats = int(np.count_nonzero(dt == 0))
+    if repeats >= 0.1 * len(dt) and np.all(dt >= 0) and time[-1] > time[0]:
+        raise InputError(
+            "time",
+            f"repeats its times in {repeats} of {len(dt)} steps: written to {float(np.min(dt[dt > 0])):.3g} s, "
+            f"coarser than its step of {(time[-1] - time[0]) / len(dt):.3g} s; give the sampling rate (--rate, or "
+            "'rate' in a campaign's record) to use the nominal grid",
+        )
     if not step > 0:
         raise InputError("time", "must increase")
     back = np.flatnonzero(dt <= 0)
@@ -313,47 +324,102 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
     if _units_row(units, header, keep):
         header = [_with_unit(title, unit.strip()) for title, unit in zip(header, units, strict=True)]
         body = body[1:]
-    table = _at_once(body, separator, len(header), keep)
+    columns = list(range(len(header))) if keep is None else keep  # the columns read, by their index in the file
+    stamps = _timestamps(body, separator, path.name) if columns and columns[0] == 0 else None
+    numeric = columns[1:] if stamps is not None else columns
+    read = None if numeric == list(range(len(header))) else numeric
+    table = _at_once(body, separator, len(header), read) if numeric else np.empty((len(body), 0))
     if table is None:
-        table = _line_by_line(body, separator, header, header_line, path.name, keep)
-    if keep is not None:
-        header = [header[k] for k in keep]
-        meta = {name: c for name, c in meta.items() if name not in ignore}
+        table = _line_by_line(body, separator, header, header_line, path.name, read)
+    if stamps is not None:
+        table = np.column_stack([stamps, table])
+    header = [header[k] for k in columns]
+    meta = {name: c for name, c in meta.items() if name not in ignore}
     if not len(table):
         raise InputError("record", f"{path.name} holds no table")
     if not header[-1] and np.isnan(table[:, -1]).all():  # a separator at the end of every line (spreadsheets)
-        header, table = header[:-1], table[:, :-1]
-    for k, title in enumerate(header):
+        header, table, columns = header[:-1], table[:, :-1], columns[:-1]
+    for k, title in zip(columns, header, strict=True):
         if not title:
             raise InputError(f"{path.name}: column {k + 1}", f"has no name in the header (line {header_line})")
-    time_unit = _split_unit(header[0])[1] or "s"
+    time_unit = "s" if stamps is not None else _split_unit(header[0])[1] or "s"
     steps = np.diff(table[:, 0])
     rising = float(np.mean(steps[np.isfinite(steps)] > 0)) if np.isfinite(steps).any() else 1.0
+    repeated = bool(np.all(steps[np.isfinite(steps)] >= 0))  # times that repeat, none back: written coarsely
     named = _split_unit(header[0])[0].lower() in TIME_NAMES
+    counted = header[0].lower() in INDEX_NAMES
     timed = time_unit in TIME_UNITS and (rising >= TIME_COLUMN_INCREASING or named)
-    if rate is not None and not timed:  # channels only, sampled at the rate given from t = 0
-        time, columns, first = _time_column(np.zeros(len(table)), rate), header, 1
+    where = f"{path.name}: column {columns[0] + 1}"
+    if counted and stamps is None:  # a sample index: the time at the rate given
+        if rate is None:
+            raise InputError(
+                where,
+                f"{header[0]!r} counts the samples, not the time: give the sampling rate (--rate, or 'rate' in a "
+                "campaign's record)",
+            )
+        time, first = _time_column(np.full(len(table), table[0, 0] / rate), rate), 2  # from the first count
+    elif rate is not None and not timed:  # channels only, sampled at the rate given from t = 0
+        time, first = _time_column(np.zeros(len(table)), rate), 1
     elif time_unit not in TIME_UNITS:
         raise InputError(
-            f"{path.name}: column 1",
+            where,
             f"time in {time_unit!r}: the time column's unit must be s or ms (a file of channels only reads with "
             "--rate or a campaign's 'rate')",
         )
-    elif rising < TIME_COLUMN_INCREASING:  # a channel in the time column's place
+    elif rising < TIME_COLUMN_INCREASING and not (named and repeated):  # a channel in the time column's place
         raise InputError(
-            f"{path.name}: column 1",
+            where,
             f"{header[0]!r} is read as the time, but {rising:.0%} of its steps increase: a record's "
             "first column is its time (a file of channels only reads with --rate or a campaign's 'rate': every "
             "column a channel, sampled from t = 0)",
         )
     else:
-        time, columns, first = _time_column(table[:, 0] * TIME_UNITS[time_unit], rate), header[1:], 2
-    channels = tuple(_column(h, meta, f"{path.name}: column {k + first}") for k, h in enumerate(columns))
+        time, first = _time_column(table[:, 0] * TIME_UNITS[time_unit], rate), 2
+    channels = tuple(
+        _column(header[j], meta, f"{path.name}: column {columns[j] + 1}") for j in range(first - 1, len(header))
+    )
     names = tuple(c.name for c in channels)
     missing = [n for n in meta if n not in names]
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
     return Record(time, table[:, first - 1 :], channels)
+
+
+def _timestamps(body: list[tuple[int, str]], separator: str, name: str) -> NDArray[np.float64] | None:
+    """A time column of dates and times (ISO 8601, "2026-12-03 10:00:00.000", or clock times "10:00:00,000") as
+    seconds from its first row; None where the first row's first cell is a number or no such time. An InputError
+    naming the line of a later cell that is no such time."""
+    if not body:
+        return None
+    first = _cells(body[0][1], separator)[0]
+    if _is_numbers([first], separator) or _stamp(first) is None:
+        return None
+    texts = [_stamp_text(_cells(line, separator)[0]) for _, line in body]
+    try:
+        stamps = np.array(texts, dtype="datetime64[ns]")
+    except ValueError:
+        number, line = next((n, ln) for n, ln in body if _stamp(_cells(ln, separator)[0]) is None)
+        cell = _cells(line, separator)[0].strip()
+        raise InputError(f"{name}:{number}", f"column 1 holds {cell!r}, not a time as {first.strip()!r}") from None
+    return (stamps - stamps[0]).astype(np.int64) * 1e-9
+
+
+def _stamp_text(cell: str) -> str:
+    """A cell of a date and time as numpy reads it: a decimal comma as a point, no "Z" (UTC) at the end, a clock
+    time on a day of its own."""
+    text = cell.strip().replace(",", ".").removesuffix("Z")
+    return f"1970-01-01T{text}" if TIME_OF_DAY.fullmatch(text) else text
+
+
+def _stamp(cell: str) -> np.datetime64 | None:
+    """The date and time a cell states (_stamp_text), or None."""
+    text = _stamp_text(cell)
+    if not any(c.isdigit() for c in text) or ":" not in text:
+        return None
+    try:
+        return np.datetime64(text, "ns")
+    except ValueError:
+        return None
 
 
 def _at_once(
@@ -411,9 +477,17 @@ def _line_by_line(
         except ValueError:
             hint = "" if rows else f" (line {header_line} was read as the header: a line before it must start with #)"
             text = [k for k, c in enumerate(every) if not _is_numbers([c], separator) and c.strip()]
-            if len(every) == len(header) and text and (rows or text[0] > 0):  # a column of text: named
+            if len(every) == len(header) and text and (rows or text[0] > 0 or ":" in every[0]):  # a column of text
                 k = text[0]
-                where = f"column {k + 1} ({_split_unit(header[k])[0]!r}) holds {every[k].strip()!r}"
+                title = _split_unit(header[k])[0]
+                where = f"column {k + 1} ({title!r}) holds {every[k].strip()!r}"
+                if k == 0:  # a time column of another format
+                    raise InputError(
+                        f"{name}:{number}",
+                        f"{where}, a time mountid does not read (seconds; ISO 8601 dates and times, 2026-12-03 "
+                        f"10:00:00.000; clock times, 10:00:00.000): give the sampling rate and leave the column out "
+                        f"(--rate R --ignore {title}; a campaign record's 'rate' and 'ignore')",
+                    ) from None
                 raise InputError(f"{name}:{number}", f"a value is not a number: {where}{UNREAD}") from None
             if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
                 other = next((c.strip() for c in cells[1:] if c.strip() and not quantity_of(c.strip())), None)
@@ -483,10 +557,12 @@ def _header_index(lines: list[tuple[int, str]], ignore: Collection[str] = ()) ->
 
 def _is_data(cells: list[str], keep: list[int], separator: str) -> bool:
     """Whether a row is one of a table's rows: the cells ``keep`` (the columns read) all numbers, or the first cell
-    and most cells numbers (a column of text: a status, a comment, which then fails to read, naming it)."""
+    (a number or a date and time) and most cells numbers (a column of text: a status, a comment, which then fails to
+    read, naming it)."""
     if _is_numbers([cells[j] for j in keep], separator):
         return True
     numbers = [_is_numbers([c], separator) for c in cells]
+    numbers[0] = numbers[0] or _stamp(cells[0]) is not None
     return numbers[0] and 2 * sum(numbers) > len(cells)
 
 
@@ -513,6 +589,13 @@ UNREAD = (
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
+
+INDEX_NAMES = ("sample", "samples", "sample number", "sample no.", "index", "n", "no.", "nr.", "#")
+"""Names of a first column that counts the samples (in any case, without a unit): the time is the count over the
+sampling rate, which must then be given (it was read as seconds: a record at 1 Hz)."""
+
+TIME_OF_DAY = re.compile(r"\d{1,2}:\d{2}:\d{2}([.,]\d+)?")
+"""A time of day, HH:MM:SS with a decimal point or comma: a time column of clock times (of one day)."""
 
 TIME_NAMES = ("time", "t", "zeit", "temps", "tiempo", "tempo")
 """Names of a time column (in any case): with a sampling rate given, a first column whose steps do not rise as a
