@@ -91,6 +91,37 @@ def test_a_missing_record_is_named(folder, capsys):
     assert "records.0" in capsys.readouterr().err
 
 
+def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_path):
+    """A bench's UFF export of two hits, a dataset per channel each, one after another: read at once it was one
+    record of 16 channels, each pair at one point with the data of different hits. A campaign lists the file once
+    per run ("run": k): the modes are those of the two records as separate files (to the UFF's 12 digits), named
+    by run; without a run, or one run twice, the entry is named."""
+    import pyuff
+
+    from mountid.measurement.records import read_csv
+    from mountid.measurement.uff import write_uff
+
+    sets = []
+    for k in range(2):
+        write_uff(read_csv(folder / f"hit{k}.csv"), tmp_path / f"hit{k}.uff")
+        sets += pyuff.UFF(str(tmp_path / f"hit{k}.uff")).read_sets()
+    pyuff.UFF(str(tmp_path / "runs.uff")).write_sets(sets, mode="add")
+    runs = [{"file": "runs.uff", "run": 1}, {"file": "runs.uff", "run": 2, "start": 0.08}]
+    c = campaign.parse({"machine": "kid300", "known": KNOWN, "records": runs}, tmp_path)
+    files = campaign.load(folder / "campaign.json")
+    assert c.modes.keys() == files.modes.keys()
+    for label, mode in c.modes.items():
+        assert mode.frequency == pytest.approx(files.modes[label].frequency, rel=1e-9)
+    assert any(n.startswith("x: frequency, damping ratio from runs.uff run 1, runs.uff run 2") for n in c.record_notes)
+    with pytest.raises(
+        InputError, match=r"^records\.0 \(runs\.uff\): run: runs.uff holds 2 runs \(datasets 58 of 8, 8"
+    ):
+        campaign.parse({"machine": "kid300", "known": KNOWN, "records": ["runs.uff"]}, tmp_path)
+    twice = {"machine": "kid300", "known": KNOWN, "records": [runs[0], {"file": "runs.uff", "run": 1}]}
+    with pytest.raises(InputError, match=r"^records\.1 \(runs\.uff run 1\): the same file as records\.0"):
+        campaign.parse(twice, tmp_path)
+
+
 def test_a_record_listed_twice_is_named(folder, tmp_path):
     """One record twice (or a copy under another name) would count its modes twice, halving their variance; the
     campaign's record at a level would stand for two excitation levels."""

@@ -33,13 +33,14 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
 
 @pytest.fixture
 def files(tmp_path):
-    """Bad files: binary and UTF-16 campaigns, a binary CSV, a text file named .uff, a plain file, a CSV with a
-    tachometer's channel."""
+    """Bad files: binary and UTF-16 campaigns, a binary CSV, a text file named .uff or .tdms, a plain file, a CSV
+    with a tachometer's channel."""
     (tmp_path / "binary.json").write_bytes(b"\x00\x01\x02\xff")
     text = Path(PAPER).read_text(encoding="utf-8")
     (tmp_path / "utf16.json").write_bytes(text.encode("utf-16"))
     (tmp_path / "binary.csv").write_bytes(b"\x00\x01\xff\xfe")
     (tmp_path / "text.uff").write_text("hello\n")
+    (tmp_path / "text.tdms").write_text("hello\n")
     (tmp_path / "afile").write_text("")
     rows = "".join(f"{k / 1000!r},{(-1) ** k * 0.01!r},5.0\n" for k in range(400))
     (tmp_path / "tacho.csv").write_text("time,A_x [g],Tacho [V]\n" + rows, encoding="utf-8")
@@ -54,9 +55,11 @@ CASES = [
     (["diagnose", "{d}/utf16.json", "--no-figure"], "campaign:"),
     (["identify-record", "kid300", "{d}/binary.csv"], "record:"),
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
+    (["process", "kid300", "{d}/text.tdms"], "record: text.tdms is not a TDMS file"),
     # a bench's channel mountid does not read: named, with how to leave it out; a name to leave out the file lacks
     (["process", "kid300", "{d}/tacho.csv"], "tacho.csv: column 3: 'Tacho [V]': unit 'V' is not one of"),
     (["process", "kid300", "{d}/tacho.csv", "--ignore", "Rpm"], "--ignore: Rpm: no such column in tacho.csv (columns"),
+    (["process", "kid300", "{d}/tacho.csv", "--ignore", "Tacho", "--run", "2"], "--run: 2: tacho.csv is a CSV, which"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
     # no sample, or fewer than a record holds: named as the option, before the machine is built

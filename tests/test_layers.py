@@ -45,6 +45,7 @@ EXTRAS = {
     "jinja2": {"engine"},
     "matplotlib": {"report"},
     "pyuff": {"measurement"},
+    "nptdms": {"measurement"},
     "jsonschema": {"diagnosis"},
 }
 """Optional dependencies and the layers that may import them (docs/architecture.md, "Dependencies")."""
@@ -153,7 +154,7 @@ BLOCK_EXTRAS = """
 import importlib.abc, sys
 class Block(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path=None, target=None):
-        if name.split(".")[0] in {"sympy", "jinja2", "matplotlib", "pyuff", "jsonschema", "mpmath"}:
+        if name.split(".")[0] in {"sympy", "jinja2", "matplotlib", "pyuff", "nptdms", "jsonschema", "mpmath"}:
             raise ModuleNotFoundError(f"No module named {name!r}", name=name)
 sys.meta_path.insert(0, Block())
 """

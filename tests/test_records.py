@@ -349,6 +349,42 @@ def test_a_uff_channel_mountid_does_not_read_is_named_and_left_out_when_told(tmp
     assert [(c.quantity, c.unit) for c in read_uff(tmp_path / "force.uff").channels] == [("force", "kN")]
 
 
+def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
+    """Two hits exported one after another, a dataset per channel each (the same response nodes and directions, a
+    bench's one description in every ID line 1): read at once they were one record of four channels named
+    node1:1#1 ... node2:2#2, a pair at each point with the data of different hits. Each run reads on its own, by
+    its number; without one the runs are named; a CSV holds one run."""
+    import pyuff
+
+    from mountid.measurement.records import read_record
+    from mountid.measurement.uff import dataset_58, read_uff
+
+    rec = _record()
+    second = Record(rec.time, rec.data[::-1].copy(), rec.channels)
+    sets = [
+        dataset_58(c, r.time, r.data[:, k], k + 1, k + 1, "", title="Time Response", id5="NONE")
+        for r in (rec, second)
+        for k, c in enumerate(rec.channels)
+    ]
+    pyuff.UFF(str(tmp_path / "runs.uff")).write_sets(sets, mode="add")
+    with pytest.raises(
+        InputError, match=r"^run: runs.uff holds 2 runs \(datasets 58 of 2, 2 channels, each repeating the response"
+    ):
+        read_uff(tmp_path / "runs.uff")
+    for run, expected in ((1, rec), (2, second)):
+        got = read_uff(tmp_path / "runs.uff", run=run)
+        assert got.names == ("node1:1", "node2:2")
+        np.testing.assert_allclose(got.data, expected.data, rtol=1e-11)
+    with pytest.raises(
+        InputError, match=r"^run: 3: runs.uff holds 2 runs \(datasets 58 of 2, 2 channels\), runs 1 to 2"
+    ):
+        read_uff(tmp_path / "runs.uff", run=3)
+    write_csv(rec, tmp_path / "r.csv")
+    assert read_record(tmp_path / "r.csv", run=1).names == rec.names
+    with pytest.raises(InputError, match=r"^run: 2: r.csv is a CSV, which holds one run"):
+        read_record(tmp_path / "r.csv", run=2)
+
+
 def test_a_bench_csv_column_mountid_does_not_read_is_named_and_left_out_when_told(tmp_path, monkeypatch):
     """A bench's CSV export (preamble, semicolons, decimal commas) with a tachometer in V, a microphone in Pa and a
     status column of text beside the accelerations: the text was "a value is not a number (line 1 was read as the

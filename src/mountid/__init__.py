@@ -5,8 +5,8 @@ The public API, by layer (docs/architecture.md). Names are imported on first use
 cheap and needs no optional dependency; each name needs only the extras of its layer:
 
 - machine (core: numpy): :class:`Machine`, :class:`Solution`, :func:`shipped_machines`
-- measurement (core; UFF files need the ``records`` extra): :class:`Record`, :func:`read_csv`,
-  :func:`write_csv`, :func:`read_uff`, :class:`Rig`
+- measurement (core; UFF and TDMS files need the ``records`` extra): :class:`Record`, :func:`read_record`,
+  :func:`read_csv`, :func:`write_csv`, :func:`read_uff`, :func:`read_tdms`, :class:`Rig`
 - identification (core: numpy, scipy): :func:`identify_from_record`, :func:`fit_stiffness`
 - diagnosis (the ``campaigns`` extra): :func:`load_campaign`, :func:`diagnose`
 - errors: :class:`InputError`, :class:`DescriptionError`
@@ -33,6 +33,8 @@ _PUBLIC = {
     "read_csv": "mountid.measurement.records",
     "write_csv": "mountid.measurement.records",
     "read_uff": "mountid.measurement.uff",
+    "read_tdms": "mountid.measurement.tdms",
+    "read_record": "mountid.measurement.records",
     "Rig": "mountid.measurement.rig",
     "identify_from_record": "mountid.identification.from_records",
     "fit_stiffness": "mountid.identification.from_records",

@@ -23,6 +23,7 @@ EXTRAS = {
     "ruff": "generate",
     "matplotlib": "figures",
     "pyuff": "records",
+    "nptdms": "records",
     "jsonschema": "campaigns",
 }
 """Optional dependencies and the extra that installs each (pyproject.toml)."""
@@ -69,8 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
 
     def add_record_options(p: argparse.ArgumentParser) -> None:
-        """--channel, --ignore and --nominal: where a record's channels sit, which are left unread, and the unknowns
-        its poles are labelled at."""
+        """--channel, --ignore, --nominal and --run: where a record's channels sit, which are left unread, the
+        unknowns its poles are labelled at, and which run of a file of several is read."""
         for option, metavar, help_ in (
             (
                 "--channel",
@@ -90,6 +91,13 @@ def build_parser() -> argparse.ArgumentParser:
             ),
         ):
             p.add_argument(option, nargs="+", action="extend", metavar=metavar, help=help_)
+        p.add_argument(
+            "--run",
+            type=int,
+            metavar="K",
+            help="which run of a UFF file of several (hits exported one after another, a dataset per channel each) "
+            "to read: 1, 2, ...",
+        )
 
     def add_unbalance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
@@ -132,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_unbalance(p)
     p.set_defaults(func=cmd_simulate)
     p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
-    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
     p.add_argument(
         "--start",
         type=float,
@@ -172,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
     p.set_defaults(func=cmd_plan)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
-    p.add_argument("record", help="record file (.csv, .uff or .unv)")
+    p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
     p.add_argument(
         "--start",
         type=float,

@@ -185,10 +185,15 @@ def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
 
 
 def read_record(
-    path: str, rate: float | None = None, channels: Sequence[str] | None = None, ignore: Sequence[str] | None = None
+    path: str,
+    rate: float | None = None,
+    channels: Sequence[str] | None = None,
+    ignore: Sequence[str] | None = None,
+    run: int | None = None,
 ) -> Record:
     """The record file at ``path`` (--rate: its sampling rate; --channel: points and directions of its
-    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's; --ignore: channels left unread)."""
+    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's; --ignore: channels left unread; --run: which run
+    of a file of several)."""
     from mountid.measurement.records import read_record as read
     from mountid.measurement.records import with_geometry
 
@@ -196,11 +201,11 @@ def read_record(
         finite_number(rate, "--rate")
     geometry = placements(channels, "--channel")
     try:
-        record = read(path, rate, tuple(ignore or ()))
+        record = read(path, rate, tuple(ignore or ()), run)
     except InputError as err:
-        if err.parameter != "ignore":
+        if err.parameter not in ("ignore", "run"):
             raise
-        raise InputError("--ignore", err.reason) from None
+        raise InputError(f"--{err.parameter}", err.reason) from None
     return with_geometry(record, geometry, "--channel") if geometry else record
 
 

@@ -185,7 +185,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import identify_from_record
 
     machine = Machine.resolve(args.machine)
-    record = read_record(args.record, args.rate, args.channel, args.ignore)
+    record = read_record(args.record, args.rate, args.channel, args.ignore, args.run)
     use = tuple(args.use) if args.use else None
     result = identify_from_record(
         machine,
@@ -218,7 +218,7 @@ def cmd_process(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     found = modal_data(
         machine,
-        read_record(args.record, args.rate, args.channel, args.ignore),
+        read_record(args.record, args.rate, args.channel, args.ignore, args.run),
         pairs(args.set, "--set"),
         args.start,
         pairs(args.nominal, "--nominal"),

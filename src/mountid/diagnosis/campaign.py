@@ -12,10 +12,11 @@ violation is reported as one line naming the entry). Example (the paper's four f
 
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
-and directions (a plain CSV states none) and the channels to ``ignore`` (a tachometer, a microphone). Each is read
-(CSV with mountid channel metadata, or UFF with its geometry) and run through the records chain
-(mountid.identification.from_records.modal_data): frequencies with their standard deviations, damping ratios
-and, where the channels span the six motions, mode shapes.
+and directions (a plain CSV states none), the channels to ``ignore`` (a tachometer, a microphone) and the ``run``
+of a UFF file of several (the file listed once per run). Each is read (CSV with mountid channel metadata, or UFF
+with its geometry) and run through the records chain (mountid.identification.from_records.modal_data):
+frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
+shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
 their frequencies and damping ratios (the standard deviations widened where the records scatter beyond them)
 and the shape of the one with the smallest frequency standard deviation. The records' poles are converted to
@@ -126,6 +127,13 @@ class RecordSource:
     """(name, point [m], direction) of channels whose placement the campaign gives or replaces."""
     ignore: tuple[str, ...] = ()
     """Names of channels left unread (a tachometer, a microphone: records.read_csv)."""
+    run: int | None = None
+    """Which run of a UFF file of several (uff.read_uff; None: its only one)."""
+
+    @property
+    def name(self) -> str:
+        """The record's name in notes and warnings: the file's, with its run where one is given."""
+        return self.path.name if self.run is None else f"{self.path.name} run {self.run}"
 
 
 @dataclass(frozen=True)
@@ -711,8 +719,8 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
         for name, c in entry.get("channels", {}).items()
     )
     start = entry.get("start")
-    ignore = tuple(entry.get("ignore", ()))
-    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore)
+    ignore, run = tuple(entry.get("ignore", ())), entry.get("run")
+    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore, run)
 
 
 @dataclass(frozen=True)
@@ -752,7 +760,7 @@ def _modes_from_records(
     layouts: dict[str, tuple[Channel, ...]] = {}
     for i, source in enumerate(sources):
         try:
-            record = read_record(source.path, source.rate, source.ignore)
+            record = read_record(source.path, source.rate, source.ignore, source.run)
             if source.channels:
                 geometry = {name: (point, direction) for name, point, direction in source.channels}
                 record = with_geometry(record, geometry, "channels")
@@ -762,7 +770,7 @@ def _modes_from_records(
                 raise InputError(f"{where}.{i} ({source.path.name or source.path})", err.reason) from None
             # one record of several without a mode it could label (a hit that excited only close modes it could
             # not separate): left out, said in the notes; the others stand
-            notes.append(f"{source.path.name}: left out: {err.reason}")
+            notes.append(f"{source.name}: left out: {err.reason}")
             continue
         except InputError as err:  # which of the campaign's records, and what of it
             what = "" if err.parameter == "record" else f"{err.parameter}: "
@@ -770,10 +778,10 @@ def _modes_from_records(
             reason = err.reason.removeprefix(f"{source.path.name}: ")
             raise InputError(f"{where}.{i} ({source.path.name or source.path})", f"{what}{reason}") from None
         if source.ignore:
-            notes.append(f"{source.path.name}: left unread as the campaign says: {', '.join(source.ignore)}")
-        segments = [(source.path.name, data)]
+            notes.append(f"{source.name}: left unread as the campaign says: {', '.join(source.ignore)}")
+        segments = [(source.name, data)]
         if source.start is None and len(data.hits) > 1:  # several hits without a force channel: every decay
-            segments, said = _every_hit(machine, record, known, data, source.path.name)
+            segments, said = _every_hit(machine, record, known, data, source.name)
             notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
         for name, data in segments:
@@ -1015,18 +1023,19 @@ def _weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
 def _distinct_files(entries: list[tuple[str, RecordSource]]) -> None:
     """An InputError naming the second of two ``entries`` (campaign entry, source) that are one file, or files of
     the same content (a copy under another name): its modes would count twice (in one list), or a level would
-    compare a record with itself (across the campaign's and a level's)."""
-    seen: dict[tuple[int, str], tuple[str, RecordSource]] = {}
+    compare a record with itself (across the campaign's and a level's). The runs of a file of several are
+    records of their own (one run given twice is one record twice)."""
+    seen: dict[tuple[int, str, int], tuple[str, RecordSource]] = {}
     for entry, source in entries:
         if not source.path.is_file():
             continue  # the records chain names what is there instead
-        key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest())
+        key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest(), source.run or 1)
         if key in seen:
             first, other = seen[key]
             same = "the same file as" if source.path.resolve() == other.path.resolve() else "the same content as"
             raise InputError(
-                f"{entry} ({source.path.name})",
-                f"{same} {first} ({other.path.name}): one record listed twice would count twice, or stand for "
+                f"{entry} ({source.name})",
+                f"{same} {first} ({other.name}): one record listed twice would count twice, or stand for "
                 "two excitation levels",
             )
         seen[key] = (entry, source)

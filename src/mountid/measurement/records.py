@@ -277,9 +277,15 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
 
 def with_rate(record: Record, rate: float) -> Record:
     """The record on a uniform grid at ``rate`` [Hz] from its first time (the sampling-rate option)."""
+    return Record(sampled_at(float(record.time[0]), len(record.time), rate), record.data, record.channels)
+
+
+def sampled_at(start: float, n: int, rate: float) -> NDArray[np.float64]:
+    """``n`` sample times [s] from ``start`` [s] at ``rate`` [Hz]; an InputError naming the rate where it is no
+    positive number."""
     if not (math.isfinite(rate) and rate > 0):
         raise InputError("rate", f"must be a positive number of samples per second, got {rate}")
-    return Record(record.time[0] + np.arange(len(record.time)) / rate, record.data, record.channels)
+    return start + np.arange(n) / rate
 
 
 def write_csv(record: Record, path: str | Path) -> None:
@@ -673,11 +679,7 @@ def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
 def _time_column(time: NDArray, rate: float | None) -> NDArray[np.float64]:
     """A file's time column as a uniform grid: at ``rate`` [Hz] from its first time when given, else
     uniform_time() (rounding accepted, dropped samples, gaps and jitter named)."""
-    if rate is None:
-        return uniform_time(time)
-    if not (math.isfinite(rate) and rate > 0):
-        raise InputError("rate", f"must be a positive number of samples per second, got {rate}")
-    return float(time[0]) + np.arange(len(time)) / rate
+    return uniform_time(time) if rate is None else sampled_at(float(time[0]), len(time), rate)
 
 
 Placement = tuple[tuple[float, float, float], tuple[float, float, float]]
@@ -706,12 +708,23 @@ def with_geometry(record: Record, geometry: dict[str, Placement], source: str = 
     return replace(record, channels=tuple(channels))
 
 
-def read_record(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> Record:
-    """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff) or CSV (read_csv);
-    ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv."""
-    if str(path).lower().endswith((".uff", ".unv")):
+def read_record(
+    path: str | Path, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
+) -> Record:
+    """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff), TDMS (.tdms,
+    mountid.measurement.tdms) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
+    ``run`` as in read_uff (a CSV or TDMS file holds one)."""
+    kind = str(path).lower()
+    if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff  # pyuff is an extra: imported only for UFF files
 
-        record = read_uff(path, ignore)
+        record = read_uff(path, ignore, run)
         return record if rate is None else with_rate(record, rate)
+    if run not in (None, 1):
+        what = "a TDMS file" if kind.endswith(".tdms") else "a CSV"
+        raise InputError("run", f"{run}: {Path(path).name} is {what}, which holds one run")
+    if kind.endswith(".tdms"):
+        from mountid.measurement.tdms import read_tdms  # npTDMS is an extra: imported only for TDMS files
+
+        return read_tdms(path, ignore, rate)
     return read_csv(path, rate, ignore)

@@ -3,8 +3,9 @@
 One dataset 58 per channel: a time response (function type 1, or 0 over time), real, evenly spaced abscissa; a
 frequency response function, a spectrum or complex data is an error naming the channel, and a label that says
 NONE (what writers put in an empty one) is empty. A channel of a quantity mountid does not read (ordinate type:
-a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). The channel
-name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
+a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). A file
+of several runs (the hits of a test one after another, a dataset per channel each) is read one run at a time.
+The channel name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
 axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too: a
 channel without the ID-line-4 metadata sits at its response node's coordinates where the file holds its
@@ -119,9 +120,14 @@ def _triple(text: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
-def read_uff(path: str | Path, ignore: Collection[str] = ()) -> Record:
+def read_uff(path: str | Path, ignore: Collection[str] = (), run: int | None = None) -> Record:
     """Read the dataset-58 time responses of a UFF file as one record (they must share their sampling), all but
-    the channels ``ignore`` names (a bench's tachometer or microphone: any quantity, function or sampling)."""
+    the channels ``ignore`` names (a bench's tachometer or microphone: any quantity, function or sampling).
+
+    A file of several runs (hits recorded one after another, each a dataset per channel: _runs) is read one
+    ``run`` at a time (1, 2, ...; an error naming the runs where it is not given): read at once, two runs were
+    one record of twice the channels, each pair at one point along one direction with the data of different
+    hits."""
     path = existing_file(path, "record")
     _whole(path)
     uff = pyuff.UFF(str(path))
@@ -129,7 +135,7 @@ def read_uff(path: str | Path, ignore: Collection[str] = ()) -> Record:
     found = [i for i, t in enumerate(types) if int(t) == 58]
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
-    sets = [_read_set(uff, i, types, path) for i in found]
+    sets = _run(_runs([_read_set(uff, i, types, path) for i in found]), run, path)
     names = _names(sets)
     for wanted in ignore:
         if wanted not in names:
@@ -268,6 +274,41 @@ def _whole(path: Path, window: int = 256) -> None:
         raise InputError(
             "record", f"{path.name} ends inside a dataset (no closing -1 line): the file is cut short; copy it again"
         )
+
+
+def _runs(sets: list[dict]) -> list[list[dict]]:
+    """A file's datasets 58 grouped into runs: where the response nodes and directions of its datasets (node > 0)
+    repeat one sequence of distinct ones, each repetition is a run, as a bench exports the hits of a test one after
+    another; otherwise the file is one run (a node and direction that recurs elsewhere is a channel of its own)."""
+    keys = [(int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)) for s in sets]
+    for size in range(1, len(keys) // 2 + 1):
+        period = keys[:size]
+        if (
+            len(keys) % size == 0
+            and all(node > 0 for node, _ in period)
+            and len(set(period)) == size
+            and keys == period * (len(keys) // size)
+        ):
+            return [sets[k : k + size] for k in range(0, len(sets), size)]
+    return [sets]
+
+
+def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
+    """The datasets of ``run`` (1, 2, ...; None: the only one); an InputError naming the runs where the file
+    holds several and none is given, or the run is not one of them."""
+    if run is None and len(runs) == 1:
+        return runs[0]
+    sizes = ", ".join(str(len(r)) for r in runs)
+    held = f"{path.name} holds {len(runs)} {'run' if len(runs) == 1 else 'runs'} (datasets 58 of {sizes} channels"
+    if run is None:
+        raise InputError(
+            "run",
+            f"{held}, each repeating the response nodes and directions of the first): give the run to read (--run K; "
+            "a campaign lists the file once per run, each with its 'run')",
+        )
+    if not 1 <= run <= len(runs):
+        raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
+    return runs[run - 1]
 
 
 def _read_set(uff: pyuff.UFF, index: int, types: list, path: Path) -> dict:

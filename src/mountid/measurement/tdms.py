@@ -1,0 +1,166 @@
+"""Records in National Instruments' TDMS format (LabVIEW, FlexLogger, DAQExpress), read by npTDMS.
+
+A TDMS file holds groups of channels. Every channel that holds data, in any group, is a channel of the record,
+named by its channel name ("group/channel" where two groups share one); its unit is its ``unit_string`` property
+(records.UNITS: the unit gives the quantity; a channel that states none is an acceleration in m/s^2, as a CSV's
+bare column). The time comes from the waveform properties NI's DAQ channels carry, ``wf_increment`` [s] and
+``wf_start_offset`` [s]; where they are absent, from a channel named as a time (records.TIME_NAMES: seconds, or
+LabVIEW timestamps as seconds from the first), else from the sampling rate given. A channel of another sampling
+or length (a temperature logged at 10 Hz beside accelerations at 2 kHz), of text, or in a unit mountid does not
+read is named with how to leave it out (``ignore``). A TDMS file carries no geometry: its channels are placed with
+records.with_geometry (--channel, a campaign record's ``channels``), as a plain CSV's.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from collections.abc import Collection
+from pathlib import Path
+
+import nptdms
+import numpy as np
+from nptdms.log import log_manager
+from numpy.typing import NDArray
+
+from mountid.errors import InputError, existing_file
+from mountid.measurement.records import (
+    TIME_NAMES,
+    UNITS,
+    UNREAD,
+    Channel,
+    Record,
+    quantity_of,
+    sampled_at,
+    uniform_time,
+)
+
+LEAD_IN = 28
+"""Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
+
+SAMPLING_RTOL = 1e-9
+"""Relative difference of two channels' wf_increment within which they share one sampling."""
+
+
+def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None = None) -> Record:
+    """Read the channels of a TDMS file as one record (they must share their sampling), all but those ``ignore``
+    names; ``rate`` [Hz]: the sampling rate, which replaces the file's timing (and gives one to a file without)."""
+    path = existing_file(path, "record")
+    with path.open("rb") as f:
+        lead = f.read(LEAD_IN)
+    if lead[:4] != b"TDSm":  # every TDMS segment begins with it (npTDMS reads another file as one without channels)
+        raise InputError("record", f"{path.name} is not a TDMS file (it does not begin with a TDMS segment)")
+    if len(lead) < LEAD_IN:
+        raise InputError("record", f"{path.name} ends inside a segment (an interrupted copy: {len(lead)} bytes)")
+    said, console = _Said(), log_manager.console_handler  # npTDMS's warnings become the error below, not lines
+    logger, level = logging.getLogger("nptdms"), console.level
+    logger.addHandler(said)
+    console.setLevel(logging.CRITICAL + 1)
+    try:
+        tdms = nptdms.TdmsFile.read(str(path))
+    except Exception as err:  # npTDMS raises ValueError, KeyError and others on a file it cannot parse
+        raise InputError("record", f"{path.name} is not a readable TDMS file ({type(err).__name__}: {err})") from None
+    finally:
+        logger.removeHandler(said)
+        console.setLevel(level)
+    if said.messages:  # npTDMS reads what a cut file holds and logs that it is cut
+        raise InputError(
+            "record", f"{path.name} ends inside a segment (an interrupted copy: {said.messages[0].rstrip('.')})"
+        )
+    found = [(group.name, channel) for group in tdms.groups() for channel in group.channels() if len(channel)]
+    if not found:
+        raise InputError("record", f"{path.name} holds no channel with data")
+    counts = Counter(channel.name for _, channel in found)
+    named = [(c.name if counts[c.name] == 1 else f"{group}/{c.name}", c) for group, c in found]
+    names = [name for name, _ in named]
+    for wanted in ignore:
+        if wanted not in names:
+            raise InputError("ignore", f"{wanted}: no such channel in {path.name} (channels: {', '.join(names)})")
+    named = [(name, c) for name, c in named if name not in ignore]
+    clock = [(name, c) for name, c in named if _is_time(name, c)]
+    data = [(name, c) for name, c in named if not _is_time(name, c)]
+    if not data:
+        raise InputError("record", f"{path.name} holds no channel but its time")
+    first, reference = data[0]
+    n = len(reference)
+    for name, c in data:
+        if len(c) != n:
+            raise InputError(name, f"{len(c)} samples against {n} of {first} (one record needs one sampling){UNREAD}")
+        if not np.issubdtype(c.dtype, np.number):
+            raise InputError(name, f"holds {c.dtype} values, not numbers{UNREAD}")
+    time = _time(path.name, data, clock, n, rate)
+    channels = tuple(_channel(name, c) for name, c in data)
+    return Record(time, np.column_stack([np.asarray(c[:], dtype=float) for _, c in data]), channels)
+
+
+class _Said(logging.Handler):
+    """The warnings npTDMS logs while it reads a file (a segment cut short, incomplete metadata)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+def _is_time(name: str, channel: nptdms.TdmsChannel) -> bool:
+    """Whether a channel is the file's time: named as one (records.TIME_NAMES) and without waveform timing of its
+    own, or of LabVIEW timestamps."""
+    named = name.rsplit("/", 1)[-1].strip().lower() in TIME_NAMES
+    return np.issubdtype(channel.dtype, np.datetime64) or (named and "wf_increment" not in channel.properties)
+
+
+def _time(
+    file: str,
+    data: list[tuple[str, nptdms.TdmsChannel]],
+    clock: list[tuple[str, nptdms.TdmsChannel]],
+    n: int,
+    rate: float | None,
+) -> NDArray[np.float64]:
+    """The record's time [s]: at ``rate`` [Hz] where given (from the file's start offset), else from the
+    channels' waveform timing (they must agree), else from the time channel ``clock``."""
+    first, reference = data[0]
+    if "wf_increment" in reference.properties:
+        step = float(reference.properties["wf_increment"])
+        for name, c in data:
+            other = float(c.properties.get("wf_increment", math.nan))
+            if not abs(other - step) <= SAMPLING_RTOL * step:
+                said = f"sampled at {1 / other:.6g} Hz" if other > 0 else "without a sampling (wf_increment)"
+                raise InputError(name, f"{said} against {1 / step:.6g} Hz of {first} (one record needs one sampling)")
+        start = float(reference.properties.get("wf_start_offset", 0.0))
+        if rate is not None:
+            return sampled_at(start, n, rate)
+        if not (math.isfinite(step) and step > 0):
+            raise InputError(first, f"wf_increment {step} s is no sampling step: give the sampling rate (--rate)")
+        return start + np.arange(n) * step
+    if rate is not None:
+        return sampled_at(0.0, n, rate)
+    if not clock:
+        raise InputError(
+            "record",
+            f"{file} states no sampling (no wf_increment, no time channel): give the sampling rate (--rate, or 'rate' "
+            "in a campaign's record)",
+        )
+    name, c = clock[0]
+    if len(c) != n:
+        raise InputError(name, f"{len(c)} times against {n} samples of {first}")
+    values = c[:]
+    if np.issubdtype(values.dtype, np.datetime64):
+        seconds = (values - values[0]) / np.timedelta64(1, "ns") * 1e-9
+    else:
+        seconds = np.asarray(values, dtype=float) * (1e-3 if c.properties.get("unit_string", "s") == "ms" else 1.0)
+    return uniform_time(seconds)
+
+
+def _channel(name: str, channel: nptdms.TdmsChannel) -> Channel:
+    """A channel's quantity and unit from its unit_string (an acceleration in m/s^2 where it states none)."""
+    unit = str(channel.properties.get("unit_string", "")).strip()
+    if not unit:
+        return Channel(name)
+    quantity = quantity_of(unit)
+    if quantity is None:
+        known = ", ".join(u for units in UNITS.values() for u in units)
+        raise InputError(name, f"unit {unit!r} is not one of {known}{UNREAD}")
+    return Channel(name, quantity=quantity, unit=unit)
