@@ -431,6 +431,50 @@ def test_a_bench_csv_column_mountid_does_not_read_is_named_and_left_out_when_tol
             np.testing.assert_array_equal(got.data, expected.data)
 
 
+_CELL_TEXT = st.text(st.characters(codec="utf-8", exclude_characters=',;\t"\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029'))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(1, 4),
+    st.lists(st.tuples(st.integers(0, 5), st.sampled_from(["text", "number", "empty"])), max_size=4),
+    st.sampled_from([",", ";", "\t"]),
+    st.data(),
+)
+def test_csv_columns_left_unread_leave_the_record_of_the_others(tmp_path_factory, channels, extra, separator, data):
+    """Columns of any content (text, numbers in any unit, empty cells) put anywhere after the time column and
+    named in ``ignore`` leave the record the file without them holds, to the bit, on both readers."""
+    folder = tmp_path_factory.mktemp("ignored")
+    n = 20
+    time = np.arange(n) / 100.0
+    values = np.round(np.sin(np.arange(n * channels).reshape(n, channels) * 0.7), 6)
+    names = [f"A{k}" for k in range(channels)]
+
+    def cell(v: float) -> str:
+        return repr(float(v)).replace(".", ",") if separator != "," else repr(float(v))
+
+    plain = [["time", *names]] + [[cell(t), *map(cell, row)] for t, row in zip(time, values, strict=True)]
+    table = [list(row) for row in plain]
+    ignored = []
+    for k, (where, kind) in enumerate(extra):
+        column = 1 + min(where, len(table[0]) - 1)
+        ignored.append(f"X{k}")
+        cells = {
+            "text": [data.draw(_CELL_TEXT) for _ in range(n)],
+            "number": [cell(v) for v in np.arange(n) * 1.5],
+            "empty": [""] * n,
+        }[kind]
+        for row, value in zip(table, [f"X{k} [V]", *cells], strict=True):
+            row.insert(column, value)
+    (folder / "plain.csv").write_text("\n".join(separator.join(r) for r in plain) + "\n", encoding="utf-8")
+    (folder / "extra.csv").write_text("\n".join(separator.join(r) for r in table) + "\n", encoding="utf-8")
+    expected = read_csv(folder / "plain.csv")
+    got = read_csv(folder / "extra.csv", ignore=ignored)
+    assert got.channels == expected.channels
+    np.testing.assert_array_equal(got.time, expected.time)
+    np.testing.assert_array_equal(got.data, expected.data)
+
+
 def _bench_uff(
     path,
     record: Record,
