@@ -237,3 +237,20 @@ def test_the_json_report_splits_each_rivals_odds_into_fit_and_priors(capsys, tmp
         assert o["fit"] + o["priors"] == pytest.approx(o["log_odds"], rel=1e-12, abs=1e-12)
     assert report["fit_alike"] == [o["rival"] for o in odds if o["fit"] <= 1.0 and o["rival"] in report["tie"]]
     assert "foundation" in report["fit_alike"]
+
+
+def test_plan_and_simulate_say_where_the_papers_default_channels_and_hit_are(capsys, tmp_path):
+    """plan and simulate take the paper's channels and hit where none is given, on any machine: on another than
+    the paper's they say so, with the points (KID-300's), and say nothing where the test engineer gave them."""
+    assert main(["plan", "genset8"]) == 0
+    out = capsys.readouterr().out
+    assert "the paper's channels A_x at (0.45, 0.0, 0.1) along (1, 0, 0)" in out
+    assert "and hit at (0.35, 0.25, 0.3) along (1.0, 0.8, -0.6): points of KID-300, not of genset8 (--sensor" in out
+    given = ["--sensor", "A=1,0,0:1,0,0", "B=1,0,0.3:0,1,0", "--hit-point", "1,0.2,0.3"]
+    assert main(["plan", "genset8", *given]) == 0
+    assert "the paper's" not in capsys.readouterr().out
+    assert main(["simulate", "genset8", "--out", str(tmp_path / "g.csv"), "--json", "--hit-point", "1,0.2,0.3"]) == 0
+    (note,) = json.loads(capsys.readouterr().out)["notes"]
+    assert note.startswith("the paper's channels A_x at (0.45, 0.0, 0.1)") and "hit at" not in note
+    assert main(["plan", "kid300"]) == 0
+    assert "the paper's" not in capsys.readouterr().out

@@ -127,8 +127,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=x,y,z:dx,dy,dz",
         help="accelerometer channels (default: the paper's layout plus A_z and C_x)",
     )
-    p.add_argument("--hit-point", default="0.35,0.25,0.3", help="impact point x,y,z [m]")
-    p.add_argument("--hit-direction", default="1,0.8,-0.6", help="impact direction")
+    p.add_argument("--hit-point", help="impact point x,y,z [m] (default: the paper's oblique hit)")
+    p.add_argument("--hit-direction", help="impact direction")
     p.add_argument("--hit-peak", type=float, default=3000.0, help="peak impact force [N]")
     p.add_argument(
         "--hit-time",

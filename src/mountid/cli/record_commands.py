@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,12 +35,12 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from mountid.identification.from_records import Identification
-    from mountid.measurement.rig import Rig, Sensor, Unbalance
+    from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from mountid.measurement.records import write_csv
-    from mountid.measurement.rig import Hammer, Rig
+    from mountid.measurement.rig import Rig
     from mountid.measurement.uff import write_uff
 
     out = Path(args.out)
@@ -66,23 +66,16 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         from mountid.validation.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
-    hammers = (
-        []
-        if args.speed
-        else [
-            Hammer(
-                point_on_machine(args.hit_point, "--hit-point"),
-                direction(args.hit_direction, "--hit-direction"),
-                peak=args.hit_peak,
-                time=args.hit_time,
-            )
-        ]
-    )
+    hit = _hit(args)
+    hammers = [] if args.speed else [replace(hit, peak=args.hit_peak, time=args.hit_time)]
     unbalances = unbalances_of(args)
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
     uff = args.out.lower().endswith((".uff", ".unv"))
     (write_uff if uff else write_csv)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
+    hit_given = args.speed or args.hit_point or args.hit_direction
+    defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
+    notes += [defaults] if defaults else []
     if not rig.B.any():
         notes.append(
             f"{rig.machine.name} has no damping: its free decay never decays, and the records chain, which takes a "
@@ -107,6 +100,37 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         print(f"note: {note}")
 
 
+def _hit(args: argparse.Namespace) -> Hammer:
+    """The hit --hit-point and --hit-direction give, each the paper's oblique hit's where left out."""
+    from mountid.measurement.rig import Hammer
+    from mountid.validation.paper import paper_hit
+
+    hit = paper_hit()
+    return Hammer(
+        point_on_machine(args.hit_point, "--hit-point") if args.hit_point else hit.point,
+        direction(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
+    )
+
+
+def _paper_defaults(machine: Machine, sensors: list[Sensor], hit: Hammer | None) -> str:
+    """The note that says which of a planned or simulated test's channels (``sensors``: those left to the default)
+    and hit (``hit``: where left to the default) are the paper's, on a ``machine`` that is not the paper's
+    (validation.paper.PAPER_MACHINES): points of KID-300. "" where there is nothing to say."""
+    from mountid.validation.paper import PAPER_MACHINES
+
+    if machine.name in PAPER_MACHINES or not (sensors or hit):
+        return ""
+    what = [
+        "channels " + ", ".join(f"{s.name} at {s.point} along {s.direction}" for s in sensors) if sensors else "",
+        f"hit at {hit.point} along {hit.direction}" if hit else "",
+    ]
+    options = ["--sensor" if sensors else "", "--hit-point, --hit-direction" if hit else ""]
+    return (
+        f"the paper's {' and '.join(w for w in what if w)}: points of KID-300, not of {machine.name} "
+        f"({', '.join(o for o in options if o)} give its own)"
+    )
+
+
 def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
     """Sensors from --sensor NAME=x,y,z:dx,dy,dz options, each with white noise of ``noise`` x its RMS."""
     from mountid.measurement.rig import Sensor
@@ -116,19 +140,14 @@ def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
 
 def cmd_plan(args: argparse.Namespace) -> None:
     from mountid.identification.planning import plan
-    from mountid.measurement.rig import ANTI_ALIAS, Hammer
-    from mountid.validation.paper import paper_hit, paper_sensors
+    from mountid.measurement.rig import ANTI_ALIAS
+    from mountid.validation.paper import paper_sensors
 
     record_size(args.duration, args.rate)
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS")
     machine = Machine.resolve(args.machine)
     sensors = _sensors(args.sensor, args.noise) or paper_sensors(args.noise)[:3]
-    hit = paper_hit()
-    if args.hit_point or args.hit_direction:
-        hit = Hammer(
-            point_on_machine(args.hit_point, "--hit-point") if args.hit_point else hit.point,
-            direction(args.hit_direction, "--hit-direction") if args.hit_direction else hit.direction,
-        )
+    hit = _hit(args)
     result = plan(machine, sensors, hit, args.duration, args.rate, args.noise, pairs(args.set, "--set"))
     if args.json:
         print_json(result.to_dict())
@@ -138,6 +157,11 @@ def cmd_plan(args: argparse.Namespace) -> None:
         f"({', '.join(s.name for s in sensors)}), a hit at "
         f"{hit.point} along {hit.direction}, {args.duration:g} s at {args.rate:g} Hz, noise {args.noise:g} x RMS"
     )
+    defaults = _paper_defaults(
+        machine, sensors if not args.sensor else [], None if args.hit_point or args.hit_direction else hit
+    )
+    if defaults:
+        print(f"  note: {defaults}")
     print(f"  {'mode':8s}{'frequency':>11s}{'zeta':>8s}  {'expected std: frequency':>24s}{'zeta':>10s}")
     for m in result.modes:
         if m.measured:

@@ -78,6 +78,10 @@ def print_reproduction() -> None:
 # simulation adds A_z and C_x (C on the y axis) so that one oblique hit yields all four distinct frequencies.
 PAPER_SPACING = 0.212
 """L of Eq. (24): the height of B above A [m]."""
+PAPER_MACHINES = ("kid300", "kid300axes")
+"""The shipped descriptions of the paper's crusher (its isolators on the diagonals, or on the axes): the points
+of the paper's channels and hit are points of these machines; on any other they are a default without meaning."""
+
 POINT_A = (0.45, 0.0, 0.1)
 POINT_B = (0.45, 0.0, 0.1 + PAPER_SPACING)
 POINT_C = (0.0, 0.45, 0.1)
