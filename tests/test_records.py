@@ -808,6 +808,14 @@ def test_times_written_coarser_than_their_step_or_counted_samples_are_named_and_
         assert got.names == rec.names
         np.testing.assert_allclose(got.time, rec.time + first / 2000.0, rtol=0, atol=1e-15)
         np.testing.assert_array_equal(got.data, rec.data)
+    # a count skipped is a dropped sample; a first column so named that counts nothing is a channel
+    lines = _stamped(rec, lambda t: str(round(t * 2000)), head="Sample").splitlines()
+    (tmp_path / "skip.csv").write_text("\n".join(lines[:11] + lines[12:]) + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"^time: a dropped sample at t = 0.0045 s"):
+        read_csv(tmp_path / "skip.csv", 2000.0)
+    force = "n," + ",".join(rec.names) + "\n" + "".join(f"{v!r},{v!r},{v!r}\n" for v in rec.data[:, 0].tolist())
+    (tmp_path / "force.csv").write_text(force, encoding="utf-8")
+    assert read_csv(tmp_path / "force.csv", 2000.0).names == ("n", *rec.names)
 
 
 def test_the_units_of_an_american_bench_read_as_their_si_values(tmp_path):

@@ -353,7 +353,9 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
     rising = float(np.mean(steps[np.isfinite(steps)] > 0)) if np.isfinite(steps).any() else 1.0
     repeated = bool(np.all(steps[np.isfinite(steps)] >= 0))  # times that repeat, none back: written coarsely
     named = _split_unit(header[0])[0].lower() in TIME_NAMES
-    counted = header[0].lower() in INDEX_NAMES
+    first_column = table[:, 0]
+    integers = bool(np.all(np.isfinite(first_column)) and np.all(first_column == np.round(first_column)))
+    counted = header[0].lower() in INDEX_NAMES and integers and rising >= TIME_COLUMN_INCREASING
     timed = time_unit in TIME_UNITS and (rising >= TIME_COLUMN_INCREASING or named)
     where = f"{path.name}: column {columns[0] + 1}"
     if counted and stamps is None:  # a sample index: the time at the rate given
@@ -363,7 +365,7 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
                 f"{header[0]!r} counts the samples, not the time: give the sampling rate (--rate, or 'rate' in a "
                 "campaign's record)",
             )
-        time, first = _time_column(np.full(len(table), table[0, 0] / rate), rate), 2  # from the first count
+        time, first = uniform_time(first_column / rate), 2  # a count skipped is a dropped sample, named
     elif rate is not None and not timed:  # channels only, sampled at the rate given from t = 0
         time, first = _time_column(np.zeros(len(table)), rate), 1
     elif time_unit not in TIME_UNITS:
@@ -597,8 +599,8 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
 
 INDEX_NAMES = ("sample", "samples", "sample number", "sample no.", "index", "n", "no.", "nr.", "#")
-"""Names of a first column that counts the samples (in any case, without a unit): the time is the count over the
-sampling rate, which must then be given (it was read as seconds: a record at 1 Hz)."""
+"""Names of a first column that counts the samples (in any case, without a unit; its values rising integers): the
+time is the count over the sampling rate, which must then be given (it was read as seconds: a record at 1 Hz)."""
 
 TIME_OF_DAY = re.compile(r"\d{1,2}:\d{2}:\d{2}([.,]\d+)?")
 """A time of day, HH:MM:SS with a decimal point or comma: a time column of clock times (of one day)."""
