@@ -13,8 +13,8 @@ violation is reported as one line naming the entry). Example (the paper's four f
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
 and directions (a plain CSV states none), the channels to ``ignore`` (a tachometer, a microphone) and the ``run``
-of a UFF file of several (the file listed once per run). Each is read (CSV with mountid channel metadata, or UFF
-with its geometry) and run through the records chain (mountid.identification.from_records.modal_data):
+of a UFF file of several (the file listed once per run). Each is read (CSV with mountid channel metadata, UFF with
+its geometry, or TDMS) and run through the records chain (mountid.identification.from_records.modal_data):
 frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
 shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of

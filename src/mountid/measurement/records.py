@@ -669,12 +669,18 @@ def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
     if title in meta:
         return meta[title]
     name, unit = _split_unit(title)
-    if unit is None:
+    return channel_in(name, unit, where, f"{title!r}: ")
+
+
+def channel_in(name: str, unit: str | None, where: str, said: str = "") -> Channel:
+    """A channel ``name`` measuring in ``unit``, whose quantity the unit gives (UNITS; none: an acceleration in
+    m/s^2); an InputError naming ``where`` (its reason starting with ``said``) for a unit mountid does not read."""
+    if not unit:
         return Channel(name)
     quantity = quantity_of(unit)
     if quantity is None:
         known = ", ".join(u for units in UNITS.values() for u in units)
-        raise InputError(where, f"{title!r}: unit {unit!r} is not one of {known}{UNREAD}")
+        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{UNREAD}")
     return Channel(name, quantity=quantity, unit=unit)
 
 

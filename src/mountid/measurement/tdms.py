@@ -25,16 +25,7 @@ from nptdms.log import log_manager
 from numpy.typing import NDArray
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import (
-    TIME_NAMES,
-    UNITS,
-    UNREAD,
-    Channel,
-    Record,
-    quantity_of,
-    sampled_at,
-    uniform_time,
-)
+from mountid.measurement.records import TIME_NAMES, UNREAD, Record, channel_in, sampled_at, uniform_time
 
 LEAD_IN = 28
 """Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
@@ -90,7 +81,7 @@ def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None
         if not np.issubdtype(c.dtype, np.number):
             raise InputError(name, f"holds {c.dtype} values, not numbers{UNREAD}")
     time = _time(path.name, data, clock, n, rate)
-    channels = tuple(_channel(name, c) for name, c in data)
+    channels = tuple(channel_in(name, str(c.properties.get("unit_string", "")).strip(), name) for name, c in data)
     return Record(time, np.column_stack([np.asarray(c[:], dtype=float) for _, c in data]), channels)
 
 
@@ -152,15 +143,3 @@ def _time(
     else:
         seconds = np.asarray(values, dtype=float) * (1e-3 if c.properties.get("unit_string", "s") == "ms" else 1.0)
     return uniform_time(seconds)
-
-
-def _channel(name: str, channel: nptdms.TdmsChannel) -> Channel:
-    """A channel's quantity and unit from its unit_string (an acceleration in m/s^2 where it states none)."""
-    unit = str(channel.properties.get("unit_string", "")).strip()
-    if not unit:
-        return Channel(name)
-    quantity = quantity_of(unit)
-    if quantity is None:
-        known = ", ".join(u for units in UNITS.values() for u in units)
-        raise InputError(name, f"unit {unit!r} is not one of {known}{UNREAD}")
-    return Channel(name, quantity=quantity, unit=unit)
