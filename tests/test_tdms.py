@@ -1,5 +1,5 @@
 """TDMS records (mountid.measurement.tdms): files as NI's acquisition software writes them, made with npTDMS's
-writer, read back as the records they hold."""
+writer, read back as the records they hold; mountid's own writer read back."""
 
 from __future__ import annotations
 
@@ -32,6 +32,31 @@ def _waveform(rate: float, unit: str, start: float = 0.0) -> dict:
 def hit() -> Record:
     """A simulated impact test of kid300 with the paper's channels, 4 s at 500 Hz."""
     return Rig.of("kid300").simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], seed=1)
+
+
+def test_a_record_written_as_tdms_reads_back_as_it_was(hit, tmp_path):
+    """write_tdms keeps every channel's samples, unit, point and direction (an unplaced force channel: NaN) and the
+    sampling: the record read back is the record written (the time to rounding of the step's sum)."""
+    from dataclasses import replace
+
+    from mountid.measurement.records import Channel
+    from mountid.measurement.tdms import read_tdms, write_tdms
+
+    force = Channel("F", quantity="force", unit="kN")
+    rec = replace(hit, data=np.column_stack([hit.data, hit.data[:, 0]]), channels=(*hit.channels, force))
+    rec = replace(rec, channels=(replace(rec.channels[0], unit="g"), *rec.channels[1:]))
+    write_tdms(rec, tmp_path / "r.tdms")
+    back = read_tdms(tmp_path / "r.tdms")
+    assert back.names == rec.names and back.channels[:-1] == rec.channels[:-1]
+    assert (back.channels[-1].quantity, back.channels[-1].unit) == ("force", "kN")
+    assert np.isnan(back.channels[-1].point).all() and np.isnan(back.channels[-1].direction).all()
+    np.testing.assert_array_equal(back.data, rec.data)
+    np.testing.assert_allclose(back.time, rec.time, rtol=0, atol=1e-12)
+    for point, said in (("nan,0,0.1", "point and direction must be finite"), ("0.45,0", "take three numbers each")):
+        bad = {**_waveform(500.0, "g"), "mountid_point": point, "mountid_direction": "1,0,0"}
+        _write(tmp_path / "bad.tdms", [("mountid", "A_x", hit.data[:, 0], bad)])
+        with pytest.raises(InputError, match=f"^A_x: .*{said}"):
+            read_tdms(tmp_path / "bad.tdms")
 
 
 def test_a_flexlogger_file_reads_as_the_record_it_holds(hit, tmp_path):

@@ -114,7 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv or .uff)")
     p.add_argument(
-        "--out", required=True, help="record file to write (.csv or .txt for text, .uff/.unv for UFF dataset 58)"
+        "--out",
+        required=True,
+        help="record file to write (.csv or .txt for text, .uff/.unv for UFF dataset 58, .tdms for TDMS)",
     )
     p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
     p.add_argument("--rate", type=float, default=2000.0, help="sampling rate [Hz]")

@@ -30,24 +30,25 @@ from mountid.machine import Machine
 from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Callable, Sequence
 
     from numpy.typing import NDArray
 
     from mountid.identification.from_records import Identification
+    from mountid.measurement.records import Record
     from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from mountid.measurement.records import write_csv
     from mountid.measurement.rig import Rig
-    from mountid.measurement.uff import write_uff
 
     out = Path(args.out)
     if not out.parent.is_dir():
         raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
-    if out.suffix.lower() not in (".csv", ".txt", ".uff", ".unv"):
-        raise InputError("--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58")
+    if out.suffix.lower() not in WRITERS:
+        raise InputError(
+            "--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58, .tdms for TDMS"
+        )
     record_size(args.duration, args.rate)
     if args.seed < 0:
         raise InputError("--seed", f"must be a non-negative integer, got {args.seed}")
@@ -70,8 +71,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     hammers = [] if args.speed else [replace(hit, peak=args.hit_peak, time=args.hit_time)]
     unbalances = unbalances_of(args)
     record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
-    uff = args.out.lower().endswith((".uff", ".unv"))
-    (write_uff if uff else write_csv)(record, args.out)
+    kind = WRITERS[out.suffix.lower()]
+    _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     hit_given = args.speed or args.hit_point or args.hit_direction
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
@@ -85,7 +86,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         print_json(
             {
                 "file": args.out,
-                "format": "uff58" if uff else "csv",
+                "format": kind,
                 "samples": len(record.time),
                 "rate": args.rate,
                 "duration": args.duration,
@@ -98,6 +99,25 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
     for note in notes:
         print(f"note: {note}")
+
+
+WRITERS = {".csv": "csv", ".txt": "csv", ".uff": "uff58", ".unv": "uff58", ".tdms": "tdms"}
+"""The record formats simulate writes, by the file's suffix."""
+
+
+def _writer(kind: str) -> Callable[[Record, str], None]:
+    """The writer of a record format (WRITERS); the UFF and TDMS writers' libraries are imported only for them."""
+    if kind == "uff58":
+        from mountid.measurement.uff import write_uff
+
+        return write_uff
+    if kind == "tdms":
+        from mountid.measurement.tdms import write_tdms
+
+        return write_tdms
+    from mountid.measurement.records import write_csv
+
+    return write_csv
 
 
 def _hit(args: argparse.Namespace) -> Hammer:

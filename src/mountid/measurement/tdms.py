@@ -7,8 +7,10 @@ bare column). The time comes from the waveform properties NI's DAQ channels carr
 ``wf_start_offset`` [s]; where they are absent, from a channel named as a time (records.TIME_NAMES: seconds, or
 LabVIEW timestamps as seconds from the first), else from the sampling rate given. A channel of another sampling
 or length (a temperature logged at 10 Hz beside accelerations at 2 kHz), of text, or in a unit mountid does not
-read is named with how to leave it out (``ignore``). A TDMS file carries no geometry: its channels are placed with
-records.with_geometry (--channel, a campaign record's ``channels``), as a plain CSV's.
+read is named with how to leave it out (``ignore``). A bench's TDMS file carries no geometry: its channels are
+placed with records.with_geometry (--channel, a campaign record's ``channels``), as a plain CSV's. mountid's own
+(write_tdms) gives each channel its point [m] and direction in the properties ``mountid_point`` and
+``mountid_direction`` ("x,y,z"), read back with it.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Collection
+from dataclasses import replace
 from pathlib import Path
 
 import nptdms
@@ -25,7 +28,7 @@ from nptdms.log import log_manager
 from numpy.typing import NDArray
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import TIME_NAMES, UNREAD, Record, channel_in, sampled_at, uniform_time
+from mountid.measurement.records import TIME_NAMES, UNREAD, Channel, Record, channel_in, sampled_at, uniform_time
 
 LEAD_IN = 28
 """Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
@@ -81,7 +84,9 @@ def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None
         if not np.issubdtype(c.dtype, np.number):
             raise InputError(name, f"holds {c.dtype} values, not numbers{UNREAD}")
     time = _time(path.name, data, clock, n, rate)
-    channels = tuple(channel_in(name, str(c.properties.get("unit_string", "")).strip(), name) for name, c in data)
+    channels = tuple(
+        _placed(channel_in(name, str(c.properties.get("unit_string", "")).strip(), name), c) for name, c in data
+    )
     return Record(time, np.column_stack([np.asarray(c[:], dtype=float) for _, c in data]), channels)
 
 
@@ -94,6 +99,51 @@ class _Said(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         self.messages.append(record.getMessage())
+
+
+def write_tdms(record: Record, path: str | Path) -> None:
+    """Write a record as a TDMS file: one group ("mountid"), a channel each with its unit (unit_string), its
+    sampling (wf_increment, wf_start_offset) and its point and direction (mountid_point, mountid_direction)."""
+    step = float(record.time[1] - record.time[0])
+    channels = [
+        nptdms.ChannelObject(
+            GROUP,
+            c.name,
+            np.asarray(record.data[:, k], dtype=float),
+            properties={
+                "unit_string": c.unit,
+                "wf_increment": step,
+                "wf_start_offset": float(record.time[0]),
+                "wf_samples": len(record.time),
+                "mountid_point": ",".join(repr(float(v)) for v in c.point),
+                "mountid_direction": ",".join(repr(float(v)) for v in c.direction),
+            },
+        )
+        for k, c in enumerate(record.channels)
+    ]
+    with nptdms.TdmsWriter(str(path)) as writer:
+        writer.write_segment([nptdms.GroupObject(GROUP), *channels])
+
+
+GROUP = "mountid"
+"""The group write_tdms writes a record's channels in."""
+
+
+def _placed(channel: Channel, source: nptdms.TdmsChannel) -> Channel:
+    """``channel`` at the point and along the direction its TDMS ``source`` states (write_tdms's properties), else
+    as it is (unplaced)."""
+    point, direction = (source.properties.get(f"mountid_{key}") for key in ("point", "direction"))
+    if point is None or direction is None:
+        return channel
+    try:
+        placed = tuple(tuple(float(v) for v in str(text).split(",")) for text in (point, direction))
+    except ValueError as err:
+        raise InputError(channel.name, f"bad mountid_point or mountid_direction ({err})") from None
+    if any(len(v) != 3 for v in placed):
+        raise InputError(channel.name, "mountid_point and mountid_direction take three numbers each")
+    if any(np.isnan(v).any() and not np.isnan(v).all() for v in placed):
+        raise InputError(channel.name, "point and direction must be finite numbers (all NaN: not placed)")
+    return replace(channel, point=placed[0], direction=placed[1])
 
 
 def _is_time(name: str, channel: nptdms.TdmsChannel) -> bool:
