@@ -91,7 +91,7 @@ def test_a_missing_record_is_named(folder, capsys):
     assert "records.0" in capsys.readouterr().err
 
 
-def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_path):
+def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_path, capsys):
     """A bench's UFF export of two hits, a dataset per channel each, one after another: read at once it was one
     record of 16 channels, each pair at one point with the data of different hits. A campaign lists the file once
     per run ("run": k): the modes are those of the two records as separate files (to the UFF's 12 digits), named
@@ -120,6 +120,11 @@ def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_
     twice = {"machine": "kid300", "known": KNOWN, "records": [runs[0], {"file": "runs.uff", "run": 1}]}
     with pytest.raises(InputError, match=r"^records\.1 \(runs\.uff run 1\): the same file as records\.0"):
         campaign.parse(twice, tmp_path)
+    # the command line reads one run, named in its report
+    assert main(["process", "kid300", str(tmp_path / "runs.uff")]) == 2
+    assert "mountid: error: --run: runs.uff holds 2 runs" in capsys.readouterr().err
+    assert main(["process", "kid300", str(tmp_path / "runs.uff"), "--run", "2"]) == 0
+    assert capsys.readouterr().out.startswith(f"kid300: 4 modes from {tmp_path / 'runs.uff'} run 2\n")
 
 
 def test_a_record_listed_twice_is_named(folder, tmp_path):

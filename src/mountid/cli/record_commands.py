@@ -248,7 +248,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     if args.json:
         print_json(_identification_json(machine, result))
         return
-    _print_modes(machine, args.record, result.modes, result.unlabelled, result.warnings, result.notes)
+    _print_modes(machine, _source(args), result.modes, result.unlabelled, result.warnings, result.notes)
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
@@ -271,7 +271,12 @@ def cmd_process(args: argparse.Namespace) -> None:
     if args.json:
         print_json({**out, "notes": list(found.notes)})
         return
-    _print_modes(machine, args.record, found.modes, found.unlabelled, found.warnings, found.notes)
+    _print_modes(machine, _source(args), found.modes, found.unlabelled, found.warnings, found.notes)
+
+
+def _source(args: argparse.Namespace) -> str:
+    """The record a command read: its file, and the run where --run chose one."""
+    return args.record if args.run is None else f"{args.record} run {args.run}"
 
 
 def _print_modes(
