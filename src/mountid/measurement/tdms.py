@@ -33,6 +33,9 @@ from mountid.measurement.records import TIME_NAMES, UNREAD, Channel, Record, cha
 LEAD_IN = 28
 """Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
 
+GROUP = "mountid"
+"""The group write_tdms writes a record's channels in."""
+
 SAMPLING_RTOL = 1e-9
 """Relative difference of two channels' wf_increment within which they share one sampling."""
 
@@ -123,10 +126,6 @@ def write_tdms(record: Record, path: str | Path) -> None:
     ]
     with nptdms.TdmsWriter(str(path)) as writer:
         writer.write_segment([nptdms.GroupObject(GROUP), *channels])
-
-
-GROUP = "mountid"
-"""The group write_tdms writes a record's channels in."""
 
 
 def _placed(channel: Channel, source: nptdms.TdmsChannel) -> Channel:
