@@ -457,10 +457,16 @@ def _kept_columns(header: list[str], ignore: Collection[str], name: str) -> list
     if not ignore:
         return None
     names = [_split_unit(title)[0] for title in header]
+    check_ignored(ignore, names, name, "column")
+    return [k for k, n in enumerate(names) if n not in ignore]
+
+
+def check_ignored(ignore: Collection[str], names: list[str], file: str, what: str = "channel") -> None:
+    """An InputError naming the first of the names to ``ignore`` that the file ``file`` does not hold (its
+    ``names``: of each ``what``, column or channel), with the names it holds."""
     for wanted in ignore:
         if wanted not in names:
-            raise InputError("ignore", f"{wanted}: no such column in {name} (columns: {', '.join(names)})")
-    return [k for k, n in enumerate(names) if n not in ignore]
+            raise InputError("ignore", f"{wanted}: no such {what} in {file} ({what}s: {', '.join(names)})")
 
 
 def _line_by_line(

@@ -28,7 +28,16 @@ from nptdms.log import log_manager
 from numpy.typing import NDArray
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import TIME_NAMES, UNREAD, Channel, Record, channel_in, sampled_at, uniform_time
+from mountid.measurement.records import (
+    TIME_NAMES,
+    UNREAD,
+    Channel,
+    Record,
+    channel_in,
+    check_ignored,
+    sampled_at,
+    uniform_time,
+)
 
 LEAD_IN = 28
 """Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
@@ -71,9 +80,7 @@ def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None
     counts = Counter(channel.name for _, channel in found)
     named = [(c.name if counts[c.name] == 1 else f"{group}/{c.name}", c) for group, c in found]
     names = [name for name, _ in named]
-    for wanted in ignore:
-        if wanted not in names:
-            raise InputError("ignore", f"{wanted}: no such channel in {path.name} (channels: {', '.join(names)})")
+    check_ignored(ignore, names, path.name)
     named = [(name, c) for name, c in named if name not in ignore]
     clock = [(name, c) for name, c in named if _is_time(name, c)]
     data = [(name, c) for name, c in named if not _is_time(name, c)]

@@ -31,7 +31,7 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import UNITS, UNREAD, Channel, Record, quantity_of
+from mountid.measurement.records import UNITS, UNREAD, Channel, Record, check_ignored, quantity_of
 
 _TAG = "mountid point="
 
@@ -137,9 +137,7 @@ def read_uff(path: str | Path, ignore: Collection[str] = (), run: int | None = N
         raise InputError("record", f"{path.name} holds no dataset 58")
     sets = _run(_runs([_read_set(uff, i, types, path) for i in found]), run, path)
     names = _names(sets)
-    for wanted in ignore:
-        if wanted not in names:
-            raise InputError("ignore", f"{wanted}: no such channel in {path.name} (channels: {', '.join(names)})")
+    check_ignored(ignore, names, path.name)
     sets, names = (
         [s for s, n in zip(sets, names, strict=True) if n not in ignore],
         [n for n in names if n not in ignore],
