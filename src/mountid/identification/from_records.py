@@ -976,9 +976,9 @@ def modal_data(
         sensor = inconsistent_channel(machine, source[0], start)
         warnings += [sensor] if sensor is not None else []
     # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label
-    damped = [p for p in poles if p.damping_ratio >= settings.steady_damping]
+    damped = [p for p in poles if not modal.is_steady(p, settings)]
     labelled, rest = label_poles(machine, record, damped, guess)
-    rest = sorted([*rest, *(p for p in poles if p.damping_ratio < settings.steady_damping)], key=lambda p: p.frequency)
+    rest = sorted([*rest, *(p for p in poles if modal.is_steady(p, settings))], key=lambda p: p.frequency)
     twins = split_twins(machine, record, source, Twins(poles, labelled, rest, []), guess)
     poles, labelled, rest = twins.poles, twins.labelled, twins.rest
     warnings += twins.warnings

@@ -292,6 +292,13 @@ def free_decay_poles(
     return _refined(samples, dt, np.array(poles, dtype=complex))
 
 
+def is_steady(pole: Pole, settings: RecordSettings = RECORDS) -> bool:
+    """Whether ``pole`` is a steady oscillation (a running machine, mains hum), not a mode: its damping ratio lies
+    within settings.steady_damping of zero, or below (free_decay_poles keeps such poles; the caller tells them from
+    the modes by this)."""
+    return pole.damping_ratio < settings.steady_damping
+
+
 def _pole(w: float, zeta: float) -> complex:
     """The pole of natural frequency ``w`` [rad/s] and damping ratio ``zeta`` (Im > 0)."""
     return complex(-zeta * w, w * np.sqrt(1 - zeta * zeta))
@@ -346,10 +353,10 @@ def not_a_free_decay(
 
     everything = [p for _, p in poles]
     left = unexplained(everything)
-    tones = [(label, p) for label, p in poles if p.damping_ratio < settings.steady_damping]
+    tones = [(label, p) for label, p in poles if is_steady(p, settings)]
     out = []
     if tones:
-        carried = max(0.0, unexplained([p for p in everything if p.damping_ratio >= settings.steady_damping]) - left)
+        carried = max(0.0, unexplained([p for p in everything if not is_steady(p, settings)]) - left)
         for label, pole in tones:
             taken = f" (labelled {label})" if label else ""
             out.append(
