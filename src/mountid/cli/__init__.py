@@ -112,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
             "--unbalance-axis", default="0,0,1", help="direction of the rotation axis (default: vertical, the paper's)"
         )
 
-    p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv, .uff or .tdms)")
+    p = machine_command("simulate", "simulate an experiment on the virtual rig and write a record (.csv, .uff, .tdms)")
     p.add_argument(
         "--out",
         required=True,

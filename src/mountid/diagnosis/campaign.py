@@ -822,6 +822,7 @@ def _modes_from_records(
             "in quadrature"
         )
     modes, notes = _as_undamped(machine, known, modes, notes)
+    modes, notes = _at_resolution(modes, notes)
     for label in by_hand.keys() & modes.keys():
         notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
@@ -877,7 +878,7 @@ def _as_undamped(
     stiffness fit runs to a boundary: the ratio there would mean nothing), the frequencies are kept with a note
     (an error naming ``frequency_type`` when ``strict``: the campaign said its frequencies are poles).
     ``whose``: the notes' subject."""
-    from mountid.identification.from_records import fit_damping, fit_stiffness, pole_frequencies
+    from mountid.identification.from_records import fit_damped_model, pole_frequencies
 
     names = machine.damping
     if not names:
@@ -888,11 +889,7 @@ def _as_undamped(
     pairs = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
     rule = getattr(machine.module, "ROOT_RULE", "") or None
     try:
-        params, _, _ = fit_stiffness(machine, known, pairs, root=rule)
-        damping = {n: float(known[n]) for n in names if n not in free}
-        if free:
-            damping |= fit_damping(machine, {**known, **params}, with_modes, free)[0]
-        params, _, _ = fit_stiffness(machine, known, pairs, damping=damping, root=rule)
+        params, _, damping, _ = fit_damped_model(machine, known, pairs, with_modes, free, root=rule)
         values = machine.values({**known, **damping, **params}, tuple(machine.parameters))
         ratio = pole_frequencies(machine, values) / np.asarray(
             machine.module.frequencies(**{a: values[a] for a in machine.module.FORWARD_ARGUMENTS})
@@ -917,6 +914,27 @@ def _as_undamped(
             )
             + f"{', '.join(shifts)} rad/s; beyond a tenth of their standard deviation)"
         )
+    return out, notes
+
+
+def _at_resolution(modes: dict[str, MeasuredMode], notes: list[str]) -> tuple[dict[str, MeasuredMode], list[str]]:
+    """The records' ``modes`` with standard deviations below RESOLUTION raised to it (relative for a frequency,
+    absolute for a damping ratio), with a note naming them: a record without noise (a simulation's) gives its
+    poles to the rounding of its samples (2e-14 relative), which a campaign may not state, yet the record is no
+    error of the campaign's: its modes are known to the model's resolution."""
+    out, raised = {}, []
+    for label, mode in modes.items():
+        frequency_std = max(mode.frequency_std, RESOLUTION * mode.frequency)
+        damping_std = None if mode.damping_std is None else max(mode.damping_std, RESOLUTION)
+        if frequency_std != mode.frequency_std or damping_std != mode.damping_std:
+            raised.append(label)
+        out[label] = replace(mode, frequency_std=frequency_std, damping_std=damping_std)
+    if raised:
+        notes = [
+            *notes,
+            f"{', '.join(raised)}: the records' standard deviations below the model's resolution (a record without "
+            f"noise) taken as {RESOLUTION:g} (of the frequency; of the damping ratio)",
+        ]
     return out, notes
 
 

@@ -19,7 +19,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mountid.effects import Effect, Pair
-from mountid.machine import GeneratedModule, call, damped_pole_derivatives, damped_poles, undamped_modes
+from mountid.machine import (
+    GeneratedModule,
+    call,
+    damped_pole_derivatives,
+    damped_poles,
+    pole_damping_ratios,
+    ratio_derivatives,
+    undamped_modes,
+)
 from mountid.machine.symmetry import mirror_planes, parity_signs, with_parity_signs
 from mountid.runtime import eigen_derivatives
 
@@ -91,9 +99,7 @@ class Strategy:
         """Damping ratio -Re p / |p| of every mode (in the order of ``lam``) from the poles of
         M p^2 + B p + C = 0; 1 for a mode that does not oscillate."""
         m, c, _ = mats
-        p = damped_poles(m, c, self.damping_matrix(model, values, mats), lam)
-        size = np.abs(p)
-        return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
+        return pole_damping_ratios(damped_poles(m, c, self.damping_matrix(model, values, mats), lam))
 
     def damping_ratio_derivatives(self, model: CandidateModel, e: Evaluation, d_mats: Stacked) -> np.ndarray:
         """d zeta / dq of every mode, shape (n_q, n_modes), from the damped-pole derivatives of
@@ -342,15 +348,6 @@ class TiltedIsolator(Strategy):
             out[2, names.index(q)] = jac.T @ (turned_damping + turned_damping.T) @ jac
             present[names.index(q)] = True
         return out, present
-
-
-def ratio_derivatives(p: np.ndarray, dp: np.ndarray) -> np.ndarray:
-    """d zeta / dq, shape (n_q, n_modes), of the damping ratios zeta = -Re p / |p| of the poles ``p`` (n_modes,)
-    from their derivatives ``dp`` (n_q, n_modes), d|p| = Re(conj(p) dp) / |p|; 0 for a pole at zero."""
-    size = np.abs(p)
-    safe = np.where(size > 0, size, 1.0)
-    d_size = (np.conj(p)[None, :] * dp).real / safe
-    return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
 
 
 def stiffness_point(model: CandidateModel, values: dict[str, float]) -> bytes:

@@ -242,6 +242,22 @@ def damped_pole_derivatives(
     return poles, np.where(oscillates[None, :], -top / np.where(oscillates, bottom, 1.0)[None, :], 0.0)
 
 
+def pole_damping_ratios(p: NDArray) -> NDArray[np.float64]:
+    """The damping ratios zeta = -Re p / |p| of the poles ``p``; 1 for a pole at zero (a mode that does not
+    oscillate, damped_poles)."""
+    size = np.abs(p)
+    return np.where(size > 0, -p.real / np.where(size > 0, size, 1.0), 1.0)
+
+
+def ratio_derivatives(p: NDArray, dp: NDArray) -> NDArray[np.float64]:
+    """d zeta / dq, shape (n_q, n_modes), of the damping ratios zeta = -Re p / |p| of the poles ``p`` (n_modes,)
+    from their derivatives ``dp`` (n_q, n_modes), d|p| = Re(conj(p) dp) / |p|; 0 for a pole at zero."""
+    size = np.abs(p)
+    safe = np.where(size > 0, size, 1.0)
+    d_size = (np.conj(p)[None, :] * dp).real / safe
+    return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
+
+
 def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:
     """``direction`` normalised; an InputError naming ``name`` when it is not a non-zero finite 3-vector."""
     d = np.asarray(direction, dtype=float)
