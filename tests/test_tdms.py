@@ -111,8 +111,9 @@ def test_a_channel_of_another_sampling_or_unit_is_named_and_left_out_when_told(h
 
 
 def test_a_file_without_waveform_timing_reads_by_its_time_channel_or_the_rate_given(hit, tmp_path):
-    """LabVIEW's own logging writes a time channel (seconds, or timestamps) beside plain arrays; a file without any
-    timing reads at the rate given and says so where none is; a file that is no TDMS file is named."""
+    """LabVIEW's own logging writes a time channel (seconds, or timestamps) beside plain arrays, or as a waveform
+    beside waveforms; a file without any timing reads at the rate given and says so where none is; a file that is
+    no TDMS file is named."""
     plain = [("Log", c.name, hit.data[:, k], {"unit_string": "m/s^2"}) for k, c in enumerate(hit.channels)]
     stamps = np.datetime64("2026-12-03T10:00:00", "ns") + (hit.time * 1e9).round().astype("timedelta64[ns]")
     for time in (hit.time + 12.5, stamps):
@@ -120,6 +121,13 @@ def test_a_file_without_waveform_timing_reads_by_its_time_channel_or_the_rate_gi
         assert record.names == hit.names
         np.testing.assert_allclose(record.time - record.time[0], hit.time, rtol=0, atol=1e-9)
         np.testing.assert_array_equal(record.data, hit.data)
+    # a time channel written as a waveform beside the others (in seconds) is the time, not a channel
+    waveforms = [(g, c, data, {**p, **_waveform(500.0, p["unit_string"])}) for g, c, data, p in plain]
+    for unit in ("s", "ms"):
+        clock = [("Log", "Time", hit.time * (1e3 if unit == "ms" else 1.0), _waveform(500.0, unit))]
+        record = read_record(_write(tmp_path / "wave.tdms", [*clock, *waveforms]))
+        assert record.names == hit.names
+        np.testing.assert_allclose(record.time, hit.time, rtol=0, atol=1e-9)
     _write(tmp_path / "bare.tdms", plain)
     with pytest.raises(InputError, match=r"^record: bare.tdms states no sampling .*give the sampling rate \(--rate"):
         read_record(tmp_path / "bare.tdms")

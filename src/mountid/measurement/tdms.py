@@ -153,10 +153,13 @@ def _placed(channel: Channel, source: nptdms.TdmsChannel) -> Channel:
 
 
 def _is_time(name: str, channel: nptdms.TdmsChannel) -> bool:
-    """Whether a channel is the file's time: named as one (records.TIME_NAMES) and without waveform timing of its
-    own, or of LabVIEW timestamps."""
+    """Whether a channel is the file's time: of LabVIEW timestamps, or named as one (records.TIME_NAMES) and
+    without waveform timing of its own or in seconds or milliseconds (a logger that writes its time channel as a
+    waveform beside the others: it was read as a channel, 'unit 's' is not ...')."""
     named = name.rsplit("/", 1)[-1].strip().lower() in TIME_NAMES
-    return np.issubdtype(channel.dtype, np.datetime64) or (named and "wf_increment" not in channel.properties)
+    unit = str(channel.properties.get("unit_string", "")).strip()
+    waveform = "wf_increment" in channel.properties
+    return np.issubdtype(channel.dtype, np.datetime64) or (named and (not waveform or unit in ("s", "ms")))
 
 
 def _time(
