@@ -241,7 +241,8 @@ def test_the_json_report_splits_each_rivals_odds_into_fit_and_priors(capsys, tmp
 
 def test_plan_and_simulate_say_where_the_papers_default_channels_and_hit_are(capsys, tmp_path):
     """plan and simulate take the paper's channels and hit where none is given, on any machine: on another than
-    the paper's they say so, with the points (KID-300's), and say nothing where the test engineer gave them."""
+    the paper's they say so, with the points (KID-300's), and say nothing where the test engineer gave them; so
+    do forced and simulate --speed of the paper's eccentric weight (43.1 kg at 0.03 m)."""
     assert main(["plan", "genset8"]) == 0
     out = capsys.readouterr().out
     assert "the paper's channels A_x at (0.45, 0.0, 0.1) along (1, 0, 0)" in out
@@ -254,3 +255,21 @@ def test_plan_and_simulate_say_where_the_papers_default_channels_and_hit_are(cap
     assert note.startswith("the paper's channels A_x at (0.45, 0.0, 0.1)") and "hit at" not in note
     assert main(["plan", "kid300"]) == 0
     assert "the paper's" not in capsys.readouterr().out
+    # the paper's eccentric weight, KID-300's vibrator, where forced and simulate --speed take it
+    assert main(["forced", "genset8", "--speed", "157", "--json"]) == 0
+    (note,) = json.loads(capsys.readouterr().out)["notes"]
+    assert note == (
+        "the paper's unbalance mass 43.1 kg and eccentricity 0.03 m: KID-300's vibrator, not genset8's "
+        "(--unbalance-mass, --eccentricity give its own)"
+    )
+    assert main(["forced", "genset8", "--speed", "157", "--eccentricity", "0.01", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["notes"] == [
+        "the paper's unbalance mass 43.1 kg: KID-300's vibrator, not genset8's (--unbalance-mass gives its own)"
+    ]
+    assert main(["forced", "kid300", "--speed", "157", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["notes"] == []
+    speed = ["--speed", "40", "--sensor", "A=1,0,0:1,0,0", "--unbalance-mass", "10", "--json"]
+    assert main(["simulate", "genset8", "--out", str(tmp_path / "s.csv"), *speed]) == 0
+    assert json.loads(capsys.readouterr().out)["notes"][-1].startswith("the paper's eccentricity 0.03 m: KID-300's")
+    assert main(["simulate", "genset8", "--out", str(tmp_path / "s.csv"), *speed[2:]]) == 0  # a hit: no weight
+    assert not any("vibrator" in n for n in json.loads(capsys.readouterr().out)["notes"])

@@ -16,6 +16,7 @@ from mountid.cli.diagnose_command import cmd_diagnose
 from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
 from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_plan, cmd_process, cmd_simulate
 from mountid.errors import InputError
+from mountid.validation.paper import UNBALANCE
 
 EXTRAS = {
     "sympy": "generate",
@@ -100,8 +101,14 @@ def build_parser() -> argparse.ArgumentParser:
         )
 
     def add_unbalance(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--unbalance-mass", type=float, default=43.1, help="eccentric mass m_v [kg] (paper 43.1)")
-        p.add_argument("--eccentricity", type=float, default=0.03, help="eccentricity e [m] (paper 0.03)")
+        p.add_argument(
+            "--unbalance-mass", type=float, help=f"eccentric mass m_v [kg] (default: the paper's {UNBALANCE['mass']:g})"
+        )
+        p.add_argument(
+            "--eccentricity",
+            type=float,
+            help=f"eccentricity e [m] (default: the paper's {UNBALANCE['eccentricity']:g})",
+        )
         p.add_argument(
             "--unbalance-point",
             default="0,0,0",

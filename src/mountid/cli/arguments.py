@@ -63,6 +63,22 @@ def finite_number(value: float, option: str, minimum: float = 0.0, strict: bool 
     return value
 
 
+def paper_unbalance(args: argparse.Namespace) -> dict[str, str]:
+    """The paper's eccentric weight (validation.paper.UNBALANCE) where simulate's or forced's --unbalance-mass or
+    --eccentricity is not given; returns what was filled in by option ({"--unbalance-mass": "unbalance mass 43.1
+    kg"}), for the note that says so on another machine than the paper's."""
+    from mountid.validation.paper import UNBALANCE
+
+    filled = {}
+    if args.unbalance_mass is None:
+        args.unbalance_mass = UNBALANCE["mass"]
+        filled["--unbalance-mass"] = f"unbalance mass {args.unbalance_mass:g} kg"
+    if args.eccentricity is None:
+        args.eccentricity = UNBALANCE["eccentricity"]
+        filled["--eccentricity"] = f"eccentricity {args.eccentricity:g} m"
+    return filled
+
+
 def check_unbalance(args: argparse.Namespace) -> None:
     """The rotating-unbalance options of simulate and forced: speeds positive, mass and eccentricity >= 0, the
     eccentricity within POINT_LIMIT (the mass against the machine's: unbalance_within)."""

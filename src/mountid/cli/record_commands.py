@@ -17,6 +17,7 @@ from mountid.cli.arguments import (
     direction,
     finite_number,
     pairs,
+    paper_unbalance,
     placements,
     point_on_machine,
     print_json,
@@ -58,6 +59,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     finite_number(args.hit_time, "--hit-time", strict=False)
     if args.hit_time >= args.duration:
         raise InputError("--hit-time", f"{args.hit_time:g} s is at or after the record's end ({args.duration:g} s)")
+    filled = paper_unbalance(args)  # the paper's eccentric weight where not given, said only under --speed
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     if args.speed:
@@ -77,6 +79,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     hit_given = args.speed or args.hit_point or args.hit_direction
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
     notes += [defaults] if defaults else []
+    notes += _paper_unbalance_note(rig.machine, filled) if args.speed else []
     if not rig.B.any():
         notes.append(
             f"{rig.machine.name} has no damping: its free decay never decays, and the records chain, which takes a "
@@ -149,6 +152,21 @@ def _paper_defaults(machine: Machine, sensors: list[Sensor], hit: Hammer | None)
         f"the paper's {' and '.join(w for w in what if w)}: points of KID-300, not of {machine.name} "
         f"({', '.join(o for o in options if o)} give its own)"
     )
+
+
+def _paper_unbalance_note(machine: Machine, filled: dict[str, str]) -> list[str]:
+    """The note that says which of the paper's eccentric weight's values (``filled``: paper_unbalance's) a
+    simulated or forced response of another machine than the paper's takes (validation.paper.PAPER_MACHINES):
+    KID-300's vibrator. Empty where there is nothing to say."""
+    from mountid.validation.paper import PAPER_MACHINES
+
+    if machine.name in PAPER_MACHINES or not filled:
+        return []
+    give = "give" if len(filled) > 1 else "gives"
+    return [
+        f"the paper's {' and '.join(filled.values())}: KID-300's vibrator, not {machine.name}'s "
+        f"({', '.join(filled)} {give} its own)"
+    ]
 
 
 def _sensors(items: list[str] | None, noise: float) -> list[Sensor]:
@@ -348,6 +366,7 @@ def _small_motion_note(rig: Rig, speed: float, amplitude: NDArray) -> list[str]:
 def cmd_forced(args: argparse.Namespace) -> None:
     from mountid.measurement.rig import Rig
 
+    filled = paper_unbalance(args)
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
     unbalance_within(args, float(rig.M[0, 0]))
@@ -357,6 +376,7 @@ def cmd_forced(args: argparse.Namespace) -> None:
         amplitude = _steady_amplitude(rig, u)
         rows[f"{u.speed:g}"] = dict(zip(rig.machine.module.COORDINATES, map(float, amplitude), strict=True))
         notes += _small_motion_note(rig, u.speed, amplitude)
+    notes += _paper_unbalance_note(rig.machine, filled)
     where = {"mass": args.unbalance_mass, "eccentricity": args.eccentricity}
     where |= {"point": list(turning[0].point), "axis": list(turning[0].axis)}
     if args.json:
