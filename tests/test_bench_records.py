@@ -606,8 +606,8 @@ def test_a_record_of_several_hits_is_analysed_until_the_second():
     assert decay.start == modal.DEFAULT_START and 3.99 <= decay.end <= 4.0
     assert decay.notes == (
         f"free decay until t = {decay.end:.4g} s, where the record shows another hit (2 hits in all, the others' "
-        "decays not used: a force channel would average them; a campaign listing the record without a start uses "
-        "each)",
+        "decays not used: a force channel would average them; without a start, process, identify-record and a "
+        "campaign use each)",
     )
     assert decay.hits == (pytest.approx(0.05, abs=0.0075), decay.end)  # an onset up to half the burst window early
     third = Hammer(HIT.point, HIT.direction, time=8.0)

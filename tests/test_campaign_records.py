@@ -405,7 +405,38 @@ def test_a_record_of_several_hits_gives_a_free_decay_per_hit(tmp_path):
     (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
     one = campaign.load(tmp_path / "c.json")
     assert one.modes["z"].frequency == pytest.approx(each[0]["z"].frequency, rel=1e-12)
-    assert [n for n in one.record_notes if "others' decays not used" in n and "without a start uses each" in n]
+    assert [n for n in one.record_notes if "others' decays not used" in n and "without a start, process, " in n]
+
+
+def test_process_and_identify_record_use_every_hit_of_a_record(tmp_path, capsys):
+    """process and identify-record on a record hit three times without a force channel used the first hit's decay
+    alone (a note said a campaign would use each): they take every decay too, combined per mode as a campaign
+    does (combination.every_decay), and say so; with --start, the one decay from there, as before."""
+    from mountid.identification.from_records import modal_data
+
+    hits = [Hammer((0.4, 0.3, 0.3), (1, 0.7, -0.6), time=t) for t in (0.05, 6.05, 12.05)]
+    record = Rig.of("kid300").simulate(_eight_channels(), 18.0, 500.0, hammers=hits, seed=4)
+    write_csv(record, tmp_path / "hits.csv")
+    machine = Rig.of("kid300").machine
+    first = modal_data(machine, record, KNOWN)
+    each = [first.modes] + [modal_data(machine, record, KNOWN, t + modal.AFTER_IMPACT).modes for t in first.hits[1:]]
+    assert main(["process", "kid300", str(tmp_path / "hits.csv"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["notes"][0].startswith(f"{tmp_path / 'hits.csv'}: 3 hits, a free decay after each (from t = 0.07, ")
+    for label in ("x", "z", "psi", "phi"):
+        values = [(e[label].frequency, e[label].frequency_std) for e in each]
+        w = np.array([s**-2 for _, s in values])
+        assert out["modes"][label]["frequency"] == pytest.approx(float(np.sum(w * [f for f, _ in values]) / w.sum()))
+        assert out["modes"][label]["frequency_std"] < min(s for _, s in values)  # three decays know it better
+    assert main(["process", "kid300", str(tmp_path / "hits.csv"), "--json", "--start", "0.07"]) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert one["modes"]["z"]["frequency"] == pytest.approx(each[0]["z"].frequency, rel=1e-12)
+    assert [n for n in one["notes"] if "others' decays not used" in n]
+    known = [f"{k}={v}" for k, v in KNOWN.items() if not k.startswith("b_")]
+    assert main(["identify-record", "kid300", str(tmp_path / "hits.csv"), "--json", "--set", *known]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert [n for n in result["notes"] if "3 hits, a free decay after each" in n]
+    assert result["modes"]["z"]["frequency"] == pytest.approx(out["modes"]["z"]["frequency"], rel=1e-12)
 
 
 def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):

@@ -258,6 +258,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
         use=use,
         root=args.root,
         use_force=not args.free_decay,
+        name=_source(args),
     )
     if args.figures:
         from mountid.report import figures
@@ -275,16 +276,15 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
 
 
 def cmd_process(args: argparse.Namespace) -> None:
+    from mountid.identification.combination import every_decay
     from mountid.identification.from_records import modal_data
 
     machine = Machine.resolve(args.machine)
-    found = modal_data(
-        machine,
-        read_record(args.record, args.rate, args.channel, args.ignore, args.run),
-        pairs(args.set, "--set"),
-        args.start,
-        pairs(args.nominal, "--nominal"),
-    )
+    record = read_record(args.record, args.rate, args.channel, args.ignore, args.run)
+    known, nominal = pairs(args.set, "--set"), pairs(args.nominal, "--nominal")
+    found = modal_data(machine, record, known, args.start, nominal)
+    if args.start is None:  # a record of several hits: every decay, combined per mode
+        found = every_decay(machine, record, known, found, _source(args), nominal)
     out = _modal_json(machine, found.modes, found.unlabelled, found.warnings)
     if args.json:
         print_json({**out, "notes": list(found.notes)})
@@ -305,7 +305,7 @@ def _print_modes(
     the channels give one) and what the table does not show (_not_found)."""
     print(f"{machine.name}: {counted(len(modes), 'mode')} from {record}")
     for w in warnings:
-        print(f"  warning ({w.kind}, {w.channel}): {w.message}")
+        print(f"  warning ({w.kind}, {w.channel}): " + (f"{w.record}: " if w.record else "") + w.message)
     for note in notes:
         print(f"  note: {note}")
     print('  the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')

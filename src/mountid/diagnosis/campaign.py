@@ -51,16 +51,16 @@ import numpy as np
 
 from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
+from mountid.identification.combination import RECORDS_DISAGREE, combine, every_hit
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
-from mountid.measurement import modal
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
-from mountid.measurement.records import Channel, Record
+from mountid.measurement.records import Channel
 from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
 
 if TYPE_CHECKING:
-    from mountid.identification.from_records import ModalData
+    pass
 
 
 def schema() -> dict:
@@ -107,11 +107,6 @@ nominal values with the campaign's known ones, and a known value from the descri
 reach a factor 100 in frequency (unknowns within candidate_model.UNKNOWN_RANGE, 1e4 in stiffness); beyond this
 the value is another machine, another unit or a typing error, and the model's products leave double precision
 (a frequency of 1e200 rad/s or a damping of 1e300 N s/m overflowed where a traceback was the answer)."""
-
-RECORDS_DISAGREE = 5.0
-"""Two records' frequencies of one mode further apart than this many of their combined standard deviations are
-named in the campaign's notes (the diagnosis takes their weighted mean, its uncertainty widened to their
-scatter)."""
 
 
 @dataclass(frozen=True)
@@ -742,8 +737,8 @@ def _modes_from_records(
     where: str = "records",
     by_hand: dict[str, MeasuredMode] | None = None,
 ) -> _FromRecords:
-    """Each record through the records chain; per mode the records' combination (_combined), the notes, the
-    layout of the shapes' channels and the modes the records disagree on. ``where``: the campaign entry that
+    """Each record through the records chain; per mode the records' combination (combination.combine), the notes,
+    the layout of the shapes' channels and the modes the records disagree on. ``where``: the campaign entry that
     lists the records, for errors (``levels.0.records`` for a level's). ``by_hand``: the modes the campaign (or
     the level) gives by hand, which override the records': left out of what is returned, with a note each
     (_given_over_records; their records still inform the damping of the conversion to undamped frequencies).
@@ -781,7 +776,7 @@ def _modes_from_records(
             notes.append(f"{source.name}: left unread as the campaign says: {', '.join(source.ignore)}")
         segments = [(source.name, data)]
         if source.start is None and len(data.hits) > 1:  # several hits without a force channel: every decay
-            segments, said = _every_hit(machine, record, known, data, source.name)
+            segments, said = every_hit(machine, record, known, data, source.name)
             notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
         for name, data in segments:
@@ -793,26 +788,11 @@ def _modes_from_records(
                 estimates.setdefault(label, []).append((mode, name))
             mixed += [(label, name) for label in data.mixed]
             layouts[name] = layout
-    notes += _lone_twins(machine, estimates)
-    notes += _mixed_twins(machine, estimates, mixed)
     by_hand = by_hand or {}
-    best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
-    modes, disagree = {}, []
-    for label, (mode, name) in best.items():
-        found = estimates[label]
-        if label in by_hand:
-            pass  # said below, once its estimate is undamped as the hand-given one
-        elif len(found) == 1:
-            notes.append(f"{label}: {_kinds(mode)} from {name}")
-        else:
-            mode, note = _combined(found, mode)
-            names = ", ".join(n for _, n in found)
-            shape = f"; shape from {name}" if mode.shape is not None else ""
-            notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
-        disagreement = _disagreement(label, found) if label not in by_hand else []
-        notes += disagreement
-        disagree += [label] if disagreement else []
-        modes[label] = replace(mode, shape_std=record_shape_std(mode.shape_std))
+    combination = combine(machine, estimates, mixed, frozenset(by_hand))  # a hand-given mode: said below
+    notes += combination.notes
+    best, disagree = combination.best, combination.disagree
+    modes = {label: replace(m, shape_std=record_shape_std(m.shape_std)) for label, m in combination.modes.items()}
     noisy = {lab: m.shape_std for lab, (m, _) in best.items() if m.shape is not None and m.shape_std is not None}
     if noisy:
         notes.append(
@@ -826,37 +806,7 @@ def _modes_from_records(
     for label in by_hand.keys() & modes.keys():
         notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
-    return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), tuple(disagree), tuple(warned))
-
-
-def _every_hit(
-    machine: Machine, record: Record, known: dict[str, float], first: ModalData, name: str
-) -> tuple[list[tuple[str, ModalData]], list[str]]:
-    """A record of several hits without a force channel (ModalData.hits; ``first``: modal_data's without a start,
-    the first hit's free decay): the free decay after each hit, from modal.AFTER_IMPACT after it to the next, as
-    records of their own named "``name`` hit k" (the first keeps ``name``), combined per mode as records are: the
-    superposed remainder of the decays before is a free decay of the same modes. A later decay the chain cannot use
-    (too short for the lowest mode before the next hit, no mode found) is left out with a note. Returns the decays
-    and the notes; the decays' own notes no longer say that the others are not used."""
-    from mountid.identification.from_records import modal_data
-
-    def own(data: ModalData) -> ModalData:
-        cut = modal.next_hit_note(data.end, len(data.hits)) if data.end is not None else None
-        return replace(data, notes=tuple(n for n in data.notes if n != cut))
-
-    segments, notes = [(name, own(first))], []
-    for k, hit in enumerate(first.hits[1:], start=2):
-        try:
-            segments.append((f"{name} hit {k}", own(modal_data(machine, record, known, hit + modal.AFTER_IMPACT))))
-        except InputError as err:  # NoModeFound too
-            notes.append(f"{name} hit {k}: left out: {err.reason}")
-    starts = ", ".join(f"{data.start:.4g}" for _, data in segments)
-    notes.insert(
-        0,
-        f"{name}: {counted(len(first.hits), 'hit')}, a free decay after each (from t = {starts} s; "
-        f"{modal.AFTER_IMPACT:g} s after the later hits), combined per mode as records are",
-    )
-    return segments, notes
+    return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), disagree, tuple(warned))
 
 
 def _as_undamped(
@@ -938,106 +888,6 @@ def _at_resolution(modes: dict[str, MeasuredMode], notes: list[str]) -> tuple[di
     return out, notes
 
 
-def _lone_twins(machine: Machine, estimates: dict[str, list[tuple[MeasuredMode, str]]]) -> list[str]:
-    """Where some records part two modes the model has equal by symmetry (twins: x and y, named in the order of
-    frequency, from_records.label_poles) and another gives one pole of the two (under the first twin's label,
-    whichever it is), that pole is left out (``estimates`` changed in place), with a note: it may be either twin,
-    or lie between them, one pole in the place of two (kid300 with a drive belt, blind seed 7: psi and theta at
-    61.357 and 61.857 rad/s, one record parts them, the other gives 61.80 +- 0.007); averaged under the first
-    label, a pole of the upper twin or between them moved the lower one's frequency by many of its standard
-    deviations."""
-    rep = machine.module.REPRESENTATIVE
-    notes = []
-    for label in [lab for lab in estimates if rep[lab] == lab]:
-        twins = [m for m in machine.module.MODES if rep[m] == label]
-        parting = {name for t in twins[1:] for _, name in estimates.get(t, [])}
-        if not parting:
-            continue
-        for mode, name in [e for e in estimates[label] if e[1] not in parting]:
-            estimates[label].remove((mode, name))
-            notes.append(
-                f"{name}: one pole of {' and '.join(twins)} at {mode.frequency:.4f} rad/s left out: "
-                f"{', '.join(sorted(parting))} part them, and one pole may be either, or lie between them"
-            )
-    return notes
-
-
-def _mixed_twins(
-    machine: Machine, estimates: dict[str, list[tuple[MeasuredMode, str]]], mixed: list[tuple[str, str]]
-) -> list[str]:
-    """Where one record's lone pole on two twins is one that a fit of two lowers the misfit of beyond noise without
-    parting them (``mixed``: label and record; from_records.modal_data widened its uncertainty to cover the fit of
-    two and left its shape out: ModalData.mixed), the other records' lone poles of the same twins (no record parts
-    them: _lone_twins) are treated alike: their frequency and damping standard deviations widened by the widest of
-    that record's, their shapes left out (``estimates`` changed in place), with a note. Their decays did not show
-    the second pole, but the machine has it: a lone pole whose record shows one mode may still lie on either twin or
-    between them (kid300axes, one isolator scattered and the centre of mass higher, blind seed 27: x and y at 16.405
-    and 16.427 rad/s; one record's x 16.4149, flagged, the other's 16.4234 +- 0.0009)."""
-    rep = machine.module.REPRESENTATIVE
-    notes = []
-    for label in sorted({lab for lab, _ in mixed}):
-        flagged = {name for lab, name in mixed if lab == label}
-        if any(rep[other] == label and other != label for other in estimates):
-            continue  # a record parts them (_lone_twins kept only the parted poles)
-        widest = [m for m, name in estimates.get(label, []) if name in flagged]
-        if not widest:
-            continue
-        cover = max(m.frequency_std for m in widest)
-        cover_damping = max(m.damping_std or 0.0 for m in widest)
-        for i, (mode, name) in enumerate(estimates[label]):
-            if name in flagged:
-                continue
-            wide = replace(
-                mode,
-                frequency_std=math.hypot(mode.frequency_std, cover),
-                damping_std=None if mode.damping_std is None else math.hypot(mode.damping_std, cover_damping),
-                shape=None,
-                shape_std=None,
-            )
-            estimates[label][i] = (wide, name)
-            notes.append(
-                f"{name}: the pole of {label} at {mode.frequency:.4f} rad/s may lie on either of two twins or "
-                f"between them, as {', '.join(sorted(flagged))} shows: its uncertainty widened alike (+- "
-                f"{wide.frequency_std:.2g} rad/s), its shape left out"
-            )
-    return notes
-
-
-def _kinds(mode: MeasuredMode) -> str:
-    return "frequency, damping ratio, shape" if mode.shape is not None else "frequency, damping ratio"
-
-
-def _combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> tuple[MeasuredMode, str]:
-    """One mode measured in several records: the frequency and the damping ratio as weighted means, each
-    standard deviation the mean's, widened by the Birge ratio where the records scatter beyond their own
-    uncertainty (their repeatability, not only their noise); the shape from ``sharpest`` (the record with the
-    smallest frequency standard deviation). Returns the mode and a note of any widening ('' without)."""
-    frequency, frequency_std, widened = _weighted([(m.frequency, m.frequency_std) for m, _ in found])
-    mode = replace(sharpest, frequency=frequency, frequency_std=frequency_std)
-    ratios = [(m.damping_ratio, m.damping_std) for m, _ in found if m.damping_ratio is not None and m.damping_std]
-    note = (
-        f"; the frequencies scatter {widened:.3g} times their stated uncertainty, the mean's widened as much"
-        if widened > 1
-        else ""
-    )
-    if len(ratios) > 1:
-        zeta, zeta_std, zeta_widened = _weighted(ratios)
-        mode = replace(mode, damping_ratio=zeta, damping_std=zeta_std)
-        if zeta_widened > 1:
-            note += f"; the damping ratios {zeta_widened:.3g} times theirs, widened as much"
-    return mode, note
-
-
-def _weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
-    """Inverse-variance weighted mean of (value, std) pairs, its standard deviation times the Birge ratio
-    sqrt(chi^2 / (n - 1)) where that exceeds 1, and that ratio."""
-    x = np.array([v for v, _ in values])
-    w = 1.0 / np.array([s for _, s in values]) ** 2
-    mean = float(np.sum(w * x) / np.sum(w))
-    ratio = math.sqrt(float(np.sum(w * (x - mean) ** 2)) / (len(x) - 1))
-    return mean, float(1.0 / math.sqrt(np.sum(w))) * max(1.0, ratio), ratio
-
-
 def _distinct_files(entries: list[tuple[str, RecordSource]]) -> None:
     """An InputError naming the second of two ``entries`` (campaign entry, source) that are one file, or files of
     the same content (a copy under another name): its modes would count twice (in one list), or a level would
@@ -1069,23 +919,6 @@ def _given_over_records(label: str, hand: MeasuredMode, record: MeasuredMode, na
         f"{label}: given by hand ({hand.frequency:.6g} rad/s), in place of the records' ({', '.join(names)}: "
         f"{record.frequency:.6g} +- {record.frequency_std:.2g} rad/s){apart}"
     )
-
-
-def _disagreement(label: str, found: list[tuple[MeasuredMode, str]]) -> list[str]:
-    """A note when the records' frequencies of one mode differ by more than RECORDS_DISAGREE of their combined
-    standard deviation: records of different states of the machine (another load, temperature, amplitude of the
-    rubber's strain) or a mode labelled differently in one of them. Empty otherwise."""
-    if len(found) < 2:
-        return []
-    pairs = [(a, b) for i, a in enumerate(found) for b in found[i + 1 :]]
-    z = [abs(a.frequency - b.frequency) / math.hypot(a.frequency_std, b.frequency_std) for (a, _), (b, _) in pairs]
-    if max(z) <= RECORDS_DISAGREE:
-        return []
-    each = ", ".join(f"{name} {m.frequency:.6g} +- {m.frequency_std:.2g}" for m, name in found)
-    return [
-        f"{label}: the records disagree beyond their uncertainty ({each} rad/s; up to {max(z):.3g} sigma apart): "
-        "not one state of the machine, or a mode labelled differently in one of them"
-    ]
 
 
 def load(path: str | Path) -> Campaign:

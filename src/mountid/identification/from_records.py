@@ -24,6 +24,7 @@ import numpy as np
 import scipy.optimize
 
 from mountid.errors import InputError, NoModeFound
+from mountid.identification.combination import every_decay
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.least_squares import trust_region
 from mountid.identification.statistics import covariance, standard_deviations
@@ -1245,14 +1246,19 @@ def identify_from_record(
     settings: RecordSettings = RECORDS,
     root: str | None = None,
     use_force: bool = True,
+    name: str = "the record",
 ) -> Identification:
     """Record of an impact test -> labelled modes (modal_data: from the H1 frequency responses where the record
-    has a force channel and ``use_force``, else from the free decay after ``start`` [s], None: after the impact the
-    record shows) -> unknown stiffnesses from all measured distinct frequencies, or only from the labels in ``use``
-    (e.g. the paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping ratios.
+    has a force channel and ``use_force``, else from the free decay after ``start`` [s], None: after each impact
+    the record shows, combined per mode where it shows several: combination.every_decay, the record named
+    ``name`` in its notes) -> unknown stiffnesses from all measured distinct frequencies, or only from the labels
+    in ``use`` (e.g. the paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping
+    ratios.
     ``root``: the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
     machine.check_known(known)  # before the labelling, which reads the model at the known values
     found = modal_data(machine, record, known, start, nominal, settings, use_force)
+    if start is None:
+        found = every_decay(machine, record, known, found, name, nominal, settings)
     si = record.in_si()
     hits = [modal.hit_summary(si, name) for name in si.forces]
     try:

@@ -760,8 +760,8 @@ def next_hit_note(end: float, hits: int) -> str:
     """free_decay's note on a decay that ends at ``end`` [s], where the record shows another of its ``hits``."""
     return (
         f"free decay until t = {end:.4g} s, where the record shows another hit ({counted(hits, 'hit')} in all, the "
-        "others' decays not used: a force channel would average them; a campaign listing the record without a start "
-        "uses each)"
+        "others' decays not used: a force channel would average them; without a start, process, identify-record "
+        "and a campaign use each)"
     )
 
 
