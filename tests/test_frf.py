@@ -149,6 +149,9 @@ def test_identify_record_on_the_command_line_uses_the_force_and_draws_the_freque
     out = capsys.readouterr().out
     assert "modes from the H1 frequency responses of 4 hits on F" in out and "c_z = " in out
     assert (tmp_path / "figures" / "frf.png").is_file()
-    # the free decay ends at the second hit (it ran over all four and found no mode)
+    # without the force: a free decay after each hit, each until the next (one ran over all four, found no mode)
     assert main(["identify-record", "kid300", str(path), "--free-decay"]) == 0
+    out = capsys.readouterr().out
+    assert f"note: {path}: 4 hits, a free decay after each (from t = 0.07, 4.0" in out and "c_z = " in out
+    assert main(["identify-record", "kid300", str(path), "--free-decay", "--start", "0.07"]) == 0
     assert "note: free decay until t = 4.0" in capsys.readouterr().out
