@@ -44,7 +44,6 @@ import math
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import jsonschema
 import numpy as np
@@ -58,9 +57,6 @@ from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
 from mountid.measurement.records import Channel
 from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
-
-if TYPE_CHECKING:
-    pass
 
 
 def schema() -> dict:
