@@ -664,6 +664,36 @@ def test_the_figures_of_a_record_of_several_hits_show_the_decay_the_modes_came_f
     assert segments == [(0.07, float(record.time[record.time < result.end][-1]))]
 
 
+def test_the_stabilisation_diagram_shows_a_steady_oscillation_as_one(monkeypatch, tmp_path):
+    """The machine running at 100 rad/s (seed 3): the pencil gives the steady oscillation a damping ratio of about
+    -6e-7 at every order, and the stabilisation diagram left it out (its poles had to lie above zero), while one
+    at +8e-7 (seed 1) was drawn as a mode would be. Both are kept at every order and drawn as crosses, named
+    as a steady oscillation, no mode."""
+    from mountid.measurement.rig import Unbalance
+    from mountid.report import figures
+
+    drawn = []
+
+    def keep(fig, where):
+        drawn.append(fig)
+        return where
+
+    monkeypatch.setattr(figures, "_save", keep)
+    for seed, sign in ((3, -1), (1, 1)):
+        steady = _rig().simulate(SIX, 4.0, 2000.0, unbalances=[Unbalance(43.1, 0.03, 100.0)], seed=seed)
+        runs = modal.stabilisation(steady, 0.07, 2 * 64.1, 6)
+        for _, p, _ in runs:
+            (tone,) = p[np.abs(np.abs(p) - 100.0) < 0.05]
+            assert np.sign(-tone.real) == sign and abs(tone.real) < 1e-4 * abs(tone)
+        figures.stabilisation_figure(runs, {}, tmp_path / "s.png")
+        ax = drawn[-1].axes[0]
+        crosses = [line for line in ax.lines if line.get_marker() == "x" and len(line.get_xdata())]
+        assert sum(len(line.get_xdata()) for line in crosses) == len(runs)
+        assert all(abs(w - 100.0) < 0.05 for line in crosses for w in line.get_xdata())
+        assert "steady oscillation (|zeta| < 0.0001): no mode" in [t.get_text() for t in ax.get_legend().get_texts()]
+        figures.plt.close(drawn[-1])
+
+
 # -- not the free decay of a hit ----------------------------------------------------------------------------------
 def test_a_record_that_is_no_free_decay_is_said_so(tmp_path, capsys):
     """A record of the machine started under its rotating unbalance, processed as an impact test, gave two 'modes'

@@ -202,11 +202,18 @@ def stable_poles(runs: list[NDArray[np.complex128]]) -> list[tuple[float, float,
 
 
 def stabilisation(
-    record: Record, start: float, max_frequency: float, n_modes: int, extra: range = range(0, 25, 2)
+    record: Record,
+    start: float,
+    max_frequency: float,
+    n_modes: int,
+    extra: range = range(0, 25, 2),
+    steady: float = RECORDS.steady_damping,
 ) -> list[tuple[int, NDArray[np.complex128], NDArray[np.bool_]]]:
     """The data of a stabilisation diagram: for each model order 2 n_modes + e (e in ``extra``) the pencil's
-    physical poles (0 < zeta < 0.5, |p| <= max_frequency [rad/s]) of the free decay from ``start`` [s], and
-    whether each is stable against the previous order (within stable_tolerance in |p|, the same damping)."""
+    physical poles (0 < zeta < 0.5, |p| <= max_frequency [rad/s]) of the free decay from ``start`` [s] and its
+    steady oscillations (|zeta| < ``steady``, of either sign: free_decay_poles keeps them, and one whose damping
+    came out below zero was missing from the diagram), and whether each is stable against the previous order
+    (within stable_tolerance in |p|, the same damping)."""
     dt, samples = decimated(record, start, max_frequency)
     out, previous = [], np.array([], dtype=complex)
     for e in extra:
@@ -214,7 +221,7 @@ def stabilisation(
         p = matrix_pencil(samples, dt, order, min(len(samples) // 2, PENCIL_SIZES[0]))
         p = p[np.isfinite(p) & (p.imag > 0)]
         w, zeta = np.abs(p), -p.real / np.abs(p)
-        p = p[(zeta > 0) & (zeta < 0.5) & (w <= max_frequency)]
+        p = p[(((zeta > 0) & (zeta < 0.5)) | (np.abs(zeta) < steady)) & (w <= max_frequency)]
         stable = np.array([_recurs(x, previous) for x in p], dtype=bool)
         out.append((order, p, stable))
         previous = p

@@ -150,17 +150,21 @@ def stabilisation_figure(
 ) -> Path:
     """The stabilisation diagram (modal.stabilisation): each model order's poles against frequency, stable
     ones (recurring from the previous order within the chain's tolerance, same damping) filled, new ones
-    hollow; the picked poles as labelled lines."""
+    hollow, steady oscillations (|zeta| below RECORDS.steady_damping: a running machine, no mode) as crosses;
+    the picked poles as labelled lines."""
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for order, p, stable in runs:
         w = np.abs(p)
-        ax.plot(w[stable], np.full(stable.sum(), order), "o", color="C2", ms=4)
-        ax.plot(w[~stable], np.full((~stable).sum(), order), "o", mfc="none", color="C1", ms=4)
+        tone = np.abs(p.real) < RECORDS.steady_damping * w
+        for shown, style in ((stable & ~tone, {"color": "C2"}), (~stable & ~tone, {"mfc": "none", "color": "C1"})):
+            ax.plot(w[shown], np.full(shown.sum(), order), "o", ms=4, **style)
+        ax.plot(w[tone], np.full(tone.sum(), order), "x", color="C3", ms=5)
     for label, (w, zeta) in poles.items():
         ax.axvline(w, color="k", lw=0.7, ls="--")
         ax.text(w, ax.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
     ax.plot([], [], "o", color="C2", label="stable (recurs from the previous order)")
     ax.plot([], [], "o", mfc="none", color="C1", label="new or moved")
+    ax.plot([], [], "x", color="C3", label=f"steady oscillation (|zeta| < {RECORDS.steady_damping:g}): no mode")
     ax.set_xlabel("|p| [rad/s]")
     ax.set_ylabel("model order")
     hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
