@@ -221,7 +221,7 @@ def stabilisation(
         p = matrix_pencil(samples, dt, order, min(len(samples) // 2, PENCIL_SIZES[0]))
         p = p[np.isfinite(p) & (p.imag > 0)]
         w, zeta = np.abs(p), -p.real / np.abs(p)
-        p = p[(((zeta > 0) & (zeta < 0.5)) | (np.abs(zeta) < steady)) & (w <= max_frequency)]
+        p = p[(((zeta > 0) & (zeta < 0.5)) | is_tone(p, steady)) & (w <= max_frequency)]
         stable = np.array([_recurs(x, previous) for x in p], dtype=bool)
         out.append((order, p, stable))
         previous = p
@@ -284,7 +284,7 @@ def free_decay_poles(
             w = np.abs(p)
             zeta = -p.real / w
             band = (w >= min_frequency) & (w <= max_frequency)
-            tones.append(p[(np.abs(zeta) < steady) & band])  # either sign, as the noise moves it run by run
+            tones.append(p[is_tone(p, steady) & band])
             p = p[(zeta > 0) & (zeta < 0.5) & band]
             amp = np.linalg.norm(amplitudes(samples, dt, np.concatenate([p, p.conj()]))[: len(p)], axis=1)
             runs.append(p[amp > 1e-3 * amp.max()] if len(p) else p)
@@ -297,6 +297,13 @@ def free_decay_poles(
     if not poles:
         return []
     return _refined(samples, dt, np.array(poles, dtype=complex))
+
+
+def is_tone(p: NDArray, steady: float = RECORDS.steady_damping) -> NDArray[np.bool_]:
+    """Which of the pencil's poles ``p`` (Im p > 0) are steady oscillations: |zeta| < ``steady``, of either sign
+    (the pencil gives a running machine's tone about +-1e-7, as the noise moves it). What free_decay_poles keeps
+    as tones, modal.stabilisation shows and the stabilisation figure draws as crosses."""
+    return np.abs(-p.real / np.abs(p)) < steady
 
 
 def is_steady(pole: Pole, settings: RecordSettings = RECORDS) -> bool:

@@ -155,7 +155,7 @@ def stabilisation_figure(
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for order, p, stable in runs:
         w = np.abs(p)
-        tone = np.abs(p.real) < RECORDS.steady_damping * w
+        tone = modal.is_tone(p)
         for shown, style in ((stable & ~tone, {"color": "C2"}), (~stable & ~tone, {"mfc": "none", "color": "C1"})):
             ax.plot(w[shown], np.full(shown.sum(), order), "o", ms=4, **style)
         ax.plot(w[tone], np.full(tone.sum(), order), "x", color="C3", ms=5)
