@@ -153,5 +153,6 @@ def test_identify_record_on_the_command_line_uses_the_force_and_draws_the_freque
     assert main(["identify-record", "kid300", str(path), "--free-decay"]) == 0
     out = capsys.readouterr().out
     assert f"note: {path}: 4 hits, a free decay after each (from t = 0.07, 4.0" in out and "c_z = " in out
+    assert "H1" not in out  # each later decay is one too, not the frequency responses of all four hits again
     assert main(["identify-record", "kid300", str(path), "--free-decay", "--start", "0.07"]) == 0
     assert "note: free decay until t = 4.0" in capsys.readouterr().out

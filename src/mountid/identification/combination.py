@@ -61,7 +61,8 @@ def every_hit(
     segments, notes = [(name, own(first))], []
     for k, hit in enumerate(first.hits[1:], start=2):
         try:
-            data = modal_data(machine, record, known, hit + modal.AFTER_IMPACT, nominal, settings)
+            # a free decay, as the first: a force channel's H1 (modal_data's default) would give every hit's
+            data = modal_data(machine, record, known, hit + modal.AFTER_IMPACT, nominal, settings, use_force=False)
             segments.append((f"{name} hit {k}", own(data)))
         except InputError as err:  # NoModeFound too
             notes.append(f"{name} hit {k}: left out: {err.reason}")
