@@ -115,8 +115,10 @@ def test_a_missing_record_is_named(folder, capsys):
 def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_path, capsys):
     """A bench's UFF export of two hits, a dataset per channel each, one after another: read at once it was one
     record of 16 channels, each pair at one point with the data of different hits. A campaign lists the file once
-    per run ("run": k): the modes are those of the two records as separate files (to the UFF's 12 digits), named
-    by run; without a run, or one run twice, the entry is named."""
+    per run ("run": k), or once without a run for every run: the modes are those of the two records as separate
+    files (to the UFF's 12 digits), named by run; one run twice, or the file beside one of its runs, is named.
+    process and identify-record read every run where --run does not pick one, combined per mode (weighted
+    means)."""
     import pyuff
 
     from mountid.measurement.records import read_csv
@@ -134,18 +136,38 @@ def test_the_runs_of_a_uff_file_of_several_are_records_of_their_own(folder, tmp_
     for label, mode in c.modes.items():
         assert mode.frequency == pytest.approx(files.modes[label].frequency, rel=1e-9)
     assert any(n.startswith("x: frequency, damping ratio from runs.uff run 1, runs.uff run 2") for n in c.record_notes)
-    with pytest.raises(
-        InputError, match=r"^records\.0 \(runs\.uff\): run: runs.uff holds 2 runs \(datasets 58 of 8, 8"
+    # the file without a run: every run, as the runs listed one by one
+    each = campaign.parse({"machine": "kid300", "known": KNOWN, "records": [{"file": "runs.uff"}]}, tmp_path)
+    listed = [{"file": "runs.uff", "run": 1}, {"file": "runs.uff", "run": 2}]
+    one_by_one = campaign.parse({"machine": "kid300", "known": KNOWN, "records": listed}, tmp_path)
+    assert each.modes == one_by_one.modes and each.record_notes == one_by_one.record_notes
+    for twice, named in (
+        ([runs[0], {"file": "runs.uff", "run": 1}], r"^records\.1 \(runs\.uff run 1\): the same file as records\.0"),
+        ([runs[1], "runs.uff"], r"^records\.1 \(runs\.uff\): the same file as records\.0 \(runs\.uff run 2\)"),
     ):
-        campaign.parse({"machine": "kid300", "known": KNOWN, "records": ["runs.uff"]}, tmp_path)
-    twice = {"machine": "kid300", "known": KNOWN, "records": [runs[0], {"file": "runs.uff", "run": 1}]}
-    with pytest.raises(InputError, match=r"^records\.1 \(runs\.uff run 1\): the same file as records\.0"):
-        campaign.parse(twice, tmp_path)
-    # the command line reads one run, named in its report
-    assert main(["process", "kid300", str(tmp_path / "runs.uff")]) == 2
-    assert "mountid: error: --run: runs.uff holds 2 runs" in capsys.readouterr().err
+        with pytest.raises(InputError, match=named):
+            campaign.parse({"machine": "kid300", "known": KNOWN, "records": twice}, tmp_path)
+    # the command line: one run where --run gives it, named in the report; else both, combined per mode
     assert main(["process", "kid300", str(tmp_path / "runs.uff"), "--run", "2"]) == 0
     assert capsys.readouterr().out.startswith(f"kid300: 4 modes from {tmp_path / 'runs.uff'} run 2\n")
+    single = []
+    for run in ("1", "2"):
+        assert main(["process", "kid300", str(tmp_path / "runs.uff"), "--run", run, "--json"]) == 0
+        single.append(json.loads(capsys.readouterr().out)["modes"])
+    assert main(["process", "kid300", str(tmp_path / "runs.uff"), "--json"]) == 0
+    both = json.loads(capsys.readouterr().out)["modes"]
+    assert both.keys() == single[0].keys() == single[1].keys()
+    for label, mode in both.items():
+        w = [1 / s[label]["frequency_std"] ** 2 for s in single]
+        mean = sum(wk * s[label]["frequency"] for wk, s in zip(w, single, strict=True)) / sum(w)
+        assert mode["frequency"] == pytest.approx(mean, rel=1e-12), label
+        assert mode["frequency_std"] >= 1 / math.sqrt(sum(w)) * (1 - 1e-12), label
+    assert main(["identify-record", "kid300", str(tmp_path / "runs.uff"), "--figures", str(tmp_path / "f")]) == 0
+    out = capsys.readouterr().out
+    assert f"note: figures: the spectra and the stabilisation diagram of {tmp_path / 'runs.uff'} run 1," in out
+    assert out.startswith(f"kid300: 4 modes from {tmp_path / 'runs.uff'} (2 runs)\n")
+    assert f"note: x: frequency, damping ratio from {tmp_path / 'runs.uff'} run 1, {tmp_path / 'runs.uff'} run 2" in out
+    assert "c_z = " in out
 
 
 def test_a_record_listed_twice_is_named(folder, tmp_path):

@@ -97,7 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
             type=int,
             metavar="K",
             help="which run of a UFF file of several (hits exported one after another, a dataset per channel each) "
-            "to read: 1, 2, ...",
+            "to read: 1, 2, ...; without it, every run, combined per mode",
         )
 
     def add_unbalance(p: argparse.ArgumentParser) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -211,18 +211,45 @@ def read_record(
     channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's; --ignore: channels left unread; --run: which run
     of a file of several)."""
     from mountid.measurement.records import read_record as read
+
+    return _placed(lambda: [read(path, rate, tuple(ignore or ()), run)], rate, channels)[0]
+
+
+def read_runs(
+    path: str,
+    rate: float | None = None,
+    channels: Sequence[str] | None = None,
+    ignore: Sequence[str] | None = None,
+    run: int | None = None,
+) -> list[tuple[str, Record]]:
+    """The records of the file at ``path``, each with its name in notes (as read_record takes the options): the
+    run --run gives ("PATH run K"), else every run of a UFF file of several ("PATH run 1", ...), else the file's
+    one record (PATH)."""
+    from mountid.measurement.records import read_runs as read
+
+    if run is not None:
+        return [(f"{path} run {run}", read_record(path, rate, channels, ignore, run))]
+    records = _placed(lambda: read(path, rate, tuple(ignore or ())), rate, channels)
+    if len(records) == 1:
+        return [(path, records[0])]
+    return [(f"{path} run {k}", record) for k, record in enumerate(records, start=1)]
+
+
+def _placed(read: Callable[[], list[Record]], rate: float | None, channels: Sequence[str] | None) -> list[Record]:
+    """The records ``read`` returns, --rate checked before and --channel's placements applied after; the reader's
+    errors of its ``ignore`` and ``run`` named as the options."""
     from mountid.measurement.records import with_geometry
 
     if rate is not None:
         finite_number(rate, "--rate")
     geometry = placements(channels, "--channel")
     try:
-        record = read(path, rate, tuple(ignore or ()), run)
+        records = read()
     except InputError as err:
         if err.parameter not in ("ignore", "run"):
             raise
         raise InputError(f"--{err.parameter}", err.reason) from None
-    return with_geometry(record, geometry, "--channel") if geometry else record
+    return [with_geometry(r, geometry, "--channel") if geometry else r for r in records]
 
 
 def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:

@@ -21,7 +21,7 @@ from mountid.cli.arguments import (
     placements,
     point_on_machine,
     print_json,
-    read_record,
+    read_runs,
     record_size,
     unbalance_within,
     unbalances_of,
@@ -244,30 +244,32 @@ def _identification_json(machine: Machine, result: Identification) -> dict:
 
 
 def cmd_identify_record(args: argparse.Namespace) -> None:
-    from mountid.identification.from_records import identify_from_record
+    from mountid.identification.from_records import identify_from_records
 
     machine = Machine.resolve(args.machine)
-    record = read_record(args.record, args.rate, args.channel, args.ignore, args.run)
+    runs = read_runs(args.record, args.rate, args.channel, args.ignore, args.run)
     use = tuple(args.use) if args.use else None
-    result = identify_from_record(
+    result = identify_from_records(
         machine,
-        record,
+        runs,
         pairs(args.set, "--set"),
         start=args.start,
         nominal=pairs(args.nominal, "--nominal"),
         use=use,
         root=args.root,
         use_force=not args.free_decay,
-        name=_source(args),
     )
     if args.figures:
         from mountid.report import figures
 
-        figures.experiment_figures(machine, record, result, pairs(args.set, "--set"), args.figures)
+        figures.experiment_figures(machine, runs[0][1], result, pairs(args.set, "--set"), args.figures)
+        if len(runs) > 1:
+            which = f"figures: the spectra and the stabilisation diagram of {runs[0][0]}, its first decay"
+            result = replace(result, notes=[*result.notes, which])
     if args.json:
         print_json(_identification_json(machine, result))
         return
-    _print_modes(machine, _source(args), result.modes, result.unlabelled, result.warnings, result.notes)
+    _print_modes(machine, _source(args, runs), result.modes, result.unlabelled, result.warnings, result.notes)
     for name, value in result.parameters.items():
         print(f"  {name} = {value:.6g} +- {result.parameter_std[name]:.2g} {machine.parameters[name]['unit']}")
     for name, value in result.damping.items():
@@ -277,24 +279,21 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
 
 def cmd_process(args: argparse.Namespace) -> None:
     from mountid.identification.combination import every_decay
-    from mountid.identification.from_records import modal_data
 
     machine = Machine.resolve(args.machine)
-    record = read_record(args.record, args.rate, args.channel, args.ignore, args.run)
-    known, nominal = pairs(args.set, "--set"), pairs(args.nominal, "--nominal")
-    found = modal_data(machine, record, known, args.start, nominal)
-    if args.start is None:  # a record of several hits: every decay, combined per mode
-        found = every_decay(machine, record, known, found, _source(args), nominal)
+    runs = read_runs(args.record, args.rate, args.channel, args.ignore, args.run)
+    # every decay of every run (a record of several hits, a file of several runs), combined per mode
+    found = every_decay(machine, runs, pairs(args.set, "--set"), args.start, pairs(args.nominal, "--nominal"))
     out = _modal_json(machine, found.modes, found.unlabelled, found.warnings)
     if args.json:
         print_json({**out, "notes": list(found.notes)})
         return
-    _print_modes(machine, _source(args), found.modes, found.unlabelled, found.warnings, found.notes)
+    _print_modes(machine, _source(args, runs), found.modes, found.unlabelled, found.warnings, found.notes)
 
 
-def _source(args: argparse.Namespace) -> str:
-    """The record a command read: its file, and the run where --run chose one."""
-    return args.record if args.run is None else f"{args.record} run {args.run}"
+def _source(args: argparse.Namespace, runs: Sequence[tuple[str, Record]]) -> str:
+    """The record a command read: its file, with the run where --run chose one or the runs it read."""
+    return runs[0][0] if len(runs) == 1 else f"{args.record} ({counted(len(runs), 'run')})"
 
 
 def _print_modes(

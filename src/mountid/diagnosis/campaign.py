@@ -13,8 +13,8 @@ violation is reported as one line naming the entry). Example (the paper's four f
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
 and directions (a plain CSV states none), the channels to ``ignore`` (a tachometer, a microphone) and the ``run``
-of a UFF file of several (the file listed once per run). Each is read (CSV with mountid channel metadata, UFF with
-its geometry, or TDMS) and run through the records chain (mountid.identification.from_records.modal_data):
+of a UFF file of several (without one, each run is a record of its own). Each is read (CSV with mountid channel
+metadata, UFF with its geometry, or TDMS) and run through the records chain (identification.from_records.modal_data):
 frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
 shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
@@ -50,12 +50,12 @@ import numpy as np
 
 from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
-from mountid.identification.combination import RECORDS_DISAGREE, combine, every_hit
+from mountid.identification.combination import RECORDS_DISAGREE, combine, decays_of
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import MeasuredMode, scaled_unit
-from mountid.measurement.records import Channel
+from mountid.measurement.records import Channel, Record
 from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
 
 
@@ -119,7 +119,7 @@ class RecordSource:
     ignore: tuple[str, ...] = ()
     """Names of channels left unread (a tachometer, a microphone: records.read_csv)."""
     run: int | None = None
-    """Which run of a UFF file of several (uff.read_uff; None: its only one)."""
+    """Which run of a UFF file of several (uff.read_uff; None: every run, each a record of its own)."""
 
     @property
     def name(self) -> str:
@@ -741,39 +741,27 @@ def _modes_from_records(
     parse has checked that no record is listed twice (_distinct_files)."""
     if not sources:
         return _FromRecords({}, [], (), (), ())
-    from mountid.identification.from_records import modal_data
-    from mountid.measurement.records import read_record, with_geometry
-
     estimates: dict[str, list[tuple[MeasuredMode, str]]] = {}
     mixed: list[tuple[str, str]] = []  # (label, record) of lone poles on twins a fit of two does not part
     notes = []
     warned: list[QualityWarning] = []
     layouts: dict[str, tuple[Channel, ...]] = {}
-    for i, source in enumerate(sources):
+    runs = [(i, source, *named) for i, source in enumerate(sources) for named in _records_of(source, where, i)]
+    for i, source, run, record in runs:
         try:
-            record = read_record(source.path, source.rate, source.ignore, source.run)
-            if source.channels:
-                geometry = {name: (point, direction) for name, point, direction in source.channels}
-                record = with_geometry(record, geometry, "channels")
-            data = modal_data(machine, record, known, source.start)
+            segments, said = decays_of(machine, record, known, run, source.start)  # each hit's where it shows several
         except NoModeFound as err:
-            if len(sources) == 1:
+            if len(runs) == 1:
                 raise InputError(f"{where}.{i} ({source.path.name or source.path})", err.reason) from None
             # one record of several without a mode it could label (a hit that excited only close modes it could
             # not separate): left out, said in the notes; the others stand
-            notes.append(f"{source.name}: left out: {err.reason}")
+            notes.append(f"{run}: left out: {err.reason}")
             continue
         except InputError as err:  # which of the campaign's records, and what of it
-            what = "" if err.parameter == "record" else f"{err.parameter}: "
-            # the file is named once, in the parameter (a reader's reason may start with it: uff._read_set)
-            reason = err.reason.removeprefix(f"{source.path.name}: ")
-            raise InputError(f"{where}.{i} ({source.path.name or source.path})", f"{what}{reason}") from None
+            raise _named(err, source, where, i, "" if run == source.name else f"{run}: ") from None
         if source.ignore:
-            notes.append(f"{source.name}: left unread as the campaign says: {', '.join(source.ignore)}")
-        segments = [(source.name, data)]
-        if source.start is None and len(data.hits) > 1:  # several hits without a force channel: every decay
-            segments, said = every_hit(machine, record, known, data, source.name)
-            notes += said
+            notes.append(f"{run}: left unread as the campaign says: {', '.join(source.ignore)}")
+        notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
         for name, data in segments:
             here = [replace(w, record=name) for w in data.warnings]
@@ -803,6 +791,36 @@ def _modes_from_records(
         notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
     shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
     return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), disagree, tuple(warned))
+
+
+def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Record]]:
+    """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
+    the run it gives), or where it gives none, every run of a UFF file of several ("NAME run K"). An InputError
+    names the entry (``where``.``i``)."""
+    from mountid.measurement.records import read_record, read_runs, with_geometry
+
+    try:
+        if source.run is None:
+            records = read_runs(source.path, source.rate, source.ignore)
+        else:
+            records = [read_record(source.path, source.rate, source.ignore, source.run)]
+        if source.channels:
+            geometry = {name: (point, direction) for name, point, direction in source.channels}
+            records = [with_geometry(record, geometry, "channels") for record in records]
+    except InputError as err:
+        raise _named(err, source, where, i) from None
+    if len(records) == 1:
+        return [(source.name, records[0])]
+    return [(f"{source.name} run {k}", record) for k, record in enumerate(records, start=1)]
+
+
+def _named(err: InputError, source: RecordSource, where: str, i: int, run: str = "") -> InputError:
+    """A reader's or the records chain's error as the campaign's: the entry (``where``.``i``) and the file named
+    once in the parameter (a reader's reason may start with it: uff._read_set), ``run`` (the run's name and a colon,
+    or '') and the parameter it was about before the reason."""
+    what = "" if err.parameter == "record" else f"{err.parameter}: "
+    reason = err.reason.removeprefix(f"{source.path.name}: ")
+    return InputError(f"{where}.{i} ({source.path.name or source.path})", f"{run}{what}{reason}")
 
 
 def _as_undamped(
@@ -888,21 +906,21 @@ def _distinct_files(entries: list[tuple[str, RecordSource]]) -> None:
     """An InputError naming the second of two ``entries`` (campaign entry, source) that are one file, or files of
     the same content (a copy under another name): its modes would count twice (in one list), or a level would
     compare a record with itself (across the campaign's and a level's). The runs of a file of several are
-    records of their own (one run given twice is one record twice)."""
-    seen: dict[tuple[int, str, int], tuple[str, RecordSource]] = {}
+    records of their own (one run given twice is one record twice; the file without a run is every run)."""
+    seen: dict[tuple[int, str], list[tuple[str, RecordSource]]] = {}
     for entry, source in entries:
         if not source.path.is_file():
             continue  # the records chain names what is there instead
-        key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest(), source.run or 1)
-        if key in seen:
-            first, other = seen[key]
-            same = "the same file as" if source.path.resolve() == other.path.resolve() else "the same content as"
-            raise InputError(
-                f"{entry} ({source.name})",
-                f"{same} {first} ({other.name}): one record listed twice would count twice, or stand for "
-                "two excitation levels",
-            )
-        seen[key] = (entry, source)
+        key = (source.path.stat().st_size, hashlib.sha256(source.path.read_bytes()).hexdigest())
+        for first, other in seen.get(key, []):
+            if None in (source.run, other.run) or source.run == other.run:
+                same = "the same file as" if source.path.resolve() == other.path.resolve() else "the same content as"
+                raise InputError(
+                    f"{entry} ({source.name})",
+                    f"{same} {first} ({other.name}): one record listed twice would count twice, or stand for "
+                    "two excitation levels",
+                )
+        seen.setdefault(key, []).append((entry, source))
 
 
 def _given_over_records(label: str, hand: MeasuredMode, record: MeasuredMode, names: list[str]) -> str:

@@ -1,22 +1,23 @@
 """Modes of one machine measured more than once combined per mode: the free decays after each hit of a record
-without a force channel, and several records of one campaign.
+without a force channel, the runs of a file of several, and several records of one campaign.
 
 Each decay (or record) gives its modes through the records chain (from_records.modal_data); per mode the estimates
 are combined (weighted means of frequency and damping ratio, widened where they scatter beyond their uncertainty;
 the shape of the sharpest), twins that some estimates part and others give one pole for are reconciled, and
 estimates that disagree beyond RECORDS_DISAGREE are named. `process` and `identify-record` use it for a record
-of several hits, the campaign (diagnosis.campaign) for its records as well.
+of several hits or runs (every_decay), the campaign (diagnosis.campaign) for its records as well.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mountid.errors import InputError
+from mountid.errors import InputError, NoModeFound
 from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
@@ -233,29 +234,68 @@ def combine(
     return Combination(modes, best, tuple(notes), tuple(disagree))
 
 
-def every_decay(
+def decays_of(
     machine: Machine,
     record: Record,
     known: dict[str, float],
-    first: ModalData,
     name: str,
+    start: float | None = None,
     nominal: dict[str, float] | None = None,
     settings: RecordSettings = RECORDS,
+    use_force: bool = True,
+) -> tuple[list[tuple[str, ModalData]], list[str]]:
+    """The decays of one record named ``name``, each with its name and modal data (from_records.modal_data,
+    ``start``, ``nominal``, ``settings`` and ``use_force`` as there), and the notes on them: the free decay after
+    each hit (every_hit) where ``start`` is None and the modes come from a free decay after several hits, else the
+    record's one (a ``start``, one hit, or the H1 frequency responses of a force channel)."""
+    from mountid.identification.from_records import modal_data
+
+    data = modal_data(machine, record, known, start, nominal, settings, use_force)
+    if start is None and data.frf is None and len(data.hits) > 1:
+        return every_hit(machine, record, known, data, name, nominal, settings)
+    return [(name, data)], []
+
+
+def every_decay(
+    machine: Machine,
+    records: Sequence[tuple[str, Record]],
+    known: dict[str, float],
+    start: float | None = None,
+    nominal: dict[str, float] | None = None,
+    settings: RecordSettings = RECORDS,
+    use_force: bool = True,
 ) -> ModalData:
-    """The modal data of a record of several hits without a force channel (``first``: modal_data's without a start,
-    the first hit's free decay, its ``hits`` more than one) from every hit's decay (every_hit, the record named
-    ``name``), combined per mode (combine): the modes, the poles left unlabelled in any decay (by frequency),
-    every decay's warnings (a later decay's named by it: ``record``), the notes (every_hit's, each decay's own
-    under its name, the combination's); its start and end the first decay's (what a figure of one decay shows).
-    ``first`` itself where it is the record's only decay (one hit, or the H1 frequency responses of a force
-    channel)."""
-    if first.frf is not None or len(first.hits) < 2:
-        return first
-    segments, said = every_hit(machine, record, known, first, name, nominal, settings)
+    """The modal data of one test's records, each named (a record file, or the runs of a UFF file of several), from
+    every decay they hold (decays_of), combined per mode (combine). One record of several that gives no mode is left
+    out with a note. Returns the modes, the poles left unlabelled in any decay (by frequency), every decay's
+    warnings (named by the decay, ``record``, but for a lone record's first), the notes (every_hit's, each decay's
+    own under its name, the combination's); its frf, start and end the first decay's (what a figure of one decay
+    shows). A lone record with one decay (one hit, a ``start``, or the H1 frequency responses of a force channel)
+    gives its modal_data as it is."""
+    segments: list[tuple[str, ModalData]] = []
+    said: list[str] = []
+    for name, record in records:
+        try:
+            decays, notes = decays_of(machine, record, known, name, start, nominal, settings, use_force)
+        except NoModeFound as err:
+            if len(records) == 1:
+                raise
+            said.append(f"{name}: left out: {err.reason}")
+            continue
+        except InputError as err:  # which of the records
+            if len(records) == 1:
+                raise
+            raise type(err)(err.parameter, f"{name}: {err.reason}") from None
+        segments, said = [*segments, *decays], [*said, *notes]
+    if not segments:
+        raise NoModeFound("record", f"no mode in any of {counted(len(records), 'record')}: {'; '.join(said)}")
+    if len(records) == 1 and len(segments) == 1:
+        return segments[0][1]
     estimates: Estimates = {}
-    mixed, warnings, notes, unlabelled = [], [], list(said), []
+    mixed, warnings, notes, unlabelled = [], [], said, []
     for k, (segment, data) in enumerate(segments):
-        warnings += [w if k == 0 else replace(w, record=segment) for w in data.warnings]
+        own = k == 0 and len(records) == 1  # the record the caller names
+        warnings += [w if own else replace(w, record=segment) for w in data.warnings]
         notes += [f"{segment}: {note}" for note in data.notes]
         unlabelled += data.unlabelled
         for label, mode in data.modes.items():
@@ -263,7 +303,7 @@ def every_decay(
         mixed += [(label, segment) for label in data.mixed]
     combination = combine(machine, estimates, mixed)
     return replace(
-        first,
+        segments[0][1],
         modes=combination.modes,
         unlabelled=sorted(unlabelled, key=lambda p: p.frequency),
         warnings=warnings,

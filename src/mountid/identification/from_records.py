@@ -16,7 +16,7 @@ import functools
 import itertools
 import math
 import struct
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
@@ -1255,12 +1255,29 @@ def identify_from_record(
     in ``use`` (e.g. the paper's ("x", "psi"): then exactly determined) -> damping parameters from the damping
     ratios.
     ``root``: the rule that picks between equally good solutions when no measured mode decides (fit_stiffness)."""
+    return identify_from_records(machine, [(name, record)], known, start, nominal, use, settings, root, use_force)
+
+
+def identify_from_records(
+    machine: Machine,
+    records: Sequence[tuple[str, Record]],
+    known: dict[str, float],
+    start: float | None = None,
+    nominal: dict[str, float] | None = None,
+    use: tuple[str, ...] | None = None,
+    settings: RecordSettings = RECORDS,
+    root: str | None = None,
+    use_force: bool = True,
+) -> Identification:
+    """identify_from_record on several records of one test, each named (the runs of a UFF file of several): their
+    modes combined per mode (combination.every_decay), then identified as one record's; the frequency responses,
+    start and end of the result the first decay's."""
     machine.check_known(known)  # before the labelling, which reads the model at the known values
-    found = modal_data(machine, record, known, start, nominal, settings, use_force)
-    if start is None:
-        found = every_decay(machine, record, known, found, name, nominal, settings)
-    si = record.in_si()
-    hits = [modal.hit_summary(si, name) for name in si.forces]
+    found = every_decay(machine, records, known, start, nominal, settings, use_force)
+    hits = []
+    for name, record in records:
+        si = record.in_si()
+        hits += [(f"{name}: " if len(records) > 1 else "") + modal.hit_summary(si, force) for force in si.forces]
     try:
         result = _identify(
             machine, known, found.modes, found.unlabelled, found.warnings, use, root, [*hits, *found.notes]

@@ -742,3 +742,13 @@ def read_record(
 
         return read_tdms(path, ignore, rate)
     return read_csv(path, rate, ignore)
+
+
+def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> list[Record]:
+    """Every run a record file holds, each a record as read_record reads it: a UFF file's runs (the hits of a test
+    exported one after another, a dataset per channel each: uff.read_uff_runs), else the file's one record."""
+    if str(path).lower().endswith((".uff", ".unv")):
+        from mountid.measurement.uff import read_uff_runs  # pyuff is an extra: imported only for UFF files
+
+        return [r if rate is None else with_rate(r, rate) for r in read_uff_runs(path, ignore)]
+    return [read_record(path, rate, ignore)]

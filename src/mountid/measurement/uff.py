@@ -125,9 +125,28 @@ def read_uff(path: str | Path, ignore: Collection[str] = (), run: int | None = N
     the channels ``ignore`` names (a bench's tachometer or microphone: any quantity, function or sampling).
 
     A file of several runs (hits recorded one after another, each a dataset per channel: _runs) is read one
-    ``run`` at a time (1, 2, ...; an error naming the runs where it is not given): read at once, two runs were
-    one record of twice the channels, each pair at one point along one direction with the data of different
-    hits."""
+    ``run`` at a time (1, 2, ...; an error naming the runs where it is not given; read_uff_runs reads each):
+    read at once, two runs were one record of twice the channels, each pair at one point along one direction
+    with the data of different hits."""
+    path, uff, types, runs = _opened(path)
+    return _record(_run(runs, run, path), uff, types, path, ignore)
+
+
+def read_uff_runs(path: str | Path, ignore: Collection[str] = ()) -> list[Record]:
+    """Every run of a UFF file (_runs), each a record as read_uff reads it (one where the file holds one)."""
+    path, uff, types, runs = _opened(path)
+    records = []
+    for k, sets in enumerate(runs, start=1):
+        try:
+            records.append(_record(sets, uff, types, path, ignore))
+        except InputError as err:  # which run, where there are several
+            raise err if len(runs) == 1 else type(err)(err.parameter, f"run {k}: {err.reason}") from None
+    return records
+
+
+def _opened(path: str | Path) -> tuple[Path, pyuff.UFF, list, list[list[dict]]]:
+    """The file at ``path`` read: its path, pyuff's reader, its dataset types and its datasets 58 grouped into
+    runs (_runs); an InputError where it is missing, cut short (_whole) or holds no dataset 58."""
     path = existing_file(path, "record")
     _whole(path)
     uff = pyuff.UFF(str(path))
@@ -135,7 +154,11 @@ def read_uff(path: str | Path, ignore: Collection[str] = (), run: int | None = N
     found = [i for i, t in enumerate(types) if int(t) == 58]
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
-    sets = _run(_runs([_read_set(uff, i, types, path) for i in found]), run, path)
+    return path, uff, types, _runs([_read_set(uff, i, types, path) for i in found])
+
+
+def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Collection[str]) -> Record:
+    """One run's datasets 58 as a record, all but the channels ``ignore`` names (read_uff)."""
     names = _names(sets)
     check_ignored(ignore, names, path.name)
     sets, names = (
@@ -301,8 +324,8 @@ def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     if run is None:
         raise InputError(
             "run",
-            f"{held}, each repeating the response nodes and directions of the first): give the run to read (--run K; "
-            "a campaign lists the file once per run, each with its 'run')",
+            f"{held}, each repeating the response nodes and directions of the first): give the run to read "
+            "(read_uff_runs reads each)",
         )
     if not 1 <= run <= len(runs):
         raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
