@@ -353,10 +353,10 @@ def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
     """Two hits exported one after another, a dataset per channel each (the same response nodes and directions, a
     bench's one description in every ID line 1): read at once they were one record of four channels named
     node1:1#1 ... node2:2#2, a pair at each point with the data of different hits. Each run reads on its own, by
-    its number; without one the runs are named; a CSV holds one run."""
+    its number, or all of them (read_runs); without one read_uff names the runs; a CSV holds one run."""
     import pyuff
 
-    from mountid.measurement.records import read_record
+    from mountid.measurement.records import read_record, read_runs
     from mountid.measurement.uff import dataset_58, read_uff
 
     rec = _record()
@@ -379,8 +379,16 @@ def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
         InputError, match=r"^run: 3: runs.uff holds 2 runs \(datasets 58 of 2, 2 channels\), runs 1 to 2"
     ):
         read_uff(tmp_path / "runs.uff", run=3)
+    every = read_runs(tmp_path / "runs.uff", rate=None)
+    assert len(every) == 2
+    for got, expected in zip(every, (rec, second), strict=True):
+        assert got.names == ("node1:1", "node2:2")
+        np.testing.assert_allclose(got.data, expected.data, rtol=1e-11)
+    with pytest.raises(InputError, match=r"^ignore: run 1: node9:1: no such channel in runs.uff"):
+        read_runs(tmp_path / "runs.uff", ignore=("node9:1",))
     write_csv(rec, tmp_path / "r.csv")
     assert read_record(tmp_path / "r.csv", run=1).names == rec.names
+    assert [r.names for r in read_runs(tmp_path / "r.csv")] == [rec.names]
     with pytest.raises(InputError, match=r"^run: 2: r.csv is a CSV, which holds one run"):
         read_record(tmp_path / "r.csv", run=2)
 
