@@ -475,3 +475,23 @@ def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
         campaign.load(tmp_path / "c.json")
     assert err.value.parameter == "modes" and " [the records also show: " in err.value.reason
     assert "running.csv: steady (all): a pole at 100.0000 rad/s (15.92 Hz) of damping ratio" in err.value.reason
+
+
+@pytest.mark.parametrize(("ratio", "said"), [(0.5, ""), (1.0004, ""), (math.sqrt(2), "1.41 times")])
+def test_a_widening_is_named_where_its_three_digits_show_it(ratio, said):
+    """Two estimates of a mode that scatter ``ratio`` times their standard deviations (the Birge ratio): the means'
+    standard deviations widen by it where it exceeds 1, and the note says so where the widening shows in its three
+    digits (a record of two runs said "the damping ratios 1 times theirs, widened as much" at 1.0004)."""
+    from mountid.identification.combination import combined
+    from mountid.measurement.modes import MeasuredMode
+
+    s, zs = 0.01, 0.001
+    a = MeasuredMode("x", 17.7, s, damping_ratio=0.04, damping_std=zs)
+    b = replace(a, frequency=17.7 + ratio * math.sqrt(2) * s, damping_ratio=0.04 + ratio * math.sqrt(2) * zs)
+    mode, note = combined([(a, "run 1"), (b, "run 2")], a)
+    assert mode.frequency_std == pytest.approx(s / math.sqrt(2) * max(1.0, ratio), rel=1e-9)
+    assert mode.damping_std == pytest.approx(zs / math.sqrt(2) * max(1.0, ratio), rel=1e-9)
+    if said:
+        assert f"the frequencies scatter {said}" in note and f"the damping ratios {said} theirs" in note
+    else:
+        assert note == ""

@@ -155,15 +155,21 @@ def combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> t
     ratios = [(m.damping_ratio, m.damping_std) for m, _ in found if m.damping_ratio is not None and m.damping_std]
     note = (
         f"; the frequencies scatter {widened:.3g} times their stated uncertainty, the mean's widened as much"
-        if widened > 1
+        if _shown(widened)
         else ""
     )
     if len(ratios) > 1:
         zeta, zeta_std, zeta_widened = weighted(ratios)
         mode = replace(mode, damping_ratio=zeta, damping_std=zeta_std)
-        if zeta_widened > 1:
+        if _shown(zeta_widened):
             note += f"; the damping ratios {zeta_widened:.3g} times theirs, widened as much"
     return mode, note
+
+
+def _shown(ratio: float) -> bool:
+    """Whether a Birge ratio widens a mean by what the notes' three digits show: above 1, not printed as "1" (the
+    widening is applied whatever its size; a note of "1 times" said nothing)."""
+    return ratio > 1 and f"{ratio:.3g}" != "1"
 
 
 def weighted(values: list[tuple[float, float]]) -> tuple[float, float, float]:
