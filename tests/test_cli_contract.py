@@ -70,6 +70,14 @@ CASES = [
         "--hit-time: 4 s is at or after the record's end",
     ),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "-0.1"], "--hit-time: must be >= 0 and finite"),
+    # several hits of one hammer: in increasing order, each after the pulse before
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "0.5"], "--hit-time: 0.5 s is not after the hit"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "1.002"], "--hit-time: 1.002 s is not after"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "5"], "--hit-time: 5 s is at or after the"),
+    # a load cell: not under an unbalance, not of a response channel's name (two columns of one name)
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--force-channel", "F", "--speed", "50"], "--force-channel: a rot"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--force-channel", "A_x"], "--force-channel: 'A_x' is a response"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--force-channel", ""], "--force-channel: '' is empty"),
     (["plan", "kid300", "--rate", "1"], "--duration: 4 s at 1 Hz is 4 samples per channel; a record needs at least"),
     # a zero direction named as the option that gave it (was "force.direction", "A.direction")
     (["plan", "kid300", "--hit-direction", "0,0,0"], "--hit-direction: '0,0,0': a direction must not be zero"),

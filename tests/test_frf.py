@@ -156,3 +156,26 @@ def test_identify_record_on_the_command_line_uses_the_force_and_draws_the_freque
     assert "H1" not in out  # each later decay is one too, not the frequency responses of all four hits again
     assert main(["identify-record", "kid300", str(path), "--free-decay", "--start", "0.07"]) == 0
     assert "note: free decay until t = 4.0" in capsys.readouterr().out
+
+
+def test_simulate_writes_several_hits_and_the_hammers_force(tmp_path, capsys):
+    """simulate --hit-time T1 T2 --force-channel F writes the record Rig.simulate gives for those hits with a load
+    cell (the force [N] its last channel), and the records chain fits its modes on the H1 frequency responses of
+    both hits; with --free-decay, on the decay after each."""
+    from mountid.measurement.records import read_record
+
+    path = tmp_path / "hits.csv"
+    argv = ["simulate", "kid300", "--out", str(path), "--duration", "8", "--seed", "2"]
+    assert main([*argv, "--hit-time", "0.05", "4", "--force-channel", "F"]) == 0
+    assert "(A_x, A_y, B_y, A_z, C_x, F)" in capsys.readouterr().out
+    written = read_record(path)
+    rig = Rig.of("kid300")
+    hits = [Hammer(paper_hit().point, paper_hit().direction, 3000.0, time=t) for t in (0.05, 4.0)]
+    sensors = paper_sensors(0.01)
+    expected = rig.simulate(sensors, 8.0, 2000.0, hits, seed=2, force_channel="F")
+    assert written.names == expected.names and written.channels[-1].quantity == "force"
+    np.testing.assert_allclose(written.data, expected.data, rtol=1e-12, atol=1e-12 * np.abs(expected.data).max())
+    assert main(["process", "kid300", str(path)]) == 0
+    assert "modes from the H1 frequency responses of 2 hits on F" in capsys.readouterr().out
+    assert main(["identify-record", "kid300", str(path), "--free-decay"]) == 0
+    assert f"{path}: 2 hits, a free decay after each (from t = 0.07, 4.0" in capsys.readouterr().out

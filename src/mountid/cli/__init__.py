@@ -142,8 +142,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--hit-time",
         type=float,
-        default=0.05,
-        help="when the hit begins [s] from the record's start (later: a pre-trigger, as bench exports keep one)",
+        nargs="+",
+        default=[0.05],
+        metavar="T",
+        help="when the hit begins [s] from the record's start (later: a pre-trigger, as bench exports keep one); "
+        "several times: a hit at each, in one record",
+    )
+    p.add_argument(
+        "--force-channel",
+        metavar="NAME",
+        help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "
+        "records chain then fits the modes on the H1 frequency responses)",
     )
     p.add_argument("--speed", nargs="+", type=float, help="rotating-unbalance speeds [rad/s] instead of a hit")
     add_unbalance(p)

@@ -55,10 +55,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         raise InputError("--seed", f"must be a non-negative integer, got {args.seed}")
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS", strict=False)
     bounded(args.hit_peak, "--hit-peak", HIT_PEAK_LIMIT, " N", strict=False)
-    # a hit later than the record's start is a pre-trigger, as bench exports keep one; at or after its end, none
-    finite_number(args.hit_time, "--hit-time", strict=False)
-    if args.hit_time >= args.duration:
-        raise InputError("--hit-time", f"{args.hit_time:g} s is at or after the record's end ({args.duration:g} s)")
+    _hit_times(args.hit_time, args.duration)
+    if args.force_channel is not None and args.speed:
+        raise InputError("--force-channel", "a rotating unbalance (--speed) has no hammer whose force it would record")
     filled = paper_unbalance(args)  # the paper's eccentric weight where not given, said only under --speed
     check_unbalance(args)
     rig = Rig.of(args.machine, pairs(args.set, "--set"))
@@ -69,10 +68,16 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         from mountid.validation.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
+    force = args.force_channel
+    if force is not None and (not force.strip() or force in {s.name for s in sensors}):
+        what = "a response channel's name" if force.strip() else "empty"
+        raise InputError("--force-channel", f"{force!r} is {what}")
     hit = _hit(args)
-    hammers = [] if args.speed else [replace(hit, peak=args.hit_peak, time=args.hit_time)]
+    hammers = [] if args.speed else [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time]
     unbalances = unbalances_of(args)
-    record = rig.simulate(sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed)
+    record = rig.simulate(
+        sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed, force_channel=args.force_channel
+    )
     kind = WRITERS[out.suffix.lower()]
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
@@ -102,6 +107,25 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
     for note in notes:
         print(f"note: {note}")
+
+
+def _hit_times(times: Sequence[float], duration: float) -> None:
+    """--hit-time's times [s]: each from the record's start (later: a pre-trigger, as bench exports keep one) to
+    before its end (at or after it, none), in increasing order, each after the pulse of the one before (one
+    hammer); an InputError naming the option otherwise."""
+    from mountid.measurement.rig import Hammer
+
+    pulse = Hammer((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)).duration
+    for k, t in enumerate(times):
+        finite_number(t, "--hit-time", strict=False)
+        if t >= duration:
+            raise InputError("--hit-time", f"{t:g} s is at or after the record's end ({duration:g} s)")
+        if k and t <= times[k - 1] + pulse:
+            raise InputError(
+                "--hit-time",
+                f"{t:g} s is not after the hit at {times[k - 1]:g} s and its pulse of {pulse * 1e3:g} ms (one hammer: "
+                "give the times in increasing order)",
+            )
 
 
 WRITERS = {".csv": "csv", ".txt": "csv", ".uff": "uff58", ".unv": "uff58", ".tdms": "tdms"}
