@@ -179,3 +179,21 @@ def test_simulate_writes_several_hits_and_the_hammers_force(tmp_path, capsys):
     assert "modes from the H1 frequency responses of 2 hits on F" in capsys.readouterr().out
     assert main(["identify-record", "kid300", str(path), "--free-decay"]) == 0
     assert f"{path}: 2 hits, a free decay after each (from t = 0.07, 4.0" in capsys.readouterr().out
+
+
+def test_the_hit_summary_names_every_hit():
+    """A record of several hits with a load cell: the note describes each (it described the first alone, beside
+    "the H1 frequency responses of 2 hits"), as ranges over them; one hit, as before; a double hit belongs to its
+    hit."""
+    from mountid.measurement import modal
+
+    rig = _rig()
+    hit, peak = paper_hit(), paper_hit().peak
+    hits = [*_hits(1, 4.0), Hammer(hit.point, hit.direction, peak / 2, hit.duration, 4.05, second_hit=(0.03, 0.6))]
+    record = rig.simulate(paper_sensors(), 8.0, 2000.0, hammers=hits, seed=1, force_channel="F")
+    said = modal.hit_summary(record, "F")
+    assert said.startswith("2 hits on F at t = 0.0510, 4.0510 s: peak ") and " N, 4.5 ms above 5 % of it" in said
+    low, high = (float(v) for v in said.split("peak ")[1].split(" N")[0].split(" to "))
+    assert low == pytest.approx(peak / 2, rel=2e-3) and high == pytest.approx(peak, rel=2e-3)
+    first = rig.simulate(paper_sensors(), 4.0, 2000.0, hammers=hits[:1], seed=1, force_channel="F")
+    assert modal.hit_summary(first, "F").startswith(f"hit on F at t = 0.0510 s: peak {high:.4g} N, 4.5 ms above")

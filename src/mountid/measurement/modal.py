@@ -9,6 +9,7 @@ check of the damping.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -779,22 +780,44 @@ def next_hit_note(end: float, hits: int) -> str:
     )
 
 
-def hit_summary(record: Record, name: str) -> str:
-    """The first hit on the force channel ``name`` [N]: its peak, how long it stays above 5 % of the peak, and
-    its impulse (the integral of the force over that time) [N s]."""
+def hit_summary(record: Record, name: str, settings: RecordSettings = RECORDS) -> str:
+    """The hits on the force channel ``name`` [N] (frf.hit_times: a double hit belongs to its hit): when each
+    begins, its peak, how long it stays above 5 % of the peak, and its impulse (the integral of the force over
+    that time) [N s]; for several hits the range of each over them."""
+    from mountid.measurement.frf import hit_times
+
     f = record.channel(name)
-    top = float(np.max(np.abs(f)))
-    if not top > 0:
+    if not float(np.max(np.abs(f))) > 0:
         return f"{name}: no hit recorded"
-    above = np.abs(f) > 0.05 * top
-    first = int(np.argmax(above))
-    end = first + (int(np.argmin(above[first:])) if not np.all(above[first:]) else len(f) - first)
     dt = 1 / record.rate
-    impulse = float(np.sum(f[first:end]) * dt)
+    starts = np.searchsorted(record.time, hit_times(record, name, settings))
+    bounds = [0, *(max(0, int(k) - round(settings.pretrigger * record.rate)) for k in starts[1:]), len(f)]
+    at, peaks, lengths, impulses = [], [], [], []
+    for lo, hi in itertools.pairwise(bounds):
+        hit = f[lo:hi]
+        top = float(np.max(np.abs(hit)))
+        above = np.abs(hit) > 0.05 * top
+        first = int(np.argmax(above))
+        end = first + (int(np.argmin(above[first:])) if not np.all(above[first:]) else len(hit) - first)
+        at.append(float(record.time[lo + first]))
+        peaks.append(top)
+        lengths.append((end - first) * dt * 1e3)
+        impulses.append(float(np.sum(hit[first:end]) * dt))
+    if len(at) == 1:
+        return (
+            f"hit on {name} at t = {at[0]:.4f} s: peak {peaks[0]:.4g} N, "
+            f"{lengths[0]:.1f} ms above 5 % of it, impulse {impulses[0]:.4g} N s"
+        )
     return (
-        f"hit on {name} at t = {record.time[first]:.4f} s: peak {top:.4g} N, "
-        f"{(end - first) * dt * 1e3:.1f} ms above 5 % of it, impulse {impulse:.4g} N s"
+        f"{len(at)} hits on {name} at t = {', '.join(f'{t:.4f}' for t in at)} s: peak {_span(peaks, '.4g')} N, "
+        f"{_span(lengths, '.1f')} ms above 5 % of it, impulse {_span(impulses, '.4g')} N s"
     )
+
+
+def _span(values: list[float], spec: str) -> str:
+    """The range of ``values`` as the notes print it: one value where both ends print alike, else "a to b"."""
+    low, high = format(min(values), spec), format(max(values), spec)
+    return low if low == high else f"{low} to {high}"
 
 
 def force_quality(
