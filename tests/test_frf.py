@@ -197,3 +197,30 @@ def test_the_hit_summary_names_every_hit():
     assert low == pytest.approx(peak / 2, rel=2e-3) and high == pytest.approx(peak, rel=2e-3)
     first = rig.simulate(paper_sensors(), 4.0, 2000.0, hammers=hits[:1], seed=1, force_channel="F")
     assert modal.hit_summary(first, "F").startswith(f"hit on F at t = 0.0510 s: peak {high:.4g} N, 4.5 ms above")
+
+
+def test_a_start_with_a_force_channel_places_the_checks_and_free_decay_uses_it(tmp_path, capsys):
+    """With a force channel the modes come from H1: a --start there was read as a time of the impulse responses by
+    the sensor check (20 s on a 4 s record: warnings of empty means) and gave a "too_short" warning of -16 s; it is a
+    time of the record, checked against its end and said to place the record's checks only. process takes
+    --free-decay as identify-record does."""
+    from mountid.measurement.rig import Sensor
+
+    rig = _rig()
+    corners = [(sx * 0.4, sy * 0.4, 0.3) for sx, sy in ((1, 1), (-1, 1), (-1, -1))]
+    axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    sensors = [Sensor(f"s{k}{j}", p, d, noise=0.01) for k, p in enumerate(corners) for j, d in enumerate(axes)]
+    seven = [*sensors[:6], sensors[8]]  # their rows span the six motions
+    record = rig.simulate(seven, 8.0, 2000.0, hammers=_hits(2, 4.0), seed=1, force_channel="F")
+    path = tmp_path / "hits.csv"
+    write_csv(record, path)
+    for command in ("process", "identify-record"):
+        assert main([command, "kid300", str(path), "--start", "20"]) == 2
+        assert "--start: 20 s is at or after the record's end (7.9995 s)\n" in capsys.readouterr().err
+    # 5 s: within the record, beyond the impulse responses (3.96 s): the sensor check of seven channels had none
+    assert main(["process", "kid300", str(path), "--start", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "note: the start given (5 s) places the record's checks only: the modes come from the H1" in out
+    assert main(["process", "kid300", str(path), "--start", "0.07", "--free-decay"]) == 0
+    out = capsys.readouterr().out
+    assert "H1" not in out and "note: free decay until t = 4.0" in out

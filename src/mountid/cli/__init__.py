@@ -71,8 +71,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
 
     def add_record_options(p: argparse.ArgumentParser) -> None:
-        """--channel, --ignore, --nominal and --run: where a record's channels sit, which are left unread, the
-        unknowns its poles are labelled at, and which run of a file of several is read."""
+        """The record file and how the records chain reads it (process, identify-record): its free decay's start,
+        the free decay where a force channel would give H1, the sampling rate, where its channels sit, which are
+        left unread, the unknowns its poles are labelled at, and which run of a file of several is read."""
+        p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
+        p.add_argument(
+            "--start",
+            type=float,
+            help="start of the free decay [s] (default 0.07, or 0.03 after the impact the record shows where that "
+            "is later: a pre-trigger; with a force channel, only where the record's checks look, unless --free-decay)",
+        )
+        p.add_argument(
+            "--free-decay",
+            action="store_true",
+            help="fit the free decay after --start even where the record has a force channel (default: H1 from it)",
+        )
+        p.add_argument(
+            "--rate",
+            type=float,
+            help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of "
+            "channels only: every column a channel, from t = 0)",
+        )
         for option, metavar, help_ in (
             (
                 "--channel",
@@ -158,28 +177,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_unbalance(p)
     p.set_defaults(func=cmd_simulate)
     p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
-    p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
-    p.add_argument(
-        "--start",
-        type=float,
-        help="start of the free decay [s] (default 0.07, or 0.03 after the impact the record shows where that is "
-        "later: a pre-trigger; not used with a force channel)",
-    )
-    p.add_argument(
-        "--free-decay",
-        action="store_true",
-        help="fit the free decay after --start even where the record has a force channel (default: H1 from it)",
-    )
     p.add_argument("--figures", help="folder for the spectrum and mode-shape figures")
     p.add_argument("--use", nargs="+", metavar="LABEL", help="fit only these measured modes (default: all found)")
     p.add_argument(
         "--root", metavar="RULE", help="pick between equally good solutions no measured mode decides, e.g. c_z>c_xy"
-    )
-    p.add_argument(
-        "--rate",
-        type=float,
-        help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of channels "
-        "only: every column a channel, from t = 0)",
     )
     add_record_options(p)
     p.set_defaults(func=cmd_identify_record)
@@ -198,19 +199,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
     p.set_defaults(func=cmd_plan)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
-    p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
-    p.add_argument(
-        "--start",
-        type=float,
-        help="start of the free decay [s] (default 0.07, or 0.03 after the impact the record shows where that is "
-        "later: a pre-trigger)",
-    )
-    p.add_argument(
-        "--rate",
-        type=float,
-        help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of channels "
-        "only: every column a channel, from t = 0)",
-    )
     add_record_options(p)
     p.set_defaults(func=cmd_process)
     p = sub.add_parser(

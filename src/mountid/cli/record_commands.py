@@ -307,7 +307,8 @@ def cmd_process(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     runs = read_runs(args.record, args.rate, args.channel, args.ignore, args.run)
     # every decay of every run (a record of several hits, a file of several runs), combined per mode
-    found = every_decay(machine, runs, pairs(args.set, "--set"), args.start, pairs(args.nominal, "--nominal"))
+    known, nominal = pairs(args.set, "--set"), pairs(args.nominal, "--nominal")
+    found = every_decay(machine, runs, known, args.start, nominal, use_force=not args.free_decay)
     out = _modal_json(machine, found.modes, found.unlabelled, found.warnings)
     if args.json:
         print_json({**out, "notes": list(found.notes)})

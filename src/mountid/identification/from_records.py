@@ -1021,6 +1021,12 @@ def modal_data(
     record = full.select(full.responses)
     estimate, notes, end, hits = None, [], None, ()
     if full.forces and use_force:
+        if start is not None:  # a time of the record: its checks look from there, the impulse responses have their own
+            _check_start(record, start, what="")
+            notes.append(
+                f"the start given ({start:g} s) places the record's checks only: the modes come from the H1 frequency "
+                f"responses on {full.forces[0]} (without the force channel, --free-decay: the free decay from there)"
+            )
         estimate = frf.h1(full, full.forces[0], settings)
         fitted = estimate.impulse_responses()
         _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)
@@ -1058,7 +1064,8 @@ def modal_data(
     segment = None if estimate is not None else start
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
-        sensor = inconsistent_channel(machine, source[0], start)
+        # over the free decay from its start, or the impulse responses from the start the free decay has by default
+        sensor = inconsistent_channel(machine, source[0], start if estimate is None else modal.DEFAULT_START)
         warnings += [sensor] if sensor is not None else []
     # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label
     damped = [p for p in poles if not modal.is_steady(p, settings)]
@@ -1171,15 +1178,10 @@ def _check_length(
     enough from its beginning (the start is past it, not the record too short), is an error naming the start.
     ``next_hit`` [s]: where the record, cut there (modal.free_decay), holds another hit: too short, the hits are
     too close, not the record."""
-    if not math.isfinite(start):
-        raise InputError("start", f"must be a finite time [s], got {start}")
     length = float(record.time[-1]) - max(start, float(record.time[0]))
     periods = max(length, 0.0) * lowest / (2 * np.pi)
     whole = (float(record.time[-1]) - float(record.time[0])) * lowest / (2 * np.pi)
-    if start >= float(record.time[-1]) and whole >= settings.min_periods:
-        raise InputError(
-            "start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s): no free decay"
-        )
+    _check_start(record, start, whole >= settings.min_periods)
     if periods < settings.min_periods:
         decay = settings.min_periods * 2 * np.pi / lowest
         if next_hit is None:
@@ -1193,6 +1195,15 @@ def _check_length(
             f"too short: {max(length, 0.0):.3g} s of free decay {span} holds {periods:.1f} periods of the lowest "
             f"mode ({lowest:.4g} rad/s); at least {settings.min_periods:g} are needed: {advice}",
         )
+
+
+def _check_start(record: Record, start: float, past_end: bool = True, what: str = ": no free decay") -> None:
+    """An InputError naming the start [s] where it is not finite (NaN passed every comparison and failed in the
+    pencil), or (``past_end``) at or after the record's last sample (``what``: what that leaves none of)."""
+    if not math.isfinite(start):
+        raise InputError("start", f"must be a finite time [s], got {start}")
+    if past_end and start >= float(record.time[-1]):
+        raise InputError("start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s){what}")
 
 
 def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
