@@ -269,6 +269,26 @@ def test_clipping_under_noise_is_named():
     assert kinds == [("clipping", "b")]
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_a_smooth_peak_of_a_slow_mode_is_not_clipping_and_a_flat_one_is(seed):
+    """A channel at 2 kHz that kid300's lowest mode fills (700 samples a period) stays within 4 noise deviations of
+    its top on several samples at 1 % noise: it was "clipped" in every seed (a hammer record with a force channel,
+    hits at 0.05 s and 4.05 s). The samples held at the top are counted against what a smooth peak of the lobe's
+    width holds (modal.clipped_level); the same channel saturated at 60 % of its peak is still named."""
+    from mountid.validation.paper import paper_hit
+
+    hit = paper_hit()
+    hits = [Hammer(hit.point, hit.direction, hit.peak, hit.duration, t) for t in (0.05, 4.05)]
+    slow = [Sensor("z", (-0.4, 0.4, 0.3), (0.0, 0.0, 1.0), noise=0.01), Sensor("x", (-0.4, -0.4, -0.2), (1, 0, 0))]
+    record = _rig().simulate(slow, 8.0, 2000.0, hammers=hits, seed=seed)
+    assert modal.hammer_test_quality(record, 17.7, 0.07, highest_frequency=64.1, impacts=False) == []
+    peak = float(np.abs(record.channel("z")).max())
+    saturated = [Sensor("z", (-0.4, 0.4, 0.3), (0.0, 0.0, 1.0), noise=0.01, clip=0.6 * peak), slow[1]]
+    clipped = _rig().simulate(saturated, 8.0, 2000.0, hammers=hits, seed=seed)
+    kinds = [(w.kind, w.channel) for w in modal.hammer_test_quality(clipped, 17.7, 0.07, 64.1, impacts=False)]
+    assert kinds == [("clipping", "z")]
+
+
 def test_clipping_is_reported_when_the_run_stops_for_another_reason(capsys, tmp_path):
     """The paper's three channels, clipped and noisy: the run stops (a mode asked for is not found) and the
     clipping is in its message."""

@@ -624,24 +624,43 @@ def find_bursts(x: NDArray, height: float, distance: int, prominence: float) -> 
 
 
 def clipped_level(y: NDArray, settings: RecordSettings = RECORDS, step: int = 1) -> float | None:
-    """The level a channel was clipped at, or None: settings.clip_samples or more consecutive samples held
-    at the channel's extreme within 4 noise standard deviations (an exact flat top, or one the noise added
-    after the saturation roughens; the noise from the first difference late in the record), among every
-    ``step``-th sample (clip_step)."""
+    """The level a channel was clipped at, or None, among every ``step``-th sample (clip_step): in a lobe of the
+    signal around its extreme (the samples beyond half the largest value, on one side), settings.clip_samples or
+    more samples held at that value, and more than twice as many as a smooth peak of the lobe's width holds there,
+    plus one (_smooth_band). Held: within 4 noise standard deviations (the noise from the first difference late in
+    the record: a flat top the noise added after the saturation roughens), or within the record's resolution (its
+    smallest step between values: an exact flat top, however noisy the rest). A smooth peak sampled finely stays
+    within the noise of its top on several samples too (a channel at 2 kHz that the lowest mode fills, 700 samples
+    a period, was "clipped" at 1 % noise), and the noise splits a flat top's run of samples in pieces: the samples
+    are counted over the lobe, not in one run."""
     y = np.asarray(y, dtype=float)[::step]
     a = np.abs(y)
     top = float(a.max())
     if not top > 0:
         return None
     tail = np.diff(y[-max(len(y) // 4, 8) :])
-    noise = float(np.median(np.abs(tail - np.median(tail)))) * 1.4826 / math.sqrt(2)
-    near = a >= top - max(1e-9 * top, 4 * noise)
-    # the longest run of consecutive samples near the extreme, on one side
-    key = np.where(near, np.sign(y), 0.0)
+    noise = max(float(np.median(np.abs(tail - np.median(tail)))) * 1.4826 / math.sqrt(2), 1e-9 * top)
+    steps = np.diff(np.unique(y))
+    resolution = max(float(steps[steps > 0].min(initial=top)), 1e-9 * top)
+    # the lobes: runs of samples beyond half the extreme, on one side
+    key = np.where(a > 0.5 * top, np.sign(y), 0.0)
     bounds = np.concatenate([[0], np.flatnonzero(np.diff(key) != 0) + 1, [len(key)]])
-    lengths, values = np.diff(bounds), key[bounds[:-1]]
-    best = int(lengths[values != 0].max(initial=0))
-    return top if best >= settings.clip_samples else None
+    for start, end in itertools.pairwise(bounds):
+        if key[start] == 0:
+            continue
+        side = np.sign(y[start:end]) == key[start]
+        for band in (4 * noise, resolution):
+            held = int(np.count_nonzero((a[start:end] >= top - band) & side))
+            if held >= settings.clip_samples and held > 2 * _smooth_band(end - start, band / top) + 1:
+                return top
+    return None
+
+
+def _smooth_band(lobe: int, band: float) -> float:
+    """How many samples a smooth peak stays within ``band`` (relative to its value) of its top, for a lobe of
+    ``lobe`` samples beyond half that value: a sinusoid's (its lobe a third of its period T; within the band for
+    T / pi x sqrt(2 band))."""
+    return 3 * lobe / np.pi * math.sqrt(2 * band)
 
 
 def impact_bursts(record: Record, settings: RecordSettings = RECORDS) -> NDArray[np.intp]:
