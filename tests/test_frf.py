@@ -4,6 +4,9 @@ cannot use (several hits in one record, a double hit) giving modes within their 
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -224,3 +227,39 @@ def test_a_start_with_a_force_channel_places_the_checks_and_free_decay_uses_it(t
     assert main(["process", "kid300", str(path), "--start", "0.07", "--free-decay"]) == 0
     out = capsys.readouterr().out
     assert "H1" not in out and "note: free decay until t = 4.0" in out
+
+
+def test_a_roving_hammer_export_is_read_as_runs(tmp_path, capsys):
+    """A roving-hammer test exported to one UFF file: each run the same response nodes and directions, the force at
+    the node hit (node 100, then 101), a bench's one description in every ID line 1. Read as one record it was ten
+    responses, half of them of the other hit, divided by the first hit's force (MAC of phi 0.53, psi 0.69, no
+    word of the second force channel); each run is a record of its own now, combined per mode. A record of two
+    force channels says which one its H1 is of."""
+    import pyuff
+
+    from mountid.measurement.records import read_runs
+    from mountid.measurement.uff import write_uff
+
+    rig, sets, records = Rig.of("kid300"), [], []
+    for k, point in enumerate(((0.4, 0.3, 0.3), (-0.4, 0.3, 0.3))):
+        record = rig.simulate(paper_sensors(), 4.0, 2000.0, [Hammer(point, (1, 0.7, -0.6))], seed=k, force_channel="F")
+        write_uff(record, tmp_path / f"run{k}.uff")
+        run = pyuff.UFF(str(tmp_path / f"run{k}.uff")).read_sets()
+        run[-1]["rsp_node"] = 100 + k
+        sets += [{**s, "id1": "Time Response"} for s in run]
+        records.append(record)
+    pyuff.UFF(str(tmp_path / "roving.uff")).write_sets(sets, mode="add")
+    runs = read_runs(tmp_path / "roving.uff")
+    assert [r.names[-1] for r in runs] == ["node100:0", "node101:0"]
+    for got, expected in zip(runs, records, strict=True):
+        np.testing.assert_allclose(got.data, expected.data, rtol=1e-11, atol=1e-12 * np.abs(expected.data).max())
+    assert main(["process", "kid300", str(tmp_path / "roving.uff"), "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)["modes"]
+    assert set(modes) == {"x", "z", "phi", "psi"} and all(m["mac"] > 0.99 for m in modes.values())
+    both = Record(
+        records[0].time,
+        np.column_stack([records[0].data, records[1].data[:, -1]]),
+        (*records[0].channels, replace(records[1].channels[-1], name="G")),
+    )
+    found = modal_data(rig.machine, both, {})
+    assert "1 force channel not used (G): the H1 frequency responses are of one input, F" in found.notes

@@ -368,7 +368,7 @@ def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
     ]
     pyuff.UFF(str(tmp_path / "runs.uff")).write_sets(sets, mode="add")
     with pytest.raises(
-        InputError, match=r"^run: runs.uff holds 2 runs \(datasets 58 of 2, 2 channels, each repeating the response"
+        InputError, match=r"^run: runs.uff holds 2 runs \(datasets 58 of 2, 2 channels, a run beginning where a"
     ):
         read_uff(tmp_path / "runs.uff")
     for run, expected in ((1, rec), (2, second)):

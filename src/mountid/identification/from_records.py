@@ -1027,6 +1027,11 @@ def modal_data(
                 f"the start given ({start:g} s) places the record's checks only: the modes come from the H1 frequency "
                 f"responses on {full.forces[0]} (without the force channel, --free-decay: the free decay from there)"
             )
+        if len(full.forces) > 1:  # one input: the others' hits are not divided out (a roving hammer: its runs)
+            notes.append(
+                f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "
+                f"frequency responses are of one input, {full.forces[0]}"
+            )
         estimate = frf.h1(full, full.forces[0], settings)
         fitted = estimate.impulse_responses()
         _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)

@@ -4,7 +4,8 @@ One dataset 58 per channel: a time response (function type 1, or 0 over time), r
 frequency response function, a spectrum or complex data is an error naming the channel, and a label that says
 NONE (what writers put in an empty one) is empty. A channel of a quantity mountid does not read (ordinate type:
 a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). A file
-of several runs (the hits of a test one after another, a dataset per channel each) is read one run at a time.
+of several runs (the hits of a test one after another, a dataset per channel each; a roving test's, where a node and
+direction recurs) is read one run at a time.
 The channel name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
 axis (+-1, 2, 3) when the direction lies along one, 0 otherwise. Files from other software read too: a
@@ -300,7 +301,10 @@ def _whole(path: Path, window: int = 256) -> None:
 def _runs(sets: list[dict]) -> list[list[dict]]:
     """A file's datasets 58 grouped into runs: where the response nodes and directions of its datasets (node > 0)
     repeat one sequence of distinct ones, each repetition is a run, as a bench exports the hits of a test one after
-    another; otherwise the file is one run (a node and direction that recurs elsewhere is a channel of its own)."""
+    another; where a new run begins at each node and direction that recurs, and the runs so parted are of one size,
+    each is a run too (a roving test: the hammer's force at another node in each run, or one accelerometer moved
+    beside a fixed reference; read as one record, the responses of one run were taken as the other's, its force
+    unused); otherwise the file is one run (a node and direction that recurs elsewhere is a channel of its own)."""
     keys = [(int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)) for s in sets]
     for size in range(1, len(keys) // 2 + 1):
         period = keys[:size]
@@ -311,7 +315,15 @@ def _runs(sets: list[dict]) -> list[list[dict]]:
             and keys == period * (len(keys) // size)
         ):
             return [sets[k : k + size] for k in range(0, len(sets), size)]
-    return [sets]
+    runs: list[list[dict]] = [[]]
+    seen: set[tuple[int, int]] = set()
+    for s, key in zip(sets, keys, strict=True):
+        if key[0] > 0 and key in seen:
+            runs.append([])
+            seen = set()
+        runs[-1].append(s)
+        seen.add(key)
+    return runs if len(runs) > 1 and len({len(r) for r in runs}) == 1 else [sets]
 
 
 def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
@@ -324,7 +336,7 @@ def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     if run is None:
         raise InputError(
             "run",
-            f"{held}, each repeating the response nodes and directions of the first): give the run to read "
+            f"{held}, a run beginning where a response node and direction recurs): give the run to read "
             "(read_uff_runs reads each)",
         )
     if not 1 <= run <= len(runs):
