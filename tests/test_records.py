@@ -384,6 +384,11 @@ def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
     for got, expected in zip(every, (rec, second), strict=True):
         assert got.names == ("node1:1", "node2:2")
         np.testing.assert_allclose(got.data, expected.data, rtol=1e-11)
+    # exported channel by channel (node 1's hits, then node 2's): the k-th dataset of each is run k
+    pyuff.UFF(str(tmp_path / "by_channel.uff")).write_sets([sets[0], sets[2], sets[1], sets[3]], mode="add")
+    for got, expected in zip(read_runs(tmp_path / "by_channel.uff"), (rec, second), strict=True):
+        assert got.names == ("node1:1", "node2:2")
+        np.testing.assert_allclose(got.data, expected.data, rtol=1e-11)
     with pytest.raises(InputError, match=r"^ignore: run 1: node9:1: no such channel in runs.uff"):
         read_runs(tmp_path / "runs.uff", ignore=("node9:1",))
     write_csv(rec, tmp_path / "r.csv")

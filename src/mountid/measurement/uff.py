@@ -301,20 +301,22 @@ def _whole(path: Path, window: int = 256) -> None:
 def _runs(sets: list[dict]) -> list[list[dict]]:
     """A file's datasets 58 grouped into runs: where the response nodes and directions of its datasets (node > 0)
     repeat one sequence of distinct ones, each repetition is a run, as a bench exports the hits of a test one after
-    another; where a new run begins at each node and direction that recurs, and the runs so parted are of one size,
-    each is a run too (a roving test: the hammer's force at another node in each run, or one accelerometer moved
-    beside a fixed reference; read as one record, the responses of one run were taken as the other's, its force
-    unused); otherwise the file is one run (a node and direction that recurs elsewhere is a channel of its own)."""
+    another; where each node and direction occurs as often as every other, in another order (a channel's hits one
+    after another, then the next channel's), run k holds the k-th dataset of each; where a new run begins at each
+    node and direction that recurs, and the runs so parted are of one size, each is a run too (a roving test: the
+    hammer's force at another node in each run, or one accelerometer moved beside a fixed reference; read as one
+    record, the responses of one run were taken as the other's, its force unused); otherwise the file is one run
+    (a node and direction that recurs elsewhere is a channel of its own)."""
     keys = [(int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)) for s in sets]
-    for size in range(1, len(keys) // 2 + 1):
-        period = keys[:size]
-        if (
-            len(keys) % size == 0
-            and all(node > 0 for node, _ in period)
-            and len(set(period)) == size
-            and keys == period * (len(keys) // size)
-        ):
-            return [sets[k : k + size] for k in range(0, len(sets), size)]
+    counts = {keys.count(key) for key in keys}
+    if len(counts) == 1 and (times := counts.pop()) > 1 and all(node > 0 for node, _ in keys):
+        # the k-th dataset of each node and direction (one after another: a repeated sequence, each run in turn)
+        occurrence: list[int] = []
+        before: dict[tuple[int, int], int] = {}
+        for key in keys:
+            occurrence.append(before.get(key, 0))
+            before[key] = occurrence[-1] + 1
+        return [[s for s, k in zip(sets, occurrence, strict=True) if k == run] for run in range(times)]
     runs: list[list[dict]] = [[]]
     seen: set[tuple[int, int]] = set()
     for s, key in zip(sets, keys, strict=True):
