@@ -137,7 +137,7 @@ def test_a_file_without_waveform_timing_reads_by_its_time_channel_or_the_rate_gi
         InputError, match=r"^record: text.tdms is not a TDMS file \(it does not begin with a TDMS segment\)"
     ):
         read_record(tmp_path / "text.tdms")
-    with pytest.raises(InputError, match=r"^run: 2: bare.tdms is a TDMS file, which holds one run"):
+    with pytest.raises(InputError, match=r"^run: 2: bare.tdms is a TDMS file of one run"):
         read_record(tmp_path / "bare.tdms", 500.0, run=2)
 
 
@@ -150,3 +150,32 @@ def test_a_tdms_file_cut_short_is_named(hit, tmp_path):
         (tmp_path / "cut.tdms").write_bytes(whole[:end])
         with pytest.raises(InputError, match=r"^record: cut.tdms ends inside a segment \(an interrupted copy"):
             read_record(tmp_path / "cut.tdms")
+
+
+def test_groups_of_the_same_channels_are_runs(hit, tmp_path, capsys):
+    """A logger that writes each hit to a group of its own ("Hit 1", "Hit 2", the same channels): read as one record
+    it was each channel twice ("Hit 1/A_x" beside "Hit 2/A_x", the data of different hits, as one record's
+    channels). Each group is a run, read one at a time or every one (read_runs), combined per mode by process."""
+    from mountid.cli import main
+    from mountid.measurement.records import read_runs
+
+    other = Rig.of("kid300").simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], seed=2)
+    placed = [
+        {"mountid_point": ",".join(map(str, c.point)), "mountid_direction": ",".join(map(str, c.direction))}
+        for c in hit.channels
+    ]
+    groups = [
+        (f"Hit {k}", c.name, r.data[:, j], {**_waveform(500.0, "m/s^2"), **placed[j]})
+        for k, r in ((1, hit), (2, other))
+        for j, c in enumerate(r.channels)
+    ]
+    path = _write(tmp_path / "hits.tdms", groups)
+    with pytest.raises(InputError, match=r"^run: hits.tdms holds 2 runs \(groups Hit 1, Hit 2, each of the same"):
+        read_record(path)
+    runs = read_runs(path)
+    assert [r.names for r in runs] == [hit.names, hit.names] and read_record(path, run=2).names == hit.names
+    for got, expected in zip(runs, (hit, other), strict=True):
+        np.testing.assert_array_equal(got.data, expected.data)
+    assert main(["process", "kid300", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"kid300: 4 modes from {path} (2 runs)\n") and f"from {path} run 1, {path} run 2" in out

@@ -115,7 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
             "--run",
             type=int,
             metavar="K",
-            help="which run of a UFF file of several (hits exported one after another, a dataset per channel each) "
+            help="which run of a UFF or TDMS file of several (hits exported one after another, a dataset per channel "
+            "or a group each) "
             "to read: 1, 2, ...; without it, every run, combined per mode",
         )
 

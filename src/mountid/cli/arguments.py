@@ -223,7 +223,7 @@ def read_runs(
     run: int | None = None,
 ) -> list[tuple[str, Record]]:
     """The records of the file at ``path``, each with its name in notes (as read_record takes the options): the
-    run --run gives ("PATH run K"), else every run of a UFF file of several ("PATH run 1", ...), else the file's
+    run --run gives ("PATH run K"), else every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's
     one record (PATH)."""
     from mountid.measurement.records import read_runs as read
 

@@ -119,7 +119,7 @@ class RecordSource:
     ignore: tuple[str, ...] = ()
     """Names of channels left unread (a tachometer, a microphone: records.read_csv)."""
     run: int | None = None
-    """Which run of a UFF file of several (uff.read_uff; None: every run, each a record of its own)."""
+    """Which run of a UFF or TDMS file of several (records.read_record; None: every run, each a record of its own)."""
 
     @property
     def name(self) -> str:
@@ -795,7 +795,7 @@ def _modes_from_records(
 
 def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Record]]:
     """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
-    the run it gives), or where it gives none, every run of a UFF file of several ("NAME run K"). An InputError
+    the run it gives), or where it gives none, every run of a UFF or TDMS file of several ("NAME run K"). An InputError
     names the entry (``where``.``i``)."""
     from mountid.measurement.records import read_record, read_runs, with_geometry
 

@@ -727,28 +727,33 @@ def read_record(
 ) -> Record:
     """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff), TDMS (.tdms,
     mountid.measurement.tdms) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
-    ``run`` as in read_uff (a CSV or TDMS file holds one)."""
+    ``run`` as in read_uff and read_tdms (a CSV holds one)."""
     kind = str(path).lower()
     if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff  # pyuff is an extra: imported only for UFF files
 
         record = read_uff(path, ignore, run)
         return record if rate is None else with_rate(record, rate)
-    if run not in (None, 1):
-        what = "a TDMS file" if kind.endswith(".tdms") else "a CSV"
-        raise InputError("run", f"{run}: {Path(path).name} is {what}, which holds one run")
     if kind.endswith(".tdms"):
         from mountid.measurement.tdms import read_tdms  # npTDMS is an extra: imported only for TDMS files
 
-        return read_tdms(path, ignore, rate)
+        return read_tdms(path, ignore, rate, run)
+    if run not in (None, 1):
+        raise InputError("run", f"{run}: {Path(path).name} is a CSV, which holds one run")
     return read_csv(path, rate, ignore)
 
 
 def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> list[Record]:
     """Every run a record file holds, each a record as read_record reads it: a UFF file's runs (the hits of a test
-    exported one after another, a dataset per channel each: uff.read_uff_runs), else the file's one record."""
-    if str(path).lower().endswith((".uff", ".unv")):
+    exported one after another, a dataset per channel each: uff.read_uff_runs), a TDMS file's (groups of the same
+    channels: tdms.read_tdms_runs), else the file's one record."""
+    kind = str(path).lower()
+    if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff_runs  # pyuff is an extra: imported only for UFF files
 
         return [r if rate is None else with_rate(r, rate) for r in read_uff_runs(path, ignore)]
+    if kind.endswith(".tdms"):
+        from mountid.measurement.tdms import read_tdms_runs
+
+        return read_tdms_runs(path, ignore, rate)
     return [read_record(path, rate, ignore)]

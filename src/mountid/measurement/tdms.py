@@ -1,17 +1,17 @@
 """Records in National Instruments' TDMS format (LabVIEW, FlexLogger, DAQExpress), read by npTDMS.
 
-A TDMS file holds groups of channels. Every channel that holds data, in any group, is a channel of the record,
-named by its channel name ("group/channel" where two groups share one); its unit is its ``unit_string`` property
-(records.UNITS: the unit gives the quantity; a channel that states none is an acceleration in m/s^2, as a CSV's
-bare column). The time comes from the waveform properties NI's DAQ channels carry, ``wf_increment`` [s] and
-``wf_start_offset`` [s]; where they are absent, from a channel named as a time (records.TIME_NAMES: seconds, or
-LabVIEW timestamps as seconds from the first), else from the sampling rate given. A channel of another sampling
-or length (a temperature logged at 10 Hz beside accelerations at 2 kHz), of text, or in a unit mountid does not
-read is named with how to leave it out (``ignore``). A bench's TDMS file carries no geometry: its channels are
-placed with records.with_geometry (--channel, a campaign record's ``channels``), as a plain CSV's. mountid's own
-(write_tdms) gives each channel its point [m] and direction in the properties ``mountid_point`` and
-``mountid_direction`` ("x,y,z"), read back with it.
-"""
+A TDMS file holds groups of channels. Every channel that holds data, in any group, is a channel of the record, named
+by its channel name ("group/channel" where two groups share one), but where every group holds channels of the same
+names: then each group is a run of its own (a logger's hits, a group each), read one at a time. A channel's unit is
+its ``unit_string`` property (records.UNITS: the unit gives the quantity; a channel that states none is an
+acceleration in m/s^2, as a CSV's bare column). The time comes from the waveform properties NI's DAQ channels carry,
+``wf_increment`` [s] and ``wf_start_offset`` [s]; where they are absent, from a channel named as a time
+(records.TIME_NAMES: seconds, or LabVIEW timestamps as seconds from the first), else from the sampling rate given. A
+channel of another sampling or length (a temperature logged at 10 Hz beside accelerations at 2 kHz), of text, or in
+a unit mountid does not read is named with how to leave it out (``ignore``). A bench's TDMS file carries no
+geometry: its channels are placed with records.with_geometry (--channel, a campaign record's ``channels``), as a
+plain CSV's. mountid's own (write_tdms) gives each channel its point [m] and direction in the properties
+``mountid_point`` and ``mountid_direction`` ("x,y,z"), read back with it."""
 
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ from mountid.measurement.records import (
     sampled_at,
     uniform_time,
 )
+from mountid.nomenclature import counted
 
 LEAD_IN = 28
 """Bytes of a TDMS segment's lead-in: the tag "TDSm", the table of contents, the version and two offsets."""
@@ -49,9 +50,54 @@ SAMPLING_RTOL = 1e-9
 """Relative difference of two channels' wf_increment within which they share one sampling."""
 
 
-def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None = None) -> Record:
+def read_tdms(
+    path: str | Path, ignore: Collection[str] = (), rate: float | None = None, run: int | None = None
+) -> Record:
     """Read the channels of a TDMS file as one record (they must share their sampling), all but those ``ignore``
-    names; ``rate`` [Hz]: the sampling rate, which replaces the file's timing (and gives one to a file without)."""
+    names; ``rate`` [Hz]: the sampling rate, which replaces the file's timing (and gives one to a file without).
+    A file of several runs (_runs: groups of the same channels, a hit each) is read one ``run`` at a time (1, 2,
+    ...; an error naming the runs where it is not given; read_tdms_runs reads each)."""
+    path, runs = _opened(path)
+    if run in (None, 1) and len(runs) == 1:
+        return _record(runs[0][1], path, ignore, rate)
+    if len(runs) == 1:
+        raise InputError("run", f"{run}: {path.name} is a TDMS file of one run")
+    held = f"{path.name} holds {counted(len(runs), 'run')} (groups {', '.join(name for name, _ in runs)}"
+    if run is None:
+        raise InputError("run", f"{held}, each of the same channels): give the run to read (read_tdms_runs reads each)")
+    if not 1 <= run <= len(runs):
+        raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
+    return _record(runs[run - 1][1], path, ignore, rate)
+
+
+def read_tdms_runs(path: str | Path, ignore: Collection[str] = (), rate: float | None = None) -> list[Record]:
+    """Every run of a TDMS file (_runs), each a record as read_tdms reads it (one where the file holds one)."""
+    path, runs = _opened(path)
+    records = []
+    for k, (_, found) in enumerate(runs, start=1):
+        try:
+            records.append(_record(found, path, ignore, rate))
+        except InputError as err:  # which run, where there are several
+            raise err if len(runs) == 1 else type(err)(err.parameter, f"run {k}: {err.reason}") from None
+    return records
+
+
+def _runs(found: list[tuple[str, nptdms.TdmsChannel]]) -> list[tuple[str, list[tuple[str, nptdms.TdmsChannel]]]]:
+    """The (group, channel) pairs with data grouped into runs, each with its name: where two groups or more hold
+    channels of the same names, each group is a run (a logger's hits, a group each; read as one record, each
+    channel's hits were channels of their own, "Hit 1/ai0" beside "Hit 2/ai0"); otherwise one run of them all."""
+    groups: dict[str, list[tuple[str, nptdms.TdmsChannel]]] = {}
+    for group, channel in found:
+        groups.setdefault(group, []).append((group, channel))
+    names = {frozenset(c.name for _, c in members) for members in groups.values()}
+    if len(groups) > 1 and len(names) == 1:
+        return list(groups.items())
+    return [("", found)]
+
+
+def _opened(path: str | Path) -> tuple[Path, list[tuple[str, list[tuple[str, nptdms.TdmsChannel]]]]]:
+    """The TDMS file at ``path`` read: its path and its channels with data in runs (_runs); an InputError where it
+    is missing, not a TDMS file, cut short, or holds no channel with data."""
     path = existing_file(path, "record")
     with path.open("rb") as f:
         lead = f.read(LEAD_IN)
@@ -77,6 +123,13 @@ def read_tdms(path: str | Path, ignore: Collection[str] = (), rate: float | None
     found = [(group.name, channel) for group in tdms.groups() for channel in group.channels() if len(channel)]
     if not found:
         raise InputError("record", f"{path.name} holds no channel with data")
+    return path, _runs(found)
+
+
+def _record(
+    found: list[tuple[str, nptdms.TdmsChannel]], path: Path, ignore: Collection[str], rate: float | None
+) -> Record:
+    """One run's channels (group, channel) as a record, all but those ``ignore`` names (read_tdms)."""
     counts = Counter(channel.name for _, channel in found)
     named = [(c.name if counts[c.name] == 1 else f"{group}/{c.name}", c) for group, c in found]
     names = [name for name, _ in named]
