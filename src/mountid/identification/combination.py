@@ -271,7 +271,7 @@ def every_decay(
     settings: RecordSettings = RECORDS,
     use_force: bool = True,
 ) -> ModalData:
-    """The modal data of one test's records, each named (a record file, or the runs of a UFF file of several), from
+    """The modal data of one test's records, each named (a record file, or the runs of a UFF or TDMS file), from
     every decay they hold (decays_of), combined per mode (combine). One record of several that gives no mode is left
     out with a note. Returns the modes, the poles left unlabelled in any decay (by frequency), every decay's
     warnings (named by the decay, ``record``, but for a lone record's first), the notes (every_hit's, each decay's

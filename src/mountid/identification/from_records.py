@@ -1285,7 +1285,7 @@ def identify_from_records(
     root: str | None = None,
     use_force: bool = True,
 ) -> Identification:
-    """identify_from_record on several records of one test, each named (the runs of a UFF file of several): their
+    """identify_from_record on several records of one test, each named (the runs of a UFF or TDMS file): their
     modes combined per mode (combination.every_decay), then identified as one record's; the frequency responses,
     start and end of the result the first decay's."""
     machine.check_known(known)  # before the labelling, which reads the model at the known values
