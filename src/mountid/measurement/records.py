@@ -294,7 +294,7 @@ def write_csv(record: Record, path: str | Path) -> None:
     lines += [f"# channel {json.dumps(asdict(c))}" for c in record.channels]
     lines.append(",".join(("time", *record.names)))
     table = np.column_stack([record.time, record.data])
-    body = "\n".join(",".join(repr(float(v)) for v in row) for row in table)
+    body = "\n".join(",".join(map(repr, row)) for row in table.tolist())  # Python floats: their shortest repr
     Path(path).write_text("\n".join(lines) + "\n" + body + "\n", encoding="utf-8")
 
 
