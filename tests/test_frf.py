@@ -263,3 +263,22 @@ def test_a_roving_hammer_export_is_read_as_runs(tmp_path, capsys):
     )
     found = modal_data(rig.machine, both, {})
     assert "1 force channel not used (G): the H1 frequency responses are of one input, F" in found.notes
+
+
+def test_channels_at_one_place_are_named():
+    """Two runs of a file the reader cannot part (of different sizes) read as one record: each channel has a twin of
+    the other hit at its point and direction, and the mode shapes mix the hits. The records chain names them (a
+    spare sensor measures so too); a record of distinct placements has no such warning."""
+    from mountid.measurement import modal
+
+    rig = _rig()
+    first = rig.simulate(paper_sensors(), 4.0, 2000.0, hammers=_hits(1, 4.0), seed=1)
+    second = rig.simulate(paper_sensors()[:2], 4.0, 2000.0, hammers=_hits(1, 4.0), seed=2)
+    twins = tuple(replace(c, name=f"{c.name}#2") for c in second.channels)
+    both = Record(first.time, np.column_stack([first.data, second.data]), (*first.channels, *twins))
+    found = modal_data(rig.machine, both, TABLE_1)
+    [said] = [w for w in found.warnings if w.kind == "same_place"]
+    assert said.channel == "A_x, A_x#2, A_y, A_y#2"
+    assert said.message.startswith("A_x and A_x#2; A_y and A_y#2 measure at one point along one direction each")
+    assert modal.same_place(first) == []
+    assert not any(w.kind == "same_place" for w in modal_data(rig.machine, first, TABLE_1).warnings)

@@ -1068,6 +1068,7 @@ def modal_data(
     )
     segment = None if estimate is not None else start
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
+    warnings += modal.same_place(record)
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         # over the free decay from its start, or the impulse responses from the start the free decay has by default
         sensor = inconsistent_channel(machine, source[0], start if estimate is None else modal.DEFAULT_START)

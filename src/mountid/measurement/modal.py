@@ -839,6 +839,31 @@ def _span(values: list[float], spec: str) -> str:
     return low if low == high else f"{low} to {high}"
 
 
+def same_place(record: Record) -> list[QualityWarning]:
+    """A warning (none or one) naming the channels of ``record`` placed two or more at one point [m] along one
+    direction (within 1e-9): one acquisition measures that motion twice (a spare sensor), but two hits' records read
+    as one (the runs of a file the reader did not part: uff._runs) give each channel a twin of another hit, and their
+    mode shapes mix the hits."""
+    placed: dict[tuple[float, ...], list[str]] = {}
+    for c in record.channels:
+        where = (*c.point, *c.direction)
+        if np.all(np.isfinite(where)):
+            placed.setdefault(tuple(round(v, 9) + 0.0 for v in where), []).append(c.name)
+    twins = [names for names in placed.values() if len(names) > 1]
+    if not twins:
+        return []
+    return [
+        QualityWarning(
+            "same_place",
+            ", ".join(n for names in twins for n in names),
+            "; ".join(" and ".join(names) for names in twins)
+            + " measure at one point along one direction each: a spare sensor, or the records of different hits "
+            "read as one (the runs of a file taken as one record: export each run to a file of its own), whose mode "
+            "shapes mix the hits",
+        )
+    ]
+
+
 def force_quality(
     record: Record, name: str, start: float | None, settings: RecordSettings = RECORDS
 ) -> list[QualityWarning]:
