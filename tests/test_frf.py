@@ -182,6 +182,10 @@ def test_simulate_writes_several_hits_and_the_hammers_force(tmp_path, capsys):
     assert "modes from the H1 frequency responses of 2 hits on F" in capsys.readouterr().out
     assert main(["identify-record", "kid300", str(path), "--free-decay"]) == 0
     assert f"{path}: 2 hits, a free decay after each (from t = 0.07, 4.0" in capsys.readouterr().out
+    # hits closer than the chain's separate hits are named as its double hits
+    assert main([*argv, "--hit-time", "0.05", "0.3", "4", "--force-channel", "F"]) == 0
+    out = capsys.readouterr().out
+    assert "note: the hits at 0.3 s lie within 0.5 s of the one before (at 0.05 s): the records chain takes each" in out
 
 
 def test_the_hit_summary_names_every_hit():

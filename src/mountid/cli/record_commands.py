@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -81,6 +82,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     kind = WRITERS[out.suffix.lower()]
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
+    notes += [] if args.speed else _close_hits_note(args.hit_time)
     hit_given = args.speed or args.hit_point or args.hit_direction
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
     notes += [defaults] if defaults else []
@@ -126,6 +128,21 @@ def _hit_times(times: Sequence[float], duration: float) -> None:
                 f"{t:g} s is not after the hit at {times[k - 1]:g} s and its pulse of {pulse * 1e3:g} ms (one hammer: "
                 "give the times in increasing order)",
             )
+
+
+def _close_hits_note(times: Sequence[float]) -> list[str]:
+    """The note (a list of none or one) naming hits [s] closer than the records chain's separate hits
+    (RecordSettings.hit_spacing): it takes the later for a double hit of the earlier."""
+    from mountid.measurement.settings import RECORDS
+
+    close = [(a, b) for a, b in itertools.pairwise(times) if b - a <= RECORDS.hit_spacing]
+    if not close:
+        return []
+    later, before = (", ".join(f"{t:g}" for t in column) for column in ([b for _, b in close], [a for a, _ in close]))
+    return [
+        f"the hits at {later} s lie within {RECORDS.hit_spacing:g} s of the one before (at {before} s): the records "
+        "chain takes each for a double hit of that one, not a hit of its own"
+    ]
 
 
 WRITERS = {".csv": "csv", ".txt": "csv", ".uff": "uff58", ".unv": "uff58", ".tdms": "tdms"}
