@@ -30,9 +30,10 @@ import io
 import json
 import math
 import re
-from collections.abc import Collection
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +41,9 @@ from numpy.typing import NDArray
 from mountid.effects import STANDARD_GRAVITY
 from mountid.errors import InputError, existing_file
 from mountid.measurement.settings import RECORDS, RecordSettings
+
+Run = TypeVar("Run")
+"""What a reader holds of one run of a file (each_run)."""
 
 FORMAT_LINE = "# mountid record 1"
 
@@ -741,6 +745,18 @@ def read_record(
     if run not in (None, 1):
         raise InputError("run", f"{run}: {Path(path).name} is a CSV, which holds one run")
     return read_csv(path, rate, ignore)
+
+
+def each_run(runs: Sequence[Run], read: Callable[[Run], Record]) -> list[Record]:
+    """Each of a file's ``runs`` read as a record (``read``); a reader's error names its run ("run 2: ...") where
+    the file holds several (uff.read_uff_runs, tdms.read_tdms_runs)."""
+    records = []
+    for k, run in enumerate(runs, start=1):
+        try:
+            records.append(read(run))
+        except InputError as err:
+            raise err if len(runs) == 1 else type(err)(err.parameter, f"run {k}: {err.reason}") from None
+    return records
 
 
 def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> list[Record]:

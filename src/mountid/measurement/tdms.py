@@ -35,6 +35,7 @@ from mountid.measurement.records import (
     Record,
     channel_in,
     check_ignored,
+    each_run,
     sampled_at,
     uniform_time,
 )
@@ -73,13 +74,7 @@ def read_tdms(
 def read_tdms_runs(path: str | Path, ignore: Collection[str] = (), rate: float | None = None) -> list[Record]:
     """Every run of a TDMS file (_runs), each a record as read_tdms reads it (one where the file holds one)."""
     path, runs = _opened(path)
-    records = []
-    for k, (_, found) in enumerate(runs, start=1):
-        try:
-            records.append(_record(found, path, ignore, rate))
-        except InputError as err:  # which run, where there are several
-            raise err if len(runs) == 1 else type(err)(err.parameter, f"run {k}: {err.reason}") from None
-    return records
+    return each_run(runs, lambda run: _record(run[1], path, ignore, rate))
 
 
 def _runs(found: list[tuple[str, nptdms.TdmsChannel]]) -> list[tuple[str, list[tuple[str, nptdms.TdmsChannel]]]]:

@@ -32,7 +32,7 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import UNITS, UNREAD, Channel, Record, check_ignored, quantity_of
+from mountid.measurement.records import UNITS, UNREAD, Channel, Record, check_ignored, each_run, quantity_of
 
 _TAG = "mountid point="
 
@@ -136,13 +136,7 @@ def read_uff(path: str | Path, ignore: Collection[str] = (), run: int | None = N
 def read_uff_runs(path: str | Path, ignore: Collection[str] = ()) -> list[Record]:
     """Every run of a UFF file (_runs), each a record as read_uff reads it (one where the file holds one)."""
     path, uff, types, runs = _opened(path)
-    records = []
-    for k, sets in enumerate(runs, start=1):
-        try:
-            records.append(_record(sets, uff, types, path, ignore))
-        except InputError as err:  # which run, where there are several
-            raise err if len(runs) == 1 else type(err)(err.parameter, f"run {k}: {err.reason}") from None
-    return records
+    return each_run(runs, lambda sets: _record(sets, uff, types, path, ignore))
 
 
 def _opened(path: str | Path) -> tuple[Path, pyuff.UFF, list, list[list[dict]]]:
