@@ -116,8 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
             type=int,
             metavar="K",
             help="which run of a UFF or TDMS file of several (hits exported one after another, a dataset per channel "
-            "or a group each) "
-            "to read: 1, 2, ...; without it, every run, combined per mode",
+            "or a group each) to read: 1, 2, ...; without it, every run, combined per mode",
         )
 
     def add_unbalance(p: argparse.ArgumentParser) -> None:

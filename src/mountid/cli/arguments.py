@@ -212,7 +212,7 @@ def read_record(
     of a file of several)."""
     from mountid.measurement.records import read_record as read
 
-    return _placed(lambda: [read(path, rate, tuple(ignore or ()), run)], rate, channels)[0]
+    return _placed(lambda: [(path, read(path, rate, tuple(ignore or ()), run))], rate, channels)[0][1]
 
 
 def read_runs(
@@ -222,22 +222,19 @@ def read_runs(
     ignore: Sequence[str] | None = None,
     run: int | None = None,
 ) -> list[tuple[str, Record]]:
-    """The records of the file at ``path``, each with its name in notes (as read_record takes the options): the
-    run --run gives ("PATH run K"), else every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's
-    one record (PATH)."""
-    from mountid.measurement.records import read_runs as read
+    """The records of the file at ``path``, each with its name in notes (records.named_runs; the options as
+    read_record takes them): the run --run gives ("PATH run K"), else every run of a UFF or TDMS file of several
+    ("PATH run 1", ...), else the file's one record (PATH)."""
+    from mountid.measurement.records import named_runs
 
-    if run is not None:
-        return [(f"{path} run {run}", read_record(path, rate, channels, ignore, run))]
-    records = _placed(lambda: read(path, rate, tuple(ignore or ())), rate, channels)
-    if len(records) == 1:
-        return [(path, records[0])]
-    return [(f"{path} run {k}", record) for k, record in enumerate(records, start=1)]
+    return _placed(lambda: named_runs(path, path, rate, tuple(ignore or ()), run), rate, channels)
 
 
-def _placed(read: Callable[[], list[Record]], rate: float | None, channels: Sequence[str] | None) -> list[Record]:
-    """The records ``read`` returns, --rate checked before and --channel's placements applied after; the reader's
-    errors of its ``ignore`` and ``run`` named as the options."""
+def _placed(
+    read: Callable[[], list[tuple[str, Record]]], rate: float | None, channels: Sequence[str] | None
+) -> list[tuple[str, Record]]:
+    """The named records ``read`` returns, --rate checked before and --channel's placements applied after; the
+    reader's errors of its ``ignore`` and ``run`` named as the options."""
     from mountid.measurement.records import with_geometry
 
     if rate is not None:
@@ -249,7 +246,7 @@ def _placed(read: Callable[[], list[Record]], rate: float | None, channels: Sequ
         if err.parameter not in ("ignore", "run"):
             raise
         raise InputError(f"--{err.parameter}", err.reason) from None
-    return [with_geometry(r, geometry, "--channel") if geometry else r for r in records]
+    return [(name, with_geometry(r, geometry, "--channel") if geometry else r) for name, r in records]
 
 
 def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:

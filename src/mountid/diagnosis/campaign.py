@@ -797,21 +797,16 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
     """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
     the run it gives), or where it gives none, every run of a UFF or TDMS file of several ("NAME run K"). An InputError
     names the entry (``where``.``i``)."""
-    from mountid.measurement.records import read_record, read_runs, with_geometry
+    from mountid.measurement.records import named_runs, with_geometry
 
     try:
-        if source.run is None:
-            records = read_runs(source.path, source.rate, source.ignore)
-        else:
-            records = [read_record(source.path, source.rate, source.ignore, source.run)]
+        records = named_runs(source.path, source.path.name, source.rate, source.ignore, source.run)
         if source.channels:
             geometry = {name: (point, direction) for name, point, direction in source.channels}
-            records = [with_geometry(record, geometry, "channels") for record in records]
+            records = [(name, with_geometry(record, geometry, "channels")) for name, record in records]
     except InputError as err:
         raise _named(err, source, where, i) from None
-    if len(records) == 1:
-        return [(source.name, records[0])]
-    return [(f"{source.name} run {k}", record) for k, record in enumerate(records, start=1)]
+    return records
 
 
 def _named(err: InputError, source: RecordSource, where: str, i: int, run: str = "") -> InputError:

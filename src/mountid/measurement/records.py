@@ -773,3 +773,17 @@ def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[st
 
         return read_tdms_runs(path, ignore, rate)
     return [read_record(path, rate, ignore)]
+
+
+def named_runs(
+    path: str | Path, name: str, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
+) -> list[tuple[str, Record]]:
+    """The records of a record file, each with its name in notes: the run ``run`` gives ("``name`` run K",
+    read_record), else every run (read_runs), "``name`` run 1", ... where the file holds several, ``name`` where
+    it holds one."""
+    if run is not None:
+        return [(f"{name} run {run}", read_record(path, rate, ignore, run))]
+    records = read_runs(path, rate, ignore)
+    if len(records) == 1:
+        return [(name, records[0])]
+    return [(f"{name} run {k}", record) for k, record in enumerate(records, start=1)]
