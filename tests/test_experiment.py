@@ -274,33 +274,6 @@ def test_damping_from_the_poles_damping_ratios_is_exact_and_holds_the_others(nam
         assert fit_damping(machine, values, modes, (n,))[0] == pytest.approx({n: truth[n]}, rel=1e-9)
 
 
-def test_coordinate_shape_std_matches_a_monte_carlo():
-    """from_records.coordinate_shape_std (first order) against 3000 draws of complex channel noise through
-    coordinate_shape: twelve channels of random geometry, a nearly real shape, channel noise of four sizes; the
-    part of the unit shape (rotations times the length scale) normal to the noise-free one, per component over
-    its five degrees of freedom, within 5 % (sampling error about 1 %)."""
-    from mountid.identification.from_records import coordinate_shape, coordinate_shape_std
-
-    rng = np.random.default_rng(3)
-    rows, length = rng.normal(size=(12, 6)), 0.8
-    amplitudes = rows @ (rng.normal(size=6) * (1 + 0.05j))
-    std = np.repeat([0.01, 0.02, 0.04, 0.08], 3) * np.abs(amplitudes).mean()
-
-    def unit(shape):
-        s = np.array(shape)
-        s[3:] *= length
-        return s / np.linalg.norm(s)
-
-    clean = unit(coordinate_shape(rows, amplitudes))
-    normal = []
-    for _ in range(3000):
-        noise = (rng.normal(size=12) + 1j * rng.normal(size=12)) * std / np.sqrt(2)
-        u = unit(coordinate_shape(rows, amplitudes + noise))
-        normal.append(u - (u @ clean) * clean)
-    scatter = np.sqrt(np.mean(np.sum(np.square(normal), axis=1)) / 5)
-    assert scatter == pytest.approx(coordinate_shape_std(rows, amplitudes, std, length), rel=0.05)
-
-
 def test_record_shape_uncertainty_describes_the_scatter():
     """The shape uncertainty a record states (its noise, modal_data) describes the shapes' error against the
     truth's: over 8 records of the rectangular machine with sensor noise 0.2 m/s^2, the RMS of the part of each

@@ -775,9 +775,11 @@ def _modes_from_records(
     by_hand = by_hand or {}
     combination = combine(machine, estimates, mixed, frozenset(by_hand))  # a hand-given mode: said below
     notes += combination.notes
-    best, disagree = combination.best, combination.disagree
+    disagree = combination.disagree
     modes = {label: replace(m, shape_std=record_shape_std(m.shape_std)) for label, m in combination.modes.items()}
-    noisy = {lab: m.shape_std for lab, (m, _) in best.items() if m.shape is not None and m.shape_std is not None}
+    noisy = {
+        lab: m.shape_std for lab, m in combination.modes.items() if m.shape is not None and m.shape_std is not None
+    }
     if noisy:
         notes.append(
             "shape uncertainty per component: the record's noise ("
@@ -789,7 +791,7 @@ def _modes_from_records(
     modes, notes = _at_resolution(modes, notes)
     for label in by_hand.keys() & modes.keys():
         notes.append(_given_over_records(label, by_hand[label], modes.pop(label), [n for _, n in estimates[label]]))
-    shaped = {layouts[name] for mode, name in best.values() if mode.shape is not None}
+    shaped = {layouts[name] for names in combination.shape_from.values() for name in names}
     return _FromRecords(modes, notes, shaped.pop() if len(shaped) == 1 else (), disagree, tuple(warned))
 
 

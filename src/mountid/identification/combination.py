@@ -3,7 +3,8 @@ without a force channel, the runs of a file of several, and several records of o
 
 Each decay (or record) gives its modes through the records chain (from_records.modal_data); per mode the estimates
 are combined (weighted means of frequency and damping ratio, widened where they scatter beyond their uncertainty;
-the shape of the sharpest), twins that some estimates part and others give one pole for are reconciled, and
+the shape of the sharpest that gives one, or where none does, the channels of all together: a roving test's runs,
+identification.shapes), twins that some estimates part and others give one pole for are reconciled, and
 estimates that disagree beyond RECORDS_DISAGREE are named. `process` and `identify-record` use it for a record
 of several hits or runs (every_decay), the campaign (diagnosis.campaign) for its records as well.
 """
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import InputError, NoModeFound
+from mountid.identification.shapes import merged_shape
 from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
@@ -148,10 +150,13 @@ def kinds(mode: MeasuredMode) -> str:
 def combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> tuple[MeasuredMode, str]:
     """One mode measured in several records: the frequency and the damping ratio as weighted means, each
     standard deviation the mean's, widened by the Birge ratio where the records scatter beyond their own
-    uncertainty (their repeatability, not only their noise); the shape from ``sharpest`` (the record with the
-    smallest frequency standard deviation). Returns the mode and a note of any widening ('' without)."""
+    uncertainty (their repeatability, not only their noise); the rest from ``sharpest`` (the record with the
+    smallest frequency standard deviation), its shape that of the sharpest record that gives one (shaped). Returns
+    the mode and a note of any widening ('' without)."""
     frequency, frequency_std, widened = weighted([(m.frequency, m.frequency_std) for m, _ in found])
     mode = replace(sharpest, frequency=frequency, frequency_std=frequency_std)
+    if mode.shape is None and (shaped := sharpest_shape(found)) is not None:
+        mode = replace(mode, shape=shaped[0].shape, shape_std=shaped[0].shape_std)
     ratios = [(m.damping_ratio, m.damping_std) for m, _ in found if m.damping_ratio is not None and m.damping_std]
     note = (
         f"; the frequencies scatter {widened:.3g} times their stated uncertainty, the mean's widened as much"
@@ -164,6 +169,29 @@ def combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> t
         if _shown(zeta_widened):
             note += f"; the damping ratios {zeta_widened:.3g} times theirs, widened as much"
     return mode, note
+
+
+def sharpest_shape(found: list[tuple[MeasuredMode, str]]) -> tuple[MeasuredMode, str] | None:
+    """The estimate with the smallest frequency standard deviation among those whose channels give a shape (span
+    the six motions), None where none does."""
+    shaped = [e for e in found if e[0].shape is not None]
+    return min(shaped, key=lambda e: e[0].frequency_std) if shaped else None
+
+
+def joint_shape(
+    machine: Machine, label: str, found: list[tuple[MeasuredMode, str]], estimates: Estimates
+) -> tuple[tuple[float, ...], float | None] | None:
+    """The shape of a mode no record's channels give alone, from the channels of every record together
+    (shapes.merged_shape: each record's amplitudes scaled by a factor fitted with the shape; a roving test's runs),
+    and its standard deviation; None where they do not determine it. Twins a record gives one pole for are left
+    alone: the pole lies in their span in the mix its hit gave, another in another mix, and no factor scales one
+    onto the other; twins every record parts (both labelled in it) are modes of their own."""
+    rep = machine.module.REPRESENTATIVE
+    twins = [m for m in machine.module.MODES if rep[m] == rep[label] and m != label]
+    parted = all(any(name in {n for _, n in estimates.get(t, [])} for t in twins) for _, name in found)
+    if len(found) < 2 or any(m.channels is None for m, _ in found) or (twins and not parted):
+        return None  # a pole without its channels: one a fit of two does not part from its twin (ModalData.mixed)
+    return merged_shape([m.channels for m, _ in found if m.channels is not None])
 
 
 def _shown(ratio: float) -> bool:
@@ -201,14 +229,14 @@ def disagreement(label: str, found: list[tuple[MeasuredMode, str]]) -> list[str]
 
 @dataclass(frozen=True)
 class Combination:
-    """combine's result: per mode the combined estimate (in the order of the estimates), the sharpest estimate and
-    its source (the one with the smallest frequency standard deviation), what was done, and the modes whose
-    estimates disagree beyond RECORDS_DISAGREE."""
+    """combine's result: per mode the combined estimate (in the order of the estimates), what was done, the modes
+    whose estimates disagree beyond RECORDS_DISAGREE, and per mode the estimates its shape comes from (the sharpest
+    that gives one, or all of a roving test's runs; none without a shape)."""
 
     modes: dict[str, MeasuredMode]
-    best: dict[str, tuple[MeasuredMode, str]]
     notes: tuple[str, ...]
     disagree: tuple[str, ...]
+    shape_from: dict[str, tuple[str, ...]]
 
 
 def combine(
@@ -221,9 +249,10 @@ def combine(
     notes = lone_twins(machine, estimates)
     notes += mixed_twins(machine, estimates, mixed)
     best = {label: min(found, key=lambda e: e[0].frequency_std) for label, found in estimates.items()}
-    modes, disagree = {}, []
+    modes, disagree, shape_from = {}, [], {}
     for label, (mode, name) in best.items():
         found = estimates[label]
+        shape_from[label] = (name,) if mode.shape is not None else ()
         if label in by_hand:
             pass  # the caller says it, once its estimate is as the hand-given one
         elif len(found) == 1:
@@ -231,13 +260,24 @@ def combine(
         else:
             mode, note = combined(found, mode)
             names = ", ".join(n for _, n in found)
-            shape = f"; shape from {name}" if mode.shape is not None else ""
+            shaped, joint = sharpest_shape(found), None
+            if shaped is None and (joint := joint_shape(machine, label, found, estimates)) is not None:
+                mode = replace(mode, shape=joint[0], shape_std=joint[1])
+            if joint is not None:
+                shape_from[label] = tuple(n for _, n in found)
+                shape = (
+                    f"; shape from the channels of all {len(found)} together, each one's amplitudes scaled by a "
+                    "factor fitted with it"
+                )
+            else:
+                shape_from[label] = (shaped[1],) if shaped is not None else ()
+                shape = f"; shape from {shaped[1]}" if shaped is not None else ""
             notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
         said = disagreement(label, found) if label not in by_hand else []
         notes += said
         disagree += [label] if said else []
         modes[label] = mode
-    return Combination(modes, best, tuple(notes), tuple(disagree))
+    return Combination(modes, tuple(notes), tuple(disagree), shape_from)
 
 
 def decays_of(

@@ -27,6 +27,7 @@ from mountid.errors import InputError, NoModeFound
 from mountid.identification.combination import every_decay
 from mountid.identification.labelling import LABELLING, LabellingSettings, assign
 from mountid.identification.least_squares import trust_region
+from mountid.identification.shapes import coordinate_shape, coordinate_shape_std
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import (
     GeneratedModule,
@@ -42,7 +43,7 @@ from mountid.machine import (
 )
 from mountid.measurement import frf, modal
 from mountid.measurement.frf import FrfEstimate
-from mountid.measurement.modes import MeasuredMode
+from mountid.measurement.modes import ChannelShape, MeasuredMode
 from mountid.measurement.records import RESPONSE_ORDER, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted, distinct_frequencies, root_rule, root_rule_problem
@@ -1131,6 +1132,7 @@ def modal_data(
             if full and label not in mixed and p.shape_std is not None
             else None,
             mac=m if rows.shape[0] > 1 else None,  # one channel's "shape" is its sign: a MAC of 1 by definition
+            channels=ChannelShape(p.shape, p.shape_std, rows, length) if label not in mixed else None,
         )
         for label, (p, m) in labelled.items()
     }
@@ -1221,36 +1223,6 @@ def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
     gain = pole.p ** (2 - orders)
     std = None if pole.shape_std is None else pole.shape_std * np.abs(gain)
     return replace(pole, shape=pole.shape * gain, shape_std=std)
-
-
-def coordinate_shape(rows: np.ndarray, channel_shape: np.ndarray) -> tuple[float, ...]:
-    """Real mode shape in q from complex channel amplitudes: least squares through the channel rows, the
-    common phase removed (rotated so that the largest entry is real and positive), scaled to 1."""
-    q = np.linalg.lstsq(rows, channel_shape, rcond=None)[0]
-    k = int(np.argmax(np.abs(q)))
-    q = q * np.exp(-1j * np.angle(q[k])) / np.abs(q[k])
-    return tuple(float(v) for v in q.real)
-
-
-def coordinate_shape_std(rows: np.ndarray, channel_shape: np.ndarray, channel_std: np.ndarray, length: float) -> float:
-    """Standard deviation per component of the shape :func:`coordinate_shape` gives, scaled to unit length with
-    its rotations times ``length`` [m] (MeasuredMode.shape_std), from the standard deviations sqrt(E |error|^2)
-    of the complex channel amplitudes (modal.Pole.shape_std; independent, circular), to first order: the real
-    part of the rotated least-squares shape has the covariance P diag(std^2 / 2) P^T (P the pseudo-inverse of
-    the channel rows); its normalisation keeps the part normal to the shape; that part's variance spread over the
-    components less the free scale."""
-    pinv = np.linalg.pinv(rows)
-    q = pinv @ channel_shape
-    k = int(np.argmax(np.abs(q)))
-    real = (q * np.exp(-1j * np.angle(q[k]))).real
-    scale = np.ones(len(q))
-    scale[3:6] = length
-    scaled = real * scale
-    norm = float(np.linalg.norm(scaled))
-    unit = scaled / norm
-    normal = (np.eye(len(q)) - np.outer(unit, unit)) * scale[None, :] / norm
-    cov = (normal @ pinv) * (np.asarray(channel_std, dtype=float) ** 2 / 2)[None, :] @ (normal @ pinv).T
-    return float(np.sqrt(np.trace(cov) / max(len(q) - 1, 1)))
 
 
 def identify_from_record(

@@ -3,9 +3,24 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True, eq=False)
+class ChannelShape:
+    """A mode as one record's channels saw it: the complex ``amplitudes`` at its response channels (accelerations
+    [m/s^2] on the record's own scale: its hit's force and phase), their standard deviations sqrt(E |error|^2)
+    ``std`` (None: not stated), the channel ``rows`` d^T du/dq (n_channels x 6) that see the coordinates q, and the
+    machine's ``length`` scale [m] (MeasuredMode.shape_std multiplies rotations by it). The runs of a roving test
+    each give a part of a shape (mountid.identification.shapes.merged_shape)."""
+
+    amplitudes: NDArray[np.complex128]
+    std: NDArray[np.float64] | None
+    rows: NDArray[np.float64]
+    length: float
 
 
 @dataclass(frozen=True)
@@ -18,7 +33,7 @@ class MeasuredMode:
     ``shape_std`` the standard deviation per component of the shape scaled to unit length (rotations times
     the machine's length scale); ``mac`` the MAC of the channel shape against the model's mode it is
     labelled as, or for a pole that stands for twins its share in their span (records of two response channels
-    or more: one channel's MAC is 1 whatever it measured).
+    or more: one channel's MAC is 1 whatever it measured); ``channels`` the channel amplitudes of a record.
     Quantities the measurement does not give are None."""
 
     label: str
@@ -30,6 +45,9 @@ class MeasuredMode:
     shape: tuple[float, ...] | None = None
     shape_std: float | None = None
     mac: float | None = None
+    channels: ChannelShape | None = field(default=None, compare=False, repr=False)
+    """The channel amplitudes the shape comes from (records only; None elsewhere): where no record's channels span
+    the six motions, several records' together may (a roving test's runs)."""
 
     @property
     def stated_frequency_std(self) -> float | None:

@@ -54,11 +54,17 @@ def write_uff(record: Record, path: str | Path) -> None:
     path = Path(path)
     if path.exists():
         path.unlink()  # pyuff appends to an existing file
-    sets = []
-    for k, c in enumerate(record.channels):
-        meta = f"{_TAG}{','.join(repr(float(v)) for v in c.point)} dir={','.join(repr(float(v)) for v in c.direction)}"
-        sets.append(dataset_58(c, record.time, record.data[:, k], node=k + 1, axis=_axis(c.direction), id4=meta))
+    sets = [
+        dataset_58(c, record.time, record.data[:, k], node=k + 1, axis=_axis(c.direction), id4=placement(c))
+        for k, c in enumerate(record.channels)
+    ]
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
+
+
+def placement(channel: Channel) -> str:
+    """The ID line 4 write_uff gives a channel: its point and direction in full, read back exactly."""
+    point = ",".join(repr(float(v)) for v in channel.point)
+    return f"{_TAG}{point} dir={','.join(repr(float(v)) for v in channel.direction)}"
 
 
 def dataset_58(
