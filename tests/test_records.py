@@ -282,10 +282,11 @@ def test_a_malformed_or_cut_uff_file_is_an_error_naming_the_dataset_or_the_chann
 
 
 def test_a_uff_file_of_frequency_functions_or_empty_labels(tmp_path):
-    """A bench's UFF file of frequency response functions (function type 4, complex, abscissa in Hz) is named as
-    such: it passed as a record of the FRF's real parts over a frequency axis taken for time, stopped only by a
-    unit 'NONE'. That label is what pyuff and other writers put in an empty field: a time response whose unit
-    label says NONE takes the quantity's SI unit (it was 'unit NONE is not a unit of acceleration')."""
+    """A bench's UFF file of spectra (function type 9, complex, abscissa in Hz) is named as such: it passed as a
+    record of the real parts over a frequency axis taken for time, stopped only by a unit 'NONE' (frequency
+    response functions, type 4, are read as their impulse responses: test_uff_frf). That label is what pyuff and
+    other writers put in an empty field: a time response whose unit label says NONE takes the quantity's SI unit
+    (it was 'unit NONE is not a unit of acceleration')."""
     import pyuff
 
     from mountid.measurement.uff import dataset_58, read_uff
@@ -301,7 +302,6 @@ def test_a_uff_file_of_frequency_functions_or_empty_labels(tmp_path):
     frequency = np.linspace(0.0, 50.0, 101)
     frf = 1.0 / (400.0 - (2 * np.pi * frequency) ** 2 + 2j * frequency)
     for kind, changes, said in (
-        (4, {"ord_data_type": 6, "abscissa_spec_data_type": 18}, "is a frequency response function (UFF 58 function"),
         (9, {"ord_data_type": 6}, "is a power spectral density (UFF 58 function type 9)"),
         (0, {"ord_data_type": 6, "abscissa_spec_data_type": 18}, "its abscissa is frequency"),
         (0, {"ord_data_type": 6}, "holds complex values"),
@@ -313,6 +313,11 @@ def test_a_uff_file_of_frequency_functions_or_empty_labels(tmp_path):
         pyuff.UFF(str(tmp_path / "frf.uff")).write_sets([dataset], mode="add")
         with pytest.raises(InputError, match=f"^A_x: {re.escape(said)}"):
             read_uff(tmp_path / "frf.uff")
+    dataset = {**dataset_58(rec.channels[0], frequency, frf.real, 1, 1, ""), "func_type": 4, "data": frf}
+    dataset.update({"ord_data_type": 6, "abscissa_spec_data_type": 18, "abscissa_inc": float(frequency[1])})
+    (tmp_path / "frf.uff").unlink()
+    pyuff.UFF(str(tmp_path / "frf.uff")).write_sets([dataset], mode="add")
+    assert read_uff(tmp_path / "frf.uff").impulse
 
 
 def test_a_uff_channel_mountid_does_not_read_is_named_and_left_out_when_told(tmp_path):

@@ -1021,36 +1021,43 @@ def modal_data(
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
     estimate, notes, end, hits = None, [], None, ()
-    if full.forces and use_force:
-        if start is not None:  # a time of the record: its checks look from there, the impulse responses have their own
-            _check_start(record, start, what="")
+    if record.impulse or (full.forces and use_force):
+        if record.impulse:  # a bench's frequency response functions transformed back: fitted as the H1's are
+            if start is not None:
+                raise InputError("start", "impulse responses (frequency response functions) start at the hit")
+            start, fitted = IRF_START, record
             notes.append(
-                f"the start given ({start:g} s) places the record's checks only: the modes come from the H1 frequency "
-                f"responses on {full.forces[0]} (without the force channel, --free-decay: the free decay from there)"
+                f"modes from the impulse responses of {counted(len(record.channels), 'frequency response function')}"
+                f" (lines to {record.rate / 2:.4g} Hz by {record.rate / len(record.time):.4g} Hz; an exponential "
+                "window the bench put on the responses adds its decay to every mode's damping)"
             )
-        if len(full.forces) > 1:  # one input: the others' hits are not divided out (a roving hammer: its runs)
+        else:
+            if start is not None:  # a time of the record: its checks look from there, the impulse responses have theirs
+                _check_start(record, start, what="")
+                notes.append(
+                    f"the start given ({start:g} s) places the record's checks only: the modes come from the H1 "
+                    f"frequency responses on {full.forces[0]} (without the force channel, --free-decay: the free "
+                    "decay from there)"
+                )
+            if len(full.forces) > 1:  # one input: the others' hits are not divided out (a roving hammer: its runs)
+                notes.append(
+                    f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the "
+                    f"H1 frequency responses are of one input, {full.forces[0]}"
+                )
+            estimate = frf.h1(full, full.forces[0], settings)
+            fitted = estimate.impulse_responses()
+            window = estimate.window_decay
             notes.append(
-                f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "
-                f"frequency responses are of one input, {full.forces[0]}"
+                f"modes from the H1 frequency responses of {counted(len(estimate.hits), 'hit')} on {estimate.force} "
+                f"({estimate.length:.3g} s each"
+                + (f", exponential window of {window:.3g} 1/s on the responses" if window else "")
+                + ("; one hit: no coherence" if len(estimate.hits) == 1 else "")
+                + ")"
             )
-        estimate = frf.h1(full, full.forces[0], settings)
-        fitted = estimate.impulse_responses()
         _check_length(fitted, IRF_START, float(np.min(nominal_omega)), settings)
         source = (fitted, IRF_START, 2.0 * top)
         poles = modal.free_decay_poles(
             fitted, IRF_START, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
-        )
-        hits = len(estimate.hits)
-        notes.append(
-            f"modes from the H1 frequency responses of {counted(hits, 'hit')} on {estimate.force} "
-            f"({estimate.length:.3g} s each"
-            + (
-                f", exponential window of {estimate.window_decay:.3g} 1/s on the responses"
-                if estimate.window_decay
-                else ""
-            )
-            + ("; one hit: no coherence" if hits == 1 else "")
-            + ")"
         )
     else:
         decay = modal.free_decay(record, top, start, settings)
@@ -1064,15 +1071,21 @@ def modal_data(
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    warnings = modal.hammer_test_quality(
-        record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
+    warnings = (
+        []  # no record of the test: its checks (clipping, noise, the hit) were the bench's
+        if record.impulse
+        else modal.hammer_test_quality(
+            record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
+        )
     )
     segment = None if estimate is not None else start
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
     warnings += modal.same_place(record)
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         # over the free decay from its start, or the impulse responses from the start the free decay has by default
-        sensor = inconsistent_channel(machine, source[0], start if estimate is None else modal.DEFAULT_START)
+        sensor = inconsistent_channel(
+            machine, source[0], modal.DEFAULT_START if estimate is not None or record.impulse else start
+        )
         warnings += [sensor] if sensor is not None else []
     # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label
     damped = [p for p in poles if not modal.is_steady(p, settings)]

@@ -104,6 +104,10 @@ class Record:
     time: NDArray[np.float64]
     data: NDArray[np.float64]
     channels: tuple[Channel, ...]
+    impulse: bool = False
+    """The channels are impulse responses [unit per N s] from the instant of a hit: a bench's frequency response
+    functions transformed back (uff.read_uff of a file of them), not a test's record. The records chain fits them
+    as it fits the H1 frequency responses of a record with a force channel, without a time record's checks."""
 
     def __post_init__(self) -> None:
         validate(self.time, self.data, tuple(c.name for c in self.channels))
@@ -130,7 +134,7 @@ class Record:
         si = tuple(
             Channel(c.name, c.point, c.direction, c.quantity, next(iter(UNITS[c.quantity]))) for c in self.channels
         )
-        return Record(self.time, self.data * factors, si)
+        return replace(self, data=self.data * factors, channels=si)
 
     @property
     def responses(self) -> tuple[str, ...]:
@@ -160,12 +164,12 @@ class Record:
     def before(self, time: float) -> Record:
         """The samples before ``time`` [s] (every channel)."""
         keep = self.time < time
-        return Record(self.time[keep], self.data[keep], self.channels)
+        return replace(self, time=self.time[keep], data=self.data[keep])
 
     def select(self, names: list[str] | tuple[str, ...]) -> Record:
         """A record of the named channels only, in that order."""
         cols = [self.names.index(n) if n in self.names else self.channel(n) for n in names]
-        return Record(self.time, self.data[:, cols], tuple(self.channels[c] for c in cols))
+        return replace(self, data=self.data[:, cols], channels=tuple(self.channels[c] for c in cols))
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
@@ -280,7 +284,10 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
 
 
 def with_rate(record: Record, rate: float) -> Record:
-    """The record on a uniform grid at ``rate`` [Hz] from its first time (the sampling-rate option)."""
+    """The record on a uniform grid at ``rate`` [Hz] from its first time (the sampling-rate option); an
+    InputError for impulse responses (their frequency lines give their rate)."""
+    if record.impulse:
+        raise InputError("rate", "frequency response functions: their lines give the impulse responses' rate")
     return Record(sampled_at(float(record.time[0]), len(record.time), rate), record.data, record.channels)
 
 

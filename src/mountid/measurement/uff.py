@@ -1,8 +1,10 @@
 """Records in the Universal File Format, dataset 58 (function at nodal DOF), read and written by pyuff.
 
 One dataset 58 per channel: a time response (function type 1, or 0 over time), real, evenly spaced abscissa; a
-frequency response function, a spectrum or complex data is an error naming the channel, and a label that says
-NONE (what writers put in an empty one) is empty. A channel of a quantity mountid does not read (ordinate type:
+spectrum or complex data is an error naming the channel, and a label that says NONE (what writers put in an empty
+one) is empty. A file of frequency response functions (function type 4, a bench's hammer test exported as
+such; coherences beside them not read) is read as the impulse responses they transform back to, a run per input
+(reference node and direction): Record.impulse. A channel of a quantity mountid does not read (ordinate type:
 a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). A file
 of several runs (the hits of a test one after another, a dataset per channel each; a roving test's, where a node and
 direction recurs) is read one run at a time.
@@ -155,7 +157,33 @@ def _opened(path: str | Path) -> tuple[Path, pyuff.UFF, list, list[list[dict]]]:
     found = [i for i, t in enumerate(types) if int(t) == 58]
     if not found:
         raise InputError("record", f"{path.name} holds no dataset 58")
-    return path, uff, types, _runs([_read_set(uff, i, types, path) for i in found])
+    sets = [_read_set(uff, i, types, path) for i in found]
+    frfs = [s for s in sets if _function_type(s) == FRF]
+    if frfs:  # a bench's frequency response functions: a run per input (reference node and direction)
+        other = next((s for s in sets if _function_type(s) not in (FRF, COHERENCE)), None)
+        if other is not None:
+            what = _FUNCTION_TYPES.get(_function_type(other), "a time response")
+            name = str(other.get("id1", "")).strip() or f"node{other.get('rsp_node', 0)}:{other.get('rsp_dir', 0)}"
+            raise InputError(name, f"is {what} beside frequency response functions: {FRF_ONLY}")
+        inputs = list(dict.fromkeys(_reference(s) for s in frfs))
+        return path, uff, types, [[s for s in frfs if _reference(s) == key] for key in inputs]
+    return path, uff, types, _runs(sets)
+
+
+FRF = 4
+"""UFF 58 function type of a frequency response function."""
+
+COHERENCE = 6
+"""UFF 58 function type of a coherence: a file of frequency response functions may hold them beside; not read."""
+
+
+def _function_type(s: dict) -> int:
+    return int(s.get("func_type", 1) or 0)
+
+
+def _reference(s: dict) -> tuple[int, int]:
+    """A dataset's reference (input) node and direction."""
+    return int(s.get("ref_node", 0) or 0), int(s.get("ref_dir", 0) or 0)
 
 
 def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Collection[str]) -> Record:
@@ -169,6 +197,8 @@ def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: C
     if not sets:
         raise InputError("ignore", f"leaves no channel of {path.name}")
     nodes = _nodes(uff, types, path)
+    if _function_type(sets[0]) == FRF:
+        return _impulse_responses(sets, names, nodes)
     time = np.asarray(sets[0]["x"], dtype=float)
     columns, channels = [], []
     for n, s in enumerate(sets):
@@ -188,26 +218,93 @@ def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: C
                 f"sample {k} at {x[k]:.9g} s against {time[k]:.9g} s of the first channel, {names[0]} (one "
                 "record needs one time base)",
             )
-        point = direction = (math.nan,) * 3
-        meta = str(s.get("id4", "")).strip()
-        if meta.startswith(_TAG):
-            try:
-                p_text, d_text = meta.removeprefix(_TAG).split(" dir=")
-                point, direction = _triple(p_text), _triple(d_text)
-            except ValueError as err:
-                raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
-        else:  # another tool's file: the response node's coordinates and the response direction's axis
-            node, axis = int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
-            if node in nodes and 1 <= abs(axis) <= 3:
-                point, axes = nodes[node]
-                direction = tuple(float(v) + 0.0 for v in math.copysign(1.0, axis) * axes[abs(axis) - 1])
-        label = str(s.get("id5", "")).strip()
-        quantity, unit = label[:-1].split(" [", 1) if label.endswith("]") and " [" in label else ("", "")
-        if quantity not in UNITS:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
-            quantity, unit = _quantity_and_unit(s, name)
         columns.append(np.real(np.asarray(s["data"])).astype(float))
-        channels.append(Channel(name, point, direction, quantity, unit))
+        channels.append(Channel(name, *_placement(s, name, nodes), *_quantity(s, name)))
     return Record(time, np.column_stack(columns), tuple(channels))
+
+
+def _placement(
+    s: dict, name: str, nodes: dict[int, tuple[tuple[float, float, float], np.ndarray]]
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """A channel's point [m] and unit direction: mountid's ID line 4, else its response node's coordinates and the
+    response direction's axis in the file's geometry (``nodes``), else NaN."""
+    point = direction = (math.nan,) * 3
+    meta = str(s.get("id4", "")).strip()
+    if meta.startswith(_TAG):
+        try:
+            p_text, d_text = meta.removeprefix(_TAG).split(" dir=")
+            point, direction = _triple(p_text), _triple(d_text)
+        except ValueError as err:
+            raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
+    else:  # another tool's file: the response node's coordinates and the response direction's axis
+        node, axis = int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
+        if node in nodes and 1 <= abs(axis) <= 3:
+            point, axes = nodes[node]
+            direction = tuple(float(v) + 0.0 for v in math.copysign(1.0, axis) * axes[abs(axis) - 1])
+    return point, direction  # type: ignore[return-value]
+
+
+def _quantity(s: dict, name: str) -> tuple[str, str]:
+    """A channel's quantity and unit: mountid's ID line 5 ("acceleration [m/s^2]"), else the ordinate's data type
+    and axis label (_quantity_and_unit)."""
+    label = str(s.get("id5", "")).strip()
+    quantity, unit = label[:-1].split(" [", 1) if label.endswith("]") and " [" in label else ("", "")
+    if quantity not in UNITS:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
+        quantity, unit = _quantity_and_unit(s, name)
+    return quantity, unit
+
+
+def _impulse_responses(
+    sets: list[dict], names: list[str], nodes: dict[int, tuple[tuple[float, float, float], np.ndarray]]
+) -> Record:
+    """One input's frequency response functions (datasets 58 of function type 4) as the impulse responses they
+    transform back to (Record.impulse), in SI units per N: every function on the first one's frequency lines (in
+    Hz, evenly spaced, the first a whole number of spacings from 0: the lines below it taken as 0), a response
+    over a force (the denominator's unit: N where it names none); h(t) = rate x the inverse real transform of the
+    lines from 0 to the last, at rate = twice the last line's frequency, over 1 / spacing seconds."""
+    freq = np.asarray(sets[0]["x"], dtype=float)
+    if len(freq) < 3:
+        raise InputError(names[0], f"{len(freq)} frequency lines: a frequency response function needs more")
+    spacing = float(freq[1] - freq[0])
+    first = round(float(freq[0]) / spacing) if spacing > 0 else -1
+    if not (spacing > 0 and np.allclose(np.diff(freq), spacing, rtol=1e-6, atol=0) and first >= 0) or not math.isclose(
+        float(freq[0]), first * spacing, rel_tol=0, abs_tol=1e-6 * spacing
+    ):
+        raise InputError(
+            names[0],
+            f"frequency lines from {freq[0]:g} Hz by {spacing:g} Hz: mountid reads lines evenly spaced from 0 or "
+            "a whole number of spacings above it",
+        )
+    columns, channels = [], []
+    for name, s in zip(names, sets, strict=True):
+        x = np.asarray(s["x"], dtype=float)
+        if len(x) != len(freq) or not np.allclose(x, freq, rtol=0, atol=1e-9 * freq[-1]):
+            raise InputError(name, f"its frequency lines are not those of {names[0]} ({freq[0]:g} to {freq[-1]:g} Hz)")
+        quantity, unit = _quantity(s, name)
+        if quantity == "force":
+            raise InputError(name, "is a force over a force: a frequency response function is a response per force")
+        per = _label(s, "orddenom_axis_units_lab") or "N"
+        denominator = int(s.get("orddenom_spec_data_type", 13) or 0)
+        if per not in UNITS["force"] or denominator not in (0, 1, 9, 13):
+            raise InputError(
+                name,
+                f"is a response per {per!r} (UFF 58 denominator type {denominator}): mountid reads a response "
+                f"per force ({', '.join(UNITS['force'])})",
+            )
+        lines = np.asarray(s["data"], dtype=complex) * UNITS[quantity][unit] / UNITS["force"][per]
+        columns.append(np.concatenate([np.zeros(first, dtype=complex), lines]))
+        channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(UNITS[quantity]))))
+    n = 2 * (first + len(freq) - 1)
+    rate = n * spacing
+    return Record(
+        np.arange(n) / rate,
+        np.fft.irfft(np.column_stack(columns), n=n, axis=0) * rate,
+        tuple(channels),
+        impulse=True,
+    )
+
+
+FRF_ONLY = "a file of frequency response functions holds them (and coherences, not read) only"
 
 
 _FUNCTION_TYPES = {

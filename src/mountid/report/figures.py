@@ -106,7 +106,8 @@ def spectrum_figure(
     bin_ = 2 * np.pi / (record.time[keep][-1] - record.time[keep][0])
     until = "" if end is None else f" to {end:.4g} s"
     ax.set_title(
-        f"spectra of the free decay from {start:g} s{until} (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles"
+        f"spectra of the {'impulse responses' if record.impulse else 'free decay'} from {start:g} s{until} (raw FFT "
+        f"bin {bin_:.2f} rad/s); dashed: picked poles"
     )
     ax.set_xlabel("omega [rad/s]")
     ax.set_ylabel(f"amplitude spectrum [{', '.join(sorted(units))}]")

@@ -1,0 +1,189 @@
+"""A bench's frequency response functions in a UFF file (datasets 58 of function type 4): read as the impulse
+responses they transform back to (mountid.measurement.uff, Record.impulse), against the rig's impulse response
+from its state-space solution; through the records chain and the command line to the rig's poles; a roving
+hammer's inputs as runs; units; files mountid does not read named."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import pyuff
+import scipy.linalg
+
+from mountid.cli import main
+from mountid.errors import InputError
+from mountid.measurement.records import Channel
+from mountid.measurement.rig import Rig
+from mountid.measurement.uff import dataset_58, placement, read_uff, read_uff_runs
+from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING, paper_hit, paper_sensors
+
+SPACING, TOP = 1 / 8, 50.0
+"""The lines [Hz]: 0 to TOP by SPACING (an 8 s window)."""
+
+HITS = ((0.35, 0.25, 0.3), (-0.35, 0.25, 0.3))
+"""Two hammer points (a roving hammer's inputs), each hit along paper_hit's direction."""
+
+
+def _rig() -> Rig:
+    return Rig.of("kid300", {**TABLE_1, **PUBLISHED_STIFFNESS, **TRUE_DAMPING})
+
+
+def _accelerance(rig: Rig, freq: np.ndarray, hit_point, sensor) -> np.ndarray:
+    """The exact acceleration per force [m/s^2 per N] of a sensor for a hit at ``hit_point`` (paper_hit's
+    direction), at ``freq`` [Hz]."""
+    omega = 2 * np.pi * freq
+    column = rig.force_column(hit_point, paper_hit().direction)
+    return -(omega**2) * (
+        np.einsum("fij,j->fi", rig.frf(omega), column) @ rig.sensor_row(sensor.point, sensor.direction)
+    )
+
+
+def _dataset(sensor, node: int, reference: int, freq, values, unit: str = "m/s^2", per: str = "N") -> dict:
+    """One frequency response function as pyuff's dataset 58 (complex, double precision ASCII)."""
+    return pyuff.prepare_58(
+        binary=0,
+        id1=sensor.name,
+        id2="FRF",
+        id3="",
+        id4=placement(sensor),
+        id5="",
+        func_type=4,
+        rsp_node=node,
+        rsp_dir=1,
+        ref_node=reference,
+        ref_dir=1,
+        ord_data_type=6,
+        num_pts=len(freq),
+        abscissa_spacing=1,
+        abscissa_min=float(freq[0]),
+        abscissa_inc=SPACING,
+        abscissa_spec_data_type=18,
+        ordinate_spec_data_type=12,
+        orddenom_spec_data_type=13,
+        abscissa_axis_units_lab="Hz",
+        ordinate_axis_units_lab=unit,
+        orddenom_axis_units_lab=per,
+        data=np.asarray(values, dtype=complex),
+        x=np.asarray(freq, dtype=float),
+    )
+
+
+def _write(path, sets: list[dict]) -> None:
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+
+
+def _frf_file(path, hits=HITS[:1], noise=0.0, first=0.0, unit="m/s^2", per="N", seed=0, top=TOP):
+    """The paper sensors' accelerances for each hit (a run each), lines from ``first`` [Hz], with complex white
+    noise of ``noise`` x the largest magnitude per line; ``unit`` and ``per`` the file's units (values converted)."""
+    from mountid.measurement.records import UNITS
+
+    rig, rng, sets = _rig(), np.random.default_rng(seed), []
+    freq = np.arange(first, top + SPACING / 2, SPACING)
+    for r, hit in enumerate(hits):
+        for k, sensor in enumerate(paper_sensors()):
+            a = _accelerance(rig, freq, hit, sensor)
+            a = a + noise * np.abs(a).max() * (rng.normal(size=len(a)) + 1j * rng.normal(size=len(a))) / np.sqrt(2)
+            scaled = a / UNITS["acceleration"][unit] * UNITS["force"][per]
+            sets.append(_dataset(sensor, k + 1, 100 + r, freq, scaled, unit, per))
+    _write(path, sets)
+
+
+def _impulse_response(rig: Rig, t: np.ndarray, hit_point, sensor, period: float) -> np.ndarray:
+    """The sensor's acceleration per unit impulse [m/s^2 per N s] at times 0 < ``t`` < ``period`` from the
+    state-space solution (q(0) = 0, q'(0) = M^-1 f, q'' = -M^-1 (C q + B q')) summed over the impulses one
+    ``period`` apart before it: lines ``1 / period`` apart are the transform of that periodic response (the sum
+    (I - exp(A period))^-1 in closed form)."""
+    n = rig.M.shape[0]
+    m_inv = np.linalg.inv(rig.M)
+    system = np.block([[np.zeros((n, n)), np.eye(n)], [-m_inv @ rig.C, -m_inv @ rig.B]])
+    state0 = np.concatenate([np.zeros(n), m_inv @ rig.force_column(hit_point, paper_hit().direction)])
+    state0 = np.linalg.solve(np.eye(2 * n) - scipy.linalg.expm(system * period), state0)
+    row = rig.sensor_row(sensor.point, sensor.direction)
+    return np.array([row @ (system @ scipy.linalg.expm(system * ti) @ state0)[n:] for ti in t])
+
+
+def test_frequency_response_functions_are_read_as_their_impulse_responses(tmp_path):
+    """Noise-free accelerances of the paper's sensors on lines 0-800 Hz by 1/8 Hz: the impulse responses read back
+    agree with the rig's state-space impulse response, wrapped with the 8 s period lines 1/8 Hz apart give (the
+    responses before add the same damped modes with other amplitudes: the poles and shapes stay), past the first
+    second to 0.1 % of the response's peak there (what differs is the accelerance's tail above the last line, which
+    the lines leave out: it falls as 1 / the last line, on A_z 1 % with lines to 50 Hz, 0.05 % to 800 Hz; unwrapped,
+    the responses differ by 0.5 %); every channel placed as written; an 8 s window at 1600 Hz."""
+    _frf_file(tmp_path / "frf.uff", top=800.0)
+    record = read_uff(tmp_path / "frf.uff")
+    assert record.impulse and record.rate == pytest.approx(1600.0) and len(record.time) == 12800
+    assert [c.point for c in record.channels] == [s.point for s in paper_sensors()]
+    rig = _rig()
+    late = np.flatnonzero((record.time > 1.0) & (record.time < 6.0))[::80]
+    for k, sensor in enumerate(paper_sensors()):
+        exact = _impulse_response(rig, record.time[late], HITS[0], sensor, 1 / SPACING)
+        assert np.max(np.abs(record.data[late, k] - exact)) < 1e-3 * np.max(np.abs(exact)), sensor.name
+
+
+def test_lines_above_zero_and_other_units_read_alike(tmp_path):
+    """A bench that exports lines from its first spacing (1/8 Hz, not 0) and in g per lbf gives the same impulse
+    responses as lines from 0 in m/s^2 per N: the missing line is 0 for an accelerance, the units converted."""
+    _frf_file(tmp_path / "si.uff")
+    _frf_file(tmp_path / "bench.uff", first=SPACING, unit="g", per="lbf")
+    si, bench = read_uff(tmp_path / "si.uff"), read_uff(tmp_path / "bench.uff")
+    assert [c.unit for c in bench.channels] == ["m/s^2"] * len(paper_sensors())
+    np.testing.assert_allclose(bench.data, si.data, rtol=0, atol=1e-9 * np.abs(si.data).max())
+
+
+def test_process_and_identify_record_give_the_rigs_poles(tmp_path, capsys):
+    """Accelerances with 0.3 % noise per line through `process`: the four distinct modes within three of their
+    standard deviations of the rig's poles, the note naming the lines and the window's damping; `identify-record`
+    gives the paper's stiffnesses within 3 sigma; --start and --rate, which such a file cannot take, are named."""
+    _frf_file(tmp_path / "frf.uff", noise=0.003)
+    assert main(["process", "kid300", str(tmp_path / "frf.uff"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    poles = _rig().poles
+    for label, mode in out["modes"].items():
+        nearest = float(np.min(np.abs(np.abs(poles) - mode["frequency"])))
+        assert nearest < 3 * mode["frequency_std"], label
+    assert set(out["modes"]) == {"x", "phi", "z", "psi"}
+    assert any(n.startswith("modes from the impulse responses of 5 frequency response functions") for n in out["notes"])
+    assert main(["identify-record", "kid300", str(tmp_path / "frf.uff"), "--json"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    for name, value in PUBLISHED_STIFFNESS.items():
+        assert abs(found["parameters"][name] - value) < 3 * found["parameter_std"][name], name
+    assert main(["process", "kid300", str(tmp_path / "frf.uff"), "--start", "0.1"]) == 2
+    assert "--start: impulse responses (frequency response functions) start at the hit" in capsys.readouterr().err
+    assert main(["process", "kid300", str(tmp_path / "frf.uff"), "--rate", "100"]) == 2
+    assert "--rate: frequency response functions: their lines give" in capsys.readouterr().err
+
+
+def test_a_roving_hammers_inputs_are_runs(tmp_path, capsys):
+    """A roving hammer's frequency response functions, one input (reference node) after the other: a run per
+    input, combined per mode as runs are (a campaign of the file too)."""
+    _frf_file(tmp_path / "roving.uff", hits=HITS, noise=0.003)
+    runs = read_uff_runs(tmp_path / "roving.uff")
+    assert len(runs) == 2 and all(r.impulse for r in runs)
+    assert main(["process", "kid300", str(tmp_path / "roving.uff"), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert any(n.startswith("x: frequency, damping ratio from ") and "run 2" in n for n in notes)
+    (tmp_path / "c.json").write_text(json.dumps({"machine": "kid300", "records": ["roving.uff"]}), encoding="utf-8")
+    assert main(["diagnose", str(tmp_path / "c.json"), "--json", "--no-figure"]) == 0
+    assert json.loads(capsys.readouterr().out)["kind"] == "no significant gap"
+
+
+def test_files_of_frequency_response_functions_mountid_does_not_read_are_named(tmp_path):
+    """A time response among frequency response functions, lines not a whole number of spacings from 0, and a
+    response per something other than a force are errors naming the channel."""
+    rig, sensor = _rig(), paper_sensors()[0]
+    freq = np.arange(0.0, TOP, SPACING)
+    frf = _dataset(sensor, 1, 100, freq, _accelerance(rig, freq, HITS[0], sensor))
+    time = dataset_58(Channel("T"), np.arange(len(freq)) / 100.0, np.ones(len(freq)), 2, 1, "")
+    _write(tmp_path / "mixed.uff", [frf, time])
+    with pytest.raises(InputError, match="^T: is a time response beside frequency response functions"):
+        read_uff(tmp_path / "mixed.uff")
+    shifted = _dataset(sensor, 1, 100, freq + SPACING / 3, frf["data"])
+    _write(tmp_path / "shifted.uff", [shifted])
+    with pytest.raises(InputError, match=r"^A_x: frequency lines from 0\.0416667 Hz by 0\.125 Hz: mountid reads"):
+        read_uff(tmp_path / "shifted.uff")
+    per_volt = _dataset(sensor, 1, 100, freq, frf["data"], per="V")
+    _write(tmp_path / "volt.uff", [per_volt])
+    with pytest.raises(InputError, match="^A_x: is a response per 'V'"):
+        read_uff(tmp_path / "volt.uff")
