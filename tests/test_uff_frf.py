@@ -74,9 +74,10 @@ def _write(path, sets: list[dict]) -> None:
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
 
 
-def _frf_file(path, hits=HITS[:1], noise=0.0, first=0.0, unit="m/s^2", per="N", seed=0, top=TOP):
-    """The paper sensors' accelerances for each hit (a run each), lines from ``first`` [Hz], with complex white
-    noise of ``noise`` x the largest magnitude per line; ``unit`` and ``per`` the file's units (values converted)."""
+def _frf_file(path, hits=HITS[:1], noise=0.0, first=0.0, unit="m/s^2", per="N", seed=0, top=TOP, labels=None):
+    """The paper sensors' accelerances for each hit (a run each), lines from ``first`` [Hz] to ``top``, with complex
+    white noise of ``noise`` x the largest magnitude per line; ``unit`` and ``per`` the file's units (the values
+    converted), written as the ordinate's and the denominator's labels unless ``labels`` gives those."""
     from mountid.measurement.records import UNITS
 
     rig, rng, sets = _rig(), np.random.default_rng(seed), []
@@ -86,7 +87,7 @@ def _frf_file(path, hits=HITS[:1], noise=0.0, first=0.0, unit="m/s^2", per="N", 
             a = _accelerance(rig, freq, hit, sensor)
             a = a + noise * np.abs(a).max() * (rng.normal(size=len(a)) + 1j * rng.normal(size=len(a))) / np.sqrt(2)
             scaled = a / UNITS["acceleration"][unit] * UNITS["force"][per]
-            sets.append(_dataset(sensor, k + 1, 100 + r, freq, scaled, unit, per))
+            sets.append(_dataset(sensor, k + 1, 100 + r, freq, scaled, *(labels or (unit, per))))
     _write(path, sets)
 
 
@@ -124,12 +125,15 @@ def test_frequency_response_functions_are_read_as_their_impulse_responses(tmp_pa
 
 def test_lines_above_zero_and_other_units_read_alike(tmp_path):
     """A bench that exports lines from its first spacing (1/8 Hz, not 0) and in g per lbf gives the same impulse
-    responses as lines from 0 in m/s^2 per N: the missing line is 0 for an accelerance, the units converted."""
+    responses as lines from 0 in m/s^2 per N: the missing line is 0 for an accelerance, the units converted; so
+    does one whose ordinate label names both units ("(g)/lbf", the denominator's label empty)."""
     _frf_file(tmp_path / "si.uff")
     _frf_file(tmp_path / "bench.uff", first=SPACING, unit="g", per="lbf")
     si, bench = read_uff(tmp_path / "si.uff"), read_uff(tmp_path / "bench.uff")
     assert [c.unit for c in bench.channels] == ["m/s^2"] * len(paper_sensors())
     np.testing.assert_allclose(bench.data, si.data, rtol=0, atol=1e-9 * np.abs(si.data).max())
+    _frf_file(tmp_path / "labels.uff", unit="g", per="lbf", labels=("(g)/lbf", ""))
+    np.testing.assert_allclose(read_uff(tmp_path / "labels.uff").data, si.data, atol=1e-9 * np.abs(si.data).max())
 
 
 def test_process_and_identify_record_give_the_rigs_poles(tmp_path, capsys):

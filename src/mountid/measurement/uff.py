@@ -280,10 +280,10 @@ def _impulse_responses(
         x = np.asarray(s["x"], dtype=float)
         if len(x) != len(freq) or not np.allclose(x, freq, rtol=0, atol=1e-9 * freq[-1]):
             raise InputError(name, f"its frequency lines are not those of {names[0]} ({freq[0]:g} to {freq[-1]:g} Hz)")
+        s, per = _per_force(s)
         quantity, unit = _quantity(s, name)
         if quantity == "force":
             raise InputError(name, "is a force over a force: a frequency response function is a response per force")
-        per = _label(s, "orddenom_axis_units_lab") or "N"
         denominator = int(s.get("orddenom_spec_data_type", 13) or 0)
         if per not in UNITS["force"] or denominator not in (0, 1, 9, 13):
             raise InputError(
@@ -302,6 +302,17 @@ def _impulse_responses(
         tuple(channels),
         impulse=True,
     )
+
+
+def _per_force(s: dict) -> tuple[dict, str]:
+    """A frequency response function's dataset with its ordinate's own unit, and the force unit it is per: the
+    denominator's label (N where it names none), or where the ordinate's label names both ("g/N", "(m/s^2)/lbf",
+    as some writers put it), the part after its last slash."""
+    label = _label(s, "ordinate_axis_units_lab")
+    head, _, tail = label.rpartition("/")
+    if head and tail.strip() in UNITS["force"]:
+        return {**s, "ordinate_axis_units_lab": head.strip().removeprefix("(").removesuffix(")")}, tail.strip()
+    return s, _label(s, "orddenom_axis_units_lab") or "N"
 
 
 FRF_ONLY = "a file of frequency response functions holds them (and coherences, not read) only"
