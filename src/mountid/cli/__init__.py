@@ -92,6 +92,14 @@ def build_parser() -> argparse.ArgumentParser:
             help="sampling rate [Hz]: a uniform grid from the first time instead of the time column (a CSV of "
             "channels only: every column a channel, from t = 0)",
         )
+        p.add_argument(
+            "--exponential-window",
+            type=float,
+            metavar="RATE",
+            help="frequency response functions (a UFF file of them): the exponential window exp(-RATE t) the bench "
+            "put on the responses [1/s: 1 / its time constant], divided out (it adds RATE / omega to each damping "
+            "ratio)",
+        )
         for option, metavar, help_ in (
             (
                 "--channel",

@@ -221,13 +221,14 @@ def read_runs(
     channels: Sequence[str] | None = None,
     ignore: Sequence[str] | None = None,
     run: int | None = None,
+    window: float | None = None,
 ) -> list[tuple[str, Record]]:
     """The records of the file at ``path``, each with its name in notes (records.named_runs; the options as
-    read_record takes them): the run --run gives ("PATH run K"), else every run of a UFF or TDMS file of several
-    ("PATH run 1", ...), else the file's one record (PATH)."""
+    read_record takes them, ``window`` --exponential-window's): the run --run gives ("PATH run K"), else every run
+    of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record (PATH)."""
     from mountid.measurement.records import named_runs
 
-    return _placed(lambda: named_runs(path, path, rate, tuple(ignore or ()), run), rate, channels)
+    return _placed(lambda: named_runs(path, path, rate, tuple(ignore or ()), run, window), rate, channels)
 
 
 def _placed(

@@ -120,6 +120,9 @@ class RecordSource:
     """Names of channels left unread (a tachometer, a microphone: records.read_csv)."""
     run: int | None = None
     """Which run of a UFF or TDMS file of several (records.read_record; None: every run, each a record of its own)."""
+    exponential_window: float | None = None
+    """[1/s] The exponential window a bench put on frequency response functions, divided out (records.without_window;
+    None: none)."""
 
     @property
     def name(self) -> str:
@@ -711,7 +714,8 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     )
     start = entry.get("start")
     ignore, run = tuple(entry.get("ignore", ())), entry.get("run")
-    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore, run)
+    window = entry.get("exponential_window")
+    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore, run, window)
 
 
 @dataclass(frozen=True)
@@ -802,7 +806,9 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
     from mountid.measurement.records import named_runs, with_geometry
 
     try:
-        records = named_runs(source.path, source.path.name, source.rate, source.ignore, source.run)
+        records = named_runs(
+            source.path, source.path.name, source.rate, source.ignore, source.run, source.exponential_window
+        )
         if source.channels:
             geometry = {name: (point, direction) for name, point, direction in source.channels}
             records = [(name, with_geometry(record, geometry, "channels")) for name, record in records]

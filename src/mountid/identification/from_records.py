@@ -1025,11 +1025,16 @@ def modal_data(
         if record.impulse:  # a bench's frequency response functions transformed back: fitted as the H1's are
             if start is not None:
                 raise InputError("start", "impulse responses (frequency response functions) start at the hit")
-            start, fitted = IRF_START, record
+            start, fitted, lines = IRF_START, record, record.impulse
+            windowed = (
+                f"the bench's exponential window of {lines.window:.4g} 1/s divided out"
+                if lines.window
+                else "an exponential window the bench put on the responses adds its decay to every mode's damping: "
+                "give it (--exponential-window, a campaign record's exponential_window) to divide it out"
+            )
             notes.append(
                 f"modes from the impulse responses of {counted(len(record.channels), 'frequency response function')}"
-                f" (lines to {record.rate / 2:.4g} Hz by {record.rate / len(record.time):.4g} Hz; an exponential "
-                "window the bench put on the responses adds its decay to every mode's damping)"
+                f" (lines to {lines.top:.4g} Hz by {lines.spacing:.4g} Hz; {windowed})"
             )
         else:
             if start is not None:  # a time of the record: its checks look from there, the impulse responses have theirs

@@ -98,16 +98,28 @@ class Channel:
 
 
 @dataclass(frozen=True)
+class Lines:
+    """Where impulse responses come from (Record.impulse): a bench's frequency response functions on lines
+    ``spacing`` [Hz] apart from 0 to ``top`` [Hz], with an exponential window exp(-``window`` t) the bench put on
+    the responses divided out again (``window`` [1/s]; 0: none divided out)."""
+
+    top: float
+    spacing: float
+    window: float = 0.0
+
+
+@dataclass(frozen=True)
 class Record:
     """Uniformly sampled channels: time (n,) [s], data (n, n_channels) in each channel's unit."""
 
     time: NDArray[np.float64]
     data: NDArray[np.float64]
     channels: tuple[Channel, ...]
-    impulse: bool = False
-    """The channels are impulse responses [unit per N s] from the instant of a hit: a bench's frequency response
-    functions transformed back (uff.read_uff of a file of them), not a test's record. The records chain fits them
-    as it fits the H1 frequency responses of a record with a force channel, without a time record's checks."""
+    impulse: Lines | None = None
+    """Where the channels are impulse responses [unit per N s] from the instant of a hit, the frequency response
+    functions they come from (uff.read_uff of a file of them: not a test's record); None for a record. The records
+    chain fits them as it fits the H1 frequency responses of a record with a force channel, without a time
+    record's checks."""
 
     def __post_init__(self) -> None:
         validate(self.time, self.data, tuple(c.name for c in self.channels))
@@ -281,6 +293,23 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
         f"jitter: sample times scatter by up to {worst:.1%} of a step about a uniform grid; give the sampling "
         "rate (--rate, or 'rate' in a campaign's record) to use the nominal grid",
     )
+
+
+def without_window(record: Record, window: float) -> Record:
+    """Impulse responses (Record.impulse) with the exponential window exp(-``window`` t) a bench put on the responses
+    divided out (``window`` [1/s]: 1 / its time constant; -ln(end) / T for a window that ends at ``end`` of its
+    start over a T-second block): the window adds its decay to every mode's, ``window`` / omega to its damping
+    ratio. An InputError naming ``exponential_window`` for a record of a test (mountid puts and removes its own
+    window) or a rate that is no finite number >= 0."""
+    if not (math.isfinite(window) and window >= 0):
+        raise InputError("exponential_window", f"must be a finite rate >= 0 [1/s], got {window}")
+    if record.impulse is None:
+        raise InputError(
+            "exponential_window",
+            "applies to frequency response functions: a record's own window is mountid's, divided out already",
+        )
+    undone = np.exp(window * (record.time - record.time[0]))[:, None]
+    return replace(record, data=record.data * undone, impulse=replace(record.impulse, window=window))
 
 
 def with_rate(record: Record, rate: float) -> Record:
@@ -783,14 +812,20 @@ def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[st
 
 
 def named_runs(
-    path: str | Path, name: str, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
+    path: str | Path,
+    name: str,
+    rate: float | None = None,
+    ignore: Collection[str] = (),
+    run: int | None = None,
+    window: float | None = None,
 ) -> list[tuple[str, Record]]:
     """The records of a record file, each with its name in notes: the run ``run`` gives ("``name`` run K",
     read_record), else every run (read_runs), "``name`` run 1", ... where the file holds several, ``name`` where
-    it holds one."""
+    it holds one; ``window`` [1/s]: a bench's exponential window divided out of frequency response functions
+    (without_window)."""
     if run is not None:
-        return [(f"{name} run {run}", read_record(path, rate, ignore, run))]
-    records = read_runs(path, rate, ignore)
-    if len(records) == 1:
-        return [(name, records[0])]
-    return [(f"{name} run {k}", record) for k, record in enumerate(records, start=1)]
+        named = [(f"{name} run {run}", read_record(path, rate, ignore, run))]
+    else:
+        records = read_runs(path, rate, ignore)
+        named = [(name if len(records) == 1 else f"{name} run {k}", r) for k, r in enumerate(records, start=1)]
+    return named if window is None else [(n, without_window(r, window)) for n, r in named]

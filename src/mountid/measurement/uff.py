@@ -34,7 +34,16 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError, existing_file
-from mountid.measurement.records import UNITS, UNREAD, Channel, Record, check_ignored, each_run, quantity_of
+from mountid.measurement.records import (
+    UNITS,
+    UNREAD,
+    Channel,
+    Lines,
+    Record,
+    check_ignored,
+    each_run,
+    quantity_of,
+)
 
 _TAG = "mountid point="
 
@@ -300,7 +309,7 @@ def _impulse_responses(
         np.arange(n) / rate,
         np.fft.irfft(np.column_stack(columns), n=n, axis=0) * rate,
         tuple(channels),
-        impulse=True,
+        impulse=Lines(rate / 2, spacing),
     )
 
 
@@ -444,11 +453,9 @@ def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     sizes = ", ".join(str(len(r)) for r in runs)
     held = f"{path.name} holds {len(runs)} {'run' if len(runs) == 1 else 'runs'} (datasets 58 of {sizes} channels"
     if run is None:
-        raise InputError(
-            "run",
-            f"{held}, a run beginning where a response node and direction recurs): give the run to read "
-            "(read_uff_runs reads each)",
-        )
+        frfs = _function_type(runs[0][0]) == FRF
+        parted = "a run per input" if frfs else "a run beginning where a response node and direction recurs"
+        raise InputError("run", f"{held}, {parted}): give the run to read (read_uff_runs reads each)")
     if not 1 <= run <= len(runs):
         raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
     return runs[run - 1]
