@@ -130,7 +130,8 @@ def test_frequency_response_functions_are_read_as_their_impulse_responses(tmp_pa
 def test_lines_above_zero_and_other_units_read_alike(tmp_path):
     """A bench that exports lines from its first spacing (1/8 Hz, not 0) and in g per lbf gives the same impulse
     responses as lines from 0 in m/s^2 per N: the missing line is 0 for an accelerance, the units converted; so
-    does one whose ordinate label names both units ("(g)/lbf", the denominator's label empty)."""
+    does one whose ordinate label names both units ("(g)/lbf", the denominator's label empty), and one whose lines
+    are in rad/s."""
     _frf_file(tmp_path / "si.uff")
     _frf_file(tmp_path / "bench.uff", first=SPACING, unit="g", per="lbf")
     si, bench = read_uff(tmp_path / "si.uff"), read_uff(tmp_path / "bench.uff")
@@ -138,6 +139,16 @@ def test_lines_above_zero_and_other_units_read_alike(tmp_path):
     np.testing.assert_allclose(bench.data, si.data, rtol=0, atol=1e-9 * np.abs(si.data).max())
     _frf_file(tmp_path / "labels.uff", unit="g", per="lbf", labels=("(g)/lbf", ""))
     np.testing.assert_allclose(read_uff(tmp_path / "labels.uff").data, si.data, atol=1e-9 * np.abs(si.data).max())
+    sets = pyuff.UFF(str(tmp_path / "si.uff")).read_sets()
+    radians = [
+        _dataset(sensor, k + 1, 100, 2 * np.pi * d["x"], d["data"])
+        for k, (sensor, d) in enumerate(zip(paper_sensors(), sets, strict=True))
+    ]
+    for d in radians:
+        d.update(abscissa_axis_units_lab="rad/s", abscissa_inc=2 * np.pi * SPACING)
+    _write(tmp_path / "radians.uff", radians)
+    # the spacing in rad/s is written to six digits (UFF 58's E13.5): the rate, and every response with it, to 1e-6
+    np.testing.assert_allclose(read_uff(tmp_path / "radians.uff").data, si.data, rtol=1e-6, atol=0)
 
 
 def test_process_and_identify_record_give_the_rigs_poles(tmp_path, capsys):
@@ -178,8 +189,9 @@ def test_a_roving_hammers_inputs_are_runs(tmp_path, capsys):
 
 
 def test_files_of_frequency_response_functions_mountid_does_not_read_are_named(tmp_path):
-    """A time response among frequency response functions, lines not a whole number of spacings from 0, and a
-    response per something other than a force are errors naming the channel."""
+    """A time response among frequency response functions, lines not a whole number of spacings from 0, a
+    magnitude without its phase, and a response per something other than a force are errors naming the
+    channel."""
     rig, sensor = _rig(), paper_sensors()[0]
     freq = np.arange(0.0, TOP, SPACING)
     frf = _dataset(sensor, 1, 100, freq, _accelerance(rig, freq, HITS[0], sensor))
@@ -191,6 +203,10 @@ def test_files_of_frequency_response_functions_mountid_does_not_read_are_named(t
     _write(tmp_path / "shifted.uff", [shifted])
     with pytest.raises(InputError, match=r"^A_x: frequency lines from 0\.0416667 Hz by 0\.125 Hz: mountid reads"):
         read_uff(tmp_path / "shifted.uff")
+    magnitude = _dataset(sensor, 1, 100, freq, np.abs(frf["data"]))
+    _write(tmp_path / "magnitude.uff", [magnitude])
+    with pytest.raises(InputError, match="^A_x: holds real values only: a frequency response function is complex"):
+        read_uff(tmp_path / "magnitude.uff")
     per_volt = _dataset(sensor, 1, 100, freq, frf["data"], per="V")
     _write(tmp_path / "volt.uff", [per_volt])
     with pytest.raises(InputError, match="^A_x: is a response per 'V'"):

@@ -270,8 +270,11 @@ def _impulse_responses(
     transform back to (Record.impulse), in SI units per N: every function on the first one's frequency lines (in
     Hz, evenly spaced, the first a whole number of spacings from 0: the lines below it taken as 0), a response
     over a force (the denominator's unit: N where it names none); h(t) = rate x the inverse real transform of the
-    lines from 0 to the last, at rate = twice the last line's frequency, over 1 / spacing seconds."""
-    freq = np.asarray(sets[0]["x"], dtype=float)
+    lines from 0 to the last, at rate = twice the last line's frequency, over 1 / spacing seconds. An abscissa
+    labelled rad/s is converted to Hz; a function of real values only (a magnitude: its phase lost) is an error."""
+    abscissa = np.asarray(sets[0]["x"], dtype=float)
+    radians = _label(sets[0], "abscissa_axis_units_lab").replace(" ", "").lower() in ("rad/s", "rad/sec")
+    freq = abscissa / (2 * np.pi) if radians else abscissa
     if len(freq) < 3:
         raise InputError(names[0], f"{len(freq)} frequency lines: a frequency response function needs more")
     spacing = float(freq[1] - freq[0])
@@ -287,7 +290,12 @@ def _impulse_responses(
     columns, channels = [], []
     for name, s in zip(names, sets, strict=True):
         x = np.asarray(s["x"], dtype=float)
-        if len(x) != len(freq) or not np.allclose(x, freq, rtol=0, atol=1e-9 * freq[-1]):
+        if not np.iscomplexobj(s["data"]) or not np.any(np.imag(np.asarray(s["data"])) != 0):
+            raise InputError(
+                name,
+                "holds real values only: a frequency response function is complex (a magnitude has lost its phase)",
+            )
+        if len(x) != len(abscissa) or not np.allclose(x, abscissa, rtol=0, atol=1e-9 * abscissa[-1]):
             raise InputError(name, f"its frequency lines are not those of {names[0]} ({freq[0]:g} to {freq[-1]:g} Hz)")
         s, per = _per_force(s)
         quantity, unit = _quantity(s, name)
