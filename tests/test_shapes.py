@@ -237,3 +237,30 @@ def test_a_roving_export_gives_shapes_to_process_and_a_campaign(tmp_path, capsys
     assert all(c.modes[label].shape is not None for label in modes)
     assert any(n.startswith("shape uncertainty per component: the record's noise (") for n in c.record_notes)
     assert not c.sensors
+
+
+def test_the_sharpest_record_with_a_shape_gives_it():
+    """Two records of one mode: a partial layout (the reference beside one triaxial sensor) of little noise, whose
+    frequencies are the sharper, and a full layout of more noise. The mode's shape is the full layout's (the
+    sharpest record left the mode without one), named in the note."""
+    from mountid.identification.combination import every_decay
+    from mountid.measurement.rig import Hammer, Rig, Sensor
+
+    rig = Rig.of("rectangular")
+    hit = Hammer((0.6, 0.4, 0.3), (1.0, 0.8, -0.6), peak=3000.0)
+    partial = [Sensor("R_z", CORNERS[0], (0, 0, 1), noise=0.002)]
+    partial += [Sensor(f"P_{d}", CORNERS[1], v, noise=0.002) for d, v in zip("xyz", np.eye(3), strict=True)]
+    full = [
+        Sensor(f"F{k}_{d}", c, v, noise=0.05)
+        for k, c in enumerate(CORNERS)
+        for d, v in zip("xyz", np.eye(3), strict=True)
+    ]
+    runs = [
+        ("partial", rig.simulate(partial, 6.0, 1000.0, hammers=[hit], seed=1)),
+        ("full", rig.simulate(full, 6.0, 1000.0, hammers=[hit], seed=2)),
+    ]
+    found = every_decay(rig.machine, runs, {})
+    for label, mode in found.modes.items():
+        assert mode.shape is not None, label
+        said = next(n for n in found.notes if n.startswith(f"{label}: frequency"))
+        assert "shape from full" in said, said

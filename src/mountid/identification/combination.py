@@ -151,12 +151,10 @@ def combined(found: list[tuple[MeasuredMode, str]], sharpest: MeasuredMode) -> t
     """One mode measured in several records: the frequency and the damping ratio as weighted means, each
     standard deviation the mean's, widened by the Birge ratio where the records scatter beyond their own
     uncertainty (their repeatability, not only their noise); the rest from ``sharpest`` (the record with the
-    smallest frequency standard deviation), its shape that of the sharpest record that gives one (shaped). Returns
-    the mode and a note of any widening ('' without)."""
+    smallest frequency standard deviation; combine chooses the shape). Returns the mode and a note of any widening
+    ('' without)."""
     frequency, frequency_std, widened = weighted([(m.frequency, m.frequency_std) for m, _ in found])
     mode = replace(sharpest, frequency=frequency, frequency_std=frequency_std)
-    if mode.shape is None and (shaped := sharpest_shape(found)) is not None:
-        mode = replace(mode, shape=shaped[0].shape, shape_std=shaped[0].shape_std)
     ratios = [(m.damping_ratio, m.damping_std) for m, _ in found if m.damping_ratio is not None and m.damping_std]
     note = (
         f"; the frequencies scatter {widened:.3g} times their stated uncertainty, the mean's widened as much"
@@ -260,18 +258,17 @@ def combine(
         else:
             mode, note = combined(found, mode)
             names = ", ".join(n for _, n in found)
-            shaped, joint = sharpest_shape(found), None
-            if shaped is None and (joint := joint_shape(machine, label, found, estimates)) is not None:
+            shaped, joint, shape = sharpest_shape(found), None, ""
+            if shaped is not None:  # the sharpest estimate whose channels give one
+                mode = replace(mode, shape=shaped[0].shape, shape_std=shaped[0].shape_std)
+                shape_from[label], shape = (shaped[1],), f"; shape from {shaped[1]}"
+            elif (joint := joint_shape(machine, label, found, estimates)) is not None:
                 mode = replace(mode, shape=joint[0], shape_std=joint[1])
-            if joint is not None:
                 shape_from[label] = tuple(n for _, n in found)
                 shape = (
                     f"; shape from the channels of all {len(found)} together, each one's amplitudes scaled by a "
                     "factor fitted with it"
                 )
-            else:
-                shape_from[label] = (shaped[1],) if shaped is not None else ()
-                shape = f"; shape from {shaped[1]}" if shaped is not None else ""
             notes.append(f"{label}: frequency, damping ratio from {names} (weighted means{shape}){note}")
         said = disagreement(label, found) if label not in by_hand else []
         notes += said
