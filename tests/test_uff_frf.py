@@ -199,6 +199,10 @@ def test_files_of_frequency_response_functions_mountid_does_not_read_are_named(t
     _write(tmp_path / "mixed.uff", [frf, time])
     with pytest.raises(InputError, match="^T: is a time response beside frequency response functions"):
         read_uff(tmp_path / "mixed.uff")
+    spectrum = {**_dataset(paper_sensors()[1], 2, 100, freq, frf["data"]), "func_type": 9}
+    _write(tmp_path / "spectrum.uff", [frf, spectrum])
+    with pytest.raises(InputError, match="^A_y: is a power spectral density beside frequency response functions"):
+        read_uff(tmp_path / "spectrum.uff")
     shifted = _dataset(sensor, 1, 100, freq + SPACING / 3, frf["data"])
     _write(tmp_path / "shifted.uff", [shifted])
     with pytest.raises(InputError, match=r"^A_x: frequency lines from 0\.0416667 Hz by 0\.125 Hz: mountid reads"):

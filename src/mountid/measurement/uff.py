@@ -171,7 +171,8 @@ def _opened(path: str | Path) -> tuple[Path, pyuff.UFF, list, list[list[dict]]]:
     if frfs:  # a bench's frequency response functions: a run per input (reference node and direction)
         other = next((s for s in sets if _function_type(s) not in (FRF, COHERENCE)), None)
         if other is not None:
-            what = _FUNCTION_TYPES.get(_function_type(other), "a time response")
+            kind = _function_type(other)
+            what = "a time response" if kind in (0, 1) else _FUNCTION_TYPES.get(kind, f"of UFF 58 function type {kind}")
             name = str(other.get("id1", "")).strip() or f"node{other.get('rsp_node', 0)}:{other.get('rsp_dir', 0)}"
             raise InputError(name, f"is {what} beside frequency response functions: {FRF_ONLY}")
         inputs = list(dict.fromkeys(_reference(s) for s in frfs))
