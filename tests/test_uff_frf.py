@@ -254,3 +254,32 @@ def test_a_benchs_exponential_window_is_divided_out(tmp_path, capsys):
     write_csv(_rig().simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()]), tmp_path / "hit.csv")
     assert main(["process", "kid300", str(tmp_path / "hit.csv"), "--exponential-window", "0.5"]) == 2
     assert "--exponential-window: applies to frequency response functions" in capsys.readouterr().err
+
+
+def test_coherences_beside_the_functions_name_a_mode_of_low_coherence(tmp_path, capsys):
+    """A file of the functions and, after them, a coherence of each (function type 6): the impulse responses are
+    those of the functions alone, each coherence goes with its response's channel, and a mode whose coherence is
+    below 0.8 on every channel (0.5 about the lowest, x, at 2.8 Hz; 1 elsewhere) is named (low_coherence), the
+    others not."""
+    _frf_file(tmp_path / "alone.uff")
+    sets = pyuff.UFF(str(tmp_path / "alone.uff")).read_sets()
+    freq = np.asarray(sets[0]["x"])
+    values = np.where((freq > 2.5) & (freq < 3.2), 0.5, 1.0)
+    coherences = []
+    for k, sensor in enumerate(paper_sensors()):
+        coherence = _dataset(sensor, k + 1, 100, freq, values)
+        coherence.update(
+            func_type=6, ord_data_type=4, data=values, ordinate_spec_data_type=0, orddenom_spec_data_type=0
+        )
+        coherences.append(coherence)
+    frfs = [
+        _dataset(s, k + 1, 100, freq, d["data"]) for k, (s, d) in enumerate(zip(paper_sensors(), sets, strict=True))
+    ]
+    _write(tmp_path / "both.uff", frfs + coherences)
+    both, alone = read_uff(tmp_path / "both.uff"), read_uff(tmp_path / "alone.uff")
+    np.testing.assert_array_equal(both.data, alone.data)
+    assert [name for name, _ in both.impulse.coherence] == [s.name for s in paper_sensors()]
+    assert main(["process", "kid300", str(tmp_path / "both.uff"), "--json"]) == 0
+    warned = [w for w in json.loads(capsys.readouterr().out)["warnings"] if w["kind"] == "low_coherence"]
+    assert len(warned) == 1 and warned[0]["message"].startswith("mode x at 17.7")
+    assert "coherence 0.50 at most over the bench's averages" in warned[0]["message"]

@@ -1131,7 +1131,13 @@ def modal_data(
             warnings,
         )
     if estimate is not None and len(estimate.hits) > 1:
-        warnings += _coherence_warnings(estimate, labelled, settings)
+        at = estimate.at
+        warnings += _coherence_warnings(lambda w: at(w)[1], labelled, settings, f"{len(estimate.hits)} hits")
+    if record.impulse is not None and record.impulse.coherence:
+        lines, names = record.impulse, record.names
+        warnings += _coherence_warnings(
+            lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, "the bench's averages"
+        )
     rows = channel_rows(machine, record)
     full = np.linalg.matrix_rank(rows) == rows.shape[1]
     length = machine.length_scale(guess)
@@ -1175,20 +1181,24 @@ def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, 
 
 
 def _coherence_warnings(
-    estimate: FrfEstimate, labelled: dict[str, tuple[modal.Pole, float]], settings: RecordSettings
+    coherence_at: Callable[[float], np.ndarray],
+    labelled: dict[str, tuple[modal.Pole, float]],
+    settings: RecordSettings,
+    over: str,
 ) -> list[modal.QualityWarning]:
-    """A low_coherence warning for each mode whose coherence at its frequency is below settings.low_coherence on
-    every channel: noise, a nonlinearity or an input the force channel does not measure."""
+    """A low_coherence warning for each mode whose coherence at its frequency (``coherence_at`` of its damped
+    frequency [rad/s]: the channels' coherence there) is below settings.low_coherence on every channel: noise, a
+    nonlinearity or an input the force channel does not measure. ``over``: what the coherence was averaged over."""
     out = []
     for label, (pole, _) in labelled.items():
-        _, coherence = estimate.at(pole.damped_frequency)
-        if float(np.max(coherence)) < settings.low_coherence:
+        coherence = coherence_at(pole.damped_frequency)
+        if len(coherence) and float(np.max(coherence)) < settings.low_coherence:
             out.append(
                 modal.QualityWarning(
                     "low_coherence",
                     "all",
                     f"mode {label} at {pole.frequency:.4g} rad/s: coherence {float(np.max(coherence)):.2f} at most "
-                    f"over {len(estimate.hits)} hits (noise, a nonlinearity or an unmeasured input)",
+                    f"over {over} (noise, a nonlinearity or an unmeasured input)",
                 )
             )
     return out

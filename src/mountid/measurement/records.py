@@ -97,15 +97,22 @@ class Channel:
     unit: str = "m/s^2"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Lines:
     """Where impulse responses come from (Record.impulse): a bench's frequency response functions on lines
     ``spacing`` [Hz] apart from 0 to ``top`` [Hz], with an exponential window exp(-``window`` t) the bench put on
-    the responses divided out again (``window`` [1/s]; 0: none divided out)."""
+    the responses divided out again (``window`` [1/s]; 0: none divided out), and the ``coherence`` the file gives
+    per channel name on the same lines (0 where it gives none)."""
 
     top: float
     spacing: float
     window: float = 0.0
+    coherence: tuple[tuple[str, NDArray[np.float64]], ...] = ()
+
+    def coherence_at(self, frequency: float, names: Sequence[str]) -> NDArray[np.float64]:
+        """The coherence of the channels ``names`` that have one at the line nearest ``frequency`` [Hz]."""
+        k = int(round(frequency / self.spacing))
+        return np.array([c[min(k, len(c) - 1)] for name, c in self.coherence if name in names])
 
 
 @dataclass(frozen=True)

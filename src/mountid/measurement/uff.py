@@ -3,8 +3,8 @@
 One dataset 58 per channel: a time response (function type 1, or 0 over time), real, evenly spaced abscissa; a
 spectrum or complex data is an error naming the channel, and a label that says NONE (what writers put in an empty
 one) is empty. A file of frequency response functions (function type 4, a bench's hammer test exported as
-such; coherences beside them not read) is read as the impulse responses they transform back to, a run per input
-(reference node and direction): Record.impulse. A channel of a quantity mountid does not read (ordinate type:
+such, with their coherences) is read as the impulse responses they transform back to, a run per input (reference
+node and direction): Record.impulse. A channel of a quantity mountid does not read (ordinate type:
 a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). A file
 of several runs (the hits of a test one after another, a dataset per channel each; a roving test's, where a node and
 direction recurs) is read one run at a time.
@@ -175,8 +175,9 @@ def _opened(path: str | Path) -> tuple[Path, pyuff.UFF, list, list[list[dict]]]:
             what = "a time response" if kind in (0, 1) else _FUNCTION_TYPES.get(kind, f"of UFF 58 function type {kind}")
             name = str(other.get("id1", "")).strip() or f"node{other.get('rsp_node', 0)}:{other.get('rsp_dir', 0)}"
             raise InputError(name, f"is {what} beside frequency response functions: {FRF_ONLY}")
-        inputs = list(dict.fromkeys(_reference(s) for s in frfs))
-        return path, uff, types, [[s for s in frfs if _reference(s) == key] for key in inputs]
+        inputs = list(dict.fromkeys(_reference(s) for s in frfs))  # each run's coherences after its functions
+        ordered = frfs + [s for s in sets if _function_type(s) == COHERENCE]
+        return path, uff, types, [[s for s in ordered if _reference(s) == key] for key in inputs]
     return path, uff, types, _runs(sets)
 
 
@@ -184,7 +185,8 @@ FRF = 4
 """UFF 58 function type of a frequency response function."""
 
 COHERENCE = 6
-"""UFF 58 function type of a coherence: a file of frequency response functions may hold them beside; not read."""
+"""UFF 58 function type of a coherence: a file of frequency response functions may hold them beside, one per
+response and input (Lines.coherence)."""
 
 
 def _function_type(s: dict) -> int:
@@ -197,7 +199,10 @@ def _reference(s: dict) -> tuple[int, int]:
 
 
 def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Collection[str]) -> Record:
-    """One run's datasets 58 as a record, all but the channels ``ignore`` names (read_uff)."""
+    """One run's datasets 58 as a record, all but the channels ``ignore`` names (read_uff); coherences beside
+    frequency response functions go with the channel of their response."""
+    coherences = [s for s in sets if _function_type(s) == COHERENCE]
+    sets = [s for s in sets if _function_type(s) != COHERENCE]
     names = _names(sets)
     check_ignored(ignore, names, path.name)
     sets, names = (
@@ -208,7 +213,7 @@ def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: C
         raise InputError("ignore", f"leaves no channel of {path.name}")
     nodes = _nodes(uff, types, path)
     if _function_type(sets[0]) == FRF:
-        return _impulse_responses(sets, names, nodes)
+        return _impulse_responses(sets, names, nodes, coherences)
     time = np.asarray(sets[0]["x"], dtype=float)
     columns, channels = [], []
     for n, s in enumerate(sets):
@@ -265,14 +270,19 @@ def _quantity(s: dict, name: str) -> tuple[str, str]:
 
 
 def _impulse_responses(
-    sets: list[dict], names: list[str], nodes: dict[int, tuple[tuple[float, float, float], np.ndarray]]
+    sets: list[dict],
+    names: list[str],
+    nodes: dict[int, tuple[tuple[float, float, float], np.ndarray]],
+    coherences: Collection[dict] = (),
 ) -> Record:
     """One input's frequency response functions (datasets 58 of function type 4) as the impulse responses they
     transform back to (Record.impulse), in SI units per N: every function on the first one's frequency lines (in
     Hz, evenly spaced, the first a whole number of spacings from 0: the lines below it taken as 0), a response
     over a force (the denominator's unit: N where it names none); h(t) = rate x the inverse real transform of the
     lines from 0 to the last, at rate = twice the last line's frequency, over 1 / spacing seconds. An abscissa
-    labelled rad/s is converted to Hz; a function of real values only (a magnitude: its phase lost) is an error."""
+    labelled rad/s is converted to Hz; a function of real values only (a magnitude: its phase lost) is an error.
+    A coherence of the same response (node and direction) on the same lines goes with its channel
+    (Lines.coherence)."""
     abscissa = np.asarray(sets[0]["x"], dtype=float)
     radians = _label(sets[0], "abscissa_axis_units_lab").replace(" ", "").lower() in ("rad/s", "rad/sec")
     freq = abscissa / (2 * np.pi) if radians else abscissa
@@ -288,9 +298,16 @@ def _impulse_responses(
             f"frequency lines from {freq[0]:g} Hz by {spacing:g} Hz: mountid reads lines evenly spaced from 0 or "
             "a whole number of spacings above it",
         )
-    columns, channels = [], []
+    columns, channels, coherence = [], [], []
+    of_response = {_response(c): c for c in coherences}
     for name, s in zip(names, sets, strict=True):
         x = np.asarray(s["x"], dtype=float)
+        if _response(s) in of_response:
+            given = of_response[_response(s)]
+            if len(given["x"]) != len(x) or not np.allclose(given["x"], x, rtol=0, atol=1e-9 * abscissa[-1]):
+                raise InputError(name, "its coherence is not on its frequency lines")
+            values = np.real(np.asarray(given["data"])).astype(float)
+            coherence.append((name, np.concatenate([np.zeros(first), values])))
         if not np.iscomplexobj(s["data"]) or not np.any(np.imag(np.asarray(s["data"])) != 0):
             raise InputError(
                 name,
@@ -318,8 +335,13 @@ def _impulse_responses(
         np.arange(n) / rate,
         np.fft.irfft(np.column_stack(columns), n=n, axis=0) * rate,
         tuple(channels),
-        impulse=Lines(rate / 2, spacing),
+        impulse=Lines(rate / 2, spacing, coherence=tuple(coherence)),
     )
+
+
+def _response(s: dict) -> tuple[int, int]:
+    """A dataset's response node and direction."""
+    return int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
 
 
 def _per_force(s: dict) -> tuple[dict, str]:
@@ -333,7 +355,7 @@ def _per_force(s: dict) -> tuple[dict, str]:
     return s, _label(s, "orddenom_axis_units_lab") or "N"
 
 
-FRF_ONLY = "a file of frequency response functions holds them (and coherences, not read) only"
+FRF_ONLY = "a file of frequency response functions holds them (and their coherences) only"
 
 
 _FUNCTION_TYPES = {
@@ -459,7 +481,7 @@ def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     holds several and none is given, or the run is not one of them."""
     if run is None and len(runs) == 1:
         return runs[0]
-    sizes = ", ".join(str(len(r)) for r in runs)
+    sizes = ", ".join(str(sum(_function_type(s) != COHERENCE for s in r)) for r in runs)
     held = f"{path.name} holds {len(runs)} {'run' if len(runs) == 1 else 'runs'} (datasets 58 of {sizes} channels"
     if run is None:
         frfs = _function_type(runs[0][0]) == FRF
