@@ -258,7 +258,7 @@ def combine(
         else:
             mode, note = combined(found, mode)
             names = ", ".join(n for _, n in found)
-            shaped, joint, shape = sharpest_shape(found), None, ""
+            shaped, shape = sharpest_shape(found), ""
             if shaped is not None:  # the sharpest estimate whose channels give one
                 mode = replace(mode, shape=shaped[0].shape, shape_std=shaped[0].shape_std)
                 shape_from[label], shape = (shaped[1],), f"; shape from {shaped[1]}"

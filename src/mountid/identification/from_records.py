@@ -1021,8 +1021,8 @@ def modal_data(
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
     estimate, notes, end, hits = None, [], None, ()
-    if record.impulse or (full.forces and use_force):
-        if record.impulse:  # a bench's frequency response functions transformed back: fitted as the H1's are
+    if record.impulse is not None or (full.forces and use_force):
+        if record.impulse is not None:  # a bench's frequency response functions transformed back: fitted as H1 is
             if start is not None:
                 raise InputError("start", "impulse responses (frequency response functions) start at the hit")
             start, fitted, lines = IRF_START, record, record.impulse
@@ -1078,7 +1078,7 @@ def modal_data(
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     warnings = (
         []  # no record of the test: its checks (clipping, noise, the hit) were the bench's
-        if record.impulse
+        if record.impulse is not None
         else modal.hammer_test_quality(
             record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
         )
@@ -1089,7 +1089,7 @@ def modal_data(
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         # over the free decay from its start, or the impulse responses from the start the free decay has by default
         sensor = inconsistent_channel(
-            machine, source[0], modal.DEFAULT_START if estimate is not None or record.impulse else start
+            machine, source[0], modal.DEFAULT_START if estimate is not None or record.impulse is not None else start
         )
         warnings += [sensor] if sensor is not None else []
     # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label

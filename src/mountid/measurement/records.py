@@ -322,7 +322,7 @@ def without_window(record: Record, window: float) -> Record:
 def with_rate(record: Record, rate: float) -> Record:
     """The record on a uniform grid at ``rate`` [Hz] from its first time (the sampling-rate option); an
     InputError for impulse responses (their frequency lines give their rate)."""
-    if record.impulse:
+    if record.impulse is not None:
         raise InputError("rate", "frequency response functions: their lines give the impulse responses' rate")
     return Record(sampled_at(float(record.time[0]), len(record.time), rate), record.data, record.channels)
 
@@ -788,6 +788,20 @@ def read_record(
     if run not in (None, 1):
         raise InputError("run", f"{run}: {Path(path).name} is a CSV, which holds one run")
     return read_csv(path, rate, ignore)
+
+
+def chosen_run(runs: Sequence[Run], run: int | None, held: str, parted: str, reader: str) -> Run:
+    """The run ``run`` (1, 2, ...; None: the only one) of a file's ``runs``; an InputError naming them where the file
+    holds several and none is given, or the run is not one of them (uff.read_uff, tdms.read_tdms). ``held``: what
+    the file holds, its parenthesis open ("hit.uff holds 2 runs (datasets 58 of 8, 8 channels"); ``parted``: how its
+    runs are told apart; ``reader``: the function that reads each."""
+    if run is None and len(runs) == 1:
+        return runs[0]
+    if run is None:
+        raise InputError("run", f"{held}, {parted}): give the run to read ({reader} reads each)")
+    if not 1 <= run <= len(runs):
+        raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
+    return runs[run - 1]
 
 
 def each_run(runs: Sequence[Run], read: Callable[[Run], Record]) -> list[Record]:

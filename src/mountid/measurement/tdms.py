@@ -35,6 +35,7 @@ from mountid.measurement.records import (
     Record,
     channel_in,
     check_ignored,
+    chosen_run,
     each_run,
     sampled_at,
     uniform_time,
@@ -59,16 +60,11 @@ def read_tdms(
     A file of several runs (_runs: groups of the same channels, a hit each) is read one ``run`` at a time (1, 2,
     ...; an error naming the runs where it is not given; read_tdms_runs reads each)."""
     path, runs = _opened(path)
-    if run in (None, 1) and len(runs) == 1:
-        return _record(runs[0][1], path, ignore, rate)
-    if len(runs) == 1:
+    if len(runs) == 1 and run not in (None, 1):
         raise InputError("run", f"{run}: {path.name} is a TDMS file of one run")
     held = f"{path.name} holds {counted(len(runs), 'run')} (groups {', '.join(name for name, _ in runs)}"
-    if run is None:
-        raise InputError("run", f"{held}, each of the same channels): give the run to read (read_tdms_runs reads each)")
-    if not 1 <= run <= len(runs):
-        raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
-    return _record(runs[run - 1][1], path, ignore, rate)
+    _, chosen = chosen_run(runs, run, held, "each of the same channels", "read_tdms_runs")
+    return _record(chosen, path, ignore, rate)
 
 
 def read_tdms_runs(path: str | Path, ignore: Collection[str] = (), rate: float | None = None) -> list[Record]:

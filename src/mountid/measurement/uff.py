@@ -41,6 +41,7 @@ from mountid.measurement.records import (
     Lines,
     Record,
     check_ignored,
+    chosen_run,
     each_run,
     quantity_of,
 )
@@ -479,17 +480,11 @@ def _runs(sets: list[dict]) -> list[list[dict]]:
 def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     """The datasets of ``run`` (1, 2, ...; None: the only one); an InputError naming the runs where the file
     holds several and none is given, or the run is not one of them."""
-    if run is None and len(runs) == 1:
-        return runs[0]
     sizes = ", ".join(str(sum(_function_type(s) != COHERENCE for s in r)) for r in runs)
     held = f"{path.name} holds {len(runs)} {'run' if len(runs) == 1 else 'runs'} (datasets 58 of {sizes} channels"
-    if run is None:
-        frfs = _function_type(runs[0][0]) == FRF
-        parted = "a run per input" if frfs else "a run beginning where a response node and direction recurs"
-        raise InputError("run", f"{held}, {parted}): give the run to read (read_uff_runs reads each)")
-    if not 1 <= run <= len(runs):
-        raise InputError("run", f"{run}: {held}), runs 1 to {len(runs)}")
-    return runs[run - 1]
+    frfs = _function_type(runs[0][0]) == FRF
+    parted = "a run per input" if frfs else "a run beginning where a response node and direction recurs"
+    return chosen_run(runs, run, held, parted, "read_uff_runs")
 
 
 def _read_set(uff: pyuff.UFF, index: int, types: list, path: Path) -> dict:

@@ -105,10 +105,8 @@ def spectrum_figure(
         ax.text(w, peak * 0.35**i, f" {label} {w:.2f} rad/s\n zeta {zeta:.3f}", va="top", fontsize=7)
     bin_ = 2 * np.pi / (record.time[keep][-1] - record.time[keep][0])
     until = "" if end is None else f" to {end:.4g} s"
-    ax.set_title(
-        f"spectra of the {'impulse responses' if record.impulse else 'free decay'} from {start:g} s{until} (raw FFT "
-        f"bin {bin_:.2f} rad/s); dashed: picked poles"
-    )
+    what = "free decay" if record.impulse is None else "impulse responses"
+    ax.set_title(f"spectra of the {what} from {start:g} s{until} (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles")
     ax.set_xlabel("omega [rad/s]")
     ax.set_ylabel(f"amplitude spectrum [{', '.join(sorted(units))}]")
     hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
