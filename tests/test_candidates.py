@@ -373,8 +373,8 @@ def test_pole_frequencies_of_a_misstated_damping_are_explained_by_the_damping_ra
 
 
 def test_a_damping_ratio_of_zero_without_uncertainty_is_weighted_not_infinite():
-    from mountid.diagnosis.campaign import DAMPING_STD_FLOOR
     from mountid.diagnosis.fitting import Data
+    from mountid.measurement.modes import DAMPING_STD_FLOOR
 
     data = _campaign_from(None, {})
     data["modes"]["x"]["damping_ratio"] = 0.0

@@ -54,7 +54,7 @@ from mountid.identification.combination import RECORDS_DISAGREE, combine, decays
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
-from mountid.measurement.modes import MeasuredMode, scaled_unit
+from mountid.measurement.modes import DEFAULT_FREQUENCY_STD, MeasuredMode, default_damping_std, scaled_unit
 from mountid.measurement.records import Channel, Record
 from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
 
@@ -64,16 +64,8 @@ def schema() -> dict:
     return json.loads(resources.files("mountid.schemas").joinpath("campaign.schema.json").read_text("utf-8"))
 
 
-DEFAULT_FREQUENCY_STD = 1e-3
-"""Relative standard deviation taken for a frequency given without uncertainty."""
 DEFAULT_SHAPE_STD = 0.02
 """Standard deviation per component of a unit-length scaled mode shape given without shape_uncertainty."""
-DEFAULT_DAMPING_STD = 0.05
-"""Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
-
-DAMPING_STD_FLOOR = 1e-3
-"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
-uncertainty)."""
 
 
 def record_shape_std(noise: float | None) -> float:
@@ -86,8 +78,8 @@ def record_shape_std(noise: float | None) -> float:
 
 def damping_std(mode: MeasuredMode) -> float:
     """Standard deviation of a measured damping ratio: as stated, else DEFAULT_DAMPING_STD of it (at least
-    DAMPING_STD_FLOOR)."""
-    return mode.damping_std or max(DEFAULT_DAMPING_STD * mode.damping_ratio, DAMPING_STD_FLOOR)
+    DAMPING_STD_FLOOR: modes.default_damping_std)."""
+    return mode.damping_std or default_damping_std(mode.damping_ratio)
 
 
 RESOLUTION = 1e-9
@@ -819,8 +811,8 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
 
 def _named(err: InputError, source: RecordSource, where: str, i: int, run: str = "") -> InputError:
     """A reader's or the records chain's error as the campaign's: the entry (``where``.``i``) and the file named
-    once in the parameter (a reader's reason may start with it: uff._read_set), ``run`` (the run's name and a colon,
-    or '') and the parameter it was about before the reason."""
+    once in the parameter (a reader's reason may start with it: uff_geometry.read_set), ``run`` (the run's name and
+    a colon, or '') and the parameter it was about before the reason."""
     what = "" if err.parameter == "record" else f"{err.parameter}: "
     reason = err.reason.removeprefix(f"{source.path.name}: ")
     return InputError(f"{where}.{i} ({source.path.name or source.path})", f"{run}{what}{reason}")

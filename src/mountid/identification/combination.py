@@ -23,7 +23,7 @@ from mountid.identification.shapes import merged_shape
 from mountid.machine import Machine
 from mountid.measurement import modal
 from mountid.measurement.modes import MeasuredMode
-from mountid.measurement.records import Record
+from mountid.measurement.records import ModeTable, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
 
@@ -279,7 +279,7 @@ def combine(
 
 def decays_of(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     known: dict[str, float],
     name: str,
     start: float | None = None,
@@ -301,7 +301,7 @@ def decays_of(
 
 def every_decay(
     machine: Machine,
-    records: Sequence[tuple[str, Record]],
+    records: Sequence[tuple[str, Record | ModeTable]],
     known: dict[str, float],
     start: float | None = None,
     nominal: dict[str, float] | None = None,

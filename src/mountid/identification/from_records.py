@@ -43,8 +43,14 @@ from mountid.machine import (
 )
 from mountid.measurement import frf, modal
 from mountid.measurement.frf import FrfEstimate
-from mountid.measurement.modes import ChannelShape, MeasuredMode
-from mountid.measurement.records import RESPONSE_ORDER, Record
+from mountid.measurement.modes import (
+    DEFAULT_DAMPING_STD,
+    DEFAULT_FREQUENCY_STD,
+    ChannelShape,
+    MeasuredMode,
+    default_damping_std,
+)
+from mountid.measurement.records import RESPONSE_ORDER, TABLE_HAS_NO, ModeTable, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted, distinct_frequencies, root_rule, root_rule_problem
 
@@ -73,7 +79,7 @@ class Identification:
     """[s] Where it ends (ModalData.end)."""
 
 
-def channel_rows(machine: Machine, record: Record) -> np.ndarray:
+def channel_rows(machine: Machine, record: Record | ModeTable) -> np.ndarray:
     """d^T du/dq of every channel, shape (n_channels, 6); channels must carry point and direction."""
     rows = []
     for c in record.channels:
@@ -190,7 +196,7 @@ def paper_generalised(record: Record, a_x: str, a_y: str, b_y: str, spacing: flo
 
 def label_poles(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     poles: list[modal.Pole],
     nominal: dict[str, float],
     settings: LabellingSettings = LABELLING,
@@ -272,7 +278,7 @@ def _parted(a: modal.Pole, b: modal.Pole, settings: LabellingSettings) -> bool:
 
 
 def _channel_modes(
-    machine: Machine, record: Record, nominal: dict[str, float]
+    machine: Machine, record: Record | ModeTable, nominal: dict[str, float]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The model's modes at the ``nominal`` parameters as the record's channels see them: the frequencies
     [rad/s], what each channel reads in each mode (channels x modes), and whether the channels see each mode at
@@ -310,7 +316,7 @@ class MergedPole:
 
 def unresolved(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     labelled: dict[str, tuple[modal.Pole, float]],
     nominal: dict[str, float],
     settings: LabellingSettings = LABELLING,
@@ -999,7 +1005,7 @@ before the hit): past the hit and the ringing of the band-limited division at it
 
 def modal_data(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     known: dict[str, float],
     start: float | None = None,
     nominal: dict[str, float] | None = None,
@@ -1011,10 +1017,15 @@ def modal_data(
     responses averaged over the record's hits (measurement.frf): from the instant of each hit, the force divided
     out; otherwise on the free decay from ``start`` [s] (None: modal.free_decay's, after the impact the record
     shows, said in a note where that is not at modal.DEFAULT_START). ``nominal`` values of the unknowns (default:
-    the description's) only serve to label the modes; ``settings``: the record checks' thresholds."""
+    the description's) only serve to label the modes; ``settings``: the record checks' thresholds. A bench's table
+    of modes (records.ModeTable) gives its modes labelled as a record's poles are (table_modal_data)."""
     mod = machine.module
     guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
+    if isinstance(record, ModeTable):
+        if start is not None:
+            raise InputError("start", f"applies to a record's samples: {TABLE_HAS_NO}")
+        return table_modal_data(machine, record, guess)
     top = float(np.max(nominal_omega))
     full = record.in_si()
     if not full.responses:
@@ -1138,17 +1149,35 @@ def modal_data(
         warnings += _coherence_warnings(
             lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, "the bench's averages"
         )
-    rows = channel_rows(machine, record)
-    full = np.linalg.matrix_rank(rows) == rows.shape[1]
-    length = machine.length_scale(guess)
     # a pole on two twins that a fit of two does not part: widened, without its shape (Twins.mixed)
     mixed = {label: spans for label, *spans in twins.mixed}
     labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}
-    modes = {
+    modes = _measured_modes(machine, record, labelled, frozenset(mixed), guess)
+    mixed_labels = frozenset(mixed) & set(modes)
+    return ModalData(modes, rest, warnings, estimate, tuple(notes), mixed_labels, start, end, hits)
+
+
+def _measured_modes(
+    machine: Machine,
+    record: Record | ModeTable,
+    labelled: dict[str, tuple[modal.Pole, float]],
+    mixed: frozenset[str],
+    guess: dict[str, float],
+    stated: bool = True,
+) -> dict[str, MeasuredMode]:
+    """The labelled poles ({label: (pole, MAC)}) of a record or a table of modes as measured modes: the shape in the
+    coordinates where the channels see all six motions (and the pole is not ``mixed``: on two twins a fit of two did
+    not part), the MAC where two channels or more give one, the channel amplitudes for a roving test's merge;
+    ``stated``: whether the frequencies' standard deviations were measured (MeasuredMode.frequency_std_stated)."""
+    rows = channel_rows(machine, record)
+    full = np.linalg.matrix_rank(rows) == rows.shape[1]
+    length = machine.length_scale(guess)
+    return {
         label: MeasuredMode(
             label,
             p.frequency,
             p.frequency_std,
+            frequency_std_stated=stated,
             damping_ratio=p.damping_ratio,
             damping_std=p.damping_std,
             shape=coordinate_shape(rows, p.shape) if full and label not in mixed else None,
@@ -1160,8 +1189,69 @@ def modal_data(
         )
         for label, (p, m) in labelled.items()
     }
-    mixed_labels = frozenset(mixed) & set(modes)
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), mixed_labels, start, end, hits)
+
+
+def _twins_in_span(
+    machine: Machine, table: ModeTable, labelled: dict[str, tuple[modal.Pole, float]], guess: dict[str, float]
+) -> dict[str, tuple[modal.Pole, float]]:
+    """The labelled modes of a table with the MAC of two on twins that a record's poles would not part
+    (LABELLING.twin_separation) taken in the twins' span (_span_mac), as a record's one pole on them has it: the
+    bench's two modes there are any mix of the model's twins (kid300's x and y of a symmetric machine), and the
+    MAC against one twin measures the mix."""
+    mod = machine.module
+    _, predicted, _ = _channel_modes(machine, table, guess)
+    out = dict(labelled)
+    for rep in set(mod.REPRESENTATIVE.values()):
+        twins = [label for label in mod.MODES if mod.REPRESENTATIVE[label] == rep]
+        if len(twins) == 2 and all(t in labelled for t in twins):
+            (a, _), (b, _) = (labelled[t] for t in twins)
+            if not _parted(a, b, LABELLING):
+                span = predicted[:, [mod.MODES.index(t) for t in twins]]
+                out.update({t: (labelled[t][0], _span_mac(span, labelled[t][0].shape)) for t in twins})
+    return out
+
+
+def table_modal_data(machine: Machine, table: ModeTable, guess: dict[str, float]) -> ModalData:
+    """A bench's table of modes (modal_data's, at the parameter values ``guess``) as modal data: each mode a pole
+    of its |p|, -Re p / |p| and channel shape, labelled against the model as a record's poles are (label_poles), but
+    that two modes on twins are both twins (the bench parted them); a mode in the place of two of the model's
+    (unresolved) is left out with an unresolved_modes warning, as there.
+    The bench states no uncertainty: DEFAULT_FREQUENCY_STD of each frequency and default_damping_std of each
+    damping ratio are taken (MeasuredMode.frequency_std_stated False), and the shapes have none of their own (a
+    campaign takes its DEFAULT_SHAPE_STD). A record's checks and the parting of twins by a fit of two need its
+    samples: the table's modes are the bench's."""
+    poles = []
+    for k, p in enumerate(table.poles):
+        frequency, ratio = abs(p), -p.real / abs(p)
+        pole = modal.Pole(
+            frequency,
+            ratio,
+            table.shapes[:, k],
+            DEFAULT_FREQUENCY_STD * frequency,
+            default_damping_std(ratio),
+        )
+        poles.append(_as_acceleration(pole, table))
+    # the table lists the modes the bench parted: two on twins are the twins, however close (a record's two poles
+    # there must lie LABELLING.twin_separation standard deviations apart)
+    labelled, rest = label_poles(machine, table, poles, guess, replace(LABELLING, twin_separation=0.0))
+    labelled = _twins_in_span(machine, table, labelled, guess)
+    labelled, merged = unresolved(machine, table, labelled, guess)
+    warnings = [
+        modal.QualityWarning("unresolved_modes", "all", f"{m.describe()}: one mode of the table, {m.label} left out")
+        for m in merged
+    ]
+    rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
+    if not labelled:
+        raise with_warnings(NoModeFound("record", "no mode of the table is one of the model's"), warnings)
+    notes = (
+        f"modes from a table of {counted(len(poles), 'mode')} ({table.kind}) at "
+        f"{counted(len(table.channels), 'channel')}: the bench's modal analysis, its frequencies and damping ratios "
+        f"as it gives them; it states no uncertainty: {DEFAULT_FREQUENCY_STD:.1%} of each frequency and "
+        f"{DEFAULT_DAMPING_STD:.0%} of each damping ratio taken",
+        *table.notes,
+    )
+    modes = _measured_modes(machine, table, labelled, frozenset(), guess, stated=False)
+    return ModalData(modes, rest, warnings, None, notes)
 
 
 def _labelling_values(machine: Machine, nominal: dict[str, float]) -> dict[str, float]:
@@ -1242,7 +1332,7 @@ def _check_start(record: Record, start: float, past_end: bool = True, what: str 
         raise InputError("start", f"{start:g} s is at or after the record's end ({float(record.time[-1]):g} s){what}")
 
 
-def _as_acceleration(pole: modal.Pole, record: Record) -> modal.Pole:
+def _as_acceleration(pole: modal.Pole, record: Record | ModeTable) -> modal.Pole:
     """The pole with its channel amplitudes as accelerations: a velocity amplitude times p, a displacement
     amplitude times p^2 (p the complex pole), so that channels of different quantities give one shape."""
     orders = np.array([RESPONSE_ORDER[c.quantity] for c in record.channels])
@@ -1277,7 +1367,7 @@ def identify_from_record(
 
 def identify_from_records(
     machine: Machine,
-    records: Sequence[tuple[str, Record]],
+    records: Sequence[tuple[str, Record | ModeTable]],
     known: dict[str, float],
     start: float | None = None,
     nominal: dict[str, float] | None = None,
@@ -1293,6 +1383,8 @@ def identify_from_records(
     found = every_decay(machine, records, known, start, nominal, settings, use_force)
     hits = []
     for name, record in records:
+        if isinstance(record, ModeTable):
+            continue  # a table of modes has no hits
         si = record.in_si()
         hits += [(f"{name}: " if len(records) > 1 else "") + modal.hit_summary(si, force) for force in si.forces]
     try:

@@ -8,6 +8,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+DEFAULT_FREQUENCY_STD = 1e-3
+"""Relative standard deviation taken for a frequency given without uncertainty (a campaign's mode, a bench's table
+of modes)."""
+DEFAULT_DAMPING_STD = 0.05
+"""Relative standard deviation taken for a damping ratio given without damping_uncertainty."""
+
+DAMPING_STD_FLOOR = 1e-3
+"""Smallest standard deviation taken for a damping ratio given without one (a ratio of 0 has no relative
+uncertainty)."""
+
+
+def default_damping_std(ratio: float) -> float:
+    """The standard deviation taken for a damping ratio ``ratio`` given without one: DEFAULT_DAMPING_STD of it, at
+    least DAMPING_STD_FLOOR."""
+    return max(DEFAULT_DAMPING_STD * ratio, DAMPING_STD_FLOOR)
+
 
 @dataclass(frozen=True, eq=False)
 class ChannelShape:

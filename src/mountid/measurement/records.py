@@ -45,6 +45,9 @@ from mountid.measurement.settings import RECORDS, RecordSettings
 Run = TypeVar("Run")
 """What a reader holds of one run of a file (each_run)."""
 
+RecordOrTable = TypeVar("RecordOrTable", "Record", "ModeTable")
+"""A record, or a table of modes where a file gives one (ModeTable)."""
+
 FORMAT_LINE = "# mountid record 1"
 
 INCH = 0.0254
@@ -80,6 +83,12 @@ UNITS: dict[str, dict[str, float]] = {
 }
 """Every quantity a channel may record, its units and each unit's factor to SI (the first unit listed): SI and the
 US customary units of American benches (in/s, ips and mil of velocity and displacement, in/s^2, lbf)."""
+
+A_TABLE = "a table of modes (a bench's modal analysis results)"
+"""What a ModeTable is called in errors."""
+
+TABLE_HAS_NO = f"{A_TABLE} has no samples"
+"""What an option of a record's samples is told of a table of modes (ModeTable)."""
 
 RESPONSE_ORDER: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2}
 """Time derivatives of the displacement a response quantity is: a free-decay amplitude of pole p in that
@@ -189,6 +198,36 @@ class Record:
         """A record of the named channels only, in that order."""
         cols = [self.names.index(n) if n in self.names else self.channel(n) for n in names]
         return replace(self, data=self.data[:, cols], channels=tuple(self.channels[c] for c in cols))
+
+
+@dataclass(frozen=True, eq=False)
+class ModeTable:
+    """A bench's modal analysis results in the place of a record (uff_modes: a UFF file of mode shapes, datasets
+    55): the ``poles`` p [rad/s] (Im p > 0) of its modes, their ``shapes`` (channels x modes, complex; real for
+    normal modes) at the ``channels`` (a node and a measured direction each), and ``kind``, what the file calls
+    them ("complex modes"). It has no samples: the records chain labels its modes against the model as it labels
+    a record's poles (from_records.modal_data), without a pole fit or a record's checks, and without an uncertainty
+    the bench did not state."""
+
+    channels: tuple[Channel, ...]
+    poles: NDArray[np.complex128]
+    shapes: NDArray[np.complex128]
+    kind: str
+    notes: tuple[str, ...] = ()
+    """What the reader made of the file beyond the table (a damping ratio from a hysteretic one, rotations not
+    read)."""
+
+    def __post_init__(self) -> None:
+        if self.shapes.shape != (len(self.channels), len(self.poles)):
+            raise InputError(
+                "shapes", f"{self.shapes.shape} do not match {len(self.channels)} channels x {len(self.poles)} modes"
+            )
+        if len({c.name for c in self.channels}) != len(self.channels):
+            raise InputError("channels", "channel names must be unique")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.channels)
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:
@@ -302,7 +341,7 @@ def uniform_time(time: NDArray, settings: RecordSettings = RECORDS) -> NDArray[n
     )
 
 
-def without_window(record: Record, window: float) -> Record:
+def without_window(record: Record | ModeTable, window: float) -> Record:
     """Impulse responses (Record.impulse) with the exponential window exp(-``window`` t) a bench put on the responses
     divided out (``window`` [1/s]: 1 / its time constant; -ln(end) / T for a window that ends at ``end`` of its
     start over a T-second block): the window adds its decay to every mode's, ``window`` / omega to its damping
@@ -310,6 +349,8 @@ def without_window(record: Record, window: float) -> Record:
     window) or a rate that is no finite number >= 0."""
     if not (math.isfinite(window) and window >= 0):
         raise InputError("exponential_window", f"must be a finite rate >= 0 [1/s], got {window}")
+    if isinstance(record, ModeTable):
+        raise InputError("exponential_window", f"applies to frequency response functions, not to {A_TABLE}")
     if record.impulse is None:
         raise InputError(
             "exponential_window",
@@ -319,9 +360,11 @@ def without_window(record: Record, window: float) -> Record:
     return replace(record, data=record.data * undone, impulse=replace(record.impulse, window=window))
 
 
-def with_rate(record: Record, rate: float) -> Record:
+def with_rate(record: Record | ModeTable, rate: float) -> Record:
     """The record on a uniform grid at ``rate`` [Hz] from its first time (the sampling-rate option); an
     InputError for impulse responses (their frequency lines give their rate)."""
+    if isinstance(record, ModeTable):
+        raise InputError("rate", f"applies to a record's samples: {TABLE_HAS_NO}")
     if record.impulse is not None:
         raise InputError("rate", "frequency response functions: their lines give the impulse responses' rate")
     return Record(sampled_at(float(record.time[0]), len(record.time), rate), record.data, record.channels)
@@ -747,7 +790,7 @@ Placement = tuple[tuple[float, float, float], tuple[float, float, float]]
 """A channel's body point [m] and measuring direction (any length; made unit)."""
 
 
-def with_geometry(record: Record, geometry: dict[str, Placement], source: str = "channel") -> Record:
+def with_geometry(record: RecordOrTable, geometry: dict[str, Placement], source: str = "channel") -> RecordOrTable:
     """The record with the named channels placed at ``geometry``'s point [m] along its direction (made unit),
     given or replacing what the file states (a plain CSV states nothing): how a test engineer places the
     channels of a bench's export. ``source`` names the option or entry in errors."""
@@ -771,8 +814,9 @@ def with_geometry(record: Record, geometry: dict[str, Placement], source: str = 
 
 def read_record(
     path: str | Path, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
-) -> Record:
-    """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff), TDMS (.tdms,
+) -> Record | ModeTable:
+    """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff; a table of modes from one of
+    mode shapes, datasets 55: mountid.measurement.uff_modes), TDMS (.tdms,
     mountid.measurement.tdms) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
     ``run`` as in read_uff and read_tdms (a CSV holds one)."""
     kind = str(path).lower()
@@ -804,7 +848,7 @@ def chosen_run(runs: Sequence[Run], run: int | None, held: str, parted: str, rea
     return runs[run - 1]
 
 
-def each_run(runs: Sequence[Run], read: Callable[[Run], Record]) -> list[Record]:
+def each_run(runs: Sequence[Run], read: Callable[[Run], RecordOrTable]) -> list[RecordOrTable]:
     """Each of a file's ``runs`` read as a record (``read``); a reader's error names its run ("run 2: ...") where
     the file holds several (uff.read_uff_runs, tdms.read_tdms_runs)."""
     records = []
@@ -816,7 +860,9 @@ def each_run(runs: Sequence[Run], read: Callable[[Run], Record]) -> list[Record]
     return records
 
 
-def read_runs(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> list[Record]:
+def read_runs(
+    path: str | Path, rate: float | None = None, ignore: Collection[str] = ()
+) -> list[Record] | list[ModeTable]:
     """Every run a record file holds, each a record as read_record reads it: a UFF file's runs (the hits of a test
     exported one after another, a dataset per channel each: uff.read_uff_runs), a TDMS file's (groups of the same
     channels: tdms.read_tdms_runs), else the file's one record."""
@@ -839,7 +885,7 @@ def named_runs(
     ignore: Collection[str] = (),
     run: int | None = None,
     window: float | None = None,
-) -> list[tuple[str, Record]]:
+) -> list[tuple[str, Record | ModeTable]]:
     """The records of a record file, each with its name in notes: the run ``run`` gives ("``name`` run K",
     read_record), else every run (read_runs), "``name`` run 1", ... where the file holds several, ``name`` where
     it holds one; ``window`` [1/s]: a bench's exponential window divided out of frequency response functions

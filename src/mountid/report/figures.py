@@ -8,6 +8,7 @@ diagram (stated probability against share right).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import textwrap
 from pathlib import Path
@@ -23,7 +24,7 @@ from mountid.errors import InputError
 from mountid.identification.from_records import IRF_START
 from mountid.machine import Machine
 from mountid.measurement import modal
-from mountid.measurement.records import Record
+from mountid.measurement.records import ModeTable, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
 
@@ -283,16 +284,22 @@ def mode_shapes_figure(
 
 def experiment_figures(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     result: Identification,
     known: dict[str, float],
     folder: str | Path,
 ) -> list[Path]:
     """The figures of an identified record (identify-record --figures, the demo): spectra of every channel
     with the picked poles, the stabilisation diagram, the mode shapes measured beside the model's, and where
-    the modes came from a force channel's frequency responses, those with their coherence."""
+    the modes came from a force channel's frequency responses, those with their coherence. A bench's table of modes
+    (records.ModeTable) has no samples: the mode shapes only."""
     folder = Path(folder)
     poles = {k: (m.frequency, m.damping_ratio) for k, m in result.modes.items()}
+    shapes = functools.partial(
+        mode_shapes_figure, machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes
+    )
+    if isinstance(record, ModeTable):
+        return [shapes([c.point for c in record.channels])]
     si = record.in_si()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
@@ -305,9 +312,7 @@ def experiment_figures(
     out = [
         spectrum_figure(si, None, result.start, poles, folder / "spectrum.png", result.end),
         stabilisation_figure(runs, poles, folder / "stabilisation.png"),
-        mode_shapes_figure(
-            machine, {**known, **result.parameters}, (0.5, 0.5, 0.4), folder / "modes.png", result.modes, sensors
-        ),
+        shapes(sensors),
     ]
     if result.frf is not None:
         out.append(frf_figure(result.frf, poles, folder / "frf.png"))

@@ -1,0 +1,160 @@
+"""A bench's modal analysis results in the Universal File Format: mode shapes at nodes (dataset 55), read by pyuff
+as a table of modes (records.ModeTable) in the place of a record.
+
+Modal test software (a hammer test's FRFs through its own curve fitter) exports the modes it found as one dataset
+55 per mode: normal modes (analysis type 2: the frequency [Hz] and the modal viscous damping ratio, a real shape)
+or complex modes (analysis types 3 and 7: the eigenvalue p [rad/s] and a complex shape). A mode's frequency is
+taken as |p| and its damping ratio as -Re p / |p|, as the records chain's poles are (a normal mode's frequency
+with its viscous damping ratio is the |p| of a proportionally damped mode); a mode given a hysteretic damping
+ratio (loss factor) only takes half of it, the viscous ratio of the same bandwidth. The shapes are translations
+along the global axes at each node (the format's "3 DOF global translation vector"; the rotations of a 6-DOF
+vector are not read, and said so where they are not zero); a node's point comes from the file's geometry as for
+time responses (uff_geometry). The format writes 0 for a direction not measured: a node and direction that is
+zero in every mode is no channel (a uniaxial accelerometer's node gives one channel). Each channel is named
+``node<N>:<axis>`` (axis 1, 2, 3 for x, y, z) and may be left unread by name (``ignore``). The datasets of
+several load cases are the runs of the file, a table each. Complex shapes of six values per node are what pyuff
+cannot read: an error naming the dataset.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection
+from pathlib import Path
+
+import numpy as np
+import pyuff
+
+from mountid.errors import InputError
+from mountid.measurement.records import Channel, ModeTable, check_ignored, chosen_run, each_run
+from mountid.measurement.uff_geometry import node_geometry, read_set
+
+MODE_SHAPES = 55
+"""The UFF dataset of data at nodes: a bench's mode shapes."""
+
+_ANALYSIS_TYPES = {
+    0: "unknown",
+    1: "static",
+    2: "normal mode",
+    3: "complex eigenvalue",
+    4: "transient",
+    5: "frequency response",
+    6: "buckling",
+    7: "complex eigenvalue (second order)",
+}
+
+_NORMAL, _COMPLEX = (2,), (3, 7)
+
+_VECTORS = (2, 3)
+"""Data characteristics of a mode shape: a 3-DOF translation vector, or a 6-DOF translation and rotation one."""
+
+
+def holds_mode_shapes(types: list) -> bool:
+    """Whether a UFF file of the dataset ``types`` is a table of modes: datasets 55 and no dataset 58 (a file of
+    both is read for its functions, the measurement itself)."""
+    kinds = {int(t) for t in types}
+    return MODE_SHAPES in kinds and 58 not in kinds
+
+
+def read_table(
+    path: Path, uff: pyuff.UFF, types: list, ignore: Collection[str] = (), run: int | None = None
+) -> ModeTable:
+    """The table of modes of the load case ``run`` (1, 2, ... in the order the file gives them; None: the only
+    one) of an opened UFF file (uff.read_uff), all but the channels ``ignore`` names."""
+    runs = _load_cases(path, uff, types)
+    held = f"{path.name} holds {len(runs)} runs (tables of {', '.join(str(len(r)) for r in runs)} modes"
+    return _table(chosen_run(runs, run, held, "a run per load case", "read_uff_runs"), uff, types, path, ignore)
+
+
+def read_tables(path: Path, uff: pyuff.UFF, types: list, ignore: Collection[str] = ()) -> list[ModeTable]:
+    """Every load case's table of modes of an opened UFF file (uff.read_uff_runs)."""
+    return each_run(_load_cases(path, uff, types), lambda sets: _table(sets, uff, types, path, ignore))
+
+
+def _load_cases(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
+    """The file's datasets 55, a list per load case in the order of their first dataset."""
+    sets = [read_set(uff, i, types, path) for i, t in enumerate(types) if int(t) == MODE_SHAPES]
+    cases = list(dict.fromkeys(int(s.get("load_case", 0) or 0) for s in sets))
+    return [[s for s in sets if int(s.get("load_case", 0) or 0) == case] for case in cases]
+
+
+def _table(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Collection[str]) -> ModeTable:
+    """One load case's datasets 55 as a table of modes (the module's conventions)."""
+    poles, notes, kinds = [], [], set()
+    for s in sets:
+        pole, kind, note = _pole(s, path)
+        poles.append(pole)
+        kinds.add(kind)
+        notes += [note] if note else []
+    values: dict[tuple[int, int], np.ndarray] = {}
+    turning = []
+    for k, s in enumerate(sets):
+        columns = (np.atleast_1d(s.get(key, ())) for key in ("node_nums", "r1", "r2", "r3"))
+        for node, *motion in zip(*columns, strict=True):
+            for axis, value in enumerate(motion, start=1):
+                values.setdefault((int(node), axis), np.zeros(len(sets), dtype=complex))[k] = complex(value)
+        if any(np.any(np.atleast_1d(s.get(key, 0.0)) != 0) for key in ("r4", "r5", "r6")):
+            turning.append(_mode(s))
+    if turning:
+        notes.append(f"the rotations at the nodes of modes {', '.join(turning)} are not read (translations only)")
+    measured = sorted(key for key, v in values.items() if np.any(v != 0))  # a direction not measured is 0 in all
+    if not measured:
+        raise InputError("record", f"{path.name}: every mode shape is zero at every node")
+    names = [f"node{node}:{axis}" for node, axis in measured]
+    check_ignored(ignore, names, path.name)
+    kept = [(key, name) for key, name in zip(measured, names, strict=True) if name not in ignore]
+    if not kept:
+        raise InputError("ignore", f"leaves no channel of {path.name}")
+    geometry = node_geometry(uff, types, path)
+    channels = []
+    for (node, axis), name in kept:
+        point = geometry[node][0] if node in geometry else (math.nan,) * 3
+        direction = tuple(float(axis == k) for k in (1, 2, 3))
+        channels.append(Channel(name, point, direction, "displacement", "m"))  # type: ignore[arg-type]
+    shapes = np.array([values[key] for key, _ in kept])
+    if not np.all(np.isfinite(shapes)):
+        raise InputError("record", f"{path.name}: a mode shape holds NaN or infinite values")
+    kind = " and ".join(sorted(kinds))
+    return ModeTable(tuple(channels), np.array(poles), shapes, kind, tuple(notes))
+
+
+def _mode(s: dict) -> str:
+    return str(int(s.get("mode_n", 0) or 0))
+
+
+def _pole(s: dict, path: Path) -> tuple[complex, str, str]:
+    """A dataset 55's pole p [rad/s] (Im p > 0), what kind of mode it is, and a note where its damping ratio is
+    half its hysteretic one; an InputError naming the mode where the dataset is no mode shape or its pole is
+    none of a damped mode."""
+    where = f"{path.name}: dataset 55 of mode {_mode(s)}"
+    analysis = int(s.get("analysis_type", 0) or 0)
+    if analysis not in _NORMAL + _COMPLEX:
+        what = _ANALYSIS_TYPES.get(analysis, f"analysis type {analysis}")
+        raise InputError(
+            "record",
+            f"{where} holds {what} data at nodes: a table of modes is of normal modes (analysis type 2) or complex "
+            "modes (3, 7)",
+        )
+    if int(s.get("data_ch", 0) or 0) not in _VECTORS:
+        raise InputError("record", f"{where}: its data are no translation vector at nodes (data characteristic 2 or 3)")
+    note = ""
+    if analysis in _NORMAL:
+        frequency = 2 * math.pi * float(s.get("freq", math.nan))
+        ratio = float(s.get("modal_damp_vis", 0.0) or 0.0)
+        loss = float(s.get("modal_damp_his", 0.0) or 0.0)
+        if ratio == 0 and loss > 0:
+            ratio = loss / 2
+            note = f"mode {_mode(s)}: damping ratio half its hysteretic damping ratio {loss:.4g} (no viscous one given)"
+        if not (math.isfinite(frequency) and frequency > 0):
+            raise InputError("record", f"{where}: its frequency {frequency / (2 * math.pi):g} Hz is no positive number")
+        if not (math.isfinite(ratio) and 0 <= ratio < 1):
+            raise InputError("record", f"{where}: its damping ratio {ratio:g} is not in [0, 1)")
+        pole = complex(-ratio * frequency, frequency * math.sqrt(1 - ratio * ratio))
+        return pole, "normal modes", note
+    pole = complex(s.get("eig", math.nan))
+    if not (math.isfinite(pole.real) and math.isfinite(pole.imag)) or pole.imag == 0:
+        raise InputError("record", f"{where}: its eigenvalue {pole:g} rad/s is no pole of a vibrating mode")
+    pole = pole.conjugate() if pole.imag < 0 else pole
+    if pole.real > 0:
+        raise InputError("record", f"{where}: its eigenvalue {pole:g} rad/s grows (positive real part): no damped mode")
+    return pole, "complex modes", note
