@@ -6,7 +6,8 @@ cheap and needs no optional dependency; each name needs only the extras of its l
 
 - machine (core: numpy): :class:`Machine`, :class:`Solution`, :func:`shipped_machines`
 - measurement (core; UFF and TDMS files need the ``records`` extra): :class:`Record`, :func:`read_record`,
-  :class:`ModeTable` (a bench's mode shapes, what read_record gives of a UFF file of datasets 55), :func:`read_csv`, :func:`write_csv`, :func:`read_uff`, :func:`read_tdms`, :class:`Rig`
+  :class:`ModeTable` (a bench's mode shapes: what read_record gives of a UFF file of datasets 55),
+  :func:`read_csv`, :func:`write_csv`, :func:`read_uff`, :func:`read_tdms`, :class:`Rig`
 - identification (core: numpy, scipy): :func:`identify_from_record`, :func:`fit_stiffness`
 - diagnosis (the ``campaigns`` extra): :func:`load_campaign`, :func:`diagnose`
 - errors: :class:`InputError`, :class:`DescriptionError`

@@ -14,7 +14,7 @@ from mountid.machine import Machine
 from mountid.report.jsonable import dumps
 
 if TYPE_CHECKING:
-    from mountid.measurement.records import Record
+    from mountid.measurement.records import ModeTable, Record
     from mountid.measurement.rig import Unbalance
 
 
@@ -200,21 +200,6 @@ def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
     return values
 
 
-def read_record(
-    path: str,
-    rate: float | None = None,
-    channels: Sequence[str] | None = None,
-    ignore: Sequence[str] | None = None,
-    run: int | None = None,
-) -> Record:
-    """The record file at ``path`` (--rate: its sampling rate; --channel: points and directions of its
-    channels, NAME=x,y,z:dx,dy,dz, given or replacing the file's; --ignore: channels left unread; --run: which run
-    of a file of several)."""
-    from mountid.measurement.records import read_record as read
-
-    return _placed(lambda: [(path, read(path, rate, tuple(ignore or ()), run))], rate, channels)[0][1]
-
-
 def read_runs(
     path: str,
     rate: float | None = None,
@@ -222,18 +207,19 @@ def read_runs(
     ignore: Sequence[str] | None = None,
     run: int | None = None,
     window: float | None = None,
-) -> list[tuple[str, Record]]:
+) -> list[tuple[str, Record | ModeTable]]:
     """The records of the file at ``path``, each with its name in notes (records.named_runs; the options as
-    read_record takes them, ``window`` --exponential-window's): the run --run gives ("PATH run K"), else every run
-    of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record (PATH)."""
+    records.read_record takes them, ``window`` --exponential-window's): the run --run gives ("PATH run K"), else
+    every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record (PATH); a table of
+    modes where the file holds a bench's mode shapes."""
     from mountid.measurement.records import named_runs
 
     return _placed(lambda: named_runs(path, path, rate, tuple(ignore or ()), run, window), rate, channels)
 
 
 def _placed(
-    read: Callable[[], list[tuple[str, Record]]], rate: float | None, channels: Sequence[str] | None
-) -> list[tuple[str, Record]]:
+    read: Callable[[], list[tuple[str, Record | ModeTable]]], rate: float | None, channels: Sequence[str] | None
+) -> list[tuple[str, Record | ModeTable]]:
     """The named records ``read`` returns, --rate checked before and --channel's placements applied after; the
     reader's errors of its ``ignore`` and ``run`` named as the options."""
     from mountid.measurement.records import with_geometry

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from mountid.identification.from_records import Identification
-    from mountid.measurement.records import Record
+    from mountid.measurement.records import ModeTable, Record
     from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
 
 
@@ -333,7 +333,7 @@ def cmd_process(args: argparse.Namespace) -> None:
     _print_modes(machine, _source(args, runs), found.modes, found.unlabelled, found.warnings, found.notes)
 
 
-def _source(args: argparse.Namespace, runs: Sequence[tuple[str, Record]]) -> str:
+def _source(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTable]]) -> str:
     """The record a command read: its file, with the run where --run chose one or the runs it read."""
     return runs[0][0] if len(runs) == 1 else f"{args.record} ({counted(len(runs), 'run')})"
 
