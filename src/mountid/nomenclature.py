@@ -2,12 +2,15 @@
 
 The paper's letters stay: M is the mass matrix [kg, kg m, kg m^2], C the stiffness matrix [N/m, N, N m/rad]
 and B the damping matrix [N s/m, N s, N m s/rad] of M q'' + B q' + C q = Q. Angular frequencies omega are in
-rad/s throughout (hertz only where a figure or a record says so); a squared frequency is lambda = omega^2.
+rad/s throughout (hertz only where a figure or a record says so, or a user gives them so: FREQUENCY_UNITS and
+SPEED_UNITS, converted where they come in); a squared frequency is lambda = omega^2.
 A standard deviation is always ``std`` (of a frequency [rad/s], of a parameter [its unit]); a relative
 standard deviation is ``relative_std``. The full table is docs/architecture.md, "Nomenclature".
 """
 
 from __future__ import annotations
+
+import math
 
 COORDINATES: tuple[str, ...] = ("x", "y", "z", "psi", "theta", "phi")
 """Generalised coordinates: translations of the body origin [m] and small rotations about x, y, z [rad]."""
@@ -26,6 +29,31 @@ KINDS: dict[str, str] = {
 
 POSITIVE_KINDS = frozenset({"mass", "inertia", "length", "stiffness", "rotational_stiffness", "damping"})
 """Kinds whose values must be strictly positive (a length may be 0 where the description allows it)."""
+
+
+FREQUENCY_UNITS: dict[str, float] = {"rad/s": 1.0, "Hz": 2 * math.pi}
+"""Units a natural frequency (or its standard deviation) may be given in, each one's factor to rad/s: the command
+line's ``--measured x=2.82Hz``, a campaign's ``frequency_unit`` (a test engineer's software reports hertz)."""
+
+SPEED_UNITS: dict[str, float] = {**FREQUENCY_UNITS, "rpm": 2 * math.pi / 60}
+"""Units a speed of rotation may be given in (a rotating unbalance's: ``--speed 1500rpm``), each one's factor to
+rad/s."""
+
+
+def in_rad_per_s(text: str, units: dict[str, float]) -> float:
+    """``text``, a number in rad/s or followed by one of ``units`` ("2.82Hz", "2.82 Hz", "1500 rpm"; the unit's case
+    aside), in rad/s; a ValueError naming the units where it is neither."""
+    value = text.strip()
+    for unit, factor in units.items():
+        if value.lower().endswith(unit.lower()):
+            value, scale = value[: -len(unit)].strip(), factor
+            break
+    else:
+        scale = 1.0
+    try:
+        return float(value) * scale
+    except ValueError:
+        raise ValueError(f"not a number in rad/s or with its unit ({', '.join(units)}): {text!r}") from None
 
 
 def counted(n: int, noun: str, plural: str | None = None) -> str:

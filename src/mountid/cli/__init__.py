@@ -11,7 +11,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from mountid.cli.arguments import Parser
+from mountid.cli.arguments import Parser, speed
 from mountid.cli.diagnose_command import cmd_diagnose
 from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
 from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_plan, cmd_process, cmd_simulate
@@ -48,14 +48,15 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         action="extend",
         metavar="LABEL=RAD_S",
-        help="measured natural frequencies [rad/s]",
+        help="measured natural frequencies [rad/s, or with the unit: x=2.82Hz]",
     )
     p.add_argument(
         "--std",
         nargs="+",
         action="extend",
         metavar="LABEL=RAD_S",
-        help="standard deviation of each measured frequency [rad/s]: the unknowns' standard deviations",
+        help="standard deviation of each measured frequency [rad/s, or with the unit: x=0.003Hz]: the unknowns' "
+        "standard deviations",
     )
     p.add_argument(
         "--root",
@@ -181,7 +182,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "
         "records chain then fits the modes on the H1 frequency responses)",
     )
-    p.add_argument("--speed", nargs="+", type=float, help="rotating-unbalance speeds [rad/s] instead of a hit")
+    p.add_argument(
+        "--speed",
+        nargs="+",
+        type=speed,
+        help="rotating-unbalance speeds [rad/s, or with the unit: 1500rpm, 25Hz] instead of a hit",
+    )
     add_unbalance(p)
     p.set_defaults(func=cmd_simulate)
     p = machine_command("identify-record", "modal data, stiffness and damping from an impact record")
@@ -218,7 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figure", action="store_true", help="write no figure")
     p.set_defaults(func=cmd_diagnose)
     p = machine_command("forced", "steady-state response to a rotating unbalance (Eqs. 27-30)")
-    p.add_argument("--speed", nargs="+", type=float, required=True, help="speeds [rad/s]")
+    p.add_argument(
+        "--speed", nargs="+", type=speed, required=True, help="speeds [rad/s, or with the unit: 1500rpm, 25Hz]"
+    )
     add_unbalance(p)
     p.set_defaults(func=cmd_forced)
     for command in sub.choices.values():  # an error about an option's value names the option (_as_given)

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from mountid.errors import InputError
 from mountid.machine import Machine
+from mountid.nomenclature import SPEED_UNITS, in_rad_per_s
 from mountid.report.jsonable import dumps
 
 if TYPE_CHECKING:
@@ -23,9 +24,18 @@ class Parser(argparse.ArgumentParser):
         raise InputError("arguments", message)
 
 
-def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
+def speed(text: str) -> float:
+    """A --speed value [rad/s]: a number, or one with a unit of nomenclature.SPEED_UNITS ("1500rpm", "25Hz")."""
+    try:
+        return in_rad_per_s(text, SPEED_UNITS)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def pairs(items: Sequence[str] | None, option: str, units: dict[str, float] | None = None) -> dict[str, float]:
     """``name=value`` items of ``option`` as a dict of floats; an item without "=", a value that is not a number
-    or NaN, or a name given twice is an InputError naming the option and the name ("--std x: is NaN")."""
+    or NaN, or a name given twice is an InputError naming the option and the name ("--std x: is NaN"). With
+    ``units`` (nomenclature.FREQUENCY_UNITS) a value may carry one of them ("x=2.82Hz"), converted to rad/s."""
     out: dict[str, float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
@@ -33,9 +43,10 @@ def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
         if not sep or not name:
             raise InputError(option, f"expected name=value, got {item!r}")
         try:
-            value = float(text)
-        except ValueError:
-            raise InputError(f"{option} {name}", f"not a number: {text!r}") from None
+            value = float(text) if units is None else in_rad_per_s(text, units)
+        except ValueError as err:
+            reason = f"not a number: {text!r}" if units is None else str(err)
+            raise InputError(f"{option} {name}", reason) from None
         if math.isnan(value):
             raise InputError(f"{option} {name}", "is NaN")
         if name in out:

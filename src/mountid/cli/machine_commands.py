@@ -10,7 +10,7 @@ from typing import TypeVar
 from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, print_json
 from mountid.errors import InputError
 from mountid.machine import Machine
-from mountid.nomenclature import counted
+from mountid.nomenclature import FREQUENCY_UNITS, counted
 from mountid.report.text import print_diagnosis
 
 T = TypeVar("T")
@@ -32,11 +32,11 @@ def cmd_frequencies(args: argparse.Namespace) -> None:
 
 def cmd_identify(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
-    measured = pairs(args.measured, "--measured")
+    measured = pairs(args.measured, "--measured", FREQUENCY_UNITS)
     if not measured:
-        raise InputError("--measured", "give the measured frequencies as label=rad/s")
+        raise InputError("--measured", "give the measured frequencies as label=rad/s (or in hertz: x=2.82Hz)")
     given = pairs(args.set, "--set")
-    std = pairs(args.std, "--std") if args.std else None
+    std = pairs(args.std, "--std", FREQUENCY_UNITS) if args.std else None
     chosen = _named_as_option(lambda: machine.distinct_measured(measured), "--measured")
     _named_as_option(lambda: machine.measured_std(chosen, std), "--std")
     if len(chosen) > len(machine.unknown):
@@ -64,7 +64,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
             }
         )
         return
-    print(f"{machine.name}: {counted(len(solutions), 'admissible solution')} for {measured}")
+    given = ", ".join(f"{label} {value:.6g}" for label, value in measured.items())
+    print(f"{machine.name}: {counted(len(solutions), 'admissible solution')} for {given} rad/s")
     for k, s in enumerate(solutions, 1):
         params = ", ".join(
             f"{n} = {v:.6g}"

@@ -56,7 +56,7 @@ from mountid.machine import Machine, call, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import DEFAULT_FREQUENCY_STD, MeasuredMode, default_damping_std, scaled_unit
 from mountid.measurement.records import Channel, Record
-from mountid.nomenclature import POSITIVE_KINDS, counted, distinct_frequencies
+from mountid.nomenclature import FREQUENCY_UNITS, POSITIVE_KINDS, counted, distinct_frequencies
 
 
 def schema() -> dict:
@@ -154,6 +154,9 @@ class Campaign:
     None where it gives none): whether the isolators' stiffness depends on the amplitude."""
     level_records: dict[str, tuple[RecordSource, ...]] = field(default_factory=dict)
     """Per level name, the records its frequencies came from (levels given by hand only: none)."""
+    frequency_unit: str = "rad/s"
+    """The unit the campaign gave its modes' and levels' frequencies in (nomenclature.FREQUENCY_UNITS), converted
+    to rad/s on reading."""
 
     @property
     def frequencies_from_poles(self) -> bool:
@@ -190,6 +193,7 @@ class Campaign:
             else {},
             "description": f"{self.machine.name}: {mod.TITLE}",
             "frequencies": "undamped natural frequencies [rad/s] (the model's sqrt of the eigenvalues of (C, M))"
+            + (f"; given in {self.frequency_unit} and converted" if self.frequency_unit != "rad/s" else "")
             + ("; the modes' given as poles' |p| and converted" if self.frequency_type == "pole" else "")
             + ("; the records' poles' |p| converted (the record notes say where)" if self.records else ""),
             "shape_coordinates": list(mod.COORDINATES),
@@ -248,6 +252,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     bad = _non_finite(data, "campaign")
     if bad is not None:
         raise InputError(bad.removeprefix("campaign."), "must be a finite number (NaN or infinity given)")
+    data = _in_rad_per_s(data)
     target = data["machine"]
     if base is not None and target.endswith(".toml") and not Path(target).is_absolute():
         target = str(base / target)
@@ -345,7 +350,34 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         records.warnings,
         levels,
         level_records,
+        data.get("frequency_unit", "rad/s"),
     )
+
+
+def _in_rad_per_s(data: dict) -> dict:
+    """The campaign's data with the frequencies and frequency uncertainties of its modes and levels in rad/s, from
+    its ``frequency_unit`` (nomenclature.FREQUENCY_UNITS; the schema has checked it)."""
+    factor = FREQUENCY_UNITS[data.get("frequency_unit", "rad/s")]
+    if factor == 1.0:
+        return data
+
+    def converted(modes: dict) -> dict:
+        return {
+            label: {
+                key: value * factor if key in ("frequency", "uncertainty") and value is not None else value
+                for key, value in entry.items()
+            }
+            for label, entry in modes.items()
+        }
+
+    out = dict(data)
+    if "modes" in data:
+        out["modes"] = converted(data["modes"])
+    if "levels" in data:
+        out["levels"] = [
+            {**level, "modes": converted(level["modes"])} if "modes" in level else level for level in data["levels"]
+        ]
+    return out
 
 
 def _by_hand(label: str, entry: dict) -> MeasuredMode:
