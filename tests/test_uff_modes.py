@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from mountid.machine import Machine
 from mountid.measurement.modes import DEFAULT_FREQUENCY_STD
 from mountid.measurement.records import ModeTable, named_runs, read_record
 from mountid.measurement.rig import Rig
+from mountid.measurement.uff_modes import write_table
 from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING
 
 NODES = {
@@ -289,3 +291,56 @@ def test_a_campaign_lists_a_table_of_modes_as_a_record(tmp_path, capsys):
     (tmp_path / "campaign.json").write_text(json.dumps(data), encoding="utf-8")
     assert main(["diagnose", str(tmp_path / "campaign.json"), "--json", "--no-figure"]) == 0
     assert json.loads(capsys.readouterr().out)["kind"] == "no significant gap"
+
+
+def test_the_model_table_written_reads_back(tmp_path):
+    """records.ModeTable.of_model through uff_modes.write_table and back: the model's undamped modes at the
+    isolator points, to the format's six digits."""
+    machine = Machine.resolve("kid300")
+    points = [(0.344, 0.344, -0.3), (-0.344, 0.344, -0.3), (0.344, -0.344, -0.3), (0.0, 0.0, 0.5)]
+    table = ModeTable.of_model(machine, {}, points)
+    assert table.kind == "normal modes" and np.all(table.poles.real == 0)
+    np.testing.assert_allclose(table.poles.imag, list(machine.frequencies({}).values()), rtol=1e-12)  # MODES' order
+    write_table(table, tmp_path / "model.unv", titles=list(machine.module.MODES))
+    back = read_record(tmp_path / "model.unv")
+    assert [c.name for c in back.channels] == [c.name for c in table.channels]
+    for a, b in zip(back.channels, table.channels, strict=True):
+        assert a.point == pytest.approx(b.point, abs=1e-12) and a.direction == b.direction
+    np.testing.assert_allclose(back.poles, table.poles, rtol=1e-5)
+    scale = np.abs(table.shapes).max()
+    np.testing.assert_allclose(back.shapes, table.shapes, rtol=0, atol=1e-5 * scale)
+    titles = [s["id1"].strip() for s in pyuff.UFF(str(tmp_path / "model.unv")).read_sets() if s["type"] == 55]
+    assert titles == list(machine.module.MODES)
+    found = every_decay(machine, [("model.unv", back)], {})
+    assert sorted(found.modes) == sorted(machine.modes) and all(m.mac > 0.9999 for m in found.modes.values())
+
+
+def test_a_bench_table_written_reads_back(tmp_path):
+    """A table of complex modes read, written and read again: the same poles and shapes (a round trip of the
+    writer), and a channel along no axis named."""
+    _write(tmp_path / "bench.uff", _rig())
+    table = read_record(tmp_path / "bench.uff")
+    write_table(table, tmp_path / "again.uff")
+    again = read_record(tmp_path / "again.uff")
+    assert again.kind == "complex modes" and [c.name for c in again.channels] == [
+        f"node{k}:{a}" for k in (1, 2, 3, 4) for a in (1, 2, 3)
+    ]
+    np.testing.assert_allclose(again.poles, table.poles, rtol=1e-5)
+    np.testing.assert_allclose(again.shapes, table.shapes, rtol=0, atol=1e-5 * np.abs(table.shapes).max())
+    turned = replace(table, channels=(replace(table.channels[0], direction=(0.6, 0.8, 0.0)), *table.channels[1:]))
+    with pytest.raises(InputError, match="node11:1: measures along no axis"):
+        write_table(turned, tmp_path / "turned.uff")
+
+
+def test_the_modes_command_writes_the_model_for_the_bench(tmp_path, capsys):
+    path = tmp_path / "model.unv"
+    points = ["0.45,0,0.1", "0,0.45,0.1", "-0.45,0,0.3"]  # a point on the -x side reads as a value, not an option
+    assert main(["modes", "kid300", "--uff", str(path), "--point", *points, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["uff"] == {"file": str(path), "nodes": [[0.45, 0.0, 0.1], [0.0, 0.45, 0.1], [-0.45, 0.0, 0.3]]}
+    assert len(read_record(path).channels) == 9
+    assert main(["modes", "kid300", "--uff", str(tmp_path / "feet.unv")]) == 0
+    assert "the 6 modes as UFF mode shapes at nodes 1 (0.343654, 0.343654, -0.3)" in capsys.readouterr().out
+    assert main(["modes", "kid300", "--point", "0,0,0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "mountid: error: --point: gives the nodes of --uff: give the file to write"

@@ -65,7 +65,21 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: the description's rule)",
     )
     p.set_defaults(func=cmd_identify)
-    machine_command("modes", "mode shapes and kinetic-energy distribution").set_defaults(func=cmd_modes)
+    p = machine_command("modes", "mode shapes and kinetic-energy distribution")
+    p.add_argument(
+        "--uff",
+        metavar="FILE",
+        help="write the modes at --point as UFF mode shapes (datasets 55 with the nodes, 15): a bench's modal "
+        "software compares its test with them",
+    )
+    p.add_argument(
+        "--point",
+        nargs="+",
+        action="extend",
+        metavar="x,y,z",
+        help="the nodes of --uff [m] (default: the isolator points), node 1 the first",
+    )
+    p.set_defaults(func=cmd_modes)
     machine_command("describe", "parameters, modes and inverse sets of a machine").set_defaults(func=cmd_describe)
     p = sub.add_parser("demo", help="reproduce the reference paper's numbers and its simulated experiment")
     p.add_argument("--figures", default="out/figures", help="folder for the figures (default out/figures)")

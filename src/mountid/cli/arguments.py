@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mountid.errors import InputError
 from mountid.machine import Machine
@@ -19,7 +20,17 @@ if TYPE_CHECKING:
     from mountid.measurement.rig import Unbalance
 
 
+NEGATIVE_VALUES = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[,:][-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*$")
+"""What argparse takes for a value, not an option, where it begins with "-": a negative number, and a point or
+direction of them (``--hit-point -0.35,0.25,0.3``, ``--point -0.45,0,0.3``: argparse's own rule, negative numbers
+alone, read those as unknown options and said "expected one argument")."""
+
+
 class Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_VALUES  # argparse's own attribute, read by its parse of options
+
     def error(self, message: str) -> None:  # one line, exit 2 (argparse would print the usage too)
         raise InputError("arguments", message)
 

@@ -7,9 +7,11 @@ import math
 from collections.abc import Callable
 from typing import TypeVar
 
-from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, print_json
+import numpy as np
+
+from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, point_on_machine, print_json
 from mountid.errors import InputError
-from mountid.machine import Machine
+from mountid.machine import Machine, call
 from mountid.nomenclature import FREQUENCY_UNITS, counted
 from mountid.report.text import print_diagnosis
 
@@ -176,6 +178,9 @@ def cmd_modes(args: argparse.Namespace) -> None:
     phi = machine.evaluate("modal_matrix", values)
     energy = machine.evaluate("kinetic_energy_distribution", values)
     defaults = machine.defaults(given, m.FORWARD_ARGUMENTS)
+    if args.point and not args.uff:
+        raise InputError("--point", "gives the nodes of --uff: give the file to write")
+    written = _modes_uff(machine, given, args.uff, args.point) if args.uff else None
     if args.json:
         print_json(
             {
@@ -186,6 +191,7 @@ def cmd_modes(args: argparse.Namespace) -> None:
                 "modal_matrix": phi.tolist(),
                 "kinetic_energy_distribution": energy.tolist(),
                 "defaults": defaults,
+                **({"uff": written} if written else {}),
             }
         )
         return
@@ -198,7 +204,27 @@ def cmd_modes(args: argparse.Namespace) -> None:
     print(f"{'':>8s}{head}")
     for i, c in enumerate(m.COORDINATES):
         print(f"{c:>8s}" + "".join(_cell(100 * v, 1) for v in energy[i]))
+    if written:
+        nodes = ", ".join(f"{k} ({', '.join(f'{v:g}' for v in p)})" for k, p in enumerate(written["nodes"], start=1))
+        print(f"\nwrote {written['file']}: the {len(m.MODES)} modes as UFF mode shapes at nodes {nodes} [m]")
     defaults_note(machine, defaults)
+
+
+def _modes_uff(machine: Machine, given: dict[str, float], path: str, points: list[str] | None) -> dict:
+    """Write the machine's modes at ``points`` (--point, x,y,z [m] each; default the isolator points at the given
+    values) to the UFF file ``path`` (records.ModeTable.of_model, uff_modes.write_table: ID line 1 the mode's
+    label); what was written, for the output."""
+    from mountid.measurement.records import ModeTable
+    from mountid.measurement.uff_modes import write_table  # pyuff is an extra: imported only for UFF files
+
+    mod = machine.module
+    if points:
+        nodes = [point_on_machine(text, "--point") for text in points]
+    else:
+        at = np.asarray(call(mod, "isolator_points", machine.values(given, mod.ARGUMENTS["isolator_points"])))
+        nodes = [tuple(float(v) for v in at[:, k]) for k in range(at.shape[1])]
+    write_table(ModeTable.of_model(machine, given, nodes), path, titles=list(mod.MODES))
+    return {"file": path, "nodes": [list(p) for p in nodes]}
 
 
 def _cell(value: float, decimals: int) -> str:

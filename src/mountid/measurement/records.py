@@ -33,7 +33,7 @@ import re
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +41,9 @@ from numpy.typing import NDArray
 from mountid.effects import STANDARD_GRAVITY
 from mountid.errors import InputError, existing_file
 from mountid.measurement.settings import RECORDS, RecordSettings
+
+if TYPE_CHECKING:
+    from mountid.machine import Machine
 
 Run = TypeVar("Run")
 """What a reader holds of one run of a file (each_run)."""
@@ -228,6 +231,33 @@ class ModeTable:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(c.name for c in self.channels)
+
+    @classmethod
+    def of_model(cls, machine: Machine, values: dict[str, float], points: Sequence[Sequence[float]]) -> ModeTable:
+        """The undamped normal modes of ``machine`` at the parameter ``values`` (its generated frequencies and
+        mass-normalised modal matrix: what ``mountid modes`` prints), read as displacements along x, y and z at
+        each of ``points`` [m], node k + 1 at the k-th (channels ``node<k>:<axis>``, as uff_modes names a file's),
+        in the machine's mode order (its MODES): the table a bench's modal software compares its test with
+        (uff_modes.write_table)."""
+        from mountid.machine import sensor_row
+
+        module = machine.module
+        args = machine.values(values, module.FORWARD_ARGUMENTS)
+        omega, phi = machine.evaluate("frequencies", args), machine.evaluate("modal_matrix", args)
+        channels, rows = [], []
+        for k, point in enumerate(points, start=1):
+            for axis in (1, 2, 3):
+                direction = tuple(float(axis == a) for a in (1, 2, 3))
+                name = f"node{k}:{axis}"
+                rows.append(sensor_row(module, point, direction, name))
+                channels.append(Channel(name, tuple(map(float, point)), direction, "displacement", "m"))
+        return cls(
+            tuple(channels),  # type: ignore[arg-type]
+            1j * np.asarray(omega, dtype=float),
+            (np.array(rows) @ np.asarray(phi)).astype(complex),
+            "normal modes",
+            (f"the undamped normal modes of {machine.name}, mass-normalised",),
+        )
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:

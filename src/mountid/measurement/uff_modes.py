@@ -13,13 +13,14 @@ time responses (uff_geometry). The format writes 0 for a direction not measured:
 zero in every mode is no channel (a uniaxial accelerometer's node gives one channel). Each channel is named
 ``node<N>:<axis>`` (axis 1, 2, 3 for x, y, z) and may be left unread by name (``ignore``). The datasets of
 several load cases are the runs of the file, a table each. Complex shapes of six values per node are what pyuff
-cannot read: an error naming the dataset.
+cannot read: an error naming the dataset. write_table writes a table the same way (the model's modes for a bench's
+software: ``mountid modes --uff``, records.ModeTable.of_model).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -69,6 +70,69 @@ def read_table(
 def read_tables(path: Path, uff: pyuff.UFF, types: list, ignore: Collection[str] = ()) -> list[ModeTable]:
     """Every load case's table of modes of an opened UFF file (uff.read_uff_runs)."""
     return each_run(_load_cases(path, uff, types), lambda sets: _table(sets, uff, types, path, ignore))
+
+
+def write_table(table: ModeTable, path: str | Path, titles: Sequence[str] | None = None) -> None:
+    """Write a table of modes to a new UFF file: the SI units (dataset 164), a node at each point of its channels
+    (dataset 15, numbered from 1 in the order the channels give the points) and a dataset 55 per mode, ID line 1
+    its ``titles`` entry (default "mode K"): normal modes (the frequency |p| / 2 pi [Hz], the viscous damping ratio
+    -Re p / |p|, the real shapes) where every shape is real, else complex modes (the eigenvalue p, the complex
+    shapes), each node's translations along x, y and z from its channels (0 along an axis none reads: not
+    measured, as the format has it). A channel along no axis is an error naming it. Six significant digits: the
+    format's (E13.5)."""
+    path = Path(path)
+    points = list(dict.fromkeys(c.point for c in table.channels))
+    values = np.zeros((len(points), 3, len(table.poles)), dtype=complex)
+    for c, shape in zip(table.channels, table.shapes, strict=True):
+        axes = [k for k in range(3) if c.direction[k] != 0]
+        if len(axes) != 1 or abs(c.direction[axes[0]]) != 1:
+            raise InputError(c.name, "measures along no axis: a table of modes in UFF holds translations along x, y, z")
+        values[points.index(c.point), axes[0]] += c.direction[axes[0]] * shape
+    real = not np.any(values.imag)
+    nodes = np.arange(1, len(points) + 1)
+    sets = [
+        pyuff.prepare_164(
+            units_code=1, units_description="SI", temp_mode=1, length=1.0, force=1.0, temp=1.0, temp_offset=0.0
+        ),
+        pyuff.prepare_15(
+            node_nums=list(nodes),
+            def_cs=[0] * len(points),
+            disp_cs=[0] * len(points),
+            color=[1] * len(points),
+            **{axis: [float(p[k]) for p in points] for k, axis in enumerate("xyz")},
+        ),
+    ]
+    for k, p in enumerate(table.poles):
+        common = {
+            "id1": titles[k] if titles else f"mode {k + 1}",
+            "id2": table.kind,
+            "model_type": 1,
+            "data_ch": 2,
+            "spec_data_type": 8,
+            "load_case": 1,
+            "mode_n": k + 1,
+            "node_nums": nodes,
+        }
+        shape = {f"r{a + 1}": values[:, a, k].real if real else values[:, a, k] for a in range(3)}
+        if real:
+            omega = abs(complex(p))
+            ratio = -complex(p).real / omega
+            sets.append(
+                pyuff.prepare_55(
+                    analysis_type=2,
+                    freq=float(omega / (2 * math.pi)),
+                    modal_m=0.0,  # not stated: a table's shapes carry no scale
+                    modal_damp_vis=float(ratio),
+                    modal_damp_his=0.0,
+                    **common,
+                    **shape,
+                )
+            )
+        else:
+            sets.append(pyuff.prepare_55(analysis_type=3, eig=complex(p), modal_a=0j, modal_b=0j, **common, **shape))
+    if path.exists():
+        path.unlink()  # pyuff appends to an existing file
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
 
 
 def _load_cases(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
