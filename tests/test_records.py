@@ -94,6 +94,37 @@ def test_bad_records_are_rejected_by_name(edit, message):
         Record(t, d, rec.channels)
 
 
+@pytest.mark.parametrize(
+    ("head", "units"),
+    [
+        ("Frequency [Hz],H1 Re,H1 Im", ""),
+        ("Freq (Hz);A_x (g);B_y (g)", ""),
+        ("Frequency,A_x,B_y", ""),
+        ("f,A_x,B_y", "Hz,g,g"),
+    ],
+)
+@pytest.mark.parametrize("rate", [None, 500.0])
+def test_a_table_of_spectra_is_named_as_no_record(tmp_path, head, units, rate):
+    """A bench's FRFs or spectra exported as a table: its first column, a frequency axis, was read as the time
+    (a header "Freq (Hz)" without a unit it knew: seconds) and the spectra as accelerations; the chain then said
+    "too short for 24 exponentials". The frequency axis is named (by its name or unit, with --rate too)."""
+    separator = ";" if ";" in head else ","
+    rows = [separator.join(str(v) for v in (0.125 * k, 0.1, 0.2)) for k in range(200)]
+    (tmp_path / "frf.csv").write_text("\n".join([head, *([units] if units else []), *rows]) + "\n")
+    with pytest.raises(InputError, match=r"^frf.csv: column 1: '.*' is a frequency axis: a table of spectra or freq"):
+        read_csv(tmp_path / "frf.csv", rate)
+
+
+def test_a_channel_in_hertz_is_a_unit_not_read(tmp_path):
+    """A tachometer's speed in Hz beside the accelerations ("Speed (Hz)") was a channel named so, read as an
+    acceleration in m/s^2: its unit is named now, to be left out."""
+    rows = [f"{0.002 * k},{np.sin(k)},{25.0}" for k in range(500)]
+    (tmp_path / "tacho.csv").write_text("\n".join(["Time [s],A_x [g],Speed (Hz)", *rows]) + "\n")
+    with pytest.raises(InputError, match="Hz"):
+        read_csv(tmp_path / "tacho.csv")
+    assert read_csv(tmp_path / "tacho.csv", ignore=("Speed",)).names == ("A_x",)
+
+
 def test_a_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
     """Spreadsheet exports start UTF-8 with a byte order mark: it hid the first line's "#" (the record's
     metadata) or the time column's name; the file reads as the same file without it."""

@@ -349,10 +349,10 @@ def _print_modes(
         print(f"  warning ({w.kind}, {w.channel}): " + (f"{w.record}: " if w.record else "") + w.message)
     for note in notes:
         print(f"  note: {note}")
-    print('  the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')
+    print('  the poles\' |p| [rad/s, Hz] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")')
     for k, m in modes.items():
         print(
-            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s"
+            f"  {k:>8s}  {m.frequency:10.4f} +- {m.frequency_std:.2g} rad/s ({m.frequency / (2 * math.pi):.4f} Hz)"
             f"  zeta {m.damping_ratio:.4f}" + (f"  MAC {m.mac:.2f}" if m.mac is not None else "")
         )
     for line in _not_found(machine, modes, unlabelled):

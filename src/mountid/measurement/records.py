@@ -478,6 +478,14 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
     counted = header[0].lower() in INDEX_NAMES and integers and rising >= TIME_COLUMN_INCREASING
     timed = time_unit in TIME_UNITS and (rising >= TIME_COLUMN_INCREASING or named)
     where = f"{path.name}: column {columns[0] + 1}"
+    axis, axis_unit = _split_unit(header[0])
+    if stamps is None and (axis.lower() in FREQUENCY_AXIS[0] or axis_unit in FREQUENCY_AXIS[1]):
+        raise InputError(
+            where,
+            f"{header[0]!r} is a frequency axis: a table of spectra or frequency response functions is no record of "
+            "time responses (a bench's frequency response functions read as a UFF file of datasets 58, function "
+            "type 4)",
+        )
     if counted and stamps is None:  # a sample index: the time at the rate given
         if rate is None:
             raise InputError(
@@ -731,6 +739,11 @@ time is the count over the sampling rate, which must then be given (it was read 
 TIME_OF_DAY = re.compile(r"\d{1,2}:\d{2}:\d{2}([.,]\d+)?")
 """A time of day, HH:MM:SS with a decimal point or comma: a time column of clock times (of one day)."""
 
+FREQUENCY_AXIS = (("frequency", "freq", "frequenz", "fréquence", "frecuencia", "frequenza"), ("Hz", "kHz", "rad/s"))
+"""Names (in any case) and units of a first column that is a frequency axis: a table of spectra or frequency response
+functions, not a record (its lines were read as times, its FRFs as accelerations, and the chain said "too short for
+24 exponentials")."""
+
 TIME_NAMES = ("time", "t", "zeit", "temps", "tiempo", "tempo")
 """Names of a time column (in any case): with a sampling rate given, a first column whose steps do not rise as a
 time's is a channel (a file of channels only), unless it is so named (a broken time column: an error)."""
@@ -738,10 +751,11 @@ time's is a channel (a file of channels only), unless it is so named (a broken t
 
 def _units_row(cells: list[str], header: list[str], keep: list[int] | None = None) -> bool:
     """Whether a row right below the ``header`` is a row of units, as some acquisition software writes them
-    ("s;m/s^2;g"): as many cells as the header, the first a time unit (or empty), every other one a unit of
-    UNITS (or empty; any text in a column not in ``keep``, the columns read), at least one not empty."""
+    ("s;m/s^2;g"): as many cells as the header, the first a time unit (or empty; or a frequency's, which the
+    caller names as no record: FREQUENCY_AXIS), every other one a unit of UNITS (or empty; any text in a column
+    not in ``keep``, the columns read), at least one not empty."""
     units = [c.strip() for c in cells]
-    if len(units) != len(header) or not any(units) or units[0] not in ("", *TIME_UNITS):
+    if len(units) != len(header) or not any(units) or units[0] not in ("", *TIME_UNITS, *FREQUENCY_AXIS[1]):
         return False
     read = range(len(header)) if keep is None else keep
     return all(not units[k] or quantity_of(units[k]) for k in read if k > 0)
@@ -779,7 +793,7 @@ def _split_unit(title: str) -> tuple[str, str | None]:
     for left, right in ("[]", "()"):
         if title.endswith(right) and left in title:
             name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
-            if left == "[" or unit in TIME_UNITS or quantity_of(unit):
+            if left == "[" or unit in TIME_UNITS or unit in FREQUENCY_AXIS[1] or quantity_of(unit):
                 return name, unit
     return title, None
 
