@@ -98,7 +98,7 @@ def test_a_channel_of_another_sampling_or_unit_is_named_and_left_out_when_told(h
     np.testing.assert_array_equal(read_record(tmp_path / "temp.tdms", ignore=("T",)).data, hit.data)
     tacho = ("Acc", "Tacho", np.full(2000, 5.0), _waveform(500.0, "V"))
     _write(tmp_path / "tacho.tdms", [*accelerations, tacho])
-    with pytest.raises(InputError, match=r"^Tacho: unit 'V' is not one of .*left out with --ignore NAME"):
+    with pytest.raises(InputError, match=r"^Tacho: unit 'V' is not one of .*left out by its name: --ignore Tacho,"):
         read_record(tmp_path / "tacho.tdms")
     with pytest.raises(InputError, match=r"^ignore: Rpm: no such channel in tacho.tdms \(channels: A_x, A_y, B_y"):
         read_record(tmp_path / "tacho.tdms", ignore=("Rpm",))

@@ -30,6 +30,7 @@ import io
 import json
 import math
 import re
+import shlex
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -147,7 +148,9 @@ class Record:
             if units is None:
                 raise InputError(c.name, f"quantity {c.quantity!r} is not one of {', '.join(UNITS)}")
             if c.unit not in units:
-                raise InputError(c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)}){UNREAD}")
+                raise InputError(
+                    c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)}){unread(c.name)}"
+                )
         largest = np.abs(self.data).max(axis=0, initial=0.0)
         for c, value in zip(self.channels, largest, strict=True):
             if value > SAMPLE_LIMIT:
@@ -630,7 +633,9 @@ def _line_by_line(
                         f"10:00:00.000; clock times, 10:00:00.000): give the sampling rate and leave the column out "
                         f"(--rate R --ignore {title}; a campaign record's 'rate' and 'ignore')",
                     ) from None
-                raise InputError(f"{name}:{number}", f"a value is not a number: {where}{UNREAD}") from None
+                raise InputError(
+                    f"{name}:{number}", f"a value is not a number: {where}{unread(_split_unit(title)[0])}"
+                ) from None
             if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
                 other = next((c.strip() for c in cells[1:] if c.strip() and not quantity_of(c.strip())), None)
                 known = ", ".join(u for units in UNITS.values() for u in units)
@@ -723,11 +728,14 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
     return not (all(map(math.isfinite, vector)) or all(map(math.isnan, vector)))
 
 
-UNREAD = (
-    "; a channel mountid does not read (a tachometer, a microphone) is left out with --ignore NAME, or with "
-    'a campaign record\'s "ignore"'
-)
-"""The advice an error on a channel's quantity or unit ends with."""
+def unread(name: str) -> str:
+    """The advice an error on channel ``name``'s quantity or unit ends with: how to leave it out, by the name the
+    readers know it by (a CSV header's without its unit)."""
+    return (
+        f"; a channel mountid does not read (a tachometer, a microphone) is left out by its name: --ignore "
+        f'{shlex.quote(name)}, or a campaign record\'s "ignore"'
+    )
+
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 """Units a plain CSV's time column may state in its header ("Time [ms]"), and their factors to s."""
@@ -820,7 +828,7 @@ def channel_in(name: str, unit: str | None, where: str, said: str = "") -> Chann
     quantity = quantity_of(unit)
     if quantity is None:
         known = ", ".join(u for units in UNITS.values() for u in units)
-        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{UNREAD}")
+        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{unread(name)}")
     return Channel(name, quantity=quantity, unit=unit)
 
 

@@ -30,7 +30,6 @@ from numpy.typing import NDArray
 from mountid.errors import InputError, existing_file
 from mountid.measurement.records import (
     TIME_NAMES,
-    UNREAD,
     Channel,
     Record,
     channel_in,
@@ -39,6 +38,7 @@ from mountid.measurement.records import (
     each_run,
     sampled_at,
     uniform_time,
+    unread,
 )
 from mountid.nomenclature import counted
 
@@ -134,9 +134,11 @@ def _record(
     n = len(reference)
     for name, c in data:
         if len(c) != n:
-            raise InputError(name, f"{len(c)} samples against {n} of {first} (one record needs one sampling){UNREAD}")
+            raise InputError(
+                name, f"{len(c)} samples against {n} of {first} (one record needs one sampling){unread(name)}"
+            )
         if not np.issubdtype(c.dtype, np.number):
-            raise InputError(name, f"holds {c.dtype} values, not numbers{UNREAD}")
+            raise InputError(name, f"holds {c.dtype} values, not numbers{unread(name)}")
     time = _time(path.name, data, clock, n, rate)
     channels = tuple(
         _placed(channel_in(name, str(c.properties.get("unit_string", "")).strip(), name), c) for name, c in data

@@ -37,7 +37,6 @@ import pyuff
 from mountid.errors import InputError, existing_file
 from mountid.measurement.records import (
     UNITS,
-    UNREAD,
     Channel,
     Lines,
     ModeTable,
@@ -46,6 +45,7 @@ from mountid.measurement.records import (
     chosen_run,
     each_run,
     quantity_of,
+    unread,
 )
 from mountid.measurement.uff_geometry import node_geometry, read_set, whole
 from mountid.measurement.uff_modes import holds_mode_shapes, read_table, read_tables
@@ -418,7 +418,7 @@ def _quantity_and_unit(s: dict, name: str) -> tuple[str, str]:
     else:
         what = _OTHER_ORDINATES.get(kind, "a quantity")
         reads = ", ".join(f"{q} {k}" for k, q in _ORDINATE_TYPES.items())
-        raise InputError(name, f"is {what} (UFF 58 ordinate type {kind}): mountid reads {reads}{UNREAD}")
+        raise InputError(name, f"is {what} (UFF 58 ordinate type {kind}): mountid reads {reads}{unread(name)}")
     return quantity, unit or next(iter(UNITS[quantity]))
 
 
