@@ -243,6 +243,41 @@ def test_the_mode_figure_draws_a_legend_only_for_lines_it_draws(monkeypatch, tmp
     assert "red dashed" not in titles[0] and "red dashed: measured" in titles[1]
 
 
+def test_a_shape_on_twins_is_drawn_beside_the_twins_mix_nearest_it(monkeypatch, tmp_path):
+    """kid300's psi and theta are equal: a measured shape there is any mix of them (a bench's table of modes gave
+    45-degree mixes, MAC 1.00 in their span), and the model's psi drawn beside it looked like another mode. The
+    model's line is the twins' mix nearest the measured shape (on it, for an exact mix); a mode without twins is
+    the model's own."""
+    from mountid.measurement.modes import MeasuredMode
+    from mountid.report import figures
+
+    drawn = []
+
+    def lines(fig, path):
+        for ax in fig.axes:
+            model = [line.get_xydata() for line in ax.lines if line.get_color() == "C0"]
+            measured = [line.get_xydata() for line in ax.lines if line.get_color() == "C3"]
+            drawn.append((ax.get_title(), model, measured))
+        figures.plt.close(fig)
+
+    monkeypatch.setattr(figures, "_save", lines)
+    machine = Machine.resolve("kid300")
+    mod = machine.module
+    phi = mod.modal_matrix(**machine.values(KNOWN, mod.FORWARD_ARGUMENTS))
+    psi, theta, z = (mod.MODES.index(label) for label in ("psi", "theta", "z"))
+    mix = tuple(0.6 * phi[:, psi] + 0.8 * phi[:, theta])
+    given = {
+        "psi": MeasuredMode("psi", 64.1, 0.1, shape=mix),
+        "z": MeasuredMode("z", 47.5, 0.1, shape=tuple(phi[:, z])),
+    }
+    figures.mode_shapes_figure(machine, KNOWN, (0.5, 0.5, 0.4), tmp_path / "modes.png", given)
+    titled = {title.split(":")[0]: (title, model, measured) for title, model, measured in drawn if title}
+    title, model, measured = titled["psi"]
+    assert "(its twins' mix)" in title
+    np.testing.assert_allclose(np.array(model), np.array(measured), atol=1e-12)
+    assert "twins" not in titled["z"][0]
+
+
 def test_the_record_tables_name_missing_modes_and_unlabelled_poles():
     """Below a record's table of modes: the model's modes without a pole (a twin found counts for both) and the
     poles labelled as no mode, which only the JSON held."""

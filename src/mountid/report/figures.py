@@ -210,6 +210,11 @@ def unbalance_figure(t: np.ndarray, measured: np.ndarray, model: np.ndarray, spe
     return _save(fig, path)
 
 
+TWINS_EQUAL = 1e-9
+"""Modes whose frequencies differ by less than this (relative) are twins equal at the parameters drawn: any mix of
+them is a mode (mode_shapes_figure)."""
+
+
 def mode_shapes_figure(
     machine: Machine,
     parameters: dict[str, float],
@@ -222,8 +227,11 @@ def mode_shapes_figure(
     the given half sizes [m] around the origin at rest (grey), displaced by the model's mode at the
     identified ``parameters`` (blue), and where ``measured`` ({label: MeasuredMode}) has its shape in q, by
     the measured one (red, dashed), titled with both frequencies and the MAC of the channel shape; modes the
-    record did not give are marked so. The isolators (triangles) and the ``sensors`` (dots) are drawn; every
-    shape is scaled so that its largest corner motion is a quarter of the box's largest half size."""
+    record did not give are marked so. A measured shape on twins equal at these parameters (kid300's x and y, psi
+    and theta) is any mix of them: the model's mode drawn beside it is the twins' mix nearest it (its corner
+    motions projected onto theirs; the MAC of such a shape is its share in their span). The isolators (triangles)
+    and the ``sensors`` (dots) are drawn; every shape is scaled so that its largest corner motion is a quarter of
+    the box's largest half size."""
     mod = machine.module
     args = machine.values(parameters, mod.FORWARD_ARGUMENTS)
     phi = mod.modal_matrix(**args)
@@ -242,10 +250,22 @@ def mode_shapes_figure(
         sign = 1.0 if np.vdot(u.ravel(), (jac @ phi[:, k]).ravel()) >= 0 else -1.0
         return corners + sign * scale * u / np.max(np.abs(u))
 
+    def nearest_mix(k: int, shape: tuple[float, ...]) -> tuple[np.ndarray, bool]:
+        """The model's mode k, or where twins of equal frequency share it, their mix nearest ``shape``."""
+        twins = [j for j, lab in enumerate(mod.MODES) if mod.REPRESENTATIVE[lab] == mod.REPRESENTATIVE[mod.MODES[k]]]
+        if len(twins) < 2 or np.ptp(omega[twins]) > TWINS_EQUAL * omega[k]:
+            return phi[:, k], False
+        basis = (jac @ phi[:, twins]).reshape(-1, len(twins))
+        weights = np.linalg.lstsq(basis, (jac @ np.asarray(shape, dtype=float)).ravel(), rcond=None)[0]
+        return phi[:, twins] @ weights, True
+
     for k, label in enumerate(mod.MODES):
         rep = mod.REPRESENTATIVE[label]
         m = measured.get(label) or (measured.get(rep) if rep == label else None)
-        model = moved(phi[:, k])
+        mixed = False
+        if m is not None and m.shape is not None:
+            mode, mixed = nearest_mix(k, m.shape)
+        model = moved(mode if mixed else phi[:, k])
         shown = moved(m.shape) if m is not None and m.shape is not None else None
         for row, (a, b, name) in enumerate([(0, 2, "x-z"), (1, 2, "y-z"), (0, 1, "x-y")]):
             ax = axes[row, k]
@@ -262,7 +282,7 @@ def mode_shapes_figure(
             ax.set_yticks([])
             if k == 0:
                 ax.set_ylabel(name)
-        title = f"{label}: model {omega[k]:.2f} rad/s"
+        title = f"{label}: model {omega[k]:.2f} rad/s" + (" (its twins' mix)" if mixed else "")
         if m is not None:
             title += f"\nmeasured {m.frequency:.2f}" + (f", MAC {m.mac:.2f}" if m.mac is not None else "")
         elif measured and rep in measured:
