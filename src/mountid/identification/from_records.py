@@ -84,7 +84,11 @@ def channel_rows(machine: Machine, record: Record | ModeTable) -> np.ndarray:
     rows = []
     for c in record.channels:
         if not (np.all(np.isfinite(c.point)) and np.all(np.isfinite(c.direction))):
-            raise InputError(c.name, "channel has no point and direction: needed to label modes")
+            raise InputError(
+                c.name,
+                "channel has no point and direction: needed to label modes (place it with --channel "
+                f"{c.name}=x,y,z:dx,dy,dz, or a campaign record's 'channels')",
+            )
         rows.append(sensor_row(machine.module, c.point, c.direction, c.name))
     return np.array(rows)
 
@@ -1345,7 +1349,7 @@ def _as_acceleration(pole: modal.Pole, record: Record | ModeTable) -> modal.Pole
 
 def identify_from_record(
     machine: Machine,
-    record: Record,
+    record: Record | ModeTable,
     known: dict[str, float],
     start: float | None = None,
     nominal: dict[str, float] | None = None,
