@@ -330,6 +330,12 @@ def test_a_bench_table_written_reads_back(tmp_path):
     turned = replace(table, channels=(replace(table.channels[0], direction=(0.6, 0.8, 0.0)), *table.channels[1:]))
     with pytest.raises(InputError, match="node11:1: measures along no axis"):
         write_table(turned, tmp_path / "turned.uff")
+    twice = replace(
+        table,
+        channels=(*table.channels[:3], replace(table.channels[3], point=table.channels[0].point), *table.channels[4:]),
+    )
+    with pytest.raises(InputError, match="node12:1: a second channel at node 1 along axis 1"):
+        write_table(twice, tmp_path / "twice.uff")
 
 
 def test_the_modes_command_writes_the_model_for_the_bench(tmp_path, capsys):

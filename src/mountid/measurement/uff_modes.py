@@ -87,7 +87,10 @@ def write_table(table: ModeTable, path: str | Path, titles: Sequence[str] | None
         axes = [k for k in range(3) if c.direction[k] != 0]
         if len(axes) != 1 or abs(c.direction[axes[0]]) != 1:
             raise InputError(c.name, "measures along no axis: a table of modes in UFF holds translations along x, y, z")
-        values[points.index(c.point), axes[0]] += c.direction[axes[0]] * shape
+        node = points.index(c.point)
+        if np.any(values[node, axes[0]]):
+            raise InputError(c.name, f"a second channel at node {node + 1} along axis {axes[0] + 1}: one is written")
+        values[node, axes[0]] = c.direction[axes[0]] * shape
     real = not np.any(values.imag)
     nodes = np.arange(1, len(points) + 1)
     sets = [
