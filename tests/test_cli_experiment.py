@@ -117,9 +117,8 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     # three channels do not fix a shape in the six coordinates: no shape, no shape noise
     assert all(m["shape"] is None and m["shape_std"] is None for m in modes.values())
     code, text, _ = run(capsys, "process", "kid300", str(path))
-    assert (
-        code == 0 and 'the poles\' |p| [rad/s] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")' in text
-    )
+    header = 'the poles\' |p| [rad/s, Hz] and zeta = -Re p / |p| (in a campaign: "frequency_type": "pole")'
+    assert code == 0 and header in text
     # the table identify-record prints: what it comes from, and each mode's MAC (process printed neither)
     assert text.startswith(f"kid300: 4 modes from {path}\n")
     rows = [line.split() for line in text.splitlines()[2:]]

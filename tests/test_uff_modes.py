@@ -350,3 +350,13 @@ def test_the_modes_command_writes_the_model_for_the_bench(tmp_path, capsys):
     assert main(["modes", "kid300", "--point", "0,0,0"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == "mountid: error: --point: gives the nodes of --uff: give the file to write"
+
+
+def test_the_file_modes_writes_is_checked_before_any_work(tmp_path, capsys):
+    """A folder that does not exist was a traceback from pyuff ("Cannot access the file"); a name of another kind
+    would have been written as UFF under it."""
+    assert main(["modes", "kid300", "--uff", str(tmp_path / "none" / "model.unv")]) == 2
+    assert capsys.readouterr().err.strip().endswith("--uff: the folder '" + str(tmp_path / "none") + "' does not exist")
+    assert main(["modes", "kid300", "--uff", str(tmp_path / "model.txt")]) == 2
+    assert "model.txt: name a file ending in .uff or .unv (UFF mode shapes)" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -35,6 +35,22 @@ class Parser(argparse.ArgumentParser):
         raise InputError("arguments", message)
 
 
+def file_to_write(text: str, option: str, suffixes: dict[str, str]) -> Path:
+    """The path of a file ``option`` names to write: in a folder that exists, with one of ``suffixes`` (suffix:
+    what such a file holds, for the error: "a file ending in .csv or .txt (text), .tdms (TDMS)"), else an
+    InputError naming the option (a missing folder was a traceback from the writer's library)."""
+    path = Path(text)
+    if not path.parent.is_dir():
+        raise InputError(option, f"the folder {str(path.parent)!r} does not exist")
+    if path.suffix.lower() not in suffixes:
+        kinds: dict[str, list[str]] = {}
+        for suffix, what in suffixes.items():
+            kinds.setdefault(what, []).append(suffix)
+        named = ", ".join(f"{' or '.join(endings)} ({what})" for what, endings in kinds.items())
+        raise InputError(option, f"{path.name}: name a file ending in {named}")
+    return path
+
+
 def speed(text: str) -> float:
     """A --speed value [rad/s]: a number, or one with a unit of nomenclature.SPEED_UNITS ("1500rpm", "25Hz")."""
     try:

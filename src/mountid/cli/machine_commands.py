@@ -9,7 +9,14 @@ from typing import TypeVar
 
 import numpy as np
 
-from mountid.cli.arguments import beyond_first_order, defaults_note, pairs, point_on_machine, print_json
+from mountid.cli.arguments import (
+    beyond_first_order,
+    defaults_note,
+    file_to_write,
+    pairs,
+    point_on_machine,
+    print_json,
+)
 from mountid.errors import InputError
 from mountid.machine import Machine, call
 from mountid.nomenclature import FREQUENCY_UNITS, counted
@@ -180,6 +187,8 @@ def cmd_modes(args: argparse.Namespace) -> None:
     defaults = machine.defaults(given, m.FORWARD_ARGUMENTS)
     if args.point and not args.uff:
         raise InputError("--point", "gives the nodes of --uff: give the file to write")
+    if args.uff:
+        file_to_write(args.uff, "--uff", {".uff": "UFF mode shapes", ".unv": "UFF mode shapes"})  # before any work
     written = _modes_uff(machine, given, args.uff, args.point) if args.uff else None
     if args.json:
         print_json(

@@ -6,7 +6,6 @@ import argparse
 import itertools
 import math
 from dataclasses import asdict, replace
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mountid.cli.arguments import (
@@ -16,6 +15,7 @@ from mountid.cli.arguments import (
     bounded,
     check_unbalance,
     direction,
+    file_to_write,
     finite_number,
     pairs,
     paper_unbalance,
@@ -44,13 +44,7 @@ if TYPE_CHECKING:
 def cmd_simulate(args: argparse.Namespace) -> None:
     from mountid.measurement.rig import Rig
 
-    out = Path(args.out)
-    if not out.parent.is_dir():
-        raise InputError("--out", f"the folder {str(out.parent)!r} does not exist")
-    if out.suffix.lower() not in WRITERS:
-        raise InputError(
-            "--out", f"{out.name}: name a .csv (or .txt) file for text, .uff or .unv for UFF dataset 58, .tdms for TDMS"
-        )
+    out = file_to_write(args.out, "--out", {suffix: FORMATS[kind] for suffix, kind in WRITERS.items()})
     record_size(args.duration, args.rate)
     if args.seed < 0:
         raise InputError("--seed", f"must be a non-negative integer, got {args.seed}")
@@ -147,6 +141,9 @@ def _close_hits_note(times: Sequence[float]) -> list[str]:
 
 WRITERS = {".csv": "csv", ".txt": "csv", ".uff": "uff58", ".unv": "uff58", ".tdms": "tdms"}
 """The record formats simulate writes, by the file's suffix."""
+
+FORMATS = {"csv": "text", "uff58": "UFF dataset 58", "tdms": "TDMS"}
+"""What each record format of WRITERS is called in errors."""
 
 
 def _writer(kind: str) -> Callable[[Record, str], None]:
