@@ -257,6 +257,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if base is not None and target.endswith(".toml") and not Path(target).is_absolute():
         target = str(base / target)
     machine = Machine.resolve(target)
+    data = _shapes_from_sensors(data, machine)
     known = dict(data.get("known", {}))
     for name in known:
         if name not in machine.parameters:
@@ -378,6 +379,40 @@ def _in_rad_per_s(data: dict) -> dict:
             {**level, "modes": converted(level["modes"])} if "modes" in level else level for level in data["levels"]
         ]
     return out
+
+
+def _shapes_from_sensors(data: dict, machine: Machine) -> dict:
+    """The campaign's data with each mode's ``sensor_shape`` (its real shape read at the campaign's sensors, by
+    name: what a bench's modal software tabulates) as a ``shape`` in the coordinates q, by least squares through the
+    sensors' rows (identification.shapes.coordinate_shape, as a record's channel shape); an InputError naming the
+    entry where the campaign has no such sensors, the mode gives both, or the sensors named do not see the six
+    motions."""
+    if not any("sensor_shape" in entry for entry in data.get("modes", {}).values()):
+        return data
+    from mountid.identification.shapes import coordinate_shape
+
+    sensors = {c.name: c for c in (_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))}
+    modes = {}
+    for label, entry in data["modes"].items():
+        given = entry.get("sensor_shape")
+        if given is None:
+            modes[label] = entry
+            continue
+        where = f"modes.{label}.sensor_shape"
+        if "shape" in entry:
+            raise InputError(f"modes.{label}", "give its shape in q (shape) or at the sensors (sensor_shape), not both")
+        if not sensors:
+            raise InputError(where, "needs the campaign's sensors (each one's name, point and direction)")
+        unknown = [name for name in given if name not in sensors]
+        if unknown:
+            raise InputError(f"{where}.{unknown[0]}", f"not a sensor of the campaign (sensors: {', '.join(sensors)})")
+        rows = np.array([sensor_row(machine.module, sensors[n].point, sensors[n].direction, n) for n in given])
+        seen = int(np.linalg.matrix_rank(rows))
+        if seen < rows.shape[1]:
+            raise InputError(where, f"the sensors named see {seen} of the six motions (their readings' rank)")
+        shape = coordinate_shape(rows, np.array([float(v) for v in given.values()], dtype=complex))
+        modes[label] = {**{k: v for k, v in entry.items() if k != "sensor_shape"}, "shape": list(shape)}
+    return {**data, "modes": modes}
 
 
 def _by_hand(label: str, entry: dict) -> MeasuredMode:

@@ -1,0 +1,65 @@
+"""A campaign's modes given by hand (mountid.diagnosis.campaign): shapes read at the campaign's sensors, as a bench's
+modal software tabulates them (sensor_shape), taken to the coordinates q as a record's channel shapes are."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from mountid.diagnosis import campaign as campaign_module
+from mountid.diagnosis.candidates import diagnose_effects
+from mountid.errors import InputError
+from mountid.machine import Machine, sensor_row
+from mountid.validation import blind
+
+
+def _at_sensors(data: dict) -> dict:
+    """The campaign with each mode's shape in q replaced by its readings at the campaign's sensors, by name."""
+    module = Machine.resolve(data["machine"]).module
+    out = copy.deepcopy(data)
+    for entry in out["modes"].values():
+        q = np.array(entry.pop("shape"))
+        entry["sensor_shape"] = {
+            s["name"]: float(sensor_row(module, s["point"], s["direction"], s["name"]) @ q) for s in out["sensors"]
+        }
+    return out
+
+
+def _parallel(a, b) -> float:
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return abs(float(a @ b)) / float(np.linalg.norm(a) * np.linalg.norm(b))
+
+
+def test_shapes_at_the_sensors_are_the_shapes_in_q():
+    data, _ = blind.make_case(1, "drive_belt", kind="shapes", machine="kid300")
+    in_q, at_sensors = campaign_module.parse(data), campaign_module.parse(_at_sensors(data))
+    for label, mode in in_q.modes.items():
+        assert _parallel(at_sensors.modes[label].shape, mode.shape) == pytest.approx(1.0, abs=1e-12)
+        assert at_sensors.modes[label].shape_std == mode.shape_std
+    assert diagnose_effects(at_sensors).verdict == diagnose_effects(in_q).verdict
+
+
+def test_shapes_at_sensors_that_cannot_give_them_are_named():
+    data, _ = blind.make_case(1, "drive_belt", kind="shapes", machine="kid300")
+    given = _at_sensors(data)
+    both = copy.deepcopy(given)
+    both["modes"]["x"]["shape"] = data["modes"]["x"]["shape"]
+    with pytest.raises(InputError, match=r"^modes.x: give its shape in q \(shape\) or at the sensors"):
+        campaign_module.parse(both)
+    stranger = copy.deepcopy(given)
+    stranger["modes"]["x"]["sensor_shape"]["Q_z"] = 0.1
+    with pytest.raises(InputError, match=r"^modes.x.sensor_shape.Q_z: not a sensor of the campaign \(sensors: S1_x"):
+        campaign_module.parse(stranger)
+    blind_to_y = copy.deepcopy(given)  # the z channels and two along x at one y: z, psi, theta, x with phi
+    blind_to_y["modes"]["x"]["sensor_shape"] = {
+        name: value
+        for name, value in given["modes"]["x"]["sensor_shape"].items()
+        if name.endswith("_z") or name in ("S1_x", "S2_x")
+    }
+    with pytest.raises(InputError, match=r"^modes.x.sensor_shape: the sensors named see 4 of the six motions"):
+        campaign_module.parse(blind_to_y)
+    alone = {k: v for k, v in given.items() if k != "sensors"}
+    with pytest.raises(InputError, match=r"^modes.x.sensor_shape: needs the campaign's sensors"):
+        campaign_module.parse(alone)
