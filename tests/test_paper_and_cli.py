@@ -203,11 +203,13 @@ def _shows(line: str, printed: str) -> bool:
 
 
 def test_the_readme_has_a_transcript_for_every_verdict_example():
-    """The transcript test above is not empty: the paper's campaign and the five blind examples, each a file."""
+    """The transcript test above is not empty: the paper's campaign, the five blind examples and the belt's table of
+    modes from a bench, each a file."""
     examples = [example for example, _ in _readme_transcripts()]
     assert examples == [
         "kid300-paper.json",
         "kid300-blind-belt.json",
+        "kid300-bench-modes.json",
         "kid300-blind-pair.json",
         "kid300-blind-tie.json",
         "kid300-blind-not-explained.json",

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -360,3 +361,15 @@ def test_the_file_modes_writes_is_checked_before_any_work(tmp_path, capsys):
     assert main(["modes", "kid300", "--uff", str(tmp_path / "model.txt")]) == 2
     assert "model.txt: name a file ending in .uff or .unv (UFF mode shapes)" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+def test_the_worked_example_is_the_belts_table():
+    """examples/kid300-bench-modes.unv (the README's worked example) is blind_records.bench_table(20, "drive_belt")
+    written: read back, its poles and shapes are the table's to the format's digits."""
+    from mountid.validation.blind_records import bench_table
+
+    table = bench_table(20, "drive_belt")
+    shipped = read_record(Path(__file__).resolve().parents[1] / "examples" / "kid300-bench-modes.unv")
+    assert [c.name for c in shipped.channels] == [c.name for c in table.channels]
+    np.testing.assert_allclose(shipped.poles, table.poles, rtol=1e-5)
+    np.testing.assert_allclose(shipped.shapes, table.shapes, rtol=0, atol=1e-5 * np.abs(table.shapes).max())

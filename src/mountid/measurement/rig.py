@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
-from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, Record
+from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, ModeTable, Record
 
 
 @dataclass(frozen=True)
@@ -201,6 +201,29 @@ class Rig:
         records (mountid.validation.blind_records)."""
         found = machine if isinstance(machine, Machine) else Machine.resolve(machine)
         return cls(found, {}, (mass, stiffness, damping), hardening)
+
+    def mode_table(self, points: Sequence[Sequence[float]]) -> ModeTable:
+        """The rig's complex modes (its state-space poles with Im p > 0, by |p|; the modes a truth's own coordinates
+        add included) read as displacements along x, y and z at each of ``points`` [m], node k + 1 at the k-th
+        (channels ``node<k>:<axis>``): what a bench's modal software would export of a noise-free test of the rig
+        (uff_modes.write_table)."""
+        n = self.M.shape[0]
+        upper = np.flatnonzero(self.poles.imag > 0)
+        order = upper[np.argsort(np.abs(self.poles[upper]), kind="stable")]
+        channels, rows = [], []
+        for k, point in enumerate(points, start=1):
+            at = tuple(map(float, point))
+            for axis in range(3):
+                direction = tuple(float(axis == a) for a in range(3))
+                channels.append(Channel(f"node{k}:{axis + 1}", at, direction, "displacement", "m"))  # type: ignore[arg-type]
+                rows.append(self.sensor_row(point, direction, channels[-1].name))
+        return ModeTable(
+            tuple(channels),
+            self.poles[order],
+            np.array(rows) @ self.V[:n, order],
+            "complex modes",
+            (f"the complex modes of a rig of {self.machine.name}",),
+        )
 
     # -- kinematics ---------------------------------------------------------------------------------
     def sensor_row(self, point: Sequence[float], direction: Sequence[float], name: str = "sensor") -> NDArray:

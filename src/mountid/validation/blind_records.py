@@ -18,7 +18,7 @@ import numpy as np
 from mountid.diagnosis import campaign as campaign_module
 from mountid.diagnosis.gap import diagnose
 from mountid.errors import InputError
-from mountid.measurement.records import write_csv
+from mountid.measurement.records import ModeTable, write_csv
 from mountid.measurement.rig import Hammer, Rig, Sensor
 from mountid.validation import blind
 from mountid.validation.blind_truth import (
@@ -140,6 +140,17 @@ def record_campaign(
     two more records of the truth hit at that many times the force, its rubber's stiffness changed as make_case's
     level draws it (blind.at_other_level: alike in every mode), listed under the campaign's ``levels``."""
     return _written(seed, truth, machine, folder, noise, level)[0]
+
+
+def bench_table(seed: int, effect: str, machine: str = "kid300") -> ModeTable:
+    """A blind truth (blind.make_case's of ``seed`` and ``effect``) as a bench's modal software would tabulate a
+    noise-free test of it: its rig's complex modes at the four corners of the harness's sensor layout
+    (Rig.mode_table). The worked example examples/kid300-bench-modes.unv is uff_modes.write_table of seed 20's
+    belt, the truth of examples/kid300-blind-belt.json."""
+    _, t = blind.make_case(seed, effect, machine=machine)
+    tm = TruthMachine(machine)
+    corners = list(dict.fromkeys(tuple(map(float, r)) for _, r, _ in sensor_layout(tm)))
+    return Rig.from_matrices(machine, *truth_matrices(tm, t)).mode_table(corners)
 
 
 def _written(
