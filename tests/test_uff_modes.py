@@ -314,6 +314,12 @@ def test_the_model_table_written_reads_back(tmp_path):
     assert titles == list(machine.module.MODES)
     found = every_decay(machine, [("model.unv", back)], {})
     assert sorted(found.modes) == sorted(machine.modes) and all(m.mac > 0.9999 for m in found.modes.values())
+    # undamped modes (ratios of 0): the stiffnesses from the frequencies as undamped ones, no damping fitted (it
+    # was "b_xy: a damping must be positive, got 0")
+    result = identify_from_records(machine, [("model.unv", back)], {})
+    nominal = machine.values({}, machine.unknown)
+    assert result.parameters == pytest.approx(nominal, rel=1e-5) and result.damping == {}
+    assert any("no mode has a damping ratio above 0" in n for n in result.notes)
 
 
 def test_a_bench_table_written_reads_back(tmp_path):

@@ -1444,8 +1444,17 @@ def _identify(
         source = f"the rule of the description {machine.name} ({root})"
     else:
         source = f"the rule {root}"
-    params, stds, damping, damping_std = fit_damped_model(
-        machine, known, fitted, modes, damping_names, others, root=root, notes=notes, rule_source=source
-    )
+    if not any(m.damping_ratio for m in modes.values()):
+        # a table of undamped modes (normal modes exported without damping: ratios of 0): no pole to fit damping to
+        notes.append(
+            "no mode has a damping ratio above 0 (a table of undamped modes): the stiffnesses are fitted to the "
+            "frequencies as undamped ones and no damping parameter is fitted"
+        )
+        params, stds, _ = fit_stiffness(machine, known, fitted, others, root=root, notes=notes, rule_source=source)
+        damping, damping_std = {}, {}
+    else:
+        params, stds, damping, damping_std = fit_damped_model(
+            machine, known, fitted, modes, damping_names, others, root=root, notes=notes, rule_source=source
+        )
     freqs = machine.frequencies({**known, **params})
     return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings, notes)
