@@ -379,3 +379,15 @@ def test_the_worked_example_is_the_belts_table():
     assert [c.name for c in shipped.channels] == [c.name for c in table.channels]
     np.testing.assert_allclose(shipped.poles, table.poles, rtol=1e-5)
     np.testing.assert_allclose(shipped.shapes, table.shapes, rtol=0, atol=1e-5 * np.abs(table.shapes).max())
+
+
+def test_a_dataset_pyuff_cannot_read_says_what_it_reads(tmp_path):
+    """Complex shapes of six values per node (translations and rotations) are beyond pyuff's reader: the error
+    names the dataset and what pyuff reads."""
+    zeros = "  0.00000e+00" * 6
+    lines = ["    -1", "    55", "mode 1", *["NONE"] * 4]
+    lines += [f"{1:10d}{3:10d}{3:10d}{8:10d}{5:10d}{6:10d}", f"{2:10d}{6:10d}{1:10d}{1:10d}"]
+    lines += [" -6.60869e-01  1.77272e+01" + "  0.00000e+00" * 4, f"{1:10d}", "  1.00000e+00" + zeros[13:], zeros]
+    (tmp_path / "six.unv").write_text("\n".join([*lines, "    -1"]) + "\n")
+    with pytest.raises(InputError, match=r"six.unv: dataset 1 \(type 55\) is not readable .*; pyuff reads mode shapes"):
+        read_record(tmp_path / "six.unv")

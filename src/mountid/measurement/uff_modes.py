@@ -33,6 +33,12 @@ from mountid.measurement.uff_geometry import node_geometry, read_set
 MODE_SHAPES = 55
 """The UFF dataset of data at nodes: a bench's mode shapes."""
 
+PYUFF_READS = (
+    "pyuff reads mode shapes of three translations per node, real or complex, and of six values per node real only: "
+    "export complex shapes as translations"
+)
+"""What a dataset 55 pyuff cannot read is told (complex shapes of six values per node, its own limit)."""
+
 _ANALYSIS_TYPES = {
     0: "unknown",
     1: "static",
@@ -139,8 +145,12 @@ def write_table(table: ModeTable, path: str | Path, titles: Sequence[str] | None
 
 
 def _load_cases(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
-    """The file's datasets 55, a list per load case in the order of their first dataset."""
-    sets = [read_set(uff, i, types, path) for i, t in enumerate(types) if int(t) == MODE_SHAPES]
+    """The file's datasets 55, a list per load case in the order of their first dataset; one pyuff cannot read
+    named with what it reads."""
+    try:
+        sets = [read_set(uff, i, types, path) for i, t in enumerate(types) if int(t) == MODE_SHAPES]
+    except InputError as err:
+        raise InputError(err.parameter, f"{err.reason}; {PYUFF_READS}") from None
     cases = list(dict.fromkeys(int(s.get("load_case", 0) or 0) for s in sets))
     return [[s for s in sets if int(s.get("load_case", 0) or 0) == case] for case in cases]
 
