@@ -247,20 +247,29 @@ class ModeTable:
         module = machine.module
         args = machine.values(values, module.FORWARD_ARGUMENTS)
         omega, phi = machine.evaluate("frequencies", args), machine.evaluate("modal_matrix", args)
-        channels, rows = [], []
-        for k, point in enumerate(points, start=1):
-            for axis in (1, 2, 3):
-                direction = tuple(float(axis == a) for a in (1, 2, 3))
-                name = f"node{k}:{axis}"
-                rows.append(sensor_row(module, point, direction, name))
-                channels.append(Channel(name, tuple(map(float, point)), direction, "displacement", "m"))
+        channels = along_axes(points)
+        rows = [sensor_row(module, c.point, c.direction, c.name) for c in channels]
         return cls(
-            tuple(channels),  # type: ignore[arg-type]
+            channels,
             1j * np.asarray(omega, dtype=float),
             (np.array(rows) @ np.asarray(phi)).astype(complex),
             "normal modes",
             (f"the undamped normal modes of {machine.name}, mass-normalised",),
         )
+
+
+def node_channel(node: int, axis: int, point: Sequence[float]) -> Channel:
+    """A channel of a table of modes: node ``node``'s displacement along the global axis ``axis`` (1, 2, 3: x, y,
+    z) at ``point`` [m], named ``node<node>:<axis>`` (uff_modes reads and writes them so)."""
+    direction = (float(axis == 1), float(axis == 2), float(axis == 3))
+    x, y, z = map(float, point)
+    return Channel(f"node{node}:{axis}", (x, y, z), direction, "displacement", "m")
+
+
+def along_axes(points: Sequence[Sequence[float]]) -> tuple[Channel, ...]:
+    """The channels of a table of modes at ``points`` [m]: along x, y and z at each, node k + 1 at the k-th
+    (node_channel; ModeTable.of_model, Rig.mode_table)."""
+    return tuple(node_channel(k, axis, point) for k, point in enumerate(points, start=1) for axis in (1, 2, 3))
 
 
 def _increasing(time: NDArray, dt: NDArray, step: float) -> None:

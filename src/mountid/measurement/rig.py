@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from mountid.errors import InputError
 from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
-from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, ModeTable, Record
+from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, ModeTable, Record, along_axes
 
 
 @dataclass(frozen=True)
@@ -210,15 +210,10 @@ class Rig:
         n = self.M.shape[0]
         upper = np.flatnonzero(self.poles.imag > 0)
         order = upper[np.argsort(np.abs(self.poles[upper]), kind="stable")]
-        channels, rows = [], []
-        for k, point in enumerate(points, start=1):
-            at = tuple(map(float, point))
-            for axis in range(3):
-                direction = tuple(float(axis == a) for a in range(3))
-                channels.append(Channel(f"node{k}:{axis + 1}", at, direction, "displacement", "m"))  # type: ignore[arg-type]
-                rows.append(self.sensor_row(point, direction, channels[-1].name))
+        channels = along_axes(points)
+        rows = [self.sensor_row(c.point, c.direction, c.name) for c in channels]
         return ModeTable(
-            tuple(channels),
+            channels,
             self.poles[order],
             np.array(rows) @ self.V[:n, order],
             "complex modes",

@@ -27,7 +27,7 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError
-from mountid.measurement.records import Channel, ModeTable, check_ignored, chosen_run, each_run
+from mountid.measurement.records import ModeTable, check_ignored, chosen_run, each_run, node_channel
 from mountid.measurement.uff_geometry import node_geometry, read_set
 
 MODE_SHAPES = 55
@@ -177,17 +177,14 @@ def _table(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Co
     measured = sorted(key for key, v in values.items() if np.any(v != 0))  # a direction not measured is 0 in all
     if not measured:
         raise InputError("record", f"{path.name}: every mode shape is zero at every node")
-    names = [f"node{node}:{axis}" for node, axis in measured]
-    check_ignored(ignore, names, path.name)
-    kept = [(key, name) for key, name in zip(measured, names, strict=True) if name not in ignore]
+    geometry = node_geometry(uff, types, path)
+    unplaced = (math.nan,) * 3
+    every = [node_channel(node, axis, geometry[node][0] if node in geometry else unplaced) for node, axis in measured]
+    check_ignored(ignore, [c.name for c in every], path.name)
+    kept = [(key, c) for key, c in zip(measured, every, strict=True) if c.name not in ignore]
     if not kept:
         raise InputError("ignore", f"leaves no channel of {path.name}")
-    geometry = node_geometry(uff, types, path)
-    channels = []
-    for (node, axis), name in kept:
-        point = geometry[node][0] if node in geometry else (math.nan,) * 3
-        direction = tuple(float(axis == k) for k in (1, 2, 3))
-        channels.append(Channel(name, point, direction, "displacement", "m"))  # type: ignore[arg-type]
+    channels = [c for _, c in kept]
     shapes = np.array([values[key] for key, _ in kept])
     if not np.all(np.isfinite(shapes)):
         raise InputError("record", f"{path.name}: a mode shape holds NaN or infinite values")
