@@ -63,6 +63,11 @@ def test_forced_takes_a_speed_in_rpm(capsys):
     assert list(rpm["amplitudes"].values()) == list(rad["amplitudes"].values())
     assert main(["forced", "kid300", "--speed", "fast"]) == 2
     assert "--speed: not a number in rad/s or with its unit (rad/s, Hz, rpm): 'fast'" in capsys.readouterr().err
+    # a negative speed with its unit is a value (it was taken for an option: "expected at least one argument")
+    assert main(["forced", "kid300", "--speed", "-5rpm"]) == 2
+    assert capsys.readouterr().err.strip() == "mountid: error: --speed: must be positive and finite, got " + (
+        f"{-5 * 2 * math.pi / 60} rad/s"
+    )
 
 
 def _in_hertz(data: dict) -> dict:

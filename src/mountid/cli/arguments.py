@@ -20,10 +20,11 @@ if TYPE_CHECKING:
     from mountid.measurement.rig import Unbalance
 
 
-NEGATIVE_VALUES = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[,:][-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*$")
-"""What argparse takes for a value, not an option, where it begins with "-": a negative number, and a point or
+NEGATIVE_VALUES = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[,:][-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*(?:\s*[A-Za-z/]+)?$")
+"""What argparse takes for a value, not an option, where it begins with "-": a negative number, a point or
 direction of them (``--hit-point -0.35,0.25,0.3``, ``--point -0.45,0,0.3``: argparse's own rule, negative numbers
-alone, read those as unknown options and said "expected one argument")."""
+alone, read those as unknown options and said "expected one argument"), and a number with its unit (``--speed
+-5rpm``: named then as no positive speed)."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -93,11 +94,12 @@ def defaults_note(machine: Machine, defaults: dict[str, float]) -> None:
         print(f"note: not given, the description's nominal values are used: {values}")
 
 
-def finite_number(value: float, option: str, minimum: float = 0.0, strict: bool = True) -> float:
-    """A command-line number that must be finite and above (``strict``) or at least ``minimum``."""
+def finite_number(value: float, option: str, minimum: float = 0.0, strict: bool = True, unit: str = "") -> float:
+    """A command-line number that must be finite and above (``strict``) or at least ``minimum``; ``unit``: the
+    unit the value is in when the option took another (a speed in rpm converted to rad/s), said in the error."""
     if not math.isfinite(value) or value < minimum or (strict and value == minimum):
         bound = "positive" if strict and minimum == 0 else f"{'>' if strict else '>='} {minimum:g}"
-        raise InputError(option, f"must be {bound} and finite, got {value}")
+        raise InputError(option, f"must be {bound} and finite, got {value}" + (f" {unit}" if unit else ""))
     return value
 
 
@@ -121,7 +123,7 @@ def check_unbalance(args: argparse.Namespace) -> None:
     """The rotating-unbalance options of simulate and forced: speeds positive, mass and eccentricity >= 0, the
     eccentricity within POINT_LIMIT (the mass against the machine's: unbalance_within)."""
     for w in args.speed or ():
-        finite_number(w, "--speed")
+        finite_number(w, "--speed", unit="rad/s")
     finite_number(args.unbalance_mass, "--unbalance-mass", strict=False)
     bounded(args.eccentricity, "--eccentricity", POINT_LIMIT, " m", strict=False)
 

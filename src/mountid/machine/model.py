@@ -282,7 +282,7 @@ class Machine:
                 raise InputError(label, f"not a mode label of {self.name} (modes: {', '.join(self.modes)})")
             omega = real_number(omega, label)
             if not math.isfinite(omega) or omega <= 0:
-                raise InputError(label, f"a natural frequency must be positive and finite, got {omega}")
+                raise InputError(label, f"a natural frequency must be positive and finite, got {omega} rad/s")
             r = rep[label]
             if r in chosen:
                 twin, first = chosen[r]
