@@ -967,3 +967,12 @@ def test_a_plain_table_is_read_at_once(separator):
     fast = _at_once(body, separator, 3)
     assert fast is not None
     np.testing.assert_array_equal(fast, _line_by_line(body, separator, ["t", "a", "b"], 1, "x.csv"))
+
+
+def test_a_channel_in_volts_says_how_to_read_it(tmp_path):
+    """A raw sensor voltage (an accelerometer in mV without its sensitivity applied) is not read: the error says to
+    divide it by the sensitivity, beside how to leave it out."""
+    rows = [f"{0.002 * k},{np.sin(k)}" for k in range(500)]
+    (tmp_path / "raw.csv").write_text("\n".join(["Time [s],A_x [mV]", *rows]) + "\n")
+    with pytest.raises(InputError, match=r"unit 'mV' is not one of .* raw voltage: divide it by the sensor's sens"):
+        read_csv(tmp_path / "raw.csv")

@@ -737,6 +737,16 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
     return not (all(map(math.isfinite, vector)) or all(map(math.isnan, vector)))
 
 
+VOLTS = ("V", "mV", "uV", "\u00b5V")
+"""Units of a voltage: a sensor's raw output, which mountid does not scale (RAW_VOLTAGE)."""
+
+RAW_VOLTAGE = (
+    " (an accelerometer's or a force sensor's raw voltage: divide it by the sensor's sensitivity, V per m/s^2, g "
+    "or N, and write it in that unit, to read it)"
+)
+"""What an error on a channel in volts adds (VOLTS)."""
+
+
 def unread(name: str) -> str:
     """The advice an error on channel ``name``'s quantity or unit ends with: how to leave it out, by the name the
     readers know it by (a CSV header's without its unit)."""
@@ -837,7 +847,8 @@ def channel_in(name: str, unit: str | None, where: str, said: str = "") -> Chann
     quantity = quantity_of(unit)
     if quantity is None:
         known = ", ".join(u for units in UNITS.values() for u in units)
-        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{unread(name)}")
+        raw = RAW_VOLTAGE if unit in VOLTS else ""
+        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{raw}{unread(name)}")
     return Channel(name, quantity=quantity, unit=unit)
 
 
