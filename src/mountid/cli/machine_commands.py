@@ -7,8 +7,6 @@ import math
 from collections.abc import Callable
 from typing import TypeVar
 
-import numpy as np
-
 from mountid.cli.arguments import (
     beyond_first_order,
     defaults_note,
@@ -18,7 +16,7 @@ from mountid.cli.arguments import (
     print_json,
 )
 from mountid.errors import InputError
-from mountid.machine import Machine, call
+from mountid.machine import Machine
 from mountid.nomenclature import FREQUENCY_UNITS, counted
 from mountid.report.text import print_diagnosis
 
@@ -230,8 +228,7 @@ def _modes_uff(machine: Machine, given: dict[str, float], path: str, points: lis
     if points:
         nodes = [point_on_machine(text, "--point") for text in points]
     else:
-        at = np.asarray(call(mod, "isolator_points", machine.values(given, mod.ARGUMENTS["isolator_points"])))
-        nodes = [tuple(float(v) for v in at[:, k]) for k in range(at.shape[1])]
+        nodes = [tuple(float(v) for v in point) for point in machine.isolator_points(given).T]
     write_table(ModeTable.of_model(machine, given, nodes), path, titles=list(mod.MODES))
     return {"file": path, "nodes": [list(p) for p in nodes]}
 

@@ -52,7 +52,7 @@ from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest,
 from mountid.errors import InputError, NoModeFound, existing_file
 from mountid.identification.combination import RECORDS_DISAGREE, combine, decays_of
 from mountid.identification.labelling import LABELLING, same_modes
-from mountid.machine import Machine, call, sensor_row, unit_vector
+from mountid.machine import Machine, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import DEFAULT_FREQUENCY_STD, MeasuredMode, default_damping_std, scaled_unit
 from mountid.measurement.records import Channel, Record
@@ -173,8 +173,7 @@ class Campaign:
         parameters of the model's ratios: the campaign's known values, else fitted with the stiffnesses (the value
         given is then the description's, where the fit starts)."""
         mod = self.machine.module
-        values = self.machine.values(self.known, mod.ARGUMENTS["isolator_points"])
-        points = np.asarray(call(mod, "isolator_points", values))
+        points = self.machine.isolator_points(self.known)
         measured = any(m.damping_ratio is not None for m in self.modes.values())
         fitted = set(self.machine.damping) if measured else set()
         return {

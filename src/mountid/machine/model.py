@@ -267,6 +267,12 @@ class Machine:
         mod = self.module
         return float(call(mod, "effect_scales", self.values(given, mod.ARGUMENTS["effect_scales"]))["length"])
 
+    def isolator_points(self, given: dict[str, float]) -> np.ndarray:
+        """Where the isolators sit on the body [m], (3, isolators) in the order of the module's ISOLATORS, at the
+        ``given`` values, the description's nominal values for the rest."""
+        mod = self.module
+        return np.asarray(call(mod, "isolator_points", self.values(given, mod.ARGUMENTS["isolator_points"])))
+
     def frequencies(self, params: dict[str, float]) -> dict[str, float]:
         """Natural frequency of every mode [rad/s] for the given (or nominal) parameters."""
         return self._forward(params)

@@ -22,6 +22,13 @@ from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
 
 
+def pole_of(frequency: float, damping_ratio: float) -> complex:
+    """The pole p (Im p > 0) [rad/s] of a mode of undamped frequency |p| ``frequency`` [rad/s] and ``damping_ratio``
+    -Re p / |p| (Im p 0 from a ratio of 1 on)."""
+    w, z = frequency, damping_ratio
+    return complex(-z * w, w * math.sqrt(max(1.0 - z * z, 0.0)))
+
+
 @dataclass(frozen=True)
 class Pole:
     """One damped mode found in a record.
@@ -44,8 +51,7 @@ class Pole:
     @property
     def p(self) -> complex:
         """The pole p (Im p > 0) [rad/s] of this frequency |p| and damping ratio."""
-        w, z = self.frequency, self.damping_ratio
-        return complex(-z * w, w * np.sqrt(max(1.0 - z * z, 0.0)))
+        return pole_of(self.frequency, self.damping_ratio)
 
     @property
     def damped_frequency(self) -> float:

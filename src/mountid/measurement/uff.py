@@ -49,6 +49,7 @@ from mountid.measurement.records import (
 )
 from mountid.measurement.uff_geometry import node_geometry, read_set, whole
 from mountid.measurement.uff_modes import holds_mode_shapes, read_table, read_tables
+from mountid.nomenclature import counted
 
 _TAG = "mountid point="
 
@@ -188,8 +189,7 @@ def _grouped(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
         if other is not None:
             kind = _function_type(other)
             what = "a time response" if kind in (0, 1) else _FUNCTION_TYPES.get(kind, f"of UFF 58 function type {kind}")
-            name = str(other.get("id1", "")).strip() or f"node{other.get('rsp_node', 0)}:{other.get('rsp_dir', 0)}"
-            raise InputError(name, f"is {what} beside frequency response functions: {FRF_ONLY}")
+            raise InputError(_names([other])[0], f"is {what} beside frequency response functions: {FRF_ONLY}")
         inputs = list(dict.fromkeys(_reference(s) for s in frfs))  # each run's coherences after its functions
         ordered = frfs + [s for s in sets if _function_type(s) == COHERENCE]
         return [[s for s in ordered if _reference(s) == key] for key in inputs]
@@ -267,7 +267,7 @@ def _placement(
         except ValueError as err:
             raise InputError(name, f"bad point/direction in ID line 4 ({err})") from None
     else:  # another tool's file: the response node's coordinates and the response direction's axis
-        node, axis = int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)
+        node, axis = _response(s)
         if node in nodes and 1 <= abs(axis) <= 3:
             point, axes = nodes[node]
             direction = tuple(float(v) + 0.0 for v in math.copysign(1.0, axis) * axes[abs(axis) - 1])
@@ -452,7 +452,7 @@ def _runs(sets: list[dict]) -> list[list[dict]]:
     hammer's force at another node in each run, or one accelerometer moved beside a fixed reference; read as one
     record, the responses of one run were taken as the other's, its force unused); otherwise the file is one run
     (a node and direction that recurs elsewhere is a channel of its own)."""
-    keys = [(int(s.get("rsp_node", 0) or 0), int(s.get("rsp_dir", 0) or 0)) for s in sets]
+    keys = [_response(s) for s in sets]
     counts = {keys.count(key) for key in keys}
     if len(counts) == 1 and (times := counts.pop()) > 1 and all(node > 0 for node, _ in keys):
         # the k-th dataset of each node and direction (one after another: a repeated sequence, each run in turn)
@@ -477,7 +477,7 @@ def _run(runs: list[list[dict]], run: int | None, path: Path) -> list[dict]:
     """The datasets of ``run`` (1, 2, ...; None: the only one); an InputError naming the runs where the file
     holds several and none is given, or the run is not one of them."""
     sizes = ", ".join(str(sum(_function_type(s) != COHERENCE for s in r)) for r in runs)
-    held = f"{path.name} holds {len(runs)} {'run' if len(runs) == 1 else 'runs'} (datasets 58 of {sizes} channels"
+    held = f"{path.name} holds {counted(len(runs), 'run')} (datasets 58 of {sizes} channels"
     frfs = _function_type(runs[0][0]) == FRF
     parted = "a run per input" if frfs else "a run beginning where a response node and direction recurs"
     return chosen_run(runs, run, held, parted, "read_uff_runs")

@@ -27,8 +27,10 @@ import numpy as np
 import pyuff
 
 from mountid.errors import InputError
+from mountid.measurement.modal import pole_of
 from mountid.measurement.records import ModeTable, check_ignored, chosen_run, each_run, node_channel
 from mountid.measurement.uff_geometry import node_geometry, read_set
+from mountid.nomenclature import counted
 
 MODE_SHAPES = 55
 """The UFF dataset of data at nodes: a bench's mode shapes."""
@@ -69,7 +71,7 @@ def read_table(
     """The table of modes of the load case ``run`` (1, 2, ... in the order the file gives them; None: the only
     one) of an opened UFF file (uff.read_uff), all but the channels ``ignore`` names."""
     runs = _load_cases(path, uff, types)
-    held = f"{path.name} holds {len(runs)} runs (tables of {', '.join(str(len(r)) for r in runs)} modes"
+    held = f"{path.name} holds {counted(len(runs), 'run')} (tables of {', '.join(str(len(r)) for r in runs)} modes"
     return _table(chosen_run(runs, run, held, "a run per load case", "read_uff_runs"), uff, types, path, ignore)
 
 
@@ -223,8 +225,7 @@ def _pole(s: dict, path: Path) -> tuple[complex, str, str]:
             raise InputError("record", f"{where}: its frequency {frequency / (2 * math.pi):g} Hz is no positive number")
         if not (math.isfinite(ratio) and 0 <= ratio < 1):
             raise InputError("record", f"{where}: its damping ratio {ratio:g} is not in [0, 1)")
-        pole = complex(-ratio * frequency, frequency * math.sqrt(1 - ratio * ratio))
-        return pole, "normal modes", note
+        return pole_of(frequency, ratio), "normal modes", note
     pole = complex(s.get("eig", math.nan))
     if not (math.isfinite(pole.real) and math.isfinite(pole.imag)) or pole.imag == 0:
         raise InputError("record", f"{where}: its eigenvalue {pole:g} rad/s is no pole of a vibrating mode")

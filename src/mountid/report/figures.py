@@ -241,7 +241,7 @@ def mode_shapes_figure(
     corners = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
     jac = mod.point_jacobian(corners[:, 0], corners[:, 1], corners[:, 2])  # (8, 3, 6)
-    isolators = np.asarray(mod.isolator_points(**machine.values(parameters, mod.ARGUMENTS["isolator_points"])))
+    isolators = machine.isolator_points(parameters)
     scale = 0.25 * max(hx, hy, hz)
     fig, axes = plt.subplots(3, len(mod.MODES), figsize=(2.6 * len(mod.MODES), 8.2))
 
