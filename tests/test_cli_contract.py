@@ -57,7 +57,9 @@ CASES = [
     (["identify-record", "kid300", "{d}/text.uff"], "record:"),
     (["process", "kid300", "{d}/text.tdms"], "record: text.tdms is not a TDMS file"),
     # a bench's channel mountid does not read: named, with how to leave it out; a name to leave out the file lacks
-    (["process", "kid300", "{d}/tacho.csv"], "tacho.csv: column 3: 'Tacho [V]': unit 'V' is not one of"),
+    (["process", "kid300", "{d}/tacho.csv"], "Tacho: is a raw voltage in V: give its sensor's sensitivity, as"),
+    (["process", "kid300", "{d}/tacho.csv", "--sensitivity", "A_x=100mV/g"], "--sensitivity: A_x: is recorded in g"),
+    (["process", "kid300", "{d}/tacho.csv", "--sensitivity", "Tacho=-1mV/g"], "--sensitivity Tacho: '-1mV/g': must"),
     (["process", "kid300", "{d}/tacho.csv", "--ignore", "Rpm"], "--ignore: Rpm: no such column in tacho.csv (columns"),
     (["process", "kid300", "{d}/tacho.csv", "--ignore", "Tacho", "--run", "2"], "--run: 2: tacho.csv is a CSV, which"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),

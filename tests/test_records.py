@@ -467,9 +467,14 @@ def test_a_bench_csv_column_mountid_does_not_read_is_named_and_left_out_when_tol
     ):
         read_csv(tmp_path / "bench.csv")
     with pytest.raises(
-        InputError, match=f"^bench.csv: column 4: 'Tacho \\[V\\]': unit 'V' is not one of .*{advice}Tacho,"
+        InputError, match=f"^bench.csv: column 5: 'Mic \\[Pa\\]': unit 'Pa' is not one of .*{advice}Mic,"
     ):
         read_csv(tmp_path / "bench.csv", ignore=("Status",))
+    raw = read_csv(tmp_path / "bench.csv", ignore=("Status", "Mic"))  # a voltage is read as recorded
+    with pytest.raises(
+        InputError, match=f"^Tacho: is a raw voltage in V: give its sensor's sensitivity.*{advice}Tacho,"
+    ):
+        raw.in_si()  # where the records chain starts
     with pytest.raises(InputError, match=r"^ignore: Rpm: no such column in bench.csv \(columns: Time, A_x, B_y, Tacho"):
         read_csv(tmp_path / "bench.csv", ignore=("Rpm",))
     (tmp_path / "units.csv").write_text(table(True, units=True), encoding="utf-8")
@@ -969,10 +974,17 @@ def test_a_plain_table_is_read_at_once(separator):
     np.testing.assert_array_equal(fast, _line_by_line(body, separator, ["t", "a", "b"], 1, "x.csv"))
 
 
-def test_a_channel_in_volts_says_how_to_read_it(tmp_path):
-    """A raw sensor voltage (an accelerometer in mV without its sensitivity applied) is not read: the error says to
-    divide it by the sensitivity, beside how to leave it out."""
+def test_a_channel_in_volts_is_read_as_recorded_and_named_before_the_records_chain(tmp_path):
+    """A raw sensor voltage (an accelerometer in mV without its sensitivity applied) is read as the voltage it is
+    (a header's unit, a units row's); the records chain names it with the sensitivity that converts it, beside how
+    to leave it out (tests/test_sensitivity.py converts it)."""
     rows = [f"{0.002 * k},{np.sin(k)}" for k in range(500)]
     (tmp_path / "raw.csv").write_text("\n".join(["Time [s],A_x [mV]", *rows]) + "\n")
-    with pytest.raises(InputError, match=r"unit 'mV' is not one of .* raw voltage: divide it by the sensor's sens"):
-        read_csv(tmp_path / "raw.csv")
+    (tmp_path / "row.csv").write_text("\n".join(["Time,A_x", "s,mV", *rows]) + "\n")
+    for name in ("raw.csv", "row.csv"):
+        raw = read_csv(tmp_path / name)
+        assert (raw.channels[0].quantity, raw.channels[0].unit) == ("voltage", "mV")
+        with pytest.raises(
+            InputError, match=r"^A_x: is a raw voltage in mV: give its sensor's sensitivity.*--ignore A_x"
+        ):
+            raw.in_si()

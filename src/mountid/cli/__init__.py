@@ -122,6 +122,12 @@ def build_parser() -> argparse.ArgumentParser:
                 "point [m] and direction of a record's channel (a plain CSV states none; replaces the file's)",
             ),
             (
+                "--sensitivity",
+                "NAME=SENSITIVITY",
+                "a sensor's sensitivity, as 100mV/g or 2.25mV/N, for a channel the file holds in volts (an acquisition "
+                "that records raw voltages): its samples divided by it",
+            ),
+            (
                 "--ignore",
                 "NAME",
                 "a channel of the record left unread: a tachometer, a microphone, a spare channel (any unit, any "

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -16,7 +16,7 @@ from mountid.nomenclature import SPEED_UNITS, in_rad_per_s
 from mountid.report.jsonable import dumps
 
 if TYPE_CHECKING:
-    from mountid.measurement.records import ModeTable, Record
+    from mountid.measurement.records import ModeTable, Record, Sensitivity
     from mountid.measurement.rig import Unbalance
 
 
@@ -240,40 +240,46 @@ def point_on_machine(text: str, option: str) -> tuple[float, float, float]:
     return values
 
 
-def read_runs(
-    path: str,
-    rate: float | None = None,
-    channels: Sequence[str] | None = None,
-    ignore: Sequence[str] | None = None,
-    run: int | None = None,
-    window: float | None = None,
-) -> list[tuple[str, Record | ModeTable]]:
-    """The records of the file at ``path``, each with its name in notes (records.named_runs; the options as
-    records.read_record takes them, ``window`` --exponential-window's): the run --run gives ("PATH run K"), else
-    every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record (PATH); a table of
-    modes where the file holds a bench's mode shapes."""
-    from mountid.measurement.records import named_runs
+def read_runs(args: argparse.Namespace) -> list[tuple[str, Record | ModeTable]]:
+    """The records of the file args.record, each with its name in notes (records.named_runs; --rate, --ignore and
+    --run as records.read_record takes them, --exponential-window as records.without_window): the run --run gives
+    ("PATH run K"), else every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record
+    (PATH); a table of modes where the file holds a bench's mode shapes. --channel places channels, --sensitivity
+    converts channels of a raw voltage."""
+    from mountid.measurement.records import named_runs, with_geometry, with_sensitivities
 
-    return _placed(lambda: named_runs(path, path, rate, tuple(ignore or ()), run, window), rate, channels)
-
-
-def _placed(
-    read: Callable[[], list[tuple[str, Record | ModeTable]]], rate: float | None, channels: Sequence[str] | None
-) -> list[tuple[str, Record | ModeTable]]:
-    """The named records ``read`` returns, --rate checked before and --channel's placements applied after; the
-    reader's errors of its ``ignore`` and ``run`` named as the options."""
-    from mountid.measurement.records import with_geometry
-
-    if rate is not None:
-        finite_number(rate, "--rate")
-    geometry = placements(channels, "--channel")
+    if args.rate is not None:
+        finite_number(args.rate, "--rate")
+    geometry = placements(args.channel, "--channel")
+    scales = sensitivities(args.sensitivity, "--sensitivity")
     try:
-        records = read()
+        records = named_runs(
+            args.record, args.record, args.rate, tuple(args.ignore or ()), args.run, args.exponential_window
+        )
     except InputError as err:
         if err.parameter not in ("ignore", "run"):
             raise
         raise InputError(f"--{err.parameter}", err.reason) from None
-    return [(name, with_geometry(r, geometry, "--channel") if geometry else r) for name, r in records]
+    if geometry:
+        records = [(name, with_geometry(r, geometry, "--channel")) for name, r in records]
+    return [(name, with_sensitivities(r, scales, "--sensitivity") if scales else r) for name, r in records]
+
+
+def sensitivities(items: Sequence[str] | None, option: str) -> dict[str, Sensitivity]:
+    """Sensors' sensitivities from NAME=SENSITIVITY items (records.sensitivity: 100mV/g, 2.25mV/N); a name given
+    twice is an InputError."""
+    from mountid.measurement.records import sensitivity
+
+    out = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(option, f"expected NAME=SENSITIVITY (as A_x=100mV/g), got {item!r}")
+        if name in out:
+            raise InputError(f"{option} {name}", "given twice")
+        out[name] = sensitivity(text, f"{option} {name}")
+    return out
 
 
 def beyond_first_order(values: dict[str, float], std: dict[str, float] | None, indent: str = "      ") -> None:

@@ -285,7 +285,7 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
     from mountid.identification.from_records import identify_from_records
 
     machine = Machine.resolve(args.machine)
-    runs = read_runs(args.record, args.rate, args.channel, args.ignore, args.run, args.exponential_window)
+    runs = read_runs(args)
     use = tuple(args.use) if args.use else None
     result = identify_from_records(
         machine,
@@ -319,7 +319,7 @@ def cmd_process(args: argparse.Namespace) -> None:
     from mountid.identification.combination import every_decay
 
     machine = Machine.resolve(args.machine)
-    runs = read_runs(args.record, args.rate, args.channel, args.ignore, args.run, args.exponential_window)
+    runs = read_runs(args)
     # every decay of every run (a record of several hits, a file of several runs), combined per mode
     known, nominal = pairs(args.set, "--set"), pairs(args.nominal, "--nominal")
     found = every_decay(machine, runs, known, args.start, nominal, use_force=not args.free_decay)

@@ -12,9 +12,10 @@ violation is reported as one line naming the entry). Example (the paper's four f
 
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
-and directions (a plain CSV states none), the channels to ``ignore`` (a tachometer, a microphone) and the ``run``
-of a UFF file of several (without one, each run is a record of its own). Each is read (CSV with mountid channel
-metadata, UFF with its geometry, or TDMS) and run through the records chain (identification.from_records.modal_data):
+and directions (a plain CSV states none), the ``sensitivity`` of channels recorded in volts ("100mV/g"), the
+channels to ``ignore`` (a tachometer, a microphone) and the ``run`` of a UFF file of several (without one, each run
+is a record of its own). Each is read (CSV with mountid channel metadata, UFF with its geometry, or TDMS) and run
+through the records chain (identification.from_records.modal_data):
 frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
 shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
@@ -115,6 +116,8 @@ class RecordSource:
     exponential_window: float | None = None
     """[1/s] The exponential window a bench put on frequency response functions, divided out (records.without_window;
     None: none)."""
+    sensitivity: tuple[tuple[str, str], ...] = ()
+    """(name, sensitivity as written: "100mV/g") of channels the file holds in volts (records.with_sensitivities)."""
 
     @property
     def name(self) -> str:
@@ -773,7 +776,10 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     start = entry.get("start")
     ignore, run = tuple(entry.get("ignore", ())), entry.get("run")
     window = entry.get("exponential_window")
-    return RecordSource(path, None if start is None else float(start), entry.get("rate"), channels, ignore, run, window)
+    scales = tuple(entry.get("sensitivity", {}).items())
+    return RecordSource(
+        path, None if start is None else float(start), entry.get("rate"), channels, ignore, run, window, scales
+    )
 
 
 @dataclass(frozen=True)
@@ -823,6 +829,9 @@ def _modes_from_records(
             raise _named(err, source, where, i, "" if run == source.name else f"{run}: ") from None
         if source.ignore:
             notes.append(f"{run}: left unread as the campaign says: {', '.join(source.ignore)}")
+        if source.sensitivity:
+            given = ", ".join(f"{name} {text.strip()}" for name, text in source.sensitivity)
+            notes.append(f"{run}: converted from volts by the campaign's sensitivities: {given}")
         notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
         for name, data in segments:
@@ -861,15 +870,18 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
     """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
     the run it gives), or where it gives none, every run of a UFF or TDMS file of several ("NAME run K"). An InputError
     names the entry (``where``.``i``)."""
-    from mountid.measurement.records import named_runs, with_geometry
+    from mountid.measurement.records import named_runs, sensitivity, with_geometry, with_sensitivities
 
     try:
+        scales = {name: sensitivity(text, f"sensitivity.{name}") for name, text in source.sensitivity}
         records = named_runs(
             source.path, source.path.name, source.rate, source.ignore, source.run, source.exponential_window
         )
         if source.channels:
             geometry = {name: (point, direction) for name, point, direction in source.channels}
             records = [(name, with_geometry(record, geometry, "channels")) for name, record in records]
+        if scales:
+            records = [(name, with_sensitivities(record, scales, "sensitivity")) for name, record in records]
     except InputError as err:
         raise _named(err, source, where, i) from None
     return records

@@ -17,10 +17,12 @@ separator, and lines of text before the header (an acquisition's preamble: date,
 
 Quantities and units as test benches write them (UNITS): acceleration in m/s^2, g, mm/s^2 or in/s^2; velocity in
 m/s, mm/s or in/s (ips); displacement in m, mm, um (or µm), in or mil; force in N, kN or lbf (a hammer's force
-channel: the excitation, never a response). Any other unit is rejected by channel name; :meth:`Record.in_si`
-converts every channel to SI. A column mountid does not read (a tachometer in V, a microphone in Pa, a status in
-text) is named with its unit or cell, and left out by name (``ignore``: the command line's --ignore, a campaign
-record's "ignore").
+channel: the excitation, never a response). A channel in V, mV or uV (VOLTAGE) is a sensor's raw output, read as
+recorded and converted by its sensitivity (:func:`with_sensitivities`: the command line's --sensitivity, a campaign
+record's "sensitivity"; 100mV/g, 2.25mV/N). Any other unit is rejected by channel name; :meth:`Record.in_si`
+converts every channel to SI, and names a voltage left unconverted. A column mountid does not read (a tachometer,
+a microphone in Pa, a status in text) is named with its unit or cell, and left out by name (``ignore``: the command
+line's --ignore, a campaign record's "ignore").
 """
 
 from __future__ import annotations
@@ -88,6 +90,14 @@ UNITS: dict[str, dict[str, float]] = {
 """Every quantity a channel may record, its units and each unit's factor to SI (the first unit listed): SI and the
 US customary units of American benches (in/s, ips and mil of velocity and displacement, in/s^2, lbf)."""
 
+VOLTAGE: dict[str, float] = {"V": 1.0, "mV": 1e-3, "uV": 1e-6, "\u00b5V": 1e-6, "\u03bcV": 1e-6}
+"""Units of a voltage and their factors to V: a sensor's raw output as an acquisition without its sensitivities
+records it (an accelerometer's or a force sensor's), held as recorded until with_sensitivities converts it."""
+
+RECORDED: dict[str, dict[str, float]] = {**UNITS, "voltage": VOLTAGE}
+"""Every quantity a file's channel may hold: those of UNITS, and a raw voltage (VOLTAGE), which the records chain
+reads only after its sensor's sensitivity converts it (with_sensitivities; Record.in_si names it)."""
+
 A_TABLE = "a table of modes (a bench's modal analysis results)"
 """What a ModeTable is called in errors."""
 
@@ -144,9 +154,9 @@ class Record:
     def __post_init__(self) -> None:
         validate(self.time, self.data, tuple(c.name for c in self.channels))
         for c in self.channels:
-            units = UNITS.get(c.quantity)
+            units = RECORDED.get(c.quantity)
             if units is None:
-                raise InputError(c.name, f"quantity {c.quantity!r} is not one of {', '.join(UNITS)}")
+                raise InputError(c.name, f"quantity {c.quantity!r} is not one of {', '.join(RECORDED)}")
             if c.unit not in units:
                 raise InputError(
                     c.name, f"unit {c.unit!r} is not a unit of {c.quantity} ({', '.join(units)}){unread(c.name)}"
@@ -161,7 +171,12 @@ class Record:
                 )
 
     def in_si(self) -> Record:
-        """The record with every channel in the SI unit of its quantity (m/s^2, m/s, m, N)."""
+        """The record with every channel in the SI unit of its quantity (m/s^2, m/s, m, N); an InputError naming a
+        channel of a raw voltage, which only its sensor's sensitivity converts (with_sensitivities)."""
+        for c in self.channels:
+            if c.quantity == "voltage":
+                raw = RAW_VOLTAGE.format(name=shlex.quote(c.name))
+                raise InputError(c.name, f"is a raw voltage in {c.unit}{raw}{unread(c.name)}")
         factors = np.array([UNITS[c.quantity][c.unit] for c in self.channels])
         if np.all(factors == 1.0):
             return self
@@ -172,8 +187,8 @@ class Record:
 
     @property
     def responses(self) -> tuple[str, ...]:
-        """Names of the response channels (acceleration, velocity, displacement; not force)."""
-        return tuple(c.name for c in self.channels if c.quantity != "force")
+        """Names of the response channels (acceleration, velocity, displacement; not force, not a raw voltage)."""
+        return tuple(c.name for c in self.channels if c.quantity in RESPONSE_ORDER)
 
     @property
     def forces(self) -> tuple[str, ...]:
@@ -647,8 +662,7 @@ def _line_by_line(
                 ) from None
             if not rows and number == header_line + 1 and cells[0].strip() in TIME_UNITS:
                 other = next((c.strip() for c in cells[1:] if c.strip() and not quantity_of(c.strip())), None)
-                known = ", ".join(u for units in UNITS.values() for u in units)
-                why = f"{len(cells)} for {len(header)} columns" if other is None else f"{other!r} is not one of {known}"
+                why = f"{len(cells)} for {len(header)} columns" if other is None else f"{other!r} is not one of {KNOWN}"
                 hint = f" (a row of units? {why})"
             raise InputError(f"{name}:{number}", f"a value is not a number{hint}") from None
         if len(rows[-1]) != width:
@@ -737,14 +751,14 @@ def _partly_known(vector: tuple[float, ...]) -> bool:
     return not (all(map(math.isfinite, vector)) or all(map(math.isnan, vector)))
 
 
-VOLTS = ("V", "mV", "uV", "\u00b5V")
-"""Units of a voltage: a sensor's raw output, which mountid does not scale (RAW_VOLTAGE)."""
+KNOWN = ", ".join(u for units in RECORDED.values() for u in units)
+"""Every unit a channel may be recorded in (RECORDED), as errors list them."""
 
 RAW_VOLTAGE = (
-    " (an accelerometer's or a force sensor's raw voltage: divide it by the sensor's sensitivity, V per m/s^2, g "
-    "or N, and write it in that unit, to read it)"
+    ": give its sensor's sensitivity, as --sensitivity {name}=100mV/g (an accelerometer's; 2.25mV/N a force "
+    "sensor's), or a campaign record's \"sensitivity\""
 )
-"""What an error on a channel in volts adds (VOLTS)."""
+"""What an error on a channel of a raw voltage (VOLTAGE) says, formatted with the channel's ``name``."""
 
 
 def unread(name: str) -> str:
@@ -826,8 +840,9 @@ def _split_unit(title: str) -> tuple[str, str | None]:
 
 
 def quantity_of(unit: str) -> str | None:
-    """The quantity a unit of records.UNITS measures (None for a unit it does not list)."""
-    return next((q for q, units in UNITS.items() if unit in units), None)
+    """The quantity a unit of records.RECORDED measures ("voltage" for a raw voltage; None for a unit it does not
+    list)."""
+    return next((q for q, units in RECORDED.items() if unit in units), None)
 
 
 def _column(title: str, meta: dict[str, Channel], where: str) -> Channel:
@@ -846,9 +861,7 @@ def channel_in(name: str, unit: str | None, where: str, said: str = "") -> Chann
         return Channel(name)
     quantity = quantity_of(unit)
     if quantity is None:
-        known = ", ".join(u for units in UNITS.values() for u in units)
-        raw = RAW_VOLTAGE if unit in VOLTS else ""
-        raise InputError(where, f"{said}unit {unit!r} is not one of {known}{raw}{unread(name)}")
+        raise InputError(where, f"{said}unit {unit!r} is not one of {KNOWN}{unread(name)}")
     return Channel(name, quantity=quantity, unit=unit)
 
 
@@ -882,6 +895,68 @@ def with_geometry(record: RecordOrTable, geometry: dict[str, Placement], source:
             c = replace(c, point=tuple(map(float, point)), direction=tuple(float(v) / size for v in direction))
         channels.append(c)
     return replace(record, channels=tuple(channels))
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """A sensor's sensitivity: ``volts`` [V] of output per one ``unit`` of its ``quantity`` (an accelerometer's
+    100 mV/g: 0.1 V per g; a force sensor's 2.25 mV/N: 0.00225 V per N)."""
+
+    volts: float
+    quantity: str
+    unit: str
+
+    def __str__(self) -> str:
+        return f"{self.volts * 1e3:g}mV/{self.unit if '/' not in self.unit else f'({self.unit})'}"
+
+
+def sensitivity(text: str, where: str) -> Sensitivity:
+    """A sensitivity as a data sheet writes it: a number, a voltage unit (VOLTAGE), a slash and the unit measured
+    (UNITS; in parentheses where it holds a slash of its own): 100mV/g, 10.2 mV/(m/s^2), 2.25mV/N. An InputError
+    naming ``where`` for text that is none, or a value that is no finite number > 0."""
+    form = "a number, a voltage unit and the unit measured, as 100mV/g, 10.2mV/(m/s^2) or 2.25mV/N"
+    left, slash, right = text.strip().partition("/")
+    volts = next((v for v in sorted(VOLTAGE, key=len, reverse=True) if left.strip().endswith(v)), None)
+    unit = right.strip().removeprefix("(").removesuffix(")").strip()
+    if not slash or volts is None:
+        raise InputError(where, f"{text!r} is no sensitivity: {form}")
+    try:
+        value = float(left.strip().removesuffix(volts))
+    except ValueError:
+        raise InputError(where, f"{text!r}: no number before {volts} ({form})") from None
+    quantity = next((q for q, units in UNITS.items() if unit in units), None)
+    if quantity is None:
+        known = ", ".join(u for units in UNITS.values() for u in units)
+        raise InputError(where, f"{text!r}: {unit!r} is not one of {known}")
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(
+            where, f"{text!r}: must be a finite number > 0 (a sensor mounted the other way: reverse its direction)"
+        )
+    return Sensitivity(value * VOLTAGE[volts], quantity, unit)
+
+
+def with_sensitivities(
+    record: RecordOrTable, sensitivities: dict[str, Sensitivity], source: str = "sensitivity"
+) -> RecordOrTable:
+    """The record with the named channels of a raw voltage (VOLTAGE) converted by their sensors' sensitivities into
+    the quantity and unit each measures (a bench's acquisition that records volts and leaves the sensitivities to the
+    analysis). ``source`` names the option or entry in errors: a channel not in the record, or not in volts."""
+    names = [c.name for c in record.channels]
+    for name in sensitivities:
+        if name not in names:
+            raise InputError(source, f"{name}: no such channel in the record (channels: {', '.join(names)})")
+    if isinstance(record, ModeTable):
+        raise InputError(source, f"applies to a channel in volts, not to {A_TABLE}")
+    channels, factors = [], np.ones(len(record.channels))
+    for k, c in enumerate(record.channels):
+        if c.name in sensitivities:
+            s = sensitivities[c.name]
+            if c.quantity != "voltage":
+                raise InputError(source, f"{c.name}: is recorded in {c.unit} already, not in volts")
+            factors[k] = VOLTAGE[c.unit] / s.volts
+            c = replace(c, quantity=s.quantity, unit=s.unit)
+        channels.append(c)
+    return replace(record, data=record.data * factors, channels=tuple(channels))
 
 
 def read_record(

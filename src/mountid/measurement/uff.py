@@ -36,7 +36,9 @@ import pyuff
 
 from mountid.errors import InputError, existing_file
 from mountid.measurement.records import (
+    RECORDED,
     UNITS,
+    VOLTAGE,
     Channel,
     Lines,
     ModeTable,
@@ -279,7 +281,7 @@ def _quantity(s: dict, name: str) -> tuple[str, str]:
     and axis label (_quantity_and_unit)."""
     label = str(s.get("id5", "")).strip()
     quantity, unit = label[:-1].split(" [", 1) if label.endswith("]") and " [" in label else ("", "")
-    if quantity not in UNITS:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
+    if quantity not in RECORDED:  # another tool's file: the ordinate's data type (UFF 58 record 8) and axis label
         quantity, unit = _quantity_and_unit(s, name)
     return quantity, unit
 
@@ -339,11 +341,12 @@ def _impulse_responses(
             raise InputError(
                 name,
                 f"is a response per {per!r} (UFF 58 denominator type {denominator}): mountid reads a response "
-                f"per force ({', '.join(UNITS['force'])})",
+                f"per force ({', '.join(UNITS['force'])})"
+                + (": the hammer's raw voltage; export them with its sensitivity applied" if per in VOLTAGE else ""),
             )
-        lines = np.asarray(s["data"], dtype=complex) * UNITS[quantity][unit] / UNITS["force"][per]
+        lines = np.asarray(s["data"], dtype=complex) * RECORDED[quantity][unit] / UNITS["force"][per]
         columns.append(np.concatenate([np.zeros(first, dtype=complex), lines]))
-        channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(UNITS[quantity]))))
+        channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(RECORDED[quantity]))))
     n = 2 * (first + len(freq) - 1)
     rate = n * spacing
     return Record(
@@ -406,11 +409,15 @@ and 0 (unknown), 1 (general); the others are named by number."""
 def _quantity_and_unit(s: dict, name: str) -> tuple[str, str]:
     """A channel's quantity and unit from its dataset 58's ordinate data type and axis label: a type mountid reads
     (_ORDINATE_TYPES) with its label (the quantity's SI unit where it is empty); types 0 (unknown) and 1 (general)
-    by the label's unit (records.UNITS), an acceleration where it names none; any other type (a reaction force, a
-    pressure: a channel mountid does not read) an InputError naming the channel. Read as an acceleration, a
-    pressure was 'unit Pa is not a unit of acceleration', and a reaction force at an isolator a response."""
+    by the label's unit (records.UNITS), an acceleration where it names none; a label in volts (of any type) a
+    raw voltage (records.VOLTAGE: its sensor's sensitivity converts it, records.with_sensitivities); any other type
+    (a reaction force, a pressure: a channel mountid does not read) an InputError naming the channel. Read as an
+    acceleration, a pressure was 'unit Pa is not a unit of acceleration', and a reaction force at an isolator a
+    response."""
     kind = int(s.get("ordinate_spec_data_type", 12) or 0)
     unit = _label(s, "ordinate_axis_units_lab")
+    if unit in VOLTAGE:  # an acquisition that records volts (of any type): converted by sensitivity later
+        return "voltage", unit
     if kind in _ORDINATE_TYPES:
         quantity = _ORDINATE_TYPES[kind]
     elif kind in (0, 1):
