@@ -250,6 +250,26 @@ def test_uff58_round_trip(tmp_path):
     np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)
 
 
+def test_a_uff58_time_axis_in_milliseconds_is_read_in_seconds(tmp_path):
+    """A bench that writes its time axis in ms (abscissa label "ms"): the same record as in s (it was read as
+    seconds, a record at 500 Hz one at 0.5 Hz, and the chain found no mode)."""
+    import pyuff
+
+    from mountid.measurement.uff import read_uff, write_uff
+
+    rec = _record()
+    write_uff(rec, tmp_path / "s.uff")
+    sets = [
+        {**s, "x": np.asarray(s["x"]) * 1e3, "abscissa_inc": s["abscissa_inc"] * 1e3, "abscissa_axis_units_lab": "ms"}
+        for s in pyuff.UFF(str(tmp_path / "s.uff")).read_sets()
+    ]
+    pyuff.UFF(str(tmp_path / "ms.uff")).write_sets(sets, mode="add")
+    back = read_uff(tmp_path / "ms.uff")
+    assert back.channels == rec.channels and back.rate == pytest.approx(500.0, rel=1e-12)
+    np.testing.assert_allclose(back.time, rec.time, rtol=1e-11, atol=1e-15)
+    np.testing.assert_allclose(back.data, rec.data, rtol=1e-11, atol=0)
+
+
 # pyuff's 58b writer leaves its file open (a ResourceWarning when the handle is collected, here: gc.collect)
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.parametrize("ordinate", [4, 2])

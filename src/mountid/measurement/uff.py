@@ -37,6 +37,7 @@ import pyuff
 from mountid.errors import InputError, existing_file
 from mountid.measurement.records import (
     RECORDED,
+    TIME_UNITS,
     UNITS,
     VOLTAGE,
     Channel,
@@ -231,12 +232,12 @@ def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: C
     nodes = node_geometry(uff, types, path)
     if _function_type(sets[0]) == FRF:
         return _impulse_responses(sets, names, nodes, coherences)
-    time = np.asarray(sets[0]["x"], dtype=float)
+    time = _seconds(sets[0])
     columns, channels = [], []
     for n, s in enumerate(sets):
         name = names[n]
         _time_response(s, name)
-        x = np.asarray(s["x"], dtype=float)
+        x = _seconds(s)
         if len(x) != len(time):
             raise InputError(
                 name,
@@ -434,6 +435,12 @@ def _label(s: dict, key: str) -> str:
     holds nothing: it was read as a unit named 'NONE')."""
     text = str(s.get(key, "")).strip()
     return "" if text.upper() == "NONE" else text
+
+
+def _seconds(s: dict) -> np.ndarray:
+    """A time response's abscissa [s]: in the unit its axis label gives (records.TIME_UNITS: "ms" too, as some
+    acquisitions label it; read as seconds, a record at 500 Hz was one at 0.5 Hz), seconds where it gives another."""
+    return np.asarray(s["x"], dtype=float) * TIME_UNITS.get(_label(s, "abscissa_axis_units_lab"), 1.0)
 
 
 def _time_response(s: dict, name: str) -> None:
