@@ -45,14 +45,14 @@ check-generated: $(STAMP)
 	$(PY) -m mountid.engine.codegen --check
 
 # The core install alone (numpy, scipy; no extras) in a fresh virtual environment: a generated module and
-# `mountid identify` run without sympy, jinja2, matplotlib, pyuff, nptdms or jsonschema. Part of CI (.ci/run).
+# `mountid identify` run without sympy, jinja2, matplotlib, pyuff, nptdms, lvm_read or jsonschema. Part of CI (.ci/run).
 CORE := build/core-venv
 core-check:
 	rm -rf $(CORE)
 	$(PYTHON) -m venv $(CORE)
 	$(CORE)/bin/python -m pip install --quiet .
 	cd build && ../$(CORE)/bin/python -c "import sys, mountid.generated.kid300; \
-	  bad = [m for m in ('sympy', 'jinja2', 'matplotlib', 'pyuff', 'nptdms', 'jsonschema') if m in sys.modules]; print('extras imported:', bad); sys.exit(1 if bad else 0)"
+	  bad = [m for m in ('sympy', 'jinja2', 'matplotlib', 'pyuff', 'nptdms', 'lvm_read', 'jsonschema') if m in sys.modules]; print('extras imported:', bad); sys.exit(1 if bad else 0)"
 	cd build && ../$(CORE)/bin/mountid identify kid300 --measured x=17.71 psi=64.1
 	! $(CORE)/bin/python -c "import sympy" 2>/dev/null
 

@@ -1008,3 +1008,20 @@ def test_a_channel_in_volts_is_read_as_recorded_and_named_before_the_records_cha
             InputError, match=r"^A_x: is a raw voltage in mV: give its sensor's sensitivity.*--ignore A_x"
         ):
             raw.in_si()
+
+
+@pytest.mark.parametrize(
+    ("name", "what"),
+    [("rec.mat", "a MATLAB file"), ("book.xlsx", "an Excel workbook"), ("run.dxd", "a Dewesoft data file")],
+)
+def test_a_file_of_a_format_mountid_does_not_read_is_named_with_those_it_reads(tmp_path, name, what):
+    """A bench's MATLAB, Excel or Dewesoft file was read as a CSV ("not UTF-8 text", "holds no table"): it is named
+    with the formats mountid reads; a missing one is named as missing."""
+    from mountid.measurement.records import read_record, read_runs
+
+    with pytest.raises(InputError, match="^record: .*(no such file|not found|does not exist)"):
+        read_record(tmp_path / name)
+    (tmp_path / name).write_bytes(b"PK\x03\x04\x00binary")
+    for read in (read_record, read_runs):
+        with pytest.raises(InputError, match=f"^record: {re.escape(name)} is {what}: mountid reads CSV .*LVM"):
+            read(tmp_path / name)

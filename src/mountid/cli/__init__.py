@@ -25,6 +25,7 @@ EXTRAS = {
     "matplotlib": "figures",
     "pyuff": "records",
     "nptdms": "records",
+    "lvm_read": "records",
     "jsonschema": "campaigns",
 }
 """Optional dependencies and the extra that installs each (pyproject.toml)."""
@@ -89,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
         """The record file and how the records chain reads it (process, identify-record): its free decay's start,
         the free decay where a force channel would give H1, the sampling rate, where its channels sit, which are
         left unread, the unknowns its poles are labelled at, and which run of a file of several is read."""
-        p.add_argument("record", help="record file (.csv, .uff, .unv or .tdms)")
+        p.add_argument("record", help="record file (.csv, .uff, .unv, .tdms or .lvm)")
         p.add_argument(
             "--start",
             type=float,

@@ -14,7 +14,7 @@ A campaign may list impact records instead of (or beside) the modal data: ``"rec
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
 and directions (a plain CSV states none), the ``sensitivity`` of channels recorded in volts ("100mV/g"), the
 channels to ``ignore`` (a tachometer, a microphone) and the ``run`` of a UFF file of several (without one, each run
-is a record of its own). Each is read (CSV with mountid channel metadata, UFF with its geometry, or TDMS) and run
+is a record of its own). Each is read (CSV with mountid channel metadata, UFF with its geometry, TDMS or LVM) and run
 through the records chain (identification.from_records.modal_data):
 frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
 shapes.

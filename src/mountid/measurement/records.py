@@ -959,14 +959,45 @@ def with_sensitivities(
     return replace(record, data=record.data * factors, channels=tuple(channels))
 
 
+OTHER_FORMATS = {
+    ".mat": "a MATLAB file",
+    ".xlsx": "an Excel workbook",
+    ".xls": "an Excel workbook",
+    ".ods": "a spreadsheet",
+    ".h5": "an HDF5 file",
+    ".hdf5": "an HDF5 file",
+    ".dxd": "a Dewesoft data file",
+    ".d7d": "a Dewesoft data file",
+    ".mf4": "an ASAM MDF file",
+    ".mdf": "an ASAM MDF file",
+    ".ldsf": "a Simcenter Testlab file",
+    ".wav": "a sound file",
+}
+"""Files a bench writes that mountid does not read, by extension: named with the formats it reads (they were read
+as CSV: "not UTF-8 text", "holds no table")."""
+
+
+def _not_another_format(path: str | Path) -> None:
+    """An InputError naming a file of another format (OTHER_FORMATS) with the formats mountid reads."""
+    what = OTHER_FORMATS.get(Path(path).suffix.lower())
+    if what is not None:
+        existing_file(path, "record")
+        raise InputError(
+            "record",
+            f"{Path(path).name} is {what}: mountid reads CSV (a text table), UFF (.uff, .unv: datasets 58, 55), "
+            "TDMS (.tdms) and LVM (.lvm); export the record as one of them",
+        )
+
+
 def read_record(
     path: str | Path, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
 ) -> Record | ModeTable:
     """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff; a table of modes from one of
-    mode shapes, datasets 55: mountid.measurement.uff_modes), TDMS (.tdms,
-    mountid.measurement.tdms) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
-    ``run`` as in read_uff and read_tdms (a CSV holds one)."""
+    mode shapes, datasets 55: mountid.measurement.uff_modes), TDMS (.tdms, mountid.measurement.tdms), LVM (.lvm,
+    mountid.measurement.lvm) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
+    ``run`` as in read_uff, read_tdms and read_lvm (a CSV holds one)."""
     kind = str(path).lower()
+    _not_another_format(path)
     if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff  # pyuff is an extra: imported only for UFF files
 
@@ -976,6 +1007,10 @@ def read_record(
         from mountid.measurement.tdms import read_tdms  # npTDMS is an extra: imported only for TDMS files
 
         return read_tdms(path, ignore, rate, run)
+    if kind.endswith(".lvm"):
+        from mountid.measurement.lvm import read_lvm  # lvm_read is an extra: imported only for LVM files
+
+        return read_lvm(path, ignore, rate, run)
     if run not in (None, 1):
         raise InputError("run", f"{run}: {Path(path).name} is a CSV, which holds one run")
     return read_csv(path, rate, ignore)
@@ -1012,7 +1047,8 @@ def read_runs(
 ) -> list[Record] | list[ModeTable]:
     """Every run a record file holds, each a record as read_record reads it: a UFF file's runs (the hits of a test
     exported one after another, a dataset per channel each: uff.read_uff_runs), a TDMS file's (groups of the same
-    channels: tdms.read_tdms_runs), else the file's one record."""
+    channels: tdms.read_tdms_runs), an LVM file's (segments of the same channels: lvm.read_lvm_runs), else the file's
+    one record."""
     kind = str(path).lower()
     if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff_runs  # pyuff is an extra: imported only for UFF files
@@ -1022,6 +1058,10 @@ def read_runs(
         from mountid.measurement.tdms import read_tdms_runs
 
         return read_tdms_runs(path, ignore, rate)
+    if kind.endswith(".lvm"):
+        from mountid.measurement.lvm import read_lvm_runs
+
+        return read_lvm_runs(path, ignore, rate)
     return [read_record(path, rate, ignore)]
 
 
