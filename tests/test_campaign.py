@@ -63,3 +63,26 @@ def test_shapes_at_sensors_that_cannot_give_them_are_named():
     alone = {k: v for k, v in given.items() if k != "sensors"}
     with pytest.raises(InputError, match=r"^modes.x.sensor_shape: needs the campaign's sensors"):
         campaign_module.parse(alone)
+
+
+def test_directions_given_as_signed_axes_are_the_vectors():
+    """A sensor's or a record channel's direction as a test engineer labels it ("+x", "-y", "Z"): the campaign of
+    the vectors (same sensors, modes and verdict); text that is no axis is named by the schema."""
+    data, _ = blind.make_case(1, "drive_belt", kind="shapes", machine="kid300")
+    named = copy.deepcopy(data)
+    positive, negative = ("+{a}", "{A}", "{a}+"), ("-{a}", "{A}-")  # the ways benches write an axis
+    turned = 0
+    for sensor in named["sensors"]:
+        d = np.asarray(sensor["direction"], dtype=float)
+        if np.count_nonzero(d) == 1:
+            k = int(np.flatnonzero(d)[0])
+            forms = positive if d[k] > 0 else negative
+            sensor["direction"] = forms[turned % len(forms)].format(a="xyz"[k], A="XYZ"[k])
+            turned += 1
+    assert turned >= 6
+    vectors, axes = campaign_module.parse(data), campaign_module.parse(named)
+    assert axes.sensors == vectors.sensors
+    assert diagnose_effects(axes).verdict == diagnose_effects(vectors).verdict
+    named["sensors"][0]["direction"] = "w"
+    with pytest.raises(InputError, match=r"^sensors\.0\.direction"):
+        campaign_module.parse(named)

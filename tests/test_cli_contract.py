@@ -478,9 +478,15 @@ def test_the_sensor_effects_a_campaign_without_shapes_cannot_test_are_named_in_o
 def test_a_point_on_the_negative_side_is_a_value_not_an_option(capsys):
     """argparse takes a value beginning with "-" for an option unless it is a negative number: a hit at
     -0.35,0.25,0.3 was "expected one argument" (cli.arguments.NEGATIVE_VALUES reads points and directions of
-    numbers as values); it now reads as the same value after "=" did; an option is still an option."""
+    numbers as values); it now reads as the same value after "=" did; an option is still an option; a negative axis
+    ("-z") is a direction."""
     spaced = run(capsys, "plan", "kid300", "--hit-point", "-0.35,0.25,0.3", "--hit-direction", "-1,0,-5e-1", "--json")
     joined = run(capsys, "plan", "kid300", "--hit-point=-0.35,0.25,0.3", "--hit-direction=-1,0,-5e-1", "--json")
     assert spaced[0] == 0 and spaced == joined
-    code, _, err = run(capsys, "plan", "kid300", "--hit-point", "-x")
+    code, _, err = run(capsys, "plan", "kid300", "--hit-point", "--json")
     assert code == 2 and err.strip() == "mountid: error: arguments: argument --hit-point: expected one argument"
+    axis = run(capsys, "plan", "kid300", "--hit-point", "-0.35,0.25,0.3", "--hit-direction", "-z", "--json")
+    vector = run(capsys, "plan", "kid300", "--hit-point", "-0.35,0.25,0.3", "--hit-direction", "0,0,-2", "--json")
+    assert axis[0] == 0 and axis == vector  # a signed axis, as a test engineer labels one (nomenclature.AXES)
+    code, _, err = run(capsys, "plan", "kid300", "--hit-point", "-x")
+    assert code == 2 and "--hit-point: expected three numbers x,y,z, got '-x'" in err

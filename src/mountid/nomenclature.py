@@ -40,6 +40,21 @@ SPEED_UNITS: dict[str, float] = {**FREQUENCY_UNITS, "rpm": 2 * math.pi / 60}
 rad/s."""
 
 
+AXES: dict[str, tuple[float, float, float]] = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+"""The description's axes by name: a direction may be given as one, signed ("+x", "-y", "z", "Y-"), as a test
+engineer labels an accelerometer's axes (axis_direction)."""
+
+
+def axis_direction(text: str) -> tuple[float, float, float] | None:
+    """The unit direction a signed axis name gives ("+x", "-y", "z", "Z+", "y-": AXES), None for other text."""
+    value = text.strip().lower()
+    sign = -1.0 if value.startswith("-") or value.endswith("-") else 1.0
+    name = value.strip("+-").strip()
+    if name not in AXES or value.count("-") + value.count("+") > 1:
+        return None
+    return tuple(sign * v + 0.0 for v in AXES[name])  # type: ignore[return-value]
+
+
 def in_rad_per_s(text: str, units: dict[str, float]) -> float:
     """``text``, a number in rad/s or followed by one of ``units`` ("2.82Hz", "2.82 Hz", "1500 rpm"; the unit's case
     aside), in rad/s; a ValueError naming the units where it is neither."""

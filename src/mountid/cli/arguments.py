@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from mountid.errors import InputError
 from mountid.machine import Machine
-from mountid.nomenclature import SPEED_UNITS, in_rad_per_s
+from mountid.nomenclature import SPEED_UNITS, axis_direction, in_rad_per_s
 from mountid.report.jsonable import dumps
 
 if TYPE_CHECKING:
@@ -20,11 +20,13 @@ if TYPE_CHECKING:
     from mountid.measurement.rig import Unbalance
 
 
-NEGATIVE_VALUES = re.compile(r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[,:][-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*(?:\s*[A-Za-z/]+)?$")
+NEGATIVE_VALUES = re.compile(
+    r"^-\d*\.?\d+(?:[eE][-+]?\d+)?(?:[,:][-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)*(?:\s*[A-Za-z/]+)?$|^-[xyzXYZ]$"
+)
 """What argparse takes for a value, not an option, where it begins with "-": a negative number, a point or
 direction of them (``--hit-point -0.35,0.25,0.3``, ``--point -0.45,0,0.3``: argparse's own rule, negative numbers
-alone, read those as unknown options and said "expected one argument"), and a number with its unit (``--speed
--5rpm``: named then as no positive speed)."""
+alone, read those as unknown options and said "expected one argument"), a number with its unit (``--speed
+-5rpm``: named then as no positive speed), and a negative axis (``--hit-direction -z``)."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -209,8 +211,15 @@ def triple(text: str, option: str) -> tuple[float, float, float]:
 
 
 def direction(text: str, option: str) -> tuple[float, float, float]:
-    """A direction dx,dy,dz: three finite numbers, not all zero (its length does not matter)."""
-    values = triple(text, option)
+    """A direction dx,dy,dz: three finite numbers, not all zero (its length does not matter), or a signed axis
+    ("+x", "-y", "z": nomenclature.axis_direction)."""
+    axis = axis_direction(text)
+    if axis is not None:
+        return axis
+    try:
+        values = triple(text, option)
+    except InputError as err:
+        raise InputError(option, f"{err.reason}, or an axis (+x, -y, z)") from None
     if not any(values):
         raise InputError(option, f"{text!r}: a direction must not be zero")
     return values

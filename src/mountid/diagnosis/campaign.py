@@ -57,7 +57,7 @@ from mountid.machine import Machine, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
 from mountid.measurement.modes import DEFAULT_FREQUENCY_STD, MeasuredMode, default_damping_std, scaled_unit
 from mountid.measurement.records import Channel, Record
-from mountid.nomenclature import FREQUENCY_UNITS, POSITIVE_KINDS, counted, distinct_frequencies
+from mountid.nomenclature import FREQUENCY_UNITS, POSITIVE_KINDS, axis_direction, counted, distinct_frequencies
 
 
 def schema() -> dict:
@@ -759,8 +759,18 @@ def _poles_as_undamped(
     return _as_undamped(machine, known, modes, [], "the modes'", strict=True)
 
 
+def _direction(value: list[float] | str) -> tuple[float, float, float]:
+    """A direction as a campaign gives it: [dx, dy, dz] or a signed axis ("+x", "-y": the schema's pattern)."""
+    if isinstance(value, str):
+        axis = axis_direction(value)
+        if axis is None:  # unreached: the schema admits the signed axes only
+            raise ValueError(f"not an axis: {value!r}")
+        return axis
+    return tuple(map(float, value))  # type: ignore[return-value]
+
+
 def _channel(entry: dict, i: int) -> Channel:
-    direction = unit_vector(entry["direction"], f"sensors[{i}].direction")
+    direction = unit_vector(_direction(entry["direction"]), f"sensors[{i}].direction")
     return Channel(entry["name"], tuple(map(float, entry["point"])), tuple(map(float, direction)))
 
 
@@ -770,7 +780,7 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     if base is not None and not path.is_absolute():
         path = base / path
     channels = tuple(
-        (name, tuple(map(float, c["point"])), tuple(map(float, c["direction"])))
+        (name, tuple(map(float, c["point"])), _direction(c["direction"]))
         for name, c in entry.get("channels", {}).items()
     )
     start = entry.get("start")
