@@ -71,6 +71,28 @@ def test_a_csv_without_a_time_column_is_named_or_read_at_the_rate_given(tmp_path
 
 
 @pytest.mark.parametrize(
+    "preamble", ["Sample rate;500;Hz", "Sampling Rate: 0.5 kHz", "Fs = 500", "Abtastrate [Hz];500,0"]
+)
+def test_a_csv_without_a_time_column_reads_at_the_rate_its_preamble_states(tmp_path, preamble):
+    """A bench export of channels only (or of a sample count) whose preamble states the sampling rate reads at that
+    rate, as with --rate (it needed --rate beside the file that states it); a file with a time column keeps its
+    column's times."""
+    rec = _record()
+    separator = ";" if ";" in preamble else ","
+    body = "\n".join(f"{a}{separator}{b}" for a, b in rec.data)
+    (tmp_path / "c.csv").write_text(f"Exported by BenchSoft\n{preamble}\nA_x{separator}B_y\n{body}\n")
+    got = read_csv(tmp_path / "c.csv")
+    np.testing.assert_array_equal(got.data, rec.data)
+    np.testing.assert_allclose(got.time, rec.time, rtol=0, atol=1e-15)
+    counts = "\n".join(f"{k}{separator}{a}{separator}{b}" for k, (a, b) in enumerate(rec.data))
+    (tmp_path / "n.csv").write_text(f"{preamble}\nSample{separator}A_x{separator}B_y\n{counts}\n")
+    np.testing.assert_allclose(read_csv(tmp_path / "n.csv").time, rec.time, rtol=0, atol=1e-15)
+    timed = "\n".join(f"{2 * t}{separator}{a}{separator}{b}" for t, (a, b) in zip(rec.time, rec.data, strict=True))
+    (tmp_path / "t.csv").write_text(f"{preamble}\nTime{separator}A_x{separator}B_y\n{timed}\n")
+    np.testing.assert_allclose(read_csv(tmp_path / "t.csv").time, 2 * rec.time, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize(
     ("edit", "message"),
     [
         (lambda t, d: (t, np.where(np.arange(len(t))[:, None] == 40, np.nan, d)), "^A_x: NaN or infinite sample"),

@@ -448,7 +448,8 @@ def write_csv(record: Record, path: str | Path) -> None:
 def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> Record:
     """Read a record written by :func:`write_csv`, or a plain CSV with a header row whose first column is
     the time [s] (channels then have unknown points and directions). ``rate`` [Hz]: the sampling rate, which
-    replaces the time column's steps (see uniform_time for what is accepted without it). ``ignore``: names of
+    replaces the time column's steps (see uniform_time for what is accepted without it); a file without a time
+    column takes the rate its preamble states (_stated_rate) where none is given. ``ignore``: names of
     columns left unread (a bench's tachometer, microphone or spare channel: any unit, any text in its cells)."""
     path = existing_file(path, "record")
     meta: dict[str, Channel] = {}
@@ -513,6 +514,9 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
             "time responses (a bench's frequency response functions read as a UFF file of datasets 58, function "
             "type 4)",
         )
+    stated = _stated_rate(lines[:first]) if rate is None and (counted or not timed) and stamps is None else None
+    if stated is not None:  # a file without a time column whose preamble states its rate ("Sample rate;2048;Hz")
+        rate = stated
     if counted and stamps is None:  # a sample index: the time at the rate given
         if rate is None:
             raise InputError(
@@ -546,6 +550,43 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
     if missing:
         raise InputError(missing[0], f"has metadata in {path.name} but no column")
     return Record(time, table[:, first - 1 :], channels)
+
+
+RATE_NAMES = (
+    "sample rate",
+    "sampling rate",
+    "samplerate",
+    "sample frequency",
+    "sampling frequency",
+    "scan rate",
+    "fs",
+    "abtastrate",
+    "abtastfrequenz",
+    "fréquence d'échantillonnage",
+)
+"""Names (in any case) a bench's preamble gives the sampling rate under ("Sample rate;2048;Hz", "Fs = 1000 Hz")."""
+
+_STATED_RATE = re.compile(
+    r'^\s*"?(?P<name>[^:=;,\t"\[(]+?)\s*(?:[\[(](?P<head>k?Hz)[\])])?"?\s*[:=;,\t]\s*"?(?P<value>\d+(?:[.,]\d+)?(?:[eE][-+]?\d+)?)"?'
+    r'\s*(?:[;,\t]\s*)?"?(?P<unit>k?Hz|S/s)?"?[;,\t\s]*$',
+    re.IGNORECASE,
+)
+"""A preamble line that states a sampling rate: a name of RATE_NAMES, a unit in brackets after it or after the
+value (Hz where none), a number (a decimal comma too)."""
+
+
+def _stated_rate(preamble: list[tuple[int, str]]) -> float | None:
+    """The sampling rate [Hz] a CSV's preamble (the lines before its header) states (_STATED_RATE); None where no
+    line states one. Read only for a file without a time column, which without it needs --rate."""
+    for _, line in preamble:
+        found = _STATED_RATE.match(line)
+        if found is None or found["name"].strip().lower() not in RATE_NAMES:
+            continue
+        unit = (found["head"] or found["unit"] or "Hz").lower()
+        value = float(found["value"].replace(",", ".")) * (1e3 if unit == "khz" else 1.0)
+        if value > 0:
+            return value
+    return None
 
 
 def _timestamps(body: list[tuple[int, str]], separator: str, name: str) -> NDArray[np.float64] | None:
