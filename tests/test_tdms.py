@@ -179,3 +179,15 @@ def test_groups_of_the_same_channels_are_runs(hit, tmp_path, capsys):
     assert main(["process", "kid300", str(path)]) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"kid300: 4 modes from {path} (2 runs)\n") and f"from {path} run 1, {path} run 2" in out
+
+
+def test_units_as_ni_daqmx_names_them_are_read(hit, tmp_path):
+    """NI's DAQmx writes a channel's unit_string as "Volts", "Newtons" or "g's": read as V (a raw voltage), N and g
+    (records.UNIT_NAMES; "Volts" was a unit mountid did not read)."""
+    channels = [
+        ("Acc", "A_x", hit.data[:, 0], _waveform(500.0, "g's")),
+        ("Acc", "raw", hit.data[:, 1], _waveform(500.0, "Volts")),
+        ("Acc", "F", hit.data[:, 2], _waveform(500.0, "Newtons")),
+    ]
+    record = read_record(_write(tmp_path / "daqmx.tdms", channels))
+    assert [(c.quantity, c.unit) for c in record.channels] == [("acceleration", "g"), ("voltage", "V"), ("force", "N")]

@@ -283,3 +283,11 @@ def test_coherences_beside_the_functions_name_a_mode_of_low_coherence(tmp_path, 
     warned = [w for w in json.loads(capsys.readouterr().out)["warnings"] if w["kind"] == "low_coherence"]
     assert len(warned) == 1 and warned[0]["message"].startswith("mode x at 17.7")
     assert "coherence 0.50 at most over the bench's averages" in warned[0]["message"]
+
+
+def test_units_spelled_as_other_exporters_spell_them_are_read(tmp_path):
+    """An ordinate labelled "m/s**2" over a denominator labelled "Newtons" (records.UNIT_NAMES): the same impulse
+    responses as "m/s^2" over "N" (they were 'unit ... is not' and 'a response per 'Newtons'')."""
+    _frf_file(tmp_path / "si.uff")
+    _frf_file(tmp_path / "named.uff", labels=("m/s**2", "Newtons"))
+    np.testing.assert_array_equal(read_uff(tmp_path / "named.uff").data, read_uff(tmp_path / "si.uff").data)

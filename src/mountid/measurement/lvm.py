@@ -6,11 +6,11 @@ of each tag: ``Samples``, ``X0``, ``Delta_X``, ``Y_Unit_Label``, ``X_Dimension``
 the time (``X_Columns`` One; No: none, the time is X0 + k Delta_X) and whose last may be a ``Comment``. Segments of
 the same channels are runs (a logger's hits, a segment each), read one at a time as a TDMS file's groups are; one
 segment is a record. A channel's unit is its Y_Unit_Label (records.RECORDED; LabVIEW's own names, "Volts" and
-"Newtons", taken as V and N: a raw voltage is converted by its sensor's sensitivity, records.with_sensitivities); a
-channel that states none is an acceleration in m/s^2, as a CSV's bare column. A unit mountid does not read, a value
-that is not a number, an x axis that is not time and a time column per channel (X_Columns Multi) are named. An LVM
-file carries no geometry: its channels are placed with records.with_geometry (--channel, a campaign record's
-``channels``), as a plain CSV's.
+"Newtons", taken as V and N: records.UNIT_NAMES; a raw voltage is converted by its sensor's sensitivity,
+records.with_sensitivities); a channel that states none is an acceleration in m/s^2, as a CSV's bare column. A
+unit mountid does not read, a value that is not a number, an x axis that is not time and a time column per channel
+(X_Columns Multi) are named. An LVM file carries no geometry: its channels are placed with records.with_geometry
+(--channel, a campaign record's ``channels``), as a plain CSV's.
 """
 
 from __future__ import annotations
@@ -35,9 +35,6 @@ from mountid.measurement.records import (
     unread,
 )
 from mountid.nomenclature import counted
-
-LABVIEW_UNITS = {"Volts": "V", "Newtons": "N", "Pounds": "lbf", "g's": "g", "Meters": "m", "Inches": "in"}
-"""The unit names LabVIEW's DAQ channels write (Y_Unit_Label) and the unit each is in records.RECORDED."""
 
 SAMPLING_RTOL = 1e-9
 """Relative difference of two channels' Delta_X within which they share one sampling."""
@@ -135,7 +132,7 @@ def _record(segment: dict, path: Path, ignore: Collection[str], rate: float | No
             row = int(np.flatnonzero(~np.isfinite(values))[0])
             raise InputError(name, f"a value is not a number in row {row + 1} of {path.name}'s table{unread(name)}")
         unit = _value(segment, "Y_Unit_Label", k)
-        channels.append(channel_in(name, LABVIEW_UNITS.get(unit, unit), name, f"{path.name}: "))
+        channels.append(channel_in(name, unit, name, f"{path.name}: "))
     time = _time(segment, data, kept, path.name, rate, timed)
     return Record(time, np.column_stack([columns[name] for _, name in kept]), tuple(channels))
 

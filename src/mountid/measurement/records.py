@@ -94,6 +94,28 @@ VOLTAGE: dict[str, float] = {"V": 1.0, "mV": 1e-3, "uV": 1e-6, "\u00b5V": 1e-6, 
 """Units of a voltage and their factors to V: a sensor's raw output as an acquisition without its sensitivities
 records it (an accelerometer's or a force sensor's), held as recorded until with_sensitivities converts it."""
 
+UNIT_NAMES: dict[str, str] = {
+    "Volts": "V",
+    "volts": "V",
+    "Newtons": "N",
+    "Pounds": "lbf",
+    "g's": "g",
+    "Meters": "m",
+    "Inches": "in",
+    "m/s**2": "m/s^2",
+    "m s^-2": "m/s^2",
+    "ms^-2": "m/s^2",
+}
+"""Other names of units of RECORDED as acquisition software writes them (NI's DAQmx and LabVIEW in a TDMS
+unit_string or an LVM Y_Unit_Label: "Volts", "Newtons", "g's"; other exporters' spellings of m/s^2), each with the
+unit it is (unit_named)."""
+
+
+def unit_named(text: str) -> str:
+    """The unit of RECORDED that ``text`` names (UNIT_NAMES), else ``text`` as it is."""
+    return UNIT_NAMES.get(text.strip(), text.strip())
+
+
 RECORDED: dict[str, dict[str, float]] = {**UNITS, "voltage": VOLTAGE}
 """Every quantity a file's channel may hold: those of UNITS, and a raw voltage (VOLTAGE), which the records chain
 reads only after its sensor's sensitivity converts it (with_sensitivities; Record.in_si names it)."""
@@ -900,6 +922,7 @@ def channel_in(name: str, unit: str | None, where: str, said: str = "") -> Chann
     m/s^2); an InputError naming ``where`` (its reason starting with ``said``) for a unit mountid does not read."""
     if not unit:
         return Channel(name)
+    unit = unit_named(unit)
     quantity = quantity_of(unit)
     if quantity is None:
         raise InputError(where, f"{said}unit {unit!r} is not one of {KNOWN}{unread(name)}")

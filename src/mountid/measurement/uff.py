@@ -48,6 +48,7 @@ from mountid.measurement.records import (
     chosen_run,
     each_run,
     quantity_of,
+    unit_named,
     unread,
 )
 from mountid.measurement.uff_geometry import node_geometry, read_set, whole
@@ -369,9 +370,9 @@ def _per_force(s: dict) -> tuple[dict, str]:
     as some writers put it), the part after its last slash."""
     label = _label(s, "ordinate_axis_units_lab")
     head, _, tail = label.rpartition("/")
-    if head and tail.strip() in UNITS["force"]:
-        return {**s, "ordinate_axis_units_lab": head.strip().removeprefix("(").removesuffix(")")}, tail.strip()
-    return s, _label(s, "orddenom_axis_units_lab") or "N"
+    if head and unit_named(tail) in UNITS["force"]:
+        return {**s, "ordinate_axis_units_lab": head.strip().removeprefix("(").removesuffix(")")}, unit_named(tail)
+    return s, unit_named(_label(s, "orddenom_axis_units_lab")) or "N"
 
 
 FRF_ONLY = "a file of frequency response functions holds them (and their coherences) only"
@@ -416,7 +417,7 @@ def _quantity_and_unit(s: dict, name: str) -> tuple[str, str]:
     acceleration, a pressure was 'unit Pa is not a unit of acceleration', and a reaction force at an isolator a
     response."""
     kind = int(s.get("ordinate_spec_data_type", 12) or 0)
-    unit = _label(s, "ordinate_axis_units_lab")
+    unit = unit_named(_label(s, "ordinate_axis_units_lab"))
     if unit in VOLTAGE:  # an acquisition that records volts (of any type): converted by sensitivity later
         return "voltage", unit
     if kind in _ORDINATE_TYPES:
