@@ -72,6 +72,10 @@ CASES = [
         "--hit-time: 4 s is at or after the record's end",
     ),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "-0.1"], "--hit-time: must be >= 0 and finite"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--rate", "200", "--shaker", "0.5", "90"], "--shaker: 0.5 90: a"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--speed", "100"], "--shaker: a shaker and"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--hit-time", "1"], "--shaker: drives the"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--shaker-period", "0"], "--shaker-period:"),
     # several hits of one hammer: in increasing order, each after the pulse before
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "0.5"], "--hit-time: 0.5 s is not after the hit"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "1.002"], "--hit-time: 1.002 s is not after"),

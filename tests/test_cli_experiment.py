@@ -171,3 +171,17 @@ def test_a_plain_csv_is_placed_on_the_command_line(capsys, tmp_path):
     ):
         code, _, err = run(capsys, "process", "kid300", str(plain), "--channel", bad)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_simulated_shaker_test_goes_through_the_records_chain(capsys, tmp_path):
+    """`simulate --shaker LOW HIGH` drives the machine with a multisine at the hit's point and records its force;
+    `identify-record` averages the periods and gives the four modes; fewer than three periods are said."""
+    path = tmp_path / "shaker.csv"
+    argv = ["simulate", "kid300", "--out", str(path), "--shaker", "0.5", "40", "--rate", "200", "--force-channel", "F"]
+    assert run(capsys, *argv, "--duration", "64")[0] == 0
+    code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--json")
+    found = json.loads(out)
+    assert code == 0 and sorted(found["modes"]) == ["phi", "psi", "x", "z"]
+    assert any("periodic excitation on F" in note for note in found["notes"])
+    code, out, _ = run(capsys, *argv, "--duration", "30")
+    assert code == 0 and "30 s holds fewer than 3 periods of 16 s" in out

@@ -286,3 +286,75 @@ def test_channels_at_one_place_are_named():
     assert said.message.startswith("A_x and A_x#2; A_y and A_y#2 measure at one point along one direction each")
     assert modal.same_place(first) == []
     assert not any(w.kind == "same_place" for w in modal_data(rig.machine, first, TABLE_1).warnings)
+
+
+SHAKER = ((0.35, 0.25, 0.3), (0.5, 0.6, -0.62))
+"""A shaker's point [m] and direction on kid300: every mode excited."""
+
+
+def _shaker_record(duration: float = 64.0, noise: float = 0.01, **changes) -> Record:
+    """kid300 under a shaker's multisine (0.5-40 Hz, 16 s period), the paper's channels and the force, at 200 Hz."""
+    from mountid.measurement.rig import Shaker
+
+    shaker = Shaker(*SHAKER, high=40.0, period=16.0, **changes)
+    return _rig().simulate(paper_sensors(noise), duration, 200.0, shakers=[shaker], seed=1, force_channel="F")
+
+
+def test_a_periodic_excitation_gives_the_exact_frequency_responses():
+    """A shaker's multisine, whole periods after the first averaged without a window: the impulse responses of H1
+    on the lines it excites (0.5-40 Hz by 1/16 Hz) transform to the rig's exact accelerances (noise-free channels:
+    to 1e-3 of each one's largest, the anti-alias filter's rounding), coherence 1."""
+    record = _shaker_record(noise=0.0)
+    impulse = frf.periodic_responses(record, "F")
+    lines = impulse.impulse
+    assert (lines.spacing, lines.top) == (pytest.approx(1 / 16), pytest.approx(40.0))
+    assert lines.origin.startswith("3 periods of 16 s of a periodic excitation on F")
+    n = len(impulse.time)
+    h = np.fft.rfft(impulse.data, axis=0) / (n * lines.spacing)  # back to the lines [m/s^2 per N]
+    rig = _rig()
+    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in paper_sensors()])
+    column = rig.force_column(*SHAKER, "shaker")
+    for k in range(8, int(40 * 16) + 1, 7):  # 0.5 Hz up, every seventh line
+        s = 2j * np.pi * k * lines.spacing
+        exact = s**2 * rows @ np.linalg.solve(rig.C + s**2 * rig.M + s * rig.B, column)
+        assert np.max(np.abs(h[k] - exact)) < 1e-3 * np.max(np.abs(exact)), k
+    assert all(np.min(c[8:]) > 1 - 1e-6 for _, c in lines.coherence)
+
+
+def test_a_shaker_test_gives_the_rigs_poles_and_the_papers_stiffnesses(tmp_path, capsys):
+    """Through the records chain (1 % noise on the responses): each mode's frequency and damping ratio within three
+    of their standard deviations of the rig's pole, said to come from the periods; identify-record gives the
+    paper's stiffnesses within three of theirs; the force is summarised as an excitation, not as hits."""
+    record = _shaker_record()
+    found = modal_data(_rig().machine, record, {})
+    poles = _rig().poles
+    for label, mode in found.modes.items():
+        p = poles[np.argmin(np.abs(np.abs(poles) - mode.frequency))]
+        assert abs(mode.frequency - abs(p)) < 3 * mode.frequency_std, label
+        assert abs(mode.damping_ratio - (-p.real / abs(p))) < 3 * mode.damping_std, label
+    assert set(found.modes) == {"x", "phi", "z", "psi"}
+    assert any("H1 of 3 periods of 16 s of a periodic excitation on F" in note for note in found.notes)
+    assert not [w for w in found.warnings if w.kind in ("double_hit", "impact_in_segment")]
+    write_csv(record, tmp_path / "shaker.csv")
+    assert main(["identify-record", "kid300", str(tmp_path / "shaker.csv"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for name, value in PUBLISHED_STIFFNESS.items():
+        assert abs(out["parameters"][name] - value) < 3 * out["parameter_std"][name], name
+    assert any(n.startswith("continuous excitation on F: ") for n in out["notes"])
+
+
+def test_a_random_or_short_excitation_is_named():
+    """A continuous force that does not repeat (random: its H1 would need a window, which biases the damping) and a
+    periodic one of two periods are errors naming the force channel."""
+    record = _shaker_record(duration=64.0)
+    rng = np.random.default_rng(3)
+    forces = [c.quantity == "force" for c in record.channels]
+    noisy = replace(record, data=np.where(forces, rng.normal(0, 200.0, record.data.shape), record.data))
+    assert frf.is_continuous(noisy, "F")
+    with pytest.raises(InputError, match="^F: a continuous excitation that does not repeat"):
+        frf.periodic_responses(noisy, "F")
+    with pytest.raises(InputError, match=r"^F: a periodic excitation of 16 s holds 2 periods"):
+        frf.periodic_responses(_shaker_record(duration=40.0), "F")
+    assert not frf.is_continuous(
+        _rig().simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], force_channel="F"), "F"
+    )

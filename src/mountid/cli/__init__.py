@@ -198,6 +198,19 @@ def build_parser() -> argparse.ArgumentParser:
         "several times: a hit at each, in one record",
     )
     p.add_argument(
+        "--shaker",
+        nargs=2,
+        type=float,
+        metavar=("LOW", "HIGH"),
+        help="a shaker at --hit-point along --hit-direction instead of hits: a multisine (periodic random) over LOW to "
+        "HIGH [Hz], repeating every --shaker-period (record its force with --force-channel; the records chain "
+        "averages the periods after the first)",
+    )
+    p.add_argument(
+        "--shaker-period", type=float, default=16.0, metavar="S", help="the shaker's period [s] (default 16)"
+    )
+    p.add_argument("--shaker-rms", type=float, default=200.0, metavar="N", help="the shaker's RMS force [N]")
+    p.add_argument(
         "--force-channel",
         metavar="NAME",
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "

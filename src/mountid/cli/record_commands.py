@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
     from mountid.identification.from_records import Identification
     from mountid.measurement.records import ModeTable, Record
-    from mountid.measurement.rig import Hammer, Rig, Sensor, Unbalance
+    from mountid.measurement.rig import Hammer, Rig, Sensor, Shaker, Unbalance
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
@@ -68,15 +68,28 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         what = "a response channel's name" if force.strip() else "empty"
         raise InputError("--force-channel", f"{force!r} is {what}")
     hit = _hit(args)
-    hammers = [] if args.speed else [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time]
+    shakers = _shakers(args, hit)
+    hammers = [] if args.speed or shakers else [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time]
     unbalances = unbalances_of(args)
     record = rig.simulate(
-        sensors, args.duration, args.rate, hammers, unbalances, seed=args.seed, force_channel=args.force_channel
+        sensors,
+        args.duration,
+        args.rate,
+        hammers,
+        unbalances,
+        seed=args.seed,
+        force_channel=args.force_channel,
+        shakers=shakers,
     )
     kind = WRITERS[out.suffix.lower()]
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
-    notes += [] if args.speed else _close_hits_note(args.hit_time)
+    notes += [] if args.speed or shakers else _close_hits_note(args.hit_time)
+    if shakers and args.duration < 3 * args.shaker_period:
+        notes.append(
+            f"{args.duration:g} s holds fewer than 3 periods of {args.shaker_period:g} s: the records chain averages "
+            "the periods after the first and needs two of them"
+        )
     hit_given = args.speed or args.hit_point or args.hit_direction
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
     notes += [defaults] if defaults else []
@@ -103,6 +116,28 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
     for note in notes:
         print(f"note: {note}")
+
+
+def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
+    """The shaker --shaker gives at the hit's point and direction ([] without it); an InputError naming the option
+    for a band outside 0 to 0.4 x the rate (the acquisition's anti-alias filter), a period or force that is not
+    positive, or --speed or --hit-time beside it."""
+    from mountid.measurement.rig import ANTI_ALIAS, Shaker
+
+    if args.shaker is None:
+        return []
+    if args.speed:
+        raise InputError("--shaker", "a shaker and a rotating unbalance (--speed) are two experiments: give one")
+    if args.hit_time != [0.05]:
+        raise InputError("--shaker", "drives the machine from the start: --hit-time is for hits")
+    low, high = args.shaker
+    if not (math.isfinite(low) and math.isfinite(high) and 0 <= low < high <= ANTI_ALIAS * args.rate):
+        raise InputError(
+            "--shaker", f"{low:g} {high:g}: a band 0 <= LOW < HIGH <= {ANTI_ALIAS * args.rate:g} Hz (0.4 x the rate)"
+        )
+    bounded(args.shaker_period, "--shaker-period", args.duration, " s")
+    bounded(args.shaker_rms, "--shaker-rms", HIT_PEAK_LIMIT, " N")
+    return [Shaker(hit.point, hit.direction, args.shaker_rms, low, high, args.shaker_period, args.seed)]
 
 
 def _hit_times(times: Sequence[float], duration: float) -> None:

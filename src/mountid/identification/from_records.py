@@ -1035,14 +1035,18 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
+    if record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
+        record = frf.periodic_responses(full, full.forces[0], settings)  # a shaker's: its H1 as a bench's FRFs
     estimate, notes, end, hits = None, [], None, ()
     if record.impulse is not None or (full.forces and use_force):
-        if record.impulse is not None:  # a bench's frequency response functions transformed back: fitted as H1 is
+        if record.impulse is not None:  # frequency response functions transformed back: fitted as H1 is
             if start is not None:
                 raise InputError("start", "impulse responses (frequency response functions) start at the hit")
             start, fitted, lines = IRF_START, record, record.impulse
             windowed = (
-                f"the bench's exponential window of {lines.window:.4g} 1/s divided out"
+                f"H1 of {lines.origin}, without a window"
+                if lines.origin
+                else f"the bench's exponential window of {lines.window:.4g} 1/s divided out"
                 if lines.window
                 else "an exponential window the bench put on the responses adds its decay to every mode's damping: "
                 "give it (--exponential-window, a campaign record's exponential_window) to divide it out"
@@ -1150,8 +1154,9 @@ def modal_data(
         warnings += _coherence_warnings(lambda w: at(w)[1], labelled, settings, f"{len(estimate.hits)} hits")
     if record.impulse is not None and record.impulse.coherence:
         lines, names = record.impulse, record.names
+        averages = "the periods" if lines.origin else "the bench's averages"
         warnings += _coherence_warnings(
-            lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, "the bench's averages"
+            lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, averages
         )
     # a pole on two twins that a fit of two does not part: widened, without its shape (Twins.mixed)
     mixed = {label: spans for label, *spans in twins.mixed}

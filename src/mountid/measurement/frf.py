@@ -12,6 +12,12 @@ responses until the next hit, with an exponential window where they have not die
 the coherence 1 for a single hit (one average tells nothing) and below 1 where noise, a nonlinearity or an
 unmeasured input enter. The impulse responses are the inverse transform of H1 where the hits carry force;
 they are a free decay from the instant of the hit, whatever the pulse's shape or a second hit.
+
+A shaker's force is continuous (is_continuous): where it repeats (periodic random, a multisine: a controller
+repeats one block), periodic_responses averages its whole periods after the first without a window, exact on the
+lines it excites, and gives the impulse responses as a bench's frequency response functions are read
+(records.impulse_record). A random force that does not repeat is named: its H1 needs a window, whose bias on the
+damping the modal fit would take for the machine's.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mountid.errors import InputError
-from mountid.measurement.records import Channel, Record
+from mountid.measurement.records import Channel, Record, impulse_record
 from mountid.measurement.settings import RECORDS, RecordSettings
 
 
@@ -133,3 +139,89 @@ def _window_decay(responses: list[NDArray], length: float) -> float:
         level = np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(y**2, axis=0)), 1e-300)
         ratio = max(ratio, float(np.max(level)))
     return math.log(ratio / 0.01) / length if ratio > 0.01 else 0.0
+
+
+def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS) -> bool:
+    """Whether the force channel ``force`` carries a continuous excitation (a shaker's) rather than hits: above 5 %
+    of its peak on more than settings.continuous_force of its samples."""
+    f = np.abs(record.channel(force))
+    top = float(f.max()) if len(f) else 0.0
+    return top > 0 and float(np.mean(f > 0.05 * top)) > settings.continuous_force
+
+
+def periodic_responses(record: Record, force: str, settings: RecordSettings = RECORDS) -> Record:
+    """The frequency responses of a periodic excitation on ``force`` (a shaker driven with periodic random or a
+    multisine: its controller repeats one block) as the impulse responses they transform back to (Record.impulse,
+    records.impulse_record), the record in SI units. The period is the first lag at which the force correlates with
+    itself beyond settings.periodic_correlation; the first period (the transient from rest) is left out, every
+    whole period after it transformed without a window (a periodic signal over whole periods has no leakage), and
+
+        H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
+
+    on the lines the force excites (0 on the others below the highest), up to the highest. An InputError naming the
+    force channel where it does not repeat (a random excitation: its H1 needs a window, which biases damping) or
+    the record holds fewer than three periods."""
+    record = record.in_si()
+    f = record.channel(force)
+    period = _period(f, settings)
+    if period is None:
+        raise InputError(
+            force,
+            f"a continuous excitation that does not repeat within half the record ({len(f) / 2 / record.rate:.4g} s): "
+            "a random one, or a period longer than that; mountid reads hits or a periodic excitation (periodic "
+            "random, a multisine) of three periods or more, whose whole periods need no window (a window biases the "
+            "damping)",
+        )
+    count = len(f) // period
+    if count < 3:
+        raise InputError(
+            force,
+            f"a periodic excitation of {period / record.rate:.4g} s holds {count} periods: the first (its transient) "
+            "and at least two more are needed",
+        )
+    responses = record.select(record.responses)
+    if not responses.channels:
+        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
+    blocks = [slice(k * period, (k + 1) * period) for k in range(1, count)]
+    spec_f = np.array([np.fft.rfft(f[b]) for b in blocks])
+    spec_y = np.array([np.fft.rfft(responses.data[b], axis=0) for b in blocks])
+    s_ff = np.sum(np.abs(spec_f) ** 2, axis=0)
+    s_fy = np.sum(np.conj(spec_f)[:, :, None] * spec_y, axis=0)
+    s_yy = np.sum(np.abs(spec_y) ** 2, axis=0)
+    excited = s_ff > settings.force_floor * s_ff.max()
+    top = int(np.flatnonzero(excited)[-1])
+    h = np.where(excited[:, None], s_fy / np.where(excited, s_ff, 1.0)[:, None], 0.0)[: top + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coherence = np.where(excited[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)[: top + 1]
+    coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
+    spacing = record.rate / period
+    origin = (
+        f"{len(blocks)} periods of {period / record.rate:.4g} s of a periodic excitation on {force} (the first, its "
+        "transient, left out)"
+    )
+    named = tuple((c.name, coherence[:, j]) for j, c in enumerate(responses.channels))
+    return impulse_record(h, spacing, responses.channels, named if len(blocks) > 1 else (), origin)
+
+
+def _period(f: NDArray, settings: RecordSettings) -> int | None:
+    """The period [samples] of a repeating signal: the first lag, after its correlation with itself has fallen
+    below 0 once, at which the correlation coefficient of the signal and the signal shifted by it exceeds
+    settings.periodic_correlation and is highest among its neighbours; None where no lag up to half the
+    record does."""
+    x = f - f.mean()
+    n = len(x)
+    size = 1 << (2 * n - 1).bit_length()
+    spectrum = np.fft.rfft(x, size)
+    raw = np.fft.irfft(np.abs(spectrum) ** 2, size)[:n]  # sum_j x[j] x[j + k]
+    energy = np.cumsum(x**2)
+    head = energy[::-1][:n]  # sum of x[j]^2 over j < n - k: the first n - k samples
+    tail = energy[-1] - np.concatenate([[0.0], energy[:-1]])  # over j >= k: the last n - k samples
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = raw / np.sqrt(head * tail)
+    crossed = np.flatnonzero(r[: n // 2 + 1] < 0)
+    if not len(crossed):
+        return None
+    for k in range(int(crossed[0]), n // 2 + 1):
+        if r[k] > settings.periodic_correlation and r[k] >= r[k - 1] and r[k] >= r[min(k + 1, n - 1)]:
+            return k
+    return None

@@ -809,11 +809,14 @@ def hit_summary(record: Record, name: str, settings: RecordSettings = RECORDS) -
     """The hits on the force channel ``name`` [N] (frf.hit_times: a double hit belongs to its hit): when each
     begins, its peak, how long it stays above 5 % of the peak, and its impulse (the integral of the force over
     that time) [N s]; for several hits the range of each over them."""
-    from mountid.measurement.frf import hit_times
+    from mountid.measurement.frf import hit_times, is_continuous
 
     f = record.channel(name)
     if not float(np.max(np.abs(f))) > 0:
         return f"{name}: no hit recorded"
+    if is_continuous(record, name, settings):
+        rms, peak = float(np.sqrt(np.mean(f**2))), float(np.max(np.abs(f)))
+        return f"continuous excitation on {name}: {rms:.4g} N RMS, peak {peak:.4g} N"
     dt = 1 / record.rate
     starts = np.searchsorted(record.time, hit_times(record, name, settings))
     bounds = [0, *(max(0, int(k) - round(settings.pretrigger * record.rate)) for k in starts[1:]), len(f)]
@@ -873,11 +876,13 @@ def same_place(record: Record) -> list[QualityWarning]:
 def force_quality(
     record: Record, name: str, start: float | None, settings: RecordSettings = RECORDS
 ) -> list[QualityWarning]:
-    """Checks of a hammer's force channel ``name``: clipping (a flat top), a second hit (a pulse after the
-    first one has ended and within settings.hit_spacing of its start, above settings.double_hit_height of its
-    peak, however small the response shows it; later pulses are separate hits, which a frequency response
-    averages over), and a hit inside the analysed free decay (after ``start`` [s]; None: no free decay is
-    analysed, the frequency responses start at the hit)."""
+    """Checks of a hammer's force channel ``name`` (a shaker's: clipping only): clipping (a flat top), a second hit
+    (a pulse after the first one has ended and within settings.hit_spacing of its start, above
+    settings.double_hit_height of its peak, however small the response shows it; later pulses are separate hits,
+    which a frequency response averages over), and a hit inside the analysed free decay (after ``start`` [s]; None:
+    no free decay is analysed, the frequency responses start at the hit)."""
+    from mountid.measurement.frf import is_continuous
+
     f = np.abs(record.channel(name))
     out = []
     top = float(f.max())
@@ -885,6 +890,8 @@ def force_quality(
         return [QualityWarning("no_hit", name, "the force channel is zero throughout: no impact recorded")]
     if clipped_level(record.channel(name), settings) is not None:
         out.append(QualityWarning("clipping", name, f"force held at {top:g} N on several samples: clipped"))
+    if is_continuous(record, name, settings):  # a shaker's: no hit to check
+        return out
     above = f > 0.05 * top
     first = int(np.argmax(above))
     end = first + int(np.argmin(above[first:])) if not np.all(above[first:]) else len(f)

@@ -153,11 +153,30 @@ class Lines:
     spacing: float
     window: float = 0.0
     coherence: tuple[tuple[str, NDArray[np.float64]], ...] = ()
+    origin: str = ""
+    """Where the functions come from where mountid estimated them ("4 periods of a periodic excitation on F"); ""
+    for a bench's."""
 
     def coherence_at(self, frequency: float, names: Sequence[str]) -> NDArray[np.float64]:
         """The coherence of the channels ``names`` that have one at the line nearest ``frequency`` [Hz]."""
         k = int(round(frequency / self.spacing))
         return np.array([c[min(k, len(c) - 1)] for name, c in self.coherence if name in names])
+
+
+def impulse_record(
+    lines: NDArray[np.complex128],
+    spacing: float,
+    channels: tuple[Channel, ...],
+    coherence: tuple[tuple[str, NDArray[np.float64]], ...] = (),
+    origin: str = "",
+) -> Record:
+    """Frequency response functions [unit per N] on ``lines`` (n_lines, n_channels) ``spacing`` [Hz] apart from 0 Hz
+    as the impulse responses they transform back to (Record.impulse): h(t) = rate x the inverse real transform, at
+    rate = twice the last line's frequency, over 1 / spacing seconds."""
+    n = 2 * (len(lines) - 1)
+    rate = n * spacing
+    impulse = Lines(rate / 2, spacing, coherence=coherence, origin=origin)
+    return Record(np.arange(n) / rate, np.fft.irfft(lines, n=n, axis=0) * rate, channels, impulse=impulse)
 
 
 @dataclass(frozen=True)

@@ -94,6 +94,43 @@ class Hammer:
 
 
 @dataclass(frozen=True)
+class Shaker:
+    """A shaker driven with a multisine (a controller's periodic random): the force [N] sum_k a cos(2 pi k t / period
+    + phase_k) over the lines k / ``period`` [s] from ``low`` to ``high`` [Hz], of equal amplitude a set for ``rms``
+    [N], the phases uniformly random from ``seed``; at a body point along a direction. It repeats every period."""
+
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    rms: float = 200.0
+    low: float = 0.5
+    high: float = 25.0
+    period: float = 16.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not (self.period > 0 and 0 <= self.low < self.high and self.rms > 0):
+            raise InputError("shaker", "needs a period > 0, 0 <= low < high [Hz] and an rms force > 0")
+        if len(self.lines()) == 0:
+            raise InputError("shaker", f"no line k / {self.period:g} s between {self.low:g} and {self.high:g} Hz")
+
+    def lines(self) -> NDArray[np.float64]:
+        """The frequencies [Hz] the shaker excites."""
+        k = np.arange(math.ceil(self.low * self.period - 1e-9), math.floor(self.high * self.period + 1e-9) + 1)
+        return k[k > 0] / self.period
+
+    def force(self, t: NDArray) -> NDArray[np.float64]:
+        """Force [N] at times t [s]."""
+        lines = self.lines()
+        phases = np.random.default_rng(self.seed).uniform(0.0, 2 * np.pi, len(lines))
+        amplitude = self.rms * math.sqrt(2.0 / len(lines))
+        out = np.zeros_like(np.asarray(t, dtype=float))
+        for start in range(0, len(lines), 64):  # 64 lines at a time: memory
+            part = slice(start, start + 64)
+            out += np.cos(2 * np.pi * np.outer(t, lines[part]) + phases[part]).sum(axis=1)
+        return amplitude * out
+
+
+@dataclass(frozen=True)
 class Unbalance:
     """A rotating unbalance: mass ``mass`` [kg] at eccentricity ``eccentricity`` [m] turning at ``speed``
     [rad/s] about an axis through ``point`` [m] along ``axis`` (default vertical). The force
@@ -300,10 +337,10 @@ class Rig:
         return q, qd, qdd
 
     def forcing(
-        self, hammers: Sequence[Hammer] = (), unbalances: Sequence[Unbalance] = ()
+        self, hammers: Sequence[Hammer | Shaker] = (), unbalances: Sequence[Unbalance] = ()
     ) -> Callable[[NDArray], NDArray[np.float64]]:
-        """The generalised force [N, N m] of the hammers and unbalances as a function of the times t [s], shape
-        (len(t), n): each one's force column taken once."""
+        """The generalised force [N, N m] of the hammers (or shakers) and unbalances as a function of the times t
+        [s], shape (len(t), n): each one's force column taken once."""
         hits = [(h, self.force_column(h.point, h.direction, "hammer")) for h in hammers]
         turning = [
             (u, *(u.amplitude * self.force_column(u.point, e, "unbalance") for e in u.plane())) for u in unbalances
@@ -379,9 +416,10 @@ class Rig:
         anti_alias: bool = True,
         seed: int | None = 0,
         force_channel: str | None = None,
+        shakers: Sequence[Shaker] = (),
     ) -> Record:
         """A record of the sensors (each in its quantity and unit) sampled at ``rate`` [Hz] for ``duration``
-        [s]; with ``force_channel`` a last channel of that name records the hammers' force [N] (the
+        [s]; with ``force_channel`` a last channel of that name records the hammers' and shakers' force [N] (the
         excitation, through the same anti-alias filter, without noise).
 
         The response is computed at ``oversample`` x the rate, or more where that leaves fewer than
@@ -396,7 +434,10 @@ class Rig:
             raise InputError("duration", f"must be positive, got {duration}")
         if not rate > 0:
             raise InputError("rate", f"must be positive, got {rate}")
+        if shakers and self.hardening is not None:
+            raise InputError("shakers", "a shaker on hardening isolators is not simulated (hammers and unbalances are)")
         fastest = [float(np.max(np.abs(self.poles))) / (2 * np.pi), *(u.speed / (2 * np.pi) for u in unbalances)]
+        fastest += [shaker.high for shaker in shakers]
         needed = [RESOLVED / (h.duration * rate) for h in hammers] + [RESOLVED * f / rate for f in fastest]
         oversample = max(oversample, math.ceil(max(needed)))
         n_out = int(round(duration * rate))
@@ -410,7 +451,7 @@ class Rig:
         filtering = anti_alias and oversample > 1
         sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if filtering else None
         n_fine = n_out * oversample
-        forcing = self.forcing(hammers, unbalances)
+        forcing = self.forcing([*hammers, *shakers], unbalances)
         state, filtered, blocks = None, None, []
         # the fine grid in blocks of BLOCK samples (memory), each from the state at the last one before it
         for start in range(0, n_fine, BLOCK):
@@ -426,7 +467,8 @@ class Rig:
             block = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)])
             block = block / per_unit
             if force_channel is not None:
-                block = np.column_stack([block, sum((h.force(t[new]) for h in hammers), np.zeros_like(t[new]))])
+                pushing = [*hammers, *shakers]
+                block = np.column_stack([block, sum((h.force(t[new]) for h in pushing), np.zeros_like(t[new]))])
             if sos is not None:
                 if filtered is None:
                     filtered = np.zeros((sos.shape[0], 2, block.shape[1]))

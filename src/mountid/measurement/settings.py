@@ -40,6 +40,12 @@ class RecordSettings:
     separate hits that a frequency response averages over (measurement.frf)."""
     pretrigger: float = 0.01
     """[s] A frequency response's segment starts this long before its hit."""
+    continuous_force: float = 0.2
+    """A force channel above 5 % of its peak on more than this share of its samples is a continuous excitation (a
+    shaker's), not hits (a hammer's: milliseconds per hit)."""
+    periodic_correlation: float = 0.95
+    """A continuous force is periodic (a shaker's periodic random or multisine, as its controller repeats one block)
+    where one period of it correlates with the next beyond this (the correlation coefficient)."""
     force_floor: float = 1e-6
     """Spectral lines where the hits' force spectrum is below this share of its largest carry no H1 (0): above
     the pulse's bandwidth the division only amplifies noise."""

@@ -41,12 +41,12 @@ from mountid.measurement.records import (
     UNITS,
     VOLTAGE,
     Channel,
-    Lines,
     ModeTable,
     Record,
     check_ignored,
     chosen_run,
     each_run,
+    impulse_record,
     quantity_of,
     unit_named,
     unread,
@@ -349,14 +349,7 @@ def _impulse_responses(
         lines = np.asarray(s["data"], dtype=complex) * RECORDED[quantity][unit] / UNITS["force"][per]
         columns.append(np.concatenate([np.zeros(first, dtype=complex), lines]))
         channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(RECORDED[quantity]))))
-    n = 2 * (first + len(freq) - 1)
-    rate = n * spacing
-    return Record(
-        np.arange(n) / rate,
-        np.fft.irfft(np.column_stack(columns), n=n, axis=0) * rate,
-        tuple(channels),
-        impulse=Lines(rate / 2, spacing, coherence=tuple(coherence)),
-    )
+    return impulse_record(np.column_stack(columns), spacing, tuple(channels), tuple(coherence))
 
 
 def _response(s: dict) -> tuple[int, int]:
