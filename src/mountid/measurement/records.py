@@ -911,12 +911,12 @@ def _separator(header: str) -> str:
 
 def _split_unit(title: str) -> tuple[str, str | None]:
     """A header cell's name and unit, as bench exports write them: "A_x [g]" (square brackets: always a unit)
-    or "A_x (mm/s)" (parentheses: a unit where it is one of UNITS or TIME_UNITS, else part of the name, as in
-    "Ch(1)"); (title, None) without a unit."""
+    or "A_x (mm/s)" (parentheses: a unit where it is one of RECORDED (or UNIT_NAMES) or TIME_UNITS, else part of
+    the name, as in "Ch(1)"); (title, None) without a unit."""
     for left, right in ("[]", "()"):
         if title.endswith(right) and left in title:
             name, unit = (part.strip() for part in title[:-1].rsplit(left, 1))
-            if left == "[" or unit in TIME_UNITS or unit in FREQUENCY_AXIS[1] or quantity_of(unit):
+            if left == "[" or unit in TIME_UNITS or unit in FREQUENCY_AXIS[1] or quantity_of(unit_named(unit)):
                 return name, unit
     return title, None
 
