@@ -1047,3 +1047,13 @@ def test_a_file_of_a_format_mountid_does_not_read_is_named_with_those_it_reads(t
     for read in (read_record, read_runs):
         with pytest.raises(InputError, match=f"^record: {re.escape(name)} is {what}: mountid reads CSV .*LVM"):
             read(tmp_path / name)
+
+
+def test_a_header_unit_as_ni_names_it_is_a_unit_in_parentheses_too(tmp_path):
+    """ "F (Newtons)" and "Tacho (Volts)" are a force in N and a raw voltage (records.UNIT_NAMES), in parentheses as
+    in brackets; they were channels named so, read as accelerations in m/s^2."""
+    rows = "\n".join(f"{0.002 * k},{np.sin(k)},{np.cos(k)}" for k in range(100))
+    for left, right in ("()", "[]"):
+        (tmp_path / "n.csv").write_text(f"Time,F {left}Newtons{right},Tacho {left}Volts{right}\n{rows}\n")
+        got = read_csv(tmp_path / "n.csv")
+        assert [(c.name, c.quantity, c.unit) for c in got.channels] == [("F", "force", "N"), ("Tacho", "voltage", "V")]
