@@ -153,14 +153,15 @@ def periodic_responses(record: Record, force: str, settings: RecordSettings = RE
     """The frequency responses of a periodic excitation on ``force`` (a shaker driven with periodic random or a
     multisine: its controller repeats one block) as the impulse responses they transform back to (Record.impulse,
     records.impulse_record), the record in SI units. The period is the first lag at which the force correlates with
-    itself beyond settings.periodic_correlation; the first period (the transient from rest) is left out, every
-    whole period after it transformed without a window (a periodic signal over whole periods has no leakage), and
+    itself beyond settings.periodic_correlation; the periods before the response repeats (the transient from rest:
+    at least the first, _settled) are left out, every whole period after them transformed without a window (a
+    periodic signal over whole periods has no leakage), and
 
         H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
 
     on the lines the force excites (0 on the others below the highest), up to the highest. An InputError naming the
-    force channel where it does not repeat (a random excitation: its H1 needs a window, which biases damping) or
-    the record holds fewer than three periods."""
+    force channel where it does not repeat (a random excitation: its H1 needs a window, which biases damping), the
+    record holds fewer than three periods, or the response has not settled in them."""
     record = record.in_si()
     f = record.channel(force)
     period = _period(f, settings)
@@ -182,7 +183,14 @@ def periodic_responses(record: Record, force: str, settings: RecordSettings = RE
     responses = record.select(record.responses)
     if not responses.channels:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
-    blocks = [slice(k * period, (k + 1) * period) for k in range(1, count)]
+    settled = _settled(responses.data, period, count)
+    if settled is None:
+        raise InputError(
+            force,
+            f"the response to a periodic excitation of {period / record.rate:.4g} s has not settled in {count} "
+            "periods (each differs from the last beyond the noise): a lightly damped machine needs a longer record",
+        )
+    blocks = [slice(k * period, (k + 1) * period) for k in range(settled, count)]
     spec_f = np.array([np.fft.rfft(f[b]) for b in blocks])
     spec_y = np.array([np.fft.rfft(responses.data[b], axis=0) for b in blocks])
     s_ff = np.sum(np.abs(spec_f) ** 2, axis=0)
@@ -195,12 +203,36 @@ def periodic_responses(record: Record, force: str, settings: RecordSettings = RE
         coherence = np.where(excited[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)[: top + 1]
     coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
     spacing = record.rate / period
+    left = "the first" if settled == 1 else f"the first {settled}"
     origin = (
-        f"{len(blocks)} periods of {period / record.rate:.4g} s of a periodic excitation on {force} (the first, its "
+        f"{len(blocks)} periods of {period / record.rate:.4g} s of a periodic excitation on {force} ({left}, its "
         "transient, left out)"
     )
     named = tuple((c.name, coherence[:, j]) for j, c in enumerate(responses.channels))
     return impulse_record(h, spacing, responses.channels, named if len(blocks) > 1 else (), origin)
+
+
+SETTLED = 1e-4
+"""A period of the response to a periodic excitation whose difference from the next is below this share of the
+last period is settled (1e-4 of the response: 1e-4 of H1)."""
+
+DECAYING = 1.1
+"""Successive periods of a settled response differ by its noise alone, as much from one to the next (within 1 % for
+a record of thousands of samples); a transient makes each difference this many times the next one or more (a decay
+of exp(-sigma T) per period T: sigma T > 0.1, any rubber's damping over a period of seconds)."""
+
+
+def _settled(y: NDArray, period: int, count: int) -> int | None:
+    """The first period (1, 2, ...) from which the response ``y`` (samples, channels) repeats: its difference from
+    the next below SETTLED of the last period, or not DECAYING times the next difference (the transient from rest
+    has died into the noise); None where fewer than two periods are left then."""
+    segment = [y[k * period : (k + 1) * period] for k in range(count)]
+    step = [float(np.linalg.norm(segment[k + 1] - segment[k])) for k in range(count - 1)]
+    floor = SETTLED * float(np.linalg.norm(segment[-1]))
+    for k in range(1, count - 1):
+        if step[k] <= floor or (k + 1 < len(step) and step[k] <= DECAYING * step[k + 1]):
+            return k
+    return None
 
 
 def _period(f: NDArray, settings: RecordSettings) -> int | None:
