@@ -355,9 +355,9 @@ def test_a_random_or_short_excitation_is_named():
         frf.periodic_responses(noisy, "F")
     with pytest.raises(InputError, match=r"^F: a periodic excitation of 16 s holds 2 periods"):
         frf.periodic_responses(_shaker_record(duration=40.0), "F")
-    assert not frf.is_continuous(
-        _rig().simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], force_channel="F"), "F"
-    )
+    hammer = _rig().simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], force_channel="F")
+    offset = replace(hammer, data=hammer.data + np.array([c.quantity == "force" for c in hammer.channels]) * 300.0)
+    assert not frf.is_continuous(hammer, "F") and not frf.is_continuous(offset, "F")  # a hammer; with 300 N offset
 
 
 def test_a_lightly_damped_machine_is_averaged_once_its_response_has_settled():

@@ -143,8 +143,10 @@ def _window_decay(responses: list[NDArray], length: float) -> float:
 
 def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS) -> bool:
     """Whether the force channel ``force`` carries a continuous excitation (a shaker's) rather than hits: above 5 %
-    of its peak on more than settings.continuous_force of its samples."""
-    f = np.abs(record.channel(force))
+    of its peak on more than settings.continuous_force of its samples, both from its median (a hammer channel's
+    offset is no excitation)."""
+    x = record.channel(force)
+    f = np.abs(x - np.median(x)) if len(x) else x
     top = float(f.max()) if len(f) else 0.0
     return top > 0 and float(np.mean(f > 0.05 * top)) > settings.continuous_force
 
