@@ -175,13 +175,16 @@ def test_a_plain_csv_is_placed_on_the_command_line(capsys, tmp_path):
 
 def test_a_simulated_shaker_test_goes_through_the_records_chain(capsys, tmp_path):
     """`simulate --shaker LOW HIGH` drives the machine with a multisine at the hit's point and records its force;
-    `identify-record` averages the periods and gives the four modes; fewer than three periods are said."""
+    `identify-record` averages the periods and gives the four modes, its figures those of the H1 fitted (the
+    spectrum and stabilisation of its impulse responses, H1 and coherence); fewer than three periods are said."""
     path = tmp_path / "shaker.csv"
     argv = ["simulate", "kid300", "--out", str(path), "--shaker", "0.5", "40", "--rate", "200", "--force-channel", "F"]
     assert run(capsys, *argv, "--duration", "64")[0] == 0
-    code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--json")
+    figures = tmp_path / "figures"
+    code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--json", "--figures", str(figures))
     found = json.loads(out)
     assert code == 0 and sorted(found["modes"]) == ["phi", "psi", "x", "z"]
     assert any("periodic excitation on F" in note for note in found["notes"])
+    assert {f.name for f in figures.iterdir()} == {"frf.png", "modes.png", "spectrum.png", "stabilisation.png"}
     code, out, _ = run(capsys, *argv, "--duration", "30")
     assert code == 0 and "30 s holds fewer than 3 periods of 16 s" in out

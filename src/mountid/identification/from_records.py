@@ -1035,8 +1035,10 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
+    periodic = None  # a shaker's H1: fitted as a bench's FRFs are
     if record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
-        record = frf.periodic_responses(full, full.forces[0], settings)  # a shaker's: its H1 as a bench's FRFs
+        periodic = frf.periodic_h1(full, full.forces[0], settings)
+        record = periodic.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
     if record.impulse is not None or (full.forces and use_force):
         if record.impulse is not None:  # frequency response functions transformed back: fitted as H1 is
@@ -1163,7 +1165,7 @@ def modal_data(
     labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}
     modes = _measured_modes(machine, record, labelled, frozenset(mixed), guess)
     mixed_labels = frozenset(mixed) & set(modes)
-    return ModalData(modes, rest, warnings, estimate, tuple(notes), mixed_labels, start, end, hits)
+    return ModalData(modes, rest, warnings, estimate or periodic, tuple(notes), mixed_labels, start, end, hits)
 
 
 def _measured_modes(

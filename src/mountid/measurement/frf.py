@@ -14,7 +14,7 @@ unmeasured input enter. The impulse responses are the inverse transform of H1 wh
 they are a free decay from the instant of the hit, whatever the pulse's shape or a second hit.
 
 A shaker's force is continuous (is_continuous): where it repeats (periodic random, a multisine: a controller
-repeats one block), periodic_responses averages its whole periods after the first without a window, exact on the
+repeats one block), periodic_h1 averages its whole periods after the first without a window, exact on the
 lines it excites, and gives the impulse responses as a bench's frequency response functions are read
 (records.impulse_record). A random force that does not repeat is named: its H1 needs a window, whose bias on the
 damping the modal fit would take for the machine's.
@@ -53,12 +53,24 @@ class FrfEstimate:
     """Decay rate [1/s] of the exponential window on the responses (0 without one): H1 is the transform of the
     windowed impulse responses, which impulse_responses() divides out."""
     rate: float
-    """Sampling rate [Hz]."""
+    """Sampling rate [Hz] of the impulse responses: the record's (a periodic excitation's: twice the highest line)."""
+    periods: int = 0
+    """Whole periods H1 averages where the force is a periodic excitation (periodic_h1); 0 for hits."""
+    averaged: str = ""
+    """What H1 averages where it is not hits: "3 periods of 16 s of a periodic excitation on F (...)"."""
 
     def at(self, omega: float) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
         """H1 and coherence of every response channel at the spectral line nearest ``omega`` [rad/s]."""
         k = int(np.argmin(np.abs(self.omega - omega)))
         return self.h1[k], self.coherence[k]
+
+    def as_impulse_record(self) -> Record:
+        """A periodic excitation's H1 (periodic_h1: its lines from 0 to the highest excited) as the impulse
+        responses a bench's frequency response functions are read as (Record.impulse, records.impulse_record), with
+        their coherence where several periods were averaged: what the records chain fits."""
+        spacing = float(self.omega[1]) / (2 * np.pi)
+        named = tuple((c.name, self.coherence[:, j]) for j, c in enumerate(self.responses))
+        return impulse_record(self.h1, spacing, self.responses, named if self.periods > 1 else (), self.averaged)
 
     def impulse_responses(self) -> Record:
         """The impulse responses [response unit per N s] of the responses from the start of the segments
@@ -151,13 +163,13 @@ def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS
     return top > 0 and float(np.mean(f > 0.05 * top)) > settings.continuous_force
 
 
-def periodic_responses(record: Record, force: str, settings: RecordSettings = RECORDS) -> Record:
+def periodic_h1(record: Record, force: str, settings: RecordSettings = RECORDS) -> FrfEstimate:
     """The frequency responses of a periodic excitation on ``force`` (a shaker driven with periodic random or a
-    multisine: its controller repeats one block) as the impulse responses they transform back to (Record.impulse,
-    records.impulse_record), the record in SI units. The period is the first lag at which the force correlates with
-    itself beyond settings.periodic_correlation; the periods before the response repeats (the transient from rest:
-    at least the first, _settled) are left out, every whole period after them transformed without a window (a
-    periodic signal over whole periods has no leakage), and
+    multisine: its controller repeats one block), the record in SI units, on the lines from 0 to the highest the
+    force excites (FrfEstimate.rate twice that line: the impulse responses' rate; as_impulse_record for the fit).
+    The period is the first lag at which the force correlates with itself beyond settings.periodic_correlation; the
+    periods before the response repeats (the transient from rest: at least the first, _settled) are left out, every
+    whole period after them transformed without a window (a periodic signal over whole periods has no leakage), and
 
         H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
 
@@ -206,12 +218,13 @@ def periodic_responses(record: Record, force: str, settings: RecordSettings = RE
     coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
     spacing = record.rate / period
     left = "the first" if settled == 1 else f"the first {settled}"
-    origin = (
+    averaged = (
         f"{len(blocks)} periods of {period / record.rate:.4g} s of a periodic excitation on {force} ({left}, its "
         "transient, left out)"
     )
-    named = tuple((c.name, coherence[:, j]) for j, c in enumerate(responses.channels))
-    return impulse_record(h, spacing, responses.channels, named if len(blocks) > 1 else (), origin)
+    omega = 2 * np.pi * spacing * np.arange(top + 1)
+    rate, count = 2 * top * spacing, len(blocks)
+    return FrfEstimate(omega, h, coherence, responses.channels, force, (), 1 / spacing, 0.0, rate, count, averaged)
 
 
 SETTLED = 1e-4
