@@ -76,6 +76,11 @@ CASES = [
     (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--speed", "100"], "--shaker: a shaker and"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--hit-time", "1"], "--shaker: drives the"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--shaker-period", "0"], "--shaker-period:"),
+    (
+        ["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--duration", "64", "--shaker-burst", "1"],
+        "--shaker-burst: 1:",
+    ),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker-burst", "0.5"], "--shaker-burst: is a shaker's"),
     # several hits of one hammer: in increasing order, each after the pulse before
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "0.5"], "--hit-time: 0.5 s is not after the hit"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "1.002"], "--hit-time: 1.002 s is not after"),

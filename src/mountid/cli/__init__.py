@@ -211,6 +211,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--shaker-rms", type=float, default=200.0, metavar="N", help="the shaker's RMS force [N]")
     p.add_argument(
+        "--shaker-burst",
+        type=float,
+        metavar="SHARE",
+        help="burst random instead: the shaker on for this share of each period (new phases each time), then quiet "
+        "while the response dies out",
+    )
+    p.add_argument(
         "--force-channel",
         metavar="NAME",
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "

@@ -86,9 +86,11 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     notes += [] if args.speed or shakers else _close_hits_note(args.hit_time)
     if shakers and args.duration < 3 * args.shaker_period:
+        block = "periods" if args.shaker_burst is None else "bursts"
+        needs = "the periods after the first and needs two of them" if block == "periods" else "them and needs three"
         notes.append(
-            f"{args.duration:g} s holds fewer than 3 periods of {args.shaker_period:g} s: the records chain averages "
-            "the periods after the first and needs two of them"
+            f"{args.duration:g} s holds fewer than 3 {block} of {args.shaker_period:g} s: the records chain averages "
+            f"{needs}"
         )
     hit_given = args.speed or args.hit_point or args.hit_direction
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
@@ -125,6 +127,8 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
     from mountid.measurement.rig import ANTI_ALIAS, Shaker
 
     if args.shaker is None:
+        if args.shaker_burst is not None:
+            raise InputError("--shaker-burst", "is a shaker's: give its band with --shaker LOW HIGH")
         return []
     if args.speed:
         raise InputError("--shaker", "a shaker and a rotating unbalance (--speed) are two experiments: give one")
@@ -137,7 +141,10 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
         )
     bounded(args.shaker_period, "--shaker-period", args.duration, " s")
     bounded(args.shaker_rms, "--shaker-rms", HIT_PEAK_LIMIT, " N")
-    return [Shaker(hit.point, hit.direction, args.shaker_rms, low, high, args.shaker_period, args.seed)]
+    if args.shaker_burst is not None and not 0 < args.shaker_burst < 1:
+        raise InputError("--shaker-burst", f"{args.shaker_burst:g}: a share of the period between 0 and 1")
+    shaker = Shaker(hit.point, hit.direction, args.shaker_rms, low, high, args.shaker_period, args.seed)
+    return [replace(shaker, burst=args.shaker_burst)]
 
 
 def _hit_times(times: Sequence[float], duration: float) -> None:

@@ -1037,7 +1037,7 @@ def modal_data(
     record = full.select(full.responses)
     periodic = None  # a shaker's H1: fitted as a bench's FRFs are
     if record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
-        periodic = frf.periodic_h1(full, full.forces[0], settings)
+        periodic = frf.continuous_h1(full, full.forces[0], settings)
         record = periodic.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
     if record.impulse is not None or (full.forces and use_force):
@@ -1156,7 +1156,7 @@ def modal_data(
         warnings += _coherence_warnings(lambda w: at(w)[1], labelled, settings, f"{len(estimate.hits)} hits")
     if record.impulse is not None and record.impulse.coherence:
         lines, names = record.impulse, record.names
-        averages = "the periods" if lines.origin else "the bench's averages"
+        averages = f"the {periodic.block}s" if periodic is not None else "the bench's averages"
         warnings += _coherence_warnings(
             lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, averages
         )

@@ -14,14 +14,15 @@ unmeasured input enter. The impulse responses are the inverse transform of H1 wh
 they are a free decay from the instant of the hit, whatever the pulse's shape or a second hit.
 
 A shaker's force is continuous (is_continuous): where it repeats (periodic random, a multisine: a controller
-repeats one block), periodic_h1 averages its whole periods after the first without a window, exact on the
-lines it excites, and gives the impulse responses as a bench's frequency response functions are read
-(records.impulse_record). A random force that does not repeat is named: its H1 needs a window, whose bias on the
-damping the modal fit would take for the machine's.
+repeats one block) or comes in bursts with quiet between (burst random), continuous_h1 averages its whole periods
+after the transient, or its bursts, without a window, exact on the lines it excites, and gives the impulse
+responses as a bench's frequency response functions are read (records.impulse_record). A random force that does
+neither is named: its H1 needs a window, whose bias on the damping the modal fit would take for the machine's.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -54,8 +55,10 @@ class FrfEstimate:
     windowed impulse responses, which impulse_responses() divides out."""
     rate: float
     """Sampling rate [Hz] of the impulse responses: the record's (a periodic excitation's: twice the highest line)."""
-    periods: int = 0
-    """Whole periods H1 averages where the force is a periodic excitation (periodic_h1); 0 for hits."""
+    averages: int = 0
+    """Blocks H1 averages where the force is a shaker's continuous excitation (continuous_h1); 0 for hits."""
+    block: str = ""
+    """What a block is: "period" (a periodic excitation's) or "burst" (burst random's); "" for hits."""
     averaged: str = ""
     """What H1 averages where it is not hits: "3 periods of 16 s of a periodic excitation on F (...)"."""
 
@@ -65,12 +68,12 @@ class FrfEstimate:
         return self.h1[k], self.coherence[k]
 
     def as_impulse_record(self) -> Record:
-        """A periodic excitation's H1 (periodic_h1: its lines from 0 to the highest excited) as the impulse
+        """A shaker's H1 (continuous_h1: its lines from 0 to the highest excited) as the impulse
         responses a bench's frequency response functions are read as (Record.impulse, records.impulse_record), with
-        their coherence where several periods were averaged: what the records chain fits."""
+        their coherence where several blocks were averaged: what the records chain fits."""
         spacing = float(self.omega[1]) / (2 * np.pi)
         named = tuple((c.name, self.coherence[:, j]) for j, c in enumerate(self.responses))
-        return impulse_record(self.h1, spacing, self.responses, named if self.periods > 1 else (), self.averaged)
+        return impulse_record(self.h1, spacing, self.responses, named if self.averages > 1 else (), self.averaged)
 
     def impulse_responses(self) -> Record:
         """The impulse responses [response unit per N s] of the responses from the start of the segments
@@ -163,68 +166,140 @@ def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS
     return top > 0 and float(np.mean(f > 0.05 * top)) > settings.continuous_force
 
 
-def periodic_h1(record: Record, force: str, settings: RecordSettings = RECORDS) -> FrfEstimate:
-    """The frequency responses of a periodic excitation on ``force`` (a shaker driven with periodic random or a
-    multisine: its controller repeats one block), the record in SI units, on the lines from 0 to the highest the
-    force excites (FrfEstimate.rate twice that line: the impulse responses' rate; as_impulse_record for the fit).
-    The period is the first lag at which the force correlates with itself beyond settings.periodic_correlation; the
-    periods before the response repeats (the transient from rest: at least the first, _settled) are left out, every
-    whole period after them transformed without a window (a periodic signal over whole periods has no leakage), and
+def continuous_h1(record: Record, force: str, settings: RecordSettings = RECORDS) -> FrfEstimate:
+    """The frequency responses of a shaker's continuous excitation on ``force``, the record in SI units, on the lines
+    from 0 to the highest the force excites (FrfEstimate.rate twice that line: the impulse responses' rate;
+    as_impulse_record for the fit), averaged over blocks that need no window (_block_h1):
 
-        H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
+    - a periodic excitation (periodic random, a multisine: a controller repeats one block): the period is the first
+      lag at which the force correlates with itself beyond settings.periodic_correlation (_period); the periods
+      before the response repeats (the transient from rest: at least the first, _settled) are left out, every whole
+      period after them averaged (a periodic signal over whole periods has no leakage);
+    - burst random (the force on for part of each block, then quiet while the response dies out): each burst from
+      its start to the next one's (_bursts), the response died out by then (below settings.burst_tail of its level).
 
-    on the lines the force excites (0 on the others below the highest), up to the highest. An InputError naming the
-    force channel where it does not repeat (a random excitation: its H1 needs a window, which biases damping), the
-    record holds fewer than three periods, or the response has not settled in them."""
+    An InputError naming the force channel where it is neither (a random excitation that does not repeat: its H1
+    needs a window, which biases damping), holds too few blocks, or the response has not settled or died out."""
     record = record.in_si()
     f = record.channel(force)
+    responses = record.select(record.responses)
+    if not responses.channels:
+        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     period = _period(f, settings)
-    if period is None:
-        raise InputError(
-            force,
-            f"a continuous excitation that does not repeat within half the record ({len(f) / 2 / record.rate:.4g} s): "
-            "a random one, or a period longer than that; mountid reads hits or a periodic excitation (periodic "
-            "random, a multisine) of three periods or more, whose whole periods need no window (a window biases the "
-            "damping)",
-        )
+    if period is not None:
+        return _periodic(f, responses, force, period, settings)
+    starts = _bursts(f, record.rate, settings)
+    if len(starts) >= 3:
+        return _burst(f, responses, force, starts, settings)
+    raise InputError(
+        force,
+        f"a continuous excitation that neither repeats within half the record ({len(f) / 2 / record.rate:.4g} s) nor "
+        "comes in bursts with quiet between (random, or one sweep); mountid reads hits, a periodic excitation "
+        "(periodic random, a multisine) of three periods or more, or burst random of three bursts or more, which need "
+        "no window (a window biases the damping)",
+    )
+
+
+def _periodic(f: NDArray, responses: Record, force: str, period: int, settings: RecordSettings) -> FrfEstimate:
+    """H1 of a periodic excitation of ``period`` samples (continuous_h1)."""
+    rate = responses.rate
     count = len(f) // period
     if count < 3:
         raise InputError(
             force,
-            f"a periodic excitation of {period / record.rate:.4g} s holds {count} periods: the first (its transient) "
-            "and at least two more are needed",
+            f"a periodic excitation of {period / rate:.4g} s holds {count} periods: the first (its transient) and at "
+            "least two more are needed",
         )
-    responses = record.select(record.responses)
-    if not responses.channels:
-        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     settled = _settled(responses.data, period, count)
     if settled is None:
         raise InputError(
             force,
-            f"the response to a periodic excitation of {period / record.rate:.4g} s has not settled in {count} "
-            "periods (each differs from the last beyond the noise): a lightly damped machine needs a longer record",
+            f"the response to a periodic excitation of {period / rate:.4g} s has not settled in {count} periods "
+            "(each differs from the last beyond the noise): a lightly damped machine needs a longer record",
         )
     blocks = [slice(k * period, (k + 1) * period) for k in range(settled, count)]
+    left = "the first" if settled == 1 else f"the first {settled}"
+    averaged = (
+        f"{len(blocks)} periods of {period / rate:.4g} s of a periodic excitation on {force} ({left}, its transient, "
+        "left out)"
+    )
+    return _block_h1(f, responses, force, blocks, "period", averaged, settings)
+
+
+def _burst(f: NDArray, responses: Record, force: str, starts: list[int], settings: RecordSettings) -> FrfEstimate:
+    """H1 of burst random starting at the samples ``starts`` (continuous_h1): blocks from settings.pretrigger before
+    each burst's start, as long as the shortest spacing, the last burst's where the record holds a block after it."""
+    rate = responses.rate
+    pre = int(round(settings.pretrigger * rate))  # a burst's first samples below the threshold go with it
+    starts = [max(0, a - pre) for a in starts]
+    n = min(b - a for a, b in itertools.pairwise(starts))
+    blocks = [slice(a, a + n) for a in starts if a + n <= len(f)]
+    y = responses.data
+    for k, block in enumerate(blocks):
+        segment = y[block]
+        tail = segment[-max(1, n // 10) :]
+        level = np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(segment**2, axis=0)), 1e-300)
+        if float(np.max(level)) > settings.burst_tail:
+            name = responses.channels[int(np.argmax(level))].name
+            raise InputError(
+                force,
+                f"burst {k + 1} of {len(blocks)}: {name}'s response has not died out before the next burst (its last "
+                f"tenth at {float(np.max(level)):.0%} of its level): leakage a window would hide; a longer quiet time "
+                "after each burst",
+            )
+    averaged = f"{len(blocks)} bursts of {n / rate:.4g} s of burst random on {force}"
+    return _block_h1(f, responses, force, blocks, "burst", averaged, settings)
+
+
+def _block_h1(
+    f: NDArray,
+    responses: Record,
+    force: str,
+    blocks: list[slice],
+    block: str,
+    averaged: str,
+    settings: RecordSettings,
+) -> FrfEstimate:
+    """H1 and coherence over ``blocks`` of the force ``f`` and the responses, each transformed without a window,
+
+        H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
+
+    on the lines the force excites (settings.shaker_floor; 0 on the others below the highest), up to the highest."""
     spec_f = np.array([np.fft.rfft(f[b]) for b in blocks])
     spec_y = np.array([np.fft.rfft(responses.data[b], axis=0) for b in blocks])
     s_ff = np.sum(np.abs(spec_f) ** 2, axis=0)
     s_fy = np.sum(np.conj(spec_f)[:, :, None] * spec_y, axis=0)
     s_yy = np.sum(np.abs(spec_y) ** 2, axis=0)
-    excited = s_ff > settings.force_floor * s_ff.max()
+    excited = s_ff > settings.shaker_floor * s_ff.max()
     top = int(np.flatnonzero(excited)[-1])
     h = np.where(excited[:, None], s_fy / np.where(excited, s_ff, 1.0)[:, None], 0.0)[: top + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
         coherence = np.where(excited[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)[: top + 1]
     coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
-    spacing = record.rate / period
-    left = "the first" if settled == 1 else f"the first {settled}"
-    averaged = (
-        f"{len(blocks)} periods of {period / record.rate:.4g} s of a periodic excitation on {force} ({left}, its "
-        "transient, left out)"
-    )
+    spacing = responses.rate / (blocks[0].stop - blocks[0].start)
     omega = 2 * np.pi * spacing * np.arange(top + 1)
-    rate, count = 2 * top * spacing, len(blocks)
-    return FrfEstimate(omega, h, coherence, responses.channels, force, (), 1 / spacing, 0.0, rate, count, averaged)
+    rate = 2 * top * spacing
+    return FrfEstimate(
+        omega, h, coherence, responses.channels, force, (), 1 / spacing, 0.0, rate, len(blocks), block, averaged
+    )
+
+
+def _bursts(f: NDArray, rate: float, settings: RecordSettings) -> list[int]:
+    """The samples at which bursts of a force start: where it rises above 5 % of its peak (from its median) after
+    staying below for settings.burst_gap [s] or more (the first where it starts after such quiet or at the
+    record's start)."""
+    x = np.abs(f - np.median(f))
+    active = x > 0.05 * float(x.max())
+    gap = max(1, int(round(settings.burst_gap * rate)))
+    starts, quiet = [], gap  # the record's start counts as after quiet
+    for k, on in enumerate(active):
+        if on:
+            if quiet >= gap:
+                starts.append(k)
+            quiet = 0
+        else:
+            quiet += 1
+    return starts
 
 
 SETTLED = 1e-4

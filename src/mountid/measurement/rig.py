@@ -97,7 +97,9 @@ class Hammer:
 class Shaker:
     """A shaker driven with a multisine (a controller's periodic random): the force [N] sum_k a cos(2 pi k t / period
     + phase_k) over the lines k / ``period`` [s] from ``low`` to ``high`` [Hz], of equal amplitude a set for ``rms``
-    [N], the phases uniformly random from ``seed``; at a body point along a direction. It repeats every period."""
+    [N], the phases uniformly random from ``seed``; at a body point along a direction. It repeats every period;
+    with ``burst`` (a share of the period) it is burst random instead: on for that share of each period, then off,
+    with new phases in every period (it never repeats)."""
 
     point: tuple[float, float, float]
     direction: tuple[float, float, float]
@@ -106,10 +108,13 @@ class Shaker:
     high: float = 25.0
     period: float = 16.0
     seed: int = 0
+    burst: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.period > 0 and 0 <= self.low < self.high and self.rms > 0):
             raise InputError("shaker", "needs a period > 0, 0 <= low < high [Hz] and an rms force > 0")
+        if self.burst is not None and not 0 < self.burst < 1:
+            raise InputError("shaker", f"a burst is a share of the period between 0 and 1, got {self.burst}")
         if len(self.lines()) == 0:
             raise InputError("shaker", f"no line k / {self.period:g} s between {self.low:g} and {self.high:g} Hz")
 
@@ -120,14 +125,27 @@ class Shaker:
 
     def force(self, t: NDArray) -> NDArray[np.float64]:
         """Force [N] at times t [s]."""
+        t = np.asarray(t, dtype=float)
         lines = self.lines()
-        phases = np.random.default_rng(self.seed).uniform(0.0, 2 * np.pi, len(lines))
         amplitude = self.rms * math.sqrt(2.0 / len(lines))
-        out = np.zeros_like(np.asarray(t, dtype=float))
+        out = np.zeros_like(t)
+        if self.burst is None:
+            return amplitude * self._multisine(t, lines, np.random.default_rng(self.seed))
+        index = np.floor(t / self.period).astype(int)
+        for k in np.unique(index):  # each period its own phases, on for the burst's share of it
+            at = (index == k) & (t - k * self.period < self.burst * self.period)
+            out[at] = amplitude * self._multisine(t[at], lines, np.random.default_rng([self.seed, int(k)]))
+        return out
+
+    @staticmethod
+    def _multisine(t: NDArray, lines: NDArray, rng: np.random.Generator) -> NDArray[np.float64]:
+        """sum_k cos(2 pi f_k t + phase_k) over ``lines`` [Hz], the phases uniformly random from ``rng``."""
+        phases = rng.uniform(0.0, 2 * np.pi, len(lines))
+        out = np.zeros_like(t)
         for start in range(0, len(lines), 64):  # 64 lines at a time: memory
             part = slice(start, start + 64)
             out += np.cos(2 * np.pi * np.outer(t, lines[part]) + phases[part]).sum(axis=1)
-        return amplitude * out
+        return out
 
 
 @dataclass(frozen=True)

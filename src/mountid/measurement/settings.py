@@ -46,6 +46,15 @@ class RecordSettings:
     periodic_correlation: float = 0.95
     """A continuous force is periodic (a shaker's periodic random or multisine, as its controller repeats one block)
     where one period of it correlates with the next beyond this (the correlation coefficient)."""
+    burst_gap: float = 0.2
+    """[s] A shaker's force below 5 % of its peak for this long or longer ends a burst (burst random)."""
+    burst_tail: float = 0.05
+    """Burst random's response must die out before the next burst: its last tenth below this share of its level
+    (RMS) on every channel, else the block leaks."""
+    shaker_floor: float = 1e-2
+    """Lines where a shaker's force spectrum (continuous_h1) is below this share of its largest are not excited:
+    burst random's on and off leak force beyond its band at -30 dB and less, where H1 would divide noise by noise
+    (a multisine's lines outside its band carry none at all)."""
     force_floor: float = 1e-6
     """Spectral lines where the hits' force spectrum is below this share of its largest carry no H1 (0): above
     the pulse's bandwidth the division only amplifies noise."""

@@ -134,12 +134,12 @@ def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], pat
         mag.text(w, mag.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
     hits = len(estimate.hits)
     window = f", exponential window {estimate.window_decay:.3g} 1/s" if estimate.window_decay else ""
-    source = f"{counted(estimate.periods, 'period')}" if estimate.periods else f"{counted(hits, 'hit')}"
+    source = counted(estimate.averages, estimate.block) if estimate.averages else counted(hits, "hit")
     mag.set_title(f"H1 from {source} on {estimate.force}{window}; dashed: picked poles")
     mag.set_ylabel(f"|H1| [{', '.join(units)} per N]")
     mag.legend(fontsize=7, ncol=2, loc="upper right")
     coh.set_ylim(0, 1.05)
-    one = " (one period: 1)" if estimate.periods == 1 else " (one hit: 1)" if hits == 1 and not estimate.periods else ""
+    one = f" (one {estimate.block or 'hit'}: 1)" if (estimate.averages or hits) == 1 else ""
     coh.set_ylabel("coherence" + one)
     coh.set_xlabel("omega [rad/s]")
     hz = mag.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
@@ -323,7 +323,7 @@ def experiment_figures(
     if isinstance(record, ModeTable):
         return [shapes([c.point for c in record.channels])]
     si = record.in_si()
-    if result.frf is not None and result.frf.periods:  # a shaker's: the impulse responses of its H1, as fitted
+    if result.frf is not None and result.frf.averages:  # a shaker's: the impulse responses of its H1, as fitted
         si = result.frf.as_impulse_record()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
