@@ -340,6 +340,14 @@ def test_a_shaker_test_gives_the_rigs_poles_and_the_papers_stiffnesses(tmp_path,
     assert set(found.modes) == {"x", "phi", "z", "psi"}
     assert any("H1 of 3 periods of 16 s of a periodic excitation on F" in note for note in found.notes)
     assert not [w for w in found.warnings if w.kind in ("double_hit", "impact_in_segment")]
+    from mountid.measurement.records import Channel
+
+    second = Channel("G", quantity="force", unit="N")  # a second shaker's force: not divided out, said
+    two = replace(record, data=np.column_stack([record.data, record.data[:, -1]]), channels=(*record.channels, second))
+    assert (
+        "1 force channel not used (G): the H1 frequency responses are of one input, F"
+        in modal_data(_rig().machine, two, {}).notes
+    )
     write_csv(record, tmp_path / "shaker.csv")
     assert main(["identify-record", "kid300", str(tmp_path / "shaker.csv"), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

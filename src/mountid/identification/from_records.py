@@ -1040,6 +1040,12 @@ def modal_data(
         periodic = frf.continuous_h1(full, full.forces[0], settings)
         record = periodic.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
+    if len(full.forces) > 1 and use_force and (periodic is not None or record.impulse is None):
+        # one input: the others' hits (a roving hammer: its runs) or a second shaker's force are not divided out
+        notes.append(
+            f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "
+            f"frequency responses are of one input, {full.forces[0]}"
+        )
     if record.impulse is not None or (full.forces and use_force):
         if record.impulse is not None:  # frequency response functions transformed back: fitted as H1 is
             if start is not None:
@@ -1064,11 +1070,6 @@ def modal_data(
                     f"the start given ({start:g} s) places the record's checks only: the modes come from the H1 "
                     f"frequency responses on {full.forces[0]} (without the force channel, --free-decay: the free "
                     "decay from there)"
-                )
-            if len(full.forces) > 1:  # one input: the others' hits are not divided out (a roving hammer: its runs)
-                notes.append(
-                    f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the "
-                    f"H1 frequency responses are of one input, {full.forces[0]}"
                 )
             estimate = frf.h1(full, full.forces[0], settings)
             fitted = estimate.impulse_responses()
