@@ -142,6 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
         ):
             p.add_argument(option, nargs="+", action="extend", metavar=metavar, help=help_)
         p.add_argument(
+            "--channels",
+            metavar="FILE",
+            help="a channel table (CSV: name, x, y, z [m], direction as +x or 'dx dy dz', sensitivity): where each "
+            "channel sits and its sensor's sensitivity, for the channels the record holds",
+        )
+        p.add_argument(
             "--run",
             type=int,
             metavar="K",

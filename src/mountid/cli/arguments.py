@@ -253,12 +253,14 @@ def read_runs(args: argparse.Namespace) -> list[tuple[str, Record | ModeTable]]:
     """The records of the file args.record, each with its name in notes (records.named_runs; --rate, --ignore and
     --run as records.read_record takes them, --exponential-window as records.without_window): the run --run gives
     ("PATH run K"), else every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record
-    (PATH); a table of modes where the file holds a bench's mode shapes. --channel places channels, --sensitivity
-    converts channels of a raw voltage."""
+    (PATH); a table of modes where the file holds a bench's mode shapes. --channels applies a channel table
+    (measurement.channel_table), --channel places channels, --sensitivity converts channels of a raw voltage."""
+    from mountid.measurement.channel_table import applied, read_channel_table
     from mountid.measurement.records import named_runs, with_geometry, with_sensitivities
 
     if args.rate is not None:
         finite_number(args.rate, "--rate")
+    table = None if args.channels is None else read_channel_table(args.channels)
     geometry = placements(args.channel, "--channel")
     scales = sensitivities(args.sensitivity, "--sensitivity")
     try:
@@ -269,9 +271,13 @@ def read_runs(args: argparse.Namespace) -> list[tuple[str, Record | ModeTable]]:
         if err.parameter not in ("ignore", "run"):
             raise
         raise InputError(f"--{err.parameter}", err.reason) from None
-    if geometry:
+    if scales:  # before the table: a channel --sensitivity converts is no longer in volts for the table's
+        records = [(name, with_sensitivities(r, scales, "--sensitivity")) for name, r in records]
+    if table is not None:
+        records = [(name, applied(r, table, "--channels")) for name, r in records]
+    if geometry:  # after the table: --channel replaces its rows
         records = [(name, with_geometry(r, geometry, "--channel")) for name, r in records]
-    return [(name, with_sensitivities(r, scales, "--sensitivity") if scales else r) for name, r in records]
+    return records
 
 
 def sensitivities(items: Sequence[str] | None, option: str) -> dict[str, Sensitivity]:

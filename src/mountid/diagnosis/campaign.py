@@ -12,7 +12,8 @@ violation is reported as one line naming the entry). Example (the paper's four f
 
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
-and directions (a plain CSV states none), the ``sensitivity`` of channels recorded in volts ("100mV/g"), the
+and directions (a plain CSV states none; or a ``channel_table``, measurement.channel_table), the ``sensitivity`` of
+channels recorded in volts ("100mV/g"), the
 channels to ``ignore`` (a tachometer, a microphone) and the ``run`` of a UFF file of several (without one, each run
 is a record of its own). Each is read (CSV with mountid channel metadata, UFF with its geometry, TDMS or LVM) and run
 through the records chain (identification.from_records.modal_data):
@@ -118,6 +119,8 @@ class RecordSource:
     None: none)."""
     sensitivity: tuple[tuple[str, str], ...] = ()
     """(name, sensitivity as written: "100mV/g") of channels the file holds in volts (records.with_sensitivities)."""
+    channel_table: Path | None = None
+    """A channel table (measurement.channel_table) placing the file's channels, with their sensitivities."""
 
     @property
     def name(self) -> str:
@@ -787,8 +790,19 @@ def _source(entry: str | dict, base: Path | None) -> RecordSource:
     ignore, run = tuple(entry.get("ignore", ())), entry.get("run")
     window = entry.get("exponential_window")
     scales = tuple(entry.get("sensitivity", {}).items())
+    table = entry.get("channel_table")
+    if table is not None and base is not None and not Path(table).is_absolute():
+        table = base / table
     return RecordSource(
-        path, None if start is None else float(start), entry.get("rate"), channels, ignore, run, window, scales
+        path,
+        None if start is None else float(start),
+        entry.get("rate"),
+        channels,
+        ignore,
+        run,
+        window,
+        scales,
+        None if table is None else Path(table),
     )
 
 
@@ -842,6 +856,8 @@ def _modes_from_records(
         if source.sensitivity:
             given = ", ".join(f"{name} {text.strip()}" for name, text in source.sensitivity)
             notes.append(f"{run}: converted from volts by the campaign's sensitivities: {given}")
+        if source.channel_table is not None:
+            notes.append(f"{run}: channels placed, and converted from volts, by the table {source.channel_table.name}")
         notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
         for name, data in segments:
@@ -880,18 +896,22 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
     """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
     the run it gives), or where it gives none, every run of a UFF or TDMS file of several ("NAME run K"). An InputError
     names the entry (``where``.``i``)."""
+    from mountid.measurement.channel_table import applied, read_channel_table
     from mountid.measurement.records import named_runs, sensitivity, with_geometry, with_sensitivities
 
     try:
         scales = {name: sensitivity(text, f"sensitivity.{name}") for name, text in source.sensitivity}
+        table = None if source.channel_table is None else read_channel_table(source.channel_table)
         records = named_runs(
             source.path, source.path.name, source.rate, source.ignore, source.run, source.exponential_window
         )
-        if source.channels:
+        if scales:  # before the table, whose sensitivities convert the channels still in volts
+            records = [(name, with_sensitivities(record, scales, "sensitivity")) for name, record in records]
+        if table is not None:
+            records = [(name, applied(record, table, "channel_table")) for name, record in records]
+        if source.channels:  # after the table: an entry's channels replace its rows
             geometry = {name: (point, direction) for name, point, direction in source.channels}
             records = [(name, with_geometry(record, geometry, "channels")) for name, record in records]
-        if scales:
-            records = [(name, with_sensitivities(record, scales, "sensitivity")) for name, record in records]
     except InputError as err:
         raise _named(err, source, where, i) from None
     return records
