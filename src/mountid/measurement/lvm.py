@@ -118,13 +118,11 @@ def _record(segment: dict, path: Path, ignore: Collection[str], rate: float | No
     kept = [(k, name) for k, name in enumerate(names) if name not in ignore]
     if not kept:
         raise InputError("ignore", f"leaves no channel of {path.name}")
-    for key in ("X_Dimension",):
-        for k, name in kept:
-            value = _value(segment, key, k)
-            if value and value != "Time":
-                raise InputError(name, f"its x axis is {value}: a record is time responses, over time")
     channels = []
     for k, name in kept:
+        axis = _value(segment, "X_Dimension", k)
+        if axis and axis != "Time":
+            raise InputError(name, f"its x axis is {axis}: a record is time responses, over time")
         if name not in columns:
             raise InputError(name, f"no column in {path.name}'s table{unread(name)}")
         values = columns[name]
