@@ -9,12 +9,12 @@ any case and order:
     A_x,0.45,0,0.1,+x,100mV/g
     B_y,0.45,0,0.312,0 1 0,98.7mV/g
 
-``name`` (or ``channel``) the channel's name in the records; ``x``, ``y``, ``z`` the point [m] (a header unit, "x
-[mm]", in mm or m); the direction either in one column ``direction`` (a signed axis, "+x", "-y", or three numbers
-separated by spaces) or three ``dx``, ``dy``, ``dz``; ``sensitivity`` optional (records.sensitivity: a channel the
-record holds in volts is converted by it; empty for a channel recorded in its unit). A row whose point and direction
-are empty gives its channel's sensitivity only (a hammer's force, at another point each hit). Every error names the
-file, the line and the column.
+``name`` (or ``channel``, ``channel name``, ``sensor``, ``label``) the channel's name in the records; ``x``,
+``y``, ``z`` the point [m] (a header unit, "x [mm]", in mm or m); the direction either in one column
+``direction`` (a signed axis, "+x", "-y", or three numbers separated by spaces) or three ``dx``, ``dy``, ``dz``;
+``sensitivity`` optional (records.sensitivity: a channel the record holds in volts is converted by it; empty for a
+channel recorded in its unit). A row whose point and direction are empty gives its channel's sensitivity only (a
+hammer's force, at another point each hit). Every error names the file, the line and the column.
 """
 
 from __future__ import annotations
@@ -35,6 +35,9 @@ from mountid.measurement.records import (
     with_sensitivities,
 )
 from mountid.nomenclature import axis_direction
+
+NAME_COLUMNS = ("name", "channel", "channel name", "channel_name", "sensor", "label")
+"""What the column of the channels' names may be called (in any case)."""
 
 LENGTH_UNITS = {"": 1.0, "m": 1.0, "mm": 1e-3}
 """Units the point's columns may state in their header ("x [mm]"), and their factors to m."""
@@ -68,7 +71,7 @@ def read_channel_table(path: str | Path) -> ChannelTable:
     columns = {_name(cell): k for k, cell in enumerate(header)}
     scales = {_name(cell): LENGTH_UNITS.get(_unit(cell), math.nan) for cell in header}
     where = f"{path.name}:{number}"
-    name_column = columns.get("name", columns.get("channel"))
+    name_column = next((columns[n] for n in NAME_COLUMNS if n in columns), None)
     missing = [c for c in ("x", "y", "z") if c not in columns]
     if name_column is None or missing:
         raise InputError(where, f"the header needs the columns name, x, y, z and a direction: it names {header}")
