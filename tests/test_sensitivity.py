@@ -11,12 +11,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mountid.cli import main
 from mountid.diagnosis import campaign
 from mountid.effects import STANDARD_GRAVITY
 from mountid.errors import InputError
 from mountid.measurement.records import (
+    UNITS,
+    VOLTAGE,
     Record,
     Sensitivity,
     read_record,
@@ -212,3 +216,19 @@ def test_a_campaign_converts_its_records_by_sensitivity(hit, tmp_path):
     data["records"] = [{"file": "raw.csv", "sensitivity": {**scales, "A_x": "100mV"}}]
     with pytest.raises(InputError, match=r"^records\.0 \(raw\.csv\): sensitivity\.A_x: '100mV' is no sensitivity"):
         campaign.parse(data, tmp_path)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    value=st.floats(min_value=1e-3, max_value=1e4, allow_nan=False),
+    volts=st.sampled_from(["V", "mV", "uV"]),
+    unit=st.sampled_from([u for units in UNITS.values() for u in units]),
+)
+def test_a_sensitivity_written_reads_back(value, volts, unit):
+    """Any sensitivity as a data sheet writes it reads as its value in V per unit, and written back (str) reads as
+    the same to 12 digits; a unit with a slash of its own in parentheses."""
+    text = f"{value!r} {volts}/{unit if '/' not in unit else f'({unit})'}"
+    read = sensitivity(text, "s")
+    assert read.volts == pytest.approx(value * VOLTAGE[volts], rel=1e-15) and read.unit == unit
+    again = sensitivity(str(read), "s")
+    assert again.volts == pytest.approx(read.volts, rel=1e-11) and (again.quantity, again.unit) == (read.quantity, unit)

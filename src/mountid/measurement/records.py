@@ -990,7 +990,8 @@ class Sensitivity:
     unit: str
 
     def __str__(self) -> str:
-        return f"{self.volts * 1e3:g}mV/{self.unit if '/' not in self.unit else f'({self.unit})'}"
+        """As a data sheet writes it, in mV per unit to 12 digits (records.sensitivity reads it back)."""
+        return f"{self.volts * 1e3:.12g}mV/{self.unit if '/' not in self.unit else f'({self.unit})'}"
 
 
 def sensitivity(text: str, where: str) -> Sensitivity:
