@@ -431,3 +431,18 @@ def test_burst_random_is_averaged_burst_by_burst():
     assert set(found.modes) == {"x", "phi", "z", "psi"}
     with pytest.raises(InputError, match=r"^F: burst 1 of \d+: \w+'s response has not died out before the next"):
         frf.continuous_h1(simulated(0.9, 0.0), "F")
+
+
+def test_a_clipped_response_of_a_shaker_test_is_named():
+    """A shaker test's response channel held at its sensor's range (clipped at 60 % of its peak): a clipping warning
+    naming it, as for a hammer test (a shaker's record had no response checks)."""
+    from mountid.measurement.rig import Shaker
+
+    clean = _shaker_record(noise=0.01)
+    top = float(np.max(np.abs(clean.channel("A_x"))))
+    sensors = [replace(s, clip=0.6 * top) if s.name == "A_x" else s for s in paper_sensors(0.01)]
+    shaker = Shaker(*SHAKER, high=40.0, period=16.0)
+    record = _rig().simulate(sensors, 64.0, 200.0, shakers=[shaker], seed=1, force_channel="F")
+    warned = [w for w in modal_data(_rig().machine, record, {}).warnings if w.kind == "clipping"]
+    assert [w.channel for w in warned] == ["A_x"], warned
+    assert not [w for w in modal_data(_rig().machine, clean, {}).warnings if w.kind == "clipping"]

@@ -1098,13 +1098,14 @@ def modal_data(
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    warnings = (
-        []  # no record of the test: its checks (clipping, noise, the hit) were the bench's
-        if record.impulse is not None
-        else modal.hammer_test_quality(
+    if periodic is not None:  # a shaker's record: its responses' clipping (no hit to check)
+        warnings = modal.clipping(full.select(full.responses), None, top, settings)
+    elif record.impulse is not None:  # no record of the test: its checks (clipping, noise, the hit) were the bench's
+        warnings = []
+    else:
+        warnings = modal.hammer_test_quality(
             record, lowest, start, highest_frequency=top, settings=settings, impacts=estimate is None
         )
-    )
     segment = None if estimate is not None else start
     warnings += [w for name in full.forces for w in modal.force_quality(full, name, segment, settings)]
     warnings += modal.same_place(record)

@@ -726,6 +726,22 @@ def _too_slow_for_bursts(record: Record, highest_frequency: float | None, settin
     return highest_frequency is not None and record.rate < settings.low_rate_factor * highest_frequency / (2 * np.pi)
 
 
+def clipping(
+    record: Record,
+    clipped: dict[str, float] | None = None,
+    highest_frequency: float | None = None,
+    settings: RecordSettings = RECORDS,
+) -> list[QualityWarning]:
+    """A clipping warning for each channel of ``record`` held at its extreme (``clipped``: _clipped's, found here
+    where not given; judged at clip_step's samples for ``highest_frequency`` [rad/s])."""
+    clipped = _clipped(record, highest_frequency, settings) if clipped is None else clipped
+    units = {c.name: c.unit for c in record.channels}
+    return [
+        QualityWarning("clipping", name, f"held at {level:.4g} {units[name]} on several samples: clipped")
+        for name, level in clipped.items()
+    ]
+
+
 def _clipped(record: Record, highest_frequency: float | None, settings: RecordSettings) -> dict[str, float]:
     """The clipped channels of ``record`` and their levels (clipped_level, judged at clip_step's samples for
     ``highest_frequency`` [rad/s])."""
@@ -944,11 +960,7 @@ def hammer_test_quality(
     ``impacts`` False leaves out the checks that seek impacts in the responses (double_hit, impact_in_segment):
     a force channel shows the hits themselves (force_quality)."""
     clipped = _clipped(record, highest_frequency, settings)
-    units = {c.name: c.unit for c in record.channels}
-    out = [
-        QualityWarning("clipping", name, f"held at {level:.4g} {units[name]} on several samples: clipped")
-        for name, level in clipped.items()
-    ]
+    out = clipping(record, clipped)
     if _too_slow_for_bursts(record, highest_frequency, settings):
         out.append(
             QualityWarning(
