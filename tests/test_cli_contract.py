@@ -61,7 +61,7 @@ CASES = [
     (["process", "kid300", "{d}/tacho.csv", "--sensitivity", "A_x=100mV/g"], "--sensitivity: A_x: is recorded in g"),
     (["process", "kid300", "{d}/tacho.csv", "--sensitivity", "Tacho=-1mV/g"], "--sensitivity Tacho: '-1mV/g': must"),
     (["process", "kid300", "{d}/tacho.csv", "--ignore", "Rpm"], "--ignore: Rpm: no such column in tacho.csv (columns"),
-    (["process", "kid300", "{d}/tacho.csv", "--ignore", "Tacho", "--run", "2"], "--run: 2: tacho.csv is a CSV, which"),
+    (["process", "kid300", "{d}/tacho.csv", "--ignore", "Tacho", "--run", "2"], "--run: 2: tacho.csv is a CSV of one"),
     (["simulate", "kid300", "--out", "{d}/missing/x.csv"], "--out:"),
     (["simulate", "kid300", "--out", "{d}/x.wav"], "--out:"),  # a record the name would misdescribe
     # no sample, or fewer than a record holds: named as the option, before the machine is built

@@ -474,7 +474,7 @@ def test_a_uff_file_of_several_runs_is_read_one_run_at_a_time(tmp_path):
     write_csv(rec, tmp_path / "r.csv")
     assert read_record(tmp_path / "r.csv", run=1).names == rec.names
     assert [r.names for r in read_runs(tmp_path / "r.csv")] == [rec.names]
-    with pytest.raises(InputError, match=r"^run: 2: r.csv is a CSV, which holds one run"):
+    with pytest.raises(InputError, match=r"^run: 2: r.csv is a CSV of one table, which holds one run"):
         read_record(tmp_path / "r.csv", run=2)
 
 
@@ -1057,3 +1057,31 @@ def test_a_header_unit_as_ni_names_it_is_a_unit_in_parentheses_too(tmp_path):
         (tmp_path / "n.csv").write_text(f"Time,F {left}Newtons{right},Tacho {left}Volts{right}\n{rows}\n")
         got = read_csv(tmp_path / "n.csv")
         assert [(c.name, c.quantity, c.unit) for c in got.channels] == [("F", "force", "N"), ("Tacho", "voltage", "V")]
+
+
+def test_a_csv_of_appended_tables_holds_a_run_per_table(tmp_path, capsys):
+    """An acquisition that appends each trigger's table under its own header line: a run per table (the header's
+    recurrence was "a time mountid does not read ... give the sampling rate and leave the column out"), read one
+    at a time or every one, and combined per mode by process as a UFF file's runs are."""
+    from mountid.cli import main
+    from mountid.measurement.records import read_record, read_runs
+    from mountid.measurement.rig import Rig
+    from mountid.validation.paper import paper_hit, paper_sensors
+
+    rig = Rig.of("kid300")
+    hits = [rig.simulate(paper_sensors(), 4.0, 500.0, hammers=[paper_hit()], seed=seed) for seed in (1, 2)]
+    for k, hit in enumerate(hits):
+        write_csv(hit, tmp_path / f"hit{k}.csv")
+    text = "".join((tmp_path / f"hit{k}.csv").read_text(encoding="utf-8") for k in range(2))
+    (tmp_path / "appended.csv").write_text(text, encoding="utf-8")
+    runs = read_runs(tmp_path / "appended.csv")
+    assert len(runs) == 2
+    for got, hit in zip(runs, hits, strict=True):
+        assert got.channels == hit.channels
+        np.testing.assert_array_equal(got.data, hit.data)
+    with pytest.raises(InputError, match=r"^run: appended.csv holds 2 runs \(tables under a header line each"):
+        read_record(tmp_path / "appended.csv")
+    np.testing.assert_array_equal(read_record(tmp_path / "appended.csv", run=2).data, hits[1].data)
+    assert main(["process", "kid300", str(tmp_path / "appended.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "4 modes from " in out and "appended.csv (2 runs)" in out

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
 import re
@@ -486,12 +487,42 @@ def write_csv(record: Record, path: str | Path) -> None:
     Path(path).write_text("\n".join(lines) + "\n" + body + "\n", encoding="utf-8")
 
 
-def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> Record:
+def read_csv(
+    path: str | Path, rate: float | None = None, ignore: Collection[str] = (), run: int | None = None
+) -> Record:
     """Read a record written by :func:`write_csv`, or a plain CSV with a header row whose first column is
     the time [s] (channels then have unknown points and directions). ``rate`` [Hz]: the sampling rate, which
     replaces the time column's steps (see uniform_time for what is accepted without it); a file without a time
     column takes the rate its preamble states (_stated_rate) where none is given. ``ignore``: names of
-    columns left unread (a bench's tachometer, microphone or spare channel: any unit, any text in its cells)."""
+    columns left unread (a bench's tachometer, microphone or spare channel: any unit, any text in its cells).
+    A file whose header line recurs (an acquisition that appends each trigger's table with its header) holds a run
+    per table, read one ``run`` at a time (1, 2, ...; read_csv_runs reads each)."""
+    path, table = _csv_tables(path, ignore)
+    if len(table.runs) == 1 and run not in (None, 1):
+        raise InputError("run", f"{run}: {path.name} is a CSV of one table, which holds one run")
+    held = f"{path.name} holds {len(table.runs)} runs (tables under a header line each"
+    return _csv_run(path, table, chosen_run(table.runs, run, held, "one after another", "read_csv_runs"), rate, ignore)
+
+
+def read_csv_runs(path: str | Path, rate: float | None = None, ignore: Collection[str] = ()) -> list[Record]:
+    """Every run of a CSV (read_csv: a table under each recurrence of its header line), each a record."""
+    path, table = _csv_tables(path, ignore)
+    return each_run(table.runs, lambda chunk: _csv_run(path, table, chunk, rate, ignore))
+
+
+@dataclass(frozen=True)
+class _CsvTables:
+    """A CSV's lines parted (_csv_tables): its channel metadata, its preamble (the lines before the header), the
+    header line as written, and each run's header line number and lines (the header recurring parts runs)."""
+
+    meta: dict[str, Channel]
+    preamble: list[tuple[int, str]]
+    head: str
+    runs: list[tuple[int, list[tuple[int, str]]]]
+
+
+def _csv_tables(path: str | Path, ignore: Collection[str]) -> tuple[Path, _CsvTables]:
+    """The CSV at ``path`` read into its parts (_CsvTables)."""
     path = existing_file(path, "record")
     meta: dict[str, Channel] = {}
     try:
@@ -510,11 +541,26 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
     first = _header_index(lines, ignore)
     if not lines:
         raise InputError("record", f"{path.name} holds no table")
-    header_line, head = lines[first]
+    head = lines[first][1]
+    repeats = [k for k in range(first + 1, len(lines)) if lines[k][1].strip() == head.strip()]
+    bounds = [first, *repeats, len(lines)]
+    runs = [(lines[a][0], lines[a + 1 : b]) for a, b in itertools.pairwise(bounds)]
+    return path, _CsvTables(meta, lines[:first], head, runs)
+
+
+def _csv_run(
+    path: Path,
+    tables: _CsvTables,
+    run: tuple[int, list[tuple[int, str]]],
+    rate: float | None,
+    ignore: Collection[str],
+) -> Record:
+    """One run of a CSV (_csv_tables) as a record: its header line number and lines under the file's header."""
+    meta, head = tables.meta, tables.head
+    header_line, body = run
     separator = _separator(head)
     header = [h.strip() for h in _cells(head, separator)]
     keep = _kept_columns(header, ignore, path.name)
-    body = lines[first + 1 :]
     units = _cells(body[0][1], separator) if body and body[0][0] == header_line + 1 else []
     if _units_row(units, header, keep):
         header = [_with_unit(title, unit.strip()) for title, unit in zip(header, units, strict=True)]
@@ -555,7 +601,7 @@ def read_csv(path: str | Path, rate: float | None = None, ignore: Collection[str
             "time responses (a bench's frequency response functions read as a UFF file of datasets 58, function "
             "type 4)",
         )
-    stated = _stated_rate(lines[:first]) if rate is None and (counted or not timed) and stamps is None else None
+    stated = _stated_rate(tables.preamble) if rate is None and (counted or not timed) and stamps is None else None
     if stated is not None:  # a file without a time column whose preamble states its rate ("Sample rate;2048;Hz")
         rate = stated
     if counted and stamps is None:  # a sample index: the time at the rate given
@@ -1079,7 +1125,7 @@ def read_record(
     """Read a record file: UFF (.uff, .unv: types 58 and 2411, mountid.measurement.uff; a table of modes from one of
     mode shapes, datasets 55: mountid.measurement.uff_modes), TDMS (.tdms, mountid.measurement.tdms), LVM (.lvm,
     mountid.measurement.lvm) or CSV (read_csv); ``rate`` [Hz] and ``ignore`` (channels left unread) as in read_csv,
-    ``run`` as in read_uff, read_tdms and read_lvm (a CSV holds one)."""
+    ``run`` as in read_uff, read_tdms, read_lvm and read_csv (a CSV's tables under a recurring header)."""
     kind = str(path).lower()
     _not_another_format(path)
     if kind.endswith((".uff", ".unv")):
@@ -1095,9 +1141,7 @@ def read_record(
         from mountid.measurement.lvm import read_lvm  # lvm_read is an extra: imported only for LVM files
 
         return read_lvm(path, ignore, rate, run)
-    if run not in (None, 1):
-        raise InputError("run", f"{run}: {Path(path).name} is a CSV, which holds one run")
-    return read_csv(path, rate, ignore)
+    return read_csv(path, rate, ignore, run)
 
 
 def chosen_run(runs: Sequence[Run], run: int | None, held: str, parted: str, reader: str) -> Run:
@@ -1131,8 +1175,8 @@ def read_runs(
 ) -> list[Record] | list[ModeTable]:
     """Every run a record file holds, each a record as read_record reads it: a UFF file's runs (the hits of a test
     exported one after another, a dataset per channel each: uff.read_uff_runs), a TDMS file's (groups of the same
-    channels: tdms.read_tdms_runs), an LVM file's (segments of the same channels: lvm.read_lvm_runs), else the file's
-    one record."""
+    channels: tdms.read_tdms_runs), an LVM file's (segments of the same channels: lvm.read_lvm_runs), a CSV's (its
+    tables under a recurring header line: read_csv_runs)."""
     kind = str(path).lower()
     if kind.endswith((".uff", ".unv")):
         from mountid.measurement.uff import read_uff_runs  # pyuff is an extra: imported only for UFF files
@@ -1146,7 +1190,8 @@ def read_runs(
         from mountid.measurement.lvm import read_lvm_runs
 
         return read_lvm_runs(path, ignore, rate)
-    return [read_record(path, rate, ignore)]
+    _not_another_format(path)
+    return read_csv_runs(path, rate, ignore)
 
 
 def named_runs(
