@@ -431,6 +431,10 @@ def test_burst_random_is_averaged_burst_by_burst():
     assert set(found.modes) == {"x", "phi", "z", "psi"}
     with pytest.raises(InputError, match=r"^F: burst 1 of \d+: \w+'s response has not died out before the next"):
         frf.continuous_h1(simulated(0.9, 0.0), "F")
+    shaker = Shaker(*SHAKER, high=40.0, period=16.0, burst=0.5)
+    short = rig.simulate(paper_sensors(0.0), 32.0, 200.0, shakers=[shaker], seed=1, force_channel="F")
+    with pytest.raises(InputError, match=r"^F: burst random of 2 bursts: three or more are needed"):
+        frf.continuous_h1(short, "F")
 
 
 def test_a_clipped_response_of_a_shaker_test_is_named():

@@ -191,6 +191,8 @@ def continuous_h1(record: Record, force: str, settings: RecordSettings = RECORDS
     starts = _bursts(f, record.rate, settings)
     if len(starts) >= 3:
         return _burst(f, responses, force, starts, settings)
+    if len(starts) == 2:
+        raise InputError(force, "burst random of 2 bursts: three or more are needed (the last may be cut short)")
     raise InputError(
         force,
         f"a continuous excitation that neither repeats within half the record ({len(f) / 2 / record.rate:.4g} s) nor "
