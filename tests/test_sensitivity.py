@@ -74,6 +74,7 @@ def test_a_sensitivity_is_read_as_a_data_sheet_writes_it():
         pytest.approx(0.0102, rel=1e-15), "acceleration", "m/s^2"
     )
     assert sensitivity("2.25mV/N", "s") == Sensitivity(pytest.approx(2.25e-3, rel=1e-15), "force", "N")
+    assert sensitivity("2,25 mV/N", "s") == sensitivity("2.25mV/N", "s")  # a European sheet's decimal comma
     assert sensitivity("1V/(in/s)", "s") == Sensitivity(1.0, "velocity", "in/s")
     assert sensitivity("50uV/um", "s") == Sensitivity(pytest.approx(5e-5, rel=1e-15), "displacement", "um")
     for text, said in (

@@ -1041,17 +1041,20 @@ class Sensitivity:
 
 
 def sensitivity(text: str, where: str) -> Sensitivity:
-    """A sensitivity as a data sheet writes it: a number, a voltage unit (VOLTAGE), a slash and the unit measured
-    (UNITS; in parentheses where it holds a slash of its own): 100mV/g, 10.2 mV/(m/s^2), 2.25mV/N. An InputError
-    naming ``where`` for text that is none, or a value that is no finite number > 0."""
+    """A sensitivity as a data sheet writes it: a number (a decimal comma too), a voltage unit (VOLTAGE), a slash and
+    the unit measured (UNITS; in parentheses where it holds a slash of its own): 100mV/g, 10.2 mV/(m/s^2), 2,25
+    mV/N. An InputError naming ``where`` for text that is none, or a value that is no finite number > 0."""
     form = "a number, a voltage unit and the unit measured, as 100mV/g, 10.2mV/(m/s^2) or 2.25mV/N"
     left, slash, right = text.strip().partition("/")
     volts = next((v for v in sorted(VOLTAGE, key=len, reverse=True) if left.strip().endswith(v)), None)
     unit = right.strip().removeprefix("(").removesuffix(")").strip()
     if not slash or volts is None:
         raise InputError(where, f"{text!r} is no sensitivity: {form}")
+    number = left.strip().removesuffix(volts).strip()
+    if number.count(",") == 1 and "." not in number:  # a decimal comma, as a European setup sheet writes it
+        number = number.replace(",", ".")
     try:
-        value = float(left.strip().removesuffix(volts))
+        value = float(number)
     except ValueError:
         raise InputError(where, f"{text!r}: no number before {volts} ({form})") from None
     quantity = next((q for q, units in UNITS.items() if unit in units), None)
