@@ -129,3 +129,22 @@ def test_a_table_of_other_channels_is_named(hit, tmp_path, capsys):
     assert "--channels: names none of the record's channels (A_x, A_y" in err and len(err.strip().splitlines()) == 1
     (tmp_path / "more.csv").write_text(_table(hit) + "Q1,0,0,0,+x,100mV/g\n", encoding="utf-8")
     assert main(["process", "kid300", str(tmp_path / "raw.csv"), "--channels", str(tmp_path / "more.csv")]) == 0
+
+
+def test_given_one_by_one_replaces_the_tables_rows(hit, tmp_path):
+    """set_up: a sensitivity given one by one converts its channel before the table (whose row for it is then not
+    applied), a placement given one by one replaces the table's row."""
+    from mountid.measurement.channel_table import set_up
+    from mountid.measurement.records import read_record, sensitivity
+
+    _bench_export(hit, tmp_path / "raw.csv")
+    (tmp_path / "channels.csv").write_text(_table(hit), encoding="utf-8")
+    table = read_channel_table(tmp_path / "channels.csv")
+    raw = read_record(tmp_path / "raw.csv")
+    moved = {"A_x": ((0.1, 0.2, 0.3), (0.0, 0.0, 1.0))}
+    got = set_up(raw, {"A_x": sensitivity("50mV/g", "s")}, table, moved)
+    a_x = got.channels[got.names.index("A_x")]
+    assert (a_x.point, a_x.direction, a_x.unit) == ((0.1, 0.2, 0.3), (0.0, 0.0, 1.0), "g")
+    np.testing.assert_allclose(got.channel("A_x"), raw.channel("A_x") / 0.05)  # 50 mV/g, not the table's 100
+    b_y = got.channels[got.names.index("B_y")]
+    assert b_y.point == hit.channels[hit.names.index("B_y")].point and b_y.unit == "g"

@@ -11,7 +11,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from mountid.cli.arguments import Parser, speed
+from mountid.cli.arguments import HIT_TIME, Parser, speed
 from mountid.cli.diagnose_command import cmd_diagnose
 from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
 from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_plan, cmd_process, cmd_simulate
@@ -198,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--hit-time",
         type=float,
         nargs="+",
-        default=[0.05],
+        default=[HIT_TIME],
         metavar="T",
         help="when the hit begins [s] from the record's start (later: a pre-trigger, as bench exports keep one); "
         "several times: a hit at each, in one record",

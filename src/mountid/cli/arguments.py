@@ -163,6 +163,9 @@ NOISE_LIMIT = 100.0
 HIT_PEAK_LIMIT = 1e7
 """The largest hit peak [N]: fifty times the largest modal impact hammers (a peak of 1e300 N overflowed)."""
 
+HIT_TIME = 0.05
+"""[s] When simulate's hit begins by default (--hit-time): a shaker drives from the start instead."""
+
 
 def record_size(duration: float, rate: float) -> None:
     """--duration and --rate: positive, finite, and from MIN_SAMPLES to MAX_SAMPLES samples per channel together."""
@@ -255,8 +258,8 @@ def read_runs(args: argparse.Namespace) -> list[tuple[str, Record | ModeTable]]:
     ("PATH run K"), else every run of a UFF or TDMS file of several ("PATH run 1", ...), else the file's one record
     (PATH); a table of modes where the file holds a bench's mode shapes. --channels applies a channel table
     (measurement.channel_table), --channel places channels, --sensitivity converts channels of a raw voltage."""
-    from mountid.measurement.channel_table import applied, read_channel_table
-    from mountid.measurement.records import named_runs, with_geometry, with_sensitivities
+    from mountid.measurement.channel_table import read_channel_table, set_up
+    from mountid.measurement.records import named_runs
 
     if args.rate is not None:
         finite_number(args.rate, "--rate")
@@ -271,13 +274,8 @@ def read_runs(args: argparse.Namespace) -> list[tuple[str, Record | ModeTable]]:
         if err.parameter not in ("ignore", "run"):
             raise
         raise InputError(f"--{err.parameter}", err.reason) from None
-    if scales:  # before the table: a channel --sensitivity converts is no longer in volts for the table's
-        records = [(name, with_sensitivities(r, scales, "--sensitivity")) for name, r in records]
-    if table is not None:
-        records = [(name, applied(r, table, "--channels")) for name, r in records]
-    if geometry:  # after the table: --channel replaces its rows
-        records = [(name, with_geometry(r, geometry, "--channel")) for name, r in records]
-    return records
+    sources = ("--sensitivity", "--channels", "--channel")
+    return [(name, set_up(r, scales, table, geometry, sources)) for name, r in records]
 
 
 def sensitivities(items: Sequence[str] | None, option: str) -> dict[str, Sensitivity]:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from mountid.cli.arguments import (
     HIT_PEAK_LIMIT,
+    HIT_TIME,
     NOISE_LIMIT,
     beyond_first_order,
     bounded,
@@ -132,7 +133,7 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
         return []
     if args.speed:
         raise InputError("--shaker", "a shaker and a rotating unbalance (--speed) are two experiments: give one")
-    if args.hit_time != [0.05]:
+    if args.hit_time != [HIT_TIME]:
         raise InputError("--shaker", "drives the machine from the start: --hit-time is for hits")
     low, high = args.shaker
     if not (math.isfinite(low) and math.isfinite(high) and 0 <= low < high <= ANTI_ALIAS * args.rate):

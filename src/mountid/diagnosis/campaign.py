@@ -13,10 +13,9 @@ violation is reported as one line naming the entry). Example (the paper's four f
 A campaign may list impact records instead of (or beside) the modal data: ``"records": ["hit1.csv",
 {"file": "hit2.uff", "start": 0.1}]``; an entry may also give the sampling ``rate`` [Hz], the ``channels``' points
 and directions (a plain CSV states none; or a ``channel_table``, measurement.channel_table), the ``sensitivity`` of
-channels recorded in volts ("100mV/g"), the
-channels to ``ignore`` (a tachometer, a microphone) and the ``run`` of a UFF file of several (without one, each run
-is a record of its own). Each is read (CSV with mountid channel metadata, UFF with its geometry, TDMS or LVM) and run
-through the records chain (identification.from_records.modal_data):
+channels recorded in volts ("100mV/g"), the channels to ``ignore`` (a tachometer, a microphone) and the ``run`` of a
+UFF file of several (without one, each run is a record of its own). Each is read (CSV with mountid channel metadata,
+UFF with its geometry, TDMS or LVM) and run through the records chain (identification.from_records.modal_data):
 frequencies with their standard deviations, damping ratios and, where the channels span the six motions, mode
 shapes.
 A mode given under "modes" overrides the records'; a mode several records give has the weighted means of
@@ -896,8 +895,8 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
     """The records of a campaign's record file, each with its name in notes: the file's (RecordSource.name, with
     the run it gives), or where it gives none, every run of a UFF or TDMS file of several ("NAME run K"). An InputError
     names the entry (``where``.``i``)."""
-    from mountid.measurement.channel_table import applied, read_channel_table
-    from mountid.measurement.records import named_runs, sensitivity, with_geometry, with_sensitivities
+    from mountid.measurement.channel_table import read_channel_table, set_up
+    from mountid.measurement.records import named_runs, sensitivity
 
     try:
         scales = {name: sensitivity(text, f"sensitivity.{name}") for name, text in source.sensitivity}
@@ -905,13 +904,8 @@ def _records_of(source: RecordSource, where: str, i: int) -> list[tuple[str, Rec
         records = named_runs(
             source.path, source.path.name, source.rate, source.ignore, source.run, source.exponential_window
         )
-        if scales:  # before the table, whose sensitivities convert the channels still in volts
-            records = [(name, with_sensitivities(record, scales, "sensitivity")) for name, record in records]
-        if table is not None:
-            records = [(name, applied(record, table, "channel_table")) for name, record in records]
-        if source.channels:  # after the table: an entry's channels replace its rows
-            geometry = {name: (point, direction) for name, point, direction in source.channels}
-            records = [(name, with_geometry(record, geometry, "channels")) for name, record in records]
+        geometry = {name: (point, direction) for name, point, direction in source.channels}
+        records = [(name, set_up(record, scales, table, geometry)) for name, record in records]
     except InputError as err:
         raise _named(err, source, where, i) from None
     return records

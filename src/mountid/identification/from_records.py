@@ -1035,12 +1035,12 @@ def modal_data(
     if not full.responses:
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
-    periodic = None  # a shaker's H1: fitted as a bench's FRFs are
+    shaker = None  # a shaker's H1 (periods or bursts): fitted as a bench's FRFs are
     if record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
-        periodic = frf.continuous_h1(full, full.forces[0], settings)
-        record = periodic.as_impulse_record()
+        shaker = frf.continuous_h1(full, full.forces[0], settings)
+        record = shaker.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
-    if len(full.forces) > 1 and use_force and (periodic is not None or record.impulse is None):
+    if len(full.forces) > 1 and use_force and (shaker is not None or record.impulse is None):
         # one input: the others' hits (a roving hammer: its runs) or a second shaker's force are not divided out
         notes.append(
             f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "
@@ -1098,7 +1098,7 @@ def modal_data(
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    if periodic is not None:  # a shaker's record: its responses' clipping (no hit to check)
+    if shaker is not None:  # a shaker's record: its responses' clipping (no hit to check)
         warnings = modal.clipping(full.select(full.responses), None, top, settings)
     elif record.impulse is not None:  # no record of the test: its checks (clipping, noise, the hit) were the bench's
         warnings = []
@@ -1158,7 +1158,7 @@ def modal_data(
         warnings += _coherence_warnings(lambda w: at(w)[1], labelled, settings, f"{len(estimate.hits)} hits")
     if record.impulse is not None and record.impulse.coherence:
         lines, names = record.impulse, record.names
-        averages = f"the {periodic.block}s" if periodic is not None else "the bench's averages"
+        averages = f"the {shaker.block}s" if shaker is not None else "the bench's averages"
         warnings += _coherence_warnings(
             lambda w: lines.coherence_at(w / (2 * np.pi), names), labelled, settings, averages
         )
@@ -1167,7 +1167,7 @@ def modal_data(
     labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}
     modes = _measured_modes(machine, record, labelled, frozenset(mixed), guess)
     mixed_labels = frozenset(mixed) & set(modes)
-    return ModalData(modes, rest, warnings, estimate or periodic, tuple(notes), mixed_labels, start, end, hits)
+    return ModalData(modes, rest, warnings, estimate or shaker, tuple(notes), mixed_labels, start, end, hits)
 
 
 def _measured_modes(

@@ -160,3 +160,21 @@ def applied(record: RecordOrTable, table: ChannelTable, source: str = "channels"
     volts = {c.name for c in record.channels if c.quantity == "voltage"}
     scales = {name: s for name, s in table.sensitivities.items() if name in volts}
     return with_sensitivities(record, scales, source) if scales else record
+
+
+def set_up(
+    record: RecordOrTable,
+    sensitivities: dict[str, Sensitivity],
+    table: ChannelTable | None,
+    placements: dict[str, Placement],
+    sources: tuple[str, str, str] = ("sensitivity", "channel_table", "channels"),
+) -> RecordOrTable:
+    """The record as the test's setup says, given one by one or in a table (the command line's --sensitivity,
+    --channels, --channel; a campaign record's "sensitivity", "channel_table", "channels"; ``sources`` name them in
+    errors, in that order): the sensitivities given one by one first (a channel they convert is no longer in volts
+    for the table's), the table next (applied), the placements given one by one last (they replace its rows)."""
+    if sensitivities:
+        record = with_sensitivities(record, sensitivities, sources[0])
+    if table is not None:
+        record = applied(record, table, sources[1])
+    return with_geometry(record, placements, sources[2]) if placements else record

@@ -1057,8 +1057,8 @@ def sensitivity(text: str, where: str) -> Sensitivity:
         value = float(number)
     except ValueError:
         raise InputError(where, f"{text!r}: no number before {volts} ({form})") from None
-    quantity = next((q for q, units in UNITS.items() if unit in units), None)
-    if quantity is None:
+    quantity = quantity_of(unit)
+    if quantity in (None, "voltage"):  # a sensitivity says what the volts measure: a unit of UNITS
         known = ", ".join(u for units in UNITS.values() for u in units)
         raise InputError(where, f"{text!r}: {unit!r} is not one of {known}")
     if not (math.isfinite(value) and value > 0):
