@@ -81,6 +81,11 @@ CASES = [
         "--shaker-burst: 1:",
     ),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker-burst", "0.5"], "--shaker-burst: is a shaker's"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--shaker-random"], "--shaker-random: is a shaker's"),
+    (
+        ["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--shaker-random", "--shaker-burst", "0.5"],
+        "--shaker-random: and --shaker-burst are two",
+    ),
     # several hits of one hammer: in increasing order, each after the pulse before
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "0.5"], "--hit-time: 0.5 s is not after the hit"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "1.002"], "--hit-time: 1.002 s is not after"),

@@ -224,6 +224,12 @@ def build_parser() -> argparse.ArgumentParser:
         "while the response dies out",
     )
     p.add_argument(
+        "--shaker-random",
+        action="store_true",
+        help="random instead: new phases each period, back to back (it never repeats: the records chain fits the "
+        "impulse responses by least squares over the record; record eight times the machine's decay or more)",
+    )
+    p.add_argument(
         "--force-channel",
         metavar="NAME",
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "

@@ -86,7 +86,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     notes += [] if args.speed or shakers else _close_hits_note(args.hit_time)
-    if shakers and args.duration < 3 * args.shaker_period:
+    if args.shaker_random and rig.B.any():
+        notes += random_length_note(args.duration, 1.0 / float(min(-rig.poles.real)))
+    elif shakers and not args.shaker_random and args.duration < 3 * args.shaker_period:
         block = "periods" if args.shaker_burst is None else "bursts"
         needs = "the periods after the first and needs two of them" if block == "periods" else "them and needs three"
         notes.append(
@@ -130,7 +132,11 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
     if args.shaker is None:
         if args.shaker_burst is not None:
             raise InputError("--shaker-burst", "is a shaker's: give its band with --shaker LOW HIGH")
+        if args.shaker_random:
+            raise InputError("--shaker-random", "is a shaker's: give its band with --shaker LOW HIGH")
         return []
+    if args.shaker_random and args.shaker_burst is not None:
+        raise InputError("--shaker-random", "and --shaker-burst are two excitations: give one")
     if args.speed:
         raise InputError("--shaker", "a shaker and a rotating unbalance (--speed) are two experiments: give one")
     if args.hit_time != [HIT_TIME]:
@@ -145,7 +151,24 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
     if args.shaker_burst is not None and not 0 < args.shaker_burst < 1:
         raise InputError("--shaker-burst", f"{args.shaker_burst:g}: a share of the period between 0 and 1")
     shaker = Shaker(hit.point, hit.direction, args.shaker_rms, low, high, args.shaker_period, args.seed)
-    return [replace(shaker, burst=args.shaker_burst)]
+    return [replace(shaker, burst=args.shaker_burst, random=args.shaker_random)]
+
+
+def random_length_note(duration: float, slowest: float) -> list[str]:
+    """What a random excitation's record of ``duration`` [s] lacks for a machine whose slowest decay has the time
+    constant ``slowest`` [s] ([] where nothing): impulse responses of 1/RecordSettings.random_blocks of it that
+    outlast that decay frf.RANDOM_DECAYS times."""
+    from mountid.measurement.frf import RANDOM_DECAYS
+    from mountid.measurement.settings import RECORDS
+
+    needed = RECORDS.random_blocks * RANDOM_DECAYS * slowest
+    if duration >= needed:
+        return []
+    return [
+        f"random excitation: the records chain fits impulse responses of 1/{RECORDS.random_blocks} of the record, "
+        f"which must outlast the slowest decay (time constant {slowest:.3g} s) {RANDOM_DECAYS:g} times: record "
+        f"{needed:.3g} s or more"
+    ]
 
 
 def _hit_times(times: Sequence[float], duration: float) -> None:

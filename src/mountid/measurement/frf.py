@@ -17,7 +17,8 @@ A shaker's force is continuous (is_continuous): where it repeats (periodic rando
 repeats one block) or comes in bursts with quiet between (burst random), continuous_h1 averages its whole periods
 after the transient, or its bursts, without a window, exact on the lines it excites, and gives the impulse
 responses as a bench's frequency response functions are read (records.impulse_record). A random force that does
-neither is named: its H1 needs a window, whose bias on the damping the modal fit would take for the machine's.
+neither gives its impulse responses by least squares over the whole record (no window either: a Hann-windowed H1
+biases the damping, which the modal fit would take for the machine's).
 """
 
 from __future__ import annotations
@@ -178,8 +179,11 @@ def continuous_h1(record: Record, force: str, settings: RecordSettings = RECORDS
     - burst random (the force on for part of each block, then quiet while the response dies out): each burst from
       its start to the next one's (_bursts), the response died out by then (below settings.burst_tail of its level).
 
-    An InputError naming the force channel where it is neither (a random excitation that does not repeat: its H1
-    needs a window, which biases damping), holds too few blocks, or the response has not settled or died out."""
+    - random (neither): the impulse responses over 1/settings.random_blocks of the record by least squares over all
+      of it (_random), the lines the force excites of their transform.
+
+    An InputError naming the force channel where it holds too few blocks, or the response has not settled or died
+    out."""
     record = record.in_si()
     f = record.channel(force)
     responses = record.select(record.responses)
@@ -193,13 +197,7 @@ def continuous_h1(record: Record, force: str, settings: RecordSettings = RECORDS
         return _burst(f, responses, force, starts, settings)
     if len(starts) == 2:
         raise InputError(force, "burst random of 2 bursts: three or more are needed (the last may be cut short)")
-    raise InputError(
-        force,
-        f"a continuous excitation that neither repeats within half the record ({len(f) / 2 / record.rate:.4g} s) nor "
-        "comes in bursts with quiet between (random, or one sweep); mountid reads hits, a periodic excitation "
-        "(periodic random, a multisine) of three periods or more, or burst random of three bursts or more, which need "
-        "no window (a window biases the damping)",
-    )
+    return _random(f, responses, force, settings)
 
 
 def _periodic(f: NDArray, responses: Record, force: str, period: int, settings: RecordSettings) -> FrfEstimate:
@@ -251,6 +249,112 @@ def _burst(f: NDArray, responses: Record, force: str, starts: list[int], setting
             )
     averaged = f"{len(blocks)} bursts of {n / rate:.4g} s of burst random on {force}"
     return _block_h1(f, responses, force, blocks, "burst", averaged, settings)
+
+
+def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings) -> FrfEstimate:
+    """The frequency responses of a random excitation (continuous_h1: neither periodic nor in bursts) from its
+    impulse responses h over the first settings.random_blocks' share of the record (L samples), exact for a
+    measured force of any kind: with y[n] = sum_{m < L} h[m] f[n - m] (h died out by L), correlating y with the force
+    before the last L samples, f'[j] = f[j] for j < N - L, gives
+
+        sum_j f'[j] y[j + k] = sum_m h[m] c(k - m),   c(d) = sum_j f'[j] f[j + d],   k = 0 .. L - 1,
+
+    whose every sample lies inside the record: a Toeplitz system (Levinson's recursion) without the bias of the
+    correlations over the whole record, which take the response after the record's end for 0 and shrink h[k] by
+    1 - k / N (a damping too high by 1 / (omega N) as a ratio: 1 % of kid300's x over 128 s). No window, no
+    repetition. The lines of h's transform that the force excites (its spectrum above settings.shaker_floor of its
+    largest) are H; the coherence is 1 - S_ee / S_yy of the residual e (Welch, blocks of L). An InputError naming
+    the force where h has not died out within L (a longer record)."""
+    import scipy.linalg  # here: a hammer test's records chain does not import scipy's signal processing (decimate)
+    import scipy.signal
+
+    rate, n = responses.rate, len(f)
+    taps = n // settings.random_blocks
+    f0 = f - f.mean()
+    y0 = responses.data - responses.data.mean(axis=0)
+    size = 1 << (2 * n - 1).bit_length()  # zero-padded: linear correlations
+    early = np.fft.rfft(np.where(np.arange(n) < n - taps, f0, 0.0), size)  # f'
+    c = np.fft.irfft(np.conj(early) * np.fft.rfft(f0, size), size)  # c(d) at d and size + d (d < 0)
+    b = np.fft.irfft(np.conj(early)[:, None] * np.fft.rfft(y0, size, axis=0), size, axis=0)[:taps]
+    column, row = c[:taps].copy(), np.concatenate([c[:1], c[size - 1 : size - taps : -1]])
+    column[0] = row[0] = c[0] * (1 + RIDGE)  # the band the force leaves out makes the matrix singular but for noise
+    h = scipy.linalg.solve_toeplitz((column, row), b)
+    _, s_ff = scipy.signal.welch(f0, rate, nperseg=taps)
+    excited = s_ff > settings.shaker_floor * s_ff.max()
+    lines = np.where(excited[:, None], np.fft.rfft(h, axis=0), 0.0)
+    # died out into the noise, or below TRUNCATED of its start: seen through a Hann taper across the band (its edges
+    # would ring for seconds), the two tenths before the last as strong as the two before them
+    tenth, on = taps // 10, np.flatnonzero(excited)
+    taper = np.zeros(len(excited))
+    taper[on[0] : on[-1] + 1] = np.hanning(on[-1] - on[0] + 3)[1:-1]
+    seen = np.fft.irfft(lines * taper[:, None], taps, axis=0)
+    end = taps - tenth // 5  # the taper's short kernel round t = 0 wraps round to the last samples
+
+    def level(a: int, b: int) -> NDArray:
+        return np.sqrt(np.mean(seen[a:b] ** 2, axis=0))
+
+    later = level(end - 2 * tenth, end)
+    ratio = level(end - 4 * tenth, end - 2 * tenth) / np.maximum(later, 1e-300)
+    leaking = np.where((later > TRUNCATED * level(0, tenth)) & (ratio > DIED_OUT), ratio, 0.0)
+    if leaking.any():
+        worst = float(np.max(leaking))
+        span = 2 * tenth / rate
+        constant = span / math.log(worst)  # [s] the decay's time constant, the noise taken for decay (a bound)
+        raise InputError(
+            force,
+            f"random excitation: {responses.channels[int(np.argmax(leaking))].name}'s impulse response still decays "
+            f"towards the end of the {taps / rate:.4g} s it is fitted over (1/{settings.random_blocks} of the record; "
+            f"by {worst:.3g} over {span:.3g} s: a time constant of {constant:.3g} s or less), which leaks: record "
+            f"{settings.random_blocks * RANDOM_DECAYS * constant:.3g} s or more (impulse responses that outlast it "
+            f"{RANDOM_DECAYS:g} times)",
+        )
+    residual = y0 - scipy.signal.fftconvolve(f0[:, None], h, axes=0)[:n]
+    _, s_ee = scipy.signal.welch(residual, rate, nperseg=taps, axis=0)
+    _, s_yy = scipy.signal.welch(y0, rate, nperseg=taps, axis=0)
+    top = int(np.flatnonzero(excited)[-1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coherence = np.where(excited[:, None], 1.0 - s_ee / s_yy, 0.0)[: top + 1]
+    coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
+    spacing = rate / taps
+    averaged = (
+        f"{n / rate:.4g} s of a random excitation on {force} (impulse responses of {taps / rate:.4g} s by least "
+        "squares over the record)"
+    )
+    return FrfEstimate(
+        2 * np.pi * spacing * np.arange(top + 1),
+        lines[: top + 1],
+        coherence,
+        responses.channels,
+        force,
+        (),
+        1 / spacing,
+        0.0,
+        2 * top * spacing,
+        settings.random_blocks,
+        "block",
+        averaged,
+    )
+
+
+RANDOM_DECAYS = 8.0
+"""Time constants of the slowest decay a random excitation's impulse responses (1/RecordSettings.random_blocks of
+the record) outlast where it has died out into 1 % noise (DIED_OUT; kid300, x's 1.5 s: in 8 s, 5.3 of them, it
+still decays; in 12 s, 8 of them, it has died out): what `simulate --shaker-random` advises."""
+
+DIED_OUT = 1.5
+"""A random excitation's impulse response has died out into its noise where its RMS over the two tenths of its
+length before the last is more than 1 / DIED_OUT of its RMS over the two tenths before them (noise alone: a ratio of
+1, 0.74-1.33 on kid300 at 1 % and 0.1 % noise; a decay still above the noise: exp(0.2 L / time constant), 1.5-1.9
+on kid300's 8 s at 1 % noise)."""
+
+TRUNCATED = 2e-4
+"""...or where that RMS is below this share of its RMS over its first tenth: the rest leaks less than the fit of
+band-limited responses errs on its own (1e-4 of a damping ratio; a noise-free record: 6e-5)."""
+
+RIDGE = 1e-9
+"""The share of the force's variance added to the diagonal of a random excitation's normal equations (_random): a
+shaker's band leaves lines without force, where the matrix is singular but for the force's noise; this keeps the
+solution finite there (those lines are not used) and moves the others by as much."""
 
 
 def _block_h1(

@@ -99,7 +99,8 @@ class Shaker:
     + phase_k) over the lines k / ``period`` [s] from ``low`` to ``high`` [Hz], of equal amplitude a set for ``rms``
     [N], the phases uniformly random from ``seed``; at a body point along a direction. It repeats every period;
     with ``burst`` (a share of the period) it is burst random instead: on for that share of each period, then off,
-    with new phases in every period (it never repeats)."""
+    with new phases in every period (it never repeats); with ``random`` it is random: new phases in every period,
+    back to back (it never repeats and never rests)."""
 
     point: tuple[float, float, float]
     direction: tuple[float, float, float]
@@ -109,12 +110,15 @@ class Shaker:
     period: float = 16.0
     seed: int = 0
     burst: float | None = None
+    random: bool = False
 
     def __post_init__(self) -> None:
         if not (self.period > 0 and 0 <= self.low < self.high and self.rms > 0):
             raise InputError("shaker", "needs a period > 0, 0 <= low < high [Hz] and an rms force > 0")
         if self.burst is not None and not 0 < self.burst < 1:
             raise InputError("shaker", f"a burst is a share of the period between 0 and 1, got {self.burst}")
+        if self.burst is not None and self.random:
+            raise InputError("shaker", "is burst random or random, not both")
         if len(self.lines()) == 0:
             raise InputError("shaker", f"no line k / {self.period:g} s between {self.low:g} and {self.high:g} Hz")
 
@@ -129,11 +133,12 @@ class Shaker:
         lines = self.lines()
         amplitude = self.rms * math.sqrt(2.0 / len(lines))
         out = np.zeros_like(t)
-        if self.burst is None:
+        if self.burst is None and not self.random:
             return amplitude * self._multisine(t, lines, np.random.default_rng(self.seed))
+        share = 1.0 if self.random else self.burst
         index = np.floor(t / self.period).astype(int)
-        for k in np.unique(index):  # each period its own phases, on for the burst's share of it
-            at = (index == k) & (t - k * self.period < self.burst * self.period)
+        for k in np.unique(index):  # each period its own phases, on for the burst's share of it (random: all)
+            at = (index == k) & (t - k * self.period < share * self.period)
             out[at] = amplitude * self._multisine(t[at], lines, np.random.default_rng([self.seed, int(k)]))
         return out
 

@@ -134,8 +134,10 @@ def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], pat
         mag.text(w, mag.get_ylim()[1], f" {label}\n zeta {zeta:.3f}", va="top", fontsize=7)
     hits = len(estimate.hits)
     window = f", exponential window {estimate.window_decay:.3g} 1/s" if estimate.window_decay else ""
-    source = counted(estimate.averages, estimate.block) if estimate.averages else counted(hits, "hit")
-    mag.set_title(f"H1 from {source} on {estimate.force}{window}; dashed: picked poles")
+    if estimate.averages:  # a shaker's: what it averages ("3 periods of 16 s of a periodic excitation on F (...)")
+        mag.set_title(f"H1 of {estimate.averaged}\ndashed: picked poles", fontsize=10)
+    else:
+        mag.set_title(f"H1 from {counted(hits, 'hit')} on {estimate.force}{window}; dashed: picked poles")
     mag.set_ylabel(f"|H1| [{', '.join(units)} per N]")
     mag.legend(fontsize=7, ncol=2, loc="upper right")
     coh.set_ylim(0, 1.05)
@@ -327,9 +329,9 @@ def experiment_figures(
         si = result.frf.as_impulse_record()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
-    if result.frf is not None:  # the poles were fitted on the impulse responses of H1
+    if result.frf is not None and not result.frf.averages:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
-    else:  # the free decay they were fitted on: until a later hit
+    else:  # the free decay they were fitted on (until a later hit), or a shaker's or bench's impulse responses
         analysed = responses if result.end is None else responses.before(result.end)
         runs = modal.stabilisation(analysed, result.start, top, len(machine.module.MODES))
     sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
