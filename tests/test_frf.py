@@ -399,6 +399,30 @@ def test_the_rigs_random_shaker_never_repeats_nor_rests():
         Shaker(*SHAKER, burst=0.5, random=True)
 
 
+def test_a_sweep_is_named():
+    """A shaker swept from 0.5 to 40 Hz over the record (linear and logarithmic): no period, no burst, and not random
+    either (its quarters excite different bands: the least squares need every line excited before the record's last
+    eighth), an error naming the force channel and what is read."""
+    from dataclasses import dataclass
+
+    import scipy.signal
+
+    @dataclass(frozen=True)
+    class Sweep:  # what the rig asks of a shaker: a point, a direction, the highest frequency and the force
+        point: tuple[float, float, float]
+        direction: tuple[float, float, float]
+        method: str
+        high: float = 40.0
+
+        def force(self, t: np.ndarray) -> np.ndarray:
+            return 280.0 * scipy.signal.chirp(t, 0.5, 64.0, self.high, method=self.method)
+
+    for method in ("linear", "logarithmic"):
+        record = _rig().simulate(paper_sensors(), 64.0, 200.0, shakers=[Sweep(*SHAKER, method)], force_channel="F")
+        with pytest.raises(InputError, match="^F: a continuous excitation whose spectrum changes over the record"):
+            frf.continuous_h1(record, "F")
+
+
 def test_a_random_excitation_gives_the_exact_frequency_responses():
     """A force that never repeats (noise-free channels, 128 s): least squares over the record give impulse responses
     of 16 s whose transform is the rig's exact accelerance s^2 r^T (C + s^2 M + s B)^-1 f: from 2 to 40 Hz within

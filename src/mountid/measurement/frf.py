@@ -270,6 +270,14 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
 
     rate, n = responses.rate, len(f)
     taps = n // settings.random_blocks
+    changed = _spectrum_change(f, rate)
+    if changed > SWEPT:
+        raise InputError(
+            force,
+            f"a continuous excitation whose spectrum changes over the record (a sweep or a stepped sine: the spectra "
+            f"of its quarters differ in {changed:.0%} of their power): mountid reads hits, a periodic excitation "
+            "(periodic random, a multisine), burst random and random",
+        )
     f0 = f - f.mean()
     y0 = responses.data - responses.data.mean(axis=0)
     size = 1 << (2 * n - 1).bit_length()  # zero-padded: linear correlations
@@ -334,6 +342,27 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
         "block",
         averaged,
     )
+
+
+SWEPT = 0.5
+"""A continuous force whose quarters' spectra differ in more than this share of their power (_spectrum_change) is
+swept, not random: the least squares of a random excitation need its spectrum the same throughout (the force before
+the record's last eighth must excite every line; a sweep's does not reach the top of its band). Random: 0.07 on
+kid300's shaker; a sweep: 1."""
+
+
+def _spectrum_change(f: NDArray, rate: float) -> float:
+    """The largest share of power in which the spectra of two quarters of the force ``f`` differ (the total
+    variation distance of their normalised Welch spectra, blocks of an eighth of a quarter): 0 for the same, 1 for
+    disjoint bands."""
+    import scipy.signal
+
+    quarter = len(f) // 4
+    spectra = []
+    for k in range(4):
+        _, power = scipy.signal.welch(f[k * quarter : (k + 1) * quarter], rate, nperseg=max(quarter // 8, 1))
+        spectra.append(power / max(float(power.sum()), 1e-300))
+    return max(0.5 * float(np.abs(a - b).sum()) for a, b in itertools.combinations(spectra, 2))
 
 
 RANDOM_DECAYS = 8.0
