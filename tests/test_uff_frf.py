@@ -291,3 +291,94 @@ def test_units_spelled_as_other_exporters_spell_them_are_read(tmp_path):
     _frf_file(tmp_path / "si.uff")
     _frf_file(tmp_path / "named.uff", labels=("m/s**2", "Newtons"))
     np.testing.assert_array_equal(read_uff(tmp_path / "named.uff").data, read_uff(tmp_path / "si.uff").data)
+
+
+def _hammer_record(hits: int = 3):
+    """kid300 hit ``hits`` times 3 s apart at 1 kHz with its force recorded (the responses have not died out before
+    the next hit: H1 puts an exponential window on them)."""
+    from mountid.measurement.rig import Hammer
+
+    hit = paper_hit()
+    hammers = [Hammer(hit.point, hit.direction, hit.peak, hit.duration, 0.05 + 3.0 * k) for k in range(hits)]
+    return _rig().simulate(paper_sensors(), 3.0 * hits, 1000.0, hammers=hammers, force_channel="F")
+
+
+def test_written_frequency_responses_read_back_as_estimated(tmp_path):
+    """uff.write_frf of a hammer test's H1 (three hits, an exponential window on the responses) and of a shaker's
+    periodic excitation: read back, the functions and their coherences are those estimated (to the file's 12
+    digits), each channel at its point along its direction; the modes from the file (the hammer's window divided out
+    with the rate the file states) are the record's own: to 1e-9 where the record's segment has an even number of
+    samples (the shaker's periods), within 0.05 of their standard deviations where it has an odd number (the
+    hammer's 2957: no line at its Nyquist frequency, so read back its impulse responses are one sample shorter and
+    sampled 1/2957 slower; 0.02 seen)."""
+    from mountid.identification.from_records import modal_data
+    from mountid.measurement import frf
+    from mountid.measurement.records import without_window
+    from mountid.measurement.rig import Shaker
+    from mountid.measurement.uff import write_frf
+
+    shaker = Shaker((0.35, 0.25, 0.3), (0.5, 0.6, -0.62), high=40.0, period=16.0)
+    tests = {
+        "hammer": _hammer_record(),
+        "shaker": _rig().simulate(paper_sensors(), 64.0, 200.0, shakers=[shaker], force_channel="F"),
+    }
+    for kind, record in tests.items():
+        estimate = frf.of_record(record)
+        path = tmp_path / f"{kind}.uff"
+        write_frf([(estimate, record.channels[-1])], path)
+        sets = pyuff.UFF(str(path)).read_sets()
+        functions = [s for s in sets if s["func_type"] == 4]
+        assert [s["id1"] for s in functions] == [c.name for c in estimate.responses]
+        for k, s in enumerate(functions):
+            assert np.allclose(s["data"], estimate.h1[:, k], rtol=0, atol=1e-11 * np.max(np.abs(estimate.h1[:, k])))
+        read = read_uff(path)
+        assert [(c.name, c.point, c.direction) for c in read.channels] == [
+            (c.name, c.point, c.direction) for c in estimate.responses
+        ]
+        for name, coherence in read.impulse.coherence:
+            k = [c.name for c in estimate.responses].index(name)
+            assert np.allclose(coherence[: len(estimate.omega)], estimate.coherence[:, k], rtol=0, atol=1e-11)
+        stated = functions[0]["id3"]
+        if estimate.window_decay:
+            assert stated.endswith(f"; exponential window {estimate.window_decay:.9g} 1/s")
+            read = without_window(read, float(stated.rsplit(" ", 2)[1]))
+        else:
+            assert "window" not in stated
+        own, back = modal_data(_rig().machine, record, {}), modal_data(_rig().machine, read, {})
+        assert set(own.modes) == set(back.modes) == {"x", "phi", "z", "psi"}, kind
+        odd = round(estimate.length * estimate.rate) % 2 == 1  # no line at the Nyquist frequency
+        assert odd == (kind == "hammer")
+        for label, mode in own.modes.items():
+            read_mode = back.modes[label]
+            if odd:
+                within = (0.05 * mode.frequency_std, 0.05 * mode.damping_std)
+            else:
+                within = (1e-9 * mode.frequency, 1e-9 * mode.damping_ratio)
+            assert abs(read_mode.frequency - mode.frequency) < within[0], (kind, label)
+            assert abs(read_mode.damping_ratio - mode.damping_ratio) < within[1], (kind, label)
+
+
+def test_frf_out_writes_the_records_frequency_responses(tmp_path, capsys):
+    """`identify-record --frf-out` and `process --frf-out` write the record's H1 and say how to read it back; a record
+    without a force channel, a file of frequency response functions and a file name of another kind are errors
+    naming the option."""
+    from mountid.measurement.records import write_csv
+
+    write_csv(_hammer_record(), tmp_path / "hits.csv")
+    out = tmp_path / "h1.uff"
+    assert main(["identify-record", "kid300", str(tmp_path / "hits.csv"), "--frf-out", str(out), "--json"]) == 0
+    [note] = [n for n in json.loads(capsys.readouterr().out)["notes"] if n.startswith("wrote ")]
+    assert note.startswith(f"wrote {out}: 5 frequency response functions per run, 1 run; the responses carry an ")
+    window = note.rsplit(" ", 1)[1]
+    assert main(["process", "kid300", str(out), "--exponential-window", window, "--json"]) == 0
+    assert sorted(json.loads(capsys.readouterr().out)["modes"]) == ["phi", "psi", "x", "z"]
+    free = _rig().simulate(paper_sensors(), 4.0, 1000.0, hammers=[paper_hit()])
+    write_csv(free, tmp_path / "free.csv")
+    for record, target, message in (
+        ("free.csv", "x.uff", f"--frf-out: {tmp_path / 'free.csv'}: record: has no force channel"),
+        ("h1.uff", "x.uff", f"--frf-out: {tmp_path / 'h1.uff'}: record: holds frequency response functions already"),
+        ("hits.csv", "x.csv", "--frf-out: x.csv: name a file ending in .uff or .unv (UFF)"),
+    ):
+        assert main(["process", "kid300", str(tmp_path / record), "--frf-out", str(tmp_path / target)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"mountid: error: {message}") and len(err.strip().splitlines()) == 1, err

@@ -148,6 +148,12 @@ def build_parser() -> argparse.ArgumentParser:
             "channel sits and its sensor's sensitivity, for the channels the record holds",
         )
         p.add_argument(
+            "--frf-out",
+            metavar="FILE",
+            help="also write the H1 frequency responses (and coherence) of the record's force channel as a UFF file "
+            "(.uff or .unv: datasets 58, as a bench exports them; a run per input)",
+        )
+        p.add_argument(
             "--run",
             type=int,
             metavar="K",

@@ -363,6 +363,9 @@ def cmd_identify_record(args: argparse.Namespace) -> None:
         root=args.root,
         use_force=not args.free_decay,
     )
+    written = _frf_out(args, runs)
+    if written:
+        result = replace(result, notes=[*result.notes, *written])
     if args.figures:
         from mountid.report import figures
 
@@ -389,11 +392,44 @@ def cmd_process(args: argparse.Namespace) -> None:
     # every decay of every run (a record of several hits, a file of several runs), combined per mode
     known, nominal = pairs(args.set, "--set"), pairs(args.nominal, "--nominal")
     found = every_decay(machine, runs, known, args.start, nominal, use_force=not args.free_decay)
+    notes = [*found.notes, *_frf_out(args, runs)]
     out = _modal_json(machine, found.modes, found.unlabelled, found.warnings)
     if args.json:
-        print_json({**out, "notes": list(found.notes)})
+        print_json({**out, "notes": notes})
         return
-    _print_modes(machine, _source(args, runs), found.modes, found.unlabelled, found.warnings, found.notes)
+    _print_modes(machine, _source(args, runs), found.modes, found.unlabelled, found.warnings, notes)
+
+
+def _frf_out(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTable]]) -> list[str]:
+    """--frf-out: the H1 frequency responses of every run (frf.of_record) written as a UFF file (uff.write_frf), and
+    the note that says so ([] without the option); an InputError naming the option for a file or a run it cannot
+    write (a table of modes, frequency response functions already, no force channel)."""
+    if not args.frf_out:
+        return []
+    path = file_to_write(args.frf_out, "--frf-out", {".uff": "UFF", ".unv": "UFF"})
+    from mountid.measurement import frf
+    from mountid.measurement.records import ModeTable
+    from mountid.measurement.uff import write_frf
+
+    estimates = []
+    for name, record in runs:
+        if isinstance(record, ModeTable):
+            raise InputError("--frf-out", f"{name} is a table of modes: no force to estimate frequency responses from")
+        try:
+            estimate = frf.of_record(record)
+        except InputError as err:
+            raise InputError("--frf-out", f"{name}: {err}") from None
+        estimates.append((estimate, next(c for c in record.channels if c.name == estimate.force)))
+    write_frf(estimates, path)
+    windows = sorted({e.window_decay for e, _ in estimates if e.window_decay})
+    read_back = (
+        f"; the responses carry an exponential window of {', '.join(f'{w:.9g}' for w in windows)} 1/s: read back "
+        f"with --exponential-window {windows[0]:.9g}"
+        if windows
+        else ""
+    )
+    responses = counted(len(estimates[0][0].responses), "frequency response function")
+    return [f"wrote {path}: {responses} per run, {counted(len(estimates), 'run')}{read_back}"]
 
 
 def _source(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTable]]) -> str:

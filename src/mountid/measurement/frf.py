@@ -157,6 +157,21 @@ def _window_decay(responses: list[NDArray], length: float) -> float:
     return math.log(ratio / 0.01) / length if ratio > 0.01 else 0.0
 
 
+def of_record(record: Record, settings: RecordSettings = RECORDS) -> FrfEstimate:
+    """The H1 frequency responses of a record from its (first) force channel, as the records chain estimates them:
+    a shaker's (is_continuous: continuous_h1) or a hammer's hits (h1). An InputError naming the record where it
+    holds frequency response functions already or no force channel."""
+    if record.impulse is not None:
+        raise InputError("record", "holds frequency response functions already (a bench's): no force to estimate from")
+    record = record.in_si()
+    if not record.forces:
+        raise InputError("record", "has no force channel: frequency responses need the measured force")
+    force = record.forces[0]
+    if is_continuous(record, force, settings):
+        return continuous_h1(record, force, settings)
+    return h1(record, force, settings)
+
+
 def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS) -> bool:
     """Whether the force channel ``force`` carries a continuous excitation (a shaker's) rather than hits: above 5 %
     of its peak on more than settings.continuous_force of its samples, both from its median (a hammer channel's

@@ -28,8 +28,9 @@ the description's (origin and axes): a test bench's geometry in another frame mu
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyuff
@@ -54,6 +55,9 @@ from mountid.measurement.records import (
 from mountid.measurement.uff_geometry import node_geometry, read_set, whole
 from mountid.measurement.uff_modes import holds_mode_shapes, read_table, read_tables
 from mountid.nomenclature import counted
+
+if TYPE_CHECKING:
+    from mountid.measurement.frf import FrfEstimate
 
 _TAG = "mountid point="
 
@@ -80,6 +84,79 @@ def write_uff(record: Record, path: str | Path) -> None:
         for k, c in enumerate(record.channels)
     ]
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
+
+
+def write_frf(estimates: Sequence[tuple[FrfEstimate, Channel]], path: str | Path) -> None:
+    """Write the H1 frequency responses of ``estimates``, each with its force channel (one per input: a record's
+    runs, a roving hammer's points), to a new file as a bench exports them: per response channel a dataset 58 of
+    function type 4 (complex, on the lines from 0 Hz, a response per N in the SI unit of its quantity), with its
+    coherence (function type 6) where several hits or blocks were averaged. Response nodes are the channels'
+    numbers, ID line 4 their point and direction (placement: mountid reads them back exactly; other tools take the
+    node and the axis, 0 where oblique); each input is reference node 1000 + its number along its force channel's
+    axis. ID line 3 says what H1 averages and the exponential window on the responses (a hammer's where they had not
+    died out before the next hit): read back, --exponential-window divides it out."""
+    path = Path(path)
+    if path.exists():
+        path.unlink()  # pyuff appends to an existing file
+    sets = []
+    for run, (estimate, force) in enumerate(estimates, start=1):
+        freq = estimate.omega / (2 * np.pi)
+        averaged = estimate.averaged or counted(len(estimate.hits), "hit")
+        window = f"; exponential window {estimate.window_decay:.9g} 1/s" if estimate.window_decay else ""
+        several = estimate.averages > 1 or len(estimate.hits) > 1
+        for k, channel in enumerate(estimate.responses, start=1):
+            common = dict(
+                id1=channel.name,
+                id3=f"H1 of {averaged} on {estimate.force}{window}",
+                id4=placement(channel),
+                id5=f"{channel.quantity} [{channel.unit}]",
+                rsp_node=k,
+                rsp_dir=_axis(channel.direction),
+                ref_node=1000 + run,
+                ref_dir=_axis(force.direction),
+                x=freq,
+            )
+            sets.append(_frf_set(common, FRF, estimate.h1[:, k - 1], channel))
+            if several:
+                sets.append(_frf_set(common, COHERENCE, estimate.coherence[:, k - 1], channel))
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+
+
+def _frf_set(common: dict, function: int, values: np.ndarray, channel: Channel) -> dict:
+    """One dataset 58 of write_frf: a frequency response function (complex, the response per N) or its coherence
+    (real, dimensionless)."""
+    frf = function == FRF
+    freq = common["x"]
+    return pyuff.prepare_58(
+        binary=0,
+        id2="H1" if frf else "coherence",
+        func_type=function,
+        ver_num=0,
+        load_case_id=0,
+        rsp_ent_name=channel.name[:10],
+        ref_ent_name="force",
+        ord_data_type=6 if frf else 4,
+        num_pts=len(freq),
+        abscissa_spacing=1,
+        abscissa_min=float(freq[0]),
+        abscissa_inc=float(freq[1] - freq[0]),
+        z_axis_value=0.0,
+        abscissa_spec_data_type=18,  # frequency
+        ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}[channel.quantity] if frf else 0,
+        orddenom_spec_data_type=13 if frf else 0,  # force
+        z_axis_spec_data_type=0,
+        **{
+            f"{part}_{what}_unit_exp": 0
+            for part in ("abscissa", "ordinate", "orddenom", "z_axis")
+            for what in ("len", "force", "temp")
+        },
+        abscissa_axis_units_lab="Hz",
+        ordinate_axis_units_lab=channel.unit if frf else "",
+        orddenom_axis_units_lab="N" if frf else "",
+        z_axis_axis_units_lab="",
+        data=np.asarray(values, dtype=complex if frf else float),
+        **common,
+    )
 
 
 def placement(channel: Channel) -> str:
