@@ -451,7 +451,7 @@ def test_a_random_excitation_gives_the_rigs_poles_within_their_spread():
     three standard deviations of the rig's pole, and the RMS of error / standard deviation over them in [0.3, 1.6]
     (the spread stated is the spread there is); said to come from the random excitation. A record whose impulse
     responses have not died out within 1/8 of it (64 s: x's time constant 1.5 s against 8 s) is named with the length
-    to record."""
+    to record, and so is one too short for impulse responses of 64 samples."""
     rig = _rig()
     scores = []
     for seed in range(3):
@@ -468,6 +468,8 @@ def test_a_random_excitation_gives_the_rigs_poles_within_their_spread():
     assert 0.3 < float(np.sqrt(np.mean(np.square(scores)))) < 1.6
     with pytest.raises(InputError, match=r"^F: random excitation: \w+'s impulse response still decays .* record \d+"):
         frf.continuous_h1(_random_record(64.0, 0.01), "F")
+    with pytest.raises(InputError, match=r"^F: random excitation over 400 samples: .* need 64 samples or more"):
+        frf.continuous_h1(_random_record(2.0, 0.01), "F")
 
 
 def test_band_limited_frequency_responses_are_fitted_after_their_edge_rings_down():

@@ -284,7 +284,13 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
     import scipy.signal
 
     rate, n = responses.rate, len(f)
-    taps = n // settings.random_blocks
+    taps = 2 * (n // (2 * settings.random_blocks))  # even: the lines' transform gives them back
+    if taps < RANDOM_TAPS:
+        raise InputError(
+            force,
+            f"random excitation over {n} samples: its impulse responses, 1/{settings.random_blocks} of the record, "
+            f"need {RANDOM_TAPS} samples or more",
+        )
     changed = _spectrum_change(f, rate)
     if changed > SWEPT:
         raise InputError(
@@ -305,32 +311,7 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
     _, s_ff = scipy.signal.welch(f0, rate, nperseg=taps)
     excited = s_ff > settings.shaker_floor * s_ff.max()
     lines = np.where(excited[:, None], np.fft.rfft(h, axis=0), 0.0)
-    # died out into the noise, or below TRUNCATED of its start: seen through a Hann taper across the band (its edges
-    # would ring for seconds), the two tenths before the last as strong as the two before them
-    tenth, on = taps // 10, np.flatnonzero(excited)
-    taper = np.zeros(len(excited))
-    taper[on[0] : on[-1] + 1] = np.hanning(on[-1] - on[0] + 3)[1:-1]
-    seen = np.fft.irfft(lines * taper[:, None], taps, axis=0)
-    end = taps - tenth // 5  # the taper's short kernel round t = 0 wraps round to the last samples
-
-    def level(a: int, b: int) -> NDArray:
-        return np.sqrt(np.mean(seen[a:b] ** 2, axis=0))
-
-    later = level(end - 2 * tenth, end)
-    ratio = level(end - 4 * tenth, end - 2 * tenth) / np.maximum(later, 1e-300)
-    leaking = np.where((later > TRUNCATED * level(0, tenth)) & (ratio > DIED_OUT), ratio, 0.0)
-    if leaking.any():
-        worst = float(np.max(leaking))
-        span = 2 * tenth / rate
-        constant = span / math.log(worst)  # [s] the decay's time constant, the noise taken for decay (a bound)
-        raise InputError(
-            force,
-            f"random excitation: {responses.channels[int(np.argmax(leaking))].name}'s impulse response still decays "
-            f"towards the end of the {taps / rate:.4g} s it is fitted over (1/{settings.random_blocks} of the record; "
-            f"by {worst:.3g} over {span:.3g} s: a time constant of {constant:.3g} s or less), which leaks: record "
-            f"{settings.random_blocks * RANDOM_DECAYS * constant:.3g} s or more (impulse responses that outlast it "
-            f"{RANDOM_DECAYS:g} times)",
-        )
+    _died_out(lines, excited, responses, force, settings)
     residual = y0 - scipy.signal.fftconvolve(f0[:, None], h, axes=0)[:n]
     _, s_ee = scipy.signal.welch(residual, rate, nperseg=taps, axis=0)
     _, s_yy = scipy.signal.welch(y0, rate, nperseg=taps, axis=0)
@@ -359,6 +340,38 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
     )
 
 
+def _died_out(lines: NDArray, excited: NDArray, responses: Record, force: str, settings: RecordSettings) -> None:
+    """Check that a random excitation's impulse responses (the transform of ``lines``, the excited ones) have died
+    out within their length L: into their noise (DIED_OUT) or below TRUNCATED of their start, seen through a Hann
+    taper across the band (its edges would ring for seconds); else an InputError naming the force with the length
+    to record (the decay seen gives a bound on its time constant: the noise slows it)."""
+    taps, rate = 2 * (len(lines) - 1), responses.rate
+    tenth, on = taps // 10, np.flatnonzero(excited)
+    taper = np.zeros(len(excited))
+    taper[on[0] : on[-1] + 1] = np.hanning(on[-1] - on[0] + 3)[1:-1]
+    seen = np.fft.irfft(lines * taper[:, None], taps, axis=0)
+    end = taps - tenth // 5  # the taper's short kernel round t = 0 wraps round to the last samples
+
+    def level(a: int, b: int) -> NDArray:
+        return np.sqrt(np.mean(seen[a:b] ** 2, axis=0))
+
+    later = level(end - 2 * tenth, end)
+    ratio = level(end - 4 * tenth, end - 2 * tenth) / np.maximum(later, 1e-300)
+    leaking = np.where((later > TRUNCATED * level(0, tenth)) & (ratio > DIED_OUT), ratio, 0.0)
+    if leaking.any():
+        worst = float(np.max(leaking))
+        span = 2 * tenth / rate
+        constant = span / math.log(worst)  # [s] the decay's time constant, the noise taken for decay (a bound)
+        raise InputError(
+            force,
+            f"random excitation: {responses.channels[int(np.argmax(leaking))].name}'s impulse response still decays "
+            f"towards the end of the {taps / rate:.4g} s it is fitted over (1/{settings.random_blocks} of the record; "
+            f"by {worst:.3g} over {span:.3g} s: a time constant of {constant:.3g} s or less), which leaks: record "
+            f"{settings.random_blocks * RANDOM_DECAYS * constant:.3g} s or more (impulse responses that outlast it "
+            f"{RANDOM_DECAYS:g} times)",
+        )
+
+
 SWEPT = 0.5
 """A continuous force whose quarters' spectra differ in more than this share of their power (_spectrum_change) is
 swept, not random: the least squares of a random excitation need its spectrum the same throughout (the force before
@@ -379,6 +392,9 @@ def _spectrum_change(f: NDArray, rate: float) -> float:
         spectra.append(power / max(float(power.sum()), 1e-300))
     return max(0.5 * float(np.abs(a - b).sum()) for a, b in itertools.combinations(spectra, 2))
 
+
+RANDOM_TAPS = 64
+"""Samples a random excitation's impulse responses need at least (1/RecordSettings.random_blocks of the record)."""
 
 RANDOM_DECAYS = 8.0
 """Time constants of the slowest decay a random excitation's impulse responses (1/RecordSettings.random_blocks of
