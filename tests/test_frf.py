@@ -386,6 +386,16 @@ def _random_record(duration: float, noise: float, seed: int = 0, rig: Rig | None
     return rig.simulate(paper_sensors(noise), duration, 200.0, shakers=[shaker], seed=seed + 1, force_channel="F")
 
 
+def test_an_output_only_record_is_named_a_steady_motion():
+    """The responses to a random force whose force channel is not recorded (ambient or operational excitation looks
+    alike): no free decay to fit, and the error says the responses do not decay, what such a record is, and what
+    mountid reads instead."""
+    record = _random_record(64.0, 0.01)
+    responses = record.select(record.responses)
+    with pytest.raises(InputError, match="the responses do not decay .*: a steady motion, not a hit's free decay"):
+        modal_data(_rig().machine, responses, {})
+
+
 def test_the_rigs_random_shaker_never_repeats_nor_rests():
     """Shaker(random=True): new phases every period, back to back: no period and no burst found in its force, its RMS
     the one asked for; burst random and random at once are an error naming the shaker."""

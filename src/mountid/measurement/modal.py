@@ -390,15 +390,33 @@ def not_a_free_decay(
                 )
             )
     if left > settings.unexplained:
+        quarter = max(1, len(samples) // 4)
+        level = np.sqrt(
+            np.mean(samples[-quarter:] ** 2, axis=0) / np.maximum(np.mean(samples[:quarter] ** 2, axis=0), 1e-300)
+        )
+        steady = 1 / STEADY_LEVEL < float(np.median(level)) < STEADY_LEVEL
+        why = (
+            f"the responses do not decay (their last quarter at {float(np.median(level)):.0%} of their first's level): "
+            "a steady motion, not a hit's free decay (ambient or operational excitation, or a shaker whose force is "
+            "not recorded: mountid reads a shaker's record with its force channel)"
+            if steady
+            else "not the free decay of a hit (a record of another test) or more noise than response"
+        )
         out.append(
             QualityWarning(
                 "unexplained",
                 "all",
                 f"the poles found leave {left:.0%} of the free decay's variance unexplained (the median over the "
-                "channels): not the free decay of a hit (a record of another test) or more noise than response",
+                f"channels): {why}",
             )
         )
     return out
+
+
+STEADY_LEVEL = 2.0
+"""A free decay whose poles leave it unexplained (not_a_free_decay) and whose last quarter's RMS is within this
+factor of its first's (the median over the channels) is a steady motion: an output-only record of random or
+operational excitation (a hit's free decay falls by orders of magnitude; a segment of quiet before a hit rises)."""
 
 
 def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
