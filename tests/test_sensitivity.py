@@ -168,7 +168,8 @@ def test_process_and_identify_record_take_sensitivities(hit, tmp_path, capsys):
 def test_frequency_response_functions_in_volts_per_newton_take_the_accelerometers_sensitivity(tmp_path):
     """A bench's FRFs of raw response voltages per newton (an analyser told the hammer's sensitivity, not the
     accelerometers'): read as voltages per N s (they were a KeyError), converted, the impulse responses of the
-    calibrated file to rounding; FRFs per volt (the hammer's raw voltage) named."""
+    calibrated file to rounding; FRFs per volt (or mV) of the hammer (its sensitivity left out) read as such, named
+    until its sensitivity is given under the reference's name, then the calibrated file's to rounding too."""
     from test_uff_frf import _frf_file
 
     from mountid.measurement.uff import read_uff
@@ -188,9 +189,20 @@ def test_frequency_response_functions_in_volts_per_newton_take_the_accelerometer
     got = with_sensitivities(raw, scales).in_si()
     scale = np.abs(expected.data).max()
     np.testing.assert_allclose(got.data, expected.in_si().data, rtol=1e-12, atol=1e-12 * scale)
-    _frf_file(tmp_path / "per_volt.uff", labels=("m/s^2", "V"))
-    with pytest.raises(InputError, match="per force .*: the hammer's raw voltage; export them with its sensitivity"):
-        read_uff(tmp_path / "per_volt.uff")
+    for k, s in enumerate(sets):  # the accelerometers' sensitivities applied, the hammer's left out: g per V
+        s["data"] = np.asarray(s["data"]) / 100.0 / 2.25e-3
+        s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"] = "g", ("V", "mV")[k % 2]
+        s["data"] = s["data"] / (1.0, 1e3)[k % 2]  # per mV: a thousandth of per V
+        s["ref_ent_name"] = "hammer"
+    __import__("pyuff").UFF(str(tmp_path / "per_volt.uff")).write_sets(sets, mode="add")
+    per_volt = read_uff(tmp_path / "per_volt.uff")
+    assert per_volt.impulse.per_volt == "hammer"
+    with pytest.raises(InputError, match="^hammer: frequency response functions per volt of this reference .* hammer="):
+        per_volt.in_si()
+    got = with_sensitivities(per_volt, {"hammer": sensitivity(FORCE, "s")}).in_si()
+    np.testing.assert_allclose(got.data, expected.in_si().data, rtol=1e-12, atol=1e-12 * scale)
+    with pytest.raises(InputError, match="^s: hammer: the reference's sensitivity is per force, not per g"):
+        with_sensitivities(per_volt, {"hammer": sensitivity(ACCELEROMETER, "s")}, "s")
 
 
 def test_a_campaign_converts_its_records_by_sensitivity(hit, tmp_path):

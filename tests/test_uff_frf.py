@@ -212,9 +212,13 @@ def test_files_of_frequency_response_functions_mountid_does_not_read_are_named(t
     with pytest.raises(InputError, match="^A_x: holds real values only: a frequency response function is complex"):
         read_uff(tmp_path / "magnitude.uff")
     per_volt = _dataset(sensor, 1, 100, freq, frf["data"], per="V")
-    _write(tmp_path / "volt.uff", [per_volt])
-    with pytest.raises(InputError, match="^A_x: is a response per 'V'"):
+    _write(tmp_path / "volt.uff", [per_volt, _dataset(paper_sensors()[1], 2, 100, freq, frf["data"])])
+    with pytest.raises(InputError, match="^A_x: functions per volt beside functions per force"):
         read_uff(tmp_path / "volt.uff")
+    per_pascal = _dataset(sensor, 1, 100, freq, frf["data"], per="Pa")
+    _write(tmp_path / "pascal.uff", [per_pascal])
+    with pytest.raises(InputError, match="^A_x: is a response per 'Pa'"):
+        read_uff(tmp_path / "pascal.uff")
 
 
 def test_a_benchs_exponential_window_is_divided_out(tmp_path, capsys):

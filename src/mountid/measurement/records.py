@@ -157,6 +157,9 @@ class Lines:
     origin: str = ""
     """Where the functions come from where mountid estimated them ("4 periods of a periodic excitation on F"); ""
     for a bench's."""
+    per_volt: str = ""
+    """The reference (input) the functions are per volt of, where a bench exported them over the hammer's raw
+    voltage (its sensitivity left out): its name, which a sensitivity converts (with_sensitivities); "" per force."""
 
     def coherence_at(self, frequency: float, names: Sequence[str]) -> NDArray[np.float64]:
         """The coherence of the channels ``names`` that have one at the line nearest ``frequency`` [Hz]."""
@@ -214,7 +217,15 @@ class Record:
 
     def in_si(self) -> Record:
         """The record with every channel in the SI unit of its quantity (m/s^2, m/s, m, N); an InputError naming a
-        channel of a raw voltage, which only its sensor's sensitivity converts (with_sensitivities)."""
+        channel of a raw voltage, which only its sensor's sensitivity converts (with_sensitivities), or the reference
+        of frequency response functions per volt."""
+        if self.impulse is not None and self.impulse.per_volt:
+            name = self.impulse.per_volt
+            raise InputError(
+                name,
+                "frequency response functions per volt of this reference (the hammer's raw voltage): give its "
+                f'sensitivity, as --sensitivity {shlex.quote(name)}=2.25mV/N, or a campaign record\'s "sensitivity"',
+            )
         for c in self.channels:
             if c.quantity == "voltage":
                 raw = RAW_VOLTAGE.format(name=shlex.quote(c.name))
@@ -1074,12 +1085,19 @@ def with_sensitivities(
     """The record with the named channels of a raw voltage (VOLTAGE) converted by their sensors' sensitivities into
     the quantity and unit each measures (a bench's acquisition that records volts and leaves the sensitivities to the
     analysis). ``source`` names the option or entry in errors: a channel not in the record, or not in volts."""
-    names = [c.name for c in record.channels]
+    reference = record.impulse.per_volt if isinstance(record, Record) and record.impulse is not None else ""
+    names = [c.name for c in record.channels] + ([reference] if reference else [])
     for name in sensitivities:
         if name not in names:
             raise InputError(source, f"{name}: no such channel in the record (channels: {', '.join(names)})")
     if isinstance(record, ModeTable):
         raise InputError(source, f"applies to a channel in volts, not to {A_TABLE}")
+    if reference in sensitivities:  # functions per volt of the hammer: times its volts per N, per N
+        given = sensitivities[reference]
+        if given.quantity != "force":
+            raise InputError(source, f"{reference}: the reference's sensitivity is per force, not per {given.unit}")
+        volts_per_newton = given.volts / UNITS["force"][given.unit]
+        record = replace(record, data=record.data * volts_per_newton, impulse=replace(record.impulse, per_volt=""))
     channels, factors = [], np.ones(len(record.channels))
     for k, c in enumerate(record.channels):
         if c.name in sensitivities:

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -394,7 +395,7 @@ def _impulse_responses(
             f"frequency lines from {freq[0]:g} Hz by {spacing:g} Hz: mountid reads lines evenly spaced from 0 or "
             "a whole number of spacings above it",
         )
-    columns, channels, coherence = [], [], []
+    columns, channels, coherence, per_volt = [], [], [], set()
     of_response = {_response(c): c for c in coherences}
     for name, s in zip(names, sets, strict=True):
         x = np.asarray(s["x"], dtype=float)
@@ -416,17 +417,30 @@ def _impulse_responses(
         if quantity == "force":
             raise InputError(name, "is a force over a force: a frequency response function is a response per force")
         denominator = int(s.get("orddenom_spec_data_type", 13) or 0)
-        if per not in UNITS["force"] or denominator not in (0, 1, 9, 13):
+        if per in VOLTAGE:  # the hammer's raw voltage: per V until its sensitivity converts them
+            per_volt.add(_reference_name(s))
+        elif per not in UNITS["force"] or denominator not in (0, 1, 9, 13):
             raise InputError(
                 name,
                 f"is a response per {per!r} (UFF 58 denominator type {denominator}): mountid reads a response "
-                f"per force ({', '.join(UNITS['force'])})"
-                + (": the hammer's raw voltage; export them with its sensitivity applied" if per in VOLTAGE else ""),
+                f"per force ({', '.join(UNITS['force'])}) or per volt of the hammer",
             )
-        lines = np.asarray(s["data"], dtype=complex) * RECORDED[quantity][unit] / UNITS["force"][per]
+        lines = np.asarray(s["data"], dtype=complex) * RECORDED[quantity][unit] / {**UNITS["force"], **VOLTAGE}[per]
         columns.append(np.concatenate([np.zeros(first, dtype=complex), lines]))
         channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(RECORDED[quantity]))))
-    return impulse_record(np.column_stack(columns), spacing, tuple(channels), tuple(coherence))
+    record = impulse_record(np.column_stack(columns), spacing, tuple(channels), tuple(coherence))
+    if not per_volt:
+        return record
+    if len(per_volt) > 1 or any(_per_force(s)[1] not in VOLTAGE for s in sets):
+        raise InputError(names[0], "functions per volt beside functions per force, or of two references: one input")
+    return replace(record, impulse=replace(record.impulse, per_volt=per_volt.pop()))
+
+
+def _reference_name(s: dict) -> str:
+    """A function's reference (input) as a sensitivity names it: the dataset's reference entity name (the hammer's
+    channel, as an analyser writes it), "reference" where it gives none."""
+    name = str(s.get("ref_ent_name") or "").strip()
+    return name if name and name.upper() != "NONE" else "reference"
 
 
 def _response(s: dict) -> tuple[int, int]:
