@@ -102,3 +102,13 @@ def test_a_hit_at_the_centre_plans_the_stiffness_by_the_descriptions_rule(capsys
     out = capsys.readouterr().out
     assert "along (1e+300, 1e+300, 0.0)" in out and "not excited by this hit" in out
     assert "expected std of c_xy: " in out and "none" not in out
+
+
+def test_the_plan_says_what_a_shaker_test_needs(paper_plan):
+    """From the slowest decay (kid300's x, time constant 1.5 s), what the records chain's rules need of a shaker test
+    (frf.shaker_lengths): periodic random settles in 13.9 s (with a tenth of the damping, 139 s: test_frf's lightly
+    damped machine leaves 8 periods of 16 s out), burst random 4.5 s of quiet after each burst (test_frf: 8 s read,
+    1.6 s named), a random force 96.3 s of record (test_frf: 96 s read, 64 s named)."""
+    [note] = [n for n in paper_plan.notes if n.startswith("a shaker test instead")]
+    assert "(the slowest decay's time constant 1.5 s): periodic random settles in 13.9 s" in note
+    assert "4.5 s of quiet after each burst" in note and "a record of 96.3 s or more" in note

@@ -157,11 +157,11 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
 def random_length_note(duration: float, slowest: float) -> list[str]:
     """What a random excitation's record of ``duration`` [s] lacks for a machine whose slowest decay has the time
     constant ``slowest`` [s] ([] where nothing): impulse responses of 1/RecordSettings.random_blocks of it that
-    outlast that decay frf.RANDOM_DECAYS times."""
-    from mountid.measurement.frf import RANDOM_DECAYS
+    outlast that decay frf.RANDOM_DECAYS times (frf.shaker_lengths)."""
+    from mountid.measurement.frf import RANDOM_DECAYS, shaker_lengths
     from mountid.measurement.settings import RECORDS
 
-    needed = RECORDS.random_blocks * RANDOM_DECAYS * slowest
+    needed = shaker_lengths(slowest)["random"]
     if duration >= needed:
         return []
     return [

@@ -27,7 +27,7 @@ import numpy as np
 from mountid.errors import InputError
 from mountid.identification.from_records import fit_stiffness
 from mountid.machine import Machine, call
-from mountid.measurement import modal
+from mountid.measurement import frf, modal
 from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
 
 OBSERVABLE = 1e-3
@@ -172,6 +172,15 @@ def plan(
         _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
     except InputError as err:  # the plan says why it cannot give the stiffness spread
         notes.append(f"no stiffness standard deviation: {err}")
+    if np.any(rig.poles.real < 0):
+        slowest = 1.0 / float(np.min(-rig.poles.real[rig.poles.real < 0]))
+        need = frf.shaker_lengths(slowest)
+        notes.append(
+            f"a shaker test instead (the slowest decay's time constant {slowest:.3g} s): periodic random settles in "
+            f"{need['settle']:.3g} s, averaged over two periods or more after it; burst random needs "
+            f"{need['quiet']:.2g} s of quiet after each burst; a random force a record of {need['random']:.3g} s or "
+            "more"
+        )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
 
 

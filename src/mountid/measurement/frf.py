@@ -404,6 +404,21 @@ RANDOM_DECAYS = 8.0
 the record) outlast where it has died out into 1 % noise (DIED_OUT; kid300, x's 1.5 s: in 8 s, 5.3 of them, it
 still decays; in 12 s, 8 of them, it has died out): what `simulate --shaker-random` advises."""
 
+
+def shaker_lengths(slowest: float, settings: RecordSettings = RECORDS) -> dict[str, float]:
+    """What a shaker test of a machine whose slowest decay has the time constant ``slowest`` [s] needs [s], by the
+    records chain's rules: ``settle``, the response to a periodic excitation differing by SETTLED from one period to
+    the next (ln(1 / SETTLED) time constants: the periods before are left out, two or more after it averaged);
+    ``quiet``, the time after a burst for its response to fall to settings.burst_tail of its level (the block's
+    last tenth is checked: ln(1 / burst_tail) time constants); ``random``, the record of a random force
+    (settings.random_blocks x RANDOM_DECAYS time constants: its impulse responses outlast the decay)."""
+    return {
+        "settle": math.log(1 / SETTLED) * slowest,
+        "quiet": math.log(1 / settings.burst_tail) * slowest,
+        "random": settings.random_blocks * RANDOM_DECAYS * slowest,
+    }
+
+
 DIED_OUT = 1.5
 """A random excitation's impulse response has died out into its noise where its RMS over the two tenths of its
 length before the last is more than 1 / DIED_OUT of its RMS over the two tenths before them (noise alone: a ratio of
