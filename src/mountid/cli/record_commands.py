@@ -86,8 +86,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     notes += [] if args.speed or shakers else _close_hits_note(args.hit_time)
-    if args.shaker_random and rig.B.any():
-        notes += random_length_note(args.duration, 1.0 / float(min(-rig.poles.real)))
+    if args.shaker_random and math.isfinite(rig.slowest_decay()):
+        notes += random_length_note(args.duration, rig.slowest_decay())
     elif shakers and not args.shaker_random and args.duration < 3 * args.shaker_period:
         block = "periods" if args.shaker_burst is None else "bursts"
         needs = "the periods after the first and needs two of them" if block == "periods" else "them and needs three"

@@ -172,8 +172,8 @@ def plan(
         _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
     except InputError as err:  # the plan says why it cannot give the stiffness spread
         notes.append(f"no stiffness standard deviation: {err}")
-    if np.any(rig.poles.real < 0):
-        slowest = 1.0 / float(np.min(-rig.poles.real[rig.poles.real < 0]))
+    slowest = rig.slowest_decay()
+    if math.isfinite(slowest):
         need = frf.shaker_lengths(slowest)
         notes.append(
             f"a shaker test instead (the slowest decay's time constant {slowest:.3g} s): periodic random settles in "

@@ -59,7 +59,8 @@ class FrfEstimate:
     averages: int = 0
     """Blocks H1 averages where the force is a shaker's continuous excitation (continuous_h1); 0 for hits."""
     block: str = ""
-    """What a block is: "period" (a periodic excitation's) or "burst" (burst random's); "" for hits."""
+    """What a block is: "period" (a periodic excitation's), "burst" (burst random's) or "block" (a random force's:
+    its averages are the record's stretches of the impulse responses' length); "" for hits."""
     averaged: str = ""
     """What H1 averages where it is not hits: "3 periods of 16 s of a periodic excitation on F (...)"."""
 
@@ -149,12 +150,15 @@ def _window_decay(responses: list[NDArray], length: float) -> float:
     """Decay rate [1/s] of an exponential window that brings the responses' level (RMS) over the last tenth of
     the segment down to 1 % of their level over the whole segment (0 where it is below that already): the
     segment is then a free decay that has died out, and the transform does not leak."""
-    ratio = 0.0
-    for y in responses:
-        tail = y[-max(1, len(y) // 10) :]
-        level = np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(y**2, axis=0)), 1e-300)
-        ratio = max(ratio, float(np.max(level)))
+    ratio = max(float(np.max(_tail_level(y))) for y in responses)
     return math.log(ratio / 0.01) / length if ratio > 0.01 else 0.0
+
+
+def _tail_level(y: NDArray) -> NDArray[np.float64]:
+    """Per channel of ``y`` (samples, channels), the RMS over its last tenth over the RMS over all of it: near 0
+    where a response has died out, near 1 where it goes on (_window_decay, a burst's block)."""
+    tail = y[-max(1, len(y) // 10) :]
+    return np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(y**2, axis=0)), 1e-300)
 
 
 def of_record(record: Record, settings: RecordSettings = RECORDS) -> FrfEstimate:
@@ -251,9 +255,7 @@ def _burst(f: NDArray, responses: Record, force: str, starts: list[int], setting
     blocks = [slice(a, a + n) for a in starts if a + n <= len(f)]
     y = responses.data
     for k, block in enumerate(blocks):
-        segment = y[block]
-        tail = segment[-max(1, n // 10) :]
-        level = np.sqrt(np.mean(tail**2, axis=0)) / np.maximum(np.sqrt(np.mean(segment**2, axis=0)), 1e-300)
+        level = _tail_level(y[block])
         if float(np.max(level)) > settings.burst_tail:
             name = responses.channels[int(np.argmax(level))].name
             raise InputError(
@@ -370,7 +372,7 @@ def _died_out(lines: NDArray, excited: NDArray, responses: Record, force: str, s
             f"random excitation: {responses.channels[int(np.argmax(leaking))].name}'s impulse response still decays "
             f"towards the end of the {taps / rate:.4g} s it is fitted over (1/{settings.random_blocks} of the record; "
             f"by {worst:.3g} over {span:.3g} s: a time constant of {constant:.3g} s or less), which leaks: record "
-            f"{settings.random_blocks * RANDOM_DECAYS * constant:.3g} s or more (impulse responses that outlast it "
+            f"{shaker_lengths(constant, settings)['random']:.3g} s or more (impulse responses that outlast it "
             f"{RANDOM_DECAYS:g} times)",
         )
 
@@ -473,17 +475,12 @@ def _bursts(f: NDArray, rate: float, settings: RecordSettings) -> list[int]:
     staying below for settings.burst_gap [s] or more (the first where it starts after such quiet or at the
     record's start)."""
     x = np.abs(f - np.median(f))
-    active = x > 0.05 * float(x.max())
+    on = np.flatnonzero(x > 0.05 * float(x.max()))
+    if not len(on):
+        return []
     gap = max(1, int(round(settings.burst_gap * rate)))
-    starts, quiet = [], gap  # the record's start counts as after quiet
-    for k, on in enumerate(active):
-        if on:
-            if quiet >= gap:
-                starts.append(k)
-            quiet = 0
-        else:
-            quiet += 1
-    return starts
+    # the record's start counts as after quiet; later, the samples below between two above it
+    return [int(on[0]), *map(int, on[1:][np.diff(on) - 1 >= gap])]
 
 
 SETTLED = 1e-4

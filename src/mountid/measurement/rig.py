@@ -262,6 +262,12 @@ class Rig:
         found = machine if isinstance(machine, Machine) else Machine.resolve(machine)
         return cls(found, {}, (mass, stiffness, damping), hardening)
 
+    def slowest_decay(self) -> float:
+        """[s] The time constant of the rig's slowest decaying pole, 1 / min(-Re p) over the damped ones (inf where
+        none decays): what a shaker test must wait out (frf.shaker_lengths)."""
+        decaying = -self.poles.real[self.poles.real < 0]
+        return 1.0 / float(decaying.min()) if len(decaying) else math.inf
+
     def mode_table(self, points: Sequence[Sequence[float]]) -> ModeTable:
         """The rig's complex modes (its state-space poles with Im p > 0, by |p|; the modes a truth's own coordinates
         add included) read as displacements along x, y and z at each of ``points`` [m], node k + 1 at the k-th

@@ -56,9 +56,9 @@ class RecordSettings:
     burst random's on and off leak force beyond its band at -30 dB and less, where H1 would divide noise by noise
     (a multisine's lines outside its band carry none at all)."""
     random_blocks: int = 8
-    """A random excitation's impulse responses (frf.continuous_h1: least squares over the whole record) last this
-    share of the record, 1/8: long enough for a rubber mount's decay in a record of minutes, short enough that the
-    record holds that many independent stretches of them (the estimate's noise grows as the share does)."""
+    """A random excitation's impulse responses (frf.continuous_h1: least squares over the whole record) last 1/this
+    of the record, 1/8: long enough for a rubber mount's decay in a record of minutes, short enough that the record
+    holds that many independent stretches of them (the estimate's noise grows as their share does)."""
     force_floor: float = 1e-6
     """Spectral lines where the hits' force spectrum is below this share of its largest carry no H1 (0): above
     the pulse's bandwidth the division only amplifies noise."""

@@ -66,6 +66,26 @@ _TAG = "mountid point="
 _ORDINATE_TYPES = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force"}
 """UFF 58 ordinate specific data types mountid reads (the others are read as acceleration)."""
 
+_ORDINATE_TYPE_OF = {quantity: kind for kind, quantity in _ORDINATE_TYPES.items()}
+"""The UFF 58 ordinate data type the writers give a quantity (0, unknown, for one not in _ORDINATE_TYPES)."""
+
+_WRITTEN_58 = {
+    "binary": 0,
+    "ver_num": 0,
+    "load_case_id": 0,
+    "abscissa_spacing": 1,
+    "z_axis_value": 0.0,
+    "z_axis_spec_data_type": 0,
+    "z_axis_axis_units_lab": "",
+    **{
+        f"{part}_{what}_unit_exp": 0
+        for part in ("abscissa", "ordinate", "orddenom", "z_axis")
+        for what in ("len", "force", "temp")
+    },
+}
+"""The fields of a dataset 58 both writers (dataset_58's time responses, write_frf's functions) give alike: double
+precision ASCII, evenly spaced abscissa, no load case, no z axis, units in SI (no exponents)."""
+
 
 def _axis(direction: tuple[float, float, float]) -> int:
     d = np.asarray(direction, dtype=float)
@@ -129,32 +149,21 @@ def _frf_set(common: dict, function: int, values: np.ndarray, channel: Channel) 
     frf = function == FRF
     freq = common["x"]
     return pyuff.prepare_58(
-        binary=0,
+        **_WRITTEN_58,
         id2="H1" if frf else "coherence",
         func_type=function,
-        ver_num=0,
-        load_case_id=0,
         rsp_ent_name=channel.name[:10],
         ref_ent_name="force",
         ord_data_type=6 if frf else 4,
         num_pts=len(freq),
-        abscissa_spacing=1,
         abscissa_min=float(freq[0]),
         abscissa_inc=float(freq[1] - freq[0]),
-        z_axis_value=0.0,
         abscissa_spec_data_type=18,  # frequency
-        ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}[channel.quantity] if frf else 0,
+        ordinate_spec_data_type=_ORDINATE_TYPE_OF[channel.quantity] if frf else 0,
         orddenom_spec_data_type=13 if frf else 0,  # force
-        z_axis_spec_data_type=0,
-        **{
-            f"{part}_{what}_unit_exp": 0
-            for part in ("abscissa", "ordinate", "orddenom", "z_axis")
-            for what in ("len", "force", "temp")
-        },
         abscissa_axis_units_lab="Hz",
         ordinate_axis_units_lab=channel.unit if frf else "",
         orddenom_axis_units_lab="N" if frf else "",
-        z_axis_axis_units_lab="",
         data=np.asarray(values, dtype=complex if frf else float),
         **common,
     )
@@ -180,7 +189,7 @@ def dataset_58(
     the channel's name), ID line 4 ``id4``, ID line 5 ``id5`` (default "quantity [unit]"), response ``node`` and
     direction ``axis`` (+-1, 2, 3; 0 for none), the ordinate's data type and axis label from the channel."""
     return pyuff.prepare_58(
-        binary=0,
+        **_WRITTEN_58,
         id1=channel.name if title is None else title,
         id2="time response",
         id3="",
@@ -193,27 +202,16 @@ def dataset_58(
         ref_dir=0,
         ord_data_type=4,
         num_pts=len(time),
-        abscissa_spacing=1,
         abscissa_min=float(time[0]),
         abscissa_inc=float(time[1] - time[0]),
         abscissa_spec_data_type=17,  # time
-        ordinate_spec_data_type={v: k for k, v in _ORDINATE_TYPES.items()}.get(channel.quantity, 0),
-        ver_num=0,
-        load_case_id=0,
+        ordinate_spec_data_type=_ORDINATE_TYPE_OF.get(channel.quantity, 0),
         rsp_ent_name=channel.name[:10],
         ref_ent_name="NONE",
-        z_axis_value=0.0,
-        **{
-            f"{part}_{what}_unit_exp": 0
-            for part in ("abscissa", "ordinate", "orddenom", "z_axis")
-            for what in ("len", "force", "temp")
-        },
         abscissa_axis_units_lab="s",
         ordinate_axis_units_lab=channel.unit,
         orddenom_spec_data_type=0,
         orddenom_axis_units_lab="",
-        z_axis_spec_data_type=0,
-        z_axis_axis_units_lab="",
         data=np.asarray(values, dtype=float),
         x=np.asarray(time, dtype=float),
     )
@@ -395,7 +393,7 @@ def _impulse_responses(
             f"frequency lines from {freq[0]:g} Hz by {spacing:g} Hz: mountid reads lines evenly spaced from 0 or "
             "a whole number of spacings above it",
         )
-    columns, channels, coherence, per_volt = [], [], [], set()
+    columns, channels, coherence, pers = [], [], [], []
     of_response = {_response(c): c for c in coherences}
     for name, s in zip(names, sets, strict=True):
         x = np.asarray(s["x"], dtype=float)
@@ -417,9 +415,8 @@ def _impulse_responses(
         if quantity == "force":
             raise InputError(name, "is a force over a force: a frequency response function is a response per force")
         denominator = int(s.get("orddenom_spec_data_type", 13) or 0)
-        if per in VOLTAGE:  # the hammer's raw voltage: per V until its sensitivity converts them
-            per_volt.add(_reference_name(s))
-        elif per not in UNITS["force"] or denominator not in (0, 1, 9, 13):
+        pers.append((per in VOLTAGE, _reference_name(s)))
+        if per not in VOLTAGE and (per not in UNITS["force"] or denominator not in (0, 1, 9, 13)):
             raise InputError(
                 name,
                 f"is a response per {per!r} (UFF 58 denominator type {denominator}): mountid reads a response "
@@ -429,9 +426,10 @@ def _impulse_responses(
         columns.append(np.concatenate([np.zeros(first, dtype=complex), lines]))
         channels.append(Channel(name, *_placement(s, name, nodes), quantity, next(iter(RECORDED[quantity]))))
     record = impulse_record(np.column_stack(columns), spacing, tuple(channels), tuple(coherence))
+    per_volt = {reference for volts, reference in pers if volts}  # the hammer's raw voltage: its sensitivity converts
     if not per_volt:
         return record
-    if len(per_volt) > 1 or any(_per_force(s)[1] not in VOLTAGE for s in sets):
+    if len(per_volt) > 1 or not all(volts for volts, _ in pers):
         raise InputError(names[0], "functions per volt beside functions per force, or of two references: one input")
     return replace(record, impulse=replace(record.impulse, per_volt=per_volt.pop()))
 
