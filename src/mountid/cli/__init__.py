@@ -236,6 +236,14 @@ def build_parser() -> argparse.ArgumentParser:
         "impulse responses by least squares over the record; record eight times the machine's decay or more)",
     )
     p.add_argument(
+        "--ambient",
+        type=float,
+        metavar="N",
+        help="output-only instead of hits: unmeasured random forces of N [N] RMS each, white to 0.4 x the rate, "
+        "along x, y and z at every isolator (the ground's vibration; with --speed, a running machine's operation); "
+        "the records chain fits the correlation functions of the responses",
+    )
+    p.add_argument(
         "--force-channel",
         metavar="NAME",
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "

@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 
     from mountid.identification.from_records import Identification
     from mountid.measurement.records import ModeTable, Record
-    from mountid.measurement.rig import Hammer, Rig, Sensor, Shaker, Unbalance
+    from mountid.measurement.rig import Hammer, RandomForce, Rig, Sensor, Shaker, Unbalance
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
@@ -70,7 +70,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         raise InputError("--force-channel", f"{force!r} is {what}")
     hit = _hit(args)
     shakers = _shakers(args, hit)
-    hammers = [] if args.speed or shakers else [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time]
+    ambient = _ambient(args, rig, shakers)
+    hits = not (args.speed or shakers or ambient)
+    hammers = [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time] if hits else []
     unbalances = unbalances_of(args)
     record = rig.simulate(
         sensors,
@@ -81,11 +83,13 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         seed=args.seed,
         force_channel=args.force_channel,
         shakers=shakers,
+        ambient=ambient,
     )
     kind = WRITERS[out.suffix.lower()]
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
-    notes += [] if args.speed or shakers else _close_hits_note(args.hit_time)
+    notes += _close_hits_note(args.hit_time) if hits else []
+    notes += _ambient_note(rig, args.duration) if ambient else []
     if args.shaker_random and math.isfinite(rig.slowest_decay()):
         notes += random_length_note(args.duration, rig.slowest_decay())
     elif shakers and not args.shaker_random and args.duration < 3 * args.shaker_period:
@@ -121,6 +125,41 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}: {len(record.time)} samples x {count} ({', '.join(record.names)})")
     for note in notes:
         print(f"note: {note}")
+
+
+def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[RandomForce]:
+    """The random forces --ambient gives at the isolators (rig.ambient_forces, white to 0.4 x the rate; [] without
+    it); an InputError naming the option that does not go with them."""
+    from mountid.measurement.rig import ANTI_ALIAS, ambient_forces
+
+    if args.ambient is None:
+        return []
+    bounded(args.ambient, "--ambient", HIT_PEAK_LIMIT, " N")
+    if shakers:
+        raise InputError("--ambient", "and --shaker are two tests: an output-only one and one whose force is measured")
+    if args.force_channel is not None:
+        raise InputError("--force-channel", "ambient forces are not measured: an output-only record has no force")
+    if args.hit_time != [HIT_TIME]:
+        raise InputError("--ambient", "drives the machine from the start: --hit-time is for hits")
+    return ambient_forces(rig, args.ambient, ANTI_ALIAS * args.rate, args.seed)
+
+
+def _ambient_note(rig: Rig, duration: float) -> list[str]:
+    """simulate's note on an output-only record: how long the records chain needs it, where it is shorter."""
+    import numpy as np
+
+    from mountid.measurement.ambient import SEGMENTS, shortest_record
+    from mountid.measurement.settings import RECORDS
+
+    lowest = float(np.min(np.abs(rig.poles)))
+    needed = shortest_record(lowest, RECORDS.min_periods)
+    said = (
+        f"an output-only record: the records chain fits the correlation functions of the responses over {SEGMENTS} "
+        f"segments, to {RECORDS.min_periods:g} periods of the lowest mode at least; it needs {needed:.4g} s or more"
+    )
+    if duration < needed:
+        return [f"{said}, {duration:g} s is shorter"]
+    return [f"{said}, and their uncertainty shrinks as the square root of the record's length"]
 
 
 def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:

@@ -21,7 +21,7 @@ import numpy as np
 from mountid.errors import InputError, NoModeFound
 from mountid.identification.shapes import merged_shape
 from mountid.machine import Machine
-from mountid.measurement import modal
+from mountid.measurement import ambient, modal
 from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import ModeTable, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
@@ -289,10 +289,15 @@ def decays_of(
 ) -> tuple[list[tuple[str, ModalData]], list[str]]:
     """The decays of one record named ``name``, each with its name and modal data (from_records.modal_data,
     ``start``, ``nominal``, ``settings`` and ``use_force`` as there), and the notes on them: the free decay after
-    each hit (every_hit) where ``start`` is None and the modes come from a free decay after several hits, else the
-    record's one (a ``start``, one hit, or the H1 frequency responses of a force channel)."""
+    each hit (every_hit) where ``start`` is None and the modes come from a free decay after several hits; an
+    output-only record's (ambient.is_output_only, no ``start``) from its correlation functions with every response
+    channel as the reference (output_only.every_reference); else the record's one (a ``start``, one hit, or the H1
+    frequency responses of a force channel)."""
     from mountid.identification.from_records import modal_data
+    from mountid.identification.output_only import every_reference
 
+    if start is None and isinstance(record, Record) and ambient.is_output_only(record.in_si()):
+        return every_reference(machine, record, known, name, nominal, settings)
     data = modal_data(machine, record, known, start, nominal, settings, use_force)
     if start is None and data.frf is None and len(data.hits) > 1:
         return every_hit(machine, record, known, data, name, nominal, settings)

@@ -41,7 +41,7 @@ from mountid.machine import (
     recently_used,
     sensor_row,
 )
-from mountid.measurement import frf, modal
+from mountid.measurement import ambient, frf, modal
 from mountid.measurement.frf import FrfEstimate
 from mountid.measurement.modes import (
     DEFAULT_DAMPING_STD,
@@ -1028,6 +1028,7 @@ def modal_data(
     nominal: dict[str, float] | None = None,
     settings: RecordSettings = RECORDS,
     use_force: bool = True,
+    reference: str | None = None,
 ) -> ModalData:
     """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
     With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
@@ -1035,7 +1036,9 @@ def modal_data(
     out; otherwise on the free decay from ``start`` [s] (None: modal.free_decay's, after the impact the record
     shows, said in a note where that is not at modal.DEFAULT_START). ``nominal`` values of the unknowns (default:
     the description's) only serve to label the modes; ``settings``: the record checks' thresholds. A bench's table
-    of modes (records.ModeTable) gives its modes labelled as a record's poles are (table_modal_data)."""
+    of modes (records.ModeTable) gives its modes labelled as a record's poles are (table_modal_data). With a
+    ``reference`` (a response channel) the record is output-only: the modes are fitted on the correlation functions
+    of the responses with it (measurement.ambient), their uncertainty from the segments' scatter."""
     mod = machine.module
     guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
@@ -1053,13 +1056,42 @@ def modal_data(
         shaker = frf.continuous_h1(full, full.forces[0], settings)
         record = shaker.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
+    correlated = None  # an output-only record's correlation functions with the reference
+    if reference is not None:
+        if start is not None:
+            raise InputError("start", "an output-only record's correlation functions start at lag zero")
+        lags = ambient.shortest_lags(float(np.min(nominal_omega)), settings.min_periods)
+        correlated = ambient.correlations(record, reference, lags)
     if len(full.forces) > 1 and use_force and (shaker is not None or record.impulse is None):
         # one input: the others' hits (a roving hammer: its runs) or a second shaker's force are not divided out
         notes.append(
             f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "
             f"frequency responses are of one input, {full.forces[0]}"
         )
-    if record.impulse is not None or (full.forces and use_force):
+    if correlated is not None:
+        begin, fitted = ambient.START, correlated.mean
+        _check_length(fitted, begin, float(np.min(nominal_omega)), settings)
+        source = (fitted, begin, 2.0 * top)
+        poles = modal.free_decay_poles(
+            fitted, begin, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
+        )
+        poles, noise = ambient.with_scatter(correlated, begin, 2.0 * top, len(mod.MODES), poles)
+        segments = len(correlated.segments)
+        notes.append(
+            f"output-only: modes from the correlation functions of the responses with {reference} (lags to "
+            f"{float(fitted.time[-1]):.3g} s, the mean of {segments} segments of {correlated.segment_length:.4g} s; "
+            "uncertainty from their scatter, each left out in turn)"
+            + (
+                f"; {counted(len(noise), 'pole')} at "
+                + ", ".join(f"{p.frequency:.4g}" for p in noise)
+                + f" rad/s left out: found again with fewer than {ambient.FOUND_IN:.0%} of the segments, or a "
+                f"damping ratio within {ambient.DAMPED:g} standard deviations of zero (the estimate's noise, or a "
+                "steady oscillation: a running machine)"
+                if noise
+                else ""
+            )
+        )
+    elif record.impulse is not None or (full.forces and use_force):
         if record.impulse is not None:  # frequency response functions transformed back: fitted as H1 is
             if start is not None:
                 raise InputError("start", "impulse responses (frequency response functions) start at the hit")
@@ -1112,7 +1144,7 @@ def modal_data(
     poles = [_as_acceleration(p, record) for p in poles]
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
-    if shaker is not None:  # a shaker's record: its responses' clipping (no hit to check)
+    if shaker is not None or correlated is not None:  # a shaker's, an output-only record: clipping (no hit to check)
         warnings = modal.clipping(full.select(full.responses), None, top, settings)
     elif record.impulse is not None:  # no record of the test: its checks (clipping, noise, the hit) were the bench's
         warnings = []
@@ -1126,18 +1158,30 @@ def modal_data(
     if len(record.channels) >= 7 and all(np.all(np.isfinite(c.point + c.direction)) for c in record.channels):
         # over the free decay from its start, or the impulse responses from the start the free decay has by default
         sensor = inconsistent_channel(
-            machine, source[0], modal.DEFAULT_START if estimate is not None or record.impulse is not None else start
+            machine,
+            source[0],
+            modal.DEFAULT_START
+            if estimate is not None or record.impulse is not None or correlated is not None
+            else start,
         )
         warnings += [sensor] if sensor is not None else []
     # a steady oscillation (a machine running nearby: modal.not_a_free_decay names it) takes no mode's label
     damped = [p for p in poles if not modal.is_steady(p, settings)]
     labelled, rest = label_poles(machine, record, damped, guess)
     rest = sorted([*rest, *(p for p in poles if modal.is_steady(p, settings))], key=lambda p: p.frequency)
-    twins = split_twins(machine, record, source, Twins(poles, labelled, rest, []), guess)
+    found = Twins(poles, labelled, rest, [])
+    # a fit of two poles in the place of one is tested against white noise: correlation functions' errors are not
+    twins = found if correlated is not None else split_twins(machine, record, source, found, guess)
     poles, labelled, rest = twins.poles, twins.labelled, twins.rest
     warnings += twins.warnings
     labelled, merged = unresolved(machine, record, labelled, guess)
-    if merged:
+    if merged and correlated is not None:
+        rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
+        warnings += [
+            modal.QualityWarning("unresolved_modes", "all", f"{m.describe()}: not separated, {m.label} left out")
+            for m in merged
+        ]
+    elif merged:
         split = _split_merged(machine, record, source, poles, merged, guess)
         if split is None:  # left out: a frequency between the modes and a mix of their shapes measure neither
             rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
@@ -1161,7 +1205,9 @@ def modal_data(
                 for m in merged
             ]
     everything = [(label, p) for label, (p, _) in labelled.items()] + [("", p) for p in rest]
-    warnings += modal.not_a_free_decay(*source, everything, settings)
+    checked = modal.not_a_free_decay(*source, everything, settings)
+    # correlation functions hold the estimate's noise out to their last lag: their share unexplained says no more
+    warnings += [w for w in checked if correlated is None or w.kind != "unexplained"]
     if not labelled:
         raise with_warnings(
             NoModeFound("record", "no damped mode found in the free decay (check start, channels and excitation)"),

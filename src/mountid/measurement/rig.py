@@ -154,6 +154,66 @@ class Shaker:
 
 
 @dataclass(frozen=True)
+class RandomForce:
+    """An unmeasured random force (ambient or operational excitation: ground vibration reaching the machine through
+    an isolator, the process a running machine works on): white noise of ``rms`` [N] up to ``high`` [Hz] at a body
+    point along a direction, from ``seed``. Its values at knots KNOTS x ``high`` apart [Hz] (independent standard
+    normal, drawn in blocks of KNOT_BLOCK from (seed, block), so that any stretch of time gives the same force)
+    joined by straight lines: a smooth spectrum (sinc(f / (KNOTS high)))^4, flat within 7 % to ``high`` and
+    falling to zero at KNOTS x ``high``. No record holds it: a record of its responses is output-only (the records
+    chain fits their correlation functions)."""
+
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    rms: float = 100.0
+    high: float = 40.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not (self.rms > 0 and self.high > 0):
+            raise InputError(
+                "random force", f"needs an rms force > 0 and a band high > 0 Hz, got {self.rms}, {self.high}"
+            )
+
+    def force(self, t: NDArray) -> NDArray[np.float64]:
+        """Force [N] at times t [s] (t >= 0)."""
+        t = np.asarray(t, dtype=float)
+        if t.size == 0:
+            return np.zeros(0)
+        at = t * KNOTS * self.high
+        k = np.floor(at).astype(np.int64)
+        first, last = int(k.min()) // KNOT_BLOCK, (int(k.max()) + 1) // KNOT_BLOCK
+        values = np.concatenate(
+            [np.random.default_rng([self.seed, b]).standard_normal(KNOT_BLOCK) for b in range(first, last + 1)]
+        )
+        k0 = k - first * KNOT_BLOCK
+        share = at - k
+        # straight lines between unit-variance knots: the variance (1 - s)^2 + s^2, 2/3 on average over a knot
+        return self.rms * math.sqrt(1.5) * ((1 - share) * values[k0] + share * values[k0 + 1])
+
+
+KNOTS = 10.0
+"""A random force's knots per period of its band's top (RandomForce): the straight lines between them are flat in
+the spectrum within (sinc(1 / KNOTS))^4 = 0.935 at the top."""
+
+KNOT_BLOCK = 4096
+"""Knots a random force draws at a time (RandomForce.force): any stretch of time draws the blocks it needs."""
+
+
+def ambient_forces(rig: Rig, rms: float, high: float, seed: int = 0) -> list[RandomForce]:
+    """Ambient excitation of ``rig``: independent random forces (RandomForce, ``rms`` [N] each, to ``high`` [Hz])
+    along x, y and z at every isolator's point on the body, the ground's vibration as it reaches the machine
+    through each isolator; every mode is excited, none is recorded. Seeds (seed, isolator, axis)."""
+    points = rig.machine.isolator_points(rig.parameters).T
+    axes = np.eye(3)
+    return [
+        RandomForce(tuple(map(float, p)), tuple(map(float, axes[a])), rms, high, seed * 1000 + 3 * i + a)
+        for i, p in enumerate(points)
+        for a in range(3)
+    ]
+
+
+@dataclass(frozen=True)
 class Unbalance:
     """A rotating unbalance: mass ``mass`` [kg] at eccentricity ``eccentricity`` [m] turning at ``speed``
     [rad/s] about an axis through ``point`` [m] along ``axis`` (default vertical). The force
@@ -366,10 +426,10 @@ class Rig:
         return q, qd, qdd
 
     def forcing(
-        self, hammers: Sequence[Hammer | Shaker] = (), unbalances: Sequence[Unbalance] = ()
+        self, hammers: Sequence[Hammer | Shaker | RandomForce] = (), unbalances: Sequence[Unbalance] = ()
     ) -> Callable[[NDArray], NDArray[np.float64]]:
-        """The generalised force [N, N m] of the hammers (or shakers) and unbalances as a function of the times t
-        [s], shape (len(t), n): each one's force column taken once."""
+        """The generalised force [N, N m] of the hammers (or shakers, random forces) and unbalances as a function of
+        the times t [s], shape (len(t), n): each one's force column taken once."""
         hits = [(h, self.force_column(h.point, h.direction, "hammer")) for h in hammers]
         turning = [
             (u, *(u.amplitude * self.force_column(u.point, e, "unbalance") for e in u.plane())) for u in unbalances
@@ -446,10 +506,12 @@ class Rig:
         seed: int | None = 0,
         force_channel: str | None = None,
         shakers: Sequence[Shaker] = (),
+        ambient: Sequence[RandomForce] = (),
     ) -> Record:
         """A record of the sensors (each in its quantity and unit) sampled at ``rate`` [Hz] for ``duration``
         [s]; with ``force_channel`` a last channel of that name records the hammers' and shakers' force [N] (the
-        excitation, through the same anti-alias filter, without noise).
+        excitation, through the same anti-alias filter, without noise). The ``ambient`` random forces act as well
+        and are never recorded (ambient_forces: an output-only test).
 
         The response is computed at ``oversample`` x the rate, or more where that leaves fewer than
         RESOLVED samples per hammer pulse or per period of the fastest mode or unbalance (the physics does not
@@ -465,8 +527,12 @@ class Rig:
             raise InputError("rate", f"must be positive, got {rate}")
         if shakers and self.hardening is not None:
             raise InputError("shakers", "a shaker on hardening isolators is not simulated (hammers and unbalances are)")
+        if ambient and self.hardening is not None:
+            raise InputError(
+                "ambient", "random forces on hardening isolators are not simulated (hammers and unbalances are)"
+            )
         fastest = [float(np.max(np.abs(self.poles))) / (2 * np.pi), *(u.speed / (2 * np.pi) for u in unbalances)]
-        fastest += [shaker.high for shaker in shakers]
+        fastest += [shaker.high for shaker in shakers] + [f.high for f in ambient]
         needed = [RESOLVED / (h.duration * rate) for h in hammers] + [RESOLVED * f / rate for f in fastest]
         oversample = max(oversample, math.ceil(max(needed)))
         n_out = int(round(duration * rate))
@@ -480,7 +546,7 @@ class Rig:
         filtering = anti_alias and oversample > 1
         sos = scipy.signal.butter(8, ANTI_ALIAS * rate, fs=fine_rate, output="sos") if filtering else None
         n_fine = n_out * oversample
-        forcing = self.forcing([*hammers, *shakers], unbalances)
+        forcing = self.forcing([*hammers, *shakers, *ambient], unbalances)
         state, filtered, blocks = None, None, []
         # the fine grid in blocks of BLOCK samples (memory), each from the state at the last one before it
         for start in range(0, n_fine, BLOCK):

@@ -23,7 +23,7 @@ import numpy as np
 from mountid.errors import InputError
 from mountid.identification.from_records import IRF_START
 from mountid.machine import Machine
-from mountid.measurement import modal
+from mountid.measurement import ambient, modal
 from mountid.measurement.records import ModeTable, Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
@@ -84,11 +84,13 @@ def spectrum_figure(
     poles: dict[str, tuple[float, float]],
     path: str | Path,
     end: float | None = None,
+    what: str = "",
 ) -> Path:
     """Paper Fig. 4 b), every channel: Hann-windowed amplitude spectra of the free decay from ``start`` [s] to
     ``end`` [s] (None: the record's end; a later hit's) (``channels``, default all but force channels), in each
     channel's unit, against rad/s (below) and Hz (above); the picked poles {label: (frequency [rad/s], damping
-    ratio)} as labelled lines; the raw FFT bin size for comparison."""
+    ratio)} as labelled lines; the raw FFT bin size for comparison. ``what`` the samples are, for the title (default:
+    the free decay, or the impulse responses of frequency response functions)."""
     names = list(channels) if channels else list(record.responses)
     keep = (record.time >= start) & (record.time < (np.inf if end is None else end))
     fig, ax = plt.subplots(figsize=(9, 4.5))
@@ -106,7 +108,7 @@ def spectrum_figure(
         ax.text(w, peak * 0.35**i, f" {label} {w:.2f} rad/s\n zeta {zeta:.3f}", va="top", fontsize=7)
     bin_ = 2 * np.pi / (record.time[keep][-1] - record.time[keep][0])
     until = "" if end is None else f" to {end:.4g} s"
-    what = "free decay" if record.impulse is None else "impulse responses"
+    what = what or ("free decay" if record.impulse is None else "impulse responses")
     ax.set_title(f"spectra of the {what} from {start:g} s{until} (raw FFT bin {bin_:.2f} rad/s); dashed: picked poles")
     ax.set_xlabel("omega [rad/s]")
     ax.set_ylabel(f"amplitude spectrum [{', '.join(sorted(units))}]")
@@ -329,14 +331,26 @@ def experiment_figures(
         si = result.frf.as_impulse_record()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
+    output_only = result.frf is None and ambient.is_output_only(si)
     if result.frf is not None and not result.frf.averages:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
+    elif output_only:  # the correlation functions with the first response channel, one reference of those fitted
+        fitted = ambient.correlations(responses, responses.names[0]).mean
+        runs = modal.stabilisation(fitted, ambient.START, top, len(machine.module.MODES))
     else:  # the free decay they were fitted on (until a later hit), or a shaker's or bench's impulse responses
         analysed = responses if result.end is None else responses.before(result.end)
         runs = modal.stabilisation(analysed, result.start, top, len(machine.module.MODES))
     sensors = [c.point for c in responses.channels if np.all(np.isfinite(c.point))]
     out = [
-        spectrum_figure(si, None, result.start, poles, folder / "spectrum.png", result.end),
+        spectrum_figure(
+            si,
+            None,
+            result.start,
+            poles,
+            folder / "spectrum.png",
+            result.end,
+            "output-only record" if output_only else "",
+        ),
         stabilisation_figure(runs, poles, folder / "stabilisation.png"),
         shapes(sensors),
     ]

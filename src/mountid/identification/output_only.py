@@ -1,0 +1,89 @@
+"""An output-only record's modes (measurement.ambient): the correlation functions with each response channel as
+the reference in turn, fitted as free decays (from_records.modal_data), and each mode taken from the reference that
+measures it most precisely.
+
+A reference near a node of a mode does not see it (kid300's A_z sees the rocking psi, not the torsion phi; B_y the
+torsion, not psi), so one reference seldom gives every mode. The estimates of one mode with several references come
+from the same samples: they are not independent, and a weighted mean would claim a precision the record does not
+have. Each mode's estimate is one reference's, with that reference's uncertainty (the segments' scatter); twins
+(modes the model has equal by symmetry) come from one reference together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from mountid.errors import NoModeFound
+from mountid.machine import Machine
+from mountid.measurement import modal
+from mountid.measurement.records import Record
+from mountid.measurement.settings import RECORDS, RecordSettings
+from mountid.nomenclature import counted
+
+if TYPE_CHECKING:
+    from mountid.identification.from_records import ModalData
+
+
+def every_reference(
+    machine: Machine,
+    record: Record,
+    known: dict[str, float],
+    name: str,
+    nominal: dict[str, float] | None = None,
+    settings: RecordSettings = RECORDS,
+) -> tuple[list[tuple[str, ModalData]], list[str]]:
+    """The modal data of the output-only ``record`` (named ``name``): modal_data with every response channel as the
+    reference, each group of twins (or lone mode) from the reference that gives most of the group, then the
+    smallest relative frequency standard deviation; the other references' estimates left out. Returns one decay
+    (decays_of's form, its notes say which reference gave which mode) and no notes besides."""
+    from mountid.identification.from_records import modal_data
+
+    found: list[tuple[str, ModalData]] = []
+    notes: list[str] = []
+    references = record.in_si().responses
+    for reference in references:
+        try:
+            found.append((reference, modal_data(machine, record, known, None, nominal, settings, reference=reference)))
+        except NoModeFound as err:
+            notes.append(f"with {reference} as the reference no mode: {err.reason}")
+    if not found:
+        raise NoModeFound(
+            "record",
+            "output-only (no force channel, a steady motion): no damped mode in the correlation functions with any "
+            f"response channel as the reference ({'; '.join(notes)})",
+        )
+    rep = machine.module.REPRESENTATIVE
+    picked: dict[str, str] = {}
+    for group in dict.fromkeys(rep[label] for _, data in found for label in data.modes):
+
+        def score(item: tuple[str, ModalData], group: str = group) -> tuple[int, float]:
+            labels = [label for label in item[1].modes if rep[label] == group]
+            modes = [item[1].modes[label] for label in labels]
+            return -len(labels), sum(m.frequency_std / m.frequency for m in modes) / max(len(modes), 1)
+
+        reference, data = min((item for item in found if group in {rep[lab] for lab in item[1].modes}), key=score)
+        picked |= {label: reference for label in data.modes if rep[label] == group}
+    by_reference = dict(found)
+    modes = {label: by_reference[picked[label]].modes[label] for label in machine.module.MODES if label in picked}
+    taken = dict.fromkeys(picked.values())
+    unlabelled = sorted(
+        (p for reference in taken for p in by_reference[reference].unlabelled), key=lambda p: p.frequency
+    )
+    warnings: list[modal.QualityWarning] = []
+    for reference in taken:
+        warnings += [w for w in by_reference[reference].warnings if w not in warnings]
+    first = by_reference[next(iter(taken))]
+    each = "; ".join(
+        f"{', '.join(label for label in modes if picked[label] == reference)} from {reference}" for reference in taken
+    )
+    own = [f"reference {reference}: {note}" for reference, data in found for note in data.notes]
+    summary = (
+        f"output-only, {counted(len(references), 'response channel')} as the reference in turn, {len(found)} giving "
+        f"modes; each mode from the reference that measures it most precisely (the others' estimates share its "
+        f"samples): {each}"
+    )
+    merged = replace(
+        first, modes=modes, unlabelled=unlabelled, warnings=warnings, notes=(summary, *notes, *own), mixed=frozenset()
+    )
+    return [(name, merged)], []

@@ -1,0 +1,212 @@
+"""Output-only records: the responses to an excitation nobody measured (ambient ground vibration, a running
+machine's process), read through their correlation functions (the natural excitation technique, NExT).
+
+Under a random excitation whose correlation time is short against the modes' periods, the correlation of every
+response y_j with one reference response y_r,
+
+    R_jr(tau) = E[y_j(t + tau) y_r(t)],   tau > 0,
+
+is a sum of the modes' free decays: the machine's poles, and per mode the shape over the channels j scaled by one
+factor the reference sets (a hit at the reference point gives the same picture). The records chain fits it as a
+free decay. A reference near a node of a mode does not see that mode: every response channel serves as a reference
+in turn, and each mode is taken from the reference that measures it most precisely (from_records).
+
+The record is cut into SEGMENTS segments; each gives its correlation functions with the unbiased estimator
+(divided by the products each lag has, no window: a window's taper would add to every mode's damping), and the
+mean over the segments is fitted. Their scatter gives the uncertainty: the poles and amplitudes are fitted again
+with each segment left out in turn (the jackknife), which holds what the least-squares bound of one fit does not
+(the errors of correlation functions are correlated from lag to lag).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mountid.errors import InputError
+from mountid.measurement import modal
+from mountid.measurement.records import Record
+
+SEGMENTS = 8
+"""Segments an output-only record is cut into: the correlation functions are their mean, and leaving each out in
+turn gives the uncertainty (jackknife)."""
+
+STATIONARY = 2.0
+"""A record without a force channel is output-only (is_output_only) where the RMS of its SEGMENTS stretches stays
+within this factor (the largest over the smallest, the median over the channels): a hit's free decay falls by
+orders of magnitude, a hit in the middle of a quiet record rises as much."""
+
+LAG_SHARE = 0.25
+"""The longest lag the correlation functions are fitted to, as a share of a segment: the lags are cut where their
+envelope has fallen to the noise of the estimate (lag_length), at most here."""
+
+FLOOR = 0.02
+"""The correlation functions are fitted out to where their envelope (all channels with the reference) last
+exceeds this share of its value at zero lag, or twice the envelope's level over the longest lags (the estimate's
+noise), whichever is higher (lag_length)."""
+
+FOUND_IN = 0.75
+"""A pole is kept where the fits with one segment left out find it again (within MATCH) in at least this share
+of them: one that comes and goes with a segment is the noise of the estimate, not a mode."""
+
+MATCH = 0.03
+"""A pole of a fit with one segment left out is the full fit's pole where |p - p0| / |p0| is below this, the
+nearest."""
+
+DAMPED = 2.0
+"""A pole of an output-only record is a mode where its damping ratio exceeds this many of its standard deviations
+(or it is a steady oscillation, modal.is_tone, which the records chain names): the estimate's noise in the
+correlation functions gives poles of damping ratios about zero (kid300, 1200 s, one in 20 records: 69.8 rad/s at
+0.006 +- 0.010, labelled theta)."""
+
+START = 0.05
+"""[s] The fit of the correlation functions starts at this lag: past lag zero, where the sensors' noise adds its
+variance, and the anti-alias filter's correlation of it."""
+
+
+def shortest_lags(lowest: float, min_periods: float) -> float:
+    """[s] The lags the correlation functions need at least: ``min_periods`` periods of the lowest mode (``lowest``
+    [rad/s]) from START, as a free decay needs them (RecordSettings.min_periods)."""
+    return min_periods * 2 * math.pi / lowest + START
+
+
+def shortest_record(lowest: float, min_periods: float, segments: int = SEGMENTS) -> float:
+    """[s] The shortest output-only record the records chain reads: ``segments`` segments, each LAG_SHARE of it
+    the shortest_lags."""
+    return segments * shortest_lags(lowest, min_periods) / LAG_SHARE
+
+
+@dataclass(frozen=True)
+class Correlations:
+    """The correlation functions of a record's responses with one of them (``reference``): per segment, and their
+    mean as a record (time: the lag [s]; channels: the responses, in [channel unit x reference unit])."""
+
+    reference: str
+    segments: NDArray[np.float64]
+    """(SEGMENTS, lags, channels): each segment's unbiased correlation functions."""
+    mean: Record
+    segment_length: float
+    """[s] The length of each segment."""
+
+    def leaving_out(self, k: int) -> Record:
+        """The mean correlation functions of every segment but the k-th."""
+        keep = np.arange(len(self.segments)) != k
+        return Record(self.mean.time, self.segments[keep].mean(axis=0), self.mean.channels)
+
+
+def is_output_only(record: Record, segments: int = SEGMENTS) -> bool:
+    """Whether ``record`` (no force channel, not impulse responses) is a steady motion: the RMS of its ``segments``
+    stretches within STATIONARY of each other (the median ratio over the response channels), and no impact in it
+    (modal.impact_bursts: a roving hammer's hits, a few seconds apart all through the record, are as steady)."""
+    if record.forces or record.impulse is not None or not record.responses:
+        return False
+    data = record.select(record.responses).data
+    n = len(data) // segments
+    if n < 2:
+        return False
+    rms = np.sqrt(np.mean((data[: n * segments].reshape(segments, n, -1)) ** 2, axis=1))  # (segments, channels)
+    ratio = rms.max(axis=0) / np.maximum(rms.min(axis=0), 1e-300)
+    if not np.median(ratio) < STATIONARY:
+        return False
+    return len(modal.impact_bursts(record.select(record.responses))) == 0
+
+
+def correlations(record: Record, reference: str, min_lag: float = 0.0, segments: int = SEGMENTS) -> Correlations:
+    """The correlation functions of the responses of ``record`` with ``reference`` (one of them), per segment and
+    their mean, out to lag_length or ``min_lag`` [s] where that is longer (a record whose segments are too short
+    for it is an error that says how long to record)."""
+    if reference not in record.names:
+        raise InputError("reference", f"{reference!r} is not a channel of the record ({', '.join(record.names)})")
+    data = record.data - record.data.mean(axis=0)
+    n = len(data) // segments
+    rate = 1.0 / float(record.time[1] - record.time[0])
+    if n < 64:
+        raise InputError("record", f"{len(data)} samples: too short for {segments} segments of output-only data")
+    r = record.names.index(reference)
+    size = 1 << int(math.ceil(math.log2(2 * n)))
+    longest = max(8, int(LAG_SHARE * n))
+    if longest < min_lag * rate:
+        needed = segments * min_lag / LAG_SHARE
+        raise InputError(
+            "record",
+            f"too short for output-only data: {len(data) / rate:.4g} s in {segments} segments gives correlation "
+            f"functions to {longest / rate:.3g} s, and the lowest mode needs {min_lag:.3g} s of them: record "
+            f"{needed:.4g} s or more",
+        )
+    products = (n - np.arange(longest))[:, None]
+    each = np.empty((segments, longest, data.shape[1]))
+    for k in range(segments):
+        spectra = np.fft.rfft(data[k * n : (k + 1) * n], size, axis=0)
+        each[k] = np.fft.irfft(spectra * np.conj(spectra[:, [r]]), size, axis=0)[:longest] / products
+    lags = min(longest, max(lag_length(each.mean(axis=0)), math.ceil(min_lag * rate)))
+    each = each[:, :lags]
+    mean = Record(np.arange(lags) / rate, each.mean(axis=0), record.channels)
+    return Correlations(reference, each, mean, n / rate)
+
+
+def lag_length(mean: NDArray) -> int:
+    """Lags of the correlation functions ``mean`` (lags, channels) worth fitting: to the first lag from which their
+    envelope (the root sum of squares over the channels), as an RMS over the next twentieth of the lags, stays below
+    FLOOR of its value at zero lag or twice its RMS over the last quarter of the lags (the estimate's noise),
+    whichever is higher; at least a tenth of them."""
+    envelope = np.sqrt(np.sum(mean**2, axis=1))
+    n = len(envelope)
+    noise = float(np.sqrt(np.mean(envelope[-max(1, n // 4) :] ** 2)))
+    level = max(FLOOR * float(envelope[0]), 2.0 * noise)
+    width = max(1, n // 20)
+    ahead = np.sqrt(np.convolve(envelope**2, np.ones(width) / width, mode="valid"))  # [k]: over k .. k + width - 1
+    above = np.flatnonzero(ahead > level)
+    cut = int(above[-1]) + width if len(above) else 0  # past the last window above the level
+    return min(n, max(cut, n // 10, 8))
+
+
+def with_scatter(
+    correlations: Correlations, start: float, max_frequency: float, n_modes: int, poles: list[modal.Pole]
+) -> tuple[list[modal.Pole], list[modal.Pole]]:
+    """The ``poles`` fitted on the mean correlation functions with their standard deviations from the fits that
+    leave one segment out in turn (the jackknife: sqrt((K - 1) / K sum (x_k - mean)^2) of the frequency, the
+    damping ratio, each channel's amplitude), where at least FOUND_IN of those fits find the pole again and its
+    damping ratio is DAMPED standard deviations above zero (or it is a steady oscillation); returns (kept,
+    dropped)."""
+    k = len(correlations.segments)
+    again = [
+        modal.free_decay_poles(correlations.leaving_out(i), start, max_frequency, n_modes, extra_orders=(4, 8))
+        for i in range(k)
+    ]
+    kept, dropped = [], []
+    for pole in poles:
+        found = [_nearest(pole, run) for run in again]
+        found = [p for p in found if p is not None]
+        if len(found) < FOUND_IN * k:
+            dropped.append(pole)
+            continue
+        scattered = modal.Pole(
+            pole.frequency,
+            pole.damping_ratio,
+            pole.shape,
+            float(_jackknife_std(np.array([p.frequency for p in found]), k)),
+            float(_jackknife_std(np.array([p.damping_ratio for p in found]), k)),
+            _jackknife_std(np.array([p.shape for p in found]), k),
+        )
+        tone = bool(modal.is_tone(np.array([pole.p]))[0])
+        (kept if tone or pole.damping_ratio > DAMPED * scattered.damping_std else dropped).append(scattered)
+    return kept, dropped
+
+
+def _jackknife_std(values: NDArray, k: int) -> NDArray[np.float64]:
+    """The jackknife's standard deviation sqrt((k - 1) / k sum (x_i - mean)^2) over the first axis of ``values``,
+    the fits of k that leave one segment out (where some did not find the pole, their sum scaled up to k)."""
+    squares = np.sum(np.abs(values - values.mean(axis=0)) ** 2, axis=0)
+    return np.sqrt((k - 1) / k * squares * k / len(values))
+
+
+def _nearest(pole: modal.Pole, run: list[modal.Pole]) -> modal.Pole | None:
+    """The pole of ``run`` nearest ``pole`` where within MATCH of it (relative), else None."""
+    if not run:
+        return None
+    distance = [abs(p.p - pole.p) / abs(pole.p) for p in run]
+    best = int(np.argmin(distance))
+    return run[best] if distance[best] < MATCH else None

@@ -1,0 +1,204 @@
+"""Output-only records (mountid.measurement.ambient, identification.output_only): the rig's unmeasured random
+forces, the correlation functions the records chain fits, which records are output-only, and kid300's modes and
+stiffness from ambient excitation within the uncertainty the segments' scatter gives."""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+
+import numpy as np
+import pytest
+
+from mountid.cli import main
+from mountid.errors import InputError
+from mountid.identification.combination import decays_of
+from mountid.identification.from_records import identify_from_record, modal_data
+from mountid.measurement import ambient
+from mountid.measurement.records import Record
+from mountid.measurement.rig import Rig, Unbalance, ambient_forces
+from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING, paper_hit, paper_sensors
+
+RIG_VALUES = {**TABLE_1, **PUBLISHED_STIFFNESS, **TRUE_DAMPING}
+
+
+@cache
+def _rig() -> Rig:
+    return Rig.of("kid300", RIG_VALUES)
+
+
+@cache
+def _ambient_record(duration: float = 1200.0, seed: int = 0) -> Record:
+    """kid300 under random forces of 100 N RMS along x, y and z at each isolator, white to 40 Hz, the paper's
+    channels at 100 Hz with 1 % noise; no force recorded."""
+    rig = _rig()
+    return rig.simulate(paper_sensors(0.01), duration, 100.0, ambient=ambient_forces(rig, 100.0, 40.0, seed), seed=seed)
+
+
+def _true_modes() -> tuple[np.ndarray, np.ndarray]:
+    poles = _rig().poles[_rig().poles.imag > 0]
+    return np.abs(poles), -poles.real / np.abs(poles)
+
+
+def test_a_random_force_is_the_same_whichever_stretch_of_time_draws_it():
+    """RandomForce.force draws its knots in blocks from (seed, block): the force of a long stretch is the force of
+    its pieces (the rig integrates a long record in blocks), its RMS the one asked for (sampled at a rate that is no
+    multiple of the knots'), its spectrum flat to its top within the straight lines' sinc^4 (0.935 at the top) and
+    falling beyond."""
+    force = ambient_forces(_rig(), 50.0, 20.0, seed=3)[4]
+    t = np.arange(400_000) / 997.0
+    whole = force.force(t)
+    pieces = np.concatenate([force.force(t[:123_457]), force.force(t[123_457:])])
+    np.testing.assert_array_equal(whole, pieces)
+    assert np.sqrt(np.mean(whole**2)) == pytest.approx(50.0, rel=0.02)
+    spectrum = np.abs(np.fft.rfft(whole.reshape(100, -1), axis=1)) ** 2
+    frequency = np.fft.rfftfreq(4000, 1 / 997.0)
+    level = spectrum.mean(axis=0)
+
+    def around(f: float) -> float:
+        return float(level[(frequency > f - 1) & (frequency < f + 1)].mean())
+
+    assert 0.85 < around(19.0) / around(2.0) < 1.1  # sinc^4: 0.94, the estimate within 4 %
+    assert around(150.0) / around(2.0) < 0.05  # sinc^4 at 0.75 of the knots' rate: 0.008
+    assert ambient_forces(_rig(), 50.0, 20.0, seed=3)[5].force(t[:100]) != pytest.approx(whole[:100])
+
+
+def test_the_correlation_functions_are_the_unbiased_estimate_per_segment():
+    """correlations: per segment sum_t y_j(t + k) y_r(t) / (n - k) of the segment's samples less their mean (the
+    record's mean taken out first), checked against numpy.correlate."""
+    rng = np.random.default_rng(1)
+    data = rng.standard_normal((4096, 3)).cumsum(axis=0) * 0.01 + rng.standard_normal((4096, 3))
+    record = Record(np.arange(4096) / 100.0, data, tuple(_rig_channels()))
+    found = ambient.correlations(record, "b", segments=4)
+    centred = data - data.mean(axis=0)
+    lags = found.segments.shape[1]
+    assert found.segments.shape == (4, lags, 3) and found.mean.time[1] == pytest.approx(0.01)
+    for k in range(4):
+        part = centred[k * 1024 : (k + 1) * 1024]
+        for j in range(3):
+            full = np.correlate(part[:, j], part[:, 1], mode="full")[1023 : 1023 + lags] / (1024 - np.arange(lags))
+            np.testing.assert_allclose(found.segments[k, :, j], full, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(found.mean.data, found.segments.mean(axis=0))
+    np.testing.assert_allclose(found.leaving_out(2).data, found.segments[[0, 1, 3]].mean(axis=0))
+
+
+def _rig_channels():
+    from mountid.measurement.records import Channel
+
+    return [Channel(name, (0.1 * k, 0.0, 0.0), (1.0, 0.0, 0.0)) for k, name in enumerate("abc")]
+
+
+def test_a_steady_record_without_a_force_is_output_only_and_a_hit_is_not():
+    """is_output_only: the ambient record is; a hammer's record is not, with its force channel or without; nor is a
+    roving hammer's record of hits every two seconds all through it (as steady in its RMS), nor the random shaker's
+    record with its force."""
+    rig = _rig()
+    assert ambient.is_output_only(_ambient_record())
+    hit = rig.simulate(paper_sensors(0.01), 4.0, 200.0, [paper_hit()], seed=1, force_channel="F")
+    assert not ambient.is_output_only(hit) and not ambient.is_output_only(hit.select(hit.responses))
+    hits = [
+        paper_hit().__class__(paper_hit().point, paper_hit().direction, 3000.0, 0.004, 0.1 + 2.0 * k) for k in range(30)
+    ]
+    roving = rig.simulate(paper_sensors(0.01), 60.0, 200.0, hits, seed=2)
+    assert not ambient.is_output_only(roving)
+
+
+def test_kid300s_modes_from_ambient_excitation_lie_within_their_scatter():
+    """1200 s of ambient excitation: each mode the records chain labels lies within 4 of its standard deviations (the
+    jackknife over the segments) of the rig's, in frequency and in damping ratio; the stiffness within 4 of its own;
+    the notes say it is output-only and which reference gave each mode."""
+    record = _ambient_record()
+    result = identify_from_record(_rig().machine, record, {})
+    frequency, damping = _true_modes()
+    assert {"x", "phi", "psi"} <= set(result.modes)
+    for label, mode in result.modes.items():
+        k = int(np.argmin(np.abs(frequency - mode.frequency)))
+        assert abs(mode.frequency - frequency[k]) < 4 * mode.frequency_std, label
+        assert abs(mode.damping_ratio - damping[k]) < 4 * mode.damping_std, label
+        assert 0 < mode.frequency_std < 0.02 * mode.frequency, label
+    for name in ("c_xy", "c_z"):
+        assert abs(result.parameters[name] - RIG_VALUES[name]) < 4 * result.parameter_std[name], name
+    said = " ".join(result.notes)
+    assert "output-only, 5 response channels as the reference in turn" in said
+    assert "uncertainty from their scatter" in said
+
+
+def test_the_jackknife_scatter_is_the_spread_of_independent_records():
+    """Eight records of 600 s: per mode, the standard deviation the jackknife states (its median over the records)
+    is the spread of the records' estimates within a factor of two, for frequency and damping ratio: it neither
+    hides the estimate's noise nor swells it."""
+    found: dict[str, list] = {}
+    for seed in range(8):
+        ((_, data),), _ = decays_of(_rig().machine, _ambient_record(600.0, 10 + seed), {}, "record")
+        for label, mode in data.modes.items():
+            found.setdefault(label, []).append(mode)
+    checked = 0
+    for label, modes in found.items():
+        if len(modes) < 6:
+            continue
+        for value, std in (("frequency", "frequency_std"), ("damping_ratio", "damping_std")):
+            spread = float(np.std([getattr(m, value) for m in modes], ddof=1))
+            stated = float(np.median([getattr(m, std) for m in modes]))
+            assert 0.5 < stated / spread < 2.0, (label, value, stated, spread)
+            checked += 1
+    assert checked >= 4
+
+
+def test_a_running_machines_tone_is_named_and_the_modes_still_found():
+    """Operational data: the unbalance turning at 50 rad/s beside the ambient excitation is a steady oscillation in
+    the correlation functions, of a damping ratio within its scatter of zero: left out with a note, labelled as no
+    mode; the modes are still found."""
+    rig = _rig()
+    turning = Unbalance(0.5, 0.02, 50.0)
+    record = rig.simulate(
+        paper_sensors(0.01), 1200.0, 100.0, unbalances=[turning], ambient=ambient_forces(rig, 100.0, 40.0), seed=4
+    )
+    ((_, data),), _ = decays_of(rig.machine, record, {}, "record")
+    assert {"x", "phi"} <= set(data.modes)
+    said = " ".join(data.notes)
+    assert "at 50 rad/s" in said or ", 50 rad/s" in said or " 50 rad/s" in said
+    assert "or a steady oscillation: a running machine" in said
+    assert all(abs(m.frequency - 50.0) > 1.0 for m in data.modes.values())
+
+
+def test_an_output_only_record_too_short_says_how_long_to_record():
+    """A record whose segments cannot hold five periods of the lowest mode in their correlation functions: an error
+    naming the record and the length it needs (ambient.shortest_record)."""
+    short = _ambient_record(30.0)
+    needed = ambient.shortest_record(float(np.min(_true_modes()[0])), 5.0)
+    with pytest.raises(InputError, match=rf"too short for output-only data: .* record {needed:.4g} s or more"):
+        decays_of(_rig().machine, short, {}, "record")
+    with pytest.raises(InputError, match="correlation functions start at lag zero"):
+        modal_data(_rig().machine, _ambient_record(), {}, start=1.0, reference="A_x")
+
+
+def test_simulate_ambient_then_identify_record(capsys, tmp_path):
+    """`simulate --ambient N` writes an output-only record (no force channel) with a note on its length;
+    identify-record reads it as one, the modes' notes naming their references."""
+    path = tmp_path / "ambient.csv"
+    argv = ["simulate", "kid300", "--out", str(path), "--ambient", "100", "--duration", "900", "--rate", "100"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "5 channels" in out and "an output-only record" in out and "needs 58.36 s or more" in out
+    assert main(["identify-record", "kid300", str(path), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert {"x", "phi"} <= set(result["modes"])
+    assert result["parameters"]["c_xy"] == pytest.approx(74.4e3, rel=0.03)
+    assert any("output-only" in note for note in result["notes"])
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--shaker", "1", "20"], "--ambient"),
+        (["--force-channel", "F"], "--force-channel"),
+        (["--hit-time", "1"], "--ambient"),
+        (["--ambient", "-1"], "--ambient"),
+    ],
+)
+def test_simulate_ambient_refuses_what_does_not_go_with_it(capsys, tmp_path, extra, named):
+    argv = ["simulate", "kid300", "--out", str(tmp_path / "a.csv"), "--duration", "60", "--rate", "100"]
+    argv += ["--ambient", "100", *extra] if extra[0] != "--ambient" else extra
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and named in err
