@@ -90,8 +90,8 @@ def _rig_channels():
 
 def test_a_steady_record_without_a_force_is_output_only_and_a_hit_is_not():
     """is_output_only: the ambient record is; a hammer's record is not, with its force channel or without; nor is a
-    roving hammer's record of hits every two seconds all through it (as steady in its RMS), nor the random shaker's
-    record with its force."""
+    roving hammer's record of hits every two seconds all through it (as steady in its RMS), nor a machine running
+    under its unbalance (a tone)."""
     rig = _rig()
     assert ambient.is_output_only(_ambient_record())
     hit = rig.simulate(paper_sensors(0.01), 4.0, 200.0, [paper_hit()], seed=1, force_channel="F")
@@ -101,6 +101,8 @@ def test_a_steady_record_without_a_force_is_output_only_and_a_hit_is_not():
     ]
     roving = rig.simulate(paper_sensors(0.01), 60.0, 200.0, hits, seed=2)
     assert not ambient.is_output_only(roving)
+    running = rig.simulate(paper_sensors(0.01), 60.0, 200.0, unbalances=[Unbalance(43.1, 0.03, 100.0)], seed=3)
+    assert not ambient.is_output_only(running)  # a tone: read as a free decay, whose check names it
 
 
 def test_kid300s_modes_from_ambient_excitation_lie_within_their_scatter():

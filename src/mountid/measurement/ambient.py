@@ -39,6 +39,14 @@ STATIONARY = 2.0
 within this factor (the largest over the smallest, the median over the channels): a hit's free decay falls by
 orders of magnitude, a hit in the middle of a quiet record rises as much."""
 
+TONAL = 0.5
+"""A steady record whose strongest spectral line (with TONE_LINES on either side) carries more than this share of
+its variance (the median over the channels) is a tone, a machine running under its unbalance, not the broadband
+response output-only data are: read as a free decay, whose check names the steady oscillation."""
+
+TONE_LINES = 3
+"""Lines of the record's spectrum on either side of its strongest that a tone's share takes in (TONAL)."""
+
 LAG_SHARE = 0.25
 """The longest lag the correlation functions are fitted to, as a share of a segment: the lags are cut where their
 envelope has fallen to the noise of the estimate (lag_length), at most here."""
@@ -99,8 +107,9 @@ class Correlations:
 
 def is_output_only(record: Record, segments: int = SEGMENTS) -> bool:
     """Whether ``record`` (no force channel, not impulse responses) is a steady motion: the RMS of its ``segments``
-    stretches within STATIONARY of each other (the median ratio over the response channels), and no impact in it
-    (modal.impact_bursts: a roving hammer's hits, a few seconds apart all through the record, are as steady)."""
+    stretches within STATIONARY of each other (the median ratio over the response channels), not a tone (TONAL),
+    and no impact in it (modal.impact_bursts: a roving hammer's hits, a few seconds apart all through the record,
+    are as steady)."""
     if record.forces or record.impulse is not None or not record.responses:
         return False
     data = record.select(record.responses).data
@@ -111,6 +120,12 @@ def is_output_only(record: Record, segments: int = SEGMENTS) -> bool:
     ratio = rms.max(axis=0) / np.maximum(rms.min(axis=0), 1e-300)
     if not np.median(ratio) < STATIONARY:
         return False
+    spectra = np.abs(np.fft.rfft(data - data.mean(axis=0), axis=0)) ** 2
+    peak = np.argmax(spectra, axis=0)
+    near = np.abs(np.arange(len(spectra))[:, None] - peak) <= TONE_LINES
+    share = np.sum(spectra * near, axis=0) / np.maximum(np.sum(spectra, axis=0), 1e-300)
+    if np.median(share) > TONAL:
+        return False  # a running machine's tone and little else: read as a free decay, which names it
     return len(modal.impact_bursts(record.select(record.responses))) == 0
 
 
