@@ -1056,6 +1056,7 @@ def modal_data(
         shaker = frf.continuous_h1(full, full.forces[0], settings)
         record = shaker.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
+    tone_warnings: list[modal.QualityWarning] = []  # an output-only record's steady oscillations
     correlated = None  # an output-only record's correlation functions with the reference
     if reference is not None:
         if start is not None:
@@ -1076,6 +1077,19 @@ def modal_data(
             fitted, begin, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
         )
         poles, noise = ambient.with_scatter(correlated, begin, 2.0 * top, len(mod.MODES), poles)
+        steady = ambient.tones(ambient.Spectrum.of(record), [*poles, *noise])
+        poles = [p for p in poles if all(p is not t for t, _, _ in steady)]
+        noise = [p for p in noise if all(p is not t for t, _, _ in steady)]
+        tone_warnings = [
+            modal.QualityWarning(
+                "steady",
+                "all",
+                f"a steady oscillation at {line:.4f} rad/s ({line / (2 * np.pi):.4g} Hz), not a mode: a line of the "
+                f"record's spectrum {ratio:.0f} times the lines around it, where a mode's response spreads over its "
+                "bandwidth (a running machine, mains hum)",
+            )
+            for _, line, ratio in steady
+        ]
         segments = len(correlated.segments)
         notes.append(
             f"output-only: modes from the correlation functions of the responses with {reference} (lags to "
@@ -1085,8 +1099,7 @@ def modal_data(
                 f"; {counted(len(noise), 'pole')} at "
                 + ", ".join(f"{p.frequency:.4g}" for p in noise)
                 + f" rad/s left out: found again with fewer than {ambient.FOUND_IN:.0%} of the segments, or a "
-                f"damping ratio within {ambient.DAMPED:g} standard deviations of zero (the estimate's noise, or a "
-                "steady oscillation: a running machine)"
+                f"damping ratio within {ambient.DAMPED:g} standard deviations of zero (the estimate's noise)"
                 if noise
                 else ""
             )
@@ -1145,7 +1158,7 @@ def modal_data(
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     if shaker is not None or correlated is not None:  # a shaker's, an output-only record: clipping (no hit to check)
-        warnings = modal.clipping(full.select(full.responses), None, top, settings)
+        warnings = modal.clipping(full.select(full.responses), None, top, settings) + tone_warnings
     elif record.impulse is not None:  # no record of the test: its checks (clipping, noise, the hit) were the bench's
         warnings = []
     else:

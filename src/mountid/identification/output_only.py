@@ -71,8 +71,8 @@ def every_reference(
         (p for reference in taken for p in by_reference[reference].unlabelled), key=lambda p: p.frequency
     )
     warnings: list[modal.QualityWarning] = []
-    for reference in taken:
-        warnings += [w for w in by_reference[reference].warnings if w not in warnings]
+    for _, data in found:  # the record's checks (clipping, its tones): alike whichever the reference
+        warnings += [w for w in data.warnings if w not in warnings]
     first = by_reference[next(iter(taken))]
     each = "; ".join(
         f"{', '.join(label for label in modes if picked[label] == reference)} from {reference}" for reference in taken

@@ -66,13 +66,65 @@ nearest."""
 
 DAMPED = 2.0
 """A pole of an output-only record is a mode where its damping ratio exceeds this many of its standard deviations
-(or it is a steady oscillation, modal.is_tone, which the records chain names): the estimate's noise in the
-correlation functions gives poles of damping ratios about zero (kid300, 1200 s, one in 20 records: 69.8 rad/s at
-0.006 +- 0.010, labelled theta)."""
+(or it is a steady oscillation, modal.is_tone): the estimate's noise in the correlation functions gives poles of
+damping ratios about zero (kid300, 1200 s, one in 20 records: 69.8 rad/s at 0.006 +- 0.010, labelled theta). A
+running machine's tone comes out so too (0.0014 +- 0.015) and is named by its line (LINE)."""
 
 START = 0.05
 """[s] The fit of the correlation functions starts at this lag: past lag zero, where the sensors' noise adds its
 variance, and the anti-alias filter's correlation of it."""
+
+
+LINE = 30.0
+"""A pole of an output-only record is a steady oscillation (a running machine, mains hum), not a mode, where the
+record's spectrum has a line within TONE_BAND of it that stands this many times above the median of the LINE_BINS
+lines on either side (Spectrum.line): a mode's random response spreads over its bandwidth, 2 zeta omega (kid300's
+x over some 250 lines of a 1200 s record: its highest 11 times the median around it), a tone's power sits in one
+line and grows with the record's length (an unbalance of 0.5 kg x 0.02 m at 50 rad/s beside kid300's ambient
+forces: 90)."""
+
+TONE_BAND = 0.02
+"""The share of a pole's frequency within which Spectrum.line looks for the record's line."""
+
+LINE_BINS = 100
+"""Lines of the record's spectrum on either side of a line that its level is compared with (LINE)."""
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """The Hann-windowed power spectrum of a record's responses over the whole record, each channel's in units of
+    its median and summed over the channels: where a tone's line stands out of the broadband response."""
+
+    omega: NDArray[np.float64]
+    """[rad/s] The lines."""
+    level: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, record: Record) -> Spectrum:
+        data = record.data - record.data.mean(axis=0)
+        power = np.abs(np.fft.rfft(data * np.hanning(len(data))[:, None], axis=0)) ** 2
+        level = np.sum(power / np.maximum(np.median(power, axis=0), 1e-300), axis=1)
+        return cls(2 * np.pi * np.fft.rfftfreq(len(data), float(record.time[1] - record.time[0])), level)
+
+    def line(self, frequency: float) -> tuple[float, float]:
+        """The strongest line within TONE_BAND of ``frequency`` [rad/s] and its level over the median of the
+        LINE_BINS lines on either side: (line [rad/s], ratio); (frequency, 0) where no line lies there."""
+        near = np.flatnonzero(np.abs(self.omega - frequency) <= TONE_BAND * frequency)
+        if len(near) == 0:
+            return frequency, 0.0
+        k = int(near[np.argmax(self.level[near])])
+        around = self.level[max(0, k - LINE_BINS) : k + LINE_BINS + 1]
+        return float(self.omega[k]), float(self.level[k] / max(float(np.median(around)), 1e-300))
+
+
+def tones(spectrum: Spectrum, poles: list[modal.Pole]) -> list[tuple[modal.Pole, float, float]]:
+    """The ``poles`` that are steady oscillations (LINE), each with the record's line [rad/s] and its ratio."""
+    out = []
+    for pole in poles:
+        line, ratio = spectrum.line(pole.frequency)
+        if ratio > LINE:
+            out.append((pole, line, ratio))
+    return out
 
 
 def shortest_lags(lowest: float, min_periods: float) -> float:
