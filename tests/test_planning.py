@@ -112,3 +112,10 @@ def test_the_plan_says_what_a_shaker_test_needs(paper_plan):
     [note] = [n for n in paper_plan.notes if n.startswith("a shaker test instead")]
     assert "(the slowest decay's time constant 1.5 s): periodic random settles in 13.9 s" in note
     assert "4.5 s of quiet after each burst" in note and "a record of 96.3 s or more" in note
+
+
+def test_the_plan_says_how_long_an_output_only_test_records(paper_plan):
+    """ambient.shortest_record from the lowest mode (kid300's x, 17.7 rad/s): 8 segments, each 4 x 5 of its periods
+    and the fit's start, 58.36 s (test_ambient: 30 s named with that length, 600 s read)."""
+    [note] = [n for n in paper_plan.notes if n.startswith("an output-only test instead")]
+    assert "a record of 58.36 s or more (8 segments, each 4 times 5 periods of the lowest mode)" in note

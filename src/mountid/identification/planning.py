@@ -27,8 +27,9 @@ import numpy as np
 from mountid.errors import InputError
 from mountid.identification.from_records import fit_stiffness
 from mountid.machine import Machine, call
-from mountid.measurement import frf, modal
+from mountid.measurement import ambient, frf, modal
 from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
+from mountid.measurement.settings import RECORDS
 
 OBSERVABLE = 1e-3
 """A mode is unseen by a layout (not excited by a hit) below this share of its largest reading (force)."""
@@ -180,6 +181,14 @@ def plan(
             f"{need['settle']:.3g} s, averaged over two periods or more after it; burst random needs "
             f"{need['quiet']:.2g} s of quiet after each burst; a random force a record of {need['random']:.3g} s or "
             "more"
+        )
+    lowest = float(np.min(np.abs(rig.poles)))
+    if lowest > 0:
+        notes.append(
+            f"an output-only test instead (ambient or operational excitation, no force measured): a record of "
+            f"{ambient.shortest_record(lowest, RECORDS.min_periods):.4g} s or more ({ambient.SEGMENTS} segments, "
+            f"each {1 / ambient.LAG_SHARE:g} times {RECORDS.min_periods:g} periods of the lowest mode); its modes' "
+            "uncertainty shrinks as the square root of the record's length"
         )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
 
