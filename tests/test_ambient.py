@@ -164,6 +164,18 @@ def test_a_running_machines_tone_is_named_and_the_modes_still_found():
     assert all(abs(m.frequency - 50.0) > 1.0 for m in data.modes.values())
 
 
+def test_a_clipped_channel_of_an_output_only_record_is_named_once():
+    """The record's clipping check runs once (with the first reference that gives modes), not once per reference."""
+    record = _ambient_record()
+    data = record.data.copy()
+    top = 0.6 * float(np.max(np.abs(data[:, 1])))
+    data[:, 1] = np.clip(data[:, 1], -top, top)
+    clipped = Record(record.time, data, record.channels)
+    ((_, found),), _ = decays_of(_rig().machine, clipped, {}, "record")
+    named = [w for w in found.warnings if w.kind == "clipping"]
+    assert len(named) == 1 and named[0].channel == "A_y"
+
+
 def test_an_output_only_record_too_short_says_how_long_to_record():
     """A record whose segments cannot hold five periods of the lowest mode in their correlation functions: an error
     naming the record and the length it needs (ambient.shortest_record)."""

@@ -1029,6 +1029,7 @@ def modal_data(
     settings: RecordSettings = RECORDS,
     use_force: bool = True,
     reference: str | None = None,
+    clipping: bool = True,
 ) -> ModalData:
     """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
     With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
@@ -1038,7 +1039,8 @@ def modal_data(
     the description's) only serve to label the modes; ``settings``: the record checks' thresholds. A bench's table
     of modes (records.ModeTable) gives its modes labelled as a record's poles are (table_modal_data). With a
     ``reference`` (a response channel) the record is output-only: the modes are fitted on the correlation functions
-    of the responses with it (measurement.ambient), their uncertainty from the segments' scatter."""
+    of the responses with it (measurement.ambient), their uncertainty from the segments' scatter; ``clipping``
+    False leaves its clipping check to the caller (output_only.every_reference runs it once for every reference)."""
     mod = machine.module
     guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
@@ -1158,7 +1160,8 @@ def modal_data(
     start = modal.DEFAULT_START if start is None else start  # the checks' segment where the hits gave the modes
     lowest = min([p.frequency for p in poles] or [float(np.min(nominal_omega))])
     if shaker is not None or correlated is not None:  # a shaker's, an output-only record: clipping (no hit to check)
-        warnings = modal.clipping(full.select(full.responses), None, top, settings) + tone_warnings
+        clipped = modal.clipping(full.select(full.responses), None, top, settings) if clipping else []
+        warnings = clipped + tone_warnings
     elif record.impulse is not None:  # no record of the test: its checks (clipping, noise, the hit) were the bench's
         warnings = []
     else:

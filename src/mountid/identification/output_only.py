@@ -43,8 +43,9 @@ def every_reference(
     notes: list[str] = []
     references = record.in_si().responses
     for reference in references:
-        try:
-            found.append((reference, modal_data(machine, record, known, None, nominal, settings, reference=reference)))
+        try:  # the record's clipping check once, with the first reference that gives modes
+            data = modal_data(machine, record, known, None, nominal, settings, reference=reference, clipping=not found)
+            found.append((reference, data))
         except NoModeFound as err:
             notes.append(f"with {reference} as the reference no mode: {err.reason}")
     if not found:
