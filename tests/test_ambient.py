@@ -176,6 +176,21 @@ def test_a_clipped_channel_of_an_output_only_record_is_named_once():
     assert len(named) == 1 and named[0].channel == "A_y"
 
 
+def test_a_campaign_reads_an_output_only_record(tmp_path):
+    """A campaign that lists an output-only record: its modes through the same chain (combination.decays_of), the
+    notes saying where they came from; the diagnosis runs on them."""
+    from mountid.diagnosis import campaign
+    from mountid.measurement.records import write_csv
+
+    write_csv(_ambient_record(), tmp_path / "ambient.csv")
+    known = {k: v for k, v in RIG_VALUES.items() if k not in ("c_xy", "c_z")}
+    data = {"machine": "kid300", "known": known, "records": ["ambient.csv"]}
+    (tmp_path / "c.json").write_text(json.dumps(data), encoding="utf-8")
+    loaded = campaign.load(tmp_path / "c.json")
+    assert {"x", "phi", "psi"} <= set(loaded.modes)
+    assert any("output-only" in note for note in loaded.record_notes)
+
+
 def test_an_output_only_record_too_short_says_how_long_to_record():
     """A record whose segments cannot hold five periods of the lowest mode in their correlation functions: an error
     naming the record and the length it needs (ambient.shortest_record)."""

@@ -393,8 +393,11 @@ def test_an_output_only_record_read_as_a_free_decay_is_named_a_steady_motion():
     test_ambient)."""
     record = _random_record(64.0, 0.01)
     responses = record.select(record.responses)
-    with pytest.raises(InputError, match="the responses do not decay .*: a steady motion, not a hit's free decay"):
+    with pytest.raises(
+        InputError, match="the responses do not decay .*: a steady motion, not a hit's free decay"
+    ) as err:
         modal_data(_rig().machine, responses, {}, start=0.07)
+    assert "without a start given, mountid reads a broadband one as output-only" in err.value.reason
 
 
 def test_the_rigs_random_shaker_never_repeats_nor_rests():

@@ -397,7 +397,8 @@ def not_a_free_decay(
         steady = 1 / STEADY_LEVEL < float(np.median(level)) < STEADY_LEVEL
         why = (
             f"the responses do not decay (their last quarter at {float(np.median(level)):.0%} of their first's level): "
-            "a steady motion, not a hit's free decay (ambient or operational excitation, or a shaker whose force is "
+            "a steady motion, not a hit's free decay (ambient or operational excitation: without a start given, "
+            "mountid reads a broadband one as output-only, by its correlation functions; or a shaker whose force is "
             "not recorded: mountid reads a shaker's record with its force channel)"
             if steady
             else "not the free decay of a hit (a record of another test) or more noise than response"
