@@ -1079,8 +1079,9 @@ def modal_data(
             fitted, begin, max_frequency=2.0 * top, n_modes=len(mod.MODES), steady=settings.steady_damping
         )
         poles, noise = ambient.with_scatter(correlated, begin, 2.0 * top, len(mod.MODES), poles)
-        steady = ambient.tones(ambient.Spectrum.of(record), [*poles, *noise])
-        poles = [p for p in poles if all(p is not t for t, _, _ in steady)]
+        # a pole left out is a running machine's tone where it makes a line in the record's spectrum; a pole kept
+        # (its damping ratio beyond its scatter) is a mode, however sharp: a lightly damped mode's peak stands out too
+        steady = ambient.tones(ambient.Spectrum.of(record), noise)
         noise = [p for p in noise if all(p is not t for t, _, _ in steady)]
         tone_warnings = [
             modal.QualityWarning(

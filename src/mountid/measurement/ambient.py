@@ -76,12 +76,13 @@ variance, and the anti-alias filter's correlation of it."""
 
 
 LINE = 30.0
-"""A pole of an output-only record is a steady oscillation (a running machine, mains hum), not a mode, where the
-record's spectrum has a line within TONE_BAND of it that stands this many times above the median of the LINE_BINS
-lines on either side (Spectrum.line): a mode's random response spreads over its bandwidth, 2 zeta omega (kid300's
-x over some 250 lines of a 1200 s record: its highest 11 times the median around it), a tone's power sits in one
-line and grows with the record's length (an unbalance of 0.5 kg x 0.02 m at 50 rad/s beside kid300's ambient
-forces: 90)."""
+"""A pole of an output-only record left out for its damping ratio (within DAMPED of its scatter of zero) is a
+steady oscillation (a running machine, mains hum) where the record's spectrum has a line within TONE_BAND of it that
+stands this many times above the median of the LINE_BINS lines on either side (Spectrum.line): a mode's random
+response spreads over its bandwidth, 2 zeta omega (kid300's modes in 1200 s records: their highest lines 4-14 times
+the median around them), a tone's power sits in one line and grows with the record's length (an unbalance of 0.5 kg
+x 0.02 m at 50 rad/s beside kid300's ambient forces: 90-98; of 0.2 kg: 14-17, not named). A pole kept is a mode
+however sharp its line: a lightly damped mode's stands out as well."""
 
 TONE_BAND = 0.02
 """The share of a pole's frequency within which Spectrum.line looks for the record's line."""
