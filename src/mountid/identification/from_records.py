@@ -997,6 +997,8 @@ class ModalData:
     hits: tuple[float, ...] = ()
     """[s] Without a force channel, the onsets of the record's hits where it shows several (modal.FreeDecay.hits):
     the starts of the other free decays it holds."""
+    left_out: tuple[float, ...] = ()
+    """[rad/s] An output-only record's poles left out as the estimate's noise (ambient.with_scatter; a note says so)."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -1059,6 +1061,7 @@ def modal_data(
         record = shaker.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
     tone_warnings: list[modal.QualityWarning] = []  # an output-only record's steady oscillations
+    noise: list[modal.Pole] = []  # and its poles left out as the estimate's noise
     correlated = None  # an output-only record's correlation functions with the reference
     if reference is not None:
         if start is not None:
@@ -1098,15 +1101,14 @@ def modal_data(
             f"output-only: modes from the correlation functions of the responses with {reference} (lags to "
             f"{float(fitted.time[-1]):.3g} s, the mean of {segments} segments of {correlated.segment_length:.4g} s; "
             "uncertainty from their scatter, each left out in turn)"
-            + (
-                f"; {counted(len(noise), 'pole')} at "
+        )
+        if noise:
+            notes.append(
+                f"{counted(len(noise), 'pole')} at "
                 + ", ".join(f"{p.frequency:.4g}" for p in noise)
                 + f" rad/s left out: found again with fewer than {ambient.FOUND_IN:.0%} of the segments, or a "
                 f"damping ratio within {ambient.DAMPED:g} standard deviations of zero (the estimate's noise)"
-                if noise
-                else ""
             )
-        )
     elif record.impulse is not None or (full.forces and use_force):
         if record.impulse is not None:  # frequency response functions transformed back: fitted as H1 is
             if start is not None:
@@ -1244,7 +1246,8 @@ def modal_data(
     labelled = {label: (_widened(p, *mixed[label]) if label in mixed else p, m) for label, (p, m) in labelled.items()}
     modes = _measured_modes(machine, record, labelled, frozenset(mixed), guess)
     mixed_labels = frozenset(mixed) & set(modes)
-    return ModalData(modes, rest, warnings, estimate or shaker, tuple(notes), mixed_labels, start, end, hits)
+    left_out = tuple(p.frequency for p in noise)
+    return ModalData(modes, rest, warnings, estimate or shaker, tuple(notes), mixed_labels, start, end, hits, left_out)
 
 
 def _measured_modes(

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from mountid.errors import NoModeFound
 from mountid.machine import Machine
-from mountid.measurement import modal
+from mountid.measurement import ambient, modal
 from mountid.measurement.records import Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
@@ -78,7 +78,20 @@ def every_reference(
     each = "; ".join(
         f"{', '.join(label for label in modes if picked[label] == reference)} from {reference}" for reference in taken
     )
-    own = [f"reference {reference}: {note}" for reference, data in found for note in data.notes]
+    # the first reference's account of the correlation functions (the others' alike), then what each left out
+    own = [f"{found[0][1].notes[0]} (the other references' alike)"]
+    noise = [
+        f"with {reference} " + ", ".join(f"{w:.4g}" for w in data.left_out)
+        for reference, data in found
+        if data.left_out
+    ]
+    if noise:
+        own.append(
+            f"poles left out as the estimate's noise (found again with fewer than {ambient.FOUND_IN:.0%} of the "
+            f"segments, or of a damping ratio within {ambient.DAMPED:g} standard deviations of zero): "
+            + "; ".join(noise)
+            + " rad/s"
+        )
     summary = (
         f"output-only, {counted(len(references), 'response channel')} as the reference in turn, {len(found)} giving "
         f"modes; each mode from the reference that measures it most precisely (the others' estimates share its "
