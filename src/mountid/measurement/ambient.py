@@ -9,7 +9,8 @@ response y_j with one reference response y_r,
 is a sum of the modes' free decays: the machine's poles, and per mode the shape over the channels j scaled by one
 factor the reference sets (a hit at the reference point gives the same picture). The records chain fits it as a
 free decay. A reference near a node of a mode does not see that mode: every response channel serves as a reference
-in turn, and each mode is taken from the reference that measures it most precisely (from_records).
+in turn, and each mode is taken from the reference in which it shows most strongly
+(identification.output_only).
 
 The record is cut into SEGMENTS segments; each gives its correlation functions with the unbiased estimator
 (divided by the products each lag has, no window: a window's taper would add to every mode's damping), and the
