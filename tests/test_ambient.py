@@ -146,15 +146,18 @@ def test_the_jackknife_scatter_is_the_spread_of_independent_records():
     assert checked >= 4
 
 
-def test_each_mode_comes_from_the_reference_it_shows_most_strongly_in():
-    """Eight channels (the six motions seen, shapes measured), seed 13: taken from the reference of the smallest stated
+@pytest.mark.parametrize("seed", [5, 13])
+def test_each_mode_comes_from_a_reference_whose_fit_explains_it_and_shows_it_most_strongly(seed):
+    """Eight channels (the six motions seen, shapes measured). Seed 13: taken from the reference of the smallest stated
     deviation, x's damping ratio lay 10.3 of it off (the smallest of eight jackknife deviations, each of seven degrees
-    of freedom, is too small by chance); from the reference it shows most strongly in, every mode within 4 of its
-    deviations, its shape's MAC against the model above 0.99."""
+    of freedom, is too small by chance). Seed 5: y1 and y3 as references miss phi, their fits leave 82 % of the
+    correlation functions unexplained, and their x, the strongest, took phi up (MAC 0.39); they are
+    not used now. Every mode within 4 of its deviations, its shape's MAC against the model above 0.99."""
     from test_campaign_records import _eight_channels
 
     rig = _rig()
-    record = rig.simulate(_eight_channels(), 1200.0, 100.0, ambient=ambient_forces(rig, 100.0, 40.0, 13), seed=113)
+    ambient_seed = ambient_forces(rig, 100.0, 40.0, seed)
+    record = rig.simulate(_eight_channels(), 1200.0, 100.0, ambient=ambient_seed, seed=100 + seed)
     ((_, data),), _ = decays_of(rig.machine, record, {}, "record")
     frequency, damping = _true_modes()
     assert {"x", "z", "psi", "phi"} <= set(data.modes)
@@ -163,6 +166,10 @@ def test_each_mode_comes_from_the_reference_it_shows_most_strongly_in():
         assert abs(mode.frequency - frequency[k]) < 4 * mode.frequency_std, label
         assert abs(mode.damping_ratio - damping[k]) < 4 * mode.damping_std, label
         assert mode.mac > 0.99, label
+    if seed == 5:
+        said = " ".join(data.notes)
+        assert "not used: the references whose fit leaves more than 50% of their correlation functions" in said
+        assert "(y1 82%, z2 87%, y3 82%;" in said
 
 
 def test_a_running_machines_tone_is_named_and_the_modes_still_found():

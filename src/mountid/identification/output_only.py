@@ -68,6 +68,28 @@ def every_reference(
             "output-only (no force channel, a steady motion): no damped mode in the correlation functions with any "
             f"response channel as the reference ({'; '.join(notes)})",
         )
+    warnings: list[modal.QualityWarning] = []
+    for _, data in found:  # the record's checks (clipping, its tones): alike whichever the reference
+        warnings += [w for w in data.warnings if w not in warnings]
+    explained = [item for item in found if item[1].unexplained <= settings.unexplained]
+    missing = [f"{reference} {data.unexplained:.0%}" for reference, data in found if (reference, data) not in explained]
+    if explained and missing:
+        notes.append(
+            f"not used: the references whose fit leaves more than {settings.unexplained:.0%} of their correlation "
+            f"functions unexplained ({', '.join(missing)}; a mode they hold is missing from the fit, and the others' "
+            "shapes take it up)"
+        )
+    elif missing:
+        warnings.append(
+            modal.QualityWarning(
+                "unexplained",
+                "all",
+                f"the fit with every reference leaves more than {settings.unexplained:.0%} of its correlation "
+                f"functions unexplained ({', '.join(missing)}): a mode they hold is missing from the fits, and the "
+                "shapes found may take it up (more noise than response, or a mode the record does not resolve)",
+            )
+        )
+    found = explained or found
     rep = machine.module.REPRESENTATIVE
     si = record.in_si()
     rms = {name: float(np.std(si.channel(name))) for name in references}
@@ -86,9 +108,6 @@ def every_reference(
     unlabelled = sorted(
         (p for reference in taken for p in by_reference[reference].unlabelled), key=lambda p: p.frequency
     )
-    warnings: list[modal.QualityWarning] = []
-    for _, data in found:  # the record's checks (clipping, its tones): alike whichever the reference
-        warnings += [w for w in data.warnings if w not in warnings]
     first = by_reference[next(iter(taken))]
     each = "; ".join(
         f"{', '.join(label for label in modes if picked[label] == reference)} from {reference}" for reference in taken
@@ -108,9 +127,9 @@ def every_reference(
             + " rad/s"
         )
     summary = (
-        f"output-only, {counted(len(references), 'response channel')} as the reference in turn, {len(found)} giving "
-        f"modes; each mode from the reference in which it shows most strongly (the others' estimates share its "
-        f"samples): {each}"
+        f"output-only, {counted(len(references), 'response channel')} as the reference in turn, {len(found)} used; "
+        "each mode from the reference in which it shows most strongly (the others' estimates share its samples): "
+        f"{each}"
     )
     merged = replace(
         first, modes=modes, unlabelled=unlabelled, warnings=warnings, notes=(summary, *notes, *own), mixed=frozenset()

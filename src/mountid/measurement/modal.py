@@ -366,11 +366,9 @@ def not_a_free_decay(
       unexplained (the median over the channels): the record is not the free decay of a hit (a record of another
       test) or holds more noise than response."""
     dt, samples = decimated(record, start, max_frequency)
-    variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
 
     def unexplained(kept: list[Pole]) -> float:  # the median share of the variance the poles ``kept`` leave
-        misfit = _misfit(samples, dt, np.array([p.p for p in kept], dtype=complex))
-        return float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
+        return _unexplained(samples, dt, np.array([p.p for p in kept], dtype=complex))
 
     everything = [p for _, p in poles]
     left = unexplained(everything)
@@ -412,6 +410,21 @@ def not_a_free_decay(
             )
         )
     return out
+
+
+def unexplained_share(record: Record, start: float, max_frequency: float, poles: NDArray) -> float:
+    """The share of the variance of ``record``'s samples from ``start`` [s] (free_decay_poles's, same
+    ``max_frequency``) that the damped exponentials ``poles`` [rad/s] and a constant leave unexplained, the median
+    over the channels."""
+    dt, samples = decimated(record, start, max_frequency)
+    return _unexplained(samples, dt, np.asarray(poles, dtype=complex))
+
+
+def _unexplained(samples: NDArray, dt: float, poles: NDArray) -> float:
+    """unexplained_share on the decimated ``samples`` (step ``dt`` [s])."""
+    variance = np.sum((samples - samples.mean(axis=0)) ** 2, axis=0)
+    misfit = _misfit(samples, dt, poles)
+    return float(np.median(misfit / np.where(variance > 0, variance, np.inf)))
 
 
 STEADY_LEVEL = 2.0
