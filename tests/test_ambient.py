@@ -172,6 +172,23 @@ def test_each_mode_comes_from_a_reference_whose_fit_explains_it_and_shows_it_mos
         assert "(y1 82%, z2 87%, y3 82%;" in said
 
 
+def test_where_every_references_fit_leaves_much_unexplained_all_are_used_with_a_warning():
+    """With a threshold no fit meets (RecordSettings.unexplained 1e-6), no reference is set aside: the modes come as
+    before, and a warning says every fit leaves its correlation functions unexplained, with each one's share."""
+    from dataclasses import replace
+
+    from mountid.measurement.settings import RECORDS
+
+    strict = replace(RECORDS, unexplained=1e-6)
+    ((_, data),), _ = decays_of(_rig().machine, _ambient_record(), {}, "record", settings=strict)
+    assert {"x", "phi", "psi"} <= set(data.modes)
+    [warning] = [w for w in data.warnings if w.kind == "unexplained"]
+    assert "the fit with every reference leaves more than 0% of its correlation functions unexplained (A_x" in (
+        warning.message
+    )
+    assert not [n for n in data.notes if n.startswith("not used")]
+
+
 def test_a_running_machines_tone_is_named_and_the_modes_still_found():
     """Operational data: the unbalance turning at 50 rad/s beside the ambient excitation is a steady oscillation,
     named by the line it makes in the record's spectrum (90 times the lines around it; a mode's highest: 11) and

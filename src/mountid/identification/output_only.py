@@ -48,9 +48,11 @@ def every_reference(
     settings: RecordSettings = RECORDS,
 ) -> tuple[list[tuple[str, ModalData]], list[str]]:
     """The modal data of the output-only ``record`` (named ``name``): modal_data with every response channel as the
-    reference, each group of twins (or lone mode) from the reference that gives most of the group, then shows it
-    most strongly (_strength); the other references' estimates left out. Returns one decay
-    (decays_of's form, its notes say which reference gave which mode) and no notes besides."""
+    reference; the references whose fit leaves more than settings.unexplained of their correlation functions
+    unexplained set aside (a note names them; where every one does, a warning); each group of twins (or lone mode)
+    from the reference that gives most of the group, then shows it most strongly (_strength); the other references'
+    estimates left out. Returns one decay (decays_of's form, its notes say which reference gave which mode) and no
+    notes besides."""
     from mountid.identification.from_records import modal_data
 
     found: list[tuple[str, ModalData]] = []
@@ -72,7 +74,9 @@ def every_reference(
     for _, data in found:  # the record's checks (clipping, its tones): alike whichever the reference
         warnings += [w for w in data.warnings if w not in warnings]
     explained = [item for item in found if item[1].unexplained <= settings.unexplained]
-    missing = [f"{reference} {data.unexplained:.0%}" for reference, data in found if (reference, data) not in explained]
+    missing = [
+        f"{reference} {data.unexplained:.0%}" for reference, data in found if data.unexplained > settings.unexplained
+    ]
     if explained and missing:
         notes.append(
             f"not used: the references whose fit leaves more than {settings.unexplained:.0%} of their correlation "
