@@ -121,6 +121,7 @@ def test_kid300s_modes_from_ambient_excitation_lie_within_their_scatter():
     for name in ("c_xy", "c_z"):
         assert abs(result.parameters[name] - RIG_VALUES[name]) < 4 * result.parameter_std[name], name
     said = " ".join(result.notes)
+    assert result.reference in record.names and f"from {result.reference}" in said
     assert "output-only, 5 response channels as the reference in turn" in said
     assert "uncertainty from their scatter" in said
 
@@ -247,14 +248,17 @@ def test_an_output_only_record_too_short_says_how_long_to_record():
 
 def test_simulate_ambient_then_identify_record(capsys, tmp_path):
     """`simulate --ambient N` writes an output-only record (no force channel) with a note on its length;
-    identify-record reads it as one, the modes' notes naming their references."""
+    identify-record reads it as one, the modes' notes naming their references, and draws its figures (the
+    stabilisation diagram of the correlation functions with the reference most modes came from)."""
     path = tmp_path / "ambient.csv"
     argv = ["simulate", "kid300", "--out", str(path), "--ambient", "100", "--duration", "900", "--rate", "100"]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "5 channels" in out and "an output-only record" in out and "needs 58.36 s or more" in out
-    assert main(["identify-record", "kid300", str(path), "--json"]) == 0
+    assert main(["identify-record", "kid300", str(path), "--json", "--figures", str(tmp_path / "f")]) == 0
     result = json.loads(capsys.readouterr().out)
+    for name in ("modes.png", "spectrum.png", "stabilisation.png"):
+        assert (tmp_path / "f" / name).stat().st_size > 10_000, name
     assert {"x", "phi"} <= set(result["modes"])
     assert result["parameters"]["c_xy"] == pytest.approx(74.4e3, rel=0.03)
     assert any("output-only" in note for note in result["notes"])

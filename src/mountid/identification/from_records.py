@@ -77,6 +77,8 @@ class Identification:
     """[s] Where the free decay the modes were fitted on starts (ModalData.start)."""
     end: float | None = None
     """[s] Where it ends (ModalData.end)."""
+    reference: str = ""
+    """The response channel an output-only record's modes came from, most of them (ModalData.reference)."""
 
 
 def channel_rows(machine: Machine, record: Record | ModeTable) -> np.ndarray:
@@ -999,6 +1001,9 @@ class ModalData:
     the starts of the other free decays it holds."""
     left_out: tuple[float, ...] = ()
     """[rad/s] An output-only record's poles left out as the estimate's noise (ambient.with_scatter; a note says so)."""
+    reference: str = ""
+    """The response channel an output-only record's modes came from (the one most of them did, for several:
+    output_only.every_reference); "" for other records."""
     unexplained: float = 0.0
     """An output-only record's share of the correlation functions' variance that the poles found leave unexplained
     (modal.unexplained_share): a reference whose fit misses a mode its correlation functions hold (kid300, eight
@@ -1255,7 +1260,18 @@ def modal_data(
     mixed_labels = frozenset(mixed) & set(modes)
     left_out = tuple(p.frequency for p in noise)
     return ModalData(
-        modes, rest, warnings, estimate or shaker, tuple(notes), mixed_labels, start, end, hits, left_out, unexplained
+        modes,
+        rest,
+        warnings,
+        estimate or shaker,
+        tuple(notes),
+        mixed_labels,
+        start,
+        end,
+        hits,
+        left_out,
+        reference or "",
+        unexplained,
     )
 
 
@@ -1495,7 +1511,7 @@ def identify_from_records(
         )
     except InputError as err:
         raise with_warnings(err, found.warnings) from None
-    return replace(result, frf=found.frf, start=found.start, end=found.end)
+    return replace(result, frf=found.frf, start=found.start, end=found.end, reference=found.reference)
 
 
 def with_warnings(

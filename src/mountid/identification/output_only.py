@@ -135,7 +135,14 @@ def every_reference(
         "each mode from the reference in which it shows most strongly (the others' estimates share its samples): "
         f"{each}"
     )
+    most = max(taken, key=lambda reference: sum(picked[label] == reference for label in modes))
     merged = replace(
-        first, modes=modes, unlabelled=unlabelled, warnings=warnings, notes=(summary, *notes, *own), mixed=frozenset()
+        first,
+        modes=modes,
+        unlabelled=unlabelled,
+        warnings=warnings,
+        notes=(summary, *notes, *own),
+        mixed=frozenset(),
+        reference=most,
     )
     return [(name, merged)], []

@@ -152,12 +152,15 @@ def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], pat
 
 
 def stabilisation_figure(
-    runs: list[tuple[int, np.ndarray, np.ndarray]], poles: dict[str, tuple[float, float]], path: str | Path
+    runs: list[tuple[int, np.ndarray, np.ndarray]],
+    poles: dict[str, tuple[float, float]],
+    path: str | Path,
+    of: str = "",
 ) -> Path:
     """The stabilisation diagram (modal.stabilisation): each model order's poles against frequency, stable
     ones (recurring from the previous order within the chain's tolerance, same damping) filled, new ones
     hollow, steady oscillations (|zeta| below RECORDS.steady_damping: a running machine, no mode) as crosses;
-    the picked poles as labelled lines."""
+    the picked poles as labelled lines; ``of``: what the pencil ran on, for the title (default: not said)."""
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for order, p, stable in runs:
         w = np.abs(p)
@@ -175,7 +178,7 @@ def stabilisation_figure(
     ax.set_ylabel("model order")
     hz = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
     hz.set_xlabel("f [Hz]")
-    ax.set_title("stabilisation diagram of the matrix pencil")
+    ax.set_title("stabilisation diagram of the matrix pencil" + (f" on {of}" if of else ""))
     ax.legend(fontsize=7, loc="lower right")
     return _save(fig, path)
 
@@ -334,8 +337,9 @@ def experiment_figures(
     output_only = result.frf is None and ambient.is_output_only(si)
     if result.frf is not None and not result.frf.averages:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
-    elif output_only:  # the correlation functions with the first response channel, one reference of those fitted
-        fitted = ambient.correlations(responses, responses.names[0]).mean
+    elif output_only:  # the correlation functions with the reference most modes came from
+        reference = result.reference or responses.names[0]
+        fitted = ambient.correlations(responses, reference).mean
         runs = modal.stabilisation(fitted, ambient.START, top, len(machine.module.MODES))
     else:  # the free decay they were fitted on (until a later hit), or a shaker's or bench's impulse responses
         analysed = responses if result.end is None else responses.before(result.end)
@@ -351,7 +355,12 @@ def experiment_figures(
             result.end,
             "output-only record" if output_only else "",
         ),
-        stabilisation_figure(runs, poles, folder / "stabilisation.png"),
+        stabilisation_figure(
+            runs,
+            poles,
+            folder / "stabilisation.png",
+            f"the correlation functions with {reference}" if output_only else "",
+        ),
         shapes(sensors),
     ]
     if result.frf is not None:
