@@ -145,13 +145,14 @@ def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[
 
 
 def _ambient_note(rig: Rig, duration: float) -> list[str]:
-    """simulate's note on an output-only record: how long the records chain needs it, where it is shorter."""
-    import numpy as np
-
+    """simulate's note on an output-only record: how long the records chain needs it, where it is shorter (none
+    where a motion is free: no lowest mode to hold)."""
     from mountid.measurement.ambient import SEGMENTS, shortest_record
     from mountid.measurement.settings import RECORDS
 
-    lowest = float(np.min(np.abs(rig.poles)))
+    lowest = rig.lowest_frequency()
+    if not lowest > 0:
+        return []
     needed = shortest_record(lowest, RECORDS.min_periods)
     said = (
         f"an output-only record: the records chain fits the correlation functions of the responses over {SEGMENTS} "

@@ -1203,14 +1203,9 @@ def modal_data(
     poles, labelled, rest = twins.poles, twins.labelled, twins.rest
     warnings += twins.warnings
     labelled, merged = unresolved(machine, record, labelled, guess)
-    if merged and correlated is not None:
-        rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
-        warnings += [
-            modal.QualityWarning("unresolved_modes", "all", f"{m.describe()}: not separated, {m.label} left out")
-            for m in merged
-        ]
-    elif merged:
-        split = _split_merged(machine, record, source, poles, merged, guess)
+    if merged:
+        # correlation functions: no fit seeded at the model's modes either (its test assumes white noise)
+        split = None if correlated is not None else _split_merged(machine, record, source, poles, merged, guess)
         if split is None:  # left out: a frequency between the modes and a mix of their shapes measure neither
             rest = sorted([*rest, *(m.pole for m in merged)], key=lambda p: p.frequency)
             warnings += [

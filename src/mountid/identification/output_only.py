@@ -57,7 +57,8 @@ def every_reference(
 
     found: list[tuple[str, ModalData]] = []
     notes: list[str] = []
-    references = record.in_si().responses
+    si = record.in_si()
+    references = si.responses
     for reference in references:
         try:  # the record's clipping check once, with the first reference that gives modes
             data = modal_data(machine, record, known, None, nominal, settings, reference=reference, clipping=not found)
@@ -95,7 +96,6 @@ def every_reference(
         )
     found = explained or found
     rep = machine.module.REPRESENTATIVE
-    si = record.in_si()
     rms = {name: float(np.std(si.channel(name))) for name in references}
     picked: dict[str, str] = {}
     for group in dict.fromkeys(rep[label] for _, data in found for label in data.modes):

@@ -182,7 +182,7 @@ def plan(
             f"{need['quiet']:.2g} s of quiet after each burst; a random force a record of {need['random']:.3g} s or "
             "more"
         )
-    lowest = float(np.min(np.abs(rig.poles)))
+    lowest = rig.lowest_frequency()
     if lowest > 0:
         notes.append(
             f"an output-only test instead (ambient or operational excitation, no force measured): a record of "

@@ -143,10 +143,9 @@ def shortest_record(lowest: float, min_periods: float, segments: int = SEGMENTS)
 
 @dataclass(frozen=True)
 class Correlations:
-    """The correlation functions of a record's responses with one of them (``reference``): per segment, and their
+    """The correlation functions of a record's responses with one of them (the reference): per segment, and their
     mean as a record (time: the lag [s]; channels: the responses, in [channel unit x reference unit])."""
 
-    reference: str
     segments: NDArray[np.float64]
     """(SEGMENTS, lags, channels): each segment's unbiased correlation functions."""
     mean: Record
@@ -166,7 +165,8 @@ def is_output_only(record: Record, segments: int = SEGMENTS) -> bool:
     are as steady)."""
     if record.forces or record.impulse is not None or not record.responses:
         return False
-    data = record.select(record.responses).data
+    responses = record.select(record.responses)
+    data = responses.data
     n = len(data) // segments
     if n < 2:
         return False
@@ -180,7 +180,7 @@ def is_output_only(record: Record, segments: int = SEGMENTS) -> bool:
     share = np.sum(spectra * near, axis=0) / np.maximum(np.sum(spectra, axis=0), 1e-300)
     if np.median(share) > TONAL:
         return False  # a running machine's tone and little else: read as a free decay, which names it
-    return len(modal.impact_bursts(record.select(record.responses))) == 0
+    return len(modal.impact_bursts(responses)) == 0
 
 
 def correlations(record: Record, reference: str, min_lag: float = 0.0, segments: int = SEGMENTS) -> Correlations:
@@ -213,7 +213,7 @@ def correlations(record: Record, reference: str, min_lag: float = 0.0, segments:
     lags = min(longest, max(lag_length(each.mean(axis=0)), math.ceil(min_lag * rate)))
     each = each[:, :lags]
     mean = Record(np.arange(lags) / rate, each.mean(axis=0), record.channels)
-    return Correlations(reference, each, mean, n / rate)
+    return Correlations(each, mean, n / rate)
 
 
 def lag_length(mean: NDArray) -> int:

@@ -328,6 +328,11 @@ class Rig:
         decaying = -self.poles.real[self.poles.real < 0]
         return 1.0 / float(decaying.min()) if len(decaying) else math.inf
 
+    def lowest_frequency(self) -> float:
+        """[rad/s] |p| of the rig's lowest pole (0 where a motion is free): what an output-only record must hold five
+        periods of in its correlation functions (ambient.shortest_record)."""
+        return float(np.min(np.abs(self.poles)))
+
     def mode_table(self, points: Sequence[Sequence[float]]) -> ModeTable:
         """The rig's complex modes (its state-space poles with Im p > 0, by |p|; the modes a truth's own coordinates
         add included) read as displacements along x, y and z at each of ``points`` [m], node k + 1 at the k-th

@@ -334,12 +334,11 @@ def experiment_figures(
         si = result.frf.as_impulse_record()
     responses = si.select(si.responses)
     top = 2.0 * float(max(result.frequencies.values()))
-    output_only = result.frf is None and ambient.is_output_only(si)
+    output_only = bool(result.reference)  # the modes came from correlation functions with it
     if result.frf is not None and not result.frf.averages:  # the poles were fitted on the impulse responses of H1
         runs = modal.stabilisation(result.frf.impulse_responses(), IRF_START, top, len(machine.module.MODES))
     elif output_only:  # the correlation functions with the reference most modes came from
-        reference = result.reference or responses.names[0]
-        fitted = ambient.correlations(responses, reference).mean
+        fitted = ambient.correlations(responses, result.reference).mean
         runs = modal.stabilisation(fitted, ambient.START, top, len(machine.module.MODES))
     else:  # the free decay they were fitted on (until a later hit), or a shaker's or bench's impulse responses
         analysed = responses if result.end is None else responses.before(result.end)
@@ -359,7 +358,7 @@ def experiment_figures(
             runs,
             poles,
             folder / "stabilisation.png",
-            f"the correlation functions with {reference}" if output_only else "",
+            f"the correlation functions with {result.reference}" if output_only else "",
         ),
         shapes(sensors),
     ]
