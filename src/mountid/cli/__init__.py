@@ -236,6 +236,14 @@ def build_parser() -> argparse.ArgumentParser:
         "impulse responses by least squares over the record; record eight times the machine's decay or more)",
     )
     p.add_argument(
+        "--shaker-at",
+        nargs=2,
+        action="append",
+        metavar=("POINT", "DIRECTION"),
+        help="a further shaker beside --shaker's, at POINT x,y,z [m] along DIRECTION, with its own signal (repeat for "
+        "more: a MIMO test, --shaker-random or --shaker-burst); give a --force-channel name per shaker",
+    )
+    p.add_argument(
         "--ambient",
         type=float,
         metavar="N",
@@ -245,9 +253,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--force-channel",
+        nargs="+",
         metavar="NAME",
         help="record the hammer's force [N] as a last channel of this name (an impact hammer's load cell: the "
-        "records chain then fits the modes on the H1 frequency responses)",
+        "records chain then fits the modes on the H1 frequency responses); one name per shaker with --shaker-at",
     )
     p.add_argument(
         "--speed",

@@ -64,10 +64,12 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         from mountid.validation.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
-    force = args.force_channel
-    if force is not None and (not force.strip() or force in {s.name for s in sensors}):
-        what = "a response channel's name" if force.strip() else "empty"
-        raise InputError("--force-channel", f"{force!r} is {what}")
+    for force in args.force_channel or []:
+        if not force.strip() or force in {s.name for s in sensors}:
+            what = "a response channel's name" if force.strip() else "empty"
+            raise InputError("--force-channel", f"{force!r} is {what}")
+    if len(set(args.force_channel or [])) != len(args.force_channel or []):
+        raise InputError("--force-channel", f"{' '.join(args.force_channel)}: each force's channel needs its own name")
     hit = _hit(args)
     shakers = _shakers(args, hit)
     ambient = _ambient(args, rig, shakers)
@@ -81,7 +83,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         hammers,
         unbalances,
         seed=args.seed,
-        force_channel=args.force_channel,
+        force_channel=_force_channels(args, shakers),
         shakers=shakers,
         ambient=ambient,
     )
@@ -127,6 +129,24 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         print(f"note: {note}")
 
 
+def _force_channels(args: argparse.Namespace, shakers: list[Shaker]) -> str | list[str] | None:
+    """The force channels --force-channel names: one for the hammer or shaker, one per shaker with --shaker-at (an
+    InputError naming the option where the count differs: a sum of several shakers' forces measures none of them)."""
+    names = args.force_channel
+    if names is None:
+        return None
+    if len(shakers) > 1 and len(names) != len(shakers):
+        raise InputError(
+            "--force-channel",
+            f"{counted(len(names), 'name')} for {len(shakers)} shakers: one per shaker, each force on its own channel "
+            "(the sum of their forces measures none of them)",
+        )
+    if len(shakers) <= 1 and len(names) > 1:
+        several = f"{counted(len(names), 'name')}: several are for several shakers (--shaker-at)"
+        raise InputError("--force-channel", several)
+    return names[0] if len(names) == 1 else names
+
+
 def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[RandomForce]:
     """The random forces --ambient gives at the isolators (rig.ambient_forces, white to 0.4 x the rate; [] without
     it); an InputError naming the option that does not go with them."""
@@ -170,6 +190,8 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
     from mountid.measurement.rig import ANTI_ALIAS, Shaker
 
     if args.shaker is None:
+        if args.shaker_at:
+            raise InputError("--shaker-at", "is a further shaker's: give the first with --shaker LOW HIGH")
         if args.shaker_burst is not None:
             raise InputError("--shaker-burst", "is a shaker's: give its band with --shaker LOW HIGH")
         if args.shaker_random:
@@ -190,8 +212,23 @@ def _shakers(args: argparse.Namespace, hit: Hammer) -> list[Shaker]:
     bounded(args.shaker_rms, "--shaker-rms", HIT_PEAK_LIMIT, " N")
     if args.shaker_burst is not None and not 0 < args.shaker_burst < 1:
         raise InputError("--shaker-burst", f"{args.shaker_burst:g}: a share of the period between 0 and 1")
+    if args.shaker_at and not args.shaker_random and args.shaker_burst is None:
+        raise InputError(
+            "--shaker-at",
+            "several shakers at once need --shaker-random or --shaker-burst: a periodic excitation repeats each "
+            "period, and one record cannot tell the shakers' frequency responses apart",
+        )
     shaker = Shaker(hit.point, hit.direction, args.shaker_rms, low, high, args.shaker_period, args.seed)
-    return [replace(shaker, burst=args.shaker_burst, random=args.shaker_random)]
+    shaker = replace(shaker, burst=args.shaker_burst, random=args.shaker_random)
+    return [shaker] + [
+        replace(
+            shaker,
+            point=point_on_machine(point, "--shaker-at"),
+            direction=direction(axis, "--shaker-at"),
+            seed=args.seed + k,
+        )
+        for k, (point, axis) in enumerate(args.shaker_at or [], start=1)
+    ]
 
 
 def random_length_note(duration: float, slowest: float) -> list[str]:
@@ -441,9 +478,10 @@ def cmd_process(args: argparse.Namespace) -> None:
 
 
 def _frf_out(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTable]]) -> list[str]:
-    """--frf-out: the H1 frequency responses of every run (frf.of_record) written as a UFF file (uff.write_frf), and
-    the note that says so ([] without the option); an InputError naming the option for a file or a run it cannot
-    write (a table of modes, frequency response functions already, no force channel)."""
+    """--frf-out: the frequency responses of every run (frf.of_inputs: of each force of several shakers at once)
+    written as a UFF file (uff.write_frf), and the note that says so ([] without the option); an InputError naming
+    the option for a file or a run it cannot write (a table of modes, frequency response functions already, no force
+    channel)."""
     if not args.frf_out:
         return []
     path = file_to_write(args.frf_out, "--frf-out", {".uff": "UFF", ".unv": "UFF"})
@@ -456,10 +494,10 @@ def _frf_out(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTa
         if isinstance(record, ModeTable):
             raise InputError("--frf-out", f"{name} is a table of modes: no force to estimate frequency responses from")
         try:
-            estimate = frf.of_record(record)
+            inputs = frf.of_inputs(record)
         except InputError as err:
             raise InputError("--frf-out", f"{name}: {err}") from None
-        estimates.append((estimate, next(c for c in record.channels if c.name == estimate.force)))
+        estimates += [(e, next(c for c in record.channels if c.name == e.force)) for e in inputs]
     write_frf(estimates, path)
     windows = sorted({e.window_decay for e, _ in estimates if e.window_decay})
     read_back = (
@@ -469,7 +507,9 @@ def _frf_out(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTa
         else ""
     )
     responses = counted(len(estimates[0][0].responses), "frequency response function")
-    return [f"wrote {path}: {responses} per run, {counted(len(estimates), 'run')}{read_back}"]
+    inputs = counted(len(estimates), "run") if len(estimates) == len(runs) else counted(len(estimates), "input")
+    each = "run" if len(estimates) == len(runs) else "input"
+    return [f"wrote {path}: {responses} per {each}, {inputs}{read_back}"]
 
 
 def _source(args: argparse.Namespace, runs: Sequence[tuple[str, Record | ModeTable]]) -> str:

@@ -1041,6 +1041,7 @@ def modal_data(
     use_force: bool = True,
     reference: str | None = None,
     clipping: bool = True,
+    force: str | None = None,
 ) -> ModalData:
     """Record of an impact test -> labelled modes, the poles left unlabelled, and the record's quality warnings.
     With a force channel (and ``use_force``) the modes are fitted on the impulse responses of the H1 frequency
@@ -1051,7 +1052,10 @@ def modal_data(
     of modes (records.ModeTable) gives its modes labelled as a record's poles are (table_modal_data). With a
     ``reference`` (a response channel) the record is output-only: the modes are fitted on the correlation functions
     of the responses with it (measurement.ambient), their uncertainty from the segments' scatter; ``clipping``
-    False leaves its clipping check to the caller (output_only.every_reference runs it once for every reference)."""
+    False leaves its clipping check to the caller (output_only.every_reference runs it once for every reference).
+    A record of several shakers' continuous forces at once (MIMO) gives each force's frequency responses with the
+    others' share taken out (frf.several_inputs): fitted for ``force``, or without one for every force, each mode
+    from the force that drives it most strongly (references.every_input)."""
     mod = machine.module
     guess = {**known, **_labelling_values(machine, nominal or {})}
     nominal_omega = machine.evaluate("frequencies", machine.values(guess, mod.FORWARD_ARGUMENTS))  # range-checked
@@ -1065,7 +1069,20 @@ def modal_data(
         raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
     record = full.select(full.responses)
     shaker = None  # a shaker's H1 (periods or bursts): fitted as a bench's FRFs are
-    if record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
+    several = bool(use_force and frf.at_once(full, settings))
+    if force is not None and (not several or force not in full.forces):
+        raise InputError(
+            "force",
+            f"{force!r}: one of the forces of a record of several shakers at once ({', '.join(full.forces) or 'none'})",
+        )
+    if several and force is None:
+        from mountid.identification.references import every_input
+
+        return every_input(machine, full, known, start, nominal, settings)
+    if several:
+        shaker = frf.several_inputs(full, full.forces, settings)[full.forces.index(force)]
+        record = shaker.as_impulse_record()
+    elif record.impulse is None and full.forces and use_force and frf.is_continuous(full, full.forces[0], settings):
         shaker = frf.continuous_h1(full, full.forces[0], settings)
         record = shaker.as_impulse_record()
     estimate, notes, end, hits = None, [], None, ()
@@ -1077,7 +1094,7 @@ def modal_data(
             raise InputError("start", "an output-only record's correlation functions start at lag zero")
         lags = ambient.shortest_lags(float(np.min(nominal_omega)), settings.min_periods)
         correlated = ambient.correlations(record, reference, lags)
-    if len(full.forces) > 1 and use_force and (shaker is not None or record.impulse is None):
+    if len(full.forces) > 1 and use_force and not several and (shaker is not None or record.impulse is None):
         # one input: the others' hits (a roving hammer: its runs) or a second shaker's force are not divided out
         notes.append(
             f"{counted(len(full.forces) - 1, 'force channel')} not used ({', '.join(full.forces[1:])}): the H1 "

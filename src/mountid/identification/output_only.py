@@ -3,10 +3,8 @@ the reference in turn, fitted as free decays (from_records.modal_data), and each
 which it shows most strongly (its amplitudes over the reference's level: the precision follows).
 
 A reference near a node of a mode does not see it (kid300's A_z sees the rocking psi, not the torsion phi; B_y the
-torsion, not psi), so one reference seldom gives every mode. The estimates of one mode with several references come
-from the same samples: they are not independent, and a weighted mean would claim a precision the record does not
-have. Each mode's estimate is one reference's, with that reference's uncertainty (the segments' scatter); twins
-(modes the model has equal by symmetry) come from one reference together.
+torsion, not psi), so one reference seldom gives every mode; each mode's estimate is one reference's
+(references.strongest), with that reference's uncertainty (the segments' scatter).
 """
 
 from __future__ import annotations
@@ -17,26 +15,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import NoModeFound
+from mountid.identification.references import strongest
 from mountid.machine import Machine
 from mountid.measurement import ambient, modal
-from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Record
 from mountid.measurement.settings import RECORDS, RecordSettings
 from mountid.nomenclature import counted
 
 if TYPE_CHECKING:
     from mountid.identification.from_records import ModalData
-
-
-def _strength(mode: MeasuredMode, reference_rms: float) -> float:
-    """How strongly a mode shows in the correlation functions with a reference: its channel amplitudes' norm over the
-    reference's RMS (the correlation estimate's noise grows with the reference's level), 0 without amplitudes. The
-    reference a mode is taken from is the strongest: its precision follows, and the amplitudes are steadier than the
-    jackknife's standard deviations (with seven degrees of freedom each), of which the smallest of eight references
-    is too small by chance (kid300, eight channels: x's damping ratio 10 of its stated deviations off)."""
-    if mode.channels is None or not reference_rms > 0:
-        return 0.0
-    return float(np.linalg.norm(mode.channels.amplitudes)) / reference_rms
 
 
 def every_reference(
@@ -95,27 +82,7 @@ def every_reference(
             )
         )
     found = explained or found
-    rep = machine.module.REPRESENTATIVE
-    rms = {name: float(np.std(si.channel(name))) for name in references}
-    picked: dict[str, str] = {}
-    for group in dict.fromkeys(rep[label] for _, data in found for label in data.modes):
-
-        def score(item: tuple[str, ModalData], group: str = group) -> tuple[int, float]:
-            labels = [label for label in item[1].modes if rep[label] == group]
-            return -len(labels), -sum(_strength(item[1].modes[label], rms[item[0]]) for label in labels)
-
-        reference, data = min((item for item in found if group in {rep[lab] for lab in item[1].modes}), key=score)
-        picked |= {label: reference for label in data.modes if rep[label] == group}
-    by_reference = dict(found)
-    modes = {label: by_reference[picked[label]].modes[label] for label in machine.module.MODES if label in picked}
-    taken = dict.fromkeys(picked.values())
-    unlabelled = sorted(
-        (p for reference in taken for p in by_reference[reference].unlabelled), key=lambda p: p.frequency
-    )
-    first = by_reference[next(iter(taken))]
-    each = "; ".join(
-        f"{', '.join(label for label in modes if picked[label] == reference)} from {reference}" for reference in taken
-    )
+    picked = strongest(machine, found, {name: 1.0 / float(np.std(si.channel(name))) for name in references})
     # the first reference's account of the correlation functions (the others' alike), then what each left out
     own = [f"{found[0][1].notes[0]} (the other references' alike)"]
     noise = [
@@ -133,16 +100,15 @@ def every_reference(
     summary = (
         f"output-only, {counted(len(references), 'response channel')} as the reference in turn, {len(found)} used; "
         "each mode from the reference in which it shows most strongly (the others' estimates share its samples): "
-        f"{each}"
+        f"{picked.each}"
     )
-    most = max(taken, key=lambda reference: sum(picked[label] == reference for label in modes))
     merged = replace(
-        first,
-        modes=modes,
-        unlabelled=unlabelled,
+        dict(found)[picked.taken[0]],
+        modes=picked.modes,
+        unlabelled=picked.unlabelled,
         warnings=warnings,
         notes=(summary, *notes, *own),
         mixed=frozenset(),
-        reference=most,
+        reference=picked.most,
     )
     return [(name, merged)], []

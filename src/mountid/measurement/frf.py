@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from mountid.errors import InputError
 from mountid.measurement.records import Channel, Record, impulse_record
 from mountid.measurement.settings import RECORDS, RecordSettings
+from mountid.nomenclature import counted
 
 
 @dataclass(frozen=True)
@@ -176,6 +177,22 @@ def of_record(record: Record, settings: RecordSettings = RECORDS) -> FrfEstimate
     return h1(record, force, settings)
 
 
+def of_inputs(record: Record, settings: RecordSettings = RECORDS) -> tuple[FrfEstimate, ...]:
+    """The frequency responses of every input of a record: of each force of several shakers at once (at_once:
+    several_inputs), else of_record's of its first force."""
+    forces = at_once(record, settings)
+    return several_inputs(record, forces, settings) if forces else (of_record(record, settings),)
+
+
+def at_once(record: Record, settings: RecordSettings = RECORDS) -> tuple[str, ...]:
+    """The force channels of a test of several shakers at once (two forces or more, every one continuous:
+    several_inputs reads them together); () for any other record (a roving hammer's hits on two channels: its
+    runs)."""
+    if record.impulse is not None or len(record.forces) < 2:
+        return ()
+    return record.forces if all(is_continuous(record, name, settings) for name in record.forces) else ()
+
+
 def is_continuous(record: Record, force: str, settings: RecordSettings = RECORDS) -> bool:
     """Whether the force channel ``force`` carries a continuous excitation (a shaker's) rather than hits: above 5 %
     of its peak on more than settings.continuous_force of its samples, both from its median (a hammer channel's
@@ -246,13 +263,24 @@ def _periodic(f: NDArray, responses: Record, force: str, period: int, settings: 
 
 
 def _burst(f: NDArray, responses: Record, force: str, starts: list[int], settings: RecordSettings) -> FrfEstimate:
-    """H1 of burst random starting at the samples ``starts`` (continuous_h1): blocks from settings.pretrigger before
-    each burst's start, as long as the shortest spacing, the last burst's where the record holds a block after it."""
+    """H1 of burst random starting at the samples ``starts`` (continuous_h1): _burst_blocks."""
+    blocks = _burst_blocks(responses, force, starts, len(f), settings)
+    n = blocks[0].stop - blocks[0].start
+    averaged = f"{len(blocks)} bursts of {n / responses.rate:.4g} s of burst random on {force}"
+    return _block_h1(f, responses, force, blocks, "burst", averaged, settings)
+
+
+def _burst_blocks(
+    responses: Record, force: str, starts: list[int], length: int, settings: RecordSettings
+) -> list[slice]:
+    """The blocks of burst random starting at the samples ``starts`` of a record of ``length`` samples: from
+    settings.pretrigger before each burst's start, as long as the shortest spacing, the last burst's where the record
+    holds a block after it. An InputError naming ``force`` where a response has not died out by a block's end."""
     rate = responses.rate
     pre = int(round(settings.pretrigger * rate))  # a burst's first samples below the threshold go with it
     starts = [max(0, a - pre) for a in starts]
     n = min(b - a for a, b in itertools.pairwise(starts))
-    blocks = [slice(a, a + n) for a in starts if a + n <= len(f)]
+    blocks = [slice(a, a + n) for a in starts if a + n <= length]
     y = responses.data
     for k, block in enumerate(blocks):
         level = _tail_level(y[block])
@@ -264,8 +292,7 @@ def _burst(f: NDArray, responses: Record, force: str, starts: list[int], setting
                 f"tenth at {float(np.max(level)):.0%} of its level): leakage a window would hide; a longer quiet time "
                 "after each burst",
             )
-    averaged = f"{len(blocks)} bursts of {n / rate:.4g} s of burst random on {force}"
-    return _block_h1(f, responses, force, blocks, "burst", averaged, settings)
+    return blocks
 
 
 def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings) -> FrfEstimate:
@@ -288,42 +315,18 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
     import scipy.signal
 
     rate, n = responses.rate, len(f)
-    taps = 2 * (n // (2 * settings.random_blocks))  # even: the lines' transform gives them back
-    if taps < RANDOM_TAPS:
-        raise InputError(
-            force,
-            f"random excitation over {n} samples: its impulse responses, 1/{settings.random_blocks} of the record, "
-            f"need {RANDOM_TAPS} samples or more",
-        )
-    changed = _spectrum_change(f, rate)
-    if changed > SWEPT:
-        raise InputError(
-            force,
-            f"a continuous excitation whose spectrum changes over the record (a sweep or a stepped sine: the spectra "
-            f"of its quarters differ in {changed:.0%} of their power): mountid reads hits, a periodic excitation "
-            "(periodic random, a multisine), burst random and random",
-        )
+    taps = _taps(n, force, settings)
+    _not_swept(f, rate, force)
     f0 = f - f.mean()
     y0 = responses.data - responses.data.mean(axis=0)
-    size = 1 << (2 * n - 1).bit_length()  # zero-padded: linear correlations
-    inner = (np.arange(n) >= taps) & (np.arange(n) < n - taps)
-    early = np.fft.rfft(np.where(inner, f0, 0.0), size)  # f'
-    c = np.fft.irfft(np.conj(early) * np.fft.rfft(f0, size), size)  # c(d) at d and size + d (d < 0)
-    b = np.fft.irfft(np.conj(early)[:, None] * np.fft.rfft(y0, size, axis=0), size, axis=0)[:taps]
-    column, row = c[:taps].copy(), np.concatenate([c[:1], c[size - 1 : size - taps : -1]])
-    column[0] = row[0] = c[0] * (1 + RIDGE)  # the band the force leaves out makes the matrix singular but for noise
-    h = scipy.linalg.solve_toeplitz((column, row), b)
+    column, row, b = _normal_equations(f0[:, None], y0, taps)
+    h = scipy.linalg.solve_toeplitz((column[:, 0, 0], row[:, 0, 0]), b[:, 0])
     _, s_ff = scipy.signal.welch(f0, rate, nperseg=taps)
     excited = s_ff > settings.shaker_floor * s_ff.max()
     lines = np.where(excited[:, None], np.fft.rfft(h, axis=0), 0.0)
     _died_out(lines, excited, responses, force, settings)
-    residual = y0 - scipy.signal.fftconvolve(f0[:, None], h, axes=0)[:n]
-    _, s_ee = scipy.signal.welch(residual, rate, nperseg=taps, axis=0)
-    _, s_yy = scipy.signal.welch(y0, rate, nperseg=taps, axis=0)
-    top = int(np.flatnonzero(excited)[-1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        coherence = np.where(excited[:, None], 1.0 - s_ee / s_yy, 0.0)[: top + 1]
-    coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
+    coherence = _multiple_coherence(y0, scipy.signal.fftconvolve(f0[:, None], h, axes=0)[:n], excited, rate)
+    top = len(coherence) - 1
     spacing = rate / taps
     averaged = (
         f"{n / rate:.4g} s of a random excitation on {force} (impulse responses of {taps / rate:.4g} s by least "
@@ -343,6 +346,156 @@ def _random(f: NDArray, responses: Record, force: str, settings: RecordSettings)
         "block",
         averaged,
     )
+
+
+def _not_swept(f: NDArray, rate: float, force: str) -> None:
+    """An InputError naming ``force`` where its spectrum changes over the record (_spectrum_change beyond SWEPT)."""
+    changed = _spectrum_change(f, rate)
+    if changed > SWEPT:
+        raise InputError(
+            force,
+            f"a continuous excitation whose spectrum changes over the record (a sweep or a stepped sine: the spectra "
+            f"of its quarters differ in {changed:.0%} of their power): mountid reads hits, a periodic excitation "
+            "(periodic random, a multisine), burst random and random",
+        )
+
+
+def _random_inputs(
+    f: NDArray, responses: Record, forces: tuple[str, ...], settings: RecordSettings
+) -> tuple[FrfEstimate, ...]:
+    """_random of several forces at once, ``f`` (samples, forces): with f'_a the force a but for its first and last
+    L samples,
+
+        sum_j f'_a[j] y[j + k] = sum_b sum_m h_b[m] c_ab(k - m),   c_ab(d) = sum_j f'_a[j] f_b[j + d],
+
+    for every force a and k = 0 .. L - 1: a system of Toeplitz blocks (forces x forces, each L x L) whose solution
+    h_b is each force's impulse responses, the others' share of the response taken out, by the block Levinson
+    recursion (_block_levinson: L^2 forces^3 operations where a dense solve takes (L forces)^3 / 3, seconds for
+    two forces' 16 s at 200 Hz). The coherence is the multiple coherence, 1 - S_ee / S_yy of the residual of all
+    forces. InputErrors as _random's, naming the force, and where two forces are one signal (INPUTS_APART)."""
+    import scipy.signal
+
+    rate, n = responses.rate, len(f)
+    for name, column in zip(forces, f.T, strict=True):
+        _not_swept(column, rate, name)
+    taps = _taps(n, forces[0], settings)
+    f0 = f - f.mean(axis=0)
+    y0 = responses.data - responses.data.mean(axis=0)
+    _, cross = scipy.signal.csd(f0[:, :, None], f0[:, None, :], rate, nperseg=taps, axis=0)  # (lines, forces, forces)
+    power = np.real(np.diagonal(cross, axis1=1, axis2=2))
+    excited = np.all(power > settings.shaker_floor * power.max(axis=0), axis=1)
+    _apart(cross[excited], forces, f"{n / rate:.4g} s")
+    column, row, b = _normal_equations(f0, y0, taps)
+    h = _block_levinson(column, row, b).transpose(1, 0, 2)  # (forces, L, responses)
+    transformed = np.where(excited[None, :, None], np.fft.rfft(h, axis=1), 0.0)  # (forces, lines, responses)
+    for name, lines_of in zip(forces, transformed, strict=True):
+        _died_out(lines_of, excited, responses, name, settings)
+    fitted = sum(scipy.signal.fftconvolve(f0[:, a, None], h[a], axes=0)[:n] for a in range(len(forces)))
+    coherence = _multiple_coherence(y0, fitted, excited, rate)
+    top = len(coherence) - 1
+    spacing = rate / taps
+    averaged = (
+        f"{n / rate:.4g} s of random excitation on {', '.join(forces)} at once (the impulse responses of each, "
+        f"{taps / rate:.4g} s, by least squares over the record)"
+    )
+    return tuple(
+        FrfEstimate(
+            2 * np.pi * spacing * np.arange(top + 1),
+            transformed[a, : top + 1],
+            coherence,
+            responses.channels,
+            name,
+            (),
+            1 / spacing,
+            0.0,
+            2 * top * spacing,
+            settings.random_blocks,
+            "block",
+            f"{name}'s share of {averaged}",
+        )
+        for a, name in enumerate(forces)
+    )
+
+
+def _block_levinson(column: NDArray, row: NDArray, rhs: NDArray) -> NDArray:
+    """The solution x (L, m, r) of the block Toeplitz system sum_j R(k - j) x[j] = rhs[k], k = 0 .. L - 1, its
+    blocks R(d) (m x m) given as ``column`` R(0 .. L - 1) and ``row`` R(0, -1 .. -(L - 1)), both (L, m, m); rhs (L, m,
+    r). Levinson's recursion for blocks (Whittle; Wiggins and Robinson), unsymmetric: the forward and backward
+    solutions F, B of the leading n x n blocks (T_n F = [E_f, 0 .. 0], T_n B = [0 .. 0, E_b], F's first and B's last
+    block the identity) extended by one block at a time, and x with them. Every leading block matrix must be
+    regular (the ridge of _random_inputs sees to it)."""
+    size, m, _ = column.shape
+    r = rhs.shape[2]
+    # R(n + 1), .., R(1) for the nth step is a slice of R(L - 1), .., R(0), and R(-1), .., R(-n - 1) one of row: both
+    # laid out (m, L, m) so that a slice reshaped to m x (n + 1) m meets the blocks stacked in one product
+    falling = np.ascontiguousarray(column[::-1].transpose(1, 0, 2))
+    rising = np.ascontiguousarray(row.transpose(1, 0, 2))
+    forward = np.zeros((size, m, m))  # F_n in its first n + 1 blocks, 0 after: [F_n, 0] is a slice
+    backward = np.zeros((size, m, m))  # B_n in its last n + 1 blocks, 0 before: [0, B_n] is a slice
+    forward[0] = backward[-1] = np.eye(m)
+    e_f, e_b = column[0], column[0]
+    x = np.zeros((size, m, r))
+    x[0] = np.linalg.solve(column[0], rhs[0])
+    for n in range(size - 1):
+        ahead = falling[:, size - 2 - n : size - 1].reshape(m, -1)  # R(n + 1), .., R(1)
+        d_f = ahead @ forward[: n + 1].reshape(-1, m)  # row n + 1 of T_(n+1) [F, 0]
+        d_b = rising[:, 1 : n + 2].reshape(m, -1) @ backward[size - 1 - n :].reshape(-1, m)  # row 0 of [0, B]
+        k_f, k_b = np.linalg.solve(e_b, d_f), np.linalg.solve(e_f, d_b)
+        padded_f, padded_b = forward[: n + 2], backward[size - 2 - n :]
+        new_f = padded_f - (padded_b.reshape(-1, m) @ k_f).reshape(-1, m, m)
+        backward[size - 2 - n :] = padded_b - (padded_f.reshape(-1, m) @ k_b).reshape(-1, m, m)
+        forward[: n + 2] = new_f
+        e_f, e_b = e_f - d_b @ k_f, e_b - d_f @ k_b
+        delta = ahead @ x[: n + 1].reshape(-1, r)  # row n + 1 of T_(n+1) [x, 0]
+        step = np.linalg.solve(e_b, rhs[n + 1] - delta)
+        x[: n + 2] += (backward[size - 2 - n :].reshape(-1, m) @ step).reshape(-1, m, r)
+    return x
+
+
+def _taps(n: int, force: str, settings: RecordSettings) -> int:
+    """The samples L of a random excitation's impulse responses over ``n`` samples: 1/settings.random_blocks of
+    them, even (the lines' transform gives them back); an InputError naming ``force`` below RANDOM_TAPS."""
+    taps = 2 * (n // (2 * settings.random_blocks))
+    if taps < RANDOM_TAPS:
+        raise InputError(
+            force,
+            f"random excitation over {n} samples: its impulse responses, 1/{settings.random_blocks} of the record, "
+            f"need {RANDOM_TAPS} samples or more",
+        )
+    return taps
+
+
+def _normal_equations(f0: NDArray, y0: NDArray, taps: int) -> tuple[NDArray, NDArray, NDArray]:
+    """The normal equations of _random and _random_inputs for the forces ``f0`` (samples, forces) and responses
+    ``y0`` (samples, responses), both less their means: the Toeplitz blocks' first column c_ab(0 .. L - 1) and first
+    row c_ab(0, -1 .. -(L - 1)), each (L, forces, forces), with c_ab(d) = sum_j f'_a[j] f_b[j + d] (f' the force but
+    for its first and last L samples), and the right-hand sides sum_j f'_a[j] y[j + k], (L, forces, responses).
+    Each force's c_aa(0) carries RIDGE: the band the forces leave out makes the matrix singular but for noise."""
+    n, m = f0.shape
+    size = 1 << (2 * n - 1).bit_length()  # zero-padded: linear correlations
+    inner = (np.arange(n) >= taps) & (np.arange(n) < n - taps)
+    early = np.conj(np.fft.rfft(np.where(inner[:, None], f0, 0.0), size, axis=0))  # f'
+    c = np.fft.irfft(np.einsum("la,lb->lab", early, np.fft.rfft(f0, size, axis=0)), size, axis=0)  # d < 0: size + d
+    b = np.fft.irfft(np.einsum("la,ly->lay", early, np.fft.rfft(y0, size, axis=0)), size, axis=0)[:taps]
+    column = c[:taps].copy()
+    row = np.concatenate([c[:1], c[size - 1 : size - taps : -1]])
+    own = np.arange(m)
+    column[0, own, own] = row[0, own, own] = c[0, own, own] * (1 + RIDGE)
+    return column, row, b
+
+
+def _multiple_coherence(y0: NDArray, fitted: NDArray, excited: NDArray, rate: float) -> NDArray[np.float64]:
+    """1 - S_ee / S_yy of the residual e = ``y0`` - ``fitted`` (Welch, blocks as long as the ``excited`` lines'
+    transform), per line to the highest excited, 0 on those not excited; clipped to [0, 1]."""
+    import scipy.signal
+
+    segment = 2 * (len(excited) - 1)
+    _, s_ee = scipy.signal.welch(y0 - fitted, rate, nperseg=segment, axis=0)
+    _, s_yy = scipy.signal.welch(y0, rate, nperseg=segment, axis=0)
+    top = int(np.flatnonzero(excited)[-1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coherence = np.where(excited[:, None], 1.0 - s_ee / s_yy, 0.0)[: top + 1]
+    return np.clip(np.nan_to_num(coherence), 0.0, 1.0)
 
 
 def _died_out(lines: NDArray, excited: NDArray, responses: Record, force: str, settings: RecordSettings) -> None:
@@ -451,30 +604,152 @@ def _block_h1(
         H1 = sum_k conj(F_k) Y_k / sum_k |F_k|^2,   coherence = |sum_k conj(F_k) Y_k|^2 / (sum_k |F_k|^2 sum_k |Y_k|^2)
 
     on the lines the force excites (settings.shaker_floor; 0 on the others below the highest), up to the highest."""
-    spec_f = np.array([np.fft.rfft(f[b]) for b in blocks])
+    return _block_inputs(f[:, None], responses, (force,), blocks, block, averaged, settings)[0]
+
+
+def _block_inputs(
+    f: NDArray,
+    responses: Record,
+    forces: tuple[str, ...],
+    blocks: list[slice],
+    block: str,
+    averaged: str,
+    settings: RecordSettings,
+) -> tuple[FrfEstimate, ...]:
+    """_block_h1 of several forces at once, ``f`` (samples, forces): per line the cross spectra over the blocks,
+    S_ff (forces x forces) and S_fy, give H = S_ff^-1 S_fy, each force's frequency responses with the others' part
+    of the response taken out (H1 of one force takes it for noise, and where the forces correlate, as a machine's
+    motion makes two shakers' forces do, for its own); the coherence is the multiple coherence
+    1 - S_ee / S_yy of what no force explains. The lines are those every force excites."""
+    spec_f = np.array([np.fft.rfft(f[b], axis=0) for b in blocks])  # (blocks, lines, forces)
     spec_y = np.array([np.fft.rfft(responses.data[b], axis=0) for b in blocks])
-    s_ff = np.sum(np.abs(spec_f) ** 2, axis=0)
-    s_fy = np.sum(np.conj(spec_f)[:, :, None] * spec_y, axis=0)
     s_yy = np.sum(np.abs(spec_y) ** 2, axis=0)
-    excited = s_ff > settings.shaker_floor * s_ff.max()
-    top = int(np.flatnonzero(excited)[-1])
-    h = np.where(excited[:, None], s_fy / np.where(excited, s_ff, 1.0)[:, None], 0.0)[: top + 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        coherence = np.where(excited[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)[: top + 1]
+    if len(forces) == 1:
+        s_ff = np.sum(np.abs(spec_f[:, :, 0]) ** 2, axis=0)
+        s_fy = np.sum(np.conj(spec_f[:, :, 0])[:, :, None] * spec_y, axis=0)
+        excited = s_ff > settings.shaker_floor * s_ff.max()
+        top = int(np.flatnonzero(excited)[-1])
+        h = np.where(excited[:, None], s_fy / np.where(excited, s_ff, 1.0)[:, None], 0.0)[: top + 1, :, None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            coherence = np.where(excited[:, None], np.abs(s_fy) ** 2 / (s_ff[:, None] * s_yy), 0.0)[: top + 1]
+    else:
+        s_ff = np.einsum("kla,klb->lab", np.conj(spec_f), spec_f)
+        s_fy = np.einsum("kla,kly->lay", np.conj(spec_f), spec_y)
+        power = np.real(np.diagonal(s_ff, axis1=1, axis2=2))  # (lines, forces)
+        excited = np.all(power > settings.shaker_floor * power.max(axis=0), axis=1)
+        if not excited.any():
+            raise InputError(forces[1], f"excites no line that {forces[0]} excites: no frequency response of both")
+        _apart(s_ff[excited], forces, f"{len(blocks)} {block}s")
+        top = int(np.flatnonzero(excited)[-1])
+        ridge = np.where(excited, 0.0, 1.0)[:, None, None] * np.eye(len(forces))  # lines left out: kept solvable
+        solved = np.linalg.solve(s_ff + ridge, s_fy)
+        h = np.where(excited[:, None, None], solved, 0.0).transpose(0, 2, 1)[: top + 1]  # (lines, responses, forces)
+        explained = np.real(np.einsum("lay,lay->ly", np.conj(s_fy), solved))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            coherence = np.where(excited[:, None], explained / s_yy, 0.0)[: top + 1]
     coherence = np.clip(np.nan_to_num(coherence), 0.0, 1.0)
     spacing = responses.rate / (blocks[0].stop - blocks[0].start)
     omega = 2 * np.pi * spacing * np.arange(top + 1)
     rate = 2 * top * spacing
-    return FrfEstimate(
-        omega, h, coherence, responses.channels, force, (), 1 / spacing, 0.0, rate, len(blocks), block, averaged
+    return tuple(
+        FrfEstimate(
+            omega,
+            h[:, :, j],
+            coherence,
+            responses.channels,
+            force,
+            (),
+            1 / spacing,
+            0.0,
+            rate,
+            len(blocks),
+            block,
+            averaged if len(forces) == 1 else f"{force}'s share of {averaged}",
+        )
+        for j, force in enumerate(forces)
     )
+
+
+INPUTS_APART = 0.9
+"""Forces whose coherence with each other (|S_ab|^2 / (S_aa S_bb)) reaches this at the median line they excite are one
+signal: their frequency responses cannot be told apart (several_inputs). Independent forces: 1 / (blocks averaged)
+on average, 0.05-0.2."""
+
+
+def _apart(s_ff: NDArray, forces: tuple[str, ...], over: str) -> None:
+    """An InputError naming the second of two ``forces`` whose coherence at the median of the lines (``s_ff``: their
+    cross spectra there, lines x forces x forces) reaches INPUTS_APART: one signal drives both."""
+    power = np.real(np.diagonal(s_ff, axis1=1, axis2=2))
+    for a, b in itertools.combinations(range(len(forces)), 2):
+        coherence = float(np.median(np.abs(s_ff[:, a, b]) ** 2 / (power[:, a] * power[:, b])))
+        if coherence >= INPUTS_APART:
+            raise InputError(
+                forces[b],
+                f"correlates with {forces[a]} (coherence {coherence:.3f} at the median line over {over}): one signal "
+                "drives both shakers, and their frequency responses cannot be told apart; drive each with its own "
+                "random signal",
+            )
+
+
+def several_inputs(
+    record: Record, forces: tuple[str, ...], settings: RecordSettings = RECORDS
+) -> tuple[FrfEstimate, ...]:
+    """The frequency responses of several shakers' continuous forces at once (MIMO), one FrfEstimate per force, in
+    the order of ``forces``: each force's frequency responses with the others' share of the response taken out.
+
+    - burst random (the bursts of every force together, _onsets of the largest of the forces relative to their
+      peaks): over the bursts, H = S_ff^-1 S_fy per line (_block_inputs), more bursts than forces;
+    - random: the impulse responses of every force at once by least squares over the whole record (_random_inputs).
+
+    A periodic excitation repeats the same spectra every period: with several forces at once the frequency responses
+    of each cannot be told apart within one record (a controller's MIMO periodic random runs several records with new
+    phases): an InputError naming the force. Likewise forces one signal drives (INPUTS_APART)."""
+    record = record.in_si()
+    if len(forces) < 2:
+        raise InputError("forces", f"several_inputs takes two forces or more, got {len(forces)}")
+    responses = record.select(record.responses)
+    if not responses.channels:
+        raise InputError("channels", "no response channel (acceleration, velocity or displacement): only force")
+    f = np.column_stack([record.channel(name) for name in forces])
+    for name, column in zip(forces, f.T, strict=True):
+        if _period(column, settings) is not None:
+            raise InputError(
+                name,
+                f"a periodic excitation beside {counted(len(forces) - 1, 'other force')}: it repeats the same spectrum "
+                "every period, and within one record the frequency responses of each force cannot be told apart "
+                "(burst random or random can; a controller's periodic MIMO runs a record per phase set; --ignore "
+                "leaves a force channel unread)",
+            )
+    magnitude = np.abs(f - np.median(f, axis=0))
+    starts = _onsets(np.max(magnitude / np.maximum(magnitude.max(axis=0), 1e-300), axis=1), record.rate, settings)
+    if len(starts) >= 3:
+        blocks = _burst_blocks(responses, forces[0], starts, len(f), settings)
+        if len(blocks) <= len(forces):
+            raise InputError(
+                forces[0],
+                f"burst random of {len(blocks)} bursts for {len(forces)} forces: each line's cross spectra need more "
+                "bursts than forces",
+            )
+        n = blocks[0].stop - blocks[0].start
+        averaged = (
+            f"{len(blocks)} bursts of {n / record.rate:.4g} s of burst random on {', '.join(forces)} at once (each "
+            "force's frequency responses by least squares over their cross spectra)"
+        )
+        return _block_inputs(f, responses, forces, blocks, "burst", averaged, settings)
+    if len(starts) == 2:
+        raise InputError(forces[0], "burst random of 2 bursts: three or more are needed (the last may be cut short)")
+    return _random_inputs(f, responses, forces, settings)
 
 
 def _bursts(f: NDArray, rate: float, settings: RecordSettings) -> list[int]:
     """The samples at which bursts of a force start: where it rises above 5 % of its peak (from its median) after
     staying below for settings.burst_gap [s] or more (the first where it starts after such quiet or at the
     record's start)."""
-    x = np.abs(f - np.median(f))
+    return _onsets(np.abs(f - np.median(f)), rate, settings)
+
+
+def _onsets(x: NDArray, rate: float, settings: RecordSettings) -> list[int]:
+    """_bursts of a force's magnitude ``x`` (>= 0, its quiet at 0)."""
     on = np.flatnonzero(x > 0.05 * float(x.max()))
     if not len(on):
         return []

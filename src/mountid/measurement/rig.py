@@ -509,14 +509,15 @@ class Rig:
         oversample: int = 8,
         anti_alias: bool = True,
         seed: int | None = 0,
-        force_channel: str | None = None,
+        force_channel: str | Sequence[str] | None = None,
         shakers: Sequence[Shaker] = (),
         ambient: Sequence[RandomForce] = (),
     ) -> Record:
         """A record of the sensors (each in its quantity and unit) sampled at ``rate`` [Hz] for ``duration``
         [s]; with ``force_channel`` a last channel of that name records the hammers' and shakers' force [N] (the
-        excitation, through the same anti-alias filter, without noise). The ``ambient`` random forces act as well
-        and are never recorded (ambient_forces: an output-only test).
+        excitation, through the same anti-alias filter, without noise); several names, one per shaker (no hammers),
+        record each shaker's force on its own (a MIMO test). The ``ambient`` random forces act as well and are never
+        recorded (ambient_forces: an output-only test).
 
         The response is computed at ``oversample`` x the rate, or more where that leaves fewer than
         RESOLVED samples per hammer pulse or per period of the fastest mode or unbalance (the physics does not
@@ -535,6 +536,13 @@ class Rig:
         if ambient and self.hardening is not None:
             raise InputError(
                 "ambient", "random forces on hardening isolators are not simulated (hammers and unbalances are)"
+            )
+        names = [force_channel] if isinstance(force_channel, str) else list(force_channel or [])
+        pushing: list[list[Hammer | Shaker]] = [[*hammers, *shakers]] if len(names) == 1 else [[s] for s in shakers]
+        if len(names) > 1 and (hammers or len(names) != len(shakers) or len(set(names)) != len(names)):
+            raise InputError(
+                "force_channel",
+                f"{len(names)} names: one per shaker ({len(shakers)}, no hammers), each its own, or one for them all",
             )
         fastest = [float(np.max(np.abs(self.poles))) / (2 * np.pi), *(u.speed / (2 * np.pi) for u in unbalances)]
         fastest += [shaker.high for shaker in shakers] + [f.high for f in ambient]
@@ -566,9 +574,8 @@ class Rig:
             motion = {"displacement": q[new], "velocity": qd[new], "acceleration": qdd[new]}
             block = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)])
             block = block / per_unit
-            if force_channel is not None:
-                pushing = [*hammers, *shakers]
-                block = np.column_stack([block, sum((h.force(t[new]) for h in pushing), np.zeros_like(t[new]))])
+            for acting in pushing if names else []:
+                block = np.column_stack([block, sum((h.force(t[new]) for h in acting), np.zeros_like(t[new]))])
             if sos is not None:
                 if filtered is None:
                     filtered = np.zeros((sos.shape[0], 2, block.shape[1]))
@@ -593,7 +600,7 @@ class Rig:
                     s.unit,
                 )
             )
-        if force_channel is not None:
-            data[:, -1] = clean[:, -1]
-            channels.append(Channel(force_channel, quantity="force", unit="N"))
+        for j, name in enumerate(names, start=len(sensors)):
+            data[:, j] = clean[:, j]
+            channels.append(Channel(name, quantity="force", unit="N"))
         return Record(np.arange(n_out) / rate, data, tuple(channels))
