@@ -12,6 +12,9 @@ from functools import cache
 
 import numpy as np
 import pytest
+from conftest import budget
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mountid.cli import main
 from mountid.errors import InputError
@@ -180,8 +183,8 @@ def test_the_rig_records_each_shakers_force_on_its_own_channel():
 
 def test_the_command_line_runs_several_shakers(tmp_path, capsys):
     """simulate --shaker-at with a force channel per shaker, then identify-record: the paper's stiffnesses within 3
-    of their standard deviations; --frf-out writes both inputs' frequency responses; the refusals name the
-    option."""
+    of their standard deviations; --frf-out writes both inputs' frequency responses, --figures draws each; the
+    refusals name the option."""
     out = tmp_path / "mimo.csv"
     base = ["simulate", "kid300", "--out", str(out), "--duration", "128", "--rate", "200"]
     base += ["--hit-point", "0.35,0.25,0.3", "--hit-direction", "0.5,0.6,-0.62"]
@@ -189,8 +192,12 @@ def test_the_command_line_runs_several_shakers(tmp_path, capsys):
     assert main([*common, "--shaker-random", "--shaker-at", "0.3,-0.5,0.2", "+y", "--force-channel", "F1", "F2"]) == 0
     capsys.readouterr()
     frfs = tmp_path / "mimo.uff"
-    assert main(["identify-record", "kid300", str(out), "--json", "--frf-out", str(frfs)]) == 0
+    figures = tmp_path / "figures"
+    assert (
+        main(["identify-record", "kid300", str(out), "--json", "--frf-out", str(frfs), "--figures", str(figures)]) == 0
+    )
     result = json.loads(capsys.readouterr().out)
+    assert {f.name for f in figures.iterdir()} >= {"frf_F1.png", "frf_F2.png", "stabilisation.png"}
     for name, value in PUBLISHED_STIFFNESS.items():
         assert abs(result["parameters"][name] - value) < 3 * result["parameter_std"][name], name
     assert any(note.endswith("5 frequency response functions per input, 2 inputs") for note in result["notes"])
@@ -223,3 +230,35 @@ def test_a_roving_hammers_two_force_channels_are_not_shakers():
         "1 force channel not used (G): the H1 frequency responses are of one input, F"
         in modal_data(rig.machine, two, {}).notes
     )
+
+
+@settings(max_examples=budget(40), deadline=None)
+@given(
+    taps=st.integers(1, 60),
+    forces=st.integers(1, 3),
+    responses=st.integers(1, 3),
+    seed=st.integers(0, 2**32 - 1),
+    skew=st.floats(0.0, 0.3),
+)
+def test_block_levinson_solves_what_a_dense_solve_does(taps, forces, responses, seed, skew):
+    """frf._block_levinson against numpy's dense solve of the block Toeplitz matrix it stands for: the correlations
+    of random forces (a moving average of a common noise with each one's own, so that the forces correlate), made
+    unsymmetric by ``skew`` as the normal equations of _random_inputs are (c_ab(d) of f' and f), any length, forces
+    and right-hand sides; within 1e-9 of the solution's largest."""
+    rng = np.random.default_rng(seed)
+    n = 20 * taps + 200
+    common = rng.standard_normal(n + 2 * taps)
+    f = np.column_stack([np.convolve(common, rng.uniform(-1, 1, 3), "same") for _ in range(forces)])
+    f += rng.standard_normal((n + 2 * taps, forces))
+
+    def correlation(d: int) -> np.ndarray:
+        return f[taps : taps + n].T @ f[taps + d : taps + d + n] / n
+
+    column = np.array([correlation(d) for d in range(taps)])
+    row = np.array([correlation(-d) for d in range(taps)])
+    column[1:] += skew * rng.standard_normal(column[1:].shape) / np.sqrt(taps)
+    dense = np.block([[column[k - j] if k >= j else row[j - k] for j in range(taps)] for k in range(taps)])
+    rhs = rng.standard_normal((taps, forces, responses))
+    expected = np.linalg.solve(dense, rhs.reshape(taps * forces, responses)).reshape(taps, forces, responses)
+    solved = frf._block_levinson(column, row, rhs)
+    assert np.abs(solved - expected).max() <= 1e-9 * np.abs(expected).max()

@@ -79,6 +79,8 @@ class Identification:
     """[s] Where it ends (ModalData.end)."""
     reference: str = ""
     """The response channel an output-only record's modes came from, most of them (ModalData.reference)."""
+    inputs: tuple[FrfEstimate, ...] = ()
+    """The frequency responses of every force of several shakers at once (ModalData.inputs)."""
 
 
 def channel_rows(machine: Machine, record: Record | ModeTable) -> np.ndarray:
@@ -1008,6 +1010,9 @@ class ModalData:
     """An output-only record's share of the correlation functions' variance that the poles found leave unexplained
     (modal.unexplained_share): a reference whose fit misses a mode its correlation functions hold (kid300, eight
     channels: 0.82 against 0.01-0.04) gives the others' shapes biased (output_only.every_reference)."""
+    inputs: tuple[FrfEstimate, ...] = ()
+    """Several shakers at once: the frequency responses of each force whose fit gave modes, in the order of the
+    forces (references.every_input; ``frf`` is the one most modes came from); () for other records."""
 
     def __iter__(self) -> Iterator:
         return iter((self.modes, self.unlabelled, self.warnings))
@@ -1523,7 +1528,9 @@ def identify_from_records(
         )
     except InputError as err:
         raise with_warnings(err, found.warnings) from None
-    return replace(result, frf=found.frf, start=found.start, end=found.end, reference=found.reference)
+    return replace(
+        result, frf=found.frf, start=found.start, end=found.end, reference=found.reference, inputs=found.inputs
+    )
 
 
 def with_warnings(

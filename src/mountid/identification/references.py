@@ -92,7 +92,7 @@ def every_input(
     twins from the force that gives most of it, then drives it most strongly (strength: the amplitudes times the
     force's RMS). A shaker near a node of a mode hardly drives it; the other's frequency responses give it. The
     record's warnings of every force's fit, once each; ``frf`` the frequency responses of the force most modes came
-    from. A NoModeFound where no force's gives a mode."""
+    from, ``inputs`` every force's that gave modes. A NoModeFound where no force's gives a mode."""
     from mountid.identification.from_records import modal_data
 
     si = record.in_si()
@@ -122,4 +122,5 @@ def every_input(
         warnings=warnings,
         notes=(summary, *notes, *chosen.notes),
         mixed=frozenset(label for label in picked.modes if label in by_force[picked.source[label]].mixed),
+        inputs=tuple(data.frf for _, data in found if data.frf is not None),
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import re
 import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -137,7 +138,7 @@ def frf_figure(estimate: FrfEstimate, poles: dict[str, tuple[float, float]], pat
     hits = len(estimate.hits)
     window = f", exponential window {estimate.window_decay:.3g} 1/s" if estimate.window_decay else ""
     if estimate.averages:  # a shaker's: what it averages ("3 periods of 16 s of a periodic excitation on F (...)")
-        mag.set_title(f"H1 of {estimate.averaged}\ndashed: picked poles", fontsize=10)
+        mag.set_title(textwrap.fill(f"H1 of {estimate.averaged}", 110) + "\ndashed: picked poles", fontsize=9)
     else:
         mag.set_title(f"H1 from {counted(hits, 'hit')} on {estimate.force}{window}; dashed: picked poles")
     mag.set_ylabel(f"|H1| [{', '.join(units)} per N]")
@@ -362,7 +363,11 @@ def experiment_figures(
         ),
         shapes(sensors),
     ]
-    if result.frf is not None:
+    if result.inputs:  # several shakers at once: each force's frequency responses
+        for estimate in result.inputs:
+            name = re.sub(r"[^A-Za-z0-9_.-]", "_", estimate.force)  # a UFF channel's "node100:0"
+            out.append(frf_figure(estimate, poles, folder / f"frf_{name}.png"))
+    elif result.frf is not None:
         out.append(frf_figure(result.frf, poles, folder / "frf.png"))
     return out
 
