@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -463,8 +464,8 @@ def test_process_and_identify_record_use_every_hit_of_a_record(tmp_path, capsys)
 
 def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
     """A campaign of one record of the machine running under its unbalance, not a hit: two modes were 'too few
-    for 2 unknowns plus one held out' and nothing more; the records' warnings now follow, the one that says the
-    record is a steady oscillation among them."""
+    for 2 unknowns plus one held out' and nothing more; now the modes found and those not measured are named, and
+    the records' warnings follow, the one that says the record is a steady oscillation among them."""
     from mountid.measurement.rig import Unbalance
 
     steady = Rig.of("kid300").simulate(_eight_channels(), 4.0, 500.0, unbalances=[Unbalance(43.1, 0.03, 100.0)])
@@ -474,6 +475,14 @@ def test_too_few_modes_from_records_say_what_the_records_show(tmp_path):
     with pytest.raises(InputError) as err:
         campaign.load(tmp_path / "c.json")
     assert err.value.parameter == "modes" and " [the records also show: " in err.value.reason
+    said = re.match(
+        r"(\d) distinct frequenc\w+ \((.*?)\) for 2 unknowns \(c_xy, c_z\) plus one held out: 3 needed; "
+        r"not measured: (.*?); the records gave too few",
+        err.value.reason,
+    )
+    assert said is not None, err.value.reason
+    found, missing = said.group(2).split(", "), said.group(3).split(", ")
+    assert int(said.group(1)) == len(found) < 3 and not set(found) & set(missing)
     assert "running.csv: steady (all): a pole at 100.0000 rad/s (15.92 Hz) of damping ratio" in err.value.reason
 
 

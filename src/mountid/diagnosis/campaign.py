@@ -318,10 +318,20 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     if len(distinct) < need:
         from mountid.identification.from_records import with_warnings
 
+        rep = machine.module.REPRESENTATIVE
+        have = [label for label in machine.module.MODES if label in distinct]
+        missing = [label for label in machine.module.MODES if rep[label] == label and label not in distinct]
         too_few = InputError(
             "fit" if fit else "modes",
-            f"{distinct_frequencies(len(distinct))} for {len(machine.unknown)} unknowns"
-            + ("" if fit else " plus one held out"),
+            f"{distinct_frequencies(len(distinct))} ({', '.join(have)}) for {len(machine.unknown)} unknowns "
+            f"({', '.join(machine.unknown)})"
+            + ("" if fit else f" plus one held out: {need} needed")
+            + (f"; not measured: {', '.join(missing)}" if missing and not fit else "")
+            + (
+                "; the records gave too few (a longer record, more channels, another excitation point)"
+                if from_records and not fit
+                else ""
+            ),
         )
         raise with_warnings(too_few, list(records.warnings), "the records also show")  # they may say why so few
     sensors = tuple(_channel(entry, i) for i, entry in enumerate(data.get("sensors", [])))
