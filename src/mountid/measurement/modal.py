@@ -325,12 +325,12 @@ def _pole(w: float, zeta: float) -> complex:
     return complex(-zeta * w, w * np.sqrt(1 - zeta * zeta))
 
 
-def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArray) -> list[Pole]:
+def poles_from(record: Record, start: float, max_frequency: float, seeds: NDArray, clipped: bool = False) -> list[Pole]:
     """The poles of the free decay from ``start`` [s] refined jointly from the complex ``seeds`` [rad/s] (Im > 0)
     on the samples free_decay_poles fits (same ``max_frequency``): e.g. two poles where its pencil found one in
-    the place of two close modes. Sorted by frequency."""
+    the place of two close modes. Sorted by frequency. ``clipped``: refine_poles's."""
     dt, samples = decimated(record, start, max_frequency)
-    return _refined(samples, dt, np.asarray(seeds, dtype=complex))
+    return _refined(samples, dt, np.asarray(seeds, dtype=complex), clipped)
 
 
 def decay_misfit(record: Record, start: float, max_frequency: float, poles: NDArray) -> tuple[NDArray[np.float64], int]:
@@ -433,9 +433,10 @@ factor of its first's (the median over the channels) is a steady motion: an outp
 operational excitation (a hit's free decay falls by orders of magnitude; a segment of quiet before a hit rises)."""
 
 
-def _refined(samples: NDArray, dt: float, start: NDArray) -> list[Pole]:
-    """Poles refined from ``start`` (refine_poles) with their shapes and standard deviations, by frequency."""
-    refined, cov = refine_poles(samples, dt, start)
+def _refined(samples: NDArray, dt: float, start: NDArray, clipped: bool = False) -> list[Pole]:
+    """Poles refined from ``start`` (refine_poles, ``clipped``) with their shapes and standard deviations, by
+    frequency."""
+    refined, cov = refine_poles(samples, dt, start, clipped=clipped)
     basis, coef = _least_squares(samples, dt, np.concatenate([refined, refined.conj()]))
     shapes = coef[:-1]  # amplitudes(): the constant's row left out
     shape_stds = np.sqrt(
@@ -520,16 +521,27 @@ def _gauss_newton_terms(
     return info, grad
 
 
-def refine_poles(samples: NDArray, dt: float, poles: NDArray, max_steps: int = 10) -> tuple[NDArray, NDArray]:
+def refine_poles(
+    samples: NDArray, dt: float, poles: NDArray, max_steps: int = 10, clipped: bool = False
+) -> tuple[NDArray, NDArray]:
     """Least-squares (maximum-likelihood for white noise) poles from the pencil's estimates: Gauss-Newton
     on the variable-projection problem until the step is below 1e-9 of |p|. Returns (poles, covariance of
-    (sigma_1..k, omega_1..k)): the inverse of J^T W J, the Cramer-Rao bound of the noise."""
+    (sigma_1..k, omega_1..k)): the inverse of J^T W J, the Cramer-Rao bound of the noise. A step that leaves a
+    pole unstable or moves one by more than 5 % of |p| ends the refinement (the linearisation does not hold), unless
+    ``clipped``: then each pole's step is cut to 5 % of its |p| and to half its way to the imaginary axis, and the
+    others go on (a pole the data hardly determine, as the estimate's noise in correlation functions gives, would
+    otherwise stop the refinement of every pole at its start)."""
     p = np.array(poles, dtype=complex)
     k = len(p)
     for _ in range(max_steps):
         info, grad = _gauss_newton_terms(samples, dt, p)
         step = np.linalg.lstsq(info, grad, rcond=None)[0]
-        candidate = p + step[:k] + 1j * step[k:]
+        move = step[:k] + 1j * step[k:]
+        if clipped and np.all(np.isfinite(move)):
+            move = move * np.minimum(1.0, 0.05 * np.abs(p) / np.maximum(np.abs(move), 1e-300))
+            move.real = np.where(p.real + move.real < 0, move.real, 0.5 * -p.real)  # half way to the axis at most
+        candidate = p + move
+        step = np.concatenate([move.real, move.imag])
         if (
             not np.all(np.isfinite(candidate))
             or np.any(candidate.real >= 0)
