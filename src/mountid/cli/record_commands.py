@@ -64,14 +64,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         from mountid.validation.paper import paper_sensors
 
         sensors = paper_sensors(args.noise)
-    for force in args.force_channel or []:
-        if not force.strip() or force in {s.name for s in sensors}:
-            what = "a response channel's name" if force.strip() else "empty"
-            raise InputError("--force-channel", f"{force!r} is {what}")
-    if len(set(args.force_channel or [])) != len(args.force_channel or []):
-        raise InputError("--force-channel", f"{' '.join(args.force_channel)}: each force's channel needs its own name")
     hit = _hit(args)
     shakers = _shakers(args, hit)
+    forces = _force_channels(args, shakers, sensors)
     ambient = _ambient(args, rig, shakers)
     hits = not (args.speed or shakers or ambient)
     hammers = [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time] if hits else []
@@ -83,7 +78,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         hammers,
         unbalances,
         seed=args.seed,
-        force_channel=_force_channels(args, shakers),
+        force_channel=forces,
         shakers=shakers,
         ambient=ambient,
     )
@@ -129,12 +124,19 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         print(f"note: {note}")
 
 
-def _force_channels(args: argparse.Namespace, shakers: list[Shaker]) -> str | list[str] | None:
-    """The force channels --force-channel names: one for the hammer or shaker, one per shaker with --shaker-at (an
-    InputError naming the option where the count differs: a sum of several shakers' forces measures none of them)."""
+def _force_channels(args: argparse.Namespace, shakers: list[Shaker], sensors: list[Sensor]) -> str | list[str] | None:
+    """The force channels --force-channel names: one for the hammer or shaker, one per shaker with --shaker-at; an
+    InputError naming the option for a name that is empty, a response channel's or given twice, or a count that
+    differs (a sum of several shakers' forces measures none of them)."""
     names = args.force_channel
     if names is None:
         return None
+    for force in names:
+        if not force.strip() or force in {s.name for s in sensors}:
+            what = "a response channel's name" if force.strip() else "empty"
+            raise InputError("--force-channel", f"{force!r} is {what}")
+    if len(set(names)) != len(names):
+        raise InputError("--force-channel", f"{' '.join(names)}: each force's channel needs its own name")
     if len(shakers) > 1 and len(names) != len(shakers):
         raise InputError(
             "--force-channel",

@@ -37,9 +37,9 @@ def every_reference(
     """The modal data of the output-only ``record`` (named ``name``): modal_data with every response channel as the
     reference; the references whose fit leaves more than settings.unexplained of their correlation functions
     unexplained set aside (a note names them; where every one does, a warning); each group of twins (or lone mode)
-    from the reference that gives most of the group, then shows it most strongly (_strength); the other references'
-    estimates left out. Returns one decay (decays_of's form, its notes say which reference gave which mode) and no
-    notes besides."""
+    from the reference that gives most of the group, then shows it most strongly (references.strongest); the other
+    references' estimates left out. Returns one decay (decays_of's form, its notes say which reference gave which
+    mode) and no notes besides."""
     from mountid.identification.from_records import modal_data
 
     found: list[tuple[str, ModalData]] = []

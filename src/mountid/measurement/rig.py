@@ -538,7 +538,10 @@ class Rig:
                 "ambient", "random forces on hardening isolators are not simulated (hammers and unbalances are)"
             )
         names = [force_channel] if isinstance(force_channel, str) else list(force_channel or [])
-        pushing: list[list[Hammer | Shaker]] = [[*hammers, *shakers]] if len(names) == 1 else [[s] for s in shakers]
+        # what each force channel records: the hammers' and shakers' force together, or each shaker's on its own
+        pushing: list[list[Hammer | Shaker]] = (
+            [] if not names else [[*hammers, *shakers]] if len(names) == 1 else [[s] for s in shakers]
+        )
         if len(names) > 1 and (hammers or len(names) != len(shakers) or len(set(names)) != len(names)):
             raise InputError(
                 "force_channel",
@@ -574,7 +577,7 @@ class Rig:
             motion = {"displacement": q[new], "velocity": qd[new], "acceleration": qdd[new]}
             block = np.column_stack([motion[s.quantity] @ row for s, row in zip(sensors, rows, strict=True)])
             block = block / per_unit
-            for acting in pushing if names else []:
+            for acting in pushing:
                 block = np.column_stack([block, sum((h.force(t[new]) for h in acting), np.zeros_like(t[new]))])
             if sos is not None:
                 if filtered is None:
