@@ -191,3 +191,21 @@ def test_a_clipped_refinement_goes_on_past_a_pole_the_data_do_not_hold():
     clipped, _ = modal.refine_poles(samples, dt, stray, clipped=True)
     assert np.all(np.abs(clipped[:2] - alone) < 0.01 * np.abs(seeds - alone))
     assert abs(clipped[2] - stray[2]) <= 10 * 0.05 * 1.05**10 * abs(stray[2])
+
+
+def test_a_clipped_refinement_walks_a_far_seed_to_its_pole_in_short_steps():
+    """A seed 6 to 25 % off its pole (beyond one 5 % step) walks there in clipped steps, to where a seed 1 % off
+    goes, for every offset: the step cut to exactly 5 % of |p| is not then taken for a long one by the rounding of
+    the cut (which stopped the refinement part of the way in 14 of these 20 offsets)."""
+    dt, n = 0.01, 4000
+    t = np.arange(n) * dt
+    truth = np.array([-0.6 + 17.7j, -3.0 + 36.9j])
+    rng = np.random.default_rng(4)
+    samples = np.column_stack(
+        [np.real(np.exp(np.outer(t, truth)) @ np.array([1.0, 0.7j * (c + 1)])) for c in range(3)]
+    ) + 0.01 * rng.standard_normal((n, 3))
+    near, _ = modal.refine_poles(samples, dt, truth * 1.01)
+    for off in np.linspace(1.06, 1.25, 20):
+        seeds = np.array([truth[0] * 1.01, truth[1] * off])
+        walked, _ = modal.refine_poles(samples, dt, seeds, clipped=True, max_steps=20)
+        np.testing.assert_allclose(walked, near, rtol=1e-6, err_msg=f"seed {off:.2f} of the pole")

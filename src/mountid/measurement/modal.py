@@ -542,11 +542,9 @@ def refine_poles(
             move.real = np.where(p.real + move.real < 0, move.real, 0.5 * -p.real)  # half way to the axis at most
         candidate = p + move
         step = np.concatenate([move.real, move.imag])
-        if (
-            not np.all(np.isfinite(candidate))
-            or np.any(candidate.real >= 0)
-            or np.any(np.abs(candidate - p) > 0.05 * np.abs(p))
-        ):
+        # a clipped step is short by construction: testing its length again would stop on the rounding of the clip
+        too_long = not clipped and np.any(np.abs(candidate - p) > 0.05 * np.abs(p))
+        if not np.all(np.isfinite(candidate)) or np.any(candidate.real >= 0) or too_long:
             break  # keep the last physical estimate: a long step means the linearisation does not hold
         p = candidate
         if np.all(np.abs(step[:k] + 1j * step[k:]) <= 1e-9 * np.abs(p)):
