@@ -12,6 +12,7 @@ from functools import cache
 
 import numpy as np
 import pytest
+import pyuff
 from conftest import budget
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -19,7 +20,7 @@ from hypothesis import strategies as st
 from mountid.cli import main
 from mountid.errors import InputError
 from mountid.identification.from_records import modal_data
-from mountid.measurement import frf
+from mountid.measurement import frf, uff
 from mountid.measurement.records import Record
 from mountid.measurement.rig import Hammer, Rig, Shaker
 from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING, paper_sensors
@@ -262,3 +263,57 @@ def test_block_levinson_solves_what_a_dense_solve_does(taps, forces, responses, 
     expected = np.linalg.solve(dense, rhs.reshape(taps * forces, responses)).reshape(taps, forces, responses)
     solved = frf._block_levinson(column, row, rhs)
     assert np.abs(solved - expected).max() <= 1e-9 * np.abs(expected).max()
+
+
+def test_a_files_inputs_measured_at_once_give_each_mode_from_one(tmp_path, capsys):
+    """Several shakers' frequency responses written to a UFF file (--frf-out: uff.write_frf) carry their multiple
+    coherence (function type 26, once per response), which a bench's MIMO export carries too: read back, every
+    input's run has it as its coherence and is marked as one measurement (Lines.together), also where the multiple
+    coherence names the first input as its reference. Each mode then comes from one input, as from the record
+    itself (the same frequencies and deviations to the file's 12 digits), not from a weighted mean of runs that
+    share their samples (which gave deviations below either run's); a campaign of the file likewise. Such inputs
+    beside another's estimate in one file are an error naming --frf-out."""
+    from mountid.identification.combination import every_decay
+    from mountid.measurement.records import named_runs
+    from mountid.measurement.uff import read_uff_runs, write_frf
+
+    rig, record = _rig(), _record("random")
+    estimates = frf.several_inputs(record, ("F1", "F2"))
+    forces = [next(c for c in record.channels if c.name == e.force) for e in estimates]
+    path = tmp_path / "mimo.uff"
+    write_frf(list(zip(estimates, forces, strict=True)), path)
+    types = [int(s["func_type"]) for s in pyuff.UFF(str(path)).read_sets()]
+    assert types.count(26) == len(record.responses) and types.count(4) == 2 * len(record.responses)
+    runs = read_uff_runs(path)
+    assert len(runs) == 2 and runs[0].impulse.together == runs[1].impulse.together != ""
+    for run in runs:
+        for (name, coherence), channel in zip(run.impulse.coherence, record.responses, strict=True):
+            assert name == channel
+            j = record.responses.index(name)
+            np.testing.assert_allclose(coherence, estimates[0].coherence[:, j], atol=1e-10)
+    own = modal_data(rig.machine, record, {})
+    found = every_decay(rig.machine, named_runs(path, "mimo.uff"), {})
+    alone = [modal_data(rig.machine, run, {}) for run in runs]
+    assert list(found.modes) == list(own.modes)
+    for label, mode in found.modes.items():
+        assert mode.frequency == pytest.approx(own.modes[label].frequency, rel=1e-9), label
+        assert mode.frequency_std == pytest.approx(own.modes[label].frequency_std, rel=1e-6), label
+        assert any(mode.frequency_std == a.modes[label].frequency_std for a in alone if label in a.modes), label
+    assert any("at once (its multiple coherence): each mode from the input" in note for note in found.notes)
+    assert not any("weighted means" in note for note in found.notes)
+    first = pyuff.UFF(str(path)).read_sets()
+    for s in first:
+        if int(s["func_type"]) == 26:
+            s.update(func_type=6, ref_node=1001, ref_dir=int(s["rsp_dir"]))  # written as 6, typed 26 again below
+    bench = tmp_path / "bench.uff"
+    pyuff.UFF(str(bench)).write_sets(first, mode="add")
+    uff._typed_multiple(bench)
+    assert [r.impulse.together != "" for r in read_uff_runs(bench)] == [True, True]
+    campaign = tmp_path / "campaign.json"
+    campaign.write_text(json.dumps({"name": "mimo", "machine": "kid300", "known": TABLE_1, "records": ["mimo.uff"]}))
+    assert main(["diagnose", str(campaign)]) == 0
+    out = capsys.readouterr().out
+    assert "each mode from the input whose frequency responses show it most strongly" in out
+    assert "weighted means" not in out
+    with pytest.raises(InputError, match="^--frf-out: the frequency responses of several shakers at once"):
+        write_frf([*zip(estimates, forces, strict=True), (frf.of_record(record), forces[0])], tmp_path / "x.uff")

@@ -51,7 +51,8 @@ import numpy as np
 
 from mountid.diagnosis.levels import LEVEL_RATIO_LIMIT, DampingShift, LevelTest, level_shift
 from mountid.errors import InputError, NoModeFound, existing_file
-from mountid.identification.combination import RECORDS_DISAGREE, combine, decays_of
+from mountid.identification.combination import RECORDS_DISAGREE, at_once, combine, decays_of
+from mountid.identification.from_records import ModalData
 from mountid.identification.labelling import LABELLING, same_modes
 from mountid.machine import Machine, sensor_row, unit_vector
 from mountid.measurement.modal import QualityWarning
@@ -847,6 +848,7 @@ def _modes_from_records(
     notes = []
     warned: list[QualityWarning] = []
     layouts: dict[str, tuple[Channel, ...]] = {}
+    collected: list[tuple[str, ModalData]] = []
     runs = [(i, source, *named) for i, source in enumerate(sources) for named in _records_of(source, where, i)]
     for i, source, run, record in runs:
         try:
@@ -869,15 +871,18 @@ def _modes_from_records(
             notes.append(f"{run}: channels placed, and converted from volts, by the table {source.channel_table.name}")
         notes += said
         layout = tuple(Channel(c.name, c.point, c.direction) for c in record.channels if c.quantity != "force")
-        for name, data in segments:
-            here = [replace(w, record=name) for w in data.warnings]
-            warned += here
-            notes += [w.describe() for w in here]
-            notes += [f"{name}: {note}" for note in data.notes]  # how the chain took it: H1, the start
-            for label, mode in data.modes.items():
-                estimates.setdefault(label, []).append((mode, name))
-            mixed += [(label, name) for label in data.mixed]
-            layouts[name] = layout
+        collected += segments
+        layouts |= {name: layout for name, _ in segments}
+    # a file's inputs measured at once: one measurement, each mode from one input
+    collected, notes = at_once(machine, [(run, record) for *_, run, record in runs], collected, notes)
+    for name, data in collected:
+        here = [replace(w, record=name) for w in data.warnings]
+        warned += here
+        notes += [w.describe() for w in here]
+        notes += [f"{name}: {note}" for note in data.notes]  # how the chain took it: H1, the start
+        for label, mode in data.modes.items():
+            estimates.setdefault(label, []).append((mode, name))
+        mixed += [(label, name) for label in data.mixed]
     by_hand = by_hand or {}
     combination = combine(machine, estimates, mixed, frozenset(by_hand))  # a hand-given mode: said below
     notes += combination.notes

@@ -304,6 +304,49 @@ def decays_of(
     return [(name, data)], []
 
 
+def at_once(
+    machine: Machine,
+    records: Sequence[tuple[str, Record | ModeTable]],
+    segments: list[tuple[str, ModalData]],
+    notes: list[str],
+) -> tuple[list[tuple[str, ModalData]], list[str]]:
+    """The ``segments`` (named decays) with each group of a file's inputs measured at once (their Lines.together: a
+    bench's multiple coherence) reduced to one estimate per mode: each mode kept in the input whose frequency
+    responses show it most strongly (references.strongest, the forces' levels taken as equal: the functions are per
+    N and the file gives no force), left out of the others. Their estimates share the samples, and the weighted mean
+    of independent runs would claim a precision the measurement does not have. ``notes`` with one more per group."""
+    from mountid.identification.references import strongest
+
+    together = {
+        name: record.impulse.together
+        for name, record in records
+        if isinstance(record, Record) and record.impulse is not None and record.impulse.together
+    }
+    groups: dict[str, list[tuple[str, ModalData]]] = {}
+    for name, data in segments:
+        if name in together:
+            groups.setdefault(together[name], []).append((name, data))
+    picks = {key: strongest(machine, group, dict.fromkeys(dict(group), 1.0)) for key, group in groups.items()}
+    for key, group in groups.items():
+        if len(group) > 1:
+            notes = [
+                *notes,
+                f"{', '.join(dict(group))}: {key}: each mode from the input whose frequency responses show it most "
+                "strongly (the others' estimates share its samples; the forces' levels taken as equal): "
+                f"{picks[key].each}",
+            ]
+    out = []
+    for name, data in segments:
+        picked = picks.get(together.get(name, ""))
+        if picked is None or len(groups[together[name]]) < 2:
+            out.append((name, data))
+            continue
+        own = {label: mode for label, mode in data.modes.items() if picked.source.get(label) == name}
+        unlabelled = data.unlabelled if name in picked.taken else []
+        out.append((name, replace(data, modes=own, unlabelled=unlabelled, mixed=data.mixed & own.keys())))
+    return out, notes
+
+
 def every_decay(
     machine: Machine,
     records: Sequence[tuple[str, Record | ModeTable]],
@@ -335,6 +378,7 @@ def every_decay(
                 raise
             raise type(err)(err.parameter, f"{name}: {err.reason}") from None
         segments, said = [*segments, *decays], [*said, *notes]
+    segments, said = at_once(machine, records, segments, said)
     if not segments:
         raise NoModeFound("record", f"no mode in any of {counted(len(records), 'record')}: {'; '.join(said)}")
     if len(records) == 1 and len(segments) == 1:
@@ -352,7 +396,7 @@ def every_decay(
     combination = combine(machine, estimates, mixed)
     return replace(
         segments[0][1],
-        modes=combination.modes,
+        modes={label: combination.modes[label] for label in machine.module.MODES if label in combination.modes},
         unlabelled=sorted(unlabelled, key=lambda p: p.frequency),
         warnings=warnings,
         notes=(*notes, *combination.notes),

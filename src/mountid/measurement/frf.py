@@ -64,6 +64,9 @@ class FrfEstimate:
     its averages are the record's stretches of the impulse responses' length); "" for hits."""
     averaged: str = ""
     """What H1 averages where it is not hits: "3 periods of 16 s of a periodic excitation on F (...)"."""
+    together: tuple[str, ...] = ()
+    """The forces whose frequency responses were estimated with this one's from the same samples (several_inputs:
+    all of them, this one's included); () where it is one force's own."""
 
     def at(self, omega: float) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
         """H1 and coherence of every response channel at the spectral line nearest ``omega`` [rad/s]."""
@@ -412,6 +415,7 @@ def _random_inputs(
             settings.random_blocks,
             "block",
             f"{name}'s share of {averaged}",
+            tuple(forces),
         )
         for a, name in enumerate(forces)
     )
@@ -665,6 +669,7 @@ def _block_inputs(
             len(blocks),
             block,
             averaged if len(forces) == 1 else f"{force}'s share of {averaged}",
+            tuple(forces) if len(forces) > 1 else (),
         )
         for j, force in enumerate(forces)
     )

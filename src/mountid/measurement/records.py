@@ -160,6 +160,10 @@ class Lines:
     per_volt: str = ""
     """The reference (input) the functions are per volt of, where a bench exported them over the hammer's raw
     voltage (its sensitivity left out): its name, which a sensitivity converts (with_sensitivities); "" per force."""
+    together: str = ""
+    """The measurement of several inputs at once these lines are one input's share of, where a file gives them so
+    (a bench's multiple coherence beside them: the inputs' functions come from the same samples, and a mode's
+    estimates from two of them are not independent); "" for one input's own."""
 
     def coherence_at(self, frequency: float, names: Sequence[str]) -> NDArray[np.float64]:
         """The coherence of the channels ``names`` that have one at the line nearest ``frequency`` [Hz]."""

@@ -4,8 +4,10 @@ One dataset 58 per channel: a time response (function type 1, or 0 over time), r
 spectrum or complex data is an error naming the channel, and a label that says NONE (what writers put in an empty
 one) is empty. A file of frequency response functions (function type 4, a bench's hammer test exported as
 such, with their coherences) is read as the impulse responses they transform back to, a run per input (reference
-node and direction): Record.impulse. A channel of a quantity mountid does not read (ordinate type:
-a pressure, a reaction force, a speed) is an error naming it, and left out by name (read_uff's ``ignore``). A file
+node and direction): Record.impulse; a multiple coherence beside them (function type 26: a bench's MIMO export,
+several inputs at once) is every run's coherence and marks the runs as one measurement (Lines.together). A
+channel of a quantity mountid does not read (ordinate type: a pressure, a reaction force, a speed) is an error naming
+it, and left out by name (read_uff's ``ignore``). A file
 of several runs (the hits of a test one after another, a dataset per channel each; a roving test's, where a node and
 direction recurs) is read one run at a time. A file of mode shapes (datasets 55, no dataset 58) is a bench's table
 of modes, read by uff_modes; the geometry of both is uff_geometry's.
@@ -115,7 +117,16 @@ def write_frf(estimates: Sequence[tuple[FrfEstimate, Channel]], path: str | Path
     numbers, ID line 4 their point and direction (placement: mountid reads them back exactly; other tools take the
     node and the axis, 0 where oblique); each input is reference node 1000 + its number along its force channel's
     axis. ID line 3 says what H1 averages and the exponential window on the responses (a hammer's where they had not
-    died out before the next hit): read back, --exponential-window divides it out."""
+    died out before the next hit): read back, --exponential-window divides it out. The inputs of several shakers at
+    once (FrfEstimate.together) are one measurement, written to a file of its own: their multiple coherence once
+    per response (function type 26, reference node 0), which marks them so when read back (Lines.together)."""
+    together = {e.together for e, _ in estimates}
+    if len(together) > 1 and any(together):
+        raise InputError(
+            "--frf-out",
+            "the frequency responses of several shakers at once are one measurement (their inputs share the "
+            "samples): write them to a file of their own",
+        )
     path = Path(path)
     if path.exists():
         path.unlink()  # pyuff appends to an existing file
@@ -138,9 +149,14 @@ def write_frf(estimates: Sequence[tuple[FrfEstimate, Channel]], path: str | Path
                 x=freq,
             )
             sets.append(_frf_set(common, FRF, estimate.h1[:, k - 1], channel))
-            if several:
+            if estimate.together and run == 1:  # the inputs' multiple coherence: one per response
+                common = {**common, "ref_node": 0, "ref_dir": 0, "id2": _MULTIPLE}
+                sets.append(_frf_set(common, COHERENCE, estimate.coherence[:, k - 1], channel))
+            elif several and not estimate.together:
                 sets.append(_frf_set(common, COHERENCE, estimate.coherence[:, k - 1], channel))
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    if together != {()}:
+        _typed_multiple(path)
 
 
 def _frf_set(common: dict, function: int, values: np.ndarray, channel: Channel) -> dict:
@@ -150,7 +166,6 @@ def _frf_set(common: dict, function: int, values: np.ndarray, channel: Channel) 
     freq = common["x"]
     return pyuff.prepare_58(
         **_WRITTEN_58,
-        id2="H1" if frf else "coherence",
         func_type=function,
         rsp_ent_name=channel.name[:10],
         ref_ent_name="force",
@@ -165,8 +180,23 @@ def _frf_set(common: dict, function: int, values: np.ndarray, channel: Channel) 
         ordinate_axis_units_lab=channel.unit if frf else "",
         orddenom_axis_units_lab="N" if frf else "",
         data=np.asarray(values, dtype=complex if frf else float),
-        **common,
+        **{"id2": "H1" if frf else "coherence", **common},
     )
+
+
+_MULTIPLE = "multiple coherence"
+"""ID line 2 of the multiple coherences write_frf writes: pyuff (2.5) writes function types 0-4, 6 and 9 only, so
+they are written as coherences (6) and given their type (26) after (_typed_multiple)."""
+
+
+def _typed_multiple(path: Path) -> None:
+    """Give the datasets 58 of ``path`` whose ID line 2 is _MULTIPLE the function type of a multiple coherence
+    (record 6, field 1: columns 1-5)."""
+    lines = path.read_text().split("\n")
+    for k, line in enumerate(lines[:-7]):
+        if line.strip() == "58" and lines[k - 1].strip() == "-1" and lines[k + 2].strip() == _MULTIPLE:
+            lines[k + 6] = f"{MULTIPLE_COHERENCE:5d}" + lines[k + 6][5:]
+    path.write_text("\n".join(lines))
 
 
 def placement(channel: Channel) -> str:
@@ -265,14 +295,15 @@ def _grouped(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
     sets = [read_set(uff, i, types, path) for i in found]
     frfs = [s for s in sets if _function_type(s) == FRF]
     if frfs:  # a bench's frequency response functions: a run per input (reference node and direction)
-        other = next((s for s in sets if _function_type(s) not in (FRF, COHERENCE)), None)
+        other = next((s for s in sets if _function_type(s) not in (FRF, *COHERENCES)), None)
         if other is not None:
             kind = _function_type(other)
             what = "a time response" if kind in (0, 1) else _FUNCTION_TYPES.get(kind, f"of UFF 58 function type {kind}")
             raise InputError(_names([other])[0], f"is {what} beside frequency response functions: {FRF_ONLY}")
         inputs = list(dict.fromkeys(_reference(s) for s in frfs))  # each run's coherences after its functions
         ordered = frfs + [s for s in sets if _function_type(s) == COHERENCE]
-        return [[s for s in ordered if _reference(s) == key] for key in inputs]
+        multiple = [s for s in sets if _function_type(s) == MULTIPLE_COHERENCE]  # one per response: every input's
+        return [[s for s in ordered if _reference(s) == key] + multiple for key in inputs]
     return _runs(sets)
 
 
@@ -282,6 +313,15 @@ FRF = 4
 COHERENCE = 6
 """UFF 58 function type of a coherence: a file of frequency response functions may hold them beside, one per
 response and input (Lines.coherence)."""
+
+
+MULTIPLE_COHERENCE = 26
+"""UFF 58 function type of a multiple coherence: a bench's frequency response functions of several inputs at once
+(a MIMO test) come with one per response, the share of its power all the inputs together explain. It goes with the
+response's channel in every input's run (it takes the place of an ordinary coherence there), and it marks the runs
+as one measurement (Lines.together)."""
+
+COHERENCES = (COHERENCE, MULTIPLE_COHERENCE)
 
 
 def _function_type(s: dict) -> int:
@@ -296,8 +336,8 @@ def _reference(s: dict) -> tuple[int, int]:
 def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Collection[str]) -> Record:
     """One run's datasets 58 as a record, all but the channels ``ignore`` names (read_uff); coherences beside
     frequency response functions go with the channel of their response."""
-    coherences = [s for s in sets if _function_type(s) == COHERENCE]
-    sets = [s for s in sets if _function_type(s) != COHERENCE]
+    coherences = [s for s in sets if _function_type(s) in COHERENCES]  # a multiple coherence last: it takes the place
+    sets = [s for s in sets if _function_type(s) not in COHERENCES]
     names = _names(sets)
     check_ignored(ignore, names, path.name)
     sets, names = (
@@ -308,7 +348,11 @@ def _record(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: C
         raise InputError("ignore", f"leaves no channel of {path.name}")
     nodes = node_geometry(uff, types, path)
     if _function_type(sets[0]) == FRF:
-        return _impulse_responses(sets, names, nodes, coherences)
+        record = _impulse_responses(sets, names, nodes, coherences)
+        if not any(_function_type(c) == MULTIPLE_COHERENCE for c in coherences):
+            return record
+        together = f"the inputs of {path.name} at once (its multiple coherence)"
+        return replace(record, impulse=replace(record.impulse, together=together))
     time = _seconds(sets[0])
     columns, channels = [], []
     for n, s in enumerate(sets):
@@ -457,7 +501,7 @@ def _per_force(s: dict) -> tuple[dict, str]:
     return s, unit_named(_label(s, "orddenom_axis_units_lab")) or "N"
 
 
-FRF_ONLY = "a file of frequency response functions holds them (and their coherences) only"
+FRF_ONLY = "a file of frequency response functions holds them (and their coherences, ordinary or multiple) only"
 
 
 _FUNCTION_TYPES = {
@@ -468,6 +512,8 @@ _FUNCTION_TYPES = {
     6: "a coherence",
     9: "a power spectral density",
     12: "a spectrum",
+    21: "a partial coherence",
+    26: "a multiple coherence",
 }
 """UFF 58 function types (record 6, field 1) a bench exports besides 0 (general) and 1 (time response); the
 others are named by number."""
