@@ -216,6 +216,18 @@ def test_the_command_line_runs_several_shakers(tmp_path, capsys):
     assert "--shaker-at: is a further shaker's: give the first with --shaker" in capsys.readouterr().err
 
 
+def test_a_second_shakers_force_channel_of_zeros_is_named_as_such():
+    """Two shakers ran and the second's force channel recorded zeros (a transducer not connected): the warning says
+    that a second shaker's response then counts as noise in the first's frequency responses (not "no impact
+    recorded", a hammer's words), and how to read a record where no second shaker ran."""
+    rig, record = _rig(), _record("random")
+    dead = replace(record, data=np.column_stack([record.data[:, :-1], np.zeros(len(record.time))]))
+    warning = next(w for w in modal_data(rig.machine, dead, {}).warnings if w.kind == "no_hit")
+    assert warning.channel == "F2"
+    assert warning.message.startswith("the force channel is zero throughout beside the continuous excitation on F1")
+    assert "counts as noise in F1's frequency responses; where none did, --ignore F2" in warning.message
+
+
 def test_a_roving_hammers_two_force_channels_are_not_shakers():
     """Two force channels of hits (a roving hammer's runs in one record) are not several shakers at once: the first
     force's H1, the other named as not used (frf.at_once is for continuous forces only)."""

@@ -945,6 +945,17 @@ def force_quality(
     out = []
     top = float(f.max())
     if top <= 0:
+        shakers = [other for other in record.forces if other != name and is_continuous(record, other, settings)]
+        if shakers:  # beside a shaker: a second shaker's force not recorded, or a spare channel
+            return [
+                QualityWarning(
+                    "no_hit",
+                    name,
+                    f"the force channel is zero throughout beside the continuous excitation on {shakers[0]}: where a "
+                    f"second shaker ran, its force was not recorded (a transducer not connected?), and its response "
+                    f"counts as noise in {shakers[0]}'s frequency responses; where none did, --ignore {name}",
+                )
+            ]
         return [QualityWarning("no_hit", name, "the force channel is zero throughout: no impact recorded")]
     if clipped_level(record.channel(name), settings) is not None:
         out.append(QualityWarning("clipping", name, f"force held at {top:g} N on several samples: clipped"))
