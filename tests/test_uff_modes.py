@@ -23,7 +23,7 @@ from mountid.identification.combination import every_decay
 from mountid.identification.from_records import identify_from_records
 from mountid.machine import Machine
 from mountid.measurement.modes import DEFAULT_FREQUENCY_STD
-from mountid.measurement.records import ModeTable, named_runs, read_record
+from mountid.measurement.records import ModeTable, named_runs, read_record, read_runs
 from mountid.measurement.rig import Rig
 from mountid.measurement.uff_modes import write_table
 from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING
@@ -391,3 +391,62 @@ def test_a_dataset_pyuff_cannot_read_says_what_it_reads(tmp_path):
     (tmp_path / "six.unv").write_text("\n".join([*lines, "    -1"]) + "\n")
     with pytest.raises(InputError, match=r"six.unv: dataset 1 \(type 55\) is not readable .*; pyuff reads mode shapes"):
         read_record(tmp_path / "six.unv")
+
+
+def _text_2414(s: dict, label: int, location: int = 1, drop: int = 0) -> str:
+    """A dataset 55 of _write as the text of the dataset 2414 (analysis data at nodes) later software writes its
+    modes in, to the format's records (I10, E13.5): the same mode number (record 10, field 6), load case as the
+    solution set (field 3), frequency and damping ratios (record 12) or eigenvalue (record 13), each node's values
+    (complex: real and imaginary parts in turn). ``location``: the dataset location (1 at nodes); ``drop``: values
+    left off each node's end (a file pyuff does not read as it should)."""
+    complex_ = s["analysis_type"] == 3
+    rows = np.column_stack([np.asarray(s[f"r{a}"]) for a in range(1, 7 if s["data_ch"] == 3 else 4)])
+    values = np.stack([rows.real, rows.imag], axis=-1).reshape(len(rows), -1) if complex_ else rows.real
+    eig = s["eig"] if complex_ else 0j
+    twelve = (0.0, s.get("freq", 0.0), 0.0, 1.0, s.get("modal_damp_vis", 0.0), s.get("modal_damp_his", 0.0))
+    lines = ["    -1", "  2414", f"{label:10d}", s["id1"], f"{location:10d}", s["id1"], "", "", "", ""]
+    lines.append(
+        "".join(f"{v:10d}" for v in (1, s["analysis_type"], s["data_ch"], 8, 5 if complex_ else 2, rows.shape[1]))
+    )
+    lines.append("".join(f"{v:10d}" for v in (1, 0, s["load_case"], 0, 0, s["mode_n"], 0, 0)))
+    lines.append("".join(f"{v:10d}" for v in (1, len(rows), 0, 0, 0, 0, 0, 0)))
+    lines.append("".join(f"{v:13.5E}" for v in twelve))
+    lines.append("".join(f"{v:13.5E}" for v in (eig.real, eig.imag, 0.0, 0.0, 0.0, 0.0)))
+    for node, row in zip(np.asarray(s["node_nums"]), values, strict=True):
+        kept = row[: len(row) - drop]
+        lines.append(f"{int(node):10d}" if location == 1 else f"{int(node):10d}{len(kept):10d}")
+        lines.append("".join(f"{v:13.5E}" for v in kept))
+    return "\n".join([*lines, "    -1", ""])
+
+
+@pytest.mark.parametrize(("kind", "rotations"), [("complex", False), ("normal", False), ("normal", True)])
+def test_modes_in_datasets_2414_read_as_in_datasets_55(tmp_path, kind, rotations):
+    """The modes a bench or an FE program writes as analysis data at nodes (dataset 2414: I-DEAS, Simcenter, Femap)
+    read as the same modes in datasets 55 do: poles, channels, points, shapes and notes alike, complex and normal
+    modes, with rotations, two load cases as two runs; data on elements, or a node's values fewer than its data
+    characteristic says, named."""
+    rig = _rig()
+    fifty_five = tmp_path / "m55.uff"
+    _write(fifty_five, rig, kind=kind, load_cases=(1, 2), rotations=rotations)
+    sets = pyuff.UFF(str(fifty_five)).read_sets()
+    geometry = tmp_path / "geometry.uff"
+    pyuff.UFF(str(geometry)).write_sets([s for s in sets if s["type"] != 55], mode="add")
+    modes = [s for s in sets if s["type"] == 55]
+
+    def written(name: str, **how: int) -> Path:
+        path = tmp_path / name
+        path.write_text(geometry.read_text() + "".join(_text_2414(s, k, **how) for k, s in enumerate(modes, 1)))
+        return path
+
+    analysis = written("m2414.uff")
+    assert 55 not in pyuff.UFF(str(analysis)).get_set_types()
+    expected, found = read_runs(fifty_five), read_runs(analysis)
+    assert len(found) == len(expected) == 2
+    for a, b in zip(found, expected, strict=True):
+        np.testing.assert_allclose(a.poles, b.poles, rtol=1e-5)
+        assert a.channels == b.channels and a.kind == b.kind and a.notes == b.notes
+        np.testing.assert_allclose(a.shapes, b.shapes, rtol=1e-5, atol=1e-5 * np.abs(b.shapes).max())
+    with pytest.raises(InputError, match=r"dataset 2414 \(analysis dataset 1\) holds no data at nodes \(dataset lo"):
+        read_record(written("elements.uff", location=2), run=1)
+    with pytest.raises(InputError, match=r"analysis dataset 1\): a node with [25] values where data characteristic"):
+        read_record(written("short.uff", drop=1), run=1)

@@ -1,5 +1,6 @@
-"""A bench's modal analysis results in the Universal File Format: mode shapes at nodes (dataset 55), read by pyuff
-as a table of modes (records.ModeTable) in the place of a record.
+"""A bench's modal analysis results in the Universal File Format: mode shapes at nodes (dataset 55, or the analysis
+data at nodes of dataset 2414 that later software writes them in), read by pyuff as a table of modes
+(records.ModeTable) in the place of a record.
 
 Modal test software (a hammer test's FRFs through its own curve fitter) exports the modes it found as one dataset
 55 per mode: normal modes (analysis type 2: the frequency [Hz] and the modal viscous damping ratio, a real shape)
@@ -35,6 +36,10 @@ from mountid.nomenclature import counted
 MODE_SHAPES = 55
 """The UFF dataset of data at nodes: a bench's mode shapes."""
 
+ANALYSIS_DATA = 2414
+"""The UFF dataset of analysis data, which later software (I-DEAS, Simcenter, Femap) writes its modes in: data at
+nodes (dataset location 1) of a normal or complex mode, read as a dataset 55 is (_as_55)."""
+
 PYUFF_READS = (
     "pyuff reads mode shapes of three translations per node, real or complex, and of six values per node real only: "
     "export complex shapes as translations"
@@ -59,10 +64,10 @@ _VECTORS = (2, 3)
 
 
 def holds_mode_shapes(types: list) -> bool:
-    """Whether a UFF file of the dataset ``types`` is a table of modes: datasets 55 and no dataset 58 (a file of
-    both is read for its functions, the measurement itself)."""
+    """Whether a UFF file of the dataset ``types`` is a table of modes: datasets 55 or 2414 and no dataset 58 (a
+    file of both is read for its functions, the measurement itself)."""
     kinds = {int(t) for t in types}
-    return MODE_SHAPES in kinds and 58 not in kinds
+    return bool(kinds & {MODE_SHAPES, ANALYSIS_DATA}) and 58 not in kinds
 
 
 def read_table(
@@ -147,12 +152,13 @@ def write_table(table: ModeTable, path: str | Path, titles: Sequence[str] | None
 
 
 def _load_cases(path: Path, uff: pyuff.UFF, types: list) -> list[list[dict]]:
-    """The file's datasets 55, a list per load case in the order of their first dataset; one pyuff cannot read
-    named with what it reads."""
+    """The file's datasets 55 (and 2414, as their fields: _as_55), a list per load case in the order of their first
+    dataset; one pyuff cannot read named with what it reads."""
     try:
-        sets = [read_set(uff, i, types, path) for i, t in enumerate(types) if int(t) == MODE_SHAPES]
+        sets = [read_set(uff, i, types, path) for i, t in enumerate(types) if int(t) in (MODE_SHAPES, ANALYSIS_DATA)]
     except InputError as err:
         raise InputError(err.parameter, f"{err.reason}; {PYUFF_READS}") from None
+    sets = [s if int(s["type"]) == MODE_SHAPES else _as_55(s, path) for s in sets]
     cases = list(dict.fromkeys(int(s.get("load_case", 0) or 0) for s in sets))
     return [[s for s in sets if int(s.get("load_case", 0) or 0) == case] for case in cases]
 
@@ -194,6 +200,49 @@ def _table(sets: list[dict], uff: pyuff.UFF, types: list, path: Path, ignore: Co
     return ModeTable(tuple(channels), np.array(poles), shapes, kind, tuple(notes))
 
 
+def _as_55(s: dict, path: Path) -> dict:
+    """A dataset 2414 (pyuff's fields) as the fields of a dataset 55 that _pole and _table read: the analysis type
+    and data characteristic; the mode number (record 10, field 6) and the solution set (field 3) as its load case;
+    a normal mode's frequency [Hz], viscous and hysteretic damping ratios (record 12, fields 2, 5, 6), a complex
+    mode's eigenvalue (record 13, fields 1 and 2); each node's values (record 15: x, y, z, and three rotations
+    for a 6-DOF vector; real, or real and imaginary parts in turn for complex data types 5 and 6). An InputError
+    where the data are not at nodes or a node's values are not as many as its data characteristic and type say
+    (pyuff reads a node's values from one line)."""
+    label = int(s.get("analysis_dataset_label", 0) or 0)
+    where = f"{path.name}: dataset 2414 (analysis dataset {label})"
+    if int(s.get("dataset_location", 0) or 0) != 1:
+        raise InputError(
+            "record", f"{where} holds no data at nodes (dataset location {s.get('dataset_location')}): no mode shape"
+        )
+    characteristic = int(s.get("data_characteristic", 0) or 0)
+    complex_ = int(s.get("data_type", 0) or 0) in (5, 6)
+    count = {2: 3, 3: 6}.get(characteristic, 0) * (2 if complex_ else 1)
+    rows = [np.asarray(v, dtype=float) for v in s.get("data_at_node", [])]
+    if count and any(len(v) != count for v in rows):
+        wrong = next(len(v) for v in rows if len(v) != count)
+        raise InputError(
+            "record",
+            f"{where}: a node with {wrong} values where data characteristic {characteristic} of "
+            f"{'complex' if complex_ else 'real'} data has {count} (pyuff reads a node's values from one line)",
+        )
+    values = np.array(rows).reshape(len(rows), -1)
+    if complex_ and values.size:
+        values = values[:, 0::2] + 1j * values[:, 1::2]
+    out = {
+        "analysis_type": int(s.get("analysis_type", 0) or 0),
+        "data_ch": characteristic,
+        "mode_n": int(s.get("record10_field6", 0) or 0),
+        "load_case": int(s.get("record10_field3", 0) or 0),
+        "node_nums": np.atleast_1d(s.get("node_nums", [])),
+        "freq": float(s.get("record12_field2", math.nan)),
+        "modal_damp_vis": float(s.get("record12_field5", 0.0) or 0.0),
+        "modal_damp_his": float(s.get("record12_field6", 0.0) or 0.0),
+        "eig": complex(float(s.get("record13_field1", math.nan)), float(s.get("record13_field2", math.nan))),
+        "dataset": ANALYSIS_DATA,
+    }
+    return out | ({f"r{k + 1}": values[:, k] for k in range(values.shape[1])} if count else {})
+
+
 def _mode(s: dict) -> str:
     return str(int(s.get("mode_n", 0) or 0))
 
@@ -202,7 +251,7 @@ def _pole(s: dict, path: Path) -> tuple[complex, str, str]:
     """A dataset 55's pole p [rad/s] (Im p > 0), what kind of mode it is, and a note where its damping ratio is
     half its hysteretic one; an InputError naming the mode where the dataset is no mode shape or its pole is
     none of a damped mode."""
-    where = f"{path.name}: dataset 55 of mode {_mode(s)}"
+    where = f"{path.name}: dataset {s.get('dataset', MODE_SHAPES)} of mode {_mode(s)}"
     analysis = int(s.get("analysis_type", 0) or 0)
     if analysis not in _NORMAL + _COMPLEX:
         what = _ANALYSIS_TYPES.get(analysis, f"analysis type {analysis}")
