@@ -251,13 +251,33 @@ def test_a_campaign_reads_an_output_only_record(tmp_path):
 
 def test_an_output_only_record_too_short_says_how_long_to_record():
     """A record whose segments cannot hold five periods of the lowest mode in their correlation functions: an error
-    naming the record and the length it needs (ambient.shortest_record)."""
+    naming the record and the length it needs to the sample (ambient.shortest_record at the record's rate, 58.88 s
+    where the length in seconds is 58.36: the lags are whole samples, to the first at the five periods' end)."""
     short = _ambient_record(30.0)
-    needed = ambient.shortest_record(float(np.min(_true_modes()[0])), 5.0)
+    rate = 1.0 / float(short.time[1] - short.time[0])
+    needed = ambient.shortest_record(float(np.min(_true_modes()[0])), 5.0, rate=rate)
+    assert needed > ambient.shortest_record(float(np.min(_true_modes()[0])), 5.0)
     with pytest.raises(InputError, match=rf"too short for output-only data: .* record {needed:.4g} s or more"):
         decays_of(_rig().machine, short, {}, "record")
     with pytest.raises(InputError, match="correlation functions start at lag zero"):
         modal_data(_rig().machine, _ambient_record(), {}, start=1.0, reference="A_x")
+
+
+def test_a_short_record_whose_correlations_reach_just_the_five_periods_is_read():
+    """A record of 300 s (five times the shortest): its correlation functions fall into their noise before five
+    periods of the lowest mode, and are fitted to where the five periods end. The lags were whole samples short of
+    it (their last at 1.77 s where 1.8234 s were needed), and the record an error "too short: ... holds 5.0 periods
+    ... at least 5 are needed"; now the lags reach the first sample at or beyond the end, and x, psi and phi are
+    found, each within three of its deviations of the rig's pole."""
+    record = _ambient_record(300.0)
+    correlated = ambient.correlations(record, "A_x", ambient.shortest_lags(float(np.min(_true_modes()[0])), 5.0))
+    assert float(correlated.mean.time[-1]) >= ambient.shortest_lags(float(np.min(_true_modes()[0])), 5.0)
+    data = decays_of(_rig().machine, record, {}, "record")[0][0][1]
+    omega, zeta = _true_modes()
+    for label in ("x", "psi", "phi"):
+        mode = data.modes[label]
+        k = int(np.argmin(np.abs(omega - mode.frequency)))
+        assert abs(mode.frequency - omega[k]) < 3 * mode.frequency_std, label
 
 
 def test_simulate_ambient_then_identify_record(capsys, tmp_path):
@@ -268,7 +288,7 @@ def test_simulate_ambient_then_identify_record(capsys, tmp_path):
     argv = ["simulate", "kid300", "--out", str(path), "--ambient", "100", "--duration", "900", "--rate", "100"]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    assert "5 channels" in out and "an output-only record" in out and "needs 58.36 s or more" in out
+    assert "5 channels" in out and "an output-only record" in out and "needs 58.88 s or more" in out
     assert main(["identify-record", "kid300", str(path), "--json", "--figures", str(tmp_path / "f")]) == 0
     result = json.loads(capsys.readouterr().out)
     for name in ("modes.png", "spectrum.png", "stabilisation.png"):

@@ -86,7 +86,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     _writer(kind)(record, args.out)
     notes = [n for u in unbalances for n in _small_motion_note(rig, u.speed, _steady_amplitude(rig, u))]
     notes += _close_hits_note(args.hit_time) if hits else []
-    notes += _ambient_note(rig, args.duration) if ambient else []
+    notes += _ambient_note(rig, args.duration, args.rate) if ambient else []
     if args.shaker_random and math.isfinite(rig.slowest_decay()):
         notes += random_length_note(args.duration, rig.slowest_decay())
     elif shakers and not args.shaker_random and args.duration < 3 * args.shaker_period:
@@ -166,16 +166,16 @@ def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[
     return ambient_forces(rig, args.ambient, ANTI_ALIAS * args.rate, args.seed)
 
 
-def _ambient_note(rig: Rig, duration: float) -> list[str]:
-    """simulate's note on an output-only record: how long the records chain needs it, where it is shorter (none
-    where a motion is free: no lowest mode to hold)."""
+def _ambient_note(rig: Rig, duration: float, rate: float) -> list[str]:
+    """simulate's note on an output-only record: how long the records chain needs it at the ``rate`` [Hz] it is
+    sampled at, where it is shorter (none where a motion is free: no lowest mode to hold)."""
     from mountid.measurement.ambient import SEGMENTS, shortest_record
     from mountid.measurement.settings import RECORDS
 
     lowest = rig.lowest_frequency()
     if not lowest > 0:
         return []
-    needed = shortest_record(lowest, RECORDS.min_periods)
+    needed = shortest_record(lowest, RECORDS.min_periods, rate=rate)
     said = (
         f"an output-only record: the records chain fits the correlation functions of the responses over {SEGMENTS} "
         f"segments, to {RECORDS.min_periods:g} periods of the lowest mode at least; it needs {needed:.4g} s or more"

@@ -135,10 +135,18 @@ def shortest_lags(lowest: float, min_periods: float) -> float:
     return min_periods * 2 * math.pi / lowest + START
 
 
-def shortest_record(lowest: float, min_periods: float, segments: int = SEGMENTS) -> float:
+def shortest_record(lowest: float, min_periods: float, segments: int = SEGMENTS, rate: float | None = None) -> float:
     """[s] The shortest output-only record the records chain reads: ``segments`` segments, each LAG_SHARE of it
-    the shortest_lags."""
-    return segments * shortest_lags(lowest, min_periods) / LAG_SHARE
+    the shortest_lags; sampled at ``rate`` [Hz], to the sample (lags_reaching: up to two samples more per segment's
+    share)."""
+    if rate is None:
+        return segments * shortest_lags(lowest, min_periods) / LAG_SHARE
+    return segments * lags_reaching(shortest_lags(lowest, min_periods), rate) / (rate * LAG_SHARE)
+
+
+def lags_reaching(lag: float, rate: float) -> int:
+    """How many lags (from 0, at ``rate`` [Hz]) reach ``lag`` [s]: to the first at it or beyond."""
+    return math.ceil(lag * rate) + 1
 
 
 @dataclass(frozen=True)
@@ -197,12 +205,13 @@ def correlations(record: Record, reference: str, min_lag: float = 0.0, segments:
     r = record.names.index(reference)
     size = 1 << int(math.ceil(math.log2(2 * n)))
     longest = max(8, int(LAG_SHARE * n))
-    if longest < min_lag * rate:
-        needed = segments * min_lag / LAG_SHARE
+    reaching = lags_reaching(min_lag, rate)
+    if longest < reaching:
+        needed = segments * reaching / (rate * LAG_SHARE)  # shortest_record's at this rate
         raise InputError(
             "record",
             f"too short for output-only data: {len(data) / rate:.4g} s in {segments} segments gives correlation "
-            f"functions to {longest / rate:.3g} s, and the lowest mode needs {min_lag:.3g} s of them: record "
+            f"functions to {(longest - 1) / rate:.3g} s, and the lowest mode needs {min_lag:.3g} s of them: record "
             f"{needed:.4g} s or more",
         )
     products = (n - np.arange(longest))[:, None]
@@ -210,7 +219,7 @@ def correlations(record: Record, reference: str, min_lag: float = 0.0, segments:
     for k in range(segments):
         spectra = np.fft.rfft(data[k * n : (k + 1) * n], size, axis=0)
         each[k] = np.fft.irfft(spectra * np.conj(spectra[:, [r]]), size, axis=0)[:longest] / products
-    lags = min(longest, max(lag_length(each.mean(axis=0)), math.ceil(min_lag * rate)))
+    lags = max(lag_length(each.mean(axis=0)), reaching)  # at most longest: reaching is, lag_length's too
     each = each[:, :lags]
     mean = Record(np.arange(lags) / rate, each.mean(axis=0), record.channels)
     return Correlations(each, mean, n / rate)
