@@ -9,7 +9,7 @@ import pytest
 
 from mountid.cli import main
 from mountid.identification.from_records import identify_from_record
-from mountid.identification.planning import plan
+from mountid.identification.planning import plan, plan_output_only
 from mountid.machine import Machine
 from mountid.measurement.rig import Rig, Sensor
 from mountid.validation.paper import TABLE_1, paper_hit, paper_sensors
@@ -119,3 +119,63 @@ def test_the_plan_says_how_long_an_output_only_test_records(paper_plan):
     and the fit's start, 58.36 s (test_ambient: 30 s named with that length, 600 s read)."""
     [note] = [n for n in paper_plan.notes if n.startswith("an output-only test instead")]
     assert "a record of 58.36 s or more (8 segments, each 4 times 5 periods of the lowest mode)" in note
+
+
+@pytest.fixture(scope="module")
+def ambient_plans():
+    """Output-only plans of kid300 with the paper's five channels (100 N RMS at every isolator, 100 Hz, two
+    simulated records each), of 300 s and of 1200 s."""
+    machine = Machine.resolve("kid300")
+    return {t: plan_output_only(machine, paper_sensors(0.01), t, 100.0, 100.0, draws=2) for t in (300.0, 1200.0)}
+
+
+def test_an_output_only_plan_simulates_the_test_and_shrinks_with_its_length(ambient_plans):
+    """Per mode how many simulated records found it and their stated deviations: x, psi and phi in both records of
+    either length, each twin as one pole with its partner (y with x, theta with psi: one pole for twins); the
+    frequency deviations of the record four times as long about half, as a geometric mean over x, psi and phi (the
+    jackknife's deviation falls as the square root of the length, a little faster where the longer record's
+    correlation functions are fitted to longer lags: 0.3-0.8 allowed, two records' medians of deviations of seven
+    degrees of freedom each: per mode the ratio's log spread is about 0.38, over three modes 0.22); the stiffness
+    deviations likewise (c_xy 0.48, c_z 0.35 seen); a mode found in fewer than half the records is not counted as
+    measured."""
+    short, long = ambient_plans[300.0], ambient_plans[1200.0]
+    for result in (short, long):
+        by = {m.label: m for m in result.modes}
+        for label, partner in (("x", "x"), ("y", "x"), ("psi", "psi"), ("theta", "psi"), ("phi", "phi")):
+            assert by[label].found == (2, 2) and by[label].pole_of == partner and by[label].measured, label
+        assert by["y"].frequency_std == by["x"].frequency_std
+        assert all(m.measured == (2 * m.found[0] >= m.found[1]) for m in result.modes)
+        assert result.notes[0].startswith("simulated: 2 records of ")
+    ratios = [
+        next(m for m in long.modes if m.label == label).frequency_std
+        / next(m for m in short.modes if m.label == label).frequency_std
+        for label in ("x", "psi", "phi")
+    ]
+    assert 0.3 < np.prod(ratios) ** (1 / 3) < 0.8  # 0.39 seen (x 0.54, psi 0.41, phi 0.28)
+    for name in ("c_xy", "c_z"):
+        assert 0.3 < long.parameter_std[name] / short.parameter_std[name] < 0.8, name
+
+
+def test_an_output_only_plan_on_the_command_line(capsys):
+    """plan --ambient prints the simulated records' findings (--json alike); a hit's options, --draws out of range
+    or without --ambient, and a record shorter than the records chain reads are errors naming the option."""
+    base = ["plan", "kid300", "--ambient", "100", "--duration", "300", "--draws", "1"]
+    assert main([*base, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert {m["label"]: m["found"] for m in result["modes"]}["x"] == [1, 1]
+    assert main(base) == 0
+    out = capsys.readouterr().out
+    assert "output-only (random forces of 100 N RMS at every isolator), 300 s at 100 Hz" in out
+    assert "not seen by these channels" in out and "found in" in out
+    refusals = [
+        ([*base, "--hit-point", "0,0,0"], "--hit-point: an output-only plan has no hit"),
+        (["plan", "kid300", "--ambient", "100", "--draws", "0"], "--draws: 0: simulate 1 to 100 records"),
+        (["plan", "kid300", "--draws", "3"], "--draws: is for an output-only plan (--ambient)"),
+        (
+            ["plan", "kid300", "--ambient", "100", "--duration", "30"],
+            "duration: 30 s: the records chain reads an output-only record of 58.88 s or more",
+        ),
+    ]
+    for args, message in refusals:
+        assert main(args) == 2
+        assert message in capsys.readouterr().err

@@ -284,9 +284,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--hit-point", help="impact point x,y,z [m] (default: the paper's oblique hit)")
     p.add_argument("--hit-direction", help="impact direction")
-    p.add_argument("--duration", type=float, default=4.0, help="record length [s]")
-    p.add_argument("--rate", type=float, default=2048.0, help="sampling rate [Hz]")
+    p.add_argument(
+        "--duration",
+        type=float,
+        help="record length [s] (default 4; with --ambient twenty times the shortest the records chain reads)",
+    )
+    p.add_argument(
+        "--rate", type=float, help="sampling rate [Hz] (default 2048; with --ambient 100, doubled above a mode's band)"
+    )
     p.add_argument("--noise", type=float, default=0.01, help="white noise std relative to each channel's RMS")
+    p.add_argument(
+        "--ambient",
+        type=float,
+        metavar="N",
+        help="an output-only test instead of a hit: random forces of N [N] RMS along x, y and z at every isolator "
+        "(as simulate --ambient); the plan simulates records of it and runs the records chain on each",
+    )
+    p.add_argument(
+        "--draws", type=int, default=4, help="with --ambient: how many records to simulate (default 4, at most 100)"
+    )
     p.set_defaults(func=cmd_plan)
     p = machine_command("process", "modal data (labelled frequencies, damping, MAC) from an impact record")
     add_record_options(p)

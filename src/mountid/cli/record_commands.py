@@ -364,10 +364,17 @@ def cmd_plan(args: argparse.Namespace) -> None:
     from mountid.measurement.rig import ANTI_ALIAS
     from mountid.validation.paper import paper_sensors
 
-    record_size(args.duration, args.rate)
     bounded(args.noise, "--noise", NOISE_LIMIT, " x RMS")
     machine = Machine.resolve(args.machine)
     sensors = _sensors(args.sensor, args.noise) or paper_sensors(args.noise)[:3]
+    if args.ambient is not None:
+        _plan_output_only(args, machine, sensors)
+        return
+    if args.draws != 4:
+        raise InputError("--draws", "is for an output-only plan (--ambient): a hit's plan simulates no records")
+    args.duration = 4.0 if args.duration is None else args.duration
+    args.rate = 2048.0 if args.rate is None else args.rate
+    record_size(args.duration, args.rate)
     hit = _hit(args)
     result = plan(machine, sensors, hit, args.duration, args.rate, args.noise, pairs(args.set, "--set"))
     if args.json:
@@ -392,6 +399,63 @@ def cmd_plan(args: argparse.Namespace) -> None:
             tail = "  not seen by these channels" if not m.seen else "  not excited by this hit"
             if m.seen and m.excited:
                 tail = f"  above the record's band (the anti-alias filter at {ANTI_ALIAS:g} x {args.rate:g} Hz)"
+        print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
+    for name, value in result.parameter_std.items():
+        shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"
+        print(f"  expected std of {name}: {shown}")
+    for note in result.notes:
+        print(f"  note: {note}")
+    best = ", ".join(c for c, _ in result.ranking[:6])
+    print(f"  six most informative channels (effective independence, candidates at the sensors and isolators): {best}")
+
+
+def _plan_output_only(args: argparse.Namespace, machine: Machine, sensors: list[Sensor]) -> None:
+    """plan --ambient: the output-only test's plan (planning.plan_output_only), printed or as JSON; its defaults
+    (a duration twenty times the shortest record the chain reads, rounded up to 10 s; 100 Hz, doubled while the
+    highest mode lies above a quarter of the rate) and refusals (a hit's options, --draws out of 1-100)."""
+    from mountid.identification.planning import plan_output_only
+    from mountid.measurement.ambient import shortest_record
+    from mountid.measurement.rig import Rig
+    from mountid.measurement.settings import RECORDS
+
+    bounded(args.ambient, "--ambient", HIT_PEAK_LIMIT, " N")
+    for option, given in (("--hit-point", args.hit_point), ("--hit-direction", args.hit_direction)):
+        if given:
+            raise InputError(option, "an output-only plan has no hit: its random forces act at every isolator")
+    if not 1 <= args.draws <= 100:
+        raise InputError("--draws", f"{args.draws}: simulate 1 to 100 records")
+    values = pairs(args.set, "--set")
+    rig = Rig.of(machine, values)
+    lowest, highest = rig.lowest_frequency(), max(abs(complex(p)) for p in rig.poles) / (2 * math.pi)
+    if args.duration is None:
+        args.duration = 10.0 * math.ceil(2.0 * shortest_record(lowest, RECORDS.min_periods)) if lowest > 0 else 600.0
+    if args.rate is None:
+        args.rate = 100.0
+        while highest > args.rate / 4:
+            args.rate *= 2
+    record_size(args.duration, args.rate)
+    result = plan_output_only(machine, sensors, args.duration, args.rate, args.ambient, args.draws, values)
+    if args.json:
+        print_json(result.to_dict())
+        return
+    print(
+        f"{machine.name}: {counted(len(sensors), 'channel')} ({', '.join(s.name for s in sensors)}), output-only "
+        f"(random forces of {args.ambient:g} N RMS at every isolator), {args.duration:g} s at {args.rate:g} Hz, "
+        f"noise {args.noise:g} x RMS, {counted(args.draws, 'simulated record')}"
+    )
+    defaults = _paper_defaults(machine, sensors if not args.sensor else [], None)
+    if defaults:
+        print(f"  note: {defaults}")
+    print(f"  {'mode':8s}{'frequency':>11s}{'zeta':>8s}  {'expected std: frequency':>24s}{'zeta':>10s}  found in")
+    for m in result.modes:
+        count = f"{m.found[0]} of {m.found[1]}"
+        if not m.seen:
+            tail = "  not seen by these channels"
+        elif not m.found[0]:
+            tail = f"  not found in any of {m.found[1]} records"
+        else:
+            tail = f"{m.frequency_std:>17.2g} rad/s{m.damping_std:>10.2g}  {count}"
+            tail += f"  (one pole with {m.pole_of})" if m.pole_of != m.label else ""
         print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
     for name, value in result.parameter_std.items():
         shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"

@@ -15,6 +15,12 @@ record length and rate:
    (from_records.fit_stiffness) on those frequencies with those standard deviations;
 4. a ranked proposal of sensor positions: effective independence (Kammer, 1991) over candidate channels
    (the given sensors' points and the isolator points, in x, y and z) for the six modes.
+
+An output-only test (ambient or operational excitation, no force measured: plan_output_only) has no bound of the
+kind of 2: the errors of correlation functions run from lag to lag, and which modes a record gives (a weak one is
+found in some records, not in others) is itself uncertain. Its plan simulates records of the test (the rig under
+the ground's random forces at the isolators) and runs the records chain on each: per mode how many records found
+it and the median of their stated deviations (the jackknife's, calibrated against the truth in docs/validation.md).
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from mountid.machine import Machine, call
 from mountid.measurement import ambient, frf, modal
 from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
 from mountid.measurement.settings import RECORDS
+from mountid.nomenclature import counted
 
 OBSERVABLE = 1e-3
 """A mode is unseen by a layout (not excited by a hit) below this share of its largest reading (force)."""
@@ -54,10 +61,15 @@ class ModePlan:
     in_band: bool = True
     """Whether the mode lies below the acquisition's anti-alias corner (rig.ANTI_ALIAS x the rate): above it
     the filter takes it out of the record, and beyond half the rate it would alias."""
+    found: tuple[int, int] = ()
+    """Of an output-only plan: how many of its simulated records found the mode, of how many (() for a hit's)."""
 
     @property
     def measured(self) -> bool:
-        return self.seen and self.excited and self.in_band
+        """Whether the test will measure the mode: seen, excited and in the band, and in an output-only plan found
+        by half its simulated records or more."""
+        found = not self.found or 2 * self.found[0] >= self.found[1]
+        return self.seen and self.excited and self.in_band and found
 
 
 @dataclass(frozen=True)
@@ -190,6 +202,94 @@ def plan(
             f"each {1 / ambient.LAG_SHARE:g} times {RECORDS.min_periods:g} periods of the lowest mode); its modes' "
             "uncertainty shrinks as the square root of the record's length"
         )
+    return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
+
+
+def plan_output_only(
+    machine: Machine,
+    sensors: list[Sensor],
+    duration: float,
+    rate: float,
+    level: float,
+    draws: int = 4,
+    values: dict[str, float] | None = None,
+) -> Plan:
+    """The plan of an output-only test (see the module docstring): ``draws`` records of ``duration`` [s] at ``rate``
+    [Hz] simulated with the ``sensors`` (their noise) under random forces of ``level`` [N] RMS along x, y and z at
+    every isolator, white to rig.ANTI_ALIAS x the rate (rig.ambient_forces, seeds 0, 1, ...), each through the
+    records chain (combination.decays_of: every response channel as the reference). Per mode the records that
+    found it and the median of their stated standard deviations; the stiffnesses' from the modes found in half the
+    records or more, at those deviations. ``values`` override the description's nominal ones."""
+    from mountid.errors import NoModeFound
+    from mountid.identification.combination import decays_of
+    from mountid.measurement.rig import ambient_forces
+
+    rig = Rig.of(machine, values)
+    mod = machine.module
+    fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
+    phi = np.asarray(mod.modal_matrix(**fwd))
+    lowest = rig.lowest_frequency()
+    needed = ambient.shortest_record(lowest, RECORDS.min_periods, rate=rate) if lowest > 0 else 0.0
+    if duration < needed:
+        raise InputError(
+            "duration", f"{duration:g} s: the records chain reads an output-only record of {needed:.4g} s or more"
+        )
+    known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
+    found: dict[str, list[tuple[float, float]]] = {}
+    notes = []
+    for seed in range(draws):
+        forces = ambient_forces(rig, level, ANTI_ALIAS * rate, seed)
+        record = rig.simulate(sensors, duration, rate, ambient=forces, seed=seed + 100)
+        try:
+            data = decays_of(machine, record, known, f"record {seed + 1}")[0][0][1]
+        except (NoModeFound, InputError) as err:
+            notes.append(f"simulated record {seed + 1}: no mode ({err})")
+            continue
+        for label, mode in data.modes.items():
+            found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
+    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
+    reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+    seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
+    lam = np.asarray(mod.squared_frequencies(**fwd))
+    in_band = np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
+    poles = rig.poles[rig.poles.imag > 0]
+    modes, frequencies = [], {}
+    for i, label in enumerate(mod.MODES):
+        p = poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))]
+        rep = mod.REPRESENTATIVE[label]
+        if label not in found and rep in found:  # twins: the record shows one pole for both, labelled as one
+            found[label] = found[rep]
+        stds = np.median(np.array(found[label]), axis=0) if label in found else (math.nan, math.nan)
+        modes.append(
+            ModePlan(
+                label,
+                float(abs(p)),
+                float(-p.real / abs(p)),
+                bool(seen[i]),
+                True,  # the random forces at every isolator along every axis drive every mode
+                float(stds[0]),
+                float(stds[1]),
+                rep,
+                bool(in_band[i]),
+                found=(len(found.get(label, [])), draws),
+            )
+        )
+        if 2 * len(found.get(label, [])) >= draws and rep not in frequencies:
+            frequencies[rep] = (float(abs(p)), float(stds[0]))
+    parameter_std = {u: math.nan for u in machine.unknown}
+    try:
+        rule = getattr(mod, "ROOT_RULE", "") or None
+        damping = {n: rig.values[n] for n in machine.damping}
+        _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
+    except InputError as err:
+        notes.append(f"no stiffness standard deviation: {err}")
+    notes.insert(
+        0,
+        f"simulated: {counted(draws, 'record')} of {duration:g} s at {rate:g} Hz under random forces of {level:g} N "
+        f"RMS along x, y and z at every isolator (white to {ANTI_ALIAS * rate:g} Hz), each through the records chain; "
+        "per mode the median of the deviations the records that found it state (the jackknife's); the stiffnesses' "
+        "from the modes found in half the records or more",
+    )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
 
 
