@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from mountid.identification.from_records import Identification
+    from mountid.identification.planning import Plan
     from mountid.measurement.records import ModeTable, Record
     from mountid.measurement.rig import Hammer, RandomForce, Rig, Sensor, Shaker, Unbalance
 
@@ -400,6 +401,12 @@ def cmd_plan(args: argparse.Namespace) -> None:
             if m.seen and m.excited:
                 tail = f"  above the record's band (the anti-alias filter at {ANTI_ALIAS:g} x {args.rate:g} Hz)"
         print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
+    _print_plan_end(machine, result)
+
+
+def _print_plan_end(machine: Machine, result: Plan) -> None:
+    """The lines every plan ends with: each unknown's expected standard deviation, the notes, the six most
+    informative channels."""
     for name, value in result.parameter_std.items():
         shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"
         print(f"  expected std of {name}: {shown}")
@@ -457,13 +464,7 @@ def _plan_output_only(args: argparse.Namespace, machine: Machine, sensors: list[
             tail = f"{m.frequency_std:>17.2g} rad/s{m.damping_std:>10.2g}  {count}"
             tail += f"  (one pole with {m.pole_of})" if m.pole_of != m.label else ""
         print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
-    for name, value in result.parameter_std.items():
-        shown = f"{value:.3g} {machine.parameters[name]['unit']}" if math.isfinite(value) else "none (see the note)"
-        print(f"  expected std of {name}: {shown}")
-    for note in result.notes:
-        print(f"  note: {note}")
-    best = ", ".join(c for c, _ in result.ranking[:6])
-    print(f"  six most informative channels (effective independence, candidates at the sensors and isolators): {best}")
+    _print_plan_end(machine, result)
 
 
 def _modal_json(machine: Machine, modes: dict, unlabelled: list, warnings: list) -> dict:

@@ -124,15 +124,9 @@ def plan(
     decay [s] (default: 20 ms after the hit ends)."""
     rig = Rig.of(machine, values)
     mod = machine.module
-    fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
-    phi = np.asarray(mod.modal_matrix(**fwd))  # (6, modes), in the order of MODES
-    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
-    reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+    phi, lam, seen, in_band = _layout(rig, sensors, rate)
     force = np.abs(phi.T @ rig.force_column(hammer.point, hammer.direction))
-    seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
     excited = force >= OBSERVABLE * max(force.max(), 1e-300)
-    lam = np.asarray(mod.squared_frequencies(**fwd))
-    in_band = np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
 
     poles = rig.poles[rig.poles.imag > 0]
     label_pole = {lab: poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))] for i, lab in enumerate(mod.MODES)}
@@ -226,8 +220,6 @@ def plan_output_only(
 
     rig = Rig.of(machine, values)
     mod = machine.module
-    fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
-    phi = np.asarray(mod.modal_matrix(**fwd))
     lowest = rig.lowest_frequency()
     needed = ambient.shortest_record(lowest, RECORDS.min_periods, rate=rate) if lowest > 0 else 0.0
     if duration < needed:
@@ -247,11 +239,7 @@ def plan_output_only(
             continue
         for label, mode in data.modes.items():
             found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
-    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
-    reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
-    seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
-    lam = np.asarray(mod.squared_frequencies(**fwd))
-    in_band = np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
+    phi, lam, seen, in_band = _layout(rig, sensors, rate)
     poles = rig.poles[rig.poles.imag > 0]
     modes, frequencies = [], {}
     for i, label in enumerate(mod.MODES):
@@ -291,6 +279,20 @@ def plan_output_only(
         "from the modes found in half the records or more",
     )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
+
+
+def _layout(rig: Rig, sensors: list[Sensor], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rig's modal matrix (6, modes; in the order of MODES) and squared frequencies, which modes the ``sensors``
+    see (each reads OBSERVABLE of a mode's largest motion or more) and which lie below the anti-alias corner of a
+    record at ``rate`` [Hz]."""
+    mod = rig.machine.module
+    fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
+    phi = np.asarray(mod.modal_matrix(**fwd))
+    rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
+    reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
+    seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
+    lam = np.asarray(mod.squared_frequencies(**fwd))
+    return phi, lam, seen, np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
 
 
 def effective_independence(rig: Rig, sensors: list[Sensor], phi: np.ndarray) -> list[tuple[str, float]]:
