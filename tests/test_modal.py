@@ -169,13 +169,9 @@ def test_the_shape_uncertainty_of_two_close_poles_holds_what_their_error_moves_b
     assert np.sqrt(np.mean(error) / np.mean(exact)) > 1.8
 
 
-def test_a_clipped_refinement_goes_on_past_a_pole_the_data_do_not_hold():
-    """Two damped modes in noise, refined from seeds 1 % off, with a third seed where the data hold nothing (the
-    estimate's noise in correlation functions gives such poles): its first Gauss-Newton step is long, and the plain
-    refinement stops there, every pole left at its seed; clipped (each pole's step cut to 5 % of |p| and half its way
-    to the imaginary axis) the two modes reach where the refinement of them alone does, to 1 % of the way their
-    seeds were off (7e-4 seen: the stray pole takes up a little of the noise), the stray one moved at most 5 % of
-    |p| per step."""
+def _two_modes_in_noise() -> tuple[float, np.ndarray, np.ndarray]:
+    """Three channels of two damped modes (17.7 and 36.9 rad/s, zeta 0.034 and 0.081) for 40 s at 100 Hz with
+    white noise of 0.01: (dt [s], samples, the true poles)."""
     dt, n = 0.01, 4000
     t = np.arange(n) * dt
     truth = np.array([-0.6 + 17.7j, -3.0 + 36.9j])
@@ -183,6 +179,17 @@ def test_a_clipped_refinement_goes_on_past_a_pole_the_data_do_not_hold():
     samples = np.column_stack(
         [np.real(np.exp(np.outer(t, truth)) @ np.array([1.0, 0.7j * (c + 1)])) for c in range(3)]
     ) + 0.01 * rng.standard_normal((n, 3))
+    return dt, samples, truth
+
+
+def test_a_clipped_refinement_goes_on_past_a_pole_the_data_do_not_hold():
+    """Two damped modes in noise, refined from seeds 1 % off, with a third seed where the data hold nothing (the
+    estimate's noise in correlation functions gives such poles): its first Gauss-Newton step is long, and the plain
+    refinement stops there, every pole left at its seed; clipped (each pole's step cut to 5 % of |p| and half its way
+    to the imaginary axis) the two modes reach where the refinement of them alone does, to 1 % of the way their
+    seeds were off (7e-4 seen: the stray pole takes up a little of the noise), the stray one moved at most 5 % of
+    |p| per step."""
+    dt, samples, truth = _two_modes_in_noise()
     seeds = truth * 1.01
     alone, _ = modal.refine_poles(samples, dt, seeds)
     stray = np.append(seeds, -0.01 + 60.0j)
@@ -197,13 +204,7 @@ def test_a_clipped_refinement_walks_a_far_seed_to_its_pole_in_short_steps():
     """A seed 6 to 25 % off its pole (beyond one 5 % step) walks there in clipped steps, to where a seed 1 % off
     goes, for every offset: the step cut to exactly 5 % of |p| is not then taken for a long one by the rounding of
     the cut (which stopped the refinement part of the way in 14 of these 20 offsets)."""
-    dt, n = 0.01, 4000
-    t = np.arange(n) * dt
-    truth = np.array([-0.6 + 17.7j, -3.0 + 36.9j])
-    rng = np.random.default_rng(4)
-    samples = np.column_stack(
-        [np.real(np.exp(np.outer(t, truth)) @ np.array([1.0, 0.7j * (c + 1)])) for c in range(3)]
-    ) + 0.01 * rng.standard_normal((n, 3))
+    dt, samples, truth = _two_modes_in_noise()
     near, _ = modal.refine_poles(samples, dt, truth * 1.01)
     for off in np.linspace(1.06, 1.25, 20):
         seeds = np.array([truth[0] * 1.01, truth[1] * off])
