@@ -343,7 +343,7 @@ def at_once(
             continue
         own = {label: mode for label, mode in data.modes.items() if picked.source.get(label) == name}
         unlabelled = data.unlabelled if name in picked.taken else []
-        out.append((name, replace(data, modes=own, unlabelled=unlabelled, mixed=data.mixed & own.keys())))
+        out.append((name, replace(data, modes=own, unlabelled=unlabelled, mixed=frozenset(data.mixed & own.keys()))))
     return out, notes
 
 

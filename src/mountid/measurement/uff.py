@@ -9,7 +9,7 @@ several inputs at once) is every run's coherence and marks the runs as one measu
 channel of a quantity mountid does not read (ordinate type: a pressure, a reaction force, a speed) is an error naming
 it, and left out by name (read_uff's ``ignore``). A file
 of several runs (the hits of a test one after another, a dataset per channel each; a roving test's, where a node and
-direction recurs) is read one run at a time. A file of mode shapes (datasets 55, no dataset 58) is a bench's table
+direction recurs) is read one run at a time. A file of mode shapes (datasets 55 or 2414, no 58) is a bench's table
 of modes, read by uff_modes; the geometry of both is uff_geometry's.
 The channel name is ID line 1; its point [m] and unit direction are ID line 4 (``mountid point=x,y,z dir=dx,dy,dz``),
 its quantity and unit ID line 5. The response node is the channel number; the response direction the
