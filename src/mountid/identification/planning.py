@@ -245,9 +245,10 @@ def plan_output_only(
     for i, label in enumerate(mod.MODES):
         p = poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))]
         rep = mod.REPRESENTATIVE[label]
-        if label not in found and rep in found:  # twins: the record shows one pole for both, labelled as one
-            found[label] = found[rep]
-        stds = np.median(np.array(found[label]), axis=0) if label in found else (math.nan, math.nan)
+        if label not in found:  # twins: the record shows one pole for both, labelled as one of them
+            twins = [v for other in mod.MODES if mod.REPRESENTATIVE[other] == rep for v in found.get(other, [])]
+            found[label] = twins
+        stds = np.median(np.array(found[label]), axis=0) if found[label] else (math.nan, math.nan)
         modes.append(
             ModePlan(
                 label,
