@@ -874,7 +874,7 @@ def _modes_from_records(
         collected += segments
         layouts |= {name: layout for name, _ in segments}
     # a file's inputs measured at once: one measurement, each mode from one input
-    collected, notes = at_once(machine, [(run, record) for *_, run, record in runs], collected, notes)
+    collected, notes = at_once(machine, [(run, record) for *_, run, record in runs], collected, notes, known)
     for name, data in collected:
         here = [replace(w, record=name) for w in data.warnings]
         warned += here

@@ -309,13 +309,16 @@ def at_once(
     records: Sequence[tuple[str, Record | ModeTable]],
     segments: list[tuple[str, ModalData]],
     notes: list[str],
+    known: dict[str, float],
+    nominal: dict[str, float] | None = None,
 ) -> tuple[list[tuple[str, ModalData]], list[str]]:
     """The ``segments`` (named decays) with each group of a file's inputs measured at once (their Lines.together: a
     bench's multiple coherence) reduced to one estimate per mode: each mode kept in the input whose frequency
     responses show it most strongly (references.strongest, the forces' levels taken as equal: the functions are per
     N and the file gives no force), left out of the others. Their estimates share the samples, and the weighted mean
-    of independent runs would claim a precision the measurement does not have. ``notes`` with one more per group."""
-    from mountid.identification.references import strongest
+    of independent runs would claim a precision the measurement does not have. ``notes`` with one more per group;
+    ``known`` and ``nominal`` the values the poles were labelled against (references.model_frequencies)."""
+    from mountid.identification.references import model_frequencies, strongest
 
     together = {
         name: record.impulse.together
@@ -326,7 +329,8 @@ def at_once(
     for name, data in segments:
         if name in together:
             groups.setdefault(together[name], []).append((name, data))
-    picks = {key: strongest(machine, group, dict.fromkeys(dict(group), 1.0)) for key, group in groups.items()}
+    omega = model_frequencies(machine, known, nominal) if groups else {}
+    picks = {key: strongest(machine, group, dict.fromkeys(dict(group), 1.0), omega) for key, group in groups.items()}
     for key, group in groups.items():
         if len(group) > 1:
             notes = [
@@ -334,6 +338,7 @@ def at_once(
                 f"{', '.join(dict(group))}: {key}: each mode from the input whose frequency responses show it most "
                 "strongly (the others' estimates share its samples; the forces' levels taken as equal): "
                 f"{picks[key].each}",
+                *picks[key].notes,
             ]
     out = []
     for name, data in segments:
@@ -378,7 +383,7 @@ def every_decay(
                 raise
             raise type(err)(err.parameter, f"{name}: {err.reason}") from None
         segments, said = [*segments, *decays], [*said, *notes]
-    segments, said = at_once(machine, records, segments, said)
+    segments, said = at_once(machine, records, segments, said, known, nominal)
     if not segments:
         raise NoModeFound("record", f"no mode in any of {counted(len(records), 'record')}: {'; '.join(said)}")
     if len(records) == 1 and len(segments) == 1:

@@ -938,10 +938,37 @@ def fit_damped_model(
     def damping_at(params: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
         return fit_damping(machine, {**known, **params}, modes, free) if free else ({}, {})
 
-    damping = held | damping_at(params)[0]
+    first, first_std = damping_at(params)
+    for name, value in first.items():
+        if not value > 0:  # the model cannot be evaluated with it: say why, not that a damping must be positive
+            unit = machine.parameters[name]["unit"]
+            raise InputError(
+                name,
+                f"the damping ratios of {', '.join(modes)} give {value:.4g} +- {first_std[name]:.2g} {unit}, no "
+                f"damping: they hardly determine it (it damps {', '.join(_damped_by(machine, known, params, name))} "
+                "most: measure one of them)",
+            )
+    damping = held | first
     params, stds, _ = fit_stiffness(machine, known, measured, others, damping, root=root)
     fitted, damping_std = damping_at(params)
     return DampedFit(params, stds, held | fitted, damping_std)
+
+
+def _damped_by(machine: Machine, known: dict[str, float], params: dict[str, float], name: str) -> list[str]:
+    """The modes whose modal damping phi^T B phi the damping parameter ``name`` gives half of or more at its nominal
+    value (the others at theirs; ``known`` and the fitted unknowns ``params``): the modes that determine it."""
+    mod = machine.module
+    needed = tuple(
+        dict.fromkeys(a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in mod.ARGUMENTS[f])
+    )
+    values = machine.values({**known, **params}, needed)
+    phi = mod.modal_matrix(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
+    damping = {a: values[a] for a in mod.ARGUMENTS["damping_matrix"]}
+    alone = {**damping, **{n: 0.0 for n in machine.damping if n in damping and n != name}}
+    share = np.diag(phi.T @ call(mod, "damping_matrix", alone) @ phi) / np.diag(
+        phi.T @ call(mod, "damping_matrix", damping) @ phi
+    )
+    return [label for label, s in zip(mod.MODES, share, strict=True) if s >= 0.5]
 
 
 def _exact_damping(

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import NoModeFound
-from mountid.identification.references import strongest
+from mountid.identification.references import model_frequencies, strongest
 from mountid.machine import Machine
 from mountid.measurement import ambient, modal
 from mountid.measurement.records import Record
@@ -82,7 +82,8 @@ def every_reference(
             )
         )
     found = explained or found
-    picked = strongest(machine, found, {name: 1.0 / float(np.std(si.channel(name))) for name in references})
+    levels = {name: 1.0 / float(np.std(si.channel(name))) for name in references}
+    picked = strongest(machine, found, levels, model_frequencies(machine, known, nominal))
     # the first reference's account of the correlation functions (the others' alike), then what each left out
     own = [f"{found[0][1].notes[0]} (the other references' alike)"]
     noise = [
@@ -107,7 +108,7 @@ def every_reference(
         modes=picked.modes,
         unlabelled=picked.unlabelled,
         warnings=warnings,
-        notes=(summary, *notes, *own),
+        notes=(summary, *picked.notes, *notes, *own),
         mixed=frozenset(),
         reference=picked.most,
     )

@@ -10,6 +10,7 @@ reference's uncertainty; twins (modes the model has equal by symmetry) come from
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -39,6 +40,65 @@ def strength(mode: MeasuredMode, level: float) -> float:
     return float(np.linalg.norm(mode.channels.amplitudes)) * level
 
 
+SAME_POLE = 2.0
+"""Two modes of different labels (not twins) picked from different references whose frequencies and damping ratios
+agree within this many combined standard deviations, with channel shapes of MAC SAME_SHAPE or more, are one pole
+found twice (one_pole_twice)."""
+
+SAME_SHAPE = 0.9
+"""The MAC of two picked modes' channel amplitudes from which they may be one pole (SAME_POLE)."""
+
+
+def model_frequencies(machine: Machine, known: dict[str, float], nominal: dict[str, float] | None) -> dict[str, float]:
+    """Each mode's natural frequency [rad/s] in the model the records chain labels poles against: ``known`` with the
+    unknowns' ``nominal`` values (the description's where not given)."""
+    mod = machine.module
+    omega = machine.evaluate("frequencies", machine.values({**known, **(nominal or {})}, mod.FORWARD_ARGUMENTS))
+    return dict(zip(mod.MODES, map(float, omega), strict=True))
+
+
+def one_pole_twice(
+    machine: Machine, modes: dict[str, MeasuredMode], omega: dict[str, float]
+) -> tuple[dict[str, MeasuredMode], list[str], list[str]]:
+    """The ``modes`` picked from several references without those that are another picked mode's pole again: two
+    modes of different labels (not twins) whose frequencies and damping ratios agree within SAME_POLE combined
+    standard deviations and whose channel amplitudes have a MAC of SAME_SHAPE or more are one pole, labelled one
+    way with one reference and the other way with another (kid300 with the paper's three channels, output-only,
+    seed 30: phi at 36.77 rad/s with B_y and "psi" at 36.93 with A_y, psi's model frequency 64.1). The label whose
+    model frequency (``omega`` [rad/s]) lies nearer it, in log frequency as the labelling weighs it, keeps it.
+    Returns the modes kept, the labels left out and a note for each."""
+    rep = machine.module.REPRESENTATIVE
+    dropped: list[str] = []
+    notes: list[str] = []
+    labels = list(modes)
+    for i, a in enumerate(labels):
+        for b in labels[i + 1 :]:
+            if rep[a] == rep[b] or a in dropped or b in dropped or not _one_pole(modes[a], modes[b]):
+                continue
+            keep, lose = sorted((a, b), key=lambda label: abs(math.log(modes[label].frequency / omega[label])))
+            dropped.append(lose)
+            notes.append(
+                f"{lose} left out: its pole ({modes[lose].frequency:.4g} rad/s, zeta {modes[lose].damping_ratio:.3g}) "
+                f"is {keep}'s ({modes[keep].frequency:.4g} rad/s) again, labelled {lose} with another reference "
+                f"(frequency and damping ratio within {SAME_POLE:g} standard deviations, channel shapes alike); "
+                f"{keep}'s model frequency {omega[keep]:.4g} rad/s lies nearer it than {lose}'s {omega[lose]:.4g}"
+            )
+    return {label: m for label, m in modes.items() if label not in dropped}, dropped, notes
+
+
+def _one_pole(a: MeasuredMode, b: MeasuredMode) -> bool:
+    """Whether two modes are one pole (one_pole_twice): frequency and damping ratio within SAME_POLE combined
+    standard deviations, channel amplitudes alike; False where either lacks what that takes."""
+    if a.channels is None or b.channels is None or a.damping_ratio is None or b.damping_ratio is None:
+        return False
+    if a.damping_std is None or b.damping_std is None or len(a.channels.amplitudes) != len(b.channels.amplitudes):
+        return False
+    apart = abs(a.frequency - b.frequency) / math.hypot(a.frequency_std, b.frequency_std)
+    damped = abs(a.damping_ratio - b.damping_ratio) / math.hypot(a.damping_std, b.damping_std)
+    alike = modal.mac(a.channels.amplitudes, b.channels.amplitudes) >= SAME_SHAPE
+    return apart < SAME_POLE and damped < SAME_POLE and alike
+
+
 class Picked(NamedTuple):
     """What strongest gives: the ``modes`` (in the model's order), the ``source`` of each (its reference), the
     references ``taken`` (in the order their first group was), the poles they left ``unlabelled``, which modes came
@@ -50,12 +110,17 @@ class Picked(NamedTuple):
     unlabelled: list[modal.Pole]
     each: str
     most: str
+    notes: tuple[str, ...] = ()
+    """What one_pole_twice left out, and why."""
 
 
-def strongest(machine: Machine, found: list[tuple[str, ModalData]], level: dict[str, float]) -> Picked:
+def strongest(
+    machine: Machine, found: list[tuple[str, ModalData]], level: dict[str, float], omega: dict[str, float]
+) -> Picked:
     """Each group of twins (or lone mode) of the fits ``found`` ((reference, modal data) in the order of the
     references) from the reference that gives most of the group, then shows it most strongly (strength, with the
-    reference's ``level``)."""
+    reference's ``level``); of two labels on one pole (one_pole_twice, with the model's frequencies ``omega``
+    [rad/s]) the one whose model frequency lies nearer."""
     rep = machine.module.REPRESENTATIVE
     source: dict[str, str] = {}
     for group in dict.fromkeys(rep[label] for _, data in found for label in data.modes):
@@ -68,6 +133,8 @@ def strongest(machine: Machine, found: list[tuple[str, ModalData]], level: dict[
         source |= {label: reference for label in data.modes if rep[label] == group}
     by_reference = dict(found)
     modes = {label: by_reference[source[label]].modes[label] for label in machine.module.MODES if label in source}
+    modes, dropped, notes = one_pole_twice(machine, modes, omega)
+    source = {label: reference for label, reference in source.items() if label not in dropped}
     taken = tuple(dict.fromkeys(source.values()))
     unlabelled = sorted(
         (p for reference in taken for p in by_reference[reference].unlabelled), key=lambda p: p.frequency
@@ -76,7 +143,7 @@ def strongest(machine: Machine, found: list[tuple[str, ModalData]], level: dict[
         f"{', '.join(label for label in modes if source[label] == reference)} from {reference}" for reference in taken
     )
     most = max(taken, key=lambda reference: sum(source[label] == reference for label in modes))
-    return Picked(modes, {label: source[label] for label in modes}, taken, unlabelled, each, most)
+    return Picked(modes, {label: source[label] for label in modes}, taken, unlabelled, each, most, tuple(notes))
 
 
 def every_input(
@@ -107,7 +174,8 @@ def every_input(
         raise NoModeFound(
             "record", f"{counted(len(si.forces), 'shaker')} at once: no damped mode in any force's ({'; '.join(notes)})"
         )
-    picked = strongest(machine, found, {force: float(np.std(si.channel(force))) for force in si.forces})
+    levels = {force: float(np.std(si.channel(force))) for force in si.forces}
+    picked = strongest(machine, found, levels, model_frequencies(machine, known, nominal))
     warnings = list(dict.fromkeys(w for _, data in found for w in data.warnings))
     by_force = dict(found)
     summary = (
@@ -120,7 +188,7 @@ def every_input(
         modes=picked.modes,
         unlabelled=picked.unlabelled,
         warnings=warnings,
-        notes=(summary, *notes, *chosen.notes),
+        notes=(summary, *picked.notes, *notes, *chosen.notes),
         mixed=frozenset(label for label in picked.modes if label in by_force[picked.source[label]].mixed),
         inputs=tuple(data.frf for _, data in found if data.frf is not None),
     )
