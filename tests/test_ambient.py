@@ -329,7 +329,7 @@ def test_one_pole_labelled_two_ways_by_two_references_is_one_mode():
     data = decays_of(rig.machine, record, TABLE_1, "record")[0][0][1]
     assert set(data.modes) == {"x", "phi"}
     [note] = [n for n in data.notes if n.startswith("psi left out: its pole (36.93 rad/s")]
-    assert "is phi's (36.77 rad/s) again, labelled psi with another reference" in note
+    assert "is phi's (36.77 rad/s) again, labelled psi in another fit" in note
     with pytest.raises(InputError, match=r"^b_z: the damping ratios of x, phi give .* they hardly determine it \(it "):
         identify_from_record(rig.machine, record, TABLE_1)
 

@@ -965,9 +965,9 @@ def _damped_by(machine: Machine, known: dict[str, float], params: dict[str, floa
     phi = mod.modal_matrix(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
     damping = {a: values[a] for a in mod.ARGUMENTS["damping_matrix"]}
     alone = {**damping, **{n: 0.0 for n in machine.damping if n in damping and n != name}}
-    share = np.diag(phi.T @ call(mod, "damping_matrix", alone) @ phi) / np.diag(
-        phi.T @ call(mod, "damping_matrix", damping) @ phi
-    )
+    own = np.diag(phi.T @ call(mod, "damping_matrix", alone) @ phi)
+    every = np.diag(phi.T @ call(mod, "damping_matrix", damping) @ phi)
+    share = np.divide(own, every, out=np.zeros_like(own), where=every > 0)
     return [label for label, s in zip(mod.MODES, share, strict=True) if s >= 0.5]
 
 

@@ -79,7 +79,7 @@ def one_pole_twice(
             dropped.append(lose)
             notes.append(
                 f"{lose} left out: its pole ({modes[lose].frequency:.4g} rad/s, zeta {modes[lose].damping_ratio:.3g}) "
-                f"is {keep}'s ({modes[keep].frequency:.4g} rad/s) again, labelled {lose} with another reference "
+                f"is {keep}'s ({modes[keep].frequency:.4g} rad/s) again, labelled {lose} in another fit "
                 f"(frequency and damping ratio within {SAME_POLE:g} standard deviations, channel shapes alike); "
                 f"{keep}'s model frequency {omega[keep]:.4g} rad/s lies nearer it than {lose}'s {omega[lose]:.4g}"
             )
