@@ -879,9 +879,7 @@ def fit_damping(
     mod = machine.module
     if len(modes) < len(names):
         raise InputError("damping", f"{len(modes)} damping ratios for {len(names)} damping parameters")
-    needed = tuple(
-        dict.fromkeys(a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in mod.ARGUMENTS[f])
-    )
+    needed = _matrix_arguments(machine)
     values = machine.values({n: 1.0 for n in names} | parameters, needed)  # ``names``' values are not read
     args = {a: values[a] for a in mod.FORWARD_ARGUMENTS}
     phi, lam = mod.modal_matrix(**args), np.asarray(mod.squared_frequencies(**args))
@@ -954,13 +952,19 @@ def fit_damped_model(
     return DampedFit(params, stds, held | fitted, damping_std)
 
 
+def _matrix_arguments(machine: Machine) -> tuple[str, ...]:
+    """The arguments of the description's mass, stiffness and damping matrices, each once."""
+    mod = machine.module
+    return tuple(
+        dict.fromkeys(a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in mod.ARGUMENTS[f])
+    )
+
+
 def _damped_by(machine: Machine, known: dict[str, float], params: dict[str, float], name: str) -> list[str]:
     """The modes whose modal damping phi^T B phi the damping parameter ``name`` gives half of or more at its nominal
     value (the others at theirs; ``known`` and the fitted unknowns ``params``): the modes that determine it."""
     mod = machine.module
-    needed = tuple(
-        dict.fromkeys(a for f in ("mass_matrix", "stiffness_matrix", "damping_matrix") for a in mod.ARGUMENTS[f])
-    )
+    needed = _matrix_arguments(machine)
     values = machine.values({**known, **params}, needed)
     phi = mod.modal_matrix(**{a: values[a] for a in mod.FORWARD_ARGUMENTS})
     damping = {a: values[a] for a in mod.ARGUMENTS["damping_matrix"]}
