@@ -317,8 +317,9 @@ def at_once(
     responses show it most strongly (references.strongest, the forces' levels taken as equal: the functions are per
     N and the file gives no force), left out of the others. Their estimates share the samples, and the weighted mean
     of independent runs would claim a precision the measurement does not have. ``notes`` with one more per group;
-    ``known`` and ``nominal`` the values the poles were labelled against (references.model_frequencies)."""
-    from mountid.identification.references import model_frequencies, strongest
+    ``known`` and ``nominal`` the values the poles were labelled against (the model's frequencies at them decide
+    which label one pole found twice keeps: references.one_pole_twice)."""
+    from mountid.identification.references import strongest
 
     together = {
         name: record.impulse.together
@@ -329,7 +330,7 @@ def at_once(
     for name, data in segments:
         if name in together:
             groups.setdefault(together[name], []).append((name, data))
-    omega = model_frequencies(machine, known, nominal) if groups else {}
+    omega = machine.frequencies({**known, **(nominal or {})}) if groups else {}
     picks = {key: strongest(machine, group, dict.fromkeys(dict(group), 1.0), omega) for key, group in groups.items()}
     for key, group in groups.items():
         if len(group) > 1:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import NoModeFound
-from mountid.identification.references import model_frequencies, strongest
+from mountid.identification.references import strongest
 from mountid.machine import Machine
 from mountid.measurement import ambient, modal
 from mountid.measurement.records import Record
@@ -83,7 +83,7 @@ def every_reference(
         )
     found = explained or found
     levels = {name: 1.0 / float(np.std(si.channel(name))) for name in references}
-    picked = strongest(machine, found, levels, model_frequencies(machine, known, nominal))
+    picked = strongest(machine, found, levels, machine.frequencies({**known, **(nominal or {})}))
     # the first reference's account of the correlation functions (the others' alike), then what each left out
     own = [f"{found[0][1].notes[0]} (the other references' alike)"]
     noise = [

@@ -124,12 +124,10 @@ def plan(
     decay [s] (default: 20 ms after the hit ends)."""
     rig = Rig.of(machine, values)
     mod = machine.module
-    phi, lam, seen, in_band = _layout(rig, sensors, rate)
+    phi, label_pole, seen, in_band = _layout(rig, sensors, rate)
     force = np.abs(phi.T @ rig.force_column(hammer.point, hammer.direction))
     excited = force >= OBSERVABLE * max(force.max(), 1e-300)
 
-    poles = rig.poles[rig.poles.imag > 0]
-    label_pole = {lab: poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))] for i, lab in enumerate(mod.MODES)}
     # the record shows one pole per distinct frequency (twins are one exponential): the measured labels
     measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i] and in_band[i]]
     distinct: dict[str, complex] = {}
@@ -139,7 +137,7 @@ def plan(
 
     clean = rig.simulate([Sensor(s.name, s.point, s.direction) for s in sensors], duration, rate, [hammer])
     begin = hammer.time + hammer.duration + 0.02 if start is None else start
-    top = float(np.max(np.abs(poles)))
+    top = float(np.max(np.abs(rig.poles)))
     dt, samples = modal.decimated(clean, begin, 2.0 * top)
     if len(samples) < 8:
         raise InputError("duration", f"{duration:g} s leaves no free decay after {begin:g} s")
@@ -169,16 +167,8 @@ def plan(
             )
         )
 
-    notes = []
-    parameter_std = {u: math.nan for u in machine.unknown}
-    frequencies = {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}
-    known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
-    damping = {n: rig.values[n] for n in machine.damping}
-    try:
-        rule = getattr(mod, "ROOT_RULE", "") or None
-        _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
-    except InputError as err:  # the plan says why it cannot give the stiffness spread
-        notes.append(f"no stiffness standard deviation: {err}")
+    notes: list[str] = []
+    parameter_std = _stiffness_spread(rig, {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}, notes)
     slowest = rig.slowest_decay()
     if math.isfinite(slowest):
         need = frf.shaker_lengths(slowest)
@@ -239,15 +229,13 @@ def plan_output_only(
             continue
         for label, mode in data.modes.items():
             found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
-    phi, lam, seen, in_band = _layout(rig, sensors, rate)
-    poles = rig.poles[rig.poles.imag > 0]
+    phi, label_pole, seen, in_band = _layout(rig, sensors, rate)
     modes, frequencies = [], {}
     for i, label in enumerate(mod.MODES):
-        p = poles[np.argmin(np.abs(np.abs(poles) - math.sqrt(lam[i])))]
+        p = label_pole[label]
         rep = mod.REPRESENTATIVE[label]
         if label not in found:  # twins: the record shows one pole for both, labelled as one of them
-            twins = [v for other in mod.MODES if mod.REPRESENTATIVE[other] == rep for v in found.get(other, [])]
-            found[label] = twins
+            found[label] = [v for other in mod.MODES if mod.REPRESENTATIVE[other] == rep for v in found.get(other, [])]
         stds = np.median(np.array(found[label]), axis=0) if found[label] else (math.nan, math.nan)
         modes.append(
             ModePlan(
@@ -260,18 +248,12 @@ def plan_output_only(
                 float(stds[1]),
                 rep,
                 bool(in_band[i]),
-                found=(len(found.get(label, [])), draws),
+                found=(len(found[label]), draws),
             )
         )
-        if 2 * len(found.get(label, [])) >= draws and rep not in frequencies:
+        if 2 * len(found[label]) >= draws and rep not in frequencies:
             frequencies[rep] = (float(abs(p)), float(stds[0]))
-    parameter_std = {u: math.nan for u in machine.unknown}
-    try:
-        rule = getattr(mod, "ROOT_RULE", "") or None
-        damping = {n: rig.values[n] for n in machine.damping}
-        _, parameter_std, _ = fit_stiffness(machine, known, frequencies, damping=damping, root=rule)
-    except InputError as err:
-        notes.append(f"no stiffness standard deviation: {err}")
+    parameter_std = _stiffness_spread(rig, frequencies, notes)
     notes.insert(
         0,
         f"simulated: {counted(draws, 'record')} of {duration:g} s at {rate:g} Hz under random forces of {level:g} N "
@@ -282,18 +264,39 @@ def plan_output_only(
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
 
 
-def _layout(rig: Rig, sensors: list[Sensor], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The rig's modal matrix (6, modes; in the order of MODES) and squared frequencies, which modes the ``sensors``
-    see (each reads OBSERVABLE of a mode's largest motion or more) and which lie below the anti-alias corner of a
-    record at ``rate`` [Hz]."""
+def _layout(
+    rig: Rig, sensors: list[Sensor], rate: float
+) -> tuple[np.ndarray, dict[str, complex], np.ndarray, np.ndarray]:
+    """The rig's modal matrix (6, modes; in the order of MODES), each mode's pole (Im p > 0: the rig's nearest its
+    undamped frequency), which modes the ``sensors`` see (each reads OBSERVABLE of a mode's largest motion or more)
+    and which lie below the anti-alias corner of a record at ``rate`` [Hz]."""
     mod = rig.machine.module
     fwd = {a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}
     phi = np.asarray(mod.modal_matrix(**fwd))
     rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
     reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
     seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
-    lam = np.asarray(mod.squared_frequencies(**fwd))
-    return phi, lam, seen, np.sqrt(np.abs(lam)) / (2 * np.pi) < ANTI_ALIAS * rate
+    omega = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**fwd))))
+    poles = rig.poles[rig.poles.imag > 0]
+    label_pole = {
+        label: complex(poles[np.argmin(np.abs(np.abs(poles) - w))]) for label, w in zip(mod.MODES, omega, strict=True)
+    }
+    return phi, label_pole, seen, omega / (2 * np.pi) < ANTI_ALIAS * rate
+
+
+def _stiffness_spread(rig: Rig, frequencies: dict[str, tuple[float, float]], notes: list[str]) -> dict[str, float]:
+    """Each unknown's standard deviation from the records chain's stiffness fit (from_records.fit_stiffness, the
+    description's root rule, the rig's damping) to the pole ``frequencies`` {label: (|p|, std)} [rad/s]; NaN with a
+    note appended to ``notes`` where the fit cannot give it."""
+    machine = rig.machine
+    known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
+    damping = {n: rig.values[n] for n in machine.damping}
+    try:
+        rule = getattr(machine.module, "ROOT_RULE", "") or None
+        return fit_stiffness(machine, known, frequencies, damping=damping, root=rule)[1]
+    except InputError as err:  # the plan says why it cannot give the stiffness spread
+        notes.append(f"no stiffness standard deviation: {err}")
+        return {u: math.nan for u in machine.unknown}
 
 
 def effective_independence(rig: Rig, sensors: list[Sensor], phi: np.ndarray) -> list[tuple[str, float]]:

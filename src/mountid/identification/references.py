@@ -49,14 +49,6 @@ SAME_SHAPE = 0.9
 """The MAC of two picked modes' channel amplitudes from which they may be one pole (SAME_POLE)."""
 
 
-def model_frequencies(machine: Machine, known: dict[str, float], nominal: dict[str, float] | None) -> dict[str, float]:
-    """Each mode's natural frequency [rad/s] in the model the records chain labels poles against: ``known`` with the
-    unknowns' ``nominal`` values (the description's where not given)."""
-    mod = machine.module
-    omega = machine.evaluate("frequencies", machine.values({**known, **(nominal or {})}, mod.FORWARD_ARGUMENTS))
-    return dict(zip(mod.MODES, map(float, omega), strict=True))
-
-
 def one_pole_twice(
     machine: Machine, modes: dict[str, MeasuredMode], omega: dict[str, float]
 ) -> tuple[dict[str, MeasuredMode], list[str], list[str]]:
@@ -175,7 +167,7 @@ def every_input(
             "record", f"{counted(len(si.forces), 'shaker')} at once: no damped mode in any force's ({'; '.join(notes)})"
         )
     levels = {force: float(np.std(si.channel(force))) for force in si.forces}
-    picked = strongest(machine, found, levels, model_frequencies(machine, known, nominal))
+    picked = strongest(machine, found, levels, machine.frequencies({**known, **(nominal or {})}))
     warnings = list(dict.fromkeys(w for _, data in found for w in data.warnings))
     by_force = dict(found)
     summary = (

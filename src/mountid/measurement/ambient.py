@@ -141,7 +141,13 @@ def shortest_record(lowest: float, min_periods: float, segments: int = SEGMENTS,
     share)."""
     if rate is None:
         return segments * shortest_lags(lowest, min_periods) / LAG_SHARE
-    return segments * lags_reaching(shortest_lags(lowest, min_periods), rate) / (rate * LAG_SHARE)
+    return _record_reaching(shortest_lags(lowest, min_periods), rate, segments)
+
+
+def _record_reaching(lag: float, rate: float, segments: int) -> float:
+    """[s] The shortest record at ``rate`` [Hz] whose ``segments`` segments give correlation functions to ``lag`` [s]
+    (lags_reaching of them, LAG_SHARE of a segment)."""
+    return segments * lags_reaching(lag, rate) / (rate * LAG_SHARE)
 
 
 def lags_reaching(lag: float, rate: float) -> int:
@@ -207,7 +213,7 @@ def correlations(record: Record, reference: str, min_lag: float = 0.0, segments:
     longest = max(8, int(LAG_SHARE * n))
     reaching = lags_reaching(min_lag, rate)
     if longest < reaching:
-        needed = segments * reaching / (rate * LAG_SHARE)  # shortest_record's at this rate
+        needed = _record_reaching(min_lag, rate, segments)
         raise InputError(
             "record",
             f"too short for output-only data: {len(data) / rate:.4g} s in {segments} segments gives correlation "
