@@ -13,8 +13,10 @@ import pytest
 from mountid.cli import main
 from mountid.errors import InputError
 from mountid.identification.combination import decays_of
-from mountid.identification.from_records import identify_from_record, modal_data
+from mountid.identification.from_records import _identify, fit_damped_model, identify_from_record, modal_data
+from mountid.machine import Machine
 from mountid.measurement import ambient
+from mountid.measurement.modes import MeasuredMode
 from mountid.measurement.records import Record
 from mountid.measurement.rig import Rig, Unbalance, ambient_forces
 from mountid.validation.paper import PUBLISHED_STIFFNESS, TABLE_1, TRUE_DAMPING, paper_hit, paper_sensors
@@ -358,3 +360,99 @@ def test_two_modes_apart_in_shape_are_not_one_pole():
     assert one_pole_twice(machine, twins, omega)[1] == []
     bare = {label: MeasuredMode(label, 36.9, 0.5, damping_ratio=0.08, damping_std=0.01) for label in ("psi", "phi")}
     assert one_pole_twice(machine, bare, omega)[1] == []
+
+
+def test_a_damping_the_modes_found_hardly_determine_is_named_with_the_modes_it_damps():
+    """x and phi alone (an output-only record of the paper's three channels) hardly determine b_z: where their
+    damping ratios give it below zero the error says so, which modes it damps, which to measure, and that a known
+    value holds it; a little less damping of phi gives it positive, with its deviation."""
+    machine = Machine.resolve("kid300")
+
+    def fit(zeta_phi):
+        modes = {
+            "x": MeasuredMode("x", 17.72, 0.09, damping_ratio=0.0338, damping_std=0.0034),
+            "phi": MeasuredMode("phi", 36.93, 0.19, damping_ratio=zeta_phi, damping_std=0.0041),
+        }
+        measured = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
+        return fit_damped_model(machine, TABLE_1, measured, modes, ("b_xy", "b_z"))
+
+    with pytest.raises(InputError, match=r"^b_z: the damping ratios of x, phi give -1197 \+- 1.7e\+03 N s/m, no damp"):
+        fit(0.087)
+    with pytest.raises(InputError, match=r"it gives half or more of the damping of z 100%, psi 77%, theta 77%: measu"):
+        fit(0.087)
+    with pytest.raises(InputError, match=r"measure z or psi or theta, or give it as a known value to hold it there\)$"):
+        fit(0.087)
+    fitted = fit(0.08)
+    assert 0 < fitted.damping["b_z"] < fitted.damping_std["b_z"]
+
+
+# screen6's output-only record of the default channels, 1200 s, seed 1 (mountid simulate ... --ambient 100): label:
+# (|p| [rad/s], its std, zeta, its std); theta not found
+SCREEN6_MODES = {
+    "x": (17.833, 0.11, 0.0532, 0.0054),
+    "y": (17.699, 0.094, 0.0484, 0.0048),
+    "z": (34.886, 0.329, 0.1076, 0.0036),
+    "psi": (50.347, 1.405, 0.1288, 0.0278),
+    "phi": (27.143, 0.133, 0.0859, 0.0092),
+}
+
+
+def _screen6_modes():
+    return {
+        label: MeasuredMode(label, f, f_std, damping_ratio=z, damping_std=z_std)
+        for label, (f, f_std, z, z_std) in SCREEN6_MODES.items()
+    }
+
+
+def test_a_damping_no_mode_takes_half_of_is_named_with_the_modes_it_damps_most():
+    """screen6's b_m (two middle isolators beside four corners) gives no mode half its damping (z 26 %, psi 20 % at
+    most): from the five modes of an output-only record it came out -2.3e4 +- 2.4e4 N s/m, and the error said "it
+    damps  most: measure one of them" (no mode, and z and psi were measured). It names the two it damps most and
+    says how to go on: give it as a known value, which holds it there (a note says so) and fits the others."""
+    machine = Machine.resolve("screen6")
+    with pytest.raises(
+        InputError, match=r"^b_m: .*no mode half its damping, z 26%, psi 20% the most: each of them meas"
+    ):
+        _identify(machine, {}, _screen6_modes(), [], [], None, None, [])
+    held = _identify(machine, {"b_m": 2000.0}, _screen6_modes(), [], [], None, None, [])
+    assert set(held.damping) == set(held.damping_std) == {"b_h", "b_v"}
+    assert "damping held at the known values given, not fitted: b_m = 2000 N s/m" in held.notes
+    assert held.damping["b_v"] > 3 * held.damping_std["b_v"]
+
+
+def test_too_few_modes_for_the_unknowns_names_what_the_record_gave_and_lacks():
+    """screen6's output-only record of seed 2 gave x and z (its x and y merged into one pole with C_x, the other
+    references unexplained): three unknowns need three distinct frequencies, and the error said "measured: 2
+    distinct frequencies found for 3 unknowns". It names the record, the modes found and those not found; with
+    --use, the record's other modes."""
+    machine = Machine.resolve("screen6")
+    modes = _screen6_modes()
+    two = {label: modes[label] for label in ("x", "z")}
+    with pytest.raises(InputError) as err:
+        _identify(machine, {}, two, [], [], None, None, [])
+    assert str(err.value) == (
+        "record: 2 distinct frequencies (x, z) for 3 unknowns (c_h, c_v, c_m); not found in the record: y, psi, "
+        "theta, phi (a longer record, or channels and an excitation that show them)"
+    )
+    with pytest.raises(InputError, match=r"^use: 2 distinct .* the record's modes are x, y, z, psi, phi: use more of"):
+        _identify(machine, {"b_m": 2000.0}, modes, [], [], ("x", "z"), None, [])
+
+
+def test_an_output_only_record_of_too_few_modes_says_so_on_the_command_line(tmp_path, capsys):
+    """screen6, output-only, the default channels, 1200 s, seed 2: x and z found (A_x's correlation functions give
+    no mode, C_x's one pole of x and y merged, A_y's and B_y's fits leave 82 % unexplained). identify-record ends
+    in one line naming the record, what it gave and lacks; a reference with no mode is noted as one whose
+    correlation functions give none (it said "in the free decay (check start, ...)")."""
+    from mountid.measurement.records import read_csv
+
+    path = str(tmp_path / "screen6.csv")
+    argv = ["simulate", "screen6", "--out", path, "--ambient", "100", "--duration", "1200", "--rate", "100"]
+    assert main([*argv, "--seed", "2"]) == 0
+    capsys.readouterr()
+    assert main(["identify-record", "screen6", path]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "record: 2 distinct frequencies (x, z) for 3 unknowns" in err
+    data = decays_of(Machine.resolve("screen6"), read_csv(path), {}, "r")[0][0][1]
+    assert "with A_x as the reference no mode: no damped mode found in the correlation functions" in " ".join(
+        data.notes
+    )

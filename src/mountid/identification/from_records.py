@@ -943,8 +943,7 @@ def fit_damped_model(
             raise InputError(
                 name,
                 f"the damping ratios of {', '.join(modes)} give {value:.4g} +- {first_std[name]:.2g} {unit}, no "
-                f"damping: they hardly determine it (it damps {', '.join(_damped_by(machine, known, params, name))} "
-                "most: measure one of them)",
+                f"damping: they hardly determine it ({_damped_by(machine, known, params, name, modes)})",
             )
     damping = held | first
     params, stds, _ = fit_stiffness(machine, known, measured, others, damping, root=root)
@@ -960,9 +959,14 @@ def _matrix_arguments(machine: Machine) -> tuple[str, ...]:
     )
 
 
-def _damped_by(machine: Machine, known: dict[str, float], params: dict[str, float], name: str) -> list[str]:
-    """The modes whose modal damping phi^T B phi the damping parameter ``name`` gives half of or more at its nominal
-    value (the others at theirs; ``known`` and the fitted unknowns ``params``): the modes that determine it."""
+def _damped_by(
+    machine: Machine, known: dict[str, float], params: dict[str, float], name: str, measured: Iterable[str]
+) -> str:
+    """Which modes determine the damping parameter ``name``, said for an error: the modes whose modal damping
+    phi^T B phi it gives half of or more at its nominal value (the others at theirs; ``known`` and the fitted
+    unknowns ``params``), else the two it gives most of (screen6's b_m, two middle isolators beside four damper
+    corners, gives 26 % of z's and 20 % of psi's at most), each with its share, and of them the ones not among the
+    ``measured`` modes to measure."""
     mod = machine.module
     needed = _matrix_arguments(machine)
     values = machine.values({**known, **params}, needed)
@@ -971,8 +975,14 @@ def _damped_by(machine: Machine, known: dict[str, float], params: dict[str, floa
     alone = {**damping, **{n: 0.0 for n in machine.damping if n in damping and n != name}}
     own = np.diag(phi.T @ call(mod, "damping_matrix", alone) @ phi)
     every = np.diag(phi.T @ call(mod, "damping_matrix", damping) @ phi)
-    share = np.divide(own, every, out=np.zeros_like(own), where=every > 0)
-    return [label for label, s in zip(mod.MODES, share, strict=True) if s >= 0.5]
+    share = dict(zip(mod.MODES, np.divide(own, every, out=np.zeros_like(own), where=every > 0), strict=True))
+    half = [label for label, s in share.items() if s >= 0.5]
+    most = half or sorted(share, key=share.get, reverse=True)[:2]
+    shares = ", ".join(f"{label} {share[label]:.0%}" for label in most)
+    which = f"half or more of the damping of {shares}" if half else f"no mode half its damping, {shares} the most"
+    missing = [label for label in most if label not in set(measured)]
+    advice = f"measure {' or '.join(missing)}, or" if missing else "each of them measured;"
+    return f"it gives {which}: {advice} give it as a known value to hold it there"
 
 
 def _exact_damping(
@@ -1288,10 +1298,12 @@ def modal_data(
     # correlation functions hold the estimate's noise out to their last lag: their share unexplained says no more
     warnings += [w for w in checked if correlated is None or w.kind != "unexplained"]
     if not labelled:
-        raise with_warnings(
-            NoModeFound("record", "no damped mode found in the free decay (check start, channels and excitation)"),
-            warnings,
+        found_in = (
+            "the correlation functions (a longer record, or channels that see the modes)"
+            if correlated is not None
+            else "the free decay (check start, channels and excitation)"
         )
+        raise with_warnings(NoModeFound("record", f"no damped mode found in {found_in}"), warnings)
     if estimate is not None and len(estimate.hits) > 1:
         at = estimate.at
         warnings += _coherence_warnings(lambda w: at(w)[1], labelled, settings, f"{len(estimate.hits)} hits")
@@ -1564,6 +1576,27 @@ def identify_from_records(
     )
 
 
+def _check_enough(machine: Machine, fitted: dict, found: dict, chosen: bool) -> None:
+    """An error naming what the record gave, what it did not and what to do, where the modes ``fitted`` (``found``
+    in the record, ``chosen`` by --use or all) give fewer distinct frequencies than the machine has unknowns (it
+    said "measured: 2 distinct frequencies found for 3 unknowns")."""
+    unique, unknown = machine.module.UNIQUE_MODES, machine.unknown
+    distinct = [label for label in unique if label in fitted]
+    if len(distinct) >= len(unknown):
+        return
+    missing = [label for label in unique if label not in found]
+    given = f"{distinct_frequencies(len(distinct))} ({', '.join(distinct)})" if distinct else "no distinct frequency"
+    tail = (
+        f"the record's modes are {', '.join(found)}: use more of them"
+        if chosen and len(found) > len(distinct)
+        else f"not found in the record: {', '.join(missing)} (a longer record, or channels and an excitation that "
+        "show them)"
+    )
+    raise InputError(
+        "use" if chosen else "record", f"{given} for {len(unknown)} unknowns ({', '.join(unknown)}); {tail}"
+    )
+
+
 def with_warnings(
     error: InputError, warnings: list[modal.QualityWarning], shows: str = "the record also shows"
 ) -> InputError:
@@ -1599,10 +1632,18 @@ def _identify(
         chosen = {lab: modes[lab] for lab in use}
     pairs = {k: (m.frequency, m.frequency_std) for k, m in modes.items()}
     fitted, others = {k: pairs[k] for k in chosen}, {k: v for k, v in pairs.items() if k not in chosen}
-    damping_names = machine.damping
+    _check_enough(machine, fitted, modes, use is not None)
     # the record shows damped poles: undamped fit first, then damping, then the stiffness refitted to the
     # damped model's |p| (the shift is second order in damping: one more round changes nothing measurable)
     notes = list(notes)
+    # a damping parameter given as a known value is held there (one the modes found hardly determine)
+    damping_names = tuple(n for n in machine.damping if n not in known)
+    held = [n for n in machine.damping if n in known]
+    if held:
+        notes.append(
+            "damping held at the known values given, not fitted: "
+            + ", ".join(f"{n} = {known[n]:.6g} {machine.parameters[n]['unit']}" for n in held)
+        )
     if root is None and getattr(machine.module, "ROOT_RULE", ""):
         root = machine.module.ROOT_RULE  # the description's physical rule, unless the caller gave one
         source = f"the rule of the description {machine.name} ({root})"
@@ -1620,5 +1661,6 @@ def _identify(
         params, stds, damping, damping_std = fit_damped_model(
             machine, known, fitted, modes, damping_names, others, root=root, notes=notes, rule_source=source
         )
+        damping = {n: v for n, v in damping.items() if n in damping_names}  # the held ones are the caller's
     freqs = machine.frequencies({**known, **params})
     return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings, notes)
