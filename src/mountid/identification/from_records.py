@@ -264,11 +264,13 @@ def label_poles(
 def _strays(machine: Machine, omega: np.ndarray, labelled: dict[str, tuple[modal.Pole, float]]) -> list[str]:
     """The labels whose pole is a stray beside another labelled mode's pole: it lies nearer that mode's nominal
     frequency (``omega`` [rad/s], in the model's order) than its own label's, that mode's pole nearer still, within
-    that pole's half-power half-width (zeta |p|), and the two channel shapes alike (MAC references.SAME_SHAPE or
-    more). Where the channels hardly tell two modes apart the one-to-one assignment gives a pole of the estimate's
-    noise beside a mode the label of a mode the record did not show (kid300's five channels, output-only, 1170 s,
-    seed 26: a second pole beside psi's 65.44 rad/s, at 67.38, MAC 0.95 with it, was labelled z, whose nominal
-    frequency is 47.5; a diagnosis of the nominal machine said "not explained")."""
+    that pole's half-power half-width (zeta |p|), the two channel shapes alike (MAC references.SAME_SHAPE or more),
+    and that pole fits its label's channel shape as well or better (the MAC of ``labelled``: of two alike poles of a
+    heavily damped pair, screen6's theta at 47.28 rad/s, MAC 0.82, beside a pole labelled psi at 49.34, MAC 0.19,
+    theta's is no stray). Where the channels hardly tell two modes apart the one-to-one assignment gives a pole of
+    the estimate's noise beside a mode the label of a mode the record did not show (kid300's five channels,
+    output-only, 1170 s, seed 26: a second pole beside psi's 65.44 rad/s, at 67.38, MAC 0.95 with it, was labelled
+    z, whose nominal frequency is 47.5; a diagnosis of the nominal machine said "not explained")."""
     mod = machine.module
     rep = mod.REPRESENTATIVE
 
@@ -276,13 +278,14 @@ def _strays(machine: Machine, omega: np.ndarray, labelled: dict[str, tuple[modal
         return abs(math.log(frequency / omega[mod.MODES.index(label)]))
 
     strays: list[str] = []
-    for label, (pole, _) in labelled.items():
-        for other, (beside, _) in labelled.items():
+    for label, (pole, fits) in labelled.items():
+        for other, (beside, fits_beside) in labelled.items():
             if rep[other] == rep[label] or other in strays:
                 continue
             near = away(pole.frequency, other)
             if (
-                near < away(pole.frequency, label)
+                fits_beside >= fits
+                and near < away(pole.frequency, label)
                 and away(beside.frequency, other) < near
                 and abs(pole.frequency - beside.frequency) <= beside.damping_ratio * beside.frequency
                 and modal.mac(pole.shape, beside.shape) >= SAME_SHAPE
@@ -998,7 +1001,7 @@ def _damped_by(
 ) -> str:
     """Which modes determine the damping parameter ``name``, said for an error: the modes whose modal damping
     phi^T B phi it gives half of or more at its nominal value (the others at theirs; ``known`` and the fitted
-    unknowns ``params``), else the two it gives most of (screen6's b_m, two middle isolators beside four damper
+    unknowns ``params``), else the two it gives most of (screen6's b_m, two middle isolators beside four
     corners, gives 26 % of z's and 20 % of psi's at most), each with its share, and of them the ones not among the
     ``measured`` modes to measure."""
     mod = machine.module
@@ -1610,7 +1613,9 @@ def identify_from_records(
     )
 
 
-def _check_enough(machine: Machine, fitted: dict, found: dict, chosen: bool) -> None:
+def _check_enough(
+    machine: Machine, fitted: dict[str, tuple[float, float]], found: dict[str, MeasuredMode], chosen: bool
+) -> None:
     """An error naming what the record gave, what it did not and what to do, where the modes ``fitted`` (``found``
     in the record, ``chosen`` by --use or all) give fewer distinct frequencies than the machine has unknowns (it
     said "measured: 2 distinct frequencies found for 3 unknowns")."""
