@@ -424,6 +424,23 @@ def test_a_damping_the_modes_found_hardly_determine_is_named_with_the_modes_it_d
     assert 0 < fitted.damping["b_z"] < fitted.damping_std["b_z"]
 
 
+def test_a_damping_held_at_a_known_value_is_not_among_the_fitted():
+    """fit_damped_model fits only the damping parameters ``free``: one held at a known value is used, not returned
+    (the caller gave it), and the fitted one moves with it."""
+    machine = Machine.resolve("kid300")
+    modes = {
+        label: MeasuredMode(label, f, 0.01 * f, damping_ratio=z, damping_std=0.1 * z)
+        for label, f, z in (("x", 17.72, 0.0338), ("phi", 36.93, 0.08), ("z", 47.5, 0.1))
+    }
+    measured = {label: (m.frequency, m.frequency_std) for label, m in modes.items()}
+    fits = [
+        fit_damped_model(machine, {**TABLE_1, "b_xy": b_xy}, measured, modes, ("b_z",)) for b_xy in (1000.0, 2000.0)
+    ]
+    assert [tuple(f.damping) for f in fits] == [("b_z",), ("b_z",)]
+    assert [tuple(f.damping_std) for f in fits] == [("b_z",), ("b_z",)]
+    assert fits[0].damping["b_z"] != pytest.approx(fits[1].damping["b_z"], rel=1e-3)
+
+
 # screen6's output-only record of the default channels, 1200 s, seed 1 (mountid simulate ... --ambient 100): label:
 # (|p| [rad/s], its std, zeta, its std); theta not found
 SCREEN6_MODES = {

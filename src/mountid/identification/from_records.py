@@ -942,7 +942,8 @@ def fit_damping(
 
 
 class DampedFit(NamedTuple):
-    """fit_damped_model's result: the unknowns and the damping parameters fitted, with their standard deviations."""
+    """fit_damped_model's result: the unknowns and the damping parameters fitted (``free``; not the held ones),
+    with their standard deviations."""
 
     params: dict[str, float]
     stds: dict[str, float]
@@ -985,7 +986,7 @@ def fit_damped_model(
     damping = held | first
     params, stds, _ = fit_stiffness(machine, known, measured, others, damping, root=root)
     fitted, damping_std = damping_at(params)
-    return DampedFit(params, stds, held | fitted, damping_std)
+    return DampedFit(params, stds, fitted, damping_std)
 
 
 def _matrix_arguments(machine: Machine) -> tuple[str, ...]:
@@ -1700,6 +1701,5 @@ def _identify(
         params, stds, damping, damping_std = fit_damped_model(
             machine, known, fitted, modes, damping_names, others, root=root, notes=notes, rule_source=source
         )
-        damping = {n: v for n, v in damping.items() if n in damping_names}  # the held ones are the caller's
     freqs = machine.frequencies({**known, **params})
     return Identification(modes, params, stds, damping, damping_std, freqs, rest, warnings, notes)
