@@ -86,6 +86,18 @@ CASES = [
         ["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--shaker-random", "--shaker-burst", "0.5"],
         "--shaker-random: and --shaker-burst are two",
     ),
+    # a hit's options beside a test without hits: refused, not ignored (a shaker takes the point and direction)
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "113", "--hit-point", "0,0,0"], "--hit-point: is a hit"),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--speed", "113", "--hit-time", "0.2"], "--hit-time: is a hit's:"),
+    (
+        ["simulate", "kid300", "--out", "{d}/x.csv", "--ambient", "100", "--hit-direction", "1,0,0"],
+        "--hit-direction: is a hit's: --ambient gives a test without hits, where it would be ignored",
+    ),
+    (["simulate", "kid300", "--out", "{d}/x.csv", "--ambient", "100", "--hit-peak", "20"], "--hit-peak: is a hit's"),
+    (
+        ["simulate", "kid300", "--out", "{d}/x.csv", "--shaker", "1", "20", "--duration", "40", "--hit-peak", "20"],
+        "--hit-peak: is a hit's: --shaker gives",
+    ),
     # several hits of one hammer: in increasing order, each after the pulse before
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "0.5"], "--hit-time: 0.5 s is not after the hit"),
     (["simulate", "kid300", "--out", "{d}/x.csv", "--hit-time", "1", "1.002"], "--hit-time: 1.002 s is not after"),

@@ -255,6 +255,12 @@ def test_plan_and_simulate_say_where_the_papers_default_channels_and_hit_are(cap
     assert main(["simulate", "genset8", "--out", str(tmp_path / "g.csv"), "--json", "--hit-point", "1,0.2,0.3"]) == 0
     (note,) = json.loads(capsys.readouterr().out)["notes"]
     assert note.startswith("the paper's channels A_x at (0.45, 0.0, 0.1)") and "hit at" not in note
+    assert note.endswith("points of KID-300, not of genset8 (--sensor gives its own)")
+    # an output-only record has no hit: its note names the channels alone (it named the paper's hit as well)
+    ambient = ["--ambient", "100", "--duration", "60", "--rate", "100", "--json"]
+    assert main(["simulate", "genset8", "--out", str(tmp_path / "a.csv"), *ambient]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert [n for n in notes if n.startswith("the paper's")] == [note]
     assert main(["plan", "kid300"]) == 0
     assert "the paper's" not in capsys.readouterr().out
     # the paper's eccentric weight, KID-300's vibrator, where forced and simulate --speed take it

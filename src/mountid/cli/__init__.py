@@ -16,7 +16,7 @@ from mountid.cli.diagnose_command import cmd_diagnose
 from mountid.cli.machine_commands import cmd_demo, cmd_describe, cmd_frequencies, cmd_identify, cmd_modes
 from mountid.cli.record_commands import cmd_forced, cmd_identify_record, cmd_plan, cmd_process, cmd_simulate
 from mountid.errors import InputError
-from mountid.validation.paper import UNBALANCE
+from mountid.validation.paper import HIT_PEAK, UNBALANCE
 
 EXTRAS = {
     "sympy": "generate",
@@ -199,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--hit-point", help="impact point x,y,z [m] (default: the paper's oblique hit)")
     p.add_argument("--hit-direction", help="impact direction")
-    p.add_argument("--hit-peak", type=float, default=3000.0, help="peak impact force [N]")
+    p.add_argument("--hit-peak", type=float, default=HIT_PEAK, help="peak impact force [N]")
     p.add_argument(
         "--hit-time",
         type=float,

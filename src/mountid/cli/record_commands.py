@@ -31,6 +31,7 @@ from mountid.cli.arguments import (
 from mountid.errors import InputError
 from mountid.machine import Machine
 from mountid.nomenclature import counted
+from mountid.validation.paper import HIT_PEAK
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -69,6 +70,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     shakers = _shakers(args, hit)
     forces = _force_channels(args, shakers, sensors)
     ambient = _ambient(args, rig, shakers)
+    _no_hit_options(args, shakers, ambient)
     hits = not (args.speed or shakers or ambient)
     hammers = [replace(hit, peak=args.hit_peak, time=t) for t in args.hit_time] if hits else []
     unbalances = unbalances_of(args)
@@ -97,8 +99,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             f"{args.duration:g} s holds fewer than 3 {block} of {args.shaker_period:g} s: the records chain averages "
             f"{needs}"
         )
-    hit_given = args.speed or args.hit_point or args.hit_direction
-    defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], None if hit_given else hit)
+    # the hit's point and direction (a shaker's too) where a hammer or shaker uses them and they were not given
+    hit_default = (hits or shakers) and not (args.hit_point or args.hit_direction)
+    defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], hit if hit_default else None)
     notes += [defaults] if defaults else []
     notes += _paper_unbalance_note(rig.machine, filled) if args.speed else []
     if not rig.B.any():
@@ -165,6 +168,21 @@ def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[
     if args.hit_time != [HIT_TIME]:
         raise InputError("--ambient", "drives the machine from the start: --hit-time is for hits")
     return ambient_forces(rig, args.ambient, ANTI_ALIAS * args.rate, args.seed)
+
+
+def _no_hit_options(args: argparse.Namespace, shakers: list[Shaker], ambient: list[RandomForce]) -> None:
+    """An InputError naming a hit's option given to a simulated test without hits, where it would be ignored:
+    --hit-point and --hit-direction beside --ambient or --speed (a shaker takes them as its own), --hit-peak
+    beside any of them (--hit-time is refused where each test is read)."""
+    test = "--ambient" if ambient else "--speed" if args.speed else "--shaker" if shakers else ""
+    if not test:
+        return
+    given = {"--hit-peak": args.hit_peak != HIT_PEAK, "--hit-time": args.hit_time != [HIT_TIME]}
+    if not shakers:
+        given |= {"--hit-point": bool(args.hit_point), "--hit-direction": bool(args.hit_direction)}
+    for option, is_given in given.items():
+        if is_given:
+            raise InputError(option, f"is a hit's: {test} gives a test without hits, where it would be ignored")
 
 
 def _ambient_note(rig: Rig, duration: float, rate: float) -> list[str]:
@@ -331,10 +349,11 @@ def _paper_defaults(machine: Machine, sensors: list[Sensor], hit: Hammer | None)
         "channels " + ", ".join(f"{s.name} at {s.point} along {s.direction}" for s in sensors) if sensors else "",
         f"hit at {hit.point} along {hit.direction}" if hit else "",
     ]
-    options = ["--sensor" if sensors else "", "--hit-point, --hit-direction" if hit else ""]
+    options = (["--sensor"] if sensors else []) + (["--hit-point", "--hit-direction"] if hit else [])
+    give = "give" if len(options) > 1 else "gives"
     return (
         f"the paper's {' and '.join(w for w in what if w)}: points of KID-300, not of {machine.name} "
-        f"({', '.join(o for o in options if o)} give its own)"
+        f"({', '.join(options)} {give} its own)"
     )
 
 

@@ -104,11 +104,15 @@ def paper_sensors(noise: float = 0.01) -> list[Sensor]:
     ]
 
 
+HIT_PEAK = 3000.0
+"""[N] The oblique impact's peak (paper_hit): a modal hammer's on a machine of a tonne; simulate's default."""
+
+
 def paper_hit() -> Hammer:
     """One oblique impact off the symmetry planes: it excites every mode (the paper hit along x)."""
     from mountid.measurement.rig import Hammer
 
-    return Hammer(point=(0.35, 0.25, 0.3), direction=(1.0, 0.8, -0.6), peak=3000.0)
+    return Hammer(point=(0.35, 0.25, 0.3), direction=(1.0, 0.8, -0.6), peak=HIT_PEAK)
 
 
 def run_simulated_experiment(figures: str | None = "out/figures", duration: float = 4.0, seed: int = 0) -> dict:
