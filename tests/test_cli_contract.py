@@ -456,13 +456,16 @@ def test_describe_says_a_label_in_a_big_block_names_a_rank(capsys):
 
 def test_a_first_candidate_the_frequencies_cannot_test_is_said_so_and_its_gaps_not_held_out(capsys):
     """fan3 (three isolators, no plane of symmetry declared) with six frequencies off by up to 1 %: the tie
-    names an attached mass first (0.58), whose six parameters with the two unknown stiffnesses are more than the
-    six data. The verdict says the frequencies cannot test it whether or not it passes the held-out check (it
+    names an attached mass first, whose six parameters with the two unknown stiffnesses are more than the six
+    data. The verdict says the frequencies cannot test it whether or not it passes the held-out check (it
     said so only where it did, and named only the others with too many parameters), and the gap table shows its
-    held-out gaps, for which no mode can be left out, as '-' (it printed '+nan')."""
+    held-out gaps, for which no mode can be left out, as '-' (it printed '+nan'). Its probability is not pinned to
+    its digits: eight parameters fitted to six data leave a flat valley, and its Laplace evidence rests on where
+    the fit stops in it, which the host's rounding moves (0.58 on one host, 0.589 on another)."""
     code, out, _ = run(capsys, "diagnose", FAN3_CAMPAIGN, "--no-figure")
     verdict = out.splitlines()[-1]
-    assert code == 0 and verdict.startswith("verdict: significant gap; explained equally well by added_mass (0.58)")
+    stated = verdict.removeprefix("verdict: significant gap; explained equally well by added_mass (")
+    assert code == 0 and stated != verdict and float(stated[: stated.index(")")]) > 0.5
     assert "cannot test added_mass" in verdict
     table = out[out.index("gap [rad/s] before (nominal) -> after (added_mass)") :].splitlines()[1:8]
     assert [line.split()[0] for line in table] == ["x", "y", "z", "psi", "theta", "phi", "RMS"]

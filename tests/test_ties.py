@@ -15,7 +15,7 @@ from mountid.diagnosis.candidate_model import label_modes
 from mountid.diagnosis.candidates import SAME_CHI2, ranked_by_fit
 from mountid.machine import Machine
 from mountid.measurement.modes import scaled_unit
-from mountid.runtime.eigen import with_positive_largest
+from mountid.runtime.eigen import with_positive_largest, with_real_positive_largest
 from mountid.validation import blind, blind_truth
 
 DIAGONAL = 1 / math.sqrt(2.0)
@@ -111,3 +111,21 @@ def test_a_truths_modes_take_their_nominal_modes_sign_whatever_lapack_returns(ma
     monkeypatch.setattr(blind_truth.scipy.linalg, "eigh", turned)
     _, lam_turned, modes_turned = blind_truth.labelled_modes(tm, model, t)
     assert np.array_equal(lam_turned, lam) and np.array_equal(modes_turned, modes)
+
+
+def test_a_complex_modes_phase_is_the_conventions_not_the_eigensolvers():
+    """Complex modes of any phase (what two LAPACK builds gave: the same rig's modes of opposite signs) come out
+    alike, their largest mass-weighted entry real and positive, of two equally large ones the first."""
+    rng = np.random.default_rng(3)
+    vectors = rng.standard_normal((4, 3)) + 1j * rng.standard_normal((4, 3))
+    mass = np.diag([1.0, 2.0, 0.5, 3.0])
+    out = with_real_positive_largest(vectors, mass)
+    for phase in (-1.0, 1j, np.exp(0.7j)):
+        np.testing.assert_allclose(with_real_positive_largest(vectors * phase, mass), out, rtol=1e-14, atol=0)
+    weight = np.abs(out) * np.sqrt(np.diag(mass))[:, None]
+    pick = out[np.argmax(weight, axis=0), np.arange(3)]
+    assert np.all(pick.real > 0) and np.all(pick.imag == 0)
+    np.testing.assert_allclose(np.abs(out), np.abs(vectors), rtol=1e-15)
+    tie = np.array([[-0.7071067811865476j], [0.7071067811865475j]])
+    for twin in (tie, tie[::-1] * -1):
+        assert with_real_positive_largest(twin, np.eye(2))[0, 0] == pytest.approx(0.7071067811865476, rel=1e-15)

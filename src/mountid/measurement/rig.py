@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from mountid.errors import InputError
 from mountid.machine import Machine, matrices, sensor_row, state_matrix, unit_vector
 from mountid.measurement.records import MIN_SAMPLES, UNITS, Channel, ModeTable, Record, along_axes
+from mountid.runtime.eigen import with_real_positive_largest
 
 
 @dataclass(frozen=True)
@@ -337,7 +338,8 @@ class Rig:
         """The rig's complex modes (its state-space poles with Im p > 0, by |p|; the modes a truth's own coordinates
         add included) read as displacements along x, y and z at each of ``points`` [m], node k + 1 at the k-th
         (channels ``node<k>:<axis>``): what a bench's modal software would export of a noise-free test of the rig
-        (uff_modes.write_table)."""
+        (uff_modes.write_table); each mode's phase puts its largest mass-weighted coordinate real and positive
+        (runtime.eigen.with_real_positive_largest), not where the host's eigensolver left it."""
         n = self.M.shape[0]
         upper = np.flatnonzero(self.poles.imag > 0)
         order = upper[np.argsort(np.abs(self.poles[upper]), kind="stable")]
@@ -346,7 +348,7 @@ class Rig:
         return ModeTable(
             channels,
             self.poles[order],
-            np.array(rows) @ self.V[:n, order],
+            np.array(rows) @ with_real_positive_largest(self.V[:n, order], self.M),
             "complex modes",
             (f"the complex modes of a rig of {self.machine.name}",),
         )

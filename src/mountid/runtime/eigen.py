@@ -187,6 +187,22 @@ def with_positive_largest(phi: NDArray, mass: NDArray) -> NDArray[np.float64]:
     return phi * np.where(pick < 0, -1.0, 1.0)
 
 
+def with_real_positive_largest(vectors: NDArray, mass: NDArray) -> NDArray[np.complex128]:
+    """Complex mode shapes ``vectors`` (columns are modes over the coordinates of ``mass``, shape (n, n_modes))
+    with each column's phase chosen so that its entry of largest mass-weighted magnitude is real and positive; of
+    entries equal within SAME_MAGNITUDE the first (with_positive_largest's convention for complex modes). An
+    eigensolver's phase is its own: LAPACK builds on two hosts gave the same rig's modes opposite signs."""
+    v = np.asarray(vectors, dtype=complex)
+    weight = np.abs(v) * np.sqrt(np.diagonal(mass))[:, None]
+    largest = np.max(weight, axis=0, keepdims=True)
+    first = np.argmax(weight >= largest * (1 - SAME_MAGNITUDE), axis=0)
+    columns = np.arange(v.shape[1])
+    pick = v[first, columns]
+    out = v * np.where(pick != 0, np.conj(pick) / np.where(pick != 0, np.abs(pick), 1.0), 1.0)
+    out[first, columns] = np.abs(pick)  # real to the last bit, not to the product's rounding
+    return out
+
+
 def kinetic_energy_distribution(mass: NDArray, phi: NDArray) -> NDArray[np.float64]:
     """Share of each mode's kinetic energy per coordinate, shape (..., n_coordinates, n_modes).
 
