@@ -7623,6 +7623,13 @@ UNIDENTIFIABLE = {
     ): "these frequencies fix only 2 independent combinations of the 3 unknowns (c_x, c_y, c_z); c_x is not determined",
 }
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+UNDETERMINED = {
+    ("x", "z", "theta"): ("c_y",),
+    ("y", "z", "psi"): ("c_x",),
+}
+"""Sets of distinct frequencies of fewer independent combinations of the unknowns than there are unknowns: the
+unknowns each leaves undetermined (a component in the null space of its Jacobian at a generic point). A larger
+set leaves undetermined what every set of as many frequencies as unknowns in it does (Machine.undetermined_by)."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""

@@ -6808,6 +6808,10 @@ NUMERIC_INVERSES = {
 """Sets in INVERSES that have no closed form of manageable size: solved by Newton from a grid of starts."""
 UNIDENTIFIABLE = {}
 """Sets of distinct frequencies that do not determine the unknowns, with the reason."""
+UNDETERMINED = {}
+"""Sets of distinct frequencies of fewer independent combinations of the unknowns than there are unknowns: the
+unknowns each leaves undetermined (a component in the null space of its Jacobian at a generic point). A larger
+set leaves undetermined what every set of as many frequencies as unknowns in it does (Machine.undetermined_by)."""
 TWIN_COORDINATES = ()
 """Coordinates exchanged by the symmetry between twin blocks (same spectrum): (coordinate, its image, sign);
 M and C entries map as X[image_i, image_j] = sign_i sign_j X[i, j] (derived, mountid.engine.symbolic.blocks)."""

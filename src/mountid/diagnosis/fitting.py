@@ -800,13 +800,16 @@ def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[d
 
 
 def exact_leave_one_out(fit: CandidateFit) -> CandidateFit:
-    """The fit with its held-out errors [rad/s] refitted without each mode in turn (frequency and shape)."""
+    """The fit with its held-out errors [rad/s] refitted without each mode in turn (frequency and shape); nan where
+    the mode alone determines a parameter (its linearised held-out error is nan: the others leave a direction of
+    the parameters flat, and a refit would return a prediction from wherever it stopped along it)."""
     model, theta = fit.state.model, fit.state.theta
     data = Data(model.campaign, model.length)
     out = {}
     for i, lab in enumerate(data.labels):
         keep = np.setdiff1d(np.arange(data.n_rows), data.rows_of(lab))
-        if len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1:
+        few = len(keep) - 5 * len(data.shape_labels) + (5 if lab in data.shape_labels else 0) <= len(theta) - 1
+        if few or not math.isfinite(fit.held_out_gap.get(lab, math.nan)):
             out[lab] = math.nan
             continue
         res = _least_squares(model, data, [theta], rows=keep, refit=True)

@@ -312,7 +312,11 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
             m = campaign.modes[label]
             others = [lab for lab in labels if rep[lab] != rep[label]]
             residuals.append(Residual(label, m.frequency, predicted[label], m.stated_frequency_std, False, threshold))
-            if len({rep[lab] for lab in others}) >= len(machine.unknown):
+            distinct = {rep[lab] for lab in others}
+            undetermined = machine.undetermined_by(distinct)
+            if undetermined:
+                notes.append(f"{label} is not predicted from the others: {undetermined.describe()}")
+            elif len(distinct) >= len(machine.unknown):
                 loo = fit_stiffness(
                     machine,
                     campaign.known,

@@ -666,6 +666,9 @@ def fit_stiffness(
     labels = [lab for lab in mod.UNIQUE_MODES if lab in measured]
     if len(labels) < len(unknown):
         raise InputError("measured", f"{distinct_frequencies(len(labels))} found for {len(unknown)} unknowns")
+    undetermined = machine.undetermined_by(labels)
+    if undetermined:  # no fit would move them: it would return their start with a standard deviation of 0
+        raise InputError("measured", f"{undetermined.describe()}: {undetermined.advice()}")
     knowns = machine.values(known, tuple(a for a in mod.FORWARD_ARGUMENTS if a not in unknown))
     idx = [mod.MODES.index(lab) for lab in labels]
     omega = np.array([measured[lab][0] for lab in labels])
@@ -1619,9 +1622,20 @@ def _check_enough(
 ) -> None:
     """An error naming what the record gave, what it did not and what to do, where the modes ``fitted`` (``found``
     in the record, ``chosen`` by --use or all) give fewer distinct frequencies than the machine has unknowns (it
-    said "measured: 2 distinct frequencies found for 3 unknowns")."""
+    said "measured: 2 distinct frequencies found for 3 unknowns"), or leave one undetermined however many they are
+    (Machine.undetermined_by: a fit would return its start)."""
     unique, unknown = machine.module.UNIQUE_MODES, machine.unknown
     distinct = [label for label in unique if label in fitted]
+    undetermined = machine.undetermined_by(distinct)
+    if undetermined:
+        shown = [label for label in undetermined.completing if label in found]
+        tail = (
+            f"the record shows {' and '.join(shown)}: use {'it' if len(shown) == 1 else 'one of them'}"
+            if chosen and shown
+            else "not found in the record (a longer record, or channels and an excitation that show it)"
+        )
+        said = f"{undetermined.describe()}; {undetermined.advice()}" + (f"; {tail}" if undetermined.completing else "")
+        raise InputError("use" if chosen else "record", said)
     if len(distinct) >= len(unknown):
         return
     missing = [label for label in unique if label not in found]

@@ -9,10 +9,12 @@ from __future__ import annotations
 import contextlib
 import copy
 import importlib
+import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -20,6 +22,26 @@ from mountid.errors import InputError, real_number
 from mountid.machine.dynamics import call
 from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
 from mountid.nomenclature import POSITIVE_KINDS, distinct_frequencies
+
+
+class Undetermined(NamedTuple):
+    """Distinct frequencies that leave unknowns undetermined (Machine.undetermined_by): the modes, the unknowns
+    they leave undetermined, and the modes not among them any one of which would determine them."""
+
+    modes: tuple[str, ...]
+    unknowns: tuple[str, ...]
+    completing: tuple[str, ...]
+
+    def describe(self) -> str:
+        """The sentence for an error: what is not determined, by which modes."""
+        verb = "is" if len(self.unknowns) == 1 else "are"
+        return f"{', '.join(self.unknowns)} {verb} not determined by {', '.join(self.modes)}"
+
+    def advice(self) -> str:
+        """What determines them: one more mode, or more modes."""
+        if not self.completing:
+            return "more modes determine them"
+        return f"{' or '.join(self.completing)} with them would determine {'it' if len(self.unknowns) == 1 else 'them'}"
 
 
 @dataclass(frozen=True)
@@ -325,6 +347,29 @@ class Machine:
         if missing:
             raise InputError(missing[0], "no standard deviation given (give one for every measured frequency)")
         return {k: std[chosen[k][0]] for k in order}
+
+    def undetermined_by(self, labels: Iterable[str]) -> Undetermined | None:
+        """What the distinct frequencies of ``labels`` (UNIQUE_MODES) leave undetermined, as the engine derived it
+        (UNDETERMINED); None where they determine the unknowns, or are fewer than the unknowns (counted apart).
+        They leave undetermined what every set of as many of them as there are unknowns does: the null space of
+        their Jacobian lies in each such set's, and equals that of a set holding a basis of its rows (the vertical
+        stiffness of one isolator at the centre moves z alone: every other mode leaves it undetermined, alone or
+        together; tests/data/central5.toml)."""
+        given = [label for label in self.unique_modes if label in set(labels)]
+        n = len(self.unknown)
+        if len(given) < n:
+            return None
+        table = self.module.UNDETERMINED
+        undetermined = [table.get(key) for key in itertools.combinations(given, n)]
+        if not all(undetermined):
+            return None
+        names = tuple(u for u in self.unknown if all(u in free for free in undetermined))
+
+        def completes(label: str) -> bool:
+            keys = itertools.combinations([lab for lab in self.unique_modes if lab in given or lab == label], n)
+            return any(label in key and key not in table for key in keys)
+
+        return Undetermined(tuple(given), names, tuple(lab for lab in self.unique_modes if completes(lab)))
 
     def check_known(self, known: dict[str, float]) -> None:
         """An unknown given as known is an input error; so are known values at which the mount leaves a motion

@@ -34,6 +34,7 @@ class GeneratedModule(Protocol):
     DEPENDS: dict[str, tuple[str, ...]]
     INVERSES: dict[tuple[str, ...], Any]
     UNIDENTIFIABLE: dict[tuple[str, ...], str]
+    UNDETERMINED: dict[tuple[str, ...], tuple[str, ...]]
 
 
 def shipped_machines() -> list[str]:

@@ -101,6 +101,7 @@ def module_context(
         ],
         "numeric_inverses": [(s.labels, s.reason) for s in inverse_sets if s.numeric],
         "unidentifiable": [(s.labels, s.reason) for s in inverse_sets if not s.identifiable],
+        "undetermined": [(s.labels, s.undetermined) for s in inverse_sets if s.undetermined],
         "inverse_enumerated": bool(inverse_sets),
         "special_points": derivation.special_points,
         "derivative_parameters": model.parameters_of(model.M, model.C, model.B),

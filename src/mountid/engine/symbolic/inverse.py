@@ -73,6 +73,9 @@ class InverseSet:
     numeric: bool = False
     """The set determines the unknowns (full rank) but has no closed form of manageable size (``reason``
     says why): it is solved numerically at run time, by Newton from a grid of starts."""
+    undetermined: tuple[str, ...] = ()
+    """The unknowns the set leaves undetermined where it fixes fewer combinations of them than there are (those
+    with a component in the null space of its Jacobian at the generic point); empty for a set of full rank."""
 
     @property
     def name(self) -> str:
@@ -371,6 +374,7 @@ class InverseDerivation:
             f"these frequencies fix only {counted(rank, 'independent combination')} of the "
             f"{counted(len(self.unknowns), 'unknown')} ({names}); {', '.join(free)} "
             f"{'is' if len(free) == 1 else 'are'} not determined",
+            undetermined=free,
         )
 
     def _solve(self, labels: tuple[str, ...], eqs: list[sp.Expr], lams: list[sp.Symbol]) -> InverseSet:
