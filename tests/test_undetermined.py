@@ -86,6 +86,26 @@ def test_the_central_isolator_is_determined_by_z_alone():
     assert machine.undetermined_by(("x", "y")) is None
 
 
+def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(tmp_path):
+    """Two isolators at each corner, their vertical stiffnesses two unknowns: the frequencies see their sum only,
+    so all six leave them undetermined and no mode would complete them."""
+    text = Path(CENTRAL5).read_text()
+    text = (
+        text.replace(
+            'c_c = { kind = "stiffness", role = "unknown", value = 8.0e5 }',
+            'c_w = { kind = "stiffness", role = "unknown", value = 3.0e5 }',
+        )
+        .replace('name = "centre"\npoint = [0, 0, "-h"]', 'name = "inner"\npoint = ["a", "b", "-h"]')
+        .replace('stiffness = ["c_h", "c_h", "c_c"]', 'stiffness = ["c_h", "c_h", "c_w"]')
+    )
+    path = tmp_path / "parallel.toml"
+    path.write_text(text.replace('name = "central5"', 'name = "parallel"'))
+    machine = Machine.resolve(str(path))
+    found = machine.undetermined_by(machine.unique_modes)
+    assert found is not None and found.unknowns == ("c_v", "c_w") and found.completing == () and not found.by_all
+    assert found.advice() == "no set of the description's frequencies determines them"
+
+
 def test_a_fit_to_frequencies_that_leave_an_unknown_undetermined_is_an_error_not_a_standard_deviation_of_zero():
     """fit_stiffness returned c_c at its start with a standard deviation of 0 from five frequencies without z
     (the gap diagnosis and the plan took it so); now an error that names it and the mode that determines it."""

@@ -31,6 +31,8 @@ class Undetermined(NamedTuple):
     modes: tuple[str, ...]
     unknowns: tuple[str, ...]
     completing: tuple[str, ...]
+    by_all: bool
+    """Whether every distinct frequency of the description together determines them."""
 
     def describe(self) -> str:
         """The sentence for an error: what is not determined, by which modes."""
@@ -38,10 +40,13 @@ class Undetermined(NamedTuple):
         return f"{', '.join(self.unknowns)} {verb} not determined by {', '.join(self.modes)}"
 
     def advice(self) -> str:
-        """What determines them: one more mode, or more modes."""
-        if not self.completing:
-            return "more modes determine them"
-        return f"{' or '.join(self.completing)} with them would determine {'it' if len(self.unknowns) == 1 else 'them'}"
+        """What determines them: one more mode, more modes, or none of the description's."""
+        them = "it" if len(self.unknowns) == 1 else "them"
+        if self.completing:
+            return f"{' or '.join(self.completing)} with them would determine {them}"
+        if self.by_all:
+            return f"more of the other modes would determine {them}"
+        return f"no set of the description's frequencies determines {them}"
 
 
 @dataclass(frozen=True)
@@ -369,7 +374,9 @@ class Machine:
             keys = itertools.combinations([lab for lab in self.unique_modes if lab in given or lab == label], n)
             return any(label in key and key not in table for key in keys)
 
-        return Undetermined(tuple(given), names, tuple(lab for lab in self.unique_modes if completes(lab)))
+        completing = tuple(lab for lab in self.unique_modes if completes(lab))
+        by_all = any(key not in table for key in itertools.combinations(self.unique_modes, n))
+        return Undetermined(tuple(given), names, completing, by_all)
 
     def check_known(self, known: dict[str, float]) -> None:
         """An unknown given as known is an input error; so are known values at which the mount leaves a motion
