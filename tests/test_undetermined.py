@@ -86,9 +86,10 @@ def test_the_central_isolator_is_determined_by_z_alone():
     assert machine.undetermined_by(("x", "y")) is None
 
 
-def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(tmp_path):
+def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(capsys, tmp_path):
     """Two isolators at each corner, their vertical stiffnesses two unknowns: the frequencies see their sum only,
-    so all six leave them undetermined and no mode would complete them."""
+    so all six leave them undetermined and no mode would complete them; describe says so after the sets (each
+    set's line said it of that set alone), and of central5, which z completes, says nothing more."""
     text = Path(CENTRAL5).read_text()
     text = (
         text.replace(
@@ -104,6 +105,15 @@ def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(tmp
     found = machine.undetermined_by(machine.unique_modes)
     assert found is not None and found.unknowns == ("c_v", "c_w") and found.completing == () and not found.by_all
     assert found.advice() == "no set of the description's frequencies determines them"
+    assert main(["describe", str(path)]) == 0
+    assert capsys.readouterr().out.splitlines()[-2] == (
+        "  all together: c_v, c_w are not determined by x, y, z, psi, theta, phi: no set of the description's "
+        "frequencies determines them"
+    )
+    assert main(["describe", CENTRAL5, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["undetermined_by_all"] == []
+    assert main(["describe", CENTRAL5]) == 0
+    assert "all together" not in capsys.readouterr().out
 
 
 def test_a_fit_to_frequencies_that_leave_an_unknown_undetermined_is_an_error_not_a_standard_deviation_of_zero():

@@ -246,6 +246,7 @@ def cmd_describe(args: argparse.Namespace) -> None:
     machine = Machine.resolve(args.machine)
     m = machine.module
     numeric = getattr(m, "NUMERIC_INVERSES", {})
+    every = machine.undetermined_by(machine.unique_modes)  # what all the distinct frequencies leave undetermined
     if args.json:
         print_json(
             {
@@ -260,6 +261,7 @@ def cmd_describe(args: argparse.Namespace) -> None:
                 ],
                 "special_points": list(getattr(m, "SPECIAL_POINTS", ())),
                 "unidentifiable": [{"modes": list(key), "reason": why} for key, why in m.UNIDENTIFIABLE.items()],
+                "undetermined_by_all": list(every.unknowns) if every else [],
             }
         )
         return
@@ -285,6 +287,8 @@ def cmd_describe(args: argparse.Namespace) -> None:
             print(f"  {', '.join(key):24s} solvable, {counted(n, 'candidate root')}")
     for key, reason in m.UNIDENTIFIABLE.items():
         print(f"  {', '.join(key):24s} NOT identifiable: {reason}")
+    if every:  # each set's line says so; this says that no measurement of these frequencies ever will
+        print(f"  all together: {every.describe()}: {every.advice()}")
     if getattr(m, "SPECIAL_POINTS", ()):  # after the sets, which it would split
         print(f"special points (0 is a legitimate design, solved there by the engine): {', '.join(m.SPECIAL_POINTS)}")
 
