@@ -133,8 +133,8 @@ def test_identify_names_the_unknown_the_frequencies_leave_undetermined(capsys):
     measured = ["x=25.008", "y=23.883", "phi=33.27", "psi=56.05", "theta=63.387"]
     assert main(["identify", CENTRAL5, "--measured", *measured]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == "mountid: error: --measured: c_c is not determined by x, y, psi, theta, phi: z with them would " + (
-        "determine it"
+    assert err == (
+        "mountid: error: --measured: c_c is not determined by x, y, psi, theta, phi: z with them would determine it"
     )
 
 

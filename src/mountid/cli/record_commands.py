@@ -172,8 +172,8 @@ def _ambient(args: argparse.Namespace, rig: Rig, shakers: list[Shaker]) -> list[
 
 def _no_hit_options(args: argparse.Namespace, shakers: list[Shaker], ambient: list[RandomForce]) -> None:
     """An InputError naming a hit's option given to a simulated test without hits, where it would be ignored:
-    --hit-point and --hit-direction beside --ambient or --speed (a shaker takes them as its own), --hit-peak
-    beside any of them (--hit-time is refused where each test is read)."""
+    --hit-point and --hit-direction beside --ambient or --speed (a shaker takes them as its own), --hit-peak and
+    --hit-time beside any of them (--ambient and --shaker refuse --hit-time first, in their own words)."""
     test = "--ambient" if ambient else "--speed" if args.speed else "--shaker" if shakers else ""
     if not test:
         return

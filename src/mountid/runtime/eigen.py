@@ -176,13 +176,19 @@ SAME_MAGNITUDE = 1e-9
 along a diagonal moves x and y alike): the first of them sets the sign."""
 
 
+def _largest_entries(phi: NDArray, mass: NDArray) -> NDArray[np.intp]:
+    """Per column of ``phi`` (shape (..., n, n_modes)), the row of its entry of largest mass-weighted magnitude
+    (sqrt(M_ii) |phi_i|, diagonal of ``mass``); of entries equal within SAME_MAGNITUDE the first."""
+    weight = np.abs(phi) * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None]
+    largest = np.max(weight, axis=-2, keepdims=True)
+    return np.argmax(weight >= largest * (1 - SAME_MAGNITUDE), axis=-2)
+
+
 def with_positive_largest(phi: NDArray, mass: NDArray) -> NDArray[np.float64]:
     """``phi`` (columns are modes over the rows' coordinates, shape (..., n, n_modes)) with each column's sign
     chosen so that its entry of largest mass-weighted magnitude (sqrt(M_ii) phi_i, diagonal of ``mass``) is
     positive; of entries equal within SAME_MAGNITUDE the first, so that rounding does not choose the sign."""
-    weight = np.abs(phi * np.sqrt(np.diagonal(mass, axis1=-2, axis2=-1))[..., :, None])
-    largest = np.max(weight, axis=-2, keepdims=True)
-    first = np.argmax(weight >= largest * (1 - SAME_MAGNITUDE), axis=-2)
+    first = _largest_entries(phi, mass)
     pick = np.take_along_axis(phi, first[..., None, :], axis=-2)
     return phi * np.where(pick < 0, -1.0, 1.0)
 
@@ -193,9 +199,7 @@ def with_real_positive_largest(vectors: NDArray, mass: NDArray) -> NDArray[np.co
     entries equal within SAME_MAGNITUDE the first (with_positive_largest's convention for complex modes). An
     eigensolver's phase is its own: LAPACK builds on two hosts gave the same rig's modes opposite signs."""
     v = np.asarray(vectors, dtype=complex)
-    weight = np.abs(v) * np.sqrt(np.diagonal(mass))[:, None]
-    largest = np.max(weight, axis=0, keepdims=True)
-    first = np.argmax(weight >= largest * (1 - SAME_MAGNITUDE), axis=0)
+    first = _largest_entries(v, mass)
     columns = np.arange(v.shape[1])
     pick = v[first, columns]
     out = v * np.where(pick != 0, np.conj(pick) / np.where(pick != 0, np.abs(pick), 1.0), 1.0)
