@@ -110,6 +110,9 @@ class GapReport:
     broken_symmetry: list[str]
     verdict: str
     notes: list[str] = field(default_factory=list)
+    within_noise: bool = False
+    """Whether the nominal model fits every measurement within its uncertainty (the diagnosis's "no significant
+    gap"): the localisation then fits misses that may be noise, a lead only were they real."""
 
 
 _UNITS = {"C": ("N/m", "N", "N m/rad"), "M": ("kg", "kg m", "kg m^2")}
@@ -274,10 +277,13 @@ def _broken_symmetry(campaign: Campaign, labels: list[str], rep: dict[str, str],
     return out
 
 
-def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> GapReport:
+def diagnose_where(
+    campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS, within_noise: bool = False
+) -> GapReport:
     """Nominal identification and where the model misses the campaign's measurements. The fits start near the
     description (fit_stiffness with numeric_inverses False: the grid searches of numeric inverses only where no
-    mount near it fits), as the candidate fits do."""
+    mount near it fits), as the candidate fits do. ``within_noise``: the diagnosis found no significant gap (the
+    localisation's note then says its changes fit misses within their uncertainty)."""
     threshold = settings.significance
     machine = campaign.machine
     rep = machine.module.REPRESENTATIVE
@@ -343,14 +349,15 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
     judged = [r for r in residuals if r.significant is not None]
     if len(judged) < len(residuals):
         notes.append("some frequencies have no uncertainty: their gaps are listed, their significance not judged")
+    significant = sorted({r.label for r in residuals if r.significant})
     tied = [x for x in loc if loc and x.explained >= loc[0].explained - 0.01]
     if len(tied) > 1:
+        what = "would remove the misses (within their uncertainty)" if within_noise else "remove the gap"
         notes.append(
-            f"{len(tied)} single changes of matrix entries remove the gap equally well "
+            f"{len(tied)} single changes of matrix entries {what} equally well "
             f"({'; '.join(x.describe() for x in tied[:4])}{'; ...' if len(tied) > 4 else ''}): "
             "these measurements cannot tell them apart"
         )
-    significant = sorted({r.label for r in residuals if r.significant})
     if broken:
         verdict = "broken symmetry: " + "; ".join(broken)
     elif significant:
@@ -360,7 +367,9 @@ def diagnose_where(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) 
         verdict = "no significant gap: the model reproduces every measurement within its uncertainty"
     else:
         verdict = "significance not judged (uncertainties missing); largest gaps listed"
-    return GapReport(params, stds, residuals, sensitivities(campaign, params), loc, broken, verdict, notes)
+    return GapReport(
+        params, stds, residuals, sensitivities(campaign, params), loc, broken, verdict, notes, within_noise
+    )
 
 
 @dataclass(frozen=True)
@@ -541,7 +550,7 @@ def _rms(values: Iterable[float]) -> float | None:
 def diagnose(campaign: Campaign, settings: DiagnosisSettings = DIAGNOSIS) -> Diagnosis:
     """Where the model misses the campaign, which candidate effect explains it, and how far the gap shrinks
     (``settings``: the decision thresholds)."""
-    where = diagnose_where(campaign, settings)
     effects = diagnose_effects(campaign, settings=settings)
+    where = diagnose_where(campaign, settings, effects.kind == "no significant gap")
     forces, relative = isolator_forces(campaign, where.parameters)
     return Diagnosis(campaign, where, effects, forces, relative)

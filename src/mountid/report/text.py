@@ -55,8 +55,9 @@ def print_diagnosis(diagnosis: Diagnosis, title: str, figure: str | None = None)
     print("nominal identification: " + ", ".join(f"{k} = {v:.6g}" for k, v in report.parameters.items()))
     for line in _residual_table(report.residuals):
         print(line)
+    within = " (of misses within their uncertainty)" if report.within_noise else ""
     for loc in report.localisation[:3]:
-        print(f"  matrix level: {loc.describe()}")
+        print(f"  matrix level{within}: {loc.describe()}")
     if diagnosis.isolators:
         print("modal force residual of the measured shapes, as a stiffness change per isolator:")
         print("  " + ", ".join(f"{f.isolator} {f.change:+.1%} +- {f.std:.1%}" for f in diagnosis.isolators))
