@@ -86,22 +86,28 @@ def test_the_central_isolator_is_determined_by_z_alone():
     assert machine.undetermined_by(("x", "y")) is None
 
 
-def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(capsys, tmp_path):
-    """Two isolators at each corner, their vertical stiffnesses two unknowns: the frequencies see their sum only,
-    so all six leave them undetermined and no mode would complete them; describe says so after the sets (each
-    set's line said it of that set alone), and of central5, which z completes, says nothing more."""
+def _parallel(folder: Path, role: str = "unknown") -> Path:
+    """central5 with a second isolator at each corner in place of the central one: its vertical stiffness c_w (of
+    ``role``) in parallel with c_v."""
     text = Path(CENTRAL5).read_text()
     text = (
         text.replace(
             'c_c = { kind = "stiffness", role = "unknown", value = 8.0e5 }',
-            'c_w = { kind = "stiffness", role = "unknown", value = 3.0e5 }',
+            f'c_w = {{ kind = "stiffness", role = "{role}", value = 3.0e5 }}',
         )
         .replace('name = "centre"\npoint = [0, 0, "-h"]', 'name = "inner"\npoint = ["a", "b", "-h"]')
         .replace('stiffness = ["c_h", "c_h", "c_c"]', 'stiffness = ["c_h", "c_h", "c_w"]')
     )
-    path = tmp_path / "parallel.toml"
-    path.write_text(text.replace('name = "central5"', 'name = "parallel"'))
-    machine = Machine.resolve(str(path))
+    path = folder / f"parallel_{role}.toml"
+    path.write_text(text.replace('name = "central5"', f'name = "parallel_{role}"'))
+    return path
+
+
+def test_two_stiffnesses_in_parallel_are_determined_by_no_set_of_frequencies(capsys, tmp_path):
+    """Two isolators at each corner, their vertical stiffnesses two unknowns: the frequencies see their sum only,
+    so all six leave them undetermined and no mode would complete them; describe says so after the sets (each
+    set's line said it of that set alone), and of central5, which z completes, says nothing more."""
+    machine = Machine.resolve(str(path := _parallel(tmp_path)))
     found = machine.undetermined_by(machine.unique_modes)
     assert found is not None and found.unknowns == ("c_v", "c_w") and found.completing == () and not found.by_all
     assert found.advice() == "no set of the description's frequencies determines them"
@@ -194,3 +200,35 @@ def test_identify_record_names_the_records_mode_that_would_determine_the_unknown
         "mountid: error: --use: c_c is not determined by x, y, psi, theta, phi; z with them would determine it; "
         "the record shows z: use it"
     )
+
+
+def test_a_plan_gives_the_spread_of_the_unknowns_its_frequencies_determine_beside_those_they_do_not(tmp_path):
+    """The plan said "none" for every unknown where one was undetermined. With c_v and c_w in parallel (only their
+    sum is seen) c_h is still determined: its spread with them free equals the fit's where c_w is known instead
+    (any way of resolving the null space gives a determined combination the same variance), and differs from the
+    spread with both held."""
+    from mountid.identification.from_records import pole_frequencies, pole_frequency_derivatives
+    from mountid.identification.planning import _stiffness_spread
+    from mountid.measurement.rig import Rig
+
+    machine, held = Machine.resolve(str(_parallel(tmp_path))), Machine.resolve(str(_parallel(tmp_path, "known")))
+    rig = Rig.of(machine)
+    poles = dict(zip(machine.module.MODES, pole_frequencies(machine, rig.values), strict=True))
+    frequencies = {label: (float(poles[label]), 1e-3 * float(poles[label])) for label in machine.unique_modes}
+    notes: list[str] = []
+    spread = _stiffness_spread(rig, frequencies, notes)
+    assert math.isnan(spread["c_v"]) and math.isnan(spread["c_w"]) and math.isfinite(spread["c_h"])
+    assert notes == [
+        "no stiffness standard deviation of c_v, c_w: c_v, c_w are not determined by x, y, z, psi, theta, phi: no set "
+        "of the description's frequencies determines them; the others' with them free"
+    ]
+    known = {k: v for k, v in rig.values.items() if k not in held.unknown}
+    damping = {n: rig.values[n] for n in machine.damping}
+    fit = fit_stiffness(held, known, frequencies, damping=damping)
+    assert fit.parameters["c_v"] == pytest.approx(rig.values["c_v"], rel=1e-6)
+    assert spread["c_h"] == pytest.approx(fit.stds["c_h"], rel=1e-6)
+    rows = [machine.module.MODES.index(label) for label in machine.unique_modes]
+    d_omega = pole_frequency_derivatives(machine, rig.values, ("c_h",))[0, rows]
+    sigma = np.array([frequencies[label][1] for label in machine.unique_modes])
+    both_held = 1.0 / math.sqrt(np.sum((d_omega / sigma) ** 2))  # c_h alone fitted, c_v and c_w held
+    assert spread["c_h"] > 1.01 * both_held  # 151.8 against 149.6 N/m: c_h correlates with the sum

@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mountid.errors import InputError
-from mountid.identification.from_records import fit_stiffness
+from mountid.identification.from_records import fit_stiffness, pole_frequency_derivatives
+from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call
 from mountid.measurement import ambient, frf, modal
 from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
@@ -287,16 +288,47 @@ def _layout(
 def _stiffness_spread(rig: Rig, frequencies: dict[str, tuple[float, float]], notes: list[str]) -> dict[str, float]:
     """Each unknown's standard deviation from the records chain's stiffness fit (from_records.fit_stiffness, the
     description's root rule, the rig's damping) to the pole ``frequencies`` {label: (|p|, std)} [rad/s]; NaN with a
-    note appended to ``notes`` where the fit cannot give it."""
+    note appended to ``notes`` where the fit cannot give it. Where the frequencies leave unknowns undetermined
+    (Machine.undetermined_by) those are NaN and the others' come from _spread_beside."""
     machine = rig.machine
     known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
     damping = {n: rig.values[n] for n in machine.damping}
+    undetermined = machine.undetermined_by(frequencies)
+    if undetermined:
+        notes.append(
+            f"no stiffness standard deviation of {', '.join(undetermined.unknowns)}: {undetermined.describe()}: "
+            f"{undetermined.advice()}"
+            + (
+                f"; the others' with {'it' if len(undetermined.unknowns) == 1 else 'them'} free"
+                if len(undetermined.unknowns) < len(machine.unknown)
+                else ""
+            )
+        )
+        return _spread_beside(rig, frequencies, undetermined.unknowns)
     try:
         rule = getattr(machine.module, "ROOT_RULE", "") or None
         return fit_stiffness(machine, known, frequencies, damping=damping, root=rule)[1]
     except InputError as err:  # the plan says why it cannot give the stiffness spread
         notes.append(f"no stiffness standard deviation: {err}")
         return {u: math.nan for u in machine.unknown}
+
+
+def _spread_beside(
+    rig: Rig, frequencies: dict[str, tuple[float, float]], undetermined: tuple[str, ...]
+) -> dict[str, float]:
+    """The standard deviation of each unknown the pole ``frequencies`` {label: (|p|, std)} [rad/s] determine, with
+    the ``undetermined`` ones free (NaN for those): the fit's linearised covariance at the rig's values
+    (statistics.covariance, the pseudo-inverse of J^T J, J = d|p| / d ln unknown over std). Their null space lies
+    within the undetermined unknowns, so each other unknown is a combination the data determine, and its
+    variance is the same whichever way the null space is resolved (holding any of them at a value)."""
+    machine = rig.machine
+    labels = [lab for lab in machine.unique_modes if lab in frequencies]
+    rows = [machine.module.MODES.index(lab) for lab in labels]
+    std = np.array([frequencies[lab][1] for lab in labels])
+    values = np.array([rig.values[u] for u in machine.unknown])
+    d_omega = pole_frequency_derivatives(machine, rig.values, machine.unknown)[:, rows]  # (unknowns, labels)
+    spread = standard_deviations(covariance(d_omega.T * values[None, :] / std[:, None], 0.0, 0))
+    return {u: math.nan if u in undetermined else float(values[i] * spread[i]) for i, u in enumerate(machine.unknown)}
 
 
 def effective_independence(rig: Rig, sensors: list[Sensor], phi: np.ndarray) -> list[tuple[str, float]]:
