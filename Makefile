@@ -64,6 +64,9 @@ BLIND_FIRST_SEED ?= 0
 BLIND_NOMINAL ?= description
 # a second excitation level: every campaign's frequencies measured again at this many times the force (empty: none)
 BLIND_LEVEL ?=
+# the machines of the blind cases: shipped names or description files (empty: every shipped machine), e.g.
+# BLIND_MACHINES="tests/data/central5.toml tests/data/press.toml"
+BLIND_MACHINES ?=
 
 bench: $(STAMP)
 	$(PY) -m benchmarks --blind-cases $(BLIND_CASES)
@@ -72,7 +75,7 @@ bench: $(STAMP)
 # truths outside the catalogue beside the cycle
 bench-blind: $(STAMP)
 	$(PY) -m benchmarks.diagnosis --cases $(BLIND_CASES) --first-seed $(BLIND_FIRST_SEED) --nominal $(BLIND_NOMINAL) \
-		$(if $(BLIND_LEVEL),--level $(BLIND_LEVEL))
+		$(if $(BLIND_LEVEL),--level $(BLIND_LEVEL)) $(if $(BLIND_MACHINES),--machines $(BLIND_MACHINES))
 
 # the blind truths as impact records, diagnosed from the records beside their modal-data campaigns (about 17 minutes)
 bench-records: $(STAMP)

@@ -26,6 +26,8 @@ import scipy.linalg
 
 from mountid.diagnosis import campaign, fitting
 from mountid.diagnosis.gap import diagnose
+from mountid.errors import InputError
+from mountid.machine import Machine
 from mountid.validation import blind, blind_truth
 
 CASES = ((1, "drive_belt"), (2, "cog_height"), (3, "none"))
@@ -72,11 +74,11 @@ def host_unit(repeats: int = 5) -> float:
     return best
 
 
-def speed() -> None:
+def speed(machines: tuple[str, ...] = blind.MACHINES) -> None:
     """One diagnosis with the analytic Jacobian, and the same diagnoses with every Jacobian taken by forward
     differences (what the fits did before the engine emitted the effect derivatives), in the same run; then one
-    diagnosis on every shipped machine; each also in host units (host_unit, measured before and after them: the
-    host's own drift during the run shows as their difference)."""
+    diagnosis on every machine of ``machines`` (the shipped ones); each also in host units (host_unit, measured
+    before and after them: the host's own drift during the run shows as their difference)."""
     unit = host_unit()
     _warm_up("kid300")
     per = _per_diagnosis()
@@ -92,20 +94,20 @@ def speed() -> None:
         f"({before / per:.1f}x)"
     )
     times = {"kid300": per}
-    for machine in blind.MACHINES:
+    for machine in machines:
         if machine not in times:
             _warm_up(machine)
             times[machine] = _per_diagnosis(machine)
     print(
         "one diagnosis, six modes with shapes, per machine (target < 1 s): "
-        + ", ".join(f"{m} {t:.2f} s" for m, t in times.items())
-        + f"; over 1 s: {', '.join(m for m, t in times.items() if t >= 1) or 'none'}"
+        + ", ".join(f"{_name(m)} {t:.2f} s" for m, t in times.items())
+        + f"; over 1 s: {', '.join(_name(m) for m, t in times.items() if t >= 1) or 'none'}"
     )
     after = host_unit()
     print(
         f"host unit ({HOST_UNIT_SOLVES} solutions of a 6 x 6 eigenproblem): {unit * 1e3:.0f} ms before the diagnoses, "
         f"{after * 1e3:.0f} ms after; one diagnosis in host units: "
-        + ", ".join(f"{m} {t / unit:.1f}" for m, t in times.items())
+        + ", ".join(f"{_name(m)} {t / unit:.1f}" for m, t in times.items())
     )
 
 
@@ -115,9 +117,14 @@ HEADER = (
 )
 
 
+def _name(machine: str) -> str:
+    """A machine as the tables name it: a shipped one by its name, a description file by its file's stem."""
+    return Path(machine).stem if Path(machine).suffix == ".toml" else machine
+
+
 def _row(machine: str, kind: str, s: blind.Score) -> str:
     return (
-        f"{machine:11s} {kind:11s} {s.n:5d} {_share(s.top1_identifiable)} {_share(s.truth_in_tie)} "
+        f"{_name(machine):11s} {kind:11s} {s.n:5d} {_share(s.top1_identifiable)} {_share(s.truth_in_tie)} "
         f"{s.confident_and_wrong:4d} {s.confident_on_none:6d} {s.confident_outside:5d} {_share(s.honest_outside)} "
         f"{_cell(s.calibration_error, '6.3f')} {_cell(s.calibration_floor, '5.3f')} {_cell(s.log_loss, '7.3f')} "
         f"{_share(s.median_reduction, 7)} {_cell(s.mean_tie, '4.1f')}  "
@@ -147,10 +154,14 @@ def _table(
     pooled = {}
     for kind in kinds:
         for machine in machines:
+            if not blind.measures_kind(machine, kind):
+                print(f"{_name(machine):11s} {kind:11s} no cases: the machine has no damping")
+                continue
             s = blind.score([r for r in results if r.campaign == kind and r.machine == machine])
             print(_row(machine, kind, s))
-        pooled[kind] = blind.score([r for r in results if r.campaign == kind])
-        print(_row("all", kind, pooled[kind]))
+        if any(r.campaign == kind for r in results):
+            pooled[kind] = blind.score([r for r in results if r.campaign == kind])
+            print(_row("all", kind, pooled[kind]))
     return pooled
 
 
@@ -187,7 +198,7 @@ def validation(
     print("probabilities, a proper score (no target: lower is better); reduct.: held-out gap reduction, median;")
     print("tie: mean size of the reported tie)")
     pooled = _table(results, kinds, machines)
-    for kind in kinds:
+    for kind in pooled:
         print(pooled[kind].text())
     per = elapsed / len(results)
     print(
@@ -209,11 +220,16 @@ def validation(
             panels,
             figure,
             blind.RELIABILITY_BINS,
-            f"blind validation, seeds {first_seed}-{last}, every shipped machine: the stated probability of the "
+            f"blind validation, seeds {first_seed}-{last}, {_machines_title(machines)}: the stated probability of the "
             "first-ranked candidate against how often it is right, by what the first place rests on",
         )
         print(f"reliability diagram: {path}")
     return results
+
+
+def _machines_title(machines: tuple[str, ...]) -> str:
+    """How a figure's title names the machines of a run."""
+    return "every shipped machine" if machines == blind.MACHINES else ", ".join(_name(m) for m in machines)
 
 
 def reversed_beside(n: int = 12, **options: Any) -> list[blind.CaseResult]:
@@ -299,7 +315,7 @@ def _beside(
     elapsed = time.perf_counter() - t
     print(f"{title} ({', '.join(truths)}; {represented}), seeds from {first_seed}, columns as above:")
     pooled = _table(results, kinds, machines)
-    for kind in kinds:
+    for kind in pooled:
         print(f"campaigns measuring {kind}, {pooled[kind].n} cases:")
         print("\n".join(pooled[kind].confusion_lines(list(truths))))
     wrong = sum(r.confident_and_wrong for r in results)
@@ -340,14 +356,27 @@ if __name__ == "__main__":
         help="measure every campaign's frequencies again at this many times the force (a second excitation "
         "level: hardening isolators stiffen by their law, every other truth's rubber by up to 10 %% per stiffness)",
     )
+    parser.add_argument(
+        "--machines",
+        nargs="+",
+        default=list(blind.MACHINES),
+        help="the machines, shipped ones by name or descriptions by their .toml file (default: every shipped one)",
+    )
     args = parser.parse_args()
     if args.cases < 1 or args.first_seed < 0 or args.beside_cases < 0:
         parser.error("--cases must be at least 1, --first-seed and --beside-cases at least 0")
     if args.level is not None and not 0 < args.level < 10:
         parser.error("--level must lie between 0 and 10 (times the campaign's force)")
-    speed()
-    validation(args.cases, first_seed=args.first_seed, figure=args.figure, nominal=args.nominal, level=args.level)
+    machines = tuple(args.machines)
+    for machine in machines:  # a name or file that is no machine stops here, not in a worker
+        try:
+            Machine.resolve(machine)
+        except InputError as err:
+            parser.error(f"--machines: {err}")
+    speed(machines)
+    common = {"first_seed": args.first_seed, "nominal": args.nominal, "level": args.level, "machines": machines}
+    validation(args.cases, figure=args.figure, **common)
     if args.beside_cases:
-        reversed_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
-        outside_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
-        represented_beside(args.beside_cases, first_seed=args.first_seed, nominal=args.nominal, level=args.level)
+        reversed_beside(args.beside_cases, **common)
+        outside_beside(args.beside_cases, **common)
+        represented_beside(args.beside_cases, **common)

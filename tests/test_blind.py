@@ -673,3 +673,35 @@ def test_a_candidate_the_frequencies_cannot_test_is_not_named_confidently():
     assert r.ranked[0] == "added_mass" and r.probability > 0.99
     assert r.kind == "tie" and not r.confident_and_wrong
     assert "cannot test added_mass" in r.verdict
+
+
+def test_the_harness_draws_blind_cases_on_a_description_of_ones_own():
+    """A description file in place of a shipped machine (benchmarks.diagnosis --machines, BLIND_MACHINES): its
+    truths are assembled from the file apart from the engine, and the diagnosis is scored on it. central5 (a
+    central isolator whose vertical stiffness moves z alone) with its centre of mass off the axes, measured with
+    shapes: named confidently and right; the bench's table names it by its file's stem."""
+    from benchmarks.diagnosis import _row
+
+    path = str(Path(__file__).parent / "data" / "central5.toml")
+    truth = blind_truth.TruthMachine.of(path)
+    assert truth.name == path and truth.unknown == ("c_h", "c_v", "c_c")
+    assert blind_truth.TruthMachine.of("kid300").unknown == blind_truth.TruthMachine("kid300").unknown
+    result = blind.run_case(1, "com_offset", "shapes", path)
+    assert result.kind == "confident" and result.ranked[0] == "com_offset" and result.identifiable
+    assert _row(path, "shapes", blind.score([result])).startswith("central5    shapes")
+
+
+def test_a_machine_without_damping_has_no_campaigns_of_damping_ratios():
+    """tests/data/press.toml describes no damping: its every true damping ratio is zero (rounding made one
+    -4e-18, which the campaign's schema refused mid-run). The harness draws no such campaign on it, and asked for
+    one says why."""
+    path = str(Path(__file__).parent / "data" / "press.toml")
+    assert not blind.measures_kind(path, "damping") and blind.measures_kind(path, "shapes")
+    assert blind.measures_kind("kid300", "damping")
+    drawn = blind.cases(2, 0, blind.CAMPAIGN_KINDS, ("kid300", path))
+    assert {(m, k) for _, _, k, m in drawn} == {
+        *(("kid300", k) for k in blind.CAMPAIGN_KINDS),
+        *((path, k) for k in blind.CAMPAIGN_KINDS if k != "damping"),
+    }
+    with pytest.raises(InputError, match=r"^kind: .*press.toml has no damping: a campaign of damping ratios"):
+        blind.make_case(0, "none", kind="damping", machine=path)

@@ -122,7 +122,9 @@ def make_case(
         raise ValueError(f"campaign kind {kind!r} is not one of {CAMPAIGN_KINDS}")
     rng = np.random.default_rng(seed)
     model = Machine.resolve(machine)
-    tm = TruthMachine(machine)
+    tm = TruthMachine.of(machine)
+    if kind == "damping" and not tm.damping_parameters:
+        raise InputError("kind", f"{tm.name} has no damping: a campaign of damping ratios would measure zeros")
     size = sample(rng, effect, tm)
     t = Truth(effect, size, {u: tm.nominal[u] * rng.uniform(0.8, 1.2) for u in tm.unknown}, machine)
     omega, shapes = true_modes(tm, model, t)
@@ -361,11 +363,24 @@ def cases(
 ) -> list[tuple[int, str, str, str]]:
     """n cases per campaign kind and machine cycling through ``truths`` (by default 'none', every effect of the
     catalogue and every truth of other physics; REVERSED_BESIDE for the study of a reversed channel beside a
-    physical effect): (seed, truth, kind, machine); a seed gives the same truth in every kind."""
+    physical effect): (seed, truth, kind, machine); a seed gives the same truth in every kind. A machine without
+    damping (a description of one's own) has no campaigns of damping ratios (measures_kind)."""
     unknown = [t for t in truths if t not in TRUTHS]
     if unknown or not truths:
         raise InputError("truths", f"no blind truth {', '.join(unknown)}" if unknown else "no truth given")
-    return [(first_seed + i, truths[i % len(truths)], k, m) for m in machines for k in kinds for i in range(n)]
+    return [
+        (first_seed + i, truths[i % len(truths)], k, m)
+        for m in machines
+        for k in kinds
+        if measures_kind(m, k)
+        for i in range(n)
+    ]
+
+
+def measures_kind(machine: str, kind: str) -> bool:
+    """Whether the blind harness draws campaigns of ``kind`` on ``machine``: every kind but damping ratios on a
+    machine without damping (its every ratio zero; make_case refuses it)."""
+    return kind != "damping" or bool(TruthMachine.of(machine).damping_parameters)
 
 
 RELIABILITY_BINS = (0.0, 0.5, 0.8, 0.95, 0.99, 1.0 + 1e-12)

@@ -148,7 +148,7 @@ def bench_table(seed: int, effect: str, machine: str = "kid300") -> ModeTable:
     (Rig.mode_table). The worked example examples/kid300-bench-modes.unv is uff_modes.write_table of seed 20's
     belt, the truth of examples/kid300-blind-belt.json."""
     _, t = blind.make_case(seed, effect, machine=machine)
-    tm = TruthMachine(machine)
+    tm = TruthMachine.of(machine)
     corners = list(dict.fromkeys(tuple(map(float, r)) for _, r, _ in sensor_layout(tm)))
     return Rig.from_matrices(machine, *truth_matrices(tm, t)).mode_table(corners)
 
@@ -158,7 +158,7 @@ def _written(
 ) -> tuple[Path, tuple[str, ...]]:
     """record_campaign's file and the channels its truth mounts otherwise than the records state."""
     data, t = blind.make_case(seed, truth, machine=machine)
-    tm = TruthMachine(machine)
+    tm = TruthMachine.of(machine)
     stated, mounted = (
         {name: (tuple(map(float, r)), tuple(map(float, d))) for name, r, d in layout}
         for layout in (sensor_layout(tm), mounted_layout(tm, t))

@@ -233,8 +233,14 @@ class TrueIsolator:
 
 
 class TruthMachine:
-    """A shipped machine (``derivations/<name>.toml``) assembled in numpy from its description file: the body
+    """A shipped machine (``derivations/<name>.toml``) or a description file assembled in numpy: the body
     (mass, inertia with products, centre of mass) and every isolator mirrored across the declared planes."""
+
+    @classmethod
+    def of(cls, machine: str) -> TruthMachine:
+        """The truth machine of a shipped machine's name or of a description file (a path ending in .toml, as
+        Machine.resolve takes it): the blind harness on a machine of one's own."""
+        return cls(machine, Path(machine)) if Path(machine).suffix == ".toml" else cls(machine)
 
     def __init__(self, name: str, path: Path | None = None) -> None:
         if path is None:
