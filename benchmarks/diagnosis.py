@@ -27,7 +27,7 @@ import scipy.linalg
 from mountid.diagnosis import campaign, fitting
 from mountid.diagnosis.gap import diagnose
 from mountid.errors import InputError
-from mountid.machine import Machine
+from mountid.machine import Machine, description_file
 from mountid.validation import blind, blind_truth
 
 CASES = ((1, "drive_belt"), (2, "cog_height"), (3, "none"))
@@ -119,7 +119,8 @@ HEADER = (
 
 def _name(machine: str) -> str:
     """A machine as the tables name it: a shipped one by its name, a description file by its file's stem."""
-    return Path(machine).stem if Path(machine).suffix == ".toml" else machine
+    path = description_file(machine)
+    return machine if path is None else path.stem
 
 
 def _row(machine: str, kind: str, s: blind.Score) -> str:
@@ -154,8 +155,9 @@ def _table(
     pooled = {}
     for kind in kinds:
         for machine in machines:
-            if not blind.measures_kind(machine, kind):
-                print(f"{_name(machine):11s} {kind:11s} no cases: the machine has no damping")
+            unmeasured = blind.unmeasured_because(blind_truth.TruthMachine.of(machine), kind)
+            if unmeasured:
+                print(f"{_name(machine):11s} {kind:11s} no cases: {unmeasured}")
                 continue
             s = blind.score([r for r in results if r.campaign == kind and r.machine == machine])
             print(_row(machine, kind, s))

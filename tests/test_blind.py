@@ -691,10 +691,12 @@ def test_the_harness_draws_blind_cases_on_a_description_of_ones_own():
     assert _row(path, "shapes", blind.score([result])).startswith("central5    shapes")
 
 
-def test_a_machine_without_damping_has_no_campaigns_of_damping_ratios():
+def test_a_machine_without_damping_has_no_campaigns_of_damping_ratios(capsys):
     """tests/data/press.toml describes no damping: its every true damping ratio is zero (rounding made one
     -4e-18, which the campaign's schema refused mid-run). The harness draws no such campaign on it, and asked for
-    one says why."""
+    one says why, as the benchmark's table does."""
+    from benchmarks.diagnosis import _table
+
     path = str(Path(__file__).parent / "data" / "press.toml")
     assert not blind.measures_kind(path, "damping") and blind.measures_kind(path, "shapes")
     assert blind.measures_kind("kid300", "damping")
@@ -703,5 +705,9 @@ def test_a_machine_without_damping_has_no_campaigns_of_damping_ratios():
         *(("kid300", k) for k in blind.CAMPAIGN_KINDS),
         *((path, k) for k in blind.CAMPAIGN_KINDS if k != "damping"),
     }
-    with pytest.raises(InputError, match=r"^kind: .*press.toml has no damping: a campaign of damping ratios"):
+    with pytest.raises(InputError, match=r"^kind: .*press.toml: the machine has no damping: a campaign of damping"):
         blind.make_case(0, "none", kind="damping", machine=path)
+    assert _table([], ("damping",), (path,)) == {}
+    assert capsys.readouterr().out.splitlines()[1] == (
+        "press       damping     no cases: the machine has no damping: a campaign of damping ratios would measure zeros"
+    )

@@ -220,7 +220,7 @@ def test_a_plan_gives_the_spread_of_the_unknowns_its_frequencies_determine_besid
     assert math.isnan(spread["c_v"]) and math.isnan(spread["c_w"]) and math.isfinite(spread["c_h"])
     assert notes == [
         "no stiffness standard deviation of c_v, c_w: c_v, c_w are not determined by x, y, z, psi, theta, phi: no set "
-        "of the description's frequencies determines them; the others' with them free"
+        "of the description's frequencies determines them; the others' standard deviations with them free"
     ]
     known = {k: v for k, v in rig.values.items() if k not in held.unknown}
     damping = {n: rig.values[n] for n in machine.damping}

@@ -349,7 +349,6 @@ def diagnose_where(
     judged = [r for r in residuals if r.significant is not None]
     if len(judged) < len(residuals):
         notes.append("some frequencies have no uncertainty: their gaps are listed, their significance not judged")
-    significant = sorted({r.label for r in residuals if r.significant})
     tied = [x for x in loc if loc and x.explained >= loc[0].explained - 0.01]
     if len(tied) > 1:
         what = "would remove the misses (within their uncertainty)" if within_noise else "remove the gap"
@@ -358,6 +357,7 @@ def diagnose_where(
             f"({'; '.join(x.describe() for x in tied[:4])}{'; ...' if len(tied) > 4 else ''}): "
             "these measurements cannot tell them apart"
         )
+    significant = sorted({r.label for r in residuals if r.significant})
     if broken:
         verdict = "broken symmetry: " + "; ".join(broken)
     elif significant:

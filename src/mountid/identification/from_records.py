@@ -622,6 +622,12 @@ class StiffnessFit(NamedTuple):
     log_covariance: np.ndarray
 
 
+def frequency_std(measured: dict[str, tuple[float, float]], labels: list[str]) -> np.ndarray:
+    """The standard deviation [rad/s] of each frequency of ``measured`` {label: (omega, std)} at ``labels``, no
+    less than 1e-6 of the frequency (a stated zero would weight its frequency without bound)."""
+    return np.array([max(measured[lab][1], 1e-6 * measured[lab][0]) for lab in labels])
+
+
 def fit_stiffness(
     machine: Machine,
     known: dict[str, float],
@@ -672,7 +678,7 @@ def fit_stiffness(
     knowns = machine.values(known, tuple(a for a in mod.FORWARD_ARGUMENTS if a not in unknown))
     idx = [mod.MODES.index(lab) for lab in labels]
     omega = np.array([measured[lab][0] for lab in labels])
-    std = np.array([max(measured[lab][1], 1e-6 * measured[lab][0]) for lab in labels])
+    std = frequency_std(measured, labels)
 
     def model(p: dict[str, float]) -> np.ndarray:
         if damping is None:

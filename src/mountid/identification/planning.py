@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mountid.errors import InputError
-from mountid.identification.from_records import fit_stiffness, pole_frequency_derivatives
+from mountid.identification.from_records import fit_stiffness, frequency_std, pole_frequency_derivatives
 from mountid.identification.statistics import covariance, standard_deviations
 from mountid.machine import Machine, call
 from mountid.measurement import ambient, frf, modal
@@ -299,7 +299,7 @@ def _stiffness_spread(rig: Rig, frequencies: dict[str, tuple[float, float]], not
             f"no stiffness standard deviation of {', '.join(undetermined.unknowns)}: {undetermined.describe()}: "
             f"{undetermined.advice()}"
             + (
-                f"; the others' with {'it' if len(undetermined.unknowns) == 1 else 'them'} free"
+                f"; the others' standard deviations with {'it' if len(undetermined.unknowns) == 1 else 'them'} free"
                 if len(undetermined.unknowns) < len(machine.unknown)
                 else ""
             )
@@ -324,7 +324,7 @@ def _spread_beside(
     machine = rig.machine
     labels = [lab for lab in machine.unique_modes if lab in frequencies]
     rows = [machine.module.MODES.index(lab) for lab in labels]
-    std = np.array([frequencies[lab][1] for lab in labels])
+    std = frequency_std(frequencies, labels)
     values = np.array([rig.values[u] for u in machine.unknown])
     d_omega = pole_frequency_derivatives(machine, rig.values, machine.unknown)[:, rows]  # (unknowns, labels)
     spread = standard_deviations(covariance(d_omega.T * values[None, :] / std[:, None], 0.0, 0))

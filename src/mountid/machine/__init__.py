@@ -22,7 +22,13 @@ from mountid.machine.dynamics import (
     unit_vector,
 )
 from mountid.machine.model import Machine, Solution
-from mountid.machine.modules import GeneratedModule, cache_folder, module_from_description, shipped_machines
+from mountid.machine.modules import (
+    GeneratedModule,
+    cache_folder,
+    description_file,
+    module_from_description,
+    shipped_machines,
+)
 
 __all__ = [
     "GeneratedModule",
@@ -33,6 +39,7 @@ __all__ = [
     "damped_modes",
     "damped_pole_derivatives",
     "damped_poles",
+    "description_file",
     "matrices",
     "module_from_description",
     "pair_with_undamped",

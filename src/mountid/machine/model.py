@@ -13,14 +13,13 @@ import itertools
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from mountid.errors import InputError, real_number
 from mountid.machine.dynamics import call
-from mountid.machine.modules import GeneratedModule, module_from_description, shipped_machines
+from mountid.machine.modules import GeneratedModule, description_file, module_from_description, shipped_machines
 from mountid.nomenclature import POSITIVE_KINDS, distinct_frequencies
 
 
@@ -84,8 +83,8 @@ class Machine:
         """A shipped machine by name, or a description file by path (generated on the fly)."""
         if machine in shipped_machines():
             return cls(importlib.import_module(f"mountid.generated.{machine}"))
-        path = Path(machine)
-        if path.suffix == ".toml" and path.is_file():
+        path = description_file(machine)
+        if path is not None and path.is_file():
             return cls(module_from_description(path))
         raise InputError(
             "machine",

@@ -43,6 +43,13 @@ def shipped_machines() -> list[str]:
     return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
 
 
+def description_file(machine: str) -> Path | None:
+    """The description file a machine's name gives (a path ending in .toml, whether or not it exists), or None
+    for the name of a shipped machine: how Machine.resolve, the blind harness and the benchmarks tell them apart."""
+    path = Path(machine)
+    return path if path.suffix == ".toml" else None
+
+
 def cache_folder() -> Path:
     """Where modules generated from description files are kept: $MOUNTID_CACHE, else
     $XDG_CACHE_HOME/mountid, else ~/.cache/mountid."""

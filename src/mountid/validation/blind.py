@@ -123,8 +123,9 @@ def make_case(
     rng = np.random.default_rng(seed)
     model = Machine.resolve(machine)
     tm = TruthMachine.of(machine)
-    if kind == "damping" and not tm.damping_parameters:
-        raise InputError("kind", f"{tm.name} has no damping: a campaign of damping ratios would measure zeros")
+    unmeasured = unmeasured_because(tm, kind)
+    if unmeasured:
+        raise InputError("kind", f"{tm.name}: {unmeasured}")
     size = sample(rng, effect, tm)
     t = Truth(effect, size, {u: tm.nominal[u] * rng.uniform(0.8, 1.2) for u in tm.unknown}, machine)
     omega, shapes = true_modes(tm, model, t)
@@ -378,9 +379,16 @@ def cases(
 
 
 def measures_kind(machine: str, kind: str) -> bool:
-    """Whether the blind harness draws campaigns of ``kind`` on ``machine``: every kind but damping ratios on a
-    machine without damping (its every ratio zero; make_case refuses it)."""
-    return kind != "damping" or bool(TruthMachine.of(machine).damping_parameters)
+    """Whether the blind harness draws campaigns of ``kind`` on ``machine`` (unmeasured_because says why not)."""
+    return unmeasured_because(TruthMachine.of(machine), kind) is None
+
+
+def unmeasured_because(tm: TruthMachine, kind: str) -> str | None:
+    """Why the blind harness draws no campaigns of ``kind`` on the machine ``tm`` (None: it draws them): damping
+    ratios on a machine without damping would measure zeros (make_case refuses them)."""
+    if kind == "damping" and not tm.damping_parameters:
+        return "the machine has no damping: a campaign of damping ratios would measure zeros"
+    return None
 
 
 RELIABILITY_BINS = (0.0, 0.5, 0.8, 0.95, 0.99, 1.0 + 1e-12)

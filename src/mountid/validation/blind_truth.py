@@ -95,7 +95,7 @@ import tomllib
 
 from mountid.diagnosis.candidate_model import label_modes
 from mountid.effects import STANDARD_GRAVITY
-from mountid.machine import Machine
+from mountid.machine import Machine, description_file
 from mountid.machine.symmetry import mirror_planes, parities, with_parities
 from mountid.measurement.modes import scaled_unit
 from mountid.measurement.rig import Hardening
@@ -240,7 +240,7 @@ class TruthMachine:
     def of(cls, machine: str) -> TruthMachine:
         """The truth machine of a shipped machine's name or of a description file (a path ending in .toml, as
         Machine.resolve takes it): the blind harness on a machine of one's own."""
-        return cls(machine, Path(machine)) if Path(machine).suffix == ".toml" else cls(machine)
+        return cls(machine, description_file(machine))
 
     def __init__(self, name: str, path: Path | None = None) -> None:
         if path is None:
