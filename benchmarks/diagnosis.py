@@ -123,6 +123,15 @@ def _name(machine: str) -> str:
     return machine if path is None else path.stem
 
 
+def _refused(machine: str) -> str | None:
+    """Why the benchmark refuses a machine given to --machines (None: it takes it): a name or file that is no
+    machine, or a machine on which no campaign can be diagnosed (blind.undiagnosable_because)."""
+    try:
+        return blind.undiagnosable_because(Machine.resolve(machine))
+    except InputError as err:
+        return str(err)
+
+
 def _row(machine: str, kind: str, s: blind.Score) -> str:
     return (
         f"{_name(machine):11s} {kind:11s} {s.n:5d} {_share(s.top1_identifiable)} {_share(s.truth_in_tie)} "
@@ -370,11 +379,10 @@ if __name__ == "__main__":
     if args.level is not None and not 0 < args.level < 10:
         parser.error("--level must lie between 0 and 10 (times the campaign's force)")
     machines = tuple(args.machines)
-    for machine in machines:  # a name or file that is no machine stops here, not in a worker
-        try:
-            Machine.resolve(machine)
-        except InputError as err:
-            parser.error(f"--machines: {err}")
+    for machine in machines:  # stops here, not in a worker nor after the others' cases
+        refused = _refused(machine)
+        if refused:
+            parser.error(f"--machines: {refused}")
     speed(machines)
     common = {"first_seed": args.first_seed, "nominal": args.nominal, "level": args.level, "machines": machines}
     validation(args.cases, figure=args.figure, **common)

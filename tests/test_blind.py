@@ -4,8 +4,10 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from mountid.diagnosis.candidates import diagnose_effects
 from mountid.diagnosis.settings import DIAGNOSIS
 from mountid.effects import CATALOGUE, EFFECTS, pair
 from mountid.errors import InputError
+from mountid.machine import Machine
 from mountid.validation import blind, blind_truth
 
 
@@ -711,3 +714,33 @@ def test_a_machine_without_damping_has_no_campaigns_of_damping_ratios(capsys):
     assert capsys.readouterr().out.splitlines()[1] == (
         "press       damping     no cases: the machine has no damping: a campaign of damping ratios would measure zeros"
     )
+
+
+def test_a_machine_with_as_many_unknowns_as_distinct_modes_is_refused_before_any_case(monkeypatch):
+    """A diagnosis fits the unknowns and holds one frequency out in turn, so it needs one distinct frequency more
+    than unknowns: on tests/data/plant16.toml (six unknowns, six distinct modes) the benchmark timed kid300 and then
+    stopped with a traceback in plant16's warm-up (campaign.parse: '7 needed'). The harness and the benchmark now
+    refuse such a machine up front, saying why, and a campaign on it names the way out: the frequencies to fit
+    and mode shapes to test the model (here kid300 with its two lengths taken unknown beside its stiffnesses)."""
+    from benchmarks import diagnosis as bench
+
+    kid300 = Machine.resolve("kid300")
+    assert blind.undiagnosable_because(kid300) is None and bench._refused("kid300") is None
+    square = copy.copy(kid300)
+    square.unknown = ("c_xy", "c_z", "L_xy", "L_z")
+    reason = (
+        "kid300 has 4 distinct modes for 4 unknowns: the blind campaigns hold one frequency out of the fit in turn "
+        '(5 needed); only a campaign that names the frequencies to fit ("fit") can be diagnosed on it, from its '
+        "mode shapes"
+    )
+    assert blind.undiagnosable_because(square) == reason
+    monkeypatch.setattr(Machine, "resolve", classmethod(lambda cls, name: square))
+    assert bench._refused("kid300") == reason
+    with pytest.raises(InputError, match=f"^machine: {re.escape(reason)}$"):
+        blind.make_case(0, "none", machine="kid300")
+    paper = json.loads((Path(__file__).parents[1] / "examples" / "kid300-paper.json").read_text())
+    del paper["fit"], paper["known"]["L_xy"], paper["known"]["L_z"]
+    with pytest.raises(InputError, match="^modes: .*5 needed; kid300 has no more distinct modes: name the freq"):
+        campaign.parse(paper)
+    monkeypatch.undo()
+    assert bench._refused("no_such_machine").startswith("machine: unknown machine 'no_such_machine'")

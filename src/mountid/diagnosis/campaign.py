@@ -248,6 +248,13 @@ def _non_finite(value: object, path: str) -> str | None:
     return None
 
 
+def frequencies_needed(machine: Machine, fit: tuple[str, ...] | None = None) -> int:
+    """How many distinct frequencies a campaign on ``machine`` must measure: one per unknown, and one more that
+    the gap report and the candidates hold out of the fit in turn (leave-one-out), unless the campaign names the
+    frequencies to ``fit``."""
+    return len(machine.unknown) + (0 if fit else 1)
+
+
 def parse(data: dict, base: Path | None = None) -> Campaign:
     """A campaign from its JSON data (``base``: folder that relative description paths start from)."""
     validator = jsonschema.Draft202012Validator(schema())
@@ -315,7 +322,7 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
         if label not in modes:
             raise InputError("fit", f"{label} is not among the measured modes ({', '.join(modes)})")
     distinct = {seen[label] for label in (fit or modes)}
-    need = len(machine.unknown) + (0 if fit else 1)  # leave-one-out fits all but one
+    need = frequencies_needed(machine, fit)
     if len(distinct) < need:
         from mountid.identification.from_records import with_warnings
 
@@ -330,7 +337,13 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
             + (f"; not measured: {', '.join(missing)}" if missing and not fit else "")
             + (
                 "; the records gave too few (a longer record, more channels, another excitation point)"
-                if from_records and not fit
+                if from_records and not fit and missing
+                else ""
+            )
+            + (
+                f'; {machine.name} has no more distinct modes: name the frequencies to fit ("fit") and measure '
+                "mode shapes, which then test the model"
+                if not fit and len(machine.unique_modes) < need
                 else ""
             ),
         )

@@ -122,6 +122,9 @@ def make_case(
         raise ValueError(f"campaign kind {kind!r} is not one of {CAMPAIGN_KINDS}")
     rng = np.random.default_rng(seed)
     model = Machine.resolve(machine)
+    undiagnosable = undiagnosable_because(model)
+    if undiagnosable:
+        raise InputError("machine", undiagnosable)
     tm = TruthMachine.of(machine)
     unmeasured = unmeasured_because(tm, kind)
     if unmeasured:
@@ -381,6 +384,21 @@ def cases(
 def measures_kind(machine: str, kind: str) -> bool:
     """Whether the blind harness draws campaigns of ``kind`` on ``machine`` (unmeasured_because says why not)."""
     return unmeasured_because(TruthMachine.of(machine), kind) is None
+
+
+def undiagnosable_because(machine: Machine) -> str | None:
+    """Why no blind campaign on ``machine`` can be diagnosed (None: they can): its distinct modes are fewer than a
+    campaign that fits all but one of them in turn must measure (campaign.frequencies_needed), as on a machine
+    with as many unknowns as modes. The harness does not draw campaigns that name the frequencies to fit."""
+    need = campaign_module.frequencies_needed(machine)
+    have = len(machine.unique_modes)
+    if have >= need:
+        return None
+    return (
+        f"{machine.name} has {have} distinct modes for {len(machine.unknown)} unknowns: the blind campaigns hold "
+        f"one frequency out of the fit in turn ({need} needed); only a campaign that names the frequencies to fit "
+        '("fit") can be diagnosed on it, from its mode shapes'
+    )
 
 
 def unmeasured_because(tm: TruthMachine, kind: str) -> str | None:
