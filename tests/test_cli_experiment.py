@@ -121,7 +121,12 @@ def test_process_gives_modal_data_and_use_picks_the_papers_pair(capsys, tmp_path
     assert code == 0 and header in text
     # the table identify-record prints: what it comes from, and each mode's MAC (process printed neither)
     assert text.startswith(f"kid300: 4 modes from {path}\n")
-    rows = [line.split() for line in text.splitlines()[2:]]
+    # why there is no shape: what the paper's five channels do not see
+    assert text.splitlines()[1] == (
+        "  note: no mode shapes: the channels see 5 of the six rigid-body motions, not a rotation about the axis "
+        "through (0.45, 0, 0.1) m along (0, 1, 0); a channel that moves in it would give them"
+    )
+    rows = [line.split() for line in text.splitlines()[3:]]
     assert [r[0] for r in rows] == list(modes) and all(r[-2] == "MAC" for r in rows)
     assert [float(r[-1]) for r in rows] == [round(m["mac"], 2) for m in modes.values()]
     code, out, _ = run(capsys, "identify-record", "kid300", str(path), "--use", "x", "psi", "--json")

@@ -21,6 +21,7 @@ from mountid.identification.shapes import (
     joint_motion,
     merged_shape,
     real_shape,
+    unseen_motion,
 )
 from mountid.measurement.modes import ChannelShape, scaled_unit
 
@@ -264,3 +265,43 @@ def test_the_sharpest_record_with_a_shape_gives_it():
         assert mode.shape is not None, label
         said = next(n for n in found.notes if n.startswith(f"{label}: frequency"))
         assert "shape from full" in said, said
+
+
+def test_what_two_triaxial_sensors_do_not_see_is_the_rotation_about_the_line_through_them():
+    """Two triaxial sensors see five of the six rigid-body motions: the rotation about the line through them moves
+    neither. The note names that line (through the point nearest the origin, along its direction); rows built by
+    hand from u = t + theta x r, apart from the engine's sensor rows."""
+    rows = np.vstack([_triaxial((0.4, 0.3, 0.2)), _triaxial((-0.4, -0.3, 0.2))])
+    assert unseen_motion(rows, LENGTH) == (
+        "the channels see 5 of the six rigid-body motions, not a rotation about the axis through (0, 0, 0.2) m "
+        "along (0.8, 0.6, 0)"
+    )
+    a, b = np.array([1.0, 2.0, 3.0]), np.array([0.5, -1.0, 2.0])
+    along = (a - b) / np.linalg.norm(a - b)
+    nearest = a - (a @ along) * along
+    said = unseen_motion(np.vstack([_triaxial(a), _triaxial(b)]), LENGTH)
+    fmt = ", ".join
+    assert said.endswith(
+        f"through ({fmt(f'{v:.3g}' for v in nearest)}) m along ({fmt(f'{v:.3g}' for v in along)})"
+    ), said
+
+
+def test_what_channels_do_not_see_a_translation_a_screw_or_several_motions():
+    """Channels along y and z only never see a translation along x; five rows orthogonal to a screw (a rotation
+    about z through (0, 0.1, 0) with 0.05 m along z per radian) leave that screw; four rows leave two motions;
+    channels that see all six give no note."""
+    points = ((0.7, 0.45, 0.2), (-0.7, 0.45, 0.2), (0.7, -0.45, 0.2))
+    yz = np.vstack([_triaxial(p)[1:] for p in points])
+    assert unseen_motion(yz, LENGTH) == (
+        "the channels see 5 of the six rigid-body motions, not a translation along (1, 0, 0)"
+    )
+    screw = np.array([0.1, 0.0, 0.05, 0.0, 0.0, 1.0])  # t = (0.1, 0, 0.05), theta = (0, 0, 1)
+    rows = scipy.linalg.null_space(screw[None, :]).T
+    assert unseen_motion(rows, LENGTH) == (
+        "the channels see 5 of the six rigid-body motions, not a rotation about the axis through (0, 0.1, 0) m "
+        "along (0, 0, 1) with 0.05 m along it per radian"
+    )
+    assert unseen_motion(yz[:4], LENGTH) == (
+        "the channels see 4 of the six rigid-body motions (six independent directions needed)"
+    )
+    assert unseen_motion(np.vstack([_triaxial(p) for p in points]), LENGTH) == ""

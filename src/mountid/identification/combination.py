@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import InputError, NoModeFound
-from mountid.identification.shapes import merged_shape
+from mountid.identification.shapes import merged_shape, unseen_motion
 from mountid.machine import Machine
 from mountid.measurement import ambient, modal
 from mountid.measurement.modes import MeasuredMode
@@ -274,7 +274,20 @@ def combine(
         notes += said
         disagree += [label] if said else []
         modes[label] = mode
+    notes += why_no_shapes(modes, [m for found in estimates.values() for m, _ in found])
     return Combination(modes, tuple(notes), tuple(disagree), shape_from)
+
+
+def why_no_shapes(modes: dict[str, MeasuredMode], estimates: Sequence[MeasuredMode]) -> list[str]:
+    """A note where none of the ``modes`` has a shape because the channels of every estimate of them, all together,
+    do not see every rigid-body motion (shapes.unseen_motion: two triaxial sensors leave the rotation about the line
+    through them unseen); empty where a mode has one or the channels see all six (a shape missing for another
+    reason: its own notes)."""
+    parts = [m.channels for m in estimates if m.channels is not None]
+    if not parts or any(m.shape is not None for m in modes.values()):
+        return []
+    unseen = unseen_motion(np.vstack([p.rows for p in parts]), parts[0].length)
+    return [f"no mode shapes: {unseen}; a channel that moves in it would give them"] if unseen else []
 
 
 def decays_of(
@@ -368,7 +381,7 @@ def every_decay(
     warnings (named by the decay, ``record``, but for a lone record's first), the notes (every_hit's, each decay's
     own under its name, the combination's); its frf, start and end the first decay's (what a figure of one decay
     shows). A lone record with one decay (one hit, a ``start``, or the H1 frequency responses of a force channel)
-    gives its modal_data as it is."""
+    gives its modal_data, with why_no_shapes's note where its channels give no shapes."""
     segments: list[tuple[str, ModalData]] = []
     said: list[str] = []
     for name, record in records:
@@ -388,7 +401,8 @@ def every_decay(
     if not segments:
         raise NoModeFound("record", f"no mode in any of {counted(len(records), 'record')}: {'; '.join(said)}")
     if len(records) == 1 and len(segments) == 1:
-        return segments[0][1]
+        data = segments[0][1]
+        return replace(data, notes=(*data.notes, *why_no_shapes(data.modes, list(data.modes.values()))))
     estimates: Estimates = {}
     mixed, warnings, notes, unlabelled = [], [], said, []
     for k, (segment, data) in enumerate(segments):
