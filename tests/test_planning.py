@@ -179,3 +179,31 @@ def test_an_output_only_plan_on_the_command_line(capsys):
     for args, message in refusals:
         assert main(args) == 2
         assert message in capsys.readouterr().err
+
+
+def test_the_plan_says_which_motion_its_channels_do_not_see(paper_plan, ambient_plans):
+    """A layout that will give no mode shapes says so before the test, naming what it does not see
+    (shapes.unseen_motion), as the records chain's note on its record does: the paper's three channels see three
+    of the six rigid-body motions, its five miss the rotation about an axis along y, two triaxial sensors the
+    rotation about the line through them; a third triaxial sensor off that line leaves no note."""
+    assert [n for n in paper_plan.notes if n.startswith("no mode shapes")] == [
+        "no mode shapes: the channels see 3 of the six rigid-body motions: channels along 3 more independent "
+        "directions would give them"
+    ]
+    five = (
+        "no mode shapes: the channels see 5 of the six rigid-body motions, not a rotation about the axis through "
+        "(0.45, 0, 0.1) m along (0, 1, 0); a channel that moves in it would give them"
+    )
+    assert all(five in result.notes for result in ambient_plans.values())
+
+    def triaxial(*points):
+        return [Sensor(f"P{i}{a}", p, d) for i, p in enumerate(points) for a, d in zip("xyz", np.eye(3), strict=True)]
+
+    kid300, ends = Machine.resolve("kid300"), ((0.4, 0.3, 0.2), (-0.4, -0.3, 0.2))
+    two = plan(kid300, triaxial(*ends), paper_hit(), 4.0, 2048.0, 0.01)
+    assert [n for n in two.notes if n.startswith("no mode shapes")] == [
+        "no mode shapes: the channels see 5 of the six rigid-body motions, not a rotation about the axis through "
+        "(0, 0, 0.2) m along (0.8, 0.6, 0); a channel that moves in it would give them"
+    ]
+    three = plan(kid300, triaxial(*ends, (0.4, -0.3, 0.2)), paper_hit(), 4.0, 2048.0, 0.01)
+    assert not [n for n in three.notes if n.startswith("no mode shapes")]

@@ -274,7 +274,7 @@ def test_what_two_triaxial_sensors_do_not_see_is_the_rotation_about_the_line_thr
     rows = np.vstack([_triaxial((0.4, 0.3, 0.2)), _triaxial((-0.4, -0.3, 0.2))])
     assert unseen_motion(rows, LENGTH) == (
         "the channels see 5 of the six rigid-body motions, not a rotation about the axis through (0, 0, 0.2) m "
-        "along (0.8, 0.6, 0)"
+        "along (0.8, 0.6, 0); a channel that moves in it would give them"
     )
     a, b = np.array([1.0, 2.0, 3.0]), np.array([0.5, -1.0, 2.0])
     along = (a - b) / np.linalg.norm(a - b)
@@ -282,7 +282,8 @@ def test_what_two_triaxial_sensors_do_not_see_is_the_rotation_about_the_line_thr
     said = unseen_motion(np.vstack([_triaxial(a), _triaxial(b)]), LENGTH)
     fmt = ", ".join
     assert said.endswith(
-        f"through ({fmt(f'{v:.3g}' for v in nearest)}) m along ({fmt(f'{v:.3g}' for v in along)})"
+        f"through ({fmt(f'{v:.3g}' for v in nearest)}) m along ({fmt(f'{v:.3g}' for v in along)}); a channel that "
+        "moves in it would give them"
     ), said
 
 
@@ -293,15 +294,17 @@ def test_what_channels_do_not_see_a_translation_a_screw_or_several_motions():
     points = ((0.7, 0.45, 0.2), (-0.7, 0.45, 0.2), (0.7, -0.45, 0.2))
     yz = np.vstack([_triaxial(p)[1:] for p in points])
     assert unseen_motion(yz, LENGTH) == (
-        "the channels see 5 of the six rigid-body motions, not a translation along (1, 0, 0)"
+        "the channels see 5 of the six rigid-body motions, not a translation along (1, 0, 0); a channel that moves "
+        "in it would give them"
     )
     screw = np.array([0.1, 0.0, 0.05, 0.0, 0.0, 1.0])  # t = (0.1, 0, 0.05), theta = (0, 0, 1)
     rows = scipy.linalg.null_space(screw[None, :]).T
     assert unseen_motion(rows, LENGTH) == (
         "the channels see 5 of the six rigid-body motions, not a rotation about the axis through (0, 0.1, 0) m "
-        "along (0, 0, 1) with 0.05 m along it per radian"
+        "along (0, 0, 1) with 0.05 m along it per radian; a channel that moves in it would give them"
     )
     assert unseen_motion(yz[:4], LENGTH) == (
-        "the channels see 4 of the six rigid-body motions (six independent directions needed)"
+        "the channels see 4 of the six rigid-body motions: channels along 2 more independent directions would give "
+        "them"
     )
     assert unseen_motion(np.vstack([_triaxial(p) for p in points]), LENGTH) == ""

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mountid.errors import InputError, NoModeFound
-from mountid.identification.shapes import merged_shape, unseen_motion
+from mountid.identification.shapes import merged_shape, no_shapes_note
 from mountid.machine import Machine
 from mountid.measurement import ambient, modal
 from mountid.measurement.modes import MeasuredMode
@@ -286,8 +286,8 @@ def why_no_shapes(modes: dict[str, MeasuredMode], estimates: Sequence[MeasuredMo
     parts = [m.channels for m in estimates if m.channels is not None]
     if not parts or any(m.shape is not None for m in modes.values()):
         return []
-    unseen = unseen_motion(np.vstack([p.rows for p in parts]), parts[0].length)
-    return [f"no mode shapes: {unseen}; a channel that moves in it would give them"] if unseen else []
+    note = no_shapes_note(np.vstack([p.rows for p in parts]), parts[0].length)
+    return [note] if note else []
 
 
 def decays_of(

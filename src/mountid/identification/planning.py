@@ -32,8 +32,9 @@ import numpy as np
 
 from mountid.errors import InputError
 from mountid.identification.from_records import fit_stiffness, frequency_std, pole_frequency_derivatives
+from mountid.identification.shapes import no_shapes_note
 from mountid.identification.statistics import covariance, standard_deviations
-from mountid.machine import Machine, call
+from mountid.machine import Machine, call, sensor_row
 from mountid.measurement import ambient, frf, modal
 from mountid.measurement.rig import ANTI_ALIAS, Hammer, Rig, Sensor
 from mountid.measurement.settings import RECORDS
@@ -170,6 +171,7 @@ def plan(
 
     notes: list[str] = []
     parameter_std = _stiffness_spread(rig, {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}, notes)
+    notes += _shapes(rig, sensors)
     slowest = rig.slowest_decay()
     if math.isfinite(slowest):
         need = frf.shaker_lengths(slowest)
@@ -255,6 +257,7 @@ def plan_output_only(
         if 2 * len(found[label]) >= draws and rep not in frequencies:
             frequencies[rep] = (float(abs(p)), float(stds[0]))
     parameter_std = _stiffness_spread(rig, frequencies, notes)
+    notes += _shapes(rig, sensors)
     notes.insert(
         0,
         f"simulated: {counted(draws, 'record')} of {duration:g} s at {rate:g} Hz under random forces of {level:g} N "
@@ -263,6 +266,14 @@ def plan_output_only(
         "from the modes found in half the records or more",
     )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
+
+
+def _shapes(rig: Rig, sensors: list[Sensor]) -> list[str]:
+    """The plan's note where the ``sensors`` will give no mode shapes: the rigid-body motion they do not see
+    (shapes.no_shapes_note, the records chain's note on such a record)."""
+    rows = np.array([sensor_row(rig.machine.module, s.point, s.direction, s.name) for s in sensors])
+    note = no_shapes_note(rows, rig.machine.length_scale(rig.values))
+    return [note] if note else []
 
 
 def _layout(
