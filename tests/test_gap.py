@@ -582,6 +582,29 @@ def test_the_prediction_uncertainty_of_a_held_out_mode_matches_a_monte_carlo():
     assert np.std(predicted) == pytest.approx(stated.prediction_std, rel=0.2)
 
 
+def test_with_no_datum_to_spare_no_mode_is_held_out_and_the_report_says_what_the_probabilities_are(capsys, tmp_path):
+    """Two frequencies fitted for two unknowns: every candidate has at least as many parameters as data, so each
+    mode's leverage is 1 and none can be held out. The hat matrix from J^T J gave leverages of 1 +- 1e-8, held-out
+    variances of +-1e9..1e16 (negative ones among them: the figure's error bars warned, sqrt of a negative); from
+    the SVD of J every held-out error and variance is nan. The report says the candidates' probabilities are
+    their priors' share, not a fit's."""
+    from mountid.report.figures import diagnosis_figure
+    from mountid.report.text import print_diagnosis
+
+    w = _measured(J_xy=TABLE_1["J_xy"] * 1.15)
+    diagnosis = diagnose(parse(_campaign({k: w[k] for k in ("x", "z")}, fit=["x", "z"])))
+    assert diagnosis.effects.kind == "cannot judge"
+    fitted = [f for f in diagnosis.effects.ranked if f.applicable]
+    assert len(fitted) > 5
+    for f in fitted:
+        assert f.n_parameters >= f.n_data
+        assert all(math.isnan(v) for v in (*f.held_out_variance.values(), *f.held_out_gap.values())), f.effect
+    diagnosis_figure(diagnosis, tmp_path / "f.png", title="two for two")  # warnings are errors in the tests
+    print_diagnosis(diagnosis, "two for two", None)
+    text = capsys.readouterr().out
+    assert "(2 data for 2 unknowns: every candidate fits them exactly and has no mode to hold out;" in text
+
+
 def test_a_gap_report_goes_on_where_some_modes_have_no_inverse_root():
     """screen6 on a heavy slab, as its records label it: the inverses over five of the six modes (leaving psi out)
     have no admissible root, and the leave-one-out fit stopped the whole diagnosis with 'no generated inverse

@@ -780,17 +780,30 @@ def _plausible(model: CandidateModel, theta: np.ndarray) -> bool:
     return bool(np.all((a - margin <= values) & (values <= b + margin)))
 
 
+HELD_OUT_LEVERAGE = 1e-10
+"""A mode is held out only where the smallest eigenvalue of I - H_gg (its rows' share of the fit left to the
+others, in [0, 1]) exceeds this: below it the mode alone determines a parameter (a single frequency row with
+leverage 1 - 1e-10 would be predicted within 1e5 of its own standard deviations)."""
+
+HAT_RANK = 10**-7.5
+"""Singular values of the weighted Jacobian below this fraction of the largest span no direction of the hat
+matrix (pinv's cut of 1e-15 on J^T J, taken on J)."""
+
+
 def _linear_leave_one_out(data: Data, r: np.ndarray, jac: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
     """measured - prediction without the mode [rad/s], to first order: (I - H_gg)^-1 r_g for the mode's rows g
-    of the weighted hat matrix H = J (J^T J)^-1 J^T; and its variance in units of the frequency's,
-    [(I - H_gg)^-1]_00 (r_g has covariance I - H_gg). Both nan where the mode alone determines a parameter."""
-    inv = np.linalg.pinv(jac.T @ jac)
+    of the weighted hat matrix H = J (J^T J)^-1 J^T = U U^T (U: J's left singular vectors); and its variance in
+    units of the frequency's, [(I - H_gg)^-1]_00 (r_g has covariance I - H_gg). Both nan where the mode alone
+    determines a parameter (HELD_OUT_LEVERAGE). H is built from the SVD of J, not from J^T J: the normal matrix
+    squares J's condition, and with as many parameters as rows (prior rows included) the leverages of 1 came out
+    as 1 +- 1e-8, a negative variance or one of 1e9."""
+    u, s, _ = np.linalg.svd(jac, full_matrices=False)
+    u = u[:, s > HAT_RANK * s[0]] if s.size and s[0] > 0 else u[:, :0]
     out, variance = {}, {}
     for i, lab in enumerate(data.labels):
         g = data.rows_of(lab)
-        h = jac[g] @ inv @ jac[g].T
-        a = np.eye(len(g)) - h
-        if np.linalg.cond(a) > 1e10:
+        a = np.eye(len(g)) - u[g] @ u[g].T
+        if np.linalg.eigvalsh(a)[0] < HELD_OUT_LEVERAGE:
             out[lab] = variance[lab] = math.nan
             continue
         inverse = np.linalg.inv(a)

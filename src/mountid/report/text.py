@@ -130,6 +130,11 @@ def _print_candidates(effects: EffectsReport, campaign: Campaign) -> None:
         f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}{split}, "
         f"probability {n.probability:.3g}), by posterior probability:"
     )
+    if n.n_data <= n.n_parameters:
+        print(
+            f"  ({n.n_data} data for {n.n_parameters} unknowns: every candidate fits them exactly and has no mode to "
+            "hold out; a probability says how much of its priors' range the data leave, not how well it fits)"
+        )
     width = max([22, *(len(f.effect) + 1 for f in effects.ranked)])
     print(f"  {'effect':{width}s}{'prob.':>8s}{'chi^2':>9s}{'held-out':>25s}  parameters (+- std)")
     print(f"  {'':{width}s}{'':>8s}{'':>9s}{'RMS | median | pred.':>25s}  (held-out errors in sigma of the")
