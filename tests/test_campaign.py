@@ -86,3 +86,35 @@ def test_directions_given_as_signed_axes_are_the_vectors():
     named["sensors"][0]["direction"] = "w"
     with pytest.raises(InputError, match=r"^sensors\.0\.direction"):
         campaign_module.parse(named)
+
+
+def test_damping_ratios_on_a_description_without_damping_are_left_out_and_said():
+    """tests/data/press.toml describes no damping: every model damping ratio is 0. Two measured ratios (5 % and 4 %)
+    were compared with it, +20 sigma each, and their chi^2 of 800 drowned the frequencies' 11 in the verdict ("not
+    explained ... the model's damping () does not reproduce them"). They are left out of the campaign with a note,
+    and the frequencies alone are diagnosed."""
+    from pathlib import Path
+
+    from mountid.diagnosis.gap import diagnose
+
+    path = str(Path(__file__).parent / "data" / "press.toml")
+    w = Machine.resolve(path).frequencies({})
+    modes = {k: {"frequency": w[k], "uncertainty": 0.02} for k in ("x", "y", "z", "psi", "phi")}
+    modes["x"]["damping_ratio"], modes["z"]["damping_ratio"] = 0.05, 0.04
+    campaign = campaign_module.parse({"machine": path, "modes": modes})
+    assert all(m.damping_ratio is None and m.damping_std is None for m in campaign.modes.values())
+    assert campaign.notes == (
+        "damping ratios of x, z not compared: press's description has no damping (its model's ratios are all 0); "
+        "describe the isolators' damping to compare them",
+    )
+    diagnosis = diagnose(campaign)
+    assert diagnosis.effects.nominal.damping_gap == {} and diagnosis.effects.kind == "no significant gap"
+    # a description with damping compares them as before
+    w = Machine.resolve("kid300").frequencies({})
+    kid = campaign_module.parse(
+        {
+            "machine": "kid300",
+            "modes": {k: {"frequency": w[k], "damping_ratio": 0.05} for k in ("x", "z", "psi", "phi")},
+        }
+    )
+    assert kid.notes == () and all(m.damping_ratio == 0.05 for m in kid.modes.values())

@@ -587,7 +587,8 @@ def test_with_no_datum_to_spare_no_mode_is_held_out_and_the_report_says_what_the
     mode's leverage is 1 and none can be held out. The hat matrix from J^T J gave leverages of 1 +- 1e-8, held-out
     variances of +-1e9..1e16 (negative ones among them: the figure's error bars warned, sqrt of a negative); from
     the SVD of J every held-out error and variance is nan. The report says the candidates' probabilities are
-    their priors' share, not a fit's."""
+    their priors' share, not a fit's, and singles none out as the best (the gap table's 'after', the figure's
+    bars)."""
     from mountid.report.figures import diagnosis_figure
     from mountid.report.text import print_diagnosis
 
@@ -603,6 +604,8 @@ def test_with_no_datum_to_spare_no_mode_is_held_out_and_the_report_says_what_the
     print_diagnosis(diagnosis, "two for two", None)
     text = capsys.readouterr().out
     assert "(2 data for 2 unknowns: every candidate fits them exactly and has no mode to hold out;" in text
+    assert diagnosis.effects.best is None and "after" not in diagnosis.gap_table()  # no candidate singled out
+    assert "gap [rad/s] before (nominal) -> after" not in text
 
 
 def test_a_gap_report_goes_on_where_some_modes_have_no_inverse_root():

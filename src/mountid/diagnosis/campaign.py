@@ -317,6 +317,8 @@ def parse(data: dict, base: Path | None = None) -> Campaign:
     levels, level_records, level_record_notes, level_notes = _levels(machine, known, data, given, modes, base)
     notes += level_record_notes
     notes_on_modes += level_notes
+    modes, uncompared = _damping_compared(machine, modes)
+    notes_on_modes += uncompared
     fit = tuple(data["fit"]) if "fit" in data else None
     for label in fit or ():
         if label not in modes:
@@ -768,6 +770,22 @@ def _check_modes_scale(machine: Machine, known: dict[str, float], modes: dict[st
                     f"modes.{label}.{entry}",
                     f"{std:.3g} is below {RESOLUTION:g}, below the rounding of the double-precision model",
                 )
+
+
+def _damping_compared(machine: Machine, modes: dict[str, MeasuredMode]) -> tuple[dict[str, MeasuredMode], list[str]]:
+    """The ``modes`` with their damping ratios left out, and a note saying so, where the description has no
+    damping (no dissipation function: every model damping ratio is 0). Compared, each measured ratio was a gap of
+    ratio / std (+20 sigma at 5 % +- 5 % of it) that no candidate holds, and the damping ratios' chi^2 drowned the
+    frequencies' in the verdict. The ratios measured at other excitation levels are still compared with each
+    other (Campaign.levels)."""
+    measured = [label for label, m in modes.items() if m.damping_ratio is not None]
+    if machine.damping or not measured:
+        return modes, []
+    kept = {label: replace(m, damping_ratio=None, damping_std=None) for label, m in modes.items()}
+    return kept, [
+        f"damping ratios of {', '.join(measured)} not compared: {machine.name}'s description has no damping (its "
+        "model's ratios are all 0); describe the isolators' damping to compare them"
+    ]
 
 
 def _poles_as_undamped(

@@ -157,8 +157,9 @@ class EffectsReport:
 
     @property
     def best(self) -> CandidateFit | None:
-        """The first-ranked candidate, when the data rank candidates at all (a positive probability)."""
-        first = self.ranked[0] if self.ranked else None
+        """The first-ranked candidate, when the data rank candidates at all (a positive probability, and more data
+        than unknowns: with none to spare every candidate fits exactly and the priors alone order them)."""
+        first = self.ranked[0] if self.ranked and self.kind != "cannot judge" else None
         return first if first is not None and first.probability > 0 else None
 
     def odds_splits(self, settings: DiagnosisSettings = DIAGNOSIS) -> tuple[OddsSplit, ...]:
