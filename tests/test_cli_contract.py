@@ -407,10 +407,10 @@ def test_the_python_api_names_a_value_that_is_not_a_number():
 
 def test_simulating_a_machine_without_damping_says_what_its_record_is(capsys, tmp_path):
     """A description without damping simulates a decay that never decays; the note says so and what the records
-    chain makes of it (it took 3 of rectangular's 6 modes without damping, with no word). A damped machine's
-    record has no note."""
+    chain makes of it (it took 3 of rectangular's 6 modes without damping, with no word; it takes none now: every
+    pole is a steady oscillation to it). A damped machine's record has no note."""
     code, out, _ = run(capsys, "simulate", OFFCENTRE, "--out", str(tmp_path / "r.csv"))
-    assert code == 0 and "note: offcentre has no damping: its free decay never decays" in out
+    assert code == 0 and "note: offcentre has no damping: its modes do not decay, and the records chain takes" in out
     code, out, _ = run(capsys, "simulate", "kid300", "--out", str(tmp_path / "k.csv"), "--json")
     assert code == 0 and json.loads(out)["notes"] == []
 

@@ -104,11 +104,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], hit if hit_default else None)
     notes += [defaults] if defaults else []
     notes += _paper_unbalance_note(rig.machine, filled) if args.speed else []
-    if not rig.B.any():
-        notes.append(
-            f"{rig.machine.name} has no damping: its free decay never decays, and the records chain, which takes a "
-            "mode for a pole of positive damping ratio, may leave out modes whose estimate lands at or below zero"
-        )
+    from mountid.identification.planning import steady_note
+
+    notes += [note] if (note := steady_note(rig)) else []
     if args.json:
         print_json(
             {
@@ -419,6 +417,8 @@ def cmd_plan(args: argparse.Namespace) -> None:
             tail = "  not seen by these channels" if not m.seen else "  not excited by this hit"
             if m.seen and m.excited:
                 tail = f"  above the record's band (the anti-alias filter at {ANTI_ALIAS:g} x {args.rate:g} Hz)"
+            if m.seen and m.excited and m.in_band:
+                tail = "  a steady oscillation to the records chain (see the note)"
         print(f"  {m.label:8s}{m.frequency:11.4f}{round(m.damping_ratio, 4) + 0.0:8.4f}  {tail}")
     _print_plan_end(machine, result)
 

@@ -65,13 +65,16 @@ class ModePlan:
     the filter takes it out of the record, and beyond half the rate it would alias."""
     found: tuple[int, int] = ()
     """Of an output-only plan: how many of its simulated records found the mode, of how many (() for a hit's)."""
+    steady: bool = False
+    """Whether the mode's damping ratio lies within RECORDS.steady_damping of zero: the records chain takes its
+    pole for a steady oscillation (a running machine), not a mode, and will not give it (steady_modes)."""
 
     @property
     def measured(self) -> bool:
-        """Whether the test will measure the mode: seen, excited and in the band, and in an output-only plan found
-        by half its simulated records or more."""
+        """Whether the test will measure the mode: seen, excited and in the band, damped beyond a steady
+        oscillation, and in an output-only plan found by half its simulated records or more."""
         found = not self.found or 2 * self.found[0] >= self.found[1]
-        return self.seen and self.excited and self.in_band and found
+        return self.seen and self.excited and self.in_band and not self.steady and found
 
 
 @dataclass(frozen=True)
@@ -131,7 +134,8 @@ def plan(
     excited = force >= OBSERVABLE * max(force.max(), 1e-300)
 
     # the record shows one pole per distinct frequency (twins are one exponential): the measured labels
-    measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i] and in_band[i]]
+    steady = steady_modes(rig)
+    measured = [lab for i, lab in enumerate(mod.MODES) if seen[i] and excited[i] and in_band[i] and lab not in steady]
     distinct: dict[str, complex] = {}
     for lab in measured:
         rep = mod.REPRESENTATIVE[lab]
@@ -166,10 +170,11 @@ def plan(
                 z_std,
                 mod.REPRESENTATIVE[lab],
                 bool(in_band[i]),
+                steady=lab in steady,
             )
         )
 
-    notes: list[str] = []
+    notes = [note] if (note := steady_note(rig)) else []
     parameter_std = _stiffness_spread(rig, {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}, notes)
     notes += _shapes(rig, sensors)
     slowest = rig.slowest_decay()
@@ -233,6 +238,8 @@ def plan_output_only(
         for label, mode in data.modes.items():
             found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
     phi, label_pole, seen, in_band = _layout(rig, sensors, rate)
+    steady = steady_modes(rig)
+    notes += [note] if (note := steady_note(rig)) else []
     modes, frequencies = [], {}
     for i, label in enumerate(mod.MODES):
         p = label_pole[label]
@@ -252,6 +259,7 @@ def plan_output_only(
                 rep,
                 bool(in_band[i]),
                 found=(len(found[label]), draws),
+                steady=label in steady,
             )
         )
         if 2 * len(found[label]) >= draws and rep not in frequencies:
@@ -289,11 +297,43 @@ def _layout(
     reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
     seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
     omega = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**fwd))))
+    return phi, labelled_poles(rig), seen, omega / (2 * np.pi) < ANTI_ALIAS * rate
+
+
+def labelled_poles(rig: Rig) -> dict[str, complex]:
+    """Each mode's pole (Im p > 0) [rad/s]: the rig's nearest its undamped natural frequency."""
+    mod = rig.machine.module
+    omega = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**{a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}))))
     poles = rig.poles[rig.poles.imag > 0]
-    label_pole = {
+    return {
         label: complex(poles[np.argmin(np.abs(np.abs(poles) - w))]) for label, w in zip(mod.MODES, omega, strict=True)
     }
-    return phi, label_pole, seen, omega / (2 * np.pi) < ANTI_ALIAS * rate
+
+
+def steady_modes(rig: Rig) -> list[str]:
+    """The modes whose damping ratio at the rig's values lies within RECORDS.steady_damping of zero: the records
+    chain takes such a pole for a steady oscillation (a running machine, mains hum), not a mode of a machine on
+    rubber, and gives no mode for it (every mode of a description without damping)."""
+    return [label for label, p in labelled_poles(rig).items() if -p.real < RECORDS.steady_damping * abs(p)]
+
+
+def steady_note(rig: Rig) -> str:
+    """What a test of the rig will not give because of steady_modes ('' where every mode decays)."""
+    steady = steady_modes(rig)
+    if not steady:
+        return ""
+    chain = f"the records chain takes a pole of damping ratio below {RECORDS.steady_damping:g} for a steady oscillation"
+    if not rig.B.any():
+        return (
+            f"{rig.machine.name} has no damping: its modes do not decay, and {chain} (a running machine), not a mode: "
+            "a record gives none of them; describe the isolators' damping"
+        )
+    one = len(steady) == 1
+    which = "every mode" if len(steady) == len(rig.machine.modes) else ", ".join(steady)
+    return (
+        f"{rig.machine.name} damps {which} hardly at all: {chain} (a running machine), not a mode, and a record "
+        f"will not give {'it' if one else 'them'}"
+    )
 
 
 def _stiffness_spread(rig: Rig, frequencies: dict[str, tuple[float, float]], notes: list[str]) -> dict[str, float]:
