@@ -235,3 +235,11 @@ def test_the_plan_names_the_modes_the_records_chain_will_take_for_steady_oscilla
     assert light.notes[0].startswith("kid300 damps phi hardly at all: the records chain takes a pole")
     assert all(np.isfinite(v) for v in light.parameter_std.values())  # x and psi determine both stiffnesses
     assert not any(m.steady for m in paper_plan.modes) and not any("hardly" in n for n in paper_plan.notes)
+    # an output-only plan simulates no record where no mode would come of it (it ran 4 x 1300 s for nothing)
+    ambient = plan_output_only(press, sensors, 1300.0, 100.0, 10.0)
+    assert all(m.steady and m.found == (0, 0) and not m.measured for m in ambient.modes)
+    assert (
+        ambient.notes[0]
+        == "no record simulated: every mode is a steady oscillation to the records chain (the note below)"
+    )
+    assert ambient.notes[1] == result.notes[0] and all(np.isnan(v) for v in ambient.parameter_std.values())

@@ -477,6 +477,8 @@ def _plan_output_only(args: argparse.Namespace, machine: Machine, sensors: list[
         count = f"{m.found[0]} of {m.found[1]}"
         if not m.seen:
             tail = "  not seen by these channels"
+        elif m.steady:
+            tail = "  a steady oscillation to the records chain (see the note)"
         elif not m.found[0]:
             tail = f"  not found in any of {m.found[1]} records"
         else:

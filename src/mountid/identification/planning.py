@@ -227,7 +227,9 @@ def plan_output_only(
     known = {k: v for k, v in rig.values.items() if k not in machine.unknown}
     found: dict[str, list[tuple[float, float]]] = {}
     notes = []
-    for seed in range(draws):
+    steady = steady_modes(rig)
+    simulated = 0 if len(steady) == len(mod.MODES) else draws  # no record of such a rig would give a mode
+    for seed in range(simulated):
         forces = ambient_forces(rig, level, ANTI_ALIAS * rate, seed)
         record = rig.simulate(sensors, duration, rate, ambient=forces, seed=seed + 100)
         try:
@@ -238,7 +240,6 @@ def plan_output_only(
         for label, mode in data.modes.items():
             found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
     phi, label_pole, seen, in_band = _layout(rig, sensors, rate)
-    steady = steady_modes(rig)
     notes += [note] if (note := steady_note(rig)) else []
     modes, frequencies = [], {}
     for i, label in enumerate(mod.MODES):
@@ -258,11 +259,11 @@ def plan_output_only(
                 float(stds[1]),
                 rep,
                 bool(in_band[i]),
-                found=(len(found[label]), draws),
+                found=(len(found[label]), simulated),
                 steady=label in steady,
             )
         )
-        if 2 * len(found[label]) >= draws and rep not in frequencies:
+        if found[label] and 2 * len(found[label]) >= simulated and rep not in frequencies:
             frequencies[rep] = (float(abs(p)), float(stds[0]))
     parameter_std = _stiffness_spread(rig, frequencies, notes)
     notes += _shapes(rig, sensors)
@@ -271,7 +272,9 @@ def plan_output_only(
         f"simulated: {counted(draws, 'record')} of {duration:g} s at {rate:g} Hz under random forces of {level:g} N "
         f"RMS along x, y and z at every isolator (white to {ANTI_ALIAS * rate:g} Hz), each through the records chain; "
         "per mode the median of the deviations the records that found it state (the jackknife's); the stiffnesses' "
-        "from the modes found in half the records or more",
+        "from the modes found in half the records or more"
+        if simulated
+        else "no record simulated: every mode is a steady oscillation to the records chain (the note below)",
     )
     return Plan(machine.name, modes, parameter_std, effective_independence(rig, sensors, phi), notes)
 
