@@ -104,9 +104,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     defaults = _paper_defaults(rig.machine, sensors if not args.sensor else [], hit if hit_default else None)
     notes += [defaults] if defaults else []
     notes += _paper_unbalance_note(rig.machine, filled) if args.speed else []
-    from mountid.identification.planning import steady_note
+    from mountid.identification.planning import steady_modes, steady_note
 
-    notes += [note] if (note := steady_note(rig)) else []
+    notes += [note] if (note := steady_note(rig, steady_modes(rig))) else []
     if args.json:
         print_json(
             {

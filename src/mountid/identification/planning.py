@@ -26,6 +26,7 @@ it and the median of their stated deviations (the jackknife's, calibrated agains
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -174,7 +175,7 @@ def plan(
             )
         )
 
-    notes = [note] if (note := steady_note(rig)) else []
+    notes = [note] if (note := steady_note(rig, steady)) else []
     parameter_std = _stiffness_spread(rig, {r: (float(abs(distinct[r])), stds[r][0]) for r in reps}, notes)
     notes += _shapes(rig, sensors)
     slowest = rig.slowest_decay()
@@ -240,7 +241,7 @@ def plan_output_only(
         for label, mode in data.modes.items():
             found.setdefault(label, []).append((mode.frequency_std, mode.damping_std))
     phi, label_pole, seen, in_band = _layout(rig, sensors, rate)
-    notes += [note] if (note := steady_note(rig)) else []
+    notes += [note] if (note := steady_note(rig, steady)) else []
     modes, frequencies = [], {}
     for i, label in enumerate(mod.MODES):
         p = label_pole[label]
@@ -299,14 +300,21 @@ def _layout(
     rows = np.array([rig.sensor_row(s.point, s.direction, s.name) for s in sensors])
     reading = np.abs(rows @ phi) / np.maximum(np.abs(phi).max(axis=0), 1e-300)
     seen = reading.max(axis=0) >= OBSERVABLE * max(reading.max(), 1e-300)
-    omega = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**fwd))))
-    return phi, labelled_poles(rig), seen, omega / (2 * np.pi) < ANTI_ALIAS * rate
+    omega = _undamped_frequencies(rig)
+    return phi, labelled_poles(rig, omega), seen, omega / (2 * np.pi) < ANTI_ALIAS * rate
 
 
-def labelled_poles(rig: Rig) -> dict[str, complex]:
-    """Each mode's pole (Im p > 0) [rad/s]: the rig's nearest its undamped natural frequency."""
+def _undamped_frequencies(rig: Rig) -> np.ndarray:
+    """[rad/s] The undamped natural frequencies at the rig's values, in the order of MODES."""
     mod = rig.machine.module
-    omega = np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**{a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}))))
+    return np.sqrt(np.abs(np.asarray(mod.squared_frequencies(**{a: rig.values[a] for a in mod.FORWARD_ARGUMENTS}))))
+
+
+def labelled_poles(rig: Rig, omega: np.ndarray | None = None) -> dict[str, complex]:
+    """Each mode's pole (Im p > 0) [rad/s]: the rig's nearest its undamped natural frequency (``omega``, the rig's
+    _undamped_frequencies where the caller has them)."""
+    mod = rig.machine.module
+    omega = _undamped_frequencies(rig) if omega is None else omega
     poles = rig.poles[rig.poles.imag > 0]
     return {
         label: complex(poles[np.argmin(np.abs(np.abs(poles) - w))]) for label, w in zip(mod.MODES, omega, strict=True)
@@ -320,9 +328,9 @@ def steady_modes(rig: Rig) -> list[str]:
     return [label for label, p in labelled_poles(rig).items() if -p.real < RECORDS.steady_damping * abs(p)]
 
 
-def steady_note(rig: Rig) -> str:
-    """What a test of the rig will not give because of steady_modes ('' where every mode decays)."""
-    steady = steady_modes(rig)
+def steady_note(rig: Rig, steady: Sequence[str]) -> str:
+    """What a test of the rig will not give because of its ``steady`` modes (steady_modes; '' where every mode
+    decays)."""
     if not steady:
         return ""
     chain = f"the records chain takes a pole of damping ratio below {RECORDS.steady_damping:g} for a steady oscillation"

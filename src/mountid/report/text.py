@@ -130,7 +130,7 @@ def _print_candidates(effects: EffectsReport, campaign: Campaign) -> None:
         f"candidate effects (fitted with the unknowns to {n.n_data} data; nominal chi^2 = {n.chi2:.4g}{split}, "
         f"probability {n.probability:.3g}), by posterior probability:"
     )
-    if n.n_data <= n.n_parameters:
+    if effects.kind == "cannot judge":  # no more data than unknowns
         print(
             f"  ({n.n_data} data for {n.n_parameters} unknowns: every candidate fits them exactly and has no mode to "
             "hold out; a probability says how much of its priors' range the data leave, not how well it fits)"
