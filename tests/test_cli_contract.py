@@ -415,6 +415,15 @@ def test_simulating_a_machine_without_damping_says_what_its_record_is(capsys, tm
     assert code == 0 and json.loads(out)["notes"] == []
 
 
+def test_an_output_only_plan_without_damping_says_it_simulated_no_record(capsys):
+    """plan --ambient simulates no record where every mode is a steady oscillation to the records chain; its
+    header said "4 simulated records" above the note that none was simulated."""
+    code, out, _ = run(capsys, "plan", OFFCENTRE, "--ambient", "100", "--duration", "600")
+    assert code == 0, out
+    assert out.splitlines()[0].endswith("noise 0.01 x RMS, no record simulated"), out
+    assert "note: no record simulated: every mode is a steady oscillation" in out
+
+
 def test_an_error_in_a_description_file_names_the_file(capsys, tmp_path):
     """A campaign or a command names its description by path: an entry's error says which file holds it."""
     text = Path("derivations/rectangular.toml").read_text(encoding="utf-8")

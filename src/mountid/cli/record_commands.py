@@ -464,10 +464,11 @@ def _plan_output_only(args: argparse.Namespace, machine: Machine, sensors: list[
     if args.json:
         print_json(result.to_dict())
         return
+    simulated = result.modes[0].found[1]  # 0 where no record would give a mode (the plan's first note says why)
     print(
         f"{machine.name}: {counted(len(sensors), 'channel')} ({', '.join(s.name for s in sensors)}), output-only "
         f"(random forces of {args.ambient:g} N RMS at every isolator), {args.duration:g} s at {args.rate:g} Hz, "
-        f"noise {args.noise:g} x RMS, {counted(args.draws, 'simulated record')}"
+        f"noise {args.noise:g} x RMS, {counted(simulated, 'simulated record') if simulated else 'no record simulated'}"
     )
     defaults = _paper_defaults(machine, sensors if not args.sensor else [], None)
     if defaults:
