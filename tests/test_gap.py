@@ -521,7 +521,8 @@ def test_the_diagnosis_figure_draws_each_held_out_prediction_with_its_own_spread
 def test_the_diagnosis_figure_leaves_a_series_without_bars_out_of_its_legend(monkeypatch, tmp_path):
     """fan3's six frequencies (tests/data/fan3-frequencies.json): the first candidate, an attached mass, has more
     parameters than data, so no mode can be left out for it and its held-out series has no bar; the legend
-    listed it all the same. The fitted series and the nominal model's held-out one stay."""
+    listed it all the same. The fitted series and the nominal model's held-out one stay. The verdict names the tie's
+    foundation (more parameters than data too) once: it named it in the tie and again as "not ruled out"."""
     from mountid.diagnosis.campaign import load
     from mountid.diagnosis.gap import diagnose
     from mountid.report import figures
@@ -537,6 +538,9 @@ def test_the_diagnosis_figure_leaves_a_series_without_bars_out_of_its_legend(mon
     figures.diagnosis_figure(diagnosis, tmp_path / "f.png")
     assert diagnosis.effects.best.effect == "added_mass"
     assert drawn == [["within 2 sigma", "before, fitted", "before, held out", "added_mass, fitted"]]
+    best = diagnosis.effects.best
+    assert "foundation" in diagnosis.effects.tie and best.n_data <= best.n_parameters
+    assert diagnosis.effects.verdict.count("foundation") == 1, diagnosis.effects.verdict
 
 
 RECORD_SIGMA = {"y": 0.0009, "x": 0.00106, "phi": 0.0312, "z": 0.00582, "psi": 0.00997, "theta": 0.0122}
