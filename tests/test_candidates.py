@@ -822,6 +822,11 @@ def test_a_support_candidate_predicts_the_supports_motion_that_no_modal_measurem
     )
     # two candidates on rigid ground: no support to measure
     assert "support" not in separate(campaign, bending, fits["added_mass"])
+    # every frequency and shape measured: the quantity that separates two candidates is to be measured more
+    # precisely, in units of its own uncertainty (it said "measure the frequency of z", measured already)
+    assert separate(campaign, bending, fits["cog_height"]).startswith(
+        "rotational_stiffness vs cog_height: measure the frequency of z more precisely (they differ there by "
+    )
 
 
 def test_the_predictive_standard_deviation_of_a_parameter_is_its_own():

@@ -541,6 +541,9 @@ def test_the_diagnosis_figure_leaves_a_series_without_bars_out_of_its_legend(mon
     best = diagnosis.effects.best
     assert "foundation" in diagnosis.effects.tie and best.n_data <= best.n_parameters
     assert diagnosis.effects.verdict.count("foundation") == 1, diagnosis.effects.verdict
+    # six frequencies, no shapes: what separates the tie is a shape not measured
+    lines = diagnosis.effects.separation
+    assert lines and all(" measure the mode shape of " in line for line in lines), lines
 
 
 RECORD_SIGMA = {"y": 0.0009, "x": 0.00106, "phi": 0.0312, "z": 0.00582, "psi": 0.00997, "theta": 0.0122}
