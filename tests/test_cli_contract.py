@@ -264,7 +264,8 @@ def test_the_modes_table_reads_back_as_the_json_numbers(capsys, setting):
 def test_a_mount_that_leaves_a_motion_free_is_named_as_such(capsys, tmp_path):
     """A mechanism is not a range problem: kid300's isolators all at one point (L_xy = 0) leave x, y and phi
     without stiffness, and the error names L_xy; a description that declares one plane of symmetry where its
-    isolators need two (two isolators on one line) names the machine at its nominal values. Stiffnesses or
+    isolators need two (two isolators on one line) names the machine at its nominal values and the motion left
+    free (it named the mode "y" alone, which the isolators' shear holds as a translation). Stiffnesses or
     masses decades apart stay a range error naming that parameter."""
     for argv in (
         ["frequencies", "kid300"],
@@ -282,7 +283,11 @@ def test_a_mount_that_leaves_a_motion_free_is_named_as_such(capsys, tmp_path):
     one_plane.write_text(text.replace('symmetry = ["yz", "xz"]', 'symmetry = ["yz"]'), encoding="utf-8")
     code, _, err = run(capsys, "frequencies", str(one_plane))
     assert code == 2
-    assert err.startswith("mountid: error: machine: at rectangular's nominal values the isolators leave y without")
+    # the one motion they leave is named as the rigid-body motion it is: a rotation about their line (y = b, z = -h)
+    assert err.startswith(
+        "mountid: error: machine: at rectangular's nominal values the isolators leave y (a rotation about the axis "
+        "through (0, 0.5, -0.35) m along (1, 0, 0)) without stiffness"
+    ), err
     for setting, named in (
         ("c_z=1e300", "--set c_z: 1e+300 N/m puts the model out of the range"),
         ("m=1e-300", "--set m: 1e-300"),

@@ -18,6 +18,7 @@ from mountid.machine import (
     damped_poles,
     dynamics,
     pair_with_undamped,
+    rigid_motion,
     shipped_machines,
     state_matrix,
     undamped_modes,
@@ -211,3 +212,15 @@ def test_pair_with_undamped_is_the_assignment_that_keeps_the_most_content():
         expected[np.lexsort((poles[upper].imag, column))] = np.sort(column)
         assert np.array_equal(pair_with_undamped(mass, stiffness, shapes, poles[upper].imag), expected)
     assert solved  # some draws take the assignment's path
+
+
+@pytest.mark.parametrize("scale", [1.0, -2.5e-3])
+def test_a_rigid_motion_is_named_by_its_axis_point_and_pitch(scale):
+    """rigid_motion reads q = (t, omega), a point p moving by t + omega x p: a motion built from a known axis
+    (through c along w, pitch s: t = c x w + s w) reads back as that axis, of any size and sign; a translation
+    as its direction."""
+    c, w = np.array([0.0, 0.5, -0.35]), np.array([1.0, 0.0, 0.0])
+    for pitch, tail in ((0.0, ""), (0.1, " with 0.1 m along it per radian")):
+        q = scale * np.concatenate([np.cross(c, w) + pitch * w, w])
+        assert rigid_motion(q, 1.0) == f"a rotation about the axis through (0, 0.5, -0.35) m along (1, 0, 0){tail}"
+    assert rigid_motion(scale * np.array([0.0, 3.0, 4.0, 0, 0, 0]), 1.0) == "a translation along (0, 0.6, 0.8)"

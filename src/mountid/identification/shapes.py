@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mountid.identification.statistics import covariance
+from mountid.machine import rigid_motion
 from mountid.measurement.modes import ChannelShape
 
 RANK_TOLERANCE = 1e-9
@@ -155,12 +156,6 @@ def merged_shape(parts: Sequence[ChannelShape]) -> tuple[tuple[float, ...], floa
     return real_shape(motion), None if cov is None else unit_shape_std(motion, cov, parts[0].length)
 
 
-def _vector(v: NDArray[np.float64], tiny: float) -> str:
-    """A point [m] or direction as the notes print it: three significant digits, components below ``tiny`` (the
-    rounding of the singular vector they come from) as 0, no negative zero."""
-    return "(" + ", ".join(f"{x + 0.0:.3g}" for x in np.where(np.abs(v) < tiny, 0.0, v)) + ")"
-
-
 MEND = "; a channel that moves in it would give them"
 """What unseen_motion says would mend one unseen motion."""
 
@@ -169,8 +164,7 @@ def unseen_motion(rows: NDArray[np.float64], length: float) -> str:
     """What the channel ``rows`` (d^T du/dq, n_channels x 6; q = (x, y, z, psi, theta, phi): translations of the
     description's origin [m] and small rotations about its axes [rad], a point p moving by t + omega x p) do not
     see, in words, with what would mend it; '' where they see all six motions. One motion unseen is named as the
-    rigid-body motion it is: a rotation about an axis (through a point [m], along a direction), with its
-    translation along the axis where it is a screw, or a translation; more are counted. ``length`` [m]: the
+    rigid-body motion it is (machine.rigid_motion); more are counted. ``length`` [m]: the
     machine's length scale, which makes the rotations' columns commensurate with the translations' (rank tolerance
     RANK_TOLERANCE)."""
     scale = np.array([1.0, 1.0, 1.0, 1.0 / length, 1.0 / length, 1.0 / length])
@@ -181,20 +175,7 @@ def unseen_motion(rows: NDArray[np.float64], length: float) -> str:
     head = f"the channels see {seen} of the six rigid-body motions"
     if seen < 5:
         return f"{head}: channels along {6 - seen} more independent directions would give them"
-    q = vt[-1] * scale  # the unseen motion in the coordinates
-    t, omega = q[:3], q[3:]
-    if np.linalg.norm(omega) * length <= 1e-6 * np.linalg.norm(t):
-        along = t / np.linalg.norm(t)
-        along = along * np.sign(along[np.argmax(np.abs(along))])
-        return f"{head}, not a translation along {_vector(along, 1e-9)}{MEND}"
-    w2 = float(omega @ omega)
-    axis = omega / math.sqrt(w2)
-    axis = axis * np.sign(axis[np.argmax(np.abs(axis))])
-    through = np.cross(omega, t) / w2  # the axis's point nearest the origin
-    pitch = float(omega @ t) / w2  # [m/rad] translation along the axis per radian
-    screw = f" with {abs(pitch):.3g} m along it per radian" if abs(pitch) > 1e-6 * length else ""
-    where = f"through {_vector(through, 1e-9 * length)} m along {_vector(axis, 1e-9)}"
-    return f"{head}, not a rotation about the axis {where}{screw}{MEND}"
+    return f"{head}, not {rigid_motion(vt[-1] * scale, length)}{MEND}"  # the unseen motion in the coordinates
 
 
 def no_shapes_note(rows: NDArray[np.float64], length: float) -> str:

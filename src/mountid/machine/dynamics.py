@@ -258,6 +258,33 @@ def ratio_derivatives(p: NDArray, dp: NDArray) -> NDArray[np.float64]:
     return np.where(size > 0, -(dp.real * safe - p.real * d_size) / safe**2, 0.0)
 
 
+def _vector(v: NDArray[np.float64], tiny: float) -> str:
+    """A point [m] or direction as the notes print it: three significant digits, components below ``tiny`` (the
+    rounding of the vector they come from) as 0, no negative zero."""
+    return "(" + ", ".join(f"{x + 0.0:.3g}" for x in np.where(np.abs(v) < tiny, 0.0, v)) + ")"
+
+
+def rigid_motion(q: NDArray[np.float64], length: float) -> str:
+    """A small rigid-body motion in words, of any size and sign: q = (x, y, z, psi, theta, phi), translations of
+    the description's origin [m] and rotations about its axes [rad] (a point p moving by t + omega x p), as "a
+    translation along (d)" or "a rotation about the axis through (p) m along (d)", with its translation along the
+    axis where it is a screw ("with 0.1 m along it per radian"); ``length`` [m]: the machine's length scale, below
+    whose 1e-6 a rotation's share is taken for none."""
+    q = np.asarray(q, dtype=float)
+    t, omega = q[:3], q[3:]
+    if np.linalg.norm(omega) * length <= 1e-6 * np.linalg.norm(t):
+        along = t / np.linalg.norm(t)
+        along = along * np.sign(along[np.argmax(np.abs(along))])
+        return f"a translation along {_vector(along, 1e-9)}"
+    w2 = float(omega @ omega)
+    axis = omega / np.sqrt(w2)
+    axis = axis * np.sign(axis[np.argmax(np.abs(axis))])
+    through = np.cross(omega, t) / w2  # the axis's point nearest the origin
+    pitch = float(omega @ t) / w2  # [m/rad] translation along the axis per radian
+    screw = f" with {abs(pitch):.3g} m along it per radian" if abs(pitch) > 1e-6 * length else ""
+    return f"a rotation about the axis through {_vector(through, 1e-9 * length)} m along {_vector(axis, 1e-9)}{screw}"
+
+
 def unit_vector(direction: Sequence[float], name: str) -> NDArray[np.float64]:
     """``direction`` normalised; an InputError naming ``name`` when it is not a non-zero finite 3-vector."""
     d = np.asarray(direction, dtype=float)

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from mountid.errors import InputError, real_number
-from mountid.machine.dynamics import call
+from mountid.machine.dynamics import call, rigid_motion
 from mountid.machine.modules import GeneratedModule, description_file, module_from_description, shipped_machines
 from mountid.nomenclature import POSITIVE_KINDS, distinct_frequencies
 
@@ -205,13 +205,14 @@ class Machine:
             if decades(worst) == 0:
                 return InputError("machine", f"at {self.name}'s nominal values {what}")
             return InputError(worst, f"{values[worst]:g} {self.parameters[worst]['unit']}: {what}; {stated(worst)}")
-        free = self._modes_without_stiffness(values)
+        free, motion = self._modes_without_stiffness(values)
         if free:
             worst = max((v for v in values if self.parameters[v]["kind"] != "stiffness"), key=decades)
             nominal = stated(worst)
             what = (
-                f"the isolators leave {', '.join(free)} without stiffness: a motion they do not hold (are they all "
-                "on one line, or is a plane of symmetry missing from the description?)"
+                f"the isolators leave {', '.join(free)}{f' ({motion})' if motion else ''} without stiffness: a "
+                "motion they do not hold (are they all on one line, or is a plane of symmetry missing from the "
+                "description?)"
             )
             if decades(worst) == 0:
                 return InputError("machine", f"at {self.name}'s nominal values {what}")
@@ -250,35 +251,47 @@ class Machine:
             d = np.sqrt(np.abs(np.diag(m)))
             return bool(np.any(np.diag(m) <= 0) or np.linalg.eigvalsh(m / np.outer(d, d)).min() <= 0)
 
-    def _modes_without_stiffness(self, values: dict[str, float]) -> tuple[str, ...]:
+    def _modes_without_stiffness(self, values: dict[str, float]) -> tuple[tuple[str, ...], str]:
         """Modes the mount's geometry leaves without stiffness (a mechanism), where ``values`` hold every forward
-        argument; else (). The test is on the stiffness matrix alone, with every stiffness at its nominal value
-        (stiffnesses or masses given decades apart are a range problem, not a mechanism): Jacobi-scaled,
-        D^-1/2 C D^-1/2 with D its diagonal, it has an eigenvalue within rounding of zero, or a coordinate has no
-        stiffness at all. The modes named are as many as the null space has dimensions, those of smallest
-        squared frequency."""
+        argument, and where it leaves one motion so the rigid-body motion that is (dynamics.rigid_motion: a
+        rotation about the line the isolators sit on); else ((), ""). The test is on the stiffness matrix alone,
+        with every stiffness at its nominal value (stiffnesses or masses given decades apart are a range problem,
+        not a mechanism): Jacobi-scaled, D^-1/2 C D^-1/2 with D its diagonal, it has an eigenvalue within rounding
+        of zero, or a coordinate has no stiffness at all. The modes named are as many as the null space has
+        dimensions, those of smallest squared frequency."""
         names = self.module.FORWARD_ARGUMENTS
         if not all(a in values for a in names):
-            return ()
+            return (), ""
         nominal = {a: self.parameters[a]["value"] for a in names if self.parameters[a]["kind"] == "stiffness"}
         if any(v is None for v in nominal.values()):
-            return ()
+            return (), ""
         at = {**values, **nominal}
         with np.errstate(all="ignore"):
             c = np.asarray(self.module.stiffness_matrix(*(at[a] for a in self.module.ARGUMENTS["stiffness_matrix"])))
             if not np.isfinite(c).all():
-                return ()
+                return (), ""
             d = np.diag(c)
             held = d > 0
             scaled = c[np.ix_(held, held)] / np.sqrt(np.outer(d[held], d[held]))
-            free = int(np.count_nonzero(~held)) + int(np.count_nonzero(np.linalg.eigvalsh(scaled) <= MECHANISM_RTOL))
+            lam_c, vec_c = np.linalg.eigh(scaled)
+            zero = lam_c <= MECHANISM_RTOL
+            free = int(np.count_nonzero(~held)) + int(np.count_nonzero(zero))
             if free == 0:
-                return ()
+                return (), ""
             lam = np.asarray(self.module.squared_frequencies(**{a: at[a] for a in names}), dtype=float)
         order = np.argsort(np.where(np.isfinite(lam), lam, -np.inf))
         same = self.module.REPRESENTATIVE  # a mode's twin (equal by symmetry) is as free as it
         chosen = {same[self.modes[k]] for k in order[:free]}
-        return tuple(label for label in self.modes if same[label] in chosen)
+        motion = ""
+        if free == 1 and len(d) == 6:  # the one motion: a coordinate without stiffness, or C's null vector
+            q = np.zeros(6)
+            if zero.any():
+                q[held] = vec_c[:, 0] / np.sqrt(d[held])
+            else:
+                q[~held] = 1.0
+            with contextlib.suppress(InputError, ArithmeticError, ValueError):
+                motion = rigid_motion(q, self.length_scale(values))
+        return tuple(label for label in self.modes if same[label] in chosen), motion
 
     def _forward(self, params: dict[str, float]) -> dict[str, float]:
         args = self.values(params, self.module.FORWARD_ARGUMENTS)
@@ -390,7 +403,7 @@ class Machine:
             **self.values(known, tuple(a for a in names if a not in self.unknown)),
             **dict.fromkeys(self.unknown, 1.0),
         }
-        if self._modes_without_stiffness(values):  # it puts every stiffness at its nominal value
+        if self._modes_without_stiffness(values)[0]:  # it puts every stiffness at its nominal value
             raise self._range_error(values, "")
 
     def identify(
