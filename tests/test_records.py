@@ -1034,18 +1034,24 @@ def test_a_channel_in_volts_is_read_as_recorded_and_named_before_the_records_cha
 
 @pytest.mark.parametrize(
     ("name", "what"),
-    [("rec.mat", "a MATLAB file"), ("book.xlsx", "an Excel workbook"), ("run.dxd", "a Dewesoft data file")],
+    [
+        ("rec.mat", "a MATLAB file"),
+        ("book.xlsx", "an Excel workbook"),
+        ("run.dxd", "a Dewesoft data file"),
+        ("campaign.json", "a JSON file (a campaign or a report, not a record)"),  # was "holds no table"
+    ],
 )
 def test_a_file_of_a_format_mountid_does_not_read_is_named_with_those_it_reads(tmp_path, name, what):
     """A bench's MATLAB, Excel or Dewesoft file was read as a CSV ("not UTF-8 text", "holds no table"): it is named
-    with the formats mountid reads; a missing one is named as missing."""
+    with the formats mountid reads, and so is a campaign given as a record; a missing one is named as missing."""
     from mountid.measurement.records import read_record, read_runs
 
     with pytest.raises(InputError, match="^record: .*(no such file|not found|does not exist)"):
         read_record(tmp_path / name)
     (tmp_path / name).write_bytes(b"PK\x03\x04\x00binary")
+    pattern = f"^record: {re.escape(name)} is {re.escape(what)}: mountid reads CSV .*LVM"
     for read in (read_record, read_runs):
-        with pytest.raises(InputError, match=f"^record: {re.escape(name)} is {what}: mountid reads CSV .*LVM"):
+        with pytest.raises(InputError, match=pattern):
             read(tmp_path / name)
 
 

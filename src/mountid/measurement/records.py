@@ -1127,9 +1127,11 @@ OTHER_FORMATS = {
     ".mdf": "an ASAM MDF file",
     ".ldsf": "a Simcenter Testlab file",
     ".wav": "a sound file",
+    ".json": "a JSON file (a campaign or a report, not a record)",
+    ".toml": "a TOML file (a machine description, not a record)",
 }
 """Files a bench writes that mountid does not read, by extension: named with the formats it reads (they were read
-as CSV: "not UTF-8 text", "holds no table")."""
+as CSV: "not UTF-8 text", "holds no table"); so are mountid's own campaigns and descriptions given as a record."""
 
 
 def _not_another_format(path: str | Path) -> None:
